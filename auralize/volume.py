@@ -1,0 +1,320 @@
+"""TimeVolume: a uniform grid with named point fields over strictly increasing times.
+
+Arrays follow the HDF5 volume format v1 of DESIGN.md: a scalar frame has shape
+``(nz, ny, nx)``, a vector frame ``(nz, ny, nx, 3)`` with components x, y, z;
+``dims`` is ``(nx, ny, nz)`` and point ``(i, j, k)`` sits at
+``origin + (i, j, k) * spacing``.  This is VTK's point order (x fastest), so a
+C-order ravel of a frame is directly a VTK point array.
+
+Frames are read lazily, one time step at a time, through a :class:`FrameSource`;
+nothing loads a whole series unless asked to (:meth:`TimeVolume.load`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import DataError, FieldError
+
+#: Frame rate assumed for datasets without physical times (paper 003 §1: 30 frames/s).
+DEFAULT_FRAME_RATE_HZ = 30.0
+
+
+@runtime_checkable
+class FrameSource(Protocol):
+    """Anything that can hand out one time step of one field.
+
+    ``frame_shape`` is ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)``; ``read(step)``
+    returns a new float array of that shape.
+    """
+
+    n_steps: int
+    frame_shape: tuple[int, ...]
+
+    def read(self, step: int) -> NDArray[np.floating]: ...
+
+
+@dataclass
+class ArrayFrames:
+    """Frames held in memory as one ``(T, nz, ny, nx[, 3])`` array."""
+
+    array: NDArray[np.floating]
+
+    def __post_init__(self) -> None:
+        self.array = np.asarray(self.array)
+        if self.array.ndim not in (4, 5) or (self.array.ndim == 5 and self.array.shape[-1] != 3):
+            raise DataError(
+                f"field array must have shape (T, nz, ny, nx) or (T, nz, ny, nx, 3); "
+                f"got {self.array.shape}"
+            )
+
+    @property
+    def n_steps(self) -> int:  # type: ignore[override]
+        return int(self.array.shape[0])
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:  # type: ignore[override]
+        return tuple(int(s) for s in self.array.shape[1:])
+
+    def read(self, step: int) -> NDArray[np.floating]:
+        return np.array(self.array[step], dtype=np.float64)
+
+
+@dataclass
+class CallableFrames:
+    """Frames computed on demand by ``fn(step) -> array`` (generators, readers)."""
+
+    fn: Callable[[int], NDArray[np.floating]]
+    n_steps: int
+    frame_shape: tuple[int, ...]
+
+    def read(self, step: int) -> NDArray[np.floating]:
+        out = np.asarray(self.fn(step), dtype=np.float64)
+        if out.shape != self.frame_shape:
+            raise DataError(
+                f"frame {step} has shape {out.shape}, expected {self.frame_shape}"
+            )
+        return out
+
+
+@dataclass
+class TimeVolume:
+    """A time series of point fields on a uniform grid.
+
+    Parameters
+    ----------
+    origin, spacing : array_like, shape (3,)
+        Grid origin and spacing in metres (x, y, z).
+    dims : tuple of int
+        Number of points ``(nx, ny, nz)``.
+    times : array_like, shape (T,)
+        Strictly increasing times in seconds.
+    fields : mapping of str to FrameSource
+        Named point fields; scalar frames ``(nz, ny, nx)``, vectors ``(nz, ny, nx, 3)``.
+    physical_times : bool
+        False when the source file had no times and ``times`` are frame
+        indices at :data:`DEFAULT_FRAME_RATE_HZ`.
+    source : str
+        Where the volume came from (for messages).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.volume import TimeVolume
+    >>> rho = np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, spacing=0.5, times=[0, 0.1, 0.2])
+    >>> vol.dims, vol.n_steps, vol.bounds[1]
+    ((4, 4, 4), 3, 1.5)
+    """
+
+    origin: NDArray[np.float64]
+    spacing: NDArray[np.float64]
+    dims: tuple[int, int, int]
+    times: NDArray[np.float64]
+    fields: dict[str, FrameSource] = field(default_factory=dict)
+    physical_times: bool = True
+    source: str = "<memory>"
+    check_finite: bool = True
+
+    def __post_init__(self) -> None:
+        self.origin = _vec3(self.origin, "origin")
+        self.spacing = _vec3(self.spacing, "spacing")
+        if np.any(self.spacing <= 0):
+            raise DataError(f"{self.source}: grid spacing must be positive, got {self.spacing}")
+        self.dims = tuple(int(d) for d in self.dims)  # type: ignore[assignment]
+        if len(self.dims) != 3 or min(self.dims) < 1:
+            raise DataError(f"{self.source}: dims must be three positive integers, got {self.dims}")
+        self.times = np.asarray(self.times, dtype=np.float64).reshape(-1)
+        if self.times.size == 0:
+            raise DataError(f"{self.source}: a volume needs at least one time step")
+        if not np.all(np.isfinite(self.times)):
+            raise DataError(f"{self.source}: times contain NaN or Inf: {self.times}")
+        if np.any(np.diff(self.times) <= 0):
+            bad = int(np.argmax(np.diff(self.times) <= 0))
+            raise DataError(
+                f"{self.source}: times must be strictly increasing; "
+                f"t[{bad}]={self.times[bad]!r} >= t[{bad + 1}]={self.times[bad + 1]!r}"
+            )
+        nx, ny, nz = self.dims
+        for name, src in self.fields.items():
+            shape = tuple(src.frame_shape)
+            if shape not in ((nz, ny, nx), (nz, ny, nx, 3)):
+                raise DataError(
+                    f"{self.source}: field {name!r} has frame shape {shape}; the grid "
+                    f"(nx, ny, nz)={self.dims} needs {(nz, ny, nx)} or {(nz, ny, nx, 3)}"
+                )
+            if src.n_steps != self.times.size:
+                raise DataError(
+                    f"{self.source}: field {name!r} has {src.n_steps} time steps but the "
+                    f"volume has {self.times.size} times"
+                )
+
+    # ------------------------------------------------------------------ build
+    @classmethod
+    def from_arrays(
+        cls,
+        fields: Mapping[str, NDArray[np.floating]],
+        *,
+        origin: float | tuple[float, float, float] = 0.0,
+        spacing: float | tuple[float, float, float] = 1.0,
+        times: NDArray[np.floating] | list[float] | None = None,
+        source: str = "<memory>",
+    ) -> TimeVolume:
+        """Build a volume from in-memory ``(T, nz, ny, nx[, 3])`` arrays.
+
+        ``times=None`` means frames at :data:`DEFAULT_FRAME_RATE_HZ`.
+        """
+        if not fields:
+            raise DataError("a volume needs at least one field")
+        frames = {k: ArrayFrames(np.asarray(v)) for k, v in fields.items()}
+        first = next(iter(frames.values()))
+        nz, ny, nx = first.frame_shape[:3]
+        physical = times is not None
+        t = (
+            np.arange(first.n_steps) / DEFAULT_FRAME_RATE_HZ
+            if times is None
+            else np.asarray(times, dtype=np.float64)
+        )
+        return cls(
+            origin=np.broadcast_to(np.asarray(origin, dtype=np.float64), (3,)).copy(),
+            spacing=np.broadcast_to(np.asarray(spacing, dtype=np.float64), (3,)).copy(),
+            dims=(nx, ny, nz),
+            times=t,
+            fields=dict(frames),
+            physical_times=physical,
+            source=source,
+        )
+
+    # --------------------------------------------------------------- queries
+    @property
+    def n_steps(self) -> int:
+        return int(self.times.size)
+
+    @property
+    def n_points(self) -> int:
+        return int(np.prod(self.dims))
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Array shape of a scalar frame, ``(nz, ny, nx)``."""
+        nx, ny, nz = self.dims
+        return (nz, ny, nx)
+
+    @property
+    def field_names(self) -> list[str]:
+        return list(self.fields)
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float, float, float]:
+        """``(xmin, xmax, ymin, ymax, zmin, zmax)`` in metres (pyvista order)."""
+        hi = self.origin + self.spacing * (np.asarray(self.dims) - 1)
+        return (
+            float(self.origin[0]), float(hi[0]),
+            float(self.origin[1]), float(hi[1]),
+            float(self.origin[2]), float(hi[2]),
+        )  # fmt: skip
+
+    @property
+    def center(self) -> NDArray[np.float64]:
+        b = np.asarray(self.bounds).reshape(3, 2)
+        return b.mean(axis=1)
+
+    def is_vector(self, name: str) -> bool:
+        return len(self._get(name).frame_shape) == 4
+
+    def _get(self, name: str) -> FrameSource:
+        try:
+            return self.fields[name]
+        except KeyError:
+            raise FieldError(
+                f"{self.source}: no field {name!r}; available fields: "
+                f"{', '.join(self.fields) or '(none)'}"
+            ) from None
+
+    def frame(self, name: str, step: int) -> NDArray[np.float64]:
+        """Read one time step of one field (validated: finite values only)."""
+        src = self._get(name)
+        if not -self.n_steps <= step < self.n_steps:
+            raise IndexError(
+                f"{self.source}: step {step} out of range; the volume has {self.n_steps} steps"
+            )
+        step = step % self.n_steps
+        arr = np.asarray(src.read(step), dtype=np.float64)
+        if self.check_finite and not np.all(np.isfinite(arr)):
+            bad = int(np.count_nonzero(~np.isfinite(arr)))
+            raise DataError(
+                f"{self.source}: field {name!r} at step {step} (t={self.times[step]:g} s) "
+                f"has {bad} NaN/Inf values; clean the data or mask them before auralizing"
+            )
+        return arr
+
+    def iter_frames(self, name: str) -> Iterator[NDArray[np.float64]]:
+        for n in range(self.n_steps):
+            yield self.frame(name, n)
+
+    def load(self) -> TimeVolume:
+        """Return a copy with every field read into memory."""
+        loaded = {
+            k: ArrayFrames(np.stack(list(self.iter_frames(k)))) for k in self.fields
+        }
+        return TimeVolume(
+            origin=self.origin.copy(), spacing=self.spacing.copy(), dims=self.dims,
+            times=self.times.copy(), fields=dict(loaded),
+            physical_times=self.physical_times, source=self.source,
+        )  # fmt: skip
+
+    def axis_coords(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Coordinates along x, y, z (1-D arrays)."""
+        return tuple(  # type: ignore[return-value]
+            self.origin[a] + self.spacing[a] * np.arange(self.dims[a]) for a in range(3)
+        )
+
+    def points(self, flat_index: NDArray[np.integer] | None = None) -> NDArray[np.float64]:
+        """Point positions ``(N, 3)`` for C-order flat indices (all points if None)."""
+        if flat_index is None:
+            flat_index = np.arange(self.n_points)
+        k, j, i = np.unravel_index(np.asarray(flat_index), self.shape)
+        ijk = np.stack([i, j, k], axis=-1).astype(np.float64)
+        return self.origin + ijk * self.spacing
+
+    def contains(self, pts: NDArray[np.floating], *, tol: float = 1e-9) -> NDArray[np.bool_]:
+        """Which of ``pts (N, 3)`` lie inside the grid's bounding box."""
+        b = np.asarray(self.bounds).reshape(3, 2)
+        p = np.asarray(pts, dtype=np.float64).reshape(-1, 3)
+        return np.all((p >= b[:, 0] - tol) & (p <= b[:, 1] + tol), axis=1)
+
+    def describe(self) -> dict[str, object]:
+        """A JSON-able summary (used by ``auralize info``)."""
+        return {
+            "source": self.source,
+            "dims": list(self.dims),
+            "origin": self.origin.tolist(),
+            "spacing": self.spacing.tolist(),
+            "bounds": list(self.bounds),
+            "n_steps": self.n_steps,
+            "t_start": float(self.times[0]),
+            "t_end": float(self.times[-1]),
+            "physical_times": self.physical_times,
+            "fields": {
+                k: ("vector" if len(v.frame_shape) == 4 else "scalar") for k, v in self.fields.items()
+            },
+        }
+
+
+def _vec3(value: object, name: str) -> NDArray[np.float64]:
+    arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    if arr.size == 1:
+        arr = np.repeat(arr, 3)
+    if arr.size != 3 or not np.all(np.isfinite(arr)):
+        raise DataError(f"{name} must be 3 finite numbers, got {value!r}")
+    return arr
+
+
+def as_path(p: str | Path) -> Path:
+    return Path(p).expanduser()
