@@ -121,6 +121,7 @@ class TimeVolume:
     physical_times: bool = True
     source: str = "<memory>"
     check_finite: bool = True
+    attrs: dict[str, object] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.origin = _vec3(self.origin, "origin")

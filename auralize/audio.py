@@ -1,0 +1,176 @@
+"""Sound files and sound devices: the only module that touches them.
+
+Audio arrays are ``(n_channels, n_samples)``; they are transposed only here.
+WAV files are written by our own writer so that multichannel files carry a
+WAVE_FORMAT_EXTENSIBLE header with the layout's channel mask (5.1, 7.1);
+FLAC goes through soundfile.  Every file is written atomically, with a
+sidecar JSON (``OUT.wav.json``) recording how it was made.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import FormatError, ParameterError
+from auralize.fileio import atomic_path, atomic_write
+
+NORMALIZE_MODES = ("peak", "none")
+PEAK_LEVEL = 0.99  # full scale after peak normalisation
+
+_KSDATAFORMAT_FLOAT = bytes.fromhex("0300000000001000800000aa00389b71")
+_KSDATAFORMAT_PCM = bytes.fromhex("0100000000001000800000aa00389b71")
+
+
+def normalize_audio(audio: NDArray[np.floating], mode: str = "peak", *,
+                    limit_pa: float | None = None) -> tuple[NDArray[np.float64], float]:  # fmt: skip
+    """Apply the optional pressure limiter, then the normalisation.
+
+    Parameters
+    ----------
+    audio : (n_channels, n_samples) pressure in Pa.
+    mode : ``"peak"`` scales the loudest sample to 0.99 full scale; ``"none"``
+        keeps pascals (a float file holds them exactly).
+    limit_pa : float, optional
+        Maximum pressure in Pa: samples beyond ±limit_pa are truncated, as a
+        microphone's maximum sound pressure does (paper 000 §7, explosions).
+
+    Returns
+    -------
+    (audio, gain) : the output and the gain applied after limiting.
+    """
+    if mode not in NORMALIZE_MODES:
+        raise ParameterError(f"normalize must be one of {NORMALIZE_MODES}, got {mode!r}")
+    a = np.asarray(audio, dtype=np.float64)
+    if a.ndim != 2:
+        raise ParameterError(f"audio must be (n_channels, n_samples), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError("audio contains NaN or Inf; refusing to write it")
+    if limit_pa is not None:
+        if not limit_pa > 0:
+            raise ParameterError(f"limit must be a positive pressure in Pa, got {limit_pa!r}")
+        a = np.clip(a, -limit_pa, limit_pa)
+    gain = 1.0
+    if mode == "peak":
+        peak = float(np.max(np.abs(a))) if a.size else 0.0
+        gain = PEAK_LEVEL / peak if peak > 0 else 1.0
+        a = a * gain
+    return a, gain
+
+
+def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | None = None,
+              subtype: str = "float32") -> bytes:  # fmt: skip
+    """Encode ``(n_channels, n_samples)`` as a WAV file (extensible header when > 2 channels
+    or when a channel mask is given)."""
+    a = np.asarray(audio, dtype=np.float64)
+    n_ch, n = a.shape
+    if subtype == "float32":
+        data = np.ascontiguousarray(a.T, dtype="<f4").tobytes()
+        bits, fmt_guid, fmt_tag = 32, _KSDATAFORMAT_FLOAT, 3
+    elif subtype == "pcm16":
+        if np.max(np.abs(a), initial=0) > 1.0:
+            raise ParameterError("pcm16 output needs samples in [-1, 1]; use --normalize peak")
+        data = np.ascontiguousarray(np.round(a.T * 32767), dtype="<i2").tobytes()
+        bits, fmt_guid, fmt_tag = 16, _KSDATAFORMAT_PCM, 1
+    else:
+        raise ParameterError(f"subtype must be 'float32' or 'pcm16', got {subtype!r}")
+    block_align = n_ch * bits // 8
+    extensible = n_ch > 2 or channel_mask is not None
+    if extensible:
+        mask = channel_mask if channel_mask is not None else 0
+        fmt = struct.pack("<HHIIHHHHI16s", 0xFFFE, n_ch, rate, rate * block_align, block_align,
+                          bits, 22, bits, mask, fmt_guid)  # fmt: skip
+    else:
+        fmt = struct.pack("<HHIIHH", fmt_tag, n_ch, rate, rate * block_align, block_align, bits)
+        if fmt_tag == 3:
+            fmt += struct.pack("<H", 0)
+    chunks = b"fmt " + struct.pack("<I", len(fmt)) + fmt
+    if fmt_tag == 3 and not extensible:
+        chunks += b"fact" + struct.pack("<II", 4, n)
+    chunks += b"data" + struct.pack("<I", len(data)) + data
+    return b"RIFF" + struct.pack("<I", 4 + len(chunks)) + b"WAVE" + chunks
+
+
+def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
+    """Read a WAV written by :func:`wav_bytes` (float32 or pcm16, plain or extensible).
+
+    Returns ``(audio (n_channels, n_samples), rate, channel_mask or None)``.
+    """
+    p = Path(path)
+    raw = p.read_bytes()
+    if len(raw) < 12 or raw[:4] != b"RIFF" or raw[8:12] != b"WAVE":
+        raise FormatError(f"{p}: not a RIFF/WAVE file")
+    pos, fmt, data, mask = 12, None, None, None
+    while pos + 8 <= len(raw):
+        cid, size = raw[pos : pos + 4], struct.unpack("<I", raw[pos + 4 : pos + 8])[0]
+        body = raw[pos + 8 : pos + 8 + size]
+        if cid == b"fmt ":
+            fmt = body
+        elif cid == b"data":
+            data = body
+        pos += 8 + size + (size & 1)
+    if fmt is None or data is None:
+        raise FormatError(f"{p}: WAV file without fmt or data chunk")
+    tag, n_ch, rate, _, _, bits = struct.unpack("<HHIIHH", fmt[:16])
+    if tag == 0xFFFE:
+        mask = struct.unpack("<I", fmt[20:24])[0]
+        tag = struct.unpack("<H", fmt[24:26])[0]
+    if tag == 3 and bits == 32:
+        a = np.frombuffer(data, dtype="<f4").astype(np.float64)
+    elif tag == 1 and bits == 16:
+        a = np.frombuffer(data, dtype="<i2").astype(np.float64) / 32767.0
+    else:
+        raise FormatError(f"{p}: unsupported WAV encoding (format tag {tag}, {bits} bits)")
+    return a.reshape(-1, n_ch).T.copy(), int(rate), mask
+
+
+def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
+                channel_mask: int | None = None, normalize: str = "peak",
+                limit_pa: float | None = None, sidecar: dict[str, Any] | None = None,
+                subtype: str = "float32") -> float:  # fmt: skip
+    """Write audio to ``path`` (``.wav`` or ``.flac``) atomically, plus ``path.json``.
+
+    Returns the normalisation gain (output units per pascal).
+    """
+    p = Path(path)
+    out, gain = normalize_audio(audio, normalize, limit_pa=limit_pa)
+    suffix = p.suffix.lower()
+    if suffix == ".wav":
+        atomic_write(p, wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=subtype))
+    elif suffix == ".flac":
+        import soundfile as sf
+
+        if normalize == "none" and np.max(np.abs(out), initial=0) > 1:
+            raise ParameterError("FLAC holds samples in [-1, 1]; use --normalize peak or a WAV file")
+        with atomic_path(p, suffix=".part.flac") as tmp:
+            sf.write(str(tmp), out.T, int(rate), format="FLAC", subtype="PCM_24")
+    else:
+        raise ParameterError(f"{p}: audio output must end in .wav or .flac")
+    meta = {
+        "file": p.name,
+        "rate": int(rate),
+        "channels": int(out.shape[0]),
+        "samples": int(out.shape[1]),
+        "normalize": normalize,
+        "gain": gain,
+        "units": "Pa" if normalize == "none" else f"full scale = {1 / gain:.6g} Pa",
+        "limit_pa": limit_pa,
+        "command": " ".join(sys.argv) if sys.argv and sys.argv[0].endswith("auralize") else None,
+        **(sidecar or {}),
+    }
+    atomic_write(Path(str(p) + ".json"), json.dumps(meta, indent=2, default=_json_default).encode())
+    return gain
+
+
+def _json_default(o: object) -> object:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    return str(o)

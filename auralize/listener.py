@@ -1,0 +1,317 @@
+"""ListenerPath: timed listener positions and orientations (paper 003 §4.1).
+
+Captures are interpolated linearly in position and by quaternion slerp in
+orientation.  Times are playback seconds, non-decreasing; positions are in
+data coordinates (metres).  Orientation is given by unit ``forward`` and
+``up`` vectors (default forward +y, up +z).
+
+CSV format (DESIGN.md): header ``t,x,y,z`` plus optional
+``fx,fy,fz,ux,uy,uz``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import FormatError, ListenerPathError
+from auralize.fileio import atomic_write
+
+FORWARD = np.array([0.0, 1.0, 0.0])
+UP = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass
+class ListenerPath:
+    """Timed listener captures.
+
+    Parameters
+    ----------
+    times : (N,) playback seconds, non-decreasing (N >= 1).
+    positions : (N, 3) metres.
+    forward, up : (N, 3), optional unit vectors (defaults +y and +z).
+
+    Examples
+    --------
+    >>> p = ListenerPath.line((0, 0, 0), (10, 0, 0), duration=2.0)
+    >>> p.position_at(np.array([1.0]))
+    array([[5., 0., 0.]])
+    """
+
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    forward: NDArray[np.float64] | None = None
+    up: NDArray[np.float64] | None = None
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        self.times = np.asarray(self.times, dtype=np.float64).reshape(-1)
+        self.positions = np.asarray(self.positions, dtype=np.float64).reshape(-1, 3)
+        n = self.times.size
+        if n == 0:
+            raise ListenerPathError(f"{self.source}: a listener path needs at least one capture")
+        if self.positions.shape[0] != n:
+            raise ListenerPathError(
+                f"{self.source}: {n} times but {self.positions.shape[0]} positions"
+            )
+        self.forward = _unit_rows(
+            np.broadcast_to(FORWARD, (n, 3)) if self.forward is None else self.forward, n,
+            "forward", self.source,
+        )  # fmt: skip
+        self.up = _unit_rows(
+            np.broadcast_to(UP, (n, 3)) if self.up is None else self.up, n, "up", self.source
+        )
+        for name, arr in (("times", self.times), ("positions", self.positions)):
+            if not np.all(np.isfinite(arr)):
+                raise ListenerPathError(f"{self.source}: {name} contain NaN or Inf")
+        d = np.diff(self.times)
+        if np.any(d < 0):
+            i = int(np.argmax(d < 0))
+            raise ListenerPathError(
+                f"{self.source}: times must be non-decreasing; capture {i + 1} has "
+                f"t={self.times[i + 1]:g} s after t={self.times[i]:g} s"
+            )
+        # orthogonalise up against forward
+        f, u = self.forward, self.up
+        u = u - np.sum(u * f, axis=1, keepdims=True) * f
+        nu = np.linalg.norm(u, axis=1)
+        if np.any(nu < 1e-9):
+            i = int(np.argmax(nu < 1e-9))
+            raise ListenerPathError(
+                f"{self.source}: forward and up are parallel at capture {i} (t={self.times[i]:g} s)"
+            )
+        self.up = u / nu[:, None]
+
+    # ------------------------------------------------------------- builders
+    @classmethod
+    def point(cls, position: tuple[float, float, float] | NDArray[np.floating], *,
+              duration: float, forward: tuple[float, float, float] = (0, 1, 0),
+              up: tuple[float, float, float] = (0, 0, 1)) -> ListenerPath:  # fmt: skip
+        """A static listener for ``duration`` seconds."""
+        _check_duration(duration)
+        p = np.asarray(position, dtype=np.float64).reshape(3)
+        return cls(np.array([0.0, duration]), np.stack([p, p]),
+                   np.stack([forward, forward]), np.stack([up, up]), source="point")  # fmt: skip
+
+    @classmethod
+    def line(cls, start: tuple[float, float, float] | NDArray[np.floating],
+             end: tuple[float, float, float] | NDArray[np.floating], *, duration: float,
+             n: int = 2, face: str = "forward") -> ListenerPath:  # fmt: skip
+        """Straight line from ``start`` to ``end`` at constant speed.
+
+        ``face="forward"`` looks along the motion; ``"fixed"`` keeps +y.
+        """
+        _check_duration(duration)
+        a = np.asarray(start, dtype=np.float64).reshape(3)
+        b = np.asarray(end, dtype=np.float64).reshape(3)
+        w = np.linspace(0.0, 1.0, max(int(n), 2))[:, None]
+        pos = a + w * (b - a)
+        fwd = None
+        if face == "forward" and np.linalg.norm(b - a) > 0:
+            d = (b - a) / np.linalg.norm(b - a)
+            fwd = np.broadcast_to(d, pos.shape)
+            up = np.broadcast_to(UP if abs(d @ UP) < 0.99 else np.array([1.0, 0, 0]), pos.shape)
+            return cls(w[:, 0] * duration, pos, fwd, up, source="line")
+        return cls(w[:, 0] * duration, pos, source="line")
+
+    @classmethod
+    def orbit(cls, center: tuple[float, float, float] | NDArray[np.floating], *, radius: float,
+              duration: float, turns: float = 1.0, height: float = 0.0,
+              rate_hz: float = 20.0, face: str = "center") -> ListenerPath:  # fmt: skip
+        """Horizontal circle around ``center`` (counter-clockwise seen from +z).
+
+        Captured at ``rate_hz``; ``face="center"`` looks at the centre,
+        ``"forward"`` along the motion.
+        """
+        _check_duration(duration)
+        if not radius > 0:
+            raise ListenerPathError(f"orbit radius must be > 0, got {radius!r}")
+        c = np.asarray(center, dtype=np.float64).reshape(3)
+        n = max(int(math.ceil(duration * rate_hz)) + 1, 3)
+        t = np.linspace(0.0, duration, n)
+        ang = 2 * np.pi * turns * t / duration
+        pos = c + np.stack([radius * np.cos(ang), radius * np.sin(ang), np.full(n, height)], 1)
+        if face == "center":
+            fwd = c - pos
+            fwd[:, 2] = 0.0
+        else:
+            fwd = np.stack([-np.sin(ang), np.cos(ang), np.zeros(n)], 1)
+        return cls(t, pos, fwd, np.broadcast_to(UP, pos.shape), source="orbit")
+
+    # -------------------------------------------------------------- queries
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1] - self.times[0])
+
+    @property
+    def n_captures(self) -> int:
+        return int(self.times.size)
+
+    def position_at(self, t: NDArray[np.floating] | float) -> NDArray[np.float64]:
+        """Linearly interpolated positions ``(len(t), 3)`` (held outside the path)."""
+        tt = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        return np.stack([np.interp(tt, self.times, self.positions[:, a]) for a in range(3)], 1)
+
+    def quaternions(self) -> NDArray[np.float64]:
+        """Orientation of each capture as a unit quaternion ``(N, 4)`` (w, x, y, z),
+        rotating the reference frame (forward +y, up +z) onto (forward, up).
+        Consecutive quaternions share a hemisphere so slerp takes the short way.
+        """
+        assert self.forward is not None and self.up is not None
+        f, u = self.forward, self.up
+        r = np.cross(f, u)
+        mats = np.stack([r, f, u], axis=2)  # columns right, forward, up
+        q = _mat_to_quat(mats)
+        for i in range(1, q.shape[0]):
+            if q[i] @ q[i - 1] < 0:
+                q[i] = -q[i]
+        return q
+
+    def orientation_at(self, t: NDArray[np.floating] | float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Forward and up ``(len(t), 3)`` by slerp between captures."""
+        tt = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        q = self.quaternions()
+        if self.n_captures == 1:
+            qi = np.repeat(q, tt.size, axis=0)
+        else:
+            s = np.clip(np.searchsorted(self.times, tt, side="right") - 1, 0, self.n_captures - 2)
+            span = self.times[s + 1] - self.times[s]
+            w = np.where(span > 0, np.clip((tt - self.times[s]) / np.where(span > 0, span, 1), 0, 1), 0.0)
+            qi = _slerp(q[s], q[s + 1], w)
+        return _quat_axis(qi, FORWARD), _quat_axis(qi, UP)
+
+    def speeds(self) -> NDArray[np.float64]:
+        """Speed on each capture interval (m per playback second)."""
+        dt = np.diff(self.times)
+        dp = np.linalg.norm(np.diff(self.positions, axis=0), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(dt > 0, dp / np.where(dt > 0, dt, 1), np.where(dp > 0, np.inf, 0.0))
+
+    # ------------------------------------------------------------------ I/O
+    def to_csv(self, path: str | Path) -> None:
+        """Write ``t,x,y,z,fx,fy,fz,ux,uy,uz`` atomically."""
+        buf = io.StringIO()
+        buf.write(csv_header() + "\n")
+        for row in self.rows():
+            buf.write(format_row(row) + "\n")
+        atomic_write(Path(path), buf.getvalue().encode())
+
+    def rows(self) -> NDArray[np.float64]:
+        assert self.forward is not None and self.up is not None
+        return np.column_stack([self.times, self.positions, self.forward, self.up])
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> ListenerPath:
+        """Read a path CSV (header ``t,x,y,z`` [``,fx,fy,fz,ux,uy,uz``])."""
+        p = Path(path)
+        try:
+            text = p.read_text()
+        except FileNotFoundError:
+            raise FormatError(f"listener path file {str(p)!r} does not exist") from None
+        except UnicodeDecodeError:
+            raise FormatError(f"{p}: not a text CSV file") from None
+        reader = csv.reader(io.StringIO(text))
+        try:
+            header = [h.strip().lower() for h in next(reader)]
+        except StopIteration:
+            raise FormatError(f"{p}: empty file; expected a header 't,x,y,z'") from None
+        need = ["t", "x", "y", "z"]
+        if header[:4] != need:
+            raise FormatError(
+                f"{p}: header must start with 't,x,y,z' (optional fx,fy,fz,ux,uy,uz); got {','.join(header)!r}"
+            )
+        has_orient = header[4:10] == ["fx", "fy", "fz", "ux", "uy", "uz"]
+        ncol = 10 if has_orient else 4
+        rows = []
+        for lineno, row in enumerate(reader, start=2):
+            if not row or all(not c.strip() for c in row):
+                continue
+            try:
+                vals = [float(c) for c in row[:ncol]]
+            except ValueError:
+                raise FormatError(f"{p}, line {lineno}: not a number in {row!r}") from None
+            if len(vals) != ncol:
+                raise FormatError(f"{p}, line {lineno}: expected {ncol} columns, got {len(row)}")
+            rows.append(vals)
+        if not rows:
+            raise FormatError(f"{p}: no captures after the header")
+        a = np.asarray(rows)
+        if has_orient:
+            return cls(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10], source=str(p))
+        return cls(a[:, 0], a[:, 1:4], source=str(p))
+
+
+def csv_header() -> str:
+    return "t,x,y,z,fx,fy,fz,ux,uy,uz"
+
+
+def format_row(row: NDArray[np.float64]) -> str:
+    return ",".join(f"{v:.9g}" for v in row)
+
+
+def _check_duration(d: float) -> None:
+    if not (isinstance(d, int | float) and math.isfinite(d) and d > 0):
+        raise ListenerPathError(f"duration must be a positive number of seconds, got {d!r}")
+
+
+def _unit_rows(a: object, n: int, name: str, src: str) -> NDArray[np.float64]:
+    arr = np.array(a, dtype=np.float64).reshape(-1, 3)
+    if arr.shape[0] != n:
+        raise ListenerPathError(f"{src}: {name} has {arr.shape[0]} rows, expected {n}")
+    norm = np.linalg.norm(arr, axis=1)
+    if not np.all(np.isfinite(arr)) or np.any(norm < 1e-12):
+        raise ListenerPathError(f"{src}: {name} vectors must be finite and non-zero")
+    return arr / norm[:, None]
+
+
+def _mat_to_quat(m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrices (N, 3, 3) -> unit quaternions (N, 4) (w, x, y, z)."""
+    out = np.empty((m.shape[0], 4))
+    for i, r in enumerate(m):
+        tr = r[0, 0] + r[1, 1] + r[2, 2]
+        if tr > 0:
+            s = 2.0 * math.sqrt(tr + 1.0)
+            out[i] = (0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s)
+        elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
+            s = 2.0 * math.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
+            out[i] = ((r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s)
+        elif r[1, 1] > r[2, 2]:
+            s = 2.0 * math.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
+            out[i] = ((r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s)
+        else:
+            s = 2.0 * math.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
+            out[i] = ((r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s)
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def _slerp(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    dot = np.sum(a * b, axis=1)
+    b = np.where(dot[:, None] < 0, -b, b)
+    dot = np.abs(dot)
+    th = np.arccos(np.clip(dot, -1, 1))
+    st = np.sin(th)
+    small = st < 1e-6
+    k0 = np.where(small, 1 - w, np.sin((1 - w) * th) / np.where(small, 1, st))
+    k1 = np.where(small, w, np.sin(w * th) / np.where(small, 1, st))
+    q = k0[:, None] * a + k1[:, None] * b
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _quat_axis(q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotate vector v by quaternions q (N, 4)."""
+    w, x, y, z = q.T
+    r = np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=1,
+    )
+    return r @ v

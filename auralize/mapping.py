@@ -1,0 +1,283 @@
+"""Acoustic mappings: field values -> density ρ̃ and particle velocity v (paper 003 §3.2.2).
+
+A mapping turns one time step of a :class:`~auralize.volume.TimeVolume` into
+``(rho, velocity)`` with shapes ``(nz, ny, nx)`` and ``(nz, ny, nx, 3)`` in
+kg/m³ and m/s.  Some mappings need series-wide statistics (the paper rescales
+to fixed ranges); they gather them once in :meth:`AcousticMapping.prepare`,
+reading the frames one at a time.
+
+Presets (:func:`get_mapping`):
+
+``paper-density``
+    The paper's: the field holds log10 density; ``10**x`` is rescaled
+    linearly so that the series spans [0.5, 15] (ρ̃), and the particle velocity
+    is ∇ρ̃ scaled so that its components span at most [-150, 150] m/s.
+``identity``
+    ``density`` and ``velocity`` taken as they are (missing velocity = 0).
+``cfd``
+    ``density`` plus ``momentum`` (v = m/ρ) or ``velocity`` from CFD output.
+
+A user function ``fn(frames: dict[str, ndarray]) -> (rho, velocity)`` is
+wrapped by :class:`FunctionMapping`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import DataError, FieldError, ParameterError
+from auralize.volume import TimeVolume
+
+Frame = NDArray[np.float64]
+
+
+class AcousticMapping:
+    """Base class: ``prepare(volume)`` once, then ``map(volume, step)`` per step."""
+
+    name = "base"
+
+    def required_fields(self) -> list[str]:
+        return []
+
+    def prepare(self, volume: TimeVolume) -> None:
+        """Check fields exist and gather series-wide statistics (default: none)."""
+        missing = [f for f in self.required_fields() if f not in volume.fields]
+        if missing:
+            raise FieldError(
+                f"{volume.source}: mapping {self.name!r} needs field(s) {missing}; the volume "
+                f"has {volume.field_names}. Choose the field with --field/field names options."
+            )
+
+    def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
+        raise NotImplementedError  # pragma: no cover - abstract
+
+    def describe(self) -> dict[str, object]:
+        return {"name": self.name}
+
+
+@dataclass
+class IdentityMapping(AcousticMapping):
+    """Density and velocity fields taken as they are (missing velocity = 0)."""
+
+    density: str = "density"
+    velocity: str = "velocity"
+    name = "identity"
+
+    def required_fields(self) -> list[str]:
+        return [self.density]
+
+    def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
+        rho = volume.frame(self.density, step)
+        _check_scalar(volume, self.density, rho)
+        if self.velocity in volume.fields:
+            v = volume.frame(self.velocity, step)
+            _check_vector(volume, self.velocity, v)
+        else:
+            v = np.zeros((*rho.shape, 3))
+        return rho, v
+
+    def describe(self) -> dict[str, object]:
+        return {"name": self.name, "density": self.density, "velocity": self.velocity}
+
+
+@dataclass
+class CFDMapping(AcousticMapping):
+    """Density plus momentum (v = m/ρ) or velocity, e.g. from a CFD solver."""
+
+    density: str = "density"
+    momentum: str = "momentum"
+    velocity: str = "velocity"
+    name = "cfd"
+
+    def required_fields(self) -> list[str]:
+        return [self.density]
+
+    def prepare(self, volume: TimeVolume) -> None:
+        super().prepare(volume)
+        if self.momentum not in volume.fields and self.velocity not in volume.fields:
+            raise FieldError(
+                f"{volume.source}: mapping 'cfd' needs a momentum field {self.momentum!r} or a "
+                f"velocity field {self.velocity!r}; the volume has {volume.field_names}"
+            )
+
+    def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
+        rho = volume.frame(self.density, step)
+        _check_scalar(volume, self.density, rho)
+        if self.momentum in volume.fields:
+            m = volume.frame(self.momentum, step)
+            _check_vector(volume, self.momentum, m)
+            if np.any(rho <= 0):
+                raise DataError(
+                    f"{volume.source}: density {self.density!r} at step {step} has non-positive "
+                    f"values (min {rho.min():g}); cannot divide momentum by it"
+                )
+            return rho, m / rho[..., None]
+        v = volume.frame(self.velocity, step)
+        _check_vector(volume, self.velocity, v)
+        return rho, v
+
+    def describe(self) -> dict[str, object]:
+        return {"name": self.name, "density": self.density, "momentum": self.momentum,
+                "velocity": self.velocity}  # fmt: skip
+
+
+@dataclass
+class PaperDensityMapping(AcousticMapping):
+    """The mapping of paper 003 §3.2.2 for log10-density data.
+
+    ρ̃ = 0.5 + 14.5 (10**x - lo) / (hi - lo), where lo and hi are the smallest
+    and largest 10**x over the whole series; v = ∇ρ̃ · 150 / G, where G is the
+    largest |∂ρ̃/∂x_i| over the series, so components fall in [-150, 150].
+    """
+
+    field: str = "log10_density"
+    rho_range: tuple[float, float] = (0.5, 15.0)
+    velocity_max: float = 150.0
+    name = "paper-density"
+    _lo: float = dataclasses.field(default=np.nan, init=False, repr=False)
+    _hi: float = dataclasses.field(default=np.nan, init=False, repr=False)
+    _gscale: float = dataclasses.field(default=np.nan, init=False, repr=False)
+    _prepared_for: int = dataclasses.field(default=0, init=False, repr=False)
+
+    def required_fields(self) -> list[str]:
+        return [self.field]
+
+    def _rho(self, volume: TimeVolume, step: int) -> Frame:
+        x = volume.frame(self.field, step)
+        _check_scalar(volume, self.field, x)
+        if np.max(np.abs(x)) > 300:
+            raise DataError(
+                f"{volume.source}: field {self.field!r} is read as log10 density by the "
+                f"'paper-density' mapping, but holds values up to {np.max(np.abs(x)):g}; "
+                f"use the 'identity' mapping for linear densities"
+            )
+        return np.power(10.0, x)
+
+    def prepare(self, volume: TimeVolume) -> None:
+        super().prepare(volume)
+        lo, hi = np.inf, -np.inf
+        for n in range(volume.n_steps):
+            r = self._rho(volume, n)
+            lo, hi = min(lo, float(r.min())), max(hi, float(r.max()))
+        self._lo, self._hi = lo, hi
+        gmax = 0.0
+        for n in range(volume.n_steps):
+            g = self._grad(volume, self._scaled(self._rho(volume, n)))
+            gmax = max(gmax, float(np.max(np.abs(g))))
+        self._gscale = self.velocity_max / gmax if gmax > 0 else 0.0
+        self._prepared_for = id(volume)
+
+    def _scaled(self, r: Frame) -> Frame:
+        a, b = self.rho_range
+        span = self._hi - self._lo
+        if span <= 0:
+            return np.full_like(r, a)
+        return a + (b - a) * (r - self._lo) / span
+
+    @staticmethod
+    def _grad(volume: TimeVolume, rho: Frame) -> Frame:
+        out = np.zeros((*rho.shape, 3))
+        # array axes are (z, y, x); components are (x, y, z)
+        for comp, axis in ((0, 2), (1, 1), (2, 0)):
+            if rho.shape[axis] >= 2:
+                out[..., comp] = np.gradient(rho, volume.spacing[comp], axis=axis)
+        return out
+
+    def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
+        if self._prepared_for != id(volume):
+            self.prepare(volume)
+        rho = self._scaled(self._rho(volume, step))
+        return rho, self._grad(volume, rho) * self._gscale
+
+    def describe(self) -> dict[str, object]:
+        return {"name": self.name, "field": self.field, "rho_range": list(self.rho_range),
+                "velocity_max": self.velocity_max}  # fmt: skip
+
+
+@dataclass
+class FunctionMapping(AcousticMapping):
+    """Wrap ``fn(frames) -> (rho, velocity)``; ``frames`` maps field names to arrays."""
+
+    fn: Callable[[dict[str, Frame]], tuple[Frame, Frame]]
+    fields: list[str] | None = None
+    name = "function"
+
+    def required_fields(self) -> list[str]:
+        return list(self.fields or [])
+
+    def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
+        names = self.fields if self.fields is not None else volume.field_names
+        frames = {n: volume.frame(n, step) for n in names}
+        rho, v = self.fn(frames)
+        rho = np.asarray(rho, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        if rho.shape != volume.shape or v.shape != (*volume.shape, 3):
+            raise DataError(
+                f"mapping function returned shapes {rho.shape} and {v.shape}; expected "
+                f"{volume.shape} and {(*volume.shape, 3)}"
+            )
+        if not (np.all(np.isfinite(rho)) and np.all(np.isfinite(v))):
+            raise DataError(f"mapping function returned NaN/Inf at step {step}")
+        return rho, v
+
+
+PRESETS: dict[str, type[AcousticMapping]] = {
+    "paper-density": PaperDensityMapping,
+    "identity": IdentityMapping,
+    "cfd": CFDMapping,
+}
+
+
+def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]] | None = None,
+                **field_names: str) -> AcousticMapping:  # fmt: skip
+    """Return a mapping from a preset name, an instance or a function.
+
+    Parameters
+    ----------
+    spec : str, AcousticMapping or callable, optional
+        Preset name (``paper-density``, ``identity``, ``cfd``); default ``identity``.
+    **field_names
+        Field-name overrides for the preset, e.g. ``density="rho"`` or
+        ``field="log_rho"``.
+
+    Examples
+    --------
+    >>> get_mapping("identity", density="rho").density
+    'rho'
+    """
+    if spec is None:
+        spec = "identity"
+    if isinstance(spec, AcousticMapping):
+        return spec
+    if callable(spec):
+        return FunctionMapping(spec)
+    try:
+        cls = PRESETS[spec]
+    except KeyError:
+        raise ParameterError(
+            f"unknown mapping {spec!r}; choose one of {sorted(PRESETS)} or pass a function"
+        ) from None
+    try:
+        return cls(**{k: v for k, v in field_names.items() if v is not None})
+    except TypeError as exc:
+        raise ParameterError(f"mapping {spec!r}: {exc}") from None
+
+
+def _check_scalar(volume: TimeVolume, name: str, arr: Frame) -> None:
+    if arr.shape != volume.shape:
+        raise DataError(
+            f"{volume.source}: field {name!r} must be scalar {volume.shape}, got {arr.shape}"
+        )
+
+
+def _check_vector(volume: TimeVolume, name: str, arr: Frame) -> None:
+    if arr.shape != (*volume.shape, 3):
+        raise DataError(
+            f"{volume.source}: field {name!r} must be a 3-vector {(*volume.shape, 3)}, "
+            f"got {arr.shape}"
+        )
