@@ -43,14 +43,30 @@ def _inner(i: int, n: int) -> int:
     return i
 
 
-@numba.njit(inline="always", **_NJIT)
-def _t(rho, v, k, j, i, a, b):  # type: ignore[no-untyped-def]
-    """Lighthill stress rho v_a v_b at one point (paper 003 Eq. 11)."""
-    return rho[k, j, i] * v[k, j, i, a] * v[k, j, i, b]
-
-
 @numba.njit(parallel=True, **_NJIT)
-def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out):  # type: ignore[no-untyped-def]
+def _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, dm, tt):  # type: ignore[no-untyped-def]
+    """Planar momentum change dm (3, ...) and Lighthill stress tt (6, ...) = ρ v_i v_j.
+
+    Order of tt: xx, yy, zz, xy, xz, yz (paper 003 Eq. 11).
+    """
+    nz, ny, nx = rho_c.shape
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        for j in range(ny):
+            for i in range(nx):
+                for c in range(3):
+                    dm[c, k, j, i] = m_b[k, j, i, c] - m_a[k, j, i, c]
+                r = rho_c[k, j, i]
+                vx, vy, vz = v_c[k, j, i, 0], v_c[k, j, i, 1], v_c[k, j, i, 2]
+                tt[0, k, j, i] = r * vx * vx
+                tt[1, k, j, i] = r * vy * vy
+                tt[2, k, j, i] = r * vz * vz
+                tt[3, k, j, i] = r * vx * vy
+                tt[4, k, j, i] = r * vx * vz
+                tt[5, k, j, i] = r * vy * vz
+
+
+def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None):  # type: ignore[no-untyped-def]
     """Monopole, dipole and quadrupole strengths at every vertex of one step.
 
     Paper 003 §3.2.3: ``S_m = ∂ρ/∂t``, ``S_d = ∂/∂x_i (∂(ρ v_i)/∂t)`` (Eq. 13),
@@ -64,90 +80,64 @@ def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out):  # type: igno
     rho_c, v_c : density and velocity at the step itself (for S_q).
     h : (3,) spacing (x, y, z).
     out : (3, nz, ny, nx) result, written in place.
+    work : optional (9, nz, ny, nx) scratch array, reused between calls.
+
+    Returns the scratch array.
     """
-    nz, ny, nx = rho_c.shape
+    shape = rho_c.shape
+    if work is None or work.shape != (9, *shape):
+        work = np.empty((9, *shape))
+    _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, work[:3], work[3:])
+    _stencil(rho_a, rho_b, work[:3], work[3:], inv_dt, np.asarray(h, dtype=np.float64), out)
+    return work
+
+
+@numba.njit(parallel=True, **_NJIT)
+def _stencil(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-def]
+    """Finite-difference stencils on planar arrays (see :func:`strengths`)."""
+    nz, ny, nx = rho_a.shape
     hx, hy, hz = h[0], h[1], h[2]
+    gx = 1.0 / (hx * hx) if nx >= 3 else 0.0
+    gy = 1.0 / (hy * hy) if ny >= 3 else 0.0
+    gz = 1.0 / (hz * hz) if nz >= 3 else 0.0
     for kp in numba.prange(nz):
         k = np.int64(kp)
         k0, k1 = _lohi(k, nz)
         kc = _inner(k, nz)
+        fz = 1.0 / ((k1 - k0) * hz) if k1 > k0 else 0.0
         for j in range(ny):
             j0, j1 = _lohi(j, ny)
             jc = _inner(j, ny)
+            fy = 1.0 / ((j1 - j0) * hy) if j1 > j0 else 0.0
             for i in range(nx):
                 i0, i1 = _lohi(i, nx)
                 ic = _inner(i, nx)
-                # monopole
+                fx = 1.0 / ((i1 - i0) * hx) if i1 > i0 else 0.0
                 out[0, k, j, i] = (rho_b[k, j, i] - rho_a[k, j, i]) * inv_dt
-                # dipole: divergence of the momentum change
-                div = 0.0
-                if i1 > i0:
-                    div += (
-                        (m_b[k, j, i1, 0] - m_a[k, j, i1, 0]) - (m_b[k, j, i0, 0] - m_a[k, j, i0, 0])
-                    ) / ((i1 - i0) * hx)
-                if j1 > j0:
-                    div += (
-                        (m_b[k, j1, i, 1] - m_a[k, j1, i, 1]) - (m_b[k, j0, i, 1] - m_a[k, j0, i, 1])
-                    ) / ((j1 - j0) * hy)
-                if k1 > k0:
-                    div += (
-                        (m_b[k1, j, i, 2] - m_a[k1, j, i, 2]) - (m_b[k0, j, i, 2] - m_a[k0, j, i, 2])
-                    ) / ((k1 - k0) * hz)
+                div = (
+                    (dm[0, k, j, i1] - dm[0, k, j, i0]) * fx
+                    + (dm[1, k, j1, i] - dm[1, k, j0, i]) * fy
+                    + (dm[2, k1, j, i] - dm[2, k0, j, i]) * fz
+                )
                 out[1, k, j, i] = div * inv_dt
-                # quadrupole: diagonal terms
+                # diagonal terms: 3-point second differences (stencil kept inside)
                 q = 0.0
                 if nx >= 3:
-                    q += (
-                        _t(rho_c, v_c, k, j, ic + 1, 0, 0)
-                        - 2.0 * _t(rho_c, v_c, k, j, ic, 0, 0)
-                        + _t(rho_c, v_c, k, j, ic - 1, 0, 0)
-                    ) / (hx * hx)
+                    q += (tt[0, k, j, ic + 1] - 2.0 * tt[0, k, j, ic] + tt[0, k, j, ic - 1]) * gx
                 if ny >= 3:
-                    q += (
-                        _t(rho_c, v_c, k, jc + 1, i, 1, 1)
-                        - 2.0 * _t(rho_c, v_c, k, jc, i, 1, 1)
-                        + _t(rho_c, v_c, k, jc - 1, i, 1, 1)
-                    ) / (hy * hy)
+                    q += (tt[1, k, jc + 1, i] - 2.0 * tt[1, k, jc, i] + tt[1, k, jc - 1, i]) * gy
                 if nz >= 3:
-                    q += (
-                        _t(rho_c, v_c, kc + 1, j, i, 2, 2)
-                        - 2.0 * _t(rho_c, v_c, kc, j, i, 2, 2)
-                        + _t(rho_c, v_c, kc - 1, j, i, 2, 2)
-                    ) / (hz * hz)
-                # off-diagonal terms, each appearing twice (T_ij = T_ji)
-                if i1 > i0 and j1 > j0:
-                    q += (
-                        2.0
-                        * (
-                            _t(rho_c, v_c, k, j1, i1, 0, 1)
-                            - _t(rho_c, v_c, k, j1, i0, 0, 1)
-                            - _t(rho_c, v_c, k, j0, i1, 0, 1)
-                            + _t(rho_c, v_c, k, j0, i0, 0, 1)
-                        )
-                        / ((i1 - i0) * hx * (j1 - j0) * hy)
-                    )
-                if i1 > i0 and k1 > k0:
-                    q += (
-                        2.0
-                        * (
-                            _t(rho_c, v_c, k1, j, i1, 0, 2)
-                            - _t(rho_c, v_c, k1, j, i0, 0, 2)
-                            - _t(rho_c, v_c, k0, j, i1, 0, 2)
-                            + _t(rho_c, v_c, k0, j, i0, 0, 2)
-                        )
-                        / ((i1 - i0) * hx * (k1 - k0) * hz)
-                    )
-                if j1 > j0 and k1 > k0:
-                    q += (
-                        2.0
-                        * (
-                            _t(rho_c, v_c, k1, j1, i, 1, 2)
-                            - _t(rho_c, v_c, k1, j0, i, 1, 2)
-                            - _t(rho_c, v_c, k0, j1, i, 1, 2)
-                            + _t(rho_c, v_c, k0, j0, i, 1, 2)
-                        )
-                        / ((j1 - j0) * hy * (k1 - k0) * hz)
-                    )
+                    q += (tt[2, kc + 1, j, i] - 2.0 * tt[2, kc, j, i] + tt[2, kc - 1, j, i]) * gz
+                # off-diagonal terms, each twice (T_ij = T_ji); zero factors on flat axes
+                q += (2.0 * fx * fy) * (
+                    tt[3, k, j1, i1] - tt[3, k, j1, i0] - tt[3, k, j0, i1] + tt[3, k, j0, i0]
+                )
+                q += (2.0 * fx * fz) * (
+                    tt[4, k1, j, i1] - tt[4, k1, j, i0] - tt[4, k0, j, i1] + tt[4, k0, j, i0]
+                )
+                q += (2.0 * fy * fz) * (
+                    tt[5, k1, j1, i] - tt[5, k1, j0, i] - tt[5, k0, j1, i] + tt[5, k0, j0, i]
+                )
                 out[2, k, j, i] = q
 
 
@@ -165,15 +155,14 @@ def _classify(sm: float, sd: float, sq: float, thr, zero) -> int:  # type: ignor
 
 
 @numba.njit(inline="always", **_NJIT)
-def _cut(s, kind, thr, zero, own, k, j, i, half):  # type: ignore[no-untyped-def]
+def _cut(s, kinds, kind, thr, own, k, j, i, half):  # type: ignore[no-untyped-def]
     """Cut distance from a source point towards neighbour (k, j, i) (§3.2.4.1).
 
     Half the edge when the neighbour is a source of the same type (or the
     strength does not fall below the threshold along the edge), otherwise the
     linearly interpolated crossing of |S| with the threshold.
     """
-    c = _classify(s[0, k, j, i], s[1, k, j, i], s[2, k, j, i], thr, zero)
-    if c == kind:
+    if kinds[k, j, i] == kind:
         return half
     other = abs(s[kind - 1, k, j, i])
     t = thr[kind - 1]
@@ -183,21 +172,26 @@ def _cut(s, kind, thr, zero, own, k, j, i, half):  # type: ignore[no-untyped-def
 
 
 @numba.njit(parallel=True, **_NJIT)
-def classify_and_radius(s, thr, zero, h, kind_out, radius_out):  # type: ignore[no-untyped-def]
-    """Classify every vertex and compute its ΔV-sphere radius (0 where no source).
+def _classify_all(s, thr, zero, kind_out):  # type: ignore[no-untyped-def]
+    _, nz, ny, nx = s.shape
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        for j in range(ny):
+            for i in range(nx):
+                kind_out[k, j, i] = _classify(
+                    s[0, k, j, i], s[1, k, j, i], s[2, k, j, i], thr, zero
+                )
 
-    The radius is the mean of the cut distances along the (up to six) grid
-    edges leaving the vertex (paper 003 §3.2.4.1, Fig. 3).  A vertex on a
-    grid face has fewer edges; only existing edges are averaged.
-    """
+
+@numba.njit(parallel=True, **_NJIT)
+def _radii(s, kinds, thr, h, radius_out):  # type: ignore[no-untyped-def]
     _, nz, ny, nx = s.shape
     hx, hy, hz = 0.5 * h[0], 0.5 * h[1], 0.5 * h[2]
     for kp in numba.prange(nz):
         k = np.int64(kp)
         for j in range(ny):
             for i in range(nx):
-                kind = _classify(s[0, k, j, i], s[1, k, j, i], s[2, k, j, i], thr, zero)
-                kind_out[k, j, i] = kind
+                kind = kinds[k, j, i]
                 if kind == NONE:
                     radius_out[k, j, i] = 0.0
                     continue
@@ -205,24 +199,35 @@ def classify_and_radius(s, thr, zero, h, kind_out, radius_out):  # type: ignore[
                 acc = 0.0
                 n = 0
                 if i > 0:
-                    acc += _cut(s, kind, thr, zero, own, k, j, i - 1, hx)
+                    acc += _cut(s, kinds, kind, thr, own, k, j, i - 1, hx)
                     n += 1
                 if i < nx - 1:
-                    acc += _cut(s, kind, thr, zero, own, k, j, i + 1, hx)
+                    acc += _cut(s, kinds, kind, thr, own, k, j, i + 1, hx)
                     n += 1
                 if j > 0:
-                    acc += _cut(s, kind, thr, zero, own, k, j - 1, i, hy)
+                    acc += _cut(s, kinds, kind, thr, own, k, j - 1, i, hy)
                     n += 1
                 if j < ny - 1:
-                    acc += _cut(s, kind, thr, zero, own, k, j + 1, i, hy)
+                    acc += _cut(s, kinds, kind, thr, own, k, j + 1, i, hy)
                     n += 1
                 if k > 0:
-                    acc += _cut(s, kind, thr, zero, own, k - 1, j, i, hz)
+                    acc += _cut(s, kinds, kind, thr, own, k - 1, j, i, hz)
                     n += 1
                 if k < nz - 1:
-                    acc += _cut(s, kind, thr, zero, own, k + 1, j, i, hz)
+                    acc += _cut(s, kinds, kind, thr, own, k + 1, j, i, hz)
                     n += 1
                 radius_out[k, j, i] = acc / n if n > 0 else (hx + hy + hz) / 3.0
+
+
+def classify_and_radius(s, thr, zero, h, kind_out, radius_out):  # type: ignore[no-untyped-def]
+    """Classify every vertex and compute its ΔV-sphere radius (0 where no source).
+
+    The radius is the mean of the cut distances along the (up to six) grid
+    edges leaving the vertex (paper 003 §3.2.4.1, Fig. 3).  A vertex on a
+    grid face has fewer edges; only existing edges are averaged.
+    """
+    _classify_all(s, thr, zero, kind_out)
+    _radii(s, kind_out, thr, h, radius_out)
 
 
 def empty_like_strengths(shape: tuple[int, int, int]) -> np.ndarray:

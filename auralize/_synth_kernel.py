@@ -26,6 +26,7 @@ import numba
 import numpy as np
 
 _NJIT = {"cache": True, "nogil": True}
+ITER = 12
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -78,18 +79,18 @@ def _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin):  # type: ignore[no-untyped-def
 
 
 @numba.njit(inline="always", **_NJIT)
-def _qeval(tn, q, mt, n, tau, cubic):  # type: ignore[no-untyped-def]
-    """Strength q and dq/dτ on piece n (between knots n and n+1) at time τ."""
+def _qeval(tn, q, mt, k, n, tau, cubic):  # type: ignore[no-untyped-def]
+    """Strength q and dq/dτ of source k on piece n (between knots n and n+1) at time τ."""
     h = tn[n + 1] - tn[n]
     s = (tau - tn[n]) / h
     if s < 0.0:
         s = 0.0
     if s > 1.0:
         s = 1.0
-    q0, q1 = q[n], q[n + 1]
+    q0, q1 = q[k, n], q[k, n + 1]
     if not cubic:
         return q0 + (q1 - q0) * s, (q1 - q0) / h
-    m0, m1 = mt[n] * h, mt[n + 1] * h
+    m0, m1 = mt[k, n] * h, mt[k, n + 1] * h
     s2 = s * s
     s3 = s2 * s
     val = (
@@ -212,14 +213,14 @@ def _orient(tc, qc, t, s, out):  # type: ignore[no-untyped-def]
     out[5] = 1 - 2 * (qx * qx + qy * qy)
 
 
-@numba.njit(**_NJIT)
-def _eval_f(x, y, z, rmin, tn, qk, mk, n, t, s, tc, lc, vc, qc, c0, spk_az, spk_ch, fold,
+@numba.njit(inline="always", **_NJIT)
+def _eval_f(x, y, z, rmin, tn, q, mt, cubic, k, n, t, s, tc, lc, vc, qc, c0, spk_az, spk_ch, fold,
             g, g2, o, f, df):  # fmt: skip  # type: ignore[no-untyped-def]
     """f_c(t) = g_c(t) q(τ)/D and its time derivative, for every channel c."""
     lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t, s)
     d, dd = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
     tau = t - d / c0
-    qv, dq = _qeval(tn, qk, mk, n, tau, True if mk.size > 0 else False)
+    qv, dq = _qeval(tn, q, mt, k, n, tau, cubic)
     val = qv / d
     der = dq * (1.0 - dd / c0) / d - qv * dd / (d * d)
     if spk_az.size == 0:
@@ -238,46 +239,86 @@ def _eval_f(x, y, z, rmin, tn, qk, mk, n, t, s, tc, lc, vc, qc, c0, spk_az, spk_
         df[c] = g[c] * der + (g2[c] - g[c]) / eps * val
 
 
-@numba.njit(**_NJIT)
+@numba.njit(inline="always", **_NJIT)
 def _emit(acc, blk, m_start, s0, L, f0, d0, f1, d1, sign):  # type: ignore[no-untyped-def]
     """Add sign × (cubic Hermite on [s0, s0+L], sample units) from sample m_start on.
 
-    Impulses go into acc[level, blk, local index + level].
+    Impulses go into acc[blk, local index + level, level]: the four levels of
+    one impulse share cache lines.
     """
-    B = acc.shape[2] - 4
+    B = acc.shape[1] - 4
     dlt = (f1 - f0) / L
-    c0 = f0
     c1 = d0
     c2 = (3.0 * dlt - 2.0 * d0 - d1) / L
     c3 = (d0 + d1 - 2.0 * dlt) / (L * L)
     x = m_start - s0
     # Taylor shift to x: b_i = P^(i)(x)/i!
-    b0 = c0 + x * (c1 + x * (c2 + x * c3))
+    b0 = f0 + x * (c1 + x * (c2 + x * c3))
     b1 = c1 + x * (2.0 * c2 + 3.0 * c3 * x)
     b2 = c2 + 3.0 * c3 * x
     b3 = c3
     loc = m_start - blk * B
-    acc[0, blk, loc] += sign * b0
-    acc[1, blk, loc + 1] += sign * (b1 + b2 + b3)
-    acc[2, blk, loc + 2] += sign * (2.0 * b2 + 6.0 * b3)
-    acc[3, blk, loc + 3] += sign * 6.0 * b3
+    acc[blk, loc, 0] += sign * b0
+    acc[blk, loc + 1, 1] += sign * (b1 + b2 + b3)
+    acc[blk, loc + 2, 2] += sign * (2.0 * b2 + 6.0 * b3)
+    acc[blk, loc + 3, 3] += sign * 6.0 * b3
 
 
-@numba.njit(**_NJIT)
-def _arrival(x, y, z, rmin, tk, tc, lc, vc, c0, guess):  # type: ignore[no-untyped-def]
-    """Solve a - D(a)/c0 = tk for the reception time a (Newton, listener slower than c0)."""
+@numba.njit(inline="always", **_NJIT)
+def _arrival(x, y, z, rmin, tk, tc, lc, vc, c0, guess, seg):  # type: ignore[no-untyped-def]
+    """Solve a - D(a)/c0 = tk for the reception time a (Newton; listener slower than c0).
+
+    Returns (a, dD/dt at a, segment of a).
+    """
     a = guess
-    s = _segment(tc, a, 0)
-    for _ in range(30):
-        s = _segment(tc, a, s)
-        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, a, s)
+    dd = 0.0
+    for _ in range(ITER):
+        seg = _segment(tc, a, seg)
+        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, a, seg)
         d, dd = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-        g = a - d / c0 - tk
-        step = g / (1.0 - dd / c0)
+        step = (a - d / c0 - tk) / (1.0 - dd / c0)
         a -= step
-        if abs(step) < 1e-13 * (1.0 + abs(a)):
+        if abs(step) < 1e-10:
             break
-    return a
+    return a, dd, seg
+
+
+@numba.njit(parallel=True, **_NJIT)
+def _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, arr):  # type: ignore[no-untyped-def]
+    """Reception time of every knot that bounds a sounding piece (NaN elsewhere).
+
+    The Newton guess extrapolates the previous knot's arrival with its Doppler
+    factor, so one or two iterations suffice.
+    """
+    K = pos.shape[0]
+    Tp = tn.size
+    for kp in numba.prange(K):
+        k = np.int64(kp)
+        x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
+        need_prev = False
+        have_prev = False
+        a_prev = 0.0
+        dd_prev = 0.0
+        seg_a = 0
+        for n in range(Tp):
+            sounding = q[k, n] != 0.0 or (cubic and mt[k, n] != 0.0)
+            sounding_next = n + 1 < Tp and (q[k, n + 1] != 0.0 or (cubic and mt[k, n + 1] != 0.0))
+            if not (sounding or sounding_next or need_prev):
+                have_prev = False
+                need_prev = False
+                arr[k, n] = np.nan
+                continue
+            if have_prev:
+                guess = a_prev + (tn[n] - tn[n - 1]) / (1.0 - dd_prev / c0)
+            else:
+                seg_a = _segment(tc, tn[n], seg_a)
+                lx, ly, lz, _, _, _ = _listener(tc, lc, vc, tn[n], seg_a)
+                d0, _ = _dist(x, y, z, lx, ly, lz, 0.0, 0.0, 0.0, rmin)
+                guess = tn[n] + d0 / c0
+            a_prev, dd_prev, seg_a = _arrival(x, y, z, rmin, tn[n], tc, lc, vc, c0, guess, seg_a)
+            arr[k, n] = a_prev
+            have_prev = True
+            need_prev = sounding or sounding_next
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -292,13 +333,19 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
     (size-0 second axis for linear interpolation); tc (M,), lc (M,3), vc (M-1,3),
     qc (M,4) listener captures; fs samples per data second; block samples per
     accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels.
+
+    Pieces are visited step-major (all sources' piece n, then n+1, ...) so the
+    accumulator writes stay within the few thousand samples a step's arrivals
+    span, which fit in cache.
     """
     K = pos.shape[0]
     Tp = tn.size
     n_blocks = (n_samples + block - 1) // block
-    accs = np.zeros((n_threads, n_ch, 4, n_blocks, block + 4))
-    t_end = t_start + n_samples / fs
     cubic = mt.shape[1] > 0
+    arr = np.empty((K, Tp))
+    _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, arr)
+    accs = np.zeros((n_threads, n_ch, n_blocks, block + 4, 4))
+    t_end = t_start + n_samples / fs
     chunk = (K + n_threads - 1) // n_threads
     for th in numba.prange(n_threads):
         acc_t = accs[th]
@@ -309,40 +356,24 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
         da = np.zeros(n_ch)
         fb = np.zeros(n_ch)
         db = np.zeros(n_ch)
-        arr = np.empty(Tp)
-        mk_empty = np.zeros(0)
-        for k in range(th * chunk, min(K, (th + 1) * chunk)):
-            x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
-            qk = q[k]
-            mk = mt[k] if cubic else mk_empty
-            # arrival times of every knot
-            guess = tn[0]
-            for n in range(Tp):
-                s0 = _segment(tc, tn[n], 0)
-                lx, ly, lz, _, _, _ = _listener(tc, lc, vc, tn[n], s0)
-                d0, _ = _dist(x, y, z, lx, ly, lz, 0.0, 0.0, 0.0, rmin)
-                guess = tn[n] + d0 / c0
-                arr[n] = _arrival(x, y, z, rmin, tn[n], tc, lc, vc, c0, guess)
-            for n in range(Tp - 1):
-                silent = qk[n] == 0.0 and qk[n + 1] == 0.0
-                if cubic:
-                    silent = silent and mk[n] == 0.0 and mk[n + 1] == 0.0
-                if silent:
-                    continue
-                ta, tb = arr[n], arr[n + 1]
+        k_lo = th * chunk
+        k_hi = min(K, (th + 1) * chunk)
+        for n in range(Tp - 1):
+            for k in range(k_lo, k_hi):
+                if q[k, n] == 0.0 and q[k, n + 1] == 0.0:
+                    if not cubic or (mt[k, n] == 0.0 and mt[k, n + 1] == 0.0):
+                        continue
+                ta, tb = arr[k, n], arr[k, n + 1]
                 if tb <= t_start or ta >= t_end or tb <= ta:
                     continue
+                x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
                 # split [ta, tb] at listener captures and block boundaries
                 t0 = ta
                 seg = _segment(tc, t0, 0)
                 while t0 < tb:
                     t1 = tb
-                    # next capture after t0
-                    if seg + 1 < tc.size and seg + 1 >= 0 and tc[seg + 1] < t1 and tc[seg + 1] > t0:
+                    if seg + 1 < tc.size and tc[seg + 1] < t1 and tc[seg + 1] > t0:
                         t1 = tc[seg + 1]
-                    elif seg < 0 and tc[0] < t1 and tc[0] > t0:
-                        t1 = tc[0]
-                    # block boundary
                     u0 = (t0 - t_start) * fs
                     bidx = int(math.floor(u0 / block)) if u0 >= 0 else 0
                     tbnd = t_start + (bidx + 1) * block / fs
@@ -353,27 +384,41 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                     m1 = min(int(math.ceil(u1)), n_samples)
                     if m1 > m0:
                         segm = _segment(tc, 0.5 * (t0 + t1), seg)
-                        _eval_f(x, y, z, rmin, tn, qk, mk, n, t0, segm, tc, lc, vc, qc, c0,
+                        _eval_f(x, y, z, rmin, tn, q, mt, cubic, k, n, t0, segm, tc, lc, vc, qc, c0,
                                 spk_az, spk_ch, fold, g, g2, o, fa, da)  # fmt: skip
-                        _eval_f(x, y, z, rmin, tn, qk, mk, n, t1, segm, tc, lc, vc, qc, c0,
+                        _eval_f(x, y, z, rmin, tn, q, mt, cubic, k, n, t1, segm, tc, lc, vc, qc, c0,
                                 spk_az, spk_ch, fold, g, g2, o, fb, db)  # fmt: skip
                         L = u1 - u0
                         blk = m0 // block
+                        end_inside = m1 < n_samples and m1 < (blk + 1) * block
                         for c in range(n_ch):
                             a_c = acc_t[c]
                             _emit(a_c, blk, m0, u0, L, fa[c], da[c] / fs, fb[c], db[c] / fs, 1.0)
-                            if m1 < n_samples and m1 < (blk + 1) * block:
+                            if end_inside:
                                 _emit(a_c, blk, m1, u0, L, fa[c], da[c] / fs, fb[c], db[c] / fs,
                                       -1.0)  # fmt: skip
                     t0 = t1
                     seg = _segment(tc, t0, seg)
-    total = accs.sum(axis=0)
     out = np.zeros((n_ch, n_blocks * block))
     for c in range(n_ch):
         for b in range(n_blocks):
-            a3 = np.cumsum(total[c, 3, b])
-            a2 = np.cumsum(total[c, 2, b] + a3)
-            a1 = np.cumsum(total[c, 1, b] + a2)
-            a0 = np.cumsum(total[c, 0, b] + a1)
-            out[c, b * block : (b + 1) * block] = a0[:block]
+            a3 = 0.0
+            a2 = 0.0
+            a1 = 0.0
+            a0 = 0.0
+            for i in range(block):
+                s3 = 0.0
+                s2 = 0.0
+                s1 = 0.0
+                s0 = 0.0
+                for th in range(n_threads):
+                    s3 += accs[th, c, b, i, 3]
+                    s2 += accs[th, c, b, i, 2]
+                    s1 += accs[th, c, b, i, 1]
+                    s0 += accs[th, c, b, i, 0]
+                a3 += s3
+                a2 += s2 + a3
+                a1 += s1 + a2
+                a0 += s0 + a1
+                out[c, b * block + i] = a0
     return out[:, :n_samples]

@@ -147,7 +147,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         import soundfile as sf
 
         if normalize == "none" and np.max(np.abs(out), initial=0) > 1:
-            raise ParameterError("FLAC holds samples in [-1, 1]; use --normalize peak or a WAV file")
+            raise ParameterError(
+                "FLAC holds samples in [-1, 1]; use --normalize peak or a WAV file"
+            )
         with atomic_path(p, suffix=".part.flac") as tmp:
             sf.write(str(tmp), out.T, int(rate), format="FLAC", subtype="PCM_24")
     else:

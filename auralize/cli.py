@@ -50,9 +50,15 @@ def _field_map(items: list[str] | None) -> dict[str, str] | None:
 def add_volume_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("volume", metavar="PATH", help="volume file, or dataset:NAME for a built-in one")
     g = p.add_argument_group("volume")
-    g.add_argument("--field", action="append", metavar="NAME=/DATASET",
-                   help="read a generic HDF5 file by naming datasets (repeatable)")
-    g.add_argument("--resolution", type=int, help="points per axis when resampling non-uniform grids")
+    g.add_argument(
+        "--field",
+        action="append",
+        metavar="NAME=/DATASET",
+        help="read a generic HDF5 file by naming datasets (repeatable)",
+    )
+    g.add_argument(
+        "--resolution", type=int, help="points per axis when resampling non-uniform grids"
+    )
     g.add_argument("--size", type=int, help="grid size of a built-in dataset")
     g.add_argument("--steps", type=int, help="time steps of a built-in dataset")
     g.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
@@ -60,28 +66,50 @@ def add_volume_options(p: argparse.ArgumentParser) -> None:
 
 def add_detect_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("detection")
-    g.add_argument("--mapping", help="paper-density | identity | cfd (default: chosen from the fields)")
+    g.add_argument(
+        "--mapping", help="paper-density | identity | cfd (default: chosen from the fields)"
+    )
     g.add_argument("--density-field", help="field holding density (identity/cfd)")
     g.add_argument("--velocity-field", help="field holding velocity (identity/cfd)")
     g.add_argument("--log-density-field", help="field holding log10 density (paper-density)")
     for kind in ("monopole", "dipole", "quadrupole"):
-        g.add_argument(f"--threshold-{kind}", default="auto", metavar="X",
-                       help=f"{kind} threshold: absolute value, 'N%%' of the peak, or auto (1%%)")
-    g.add_argument("--zero-fraction", type=float, default=1.0,
-                   help="'almost zero' = below this fraction of the other types' thresholds")
+        g.add_argument(
+            f"--threshold-{kind}",
+            default="auto",
+            metavar="X",
+            help=f"{kind} threshold: absolute value, 'N%%' of the peak, or auto (1%%)",
+        )
+    g.add_argument(
+        "--zero-fraction",
+        type=float,
+        default=1.0,
+        help="'almost zero' = below this fraction of the other types' thresholds",
+    )
 
 
-def add_output_options(p: argparse.ArgumentParser, *, layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json") -> None:
+def add_output_options(
+    p: argparse.ArgumentParser, *, layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json"
+) -> None:
     g = p.add_argument_group("audio output")
     g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
     g.add_argument("--layout", default="mono", help=layouts)
     g.add_argument("--rate", type=int, default=44100, help="sample rate in Hz (default 44100)")
-    g.add_argument("--normalize", choices=["peak", "none"], default="peak",
-                   help="peak: loudest sample at 0.99; none: physical pascals (float WAV)")
-    g.add_argument("--limit", type=float, metavar="PA",
-                   help="truncate pressures beyond this many pascals (paper 000 §7)")
+    g.add_argument(
+        "--normalize",
+        choices=["peak", "none"],
+        default="peak",
+        help="peak: loudest sample at 0.99; none: physical pascals (float WAV)",
+    )
+    g.add_argument(
+        "--limit",
+        type=float,
+        metavar="PA",
+        help="truncate pressures beyond this many pascals (paper 000 §7)",
+    )
     src = g.add_mutually_exclusive_group(required=True)
-    src.add_argument("--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])")
+    src.add_argument(
+        "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
+    )
     src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
     g.add_argument("--duration", type=float, help="seconds to render (with --listener)")
 

@@ -162,7 +162,7 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: floa
     # core + secondary bursts
     group = np.zeros(n_core, dtype=np.int64)
     n_sec = n_core // 3 if p.bursts > 0 else 0
-    group[n_core - n_sec:] = 1 + rng.integers(0, max(p.bursts, 1), n_sec)
+    group[n_core - n_sec :] = 1 + rng.integers(0, max(p.bursts, 1), n_sec)
     t_end = (p.steps - 1) / p.rate_hz
     b_t0 = np.concatenate([[0.0], rng.uniform(0.2, 0.6, p.bursts) * t_end])
     b_pos = np.concatenate([centre[None], centre + rng.uniform(-0.3, 0.3, (p.bursts, 3)) * L])
@@ -186,7 +186,9 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: floa
         v = jitter.copy()
         age = t - b_t0[group]
         live = age >= 0
-        v[:n_core] += np.where(live[:, None], dirs * (cspeed * np.exp(-drag * np.clip(age, 0, None)))[:, None], 0)
+        v[:n_core] += np.where(
+            live[:, None], dirs * (cspeed * np.exp(-drag * np.clip(age, 0, None)))[:, None], 0
+        )
         ts = max(t, 0.5 * dt)
         R = R1 * (ts / max(t_end, dt)) ** 0.4
         Rdot = 0.4 * R / ts
@@ -277,7 +279,9 @@ def make_dataset(name: str, *, size: int | None = None, steps: int | None = None
     try:
         fn = DATASETS[name]
     except KeyError:
-        raise ParameterError(f"unknown dataset {name!r}; choose one of {sorted(DATASETS)}") from None
+        raise ParameterError(
+            f"unknown dataset {name!r}; choose one of {sorted(DATASETS)}"
+        ) from None
     kw: dict[str, int] = {"seed": seed}
     if size is not None:
         kw["size"] = size

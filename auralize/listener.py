@@ -173,7 +173,9 @@ class ListenerPath:
                 q[i] = -q[i]
         return q
 
-    def orientation_at(self, t: NDArray[np.floating] | float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def orientation_at(
+        self, t: NDArray[np.floating] | float
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Forward and up ``(len(t), 3)`` by slerp between captures."""
         tt = np.atleast_1d(np.asarray(t, dtype=np.float64))
         q = self.quaternions()
@@ -182,7 +184,9 @@ class ListenerPath:
         else:
             s = np.clip(np.searchsorted(self.times, tt, side="right") - 1, 0, self.n_captures - 2)
             span = self.times[s + 1] - self.times[s]
-            w = np.where(span > 0, np.clip((tt - self.times[s]) / np.where(span > 0, span, 1), 0, 1), 0.0)
+            w = np.where(
+                span > 0, np.clip((tt - self.times[s]) / np.where(span > 0, span, 1), 0, 1), 0.0
+            )
             qi = _slerp(q[s], q[s + 1], w)
         return _quat_axis(qi, FORWARD), _quat_axis(qi, UP)
 
@@ -277,20 +281,42 @@ def _mat_to_quat(m: NDArray[np.float64]) -> NDArray[np.float64]:
         tr = r[0, 0] + r[1, 1] + r[2, 2]
         if tr > 0:
             s = 2.0 * math.sqrt(tr + 1.0)
-            out[i] = (0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s)
+            out[i] = (
+                0.25 * s,
+                (r[2, 1] - r[1, 2]) / s,
+                (r[0, 2] - r[2, 0]) / s,
+                (r[1, 0] - r[0, 1]) / s,
+            )
         elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
             s = 2.0 * math.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
-            out[i] = ((r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s)
+            out[i] = (
+                (r[2, 1] - r[1, 2]) / s,
+                0.25 * s,
+                (r[0, 1] + r[1, 0]) / s,
+                (r[0, 2] + r[2, 0]) / s,
+            )
         elif r[1, 1] > r[2, 2]:
             s = 2.0 * math.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
-            out[i] = ((r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s)
+            out[i] = (
+                (r[0, 2] - r[2, 0]) / s,
+                (r[0, 1] + r[1, 0]) / s,
+                0.25 * s,
+                (r[1, 2] + r[2, 1]) / s,
+            )
         else:
             s = 2.0 * math.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
-            out[i] = ((r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s)
+            out[i] = (
+                (r[1, 0] - r[0, 1]) / s,
+                (r[0, 2] + r[2, 0]) / s,
+                (r[1, 2] + r[2, 1]) / s,
+                0.25 * s,
+            )
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
-def _slerp(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+def _slerp(
+    a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
+) -> NDArray[np.float64]:
     dot = np.sum(a * b, axis=1)
     b = np.where(dot[:, None] < 0, -b, b)
     dot = np.abs(dot)

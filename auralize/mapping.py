@@ -23,8 +23,8 @@ wrapped by :class:`FunctionMapping`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np

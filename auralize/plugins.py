@@ -61,7 +61,9 @@ class Parameter:
             try:
                 v = float(value)
             except (TypeError, ValueError):
-                raise ParameterError(f"parameter {self.name!r} must be a number, got {value!r}") from None
+                raise ParameterError(
+                    f"parameter {self.name!r} must be a number, got {value!r}"
+                ) from None
             lo, hi = self.range
             if not math.isfinite(v) or (lo is not None and v < lo) or (hi is not None and v > hi):
                 raise ParameterError(
@@ -119,8 +121,14 @@ class SoundModel:
             "description": self.description,
             "paper": self.paper,
             "parameters": [
-                {"name": p.name, "default": p.default, "range": p.range, "choices": p.choices,
-                 "unit": p.unit, "doc": p.doc}  # fmt: skip
+                {
+                    "name": p.name,
+                    "default": p.default,
+                    "range": p.range,
+                    "choices": p.choices,
+                    "unit": p.unit,
+                    "doc": p.doc,
+                }  # fmt: skip
                 for p in self.parameters
             ],
         }

@@ -99,9 +99,7 @@ class Thresholds:
     zero_fraction: float = 1.0
 
     def __post_init__(self) -> None:
-        self._parsed = [
-            _parse_threshold(getattr(self, k), k) for k in TYPES
-        ]
+        self._parsed = [_parse_threshold(getattr(self, k), k) for k in TYPES]
         if not (math.isfinite(self.zero_fraction) and self.zero_fraction >= 0):
             raise ParameterError(f"zero_fraction must be >= 0, got {self.zero_fraction!r}")
 
@@ -226,6 +224,7 @@ class _StepCache:
     def __init__(self, volume: TimeVolume, mapping: AcousticMapping) -> None:
         self.volume, self.mapping = volume, mapping
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self.work: np.ndarray | None = None  # kernel scratch, reused between steps
 
     def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if n not in self._cache:
@@ -251,7 +250,8 @@ def step_strengths(volume: TimeVolume, cache: _StepCache, n: int,
     if out is None:
         out = K.empty_like_strengths(volume.shape)
     inv_dt = 1.0 / (volume.times[b] - volume.times[a])
-    K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing, out)
+    cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing, out,
+                             cache.work)  # fmt: skip
     return out
 
 

@@ -84,20 +84,36 @@ def _sp(name: str, az: float | None, el: float = 0.0) -> Speaker:
 
 BUILTIN_LAYOUTS: dict[str, Layout] = {
     "mono": Layout("mono", (_sp("M", 0.0),), channel_mask=0x4),
-    "stereo": Layout("stereo", (_sp("L", 30.0), _sp("R", -30.0)), fold_front=True, channel_mask=0x3),
+    "stereo": Layout(
+        "stereo", (_sp("L", 30.0), _sp("R", -30.0)), fold_front=True, channel_mask=0x3
+    ),
     "ring8": Layout("ring8", tuple(_sp(f"S{k}", 45.0 * k) for k in range(8))),
     # WAVE/SMPTE order: FL FR FC LFE BL BR (ITU-R BS.775 angles)
     "5.1": Layout(
         "5.1",
-        (_sp("FL", 30.0), _sp("FR", -30.0), _sp("FC", 0.0), _sp("LFE", None),
-         _sp("BL", 110.0), _sp("BR", -110.0)),
+        (
+            _sp("FL", 30.0),
+            _sp("FR", -30.0),
+            _sp("FC", 0.0),
+            _sp("LFE", None),
+            _sp("BL", 110.0),
+            _sp("BR", -110.0),
+        ),
         channel_mask=0x3F,
     ),  # fmt: skip
     # WAVE order: FL FR FC LFE BL BR SL SR
     "7.1": Layout(
         "7.1",
-        (_sp("FL", 30.0), _sp("FR", -30.0), _sp("FC", 0.0), _sp("LFE", None),
-         _sp("BL", 150.0), _sp("BR", -150.0), _sp("SL", 90.0), _sp("SR", -90.0)),
+        (
+            _sp("FL", 30.0),
+            _sp("FR", -30.0),
+            _sp("FC", 0.0),
+            _sp("LFE", None),
+            _sp("BL", 150.0),
+            _sp("BR", -150.0),
+            _sp("SL", 90.0),
+            _sp("SR", -90.0),
+        ),
         channel_mask=0x63F,
     ),  # fmt: skip
 }
@@ -143,7 +159,9 @@ def load_layout_json(path: Path) -> Layout:
         except (TypeError, ValueError):
             raise FormatError(f"{path}: speaker {i} has non-numeric angles: {it!r}") from None
         if not np.isfinite(az) or not -90 <= el <= 90:
-            raise FormatError(f"{path}: speaker {i}: azimuth must be finite and elevation in [-90, 90]")
+            raise FormatError(
+                f"{path}: speaker {i}: azimuth must be finite and elevation in [-90, 90]"
+            )
         speakers.append(Speaker(str(it.get("name", f"S{i}")), az, el, dist))
     if len(speakers) < 2:
         raise FormatError(f"{path}: panning needs at least 2 speakers, got {len(speakers)}")

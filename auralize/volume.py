@@ -77,9 +77,7 @@ class CallableFrames:
     def read(self, step: int) -> NDArray[np.floating]:
         out = np.asarray(self.fn(step), dtype=np.float64)
         if out.shape != self.frame_shape:
-            raise DataError(
-                f"frame {step} has shape {out.shape}, expected {self.frame_shape}"
-            )
+            raise DataError(f"frame {step} has shape {out.shape}, expected {self.frame_shape}")
         return out
 
 
@@ -261,9 +259,7 @@ class TimeVolume:
 
     def load(self) -> TimeVolume:
         """Return a copy with every field read into memory."""
-        loaded = {
-            k: ArrayFrames(np.stack(list(self.iter_frames(k)))) for k in self.fields
-        }
+        loaded = {k: ArrayFrames(np.stack(list(self.iter_frames(k)))) for k in self.fields}
         return TimeVolume(
             origin=self.origin.copy(), spacing=self.spacing.copy(), dims=self.dims,
             times=self.times.copy(), fields=dict(loaded),
@@ -303,7 +299,8 @@ class TimeVolume:
             "t_end": float(self.times[-1]),
             "physical_times": self.physical_times,
             "fields": {
-                k: ("vector" if len(v.frame_shape) == 4 else "scalar") for k, v in self.fields.items()
+                k: ("vector" if len(v.frame_shape) == 4 else "scalar")
+                for k, v in self.fields.items()
             },
         }
 

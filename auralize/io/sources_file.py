@@ -17,6 +17,7 @@ The ``.pvd`` export writes one ``.vtp`` per step (point data ``kind``,
 
 from __future__ import annotations
 
+import itertools
 import json
 import shutil
 import tempfile
@@ -39,8 +40,11 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
     frames = series.frames
     offsets = np.zeros(len(frames) + 1, dtype=np.int64)
     offsets[1:] = np.cumsum([f.index.size for f in frames])
-    cat = (lambda name, dt: np.concatenate([getattr(f, name) for f in frames]).astype(dt)
-           if frames else np.zeros(0, dt))  # fmt: skip
+
+    def cat(name, dt):
+        return (np.concatenate([getattr(f, name) for f in frames]).astype(dt)
+               if frames else np.zeros(0, dt))  # fmt: skip
+
     index = cat("index", np.int64)
     with atomic_path(path, suffix=".part.h5") as tmp, h5py.File(tmp, "w") as h:
         h.attrs["auralize_format"] = FORMAT
@@ -72,13 +76,15 @@ def load_sources_h5(path: str | Path) -> SourceSeries:
         if h.attrs.get("auralize_format") != FORMAT:
             raise FormatError(f"{p}: not an auralize sources file (auralize_format != 'sources')")
         if int(h.attrs.get("version", -1)) != VERSION:
-            raise FormatError(f"{p}: sources file version {h.attrs.get('version')} is not {VERSION}")
+            raise FormatError(
+                f"{p}: sources file version {h.attrs.get('version')} is not {VERSION}"
+            )
         off = h["offsets"][()]
         idx, kind = h["index"][()], h["kind"][()]
         strength, radius = h["strength"][()], h["radius"][()]
         frames = [
             SourceFrame(index=idx[a:b], kind=kind[a:b], strength=strength[a:b], radius=radius[a:b])
-            for a, b in zip(off[:-1], off[1:], strict=True)
+            for a, b in itertools.pairwise(off)
         ]
         return SourceSeries(
             frames=frames, times=h["time"][()], origin=h.attrs["origin"][()],
@@ -112,8 +118,11 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
     except BaseException:
         shutil.rmtree(tmp_dir, ignore_errors=True)
         raise
-    lines = ['<?xml version="1.0"?>',
-             '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">', "<Collection>"]
+    lines = [
+        '<?xml version="1.0"?>',
+        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+        "<Collection>",
+    ]
     lines += [f'<DataSet timestep="{t!r}" part="0" file={quoteattr(fn)}/>' for t, fn in entries]
     lines += ["</Collection>", "</VTKFile>", ""]
     atomic_write(p, "\n".join(lines).encode())

@@ -1,0 +1,213 @@
+"""``auralize bench``: timings side by side with the papers' tables.
+
+Core figures (paper 003 §4.2): source detection per time step for grids of
+10³ … 256³ (all three types + ΔV spheres, in one pass; the paper timed each
+type separately) and synthesis time per audio frame.  Sound-model plugins add
+their own rows through a ``bench(quick)`` class method returning
+:class:`BenchRow` objects.
+
+This is a benchmark, not a test: it prints figures and whether each target
+was met; it fails nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+#: paper 003 §4.2, seconds per time step (monopole, dipole, quadrupole)
+PAPER_DETECT_S = {10: (0.064, 0.056, 0.065), 20: (4.001, 3.912, 4.074),
+                  30: (44.990, 42.735, 46.812), 40: (261.664, 254.755, 264.676),
+                  50: (1011.354, 1002.721, 1012.081), 64: (6201.703, 6183.029, 6210.341)}  # fmt: skip
+#: paper 003 §4.2, microseconds per audio frame
+PAPER_FRAME_US = {10: 7, 20: 16, 30: 23, 40: 65, 50: 102, 64: 236}
+
+
+@dataclass
+class BenchRow:
+    """One benchmark figure: ``value`` in ``unit``, with its target and the paper's figure."""
+
+    group: str
+    name: str
+    value: float
+    unit: str
+    target: str = ""
+    met: bool | None = None
+    paper: str = ""
+    note: str = ""
+
+
+def best_of(fn: Callable[[], object], *, repeat: int = 5, min_time: float = 0.2) -> float:
+    """Median wall time of ``fn`` over ``repeat`` batches (after one warm-up)."""
+    fn()
+    times = []
+    for _ in range(repeat):
+        n, t0 = 0, time.perf_counter()
+        while True:
+            fn()
+            n += 1
+            el = time.perf_counter() - t0
+            if el >= min_time / repeat or n >= 50:
+                break
+        times.append(el / n)
+    return float(np.median(times))
+
+
+def _smooth_volume(n: int, steps: int = 3, seed: int = 0):  # type: ignore[no-untyped-def]
+    """A log10-density field with explosion-like structure at any size (for timing)."""
+    from scipy import ndimage
+
+    from auralize.volume import TimeVolume
+
+    rng = np.random.default_rng(seed)
+    base = ndimage.gaussian_filter(rng.normal(size=(n, n, n)), max(n / 32, 1.0), mode="wrap")
+    x = np.linspace(-1, 1, n)
+    r = np.sqrt(x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2)
+    frames = []
+    for k in range(steps):
+        shell = np.exp(-(((r - 0.3 - 0.05 * k) / 0.06) ** 2))
+        frames.append(np.clip(base / base.std() * 0.3 + 1.2 * shell - 1.0, -2.2, 0.5))
+    return TimeVolume.from_arrays({"log10_density": np.stack(frames)}, times=np.arange(steps) / 30)
+
+
+def bench_detection(sizes: list[int]) -> list[BenchRow]:
+    from auralize.mapping import get_mapping
+    from auralize.sources import (
+        Thresholds,
+        _StepCache,
+        classify,
+        extract,
+        peak_strengths,
+        step_strengths,
+    )
+
+    rows = []
+    per_step = {}
+    for n in sizes:
+        vol = _smooth_volume(n)
+        m = get_mapping("paper-density")
+        m.prepare(vol)
+        thr = Thresholds().resolve(peak_strengths(vol, m))
+        cache = _StepCache(vol, m)
+        for k in range(3):
+            cache.get(k)
+        buf = np.empty((3, n, n, n))
+
+        def run(cache=cache, buf=buf, thr=thr, vol=vol) -> None:  # type: ignore[no-untyped-def]
+            s = step_strengths(vol, cache, 1, buf)
+            kind, rad = classify(s, thr, vol.spacing)
+            extract(kind, rad, s)
+
+        t = best_of(run, repeat=3 if n >= 200 else 5)
+        tmap = best_of(lambda vol=vol, m=m: m.map(vol, 1), repeat=3)
+        per_step[n] = t
+        paper = PAPER_DETECT_S.get(n)
+        rows.append(BenchRow(
+            "detection", f"{n}³ per step (3 types + ΔV)", t * 1e3, "ms",
+            target="≤ 10 ms" if n == 64 else "", met=(t <= 0.010) if n == 64 else None,
+            paper=f"{sum(paper):.3f} s (sum of 3 types)" if paper else "",
+            note=f"mapping (paper-density) {tmap * 1e3:.1f} ms more",
+        ))  # fmt: skip
+    if 64 in per_step and 128 in per_step:
+        ratio = per_step[128] / per_step[64]
+        rows.append(BenchRow("detection", "128³ / 64³ cost (8× voxels)", ratio, "×",
+                             target="≤ 10×", met=ratio <= 10))  # fmt: skip
+    return rows
+
+
+def bench_synthesis(quick: bool) -> list[BenchRow]:
+    from auralize.datasets import make_explosion
+    from auralize.listener import ListenerPath
+    from auralize.sources import Thresholds, detect
+    from auralize.synthesis import render
+
+    size = 32 if quick else 64
+    vol = make_explosion(size=size).load()
+    th = Thresholds("0.2%", "0.2%", "0.2%")
+    t0 = time.perf_counter()
+    series = detect(vol, mapping="paper-density", thresholds=th)
+    t_detect = time.perf_counter() - t0
+    tracks = series.tracks()
+    active = max(sum(c.values()) for c in series.counts())
+    c = vol.center
+    path = ListenerPath.line(c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2],
+                             duration=float(vol.times[-1] + 0.1))  # fmt: skip
+    rows = [BenchRow("synthesis", f"explosion {size}³: source points", active, "per step (max)",
+                     target="≥ 10,000" if size == 64 else "", met=(active >= 10_000) if size == 64 else None,
+                     note=f"{tracks.n_sources} distinct vertices; detection of {vol.n_steps} steps "
+                          f"{t_detect:.2f} s")]  # fmt: skip
+    for layout in ("mono", "ring8"):
+        t = best_of(lambda layout=layout: render(tracks, path, layout=layout), repeat=3)
+        dur = path.duration
+        speed = dur / t
+        rows.append(BenchRow(
+            "synthesis", f"explosion {size}³ → {layout}, {dur:.2f} s of audio", speed, "× real time",
+            target="≥ 100× per channel" if layout == "mono" else "≥ 50× (issue 3)",
+            met=speed >= (100 if layout == "mono" else 50),
+            paper=f"{PAPER_FRAME_US[64]} µs/frame ≈ 0.1× real time" if size == 64 else "",
+            note=f"{t / (dur * 44100) * 1e6:.3f} µs per audio frame",
+        ))  # fmt: skip
+    return rows
+
+
+def plugin_rows(quick: bool) -> list[BenchRow]:
+    from auralize.plugins import registry
+
+    rows: list[BenchRow] = []
+    for name, cls in registry().items():
+        hook = getattr(cls, "bench", None)
+        if hook is None:
+            continue
+        try:
+            rows.extend(hook(quick))
+        except Exception as exc:  # a benchmark reports, it does not crash
+            rows.append(BenchRow(name, "benchmark failed", float("nan"), "", note=str(exc)))
+    return rows
+
+
+def format_rows(rows: list[BenchRow]) -> str:
+    out = []
+    group = None
+    for r in rows:
+        if r.group != group:
+            group = r.group
+            out.append(f"\n[{group}]")
+        mark = {True: "ok  ", False: "MISS", None: "    "}[r.met]
+        val = f"{r.value:,.3f}" if abs(r.value) < 1000 else f"{r.value:,.0f}"
+        line = f"  {mark} {r.name:48s} {val:>12s} {r.unit:14s}"
+        if r.target:
+            line += f" target {r.target}"
+        if r.paper:
+            line += f" | paper {r.paper}"
+        if r.note:
+            line += f" | {r.note}"
+        out.append(line)
+    return "\n".join(out)
+
+
+def run_bench(args: argparse.Namespace) -> int:
+    sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else (
+        [10, 20, 32] if args.quick else [10, 20, 30, 40, 50, 64, 128, 256])  # fmt: skip
+    print(f"auralize bench on {platform.machine()} ({os.cpu_count()} cores), "
+          f"python {platform.python_version()}")  # fmt: skip
+    rows = bench_detection(sizes)
+    print(format_rows(rows), flush=True)
+    more = bench_synthesis(args.quick)
+    print(format_rows(more), flush=True)
+    rows += more
+    prow = plugin_rows(args.quick)
+    if prow:
+        print(format_rows(prow), flush=True)
+    rows += prow
+    if args.json:
+        from auralize.fileio import atomic_write
+
+        atomic_write(args.json, json.dumps([asdict(r) for r in rows], indent=2).encode())
+    return 0

@@ -1,0 +1,244 @@
+"""Readers and writers of volume time series.
+
+:func:`open_volume` picks a reader by file kind and returns a lazy
+:class:`~auralize.volume.TimeVolume` (frames are read one time step at a
+time); :func:`save_volume` writes one, atomically.
+
+========================================  ==========================================
+input                                     reader
+========================================  ==========================================
+``.h5``/``.hdf5`` auralize volume (v1)    :func:`auralize.io.hdf5.read_hdf5`
+any HDF5 with ``fields={name: path}``     :func:`auralize.io.hdf5.read_generic_hdf5`
+VTKHDF (``/VTKHDF`` group; ``.vtkhdf``,   :func:`auralize.io.paraview.read_vtkhdf`
+``.hdf``, ``.h5``)
+``.pvd`` collection                       :func:`auralize.io.paraview.read_pvd`
+``.series`` (ParaView JSON)               :func:`auralize.io.paraview.read_series`
+``.vti``, ``.vts``, ``.vtr``, ``.vtu``    :func:`auralize.io.paraview.read_mesh_file`
+... (one step)
+OpenFOAM case folder, ``.foam``,          :func:`auralize.io.openfoam.read_openfoam`
+``controlDict``
+========================================  ==========================================
+
+Uniform grids keep their points.  Curvilinear, rectilinear (unevenly spaced),
+unstructured and OpenFOAM meshes are sampled onto a uniform grid covering
+their bounds, with a :class:`ResampledWarning`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+from auralize.errors import FormatError
+from auralize.io._common import FieldsArg, ResampledWarning, require_exists
+from auralize.io.resample import ResolutionArg, check_resolution, resample_uniform
+from auralize.volume import TimeVolume
+
+__all__ = [
+    "HDF5_SUFFIXES",
+    "READ_SUFFIXES",
+    "WRITE_SUFFIXES",
+    "ResampledWarning",
+    "open_volume",
+    "save_volume",
+]
+
+#: File name endings read as HDF5 (auralize v1, VTKHDF or generic).
+HDF5_SUFFIXES = (".h5", ".hdf5", ".he5", ".hdf", ".vtkhdf")
+#: Every file name ending :func:`open_volume` knows (plus OpenFOAM case folders).
+READ_SUFFIXES = (
+    *HDF5_SUFFIXES,
+    ".pvd",
+    ".series",
+    ".foam",
+    ".vti",
+    ".vts",
+    ".vtr",
+    ".vtu",
+    ".vtp",
+    ".vtk",
+    ".vtm",
+    ".pvti",
+    ".pvts",
+    ".pvtr",
+    ".pvtu",
+)
+#: File name endings :func:`save_volume` writes.
+WRITE_SUFFIXES = (".h5", ".hdf5", ".pvd")
+
+
+def open_volume(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg | Mapping[str, object] = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open a volume time series, reading frames lazily.
+
+    Parameters
+    ----------
+    path : path-like
+        A file (kind chosen by suffix, see the module docstring; HDF5 files are
+        told apart by content) or an OpenFOAM case folder.
+    fields : None, str, sequence of str or mapping, optional
+        Which arrays become fields: ``None`` all scalar and 3-component arrays;
+        a name or list of names; or ``{volume name: name in the file}``.  For
+        an HDF5 file that is not an auralize volume file, a mapping
+        ``{volume name: "/dataset/path"}`` reads those datasets, with optional
+        keys ``"time"``, ``"origin"``, ``"spacing"`` (dataset path,
+        ``"/object@attribute"`` or a value); see
+        :func:`auralize.io.hdf5.read_generic_hdf5`.
+    resolution : None, int or (int, int, int), optional
+        Grid for meshes that are not uniform: ``None`` keeps about the mesh's
+        point count (at most 128 points per axis); an int is the number of
+        points along the longest axis; a tuple is ``(nx, ny, nz)``.  For
+        uniform inputs, an int caps the points per axis and a tuple sets them;
+        either resamples (trilinearly) only when the grid would change.
+    name_map : mapping of str to str, optional
+        ``{name in the file: volume name}``, e.g. ``{"U": "velocity", "p":
+        "pressure"}``; names missing from the file are ignored.
+
+    Returns
+    -------
+    TimeVolume
+        ``source`` is ``str(path)``; no frame beyond what is needed to learn
+        the grid has been read.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    FormatError
+        Unknown kind, corrupt or truncated file, unsupported version, missing
+        metadata.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Bad shapes, times not strictly increasing, fields that disagree.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+
+    Warns
+    -----
+    ResampledWarning
+        When the data was interpolated onto a new uniform grid.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"rho": np.ones((3, 2, 2, 2))}, times=[0, 0.1, 0.2])
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "rho.h5"
+    >>> save_volume(vol, f)
+    >>> again = open_volume(f)
+    >>> again.field_names, again.times.tolist()
+    (['rho'], [0.0, 0.1, 0.2])
+    """
+    from auralize.io import hdf5, openfoam, paraview
+
+    p = Path(path).expanduser()
+    require_exists(p)
+    resolution = check_resolution(resolution, source=str(p))
+    suffix = p.suffix.lower()
+    if p.is_dir() or suffix == ".foam" or p.name == "controlDict":
+        return openfoam.read_openfoam(p, fields=fields, resolution=resolution, name_map=name_map)
+    if suffix == ".pvd":
+        return paraview.read_pvd(p, fields=fields, resolution=resolution, name_map=name_map)
+    if suffix == ".series":
+        return paraview.read_series(p, fields=fields, resolution=resolution, name_map=name_map)
+    if suffix in paraview.MESH_SUFFIXES:
+        return paraview.read_mesh_file(p, fields=fields, resolution=resolution, name_map=name_map)
+    if suffix in HDF5_SUFFIXES or _looks_like_hdf5(p):
+        kind = hdf5.sniff(p)
+        if kind == "vtkhdf":
+            return paraview.read_vtkhdf(p, fields=fields, resolution=resolution, name_map=name_map)
+        if hdf5.wants_generic(kind, fields):
+            assert isinstance(fields, Mapping)
+            volume = hdf5.read_generic_hdf5(p, fields, name_map=name_map)
+        elif kind == "auralize":
+            volume = hdf5.read_hdf5(p, fields=fields, name_map=name_map)
+        else:
+            raise FormatError(_not_a_volume_message(p))
+        return resample_uniform(volume, resolution)
+    raise FormatError(
+        f"{p}: unknown file kind {suffix or '(no suffix)'!r}; open_volume reads "
+        f"{', '.join(READ_SUFFIXES)} files and OpenFOAM case folders"
+    )
+
+
+def _looks_like_hdf5(path: Path) -> bool:
+    import h5py
+
+    try:
+        return bool(h5py.is_hdf5(str(path)))
+    except OSError:
+        return False
+
+
+def _not_a_volume_message(path: Path) -> str:
+    import h5py
+
+    from auralize.io.hdf5 import field_candidates
+
+    try:
+        with h5py.File(path, "r") as f:
+            cands = field_candidates(f)
+    except OSError:
+        cands = []
+    example = cands[0] if cands else "/path/to/dataset"
+    return (
+        f"{path}: an HDF5 file, but not an auralize volume file (root attribute "
+        f"auralize_format='volume' is missing) nor VTKHDF; to read its datasets pass "
+        f"fields={{'name': {example!r}}} (datasets shaped like fields: "
+        f"{', '.join(cands) or 'none'})"
+    )
+
+
+def save_volume(
+    volume: TimeVolume,
+    path: str | os.PathLike[str],
+    *,
+    compression: str | None = None,
+) -> None:
+    """Write a volume, atomically, in the format its suffix names.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume; frames are read one step at a time and must be finite.
+    path : path-like
+        ``.h5``/``.hdf5``: auralize HDF5 volume file (format v1), one time
+        step per chunk.  ``.pvd``: ParaView collection plus one ``.vti`` per
+        step in the sibling folder ``<stem>_data/``.
+    compression : {None, "gzip"}
+        Compress the data (HDF5 gzip with shuffle; VTK zlib in ``.vti``).
+
+    Raises
+    ------
+    FormatError
+        Unknown suffix.
+    DataError
+        A frame holds NaN/Inf; nothing is written.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"rho": np.ones((2, 2, 2, 2))}, times=[0, 1])
+    >>> save_volume(vol, pathlib.Path(tempfile.mkdtemp()) / "rho.pvd")
+    """
+    from auralize.io import hdf5, paraview
+
+    p = Path(path).expanduser()
+    suffix = p.suffix.lower()
+    if suffix in (".h5", ".hdf5"):
+        hdf5.write_hdf5(volume, p, compression=compression)
+    elif suffix == ".pvd":
+        paraview.write_pvd(volume, p, compression=compression)
+    else:
+        raise FormatError(
+            f"{p}: cannot write {suffix or '(no suffix)'!r} files; save_volume writes "
+            f"{', '.join(WRITE_SUFFIXES)}"
+        )

@@ -1,0 +1,559 @@
+"""HDF5 volume files: the auralize format v1 and arbitrary HDF5 datasets.
+
+Format v1 (see DESIGN.md): root attributes ``auralize_format="volume"`` and
+``version=1``; ``/time`` float64 ``(T,)`` strictly increasing seconds; group
+``/grid`` with attributes ``origin`` and ``spacing`` ``(3,)`` in metres;
+``/fields/<name>`` of shape ``(T, nz, ny, nx)`` or ``(T, nz, ny, nx, 3)``.  A
+dataset attribute ``axes="txyz"`` means ``(T, nx, ny, nz[, 3])``; frames of
+such datasets are transposed on read.  The writer also stores the optional
+root attribute ``physical_times`` (bool) and ``/grid`` attribute ``dims``
+``(nx, ny, nz)``; readers do not require them.
+
+Frames are read lazily: :class:`HDF5Frames` holds only the file name and the
+dataset path and opens the file for each :meth:`~HDF5Frames.read`, so a volume
+stays usable after the reader returns and is cheap to pickle.  Nothing here
+unpickles data; object and string datasets are refused.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import DataError, FieldError, FormatError, ParameterError
+from auralize.io._common import (
+    FieldsArg,
+    fsync_path,
+    require_exists,
+    select_fields,
+    temp_sibling,
+)
+from auralize.volume import DEFAULT_FRAME_RATE_HZ, FrameSource, TimeVolume
+
+#: Value of the root attribute ``auralize_format`` of a volume file.
+FORMAT_NAME = "volume"
+#: The format version this module reads and writes.
+FORMAT_VERSION = 1
+#: Keys of a generic ``fields=`` mapping that name grid and time data, not fields.
+GENERIC_META_KEYS = ("time", "origin", "spacing")
+
+_AXES_ORDERS = ("tzyx", "txyz")
+
+HDF5Kind = Literal["auralize", "vtkhdf", "generic"]
+
+
+@dataclass
+class HDF5Frames:
+    """One field of an HDF5 file, read one time step per :meth:`read`.
+
+    Parameters
+    ----------
+    filename : str
+        The HDF5 file; opened read-only for every read.
+    dataset : str
+        Absolute path of the dataset in the file.
+    n_steps : int
+        Number of time steps (the dataset's first dimension).
+    frame_shape : tuple of int
+        ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)``, the shape :meth:`read` returns.
+    axes : {"tzyx", "txyz"}
+        Storage order: ``"txyz"`` datasets are transposed on read.
+    """
+
+    filename: str
+    dataset: str
+    n_steps: int
+    frame_shape: tuple[int, ...]
+    axes: str = "tzyx"
+
+    def read(self, step: int) -> NDArray[np.float64]:
+        """Read time step ``step`` as a new float64 array of shape ``frame_shape``."""
+        try:
+            with h5py.File(self.filename, "r") as f:
+                raw = f[self.dataset][step]
+        except (OSError, KeyError, ValueError) as exc:
+            raise FormatError(
+                f"{self.filename}: cannot read step {step} of dataset {self.dataset!r} "
+                f"({exc}); the file may be truncated, corrupt or changed since it was opened"
+            ) from exc
+        arr = np.asarray(raw, dtype=np.float64)
+        if self.axes == "txyz":
+            arr = np.ascontiguousarray(arr.transpose(2, 1, 0, *range(3, arr.ndim)))
+        if arr.shape != self.frame_shape:
+            raise FormatError(
+                f"{self.filename}: step {step} of {self.dataset!r} has shape {arr.shape}, "
+                f"expected {self.frame_shape}; the file changed since it was opened"
+            )
+        return arr
+
+
+# --------------------------------------------------------------------------- sniffing
+def sniff(path: Path) -> HDF5Kind:
+    """Tell an auralize volume file from a VTKHDF file and other HDF5 files.
+
+    Raises
+    ------
+    FormatError
+        If ``path`` is not a readable HDF5 file (corrupt, truncated, other kind).
+    """
+    try:
+        is_hdf5 = h5py.is_hdf5(str(path))
+    except OSError as exc:
+        raise FormatError(f"{path}: cannot read the file ({exc})") from exc
+    if not is_hdf5:
+        raise FormatError(
+            f"{path}: not an HDF5 file (no HDF5 signature); the file is corrupt, truncated "
+            f"or of another kind"
+        )
+    try:
+        with h5py.File(path, "r") as f:
+            if "VTKHDF" in f:
+                return "vtkhdf"
+            if "auralize_format" in f.attrs:
+                return "auralize"
+            return "generic"
+    except OSError as exc:
+        raise FormatError(
+            f"{path}: cannot open as HDF5 ({exc}); the file may be corrupt or truncated"
+        ) from exc
+
+
+def wants_generic(kind: HDF5Kind, fields: FieldsArg) -> bool:
+    """Whether ``fields=`` asks for datasets by path rather than v1 field names."""
+    if not isinstance(fields, Mapping):
+        return False
+    if kind != "auralize":
+        return True
+    return any(k in GENERIC_META_KEYS for k in fields) or any(
+        isinstance(v, str) and v.startswith("/") for v in fields.values()
+    )
+
+
+# --------------------------------------------------------------------------- attributes
+def _attr_str(value: object) -> str:
+    if isinstance(value, np.ndarray) and value.size == 1:
+        value = value.reshape(()).item()
+    if isinstance(value, bytes | np.bytes_):
+        return bytes(value).decode("utf-8", "replace")
+    return str(value)
+
+
+def _attr_vec3(value: object, *, path: Path, what: str) -> NDArray[np.float64]:
+    try:
+        arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        arr = np.empty(0)
+    if arr.size == 1:
+        arr = np.repeat(arr, 3)
+    if arr.size != 3 or not np.all(np.isfinite(arr)):
+        raise FormatError(f"{path}: {what} must be 3 finite numbers (x, y, z); got {value!r}")
+    return arr
+
+
+def _field_frames(path: Path, ds: object, label: str, *, n_times: int | None) -> HDF5Frames:
+    if not isinstance(ds, h5py.Dataset):
+        raise FormatError(f"{path}: {label} is a group, not a dataset")
+    if ds.dtype.kind not in "fiu":
+        raise DataError(
+            f"{path}: {label} ({ds.name}) has dtype {ds.dtype}; a field needs integer or "
+            f"floating-point numbers"
+        )
+    axes = _attr_str(ds.attrs.get("axes", "tzyx")).lower()
+    if axes not in _AXES_ORDERS:
+        raise FormatError(
+            f"{path}: {label} ({ds.name}) has axes={axes!r}; valid values are 'tzyx' "
+            f"(the default, shape (T, nz, ny, nx[, 3])) and 'txyz' (shape (T, nx, ny, nz[, 3]))"
+        )
+    shape = tuple(int(s) for s in ds.shape)
+    order = "(T, nz, ny, nx)" if axes == "tzyx" else "(T, nx, ny, nz)"
+    if len(shape) not in (4, 5) or (len(shape) == 5 and shape[-1] != 3) or min(shape) < 1:
+        raise DataError(
+            f"{path}: {label} ({ds.name}) has shape {shape}; a field needs {order} (scalar) "
+            f"or {order[:-1]}, 3) (vector) with axes={axes!r}"
+        )
+    if n_times is not None and shape[0] != n_times:
+        raise DataError(
+            f"{path}: {label} ({ds.name}) has {shape[0]} time steps but /time has {n_times}"
+        )
+    frame_shape = shape[1:] if axes == "tzyx" else (shape[3], shape[2], shape[1], *shape[4:])
+    return HDF5Frames(
+        filename=str(path),
+        dataset=str(ds.name),
+        n_steps=shape[0],
+        frame_shape=frame_shape,
+        axes=axes,
+    )
+
+
+# --------------------------------------------------------------------------- v1 reader
+def read_hdf5(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open an auralize HDF5 volume file (format v1) lazily.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.h5`` file.
+    fields : None, str, sequence of str or mapping, optional
+        Fields to open (default all); a mapping ``{volume name: name in /fields}``
+        also renames.
+    name_map : mapping, optional
+        ``{name in the file: volume name}`` renames.
+
+    Returns
+    -------
+    TimeVolume
+        Fields are :class:`HDF5Frames`; no frame is read yet.
+
+    Raises
+    ------
+    FormatError
+        Not a volume file, wrong version, missing ``/time`` or ``/grid`` data.
+    FieldError
+        A requested field is not in ``/fields``.
+    DataError
+        Bad shapes, times not strictly increasing, mismatched fields.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.zeros((2, 3, 4, 5))}, times=[0.0, 0.1])
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "v.h5"
+    >>> write_hdf5(vol, f)
+    >>> read_hdf5(f).dims
+    (5, 4, 3)
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    try:
+        with h5py.File(path, "r") as f:
+            return _read_v1(path, f, fields=fields, name_map=name_map)
+    except OSError as exc:
+        raise FormatError(
+            f"{path}: cannot read as HDF5 ({exc}); the file may be corrupt or truncated"
+        ) from exc
+
+
+def _read_v1(
+    path: Path, f: h5py.File, *, fields: FieldsArg, name_map: Mapping[str, str] | None
+) -> TimeVolume:
+    if "auralize_format" not in f.attrs:
+        raise FormatError(
+            f"{path}: root attribute 'auralize_format' is missing; an auralize volume file "
+            f"has auralize_format='volume' and version=1 (for other HDF5 files pass "
+            f"fields={{'name': '/path/to/dataset'}})"
+        )
+    fmt = _attr_str(f.attrs["auralize_format"])
+    if fmt != FORMAT_NAME:
+        raise FormatError(
+            f"{path}: root attribute auralize_format={fmt!r}; a volume file needs "
+            f"auralize_format={FORMAT_NAME!r}"
+        )
+    if "version" not in f.attrs:
+        raise FormatError(
+            f"{path}: root attribute 'version' is missing; this auralize reads volume "
+            f"format version {FORMAT_VERSION}"
+        )
+    raw_version = f.attrs["version"]
+    ver = np.asarray(raw_version).reshape(-1)
+    if not (ver.size == 1 and ver.dtype.kind in "iuf" and float(ver[0]) == FORMAT_VERSION):
+        raise FormatError(
+            f"{path}: volume format version {_attr_str(raw_version)!r} is not supported; "
+            f"this auralize reads version {FORMAT_VERSION}"
+        )
+    if "time" not in f or not isinstance(f["time"], h5py.Dataset):
+        raise FormatError(f"{path}: dataset /time (float64, shape (T,), seconds) is missing")
+    tds = f["time"]
+    if tds.ndim != 1 or tds.dtype.kind not in "fiu" or tds.shape[0] < 1:
+        raise FormatError(
+            f"{path}: /time must be a 1-D array of numbers (T,); got shape {tds.shape}, "
+            f"dtype {tds.dtype}"
+        )
+    times = np.asarray(tds[()], dtype=np.float64)
+    if "grid" not in f or not isinstance(f["grid"], h5py.Group):
+        raise FormatError(
+            f"{path}: group /grid (attributes origin and spacing, 3 numbers each) is missing"
+        )
+    grid = f["grid"]
+    for key in ("origin", "spacing"):
+        if key not in grid.attrs:
+            raise FormatError(
+                f"{path}: attribute /grid.{key} is missing; it must be 3 numbers (x, y, z) in metres"
+            )
+    origin = _attr_vec3(grid.attrs["origin"], path=path, what="/grid.origin")
+    spacing = _attr_vec3(grid.attrs["spacing"], path=path, what="/grid.spacing")
+    if "fields" not in f or not isinstance(f["fields"], h5py.Group):
+        raise FormatError(f"{path}: group /fields is missing")
+    group = f["fields"]
+    available = [k for k in group if isinstance(group[k], h5py.Dataset)]
+    chosen = select_fields(available, fields, name_map, source=str(path))
+    frames: dict[str, FrameSource] = {
+        name: _field_frames(path, group[stored], f"field {name!r}", n_times=times.size)
+        for name, stored in chosen.items()
+    }
+    nz, ny, nx = next(iter(frames.values())).frame_shape[:3]
+    physical = True
+    if "physical_times" in f.attrs:
+        physical = bool(np.asarray(f.attrs["physical_times"]).reshape(-1)[0])
+    return TimeVolume(
+        origin=origin,
+        spacing=spacing,
+        dims=(nx, ny, nz),
+        times=times,
+        fields=frames,
+        physical_times=physical,
+        source=str(path),
+    )
+
+
+# --------------------------------------------------------------------------- generic reader
+def read_generic_hdf5(
+    path: str | os.PathLike[str],
+    spec: Mapping[str, object],
+    *,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open named datasets of an arbitrary HDF5 file as a volume, lazily.
+
+    Parameters
+    ----------
+    path : path-like
+        Any HDF5 file.
+    spec : mapping
+        ``{field name: dataset path}`` for each field; datasets are
+        ``(T, nz, ny, nx)`` or ``(T, nz, ny, nx, 3)`` (or ``(T, nx, ny, nz[, 3])``
+        with attribute ``axes="txyz"``).  The optional keys ``"time"``,
+        ``"origin"`` and ``"spacing"`` give the grid and times, each as a
+        dataset path, an attribute reference ``"/object@attribute"`` or a
+        literal value.
+    name_map : mapping, optional
+        ``{field name: new name}`` renames.
+
+    Notes
+    -----
+    Without the optional keys, ``time``/``times``, ``origin`` and ``spacing``
+    are looked up as attributes of the first field's dataset, then of
+    ``/grid`` (origin, spacing), then of the root group, then a ``/time``
+    dataset of length T.  Missing values default to origin 0, spacing 1 m and
+    frames at :data:`~auralize.volume.DEFAULT_FRAME_RATE_HZ` with
+    ``physical_times=False``.
+
+    Examples
+    --------
+    >>> import h5py, numpy as np, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "sim.h5"
+    >>> with h5py.File(f, "w") as h:
+    ...     h["run/rho"] = np.ones((4, 2, 3, 5))
+    >>> vol = read_generic_hdf5(f, {"density": "/run/rho", "spacing": 0.1})
+    >>> vol.dims, vol.physical_times, vol.spacing.tolist()
+    ((5, 3, 2), False, [0.1, 0.1, 0.1])
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    try:
+        with h5py.File(path, "r") as f:
+            return _read_generic(path, f, spec, name_map=name_map)
+    except OSError as exc:
+        raise FormatError(
+            f"{path}: cannot read as HDF5 ({exc}); the file may be corrupt or truncated"
+        ) from exc
+
+
+def field_candidates(f: h5py.File, *, limit: int = 12) -> list[str]:
+    """Paths of datasets in ``f`` shaped like fields (4-D, or 5-D with 3 components)."""
+    found: list[str] = []
+
+    def visit(name: str, obj: object) -> None:
+        if (
+            isinstance(obj, h5py.Dataset)
+            and obj.dtype.kind in "fiu"
+            and (obj.ndim == 4 or (obj.ndim == 5 and obj.shape[-1] == 3))
+        ):
+            found.append("/" + name)
+
+    f.visititems(visit)
+    return found[:limit]
+
+
+def _meta_value(f: h5py.File, value: object, *, path: Path, key: str) -> NDArray[np.float64]:
+    if isinstance(value, str):
+        if "@" in value:
+            obj_path, attr = value.rsplit("@", 1)
+            obj_path = obj_path or "/"
+            if obj_path not in f or attr not in f[obj_path].attrs:
+                raise FieldError(f"{path}: {key}={value!r}: no attribute {attr!r} on {obj_path!r}")
+            raw = f[obj_path].attrs[attr]
+        else:
+            if value not in f or not isinstance(f[value], h5py.Dataset):
+                raise FieldError(f"{path}: {key}={value!r}: no such dataset in the file")
+            raw = f[value][()]
+    else:
+        raw = value
+    try:
+        return np.asarray(raw, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise DataError(f"{path}: {key} must be numbers; got {raw!r}") from None
+
+
+def _read_generic(
+    path: Path, f: h5py.File, spec: Mapping[str, object], *, name_map: Mapping[str, str] | None
+) -> TimeVolume:
+    field_spec = {k: v for k, v in spec.items() if k not in GENERIC_META_KEYS}
+    if not field_spec:
+        raise ParameterError(
+            f"{path}: fields={dict(spec)!r} names no field datasets; give "
+            f"{{'name': '/path/to/dataset'}} for at least one field"
+        )
+    frames: dict[str, FrameSource] = {}
+    for name, dpath in field_spec.items():
+        if not isinstance(name, str) or not isinstance(dpath, str) or not dpath:
+            raise ParameterError(
+                f"{path}: fields= entries must be {{field name: dataset path}}; got "
+                f"{name!r}: {dpath!r}"
+            )
+        if dpath not in f:
+            cands = field_candidates(f)
+            raise FieldError(
+                f"{path}: no dataset {dpath!r} for field {name!r}; datasets that could be "
+                f"fields: {', '.join(cands) or '(none)'}"
+            )
+        frames[name] = _field_frames(path, f[dpath], f"field {name!r}", n_times=None)
+    first = f[next(iter(field_spec.values()))]
+    n_steps = next(iter(frames.values())).n_steps
+
+    def lookup(key: str, attr_names: tuple[str, ...], groups: tuple[str, ...]) -> object:
+        if key in spec:
+            return _meta_value(f, spec[key], path=path, key=key)
+        for obj in (first, *(f[g] for g in groups if g in f)):
+            for a in attr_names:
+                if a in obj.attrs:
+                    return _meta_value(f, obj.attrs[a], path=path, key=key)
+        return None
+
+    origin = lookup("origin", ("origin",), ("/grid", "/"))
+    spacing = lookup("spacing", ("spacing",), ("/grid", "/"))
+    times = lookup("time", ("time", "times"), ("/",))
+    if times is None and "time" in f and isinstance(f["time"], h5py.Dataset):
+        if f["time"].shape == (n_steps,) and f["time"].dtype.kind in "fiu":
+            times = np.asarray(f["time"][()], dtype=np.float64)
+    physical = times is not None
+    if times is None:
+        times = np.arange(n_steps) / DEFAULT_FRAME_RATE_HZ
+    t = np.asarray(times, dtype=np.float64).reshape(-1)
+    if t.size != n_steps:
+        raise DataError(
+            f"{path}: {t.size} times for {n_steps} time steps; the time array must have "
+            f"one entry per step"
+        )
+    for name, fr in frames.items():
+        if fr.n_steps != n_steps:
+            raise DataError(
+                f"{path}: field {name!r} has {fr.n_steps} time steps but field "
+                f"{next(iter(frames))!r} has {n_steps}"
+            )
+    nz, ny, nx = next(iter(frames.values())).frame_shape[:3]
+    if name_map:
+        renamed = select_fields(list(frames), None, name_map, source=str(path))
+        frames = {new: frames[old] for new, old in renamed.items()}
+    return TimeVolume(
+        origin=_attr_vec3(0.0 if origin is None else origin, path=path, what="origin"),
+        spacing=_attr_vec3(1.0 if spacing is None else spacing, path=path, what="spacing"),
+        dims=(nx, ny, nz),
+        times=t,
+        fields=frames,
+        physical_times=physical,
+        source=str(path),
+    )
+
+
+# --------------------------------------------------------------------------- writer
+def write_hdf5(
+    volume: TimeVolume,
+    path: str | os.PathLike[str],
+    *,
+    compression: str | None = None,
+    compression_level: int = 4,
+) -> None:
+    """Write ``volume`` as an auralize HDF5 volume file (format v1), atomically.
+
+    Frames are read one step at a time and written into chunks of one time
+    step each, into a hidden temporary file next to ``path`` that is renamed
+    over ``path`` only when complete; on any error no file is left behind.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume; every frame must be finite (``volume.frame`` checks).
+    path : path-like
+        Output ``.h5`` file; replaced if it exists.
+    compression : {None, "gzip"}
+        Compress each chunk with gzip (and the shuffle filter).
+    compression_level : int
+        gzip level 0–9.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.zeros((2, 3, 4, 5))}, times=[0.0, 0.1])
+    >>> write_hdf5(vol, pathlib.Path(tempfile.mkdtemp()) / "v.h5", compression="gzip")
+    """
+    path = Path(path).expanduser()
+    if compression not in (None, "gzip"):
+        raise ParameterError(f"{path}: compression={compression!r}; valid are None and 'gzip'")
+    if not isinstance(compression_level, int) or not 0 <= compression_level <= 9:
+        raise ParameterError(
+            f"{path}: compression_level={compression_level!r}; valid are integers 0 to 9"
+        )
+    for name in volume.field_names:
+        if not name or "/" in name or name in (".", ".."):
+            raise DataError(
+                f"{path}: field name {name!r} cannot be an HDF5 dataset name; use a "
+                f"non-empty name without '/'"
+            )
+    if not path.parent.is_dir():
+        raise FileNotFoundError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
+    tmp = temp_sibling(path)
+    opts: dict[str, Any] = {}
+    if compression == "gzip":
+        opts = {"compression": "gzip", "compression_opts": compression_level, "shuffle": True}
+    try:
+        with h5py.File(tmp, "w-") as f:
+            f.attrs["auralize_format"] = FORMAT_NAME
+            f.attrs["version"] = np.int64(FORMAT_VERSION)
+            f.attrs["physical_times"] = bool(volume.physical_times)
+            tds = f.create_dataset("time", data=np.asarray(volume.times, dtype=np.float64))
+            tds.attrs["units"] = "s"
+            grid = f.create_group("grid")
+            grid.attrs["origin"] = np.asarray(volume.origin, dtype=np.float64)
+            grid.attrs["spacing"] = np.asarray(volume.spacing, dtype=np.float64)
+            grid.attrs["dims"] = np.asarray(volume.dims, dtype=np.int64)
+            group = f.create_group("fields", track_order=True)
+            for name in volume.field_names:
+                shape = tuple(volume.fields[name].frame_shape)
+                ds = group.create_dataset(
+                    name,
+                    shape=(volume.n_steps, *shape),
+                    dtype=np.float64,
+                    chunks=(1, *shape),
+                    **opts,
+                )
+                for step in range(volume.n_steps):
+                    ds[step] = volume.frame(name, step)
+        fsync_path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise

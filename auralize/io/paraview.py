@@ -1,0 +1,477 @@
+"""ParaView time series via pyvista: ``.pvd``, ``.series``, VTKHDF, single VTK files.
+
+Readers return a lazy :class:`~auralize.volume.TimeVolume`: step 0 is read to
+learn the grid and arrays, every later frame read loads its step's file with
+:func:`pyvista.read` (see :mod:`auralize.io._mesh`).  Only VTK's own file
+kinds are read (:data:`MESH_SUFFIXES`); nothing is unpickled.
+
+The writer :func:`write_pvd` stores one ``.vti`` per time step in a sibling
+folder ``<stem>_data/`` and a ``.pvd`` collection pointing at them, so a
+volume opens in ParaView with its time steps.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from auralize.errors import DataError, FormatError, ParameterError
+from auralize.io._common import FieldsArg, fsync_path, require_exists, temp_sibling
+from auralize.io._mesh import import_pyvista, open_mesh_series
+from auralize.io.resample import ResolutionArg
+from auralize.volume import DEFAULT_FRAME_RATE_HZ, TimeVolume
+
+#: VTK file kinds a ``.pvd``/``.series`` step (or a single opened file) may be.
+MESH_SUFFIXES = (
+    ".vti",
+    ".vts",
+    ".vtr",
+    ".vtu",
+    ".vtp",
+    ".vtk",
+    ".vtm",
+    ".pvti",
+    ".pvts",
+    ".pvtr",
+    ".pvtu",
+)
+
+
+def _step_file(base: Path, name: str, *, collection: Path, what: str) -> Path:
+    file = (base / name).expanduser()
+    if file.suffix.lower() not in MESH_SUFFIXES:
+        raise FormatError(
+            f"{collection}: {what} {name!r} is not a VTK data file; supported kinds are "
+            f"{', '.join(MESH_SUFFIXES)}"
+        )
+    if not file.is_file():
+        raise FormatError(f"{collection}: {what} {name!r} does not exist (looked for {file})")
+    return file
+
+
+def _read_parts(parts: list[Path]) -> Any:
+    pv = import_pyvista()
+    meshes = [pv.read(str(p)) for p in parts]
+    return meshes[0] if len(meshes) == 1 else pv.MultiBlock(meshes)
+
+
+class _FileSteps:
+    """Loader over step files: ``self(step)`` reads step ``step`` with pyvista."""
+
+    def __init__(self, steps: list[list[Path]]) -> None:
+        self.steps = steps
+
+    def __call__(self, step: int) -> Any:
+        return _read_parts(self.steps[step])
+
+
+def _sorted_steps(entries: list[tuple[float, Path]]) -> tuple[list[float], list[list[Path]]]:
+    """Group ``(time, file)`` entries by time, in increasing time order."""
+    by_time: dict[float, list[Path]] = {}
+    for t, file in entries:
+        by_time.setdefault(t, []).append(file)
+    times = sorted(by_time)
+    return times, [by_time[t] for t in times]
+
+
+# --------------------------------------------------------------------------- .pvd
+def read_pvd(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open a ParaView ``.pvd`` collection as a lazy volume.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.pvd`` file: ``<VTKFile type="Collection">`` with
+        ``<DataSet timestep=... file=.../>`` entries, files relative to it.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Notes
+    -----
+    Entries are taken in increasing ``timestep`` order (as ParaView does).
+    Entries sharing a timestep with different ``part`` numbers are pieces of
+    one step and are merged; the same timestep and part twice is an error.
+    Without any ``timestep`` attribute, entries are frames at 30 Hz in file
+    order (``physical_times=False``).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.ones((2, 2, 3, 4))}, times=[0.0, 0.5])
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "run.pvd"
+    >>> write_pvd(vol, out)
+    >>> read_pvd(out).times.tolist()
+    [0.0, 0.5]
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise FormatError(f"{path}: not a valid .pvd (XML) file: {exc}") from exc
+    except OSError as exc:
+        raise FormatError(f"{path}: cannot read ({exc})") from exc
+    if root.tag != "VTKFile" or root.get("type") != "Collection":
+        raise FormatError(
+            f"{path}: root element is <{root.tag} type={root.get('type')!r}>; a .pvd file "
+            f'needs <VTKFile type="Collection">'
+        )
+    coll = root.find("Collection")
+    entries = [] if coll is None else coll.findall("DataSet")
+    if not entries:
+        raise FormatError(f"{path}: the collection has no <DataSet timestep=... file=...> entries")
+    stamps = [e.get("timestep") for e in entries]
+    physical = any(s is not None for s in stamps)
+    if physical and any(s is None for s in stamps):
+        raise FormatError(
+            f"{path}: {sum(s is None for s in stamps)} of {len(stamps)} DataSet entries lack "
+            f"timestep=; give every entry a time or none"
+        )
+    seen: dict[tuple[float, str], str] = {}
+    parsed: list[tuple[float, Path]] = []
+    for n, entry in enumerate(entries):
+        name = entry.get("file")
+        if not name:
+            raise FormatError(f"{path}: DataSet entry {n} has no file= attribute")
+        if physical:
+            try:
+                t = float(entry.get("timestep", ""))
+            except ValueError:
+                raise FormatError(
+                    f"{path}: DataSet {name!r} has timestep={entry.get('timestep')!r}; "
+                    f"it must be a number (seconds)"
+                ) from None
+            if not math.isfinite(t):
+                raise DataError(
+                    f"{path}: DataSet {name!r} has timestep={t!r}; times must be finite"
+                )
+        else:
+            t = n / DEFAULT_FRAME_RATE_HZ
+        key = (t, entry.get("part", "0"))
+        if key in seen:
+            raise DataError(
+                f"{path}: DataSets {seen[key]!r} and {name!r} have the same timestep={t!r} "
+                f"(and part); times must be strictly increasing"
+            )
+        seen[key] = name
+        parsed.append((t, _step_file(path.parent, name, collection=path, what="DataSet file")))
+    times, steps = _sorted_steps(parsed)
+    return open_mesh_series(
+        source=str(path),
+        loader=_FileSteps(steps),
+        labels=[f"{path} step {n} ({', '.join(str(p) for p in s)})" for n, s in enumerate(steps)],
+        times=times,
+        physical_times=physical,
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )
+
+
+# --------------------------------------------------------------------------- .series
+def read_series(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open a ParaView ``.series`` file (JSON) as a lazy volume.
+
+    Parameters
+    ----------
+    path : path-like
+        ``{"file-series-version": "1.0", "files": [{"name": "a_0.vti", "time": 0.0}, ...]}``,
+        names relative to the ``.series`` file (``.vti``, ``.vts``, ``.vtu`` ...).
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Notes
+    -----
+    Files are taken in increasing time order; two files at one time are an error.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    expected = '{"file-series-version": "1.0", "files": [{"name": ..., "time": ...}]}'
+    try:
+        content = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise FormatError(f"{path}: not a valid .series (JSON) file: {exc}") from exc
+    files = content.get("files") if isinstance(content, dict) else None
+    if not isinstance(files, list) or not files:
+        raise FormatError(f"{path}: a .series file needs a non-empty 'files' list: {expected}")
+    version = content.get("file-series-version")
+    if version is not None and not str(version).startswith("1."):
+        raise FormatError(
+            f"{path}: file-series-version={version!r} is not supported; this reader knows 1.0"
+        )
+    parsed: list[tuple[float, Path]] = []
+    seen: dict[float, str] = {}
+    for n, entry in enumerate(files):
+        name = entry.get("name") if isinstance(entry, dict) else None
+        t = entry.get("time") if isinstance(entry, dict) else None
+        if not isinstance(name, str) or not name:
+            raise FormatError(f"{path}: files[{n}] has no 'name'; expected {expected}")
+        if isinstance(t, bool) or not isinstance(t, int | float):
+            raise FormatError(
+                f"{path}: files[{n}] ({name!r}) has time={t!r}; it must be a number (seconds)"
+            )
+        t = float(t)
+        if not math.isfinite(t):
+            raise DataError(f"{path}: files[{n}] ({name!r}) has time={t!r}; times must be finite")
+        if t in seen:
+            raise DataError(
+                f"{path}: {seen[t]!r} and {name!r} have the same time={t!r}; times must be "
+                f"strictly increasing"
+            )
+        seen[t] = name
+        parsed.append((t, _step_file(path.parent, name, collection=path, what="file")))
+    times, steps = _sorted_steps(parsed)
+    return open_mesh_series(
+        source=str(path),
+        loader=_FileSteps(steps),
+        labels=[str(s[0]) for s in steps],
+        times=times,
+        physical_times=True,
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )
+
+
+# --------------------------------------------------------------------------- single files
+def read_mesh_file(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open one VTK data file (``.vti``, ``.vts``, ``.vtu`` ...) as a one-step volume.
+
+    The single time is 0 with ``physical_times=False``.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    file = _step_file(path.parent, path.name, collection=path, what="file")
+    return open_mesh_series(
+        source=str(path),
+        loader=_FileSteps([[file]]),
+        labels=[str(path)],
+        times=[0.0],
+        physical_times=False,
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )
+
+
+# --------------------------------------------------------------------------- VTKHDF
+class _VTKHDFSteps:
+    """Loader over the time steps of a VTKHDF file.
+
+    Each step is read with a fresh ``vtkHDFReader``: in VTK 9.7 a reused
+    reader returns stale data when asked for step 0 again after another step.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = str(path)
+
+    def _reader(self) -> Any:
+        import_pyvista()
+        from vtkmodules.vtkIOHDF import vtkHDFReader
+
+        reader = vtkHDFReader()
+        reader.SetFileName(self.path)
+        reader.UpdateInformation()
+        return reader
+
+    def times(self) -> list[float] | None:
+        """The file's time values (``/VTKHDF/Steps/Values``), or None if not temporal."""
+        from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
+
+        info = self._reader().GetOutputInformation(0)
+        if not info.Has(sddp.TIME_STEPS()):
+            return None
+        return [float(t) for t in info.Get(sddp.TIME_STEPS())]
+
+    def __call__(self, step: int) -> Any:
+        pv = import_pyvista()
+        reader = self._reader()
+        if reader.GetNumberOfSteps() > 0:
+            reader.SetStep(step)
+        reader.Update()
+        out = reader.GetOutputDataObject(0)
+        return None if out is None else pv.wrap(out)
+
+
+def read_vtkhdf(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open a VTKHDF file (``/VTKHDF`` group) as a lazy volume.
+
+    Temporal files (a ``/VTKHDF/Steps`` group) give one time step per step,
+    read with VTK's ``vtkHDFReader.SetStep``; others give one step at time 0
+    with ``physical_times=False``.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    loader = _VTKHDFSteps(path)
+    try:
+        times = loader.times()
+    except Exception as exc:  # VTK reader failures; name the file
+        raise FormatError(f"{path}: cannot read as VTKHDF ({exc})") from exc
+    physical = times is not None and len(times) > 0
+    if not physical:
+        times = [0.0]
+    return open_mesh_series(
+        source=str(path),
+        loader=loader,
+        labels=[f"{path} step {n}" for n in range(len(times))],  # type: ignore[arg-type]
+        times=times,  # type: ignore[arg-type]
+        physical_times=physical,
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )
+
+
+# --------------------------------------------------------------------------- writer
+def write_pvd(
+    volume: TimeVolume,
+    path: str | os.PathLike[str],
+    *,
+    compression: str | None = None,
+) -> None:
+    """Write ``volume`` as ``<stem>.pvd`` plus ``<stem>_data/<stem>_NNNN.vti``, atomically.
+
+    The ``.vti`` files are written into a hidden temporary folder that replaces
+    ``<stem>_data/`` only when complete; the ``.pvd`` is written last, the same
+    way.  On any error neither is left half-written.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume; every frame must be finite.
+    path : path-like
+        The ``.pvd`` file; it and ``<stem>_data/`` are replaced if they exist.
+        An existing ``<stem>_data/`` holding anything but ``.vti`` files is
+        never replaced (:class:`FileExistsError`).
+    compression : {None, "gzip"}
+        Compress the ``.vti`` arrays with zlib (gzip's deflate).
+
+    Notes
+    -----
+    ``physical_times`` is not stored: the times are written as they are.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.ones((2, 2, 3, 4))}, times=[0.0, 0.5])
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "run.pvd"
+    >>> write_pvd(vol, out)
+    >>> sorted(p.name for p in (out.parent / "run_data").iterdir())
+    ['run_0000.vti', 'run_0001.vti']
+    """
+    path = Path(path).expanduser()
+    if compression not in (None, "gzip"):
+        raise ParameterError(f"{path}: compression={compression!r}; valid are None and 'gzip'")
+    if not path.parent.is_dir():
+        raise FileNotFoundError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
+    stem = path.stem
+    data_dir = path.with_name(f"{stem}_data")
+    if data_dir.exists() or data_dir.is_symlink():
+        if not data_dir.is_dir() or data_dir.is_symlink():
+            raise FileExistsError(
+                f"{str(data_dir)!r} exists and is not a folder; refusing to replace it"
+            )
+        others = [p.name for p in data_dir.iterdir() if p.suffix.lower() != ".vti"]
+        if others:
+            raise FileExistsError(
+                f"{str(data_dir)!r} exists and holds {others[0]!r}, not a .vti file; refusing "
+                f"to replace it (move it away or choose another output name)"
+            )
+    pv = import_pyvista()
+    vtk_compression = "zlib" if compression == "gzip" else None
+    width = max(4, len(str(volume.n_steps - 1)))
+    names = [f"{stem}_{n:0{width}d}.vti" for n in range(volume.n_steps)]
+    tmp_dir = temp_sibling(data_dir)
+    tmp_pvd = temp_sibling(path)
+    try:
+        tmp_dir.mkdir()
+        nx, ny, nz = volume.dims
+        for step, name in enumerate(names):
+            image = pv.ImageData(
+                dimensions=volume.dims,
+                spacing=tuple(float(s) for s in volume.spacing),
+                origin=tuple(float(o) for o in volume.origin),
+            )
+            for field_name in volume.field_names:
+                frame = volume.frame(field_name, step)
+                flat = frame.reshape(nx * ny * nz, 3) if frame.ndim == 4 else frame.reshape(-1)
+                image.point_data[field_name] = np.ascontiguousarray(flat)
+            image.save(tmp_dir / name, compression=vtk_compression)
+        lines = [
+            '<?xml version="1.0"?>',
+            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+            "  <Collection>",
+            *(
+                f'    <DataSet timestep={quoteattr(repr(float(t)))} group="" part="0" '
+                f"file={quoteattr(f'{data_dir.name}/{name}')}/>"
+                for t, name in zip(volume.times, names, strict=True)
+            ),
+            "  </Collection>",
+            "</VTKFile>",
+            "",
+        ]
+        tmp_pvd.write_text("\n".join(lines), encoding="utf-8")
+        fsync_path(tmp_pvd)
+    except BaseException:
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+        tmp_pvd.unlink(missing_ok=True)
+        raise
+    _swap_in(tmp_dir, data_dir, tmp_pvd, path)
+
+
+def _swap_in(tmp_dir: Path, data_dir: Path, tmp_pvd: Path, pvd: Path) -> None:
+    """Rename the finished folder and .pvd into place, restoring the old ones on failure."""
+    old: Path | None = None
+    try:
+        if data_dir.exists():
+            old = temp_sibling(data_dir, suffix=".old")
+            os.replace(data_dir, old)
+        os.replace(tmp_dir, data_dir)
+        try:
+            os.replace(tmp_pvd, pvd)
+        except BaseException:
+            shutil.rmtree(data_dir, ignore_errors=True)
+            raise
+    except BaseException:
+        if old is not None and not data_dir.exists():
+            os.replace(old, data_dir)
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+        tmp_pvd.unlink(missing_ok=True)
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
