@@ -273,6 +273,16 @@ DATASETS: dict[str, Callable[..., TimeVolume]] = {
 DEFAULT_MAPPING = {"explosion": "paper-density", "monopole": "identity"}
 
 
+def all_datasets() -> dict[str, Callable[..., TimeVolume]]:
+    """Core datasets plus those registered by sound-model plugins."""
+    from auralize.plugins import registry
+
+    out = dict(DATASETS)
+    for cls in registry().values():
+        out.update(getattr(cls, "datasets", {}) or {})
+    return out
+
+
 def make_dataset(name: str, *, size: int | None = None, steps: int | None = None,
                  seed: int = 0) -> TimeVolume:  # fmt: skip
     """Generate a built-in dataset by name (sizes default per dataset)."""
