@@ -26,7 +26,6 @@ import numba
 import numpy as np
 
 _NJIT = {"cache": True, "nogil": True}
-ITER = 12
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -214,29 +213,25 @@ def _orient(tc, qc, t, s, out):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _eval_f(x, y, z, rmin, tn, q, mt, cubic, k, n, t, s, tc, lc, vc, qc, c0, spk_az, spk_ch, fold,
-            g, g2, o, f, df):  # fmt: skip  # type: ignore[no-untyped-def]
-    """f_c(t) = g_c(t) q(τ)/D and its time derivative, for every channel c."""
-    lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t, s)
-    d, dd = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-    tau = t - d / c0
-    qv, dq = _qeval(tn, q, mt, k, n, tau, cubic)
-    val = qv / d
-    der = dq * (1.0 - dd / c0) / d - qv * dd / (d * d)
-    if spk_az.size == 0:
-        f[0] = val
-        df[0] = der
-        return
+def _fval(qv, dq, d, dd, c0):  # type: ignore[no-untyped-def]
+    """f = q(τ)/D and df/dt with τ = t - D/c0 (per data second)."""
+    inv = 1.0 / d
+    return qv * inv, (dq * (1.0 - dd / c0) - qv * dd * inv) * inv
+
+
+@numba.njit(inline="always", **_NJIT)
+def _pan(x, y, z, t, s, tc, lc, vc, qc, spk_az, spk_ch, fold, g, g2, o):  # type: ignore[no-untyped-def]
+    """Panning gains g at time t and their time derivative (into g2)."""
+    lx, ly, lz, _, _, _ = _listener(tc, lc, vc, t, s)
     _orient(tc, qc, t, s, o)
     _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold, g)
-    # gains' time derivative by a central difference over 1 µs (directions change slowly)
+    # derivative by a forward difference over 1 µs (directions change slowly)
     eps = 1e-6
-    lx2, ly2, lz2, _, _, _ = _listener(tc, lc, vc, t + eps, s)
+    lx, ly, lz, _, _, _ = _listener(tc, lc, vc, t + eps, s)
     _orient(tc, qc, t + eps, s, o)
-    _gains(x - lx2, y - ly2, z - lz2, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold, g2)
+    _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold, g2)
     for c in range(g.size):
-        f[c] = g[c] * val
-        df[c] = g[c] * der + (g2[c] - g[c]) / eps * val
+        g2[c] = (g2[c] - g[c]) / eps
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -264,48 +259,30 @@ def _emit(acc, blk, m_start, s0, L, f0, d0, f1, d1, sign):  # type: ignore[no-un
     acc[blk, loc + 3, 3] += sign * 6.0 * b3
 
 
-@numba.njit(inline="always", **_NJIT)
-def _arrival(x, y, z, rmin, tk, tc, lc, vc, c0, guess, seg):  # type: ignore[no-untyped-def]
-    """Solve a - D(a)/c0 = tk for the reception time a (Newton; listener slower than c0).
-
-    Returns (a, dD/dt at a, segment of a).
-    """
-    a = guess
-    dd = 0.0
-    for _ in range(ITER):
-        seg = _segment(tc, a, seg)
-        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, a, seg)
-        d, dd = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-        step = (a - d / c0 - tk) / (1.0 - dd / c0)
-        a -= step
-        if abs(step) < 1e-10:
-            break
-    return a, dd, seg
-
-
 @numba.njit(parallel=True, **_NJIT)
-def _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, arr):  # type: ignore[no-untyped-def]
-    """Reception time of every knot that bounds a sounding piece (NaN elsewhere).
+def _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr):  # type: ignore[no-untyped-def]
+    """Reception time, distance and its rate at every knot n_lo..n_hi that bounds a
+    sounding piece (NaN elsewhere).
 
     The Newton guess extrapolates the previous knot's arrival with its Doppler
     factor, so one or two iterations suffice.
     """
     K = pos.shape[0]
-    Tp = tn.size
     for kp in numba.prange(K):
         k = np.int64(kp)
         x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
-        need_prev = False
         have_prev = False
         a_prev = 0.0
         dd_prev = 0.0
         seg_a = 0
-        for n in range(Tp):
-            sounding = q[k, n] != 0.0 or (cubic and mt[k, n] != 0.0)
-            sounding_next = n + 1 < Tp and (q[k, n + 1] != 0.0 or (cubic and mt[k, n + 1] != 0.0))
-            if not (sounding or sounding_next or need_prev):
+        for n in range(n_lo, n_hi + 1):
+            need = q[k, n] != 0.0 or (cubic and mt[k, n] != 0.0)
+            if n > n_lo:
+                need = need or q[k, n - 1] != 0.0 or (cubic and mt[k, n - 1] != 0.0)
+            if n < n_hi:
+                need = need or q[k, n + 1] != 0.0 or (cubic and mt[k, n + 1] != 0.0)
+            if not need:
                 have_prev = False
-                need_prev = False
                 arr[k, n] = np.nan
                 continue
             if have_prev:
@@ -315,15 +292,28 @@ def _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, arr):  # type: igno
                 lx, ly, lz, _, _, _ = _listener(tc, lc, vc, tn[n], seg_a)
                 d0, _ = _dist(x, y, z, lx, ly, lz, 0.0, 0.0, 0.0, rmin)
                 guess = tn[n] + d0 / c0
-            a_prev, dd_prev, seg_a = _arrival(x, y, z, rmin, tn[n], tc, lc, vc, c0, guess, seg_a)
-            arr[k, n] = a_prev
+            a = guess
+            d = 0.0
+            dd = 0.0
+            for _ in range(12):
+                seg_a = _segment(tc, a, seg_a)
+                lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, a, seg_a)
+                d, dd = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
+                step = (a - d / c0 - tn[n]) / (1.0 - dd / c0)
+                a -= step
+                if abs(step) < 1e-11:
+                    break
+            arr[k, n] = a
+            darr[k, n] = d
+            ddarr[k, n] = dd
+            a_prev = a
+            dd_prev = dd
             have_prev = True
-            need_prev = sounding or sounding_next
 
 
 @numba.njit(parallel=True, **_NJIT)
 def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, block,
-           spk_az, spk_ch, n_ch, fold, n_threads):  # fmt: skip  # type: ignore[no-untyped-def]
+           spk_az, spk_ch, n_ch, fold, n_threads, n_lo, n_hi):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every source's pieces into ``(n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
@@ -332,25 +322,29 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
     silent knots); q (K,Tp) strength·ΔV/(4π); mt (K,Tp) tangents dq/dτ
     (size-0 second axis for linear interpolation); tc (M,), lc (M,3), vc (M-1,3),
     qc (M,4) listener captures; fs samples per data second; block samples per
-    accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels.
+    accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels;
+    only pieces n_lo..n_hi-1 (those that can be heard in the output) are summed.
 
     Pieces are visited step-major (all sources' piece n, then n+1, ...) so the
     accumulator writes stay within the few thousand samples a step's arrivals
-    span, which fit in cache.
+    span.  At a piece's ends (knot arrivals) τ is a knot time, so q, dq/dτ, D
+    and dD/dt are known from the arrival solve: no further evaluation.
     """
     K = pos.shape[0]
-    Tp = tn.size
     n_blocks = (n_samples + block - 1) // block
     cubic = mt.shape[1] > 0
-    arr = np.empty((K, Tp))
-    _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, arr)
+    arr = np.empty((K, tn.size))
+    darr = np.empty((K, tn.size))
+    ddarr = np.empty((K, tn.size))
+    _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr)
     accs = np.zeros((n_threads, n_ch, n_blocks, block + 4, 4))
     t_end = t_start + n_samples / fs
     chunk = (K + n_threads - 1) // n_threads
+    panned = spk_az.size > 0
     for th in numba.prange(n_threads):
         acc_t = accs[th]
         g = np.zeros(n_ch)
-        g2 = np.zeros(n_ch)
+        dg = np.zeros(n_ch)
         o = np.zeros(6)
         fa = np.zeros(n_ch)
         da = np.zeros(n_ch)
@@ -358,11 +352,19 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
         db = np.zeros(n_ch)
         k_lo = th * chunk
         k_hi = min(K, (th + 1) * chunk)
-        for n in range(Tp - 1):
+        for n in range(n_lo, n_hi):
+            h = tn[n + 1] - tn[n]
             for k in range(k_lo, k_hi):
-                if q[k, n] == 0.0 and q[k, n + 1] == 0.0:
-                    if not cubic or (mt[k, n] == 0.0 and mt[k, n + 1] == 0.0):
-                        continue
+                q0 = q[k, n]
+                q1 = q[k, n + 1]
+                if cubic:
+                    m0 = mt[k, n]
+                    m1 = mt[k, n + 1]
+                else:
+                    m0 = (q1 - q0) / h
+                    m1 = m0
+                if q0 == 0.0 and q1 == 0.0 and m0 == 0.0 and m1 == 0.0:
+                    continue
                 ta, tb = arr[k, n], arr[k, n + 1]
                 if tb <= t_start or ta >= t_end or tb <= ta:
                     continue
@@ -370,6 +372,8 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                 # split [ta, tb] at listener captures and block boundaries
                 t0 = ta
                 seg = _segment(tc, t0, 0)
+                # value at the piece start: the knot itself
+                va, wa = _fval(q0, m0, darr[k, n], ddarr[k, n], c0)
                 while t0 < tb:
                     t1 = tb
                     if seg + 1 < tc.size and tc[seg + 1] < t1 and tc[seg + 1] > t0:
@@ -379,26 +383,53 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                     tbnd = t_start + (bidx + 1) * block / fs
                     if tbnd < t1 and tbnd > t0:
                         t1 = tbnd
+                    segm = _segment(tc, 0.5 * (t0 + t1), seg)
+                    if t1 == tb:
+                        vb, wb = _fval(q1, m1, darr[k, n + 1], ddarr[k, n + 1], c0)
+                    else:
+                        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, segm)
+                        d1, dd1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
+                        qv, dq = _qeval(tn, q, mt, k, n, t1 - d1 / c0, cubic)
+                        vb, wb = _fval(qv, dq, d1, dd1, c0)
                     u1 = (t1 - t_start) * fs
-                    m0 = max(int(math.ceil(u0)), 0)
-                    m1 = min(int(math.ceil(u1)), n_samples)
-                    if m1 > m0:
-                        segm = _segment(tc, 0.5 * (t0 + t1), seg)
-                        _eval_f(x, y, z, rmin, tn, q, mt, cubic, k, n, t0, segm, tc, lc, vc, qc, c0,
-                                spk_az, spk_ch, fold, g, g2, o, fa, da)  # fmt: skip
-                        _eval_f(x, y, z, rmin, tn, q, mt, cubic, k, n, t1, segm, tc, lc, vc, qc, c0,
-                                spk_az, spk_ch, fold, g, g2, o, fb, db)  # fmt: skip
+                    m_0 = max(int(math.ceil(u0)), 0)
+                    m_1 = min(int(math.ceil(u1)), n_samples)
+                    if m_1 > m_0:
                         L = u1 - u0
-                        blk = m0 // block
-                        end_inside = m1 < n_samples and m1 < (blk + 1) * block
+                        blk = m_0 // block
+                        end_inside = m_1 < n_samples and m_1 < (blk + 1) * block
+                        if panned:
+                            _pan(x, y, z, t0, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, g, dg, o)
+                            for c in range(n_ch):
+                                fa[c] = g[c] * va
+                                da[c] = (g[c] * wa + dg[c] * va) / fs
+                            _pan(x, y, z, t1, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, g, dg, o)
+                            for c in range(n_ch):
+                                fb[c] = g[c] * vb
+                                db[c] = (g[c] * wb + dg[c] * vb) / fs
+                        else:
+                            fa[0] = va
+                            da[0] = wa / fs
+                            fb[0] = vb
+                            db[0] = wb / fs
                         for c in range(n_ch):
+                            if fa[c] == 0.0 and da[c] == 0.0 and fb[c] == 0.0 and db[c] == 0.0:
+                                continue
                             a_c = acc_t[c]
-                            _emit(a_c, blk, m0, u0, L, fa[c], da[c] / fs, fb[c], db[c] / fs, 1.0)
+                            _emit(a_c, blk, m_0, u0, L, fa[c], da[c], fb[c], db[c], 1.0)
                             if end_inside:
-                                _emit(a_c, blk, m1, u0, L, fa[c], da[c] / fs, fb[c], db[c] / fs,
-                                      -1.0)  # fmt: skip
+                                _emit(a_c, blk, m_1, u0, L, fa[c], da[c], fb[c], db[c], -1.0)
+                    new_seg = _segment(tc, t1, seg)
+                    if new_seg != segm and t1 < tb:
+                        # split at a listener capture: the velocity changes, so the
+                        # derivative on the right differs from the left one
+                        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, new_seg)
+                        d1, dd1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
+                        qv, dq = _qeval(tn, q, mt, k, n, t1 - d1 / c0, cubic)
+                        vb, wb = _fval(qv, dq, d1, dd1, c0)
                     t0 = t1
-                    seg = _segment(tc, t0, seg)
+                    va, wa = vb, wb
+                    seg = new_seg
     out = np.zeros((n_ch, n_blocks * block))
     for c in range(n_ch):
         for b in range(n_blocks):

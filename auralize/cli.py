@@ -346,8 +346,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     p.set_defaults(func=cmd_bench)
 
+    _extend_with_core_modules(sub)
     _extend_with_plugins(sub)
     return ap
+
+
+#: core modules that add their own sub-commands with ``add_commands(subparsers)``
+CORE_COMMAND_MODULES = ("auralize.cli_audio", "auralize.viewer.cli")
+
+
+def _extend_with_core_modules(sub: Any) -> None:
+    import importlib
+
+    for modname in CORE_COMMAND_MODULES:
+        try:
+            mod = importlib.import_module(modname)
+        except ModuleNotFoundError as exc:
+            if exc.name is None or not modname.startswith(
+                exc.name
+            ):  # a missing dependency inside is real
+                raise
+            continue
+        mod.add_commands(sub)
 
 
 def _extend_with_plugins(sub: Any) -> None:

@@ -96,7 +96,8 @@ def _tangents(tn: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.flo
 
 
 def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scale: float,
-             c0: float, duration: float | None, bounds: tuple[float, ...] | None) -> _Prepared:  # fmt: skip
+             c0: float, duration: float | None, bounds: tuple[float, ...] | None,
+             start: float = 0.0) -> _Prepared:  # fmt: skip
     if not (np.isfinite(rate) and rate > 0):
         raise ParameterError(f"rate must be a positive number of samples per second, got {rate!r}")
     if not (np.isfinite(time_scale) and time_scale > 0):
@@ -123,8 +124,10 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
             )
     else:
         vc = np.zeros((0, 3))
+    if not (np.isfinite(start) and start >= 0):
+        raise ParameterError(f"start must be >= 0 playback seconds, got {start!r}")
     if duration is None:
-        duration = path.duration
+        duration = path.duration - start
     if not (np.isfinite(duration) and duration > 0):
         raise ParameterError(
             f"nothing to render: duration {duration!r} s; give a path longer than one capture "
@@ -134,9 +137,29 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
     tn, q = _pad_knots(tracks)
     return _Prepared(
         tn=tn, q=q, mt=_tangents(tn, q), tc=tc, lc=np.ascontiguousarray(ppos),
-        vc=np.ascontiguousarray(vc), qc=np.ascontiguousarray(quats), t_start=t0,
+        vc=np.ascontiguousarray(vc), qc=np.ascontiguousarray(quats), t_start=t0 + start / time_scale,
         fs=float(rate) * time_scale, n_samples=int(n_samples),
     )  # fmt: skip
+
+
+def _audible_pieces(pr: _Prepared, pos: NDArray[np.float64], radius: NDArray[np.float64],
+                    c0: float) -> tuple[int, int]:  # fmt: skip
+    """Knot range [n_lo, n_hi] whose pieces can arrive inside the output window.
+
+    Arrivals of piece n lie in [t_n, t_{n+1} + D_max/c0], D_max being the
+    largest source-listener distance (the path is piecewise linear, so the
+    farthest point of it is a capture).
+    """
+    if pos.shape[0] == 0:
+        return 0, 0
+    lo_b, hi_b = pos.min(axis=0), pos.max(axis=0)
+    far = np.maximum(np.abs(pr.lc - lo_b), np.abs(pr.lc - hi_b))
+    d_max = float(np.max(np.linalg.norm(far, axis=1))) + float(np.max(radius))
+    t_end = pr.t_start + pr.n_samples / pr.fs
+    tn = pr.tn
+    n_lo = int(np.searchsorted(tn, pr.t_start - d_max / c0, side="left")) - 1
+    n_hi = int(np.searchsorted(tn, t_end, side="right"))
+    return max(n_lo, 0), min(n_hi, tn.size - 1)
 
 
 def check_inside(path: ListenerPath, bounds: tuple[float, ...], *, tol: float = 1e-6) -> None:
@@ -155,7 +178,7 @@ def check_inside(path: ListenerPath, bounds: tuple[float, ...], *, tol: float = 
 def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
            interp: str = "cubic", layout: str | Layout = "mono", c0: float = C0,
            duration: float | None = None, bounds: tuple[float, ...] | None = None,
-           threads: int | None = None) -> Rendered:  # fmt: skip
+           start: float = 0.0, threads: int | None = None) -> Rendered:  # fmt: skip
     """Synthesize the pressure heard along ``path`` (fast algorithm).
 
     Parameters
@@ -173,7 +196,11 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     layout : str or Layout
         ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1`` or a JSON file.
     duration : float, optional
-        Playback seconds (default: the path's duration).
+        Playback seconds (default: the path's duration after ``start``).
+    start : float
+        Playback seconds into the path of the first output sample (block-wise
+        and live rendering render consecutive blocks with increasing ``start``;
+        the blocks join without seams).
     bounds : tuple, optional
         Grid bounds; a path leaving them raises :class:`ListenerPathError`.
 
@@ -186,7 +213,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
     lay = get_layout(layout)
     pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=bounds)  # fmt: skip
+                  bounds=bounds, start=start)  # fmt: skip
     spk_az, spk_ch = lay.panning_arrays()
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
     # blocks keep the running sums short (numerical safety); several pieces long
@@ -194,13 +221,14 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     mt = pr.mt if interp == "cubic" else np.zeros((pr.q.shape[0], 0))
     pos = np.ascontiguousarray(tracks.positions, dtype=np.float64)
     radius = np.ascontiguousarray(np.maximum(tracks.radius, 1e-9), dtype=np.float64)
-    if pos.shape[0] == 0:
+    n_lo, n_hi = _audible_pieces(pr, pos, radius, c0)
+    if pos.shape[0] == 0 or n_hi <= n_lo:
         audio = np.zeros((lay.n_channels, pr.n_samples))
     else:
         audio = _synth_kernel.render(
             pos, radius, pr.tn, np.ascontiguousarray(pr.q), np.ascontiguousarray(mt), pr.tc,
             pr.lc, pr.vc, pr.qc, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
-            spk_az, spk_ch, lay.n_channels, bool(lay.fold_front), n_threads,
+            spk_az, spk_ch, lay.n_channels, bool(lay.fold_front), n_threads, n_lo, n_hi,
         )  # fmt: skip
     return Rendered(
         audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
@@ -211,7 +239,8 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
 
 def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
                      time_scale: float = 1.0, interp: str = "cubic", layout: str | Layout = "mono",
-                     c0: float = C0, duration: float | None = None) -> NDArray[np.float64]:  # fmt: skip
+                     c0: float = C0, duration: float | None = None,
+                     start: float = 0.0) -> NDArray[np.float64]:  # fmt: skip
     """Brute-force sample-by-sample evaluation of the same sum (O(sources × samples)).
 
     For tests and validation only: for every sample, every source's distance,
@@ -220,10 +249,10 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
     """
     lay = get_layout(layout)
     pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=None)  # fmt: skip
+                  bounds=None, start=start)  # fmt: skip
     n = np.arange(pr.n_samples)
     t = pr.t_start + n / pr.fs
-    tp = path.times[0] + n / rate  # playback time on the path
+    tp = path.times[0] + start + n / rate  # playback time on the path
     L = path.position_at(tp)
     fwd, up = path.orientation_at(tp)
     out = np.zeros((lay.n_channels, pr.n_samples))

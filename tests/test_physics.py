@@ -126,3 +126,18 @@ def test_listener_inside_a_sphere_is_clamped(mono_tracks, mono_params) -> None: 
     out = render(mono_tracks, ListenerPath.point(mono_params.center, duration=0.05), rate=RATE)
     assert np.all(np.isfinite(out.audio))
     assert np.max(np.abs(out.audio)) > 0
+
+
+def test_blockwise_rendering_has_no_seams(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
+    c = mono_params.center
+    path = ListenerPath.line(c + [3.0, 0.5, 0], c + [-1.0, 2.0, 0.5], duration=0.09)
+    whole = render(mono_tracks, path, rate=RATE, layout="ring8").audio
+    block = 1000
+    parts = [
+        render(mono_tracks, path, rate=RATE, layout="ring8", start=a / RATE,
+               duration=min(block, whole.shape[1] - a) / RATE).audio
+        for a in range(0, whole.shape[1], block)
+    ]  # fmt: skip
+    joined = np.concatenate(parts, axis=1)
+    assert joined.shape == whole.shape
+    assert np.max(np.abs(joined - whole)) <= 1e-9 * np.max(np.abs(whole))
