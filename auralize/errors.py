@@ -45,3 +45,7 @@ class PluginError(AuralizeError, RuntimeError):
 
 class MissingDependencyError(AuralizeError, ImportError):
     """An optional dependency is not installed; the message says how to get it."""
+
+
+class MissingFileError(AuralizeError, FileNotFoundError):
+    """An input file or folder does not exist."""

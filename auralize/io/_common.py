@@ -9,7 +9,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from auralize.errors import FieldError, ParameterError
+from auralize.errors import FieldError, MissingFileError, ParameterError
 
 #: What ``fields=`` may be: all fields, some names, or ``{volume name: name in the file}``.
 FieldsArg = str | Sequence[str] | Mapping[str, object] | None
@@ -41,7 +41,7 @@ def require_exists(path: Path) -> None:
     if not path.exists():
         parent = path.parent if str(path.parent) else Path(".")
         hint = "" if parent.is_dir() else f" (its folder {str(parent)!r} does not exist either)"
-        raise FileNotFoundError(f"{str(path)!r}: no such file or directory{hint}")
+        raise MissingFileError(f"{str(path)!r}: no such file or directory{hint}")
 
 
 def select_fields(

@@ -27,7 +27,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import DataError, FieldError, FormatError, ParameterError
+from auralize.errors import DataError, FieldError, FormatError, MissingFileError, ParameterError
 from auralize.io._common import (
     FieldsArg,
     fsync_path,
@@ -524,7 +524,7 @@ def write_hdf5(
                 f"non-empty name without '/'"
             )
     if not path.parent.is_dir():
-        raise FileNotFoundError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
+        raise MissingFileError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
     tmp = temp_sibling(path)
     opts: dict[str, Any] = {}
     if compression == "gzip":

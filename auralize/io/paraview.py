@@ -24,7 +24,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from auralize.errors import DataError, FormatError, ParameterError
+from auralize.errors import DataError, FormatError, MissingFileError, ParameterError
 from auralize.io._common import FieldsArg, fsync_path, require_exists, temp_sibling
 from auralize.io._mesh import import_pyvista, open_mesh_series
 from auralize.io.resample import ResolutionArg
@@ -398,7 +398,7 @@ def write_pvd(
     if compression not in (None, "gzip"):
         raise ParameterError(f"{path}: compression={compression!r}; valid are None and 'gzip'")
     if not path.parent.is_dir():
-        raise FileNotFoundError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
+        raise MissingFileError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
     stem = path.stem
     data_dir = path.with_name(f"{stem}_data")
     if data_dir.exists() or data_dir.is_symlink():
