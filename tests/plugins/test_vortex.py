@@ -1,0 +1,324 @@
+"""Tests of the vortex-sound plugin (paper 000): integral cells, texture physics, rendering."""
+
+from __future__ import annotations
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+from auralize_vortex import Texture, TextureConfig, VortexSound, compute_texture, texture
+from auralize_vortex.datasets import make_fire_plume
+from auralize_vortex.fluid import StableFluids, curl
+from auralize_vortex.render import receive, render_vortex, split_subvolumes
+from auralize_vortex.texture import (
+    howe_kernel,
+    integral_cell_weights,
+    receiver_ring,
+    third_derivative,
+)
+
+from auralize.errors import DataError, FieldError, FormatError, ParameterError
+from auralize.listener import ListenerPath
+from auralize.propagation import propagate
+from auralize.volume import TimeVolume
+
+C0 = 343.0
+
+
+# ---------------------------------------------------------------- integral cells (Eq. 4)
+def test_integral_cell_weights_sum_to_one_per_voxel():
+    offs, w = integral_cell_weights((5, 6, 7), alpha=3.0)
+    assert offs.shape == (27, 3) and w.shape == (27, 5, 6, 7)
+    np.testing.assert_allclose(w.sum(axis=0), 1.0, atol=1e-12)
+    # interior voxel: Z = 1 + 6 e^-3 + 12 e^{-3√2} + 8 e^{-3√3}
+    z = 1 + 6 * math.exp(-3) + 12 * math.exp(-3 * math.sqrt(2)) + 8 * math.exp(-3 * math.sqrt(3))
+    assert w[0, 2, 3, 3] == pytest.approx(1 / z, rel=1e-12)
+    face = int(np.flatnonzero(np.abs(offs).sum(1) == 1)[0])
+    assert w[face, 2, 3, 3] == pytest.approx(math.exp(-3) / z, rel=1e-12)
+    # a corner voxel belongs to 8 cells only
+    assert np.count_nonzero(w[:, 0, 0, 0]) == 8
+
+
+def test_sphere_average_of_howe_kernel_cancels_but_ring_does_not():
+    rng = np.random.default_rng(1)
+    om = rng.normal(size=(6, 6, 6, 3))
+    sphere = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1.0]])
+    # single-voxel box offsets are tiny vs 1 m: the 6-axis mean of x̂x̂ = I/3 and y·(y×ω) = 0
+    gs = howe_kernel((6, 6, 6), 1e-3, sphere)
+    gr = howe_kernel((6, 6, 6), 1e-3, receiver_ring(8))
+    s_sphere = float(np.sum(gs * om))
+    s_ring = float(np.sum(gr * om))
+    assert abs(s_sphere) < 1e-5 * abs(s_ring)
+
+
+def test_third_derivative_is_exact_for_cubics():
+    t = np.arange(50) * 1e-3
+    s = 2.0 * t**3 - t**2 + 5 * t
+    np.testing.assert_allclose(third_derivative(s, 1e-3), 12.0, rtol=1e-6)
+
+
+# ---------------------------------------------------------------- fluid solver (§5.1)
+def test_projection_is_divergence_free_and_vorticity_matches_curl():
+    fl = StableFluids((8, 6, 7), h=0.01, dt=1e-3)
+    rng = np.random.default_rng(0)
+    fl.u[:], fl.v[:], fl.w[:] = (
+        rng.normal(size=fl.u.shape),
+        rng.normal(size=fl.v.shape),
+        rng.normal(size=fl.w.shape),
+    )
+    inflow = fl.w[0].copy()
+    fl.project()
+    assert np.max(np.abs(fl.divergence())) < 1e-9
+    np.testing.assert_array_equal(fl.w[0], inflow)  # the inflow face is a boundary condition
+    np.testing.assert_allclose(
+        fl.vorticity(), curl(fl.cell_velocity(), 0.01, periodic_xy=True), atol=1e-9
+    )
+
+
+def test_uniform_inflow_stays_uniform():
+    fl = StableFluids((6, 6, 6), h=0.02, dt=1e-3, eps0=0.3, speed_ref=2.0)
+    fl.w[:] = 2.0
+    for _ in range(20):
+        fl.step()
+    np.testing.assert_allclose(fl.w, 2.0, atol=1e-12)
+    assert np.max(np.abs(fl.vorticity())) < 1e-9
+
+
+# ---------------------------------------------------------------- textures (§5)
+@pytest.fixture(scope="module")
+def tex3() -> Texture:
+    cfg = TextureConfig(speeds=(1.0, 2.0, 4.0), size=12, box_m=0.2, duration=0.3)
+    return compute_texture(cfg)
+
+
+def test_texture_rms_follows_u4_law(tex3):
+    slope = np.polyfit(np.log(tex3.speeds), np.log(tex3.rms()), 1)[0]
+    assert 3.0 <= slope <= 5.0
+    assert tex3.rate == 1000.0 and tex3.n_samples == 300
+    assert all(r["max_div_h_over_u"] < 1e-8 for r in tex3.meta["runs"])
+
+
+def test_laminar_inflow_is_near_silent(tex3):
+    lam = compute_texture(TextureConfig(speeds=(2.0,), size=12, duration=0.3, perturbation=0.0))
+    assert lam.rms()[0] < 1e-6 * tex3.rms()[1]
+
+
+def test_texture_is_deterministic_and_seeded():
+    cfg = TextureConfig(speeds=(2.0,), size=8, duration=0.05)
+    a, b = compute_texture(cfg), compute_texture(cfg)
+    np.testing.assert_array_equal(a.pressure, b.pressure)
+    c = compute_texture(TextureConfig(speeds=(2.0,), size=8, duration=0.05, seed=1))
+    assert not np.allclose(a.pressure, c.pressure, rtol=1e-3, atol=0)
+
+
+def test_paper_coefficient_is_c0_to_the_fourth_louder():
+    h = compute_texture(TextureConfig(speeds=(2.0,), size=8, duration=0.05))
+    p = compute_texture(TextureConfig(speeds=(2.0,), size=8, duration=0.05, coefficient="paper"))
+    np.testing.assert_allclose(p.pressure, h.pressure * C0**4, rtol=1e-9)
+
+
+def test_texture_cache_reuses_same_parameters(tmp_path):
+    cfg = TextureConfig(speeds=(2.0, 3.0), size=8, duration=0.05)
+    out = tmp_path / "tex.h5"
+    t1, cached1 = texture(cfg, out)
+    t2, cached2 = texture(cfg, out)
+    assert (cached1, cached2) == (False, True)
+    np.testing.assert_array_equal(t1.pressure, t2.pressure)
+    with h5py.File(out) as f:
+        assert f.attrs["auralize_format"] == "vortex-texture" and f.attrs["version"] == 1
+        assert f.attrs["param_size"] == 8 and list(f["speeds"][()]) == [2.0, 3.0]
+    _, cached3 = texture(TextureConfig(speeds=(2.0, 3.0), size=8, duration=0.05, seed=4), out)
+    assert cached3 is False
+
+
+def test_texture_default_cache_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv("AURALIZE_CACHE_DIR", str(tmp_path))
+    cfg = TextureConfig(speeds=(2.0,), size=8, duration=0.05)
+    _, cached = texture(cfg)
+    assert not cached and (tmp_path / f"vortex-texture-{cfg.digest()}.h5").is_file()
+    assert texture(cfg)[1]
+
+
+@pytest.mark.parametrize(
+    ("speeds", "match"),
+    [
+        ((1.0, 1.0), "strictly increasing"),
+        ((2.0, 1.0), "strictly increasing"),
+        ((0.0, 1.0), "positive"),
+        ((-1.0,), "positive"),
+        ((), "at least one"),
+    ],
+)
+def test_bad_speeds(speeds, match):
+    with pytest.raises(ParameterError, match=match):
+        TextureConfig(speeds=speeds)
+
+
+def test_texture_from_another_version_is_rejected(tmp_path):
+    tex = Texture([1.0, 2.0], np.ones((2, 16)), 1000.0, 0.2)
+    p = tex.save(tmp_path / "t.h5")
+    with h5py.File(p, "a") as f:
+        f.attrs["version"] = 2
+    with pytest.raises(FormatError, match="version 2; this auralize_vortex reads version 1"):
+        Texture.load(p)
+    with h5py.File(p, "a") as f:
+        f.attrs["auralize_format"] = "volume"
+    with pytest.raises(FormatError, match="not a vortex texture"):
+        Texture.load(p)
+
+
+# ---------------------------------------------------------------- rendering (§6, Eq. 5)
+RATE = 8000
+
+
+def _uniform_volume(u: float = 2.0, n: int = 5, steps: int = 3) -> TimeVolume:
+    v = np.zeros((steps, n, n, n, 3))
+    v[..., 2] = u
+    return TimeVolume.from_arrays({"velocity": v}, spacing=0.04, origin=-0.08,
+                                  times=np.linspace(0, 1, steps))  # fmt: skip
+
+
+def _sine_texture(freq: float = 100.0) -> Texture:
+    t = np.arange(1000) / 1000.0
+    q = np.sin(2 * np.pi * freq * t)
+    return Texture([1.0, 4.0], np.stack([q, 16 * q]), 1000.0, 0.2)
+
+
+def _rms(x):
+    return float(np.sqrt(np.mean(x**2)))
+
+
+@pytest.mark.parametrize(("mode", "ratio"), [("physical", 0.5), ("paper", 0.125)])
+def test_distance_law(mode, ratio):
+    vol, tex = _uniform_volume(), _sine_texture()
+    out = []
+    for r in (10.0, 20.0):
+        path = ListenerPath.point((0, -r, 0), duration=0.6)
+        res = render_vortex(vol, path, tex, rate=RATE, attenuation=mode, blend=0.0)
+        out.append(_rms(res.audio[0, int(0.1 * RATE) :]))
+    assert out[1] / out[0] == pytest.approx(ratio, rel=0.05)
+
+
+def test_amplitude_and_arrival_delay():
+    vol = _uniform_volume(u=4.0)
+    t = np.arange(1000) / 1000.0
+    pulse = np.exp(-(((t - 0.3) / 0.01) ** 2))
+    tex = Texture([1.0, 4.0], np.stack([pulse / 256, pulse]), 1000.0, 0.2)
+    r = 34.3
+    res = render_vortex(vol, ListenerPath.point((0, -r, 0), duration=0.6), tex, rate=RATE,
+                        offsets="zero", blend=0.0)  # fmt: skip
+    a = res.audio[0]
+    t_peak = np.argmax(a) / RATE
+    assert t_peak == pytest.approx(0.3 + r / C0, abs=1.5 / RATE)
+    # u = 4 reads the top row; the sub-volume is 5 points * 0.04 m = 0.2 m = the texture box
+    assert a.max() == pytest.approx(1.0 / r, rel=0.02)
+
+
+def test_speed_clamped_above_and_u4_below():
+    tex = _sine_texture()
+    path = ListenerPath.point((0, -10, 0), duration=0.5)
+    top = _rms(render_vortex(_uniform_volume(4.0), path, tex, rate=RATE).audio)
+    over = _rms(render_vortex(_uniform_volume(9.0), path, tex, rate=RATE).audio)
+    low = _rms(render_vortex(_uniform_volume(0.5), path, tex, rate=RATE).audio)
+    clamp = _rms(render_vortex(_uniform_volume(0.5), path, tex, rate=RATE, low_speed="clamp").audio)
+    assert over == pytest.approx(top, rel=1e-6)
+    assert low == pytest.approx(clamp * 0.5**4, rel=1e-3)
+    assert top == pytest.approx(16 * clamp, rel=0.01)
+
+
+def test_receive_matches_core_propagate_ring8():
+    rng = np.random.default_rng(3)
+    sig = rng.normal(size=(3, 4000))
+    pos = np.array([[1.0, 5.0, 0.0], [-4.0, 1.0, 0.5], [2.0, -3.0, 0.0]])
+    path = ListenerPath.point((0, 0, 0), duration=0.3)
+    ref = propagate(sig, 8000, pos, path, rate=8000, layout="ring8", emit_t0=-0.05)
+    ours, _ = receive(sig, 8000, pos, path, rate=8000, layout="ring8", emit_t0=-0.05)
+    np.testing.assert_allclose(ours, ref, atol=1e-9)
+
+
+def test_limit_pa_truncates():
+    res = render_vortex(_uniform_volume(4.0), ListenerPath.point((0, -1, 0), duration=0.3),
+                        _sine_texture(), rate=RATE, limit_pa=1.0)  # fmt: skip
+    assert np.max(np.abs(res.audio)) == pytest.approx(1.0)
+
+
+def test_dataset_without_velocity_is_rejected():
+    vol = TimeVolume.from_arrays({"density": np.ones((2, 4, 4, 4))}, times=[0, 1])
+    with pytest.raises(FieldError, match="needs a velocity field 'velocity'"):
+        render_vortex(vol, ListenerPath.point((0, 0, 0), duration=0.1), _sine_texture())
+    vol = TimeVolume.from_arrays({"velocity": np.ones((2, 4, 4, 4))}, times=[0, 1])
+    with pytest.raises(DataError, match="is a scalar"):
+        render_vortex(vol, ListenerPath.point((0, 0, 0), duration=0.1), _sine_texture())
+
+
+def test_subvolumes_of_paper_fire_grid():
+    vol = _uniform_volume(n=5)
+    sub = split_subvolumes(vol, 5)
+    assert sub.n_sources == 1
+    np.testing.assert_allclose(sub.centres[0], [0.0, 0.0, 0.0], atol=1e-12)
+    with pytest.raises(ParameterError, match="block must be a positive integer"):
+        split_subvolumes(vol, 0)
+
+
+# ---------------------------------------------------------------- dataset, model, overlay, CLI
+@pytest.fixture(scope="module")
+def plume() -> TimeVolume:
+    return make_fire_plume(steps=10)
+
+
+def test_fire_plume_dataset(plume):
+    assert plume.dims == (15, 15, 20) and plume.is_vector("velocity")
+    w = plume.fields["velocity"].array[..., 2]  # type: ignore[attr-defined]
+    # incompressible with periodic sides: every horizontal layer carries the burner's flux
+    layer = w.mean(axis=(2, 3))
+    np.testing.assert_allclose(layer, layer[0, 0], rtol=1e-9)
+    assert w.max() > 20 * layer[0, 0] > 0  # buoyancy accelerates the plume far above the inflow
+    np.testing.assert_array_equal(w, make_fire_plume(steps=10).fields["velocity"].array[..., 2])  # type: ignore[attr-defined]
+    assert "fire-plume" in VortexSound.datasets
+
+
+def test_model_synthesize_and_ring8(plume, tmp_path):
+    tex = _sine_texture()
+    path = ListenerPath.point(plume.center + [0, -2, 0], duration=0.3)
+    out = VortexSound().synthesize(
+        (plume, path), texture=tex.save(tmp_path / "t.h5").as_posix(), rate=RATE
+    )
+    assert out.signals.shape == (36, out.pressure.size) and out.positions.shape == (36, 3)
+    np.testing.assert_allclose(out.signals.sum(0), out.pressure, atol=1e-12)
+    r8 = render_vortex(plume, path, tex, rate=RATE, layout="ring8")
+    assert r8.audio.shape == (8, out.pressure.size)
+    with pytest.raises(ParameterError, match="attenuation"):
+        VortexSound().synthesize((plume, path), attenuation="cubic")
+
+
+def test_overlay_meshes(plume):
+    meshes = VortexSound(isosurface="auto").overlay(plume, 5)
+    boxes, centres, iso = meshes
+    assert centres.n_points == 36 and boxes.n_cells == 36 * 6
+    v = plume.frame("velocity", 5)
+    assert centres.point_data["speed"].max() <= np.linalg.norm(v, axis=-1).max()
+    assert centres.point_data["speed"].min() >= 0
+    assert iso.n_points > 0
+
+
+def test_cli_texture_and_render(tmp_path, capsys):
+    from auralize.audio import read_wav
+    from auralize.cli import main
+
+    tex = tmp_path / "tex.h5"
+    assert main(["vortex", "texture", "--speeds", "1,2", "-o", str(tex), "--size", "8",
+                 "--duration", "0.2"]) == 0  # fmt: skip
+    assert "computed" in capsys.readouterr().out
+    assert main(["vortex", "texture", "--speeds", "1,2", "-o", str(tex), "--size", "8",
+                 "--duration", "0.2"]) == 0  # fmt: skip
+    assert "reused" in capsys.readouterr().out
+    wav = tmp_path / "out.wav"
+    assert main(["vortex", "render", "dataset:fire-plume", "--steps", "4", "--texture", str(tex),
+                 "--listener", "0.3,-2,0.4", "--duration", "0.2", "-o", str(wav),
+                 "--layout", "ring8", "--rate", "8000"]) == 0  # fmt: skip
+    audio, rate, _ = read_wav(wav)
+    assert audio.shape == (8, 1600) and rate == 8000
+    assert main(["vortex", "texture", "--speeds", "2,1", "-o", str(tmp_path / "x.h5")]) == 2
+    assert "strictly increasing" in capsys.readouterr().err
+    assert not (tmp_path / "x.h5").exists()
