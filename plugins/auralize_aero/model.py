@@ -1,0 +1,271 @@
+"""The ``aero`` SoundModel: parameters, synthesis, viewer overlay, CLI and bench (paper 004)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any, ClassVar
+
+import numpy as np
+
+from auralize.errors import ParameterError
+from auralize.plugins import Parameter, SoundModel, SoundOutput
+
+from .objects import AeroObject, Motion, Wind
+from .presets import PRESETS, get_preset, stick
+from .render import render
+from .shapes import circle, get_section
+from .texture import SoundTexture, compute_texture
+
+
+def _unpack(inputs: Any) -> dict[str, Any]:
+    """Inputs as a dict (texture, object, path, motion, wind) or a tuple in that order."""
+    if isinstance(inputs, dict):
+        d = dict(inputs)
+    elif isinstance(inputs, tuple | list) and len(inputs) >= 3:
+        d = dict(zip(("texture", "object", "path", "motion", "wind"), inputs, strict=False))
+    else:
+        raise ParameterError(
+            "aero inputs must be a dict with keys texture, object, path and motion and/or wind, "
+            f"or a tuple (texture, object, path, motion, wind); got {type(inputs).__name__}"
+        )
+    if not isinstance(d.get("object"), AeroObject):
+        raise ParameterError(
+            f"aero inputs need an AeroObject under 'object', got {type(d.get('object')).__name__}"
+        )
+    return d
+
+
+class AeroSound(SoundModel):
+    """Aerodynamic sound of moving sticks and wind (Dobashi et al. 2003): Curle's model + sound textures.
+
+    ``inputs`` = ``{"texture": SoundTexture, "object": AeroObject, "path":
+    ListenerPath, "motion": Motion | None, "wind": Wind | None}``.
+    """
+
+    name: ClassVar[str] = "aero"
+    description: ClassVar[str] = (
+        "aerodynamic sound (aeolian tones): CFD sound textures + Curle dipoles (Dobashi et al. 2003)"
+    )
+    paper: ClassVar[str] = "004 §5–§8, Eqs. 1–4"
+    parameters: ClassVar[tuple[Parameter, ...]] = (
+        Parameter(
+            "exponent",
+            "physical",
+            choices=("physical", "paper"),
+            doc="amplitude ∝ v³ (pressure law, DESIGN.md) or the paper's v⁶ (Eq. 3)",
+        ),  # fmt: skip
+        Parameter("rate", 44100, range=(8000, 384000), unit="Hz"),
+        Parameter("c0", 343.0, range=(1.0, None), unit="m/s"),
+        Parameter("layout", "mono", doc="mono | stereo | ring8 | 5.1 | 7.1 | FILE.json"),
+        Parameter(
+            "stereo",
+            "ears",
+            choices=("ears", "pan"),
+            doc="stereo by two ear receivers (§6) or VBAP",
+        ),
+        Parameter("min_distance", 0.05, range=(1e-6, None), unit="m"),
+        Parameter(
+            "duration", 0.0, range=(0.0, None), unit="s", doc="0: the listener path's duration"
+        ),
+    )
+
+    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
+        """Render; returns the pressure (mono) or ``meta['audio']`` for multichannel layouts (Pa)."""
+        p = self.resolve(**params)
+        d = _unpack(inputs)
+        out = render(d["texture"], d["object"], d["path"], motion=d.get("motion"), wind=d.get("wind"),
+                     rate=p["rate"], layout=p["layout"], exponent=p["exponent"], c0=p["c0"],
+                     stereo=p["stereo"], min_distance=p["min_distance"],
+                     duration=p["duration"] or None)  # fmt: skip
+        meta = {**out.meta, "layout": out.layout.name, "audio": out.audio}
+        return SoundOutput(
+            rate=out.rate, pressure=out.audio[0] if out.audio.shape[0] == 1 else None, meta=meta
+        )
+
+    def overlay(self, inputs: Any, step: int) -> Any:
+        """pyvista meshes at motion pose ``step``: the object's polylines and its point sources."""
+        import pyvista as pv
+
+        d = _unpack(inputs)
+        obj: AeroObject = d["object"]
+        motion: Motion | None = d.get("motion")
+        centres = obj.sources()[0]
+        if motion is not None:
+            k = int(np.clip(step, 0, motion.times.size - 1))
+            lines = [motion.world_points(pl)[:, k] for pl in obj.polylines]
+            centres = motion.world_points(centres)[:, k]
+        else:
+            lines = list(obj.polylines)
+        pts = np.concatenate(lines)
+        cells, off = [], 0
+        for pl in lines:
+            cells += [len(pl), *range(off, off + len(pl))]
+            off += len(pl)
+        body = pv.PolyData(pts, lines=np.asarray(cells))
+        body.field_data["kind"] = ["object"]
+        src = pv.PolyData(np.asarray(centres, dtype=np.float64))
+        src.point_data["span_m"] = obj.sources()[1]
+        src.field_data["kind"] = ["point_sources"]
+        return [body, src]
+
+    # ------------------------------------------------------------------ CLI
+    @classmethod
+    def add_cli(cls, subparsers: Any) -> None:
+        from auralize.cli import add_output_options
+
+        p = subparsers.add_parser(
+            "aero", help="aerodynamic sound: sound textures and rendering (paper 004)"
+        )
+        sub = p.add_subparsers(dest="aero_command", required=True, metavar="ACTION")
+        t = sub.add_parser(
+            "texture", help="pre-process a sound texture by 2-D flow simulation (§5)"
+        )
+        t.add_argument(
+            "--shape", required=True, help="cylinder | square | sword | polygon FILE of x,y rows"
+        )
+        t.add_argument("--diameter", type=float, required=True, help="frontal width D in metres")
+        t.add_argument("-o", "--output", required=True, help="texture .h5")
+        t.add_argument("--speed", type=float, default=10.0, help="base speed v0 in m/s (§7.2)")
+        t.add_argument(
+            "--directions", type=int, help="sampled flow directions (default: 5° spacing)"
+        )
+        t.add_argument("--duration", type=float, default=0.05, help="recorded texture seconds")
+        t.add_argument("--resolution", type=int, default=16, help="lattice cells across D")
+        t.add_argument("--reynolds", type=float, default=200.0, help="Reynolds number simulated")
+        t.add_argument("--rate", type=float, default=16000.0, help="texture sample rate in Hz")
+        t.add_argument("--seed", type=int, default=0)
+        t.add_argument("--no-cache", action="store_true", help="recompute even if cached")
+        t.set_defaults(func=cls._cmd_texture)
+        r = sub.add_parser("render", help="render the sound of a moving object or of wind (§6)")
+        r.add_argument("--texture", required=True, metavar="TEX.h5")
+        mv = r.add_mutually_exclusive_group(required=True)
+        mv.add_argument("--motion", metavar="MOTION.csv", help="object poses t,x,y,z,qw,qx,qy,qz")
+        mv.add_argument(
+            "--wind", type=float, metavar="SPEED", help="wind speed on a static object (m/s)"
+        )
+        mv.add_argument("--preset", choices=PRESETS, help="a §8 example's object and motion")
+        r.add_argument("--wind-direction", default="1,0,0", help="x,y,z (with --wind)")
+        r.add_argument(
+            "--gust", type=float, default=0.05, help="relative wind fluctuation (with --wind)"
+        )
+        r.add_argument(
+            "--object", default="stick", help="stick | fence | sphere | sword (default stick)"
+        )
+        r.add_argument("--length", type=float, default=0.5, help="stick length in metres")
+        r.add_argument("--exponent", choices=["physical", "paper"], default="physical",
+                       help="amplitude ∝ v³ (physical) or v⁶ (paper Eq. 3)")  # fmt: skip
+        r.add_argument("--stereo", choices=["ears", "pan"], default="ears")
+        r.add_argument("--seed", type=int, default=0)
+        add_output_options(r)
+        r.set_defaults(func=cls._cmd_render)
+
+    @staticmethod
+    def _cmd_texture(args: argparse.Namespace) -> int:
+        sec = get_section(args.shape, args.diameter)
+        t0 = time.perf_counter()
+        tex = compute_texture(sec, speed=args.speed, duration=args.duration, rate=args.rate,
+                              resolution=args.resolution, reynolds=args.reynolds,
+                              directions=args.directions, seed=args.seed,
+                              cache=not args.no_cache)  # fmt: skip
+        tex.save(args.output)
+        print(f"wrote {args.output}: {sec.name}, D = {sec.diameter:g} m, v0 = {tex.speed:g} m/s, "
+              f"{tex.directions_deg.size} direction(s), St = {', '.join(f'{s:.3f}' for s in tex.strouhal)}, "
+              f"{time.perf_counter() - t0:.1f} s")  # fmt: skip
+        return 0
+
+    @staticmethod
+    def _cmd_render(args: argparse.Namespace) -> int:
+        from auralize.audio import write_audio
+        from auralize.cli import listener_from_args
+
+        tex = SoundTexture.load(args.texture)
+        path = listener_from_args(args)
+        motion = wind = None
+        if args.preset:
+            pr = get_preset(args.preset, duration=path.duration, seed=args.seed)
+            obj, motion, wind = pr.obj, pr.motion, pr.wind
+        else:
+            obj = _object_from_args(args, tex.diameter)
+            if args.motion:
+                motion = Motion.from_csv(args.motion)
+            else:
+                wind = Wind(
+                    args.wind, tuple(_floats(args.wind_direction)), gust=args.gust, seed=args.seed
+                )
+        t0 = time.perf_counter()
+        out = render(tex, obj, path, motion=motion, wind=wind, rate=args.rate, layout=args.layout,
+                     exponent=args.exponent, stereo=args.stereo)  # fmt: skip
+        el = time.perf_counter() - t0
+        gain = write_audio(args.output, out.audio, out.rate, channel_mask=out.layout.channel_mask,
+                           normalize=args.normalize, limit_pa=args.limit,
+                           sidecar={"model": "aero", "texture": str(args.texture), **out.meta,
+                                    "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+        peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
+        print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s at "
+              f"{out.rate} Hz, {out.meta['n_sources']} point sources, peak {peak:.4g} Pa, gain {gain:.4g}; "
+              f"{el:.2f} s")  # fmt: skip
+        return 0
+
+    # ---------------------------------------------------------------- bench
+    @classmethod
+    def bench(cls, quick: bool) -> list[Any]:
+        """Cylinder texture pre-process (target ≤ 2 min) and 16-source swinging stick (≥ 100×)."""
+        from auralize.bench import BenchRow, best_of
+        from auralize.listener import ListenerPath
+
+        rows = []
+        res, dur = (10, 0.03) if quick else (16, 0.05)
+        t0 = time.perf_counter()
+        tex = compute_texture(circle(0.01), resolution=res, duration=dur, cache=False)
+        t_tex = time.perf_counter() - t0
+        rows.append(BenchRow(
+            "aero", f"cylinder texture ({res} cells/D, {dur:g} s)", t_tex, "s",
+            target="" if quick else "≤ 120 s", met=None if quick else t_tex <= 120,
+            paper="45 min (FEM, 4 CPUs), ~1 h (FDM, PIII)",
+            note=f"St = {tex.strouhal[0]:.3f}; {tex.meta['directions'][0]['lattice']} lattice",
+        ))  # fmt: skip
+        obj = stick(0.5, 0.01)
+        seconds = 2.0 if quick else 4.0
+        motion = Motion.swing(
+            duration=seconds, swings=2 * seconds, amplitude_deg=80.0, rate_hz=200.0
+        )
+        path = ListenerPath.point((0.3, 1.0, 0.2), duration=seconds)
+        for layout in ("mono", "ring8"):
+            t = best_of(
+                lambda layout=layout: render(tex, obj, path, motion=motion, layout=layout), repeat=3
+            )
+            rows.append(BenchRow(
+                "aero", f"swinging stick, {obj.n_sources} sources → {layout}", seconds / t, "× real time",
+                target="≥ 100×" if layout == "mono" else "", met=(seconds / t >= 100) if layout == "mono" else None,
+                paper="real time at 60 fps (PIII 1.3 GHz)", note=f"{seconds:g} s of audio in {t * 1e3:.1f} ms",
+            ))  # fmt: skip
+        return rows
+
+
+def _floats(text: str) -> list[float]:
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise ParameterError(f"expected x,y,z numbers, got {text!r}") from None
+    if len(v) != 3:
+        raise ParameterError(f"expected three numbers x,y,z, got {text!r}")
+    return v
+
+
+def _object_from_args(args: argparse.Namespace, diameter: float) -> AeroObject:
+    from .presets import fence, sphere_object, sword_object
+
+    if args.object == "stick":
+        return stick(args.length, diameter)
+    if args.object == "fence":
+        return fence(diameter=diameter)
+    if args.object == "sphere":
+        return sphere_object(diameter / 2)
+    if args.object == "sword":
+        return sword_object(args.length, diameter)
+    raise ParameterError(f"unknown --object {args.object!r}; choose stick, fence, sphere or sword")
+
+
+__all__ = ["AeroSound", "circle", "get_section"]
