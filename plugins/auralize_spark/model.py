@@ -1,0 +1,401 @@
+"""The ``spark`` sound model: discharge pattern → N-/WM-waves at the listener (paper 002).
+
+Pipeline (Fig. 4–5): charge scene → Laplace field (§4.1, Eq. 1) → leader
+growth (Eq. 2) or a user-supplied discharge CSV → strokes (§4.2.3) → one
+WM-wave per segment and stroke (Eqs. 3–5) summed at the arrival times and
+panned from each segment's direction to the output layout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import FormatError, ParameterError
+from auralize.listener import ListenerPath
+from auralize.plugins import Parameter, SoundModel, SoundOutput
+
+from .field import ChargeScene, ElectricField, field_from_volume, solve_field
+from .leader import Discharge, grow_leader
+from .presets import PRESETS, Preset, get_preset
+from .waves import SIGMA0, Rendered, WaveParams, render_discharge, stroke_times
+
+PRESET_NAMES = tuple(PRESETS)
+
+
+@dataclass
+class SparkResult:
+    """A rendered discharge with everything that produced it."""
+
+    rendered: Rendered
+    discharge: Discharge
+    field: ElectricField | None
+    strokes: NDArray[np.float64]
+    params: WaveParams
+    listener: Any
+    seed: int = 0
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def render(self, layout: str = "mono") -> Rendered:
+        """The same discharge, strokes and T0 jitter rendered again to another layout."""
+        ren = self.rendered
+        n = ren.audio.shape[1]
+        out = render_discharge(self.discharge, self.listener, params=self.params, rate=ren.rate,
+                               layout=layout, strokes=self.strokes, duration=n / ren.rate,
+                               seed=self.seed)  # fmt: skip
+        out.audio = out.audio[:, :n]
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        m = self.rendered.meta
+        out = {
+            "segments": m["segments"],
+            "main_segments": m["main_segments"],
+            "branches": self.discharge.n_branches(),
+            "strokes": m["strokes"],
+            "stroke_times_s": m["stroke_times_s"],
+            "first_arrival_s": m["first_arrival_s"],
+            "wave_duration_s": m["wave_duration_s"],
+            "clamped_segments": m["clamped_segments"],
+            "rate": m["rate"],
+            "layout": m["layout"],
+            "timing_s": {**self.timings, "geometry": m["geometry_s"], "waveform": m["waveform_s"]},
+        }
+        if self.field is not None:
+            out["laplace"] = {"dims": list(self.field.dims), **self.field.info}
+        return out
+
+
+def resolve_source(source: Any, preset: Preset, *, step: int = 0,
+                   charge_field: str = "charge") -> tuple[ElectricField | None, Discharge | None]:  # fmt: skip
+    """Field and/or discharge from any accepted source.
+
+    ``None`` (the preset's scene), a :class:`ChargeScene`, an
+    :class:`ElectricField`, a TimeVolume (charge field ``charge_field`` at
+    ``step``), a :class:`Discharge`, or a path: ``.json``/``.toml`` scene or
+    ``.csv`` discharge.
+    """
+    if source is None:
+        return preset.field(), None
+    if isinstance(source, Discharge):
+        return None, source
+    if isinstance(source, ElectricField):
+        return source, None
+    if isinstance(source, ChargeScene):
+        return solve_field(source), None
+    if isinstance(source, str | Path):
+        p = Path(source)
+        if p.suffix.lower() == ".csv":
+            return None, Discharge.from_csv(p)
+        if p.suffix.lower() in (".json", ".toml"):
+            return solve_field(ChargeScene.from_file(p)), None
+        raise FormatError(f"{p}: expected a scene (.json/.toml) or a discharge (.csv)")
+    if hasattr(source, "field_names") and hasattr(source, "frame"):
+        return field_from_volume(source, name=charge_field, step=step), None
+    raise ParameterError(
+        f"spark source must be None, a ChargeScene, ElectricField, TimeVolume, Discharge or a "
+        f".json/.toml/.csv path; got {type(source).__name__}"
+    )
+
+
+def simulate(source: Any = None, listener: ListenerPath | NDArray[np.floating] | None = None, *,
+             preset: str = "spark-balls", half_length: float | None = None,
+             r0: float | None = None, T0: float | None = None, ps0: float | None = None,
+             sigma0: float = SIGMA0, c0: float = 343.0, jitter: float = 0.05,
+             amplitude: str = "eq3", n_candidates: int = 8, rho: float = math.pi / 2,
+             gamma: float = 2.5, reference: str = "tip", branch_probability: float | None = None,
+             branch_length: float | None = None, strokes: int | None = None, seed: int = 0,
+             rate: int = 44100, layout: str = "mono", duration: float | None = None,
+             step: int = 0, charge_field: str = "charge") -> SparkResult:  # fmt: skip
+    """Scene (or discharge) to sound at the listener, end to end (paper 002 Fig. 4–5).
+
+    Parameters
+    ----------
+    source : see :func:`resolve_source` (None = the preset's own scene).
+    listener : ListenerPath, static (3,) position in m, or None (the preset's).
+    preset : Table 1 row whose l, r0, T0 (and p_s0, branching) are the defaults.
+    half_length, r0, T0, ps0 : override Table 1 values (m, m, s, Pa).
+    n_candidates, rho, gamma, reference : Eq. 2 (see :func:`grow_leader`).
+    strokes : number of strokes (None: random log-series for ``lightning``,
+        1 for the other presets).
+    seed : seeds growth, strokes and T0 jitter.
+    rate, layout, duration : output (duration None: until the last wave passed).
+
+    Returns
+    -------
+    SparkResult (audio in ``.rendered.audio``, (n_channels, n_samples) Pa).
+
+    Examples
+    --------
+    >>> res = simulate(preset="spark-balls", seed=3)
+    >>> res.rendered.audio.shape[0], res.summary()["strokes"]
+    (1, 1)
+    """
+    pre = get_preset(preset)
+    hl = pre.half_length if half_length is None else float(half_length)
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    fld, dis = resolve_source(source, pre, step=step, charge_field=charge_field)
+    timings["field"] = time.perf_counter() - t
+    if dis is None:
+        assert fld is not None
+        t = time.perf_counter()
+        dis = grow_leader(fld, half_length=hl, n_candidates=n_candidates, rho=rho, gamma=gamma,
+                          seed=seed, reference=reference,
+                          branch_probability=pre.branch_probability if branch_probability is None else branch_probability,
+                          branch_length=pre.branch_length if branch_length is None else branch_length)  # fmt: skip
+        timings["leader"] = time.perf_counter() - t
+    else:
+        dis = dis.subdivided(hl)
+    rng = np.random.default_rng([seed, 7])
+    if strokes is None:
+        st = stroke_times(rng) if pre.multi_stroke else np.zeros(1)
+    else:
+        st = stroke_times(rng, n=int(strokes))
+    lis = np.asarray(pre.listener, dtype=np.float64) if listener is None else listener
+    params = WaveParams(r0=pre.r0 if r0 is None else float(r0), T0=pre.T0 if T0 is None else float(T0),
+                        ps0=pre.ps0 if ps0 is None else float(ps0), sigma0=sigma0, c=c0,
+                        jitter=jitter, amplitude=amplitude)  # fmt: skip
+    ren = render_discharge(dis, lis, params=params, rate=rate, layout=layout, strokes=st,
+                           duration=duration, seed=seed)  # fmt: skip
+    return SparkResult(ren, dis, fld, st, params, lis, seed, timings)
+
+
+# ------------------------------------------------------------------ overlay
+def discharge_mesh(discharge: Discharge, strokes: int = 1) -> Any:
+    """Line mesh of the discharge tree with cell data ``brightness``, ``strokes``, ``main``.
+
+    Main-channel segments are lit by every stroke (brightness 1); side
+    branches by the first stroke only and at half the current
+    (brightness 0.5 / n_strokes).
+    """
+    import pyvista as pv
+
+    n = discharge.n_segments
+    lines = np.column_stack([np.full(n, 2), discharge.parent[1:], np.arange(1, n + 1)]).ravel()
+    mesh = pv.PolyData(discharge.nodes.copy(), lines=lines)
+    main = discharge.seg_main
+    k = max(int(strokes), 1)
+    lit = np.where(main, k, 1)
+    mesh.cell_data["strokes"] = lit.astype(np.int32)
+    mesh.cell_data["main"] = main.astype(np.uint8)
+    mesh.cell_data["brightness"] = np.where(main, 1.0, 0.5 / k)
+    return mesh
+
+
+def charge_glyphs(fld: ElectricField | None) -> Any:
+    """Glyphs of the charge scene: spheres, boxes and planes with point data ``sign`` (−1/+1).
+
+    Without a scene (a grid charge field) the charged grid points are shown
+    as points.
+    """
+    import pyvista as pv
+
+    blocks = pv.MultiBlock()
+    if fld is None:
+        return blocks
+    if fld.scene is None:
+        for sgn, name in ((-1, "negative"), (1, "positive")):
+            pts = pv.PolyData(fld.points_of(sgn))
+            pts.point_data["sign"] = np.full(pts.n_points, sgn, dtype=np.int8)
+            blocks[name] = pts
+        return blocks
+    lo, hi = fld.origin, fld.upper
+    for i, ch in enumerate(fld.scene.charges):
+        g = ch.geometry
+        if ch.shape == "sphere":
+            m = pv.Sphere(radius=g["radius"], center=g["center"])
+        elif ch.shape == "box":
+            b = [g["min"][0], g["max"][0], g["min"][1], g["max"][1], g["min"][2], g["max"][2]]
+            m = pv.Box(bounds=b)
+        elif ch.shape == "plane":
+            a = "xyz".index(g["axis"])
+            center = 0.5 * (lo + hi)
+            center[a] = g["position"]
+            normal = np.eye(3)[a]
+            size = hi - lo
+            others = [k for k in range(3) if k != a]
+            m = pv.Plane(
+                center=center, direction=normal, i_size=size[others[0]], j_size=size[others[1]]
+            )
+        else:
+            m = pv.Sphere(radius=0.5 * float(np.min(fld.spacing)), center=g["position"])
+        m.point_data["sign"] = np.full(m.n_points, ch.sign, dtype=np.int8)
+        blocks[f"{'negative' if ch.sign < 0 else 'positive'}-{ch.shape}-{i}"] = m
+    return blocks
+
+
+# -------------------------------------------------------------------- model
+class SparkSound(SoundModel):
+    """Spark-discharge and thunder sound (Matsuyama, Fujimoto & Chiba; paper 002).
+
+    ``synthesize(inputs, **params)`` with ``inputs = (source, listener)``:
+    ``source`` as in :func:`resolve_source` (None for the preset's scene) and
+    ``listener`` a ListenerPath, a (3,) position or None (the preset's).
+    Returns the pressure at the listener (mono, Pa) and, for other layouts,
+    the panned audio in ``meta["audio"]`` (n_channels, n_samples).
+    """
+
+    name: ClassVar[str] = "spark"
+    description: ClassVar[str] = (
+        "spark discharges and thunder: Laplace field, stochastic leaders, N-/WM-waves (Matsuyama et al.)"
+    )
+    paper: ClassVar[str] = "002 §4.1–4.2, Eqs. 1–5, Table 1"
+    parameters: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("preset", "spark-balls", choices=PRESET_NAMES, doc="Table 1 scale"),
+        Parameter(
+            "half_length", 0.0, range=(0.0, None), unit="m", doc="segment half-length l; 0 = preset"
+        ),
+        Parameter("r0", 0.0, range=(0.0, None), unit="m", doc="baseline distance; 0 = preset"),
+        Parameter("T0", 0.0, range=(0.0, None), unit="s", doc="baseline half-duration; 0 = preset"),
+        Parameter("ps0", 0.0, range=(0.0, None), unit="Pa", doc="baseline peak at r0; 0 = preset"),
+        Parameter("sigma0", SIGMA0, range=(0.0, 10.0), doc="Eqs. 3–4 (Wright 1983)"),
+        Parameter("gamma", 2.5, range=(0.0, 20.0), doc="Eq. 2 exponent"),
+        Parameter("n_candidates", 8, range=(1, 64), doc="Eq. 2 candidates"),
+        Parameter(
+            "rho",
+            math.pi / 2,
+            range=(0.01, 2 * math.pi),
+            unit="rad",
+            doc="candidate cone apex angle",
+        ),
+        Parameter(
+            "reference",
+            "tip",
+            choices=("tip", "absolute"),
+            doc="φ of Eq. 2 relative to the tip or absolute",
+        ),
+        Parameter(
+            "strokes",
+            0,
+            range=(0, 100),
+            doc="strokes per flash; 0 = preset (log-series for lightning)",
+        ),
+        Parameter("jitter", 0.05, range=(0.0, 0.5), doc="relative T0 jitter"),
+        Parameter(
+            "amplitude", "eq3", choices=("eq3", "paper"), doc="A of Eq. 5: match Eq. 3, or A = 1"
+        ),
+        Parameter("seed", 0, range=(0, None)),
+        Parameter("rate", 44100, range=(8000, 768000), unit="Hz"),
+        Parameter("layout", "mono", doc="mono | stereo | ring8 | 5.1 | 7.1 | FILE.json"),
+        Parameter("c0", 343.0, range=(1.0, None), unit="m/s"),
+    )
+
+    def _run(self, inputs: Any, step: int = 0, **params: Any) -> SparkResult:
+        p = self.resolve(**params)
+        source, listener = inputs if isinstance(inputs, tuple) else (inputs, None)
+        return simulate(
+            source, listener, preset=p["preset"], half_length=p["half_length"] or None,
+            r0=p["r0"] or None, T0=p["T0"] or None, ps0=p["ps0"] or None, sigma0=p["sigma0"],
+            c0=p["c0"], jitter=p["jitter"], amplitude=p["amplitude"],
+            n_candidates=int(p["n_candidates"]), rho=p["rho"], gamma=p["gamma"],
+            reference=p["reference"], strokes=int(p["strokes"]) or None, seed=int(p["seed"]),
+            rate=int(p["rate"]), layout=p["layout"], step=step,
+        )  # fmt: skip
+
+    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
+        res = self._run(inputs, **params)
+        ren = res.rendered
+        meta: dict[str, Any] = {**res.summary(), "discharge": res.discharge}
+        if ren.layout.n_channels == 1:
+            pressure = ren.audio[0]
+        else:
+            meta["audio"] = ren.audio
+            pressure = res.render("mono").audio[0]
+        return SoundOutput(rate=ren.rate, pressure=pressure, meta=meta)
+
+    def overlay(self, inputs: Any, step: int) -> Any:
+        """pyvista MultiBlock: ``discharge`` lines (brightness by stroke) and ``charges`` glyphs."""
+        import pyvista as pv
+
+        params = inputs[2] if isinstance(inputs, tuple) and len(inputs) > 2 else {}
+        base = inputs[:2] if isinstance(inputs, tuple) else inputs
+        res = self._run(base, step=step, **params)
+        out = pv.MultiBlock()
+        out["discharge"] = discharge_mesh(res.discharge, res.strokes.size)
+        out["charges"] = charge_glyphs(res.field)
+        return out
+
+    # ------------------------------------------------------------------ CLI
+    @classmethod
+    def add_cli(cls, subparsers: Any) -> None:
+        from auralize.cli import add_output_options
+
+        p = subparsers.add_parser("spark", help="spark discharges and thunder (paper 002)")
+        sub = p.add_subparsers(dest="spark_command", required=True, metavar="ACTION")
+        r = sub.add_parser("render", help="grow (or read) a discharge and render its sound")
+        r.add_argument("--preset", choices=PRESET_NAMES, default=None,
+                       help="Table 1 scale and its built-in scene (default spark-balls); "
+                            "with --scene/--discharge only the Table 1 values are used")  # fmt: skip
+        r.add_argument("--scene", metavar="FILE", help="charge scene .json/.toml")
+        r.add_argument(
+            "--discharge", metavar="CSV", help="discharge tree/polyline CSV instead of growing one"
+        )
+        r.add_argument("--seed", type=int, default=0)
+        r.add_argument("--strokes", type=int, help="strokes per flash (default: preset)")
+        r.add_argument("--gamma", type=float, default=2.5, help="Eq. 2 exponent (default 2.5)")
+        r.add_argument("--T0", type=float, help="baseline half-duration in s (default: preset)")
+        r.add_argument("--save-discharge", metavar="CSV", help="also write the discharge tree")
+        r.add_argument(
+            "--json", action="store_true", help="print segments, strokes and timing as JSON"
+        )
+        add_output_options(r)
+        r.set_defaults(func=cmd_spark_render, command="spark render")
+
+    # ---------------------------------------------------------------- bench
+    @classmethod
+    def bench(cls, quick: bool) -> list[Any]:
+        from .bench import bench_rows
+
+        return bench_rows(quick)
+
+
+def cmd_spark_render(args: argparse.Namespace) -> int:
+    from auralize.audio import write_audio
+
+    if args.scene and args.discharge:
+        raise ParameterError("give either --scene FILE or --discharge CSV, not both")
+    preset = args.preset or "spark-balls"
+    source: Any = args.discharge or args.scene or None
+    if args.path:
+        listener: Any = ListenerPath.from_csv(args.path)
+        duration = args.duration
+    else:
+        listener = args.listener
+        duration = args.duration
+    t = time.perf_counter()
+    res = simulate(source, listener, preset=preset, seed=args.seed, strokes=args.strokes,
+                   gamma=args.gamma, T0=args.T0, rate=args.rate, layout=args.layout,
+                   duration=duration)  # fmt: skip
+    total = time.perf_counter() - t
+    if args.save_discharge:
+        res.discharge.to_csv(args.save_discharge)
+    summary = res.summary()
+    summary["timing_s"]["total"] = total
+    summary["output"] = args.output
+    lay = res.rendered.layout
+    gain = write_audio(args.output, res.rendered.audio, res.rendered.rate,
+                       channel_mask=lay.channel_mask, normalize=args.normalize,
+                       limit_pa=args.limit,
+                       sidecar={"model": "spark", "preset": preset, "seed": args.seed,
+                                "segments": summary["segments"], "strokes": summary["strokes"],
+                                "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+    summary["gain"] = gain
+    summary["peak_pa"] = float(np.max(np.abs(res.rendered.audio)))
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        a = res.rendered.audio
+        print(f"wrote {args.output}: {lay.name}, {a.shape[0]} ch, {a.shape[1] / res.rendered.rate:.3f} s "
+              f"at {res.rendered.rate} Hz; {summary['segments']} segments, {summary['strokes']} "
+              f"stroke(s), peak {summary['peak_pa']:.4g} Pa; {total:.2f} s")  # fmt: skip
+    return 0
