@@ -1,0 +1,614 @@
+"""pvpython-like scripting: ``from auralize.simple import *``.
+
+Reads like a ``paraview.simple`` session: functions in CamelCase act on the
+*active* source and view unless told otherwise, and remember what they made.
+All state lives in a :class:`Session` (the module keeps one default session,
+reachable with :func:`GetSession`; :func:`ResetSession` starts afresh) — never
+in the caller's globals.  Views render off screen with pyvista, so scripts run
+headless (``auralize script FILE.py`` or ``python FILE.py``); inside the
+desktop viewer the active view is the window's.
+
+Errors are the library's own (:mod:`auralize.errors`): a missing file raises
+``FormatError``/``MissingFileError``, an unknown field ``FieldError``, no sound
+device ``DeviceError``, and so on.
+
+Examples
+--------
+>>> from auralize.simple import *
+>>> ResetSession()
+>>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+>>> series = DetectSources(monopole="1%")
+>>> path = CreateListenerPath("line", start=src.Volume.center + [1, 0, 0],
+...                           end=src.Volume.center + [2, 0, 0], duration=0.02)
+>>> RenderAudio(layout="stereo").audio.shape
+(2, 882)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from auralize.errors import DeviceError, ParameterError
+from auralize.listener import ListenerPath
+from auralize.sources import SourceSeries, Thresholds
+from auralize.synthesis import Rendered
+from auralize.volume import TimeVolume
+
+__all__ = [
+    "ApplyMapping",
+    "CreateListenerPath",
+    "CreateView",
+    "DetectSources",
+    "GetActiveSource",
+    "GetActiveView",
+    "GetListenerPath",
+    "GetSession",
+    "Hide",
+    "LoadSession",
+    "OpenDataFile",
+    "PlayAudio",
+    "RecordListenerPath",
+    "Render",
+    "RenderAudio",
+    "ResetSession",
+    "SaveAudio",
+    "SaveListenerPath",
+    "SaveScreenshot",
+    "SaveSession",
+    "Session",
+    "SetActiveSource",
+    "SetActiveView",
+    "Show",
+]
+
+
+@dataclass
+class DataSource:
+    """An opened volume and what was derived from it (the "source proxy").
+
+    Attributes mirror ParaView's CamelCase properties: ``FileName``,
+    ``Volume``, ``Mapping``, ``MappingFields``, ``Thresholds``, ``Sources``
+    (the detected :class:`SourceSeries`, or None).
+    """
+
+    FileName: str
+    Volume: TimeVolume
+    LoadOptions: dict[str, Any] = field(default_factory=dict)
+    Mapping: str | None = None
+    MappingFields: dict[str, str] = field(default_factory=dict)
+    Thresholds: Thresholds | None = None
+    Sources: SourceSeries | None = None
+    Field: str | None = None
+
+    @property
+    def Detection(self) -> Any:  # the viewer's step-wise detection (built lazily)
+        if getattr(self, "_detection", None) is None:
+            from auralize.viewer.detection import Detection
+
+            self._detection = Detection(self.Volume, mapping=self.Mapping,
+                                        thresholds=self.Thresholds, **self.MappingFields)  # fmt: skip
+            if self.Sources is not None:
+                self._detection.frames.update(enumerate(self.Sources.frames))
+        return self._detection
+
+    def _invalidate(self) -> None:
+        self.Sources = None
+        self._detection = None
+
+
+class View:
+    """A 3-D view: an off-screen pyvista plotter with the viewer's :class:`Scene`.
+
+    Properties ``CameraPosition``, ``CameraFocalPoint``, ``CameraViewUp``,
+    ``ViewTime`` (time step) and ``ViewSize`` (pixels) can be read and set.
+    """
+
+    def __init__(self, session: Session, *, size: tuple[int, int] = (800, 600),
+                 plotter: Any = None) -> None:  # fmt: skip
+        from auralize.viewer.scene import Scene
+
+        if plotter is None:
+            _prefer_egl()
+            import pyvista as pv
+
+            plotter = pv.Plotter(off_screen=True, window_size=list(size))
+        self.session = session
+        self.plotter = plotter
+        self.scene = Scene(plotter)
+        self.shown: DataSource | None = None
+        self.show_path = True
+
+    # camera properties, ParaView style
+    @property
+    def CameraPosition(self) -> list[float]:
+        return list(map(float, self.plotter.camera.position))
+
+    @CameraPosition.setter
+    def CameraPosition(self, v: ArrayLike) -> None:
+        self.plotter.camera.position = tuple(np.asarray(v, float).reshape(3))
+
+    @property
+    def CameraFocalPoint(self) -> list[float]:
+        return list(map(float, self.plotter.camera.focal_point))
+
+    @CameraFocalPoint.setter
+    def CameraFocalPoint(self, v: ArrayLike) -> None:
+        self.plotter.camera.focal_point = tuple(np.asarray(v, float).reshape(3))
+
+    @property
+    def CameraViewUp(self) -> list[float]:
+        return list(map(float, self.plotter.camera.up))
+
+    @CameraViewUp.setter
+    def CameraViewUp(self, v: ArrayLike) -> None:
+        self.plotter.camera.up = tuple(np.asarray(v, float).reshape(3))
+
+    @property
+    def ViewTime(self) -> int:
+        return self.scene.step
+
+    @ViewTime.setter
+    def ViewTime(self, step: int) -> None:
+        self.scene.set_step(int(step), render=False)
+
+    @property
+    def ViewSize(self) -> list[int]:
+        return list(self.plotter.window_size)
+
+    @ViewSize.setter
+    def ViewSize(self, wh: tuple[int, int]) -> None:
+        self.plotter.window_size = [int(wh[0]), int(wh[1])]
+
+    def close(self) -> None:
+        self.plotter.close()
+
+
+class Session:
+    """Everything a scripting session knows: data sources, views, paths, renders.
+
+    Attributes
+    ----------
+    sources : list of DataSource
+    active_source, active_view : the current ones (or None)
+    path : ListenerPath or None, the active listener path
+    rendered : Rendered or None, the last render
+    audio : dict, audio settings (layout, rate, time_scale, device)
+    """
+
+    def __init__(self) -> None:
+        self.sources: list[DataSource] = []
+        self.views: list[View] = []
+        self.active_source: DataSource | None = None
+        self.active_view: View | None = None
+        self.path: ListenerPath | None = None
+        self.rendered: Rendered | None = None
+        self.audio: dict[str, Any] = {"layout": "mono", "rate": 44100, "time_scale": 1.0,
+                                      "device": None}  # fmt: skip
+
+    def source(self, src: DataSource | None) -> DataSource:
+        s = src or self.active_source
+        if s is None:
+            raise ParameterError("no active source; call OpenDataFile(...) first")
+        return s
+
+    def view(self, view: View | None = None, *, create: bool = True) -> View:
+        v = view or self.active_view
+        if v is None:
+            if not create:
+                raise ParameterError("no active view")
+            v = View(self)
+            self.views.append(v)
+            self.active_view = v
+        return v
+
+    def close(self) -> None:
+        for v in self.views:
+            v.close()
+        self.views.clear()
+        self.active_view = None
+
+
+_SESSION = Session()
+
+
+def GetSession() -> Session:
+    """The session the module-level functions act on."""
+    return _SESSION
+
+
+def ResetSession() -> Session:
+    """Close the views and start a new, empty session."""
+    global _SESSION
+    _SESSION.close()
+    _SESSION = Session()
+    return _SESSION
+
+
+# ------------------------------------------------------------------ sources
+def OpenDataFile(filename: str | Path, *, size: int | None = None, steps: int | None = None,
+                 seed: int = 0, fields: dict[str, str] | None = None) -> DataSource:  # fmt: skip
+    """Open a volume file or ``"dataset:NAME"`` and make it the active source.
+
+    Raises the reader's errors (e.g. :class:`~auralize.errors.FormatError`) for
+    unreadable files.
+    """
+    from auralize.pipeline import auto_mapping, load
+
+    vol = load(filename, size=size, steps=steps, seed=seed, fields=fields)
+    src = DataSource(FileName=str(filename), Volume=vol,
+                     LoadOptions={"size": size, "steps": steps, "seed": seed},
+                     Mapping=auto_mapping(vol))  # fmt: skip
+    s = GetSession()
+    s.sources.append(src)
+    s.active_source = src
+    return src
+
+
+def GetActiveSource() -> DataSource | None:
+    return GetSession().active_source
+
+
+def SetActiveSource(source: DataSource) -> None:
+    s = GetSession()
+    if source not in s.sources:
+        s.sources.append(source)
+    s.active_source = source
+
+
+def ApplyMapping(mapping: str = "paper-density", *, source: DataSource | None = None,
+                 **fields: str) -> DataSource:  # fmt: skip
+    """Choose the acoustic mapping (``paper-density``, ``identity``, ``cfd``) and its fields.
+
+    Checked at once: a field the volume lacks raises
+    :class:`~auralize.errors.FieldError`.
+    """
+    from auralize.mapping import get_mapping
+
+    src = GetSession().source(source)
+    m = get_mapping(mapping, **fields)
+    m.prepare(src.Volume)
+    src.Mapping, src.MappingFields = mapping, dict(fields)
+    src._invalidate()
+    return src
+
+
+def DetectSources(*, source: DataSource | None = None, monopole: float | str | None = None,
+                  dipole: float | str | None = None, quadrupole: float | str | None = None,
+                  zero_fraction: float = 1.0) -> SourceSeries:  # fmt: skip
+    """Detect sources at every step (thresholds absolute, ``"N%"`` of the peak, or
+    ``"auto"``; unset ones keep the viewer defaults ``3%``, ``0.3%``, ``0.1%``)."""
+    from auralize.viewer.detection import VIEWER_THRESHOLDS
+
+    src = GetSession().source(source)
+    given = (monopole, dipole, quadrupole)
+    th = Thresholds(*(g if g is not None else d for g, d in zip(given, VIEWER_THRESHOLDS, strict=True)),
+                    zero_fraction=zero_fraction)  # fmt: skip
+    src.Thresholds = th
+    src._invalidate()
+    src.Sources = src.Detection.run()
+    for v in GetSession().views:
+        if v.shown is src:
+            v.scene.set_sources(src.Detection.get)
+    return src.Sources
+
+
+# ------------------------------------------------------------------ listener
+def CreateListenerPath(kind: str = "orbit", *, source: DataSource | None = None,
+                       duration: float | None = None, **kw: Any) -> ListenerPath:  # fmt: skip
+    """Make the active listener path.
+
+    ``kind`` is ``"line"`` (``start``, ``end``, optional ``n``, ``face``),
+    ``"orbit"`` (``center``, ``radius``, ``turns``, ``height``, ``rate_hz``),
+    ``"point"`` (``at``) or the name of a CSV file.  Defaults come from the
+    active source: centre of the grid, radius 30 % of the smallest extent, and
+    the duration of the data at ``time_scale`` 1.
+    """
+    s = GetSession()
+    if kind not in ("line", "orbit", "point"):
+        if not Path(kind).suffix.lower() == ".csv" and not Path(kind).exists():
+            raise ParameterError(f"kind must be 'line', 'orbit', 'point' or a CSV file, "
+                                 f"got {kind!r}")  # fmt: skip
+        path = ListenerPath.from_csv(kind)
+    else:
+        src = s.active_source if source is None else source
+        vol = src.Volume if src is not None else None
+        if duration is None:
+            if vol is None:
+                raise ParameterError("give duration= (no active source to take it from)")
+            duration = float(vol.times[-1] - vol.times[0]) * s.audio["time_scale"]
+        if kind == "orbit":
+            center = kw.pop("center", vol.center if vol is not None else None)
+            radius = kw.pop("radius", None)
+            if radius is None and vol is not None:
+                radius = 0.3 * float(np.min(np.asarray(vol.bounds).reshape(3, 2) @ [-1, 1]))
+            if center is None or radius is None:
+                raise ParameterError("orbit needs center= and radius=")
+            path = ListenerPath.orbit(center, radius=radius, duration=duration, **kw)
+        elif kind == "line":
+            if "start" not in kw or "end" not in kw:
+                raise ParameterError("a line path needs start=(x, y, z) and end=(x, y, z)")
+            path = ListenerPath.line(kw.pop("start"), kw.pop("end"), duration=duration, **kw)
+        else:
+            at = kw.pop("at", vol.center if vol is not None else None)
+            path = ListenerPath.point(at, duration=duration, **kw)
+    s.path = path
+    for v in s.views:
+        v.scene.set_path(path if v.show_path else None, time_scale=s.audio["time_scale"],
+                         render=False)  # fmt: skip
+    return path
+
+
+def GetListenerPath() -> ListenerPath | None:
+    return GetSession().path
+
+
+def SaveListenerPath(filename: str | Path, path: ListenerPath | None = None) -> None:
+    p = path or GetSession().path
+    if p is None:
+        raise ParameterError("no listener path; call CreateListenerPath or RecordListenerPath")
+    p.to_csv(filename)
+
+
+def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
+                       duration: float | None = None, rate_hz: float = 10.0,
+                       view: View | None = None, autosave: str | Path | None = None,
+                       render: bool = False) -> ListenerPath:  # fmt: skip
+    """Fly the view's camera through ``keyframes`` and record the listener path.
+
+    Each keyframe is a dict with ``position`` and ``focal_point`` (and
+    optionally ``up``); the camera moves linearly between them over
+    ``duration`` playback seconds (default: the data's duration) and is
+    captured ``rate_hz`` times a second, exactly as the desktop viewer records
+    a flight (same :class:`~auralize.viewer.recorder.PathRecorder`, same
+    autosave CSV).  Without keyframes the current camera is held.
+    """
+    from auralize.viewer.recorder import PathRecorder
+    from auralize.viewer.scene import camera_pose
+
+    s = GetSession()
+    v = s.view(view)
+    cam = v.plotter.camera
+    if not keyframes:
+        keyframes = [{"position": cam.position, "focal_point": cam.focal_point, "up": cam.up}]
+    if duration is None:
+        src = v.shown or s.active_source
+        if src is None:
+            raise ParameterError("give duration= (no data source to take it from)")
+        duration = float(src.Volume.times[-1] - src.Volume.times[0]) * s.audio["time_scale"]
+    rec = PathRecorder(rate_hz=rate_hz, autosave=autosave)
+    n = max(int(math.floor(duration * rec.rate_hz + 1e-9)) + 1, 2)
+    kf = [{k: np.asarray(f.get(k, (0, 0, 1) if k == "up" else None), dtype=float)
+           for k in ("position", "focal_point", "up")} for f in keyframes]  # fmt: skip
+    rec.start()
+    for i in range(n):
+        t = i / rec.rate_hz if i < n - 1 else duration
+        w = t / duration * (len(kf) - 1)
+        a = min(int(w), len(kf) - 2) if len(kf) > 1 else 0
+        b = min(a + 1, len(kf) - 1)
+        f = w - a if len(kf) > 1 else 0.0
+        cam.position = tuple((1 - f) * kf[a]["position"] + f * kf[b]["position"])
+        cam.focal_point = tuple((1 - f) * kf[a]["focal_point"] + f * kf[b]["focal_point"])
+        cam.up = tuple((1 - f) * kf[a]["up"] + f * kf[b]["up"])
+        if render:
+            v.plotter.render()
+        rec.capture(*camera_pose(cam), t=t)
+    path = rec.stop()
+    assert path is not None
+    s.path = path
+    v.scene.set_path(path if v.show_path else None, time_scale=s.audio["time_scale"],
+                     render=False)  # fmt: skip
+    return path
+
+
+# --------------------------------------------------------------------- audio
+def RenderAudio(*, source: DataSource | None = None, path: ListenerPath | None = None,
+                layout: str | None = None, rate: int | None = None,
+                time_scale: float | None = None, interp: str = "cubic") -> Rendered:  # fmt: skip
+    """Render the sound heard along the (active) path from the (active) source's sources
+    (detected first with the current thresholds if needed)."""
+    from auralize.pipeline import auralize
+
+    s = GetSession()
+    src = s.source(source)
+    p = path or s.path
+    if p is None:
+        raise ParameterError("no listener path; call CreateListenerPath or RecordListenerPath")
+    for k, val in (("layout", layout), ("rate", rate), ("time_scale", time_scale)):
+        if val is not None:
+            s.audio[k] = val
+    if src.Sources is None:
+        src.Sources = src.Detection.run()
+    out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
+                      time_scale=float(s.audio["time_scale"]), layout=s.audio["layout"],
+                      interp=interp)  # fmt: skip
+    s.rendered = out
+    return out
+
+
+def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
+              normalize: str = "peak") -> float:  # fmt: skip
+    """Write the last render (WAV/FLAC + sidecar JSON); returns the gain applied."""
+    from auralize.pipeline import save_rendered
+
+    r = rendered or GetSession().rendered
+    if r is None:
+        raise ParameterError("nothing rendered yet; call RenderAudio() first")
+    return save_rendered(r, filename, normalize=normalize)
+
+
+def PlayAudio(rendered: Rendered | None = None, *, device: Any = None,
+              blocking: bool = True) -> None:  # fmt: skip
+    """Play the last render on a sound device (the output layer's ``play``).
+
+    Raises :class:`~auralize.errors.DeviceError` when no device is usable.
+    """
+    import auralize.audio as audio
+
+    r = rendered or GetSession().rendered
+    if r is None:
+        raise ParameterError("nothing rendered yet; call RenderAudio() first")
+    play = getattr(audio, "play", None)
+    if play is None:
+        raise DeviceError("audio playback is not available in auralize.audio (no play())")
+    dev = device if device is not None else GetSession().audio.get("device")
+    play(r.audio, r.rate, device=dev, blocking=blocking)
+
+
+# ---------------------------------------------------------------------- views
+def CreateView(*, size: tuple[int, int] = (800, 600)) -> View:
+    """A new off-screen view, made active."""
+    s = GetSession()
+    v = View(s, size=size)
+    s.views.append(v)
+    s.active_view = v
+    return v
+
+
+def GetActiveView() -> View:
+    """The active view (created off screen if there is none)."""
+    return GetSession().view()
+
+
+def SetActiveView(view: View) -> None:
+    GetSession().active_view = view
+
+
+def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None, *,
+         field: str | None = None, representation: str | None = None,
+         step: int | None = None) -> View:  # fmt: skip
+    """Show a data source (volume + its sources) or a listener path in a view."""
+    s = GetSession()
+    v = s.view(view)
+    if isinstance(obj, ListenerPath):
+        s.path = obj
+        obj = None
+        v.show_path = True
+        v.scene.set_path(s.path, time_scale=s.audio["time_scale"], render=False)
+        return v
+    src = s.source(obj)
+    if v.shown is not src:
+        v.scene.set_volume(src.Volume, field=field or src.Field, representation=representation)
+        v.shown = src
+    else:
+        if field is not None:
+            v.scene.set_field(field, render=False)
+        if representation is not None:
+            v.scene.set_representation(representation, render=False)
+    v.scene.show_volume = True
+    v.scene.show_sources = True
+    src.Field = v.scene.field
+    v.scene.set_sources(src.Detection.frame)
+    if s.path is not None and v.show_path:
+        v.scene.set_path(s.path, time_scale=s.audio["time_scale"], render=False)
+    if step is not None:
+        v.scene.set_step(step, render=False)
+    return v
+
+
+def Hide(obj: DataSource | ListenerPath | str | None = None, view: View | None = None) -> None:
+    """Hide a source, the listener path (a ListenerPath or ``"path"``), or ``"sources"``."""
+    s = GetSession()
+    v = s.view(view)
+    if isinstance(obj, ListenerPath) or obj == "path":
+        v.show_path = False
+        v.scene.set_path(None, render=False)
+    elif obj == "sources":
+        v.scene.show_sources = False
+        v.scene.set_step(v.scene.step, render=False)
+    else:
+        v.scene.show_volume = False
+        v.scene.show_sources = False
+        if v.scene.volume is not None:
+            v.scene.set_step(v.scene.step, render=False)
+
+
+def Render(view: View | None = None) -> View:
+    v = GetSession().view(view)
+    v.plotter.render()
+    return v
+
+
+def SaveScreenshot(filename: str | Path, view: View | None = None, *,
+                   resolution: tuple[int, int] | None = None) -> Path:  # fmt: skip
+    """Render the view off screen to a PNG."""
+    v = GetSession().view(view)
+    if resolution is not None:
+        v.ViewSize = resolution
+    out = Path(filename)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    v.plotter.render()
+    v.plotter.screenshot(str(out))
+    return out
+
+
+# ------------------------------------------------------------------- session
+def SaveSession(filename: str | Path) -> Path:
+    """Save the session (data, mapping, thresholds, path, audio settings, camera) as JSON."""
+    from auralize.viewer.session import SessionState, data_spec
+
+    s = GetSession()
+    st = SessionState(audio=dict(s.audio))
+    src = s.active_source
+    if src is not None:
+        st.data = data_spec(src.FileName, **src.LoadOptions)
+        st.detection = {"mapping": src.Mapping, "mapping_fields": src.MappingFields,
+                        "thresholds": (src.Thresholds or Thresholds(*_viewer_th())).describe()}  # fmt: skip
+        st.view = {"field": src.Field}
+    st.set_listener_path(s.path)
+    if s.active_view is not None:
+        sc = s.active_view.scene
+        st.camera = sc.camera()
+        st.view.update({"representation": sc.representation, "step": sc.step, "cmap": sc.cmap,
+                        "opacity": sc.opacity, "types": dict(sc.visible_types)})  # fmt: skip
+    st.save(filename)
+    return Path(filename)
+
+
+def LoadSession(filename: str | Path) -> Session:
+    """Replace the session by one saved with :func:`SaveSession` or the desktop viewer."""
+    from auralize.viewer.session import SessionState
+
+    st = SessionState.load(filename)
+    ResetSession()
+    s = GetSession()
+    s.audio.update(st.audio or {})
+    if st.data:
+        d = st.data
+        src = OpenDataFile(d["spec"], size=d.get("size"), steps=d.get("steps"),
+                           seed=d.get("seed") or 0)  # fmt: skip
+        det = st.detection or {}
+        if det.get("mapping"):
+            ApplyMapping(det["mapping"], **(det.get("mapping_fields") or {}))
+        if det.get("thresholds"):
+            t = det["thresholds"]
+            src.Thresholds = Thresholds(t["monopole"], t["dipole"], t["quadrupole"],
+                                        zero_fraction=t.get("zero_fraction", 1.0))  # fmt: skip
+        src.Field = (st.view or {}).get("field")
+    s.path = st.listener_path()
+    if st.camera and s.active_source is not None:
+        view = st.view or {}
+        v = Show(field=view.get("field"), representation=view.get("representation"))
+        if "step" in view:
+            v.scene.set_step(int(view["step"]), render=False)
+        v.scene.set_camera(st.camera)
+    return s
+
+
+def _viewer_th() -> tuple[str, str, str]:
+    from auralize.viewer.detection import VIEWER_THRESHOLDS
+
+    return VIEWER_THRESHOLDS
+
+
+def _prefer_egl() -> None:
+    """Without an X display, let VTK render off screen through EGL (no warnings, no X)."""
+    import os
+
+    if not os.environ.get("DISPLAY") and "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ:
+        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"

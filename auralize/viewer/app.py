@@ -1,0 +1,951 @@
+"""The desktop viewer: a pyvistaqt 3-D view with ParaView-like dock panels.
+
+Panels: **Data** (file, grid, fields, steps; field, representation, colour
+map, opacity, mapping), **Sources** (thresholds, detect, per-type toggles and
+counts), **Listener** (record / stop / clear, capture rate, save / load CSV,
+autosave), **Audio** (layout, device, time scale, render to file, play / stop,
+waveform and spectrogram with a cursor on the time slider), **Live listening**
+and **Overlays** (sound-model plugin overlays).  Long work (loading,
+detection, rendering) runs in a :class:`Task` thread with a progress bar and a
+Cancel button.  Errors show a message box; the session stays usable.
+
+Navigation: the mouse as in any VTK view, plus flying keys — Up/Down move
+forward/back, Left/Right turn, PageUp/PageDown rise/sink.
+"""
+
+from __future__ import annotations
+
+import os
+import traceback
+from collections.abc import Callable
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("QT_API", "pyside6")
+
+import numpy as np
+from pyvistaqt import QtInteractor
+from qtpy import QtCore, QtWidgets
+
+from auralize.errors import AuralizeError, ParameterError
+from auralize.listener import ListenerPath
+from auralize.sources import TYPES, Thresholds
+from auralize.viewer.detection import VIEWER_THRESHOLDS, Cancelled, Detection
+from auralize.viewer.recorder import DEFAULT_RATE_HZ, PathRecorder
+from auralize.viewer.scene import REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
+from auralize.viewer.session import SessionState, data_spec
+
+LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1")
+MAPPINGS = ("auto", "paper-density", "identity", "cfd")
+CMAPS = ("gray", "viridis", "inferno", "coolwarm", "bone")
+
+
+def default_autosave_dir() -> Path:
+    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
+    return Path(base) / "auralize" / "recordings"
+
+
+class Task(QtCore.QThread):
+    """Run ``fn(progress)`` off the GUI thread; ``progress(done, total)`` returns False
+    once :meth:`cancel` was called (the function then stops, e.g. raising
+    :class:`Cancelled`)."""
+
+    progressed = QtCore.Signal(int, int)
+    succeeded = QtCore.Signal(object)
+    failed = QtCore.Signal(object)
+
+    def __init__(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
+                 parent: QtCore.QObject | None = None) -> None:  # fmt: skip
+        super().__init__(parent)
+        self.name, self.fn = name, fn
+        self._cancel = False
+
+    def cancel(self) -> None:
+        self._cancel = True
+
+    def _progress(self, done: int, total: int) -> bool:
+        self.progressed.emit(int(done), int(total))
+        return not self._cancel
+
+    def run(self) -> None:
+        try:
+            self.succeeded.emit(self.fn(self._progress))
+        except BaseException as exc:  # reported on the GUI thread
+            self.failed.emit(exc)
+
+
+def _form(parent: QtWidgets.QWidget) -> QtWidgets.QFormLayout:
+    lay = QtWidgets.QFormLayout(parent)
+    lay.setFieldGrowthPolicy(QtWidgets.QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
+    return lay
+
+
+class MainWindow(QtWidgets.QMainWindow):
+    """The viewer window. Its methods are the actions of the panels (tests drive them)."""
+
+    live_tick = QtCore.Signal(float)
+
+    def __init__(self, *, autosave_dir: Path | None = None) -> None:
+        super().__init__()
+        self.setWindowTitle("auralize")
+        self.resize(1400, 900)
+        self.plotter = QtInteractor(self)
+        self.setCentralWidget(self.plotter.interactor)
+        self.scene = Scene(self.plotter)
+        self.volume: Any = None
+        self.data: dict[str, Any] = {}
+        self.detection: Detection | None = None
+        self.series: Any = None
+        self.mapping = "auto"
+        self.thresholds = Thresholds(*VIEWER_THRESHOLDS)
+        self.autosave_dir = autosave_dir or default_autosave_dir()
+        self.recorder = PathRecorder(rate_hz=DEFAULT_RATE_HZ)
+        self.path: ListenerPath | None = None
+        self.rendered: Any = None
+        self.player: Any = None
+        self.task: Task | None = None
+        self.audio = {"layout": "stereo", "rate": 44100, "time_scale": 1.0, "device": None}
+        self._rec_timer = QtCore.QTimer(self)
+        self._rec_timer.timeout.connect(self.capture)
+        self._anim_timer = QtCore.QTimer(self)
+        self._anim_timer.timeout.connect(self._advance)
+        self.live_tick.connect(self._on_live_tick)
+        self._build_toolbar()
+        self._build_panels()
+        self._build_status()
+        self._add_fly_keys()
+        self._refresh_enabled()
+
+    # ============================================================ building
+    def _build_toolbar(self) -> None:
+        tb = self.addToolBar("Time")
+        tb.setObjectName("time")
+        self.play_btn = QtWidgets.QPushButton("Play")
+        self.play_btn.setCheckable(True)
+        self.play_btn.toggled.connect(self.set_playing)
+        tb.addWidget(self.play_btn)
+        self.slider = QtWidgets.QSlider(QtCore.Qt.Orientation.Horizontal)
+        self.slider.setMinimumWidth(400)
+        self.slider.valueChanged.connect(self._on_slider)
+        tb.addWidget(self.slider)
+        self.step_label = QtWidgets.QLabel("no data")
+        tb.addWidget(self.step_label)
+
+    def _dock(self, title: str, widget: QtWidgets.QWidget,
+              area: QtCore.Qt.DockWidgetArea = QtCore.Qt.DockWidgetArea.LeftDockWidgetArea,
+              ) -> QtWidgets.QDockWidget:  # fmt: skip
+        d = QtWidgets.QDockWidget(title, self)
+        d.setObjectName(title)
+        d.setWidget(widget)
+        self.addDockWidget(area, d)
+        self.docks[title] = d
+        return d
+
+    def _build_panels(self) -> None:
+        self.docks: dict[str, QtWidgets.QDockWidget] = {}
+        # ---- Data
+        w = QtWidgets.QWidget()
+        f = _form(w)
+        self.open_btn = QtWidgets.QPushButton("Open…")
+        self.open_btn.clicked.connect(self._ask_open)
+        f.addRow(self.open_btn)
+        self.info = QtWidgets.QLabel("no data")
+        self.info.setWordWrap(True)
+        f.addRow(self.info)
+        self.field_box = QtWidgets.QComboBox()
+        self.field_box.activated.connect(
+            lambda _i: self._guard(self.set_field, self.field_box.currentText())
+        )
+        f.addRow("field", self.field_box)
+        self.rep_box = QtWidgets.QComboBox()
+        self.rep_box.addItems(list(REPRESENTATIONS))
+        self.rep_box.activated.connect(
+            lambda _i: self._guard(self.scene.set_representation, self.rep_box.currentText())
+        )
+        f.addRow("show as", self.rep_box)
+        self.cmap_box = QtWidgets.QComboBox()
+        self.cmap_box.addItems(list(CMAPS))
+        self.cmap_box.activated.connect(
+            lambda _i: self._guard(self.scene.set_colormap, self.cmap_box.currentText())
+        )
+        f.addRow("colour map", self.cmap_box)
+        self.opacity = QtWidgets.QDoubleSpinBox()
+        self.opacity.setRange(0, 1)
+        self.opacity.setSingleStep(0.05)
+        self.opacity.setValue(self.scene.opacity)
+        self.opacity.valueChanged.connect(lambda v: self._guard(self.scene.set_colormap, None, v))
+        f.addRow("opacity", self.opacity)
+        self.mapping_box = QtWidgets.QComboBox()
+        self.mapping_box.addItems(list(MAPPINGS))
+        self.mapping_box.activated.connect(
+            lambda _i: self._guard(self.set_mapping, self.mapping_box.currentText())
+        )
+        f.addRow("mapping", self.mapping_box)
+        self._dock("Data", w)
+        # ---- Sources
+        w = QtWidgets.QWidget()
+        f = _form(w)
+        self.th_edits: dict[str, QtWidgets.QLineEdit] = {}
+        self.type_checks: dict[str, QtWidgets.QCheckBox] = {}
+        self.count_labels: dict[str, QtWidgets.QLabel] = {}
+        for kind, d in zip(TYPES, VIEWER_THRESHOLDS, strict=True):
+            e = QtWidgets.QLineEdit(d)
+            self.th_edits[kind] = e
+            f.addRow(f"{kind} threshold", e)
+        for kind in TYPES:
+            row = QtWidgets.QHBoxLayout()
+            cb = QtWidgets.QCheckBox(kind)
+            cb.setChecked(True)
+            r, g, b = TYPE_COLORS[kind]
+            cb.setStyleSheet(f"color: rgb({r},{g},{b}); font-weight: bold")
+            cb.toggled.connect(lambda on, k=kind: self._guard(self.scene.set_type_visible, k, on))
+            self.type_checks[kind] = cb
+            lab = QtWidgets.QLabel("–")
+            self.count_labels[kind] = lab
+            row.addWidget(cb)
+            row.addWidget(lab)
+            f.addRow(row)
+        self.detect_btn = QtWidgets.QPushButton("Detect")
+        self.detect_btn.clicked.connect(lambda: self._guard(self.detect))
+        f.addRow(self.detect_btn)
+        self._dock("Sources", w)
+        # ---- Listener
+        w = QtWidgets.QWidget()
+        f = _form(w)
+        self.rate_spin = QtWidgets.QDoubleSpinBox()
+        self.rate_spin.setRange(0.5, 60)
+        self.rate_spin.setValue(DEFAULT_RATE_HZ)
+        self.rate_spin.setSuffix(" Hz")
+        f.addRow("capture rate", self.rate_spin)
+        row = QtWidgets.QHBoxLayout()
+        self.rec_btn = QtWidgets.QPushButton("Record")
+        self.rec_btn.clicked.connect(lambda: self._guard(self.start_recording))
+        self.stop_btn = QtWidgets.QPushButton("Stop")
+        self.stop_btn.clicked.connect(lambda: self._guard(self.stop_recording))
+        self.clear_btn = QtWidgets.QPushButton("Clear")
+        self.clear_btn.clicked.connect(lambda: self._guard(self.clear_path))
+        for b in (self.rec_btn, self.stop_btn, self.clear_btn):
+            row.addWidget(b)
+        f.addRow(row)
+        row = QtWidgets.QHBoxLayout()
+        b = QtWidgets.QPushButton("Save CSV…")
+        b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_path))
+        row.addWidget(b)
+        b = QtWidgets.QPushButton("Load CSV…")
+        b.clicked.connect(lambda: self._ask_file("open", "CSV (*.csv)", self.load_path))
+        row.addWidget(b)
+        f.addRow(row)
+        self.path_label = QtWidgets.QLabel("no path")
+        self.path_label.setWordWrap(True)
+        f.addRow(self.path_label)
+        self._dock("Listener", w)
+        # ---- Audio
+        w = QtWidgets.QWidget()
+        f = _form(w)
+        self.layout_box = QtWidgets.QComboBox()
+        self.layout_box.addItems(list(LAYOUTS))
+        self.layout_box.setCurrentText(self.audio["layout"])
+        self.layout_box.currentTextChanged.connect(lambda t: self.audio.__setitem__("layout", t))
+        f.addRow("layout", self.layout_box)
+        self.device_box = QtWidgets.QComboBox()
+        self.device_box.addItem("default")
+        self.device_box.addItems([str(d) for d in _devices()])
+        self.device_box.currentTextChanged.connect(
+            lambda t: self.audio.__setitem__("device", None if t == "default" else t)
+        )
+        f.addRow("device", self.device_box)
+        self.ts_spin = QtWidgets.QDoubleSpinBox()
+        self.ts_spin.setRange(0.01, 1000)
+        self.ts_spin.setDecimals(3)
+        self.ts_spin.setValue(1.0)
+        self.ts_spin.valueChanged.connect(self._on_time_scale)
+        f.addRow("time scale", self.ts_spin)
+        row = QtWidgets.QHBoxLayout()
+        b = QtWidgets.QPushButton("Render to file…")
+        b.clicked.connect(lambda: self._ask_file("save", "Audio (*.wav *.flac)", self.render_audio))
+        row.addWidget(b)
+        b = QtWidgets.QPushButton("Play")
+        b.clicked.connect(lambda: self._guard(self.play_audio))
+        row.addWidget(b)
+        b = QtWidgets.QPushButton("Stop")
+        b.clicked.connect(lambda: self._guard(self.stop_audio))
+        row.addWidget(b)
+        f.addRow(row)
+        from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
+        from matplotlib.figure import Figure
+
+        self.figure = Figure(figsize=(4, 3), layout="constrained")
+        self.canvas = FigureCanvasQTAgg(self.figure)
+        self.canvas.setMinimumHeight(220)
+        f.addRow(self.canvas)
+        self._cursors: list[Any] = []
+        self._dock("Audio", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
+        # ---- Live listening
+        w = QtWidgets.QWidget()
+        f = _form(w)
+        self.block_spin = QtWidgets.QSpinBox()
+        self.block_spin.setRange(256, 16384)
+        self.block_spin.setValue(2048)
+        f.addRow("block (samples)", self.block_spin)
+        self.live_file = QtWidgets.QLineEdit()
+        self.live_file.setPlaceholderText("device (or a WAV file to write instead)")
+        f.addRow("output", self.live_file)
+        row = QtWidgets.QHBoxLayout()
+        self.live_btn = QtWidgets.QPushButton("Listen live")
+        self.live_btn.clicked.connect(lambda: self._guard(self.start_live))
+        row.addWidget(self.live_btn)
+        b = QtWidgets.QPushButton("Stop")
+        b.clicked.connect(lambda: self._guard(self.stop_live))
+        row.addWidget(b)
+        b = QtWidgets.QPushButton("Save heard…")
+        b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_heard))
+        row.addWidget(b)
+        f.addRow(row)
+        self.live_label = QtWidgets.QLabel("off")
+        f.addRow(self.live_label)
+        self._dock("Live listening", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
+        # ---- Overlays
+        w = QtWidgets.QWidget()
+        v = QtWidgets.QVBoxLayout(w)
+        self.overlay_checks: dict[str, QtWidgets.QCheckBox] = {}
+        from auralize.plugins import SoundModel, registry
+
+        for name, cls in registry().items():
+            if cls.overlay is SoundModel.overlay:  # the plugin offers no overlay
+                continue
+            cb = QtWidgets.QCheckBox(f"{name}: {cls.description[:40]}")
+            cb.toggled.connect(lambda on, n=name: self._guard(self.set_overlay, n, on))
+            self.overlay_checks[name] = cb
+            v.addWidget(cb)
+        if not self.overlay_checks:
+            v.addWidget(QtWidgets.QLabel("no sound-model plugin offers an overlay"))
+        v.addStretch(1)
+        self._dock("Overlays", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
+
+    def _build_status(self) -> None:
+        sb = self.statusBar()
+        self.progress = QtWidgets.QProgressBar()
+        self.progress.setMaximumWidth(240)
+        self.progress.hide()
+        self.cancel_btn = QtWidgets.QPushButton("Cancel")
+        self.cancel_btn.hide()
+        self.cancel_btn.clicked.connect(self.cancel_task)
+        sb.addPermanentWidget(self.progress)
+        sb.addPermanentWidget(self.cancel_btn)
+
+    def _add_fly_keys(self) -> None:
+        keys = {"Up": (1, 0, 0), "Down": (-1, 0, 0), "Left": (0, 1, 0), "Right": (0, -1, 0),
+                "Prior": (0, 0, 1), "Next": (0, 0, -1)}  # fmt: skip
+        for key, (fw, turn, rise) in keys.items():
+            self.plotter.add_key_event(
+                key, lambda fw=fw, turn=turn, rise=rise: self.fly(fw, turn, rise)
+            )
+
+    # ============================================================== errors
+    def show_error(self, exc: BaseException) -> None:
+        """Message box for an error; the session stays as it was."""
+        if isinstance(exc, Cancelled):
+            self.statusBar().showMessage(str(exc), 5000)
+            return
+        msg = str(exc) if isinstance(exc, AuralizeError | OSError) else (
+            f"{type(exc).__name__}: {exc}\n\n{''.join(traceback.format_exception(exc))[-1500:]}")  # fmt: skip
+        QtWidgets.QMessageBox.critical(self, "auralize", msg)
+
+    def _guard(self, fn: Callable[..., Any], *args: Any) -> Any:
+        try:
+            return fn(*args)
+        except Exception as exc:
+            self.show_error(exc)
+            return None
+
+    def _ask_file(self, mode: str, filt: str, action: Callable[[str], Any]) -> None:
+        if mode == "save":
+            name, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save", "", filt)
+        else:
+            name, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Open", "", filt)
+        if name:
+            self._guard(action, name)
+
+    def _ask_open(self) -> None:
+        self._ask_file("open", "Volumes (*.h5 *.hdf5 *.pvd *.series *.vti *.vts *.vtkhdf);;"
+                               "All files (*)", self.open_data)  # fmt: skip
+
+    # =============================================================== tasks
+    def run_task(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
+                 done: Callable[[Any], None]) -> Task:  # fmt: skip
+        """Run ``fn`` in a :class:`Task` with the progress bar; ``done(result)`` on success."""
+        if self.task is not None and self.task.isRunning():
+            raise ParameterError(f"busy with {self.task.name}; wait or cancel it first")
+        t = Task(name, fn, self)
+        self.task = t
+        self.progress.setRange(0, 0)
+        self.progress.setFormat(f"{name} %v/%m")
+        self.progress.show()
+        self.cancel_btn.show()
+
+        def prog(d: int, n: int) -> None:
+            self.progress.setRange(0, n)
+            self.progress.setValue(d)
+
+        def finish() -> None:
+            self.progress.hide()
+            self.cancel_btn.hide()
+            self._refresh_enabled()
+
+        def ok(result: Any) -> None:
+            finish()
+            self._guard(done, result)
+
+        def bad(exc: BaseException) -> None:
+            finish()
+            self.show_error(exc)
+
+        t.progressed.connect(prog)
+        t.succeeded.connect(ok)
+        t.failed.connect(bad)
+        t.start()
+        self._refresh_enabled()
+        return t
+
+    def cancel_task(self) -> None:
+        if self.task is not None:
+            self.task.cancel()
+
+    @property
+    def busy(self) -> bool:
+        return self.task is not None and self.task.isRunning()
+
+    def _refresh_enabled(self) -> None:
+        has = self.volume is not None
+        for wdg in (self.detect_btn, self.rec_btn, self.live_btn, self.field_box):
+            wdg.setEnabled(has and not self.busy)
+        self.open_btn.setEnabled(not self.busy)
+
+    # ================================================================ data
+    def open_data(self, spec: str | Path, *, size: int | None = None, steps: int | None = None,
+                  seed: int = 0, then: Callable[[], None] | None = None) -> Task:  # fmt: skip
+        """Open a file or ``dataset:NAME`` in the background (frames are read ahead)."""
+        from auralize.pipeline import load
+
+        d = data_spec(str(spec), size=size, steps=steps, seed=seed)
+
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            vol = load(d["spec"], size=size, steps=steps, seed=seed)
+            from auralize.viewer.scene import default_field
+
+            name = default_field(vol)
+            frames = []
+            for n in range(vol.n_steps):  # read ahead: the slider never waits for I/O
+                a = vol.frame(name, n)
+                frames.append(np.linalg.norm(a, axis=-1) if a.ndim == 4 else a)
+                if not progress(n + 1, vol.n_steps):
+                    raise Cancelled(f"opening {spec} cancelled")
+            return vol, name, frames
+
+        def done(res: Any) -> None:
+            vol, name, frames = res
+            self._set_volume(vol, d, name, frames)
+            if then is not None:
+                then()
+
+        return self.run_task("open", work, done)
+
+    def _set_volume(self, vol: Any, d: dict[str, Any], name: str, frames: list[Any]) -> None:
+        self.stop_recording()
+        self.stop_live()
+        self.volume, self.data = vol, d
+        self.detection, self.series = None, None
+        self.scene.set_volume(vol, field=name, frames=frames)
+        self.field_box.clear()
+        self.field_box.addItems(vol.field_names)
+        self.field_box.setCurrentText(name)
+        self.slider.blockSignals(True)
+        self.slider.setRange(0, vol.n_steps - 1)
+        self.slider.setValue(0)
+        self.slider.blockSignals(False)
+        b = vol.bounds
+        self.info.setText(
+            f"{vol.source}\n{vol.dims[0]}×{vol.dims[1]}×{vol.dims[2]} points, spacing "
+            f"{', '.join(f'{s:g}' for s in vol.spacing)} m\nx[{b[0]:g}, {b[1]:g}] "
+            f"y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m\n{vol.n_steps} steps, "
+            f"{vol.times[0]:g}–{vol.times[-1]:g} s\nfields: {', '.join(vol.field_names)}"
+        )  # fmt: skip
+        self.scene.set_path(self.path, time_scale=self.audio["time_scale"], render=False)
+        self._update_step_label()
+        self._refresh_enabled()
+        self.plotter.render()
+
+    def set_field(self, name: str) -> None:
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        self.scene.set_field(name)
+        self.field_box.setCurrentText(name)
+
+    def set_mapping(self, name: str) -> None:
+        from auralize.mapping import get_mapping
+
+        if self.volume is not None and name != "auto":
+            get_mapping(name).prepare(self.volume)  # FieldError if the fields are missing
+        self.mapping = name
+        self.mapping_box.setCurrentText(name)
+        self.detection, self.series = None, None
+        self.scene.set_sources(None)
+        self.plotter.render()
+
+    # ============================================================= sources
+    def read_thresholds(self) -> Thresholds:
+        return Thresholds(*(self.th_edits[k].text().strip() for k in TYPES))
+
+    def detect(self, then: Callable[[], None] | None = None) -> Task:
+        """Detect sources at every step in the background (the current step first)."""
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        th = self.read_thresholds()
+        vol, mapping, step = self.volume, self.mapping, self.scene.step
+
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            if not progress(0, vol.n_steps):
+                raise Cancelled("detection cancelled")
+            det = Detection(vol, mapping=None if mapping == "auto" else mapping, thresholds=th)
+            det.frame(step)
+            return det, det.run(progress)
+
+        def done(res: Any) -> None:
+            self.detection, self.series = res
+            self.thresholds = th
+            self.scene.set_sources(self.detection.get)
+            self._update_step_label()
+            self.plotter.render()
+            if then is not None:
+                then()
+
+        return self.run_task("detect", work, done)
+
+    # ================================================================ time
+    def _on_slider(self, step: int) -> None:
+        if self.volume is not None:
+            self._guard(self.set_step, step)
+
+    def set_step(self, step: int) -> float:
+        """Show a time step; returns the redraw time in seconds."""
+        el = self.scene.set_step(int(step))
+        if self.slider.value() != step:
+            self.slider.blockSignals(True)
+            self.slider.setValue(int(step))
+            self.slider.blockSignals(False)
+        self._update_step_label()
+        self._update_cursor()
+        return el
+
+    def _update_step_label(self) -> None:
+        if self.volume is None:
+            return
+        n = self.scene.step
+        self.step_label.setText(
+            f"step {n}/{self.volume.n_steps - 1}  t={self.volume.times[n]:.4g} s"
+        )
+        counts = self.detection.counts(n) if self.detection is not None else None
+        for k in TYPES:
+            self.count_labels[k].setText("–" if counts is None else str(counts[k]))
+
+    def set_playing(self, on: bool) -> None:
+        if on and self.volume is not None:
+            dt = np.diff(self.volume.times).mean() if self.volume.n_steps > 1 else 0.1
+            self._anim_timer.start(max(int(1000 * dt * self.audio["time_scale"]), 15))
+        else:
+            self._anim_timer.stop()
+        self.play_btn.blockSignals(True)
+        self.play_btn.setChecked(on and self.volume is not None)
+        self.play_btn.setText("Pause" if self._anim_timer.isActive() else "Play")
+        self.play_btn.blockSignals(False)
+
+    def _advance(self) -> None:
+        if self.volume is None or (self.player is not None and self.player.running):
+            return  # live listening drives the slider itself
+        self._guard(self.set_step, (self.scene.step + 1) % self.volume.n_steps)
+
+    def _on_time_scale(self, v: float) -> None:
+        self.audio["time_scale"] = float(v)
+        self.scene.time_scale = float(v)
+
+    # ============================================================ listener
+    def fly(self, forward: float = 0.0, turn: float = 0.0, rise: float = 0.0) -> None:
+        """Move the camera like a flight: ``forward`` steps along the view, ``turn`` steps of
+        10° to the left, ``rise`` steps up (a step is 2 % of the data's diagonal)."""
+        cam = self.plotter.camera
+        pos, fwd, up = camera_pose(cam)
+        b = np.asarray(self.volume.bounds if self.volume is not None else (0, 1) * 3).reshape(3, 2)
+        stepm = 0.02 * float(np.linalg.norm(b[:, 1] - b[:, 0]))
+        if turn:
+            a = np.deg2rad(10.0 * turn)
+            right = np.cross(fwd, up)
+            fwd = np.cos(a) * fwd - np.sin(a) * right
+        pos = pos + stepm * (forward * fwd + rise * up)
+        dist = max(
+            float(np.linalg.norm(np.asarray(cam.focal_point) - np.asarray(cam.position))), stepm
+        )
+        cam.position = tuple(pos)
+        cam.focal_point = tuple(pos + dist * fwd)
+        cam.up = tuple(up)
+        self.plotter.renderer.ResetCameraClippingRange()
+        self.plotter.render()
+
+    def start_recording(self, autosave: str | Path | None = None) -> Path:
+        """Record the camera as the listener at the capture rate; returns the autosave file."""
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        if self.recorder.recording:
+            assert self.recorder.autosave is not None
+            return self.recorder.autosave
+        rate = float(self.rate_spin.value())
+        if self.recorder.rows and self.recorder.rate_hz == rate:
+            out = self.recorder.autosave
+        else:
+            self.recorder = PathRecorder(rate_hz=rate)
+            out = None
+        stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+        self.recorder.autosave = Path(autosave) if autosave else (
+            out or self.autosave_dir / f"recording-{stamp}.csv")  # fmt: skip
+        self.recorder.start()
+        self.capture()
+        self._rec_timer.start(max(int(round(1000 / rate)), 1))
+        self.rec_btn.setText("Recording…")
+        return self.recorder.autosave
+
+    def capture(self) -> None:
+        """Take one capture of the camera (the recording timer calls this)."""
+        if not self.recorder.recording:
+            return
+        pose = camera_pose(self.plotter.camera)
+        self.recorder.capture(*pose)
+        self.path = self.recorder.path()
+        self.scene.set_path(self.path, render=False)
+        self.scene.listener = pose
+        self.path_label.setText(f"recording: {self.recorder.n_captures} captures, "
+                                f"{self.path.duration if self.path else 0:.1f} s")  # fmt: skip
+
+    def stop_recording(self) -> ListenerPath | None:
+        self._rec_timer.stop()
+        if not self.recorder.recording:
+            return self.path
+        self.path = self.recorder.stop()
+        self.scene.listener = None
+        self.scene.set_path(self.path)
+        self.rec_btn.setText("Record")
+        self._path_info()
+        return self.path
+
+    def clear_path(self) -> None:
+        self.stop_recording()
+        self.recorder.clear()
+        self.path = None
+        self.scene.set_path(None)
+        self._path_info()
+
+    def save_path(self, filename: str | Path) -> None:
+        if self.path is None:
+            raise ParameterError("no listener path to save; record or load one first")
+        self.path.to_csv(filename)
+
+    def load_path(self, filename: str | Path) -> ListenerPath:
+        p = ListenerPath.from_csv(filename)
+        self.stop_recording()
+        self.recorder.load(p)
+        self.path = p
+        self.scene.set_path(p, time_scale=self.audio["time_scale"])
+        self._path_info()
+        return p
+
+    def _path_info(self) -> None:
+        p = self.path
+        self.path_label.setText("no path" if p is None else
+                                f"{p.n_captures} captures, {p.duration:.2f} s ({p.source})")  # fmt: skip
+
+    # =============================================================== audio
+    def render_audio(self, filename: str | Path | None = None, *,
+                     then: Callable[[], None] | None = None) -> Task:  # fmt: skip
+        """Render the path's sound in the background (blocks of 0.5 s, cancellable) and
+        write it to ``filename`` (WAV/FLAC) if given."""
+        from auralize.pipeline import save_rendered
+        from auralize.synthesis import Rendered, check_inside, render
+
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        if self.path is None:
+            raise ParameterError("no listener path; record or load one first")
+        if self.series is None:
+            raise ParameterError("detect the sources first (Sources panel)")
+        path, series, vol, a = self.path, self.series, self.volume, dict(self.audio)
+        check_inside(path, vol.bounds)
+
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            tracks = series.tracks()
+            total = max(path.duration, 1e-3)
+            blocks, t, blk = [], 0.0, 0.5
+            n = int(np.ceil(total / blk))
+            for i in range(n):
+                d = min(blk, total - t)
+                out = render(tracks, path, rate=a["rate"], time_scale=a["time_scale"],
+                             layout=a["layout"], start=t, duration=d)  # fmt: skip
+                blocks.append(out.audio)
+                t += d
+                if not progress(i + 1, n):
+                    raise Cancelled(f"rendering cancelled after {t:.1f} of {total:.1f} s")
+            r = Rendered(audio=np.concatenate(blocks, axis=1), rate=out.rate, layout=out.layout,
+                         time_scale=out.time_scale, meta={**out.meta, "volume": vol.source})  # fmt: skip
+            if filename is not None:
+                save_rendered(r, filename)
+            return r
+
+        def done(r: Any) -> None:
+            self.rendered = r
+            self.plot_audio()
+            if then is not None:
+                then()
+
+        return self.run_task("render", work, done)
+
+    def plot_audio(self) -> None:
+        """Waveform and spectrogram of the last render, with the time cursor."""
+        r = self.rendered
+        self.figure.clear()
+        if r is None:
+            self.canvas.draw_idle()
+            return
+        ax1, ax2 = self.figure.subplots(2, 1, sharex=True)
+        t = np.arange(r.audio.shape[1]) / r.rate
+        for c in range(r.audio.shape[0]):
+            ax1.plot(t, r.audio[c], lw=0.5, label=r.layout.channel_names[c])
+        ax1.set_ylabel("p (Pa)")
+        mono = r.audio.mean(axis=0)
+        if mono.size > 256:
+            ax2.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
+        ax2.set_ylabel("f (Hz)")
+        ax2.set_xlabel("playback time (s)")
+        self._cursors = [ax.axvline(0, color="tab:orange", lw=1) for ax in (ax1, ax2)]
+        self._update_cursor()
+
+    def cursor_time(self) -> float:
+        """Playback seconds of the current step (where the cursor is drawn)."""
+        if self.volume is None:
+            return 0.0
+        return (
+            float(self.volume.times[self.scene.step] - self.volume.times[0])
+            * self.audio["time_scale"]
+        )
+
+    def _update_cursor(self) -> None:
+        if not self._cursors:
+            return
+        x = self.cursor_time()
+        for c in self._cursors:
+            c.set_xdata([x, x])
+        self.canvas.draw_idle()
+
+    def play_audio(self) -> None:
+        """Play the last render on the chosen device (message box if none is usable)."""
+        from auralize.simple import PlayAudio
+
+        if self.rendered is None:
+            raise ParameterError("render the audio first")
+        PlayAudio(self.rendered, device=self.audio["device"], blocking=False)
+
+    def stop_audio(self) -> None:
+        import auralize.audio as audio
+
+        stop = getattr(audio, "stop", None)
+        if stop is not None:
+            stop()
+
+    # ================================================================ live
+    def start_live(self, output: str | Path | None = None) -> Any:
+        """Listen live: the listener follows the camera, sound is synthesized block by block
+        into the device (or a WAV file given as ``output`` / in the panel)."""
+        from auralize.viewer.listening import DeviceSink, LiveEngine, LivePlayer, WavSink
+
+        if self.series is None:
+            raise ParameterError("detect the sources first (Sources panel)")
+        if self.player is not None and self.player.running:
+            return self.player
+        a = self.audio
+        eng = LiveEngine(self.series.tracks(), layout=a["layout"], rate=a["rate"],
+                         time_scale=a["time_scale"], block=int(self.block_spin.value()))  # fmt: skip
+        target = output or self.live_file.text().strip() or None
+        n_ch = eng.layout.n_channels
+        sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
+                else DeviceSink(rate=a["rate"], channels=n_ch, device=a["device"]))  # fmt: skip
+        self.player = LivePlayer(eng, sink, on_block=self.live_tick.emit)
+        self.player.set_pose(*camera_pose(self.plotter.camera))
+        cam = self.plotter.renderer.GetActiveCamera()
+        self._cam_obs = (cam, cam.AddObserver("ModifiedEvent", self._on_camera))
+        self.player.start()
+        self.live_label.setText(f"live: {eng.layout.name}, block {eng.block} samples "
+                                f"({1000 * eng.block_s:.0f} ms)")  # fmt: skip
+        return self.player
+
+    def _on_camera(self, *_: Any) -> None:
+        if self.player is not None:
+            self.player.set_pose(*camera_pose(self.plotter.camera))
+
+    def _on_live_tick(self, data_time: float) -> None:
+        if self.volume is None or self.player is None:
+            return
+        if self.player.error is not None:
+            err, self.player.error = self.player.error, None
+            self.stop_live()
+            self.show_error(err)
+            return
+        step = int(np.clip(np.searchsorted(self.volume.times, data_time, side="right") - 1,
+                           0, self.volume.n_steps - 1))  # fmt: skip
+        if step != self.scene.step:
+            self._guard(self.set_step, step)
+        lat = self.player.latencies
+        if lat:
+            self.live_label.setText(f"live: last move heard after {1000 * lat[-1]:.0f} ms")
+
+    def stop_live(self) -> None:
+        if getattr(self, "_cam_obs", None):
+            cam, tag = self._cam_obs
+            cam.RemoveObserver(tag)
+            self._cam_obs = None
+        if self.player is not None and self.player.running:
+            self.player.stop()
+            self.live_label.setText("off")
+
+    def save_heard(self, csv_file: str | Path, audio_file: str | Path | None = None) -> None:
+        """Save what live listening played: the path CSV and ``<csv>.wav``."""
+        if self.player is None:
+            raise ParameterError("nothing heard yet; listen live first")
+        audio_file = audio_file or Path(csv_file).with_suffix(".wav")
+        self.player.engine.save_heard(csv_file, audio_file)
+
+    # ============================================================ overlays
+    def set_overlay(self, name: str, on: bool) -> None:
+        from auralize.plugins import get_model
+
+        if not on:
+            self.scene.set_overlay(name, None)
+            self.plotter.render()
+            return
+        model = get_model(name)
+
+        def fn(step: int) -> Any:
+            return model.overlay((self.volume, self.path), step)
+
+        self.scene.set_overlay(name, fn)
+        self.plotter.render()
+
+    # ============================================================= session
+    def session_state(self) -> SessionState:
+        st = SessionState(data=dict(self.data), audio=dict(self.audio))
+        st.view = {"field": self.scene.field, "representation": self.scene.representation,
+                   "cmap": self.scene.cmap, "opacity": self.scene.opacity, "step": self.scene.step,
+                   "types": dict(self.scene.visible_types)}  # fmt: skip
+        st.detection = {"mapping": self.mapping, "thresholds": self.read_thresholds().describe(),
+                        "detected": self.series is not None}  # fmt: skip
+        st.set_listener_path(self.path)
+        st.recording = {"rate_hz": float(self.rate_spin.value())}
+        st.camera = self.scene.camera() if self.volume is not None else None
+        return st
+
+    def save_session(self, filename: str | Path) -> None:
+        self.session_state().save(filename)
+
+    def load_session(
+        self, filename: str | Path, *, then: Callable[[], None] | None = None
+    ) -> Task | None:
+        """Open a session: data in the background, then view, path, audio, camera
+        (and detection if the session had sources)."""
+        st = SessionState.load(filename)
+
+        def apply() -> None:
+            v = st.view or {}
+            if v.get("field"):
+                self.set_field(v["field"])
+            if v.get("representation"):
+                self.rep_box.setCurrentText(v["representation"])
+                self.scene.set_representation(v["representation"], render=False)
+            if v.get("cmap") or v.get("opacity") is not None:
+                self.cmap_box.setCurrentText(v.get("cmap", self.scene.cmap))
+                self.opacity.setValue(float(v.get("opacity", self.scene.opacity)))
+            for k, on in (v.get("types") or {}).items():
+                self.type_checks[k].setChecked(bool(on))
+            det = st.detection or {}
+            for k in TYPES:
+                if det.get("thresholds"):
+                    self.th_edits[k].setText(str(det["thresholds"][k]))
+            self.mapping = det.get("mapping") or "auto"
+            self.mapping_box.setCurrentText(self.mapping)
+            a = st.audio or {}
+            self.audio.update(a)
+            self.layout_box.setCurrentText(self.audio["layout"])
+            self.ts_spin.setValue(float(self.audio["time_scale"]))
+            self.rate_spin.setValue(float((st.recording or {}).get("rate_hz", DEFAULT_RATE_HZ)))
+            p = st.listener_path()
+            if p is not None:
+                self.recorder.load(p)
+            else:
+                self.recorder.clear()
+            self.path = p
+            self.scene.set_path(p, time_scale=self.audio["time_scale"], render=False)
+            self._path_info()
+            self.set_step(int(v.get("step", 0)))
+            if st.camera:
+                self.scene.set_camera(st.camera)
+                self.plotter.render()
+            if det.get("detected"):
+                self.detect(then=then)
+            elif then is not None:
+                then()
+
+        d = st.data
+        if not d:
+            apply()
+            return None
+        return self.open_data(d["spec"], size=d.get("size"), steps=d.get("steps"),
+                              seed=d.get("seed") or 0, then=apply)  # fmt: skip
+
+    # ============================================================== window
+    def closeEvent(self, event: Any) -> None:
+        self.stop_recording()
+        self.stop_live()
+        self._anim_timer.stop()
+        if self.task is not None and self.task.isRunning():
+            self.task.cancel()
+            self.task.wait(10_000)
+        self.plotter.close()
+        super().closeEvent(event)
+
+
+def _devices() -> list[Any]:
+    """Output devices offered by the output layer (``auralize.audio.list_devices``), if any."""
+    import auralize.audio as audio
+
+    fn = getattr(audio, "list_devices", None) or getattr(audio, "output_devices", None)
+    if fn is None:
+        return []
+    try:
+        return [d.get("name", d) if isinstance(d, dict) else d for d in fn()]
+    except AuralizeError:
+        return []
+
+
+def run_app(args: Any) -> int:
+    """Start the Qt application (``auralize view``)."""
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
+    win = MainWindow()
+    win.show()
+    if getattr(args, "session", None):
+        win._guard(win.load_session, args.session)
+    elif getattr(args, "volume", None):
+
+        def after() -> None:
+            if args.path:
+                win._guard(win.load_path, args.path)
+            if args.time is not None:
+                win._guard(win.set_step, args.time)
+
+        win._guard(lambda: win.open_data(args.volume, size=args.size, steps=args.steps,
+                                         seed=args.seed, then=after))  # fmt: skip
+    return int(app.exec())

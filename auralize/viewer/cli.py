@@ -1,0 +1,152 @@
+"""``auralize view`` and ``auralize script``: the viewer's sub-commands.
+
+Importing this module imports no Qt; the window is built only when
+``auralize view`` runs without ``--screenshot``.
+
+Examples
+--------
+Render a picture off screen and exit::
+
+    auralize view dataset:explosion --screenshot docs/explosion.png --time 15
+
+Run a pvpython-like script::
+
+    auralize script examples/explosion_tour.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import runpy
+import sys
+from pathlib import Path
+from typing import Any
+
+from auralize.errors import MissingDependencyError, ParameterError
+
+
+def add_commands(sub: Any) -> None:
+    """Add ``view`` and ``script`` to the ``auralize`` sub-command parser."""
+    p = sub.add_parser("view", help="open the desktop viewer (or render a --screenshot off screen)")
+    p.add_argument("volume", metavar="PATH", nargs="?",
+                   help="volume file or dataset:NAME (optional; open one later)")  # fmt: skip
+    p.add_argument("--size", type=int, help="grid size of a built-in dataset")
+    p.add_argument("--steps", type=int, help="time steps of a built-in dataset")
+    p.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
+    p.add_argument("--session", metavar="JSON", help="open a saved session")
+    p.add_argument("--screenshot", metavar="OUT.png", help="render off screen to OUT.png and exit")
+    p.add_argument("--time", type=int, metavar="STEP", help="time step to show (default: middle)")
+    p.add_argument("--path", metavar="CSV", help="listener path to draw")
+    p.add_argument("--field", help="field to display (default: first scalar field)")
+    p.add_argument("--representation", choices=["volume", "slices", "contour", "none"],
+                   default="volume")  # fmt: skip
+    p.add_argument("--window-size", default="1200x900", metavar="WxH")
+    for kind, d in zip(("monopole", "dipole", "quadrupole"), ("3%", "0.3%", "0.1%"), strict=True):
+        p.add_argument(f"--threshold-{kind}", default=d, metavar="X",
+                       help=f"{kind} threshold: absolute, 'N%%' of the peak, or auto (default {d})")  # fmt: skip
+    p.add_argument("--mapping", help="paper-density | identity | cfd (default: from the fields)")
+    p.set_defaults(func=cmd_view)
+
+    p = sub.add_parser("script", help="run a pvpython-like script (auralize.simple)")
+    p.add_argument("file", metavar="FILE.py")
+    p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the script")
+    p.set_defaults(func=cmd_script)
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise ParameterError(f"--window-size must be WxH, e.g. 1200x900; got {text!r}") from None
+    if w < 16 or h < 16:
+        raise ParameterError(f"--window-size must be at least 16x16, got {text!r}")
+    return w, h
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    if args.screenshot:
+        out = screenshot(args)
+        print(f"wrote {out}")
+        return 0
+    try:
+        from auralize.viewer.app import run_app
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"the desktop viewer needs Qt ({exc}); install it with: pip install 'auralize[gui]'"
+        ) from None
+    return run_app(args)
+
+
+def screenshot(args: argparse.Namespace) -> Path:
+    """Render volume, sources and path off screen (no window, no display needed)."""
+    from auralize.simple import _prefer_egl
+
+    _prefer_egl()
+    import pyvista as pv
+
+    from auralize.listener import ListenerPath
+    from auralize.pipeline import load
+    from auralize.sources import Thresholds
+    from auralize.viewer.detection import Detection
+    from auralize.viewer.scene import Scene
+    from auralize.viewer.session import SessionState
+
+    st = SessionState.load(args.session) if args.session else None
+    if args.volume is None and st is None:
+        raise ParameterError("--screenshot needs a volume PATH (or --session)")
+    if args.volume is not None:
+        vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed)
+    else:
+        from auralize.viewer.session import load_data
+
+        assert st is not None
+        vol = load_data(st.data)
+    w, h = _size(args.window_size)
+    plotter = pv.Plotter(off_screen=True, window_size=[w, h])
+    try:
+        scene = Scene(plotter)
+        view = (st.view if st else {}) or {}
+        scene.set_volume(vol, field=args.field or view.get("field"),
+                         representation=view.get("representation", args.representation))  # fmt: skip
+        th = Thresholds(args.threshold_monopole, args.threshold_dipole, args.threshold_quadrupole)
+        mapping = args.mapping
+        if st is not None and st.detection:
+            t = st.detection.get("thresholds") or {}
+            if t:
+                th = Thresholds(t["monopole"], t["dipole"], t["quadrupole"],
+                                zero_fraction=t.get("zero_fraction", 1.0))  # fmt: skip
+            mapping = mapping or st.detection.get("mapping")
+        det = Detection(vol, mapping=mapping, thresholds=th)
+        step = args.time if args.time is not None else view.get("step", vol.n_steps // 2)
+        if not 0 <= step < vol.n_steps:
+            raise ParameterError(f"--time must be a step in 0..{vol.n_steps - 1}, got {step}")
+        scene.set_sources(det.frame)
+        path = (
+            ListenerPath.from_csv(args.path) if args.path else (st.listener_path() if st else None)
+        )
+        scene.set_path(path, render=False)
+        scene.set_step(step, render=False)
+        if st is not None and st.camera:
+            scene.set_camera(st.camera)
+        else:
+            scene.frame_all()
+        out = Path(args.screenshot)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        plotter.screenshot(str(out))
+    finally:
+        plotter.close()
+    return out
+
+
+def cmd_script(args: argparse.Namespace) -> int:
+    """Run FILE.py as ``__main__`` with ``sys.argv = [FILE, *args]``."""
+    f = Path(args.file)
+    if not f.is_file():
+        raise ParameterError(f"script {str(f)!r} does not exist")
+    old = sys.argv
+    sys.argv = [str(f), *args.args]
+    try:
+        runpy.run_path(str(f), run_name="__main__")
+    finally:
+        sys.argv = old
+    return 0

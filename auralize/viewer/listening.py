@@ -1,0 +1,307 @@
+"""Live listening: the listener follows the camera and the sound is synthesized block by block.
+
+While the animation plays and the user flies, :class:`LiveEngine` renders
+consecutive audio blocks with :func:`auralize.synthesis.render` (``start=``
+offsets join blocks without seams) for the latest camera pose, and
+:class:`LivePlayer` pushes them from a worker thread into an :class:`AudioSink`.
+A pose set with :meth:`LiveEngine.set_pose` is used by the next block, so a
+camera move reaches the sink within one block plus the render time
+(:attr:`LivePlayer.latencies` records it; the target is ≤ 100 ms).  Within
+a block the listener moves linearly from the previous pose to the new one
+(Doppler stays physical); a jump faster than half the speed of sound is
+applied at the block edge instead.
+
+What was heard is kept (:meth:`LiveEngine.heard_path`,
+:meth:`LiveEngine.heard_audio`) so it can be saved as a listener-path CSV
+plus its audio.
+
+Sinks: :class:`DeviceSink` plays through the output layer
+(``auralize.live`` / ``auralize.audio``; it raises
+:class:`~auralize.errors.DeviceError` when no device is usable) and
+:class:`WavSink` writes the stream to a WAV file at real-time pace (what a
+file-backed device does).
+
+Examples
+--------
+>>> from auralize.pipeline import load, detect_sources
+>>> vol = load("dataset:monopole", size=12, steps=60)
+>>> tracks = detect_sources(vol).tracks()
+>>> eng = LiveEngine(tracks, layout="stereo", block=512)
+>>> eng.set_pose(vol.center + [1.0, 0, 0], [0, 1, 0], [0, 0, 1])
+>>> eng.next_block().shape
+(2, 512)
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from auralize.errors import DeviceError, ParameterError
+from auralize.listener import ListenerPath
+from auralize.sources import SourceTracks
+from auralize.spatial import get_layout
+from auralize.synthesis import C0, Rendered, render
+
+#: default block length in samples (23 ms at 44.1 kHz)
+DEFAULT_BLOCK = 1024
+
+
+class AudioSink(Protocol):
+    """Where live audio goes: ``write`` blocks until the block is accepted."""
+
+    def write(self, block: NDArray[np.float64]) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class LiveEngine:
+    """Consecutive audio blocks for a listener pose that may change at any time.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The detected sources (:meth:`SourceSeries.tracks`).
+    layout : str
+        Speaker layout.
+    rate : int
+        Sample rate in Hz.
+    time_scale : float
+        Playback seconds per data second.
+    block : int
+        Samples per block.
+    loop : bool
+        Start again at the first step after the last (as the animation loops).
+    """
+
+    def __init__(self, tracks: SourceTracks, *, layout: str = "stereo", rate: int = 44100,
+                 time_scale: float = 1.0, block: int = DEFAULT_BLOCK, c0: float = C0,
+                 loop: bool = True) -> None:  # fmt: skip
+        if not (isinstance(block, int) and 16 <= block <= 1 << 16):
+            raise ParameterError(f"block must be 16..65536 samples, got {block!r}")
+        self.tracks = tracks
+        self.layout = get_layout(layout)
+        self.rate = int(rate)
+        self.time_scale = float(time_scale)
+        self.block = block
+        self.c0 = float(c0)
+        self.loop = loop
+        span = float(tracks.times[-1] - tracks.times[0]) if tracks.times.size > 1 else 0.0
+        self.span_s = span * self.time_scale  # playback seconds of one loop
+        self.t = 0.0  # playback seconds into the current loop
+        self.elapsed = 0.0  # playback seconds since start
+        self._lock = threading.Lock()
+        self._pose: tuple[NDArray[np.float64], ...] | None = None
+        self._pose_version = 0
+        self._prev: tuple[NDArray[np.float64], ...] | None = None
+        self.heard_rows: list[NDArray[np.float64]] = []
+        self.heard_blocks: list[NDArray[np.float64]] = []
+        self.keep_heard = True
+
+    @property
+    def block_s(self) -> float:
+        return self.block / self.rate
+
+    @property
+    def data_time(self) -> float:
+        """Data time (s) of the next block's first sample (for the time slider)."""
+        return float(self.tracks.times[0] + self.t / self.time_scale)
+
+    def set_pose(self, position: ArrayLike, forward: ArrayLike, up: ArrayLike) -> int:
+        """Set the listener pose used from the next block on; returns a version number."""
+        pose = tuple(
+            np.asarray(v, dtype=np.float64).reshape(3).copy() for v in (position, forward, up)
+        )
+        with self._lock:
+            self._pose = pose
+            self._pose_version += 1
+            return self._pose_version
+
+    def next_block(self) -> NDArray[np.float64]:
+        """Render the next block ``(n_channels, block)`` in pascals."""
+        with self._lock:
+            pose, version = self._pose, self._pose_version
+        if pose is None:
+            raise ParameterError("set the listener pose before rendering")
+        prev = self._prev if self._prev is not None else pose
+        if self.loop and self.span_s > 0 and self.t >= self.span_s:
+            self.t = 0.0
+        dur = self.block_s
+        move = float(np.linalg.norm(pose[0] - prev[0]))
+        if move / (dur / self.time_scale) >= 0.5 * self.c0:
+            prev = pose  # too fast to be a motion: jump at the block edge
+        # captures at playback 0 and t (previous pose) and t + dur (new pose)
+        times = np.array([0.0, self.t, self.t + dur]) if self.t > 0 else np.array([0.0, dur])
+        pos = [prev[0], prev[0], pose[0]] if self.t > 0 else [prev[0], pose[0]]
+        fwd = [prev[1], prev[1], pose[1]] if self.t > 0 else [prev[1], pose[1]]
+        up = [prev[2], prev[2], pose[2]] if self.t > 0 else [prev[2], pose[2]]
+        path = ListenerPath(times, np.array(pos), np.array(fwd), np.array(up), source="live")
+        out = render(self.tracks, path, rate=self.rate, time_scale=self.time_scale,
+                     layout=self.layout, c0=self.c0, start=self.t, duration=dur)  # fmt: skip
+        audio = out.audio
+        if audio.shape[1] != self.block:  # rounding of duration * rate
+            audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[
+                :, : self.block
+            ]
+        if self.keep_heard:
+            self.heard_rows.append(np.concatenate([[self.elapsed + dur], *pose]))
+            self.heard_blocks.append(audio)
+        self._prev = pose
+        self.t += dur
+        self.elapsed += dur
+        self.last_version = version
+        return audio
+
+    def heard_path(self) -> ListenerPath | None:
+        """The poses heard, one capture per block end (playback seconds from the start)."""
+        if not self.heard_rows:
+            return None
+        a = np.asarray(self.heard_rows)
+        a = np.vstack([np.concatenate([[0.0], a[0, 1:]]), a])
+        return ListenerPath(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10], source="live")
+
+    def heard_audio(self) -> Rendered:
+        """All blocks heard so far as one :class:`Rendered`."""
+        audio = (np.concatenate(self.heard_blocks, axis=1) if self.heard_blocks
+                 else np.zeros((self.layout.n_channels, 0)))  # fmt: skip
+        return Rendered(audio=audio, rate=self.rate, layout=self.layout,
+                        time_scale=self.time_scale, meta={"live": True})  # fmt: skip
+
+    def save_heard(self, csv_path: str | Path, audio_path: str | Path) -> None:
+        """Write what was heard: the listener path CSV and its audio (peak-normalised)."""
+        from auralize.pipeline import save_rendered
+
+        p = self.heard_path()
+        if p is None:
+            raise ParameterError("nothing was heard yet; start live listening first")
+        p.to_csv(csv_path)
+        save_rendered(self.heard_audio(), audio_path, extra={"path": str(csv_path)})
+
+
+class WavSink:
+    """Write the live stream to a WAV file, accepting blocks at real-time pace.
+
+    ``buffer_blocks`` blocks may be queued ahead of the (simulated) playback
+    position, as in a device buffer; ``pace=False`` accepts blocks at once.
+    """
+
+    def __init__(self, path: str | Path, *, rate: int, channels: int, pace: bool = True,
+                 buffer_blocks: int = 1) -> None:  # fmt: skip
+        self.path, self.rate, self.channels = Path(path), int(rate), int(channels)
+        self.pace, self.buffer_blocks = pace, max(int(buffer_blocks), 0)
+        self.blocks: list[NDArray[np.float64]] = []
+        self.write_times: list[float] = []
+        self._play_start: float | None = None
+        self._queued_s = 0.0
+
+    def write(self, block: NDArray[np.float64]) -> None:
+        if block.shape[0] != self.channels:
+            raise DeviceError(f"{self.path}: sink has {self.channels} channels, block has "
+                              f"{block.shape[0]}")  # fmt: skip
+        now = time.perf_counter()
+        if self._play_start is None:
+            self._play_start = now
+        if self.pace:
+            # playback position advances in real time; wait while the buffer is full
+            ahead = self._queued_s - (now - self._play_start)
+            limit = self.buffer_blocks * block.shape[1] / self.rate
+            if ahead > limit:
+                time.sleep(ahead - limit)
+        self.blocks.append(np.array(block))
+        self._queued_s += block.shape[1] / self.rate
+        self.write_times.append(time.perf_counter())
+
+    def close(self) -> None:
+        from auralize.audio import write_audio
+
+        if self.blocks:
+            write_audio(self.path, np.concatenate(self.blocks, axis=1), self.rate, normalize="none")
+
+
+class DeviceSink:
+    """Play through the output layer's live stream (``auralize.live``), else raise.
+
+    The output layer (another part of auralize) owns sounddevice; this adapter
+    only looks up its stream class.  :class:`~auralize.errors.DeviceError` is
+    raised when the layer or a usable device is missing.
+    """
+
+    def __init__(self, *, rate: int, channels: int, device: Any = None) -> None:
+        try:
+            live = importlib.import_module("auralize.live")
+        except ModuleNotFoundError as exc:
+            if exc.name != "auralize.live":
+                raise
+            raise DeviceError("live playback is not available: the output layer "
+                              "(auralize.live) is not installed") from None  # fmt: skip
+        factory = getattr(live, "open_stream", None) or getattr(live, "LiveStream", None)
+        if factory is None:
+            raise DeviceError("auralize.live offers no open_stream/LiveStream for live playback")
+        self._stream = factory(rate=rate, channels=channels, device=device)
+
+    def write(self, block: NDArray[np.float64]) -> None:
+        self._stream.write(block)
+
+    def close(self) -> None:
+        self._stream.close()
+
+
+class LivePlayer:
+    """Runs a :class:`LiveEngine` into a sink on a worker thread.
+
+    ``on_block(data_time)`` is called after each block (e.g. to move the time
+    slider); :attr:`latencies` holds, for each pose change picked up, the
+    seconds from :meth:`set_pose` until its block was accepted by the sink.
+    """
+
+    def __init__(self, engine: LiveEngine, sink: AudioSink, *,
+                 on_block: Callable[[float], None] | None = None) -> None:  # fmt: skip
+        self.engine, self.sink, self.on_block = engine, sink, on_block
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._pending: dict[int, float] = {}
+        self.latencies: list[float] = []
+        self.error: BaseException | None = None
+
+    def set_pose(self, position: ArrayLike, forward: ArrayLike, up: ArrayLike) -> None:
+        v = self.engine.set_pose(position, forward, up)
+        self._pending[v] = time.perf_counter()
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="auralize-live", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            while not self._stop.is_set():
+                block = self.engine.next_block()
+                self.sink.write(block)
+                done = time.perf_counter()
+                v = self.engine.last_version
+                for k in [k for k in self._pending if k <= v]:
+                    self.latencies.append(done - self._pending.pop(k))
+                if self.on_block is not None:
+                    self.on_block(self.engine.data_time)
+        except BaseException as exc:  # reported to the GUI, never lost
+            self.error = exc
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+            self._thread = None
+        self.sink.close()

@@ -1,0 +1,506 @@
+"""The 3-D scene of the viewer, on any pyvista plotter (Qt window or off screen).
+
+:class:`Scene` owns the actors the viewer shows: the volume of the chosen field
+(volume rendering, orthogonal slices or a contour), the ΔV spheres of the
+detected sources coloured by type, the listener path as a polyline with a
+camera-like glyph at the current listener, and plugin overlays.  It never
+imports Qt, so the same code draws the desktop window, off-screen screenshots,
+``auralize.simple`` views and the interactivity benchmark.
+
+Colours are fixed so screenshots can be checked pixel by pixel:
+:data:`TYPE_COLORS` (monopole red, dipole blue, quadrupole green) and
+:data:`PATH_COLOR` (amber); the volume uses a grey colour map, so every
+saturated pixel comes from a source sphere or the path.
+
+Examples
+--------
+>>> import pyvista as pv
+>>> from auralize.pipeline import load
+>>> from auralize.viewer.scene import Scene
+>>> scene = Scene(pv.Plotter(off_screen=True))
+>>> scene.set_volume(load("dataset:monopole", size=8, steps=4))
+>>> scene.set_step(2)
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import ParameterError
+from auralize.listener import ListenerPath
+from auralize.sources import TYPES, SourceFrame
+from auralize.volume import TimeVolume
+
+#: RGB colours of the source types (ColorBrewer Set1)
+TYPE_COLORS: dict[str, tuple[int, int, int]] = {
+    "monopole": (228, 26, 28),
+    "dipole": (55, 126, 184),
+    "quadrupole": (77, 175, 74),
+}
+#: RGB colour of the listener path and its glyph
+PATH_COLOR: tuple[int, int, int] = (255, 170, 0)
+#: background colour (dark, unsaturated)
+BACKGROUND: tuple[int, int, int] = (26, 26, 34)
+REPRESENTATIONS = ("volume", "slices", "contour", "none")
+#: display frames kept in memory (float32), in bytes
+FRAME_CACHE_BYTES = 512 * 1024**2
+
+_SPHERE_T = None  # (points (V,3), triangles (F,3)) of the unit glyph sphere
+
+
+def _unit_sphere() -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    global _SPHERE_T
+    if _SPHERE_T is None:
+        import pyvista as pv
+
+        s = pv.Sphere(radius=1.0, theta_resolution=10, phi_resolution=6).triangulate()
+        _SPHERE_T = (np.asarray(s.points, dtype=np.float64),
+                     np.asarray(s.faces).reshape(-1, 4)[:, 1:].astype(np.int64))  # fmt: skip
+    return _SPHERE_T
+
+
+def sphere_glyphs(centers: NDArray[np.floating], radii: NDArray[np.floating],
+                  colors: NDArray[np.uint8]) -> Any:  # fmt: skip
+    """One triangle mesh of spheres (built with numpy; much faster than a glyph filter).
+
+    Parameters
+    ----------
+    centers : (N, 3) sphere centres in metres.
+    radii : (N,) radii in metres.
+    colors : (N, 3) uint8 RGB per sphere.
+
+    Returns
+    -------
+    pyvista.PolyData
+        With point array ``"rgb"`` (uint8, 3 components).
+    """
+    import pyvista as pv
+
+    pts, tri = _unit_sphere()
+    n, v = len(centers), len(pts)
+    c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
+    r = np.asarray(radii, dtype=np.float64).reshape(-1)
+    allp = (c[:, None, :] + r[:, None, None] * pts[None]).reshape(-1, 3)
+    faces = tri[None] + (np.arange(n) * v)[:, None, None]
+    cells = np.concatenate([np.full((n * len(tri), 1), 3), faces.reshape(-1, 3)], 1)
+    mesh = pv.PolyData(allp, cells.ravel()) if n else pv.PolyData()
+    if n:
+        mesh.point_data["rgb"] = np.repeat(np.asarray(colors, dtype=np.uint8), v, axis=0)
+    return mesh
+
+
+def camera_pose(
+    camera: Any,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(position, forward, up)`` of a pyvista camera (unit forward, up orthogonal to it)."""
+    pos = np.asarray(camera.position, dtype=np.float64)
+    fwd = np.asarray(camera.focal_point, dtype=np.float64) - pos
+    fwd /= np.linalg.norm(fwd)
+    up = np.asarray(camera.up, dtype=np.float64)
+    up = up - (up @ fwd) * fwd
+    up /= np.linalg.norm(up)
+    return pos, fwd, up
+
+
+def listener_glyph(position: NDArray[np.floating], forward: NDArray[np.floating],
+                   up: NDArray[np.floating], size: float) -> Any:  # fmt: skip
+    """A camera-like glyph: a cone looking along ``forward`` plus a short up marker."""
+    import pyvista as pv
+
+    p = np.asarray(position, dtype=np.float64)
+    f = np.asarray(forward, dtype=np.float64)
+    u = np.asarray(up, dtype=np.float64)
+    body = pv.Cube(center=p - 0.35 * size * f, x_length=0.5 * size, y_length=0.5 * size,
+                   z_length=0.5 * size)  # fmt: skip
+    # align the cube roughly: it is small, the cone carries the direction
+    cone = pv.Cone(center=p + 0.25 * size * f, direction=-f, height=0.6 * size,
+                   radius=0.35 * size, resolution=16)  # fmt: skip
+    mast = pv.Line(p, p + 0.6 * size * u)
+    return body.triangulate().append_polydata(cone.triangulate(), mast)
+
+
+class Scene:
+    """The viewer's actors on a pyvista plotter.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter or pyvistaqt.QtInteractor
+        Where to draw; ``pv.Plotter(off_screen=True)`` for headless use.
+    """
+
+    def __init__(self, plotter: Any) -> None:
+        self.plotter = plotter
+        self.volume: TimeVolume | None = None
+        self.field: str | None = None
+        self.representation = "volume"
+        self.cmap = "gray"
+        self.opacity = 0.35
+        self.step = 0
+        self.clim: tuple[float, float] = (0.0, 1.0)
+        self.visible_types = dict.fromkeys(TYPES, True)
+        self.show_sources = True
+        self.show_volume = True
+        self.sources: Callable[[int], SourceFrame | None] | None = None
+        self.path: ListenerPath | None = None
+        self.listener: tuple[NDArray[np.float64], ...] | None = None
+        self.time_scale = 1.0
+        self.overlays: dict[str, Callable[[int], Any]] = {}
+        self.overlay_visible: dict[str, bool] = {}
+        self._frames: OrderedDict[tuple[str, int], NDArray[np.float32]] = OrderedDict()
+        self._grid: Any = None
+        self._actors: dict[str, Any] = {}
+        self.timings: dict[str, float] = {}
+        plotter.set_background(np.asarray(BACKGROUND) / 255.0)
+        self._legend_added = False
+
+    # ---------------------------------------------------------------- volume
+    def set_volume(self, volume: TimeVolume, *, field: str | None = None,
+                   representation: str | None = None,
+                   frames: list[NDArray[np.floating]] | None = None) -> None:  # fmt: skip
+        """Show ``volume``; ``field`` defaults to the first scalar field (else a vector
+        magnitude).  ``frames`` are that field's display frames already read (one per step)."""
+        self.volume = volume
+        self._frames.clear()
+        name = field or default_field(volume)
+        for n, a in enumerate(frames or []):
+            self._frames[(name, n)] = np.ascontiguousarray(a, dtype=np.float32).reshape(-1)
+        self.field = None
+        self.sources = None
+        self.step = 0
+        self.set_field(name, render=False)
+        if representation is not None:
+            self.set_representation(representation, render=False)
+        self._legend()
+        self.set_step(0, render=False)
+        self.plotter.reset_camera()
+        self.plotter.view_isometric()
+
+    def set_field(self, name: str, *, render: bool = True) -> None:
+        """Choose the displayed field (raises FieldError for an unknown name)."""
+        vol = self._need_volume()
+        vol._get(name)  # FieldError names the valid fields
+        self.field = name
+        self._remove("volume")
+        a = self.frame(self.step)
+        b = self.frame(vol.n_steps - 1)
+        lo, hi = float(min(a.min(), b.min())), float(max(a.max(), b.max()))
+        self.clim = (lo, hi if hi > lo else lo + 1.0)
+        self._grid = None
+        self.set_step(self.step, render=render)
+
+    def set_representation(self, rep: str, *, render: bool = True) -> None:
+        """``volume`` (ray casting), ``slices`` (three orthogonal), ``contour`` or ``none``."""
+        if rep not in REPRESENTATIONS:
+            raise ParameterError(f"representation must be one of {REPRESENTATIONS}, got {rep!r}")
+        self.representation = rep
+        self._remove("volume")
+        if self.volume is not None:
+            self._update_volume()
+            if render:
+                self.plotter.render()
+
+    def set_colormap(self, cmap: str | None = None, opacity: float | None = None) -> None:
+        """Change the colour map and/or the overall opacity (0..1) and redraw."""
+        if cmap is not None:
+            self.cmap = cmap
+        if opacity is not None:
+            if not 0 <= opacity <= 1:
+                raise ParameterError(f"opacity must be in [0, 1], got {opacity!r}")
+            self.opacity = float(opacity)
+        self.set_representation(self.representation)
+
+    def frame(self, step: int) -> NDArray[np.float32]:
+        """Display scalars of the current field at ``step`` (vector fields: magnitude), cached."""
+        vol = self._need_volume()
+        assert self.field is not None
+        key = (self.field, int(step))
+        if key in self._frames:
+            self._frames.move_to_end(key)
+            return self._frames[key]
+        a = vol.frame(self.field, int(step))
+        if a.ndim == 4:
+            a = np.linalg.norm(a, axis=-1)
+        a = np.ascontiguousarray(a, dtype=np.float32).reshape(-1)
+        self._frames[key] = a
+        while sum(v.nbytes for v in self._frames.values()) > FRAME_CACHE_BYTES:
+            self._frames.popitem(last=False)
+        return a
+
+    def prefetch(self, progress: Callable[[int, int], bool] | None = None) -> None:
+        """Read every display frame into the cache; ``progress(done, total)`` returning
+        False stops early."""
+        vol = self._need_volume()
+        for n in range(vol.n_steps):
+            self.frame(n)
+            if progress is not None and progress(n + 1, vol.n_steps) is False:
+                return
+
+    def _ensure_grid(self) -> Any:
+        import pyvista as pv
+
+        vol = self._need_volume()
+        if self._grid is None:
+            self._grid = pv.ImageData(dimensions=vol.dims, spacing=vol.spacing, origin=vol.origin)
+            self._grid.point_data["value"] = self.frame(self.step).copy()
+        return self._grid
+
+    def _update_volume(self) -> None:
+        grid = self._ensure_grid()
+        arr = self.frame(self.step)
+        grid.point_data["value"][:] = arr
+        grid.Modified()
+        rep = self.representation if self.show_volume else "none"
+        if rep == "volume":
+            if "volume" not in self._actors:
+                self._actors["volume"] = self.plotter.add_volume(
+                    grid, scalars="value", cmap=self.cmap, clim=self.clim,
+                    opacity=_opacity_tf(self.opacity), show_scalar_bar=False, name="volume",
+                    reset_camera=False, render=False,
+                )  # fmt: skip
+                # the mapper keeps its own input: update that one from now on
+                self._grid = self._actors["volume"].mapper.dataset
+            else:
+                self._actors["volume"].mapper.dataset.Modified()
+        elif rep in ("slices", "contour"):
+            if rep == "slices":
+                mesh = grid.slice_orthogonal().combine(merge_points=False)
+                kw: dict[str, Any] = {"opacity": max(self.opacity, 0.6)}
+            else:
+                iso = self.clim[0] + 0.6 * (self.clim[1] - self.clim[0])
+                mesh = grid.contour([iso], scalars="value")
+                kw = {"opacity": self.opacity}
+            if mesh.n_points == 0:
+                self._remove("volume")
+            elif "volume" in self._actors and getattr(self, "_vol_mesh", None) is not None:
+                self._vol_mesh.copy_from(mesh)
+            else:
+                self._remove("volume")
+                self._vol_mesh = mesh
+                self._actors["volume"] = self.plotter.add_mesh(
+                    mesh, scalars="value", cmap=self.cmap, clim=self.clim,
+                    show_scalar_bar=False, name="volume", reset_camera=False, render=False, **kw,
+                )  # fmt: skip
+        else:
+            self._remove("volume")
+
+    # --------------------------------------------------------------- sources
+    def set_sources(self, getter: Callable[[int], SourceFrame | None] | None) -> None:
+        """``getter(step)`` returns the sources of a step (or None if not detected yet)."""
+        self.sources = getter
+        self._update_sources()
+
+    def set_type_visible(self, kind: str, visible: bool, *, render: bool = True) -> None:
+        if kind not in self.visible_types:
+            raise ParameterError(f"source type must be one of {TYPES}, got {kind!r}")
+        self.visible_types[kind] = bool(visible)
+        self._update_sources()
+        if render:
+            self.plotter.render()
+
+    def _update_sources(self) -> None:
+        frame = self.sources(self.step) if (self.sources and self.volume is not None) else None
+        if frame is None or not self.show_sources:
+            self._remove("sources")
+            return
+        keep = np.zeros(frame.kind.size, dtype=bool)
+        for k, name in enumerate(TYPES, start=1):
+            if self.visible_types[name]:
+                keep |= frame.kind == k
+        if not keep.any():
+            self._remove("sources")
+            return
+        vol = self._need_volume()
+        pts = vol.points(frame.index[keep])
+        lut = np.array([(0, 0, 0), *TYPE_COLORS.values()], dtype=np.uint8)
+        mesh = sphere_glyphs(pts, np.maximum(frame.radius[keep], 1e-3 * vol.spacing.min()),
+                             lut[frame.kind[keep]])  # fmt: skip
+        if "sources" in self._actors:
+            self._src_mesh.copy_from(mesh)
+        else:
+            self._src_mesh = mesh
+            self._actors["sources"] = self.plotter.add_mesh(
+                mesh, scalars="rgb", rgb=True, name="sources", reset_camera=False, render=False,
+                smooth_shading=False, ambient=0.35, diffuse=0.75, specular=0.0,
+            )  # fmt: skip
+
+    def _legend(self) -> None:
+        if self._legend_added:
+            return
+        labels = [[k, tuple(c / 255 for c in v)] for k, v in TYPE_COLORS.items()]
+        labels.append(["listener path", tuple(c / 255 for c in PATH_COLOR)])
+        self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255, size=(0.2, 0.16),
+                                face="circle", name="legend", loc="upper right")  # fmt: skip
+        self._legend_added = True
+
+    # -------------------------------------------------------------- listener
+    def set_path(self, path: ListenerPath | None, *, time_scale: float | None = None,
+                 render: bool = True) -> None:  # fmt: skip
+        """Draw ``path`` as a polyline (None removes it); the glyph follows the time slider."""
+        self.path = path
+        if time_scale is not None:
+            self.time_scale = float(time_scale)
+        self._update_path()
+        if render:
+            self.plotter.render()
+
+    def set_listener(self, position: Any, forward: Any, up: Any, *, render: bool = False) -> None:
+        """Place the listener glyph explicitly (recording / live listening)."""
+        self.listener = tuple(np.asarray(v, dtype=np.float64) for v in (position, forward, up))
+        self._update_glyph()
+        if render:
+            self.plotter.render()
+
+    def _glyph_size(self) -> float:
+        vol = self.volume
+        if vol is None:
+            return 1.0
+        b = np.asarray(vol.bounds).reshape(3, 2)
+        return float(0.04 * np.linalg.norm(b[:, 1] - b[:, 0]))
+
+    def _update_path(self) -> None:
+        import pyvista as pv
+
+        p = self.path
+        if p is None or p.n_captures == 0:
+            self._remove("path")
+        else:
+            pts = p.positions if p.n_captures > 1 else np.repeat(p.positions, 2, axis=0)
+            line = pv.lines_from_points(pts)
+            if "path" in self._actors:
+                self._path_mesh.copy_from(line)
+            else:
+                self._path_mesh = line
+                self._actors["path"] = self.plotter.add_mesh(
+                    line, color=np.asarray(PATH_COLOR) / 255, line_width=5, lighting=False,
+                    name="path", reset_camera=False, render=False,
+                )  # fmt: skip
+        if p is not None and self.listener is None:
+            self._update_glyph()
+        elif p is None and self.listener is None:
+            self._remove("glyph")
+
+    def listener_at_step(self) -> tuple[NDArray[np.float64], ...] | None:
+        """Listener pose on the path at the current step's playback time."""
+        if self.path is None or self.volume is None:
+            return None
+        t = (self.volume.times[self.step] - self.volume.times[0]) * self.time_scale
+        t = t + self.path.times[0]
+        f, u = self.path.orientation_at(t)
+        return self.path.position_at(t)[0], f[0], u[0]
+
+    def _update_glyph(self) -> None:
+        pose = self.listener if self.listener is not None else self.listener_at_step()
+        if pose is None:
+            self._remove("glyph")
+            return
+        g = listener_glyph(*pose, self._glyph_size())
+        if "glyph" in self._actors:
+            self._glyph_mesh.copy_from(g)
+        else:
+            self._glyph_mesh = g
+            self._actors["glyph"] = self.plotter.add_mesh(
+                g, color=np.asarray(PATH_COLOR) / 255, lighting=False, name="glyph",
+                reset_camera=False, render=False, line_width=3,
+            )  # fmt: skip
+
+    # -------------------------------------------------------------- overlays
+    def set_overlay(self, name: str, fn: Callable[[int], Any] | None, *,
+                    visible: bool = True) -> None:  # fmt: skip
+        """Register ``fn(step) -> mesh | list of meshes | None`` as overlay ``name`` (None removes)."""
+        if fn is None:
+            self.overlays.pop(name, None)
+            self.overlay_visible.pop(name, None)
+            self._remove_prefix(f"overlay:{name}")
+            return
+        self.overlays[name] = fn
+        self.overlay_visible[name] = visible
+        self._update_overlays()
+
+    def _update_overlays(self) -> None:
+        for name, fn in self.overlays.items():
+            self._remove_prefix(f"overlay:{name}")
+            if not self.overlay_visible.get(name, True):
+                continue
+            meshes = fn(self.step)
+            if meshes is None:
+                continue
+            if not isinstance(meshes, list | tuple):
+                meshes = [meshes]
+            for i, m in enumerate(meshes):
+                key = f"overlay:{name}:{i}"
+                self._actors[key] = self.plotter.add_mesh(m, name=key, reset_camera=False,
+                                                          render=False, opacity=0.6)  # fmt: skip
+
+    # ------------------------------------------------------------------ time
+    def set_step(self, step: int, *, render: bool = True) -> float:
+        """Show time step ``step``; returns the seconds the update (and redraw) took."""
+        vol = self._need_volume()
+        if not 0 <= step < vol.n_steps:
+            raise ParameterError(f"time step must be in 0..{vol.n_steps - 1}, got {step!r}")
+        t0 = time.perf_counter()
+        self.step = int(step)
+        self._update_volume()
+        self._update_sources()
+        if self.listener is None:
+            self._update_glyph()
+        self._update_overlays()
+        if render:
+            self.plotter.render()
+        el = time.perf_counter() - t0
+        self.timings["set_step"] = el
+        return el
+
+    # ---------------------------------------------------------------- camera
+    def camera(self) -> dict[str, list[float]]:
+        c = self.plotter.camera
+        return {"position": list(map(float, c.position)),
+                "focal_point": list(map(float, c.focal_point)),
+                "up": list(map(float, c.up)), "view_angle": float(c.view_angle)}  # fmt: skip
+
+    def set_camera(self, cam: dict[str, Any]) -> None:
+        c = self.plotter.camera
+        c.position = tuple(cam["position"])
+        c.focal_point = tuple(cam["focal_point"])
+        c.up = tuple(cam["up"])
+        if "view_angle" in cam:
+            c.view_angle = float(cam["view_angle"])
+        self.plotter.renderer.ResetCameraClippingRange()
+
+    def frame_all(self) -> None:
+        """Fit the camera to everything shown (isometric)."""
+        self.plotter.view_isometric()
+        self.plotter.reset_camera()
+
+    # ------------------------------------------------------------------ misc
+    def _need_volume(self) -> TimeVolume:
+        if self.volume is None:
+            raise ParameterError("no volume loaded; open a data file first")
+        return self.volume
+
+    def _remove(self, key: str) -> None:
+        a = self._actors.pop(key, None)
+        if a is not None:
+            self.plotter.remove_actor(a, render=False)
+
+    def _remove_prefix(self, prefix: str) -> None:
+        for k in [k for k in self._actors if k.startswith(prefix)]:
+            self._remove(k)
+
+
+def default_field(volume: TimeVolume) -> str:
+    """First scalar field of ``volume``, else its first (vector) field."""
+    for name in volume.field_names:
+        if not volume.is_vector(name):
+            return name
+    return volume.field_names[0]
+
+
+def _opacity_tf(scale: float) -> NDArray[np.float64]:
+    """A ramp transfer function (low values transparent), scaled by ``scale``."""
+    return np.clip(np.linspace(-0.15, 1.0, 64), 0, 1) ** 1.5 * scale
