@@ -235,28 +235,33 @@ def _pan(x, y, z, t, s, tc, lc, vc, qc, spk_az, spk_ch, fold, g, g2, o):  # type
 
 
 @numba.njit(inline="always", **_NJIT)
-def _emit(acc, blk, m_start, s0, L, f0, d0, f1, d1, sign):  # type: ignore[no-untyped-def]
-    """Add sign × (cubic Hermite on [s0, s0+L], sample units) from sample m_start on.
+def _hermite(L, f0, d0, f1, d1):  # type: ignore[no-untyped-def]
+    """Power-basis coefficients (in x = t - start, sample units) of the cubic
+    Hermite with values f0, f1 and slopes d0, d1 over [0, L]."""
+    inv = 1.0 / L
+    dlt = (f1 - f0) * inv
+    c2 = (3.0 * dlt - 2.0 * d0 - d1) * inv
+    c3 = (d0 + d1 - 2.0 * dlt) * inv * inv
+    return f0, d0, c2, c3
 
-    Impulses go into acc[blk, local index + level, level]: the four levels of
-    one impulse share cache lines.
+
+@numba.njit(inline="always", **_NJIT)
+def _emit(acc, blk, B, m_start, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
+    """Add sign × P(m - m_start + x) for m >= m_start, P = c0 + c1 x + c2 x² + c3 x³.
+
+    The polynomial is Taylor-shifted to x and written in the binomial basis
+    C(m - m_start, i), whose (i+1)-fold cumulative sum is an impulse at
+    m_start + i: four impulses, into acc[blk, local index + level, level] (the
+    four levels of one impulse share cache lines).
     """
-    B = acc.shape[1] - 4
-    dlt = (f1 - f0) / L
-    c1 = d0
-    c2 = (3.0 * dlt - 2.0 * d0 - d1) / L
-    c3 = (d0 + d1 - 2.0 * dlt) / (L * L)
-    x = m_start - s0
-    # Taylor shift to x: b_i = P^(i)(x)/i!
-    b0 = f0 + x * (c1 + x * (c2 + x * c3))
+    b0 = c0 + x * (c1 + x * (c2 + x * c3))
     b1 = c1 + x * (2.0 * c2 + 3.0 * c3 * x)
     b2 = c2 + 3.0 * c3 * x
-    b3 = c3
     loc = m_start - blk * B
     acc[blk, loc, 0] += sign * b0
-    acc[blk, loc + 1, 1] += sign * (b1 + b2 + b3)
-    acc[blk, loc + 2, 2] += sign * (2.0 * b2 + 6.0 * b3)
-    acc[blk, loc + 3, 3] += sign * 6.0 * b3
+    acc[blk, loc + 1, 1] += sign * (b1 + b2 + c3)
+    acc[blk, loc + 2, 2] += sign * (2.0 * b2 + 6.0 * c3)
+    acc[blk, loc + 3, 3] += sign * 6.0 * c3
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -416,9 +421,10 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                             if fa[c] == 0.0 and da[c] == 0.0 and fb[c] == 0.0 and db[c] == 0.0:
                                 continue
                             a_c = acc_t[c]
-                            _emit(a_c, blk, m_0, u0, L, fa[c], da[c], fb[c], db[c], 1.0)
+                            p0, p1, p2, p3 = _hermite(L, fa[c], da[c], fb[c], db[c])
+                            _emit(a_c, blk, block, m_0, m_0 - u0, p0, p1, p2, p3, 1.0)
                             if end_inside:
-                                _emit(a_c, blk, m_1, u0, L, fa[c], da[c], fb[c], db[c], -1.0)
+                                _emit(a_c, blk, block, m_1, m_1 - u0, p0, p1, p2, p3, -1.0)
                     new_seg = _segment(tc, t1, seg)
                     if new_seg != segm and t1 < tb:
                         # split at a listener capture: the velocity changes, so the

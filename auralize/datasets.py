@@ -285,12 +285,17 @@ def all_datasets() -> dict[str, Callable[..., TimeVolume]]:
 
 def make_dataset(name: str, *, size: int | None = None, steps: int | None = None,
                  seed: int = 0) -> TimeVolume:  # fmt: skip
-    """Generate a built-in dataset by name (sizes default per dataset)."""
+    """Generate a built-in dataset by name (sizes default per dataset).
+
+    Sound-model plugins contribute datasets through a ``datasets`` class
+    attribute ``{name: factory(size=, steps=, seed=) -> TimeVolume}``.
+    """
+    available = all_datasets()
     try:
-        fn = DATASETS[name]
+        fn = available[name]
     except KeyError:
         raise ParameterError(
-            f"unknown dataset {name!r}; choose one of {sorted(DATASETS)}"
+            f"unknown dataset {name!r}; choose one of {sorted(available)}"
         ) from None
     kw: dict[str, int] = {"seed": seed}
     if size is not None:

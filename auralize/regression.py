@@ -1,0 +1,103 @@
+"""Dataset regression: figures a dataset must keep producing, stored in ``datasets/regression``.
+
+``python -m auralize.regression [--update] [NAME ...]`` recomputes the figures
+of the built-in datasets and compares them with (or rewrites) the stored JSON.
+The test suite calls :func:`compare` so a change in detection or synthesis
+that moves these figures is caught.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from auralize.fileio import atomic_write
+
+STORE = Path(__file__).resolve().parent.parent / "datasets" / "regression"
+
+#: relative tolerances of the stored figures
+TOLERANCES = {"counts": 0.01, "rms": 0.01, "centroid": 0.02}
+
+CASES: dict[str, dict[str, Any]] = {
+    "explosion": {
+        "dataset": "explosion", "size": 64, "steps": 30, "seed": 0, "mapping": "paper-density",
+        "thresholds": ["auto", "auto", "auto"], "rate": 44100, "interp": "cubic",
+        "path": {"start": [12.0, 20.0, 30.0], "end": [50.0, 40.0, 34.0], "duration": 1.0},
+    },
+}  # fmt: skip
+
+
+def spectral_centroid(x: np.ndarray, rate: int) -> float:
+    """Power-weighted mean frequency (Hz) of a signal."""
+    spec = np.abs(np.fft.rfft(x * np.hanning(x.size))) ** 2
+    f = np.fft.rfftfreq(x.size, 1 / rate)
+    return float(np.sum(f * spec) / np.sum(spec))
+
+
+def compute(name: str) -> dict[str, Any]:
+    """Recompute the figures of one case."""
+    from auralize.datasets import make_dataset
+    from auralize.listener import ListenerPath
+    from auralize.pipeline import auralize
+    from auralize.sources import Thresholds
+
+    case = CASES[name]
+    vol = make_dataset(case["dataset"], size=case["size"], steps=case["steps"], seed=case["seed"])
+    p = case["path"]
+    path = ListenerPath.line(p["start"], p["end"], duration=p["duration"])
+    out, series = auralize(vol.load(), path, mapping=case["mapping"],
+                           thresholds=Thresholds(*case["thresholds"]), rate=case["rate"],
+                           interp=case["interp"])  # fmt: skip
+    x = out.audio[0]
+    return {
+        "case": case,
+        "counts": series.counts(),
+        "thresholds": series.thresholds.tolist(),
+        "rms": float(np.sqrt(np.mean(x**2))),
+        "centroid": spectral_centroid(x, out.rate),
+    }
+
+
+def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
+    """Differences between recomputed and stored figures beyond the tolerances."""
+    stored = json.loads((STORE / f"{name}.json").read_text())
+    got = got or compute(name)
+    problems = []
+    tol = TOLERANCES["counts"]
+    for n, (a, b) in enumerate(zip(got["counts"], stored["counts"], strict=True)):
+        for k in ("monopole", "dipole", "quadrupole"):
+            if abs(a[k] - b[k]) > max(2, tol * b[k]):
+                problems.append(f"step {n} {k}: {a[k]} vs stored {b[k]}")
+    for key in ("rms", "centroid"):
+        if not np.isclose(got[key], stored[key], rtol=TOLERANCES[key], atol=0):
+            problems.append(f"{key}: {got[key]:.6g} vs stored {stored[key]:.6g}")
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m auralize.regression")
+    ap.add_argument("names", nargs="*", default=list(CASES))
+    ap.add_argument("--update", action="store_true", help="rewrite the stored figures")
+    args = ap.parse_args(argv)
+    status = 0
+    for name in args.names:
+        got = compute(name)
+        if args.update:
+            atomic_write(STORE / f"{name}.json", json.dumps(got, indent=1).encode())
+            print(f"{name}: stored (rms {got['rms']:.4g} Pa, centroid {got['centroid']:.1f} Hz)")
+            continue
+        problems = compare(name, got)
+        print(f"{name}: {'ok' if not problems else 'CHANGED'}")
+        for p in problems:
+            print("   ", p)
+        status |= bool(problems)
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())
