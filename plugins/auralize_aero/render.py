@@ -42,7 +42,7 @@ from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
 
-from .objects import AeroObject, Motion, Wind
+from .objects import AeroObject, Motion, Wind, quat_to_matrix
 from .texture import SoundTexture
 
 C0 = 343.0
@@ -86,6 +86,11 @@ class Kinematics:
     span: NDArray[np.float64]
 
 
+def _apply(R: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Matrices ``R (J, 3, 3)`` applied to vectors ``v (S, 3)`` -> ``(S, J, 3)``."""
+    return np.ascontiguousarray(np.matmul(R, v.T).transpose(2, 0, 1))
+
+
 def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind | None,
                dt: float, duration: float) -> Kinematics:  # fmt: skip
     """Source kinematics and the texture-coordinate recurrence of Eq. 3 (§6)."""
@@ -96,14 +101,20 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
     J = int(math.ceil(duration / dt)) + 3
     t = np.arange(J) * dt
     if motion is not None:
+        # spline the pose (origin and rotation matrix: 12 components), then place the sources
         tm = motion.times
         tc = np.clip(t, tm[0], tm[-1])
-        moving = (t >= tm[0]) & (t <= tm[-1])
-        P = CubicSpline(tm, motion.world_points(centres), axis=1)
-        pos = P(tc)
-        vel = P(tc, 1) * moving[None, :, None]
-        n = CubicSpline(tm, motion.world_points(axes, vectors=True), axis=1)(tc)
-        e = CubicSpline(tm, motion.world_points(refs, vectors=True), axis=1)(tc)
+        moving = ((t >= tm[0]) & (t <= tm[-1])).astype(np.float64)
+        R = quat_to_matrix(motion.quaternions).reshape(-1, 9)
+        spl = CubicSpline(tm, np.concatenate([motion.positions, R], 1), axis=0)
+        v = spl(tc)
+        dv = spl(tc, 1) * moving[:, None]
+        Rt = v[:, 3:].reshape(J, 3, 3)
+        dRt = dv[:, 3:].reshape(J, 3, 3)
+        pos = v[None, :, :3] + _apply(Rt, centres)
+        vel = dv[None, :, :3] + _apply(dRt, centres)
+        n = _apply(Rt, axes)
+        e = _apply(Rt, refs)
     else:
         pos = np.broadcast_to(centres[:, None], (S, J, 3)).copy()
         vel = np.zeros((S, J, 3))
