@@ -21,7 +21,9 @@ def mono_h5(tmp_path_factory) -> str:  # type: ignore[no-untyped-def]
 def test_info_json(mono_h5, capsys) -> None:  # type: ignore[no-untyped-def]
     assert main(["info", mono_h5, "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert d["dims"] == [16, 16, 16] and d["n_steps"] == 120 and d["fields"] == {"density": "scalar"}
+    assert (
+        d["dims"] == [16, 16, 16] and d["n_steps"] == 120 and d["fields"] == {"density": "scalar"}
+    )
 
 
 def test_detect_json_and_outputs(mono_h5, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
@@ -53,7 +55,9 @@ def test_render_stereo_wav_with_sidecar(mono_h5, tmp_path) -> None:  # type: ign
     # looking +y with up +z, -x is on the left: the source (at -x) is louder in L
     assert np.std(audio[0]) > 3 * np.std(audio[1])
     meta = json.loads((tmp_path / "a.wav.json").read_text())
-    assert meta["layout"]["name"] == "stereo" and meta["normalize"] == "none" and meta["gain"] == 1.0
+    assert (
+        meta["layout"]["name"] == "stereo" and meta["normalize"] == "none" and meta["gain"] == 1.0
+    )
 
 
 def test_path_command_and_render_with_path(mono_h5, tmp_path) -> None:  # type: ignore[no-untyped-def]
@@ -100,3 +104,22 @@ def test_corrupt_volume_file(tmp_path, capsys) -> None:  # type: ignore[no-untyp
     bad.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(200))
     assert main(["info", str(bad)]) == 2
     assert "bad.h5" in capsys.readouterr().err
+
+
+def test_demo_writes_ring8_wav_and_pictures(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import matplotlib.image as mpimg
+
+    assert main(["demo", "-o", str(tmp_path), "--size", "24", "--time-scale", "1"]) == 0
+    audio, rate, mask = read_wav(tmp_path / "explosion_ring8.wav")
+    assert audio.shape[0] == 8 and rate == 44100 and np.max(np.abs(audio)) > 0.9
+    img = mpimg.imread(tmp_path / "explosion.png")[..., :3]
+    assert img.std() > 0.02  # not blank
+
+    def has_colour(hex_colour: str) -> bool:
+        rgb = np.array([int(hex_colour[i : i + 2], 16) for i in (1, 3, 5)]) / 255
+        return bool(np.any(np.all(np.abs(img - rgb) < 0.12, axis=-1)))
+
+    from auralize.scene import PATH_COLOR, TYPE_COLORS
+
+    assert has_colour(TYPE_COLORS[1]) and has_colour(PATH_COLOR)
+    assert (tmp_path / "explosion_spectrogram.png").stat().st_size > 10_000
