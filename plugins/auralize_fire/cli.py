@@ -1,0 +1,175 @@
+"""``auralize fire …``: low-frequency sound, bandwidth extension, textures, the full chain.
+
+Sub-commands (paper 001)::
+
+    auralize fire lowfreq PATH -o LOW.wav [--burn-field NAME] [--velocity-field NAME] [--iso X]
+    auralize fire extend IN.wav -o OUT.wav [--alpha A] [--fcut HZ] [--seed S]
+    auralize fire texture IN.wav --training TRAIN.wav -o OUT.wav [--levels L] [--eps E]
+    auralize fire render PATH -o OUT.wav --extend bandwidth|texture --listener X,Y,Z --duration S
+
+``lowfreq``, ``extend`` and ``texture`` write the emitted (source) signal,
+mono; ``render`` runs the chain and places the sound, emitted at the flame
+front's centre, along a listener path with the common output options.  Raw
+float32 inputs (``.f32``) take ``--rate`` (default: the ``manifest.json``
+beside them).  PATH is a volume file or ``dataset:fire``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+import numpy as np
+
+from auralize.audio import write_audio
+
+
+def _audio_out(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("audio output")
+    g.add_argument("-o", "--output", required=True, help="output .wav or .flac (mono)")
+    g.add_argument("--normalize", choices=["peak", "none"], default="peak",
+                   help="peak: loudest sample at 0.99; none: keep the signal's units")  # fmt: skip
+
+
+def _volume_in(p: argparse.ArgumentParser) -> None:
+    p.add_argument("volume", metavar="PATH", help="volume file or dataset:fire")
+    p.add_argument("--burn-field", default="burn", help="scalar field of the front (default burn)")
+    p.add_argument("--velocity-field", default="velocity", help="velocity field (default velocity)")
+    p.add_argument("--iso", type=float, help="front iso-value (default 10%% of the peak)")
+    p.add_argument("--refine", type=int, default=2, help="B-spline refinement (default 2)")
+    p.add_argument("--highpass", type=float, default=30.0, help="high-pass cutoff Hz (§6; 0 = off)")
+    p.add_argument("--size", type=int, help="grid size of dataset:fire")
+    p.add_argument("--steps", type=int, help="steps of dataset:fire")
+
+
+def _extend_opts(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--alpha", type=float, default=3.0, help="power-law exponent (default 3)")
+    p.add_argument("--fcut", type=float, default=180.0, help="blend centre Hz (default 180)")
+    p.add_argument("--seed", type=int, default=0)
+
+
+def _texture_opts(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--levels", type=int, default=6, help="pyramid levels (default 6)")
+    p.add_argument("--eps", type=float, default=1.0, help="approximate-NN ε (default 1; 0 exact)")
+    p.add_argument("--training-rate", type=int, help="rate of a raw .f32 training clip")
+
+
+def _write(args: argparse.Namespace, x: np.ndarray, rate: int, info: dict[str, Any]) -> None:
+    gain = write_audio(args.output, x[None] if x.ndim == 1 else x, rate,
+                       normalize=args.normalize, sidecar={"model": "fire", **info})  # fmt: skip
+    n = x.shape[-1]
+    print(f"wrote {args.output}: {x.shape[0] if x.ndim == 2 else 1} ch, {n / rate:.2f} s at "
+          f"{rate} Hz, gain {gain:.4g}")  # fmt: skip
+
+
+def cmd_lowfreq(args: argparse.Namespace) -> int:
+    from auralize_fire.lowfreq import flux_series, lowfreq_pressure
+    from auralize_fire.model import load_volume
+
+    vol = load_volume(args.volume, size=args.size, steps=args.steps)
+    t = time.perf_counter()
+    fs = flux_series(vol, burn_field=args.burn_field, velocity_field=args.velocity_field,
+                     iso=args.iso, refine=args.refine)  # fmt: skip
+    p = lowfreq_pressure(fs, rate=args.rate, highpass_hz=args.highpass)
+    _write(args, p, args.rate, {"stage": "lowfreq (§3)", "iso": fs.iso, "steps": vol.n_steps,
+                                "seconds": time.perf_counter() - t})  # fmt: skip
+    return 0
+
+
+def cmd_extend(args: argparse.Namespace) -> int:
+    from auralize_fire.bandwidth import bandwidth_extend
+    from auralize_fire.clips import read_audio
+
+    x, rate = read_audio(args.input, rate=args.rate)
+    t = time.perf_counter()
+    y = bandwidth_extend(x, rate, alpha=args.alpha, f_cut=args.fcut, seed=args.seed)
+    _write(args, y, rate, {"stage": "bandwidth extension (§4)", "alpha": args.alpha,
+                           "f_cut": args.fcut, "seed": args.seed,
+                           "seconds": time.perf_counter() - t})  # fmt: skip
+    return 0
+
+
+def cmd_texture(args: argparse.Namespace) -> int:
+    from auralize_fire.clips import read_audio
+    from auralize_fire.model import training_at
+    from auralize_fire.texture import texture_synthesize
+
+    x, rate = read_audio(args.input, rate=args.rate)
+    train = training_at(args.training, rate, training_rate=args.training_rate)
+    t = time.perf_counter()
+    y = texture_synthesize(x, train, levels=args.levels, eps=args.eps)
+    _write(args, y, rate, {"stage": "texture synthesis (§5)", "training": args.training,
+                           "levels": args.levels, "eps": args.eps,
+                           "seconds": time.perf_counter() - t})  # fmt: skip
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from auralize.cli import listener_from_args
+    from auralize.propagation import propagate
+    from auralize.spatial import get_layout
+    from auralize_fire.model import load_volume, render_chain, training_at, trajectory
+
+    vol = load_volume(args.volume, size=args.size, steps=args.steps)
+    path = listener_from_args(args)
+    train = None
+    if args.extend == "texture":
+        train = training_at(args.training, args.rate, seed=args.seed,
+                            training_rate=args.training_rate)  # fmt: skip
+    t = time.perf_counter()
+    sig, fs = render_chain(vol, extend=args.extend, rate=args.rate, burn_field=args.burn_field,
+                           velocity_field=args.velocity_field, iso=args.iso, refine=args.refine,
+                           highpass_hz=args.highpass, alpha=args.alpha, f_cut=args.fcut,
+                           levels=args.levels, eps=args.eps, training=train, seed=args.seed)  # fmt: skip
+    traj = trajectory(fs, sig.size, args.rate)
+    lay = get_layout(args.layout)
+    out = propagate(sig[None], args.rate, traj[None], path, rate=args.rate, layout=lay,
+                    duration=args.duration if args.path is None else None)  # fmt: skip
+
+    gain = write_audio(args.output, out, args.rate, normalize=args.normalize, limit_pa=args.limit,
+                       sidecar={"model": "fire", "extend": args.extend, "iso": fs.iso,
+                        "layout": lay.name, "seconds": time.perf_counter() - t})  # fmt: skip
+    print(f"wrote {args.output}: {lay.name}, {out.shape[0]} ch, {out.shape[1] / args.rate:.2f} s "
+          f"at {args.rate} Hz, gain {gain:.4g}")  # fmt: skip
+    return 0
+
+
+def add_fire_cli(subparsers: Any) -> None:
+    """Register ``auralize fire`` and its sub-commands."""
+    from auralize.cli import add_output_options
+
+    fire = subparsers.add_parser(
+        "fire", help="fire sound (paper 001): lowfreq, extend, texture, render"
+    )
+    sub = fire.add_subparsers(dest="fire_command", required=True, metavar="STAGE")
+
+    p = sub.add_parser("lowfreq", help="§3: p = dI/dt of the flame-front flux, at audio rate")
+    _volume_in(p)
+    _audio_out(p)
+    p.add_argument("--rate", type=int, default=44100, help="audio rate in Hz (default 44100)")
+    p.set_defaults(func=cmd_lowfreq)
+
+    p = sub.add_parser("extend", help="§4: spectral bandwidth extension with power-law noise")
+    p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
+    _audio_out(p)
+    p.add_argument("--rate", type=int, help="sample rate of a raw .f32 input")
+    _extend_opts(p)
+    p.set_defaults(func=cmd_extend)
+
+    p = sub.add_parser("texture", help="§5: sound texture synthesis from a training clip")
+    p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
+    p.add_argument("--training", help="training clip (.wav/.flac/.f32; default: procedural)")
+    _audio_out(p)
+    p.add_argument("--rate", type=int, help="sample rate of a raw .f32 input")
+    _texture_opts(p)
+    p.set_defaults(func=cmd_texture)
+
+    p = sub.add_parser("render", help="the chain §3 → §4/§5, placed along a listener path")
+    _volume_in(p)
+    p.add_argument("--extend", choices=["none", "bandwidth", "texture"], default="bandwidth")
+    p.add_argument("--training", help="training clip for --extend texture")
+    _extend_opts(p)
+    _texture_opts(p)
+    add_output_options(p)
+    p.set_defaults(func=cmd_render)

@@ -1,0 +1,158 @@
+"""FireSound: the fire-sound SoundModel (paper 001), its CLI, benchmark and overlay."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import ParameterError
+from auralize.plugins import Parameter, SoundModel, SoundOutput
+from auralize.volume import TimeVolume
+from auralize_fire.bandwidth import bandwidth_extend, check_signal
+from auralize_fire.clips import fire_training_clip, read_audio, resample
+from auralize_fire.dataset import make_fire
+from auralize_fire.lowfreq import flux_series, front_at, lowfreq_pressure
+from auralize_fire.texture import texture_synthesize
+
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "fire-lowfreq"
+
+
+def render_chain(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 44100,
+                 burn_field: str = "burn", velocity_field: str = "velocity",
+                 iso: float | None = None, refine: int = 2, highpass_hz: float = 30.0,
+                 alpha: float = 3.0, f_cut: float = 180.0, levels: int = 6, eps: float = 1.0,
+                 training: NDArray[np.floating] | None = None, seed: int = 0,
+                 ) -> tuple[NDArray[np.float64], Any]:  # fmt: skip
+    """§3 → §6 high-pass → §4 or §5: the emitted fire sound of a volume.
+
+    Returns ``(signal (n,), FluxSeries)``; ``extend`` is ``"none"``,
+    ``"bandwidth"`` or ``"texture"`` (``training`` at ``rate``; default: the
+    procedural clip, 15 s).
+    """
+    if extend not in ("none", "bandwidth", "texture"):
+        raise ParameterError(f"extend must be 'none', 'bandwidth' or 'texture', got {extend!r}")
+    fs = flux_series(volume, burn_field=burn_field, velocity_field=velocity_field, iso=iso,
+                     refine=refine)  # fmt: skip
+    low = lowfreq_pressure(fs, rate=rate, highpass_hz=highpass_hz)
+    if extend == "none":
+        return low, fs
+    if extend == "bandwidth":
+        return bandwidth_extend(low, rate, alpha=alpha, f_cut=f_cut, seed=seed), fs
+    clip = fire_training_clip(15.0, rate, seed=seed) if training is None else training
+    return texture_synthesize(low, clip, levels=levels, eps=eps), fs
+
+
+class FireSound(SoundModel):
+    """Fire sound from flame-front flux with bandwidth extension or textures (paper 001).
+
+    ``inputs`` of :meth:`synthesize`: a TimeVolume (the emitted sound is
+    returned as ``pressure``) or ``(TimeVolume, ListenerPath)`` (the sound,
+    emitted at the flame front's area-weighted centre, is propagated to the
+    listener with :func:`auralize.propagation.propagate`).
+    """
+
+    name: ClassVar[str] = "fire"
+    description: ClassVar[str] = (
+        "fire sound: flame-front velocity flux, spectral bandwidth extension or texture synthesis"
+    )
+    paper: ClassVar[str] = "001 §3–§5"
+    parameters: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("burn_field", "burn", doc="scalar field whose iso-surface is the front (§3.2)"),
+        Parameter("velocity_field", "velocity", doc="vector field u (m/s)"),
+        Parameter("iso", None, doc="front iso-value (default 10 % of the peak)"),
+        Parameter("refine", 2, range=(1, 8), doc="B-spline refinement per voxel (Eq. 7)"),
+        Parameter("extend", "bandwidth", choices=("none", "bandwidth", "texture")),
+        Parameter("highpass_hz", 30.0, range=(0.0, 1000.0), unit="Hz", doc="§6 high-pass"),
+        Parameter("alpha", 3.0, range=(0.5, 6.0), doc="power-law exponent (§4, Table 1)"),
+        Parameter("f_cut", 180.0, range=(20.0, 5000.0), unit="Hz", doc="blend centre (Table 1)"),
+        Parameter("levels", 6, range=(2, 10), doc="pyramid levels L (§5)"),
+        Parameter("eps", 1.0, range=(0.0, 10.0), doc="approximate-NN ε (§5.2)"),
+        Parameter("seed", 0, range=(0, None)),
+        Parameter("rate", 44100, range=(8000, 192000), unit="Hz"),
+    )
+    datasets: ClassVar[dict[str, Any]] = {"fire": make_fire}
+
+    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
+        p = self.resolve(**params)
+        path = None
+        if isinstance(inputs, tuple):
+            volume, path = inputs[0], (inputs[1] if len(inputs) > 1 else None)
+        else:
+            volume = inputs
+        if not isinstance(volume, TimeVolume):
+            raise ParameterError(f"fire model inputs must be a TimeVolume or (TimeVolume, "
+                                 f"ListenerPath), got {type(volume).__name__}")  # fmt: skip
+        sig, fs = render_chain(volume, extend=p["extend"], rate=int(p["rate"]),
+                               burn_field=p["burn_field"], velocity_field=p["velocity_field"],
+                               iso=p["iso"], refine=int(p["refine"]), highpass_hz=p["highpass_hz"],
+                               alpha=p["alpha"], f_cut=p["f_cut"], levels=int(p["levels"]),
+                               eps=p["eps"], seed=int(p["seed"]))  # fmt: skip
+        meta = {"iso": fs.iso, "flux": fs.flux, "front_area": fs.area, "extend": p["extend"]}
+        if path is None:
+            return SoundOutput(rate=int(p["rate"]), pressure=sig, meta=meta)
+        from auralize.propagation import propagate
+
+        traj = trajectory(fs, sig.size, int(p["rate"]))
+        out = propagate(sig[None], int(p["rate"]), traj[None], path, rate=int(p["rate"]),
+                        emit_t0=0.0)  # fmt: skip
+        return SoundOutput(rate=int(p["rate"]), pressure=out[0], signals=sig[None],
+                           positions=traj[None], meta=meta)  # fmt: skip
+
+    def overlay(self, inputs: Any, step: int) -> Any:
+        """The flame front at ``step`` as pyvista PolyData, cell scalars ``u_dot_n`` (m/s)."""
+        volume = inputs[0] if isinstance(inputs, tuple) else inputs
+        burn, vel = "burn", "velocity"
+        from auralize_fire.lowfreq import check_fields, default_iso
+
+        check_fields(volume, burn, vel)
+        front = front_at(volume, step, burn_field=burn, iso=default_iso(volume, burn))
+        mesh = front.to_pyvista()
+        mesh.cell_data["u_dot_n"] = front.u_dot_n(volume.frame(vel, step), volume.origin,
+                                                  volume.spacing)  # fmt: skip
+        mesh.set_active_scalars("u_dot_n", preference="cell")
+        return mesh
+
+    @classmethod
+    def add_cli(cls, subparsers: Any) -> None:
+        from auralize_fire.cli import add_fire_cli
+
+        add_fire_cli(subparsers)
+
+    @classmethod
+    def bench(cls, quick: bool) -> list[Any]:
+        from auralize_fire.benchmark import fire_bench
+
+        return fire_bench(quick)
+
+
+def trajectory(fs: Any, n: int, rate: int) -> NDArray[np.float64]:
+    """Front centre per audio sample (n, 3), linear between simulation steps."""
+    t = np.arange(n) / rate + fs.times[0]
+    return np.stack([np.interp(t, fs.times, fs.centroid[:, k]) for k in range(3)], axis=1)
+
+
+def load_volume(spec: str, *, size: int | None = None, steps: int | None = None,
+                seed: int = 0) -> TimeVolume:  # fmt: skip
+    """A volume file, ``dataset:fire`` or another core dataset."""
+    if spec == "dataset:fire":
+        kw: dict[str, int] = {"seed": seed}
+        if size is not None:
+            kw["size"] = size
+        if steps is not None:
+            kw["steps"] = steps
+        return make_fire(**kw)
+    from auralize.pipeline import load
+
+    return load(spec, size=size, steps=steps, seed=seed)
+
+
+def training_at(path: str | None, rate: int, *, seed: int = 0,
+                training_rate: int | None = None) -> NDArray[np.float64]:  # fmt: skip
+    """Training clip resampled to ``rate`` (default: procedural, 15 s)."""
+    if path is None:
+        return fire_training_clip(15.0, rate, seed=seed)
+    x, r = read_audio(path, rate=training_rate)
+    return check_signal(resample(x, r, rate), f"training clip {path}")
