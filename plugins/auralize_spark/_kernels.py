@@ -145,44 +145,55 @@ def wm_antiderivative(tau, s, psi, b):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
+def _overlap(n, n_ref, tau_ref, dtau, h, ta, tb, a2, a1, a0):  # type: ignore[no-untyped-def]
+    """Mean over sample n of p(τ) = a2 τ² + a1 τ + a0 restricted to (ta, tb] (exact integral)."""
+    tcn = tau_ref + (n - n_ref) * dtau
+    lo = tcn - h
+    hi = tcn + h
+    x0 = lo if lo > ta else ta
+    x1 = hi if hi < tb else tb
+    if x1 <= x0:
+        return 0.0
+    return (x1 - x0) * (a2 * (x1 * x1 + x1 * x0 + x0 * x0) / 3.0 + a1 * 0.5 * (x1 + x0) + a0) / dtau
+
+
+@numba.njit(inline="always", **_NJIT)
 def _add_piece(out, chans, gains, q, ta, tb, a2, a1, a0, tc, hl, c, rate):  # type: ignore[no-untyped-def]
-    """Box-filtered samples of p(τ) = a2 τ² + a1 τ + a0 on τ ∈ (ta, tb], added to ``out``."""
+    """Box-filtered samples of p(τ) = a2 τ² + a1 τ + a0 on τ ∈ (ta, tb], added to ``out``.
+
+    The samples containing ta and tb get the exact partial integral; the ones
+    in between lie wholly inside the piece, where the mean of a quadratic over
+    [τ_n − h, τ_n + h] is a2 (τ_n² + h²/3) + a1 τ_n + a0.
+    """
     n_out = out.shape[1]
-    k_max = chans.shape[1]
     dtau = c / (rate * hl)
-    inv_dtau = 1.0 / dtau
     h = 0.5 * dtau
     h2 = h * h / 3.0
     n0 = int(np.floor((tc + ta * hl / c) * rate + 0.5))
     n1 = int(np.floor((tc + tb * hl / c) * rate + 0.5))
     if n1 < 0 or n0 >= n_out:
         return 0
-    if n0 < 0:
-        n0 = 0
-    if n1 > n_out - 1:
-        n1 = n_out - 1
-    tau_c0 = c * (n0 / rate - tc) / hl
-    for n in range(n0, n1 + 1):
-        tcn = tau_c0 + (n - n0) * dtau
-        lo = tcn - h
-        hi = tcn + h
-        if lo >= ta and hi <= tb:
-            v = a2 * (tcn * tcn + h2) + a1 * tcn + a0
-        else:
-            x0 = lo if lo > ta else ta
-            x1 = hi if hi < tb else tb
-            if x1 <= x0:
-                continue
-            # exact integral over the overlap, divided by the sample's width in τ
-            v = (
-                (x1 - x0)
-                * (a2 * (x1 * x1 + x1 * x0 + x0 * x0) / 3.0 + a1 * 0.5 * (x1 + x0) + a0)
-                * inv_dtau
-            )
-        for kk in range(k_max):
-            ch = chans[q, kk]
-            if ch >= 0:
-                out[ch, n] += gains[q, kk] * v
+    tau0 = c * (n0 / rate - tc) / hl
+    v0 = _overlap(n0, n0, tau0, dtau, h, ta, tb, a2, a1, a0)
+    v1 = _overlap(n1, n0, tau0, dtau, h, ta, tb, a2, a1, a0) if n1 > n0 else 0.0
+    i0 = max(n0 + 1, 0)
+    i1 = min(n1, n_out)
+    for kk in range(chans.shape[1]):
+        ch = chans[q, kk]
+        if ch < 0:
+            continue
+        g = gains[q, kk]
+        row = out[ch]
+        if n0 >= 0:
+            row[n0] += g * v0
+        if n1 > n0 and n1 < n_out:
+            row[n1] += g * v1
+        ga2 = g * a2
+        ga1 = g * a1
+        gc = g * (a2 * h2 + a0)
+        for n in range(i0, i1):
+            t = tau0 + (n - n0) * dtau
+            row[n] += (ga2 * t + ga1) * t + gc
     return n1 - n0 + 1
 
 

@@ -20,7 +20,8 @@ probability ``u_i = φ_i^γ / Σ_j φ_j^γ`` (Eq. 2).  Defaults n = 8, ρ = π/2
   by only |∇φ|·2l, so u is nearly uniform and γ barely matters.
 * Branching: a second candidate is drawn from the same u; when it differs
   from the chosen one, a side branch starts there with probability
-  ``branch_probability``.  Hence branching falls as γ sharpens u
+  ``branch_probability`` · 2^(−g), g the generation of the growing tip (0 for
+  the trunk, 1 for its branches, …), which keeps the branching sub-critical.  Hence branching falls as γ sharpens u
   (P(second ≠ first) = 1 − Σ u_i²).  A side branch lives a random number of
   segments (exponential, mean ``branch_length`` segments) unless it reaches
   the positive charge first.
@@ -358,6 +359,7 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
     tip_pos = root[None, :]
     tip_dir = d0[None, :]
     tip_life = np.array([np.inf])
+    tip_gen = np.array([0], dtype=np.int64)
     hit = -1
     n_branch = 0
     while hit < 0:
@@ -401,7 +403,7 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
         r1, r2, r3 = rng.random(u.shape[0]), rng.random(u.shape[0]), rng.random(u.shape[0])
         pick = np.minimum((cdf < r1[:, None]).sum(axis=1), u.shape[1] - 1)
         pick2 = np.minimum((cdf < r2[:, None]).sum(axis=1), u.shape[1] - 1)
-        new_node, new_pos, new_dir, new_life = [], [], [], []
+        new_node, new_pos, new_dir, new_life, new_gen = [], [], [], [], []
         for t in np.flatnonzero(alive):
             nodes.append(cand[t, pick[t]])
             parent.append(int(tip_node[t]))
@@ -411,7 +413,8 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
                 new_pos.append(nodes[-1])
                 new_dir.append(dirs[t, pick[t]])
                 new_life.append(life)
-            if (pick2[t] != pick[t] and r3[t] < branch_probability
+                new_gen.append(tip_gen[t])
+            if (pick2[t] != pick[t] and r3[t] < branch_probability * 0.5 ** tip_gen[t]
                     and len(new_node) + 1 < max_tips):  # fmt: skip
                 nodes.append(cand[t, pick2[t]])
                 parent.append(int(tip_node[t]))
@@ -419,11 +422,13 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
                 new_pos.append(nodes[-1])
                 new_dir.append(dirs[t, pick2[t]])
                 new_life.append(max(1.0, rng.exponential(branch_length)))
+                new_gen.append(tip_gen[t] + 1)
                 n_branch += 1
         tip_node = np.asarray(new_node, dtype=np.int64)
         tip_pos = np.asarray(new_pos).reshape(-1, 3)
         tip_dir = np.asarray(new_dir).reshape(-1, 3)
         tip_life = np.asarray(new_life)
+        tip_gen = np.asarray(new_gen, dtype=np.int64)
     nodes_a = np.asarray(nodes)
     parent_a = np.asarray(parent, dtype=np.int64)
     main = np.zeros(nodes_a.shape[0], dtype=bool)

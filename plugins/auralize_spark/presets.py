@@ -91,8 +91,8 @@ PRESETS: dict[str, Preset] = {
         500.0,
         (0.0, -0.5, 0.0),
         _balls(),
-        branch_probability=0.5,
-        branch_length=10.0,
+        branch_probability=0.7,
+        branch_length=14.0,
         paper_segments=72,
         paper_time="< 16 ms",
     ),  # fmt: skip
@@ -105,8 +105,8 @@ PRESETS: dict[str, Preset] = {
         50.0,
         (0.1, -1.0, 0.0),
         _plasma(),
-        branch_probability=0.35,
-        branch_length=8.0,
+        branch_probability=0.45,
+        branch_length=11.0,
         paper_segments=78,
         paper_time="< 16 ms",
     ),  # fmt: skip
@@ -120,8 +120,8 @@ PRESETS: dict[str, Preset] = {
         (300.0, 200.0, 2.0),
         _lightning(),
         multi_stroke=True,
-        branch_probability=0.005,
-        branch_length=230.0,
+        branch_probability=0.007,
+        branch_length=350.0,
         paper_segments=9438,
         paper_time="812 ms",
     ),  # fmt: skip
