@@ -220,18 +220,11 @@ def _fval(qv, dq, d, dd, c0):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _pan(x, y, z, t, s, tc, lc, vc, qc, spk_az, spk_ch, fold, g, g2, o):  # type: ignore[no-untyped-def]
-    """Panning gains g at time t and their time derivative (into g2)."""
+def _pan(x, y, z, t, s, tc, lc, vc, qc, spk_az, spk_ch, fold, g, o):  # type: ignore[no-untyped-def]
+    """Panning gains g of a source at (x, y, z) heard at time t (listener segment s)."""
     lx, ly, lz, _, _, _ = _listener(tc, lc, vc, t, s)
     _orient(tc, qc, t, s, o)
     _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold, g)
-    # derivative by a forward difference over 1 µs (directions change slowly)
-    eps = 1e-6
-    lx, ly, lz, _, _, _ = _listener(tc, lc, vc, t + eps, s)
-    _orient(tc, qc, t + eps, s, o)
-    _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold, g2)
-    for c in range(g.size):
-        g2[c] = (g2[c] - g[c]) / eps
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -348,8 +341,8 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
     panned = spk_az.size > 0
     for th in numba.prange(n_threads):
         acc_t = accs[th]
-        g = np.zeros(n_ch)
-        dg = np.zeros(n_ch)
+        ga = np.zeros(n_ch)
+        gb = np.zeros(n_ch)
         o = np.zeros(6)
         fa = np.zeros(n_ch)
         da = np.zeros(n_ch)
@@ -379,6 +372,7 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                 seg = _segment(tc, t0, 0)
                 # value at the piece start: the knot itself
                 va, wa = _fval(q0, m0, darr[k, n], ddarr[k, n], c0)
+                have_ga = False
                 while t0 < tb:
                     t1 = tb
                     if seg + 1 < tc.size and tc[seg + 1] < t1 and tc[seg + 1] > t0:
@@ -404,14 +398,19 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                         blk = m_0 // block
                         end_inside = m_1 < n_samples and m_1 < (blk + 1) * block
                         if panned:
-                            _pan(x, y, z, t0, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, g, dg, o)
+                            # gains vary slowly: linear between the sub-piece's ends
+                            if not have_ga:
+                                _pan(x, y, z, t0, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, ga, o)
+                            _pan(x, y, z, t1, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, gb, o)
+                            inv_dt = 1.0 / (t1 - t0)
                             for c in range(n_ch):
-                                fa[c] = g[c] * va
-                                da[c] = (g[c] * wa + dg[c] * va) / fs
-                            _pan(x, y, z, t1, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, g, dg, o)
-                            for c in range(n_ch):
-                                fb[c] = g[c] * vb
-                                db[c] = (g[c] * wb + dg[c] * vb) / fs
+                                slope = (gb[c] - ga[c]) * inv_dt
+                                fa[c] = ga[c] * va
+                                da[c] = (ga[c] * wa + slope * va) / fs
+                                fb[c] = gb[c] * vb
+                                db[c] = (gb[c] * wb + slope * vb) / fs
+                                ga[c] = gb[c]
+                            have_ga = True
                         else:
                             fa[0] = va
                             da[0] = wa / fs
@@ -425,6 +424,8 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                             _emit(a_c, blk, block, m_0, m_0 - u0, p0, p1, p2, p3, 1.0)
                             if end_inside:
                                 _emit(a_c, blk, block, m_1, m_1 - u0, p0, p1, p2, p3, -1.0)
+                    else:
+                        have_ga = False  # no sample here: gains at t1 were not computed
                     new_seg = _segment(tc, t1, seg)
                     if new_seg != segm and t1 < tb:
                         # split at a listener capture: the velocity changes, so the

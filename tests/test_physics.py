@@ -96,9 +96,10 @@ def test_fast_synthesis_equals_sample_by_sample(mono_tracks, mono_params, interp
         ref = render_reference(sub, path, rate=RATE, interp=interp, layout=layout)
         assert fast.shape == ref.shape
         err = np.max(np.abs(fast - ref)) / np.max(np.abs(ref))
-        # mono is smooth on every piece; panning gains have kinks at speaker
-        # directions, where the per-piece cubic deviates slightly
-        assert err < (2e-4 if layout == "mono" else 3e-3), (layout, err)
+        # mono is smooth on every piece; the fast path takes panning gains as
+        # linear within a piece (<= one data step) and gains have kinks at
+        # speaker directions, where it deviates slightly from per-sample gains
+        assert err < (2e-4 if layout == "mono" else 5e-3), (layout, err)
 
 
 def test_static_fast_synthesis_is_exact(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
