@@ -33,7 +33,9 @@ def distance_gain(D: NDArray[np.float64], law: str | float) -> NDArray[np.float6
     try:
         e = float(law)
     except (TypeError, ValueError):
-        raise ParameterError(f"attenuation must be 'physical', 'paper' or an exponent, got {law!r}") from None
+        raise ParameterError(
+            f"attenuation must be 'physical', 'paper' or an exponent, got {law!r}"
+        ) from None
     return 1.0 / D**e
 
 
@@ -41,7 +43,7 @@ def propagate(signals: NDArray[np.floating], emit_rate: float, positions: NDArra
               path: ListenerPath, *, rate: int = 44100, duration: float | None = None,
               emit_t0: float = 0.0, c0: float = C0, attenuation: str | float = "physical",
               min_distance: float = 0.05, layout: str | Layout = "mono",
-              chunk: int = 65536) -> NDArray[np.float64]:  # fmt: skip
+              chunk: int = 65536, pan_stride: int = 64) -> NDArray[np.float64]:  # fmt: skip
     """Sum emitted source signals as heard along ``path``.
 
     Parameters
@@ -56,6 +58,8 @@ def propagate(signals: NDArray[np.floating], emit_rate: float, positions: NDArra
     attenuation : "physical" (1/D), "paper" (1/D³) or an exponent.
     min_distance : distances are clamped here (no 1/0 at a source).
     layout : output layout (pairwise VBAP in the listener's frame).
+    pan_stride : panning gains are computed every this many samples and
+        interpolated linearly (they follow head turns and motion, which are slow).
 
     Returns
     -------
@@ -96,5 +100,13 @@ def propagate(signals: NDArray[np.floating], emit_rate: float, positions: NDArra
             if lay.n_channels == 1:
                 out[0, a:b] += v
             else:
-                out[:, a:b] += vbap_gains(lay, listener_frame_azimuth(d_vec, fwd, up)) * v
+                # gains change slowly: evaluate them every `pan_stride` samples
+                # (≈1.5 ms at 44.1 kHz) and interpolate linearly in between
+                k = np.arange(0, b - a, pan_stride)
+                if k[-1] != b - a - 1:
+                    k = np.append(k, b - a - 1)
+                g = vbap_gains(lay, listener_frame_azimuth(d_vec[k], fwd[k], up[k]))
+                idx = np.arange(b - a)
+                for c in np.flatnonzero(np.any(g != 0, axis=1)):
+                    out[c, a:b] += np.interp(idx, k, g[c]) * v
     return out
