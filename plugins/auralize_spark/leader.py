@@ -309,8 +309,8 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
     branch_probability : chance that a differing second draw starts a side branch.
     branch_length : mean lifetime of a side branch, in segments.
     max_tips : at most this many growing tips at once.
-    max_segments : give up after this many segments (default: 40 × the
-        straight root-to-target distance in segments, at least 2,000).
+    max_segments : give up after this many segments (default: 100 × the
+        straight root-to-target distance in segments, at least 5,000).
     reference : ``"tip"`` (φ relative to the tip) or ``"absolute"`` (paper's literal Eq. 2).
 
     Returns
@@ -351,7 +351,7 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
     dist_pos = ndimage.distance_transform_edt(fld.sign <= 0, sampling=fld.spacing[::-1])
     straight = float(np.min(np.linalg.norm(pos_pts - root, axis=1)))
     if max_segments is None:
-        max_segments = max(2000, int(40 * straight / step))
+        max_segments = max(5000, int(100 * straight / step))
     nodes = [root]
     parent = [-1]
     # active tips: node index, direction, remaining life (inf for the trunk)

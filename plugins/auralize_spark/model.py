@@ -189,7 +189,26 @@ def discharge_mesh(discharge: Discharge, strokes: int = 1) -> Any:
     mesh.cell_data["strokes"] = lit.astype(np.int32)
     mesh.cell_data["main"] = main.astype(np.uint8)
     mesh.cell_data["brightness"] = np.where(main, 1.0, 0.5 / k)
+    mesh.set_active_scalars("brightness", preference="cell")
     return mesh
+
+
+def fitted_scene(volume: Any, *, points: int = 32) -> ChargeScene:
+    """The lightning preset's geometry fitted to a volume's bounding box (for overlays).
+
+    A negative sphere (radius 1/6 of the height) centred 5/6 up, a positive
+    plane at the bottom, on a grid of about ``points`` per axis.
+    """
+    b = np.asarray(volume.bounds, dtype=np.float64).reshape(3, 2)
+    size = np.maximum(b[:, 1] - b[:, 0], 1e-9)
+    h = float(size.max()) / (points - 1)
+    dims = [max(int(round(s / h)) + 1, 4) for s in size]
+    center = [0.5 * (b[0, 0] + b[0, 1]), 0.5 * (b[1, 0] + b[1, 1]), b[2, 0] + size[2] * 5 / 6]
+    return ChargeScene.from_dict({
+        "grid": {"dims": dims, "origin": b[:, 0].tolist(), "spacing": h},
+        "charges": [{"shape": "sphere", "center": center, "radius": size[2] / 6, "sign": "negative"},
+                    {"shape": "plane", "axis": "z", "position": float(b[2, 0]), "sign": "positive"}],
+    }, source=f"overlay scene for {getattr(volume, 'source', 'volume')}")  # fmt: skip
 
 
 def charge_glyphs(fld: ElectricField | None) -> Any:
@@ -275,6 +294,18 @@ class SparkSound(SoundModel):
             doc="φ of Eq. 2 relative to the tip or absolute",
         ),
         Parameter(
+            "branch_probability",
+            -1.0,
+            range=(-1.0, 1.0),
+            doc="side-branch chance per step; -1 = preset",
+        ),
+        Parameter(
+            "branch_length",
+            0.0,
+            range=(0.0, None),
+            doc="mean side-branch life (segments); 0 = preset",
+        ),
+        Parameter(
             "strokes",
             0,
             range=(0, 100),
@@ -299,6 +330,8 @@ class SparkSound(SoundModel):
             c0=p["c0"], jitter=p["jitter"], amplitude=p["amplitude"],
             n_candidates=int(p["n_candidates"]), rho=p["rho"], gamma=p["gamma"],
             reference=p["reference"], strokes=int(p["strokes"]) or None, seed=int(p["seed"]),
+            branch_probability=None if p["branch_probability"] < 0 else p["branch_probability"],
+            branch_length=p["branch_length"] or None,
             rate=int(p["rate"]), layout=p["layout"], step=step,
         )  # fmt: skip
 
@@ -314,16 +347,35 @@ class SparkSound(SoundModel):
         return SoundOutput(rate=ren.rate, pressure=pressure, meta=meta)
 
     def overlay(self, inputs: Any, step: int) -> Any:
-        """pyvista MultiBlock: ``discharge`` lines (brightness by stroke) and ``charges`` glyphs."""
+        """pyvista MultiBlock: ``discharge`` lines (brightness by stroke) and ``charges`` glyphs.
+
+        ``inputs = (source, listener[, params])`` as for :meth:`synthesize`; the
+        viewer passes ``(volume, path)``.  A volume with a scalar ``charge``
+        field is solved at ``step``; a volume without one gets the lightning
+        geometry fitted to its bounding box (:func:`fitted_scene`), so the
+        overlay shows a discharge in any dataset.  Results are cached per
+        (source, step, parameters): stepping back and forth does not regrow.
+        """
         import pyvista as pv
 
-        params = inputs[2] if isinstance(inputs, tuple) and len(inputs) > 2 else {}
-        base = inputs[:2] if isinstance(inputs, tuple) else inputs
-        res = self._run(base, step=step, **params)
-        out = pv.MultiBlock()
-        out["discharge"] = discharge_mesh(res.discharge, res.strokes.size)
-        out["charges"] = charge_glyphs(res.field)
-        return out
+        params = dict(inputs[2]) if isinstance(inputs, tuple) and len(inputs) > 2 else {}
+        source, listener = inputs[:2] if isinstance(inputs, tuple) else (inputs, None)
+        orig = source
+        if hasattr(source, "field_names") and "charge" not in source.field_names:
+            source, step = fitted_scene(source), 0
+            params.setdefault("half_length", float(np.ptp(np.asarray(source.coords()[2]))) / 200)
+            params.setdefault("branch_probability", 0.1)
+            params.setdefault("branch_length", 15.0)
+        key = (id(orig), int(step), tuple(sorted(params.items())))
+        cache = self.__dict__.setdefault("_overlay_cache", {})
+        if key not in cache:
+            res = self._run((source, listener), step=step, **params)
+            out = pv.MultiBlock()
+            out["discharge"] = discharge_mesh(res.discharge, res.strokes.size)
+            out["charges"] = charge_glyphs(res.field)
+            cache.clear()  # keep only the latest (meshes can be large)
+            cache[key] = (orig, out)  # holding orig keeps its id unique
+        return cache[key][1]
 
     # ------------------------------------------------------------------ CLI
     @classmethod

@@ -529,3 +529,29 @@ def test_lightning_thunder_duration_and_segments() -> None:
     assert res.discharge.main_length() >= 5000 * 0.95
     assert 8.0 < s["wave_duration_s"] < 20.0  # paper: 13.6 s
     assert elapsed < 30
+
+
+def test_overlay_as_the_viewer_calls_it() -> None:
+    """The viewer passes (volume, path): any volume gets a discharge inside its bounds, cached."""
+    model = SparkSound()
+    vol = TimeVolume.from_arrays({"density": np.ones((2, 10, 12, 14))}, spacing=0.1)
+    path = ListenerPath.point((0.5, -1.0, 0.5), duration=1.0)
+    a = model.overlay((vol, path), 0)
+    assert model.overlay((vol, path), 1) is a  # no charge field: the same fitted scene at any step
+    lines = a["discharge"]
+    b = np.asarray(lines.bounds).reshape(3, 2)
+    assert np.all(b[:, 0] >= -1e-9) and np.all(b[:, 1] <= np.array([1.3, 1.1, 0.9]) + 1e-9)
+    assert lines.active_scalars_name == "brightness"
+    # a charge field changing over time: each step is solved and grown on its own
+    q = np.zeros((2, 12, 12, 12))
+    q[:, -2:, 5:7, 5:7] = -1.0
+    q[0, 0, :, :] = 1.0
+    q[1, :, :, 0] = 1.0  # the positive charge moves from the floor to a wall
+    cvol = TimeVolume.from_arrays({"charge": q}, spacing=0.01)
+    prm = {"half_length": 0.003, "branch_probability": 0.1, "branch_length": 5.0}
+    m0 = model.overlay((cvol, path, prm), 0)["discharge"]
+    m1 = model.overlay((cvol, path, prm), 1)["discharge"]
+    end0 = m0.points[-1]
+    assert m0.points[np.argmin(m0.points[:, 2])][2] == pytest.approx(0.0, abs=0.011)
+    assert np.min(m1.points[:, 0]) == pytest.approx(0.0, abs=0.011)
+    assert not np.array_equal(end0, m1.points[-1])
