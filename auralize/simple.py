@@ -68,7 +68,7 @@ __all__ = [
 ]
 
 
-@dataclass
+@dataclass(eq=False)
 class DataSource:
     """An opened volume and what was derived from it (the "source proxy").
 
@@ -289,8 +289,10 @@ def DetectSources(*, source: DataSource | None = None, monopole: float | str | N
     given = (monopole, dipole, quadrupole)
     th = Thresholds(*(g if g is not None else d for g, d in zip(given, VIEWER_THRESHOLDS, strict=True)),
                     zero_fraction=zero_fraction)  # fmt: skip
-    src.Thresholds = th
-    src._invalidate()
+    det = getattr(src, "_detection", None)
+    if det is None or det.thresholds.describe() != th.describe():
+        src.Thresholds = th
+        src._invalidate()
     src.Sources = src.Detection.run()
     for v in GetSession().views:
         if v.shown is src:

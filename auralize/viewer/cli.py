@@ -139,7 +139,8 @@ def screenshot(args: argparse.Namespace) -> Path:
 
 
 def cmd_script(args: argparse.Namespace) -> int:
-    """Run FILE.py as ``__main__`` with ``sys.argv = [FILE, *args]``."""
+    """Run FILE.py as ``__main__`` with ``sys.argv = [FILE, *args]``; a ``sys.exit(n)`` in
+    the script becomes the command's exit status."""
     f = Path(args.file)
     if not f.is_file():
         raise ParameterError(f"script {str(f)!r} does not exist")
@@ -147,6 +148,11 @@ def cmd_script(args: argparse.Namespace) -> int:
     sys.argv = [str(f), *args.args]
     try:
         runpy.run_path(str(f), run_name="__main__")
+    except SystemExit as exc:
+        if exc.code is None or isinstance(exc.code, int):
+            return int(exc.code or 0)
+        print(exc.code, file=sys.stderr)
+        return 1
     finally:
         sys.argv = old
     return 0
