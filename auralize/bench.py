@@ -13,6 +13,7 @@ was met; it fails nothing.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import platform
@@ -60,7 +61,7 @@ def best_of(fn: Callable[[], object], *, repeat: int = 5, min_time: float = 0.2)
     return float(np.median(times))
 
 
-def _smooth_volume(n: int, steps: int = 3, seed: int = 0):  # type: ignore[no-untyped-def]
+def _smooth_volume(n: int, steps: int = 3, seed: int = 0):
     """A log10-density field with explosion-like structure at any size (for timing)."""
     from scipy import ndimage
 
@@ -100,13 +101,13 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
             cache.get(k)
         buf = np.empty((3, n, n, n))
 
-        def run(cache=cache, buf=buf, thr=thr, vol=vol) -> None:  # type: ignore[no-untyped-def]
+        def run(cache=cache, buf=buf, thr=thr, vol=vol) -> None:
             s = step_strengths(vol, cache, 1, buf)
             kind, rad = classify(s, thr, vol.spacing)
             extract(kind, rad, s)
 
         t = best_of(run, repeat=3 if n >= 200 else 5)
-        tmap = best_of(lambda vol=vol, m=m: m.map(vol, 1), repeat=3)
+        tmap = best_of(functools.partial(m.map, vol, 1), repeat=3)
         per_step[n] = t
         paper = PAPER_DETECT_S.get(n)
         rows.append(BenchRow(
@@ -144,7 +145,7 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
                      note=f"{tracks.n_sources} distinct vertices; detection of {vol.n_steps} steps "
                           f"{t_detect:.2f} s")]  # fmt: skip
     for layout in ("mono", "ring8"):
-        t = best_of(lambda layout=layout: render(tracks, path, layout=layout), repeat=3)
+        t = best_of(functools.partial(render, tracks, path, layout=layout), repeat=3)
         dur = path.duration
         speed = dur / t
         rows.append(BenchRow(

@@ -138,8 +138,8 @@ def _thresholds(args: argparse.Namespace) -> Any:
                       zero_fraction=args.zero_fraction)  # fmt: skip
 
 
-def _mapping_fields(args: argparse.Namespace) -> dict[str, str]:
-    out = {}
+def _mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
+    out: dict[str, Any] = {}
     if args.density_field:
         out["density"] = args.density_field
     if args.velocity_field:
@@ -167,7 +167,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"  bounds   x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m")
     tnote = "" if vol.physical_times else " (no physical times: frames at 30 Hz)"
     print(f"  times    {vol.n_steps} steps, {vol.times[0]:g} .. {vol.times[-1]:g} s{tnote}")
-    for name, kind in d["fields"].items():  # type: ignore[union-attr]
+    for name, kind in d["fields"].items():
         print(f"  field    {name} ({kind})")
     return 0
 
@@ -269,7 +269,7 @@ def cmd_plugins(args: argparse.Namespace) -> int:
         print("no sound models registered")
     for name, d in models.items():
         print(f"{name:10s} {d['description']}")
-        for prm in d["parameters"]:  # type: ignore[union-attr]
+        for prm in d["parameters"]:
             rng = prm["range"] or prm["choices"] or ""
             print(f"    {prm['name']:22s} default {prm['default']!r} {prm['unit']} {rng}")
     return 0

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,7 +67,9 @@ class MonopoleParams:
     def signal(self, t: NDArray[np.floating] | float) -> NDArray[np.float64]:
         """A(t): density excess at the blob centre (kg/m³)."""
         tt = np.asarray(t, dtype=np.float64)
-        return self.amplitude * np.sin(2 * np.pi * self.frequency * tt) * self.envelope(tt)
+        return np.asarray(
+            self.amplitude * np.sin(2 * np.pi * self.frequency * tt) * self.envelope(tt)
+        )
 
 
 def make_monopole(*, size: int = 32, steps: int = 300, seed: int = 0, **kw: float) -> TimeVolume:
@@ -108,7 +111,7 @@ def monopole_pressure(p: MonopoleParams, point: NDArray[np.floating], t: NDArray
     g = np.exp(-(s**2) / (2 * p.sigma**2))
     tt = np.asarray(t, dtype=np.float64)[:, None]
     integrand = s * g * (p.signal(tt - np.abs(r - s) / c0) - p.signal(tt - (r + s) / c0))
-    return c0 / (2 * r) * np.trapezoid(integrand, s, axis=1)
+    return np.asarray(c0 / (2 * r) * np.trapezoid(integrand, s, axis=1))
 
 
 # -------------------------------------------------------------------- explosion
@@ -131,7 +134,7 @@ class ExplosionParams:
     background: float = 1e-2  # background density (linear units)
 
 
-def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: float) -> TimeVolume:
+def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: Any) -> TimeVolume:
     """The ``explosion`` dataset: log10 density and velocity of an SPH-like burst.
 
     Paper 003 §1/§4.2: matter at the centre explodes into a clumpy ambient

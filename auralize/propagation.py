@@ -83,7 +83,7 @@ def propagate(signals: NDArray[np.floating], emit_rate: float, positions: NDArra
         b = min(n_out, a + chunk)
         t = path.times[0] + np.arange(a, b) / rate
         L = path.position_at(t)
-        fwd, up = path.orientation_at(t) if lay.n_channels > 1 else (None, None)
+        fwd, up = path.orientation_at(t) if lay.n_channels > 1 else (L, L)
         tt = t - path.times[0]
         for s in range(S):
             if moving:

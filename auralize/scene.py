@@ -21,7 +21,7 @@ TYPE_LABELS = {1: "monopole", 2: "dipole", 3: "quadrupole"}
 PATH_COLOR = "#ffd700"
 
 
-def source_glyphs(series: SourceSeries, step: int):  # type: ignore[no-untyped-def]
+def source_glyphs(series: SourceSeries, step: int):
     """A sphere per source point of ``step`` at its ΔV radius, with a ``kind`` array."""
     import pyvista as pv
 
@@ -35,7 +35,7 @@ def source_glyphs(series: SourceSeries, step: int):  # type: ignore[no-untyped-d
                                                     phi_resolution=10), orient=False)  # fmt: skip
 
 
-def path_tube(path: ListenerPath, radius: float):  # type: ignore[no-untyped-def]
+def path_tube(path: ListenerPath, radius: float):
     import pyvista as pv
 
     t = np.linspace(path.times[0], path.times[-1], max(2 * path.n_captures, 50))
@@ -57,7 +57,7 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
         arr = np.linalg.norm(arr, axis=-1)
     grid.point_data[field] = arr.reshape(-1)
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
-    pl.set_background("#101018")
+    pl.set_background("#101018")  # type: ignore[arg-type]
     pl.add_mesh(grid.outline(), color="#888888")
     lo, hi = float(arr.min()), float(arr.max())
     if hi > lo:
@@ -87,7 +87,7 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
         )
     pl.add_text(f"{volume.source}  step {step}  t = {volume.times[step]:.3f} s", font_size=10,
                 color="white")  # fmt: skip
-    pl.camera_position = "iso"
+    pl.view_isometric()  # type: ignore[call-arg]
     pl.camera.zoom(1.2)
     out = Path(out)
     with atomic_path(out, suffix=".part.png") as tmp:

@@ -34,8 +34,11 @@ class FrameSource(Protocol):
     returns a new float array of that shape.
     """
 
-    n_steps: int
-    frame_shape: tuple[int, ...]
+    @property
+    def n_steps(self) -> int: ...
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]: ...
 
     def read(self, step: int) -> NDArray[np.floating]: ...
 
@@ -55,11 +58,11 @@ class ArrayFrames:
             )
 
     @property
-    def n_steps(self) -> int:  # type: ignore[override]
+    def n_steps(self) -> int:
         return int(self.array.shape[0])
 
     @property
-    def frame_shape(self) -> tuple[int, ...]:  # type: ignore[override]
+    def frame_shape(self) -> tuple[int, ...]:
         return tuple(int(s) for s in self.array.shape[1:])
 
     def read(self, step: int) -> NDArray[np.floating]:
@@ -171,7 +174,7 @@ class TimeVolume:
         """
         if not fields:
             raise DataError("a volume needs at least one field")
-        frames = {k: ArrayFrames(np.asarray(v)) for k, v in fields.items()}
+        frames: dict[str, FrameSource] = {k: ArrayFrames(np.asarray(v)) for k, v in fields.items()}
         first = next(iter(frames.values()))
         nz, ny, nx = first.frame_shape[:3]
         physical = times is not None
@@ -268,9 +271,7 @@ class TimeVolume:
 
     def axis_coords(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Coordinates along x, y, z (1-D arrays)."""
-        return tuple(  # type: ignore[return-value]
-            self.origin[a] + self.spacing[a] * np.arange(self.dims[a]) for a in range(3)
-        )
+        return tuple(self.origin[a] + self.spacing[a] * np.arange(self.dims[a]) for a in range(3))
 
     def points(self, flat_index: NDArray[np.integer] | None = None) -> NDArray[np.float64]:
         """Point positions ``(N, 3)`` for C-order flat indices (all points if None)."""
