@@ -169,47 +169,27 @@ def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, out):  # ty
 
 
 @numba.njit(inline="always", **_NJIT)
-def _orient(tc, qc, t, s, out):  # type: ignore[no-untyped-def]
-    """Listener forward and up at time t by quaternion slerp on segment s."""
-    m = tc.size
-    if s < 0:
-        a = qc[0]
-        w = 0.0
-        b = qc[0]
-    elif s >= m - 1:
-        a = qc[m - 1]
-        w = 0.0
-        b = qc[m - 1]
-    else:
-        a = qc[s]
-        b = qc[s + 1]
-        w = (t - tc[s]) / (tc[s + 1] - tc[s])
-    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-    sign = 1.0
-    if dot < 0.0:
-        dot = -dot
-        sign = -1.0
-    if dot > 0.9995:
-        k0 = 1.0 - w
-        k1 = w * sign
-    else:
-        th = math.acos(dot)
-        st = math.sin(th)
-        k0 = math.sin((1.0 - w) * th) / st
-        k1 = math.sin(w * th) / st * sign
-    qw = k0 * a[0] + k1 * b[0]
-    qx = k0 * a[1] + k1 * b[1]
-    qy = k0 * a[2] + k1 * b[2]
-    qz = k0 * a[3] + k1 * b[3]
-    nrm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    qw, qx, qy, qz = qw / nrm, qx / nrm, qy / nrm, qz / nrm
-    # rotate reference forward (0,1,0) and up (0,0,1)
-    out[0] = 2 * (qx * qy - qw * qz)
-    out[1] = 1 - 2 * (qx * qx + qz * qz)
-    out[2] = 2 * (qy * qz + qw * qx)
-    out[3] = 2 * (qx * qz + qw * qy)
-    out[4] = 2 * (qy * qz - qw * qx)
-    out[5] = 1 - 2 * (qx * qx + qy * qy)
+def _orient(otab, ot, t, out):  # type: ignore[no-untyped-def]
+    """Listener forward and up at data time t from the orientation table.
+
+    ``otab (N, 6)`` holds forward and up sampled (by quaternion slerp between
+    captures, see :mod:`auralize.listener`) every ``1/ot[1]`` s from ``ot[0]``;
+    linear interpolation between ~1 ms samples is accurate to ~1e-7.
+    """
+    n = otab.shape[0]
+    u = (t - ot[0]) * ot[1]
+    if n == 1 or u <= 0.0:
+        for c in range(6):
+            out[c] = otab[0, c]
+        return
+    if u >= n - 1:
+        for c in range(6):
+            out[c] = otab[n - 1, c]
+        return
+    i = int(u)
+    w = u - i
+    for c in range(6):
+        out[c] = otab[i, c] + w * (otab[i + 1, c] - otab[i, c])
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -220,10 +200,10 @@ def _fval(qv, dq, d, dd, c0):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _pan(x, y, z, t, s, tc, lc, vc, qc, spk_az, spk_ch, fold, g, o):  # type: ignore[no-untyped-def]
+def _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, g, o):  # type: ignore[no-untyped-def]
     """Panning gains g of a source at (x, y, z) heard at time t (listener segment s)."""
     lx, ly, lz, _, _, _ = _listener(tc, lc, vc, t, s)
-    _orient(tc, qc, t, s, o)
+    _orient(qc, ot, t, o)
     _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold, g)
 
 
@@ -310,7 +290,7 @@ def _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, da
 
 
 @numba.njit(parallel=True, **_NJIT)
-def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, block,
+def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, block,
            spk_az, spk_ch, n_ch, fold, n_threads, n_lo, n_hi):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every source's pieces into ``(n_ch, n_samples)``; see module docstring.
 
@@ -319,7 +299,8 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
     pos (K,3), radius (K,) clamp distances; tn (Tp,) knot times (padded with
     silent knots); q (K,Tp) strength·ΔV/(4π); mt (K,Tp) tangents dq/dτ
     (size-0 second axis for linear interpolation); tc (M,), lc (M,3), vc (M-1,3),
-    qc (M,4) listener captures; fs samples per data second; block samples per
+    listener captures; qc (N,6) forward/up table sampled from ot[0] at rate
+    ot[1] (see :func:`_orient`); fs samples per data second; block samples per
     accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels;
     only pieces n_lo..n_hi-1 (those that can be heard in the output) are summed.
 
@@ -400,8 +381,8 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, c0, t_start, fs, n_samples, b
                         if panned:
                             # gains vary slowly: linear between the sub-piece's ends
                             if not have_ga:
-                                _pan(x, y, z, t0, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, ga, o)
-                            _pan(x, y, z, t1, segm, tc, lc, vc, qc, spk_az, spk_ch, fold, gb, o)
+                                _pan(x, y, z, t0, segm, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, ga, o)
+                            _pan(x, y, z, t1, segm, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, gb, o)
                             inv_dt = 1.0 / (t1 - t0)
                             for c in range(n_ch):
                                 slope = (gb[c] - ga[c]) * inv_dt

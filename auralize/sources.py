@@ -212,6 +212,7 @@ class SourceTracks:
     radius: NDArray[np.float64]
     times: NDArray[np.float64]
     index: NDArray[np.int64] | None = None
+    cache: dict[str, object] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_sources(self) -> int:

@@ -69,7 +69,8 @@ class _Prepared:
     tc: NDArray[np.float64]
     lc: NDArray[np.float64]
     vc: NDArray[np.float64]
-    qc: NDArray[np.float64]
+    qc: NDArray[np.float64]  # (N, 6) forward/up table
+    ot: NDArray[np.float64]  # (t0, samples per second) of the table
     t_start: float
     fs: float
     n_samples: int
@@ -95,6 +96,35 @@ def _tangents(tn: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.flo
     return m
 
 
+def _knots(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Padded knot times, q/(4π) and tangents, cached on the tracks (block-wise
+    and live rendering call the synthesis many times with the same tracks)."""
+    key = (id(tracks.q), tracks.q.shape, id(tracks.times))
+    cached = tracks.cache.get("knots")
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    tn, q = _pad_knots(tracks)
+    out = (tn, np.ascontiguousarray(q), np.ascontiguousarray(_tangents(tn, q)))
+    tracks.cache["knots"] = (key, out)
+    return out
+
+
+#: orientation table resolution (data seconds) and size cap
+_ORIENT_DT = 1e-3
+_ORIENT_MAX = 200_000
+
+
+def _orientation_table(path: ListenerPath, tc: NDArray[np.float64],
+                       time_scale: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """Forward/up (N, 6) sampled by slerp every ~1 ms of data time over the path."""
+    span = float(tc[-1] - tc[0])
+    n = int(min(max(np.ceil(span / _ORIENT_DT) + 1, 2), _ORIENT_MAX)) if span > 0 else 1
+    tg = np.linspace(tc[0], tc[-1], n)
+    fwd, up = path.orientation_at(path.times[0] + (tg - tc[0]) * time_scale)
+    rate = (n - 1) / span if span > 0 else 0.0
+    return np.ascontiguousarray(np.hstack([fwd, up])), np.array([tc[0], rate])
+
+
 def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scale: float,
              c0: float, duration: float | None, bounds: tuple[float, ...] | None,
              start: float = 0.0) -> _Prepared:  # fmt: skip
@@ -109,7 +139,6 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
     # collapse captures with equal times (the last one wins)
     keep = np.append(np.diff(path.times) > 0, True)
     ptimes, ppos = path.times[keep], path.positions[keep]
-    quats = path.quaternions()[keep]
     t0 = float(tracks.times[0])
     tc = t0 + (ptimes - path.times[0]) / time_scale
     if tc.size >= 2:
@@ -134,10 +163,11 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
             f"or a positive duration"
         )
     n_samples = round(duration * rate)
-    tn, q = _pad_knots(tracks)
+    tn, q, mt = _knots(tracks)
+    otab, ot = _orientation_table(path, tc, time_scale)
     return _Prepared(
-        tn=tn, q=q, mt=_tangents(tn, q), tc=tc, lc=np.ascontiguousarray(ppos),
-        vc=np.ascontiguousarray(vc), qc=np.ascontiguousarray(quats), t_start=t0 + start / time_scale,
+        tn=tn, q=q, mt=mt, tc=tc, lc=np.ascontiguousarray(ppos),
+        vc=np.ascontiguousarray(vc), qc=otab, ot=ot, t_start=t0 + start / time_scale,
         fs=float(rate) * time_scale, n_samples=int(n_samples),
     )  # fmt: skip
 
@@ -226,8 +256,8 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         audio = np.zeros((lay.n_channels, pr.n_samples))
     else:
         audio = _synth_kernel.render(
-            pos, radius, pr.tn, np.ascontiguousarray(pr.q), np.ascontiguousarray(mt), pr.tc,
-            pr.lc, pr.vc, pr.qc, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
+            pos, radius, pr.tn, pr.q, np.ascontiguousarray(mt), pr.tc,
+            pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
             spk_az, spk_ch, lay.n_channels, bool(lay.fold_front), n_threads, n_lo, n_hi,
         )  # fmt: skip
     return Rendered(
