@@ -203,6 +203,11 @@ def run_bench(args: argparse.Namespace) -> int:
     more = bench_synthesis(args.quick)
     print(format_rows(more), flush=True)
     rows += more
+    from auralize.viewer.bench import bench_viewer
+
+    vrows = bench_viewer(args.quick)
+    print(format_rows(vrows), flush=True)
+    rows += vrows
     prow = plugin_rows(args.quick)
     if prow:
         print(format_rows(prow), flush=True)
