@@ -77,7 +77,7 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
             f"--threshold-{kind}",
             default="auto",
             metavar="X",
-            help=f"{kind} threshold: absolute value, 'N%%' of the peak, or auto (1%%)",
+            help=f"{kind} threshold: absolute value, 'N%%' of the peak, or auto (3%%, 0.3%%, 0.1%%)",
         )
     g.add_argument(
         "--zero-fraction",

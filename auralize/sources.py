@@ -42,8 +42,12 @@ from auralize.volume import TimeVolume
 KIND_NAMES = {K.MONOPOLE: "monopole", K.DIPOLE: "dipole", K.QUADRUPOLE: "quadrupole"}
 TYPES = ("monopole", "dipole", "quadrupole")
 
-#: default relative threshold ("auto"): this fraction of each type's peak |S|
-AUTO_FRACTION = 0.01
+#: default relative thresholds ("auto"): these fractions of each type's peak |S|.
+#: Strength distributions are heavy-tailed and the dipole and quadrupole terms
+#: (one and two more space derivatives) reach higher peaks relative to their
+#: bulk, so their fractions are lower; with these all three types show up in
+#: the built-in explosion.
+AUTO_FRACTIONS = {"monopole": 0.03, "dipole": 0.003, "quadrupole": 0.001}
 #: how many evenly spaced steps are sampled to find the peak |S| for relative thresholds
 AUTO_SAMPLE_STEPS = 8
 
@@ -60,7 +64,7 @@ def _parse_threshold(spec: ThresholdSpec, kind: str) -> tuple[str, float]:
         return "abs", v
     s = str(spec).strip().lower()
     if s == "auto":
-        return "rel", AUTO_FRACTION
+        return "rel", AUTO_FRACTIONS[kind]
     m = re.fullmatch(r"(?:rel:)?([0-9.eE+-]+)\s*%", s) or re.fullmatch(r"rel:([0-9.eE+-]+)", s)
     if m:
         frac = float(m.group(1)) / (100.0 if s.endswith("%") else 1.0)
@@ -85,7 +89,7 @@ class Thresholds:
     kg/(m³·s²)·... for quadrupoles), a relative one (``"5%"``, ``"rel:0.05"``:
     a fraction of the series' peak magnitude, estimated from up to
     :data:`AUTO_SAMPLE_STEPS` evenly spaced steps), or ``"auto"``
-    (= :data:`AUTO_FRACTION` relative).
+    (= :data:`AUTO_FRACTIONS` relative: 3 %, 0.3 %, 0.1 %).
 
     Examples
     --------

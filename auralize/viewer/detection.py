@@ -16,6 +16,8 @@ import numpy as np
 from auralize.errors import AuralizeError
 from auralize.mapping import AcousticMapping, get_mapping
 from auralize.sources import (
+    AUTO_FRACTIONS,
+    TYPES,
     SourceFrame,
     SourceSeries,
     Thresholds,
@@ -28,7 +30,7 @@ from auralize.volume import TimeVolume
 #: the viewer's default thresholds: relative to each type's peak, lower for
 #: dipoles and quadrupoles (whose peaks come from a few extreme vertices), so
 #: that all three types show on the explosion dataset
-VIEWER_THRESHOLDS = ("3%", "0.3%", "0.1%")
+VIEWER_THRESHOLDS = tuple(f"{AUTO_FRACTIONS[k] * 100:g}%" for k in TYPES)
 
 
 class Cancelled(AuralizeError):
