@@ -1,10 +1,18 @@
 """Sound files and sound devices: the only module that touches them.
 
-Audio arrays are ``(n_channels, n_samples)``; they are transposed only here.
-WAV files are written by our own writer so that multichannel files carry a
+Audio arrays are ``(n_channels, n_samples)``; they are transposed only here
+(and in :mod:`auralize.live`, at the sounddevice callback).  WAV files are
+written by our own writer so that multichannel files carry a
 WAVE_FORMAT_EXTENSIBLE header with the layout's channel mask (5.1, 7.1);
 FLAC goes through soundfile.  Every file is written atomically, with a
 sidecar JSON (``OUT.wav.json``) recording how it was made.
+
+Devices: sounddevice (PortAudio) is imported only inside the device
+functions, so ``import auralize`` never touches a sound device.
+:func:`list_devices` lists output devices and their channel counts;
+:func:`choose_output_device` resolves ``--device N|NAME`` against a layout's
+channel count and raises :class:`~auralize.errors.DeviceError` with what to
+do instead (``--downmix``, another device, or writing a file).
 """
 
 from __future__ import annotations
@@ -13,13 +21,16 @@ import json
 import struct
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import FormatError, ParameterError
+from auralize.errors import DeviceError, FormatError, ParameterError
 from auralize.fileio import atomic_path, atomic_write
+
+if TYPE_CHECKING:
+    from auralize.spatial import Layout
 
 NORMALIZE_MODES = ("peak", "none")
 PEAK_LEVEL = 0.99  # full scale after peak normalisation
@@ -133,13 +144,41 @@ def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
 def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
                 channel_mask: int | None = None, normalize: str = "peak",
                 limit_pa: float | None = None, sidecar: dict[str, Any] | None = None,
-                subtype: str = "float32") -> float:  # fmt: skip
+                subtype: str = "float32", layout: Layout | str | None = None) -> float:  # fmt: skip
     """Write audio to ``path`` (``.wav`` or ``.flac``) atomically, plus ``path.json``.
 
-    Returns the normalisation gain (output units per pascal).
+    Parameters
+    ----------
+    path : ``.wav`` (float32 or pcm16, extensible header with ``channel_mask``
+        when > 2 channels) or ``.flac`` (24-bit, needs samples in [-1, 1]).
+    audio : (n_channels, n_samples) pressure in Pa.
+    rate : sample rate in Hz.
+    layout : Layout or name, optional
+        The audio's speaker layout: its channel count is checked, its channel
+        mask used (unless ``channel_mask`` is given), per-speaker distances are
+        compensated (:class:`~auralize.spatial.SpeakerAlignment`) and it is
+        recorded in the sidecar.
+
+    Returns
+    -------
+    float
+        The normalisation gain (output units per pascal).
     """
     p = Path(path)
-    out, gain = normalize_audio(audio, normalize, limit_pa=limit_pa)
+    a = np.asarray(audio, dtype=np.float64)
+    if layout is not None:
+        from auralize.spatial import align_speakers, get_layout
+
+        lay = get_layout(layout)
+        if a.ndim != 2 or a.shape[0] != lay.n_channels:
+            raise ParameterError(f"layout {lay.name!r} has {lay.n_channels} channels, audio has "
+                                 f"shape {a.shape}")  # fmt: skip
+        if lay.has_distances:
+            a = align_speakers(a, lay, rate)
+        if channel_mask is None:
+            channel_mask = lay.channel_mask
+        sidecar = {"layout": lay.describe(), **(sidecar or {})}
+    out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
     suffix = p.suffix.lower()
     if suffix == ".wav":
         atomic_write(p, wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=subtype))
@@ -176,3 +215,148 @@ def _json_default(o: object) -> object:
     if isinstance(o, np.generic):
         return o.item()
     return str(o)
+
+
+# ------------------------------------------------------------------ devices
+def _sounddevice() -> Any:
+    """Import sounddevice (PortAudio) on demand; DeviceError if it cannot load."""
+    try:
+        import sounddevice
+    except OSError as exc:  # libportaudio missing
+        raise DeviceError(
+            f"cannot load PortAudio for live playback ({exc}); install libportaudio2 "
+            f"(apt-get install libportaudio2) or write a file with 'auralize render -o out.wav'"
+        ) from None
+    return sounddevice
+
+
+def refresh_devices() -> None:
+    """Re-scan sound devices (PortAudio enumerates them once, at initialisation).
+
+    Call after plugging in a device or changing the ALSA configuration.
+    """
+    sd = _sounddevice()
+    sd._terminate()
+    sd._initialize()
+
+
+def list_devices(*, outputs_only: bool = True) -> list[dict[str, Any]]:
+    """Sound devices as dicts ``index, name, hostapi, max_output_channels,
+    max_input_channels, default_samplerate, default`` (output devices only by default).
+
+    Examples
+    --------
+    >>> [d["name"] for d in list_devices()]  # doctest: +SKIP
+    ['auralize_file']
+    """
+    sd = _sounddevice()
+    try:
+        default_out = sd.default.device[1]
+        devs = sd.query_devices()
+        apis = sd.query_hostapis()
+    except sd.PortAudioError as exc:
+        raise DeviceError(f"cannot query sound devices: {exc}") from None
+    out = []
+    for i, d in enumerate(devs):
+        if outputs_only and d["max_output_channels"] < 1:
+            continue
+        out.append({
+            "index": i, "name": d["name"], "hostapi": apis[d["hostapi"]]["name"],
+            "max_output_channels": int(d["max_output_channels"]),
+            "max_input_channels": int(d["max_input_channels"]),
+            "default_samplerate": float(d["default_samplerate"]),
+            "default": i == default_out,
+        })  # fmt: skip
+    return out
+
+
+def _no_device_error() -> DeviceError:
+    return DeviceError(
+        "no audio output device found (PortAudio sees none: no sound card, or no access to "
+        "it); write a file instead, e.g. 'auralize render VOLUME --path PATH.csv --layout ring8 "
+        "-o out.wav', and play it elsewhere"
+    )
+
+
+def choose_output_device(device: int | str | None, channels: int, *,
+                         downmix: bool = False) -> dict[str, Any]:  # fmt: skip
+    """Resolve ``device`` (index, name substring, or None for the default output).
+
+    Parameters
+    ----------
+    device : int, str or None
+        A device index from :func:`list_devices`, a (case-insensitive, unique)
+        part of its name, or None for the default output device.
+    channels : int
+        Channels the layout needs.
+    downmix : bool
+        Accept a device with fewer channels (the caller folds the layout down).
+
+    Returns
+    -------
+    dict
+        The device's entry from :func:`list_devices`.
+
+    Raises
+    ------
+    DeviceError
+        No output device at all; index out of range; no or several matching
+        names; an input-only device; too few channels without ``downmix``.
+    """
+    all_devs = list_devices(outputs_only=False)
+    outs = [d for d in all_devs if d["max_output_channels"] > 0]
+    if not outs:
+        raise _no_device_error()
+    names = ", ".join(f"{d['index']}: {d['name']} ({d['max_output_channels']} ch)" for d in outs)
+    if device is None or (isinstance(device, str) and device.strip().lower() in ("", "default")):
+        dflt = [d for d in outs if d["default"]]
+        dev = dflt[0] if dflt else outs[0]
+    elif isinstance(device, int) or (isinstance(device, str) and device.strip().isdigit()):
+        idx = int(device)
+        if not 0 <= idx < len(all_devs):
+            raise DeviceError(
+                f"device index {idx} is out of range: there are {len(all_devs)} devices "
+                f"(0..{len(all_devs) - 1}); output devices: {names}"
+            )
+        dev = all_devs[idx]
+        if dev["max_output_channels"] < 1:
+            raise DeviceError(f"device {idx} ({dev['name']}) has no output channels; "
+                              f"output devices: {names}")  # fmt: skip
+    else:
+        key = str(device).strip().lower()
+        hits = [d for d in outs if key == d["name"].lower()] or [
+            d for d in outs if key in d["name"].lower()
+        ]
+        if not hits:
+            raise DeviceError(f"no output device matches {device!r}; output devices: {names}")
+        if len(hits) > 1:
+            raise DeviceError(
+                f"{device!r} matches several devices "
+                f"({', '.join(repr(d['name']) for d in hits)}); give its index"
+            )
+        dev = hits[0]
+    if dev["max_output_channels"] < channels and not downmix:
+        from auralize.spatial import downmix_target
+
+        target = downmix_target("ring8", dev["max_output_channels"]).name
+        raise DeviceError(
+            f"device {dev['index']} ({dev['name']}) has {dev['max_output_channels']} output "
+            f"channels but the layout needs {channels}; add --downmix to fold it to {target}, "
+            f"choose another device (see 'auralize devices'), or write a file with -o"
+        )
+    return dev
+
+
+def downmix(
+    audio: NDArray[np.floating], src: Layout | str, dst: Layout | str
+) -> NDArray[np.float64]:
+    """Fold ``audio (src.n_channels, n)`` into layout ``dst`` (see
+    :func:`auralize.spatial.downmix_matrix`)."""
+    from auralize.spatial import downmix_matrix, get_layout
+
+    s = get_layout(src)
+    a = np.asarray(audio, dtype=np.float64)
+    if a.ndim != 2 or a.shape[0] != s.n_channels:
+        raise ParameterError(f"layout {s.name!r} has {s.n_channels} channels, audio has shape "
+                             f"{a.shape}")  # fmt: skip
+    return downmix_matrix(s, dst) @ a

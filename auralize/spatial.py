@@ -1,41 +1,101 @@
 """Speaker layouts and panning gains.
 
-Azimuths are degrees counter-clockwise from the listener's forward direction
-(0 front, +90 left, -90 right); elevation degrees up from the horizontal
-plane.  ``ring8`` (DESIGN.md) is eight speakers at 45°·k, channel k.
+Conventions (DESIGN.md): azimuths are degrees counter-clockwise from the
+listener's forward direction (0 front, +90 left, -90 right); elevation degrees
+up from the horizontal plane.  ``ring8`` is eight speakers at 45°·k, channel k.
+Directions in the listener's frame are unit vectors ``(x, y, z)`` = (forward,
+left, up).
 
-The synthesis kernel pans each source from its direction in the listener's
-frame with pairwise 2-D VBAP between adjacent speakers of the horizontal
-ring (power-normalised: Σ g² = 1).  :func:`vbap_gains` is the same law in
-numpy, used by tests and by the brute-force reference.
+Panning laws
+------------
+* **Horizontal layouts** (every panned speaker at elevation 0): pairwise 2-D
+  VBAP between the two speakers adjacent to the source azimuth (the convex hull
+  methods of 3-D VBAP fail on a coplanar ring).  This is the law the numba
+  synthesis kernel applies per piece (:func:`auralize._synth_kernel._gains`);
+  :func:`vbap_gains` is the same law in numpy.
+* **Layouts with elevation**: 3-D VBAP (Pulkki 1997) over the triangles of the
+  convex hull of the speaker directions (:func:`vbap3d_gains`).  When no
+  speaker lies within 20° of the nadir (zenith), an *imaginary* speaker is added
+  at the nadir (zenith); its gain is dropped and the remaining gains are
+  re-normalised, so a source below the ring is heard on the ring at its own
+  azimuth; likewise above the highest speakers.  The synthesis kernel cannot apply this law yet: it pans elevated
+  layouts on their horizontal projection (:meth:`Layout.panning_arrays`, the
+  lowest speaker per azimuth), which :func:`vbap_gains` reproduces.
+* Every law is **power-normalised** (Σ g² = 1 over the panned speakers) and
+  continuous in the direction, so gains change smoothly as a source moves or
+  the listener turns.  The LFE channel of 5.1/7.1 is never panned to.
+
+Per-speaker distances (custom layouts) are compensated by
+:class:`SpeakerAlignment`: nearer speakers are delayed and attenuated so that
+every speaker's sound reaches the listener at the same time and level.
+
+Examples
+--------
+>>> lay = get_layout("ring8")
+>>> g = vbap_gains(lay, np.deg2rad([90.0]))     # straight left: channel 2
+>>> int(np.argmax(g[:, 0])), round(float(np.sum(g**2)), 12)
+(2, 1.0)
 """
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import FormatError, ParameterError
 
+#: speed of sound used to turn speaker distances into delays (m/s)
+C0_ALIGN = 343.0
+
 
 @dataclass(frozen=True)
 class Speaker:
+    """One output channel.
+
+    ``azimuth_deg`` None marks a channel that is never panned to (LFE);
+    ``distance_m`` (optional) is the speaker's distance from the listening
+    position, used for delay/gain alignment.
+    """
+
     name: str
-    azimuth_deg: float | None  # None: not panned to (LFE)
+    azimuth_deg: float | None
     elevation_deg: float = 0.0
     distance_m: float | None = None
+
+    @property
+    def direction(self) -> NDArray[np.float64]:
+        """Unit vector (forward, left, up) of the speaker (zeros for LFE)."""
+        if self.azimuth_deg is None:
+            return np.zeros(3)
+        return _unit_from_angles(self.azimuth_deg, self.elevation_deg)
+
+
+def _unit_from_angles(az_deg: float, el_deg: float) -> NDArray[np.float64]:
+    a, e = math.radians(az_deg), math.radians(el_deg)
+    return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
 
 
 @dataclass(frozen=True)
 class Layout:
     """An ordered set of output channels.
 
-    ``fold_front``: for two-speaker layouts, rear directions are mirrored to
-    the front (stereo cannot place sounds behind).
+    Parameters
+    ----------
+    name : str
+    speakers : tuple of Speaker
+        In channel order.
+    fold_front : bool
+        Two-speaker layouts mirror rear directions to the front (stereo cannot
+        place sounds behind).
+    channel_mask : int, optional
+        WAVE_FORMAT_EXTENSIBLE ``dwChannelMask`` (speaker positions of the
+        channels, in order); None for layouts without standard positions.
     """
 
     name: str
@@ -52,30 +112,61 @@ class Layout:
     def channel_names(self) -> list[str]:
         return [s.name for s in self.speakers]
 
+    @property
+    def panned_channels(self) -> NDArray[np.int64]:
+        """Indices of the channels that take part in panning (all but LFE)."""
+        return np.array(
+            [c for c, s in enumerate(self.speakers) if s.azimuth_deg is not None], dtype=np.int64
+        )
+
+    @property
+    def is_horizontal(self) -> bool:
+        """True when every panned speaker lies in the horizontal plane."""
+        return all(abs(s.elevation_deg) < 1e-9 for s in self.speakers if s.azimuth_deg is not None)
+
+    @property
+    def has_distances(self) -> bool:
+        return any(s.distance_m is not None for s in self.speakers)
+
+    def directions(self) -> NDArray[np.float64]:
+        """Unit vectors ``(n_channels, 3)`` (forward, left, up); LFE rows are zero."""
+        return np.stack([s.direction for s in self.speakers])
+
     def panning_arrays(self) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        """Sorted azimuths (radians, in (-π, π]) and their channel indices (mono: empty)."""
+        """Sorted azimuths (radians, in (-π, π]) and their channel indices, for the
+        pairwise 2-D law of the synthesis kernel (mono: empty).
+
+        For a layout with elevation this is its horizontal projection: at each
+        distinct azimuth the speaker nearest the horizontal plane.
+        """
         if self.n_channels == 1:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
-        az, ch = [], []
+        best: dict[float, tuple[float, int, float]] = {}
         for c, s in enumerate(self.speakers):
             if s.azimuth_deg is None:
                 continue
-            a = np.deg2rad(((s.azimuth_deg + 180.0) % 360.0) - 180.0)
-            if a <= -np.pi:
-                a += 2 * np.pi
-            az.append(a)
-            ch.append(c)
+            a = math.radians(((s.azimuth_deg + 180.0) % 360.0) - 180.0)
+            if a <= -math.pi:
+                a += 2 * math.pi
+            key = round(a, 9)
+            if key not in best or abs(s.elevation_deg) < best[key][0]:
+                best[key] = (abs(s.elevation_deg), c, a)
+        az = np.array([v[2] for v in best.values()])
+        ch = np.array([v[1] for v in best.values()], dtype=np.int64)
         order = np.argsort(az)
-        return np.asarray(az)[order], np.asarray(ch, dtype=np.int64)[order]
+        return az[order], ch[order]
 
     def describe(self) -> dict[str, object]:
+        """JSON-able description; :func:`load_layout_json` reads it back."""
         return {
             "name": self.name,
-            "channels": [
-                {"name": s.name, "azimuth_deg": s.azimuth_deg, "elevation_deg": s.elevation_deg}
+            "channel_mask": self.channel_mask,
+            "speakers": [
+                {"name": s.name, "azimuth": s.azimuth_deg, "elevation": s.elevation_deg,
+                 "distance": s.distance_m, **({"lfe": True} if s.azimuth_deg is None else {})}
                 for s in self.speakers
             ],
-        }
+        }  # fmt: skip
 
 
 def _sp(name: str, az: float | None, el: float = 0.0) -> Speaker:
@@ -122,8 +213,18 @@ BUILTIN_LAYOUTS: dict[str, Layout] = {
 def get_layout(spec: str | Path | Layout) -> Layout:
     """A built-in layout by name, or a custom one from a JSON file.
 
-    Custom JSON: ``{"name": "...", "speakers": [{"azimuth": deg, "elevation": deg,
-    "name": "...", "distance": m}, ...]}`` or a bare list of such objects.
+    Parameters
+    ----------
+    spec : str, Path or Layout
+        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1`` or a path ending in
+        ``.json`` (see :func:`load_layout_json`).
+
+    Raises
+    ------
+    ParameterError
+        Unknown name.
+    FormatError
+        Malformed or invalid JSON layout.
     """
     if isinstance(spec, Layout):
         return spec
@@ -133,51 +234,140 @@ def get_layout(spec: str | Path | Layout) -> Layout:
     if s.lower().endswith(".json"):
         return load_layout_json(Path(s))
     raise ParameterError(
-        f"unknown layout {s!r}; choose one of {sorted(BUILTIN_LAYOUTS)} or a JSON file"
+        f"unknown layout {s!r}; choose one of {sorted(BUILTIN_LAYOUTS)} or a FILE.json "
+        f"with speaker azimuths/elevations in degrees"
     )
 
 
-def load_layout_json(path: Path) -> Layout:
+def _num(path: Path, i: int, it: dict[str, Any], *keys: str, default: float | None) -> float | None:
+    for k in keys:
+        if k in it and it[k] is not None:
+            v = it[k]
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                raise FormatError(f"{path}: speaker {i}: {k!r} must be a number, got {v!r}")
+            if not math.isfinite(float(v)):
+                raise FormatError(f"{path}: speaker {i}: {k!r} must be finite, got {v!r}")
+            return float(v)
+    return default
+
+
+def load_layout_json(path: str | Path) -> Layout:
+    """Read a custom layout.
+
+    Format: ``{"name": "...", "speakers": [{"azimuth": deg, "elevation": deg,
+    "name": "...", "distance": m, "channel": i, "lfe": false}, ...]}`` or a bare
+    list of speaker objects.  ``channel`` (0-based output channel) is optional;
+    if one speaker has it, all must, and they must be 0..n-1 exactly once.
+    A speaker with ``"lfe": true`` has no direction and is never panned to.
+
+    Raises
+    ------
+    FormatError
+        Missing file, invalid JSON, missing/duplicate channels, non-numeric or
+        out-of-range angles, duplicate directions or names, non-positive
+        distances, fewer than two speakers to pan between.
+    """
+    p = Path(path)
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(p.read_text())
     except FileNotFoundError:
-        raise FormatError(f"layout file {str(path)!r} does not exist") from None
+        raise FormatError(f"layout file {str(p)!r} does not exist") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise FormatError(f"{path}: not valid JSON ({exc})") from None
-    items = data.get("speakers") if isinstance(data, dict) else data
-    name = data.get("name", Path(path).stem) if isinstance(data, dict) else Path(path).stem
+        raise FormatError(f"{p}: not valid JSON ({exc})") from None
+    if isinstance(data, dict):
+        items = data.get("speakers", data.get("channels"))
+        name = data.get("name", p.stem)
+    else:
+        items, name = data, p.stem
     if not isinstance(items, list) or not items:
-        raise FormatError(f"{path}: expected a non-empty list 'speakers' of {{azimuth, elevation}}")
-    speakers = []
+        raise FormatError(
+            f"{p}: expected a non-empty list 'speakers' of {{azimuth, elevation}} objects"
+        )
+    speakers: list[Speaker] = []
+    chans: list[int | None] = []
     for i, it in enumerate(items):
-        if not isinstance(it, dict) or "azimuth" not in it:
-            raise FormatError(f"{path}: speaker {i} needs an 'azimuth' in degrees, got {it!r}")
-        try:
-            az = float(it["azimuth"])
-            el = float(it.get("elevation", 0.0))
-            dist = None if it.get("distance") is None else float(it["distance"])
-        except (TypeError, ValueError):
-            raise FormatError(f"{path}: speaker {i} has non-numeric angles: {it!r}") from None
-        if not np.isfinite(az) or not -90 <= el <= 90:
+        if not isinstance(it, dict):
+            raise FormatError(f"{p}: speaker {i} must be an object, got {it!r}")
+        lfe = bool(it.get("lfe", False))
+        az = _num(p, i, it, "azimuth", "azimuth_deg", default=None)
+        if az is None and not lfe:
+            raise FormatError(f"{p}: speaker {i} needs an 'azimuth' in degrees, got {it!r}")
+        el = _num(p, i, it, "elevation", "elevation_deg", default=0.0)
+        assert el is not None
+        if not -90.0 <= el <= 90.0:
+            raise FormatError(f"{p}: speaker {i}: elevation must be in [-90, 90] degrees, got {el}")
+        dist = _num(p, i, it, "distance", "distance_m", default=None)
+        if dist is not None and not dist > 0:
+            raise FormatError(f"{p}: speaker {i}: distance must be > 0 m, got {dist}")
+        ch = it.get("channel")
+        if ch is not None and (isinstance(ch, bool) or not isinstance(ch, int)):
+            raise FormatError(f"{p}: speaker {i}: 'channel' must be an integer, got {ch!r}")
+        chans.append(ch)
+        speakers.append(Speaker(str(it.get("name", f"S{i}")), None if lfe else az, el, dist))
+    n = len(speakers)
+    given = [c for c in chans if c is not None]
+    if given:
+        if len(given) != n:
+            raise FormatError(f"{p}: either every speaker or none has a 'channel' index")
+        dup = sorted({c for c in given if given.count(c) > 1})
+        if dup:
+            raise FormatError(f"{p}: duplicate channel(s) {dup}")
+        missing = sorted(set(range(n)) - set(given))
+        if missing:
             raise FormatError(
-                f"{path}: speaker {i}: azimuth must be finite and elevation in [-90, 90]"
+                f"{p}: channels must be 0..{n - 1} exactly once; missing {missing}, "
+                f"got {sorted(given)}"
             )
-        speakers.append(Speaker(str(it.get("name", f"S{i}")), az, el, dist))
-    if len(speakers) < 2:
-        raise FormatError(f"{path}: panning needs at least 2 speakers, got {len(speakers)}")
-    azs = [round(s.azimuth_deg % 360.0, 6) for s in speakers if s.azimuth_deg is not None]
-    if len(set(azs)) != len(azs):
-        raise FormatError(f"{path}: two speakers share the same azimuth: {sorted(azs)}")
+        order = np.argsort(given)
+        speakers = [speakers[int(k)] for k in order]
     names = [s.name for s in speakers]
     if len(set(names)) != len(names):
-        raise FormatError(f"{path}: duplicate speaker names {names}")
-    return Layout(str(name), tuple(speakers), fold_front=len(speakers) == 2)
+        raise FormatError(f"{p}: duplicate speaker names {names}")
+    return make_layout(str(name), speakers, source=str(p))
 
 
+def make_layout(name: str, speakers: list[Speaker] | tuple[Speaker, ...], *,
+                channel_mask: int | None = None, source: str = "<layout>") -> Layout:  # fmt: skip
+    """Validate and build a custom :class:`Layout`.
+
+    Raises
+    ------
+    FormatError
+        Fewer than two panned speakers, or two speakers in the same direction.
+    """
+    panned = [s for s in speakers if s.azimuth_deg is not None]
+    if len(panned) < 2:
+        raise FormatError(
+            f"{source}: panning needs at least 2 speakers with a direction, got {len(panned)}"
+        )
+    dirs = np.stack([s.direction for s in panned])
+    cos = dirs @ dirs.T
+    np.fill_diagonal(cos, -1.0)
+    i, j = np.unravel_index(int(np.argmax(cos)), cos.shape)
+    if cos[i, j] > 1.0 - 1e-9:
+        raise FormatError(
+            f"{source}: speakers {panned[i].name!r} and {panned[j].name!r} point the same way "
+            f"(azimuth {panned[i].azimuth_deg}°, elevation {panned[i].elevation_deg}°)"
+        )
+    return Layout(str(name), tuple(speakers), fold_front=len(panned) == 2,
+                  channel_mask=channel_mask)  # fmt: skip
+
+
+# ------------------------------------------------------------------ 2-D VBAP
 def vbap_gains(layout: Layout, azimuth_rad: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Pairwise 2-D VBAP gains ``(n_channels, N)`` for source azimuths (radians, listener frame).
+    """Pairwise 2-D VBAP gains of the synthesis kernel, ``(n_channels, N)``.
 
-    Power-normalised: the squared gains of each direction sum to 1.
+    Parameters
+    ----------
+    layout : Layout
+    azimuth_rad : (N,) source azimuths in the listener's frame (radians,
+        counter-clockwise from forward).
+
+    Returns
+    -------
+    (n_channels, N) gains; the squared gains of each direction sum to 1.
+    Elevated layouts are panned on their horizontal projection
+    (:meth:`Layout.panning_arrays`); use :func:`pan_gains` for the 3-D law.
     """
     az, ch = layout.panning_arrays()
     phi = np.atleast_1d(np.asarray(azimuth_rad, dtype=np.float64))
@@ -211,6 +401,120 @@ def vbap_gains(layout: Layout, azimuth_rad: NDArray[np.floating]) -> NDArray[np.
     return out
 
 
+# ------------------------------------------------------------------ 3-D VBAP
+@dataclass(frozen=True)
+class Triangulation:
+    """Speaker triangles for 3-D VBAP.
+
+    ``inverse (T, 3, 3)``: per triangle the inverse of the matrix whose rows
+    are its three speaker directions, so gains are ``p @ inverse[t]``;
+    ``channels (T, 3)``: output channel of each vertex, -1 for an imaginary
+    speaker; ``imaginary_neighbours``: for each imaginary speaker, the real
+    channels adjacent to it on the hull (they share its gain when a source lies
+    exactly at it).
+    """
+
+    inverse: NDArray[np.float64]
+    channels: NDArray[np.int64]
+    imaginary_neighbours: tuple[tuple[int, ...], ...]
+    imaginary_directions: NDArray[np.float64]
+
+
+def triangulate(layout: Layout) -> Triangulation:
+    """Convex-hull triangulation of a layout's panned speakers (plus imaginary
+    speakers at the nadir/zenith when no real speaker lies within 20° of them).
+
+    Raises
+    ------
+    ParameterError
+        The layout has fewer than three non-coplanar directions (use the 2-D law).
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    chans = list(layout.panned_channels)
+    pts = [layout.speakers[c].direction for c in chans]
+    els = [layout.speakers[c].elevation_deg for c in chans]
+    imag: list[NDArray[np.float64]] = []
+    if min(els) > -70.0:
+        imag.append(np.array([0.0, 0.0, -1.0]))
+    if max(els) < 70.0:
+        imag.append(np.array([0.0, 0.0, 1.0]))
+    allp = np.array(pts + imag)
+    labels = np.array(chans + [-1 - k for k in range(len(imag))], dtype=np.int64)
+    try:
+        hull = ConvexHull(allp)
+    except QhullError as exc:
+        raise ParameterError(
+            f"layout {layout.name!r}: its speaker directions do not span 3-D space ({exc}); "
+            f"a horizontal layout uses the 2-D law"
+        ) from None
+    inv, tri_ch = [], []
+    neigh: list[set[int]] = [set() for _ in imag]
+    for simplex in hull.simplices:
+        m = allp[simplex]
+        if abs(np.linalg.det(m)) < 1e-9:  # plane through the listener: cannot pan
+            continue
+        inv.append(np.linalg.inv(m))
+        lab = labels[simplex]
+        tri_ch.append(np.where(lab >= 0, lab, -1))
+        for v in lab:
+            if v < 0:
+                neigh[-1 - v].update(int(x) for x in lab if x >= 0)
+    return Triangulation(np.array(inv), np.array(tri_ch, dtype=np.int64),
+                         tuple(tuple(sorted(s)) for s in neigh),
+                         np.array(imag).reshape(-1, 3))  # fmt: skip
+
+
+def vbap3d_gains(layout: Layout, directions: NDArray[np.floating], *,
+                 triangulation: Triangulation | None = None) -> NDArray[np.float64]:  # fmt: skip
+    """3-D VBAP gains ``(n_channels, N)`` for directions ``(N, 3)`` in the listener frame.
+
+    For each direction the triangle whose gains have the largest minimum is
+    used (all gains ≥ 0 inside the hull; outside the layout's coverage the
+    negative gains are clipped); imaginary speakers' gains are dropped; the
+    result is power-normalised (Σ g² = 1).
+    """
+    tri = triangulation if triangulation is not None else triangulate(layout)
+    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    nrm = np.linalg.norm(d, axis=1, keepdims=True)
+    d = d / np.where(nrm > 0, nrm, 1.0)
+    g_all = np.einsum("nj,tjk->ntk", d, tri.inverse)  # (N, T, 3)
+    best = np.argmax(g_all.min(axis=2), axis=1)
+    g = np.clip(g_all[np.arange(d.shape[0]), best], 0.0, None)  # (N, 3)
+    ch = tri.channels[best]  # (N, 3)
+    g = np.where(ch >= 0, g, 0.0)
+    out = np.zeros((layout.n_channels, d.shape[0]))
+    cols = np.repeat(np.arange(d.shape[0])[:, None], 3, axis=1)
+    np.add.at(out, (np.where(ch >= 0, ch, 0), cols), g)
+    power = np.sum(out**2, axis=0)
+    dead = power < 1e-24
+    if np.any(dead):  # exactly at an imaginary speaker: spread over its hull neighbours
+        for n in np.flatnonzero(dead):
+            k = int(np.argmax(tri.imaginary_directions @ d[n]))
+            out[list(tri.imaginary_neighbours[k]), n] = 1.0
+        power = np.sum(out**2, axis=0)
+    return out / np.sqrt(power)
+
+
+def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Panning gains ``(n_channels, N)`` of the layout's own law for listener-frame
+    directions ``(N, 3)``: 2-D pairwise VBAP on the azimuth for horizontal
+    layouts (elevation ignored), 3-D VBAP for layouts with elevation, 1 for mono.
+    """
+    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    if layout.n_channels == 1:
+        return np.ones((1, d.shape[0]))
+    if layout.is_horizontal:
+        flat = np.hypot(d[:, 0], d[:, 1]) < 1e-12
+        g = vbap_gains(layout, np.arctan2(d[:, 1], d[:, 0]))
+        if np.any(flat):  # straight above/below a ring: spread evenly (as the kernel does)
+            ch = layout.panned_channels
+            g[:, flat] = 0.0
+            g[np.ix_(ch, np.flatnonzero(flat))] = 1.0 / math.sqrt(ch.size)
+        return g
+    return vbap3d_gains(layout, d)
+
+
 def listener_frame_azimuth(direction: NDArray[np.floating], forward: NDArray[np.floating],
                            up: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
     """Azimuth (radians, counter-clockwise from forward) of ``direction (N,3)``."""
@@ -219,3 +523,99 @@ def listener_frame_azimuth(direction: NDArray[np.floating], forward: NDArray[np.
     u = np.asarray(up, dtype=np.float64).reshape(-1, 3)
     left = np.cross(u, f)
     return np.arctan2(np.sum(d * left, axis=1), np.sum(d * f, axis=1))
+
+
+def listener_frame(direction: NDArray[np.floating], forward: NDArray[np.floating],
+                   up: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+    """World directions ``(N, 3)`` expressed in the listener frame (forward, left, up)."""
+    d = np.asarray(direction, dtype=np.float64).reshape(-1, 3)
+    f = np.asarray(forward, dtype=np.float64).reshape(-1, 3)
+    u = np.asarray(up, dtype=np.float64).reshape(-1, 3)
+    left = np.cross(u, f)
+    return np.stack([np.sum(d * f, 1), np.sum(d * left, 1), np.sum(d * u, 1)], axis=1)
+
+
+# ------------------------------------------------------------ downmix
+def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
+    """Matrix ``(dst.n_channels, src.n_channels)`` folding one layout into another.
+
+    Each source speaker is re-panned to its own direction with the target
+    layout's law (power-preserving for uncorrelated channels); an LFE channel
+    goes to the target's LFE if it has one, else equally (in power) to every
+    panned target speaker.  ``dst @ audio`` applies it to ``(n_ch, n)`` audio.
+    """
+    s, d = get_layout(src), get_layout(dst)
+    m = np.zeros((d.n_channels, s.n_channels))
+    lfe_dst = [c for c, sp in enumerate(d.speakers) if sp.azimuth_deg is None]
+    for c, sp in enumerate(s.speakers):
+        if sp.azimuth_deg is None:
+            if lfe_dst:
+                m[lfe_dst[0], c] = 1.0
+            else:
+                ch = d.panned_channels if d.n_channels > 1 else np.array([0])
+                m[ch, c] = 1.0 / math.sqrt(ch.size)
+            continue
+        m[:, c] = pan_gains(d, sp.direction[None, :])[:, 0]
+    return m
+
+
+def downmix_target(layout: Layout | str, max_channels: int) -> Layout:
+    """The largest built-in layout (7.1, 5.1, stereo, mono) fitting ``max_channels``."""
+    for name in ("7.1", "5.1", "stereo", "mono"):
+        lay = BUILTIN_LAYOUTS[name]
+        if lay.n_channels <= max_channels:
+            return lay
+    raise ParameterError(f"cannot downmix to {max_channels} channels")
+
+
+# ------------------------------------------------------------ alignment
+class SpeakerAlignment:
+    """Delay and attenuate nearer speakers so every speaker is heard as if at the
+    distance of the farthest one (time- and level-aligned at the listener).
+
+    Speaker c at distance d_c gets delay ``round((d_max - d_c)/c0 · rate)``
+    samples and gain ``d_c / d_max`` (1/r law).  Speakers without a distance
+    are taken at d_max.  Processing is stateful, so consecutive blocks give
+    exactly the same samples as the whole signal (:meth:`process`).
+
+    Examples
+    --------
+    >>> from auralize.spatial import Layout, Speaker
+    >>> lay = Layout("x", (Speaker("A", 0.0, 0.0, 2.0), Speaker("B", 90.0, 0.0, 1.0)))
+    >>> al = SpeakerAlignment(lay, 343)
+    >>> al.delays.tolist(), al.gains.tolist()
+    ([0, 1], [1.0, 0.5])
+    """
+
+    def __init__(self, layout: Layout, rate: float, *, c0: float = C0_ALIGN) -> None:
+        if not (math.isfinite(rate) and rate > 0):
+            raise ParameterError(f"rate must be > 0 Hz, got {rate!r}")
+        dist = [s.distance_m for s in layout.speakers]
+        d_max = max((x for x in dist if x is not None), default=1.0)
+        dd = np.array([d_max if x is None else x for x in dist], dtype=np.float64)
+        self.delays = np.round((d_max - dd) / c0 * rate).astype(np.int64)
+        self.gains = dd / d_max
+        self.active = bool(np.any(self.delays > 0) or np.any(self.gains != 1.0))
+        self._tail = np.zeros((layout.n_channels, int(self.delays.max(initial=0))))
+
+    def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Aligned copy of ``block (n_channels, n)`` (state carried to the next block)."""
+        b = np.asarray(block, dtype=np.float64)
+        if not self.active:
+            return b
+        n = b.shape[1]
+        out = np.empty_like(b)
+        for c in range(b.shape[0]):
+            k = int(self.delays[c])
+            x = np.concatenate([self._tail[c, -k:] if k else np.zeros(0), b[c]])
+            out[c] = self.gains[c] * x[:n]
+            if k:
+                self._tail[c, -k:] = x[n:]
+        return out
+
+
+def align_speakers(audio: NDArray[np.floating], layout: Layout, rate: float, *,
+                   c0: float = C0_ALIGN) -> NDArray[np.float64]:  # fmt: skip
+    """Apply :class:`SpeakerAlignment` to a whole ``(n_channels, n)`` signal
+    (same length: the last ≤ max-delay samples of delayed channels are cut)."""
+    return SpeakerAlignment(layout, rate, c0=c0).process(audio)

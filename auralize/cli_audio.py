@@ -1,0 +1,124 @@
+"""``auralize play`` and ``auralize devices``: live playback and device listing.
+
+Added to the ``auralize`` command by :func:`add_commands` (see
+:data:`auralize.cli.CORE_COMMAND_MODULES`).
+
+Examples
+--------
+::
+
+    auralize devices
+    auralize play dataset:explosion --path flight.csv --layout ring8 --device 0
+    auralize play data.h5 --path flight.csv --layout ring8 --device "USB" --downmix
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+
+def cmd_devices(args: argparse.Namespace) -> int:
+    """List output devices and their channel counts."""
+    from auralize.audio import list_devices
+
+    devs = list_devices()
+    if args.json:
+        print(json.dumps(devs, indent=2))
+        return 0
+    if not devs:
+        print("no audio output devices found; write files with 'auralize render ... -o out.wav'")
+        return 0
+    for d in devs:
+        mark = "*" if d["default"] else " "
+        print(f"{mark} {d['index']:3d}  {d['name']:40s} {d['max_output_channels']:4d} out ch  "
+              f"{d['default_samplerate']:.0f} Hz  ({d['hostapi']})")  # fmt: skip
+    return 0
+
+
+def _device_arg(text: str) -> int | str:
+    return int(text) if text.strip().isdigit() else text
+
+
+def cmd_play(args: argparse.Namespace) -> int:
+    """Detect sources (or load them) and play the path live."""
+    from auralize.cli import (
+        _load,
+        _mapping_fields,
+        _progress_wanted,
+        _thresholds,
+        listener_from_args,
+    )
+    from auralize.live import play
+    from auralize.pipeline import detect_sources
+    from auralize.spatial import get_layout
+
+    lay = get_layout(args.layout)  # bad layouts fail before any slow work
+    vol = _load(args)
+    path = listener_from_args(args)
+    if args.sources:
+        from auralize.io.sources_file import load_sources_h5
+
+        series = load_sources_h5(args.sources)
+    else:
+        series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
+                                progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
+    from auralize.synthesis import check_inside
+
+    check_inside(path, vol.bounds)
+    downmix: Any = False
+    if args.downmix is not None:
+        downmix = True if args.downmix == "auto" else args.downmix
+    gain: Any = "auto" if args.gain == "auto" else float(args.gain)
+    rep = play(series.tracks(), path, rate=args.rate, layout=lay, device=args.device,
+               time_scale=args.time_scale, interp=args.interp, downmix=downmix, gain=gain,
+               limit_pa=args.limit, block_s=args.block_ms / 1e3,
+               duration=args.duration if args.path is None else None)  # fmt: skip
+    if args.json:
+        print(json.dumps(rep.as_dict(), indent=2))
+    else:
+        print(rep.summary())
+    if rep.underruns:
+        print(f"auralize play: warning: {rep.underruns} underrun(s): synthesis fell behind the "
+              f"device; try a larger --block-ms, higher thresholds, or write a file with "
+              f"'auralize render -o out.wav'", file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def add_commands(sub: Any) -> None:
+    """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
+    from auralize.cli import _vec3, add_detect_options, add_volume_options
+
+    p = sub.add_parser("devices", help="list sound output devices and their channel counts")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_devices)
+
+    p = sub.add_parser("play", help="play the sound along a listener path live (block by block)")
+    add_volume_options(p)
+    add_detect_options(p)
+    g = p.add_argument_group("live output")
+    src = g.add_mutually_exclusive_group(required=True)
+    src.add_argument(
+        "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
+    )
+    src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
+    g.add_argument("--duration", type=float, help="seconds to play (with --listener)")
+    g.add_argument("--layout", default="ring8", help="mono|stereo|ring8|5.1|7.1|FILE.json")
+    g.add_argument("--device", type=_device_arg, metavar="N|NAME",
+                   help="output device index or name part (see 'auralize devices')")  # fmt: skip
+    g.add_argument("--downmix", nargs="?", const="auto", metavar="LAYOUT",
+                   help="fold the layout to fit a device with fewer channels (default: the "
+                        "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
+    g.add_argument("--rate", type=int, default=44100, help="sample rate in Hz (default 44100)")
+    g.add_argument("--time-scale", type=float, default=1.0, help="playback seconds per data second")
+    g.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
+    g.add_argument("--gain", default="auto",
+                   help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "
+                        "later blocks would clip)")  # fmt: skip
+    g.add_argument("--limit", type=float, metavar="PA", help="truncate pressures beyond PA pascals")
+    g.add_argument("--block-ms", type=float, default=50.0, help="synthesis block (default 50 ms)")
+    g.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+    g.add_argument("--json", action="store_true", help="print the playback report as JSON")
+    p.set_defaults(func=cmd_play)
