@@ -1,0 +1,243 @@
+"""Dask options for the ``auralize`` command (out-of-core and distributed runs).
+
+:func:`add_commands` extends the core sub-commands, so the same commands run
+on a laptop, a workstation or a cluster:
+
+``auralize detect PATH -o S.h5 --scheduler distributed --workers 2``
+    Distributed, resumable detection (:mod:`auralize.scale.detect`); any of
+    ``--scheduler``, ``--address`` or ``--workers`` selects it.  Rerun the
+    same command after an interruption to resume; ``--restart`` starts over.
+``auralize render PATH ... --scheduler threads --workers 2``
+    Synthesis in independent blocks over the workers (and detection too,
+    unless ``--sources`` is given).
+``auralize dataset explosion -o big.h5 --size 256 --steps 100 --chunked``
+    The big-data recipe (:func:`auralize.scale.write_chunked_explosion`).
+
+It also adds ``auralize scale-detect`` and ``auralize scale-render``, the
+same as ``detect``/``render`` with a Dask scheduler, for when the core
+commands are not there to extend.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from auralize.errors import ParameterError
+
+
+def add_scheduler_options(p: argparse.ArgumentParser) -> None:
+    """``--scheduler``, ``--address``, ``--workers`` and the detection chunking options."""
+    g = p.add_argument_group("dask (out-of-core and distributed runs)")
+    g.add_argument("--scheduler", choices=["sync", "threads", "processes", "distributed"],
+                   help="run on Dask with this scheduler (distributed: a local cluster, or "
+                        "--address)")  # fmt: skip
+    g.add_argument("--address", metavar="tcp://HOST:PORT",
+                   help="an existing dask.distributed scheduler")  # fmt: skip
+    g.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="threads/processes, or workers of a local cluster (default: cores)",
+    )
+    g.add_argument(
+        "--timeout",
+        type=float,
+        default=5.0,
+        help="seconds to wait for the scheduler at --address (default 5)",
+    )
+    g.add_argument("--chunk-steps", type=int, default=8, help="time steps per detection task")
+    g.add_argument(
+        "--slab-planes",
+        type=int,
+        help="z-planes per detection task (default: what fits --task-memory)",
+    )
+    g.add_argument(
+        "--task-memory",
+        type=float,
+        default=1.0,
+        metavar="GIB",
+        help="memory budget of one detection task in GiB (default 1)",
+    )
+    g.add_argument(
+        "--restart",
+        action="store_true",
+        help="discard the saved state of an interrupted run instead of resuming",
+    )
+    g.add_argument(
+        "--block-seconds",
+        type=float,
+        help="playback seconds per synthesis task (default: 4 blocks per worker)",
+    )
+
+
+def wants_dask(args: argparse.Namespace) -> bool:
+    return bool(getattr(args, "scheduler", None) or getattr(args, "address", None)
+                or getattr(args, "workers", None))  # fmt: skip
+
+
+def _runner(args: argparse.Namespace) -> Any:
+    from auralize.scale import Runner
+
+    sched = args.scheduler or ("distributed" if args.address or args.workers else "sync")
+    return Runner(sched, address=args.address, workers=args.workers, timeout=args.timeout,
+                  log=lambda msg: print(msg, flush=True))  # fmt: skip
+
+
+def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:
+    from auralize.cli import _mapping_fields, _thresholds
+    from auralize.pipeline import auto_mapping
+    from auralize.scale import detect_distributed
+
+    return detect_distributed(
+        vol, mapping=args.mapping or auto_mapping(vol), thresholds=_thresholds(args),
+        output=output, runner=runner, chunk_steps=args.chunk_steps, slab_planes=args.slab_planes,
+        task_memory=int(args.task_memory * (1 << 30)), restart=args.restart,
+        **_mapping_fields(args),
+    )  # fmt: skip
+
+
+def cmd_detect_dask(args: argparse.Namespace) -> int:
+    """``auralize detect`` on Dask: resumable, chunked, with any scheduler."""
+    from auralize.cli import _load
+
+    vol = _load(args)
+    t = time.perf_counter()
+    with _runner(args) as runner:
+        series = _detect(args, vol, runner, args.output)
+    elapsed = time.perf_counter() - t
+    counts = series.counts()
+    sc = series.meta["scale"]
+    if args.json:
+        print(json.dumps({
+            "output": str(args.output), "thresholds": series.thresholds.tolist(),
+            "mapping": series.meta.get("mapping"), "scale": sc,
+            "steps": [{"step": n, "time": float(series.times[n]), **c} for n, c in enumerate(counts)],
+            "seconds": elapsed,
+        }, indent=2, default=str))  # fmt: skip
+        return 0
+    tot = {k: sum(c[k] for c in counts) for k in ("monopole", "dipole", "quadrupole")}
+    peak = max(sc["peak_rss_per_process"], default=0) / 2**30
+    print(f"wrote {args.output}: {series.n_steps} steps ({len(sc['computed_steps'])} computed, "
+          f"{sc['resumed_steps']} resumed) in {elapsed:.2f} s on {sc['workers']} workers "
+          f"({sc['scheduler']}), {sc['tasks']} tasks, {len(sc['slabs'])} slabs; peak RSS of a "
+          f"worker {peak:.2f} GiB; source points: {tot['monopole']} monopole, {tot['dipole']} "
+          f"dipole, {tot['quadrupole']} quadrupole")  # fmt: skip
+    return 0
+
+
+def cmd_render_dask(args: argparse.Namespace) -> int:
+    """``auralize render`` with synthesis (and detection) spread over Dask workers."""
+    from auralize.cli import _load, listener_from_args
+    from auralize.pipeline import save_rendered
+    from auralize.scale import render_distributed
+
+    vol = _load(args)
+    path = listener_from_args(args)
+    t = time.perf_counter()
+    with _runner(args) as runner:
+        if args.sources:
+            from auralize.io.sources_file import load_sources_h5
+
+            series = load_sources_h5(args.sources)
+        else:
+            series = _detect(args, vol, runner, None)
+        out = render_distributed(
+            series.tracks(), path, rate=args.rate, time_scale=args.time_scale,
+            interp=args.interp, layout=args.layout,
+            duration=args.duration if args.path is None else None, bounds=vol.bounds,
+            block_seconds=args.block_seconds, runner=runner,
+        )  # fmt: skip
+    elapsed = time.perf_counter() - t
+    out.meta.update({"volume": vol.source, "mapping": series.meta.get("mapping"),
+                     "thresholds": np.asarray(series.thresholds).tolist()})  # fmt: skip
+    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
+                         extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+    peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
+    print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
+          f"at {out.rate} Hz in {out.meta['blocks']} blocks on {out.meta['workers']} workers, "
+          f"peak {peak:.4g} Pa, gain {gain:.4g}; {elapsed:.2f} s")  # fmt: skip
+    return 0
+
+
+def cmd_dataset_chunked(args: argparse.Namespace) -> int:
+    """``auralize dataset explosion --chunked``: the big-data recipe, in bounded memory."""
+    from auralize.scale import write_chunked_explosion
+
+    if args.name != "explosion":
+        raise ParameterError(f"--chunked writes the 'explosion' dataset, not {args.name!r}")
+    t = time.perf_counter()
+    size = args.size or 256
+    steps = args.steps or 100
+    write_chunked_explosion(args.output, size, steps, args.seed, generator=args.generator,
+                            dtype=args.dtype, progress=sys.stdout.isatty())  # fmt: skip
+    print(f"wrote {args.output}: explosion ({args.generator}), {size}x{size}x{size} x {steps} "
+          f"steps, one step per chunk, {args.dtype} ({time.perf_counter() - t:.1f} s)")  # fmt: skip
+    return 0
+
+
+def _chain(parser: argparse.ArgumentParser, dask_cmd: Any) -> None:
+    """Make ``parser``'s command run ``dask_cmd`` when a Dask option is given."""
+    plain = parser.get_default("func")
+
+    def func(args: argparse.Namespace) -> int:
+        if wants_dask(args) or plain is None:
+            return int(dask_cmd(args))
+        return int(plain(args))
+
+    parser.set_defaults(func=func)
+
+
+def add_commands(sub: Any) -> None:
+    """Add the Dask options to ``detect``, ``render`` and ``dataset`` and two commands."""
+    from auralize.cli import add_detect_options, add_output_options, add_volume_options
+
+    choices = sub.choices
+    if "detect" in choices:
+        add_scheduler_options(choices["detect"])
+        _chain(choices["detect"], cmd_detect_dask)
+    if "render" in choices:
+        add_scheduler_options(choices["render"])
+        _chain(choices["render"], cmd_render_dask)
+    if "dataset" in choices:
+        p = choices["dataset"]
+        g = p.add_argument_group("big data")
+        g.add_argument(
+            "--chunked",
+            action="store_true",
+            help="write step by step in bounded memory (explosion; default 256³ x 100)",
+        )
+        g.add_argument("--generator", choices=["auto", "particles", "analytic"], default="auto",
+                       help="with --chunked: particles (the core model) or analytic (fast, "
+                            "default above 128³)")  # fmt: skip
+        g.add_argument(
+            "--dtype",
+            choices=["float32", "float64"],
+            default="float32",
+            help="with --chunked: storage type (default float32)",
+        )
+        plain = p.get_default("func")
+        p.set_defaults(func=lambda a: cmd_dataset_chunked(a) if a.chunked else plain(a))
+
+    p = sub.add_parser("scale-detect", help="detect sources on Dask (resumable, chunked)")
+    add_volume_options(p)
+    add_detect_options(p)
+    add_scheduler_options(p)
+    p.add_argument("-o", "--output", required=True, help="sources .h5 or .pvd")
+    p.add_argument("--json", action="store_true", help="print per-step counts as JSON")
+    p.set_defaults(func=cmd_detect_dask)
+
+    p = sub.add_parser("scale-render", help="render with synthesis blocks on Dask workers")
+    add_volume_options(p)
+    add_detect_options(p)
+    add_output_options(p)
+    add_scheduler_options(p)
+    p.add_argument("--time-scale", type=float, default=1.0, help="playback seconds per data second")
+    p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
+    p.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+    p.set_defaults(func=cmd_render_dask)

@@ -1,0 +1,52 @@
+"""Out-of-core and distributed preprocessing on Dask (issue 9).
+
+The same pipeline, on a laptop, a workstation or a cluster:
+
+* :mod:`auralize.scale.chunked` — lazy chunked volumes (Dask arrays, one
+  time step per chunk; z-slabs with ghost planes);
+* :mod:`auralize.scale.detect` — distributed, resumable detection,
+  bit-identical to :func:`auralize.sources.detect`;
+* :mod:`auralize.scale.synth` — synthesis in independent blocks;
+* :mod:`auralize.scale.runner` — schedulers (sync, threads, processes,
+  distributed, ``--address``, local clusters);
+* :mod:`auralize.scale.bigdata` — the chunked big-data explosion recipe.
+
+Dask is optional (``pip install "auralize[dask]"``): ``import auralize`` and
+``import auralize.scale`` do not import it; the functions that need it raise
+:class:`~auralize.errors.MissingDependencyError` with the install command.
+"""
+
+from __future__ import annotations
+
+from auralize.scale.bigdata import AnalyticExplosion, write_chunked_explosion
+from auralize.scale.chunked import (
+    DaskFrames,
+    SlabFrames,
+    chunked_volume,
+    slab_volume,
+    to_dask,
+    volume_from_dask,
+)
+from auralize.scale.detect import StateStore, detect_distributed, plan_chunks, plan_slabs
+from auralize.scale.runner import SCHEDULERS, RunError, Runner, SchedulerError
+from auralize.scale.synth import render_distributed
+
+__all__ = [
+    "SCHEDULERS",
+    "AnalyticExplosion",
+    "DaskFrames",
+    "RunError",
+    "Runner",
+    "SchedulerError",
+    "SlabFrames",
+    "StateStore",
+    "chunked_volume",
+    "detect_distributed",
+    "plan_chunks",
+    "plan_slabs",
+    "render_distributed",
+    "slab_volume",
+    "to_dask",
+    "volume_from_dask",
+    "write_chunked_explosion",
+]

@@ -1,0 +1,558 @@
+"""Distributed, resumable source detection (same results as :func:`auralize.sources.detect`).
+
+The work is cut into tasks of ``chunk_steps`` consecutive time steps × one
+z-slab of the grid:
+
+* **time borders** — the strengths of step n are time derivatives over
+  steps n-1 and n+1 (one-sided at the first and last step), so a task on steps
+  ``[a, b)`` reads steps ``a-1 … b`` (clamped to the series): one ghost step
+  on each side, like ``map_overlap`` with depth 1 along time and no boundary
+  padding.  Inside a task, each frame is read and mapped once.
+* **space borders** — a slab keeps planes ``[z0, z1)`` and reads
+  ``g = r + 2`` ghost planes on each side, ``r`` being the reach of the
+  acoustic mapping's stencil (1 for ``paper-density``'s gradient, 0 for the
+  point-wise ``identity`` and ``cfd``): strengths need the mapped fields one
+  plane further, the ΔV radius needs the strengths of the neighbouring
+  plane.  Mappings of unknown reach run on whole frames.
+
+Every vertex is computed by the same code on the same numbers as in the
+serial :func:`~auralize.sources.detect`, so the sources are bit-identical,
+whatever the scheduler, chunking or slabbing.  Relative thresholds use the
+series' peak strengths over the same sample steps as
+:func:`~auralize.sources.peak_strengths` (computed by tasks too); the
+``paper-density`` mapping's series-wide range and gradient scale are gathered
+by tasks as well (minima and maxima are exact in any order).
+
+**Resuming.**  With an ``output`` file, finished time chunks are written as
+they complete to ``OUTPUT.parts/`` — a chunked sources store: one ``.npz``
+per finished chunk of steps (written atomically; its existence is the
+per-step "done" record) plus ``manifest.json`` with the settings, the
+resolved thresholds and the mapping's statistics.  A run that is interrupted
+(Ctrl-C, a crash, a worker that keeps dying, a lost scheduler) resumes from
+there when started again with the same settings: finished steps are not
+recomputed and the preparation passes are not repeated.  When all steps are
+done, ``OUTPUT`` is written (atomically) and the store removed.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import os
+import resource
+import shutil
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize import _kernels as K
+from auralize.errors import FormatError, ParameterError
+from auralize.fileio import atomic_path
+from auralize.mapping import (
+    AcousticMapping,
+    CFDMapping,
+    IdentityMapping,
+    PaperDensityMapping,
+    get_mapping,
+)
+from auralize.scale.chunked import slab_volume
+from auralize.scale.runner import Runner, numba_threads
+from auralize.sources import (
+    AUTO_SAMPLE_STEPS,
+    SourceFrame,
+    SourceSeries,
+    Thresholds,
+    _require_steps,
+    _StepCache,
+    classify,
+    extract,
+    step_strengths,
+)
+from auralize.volume import TimeVolume
+
+#: default memory budget of one task (bytes): sets the slab thickness
+TASK_MEMORY = 1 << 30
+#: float64 arrays of one grid plane alive in a detection task (3 steps of ρ, v,
+#: ρv; strengths; kernel scratch; kind/radius; mapping temporaries)
+PLANES_PER_TASK_PLANE = 40
+STATE_SUFFIX = ".parts"
+STATE_VERSION = 1
+
+
+# --------------------------------------------------------------- task layout
+def mapping_reach(mapping: AcousticMapping) -> int | None:
+    """Planes of input a mapped value depends on beyond its own (None: unknown)."""
+    if type(mapping) is PaperDensityMapping:
+        return 1
+    if type(mapping) in (IdentityMapping, CFDMapping):
+        return 0
+    return None
+
+
+@dataclass(frozen=True)
+class Slab:
+    """Keep planes ``[z0, z1)``; read planes ``[r0, r1)`` (with ghost planes)."""
+
+    z0: int
+    z1: int
+    r0: int
+    r1: int
+
+
+def plan_slabs(shape: tuple[int, int, int], *, ghost: int | None, planes: int | None = None,
+               memory: int = TASK_MEMORY) -> list[Slab]:  # fmt: skip
+    """Cut ``nz`` planes into slabs of about ``planes`` kept planes (auto: fit ``memory``).
+
+    ``ghost=None`` means the whole frame in one slab.
+    """
+    nz, ny, nx = shape
+    if ghost is None or nz < 8:
+        return [Slab(0, nz, 0, nz)]
+    if planes is None:
+        per_plane = PLANES_PER_TASK_PLANE * 8 * ny * nx
+        planes = max(4, int(memory // per_plane) - 2 * ghost)
+    if not isinstance(planes, int | np.integer) or planes < 1:
+        raise ParameterError(f"slab planes must be a positive integer, got {planes!r}")
+    planes = max(int(planes), 4)  # a slab needs >= 3 planes for the same stencils
+    if planes >= nz:
+        return [Slab(0, nz, 0, nz)]
+    n_slabs = -(-nz // planes)
+    edges = np.linspace(0, nz, n_slabs + 1).round().astype(int)
+    return [Slab(int(a), int(b), max(int(a) - ghost, 0), min(int(b) + ghost, nz))
+            for a, b in itertools.pairwise(edges)]  # fmt: skip
+
+
+def plan_chunks(steps: Iterable[int], chunk_steps: int) -> list[tuple[int, int]]:
+    """Runs of consecutive steps cut into ``[a, b)`` chunks of at most ``chunk_steps``."""
+    if not isinstance(chunk_steps, int | np.integer) or chunk_steps < 1:
+        raise ParameterError(f"chunk_steps must be a positive integer, got {chunk_steps!r}")
+    out: list[tuple[int, int]] = []
+    run: list[int] = []
+    for n in sorted(set(steps)):
+        if run and (n != run[-1] + 1 or len(run) == chunk_steps):
+            out.append((run[0], run[-1] + 1))
+            run = []
+        run.append(n)
+    if run:
+        out.append((run[0], run[-1] + 1))
+    return out
+
+
+# ------------------------------------------------------------------- tasks
+def _local(volume: TimeVolume, mapping: AcousticMapping,
+           slab: Slab) -> tuple[TimeVolume, AcousticMapping]:  # fmt: skip
+    """The slab's volume and a private copy of the mapping bound to it (tasks may share objects)."""
+    nz = volume.shape[0]
+    sub = volume if (slab.r0, slab.r1) == (0, nz) else slab_volume(volume, slab.r0, slab.r1)
+    mapping = copy.copy(mapping)
+    if isinstance(mapping, PaperDensityMapping):
+        # statistics come from the whole series (set by the driver); do not redo them
+        mapping._prepared_for = id(sub)
+    return sub, mapping
+
+
+def _rss() -> tuple[int, int]:
+    return os.getpid(), int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+
+
+def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64],
+                zero_fraction: float, a: int, b: int, slab: Slab,
+                threads: int | None) -> dict[str, Any]:  # fmt: skip
+    """Sources of steps ``[a, b)`` in planes ``[slab.z0, slab.z1)`` (global flat indices)."""
+    t0 = time.perf_counter()
+    sub, mapping = _local(volume, mapping, slab)
+    lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
+    plane = sub.shape[1] * sub.shape[2]
+    frames = []
+    with numba_threads(threads):
+        cache = _StepCache(sub, mapping)
+        buf = K.empty_like_strengths(sub.shape)
+        for n in range(a, b):
+            s = step_strengths(sub, cache, n, buf)
+            kind, radius = classify(s, thr, sub.spacing, zero_fraction=zero_fraction)
+            f = extract(kind[lo:hi], radius[lo:hi], s[:, lo:hi])
+            f.index += slab.z0 * plane
+            frames.append(f)
+            cache.keep(n, n + 1)
+    return {"a": a, "b": b, "slab": slab, "frames": frames, "seconds": time.perf_counter() - t0,
+            "rss": _rss()}  # fmt: skip
+
+
+def peak_task(volume: TimeVolume, mapping: AcousticMapping, n: int, slab: Slab,
+              threads: int | None) -> NDArray[np.float64]:  # fmt: skip
+    """Largest |S| of each type at step ``n`` in the slab's kept planes."""
+    sub, mapping = _local(volume, mapping, slab)
+    with numba_threads(threads):
+        s = step_strengths(sub, _StepCache(sub, mapping), n)
+    lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
+    return np.abs(s[:, lo:hi]).reshape(3, -1).max(axis=1)
+
+
+def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, n: int,
+                     slab: Slab) -> tuple[float, float]:  # fmt: skip
+    """min and max of 10**x at step ``n`` in the slab (no ghost planes needed)."""
+    sub = (
+        slab_volume(volume, slab.z0, slab.z1)
+        if (slab.z0, slab.z1) != (0, volume.shape[0])
+        else volume
+    )
+    r = m._rho(sub, n)
+    return float(r.min()), float(r.max())
+
+
+def paper_gradient_task(volume: TimeVolume, m: PaperDensityMapping, n: int, slab: Slab) -> float:
+    """Largest |∂ρ̃/∂x_i| at step ``n`` in the slab's kept planes."""
+    sub, m = _local(volume, m, slab)  # type: ignore[assignment]
+    g = m._grad(sub, m._scaled(m._rho(sub, n)))
+    lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
+    return float(np.max(np.abs(g[lo:hi])))
+
+
+# ------------------------------------------------------------- state store
+class StateStore:
+    """Finished chunks of a detection run: ``OUTPUT.parts/`` (see the module docstring)."""
+
+    def __init__(self, output: str | os.PathLike[str]) -> None:
+        self.output = Path(output).expanduser()
+        self.dir = self.output.with_name(self.output.name + STATE_SUFFIX)
+
+    @property
+    def manifest_path(self) -> Path:
+        return self.dir / "manifest.json"
+
+    def exists(self) -> bool:
+        return self.manifest_path.exists()
+
+    def read_manifest(self) -> dict[str, Any]:
+        try:
+            return dict(json.loads(self.manifest_path.read_text()))
+        except (OSError, ValueError) as exc:
+            raise FormatError(
+                f"{self.manifest_path}: unreadable resume state ({exc}); delete {self.dir} or "
+                f"pass restart=True (--restart) to start over"
+            ) from None
+
+    def write_manifest(self, data: dict[str, Any]) -> None:
+        self.dir.mkdir(parents=True, exist_ok=True)
+        with atomic_path(self.manifest_path) as tmp:
+            tmp.write_text(json.dumps(data, indent=1, default=_jsonable))
+
+    def clear(self) -> None:
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    def _chunk_files(self) -> list[Path]:
+        return sorted(self.dir.glob("steps_*.npz"))
+
+    def done_steps(self) -> set[int]:
+        """Steps whose sources are saved."""
+        done: set[int] = set()
+        for f in self._chunk_files():
+            try:
+                a, b = (int(x) for x in f.stem.split("_")[1].split("-"))
+            except ValueError:
+                continue
+            done.update(range(a, b))
+        return done
+
+    def write_chunk(self, a: int, frames: list[SourceFrame]) -> None:
+        """Save the sources of steps ``a … a+len(frames)-1`` (atomically)."""
+        b = a + len(frames)
+        off = np.zeros(len(frames) + 1, dtype=np.int64)
+        off[1:] = np.cumsum([f.index.size for f in frames])
+        with atomic_path(self.dir / f"steps_{a:07d}-{b:07d}.npz", suffix=".part") as tmp:
+            with open(tmp, "wb") as fh:
+                np.savez(
+                    fh, offsets=off,
+                    index=np.concatenate([f.index for f in frames]).astype(np.int64),
+                    kind=np.concatenate([f.kind for f in frames]).astype(np.int8),
+                    strength=np.concatenate([f.strength for f in frames]).astype(np.float64),
+                    radius=np.concatenate([f.radius for f in frames]).astype(np.float64),
+                )  # fmt: skip
+                fh.flush()
+                os.fsync(fh.fileno())
+
+    def load_frames(self, n_steps: int) -> list[SourceFrame]:
+        """Every step's sources; raises if a step is missing."""
+        frames: list[SourceFrame | None] = [None] * n_steps
+        for f in self._chunk_files():
+            a = int(f.stem.split("_")[1].split("-")[0])
+            try:
+                with np.load(f, allow_pickle=False) as z:
+                    off, idx, kind = z["offsets"], z["index"], z["kind"]
+                    strength, radius = z["strength"], z["radius"]
+            except (OSError, ValueError, KeyError) as exc:
+                raise FormatError(f"{f}: unreadable saved chunk ({exc}); delete it to recompute "
+                                  f"those steps") from None  # fmt: skip
+            for k in range(off.size - 1):
+                s = slice(off[k], off[k + 1])
+                frames[a + k] = SourceFrame(index=idx[s], kind=kind[s], strength=strength[s],
+                                            radius=radius[s])  # fmt: skip
+        missing = [n for n, f in enumerate(frames) if f is None]
+        if missing:
+            raise FormatError(f"{self.dir}: steps {missing[:10]} are not saved")
+        return frames  # type: ignore[return-value]
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return str(obj)
+
+
+def fingerprint(volume: TimeVolume, mapping: AcousticMapping, thresholds: Thresholds) -> str:
+    """What makes two runs the same (grid, times, source, mapping, threshold settings)."""
+    h = hashlib.sha256()
+    h.update(json.dumps({
+        "source": volume.source, "dims": list(volume.dims), "fields": volume.field_names,
+        "origin": volume.origin.tolist(), "spacing": volume.spacing.tolist(),
+        "mapping": mapping.describe(), "thresholds": thresholds.describe(),
+    }, sort_keys=True, default=_jsonable).encode())  # fmt: skip
+    h.update(np.ascontiguousarray(volume.times).tobytes())
+    return h.hexdigest()
+
+
+# ------------------------------------------------------------------ driver
+@dataclass
+class _Run:
+    volume: TimeVolume
+    mapping: AcousticMapping
+    runner: Runner
+    slabs: list[Slab]
+
+
+def _prepare_paper(run: _Run) -> dict[str, float]:
+    """The paper-density mapping's series-wide statistics, gathered by tasks."""
+    m = run.mapping
+    assert isinstance(m, PaperDensityMapping)
+    AcousticMapping.prepare(m, run.volume)  # field checks only
+    vol = run.runner.share(run.volume)
+    T = run.volume.n_steps
+    lo, hi = [np.inf], [-np.inf]
+
+    def got_range(_i: int, r: tuple[float, float]) -> None:
+        lo[0], hi[0] = min(lo[0], r[0]), max(hi[0], r[1])
+
+    run.runner.run([(paper_range_task, (vol, m, n, s)) for n in range(T) for s in run.slabs],
+                   got_range)  # fmt: skip
+    m._lo, m._hi = float(lo[0]), float(hi[0])
+    gmax = [0.0]
+
+    def got_grad(_i: int, g: float) -> None:
+        gmax[0] = max(gmax[0], g)
+
+    run.runner.run([(paper_gradient_task, (vol, m, n, s)) for n in range(T) for s in run.slabs],
+                   got_grad)  # fmt: skip
+    m._gscale = m.velocity_max / gmax[0] if gmax[0] > 0 else 0.0
+    return {"lo": m._lo, "hi": m._hi, "gscale": m._gscale}
+
+
+def _peaks(run: _Run, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.float64]:
+    T = run.volume.n_steps
+    steps = np.unique(np.linspace(0, T - 1, min(max_steps, T)).round()).astype(int)
+    vol = run.runner.share(run.volume)
+    peak = np.zeros(3)
+
+    def got(_i: int, p: NDArray[np.float64]) -> None:
+        np.maximum(peak, p, out=peak)
+
+    thr = run.runner.threads_per_task
+    run.runner.run([(peak_task, (vol, run.mapping, int(n), s, thr)) for n in steps
+                    for s in run.slabs], got)  # fmt: skip
+    return peak
+
+
+def detect_distributed(
+    volume: TimeVolume,
+    *,
+    mapping: str | AcousticMapping | None = "identity",
+    thresholds: Thresholds | None = None,
+    output: str | os.PathLike[str] | None = None,
+    runner: Runner | None = None,
+    scheduler: str = "sync",
+    address: str | None = None,
+    workers: int | None = None,
+    chunk_steps: int = 8,
+    slab_planes: int | None = None,
+    task_memory: int = TASK_MEMORY,
+    restart: bool = False,
+    on_chunk: Callable[[range], None] | None = None,
+    log: Callable[[str], None] | None = print,
+    **mapping_fields: str,
+) -> SourceSeries:
+    """Detect sources like :func:`auralize.sources.detect`, in parallel, out of core, resumably.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        At least two steps; read lazily, one slab of one step at a time.
+    mapping, thresholds, **mapping_fields
+        As for :func:`auralize.sources.detect`.
+    output : path-like, optional
+        ``.h5``/``.hdf5`` or ``.pvd`` sources file, written when all steps are
+        done; finished chunks are kept in ``OUTPUT.parts/`` until then, and a
+        new run with the same settings resumes from them.
+    runner : Runner, optional
+        An open :class:`~auralize.scale.runner.Runner`; otherwise one is made
+        from ``scheduler``, ``address`` and ``workers`` and closed afterwards.
+    chunk_steps : int
+        Time steps per task (each task reads one extra step on each side).
+    slab_planes : int, optional
+        z-planes kept per task (default: what fits ``task_memory`` bytes).
+    restart : bool
+        Discard saved state of an earlier run instead of resuming it.
+    on_chunk : callable, optional
+        Called with the ``range`` of steps of every chunk just saved (and
+        after it is saved); an exception raised there stops the run, leaving
+        a resumable state.
+
+    Returns
+    -------
+    SourceSeries
+        Bit-identical frames to the serial detection; ``meta["scale"]``
+        tells which steps were computed by this call, the number of tasks,
+        the slabs and the peak memory of the processes that ran them.
+
+    Raises
+    ------
+    ParameterError
+        Bad options, or saved state from different settings (``restart``
+        discards it).
+    RunError
+        A worker kept dying on a task; finished chunks are saved.
+
+    Examples
+    --------
+    >>> from auralize.datasets import make_monopole
+    >>> vol = make_monopole(size=12, steps=6)
+    >>> s = detect_distributed(vol, thresholds=Thresholds(1e-3, 1e-3, 1e-3), chunk_steps=2,
+    ...                        log=None)
+    >>> s.n_steps, s.meta["scale"]["tasks"]
+    (6, 3)
+    """
+    _require_steps(volume)
+    m = get_mapping(mapping, **mapping_fields)
+    thresholds = thresholds or Thresholds()
+    if not isinstance(task_memory, int | np.integer) or task_memory < (1 << 20):
+        raise ParameterError(f"task_memory must be at least 1 MiB (bytes), got {task_memory!r}")
+    out = Path(output).expanduser() if output is not None else None
+    if out is not None and out.suffix.lower() not in (".h5", ".hdf5", ".pvd"):
+        raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
+    reach = mapping_reach(m)
+    slabs = plan_slabs(volume.shape, ghost=None if reach is None else reach + 2,
+                       planes=slab_planes, memory=int(task_memory))  # fmt: skip
+    plan_chunks([], chunk_steps)  # validates chunk_steps
+    store = StateStore(out) if out is not None else None
+    key = fingerprint(volume, m, thresholds)
+    state: dict[str, Any] = {}
+    if store is not None and store.exists():
+        if restart:
+            store.clear()
+        else:
+            state = store.read_manifest()
+            if state.get("fingerprint") != key or state.get("version") != STATE_VERSION:
+                raise ParameterError(
+                    f"{store.dir} holds a detection run with other settings (another volume, "
+                    f"mapping or thresholds); pass restart=True (--restart) to discard it, or "
+                    f"choose another output"
+                )
+    own = runner is None
+    run_ = runner or Runner(scheduler, address=address, workers=workers, log=log)
+    t0 = time.perf_counter()
+    try:
+        if own:
+            run_.__enter__()
+        run = _Run(volume, m, run_, slabs)
+        if "mapping_state" in state:
+            if isinstance(m, PaperDensityMapping):
+                st = state["mapping_state"]
+                m._lo, m._hi, m._gscale = float(st["lo"]), float(st["hi"]), float(st["gscale"])
+            else:
+                m.prepare(volume)
+            thr = np.asarray(state["thresholds"], dtype=np.float64)
+            peak = None if state.get("peak") is None else np.asarray(state["peak"])
+        else:
+            mstate = _prepare_paper(run) if isinstance(m, PaperDensityMapping) else {}
+            if not isinstance(m, PaperDensityMapping):
+                m.prepare(volume)
+            peak = _peaks(run) if thresholds.needs_scale else None
+            thr = thresholds.resolve(peak)
+            state = {"version": STATE_VERSION, "fingerprint": key, "mapping_state": mstate,
+                     "thresholds": thr, "peak": peak, "n_steps": volume.n_steps,
+                     "source": volume.source}  # fmt: skip
+            if store is not None:
+                store.write_manifest(state)
+        done = store.done_steps() if store is not None else set()
+        todo = [n for n in range(volume.n_steps) if n not in done]
+        chunks = plan_chunks(todo, chunk_steps)
+        frames: list[SourceFrame | None] = [None] * volume.n_steps
+        pending: dict[int, dict[Slab, list[SourceFrame]]] = {}
+        rss: dict[int, int] = {}
+        task_seconds = [0.0]
+        vol = run_.share(volume)
+        nthr = run_.threads_per_task
+        calls = [(detect_task, (vol, m, thr, thresholds.zero_fraction, a, b, s, nthr))
+                 for a, b in chunks for s in slabs]  # fmt: skip
+
+        def got(_i: int, res: dict[str, Any]) -> None:
+            pid, peak_rss = res["rss"]
+            rss[pid] = max(rss.get(pid, 0), peak_rss)
+            task_seconds[0] += res["seconds"]
+            parts = pending.setdefault(res["a"], {})
+            parts[res["slab"]] = res["frames"]
+            if len(parts) < len(slabs):
+                return
+            del pending[res["a"]]
+            merged = [_merge([parts[s][k] for s in slabs]) for k in range(res["b"] - res["a"])]
+            if store is not None:
+                store.write_chunk(res["a"], merged)
+            else:
+                frames[res["a"] : res["b"]] = merged
+            if on_chunk is not None:
+                on_chunk(range(res["a"], res["b"]))
+
+        run_.run(calls, got)
+        elapsed = time.perf_counter() - t0
+        n_workers = run_.n_workers
+    finally:
+        if own:
+            run_.close()
+    if store is not None:
+        frames = store.load_frames(volume.n_steps)  # type: ignore[assignment]
+    series = SourceSeries(
+        frames=frames, times=volume.times.copy(), origin=volume.origin.copy(),  # type: ignore[arg-type]
+        spacing=volume.spacing.copy(), dims=volume.dims, thresholds=np.asarray(thr),
+        meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
+              "peak": None if peak is None else np.asarray(peak).tolist(),
+              "source": volume.source,
+              "scale": {"scheduler": run_.scheduler, "workers": n_workers,
+                        "computed_steps": todo, "resumed_steps": len(done),
+                        "tasks": len(calls), "chunks": len(chunks), "chunk_steps": chunk_steps,
+                        "slabs": [(s.z0, s.z1) for s in slabs], "seconds": elapsed,
+                        "task_seconds": task_seconds[0],
+                        "peak_rss_per_process": sorted(rss.values(), reverse=True)}},
+    )  # fmt: skip
+    if out is not None and store is not None:
+        from auralize.io.sources_file import save_sources_h5, save_sources_pvd
+
+        (save_sources_pvd if out.suffix.lower() == ".pvd" else save_sources_h5)(series, out)
+        store.clear()
+    return series
+
+
+def _merge(parts: list[SourceFrame]) -> SourceFrame:
+    if len(parts) == 1:
+        return parts[0]
+    return SourceFrame(
+        index=np.concatenate([p.index for p in parts]), kind=np.concatenate([p.kind for p in parts]),
+        strength=np.concatenate([p.strength for p in parts]),
+        radius=np.concatenate([p.radius for p in parts]),
+    )  # fmt: skip

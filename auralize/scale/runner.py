@@ -1,0 +1,290 @@
+"""Where tasks run: Dask's local schedulers or a ``dask.distributed`` cluster.
+
+:class:`Runner` is a thin wrapper over Dask: it owns the client (an existing
+cluster at ``address``, or a ``LocalCluster`` it starts), ships large shared
+inputs once, runs a list of independent task calls and hands each result to a
+callback on the calling thread *as it completes*, so results can be saved
+incrementally.
+
+=============  ============================================================
+scheduler      what runs the tasks
+=============  ============================================================
+``sync``       the calling thread, one task at a time (debugging, baselines)
+``threads``    a thread pool of ``workers`` threads (the numba kernels
+               release the GIL; HDF5 reads are serialised by h5py)
+``processes``  a process pool of ``workers`` processes
+``distributed``  ``address`` (``tcp://host:port``) of a running
+               ``dask scheduler``; without it a ``LocalCluster`` of
+               ``workers`` single-threaded worker processes (or threads,
+               ``processes=False``).  The dashboard address is printed.
+=============  ============================================================
+
+A worker that dies mid-run is replaced by the cluster and its tasks are
+re-run elsewhere (Dask's ``distributed.scheduler.allowed-failures``, default
+3); when a task has killed too many workers the run stops with
+:class:`RunError`, after everything finished so far has been handed to the
+callback.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from auralize.errors import AuralizeError, ParameterError
+from auralize.scale._dask import require
+
+SCHEDULERS = ("sync", "threads", "processes", "distributed")
+#: seconds to wait for a scheduler at ``--address`` before giving up
+CONNECT_TIMEOUT_S = 5.0
+
+
+class SchedulerError(AuralizeError, ConnectionError):
+    """A Dask scheduler could not be reached or started."""
+
+
+class RunError(AuralizeError, RuntimeError):
+    """A distributed run stopped (a worker died too often, a pool broke)."""
+
+
+def default_workers() -> int:
+    """Cores available to this process."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+class Runner:
+    """Run independent tasks on a Dask scheduler; results arrive as they complete.
+
+    Parameters
+    ----------
+    scheduler : {"sync", "threads", "processes", "distributed"}
+        See the module docstring.  ``address`` implies ``distributed``.
+    address : str, optional
+        ``tcp://host:port`` of a running Dask scheduler.
+    workers : int, optional
+        Threads, processes or local-cluster workers (default: the cores).
+    processes : bool
+        Local cluster of processes (True) or of threads in this process.
+    timeout : float
+        Seconds to wait for the scheduler at ``address``.
+    log : callable, optional
+        Called with one-line messages (the dashboard address); default print.
+
+    Examples
+    --------
+    >>> with Runner("threads", workers=2) as run:
+    ...     got = {}
+    ...     run.run([(pow, (2, k)) for k in range(4)], lambda i, r: got.update({i: r}))
+    >>> [got[i] for i in range(4)]
+    [1, 2, 4, 8]
+    """
+
+    def __init__(self, scheduler: str = "sync", *, address: str | None = None,
+                 workers: int | None = None, processes: bool = True,
+                 timeout: float = CONNECT_TIMEOUT_S,
+                 log: Callable[[str], None] | None = print) -> None:  # fmt: skip
+        if address:
+            if scheduler not in ("distributed", "sync"):
+                raise ParameterError(
+                    f"--address {address} needs --scheduler distributed, not {scheduler!r}"
+                )
+            scheduler = "distributed"
+        if scheduler not in SCHEDULERS:
+            raise ParameterError(f"unknown scheduler {scheduler!r}; choose one of {SCHEDULERS}")
+        if workers is not None and (not isinstance(workers, int) or workers < 1):
+            raise ParameterError(f"workers must be a positive integer, got {workers!r}")
+        if not (timeout > 0):
+            raise ParameterError(f"timeout must be > 0 seconds, got {timeout!r}")
+        if address is not None and "://" not in address and ":" not in address:
+            raise ParameterError(
+                f"--address {address!r} is not a scheduler address; give tcp://HOST:PORT"
+            )
+        self.scheduler = scheduler
+        self.address = address
+        self.workers = workers
+        self.processes = processes
+        self.timeout = float(timeout)
+        self.log = log or (lambda _msg: None)
+        self.client: Any = None
+        self._cluster: Any = None
+        self.dashboard_link: str | None = None
+        require("dask")
+
+    # ------------------------------------------------------------ life cycle
+    def __enter__(self) -> Runner:
+        if self.scheduler == "distributed":
+            self._start_distributed()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the client and the local cluster this runner started."""
+        if self.client is not None:
+            with contextlib.suppress(Exception):
+                self.client.close()
+            self.client = None
+        if self._cluster is not None:
+            with contextlib.suppress(Exception):
+                self._cluster.close()
+            self._cluster = None
+
+    def _start_distributed(self) -> None:
+        distributed = require("distributed")
+        if self.address:
+            try:
+                self.client = distributed.Client(self.address, timeout=self.timeout)
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise SchedulerError(
+                    f"no Dask scheduler answered at {self.address} within {self.timeout:g} s "
+                    f"({type(exc).__name__}: {exc}); start one with 'dask scheduler' (and "
+                    f"'dask worker {self.address}'), check the address, or leave out "
+                    f"--address to start a local cluster (--workers N)"
+                ) from None
+        else:
+            n = self.workers or default_workers()
+            try:
+                self._cluster = distributed.LocalCluster(
+                    n_workers=n, threads_per_worker=1, processes=self.processes,
+                    dashboard_address=":0", silence_logs=logging.ERROR,
+                )  # fmt: skip
+                self.client = distributed.Client(self._cluster)
+            except Exception as exc:  # pragma: no cover - depends on the machine
+                self.close()
+                raise SchedulerError(f"could not start a local Dask cluster of {n} workers "
+                                     f"({type(exc).__name__}: {exc})") from None  # fmt: skip
+        self.dashboard_link = _dashboard(self.client)
+        n_workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
+        where = self.address or f"local cluster ({'processes' if self.processes else 'threads'})"
+        self.log(f"dask: {where}, {n_workers} workers; dashboard: {self.dashboard_link}")
+
+    @property
+    def n_workers(self) -> int:
+        """How many tasks run at once."""
+        if self.client is not None:
+            info = self.client.scheduler_info(n_workers=-1).get("workers", {})
+            return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
+        if self.scheduler == "sync":
+            return 1
+        return self.workers or default_workers()
+
+    @property
+    def threads_per_task(self) -> int | None:
+        """numba threads a task should use (None: leave numba's default)."""
+        return None if self.scheduler == "sync" else 1
+
+    # ------------------------------------------------------------------ work
+    def share(self, obj: Any) -> Any:
+        """Ship a large input once to every worker; pass the result as a task argument."""
+        if self.client is not None:
+            return self.client.scatter(obj, broadcast=True, hash=False)
+        return obj
+
+    def run(self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]],
+            on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+        """Run ``fn(*args)`` for every call; ``on_result(i, result)`` as each completes.
+
+        ``on_result`` runs on the calling thread.  If it raises, the remaining
+        tasks are cancelled and the exception propagates.
+
+        Raises
+        ------
+        RunError
+            A worker died too often on one task, or the process pool broke.
+        """
+        if not calls:
+            return
+        if self.client is not None:
+            self._run_distributed(calls, on_result)
+        else:
+            self._run_local(calls, on_result)
+
+    def _run_local(self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]],
+                   on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+        dask = require("dask")
+        from dask.callbacks import Callback
+
+        tasks = [dask.delayed(fn, pure=False)(*args) for fn, args in calls]
+        index = {t.key: i for i, t in enumerate(tasks)}
+        # a tiny task after each one lets Dask free a result once it was delivered
+        tails = [dask.delayed(_nothing, pure=False)(t) for t in tasks]
+
+        class _Deliver(Callback):
+            def _posttask(
+                self, key: Any, result: Any, dsk: Any, state: Any, worker_id: Any
+            ) -> None:
+                i = index.get(key)
+                if i is not None:
+                    on_result(i, result)
+
+        kw: dict[str, Any] = {"scheduler": self.scheduler}
+        if self.scheduler != "sync":
+            kw["num_workers"] = self.n_workers
+        try:
+            with _Deliver():
+                dask.compute(*tails, **kw)
+        except Exception as exc:
+            if type(exc).__name__ == "BrokenProcessPool":
+                raise RunError(
+                    f"a worker process of the 'processes' scheduler died ({exc}); what finished "
+                    f"is saved, run again to resume"
+                ) from exc
+            raise
+
+    def _run_distributed(self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]],
+                         on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+        distributed = require("distributed")
+        futures = [self.client.submit(fn, *args, pure=False) for fn, args in calls]
+        index = {f.key: i for i, f in enumerate(futures)}
+        try:
+            for fut in distributed.as_completed(futures):
+                try:
+                    result = fut.result()
+                except (distributed.scheduler.KilledWorker,
+                        distributed.client.FutureCancelledError) as exc:  # fmt: skip
+                    raise RunError(
+                        f"task {index[fut.key]} of {len(calls)} killed the workers it ran on "
+                        f"or was lost with them ({type(exc).__name__}: {exc}); what finished "
+                        f"is saved, run again to resume"
+                    ) from exc
+                on_result(index[fut.key], result)
+                fut.release()
+        finally:
+            self.client.cancel([f for f in futures if not f.done()])
+
+
+def _nothing(_result: Any) -> None:
+    return None
+
+
+def _dashboard(client: Any) -> str:
+    link = str(getattr(client, "dashboard_link", "") or "")
+    try:
+        import bokeh  # noqa: F401
+    except ImportError:
+        return f"{link} (pages need bokeh: pip install bokeh)" if link else "unavailable"
+    return link or "unavailable"
+
+
+@contextlib.contextmanager
+def numba_threads(n: int | None) -> Iterator[None]:
+    """Run numba kernels with ``n`` threads in this thread (None: unchanged)."""
+    if n is None:
+        yield
+        return
+    import numba
+
+    old = numba.get_num_threads()
+    limit = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    numba.set_num_threads(max(1, min(int(n), limit)))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)

@@ -1,0 +1,393 @@
+"""Out-of-core and distributed preprocessing on Dask (auralize.scale, issue 9)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("dask")
+pytest.importorskip("distributed")
+
+from auralize import cli
+from auralize.datasets import make_explosion
+from auralize.errors import DataError, MissingDependencyError, ParameterError
+from auralize.io import open_volume
+from auralize.io.sources_file import load_sources_h5
+from auralize.listener import ListenerPath
+from auralize.scale import (
+    RunError,
+    Runner,
+    SchedulerError,
+    StateStore,
+    chunked_volume,
+    detect_distributed,
+    plan_chunks,
+    plan_slabs,
+    render_distributed,
+    to_dask,
+    volume_from_dask,
+    write_chunked_explosion,
+)
+from auralize.sources import SourceSeries, Thresholds, detect
+from auralize.synthesis import render
+from auralize.volume import TimeVolume
+
+# dask.distributed's own start-up/shut-down chatter, not ours
+pytestmark = [
+    pytest.mark.filterwarnings("ignore:Port .* is already in use:UserWarning"),
+    pytest.mark.filterwarnings("ignore:.*unclosed.*:ResourceWarning"),
+    pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning"),
+    pytest.mark.filterwarnings("ignore:.*Creating scratch directories.*:UserWarning"),
+]
+
+
+def scale(series: SourceSeries) -> dict[str, Any]:
+    """What the distributed run reports about itself."""
+    out = series.meta["scale"]
+    assert isinstance(out, dict)
+    return out
+
+
+def assert_same_sources(a: SourceSeries, b: SourceSeries) -> None:
+    """Bit-identical index, kind, strength and radius at every step."""
+    assert a.n_steps == b.n_steps
+    for n, (f, g) in enumerate(zip(a.frames, b.frames, strict=True)):
+        for name in ("index", "kind", "strength", "radius"):
+            x, y = getattr(f, name), getattr(g, name)
+            assert x.dtype == y.dtype, (n, name)
+            assert np.array_equal(x, y), (n, name)
+    assert np.array_equal(a.thresholds, b.thresholds)
+
+
+@pytest.fixture(scope="module")
+def explosion() -> TimeVolume:
+    return make_explosion(size=20, steps=7, seed=3).load()
+
+
+@pytest.fixture(scope="module")
+def explosion_ref(explosion: TimeVolume) -> SourceSeries:
+    ref = detect(explosion, mapping="paper-density")
+    assert sum(c["monopole"] + c["dipole"] + c["quadrupole"] for c in ref.counts()) > 100
+    return ref
+
+
+@dataclass
+class CountingFrames:
+    """An in-memory field that records which steps were read (sync/threads only)."""
+
+    array: np.ndarray
+    reads: list[int]
+    bad_step: int | None = None
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.array.shape[0])
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:
+        return tuple(self.array.shape[1:])
+
+    def read(self, step: int) -> np.ndarray:
+        self.reads.append(step)
+        if step == self.bad_step:
+            return np.zeros((2, 2, 2))
+        return np.array(self.array[step], dtype=np.float64)
+
+
+def counting_volume(vol: TimeVolume, reads: list[int], bad_step: int | None = None) -> TimeVolume:
+    arrays = {k: np.stack(list(vol.iter_frames(k))) for k in vol.field_names}
+    return TimeVolume(
+        origin=vol.origin, spacing=vol.spacing, dims=vol.dims, times=vol.times,
+        fields={k: CountingFrames(a, reads, bad_step) for k, a in arrays.items()},
+        source="counting",
+    )  # fmt: skip
+
+
+# ------------------------------------------------------------------ imports
+def test_import_auralize_does_not_import_dask() -> None:
+    code = ("import sys, auralize, auralize.scale, auralize.cli_dask, auralize.bench_dask; "
+            "print('dask' in sys.modules, 'distributed' in sys.modules)")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "False"]
+
+
+def test_missing_dask_names_the_install_command(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "dask", None)
+    with pytest.raises(MissingDependencyError, match=r"pip install .*auralize\[dask\]"):
+        Runner("threads")
+
+
+# ---------------------------------------------------------- chunked volumes
+def test_to_dask_reads_one_step_per_chunk(explosion: TimeVolume) -> None:
+    arr = to_dask(explosion, "velocity")
+    assert arr.shape == (7, 20, 20, 20, 3)
+    assert arr.chunks[0] == (1,) * 7
+    got = arr[2:5].compute(scheduler="sync")
+    assert np.array_equal(got, np.stack([explosion.frame("velocity", n) for n in (2, 3, 4)]))
+
+
+def test_chunked_file_matches_in_memory_detection_across_chunk_borders(
+    tmp_path: Path, explosion_ref: SourceSeries
+) -> None:
+    f = write_chunked_explosion(tmp_path / "big.h5", 20, 7, 3, generator="particles",
+                                dtype="float64")  # fmt: skip
+    vol = open_volume(f)
+    assert np.array_equal(vol.frame("log10_density", 4),
+                          make_explosion(size=20, steps=7, seed=3).frame("log10_density", 4))  # fmt: skip
+    # relative thresholds: peaks and the paper mapping's statistics come from tasks too
+    got = detect_distributed(vol, mapping="paper-density", chunk_steps=3, slab_planes=4, log=None)
+    assert scale(got)["chunks"] == 3  # time borders at steps 3 and 6
+    assert len(scale(got)["slabs"]) == 5  # z borders every 4 planes
+    assert_same_sources(got, explosion_ref)
+    # the same with absolute thresholds, on Dask-array-backed frames
+    thr = Thresholds(*explosion_ref.thresholds)
+    got = detect_distributed(chunked_volume(vol), mapping="paper-density", thresholds=thr,
+                             chunk_steps=2, slab_planes=6, log=None)  # fmt: skip
+    assert_same_sources(got, explosion_ref)
+
+
+def test_all_local_schedulers_and_a_local_cluster_match_sync(
+    explosion: TimeVolume, explosion_ref: SourceSeries
+) -> None:
+    thr = Thresholds(*explosion_ref.thresholds)
+    for sched in ("threads", "distributed"):
+        with Runner(sched, workers=2, processes=False, log=None) as run:
+            assert run.n_workers == 2
+            got = detect_distributed(explosion, mapping="paper-density", thresholds=thr,
+                                     runner=run, chunk_steps=2, slab_planes=5)  # fmt: skip
+        assert scale(got)["workers"] == 2
+        assert_same_sources(got, explosion_ref)
+
+
+def test_plans() -> None:
+    assert plan_chunks([0, 1, 2, 3, 4, 7, 8, 10], 2) == [(0, 2), (2, 4), (4, 5), (7, 9), (10, 11)]
+    slabs = plan_slabs((20, 8, 8), ghost=3, planes=6)
+    assert [(s.z0, s.z1) for s in slabs] == [(0, 5), (5, 10), (10, 15), (15, 20)]
+    assert all(s.r0 == max(s.z0 - 3, 0) and s.r1 == min(s.z1 + 3, 20) for s in slabs)
+    assert len(plan_slabs((20, 8, 8), ghost=None, planes=4)) == 1
+    with pytest.raises(ParameterError, match="chunk_steps must be a positive integer"):
+        plan_chunks([1], 0)
+
+
+# ---------------------------------------------------------------- resuming
+def test_interrupted_run_resumes_without_redoing_finished_steps(
+    tmp_path: Path, explosion: TimeVolume
+) -> None:
+    vol = TimeVolume.from_arrays(
+        {"density": np.stack([10 ** explosion.frame("log10_density", n) for n in range(7)]),
+         "velocity": np.stack(list(explosion.iter_frames("velocity")))},
+        times=explosion.times,
+    )  # fmt: skip
+    thr = Thresholds(0.5, 5.0, 50.0)
+    ref = detect(vol, mapping="identity", thresholds=thr)
+    out = tmp_path / "sources.h5"
+    saved: list[range] = []
+
+    def stop_after_two(steps: range) -> None:
+        saved.append(steps)
+        if len(saved) == 2:
+            raise KeyboardInterrupt
+
+    reads: list[int] = []
+    with pytest.raises(KeyboardInterrupt):
+        detect_distributed(counting_volume(vol, reads), thresholds=thr, output=out,
+                           chunk_steps=2, on_chunk=stop_after_two, log=None)  # fmt: skip
+    assert not out.exists()
+    done = StateStore(out).done_steps()
+    assert len(saved) == 2 and done == set(saved[0]) | set(saved[1]) and 3 <= len(done) <= 4
+    todo = sorted(set(range(7)) - done)
+    reads.clear()
+    got = detect_distributed(counting_volume(vol, reads), thresholds=thr, output=out,
+                             chunk_steps=2, log=None)  # fmt: skip
+    sc = scale(got)
+    assert sc["computed_steps"] == todo and sc["resumed_steps"] == len(done)
+    # only the missing steps and their neighbours were read
+    assert set(reads) == {m for n in todo for m in (n - 1, n, n + 1) if 0 <= m < 7}
+    assert_same_sources(got, ref)
+    assert_same_sources(load_sources_h5(out), ref)
+    assert not StateStore(out).dir.exists()
+
+
+def test_resume_refuses_state_of_other_settings(tmp_path: Path, explosion: TimeVolume) -> None:
+    out = tmp_path / "s.h5"
+
+    def stop(_steps: range) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        detect_distributed(explosion, mapping="paper-density", thresholds=Thresholds(1, 1, 1),
+                           output=out, chunk_steps=3, on_chunk=stop, log=None)  # fmt: skip
+    with pytest.raises(ParameterError, match="other settings.*restart"):
+        detect_distributed(explosion, mapping="paper-density", thresholds=Thresholds(2, 1, 1),
+                           output=out, log=None)  # fmt: skip
+    got = detect_distributed(explosion, mapping="paper-density", thresholds=Thresholds(2, 1, 1),
+                             output=out, restart=True, log=None)  # fmt: skip
+    assert scale(got)["resumed_steps"] == 0 and out.exists()
+
+
+# --------------------------------------------------------------- bad input
+def test_unreachable_scheduler_is_a_clear_error() -> None:
+    with pytest.raises(SchedulerError, match=r"no Dask scheduler answered at tcp://127.0.0.1:9 "
+                                             r"within 2 s"):  # fmt: skip
+        Runner("distributed", address="tcp://127.0.0.1:9", timeout=2, log=None).__enter__()
+    with pytest.raises(ParameterError, match="unknown scheduler 'gpu'"):
+        Runner("gpu")
+    with pytest.raises(ParameterError, match="workers must be a positive integer, got 0"):
+        Runner("threads", workers=0)
+
+
+def test_chunks_of_mismatched_shapes_are_refused(explosion: TimeVolume) -> None:
+    import dask.array as da
+
+    with pytest.raises(DataError, match=r"field 'v' has shape \(4, 3, 3, 2, 3\).*same"):
+        volume_from_dask({"rho": da.ones((4, 3, 3, 3)), "v": da.ones((4, 3, 3, 2, 3))})
+    with pytest.raises(DataError, match=r"got \(4, 3, 3\)"):
+        volume_from_dask({"rho": da.ones((4, 3, 3))})
+    reads: list[int] = []
+    vol = counting_volume(explosion, reads, bad_step=4)
+    with pytest.raises(DataError, match=r"step 4.*shape \(2, 2, 2\)"):
+        to_dask(vol, "velocity").compute(scheduler="sync")
+    with pytest.raises(DataError, match=r"step 4: the frame source returned shape \(2, 2, 2\)"):
+        detect_distributed(vol, mapping="paper-density", thresholds=Thresholds(1, 1, 1),
+                           slab_planes=8, log=None)  # fmt: skip
+
+
+# ------------------------------------------------------------- dying workers
+@dataclass
+class DyingFrames:
+    """Kills the worker process reading ``step`` while ``marker`` exists (once if ``once``)."""
+
+    base: object
+    step: int
+    marker: str
+    once: bool
+
+    @property
+    def n_steps(self) -> int:
+        return self.base.n_steps  # type: ignore[attr-defined]
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:
+        return self.base.frame_shape  # type: ignore[attr-defined]
+
+    def read(self, step: int) -> np.ndarray:
+        if step == self.step and os.path.exists(self.marker):
+            if self.once:
+                os.unlink(self.marker)
+            os._exit(1)
+        return self.base.read(step)  # type: ignore[attr-defined]
+
+
+@pytest.mark.slow
+def test_worker_dying_mid_run_fails_over_or_stops_resumably(
+    tmp_path: Path, explosion: TimeVolume, explosion_ref: SourceSeries
+) -> None:
+    import cloudpickle
+    import dask
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    src = tmp_path / "vol.h5"
+    from auralize.io import save_volume
+
+    save_volume(explosion, src)
+    base = open_volume(src)
+    thr = Thresholds(*explosion_ref.thresholds)
+    marker = tmp_path / "die"
+
+    def dying(once: bool) -> TimeVolume:
+        fields: dict[str, Any] = {
+            k: DyingFrames(v, 5, str(marker), once) for k, v in base.fields.items()
+        }
+        return TimeVolume(origin=base.origin, spacing=base.spacing, dims=base.dims,
+                          times=base.times, fields=fields, source=base.source)  # fmt: skip
+
+    out = tmp_path / "s.h5"
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1}), \
+            Runner("distributed", workers=2, processes=True, log=None) as run:  # fmt: skip
+        # a worker dies once: its task is re-run on a live worker; same sources
+        marker.touch()
+        got = detect_distributed(dying(True), mapping="paper-density", thresholds=thr,
+                                 runner=run, chunk_steps=2)  # fmt: skip
+        assert not marker.exists()  # it did die
+        assert_same_sources(got, explosion_ref)
+        # a task that kills every worker it runs on: the run stops, finished chunks saved
+        # (identity mapping: no statistics pass, so the deaths happen in detection tasks)
+        marker.touch()
+        ident = {"mapping": "identity", "density": "log10_density", "thresholds": thr,
+                 "chunk_steps": 2}  # fmt: skip
+        with pytest.raises(RunError, match="killed the workers.*run again to resume"):
+            detect_distributed(dying(False), runner=run, output=out, **ident)  # type: ignore[arg-type]
+    done = StateStore(out).done_steps()
+    assert done <= {0, 1, 2, 3} and not out.exists()  # chunks [4, 6) and [6, 7) read step 5
+    marker.unlink()
+    got = detect_distributed(base, output=out, log=None, **ident)  # type: ignore[arg-type]
+    assert scale(got)["resumed_steps"] == len(done)
+    assert_same_sources(got, detect(base, mapping="identity", density="log10_density",
+                                    thresholds=thr))  # fmt: skip
+
+
+# --------------------------------------------------------------- synthesis
+def test_distributed_synthesis_blocks_join_without_seams(
+    explosion: TimeVolume, explosion_ref: SourceSeries
+) -> None:
+    tracks = explosion_ref.tracks()
+    path = ListenerPath.orbit(explosion.center, radius=6.0, duration=0.4, turns=0.3)
+    whole = render(tracks, path, rate=16000, layout="ring8").audio
+    with Runner("threads", workers=2, log=None) as run:
+        got = render_distributed(tracks, path, rate=16000, layout="ring8", block_seconds=0.037,
+                                 runner=run)  # fmt: skip
+    assert got.meta["blocks"] == 11
+    assert got.audio.shape == whole.shape == (8, 6400)
+    assert np.max(np.abs(got.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
+    with pytest.raises(ParameterError, match="block_seconds must be > 0"):
+        render_distributed(tracks, path, block_seconds=0.0, log=None)
+
+
+# ------------------------------------------------------------------- recipe
+def test_chunked_recipe_bad_input_leaves_no_file(tmp_path: Path) -> None:
+    with pytest.raises(ParameterError, match="generator='spline'"):
+        write_chunked_explosion(tmp_path / "a.h5", 8, 3, generator="spline")  # type: ignore[arg-type]
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        write_chunked_explosion(tmp_path / "no" / "a.h5", 8, 3)
+    with pytest.raises(ParameterError, match="--size must be an integer"):
+        write_chunked_explosion(tmp_path / "a.h5", 2, 3)
+    assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------- CLI
+def test_cli_dataset_chunked_and_detect_on_dask(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    monkeypatch.setattr(
+        cli, "CORE_COMMAND_MODULES", (*cli.CORE_COMMAND_MODULES, "auralize.cli_dask")
+    )
+    vol = tmp_path / "big.h5"
+    assert cli.main(["dataset", "explosion", "--chunked", "--size", "16", "--steps", "5",
+                     "--generator", "analytic", "-o", str(vol)]) == 0  # fmt: skip
+    assert open_volume(vol).dims == (16, 16, 16)
+    thr = ["--threshold-monopole", "0.5", "--threshold-dipole", "20", "--threshold-quadrupole",
+           "500"]  # fmt: skip
+    assert cli.main(["detect", str(vol), "-o", str(tmp_path / "serial.h5"), *thr]) == 0
+    assert cli.main(["detect", str(vol), "-o", str(tmp_path / "dask.h5"), *thr,
+                     "--scheduler", "threads", "--workers", "2", "--chunk-steps", "2",
+                     "--slab-planes", "5"]) == 0  # fmt: skip
+    assert "2 workers (threads)" in capsys.readouterr().out
+    assert_same_sources(
+        load_sources_h5(tmp_path / "dask.h5"), load_sources_h5(tmp_path / "serial.h5")
+    )
+    wav = tmp_path / "a.wav"
+    assert cli.main(["render", str(vol), "--sources", str(tmp_path / "dask.h5"), "-o", str(wav),
+                     "--listener", "7,7,7", "--duration", "0.2", "--layout", "ring8",
+                     "--scheduler", "threads", "--workers", "2"]) == 0  # fmt: skip
+    assert wav.exists() and "blocks on 2 workers" in capsys.readouterr().out
+    code = cli.main(["scale-detect", str(vol), "-o", str(tmp_path / "x.h5"), *thr,
+                     "--address", "tcp://127.0.0.1:9", "--timeout", "1"])  # fmt: skip
+    assert code == 2
+    assert "no Dask scheduler answered at tcp://127.0.0.1:9" in capsys.readouterr().err
+    assert not (tmp_path / "x.h5").exists()
