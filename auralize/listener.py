@@ -11,7 +11,6 @@ CSV format (DESIGN.md): header ``t,x,y,z`` plus optional
 
 from __future__ import annotations
 
-import csv
 import io
 import math
 from dataclasses import dataclass
@@ -20,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import FormatError, ListenerPathError
-from auralize.fileio import atomic_write
+from auralize.errors import ListenerPathError
+from auralize.fileio import atomic_write, read_timed_csv
 
 FORWARD = np.array([0.0, 1.0, 0.0])
 UP = np.array([0.0, 0.0, 1.0])
@@ -213,42 +212,12 @@ class ListenerPath:
     @classmethod
     def from_csv(cls, path: str | Path) -> ListenerPath:
         """Read a path CSV (header ``t,x,y,z`` [``,fx,fy,fz,ux,uy,uz``])."""
-        p = Path(path)
-        try:
-            text = p.read_text()
-        except FileNotFoundError:
-            raise FormatError(f"listener path file {str(p)!r} does not exist") from None
-        except UnicodeDecodeError:
-            raise FormatError(f"{p}: not a text CSV file") from None
-        reader = csv.reader(io.StringIO(text))
-        try:
-            header = [h.strip().lower() for h in next(reader)]
-        except StopIteration:
-            raise FormatError(f"{p}: empty file; expected a header 't,x,y,z'") from None
-        need = ["t", "x", "y", "z"]
-        if header[:4] != need:
-            raise FormatError(
-                f"{p}: header must start with 't,x,y,z' (optional fx,fy,fz,ux,uy,uz); got {','.join(header)!r}"
-            )
-        has_orient = header[4:10] == ["fx", "fy", "fz", "ux", "uy", "uz"]
-        ncol = 10 if has_orient else 4
-        rows = []
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            try:
-                vals = [float(c) for c in row[:ncol]]
-            except ValueError:
-                raise FormatError(f"{p}, line {lineno}: not a number in {row!r}") from None
-            if len(vals) != ncol:
-                raise FormatError(f"{p}, line {lineno}: expected {ncol} columns, got {len(row)}")
-            rows.append(vals)
-        if not rows:
-            raise FormatError(f"{p}: no captures after the header")
-        a = np.asarray(rows)
+        a, has_orient, src = read_timed_csv(
+            path, what="listener path", optional=["fx", "fy", "fz", "ux", "uy", "uz"]
+        )
         if has_orient:
-            return cls(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10], source=str(p))
-        return cls(a[:, 0], a[:, 1:4], source=str(p))
+            return cls(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10], source=src)
+        return cls(a[:, 0], a[:, 1:4], source=src)
 
 
 def csv_header() -> str:

@@ -14,7 +14,6 @@ fluctuations (§8.2, Figs. 14–15).
 
 from __future__ import annotations
 
-import csv
 import io
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,8 +21,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import FormatError, ParameterError
-from auralize.fileio import atomic_write
+from auralize.errors import ParameterError
+from auralize.fileio import atomic_write, read_timed_csv
 
 from .shapes import check_diameter
 
@@ -208,40 +207,10 @@ class Motion:
     @classmethod
     def from_csv(cls, path: str | Path) -> Motion:
         """Read ``t,x,y,z[,qw,qx,qy,qz]`` (no orientation: identity)."""
-        p = Path(path)
-        try:
-            text = p.read_text()
-        except FileNotFoundError:
-            raise FormatError(f"motion file {str(p)!r} does not exist") from None
-        except UnicodeDecodeError:
-            raise FormatError(f"{p}: not a text CSV file") from None
-        reader = csv.reader(io.StringIO(text))
-        try:
-            header = [h.strip().lower() for h in next(reader)]
-        except StopIteration:
-            raise FormatError(f"{p}: empty file; expected a header 't,x,y,z,qw,qx,qy,qz'") from None
-        if header[:4] != ["t", "x", "y", "z"]:
-            raise FormatError(
-                f"{p}: header must start with 't,x,y,z' (then optional qw,qx,qy,qz); got {','.join(header)!r}"
-            )
-        has_q = header[4:8] == ["qw", "qx", "qy", "qz"]
-        ncol = 8 if has_q else 4
-        rows = []
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            try:
-                vals = [float(c) for c in row[:ncol]]
-            except ValueError:
-                raise FormatError(f"{p}, line {lineno}: not a number in {row!r}") from None
-            if len(vals) != ncol:
-                raise FormatError(f"{p}, line {lineno}: expected {ncol} columns, got {len(row)}")
-            rows.append(vals)
-        if not rows:
-            raise FormatError(f"{p}: no poses after the header")
-        a = np.asarray(rows)
+        a, has_q, src = read_timed_csv(path, what="motion", optional=["qw", "qx", "qy", "qz"],
+                                       rows_name="poses")  # fmt: skip
         q = a[:, 4:8] if has_q else np.tile([1.0, 0, 0, 0], (a.shape[0], 1))
-        return cls(a[:, 0], a[:, 1:4], q, source=str(p))
+        return cls(a[:, 0], a[:, 1:4], q, source=src)
 
     def to_csv(self, path: str | Path) -> None:
         buf = io.StringIO()
