@@ -25,7 +25,7 @@ import math
 import numba
 import numpy as np
 
-_NJIT = {"cache": True, "nogil": True}
+_NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -86,10 +86,10 @@ def _qeval(tn, q, mt, k, n, tau, cubic):  # type: ignore[no-untyped-def]
         s = 0.0
     if s > 1.0:
         s = 1.0
-    q0, q1 = q[k, n], q[k, n + 1]
+    q0, q1 = q[n, k], q[n + 1, k]
     if not cubic:
         return q0 + (q1 - q0) * s, (q1 - q0) / h
-    m0, m1 = mt[k, n] * h, mt[k, n + 1] * h
+    m0, m1 = mt[n, k] * h, mt[n + 1, k] * h
     s2 = s * s
     s3 = s2 * s
     val = (
@@ -238,55 +238,87 @@ def _emit(acc, blk, B, m_start, x, c0, c1, c2, c3, sign):  # type: ignore[no-unt
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr):  # type: ignore[no-untyped-def]
+def _arrivals(
+    pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr, n_chunks
+):  # type: ignore[no-untyped-def]
     """Reception time, distance and its rate at every knot n_lo..n_hi that bounds a
     sounding piece (NaN elsewhere).
 
-    The Newton guess extrapolates the previous knot's arrival with its Doppler
-    factor, so one or two iterations suffice.
+    On a capture interval the listener moves linearly, L(t) = L_s + V (t - t_s),
+    so c0 (a - t_n) = |L(a) - x| is a quadratic in u = a - t_n with one
+    positive root: exact, no iteration.  The interval is found from the
+    previous knot's (arrivals increase with n).
     """
     K = pos.shape[0]
-    for kp in numba.prange(K):
-        k = np.int64(kp)
-        x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
-        have_prev = False
-        a_prev = 0.0
-        dd_prev = 0.0
-        seg_a = 0
+    m = tc.size
+    c2 = c0 * c0
+    chunk = (K + n_chunks - 1) // n_chunks
+    segs = np.full(K, -1, dtype=np.int64)
+    # step-major inside each thread's block of sources: reads of the
+    # (steps, sources) arrays stay contiguous
+    for th in numba.prange(n_chunks):
         for n in range(n_lo, n_hi + 1):
-            need = q[k, n] != 0.0 or (cubic and mt[k, n] != 0.0)
-            if n > n_lo:
-                need = need or q[k, n - 1] != 0.0 or (cubic and mt[k, n - 1] != 0.0)
-            if n < n_hi:
-                need = need or q[k, n + 1] != 0.0 or (cubic and mt[k, n + 1] != 0.0)
-            if not need:
-                have_prev = False
-                arr[k, n] = np.nan
-                continue
-            if have_prev:
-                guess = a_prev + (tn[n] - tn[n - 1]) / (1.0 - dd_prev / c0)
-            else:
-                seg_a = _segment(tc, tn[n], seg_a)
-                lx, ly, lz, _, _, _ = _listener(tc, lc, vc, tn[n], seg_a)
-                d0, _ = _dist(x, y, z, lx, ly, lz, 0.0, 0.0, 0.0, rmin)
-                guess = tn[n] + d0 / c0
-            a = guess
-            d = 0.0
-            dd = 0.0
-            for _ in range(12):
-                seg_a = _segment(tc, a, seg_a)
-                lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, a, seg_a)
-                d, dd = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-                step = (a - d / c0 - tn[n]) / (1.0 - dd / c0)
-                a -= step
-                if abs(step) < 1e-11:
+            for k in range(th * chunk, min(K, (th + 1) * chunk)):
+                need = q[n, k] != 0.0 or (cubic and mt[n, k] != 0.0)
+                if n > n_lo:
+                    need = need or q[n - 1, k] != 0.0 or (cubic and mt[n - 1, k] != 0.0)
+                if n < n_hi:
+                    need = need or q[n + 1, k] != 0.0 or (cubic and mt[n + 1, k] != 0.0)
+                if not need:
+                    arr[n, k] = np.nan
+                    continue
+                x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
+                seg = segs[k]
+                t_n = tn[n]
+                # the arrival is at or after t_n: start from the interval holding t_n
+                s = _segment(tc, t_n, seg if seg >= 0 else 0)
+                if seg > s:
+                    s = seg
+                a = t_n
+                d = 0.0
+                dd = 0.0
+                while True:
+                    if s < 0:
+                        lx, ly, lz = lc[0, 0], lc[0, 1], lc[0, 2]
+                        vx = vy = vz = 0.0
+                        ts = t_n
+                    elif s >= m - 1:
+                        lx, ly, lz = lc[m - 1, 0], lc[m - 1, 1], lc[m - 1, 2]
+                        vx = vy = vz = 0.0
+                        ts = t_n
+                    else:
+                        lx, ly, lz = lc[s, 0], lc[s, 1], lc[s, 2]
+                        vx, vy, vz = vc[s, 0], vc[s, 1], vc[s, 2]
+                        ts = tc[s]
+                    # P = L(t_n) - x on this interval's line
+                    px = lx + vx * (t_n - ts) - x
+                    py = ly + vy * (t_n - ts) - y
+                    pz = lz + vz * (t_n - ts) - z
+                    pv = px * vx + py * vy + pz * vz
+                    pp = px * px + py * py + pz * pz
+                    den = c2 - (vx * vx + vy * vy + vz * vz)
+                    u = (pv + math.sqrt(pv * pv + den * pp)) / den
+                    a = t_n + u
+                    # move to the next interval if the root lies beyond this one
+                    if s < m - 1 and s + 1 < m and a >= tc[s + 1] and s + 1 <= m - 1:
+                        s += 1
+                        continue
+                    if s >= 0 and a < tc[s] and s > -1:
+                        # cannot happen for a listener slower than sound; guard anyway
+                        break
+                    dx, dy, dz = px + vx * u, py + vy * u, pz + vz * u
+                    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+                    if d <= rmin:
+                        d = rmin
+                        dd = 0.0
+                        a = t_n + rmin / c0
+                    else:
+                        dd = (dx * vx + dy * vy + dz * vz) / d
                     break
-            arr[k, n] = a
-            darr[k, n] = d
-            ddarr[k, n] = dd
-            a_prev = a
-            dd_prev = dd
-            have_prev = True
+                segs[k] = s
+                arr[n, k] = a
+                darr[n, k] = d
+                ddarr[n, k] = dd
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -297,8 +329,9 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
     Parameters (all times in data seconds)
     ----------
     pos (K,3), radius (K,) clamp distances; tn (Tp,) knot times (padded with
-    silent knots); q (K,Tp) strength·ΔV/(4π); mt (K,Tp) tangents dq/dτ
-    (size-0 second axis for linear interpolation); tc (M,), lc (M,3), vc (M-1,3),
+    silent knots); q (Tp,K) strength·ΔV/(4π); mt (Tp,K) tangents dq/dτ
+    (size-0 first axis for linear interpolation) — step-major, so that the
+    step-major loops below read them contiguously; tc (M,), lc (M,3), vc (M-1,3),
     listener captures; qc (N,6) forward/up table sampled from ot[0] at rate
     ot[1] (see :func:`_orient`); fs samples per data second; block samples per
     accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels;
@@ -311,11 +344,13 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
     """
     K = pos.shape[0]
     n_blocks = (n_samples + block - 1) // block
-    cubic = mt.shape[1] > 0
-    arr = np.empty((K, tn.size))
-    darr = np.empty((K, tn.size))
-    ddarr = np.empty((K, tn.size))
-    _arrivals(pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr)
+    cubic = mt.shape[0] > 0
+    arr = np.empty((tn.size, K))
+    darr = np.empty((tn.size, K))
+    ddarr = np.empty((tn.size, K))
+    _arrivals(
+        pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr, n_threads
+    )
     accs = np.zeros((n_threads, n_ch, n_blocks, block + 4, 4))
     t_end = t_start + n_samples / fs
     chunk = (K + n_threads - 1) // n_threads
@@ -334,17 +369,17 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
         for n in range(n_lo, n_hi):
             h = tn[n + 1] - tn[n]
             for k in range(k_lo, k_hi):
-                q0 = q[k, n]
-                q1 = q[k, n + 1]
+                q0 = q[n, k]
+                q1 = q[n + 1, k]
                 if cubic:
-                    m0 = mt[k, n]
-                    m1 = mt[k, n + 1]
+                    m0 = mt[n, k]
+                    m1 = mt[n + 1, k]
                 else:
                     m0 = (q1 - q0) / h
                     m1 = m0
                 if q0 == 0.0 and q1 == 0.0 and m0 == 0.0 and m1 == 0.0:
                     continue
-                ta, tb = arr[k, n], arr[k, n + 1]
+                ta, tb = arr[n, k], arr[n + 1, k]
                 if tb <= t_start or ta >= t_end or tb <= ta:
                     continue
                 x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
@@ -352,7 +387,7 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
                 t0 = ta
                 seg = _segment(tc, t0, 0)
                 # value at the piece start: the knot itself
-                va, wa = _fval(q0, m0, darr[k, n], ddarr[k, n], c0)
+                va, wa = _fval(q0, m0, darr[n, k], ddarr[n, k], c0)
                 have_ga = False
                 while t0 < tb:
                     t1 = tb
@@ -365,7 +400,7 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
                         t1 = tbnd
                     segm = _segment(tc, 0.5 * (t0 + t1), seg)
                     if t1 == tb:
-                        vb, wb = _fval(q1, m1, darr[k, n + 1], ddarr[k, n + 1], c0)
+                        vb, wb = _fval(q1, m1, darr[n + 1, k], ddarr[n + 1, k], c0)
                     else:
                         lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, segm)
                         d1, dd1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
@@ -381,7 +416,23 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
                         if panned:
                             # gains vary slowly: linear between the sub-piece's ends
                             if not have_ga:
-                                _pan(x, y, z, t0, segm, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, ga, o)
+                                _pan(
+                                    x,
+                                    y,
+                                    z,
+                                    t0,
+                                    segm,
+                                    tc,
+                                    lc,
+                                    vc,
+                                    qc,
+                                    ot,
+                                    spk_az,
+                                    spk_ch,
+                                    fold,
+                                    ga,
+                                    o,
+                                )
                             _pan(x, y, z, t1, segm, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, gb, o)
                             inv_dt = 1.0 / (t1 - t0)
                             for c in range(n_ch):

@@ -31,6 +31,11 @@ PAPER_DETECT_S = {10: (0.064, 0.056, 0.065), 20: (4.001, 3.912, 4.074),
 PAPER_FRAME_US = {10: 7, 20: 16, 30: 23, 40: 65, 50: 102, 64: 236}
 
 
+#: detection thresholds of the synthesis benchmarks: they give the 64³ explosion
+#: at least 10,000 active source points per step on average (issue 2's target case)
+BENCH_THRESHOLDS = ("0.6%", "0.1%", "0.05%")
+
+
 @dataclass
 class BenchRow:
     """One benchmark figure: ``value`` in ``unit``, with its target and the paper's figure."""
@@ -131,16 +136,16 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
 
     size = 32 if quick else 64
     vol = make_explosion(size=size).load()
-    th = Thresholds("0.2%", "0.2%", "0.2%")
+    th = Thresholds(*BENCH_THRESHOLDS)
     t0 = time.perf_counter()
     series = detect(vol, mapping="paper-density", thresholds=th)
     t_detect = time.perf_counter() - t0
     tracks = series.tracks()
-    active = max(sum(c.values()) for c in series.counts())
+    active = float(np.mean([sum(c.values()) for c in series.counts()]))
     c = vol.center
     path = ListenerPath.line(c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2],
                              duration=float(vol.times[-1] + 0.1))  # fmt: skip
-    rows = [BenchRow("synthesis", f"explosion {size}³: source points", active, "per step (max)",
+    rows = [BenchRow("synthesis", f"explosion {size}³: source points", active, "per step (mean)",
                      target="≥ 10,000" if size == 64 else "", met=(active >= 10_000) if size == 64 else None,
                      note=f"{tracks.n_sources} distinct vertices; detection of {vol.n_steps} steps "
                           f"{t_detect:.2f} s")]  # fmt: skip

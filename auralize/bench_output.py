@@ -1,6 +1,7 @@
 """``auralize bench`` rows of the output layer (issue 3).
 
-* the 64³ explosion (300 steps at 30 Hz: 10 s of data, thresholds 0.2 %)
+* the 64³ explosion (300 steps at 30 Hz: 10 s of data, thresholds
+  :data:`auralize.bench.BENCH_THRESHOLDS`, ≥ 10,000 active sources per step)
   rendered along a 10 s path to ring8 — target ≥ 50× faster than real time;
 * live playback at 44.1 kHz × 8 channels in 50 ms blocks — per-block
   synthesis time (:class:`auralize.live.BlockSynth`, the worker's job) against
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auralize.bench import BenchRow, best_of
+from auralize.bench import BENCH_THRESHOLDS, BenchRow, best_of
 
 
 def _scene(quick: bool):  # type: ignore[no-untyped-def]
@@ -33,7 +34,7 @@ def _scene(quick: bool):  # type: ignore[no-untyped-def]
 
     size, steps = (32, 60) if quick else (64, 300)
     vol = make_explosion(size=size, steps=steps).load()
-    series = detect(vol, mapping="paper-density", thresholds=Thresholds("0.2%", "0.2%", "0.2%"))
+    series = detect(vol, mapping="paper-density", thresholds=Thresholds(*BENCH_THRESHOLDS))
     tracks = series.tracks()
     c = vol.center
     dur = steps / 30.0

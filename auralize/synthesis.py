@@ -96,7 +96,9 @@ def _tangents(tn: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.flo
     return m
 
 
-def _knots(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+def _knots(
+    tracks: SourceTracks,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Padded knot times, q/(4π) and tangents, cached on the tracks (block-wise
     and live rendering call the synthesis many times with the same tracks)."""
     key = (id(tracks.q), tracks.q.shape, id(tracks.times))
@@ -106,6 +108,19 @@ def _knots(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float6
     tn, q = _pad_knots(tracks)
     out = (tn, np.ascontiguousarray(q), np.ascontiguousarray(_tangents(tn, q)))
     tracks.cache["knots"] = (key, out)
+    return out
+
+
+def _step_major(
+    tracks: SourceTracks, pr: _Prepared
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """q and tangents transposed to (steps, sources), cached on the tracks."""
+    key = (id(pr.q), id(pr.mt))
+    cached = tracks.cache.get("step_major")
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    out = (np.ascontiguousarray(pr.q.T), np.ascontiguousarray(pr.mt.T))
+    tracks.cache["step_major"] = (key, out)
     return out
 
 
@@ -248,7 +263,10 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
     # blocks keep the running sums short (numerical safety); several pieces long
     block = 1 << 15
-    mt = pr.mt if interp == "cubic" else np.zeros((pr.q.shape[0], 0))
+    # the kernel walks step-major: hand it (steps, sources) arrays
+    qT, mtT = _step_major(tracks, pr)
+    if interp != "cubic":
+        mtT = np.zeros((0, pr.q.shape[0]))
     pos = np.ascontiguousarray(tracks.positions, dtype=np.float64)
     radius = np.ascontiguousarray(np.maximum(tracks.radius, 1e-9), dtype=np.float64)
     n_lo, n_hi = _audible_pieces(pr, pos, radius, c0)
@@ -256,7 +274,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         audio = np.zeros((lay.n_channels, pr.n_samples))
     else:
         audio = _synth_kernel.render(
-            pos, radius, pr.tn, pr.q, np.ascontiguousarray(mt), pr.tc,
+            pos, radius, pr.tn, qT, mtT, pr.tc,
             pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
             spk_az, spk_ch, lay.n_channels, bool(lay.fold_front), n_threads, n_lo, n_hi,
         )  # fmt: skip
