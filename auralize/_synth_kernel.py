@@ -389,14 +389,15 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
                 # value at the piece start: the knot itself
                 va, wa = _fval(q0, m0, darr[n, k], ddarr[n, k], c0)
                 have_ga = False
+                u0 = (t0 - t_start) * fs
                 while t0 < tb:
                     t1 = tb
                     if seg + 1 < tc.size and tc[seg + 1] < t1 and tc[seg + 1] > t0:
                         t1 = tc[seg + 1]
-                    u0 = (t0 - t_start) * fs
                     bidx = int(math.floor(u0 / block)) if u0 >= 0 else 0
                     tbnd = t_start + (bidx + 1) * block / fs
-                    if tbnd < t1 and tbnd > t0:
+                    at_block_end = tbnd < t1 and tbnd > t0
+                    if at_block_end:
                         t1 = tbnd
                     segm = _segment(tc, 0.5 * (t0 + t1), seg)
                     if t1 == tb:
@@ -406,7 +407,9 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
                         d1, dd1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
                         qv, dq = _qeval(tn, q, mt, k, n, t1 - d1 / c0, cubic)
                         vb, wb = _fval(qv, dq, d1, dd1, c0)
-                    u1 = (t1 - t_start) * fs
+                    # a block boundary is exact in samples, so that the next
+                    # sub-piece starts at the very sample this one stops before
+                    u1 = (bidx + 1) * block if at_block_end else (t1 - t_start) * fs
                     m_0 = max(int(math.ceil(u0)), 0)
                     m_1 = min(int(math.ceil(u1)), n_samples)
                     if m_1 > m_0:
@@ -467,6 +470,7 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
                         qv, dq = _qeval(tn, q, mt, k, n, t1 - d1 / c0, cubic)
                         vb, wb = _fval(qv, dq, d1, dd1, c0)
                     t0 = t1
+                    u0 = u1
                     va, wa = vb, wb
                     seg = new_seg
     out = np.zeros((n_ch, n_blocks * block))

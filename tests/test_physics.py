@@ -142,3 +142,18 @@ def test_blockwise_rendering_has_no_seams(mono_tracks, mono_params) -> None:  # 
     joined = np.concatenate(parts, axis=1)
     assert joined.shape == whole.shape
     assert np.max(np.abs(joined - whole)) <= 1e-9 * np.max(np.abs(whole))
+
+
+def test_blocks_longer_than_the_accumulation_block_with_time_scale(
+    mono_tracks, mono_params
+) -> None:  # type: ignore[no-untyped-def]
+    # regression: a block starting mid-path whose samples cross the kernel's
+    # internal 32768-sample accumulation blocks lost the sample at the boundary
+    c = mono_params.center
+    path = ListenerPath.orbit(c, radius=2.5, duration=1.6, turns=0.3)
+    whole = render(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8").audio
+    peak = np.max(np.abs(whole))
+    for start in (5948, 8422, 13370, 17081):  # starts at which the boundary fell between samples
+        part = render(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8",
+                      start=start / RATE, duration=40000 / RATE).audio  # fmt: skip
+        assert np.max(np.abs(part - whole[:, start : start + 40000])) <= 1e-5 * peak, start
