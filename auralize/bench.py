@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import importlib.util
 import json
 import os
 import platform
@@ -208,11 +209,22 @@ def run_bench(args: argparse.Namespace) -> int:
     more = bench_synthesis(args.quick)
     print(format_rows(more), flush=True)
     rows += more
+    from auralize.bench_output import bench_output
     from auralize.viewer.bench import bench_viewer
 
-    vrows = bench_viewer(args.quick)
-    print(format_rows(vrows), flush=True)
-    rows += vrows
+    for fn in (bench_output, bench_viewer):
+        more = fn(args.quick)
+        print(format_rows(more), flush=True)
+        rows += more
+    if importlib.util.find_spec("dask") is not None:
+        from auralize.bench_dask import bench_dask
+
+        # the full Dask rows write a 27 GB, 256³ x 100-step file: only when asked
+        more = bench_dask(not getattr(args, "dask_full", False))
+        print(format_rows(more), flush=True)
+        rows += more
+    else:
+        print("\n[dask] skipped: install the 'dask' extra for the scale-out rows")
     prow = plugin_rows(args.quick)
     if prow:
         print(format_rows(prow), flush=True)

@@ -388,6 +388,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="small sizes only (seconds)")
     p.add_argument("--sizes", help="comma-separated grid sizes for detection (default 10..256)")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.add_argument(
+        "--dask-full",
+        action="store_true",
+        help="Dask rows on the 256³ x 100-step file (writes ~27 GB to the temp folder)",
+    )
     p.set_defaults(func=cmd_bench)
 
     _extend_with_core_modules(sub)
@@ -396,7 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: core modules that add their own sub-commands with ``add_commands(subparsers)``
-CORE_COMMAND_MODULES = ("auralize.cli_audio", "auralize.viewer.cli")
+CORE_COMMAND_MODULES = ("auralize.cli_audio", "auralize.viewer.cli", "auralize.cli_dask")
 
 
 def _extend_with_core_modules(sub: Any) -> None:
