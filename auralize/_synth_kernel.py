@@ -219,22 +219,25 @@ def _hermite(L, f0, d0, f1, d1):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _emit(acc, blk, B, m_start, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
+def _emit(acc, th, ch, blk, B, m_start, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
     """Add sign × P(m - m_start + x) for m >= m_start, P = c0 + c1 x + c2 x² + c3 x³.
 
     The polynomial is Taylor-shifted to x and written in the binomial basis
     C(m - m_start, i), whose (i+1)-fold cumulative sum is an impulse at
     m_start + i: four impulses, into acc[blk, local index + level, level] (the
-    four levels of one impulse share cache lines).
+    four levels of one impulse share cache lines).  The accumulator is indexed
+    in full (thread th, channel ch) rather than through views: a view made in
+    the hot loop costs two atomic reference-count updates on memory shared by
+    the threads.
     """
     b0 = c0 + x * (c1 + x * (c2 + x * c3))
     b1 = c1 + x * (2.0 * c2 + 3.0 * c3 * x)
     b2 = c2 + 3.0 * c3 * x
     loc = m_start - blk * B
-    acc[blk, loc, 0] += sign * b0
-    acc[blk, loc + 1, 1] += sign * (b1 + b2 + c3)
-    acc[blk, loc + 2, 2] += sign * (2.0 * b2 + 6.0 * c3)
-    acc[blk, loc + 3, 3] += sign * 6.0 * c3
+    acc[th, ch, blk, loc, 0] += sign * b0
+    acc[th, ch, blk, loc + 1, 1] += sign * (b1 + b2 + c3)
+    acc[th, ch, blk, loc + 2, 2] += sign * (2.0 * b2 + 6.0 * c3)
+    acc[th, ch, blk, loc + 3, 3] += sign * 6.0 * c3
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -323,7 +326,7 @@ def _arrivals(
 
 @numba.njit(parallel=True, **_NJIT)
 def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, block,
-           spk_az, spk_ch, n_ch, fold, n_threads, n_lo, n_hi):  # fmt: skip  # type: ignore[no-untyped-def]
+           spk_az, spk_ch, n_ch, fold, n_threads, n_lo, n_hi, arr, darr, ddarr, accs):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every source's pieces into ``(n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
@@ -336,6 +339,9 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
     ot[1] (see :func:`_orient`); fs samples per data second; block samples per
     accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels;
     only pieces n_lo..n_hi-1 (those that can be heard in the output) are summed.
+    arr, darr, ddarr (Tp, K) and accs (n_threads, n_ch, n_blocks, block + 4, 4)
+    are work arrays supplied by the caller: fresh memory costs a page fault per
+    4 KiB on first touch, which dominated short renders.
 
     Pieces are visited step-major (all sources' piece n, then n+1, ...) so the
     accumulator writes stay within the few thousand samples a step's arrivals
@@ -345,18 +351,14 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
     K = pos.shape[0]
     n_blocks = (n_samples + block - 1) // block
     cubic = mt.shape[0] > 0
-    arr = np.empty((tn.size, K))
-    darr = np.empty((tn.size, K))
-    ddarr = np.empty((tn.size, K))
     _arrivals(
         pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr, n_threads
     )
-    accs = np.zeros((n_threads, n_ch, n_blocks, block + 4, 4))
+    accs[:] = 0.0
     t_end = t_start + n_samples / fs
     chunk = (K + n_threads - 1) // n_threads
     panned = spk_az.size > 0
     for th in numba.prange(n_threads):
-        acc_t = accs[th]
         ga = np.zeros(n_ch)
         gb = np.zeros(n_ch)
         o = np.zeros(6)
@@ -454,11 +456,10 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
                         for c in range(n_ch):
                             if fa[c] == 0.0 and da[c] == 0.0 and fb[c] == 0.0 and db[c] == 0.0:
                                 continue
-                            a_c = acc_t[c]
                             p0, p1, p2, p3 = _hermite(L, fa[c], da[c], fb[c], db[c])
-                            _emit(a_c, blk, block, m_0, m_0 - u0, p0, p1, p2, p3, 1.0)
+                            _emit(accs, th, c, blk, block, m_0, m_0 - u0, p0, p1, p2, p3, 1.0)
                             if end_inside:
-                                _emit(a_c, blk, block, m_1, m_1 - u0, p0, p1, p2, p3, -1.0)
+                                _emit(accs, th, c, blk, block, m_1, m_1 - u0, p0, p1, p2, p3, -1.0)
                     else:
                         have_ga = False  # no sample here: gains at t1 were not computed
                     new_seg = _segment(tc, t1, seg)

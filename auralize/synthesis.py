@@ -30,6 +30,7 @@ sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -109,6 +110,25 @@ def _knots(
     out = (tn, np.ascontiguousarray(q), np.ascontiguousarray(_tangents(tn, q)))
     tracks.cache["knots"] = (key, out)
     return out
+
+
+_WORK = threading.local()
+
+
+def _workspace(name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """A reusable work array of ``shape`` (per thread; contents undefined).
+
+    Reusing memory between calls avoids first-touch page faults, which cost
+    more than the arithmetic for block-wise and live rendering.
+    """
+    store = getattr(_WORK, "arrays", None)
+    if store is None:
+        store = _WORK.arrays = {}
+    size = int(np.prod(shape))
+    buf = store.get(name)
+    if buf is None or buf.size < size:
+        buf = store[name] = np.empty(max(size, 1))
+    return buf[:size].reshape(shape)
 
 
 def _step_major(
@@ -273,10 +293,14 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     if pos.shape[0] == 0 or n_hi <= n_lo:
         audio = np.zeros((lay.n_channels, pr.n_samples))
     else:
+        n_blocks = (pr.n_samples + block - 1) // block
+        arr, darr, ddarr = (_workspace(f"knots{i}", (pr.tn.size, pos.shape[0])) for i in range(3))
+        accs = _workspace("accs", (n_threads, lay.n_channels, n_blocks, block + 4, 4))
         audio = _synth_kernel.render(
             pos, radius, pr.tn, qT, mtT, pr.tc,
             pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
             spk_az, spk_ch, lay.n_channels, bool(lay.fold_front), n_threads, n_lo, n_hi,
+            arr, darr, ddarr, accs,
         )  # fmt: skip
     return Rendered(
         audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
