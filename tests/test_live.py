@@ -168,3 +168,53 @@ def test_play_errors(alsa_device) -> None:  # type: ignore[no-untyped-def]
         play(tracks, path, device=42)
     with pytest.raises(ParameterError, match="gain must be 'auto' or a positive number"):
         play(tracks, path, device="auralize_file8", gain=-1.0)
+
+
+VIEWER_LIVE = """
+import json, time
+import numpy as np
+from auralize.sources import SourceTracks
+from auralize.viewer.listening import DeviceSink, LiveEngine, LivePlayer
+
+fk = 4000.0
+t = np.arange(int(2.4 * fk)) / fk
+tracks = SourceTracks(np.array([[4.0, 0.0, 0.0]]), np.sin(2 * np.pi * 220 * t)[None],
+                      np.array([0.1]), t)
+eng = LiveEngine(tracks, layout="ring8", block=2205, loop=True)
+sink = DeviceSink(rate=44100, channels=8, device="auralize_file8")
+player = LivePlayer(eng, sink)
+player.set_pose((0, 0, 0), (0, 1, 0), (0, 0, 1))  # source at +x: on the right (channel 6)
+player.start()
+time.sleep(0.6)
+player.set_pose((0, 0, 0), (0, -1, 0), (0, 0, 1))  # turned round: now on the left (channel 2)
+time.sleep(0.6)
+player.stop()
+print(json.dumps({"latencies": player.latencies, "error": repr(player.error)}))
+"""
+
+
+def test_viewer_live_listening_on_file_backed_alsa_device(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Issue 4: a camera turn during live playback moves the energy across the ring8
+    channels the device receives, within the 100 ms latency target."""
+    cfg = tmp_path / "cfg"
+    (cfg / "alsa").mkdir(parents=True)
+    out8 = tmp_path / "dev8.raw"
+    (cfg / "alsa" / "asoundrc").write_text(ASOUNDRC.format(out8=out8, out2=tmp_path / "x.raw"))
+    env = {**os.environ, "XDG_CONFIG_HOME": str(cfg), "PYTHONPATH": str(ROOT)}
+    res = subprocess.run([sys.executable, "-c", textwrap.dedent(VIEWER_LIVE)], capture_output=True,
+                         text=True, env=env, timeout=120)  # fmt: skip
+    assert res.returncode == 0, res.stderr[-3000:]
+    rep = json.loads(res.stdout.strip().splitlines()[-1])
+    assert rep["error"] == "None"
+    assert len(rep["latencies"]) == 2 and rep["latencies"][1] < 0.1
+    dev = np.fromfile(out8, dtype="<f4").reshape(-1, 8).T.astype(np.float64)
+    blocks = dev[:, : dev.shape[1] // 2205 * 2205].reshape(8, -1, 2205)
+    e = (blocks**2).sum(axis=2)  # (8, n_blocks)
+    loud = e.sum(axis=0) > 1e-3 * e.sum(axis=0).max()
+    dominant = np.argmax(e[:, loud], axis=0)
+    assert dominant[0] == 6 and dominant[-1] == 2, dominant
+    # after the turn the energy has moved by four speakers and stays there
+    # (at most one block in between, where the turn happens)
+    switch = int(np.argmax(dominant == 2))
+    assert np.all(dominant[switch:] == 2)
+    assert np.sum(dominant[:switch] != 6) <= 1
