@@ -241,9 +241,7 @@ def _emit(acc, th, ch, blk, B, m_start, x, c0, c1, c2, c3, sign):  # type: ignor
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _arrivals(
-    pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr, n_chunks
-):  # type: ignore[no-untyped-def]
+def _arrivals(pos, radius, tn, act, tc, lc, vc, c0, n_lo, n_hi, arr, darr, ddarr, n_chunks):  # type: ignore[no-untyped-def]
     """Reception time, distance and its rate at every knot n_lo..n_hi that bounds a
     sounding piece (NaN elsewhere).
 
@@ -262,11 +260,8 @@ def _arrivals(
     for th in numba.prange(n_chunks):
         for n in range(n_lo, n_hi + 1):
             for k in range(th * chunk, min(K, (th + 1) * chunk)):
-                need = q[n, k] != 0.0 or (cubic and mt[n, k] != 0.0)
-                if n > n_lo:
-                    need = need or q[n - 1, k] != 0.0 or (cubic and mt[n - 1, k] != 0.0)
-                if n < n_hi:
-                    need = need or q[n + 1, k] != 0.0 or (cubic and mt[n + 1, k] != 0.0)
+                # a knot is needed when a sounding piece starts or ends at it
+                need = (n < n_hi and act[n, k] != 0) or (n > n_lo and act[n - 1, k] != 0)
                 if not need:
                     arr[n, k] = np.nan
                     continue
@@ -325,7 +320,7 @@ def _arrivals(
 
 
 @numba.njit(parallel=True, **_NJIT)
-def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, block,
+def render(pos, radius, tn, q, mt, act, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, block,
            spk_az, spk_ch, n_ch, fold, n_threads, n_lo, n_hi, arr, darr, ddarr, accs):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every source's pieces into ``(n_ch, n_samples)``; see module docstring.
 
@@ -334,7 +329,8 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
     pos (K,3), radius (K,) clamp distances; tn (Tp,) knot times (padded with
     silent knots); q (Tp,K) strength·ΔV/(4π); mt (Tp,K) tangents dq/dτ
     (size-0 first axis for linear interpolation) — step-major, so that the
-    step-major loops below read them contiguously; tc (M,), lc (M,3), vc (M-1,3),
+    step-major loops below read them contiguously; act (Tp,K) uint8, 1 where
+    piece n of source k sounds (a compact mask: silent pieces cost one byte); tc (M,), lc (M,3), vc (M-1,3),
     listener captures; qc (N,6) forward/up table sampled from ot[0] at rate
     ot[1] (see :func:`_orient`); fs samples per data second; block samples per
     accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels;
@@ -351,9 +347,7 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
     K = pos.shape[0]
     n_blocks = (n_samples + block - 1) // block
     cubic = mt.shape[0] > 0
-    _arrivals(
-        pos, radius, tn, q, mt, tc, lc, vc, c0, cubic, n_lo, n_hi, arr, darr, ddarr, n_threads
-    )
+    _arrivals(pos, radius, tn, act, tc, lc, vc, c0, n_lo, n_hi, arr, darr, ddarr, n_threads)
     accs[:] = 0.0
     t_end = t_start + n_samples / fs
     chunk = (K + n_threads - 1) // n_threads
@@ -371,6 +365,8 @@ def render(pos, radius, tn, q, mt, tc, lc, vc, qc, ot, c0, t_start, fs, n_sample
         for n in range(n_lo, n_hi):
             h = tn[n + 1] - tn[n]
             for k in range(k_lo, k_hi):
+                if act[n, k] == 0:
+                    continue
                 q0 = q[n, k]
                 q1 = q[n + 1, k]
                 if cubic:

@@ -29,6 +29,7 @@ import math
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -216,7 +217,7 @@ class SourceTracks:
     radius: NDArray[np.float64]
     times: NDArray[np.float64]
     index: NDArray[np.int64] | None = None
-    cache: dict[str, object] = field(default_factory=dict, repr=False, compare=False)
+    cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_sources(self) -> int:

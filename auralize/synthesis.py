@@ -144,6 +144,22 @@ def _step_major(
     return out
 
 
+def _sounding(tracks: SourceTracks, qT: NDArray[np.float64], mtT: NDArray[np.float64],
+              interp: str) -> NDArray[np.uint8]:  # fmt: skip
+    """(steps, sources) uint8 mask of the pieces that sound (cached on the tracks)."""
+    key = (id(qT), interp)
+    cached = tracks.cache.get("sounding")
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    nz = qT != 0
+    if interp == "cubic":
+        nz |= mtT != 0
+    act = np.zeros(qT.shape, dtype=np.uint8)
+    act[:-1] = nz[:-1] | nz[1:]
+    tracks.cache["sounding"] = (key, act)
+    return act
+
+
 #: orientation table resolution (data seconds) and size cap
 _ORIENT_DT = 1e-3
 _ORIENT_MAX = 200_000
@@ -285,6 +301,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     block = 1 << 15
     # the kernel walks step-major: hand it (steps, sources) arrays
     qT, mtT = _step_major(tracks, pr)
+    act = _sounding(tracks, qT, mtT, interp)
     if interp != "cubic":
         mtT = np.zeros((0, pr.q.shape[0]))
     pos = np.ascontiguousarray(tracks.positions, dtype=np.float64)
@@ -297,7 +314,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         arr, darr, ddarr = (_workspace(f"knots{i}", (pr.tn.size, pos.shape[0])) for i in range(3))
         accs = _workspace("accs", (n_threads, lay.n_channels, n_blocks, block + 4, 4))
         audio = _synth_kernel.render(
-            pos, radius, pr.tn, qT, mtT, pr.tc,
+            pos, radius, pr.tn, qT, mtT, act, pr.tc,
             pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
             spk_az, spk_ch, lay.n_channels, bool(lay.fold_front), n_threads, n_lo, n_hi,
             arr, darr, ddarr, accs,
