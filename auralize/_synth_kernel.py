@@ -104,7 +104,7 @@ def _qeval(tn, q, mt, k, n, tau, cubic):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, out):  # type: ignore[no-untyped-def]
+def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):  # type: ignore[no-untyped-def]
     """Pairwise 2-D VBAP gains (power-normalised) for direction a in the listener frame.
 
     forward f, up u, left = u × f; azimuth counter-clockwise from forward.
@@ -126,6 +126,19 @@ def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, out):  # ty
         for i in range(n):
             out[spk_ch[i]] = 1.0 / math.sqrt(n)
         return
+    # fast path (every arc < 180°): the pair whose inverse base gives both
+    # gains >= 0 -- the same law as below without atan2 and sines
+    npair = pinv.shape[0]
+    for i in range(npair):
+        g0 = pinv[i, 0] * xf + pinv[i, 1] * yl
+        g1 = pinv[i, 2] * xf + pinv[i, 3] * yl
+        if g0 >= -1e-12 and g1 >= -1e-12:
+            g0 = max(g0, 0.0)
+            g1 = max(g1, 0.0)
+            norm = math.sqrt(g0 * g0 + g1 * g1)
+            out[spk_ch[i]] += g0 / norm
+            out[spk_ch[(i + 1) % n]] += g1 / norm
+            return
     phi = math.atan2(yl, xf)
     two_pi = 2.0 * math.pi
     # find arc [spk_az[i], spk_az[i+1]) (cyclic) containing phi
@@ -200,11 +213,12 @@ def _fval(qv, dq, d, dd, c0):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, g, o):  # type: ignore[no-untyped-def]
+def _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o):  # type: ignore[no-untyped-def]
     """Panning gains g of a source at (x, y, z) heard at time t (listener segment s)."""
     lx, ly, lz, _, _, _ = _listener(tc, lc, vc, t, s)
     _orient(qc, ot, t, o)
-    _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold, g)
+    _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], spk_az, spk_ch, fold,
+           pinv, g)  # fmt: skip
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -321,7 +335,7 @@ def _arrivals(pos, radius, tn, act, tc, lc, vc, c0, n_lo, n_hi, arr, darr, ddarr
 
 @numba.njit(parallel=True, **_NJIT)
 def render(pos, radius, tn, q, mt, act, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, block,
-           spk_az, spk_ch, n_ch, fold, n_threads, n_lo, n_hi, arr, darr, ddarr, accs):  # fmt: skip  # type: ignore[no-untyped-def]
+           spk_az, spk_ch, pinv, n_ch, fold, n_threads, n_lo, n_hi, arr, darr, ddarr, accs):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every source's pieces into ``(n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
@@ -334,6 +348,8 @@ def render(pos, radius, tn, q, mt, act, tc, lc, vc, qc, ot, c0, t_start, fs, n_s
     listener captures; qc (N,6) forward/up table sampled from ot[0] at rate
     ot[1] (see :func:`_orient`); fs samples per data second; block samples per
     accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels;
+    pinv (n_pairs, 4) inverse bases of adjacent speaker pairs (empty when an arc
+    spans 180° or more, e.g. stereo);
     only pieces n_lo..n_hi-1 (those that can be heard in the output) are summed.
     arr, darr, ddarr (Tp, K) and accs (n_threads, n_ch, n_blocks, block + 4, 4)
     are work arrays supplied by the caller: fresh memory costs a page fault per
@@ -431,10 +447,28 @@ def render(pos, radius, tn, q, mt, act, tc, lc, vc, qc, ot, c0, t_start, fs, n_s
                                     spk_az,
                                     spk_ch,
                                     fold,
+                                    pinv,
                                     ga,
                                     o,
                                 )
-                            _pan(x, y, z, t1, segm, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, gb, o)
+                            _pan(
+                                x,
+                                y,
+                                z,
+                                t1,
+                                segm,
+                                tc,
+                                lc,
+                                vc,
+                                qc,
+                                ot,
+                                spk_az,
+                                spk_ch,
+                                fold,
+                                pinv,
+                                gb,
+                                o,
+                            )
                             inv_dt = 1.0 / (t1 - t0)
                             for c in range(n_ch):
                                 slope = (gb[c] - ga[c]) * inv_dt

@@ -144,6 +144,22 @@ def _step_major(
     return out
 
 
+def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Inverse bases (n, 4) of adjacent speaker pairs for 2-D VBAP, or (0, 4) when a
+    layout has an arc of 180° or more (then the kernel uses its angular law)."""
+    n = spk_az.size
+    if n < 3:
+        return np.zeros((0, 4))
+    a0 = spk_az
+    a1 = np.roll(spk_az, -1)
+    span = np.mod(a1 - a0, 2 * np.pi)
+    if np.any(span >= np.pi - 1e-9) or np.any(span <= 1e-9):
+        return np.zeros((0, 4))
+    base = np.stack([np.stack([np.cos(a0), np.cos(a1)], -1),
+                     np.stack([np.sin(a0), np.sin(a1)], -1)], 1)  # (n, 2, 2)  # fmt: skip
+    return np.ascontiguousarray(np.linalg.inv(base).reshape(n, 4))
+
+
 def _sounding(tracks: SourceTracks, qT: NDArray[np.float64], mtT: NDArray[np.float64],
               interp: str) -> NDArray[np.uint8]:  # fmt: skip
     """(steps, sources) uint8 mask of the pieces that sound (cached on the tracks)."""
@@ -316,7 +332,8 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         audio = _synth_kernel.render(
             pos, radius, pr.tn, qT, mtT, act, pr.tc,
             pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
-            spk_az, spk_ch, lay.n_channels, bool(lay.fold_front), n_threads, n_lo, n_hi,
+            spk_az, spk_ch, _pair_inverses(spk_az), lay.n_channels, bool(lay.fold_front),
+            n_threads, n_lo, n_hi,
             arr, darr, ddarr, accs,
         )  # fmt: skip
     return Rendered(
