@@ -6,6 +6,7 @@ colours so pictures and the app agree.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +50,12 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
     """Render volume (translucent contours of ``field``), ΔV spheres and path to a PNG."""
     import pyvista as pv
 
+    if not os.environ.get("DISPLAY"):
+        # off screen without X: VTK tries an X window first and warns before it
+        # falls back to EGL; the warning is noise here
+        from vtkmodules.vtkCommonCore import vtkLogger
+
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
     step = volume.n_steps // 2 if step is None else step
     field = field or volume.field_names[0]
     grid = pv.ImageData(dimensions=volume.dims, spacing=volume.spacing, origin=volume.origin)

@@ -47,7 +47,9 @@ def test_csv_round_trip(tmp_path) -> None:  # type: ignore[no-untyped-def]
 
 
 def test_bad_paths(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    with pytest.raises(ListenerPathError, match="non-decreasing; capture 2 has t=0.5 s after t=1 s"):
+    with pytest.raises(
+        ListenerPathError, match="non-decreasing; capture 2 has t=0.5 s after t=1 s"
+    ):
         ListenerPath([0, 1, 0.5], np.zeros((3, 3)))
     with pytest.raises(ListenerPathError, match="NaN"):
         ListenerPath([0, 1], [[0, 0, 0], [np.nan, 0, 0]])
@@ -64,3 +66,13 @@ def test_bad_paths(tmp_path) -> None:  # type: ignore[no-untyped-def]
         ListenerPath.from_csv(f)
     with pytest.raises(FormatError, match="does not exist"):
         ListenerPath.from_csv(tmp_path / "missing.csv")
+
+
+def test_written_files_get_the_usual_permissions(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import os
+
+    f = tmp_path / "p.csv"
+    ListenerPath.point((0, 0, 0), duration=1.0).to_csv(f)
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert f.stat().st_mode & 0o777 == 0o666 & ~mask
