@@ -30,6 +30,9 @@ each source from its direction with the output layer's VBAP
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,6 +49,7 @@ from .objects import AeroObject, Motion, Wind, quat_to_matrix
 from .texture import SoundTexture
 
 C0 = 343.0
+_NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 EXPONENTS = {"physical": 3.0, "paper": 6.0}
 
 
@@ -64,6 +68,34 @@ def resolve_exponent(exponent: str | float) -> float:
     if not math.isfinite(e):
         raise ParameterError(f"exponent must be finite, got {exponent!r}")
     return e
+
+
+# Sources are split between up to two threads (the kernels release the GIL).
+_N_THREADS = max(1, min(2, os.cpu_count() or 1))
+_POOL: ThreadPoolExecutor | None = None
+
+
+def _parts(S: int) -> list[tuple[int, int]]:
+    """Contiguous source ranges, one per thread."""
+    n = max(1, min(_N_THREADS, S))
+    edges = [S * i // n for i in range(n + 1)]
+    return [(edges[i], edges[i + 1]) for i in range(n)]
+
+
+def _run(fn: Callable[[int], None], n: int) -> None:
+    """``fn(i)`` for i < n: i = 0 on this thread, the rest on the pool."""
+    global _POOL
+    if n > 1 and _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=_N_THREADS - 1, thread_name_prefix="auralize-aero")
+    futures = [_POOL.submit(fn, i) for i in range(1, n)] if n > 1 and _POOL is not None else []
+    fn(0)
+    for fu in futures:
+        fu.result()
+
+
+def _in_parts(fn: Callable[[int, int], None], S: int) -> None:
+    parts = _parts(S)
+    _run(lambda i: fn(*parts[i]), len(parts))
 
 
 @dataclass
@@ -91,9 +123,12 @@ def _apply(R: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64
     return np.ascontiguousarray(np.matmul(R, v.T).transpose(2, 0, 1))
 
 
-def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind | None,
-               dt: float, duration: float) -> Kinematics:  # fmt: skip
-    """Source kinematics and the texture-coordinate recurrence of Eq. 3 (§6)."""
+def kinematics_reference(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind | None,
+                         dt: float, duration: float) -> Kinematics:  # fmt: skip
+    """Source kinematics and the texture-coordinate recurrence of Eq. 3 (§6), in numpy.
+
+    The reference for :func:`kinematics` (same quantities, one numba pass).
+    """
     if motion is None and wind is None:
         raise ParameterError("give a motion (object moving) or a wind (static object), or both")
     centres, span, axes, refs = obj.sources()
@@ -160,24 +195,29 @@ def _at(arr: NDArray[np.float64], tau: NDArray[np.float64], dt: float) -> NDArra
     return _interp_rows(np.ascontiguousarray(arr), tau / dt)
 
 
-@numba.njit(cache=True)
+@numba.njit(**_NJIT)
 def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[np.int64],
            tex_rate: float, s: NDArray[np.float64], qs: NDArray[np.float64], qe: NDArray[np.float64],
            j0: NDArray[np.int64], j1: NDArray[np.int64], wj: NDArray[np.float64],
-           gain: NDArray[np.float64], K: int) -> None:  # fmt: skip
+           gain: NDArray[np.float64], K: int, k0: int = 0, k1: int = -1) -> None:  # fmt: skip
     """Σ_l Q_l(t) · w(s_l(t)) with per-block linear interpolation, accumulated into out (C, n).
+
+    Sources ``k0 <= l < k1`` only (``k1 = -1``: all).
 
     The texture position advances by a constant step within a block and
     wraps around the loop length (the texture is periodic, §6).
     """
     C, n_out = out.shape
     S, B = j0.shape
+    if k1 < 0:
+        k1 = S
     inv = 1.0 / K
+    act = np.empty(C, dtype=np.int64)
     for b in range(B):
         n0 = b * K
         if n0 >= n_out:
             continue
-        for k in range(S):
+        for k in range(k0, k1):
             qa0 = qs[k, b, 0]
             qa1 = qs[k, b, 1]
             dq0 = (qe[k, b, 0] - qa0) * inv
@@ -194,6 +234,12 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
             pa = s0 - math.floor(s0 / Na) * Na
             pb = s0 - math.floor(s0 / Nb) * Nb
             m = min(K, n_out - n0)
+            n_act = 0
+            if C > 1:  # channels silent at both block ends only ever add 0.0: skip them
+                for c in range(C):
+                    if gain[k, b, c] != 0.0 or gain[k, b + 1, c] != 0.0:
+                        act[n_act] = c
+                        n_act += 1
             for i in range(m):
                 ia = int(pa)
                 if ia >= Na:
@@ -219,7 +265,8 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
                     out[0, n0 + i] += p
                 else:
                     fr = i * inv
-                    for c in range(C):
+                    for ci in range(n_act):
+                        c = act[ci]
                         out[c, n0 + i] += (
                             gain[k, b, c] + fr * (gain[k, b + 1, c] - gain[k, b, c])
                         ) * p
@@ -233,6 +280,224 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
                     pb -= Nb
                 elif pb < 0.0:
                     pb += Nb
+
+
+@numba.njit(**_NJIT)
+def _kin_kernel(p: NDArray[np.float64], dp: NDArray[np.float64], R: NDArray[np.float64],
+                dR: NDArray[np.float64], centres: NDArray[np.float64], axes: NDArray[np.float64],
+                refs: NDArray[np.float64], wind: NDArray[np.float64], has_wind: bool, v0: float,
+                dt: float, pos: NDArray[np.float64], e1o: NDArray[np.float64], e2o: NDArray[np.float64],
+                c1o: NDArray[np.float64], c2o: NDArray[np.float64], ao: NDArray[np.float64],
+                so: NDArray[np.float64], k0: int, k1: int) -> None:  # fmt: skip
+    """Fused :func:`kinematics_reference` after the pose spline: poses ``p (J, 3)``,
+    ``R (J, 3, 3)`` and their time derivatives -> per-source arrays (written in place)."""
+    J = p.shape[0]
+    for k in range(k0, k1):
+        cx, cy, cz = centres[k, 0], centres[k, 1], centres[k, 2]
+        ax, ay, az = axes[k, 0], axes[k, 1], axes[k, 2]
+        rx, ry, rz = refs[k, 0], refs[k, 1], refs[k, 2]
+        for j in range(J):
+            pos[k, j, 0] = p[j, 0] + (R[j, 0, 0] * cx + R[j, 0, 1] * cy + R[j, 0, 2] * cz)
+            pos[k, j, 1] = p[j, 1] + (R[j, 1, 0] * cx + R[j, 1, 1] * cy + R[j, 1, 2] * cz)
+            pos[k, j, 2] = p[j, 2] + (R[j, 2, 0] * cx + R[j, 2, 1] * cy + R[j, 2, 2] * cz)
+            vx = dp[j, 0] + (dR[j, 0, 0] * cx + dR[j, 0, 1] * cy + dR[j, 0, 2] * cz)
+            vy = dp[j, 1] + (dR[j, 1, 0] * cx + dR[j, 1, 1] * cy + dR[j, 1, 2] * cz)
+            vz = dp[j, 2] + (dR[j, 2, 0] * cx + dR[j, 2, 1] * cy + dR[j, 2, 2] * cz)
+            nx = R[j, 0, 0] * ax + R[j, 0, 1] * ay + R[j, 0, 2] * az
+            ny = R[j, 1, 0] * ax + R[j, 1, 1] * ay + R[j, 1, 2] * az
+            nz = R[j, 2, 0] * ax + R[j, 2, 1] * ay + R[j, 2, 2] * az
+            ex = R[j, 0, 0] * rx + R[j, 0, 1] * ry + R[j, 0, 2] * rz
+            ey = R[j, 1, 0] * rx + R[j, 1, 1] * ry + R[j, 1, 2] * rz
+            ez = R[j, 2, 0] * rx + R[j, 2, 1] * ry + R[j, 2, 2] * rz
+            nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+            nx /= nn
+            ny /= nn
+            nz /= nn
+            en = ex * nx + ey * ny + ez * nz
+            ex -= en * nx
+            ey -= en * ny
+            ez -= en * nz
+            ee = math.sqrt(ex * ex + ey * ey + ez * ez)
+            ex /= ee
+            ey /= ee
+            ez /= ee
+            fx = ny * ez - nz * ey
+            fy = nz * ex - nx * ez
+            fz = nx * ey - ny * ex
+            ux, uy, uz = -vx, -vy, -vz
+            if has_wind:
+                ux += wind[k, j, 0]
+                uy += wind[k, j, 1]
+                uz += wind[k, j, 2]
+            un = ux * nx + uy * ny + uz * nz
+            ux -= un * nx
+            uy -= un * ny
+            uz -= un * nz
+            vp = math.sqrt(ux * ux + uy * uy + uz * uz)
+            if vp > 1e-12:
+                c1o[k, j] = (ux * ex + uy * ey + uz * ez) / vp
+                c2o[k, j] = (ux * fx + uy * fy + uz * fz) / vp
+            else:
+                c1o[k, j] = 1.0
+                c2o[k, j] = 0.0
+            e1o[k, j, 0] = ex
+            e1o[k, j, 1] = ey
+            e1o[k, j, 2] = ez
+            e2o[k, j, 0] = fx
+            e2o[k, j, 1] = fy
+            e2o[k, j, 2] = fz
+            ao[k, j] = vp / v0
+        acc = 0.0
+        so[k, 0] = 0.0
+        for j in range(1, J):
+            acc += 0.5 * (ao[k, j] + ao[k, j - 1]) * dt
+            so[k, j] = acc
+
+
+@numba.njit(**_NJIT)
+def _lerp_index(x: float, J: int) -> tuple[int, float]:
+    v = min(max(x, 0.0), J - 1.000001)
+    i = int(v)
+    return i, v - i
+
+
+@numba.njit(**_NJIT)
+def _block_kernel(pos: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray[np.float64],
+                  c1: NDArray[np.float64], c2: NDArray[np.float64], speed: NDArray[np.float64],
+                  stex: NDArray[np.float64], span: NDArray[np.float64], L: NDArray[np.float64],
+                  tb: NDArray[np.float64], dt: float, c0: float, exponent: float,
+                  min_distance: float, fade: float, k_sym: int, has_mirror: bool, mirror_rad: float,
+                  m: int, dom_start: float, dom_width: float, cyclic: bool,
+                  x_out: NDArray[np.float64], s_out: NDArray[np.float64], qs: NDArray[np.float64],
+                  qe: NDArray[np.float64], j0o: NDArray[np.int64], j1o: NDArray[np.int64],
+                  wo: NDArray[np.float64], k0: int, k1: int) -> None:  # fmt: skip
+    """The per-block work of :func:`_receive_reference` fused: retarded time, interpolated
+    kinematics, amplitude, direction folding and texture look-up (Eq. 4, §7.3)."""
+    J = speed.shape[1]
+    B1 = tb.size
+    store_x = x_out.shape[0] > 0  # source positions are kept for panning only
+    P0 = np.empty(B1)
+    P1 = np.empty(B1)
+    Mb = np.empty((B1, 4))
+    four_pi_c0 = 4 * np.pi * c0
+    step = 0.0
+    if m > 1:
+        step = dom_width / (m if cyclic else m - 1)
+    beta = 0.0
+    ax2 = 0.0
+    cr = 0.0
+    sr = 0.0
+    if k_sym != 0:
+        beta = 2 * np.pi / k_sym
+        ax2 = mirror_rad + beta / 2
+        cr = math.cos(2 * ax2)
+        sr = math.sin(2 * ax2)
+    tau_b = np.empty(B1)
+    for k in range(k0, k1):
+        # retarded time: fixed point, contraction = source Mach number; one pass over the
+        # blocks per step so that independent blocks overlap in the pipeline
+        for b in range(B1):
+            dx = L[b, 0] - pos[k, 0, 0]
+            dy = L[b, 1] - pos[k, 0, 1]
+            dz = L[b, 2] - pos[k, 0, 2]
+            tau_b[b] = tb[b] - math.sqrt(dx * dx + dy * dy + dz * dz) / c0
+        for _ in range(4):
+            for b in range(B1):
+                i, w = _lerp_index(tau_b[b] / dt, J)
+                dx = L[b, 0] - (pos[k, i, 0] + w * (pos[k, i + 1, 0] - pos[k, i, 0]))
+                dy = L[b, 1] - (pos[k, i, 1] + w * (pos[k, i + 1, 1] - pos[k, i, 1]))
+                dz = L[b, 2] - (pos[k, i, 2] + w * (pos[k, i + 1, 2] - pos[k, i, 2]))
+                tau_b[b] = tb[b] - math.sqrt(dx * dx + dy * dy + dz * dz) / c0
+        for b in range(B1):
+            tau = tau_b[b]
+            i, w = _lerp_index(tau / dt, J)
+            xx = pos[k, i, 0] + w * (pos[k, i + 1, 0] - pos[k, i, 0])
+            xy = pos[k, i, 1] + w * (pos[k, i + 1, 1] - pos[k, i, 1])
+            xz = pos[k, i, 2] + w * (pos[k, i + 1, 2] - pos[k, i, 2])
+            dx = L[b, 0] - xx
+            dy = L[b, 1] - xy
+            dz = L[b, 2] - xz
+            if store_x:
+                x_out[k, b, 0] = xx
+                x_out[k, b, 1] = xy
+                x_out[k, b, 2] = xz
+            r = max(math.sqrt(dx * dx + dy * dy + dz * dz), min_distance)
+            ux = dx / r
+            uy = dy / r
+            uz = dz / r
+            i1 = i + 1
+            f1 = (
+                ux * (e1[k, i, 0] + w * (e1[k, i1, 0] - e1[k, i, 0]))
+                + uy * (e1[k, i, 1] + w * (e1[k, i1, 1] - e1[k, i, 1]))
+                + uz * (e1[k, i, 2] + w * (e1[k, i1, 2] - e1[k, i, 2]))
+            )
+            f2 = (
+                ux * (e2[k, i, 0] + w * (e2[k, i1, 0] - e2[k, i, 0]))
+                + uy * (e2[k, i, 1] + w * (e2[k, i1, 1] - e2[k, i, 1]))
+                + uz * (e2[k, i, 2] + w * (e2[k, i1, 2] - e2[k, i, 2]))
+            )
+            a = speed[k, i] + w * (speed[k, i1] - speed[k, i])
+            s_out[k, b] = stex[k, i] + w * (stex[k, i1] - stex[k, i])
+            on = min(max(tau / fade, 0.0), 1.0)
+            on = on * on * (3 - 2 * on)
+            amp = on * (a * a * a if exponent == 3.0 else a**exponent) * span[k] / (four_pi_c0 * r)
+            P0[b] = amp * f1
+            P1[b] = amp * f2
+            if b == B1 - 1:
+                continue
+            # direction -> fundamental domain (fold_directions) -> texture rows (lookup)
+            cy = c2[k, i] + w * (c2[k, i1] - c2[k, i])
+            cx = c1[k, i] + w * (c1[k, i1] - c1[k, i])
+            if k_sym == 0:  # rot(atan2(cy, cx)) without the trigonometry
+                thf = 0.0
+                h = math.sqrt(cx * cx + cy * cy)
+                if h > 0.0:
+                    cth = cx / h
+                    sth = cy / h
+                else:  # atan2 of signed zeros
+                    th = math.atan2(cy, cx)
+                    cth = math.cos(th)
+                    sth = math.sin(th)
+                m00, m01, m10, m11 = cth, -sth, sth, cth
+            else:
+                th = math.atan2(cy, cx)
+                rr = math.floor((th - mirror_rad) / beta)
+                thf = th - rr * beta
+                ca = math.cos(rr * beta)
+                sa = math.sin(rr * beta)
+                m00, m01, m10, m11 = ca, -sa, sa, ca
+                if has_mirror and thf > ax2:
+                    thf = 2 * ax2 - thf
+                    m00, m01, m10, m11 = (
+                        ca * cr - sa * sr, ca * sr + sa * cr, sa * cr + ca * sr, sa * sr - ca * cr
+                    )  # fmt: skip
+            if m == 1:
+                j0, j1, wt = 0, 0, 0.0
+            else:
+                u = (thf * (180.0 / np.pi) - dom_start) / step
+                if cyclic:
+                    u = u - math.floor(u / m) * m
+                    fu = math.floor(u)
+                    j0 = int(fu) % m
+                    j1 = (j0 + 1) % m
+                    wt = u - fu
+                else:
+                    u = min(max(u, 0.0), m - 1.0)
+                    j0 = min(int(math.floor(u)), m - 2)
+                    j1 = j0 + 1
+                    wt = u - j0
+            j0o[k, b] = j0
+            j1o[k, b] = j1
+            wo[k, b] = wt
+            Mb[b, 0] = m00
+            Mb[b, 1] = m01
+            Mb[b, 2] = m10
+            Mb[b, 3] = m11
+        for b in range(B1 - 1):  # block b's map at both of its ends
+            qs[k, b, 0] = Mb[b, 0] * P0[b] + Mb[b, 2] * P1[b]
+            qs[k, b, 1] = Mb[b, 1] * P0[b] + Mb[b, 3] * P1[b]
+            qe[k, b, 0] = Mb[b, 0] * P0[b + 1] + Mb[b, 2] * P1[b + 1]
+            qe[k, b, 1] = Mb[b, 1] * P0[b + 1] + Mb[b, 3] * P1[b + 1]
 
 
 @dataclass
@@ -253,11 +518,14 @@ def _norm(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.sqrt(a[..., 0] ** 2 + a[..., 1] ** 2 + a[..., 2] ** 2)
 
 
-def _receive(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDArray[np.float64],
+def _receive_reference(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDArray[np.float64],
              *, c0: float, exponent: float, min_distance: float, fade: float,
              layout: Layout | None, fwd: NDArray[np.float64] | None, up: NDArray[np.float64] | None,
              out: NDArray[np.float64], K: int) -> None:  # fmt: skip
-    """Eq. 4 at one receiver moving along ``L (B+1, 3)`` at block times ``tb (B+1,)``."""
+    """Eq. 4 at one receiver moving along ``L (B+1, 3)`` at block times ``tb (B+1,)`` (numpy).
+
+    The reference for :func:`_receive` (per-block work in numpy arrays).
+    """
     S = kin.pos.shape[0]
     tau = np.broadcast_to(tb, (S, tb.size)) - _norm(L[None] - kin.pos[:, :1]) / c0
     for _ in range(4):  # fixed point; contraction = source Mach number
@@ -291,11 +559,113 @@ def _receive(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDA
            np.ascontiguousarray(j1), np.ascontiguousarray(w), np.ascontiguousarray(gain), K)  # fmt: skip
 
 
+def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind | None,
+               dt: float, duration: float) -> Kinematics:  # fmt: skip
+    """Source kinematics and the texture-coordinate recurrence of Eq. 3 (§6).
+
+    The pose spline is evaluated in scipy; everything per source and step
+    runs in one numba pass (:func:`_kin_kernel`), equal to
+    :func:`kinematics_reference` up to rounding.
+    """
+    if motion is None and wind is None:
+        raise ParameterError("give a motion (object moving) or a wind (static object), or both")
+    centres, span, axes, refs = obj.sources()
+    S = centres.shape[0]
+    J = int(math.ceil(duration / dt)) + 3
+    t = np.arange(J) * dt
+    if motion is not None:
+        tm = motion.times
+        tc = np.clip(t, tm[0], tm[-1])
+        moving = ((t >= tm[0]) & (t <= tm[-1])).astype(np.float64)
+        R = quat_to_matrix(motion.quaternions).reshape(-1, 9)
+        spl = CubicSpline(tm, np.concatenate([motion.positions, R], 1), axis=0)
+        v = spl(tc)
+        dv = spl(tc, 1) * moving[:, None]
+        p = np.ascontiguousarray(v[:, :3])
+        dp = np.ascontiguousarray(dv[:, :3])
+        Rt = np.ascontiguousarray(v[:, 3:]).reshape(J, 3, 3)
+        dRt = np.ascontiguousarray(dv[:, 3:]).reshape(J, 3, 3)
+    else:
+        p = np.zeros((J, 3))
+        dp = np.zeros((J, 3))
+        Rt = np.ascontiguousarray(np.broadcast_to(np.eye(3), (J, 3, 3)))
+        dRt = np.zeros((J, 3, 3))
+    uw = np.ascontiguousarray(wind.velocities(S, t)) if wind is not None else np.zeros((1, 1, 3))
+    pos = np.empty((S, J, 3))
+    e1 = np.empty((S, J, 3))
+    e2 = np.empty((S, J, 3))
+    c1 = np.empty((S, J))
+    c2 = np.empty((S, J))
+    a = np.empty((S, J))
+    s = np.empty((S, J))
+    f = np.ascontiguousarray
+    args = (p, dp, Rt, dRt, f(centres, dtype=np.float64), f(axes, dtype=np.float64),
+            f(refs, dtype=np.float64), uw, wind is not None, float(v0), float(dt),
+            pos, e1, e2, c1, c2, a, s)  # fmt: skip
+    _in_parts(lambda k0, k1: _kin_kernel(*args, k0, k1), S)
+    return Kinematics(dt, pos, e1, e2, c1, c2, a, s, span)
+
+
+def _receive(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDArray[np.float64],
+             *, c0: float, exponent: float, min_distance: float, fade: float,
+             layout: Layout | None, fwd: NDArray[np.float64] | None, up: NDArray[np.float64] | None,
+             out: NDArray[np.float64], K: int) -> None:  # fmt: skip
+    """Eq. 4 at one receiver moving along ``L (B+1, 3)`` at block times ``tb (B+1,)``.
+
+    The per-block work (retarded time, interpolations, direction look-up) is
+    one numba pass (:func:`_block_kernel`), then the per-sample :func:`_synth`;
+    equal to :func:`_receive_reference` up to rounding.
+    """
+    S = kin.speed.shape[0]
+    B1 = tb.size
+    B = B1 - 1
+    k_sym, mirror = tex.section.symmetry
+    start, width, cyclic = tex.domain()
+    mono = layout is None or layout.n_channels == 1
+    x = np.empty((0, 0, 3)) if mono else np.empty((S, B1, 3))
+    s = np.empty((S, B1))
+    qs = np.empty((S, B, 2))
+    qe = np.empty((S, B, 2))
+    j0 = np.empty((S, B), dtype=np.int64)
+    j1 = np.empty((S, B), dtype=np.int64)
+    w = np.empty((S, B))
+    f = np.ascontiguousarray
+    block_args = (f(kin.pos), f(kin.e1), f(kin.e2), f(kin.c1), f(kin.c2), f(kin.speed), f(kin.s),
+                  f(kin.span, dtype=np.float64), f(L, dtype=np.float64), f(tb, dtype=np.float64),
+                  float(kin.dt), float(c0), float(exponent), float(min_distance), float(fade),
+                  int(k_sym), mirror is not None, 0.0 if mirror is None else math.radians(mirror),
+                  int(tex.directions_deg.size), float(start), float(width), bool(cyclic),
+                  x, s, qs, qe, j0, j1, w)  # fmt: skip
+    g = f(tex.g)
+    parts = _parts(S)
+    # part 0 accumulates into out, the others into their own buffers (summed at the end)
+    outs = [out] + [np.zeros(out.shape) for _ in parts[1:]]
+    gain = np.ones((0, 0, 1))  # read only for several channels
+
+    def synth(i: int) -> None:
+        k0, k1 = parts[i]
+        _synth(outs[i], g, tex.lengths, float(tex.rate), s, qs, qe, j0, j1, w, gain, K, k0, k1)
+
+    def block(i: int) -> None:
+        _block_kernel(*block_args, *parts[i])
+        if mono:
+            synth(i)
+
+    _run(block, len(parts))
+    if not mono:
+        az = listener_frame_azimuth((x - L[None]).reshape(-1, 3), np.repeat(fwd[None], S, 0).reshape(-1, 3),
+                                    np.repeat(up[None], S, 0).reshape(-1, 3))  # fmt: skip
+        gain = np.ascontiguousarray(vbap_gains(layout, az).T.reshape(S, B1, layout.n_channels))
+        _run(synth, len(parts))
+    for o in outs[1:]:
+        out += o
+
+
 def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion: Motion | None = None,
            wind: Wind | None = None, rate: int = 44100, layout: str | Layout = "mono",
            exponent: str | float = "physical", duration: float | None = None, c0: float = C0,
            stereo: str = "ears", ear_distance: float = 0.18, min_distance: float = 0.05,
-           fade: float = 0.01, block: int = 32) -> Rendered:  # fmt: skip
+           fade: float = 0.01, block: int = 32, engine: str = "numba") -> Rendered:  # fmt: skip
     """Render the aerodynamic sound of ``obj`` heard along ``path`` (§6, Eqs. 3–4).
 
     Parameters
@@ -320,6 +690,8 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
         Seconds to render (default: the path's duration).
     min_distance : float
         Distances are clamped here (m): a listener at a source gets no 1/0.
+    engine : "numba" (default: fused per-block kernels) or "numpy" (the
+        reference path: per-block work in numpy arrays); equal up to rounding.
 
     Returns
     -------
@@ -343,9 +715,14 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
     dur = path.duration if duration is None else float(duration)
     if not (math.isfinite(dur) and dur > 0):
         raise ParameterError(f"duration must be > 0 s, got {dur!r}")
+    if engine not in ("numba", "numpy"):
+        raise ParameterError(f"engine must be 'numba' or 'numpy', got {engine!r}")
+    kin_fn, receive = (
+        (kinematics, _receive) if engine == "numba" else (kinematics_reference, _receive_reference)
+    )
     K = int(block)
     n_out = int(round(dur * rate))
-    kin = kinematics(obj, texture.speed, motion=motion, wind=wind, dt=K / rate, duration=dur)
+    kin = kin_fn(obj, texture.speed, motion=motion, wind=wind, dt=K / rate, duration=dur)
     B = int(math.ceil(n_out / K))
     tb = np.arange(B + 1) * (K / rate)
     t_path = path.times[0] + tb
@@ -356,13 +733,13 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
         fwd, up = path.orientation_at(t_path)
         left = np.cross(up, fwd)
         for ch, sign in ((0, 1.0), (1, -1.0)):
-            _receive(kin, texture, L + sign * 0.5 * ear_distance * left, tb, layout=None, fwd=None,
+            receive(kin, texture, L + sign * 0.5 * ear_distance * left, tb, layout=None, fwd=None,
                      up=None, out=out[ch : ch + 1], **common)  # fmt: skip
     elif lay.n_channels == 1:
-        _receive(kin, texture, L, tb, layout=None, fwd=None, up=None, out=out, **common)
+        receive(kin, texture, L, tb, layout=None, fwd=None, up=None, out=out, **common)
     else:
         fwd, up = path.orientation_at(t_path)
-        _receive(kin, texture, L, tb, layout=lay, fwd=fwd, up=up, out=out, **common)
+        receive(kin, texture, L, tb, layout=lay, fwd=fwd, up=up, out=out, **common)
     meta = {"n_sources": int(kin.pos.shape[0]), "exponent": e, "texture_speed": texture.speed,
             "max_speed_mps": float(kin.speed.max() * texture.speed)}  # fmt: skip
     return Rendered(out, int(rate), lay, meta)
