@@ -389,3 +389,90 @@ def test_cli_dataset_chunked_and_detect_on_dask(tmp_path: Path, monkeypatch: pyt
     assert code == 2
     assert "no Dask scheduler answered at tcp://127.0.0.1:9" in capsys.readouterr().err
     assert not (tmp_path / "x.h5").exists()
+
+
+# ----------------------------------------------------- bounded client memory
+def test_client_streams_chunks_to_the_output_file_without_holding_all_sources(
+    tmp_path: Path,
+    explosion: TimeVolume,
+    explosion_ref: SourceSeries,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import gc
+
+    import h5py
+
+    from auralize.io.sources_file import save_sources_h5
+    from auralize.scale import H5Frames
+    from auralize.sources import SourceFrame
+
+    def never(*_a: object, **_k: object) -> None:
+        raise AssertionError("the client loaded every step's sources")
+
+    monkeypatch.setattr(StateStore, "load_frames", never)
+
+    def alive() -> int:
+        gc.collect()
+        return sum(1 for o in gc.get_objects() if isinstance(o, SourceFrame))
+
+    base = alive()
+    held: list[int] = []
+    out = tmp_path / "s.h5"
+    got = detect_distributed(explosion, mapping="paper-density",
+                             thresholds=Thresholds(*explosion_ref.thresholds), output=out,
+                             chunk_steps=1, slab_planes=5, on_chunk=lambda _r: held.append(alive()),
+                             log=None)  # fmt: skip
+    slabs, chunks = len(scale(got)["slabs"]), scale(got)["chunks"]
+    assert slabs >= 2 and chunks == 7 and len(held) == chunks
+    # slab pieces wait on disk: at most one chunk's frames (7 steps × 5 pieces in all)
+    # are alive in the client, whatever order the tasks finish in
+    assert max(held) - base <= slabs + 1
+    assert not list(StateStore(out).dir.glob("piece_*"))
+    assert isinstance(got.frames, H5Frames) and alive() == base
+    assert_same_sources(got, explosion_ref)
+    # the streamed file has the same content as the one written from the whole series
+    ref = tmp_path / "ref.h5"
+    save_sources_h5(replace_frames(got, list(got.frames)), ref)
+    with h5py.File(out, "r") as a, h5py.File(ref, "r") as b:
+        assert sorted(a) == sorted(b) and dict(a.attrs).keys() == dict(b.attrs).keys()
+        for k in b.attrs:
+            assert np.array_equal(a.attrs[k], b.attrs[k]), k
+        for k in b:
+            assert a[k].dtype == b[k].dtype and a[k].shape == b[k].shape, k
+            assert np.array_equal(a[k][()], b[k][()]), k
+    assert got.frames[-1].index.size == got.frames[6].index.size
+    assert [f.index.size for f in got.frames[2:4]] == [
+        f.index.size for f in explosion_ref.frames[2:4]
+    ]
+
+
+def replace_frames(series: SourceSeries, frames: list[Any]) -> SourceSeries:
+    from dataclasses import replace
+
+    return replace(series, frames=frames)
+
+
+def test_resume_with_slab_pieces_of_an_unfinished_chunk_left_over(
+    tmp_path: Path, explosion: TimeVolume, explosion_ref: SourceSeries
+) -> None:
+    out = tmp_path / "s.h5"
+    thr = Thresholds(*explosion_ref.thresholds)
+    kw: dict[str, Any] = {"mapping": "paper-density", "thresholds": thr, "output": out,
+                          "chunk_steps": 2, "slab_planes": 5, "log": None}  # fmt: skip
+
+    def stop(_steps: range) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        detect_distributed(explosion, on_chunk=stop, **kw)
+    store = StateStore(out)
+    done = store.done_steps()
+    assert len(done) == 2 and not out.exists()
+    # a slab of a chunk that never completed (as after a crash)
+    a = min(set(range(7)) - done)
+    store.write_piece(a, 0, explosion_ref.frames[a : a + 1])
+    got = detect_distributed(explosion, **kw)
+    assert scale(got)["resumed_steps"] == 2
+    assert_same_sources(got, explosion_ref)
+    assert_same_sources(load_sources_h5(out), explosion_ref)
+    assert not store.dir.exists()

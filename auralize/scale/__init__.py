@@ -27,7 +27,13 @@ from auralize.scale.chunked import (
     to_dask,
     volume_from_dask,
 )
-from auralize.scale.detect import StateStore, detect_distributed, plan_chunks, plan_slabs
+from auralize.scale.detect import (
+    H5Frames,
+    StateStore,
+    detect_distributed,
+    plan_chunks,
+    plan_slabs,
+)
 from auralize.scale.runner import SCHEDULERS, RunError, Runner, SchedulerError
 from auralize.scale.synth import render_distributed
 
@@ -35,6 +41,7 @@ __all__ = [
     "SCHEDULERS",
     "AnalyticExplosion",
     "DaskFrames",
+    "H5Frames",
     "RunError",
     "Runner",
     "SchedulerError",

@@ -32,6 +32,15 @@ resolved thresholds and the mapping's statistics.  A run that is interrupted
 there when started again with the same settings: finished steps are not
 recomputed and the preparation passes are not repeated.  When all steps are
 done, ``OUTPUT`` is written (atomically) and the store removed.
+
+**Bounded client memory.**  The client never holds more than the chunks
+whose slabs are still arriving: a finished chunk goes to its ``.npz`` part
+at once, and an ``.h5`` ``OUTPUT`` is assembled from the parts on disk one
+part at a time (same datasets, dtypes and attributes as
+:func:`auralize.io.sources_file.save_sources_h5` writes for the serial
+result).  The returned series then reads its frames lazily from ``OUTPUT``
+(:class:`H5Frames`).  Without ``output`` every step's sources are returned
+in memory; a ``.pvd`` ``OUTPUT`` is also written from frames in memory.
 """
 
 from __future__ import annotations
@@ -44,8 +53,8 @@ import os
 import resource
 import shutil
 import time
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -264,19 +273,110 @@ class StateStore:
     def write_chunk(self, a: int, frames: list[SourceFrame]) -> None:
         """Save the sources of steps ``a … a+len(frames)-1`` (atomically)."""
         b = a + len(frames)
-        off = np.zeros(len(frames) + 1, dtype=np.int64)
-        off[1:] = np.cumsum([f.index.size for f in frames])
-        with atomic_path(self.dir / f"steps_{a:07d}-{b:07d}.npz", suffix=".part") as tmp:
-            with open(tmp, "wb") as fh:
-                np.savez(
-                    fh, offsets=off,
-                    index=np.concatenate([f.index for f in frames]).astype(np.int64),
-                    kind=np.concatenate([f.kind for f in frames]).astype(np.int8),
-                    strength=np.concatenate([f.strength for f in frames]).astype(np.float64),
-                    radius=np.concatenate([f.radius for f in frames]).astype(np.float64),
-                )  # fmt: skip
-                fh.flush()
-                os.fsync(fh.fileno())
+        _save_frames(self.dir / f"steps_{a:07d}-{b:07d}.npz", frames, sync=True)
+
+    def _piece_path(self, a: int, b: int, z0: int) -> Path:
+        return self.dir / f"piece_{a:07d}-{b:07d}_{z0:07d}.npz"
+
+    def write_piece(self, a: int, z0: int, frames: list[SourceFrame]) -> None:
+        """Park one slab's sources of steps ``a …`` until the chunk's other slabs are in.
+
+        Pieces are not a "done" record: a chunk missing a slab is recomputed.
+        """
+        self.dir.mkdir(parents=True, exist_ok=True)
+        _save_frames(self._piece_path(a, a + len(frames), z0), frames, sync=False)
+
+    def take_piece(self, a: int, b: int, z0: int) -> list[SourceFrame]:
+        """Read back (and delete) a piece saved by :meth:`write_piece`."""
+        f = self._piece_path(a, b, z0)
+        off, idx, kind, strength, radius = self._read_part(
+            f, "offsets", "index", "kind", "strength", "radius"
+        )
+        f.unlink()
+        return [SourceFrame(index=idx[i:j], kind=kind[i:j], strength=strength[i:j],
+                            radius=radius[i:j]) for i, j in itertools.pairwise(off)]  # fmt: skip
+
+    def clear_pieces(self) -> None:
+        """Remove slab pieces of chunks an interrupted run did not finish."""
+        for f in self.dir.glob("piece_*.npz"):
+            f.unlink(missing_ok=True)
+
+    def _chunk_start(self, f: Path) -> int:
+        return int(f.stem.split("_")[1].split("-")[0])
+
+    def _read_part(self, f: Path, *names: str) -> list[NDArray[Any]]:
+        try:
+            with np.load(f, allow_pickle=False) as z:
+                return [z[name] for name in names]
+        except (OSError, ValueError, KeyError) as exc:
+            raise FormatError(f"{f}: unreadable saved chunk ({exc}); delete it to recompute "
+                              f"those steps") from None  # fmt: skip
+
+    def step_offsets(self, n_steps: int) -> NDArray[np.int64]:
+        """``(T+1,)`` row offsets of every step in the concatenated sources (reads counts only)."""
+        counts = np.full(n_steps, -1, dtype=np.int64)
+        for f in self._chunk_files():
+            a = self._chunk_start(f)
+            (off,) = self._read_part(f, "offsets")
+            counts[a : a + off.size - 1] = np.diff(off)
+        missing = np.flatnonzero(counts < 0).tolist()
+        if missing:
+            raise FormatError(f"{self.dir}: steps {missing[:10]} are not saved")
+        offsets = np.zeros(n_steps + 1, dtype=np.int64)
+        offsets[1:] = np.cumsum(counts)
+        return offsets
+
+    def write_h5(self, head: SourceSeries, path: str | os.PathLike[str]) -> int:
+        """Write the saved chunks as a sources file, one part in memory at a time.
+
+        ``head`` gives the times, grid, thresholds and meta (its frames are
+        ignored).  The file holds the same datasets, dtypes and attributes as
+        :func:`~auralize.io.sources_file.save_sources_h5` writes for the
+        whole series.  Returns the largest number of sources held at once.
+        """
+        import h5py
+
+        from auralize.io.sources_file import FORMAT, VERSION
+
+        n_steps = head.times.size
+        offsets = self.step_offsets(n_steps)
+        total = int(offsets[-1])
+        held = 0
+        with atomic_path(path, suffix=".part.h5") as tmp, h5py.File(tmp, "w") as h:
+            h.attrs["auralize_format"] = FORMAT
+            h.attrs["version"] = VERSION
+            h.attrs["origin"] = head.origin
+            h.attrs["spacing"] = head.spacing
+            h.attrs["dims"] = np.asarray(head.dims)
+            h.attrs["thresholds"] = head.thresholds
+            h.attrs["meta"] = json.dumps(head.meta, default=str)
+            h["time"] = head.times
+            h["offsets"] = offsets
+            ds = {
+                "index": h.create_dataset("index", shape=(total,), dtype=np.int64),
+                "position": h.create_dataset("position", shape=(total, 3), dtype=np.float64),
+                "kind": h.create_dataset("kind", shape=(total,), dtype=np.int8),
+                "strength": h.create_dataset("strength", shape=(total,), dtype=np.float64),
+                "radius": h.create_dataset("radius", shape=(total,), dtype=np.float64),
+            }
+            for f in self._chunk_files():
+                a = self._chunk_start(f)
+                off, idx, kind, strength, radius = self._read_part(
+                    f, "offsets", "index", "kind", "strength", "radius"
+                )
+                r0, r1 = int(offsets[a]), int(offsets[a + off.size - 1])
+                if r1 - r0 != idx.size:
+                    raise FormatError(f"{f}: saved chunk holds {idx.size} sources, its offsets "
+                                      f"say {r1 - r0}; delete it to recompute those steps")  # fmt: skip
+                held = max(held, idx.size)
+                if r1 == r0:
+                    continue
+                ds["index"][r0:r1] = idx.astype(np.int64)
+                ds["position"][r0:r1] = head.positions(idx.astype(np.int64))
+                ds["kind"][r0:r1] = kind.astype(np.int8)
+                ds["strength"][r0:r1] = strength.astype(np.float64)
+                ds["radius"][r0:r1] = radius.astype(np.float64)
+        return held
 
     def load_frames(self, n_steps: int) -> list[SourceFrame]:
         """Every step's sources; raises if a step is missing."""
@@ -298,6 +398,64 @@ class StateStore:
         if missing:
             raise FormatError(f"{self.dir}: steps {missing[:10]} are not saved")
         return frames  # type: ignore[return-value]
+
+
+class H5Frames(Sequence[SourceFrame]):
+    """The frames of a sources HDF5 file, read one step at a time when asked for.
+
+    Stands for ``SourceSeries.frames`` so a detection written to a file need
+    not be held in memory; ``frames[n]`` and iteration read only those rows.
+    """
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        import h5py
+
+        self.path = Path(path)
+        with h5py.File(self.path, "r") as h:
+            self.offsets = np.asarray(h["offsets"][()], dtype=np.int64)
+
+    def __len__(self) -> int:
+        return int(self.offsets.size - 1)
+
+    def _read(self, h: Any, n: int) -> SourceFrame:
+        s = slice(int(self.offsets[n]), int(self.offsets[n + 1]))
+        return SourceFrame(index=h["index"][s], kind=h["kind"][s], strength=h["strength"][s],
+                           radius=h["radius"][s])  # fmt: skip
+
+    def __getitem__(self, n: Any) -> Any:
+        import h5py
+
+        if isinstance(n, slice):
+            return [self[k] for k in range(*n.indices(len(self)))]
+        k = int(n) + len(self) if int(n) < 0 else int(n)
+        if not 0 <= k < len(self):
+            raise IndexError(f"step {n} out of range for {len(self)} steps")
+        with h5py.File(self.path, "r") as h:
+            return self._read(h, k)
+
+    def __iter__(self) -> Iterator[SourceFrame]:
+        import h5py
+
+        with h5py.File(self.path, "r") as h:
+            for n in range(len(self)):
+                yield self._read(h, n)
+
+
+def _save_frames(path: Path, frames: list[SourceFrame], *, sync: bool) -> None:
+    """Consecutive steps' sources as one ``.npz`` (offsets + concatenated rows), atomically."""
+    off = np.zeros(len(frames) + 1, dtype=np.int64)
+    off[1:] = np.cumsum([f.index.size for f in frames])
+    with atomic_path(path, suffix=".part") as tmp, open(tmp, "wb") as fh:
+        np.savez(
+            fh, offsets=off,
+            index=np.concatenate([f.index for f in frames]).astype(np.int64),
+            kind=np.concatenate([f.kind for f in frames]).astype(np.int8),
+            strength=np.concatenate([f.strength for f in frames]).astype(np.float64),
+            radius=np.concatenate([f.radius for f in frames]).astype(np.float64),
+        )  # fmt: skip
+        if sync:
+            fh.flush()
+            os.fsync(fh.fileno())
 
 
 def _jsonable(obj: Any) -> Any:
@@ -399,7 +557,9 @@ def detect_distributed(
     output : path-like, optional
         ``.h5``/``.hdf5`` or ``.pvd`` sources file, written when all steps are
         done; finished chunks are kept in ``OUTPUT.parts/`` until then, and a
-        new run with the same settings resumes from them.
+        new run with the same settings resumes from them.  An HDF5 output is
+        assembled from those parts one at a time, so the client's memory
+        does not grow with the number of sources.
     runner : Runner, optional
         An open :class:`~auralize.scale.runner.Runner`; otherwise one is made
         from ``scheduler``, ``address`` and ``workers`` and closed afterwards.
@@ -417,7 +577,9 @@ def detect_distributed(
     Returns
     -------
     SourceSeries
-        Bit-identical frames to the serial detection; ``meta["scale"]``
+        Bit-identical frames to the serial detection (with an HDF5
+        ``output``, an :class:`H5Frames` reading them from it on demand);
+        ``meta["scale"]``
         tells which steps were computed by this call, the number of tasks,
         the slabs and the peak memory of the processes that ran them.
 
@@ -490,6 +652,8 @@ def detect_distributed(
                      "source": volume.source}  # fmt: skip
             if store is not None:
                 store.write_manifest(state)
+        if store is not None:
+            store.clear_pieces()
         done = store.done_steps() if store is not None else set()
         todo = [n for n in range(volume.n_steps) if n not in done]
         chunks = plan_chunks(todo, chunk_steps)
@@ -506,18 +670,29 @@ def detect_distributed(
             pid, peak_rss = res["rss"]
             rss[pid] = max(rss.get(pid, 0), peak_rss)
             task_seconds[0] += res["seconds"]
-            parts = pending.setdefault(res["a"], {})
-            parts[res["slab"]] = res["frames"]
+            a, b = res["a"], res["b"]
+            parts = pending.setdefault(a, {})
+            # with a store, a slab's sources wait on disk for the chunk's other slabs
+            # (tasks finish in any order), so the client holds at most one chunk
+            spill = store is not None and len(slabs) > 1
+            if spill:
+                store.write_piece(a, res["slab"].z0, res["frames"])  # type: ignore[union-attr]
+            parts[res["slab"]] = None if spill else res["frames"]
+            del res
             if len(parts) < len(slabs):
                 return
-            del pending[res["a"]]
-            merged = [_merge([parts[s][k] for s in slabs]) for k in range(res["b"] - res["a"])]
+            del pending[a]
+            if spill:
+                parts = {s: store.take_piece(a, b, s.z0) for s in slabs}  # type: ignore[union-attr]
+            merged = [_merge([parts[s][k] for s in slabs]) for k in range(b - a)]  # type: ignore[index]
+            del parts
             if store is not None:
-                store.write_chunk(res["a"], merged)
+                store.write_chunk(a, merged)
             else:
-                frames[res["a"] : res["b"]] = merged
+                frames[a:b] = merged
+            del merged
             if on_chunk is not None:
-                on_chunk(range(res["a"], res["b"]))
+                on_chunk(range(a, b))
 
         run_.run(calls, got)
         elapsed = time.perf_counter() - t0
@@ -525,10 +700,11 @@ def detect_distributed(
     finally:
         if own:
             run_.close()
-    if store is not None:
+    streamed = out is not None and store is not None and out.suffix.lower() != ".pvd"
+    if store is not None and not streamed:
         frames = store.load_frames(volume.n_steps)  # type: ignore[assignment]
     series = SourceSeries(
-        frames=frames, times=volume.times.copy(), origin=volume.origin.copy(),  # type: ignore[arg-type]
+        frames=[] if streamed else frames, times=volume.times.copy(), origin=volume.origin.copy(),  # type: ignore[arg-type]
         spacing=volume.spacing.copy(), dims=volume.dims, thresholds=np.asarray(thr),
         meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
               "peak": None if peak is None else np.asarray(peak).tolist(),
@@ -540,10 +716,15 @@ def detect_distributed(
                         "task_seconds": task_seconds[0],
                         "peak_rss_per_process": sorted(rss.values(), reverse=True)}},
     )  # fmt: skip
+    if streamed:
+        assert out is not None and store is not None
+        store.write_h5(series, out)
+        store.clear()
+        return replace(series, frames=H5Frames(out))  # type: ignore[arg-type]
     if out is not None and store is not None:
-        from auralize.io.sources_file import save_sources_h5, save_sources_pvd
+        from auralize.io.sources_file import save_sources_pvd
 
-        (save_sources_pvd if out.suffix.lower() == ".pvd" else save_sources_h5)(series, out)
+        save_sources_pvd(series, out)
         store.clear()
     return series
 

@@ -214,6 +214,7 @@ class Runner:
         tasks = [dask.delayed(fn, pure=False)(*args) for fn, args in calls]
         index = {t.key: i for i, t in enumerate(tasks)}
         # a tiny task after each one lets Dask free a result once it was delivered
+        # (its input is replaced by None as soon as the result was handed over)
         tails = [dask.delayed(_nothing, pure=False)(t) for t in tasks]
 
         class _Deliver(Callback):
@@ -223,6 +224,12 @@ class Runner:
                 i = index.get(key)
                 if i is not None:
                     on_result(i, result)
+                    # delivered: do not keep it in the scheduler's cache until its tail
+                    # runs (Dask's local order may run many tasks first), so the
+                    # results held here stay bounded by the tasks in flight
+                    cache = state.get("cache") if isinstance(state, dict) else None
+                    if cache is not None and key in cache:
+                        cache[key] = None
 
         kw: dict[str, Any] = {"scheduler": self.scheduler}
         if self.scheduler != "sync":
