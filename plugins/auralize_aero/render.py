@@ -205,7 +205,9 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
     Sources ``k0 <= l < k1`` only (``k1 = -1``: all).
 
     The texture position advances by a constant step within a block and
-    wraps around the loop length (the texture is periodic, §6).
+    wraps around the loop length (the texture is periodic, §6).  Each block
+    is summed over the sources in a local buffer (same order of additions)
+    and written back once.
     """
     C, n_out = out.shape
     S, B = j0.shape
@@ -213,10 +215,15 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
         k1 = S
     inv = 1.0 / K
     act = np.empty(C, dtype=np.int64)
+    acc = np.empty(K)
     for b in range(B):
         n0 = b * K
         if n0 >= n_out:
             continue
+        m = min(K, n_out - n0)
+        if C == 1:
+            for i in range(m):
+                acc[i] = out[0, n0 + i]
         for k in range(k0, k1):
             qa0 = qs[k, b, 0]
             qa1 = qs[k, b, 1]
@@ -229,11 +236,12 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
             w = wj[k, b]
             Na = lengths[ja]
             Nb = lengths[jb]
+            ta = tex[ja]
+            tb = tex[jb]
             s0 = s[k, b] * tex_rate
             ds = (s[k, b + 1] - s[k, b]) * tex_rate * inv
             pa = s0 - math.floor(s0 / Na) * Na
             pb = s0 - math.floor(s0 / Nb) * Nb
-            m = min(K, n_out - n0)
             n_act = 0
             if C > 1:  # channels silent at both block ends only ever add 0.0: skip them
                 for c in range(C):
@@ -246,23 +254,23 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
                     ia = Na - 1
                 fa = pa - ia
                 ia1 = ia + 1 if ia + 1 < Na else 0
-                g0 = tex[ja, ia, 0]
-                g1 = tex[ja, ia, 1]
-                gx = g0 + fa * (tex[ja, ia1, 0] - g0)
-                gy = g1 + fa * (tex[ja, ia1, 1] - g1)
+                g0 = ta[ia, 0]
+                g1 = ta[ia, 1]
+                gx = g0 + fa * (ta[ia1, 0] - g0)
+                gy = g1 + fa * (ta[ia1, 1] - g1)
                 if w > 0.0:
                     ib = int(pb)
                     if ib >= Nb:
                         ib = Nb - 1
                     fb = pb - ib
                     ib1 = ib + 1 if ib + 1 < Nb else 0
-                    h0 = tex[jb, ib, 0]
-                    h1 = tex[jb, ib, 1]
-                    gx += w * (h0 + fb * (tex[jb, ib1, 0] - h0) - gx)
-                    gy += w * (h1 + fb * (tex[jb, ib1, 1] - h1) - gy)
+                    h0 = tb[ib, 0]
+                    h1 = tb[ib, 1]
+                    gx += w * (h0 + fb * (tb[ib1, 0] - h0) - gx)
+                    gy += w * (h1 + fb * (tb[ib1, 1] - h1) - gy)
                 p = (qa0 + dq0 * i) * gx + (qa1 + dq1 * i) * gy
                 if C == 1:
-                    out[0, n0 + i] += p
+                    acc[i] += p
                 else:
                     fr = i * inv
                     for ci in range(n_act):
@@ -280,6 +288,9 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
                     pb -= Nb
                 elif pb < 0.0:
                     pb += Nb
+        if C == 1:
+            for i in range(m):
+                out[0, n0 + i] = acc[i]
 
 
 @numba.njit(**_NJIT)
