@@ -373,20 +373,65 @@ def _lerp_index(x: float, J: int) -> tuple[int, float]:
 
 
 @numba.njit(**_NJIT)
+def _vbap_into(g: NDArray[np.float64], phi: float, az: NDArray[np.float64], ch: NDArray[np.int64],
+               fold_front: bool) -> None:  # fmt: skip
+    """Pairwise 2-D VBAP gains of one azimuth added into ``g (C,)``: the scalar form of
+    :func:`auralize.spatial.vbap_gains` (same law, same operations)."""
+    n = az.size
+    if n == 0:
+        g[0] += 1.0
+        return
+    if fold_front:
+        phi = math.atan2(math.sin(phi), abs(math.cos(phi)))
+    phi = math.atan2(math.sin(phi), math.cos(phi))
+    i0 = np.searchsorted(az, phi, side="right") - 1
+    if i0 < 0:
+        i0 = n - 1
+    i1 = (i0 + 1) % n
+    two_pi = 2 * np.pi
+    span = az[i1] - az[i0]
+    span = span - math.floor(span / two_pi) * two_pi
+    if span == 0:
+        span = two_pi
+    rel = phi - az[i0]
+    rel = rel - math.floor(rel / two_pi) * two_pi
+    if span > np.pi:
+        rel = 0.0 if rel < 0.5 * span else span
+    else:
+        rel = min(rel, span)
+    s = math.sin(span)
+    if abs(s) < 1e-12:
+        g0 = math.cos(rel * np.pi / (2 * span))
+        g1 = math.sin(rel * np.pi / (2 * span))
+    else:
+        g0 = math.sin(span - rel) / s
+        g1 = math.sin(rel) / s
+    g0 = max(g0, 0.0)
+    g1 = max(g1, 0.0)
+    norm = math.hypot(g0, g1)
+    if not norm > 0:
+        norm = 1.0
+    g[ch[i0]] += g0 / norm
+    g[ch[i1]] += g1 / norm
+
+
+@numba.njit(**_NJIT)
 def _block_kernel(pos: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray[np.float64],
                   c1: NDArray[np.float64], c2: NDArray[np.float64], speed: NDArray[np.float64],
                   stex: NDArray[np.float64], span: NDArray[np.float64], L: NDArray[np.float64],
                   tb: NDArray[np.float64], dt: float, c0: float, exponent: float,
                   min_distance: float, fade: float, k_sym: int, has_mirror: bool, mirror_rad: float,
                   m: int, dom_start: float, dom_width: float, cyclic: bool,
-                  x_out: NDArray[np.float64], s_out: NDArray[np.float64], qs: NDArray[np.float64],
+                  fwd: NDArray[np.float64], left: NDArray[np.float64], spk_az: NDArray[np.float64],
+                  spk_ch: NDArray[np.int64], fold_front: bool, gain: NDArray[np.float64],
+                  s_out: NDArray[np.float64], qs: NDArray[np.float64],
                   qe: NDArray[np.float64], j0o: NDArray[np.int64], j1o: NDArray[np.int64],
                   wo: NDArray[np.float64], k0: int, k1: int) -> None:  # fmt: skip
     """The per-block work of :func:`_receive_reference` fused: retarded time, interpolated
     kinematics, amplitude, direction folding and texture look-up (Eq. 4, §7.3)."""
     J = speed.shape[1]
     B1 = tb.size
-    store_x = x_out.shape[0] > 0  # source positions are kept for panning only
+    pan = gain.shape[0] > 0  # panning gains (several channels) from the source directions
     P0 = np.empty(B1)
     P1 = np.empty(B1)
     Mb = np.empty((B1, 4))
@@ -428,10 +473,13 @@ def _block_kernel(pos: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray
             dx = L[b, 0] - xx
             dy = L[b, 1] - xy
             dz = L[b, 2] - xz
-            if store_x:
-                x_out[k, b, 0] = xx
-                x_out[k, b, 1] = xy
-                x_out[k, b, 2] = xz
+            if pan:  # azimuth of x - L in the listener frame (listener_frame_azimuth)
+                phi = math.atan2(
+                    -dx * left[b, 0] - dy * left[b, 1] - dz * left[b, 2],
+                    -dx * fwd[b, 0] - dy * fwd[b, 1] - dz * fwd[b, 2],
+                )
+                gain[k, b, :] = 0.0
+                _vbap_into(gain[k, b], phi, spk_az, spk_ch, fold_front)
             r = max(math.sqrt(dx * dx + dy * dy + dz * dz), min_distance)
             ux = dx / r
             uy = dy / r
@@ -633,7 +681,16 @@ def _receive(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDA
     k_sym, mirror = tex.section.symmetry
     start, width, cyclic = tex.domain()
     mono = layout is None or layout.n_channels == 1
-    x = np.empty((0, 0, 3)) if mono else np.empty((S, B1, 3))
+    if mono:
+        fw = lf = np.zeros((0, 3))
+        spk_az, spk_ch, fold = np.zeros(0), np.zeros(0, dtype=np.int64), False
+        gain = np.zeros((0, 0, 1))  # read only for several channels
+    else:
+        fw = np.ascontiguousarray(fwd, dtype=np.float64)
+        lf = np.ascontiguousarray(np.cross(up, fwd), dtype=np.float64)
+        spk_az, spk_ch = layout.panning_arrays()
+        fold = bool(layout.fold_front)
+        gain = np.empty((S, B1, layout.n_channels))
     s = np.empty((S, B1))
     qs = np.empty((S, B, 2))
     qe = np.empty((S, B, 2))
@@ -646,28 +703,19 @@ def _receive(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDA
                   float(kin.dt), float(c0), float(exponent), float(min_distance), float(fade),
                   int(k_sym), mirror is not None, 0.0 if mirror is None else math.radians(mirror),
                   int(tex.directions_deg.size), float(start), float(width), bool(cyclic),
-                  x, s, qs, qe, j0, j1, w)  # fmt: skip
+                  fw, lf, f(spk_az, dtype=np.float64), f(spk_ch, dtype=np.int64), fold, gain,
+                  s, qs, qe, j0, j1, w)  # fmt: skip
     g = f(tex.g)
     parts = _parts(S)
     # part 0 accumulates into out, the others into their own buffers (summed at the end)
     outs = [out] + [np.zeros(out.shape) for _ in parts[1:]]
-    gain = np.ones((0, 0, 1))  # read only for several channels
 
-    def synth(i: int) -> None:
+    def part(i: int) -> None:
         k0, k1 = parts[i]
+        _block_kernel(*block_args, k0, k1)
         _synth(outs[i], g, tex.lengths, float(tex.rate), s, qs, qe, j0, j1, w, gain, K, k0, k1)
 
-    def block(i: int) -> None:
-        _block_kernel(*block_args, *parts[i])
-        if mono:
-            synth(i)
-
-    _run(block, len(parts))
-    if not mono:
-        az = listener_frame_azimuth((x - L[None]).reshape(-1, 3), np.repeat(fwd[None], S, 0).reshape(-1, 3),
-                                    np.repeat(up[None], S, 0).reshape(-1, 3))  # fmt: skip
-        gain = np.ascontiguousarray(vbap_gains(layout, az).T.reshape(S, B1, layout.n_channels))
-        _run(synth, len(parts))
+    _run(part, len(parts))
     for o in outs[1:]:
         out += o
 

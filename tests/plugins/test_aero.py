@@ -352,8 +352,11 @@ def _synthetic_texture(section, m: int, rate: float = 20000.0) -> SoundTexture: 
                         np.full(m, 0.2), {})  # fmt: skip
 
 
-@pytest.mark.parametrize("layout", ["mono", "ring8", "stereo"])
-def test_fused_kernels_equal_numpy_reference(tex: SoundTexture, layout: str) -> None:
+@pytest.mark.parametrize(
+    ("layout", "stereo"),
+    [("mono", "ears"), ("ring8", "ears"), ("stereo", "ears"), ("stereo", "pan"), ("5.1", "ears")],
+)
+def test_fused_kernels_equal_numpy_reference(tex: SoundTexture, layout: str, stereo: str) -> None:
     """The numba per-block kernels reproduce the numpy reference path to rounding."""
     chiral = make_polygon(np.array([[1, 0], [0, 1], [-1, 0.3], [-0.2, -1], [1, 0]]) * 0.005)
     cases = [
@@ -366,8 +369,8 @@ def test_fused_kernels_equal_numpy_reference(tex: SoundTexture, layout: str) -> 
     ]  # fmt: skip
     path = ListenerPath.point((0.3, 1.0, 0.2), duration=0.4)
     for t, obj, kw in cases:
-        fast = render(t, obj, path, layout=layout, **kw).audio
-        ref = render(t, obj, path, layout=layout, engine="numpy", **kw).audio
+        fast = render(t, obj, path, layout=layout, stereo=stereo, **kw).audio
+        ref = render(t, obj, path, layout=layout, stereo=stereo, engine="numpy", **kw).audio
         assert np.abs(ref).max() > 0
         np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
     with pytest.raises(ParameterError):
