@@ -20,9 +20,13 @@ For every point source l (:meth:`AeroObject.sources`):
   paper's "object static at t = 0" start.
 
 Smooth quantities (retarded time, distances, projections, texture
-coordinate, panning gains) are evaluated every ``block`` samples in numpy
-and interpolated linearly; the per-sample texture look-up and sum is a
-numba loop.  Stereo uses two receivers at the ears (§6); other layouts pan
+coordinate, panning gains) are evaluated every ``block`` samples and
+interpolated linearly; the per-sample texture look-up and sum is a numba
+loop.  The default engine does the per-step kinematics and the per-block
+work in fused numba kernels (:func:`_kin_kernel`, :func:`_block_kernel`),
+with the sources split over up to two threads; ``engine="numpy"`` runs the
+reference numpy path (:func:`kinematics_reference`,
+:func:`_receive_reference`), equal up to rounding.  Stereo uses two receivers at the ears (§6); other layouts pan
 each source from its direction with the output layer's VBAP
 (:func:`auralize.spatial.vbap_gains`).
 """
@@ -216,6 +220,7 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
     inv = 1.0 / K
     act = np.empty(C, dtype=np.int64)
     acc = np.empty(K)
+    pbuf = np.empty(K)
     for b in range(B):
         n0 = b * K
         if n0 >= n_out:
@@ -248,17 +253,17 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
                     if gain[k, b, c] != 0.0 or gain[k, b + 1, c] != 0.0:
                         act[n_act] = c
                         n_act += 1
-            for i in range(m):
-                ia = int(pa)
-                if ia >= Na:
-                    ia = Na - 1
-                fa = pa - ia
-                ia1 = ia + 1 if ia + 1 < Na else 0
-                g0 = ta[ia, 0]
-                g1 = ta[ia, 1]
-                gx = g0 + fa * (ta[ia1, 0] - g0)
-                gy = g1 + fa * (ta[ia1, 1] - g1)
-                if w > 0.0:
+            if w > 0.0:  # between two sampled directions
+                for i in range(m):
+                    ia = int(pa)
+                    if ia >= Na:
+                        ia = Na - 1
+                    fa = pa - ia
+                    ia1 = ia + 1 if ia + 1 < Na else 0
+                    g0 = ta[ia, 0]
+                    g1 = ta[ia, 1]
+                    gx = g0 + fa * (ta[ia1, 0] - g0)
+                    gy = g1 + fa * (ta[ia1, 1] - g1)
                     ib = int(pb)
                     if ib >= Nb:
                         ib = Nb - 1
@@ -268,26 +273,44 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
                     h1 = tb[ib, 1]
                     gx += w * (h0 + fb * (tb[ib1, 0] - h0) - gx)
                     gy += w * (h1 + fb * (tb[ib1, 1] - h1) - gy)
-                p = (qa0 + dq0 * i) * gx + (qa1 + dq1 * i) * gy
-                if C == 1:
-                    acc[i] += p
-                else:
-                    fr = i * inv
-                    for ci in range(n_act):
-                        c = act[ci]
-                        out[c, n0 + i] += (
-                            gain[k, b, c] + fr * (gain[k, b + 1, c] - gain[k, b, c])
-                        ) * p
-                pa += ds
-                if pa >= Na:
-                    pa -= Na
-                elif pa < 0.0:
-                    pa += Na
-                pb += ds
-                if pb >= Nb:
-                    pb -= Nb
-                elif pb < 0.0:
-                    pb += Nb
+                    pbuf[i] = (qa0 + dq0 * i) * gx + (qa1 + dq1 * i) * gy
+                    pa += ds
+                    if pa >= Na:
+                        pa -= Na
+                    elif pa < 0.0:
+                        pa += Na
+                    pb += ds
+                    if pb >= Nb:
+                        pb -= Nb
+                    elif pb < 0.0:
+                        pb += Nb
+            else:  # on a sampled direction: one row
+                for i in range(m):
+                    ia = int(pa)
+                    if ia >= Na:
+                        ia = Na - 1
+                    fa = pa - ia
+                    ia1 = ia + 1 if ia + 1 < Na else 0
+                    g0 = ta[ia, 0]
+                    g1 = ta[ia, 1]
+                    gx = g0 + fa * (ta[ia1, 0] - g0)
+                    gy = g1 + fa * (ta[ia1, 1] - g1)
+                    pbuf[i] = (qa0 + dq0 * i) * gx + (qa1 + dq1 * i) * gy
+                    pa += ds
+                    if pa >= Na:
+                        pa -= Na
+                    elif pa < 0.0:
+                        pa += Na
+            if C == 1:
+                for i in range(m):
+                    acc[i] += pbuf[i]
+            else:
+                for ci in range(n_act):
+                    c = act[ci]
+                    ga = gain[k, b, c]
+                    gb = gain[k, b + 1, c]
+                    for i in range(m):
+                        out[c, n0 + i] += (ga + i * inv * (gb - ga)) * pbuf[i]
         if C == 1:
             for i in range(m):
                 out[0, n0 + i] = acc[i]
