@@ -74,13 +74,13 @@ def resolve_exponent(exponent: str | float) -> float:
     return e
 
 
-# Sources are split between up to two threads (the kernels release the GIL).
+# Work is split between up to two threads (the kernels release the GIL).
 _N_THREADS = max(1, min(2, os.cpu_count() or 1))
 _POOL: ThreadPoolExecutor | None = None
 
 
 def _parts(S: int) -> list[tuple[int, int]]:
-    """Contiguous source ranges, one per thread."""
+    """Contiguous ranges of ``range(S)``, one per thread."""
     n = max(1, min(_N_THREADS, S))
     edges = [S * i // n for i in range(n + 1)]
     return [(edges[i], edges[i + 1]) for i in range(n)]
@@ -203,10 +203,11 @@ def _at(arr: NDArray[np.float64], tau: NDArray[np.float64], dt: float) -> NDArra
 def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[np.int64],
            tex_rate: float, s: NDArray[np.float64], qs: NDArray[np.float64], qe: NDArray[np.float64],
            j0: NDArray[np.int64], j1: NDArray[np.int64], wj: NDArray[np.float64],
-           gain: NDArray[np.float64], K: int, k0: int = 0, k1: int = -1) -> None:  # fmt: skip
+           gain: NDArray[np.float64], K: int, b0: int = 0, b1: int = -1) -> None:  # fmt: skip
     """Σ_l Q_l(t) · w(s_l(t)) with per-block linear interpolation, accumulated into out (C, n).
 
-    Sources ``k0 <= l < k1`` only (``k1 = -1``: all).
+    Blocks ``b0 <= b < b1`` only (``b1 = -1``: all): disjoint block ranges write
+    disjoint samples, so threads can share ``out``.
 
     The texture position advances by a constant step within a block and
     wraps around the loop length (the texture is periodic, §6).  Each block
@@ -215,13 +216,13 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
     """
     C, n_out = out.shape
     S, B = j0.shape
-    if k1 < 0:
-        k1 = S
+    if b1 < 0:
+        b1 = B
     inv = 1.0 / K
     act = np.empty(C, dtype=np.int64)
     acc = np.empty(K)
     pbuf = np.empty(K)
-    for b in range(B):
+    for b in range(b0, b1):
         n0 = b * K
         if n0 >= n_out:
             continue
@@ -229,7 +230,7 @@ def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[
         if C == 1:
             for i in range(m):
                 acc[i] = out[0, n0 + i]
-        for k in range(k0, k1):
+        for k in range(S):
             qa0 = qs[k, b, 0]
             qa1 = qs[k, b, 1]
             dq0 = (qe[k, b, 0] - qa0) * inv
@@ -406,7 +407,8 @@ def _vbap_into(g: NDArray[np.float64], phi: float, az: NDArray[np.float64], ch: 
         return
     if fold_front:
         phi = math.atan2(math.sin(phi), abs(math.cos(phi)))
-    phi = math.atan2(math.sin(phi), math.cos(phi))
+    if not -np.pi <= phi <= np.pi:  # wrap (an atan2 result already is in range)
+        phi = math.atan2(math.sin(phi), math.cos(phi))
     i0 = np.searchsorted(az, phi, side="right") - 1
     if i0 < 0:
         i0 = n - 1
@@ -729,18 +731,10 @@ def _receive(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDA
                   fw, lf, f(spk_az, dtype=np.float64), f(spk_ch, dtype=np.int64), fold, gain,
                   s, qs, qe, j0, j1, w)  # fmt: skip
     g = f(tex.g)
-    parts = _parts(S)
-    # part 0 accumulates into out, the others into their own buffers (summed at the end)
-    outs = [out] + [np.zeros(out.shape) for _ in parts[1:]]
-
-    def part(i: int) -> None:
-        k0, k1 = parts[i]
-        _block_kernel(*block_args, k0, k1)
-        _synth(outs[i], g, tex.lengths, float(tex.rate), s, qs, qe, j0, j1, w, gain, K, k0, k1)
-
-    _run(part, len(parts))
-    for o in outs[1:]:
-        out += o
+    # threads: the block work split by sources, then the synthesis by block ranges
+    _in_parts(lambda k0, k1: _block_kernel(*block_args, k0, k1), S)
+    _in_parts(lambda b0, b1: _synth(out, g, tex.lengths, float(tex.rate), s, qs, qe, j0, j1, w,
+                                    gain, K, b0, b1), B)  # fmt: skip
 
 
 def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion: Motion | None = None,
