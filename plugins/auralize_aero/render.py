@@ -397,13 +397,15 @@ def _lerp_index(x: float, J: int) -> tuple[int, float]:
 
 
 @numba.njit(**_NJIT)
-def _vbap_into(g: NDArray[np.float64], phi: float, az: NDArray[np.float64], ch: NDArray[np.int64],
-               fold_front: bool) -> None:  # fmt: skip
-    """Pairwise 2-D VBAP gains of one azimuth added into ``g (C,)``: the scalar form of
-    :func:`auralize.spatial.vbap_gains` (same law, same operations)."""
+def _vbap_into(g: NDArray[np.float64], k: int, b: int, phi: float, az: NDArray[np.float64],
+               ch: NDArray[np.int64], fold_front: bool) -> None:  # fmt: skip
+    """Pairwise 2-D VBAP gains of one azimuth written to ``g[k, b] (C,)``: the scalar form
+    of :func:`auralize.spatial.vbap_gains` (same law, same operations)."""
+    for c in range(g.shape[2]):
+        g[k, b, c] = 0.0
     n = az.size
     if n == 0:
-        g[0] += 1.0
+        g[k, b, 0] = 1.0
         return
     if fold_front:
         phi = math.atan2(math.sin(phi), abs(math.cos(phi)))
@@ -436,8 +438,8 @@ def _vbap_into(g: NDArray[np.float64], phi: float, az: NDArray[np.float64], ch: 
     norm = math.hypot(g0, g1)
     if not norm > 0:
         norm = 1.0
-    g[ch[i0]] += g0 / norm
-    g[ch[i1]] += g1 / norm
+    g[k, b, ch[i0]] += g0 / norm
+    g[k, b, ch[i1]] += g1 / norm
 
 
 @numba.njit(**_NJIT)
@@ -503,8 +505,7 @@ def _block_kernel(pos: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray
                     -dx * left[b, 0] - dy * left[b, 1] - dz * left[b, 2],
                     -dx * fwd[b, 0] - dy * fwd[b, 1] - dz * fwd[b, 2],
                 )
-                gain[k, b, :] = 0.0
-                _vbap_into(gain[k, b], phi, spk_az, spk_ch, fold_front)
+                _vbap_into(gain, k, b, phi, spk_az, spk_ch, fold_front)
             r = max(math.sqrt(dx * dx + dy * dy + dz * dz), min_distance)
             ux = dx / r
             uy = dy / r
