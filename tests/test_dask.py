@@ -467,12 +467,14 @@ def test_resume_with_slab_pieces_of_an_unfinished_chunk_left_over(
         detect_distributed(explosion, on_chunk=stop, **kw)
     store = StateStore(out)
     done = store.done_steps()
-    assert len(done) == 2 and not out.exists()
+    # one chunk finished before the stop: [0, 1], [2, 3], [4, 5] or the short [6]
+    # (chunks finish in any order)
+    assert len(done) in (1, 2) and not out.exists()
     # a slab of a chunk that never completed (as after a crash)
     a = min(set(range(7)) - done)
     store.write_piece(a, 0, explosion_ref.frames[a : a + 1])
     got = detect_distributed(explosion, **kw)
-    assert scale(got)["resumed_steps"] == 2
+    assert scale(got)["resumed_steps"] == len(done)
     assert_same_sources(got, explosion_ref)
     assert_same_sources(load_sources_h5(out), explosion_ref)
     assert not store.dir.exists()

@@ -180,6 +180,11 @@ fk = 4000.0
 t = np.arange(int(2.4 * fk)) / fk
 tracks = SourceTracks(np.array([[4.0, 0.0, 0.0]]), np.sin(2 * np.pi * 220 * t)[None],
                       np.array([0.1]), t)
+# compile the synthesis kernels first (a fresh checkout has no numba cache yet):
+# the latency target is about steady-state playback, not start-up
+warm = LiveEngine(tracks, layout="ring8", block=2205)
+warm.set_pose((0, 0, 0), (0, 1, 0), (0, 0, 1))
+warm.next_block()
 eng = LiveEngine(tracks, layout="ring8", block=2205, loop=True)
 sink = DeviceSink(rate=44100, channels=8, device="auralize_file8")
 player = LivePlayer(eng, sink)
