@@ -114,6 +114,13 @@ def add_output_options(
     g.add_argument("--duration", type=float, help="seconds to render (with --listener)")
 
 
+def add_render_options(p: argparse.ArgumentParser) -> None:
+    """Synthesis options shared by ``render`` and its Dask variant."""
+    p.add_argument("--time-scale", type=float, default=1.0, help="playback seconds per data second")
+    p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
+    p.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+
+
 def listener_from_args(args: argparse.Namespace) -> Any:
     from auralize.listener import ListenerPath
 
@@ -347,9 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_volume_options(p)
     add_detect_options(p)
     add_output_options(p)
-    p.add_argument("--time-scale", type=float, default=1.0, help="playback seconds per data second")
-    p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
-    p.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+    add_render_options(p)
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("path", help="build a listener path CSV")

@@ -195,7 +195,12 @@ def _chain(parser: argparse.ArgumentParser, dask_cmd: Any) -> None:
 
 def add_commands(sub: Any) -> None:
     """Add the Dask options to ``detect``, ``render`` and ``dataset`` and two commands."""
-    from auralize.cli import add_detect_options, add_output_options, add_volume_options
+    from auralize.cli import (
+        add_detect_options,
+        add_output_options,
+        add_render_options,
+        add_volume_options,
+    )
 
     choices = sub.choices
     if "detect" in choices:
@@ -237,7 +242,5 @@ def add_commands(sub: Any) -> None:
     add_detect_options(p)
     add_output_options(p)
     add_scheduler_options(p)
-    p.add_argument("--time-scale", type=float, default=1.0, help="playback seconds per data second")
-    p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
-    p.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+    add_render_options(p)
     p.set_defaults(func=cmd_render_dask)
