@@ -19,6 +19,13 @@ scheduler      what runs the tasks
                ``processes=False``).  The dashboard address is printed.
 =============  ============================================================
 
+Every worker of a ``distributed`` cluster (started here or at ``address``, and
+any worker joining later) first runs :class:`~auralize.scale.worker_setup.WorkerSetup`
+once: it loads the numba kernels and undoes the allocator setting of Dask's
+nanny that makes every large array page-fault anew (see
+:mod:`auralize.scale.worker_setup`; ``setup_workers=False`` skips it).  The
+time this took is ``Runner.setup_seconds``.
+
 A worker that dies mid-run is replaced by the cluster and its tasks are
 re-run elsewhere (Dask's ``distributed.scheduler.allowed-failures``, default
 3); when a task has killed too many workers the run stops with
@@ -31,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -75,6 +83,9 @@ class Runner:
         Seconds to wait for the scheduler at ``address``.
     log : callable, optional
         Called with one-line messages (the dashboard address); default print.
+    setup_workers : bool
+        Register :class:`~auralize.scale.worker_setup.WorkerSetup` on the
+        cluster's workers (``distributed`` only).
 
     Examples
     --------
@@ -88,7 +99,8 @@ class Runner:
     def __init__(self, scheduler: str = "sync", *, address: str | None = None,
                  workers: int | None = None, processes: bool = True,
                  timeout: float = CONNECT_TIMEOUT_S,
-                 log: Callable[[str], None] | None = print) -> None:  # fmt: skip
+                 log: Callable[[str], None] | None = print,
+                 setup_workers: bool = True) -> None:  # fmt: skip
         if address:
             if scheduler not in ("distributed", "sync"):
                 raise ParameterError(
@@ -114,6 +126,11 @@ class Runner:
         self.client: Any = None
         self._cluster: Any = None
         self.dashboard_link: str | None = None
+        self.setup_workers = bool(setup_workers)
+        #: seconds spent starting/connecting and setting up the workers
+        self.setup_seconds = 0.0
+        #: what each worker's set-up reported (pid, seconds, error)
+        self.worker_setup: list[dict[str, Any]] = []
         require("dask")
 
     # ------------------------------------------------------------ life cycle
@@ -138,6 +155,7 @@ class Runner:
 
     def _start_distributed(self) -> None:
         distributed = require("distributed")
+        t0 = time.perf_counter()
         if self.address:
             try:
                 self.client = distributed.Client(self.address, timeout=self.timeout)
@@ -160,10 +178,25 @@ class Runner:
                 self.close()
                 raise SchedulerError(f"could not start a local Dask cluster of {n} workers "
                                      f"({type(exc).__name__}: {exc})") from None  # fmt: skip
+        if self.setup_workers:
+            self._setup_workers()
+        self.setup_seconds = time.perf_counter() - t0
         self.dashboard_link = _dashboard(self.client)
         n_workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
         where = self.address or f"local cluster ({'processes' if self.processes else 'threads'})"
         self.log(f"dask: {where}, {n_workers} workers; dashboard: {self.dashboard_link}")
+
+    def _setup_workers(self) -> None:
+        """Register the worker set-up plugin; it runs on every worker before this returns."""
+        from auralize.scale.worker_setup import WorkerSetup, setup_report
+
+        self.client.register_plugin(WorkerSetup())
+        self.worker_setup = sorted(self.client.run(setup_report).values(),
+                                   key=lambda r: r.get("pid", 0))  # fmt: skip
+        for rep in self.worker_setup:
+            if rep.get("error"):
+                self.log(f"dask: worker {rep.get('pid')} could not load the kernels ahead "
+                         f"({rep['error']}); it will load them in its first task")  # fmt: skip
 
     @property
     def n_workers(self) -> int:
