@@ -33,14 +33,27 @@ there when started again with the same settings: finished steps are not
 recomputed and the preparation passes are not repeated.  When all steps are
 done, ``OUTPUT`` is written (atomically) and the store removed.
 
-**Bounded client memory.**  The client never holds more than the chunks
-whose slabs are still arriving: a finished chunk goes to its ``.npz`` part
-at once, and an ``.h5`` ``OUTPUT`` is assembled from the parts on disk one
-part at a time (same datasets, dtypes and attributes as
-:func:`auralize.io.sources_file.save_sources_h5` writes for the serial
-result).  The returned series then reads its frames lazily from ``OUTPUT``
-(:class:`H5Frames`).  Without ``output`` every step's sources are returned
-in memory; a ``.pvd`` ``OUTPUT`` is also written from frames in memory.
+**Bounded client memory; no sources through the client.**  With an
+``output``, each detection task saves its sources itself, as a slab piece in
+``OUTPUT.parts/`` (flushed to disk), and returns only their count: the
+sources do not travel through the scheduler to the client, and the client's
+CPU (which shares the machine with local workers) is not spent on them.  A
+one-slab chunk's piece becomes the chunk's saved part by a rename; the
+pieces of a chunk of several slabs are merged into it by the client, one
+chunk at a time.  So ``OUTPUT``'s folder must be reachable by the workers
+under the same path, as the input file must.  An ``.h5`` ``OUTPUT`` is
+assembled from the parts on disk one part at a time (same datasets, dtypes
+and attributes as :func:`auralize.io.sources_file.save_sources_h5` writes
+for the serial result).  The returned series then reads its frames lazily
+from ``OUTPUT`` (:class:`H5Frames`).  Without ``output`` every step's
+sources are returned in memory; a ``.pvd`` ``OUTPUT`` is also written from
+frames in memory.
+
+**Task layout.**  The preparation passes (the ``paper-density`` range and
+gradient scale, the peak strengths) run as one task per chunk of steps and
+slab, like the detection, not one per step: each task has a fixed cost
+(scheduling, opening the file, a fresh cache of mapped frames), which is
+what dominated small volumes.
 """
 
 from __future__ import annotations
@@ -139,18 +152,30 @@ def plan_slabs(shape: tuple[int, int, int], *, ghost: int | None, planes: int | 
 
 
 def plan_chunks(steps: Iterable[int], chunk_steps: int) -> list[tuple[int, int]]:
-    """Runs of consecutive steps cut into ``[a, b)`` chunks of at most ``chunk_steps``."""
+    """Runs of consecutive steps cut into ``[a, b)`` chunks of at most ``chunk_steps``.
+
+    A run of ``L`` steps becomes ``ceil(L / chunk_steps)`` chunks of equal
+    length (±1, longer first), not full chunks and a short remainder: 12
+    steps with ``chunk_steps=10`` are two tasks of 6, which two workers
+    finish together, rather than 10 + 2.
+    """
     if not isinstance(chunk_steps, int | np.integer) or chunk_steps < 1:
         raise ParameterError(f"chunk_steps must be a positive integer, got {chunk_steps!r}")
-    out: list[tuple[int, int]] = []
-    run: list[int] = []
+    runs: list[list[int]] = []
     for n in sorted(set(steps)):
-        if run and (n != run[-1] + 1 or len(run) == chunk_steps):
-            out.append((run[0], run[-1] + 1))
-            run = []
-        run.append(n)
-    if run:
-        out.append((run[0], run[-1] + 1))
+        if runs and n == runs[-1][-1] + 1:
+            runs[-1].append(n)
+        else:
+            runs.append([n])
+    out: list[tuple[int, int]] = []
+    for run in runs:
+        k = -(-len(run) // int(chunk_steps))
+        size, extra = divmod(len(run), k)
+        a = run[0]
+        for i in range(k):
+            b = a + size + (1 if i < extra else 0)
+            out.append((a, b))
+            a = b
     return out
 
 
@@ -173,8 +198,14 @@ def _rss() -> tuple[int, int]:
 
 def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64],
                 zero_fraction: float, a: int, b: int, slab: Slab,
-                threads: int | None) -> dict[str, Any]:  # fmt: skip
-    """Sources of steps ``[a, b)`` in planes ``[slab.z0, slab.z1)`` (global flat indices)."""
+                threads: int | None, store_dir: str | None = None) -> dict[str, Any]:  # fmt: skip
+    """Sources of steps ``[a, b)`` in planes ``[slab.z0, slab.z1)`` (global flat indices).
+
+    With ``store_dir`` (a run's ``OUTPUT.parts/``) the task saves them there
+    itself, as a slab piece (:meth:`StateStore.write_piece`, synced to disk),
+    and returns only their count: the sources do not travel through the
+    scheduler to the client.
+    """
     t0 = time.perf_counter()
     sub, mapping = _local(volume, mapping, slab)
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
@@ -190,38 +221,60 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
             f.index += slab.z0 * plane
             frames.append(f)
             cache.keep(n, n + 1)
-    return {"a": a, "b": b, "slab": slab, "frames": frames, "seconds": time.perf_counter() - t0,
-            "rss": _rss()}  # fmt: skip
+    out: dict[str, Any] = {"a": a, "b": b, "slab": slab, "frames": frames,
+                           "count": sum(f.index.size for f in frames)}  # fmt: skip
+    if store_dir is not None:
+        StateStore.in_dir(store_dir).write_piece(a, slab.z0, frames, sync=True)
+        out["frames"] = None
+    out.update(seconds=time.perf_counter() - t0, rss=_rss())
+    return out
 
 
-def peak_task(volume: TimeVolume, mapping: AcousticMapping, n: int, slab: Slab,
+def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int], slab: Slab,
               threads: int | None) -> NDArray[np.float64]:  # fmt: skip
-    """Largest |S| of each type at step ``n`` in the slab's kept planes."""
+    """Largest |S| of each type over ``steps`` in the slab's kept planes.
+
+    Like :func:`~auralize.sources.peak_strengths`, mapped frames are reused
+    between neighbouring sample steps.
+    """
     sub, mapping = _local(volume, mapping, slab)
-    with numba_threads(threads):
-        s = step_strengths(sub, _StepCache(sub, mapping), n)
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
-    return np.abs(s[:, lo:hi]).reshape(3, -1).max(axis=1)
+    peak = np.zeros(3)
+    with numba_threads(threads):
+        cache = _StepCache(sub, mapping)
+        buf = K.empty_like_strengths(sub.shape)
+        for n in steps:
+            s = step_strengths(sub, cache, int(n), buf)
+            peak = np.maximum(peak, np.abs(s[:, lo:hi]).reshape(3, -1).max(axis=1))
+            cache.keep(int(n), int(n))
+    return peak
 
 
-def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, n: int,
+def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int],
                      slab: Slab) -> tuple[float, float]:  # fmt: skip
-    """min and max of 10**x at step ``n`` in the slab (no ghost planes needed)."""
+    """min and max of 10**x over ``steps`` in the slab (no ghost planes needed)."""
     sub = (
         slab_volume(volume, slab.z0, slab.z1)
         if (slab.z0, slab.z1) != (0, volume.shape[0])
         else volume
     )
-    r = m._rho(sub, n)
-    return float(r.min()), float(r.max())
+    lo, hi = np.inf, -np.inf
+    for n in steps:
+        r = m._rho(sub, int(n))
+        lo, hi = min(lo, float(r.min())), max(hi, float(r.max()))
+    return lo, hi
 
 
-def paper_gradient_task(volume: TimeVolume, m: PaperDensityMapping, n: int, slab: Slab) -> float:
-    """Largest |∂ρ̃/∂x_i| at step ``n`` in the slab's kept planes."""
+def paper_gradient_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int],
+                        slab: Slab) -> float:  # fmt: skip
+    """Largest |∂ρ̃/∂x_i| over ``steps`` in the slab's kept planes."""
     sub, m = _local(volume, m, slab)  # type: ignore[assignment]
-    g = m._grad(sub, m._scaled(m._rho(sub, n)))
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
-    return float(np.max(np.abs(g[lo:hi])))
+    gmax = 0.0
+    for n in steps:
+        g = m._grad(sub, m._scaled(m._rho(sub, int(n))))
+        gmax = max(gmax, float(np.max(np.abs(g[lo:hi]))))
+    return gmax
 
 
 # ------------------------------------------------------------- state store
@@ -231,6 +284,14 @@ class StateStore:
     def __init__(self, output: str | os.PathLike[str]) -> None:
         self.output = Path(output).expanduser()
         self.dir = self.output.with_name(self.output.name + STATE_SUFFIX)
+
+    @classmethod
+    def in_dir(cls, folder: str | os.PathLike[str]) -> StateStore:
+        """The store whose folder is ``folder`` (``OUTPUT.parts``), as a task sees it."""
+        d = Path(folder)
+        if not d.name.endswith(STATE_SUFFIX):
+            raise ParameterError(f"{d} is not a detection state folder (*{STATE_SUFFIX})")
+        return cls(d.with_name(d.name[: -len(STATE_SUFFIX)]))
 
     @property
     def manifest_path(self) -> Path:
@@ -278,13 +339,20 @@ class StateStore:
     def _piece_path(self, a: int, b: int, z0: int) -> Path:
         return self.dir / f"piece_{a:07d}-{b:07d}_{z0:07d}.npz"
 
-    def write_piece(self, a: int, z0: int, frames: list[SourceFrame]) -> None:
+    def write_piece(self, a: int, z0: int, frames: list[SourceFrame], *,
+                    sync: bool = False) -> None:  # fmt: skip
         """Park one slab's sources of steps ``a …`` until the chunk's other slabs are in.
 
         Pieces are not a "done" record: a chunk missing a slab is recomputed.
+        ``sync`` flushes the piece to disk (so :meth:`promote_piece` can make
+        it the chunk's record without rewriting it).
         """
         self.dir.mkdir(parents=True, exist_ok=True)
-        _save_frames(self._piece_path(a, a + len(frames), z0), frames, sync=False)
+        _save_frames(self._piece_path(a, a + len(frames), z0), frames, sync=sync)
+
+    def promote_piece(self, a: int, b: int, z0: int) -> None:
+        """Make the piece of a one-slab chunk its saved chunk (a rename, no rewrite)."""
+        os.replace(self._piece_path(a, b, z0), self.dir / f"steps_{a:07d}-{b:07d}.npz")
 
     def take_piece(self, a: int, b: int, z0: int) -> list[SourceFrame]:
         """Read back (and delete) a piece saved by :meth:`write_piece`."""
@@ -485,6 +553,21 @@ class _Run:
     mapping: AcousticMapping
     runner: Runner
     slabs: list[Slab]
+    #: the volume as shipped to the workers (once per run)
+    shared: Any
+    #: runs of steps one preparation task covers
+    groups: list[tuple[int, int]]
+
+    def tasks(self, fn: Callable[..., Any], steps: Iterable[int],
+              *extra: Any) -> list[tuple[Callable[..., Any], tuple[Any, ...]]]:  # fmt: skip
+        """One ``fn(volume, mapping, steps, slab, *extra)`` per step group and slab."""
+        steps = sorted(set(int(n) for n in steps))
+        out = []
+        for a, b in self.groups:
+            mine = [n for n in steps if a <= n < b]
+            if mine:
+                out += [(fn, (self.shared, self.mapping, mine, s, *extra)) for s in self.slabs]
+        return out
 
 
 def _prepare_paper(run: _Run) -> dict[str, float]:
@@ -492,23 +575,20 @@ def _prepare_paper(run: _Run) -> dict[str, float]:
     m = run.mapping
     assert isinstance(m, PaperDensityMapping)
     AcousticMapping.prepare(m, run.volume)  # field checks only
-    vol = run.runner.share(run.volume)
     T = run.volume.n_steps
     lo, hi = [np.inf], [-np.inf]
 
     def got_range(_i: int, r: tuple[float, float]) -> None:
         lo[0], hi[0] = min(lo[0], r[0]), max(hi[0], r[1])
 
-    run.runner.run([(paper_range_task, (vol, m, n, s)) for n in range(T) for s in run.slabs],
-                   got_range)  # fmt: skip
+    run.runner.run(run.tasks(paper_range_task, range(T)), got_range)
     m._lo, m._hi = float(lo[0]), float(hi[0])
     gmax = [0.0]
 
     def got_grad(_i: int, g: float) -> None:
         gmax[0] = max(gmax[0], g)
 
-    run.runner.run([(paper_gradient_task, (vol, m, n, s)) for n in range(T) for s in run.slabs],
-                   got_grad)  # fmt: skip
+    run.runner.run(run.tasks(paper_gradient_task, range(T)), got_grad)
     m._gscale = m.velocity_max / gmax[0] if gmax[0] > 0 else 0.0
     return {"lo": m._lo, "hi": m._hi, "gscale": m._gscale}
 
@@ -516,15 +596,12 @@ def _prepare_paper(run: _Run) -> dict[str, float]:
 def _peaks(run: _Run, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.float64]:
     T = run.volume.n_steps
     steps = np.unique(np.linspace(0, T - 1, min(max_steps, T)).round()).astype(int)
-    vol = run.runner.share(run.volume)
     peak = np.zeros(3)
 
     def got(_i: int, p: NDArray[np.float64]) -> None:
         np.maximum(peak, p, out=peak)
 
-    thr = run.runner.threads_per_task
-    run.runner.run([(peak_task, (vol, run.mapping, int(n), s, thr)) for n in steps
-                    for s in run.slabs], got)  # fmt: skip
+    run.runner.run(run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task), got)
     return peak
 
 
@@ -559,7 +636,9 @@ def detect_distributed(
         done; finished chunks are kept in ``OUTPUT.parts/`` until then, and a
         new run with the same settings resumes from them.  An HDF5 output is
         assembled from those parts one at a time, so the client's memory
-        does not grow with the number of sources.
+        does not grow with the number of sources.  The tasks write their
+        sources to ``OUTPUT.parts/`` themselves: the workers must see
+        ``OUTPUT``'s folder under the same path.
     runner : Runner, optional
         An open :class:`~auralize.scale.runner.Runner`; otherwise one is made
         from ``scheduler``, ``address`` and ``workers`` and closed afterwards.
@@ -632,7 +711,9 @@ def detect_distributed(
     try:
         if own:
             run_.__enter__()
-        run = _Run(volume, m, run_, slabs)
+        # the volume goes to the workers once (for the preparation passes and detection)
+        vol = run_.share(volume)
+        run = _Run(volume, m, run_, slabs, vol, plan_chunks(range(volume.n_steps), chunk_steps))
         if "mapping_state" in state:
             if isinstance(m, PaperDensityMapping):
                 st = state["mapping_state"]
@@ -661,36 +742,38 @@ def detect_distributed(
         pending: dict[int, dict[Slab, list[SourceFrame]]] = {}
         rss: dict[int, int] = {}
         task_seconds = [0.0]
-        vol = run_.share(volume)
+        n_sources = [0]
+        parts_dir = None if store is None else str(store.dir)
         nthr = run_.threads_per_task
-        calls = [(detect_task, (vol, m, thr, thresholds.zero_fraction, a, b, s, nthr))
+        calls = [(detect_task, (vol, m, thr, thresholds.zero_fraction, a, b, s, nthr, parts_dir))
                  for a, b in chunks for s in slabs]  # fmt: skip
 
         def got(_i: int, res: dict[str, Any]) -> None:
             pid, peak_rss = res["rss"]
             rss[pid] = max(rss.get(pid, 0), peak_rss)
             task_seconds[0] += res["seconds"]
+            n_sources[0] += res["count"]
             a, b = res["a"], res["b"]
             parts = pending.setdefault(a, {})
-            # with a store, a slab's sources wait on disk for the chunk's other slabs
-            # (tasks finish in any order), so the client holds at most one chunk
-            spill = store is not None and len(slabs) > 1
-            if spill:
-                store.write_piece(a, res["slab"].z0, res["frames"])  # type: ignore[union-attr]
-            parts[res["slab"]] = None if spill else res["frames"]
+            # with a store, the task saved its slab's sources as a piece; they wait
+            # on disk for the chunk's other slabs (tasks finish in any order)
+            parts[res["slab"]] = res["frames"]
             del res
             if len(parts) < len(slabs):
                 return
             del pending[a]
-            if spill:
-                parts = {s: store.take_piece(a, b, s.z0) for s in slabs}  # type: ignore[union-attr]
-            merged = [_merge([parts[s][k] for s in slabs]) for k in range(b - a)]  # type: ignore[index]
-            del parts
-            if store is not None:
-                store.write_chunk(a, merged)
+            if store is not None and len(slabs) == 1:
+                store.promote_piece(a, b, slabs[0].z0)  # synced by the task
             else:
-                frames[a:b] = merged
-            del merged
+                if store is not None:
+                    parts = {s: store.take_piece(a, b, s.z0) for s in slabs}
+                merged = [_merge([parts[s][k] for s in slabs]) for k in range(b - a)]  # type: ignore[index]
+                del parts
+                if store is not None:
+                    store.write_chunk(a, merged)
+                else:
+                    frames[a:b] = merged
+                del merged
             if on_chunk is not None:
                 on_chunk(range(a, b))
 
@@ -713,7 +796,7 @@ def detect_distributed(
                         "computed_steps": todo, "resumed_steps": len(done),
                         "tasks": len(calls), "chunks": len(chunks), "chunk_steps": chunk_steps,
                         "slabs": [(s.z0, s.z1) for s in slabs], "seconds": elapsed,
-                        "task_seconds": task_seconds[0],
+                        "task_seconds": task_seconds[0], "computed_sources": n_sources[0],
                         "peak_rss_per_process": sorted(rss.values(), reverse=True)}},
     )  # fmt: skip
     if streamed:
