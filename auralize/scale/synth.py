@@ -10,6 +10,7 @@ So blocks are independent tasks, and joined they equal the one-piece render
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -56,7 +57,10 @@ def render_distributed(
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds
         As for :func:`auralize.synthesis.render`.
     block_seconds : float, optional
-        Playback seconds per task (default: four blocks per worker).
+        Playback seconds per task (default: four blocks per worker).  Every
+        block also pays for the retarded-time look-back it needs, so fewer,
+        longer blocks do less work in all; more blocks balance better when
+        the sound gets denser along the path.
     runner, scheduler, address, workers
         Where to run (see :class:`~auralize.scale.runner.Runner`).
 
@@ -93,16 +97,20 @@ def render_distributed(
         edges = list(range(0, n, block)) + [n]
         kw: dict[str, Any] = {"time_scale": time_scale, "interp": interp, "layout": layout, "c0": c0,
               "bounds": bounds}  # fmt: skip
-        # validate once on the caller (bad paths fail here, not in a worker)
-        first = render(tracks, path, rate=rate, start=0.0, duration=min(block, n) / rate, **kw)
+        # validate once on the caller (bad paths fail here, not in a worker) by
+        # rendering one sample; every block, the first included, is a task
+        first = render(tracks, path, rate=rate, start=0.0, duration=1.0 / rate, **kw)
         parts: list[np.ndarray | None] = [None] * (len(edges) - 1)
-        parts[0] = first.audio
-        tr, pa = run.share(tracks), run.share(path)
+        # workers in other processes build their own caches (once per worker: the
+        # shared tracks stay in its memory between its tasks); do not ship ours
+        local = run.scheduler in ("sync", "threads")
+        tr = run.share(tracks if local else dataclasses.replace(tracks, cache={}))
+        pa = run.share(path)
         calls = [(render_block, (tr, pa, edges[i], edges[i + 1], rate, kw, run.threads_per_task))
-                 for i in range(1, len(edges) - 1)]  # fmt: skip
+                 for i in range(len(edges) - 1)]  # fmt: skip
 
         def got(i: int, audio: np.ndarray) -> None:
-            parts[i + 1] = audio
+            parts[i] = audio
 
         run.run(calls, got)
         n_workers = run.n_workers
