@@ -174,6 +174,74 @@ def test_plans() -> None:
     assert len(plan_slabs((20, 8, 8), ghost=None, planes=4)) == 1
     with pytest.raises(ParameterError, match="chunk_steps must be a positive integer"):
         plan_chunks([1], 0)
+    # a run is cut into equal chunks (±1), not full chunks and a short remainder:
+    # two workers get the same work
+    assert plan_chunks(range(12), 10) == [(0, 6), (6, 12)]
+    assert plan_chunks(range(7), 3) == [(0, 3), (3, 5), (5, 7)]
+    assert plan_chunks(range(100), 10) == [(a, a + 10) for a in range(0, 100, 10)]
+
+
+def test_preparation_passes_run_one_task_per_chunk_and_slab(
+    explosion: TimeVolume, explosion_ref: SourceSeries, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from auralize.scale import detect as D
+
+    calls: dict[str, int] = {}
+    real = Runner.run
+
+    def counting(self: Runner, tasks: Any, on_result: Any) -> None:
+        name = tasks[0][0].__name__
+        calls[name] = calls.get(name, 0) + len(tasks)
+        real(self, tasks, on_result)
+
+    monkeypatch.setattr(Runner, "run", counting)
+    got = D.detect_distributed(explosion, mapping="paper-density", chunk_steps=4, slab_planes=10,
+                               log=None)  # fmt: skip
+    assert len(scale(got)["slabs"]) == 2 and scale(got)["chunks"] == 2  # steps [0, 4), [4, 7)
+    # range and gradient: every step; peaks: the sample steps; one task per chunk × slab
+    assert calls == {"paper_range_task": 4, "paper_gradient_task": 4, "peak_task": 4,
+                     "detect_task": 4}  # fmt: skip
+    assert_same_sources(got, explosion_ref)
+
+
+def test_detection_tasks_save_their_own_sources(tmp_path: Path, explosion: TimeVolume) -> None:
+    from auralize.mapping import get_mapping
+    from auralize.scale.detect import Slab, detect_task
+
+    m = get_mapping("identity", density="log10_density")
+    m.prepare(explosion)
+    thr = np.array([0.5, 5.0, 50.0])
+    slab = Slab(0, 20, 0, 20)
+    mem = detect_task(explosion, m, thr, 1.0, 2, 5, slab, 1)
+    store = StateStore(tmp_path / "s.h5")
+    assert StateStore.in_dir(str(store.dir)).dir == store.dir
+    disk = detect_task(explosion, m, thr, 1.0, 2, 5, slab, 1, str(store.dir))
+    # the task wrote its piece and returned only the count
+    assert disk["frames"] is None and disk["count"] == sum(f.index.size for f in mem["frames"])
+    assert disk["count"] > 0
+    store.promote_piece(2, 5, 0)
+    assert store.done_steps() == {2, 3, 4} and not list(store.dir.glob("piece_*"))
+    with np.load(store.dir / "steps_0000002-0000005.npz") as z:
+        off = z["offsets"]
+        for k, f in enumerate(mem["frames"]):
+            for name in ("index", "kind", "strength", "radius"):
+                assert np.array_equal(getattr(f, name), z[name][off[k] : off[k + 1]])
+    with pytest.raises(ParameterError, match="not a detection state folder"):
+        StateStore.in_dir(tmp_path)
+
+
+def test_cluster_workers_are_set_up_before_their_first_task() -> None:
+    from auralize.scale.worker_setup import tune_allocator
+
+    with Runner("distributed", workers=1, processes=True, log=None) as run:
+        (rep,) = run.worker_setup
+        assert rep["kernels"] is True and "error" not in rep and rep["seconds"] > 0
+        assert rep["pid"] != os.getpid() and run.setup_seconds >= rep["seconds"]
+        # glibc large-array reuse restored (Dask's nanny sets MALLOC_TRIM_THRESHOLD_)
+        assert rep["allocator"] is (sys.platform.startswith("linux") and tune_allocator())
+    with Runner("distributed", workers=1, processes=False, log=None,
+                setup_workers=False) as run:  # fmt: skip
+        assert run.worker_setup == []
 
 
 # ---------------------------------------------------------------- resuming
@@ -348,6 +416,27 @@ def test_distributed_synthesis_blocks_join_without_seams(
     assert np.max(np.abs(got.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
     with pytest.raises(ParameterError, match="block_seconds must be > 0"):
         render_distributed(tracks, path, block_seconds=0.0, log=None)
+
+
+def test_distributed_synthesis_renders_every_block_in_a_task(
+    explosion: TimeVolume, explosion_ref: SourceSeries, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from auralize.scale import synth
+
+    sizes: list[int] = []
+    real = synth.render
+
+    def spy(*a: Any, **k: Any) -> Any:
+        out = real(*a, **k)
+        sizes.append(out.audio.shape[1])
+        return out
+
+    monkeypatch.setattr(synth, "render", spy)
+    path = ListenerPath.orbit(explosion.center, radius=6.0, duration=0.4, turns=0.3)
+    got = render_distributed(explosion_ref.tracks(), path, rate=16000, layout="ring8",
+                             block_seconds=0.1, log=None)  # fmt: skip
+    # the caller only validates (one sample); the four blocks are tasks
+    assert got.meta["blocks"] == 4 and sizes == [1, 1600, 1600, 1600, 1600]
 
 
 # ------------------------------------------------------------------- recipe
