@@ -78,18 +78,18 @@ def _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin):  # type: ignore[no-untyped-def
 
 
 @numba.njit(inline="always", **_NJIT)
-def _qeval(tn, q, mt, k, n, tau, cubic):  # type: ignore[no-untyped-def]
-    """Strength q and dq/dτ of source k on piece n (between knots n and n+1) at time τ."""
-    h = tn[n + 1] - tn[n]
-    s = (tau - tn[n]) / h
+def _qeval(t_a, h, q0, m0, q1, m1, tau, cubic):  # type: ignore[no-untyped-def]
+    """Strength q and dq/dτ at time τ on a piece from knot time t_a to t_a + h
+    with values q0, q1 and tangents m0, m1 (per second) at its knots."""
+    s = (tau - t_a) / h
     if s < 0.0:
         s = 0.0
     if s > 1.0:
         s = 1.0
-    q0, q1 = q[n, k], q[n + 1, k]
     if not cubic:
         return q0 + (q1 - q0) * s, (q1 - q0) / h
-    m0, m1 = mt[n, k] * h, mt[n + 1, k] * h
+    m0 = m0 * h
+    m1 = m1 * h
     s2 = s * s
     s3 = s2 * s
     val = (
@@ -225,7 +225,147 @@ def _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o):  
 def _hermite(L, f0, d0, f1, d1):  # type: ignore[no-untyped-def]
     """Power-basis coefficients (in x = t - start, sample units) of the cubic
     Hermite with values f0, f1 and slopes d0, d1 over [0, L]."""
-    inv = 1.0 / L
+    return _hermite_inv(1.0 / L, f0, d0, f1, d1)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _emit1(acc, i, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
+    """Add sign × P(m - m_start + x) for m >= m_start to the row ``i`` of a
+    skewed accumulator, P = c0 + c1 x + c2 x² + c3 x³.
+
+    The polynomial is Taylor-shifted to x and written in the binomial basis
+    C(m - m_start, j), whose (j+1)-fold cumulative sum is an impulse at
+    m_start + j.  Level j's impulse at m_start + j is stored in row m_start
+    (the integration reads level j of sample m from row m - j), so the four
+    values of one emission share a 32-byte row: one cache line.
+    """
+    b0 = c0 + x * (c1 + x * (c2 + x * c3))
+    b1 = c1 + x * (2.0 * c2 + 3.0 * c3 * x)
+    b2 = c2 + 3.0 * c3 * x
+    acc[i] += sign * b0
+    acc[i + 1] += sign * (b1 + b2 + c3)
+    acc[i + 2] += sign * (2.0 * b2 + 6.0 * c3)
+    acc[i + 3] += sign * 6.0 * c3
+
+
+@numba.njit(inline="always", **_NJIT)
+def _emit_piece(acc, base, blo, nb, ch, block, n_samples, u0, u1, p0, p1, p2, p3):  # type: ignore[no-untyped-def]
+    """Add the cubic P(u - u0) on samples ceil(u0) <= m < ceil(u1) (clipped to the
+    output) into a task's accumulator window (blocks blo..blo+nb-1, channel ch,
+    starting at ``base``).
+
+    The running sums restart at every accumulation block (numerical safety), so
+    a piece that crosses a block boundary is continued there: the same
+    polynomial is emitted again at the block's first sample.  The signal thus
+    does not depend on where the block boundaries fall.  Returns the number of
+    emissions that fell outside the window (0 unless the caller's window is
+    wrong).
+    """
+    m_0 = max(int(math.ceil(u0)), 0)
+    m_1 = min(int(math.ceil(u1)), n_samples)
+    if m_1 <= m_0:
+        return 0
+    b = m_0 // block
+    ms = m_0
+    while True:
+        bend = (b + 1) * block
+        j = b - blo
+        if j < 0 or j >= nb:
+            return 1
+        row0 = base + ((ch * nb + j) * block) * 4
+        _emit1(acc, row0 + (ms - b * block) * 4, ms - u0, p0, p1, p2, p3, 1.0)
+        if m_1 <= bend:
+            if m_1 < n_samples and m_1 < bend:
+                _emit1(acc, row0 + (m_1 - b * block) * 4, m_1 - u0, p0, p1, p2, p3, -1.0)
+            return 0
+        b += 1
+        ms = bend
+
+
+@numba.njit(inline="always", **_NJIT)
+def _arrival(x, y, z, rmin, t_n, hint, tc, lc, vc, c0):  # type: ignore[no-untyped-def]
+    """Reception time a of the emission at t_n from (x, y, z), with the distance
+    D(a), dD/dt(a) and the capture interval s holding a.
+
+    On a capture interval the listener moves linearly, L(t) = L_s + V (t - t_s),
+    so c0 (a - t_n) = |L(a) - x| is a quadratic in u = a - t_n with one
+    positive root: exact, no iteration.  ``hint`` is the interval of an
+    earlier knot's arrival of the same source (arrivals increase with n), or -1.
+    """
+    m = tc.size
+    c2 = c0 * c0
+    s = _segment(tc, t_n, hint if hint >= 0 else 0)
+    if hint > s:
+        s = hint
+    a = t_n
+    d = 0.0
+    dd = 0.0
+    while True:
+        if s < 0:
+            lx, ly, lz = lc[0, 0], lc[0, 1], lc[0, 2]
+            vx = vy = vz = 0.0
+            ts = t_n
+        elif s >= m - 1:
+            lx, ly, lz = lc[m - 1, 0], lc[m - 1, 1], lc[m - 1, 2]
+            vx = vy = vz = 0.0
+            ts = t_n
+        else:
+            lx, ly, lz = lc[s, 0], lc[s, 1], lc[s, 2]
+            vx, vy, vz = vc[s, 0], vc[s, 1], vc[s, 2]
+            ts = tc[s]
+        # P = L(t_n) - x on this interval's line
+        px = lx + vx * (t_n - ts) - x
+        py = ly + vy * (t_n - ts) - y
+        pz = lz + vz * (t_n - ts) - z
+        pv = px * vx + py * vy + pz * vz
+        pp = px * px + py * py + pz * pz
+        den = c2 - (vx * vx + vy * vy + vz * vz)
+        u = (pv + math.sqrt(pv * pv + den * pp)) / den
+        a = t_n + u
+        # move to the next interval if the root lies beyond this one
+        if s < m - 1 and a >= tc[s + 1]:
+            s += 1
+            continue
+        dx, dy, dz = px + vx * u, py + vy * u, pz + vz * u
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if d <= rmin:
+            d = rmin
+            dd = 0.0
+            a = t_n + rmin / c0
+            s = _segment(tc, a, s)
+        else:
+            dd = (dx * vx + dy * vy + dz * vz) / d
+        return a, d, dd, s
+
+
+@numba.njit(inline="always", **_NJIT)
+def _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, vb, wb, ga, gb,
+                 fs, panned):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Emit f·g on [u0, u1] for every channel: f Hermite from (va, wa), (vb, wb)
+    (per data second), gains linear from ga to gb (mono: gain 1)."""
+    L = u1 - u0
+    if L <= 0.0:
+        return 0
+    bad = 0
+    if not panned:
+        p0, p1, p2, p3 = _hermite(L, va, wa / fs, vb, wb / fs)
+        return _emit_piece(acc, base, blo, nb, 0, block, n_samples, u0, u1, p0, p1, p2, p3)
+    slope_t = fs / L  # 1 / (t1 - t0)
+    for c in range(n_ch):
+        g0 = ga[c]
+        g1 = gb[c]
+        if g0 == 0.0 and g1 == 0.0:
+            continue
+        slope = (g1 - g0) * slope_t
+        p0, p1, p2, p3 = _hermite(L, g0 * va, (g0 * wa + slope * va) / fs, g1 * vb,
+                                  (g1 * wb + slope * vb) / fs)  # fmt: skip
+        bad += _emit_piece(acc, base, blo, nb, c, block, n_samples, u0, u1, p0, p1, p2, p3)
+    return bad
+
+
+@numba.njit(inline="always", **_NJIT)
+def _hermite_inv(inv, f0, d0, f1, d1):  # type: ignore[no-untyped-def]
+    """:func:`_hermite` given 1/L."""
     dlt = (f1 - f0) * inv
     c2 = (3.0 * dlt - 2.0 * d0 - d1) * inv
     c3 = (d0 + d1 - 2.0 * dlt) * inv * inv
@@ -233,297 +373,438 @@ def _hermite(L, f0, d0, f1, d1):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _emit(acc, th, ch, blk, B, m_start, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
-    """Add sign × P(m - m_start + x) for m >= m_start, P = c0 + c1 x + c2 x² + c3 x³.
+def _shifted(p0, p1, p2, p3, x):  # type: ignore[no-untyped-def]
+    """The four accumulator values (see :func:`_emit1`) of P(m - m_start + x)."""
+    b0 = p0 + x * (p1 + x * (p2 + x * p3))
+    b1 = p1 + x * (2.0 * p2 + 3.0 * p3 * x)
+    b2 = p2 + 3.0 * p3 * x
+    s3 = 6.0 * p3
+    return b0, b1 + b2 + p3, 2.0 * b2 + s3, s3
 
-    The polynomial is Taylor-shifted to x and written in the binomial basis
-    C(m - m_start, i), whose (i+1)-fold cumulative sum is an impulse at
-    m_start + i: four impulses, into acc[blk, local index + level, level] (the
-    four levels of one impulse share cache lines).  The accumulator is indexed
-    in full (thread th, channel ch) rather than through views: a view made in
-    the hot loop costs two atomic reference-count updates on memory shared by
-    the threads.
+
+#: the chunk work array (one 1-D array, rows of _CHUNK: every access is at a
+#: constant distance from every other, so the compiler vectorizes the loops
+#: without aliasing checks): rows 0-7 the pieces' input (PD), 8-31 their
+#: accumulator values, then kind, accumulator rows and arrivals
+_CHUNK = 256
+_W_VAL, _W_KIND, _W_SI, _W_EI, _W_CI, _W_A0, _W_A1, _W_S0, _W_S1 = 8, 32, 33, 34, 35, 36, 37, 38, 39
+_W_ROWS = 40
+
+
+@numba.njit(inline="always", **_NJIT)
+def _piece_values(W, r, i, L, inv_L, f0, w0, f1, w1, x0, x1, x2):  # type: ignore[no-untyped-def]
+    """Rows r..r+11 of column i of W: the accumulator values of the cubic
+    Hermite with values f0, f1 and slopes w0, w1 (per sample) over [0, L],
+    added at its first sample (x0 = that sample - start), subtracted at its end
+    (x1) and added again at the first sample of the next accumulation block
+    (x2); inv_L = 1/L."""
+    p0, p1, p2, p3 = _hermite_inv(inv_L, f0, w0, f1, w1)
+    v0, v1, v2, v3 = _shifted(p0, p1, p2, p3, x0)
+    W[r * _CHUNK + i] = v0
+    W[(r + 1) * _CHUNK + i] = v1
+    W[(r + 2) * _CHUNK + i] = v2
+    W[(r + 3) * _CHUNK + i] = v3
+    v0, v1, v2, v3 = _shifted(p0, p1, p2, p3, x1)
+    W[(r + 4) * _CHUNK + i] = -v0
+    W[(r + 5) * _CHUNK + i] = -v1
+    W[(r + 6) * _CHUNK + i] = -v2
+    W[(r + 7) * _CHUNK + i] = -v3
+    v0, v1, v2, v3 = _shifted(p0, p1, p2, p3, x2)
+    W[(r + 8) * _CHUNK + i] = v0
+    W[(r + 9) * _CHUNK + i] = v1
+    W[(r + 10) * _CHUNK + i] = v2
+    W[(r + 11) * _CHUNK + i] = v3
+
+
+@numba.njit(inline="always", **_NJIT)
+def _line_arrival(x, y, z, rm, lx, ly, lz, vx, vy, vz, t_n, inv_den, den, c0, inv_c0):  # type: ignore[no-untyped-def]
+    """Arrival a, distance D and D·dD/dt of the emission at knot time t_n from
+    (x, y, z), the listener on the line L + V (t - t_n) (see :func:`_arrival`;
+    den = c0² - V²); branch-free, no division (the caller divides by D)."""
+    qx = lx - x
+    qy = ly - y
+    qz = lz - z
+    pv = qx * vx + qy * vy + qz * vz
+    pp = qx * qx + qy * qy + qz * qz
+    vv = vx * vx + vy * vy + vz * vz
+    u = (pv + math.sqrt(pv * pv + den * pp)) * inv_den
+    d = c0 * u
+    clamp = d <= rm
+    ddd = 0.0 if clamp else pv + vv * u
+    d = rm if clamp else d
+    u = rm * inv_c0 if clamp else u
+    return t_n + u, d, ddd
+
+
+#: columns of one candidate line in a row of the line table (see _row_lines)
+_LINE = 12
+
+
+@numba.njit(**_NJIT)
+def _row_lines(tn, tc, lc, vc, c0, n_lo, n_hi, RC):  # type: ignore[no-untyped-def]
+    """Per knot row n, two candidate lines of the listener for the arrivals of
+    the emissions at t_n: the capture interval s holding t_n and the next one.
+
+    Per line (columns j·_LINE ...): the listener's position at t_n on the
+    line, its velocity, t_n, the interval [t_lo, t_hi) where the line is the
+    path, 1/(c0² - V²), c0² - V², and s (before the first capture and after
+    the last the listener is held: V = 0).  An arrival solved on a line
+    counts only if it falls in the line's interval.
     """
-    b0 = c0 + x * (c1 + x * (c2 + x * c3))
-    b1 = c1 + x * (2.0 * c2 + 3.0 * c3 * x)
-    b2 = c2 + 3.0 * c3 * x
-    loc = m_start - blk * B
-    acc[th, ch, blk, loc, 0] += sign * b0
-    acc[th, ch, blk, loc + 1, 1] += sign * (b1 + b2 + c3)
-    acc[th, ch, blk, loc + 2, 2] += sign * (2.0 * b2 + 6.0 * c3)
-    acc[th, ch, blk, loc + 3, 3] += sign * 6.0 * c3
-
-
-@numba.njit(parallel=True, **_NJIT)
-def _arrivals(pos, radius, tn, act, tc, lc, vc, c0, n_lo, n_hi, arr, darr, ddarr, n_chunks):  # type: ignore[no-untyped-def]
-    """Reception time, distance and its rate at every knot n_lo..n_hi that bounds a
-    sounding piece (NaN elsewhere).
-
-    On a capture interval the listener moves linearly, L(t) = L_s + V (t - t_s),
-    so c0 (a - t_n) = |L(a) - x| is a quadratic in u = a - t_n with one
-    positive root: exact, no iteration.  The interval is found from the
-    previous knot's (arrivals increase with n).
-    """
-    K = pos.shape[0]
     m = tc.size
-    c2 = c0 * c0
-    chunk = (K + n_chunks - 1) // n_chunks
-    segs = np.full(K, -1, dtype=np.int64)
-    # step-major inside each thread's block of sources: reads of the
-    # (steps, sources) arrays stay contiguous
-    for th in numba.prange(n_chunks):
-        for n in range(n_lo, n_hi + 1):
-            for k in range(th * chunk, min(K, (th + 1) * chunk)):
-                # a knot is needed when a sounding piece starts or ends at it
-                need = (n < n_hi and act[n, k] != 0) or (n > n_lo and act[n - 1, k] != 0)
-                if not need:
-                    arr[n, k] = np.nan
-                    continue
-                x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
-                seg = segs[k]
-                t_n = tn[n]
-                # the arrival is at or after t_n: start from the interval holding t_n
-                s = _segment(tc, t_n, seg if seg >= 0 else 0)
-                if seg > s:
-                    s = seg
-                a = t_n
-                d = 0.0
-                dd = 0.0
-                while True:
-                    if s < 0:
-                        lx, ly, lz = lc[0, 0], lc[0, 1], lc[0, 2]
-                        vx = vy = vz = 0.0
-                        ts = t_n
-                    elif s >= m - 1:
-                        lx, ly, lz = lc[m - 1, 0], lc[m - 1, 1], lc[m - 1, 2]
-                        vx = vy = vz = 0.0
-                        ts = t_n
-                    else:
-                        lx, ly, lz = lc[s, 0], lc[s, 1], lc[s, 2]
-                        vx, vy, vz = vc[s, 0], vc[s, 1], vc[s, 2]
-                        ts = tc[s]
-                    # P = L(t_n) - x on this interval's line
-                    px = lx + vx * (t_n - ts) - x
-                    py = ly + vy * (t_n - ts) - y
-                    pz = lz + vz * (t_n - ts) - z
-                    pv = px * vx + py * vy + pz * vz
-                    pp = px * px + py * py + pz * pz
-                    den = c2 - (vx * vx + vy * vy + vz * vz)
-                    u = (pv + math.sqrt(pv * pv + den * pp)) / den
-                    a = t_n + u
-                    # move to the next interval if the root lies beyond this one
-                    if s < m - 1 and s + 1 < m and a >= tc[s + 1] and s + 1 <= m - 1:
-                        s += 1
-                        continue
-                    if s >= 0 and a < tc[s] and s > -1:
-                        # cannot happen for a listener slower than sound; guard anyway
-                        break
-                    dx, dy, dz = px + vx * u, py + vy * u, pz + vz * u
-                    d = math.sqrt(dx * dx + dy * dy + dz * dz)
-                    if d <= rmin:
-                        d = rmin
-                        dd = 0.0
-                        a = t_n + rmin / c0
-                    else:
-                        dd = (dx * vx + dy * vy + dz * vz) / d
-                    break
-                segs[k] = s
-                arr[n, k] = a
-                darr[n, k] = d
-                ddarr[n, k] = dd
+    s = 0
+    for n in range(n_lo, n_hi + 1):
+        t_n = tn[n]
+        s = _segment(tc, t_n, max(s, 0))
+        for j in range(2):
+            sj = s + j
+            o = j * _LINE
+            if sj < 0:
+                lx, ly, lz = lc[0, 0], lc[0, 1], lc[0, 2]
+                vx = vy = vz = 0.0
+                t_lo, t_hi = -np.inf, tc[0]
+            elif sj >= m - 1:
+                lx, ly, lz = lc[m - 1, 0], lc[m - 1, 1], lc[m - 1, 2]
+                vx = vy = vz = 0.0
+                t_lo, t_hi = tc[m - 1], np.inf
+            else:
+                dt = t_n - tc[sj]
+                vx, vy, vz = vc[sj, 0], vc[sj, 1], vc[sj, 2]
+                lx, ly, lz = lc[sj, 0] + vx * dt, lc[sj, 1] + vy * dt, lc[sj, 2] + vz * dt
+                t_lo, t_hi = tc[sj], tc[sj + 1]
+            if sj > m - 1:  # no such line
+                t_lo = t_hi = np.inf
+            den = c0 * c0 - (vx * vx + vy * vy + vz * vz)
+            RC[n, o + 0] = lx
+            RC[n, o + 1] = ly
+            RC[n, o + 2] = lz
+            RC[n, o + 3] = vx
+            RC[n, o + 4] = vy
+            RC[n, o + 5] = vz
+            RC[n, o + 6] = t_n
+            RC[n, o + 7] = t_lo
+            RC[n, o + 8] = t_hi
+            RC[n, o + 9] = 1.0 / den
+            RC[n, o + 10] = den
+            RC[n, o + 11] = sj
+
+
+@numba.njit(inline="always", **_NJIT)
+def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0):  # type: ignore[no-untyped-def]
+    """Arrival, D, D·dD/dt and capture interval of one knot, solved on both
+    candidate lines la, lb (tuples of a _row_lines row) and taken from the one
+    whose interval holds it; ``found`` False when neither does (branch-free)."""
+    a1, d1, e1 = _line_arrival(x, y, z, rm, la[0], la[1], la[2], la[3], la[4], la[5], la[6],
+                               la[9], la[10], c0, inv_c0)  # fmt: skip
+    a2, d2, e2 = _line_arrival(x, y, z, rm, lb[0], lb[1], lb[2], lb[3], lb[4], lb[5], lb[6],
+                               lb[9], lb[10], c0, inv_c0)  # fmt: skip
+    ok1 = (a1 >= la[7]) & (a1 < la[8])
+    ok2 = (a2 >= lb[7]) & (a2 < lb[8])
+    a = a1 if ok1 else a2
+    d = d1 if ok1 else d2
+    e = e1 if ok1 else e2
+    sg = la[11] if ok1 else lb[11]
+    return a, d, e, sg, ok1 | ok2
+
+
+@numba.njit(inline="always", **_NJIT)
+def _piece_core(W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
+                blo, nb, base):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Arrivals, kind and accumulator rows of the piece in column i of W (see
+    :func:`_chunk_pieces`); returns the Hermite data (L, 1/L, f0, w0, f1, w1)
+    and the offsets x0, x1, x2 of its emissions."""
+    x = W[0 * _CHUNK + i]
+    y = W[1 * _CHUNK + i]
+    z = W[2 * _CHUNK + i]
+    rm = W[3 * _CHUNK + i]
+    q0 = W[4 * _CHUNK + i]
+    m0 = W[5 * _CHUNK + i]
+    q1 = W[6 * _CHUNK + i]
+    m1 = W[7 * _CHUNK + i]
+    a0, d0, dd0, sg0, ok0 = _knot_arrival(x, y, z, rm, l0a, l0b, c0, inv_c0)
+    a1, d1, dd1, sg1, ok1 = _knot_arrival(x, y, z, rm, l1a, l1b, c0, inv_c0)
+    W[_W_A0 * _CHUNK + i] = a0
+    W[_W_A1 * _CHUNK + i] = a1
+    W[_W_S0 * _CHUNK + i] = sg0
+    W[_W_S1 * _CHUNK + i] = sg1
+    u0 = (a0 - t_start) * fs
+    u1 = (a1 - t_start) * fs
+    L = u1 - u0
+    # one division for 1/D0, 1/D1 and 1/L
+    L = L if L > 0.0 else 1.0
+    r = 1.0 / (d0 * d1 * L)
+    inv0 = d1 * L * r
+    inv1 = d0 * L * r
+    dd0 = dd0 * inv0  # dD/dt
+    dd1 = dd1 * inv1
+    f0 = q0 * inv0
+    f1 = q1 * inv1
+    w0 = (m0 * (1.0 - dd0 * inv_c0) - f0 * dd0) * inv0 * inv_fs
+    w1 = (m1 * (1.0 - dd1 * inv_c0) - f1 * dd1) * inv1 * inv_fs
+    s0 = np.ceil(u0)
+    s0 = s0 if s0 > 0.0 else 0.0
+    s1 = np.ceil(u1)
+    s1 = s1 if s1 < fn else fn
+    valid = (s1 > s0) & (u1 > u0) & ok0 & ok1
+    general = ~(ok0 & ok1)
+    s0 = s0 if valid else 0.0
+    s1 = s1 if valid else 1.0
+    b0 = np.floor(s0 * inv_block)
+    b1 = np.floor((s1 - 1.0) * inv_block)
+    simple = (sg0 == sg1) & (b1 <= b0 + 1.0) & (b0 >= blo) & (b1 < blo + nb)
+    W[_W_KIND * _CHUNK + i] = 2.0 if general else ((1.0 if simple else 2.0) if valid else 0.0)
+    W[_W_SI * _CHUNK + i] = base + ((b0 - blo) * fblock + (s0 - b0 * fblock)) * 4.0
+    end_inside = (s1 < fn) & (s1 < (b1 + 1.0) * fblock)
+    W[_W_EI * _CHUNK + i] = base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * 4.0 if end_inside else -1.0
+    W[_W_CI * _CHUNK + i] = base + (b1 - blo) * fblock * 4.0 if b1 > b0 else -1.0
+    return L, d0 * d1 * r, f0, w0, f1, w1, s0 - u0, s1 - u0, b1 * fblock - u0
+
+
+@numba.njit(inline="always", **_NJIT)
+def _line_tuple(R, o):  # type: ignore[no-untyped-def]
+    return (R[o], R[o + 1], R[o + 2], R[o + 3], R[o + 4], R[o + 5], R[o + 6], R[o + 7], R[o + 8],
+            R[o + 9], R[o + 10], R[o + 11])  # fmt: skip
+
+
+@numba.njit(**_NJIT)
+def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo, nb, base,
+                  panned, W):  # fmt: skip  # type: ignore[no-untyped-def]
+    """The cnt pieces of chunk ck (PD[ck], of one row n: knots at t_n with the
+    listener's candidate lines RC0, at t_{n+1} with RC1) into columns
+    0..cnt-1 of the work array W (see _W_ROWS): arrivals (A0, A1) and their
+    capture intervals (S0, S1), kind (0 silent or outside the output;
+    1 simple: accumulator rows SI, EI, CI, -1 for none, and 12 values; 2
+    general, see :func:`_piece_general`).  Panned layouts get two
+    polynomials A (12 values) and B (the next 12) whose sum g0·A + g1·B is the
+    piece on a channel whose gain goes linearly from g0 to g1.  SIMD loops: no
+    branches in their bodies, integers carried as floats (exact).
+    """
+    inv_c0 = 1.0 / c0
+    inv_fs = 1.0 / fs
+    l0a = _line_tuple(RC0, 0)
+    l0b = _line_tuple(RC0, _LINE)
+    l1a = _line_tuple(RC1, 0)
+    l1b = _line_tuple(RC1, _LINE)
+    fn = float(n_samples)
+    fblock = float(1 << shift)
+    inv_block = 1.0 / fblock
+    for r in range(8):
+        for i in range(cnt):
+            W[r * _CHUNK + i] = PD[ck, r, i]
+    if panned:
+        for i in range(cnt):
+            L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
+                W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
+                blo, nb, base)  # fmt: skip
+            _piece_values(W, _W_VAL, i, L, inv, f0, w0 - f0 * inv, 0.0, -f1 * inv, x0, x1, x2)
+            _piece_values(W, _W_VAL + 12, i, L, inv, 0.0, f0 * inv, f1, w1 + f1 * inv, x0, x1,
+                          x2)  # fmt: skip
+    else:
+        for i in range(cnt):
+            L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
+                W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
+                blo, nb, base)  # fmt: skip
+            _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
+
+
+@numba.njit(**_NJIT)
+def _piece_general(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, tn, q0, m0,
+                   q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
+                   fold, pinv, panned, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Piece n (knots n, n + 1) of a source at (x, y, z) in full: arrivals solved across the
+    listener's captures, the piece split at the captures inside it (the
+    listener's velocity changes there, so does df/dt: f, df/dt and the gains
+    are evaluated on either side), continued across accumulation blocks."""
+    a0, d0, dd0, s0 = _arrival(x, y, z, rmin, tn[n], -1, tc, lc, vc, c0)
+    a1, d1, dd1, s1 = _arrival(x, y, z, rmin, tn[n + 1], s0, tc, lc, vc, c0)
+    t_end = t_start + n_samples / fs
+    if a1 <= t_start or a0 >= t_end or a1 <= a0:
+        return 0
+    va, wa = _fval(q0, m0, d0, dd0, c0)
+    vb, wb = _fval(q1, m1, d1, dd1, c0)
+    if panned:
+        _pan(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
+        _pan(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
+    bad = 0
+    u0 = (a0 - t_start) * fs
+    for c in range(n_ch):
+        gy[c] = ga[c] if panned else 1.0
+    seg = s0
+    while seg < s1:
+        t1 = tc[seg + 1]
+        # f and its derivative just before the capture
+        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, seg)
+        dq1, ddq1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
+        qv, dq = _qeval(tn[n], tn[n + 1] - tn[n], q0, m0, q1, m1, t1 - dq1 / c0, cubic)
+        v1, w1 = _fval(qv, dq, dq1, ddq1, c0)
+        if panned:
+            _pan(x, y, z, t1, seg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gx, o)
+        u1 = (t1 - t_start) * fs
+        bad += _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, v1, w1, gy,
+                            gx, fs, panned)  # fmt: skip
+        seg += 1
+        # ... and just after it, on the next line
+        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, seg)
+        dq1, ddq1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
+        qv, dq = _qeval(tn[n], tn[n + 1] - tn[n], q0, m0, q1, m1, t1 - dq1 / c0, cubic)
+        va, wa = _fval(qv, dq, dq1, ddq1, c0)
+        if panned:
+            for c in range(n_ch):
+                gy[c] = gx[c]
+        u0 = u1
+    return bad + _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, (a1 - t_start) * fs,
+                              va, wa, vb, wb, gy, gb, fs, panned)  # fmt: skip
 
 
 @numba.njit(parallel=True, **_NJIT)
-def render(pos, radius, tn, q, mt, act, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, block,
-           spk_az, spk_ch, pinv, n_ch, fold, n_threads, n_lo, n_hi, arr, darr, ddarr, accs):  # fmt: skip  # type: ignore[no-untyped-def]
-    """Sum every source's pieces into ``(n_ch, n_samples)``; see module docstring.
+def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, shift,
+           spk_az, spk_ch, pinv, n_ch, fold, n_lo, n_hi, task_pieces, task_blk, RC, acc, out):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Sum every sounding piece into ``out (n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
     ----------
-    pos (K,3), radius (K,) clamp distances; tn (Tp,) knot times (padded with
-    silent knots); q (Tp,K) strength·ΔV/(4π); mt (Tp,K) tangents dq/dτ
-    (size-0 first axis for linear interpolation) — step-major, so that the
-    step-major loops below read them contiguously; act (Tp,K) uint8, 1 where
-    piece n of source k sounds (a compact mask: silent pieces cost one byte); tc (M,), lc (M,3), vc (M-1,3),
-    listener captures; qc (N,6) forward/up table sampled from ot[0] at rate
-    ot[1] (see :func:`_orient`); fs samples per data second; block samples per
-    accumulation block; spk_az/spk_ch speaker azimuths (sorted) and channels;
-    pinv (n_pairs, 4) inverse bases of adjacent speaker pairs (empty when an arc
-    spans 180° or more, e.g. stereo);
-    only pieces n_lo..n_hi-1 (those that can be heard in the output) are summed.
-    arr, darr, ddarr (Tp, K) and accs (n_threads, n_ch, n_blocks, block + 4, 4)
-    are work arrays supplied by the caller: fresh memory costs a page fault per
-    4 KiB on first touch, which dominated short renders.
+    the sounding pieces in chunks of _CHUNK, sorted by knot row n (piece n runs
+    from knot n to n + 1): row n's chunks are cptr[n]..cptr[n+1]-1, chunk c
+    holds ccnt[c] pieces, PD (C, 8, _CHUNK) = x, y, z, clamp radius, q and
+    dq/dτ at its first knot, q and dq/dτ at its last (strength·ΔV/(4π); for
+    linear interpolation, ``cubic`` False, dq/dτ is the piece's slope),
+    contiguous per chunk; tn (Tp,) knot times (padded with silent knots); tc (M,),
+    lc (M,3), vc (M-1,3) listener captures; qc (N,6) forward/up table sampled
+    from ot[0] at rate ot[1] (see :func:`_orient`); fs samples per data
+    second; 2**shift samples per accumulation block; spk_az/spk_ch speaker
+    azimuths (sorted) and channels; pinv (n_pairs, 4) inverse bases of
+    adjacent speaker pairs (empty when an arc spans 180° or more, e.g. stereo).
 
-    Pieces are visited step-major (all sources' piece n, then n+1, ...) so the
-    accumulator writes stay within the few thousand samples a step's arrivals
-    span.  At a piece's ends (knot arrivals) τ is a knot time, so q, dq/dτ, D
-    and dD/dt are known from the arrival solve: no further evaluation.
+    Work is split in tasks (one per thread): task j sums chunks
+    task_pieces[j, 0]..task_pieces[j, 1]-1 of rows n_lo..n_hi-1 into its
+    accumulator window: blocks task_blk[j, 0].. (task_blk[j, 1] of them) at
+    offset task_blk[j, 2] of ``acc``.  Pieces are sorted by row, so a task's
+    arrivals, and its writes, stay within its own stretch of the output.
+    RC (Tp, 2·_LINE) is work space for the listener's lines per row.
+
+    Returns the number of emissions outside the windows (an internal error).
     """
-    K = pos.shape[0]
-    n_blocks = (n_samples + block - 1) // block
-    cubic = mt.shape[0] > 0
-    _arrivals(pos, radius, tn, act, tc, lc, vc, c0, n_lo, n_hi, arr, darr, ddarr, n_threads)
-    accs[:] = 0.0
-    t_end = t_start + n_samples / fs
-    chunk = (K + n_threads - 1) // n_threads
+    n_tasks = task_pieces.shape[0]
+    block = 1 << shift
     panned = spk_az.size > 0
-    for th in numba.prange(n_threads):
+    ng = n_ch if panned else 1
+    _row_lines(tn, tc, lc, vc, c0, n_lo, n_hi, RC)
+    bad = np.zeros(n_tasks, dtype=np.int64)
+    for j in numba.prange(n_tasks):
+        p_a, p_b = task_pieces[j, 0], task_pieces[j, 1]
+        blo, nb, base = task_blk[j, 0], task_blk[j, 1], task_blk[j, 2]
+        chs = nb * block * 4  # channel stride in the window
+        for i in range(base, base + n_ch * chs):
+            acc[i] = 0.0
+        W = np.empty(_W_ROWS * _CHUNK)
+        G0 = np.zeros((_CHUNK, ng))
+        G1 = np.zeros((_CHUNK, ng))
         ga = np.zeros(n_ch)
         gb = np.zeros(n_ch)
+        gx = np.zeros(n_ch)
+        gy = np.zeros(n_ch)
         o = np.zeros(6)
-        fa = np.zeros(n_ch)
-        da = np.zeros(n_ch)
-        fb = np.zeros(n_ch)
-        db = np.zeros(n_ch)
-        k_lo = th * chunk
-        k_hi = min(K, (th + 1) * chunk)
-        for n in range(n_lo, n_hi):
-            h = tn[n + 1] - tn[n]
-            for k in range(k_lo, k_hi):
-                if act[n, k] == 0:
-                    continue
-                q0 = q[n, k]
-                q1 = q[n + 1, k]
-                if cubic:
-                    m0 = mt[n, k]
-                    m1 = mt[n + 1, k]
-                else:
-                    m0 = (q1 - q0) / h
-                    m1 = m0
-                if q0 == 0.0 and q1 == 0.0 and m0 == 0.0 and m1 == 0.0:
-                    continue
-                ta, tb = arr[n, k], arr[n + 1, k]
-                if tb <= t_start or ta >= t_end or tb <= ta:
-                    continue
-                x, y, z, rmin = pos[k, 0], pos[k, 1], pos[k, 2], radius[k]
-                # split [ta, tb] at listener captures and block boundaries
-                t0 = ta
-                seg = _segment(tc, t0, 0)
-                # value at the piece start: the knot itself
-                va, wa = _fval(q0, m0, darr[n, k], ddarr[n, k], c0)
-                have_ga = False
-                u0 = (t0 - t_start) * fs
-                while t0 < tb:
-                    t1 = tb
-                    if seg + 1 < tc.size and tc[seg + 1] < t1 and tc[seg + 1] > t0:
-                        t1 = tc[seg + 1]
-                    bidx = int(math.floor(u0 / block)) if u0 >= 0 else 0
-                    tbnd = t_start + (bidx + 1) * block / fs
-                    at_block_end = tbnd < t1 and tbnd > t0
-                    if at_block_end:
-                        t1 = tbnd
-                    segm = _segment(tc, 0.5 * (t0 + t1), seg)
-                    if t1 == tb:
-                        vb, wb = _fval(q1, m1, darr[n + 1, k], ddarr[n + 1, k], c0)
-                    else:
-                        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, segm)
-                        d1, dd1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-                        qv, dq = _qeval(tn, q, mt, k, n, t1 - d1 / c0, cubic)
-                        vb, wb = _fval(qv, dq, d1, dd1, c0)
-                    # a block boundary is exact in samples, so that the next
-                    # sub-piece starts at the very sample this one stops before
-                    u1 = (bidx + 1) * block if at_block_end else (t1 - t_start) * fs
-                    m_0 = max(int(math.ceil(u0)), 0)
-                    m_1 = min(int(math.ceil(u1)), n_samples)
-                    if m_1 > m_0:
-                        L = u1 - u0
-                        blk = m_0 // block
-                        end_inside = m_1 < n_samples and m_1 < (blk + 1) * block
-                        if panned:
-                            # gains vary slowly: linear between the sub-piece's ends
-                            if not have_ga:
-                                _pan(
-                                    x,
-                                    y,
-                                    z,
-                                    t0,
-                                    segm,
-                                    tc,
-                                    lc,
-                                    vc,
-                                    qc,
-                                    ot,
-                                    spk_az,
-                                    spk_ch,
-                                    fold,
-                                    pinv,
-                                    ga,
-                                    o,
-                                )
-                            _pan(
-                                x,
-                                y,
-                                z,
-                                t1,
-                                segm,
-                                tc,
-                                lc,
-                                vc,
-                                qc,
-                                ot,
-                                spk_az,
-                                spk_ch,
-                                fold,
-                                pinv,
-                                gb,
-                                o,
-                            )
-                            inv_dt = 1.0 / (t1 - t0)
-                            for c in range(n_ch):
-                                slope = (gb[c] - ga[c]) * inv_dt
-                                fa[c] = ga[c] * va
-                                da[c] = (ga[c] * wa + slope * va) / fs
-                                fb[c] = gb[c] * vb
-                                db[c] = (gb[c] * wb + slope * vb) / fs
-                                ga[c] = gb[c]
-                            have_ga = True
-                        else:
-                            fa[0] = va
-                            da[0] = wa / fs
-                            fb[0] = vb
-                            db[0] = wb / fs
+        nbad = 0
+        n = n_lo
+        while n < n_hi and cptr[n + 1] <= p_a:
+            n += 1
+        while n < n_hi and cptr[n] < p_b:
+            for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
+                cc = ccnt[ck]
+                _chunk_pieces(PD, ck, cc, RC[n], RC[n + 1], c0, t_start, fs, n_samples, shift,
+                              blo, nb, base, panned, W)  # fmt: skip
+                if panned:
+                    for i in range(cc):
+                        if W[_W_KIND * _CHUNK + i] != 1.0:
+                            continue
+                        x, y, z = PD[ck, 0, i], PD[ck, 1, i], PD[ck, 2, i]
+                        _pan(x, y, z, W[_W_A0 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]), tc, lc, vc, qc, ot, spk_az,
+                             spk_ch, fold, pinv, ga, o)  # fmt: skip
+                        _pan(x, y, z, W[_W_A1 * _CHUNK + i], int(W[_W_S1 * _CHUNK + i]), tc, lc, vc, qc, ot, spk_az,
+                             spk_ch, fold, pinv, gb, o)  # fmt: skip
                         for c in range(n_ch):
-                            if fa[c] == 0.0 and da[c] == 0.0 and fb[c] == 0.0 and db[c] == 0.0:
+                            G0[i, c] = ga[c]
+                            G1[i, c] = gb[c]
+                for i in range(cc):
+                    kd = W[_W_KIND * _CHUNK + i]
+                    if kd == 0.0:
+                        continue
+                    if kd == 1.0:
+                        si = int(W[_W_SI * _CHUNK + i])
+                        ei = int(W[_W_EI * _CHUNK + i])
+                        ci = int(W[_W_CI * _CHUNK + i])
+                        if not panned:
+                            for v in range(4):
+                                acc[si + v] += W[(_W_VAL + v) * _CHUNK + i]
+                            if ei >= 0:
+                                for v in range(4):
+                                    acc[ei + v] += W[(_W_VAL + 4 + v) * _CHUNK + i]
+                            if ci >= 0:
+                                for v in range(4):
+                                    acc[ci + v] += W[(_W_VAL + 8 + v) * _CHUNK + i]
+                            continue
+                        for c in range(n_ch):
+                            g0 = G0[i, c]
+                            g1 = G1[i, c]
+                            if g0 == 0.0 and g1 == 0.0:
                                 continue
-                            p0, p1, p2, p3 = _hermite(L, fa[c], da[c], fb[c], db[c])
-                            _emit(accs, th, c, blk, block, m_0, m_0 - u0, p0, p1, p2, p3, 1.0)
-                            if end_inside:
-                                _emit(accs, th, c, blk, block, m_1, m_1 - u0, p0, p1, p2, p3, -1.0)
-                    else:
-                        have_ga = False  # no sample here: gains at t1 were not computed
-                    new_seg = _segment(tc, t1, seg)
-                    if new_seg != segm and t1 < tb:
-                        # split at a listener capture: the velocity changes, so the
-                        # derivative on the right differs from the left one
-                        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, new_seg)
-                        d1, dd1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-                        qv, dq = _qeval(tn, q, mt, k, n, t1 - d1 / c0, cubic)
-                        vb, wb = _fval(qv, dq, d1, dd1, c0)
-                    t0 = t1
-                    u0 = u1
-                    va, wa = vb, wb
-                    seg = new_seg
-    out = np.zeros((n_ch, n_blocks * block))
-    for c in range(n_ch):
-        for b in range(n_blocks):
-            a3 = 0.0
-            a2 = 0.0
-            a1 = 0.0
-            a0 = 0.0
-            for i in range(block):
-                s3 = 0.0
-                s2 = 0.0
-                s1 = 0.0
-                s0 = 0.0
-                for th in range(n_threads):
-                    s3 += accs[th, c, b, i, 3]
-                    s2 += accs[th, c, b, i, 2]
-                    s1 += accs[th, c, b, i, 1]
-                    s0 += accs[th, c, b, i, 0]
-                a3 += s3
-                a2 += s2 + a3
-                a1 += s1 + a2
-                a0 += s0 + a1
-                out[c, b * block + i] = a0
-    return out[:, :n_samples]
+                            off = c * chs
+                            for v in range(4):
+                                acc[si + off + v] += g0 * W[(_W_VAL + v) * _CHUNK + i] + g1 * W[(_W_VAL + 12 + v) * _CHUNK + i]
+                            if ei >= 0:
+                                for v in range(4):
+                                    acc[ei + off + v] += g0 * W[(_W_VAL + 4 + v) * _CHUNK + i] + g1 * W[(_W_VAL + 16 + v) * _CHUNK + i]
+                            if ci >= 0:
+                                for v in range(4):
+                                    acc[ci + off + v] += g0 * W[(_W_VAL + 8 + v) * _CHUNK + i] + g1 * W[(_W_VAL + 20 + v) * _CHUNK + i]
+                        continue
+                    nbad += _piece_general(
+                        acc, base, blo, nb, n_ch, block, n_samples, n, PD[ck, 0, i],
+                        PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i], PD[ck, 5, i],
+                        PD[ck, 6, i], PD[ck, 7, i],
+                        cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
+                        panned, ga, gb, gx, gy, o,
+                    )  # fmt: skip
+            n += 1
+        bad[j] = nbad
+    # integrate: per channel and block, the sum of the tasks' skewed levels,
+    # then four running sums
+    for ch in numba.prange(n_ch):
+        _integrate(acc, task_blk, ch, block, n_samples, out)
+    return int(bad.sum())
+
+
+@numba.njit(**_NJIT)
+def _integrate(acc, task_blk, ch, block, n_samples, out):  # type: ignore[no-untyped-def]
+    """out[ch] from the tasks' skewed accumulators: level j of sample m is row
+    m - j; the four levels are summed 4, 3, 2 and 1 times."""
+    n_tasks = task_blk.shape[0]
+    n_blocks = (n_samples + block - 1) // block
+    for b in range(n_blocks):
+        r3 = 0.0
+        r2 = 0.0
+        r1 = 0.0
+        r0 = 0.0
+        lim = min(block, n_samples - b * block)
+        for i in range(lim):
+            v3 = 0.0
+            v2 = 0.0
+            v1 = 0.0
+            v0 = 0.0
+            for j in range(n_tasks):
+                jb = b - task_blk[j, 0]
+                if jb < 0 or jb >= task_blk[j, 1]:
+                    continue
+                r = task_blk[j, 2] + ((ch * task_blk[j, 1] + jb) * block + i) * 4
+                v0 += acc[r]
+                if i >= 1:
+                    v1 += acc[r - 3]
+                if i >= 2:
+                    v2 += acc[r - 6]
+                if i >= 3:
+                    v3 += acc[r - 9]
+            r3 += v3
+            r2 += v2 + r3
+            r1 += v1 + r2
+            r0 += v0 + r1
+            out[ch, b * block + i] = r0

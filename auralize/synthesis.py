@@ -32,6 +32,7 @@ from __future__ import annotations
 import os
 import threading
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -115,7 +116,7 @@ def _knots(
 _WORK = threading.local()
 
 
-def _workspace(name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:
+def _workspace(name: str, shape: tuple[int, ...], dtype: type = np.float64) -> NDArray[Any]:
     """A reusable work array of ``shape`` (per thread; contents undefined).
 
     Reusing memory between calls avoids first-touch page faults, which cost
@@ -127,7 +128,7 @@ def _workspace(name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:
     size = int(np.prod(shape))
     buf = store.get(name)
     if buf is None or buf.size < size:
-        buf = store[name] = np.empty(max(size, 1))
+        buf = store[name] = np.empty(max(size, 1), dtype=dtype)
     return buf[:size].reshape(shape)
 
 
@@ -160,20 +161,70 @@ def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.ascontiguousarray(np.linalg.inv(base).reshape(n, 4))
 
 
-def _sounding(tracks: SourceTracks, qT: NDArray[np.float64], mtT: NDArray[np.float64],
-              interp: str) -> NDArray[np.uint8]:  # fmt: skip
-    """(steps, sources) uint8 mask of the pieces that sound (cached on the tracks)."""
+def _pieces(tracks: SourceTracks, pr: _Prepared, qT: NDArray[np.float64],
+            mtT: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
+    """The sounding pieces in chunks, sorted by knot row: ``(cptr, ccnt, PD)``
+    (cached on the tracks).
+
+    Piece n of a source (knots n and n + 1) sounds when q or its tangent is
+    non-zero at either knot; a typical volume has a fraction of its vertices
+    sounding at any step, and the kernel reads only these.  Row n's pieces
+    fill chunks ``cptr[n]:cptr[n+1]`` of ``_CHUNK`` (chunk c holds ``ccnt[c]``);
+    per piece ``PD (C, 8, _CHUNK)``: the source's position,
+    clamp radius, q and dq/dτ at both knots (for linear interpolation dq/dτ
+    is the piece's slope), contiguous per chunk so that the kernel streams it.
+    """
     key = (id(qT), interp)
-    cached = tracks.cache.get("sounding")
+    cached = tracks.cache.get("pieces")
     if cached is not None and cached[0] == key:
         return cached[1]
+    Tp, K = qT.shape
+    W = _synth_kernel._CHUNK
     nz = qT != 0
     if interp == "cubic":
         nz |= mtT != 0
-    act = np.zeros(qT.shape, dtype=np.uint8)
-    act[:-1] = nz[:-1] | nz[1:]
-    tracks.cache["sounding"] = (key, act)
-    return act
+    rows, cols = np.nonzero(nz[:-1] | nz[1:])
+    counts = np.bincount(rows, minlength=Tp)
+    cptr = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
+    n_chunks = int(cptr[-1])
+    ccnt = np.zeros(n_chunks, dtype=np.int64)
+    for n in np.flatnonzero(counts):
+        ccnt[cptr[n] : cptr[n + 1]] = W
+        ccnt[cptr[n + 1] - 1] = counts[n] - W * (cptr[n + 1] - cptr[n] - 1)
+    within = np.arange(rows.size) - np.searchsorted(rows, rows)
+    chunk = cptr[rows] + within // W
+    lane = within % W
+    PD = np.zeros((n_chunks, 8, W))
+    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
+    for i in range(3):
+        PD[chunk, i, lane] = pos[cols, i]
+    PD[chunk, 3, lane] = np.maximum(tracks.radius, 1e-9)[cols]
+    PD[chunk, 4, lane] = qT[rows, cols]
+    PD[chunk, 6, lane] = qT[rows + 1, cols]
+    if interp == "cubic":
+        PD[chunk, 5, lane] = mtT[rows, cols]
+        PD[chunk, 7, lane] = mtT[rows + 1, cols]
+    else:
+        slope = (qT[rows + 1, cols] - qT[rows, cols]) / (pr.tn[rows + 1] - pr.tn[rows])
+        PD[chunk, 5, lane] = slope
+        PD[chunk, 7, lane] = slope
+    out = (cptr, ccnt, PD)
+    tracks.cache["pieces"] = (key, out)
+    return out
+
+
+def _tasks(cptr: NDArray[np.int64], n_lo: int, n_hi: int,
+           n_threads: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
+    """Split the chunks of rows n_lo..n_hi-1 in ``n_threads`` contiguous ranges
+    of equal size; returns ``task_chunks (T, 2)`` and each task's rows (T, 2)."""
+    c_a, c_b = int(cptr[n_lo]), int(cptr[n_hi])
+    edges = np.unique(np.linspace(c_a, c_b, max(n_threads, 1) + 1).round().astype(np.int64))
+    if edges.size < 2:
+        edges = np.array([c_a, c_b])
+    task = np.stack([edges[:-1], edges[1:]], axis=1)
+    first = np.searchsorted(cptr, task[:, 0], side="right") - 1
+    last = np.searchsorted(cptr, np.maximum(task[:, 1] - 1, task[:, 0]), side="right") - 1
+    return task, np.stack([np.clip(first, n_lo, n_hi - 1), np.clip(last, n_lo, n_hi - 1)], axis=1)
 
 
 #: orientation table resolution (data seconds) and size cap
@@ -239,24 +290,39 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
     )  # fmt: skip
 
 
-def _audible_pieces(pr: _Prepared, pos: NDArray[np.float64], radius: NDArray[np.float64],
-                    c0: float) -> tuple[int, int]:  # fmt: skip
-    """Knot range [n_lo, n_hi] whose pieces can arrive inside the output window.
+def _extent(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """Bounding box of the source positions and the largest clamp radius (cached)."""
+    key = (id(tracks.positions), id(tracks.radius))
+    cached = tracks.cache.get("extent")
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
+    if pos.shape[0] == 0:
+        out = (np.zeros(3), np.zeros(3), 0.0)
+    else:
+        out = (pos.min(axis=0), pos.max(axis=0), float(np.max(tracks.radius, initial=1e-9)))
+    tracks.cache["extent"] = (key, out)
+    return out
+
+
+def _audible_pieces(pr: _Prepared, tracks: SourceTracks, c0: float) -> tuple[int, int, float]:
+    """Knot range [n_lo, n_hi] whose pieces can arrive inside the output window,
+    and the largest source-listener distance D_max.
 
     Arrivals of piece n lie in [t_n, t_{n+1} + D_max/c0], D_max being the
     largest source-listener distance (the path is piecewise linear, so the
     farthest point of it is a capture).
     """
-    if pos.shape[0] == 0:
-        return 0, 0
-    lo_b, hi_b = pos.min(axis=0), pos.max(axis=0)
+    if tracks.n_sources == 0:
+        return 0, 0, 0.0
+    lo_b, hi_b, r_max = _extent(tracks)
     far = np.maximum(np.abs(pr.lc - lo_b), np.abs(pr.lc - hi_b))
-    d_max = float(np.max(np.linalg.norm(far, axis=1))) + float(np.max(radius))
+    d_max = float(np.max(np.linalg.norm(far, axis=1))) + r_max
     t_end = pr.t_start + pr.n_samples / pr.fs
     tn = pr.tn
     n_lo = int(np.searchsorted(tn, pr.t_start - d_max / c0, side="left")) - 1
     n_hi = int(np.searchsorted(tn, t_end, side="right"))
-    return max(n_lo, 0), min(n_hi, tn.size - 1)
+    return max(n_lo, 0), min(n_hi, tn.size - 1), d_max
 
 
 def check_inside(path: ListenerPath, bounds: tuple[float, ...], *, tol: float = 1e-6) -> None:
@@ -313,29 +379,39 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
                   bounds=bounds, start=start)  # fmt: skip
     spk_az, spk_ch = lay.panning_arrays()
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
-    # blocks keep the running sums short (numerical safety); several pieces long
-    block = 1 << 15
-    # the kernel walks step-major: hand it (steps, sources) arrays
+    # accumulation blocks keep the running sums short (numerical safety)
+    shift = 15
+    block = 1 << shift
     qT, mtT = _step_major(tracks, pr)
-    act = _sounding(tracks, qT, mtT, interp)
-    if interp != "cubic":
-        mtT = np.zeros((0, pr.q.shape[0]))
-    pos = np.ascontiguousarray(tracks.positions, dtype=np.float64)
-    radius = np.ascontiguousarray(np.maximum(tracks.radius, 1e-9), dtype=np.float64)
-    n_lo, n_hi = _audible_pieces(pr, pos, radius, c0)
-    if pos.shape[0] == 0 or n_hi <= n_lo:
-        audio = np.zeros((lay.n_channels, pr.n_samples))
-    else:
+    cptr, ccnt, PD = _pieces(tracks, pr, qT, mtT, interp)
+    cubic = interp == "cubic"
+    n_lo, n_hi, d_max = _audible_pieces(pr, tracks, c0)
+    n_hi = min(n_hi, cptr.size - 2)
+    audio = np.zeros((lay.n_channels, pr.n_samples))
+    if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and cptr[n_hi] > cptr[n_lo]:
+        task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads)
         n_blocks = (pr.n_samples + block - 1) // block
-        arr, darr, ddarr = (_workspace(f"knots{i}", (pr.tn.size, pos.shape[0])) for i in range(3))
-        accs = _workspace("accs", (n_threads, lay.n_channels, n_blocks, block + 4, 4))
-        audio = _synth_kernel.render(
-            pos, radius, pr.tn, qT, mtT, act, pr.tc,
-            pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, block,
+        # each task's output window: arrivals of rows ra..rb lie in
+        # [t_ra, t_(rb+1) + D_max/c0]
+        first = (pr.tn[task_rows[:, 0]] - pr.t_start) * pr.fs
+        last = (pr.tn[task_rows[:, 1] + 1] + d_max / c0 - pr.t_start) * pr.fs + 2.0
+        blo = np.clip(np.floor(first / block), 0, n_blocks - 1).astype(np.int64)
+        bhi = np.clip(np.floor(last / block) + 1, 1, n_blocks).astype(np.int64)
+        nb = np.maximum(bhi - blo, 1)
+        size = nb * lay.n_channels * block * 4
+        task_blk = np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]])], axis=1)
+        acc = _workspace("acc", (int(size.sum()),))
+        rc = _workspace("lines", (pr.tn.size, 2 * _synth_kernel._LINE))
+        bad = _synth_kernel.render(
+            cptr, ccnt, PD, pr.tn, cubic,
+            pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, shift,
             spk_az, spk_ch, _pair_inverses(spk_az), lay.n_channels, bool(lay.fold_front),
-            n_threads, n_lo, n_hi,
-            arr, darr, ddarr, accs,
+            n_lo, n_hi, task_chunks, np.ascontiguousarray(task_blk, dtype=np.int64), rc, acc,
+            audio,
         )  # fmt: skip
+        if bad:
+            raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "
+                               f"output windows")  # fmt: skip
     return Rendered(
         audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
         meta={"interp": interp, "c0": c0, "n_sources": tracks.n_sources,
