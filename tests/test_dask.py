@@ -187,20 +187,32 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
     from auralize.scale import detect as D
 
     calls: dict[str, int] = {}
-    real = Runner.run
+    graphs: list[int] = []
 
-    def counting(self: Runner, tasks: Any, on_result: Any) -> None:
-        name = tasks[0][0].__name__
-        calls[name] = calls.get(name, 0) + len(tasks)
-        real(self, tasks, on_result)
+    def counted(fn: Any) -> Any:
+        def task(*a: Any) -> Any:
+            calls[fn.__name__] = calls.get(fn.__name__, 0) + 1
+            return fn(*a)
 
-    monkeypatch.setattr(Runner, "run", counting)
+        return task
+
+    for name in ("paper_range_task", "paper_gradient_task", "peak_task", "detect_task"):
+        monkeypatch.setattr(D, name, counted(getattr(D, name)))
+    real = Runner.compute
+
+    def compute(self: Runner, outputs: Any, on_result: Any) -> None:
+        graphs.append(len(outputs))
+        real(self, outputs, on_result)
+
+    monkeypatch.setattr(Runner, "compute", compute)
     got = D.detect_distributed(explosion, mapping="paper-density", chunk_steps=4, slab_planes=10,
                                log=None)  # fmt: skip
     assert len(scale(got)["slabs"]) == 2 and scale(got)["chunks"] == 2  # steps [0, 4), [4, 7)
     # range and gradient: every step; peaks: the sample steps; one task per chunk × slab
     assert calls == {"paper_range_task": 4, "paper_gradient_task": 4, "peak_task": 4,
                      "detect_task": 4}  # fmt: skip
+    # all passes are one graph: the mapping, the peaks, the thresholds and 4 detections
+    assert graphs == [3 + 4]
     assert_same_sources(got, explosion_ref)
 
 

@@ -85,7 +85,7 @@ from auralize.mapping import (
     get_mapping,
 )
 from auralize.scale.chunked import slab_volume
-from auralize.scale.runner import Runner, numba_threads
+from auralize.scale.runner import RunError, Runner, numba_threads
 from auralize.sources import (
     AUTO_SAMPLE_STEPS,
     SourceFrame,
@@ -558,51 +558,67 @@ class _Run:
     #: runs of steps one preparation task covers
     groups: list[tuple[int, int]]
 
-    def tasks(self, fn: Callable[..., Any], steps: Iterable[int],
-              *extra: Any) -> list[tuple[Callable[..., Any], tuple[Any, ...]]]:  # fmt: skip
-        """One ``fn(volume, mapping, steps, slab, *extra)`` per step group and slab."""
+    def tasks(self, fn: Callable[..., Any], steps: Iterable[int], *extra: Any,
+              mapping: Any = None) -> list[Any]:  # fmt: skip
+        """Lazy ``fn(volume, mapping, steps, slab, *extra)``, one per step group and slab.
+
+        ``mapping`` (default: the run's) may be a lazy call's result.
+        """
+        m = self.mapping if mapping is None else mapping
         steps = sorted(set(int(n) for n in steps))
         out = []
         for a, b in self.groups:
             mine = [n for n in steps if a <= n < b]
             if mine:
-                out += [(fn, (self.shared, self.mapping, mine, s, *extra)) for s in self.slabs]
+                out += [self.runner.call(fn, self.shared, m, mine, s, *extra) for s in self.slabs]
         return out
 
 
-def _prepare_paper(run: _Run) -> dict[str, float]:
-    """The paper-density mapping's series-wide statistics, gathered by tasks."""
+def _with_range(m: PaperDensityMapping, ranges: list[tuple[float, float]]) -> PaperDensityMapping:
+    """A copy of ``m`` with the series' range of 10**x (from the range tasks)."""
+    m = copy.copy(m)
+    m._lo = float(min([np.inf, *(r[0] for r in ranges)]))
+    m._hi = float(max([-np.inf, *(r[1] for r in ranges)]))
+    return m
+
+
+def _with_gscale(m: PaperDensityMapping, gmax: list[float]) -> PaperDensityMapping:
+    """A copy of ``m`` with its velocity scale (from the gradient tasks)."""
+    m = copy.copy(m)
+    g = max([0.0, *gmax])
+    m._gscale = m.velocity_max / g if g > 0 else 0.0
+    return m
+
+
+def _max_peak(peaks: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    peak = np.zeros(3)
+    for p in peaks:
+        np.maximum(peak, p, out=peak)
+    return peak
+
+
+def _prepare_paper(run: _Run) -> Any:
+    """The paper-density mapping with its series-wide statistics: a lazy call.
+
+    Range tasks, then gradient tasks (which need the range), each reduced by
+    a small task, all submitted at once: the passes follow each other on the
+    workers without a round trip through the client.
+    """
     m = run.mapping
     assert isinstance(m, PaperDensityMapping)
     AcousticMapping.prepare(m, run.volume)  # field checks only
     T = run.volume.n_steps
-    lo, hi = [np.inf], [-np.inf]
-
-    def got_range(_i: int, r: tuple[float, float]) -> None:
-        lo[0], hi[0] = min(lo[0], r[0]), max(hi[0], r[1])
-
-    run.runner.run(run.tasks(paper_range_task, range(T)), got_range)
-    m._lo, m._hi = float(lo[0]), float(hi[0])
-    gmax = [0.0]
-
-    def got_grad(_i: int, g: float) -> None:
-        gmax[0] = max(gmax[0], g)
-
-    run.runner.run(run.tasks(paper_gradient_task, range(T)), got_grad)
-    m._gscale = m.velocity_max / gmax[0] if gmax[0] > 0 else 0.0
-    return {"lo": m._lo, "hi": m._hi, "gscale": m._gscale}
+    call = run.runner.call
+    ranged = call(_with_range, m, run.tasks(paper_range_task, range(T)))
+    return call(_with_gscale, ranged, run.tasks(paper_gradient_task, range(T), mapping=ranged))
 
 
-def _peaks(run: _Run, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.float64]:
+def _peaks(run: _Run, mapping: Any, max_steps: int = AUTO_SAMPLE_STEPS) -> Any:
+    """The largest |S| of each type over the sample steps: a lazy call."""
     T = run.volume.n_steps
     steps = np.unique(np.linspace(0, T - 1, min(max_steps, T)).round()).astype(int)
-    peak = np.zeros(3)
-
-    def got(_i: int, p: NDArray[np.float64]) -> None:
-        np.maximum(peak, p, out=peak)
-
-    run.runner.run(run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task), got)
-    return peak
+    peaks = run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task, mapping=mapping)
+    return run.runner.call(_max_peak, peaks)
 
 
 def detect_distributed(
@@ -714,25 +730,33 @@ def detect_distributed(
         # the volume goes to the workers once (for the preparation passes and detection)
         vol = run_.share(volume)
         run = _Run(volume, m, run_, slabs, vol, plan_chunks(range(volume.n_steps), chunk_steps))
+        # the preparation (statistics, peaks, thresholds) and the detection form one
+        # graph: m_node, peak_node and thr_node are values, or lazy calls whose results
+        # arrive with the detection tasks' (and are saved before any chunk is)
         if "mapping_state" in state:
             if isinstance(m, PaperDensityMapping):
                 st = state["mapping_state"]
                 m._lo, m._hi, m._gscale = float(st["lo"]), float(st["hi"]), float(st["gscale"])
             else:
                 m.prepare(volume)
-            thr = np.asarray(state["thresholds"], dtype=np.float64)
-            peak = None if state.get("peak") is None else np.asarray(state["peak"])
+            thr: Any = np.asarray(state["thresholds"], dtype=np.float64)
+            peak: Any = None if state.get("peak") is None else np.asarray(state["peak"])
+            m_node: Any = m
+            state_known = True
         else:
-            mstate = _prepare_paper(run) if isinstance(m, PaperDensityMapping) else {}
-            if not isinstance(m, PaperDensityMapping):
-                m.prepare(volume)
-            peak = _peaks(run) if thresholds.needs_scale else None
-            thr = thresholds.resolve(peak)
-            state = {"version": STATE_VERSION, "fingerprint": key, "mapping_state": mstate,
-                     "thresholds": thr, "peak": peak, "n_steps": volume.n_steps,
-                     "source": volume.source}  # fmt: skip
             if store is not None:
-                store.write_manifest(state)
+                store.clear()  # no manifest: whatever is there belongs to no run
+            if isinstance(m, PaperDensityMapping):
+                m_node = _prepare_paper(run)
+            else:
+                m.prepare(volume)
+                m_node = m
+            peak = _peaks(run, m_node) if thresholds.needs_scale else None
+            thr = run_.call(thresholds.resolve, peak) if peak is not None else \
+                thresholds.resolve(None)  # fmt: skip
+            state_known = False
+        lazy = {name: node for name, node in (("mapping", m_node), ("peak", peak), ("thr", thr))
+                if _is_lazy(node)}  # fmt: skip
         if store is not None:
             store.clear_pieces()
         done = store.done_steps() if store is not None else set()
@@ -745,10 +769,35 @@ def detect_distributed(
         n_sources = [0]
         parts_dir = None if store is None else str(store.dir)
         nthr = run_.threads_per_task
-        calls = [(detect_task, (vol, m, thr, thresholds.zero_fraction, a, b, s, nthr, parts_dir))
-                 for a, b in chunks for s in slabs]  # fmt: skip
+        calls = [(detect_task, (vol, m_node, thr, thresholds.zero_fraction, a, b, s, nthr,
+                                parts_dir)) for a, b in chunks for s in slabs]  # fmt: skip
+        known: dict[str, Any] = {}
+        early: list[dict[str, Any]] = []
+
+        def save_state() -> None:
+            nonlocal m, peak, thr, state
+            if "mapping" in known:
+                m = known["mapping"]
+            if "peak" in known:
+                peak = known["peak"]
+            if "thr" in known:
+                thr = known["thr"]
+            mstate = ({"lo": m._lo, "hi": m._hi, "gscale": m._gscale}
+                      if isinstance(m, PaperDensityMapping) else {})  # fmt: skip
+            state = {"version": STATE_VERSION, "fingerprint": key, "mapping_state": mstate,
+                     "thresholds": thr, "peak": peak, "n_steps": volume.n_steps,
+                     "source": volume.source}  # fmt: skip
+            if store is not None:
+                store.write_manifest(state)
+
+        if not state_known and not lazy:
+            save_state()
+            state_known = True
 
         def got(_i: int, res: dict[str, Any]) -> None:
+            if not state_known:  # (not in practice: detection depends on the state)
+                early.append(res)
+                return
             pid, peak_rss = res["rss"]
             rss[pid] = max(rss.get(pid, 0), peak_rss)
             task_seconds[0] += res["seconds"]
@@ -777,7 +826,24 @@ def detect_distributed(
             if on_chunk is not None:
                 on_chunk(range(a, b))
 
-        run_.run(calls, got)
+        names = list(lazy)
+
+        def got_any(i: int, res: Any) -> None:
+            nonlocal state_known
+            if i < len(names):
+                known[names[i]] = res
+                if len(known) == len(names):
+                    save_state()
+                    state_known = True
+                    while early:
+                        got(-1, early.pop(0))
+                return
+            got(i - len(names), res)
+
+        outputs = [lazy[n] for n in names] + [run_.call(fn, *args) for fn, args in calls]
+        run_.compute(outputs, got_any)
+        if not state_known:  # nothing to detect (every step resumed) and no state yet
+            raise RunError("the preparation passes did not deliver their results")
         elapsed = time.perf_counter() - t0
         n_workers = run_.n_workers
     finally:
@@ -810,6 +876,10 @@ def detect_distributed(
         save_sources_pvd(series, out)
         store.clear()
     return series
+
+
+def _is_lazy(obj: Any) -> bool:
+    return hasattr(obj, "dask") and hasattr(obj, "key")
 
 
 def _merge(parts: list[SourceFrame]) -> SourceFrame:

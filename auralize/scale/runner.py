@@ -220,6 +220,16 @@ class Runner:
             return self.client.scatter(obj, broadcast=True, hash=False)
         return obj
 
+    def call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """A lazy ``fn(*args)`` (a ``dask.delayed``); ``args`` may hold other calls' results.
+
+        Pass such calls to :meth:`compute`: a call that depends on others
+        runs as soon as they are done, on a worker, without a round trip
+        through this client.
+        """
+        dask = require("dask")
+        return dask.delayed(fn, pure=False)(*args)
+
     def run(self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]],
             on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
         """Run ``fn(*args)`` for every call; ``on_result(i, result)`` as each completes.
@@ -234,21 +244,32 @@ class Runner:
         """
         if not calls:
             return
-        if self.client is not None:
-            self._run_distributed(calls, on_result)
-        else:
-            self._run_local(calls, on_result)
+        self.compute([self.call(fn, *args) for fn, args in calls], on_result)
 
-    def _run_local(self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]],
-                   on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+    def compute(self, outputs: Sequence[Any], on_result: Callable[[int, Any], None]) -> None:
+        """Compute lazy calls (:meth:`call`) and everything they depend on.
+
+        ``on_result(i, result)`` is called on the calling thread as
+        ``outputs[i]`` completes (an output other calls depend on is
+        delivered too, and still used by them).  Otherwise as :meth:`run`.
+        """
+        if not outputs:
+            return
+        if self.client is not None:
+            self._compute_distributed(outputs, on_result)
+        else:
+            self._compute_local(outputs, on_result)
+
+    def _compute_local(self, outputs: Sequence[Any],
+                       on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
         dask = require("dask")
         from dask.callbacks import Callback
 
-        tasks = [dask.delayed(fn, pure=False)(*args) for fn, args in calls]
-        index = {t.key: i for i, t in enumerate(tasks)}
-        # a tiny task after each one lets Dask free a result once it was delivered
+        index = {t.key: i for i, t in enumerate(outputs)}
+        # a tiny task after each output lets Dask free a result once it was delivered
         # (its input is replaced by None as soon as the result was handed over)
-        tails = [dask.delayed(_nothing, pure=False)(t) for t in tasks]
+        tails = [dask.delayed(_nothing, pure=False)(t) for t in outputs]
+        tail_keys = {t.key for t in tails}
 
         class _Deliver(Callback):
             def _posttask(
@@ -259,9 +280,13 @@ class Runner:
                     on_result(i, result)
                     # delivered: do not keep it in the scheduler's cache until its tail
                     # runs (Dask's local order may run many tasks first), so the
-                    # results held here stay bounded by the tasks in flight
-                    cache = state.get("cache") if isinstance(state, dict) else None
-                    if cache is not None and key in cache:
+                    # results held here stay bounded by the tasks in flight -- unless
+                    # other tasks still need it
+                    if not isinstance(state, dict):
+                        return
+                    cache = state.get("cache")
+                    needed_by = state.get("dependents", {}).get(key, set())
+                    if cache is not None and key in cache and set(needed_by) <= tail_keys:
                         cache[key] = None
 
         kw: dict[str, Any] = {"scheduler": self.scheduler}
@@ -278,10 +303,10 @@ class Runner:
                 ) from exc
             raise
 
-    def _run_distributed(self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]],
-                         on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+    def _compute_distributed(self, outputs: Sequence[Any],
+                             on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
         distributed = require("distributed")
-        futures = [self.client.submit(fn, *args, pure=False) for fn, args in calls]
+        futures = self.client.compute(list(outputs))
         index = {f.key: i for i, f in enumerate(futures)}
         try:
             for fut in distributed.as_completed(futures):
@@ -290,7 +315,7 @@ class Runner:
                 except (distributed.scheduler.KilledWorker,
                         distributed.client.FutureCancelledError) as exc:  # fmt: skip
                     raise RunError(
-                        f"task {index[fut.key]} of {len(calls)} killed the workers it ran on "
+                        f"task {index[fut.key]} of {len(outputs)} killed the workers it ran on "
                         f"or was lost with them ({type(exc).__name__}: {exc}); what finished "
                         f"is saved, run again to resume"
                     ) from exc
