@@ -129,9 +129,10 @@ def eval_points(f: np.ndarray, pts: np.ndarray, n3: np.ndarray, pad: int,
 # hierarchical synthesis loop of paper 001 §5.2.  The loop is sequential
 # (window i's feature holds the output of windows < i), so a Python loop
 # around scipy's cKDTree costs ~30 µs of call overhead per window; fused here.
+# nogil: texture.py builds the next dictionaries in a worker thread meanwhile.
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def kd_build(data: np.ndarray, leafsize: int):  # type: ignore[no-untyped-def]  # pragma: no cover
     """Build a kd-tree (split on the widest dimension at the median).
 
@@ -195,7 +196,7 @@ def kd_build(data: np.ndarray, leafsize: int):  # type: ignore[no-untyped-def]  
             split[:n_nodes].copy(), left[:n_nodes].copy(), right[:n_nodes].copy())  # fmt: skip
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def kd_query(pts, lo, hi, dim, split, left, right, q, eps2, stack_node, stack_bound,
              stack_off, cur_off):  # type: ignore[no-untyped-def]  # fmt: skip  # pragma: no cover
     """Index (tree order) of a point within (1+ε) of q's nearest neighbour.
@@ -252,7 +253,7 @@ def kd_query(pts, lo, hi, dim, split, left, right, q, eps2, stack_node, stack_bo
     return best_i
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def synth_level(pts, perm, lo, hi, dim, split, left, right, values, rot_f, base, h, hf, n,
                 eps):  # type: ignore[no-untyped-def]  # fmt: skip  # pragma: no cover
     """Windowed hierarchical synthesis of one level (paper 001 §5.2, Fig. 6).

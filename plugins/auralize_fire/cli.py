@@ -52,6 +52,8 @@ def _extend_opts(p: argparse.ArgumentParser) -> None:
 def _texture_opts(p: argparse.ArgumentParser) -> None:
     p.add_argument("--levels", type=int, default=6, help="pyramid levels (default 6)")
     p.add_argument("--eps", type=float, default=1.0, help="approximate-NN ε (default 1; 0 exact)")
+    p.add_argument("--coarse-weight", type=float, default=3.0,
+                   help="weight of the coarser-level (Eq. 16) feature samples (default 3; 1 = unweighted)")  # fmt: skip
     p.add_argument("--training-rate", type=int, help="rate of a raw .f32 training clip")
 
 
@@ -98,9 +100,11 @@ def cmd_texture(args: argparse.Namespace) -> int:
     x, rate = read_audio(args.input, rate=args.rate)
     train = training_at(args.training, rate, training_rate=args.training_rate)
     t = time.perf_counter()
-    y = texture_synthesize(x, train, levels=args.levels, eps=args.eps)
+    y = texture_synthesize(x, train, levels=args.levels, eps=args.eps,
+                           coarse_weight=args.coarse_weight)  # fmt: skip
     _write(args, y, rate, {"stage": "texture synthesis (§5)", "training": args.training,
                            "levels": args.levels, "eps": args.eps,
+                           "coarse_weight": args.coarse_weight,
                            "seconds": time.perf_counter() - t})  # fmt: skip
     return 0
 

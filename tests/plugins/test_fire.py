@@ -21,7 +21,7 @@ from auralize_fire import (
 from auralize_fire.bandwidth import ExtensionParams, blend_filters, choose_beta
 from auralize_fire.flamefront import bspline, bspline_eval
 from auralize_fire.lowfreq import highpass, interpolate_series
-from auralize_fire.texture import TextureParams, gaussian_pyramid
+from auralize_fire.texture import TextureParams, gaussian_pyramid, range_matching_gain
 from scipy import signal
 
 from auralize.errors import DataError, FieldError, ParameterError
@@ -180,16 +180,35 @@ def texture_run(candle: np.ndarray):  # type: ignore[no-untyped-def]
     return x, train, texture_synthesize(x, train)
 
 
-def test_texture_keeps_input_envelope(texture_run) -> None:  # type: ignore[no-untyped-def]
-    # The issue asks for a correlation >= 0.8; this implementation reaches ~0.7-0.74
-    # on this input (open point, see the plugin report), so the bound checked here
-    # is 0.65: the output clearly follows p_S, a random texture would give ~0.
-    x, _, y = texture_run
-    sos = signal.butter(4, 20, "lowpass", fs=RATE, output="sos")
-    ex, ey = signal.sosfiltfilt(sos, np.abs(x)), signal.sosfiltfilt(sos, np.abs(y))
-    assert np.corrcoef(ex, ey)[0, 1] >= 0.65
-    sos = signal.butter(4, 180, "lowpass", fs=RATE, output="sos")
-    assert np.corrcoef(signal.sosfiltfilt(sos, x), signal.sosfiltfilt(sos, y))[0, 1] >= 0.65
+def _lowpass(x: np.ndarray, f_hz: float = 180.0) -> np.ndarray:
+    """Zero-phase low-pass; 180 Hz is f_cut of Table 1, the band p_S is computed in."""
+    return signal.sosfiltfilt(signal.butter(4, f_hz, "lowpass", fs=RATE, output="sos"), x)
+
+
+def _rms_envelope(x: np.ndarray, win: int = RATE // 20) -> np.ndarray:
+    n = x.size // win
+    return np.sqrt(np.mean(x[: n * win].reshape(n, win) ** 2, axis=1))
+
+
+def test_texture_keeps_input_low_band(texture_run) -> None:  # type: ignore[no-untyped-def]
+    # Issue #6: correlation >= 0.8 between the 180 Hz low-passed input and output.
+    # Eq. 17 maps p_S's amplitudes onto p_T's; on this excerpt its gain is nearly
+    # constant, so the output must follow p_S itself (see auralize_fire.texture).
+    x, train, y = texture_run
+    r = range_matching_gain(x, train)
+    assert np.percentile(r, 95) / np.percentile(r, 5) < 1.25
+    assert np.corrcoef(_lowpass(x), _lowpass(y))[0, 1] >= 0.8
+
+
+def test_texture_follows_range_matched_input_envelope(candle: np.ndarray) -> None:
+    # The whole 2 s excerpt has a wider dynamic range: the output's low band
+    # follows r(t)·p_S (§5.3), and its low-band envelope follows p_S's.
+    train = fire_training_clip(4.0, RATE, seed=0)
+    y = texture_synthesize(candle, train)
+    r = range_matching_gain(candle, train)
+    assert np.corrcoef(_lowpass(candle * r), _lowpass(y))[0, 1] >= 0.8
+    env_x, env_y = _rms_envelope(_lowpass(candle)), _rms_envelope(_lowpass(y))
+    assert np.corrcoef(env_x, env_y)[0, 1] >= 0.8
 
 
 def test_texture_matches_training_spectrum_shape(texture_run) -> None:  # type: ignore[no-untyped-def]
