@@ -249,7 +249,7 @@ def _emit1(acc, i, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _emit_piece(acc, base, blo, nb, ch, block, n_samples, u0, u1, p0, p1, p2, p3):  # type: ignore[no-untyped-def]
+def _emit_piece(acc, base, blo, nb, ch, n_ch, block, n_samples, u0, u1, p0, p1, p2, p3):  # type: ignore[no-untyped-def]
     """Add the cubic P(u - u0) on samples ceil(u0) <= m < ceil(u1) (clipped to the
     output) into a task's accumulator window (blocks blo..blo+nb-1, channel ch,
     starting at ``base``).
@@ -272,11 +272,11 @@ def _emit_piece(acc, base, blo, nb, ch, block, n_samples, u0, u1, p0, p1, p2, p3
         j = b - blo
         if j < 0 or j >= nb:
             return 1
-        row0 = base + ((ch * nb + j) * block) * 4
-        _emit1(acc, row0 + (ms - b * block) * 4, ms - u0, p0, p1, p2, p3, 1.0)
+        row0 = base + (j * block * n_ch + ch) * 4
+        _emit1(acc, row0 + (ms - b * block) * n_ch * 4, ms - u0, p0, p1, p2, p3, 1.0)
         if m_1 <= bend:
             if m_1 < n_samples and m_1 < bend:
-                _emit1(acc, row0 + (m_1 - b * block) * 4, m_1 - u0, p0, p1, p2, p3, -1.0)
+                _emit1(acc, row0 + (m_1 - b * block) * n_ch * 4, m_1 - u0, p0, p1, p2, p3, -1.0)
             return 0
         b += 1
         ms = bend
@@ -349,7 +349,7 @@ def _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, vb,
     bad = 0
     if not panned:
         p0, p1, p2, p3 = _hermite(L, va, wa / fs, vb, wb / fs)
-        return _emit_piece(acc, base, blo, nb, 0, block, n_samples, u0, u1, p0, p1, p2, p3)
+        return _emit_piece(acc, base, blo, nb, 0, 1, block, n_samples, u0, u1, p0, p1, p2, p3)
     slope_t = fs / L  # 1 / (t1 - t0)
     for c in range(n_ch):
         g0 = ga[c]
@@ -359,7 +359,7 @@ def _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, vb,
         slope = (g1 - g0) * slope_t
         p0, p1, p2, p3 = _hermite(L, g0 * va, (g0 * wa + slope * va) / fs, g1 * vb,
                                   (g1 * wb + slope * vb) / fs)  # fmt: skip
-        bad += _emit_piece(acc, base, blo, nb, c, block, n_samples, u0, u1, p0, p1, p2, p3)
+        bad += _emit_piece(acc, base, blo, nb, c, n_ch, block, n_samples, u0, u1, p0, p1, p2, p3)
     return bad
 
 
@@ -386,9 +386,15 @@ def _shifted(p0, p1, p2, p3, x):  # type: ignore[no-untyped-def]
 #: constant distance from every other, so the compiler vectorizes the loops
 #: without aliasing checks): rows 0-7 the pieces' input (PD), 8-31 their
 #: accumulator values, then kind, accumulator rows and arrivals
-_CHUNK = 256
+_CHUNK = 64
 _W_VAL, _W_KIND, _W_SI, _W_EI, _W_CI, _W_A0, _W_A1, _W_S0, _W_S1 = 8, 32, 33, 34, 35, 36, 37, 38, 39
-_W_ROWS = 40
+#: panning by speaker pairs: listener forward/up at both arrivals, the source's
+#: direction in the listener's frame (forward, left) and pair index and gains
+_W_O0, _W_O1, _W_XF0, _W_YL0, _W_XF1, _W_YL1 = 40, 46, 52, 53, 54, 55
+_W_P0, _W_G00, _W_G01, _W_P1, _W_G10, _W_G11 = 56, 57, 58, 59, 60, 61
+#: f and df/dt (per sample) at both arrivals
+_W_F0, _W_WF0, _W_F1, _W_WF1 = 62, 63, 64, 65
+_W_ROWS = 66
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -509,10 +515,11 @@ def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0):  # type: ignore[no-untyped-d
 
 @numba.njit(inline="always", **_NJIT)
 def _piece_core(W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
-                blo, nb, base):  # fmt: skip  # type: ignore[no-untyped-def]
+                blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
     """Arrivals, kind and accumulator rows of the piece in column i of W (see
-    :func:`_chunk_pieces`); returns the Hermite data (L, 1/L, f0, w0, f1, w1)
-    and the offsets x0, x1, x2 of its emissions."""
+    :func:`_chunk_pieces`; rs: accumulator values per sample row); returns the
+    Hermite data (L, 1/L, f0, w0, f1, w1) and the offsets x0, x1, x2 of its
+    emissions."""
     x = W[0 * _CHUNK + i]
     y = W[1 * _CHUNK + i]
     z = W[2 * _CHUNK + i]
@@ -547,16 +554,20 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, f
     s1 = s1 if s1 < fn else fn
     valid = (s1 > s0) & (u1 > u0) & ok0 & ok1
     general = ~(ok0 & ok1)
+    W[_W_F0 * _CHUNK + i] = f0
+    W[_W_WF0 * _CHUNK + i] = w0
+    W[_W_F1 * _CHUNK + i] = f1
+    W[_W_WF1 * _CHUNK + i] = w1
     s0 = s0 if valid else 0.0
     s1 = s1 if valid else 1.0
     b0 = np.floor(s0 * inv_block)
     b1 = np.floor((s1 - 1.0) * inv_block)
     simple = (sg0 == sg1) & (b1 <= b0 + 1.0) & (b0 >= blo) & (b1 < blo + nb)
-    W[_W_KIND * _CHUNK + i] = 2.0 if general else ((1.0 if simple else 2.0) if valid else 0.0)
-    W[_W_SI * _CHUNK + i] = base + ((b0 - blo) * fblock + (s0 - b0 * fblock)) * 4.0
+    W[_W_KIND * _CHUNK + i] = 2.0 if general else ((1.0 if simple else 3.0) if valid else 0.0)
+    W[_W_SI * _CHUNK + i] = base + ((b0 - blo) * fblock + (s0 - b0 * fblock)) * rs
     end_inside = (s1 < fn) & (s1 < (b1 + 1.0) * fblock)
-    W[_W_EI * _CHUNK + i] = base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * 4.0 if end_inside else -1.0
-    W[_W_CI * _CHUNK + i] = base + (b1 - blo) * fblock * 4.0 if b1 > b0 else -1.0
+    W[_W_EI * _CHUNK + i] = base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * rs if end_inside else -1.0
+    W[_W_CI * _CHUNK + i] = base + (b1 - blo) * fblock * rs if b1 > b0 else -1.0
     return L, d0 * d1 * r, f0, w0, f1, w1, s0 - u0, s1 - u0, b1 * fblock - u0
 
 
@@ -568,7 +579,7 @@ def _line_tuple(R, o):  # type: ignore[no-untyped-def]
 
 @numba.njit(**_NJIT)
 def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo, nb, base,
-                  panned, W):  # fmt: skip  # type: ignore[no-untyped-def]
+                  n_ch, panned, W):  # fmt: skip  # type: ignore[no-untyped-def]
     """The cnt pieces of chunk ck (PD[ck], of one row n: knots at t_n with the
     listener's candidate lines RC0, at t_{n+1} with RC1) into columns
     0..cnt-1 of the work array W (see _W_ROWS): arrivals (A0, A1) and their
@@ -588,6 +599,7 @@ def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo,
     fn = float(n_samples)
     fblock = float(1 << shift)
     inv_block = 1.0 / fblock
+    rs = 4.0 * n_ch
     for r in range(8):
         for i in range(cnt):
             W[r * _CHUNK + i] = PD[ck, r, i]
@@ -595,7 +607,7 @@ def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo,
         for i in range(cnt):
             L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
                 W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
-                blo, nb, base)  # fmt: skip
+                blo, nb, base, rs)  # fmt: skip
             _piece_values(W, _W_VAL, i, L, inv, f0, w0 - f0 * inv, 0.0, -f1 * inv, x0, x1, x2)
             _piece_values(W, _W_VAL + 12, i, L, inv, 0.0, f0 * inv, f1, w1 + f1 * inv, x0, x1,
                           x2)  # fmt: skip
@@ -603,18 +615,146 @@ def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo,
         for i in range(cnt):
             L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
                 W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
-                blo, nb, base)  # fmt: skip
+                blo, nb, base, rs)  # fmt: skip
             _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _listener_at(a, sg, la, lb):  # type: ignore[no-untyped-def]
+    """Listener position at arrival a on the candidate line (la or lb) of
+    capture interval sg (branch-free)."""
+    sel = sg == la[11]
+    x = la[0] + la[3] * (a - la[6]) if sel else lb[0] + lb[3] * (a - lb[6])
+    y = la[1] + la[4] * (a - la[6]) if sel else lb[1] + lb[4] * (a - lb[6])
+    z = la[2] + la[5] * (a - la[6]) if sel else lb[2] + lb[5] * (a - lb[6])
+    return x, y, z
+
+
+@numba.njit(inline="always", **_NJIT)
+def _frame_coords(W, i, o, dx, dy, dz):  # type: ignore[no-untyped-def]
+    """Direction (dx, dy, dz) in the listener's frame whose forward and up are
+    rows o..o+5 of W: (forward, left) coordinates, left = up × forward."""
+    fx, fy, fz = W[o * _CHUNK + i], W[(o + 1) * _CHUNK + i], W[(o + 2) * _CHUNK + i]
+    ux, uy, uz = W[(o + 3) * _CHUNK + i], W[(o + 4) * _CHUNK + i], W[(o + 5) * _CHUNK + i]
+    lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
+    return dx * fx + dy * fy + dz * fz, dx * lx + dy * ly + dz * lz
+
+
+@numba.njit(inline="always", **_NJIT)
+def _orient_rows(W, i, o, qc, ot, t):  # type: ignore[no-untyped-def]
+    """Rows o..o+5 of column i of W: the listener's forward and up at data time
+    t from the orientation table (see :func:`_orient`)."""
+    n = qc.shape[0]
+    u = (t - ot[0]) * ot[1]
+    j = 0
+    w = 0.0
+    if n > 1 and u > 0.0:
+        if u >= n - 1:
+            j = n - 1
+        else:
+            j = int(u)
+            w = u - j
+    j1 = min(j + 1, n - 1)
+    for c in range(6):
+        W[(o + c) * _CHUNK + i] = qc[j, c] + w * (qc[j1, c] - qc[j, c])
+
+
+@numba.njit(inline="always", **_NJIT)
+def _pair_take(W, i, rp, rx, ry, a0, a1, a2, a3, fp):  # type: ignore[no-untyped-def]
+    """Pair fp's gains from the direction (rows rx, ry) if both are >= 0 and no
+    earlier pair was taken (row rp = pair index, then the two gains)."""
+    xf = W[rx * _CHUNK + i]
+    yl = W[ry * _CHUNK + i]
+    g0 = a0 * xf + a1 * yl
+    g1 = a2 * xf + a3 * yl
+    k = rp * _CHUNK + i
+    take = (g0 >= -1e-12) & (g1 >= -1e-12) & (W[k] < 0.0)
+    W[k] = fp if take else W[k]
+    W[k + _CHUNK] = g0 if take else W[k + _CHUNK]
+    W[k + 2 * _CHUNK] = g1 if take else W[k + 2 * _CHUNK]
+
+
+@numba.njit(inline="always", **_NJIT)
+def _pair_normalise(W, i, rp):  # type: ignore[no-untyped-def]
+    k = rp * _CHUNK + i
+    g0 = max(W[k + _CHUNK], 0.0)
+    g1 = max(W[k + 2 * _CHUNK], 0.0)
+    norm = math.sqrt(g0 * g0 + g1 * g1)
+    inv = 1.0 / (norm if norm > 0.0 else 1.0)
+    W[k + _CHUNK] = g0 * inv
+    W[k + 2 * _CHUNK] = g1 * inv
+    return (norm > 0.0) & (W[k] >= 0.0)
+
+
+@numba.njit(**_NJIT)
+def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ignore[no-untyped-def]
+    """Pairwise 2-D VBAP gains at both arrivals of the chunk's pieces (the law
+    of :func:`_gains`, fast path: the first speaker pair whose inverse base
+    gives both gains >= 0, power-normalised): pair index and two gains per
+    arrival into W.  The listener's orientation is read from its table in a
+    scalar loop (unless it is constant), the rest in SIMD loops.  A direction
+    straight above or below (no pair) marks the piece general."""
+    if const_orient:
+        for c in range(6):
+            v = qc[0, c]
+            for i in range(cnt):
+                W[(_W_O0 + c) * _CHUNK + i] = v
+                W[(_W_O1 + c) * _CHUNK + i] = v
+    else:
+        for i in range(cnt):
+            _orient_rows(W, i, _W_O0, qc, ot, W[_W_A0 * _CHUNK + i])
+            _orient_rows(W, i, _W_O1, qc, ot, W[_W_A1 * _CHUNK + i])
+    l0a = _line_tuple(RC0, 0)
+    l0b = _line_tuple(RC0, _LINE)
+    l1a = _line_tuple(RC1, 0)
+    l1b = _line_tuple(RC1, _LINE)
+    for i in range(cnt):
+        x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+        px, py, pz = _listener_at(W[_W_A0 * _CHUNK + i], W[_W_S0 * _CHUNK + i], l0a, l0b)
+        xf, yl = _frame_coords(W, i, _W_O0, x - px, y - py, z - pz)
+        W[_W_XF0 * _CHUNK + i] = xf
+        W[_W_YL0 * _CHUNK + i] = yl
+        px, py, pz = _listener_at(W[_W_A1 * _CHUNK + i], W[_W_S1 * _CHUNK + i], l1a, l1b)
+        xf, yl = _frame_coords(W, i, _W_O1, x - px, y - py, z - pz)
+        W[_W_XF1 * _CHUNK + i] = xf
+        W[_W_YL1 * _CHUNK + i] = yl
+        W[_W_P0 * _CHUNK + i] = -1.0
+        W[_W_P1 * _CHUNK + i] = -1.0
+    for p in range(pinv.shape[0]):
+        a0, a1, a2, a3 = pinv[p, 0], pinv[p, 1], pinv[p, 2], pinv[p, 3]
+        fp = float(p)
+        for i in range(cnt):
+            _pair_take(W, i, _W_P0, _W_XF0, _W_YL0, a0, a1, a2, a3, fp)
+            _pair_take(W, i, _W_P1, _W_XF1, _W_YL1, a0, a1, a2, a3, fp)
+    for i in range(cnt):
+        ok = _pair_normalise(W, i, _W_P0) & _pair_normalise(W, i, _W_P1)
+        kd = W[_W_KIND * _CHUNK + i]
+        W[_W_KIND * _CHUNK + i] = 2.0 if (kd != 0.0) & ~ok else kd
+
+
+@numba.njit(inline="always", **_NJIT)
+def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyped-def]
+    """Add g0·A + g1·B of the piece in column i of W to one channel (offset off
+    in an accumulator row) at its start, end and continuation rows."""
+    for v in range(4):
+        acc[si + off + v] += g0 * W[(_W_VAL + v) * _CHUNK + i] + g1 * W[(_W_VAL + 12 + v) * _CHUNK + i]
+    if ei >= 0:
+        for v in range(4):
+            acc[ei + off + v] += (g0 * W[(_W_VAL + 4 + v) * _CHUNK + i]
+                                  + g1 * W[(_W_VAL + 16 + v) * _CHUNK + i])  # fmt: skip
+    if ci >= 0:
+        for v in range(4):
+            acc[ci + off + v] += (g0 * W[(_W_VAL + 8 + v) * _CHUNK + i]
+                                  + g1 * W[(_W_VAL + 20 + v) * _CHUNK + i])  # fmt: skip
 
 
 @numba.njit(**_NJIT)
 def _piece_general(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, tn, q0, m0,
                    q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
                    fold, pinv, panned, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
-    """Piece n (knots n, n + 1) of a source at (x, y, z) in full: arrivals solved across the
-    listener's captures, the piece split at the captures inside it (the
-    listener's velocity changes there, so does df/dt: f, df/dt and the gains
-    are evaluated on either side), continued across accumulation blocks."""
+    """Piece n (knots n, n + 1) of a source at (x, y, z) in full: arrivals
+    solved across the listener's captures (:func:`_arrival`), gains, then
+    :func:`_piece_across`."""
     a0, d0, dd0, s0 = _arrival(x, y, z, rmin, tn[n], -1, tc, lc, vc, c0)
     a1, d1, dd1, s1 = _arrival(x, y, z, rmin, tn[n + 1], s0, tc, lc, vc, c0)
     t_end = t_start + n_samples / fs
@@ -625,6 +765,20 @@ def _piece_general(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin,
     if panned:
         _pan(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
         _pan(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
+    return _piece_across(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, tn, q0, m0,
+                         q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold,
+                         pinv, panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o)  # fmt: skip
+
+
+@numba.njit(**_NJIT)
+def _piece_across(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, tn, q0, m0, q1,
+                  m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
+                  panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Piece n of a source at (x, y, z) from arrival a0 (capture interval s0,
+    f = va, df/dt = wa per data second, gains ga) to a1 (s1, vb, wb, gb),
+    split at the listener's captures inside it: the listener's velocity
+    changes there, so does df/dt, and f, df/dt and the gains are evaluated on
+    either side; continued across accumulation blocks."""
     bad = 0
     u0 = (a0 - t_start) * fs
     for c in range(n_ch):
@@ -687,14 +841,23 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     n_tasks = task_pieces.shape[0]
     block = 1 << shift
     panned = spk_az.size > 0
+    # speaker pairs (every arc < 180°): gains in SIMD loops
+    pairs = panned and pinv.shape[0] > 0 and not fold
+    const_orient = True
+    for j in range(1, qc.shape[0]):
+        for c in range(6):
+            const_orient = const_orient and qc[j, c] == qc[0, c]
+    n_spk = spk_az.size
+    nxt = np.empty(max(n_spk, 1), dtype=np.int64)  # channel of the next speaker
+    for p in range(n_spk):
+        nxt[p] = spk_ch[(p + 1) % n_spk]
     ng = n_ch if panned else 1
     _row_lines(tn, tc, lc, vc, c0, n_lo, n_hi, RC)
     bad = np.zeros(n_tasks, dtype=np.int64)
     for j in numba.prange(n_tasks):
         p_a, p_b = task_pieces[j, 0], task_pieces[j, 1]
         blo, nb, base = task_blk[j, 0], task_blk[j, 1], task_blk[j, 2]
-        chs = nb * block * 4  # channel stride in the window
-        for i in range(base, base + n_ch * chs):
+        for i in range(base, base + n_ch * nb * block * 4):
             acc[i] = 0.0
         W = np.empty(_W_ROWS * _CHUNK)
         G0 = np.zeros((_CHUNK, ng))
@@ -712,10 +875,12 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
             for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
                 cc = ccnt[ck]
                 _chunk_pieces(PD, ck, cc, RC[n], RC[n + 1], c0, t_start, fs, n_samples, shift,
-                              blo, nb, base, panned, W)  # fmt: skip
-                if panned:
+                              blo, nb, base, n_ch, panned, W)  # fmt: skip
+                if pairs:
+                    _chunk_pair_gains(W, cc, RC[n], RC[n + 1], qc, ot, pinv, const_orient)
+                elif panned:
                     for i in range(cc):
-                        if W[_W_KIND * _CHUNK + i] != 1.0:
+                        if W[_W_KIND * _CHUNK + i] != 1.0 and W[_W_KIND * _CHUNK + i] != 3.0:
                             continue
                         x, y, z = PD[ck, 0, i], PD[ck, 1, i], PD[ck, 2, i]
                         _pan(x, y, z, W[_W_A0 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]), tc, lc, vc, qc, ot, spk_az,
@@ -743,20 +908,55 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                                 for v in range(4):
                                     acc[ci + v] += W[(_W_VAL + 8 + v) * _CHUNK + i]
                             continue
+                        if pairs:
+                            p0 = int(W[_W_P0 * _CHUNK + i])
+                            p1 = int(W[_W_P1 * _CHUNK + i])
+                            g00, g01 = W[_W_G00 * _CHUNK + i], W[_W_G01 * _CHUNK + i]
+                            g10, g11 = W[_W_G10 * _CHUNK + i], W[_W_G11 * _CHUNK + i]
+                            c00, c01 = spk_ch[p0], nxt[p0]
+                            if p0 == p1:
+                                _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, g10)
+                                _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, g11)
+                            else:
+                                c10, c11 = spk_ch[p1], nxt[p1]
+                                _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, 0.0)
+                                _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, 0.0)
+                                _scatter_group(acc, W, i, si, ei, ci, c10 * 4, 0.0, g10)
+                                _scatter_group(acc, W, i, si, ei, ci, c11 * 4, 0.0, g11)
+                            continue
                         for c in range(n_ch):
                             g0 = G0[i, c]
                             g1 = G1[i, c]
-                            if g0 == 0.0 and g1 == 0.0:
-                                continue
-                            off = c * chs
-                            for v in range(4):
-                                acc[si + off + v] += g0 * W[(_W_VAL + v) * _CHUNK + i] + g1 * W[(_W_VAL + 12 + v) * _CHUNK + i]
-                            if ei >= 0:
-                                for v in range(4):
-                                    acc[ei + off + v] += g0 * W[(_W_VAL + 4 + v) * _CHUNK + i] + g1 * W[(_W_VAL + 16 + v) * _CHUNK + i]
-                            if ci >= 0:
-                                for v in range(4):
-                                    acc[ci + off + v] += g0 * W[(_W_VAL + 8 + v) * _CHUNK + i] + g1 * W[(_W_VAL + 20 + v) * _CHUNK + i]
+                            if g0 != 0.0 or g1 != 0.0:
+                                _scatter_group(acc, W, i, si, ei, ci, c * 4, g0, g1)
+                        continue
+                    if kd == 3.0:
+                        # across listener captures or several blocks: arrivals,
+                        # values and gains from the SIMD loops
+                        if pairs:
+                            for c in range(n_ch):
+                                ga[c] = 0.0
+                                gb[c] = 0.0
+                            p0 = int(W[_W_P0 * _CHUNK + i])
+                            p1 = int(W[_W_P1 * _CHUNK + i])
+                            ga[spk_ch[p0]] += W[_W_G00 * _CHUNK + i]
+                            ga[nxt[p0]] += W[_W_G01 * _CHUNK + i]
+                            gb[spk_ch[p1]] += W[_W_G10 * _CHUNK + i]
+                            gb[nxt[p1]] += W[_W_G11 * _CHUNK + i]
+                        elif panned:
+                            for c in range(n_ch):
+                                ga[c] = G0[i, c]
+                                gb[c] = G1[i, c]
+                        nbad += _piece_across(
+                            acc, base, blo, nb, n_ch, block, n_samples, n, PD[ck, 0, i],
+                            PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i],
+                            PD[ck, 5, i], PD[ck, 6, i], PD[ck, 7, i], cubic, tc, lc, vc, qc, ot, c0,
+                            t_start, fs, spk_az, spk_ch, fold, pinv, panned, W[_W_A0 * _CHUNK + i],
+                            W[_W_A1 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]),
+                            int(W[_W_S1 * _CHUNK + i]), W[_W_F0 * _CHUNK + i],
+                            W[_W_WF0 * _CHUNK + i] * fs, W[_W_F1 * _CHUNK + i],
+                            W[_W_WF1 * _CHUNK + i] * fs, ga, gb, gx, gy, o,
+                        )  # fmt: skip
                         continue
                     nbad += _piece_general(
                         acc, base, blo, nb, n_ch, block, n_samples, n, PD[ck, 0, i],
@@ -769,42 +969,50 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
         bad[j] = nbad
     # integrate: per channel and block, the sum of the tasks' skewed levels,
     # then four running sums
-    for ch in numba.prange(n_ch):
-        _integrate(acc, task_blk, ch, block, n_samples, out)
+    n_groups = min(n_tasks, n_ch)
+    for g in numba.prange(n_groups):
+        _integrate(acc, task_blk, g * n_ch // n_groups, (g + 1) * n_ch // n_groups, n_ch, block,
+                   n_samples, out)  # fmt: skip
     return int(bad.sum())
 
 
 @numba.njit(**_NJIT)
-def _integrate(acc, task_blk, ch, block, n_samples, out):  # type: ignore[no-untyped-def]
-    """out[ch] from the tasks' skewed accumulators: level j of sample m is row
-    m - j; the four levels are summed 4, 3, 2 and 1 times."""
+def _integrate(acc, task_blk, c_lo, c_hi, n_ch, block, n_samples, out):  # type: ignore[no-untyped-def]
+    """out[c_lo:c_hi] from the tasks' skewed accumulators (channels interleaved
+    per sample row, so one pass reads each row once): level j of sample m is
+    row m - j; the four levels are summed 4, 3, 2 and 1 times."""
     n_tasks = task_blk.shape[0]
     n_blocks = (n_samples + block - 1) // block
+    rs = 4 * n_ch
+    nc = c_hi - c_lo
+    run = np.zeros((nc, 4))
     for b in range(n_blocks):
-        r3 = 0.0
-        r2 = 0.0
-        r1 = 0.0
-        r0 = 0.0
+        run[:] = 0.0
         lim = min(block, n_samples - b * block)
         for i in range(lim):
-            v3 = 0.0
-            v2 = 0.0
-            v1 = 0.0
-            v0 = 0.0
-            for j in range(n_tasks):
-                jb = b - task_blk[j, 0]
-                if jb < 0 or jb >= task_blk[j, 1]:
-                    continue
-                r = task_blk[j, 2] + ((ch * task_blk[j, 1] + jb) * block + i) * 4
-                v0 += acc[r]
-                if i >= 1:
-                    v1 += acc[r - 3]
-                if i >= 2:
-                    v2 += acc[r - 6]
-                if i >= 3:
-                    v3 += acc[r - 9]
-            r3 += v3
-            r2 += v2 + r3
-            r1 += v1 + r2
-            r0 += v0 + r1
-            out[ch, b * block + i] = r0
+            for c in range(nc):
+                v3 = 0.0
+                v2 = 0.0
+                v1 = 0.0
+                v0 = 0.0
+                for j in range(n_tasks):
+                    jb = b - task_blk[j, 0]
+                    if jb < 0 or jb >= task_blk[j, 1]:
+                        continue
+                    r = task_blk[j, 2] + ((jb * block + i) * n_ch + c_lo + c) * 4
+                    v0 += acc[r]
+                    if i >= 1:
+                        v1 += acc[r - rs + 1]
+                    if i >= 2:
+                        v2 += acc[r - 2 * rs + 2]
+                    if i >= 3:
+                        v3 += acc[r - 3 * rs + 3]
+                r3 = run[c, 3] + v3
+                r2 = run[c, 2] + v2 + r3
+                r1 = run[c, 1] + v1 + r2
+                r0 = run[c, 0] + v0 + r1
+                run[c, 3] = r3
+                run[c, 2] = r2
+                run[c, 1] = r1
+                run[c, 0] = r0
+                out[c_lo + c, b * block + i] = r0
