@@ -4,13 +4,13 @@ Three parts:
 
 :class:`BlockSynth`
     Renders any block of samples of the sound along a listener path with the
-    core synthesis (:func:`auralize.synthesis.render` with ``start=``), on
-    the *time window* of the source tracks that block can hear: the knots
-    whose emissions can arrive inside the block (largest source-listener
-    distance / c0 before it) plus two knots of margin for the cubic tangents.
-    Sources silent in the window are left out.  The result equals the offline
-    render sample for sample (up to rounding) at a cost that does not grow
-    with the length of the data: no whole-file precompute.
+    core synthesis (:func:`auralize.synthesis.render` with ``start=``), which
+    reads only the data steps whose emissions can arrive inside the block
+    (largest source-listener distance / c0 before it).  The result equals the
+    offline render sample for sample (up to rounding) at a cost that does not
+    grow with the length of the data: no whole-file precompute.
+    :meth:`BlockSynth.window` cuts the tracks down to what a block can hear
+    (for shipping a block's work elsewhere).
 :class:`LiveStream`
     A push stream over sounddevice's callback API: :meth:`LiveStream.write`
     queues ``(n_channels, n)`` blocks (blocking while the queue is full), the
@@ -167,13 +167,15 @@ class BlockSynth:
         return SourceTracks(pos, np.ascontiguousarray(qw), tr.radius[rows], tw)
 
     def render_range(self, start: int, n: int) -> NDArray[np.float64]:
-        """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals."""
+        """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals.
+
+        The synthesis reads only the data steps whose emissions can arrive in
+        the range (its pieces are cached on the tracks at the first call), so
+        a block costs what its own sources cost, however long the data.
+        """
         if n <= 0:
             return np.zeros((self.layout.n_channels, 0))
-        sub = self.window(start, n)
-        if sub.n_sources == 0:
-            return np.zeros((self.layout.n_channels, n))
-        out = render(sub, self.path, rate=self.rate, time_scale=self.time_scale,
+        out = render(self.tracks, self.path, rate=self.rate, time_scale=self.time_scale,
                      interp=self.interp, layout=self.layout, c0=self.c0, start=start / self.rate,
                      duration=n / self.rate, threads=self.threads)  # fmt: skip
         a = out.audio

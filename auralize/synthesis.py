@@ -379,8 +379,9 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
                   bounds=bounds, start=start)  # fmt: skip
     spk_az, spk_ch = lay.panning_arrays()
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
-    # accumulation blocks keep the running sums short (numerical safety)
-    shift = 15
+    # accumulation blocks keep the running sums short (numerical safety); no
+    # longer than the output (their memory is cleared at every call)
+    shift = int(min(15, max(6, np.ceil(np.log2(max(pr.n_samples, 1))))))
     block = 1 << shift
     qT, mtT = _step_major(tracks, pr)
     cptr, ccnt, PD = _pieces(tracks, pr, qT, mtT, interp)
