@@ -100,7 +100,9 @@ def render_distributed(
         # validate once on the caller (bad paths fail here, not in a worker) by
         # rendering one sample; every block, the first included, is a task
         first = render(tracks, path, rate=rate, start=0.0, duration=1.0 / rate, **kw)
-        parts: list[np.ndarray | None] = [None] * (len(edges) - 1)
+        # each block goes into its place as it arrives (while the workers go on),
+        # not concatenated at the end
+        audio = np.empty((first.audio.shape[0], n), dtype=first.audio.dtype)
         # workers in other processes build their own caches (once per worker: the
         # shared tracks stay in its memory between its tasks); do not ship ours
         local = run.scheduler in ("sync", "threads")
@@ -109,15 +111,14 @@ def render_distributed(
         calls = [(render_block, (tr, pa, edges[i], edges[i + 1], rate, kw, run.threads_per_task))
                  for i in range(len(edges) - 1)]  # fmt: skip
 
-        def got(i: int, audio: np.ndarray) -> None:
-            parts[i] = audio
+        def got(i: int, block_audio: np.ndarray) -> None:
+            audio[:, edges[i] : edges[i + 1]] = block_audio
 
         run.run(calls, got)
         n_workers = run.n_workers
     finally:
         if own:
             run.close()
-    audio: np.ndarray = np.concatenate(parts, axis=1)  # type: ignore[arg-type]
     return Rendered(audio=audio, rate=int(rate), layout=first.layout, time_scale=float(time_scale),
                     meta={**first.meta, "blocks": len(edges) - 1, "workers": n_workers,
                           "scheduler": run.scheduler})  # fmt: skip
