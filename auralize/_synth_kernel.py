@@ -1,21 +1,42 @@
 """Compiled core of the retarded-time synthesis (see :mod:`auralize.synthesis`).
 
-Why numba: the algorithm walks, per source, its sequence of time steps, solves
-for each step's arrival time at the moving listener (Newton), and emits a few
-polynomial coefficients per piece.  The loop has data-dependent control flow
-(splitting pieces at listener captures, skipping silent steps) that numpy
-cannot express without materialising sources × samples arrays.
+Why numba: the work is a few hundred floating-point operations per (source,
+step) piece with data-dependent control (pieces across listener captures or
+accumulation blocks, panning pairs) that numpy cannot express without
+materialising sources × samples arrays; numba compiles the loops to SIMD code.
 
-The signal of one source between two consecutive arrivals of its knots is a
-smooth function f(t) = q(τ(t)) / D(t) with τ(t) = t - D(t)/c0 (Eqs. 15-17).
-It is represented on each piece by the cubic Hermite interpolant of f and f'
-at the piece's ends, which is exact for a static listener (q is a cubic in τ,
-τ is linear in t) and accurate to O(h⁴) otherwise.  The cubic is written in the
-binomial basis C(m - m0, i) at its first sample m0; the basis function
-C(m - m0, i)·H(m - m0) is the (i+1)-fold cumulative sum of an impulse at
+The signal of one source between the arrivals of two consecutive knots
+(data steps) is a smooth function f(t) = q(τ(t)) / D(t) with τ(t) = t - D(t)/c0
+(paper 003 Eqs. 15-17).  It is represented on each piece by the cubic Hermite
+interpolant of f and f' at the piece's ends, which is exact for a static
+listener (q is a cubic in τ, τ is linear in t) and accurate to O(h⁴) otherwise.
+The cubic is written in the binomial basis C(m - m0, i) at its first sample
+m0; C(m - m0, i)·H(m - m0) is the (i+1)-fold cumulative sum of an impulse at
 m0 + i, so a piece costs 4 impulses at its start and 4 (of the polynomial
 continued, subtracted) at its end, whatever its length.  Four cumulative sums
-per block then give the summed signal.  Cost: O(sources × steps + samples).
+per accumulation block then give the summed signal.  Cost:
+O(sounding pieces + samples), not O(sources × samples).
+
+Layout of the work:
+
+* the sounding pieces are listed once per tracks (cached), sorted by data
+  step, in chunks of :data:`_CHUNK` whose inputs (position, clamp radius, q
+  and dq/dτ at both knots) are contiguous;
+* per chunk, branch-free loops that LLVM vectorizes solve both knots'
+  arrivals in closed form on the listener's candidate lines of that step
+  (:func:`_row_lines`), the values and slopes of f, the Hermite cubic and its
+  accumulator values at its start, end and (across an accumulation block)
+  continuation; for ring layouts also the speaker-pair gains
+  (:func:`_chunk_pair_gains`); all in one 1-D work array whose rows lie at
+  constant distances, so the compiler needs no aliasing checks;
+* a scalar loop adds the values to the accumulator; pieces across listener
+  captures (the velocity, hence df/dt, jumps there) are split exactly
+  (:func:`_piece_across`), arrivals beyond the candidate lines are solved in
+  full (:func:`_piece_general`);
+* the accumulator is skewed (level j of an impulse at m + j is stored in row
+  m, so an emission touches one 32-byte row) with the channels of a sample
+  side by side; threads take contiguous ranges of pieces and accumulate into
+  their own stretch of the output only.
 """
 
 from __future__ import annotations
@@ -447,7 +468,7 @@ _LINE = 12
 
 
 @numba.njit(**_NJIT)
-def _row_lines(tn, tc, lc, vc, c0, n_lo, n_hi, RC):  # type: ignore[no-untyped-def]
+def _row_lines(tn, tc, lc, vc, c0, d_max, n_lo, n_hi, RC):  # type: ignore[no-untyped-def]
     """Per knot row n, two candidate lines of the listener for the arrivals of
     the emissions at t_n: the capture interval s holding t_n and the next one.
 
@@ -455,7 +476,9 @@ def _row_lines(tn, tc, lc, vc, c0, n_lo, n_hi, RC):  # type: ignore[no-untyped-d
     line, its velocity, t_n, the interval [t_lo, t_hi) where the line is the
     path, 1/(c0² - V²), c0² - V², and s (before the first capture and after
     the last the listener is held: V = 0).  An arrival solved on a line
-    counts only if it falls in the line's interval.
+    counts only if it falls in the line's interval.  Column 2·_LINE is 1 when
+    an arrival can fall beyond the first line (t_n + D_max/c0 past its end),
+    else 0 (the second line is then not solved).
     """
     m = tc.size
     s = 0
@@ -493,18 +516,23 @@ def _row_lines(tn, tc, lc, vc, c0, n_lo, n_hi, RC):  # type: ignore[no-untyped-d
             RC[n, o + 9] = 1.0 / den
             RC[n, o + 10] = den
             RC[n, o + 11] = sj
+            if j == 0:
+                RC[n, 2 * _LINE] = 1.0 if t_n + d_max / c0 >= t_hi else 0.0
 
 
 @numba.njit(inline="always", **_NJIT)
-def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0):  # type: ignore[no-untyped-def]
+def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0, two):  # type: ignore[no-untyped-def]
     """Arrival, D, D·dD/dt and capture interval of one knot, solved on both
-    candidate lines la, lb (tuples of a _row_lines row) and taken from the one
-    whose interval holds it; ``found`` False when neither does (branch-free)."""
+    candidate lines la, lb (tuples of a _row_lines row; lb only if ``two``)
+    and taken from the one whose interval holds it; ``found`` False when
+    neither does (branch-free)."""
     a1, d1, e1 = _line_arrival(x, y, z, rm, la[0], la[1], la[2], la[3], la[4], la[5], la[6],
                                la[9], la[10], c0, inv_c0)  # fmt: skip
+    ok1 = (a1 >= la[7]) & (a1 < la[8])
+    if not two:
+        return a1, d1, e1, la[11], ok1
     a2, d2, e2 = _line_arrival(x, y, z, rm, lb[0], lb[1], lb[2], lb[3], lb[4], lb[5], lb[6],
                                lb[9], lb[10], c0, inv_c0)  # fmt: skip
-    ok1 = (a1 >= la[7]) & (a1 < la[8])
     ok2 = (a2 >= lb[7]) & (a2 < lb[8])
     a = a1 if ok1 else a2
     d = d1 if ok1 else d2
@@ -514,8 +542,8 @@ def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0):  # type: ignore[no-untyped-d
 
 
 @numba.njit(inline="always", **_NJIT)
-def _piece_core(W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
-                blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
+                inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
     """Arrivals, kind and accumulator rows of the piece in column i of W (see
     :func:`_chunk_pieces`; rs: accumulator values per sample row); returns the
     Hermite data (L, 1/L, f0, w0, f1, w1) and the offsets x0, x1, x2 of its
@@ -528,8 +556,8 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, f
     m0 = W[5 * _CHUNK + i]
     q1 = W[6 * _CHUNK + i]
     m1 = W[7 * _CHUNK + i]
-    a0, d0, dd0, sg0, ok0 = _knot_arrival(x, y, z, rm, l0a, l0b, c0, inv_c0)
-    a1, d1, dd1, sg1, ok1 = _knot_arrival(x, y, z, rm, l1a, l1b, c0, inv_c0)
+    a0, d0, dd0, sg0, ok0 = _knot_arrival(x, y, z, rm, l0a, l0b, c0, inv_c0, two)
+    a1, d1, dd1, sg1, ok1 = _knot_arrival(x, y, z, rm, l1a, l1b, c0, inv_c0, two)
     W[_W_A0 * _CHUNK + i] = a0
     W[_W_A1 * _CHUNK + i] = a1
     W[_W_S0 * _CHUNK + i] = sg0
@@ -603,20 +631,46 @@ def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo,
     for r in range(8):
         for i in range(cnt):
             W[r * _CHUNK + i] = PD[ck, r, i]
-    if panned:
+    # one candidate line per knot when no arrival can pass its end (most
+    # steps): separate loops, so each stays branch-free
+    two = RC0[2 * _LINE] != 0.0 or RC1[2 * _LINE] != 0.0
+    if panned and two:
         for i in range(cnt):
-            L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
-                W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
-                blo, nb, base, rs)  # fmt: skip
-            _piece_values(W, _W_VAL, i, L, inv, f0, w0 - f0 * inv, 0.0, -f1 * inv, x0, x1, x2)
-            _piece_values(W, _W_VAL + 12, i, L, inv, 0.0, f0 * inv, f1, w1 + f1 * inv, x0, x1,
-                          x2)  # fmt: skip
+            _panned_piece(W, i, l0a, l0b, l1a, l1b, True, c0, inv_c0, t_start, fs, inv_fs, fn,
+                          fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+    elif panned:
+        for i in range(cnt):
+            _panned_piece(W, i, l0a, l0b, l1a, l1b, False, c0, inv_c0, t_start, fs, inv_fs, fn,
+                          fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+    elif two:
+        for i in range(cnt):
+            _mono_piece(W, i, l0a, l0b, l1a, l1b, True, c0, inv_c0, t_start, fs, inv_fs, fn,
+                        fblock, inv_block, blo, nb, base, rs)  # fmt: skip
     else:
         for i in range(cnt):
-            L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
-                W, i, l0a, l0b, l1a, l1b, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
-                blo, nb, base, rs)  # fmt: skip
-            _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
+            _mono_piece(W, i, l0a, l0b, l1a, l1b, False, c0, inv_c0, t_start, fs, inv_fs, fn,
+                        fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+
+
+@numba.njit(inline="always", **_NJIT)
+def _mono_piece(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
+                inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+    """One piece of :func:`_chunk_pieces`, one polynomial."""
+    L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
+        W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
+        blo, nb, base, rs)  # fmt: skip
+    _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _panned_piece(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
+                  inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+    """One piece of :func:`_chunk_pieces`, polynomials A and B."""
+    L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
+        W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
+        blo, nb, base, rs)  # fmt: skip
+    _piece_values(W, _W_VAL, i, L, inv, f0, w0 - f0 * inv, 0.0, -f1 * inv, x0, x1, x2)
+    _piece_values(W, _W_VAL + 12, i, L, inv, 0.0, f0 * inv, f1, w1 + f1 * inv, x0, x1, x2)
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -812,7 +866,8 @@ def _piece_across(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, 
 
 @numba.njit(parallel=True, **_NJIT)
 def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, shift,
-           spk_az, spk_ch, pinv, n_ch, fold, n_lo, n_hi, task_pieces, task_blk, RC, acc, out):  # fmt: skip  # type: ignore[no-untyped-def]
+           spk_az, spk_ch, pinv, n_ch, fold, n_lo, n_hi, d_max, task_pieces, task_blk, RC, acc,
+           out):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every sounding piece into ``out (n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
@@ -834,7 +889,8 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     accumulator window: blocks task_blk[j, 0].. (task_blk[j, 1] of them) at
     offset task_blk[j, 2] of ``acc``.  Pieces are sorted by row, so a task's
     arrivals, and its writes, stay within its own stretch of the output.
-    RC (Tp, 2·_LINE) is work space for the listener's lines per row.
+    RC (Tp, 2·_LINE + 1) is work space for the listener's lines per row;
+    d_max bounds the source-listener distance.
 
     Returns the number of emissions outside the windows (an internal error).
     """
@@ -852,7 +908,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     for p in range(n_spk):
         nxt[p] = spk_ch[(p + 1) % n_spk]
     ng = n_ch if panned else 1
-    _row_lines(tn, tc, lc, vc, c0, n_lo, n_hi, RC)
+    _row_lines(tn, tc, lc, vc, c0, d_max, n_lo, n_hi, RC)
     bad = np.zeros(n_tasks, dtype=np.int64)
     for j in numba.prange(n_tasks):
         p_a, p_b = task_pieces[j, 0], task_pieces[j, 1]

@@ -402,12 +402,12 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         size = nb * lay.n_channels * block * 4
         task_blk = np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]])], axis=1)
         acc = _workspace("acc", (int(size.sum()),))
-        rc = _workspace("lines", (pr.tn.size, 2 * _synth_kernel._LINE))
+        rc = _workspace("lines", (pr.tn.size, 2 * _synth_kernel._LINE + 1))
         bad = _synth_kernel.render(
             cptr, ccnt, PD, pr.tn, cubic,
             pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, shift,
             spk_az, spk_ch, _pair_inverses(spk_az), lay.n_channels, bool(lay.fold_front),
-            n_lo, n_hi, task_chunks, np.ascontiguousarray(task_blk, dtype=np.int64), rc, acc,
+            n_lo, n_hi, d_max, task_chunks, np.ascontiguousarray(task_blk, dtype=np.int64), rc, acc,
             audio,
         )  # fmt: skip
         if bad:
