@@ -1072,3 +1072,76 @@ def _integrate(acc, task_blk, c_lo, c_hi, n_ch, block, n_samples, out):  # type:
                 run[c, 1] = r1
                 run[c, 0] = r0
                 out[c_lo + c, b * block + i] = r0
+
+
+@numba.njit(inline="always", **_NJIT)
+def _knot_q(q, k, n, T, scale):  # type: ignore[no-untyped-def]
+    """q/(4π) of source k at padded knot n (0 and T + 1 are the silent pads)."""
+    if n < 1 or n > T:
+        return 0.0
+    return q[k, n - 1] * scale
+
+
+@numba.njit(inline="always", **_NJIT)
+def _knot_m(q, k, n, T, tn, scale):  # type: ignore[no-untyped-def]
+    """Central-difference tangent dq/dτ at padded knot n (zero at the pads)."""
+    if n < 1 or n > T:
+        return 0.0
+    return (_knot_q(q, k, n + 1, T, scale) - _knot_q(q, k, n - 1, T, scale)) / (tn[n + 1] - tn[n - 1])
+
+
+@numba.njit(**_NJIT)
+def build_pieces(q, tn, pos, radius, cubic, counts_only, cptr, ccnt, PD):  # type: ignore[no-untyped-def]
+    """The sounding pieces of tracks q (K, T) with padded knot times tn (T + 2),
+    in chunks (see :func:`render`): piece n of source k (padded knots n, n + 1)
+    sounds when q or (cubic) its tangent is non-zero at either knot.
+
+    With ``counts_only`` returns the number of pieces per row (then the caller
+    sizes cptr, ccnt, PD); else fills ccnt and PD.  Source-major, one pass
+    over q (contiguous), a write cursor per row.
+    """
+    K, T = q.shape
+    Tp = T + 2
+    scale = 1.0 / (4.0 * math.pi)
+    counts = np.zeros(Tp, dtype=np.int64)
+    cur = np.zeros(Tp, dtype=np.int64)
+    for k in range(K):
+        # knot values: nz at knot n needs q (and m for cubic) at n
+        q_prev = 0.0
+        m_prev = 0.0
+        nz_prev = False
+        for n in range(Tp):
+            qn = _knot_q(q, k, n, T, scale)
+            mn = _knot_m(q, k, n, T, tn, scale) if cubic else 0.0
+            nz = qn != 0.0 or mn != 0.0
+            if n > 0 and (nz or nz_prev):
+                r = n - 1  # piece r from knot r to r + 1
+                if counts_only:
+                    counts[r] += 1
+                else:
+                    j = cur[r]
+                    cur[r] = j + 1
+                    ck = cptr[r] + j // _CHUNK
+                    ln = j % _CHUNK
+                    PD[ck, 0, ln] = pos[k, 0]
+                    PD[ck, 1, ln] = pos[k, 1]
+                    PD[ck, 2, ln] = pos[k, 2]
+                    PD[ck, 3, ln] = max(radius[k], 1e-9)
+                    PD[ck, 4, ln] = q_prev
+                    PD[ck, 6, ln] = qn
+                    if cubic:
+                        PD[ck, 5, ln] = m_prev
+                        PD[ck, 7, ln] = mn
+                    else:
+                        slope = (qn - q_prev) / (tn[n] - tn[r])
+                        PD[ck, 5, ln] = slope
+                        PD[ck, 7, ln] = slope
+            q_prev = qn
+            m_prev = mn
+            nz_prev = nz
+    if not counts_only:
+        for r in range(Tp):
+            for c in range(cptr[r], cptr[r + 1]):
+                ccnt[c] = min(_CHUNK, cur[r] - (c - cptr[r]) * _CHUNK)
+    return counts if counts_only else cur
+

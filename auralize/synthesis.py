@@ -66,8 +66,6 @@ class Rendered:
 @dataclass
 class _Prepared:
     tn: NDArray[np.float64]
-    q: NDArray[np.float64]
-    mt: NDArray[np.float64]
     tc: NDArray[np.float64]
     lc: NDArray[np.float64]
     vc: NDArray[np.float64]
@@ -78,13 +76,19 @@ class _Prepared:
     n_samples: int
 
 
-def _pad_knots(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    t = tracks.times
+def _knot_times(tracks: SourceTracks) -> NDArray[np.float64]:
+    """The data times padded with one silent step before and after."""
+    t = np.asarray(tracks.times, dtype=np.float64)
     if t.size >= 2:
         d0, d1 = t[1] - t[0], t[-1] - t[-2]
     else:
         d0 = d1 = 1.0
-    tn = np.concatenate([[t[0] - d0], t, [t[-1] + d1]])
+    return np.concatenate([[t[0] - d0], t, [t[-1] + d1]])
+
+
+def _pad_knots(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    tn = _knot_times(tracks)
+    t = tracks.times
     q = np.zeros((tracks.n_sources, t.size + 2))
     q[:, 1:-1] = tracks.q / (4.0 * np.pi)
     return tn, q
@@ -132,19 +136,6 @@ def _workspace(name: str, shape: tuple[int, ...], dtype: type = np.float64) -> N
     return buf[:size].reshape(shape)
 
 
-def _step_major(
-    tracks: SourceTracks, pr: _Prepared
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """q and tangents transposed to (steps, sources), cached on the tracks."""
-    key = (id(pr.q), id(pr.mt))
-    cached = tracks.cache.get("step_major")
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    out = (np.ascontiguousarray(pr.q.T), np.ascontiguousarray(pr.mt.T))
-    tracks.cache["step_major"] = (key, out)
-    return out
-
-
 def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     """Inverse bases (n, 4) of adjacent speaker pairs for 2-D VBAP, or (0, 4) when a
     layout has an arc of 180° or more (then the kernel uses its angular law)."""
@@ -161,53 +152,36 @@ def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.ascontiguousarray(np.linalg.inv(base).reshape(n, 4))
 
 
-def _pieces(tracks: SourceTracks, pr: _Prepared, qT: NDArray[np.float64],
-            mtT: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
+def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
+            interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
     """The sounding pieces in chunks, sorted by knot row: ``(cptr, ccnt, PD)``
-    (cached on the tracks).
+    (cached on the tracks; built in two compiled passes over q).
 
-    Piece n of a source (knots n and n + 1) sounds when q or its tangent is
-    non-zero at either knot; a typical volume has a fraction of its vertices
-    sounding at any step, and the kernel reads only these.  Row n's pieces
-    fill chunks ``cptr[n]:cptr[n+1]`` of ``_CHUNK`` (chunk c holds ``ccnt[c]``);
-    per piece ``PD (C, 8, _CHUNK)``: the source's position,
-    clamp radius, q and dq/dτ at both knots (for linear interpolation dq/dτ
-    is the piece's slope), contiguous per chunk so that the kernel streams it.
+    Piece n of a source (padded knots n and n + 1) sounds when q or its
+    tangent is non-zero at either knot; a typical volume has a fraction of
+    its vertices sounding at any step, and the kernel reads only these.  Row
+    n's pieces fill chunks ``cptr[n]:cptr[n+1]`` of ``_CHUNK`` (chunk c holds
+    ``ccnt[c]``); per piece ``PD (C, 8, _CHUNK)``: the source's position,
+    clamp radius, q/(4π) and dq/dτ at both knots (for linear interpolation
+    dq/dτ is the piece's slope), contiguous per chunk so that the kernel
+    streams it.
     """
-    key = (id(qT), interp)
+    key = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), interp)
     cached = tracks.cache.get("pieces")
     if cached is not None and cached[0] == key:
         return cached[1]
-    Tp, K = qT.shape
+    q = np.ascontiguousarray(tracks.q, dtype=np.float64)
+    pos = np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3))
+    radius = np.ascontiguousarray(tracks.radius, dtype=np.float64)
+    cubic = interp == "cubic"
     W = _synth_kernel._CHUNK
-    nz = qT != 0
-    if interp == "cubic":
-        nz |= mtT != 0
-    rows, cols = np.nonzero(nz[:-1] | nz[1:])
-    counts = np.bincount(rows, minlength=Tp)
+    none = np.zeros(1, dtype=np.int64)
+    counts = _synth_kernel.build_pieces(q, tn, pos, radius, cubic, True, none, none,
+                                        np.zeros((1, 8, W)))  # fmt: skip
     cptr = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
-    n_chunks = int(cptr[-1])
-    ccnt = np.zeros(n_chunks, dtype=np.int64)
-    for n in np.flatnonzero(counts):
-        ccnt[cptr[n] : cptr[n + 1]] = W
-        ccnt[cptr[n + 1] - 1] = counts[n] - W * (cptr[n + 1] - cptr[n] - 1)
-    within = np.arange(rows.size) - np.searchsorted(rows, rows)
-    chunk = cptr[rows] + within // W
-    lane = within % W
-    PD = np.zeros((n_chunks, 8, W))
-    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
-    for i in range(3):
-        PD[chunk, i, lane] = pos[cols, i]
-    PD[chunk, 3, lane] = np.maximum(tracks.radius, 1e-9)[cols]
-    PD[chunk, 4, lane] = qT[rows, cols]
-    PD[chunk, 6, lane] = qT[rows + 1, cols]
-    if interp == "cubic":
-        PD[chunk, 5, lane] = mtT[rows, cols]
-        PD[chunk, 7, lane] = mtT[rows + 1, cols]
-    else:
-        slope = (qT[rows + 1, cols] - qT[rows, cols]) / (pr.tn[rows + 1] - pr.tn[rows])
-        PD[chunk, 5, lane] = slope
-        PD[chunk, 7, lane] = slope
+    ccnt = np.zeros(int(cptr[-1]), dtype=np.int64)
+    PD = np.empty((int(cptr[-1]), 8, W))  # lanes past ccnt are never read
+    _synth_kernel.build_pieces(q, tn, pos, radius, cubic, False, cptr, ccnt, PD)
     out = (cptr, ccnt, PD)
     tracks.cache["pieces"] = (key, out)
     return out
@@ -281,10 +255,10 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
             f"or a positive duration"
         )
     n_samples = round(duration * rate)
-    tn, q, mt = _knots(tracks)
+    tn = _knot_times(tracks)
     otab, ot = _orientation_table(path, tc, time_scale)
     return _Prepared(
-        tn=tn, q=q, mt=mt, tc=tc, lc=np.ascontiguousarray(ppos),
+        tn=tn, tc=tc, lc=np.ascontiguousarray(ppos),
         vc=np.ascontiguousarray(vc), qc=otab, ot=ot, t_start=t0 + start / time_scale,
         fs=float(rate) * time_scale, n_samples=int(n_samples),
     )  # fmt: skip
@@ -383,8 +357,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     # longer than the output (their memory is cleared at every call)
     shift = int(min(15, max(6, np.ceil(np.log2(max(pr.n_samples, 1))))))
     block = 1 << shift
-    qT, mtT = _step_major(tracks, pr)
-    cptr, ccnt, PD = _pieces(tracks, pr, qT, mtT, interp)
+    cptr, ccnt, PD = _pieces(tracks, pr.tn, interp)
     cubic = interp == "cubic"
     n_lo, n_hi, d_max = _audible_pieces(pr, tracks, c0)
     n_hi = min(n_hi, cptr.size - 2)
@@ -439,12 +412,12 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
     L = path.position_at(tp)
     fwd, up = path.orientation_at(tp)
     out = np.zeros((lay.n_channels, pr.n_samples))
-    tn = pr.tn
+    tn, q, mt = _knots(tracks)
     for k in range(tracks.n_sources):
         d_vec = tracks.positions[k] - L
         D = np.maximum(np.linalg.norm(d_vec, axis=1), max(tracks.radius[k], 1e-9))
         tau = t - D / c0
-        qv = _interp_knots(tn, pr.q[k], pr.mt[k], tau, interp)
+        qv = _interp_knots(tn, q[k], mt[k], tau, interp)
         sig = qv / D
         if lay.n_channels == 1:
             out[0] += sig
