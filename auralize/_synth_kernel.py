@@ -270,7 +270,7 @@ def _emit1(acc, i, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _emit_piece(acc, base, blo, nb, ch, n_ch, block, n_samples, u0, u1, p0, p1, p2, p3):  # type: ignore[no-untyped-def]
+def _emit_piece(acc, base, blo, nb, ch, n_ch, shift, n_samples, u0, u1, p0, p1, p2, p3):  # type: ignore[no-untyped-def]
     """Add the cubic P(u - u0) on samples ceil(u0) <= m < ceil(u1) (clipped to the
     output) into a task's accumulator window (blocks blo..blo+nb-1, channel ch,
     starting at ``base``).
@@ -286,7 +286,8 @@ def _emit_piece(acc, base, blo, nb, ch, n_ch, block, n_samples, u0, u1, p0, p1, 
     m_1 = min(int(math.ceil(u1)), n_samples)
     if m_1 <= m_0:
         return 0
-    b = m_0 // block
+    block = 1 << shift
+    b = m_0 >> shift
     ms = m_0
     while True:
         bend = (b + 1) * block
@@ -360,7 +361,7 @@ def _arrival(x, y, z, rmin, t_n, hint, tc, lc, vc, c0):  # type: ignore[no-untyp
 
 
 @numba.njit(inline="always", **_NJIT)
-def _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, vb, wb, ga, gb,
+def _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, vb, wb, ga, gb,
                  fs, panned):  # type: ignore[no-untyped-def]  # fmt: skip
     """Emit f·g on [u0, u1] for every channel: f Hermite from (va, wa), (vb, wb)
     (per data second), gains linear from ga to gb (mono: gain 1)."""
@@ -370,7 +371,7 @@ def _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, vb,
     bad = 0
     if not panned:
         p0, p1, p2, p3 = _hermite(L, va, wa / fs, vb, wb / fs)
-        return _emit_piece(acc, base, blo, nb, 0, 1, block, n_samples, u0, u1, p0, p1, p2, p3)
+        return _emit_piece(acc, base, blo, nb, 0, 1, shift, n_samples, u0, u1, p0, p1, p2, p3)
     slope_t = fs / L  # 1 / (t1 - t0)
     for c in range(n_ch):
         g0 = ga[c]
@@ -380,7 +381,7 @@ def _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, vb,
         slope = (g1 - g0) * slope_t
         p0, p1, p2, p3 = _hermite(L, g0 * va, (g0 * wa + slope * va) / fs, g1 * vb,
                                   (g1 * wb + slope * vb) / fs)  # fmt: skip
-        bad += _emit_piece(acc, base, blo, nb, c, n_ch, block, n_samples, u0, u1, p0, p1, p2, p3)
+        bad += _emit_piece(acc, base, blo, nb, c, n_ch, shift, n_samples, u0, u1, p0, p1, p2, p3)
     return bad
 
 
@@ -803,7 +804,7 @@ def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyp
 
 
 @numba.njit(**_NJIT)
-def _piece_general(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, tn, q0, m0,
+def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0,
                    q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
                    fold, pinv, panned, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
     """Piece n (knots n, n + 1) of a source at (x, y, z) in full: arrivals
@@ -819,13 +820,13 @@ def _piece_general(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin,
     if panned:
         _pan(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
         _pan(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
-    return _piece_across(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, tn, q0, m0,
+    return _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0,
                          q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold,
                          pinv, panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o)  # fmt: skip
 
 
 @numba.njit(**_NJIT)
-def _piece_across(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, tn, q0, m0, q1,
+def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0, q1,
                   m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
                   panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
     """Piece n of a source at (x, y, z) from arrival a0 (capture interval s0,
@@ -848,7 +849,7 @@ def _piece_across(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, 
         if panned:
             _pan(x, y, z, t1, seg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gx, o)
         u1 = (t1 - t_start) * fs
-        bad += _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, u1, va, wa, v1, w1, gy,
+        bad += _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, v1, w1, gy,
                             gx, fs, panned)  # fmt: skip
         seg += 1
         # ... and just after it, on the next line
@@ -860,7 +861,7 @@ def _piece_across(acc, base, blo, nb, n_ch, block, n_samples, n, x, y, z, rmin, 
             for c in range(n_ch):
                 gy[c] = gx[c]
         u0 = u1
-    return bad + _emit_gained(acc, base, blo, nb, n_ch, block, n_samples, u0, (a1 - t_start) * fs,
+    return bad + _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, (a1 - t_start) * fs,
                               va, wa, vb, wb, gy, gb, fs, panned)  # fmt: skip
 
 
@@ -1004,7 +1005,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                                 ga[c] = G0[i, c]
                                 gb[c] = G1[i, c]
                         nbad += _piece_across(
-                            acc, base, blo, nb, n_ch, block, n_samples, n, PD[ck, 0, i],
+                            acc, base, blo, nb, n_ch, shift, n_samples, n, PD[ck, 0, i],
                             PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i],
                             PD[ck, 5, i], PD[ck, 6, i], PD[ck, 7, i], cubic, tc, lc, vc, qc, ot, c0,
                             t_start, fs, spk_az, spk_ch, fold, pinv, panned, W[_W_A0 * _CHUNK + i],
@@ -1015,7 +1016,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                         )  # fmt: skip
                         continue
                     nbad += _piece_general(
-                        acc, base, blo, nb, n_ch, block, n_samples, n, PD[ck, 0, i],
+                        acc, base, blo, nb, n_ch, shift, n_samples, n, PD[ck, 0, i],
                         PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i], PD[ck, 5, i],
                         PD[ck, 6, i], PD[ck, 7, i],
                         cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,

@@ -187,12 +187,18 @@ def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
     return out
 
 
-def _tasks(cptr: NDArray[np.int64], n_lo: int, n_hi: int,
-           n_threads: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
+def _tasks(cptr: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
+           costly: NDArray[np.bool_]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
     """Split the chunks of rows n_lo..n_hi-1 in ``n_threads`` contiguous ranges
-    of equal size; returns ``task_chunks (T, 2)`` and each task's rows (T, 2)."""
+    of about equal cost; returns ``task_chunks (T, 2)`` and each task's rows
+    (T, 2).  Chunks of ``costly`` rows (whose pieces can straddle a listener
+    capture, split in scalar code) count twice."""
     c_a, c_b = int(cptr[n_lo]), int(cptr[n_hi])
-    edges = np.unique(np.linspace(c_a, c_b, max(n_threads, 1) + 1).round().astype(np.int64))
+    rows = np.arange(n_lo, n_hi)
+    weight = np.repeat(np.where(costly[rows], 2.0, 1.0), np.diff(cptr)[rows])
+    cum = np.concatenate([[0.0], np.cumsum(weight)])
+    cuts = c_a + np.searchsorted(cum, cum[-1] * np.arange(1, max(n_threads, 1)) / n_threads)
+    edges = np.unique(np.concatenate([[c_a], np.clip(cuts, c_a, c_b), [c_b]]).astype(np.int64))
     if edges.size < 2:
         edges = np.array([c_a, c_b])
     task = np.stack([edges[:-1], edges[1:]], axis=1)
@@ -219,7 +225,7 @@ def _orientation_table(path: ListenerPath, tc: NDArray[np.float64],
 
 def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scale: float,
              c0: float, duration: float | None, bounds: tuple[float, ...] | None,
-             start: float = 0.0) -> _Prepared:  # fmt: skip
+             start: float = 0.0, orientation: bool = True) -> _Prepared:  # fmt: skip
     if not (np.isfinite(rate) and rate > 0):
         raise ParameterError(f"rate must be a positive number of samples per second, got {rate!r}")
     if not (np.isfinite(time_scale) and time_scale > 0):
@@ -256,7 +262,10 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
         )
     n_samples = round(duration * rate)
     tn = _knot_times(tracks)
-    otab, ot = _orientation_table(path, tc, time_scale)
+    if orientation:
+        otab, ot = _orientation_table(path, tc, time_scale)
+    else:  # unpanned: the listener's orientation is not needed
+        otab, ot = np.zeros((1, 6)), np.array([tc[0], 0.0])
     return _Prepared(
         tn=tn, tc=tc, lc=np.ascontiguousarray(ppos),
         vc=np.ascontiguousarray(vc), qc=otab, ot=ot, t_start=t0 + start / time_scale,
@@ -349,9 +358,9 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     if interp not in INTERPOLATIONS:
         raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
     lay = get_layout(layout)
-    pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=bounds, start=start)  # fmt: skip
     spk_az, spk_ch = lay.panning_arrays()
+    pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
+                  bounds=bounds, start=start, orientation=spk_az.size > 0)  # fmt: skip
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
     # accumulation blocks keep the running sums short (numerical safety); no
     # longer than the output (their memory is cleared at every call)
@@ -363,7 +372,11 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     n_hi = min(n_hi, cptr.size - 2)
     audio = np.zeros((lay.n_channels, pr.n_samples))
     if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and cptr[n_hi] > cptr[n_lo]:
-        task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads)
+        # rows whose arrivals can straddle a listener capture
+        t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < pr.tn[-1] + d_max / c0)]
+        hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
+        costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
+        task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads, costly)
         n_blocks = (pr.n_samples + block - 1) // block
         # each task's output window: arrivals of rows ra..rb lie in
         # [t_ra, t_(rb+1) + D_max/c0]
