@@ -126,7 +126,9 @@ def _qeval(t_a, h, q0, m0, q1, m1, tau, cubic):  # type: ignore[no-untyped-def]
 
 @numba.njit(inline="always", **_NJIT)
 def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):  # type: ignore[no-untyped-def]
-    """Pairwise 2-D VBAP gains (power-normalised) for direction a in the listener frame.
+    """Panning gains (power-normalised) for direction a in the listener frame:
+    pairwise 2-D VBAP, or 3-D VBAP when ``pinv`` is a triangle table (12
+    columns, see :func:`_gains3`).
 
     forward f, up u, left = u × f; azimuth counter-clockwise from forward.
     ``fold`` mirrors rear directions to the front (2-speaker layouts).
@@ -140,6 +142,9 @@ def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):
     lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
     xf = ax * fx + ay * fy + az * fz
     yl = ax * lx + ay * ly + az * lz
+    if pinv.shape[1] == 12:
+        _gains3(xf, yl, ax * ux + ay * uy + az * uz, pinv, out)
+        return
     if fold and xf < 0.0:
         xf = -xf
     if xf == 0.0 and yl == 0.0:
@@ -200,6 +205,64 @@ def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):
     if norm > 0.0:
         out[spk_ch[i0]] += g0 / norm
         out[spk_ch[i1]] += g1 / norm
+
+
+@numba.njit(inline="always", **_NJIT)
+def _gains3(x, y, z, tab, out):  # type: ignore[no-untyped-def]
+    """3-D VBAP (the law of :func:`auralize.spatial.vbap3d_gains`) for direction
+    (x, y, z) = (forward, left, up) in the listener frame; ``out`` zeroed.
+
+    ``tab`` rows: a hull triangle — the inverse of the matrix of its speaker
+    directions (9, row-major) and its three channels (-1: imaginary speaker);
+    then one row per imaginary speaker: its direction (3), the bit mask of
+    its real neighbours on the hull, and -2 in the channel columns.  The
+    triangle whose gains have the largest minimum is used, negative gains
+    clipped, imaginary speakers' gains dropped, Σ g² = 1; a direction exactly
+    at an imaginary speaker is spread over its neighbours.
+    """
+    best = -1
+    best_min = -np.inf
+    for t in range(tab.shape[0]):
+        if tab[t, 9] == -2.0:
+            continue
+        g0 = x * tab[t, 0] + y * tab[t, 3] + z * tab[t, 6]
+        g1 = x * tab[t, 1] + y * tab[t, 4] + z * tab[t, 7]
+        g2 = x * tab[t, 2] + y * tab[t, 5] + z * tab[t, 8]
+        mn = min(g0, min(g1, g2))
+        if mn > best_min:
+            best_min = mn
+            best = t
+    power = 0.0
+    if best >= 0:
+        for v in range(3):
+            ch = int(tab[best, 9 + v])
+            g = x * tab[best, v] + y * tab[best, 3 + v] + z * tab[best, 6 + v]
+            if ch >= 0 and g > 0.0:
+                out[ch] += g
+    for c in range(out.size):
+        power += out[c] * out[c]
+    if power < 1e-24:
+        # at an imaginary speaker: its real neighbours share the sound
+        bi = -1
+        bd = -np.inf
+        for t in range(tab.shape[0]):
+            if tab[t, 9] == -2.0:
+                dot = x * tab[t, 0] + y * tab[t, 1] + z * tab[t, 2]
+                if dot > bd:
+                    bd = dot
+                    bi = t
+        if bi >= 0:
+            mask = int(tab[bi, 3])
+            for c in range(out.size):
+                if (mask >> c) & 1:
+                    out[c] = 1.0
+        power = 0.0
+        for c in range(out.size):
+            power += out[c] * out[c]
+    if power > 0.0:
+        inv = 1.0 / math.sqrt(power)
+        for c in range(out.size):
+            out[c] *= inv
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -883,7 +946,8 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     from ot[0] at rate ot[1] (see :func:`_orient`); fs samples per data
     second; 2**shift samples per accumulation block; spk_az/spk_ch speaker
     azimuths (sorted) and channels; pinv (n_pairs, 4) inverse bases of
-    adjacent speaker pairs (empty when an arc spans 180° or more, e.g. stereo).
+    adjacent speaker pairs (empty when an arc spans 180° or more, e.g. stereo),
+    or for layouts with elevation the 3-D VBAP table of :func:`_gains3`.
 
     Work is split in tasks (one per thread): task j sums chunks
     task_pieces[j, 0]..task_pieces[j, 1]-1 of rows n_lo..n_hi-1 into its
@@ -899,7 +963,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     block = 1 << shift
     panned = spk_az.size > 0
     # speaker pairs (every arc < 180°): gains in SIMD loops
-    pairs = panned and pinv.shape[0] > 0 and not fold
+    pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4 and not fold
     const_orient = True
     for j in range(1, qc.shape[0]):
         for c in range(6):

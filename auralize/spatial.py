@@ -18,9 +18,9 @@ Panning laws
   speaker lies within 20° of the nadir (zenith), an *imaginary* speaker is added
   at the nadir (zenith); its gain is dropped and the remaining gains are
   re-normalised, so a source below the ring is heard on the ring at its own
-  azimuth; likewise above the highest speakers.  The synthesis kernel cannot apply this law yet: it pans elevated
-  layouts on their horizontal projection (:meth:`Layout.panning_arrays`, the
-  lowest speaker per azimuth), which :func:`vbap_gains` reproduces.
+  azimuth; likewise above the highest speakers.  The synthesis kernel applies
+  the same law per piece (:func:`auralize._synth_kernel._gains3`, from the
+  table of :func:`auralize.synthesis._pan_table`).
 * Every law is **power-normalised** (Σ g² = 1 over the panned speakers) and
   continuous in the direction, so gains change smoothly as a source moves or
   the listener turns.  The LFE channel of 5.1/7.1 is never panned to.
@@ -137,7 +137,8 @@ class Layout:
         pairwise 2-D law of the synthesis kernel (mono: empty).
 
         For a layout with elevation this is its horizontal projection: at each
-        distinct azimuth the speaker nearest the horizontal plane.
+        distinct azimuth the speaker nearest the horizontal plane (the kernel
+        then pans with the 3-D table instead).
         """
         if self.n_channels == 1:
             return np.zeros(0), np.zeros(0, dtype=np.int64)

@@ -41,7 +41,7 @@ from auralize import _synth_kernel
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
-from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
+from auralize.spatial import Layout, get_layout, listener_frame, pan_gains, triangulate
 
 C0 = 343.0
 RHO0 = 1.2
@@ -134,6 +134,21 @@ def _workspace(name: str, shape: tuple[int, ...], dtype: type = np.float64) -> N
     if buf is None or buf.size < size:
         buf = store[name] = np.empty(max(size, 1), dtype=dtype)
     return buf[:size].reshape(shape)
+
+
+def _pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The kernel's panning table: speaker-pair inverse bases (2-D VBAP) for a
+    horizontal layout, the triangle table of 3-D VBAP for one with elevation
+    (see :func:`auralize._synth_kernel._gains3`)."""
+    if lay.n_channels == 1 or lay.is_horizontal or spk_az.size == 0:
+        return _pair_inverses(spk_az)
+    tri = triangulate(lay)
+    rows = [np.concatenate([inv.reshape(9), ch.astype(np.float64)])
+            for inv, ch in zip(tri.inverse, tri.channels)]  # fmt: skip
+    for d, nb in zip(tri.imaginary_directions, tri.imaginary_neighbours):
+        mask = float(sum(1 << int(c) for c in nb))
+        rows.append(np.concatenate([d, [mask], np.zeros(5), [-2.0, -2.0, -2.0]]))
+    return np.ascontiguousarray(np.array(rows).reshape(-1, 12))
 
 
 def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -392,7 +407,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         bad = _synth_kernel.render(
             cptr, ccnt, PD, pr.tn, cubic,
             pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, shift,
-            spk_az, spk_ch, _pair_inverses(spk_az), lay.n_channels, bool(lay.fold_front),
+            spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels, bool(lay.fold_front),
             n_lo, n_hi, d_max, task_chunks, np.ascontiguousarray(task_blk, dtype=np.int64), rc, acc,
             audio,
         )  # fmt: skip
@@ -435,8 +450,7 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
         if lay.n_channels == 1:
             out[0] += sig
         else:
-            g = vbap_gains(lay, listener_frame_azimuth(d_vec, fwd, up))
-            out += g * sig
+            out += pan_gains(lay, listener_frame(d_vec, fwd, up)) * sig
     return out
 
 
