@@ -700,41 +700,36 @@ def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo,
     two = RC0[2 * _LINE] != 0.0 or RC1[2 * _LINE] != 0.0
     if panned and two:
         for i in range(cnt):
-            _panned_piece(W, i, l0a, l0b, l1a, l1b, True, c0, inv_c0, t_start, fs, inv_fs, fn,
-                          fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+            _one_piece(W, i, l0a, l0b, l1a, l1b, True, True, c0, inv_c0, t_start, fs, inv_fs, fn,
+                       fblock, inv_block, blo, nb, base, rs)  # fmt: skip
     elif panned:
         for i in range(cnt):
-            _panned_piece(W, i, l0a, l0b, l1a, l1b, False, c0, inv_c0, t_start, fs, inv_fs, fn,
-                          fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+            _one_piece(W, i, l0a, l0b, l1a, l1b, False, True, c0, inv_c0, t_start, fs, inv_fs, fn,
+                       fblock, inv_block, blo, nb, base, rs)  # fmt: skip
     elif two:
         for i in range(cnt):
-            _mono_piece(W, i, l0a, l0b, l1a, l1b, True, c0, inv_c0, t_start, fs, inv_fs, fn,
-                        fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+            _one_piece(W, i, l0a, l0b, l1a, l1b, True, False, c0, inv_c0, t_start, fs, inv_fs, fn,
+                       fblock, inv_block, blo, nb, base, rs)  # fmt: skip
     else:
         for i in range(cnt):
-            _mono_piece(W, i, l0a, l0b, l1a, l1b, False, c0, inv_c0, t_start, fs, inv_fs, fn,
-                        fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+            _one_piece(W, i, l0a, l0b, l1a, l1b, False, False, c0, inv_c0, t_start, fs, inv_fs,
+                       fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
 
 
 @numba.njit(inline="always", **_NJIT)
-def _mono_piece(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
-                inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
-    """One piece of :func:`_chunk_pieces`, one polynomial."""
+def _one_piece(W, i, l0a, l0b, l1a, l1b, two, panned, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
+               inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+    """One piece of :func:`_chunk_pieces`: its polynomial, or polynomials A and
+    B when ``panned`` (a constant in each caller's loop, so the loop stays
+    branch-free)."""
     L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
         W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
         blo, nb, base, rs)  # fmt: skip
-    _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
-
-
-@numba.njit(inline="always", **_NJIT)
-def _panned_piece(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
-                  inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
-    """One piece of :func:`_chunk_pieces`, polynomials A and B."""
-    L, inv, f0, w0, f1, w1, x0, x1, x2 = _piece_core(
-        W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block,
-        blo, nb, base, rs)  # fmt: skip
-    _piece_values(W, _W_VAL, i, L, inv, f0, w0 - f0 * inv, 0.0, -f1 * inv, x0, x1, x2)
-    _piece_values(W, _W_VAL + 12, i, L, inv, 0.0, f0 * inv, f1, w1 + f1 * inv, x0, x1, x2)
+    if panned:
+        _piece_values(W, _W_VAL, i, L, inv, f0, w0 - f0 * inv, 0.0, -f1 * inv, x0, x1, x2)
+        _piece_values(W, _W_VAL + 12, i, L, inv, 0.0, f0 * inv, f1, w1 + f1 * inv, x0, x1, x2)
+    else:
+        _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
 
 
 @numba.njit(inline="always", **_NJIT)
