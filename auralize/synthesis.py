@@ -144,8 +144,8 @@ def _pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
         return _pair_inverses(spk_az)
     tri = triangulate(lay)
     rows = [np.concatenate([inv.reshape(9), ch.astype(np.float64)])
-            for inv, ch in zip(tri.inverse, tri.channels)]  # fmt: skip
-    for d, nb in zip(tri.imaginary_directions, tri.imaginary_neighbours):
+            for inv, ch in zip(tri.inverse, tri.channels, strict=True)]  # fmt: skip
+    for d, nb in zip(tri.imaginary_directions, tri.imaginary_neighbours, strict=True):
         mask = float(sum(1 << int(c) for c in nb))
         rows.append(np.concatenate([d, [mask], np.zeros(5), [-2.0, -2.0, -2.0]]))
     return np.ascontiguousarray(np.array(rows).reshape(-1, 12))

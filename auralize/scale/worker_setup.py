@@ -73,7 +73,7 @@ def warm_kernels() -> dict[str, Any]:
     try:
         import numpy as np
 
-        import auralize.io  # noqa: F401 - the readers (h5py) a first task would import
+        import auralize.io
         import auralize.io.hdf5  # noqa: F401
         from auralize.datasets import make_monopole
         from auralize.listener import ListenerPath
@@ -88,7 +88,7 @@ def warm_kernels() -> dict[str, Any]:
             path = ListenerPath.point(np.full(3, 2.0), duration=0.01)
             render(tracks, path, rate=8000, layout="ring8", time_scale=1.0, threads=1)
         done["kernels"] = True
-    except Exception as exc:  # noqa: BLE001 - reported, the worker stays usable
+    except Exception as exc:
         done["error"] = f"{type(exc).__name__}: {exc}"
     done["seconds"] = time.perf_counter() - t0
     return done
