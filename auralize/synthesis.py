@@ -50,13 +50,15 @@ INTERPOLATIONS = ("linear", "cubic")
 
 @dataclass
 class Rendered:
-    """Synthesized audio ``(n_channels, n_samples)`` in pascals, plus how it was made."""
+    """Synthesized audio ``(n_channels, n_samples)`` in pascals, plus how it was made
+    (also what the sound-model plugins return; ``time_scale`` 1 for sound that is
+    not a playback of data time)."""
 
     audio: NDArray[np.float64]
     rate: int
     layout: Layout
-    time_scale: float
-    meta: dict[str, object] = field(default_factory=dict)
+    time_scale: float = 1.0
+    meta: dict[str, Any] = field(default_factory=dict)
 
     @property
     def duration(self) -> float:

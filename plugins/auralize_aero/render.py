@@ -37,8 +37,7 @@ import math
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -48,6 +47,7 @@ from scipy.interpolate import CubicSpline
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
+from auralize.synthesis import Rendered
 
 from .objects import AeroObject, Motion, Wind, quat_to_matrix
 from .texture import SoundTexture
@@ -585,20 +585,6 @@ def _block_kernel(pos: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray
             qe[k, b, 1] = Mb[b, 1] * P0[b + 1] + Mb[b, 3] * P1[b + 1]
 
 
-@dataclass
-class Rendered:
-    """Rendered audio ``(n_channels, n_samples)`` in Pa at ``rate``, with its layout."""
-
-    audio: NDArray[np.float64]
-    rate: int
-    layout: Layout
-    meta: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def duration(self) -> float:
-        return self.audio.shape[1] / self.rate
-
-
 def _norm(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.sqrt(a[..., 0] ** 2 + a[..., 1] ** 2 + a[..., 2] ** 2)
 
@@ -819,4 +805,4 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
         receive(kin, texture, L, tb, layout=lay, fwd=fwd, up=up, out=out, **common)
     meta = {"n_sources": int(kin.pos.shape[0]), "exponent": e, "texture_speed": texture.speed,
             "max_speed_mps": float(kin.speed.max() * texture.speed)}  # fmt: skip
-    return Rendered(out, int(rate), lay, meta)
+    return Rendered(audio=out, rate=int(rate), layout=lay, meta=meta)

@@ -39,8 +39,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,6 +47,7 @@ from numpy.typing import NDArray
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
+from auralize.synthesis import Rendered
 
 from ._kernels import accumulate_wm
 from .leader import Discharge
@@ -306,16 +306,6 @@ def accumulate(em: Emissions, n_channels: int, n_samples: int, *, rate: int, c: 
     return out
 
 
-@dataclass
-class Rendered:
-    """Audio of a discharge: ``audio (n_channels, n_samples)`` Pa at ``rate``, and its statistics."""
-
-    audio: NDArray[np.float64]
-    rate: int
-    layout: Layout
-    meta: dict[str, Any] = field(default_factory=dict)
-
-
 def render_discharge(discharge: Discharge, listener: ListenerPath | NDArray[np.floating], *,
                      params: WaveParams, rate: int = 44100, layout: str | Layout = "mono",
                      strokes: NDArray[np.floating] | None = None, duration: float | None = None,
@@ -374,4 +364,4 @@ def render_discharge(discharge: Discharge, listener: ListenerPath | NDArray[np.f
         "rate": int(rate),
         "layout": lay.name,
     }
-    return Rendered(audio, int(rate), lay, meta)
+    return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
