@@ -606,6 +606,52 @@ def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0, two):  # type: ignore[no-unty
 
 
 @numba.njit(inline="always", **_NJIT)
+def _cut_at_end(x, y, z, rm, q0, m0, q1, m1, sg0, ok0, la, lb, t_1, c0, inv_c0, t_start, fs, fn):  # type: ignore[no-untyped-def]
+    """The end of a piece whose arrivals cross, after its start, a capture at
+    or past the output's last sample: the piece is cut at that capture t_c
+    (the listener's velocity changes there; nothing after it is heard in this
+    output).  Returns ``cut`` and, at t_c: the arrival t_c, D, D·dD/dt on the
+    start's line, and the strength q and dq/dτ at the emission time
+    τ_c = t_c - D/c0 (cubic Hermite of the knots t_n = la[6], t_1; for linear
+    pieces m0 = m1 = the slope, which the Hermite reproduces).  This is the
+    first part of :func:`_piece_across`'s split, branch-free; sg0/ok0: the
+    start's line and whether it holds the start's arrival."""
+    sel = sg0 == la[11]
+    lx = la[0] if sel else lb[0]
+    ly = la[1] if sel else lb[1]
+    lz = la[2] if sel else lb[2]
+    vx = la[3] if sel else lb[3]
+    vy = la[4] if sel else lb[4]
+    vz = la[5] if sel else lb[5]
+    th = la[8] if sel else lb[8]
+    t_0 = la[6]
+    fin = th < 1e300
+    dt = th - t_0 if fin else 0.0
+    px = lx + vx * dt - x
+    py = ly + vy * dt - y
+    pz = lz + vz * dt - z
+    d = math.sqrt(px * px + py * py + pz * pz)
+    clamp = d <= rm
+    dd = 0.0 if clamp else px * vx + py * vy + pz * vz
+    d = rm if clamp else d
+    tau = th - d * inv_c0 if fin else t_0
+    h = t_1 - t_0
+    s = (tau - t_0) / h
+    s = s if s > 0.0 else 0.0
+    s = s if s < 1.0 else 1.0
+    s2 = s * s
+    s3 = s2 * s
+    hm0 = m0 * h
+    hm1 = m1 * h
+    q = ((2.0 * s3 - 3.0 * s2 + 1.0) * q0 + (s3 - 2.0 * s2 + s) * hm0
+         + (3.0 * s2 - 2.0 * s3) * q1 + (s3 - s2) * hm1)  # fmt: skip
+    m = ((6.0 * s2 - 6.0 * s) * (q0 - q1) + (3.0 * s2 - 4.0 * s + 1.0) * hm0
+         + (3.0 * s2 - 2.0 * s) * hm1) / h  # fmt: skip
+    cut = ok0 & fin & ((th - t_start) * fs > fn - 1.0) & (tau < t_1)
+    return cut, th, d, dd, q, m
+
+
+@numba.njit(inline="always", **_NJIT)
 def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
                 inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
     """Arrivals, kind and accumulator rows of the piece in column i of W (see
@@ -622,6 +668,17 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, 
     m1 = W[7 * _CHUNK + i]
     a0, d0, dd0, sg0, ok0 = _knot_arrival(x, y, z, rm, l0a, l0b, c0, inv_c0, two)
     a1, d1, dd1, sg1, ok1 = _knot_arrival(x, y, z, rm, l1a, l1b, c0, inv_c0, two)
+    if two:
+        # a piece that crosses a capture at or past the output's end ends there
+        cut, ac, dc, ddc, qc, mc = _cut_at_end(x, y, z, rm, q0, m0, q1, m1, sg0, ok0, l0a, l0b,
+                                               l1a[6], c0, inv_c0, t_start, fs, fn)  # fmt: skip
+        a1 = ac if cut else a1
+        d1 = dc if cut else d1
+        dd1 = ddc if cut else dd1
+        q1 = qc if cut else q1
+        m1 = mc if cut else m1
+        sg1 = sg0 if cut else sg1
+        ok1 = ok1 | cut
     W[_W_A0 * _CHUNK + i] = a0
     W[_W_A1 * _CHUNK + i] = a1
     W[_W_S0 * _CHUNK + i] = sg0
@@ -973,7 +1030,8 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     for j in numba.prange(n_tasks):
         p_a, p_b = task_pieces[j, 0], task_pieces[j, 1]
         blo, nb, base = task_blk[j, 0], task_blk[j, 1], task_blk[j, 2]
-        for i in range(base, base + n_ch * nb * block * 4):
+        # (rows past the last sample are never written nor read)
+        for i in range(base, base + n_ch * min(nb * block, n_samples - blo * block) * 4):
             acc[i] = 0.0
         W = np.empty(_W_ROWS * _CHUNK)
         G0 = np.zeros((_CHUNK, ng))
@@ -1085,53 +1143,55 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
         bad[j] = nbad
     # integrate: per channel and block, the sum of the tasks' skewed levels,
     # then four running sums
+    # (the sums restart at every accumulation block: blocks are independent)
     n_groups = min(n_tasks, n_ch)
-    for g in numba.prange(n_groups):
-        _integrate(acc, task_blk, g * n_ch // n_groups, (g + 1) * n_ch // n_groups, n_ch, block,
-                   n_samples, out)  # fmt: skip
+    n_blocks = (n_samples + block - 1) // block
+    for k in numba.prange(n_groups * n_blocks):
+        g = k // n_blocks
+        b = k - g * n_blocks
+        _integrate(acc, task_blk, g * n_ch // n_groups, (g + 1) * n_ch // n_groups, b, n_ch,
+                   block, n_samples, out)  # fmt: skip
     return int(bad.sum())
 
 
 @numba.njit(**_NJIT)
-def _integrate(acc, task_blk, c_lo, c_hi, n_ch, block, n_samples, out):  # type: ignore[no-untyped-def]
-    """out[c_lo:c_hi] from the tasks' skewed accumulators (channels interleaved
-    per sample row, so one pass reads each row once): level j of sample m is
-    row m - j; the four levels are summed 4, 3, 2 and 1 times."""
+def _integrate(acc, task_blk, c_lo, c_hi, b, n_ch, block, n_samples, out):  # type: ignore[no-untyped-def]
+    """out[c_lo:c_hi] in accumulation block b from the tasks' skewed
+    accumulators (channels interleaved per sample row, so one pass reads each
+    row once): level j of sample m is row m - j; the four levels are summed
+    4, 3, 2 and 1 times."""
     n_tasks = task_blk.shape[0]
-    n_blocks = (n_samples + block - 1) // block
     rs = 4 * n_ch
     nc = c_hi - c_lo
     run = np.zeros((nc, 4))
-    for b in range(n_blocks):
-        run[:] = 0.0
-        lim = min(block, n_samples - b * block)
-        for i in range(lim):
-            for c in range(nc):
-                v3 = 0.0
-                v2 = 0.0
-                v1 = 0.0
-                v0 = 0.0
-                for j in range(n_tasks):
-                    jb = b - task_blk[j, 0]
-                    if jb < 0 or jb >= task_blk[j, 1]:
-                        continue
-                    r = task_blk[j, 2] + ((jb * block + i) * n_ch + c_lo + c) * 4
-                    v0 += acc[r]
-                    if i >= 1:
-                        v1 += acc[r - rs + 1]
-                    if i >= 2:
-                        v2 += acc[r - 2 * rs + 2]
-                    if i >= 3:
-                        v3 += acc[r - 3 * rs + 3]
-                r3 = run[c, 3] + v3
-                r2 = run[c, 2] + v2 + r3
-                r1 = run[c, 1] + v1 + r2
-                r0 = run[c, 0] + v0 + r1
-                run[c, 3] = r3
-                run[c, 2] = r2
-                run[c, 1] = r1
-                run[c, 0] = r0
-                out[c_lo + c, b * block + i] = r0
+    lim = min(block, n_samples - b * block)
+    for i in range(lim):
+        for c in range(nc):
+            v3 = 0.0
+            v2 = 0.0
+            v1 = 0.0
+            v0 = 0.0
+            for j in range(n_tasks):
+                jb = b - task_blk[j, 0]
+                if jb < 0 or jb >= task_blk[j, 1]:
+                    continue
+                r = task_blk[j, 2] + ((jb * block + i) * n_ch + c_lo + c) * 4
+                v0 += acc[r]
+                if i >= 1:
+                    v1 += acc[r - rs + 1]
+                if i >= 2:
+                    v2 += acc[r - 2 * rs + 2]
+                if i >= 3:
+                    v3 += acc[r - 3 * rs + 3]
+            r3 = run[c, 3] + v3
+            r2 = run[c, 2] + v2 + r3
+            r1 = run[c, 1] + v1 + r2
+            r0 = run[c, 0] + v0 + r1
+            run[c, 3] = r3
+            run[c, 2] = r2
+            run[c, 1] = r1
+            run[c, 0] = r0
+            out[c_lo + c, b * block + i] = r0
 
 
 @numba.njit(inline="always", **_NJIT)

@@ -389,8 +389,10 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     n_hi = min(n_hi, cptr.size - 2)
     audio = np.zeros((lay.n_channels, pr.n_samples))
     if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and cptr[n_hi] > cptr[n_lo]:
-        # rows whose arrivals can straddle a listener capture
-        t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < pr.tn[-1] + d_max / c0)]
+        # rows whose arrivals can straddle a listener capture (one at or past
+        # the output's end only cuts the pieces: no extra cost)
+        t_end = min(pr.tn[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
+        t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
         hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
         costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
         task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads, costly)
