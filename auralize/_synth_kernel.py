@@ -884,7 +884,14 @@ def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ig
         xf, yl = _frame_coords(W, i, _W_O0, x - px, y - py, z - pz)
         W[_W_XF0 * _CHUNK + i] = xf
         W[_W_YL0 * _CHUNK + i] = yl
-        px, py, pz = _listener_at(W[_W_A1 * _CHUNK + i], W[_W_S1 * _CHUNK + i], l1a, l1b)
+        # (a piece cut at a capture, see _cut_at_end, ends on one of its start's lines)
+        a1, s1 = W[_W_A1 * _CHUNK + i], W[_W_S1 * _CHUNK + i]
+        px, py, pz = _listener_at(a1, s1, l1a, l1b)
+        qx, qy, qz = _listener_at(a1, s1, l0a, l0b)
+        on1 = (s1 == l1a[11]) | (s1 == l1b[11])
+        px = px if on1 else qx
+        py = py if on1 else qy
+        pz = pz if on1 else qz
         xf, yl = _frame_coords(W, i, _W_O1, x - px, y - py, z - pz)
         W[_W_XF1 * _CHUNK + i] = xf
         W[_W_YL1 * _CHUNK + i] = yl

@@ -18,7 +18,7 @@ or 48³ × 12 with ``quick``):
 * a projection for 512³ × 1000 steps from the measured cost per voxel-step.
 
 **How it is timed.**  Both worker counts run the same tasks (chunks of
-:data:`DETECT_CHUNK_STEPS` steps; :data:`SYNTH_BLOCKS` synthesis blocks), on
+:data:`DETECT_CHUNK_STEPS` steps; :data:`SYNTH_GROUPS` synthesis source groups), on
 a fresh local cluster per run, from submission until the sources file is on
 disk (detection) or the audio is in the client (synthesis).  Not timed: the
 cluster's start-up and the workers' one-time set-up
@@ -56,8 +56,8 @@ BENCH_THRESHOLDS = ("5%", "5%", "5%")
 SAMPLE_S = 0.05
 #: time steps per detection task (both runs use the same tasks)
 DETECT_CHUNK_STEPS = 10
-#: synthesis blocks (tasks) of the 60 s rendering, the same for 1 and 2 workers
-SYNTH_BLOCKS = 8
+#: source groups (tasks) of the 60 s rendering, the same for 1 and 2 workers
+SYNTH_GROUPS = 4
 #: other processes' CPU (cores) below which the machine counts as quiet
 QUIET_CORES = 0.25
 
@@ -219,7 +219,7 @@ def _detect(path: Path, workers: int, size: int) -> Timed:
 
 
 def _synth(tracks: Any, path: Any, workers: int, time_scale: float) -> Timed:
-    """60 s of ring8 on a fresh local cluster, in :data:`SYNTH_BLOCKS` blocks."""
+    """60 s of ring8 on a fresh local cluster, in :data:`SYNTH_GROUPS` tasks (one block)."""
     from auralize.scale import Runner, render_distributed
 
     with Runner("distributed", workers=workers, processes=True, log=None) as run:
@@ -228,7 +228,7 @@ def _synth(tracks: Any, path: Any, workers: int, time_scale: float) -> Timed:
             t = time.perf_counter()
             out = render_distributed(tracks, path, rate=44100, layout="ring8",
                                      time_scale=time_scale, runner=run,
-                                     block_seconds=path.duration / SYNTH_BLOCKS)  # fmt: skip
+                                     groups=SYNTH_GROUPS)  # fmt: skip
             elapsed = time.perf_counter() - t
         return Timed(out, elapsed, run.setup_seconds, cpu)
 
@@ -362,8 +362,9 @@ def bench_dask(quick: bool, repeats: int | None = None,
     a1, u1, a2, u2 = y1.result, y1.seconds, y2.result, y2.seconds
     err = float(np.max(np.abs(a1.audio - a2.audio)) / max(np.max(np.abs(a1.audio)), 1e-300))
     rows.append(BenchRow("dask", "synthesis 60 s ring8, 1 worker", u1, "s",
-                         note=f"{tracks.n_sources} source points, {a1.meta['blocks']} blocks "
-                              f"(the same in both runs); {_runs_note(syn[1])}"))  # fmt: skip
+                         note=f"{tracks.n_sources} source points, {a1.meta['tasks']} tasks "
+                              f"({a1.meta['blocks']} block × {a1.meta['groups']} source groups, "
+                              f"the same in both runs); {_runs_note(syn[1])}"))  # fmt: skip
     rows.append(BenchRow("dask", "synthesis 60 s ring8, 2 workers", u2, "s",
                          note=f"max diff to 1 worker {err:.1e} of peak; {_runs_note(syn[2])}"))  # fmt: skip
     rows.append(BenchRow("dask", "synthesis throughput 2 vs 1 workers", u1 / u2, "×",

@@ -72,7 +72,8 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--block-seconds",
         type=float,
-        help="playback seconds per synthesis task (default: 4 blocks per worker)",
+        help="playback seconds per synthesis block (default: one block, or blocks of at most "
+             "2**25 samples × channels); every block is split in source groups, two per worker",
     )
 
 
@@ -160,7 +161,8 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
                          extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
     peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
     print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
-          f"at {out.rate} Hz in {out.meta['blocks']} blocks on {out.meta['workers']} workers, "
+          f"at {out.rate} Hz in {out.meta['tasks']} tasks ({out.meta['blocks']} blocks × "
+          f"{out.meta['groups']} source groups) on {out.meta['workers']} workers, "
           f"peak {peak:.4g} Pa, gain {gain:.4g}; {elapsed:.2f} s")  # fmt: skip
     return 0
 
@@ -237,7 +239,7 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print per-step counts as JSON")
     p.set_defaults(func=cmd_detect_dask)
 
-    p = sub.add_parser("scale-render", help="render with synthesis blocks on Dask workers")
+    p = sub.add_parser("scale-render", help="render with synthesis tasks (blocks × source groups) on Dask workers")
     add_volume_options(p)
     add_detect_options(p)
     add_output_options(p)

@@ -35,7 +35,7 @@ from auralize.scale import (
     volume_from_dask,
     write_chunked_explosion,
 )
-from auralize.sources import SourceSeries, Thresholds, detect
+from auralize.sources import SourceSeries, SourceTracks, Thresholds, detect
 from auralize.synthesis import render
 from auralize.volume import TimeVolume
 
@@ -423,11 +423,37 @@ def test_distributed_synthesis_blocks_join_without_seams(
     with Runner("threads", workers=2, log=None) as run:
         got = render_distributed(tracks, path, rate=16000, layout="ring8", block_seconds=0.037,
                                  runner=run)  # fmt: skip
-    assert got.meta["blocks"] == 11
+    assert got.meta["blocks"] == 11 and got.meta["groups"] == 4 and got.meta["tasks"] == 44
     assert got.audio.shape == whole.shape == (8, 6400)
     assert np.max(np.abs(got.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
+    # one block (the default for a short output), source groups only
+    one = render_distributed(tracks, path, rate=16000, layout="ring8", groups=3, log=None)
+    assert one.meta["blocks"] == 1 and one.meta["groups"] == 3
+    assert np.max(np.abs(one.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
     with pytest.raises(ParameterError, match="block_seconds must be > 0"):
         render_distributed(tracks, path, block_seconds=0.0, log=None)
+    with pytest.raises(ParameterError, match="groups must be a positive integer"):
+        render_distributed(tracks, path, groups=0, log=None)
+
+
+def test_source_groups_are_contiguous_balanced_and_cover_every_source() -> None:
+    from auralize.scale.synth import source_groups
+
+    q = np.zeros((100, 32))
+    q[:50, :] = 1.0  # the first half sounds at every knot, the second once
+    q[50:, 0] = 1.0
+    tr = SourceTracks(positions=np.zeros((100, 3)), q=q, radius=np.ones(100),
+                      times=np.arange(32.0))  # fmt: skip
+    g = source_groups(tr, 4)
+    assert g[0][0] == 0 and g[-1][1] == 100
+    assert all(a < b for a, b in g) and all(g[i][1] == g[i + 1][0] for i in range(len(g) - 1))
+    # by work, not by count: three of four groups go to the busy first half
+    assert sum(b <= 50 for a, b in g) == 3
+    even = SourceTracks(positions=np.zeros((5, 3)), q=np.ones((5, 8)), radius=np.ones(5),
+                        times=np.arange(8.0))  # fmt: skip
+    assert source_groups(even, 1000) == [(k, k + 1) for k in range(5)]  # at most one per source
+    assert source_groups(SourceTracks(np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0),
+                                      np.arange(4.0)), 3) == []  # fmt: skip
 
 
 def test_distributed_synthesis_renders_every_block_in_a_task(
@@ -447,8 +473,9 @@ def test_distributed_synthesis_renders_every_block_in_a_task(
     path = ListenerPath.orbit(explosion.center, radius=6.0, duration=0.4, turns=0.3)
     got = render_distributed(explosion_ref.tracks(), path, rate=16000, layout="ring8",
                              block_seconds=0.1, log=None)  # fmt: skip
-    # the caller only validates (one sample); the four blocks are tasks
-    assert got.meta["blocks"] == 4 and sizes == [1, 1600, 1600, 1600, 1600]
+    # the caller only validates (renders nothing); every (block, group) is a task
+    assert got.meta["blocks"] == 4 and got.meta["groups"] == 2  # sync: one worker, two groups
+    assert sizes == [1600] * 8
 
 
 # ------------------------------------------------------------------- recipe
@@ -484,7 +511,7 @@ def test_cli_dataset_chunked_and_detect_on_dask(tmp_path: Path, monkeypatch: pyt
     assert cli.main(["render", str(vol), "--sources", str(tmp_path / "dask.h5"), "-o", str(wav),
                      "--listener", "7,7,7", "--duration", "0.2", "--layout", "ring8",
                      "--scheduler", "threads", "--workers", "2"]) == 0  # fmt: skip
-    assert wav.exists() and "blocks on 2 workers" in capsys.readouterr().out
+    assert wav.exists() and "source groups) on 2 workers" in capsys.readouterr().out
     code = cli.main(["scale-detect", str(vol), "-o", str(tmp_path / "x.h5"), *thr,
                      "--address", "tcp://127.0.0.1:9", "--timeout", "1"])  # fmt: skip
     assert code == 2

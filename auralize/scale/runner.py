@@ -220,6 +220,14 @@ class Runner:
             return self.client.scatter(obj, broadcast=True, hash=False)
         return obj
 
+    def place(self, objs: Sequence[Any]) -> list[Any]:
+        """Send each of several large inputs to the cluster once, spread over the
+        workers (not to every worker, unlike :meth:`share`); pass the results as
+        task arguments.  A task runs where its input is (or Dask moves it)."""
+        if self.client is not None and len(objs):
+            return list(self.client.scatter(list(objs), hash=False))
+        return list(objs)
+
     def call(self, fn: Callable[..., Any], *args: Any) -> Any:
         """A lazy ``fn(*args)`` (a ``dask.delayed``); ``args`` may hold other calls' results.
 

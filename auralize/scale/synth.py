@@ -1,35 +1,79 @@
-"""Distributed synthesis: audio rendered in independent blocks, concatenated without seams.
+"""Distributed synthesis: tasks over audio blocks and source groups, joined without seams.
 
-:func:`auralize.synthesis.render` evaluates any block ``[start, start +
-duration)`` of playback time on its own: the retarded-time look-back a block
-needs (sources heard in it were emitted up to ``D_max / c0`` earlier) is
-found inside ``render`` from the whole source tracks, which every task gets.
-So blocks are independent tasks, and joined they equal the one-piece render
-(to rounding, ~1e-12 relative; see ``tests/test_physics.py``).
+The pressure heard is a sum over sources (paper 003, §3.2.4, Eq. 9), so the
+work splits two ways, and every task is one (block, source group) pair:
+
+* **source groups**: contiguous ranges of the tracks' sources, balanced by
+  how often they sound.  Each group's tracks go to the workers once (not to
+  every worker) and each worker builds the piece list of its groups only, so
+  that preparation, too, is divided between the workers.  The audio of a
+  block is the sum of its groups' renders, added in group order (the result
+  does not depend on which task finishes first).
+* **blocks** of playback time: :func:`auralize.synthesis.render` evaluates
+  any block ``[start, start + duration)`` on its own; the retarded-time
+  look-back a block needs (sources heard in it were emitted up to
+  ``D_max / c0`` earlier) is found inside ``render`` from the whole tracks.
+  Joined, blocks equal the one-piece render (to rounding, ~1e-12 relative;
+  see ``tests/test_physics.py``).  Each block pays for its own look-back, so
+  the default is one block unless the output is long (:data:`BLOCK_VALUES`).
 """
 
 from __future__ import annotations
 
-import dataclasses
+import itertools
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.scale.runner import Runner
 from auralize.sources import SourceTracks
-from auralize.synthesis import C0, Rendered, render
+from auralize.spatial import get_layout
+from auralize.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
+
+#: default block length: at most this many samples × channels per task (its
+#: accumulator takes 32 bytes per value: 1 GiB)
+BLOCK_VALUES = 1 << 25
+#: knot columns sampled per source to weigh the groups (how often it sounds)
+WEIGHT_COLUMNS = 16
 
 
 def render_block(tracks: SourceTracks, path: ListenerPath, a: int, b: int, rate: int,
                  kw: dict[str, Any], threads: int | None) -> np.ndarray:  # fmt: skip
-    """Samples ``[a, b)`` of the rendering (one task)."""
+    """Samples ``[a, b)`` of the rendering of ``tracks`` (one task)."""
     out = render(tracks, path, rate=rate, start=a / rate, duration=(b - a) / rate,
                  threads=threads or None, **kw)  # fmt: skip
     if out.audio.shape[1] != b - a:  # pragma: no cover - guards sample rounding
         raise ParameterError(f"block {a}:{b} rendered {out.audio.shape[1]} samples")
     return out.audio
+
+
+def source_groups(tracks: SourceTracks, n_groups: int) -> list[tuple[int, int]]:
+    """Split the sources in ≤ ``n_groups`` contiguous ranges ``(a, b)`` of about
+    equal work: weighted by the non-zero strengths in :data:`WEIGHT_COLUMNS`
+    sampled knot columns (the kernel's cost grows with the sounding pieces).
+    Groups are never empty; no sources give no group."""
+    k = tracks.n_sources
+    if k == 0:
+        return []
+    n_groups = max(1, min(int(n_groups), k))
+    q = np.asarray(tracks.q)
+    step = max(1, -(-q.shape[1] // WEIGHT_COLUMNS)) if q.ndim == 2 and q.shape[1] else 1
+    w = np.count_nonzero(q[:, ::step], axis=1).astype(np.float64) + 1e-3 if q.ndim == 2 \
+        else np.ones(k)  # fmt: skip
+    cum = np.cumsum(w)
+    cuts = np.searchsorted(cum, cum[-1] * np.arange(1, n_groups) / n_groups, side="left") + 1
+    edges = np.unique(np.concatenate([[0], np.clip(cuts, 1, k - 1) if k > 1 else [], [k]]))
+    return [(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+
+
+def _subset(tracks: SourceTracks, a: int, b: int) -> SourceTracks:
+    """Sources ``a … b-1`` (views of the arrays: no copy, nothing cached)."""
+    return SourceTracks(positions=tracks.positions[a:b], q=tracks.q[a:b],
+                        radius=tracks.radius[a:b], times=tracks.times,
+                        index=None if tracks.index is None else tracks.index[a:b])  # fmt: skip
 
 
 def render_distributed(
@@ -44,23 +88,28 @@ def render_distributed(
     duration: float | None = None,
     bounds: tuple[float, ...] | None = None,
     block_seconds: float | None = None,
+    groups: int | None = None,
     runner: Runner | None = None,
     scheduler: str = "sync",
     address: str | None = None,
     workers: int | None = None,
     log: Any = print,
 ) -> Rendered:
-    """:func:`auralize.synthesis.render` split into blocks over Dask workers.
+    """:func:`auralize.synthesis.render` split into (block, source group) tasks over Dask workers.
 
     Parameters
     ----------
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds
         As for :func:`auralize.synthesis.render`.
     block_seconds : float, optional
-        Playback seconds per task (default: four blocks per worker).  Every
-        block also pays for the retarded-time look-back it needs, so fewer,
-        longer blocks do less work in all; more blocks balance better when
-        the sound gets denser along the path.
+        Playback seconds per block (default: the whole duration, or blocks of
+        at most :data:`BLOCK_VALUES` samples × channels).  Every block pays
+        for the retarded-time look-back it needs, so fewer, longer blocks do
+        less work in all.
+    groups : int, optional
+        Source groups (default: two per worker, for balance).  Each group's
+        tracks are sent to the workers once and its piece list is built by
+        the workers that render it.
     runner, scheduler, address, workers
         Where to run (see :class:`~auralize.scale.runner.Runner`).
 
@@ -68,16 +117,17 @@ def render_distributed(
     -------
     Rendered
         ``audio (n_channels, n_samples)`` in pascals, equal to the one-piece
-        render; ``meta["blocks"]`` is the number of tasks.
+        render (to rounding); ``meta["blocks"]``, ``meta["groups"]`` and
+        ``meta["tasks"]`` say how it was split.
 
     Examples
     --------
-    >>> from auralize.sources import SourceTracks
-    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)), radius=np.ones(1),
+    >>> tr = SourceTracks(positions=np.zeros((3, 3)), q=np.ones((3, 4)), radius=np.ones(3),
     ...                   times=np.arange(4) / 30)
     >>> p = ListenerPath.point([5.0, 0, 0], duration=0.1)
-    >>> render_distributed(tr, p, rate=8000, block_seconds=0.03, log=None).audio.shape
-    (1, 800)
+    >>> out = render_distributed(tr, p, rate=8000, block_seconds=0.03, groups=2, log=None)
+    >>> out.audio.shape, out.meta["blocks"], out.meta["groups"]
+    ((1, 800), 4, 2)
     """
     if duration is None:
         duration = path.duration
@@ -85,40 +135,62 @@ def render_distributed(
         raise ParameterError(f"nothing to render: duration {duration!r} s")
     if block_seconds is not None and not (np.isfinite(block_seconds) and block_seconds > 0):
         raise ParameterError(f"block_seconds must be > 0, got {block_seconds!r}")
-    n = round(duration * rate)
+    if groups is not None and (not isinstance(groups, int | np.integer) or groups < 1):
+        raise ParameterError(f"groups must be a positive integer, got {groups!r}")
+    if interp not in INTERPOLATIONS:
+        raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
+    lay = get_layout(layout)
+    # validate here (a bad path or setting fails on the caller, not in a
+    # worker), without rendering: the workers build the piece lists
+    pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
+                  bounds=bounds, orientation=False)  # fmt: skip
+    n = pr.n_samples
+    audio = np.zeros((lay.n_channels, n))
     own = runner is None
     run = runner or Runner(scheduler, address=address, workers=workers, log=log)
     try:
         if own:
             run.__enter__()
-        block = (round(block_seconds * rate) if block_seconds is not None
-                 else -(-n // (4 * run.n_workers)))  # fmt: skip
-        block = max(int(block), 1)
+        if block_seconds is not None:
+            block = max(round(block_seconds * rate), 1)
+        else:
+            block = max(n, 1)
+            cap = max(BLOCK_VALUES // lay.n_channels, 1)
+            if block > cap:
+                block = -(-n // -(-n // cap))  # equal blocks of at most cap
         edges = list(range(0, n, block)) + [n]
-        kw: dict[str, Any] = {"time_scale": time_scale, "interp": interp, "layout": layout, "c0": c0,
-              "bounds": bounds}  # fmt: skip
-        # validate once on the caller (bad paths fail here, not in a worker) by
-        # rendering one sample; every block, the first included, is a task
-        first = render(tracks, path, rate=rate, start=0.0, duration=1.0 / rate, **kw)
-        # each block goes into its place as it arrives (while the workers go on),
-        # not concatenated at the end
-        audio = np.empty((first.audio.shape[0], n), dtype=first.audio.dtype)
-        # workers in other processes build their own caches (once per worker: the
-        # shared tracks stay in its memory between its tasks); do not ship ours
-        local = run.scheduler in ("sync", "threads")
-        tr = run.share(tracks if local else dataclasses.replace(tracks, cache={}))
+        ranges = source_groups(tracks, groups or 2 * run.n_workers)
+        kw: dict[str, Any] = {"time_scale": time_scale, "interp": interp, "layout": lay,
+                              "c0": c0, "bounds": bounds}  # fmt: skip
+        # each group's tracks go to the cluster once (not to every worker);
+        # a worker keeps them, and their piece list, between its tasks
+        parts = run.place([_subset(tracks, a, b) for a, b in ranges])
         pa = run.share(path)
-        calls = [(render_block, (tr, pa, edges[i], edges[i + 1], rate, kw, run.threads_per_task))
-                 for i in range(len(edges) - 1)]  # fmt: skip
+        calls = [(render_block, (parts[g], pa, edges[i], edges[i + 1], rate, kw,
+                                 run.threads_per_task))
+                 for i in range(len(edges) - 1) for g in range(len(ranges))]  # fmt: skip
+        # a block's groups are added in group order as they come in (the sum
+        # does not depend on which task finishes first), then dropped
+        held: dict[int, dict[int, NDArray[np.float64]]] = {}
+        added = [0] * (len(edges) - 1)
 
-        def got(i: int, block_audio: np.ndarray) -> None:
-            audio[:, edges[i] : edges[i + 1]] = block_audio
+        def got(k: int, part: NDArray[np.float64]) -> None:
+            i, g = divmod(k, len(ranges))
+            held.setdefault(i, {})[g] = part
+            wait = held[i]
+            while added[i] in wait:
+                audio[:, edges[i] : edges[i + 1]] += wait.pop(added[i])
+                added[i] += 1
+            if not wait:
+                del held[i]
 
         run.run(calls, got)
         n_workers = run.n_workers
     finally:
         if own:
             run.close()
-    return Rendered(audio=audio, rate=int(rate), layout=first.layout, time_scale=float(time_scale),
-                    meta={**first.meta, "blocks": len(edges) - 1, "workers": n_workers,
+    return Rendered(audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
+                    meta={"interp": interp, "c0": c0, "n_sources": tracks.n_sources,
+                          "t_start_data": pr.t_start, "blocks": len(edges) - 1,
+                          "groups": len(ranges), "tasks": len(calls), "workers": n_workers,
                           "scheduler": run.scheduler})  # fmt: skip
