@@ -8,8 +8,8 @@ on a laptop, a workstation or a cluster:
     ``--scheduler``, ``--address`` or ``--workers`` selects it.  Rerun the
     same command after an interruption to resume; ``--restart`` starts over.
 ``auralize render PATH ... --scheduler threads --workers 2``
-    Synthesis in independent blocks over the workers (and detection too,
-    unless ``--sources`` is given).
+    Synthesis in independent tasks over the workers, one per (block, source
+    group) (and detection too, unless ``--sources`` is given).
 ``auralize dataset explosion -o big.h5 --size 256 --steps 100 --chunked``
     The big-data recipe (:func:`auralize.scale.write_chunked_explosion`).
 
@@ -239,7 +239,8 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print per-step counts as JSON")
     p.set_defaults(func=cmd_detect_dask)
 
-    p = sub.add_parser("scale-render", help="render with synthesis tasks (blocks × source groups) on Dask workers")
+    p = sub.add_parser("scale-render",
+                       help="render with synthesis tasks (blocks × source groups) on Dask workers")
     add_volume_options(p)
     add_detect_options(p)
     add_output_options(p)

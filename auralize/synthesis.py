@@ -205,14 +205,13 @@ def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
 
 
 def _tasks(cptr: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
-           costly: NDArray[np.bool_]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
+           cost: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
     """Split the chunks of rows n_lo..n_hi-1 in ``n_threads`` contiguous ranges
-    of about equal cost; returns ``task_chunks (T, 2)`` and each task's rows
-    (T, 2).  Chunks of ``costly`` rows (whose pieces can straddle a listener
-    capture, split in scalar code) count twice."""
+    of about equal cost (a chunk of row n costs ``cost[n]``); returns
+    ``task_chunks (T, 2)`` and each task's rows (T, 2)."""
     c_a, c_b = int(cptr[n_lo]), int(cptr[n_hi])
     rows = np.arange(n_lo, n_hi)
-    weight = np.repeat(np.where(costly[rows], 2.0, 1.0), np.diff(cptr)[rows])
+    weight = np.repeat(cost[rows], np.diff(cptr)[rows])
     cum = np.concatenate([[0.0], np.cumsum(weight)])
     cuts = c_a + np.searchsorted(cum, cum[-1] * np.arange(1, max(n_threads, 1)) / n_threads)
     edges = np.unique(np.concatenate([[c_a], np.clip(cuts, c_a, c_b), [c_b]]).astype(np.int64))
@@ -395,7 +394,14 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
         hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
         costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
-        task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads, costly)
+        # rows whose arrivals can pass the next capture (at or after the
+        # output's end too) solve two candidate lines: half as dear again
+        nxt = np.searchsorted(pr.tc, pr.tn, side="right")
+        ahead = pr.tc[np.minimum(nxt, pr.tc.size - 1)]
+        two = (nxt < pr.tc.size) & (pr.tn + d_max / c0 >= ahead)
+        two |= np.append(two[1:], False)  # (either knot of a row's pieces)
+        cost = np.where(costly, 2.0, np.where(two, 1.5, 1.0))
+        task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads, cost)
         n_blocks = (pr.n_samples + block - 1) // block
         # each task's output window: arrivals of rows ra..rb lie in
         # [t_ra, t_(rb+1) + D_max/c0]

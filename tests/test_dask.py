@@ -436,6 +436,25 @@ def test_distributed_synthesis_blocks_join_without_seams(
         render_distributed(tracks, path, groups=0, log=None)
 
 
+def test_packed_tracks_travel_as_their_nonzero_strengths(explosion_ref: SourceSeries) -> None:
+    import pickle
+
+    from auralize.scale.synth import PackedTracks
+
+    tr = explosion_ref.tracks()
+    packed = PackedTracks(tr)
+    blob = pickle.dumps(packed, protocol=5)
+    nnz, k = np.count_nonzero(tr.q), tr.n_sources
+    # 12 bytes per non-zero strength (uint32 position, float64 value), 40 per source
+    assert nnz < tr.q.size and len(blob) <= 12 * nnz + 40 * k + (64 << 10)
+    back = pickle.loads(blob)
+    got = back.tracks()
+    assert got is back.tracks()  # unpacked once per process, then reused (with its caches)
+    assert np.array_equal(got.q, tr.q) and np.array_equal(got.positions, tr.positions)
+    assert np.array_equal(got.radius, tr.radius) and np.array_equal(got.times, tr.times)
+    assert pickle.loads(pickle.dumps(back))._tracks is None  # the unpacked copy stays here
+
+
 def test_source_groups_are_contiguous_balanced_and_cover_every_source() -> None:
     from auralize.scale.synth import source_groups
 
