@@ -18,7 +18,8 @@ or 48³ × 12 with ``quick``):
 * a projection for 512³ × 1000 steps from the measured cost per voxel-step.
 
 **How it is timed.**  Both worker counts run the same tasks (chunks of
-:data:`DETECT_CHUNK_STEPS` steps; :data:`SYNTH_GROUPS` synthesis source groups), on
+:data:`DETECT_CHUNK_STEPS` steps; the synthesis split
+:func:`~auralize.scale.synth.plan_tasks` chooses for 2 workers), on
 a fresh local cluster per run, from submission until the sources file is on
 disk (detection) or the audio is in the client (synthesis).  Not timed: the
 cluster's start-up and the workers' one-time set-up
@@ -56,8 +57,8 @@ BENCH_THRESHOLDS = ("5%", "5%", "5%")
 SAMPLE_S = 0.05
 #: time steps per detection task (both runs use the same tasks)
 DETECT_CHUNK_STEPS = 10
-#: source groups (tasks) of the 60 s rendering, the same for 1 and 2 workers
-SYNTH_GROUPS = 4
+#: synthesis rate and layout of the benchmark
+SYNTH_RATE, SYNTH_LAYOUT = 44100, "ring8"
 #: other processes' CPU (cores) below which the machine counts as quiet
 QUIET_CORES = 0.25
 
@@ -218,17 +219,18 @@ def _detect(path: Path, workers: int, size: int) -> Timed:
         return Timed(series, elapsed, run.setup_seconds, cpu, mem, worker_pids)
 
 
-def _synth(tracks: Any, path: Any, workers: int, time_scale: float) -> Timed:
-    """60 s of ring8 on a fresh local cluster, in :data:`SYNTH_GROUPS` tasks (one block)."""
+def _synth(tracks: Any, path: Any, workers: int, time_scale: float, block: int,
+           groups: int) -> Timed:  # fmt: skip
+    """60 s of ring8 on a fresh local cluster, in blocks of ``block`` samples × ``groups``."""
     from auralize.scale import Runner, render_distributed
 
     with Runner("distributed", workers=workers, processes=True, log=None) as run:
         pids = [os.getpid(), *sorted(set(run.client.run(os.getpid).values()))]
         with CpuShare(pids) as cpu:
             t = time.perf_counter()
-            out = render_distributed(tracks, path, rate=44100, layout="ring8",
+            out = render_distributed(tracks, path, rate=SYNTH_RATE, layout=SYNTH_LAYOUT,
                                      time_scale=time_scale, runner=run,
-                                     groups=SYNTH_GROUPS)  # fmt: skip
+                                     block_seconds=block / SYNTH_RATE, groups=groups)  # fmt: skip
             elapsed = time.perf_counter() - t
         return Timed(out, elapsed, run.setup_seconds, cpu)
 
@@ -357,13 +359,17 @@ def bench_dask(quick: bool, repeats: int | None = None,
     c = np.full(3, 0.5 * (size - 1))
     lp = ListenerPath.orbit(c, radius=0.3 * size, duration=60.0, turns=0.5, height=1.0)
     ts = 60.0 / vol_t
-    syn = _alternate(lambda w: _synth(tracks, lp, w, ts), repeats, quiet_wait)
+    # both runs split the work as render_distributed would for 2 workers
+    from auralize.scale.synth import plan_tasks
+
+    block, groups = plan_tasks(tracks, round(lp.duration * SYNTH_RATE), 8, 2)
+    syn = _alternate(lambda w: _synth(tracks, lp, w, ts, block, groups), repeats, quiet_wait)
     y1, y2 = _median(syn[1]), _median(syn[2])
     a1, u1, a2, u2 = y1.result, y1.seconds, y2.result, y2.seconds
     err = float(np.max(np.abs(a1.audio - a2.audio)) / max(np.max(np.abs(a1.audio)), 1e-300))
     rows.append(BenchRow("dask", "synthesis 60 s ring8, 1 worker", u1, "s",
                          note=f"{tracks.n_sources} source points, {a1.meta['tasks']} tasks "
-                              f"({a1.meta['blocks']} block × {a1.meta['groups']} source groups, "
+                              f"({a1.meta['blocks']} blocks × {a1.meta['groups']} source groups, "
                               f"the same in both runs); {_runs_note(syn[1])}"))  # fmt: skip
     rows.append(BenchRow("dask", "synthesis 60 s ring8, 2 workers", u2, "s",
                          note=f"max diff to 1 worker {err:.1e} of peak; {_runs_note(syn[2])}"))  # fmt: skip

@@ -422,7 +422,7 @@ def test_distributed_synthesis_blocks_join_without_seams(
     whole = render(tracks, path, rate=16000, layout="ring8").audio
     with Runner("threads", workers=2, log=None) as run:
         got = render_distributed(tracks, path, rate=16000, layout="ring8", block_seconds=0.037,
-                                 runner=run)  # fmt: skip
+                                 groups=4, runner=run)  # fmt: skip
     assert got.meta["blocks"] == 11 and got.meta["groups"] == 4 and got.meta["tasks"] == 44
     assert got.audio.shape == whole.shape == (8, 6400)
     assert np.max(np.abs(got.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
@@ -453,6 +453,28 @@ def test_packed_tracks_travel_as_their_nonzero_strengths(explosion_ref: SourceSe
     assert np.array_equal(got.q, tr.q) and np.array_equal(got.positions, tr.positions)
     assert np.array_equal(got.radius, tr.radius) and np.array_equal(got.times, tr.times)
     assert pickle.loads(pickle.dumps(back))._tracks is None  # the unpacked copy stays here
+
+
+def test_task_plan_groups_many_pieces_and_blocks_long_outputs() -> None:
+    from auralize.scale.synth import BLOCK_VALUES, PIECES_PER_GROUP, plan_tasks
+
+    def tracks(k: int, t: int, dense: bool) -> SourceTracks:
+        q = np.ones((k, t)) if dense else np.zeros((k, t))
+        q[:, 0] = 1.0
+        return SourceTracks(positions=np.zeros((k, 3)), q=q, radius=np.ones(k),
+                            times=np.arange(float(t)))  # fmt: skip
+
+    # few pieces: one group, the parallelism from blocks (two tasks per worker)
+    block, groups = plan_tasks(tracks(100, 10, True), 44100, 8, 2)
+    assert groups == 1 and block == 11025
+    # many pieces: source groups, one block
+    many = tracks(PIECES_PER_GROUP // 4, 32, True)  # 8 groups' worth
+    block, groups = plan_tasks(many, 44100, 8, 2)
+    assert groups == 4 and block == 44100
+    # a long output is cut in blocks of at most BLOCK_VALUES values
+    n = 3 * BLOCK_VALUES // 8 + 5
+    block, groups = plan_tasks(many, n, 8, 2)
+    assert block * 8 <= BLOCK_VALUES and -(-n // block) == 4
 
 
 def test_source_groups_are_contiguous_balanced_and_cover_every_source() -> None:
@@ -493,8 +515,9 @@ def test_distributed_synthesis_renders_every_block_in_a_task(
     got = render_distributed(explosion_ref.tracks(), path, rate=16000, layout="ring8",
                              block_seconds=0.1, log=None)  # fmt: skip
     # the caller only validates (renders nothing); every (block, group) is a task
-    assert got.meta["blocks"] == 4 and got.meta["groups"] == 2  # sync: one worker, two groups
-    assert sizes == [1600] * 8
+    # (few sounding pieces: one group, see plan_tasks)
+    assert got.meta["blocks"] == 4 and got.meta["groups"] == 1
+    assert sizes == [1600] * 4
 
 
 # ------------------------------------------------------------------- recipe

@@ -14,8 +14,9 @@ work splits two ways, and every task is one (block, source group) pair:
   look-back a block needs (sources heard in it were emitted up to
   ``D_max / c0`` earlier) is found inside ``render`` from the whole tracks.
   Joined, blocks equal the one-piece render (to rounding, ~1e-12 relative;
-  see ``tests/test_physics.py``).  Each block pays for its own look-back, so
-  the default is one block unless the output is long (:data:`BLOCK_VALUES`).
+  see ``tests/test_physics.py``).  Each block pays for its own look-back.
+
+:func:`plan_tasks` picks the default split between the two.
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ from auralize.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
 BLOCK_VALUES = 1 << 25
 #: knot columns sampled per source to weigh the groups (how often it sounds)
 WEIGHT_COLUMNS = 16
+#: sounding pieces that make a source group worth its own pass over the samples
+PIECES_PER_GROUP = 2_000_000
 
 
 def render_block(tracks: SourceTracks | PackedTracks, path: ListenerPath, a: int, b: int,
@@ -72,6 +75,36 @@ def source_groups(tracks: SourceTracks, n_groups: int) -> list[tuple[int, int]]:
     cuts = np.searchsorted(cum, cum[-1] * np.arange(1, n_groups) / n_groups, side="left") + 1
     edges = np.unique(np.concatenate([[0], np.clip(cuts, 1, k - 1) if k > 1 else [], [k]]))
     return [(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+
+
+def plan_tasks(tracks: SourceTracks, n_samples: int, n_channels: int, n_workers: int,
+               groups: int | None = None) -> tuple[int, int]:  # fmt: skip
+    """Default split of a rendering: ``(block_samples, groups)``.
+
+    A source group's task costs its sounding pieces plus the whole block's
+    samples (accumulator, integration, the result's trip back), whatever its
+    size; a block costs its samples plus its look-back pieces.  So: one group
+    per :data:`PIECES_PER_GROUP` sounding pieces (estimated from the
+    non-zero strengths), at most two per worker, and the remaining
+    parallelism (two tasks per worker in all) from blocks; blocks of at most
+    :data:`BLOCK_VALUES` samples × channels.  Given ``groups``, only the
+    blocks are planned.
+    """
+    n_samples = max(int(n_samples), 1)
+    want = 2 * max(int(n_workers), 1)
+    if groups is None:
+        q = np.asarray(tracks.q)
+        if q.ndim == 2 and q.size:
+            step = max(1, -(-q.shape[1] // WEIGHT_COLUMNS))
+            pieces = float(np.count_nonzero(q[:, ::step])) * step
+        else:
+            pieces = 0.0
+        groups = int(min(want, max(1, pieces // PIECES_PER_GROUP), max(tracks.n_sources, 1)))
+    groups = max(int(groups), 1)
+    blocks = -(-want // groups)
+    cap = max(BLOCK_VALUES // max(int(n_channels), 1), 1)
+    blocks = max(blocks, -(-n_samples // cap))
+    return -(-n_samples // blocks), groups
 
 
 def _subset(tracks: SourceTracks, a: int, b: int) -> SourceTracks:
@@ -146,14 +179,14 @@ def render_distributed(
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds
         As for :func:`auralize.synthesis.render`.
     block_seconds : float, optional
-        Playback seconds per block (default: the whole duration, or blocks of
-        at most :data:`BLOCK_VALUES` samples × channels).  Every block pays
-        for the retarded-time look-back it needs, so fewer, longer blocks do
-        less work in all.
+        Playback seconds per block.  Every block pays for the retarded-time
+        look-back it needs, so fewer, longer blocks do less work in all.
     groups : int, optional
-        Source groups (default: two per worker, for balance).  Each group's
-        tracks are sent to the workers once and its piece list is built by
-        the workers that render it.
+        Source groups.  Each group's tracks are sent to the workers once and
+        its piece list is built by the workers that render it; each group's
+        task passes over all the block's samples.  Defaults for both from
+        :func:`plan_tasks`: groups for many sounding pieces, blocks for long
+        outputs and few pieces, two tasks per worker.
     runner, scheduler, address, workers
         Where to run (see :class:`~auralize.scale.runner.Runner`).
 
@@ -195,15 +228,10 @@ def render_distributed(
     try:
         if own:
             run.__enter__()
-        if block_seconds is not None:
-            block = max(round(block_seconds * rate), 1)
-        else:
-            block = max(n, 1)
-            cap = max(BLOCK_VALUES // lay.n_channels, 1)
-            if block > cap:
-                block = -(-n // -(-n // cap))  # equal blocks of at most cap
+        auto_block, groups = plan_tasks(tracks, n, lay.n_channels, run.n_workers, groups)
+        block = max(round(block_seconds * rate), 1) if block_seconds is not None else auto_block
         edges = list(range(0, n, block)) + [n]
-        ranges = source_groups(tracks, groups or 2 * run.n_workers)
+        ranges = source_groups(tracks, groups)
         kw: dict[str, Any] = {"time_scale": time_scale, "interp": interp, "layout": lay,
                               "c0": c0, "bounds": bounds}  # fmt: skip
         # each group's tracks go to the cluster once (not to every worker),
