@@ -306,13 +306,6 @@ def _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o):  
 
 
 @numba.njit(inline="always", **_NJIT)
-def _hermite(L, f0, d0, f1, d1):  # type: ignore[no-untyped-def]
-    """Power-basis coefficients (in x = t - start, sample units) of the cubic
-    Hermite with values f0, f1 and slopes d0, d1 over [0, L]."""
-    return _hermite_inv(1.0 / L, f0, d0, f1, d1)
-
-
-@numba.njit(inline="always", **_NJIT)
 def _emit1(acc, i, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
     """Add sign × P(m - m_start + x) for m >= m_start to the row ``i`` of a
     skewed accumulator, P = c0 + c1 x + c2 x² + c3 x³.
@@ -368,6 +361,13 @@ def _emit_piece(acc, base, blo, nb, ch, n_ch, shift, n_samples, u0, u1, p0, p1, 
 
 
 @numba.njit(inline="always", **_NJIT)
+def _heard_at(x, y, z, rmin, tc, lc, c0, k):  # type: ignore[no-untyped-def]
+    """Emission time of the sound from (x, y, z) that reaches capture k."""
+    dx, dy, dz = lc[k, 0] - x, lc[k, 1] - y, lc[k, 2] - z
+    return tc[k] - max(math.sqrt(dx * dx + dy * dy + dz * dz), rmin) / c0
+
+
+@numba.njit(inline="always", **_NJIT)
 def _arrival(x, y, z, rmin, t_n, hint, tc, lc, vc, c0):  # type: ignore[no-untyped-def]
     """Reception time a of the emission at t_n from (x, y, z), with the distance
     D(a), dD/dt(a) and the capture interval s holding a.
@@ -375,13 +375,40 @@ def _arrival(x, y, z, rmin, t_n, hint, tc, lc, vc, c0):  # type: ignore[no-untyp
     On a capture interval the listener moves linearly, L(t) = L_s + V (t - t_s),
     so c0 (a - t_n) = |L(a) - x| is a quadratic in u = a - t_n with one
     positive root: exact, no iteration.  ``hint`` is the interval of an
-    earlier knot's arrival of the same source (arrivals increase with n), or -1.
+    earlier knot's arrival of the same source (arrivals increase with n), or
+    of t_n, or -1.  The interval holding a is found first by a galloping
+    search over the captures (O(log) of the captures passed, not one root
+    per interval): the sound emitted at t_n reaches the listener after
+    capture k iff the emission heard at k, τ_k = t_k - max(|L_k - x|, rmin)/c0,
+    is not later than t_n (τ_k increases with k: the listener is slower than
+    sound).
     """
     m = tc.size
     c2 = c0 * c0
     s = _segment(tc, t_n, hint if hint >= 0 else 0)
     if hint > s:
         s = hint
+    if s < m - 1 and _heard_at(x, y, z, rmin, tc, lc, c0, s + 1) <= t_n:
+        # the arrival is past capture s + 1: gallop, then bisect, for the
+        # last capture k with τ_k <= t_n (the arrival's interval is k)
+        lo = s + 1
+        step = 1
+        hi = lo + step
+        while hi <= m - 1 and _heard_at(x, y, z, rmin, tc, lc, c0, hi) <= t_n:
+            lo = hi
+            step *= 2
+            hi = lo + step
+        if hi > m - 1:
+            hi = m
+            if _heard_at(x, y, z, rmin, tc, lc, c0, m - 1) <= t_n:
+                lo = m - 1
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if _heard_at(x, y, z, rmin, tc, lc, c0, mid) <= t_n:
+                lo = mid
+            else:
+                hi = mid
+        s = lo
     a = t_n
     d = 0.0
     dd = 0.0
@@ -432,25 +459,28 @@ def _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, vb,
     if L <= 0.0:
         return 0
     bad = 0
+    inv_L = 1.0 / L
+    inv_fs = 1.0 / fs
     if not panned:
-        p0, p1, p2, p3 = _hermite(L, va, wa / fs, vb, wb / fs)
+        p0, p1, p2, p3 = _hermite_inv(inv_L, va, wa * inv_fs, vb, wb * inv_fs)
         return _emit_piece(acc, base, blo, nb, 0, 1, shift, n_samples, u0, u1, p0, p1, p2, p3)
-    slope_t = fs / L  # 1 / (t1 - t0)
+    slope_t = fs * inv_L  # 1 / (t1 - t0)
     for c in range(n_ch):
         g0 = ga[c]
         g1 = gb[c]
         if g0 == 0.0 and g1 == 0.0:
             continue
         slope = (g1 - g0) * slope_t
-        p0, p1, p2, p3 = _hermite(L, g0 * va, (g0 * wa + slope * va) / fs, g1 * vb,
-                                  (g1 * wb + slope * vb) / fs)  # fmt: skip
+        p0, p1, p2, p3 = _hermite_inv(inv_L, g0 * va, (g0 * wa + slope * va) * inv_fs, g1 * vb,
+                                      (g1 * wb + slope * vb) * inv_fs)  # fmt: skip
         bad += _emit_piece(acc, base, blo, nb, c, n_ch, shift, n_samples, u0, u1, p0, p1, p2, p3)
     return bad
 
 
 @numba.njit(inline="always", **_NJIT)
 def _hermite_inv(inv, f0, d0, f1, d1):  # type: ignore[no-untyped-def]
-    """:func:`_hermite` given 1/L."""
+    """Power-basis coefficients (in x = t - start, sample units) of the cubic
+    Hermite with values f0, f1 and slopes d0, d1 over [0, L], given inv = 1/L."""
     dlt = (f1 - f0) * inv
     c2 = (3.0 * dlt - 2.0 * d0 - d1) * inv
     c3 = (d0 + d1 - 2.0 * dlt) * inv * inv
@@ -926,13 +956,14 @@ def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyp
 
 
 @numba.njit(**_NJIT)
-def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0,
-                   q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
+def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, seg, x, y, z, rmin, tn, q0,
+                   m0, q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
                    fold, pinv, panned, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
     """Piece n (knots n, n + 1) of a source at (x, y, z) in full: arrivals
-    solved across the listener's captures (:func:`_arrival`), gains, then
+    solved across the listener's captures (:func:`_arrival`; seg: the capture
+    interval holding t_n, where the search starts), gains, then
     :func:`_piece_across`."""
-    a0, d0, dd0, s0 = _arrival(x, y, z, rmin, tn[n], -1, tc, lc, vc, c0)
+    a0, d0, dd0, s0 = _arrival(x, y, z, rmin, tn[n], seg, tc, lc, vc, c0)
     a1, d1, dd1, s1 = _arrival(x, y, z, rmin, tn[n + 1], s0, tc, lc, vc, c0)
     t_end = t_start + n_samples / fs
     if a1 <= t_start or a0 >= t_end or a1 <= a0:
@@ -960,25 +991,33 @@ def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, 
     u0 = (a0 - t_start) * fs
     for c in range(n_ch):
         gy[c] = ga[c] if panned else 1.0
+    m = tc.size
     seg = s0
     while seg < s1:
         t1 = tc[seg + 1]
-        # f and its derivative just before the capture
-        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, seg)
-        dq1, ddq1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-        qv, dq = _qeval(tn[n], tn[n + 1] - tn[n], q0, m0, q1, m1, t1 - dq1 / c0, cubic)
-        v1, w1 = _fval(qv, dq, dq1, ddq1, c0)
+        # at the capture the listener is at lc[seg + 1] whichever line: D, the
+        # emission time and q are the same on both sides, dD/dt is not
+        px, py, pz = lc[seg + 1, 0] - x, lc[seg + 1, 1] - y, lc[seg + 1, 2] - z
+        d = math.sqrt(px * px + py * py + pz * pz)
+        inside = d <= rmin
+        d = rmin if inside else d
+        qv, dq = _qeval(tn[n], tn[n + 1] - tn[n], q0, m0, q1, m1, t1 - d / c0, cubic)
+        # f and its derivative just before the capture ...
+        ddl = 0.0
+        if not inside and seg >= 0:
+            ddl = (px * vc[seg, 0] + py * vc[seg, 1] + pz * vc[seg, 2]) / d
+        v1, w1 = _fval(qv, dq, d, ddl, c0)
         if panned:
             _pan(x, y, z, t1, seg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gx, o)
         u1 = (t1 - t_start) * fs
         bad += _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, v1, w1, gy,
                             gx, fs, panned)  # fmt: skip
         seg += 1
-        # ... and just after it, on the next line
-        lx, ly, lz, vx, vy, vz = _listener(tc, lc, vc, t1, seg)
-        dq1, ddq1 = _dist(x, y, z, lx, ly, lz, vx, vy, vz, rmin)
-        qv, dq = _qeval(tn[n], tn[n + 1] - tn[n], q0, m0, q1, m1, t1 - dq1 / c0, cubic)
-        va, wa = _fval(qv, dq, dq1, ddq1, c0)
+        # ... and just after it, on the next line (held after the last capture)
+        ddr = 0.0
+        if not inside and seg < m - 1:
+            ddr = (px * vc[seg, 0] + py * vc[seg, 1] + pz * vc[seg, 2]) / d
+        va, wa = _fval(qv, dq, d, ddr, c0)
         if panned:
             for c in range(n_ch):
                 gy[c] = gx[c]
@@ -1140,7 +1179,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                         )  # fmt: skip
                         continue
                     nbad += _piece_general(
-                        acc, base, blo, nb, n_ch, shift, n_samples, n, PD[ck, 0, i],
+                        acc, base, blo, nb, n_ch, shift, n_samples, n, int(RC[n, 11]), PD[ck, 0, i],
                         PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i], PD[ck, 5, i],
                         PD[ck, 6, i], PD[ck, 7, i],
                         cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
