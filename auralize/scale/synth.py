@@ -58,6 +58,23 @@ def render_block(tracks: SourceTracks | PackedTracks, path: ListenerPath, a: int
     return out.audio
 
 
+def _sounding(tracks: SourceTracks) -> NDArray[np.float64]:
+    """Per source, about how many of its knots sound (non-zero strengths in
+    :data:`WEIGHT_COLUMNS` sampled knot columns, scaled up); cached."""
+    key = (id(tracks.q), tracks.q.shape)
+    cached = tracks.cache.get("sounding")
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    q = np.asarray(tracks.q)
+    if q.ndim != 2 or q.shape[1] == 0:
+        out = np.zeros(tracks.n_sources)
+    else:
+        step = max(1, -(-q.shape[1] // WEIGHT_COLUMNS))
+        out = np.count_nonzero(q[:, ::step], axis=1).astype(np.float64) * step
+    tracks.cache["sounding"] = (key, out)
+    return out
+
+
 def source_groups(tracks: SourceTracks, n_groups: int) -> list[tuple[int, int]]:
     """Split the sources in ≤ ``n_groups`` contiguous ranges ``(a, b)`` of about
     equal work: weighted by the non-zero strengths in :data:`WEIGHT_COLUMNS`
@@ -67,11 +84,7 @@ def source_groups(tracks: SourceTracks, n_groups: int) -> list[tuple[int, int]]:
     if k == 0:
         return []
     n_groups = max(1, min(int(n_groups), k))
-    q = np.asarray(tracks.q)
-    step = max(1, -(-q.shape[1] // WEIGHT_COLUMNS)) if q.ndim == 2 and q.shape[1] else 1
-    w = np.count_nonzero(q[:, ::step], axis=1).astype(np.float64) + 1e-3 if q.ndim == 2 \
-        else np.ones(k)  # fmt: skip
-    cum = np.cumsum(w)
+    cum = np.cumsum(_sounding(tracks) + 1e-3)
     cuts = np.searchsorted(cum, cum[-1] * np.arange(1, n_groups) / n_groups, side="left") + 1
     edges = np.unique(np.concatenate([[0], np.clip(cuts, 1, k - 1) if k > 1 else [], [k]]))
     return [(int(a), int(b)) for a, b in itertools.pairwise(edges)]
@@ -93,12 +106,7 @@ def plan_tasks(tracks: SourceTracks, n_samples: int, n_channels: int, n_workers:
     n_samples = max(int(n_samples), 1)
     want = 2 * max(int(n_workers), 1)
     if groups is None:
-        q = np.asarray(tracks.q)
-        if q.ndim == 2 and q.size:
-            step = max(1, -(-q.shape[1] // WEIGHT_COLUMNS))
-            pieces = float(np.count_nonzero(q[:, ::step])) * step
-        else:
-            pieces = 0.0
+        pieces = float(np.sum(_sounding(tracks)))
         groups = int(min(want, max(1, pieces // PIECES_PER_GROUP), max(tracks.n_sources, 1)))
     groups = max(int(groups), 1)
     blocks = -(-want // groups)
