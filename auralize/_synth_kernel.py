@@ -779,9 +779,12 @@ def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo,
     fblock = float(1 << shift)
     inv_block = 1.0 / fblock
     rs = 4.0 * n_ch
+    # (unsigned indices: no wraparound checks, the copy vectorizes)
+    uck = np.uint64(ck)
     for r in range(8):
+        ur = np.uint64(r)
         for i in range(cnt):
-            W[r * _CHUNK + i] = PD[ck, r, i]
+            W[np.uint64(r * _CHUNK + i)] = PD[uck, ur, np.uint64(i)]
     # one candidate line per knot when no arrival can pass its end (most
     # steps): separate loops, so each stays branch-free
     two = RC0[2 * _LINE] != 0.0 or RC1[2 * _LINE] != 0.0
@@ -942,17 +945,34 @@ def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ig
 @numba.njit(inline="always", **_NJIT)
 def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyped-def]
     """Add g0·A + g1·B of the piece in column i of W to one channel (offset off
-    in an accumulator row) at its start, end and continuation rows."""
-    for v in range(4):
-        acc[si + off + v] += g0 * W[(_W_VAL + v) * _CHUNK + i] + g1 * W[(_W_VAL + 12 + v) * _CHUNK + i]
+    in an accumulator row) at its start, end and continuation rows (unsigned
+    indices: no wraparound checks)."""
+    _add_gained(acc, si + off, W, _W_VAL, i, g0, g1)
     if ei >= 0:
-        for v in range(4):
-            acc[ei + off + v] += (g0 * W[(_W_VAL + 4 + v) * _CHUNK + i]
-                                  + g1 * W[(_W_VAL + 16 + v) * _CHUNK + i])  # fmt: skip
+        _add_gained(acc, ei + off, W, _W_VAL + 4, i, g0, g1)
     if ci >= 0:
-        for v in range(4):
-            acc[ci + off + v] += (g0 * W[(_W_VAL + 8 + v) * _CHUNK + i]
-                                  + g1 * W[(_W_VAL + 20 + v) * _CHUNK + i])  # fmt: skip
+        _add_gained(acc, ci + off, W, _W_VAL + 8, i, g0, g1)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _add_plain(acc, row, W, r, i):  # type: ignore[no-untyped-def]
+    """acc[row:row + 4] += rows r..r+3 of lane i of W (row >= 0: unsigned
+    indices, no wraparound checks)."""
+    a = np.uint64(row)
+    w = np.uint64(r * _CHUNK + i)
+    for v in range(4):
+        acc[a + np.uint64(v)] += W[w + np.uint64(v * _CHUNK)]
+
+
+@numba.njit(inline="always", **_NJIT)
+def _add_gained(acc, row, W, r, i, g0, g1):  # type: ignore[no-untyped-def]
+    """acc[row:row + 4] += g0·A + g1·B, A in rows r.. and B in rows r + 12.. of
+    lane i of W (row >= 0)."""
+    a = np.uint64(row)
+    w = np.uint64(r * _CHUNK + i)
+    for v in range(4):
+        acc[a + np.uint64(v)] += (g0 * W[w + np.uint64(v * _CHUNK)]
+                                  + g1 * W[w + np.uint64((v + 12) * _CHUNK)])  # fmt: skip
 
 
 @numba.njit(**_NJIT)
@@ -1119,14 +1139,11 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                         ei = int(W[_W_EI * _CHUNK + i])
                         ci = int(W[_W_CI * _CHUNK + i])
                         if not panned:
-                            for v in range(4):
-                                acc[si + v] += W[(_W_VAL + v) * _CHUNK + i]
+                            _add_plain(acc, si, W, _W_VAL, i)
                             if ei >= 0:
-                                for v in range(4):
-                                    acc[ei + v] += W[(_W_VAL + 4 + v) * _CHUNK + i]
+                                _add_plain(acc, ei, W, _W_VAL + 4, i)
                             if ci >= 0:
-                                for v in range(4):
-                                    acc[ci + v] += W[(_W_VAL + 8 + v) * _CHUNK + i]
+                                _add_plain(acc, ci, W, _W_VAL + 8, i)
                             continue
                         if pairs:
                             p0 = int(W[_W_P0 * _CHUNK + i])

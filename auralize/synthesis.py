@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize import _synth_kernel
+from auralize import _runs_kernel, _synth_kernel
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
@@ -45,6 +45,9 @@ from auralize.spatial import Layout, get_layout, listener_frame, pan_gains, tria
 
 C0 = 343.0
 RHO0 = 1.2
+#: unpanned layouts are summed by runs of pieces (:mod:`auralize._runs_kernel`);
+#: False forces the piece-wise kernel (for tests)
+_BY_RUNS = True
 INTERPOLATIONS = ("linear", "cubic")
 
 
@@ -204,23 +207,83 @@ def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
     return out
 
 
+def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
+    """The runs of sounding pieces in chunks, for unpanned layouts:
+    ``(gr0, glen, gcnt, goff, KD)`` (cached on the tracks; see
+    :func:`auralize._runs_kernel.render`).
+
+    A run is a maximal stretch of consecutive sounding pieces of a source
+    (the same pieces as :func:`_pieces`).  Runs that start in the same row,
+    longest first, fill chunks of ``_CHUNK`` lanes: chunk g starts in row
+    ``gr0[g]``, holds ``gcnt[g]`` runs of at most ``glen[g]`` pieces and its
+    knot data at ``KD[goff[g]:]``.
+    """
+    key = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), interp)
+    cached = tracks.cache.get("runs")
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    q = np.ascontiguousarray(tracks.q, dtype=np.float64)
+    pos = np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3))
+    radius = np.ascontiguousarray(tracks.radius, dtype=np.float64)
+    cubic = interp == "cubic"
+    W = _synth_kernel._CHUNK
+    none = np.zeros(0, dtype=np.int64)
+    n = _runs_kernel.find_runs(q, tn, cubic, True, none, none, none)
+    src, r0, length = (np.empty(n, dtype=np.int64) for _ in range(3))
+    _runs_kernel.find_runs(q, tn, cubic, False, src, r0, length)
+    order = np.lexsort((-length, r0))
+    src, r0, length = src[order], r0[order], length[order]
+    # chunks: _CHUNK runs at a time among those that start in the same row
+    head = np.flatnonzero(np.append(True, r0[1:] != r0[:-1]) if n else np.zeros(0, bool))
+    in_row = np.arange(n) - np.repeat(head, np.diff(np.append(head, n)))
+    lane = in_row % W
+    starts = np.flatnonzero(lane == 0)
+    chunk = np.cumsum(lane == 0) - 1
+    gr0, glen = r0[starts], length[starts]
+    gcnt = np.diff(np.append(starts, n)).astype(np.int64)
+    size = (_runs_kernel._K_KNOT + 2 * (glen + 1)) * W
+    goff = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
+    KD = np.zeros(int(size.sum()))
+    _runs_kernel.fill_runs(q, tn, pos, radius, cubic, src, r0, length, chunk, lane, goff, KD)
+    out = (gr0, glen, gcnt, goff, KD)
+    tracks.cache["runs"] = (key, out)
+    return out
+
+
+def _split(weight: NDArray[np.float64], n_threads: int) -> NDArray[np.int64]:
+    """Edges of at most ``n_threads`` contiguous ranges of items of about equal total weight."""
+    cum = np.concatenate([[0.0], np.cumsum(weight)])
+    cuts = np.searchsorted(cum, cum[-1] * np.arange(1, max(n_threads, 1)) / n_threads)
+    edges = np.unique(np.concatenate([[0], np.clip(cuts, 0, weight.size), [weight.size]]))
+    return edges.astype(np.int64) if edges.size >= 2 else np.array([0, weight.size])
+
+
 def _tasks(cptr: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
            cost: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
     """Split the chunks of rows n_lo..n_hi-1 in ``n_threads`` contiguous ranges
     of about equal cost (a chunk of row n costs ``cost[n]``); returns
-    ``task_chunks (T, 2)`` and each task's rows (T, 2)."""
-    c_a, c_b = int(cptr[n_lo]), int(cptr[n_hi])
+    ``task_chunks (T, 2)`` and each task's first and last knot rows (T, 2)."""
+    c_a = int(cptr[n_lo])
     rows = np.arange(n_lo, n_hi)
-    weight = np.repeat(cost[rows], np.diff(cptr)[rows])
-    cum = np.concatenate([[0.0], np.cumsum(weight)])
-    cuts = c_a + np.searchsorted(cum, cum[-1] * np.arange(1, max(n_threads, 1)) / n_threads)
-    edges = np.unique(np.concatenate([[c_a], np.clip(cuts, c_a, c_b), [c_b]]).astype(np.int64))
-    if edges.size < 2:
-        edges = np.array([c_a, c_b])
+    edges = c_a + _split(np.repeat(cost[rows], np.diff(cptr)[rows]), n_threads)
     task = np.stack([edges[:-1], edges[1:]], axis=1)
     first = np.searchsorted(cptr, task[:, 0], side="right") - 1
     last = np.searchsorted(cptr, np.maximum(task[:, 1] - 1, task[:, 0]), side="right") - 1
-    return task, np.stack([np.clip(first, n_lo, n_hi - 1), np.clip(last, n_lo, n_hi - 1)], axis=1)
+    return task, np.stack([np.clip(first, n_lo, n_hi - 1), np.clip(last, n_lo, n_hi - 1) + 1],
+                          axis=1)  # fmt: skip
+
+
+def _run_tasks(gr0: NDArray[np.int64], glen: NDArray[np.int64], gcnt: NDArray[np.int64],
+               n_lo: int, n_hi: int, n_threads: int, cost: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Split the knot rows n_lo..n_hi in ``n_threads`` ranges of about equal
+    cost (per row: the runs' lanes swept there, times ``cost[n]``); returns
+    each task's first and last knot rows (T, 2) (the runs are cut there)."""
+    live = np.zeros(cost.size + 1)
+    np.add.at(live, gr0, gcnt)
+    np.add.at(live, np.minimum(gr0 + glen, cost.size), -gcnt)
+    rows = np.arange(n_lo, n_hi)
+    edges = n_lo + _split((np.cumsum(live)[:-1] * cost)[rows], n_threads)
+    return np.stack([edges[:-1], edges[1:]], axis=1)
 
 
 #: orientation table resolution (data seconds) and size cap
@@ -382,12 +445,18 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     # longer than the output (their memory is cleared at every call)
     shift = int(min(15, max(6, np.ceil(np.log2(max(pr.n_samples, 1))))))
     block = 1 << shift
-    cptr, ccnt, PD = _pieces(tracks, pr.tn, interp)
     cubic = interp == "cubic"
     n_lo, n_hi, d_max = _audible_pieces(pr, tracks, c0)
-    n_hi = min(n_hi, cptr.size - 2)
+    # unpanned: runs of pieces, one emission per knot; else piece by piece
+    by_runs = _BY_RUNS and spk_az.size == 0 and lay.n_channels == 1
+    if by_runs:
+        gr0, glen, gcnt, goff, KD = _runs(tracks, pr.tn, interp)
+        some = bool(np.any((gr0 < n_hi) & (gr0 + glen > n_lo)))
+    else:
+        cptr, ccnt, PD = _pieces(tracks, pr.tn, interp)
+        some = bool(cptr[n_hi] > cptr[n_lo])
     audio = np.zeros((lay.n_channels, pr.n_samples))
-    if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and cptr[n_hi] > cptr[n_lo]:
+    if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and some:
         # rows whose arrivals can straddle a listener capture (one at or past
         # the output's end only cuts the pieces: no extra cost)
         t_end = min(pr.tn[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
@@ -401,26 +470,36 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         two = (nxt < pr.tc.size) & (pr.tn + d_max / c0 >= ahead)
         two |= np.append(two[1:], False)  # (either knot of a row's pieces)
         cost = np.where(costly, 2.0, np.where(two, 1.5, 1.0))
-        task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads, cost)
+        if by_runs:
+            task_rows = task_chunks = _run_tasks(gr0, glen, gcnt, n_lo, n_hi, n_threads, cost)
+        else:
+            task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads, cost)
         n_blocks = (pr.n_samples + block - 1) // block
-        # each task's output window: arrivals of rows ra..rb lie in
-        # [t_ra, t_(rb+1) + D_max/c0]
+        # each task's output window: arrivals of the pieces between knot rows
+        # ra and rb lie in [t_ra, t_rb + D_max/c0]
         first = (pr.tn[task_rows[:, 0]] - pr.t_start) * pr.fs
-        last = (pr.tn[task_rows[:, 1] + 1] + d_max / c0 - pr.t_start) * pr.fs + 2.0
+        last = (pr.tn[task_rows[:, 1]] + d_max / c0 - pr.t_start) * pr.fs + 2.0
         blo = np.clip(np.floor(first / block), 0, n_blocks - 1).astype(np.int64)
         bhi = np.clip(np.floor(last / block) + 1, 1, n_blocks).astype(np.int64)
         nb = np.maximum(bhi - blo, 1)
         size = nb * lay.n_channels * block * 4
-        task_blk = np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]])], axis=1)
+        task_blk = np.ascontiguousarray(
+            np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]])], axis=1), dtype=np.int64)
         acc = _workspace("acc", (int(size.sum()),))
         rc = _workspace("lines", (pr.tn.size, 2 * _synth_kernel._LINE + 1))
-        bad = _synth_kernel.render(
-            cptr, ccnt, PD, pr.tn, cubic,
-            pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples, shift,
-            spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels, bool(lay.fold_front),
-            n_lo, n_hi, d_max, task_chunks, np.ascontiguousarray(task_blk, dtype=np.int64), rc, acc,
-            audio,
-        )  # fmt: skip
+        if by_runs:
+            bad = _runs_kernel.render(
+                gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, float(c0),
+                pr.t_start, pr.fs, pr.n_samples, shift, n_lo, n_hi, d_max, task_chunks, task_blk,
+                rc, acc, audio,
+            )  # fmt: skip
+        else:
+            bad = _synth_kernel.render(
+                cptr, ccnt, PD, pr.tn, cubic,
+                pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
+                shift, spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels,
+                bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
+            )  # fmt: skip
         if bad:
             raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "
                                f"output windows")  # fmt: skip

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from auralize import synthesis
 from auralize.datasets import monopole_pressure
 from auralize.listener import ListenerPath
 from auralize.synthesis import C0, render, render_reference
@@ -180,9 +181,9 @@ def test_blocks_ending_inside_pieces_that_cross_captures_join_without_seams(
     parts = [render(mono_tracks, path, rate=16000, layout=layout, start=a / 16000,
                     duration=min(block, n - a) / 16000).audio for a in range(0, n, block)]  # fmt: skip
     joined = np.concatenate(parts, axis=1)
-    # (-150 dB: the whole render's running sums carry their rounding over 6400
-    # samples; a wrongly cut piece is off by 1e-3)
-    assert np.max(np.abs(joined - whole)) <= 3e-8 * np.max(np.abs(whole))
+    # (-140 dB: the whole render's running sums carry their rounding over 6400
+    # samples, the blocks' over 592; a wrongly cut piece is off by 1e-3)
+    assert np.max(np.abs(joined - whole)) <= 1e-7 * np.max(np.abs(whole))
 
 
 def test_blocks_longer_than_the_accumulation_block_with_time_scale(
@@ -198,3 +199,32 @@ def test_blocks_longer_than_the_accumulation_block_with_time_scale(
         part = render(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8",
                       start=start / RATE, duration=40000 / RATE).audio  # fmt: skip
         assert np.max(np.abs(part - whole[:, start : start + 40000])) <= 1e-5 * peak, start
+
+
+@pytest.mark.parametrize("interp", ["cubic", "linear"])
+def test_runs_of_pieces_sum_to_the_piecewise_kernel(
+    mono_tracks, mono_params, interp, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    # unpanned layouts sum runs of pieces with one emission per knot
+    # (auralize._runs_kernel); the piece-wise kernel sums every piece on its
+    # own.  Same signal: on a path captured at 20 Hz (pieces split at
+    # captures), from a start inside pieces (restart at the first sample), and
+    # over more than one 32768-sample accumulation block (restarts there)
+    c = mono_params.center
+    cases = [
+        (ListenerPath.orbit(c, radius=2.5, duration=0.4, turns=0.3), {}),
+        (ListenerPath.line(c + [3.0, 0.5, 0], c + [-1.0, 2.0, 0.5], duration=0.09),
+         {"start": 0.0301, "duration": 0.04}),
+        (ListenerPath.orbit(c, radius=2.5, duration=1.6, turns=0.3),
+         {"time_scale": 16.0, "start": 0.11, "duration": 1.0}),
+    ]  # fmt: skip
+    for path, kw in cases:
+        monkeypatch.setattr(synthesis, "_BY_RUNS", False)
+        pieces = render(mono_tracks, path, rate=RATE, interp=interp, **kw).audio
+        monkeypatch.setattr(synthesis, "_BY_RUNS", True)
+        runs = render(mono_tracks, path, rate=RATE, interp=interp, **kw).audio
+        assert runs.shape == pieces.shape
+        # (rounding: the running sums over a whole 17640-sample render reach
+        # ~5e-8 of the peak; a piece summed wrongly is off by 1e-3 or more)
+        err = np.max(np.abs(runs - pieces)) / np.max(np.abs(pieces))
+        assert err <= 3e-7, (kw, err)
