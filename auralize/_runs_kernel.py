@@ -39,6 +39,7 @@ from auralize._synth_kernel import (
     _LINE,
     _NJIT,
     _add_plain,
+    _clear_window,
     _cut_at_end,
     _emit1,
     _integrate,
@@ -197,6 +198,28 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
     W[_R_OK * o + i] = 1.0 if ok else 0.0
 
 
+@numba.njit(inline="always", **_NJIT)
+def _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs):  # type: ignore[no-untyped-def]
+    """The state of the first knot of the run in lane i that a task sweeps
+    (see :func:`_run_step`; no piece ends there)."""
+    o = _CHUNK
+    a, d, e, sg, ok = _knot_arrival(W[_R_X * o + i], W[_R_Y * o + i], W[_R_Z * o + i],
+                                    W[_R_RM * o + i], la, lb, c0, inv_c0, two)  # fmt: skip
+    inv_d = 1.0 / d
+    dd = e * inv_d
+    f = W[_R_Q * o + i] * inv_d
+    u = (a - t_start) * fs
+    W[_R_U * o + i] = u
+    W[_R_SM * o + i] = np.ceil(u)
+    W[_R_F * o + i] = f
+    W[_R_W * o + i] = (W[_R_M * o + i] * (1.0 - dd * inv_c0) - f * dd) * inv_d * inv_fs
+    W[_R_A * o + i] = a
+    W[_R_SG * o + i] = sg
+    W[_R_OK * o + i] = 1.0 if ok else 0.0
+    for r in range(_R_P, _R_PF + 1):
+        W[r * o + i] = 0.0
+
+
 @numba.njit(fastmath={"contract"}, **_NJIT)
 def _chunk_step(W, cnt, j, RCp, RC, two, cubic, first, c0, t_start, fs, fn, fblock, blo, nb,
                 base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
@@ -210,7 +233,10 @@ def _chunk_step(W, cnt, j, RCp, RC, two, cubic, first, c0, t_start, fs, fn, fblo
     la_p = _line_tuple(RCp, 0)
     lb_p = _line_tuple(RCp, _LINE)
     fj = float(j)
-    if two:
+    if first:  # the knot only: no piece ends here
+        for i in range(cnt):
+            _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs)
+    elif two:
         for i in range(cnt):
             _run_step(W, i, fj, la_p, lb_p, la, lb, la[6], True, cubic, first, c0, inv_c0,
                       t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
@@ -241,7 +267,7 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
     _CHUNK, see _K_*), sorted by gr0.  Task j sums the pieces of rows
     task_rows[j, 0]..task_rows[j, 1]-1 (the runs cut at its first and last
     knot rows) into its accumulator window (task_blk[j] = first block,
-    number of blocks, offset in ``acc``, as in
+    number of blocks, offset in ``acc``, first sample, as in
     :func:`auralize._synth_kernel.render`): tasks split time, so their
     windows barely overlap.  The other arguments are those of that
     function.  Returns the number of
@@ -255,8 +281,7 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
     bad = np.zeros(n_tasks, dtype=np.int64)
     for jt in numba.prange(n_tasks):
         blo, nb, base = task_blk[jt, 0], task_blk[jt, 1], task_blk[jt, 2]
-        for i in range(base, base + min(nb * block, n_samples - blo * block) * 4):
-            acc[i] = 0.0
+        _clear_window(acc, task_blk[jt], 1, block, n_samples)
         W = np.zeros(_R_ROWS * _CHUNK)
         # (unused by the unpanned scalar code)
         qc = np.zeros((1, 6))

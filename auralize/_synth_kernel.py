@@ -1070,7 +1070,9 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     Work is split in tasks (one per thread): task j sums chunks
     task_pieces[j, 0]..task_pieces[j, 1]-1 of rows n_lo..n_hi-1 into its
     accumulator window: blocks task_blk[j, 0].. (task_blk[j, 1] of them) at
-    offset task_blk[j, 2] of ``acc``.  Pieces are sorted by row, so a task's
+    offset task_blk[j, 2] of ``acc``; it emits nothing before sample
+    task_blk[j, 3] (its first arrival: the rows before it are neither
+    cleared nor read).  Pieces are sorted by row, so a task's
     arrivals, and its writes, stay within its own stretch of the output.
     RC (Tp, 2·_LINE + 1) is work space for the listener's lines per row;
     d_max bounds the source-listener distance.
@@ -1096,9 +1098,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     for j in numba.prange(n_tasks):
         p_a, p_b = task_pieces[j, 0], task_pieces[j, 1]
         blo, nb, base = task_blk[j, 0], task_blk[j, 1], task_blk[j, 2]
-        # (rows past the last sample are never written nor read)
-        for i in range(base, base + n_ch * min(nb * block, n_samples - blo * block) * 4):
-            acc[i] = 0.0
+        _clear_window(acc, task_blk[j], n_ch, block, n_samples)
         W = np.empty(_W_ROWS * _CHUNK)
         G0 = np.zeros((_CHUNK, ng))
         G1 = np.zeros((_CHUNK, ng))
@@ -1217,12 +1217,23 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     return int(bad.sum())
 
 
+@numba.njit(inline="always", **_NJIT)
+def _clear_window(acc, blk, n_ch, block, n_samples):  # type: ignore[no-untyped-def]
+    """Zero a task's accumulator window blk = (first block, blocks, offset,
+    first sample) from three rows before its first sample (the integration
+    reads levels 1-3 from the rows before a sample) to the last sample."""
+    w0 = blk[0] * block
+    first = max(blk[3] - 3 - w0, 0)
+    for i in range(blk[2] + n_ch * first * 4, blk[2] + n_ch * min(blk[1] * block, n_samples - w0) * 4):
+        acc[i] = 0.0
+
+
 @numba.njit(**_NJIT)
 def _integrate(acc, task_blk, c_lo, c_hi, b, n_ch, block, n_samples, out):  # type: ignore[no-untyped-def]
     """out[c_lo:c_hi] in accumulation block b from the tasks' skewed
     accumulators (channels interleaved per sample row, so one pass reads each
-    row once): level j of sample m is row m - j; the four levels are summed
-    4, 3, 2 and 1 times."""
+    row once; a task counts from its first sample on): level j of sample m
+    is row m - j; the four levels are summed 4, 3, 2 and 1 times."""
     n_tasks = task_blk.shape[0]
     rs = 4 * n_ch
     nc = c_hi - c_lo
@@ -1236,7 +1247,7 @@ def _integrate(acc, task_blk, c_lo, c_hi, b, n_ch, block, n_samples, out):  # ty
             v0 = 0.0
             for j in range(n_tasks):
                 jb = b - task_blk[j, 0]
-                if jb < 0 or jb >= task_blk[j, 1]:
+                if jb < 0 or jb >= task_blk[j, 1] or b * block + i < task_blk[j, 3]:
                     continue
                 r = task_blk[j, 2] + ((jb * block + i) * n_ch + c_lo + c) * 4
                 v0 += acc[r]

@@ -150,8 +150,9 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
                      target="≥ 10,000" if size == 64 else "", met=(active >= 10_000) if size == 64 else None,
                      note=f"{tracks.n_sources} distinct vertices; detection of {vol.n_steps} steps "
                           f"{t_detect:.2f} s")]  # fmt: skip
-    # the first render of a set of tracks builds its list of sounding pieces
-    # (reused by every later render: other paths, layouts, blocks, live)
+    # the first render of a set of tracks builds its runs of sounding pieces
+    # (mono; panned layouts: its list of pieces), reused by every later render:
+    # other paths, blocks, live
     from auralize.sources import SourceTracks
 
     fresh = SourceTracks(tracks.positions, tracks.q, tracks.radius, tracks.times)
@@ -170,7 +171,7 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
             paper=f"{PAPER_FRAME_US[64]} µs/frame ≈ 0.1× real time" if size == 64 else "",
             note=f"{t / (dur * 44100) * 1e6:.3f} µs per audio frame"
                  + (f"; {speed * n_ch:.0f}× real time per channel" if n_ch > 1 else
-                    f"; piece list built once per tracks in {t_prep:.2f} s"),
+                    f"; runs of pieces built once per tracks in {t_prep:.2f} s"),
         ))  # fmt: skip
     # a recorded path: captures every 50 ms of playback (17 ms of data at
     # time scale 3, about half a data step), so most pieces' arrivals cross a

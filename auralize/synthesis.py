@@ -278,9 +278,9 @@ def _run_tasks(gr0: NDArray[np.int64], glen: NDArray[np.int64], gcnt: NDArray[np
     """Split the knot rows n_lo..n_hi in ``n_threads`` ranges of about equal
     cost (per row: the runs' lanes swept there, times ``cost[n]``); returns
     each task's first and last knot rows (T, 2) (the runs are cut there)."""
-    live = np.zeros(cost.size + 1)
-    np.add.at(live, gr0, gcnt)
-    np.add.at(live, np.minimum(gr0 + glen, cost.size), -gcnt)
+    n = cost.size + 1
+    live = (np.bincount(gr0, weights=gcnt, minlength=n)
+            - np.bincount(np.minimum(gr0 + glen, cost.size), weights=gcnt, minlength=n))  # fmt: skip
     rows = np.arange(n_lo, n_hi)
     edges = n_lo + _split((np.cumsum(live)[:-1] * cost)[rows], n_threads)
     return np.stack([edges[:-1], edges[1:]], axis=1)
@@ -483,8 +483,12 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         bhi = np.clip(np.floor(last / block) + 1, 1, n_blocks).astype(np.int64)
         nb = np.maximum(bhi - blo, 1)
         size = nb * lay.n_channels * block * 4
+        # (a task emits nothing before its first arrival: the rows before it
+        # are neither cleared nor summed)
+        m_lo = np.maximum(np.floor(first), blo * block)
         task_blk = np.ascontiguousarray(
-            np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]])], axis=1), dtype=np.int64)
+            np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]]), m_lo], axis=1),
+            dtype=np.int64)  # fmt: skip
         acc = _workspace("acc", (int(size.sum()),))
         rc = _workspace("lines", (pr.tn.size, 2 * _synth_kernel._LINE + 1))
         if by_runs:
