@@ -22,7 +22,8 @@ Time mapping (DESIGN.md): audio sample n is at data time
 ``t0 + n / (rate · time_scale)`` and at playback time ``n / rate`` on the
 listener path; propagation uses physical c0 in data time.
 
-The fast algorithm (:mod:`auralize._synth_kernel`) costs
+The fast algorithm (:mod:`auralize._synth_kernel`; for unpanned output
+:mod:`auralize._runs_kernel`, one emission per knot) costs
 O(sources × steps + samples) instead of O(sources × samples) and gives the
 sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
 """
