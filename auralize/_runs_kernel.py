@@ -43,6 +43,7 @@ from auralize._synth_kernel import (
     _cut_at_end,
     _emit1,
     _integrate,
+    _inverses,
     _knot_arrival,
     _knot_m,
     _knot_q,
@@ -51,6 +52,7 @@ from auralize._synth_kernel import (
     _piece_general,
     _row_lines,
     _shifted,
+    _take_cut,
 )
 
 #: rows of a chunk in the knot data (each _CHUNK lanes): position, clamp
@@ -113,22 +115,14 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
         cut, ac, dc, ec, qc, mc = _cut_at_end(x, y, z, rm, qp, mp, q, m1, sgp, okp, la_p, lb_p,
                                               t_n, c0, inv_c0, t_start, fs, fn)  # fmt: skip
         cut = cut & ~first
-        a1 = ac if cut else a
-        d1 = dc if cut else d
-        e1 = ec if cut else e
-        q1 = qc if cut else q
-        me = mc if cut else m1
-        sg1 = sgp if cut else sg
-        ok1 = ok | cut
+        a1, d1, e1, q1, me, sg1, ok1 = _take_cut(cut, ac, dc, ec, qc, mc, sgp, a, d, e, q, m1, sg,
+                                                 ok)  # fmt: skip
     u = (a - t_start) * fs
     u1 = (a1 - t_start) * fs
     L = u1 - up
     L = L if L > 0.0 else 1.0
     # one division for 1/D (knot), 1/D1 (the piece's end) and 1/L
-    r = 1.0 / (d * d1 * L)
-    inv_d = d1 * L * r
-    inv_d1 = d * L * r
-    inv_l = d * d1 * r
+    inv_d, inv_d1, inv_l = _inverses(d, d1, L)
     dd = e * inv_d
     f = q * inv_d
     wr = (mr * (1.0 - dd * inv_c0) - f * dd) * inv_d * inv_fs

@@ -682,6 +682,15 @@ def _cut_at_end(x, y, z, rm, q0, m0, q1, m1, sg0, ok0, la, lb, t_1, c0, inv_c0, 
 
 
 @numba.njit(inline="always", **_NJIT)
+def _take_cut(cut, ac, dc, ec, qc, mc, sgc, a, d, e, q, m, sg, ok):  # type: ignore[no-untyped-def]
+    """The end of a piece: where :func:`_cut_at_end` cut it (``cut``), else its
+    knot's arrival, D, D·dD/dt, q, dq/dτ, capture interval and found flag
+    (branch-free)."""
+    return (ac if cut else a, dc if cut else d, ec if cut else e, qc if cut else q,
+            mc if cut else m, sgc if cut else sg, ok | cut)  # fmt: skip
+
+
+@numba.njit(inline="always", **_NJIT)
 def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, fn, fblock,
                 inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
     """Arrivals, kind and accumulator rows of the piece in column i of W (see
@@ -702,13 +711,8 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, 
         # a piece that crosses a capture at or past the output's end ends there
         cut, ac, dc, ddc, qc, mc = _cut_at_end(x, y, z, rm, q0, m0, q1, m1, sg0, ok0, l0a, l0b,
                                                l1a[6], c0, inv_c0, t_start, fs, fn)  # fmt: skip
-        a1 = ac if cut else a1
-        d1 = dc if cut else d1
-        dd1 = ddc if cut else dd1
-        q1 = qc if cut else q1
-        m1 = mc if cut else m1
-        sg1 = sg0 if cut else sg1
-        ok1 = ok1 | cut
+        a1, d1, dd1, q1, m1, sg1, ok1 = _take_cut(cut, ac, dc, ddc, qc, mc, sg0, a1, d1, dd1, q1,
+                                                  m1, sg1, ok1)  # fmt: skip
     W[_W_A0 * _CHUNK + i] = a0
     W[_W_A1 * _CHUNK + i] = a1
     W[_W_S0 * _CHUNK + i] = sg0
@@ -718,9 +722,7 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, 
     L = u1 - u0
     # one division for 1/D0, 1/D1 and 1/L
     L = L if L > 0.0 else 1.0
-    r = 1.0 / (d0 * d1 * L)
-    inv0 = d1 * L * r
-    inv1 = d0 * L * r
+    inv0, inv1, inv_l = _inverses(d0, d1, L)
     dd0 = dd0 * inv0  # dD/dt
     dd1 = dd1 * inv1
     f0 = q0 * inv0
@@ -747,7 +749,14 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, 
     end_inside = (s1 < fn) & (s1 < (b1 + 1.0) * fblock)
     W[_W_EI * _CHUNK + i] = base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * rs if end_inside else -1.0
     W[_W_CI * _CHUNK + i] = base + (b1 - blo) * fblock * rs if b1 > b0 else -1.0
-    return L, d0 * d1 * r, f0, w0, f1, w1, s0 - u0, s1 - u0, b1 * fblock - u0
+    return L, inv_l, f0, w0, f1, w1, s0 - u0, s1 - u0, b1 * fblock - u0
+
+
+@numba.njit(inline="always", **_NJIT)
+def _inverses(a, b, c):  # type: ignore[no-untyped-def]
+    """1/a, 1/b and 1/c with one division."""
+    r = 1.0 / (a * b * c)
+    return b * c * r, a * c * r, a * b * r
 
 
 @numba.njit(inline="always", **_NJIT)

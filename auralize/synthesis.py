@@ -187,13 +187,30 @@ def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
     dq/dτ is the piece's slope), contiguous per chunk so that the kernel
     streams it.
     """
+    return _cached(tracks, "pieces", interp, lambda: _build_pieces(tracks, tn, interp))
+
+
+def _cached(tracks: SourceTracks, name: str, interp: str, build: Any) -> Any:
+    """``build()``, cached on the tracks under ``name`` while their arrays are the same."""
     key = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), interp)
-    cached = tracks.cache.get("pieces")
+    cached = tracks.cache.get(name)
     if cached is not None and cached[0] == key:
         return cached[1]
-    q = np.ascontiguousarray(tracks.q, dtype=np.float64)
-    pos = np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3))
-    radius = np.ascontiguousarray(tracks.radius, dtype=np.float64)
+    out = build()
+    tracks.cache[name] = (key, out)
+    return out
+
+
+def _track_arrays(tracks: SourceTracks) -> tuple[NDArray[np.float64], ...]:
+    """q, positions (K, 3) and radii of the tracks as contiguous float64 arrays."""
+    return (np.ascontiguousarray(tracks.q, dtype=np.float64),
+            np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)),
+            np.ascontiguousarray(tracks.radius, dtype=np.float64))  # fmt: skip
+
+
+def _build_pieces(tracks: SourceTracks, tn: NDArray[np.float64],
+                  interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
+    q, pos, radius = _track_arrays(tracks)
     cubic = interp == "cubic"
     W = _synth_kernel._CHUNK
     none = np.zeros(1, dtype=np.int64)
@@ -203,9 +220,7 @@ def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
     ccnt = np.zeros(int(cptr[-1]), dtype=np.int64)
     PD = np.empty((int(cptr[-1]), 8, W))  # lanes past ccnt are never read
     _synth_kernel.build_pieces(q, tn, pos, radius, cubic, False, cptr, ccnt, PD)
-    out = (cptr, ccnt, PD)
-    tracks.cache["pieces"] = (key, out)
-    return out
+    return cptr, ccnt, PD
 
 
 def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
@@ -219,13 +234,12 @@ def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[N
     ``gr0[g]``, holds ``gcnt[g]`` runs of at most ``glen[g]`` pieces and its
     knot data at ``KD[goff[g]:]``.
     """
-    key = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), interp)
-    cached = tracks.cache.get("runs")
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    q = np.ascontiguousarray(tracks.q, dtype=np.float64)
-    pos = np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3))
-    radius = np.ascontiguousarray(tracks.radius, dtype=np.float64)
+    return _cached(tracks, "runs", interp, lambda: _build_runs(tracks, tn, interp))
+
+
+def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
+                interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
+    q, pos, radius = _track_arrays(tracks)
     cubic = interp == "cubic"
     W = _synth_kernel._CHUNK
     none = np.zeros(0, dtype=np.int64)
@@ -246,9 +260,7 @@ def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[N
     goff = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
     KD = np.zeros(int(size.sum()))
     _runs_kernel.fill_runs(q, tn, pos, radius, cubic, src, r0, length, chunk, lane, goff, KD)
-    out = (gr0, glen, gcnt, goff, KD)
-    tracks.cache["runs"] = (key, out)
-    return out
+    return gr0, glen, gcnt, goff, KD
 
 
 def _split(weight: NDArray[np.float64], n_threads: int) -> NDArray[np.int64]:
