@@ -42,6 +42,7 @@ from auralize._synth_kernel import (
     _clear_window,
     _cut_at_end,
     _emit1,
+    _flush_captures,
     _integrate,
     _inverses,
     _knot_arrival,
@@ -253,7 +254,7 @@ def _copy_rows(W, r, KD, off, n_rows, cnt):  # type: ignore[no-untyped-def]
 
 @numba.njit(parallel=True, **_NJIT)
 def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_samples, shift,
-           n_lo, n_hi, d_max, task_rows, task_blk, RC, acc, out):  # fmt: skip  # type: ignore[no-untyped-def]
+           n_lo, n_hi, d_max, task_rows, task_blk, RC, acc, out, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every run of sounding pieces into ``out (1, n_samples)``.
 
     Chunk g holds gcnt[g] runs whose first piece is in row gr0[g], the
@@ -288,6 +289,8 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
         g3 = np.ones(1)
         g4 = np.ones(1)
         o6 = np.zeros(6)
+        ctj = ct[jt]
+        ctj[:] = 0.0
         nbad = 0
         ra = max(task_rows[jt, 0], n_lo)
         rb = min(task_rows[jt, 1], n_hi)
@@ -343,12 +346,13 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
                             int(W[_R_S0 * _CHUNK + i]), int(W[_R_S1 * _CHUNK + i]),
                             W[_R_F0 * _CHUNK + i], W[_R_WF0 * _CHUNK + i] * fs,
                             W[_R_F1 * _CHUNK + i], W[_R_WF1 * _CHUNK + i] * fs, g1, g2, g3, g4, o6,
+                            ctj, k_ct,
                         )  # fmt: skip
                     else:
                         nbad += _piece_general(
                             acc, base, blo, nb, 1, shift, n_samples, n - 1, int(RC[n - 1, 11]), x,
                             y, z, rm, tn, q0, m0, q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start,
-                            fs, spk_az, spk_ch, False, pinv, False, g1, g2, g3, g4, o6,
+                            fs, spk_az, spk_ch, False, pinv, False, g1, g2, g3, g4, o6, ctj, k_ct,
                         )  # fmt: skip
             # the end of the last piece (its knot has no piece after it here)
             for i in range(cnt):
@@ -358,7 +362,8 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
                            sm - W[_R_U * _CHUNK + i], W[_R_P * _CHUNK + i],
                            W[(_R_P + 1) * _CHUNK + i], W[(_R_P + 2) * _CHUNK + i],
                            W[(_R_P + 3) * _CHUNK + i], -1.0)  # fmt: skip
-        bad[jt] = nbad
+        bad[jt] = nbad + _flush_captures(acc, ctj, k_ct, tc, t_start, fs, n_samples, shift, blo, nb,
+                                         base, 1, task_blk[jt, 3])  # fmt: skip
     n_blocks = (n_samples + block - 1) // block
     for b in numba.prange(n_blocks):
         _integrate(acc, task_blk, 0, 1, b, 1, block, n_samples, out)

@@ -326,7 +326,8 @@ def _emit1(acc, i, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _emit_piece(acc, base, blo, nb, ch, n_ch, shift, n_samples, u0, u1, p0, p1, p2, p3):  # type: ignore[no-untyped-def]
+def _emit_piece(acc, base, blo, nb, ch, n_ch, shift, n_samples, u0, u1, p0, p1, p2, p3, ct, r0,
+                r1):  # fmt: skip  # type: ignore[no-untyped-def]
     """Add the cubic P(u - u0) on samples ceil(u0) <= m < ceil(u1) (clipped to the
     output) into a task's accumulator window (blocks blo..blo+nb-1, channel ch,
     starting at ``base``).
@@ -334,9 +335,16 @@ def _emit_piece(acc, base, blo, nb, ch, n_ch, shift, n_samples, u0, u1, p0, p1, 
     The running sums restart at every accumulation block (numerical safety), so
     a piece that crosses a block boundary is continued there: the same
     polynomial is emitted again at the block's first sample.  The signal thus
-    does not depend on where the block boundaries fall.  Returns the number of
-    emissions that fell outside the window (0 unless the caller's window is
-    wrong).
+    does not depend on where the block boundaries fall.
+
+    u0 (u1) at a listener capture whose row r0 (r1) of the capture table ``ct``
+    is >= 0: the start (end) emission goes to that row instead (every
+    source's emission at a capture falls on the same sample with the same
+    offset, so they are summed there, in a table that stays in cache, and
+    added to the accumulator once: :func:`_flush_captures`).
+
+    Returns the number of emissions that fell outside the window (0 unless
+    the caller's window is wrong).
     """
     m_0 = max(int(math.ceil(u0)), 0)
     m_1 = min(int(math.ceil(u1)), n_samples)
@@ -351,13 +359,44 @@ def _emit_piece(acc, base, blo, nb, ch, n_ch, shift, n_samples, u0, u1, p0, p1, 
         if j < 0 or j >= nb:
             return 1
         row0 = base + (j * block * n_ch + ch) * 4
-        _emit1(acc, row0 + (ms - b * block) * n_ch * 4, ms - u0, p0, p1, p2, p3, 1.0)
+        if ms == m_0 and r0 >= 0 and u0 > -1.0:
+            _emit1(ct, (r0 * n_ch + ch) * 4, ms - u0, p0, p1, p2, p3, 1.0)
+        else:
+            _emit1(acc, row0 + (ms - b * block) * n_ch * 4, ms - u0, p0, p1, p2, p3, 1.0)
         if m_1 <= bend:
             if m_1 < n_samples and m_1 < bend:
-                _emit1(acc, row0 + (m_1 - b * block) * n_ch * 4, m_1 - u0, p0, p1, p2, p3, -1.0)
+                if r1 >= 0:
+                    _emit1(ct, (r1 * n_ch + ch) * 4, m_1 - u0, p0, p1, p2, p3, -1.0)
+                else:
+                    _emit1(acc, row0 + (m_1 - b * block) * n_ch * 4, m_1 - u0, p0, p1, p2, p3,
+                           -1.0)  # fmt: skip
             return 0
         b += 1
         ms = bend
+
+
+@numba.njit(**_NJIT)
+def _flush_captures(acc, ct, k_ct, tc, t_start, fs, n_samples, shift, blo, nb, base, n_ch,
+                    m_first):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Add a task's capture table (see :func:`_emit_piece`: row r holds the
+    summed emissions at capture k_ct + r, channels side by side) into its
+    accumulator window; returns the number of non-zero rows outside it."""
+    block = 1 << shift
+    rs = n_ch * 4
+    bad = 0
+    for r in range(ct.size // rs):
+        m = int(math.ceil((tc[k_ct + r] - t_start) * fs))
+        j = (m >> shift) - blo if m >= 0 else -1
+        ok = 0 <= m < n_samples and 0 <= j < nb and m >= m_first
+        dst = base + (j * block + (m - (m >> shift) * block)) * rs
+        for i in range(rs):
+            v = ct[r * rs + i]
+            if v != 0.0:
+                if ok:
+                    acc[dst + i] += v
+                else:
+                    bad += 1
+    return bad
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -452,9 +491,10 @@ def _arrival(x, y, z, rmin, t_n, hint, tc, lc, vc, c0):  # type: ignore[no-untyp
 
 @numba.njit(inline="always", **_NJIT)
 def _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, vb, wb, ga, gb,
-                 fs, panned):  # type: ignore[no-untyped-def]  # fmt: skip
+                 fs, panned, ct, r0, r1):  # type: ignore[no-untyped-def]  # fmt: skip
     """Emit f·g on [u0, u1] for every channel: f Hermite from (va, wa), (vb, wb)
-    (per data second), gains linear from ga to gb (mono: gain 1)."""
+    (per data second), gains linear from ga to gb (mono: gain 1); r0, r1 the
+    capture table rows of u0, u1 or -1 (see :func:`_emit_piece`)."""
     L = u1 - u0
     if L <= 0.0:
         return 0
@@ -463,7 +503,8 @@ def _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, vb,
     inv_fs = 1.0 / fs
     if not panned:
         p0, p1, p2, p3 = _hermite_inv(inv_L, va, wa * inv_fs, vb, wb * inv_fs)
-        return _emit_piece(acc, base, blo, nb, 0, 1, shift, n_samples, u0, u1, p0, p1, p2, p3)
+        return _emit_piece(acc, base, blo, nb, 0, 1, shift, n_samples, u0, u1, p0, p1, p2, p3, ct,
+                           r0, r1)  # fmt: skip
     slope_t = fs * inv_L  # 1 / (t1 - t0)
     for c in range(n_ch):
         g0 = ga[c]
@@ -473,7 +514,8 @@ def _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, vb,
         slope = (g1 - g0) * slope_t
         p0, p1, p2, p3 = _hermite_inv(inv_L, g0 * va, (g0 * wa + slope * va) * inv_fs, g1 * vb,
                                       (g1 * wb + slope * vb) * inv_fs)  # fmt: skip
-        bad += _emit_piece(acc, base, blo, nb, c, n_ch, shift, n_samples, u0, u1, p0, p1, p2, p3)
+        bad += _emit_piece(acc, base, blo, nb, c, n_ch, shift, n_samples, u0, u1, p0, p1, p2, p3, ct,
+                           r0, r1)  # fmt: skip
     return bad
 
 
@@ -987,7 +1029,7 @@ def _add_gained(acc, row, W, r, i, g0, g1):  # type: ignore[no-untyped-def]
 @numba.njit(**_NJIT)
 def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, seg, x, y, z, rmin, tn, q0,
                    m0, q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
-                   fold, pinv, panned, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
+                   fold, pinv, panned, ga, gb, gx, gy, o, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
     """Piece n (knots n, n + 1) of a source at (x, y, z) in full: arrivals
     solved across the listener's captures (:func:`_arrival`; seg: the capture
     interval holding t_n, where the search starts), gains, then
@@ -1004,19 +1046,24 @@ def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, seg, x, y, z, 
         _pan(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
     return _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0,
                          q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold,
-                         pinv, panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o)  # fmt: skip
+                         pinv, panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o, ct,
+                         k_ct)  # fmt: skip
 
 
 @numba.njit(**_NJIT)
 def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0, q1,
                   m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
-                  panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
+                  panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
     """Piece n of a source at (x, y, z) from arrival a0 (capture interval s0,
     f = va, df/dt = wa per data second, gains ga) to a1 (s1, vb, wb, gb),
     split at the listener's captures inside it: the listener's velocity
     changes there, so does df/dt, and f, df/dt and the gains are evaluated on
-    either side; continued across accumulation blocks."""
+    either side; continued across accumulation blocks.  The emissions at the
+    captures go to the capture table ``ct`` (its row r: capture k_ct + r)
+    where it has a row for them (:func:`_emit_piece`)."""
     bad = 0
+    n_ct = ct.size // (4 * n_ch)
+    r0 = -1
     u0 = (a0 - t_start) * fs
     for c in range(n_ch):
         gy[c] = ga[c] if panned else 1.0
@@ -1039,8 +1086,11 @@ def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, 
         if panned:
             _pan(x, y, z, t1, seg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gx, o)
         u1 = (t1 - t_start) * fs
+        r1 = seg + 1 - k_ct
+        if r1 < 0 or r1 >= n_ct:
+            r1 = -1
         bad += _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, u1, va, wa, v1, w1, gy,
-                            gx, fs, panned)  # fmt: skip
+                            gx, fs, panned, ct, r0, r1)  # fmt: skip
         seg += 1
         # ... and just after it, on the next line (held after the last capture)
         ddr = 0.0
@@ -1051,14 +1101,15 @@ def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, 
             for c in range(n_ch):
                 gy[c] = gx[c]
         u0 = u1
+        r0 = r1
     return bad + _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, u0, (a1 - t_start) * fs,
-                              va, wa, vb, wb, gy, gb, fs, panned)  # fmt: skip
+                              va, wa, vb, wb, gy, gb, fs, panned, ct, r0, -1)  # fmt: skip
 
 
 @numba.njit(parallel=True, **_NJIT)
 def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, shift,
            spk_az, spk_ch, pinv, n_ch, fold, n_lo, n_hi, d_max, task_pieces, task_blk, RC, acc,
-           out):  # fmt: skip  # type: ignore[no-untyped-def]
+           out, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every sounding piece into ``out (n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
@@ -1084,7 +1135,9 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     cleared nor read).  Pieces are sorted by row, so a task's
     arrivals, and its writes, stay within its own stretch of the output.
     RC (Tp, 2·_LINE + 1) is work space for the listener's lines per row;
-    d_max bounds the source-listener distance.
+    d_max bounds the source-listener distance.  ct (n_tasks, R·n_ch·4): each
+    task's capture table for captures k_ct … k_ct + R - 1 (see
+    :func:`_emit_piece`), cleared here.
 
     Returns the number of emissions outside the windows (an internal error).
     """
@@ -1116,6 +1169,8 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
         gx = np.zeros(n_ch)
         gy = np.zeros(n_ch)
         o = np.zeros(6)
+        ctj = ct[j]
+        ctj[:] = 0.0
         nbad = 0
         n = n_lo
         while n < n_hi and cptr[n + 1] <= p_a:
@@ -1201,7 +1256,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                             W[_W_A1 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]),
                             int(W[_W_S1 * _CHUNK + i]), W[_W_F0 * _CHUNK + i],
                             W[_W_WF0 * _CHUNK + i] * fs, W[_W_F1 * _CHUNK + i],
-                            W[_W_WF1 * _CHUNK + i] * fs, ga, gb, gx, gy, o,
+                            W[_W_WF1 * _CHUNK + i] * fs, ga, gb, gx, gy, o, ctj, k_ct,
                         )  # fmt: skip
                         continue
                     nbad += _piece_general(
@@ -1209,10 +1264,11 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                         PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i], PD[ck, 5, i],
                         PD[ck, 6, i], PD[ck, 7, i],
                         cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
-                        panned, ga, gb, gx, gy, o,
+                        panned, ga, gb, gx, gy, o, ctj, k_ct,
                     )  # fmt: skip
             n += 1
-        bad[j] = nbad
+        bad[j] = nbad + _flush_captures(acc, ctj, k_ct, tc, t_start, fs, n_samples, shift, blo, nb,
+                                        base, n_ch, task_blk[j, 3])  # fmt: skip
     # integrate: per channel and block, the sum of the tasks' skewed levels,
     # then four running sums
     # (the sums restart at every accumulation block: blocks are independent)

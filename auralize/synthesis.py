@@ -504,11 +504,16 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
             dtype=np.int64)  # fmt: skip
         acc = _workspace("acc", (int(size.sum()),))
         rc = _workspace("lines", (pr.tn.size, 2 * _synth_kernel._LINE + 1))
+        # per task, a row for each listener capture heard inside the output:
+        # the emissions of pieces split there are summed in it (in cache)
+        k_ct = int(np.searchsorted(pr.tc, pr.t_start - 1.0 / pr.fs, side="right"))
+        k_end = int(np.searchsorted(pr.tc, pr.t_start + pr.n_samples / pr.fs, side="left"))
+        ct = _workspace("captures", (task_blk.shape[0], max(k_end - k_ct, 0) * lay.n_channels * 4))
         if by_runs:
             bad = _runs_kernel.render(
                 gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, float(c0),
                 pr.t_start, pr.fs, pr.n_samples, shift, n_lo, n_hi, d_max, task_chunks, task_blk,
-                rc, acc, audio,
+                rc, acc, audio, ct, k_ct,
             )  # fmt: skip
         else:
             bad = _synth_kernel.render(
@@ -516,6 +521,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
                 pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
                 shift, spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels,
                 bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
+                ct, k_ct,
             )  # fmt: skip
         if bad:
             raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "

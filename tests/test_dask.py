@@ -251,9 +251,20 @@ def test_cluster_workers_are_set_up_before_their_first_task() -> None:
         assert rep["pid"] != os.getpid() and run.setup_seconds >= rep["seconds"]
         # glibc large-array reuse restored (Dask's nanny sets MALLOC_TRIM_THRESHOLD_)
         assert rep["allocator"] is (sys.platform.startswith("linux") and tune_allocator())
+        # the statistical profiler is off in the worker process (~9 % of a busy task's CPU)
+        (prof,) = run.client.run(_profiler_enabled).values()
+        assert prof is False
     with Runner("distributed", workers=1, processes=False, log=None,
-                setup_workers=False) as run:  # fmt: skip
+                setup_workers=False, profile=True) as run:  # fmt: skip
         assert run.worker_setup == []
+        (prof,) = run.client.run(_profiler_enabled).values()
+        assert prof is True
+
+
+def _profiler_enabled(dask_worker: Any) -> bool:
+    """Whether a worker samples its threads' stacks (its profiling loop is running)."""
+    pc = dask_worker.periodic_callbacks.get("profile")
+    return bool(pc is not None and pc.is_running())
 
 
 # ---------------------------------------------------------------- resuming
