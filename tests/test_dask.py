@@ -470,6 +470,13 @@ def test_packed_tracks_travel_as_their_nonzero_strengths(explosion_ref: SourceSe
     assert np.array_equal(got.q, tr.q) and np.array_equal(got.positions, tr.positions)
     assert np.array_equal(got.radius, tr.radius) and np.array_equal(got.times, tr.times)
     assert pickle.loads(pickle.dumps(back))._tracks is None  # the unpacked copy stays here
+    # a striped group: its ranges, in order
+    k3 = k // 3
+    part = PackedTracks(tr, [(k3, 2 * k3), (0, 5)]).tracks()
+    want = np.concatenate([tr.q[k3 : 2 * k3], tr.q[:5]])
+    assert np.array_equal(part.q, want) and part.n_sources == k3 + 5
+    assert np.array_equal(part.positions, np.concatenate([tr.positions[k3 : 2 * k3],
+                                                           tr.positions[:5]]))  # fmt: skip
 
 
 def test_task_plan_groups_many_pieces_and_blocks_long_outputs() -> None:
@@ -502,16 +509,41 @@ def test_source_groups_are_contiguous_balanced_and_cover_every_source() -> None:
     q[50:, 0] = 1.0
     tr = SourceTracks(positions=np.zeros((100, 3)), q=q, radius=np.ones(100),
                       times=np.arange(32.0))  # fmt: skip
-    g = source_groups(tr, 4)
+    g = [r for (r,) in source_groups(tr, 4)]  # one range per group
     assert g[0][0] == 0 and g[-1][1] == 100
     assert all(a < b for a, b in g) and all(g[i][1] == g[i + 1][0] for i in range(len(g) - 1))
     # by work, not by count: three of four groups go to the busy first half
     assert sum(b <= 50 for a, b in g) == 3
     even = SourceTracks(positions=np.zeros((5, 3)), q=np.ones((5, 8)), radius=np.ones(5),
                         times=np.arange(8.0))  # fmt: skip
-    assert source_groups(even, 1000) == [(k, k + 1) for k in range(5)]  # at most one per source
+    assert source_groups(even, 1000) == [[(k, k + 1)] for k in range(5)]  # ≤ one per source
     assert source_groups(SourceTracks(np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0),
                                       np.arange(4.0)), 3) == []  # fmt: skip
+
+
+def test_striped_source_groups_interleave_and_balance() -> None:
+    """Each group takes every n-th of n × stripes ranges of equal weight: all
+    groups sample the whole volume (the cost of a piece depends on where its
+    source is), every source is in one group, the weights are equal."""
+    from auralize.scale.synth import source_groups
+
+    rng = np.random.default_rng(3)
+    q = (rng.random((4000, 20)) < np.linspace(0.05, 0.6, 4000)[:, None]).astype(float)
+    tr = SourceTracks(positions=np.zeros((4000, 3)), q=q, radius=np.ones(4000),
+                      times=np.arange(20.0))  # fmt: skip
+    groups = source_groups(tr, 4, stripes=8)
+    assert len(groups) == 4 and all(len(r) == 8 for r in groups)
+    flat = sorted(r for g in groups for r in g)
+    assert flat[0][0] == 0 and flat[-1][1] == 4000
+    assert all(flat[i][1] == flat[i + 1][0] for i in range(len(flat) - 1))  # a partition
+    # interleaved: group g holds ranges g, g + 4, ... of the sorted list
+    assert all(groups[i % 4][i // 4] == flat[i] for i in range(32))
+    work = [sum(np.count_nonzero(q[a:b]) for a, b in g) for g in groups]
+    assert max(work) / min(work) < 1.05
+    # every group reaches both ends (contiguous groups would be slabs)
+    assert all(g[0][1] <= flat[3][1] and g[-1][0] >= flat[28][0] for g in groups)
+    (one,) = source_groups(tr, 1, stripes=8)
+    assert len(one) == 8 and one[0][0] == 0 and one[-1][1] == 4000
 
 
 def test_distributed_synthesis_renders_every_block_in_a_task(

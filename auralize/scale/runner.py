@@ -39,7 +39,7 @@ import contextlib
 import logging
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 from auralize.errors import AuralizeError, ParameterError
@@ -239,6 +239,18 @@ class Runner:
             return list(self.client.scatter(list(objs), hash=False))
         return list(objs)
 
+    def place_each(self, objs: Iterable[Any]) -> Iterator[Any]:
+        """:meth:`place`, one input at a time as ``objs`` produces them (each to
+        the next worker in turn): work on the first can start while the next
+        are still being prepared in this process."""
+        if self.client is None:
+            yield from objs
+            return
+        workers = sorted(self.client.scheduler_info(n_workers=-1).get("workers", {}))
+        for i, obj in enumerate(objs):
+            yield self.client.scatter(obj, hash=False,
+                                      workers=[workers[i % len(workers)]] if workers else None)  # fmt: skip
+
     def call(self, fn: Callable[..., Any], *args: Any) -> Any:
         """A lazy ``fn(*args)`` (a ``dask.delayed``); ``args`` may hold other calls' results.
 
@@ -249,21 +261,26 @@ class Runner:
         dask = require("dask")
         return dask.delayed(fn, pure=False)(*args)
 
-    def run(self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]],
+    def run(self, calls: Iterable[tuple[Callable[..., Any], tuple[Any, ...]]],
             on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
         """Run ``fn(*args)`` for every call; ``on_result(i, result)`` as each completes.
 
         ``on_result`` runs on the calling thread.  If it raises, the remaining
-        tasks are cancelled and the exception propagates.
+        tasks are cancelled and the exception propagates.  ``calls`` may be
+        a generator: on a ``distributed`` cluster each call is submitted as
+        soon as it is produced (the others schedulers take them all first).
 
         Raises
         ------
         RunError
             A worker died too often on one task, or the process pool broke.
         """
-        if not calls:
+        if self.client is not None:
+            self._compute_distributed((self.call(fn, *args) for fn, args in calls), on_result)
             return
-        self.compute([self.call(fn, *args) for fn, args in calls], on_result)
+        outputs = [self.call(fn, *args) for fn, args in calls]
+        if outputs:
+            self._compute_local(outputs, on_result)
 
     def compute(self, outputs: Sequence[Any], on_result: Callable[[int, Any], None]) -> None:
         """Compute lazy calls (:meth:`call`) and everything they depend on.
@@ -322,19 +339,26 @@ class Runner:
                 ) from exc
             raise
 
-    def _compute_distributed(self, outputs: Sequence[Any],
+    def _compute_distributed(self, outputs: Iterable[Any],
                              on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
         distributed = require("distributed")
-        futures = self.client.compute(list(outputs))
-        index = {f.key: i for i, f in enumerate(futures)}
+        futures: list[Any] = []
+        index: dict[Any, int] = {}
+        done = distributed.as_completed()
         try:
-            for fut in distributed.as_completed(futures):
+            # submitted one by one: the first run while the next are prepared
+            for out in outputs:
+                fut = self.client.compute(out)
+                index[fut.key] = len(futures)
+                futures.append(fut)
+                done.add(fut)
+            for fut in done:
                 try:
                     result = fut.result()
                 except (distributed.scheduler.KilledWorker,
                         distributed.client.FutureCancelledError) as exc:  # fmt: skip
                     raise RunError(
-                        f"task {index[fut.key]} of {len(outputs)} killed the workers it ran on "
+                        f"task {index[fut.key]} of {len(futures)} killed the workers it ran on "
                         f"or was lost with them ({type(exc).__name__}: {exc}); what finished "
                         f"is saved, run again to resume"
                     ) from exc
