@@ -32,7 +32,10 @@ Layout of the work:
 * a scalar loop adds the values to the accumulator; pieces across listener
   captures (the velocity, hence df/dt, jumps there) are split exactly
   (:func:`_piece_across`), arrivals beyond the candidate lines are solved in
-  full (:func:`_piece_general`);
+  full (:func:`_piece_general`); the emissions at a capture of all the
+  pieces split there fall on one sample with one offset, so they are summed
+  in a small per-task table (a row per capture, in cache) and added to the
+  accumulator once (:func:`_flush_captures`);
 * the accumulator is skewed (level j of an impulse at m + j is stored in row
   m, so an emission touches one 32-byte row) with the channels of a sample
   side by side; threads take contiguous ranges of pieces and accumulate into
