@@ -139,18 +139,6 @@ def _subset(tracks: SourceTracks, a: int, b: int) -> SourceTracks:
                         index=None if tracks.index is None else tracks.index[a:b])  # fmt: skip
 
 
-def _group(tracks: SourceTracks, ranges: list[tuple[int, int]]) -> SourceTracks:
-    """The sources of ``ranges`` (views for one range; else copies, in order)."""
-    if len(ranges) == 1:
-        return _subset(tracks, *ranges[0])
-    parts = [_subset(tracks, a, b) for a, b in ranges]
-    return SourceTracks(positions=np.concatenate([p.positions for p in parts]),
-                        q=np.concatenate([p.q for p in parts]),
-                        radius=np.concatenate([p.radius for p in parts]), times=tracks.times,
-                        index=None if tracks.index is None
-                        else np.concatenate([p.index for p in parts]))  # fmt: skip
-
-
 class PackedTracks:
     """Source tracks as they travel to a worker: the strengths ``q`` as their
     non-zero entries only (a volume's vertices sound a small part of the time:
@@ -285,7 +273,7 @@ def render_distributed(
         # each group's tracks go to the cluster once (not to every worker),
         # packed when they leave this process; a worker keeps them, and their
         # piece list, between its tasks.  (In this process a group is one
-        # range: views, no copy.)
+        # range, passed as views: no copy.)
         local = run.scheduler in ("sync", "threads")
         ranges = source_groups(tracks, groups, 1 if local else STRIPES)
         kw: dict[str, Any] = {"time_scale": time_scale, "interp": interp, "layout": lay,
@@ -296,7 +284,7 @@ def render_distributed(
         def calls() -> Iterator[tuple[Any, tuple[Any, ...]]]:
             """Group by group: packed, sent, its blocks submitted (the workers
             start on the first groups while the next are being packed)."""
-            packed = (_group(tracks, r) if local else PackedTracks(tracks, r) for r in ranges)
+            packed = (_subset(tracks, *r[0]) if local else PackedTracks(tracks, r) for r in ranges)
             for part in run.place_each(packed):
                 for i in range(n_blocks):
                     yield render_block, (part, pa, edges[i], edges[i + 1], rate, kw,
