@@ -445,6 +445,15 @@ def test_distributed_synthesis_blocks_join_without_seams(
     with Runner("distributed", workers=2, processes=False, log=None) as run:
         dist = render_distributed(tracks, path, rate=16000, layout="ring8", groups=3,
                                   block_seconds=0.15, runner=run)  # fmt: skip
+        # inputs placed one at a time go to the workers in turn, and a
+        # generator of calls is submitted as it is produced
+        placed = list(run.place_each(np.full(3, k) for k in range(4)))
+        owners = run.client.who_has(placed)
+        first = [next(iter(owners[f.key])) for f in placed]
+        assert first[0] != first[1] and first[0] == first[2] and first[1] == first[3]
+        got_sums: dict[int, float] = {}
+        run.run(((np.sum, (f,)) for f in placed), lambda i, r: got_sums.update({i: r}))
+        assert got_sums == {k: 3.0 * k for k in range(4)}
     assert dist.meta["groups"] == 3 and dist.meta["blocks"] == 3 and dist.meta["workers"] == 2
     assert np.max(np.abs(dist.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
     with pytest.raises(ParameterError, match="block_seconds must be > 0"):
