@@ -103,6 +103,16 @@ class TimeVolume:
         indices at :data:`DEFAULT_FRAME_RATE_HZ`.
     source : str
         Where the volume came from (for messages).
+    check_finite : bool
+        True: :meth:`frame` raises :class:`~auralize.errors.DataError` on
+        NaN/Inf at valid points (``--nan error``); False: NaN, fill values and
+        masked cells stay NaN in the frames as no-data (``--nan mask``).
+    attrs : dict
+        Free-form metadata (dataset name, units, centring ...).
+    valid : ndarray of bool, shape (nz, ny, nx), optional
+        True where the grid point lies inside the input mesh (resampled
+        curvilinear or unstructured meshes); frames hold NaN where it is
+        False.  ``None`` means every point is valid.  Static over time.
 
     Examples
     --------
@@ -123,6 +133,7 @@ class TimeVolume:
     source: str = "<memory>"
     check_finite: bool = True
     attrs: dict[str, object] = field(default_factory=dict)
+    valid: NDArray[np.bool_] | None = None
 
     def __post_init__(self) -> None:
         self.origin = _vec3(self.origin, "origin")
@@ -144,6 +155,14 @@ class TimeVolume:
                 f"t[{bad}]={self.times[bad]!r} >= t[{bad + 1}]={self.times[bad + 1]!r}"
             )
         nx, ny, nz = self.dims
+        if self.valid is not None:
+            valid = np.asarray(self.valid)
+            if valid.shape != (nz, ny, nx):
+                raise DataError(
+                    f"{self.source}: the valid-point mask has shape {valid.shape}; the grid "
+                    f"(nx, ny, nz)={self.dims} needs {(nz, ny, nx)}"
+                )
+            self.valid = None if valid.all() else valid.astype(bool, copy=False)
         for name, src in self.fields.items():
             shape = tuple(src.frame_shape)
             if shape not in ((nz, ny, nx), (nz, ny, nx, 3)):
@@ -249,11 +268,18 @@ class TimeVolume:
         step = step % self.n_steps
         arr = np.asarray(src.read(step), dtype=np.float64)
         if self.check_finite and not np.all(np.isfinite(arr)):
-            bad = int(np.count_nonzero(~np.isfinite(arr)))
-            raise DataError(
-                f"{self.source}: field {name!r} at step {step} (t={self.times[step]:g} s) "
-                f"has {bad} NaN/Inf values; clean the data or mask them before auralizing"
-            )
+            bad_points = ~np.isfinite(arr)
+            if bad_points.ndim == 4:
+                bad_points = bad_points.any(axis=-1)
+            if self.valid is not None:
+                bad_points &= self.valid
+            bad = int(np.count_nonzero(bad_points))
+            if bad:
+                raise DataError(
+                    f"{self.source}: field {name!r} at step {step} (t={self.times[step]:g} s) "
+                    f"has {bad} NaN/Inf values (fill values or masked cells); use --nan mask "
+                    f"(nan='mask') to treat them as no-data, or clean the data"
+                )
         return arr
 
     def iter_frames(self, name: str) -> Iterator[NDArray[np.float64]]:
@@ -267,6 +293,7 @@ class TimeVolume:
             origin=self.origin.copy(), spacing=self.spacing.copy(), dims=self.dims,
             times=self.times.copy(), fields=dict(loaded),
             physical_times=self.physical_times, source=self.source,
+            check_finite=self.check_finite, attrs=dict(self.attrs), valid=self.valid,
         )  # fmt: skip
 
     def axis_coords(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -287,6 +314,19 @@ class TimeVolume:
         p = np.asarray(pts, dtype=np.float64).reshape(-1, 3)
         return np.all((p >= b[:, 0] - tol) & (p <= b[:, 1] + tol), axis=1)
 
+    @property
+    def valid_ratio(self) -> float:
+        """Fraction of grid points inside the input mesh (1.0 without a mask)."""
+        if self.valid is None:
+            return 1.0
+        return float(np.count_nonzero(self.valid)) / float(self.valid.size)
+
+    def valid_mask(self) -> NDArray[np.bool_]:
+        """The valid-point mask ``(nz, ny, nx)`` (all True when :attr:`valid` is None)."""
+        if self.valid is None:
+            return np.ones(self.shape, dtype=bool)
+        return self.valid
+
     def describe(self) -> dict[str, object]:
         """A JSON-able summary (used by ``auralize info``)."""
         return {
@@ -299,6 +339,7 @@ class TimeVolume:
             "t_start": float(self.times[0]),
             "t_end": float(self.times[-1]),
             "physical_times": self.physical_times,
+            "valid_ratio": self.valid_ratio,
             "fields": {
                 k: ("vector" if len(v.frame_shape) == 4 else "scalar")
                 for k, v in self.fields.items()

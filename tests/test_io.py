@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -420,8 +421,11 @@ def test_openfoam_cavity(tmp_path: Path) -> None:
     with zipfile.ZipFile(CAVITY_ZIP) as z:
         z.extractall(tmp_path)
     case = tmp_path / "OpenFOAM" / "cavity"
-    with pytest.warns(ResampledWarning, match=r"UnstructuredGrid with 882 points resampled"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResampledWarning)  # a blockMesh box keeps its lattice
         vol = open_volume(case / "case.foam")
+    assert vol.dims == (21, 21, 2) and vol.valid is None and vol.valid_ratio == 1.0
+    np.testing.assert_allclose(vol.spacing, [0.005, 0.005, 0.01], rtol=1e-6)
     np.testing.assert_allclose(vol.times, [0.0, 0.5, 1.0, 1.5, 2.0, 2.5])
     assert vol.physical_times and set(vol.field_names) == {"U", "p"}
     assert vol.is_vector("U") and not vol.is_vector("p")
@@ -432,7 +436,7 @@ def test_openfoam_cavity(tmp_path: Path) -> None:
     assert np.all(np.isfinite(u)) and 0.5 < np.abs(u[..., 0]).max() <= 1.0 + 1e-6
     assert vol.frame("p", 3).shape == (nz, ny, nx)
     # The case folder works too, with a chosen resolution and a field subset.
-    with pytest.warns(ResampledWarning, match="onto a uniform grid of 11x11x2 points"):
+    with pytest.warns(ResampledWarning, match="21x21x2 grid onto 11x11x2 points"):
         sub = open_volume(case, fields=["U"], resolution=(11, 11, 2))
     assert sub.field_names == ["U"] and sub.frame("U", 1).shape == (2, 11, 11, 3)
 
@@ -488,10 +492,15 @@ def test_nan_field_raises_on_read(tmp_path: Path) -> None:
     rho = np.ones((3, 2, 2, 2))
     rho[1, 0, 1, 0] = np.nan
     write_v1(tmp_path / "nan.h5", {"rho": rho}, times=[0.0, 0.1, 0.2])
-    vol = open_volume(tmp_path / "nan.h5")  # lazy: opening does not look at the values
+    vol = open_volume(tmp_path / "nan.h5", nan="error")  # lazy: opening reads no values
     vol.frame("rho", 0)
     with pytest.raises(DataError, match=r"nan\.h5: field 'rho' at step 1 .* 1 NaN/Inf"):
         vol.frame("rho", 1)
+    # The default keeps NaN as no-data.
+    masked = open_volume(tmp_path / "nan.h5")
+    assert np.count_nonzero(np.isnan(masked.frame("rho", 1))) == 1
+    with pytest.raises(ParameterError, match=r"nan='drop'; valid are mask, error"):
+        open_volume(tmp_path / "nan.h5", nan="drop")
 
 
 def test_mismatched_field_shapes(tmp_path: Path) -> None:
@@ -510,8 +519,11 @@ def test_bad_arguments_and_kinds(tmp_path: Path) -> None:
         open_volume(tmp_path / "v.h5", resolution=1)
     with pytest.raises(ParameterError, match="gives more than one field the name"):
         open_volume(tmp_path / "v.h5", name_map={"rho": "x", "vel": "x"})
+    (tmp_path / "v.abc").write_text("1 2 3")
+    with pytest.raises(FormatError, match=r"v\.abc: unknown file kind '\.abc'.*\.nc.*meshio convert"):
+        open_volume(tmp_path / "v.abc")
     (tmp_path / "v.xyz").write_text("1 2 3")
-    with pytest.raises(FormatError, match=r"v\.xyz: unknown file kind '\.xyz'"):
+    with pytest.raises(FormatError, match=r"v\.xyz: a PLOT3D grid file, but no solution"):
         open_volume(tmp_path / "v.xyz")
     with pytest.raises(FormatError, match=r"cannot write '\.csv' files"):
         save_volume(make_volume(), tmp_path / "v.csv")

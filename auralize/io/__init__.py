@@ -15,22 +15,37 @@ VTKHDF (``/VTKHDF`` group; ``.vtkhdf``,   :func:`auralize.io.paraview.read_vtkhd
 ``.series`` (ParaView JSON)               :func:`auralize.io.paraview.read_series`
 ``.vti``, ``.vts``, ``.vtr``, ``.vtu``    :func:`auralize.io.paraview.read_mesh_file`
 ... (one step)
+``.vtm`` multiblock                       :func:`auralize.io.paraview.read_mesh_file`
+                                          (blocks merged)
 OpenFOAM case folder, ``.foam``,          :func:`auralize.io.openfoam.read_openfoam`
 ``controlDict``
+``.xdmf``/``.xmf`` (dolfinx, meshio)      :func:`auralize.io.vtk_readers.read_xdmf`
+``.case`` EnSight Gold                    :func:`auralize.io.vtk_readers.read_ensight`
+PLOT3D ``.xyz``/``.x``/``.g``/``.q``,     :func:`auralize.io.vtk_readers.read_plot3d`
+``*xyz*.bin`` + ``*q*.bin``
+``.vthb``/``.vth`` AMR                    :func:`auralize.io.vtk_readers.read_amr`
+``.nc`` netCDF classic / netCDF4 (CF)     :func:`auralize.io.netcdf.read_netcdf`
+any other kind ``pyvista.get_reader``      :func:`auralize.io.vtk_readers.read_with_pyvista`
+opens (Exodus, CGNS, FLUENT ...)
 ========================================  ==========================================
 
-Uniform grids keep their points.  Curvilinear, rectilinear (unevenly spaced),
-unstructured and OpenFOAM meshes are sampled onto a uniform grid covering
-their bounds, with a :class:`ResampledWarning`.
+Uniform grids keep their points, and so do meshes whose points form an evenly
+spaced axis-aligned lattice (OpenFOAM ``blockMesh`` boxes, 2-D slabs one cell
+thick).  Curvilinear, rectilinear (unevenly spaced) and unstructured meshes
+are sampled onto a uniform grid covering their bounds, with a
+:class:`ResampledWarning`; grid points outside the mesh are never
+extrapolated: they are NaN in the frames and False in
+:attr:`TimeVolume.valid <auralize.volume.TimeVolume.valid>`.
 """
 
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
-from auralize.errors import FormatError
+from auralize.errors import FormatError, ParameterError
 from auralize.io._common import FieldsArg, ResampledWarning, require_exists
 from auralize.io.resample import ResolutionArg, check_resolution, resample_uniform
 from auralize.volume import TimeVolume
@@ -63,6 +78,13 @@ READ_SUFFIXES = (
     ".pvts",
     ".pvtr",
     ".pvtu",
+    ".xdmf",
+    ".xmf",
+    ".case",
+    ".xyz",
+    ".q",
+    ".vthb",
+    ".nc",
 )
 #: File name endings :func:`save_volume` writes.
 WRITE_SUFFIXES = (".h5", ".hdf5", ".pvd")
@@ -74,6 +96,7 @@ def open_volume(
     fields: FieldsArg | Mapping[str, object] = None,
     resolution: ResolutionArg = None,
     name_map: Mapping[str, str] | None = None,
+    nan: str = "mask",
 ) -> TimeVolume:
     """Open a volume time series, reading frames lazily.
 
@@ -99,6 +122,11 @@ def open_volume(
     name_map : mapping of str to str, optional
         ``{name in the file: volume name}``, e.g. ``{"U": "velocity", "p":
         "pressure"}``; names missing from the file are ignored.
+    nan : {"mask", "error"}
+        What NaN, fill values and masked cells are: ``"mask"`` keeps them as
+        NaN (no-data) in the frames; ``"error"`` makes reading a frame that
+        holds any at a valid point raise :class:`DataError` naming the file,
+        field and step.
 
     Returns
     -------
@@ -136,24 +164,57 @@ def open_volume(
     >>> again.field_names, again.times.tolist()
     (['rho'], [0.0, 0.1, 0.2])
     """
-    from auralize.io import hdf5, openfoam, paraview
+    if nan not in NAN_POLICIES:
+        raise ParameterError(f"{path}: nan={nan!r}; valid are {', '.join(NAN_POLICIES)}")
+    volume = _open(path, fields=fields, resolution=resolution, name_map=name_map)
+    volume.check_finite = nan == "error"
+    return volume
+
+
+#: What ``nan=`` may be.
+NAN_POLICIES = ("mask", "error")
+
+
+def _open(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg | Mapping[str, object],
+    resolution: ResolutionArg,
+    name_map: Mapping[str, str] | None,
+) -> TimeVolume:
+    from auralize.io import hdf5, netcdf, openfoam, paraview, vtk_readers
 
     p = Path(path).expanduser()
     require_exists(p)
     resolution = check_resolution(resolution, source=str(p))
     suffix = p.suffix.lower()
+    opts: dict[str, object] = {"fields": fields, "resolution": resolution, "name_map": name_map}
     if p.is_dir() or suffix == ".foam" or p.name == "controlDict":
-        return openfoam.read_openfoam(p, fields=fields, resolution=resolution, name_map=name_map)
+        return openfoam.read_openfoam(p, **opts)  # type: ignore[arg-type]
     if suffix == ".pvd":
-        return paraview.read_pvd(p, fields=fields, resolution=resolution, name_map=name_map)
+        return paraview.read_pvd(p, **opts)  # type: ignore[arg-type]
     if suffix == ".series":
-        return paraview.read_series(p, fields=fields, resolution=resolution, name_map=name_map)
+        return paraview.read_series(p, **opts)  # type: ignore[arg-type]
     if suffix in paraview.MESH_SUFFIXES:
-        return paraview.read_mesh_file(p, fields=fields, resolution=resolution, name_map=name_map)
+        return paraview.read_mesh_file(p, **opts)  # type: ignore[arg-type]
+    if suffix in vtk_readers.XDMF_SUFFIXES:
+        return vtk_readers.read_xdmf(p, **opts)  # type: ignore[arg-type]
+    if suffix == ".case":
+        return vtk_readers.read_ensight(p, **opts)  # type: ignore[arg-type]
+    if suffix in vtk_readers.AMR_SUFFIXES:
+        return vtk_readers.read_amr(p, **opts)  # type: ignore[arg-type]
+    if suffix in netcdf.NETCDF_SUFFIXES:
+        return netcdf.read_netcdf(p, **opts)  # type: ignore[arg-type]
+    if suffix in (*vtk_readers.PLOT3D_GRID_SUFFIXES, ".q") or (
+        suffix == ".bin" and re.search("xyz|q", p.stem, flags=re.I)
+    ):
+        return vtk_readers.read_plot3d(p, **opts)  # type: ignore[arg-type]
     if suffix in HDF5_SUFFIXES or _looks_like_hdf5(p):
         kind = hdf5.sniff(p)
         if kind == "vtkhdf":
-            return paraview.read_vtkhdf(p, fields=fields, resolution=resolution, name_map=name_map)
+            return paraview.read_vtkhdf(p, **opts)  # type: ignore[arg-type]
+        if kind == "netcdf4" and not hdf5.wants_generic(kind, fields):
+            return netcdf.read_netcdf(p, **opts)  # type: ignore[arg-type]
         if hdf5.wants_generic(kind, fields):
             assert isinstance(fields, Mapping)
             volume = hdf5.read_generic_hdf5(p, fields, name_map=name_map)
@@ -162,9 +223,14 @@ def open_volume(
         else:
             raise FormatError(_not_a_volume_message(p))
         return resample_uniform(volume, resolution)
+    if suffix in vtk_readers.pyvista_suffixes():
+        return vtk_readers.read_with_pyvista(p, **opts)  # type: ignore[arg-type]
     raise FormatError(
-        f"{p}: unknown file kind {suffix or '(no suffix)'!r}; open_volume reads "
-        f"{', '.join(READ_SUFFIXES)} files and OpenFOAM case folders"
+        f"{p}: unknown file kind {suffix or '(no suffix)'!r}; auralize reads "
+        f"{', '.join(READ_SUFFIXES)} files, OpenFOAM case folders and every kind "
+        f"pyvista.get_reader opens; convert the data to one of them, e.g. in ParaView "
+        f"(File > Save Data as .pvd/.vti or VTKHDF) or with meshio "
+        f"('meshio convert {p.name} {p.stem}.vtu')"
     )
 
 

@@ -63,19 +63,51 @@ def as_dataset(obj: object, *, label: str) -> pyvista.DataSet:
         return obj
     if isinstance(obj, pv.MultiBlock) and "internalMesh" in obj.keys():
         return as_dataset(obj["internalMesh"], label=label)
+    leaves = [b for b in _leaves(obj, label=label) if b.n_points > 0]
+    if not leaves:
+        raise FormatError(f"{label}: the file holds no points")
+    # Boundary parts (EnSight parts, OpenFOAM patches, XDMF surfaces) have cells of a
+    # lower dimension than the volume they bound: keep the highest-dimension blocks.
+    top = max(cell_dimension(b) for b in leaves)
+    blocks: list[Any] = []
+    for b in leaves:
+        if cell_dimension(b) != top:
+            continue
+        pts = np.asarray(b.points)
+        if any(o.n_points == b.n_points and np.array_equal(np.asarray(o.points), pts)
+               for o in blocks):  # fmt: skip
+            continue  # the same mesh listed twice (meshio's XDMF series, for one)
+        blocks.append(b)
+    if len(blocks) == 1:
+        return blocks[0]
+    return pv.MultiBlock(blocks).combine(merge_points=True)
+
+
+def _leaves(obj: Any, *, label: str) -> list[Any]:
+    pv = import_pyvista()
+    if obj is None:
+        return []
+    if not isinstance(obj, pv.DataObject):
+        obj = pv.wrap(obj)
+    if isinstance(obj, pv.DataSet):
+        return [obj]
     try:
-        blocks = [b for b in obj if b is not None]  # type: ignore[attr-defined]
+        children = list(obj)
     except TypeError:
         raise FormatError(
             f"{label}: holds a {type(obj).__name__}, not a mesh with point or cell data"
         ) from None
-    blocks = [as_dataset(b, label=label) for b in blocks]
-    blocks = [b for b in blocks if b.n_points > 0]
-    if not blocks:
-        raise FormatError(f"{label}: the file holds no points")
-    if len(blocks) == 1:
-        return blocks[0]
-    return pv.MultiBlock(blocks).combine()
+    return [leaf for child in children for leaf in _leaves(child, label=label)]
+
+
+def cell_dimension(mesh: Any) -> int:
+    """Largest topological dimension of ``mesh``'s cells (0 points ... 3 volumes)."""
+    from vtkmodules.vtkCommonDataModel import vtkCellTypes
+
+    if mesh.n_cells == 0:
+        return 0
+    types = {int(t) for t in mesh.distinct_cell_types}
+    return max(int(vtkCellTypes.GetDimension(int(t))) for t in types)
 
 
 def array_components(mesh: pyvista.DataSet) -> dict[str, int]:
@@ -190,38 +222,107 @@ class _SameGrid:
         return {n: _frame(a, (nz, ny, nx), name=n, label=label) for n, a in arrays.items()}
 
 
+def lattice_order(points: NDArray[np.floating]) -> tuple[Grid, NDArray[np.intp]] | None:
+    """Whether mesh points form a full, evenly spaced axis-aligned lattice.
+
+    OpenFOAM ``blockMesh`` boxes, unstructured exports of uniform grids and
+    axis-aligned structured grids are such lattices: their point data are
+    exact values at uniform grid points, with no interpolation needed.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Mesh point coordinates in metres.
+
+    Returns
+    -------
+    ((origin, spacing, dims), order) or None
+        ``order`` (N,) holds, for each C-order grid point ``(z, y, x)``, the
+        index of the mesh point there.  ``None`` when the points are not one
+        point per node of an evenly spaced lattice (relative tolerance 1e-5
+        of the mesh extent, which float32 coordinates meet).
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n = pts.shape[0]
+    if n < 2:
+        return None
+    ext = pts.max(axis=0) - pts.min(axis=0)
+    scale = float(ext.max())
+    if not np.isfinite(scale) or scale <= 0:
+        return None
+    tol = 1e-5 * scale
+    index = np.empty((n, 3), dtype=np.intp)
+    origin, spacing, dims = np.zeros(3), np.ones(3), [1, 1, 1]
+    for a in range(3):
+        c = pts[:, a]
+        order = np.argsort(c, kind="stable")
+        sc = c[order]
+        new = np.concatenate([[True], np.diff(sc) > tol])
+        levels = sc[new]
+        if levels.size > 1:
+            step = np.diff(levels)
+            h = (levels[-1] - levels[0]) / (levels.size - 1)
+            if np.any(np.abs(step - h) > tol):
+                return None
+            spacing[a] = h
+        dims[a] = int(levels.size)
+        origin[a] = levels[0]
+        index[order, a] = np.cumsum(new) - 1
+        if dims[0] * dims[1] * dims[2] > n:
+            return None
+    if dims[0] * dims[1] * dims[2] != n:
+        return None
+    active = [spacing[a] for a in range(3) if dims[a] > 1]
+    for a in range(3):
+        if dims[a] == 1:
+            spacing[a] = min(active) if active else 1.0
+    flat = (index[:, 2] * dims[1] + index[:, 1]) * dims[0] + index[:, 0]
+    order = np.full(n, -1, dtype=np.intp)
+    order[flat] = np.arange(n)
+    if np.any(order < 0):  # two points on one node
+        return None
+    return (origin, spacing, (dims[0], dims[1], dims[2])), order
+
+
+class _Lattice:
+    """Steps whose points are an evenly spaced lattice: reorder point data, no interpolation."""
+
+    def __init__(self, grid: Grid, order: NDArray[np.intp], points: NDArray[np.floating]) -> None:
+        self.origin, self.spacing, self.dims = grid
+        self.order = order
+        self._points = np.array(points, dtype=np.float64)
+
+    def convert(self, mesh: Any, names: Sequence[str], *, label: str) -> dict[str, NDArray]:
+        pts = np.asarray(mesh.points, dtype=np.float64)
+        if pts.shape != self._points.shape or not np.array_equal(pts, self._points):
+            found = lattice_order(pts)
+            if found is None or tuple(found[0][2]) != tuple(self.dims):
+                raise DataError(
+                    f"{label}: the mesh points moved off the first time step's lattice of "
+                    f"{describe_grid(self.origin, self.spacing, self.dims)}; every step of a "
+                    f"series must share one grid"
+                )
+            self.order, self._points = found[1], pts
+        nx, ny, nz = self.dims
+        arrays = point_arrays(mesh, names, label=label)
+        return {
+            n: _frame(np.asarray(a)[self.order], (nz, ny, nx), name=n, label=label)
+            for n, a in arrays.items()
+        }
+
+
 class _Sampler:
     """Sample any mesh onto a fixed uniform grid (linear interpolation in each cell).
 
-    Grid points outside the mesh take the value of the nearest point inside
-    (found by a Euclidean distance transform; cached while the mesh is static).
+    Grid points outside the mesh get NaN: nothing is extrapolated.  VTK's
+    probe (``vtkResampleWithDataSet``) marks which points it found a cell for
+    (``vtkValidPointMask``); :attr:`valid` is that mask at the first step.
     """
 
     def __init__(self, grid: Grid) -> None:
         self.origin, self.spacing, self.dims = grid
         self._target: Any = None
-        self._mask: NDArray[np.bool_] | None = None
-        self._fill: NDArray[np.intp] | None = None
-        self.outside = 0
-
-    def _fill_index(self, inside: NDArray[np.bool_], *, label: str) -> NDArray[np.intp] | None:
-        if inside.all():
-            return None
-        if not inside.any():
-            raise DataError(
-                f"{label}: no point of the uniform grid "
-                f"{describe_grid(self.origin, self.spacing, self.dims)} lies inside the mesh; "
-                f"the mesh may have no volume cells"
-            )
-        if self._mask is None or not np.array_equal(self._mask, inside):
-            from scipy.ndimage import distance_transform_edt
-
-            indices = distance_transform_edt(
-                ~inside, sampling=self.spacing[::-1], return_distances=False, return_indices=True
-            )
-            self._fill = np.ravel_multi_index(tuple(indices), inside.shape).ravel()
-            self._mask = inside
-        return self._fill
+        self.valid: NDArray[np.bool_] | None = None
 
     def convert(self, mesh: Any, names: Sequence[str], *, label: str) -> dict[str, NDArray]:
         pv = import_pyvista()
@@ -236,14 +337,19 @@ class _Sampler:
         for name, arr in arrays.items():
             src.point_data[name] = arr
         out = self._target.sample(src)
-        inside = np.asarray(out.point_data["vtkValidPointMask"]).astype(bool).reshape(nz, ny, nx)
-        self.outside = int(np.count_nonzero(~inside))
-        fill = self._fill_index(inside, label=label)
+        inside = np.asarray(out.point_data["vtkValidPointMask"]).astype(bool)
+        if self.valid is None:
+            self.valid = inside.reshape(nz, ny, nx)
+            if not inside.any():
+                raise DataError(
+                    f"{label}: no point of the uniform grid "
+                    f"{describe_grid(self.origin, self.spacing, self.dims)} lies inside the "
+                    f"mesh; the mesh may have no volume cells (pass a finer resolution=)"
+                )
         result = {}
         for name in names:
             a = np.array(out.point_data[name], dtype=np.float64)
-            if fill is not None:
-                a = a[fill]
+            a[~inside] = np.nan
             result[name] = _frame(a, (nz, ny, nx), name=name, label=label)
         return result
 
@@ -268,7 +374,7 @@ class MeshSteps:
 
     loader: Loader
     labels: Sequence[str]
-    converter: _SameGrid | _Sampler
+    converter: _SameGrid | _Lattice | _Sampler
     names: Sequence[str]
     n_loads: int = 0
     _step: int | None = None
@@ -355,23 +461,34 @@ def open_mesh_series(
     chosen = select_fields(usable, fields, name_map, source=source)
     names = list(dict.fromkeys(chosen.values()))
     geom = uniform_geometry(mesh0)
-    converter: _SameGrid | _Sampler
+    lattice = None if geom is not None else lattice_order(mesh0.points)
+    converter: _SameGrid | _Lattice | _Sampler
+    valid = None
     if geom is not None:
         origin, spacing, dims = geom
         converter = _SameGrid(geom)
         steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
+    elif lattice is not None:
+        (origin, spacing, dims), order = lattice
+        converter = _Lattice((origin, spacing, dims), order, mesh0.points)
+        steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
+        steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
     else:
         origin, spacing, dims = grid_for_bounds(
             mesh0.bounds, n_points=mesh0.n_points, resolution=resolution, source=source
         )
-        converter = _Sampler((origin, spacing, dims))
+        sampler = _Sampler((origin, spacing, dims))
+        converter = sampler
         steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
         steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
+        valid = sampler.valid
+        assert valid is not None
+        n_out = int(np.count_nonzero(~valid))
         how = "automatic" if resolution is None else f"resolution={resolution!r}"
         outside = (
-            f"; {converter.outside} of {int(np.prod(dims))} grid points lie outside the mesh "
-            f"and take the value of the nearest point inside"
-            if converter.outside
+            f"; {n_out} of {valid.size} grid points ({100.0 * n_out / valid.size:.1f} %) lie "
+            f"outside the mesh and are no-data (NaN, valid=False)"
+            if n_out
             else ""
         )
         warn_resampled(
@@ -397,7 +514,13 @@ def open_mesh_series(
         fields=frames,
         physical_times=physical_times,
         source=source,
+        valid=valid,
     )
-    if geom is not None:
+    volume.attrs["centring"] = {
+        vol_name: ("point" if file_name in mesh0.point_data.keys() else "cell")
+        for vol_name, file_name in chosen.items()
+    }
+    volume.attrs["mesh"] = f"{type(mesh0).__name__} with {mesh0.n_points} points"
+    if geom is not None or lattice is not None:
         volume = resample_uniform(volume, resolution)
     return volume

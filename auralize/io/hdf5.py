@@ -46,7 +46,7 @@ GENERIC_META_KEYS = ("time", "origin", "spacing")
 
 _AXES_ORDERS = ("tzyx", "txyz")
 
-HDF5Kind = Literal["auralize", "vtkhdf", "generic"]
+HDF5Kind = Literal["auralize", "vtkhdf", "netcdf4", "generic"]
 
 
 @dataclass
@@ -118,6 +118,11 @@ def sniff(path: Path) -> HDF5Kind:
                 return "vtkhdf"
             if "auralize_format" in f.attrs:
                 return "auralize"
+            if "_NCProperties" in f.attrs or any(
+                isinstance(obj, h5py.Dataset) and "DIMENSION_LIST" in obj.attrs
+                for obj in f.values()
+            ):
+                return "netcdf4"
             return "generic"
     except OSError as exc:
         raise FormatError(
@@ -307,7 +312,21 @@ def _read_v1(
     physical = True
     if "physical_times" in f.attrs:
         physical = bool(np.asarray(f.attrs["physical_times"]).reshape(-1)[0])
-    return TimeVolume(
+    valid = None
+    if "valid" in f:
+        obj = f["valid"]
+        if not isinstance(obj, h5py.Dataset) or obj.shape != (nz, ny, nx):
+            raise FormatError(
+                f"{path}: /valid must be a boolean dataset of shape {(nz, ny, nx)} (the "
+                f"fields' grid); got {getattr(obj, 'shape', type(obj).__name__)}"
+            )
+        valid = np.asarray(obj[()]).astype(bool)
+    units = {
+        name: _attr_str(group[stored].attrs["units"])
+        for name, stored in chosen.items()
+        if "units" in group[stored].attrs
+    }
+    volume = TimeVolume(
         origin=origin,
         spacing=spacing,
         dims=(nx, ny, nz),
@@ -315,7 +334,11 @@ def _read_v1(
         fields=frames,
         physical_times=physical,
         source=str(path),
+        valid=valid,
     )
+    if units:
+        volume.attrs["units"] = units
+    return volume
 
 
 # --------------------------------------------------------------------------- generic reader
@@ -540,6 +563,10 @@ def write_hdf5(
             grid.attrs["origin"] = np.asarray(volume.origin, dtype=np.float64)
             grid.attrs["spacing"] = np.asarray(volume.spacing, dtype=np.float64)
             grid.attrs["dims"] = np.asarray(volume.dims, dtype=np.int64)
+            if volume.valid is not None:
+                f.create_dataset("valid", data=np.asarray(volume.valid, dtype=bool))
+            units = volume.attrs.get("units")
+            units = units if isinstance(units, dict) else {}
             group = f.create_group("fields", track_order=True)
             for name in volume.field_names:
                 shape = tuple(volume.fields[name].frame_shape)
@@ -550,6 +577,8 @@ def write_hdf5(
                     chunks=(1, *shape),
                     **opts,
                 )
+                if isinstance(units.get(name), str) and units[name]:
+                    ds.attrs["units"] = units[name]
                 for step in range(volume.n_steps):
                     ds[step] = volume.frame(name, step)
         fsync_path(tmp)

@@ -211,9 +211,18 @@ def resample_uniform(volume: TimeVolume, resolution: ResolutionArg) -> TimeVolum
         name: UniformResampledFrames(src, idx[0], idx[1], idx[2])
         for name, src in volume.fields.items()
     }
+    valid = None
+    if volume.valid is not None:
+        # A new point is valid only when every source point its trilinear weights touch is.
+        weight = volume.valid.astype(np.float64)
+        weight = _interp_axis(weight, 2, idx[0])
+        weight = _interp_axis(weight, 1, idx[1])
+        valid = _interp_axis(weight, 0, idx[2]) > 1.0 - 1e-9
     warn_resampled(
         f"{volume.source}: resampled the uniform {volume.dims[0]}x{volume.dims[1]}x"
         f"{volume.dims[2]} grid onto {describe_grid(origin, spacing, dims)} "
         f"(resolution={resolution!r}), by trilinear interpolation"
     )
-    return dataclasses.replace(volume, origin=origin, spacing=spacing, dims=dims, fields=fields)
+    return dataclasses.replace(
+        volume, origin=origin, spacing=spacing, dims=dims, fields=fields, valid=valid
+    )

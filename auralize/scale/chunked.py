@@ -188,6 +188,8 @@ def chunked_volume(volume: TimeVolume) -> TimeVolume:
     )  # fmt: skip
     vol.physical_times = volume.physical_times
     vol.attrs = dict(volume.attrs)
+    vol.valid = volume.valid
+    vol.check_finite = volume.check_finite
     return vol
 
 
@@ -263,4 +265,5 @@ def slab_volume(volume: TimeVolume, z0: int, z1: int) -> TimeVolume:
         times=volume.times, fields={k: SlabFrames(v, z0, z1) for k, v in volume.fields.items()},
         physical_times=volume.physical_times, source=f"{volume.source}[z {z0}:{z1}]",
         check_finite=volume.check_finite,
+        valid=None if volume.valid is None else volume.valid[z0:z1],
     )  # fmt: skip

@@ -1,0 +1,355 @@
+"""Files VTK's own readers open: XDMF, EnSight Gold, PLOT3D, AMR, multiblock and the rest.
+
+Each reader here hands :func:`auralize.io._mesh.open_mesh_series` a loader
+that reads one time step per call with a VTK reader (through pyvista), so
+volumes stay lazy: one step in memory at a time, and opening reads the time
+values plus the first step (to learn the grid and the arrays).
+
+=====================================  ==============================================
+input                                  reader
+=====================================  ==============================================
+``.xdmf``, ``.xmf`` (XDMF 2/3, e.g.    :func:`read_xdmf` (VTK's ``vtkXdmfReader``)
+dolfinx/FEniCS, meshio series)
+``.case`` (EnSight Gold, transient     :func:`read_ensight` (``vtkEnSightGoldReader``)
+or single step)
+PLOT3D grid (``.xyz``, ``.x``, ``.g``,  :func:`read_plot3d` (``vtkMultiBlockPLOT3DReader``)
+``.grd``, ``*xyz*.bin``) + ``.q``
+series, or a ``.q`` next to its grid
+``.vthb``/``.vth`` (AMR)               :func:`read_amr` (merged leaf blocks, resampled)
+anything else ``pyvista.get_reader``   :func:`read_with_pyvista`
+opens
+=====================================  ==============================================
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import threading
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+from auralize.errors import AuralizeError, FormatError
+from auralize.io._common import FieldsArg, require_exists
+from auralize.io._mesh import import_pyvista, open_mesh_series
+from auralize.io.resample import ResolutionArg
+from auralize.volume import TimeVolume
+
+#: Grid-file endings of PLOT3D (solutions are ``.q``).
+PLOT3D_GRID_SUFFIXES = (".xyz", ".x", ".g", ".grd", ".p3dxyz")
+#: AMR file endings (VTK XML hierarchical box data).
+AMR_SUFFIXES = (".vthb", ".vth")
+XDMF_SUFFIXES = (".xdmf", ".xmf", ".xdmf3", ".xdmf2")
+
+
+class _TimeReaderSteps:
+    """Loader over the time values of one pyvista reader (kept open, one step per read)."""
+
+    def __init__(self, make: Callable[[], Any], label: str) -> None:
+        self._make = make
+        self._reader: Any = None
+        self._lock = threading.Lock()
+        self.label = label
+
+    def _get(self) -> Any:
+        if self._reader is None:
+            self._reader = self._make()
+        return self._reader
+
+    def times(self) -> list[float]:
+        with self._lock:
+            values = getattr(self._get(), "time_values", None)
+            return [float(t) for t in values] if values else []
+
+    def __call__(self, step: int) -> Any:
+        with self._lock:
+            reader = self._get()
+            values = getattr(reader, "time_values", None)
+            if values:
+                reader.set_active_time_value(values[step])
+            return reader.read()
+
+
+def _open_reader_series(
+    path: Path,
+    make: Callable[[], Any],
+    *,
+    kind: str,
+    fields: FieldsArg,
+    resolution: ResolutionArg,
+    name_map: Mapping[str, str] | None,
+) -> TimeVolume:
+    loader = _TimeReaderSteps(make, str(path))
+    try:
+        times = loader.times()
+    except AuralizeError:
+        raise
+    except Exception as exc:  # VTK raises many kinds; name the file and the kind
+        raise FormatError(f"{path}: cannot read as {kind} ({type(exc).__name__}: {exc})") from exc
+    physical = len(times) > 0
+    if not times:
+        times = [0.0]
+    return open_mesh_series(
+        source=str(path),
+        loader=loader,
+        labels=[f"{path} t={t:g}" for t in times] if physical else [str(path)],
+        times=times,
+        physical_times=physical,
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )
+
+
+# --------------------------------------------------------------------------- XDMF
+def read_xdmf(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open an XDMF (``.xdmf``/``.xmf``) time series as a lazy volume.
+
+    Read with VTK's XDMF reader: a temporal grid collection gives one step per
+    ``<Time Value=...>`` (seconds); heavy data stay in their HDF5 files until a
+    step is read.  A mesh grid listed beside the temporal collection (as
+    meshio writes it) is the same mesh and is not counted twice.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.xdmf``/``.xmf`` file.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    _check_xml(path, "XDMF", root="Xdmf")
+
+    def make() -> Any:
+        pv = import_pyvista()
+        return pv.XdmfReader(str(path))
+
+    return _open_reader_series(
+        path, make, kind="XDMF", fields=fields, resolution=resolution, name_map=name_map
+    )
+
+
+def _check_xml(path: Path, kind: str, *, root: str) -> None:
+    """A clear error for XML files that are not ``<root>`` documents (VTK would crash or hang)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        tag = ET.parse(path).getroot().tag
+    except ET.ParseError as exc:
+        raise FormatError(
+            f"{path}: not a valid {kind} file (XML error: {exc}); the file may be truncated"
+        ) from exc
+    if tag.rsplit("}", 1)[-1] != root:
+        raise FormatError(f"{path}: not a {kind} file (root element <{tag}>, expected <{root}>)")
+
+
+# --------------------------------------------------------------------------- EnSight
+def read_ensight(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open an EnSight Gold ``.case`` file (transient or single step) as a lazy volume.
+
+    A transient case gives one step per time value of its ``TIME`` section;
+    a case without one is a single step at time 0 (``physical_times=False``).
+    Boundary parts (lower-dimensional cells) are dropped; the volume parts
+    are merged.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    try:
+        head = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise FormatError(f"{path}: cannot read ({exc})") from exc
+    if "FORMAT" not in head.upper() or "GEOMETRY" not in head.upper():
+        raise FormatError(
+            f"{path}: not an EnSight case file (no FORMAT and GEOMETRY sections); the file "
+            f"may be truncated"
+        )
+
+    def make() -> Any:
+        pv = import_pyvista()
+        reader = pv.EnSightReader(str(path))
+        return reader
+
+    return _open_reader_series(
+        path, make, kind="EnSight Gold", fields=fields, resolution=resolution, name_map=name_map
+    )
+
+
+# --------------------------------------------------------------------------- PLOT3D
+def _natural_key(p: Path) -> list[object]:
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
+
+
+def plot3d_files(path: Path) -> tuple[Path, list[Path]]:
+    """The grid file and the solution (``.q``) files a PLOT3D path names.
+
+    A grid file (``.xyz``, ``.x``, ``.g``, ``.grd`` or a ``.bin`` whose name
+    holds ``xyz``) takes the ``.q`` files beside it that share its name's
+    stem (``flow.xyz`` -> ``flow*.q``; ``combxyz.bin`` -> ``combq.bin``), in
+    natural order; a ``.q`` file takes the grid beside it.
+    """
+    folder = path.parent
+    suffix = path.suffix.lower()
+    name = path.name
+    if suffix == ".q" or (suffix == ".bin" and "q" in path.stem.lower() and "xyz" not in name):
+        candidates = [
+            folder / (path.stem + s) for s in PLOT3D_GRID_SUFFIXES
+        ] + [folder / re.sub("q", "xyz", name, count=1, flags=re.I)]
+        stem = re.sub(r"[_.-]?\d+$", "", path.stem)
+        candidates += [folder / (stem + s) for s in PLOT3D_GRID_SUFFIXES]
+        grids = [c for c in candidates if c.is_file() and c != path]
+        if not grids:
+            raise FormatError(
+                f"{path}: a PLOT3D solution file needs its grid file beside it (looked for "
+                f"{', '.join(sorted({c.name for c in candidates}))}); open the grid file instead"
+            )
+        return grids[0], [path]
+    if suffix == ".bin":
+        q = folder / re.sub("xyz", "q", name, count=1, flags=re.I)
+        solutions = [q] if q.is_file() else []
+    else:
+        solutions = sorted(
+            (p for p in folder.glob(f"{path.stem}*") if p.suffix.lower() == ".q"), key=_natural_key
+        )
+    if not solutions:
+        raise FormatError(
+            f"{path}: a PLOT3D grid file, but no solution (.q) file was found beside it (looked "
+            f"for {path.stem}*.q); PLOT3D needs a grid and at least one .q file"
+        )
+    return path, solutions
+
+
+class _Plot3DSteps:
+    """Loader over ``.q`` files: one fresh reader per step (grid + that step's solution)."""
+
+    def __init__(self, grid: Path, solutions: list[Path]) -> None:
+        self.grid, self.solutions = grid, solutions
+
+    def __call__(self, step: int) -> Any:
+        pv = import_pyvista()
+        reader = pv.MultiBlockPlot3DReader(str(self.grid))
+        reader.auto_detect_format = True
+        reader.add_q_files([str(self.solutions[step])])
+        return reader.read()
+
+
+def read_plot3d(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open a PLOT3D grid plus its ``.q`` solution series as a lazy volume.
+
+    The q file's fields are named as VTK names them: ``Density``,
+    ``Momentum`` (vector), ``StagnationEnergy``.  PLOT3D holds no physical
+    times: steps are the ``.q`` files in natural order at 30 Hz
+    (``physical_times=False``).  The curvilinear grid is resampled onto a
+    uniform grid; points outside it are no-data.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+    grid, solutions = plot3d_files(path)
+    loader = _Plot3DSteps(grid, solutions)
+    from auralize.volume import DEFAULT_FRAME_RATE_HZ
+
+    return open_mesh_series(
+        source=str(path),
+        loader=loader,
+        labels=[f"{grid} + {q.name}" for q in solutions],
+        times=[n / DEFAULT_FRAME_RATE_HZ for n in range(len(solutions))],
+        physical_times=False,
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )
+
+
+# --------------------------------------------------------------------------- AMR, generic
+def read_amr(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open a VTK AMR file (``.vthb``/``.vth``): its boxes are merged and resampled.
+
+    Every level's boxes are read; coarse cells covered by finer boxes are
+    blanked by VTK, so the merged mesh samples the finest data available.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+
+    def make() -> Any:
+        from vtkmodules.vtkIOXML import vtkXMLUniformGridAMRReader
+
+        pv = import_pyvista()
+
+        class _AMR:
+            time_values: list[float] = []
+
+            def read(self) -> Any:
+                reader = vtkXMLUniformGridAMRReader()
+                reader.SetFileName(str(path))
+                reader.SetMaximumLevelsToReadByDefault(0)
+                reader.Update()
+                return pv.wrap(reader.GetOutputDataObject(0))
+
+        return _AMR()
+
+    return _open_reader_series(
+        path, make, kind="VTK AMR", fields=fields, resolution=resolution, name_map=name_map
+    )
+
+
+def read_with_pyvista(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open any file ``pyvista.get_reader`` knows (Exodus, CGNS, FLUENT, Nek5000 ...).
+
+    Time values come from the reader when it has them; meshes are merged and
+    resampled like every other mesh.
+    """
+    path = Path(path).expanduser()
+    require_exists(path)
+
+    def make() -> Any:
+        pv = import_pyvista()
+        return pv.get_reader(str(path))
+
+    return _open_reader_series(
+        path,
+        make,
+        kind=f"a {path.suffix} file",
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )
+
+
+def pyvista_suffixes() -> tuple[str, ...]:
+    """File endings ``pyvista.get_reader`` has a reader for."""
+    try:
+        from pyvista.core.utilities.reader import CLASS_READERS
+    except ImportError:  # pragma: no cover - layout of older pyvista
+        return ()
+    return tuple(sorted(CLASS_READERS))
