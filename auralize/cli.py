@@ -59,6 +59,12 @@ def add_volume_options(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--resolution", type=int, help="points per axis when resampling non-uniform grids"
     )
+    g.add_argument(
+        "--nan",
+        choices=["mask", "error"],
+        default="mask",
+        help="NaN, fill values and masked cells: mask = no-data (default), error = refuse",
+    )
     g.add_argument("--size", type=int, help="grid size of a built-in dataset")
     g.add_argument("--steps", type=int, help="time steps of a built-in dataset")
     g.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
@@ -67,10 +73,13 @@ def add_volume_options(p: argparse.ArgumentParser) -> None:
 def add_detect_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("detection")
     g.add_argument(
-        "--mapping", help="paper-density | identity | cfd (default: chosen from the fields)"
+        "--mapping",
+        help="paper-density | identity | cfd | incompressible (default: chosen from the fields)",
     )
     g.add_argument("--density-field", help="field holding density (identity/cfd)")
-    g.add_argument("--velocity-field", help="field holding velocity (identity/cfd)")
+    g.add_argument("--velocity-field", help="field holding velocity (identity/cfd/incompressible)")
+    g.add_argument("--momentum-field", help="field holding momentum ρv (cfd; e.g. PLOT3D Momentum)")
+    g.add_argument("--pressure-field", help="field holding pressure (incompressible; e.g. p)")
     g.add_argument("--log-density-field", help="field holding log10 density (paper-density)")
     for kind in ("monopole", "dipole", "quadrupole"):
         g.add_argument(
@@ -135,7 +144,8 @@ def _load(args: argparse.Namespace) -> Any:
     from auralize.pipeline import load
 
     return load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
-                fields=_field_map(args.field), resolution=args.resolution)  # fmt: skip
+                fields=_field_map(args.field), resolution=args.resolution,
+                nan=getattr(args, "nan", "mask"))  # fmt: skip
 
 
 def _thresholds(args: argparse.Namespace) -> Any:
@@ -153,7 +163,17 @@ def _mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
         out["velocity"] = args.velocity_field
     if args.log_density_field:
         out["field"] = args.log_density_field
+    if getattr(args, "momentum_field", None):
+        out["momentum"] = args.momentum_field
+    if getattr(args, "pressure_field", None):
+        out["pressure"] = args.pressure_field
     return out
+
+
+def _report_unavailable(command: str, series: Any) -> None:
+    """Say once, on stderr, which source types could not be computed and why."""
+    for kind, why in (series.meta.get("unavailable") or {}).items():
+        print(f"auralize {command}: note: no {kind} sources: {why}", file=sys.stderr)
 
 
 def _progress_wanted() -> bool:
@@ -162,20 +182,45 @@ def _progress_wanted() -> bool:
 
 # ----------------------------------------------------------------- commands
 def cmd_info(args: argparse.Namespace) -> int:
+    from auralize.mapping import ROLE_NAMES, match_field
+    from auralize.pipeline import auto_mapping
+
     vol = _load(args)
     d = vol.describe()
+    units = vol.attrs.get("units") if isinstance(vol.attrs.get("units"), dict) else {}
+    centring = vol.attrs.get("centring") if isinstance(vol.attrs.get("centring"), dict) else {}
+    roles = {r: match_field(vol, r) for r in ROLE_NAMES}
+    d["times"] = vol.times.tolist()
+    d["field_info"] = {
+        k: {"kind": d["fields"][k], "units": units.get(k), "centring": centring.get(k, "point")}  # type: ignore[index, union-attr]
+        for k in vol.field_names
+    }
+    d["roles"] = {r: f for r, f in roles.items() if f is not None}
+    d["mapping"] = auto_mapping(vol)
+    for key in ("time_units", "grid_units", "mesh"):
+        if key in vol.attrs:
+            d[key] = vol.attrs[key]
     if args.json:
-        print(json.dumps(d, indent=2))
+        print(json.dumps(d, indent=2, default=str))
         return 0
     print(f"{d['source']}")
+    if "mesh" in vol.attrs:
+        print(f"  mesh     {vol.attrs['mesh']}")
     print(f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "
           f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m")  # fmt: skip
     b = vol.bounds
     print(f"  bounds   x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m")
+    print(f"  valid    {100.0 * vol.valid_ratio:.1f} % of the grid points lie inside the mesh")
     tnote = "" if vol.physical_times else " (no physical times: frames at 30 Hz)"
     print(f"  times    {vol.n_steps} steps, {vol.times[0]:g} .. {vol.times[-1]:g} s{tnote}")
-    for name, kind in d["fields"].items():
-        print(f"  field    {name} ({kind})")
+    shown = ", ".join(f"{t:g}" for t in vol.times[:8]) + (" ..." if vol.n_steps > 8 else "")
+    print(f"           t = {shown} s"
+          + (f" ({vol.attrs['time_units']} in the file)" if "time_units" in vol.attrs else ""))  # fmt: skip
+    for name, info in d["field_info"].items():  # type: ignore[union-attr]
+        unit = f", {info['units']}" if info["units"] else ""
+        print(f"  field    {name} ({info['kind']}, {info['centring']} data{unit})")
+    role_text = ", ".join(f"{r}={f}" for r, f in d["roles"].items()) or "none recognised"  # type: ignore[union-attr]
+    print(f"  roles    {role_text}; default mapping {d['mapping']}")
     return 0
 
 
@@ -196,11 +241,15 @@ def cmd_detect(args: argparse.Namespace) -> int:
     from auralize.io.sources_file import save_sources_h5, save_sources_pvd
     from auralize.pipeline import detect_sources
 
-    vol = _load(args)
+    from auralize.volume import tally_nonfinite
+
+    vol, tally = tally_nonfinite(_load(args))
     t = time.perf_counter()
     series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
                             progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
+    series.meta["masked_fraction"] = tally.fraction
+    _report_unavailable("detect", series)
     out = Path(args.output)
     if out.suffix.lower() == ".pvd":
         save_sources_pvd(series, out)
@@ -213,6 +262,9 @@ def cmd_detect(args: argparse.Namespace) -> int:
         print(json.dumps({
             "output": str(out), "thresholds": series.thresholds.tolist(),
             "mapping": series.meta.get("mapping"),
+            "valid_ratio": series.meta.get("valid_ratio"),
+            "masked_fraction": series.meta.get("masked_fraction"),
+            "unavailable": series.meta.get("unavailable", {}),
             "steps": [{"step": n, "time": float(series.times[n]), **c} for n, c in enumerate(counts)],
             "seconds": elapsed,
         }, indent=2))  # fmt: skip
@@ -220,7 +272,9 @@ def cmd_detect(args: argparse.Namespace) -> int:
         tot = {k: sum(c[k] for c in counts) for k in ("monopole", "dipole", "quadrupole")}
         print(f"wrote {out}: {series.n_steps} steps in {elapsed:.2f} s; source points over all "
               f"steps: {tot['monopole']} monopole, {tot['dipole']} dipole, {tot['quadrupole']} "
-              f"quadrupole (thresholds {', '.join(f'{x:.4g}' for x in series.thresholds)})")  # fmt: skip
+              f"quadrupole (thresholds {', '.join(f'{x:.4g}' for x in series.thresholds)}); "
+              f"valid points {100.0 * vol.valid_ratio:.1f} %, masked (NaN) "
+              f"{100.0 * tally.fraction:.2f} %")  # fmt: skip
     return 0
 
 
@@ -231,15 +285,16 @@ def cmd_render(args: argparse.Namespace) -> int:
     path = listener_from_args(args)
     series = None
     if args.sources:
-        from auralize.io.sources_file import load_sources_h5
+        from auralize.io.sources_file import load_sources_for
 
-        series = load_sources_h5(args.sources)
+        series = load_sources_for(args.sources, vol)
     t = time.perf_counter()
     out, series = auralize(vol, path, mapping=args.mapping, thresholds=_thresholds(args),
                            rate=args.rate, time_scale=args.time_scale, interp=args.interp,
                            layout=args.layout, duration=args.duration if args.path is None else None,
                            series=series, progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
+    _report_unavailable("render", series)
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
     peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0

@@ -92,14 +92,14 @@ def _runner(args: argparse.Namespace) -> Any:
 
 def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:
     from auralize.cli import _mapping_fields, _thresholds
-    from auralize.pipeline import auto_mapping
+    from auralize.pipeline import resolve_mapping
     from auralize.scale import detect_distributed
 
     return detect_distributed(
-        vol, mapping=args.mapping or auto_mapping(vol), thresholds=_thresholds(args),
-        output=output, runner=runner, chunk_steps=args.chunk_steps, slab_planes=args.slab_planes,
+        vol, mapping=resolve_mapping(vol, args.mapping, **_mapping_fields(args)),
+        thresholds=_thresholds(args), output=output, runner=runner,
+        chunk_steps=args.chunk_steps, slab_planes=args.slab_planes,
         task_memory=int(args.task_memory * (1 << 30)), restart=args.restart,
-        **_mapping_fields(args),
     )  # fmt: skip
 
 

@@ -16,6 +16,16 @@ Presets (:func:`get_mapping`):
     ``density`` and ``velocity`` taken as they are (missing velocity = 0).
 ``cfd``
     ``density`` plus ``momentum`` (v = m/ρ) or ``velocity`` from CFD output.
+``incompressible``
+    Incompressible CFD (OpenFOAM ``p`` and ``U``, no density): density from
+    pressure by the linear acoustic relation ρ' = p'/c0², ρ = ρ0 + ρ'
+    (p' = p minus its mean at the first step); kinematic pressure (units
+    m² s⁻², OpenFOAM's incompressible solvers) is multiplied by ρ0 first.
+
+Field names default to the first match of each role in the volume
+(:func:`match_field`): case-insensitive, with the common conventions of
+OpenFOAM (``U``, ``p``, ``rho``), PLOT3D (``Density``, ``Momentum``) and
+VTK/ParaView (``velocity``, ``Velocity``, ``rho``, ``pressure``).
 
 A user function ``fn(frames: dict[str, ndarray]) -> (rho, velocity)`` is
 wrapped by :class:`FunctionMapping`.
@@ -36,10 +46,55 @@ from auralize.volume import TimeVolume
 Frame = NDArray[np.float64]
 
 
+#: Names each role goes by, compared case-insensitively, in order of preference.
+ROLE_NAMES: dict[str, tuple[str, ...]] = {
+    "density": ("density", "rho", "dens"),
+    "velocity": ("velocity", "u", "vel", "v", "flow_velocity"),
+    "momentum": ("momentum", "rhou", "rho_u", "mom"),
+    "pressure": ("pressure", "p", "press", "pres"),
+    "log10_density": ("log10_density", "log_density", "log10_rho", "logrho"),
+}
+#: Roles whose field is a 3-vector.
+VECTOR_ROLES = ("velocity", "momentum")
+
+
+def match_field(volume: TimeVolume, role: str) -> str | None:
+    """The field of ``volume`` that plays ``role`` (density, velocity, momentum, pressure).
+
+    Names are compared case-insensitively against :data:`ROLE_NAMES`; a
+    velocity or momentum must be a vector field, the others scalars.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"U": np.zeros((2, 2, 2, 2, 3)), "p": np.zeros((2, 2, 2, 2))})
+    >>> match_field(vol, "velocity"), match_field(vol, "pressure"), match_field(vol, "density")
+    ('U', 'p', None)
+    """
+    want_vector = role in VECTOR_ROLES
+    by_lower: dict[str, str] = {}
+    for name in volume.field_names:
+        if volume.is_vector(name) == want_vector:
+            by_lower.setdefault(name.lower(), name)
+    for candidate in ROLE_NAMES.get(role, (role,)):
+        if candidate in by_lower:
+            return by_lower[candidate]
+    return None
+
+
 class AcousticMapping:
     """Base class: ``prepare(volume)`` once, then ``map(volume, step)`` per step."""
 
     name = "base"
+
+    def unavailable(self, volume: TimeVolume) -> dict[str, str]:
+        """Source types this mapping cannot compute on ``volume``, with the reason.
+
+        A mapping without a velocity field gives v = 0, so no dipoles or
+        quadrupoles (their strengths need the momentum ρv).
+        """
+        return {}
 
     def required_fields(self) -> list[str]:
         return []
@@ -81,8 +136,91 @@ class IdentityMapping(AcousticMapping):
             v = np.zeros((*rho.shape, 3))
         return rho, v
 
+    def unavailable(self, volume: TimeVolume) -> dict[str, str]:
+        if self.velocity in volume.fields:
+            return {}
+        why = f"no velocity field ({self.velocity!r} is not in the volume)"
+        return {"dipole": why, "quadrupole": why}
+
     def describe(self) -> dict[str, object]:
         return {"name": self.name, "density": self.density, "velocity": self.velocity}
+
+
+@dataclass
+class IncompressibleMapping(AcousticMapping):
+    """Density from pressure for incompressible CFD: ρ = ρ0 + (p - p_ref)/c0².
+
+    The linear acoustic relation (isentropic, small amplitude) between a
+    pressure fluctuation and a density fluctuation, ρ' = p'/c0², gives an
+    incompressible solver's output (pressure and velocity, constant or no
+    density) a density whose time derivative is the monopole source.  The
+    reference ``p_ref`` is the mean pressure over the valid points of the
+    first step; the velocity is taken as it is (missing: zero, and no dipoles
+    or quadrupoles).
+
+    Parameters
+    ----------
+    pressure, velocity : str
+        Field names.
+    rho0 : float
+        Ambient density in kg/m³ (default 1.2).
+    c0 : float
+        Speed of sound in m/s (default 343).
+    kinematic : bool or None
+        True: the pressure field is kinematic (p/ρ, m² s⁻², as OpenFOAM's
+        incompressible solvers write it) and is multiplied by ``rho0``;
+        None: decided from the field's units (``attrs["units"]``).
+    """
+
+    pressure: str = "pressure"
+    velocity: str = "velocity"
+    rho0: float = 1.2
+    c0: float = 343.0
+    kinematic: bool | None = None
+    name = "incompressible"
+    _p_ref: float = dataclasses.field(default=np.nan, init=False, repr=False)
+    _scale: float = dataclasses.field(default=1.0, init=False, repr=False)
+    _prepared_for: int = dataclasses.field(default=0, init=False, repr=False)
+
+    def required_fields(self) -> list[str]:
+        return [self.pressure]
+
+    def prepare(self, volume: TimeVolume) -> None:
+        super().prepare(volume)
+        kinematic = self.kinematic
+        if kinematic is None:
+            units = volume.attrs.get("units")
+            unit = units.get(self.pressure, "") if isinstance(units, dict) else ""
+            kinematic = str(unit).replace(" ", "") in ("m2s-2", "m^2/s^2", "m2/s2", "m^2s^-2")
+        self._scale = self.rho0 if kinematic else 1.0
+        p0 = volume.frame(self.pressure, 0)
+        _check_scalar(volume, self.pressure, p0)
+        finite = np.isfinite(p0)
+        self._p_ref = float(p0[finite].mean()) if finite.any() else 0.0
+        self._prepared_for = id(volume)
+
+    def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
+        if self._prepared_for != id(volume):
+            self.prepare(volume)
+        p = volume.frame(self.pressure, step)
+        _check_scalar(volume, self.pressure, p)
+        rho = self.rho0 + (p - self._p_ref) * (self._scale / self.c0**2)
+        if self.velocity in volume.fields:
+            v = volume.frame(self.velocity, step)
+            _check_vector(volume, self.velocity, v)
+        else:
+            v = np.zeros((*rho.shape, 3))
+        return rho, v
+
+    def unavailable(self, volume: TimeVolume) -> dict[str, str]:
+        if self.velocity in volume.fields:
+            return {}
+        why = f"no velocity field ({self.velocity!r} is not in the volume)"
+        return {"dipole": why, "quadrupole": why}
+
+    def describe(self) -> dict[str, object]:
+        return {"name": self.name, "pressure": self.pressure, "velocity": self.velocity,
+                "rho0": self.rho0, "c0": self.c0, "kinematic_scale": self._scale}  # fmt: skip
 
 
 @dataclass
@@ -230,6 +368,7 @@ PRESETS: dict[str, type[AcousticMapping]] = {
     "paper-density": PaperDensityMapping,
     "identity": IdentityMapping,
     "cfd": CFDMapping,
+    "incompressible": IncompressibleMapping,
 }
 
 

@@ -347,6 +347,62 @@ class TimeVolume:
         }
 
 
+@dataclass
+class NonFiniteTally:
+    """Counts of NaN/Inf (no-data) values seen at valid points while frames are read."""
+
+    points_read: int = 0
+    nonfinite: int = 0
+
+    @property
+    def fraction(self) -> float:
+        """Masked (no-data) fraction of the valid points read so far."""
+        return self.nonfinite / self.points_read if self.points_read else 0.0
+
+
+@dataclass
+class _TalliedFrames:
+    base: FrameSource
+    valid: NDArray[np.bool_] | None
+    tally: NonFiniteTally
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.base.n_steps)
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:
+        return tuple(self.base.frame_shape)
+
+    def read(self, step: int) -> NDArray[np.floating]:
+        arr = np.asarray(self.base.read(step), dtype=np.float64)
+        bad = ~np.isfinite(arr)
+        if bad.ndim == 4:
+            bad = bad.any(axis=-1)
+        if self.valid is not None:
+            bad &= self.valid
+            self.tally.points_read += int(np.count_nonzero(self.valid))
+        else:
+            self.tally.points_read += int(bad.size)
+        self.tally.nonfinite += int(np.count_nonzero(bad))
+        return arr
+
+
+def tally_nonfinite(volume: TimeVolume) -> tuple[TimeVolume, NonFiniteTally]:
+    """The same volume, counting the NaN/Inf values at valid points of every frame read.
+
+    Used to report the masked fraction of a run without a second pass over
+    the data.
+    """
+    import dataclasses
+
+    tally = NonFiniteTally()
+    fields: dict[str, FrameSource] = {
+        k: _TalliedFrames(v, volume.valid, tally) for k, v in volume.fields.items()
+    }
+    return dataclasses.replace(volume, fields=fields), tally
+
+
 def _vec3(value: object, name: str) -> NDArray[np.float64]:
     arr = np.asarray(value, dtype=np.float64).reshape(-1)
     if arr.size == 1:

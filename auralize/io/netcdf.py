@@ -29,10 +29,11 @@ CF conventions honoured
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -104,10 +105,11 @@ class _Var:
     dims: tuple[str, ...]
     attrs: dict[str, Any]
     shape: tuple[int, ...]
-    handle: Any
+    dtype: np.dtype[Any]
+    reader: Any  # reader(index) -> ndarray copy
 
     def read(self, index: tuple[Any, ...] = ()) -> NDArray[Any]:
-        return np.asarray(self.handle[index] if index else self.handle[()])
+        return np.asarray(self.reader(index))
 
 
 class _Backend:
@@ -126,19 +128,8 @@ class _Backend:
                     f"with 'nccopy -k nc4 {path.name} out.nc'"
                 )
             self.kind = "classic"
-            from scipy.io import netcdf_file
-
-            try:
-                self._file = netcdf_file(str(path), "r", mmap=False, maskandscale=False)
-            except Exception as exc:  # scipy raises ValueError/TypeError/OSError on bad files
-                raise FormatError(
-                    f"{path}: cannot read as netCDF classic ({type(exc).__name__}: {exc}); the "
-                    f"file may be truncated"
-                ) from exc
-            self.vars = {
-                name: _Var(name, tuple(v.dimensions), dict(v._attributes), tuple(v.shape), v)
-                for name, v in self._file.variables.items()
-            }
+            with self._classic() as f:
+                self.vars = self._classic_vars(f)
         elif magic[:8] == b"\x89HDF\r\n\x1a\n":
             self.kind = "netCDF4"
             import h5py
@@ -155,6 +146,46 @@ class _Backend:
                 f"{path}: not a netCDF file (it starts with neither 'CDF' nor the HDF5 "
                 f"signature); the file may be truncated or of another kind"
             )
+
+    @contextlib.contextmanager
+    def _classic(self) -> Iterator[Any]:
+        """The classic file, memory-mapped, closed cleanly (every view dropped first)."""
+        from scipy.io import netcdf_file
+
+        try:
+            f = netcdf_file(str(self.path), "r", mmap=True, maskandscale=False)
+        except Exception as exc:  # scipy raises ValueError/TypeError/OSError on bad files
+            raise FormatError(
+                f"{self.path}: cannot read as netCDF classic ({type(exc).__name__}: {exc}); the "
+                f"file may be truncated"
+            ) from exc
+        try:
+            yield f
+        finally:
+            f.variables.clear()
+            f.close()
+
+    def _classic_vars(self, f: Any) -> dict[str, _Var]:
+        return {
+            name: _Var(name, tuple(v.dimensions), dict(v._attributes), tuple(v.shape),
+                       np.dtype(v.data.dtype), self._classic_reader(name))
+            for name, v in f.variables.items()
+        }  # fmt: skip
+
+    def _classic_reader(self, name: str) -> Any:
+        def read(index: tuple[Any, ...]) -> NDArray[Any]:
+            with self.lock, self._classic() as f:
+                data = f.variables[name].data
+                try:
+                    out = np.array(data[index] if index else data, copy=True)
+                except (ValueError, IndexError, TypeError) as exc:
+                    raise FormatError(
+                        f"{self.path}: cannot read {name!r} ({exc}); the file may be truncated"
+                    ) from exc
+                del data
+            return out
+
+        return read
 
     @staticmethod
     def _h5_vars(f: Any) -> dict[str, _Var]:
@@ -178,7 +209,8 @@ class _Backend:
                     dims.append(name)
                 else:
                     dims.append(f"{name}_dim{axis}")
-            out[name] = _Var(name, tuple(dims), attrs, tuple(ds.shape), ds)
+            out[name] = _Var(name, tuple(dims), attrs, tuple(ds.shape), np.dtype(ds.dtype),
+                             _h5_reader(ds))  # fmt: skip
         return out
 
     def dim_size(self, dim: str) -> int | None:
@@ -186,6 +218,18 @@ class _Backend:
             if dim in v.dims:
                 return int(v.shape[v.dims.index(dim)])
         return None
+
+
+def _h5_reader(ds: Any) -> Any:
+    def read(index: tuple[Any, ...]) -> NDArray[Any]:
+        try:
+            return np.asarray(ds[index] if index else ds[()])
+        except (OSError, ValueError, KeyError) as exc:
+            raise FormatError(
+                f"{ds.file.filename}: cannot read {ds.name!r} ({exc}); the file may be truncated"
+            ) from exc
+
+    return read
 
 
 def _decode(var: _Var, raw: NDArray[Any], *, source: str) -> NDArray[np.float64]:
@@ -255,7 +299,7 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
         for n, v in b.vars.items()
         if n not in coord_vars
         and v.shape
-        and np.issubdtype(np.dtype(v.handle.dtype), np.number)
+        and np.issubdtype(v.dtype, np.number)
         and 1 <= len([d for d in v.dims if d != time_dim]) <= 3
         and (time_dim is None or time_dim in v.dims)
     }
@@ -346,8 +390,7 @@ class _NetCDFSteps:
 
     def _slab(self, var: _Var, step: int) -> NDArray[np.float64]:
         lay = self.lay
-        with self.b.lock:
-            raw = var.read((step,)) if lay.time_dim is not None else var.read()
+        raw = var.read((step,)) if lay.time_dim is not None else var.read()
         a = _decode(var, raw, source=self.source)
         for axis, rev in enumerate(lay.flip):
             if rev:

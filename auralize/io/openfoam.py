@@ -67,6 +67,51 @@ class _FoamSteps:
             return reader.read()
 
 
+_SI_BASE = ("kg", "m", "s", "K", "mol", "A", "cd")
+
+
+def field_units(case: Path, names: list[str]) -> dict[str, str]:
+    """Units of OpenFOAM fields from the ``dimensions [...]`` entry of their files.
+
+    Reads only the header (first 4 kB) of each field's file in the first time
+    directory holding it; ``[0 2 -2 0 0 0 0]`` becomes ``"m2 s-2"`` (the
+    kinematic pressure of incompressible solvers).
+    """
+    import re
+
+    dirs = []
+    for d in case.iterdir() if case.is_dir() else []:
+        try:
+            dirs.append((float(d.name), d))
+        except ValueError:
+            continue
+    out: dict[str, str] = {}
+    for name in names:
+        for _t, d in sorted(dirs):
+            f = d / name
+            if not f.is_file():
+                continue
+            try:
+                with f.open("rb") as fh:
+                    head = fh.read(4096).decode("latin-1")
+            except OSError:
+                break
+            m = re.search(r"dimensions\s+\[([^\]]*)\]", head)
+            if m:
+                try:
+                    exps = [float(x) for x in m.group(1).split()]
+                except ValueError:
+                    break
+                parts = [
+                    u if e == 1 else f"{u}{e:g}"
+                    for u, e in zip(_SI_BASE, exps, strict=False)
+                    if e != 0
+                ]
+                out[name] = " ".join(parts) if parts else "1"
+            break
+    return out
+
+
 def read_openfoam(
     path: str | os.PathLike[str],
     *,
@@ -104,7 +149,7 @@ def read_openfoam(
         raise FormatError(f"{path}: cannot read as an OpenFOAM case ({exc})") from exc
     if not times:
         raise FormatError(f"{path}: the OpenFOAM case has no time directories with fields")
-    return open_mesh_series(
+    volume = open_mesh_series(
         source=str(path),
         loader=loader,
         labels=[f"{path} t={t:g}" for t in times],
@@ -114,3 +159,17 @@ def read_openfoam(
         resolution=resolution,
         name_map=name_map,
     )
+    case = Path(loader.entry).parent if Path(loader.entry).name != "controlDict" else (
+        Path(loader.entry).parent.parent
+    )
+    rename = dict(name_map or {})
+    chosen = fields if isinstance(fields, Mapping) else None
+    file_names = {
+        vol_name: (str(chosen[vol_name]) if chosen and vol_name in chosen else vol_name)
+        for vol_name in volume.field_names
+    }
+    inverse = {v: k for k, v in rename.items()}
+    file_names = {k: inverse.get(v, v) for k, v in file_names.items()}
+    units = field_units(case, sorted(set(file_names.values())))
+    volume.attrs["units"] = {k: units[v] for k, v in file_names.items() if v in units}
+    return volume

@@ -22,12 +22,13 @@ import json
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
 import h5py
 import numpy as np
 
-from auralize.errors import FormatError
+from auralize.errors import DataError, FormatError
 from auralize.fileio import atomic_path, atomic_write
 from auralize.sources import SourceFrame, SourceSeries
 
@@ -126,3 +127,54 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
     lines += [f'<DataSet timestep="{t!r}" part="0" file={quoteattr(fn)}/>' for t, fn in entries]
     lines += ["</Collection>", "</VTKFile>", ""]
     atomic_write(p, "\n".join(lines).encode())
+
+
+def load_sources_for(path: str | Path, volume: Any) -> SourceSeries:
+    """Read a sources file and check it was detected on ``volume``'s grid and times.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.h5`` written by ``auralize detect -o S.h5``.  A ``.pvd`` (for
+        ParaView) is refused with a message saying so: it holds positions,
+        not the grid the sources were detected on.
+    volume : TimeVolume
+        The volume about to be rendered.
+
+    Raises
+    ------
+    FormatError
+        ``path`` is a ``.pvd`` or not a sources file.
+    DataError
+        The sources belong to another grid (dims, origin, spacing) or other
+        times; the message names both.
+    """
+    p = Path(path)
+    if p.suffix.lower() == ".pvd":
+        raise FormatError(
+            f"{p}: --sources needs the .h5 file 'auralize detect -o SOURCES.h5' writes; a .pvd "
+            f"is for viewing in ParaView and does not record the grid the sources were "
+            f"detected on (run detect again with -o {p.stem}.h5)"
+        )
+    series = load_sources_h5(p)
+    mismatches = []
+    if tuple(series.dims) != tuple(volume.dims):
+        mismatches.append(f"dims {tuple(series.dims)} vs {tuple(volume.dims)}")
+    if not np.allclose(series.origin, volume.origin, rtol=1e-9, atol=1e-12):
+        mismatches.append(f"origin {series.origin.tolist()} vs {volume.origin.tolist()}")
+    if not np.allclose(series.spacing, volume.spacing, rtol=1e-9, atol=1e-12):
+        mismatches.append(f"spacing {series.spacing.tolist()} vs {volume.spacing.tolist()}")
+    t_s, t_v = np.asarray(series.times), np.asarray(volume.times)
+    if t_s.shape != t_v.shape or not np.allclose(t_s, t_v, rtol=1e-9, atol=1e-12):
+        mismatches.append(
+            f"{t_s.size} times {t_s[0]:g}..{t_s[-1]:g} s vs {t_v.size} times "
+            f"{t_v[0]:g}..{t_v[-1]:g} s"
+        )
+    if mismatches:
+        origin = series.meta.get("source", "another volume")
+        raise DataError(
+            f"{p}: these sources (detected on {origin}) do not belong to the grid of "
+            f"{volume.source}: {'; '.join(mismatches)} (sources vs volume); detect them on this "
+            f"volume with 'auralize detect {volume.source} -o SOURCES.h5' (same --resolution)"
+        )
+    return series
