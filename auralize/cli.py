@@ -240,7 +240,6 @@ def cmd_dataset(args: argparse.Namespace) -> int:
 def cmd_detect(args: argparse.Namespace) -> int:
     from auralize.io.sources_file import save_sources_h5, save_sources_pvd
     from auralize.pipeline import detect_sources
-
     from auralize.volume import tally_nonfinite
 
     vol, tally = tally_nonfinite(_load(args))

@@ -75,7 +75,9 @@ def main() -> None:
         dv.add_offset = np.float64(offset)
         dv[:] = np.round((rho - offset) / scale).astype(np.int16)
         for name, comp, std in zip(
-            ("u", "v", "w"), vel, ("eastward_velocity", "northward_velocity", "upward_velocity"),
+            ("u", "v", "w"),
+            vel,
+            ("eastward_velocity", "northward_velocity", "upward_velocity"),
             strict=True,
         ):
             vv = f.createVariable(name, "f4", ("time", "z", "y", "x"))

@@ -520,7 +520,9 @@ def test_bad_arguments_and_kinds(tmp_path: Path) -> None:
     with pytest.raises(ParameterError, match="gives more than one field the name"):
         open_volume(tmp_path / "v.h5", name_map={"rho": "x", "vel": "x"})
     (tmp_path / "v.abc").write_text("1 2 3")
-    with pytest.raises(FormatError, match=r"v\.abc: unknown file kind '\.abc'.*\.nc.*meshio convert"):
+    with pytest.raises(
+        FormatError, match=r"v\.abc: unknown file kind '\.abc'.*\.nc.*meshio convert"
+    ):
         open_volume(tmp_path / "v.abc")
     (tmp_path / "v.xyz").write_text("1 2 3")
     with pytest.raises(FormatError, match=r"v\.xyz: a PLOT3D grid file, but no solution"):

@@ -102,12 +102,12 @@ def _leaves(obj: Any, *, label: str) -> list[Any]:
 
 def cell_dimension(mesh: Any) -> int:
     """Largest topological dimension of ``mesh``'s cells (0 points ... 3 volumes)."""
-    from vtkmodules.vtkCommonDataModel import vtkCellTypes
+    from vtkmodules.vtkCommonDataModel import vtkCellTypeUtilities
 
     if mesh.n_cells == 0:
         return 0
     types = {int(t) for t in mesh.distinct_cell_types}
-    return max(int(vtkCellTypes.GetDimension(int(t))) for t in types)
+    return max(int(vtkCellTypeUtilities.GetDimension(int(t))) for t in types)
 
 
 def array_components(mesh: pyvista.DataSet) -> dict[str, int]:

@@ -312,7 +312,9 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
     # The spatial layout of the variable with the most points (all must share it).
     first = max(data.values(), key=lambda v: int(np.prod(v.shape)))
     spatial = tuple(d for d in first.dims if d != time_dim)
-    variables = {n: v for n, v in data.items() if tuple(d for d in v.dims if d != time_dim) == spatial}
+    variables = {
+        n: v for n, v in data.items() if tuple(d for d in v.dims if d != time_dim) == spatial
+    }
     for n, v in variables.items():
         if time_dim is not None and v.dims[0] != time_dim:
             raise FormatError(
@@ -353,7 +355,9 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
         else:
             c = np.arange(n_d, dtype=np.float64)
             coord_units.append("")
-        if not np.all(np.isfinite(c)) or (c.size > 1 and not (np.all(np.diff(c) > 0) or np.all(np.diff(c) < 0))):
+        if not np.all(np.isfinite(c)) or (
+            c.size > 1 and not (np.all(np.diff(c) > 0) or np.all(np.diff(c) < 0))
+        ):
             raise DataError(f"{source}: coordinate {d!r} must be finite and monotonic")  # fmt: skip
         rev = bool(c.size > 1 and c[1] < c[0])
         flip.append(rev)

@@ -159,8 +159,10 @@ def read_openfoam(
         resolution=resolution,
         name_map=name_map,
     )
-    case = Path(loader.entry).parent if Path(loader.entry).name != "controlDict" else (
-        Path(loader.entry).parent.parent
+    case = (
+        Path(loader.entry).parent
+        if Path(loader.entry).name != "controlDict"
+        else (Path(loader.entry).parent.parent)
     )
     rename = dict(name_map or {})
     chosen = fields if isinstance(fields, Mapping) else None

@@ -30,6 +30,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from auralize.errors import AuralizeError, FormatError
 from auralize.io._common import FieldsArg, require_exists
 from auralize.io._mesh import import_pyvista, open_mesh_series
@@ -205,9 +207,9 @@ def plot3d_files(path: Path) -> tuple[Path, list[Path]]:
     suffix = path.suffix.lower()
     name = path.name
     if suffix == ".q" or (suffix == ".bin" and "q" in path.stem.lower() and "xyz" not in name):
-        candidates = [
-            folder / (path.stem + s) for s in PLOT3D_GRID_SUFFIXES
-        ] + [folder / re.sub("q", "xyz", name, count=1, flags=re.I)]
+        candidates = [folder / (path.stem + s) for s in PLOT3D_GRID_SUFFIXES] + [
+            folder / re.sub("q", "xyz", name, count=1, flags=re.I)
+        ]
         stem = re.sub(r"[_.-]?\d+$", "", path.stem)
         candidates += [folder / (stem + s) for s in PLOT3D_GRID_SUFFIXES]
         grids = [c for c in candidates if c.is_file() and c != path]
@@ -298,23 +300,55 @@ def read_amr(
     def make() -> Any:
         from vtkmodules.vtkIOXML import vtkXMLUniformGridAMRReader
 
-        pv = import_pyvista()
+        import_pyvista()
 
         class _AMR:
-            time_values: list[float] = []
+            time_values: tuple[float, ...] = ()
 
             def read(self) -> Any:
                 reader = vtkXMLUniformGridAMRReader()
                 reader.SetFileName(str(path))
                 reader.SetMaximumLevelsToReadByDefault(0)
                 reader.Update()
-                return pv.wrap(reader.GetOutputDataObject(0))
+                return amr_leaves(reader.GetOutputDataObject(0), label=str(path))
 
         return _AMR()
 
     return _open_reader_series(
         path, make, kind="VTK AMR", fields=fields, resolution=resolution, name_map=name_map
     )
+
+
+def amr_leaves(amr: Any, *, label: str) -> Any:
+    """An AMR data set as a pyvista MultiBlock of its boxes, hidden (refined) cells removed.
+
+    Cells a finer level covers carry the ``HIDDENCELL`` bit in
+    ``vtkGhostType``; dropping them leaves every region once, at its finest level.
+    """
+    pv = import_pyvista()
+    if amr is None or not hasattr(amr, "GetNumberOfLevels"):
+        raise FormatError(f"{label}: not an AMR data set")
+    hidden = 8  # vtkDataSetAttributes::HIDDENCELL
+    blocks = pv.MultiBlock()
+    for level in range(amr.GetNumberOfLevels()):
+        for index in range(amr.GetNumberOfDataSets(level)):
+            box = amr.GetDataSet(level, index)
+            if box is None:
+                continue
+            image = pv.ImageData()
+            image.ShallowCopy(box)
+            ghost = image.cell_data.get("vtkGhostType")
+            if ghost is not None:
+                keep = (np.asarray(ghost) & hidden) == 0
+                if not keep.any():
+                    continue
+                image.cell_data.remove("vtkGhostType")
+                blocks.append(image.extract_cells(np.flatnonzero(keep)))
+            else:
+                blocks.append(image)
+    if len(blocks) == 0:
+        raise FormatError(f"{label}: the AMR file holds no boxes")
+    return blocks
 
 
 def read_with_pyvista(
