@@ -532,3 +532,115 @@ def test_bad_arguments_and_kinds(tmp_path: Path) -> None:
     (tmp_path / "empty").mkdir()
     with pytest.raises(FormatError, match="not an OpenFOAM case"):
         open_volume(tmp_path / "empty")
+
+
+# --------------------------------------------------------------------------- new readers
+REAL = Path(__file__).resolve().parents[1] / "datasets"
+
+
+def _copy_dataset(folder: str, tmp_path: Path) -> Path:
+    import shutil
+
+    dest = tmp_path / folder
+    shutil.copytree(REAL / folder, dest)
+    for f in dest.rglob("*"):
+        f.chmod(0o644 if f.is_file() else 0o755)
+    return dest
+
+
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+@pytest.mark.parametrize(
+    ("folder", "opened", "cut", "message"),
+    [
+        ("xdmf-timeseries", "dolfinx/no_checkpoint.xdmf", "dolfinx/no_checkpoint.h5",
+         r"no_checkpoint\.xdmf t=0: the mesh has no points .*truncated"),
+        ("xdmf-timeseries", "dolfinx/no_checkpoint.xdmf", "dolfinx/no_checkpoint.xdmf",
+         r"no_checkpoint\.xdmf: not a valid XDMF file .*truncated"),
+        ("netcdf-pulse", "pulse.nc", "pulse.nc", r"pulse\.nc: cannot read as netCDF classic .*truncated"),
+        ("ensight-cylinder", "cylinder_Re35.case", "cylinder_Re35.geo",
+         r"cylinder_Re35\.case: VTK's EnSight reader failed .*truncated or corrupt"),
+        ("plot3d-combustor", "combxyz.bin", "combq.bin",
+         r"combq\.bin: VTK's PLOT3D reader returned no data .* truncated"),
+    ],
+)  # fmt: skip
+def test_new_readers_truncated_files(
+    folder: str, opened: str, cut: str, message: str, tmp_path: Path
+) -> None:
+    root = _copy_dataset(folder, tmp_path)
+    _truncate(root / cut)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResampledWarning)
+        with pytest.raises(FormatError, match=message):
+            vol = open_volume(root / opened)
+            vol.frame(vol.field_names[0], vol.n_steps - 1)
+
+
+def test_new_readers_truncated_netcdf4(tmp_path: Path) -> None:
+    path = tmp_path / "w.nc"
+    with h5py.File(path, "w") as f:
+        t = f.create_dataset("time", data=np.arange(3.0))
+        t.make_scale("time")
+        t.attrs["units"] = "s"
+        x = f.create_dataset("x", data=np.arange(4.0))
+        x.make_scale("x")
+        d = f.create_dataset("rho", data=np.ones((3, 4)))
+        d.dims[0].attach_scale(t)
+        d.dims[1].attach_scale(x)
+    _truncate(path)
+    with pytest.raises(FormatError, match=r"w\.nc: .*truncated"):
+        open_volume(path)
+
+
+@pytest.mark.parametrize(
+    ("folder", "opened", "available"),
+    [
+        ("xdmf-timeseries", "meshio/out.xdmf", "'phi', 'u', 'a'"),
+        ("netcdf-pulse", "pulse.nc", "'density', 'u', 'v', 'w', 'velocity'"),
+        ("ensight-cylinder", "cylinder_Re35.case", "'pressure', 'vorticity_mag', 'velocity'"),
+        ("plot3d-combustor", "combxyz.bin", "'Density', 'Momentum', 'StagnationEnergy'"),
+    ],
+)
+def test_new_readers_unknown_field(folder: str, opened: str, available: str) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResampledWarning)
+        with pytest.raises(FieldError, match=rf"no field 'nope'; available fields: {available}"):
+            open_volume(REAL / folder / opened, fields=["nope"])
+
+
+def test_new_readers_missing_time_axis(tmp_path: Path) -> None:
+    from scipy.io import netcdf_file
+
+    # netCDF: a time coordinate without units is refused; no time dimension is one step
+    with netcdf_file(tmp_path / "nounits.nc", "w") as f:
+        f.createDimension("time", 2)
+        f.createDimension("x", 3)
+        f.createVariable("time", "f8", ("time",))[:] = [0.0, 1.0]
+        f.createVariable("rho", "f8", ("time", "x"))[:] = np.ones((2, 3))
+    with pytest.raises(
+        FormatError, match=r"nounits\.nc: the time coordinate 'time' has no 'units'"
+    ):
+        open_volume(tmp_path / "nounits.nc")
+    with netcdf_file(tmp_path / "static.nc", "w") as f:
+        f.createDimension("x", 3)
+        f.createVariable("rho", "f8", ("x",))[:] = [1.0, 2.0, 3.0]
+    vol = open_volume(tmp_path / "static.nc")
+    assert vol.n_steps == 1 and not vol.physical_times and vol.dims == (3, 1, 1)
+    # XDMF without <Time>: one step, frames at 30 Hz
+    text = (REAL / "xdmf-timeseries" / "meshio" / "out.xdmf").read_text()
+    import re
+
+    static = re.sub(r"<Time Value=\"[^\"]*\" />", "", text)
+    for name in ("out.h5",):
+        (tmp_path / name).write_bytes((REAL / "xdmf-timeseries" / "meshio" / name).read_bytes())
+    (tmp_path / "static.xdmf").write_text(static)
+    vol = open_volume(tmp_path / "static.xdmf")
+    assert not vol.physical_times
+    # PLOT3D has no times at all: its .q files are frames at 30 Hz
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResampledWarning)
+        vol = open_volume(REAL / "plot3d-combustor" / "combxyz.bin")
+    assert not vol.physical_times and vol.times.tolist() == [0.0]

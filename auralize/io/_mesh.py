@@ -442,7 +442,10 @@ def open_mesh_series(
         raise FormatError(f"{source}: {len(labels)} step files for {len(times)} times")
     mesh0 = _load(loader, 0, labels[0])
     if mesh0.n_points == 0:
-        raise FormatError(f"{labels[0]}: the mesh has no points")
+        raise FormatError(
+            f"{labels[0]}: the mesh has no points (a data file it refers to may be missing, "
+            f"truncated or corrupt)"
+        )
     comps = array_components(mesh0)
     requested: list[str] = []
     if isinstance(fields, str):

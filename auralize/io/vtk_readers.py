@@ -59,15 +59,21 @@ class _TimeReaderSteps:
             self._reader = self._make()
         return self._reader
 
+    def _values(self) -> list[float]:
+        try:
+            values = getattr(self._get(), "time_values", None)
+        except TypeError:  # pyvista fails on readers that report no time steps
+            return []
+        return [float(t) for t in values] if values else []
+
     def times(self) -> list[float]:
         with self._lock:
-            values = getattr(self._get(), "time_values", None)
-            return [float(t) for t in values] if values else []
+            return self._values()
 
     def __call__(self, step: int) -> Any:
         with self._lock:
             reader = self._get()
-            values = getattr(reader, "time_values", None)
+            values = self._values()
             if values:
                 reader.set_active_time_value(values[step])
             return reader.read()
@@ -132,11 +138,32 @@ def read_xdmf(
 
     def make() -> Any:
         pv = import_pyvista()
-        return pv.XdmfReader(str(path))
+        try:
+            return pv.XdmfReader(str(path))
+        except TypeError:  # pyvista's XdmfReader needs time steps; a static file has none
+            from vtkmodules.vtkIOXdmf2 import vtkXdmfReader
+
+            return _StaticReader(vtkXdmfReader, str(path))
 
     return _open_reader_series(
         path, make, kind="XDMF", fields=fields, resolution=resolution, name_map=name_map
     )
+
+
+class _StaticReader:
+    """A VTK reader of a file without time steps, read whole (``time_values`` empty)."""
+
+    time_values: tuple[float, ...] = ()
+
+    def __init__(self, cls: Any, path: str) -> None:
+        self.cls, self.path = cls, path
+
+    def read(self) -> Any:
+        pv = import_pyvista()
+        reader = self.cls()
+        reader.SetFileName(self.path)
+        reader.Update()
+        return pv.wrap(reader.GetOutputDataObject(0))
 
 
 def _check_xml(path: Path, kind: str, *, root: str) -> None:
@@ -180,6 +207,8 @@ def read_ensight(
             f"may be truncated"
         )
 
+    _probe_ensight_geometry(path)
+
     def make() -> Any:
         pv = import_pyvista()
         reader = pv.EnSightReader(str(path))
@@ -188,6 +217,52 @@ def read_ensight(
     return _open_reader_series(
         path, make, kind="EnSight Gold", fields=fields, resolution=resolution, name_map=name_map
     )
+
+
+_ENSIGHT_PROBE = """
+import sys
+from vtkmodules.vtkIOEnSight import vtkGenericEnSightReader
+r = vtkGenericEnSightReader()
+r.SetCaseFileName(sys.argv[1])
+r.Update()
+out = r.GetOutput()
+sys.exit(0 if out is not None and out.GetNumberOfPoints() > 0 else 3)
+"""
+
+
+def _probe_ensight_geometry(path: Path) -> None:
+    """Read the case's first step in a child process first.
+
+    VTK's EnSight readers crash the process (segmentation fault) on a
+    truncated binary geometry file, or log an error and return part of the
+    data; a child that crashes or logs an error turns into a
+    :class:`FormatError` here instead.
+    """
+    import subprocess
+    import sys
+
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", _ENSIGHT_PROBE, str(path)],
+            capture_output=True,
+            timeout=300,
+            check=False,
+        )
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise FormatError(f"{path}: cannot read the EnSight geometry ({exc})") from exc
+    if done.returncode == 3:
+        raise FormatError(f"{path}: the EnSight geometry holds no points")
+    logged = [
+        line.split("ERR|", 1)[1].strip()
+        for line in done.stderr.decode("utf-8", errors="replace").splitlines()
+        if "ERR|" in line
+    ]
+    if done.returncode != 0 or logged:
+        why = f"exit status {done.returncode}" if done.returncode else logged[0]
+        raise FormatError(
+            f"{path}: VTK's EnSight reader failed ({why}); a geometry or variable file of "
+            f"the case is truncated or corrupt"
+        )
 
 
 # --------------------------------------------------------------------------- PLOT3D
@@ -244,8 +319,26 @@ class _Plot3DSteps:
         pv = import_pyvista()
         reader = pv.MultiBlockPlot3DReader(str(self.grid))
         reader.auto_detect_format = True
-        reader.add_q_files([str(self.solutions[step])])
-        return reader.read()
+        q = self.solutions[step]
+        reader.add_q_files([str(q)])
+        out = reader.read()
+        n_points = sum(b.n_points for b in out if b is not None)
+        if n_points == 0:
+            raise FormatError(
+                f"{q}: VTK's PLOT3D reader returned no data for {self.grid.name} + {q.name}; "
+                f"the q file is truncated, corrupt or belongs to another grid"
+            )
+        # VTK does not check the solution's size: a q file holds 5 variables per point
+        # (density, 3 momentum components, energy), 4 or 8 bytes each, plus headers.
+        need = 5 * 4 * n_points
+        have = q.stat().st_size
+        if have < need:
+            raise FormatError(
+                f"{q}: {have} bytes, but a PLOT3D solution for the grid's {n_points} points "
+                f"needs at least {need} (5 variables of 4 bytes); the file is truncated or "
+                f"belongs to another grid"
+            )
+        return out
 
 
 def read_plot3d(
@@ -331,8 +424,8 @@ def amr_leaves(amr: Any, *, label: str) -> Any:
     hidden = 8  # vtkDataSetAttributes::HIDDENCELL
     blocks = pv.MultiBlock()
     for level in range(amr.GetNumberOfLevels()):
-        for index in range(amr.GetNumberOfDataSets(level)):
-            box = amr.GetDataSet(level, index)
+        for index in range(amr.GetNumberOfBlocks(level)):
+            box = amr.GetDataSetAsImageData(level, index)
             if box is None:
                 continue
             image = pv.ImageData()
