@@ -244,7 +244,12 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
     from auralize.bench_output import bench_output
+    from auralize.bench_readers import bench_readers
     from auralize.viewer.bench import bench_viewer
+
+    more = bench_readers(full=getattr(args, "readers_full", False))
+    print(format_rows(more), flush=True)
+    rows += more
 
     for fn in (bench_output, bench_viewer):
         more = fn(args.quick)

@@ -452,6 +452,11 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="Dask rows on the 256³ x 100-step file (writes ~27 GB to the temp folder)",
     )
+    p.add_argument(
+        "--readers-full",
+        action="store_true",
+        help="reader rows on 128³ x 30-step series (~1 GB per format in the temp folder)",
+    )
     p.set_defaults(func=cmd_bench)
 
     _extend_with_core_modules(sub)

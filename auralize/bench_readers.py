@@ -1,0 +1,241 @@
+"""``auralize bench`` rows of the readers: open and detect a series in each new format.
+
+The same density + velocity series (a pulsating blob on an N³ grid, float32)
+is written as auralize HDF5 (the reference), netCDF classic, netCDF4, XDMF
+(``3DCoRectMesh`` + HDF5 heavy data) and PLOT3D (grid + one ``.q`` per
+step).  Each is then opened and detected in a fresh child process, which
+reports the opening time, the detection time and its peak resident memory
+above the memory after imports (pyvista, VTK, h5py, scipy), compared with the
+same detection on the HDF5 file, in steps' worth (one step of every field as
+float64 frames).  Targets (issue "real data in"): opening under 2 s,
+detection within 2× of the HDF5 file, peak memory within 2 steps.
+
+The default size is 48³ × 12 steps (seconds); ``auralize bench
+--readers-full`` runs 128³ × 30 steps (≈1 GB of float32 per format, written
+once to ``$AURALIZE_BENCH_DIR`` or the temporary folder).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from auralize.bench import BenchRow
+
+#: (points per axis, steps) of the default and the full benchmark
+QUICK_SIZE = (48, 12)
+FULL_SIZE = (128, 30)
+
+
+def _fields(n: int, step: int) -> tuple[np.ndarray, np.ndarray]:
+    """Density (n, n, n) and velocity (3, n, n, n) of one step, float32."""
+    ax = (np.arange(n, dtype=np.float32) - (n - 1) / 2) / n
+    zz, yy, xx = np.meshgrid(ax, ax, ax, indexing="ij")
+    g = np.exp(-(xx**2 + yy**2 + zz**2) / 0.02).astype(np.float32)
+    a = np.float32(0.01 * np.sin(0.7 * step))
+    rho = (1.2 + a * g).astype(np.float32)
+    da = np.float32(0.007 * np.cos(0.7 * step))
+    vel = np.stack([da * g * xx, da * g * yy, da * g * zz]).astype(np.float32)
+    return rho, vel
+
+
+def write_series(folder: Path, n: int, steps: int) -> dict[str, Path]:
+    """Write the benchmark series in every format; returns ``{format: file to open}``."""
+    import h5py
+    from scipy.io import netcdf_file
+
+    folder.mkdir(parents=True, exist_ok=True)
+    h = 1.0 / (n - 1)
+    coords = np.arange(n) * h
+    out: dict[str, Path] = {}
+    # auralize HDF5 (format v1)
+    ref = folder / "series.h5"
+    with h5py.File(ref, "w") as f:
+        f.attrs["auralize_format"] = "volume"
+        f.attrs["version"] = 1
+        f["time"] = np.arange(steps) * 1e-3
+        g = f.create_group("grid")
+        g.attrs["origin"] = np.zeros(3)
+        g.attrs["spacing"] = np.full(3, h)
+        d = f.create_dataset("fields/density", (steps, n, n, n), "f4", chunks=(1, n, n, n))
+        v = f.create_dataset("fields/velocity", (steps, n, n, n, 3), "f4", chunks=(1, n, n, n, 3))
+        for s in range(steps):
+            rho, vel = _fields(n, s)
+            d[s] = rho
+            v[s] = np.moveaxis(vel, 0, -1)
+    out["hdf5"] = ref
+    # netCDF classic (64-bit offsets) and netCDF4 (HDF5 with dimension scales)
+    nc = folder / "series.nc"
+    with netcdf_file(nc, "w", version=2) as f:
+        f.createDimension("time", steps)
+        for name in ("z", "y", "x"):
+            f.createDimension(name, n)
+            f.createVariable(name, "f8", (name,))[:] = coords
+        t = f.createVariable("time", "f8", ("time",))
+        t.units = "milliseconds since 2001-01-01"
+        t[:] = np.arange(steps, dtype=np.float64)
+        vs = {k: f.createVariable(k, "f4", ("time", "z", "y", "x")) for k in ("density", "u", "v", "w")}  # fmt: skip
+        for s in range(steps):
+            rho, vel = _fields(n, s)
+            vs["density"][s] = rho
+            for k, comp in zip(("u", "v", "w"), vel, strict=True):
+                vs[k][s] = comp
+    out["netcdf-classic"] = nc
+    nc4 = folder / "series4.nc"
+    with h5py.File(nc4, "w") as f:
+        f.attrs["_NCProperties"] = "version=2"
+        for name, vals in (("time", np.arange(steps) * 1.0), ("z", coords), ("y", coords), ("x", coords)):  # fmt: skip
+            ds = f.create_dataset(name, data=vals)
+            ds.make_scale(name)
+        f["time"].attrs["units"] = "milliseconds since 2001-01-01"
+        for k in ("density", "u", "v", "w"):
+            ds = f.create_dataset(k, (steps, n, n, n), "f4", chunks=(1, n, n, n))
+            for axis, dim in enumerate(("time", "z", "y", "x")):
+                ds.dims[axis].attach_scale(f[dim])
+        for s in range(steps):
+            rho, vel = _fields(n, s)
+            f["density"][s] = rho
+            for k, comp in zip(("u", "v", "w"), vel, strict=True):
+                f[k][s] = comp
+    out["netcdf4"] = nc4
+    # XDMF: a temporal collection of 3DCoRectMesh grids, heavy data in one HDF5 file
+    heavy = folder / "xdmf_data.h5"
+    grids = []
+    with h5py.File(heavy, "w") as f:
+        for s in range(steps):
+            rho, vel = _fields(n, s)
+            f[f"density/{s}"] = rho
+            f[f"velocity/{s}"] = np.moveaxis(vel, 0, -1)
+            grids.append(
+                f'<Grid Name="s{s}" GridType="Uniform"><Time Value="{s * 1e-3!r}"/>'
+                f'<Topology TopologyType="3DCoRectMesh" Dimensions="{n} {n} {n}"/>'
+                f'<Geometry GeometryType="ORIGIN_DXDYDZ">'
+                f'<DataItem Dimensions="3" Format="XML">0 0 0</DataItem>'
+                f'<DataItem Dimensions="3" Format="XML">{h!r} {h!r} {h!r}</DataItem></Geometry>'
+                f'<Attribute Name="density" AttributeType="Scalar" Center="Node">'
+                f'<DataItem Dimensions="{n} {n} {n}" NumberType="Float" Precision="4" '
+                f'Format="HDF">{heavy.name}:/density/{s}</DataItem></Attribute>'
+                f'<Attribute Name="velocity" AttributeType="Vector" Center="Node">'
+                f'<DataItem Dimensions="{n} {n} {n} 3" NumberType="Float" Precision="4" '
+                f'Format="HDF">{heavy.name}:/velocity/{s}</DataItem></Attribute></Grid>'
+            )
+    xdmf = folder / "series.xdmf"
+    xdmf.write_text(
+        '<?xml version="1.0"?><Xdmf Version="2.0"><Domain>'
+        '<Grid Name="series" GridType="Collection" CollectionType="Temporal">'
+        + "".join(grids)
+        + "</Grid></Domain></Xdmf>"
+    )
+    out["xdmf"] = xdmf
+    # PLOT3D: big-endian single-grid binary, no record markers; one .q per step
+    xyz = folder / "series.xyz"
+    zz, yy, xx = np.meshgrid(coords, coords, coords, indexing="ij")
+    with xyz.open("wb") as fh:
+        np.array([n, n, n], ">i4").tofile(fh)
+        for c in (xx, yy, zz):
+            c.astype(">f4").tofile(fh)
+    for s in range(steps):
+        rho, vel = _fields(n, s)
+        with (folder / f"series_{s:04d}.q").open("wb") as fh:
+            np.array([n, n, n], ">i4").tofile(fh)
+            np.array([0.0, 0.0, 1.0, s * 1e-3], ">f4").tofile(fh)
+            rho.astype(">f4").tofile(fh)
+            for comp in vel:
+                (rho * comp).astype(">f4").tofile(fh)
+            np.full(rho.shape, 2.5e5, ">f4").tofile(fh)
+    out["plot3d"] = xyz
+    return out
+
+
+_CHILD = r"""
+import json, resource, sys, time, warnings
+warnings.simplefilter("ignore")
+from auralize.io import open_volume
+from auralize.pipeline import detect_sources
+from auralize.sources import Thresholds
+import numpy as np
+import pyvista  # libraries every format may load, imported before the baseline
+import vtkmodules.all
+import scipy.io, h5py
+path, mapping, density, second = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
+def rss():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+base = rss()
+t = time.perf_counter()
+vol = open_volume(path)
+t_open = time.perf_counter() - t
+kw = {"density": density, ("momentum" if mapping == "cfd" else "velocity"): second}
+t = time.perf_counter()
+series = detect_sources(vol, mapping=mapping, thresholds=Thresholds(1e-3, 1e-3, 1e-3), **kw)
+t_detect = time.perf_counter() - t
+step_bytes = sum(int(np.prod(f.frame_shape)) * 8 for f in vol.fields.values())
+print(json.dumps({"open": t_open, "detect": t_detect, "peak": rss() - base,
+                  "step_bytes": step_bytes, "steps": vol.n_steps,
+                  "sources": int(sum(sum(c.values()) for c in series.counts()))}))
+"""
+
+_ARGS = {
+    "hdf5": ("identity", "density", "velocity"),
+    "netcdf-classic": ("identity", "density", "velocity"),
+    "netcdf4": ("identity", "density", "velocity"),
+    "xdmf": ("identity", "density", "velocity"),
+    "plot3d": ("cfd", "Density", "Momentum"),
+}
+
+
+def _measure(path: Path, fmt: str) -> dict[str, float]:
+    mapping, density, second = _ARGS[fmt]
+    done = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(path), mapping, density, second],
+        capture_output=True,
+        text=True,
+        check=False,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
+    if done.returncode != 0:
+        raise RuntimeError(done.stderr.strip().splitlines()[-1] if done.stderr else "failed")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def bench_readers(full: bool = False) -> list[BenchRow]:
+    """Open/detect rows for each new format against the same series in HDF5."""
+    n, steps = FULL_SIZE if full else QUICK_SIZE
+    base = Path(os.environ.get("AURALIZE_BENCH_DIR", tempfile.gettempdir()))
+    folder = base / f"auralize-bench-readers-{n}x{steps}"
+    marker = folder / "complete"
+    if not marker.exists():
+        paths = write_series(folder, n, steps)
+        marker.write_text(json.dumps({k: str(v) for k, v in paths.items()}))
+    paths = {k: Path(v) for k, v in json.loads(marker.read_text()).items()}
+    size = f"{n}³ × {steps}"
+    rows: list[BenchRow] = []
+    ref: dict[str, float] | None = None
+    for fmt, path in paths.items():
+        try:
+            got = _measure(path, fmt)
+        except RuntimeError as exc:
+            rows.append(BenchRow("readers", f"{fmt} {size}", float("nan"), "", note=str(exc)))
+            continue
+        if fmt == "hdf5":
+            ref = got
+        rows.append(BenchRow("readers", f"{fmt} {size}: open", got["open"], "s",
+                             target="< 2 s", met=got["open"] < 2.0))  # fmt: skip
+        ratio = got["detect"] / ref["detect"] if ref else float("nan")
+        rows.append(BenchRow("readers", f"{fmt} {size}: detect", got["detect"], "s",
+                             target="≤ 2× HDF5", met=bool(ratio <= 2.0) if ref else None,
+                             note=f"{ratio:.2f}× HDF5; {got['sources']} source points"))  # fmt: skip
+        # Detection itself holds a few steps of mapped frames and strengths; the reader's
+        # share is the peak above the same detection on the HDF5 file.
+        extra = (got["peak"] - ref["peak"]) / got["step_bytes"] if ref else 0.0
+        rows.append(BenchRow("readers", f"{fmt} {size}: peak memory over HDF5", extra, "steps",
+                             target="≤ 2 steps", met=extra <= 2.0,
+                             note=f"peak {got['peak'] / 2**20:.0f} MiB above imports "
+                                  f"(HDF5: {ref['peak'] / 2**20 if ref else float('nan'):.0f} MiB); "
+                                  f"a step (float64 frames) is {got['step_bytes'] / 2**20:.1f} MiB"))  # fmt: skip
+    return rows
