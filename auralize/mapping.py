@@ -105,7 +105,9 @@ class AcousticMapping:
         if missing:
             raise FieldError(
                 f"{volume.source}: mapping {self.name!r} needs field(s) {missing}; the volume "
-                f"has {volume.field_names}. Choose the field with --field/field names options."
+                f"has {volume.field_names}. Name the field with --density-field/"
+                f"--velocity-field/--momentum-field/--pressure-field NAME (Python: density=NAME "
+                f"...) or choose another --mapping"
             )
 
     def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:

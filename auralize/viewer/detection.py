@@ -14,7 +14,7 @@ from collections.abc import Callable
 import numpy as np
 
 from auralize.errors import AuralizeError
-from auralize.mapping import AcousticMapping, get_mapping
+from auralize.mapping import AcousticMapping
 from auralize.sources import (
     AUTO_FRACTIONS,
     TYPES,
@@ -58,11 +58,11 @@ class Detection:
 
     def __init__(self, volume: TimeVolume, *, mapping: str | AcousticMapping | None = None,
                  thresholds: Thresholds | None = None, **mapping_fields: str) -> None:  # fmt: skip
-        from auralize.pipeline import auto_mapping
+        from auralize.pipeline import resolve_mapping
 
         _require_steps(volume)
         self.volume = volume
-        self.mapping = get_mapping(mapping or auto_mapping(volume), **mapping_fields)
+        self.mapping = resolve_mapping(volume, mapping, **mapping_fields)
         self.mapping.prepare(volume)
         self.thresholds = thresholds or Thresholds(*VIEWER_THRESHOLDS)
         self.peak = peak_strengths(volume, self.mapping) if self.thresholds.needs_scale else None
