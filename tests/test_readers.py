@@ -389,3 +389,18 @@ def test_render_refuses_sources_of_another_grid(tmp_path: Path, capsys) -> None:
     assert main([*args, "--sources", str(tmp_path / "s.pvd")]) == 2
     assert "--sources needs the .h5" in capsys.readouterr().err
     assert not (tmp_path / "a.wav").exists()
+
+
+def test_netcdf_uneven_coordinates_are_resampled(tmp_path: Path) -> None:
+    with netcdf_file(tmp_path / "uneven.nc", "w") as f:
+        f.createDimension("time", 2)
+        f.createDimension("x", 4)
+        t = f.createVariable("time", "f8", ("time",))
+        t.units = "seconds since 2001-01-01"
+        t[:] = [0.0, 1.0]
+        f.createVariable("x", "f8", ("x",))[:] = [0.0, 1.0, 3.0, 6.0]
+        f.createVariable("rho", "f8", ("time", "x"))[:] = [[0.0, 1.0, 3.0, 6.0]] * 2
+    with pytest.warns(ResampledWarning, match="RectilinearGrid with 4 points resampled"):
+        vol = open_volume(tmp_path / "uneven.nc")
+    x = vol.points()[:, 0]
+    np.testing.assert_allclose(vol.frame("rho", 1).reshape(-1), x, atol=1e-12)  # rho = x

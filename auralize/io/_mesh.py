@@ -378,21 +378,32 @@ class MeshSteps:
     names: Sequence[str]
     n_loads: int = 0
     _step: int | None = None
+    _mesh: Any = None
     _arrays: dict[str, NDArray] = field(default_factory=dict)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def seed(self, step: int, arrays: dict[str, NDArray]) -> None:
         with self._lock:
-            self._step, self._arrays = step, arrays
+            self._step, self._arrays, self._mesh = step, arrays, None
 
-    def arrays(self, step: int) -> dict[str, NDArray]:
+    def arrays(self, step: int, name: str | None = None) -> dict[str, NDArray]:
+        """The converted arrays of ``step``: ``name`` at least (all when None).
+
+        A uniform or lattice step converts only the arrays asked for (the
+        others stay in the loaded mesh until asked for); a sampled step is
+        probed once for all arrays.
+        """
         with self._lock:
+            label = self.labels[step]
             if self._step != step:
-                label = self.labels[step]
-                mesh = _load(self.loader, step, label)
-                self._arrays = self.converter.convert(mesh, self.names, label=label)
+                self._mesh = _load(self.loader, step, label)
+                self._arrays = {}
                 self._step = step
                 self.n_loads += 1
+            wanted = self.names if name is None or isinstance(self.converter, _Sampler) else [name]
+            missing = [n for n in wanted if n not in self._arrays]
+            if missing:
+                self._arrays.update(self.converter.convert(self._mesh, missing, label=label))
             return self._arrays
 
 
@@ -406,7 +417,7 @@ class MeshFrames:
     frame_shape: tuple[int, ...]
 
     def read(self, step: int) -> NDArray[np.float64]:
-        return self.steps.arrays(step)[self.array_name].copy()
+        return self.steps.arrays(step, self.array_name)[self.array_name].copy()
 
 
 def open_mesh_series(

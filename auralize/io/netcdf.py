@@ -42,10 +42,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DataError, FormatError
-from auralize.io._common import FieldsArg, require_exists
+from auralize.io._common import FieldsArg, require_exists, select_fields
 from auralize.io._mesh import import_pyvista, open_mesh_series
-from auralize.io.resample import ResolutionArg
-from auralize.volume import TimeVolume
+from auralize.io.resample import ResolutionArg, check_resolution, resample_uniform
+from auralize.volume import CallableFrames, FrameSource, TimeVolume
 
 NETCDF_SUFFIXES = (".nc", ".nc4", ".cdf", ".netcdf")
 
@@ -392,7 +392,8 @@ class _NetCDFSteps:
     def __init__(self, backend: _Backend, layout: _Layout, source: str) -> None:
         self.b, self.lay, self.source = backend, layout, source
 
-    def _slab(self, var: _Var, step: int) -> NDArray[np.float64]:
+    def slab(self, var: _Var, step: int) -> NDArray[np.float64]:
+        """One step of ``var``, decoded (NaN for no-data), flipped, flattened x fastest."""
         lay = self.lay
         raw = var.read((step,)) if lay.time_dim is not None else var.read()
         a = _decode(var, raw, source=self.source)
@@ -406,13 +407,71 @@ class _NetCDFSteps:
         lay = self.lay
         grid = pv.RectilinearGrid(*lay.coords)
         for name, var in lay.variables.items():
-            grid.point_data[name] = self._slab(var, step)
+            grid.point_data[name] = self.slab(var, step)
         for name, parts in lay.vectors.items():
-            cols = [self._slab(lay.variables[p], step) for p in parts]
+            cols = [self.slab(lay.variables[p], step) for p in parts]
             while len(cols) < 3:
                 cols.append(np.zeros_like(cols[0]))
             grid.point_data[name] = np.stack(cols, axis=-1)
         return grid
+
+
+def _evenly_spaced(c: NDArray[np.float64]) -> bool:
+    if c.size < 3:
+        return True
+    d = np.diff(c)
+    return bool(np.allclose(d, d[0], rtol=1e-6, atol=0.0))
+
+
+def _uniform_volume(
+    loader: _NetCDFSteps,
+    lay: _Layout,
+    source: str,
+    fields: FieldsArg,
+    name_map: Mapping[str, str] | None,
+) -> TimeVolume:
+    """Evenly spaced coordinates: each field reads its own variable(s), one step per read."""
+    nx, ny, nz = (c.size for c in lay.coords)
+    available = [*lay.variables, *lay.vectors]
+    chosen = select_fields(available, fields, name_map, source=source)
+    n_t = lay.times.size
+
+    def scalar(var: _Var) -> CallableFrames:
+        return CallableFrames(
+            lambda step: loader.slab(var, step).reshape(nz, ny, nx), n_t, (nz, ny, nx)
+        )
+
+    def vector(parts: tuple[str, ...]) -> CallableFrames:
+        def read(step: int) -> NDArray[np.float64]:
+            out = np.zeros((nz * ny * nx, 3))
+            for k, p in enumerate(parts):
+                out[:, k] = loader.slab(lay.variables[p], step)
+            return out.reshape(nz, ny, nx, 3)
+
+        return CallableFrames(read, n_t, (nz, ny, nx, 3))
+
+    frames: dict[str, FrameSource] = {
+        vol_name: vector(lay.vectors[name]) if name in lay.vectors else scalar(lay.variables[name])
+        for vol_name, name in chosen.items()
+    }
+    origin = np.array([c[0] for c in lay.coords])
+    spacing = np.array([(c[-1] - c[0]) / (c.size - 1) if c.size > 1 else 0.0 for c in lay.coords])
+    if np.any(spacing > 0):
+        spacing[spacing <= 0] = spacing[spacing > 0].min()
+    else:
+        spacing[:] = 1.0
+    volume = TimeVolume(
+        origin=origin,
+        spacing=spacing,
+        dims=(nx, ny, nz),
+        times=lay.times,
+        fields=frames,
+        physical_times=lay.physical,
+        source=source,
+    )
+    volume.attrs["centring"] = dict.fromkeys(chosen, "point")
+    volume.attrs["mesh"] = f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points"
+    return volume
 
 
 def read_netcdf(
@@ -449,16 +508,21 @@ def read_netcdf(
     require_exists(path)
     backend = _Backend(path)
     lay = _layout(backend, source=str(path))
-    volume = open_mesh_series(
-        source=str(path),
-        loader=_NetCDFSteps(backend, lay, str(path)),
-        labels=[f"{path} step {n}" for n in range(lay.times.size)],
-        times=lay.times,
-        physical_times=lay.physical,
-        fields=fields,
-        resolution=resolution,
-        name_map=name_map,
-    )
+    loader = _NetCDFSteps(backend, lay, str(path))
+    if all(_evenly_spaced(c) for c in lay.coords):
+        volume = _uniform_volume(loader, lay, str(path), fields, name_map)
+        volume = resample_uniform(volume, check_resolution(resolution, source=str(path)))
+    else:
+        volume = open_mesh_series(
+            source=str(path),
+            loader=loader,
+            labels=[f"{path} step {n}" for n in range(lay.times.size)],
+            times=lay.times,
+            physical_times=lay.physical,
+            fields=fields,
+            resolution=resolution,
+            name_map=name_map,
+        )
     rename = dict(name_map or {})
     volume.attrs["units"] = {
         rename.get(k, k): u for k, u in lay.units.items() if rename.get(k, k) in volume.fields
