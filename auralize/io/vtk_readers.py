@@ -309,17 +309,53 @@ def plot3d_files(path: Path) -> tuple[Path, list[Path]]:
     return path, solutions
 
 
+def q_layout(q: Path, dims: tuple[int, int, int]) -> tuple[int, np.dtype[Any]] | None:
+    """Where a single-grid PLOT3D solution's data start, and their dtype.
+
+    Tries the common binary layouts — little or big endian, single or double
+    precision, with or without Fortran record markers — and accepts the one
+    whose size and header dimensions match the grid's.  ``None`` when none
+    does (multi-grid, 2-D or otherwise unusual files are left to VTK).
+    """
+    size = q.stat().st_size
+    n = int(np.prod(dims))
+    with q.open("rb") as fh:
+        head = fh.read(16)
+    for endian in "<>":
+        for prec in (4, 8):
+            for markers in (False, True):
+                if markers:
+                    offset = (4 + 12 + 4) + (4 + 4 * prec + 4) + 4
+                    total = offset + 5 * n * prec + 4
+                    first = 4
+                else:
+                    offset = 12 + 4 * prec
+                    total = offset + 5 * n * prec
+                    first = 0
+                if total != size or len(head) < first + 12:
+                    continue
+                got = np.frombuffer(head[first : first + 12], dtype=f"{endian}i4")
+                if tuple(int(d) for d in got) == tuple(dims):
+                    return offset, np.dtype(f"{endian}f{prec}")
+    return None
+
+
 class _Plot3DSteps:
-    """Loader over ``.q`` files: one fresh reader per step (grid + that step's solution)."""
+    """Loader over ``.q`` files.
+
+    The grid is read once with VTK; a single-grid solution in a common binary
+    layout (:func:`q_layout`) is then read directly (one ``numpy`` read per
+    step); any other is read with a fresh VTK reader per step.
+    """
 
     def __init__(self, grid: Path, solutions: list[Path]) -> None:
         self.grid, self.solutions = grid, solutions
+        self._mesh: Any = None
 
-    def __call__(self, step: int) -> Any:
+    def _vtk(self, q: Path) -> Any:
         pv = import_pyvista()
         reader = pv.MultiBlockPlot3DReader(str(self.grid))
         reader.auto_detect_format = True
-        q = self.solutions[step]
         reader.add_q_files([str(q)])
         out = reader.read()
         n_points = sum(b.n_points for b in out if b is not None)
@@ -338,6 +374,34 @@ class _Plot3DSteps:
                 f"needs at least {need} (5 variables of 4 bytes); the file is truncated or "
                 f"belongs to another grid"
             )
+        return out
+
+    def _grid_mesh(self) -> Any:
+        if self._mesh is None:
+            pv = import_pyvista()
+            reader = pv.MultiBlockPlot3DReader(str(self.grid))
+            reader.auto_detect_format = True
+            blocks = [b for b in reader.read() if b is not None and b.n_points > 0]
+            self._mesh = blocks[0] if len(blocks) == 1 else False
+        return self._mesh
+
+    def __call__(self, step: int) -> Any:
+        q = self.solutions[step]
+        mesh = self._grid_mesh()
+        layout = None if mesh is False else q_layout(q, tuple(mesh.dimensions))
+        if layout is None:
+            return self._vtk(q)
+        offset, dtype = layout
+        n = mesh.n_points
+        data = np.fromfile(q, dtype=dtype, offset=offset, count=5 * n)
+        if data.size != 5 * n:
+            raise FormatError(f"{q}: truncated PLOT3D solution ({data.size} of {5 * n} values)")
+        data = data.reshape(5, n).astype(np.float64)
+        out = mesh.copy(deep=False)
+        out.clear_data()
+        out.point_data["Density"] = data[0]
+        out.point_data["Momentum"] = np.ascontiguousarray(data[1:4].T)
+        out.point_data["StagnationEnergy"] = data[4]
         return out
 
 
