@@ -273,7 +273,9 @@ def save_volume(
     Parameters
     ----------
     volume : TimeVolume
-        The volume; frames are read one step at a time and must be finite.
+        The volume; frames are read one step at a time.  NaN (no-data) is written
+        as NaN, and the valid-point mask as /valid in HDF5; a volume opened with
+        ``nan="error"`` refuses frames holding NaN/Inf at valid points.
     path : path-like
         ``.h5``/``.hdf5``: auralize HDF5 volume file (format v1), one time
         step per chunk.  ``.pvd``: ParaView collection plus one ``.vti`` per
@@ -286,7 +288,8 @@ def save_volume(
     FormatError
         Unknown suffix.
     DataError
-        A frame holds NaN/Inf; nothing is written.
+        A frame holds NaN/Inf at a valid point and the volume checks (``check_finite``);
+        nothing is written.
 
     Examples
     --------

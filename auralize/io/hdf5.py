@@ -7,7 +7,11 @@ Format v1 (see DESIGN.md): root attributes ``auralize_format="volume"`` and
 dataset attribute ``axes="txyz"`` means ``(T, nx, ny, nz[, 3])``; frames of
 such datasets are transposed on read.  The writer also stores the optional
 root attribute ``physical_times`` (bool) and ``/grid`` attribute ``dims``
-``(nx, ny, nz)``; readers do not require them.
+``(nx, ny, nz)``; readers do not require them.  Optional: ``/valid`` bool
+``(nz, ny, nx)``, True where the grid point lies inside the input mesh
+(:attr:`TimeVolume.valid <auralize.volume.TimeVolume.valid>`; absent: all
+valid), and a ``units`` attribute on a field dataset.  NaN in a field is
+no-data.
 
 Frames are read lazily: :class:`HDF5Frames` holds only the file name and the
 dataset path and opens the file for each :meth:`~HDF5Frames.read`, so a volume
@@ -518,7 +522,8 @@ def write_hdf5(
     Parameters
     ----------
     volume : TimeVolume
-        The volume; every frame must be finite (``volume.frame`` checks).
+        The volume (NaN values in frames are no-data; ``volume.frame`` checks finiteness
+        when ``volume.check_finite``); ``volume.valid`` is written as ``/valid``.
     path : path-like
         Output ``.h5`` file; replaced if it exists.
     compression : {None, "gzip"}
