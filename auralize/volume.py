@@ -112,7 +112,9 @@ class TimeVolume:
     valid : ndarray of bool, shape (nz, ny, nx), optional
         True where the grid point lies inside the input mesh (resampled
         curvilinear or unstructured meshes); frames hold NaN where it is
-        False.  ``None`` means every point is valid.  Static over time.
+        False.  ``None`` means every point is valid.  Static over time: it is
+        the first step's mesh; a mesh that moves (ParaView's ``wavy``) has NaN
+        in later frames where it has left a point.
 
     Examples
     --------
