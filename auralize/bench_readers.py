@@ -2,8 +2,8 @@
 
 The same density + velocity series (a pulsating blob on an N³ grid, float32)
 is written as auralize HDF5 (the reference), netCDF classic, netCDF4, XDMF
-(``3DCoRectMesh`` + HDF5 heavy data) and PLOT3D (grid + one ``.q`` per
-step).  Each is then opened and detected in a fresh child process, which
+(``3DCoRectMesh`` + HDF5 heavy data), PLOT3D (grid + one ``.q`` per
+step) and EnSight Gold (binary, one uniform block part).  Each is then opened and detected in a fresh child process, which
 reports the opening time, the detection time and its peak resident memory
 above the memory after imports (pyvista, VTK, h5py, scipy), compared with the
 same detection on the HDF5 file, in steps' worth (one step of every field as
@@ -150,6 +150,36 @@ def write_series(folder: Path, n: int, steps: int) -> dict[str, Path]:
                 (rho * comp).astype(">f4").tofile(fh)
             np.full(rho.shape, 2.5e5, ">f4").tofile(fh)
     out["plot3d"] = xyz
+
+    # EnSight Gold binary: one "block uniform" part, per-node variables per step
+    def s80(text: str) -> bytes:
+        return text.encode().ljust(80, b"\0")
+
+    with (folder / "series.geo").open("wb") as fh:
+        for line in ("C Binary", "auralize bench", "uniform block", "node id off",
+                     "element id off", "part"):  # fmt: skip
+            fh.write(s80(line))
+        fh.write(np.array([1], "<i4").tobytes() + s80("volume") + s80("block uniform"))
+        fh.write(np.array([n, n, n], "<i4").tobytes())
+        fh.write(np.array([0, 0, 0, h, h, h], "<f4").tobytes())
+    for s in range(steps):
+        rho, vel = _fields(n, s)
+        for kind, data in (("density", [rho]), ("velocity", list(vel))):
+            with (folder / f"series{s:04d}.{kind}").open("wb") as fh:
+                fh.write(s80(kind) + s80("part") + np.array([1], "<i4").tobytes() + s80("block"))
+                for comp in data:
+                    fh.write(comp.astype("<f4").tobytes())
+    case = folder / "series.case"
+    case.write_text(
+        "FORMAT\ntype: ensight gold\nGEOMETRY\nmodel: series.geo\nVARIABLE\n"
+        "scalar per node: density series****.density\n"
+        "vector per node: velocity series****.velocity\n"
+        f"TIME\ntime set: 1\nnumber of steps: {steps}\nfilename start number: 0\n"
+        "filename increment: 1\ntime values: "
+        + " ".join(f"{s * 1e-3!r}" for s in range(steps))
+        + "\n"
+    )
+    out["ensight"] = case
     return out
 
 
@@ -186,6 +216,7 @@ _ARGS = {
     "netcdf4": ("identity", "density", "velocity"),
     "xdmf": ("identity", "density", "velocity"),
     "plot3d": ("cfd", "Density", "Momentum"),
+    "ensight": ("identity", "density", "velocity"),
 }
 
 
