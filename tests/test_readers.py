@@ -212,6 +212,14 @@ def test_plot3d_cfd_from_the_cli(tmp_path: Path, capsys) -> None:  # type: ignor
     d = json.loads(capsys.readouterr().out)
     assert d["mapping"]["name"] == "cfd" and d["mapping"]["momentum"] == "Momentum"
     assert 0.3 < d["valid_ratio"] < 0.6 and len(d["steps"]) == 3
+    assert main(["info", str(grid)]) == 0
+    assert "roles    density=Density, momentum=Momentum; default mapping cfd" in (
+        capsys.readouterr().out
+    )
+    wav = tmp_path / "p.wav"
+    rc = main(["render", str(grid), "--sources", str(out), "--listener", "8,0,30", "--duration",
+               "0.01", "--rate", "8000", "-o", str(wav)])  # fmt: skip
+    assert rc == 0 and wav.exists()
 
 
 # --------------------------------------------------------------------------- EnSight, vtm, AMR
@@ -240,6 +248,15 @@ def test_ensight_transient(tmp_path: Path) -> None:
     np.testing.assert_allclose(vol.times, [0.5, 1.5])
     assert vol.physical_times and set(vol.field_names) == {"pressure", "velocity"}
     np.testing.assert_array_equal(vol.frame("pressure", 1), vol.frame("pressure", 0))
+    # from the command line: a steady flow repeated makes no monopoles
+    out = tmp_path / "s.h5"
+    assert main(["detect", str(tmp_path / "t.case"), "-o", str(out)]) == 0
+    from auralize.io.sources_file import load_sources_h5
+
+    assert all(c["monopole"] == 0 for c in load_sources_h5(out).counts())
+    rc = main(["render", str(tmp_path / "t.case"), "--sources", str(out), "--listener",
+               "5,0,0", "--duration", "0.01", "--rate", "8000", "-o", str(tmp_path / "e.wav")])  # fmt: skip
+    assert rc == 0
 
 
 def test_vtm_blocks_are_merged(tmp_path: Path) -> None:
