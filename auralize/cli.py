@@ -192,7 +192,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     roles = {r: match_field(vol, r) for r in ROLE_NAMES}
     d["times"] = vol.times.tolist()
     d["field_info"] = {
-        k: {"kind": d["fields"][k], "units": units.get(k), "centring": centring.get(k, "point")}  # type: ignore[index, union-attr]
+        k: {"kind": d["fields"][k], "units": units.get(k), "centring": centring.get(k, "point")}
         for k in vol.field_names
     }
     d["roles"] = {r: f for r, f in roles.items() if f is not None}
@@ -216,10 +216,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     shown = ", ".join(f"{t:g}" for t in vol.times[:8]) + (" ..." if vol.n_steps > 8 else "")
     print(f"           t = {shown} s"
           + (f" ({vol.attrs['time_units']} in the file)" if "time_units" in vol.attrs else ""))  # fmt: skip
-    for name, info in d["field_info"].items():  # type: ignore[union-attr]
+    for name, info in d["field_info"].items():
         unit = f", {info['units']}" if info["units"] else ""
         print(f"  field    {name} ({info['kind']}, {info['centring']} data{unit})")
-    role_text = ", ".join(f"{r}={f}" for r, f in d["roles"].items()) or "none recognised"  # type: ignore[union-attr]
+    role_text = ", ".join(f"{r}={f}" for r, f in d["roles"].items()) or "none recognised"
     print(f"  roles    {role_text}; default mapping {d['mapping']}")
     return 0
 

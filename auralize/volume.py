@@ -270,9 +270,9 @@ class TimeVolume:
         step = step % self.n_steps
         arr = np.asarray(src.read(step), dtype=np.float64)
         if self.check_finite and not np.all(np.isfinite(arr)):
-            bad_points = ~np.isfinite(arr)
+            bad_points: NDArray[np.bool_] = np.asarray(~np.isfinite(arr))
             if bad_points.ndim == 4:
-                bad_points = bad_points.any(axis=-1)
+                bad_points = np.asarray(bad_points.any(axis=-1))
             if self.valid is not None:
                 bad_points &= self.valid
             bad = int(np.count_nonzero(bad_points))
@@ -378,9 +378,9 @@ class _TalliedFrames:
 
     def read(self, step: int) -> NDArray[np.floating]:
         arr = np.asarray(self.base.read(step), dtype=np.float64)
-        bad = ~np.isfinite(arr)
+        bad: NDArray[np.bool_] = np.asarray(~np.isfinite(arr))
         if bad.ndim == 4:
-            bad = bad.any(axis=-1)
+            bad = np.asarray(bad.any(axis=-1))
         if self.valid is not None:
             bad &= self.valid
             self.tally.points_read += int(np.count_nonzero(self.valid))
