@@ -99,8 +99,10 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         _StepCache,
         classify,
         extract,
-        peak_strengths,
+        mean_stress,
         step_strengths,
+        strength_stats,
+        stress_mean,
     )
 
     rows = []
@@ -109,8 +111,9 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         vol = _smooth_volume(n)
         m = get_mapping("paper-density")
         m.prepare(vol)
-        thr = Thresholds().resolve(peak_strengths(vol, m))
-        cache = _StepCache(vol, m)
+        tmean = stress_mean(*mean_stress(vol, m))
+        thr = Thresholds().resolve(strength_stats(vol, m, tmean=tmean))
+        cache = _StepCache(vol, m, tmean=tmean)
         for k in range(3):
             cache.get(k)
         buf = np.empty((3, n, n, n))

@@ -23,7 +23,9 @@ from auralize.sources import (
     Thresholds,
     _require_steps,
     iter_detect,
-    peak_strengths,
+    mean_stress,
+    strength_stats,
+    stress_mean,
 )
 from auralize.volume import TimeVolume
 
@@ -65,8 +67,12 @@ class Detection:
         self.mapping = get_mapping(mapping or auto_mapping(volume), **mapping_fields)
         self.mapping.prepare(volume)
         self.thresholds = thresholds or Thresholds(*VIEWER_THRESHOLDS)
-        self.peak = peak_strengths(volume, self.mapping) if self.thresholds.needs_scale else None
-        self.thr = self.thresholds.resolve(self.peak)
+        # strengths of the time-varying part, as auralize.sources.detect takes them
+        self.tmean = stress_mean(*mean_stress(volume, self.mapping))
+        stats = (strength_stats(volume, self.mapping, tmean=self.tmean)
+                 if self.thresholds.needs_scale else None)  # fmt: skip
+        self.peak = None if stats is None else stats.peak
+        self.thr = self.thresholds.resolve(stats)
         self.frames: dict[int, SourceFrame] = {}
         self._lock = threading.Lock()
 
@@ -76,7 +82,7 @@ class Detection:
             if step not in self.frames:
                 for n, f in iter_detect(self.volume, self.mapping, self.thr,
                                         zero_fraction=self.thresholds.zero_fraction,
-                                        steps=range(step, step + 1)):  # fmt: skip
+                                        steps=range(step, step + 1), tmean=self.tmean):  # fmt: skip
                     self.frames[n] = f
             return self.frames[step]
 
@@ -99,7 +105,8 @@ class Detection:
                 runs.append(range(n, n + 1))
         for r in runs:
             for n, f in iter_detect(self.volume, self.mapping, self.thr,
-                                    zero_fraction=self.thresholds.zero_fraction, steps=r):  # fmt: skip
+                                    zero_fraction=self.thresholds.zero_fraction, steps=r,
+                                    tmean=self.tmean):  # fmt: skip
                 with self._lock:
                     self.frames[n] = f
                 done += 1
