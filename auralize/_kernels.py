@@ -29,9 +29,6 @@ _NJIT = {"cache": True, "fastmath": False, "nogil": True}
 NONE, MONOPOLE, DIPOLE, QUADRUPOLE = 0, 1, 2, 3
 #: ΔV rules of :func:`classify_and_radius`
 DV_CELL, DV_SPHERE = 0, 1
-_NO_MEAN = np.zeros((6, 1, 1, 1))
-#: relative size below which a stress fluctuation is taken as round-off of the mean
-STEADY_RTOL = 1e-10
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -54,14 +51,10 @@ def _inner(i: int, n: int) -> int:
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, tmean, sub, dm, tt):  # type: ignore[no-untyped-def]
+def _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, dm, tt):  # type: ignore[no-untyped-def]
     """Planar momentum change dm (3, ...) and Lighthill stress tt (6, ...) = ρ v_i v_j.
 
-    Order of tt: xx, yy, zz, xy, xz, yz (paper 003 Eq. 11).  With ``sub``
-    the time-mean stress ``tmean`` (6, ...) is subtracted (the fluctuating
-    part ρ v_i v_j − ⟨ρ v_i v_j⟩; differences within :data:`STEADY_RTOL` of
-    the mean are round-off of the mean and count as 0, so a steady field
-    gives exactly zero).
+    Order of tt: xx, yy, zz, xy, xz, yz (paper 003 Eq. 11).
     """
     nz, ny, nx = rho_c.shape
     for kp in numba.prange(nz):
@@ -78,15 +71,9 @@ def _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, tmean, sub, dm, tt):  # type: i
                 tt[3, k, j, i] = r * vx * vy
                 tt[4, k, j, i] = r * vx * vz
                 tt[5, k, j, i] = r * vy * vz
-                if sub:
-                    for c in range(6):
-                        mc = tmean[c, k, j, i]
-                        d = tt[c, k, j, i] - mc
-                        # below STEADY_RTOL of the mean a difference is round-off of the mean
-                        tt[c, k, j, i] = d if abs(d) > STEADY_RTOL * abs(mc) else 0.0
 
 
-def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None, tmean=None):  # type: ignore[no-untyped-def]
+def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None):  # type: ignore[no-untyped-def]
     """Monopole, dipole and quadrupole strengths at every vertex of one step.
 
     Paper 003 §3.2.3: ``S_m = ∂ρ/∂t``, ``S_d = ∂/∂x_i (∂(ρ v_i)/∂t)`` (Eq. 13),
@@ -101,17 +88,13 @@ def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None, tme
     h : (3,) spacing (x, y, z).
     out : (3, nz, ny, nx) result, written in place.
     work : optional (9, nz, ny, nx) scratch array, reused between calls.
-    tmean : optional (6, nz, ny, nx) time-mean stress ⟨ρ v_i v_j⟩ subtracted
-        before the quadrupole stencil (order xx, yy, zz, xy, xz, yz).
 
     Returns the scratch array.
     """
     shape = rho_c.shape
     if work is None or work.shape != (9, *shape):
         work = np.empty((9, *shape))
-    sub = tmean is not None
-    tm = tmean if sub else _NO_MEAN
-    _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, tm, sub, work[:3], work[3:])
+    _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, work[:3], work[3:])
     _stencil(rho_a, rho_b, work[:3], work[3:], inv_dt, np.asarray(h, dtype=np.float64), out)
     return work
 
@@ -314,6 +297,20 @@ def mask_nodata(bad, out):  # type: ignore[no-untyped-def]
                          or bad[k0, j1, i] or bad[k1, j0, i] or bad[k1, j1, i])  # fmt: skip
                 if q_bad:
                     out[2, k, j, i] = 0.0
+
+
+def quadrupole_of_stress(tt, h):  # type: ignore[no-untyped-def]
+    """Quadrupole strength ``(nz, ny, nx)`` of a given stress ``tt (6, nz, ny, nx)``.
+
+    The same stencil as :func:`strengths` (so the same numbers give the
+    same result bit for bit); used for the time-mean stress.
+    """
+    shape = tt.shape[1:]
+    out = np.empty((3, *shape))
+    zero = np.zeros(shape)
+    _stencil(zero, zero, np.zeros((3, *shape)), np.ascontiguousarray(tt), 0.0,
+             np.asarray(h, dtype=np.float64), out)  # fmt: skip
+    return out[2].copy()
 
 
 def empty_like_strengths(shape: tuple[int, int, int]) -> np.ndarray:

@@ -99,10 +99,9 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         _StepCache,
         classify,
         extract,
-        mean_stress,
+        steady_strength,
         step_strengths,
         strength_stats,
-        stress_mean,
     )
 
     rows = []
@@ -111,9 +110,9 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         vol = _smooth_volume(n)
         m = get_mapping("paper-density")
         m.prepare(vol)
-        tmean = stress_mean(*mean_stress(vol, m))
-        thr = Thresholds().resolve(strength_stats(vol, m, tmean=tmean))
-        cache = _StepCache(vol, m, tmean=tmean)
+        qmean = steady_strength(vol, m)
+        thr = Thresholds().resolve(strength_stats(vol, m, qmean=qmean))
+        cache = _StepCache(vol, m, qmean=qmean)
         for k in range(3):
             cache.get(k)
         buf = np.empty((3, n, n, n))

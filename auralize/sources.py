@@ -342,14 +342,15 @@ class _StepCache:
     ``ok`` is None when every point of the step is valid and finite, else a
     bool mask; no-data values are replaced by 0 (they are masked out of the
     strengths by :func:`auralize._kernels.mask_nodata`, never used).
-    ``tmean`` is the time-mean stress subtracted from ρ v_i v_j (or None).
+    ``qmean`` is the quadrupole strength of the time-mean stress, subtracted
+    from every step's (or None: the literal strengths).
     """
 
     def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
-                 tmean: NDArray[np.float64] | None = None) -> None:  # fmt: skip
+                 qmean: NDArray[np.float64] | None = None) -> None:  # fmt: skip
         self.volume, self.mapping = volume, mapping
         self.valid = valid_mask(volume)
-        self.tmean = tmean
+        self.qmean = qmean
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = {}
         self.work: np.ndarray | None = None  # kernel scratch, reused between steps
         #: no-data points ``(nz, ny, nx)`` of the last step computed (None: none)
@@ -393,7 +394,9 @@ def step_strengths(volume: TimeVolume, cache: _StepCache, n: int,
         out = K.empty_like_strengths(volume.shape)
     inv_dt = 1.0 / (volume.times[b] - volume.times[a])
     cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing, out,
-                             cache.work, cache.tmean)  # fmt: skip
+                             cache.work)  # fmt: skip
+    if cache.qmean is not None:
+        np.subtract(out[2], cache.qmean, out=out[2])
     oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
     if oks:
         ok = oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)
@@ -404,33 +407,55 @@ def step_strengths(volume: TimeVolume, cache: _StepCache, n: int,
     return out
 
 
-def mean_stress(volume: TimeVolume, mapping: AcousticMapping,
-                steps: Sequence[int] | None = None) -> tuple[NDArray[np.float64], NDArray[np.int64]]:  # fmt: skip
-    """Sum of the Lighthill stress ρ v_i v_j over ``steps`` (default all) and the counts.
+def stress_sum(volume: TimeVolume, mapping: AcousticMapping,
+               steps: Sequence[int] | None = None) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+    """Pieces of the time-mean Lighthill stress ρ v_i v_j over ``steps`` (default all).
 
-    Returns ``sum (6, nz, ny, nx)`` (order xx, yy, zz, xy, xz, yz) and
-    ``count (nz, ny, nx)``, the number of steps at which each point had data;
-    ``sum / count`` is the point's time-mean stress.
+    Returns ``ref (6, nz, ny, nx)``, the stress at step 0 (order xx, yy, zz,
+    xy, xz, yz; 0 where step 0 has no data), ``dsum``, the sum of
+    (stress − ref) over ``steps`` at the points with data, and ``count
+    (nz, ny, nx)``, the number of such steps.  ``ref + dsum / count`` is the
+    mean (:func:`steady_quadrupole`); taken as an offset from step 0, a steady
+    field's mean is step 0's stress exactly, not up to round-off.
     """
     cache = _StepCache(volume, mapping)
-    total = np.zeros((6, *volume.shape))
+    ref = _stress(*cache.get(0)[:2])
+    dsum = np.zeros((6, *volume.shape))
     count = np.zeros(volume.shape, dtype=np.int64)
     for n in range(volume.n_steps) if steps is None else steps:
         rho, v, _, ok = cache.get(int(n))
-        for c, (p, q) in enumerate(STRESS_PAIRS):
-            total[c] += rho * v[..., p] * v[..., q]
+        d = _stress(rho, v) - ref
+        dsum += d if ok is None else d * ok
         count += 1 if ok is None else ok
-        cache.keep(int(n) + 1, int(n) + 1)
-    return total, count
+        cache.keep(0, 0)
+    return ref, dsum, count
+
+
+def _stress(rho: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.stack([rho * v[..., p] * v[..., q] for p, q in STRESS_PAIRS])
 
 
 #: component pairs of the stress in the kernels' order xx, yy, zz, xy, xz, yz
 STRESS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
-def stress_mean(total: NDArray[np.float64], count: NDArray[np.int64]) -> NDArray[np.float64]:
-    """``total / count`` (0 where a point never had data), C-contiguous (6, nz, ny, nx)."""
-    return np.ascontiguousarray(total / np.maximum(count, 1))
+def steady_quadrupole(ref: NDArray[np.float64], dsum: NDArray[np.float64],
+                      count: NDArray[np.int64], spacing: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+    """Quadrupole strength ``(nz, ny, nx)`` of the time-mean stress (see :func:`stress_sum`).
+
+    By linearity, S_q(ρ v_i v_j) − S_q(⟨ρ v_i v_j⟩) is the strength of the
+    fluctuating stress; it is exactly 0 for a steady field.
+    """
+    mean = ref + dsum / np.maximum(count, 1)
+    return K.quadrupole_of_stress(mean, spacing)
+
+
+def steady_strength(volume: TimeVolume, m: AcousticMapping,
+                    steady: str = "remove") -> NDArray[np.float64] | None:  # fmt: skip
+    """The steady quadrupole strength to subtract (``steady="remove"``), or None (``"keep"``)."""
+    if _steady(steady) == "keep":
+        return None
+    return steady_quadrupole(*stress_sum(volume, m), volume.spacing)
 
 
 def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
@@ -443,8 +468,8 @@ def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None 
     _require_steps(volume)
     m = get_mapping(mapping)
     m.prepare(volume)
-    tmean = stress_mean(*mean_stress(volume, m)) if _steady(steady) == "remove" else None
-    return step_strengths(volume, _StepCache(volume, m, tmean=tmean), step)
+    return step_strengths(volume, _StepCache(volume, m, qmean=steady_strength(volume, m, steady)),
+                          step)  # fmt: skip
 
 
 def _steady(steady: str) -> str:
@@ -528,10 +553,10 @@ def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np
 
 
 def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
-                   tmean: NDArray[np.float64] | None = None,
+                   qmean: NDArray[np.float64] | None = None,
                    max_steps: int = AUTO_SAMPLE_STEPS) -> StrengthStats:  # fmt: skip
     """|S| statistics of each type over evenly spaced sample steps (valid points only)."""
-    cache = _StepCache(volume, mapping, tmean=tmean)
+    cache = _StepCache(volume, mapping, qmean=qmean)
     buf = K.empty_like_strengths(volume.shape)
     parts = []
     for n in sample_steps(volume.n_steps, max_steps):
@@ -549,13 +574,13 @@ def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
 
 def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64], *,
                 zero_fraction: float = 1.0, steps: range | None = None,
-                progress_bar: bool = False, tmean: NDArray[np.float64] | None = None,
+                progress_bar: bool = False, qmean: NDArray[np.float64] | None = None,
                 delta_v: str = "cell") -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
     """Yield ``(step, SourceFrame)`` for each step, reading frames one at a time.
 
     Each frame's ``n_valid`` is the number of points with data at that step.
     """
-    cache = _StepCache(volume, mapping, tmean=tmean)
+    cache = _StepCache(volume, mapping, qmean=qmean)
     buf = K.empty_like_strengths(volume.shape)
     steps = steps if steps is not None else range(volume.n_steps)
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
@@ -642,12 +667,12 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     m = get_mapping(mapping, **mapping_fields)
     m.prepare(volume)
     _rule(delta_v)
-    tmean = stress_mean(*mean_stress(volume, m)) if _steady(steady) == "remove" else None
+    qmean = steady_strength(volume, m, steady)
     thresholds = thresholds or Thresholds()
-    stats = strength_stats(volume, m, tmean=tmean) if thresholds.needs_scale else None
+    stats = strength_stats(volume, m, qmean=qmean) if thresholds.needs_scale else None
     thr = thresholds.resolve(stats)
     frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
-                                        progress_bar=progress_bar, tmean=tmean,
+                                        progress_bar=progress_bar, qmean=qmean,
                                         delta_v=delta_v)]  # fmt: skip
     fraction = classified_fraction(frames, volume.n_points)
     warn_fraction(fraction, volume.source)

@@ -23,9 +23,8 @@ from auralize.sources import (
     Thresholds,
     _require_steps,
     iter_detect,
-    mean_stress,
+    steady_strength,
     strength_stats,
-    stress_mean,
 )
 from auralize.volume import TimeVolume
 
@@ -68,8 +67,8 @@ class Detection:
         self.mapping.prepare(volume)
         self.thresholds = thresholds or Thresholds(*VIEWER_THRESHOLDS)
         # strengths of the time-varying part, as auralize.sources.detect takes them
-        self.tmean = stress_mean(*mean_stress(volume, self.mapping))
-        stats = (strength_stats(volume, self.mapping, tmean=self.tmean)
+        self.qmean = steady_strength(volume, self.mapping)
+        stats = (strength_stats(volume, self.mapping, qmean=self.qmean)
                  if self.thresholds.needs_scale else None)  # fmt: skip
         self.peak = None if stats is None else stats.peak
         self.thr = self.thresholds.resolve(stats)
@@ -82,7 +81,7 @@ class Detection:
             if step not in self.frames:
                 for n, f in iter_detect(self.volume, self.mapping, self.thr,
                                         zero_fraction=self.thresholds.zero_fraction,
-                                        steps=range(step, step + 1), tmean=self.tmean):  # fmt: skip
+                                        steps=range(step, step + 1), qmean=self.qmean):  # fmt: skip
                     self.frames[n] = f
             return self.frames[step]
 
@@ -106,7 +105,7 @@ class Detection:
         for r in runs:
             for n, f in iter_detect(self.volume, self.mapping, self.thr,
                                     zero_fraction=self.thresholds.zero_fraction, steps=r,
-                                    tmean=self.tmean):  # fmt: skip
+                                    qmean=self.qmean):  # fmt: skip
                 with self._lock:
                     self.frames[n] = f
                 done += 1
