@@ -407,27 +407,51 @@ def step_strengths(volume: TimeVolume, cache: _StepCache, n: int,
     return out
 
 
-def stress_sum(volume: TimeVolume, mapping: AcousticMapping,
-               steps: Sequence[int] | None = None) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
-    """Pieces of the time-mean Lighthill stress ρ v_i v_j over ``steps`` (default all).
+#: steps per partial sum of the time-mean stress (fixed, so serial and
+#: distributed detection add the same partial sums in the same order)
+STRESS_BLOCK = 8
 
-    Returns ``ref (6, nz, ny, nx)``, the stress at step 0 (order xx, yy, zz,
-    xy, xz, yz; 0 where step 0 has no data), ``dsum``, the sum of
-    (stress − ref) over ``steps`` at the points with data, and ``count
-    (nz, ny, nx)``, the number of such steps.  ``ref + dsum / count`` is the
-    mean (:func:`steady_quadrupole`); taken as an offset from step 0, a steady
-    field's mean is step 0's stress exactly, not up to round-off.
-    """
+
+def stress_blocks(n_steps: int) -> list[tuple[int, int]]:
+    """The ``[a, b)`` step blocks of :data:`STRESS_BLOCK` steps."""
+    return [(a, min(a + STRESS_BLOCK, n_steps)) for a in range(0, n_steps, STRESS_BLOCK)]
+
+
+def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
+                     b: int) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+    """``(ref, dsum, count)`` of steps ``[a, b)`` (see :func:`stress_sum`)."""
     cache = _StepCache(volume, mapping)
     ref = _stress(*cache.get(0)[:2])
     dsum = np.zeros((6, *volume.shape))
     count = np.zeros(volume.shape, dtype=np.int64)
-    for n in range(volume.n_steps) if steps is None else steps:
-        rho, v, _, ok = cache.get(int(n))
+    for n in range(a, b):
+        rho, v, _, ok = cache.get(n)
         d = _stress(rho, v) - ref
         dsum += d if ok is None else d * ok
         count += 1 if ok is None else ok
         cache.keep(0, 0)
+    return ref, dsum, count
+
+
+def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> tuple[NDArray[np.float64], ...]:
+    """Pieces of the time-mean Lighthill stress ρ v_i v_j over all steps.
+
+    Returns ``ref (6, nz, ny, nx)``, the stress at step 0 (order xx, yy, zz,
+    xy, xz, yz; 0 where step 0 has no data), ``dsum``, the sum of
+    (stress − ref) over the steps at the points with data (added block by
+    block, :data:`STRESS_BLOCK` steps each), and ``count (nz, ny, nx)``, the
+    number of such steps.  ``ref + dsum / count`` is the mean
+    (:func:`steady_quadrupole`); taken as an offset from step 0, a steady
+    field's mean is step 0's stress exactly, not up to round-off.
+    """
+    ref = dsum = count = None
+    for a, b in stress_blocks(volume.n_steps):
+        r, d, c = stress_block_sum(volume, mapping, a, b)
+        if dsum is None:
+            ref, dsum, count = r, np.zeros_like(d), np.zeros_like(c)
+        dsum += d
+        count += c
+    assert ref is not None and dsum is not None and count is not None
     return ref, dsum, count
 
 
