@@ -45,14 +45,17 @@ KIND_NAMES = {K.MONOPOLE: "monopole", K.DIPOLE: "dipole", K.QUADRUPOLE: "quadrup
 TYPES = ("monopole", "dipole", "quadrupole")
 
 #: "auto" thresholds (per type, over the valid points of the sample steps): the
-#: larger of a robust noise floor, median + AUTO_NOISE_K · 1.4826 · MAD of |S|,
-#: and the level above which the points carry AUTO_COVER of Σ|S| (the
-#: strongest points that make up that share of the type's integrated |S|).
+#: larger of a robust noise floor, median + AUTO_NOISE_K · 1.4826 · MAD of |S|
+#: (but at most the level of the strongest AUTO_TOP of the points), and the
+#: level above which the points carry AUTO_COVER of Σ|S| (the strongest
+#: points that make up that share of the type's integrated |S|).
 #: Both are properties of the strength *distribution* (integrals and
 #: quantiles), not of its single largest value, so they stay put when the
 #: grid is refined.
 AUTO_NOISE_K = 5.0
 AUTO_COVER = 0.9
+#: the noise floor never hides the strongest AUTO_TOP of the points of a type that occurs
+AUTO_TOP = 0.01
 #: legacy fractions of each type's peak |S| (the viewer's default relative
 #: thresholds, given as "3%", "0.3%", "0.1%")
 AUTO_FRACTIONS = {"monopole": 0.03, "dipole": 0.003, "quadrupole": 0.001}
@@ -60,6 +63,9 @@ AUTO_FRACTIONS = {"monopole": 0.03, "dipole": 0.003, "quadrupole": 0.001}
 AUTO_SAMPLE_STEPS = 8
 #: at most about this many points per sample step enter the statistics
 SAMPLE_POINTS = 1 << 18
+#: strengths below this fraction of the size of the terms they are differences of
+#: (:func:`input_scale`) are round-off: relative, top and auto thresholds never go lower
+ROUNDOFF = 1e-9
 #: share of the valid points above which a warning says thresholds find everything
 WARN_FRACTION = 0.25
 #: how the steady (time-mean) part of the flow is treated (see :func:`detect`)
@@ -120,15 +126,19 @@ class StrengthStats:
 
     peak: NDArray[np.float64]
     sample: NDArray[np.float64]
+    #: (3,) size of the terms each strength is a difference of (see :func:`input_scale`)
+    scale: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
 
     @classmethod
     def merge(cls, parts: list[StrengthStats]) -> StrengthStats:
         peak = np.zeros(3)
+        scale = np.zeros(3)
         for p in parts:
             np.maximum(peak, p.peak, out=peak)
+            np.maximum(scale, p.scale, out=scale)
         samples = [p.sample for p in parts if p.sample.size]
         sample = np.sort(np.concatenate(samples, axis=1), axis=1) if samples else np.zeros((3, 0))
-        return cls(peak=peak, sample=sample)
+        return cls(peak=peak, sample=sample, scale=scale)
 
 
 def _cover_level(x: NDArray[np.float64], cover: float) -> float:
@@ -146,7 +156,8 @@ def auto_threshold(x: NDArray[np.float64]) -> float:
         return np.inf
     med = float(np.median(x))
     mad = float(np.median(np.abs(x - med)))
-    return max(med + AUTO_NOISE_K * 1.4826 * mad, _cover_level(x, AUTO_COVER))
+    noise = min(med + AUTO_NOISE_K * 1.4826 * mad, float(np.quantile(x, 1.0 - AUTO_TOP)))
+    return max(noise, _cover_level(x, AUTO_COVER))
 
 
 @dataclass
@@ -157,8 +168,9 @@ class Thresholds:
 
     * ``"auto"`` (default): adapts to the data, per type, from |S| over the
       valid points of up to :data:`AUTO_SAMPLE_STEPS` evenly spaced steps:
-      the larger of a robust noise floor (median + 5 · 1.4826 · MAD) and the
-      level above which the strongest points carry 90 % of Σ|S|;
+      the larger of a robust noise floor (median + 5 · 1.4826 · MAD, at most
+      the level of the strongest 1 %) and the level above which the
+      strongest points carry 90 % of Σ|S|;
     * ``"top:1%"``: the strongest 1 % of the valid points (a quantile of |S|);
     * ``"5%"`` or ``"rel:0.05"``: a fraction of the series' peak |S| (the
       peak of a second derivative of interpolated data grows as the grid is
@@ -208,7 +220,8 @@ class Thresholds:
                     f"{TYPES[i]} threshold {getattr(self, TYPES[i])!r} needs the series' "
                     f"strength statistics"
                 )
-            if not peak[i] > 0:
+            floor = ROUNDOFF * float(stats.scale[i]) if stats is not None else 0.0
+            if not peak[i] > floor:
                 out[i] = np.inf
             elif mode == "rel":
                 out[i] = v * float(peak[i])
@@ -219,6 +232,7 @@ class Thresholds:
             else:
                 assert stats is not None
                 out[i] = auto_threshold(stats.sample[i])
+            out[i] = max(out[i], floor)
         return out
 
     def describe(self) -> dict[str, object]:
@@ -551,8 +565,28 @@ def _require_steps(volume: TimeVolume) -> None:
         )
 
 
+def input_scale(volume: TimeVolume, cache: _StepCache, n: int, lo: int = 0,
+                hi: int | None = None) -> NDArray[np.float64]:  # fmt: skip
+    """Size of the terms each strength of step ``n`` is a difference of (planes ``[lo, hi)``).
+
+    ``max|ρ|/Δt`` (monopole), ``max|ρv|/(h Δt)`` (dipole) and
+    ``max|ρ| |v|²/h²`` (quadrupole), with the smallest step Δt and spacing h:
+    a strength far below it is round-off (e.g. the dipole strength of a
+    divergence-free flow), not a source.
+    """
+    rho, v, m, _ = cache.get(n)
+    sl = slice(lo, hi)
+    dt = float(np.min(np.diff(volume.times)))
+    live = [volume.spacing[a] for a in range(3) if volume.dims[a] > 1]
+    h = float(min(live)) if live else 1.0
+    r = float(np.max(np.abs(rho[sl]), initial=0.0))
+    mm = float(np.max(np.abs(m[sl]), initial=0.0))
+    t = float(np.max(np.abs(m[sl] * v[sl]), initial=0.0))
+    return np.array([r / dt, mm / (h * dt), t / (h * h)])
+
+
 def sample_stats(s: NDArray[np.float64], nodata: NDArray[np.bool_] | None, offset: int,
-                 n_points: int) -> StrengthStats:  # fmt: skip
+                 n_points: int, scale: NDArray[np.float64] | None = None) -> StrengthStats:  # fmt: skip
     """:class:`StrengthStats` of one step's strengths ``(3, ...)`` (or a slab's planes).
 
     ``offset`` is the global flat index of the first point of ``s``,
@@ -568,7 +602,8 @@ def sample_stats(s: NDArray[np.float64], nodata: NDArray[np.bool_] | None, offse
         keep = pick if keep is None else keep & pick
     sample = a if keep is None else a[:, keep]
     peak = a.max(axis=1) if a.size else np.zeros(3)
-    return StrengthStats(peak=peak, sample=sample.copy())
+    return StrengthStats(peak=peak, sample=sample.copy(),
+                         scale=np.zeros(3) if scale is None else np.asarray(scale, dtype=np.float64))  # fmt: skip
 
 
 def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.int64]:
@@ -585,7 +620,8 @@ def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
     parts = []
     for n in sample_steps(volume.n_steps, max_steps):
         s = step_strengths(volume, cache, int(n), buf)
-        parts.append(sample_stats(s, cache.nodata, 0, volume.n_points))
+        parts.append(sample_stats(s, cache.nodata, 0, volume.n_points,
+                                  input_scale(volume, cache, int(n))))  # fmt: skip
         cache.keep(int(n), int(n))
     return StrengthStats.merge(parts)
 

@@ -99,6 +99,7 @@ from auralize.sources import (
     classified_fraction,
     classify,
     extract,
+    input_scale,
     sample_stats,
     sample_steps,
     steady_quadrupole,
@@ -268,7 +269,8 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
         for n in steps:
             s = step_strengths(sub, cache, int(n), buf)
             nodata = None if cache.nodata is None else cache.nodata[lo:hi]
-            parts.append(sample_stats(s[:, lo:hi], nodata, slab.z0 * plane, volume.n_points))
+            parts.append(sample_stats(s[:, lo:hi], nodata, slab.z0 * plane, volume.n_points,
+                                      input_scale(sub, cache, int(n), lo, hi)))  # fmt: skip
             cache.keep(int(n), int(n))
     return StrengthStats.merge(parts)
 
