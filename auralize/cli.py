@@ -77,7 +77,9 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
             f"--threshold-{kind}",
             default="auto",
             metavar="X",
-            help=f"{kind} threshold: absolute value, 'N%%' of the peak, or auto (3%%, 0.3%%, 0.1%%)",
+            help=f"{kind} threshold: auto (adapts to the data: a robust noise floor or the "
+            f"points carrying 90%% of the strength), 'top:1%%' (strongest 1%% of the valid "
+            f"points), 'N%%' of the peak, or an absolute value",
         )
     g.add_argument(
         "--zero-fraction",
@@ -212,7 +214,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({
             "output": str(out), "thresholds": series.thresholds.tolist(),
-            "mapping": series.meta.get("mapping"),
+            "mapping": series.meta.get("mapping"), "fraction": series.meta.get("fraction"),
             "steps": [{"step": n, "time": float(series.times[n]), **c} for n, c in enumerate(counts)],
             "seconds": elapsed,
         }, indent=2))  # fmt: skip
@@ -221,6 +223,10 @@ def cmd_detect(args: argparse.Namespace) -> int:
         print(f"wrote {out}: {series.n_steps} steps in {elapsed:.2f} s; source points over all "
               f"steps: {tot['monopole']} monopole, {tot['dipole']} dipole, {tot['quadrupole']} "
               f"quadrupole (thresholds {', '.join(f'{x:.4g}' for x in series.thresholds)})")  # fmt: skip
+        frac = series.meta.get("fraction") or {}
+        if frac:
+            print("share of the valid points classified: " + ", ".join(
+                f"{frac[k]:.2%} {k}" for k in ("monopole", "dipole", "quadrupole")))  # fmt: skip
     return 0
 
 
