@@ -1,4 +1,4 @@
-"""Source strengths, exclusive classification and ΔV spheres (paper 003 §3.2.3–3.2.4.1).
+"""Source strengths, exclusive classification and ΔV volumes (paper 003 §3.2.3–3.2.4.1).
 
 For every vertex and time step three strengths are computed from the mapped
 density ρ̃ and particle velocity v:
@@ -11,16 +11,35 @@ Time derivatives are central differences between the neighbouring steps
 (one-sided at the first and last step); space derivatives are second-order
 finite differences (see :mod:`auralize._kernels`).
 
+**Steady part.**  A steady flow makes no sound: by default (``steady="remove"``)
+the quadrupole strength is that of the fluctuating stress
+ρ̃ v_i v_j − ⟨ρ̃ v_i v_j⟩, the time mean taken per point over the whole series
+(Lighthill's far field depends on ∂²T_ij/∂t² only); by linearity this is the
+literal S_q minus the S_q of the mean stress, and exactly 0 for a steady
+field.  S_m and S_d are time derivatives and vanish for steady fields anyway.
+``steady="keep"`` gives the literal strengths of the paper.
+
+**No-data points.**  Points where ``volume.valid`` is False (outside the
+input mesh) or where a mapped value is NaN/Inf, at any step a time
+difference uses, are no-data: zero strength, never classified, and every
+strength whose stencil reads one is no-data as well (no one-sided guess from
+the points that remain).
+
 Classification is exclusive, on magnitudes (strengths stay signed): a vertex is
 a monopole if ``|S_m| > T_m``; a dipole if ``|S_d| > T_d`` and ``|S_m|`` is
 "almost zero"; a quadrupole if ``|S_q| > T_q`` and both others are almost zero.
 "Almost zero" means at most ``zero_fraction`` times that type's threshold
-(default 1: below detection).
+(default 1: below detection).  Thresholds (:class:`Thresholds`) are absolute,
+``auto`` (adapted to the strength distribution), ``top:N%`` or ``N%`` of the
+peak.
 
-Each source point gets a ΔV sphere whose radius is the mean cut distance along
-its grid edges (§3.2.4.1): half the edge towards a neighbour of the same type,
-else the linear-interpolated crossing of ``|S|`` with the threshold.
-ΔV = 4/3 π r³.  An interior voxel of a source block has r = h/2.
+Each source point gets a ΔV whose extent along each grid edge is the cut
+distance of §3.2.4.1 (half the edge towards a neighbour of the same type, else
+the linear-interpolated crossing of ``|S|`` with the threshold): by default
+(``delta_v="cell"``) the box those cuts bound, h³ inside a source block, so
+Σ S ΔV is ∫ S dV over the source region and converges under grid refinement;
+``delta_v="sphere"`` is the paper's sphere of the mean cut distance
+(r = h/2 inside a block).  Radii are those of spheres of volume ΔV.
 """
 
 from __future__ import annotations

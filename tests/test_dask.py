@@ -714,3 +714,23 @@ def test_resume_with_slab_pieces_of_an_unfinished_chunk_left_over(
     assert_same_sources(got, explosion_ref)
     assert_same_sources(load_sources_h5(out), explosion_ref)
     assert not store.dir.exists()
+
+
+def test_no_data_points_give_the_same_sources_in_slabs(explosion: TimeVolume) -> None:
+    # a validity mask and NaN cells: slabs see the mask's planes and read no no-data point
+    x = np.stack(list(explosion.iter_frames("log10_density")))
+    valid = np.ones(explosion.shape, dtype=bool)
+    valid[:, :, :5] = False
+    valid[12:, 3:9, :] = False
+    x[:, ~valid] = np.nan
+    x[3, 10, 10, 10] = np.nan
+    vol = TimeVolume.from_arrays({"log10_density": x}, times=explosion.times)
+    vol.check_finite = False
+    vol.valid = valid  # type: ignore[attr-defined]
+    ref = detect(vol, mapping="paper-density")
+    assert sum(f.index.size for f in ref.frames) > 100
+    assert all(valid.reshape(-1)[f.index].all() for f in ref.frames)
+    got = detect_distributed(vol, mapping="paper-density", chunk_steps=3, slab_planes=4, log=None)
+    assert len(scale(got)["slabs"]) > 1
+    assert_same_sources(got, ref)
+    assert got.meta["fraction"] == pytest.approx(ref.meta["fraction"])

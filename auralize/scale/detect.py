@@ -295,7 +295,8 @@ def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence
     lo, hi = np.inf, -np.inf
     for n in steps:
         r = m._rho(sub, int(n))
-        lo, hi = min(lo, float(r.min())), max(hi, float(r.max()))
+        lo = min(lo, float(np.nanmin(r, initial=np.inf)))  # no-data (NaN) points do not count
+        hi = max(hi, float(np.nanmax(r, initial=-np.inf)))
     return lo, hi
 
 
@@ -307,7 +308,7 @@ def paper_gradient_task(volume: TimeVolume, m: PaperDensityMapping, steps: Seque
     gmax = 0.0
     for n in steps:
         g = m._grad(sub, m._scaled(m._rho(sub, int(n))))
-        gmax = max(gmax, float(np.max(np.abs(g[lo:hi]))))
+        gmax = max(gmax, float(np.nanmax(np.abs(g[lo:hi]), initial=0.0)))
     return gmax
 
 
