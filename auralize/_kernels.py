@@ -12,6 +12,11 @@ Finite differences (second order, on the uniform grid of spacing ``h``):
 * second derivative: ``(f[i+1] - 2 f[i] + f[i-1]) / h²``, the stencil shifted
   inwards at the borders (zero on axes with fewer than 3 points);
 * mixed derivative: the tensor product of two first derivatives.
+
+No-data points (outside the input mesh, NaN in a frame) are handled by
+:func:`mask_nodata` after the stencils: a strength whose stencil reads a
+no-data point is itself no-data (zero), rather than a one-sided difference,
+so no value is ever extrapolated from the points that remain.
 """
 
 from __future__ import annotations
@@ -22,6 +27,8 @@ import numpy as np
 _NJIT = {"cache": True, "fastmath": False, "nogil": True}
 
 NONE, MONOPOLE, DIPOLE, QUADRUPOLE = 0, 1, 2, 3
+#: ΔV rules of :func:`classify_and_radius`
+DV_CELL, DV_SPHERE = 0, 1
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -184,9 +191,10 @@ def _classify_all(s, thr, zero, kind_out):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _radii(s, kinds, thr, h, radius_out):  # type: ignore[no-untyped-def]
+def _radii(s, kinds, thr, h, rule, radius_out):  # type: ignore[no-untyped-def]
     _, nz, ny, nx = s.shape
     hx, hy, hz = 0.5 * h[0], 0.5 * h[1], 0.5 * h[2]
+    four_pi_3 = 4.0 * np.pi / 3.0
     for kp in numba.prange(nz):
         k = np.int64(kp)
         for j in range(ny):
@@ -196,38 +204,113 @@ def _radii(s, kinds, thr, h, radius_out):  # type: ignore[no-untyped-def]
                     radius_out[k, j, i] = 0.0
                     continue
                 own = abs(s[kind - 1, k, j, i])
-                acc = 0.0
-                n = 0
-                if i > 0:
-                    acc += _cut(s, kinds, kind, thr, own, k, j, i - 1, hx)
-                    n += 1
-                if i < nx - 1:
-                    acc += _cut(s, kinds, kind, thr, own, k, j, i + 1, hx)
-                    n += 1
-                if j > 0:
-                    acc += _cut(s, kinds, kind, thr, own, k, j - 1, i, hy)
-                    n += 1
-                if j < ny - 1:
-                    acc += _cut(s, kinds, kind, thr, own, k, j + 1, i, hy)
-                    n += 1
-                if k > 0:
-                    acc += _cut(s, kinds, kind, thr, own, k - 1, j, i, hz)
-                    n += 1
-                if k < nz - 1:
-                    acc += _cut(s, kinds, kind, thr, own, k + 1, j, i, hz)
-                    n += 1
-                radius_out[k, j, i] = acc / n if n > 0 else (hx + hy + hz) / 3.0
+                # cut distances along -x, +x, -y, +y, -z, +z (-1: no edge)
+                cxm = _cut(s, kinds, kind, thr, own, k, j, i - 1, hx) if i > 0 else -1.0
+                cxp = _cut(s, kinds, kind, thr, own, k, j, i + 1, hx) if i < nx - 1 else -1.0
+                cym = _cut(s, kinds, kind, thr, own, k, j - 1, i, hy) if j > 0 else -1.0
+                cyp = _cut(s, kinds, kind, thr, own, k, j + 1, i, hy) if j < ny - 1 else -1.0
+                czm = _cut(s, kinds, kind, thr, own, k - 1, j, i, hz) if k > 0 else -1.0
+                czp = _cut(s, kinds, kind, thr, own, k + 1, j, i, hz) if k < nz - 1 else -1.0
+                if rule == DV_SPHERE:
+                    acc = 0.0
+                    n = 0
+                    for c in (cxm, cxp, cym, cyp, czm, czp):
+                        if c >= 0.0:
+                            acc += c
+                            n += 1
+                    radius_out[k, j, i] = acc / n if n > 0 else (hx + hy + hz) / 3.0
+                else:
+                    # the vertex's share of the source region: a box reaching the cut
+                    # on each side; no edge = grid border (half a cell), a single-point
+                    # axis counts its whole spacing
+                    ex = 2.0 * hx if nx == 1 else max(cxm, 0.0) + max(cxp, 0.0)
+                    ey = 2.0 * hy if ny == 1 else max(cym, 0.0) + max(cyp, 0.0)
+                    ez = 2.0 * hz if nz == 1 else max(czm, 0.0) + max(czp, 0.0)
+                    radius_out[k, j, i] = (ex * ey * ez / four_pi_3) ** (1.0 / 3.0)
 
 
-def classify_and_radius(s, thr, zero, h, kind_out, radius_out):  # type: ignore[no-untyped-def]
+def classify_and_radius(s, thr, zero, h, kind_out, radius_out, rule=DV_CELL):  # type: ignore[no-untyped-def]
     """Classify every vertex and compute its ΔV-sphere radius (0 where no source).
 
-    The radius is the mean of the cut distances along the (up to six) grid
-    edges leaving the vertex (paper 003 §3.2.4.1, Fig. 3).  A vertex on a
-    grid face has fewer edges; only existing edges are averaged.
+    ``rule`` :data:`DV_CELL` (default): ΔV is the vertex's share of the source
+    region, a box that reaches on each side of the vertex to the cut distance
+    along that grid edge (half the edge inside a source block, the
+    threshold crossing at the region's border, nothing beyond a grid face);
+    the radius is that of the sphere of the same volume.  Inside a source
+    block ΔV = h_x h_y h_z, so Σ S ΔV is the midpoint/trapezoid rule for
+    ∫ S dV over the source region and converges as the grid is refined.
+
+    ``rule`` :data:`DV_SPHERE`: paper 003 §3.2.4.1, Fig. 3 literally: the
+    radius is the mean of the cut distances along the (up to six) edges
+    leaving the vertex (an interior vertex of a block gets r = h/2, so
+    ΔV = π h³/6, about half its cell).
     """
     _classify_all(s, thr, zero, kind_out)
-    _radii(s, kind_out, thr, h, radius_out)
+    _radii(s, kind_out, thr, h, rule, radius_out)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _any_bad_cross(bad, k, j, i, k0, k1, j0, j1, i0, i1):  # type: ignore[no-untyped-def]
+    return (bad[k, j, i0] or bad[k, j, i1] or bad[k, j0, i] or bad[k, j1, i]
+            or bad[k0, j, i] or bad[k1, j, i])  # fmt: skip
+
+
+@numba.njit(parallel=True, **_NJIT)
+def mask_nodata(bad, out):  # type: ignore[no-untyped-def]
+    """Zero the strengths ``out (3, nz, ny, nx)`` whose stencil reads a no-data point.
+
+    ``bad (nz, ny, nx)`` is True at no-data points.  A no-data point has no
+    strength of any type; the dipole strength of a point needs its six edge
+    neighbours (one-sided at grid faces: itself), the quadrupole strength
+    every point its second and mixed differences read (see :func:`_stencil`).
+    """
+    nz, ny, nx = bad.shape
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        k0, k1 = _lohi(k, nz)
+        kc = _inner(k, nz)
+        for j in range(ny):
+            j0, j1 = _lohi(j, ny)
+            jc = _inner(j, ny)
+            for i in range(nx):
+                i0, i1 = _lohi(i, nx)
+                ic = _inner(i, nx)
+                if bad[k, j, i]:
+                    out[0, k, j, i] = 0.0
+                    out[1, k, j, i] = 0.0
+                    out[2, k, j, i] = 0.0
+                    continue
+                if _any_bad_cross(bad, k, j, i, k0, k1, j0, j1, i0, i1):
+                    out[1, k, j, i] = 0.0
+                    out[2, k, j, i] = 0.0
+                    continue
+                q_bad = False
+                if nx >= 3:
+                    q_bad = q_bad or bad[k, j, ic - 1] or bad[k, j, ic] or bad[k, j, ic + 1]
+                if ny >= 3:
+                    q_bad = q_bad or bad[k, jc - 1, i] or bad[k, jc, i] or bad[k, jc + 1, i]
+                if nz >= 3:
+                    q_bad = q_bad or bad[kc - 1, j, i] or bad[kc, j, i] or bad[kc + 1, j, i]
+                q_bad = (q_bad or bad[k, j0, i0] or bad[k, j0, i1] or bad[k, j1, i0]
+                         or bad[k, j1, i1] or bad[k0, j, i0] or bad[k0, j, i1]
+                         or bad[k1, j, i0] or bad[k1, j, i1] or bad[k0, j0, i]
+                         or bad[k0, j1, i] or bad[k1, j0, i] or bad[k1, j1, i])  # fmt: skip
+                if q_bad:
+                    out[2, k, j, i] = 0.0
+
+
+def quadrupole_of_stress(tt, h):  # type: ignore[no-untyped-def]
+    """Quadrupole strength ``(nz, ny, nx)`` of a given stress ``tt (6, nz, ny, nx)``.
+
+    The same stencil as :func:`strengths` (so the same numbers give the
+    same result bit for bit); used for the time-mean stress.
+    """
+    shape = tt.shape[1:]
+    out = np.empty((3, *shape))
+    zero = np.zeros(shape)
+    _stencil(zero, zero, np.zeros((3, *shape)), np.ascontiguousarray(tt), 0.0,
+             np.asarray(h, dtype=np.float64), out)  # fmt: skip
+    return out[2].copy()
 
 
 def empty_like_strengths(shape: tuple[int, int, int]) -> np.ndarray:

@@ -99,8 +99,9 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         _StepCache,
         classify,
         extract,
-        peak_strengths,
+        steady_strength,
         step_strengths,
+        strength_stats,
     )
 
     rows = []
@@ -109,8 +110,9 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         vol = _smooth_volume(n)
         m = get_mapping("paper-density")
         m.prepare(vol)
-        thr = Thresholds().resolve(peak_strengths(vol, m))
-        cache = _StepCache(vol, m)
+        qmean = steady_strength(vol, m)
+        thr = Thresholds().resolve(strength_stats(vol, m, qmean=qmean))
+        cache = _StepCache(vol, m, qmean=qmean)
         for k in range(3):
             cache.get(k)
         buf = np.empty((3, n, n, n))

@@ -86,7 +86,9 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
             f"--threshold-{kind}",
             default="auto",
             metavar="X",
-            help=f"{kind} threshold: absolute value, 'N%%' of the peak, or auto (3%%, 0.3%%, 0.1%%)",
+            help=f"{kind} threshold: auto (adapts to the data: a robust noise floor or the "
+            f"points carrying 90%% of the strength), 'top:1%%' (strongest 1%% of the valid "
+            f"points), 'N%%' of the peak, or an absolute value",
         )
     g.add_argument(
         "--zero-fraction",
@@ -260,7 +262,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({
             "output": str(out), "thresholds": series.thresholds.tolist(),
-            "mapping": series.meta.get("mapping"),
+            "mapping": series.meta.get("mapping"), "fraction": series.meta.get("fraction"),
             "valid_ratio": series.meta.get("valid_ratio"),
             "masked_fraction": series.meta.get("masked_fraction"),
             "unavailable": series.meta.get("unavailable", {}),
@@ -274,6 +276,10 @@ def cmd_detect(args: argparse.Namespace) -> int:
               f"quadrupole (thresholds {', '.join(f'{x:.4g}' for x in series.thresholds)}); "
               f"valid points {100.0 * vol.valid_ratio:.1f} %, masked (NaN) "
               f"{100.0 * tally.fraction:.2f} %")  # fmt: skip
+        frac = series.meta.get("fraction") or {}
+        if frac:
+            print("share of the valid points classified: " + ", ".join(
+                f"{frac[k]:.2%} {k}" for k in ("monopole", "dipole", "quadrupole")))  # fmt: skip
     return 0
 
 

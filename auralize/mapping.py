@@ -290,10 +290,10 @@ class PaperDensityMapping(AcousticMapping):
     def _rho(self, volume: TimeVolume, step: int) -> Frame:
         x = volume.frame(self.field, step)
         _check_scalar(volume, self.field, x)
-        if np.max(np.abs(x)) > 300:
+        if np.nanmax(np.abs(x), initial=0.0) > 300:
             raise DataError(
                 f"{volume.source}: field {self.field!r} is read as log10 density by the "
-                f"'paper-density' mapping, but holds values up to {np.max(np.abs(x)):g}; "
+                f"'paper-density' mapping, but holds values up to {np.nanmax(np.abs(x)):g}; "
                 f"use the 'identity' mapping for linear densities"
             )
         return np.power(10.0, x)
@@ -302,13 +302,14 @@ class PaperDensityMapping(AcousticMapping):
         super().prepare(volume)
         lo, hi = np.inf, -np.inf
         for n in range(volume.n_steps):
-            r = self._rho(volume, n)
-            lo, hi = min(lo, float(r.min())), max(hi, float(r.max()))
+            r = self._rho(volume, n)  # no-data (NaN) points do not count
+            lo = min(lo, float(np.nanmin(r, initial=np.inf)))
+            hi = max(hi, float(np.nanmax(r, initial=-np.inf)))
         self._lo, self._hi = lo, hi
         gmax = 0.0
         for n in range(volume.n_steps):
             g = self._grad(volume, self._scaled(self._rho(volume, n)))
-            gmax = max(gmax, float(np.max(np.abs(g))))
+            gmax = max(gmax, float(np.nanmax(np.abs(g), initial=0.0)))
         self._gscale = self.velocity_max / gmax if gmax > 0 else 0.0
         self._prepared_for = id(volume)
 

@@ -1,4 +1,4 @@
-"""Source strengths, exclusive classification and ΔV spheres (paper 003 §3.2.3–3.2.4.1).
+"""Source strengths, exclusive classification and ΔV volumes (paper 003 §3.2.3–3.2.4.1).
 
 For every vertex and time step three strengths are computed from the mapped
 density ρ̃ and particle velocity v:
@@ -11,23 +11,43 @@ Time derivatives are central differences between the neighbouring steps
 (one-sided at the first and last step); space derivatives are second-order
 finite differences (see :mod:`auralize._kernels`).
 
+**Steady part.**  A steady flow makes no sound: by default (``steady="remove"``)
+the quadrupole strength is that of the fluctuating stress
+ρ̃ v_i v_j − ⟨ρ̃ v_i v_j⟩, the time mean taken per point over the whole series
+(Lighthill's far field depends on ∂²T_ij/∂t² only); by linearity this is the
+literal S_q minus the S_q of the mean stress, and exactly 0 for a steady
+field.  S_m and S_d are time derivatives and vanish for steady fields anyway.
+``steady="keep"`` gives the literal strengths of the paper.
+
+**No-data points.**  Points where ``volume.valid`` is False (outside the
+input mesh) or where a mapped value is NaN/Inf, at any step a time
+difference uses, are no-data: zero strength, never classified, and every
+strength whose stencil reads one is no-data as well (no one-sided guess from
+the points that remain).
+
 Classification is exclusive, on magnitudes (strengths stay signed): a vertex is
 a monopole if ``|S_m| > T_m``; a dipole if ``|S_d| > T_d`` and ``|S_m|`` is
 "almost zero"; a quadrupole if ``|S_q| > T_q`` and both others are almost zero.
 "Almost zero" means at most ``zero_fraction`` times that type's threshold
-(default 1: below detection).
+(default 1: below detection).  Thresholds (:class:`Thresholds`) are absolute,
+``auto`` (adapted to the strength distribution), ``top:N%`` or ``N%`` of the
+peak.
 
-Each source point gets a ΔV sphere whose radius is the mean cut distance along
-its grid edges (§3.2.4.1): half the edge towards a neighbour of the same type,
-else the linear-interpolated crossing of ``|S|`` with the threshold.
-ΔV = 4/3 π r³.  An interior voxel of a source block has r = h/2.
+Each source point gets a ΔV whose extent along each grid edge is the cut
+distance of §3.2.4.1 (half the edge towards a neighbour of the same type, else
+the linear-interpolated crossing of ``|S|`` with the threshold): by default
+(``delta_v="cell"``) the box those cuts bound, h³ inside a source block, so
+Σ S ΔV is ∫ S dV over the source region and converges under grid refinement;
+``delta_v="sphere"`` is the paper's sphere of the mean cut distance
+(r = h/2 inside a block).  Radii are those of spheres of volume ΔV.
 """
 
 from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterator
+import warnings
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,21 +63,47 @@ from auralize.volume import TimeVolume
 KIND_NAMES = {K.MONOPOLE: "monopole", K.DIPOLE: "dipole", K.QUADRUPOLE: "quadrupole"}
 TYPES = ("monopole", "dipole", "quadrupole")
 
-#: default relative thresholds ("auto"): these fractions of each type's peak |S|.
-#: Strength distributions are heavy-tailed and the dipole and quadrupole terms
-#: (one and two more space derivatives) reach higher peaks relative to their
-#: bulk, so their fractions are lower; with these all three types show up in
-#: the built-in explosion.
+#: "auto" thresholds (per type, over the valid points of the sample steps): the
+#: larger of a robust noise floor, median + AUTO_NOISE_K · 1.4826 · MAD of |S|
+#: (but at most the level of the strongest AUTO_TOP of the points), and the
+#: level above which the points carry AUTO_COVER of Σ|S| (the strongest
+#: points that make up that share of the type's integrated |S|).
+#: Both are properties of the strength *distribution* (integrals and
+#: quantiles), not of its single largest value, so they stay put when the
+#: grid is refined.
+AUTO_NOISE_K = 5.0
+AUTO_COVER = 0.9
+#: the noise floor never hides the strongest AUTO_TOP of the points of a type that occurs
+AUTO_TOP = 0.01
+#: legacy fractions of each type's peak |S| (the viewer's default relative
+#: thresholds, given as "3%", "0.3%", "0.1%")
 AUTO_FRACTIONS = {"monopole": 0.03, "dipole": 0.003, "quadrupole": 0.001}
-#: how many evenly spaced steps are sampled to find the peak |S| for relative thresholds
+#: how many evenly spaced steps are sampled for relative, top and auto thresholds
 AUTO_SAMPLE_STEPS = 8
+#: at most about this many points per sample step enter the statistics
+SAMPLE_POINTS = 1 << 18
+#: strengths below this fraction of the size of the terms they are differences of
+#: (:func:`input_scale`) are round-off: relative, top and auto thresholds never go lower
+ROUNDOFF = 1e-9
+#: share of the valid points above which a warning says thresholds find everything
+WARN_FRACTION = 0.25
+#: how the steady (time-mean) part of the flow is treated (see :func:`detect`)
+STEADY_MODES = ("remove", "keep")
+#: ΔV rules (see :func:`auralize._kernels.classify_and_radius`)
+DELTA_V_RULES = {"cell": K.DV_CELL, "sphere": K.DV_SPHERE}
+
+
+class SourceFractionWarning(UserWarning):
+    """More than :data:`WARN_FRACTION` of the valid points were classified as sources."""
 
 
 ThresholdSpec = float | str
 
+_NUMBER = r"(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
+
 
 def _parse_threshold(spec: ThresholdSpec, kind: str) -> tuple[str, float]:
-    """Return ("abs", value) or ("rel", fraction)."""
+    """Return ("abs", value), ("rel", fraction of the peak), ("top", fraction) or ("auto", 0)."""
     if isinstance(spec, int | float) and not isinstance(spec, bool):
         v = float(spec)
         if not math.isfinite(v) or v < 0:
@@ -65,37 +111,96 @@ def _parse_threshold(spec: ThresholdSpec, kind: str) -> tuple[str, float]:
         return "abs", v
     s = str(spec).strip().lower()
     if s == "auto":
-        return "rel", AUTO_FRACTIONS[kind]
-    m = re.fullmatch(r"(?:rel:)?([0-9.eE+-]+)\s*%", s) or re.fullmatch(r"rel:([0-9.eE+-]+)", s)
+        return "auto", 0.0
+    m = re.fullmatch(rf"top:\s*({_NUMBER})\s*%", s)
+    if m:
+        frac = float(m.group(1)) / 100.0
+        if not 0 < frac <= 1:
+            raise ParameterError(f"{kind} threshold {spec!r}: top fraction must be in (0, 100] %")
+        return "top", frac
+    m = re.fullmatch(rf"(?:rel:)?\s*({_NUMBER})\s*%", s) or re.fullmatch(rf"rel:\s*({_NUMBER})", s)
     if m:
         frac = float(m.group(1)) / (100.0 if s.endswith("%") else 1.0)
         if not 0 <= frac <= 1:
             raise ParameterError(f"{kind} relative threshold must be in 0..100 %, got {spec!r}")
         return "rel", frac
-    try:
+    if re.fullmatch(rf"[+-]?{_NUMBER}", s):
         return _parse_threshold(float(s), kind)
-    except ValueError:
-        raise ParameterError(
-            f"{kind} threshold {spec!r} is not understood; give an absolute value (e.g. 250), "
-            f"a percentage of the peak strength (e.g. '5%' or 'rel:0.05') or 'auto'"
-        ) from None
+    raise ParameterError(
+        f"{kind} threshold {spec!r} is not understood; give an absolute value (e.g. 250), "
+        f"'auto', the strongest fraction of the points (e.g. 'top:1%') or a percentage of "
+        f"the peak strength (e.g. '5%' or 'rel:0.05')"
+    )
+
+
+@dataclass
+class StrengthStats:
+    """Statistics of |S| over the valid points of the sample steps, per type.
+
+    ``peak (3,)`` largest |S|; ``sample (3, M)`` |S| at the same M sampled
+    valid point-steps (all of them on grids up to :data:`SAMPLE_POINTS`
+    points; otherwise a fixed pseudo-random subset chosen by global point
+    index, so slabbed and whole-frame detection sample the same points).
+    """
+
+    peak: NDArray[np.float64]
+    sample: NDArray[np.float64]
+    #: (3,) size of the terms each strength is a difference of (see :func:`input_scale`)
+    scale: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+
+    @classmethod
+    def merge(cls, parts: list[StrengthStats]) -> StrengthStats:
+        peak = np.zeros(3)
+        scale = np.zeros(3)
+        for p in parts:
+            np.maximum(peak, p.peak, out=peak)
+            np.maximum(scale, p.scale, out=scale)
+        samples = [p.sample for p in parts if p.sample.size]
+        sample = np.sort(np.concatenate(samples, axis=1), axis=1) if samples else np.zeros((3, 0))
+        return cls(peak=peak, sample=sample, scale=scale)
+
+
+def _cover_level(x: NDArray[np.float64], cover: float) -> float:
+    """Smallest level whose exceeding values carry ``cover`` of Σx (x sorted ascending)."""
+    if x.size == 0 or x[-1] <= 0:
+        return np.inf
+    tail = np.cumsum(x[::-1])
+    k = int(np.searchsorted(tail, cover * tail[-1]))
+    return float(x[::-1][min(k, x.size - 1)]) * (1.0 - 1e-12)
+
+
+def auto_threshold(x: NDArray[np.float64]) -> float:
+    """The "auto" threshold of one type from sorted |S| samples ``x`` (see :data:`AUTO_COVER`)."""
+    if x.size == 0 or x[-1] <= 0:
+        return np.inf
+    med = float(np.median(x))
+    mad = float(np.median(np.abs(x - med)))
+    noise = min(med + AUTO_NOISE_K * 1.4826 * mad, float(np.quantile(x, 1.0 - AUTO_TOP)))
+    return max(noise, _cover_level(x, AUTO_COVER))
 
 
 @dataclass
 class Thresholds:
     """Detection thresholds per source type.
 
-    Each of ``monopole``, ``dipole``, ``quadrupole`` is an absolute value (in
-    that strength's units: kg/(m³·s) for monopoles, kg/(m⁴·s) for dipoles,
-    kg/(m³·s²)·... for quadrupoles), a relative one (``"5%"``, ``"rel:0.05"``:
-    a fraction of the series' peak magnitude, estimated from up to
-    :data:`AUTO_SAMPLE_STEPS` evenly spaced steps), or ``"auto"``
-    (= :data:`AUTO_FRACTIONS` relative: 3 %, 0.3 %, 0.1 %).
+    Each of ``monopole``, ``dipole``, ``quadrupole`` is
+
+    * ``"auto"`` (default): adapts to the data, per type, from |S| over the
+      valid points of up to :data:`AUTO_SAMPLE_STEPS` evenly spaced steps:
+      the larger of a robust noise floor (median + 5 · 1.4826 · MAD, at most
+      the level of the strongest 1 %) and the level above which the
+      strongest points carry 90 % of Σ|S|;
+    * ``"top:1%"``: the strongest 1 % of the valid points (a quantile of |S|);
+    * ``"5%"`` or ``"rel:0.05"``: a fraction of the series' peak |S| (the
+      peak of a second derivative of interpolated data grows as the grid is
+      refined, so on resampled meshes this does not converge);
+    * an absolute value, in that strength's units: kg/(m³·s) for monopoles,
+      kg/(m⁴·s) for dipoles, kg/(m³·s²) for quadrupoles.
 
     Examples
     --------
-    >>> Thresholds(monopole=10.0, dipole="2%").resolve(np.array([1.0, 50.0, 1.0]))
-    array([10.,  1., 0.05])
+    >>> Thresholds(monopole=10.0, dipole="2%").resolve(np.array([1.0, 50.0, 1.0]))[:2]
+    array([10.,  1.])
     """
 
     monopole: ThresholdSpec = "auto"
@@ -110,19 +215,43 @@ class Thresholds:
 
     @property
     def needs_scale(self) -> bool:
-        return any(mode == "rel" for mode, _ in self._parsed)
+        """Whether :meth:`resolve` needs the series' statistics."""
+        return any(mode != "abs" for mode, _ in self._parsed)
 
-    def resolve(self, peak: NDArray[np.float64] | None) -> NDArray[np.float64]:
-        """Absolute thresholds (3,) given the peak magnitudes (3,) of the series."""
+    def resolve(self, stats: StrengthStats | NDArray[np.float64] | None) -> NDArray[np.float64]:
+        """Absolute thresholds (3,) from the series' :class:`StrengthStats`.
+
+        Relative thresholds alone may be resolved from the peak magnitudes (3,).
+        A type that never occurs (peak 0) gets an infinite threshold.
+        """
         out = np.empty(3)
+        if isinstance(stats, StrengthStats):
+            peak: NDArray[np.float64] | None = stats.peak
+        else:
+            peak = None if stats is None else np.asarray(stats, dtype=np.float64)
+            stats = None
         for i, (mode, v) in enumerate(self._parsed):
             if mode == "abs":
                 out[i] = v
+                continue
+            if peak is None or (mode != "rel" and stats is None):
+                raise ParameterError(
+                    f"{TYPES[i]} threshold {getattr(self, TYPES[i])!r} needs the series' "
+                    f"strength statistics"
+                )
+            floor = ROUNDOFF * float(stats.scale[i]) if stats is not None else 0.0
+            if not peak[i] > floor:
+                out[i] = np.inf
+            elif mode == "rel":
+                out[i] = v * float(peak[i])
+            elif mode == "top":
+                assert stats is not None
+                x = stats.sample[i]
+                out[i] = float(np.quantile(x, 1.0 - v)) if x.size else np.inf
             else:
-                if peak is None:
-                    raise ParameterError("relative thresholds need the series' peak strengths")
-                # a type that never occurs (peak 0) gets an infinite threshold
-                out[i] = v * float(peak[i]) if peak[i] > 0 else np.inf
+                assert stats is not None
+                out[i] = auto_threshold(stats.sample[i])
+            out[i] = max(out[i], floor)
         return out
 
     def describe(self) -> dict[str, object]:
@@ -139,12 +268,15 @@ class SourceFrame:
     kind : (N,) int8, 1 monopole, 2 dipole, 3 quadrupole.
     strength : (N,) float64 signed strength S of the vertex's type.
     radius : (N,) float64 ΔV-sphere radius in metres.
+    n_valid : int or None, points with data at this step (None: all).
     """
 
     index: NDArray[np.int64]
     kind: NDArray[np.int8]
     strength: NDArray[np.float64]
     radius: NDArray[np.float64]
+    #: points with data at this step (None: all of the grid's)
+    n_valid: int | None = None
 
     @property
     def volume(self) -> NDArray[np.float64]:
@@ -224,20 +356,52 @@ class SourceTracks:
         return int(self.q.shape[0])
 
 
+def valid_mask(volume: TimeVolume) -> NDArray[np.bool_] | None:
+    """The volume's validity mask ``(nz, ny, nx)`` (True inside the input mesh), or None."""
+    valid = getattr(volume, "valid", None)
+    if valid is None:
+        return None
+    valid = np.asarray(valid, dtype=bool)
+    if valid.shape != volume.shape:
+        raise DataError(
+            f"{volume.source}: validity mask has shape {valid.shape}, the grid needs {volume.shape}"
+        )
+    return None if valid.all() else valid
+
+
 class _StepCache:
-    """Mapped (ρ, v, ρv) frames, kept for the three steps the stencil needs."""
+    """Mapped (ρ, v, ρv, ok) frames, kept for the three steps the stencil needs.
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping) -> None:
+    ``ok`` is None when every point of the step is valid and finite, else a
+    bool mask; no-data values are replaced by 0 (they are masked out of the
+    strengths by :func:`auralize._kernels.mask_nodata`, never used).
+    ``qmean`` is the quadrupole strength of the time-mean stress, subtracted
+    from every step's (or None: the literal strengths).
+    """
+
+    def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
+                 qmean: NDArray[np.float64] | None = None) -> None:  # fmt: skip
         self.volume, self.mapping = volume, mapping
-        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self.valid = valid_mask(volume)
+        self.qmean = qmean
+        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = {}
         self.work: np.ndarray | None = None  # kernel scratch, reused between steps
+        #: no-data points ``(nz, ny, nx)`` of the last step computed (None: none)
+        self.nodata: np.ndarray | None = None
 
-    def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         if n not in self._cache:
             rho, v = self.mapping.map(self.volume, n)
             rho = np.ascontiguousarray(rho, dtype=np.float64)
             v = np.ascontiguousarray(v, dtype=np.float64)
-            self._cache[n] = (rho, v, rho[..., None] * v)
+            ok = self.valid
+            if not (np.isfinite(rho).all() and np.isfinite(v).all()):
+                fin = np.isfinite(rho) & np.isfinite(v).all(axis=-1)
+                ok = fin if ok is None else ok & fin
+            if ok is not None:
+                rho = np.where(ok, rho, 0.0)
+                v = np.where(ok[..., None], v, 0.0)
+            self._cache[n] = (rho, v, rho[..., None] * v, ok)
         return self._cache[n]
 
     def keep(self, lo: int, hi: int) -> None:
@@ -247,42 +411,157 @@ class _StepCache:
 
 def step_strengths(volume: TimeVolume, cache: _StepCache, n: int,
                    out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
-    """Strengths ``(3, nz, ny, nx)`` (monopole, dipole, quadrupole) at step ``n``."""
+    """Strengths ``(3, nz, ny, nx)`` (monopole, dipole, quadrupole) at step ``n``.
+
+    A point is no-data at step n when it is invalid or non-finite at any of
+    the steps its time differences use (n-1, n, n+1); a strength whose
+    stencil reads a no-data point is 0 (see :func:`auralize._kernels.mask_nodata`).
+    ``cache.nodata`` holds the step's no-data points afterwards.
+    """
     T = volume.n_steps
     a, b = max(n - 1, 0), min(n + 1, T - 1)
-    rho_a, _, m_a = cache.get(a)
-    rho_b, _, m_b = cache.get(b)
-    rho_c, v_c, _ = cache.get(n)
+    rho_a, _, m_a, ok_a = cache.get(a)
+    rho_b, _, m_b, ok_b = cache.get(b)
+    rho_c, v_c, _, ok_c = cache.get(n)
     if out is None:
         out = K.empty_like_strengths(volume.shape)
     inv_dt = 1.0 / (volume.times[b] - volume.times[a])
     cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing, out,
                              cache.work)  # fmt: skip
+    if cache.qmean is not None:
+        np.subtract(out[2], cache.qmean, out=out[2])
+    oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
+    if oks:
+        ok = oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)
+        cache.nodata = ~ok
+        K.mask_nodata(cache.nodata, out)
+    else:
+        cache.nodata = None
     return out
 
 
+#: steps per partial sum of the time-mean stress (fixed, so serial and
+#: distributed detection add the same partial sums in the same order)
+STRESS_BLOCK = 8
+
+
+def stress_blocks(n_steps: int) -> list[tuple[int, int]]:
+    """The ``[a, b)`` step blocks of :data:`STRESS_BLOCK` steps."""
+    return [(a, min(a + STRESS_BLOCK, n_steps)) for a in range(0, n_steps, STRESS_BLOCK)]
+
+
+def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
+                     b: int) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+    """``(ref, dsum, count)`` of steps ``[a, b)`` (see :func:`stress_sum`)."""
+    cache = _StepCache(volume, mapping)
+    ref = _stress(*cache.get(0)[:2])
+    dsum = np.zeros((6, *volume.shape))
+    count = np.zeros(volume.shape, dtype=np.int64)
+    for n in range(a, b):
+        rho, v, _, ok = cache.get(n)
+        d = _stress(rho, v) - ref
+        dsum += d if ok is None else d * ok
+        count += 1 if ok is None else ok
+        cache.keep(0, 0)
+    return ref, dsum, count
+
+
+def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> tuple[NDArray[np.float64], ...]:
+    """Pieces of the time-mean Lighthill stress ρ v_i v_j over all steps.
+
+    Returns ``ref (6, nz, ny, nx)``, the stress at step 0 (order xx, yy, zz,
+    xy, xz, yz; 0 where step 0 has no data), ``dsum``, the sum of
+    (stress − ref) over the steps at the points with data (added block by
+    block, :data:`STRESS_BLOCK` steps each), and ``count (nz, ny, nx)``, the
+    number of such steps.  ``ref + dsum / count`` is the mean
+    (:func:`steady_quadrupole`); taken as an offset from step 0, a steady
+    field's mean is step 0's stress exactly, not up to round-off.
+    """
+    ref = dsum = count = None
+    for a, b in stress_blocks(volume.n_steps):
+        r, d, c = stress_block_sum(volume, mapping, a, b)
+        if dsum is None:
+            ref, dsum, count = r, np.zeros_like(d), np.zeros_like(c)
+        dsum += d
+        count += c
+    assert ref is not None and dsum is not None and count is not None
+    return ref, dsum, count
+
+
+def _stress(rho: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.stack([rho * v[..., p] * v[..., q] for p, q in STRESS_PAIRS])
+
+
+#: component pairs of the stress in the kernels' order xx, yy, zz, xy, xz, yz
+STRESS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+def steady_quadrupole(ref: NDArray[np.float64], dsum: NDArray[np.float64],
+                      count: NDArray[np.int64], spacing: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+    """Quadrupole strength ``(nz, ny, nx)`` of the time-mean stress (see :func:`stress_sum`).
+
+    By linearity, S_q(ρ v_i v_j) − S_q(⟨ρ v_i v_j⟩) is the strength of the
+    fluctuating stress; it is exactly 0 for a steady field.
+    """
+    mean = ref + dsum / np.maximum(count, 1)
+    return K.quadrupole_of_stress(mean, spacing)
+
+
+def steady_strength(volume: TimeVolume, m: AcousticMapping,
+                    steady: str = "remove") -> NDArray[np.float64] | None:  # fmt: skip
+    """The steady quadrupole strength to subtract (``steady="remove"``), or None (``"keep"``)."""
+    if _steady(steady) == "keep":
+        return None
+    return steady_quadrupole(*stress_sum(volume, m), volume.spacing)
+
+
 def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
-                      step: int = 0) -> NDArray[np.float64]:  # fmt: skip
-    """Strengths ``(3, nz, ny, nx)`` at one step (convenience for inspection)."""
+                      step: int = 0, *, steady: str = "keep") -> NDArray[np.float64]:  # fmt: skip
+    """Strengths ``(3, nz, ny, nx)`` at one step (convenience for inspection).
+
+    ``steady="keep"`` (default here) gives the paper's literal strengths,
+    ``"remove"`` those of the time-varying part, as :func:`detect` uses.
+    """
     _require_steps(volume)
     m = get_mapping(mapping)
     m.prepare(volume)
-    return step_strengths(volume, _StepCache(volume, m), step)
+    return step_strengths(volume, _StepCache(volume, m, qmean=steady_strength(volume, m, steady)),
+                          step)  # fmt: skip
+
+
+def _steady(steady: str) -> str:
+    if steady not in STEADY_MODES:
+        raise ParameterError(f"steady must be one of {STEADY_MODES}, got {steady!r}")
+    return steady
+
+
+def _rule(delta_v: str) -> int:
+    try:
+        return DELTA_V_RULES[delta_v]
+    except KeyError:
+        raise ParameterError(
+            f"delta_v must be one of {sorted(DELTA_V_RULES)}, got {delta_v!r}"
+        ) from None
 
 
 def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], spacing: NDArray[np.float64],
-             *, zero_fraction: float = 1.0) -> tuple[NDArray[np.int8], NDArray[np.float64]]:  # fmt: skip
+             *, zero_fraction: float = 1.0,
+             delta_v: str = "cell") -> tuple[NDArray[np.int8], NDArray[np.float64]]:  # fmt: skip
     """Classify vertices and compute ΔV radii from strengths ``(3, nz, ny, nx)``.
 
     Returns ``kind (nz, ny, nx)`` int8 (0 none, 1 monopole, 2 dipole,
     3 quadrupole) and ``radius (nz, ny, nx)`` in metres (0 where no source).
+    ``delta_v`` is ``"cell"`` (ΔV = the vertex's share of the source region,
+    so Σ S ΔV converges to ∫ S dV) or ``"sphere"`` (paper 003 §3.2.4.1
+    literally); see :func:`auralize._kernels.classify_and_radius`.
     """
     s = np.ascontiguousarray(strengths, dtype=np.float64)
     thr = np.asarray(thresholds, dtype=np.float64)
     zero = thr * zero_fraction
     kind = np.empty(s.shape[1:], dtype=np.int8)
     radius = np.empty(s.shape[1:], dtype=np.float64)
-    K.classify_and_radius(s, thr, zero, np.asarray(spacing, dtype=np.float64), kind, radius)
+    K.classify_and_radius(s, thr, zero, np.asarray(spacing, dtype=np.float64), kind, radius,
+                          _rule(delta_v))  # fmt: skip
     return kind, radius
 
 
@@ -305,53 +584,155 @@ def _require_steps(volume: TimeVolume) -> None:
         )
 
 
+def input_scale(volume: TimeVolume, cache: _StepCache, n: int, lo: int = 0,
+                hi: int | None = None) -> NDArray[np.float64]:  # fmt: skip
+    """Size of the terms each strength of step ``n`` is a difference of (planes ``[lo, hi)``).
+
+    ``max|ρ|/Δt`` (monopole), ``max|ρv|/(h Δt)`` (dipole) and
+    ``max|ρ| |v|²/h²`` (quadrupole), with the smallest step Δt and spacing h:
+    a strength far below it is round-off (e.g. the dipole strength of a
+    divergence-free flow), not a source.
+    """
+    rho, v, m, _ = cache.get(n)
+    sl = slice(lo, hi)
+    dt = float(np.min(np.diff(volume.times)))
+    live = [volume.spacing[a] for a in range(3) if volume.dims[a] > 1]
+    h = float(min(live)) if live else 1.0
+    r = float(np.max(np.abs(rho[sl]), initial=0.0))
+    mm = float(np.max(np.abs(m[sl]), initial=0.0))
+    t = float(np.max(np.abs(m[sl] * v[sl]), initial=0.0))
+    return np.array([r / dt, mm / (h * dt), t / (h * h)])
+
+
+def sample_stats(s: NDArray[np.float64], nodata: NDArray[np.bool_] | None, offset: int,
+                 n_points: int, scale: NDArray[np.float64] | None = None) -> StrengthStats:  # fmt: skip
+    """:class:`StrengthStats` of one step's strengths ``(3, ...)`` (or a slab's planes).
+
+    ``offset`` is the global flat index of the first point of ``s``,
+    ``n_points`` the number of points of the whole grid: the sampled points
+    depend on the global index only.
+    """
+    a = np.abs(s).reshape(3, -1)
+    keep = None if nodata is None else ~nodata.reshape(-1)
+    if n_points > SAMPLE_POINTS:
+        idx = np.arange(offset, offset + a.shape[1], dtype=np.uint64)
+        h = (idx * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
+        pick = h < np.uint64(int(SAMPLE_POINTS / n_points * 2**32))
+        keep = pick if keep is None else keep & pick
+    sample = a if keep is None else a[:, keep]
+    peak = a.max(axis=1) if a.size else np.zeros(3)
+    return StrengthStats(peak=peak, sample=sample.copy(),
+                         scale=np.zeros(3) if scale is None else np.asarray(scale, dtype=np.float64))  # fmt: skip
+
+
+def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.int64]:
+    """The evenly spaced steps whose strengths set relative, top and auto thresholds."""
+    return np.unique(np.linspace(0, n_steps - 1, min(max_steps, n_steps)).round()).astype(np.int64)
+
+
+def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
+                   qmean: NDArray[np.float64] | None = None,
+                   max_steps: int = AUTO_SAMPLE_STEPS) -> StrengthStats:  # fmt: skip
+    """|S| statistics of each type over evenly spaced sample steps (valid points only)."""
+    cache = _StepCache(volume, mapping, qmean=qmean)
+    buf = K.empty_like_strengths(volume.shape)
+    parts = []
+    for n in sample_steps(volume.n_steps, max_steps):
+        s = step_strengths(volume, cache, int(n), buf)
+        parts.append(sample_stats(s, cache.nodata, 0, volume.n_points,
+                                  input_scale(volume, cache, int(n))))  # fmt: skip
+        cache.keep(int(n), int(n))
+    return StrengthStats.merge(parts)
+
+
 def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
                    max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.float64]:  # fmt: skip
-    """Largest |S| of each type over evenly spaced sample steps (3,)."""
-    steps = np.unique(np.linspace(0, volume.n_steps - 1, min(max_steps, volume.n_steps)).round())
-    cache = _StepCache(volume, mapping)
-    peak = np.zeros(3)
-    buf = K.empty_like_strengths(volume.shape)
-    for n in steps.astype(int):
-        s = step_strengths(volume, cache, int(n), buf)
-        peak = np.maximum(peak, np.abs(s).reshape(3, -1).max(axis=1))
-        cache.keep(n, n)
-    return peak
+    """Largest |S| of each type over evenly spaced sample steps (3,) (literal strengths)."""
+    return strength_stats(volume, mapping, max_steps=max_steps).peak
 
 
 def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64], *,
                 zero_fraction: float = 1.0, steps: range | None = None,
-                progress_bar: bool = False) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
-    """Yield ``(step, SourceFrame)`` for each step, reading frames one at a time."""
-    cache = _StepCache(volume, mapping)
+                progress_bar: bool = False, qmean: NDArray[np.float64] | None = None,
+                delta_v: str = "cell") -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
+    """Yield ``(step, SourceFrame)`` for each step, reading frames one at a time.
+
+    Each frame's ``n_valid`` is the number of points with data at that step.
+    """
+    cache = _StepCache(volume, mapping, qmean=qmean)
     buf = K.empty_like_strengths(volume.shape)
     steps = steps if steps is not None else range(volume.n_steps)
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
         s = step_strengths(volume, cache, n, buf)
-        kind, radius = classify(s, thr, volume.spacing, zero_fraction=zero_fraction)
-        yield n, extract(kind, radius, s)
+        kind, radius = classify(s, thr, volume.spacing, zero_fraction=zero_fraction,
+                                delta_v=delta_v)  # fmt: skip
+        f = extract(kind, radius, s)
+        f.n_valid = volume.n_points - (0 if cache.nodata is None else int(cache.nodata.sum()))
+        yield n, f
         cache.keep(n, n + 1)
+
+
+def classified_fraction(frames: Sequence[SourceFrame], n_points: int) -> dict[str, float]:
+    """Share of the valid point-steps classified as each type (and ``"any"``)."""
+    valid = sum(n_points if f.n_valid is None else f.n_valid for f in frames)
+    tot = dict.fromkeys(TYPES, 0)
+    for f in frames:
+        for k, v in f.counts().items():
+            tot[k] += v
+    out = {k: (v / valid if valid else 0.0) for k, v in tot.items()}
+    out["any"] = sum(out[k] for k in TYPES)
+    return out
+
+
+def warn_fraction(fraction: dict[str, float], source: str) -> None:
+    """Warn (once per call site) when more than :data:`WARN_FRACTION` of the points are sources."""
+    if fraction["any"] > WARN_FRACTION:
+        parts = ", ".join(f"{fraction[k]:.0%} {k}" for k in TYPES)
+        warnings.warn(
+            f"{source}: {fraction['any']:.0%} of the valid points are sources ({parts}); the "
+            f"thresholds find everything, not sources: raise them (e.g. 'top:1%' or an "
+            f"absolute value)",
+            SourceFractionWarning,
+            stacklevel=3,
+        )
 
 
 def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "identity",
            thresholds: Thresholds | None = None, progress_bar: bool = False,
+           steady: str = "remove", delta_v: str = "cell",
            **mapping_fields: str) -> SourceSeries:  # fmt: skip
     """Detect monopole, dipole and quadrupole sources at every step.
 
     Parameters
     ----------
     volume : TimeVolume
-        At least two time steps.
+        At least two time steps.  Points where ``volume.valid`` (if the
+        volume has one) is False, or where a mapped value is NaN/Inf, are
+        no-data: they are never sources and no stencil reads them (a
+        derivative that would is no-data too, see :func:`step_strengths`).
     mapping : str or AcousticMapping
         Acoustic mapping preset or instance (see :mod:`auralize.mapping`).
     thresholds : Thresholds, optional
         Default: ``"auto"`` for all three types.
     progress_bar : bool
         Show a progress bar on stderr.
+    steady : {"remove", "keep"}
+        ``"remove"`` (default): a steady flow makes no sound, so the
+        quadrupole strength is taken from the fluctuating stress
+        ρ v_i v_j − ⟨ρ v_i v_j⟩, the time mean over the whole series per
+        point (Lighthill's far field depends on ∂²T_ij/∂t² only).  The
+        monopole and dipole strengths are time derivatives already and vanish
+        for a steady field.  ``"keep"``: the literal strengths of paper 003
+        Eq. 14, steady part included.
+    delta_v : {"cell", "sphere"}
+        ΔV rule (see :func:`classify`); ``"cell"`` converges under refinement.
 
     Returns
     -------
     SourceSeries
+        ``meta["fraction"]`` is the share of the valid point-steps classified
+        as each type; a :class:`SourceFractionWarning` says when more than a
+        quarter of them are sources.
 
     Examples
     --------
@@ -364,14 +745,28 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     _require_steps(volume)
     m = get_mapping(mapping, **mapping_fields)
     m.prepare(volume)
+    _rule(delta_v)
+    qmean = steady_strength(volume, m, steady)
     thresholds = thresholds or Thresholds()
-    peak = peak_strengths(volume, m) if thresholds.needs_scale else None
-    thr = thresholds.resolve(peak)
+    stats = strength_stats(volume, m, qmean=qmean) if thresholds.needs_scale else None
+    thr = thresholds.resolve(stats)
     frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
-                                        progress_bar=progress_bar)]  # fmt: skip
+                                        progress_bar=progress_bar, qmean=qmean,
+                                        delta_v=delta_v)]  # fmt: skip
+    fraction = classified_fraction(frames, volume.n_points)
+    warn_fraction(fraction, volume.source)
     return SourceSeries(
         frames=frames, times=volume.times.copy(), origin=volume.origin.copy(),
         spacing=volume.spacing.copy(), dims=volume.dims, thresholds=thr,
         meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
-              "peak": None if peak is None else peak.tolist(), "source": volume.source},
+              "peak": None if stats is None else stats.peak.tolist(), "source": volume.source,
+              "steady": steady, "delta_v": delta_v, "fraction": fraction,
+              "valid_points": _valid_share(frames, volume.n_points)},
     )  # fmt: skip
+
+
+def _valid_share(frames: Sequence[SourceFrame], n_points: int) -> float:
+    """Mean share of the grid's points with data over the steps."""
+    if not frames:
+        return 1.0
+    return float(np.mean([1.0 if f.n_valid is None else f.n_valid / n_points for f in frames]))

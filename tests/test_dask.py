@@ -196,7 +196,8 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
 
         return task
 
-    for name in ("paper_range_task", "paper_gradient_task", "peak_task", "detect_task"):
+    for name in ("paper_range_task", "paper_gradient_task", "peak_task", "stress_task",
+                 "detect_task"):  # fmt: skip
         monkeypatch.setattr(D, name, counted(getattr(D, name)))
     real = Runner.compute
 
@@ -208,11 +209,13 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
     got = D.detect_distributed(explosion, mapping="paper-density", chunk_steps=4, slab_planes=10,
                                log=None)  # fmt: skip
     assert len(scale(got)["slabs"]) == 2 and scale(got)["chunks"] == 2  # steps [0, 4), [4, 7)
-    # range and gradient: every step; peaks: the sample steps; one task per chunk × slab
+    # range and gradient: every step; peaks: the sample steps; one task per chunk × slab;
+    # the steady stress: one task per block of steps (one block of 8 here) × slab
     assert calls == {"paper_range_task": 4, "paper_gradient_task": 4, "peak_task": 4,
-                     "detect_task": 4}  # fmt: skip
-    # all passes are one graph: the mapping, the peaks, the thresholds and 4 detections
-    assert graphs == [3 + 4]
+                     "stress_task": 2, "detect_task": 4}  # fmt: skip
+    # all passes are one graph: the mapping, the peaks, the thresholds, the steady
+    # strength and 4 detections
+    assert graphs == [4 + 4]
     assert_same_sources(got, explosion_ref)
 
 
@@ -268,6 +271,7 @@ def _profiler_enabled(dask_worker: Any) -> bool:
 
 
 # ---------------------------------------------------------------- resuming
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")  # low thresholds
 def test_interrupted_run_resumes_without_redoing_finished_steps(
     tmp_path: Path, explosion: TimeVolume
 ) -> None:
@@ -306,6 +310,7 @@ def test_interrupted_run_resumes_without_redoing_finished_steps(
     assert not StateStore(out).dir.exists()
 
 
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")  # low thresholds
 def test_resume_refuses_state_of_other_settings(tmp_path: Path, explosion: TimeVolume) -> None:
     out = tmp_path / "s.h5"
 
@@ -377,6 +382,7 @@ class DyingFrames:
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")  # log10 as density
 def test_worker_dying_mid_run_fails_over_or_stops_resumably(
     tmp_path: Path, explosion: TimeVolume, explosion_ref: SourceSeries
 ) -> None:
@@ -409,10 +415,11 @@ def test_worker_dying_mid_run_fails_over_or_stops_resumably(
         assert not marker.exists()  # it did die
         assert_same_sources(got, explosion_ref)
         # a task that kills every worker it runs on: the run stops, finished chunks saved
-        # (identity mapping: no statistics pass, so the deaths happen in detection tasks)
+        # (identity mapping, steady part kept: no statistics pass, so the deaths happen
+        # in detection tasks)
         marker.touch()
         ident = {"mapping": "identity", "density": "log10_density", "thresholds": thr,
-                 "chunk_steps": 2}  # fmt: skip
+                 "chunk_steps": 2, "steady": "keep"}  # fmt: skip
         with pytest.raises(RunError, match="killed the workers.*run again to resume"):
             detect_distributed(dying(False), runner=run, output=out, **ident)  # type: ignore[arg-type]
     done = StateStore(out).done_steps()
@@ -421,7 +428,7 @@ def test_worker_dying_mid_run_fails_over_or_stops_resumably(
     got = detect_distributed(base, output=out, log=None, **ident)  # type: ignore[arg-type]
     assert scale(got)["resumed_steps"] == len(done)
     assert_same_sources(got, detect(base, mapping="identity", density="log10_density",
-                                    thresholds=thr))  # fmt: skip
+                                    thresholds=thr, steady="keep"))  # fmt: skip
 
 
 # --------------------------------------------------------------- synthesis
@@ -590,6 +597,7 @@ def test_chunked_recipe_bad_input_leaves_no_file(tmp_path: Path) -> None:
 
 
 # --------------------------------------------------------------------- CLI
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")  # low thresholds
 def test_cli_dataset_chunked_and_detect_on_dask(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                 capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
     assert "auralize.cli_dask" in cli.CORE_COMMAND_MODULES
@@ -706,3 +714,23 @@ def test_resume_with_slab_pieces_of_an_unfinished_chunk_left_over(
     assert_same_sources(got, explosion_ref)
     assert_same_sources(load_sources_h5(out), explosion_ref)
     assert not store.dir.exists()
+
+
+def test_no_data_points_give_the_same_sources_in_slabs(explosion: TimeVolume) -> None:
+    # a validity mask and NaN cells: slabs see the mask's planes and read no no-data point
+    x = np.stack(list(explosion.iter_frames("log10_density")))
+    valid = np.ones(explosion.shape, dtype=bool)
+    valid[:, :, :5] = False
+    valid[12:, 3:9, :] = False
+    x[:, ~valid] = np.nan
+    x[3, 10, 10, 10] = np.nan
+    vol = TimeVolume.from_arrays({"log10_density": x}, times=explosion.times)
+    vol.check_finite = False
+    vol.valid = valid  # type: ignore[attr-defined]
+    ref = detect(vol, mapping="paper-density")
+    assert sum(f.index.size for f in ref.frames) > 100
+    assert all(valid.reshape(-1)[f.index].all() for f in ref.frames)
+    got = detect_distributed(vol, mapping="paper-density", chunk_steps=3, slab_planes=4, log=None)
+    assert len(scale(got)["slabs"]) > 1
+    assert_same_sources(got, ref)
+    assert got.meta["fraction"] == pytest.approx(ref.meta["fraction"])

@@ -26,9 +26,10 @@ def test_waveform_matches_analytic_point_source(mono_tracks, mono_params) -> Non
     t = np.arange(p.size) / RATE
     exact = monopole_pressure(mono_params, pos, t)
     assert np.corrcoef(p, exact)[0, 1] >= 0.99
-    # amplitude: the ΔV spheres of interior voxels fill π/6 of each voxel (r = h/2)
+    # amplitude: each source vertex's ΔV is its share of the source region (a whole
+    # voxel inside it), so Σ S ΔV is ∫ S dV and the amplitude is the analytic one
     ratio = np.std(p) / np.std(exact)
-    assert ratio == pytest.approx(np.pi / 6, rel=0.05)
+    assert ratio == pytest.approx(1.0, rel=0.05)
 
 
 def test_arrival_delay_is_distance_over_c0(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]

@@ -15,7 +15,8 @@ def test_explosion_matches_stored_figures() -> None:
     stored = json.loads((STORE / "explosion.json").read_text())
     assert len(got["counts"]) == 30
     # the burst starts at the centre: the first steps hold mostly monopoles
-    assert got["counts"][0]["monopole"] > got["counts"][0]["dipole"]
+    early = got["counts"][:5]
+    assert sum(c["monopole"] for c in early) > sum(c["dipole"] for c in early)
     assert compare("explosion", got) == [], compare("explosion", got)
     assert got["thresholds"] == stored["thresholds"] or np.allclose(
         got["thresholds"], stored["thresholds"], rtol=1e-6

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
 from auralize.errors import DataError, FieldError, ParameterError
-from auralize.sources import Thresholds, classify, compute_strengths, detect
+from auralize.sources import StrengthStats, Thresholds, classify, compute_strengths, detect
 from auralize.volume import TimeVolume
 
 N = 16
@@ -62,7 +64,7 @@ def test_oscillating_momentum_gives_dipoles_not_monopoles() -> None:
     assert np.allclose(s[1], -s[1][:, :, ::-1], atol=1e-9 * np.abs(s[1]).max())
 
 
-def test_steady_rotating_vortex_gives_only_quadrupoles() -> None:
+def test_steady_rotating_vortex_gives_only_quadrupoles_in_the_literal_form() -> None:
     x, y, z = _grid()
     omega = 40.0
     env = np.exp(-(x**2 + y**2) / (2 * 1.5**2))
@@ -71,14 +73,14 @@ def test_steady_rotating_vortex_gives_only_quadrupoles() -> None:
     rho = np.full((t.size, N, N, N), 1.2)
     vols = np.broadcast_to(vel, (t.size, *vel.shape)).copy()
     vol = _volume(rho, vols, t)
-    series = detect(vol, mapping="identity")
+    series = detect(vol, mapping="identity", steady="keep")
     c = _counts(series)
     assert c["monopole"] == 0 and c["dipole"] == 0
     assert c["quadrupole"] > 100
     # solid-body rotation: Σ ∂i∂j(ρ v_i v_j) = ρ (∂_i v_j)(∂_j v_i) = -2 ρ Ω² everywhere
     solid = np.stack([-omega * y, omega * x, np.zeros_like(x)], -1)
     vol2 = _volume(rho, np.broadcast_to(solid, (t.size, *solid.shape)).copy(), t)
-    s = compute_strengths(vol2, "identity", step=2)
+    s = compute_strengths(vol2, "identity", step=2, steady="keep")
     assert np.allclose(s[2][1:-1, 1:-1, 1:-1], -2 * 1.2 * omega**2)
     assert np.allclose(s[0], 0) and np.allclose(s[1], 0)
 
@@ -100,10 +102,34 @@ def test_quadrupole_sums_all_nine_terms() -> None:
 def test_delta_v_radius_interior_of_source_block_is_half_spacing() -> None:
     s = np.zeros((3, 7, 7, 7))
     s[0, 1:6, 1:6, 1:6] = 10.0  # a 5³ block of monopoles
-    kind, radius = classify(s, np.array([1.0, 1.0, 1.0]), np.array([0.3, 0.3, 0.3]))
+    h = np.array([0.3, 0.3, 0.3])
+    kind, radius = classify(s, np.array([1.0, 1.0, 1.0]), h, delta_v="sphere")
     assert kind[3, 3, 3] == 1
     assert radius[3, 3, 3] == pytest.approx(0.15)
     assert np.all(radius[2:5, 2:5, 2:5] == pytest.approx(0.15))
+    # default "cell": an interior vertex's ΔV is its whole cell h³
+    kind, radius = classify(s, np.array([1.0, 1.0, 1.0]), h)
+    vol = 4 / 3 * np.pi * radius**3
+    assert np.allclose(vol[2:5, 2:5, 2:5], 0.3**3)
+
+
+def test_delta_v_cell_volumes_sum_to_the_region() -> None:
+    # a block of 5 vertices filling a 7-point axis up to the cut: interior h, the
+    # block's ends reach half an edge to their same-type neighbour and the
+    # threshold crossing (at 0.5 h: |S| 10 -> 0, threshold 5) on the other side
+    s = np.zeros((3, 1, 1, 7))
+    s[0, 0, 0, 1:6] = 10.0
+    h = np.array([0.2, 1.0, 1.0])
+    kind, radius = classify(s, np.array([5.0, 1.0, 1.0]), h)
+    vol = 4 / 3 * np.pi * radius**3
+    assert vol[0, 0, 1] == pytest.approx(0.2 * (0.5 + 0.5) * 1.0 * 1.0)
+    assert vol.sum() == pytest.approx(0.2 * 5 * 1.0)
+    # at a grid face there is no edge beyond: half a cell (trapezoid rule)
+    s = np.zeros((3, 1, 1, 4))
+    s[0] = 10.0
+    kind, radius = classify(s, np.array([5.0, 1.0, 1.0]), h)
+    vol = 4 / 3 * np.pi * radius**3
+    assert vol.ravel().tolist() == pytest.approx([0.1, 0.2, 0.2, 0.1])
 
 
 def test_delta_v_radius_cut_distances_by_hand() -> None:
@@ -112,7 +138,7 @@ def test_delta_v_radius_cut_distances_by_hand() -> None:
     s = np.zeros((3, 3, 3, 3))
     s[0, 1, 1, 1] = -10.0  # signed: thresholds apply to magnitudes
     h = np.array([1.0, 2.0, 4.0])
-    kind, radius = classify(s, np.array([8.0, 1.0, 1.0]), h)
+    kind, radius = classify(s, np.array([8.0, 1.0, 1.0]), h, delta_v="sphere")
     assert kind.sum() == 1 and kind[1, 1, 1] == 1
     expected = (2 * 0.2 * 1.0 + 2 * 0.2 * 2.0 + 2 * 0.2 * 4.0) / 6
     assert radius[1, 1, 1] == pytest.approx(expected)
@@ -120,8 +146,11 @@ def test_delta_v_radius_cut_distances_by_hand() -> None:
     s = np.zeros((3, 2, 2, 2))
     s[0, 0, 0, 0] = 10.0
     s[0, 0, 0, 1] = 10.0
-    kind, radius = classify(s, np.array([8.0, 1.0, 1.0]), np.ones(3))
+    kind, radius = classify(s, np.array([8.0, 1.0, 1.0]), np.ones(3), delta_v="sphere")
     assert radius[0, 0, 0] == pytest.approx((0.5 + 0.2 + 0.2) / 3)
+    # "cell": the box (0 + 0.5) x (0 + 0.2) x (0 + 0.2) at the corner
+    kind, radius = classify(s, np.array([8.0, 1.0, 1.0]), np.ones(3))
+    assert 4 / 3 * np.pi * radius[0, 0, 0] ** 3 == pytest.approx(0.5 * 0.2 * 0.2)
 
 
 def test_exclusive_classification_and_zero_fraction() -> None:
@@ -141,13 +170,41 @@ def test_exclusive_classification_and_zero_fraction() -> None:
 def test_thresholds_parsing() -> None:
     th = Thresholds(monopole=2.5, dipole="10%", quadrupole="rel:0.5")
     assert th.resolve(np.array([1.0, 20.0, 4.0])).tolist() == [2.5, 2.0, 2.0]
-    assert Thresholds().resolve(np.array([100.0, 0.0, 1.0]))[1] == np.inf
-    with pytest.raises(ParameterError, match="not understood"):
+    sample = np.sort(np.abs(np.random.default_rng(1).normal(size=(3, 1000))), axis=1)
+    stats = StrengthStats(peak=np.array([5.0, 0.0, 5.0]), sample=sample)
+    thr = Thresholds(monopole="top:1%", dipole="auto", quadrupole="1e-1%").resolve(stats)
+    assert thr[0] == pytest.approx(np.quantile(sample[0], 0.99))
+    assert thr[1] == np.inf  # a type that never occurs
+    assert thr[2] == pytest.approx(5e-3)
+    with pytest.raises(ParameterError, match="needs the series' strength statistics"):
+        Thresholds().resolve(np.array([1.0, 1.0, 1.0]))
+    with pytest.raises(ParameterError, match="'lots' is not understood"):
         Thresholds(monopole="lots")
+    for bad in ("e%", "..%", "top:x", "top:%", "1e%", "rel:", "5%%"):
+        with pytest.raises(ParameterError, match=re.escape(repr(bad))):
+            Thresholds(quadrupole=bad)
     with pytest.raises(ParameterError, match=">= 0"):
         Thresholds(dipole=-1.0)
     with pytest.raises(ParameterError, match="0..100 %"):
         Thresholds(dipole="150%")
+    with pytest.raises(ParameterError, match=r"top fraction must be in \(0, 100\] %"):
+        Thresholds(dipole="top:0%")
+
+
+def test_auto_threshold_is_a_noise_floor_or_the_strong_points() -> None:
+    from auralize.sources import auto_threshold
+
+    rng = np.random.default_rng(0)
+    noise = np.abs(rng.normal(size=100_000))
+    # pure noise: the floor median + 5 MAD·1.4826 keeps (almost) nothing
+    thr = auto_threshold(np.sort(noise))
+    assert np.mean(noise > thr) <= 0.0101
+    # a strong compact source in weak noise: the source points, not the noise
+    x = noise * 1e-3
+    x[:500] = 10.0 + rng.random(500)
+    thr = auto_threshold(np.sort(x))
+    assert np.sum(x[500:] > thr) == 0
+    assert x[:500][x[:500] > thr].sum() >= 0.9 * x[:500].sum()
 
 
 def test_bad_inputs_to_detection() -> None:

@@ -260,10 +260,14 @@ def slab_volume(volume: TimeVolume, z0: int, z1: int) -> TimeVolume:
         raise DataError(f"{volume.source}: slab {z0}:{z1} outside the {nz} z-planes")
     origin = volume.origin.copy()
     origin[2] += z0 * volume.spacing[2]
-    return TimeVolume(
+    sub = TimeVolume(
         origin=origin, spacing=volume.spacing.copy(), dims=(nx, ny, z1 - z0),
         times=volume.times, fields={k: SlabFrames(v, z0, z1) for k, v in volume.fields.items()},
         physical_times=volume.physical_times, source=f"{volume.source}[z {z0}:{z1}]",
         check_finite=volume.check_finite,
         valid=None if volume.valid is None else volume.valid[z0:z1],
     )  # fmt: skip
+    valid = getattr(volume, "valid", None)  # the validity mask (nz, ny, nx), if any
+    if valid is not None:
+        sub.valid = np.asarray(valid)[z0:z1]  # type: ignore[attr-defined]
+    return sub

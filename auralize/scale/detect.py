@@ -90,12 +90,23 @@ from auralize.sources import (
     AUTO_SAMPLE_STEPS,
     SourceFrame,
     SourceSeries,
+    StrengthStats,
     Thresholds,
     _require_steps,
+    _rule,
+    _steady,
     _StepCache,
+    classified_fraction,
     classify,
     extract,
+    input_scale,
+    sample_stats,
+    sample_steps,
+    steady_quadrupole,
     step_strengths,
+    stress_block_sum,
+    stress_blocks,
+    warn_fraction,
 )
 from auralize.volume import TimeVolume
 
@@ -198,7 +209,9 @@ def _rss() -> tuple[int, int]:
 
 def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64],
                 zero_fraction: float, a: int, b: int, slab: Slab,
-                threads: int | None, store_dir: str | None = None) -> dict[str, Any]:  # fmt: skip
+                threads: int | None, store_dir: str | None = None,
+                qmean: NDArray[np.float64] | None = None,
+                delta_v: str = "cell") -> dict[str, Any]:  # fmt: skip
     """Sources of steps ``[a, b)`` in planes ``[slab.z0, slab.z1)`` (global flat indices).
 
     With ``store_dir`` (a run's ``OUTPUT.parts/``) the task saves them there
@@ -211,17 +224,24 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
     plane = sub.shape[1] * sub.shape[2]
     frames = []
+    tallies = []
+    qm = None if qmean is None else qmean[slab.r0 : slab.r1]
     with numba_threads(threads):
-        cache = _StepCache(sub, mapping)
+        cache = _StepCache(sub, mapping, qmean=qm)
         buf = K.empty_like_strengths(sub.shape)
         for n in range(a, b):
             s = step_strengths(sub, cache, n, buf)
-            kind, radius = classify(s, thr, sub.spacing, zero_fraction=zero_fraction)
+            kind, radius = classify(s, thr, sub.spacing, zero_fraction=zero_fraction,
+                                    delta_v=delta_v)  # fmt: skip
             f = extract(kind[lo:hi], radius[lo:hi], s[:, lo:hi])
             f.index += slab.z0 * plane
             frames.append(f)
+            bad = 0 if cache.nodata is None else int(cache.nodata[lo:hi].sum())
+            tallies.append(
+                [*np.bincount(f.kind, minlength=4)[1:].tolist(), (hi - lo) * plane - bad]
+            )
             cache.keep(n, n + 1)
-    out: dict[str, Any] = {"a": a, "b": b, "slab": slab, "frames": frames,
+    out: dict[str, Any] = {"a": a, "b": b, "slab": slab, "frames": frames, "tallies": tallies,
                            "count": sum(f.index.size for f in frames)}  # fmt: skip
     if store_dir is not None:
         StateStore.in_dir(store_dir).write_piece(a, slab.z0, frames, sync=True)
@@ -231,23 +251,37 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
 
 
 def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int], slab: Slab,
-              threads: int | None) -> NDArray[np.float64]:  # fmt: skip
-    """Largest |S| of each type over ``steps`` in the slab's kept planes.
+              threads: int | None, qmean: NDArray[np.float64] | None = None) -> StrengthStats:  # fmt: skip
+    """|S| statistics of each type over ``steps`` in the slab's kept planes.
 
-    Like :func:`~auralize.sources.peak_strengths`, mapped frames are reused
-    between neighbouring sample steps.
+    Like :func:`~auralize.sources.strength_stats` (the same sampled points,
+    chosen by global index), mapped frames are reused between neighbouring
+    sample steps.
     """
     sub, mapping = _local(volume, mapping, slab)
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
-    peak = np.zeros(3)
+    plane = sub.shape[1] * sub.shape[2]
+    parts = []
+    qm = None if qmean is None else qmean[slab.r0 : slab.r1]
     with numba_threads(threads):
-        cache = _StepCache(sub, mapping)
+        cache = _StepCache(sub, mapping, qmean=qm)
         buf = K.empty_like_strengths(sub.shape)
         for n in steps:
             s = step_strengths(sub, cache, int(n), buf)
-            peak = np.maximum(peak, np.abs(s[:, lo:hi]).reshape(3, -1).max(axis=1))
+            nodata = None if cache.nodata is None else cache.nodata[lo:hi]
+            parts.append(sample_stats(s[:, lo:hi], nodata, slab.z0 * plane, volume.n_points,
+                                      input_scale(sub, cache, int(n), lo, hi)))  # fmt: skip
             cache.keep(int(n), int(n))
-    return peak
+    return StrengthStats.merge(parts)
+
+
+def stress_task(volume: TimeVolume, mapping: AcousticMapping, a: int, b: int,
+                slab: Slab) -> tuple[Slab, NDArray[np.float64], ...]:  # fmt: skip
+    """:func:`~auralize.sources.stress_block_sum` of steps ``[a, b)`` in the slab's kept planes."""
+    sub, mapping = _local(volume, mapping, slab)
+    lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
+    ref, dsum, count = stress_block_sum(sub, mapping, a, b)
+    return slab, ref[:, lo:hi].copy(), dsum[:, lo:hi].copy(), count[lo:hi].copy()
 
 
 def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int],
@@ -261,7 +295,8 @@ def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence
     lo, hi = np.inf, -np.inf
     for n in steps:
         r = m._rho(sub, int(n))
-        lo, hi = min(lo, float(r.min())), max(hi, float(r.max()))
+        lo = min(lo, float(np.nanmin(r, initial=np.inf)))  # no-data (NaN) points do not count
+        hi = max(hi, float(np.nanmax(r, initial=-np.inf)))
     return lo, hi
 
 
@@ -273,7 +308,7 @@ def paper_gradient_task(volume: TimeVolume, m: PaperDensityMapping, steps: Seque
     gmax = 0.0
     for n in steps:
         g = m._grad(sub, m._scaled(m._rho(sub, int(n))))
-        gmax = max(gmax, float(np.max(np.abs(g[lo:hi]))))
+        gmax = max(gmax, float(np.nanmax(np.abs(g[lo:hi]), initial=0.0)))
     return gmax
 
 
@@ -349,6 +384,22 @@ class StateStore:
         """
         self.dir.mkdir(parents=True, exist_ok=True)
         _save_frames(self._piece_path(a, a + len(frames), z0), frames, sync=sync)
+
+    def save_qmean(self, qmean: NDArray[np.float64]) -> None:
+        """Keep the run's steady quadrupole strength (for resuming)."""
+        self.dir.mkdir(parents=True, exist_ok=True)
+        with atomic_path(self.dir / "qmean.npy") as tmp:
+            with open(tmp, "wb") as fh:
+                np.save(fh, qmean)
+
+    def load_qmean(self) -> NDArray[np.float64]:
+        try:
+            return np.asarray(np.load(self.dir / "qmean.npy"))
+        except (OSError, ValueError) as exc:
+            raise FormatError(
+                f"{self.dir / 'qmean.npy'}: unreadable resume state ({exc}); delete {self.dir} "
+                f"or pass restart=True (--restart) to start over"
+            ) from None
 
     def promote_piece(self, a: int, b: int, z0: int) -> None:
         """Make the piece of a one-slab chunk its saved chunk (a rename, no rewrite)."""
@@ -534,13 +585,14 @@ def _jsonable(obj: Any) -> Any:
     return str(obj)
 
 
-def fingerprint(volume: TimeVolume, mapping: AcousticMapping, thresholds: Thresholds) -> str:
-    """What makes two runs the same (grid, times, source, mapping, threshold settings)."""
+def fingerprint(volume: TimeVolume, mapping: AcousticMapping, thresholds: Thresholds,
+                **options: str) -> str:  # fmt: skip
+    """What makes two runs the same (grid, times, source, mapping, threshold settings, options)."""
     h = hashlib.sha256()
     h.update(json.dumps({
         "source": volume.source, "dims": list(volume.dims), "fields": volume.field_names,
         "origin": volume.origin.tolist(), "spacing": volume.spacing.tolist(),
-        "mapping": mapping.describe(), "thresholds": thresholds.describe(),
+        "mapping": mapping.describe(), "thresholds": thresholds.describe(), **options,
     }, sort_keys=True, default=_jsonable).encode())  # fmt: skip
     h.update(np.ascontiguousarray(volume.times).tobytes())
     return h.hexdigest()
@@ -590,11 +642,33 @@ def _with_gscale(m: PaperDensityMapping, gmax: list[float]) -> PaperDensityMappi
     return m
 
 
-def _max_peak(peaks: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-    peak = np.zeros(3)
-    for p in peaks:
-        np.maximum(peak, p, out=peak)
-    return peak
+def _merge_stats(parts: list[StrengthStats]) -> StrengthStats:
+    return StrengthStats.merge(parts)
+
+
+def _steady_q(blocks: list[list[Any]], shape: tuple[int, int, int],
+              spacing: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+    """The steady quadrupole strength from the stress tasks' partial sums.
+
+    ``blocks[i]`` holds block i's ``(slab, ref, dsum, count)`` per slab; the
+    blocks are added in order, as :func:`~auralize.sources.stress_sum` does.
+    """
+    ref = np.zeros((6, *shape))
+    dsum = np.zeros((6, *shape))
+    count = np.zeros(shape, dtype=np.int64)
+    for i, parts in enumerate(blocks):
+        part = np.zeros((6, *shape))
+        for slab, r, d, c in parts:
+            if i == 0:
+                ref[:, slab.z0 : slab.z1] = r
+            part[:, slab.z0 : slab.z1] = d
+            count[slab.z0 : slab.z1] += c
+        dsum += part
+    return steady_quadrupole(ref, dsum, count, spacing)
+
+
+def _stack(*parts: Any) -> list[Any]:
+    return list(parts)
 
 
 def _prepare_paper(run: _Run) -> Any:
@@ -613,12 +687,20 @@ def _prepare_paper(run: _Run) -> Any:
     return call(_with_gscale, ranged, run.tasks(paper_gradient_task, range(T), mapping=ranged))
 
 
-def _peaks(run: _Run, mapping: Any, max_steps: int = AUTO_SAMPLE_STEPS) -> Any:
-    """The largest |S| of each type over the sample steps: a lazy call."""
-    T = run.volume.n_steps
-    steps = np.unique(np.linspace(0, T - 1, min(max_steps, T)).round()).astype(int)
-    peaks = run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task, mapping=mapping)
-    return run.runner.call(_max_peak, peaks)
+def _peaks(run: _Run, mapping: Any, qmean: Any, max_steps: int = AUTO_SAMPLE_STEPS) -> Any:
+    """The |S| statistics of each type over the sample steps: a lazy call."""
+    steps = sample_steps(run.volume.n_steps, max_steps)
+    peaks = run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task, qmean,
+                      mapping=mapping)  # fmt: skip
+    return run.runner.call(_merge_stats, peaks)
+
+
+def _steady_node(run: _Run, mapping: Any) -> Any:
+    """The steady quadrupole strength (full grid) from per-block, per-slab tasks: a lazy call."""
+    call = run.runner.call
+    blocks = [call(_stack, *[call(stress_task, run.shared, mapping, a, b, s) for s in run.slabs])
+              for a, b in stress_blocks(run.volume.n_steps)]  # fmt: skip
+    return call(_steady_q, blocks, run.volume.shape, run.volume.spacing.copy())
 
 
 def detect_distributed(
@@ -635,6 +717,8 @@ def detect_distributed(
     slab_planes: int | None = None,
     task_memory: int = TASK_MEMORY,
     restart: bool = False,
+    steady: str = "remove",
+    delta_v: str = "cell",
     on_chunk: Callable[[range], None] | None = None,
     log: Callable[[str], None] | None = print,
     **mapping_fields: str,
@@ -664,6 +748,9 @@ def detect_distributed(
         z-planes kept per task (default: what fits ``task_memory`` bytes).
     restart : bool
         Discard saved state of an earlier run instead of resuming it.
+    steady, delta_v
+        As for :func:`auralize.sources.detect`; the steady quadrupole
+        strength is gathered by tasks (per block of steps and slab).
     on_chunk : callable, optional
         Called with the ``range`` of steps of every chunk just saved (and
         after it is saved); an exception raised there stops the run, leaving
@@ -697,6 +784,8 @@ def detect_distributed(
     """
     _require_steps(volume)
     m = get_mapping(mapping, **mapping_fields)
+    _steady(steady)
+    _rule(delta_v)
     thresholds = thresholds or Thresholds()
     if not isinstance(task_memory, int | np.integer) or task_memory < (1 << 20):
         raise ParameterError(f"task_memory must be at least 1 MiB (bytes), got {task_memory!r}")
@@ -708,7 +797,7 @@ def detect_distributed(
                        planes=slab_planes, memory=int(task_memory))  # fmt: skip
     plan_chunks([], chunk_steps)  # validates chunk_steps
     store = StateStore(out) if out is not None else None
-    key = fingerprint(volume, m, thresholds)
+    key = fingerprint(volume, m, thresholds, steady=steady, delta_v=delta_v)
     state: dict[str, Any] = {}
     if store is not None and store.exists():
         if restart:
@@ -742,6 +831,7 @@ def detect_distributed(
             thr: Any = np.asarray(state["thresholds"], dtype=np.float64)
             peak: Any = None if state.get("peak") is None else np.asarray(state["peak"])
             m_node: Any = m
+            q_node: Any = store.load_qmean() if store is not None and steady == "remove" else None
             state_known = True
         else:
             if store is not None:
@@ -751,12 +841,13 @@ def detect_distributed(
             else:
                 m.prepare(volume)
                 m_node = m
-            peak = _peaks(run, m_node) if thresholds.needs_scale else None
+            q_node = _steady_node(run, m_node) if steady == "remove" else None
+            peak = _peaks(run, m_node, q_node) if thresholds.needs_scale else None
             thr = run_.call(thresholds.resolve, peak) if peak is not None else \
                 thresholds.resolve(None)  # fmt: skip
             state_known = False
-        lazy = {name: node for name, node in (("mapping", m_node), ("peak", peak), ("thr", thr))
-                if _is_lazy(node)}  # fmt: skip
+        lazy = {name: node for name, node in (("mapping", m_node), ("peak", peak), ("thr", thr),
+                                              ("qmean", q_node)) if _is_lazy(node)}  # fmt: skip
         if store is not None:
             store.clear_pieces()
         done = store.done_steps() if store is not None else set()
@@ -770,7 +861,10 @@ def detect_distributed(
         parts_dir = None if store is None else str(store.dir)
         nthr = run_.threads_per_task
         calls = [(detect_task, (vol, m_node, thr, thresholds.zero_fraction, a, b, s, nthr,
-                                parts_dir)) for a, b in chunks for s in slabs]  # fmt: skip
+                                parts_dir, q_node, delta_v)) for a, b in chunks for s in slabs]  # fmt: skip
+        # per (chunk, slab): monopole, dipole, quadrupole and valid point-steps (a task
+        # that ran twice, after a worker died, counts once)
+        tallies: dict[tuple[int, int], NDArray[np.int64]] = {}
         known: dict[str, Any] = {}
         early: list[dict[str, Any]] = []
 
@@ -780,8 +874,12 @@ def detect_distributed(
                 m = known["mapping"]
             if "peak" in known:
                 peak = known["peak"]
+            if isinstance(peak, StrengthStats):
+                peak = peak.peak
             if "thr" in known:
                 thr = known["thr"]
+            if "qmean" in known and store is not None:
+                store.save_qmean(known["qmean"])
             mstate = ({"lo": m._lo, "hi": m._hi, "gscale": m._gscale}
                       if isinstance(m, PaperDensityMapping) else {})  # fmt: skip
             state = {"version": STATE_VERSION, "fingerprint": key, "mapping_state": mstate,
@@ -802,6 +900,7 @@ def detect_distributed(
             rss[pid] = max(rss.get(pid, 0), peak_rss)
             task_seconds[0] += res["seconds"]
             n_sources[0] += res["count"]
+            tallies[(res["a"], res["slab"].z0)] = np.sum(res["tallies"], axis=0, dtype=np.int64)
             a, b = res["a"], res["b"]
             parts = pending.setdefault(a, {})
             # with a store, the task saved its slab's sources as a piece; they wait
@@ -852,12 +951,23 @@ def detect_distributed(
     streamed = out is not None and store is not None and out.suffix.lower() != ".pvd"
     if store is not None and not streamed:
         frames = store.load_frames(volume.n_steps)  # type: ignore[assignment]
+    tally = np.sum(list(tallies.values()), axis=0) if tallies else np.zeros(4, dtype=np.int64)
+    valid = int(tally[3])
+    fraction = {k: (int(tally[i]) / valid if valid else 0.0)
+                for i, k in enumerate(("monopole", "dipole", "quadrupole"))}  # fmt: skip
+    fraction["any"] = sum(fraction.values())
+    if not todo and frames and all(f is not None for f in frames):
+        fraction = classified_fraction(frames, volume.n_points)  # type: ignore[arg-type]
+    warn_fraction(fraction, volume.source)
+    if isinstance(peak, StrengthStats):
+        peak = peak.peak
     series = SourceSeries(
         frames=[] if streamed else frames, times=volume.times.copy(), origin=volume.origin.copy(),  # type: ignore[arg-type]
         spacing=volume.spacing.copy(), dims=volume.dims, thresholds=np.asarray(thr),
         meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
               "peak": None if peak is None else np.asarray(peak).tolist(),
-              "source": volume.source,
+              "source": volume.source, "steady": steady, "delta_v": delta_v,
+              "fraction": fraction,
               "scale": {"scheduler": run_.scheduler, "workers": n_workers,
                         "computed_steps": todo, "resumed_steps": len(done),
                         "tasks": len(calls), "chunks": len(chunks), "chunk_steps": chunk_steps,

@@ -23,7 +23,8 @@ from auralize.sources import (
     Thresholds,
     _require_steps,
     iter_detect,
-    peak_strengths,
+    steady_strength,
+    strength_stats,
 )
 from auralize.volume import TimeVolume
 
@@ -65,8 +66,12 @@ class Detection:
         self.mapping = resolve_mapping(volume, mapping, **mapping_fields)
         self.mapping.prepare(volume)
         self.thresholds = thresholds or Thresholds(*VIEWER_THRESHOLDS)
-        self.peak = peak_strengths(volume, self.mapping) if self.thresholds.needs_scale else None
-        self.thr = self.thresholds.resolve(self.peak)
+        # strengths of the time-varying part, as auralize.sources.detect takes them
+        self.qmean = steady_strength(volume, self.mapping)
+        stats = (strength_stats(volume, self.mapping, qmean=self.qmean)
+                 if self.thresholds.needs_scale else None)  # fmt: skip
+        self.peak = None if stats is None else stats.peak
+        self.thr = self.thresholds.resolve(stats)
         self.frames: dict[int, SourceFrame] = {}
         self._lock = threading.Lock()
 
@@ -76,7 +81,7 @@ class Detection:
             if step not in self.frames:
                 for n, f in iter_detect(self.volume, self.mapping, self.thr,
                                         zero_fraction=self.thresholds.zero_fraction,
-                                        steps=range(step, step + 1)):  # fmt: skip
+                                        steps=range(step, step + 1), qmean=self.qmean):  # fmt: skip
                     self.frames[n] = f
             return self.frames[step]
 
@@ -99,7 +104,8 @@ class Detection:
                 runs.append(range(n, n + 1))
         for r in runs:
             for n, f in iter_detect(self.volume, self.mapping, self.thr,
-                                    zero_fraction=self.thresholds.zero_fraction, steps=r):  # fmt: skip
+                                    zero_fraction=self.thresholds.zero_fraction, steps=r,
+                                    qmean=self.qmean):  # fmt: skip
                 with self._lock:
                     self.frames[n] = f
                 done += 1
