@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from auralize.errors import DeviceError, ParameterError
+from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceSeries, Thresholds
 from auralize.synthesis import Rendered
@@ -444,22 +444,30 @@ def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
     return save_rendered(r, filename, normalize=normalize)
 
 
-def PlayAudio(rendered: Rendered | None = None, *, device: Any = None,
-              blocking: bool = True) -> None:  # fmt: skip
-    """Play the last render on a sound device (the output layer's ``play``).
+def PlayAudio(rendered: Rendered | None = None, *, device: Any = None, gain_db: float = 0.0,
+              blocking: bool = True) -> Any:  # fmt: skip
+    """Play the last render on a sound device through a gain control and a limiter.
 
+    The loudest sample is put at full scale (``gain_db`` adds to that; what would
+    exceed full scale is limited, see :class:`auralize.audio.Limiter`).  Returns
+    the :class:`auralize.audio.Playback` (``.stop()``, ``.limiter`` level meter).
     Raises :class:`~auralize.errors.DeviceError` when no device is usable.
+
+    Examples
+    --------
+    >>> ResetSession()
+    >>> OpenDataFile("dataset:monopole", size=12, steps=60)  # doctest: +ELLIPSIS
+    <auralize.simple.DataSource ...>
+    >>> r = RenderAudio(path=CreateListenerPath("point", duration=0.05), layout="stereo")
+    >>> PlayAudio(r, device="auralize_file", blocking=True)  # doctest: +SKIP
     """
-    import auralize.audio as audio
+    from auralize.audio import play
 
     r = rendered or GetSession().rendered
     if r is None:
         raise ParameterError("nothing rendered yet; call RenderAudio() first")
-    play = getattr(audio, "play", None)
-    if play is None:
-        raise DeviceError("audio playback is not available in auralize.audio (no play())")
     dev = device if device is not None else GetSession().audio.get("device")
-    play(r.audio, r.rate, device=dev, blocking=blocking)
+    return play(r.audio, r.rate, device=dev, gain_db=gain_db, blocking=blocking)
 
 
 # ---------------------------------------------------------------------- views

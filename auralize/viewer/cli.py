@@ -46,8 +46,11 @@ def add_commands(sub: Any) -> None:
                         "without '=' means the same)")  # fmt: skip
     g.add_argument("--representation", choices=["volume", "slices", "contour", "none"],
                    default="volume")  # fmt: skip
-    g.add_argument("--detect", action="store_true",
-                   help="detect sources (with --screenshot; the window detects on request)")
+    g.add_argument(
+        "--detect",
+        action="store_true",
+        help="detect sources (with --screenshot; the window detects on request)",
+    )
     g.add_argument("--window-size", default="1200x900", metavar="WxH")
     p.set_defaults(func=cmd_view)
 

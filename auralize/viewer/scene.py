@@ -38,8 +38,8 @@ from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.sources import TYPES, SourceFrame
 from auralize.scene import PALETTE, PATH_RGB, SPRITE_LIMIT, add_source_actor, source_points
+from auralize.sources import TYPES, SourceFrame
 from auralize.volume import TimeVolume
 
 #: RGB colours of the source types: the one palette of :mod:`auralize.scene`
@@ -55,6 +55,7 @@ CLIM_PERCENTILES = (1.0, 99.0)
 FILL_MAGNITUDE = 1e20
 #: display frames kept in memory (float32), in bytes
 FRAME_CACHE_BYTES = 512 * 1024**2
+
 
 def camera_pose(
     camera: Any,
