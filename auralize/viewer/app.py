@@ -61,9 +61,8 @@ FLY_KEYS: dict[int, tuple[int, int, int]] = {
 }  # fmt: skip
 KEY_MAP_TEXT = ("fly: ↑/W forward · ↓/S back · ←/A, →/D turn · PgUp/R rise · PgDn/F sink "
                 "(when no box is being edited)")  # fmt: skip
-#: built-in datasets offered by File ▸ Open built-in dataset (small sizes: quick to open)
-BUILTIN_OPEN = (("explosion", 32, 12), ("monopole", 16, 60), ("fire", None, None),
-                ("fire-plume", None, None))  # fmt: skip
+#: sizes and steps File ▸ Open built-in dataset uses (quick to open); others: their defaults
+BUILTIN_SIZES = {"explosion": (32, 12), "monopole": (16, 60)}
 
 
 class FlyKeys(QtCore.QObject):
@@ -201,7 +200,10 @@ class MainWindow(QtWidgets.QMainWindow):
         act.setShortcut(QtGui.QKeySequence.StandardKey.Open)
         act.triggered.connect(self._ask_open)
         sub = m.addMenu("Open &built-in dataset")
-        for name, size, steps in BUILTIN_OPEN:
+        from auralize.datasets import all_datasets
+
+        for name in all_datasets():
+            size, steps = BUILTIN_SIZES.get(name, (None, None))
             a = sub.addAction(name)
             a.triggered.connect(
                 lambda _c=False, n=name, sz=size, st=steps: self._guard(
@@ -460,6 +462,9 @@ class MainWindow(QtWidgets.QMainWindow):
             v.addWidget(cb)
         if not self.overlay_checks:
             v.addWidget(QtWidgets.QLabel("no sound-model plugin offers an overlay"))
+        self.overlay_note = QtWidgets.QLabel("")
+        self.overlay_note.setWordWrap(True)
+        v.addWidget(self.overlay_note)
         v.addStretch(1)
         self._dock("Overlays", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
 
@@ -1058,20 +1063,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self.player.engine.save_heard(csv_file, audio_file)
 
     # ============================================================ overlays
-    def set_overlay(self, name: str, on: bool) -> None:
+    def set_overlay(self, name: str, on: bool) -> bool:
+        """Switch a plugin's overlay on or off; returns whether it is drawn.  An overlay
+        that does not apply to the data (e.g. fields it needs are missing) is switched
+        off again with the reason in the Overlays panel."""
         from auralize.plugins import get_model
 
         if not on:
             self.scene.set_overlay(name, None)
+            self.overlay_note.setText("")
             self.plotter.render()
-            return
+            return False
+        if self.volume is None:
+            raise ParameterError("open a data file first")
         model = get_model(name)
 
         def fn(step: int) -> Any:
             return model.overlay((self.volume, self.path), step)
 
         self.scene.set_overlay(name, fn)
+        err = self.scene.overlay_errors.get(name)
+        if err is not None:
+            self.scene.set_overlay(name, None)
+            cb = self.overlay_checks.get(name)
+            if cb is not None:
+                cb.blockSignals(True)
+                cb.setChecked(False)
+                cb.blockSignals(False)
+            self.overlay_note.setText(f"{name} overlay does not apply to this data: {err}")
+            return False
+        self.overlay_note.setText("")
         self.plotter.render()
+        return True
 
     # ============================================================= session
     def session_state(self) -> SessionState:

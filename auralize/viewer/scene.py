@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import ParameterError
+from auralize.errors import AuralizeError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.scene import PALETTE, PATH_RGB, SPRITE_LIMIT, add_source_actor, source_points
 from auralize.sources import TYPES, SourceFrame
@@ -114,6 +114,8 @@ class Scene:
         self.time_scale = 1.0
         self.overlays: dict[str, Callable[[int], Any]] = {}
         self.overlay_visible: dict[str, bool] = {}
+        #: overlays that could not be drawn on this data, with the reason (they are hidden)
+        self.overlay_errors: dict[str, str] = {}
         self._frames: OrderedDict[tuple[str, int], NDArray[np.float32]] = OrderedDict()
         self._grid: Any = None
         self._actors: dict[str, Any] = {}
@@ -433,6 +435,7 @@ class Scene:
             return
         self.overlays[name] = fn
         self.overlay_visible[name] = visible
+        self.overlay_errors.pop(name, None)
         self._update_overlays()
 
     def _update_overlays(self) -> None:
@@ -440,7 +443,12 @@ class Scene:
             self._remove_prefix(f"overlay:{name}")
             if not self.overlay_visible.get(name, True):
                 continue
-            meshes = fn(self.step)
+            try:
+                meshes = fn(self.step)
+            except AuralizeError as exc:  # does not apply to this data: say so once, hide it
+                self.overlay_errors[name] = str(exc)
+                self.overlay_visible[name] = False
+                continue
             if meshes is None:
                 continue
             if not isinstance(meshes, list | tuple):
