@@ -276,8 +276,8 @@ class Scene:
             title = f"|{title}|"
         self._bar_title = title
         self.plotter.add_scalar_bar(title=title, mapper=self._actors["volume"].mapper,
-                                    n_labels=3, fmt="%.3g", vertical=True, position_x=0.88,
-                                    position_y=0.25, height=0.5, width=0.05,
+                                    n_labels=3, fmt="%.3g", vertical=False, position_x=0.55,
+                                    position_y=0.03, height=0.07, width=0.4,
                                     title_font_size=12, label_font_size=11)  # fmt: skip
 
     def _remove_scalar_bar(self) -> None:
