@@ -91,7 +91,7 @@ def test_limiter_never_exceeds_full_scale() -> None:
     rng = np.random.default_rng(1)
     lim = Limiter(None, gain_db=40.0, rate=8000)
     peaks = []
-    for k in range(50):
+    for _k in range(50):
         block = rng.normal(scale=10.0 ** rng.uniform(-3, 4), size=(2, 256))
         out = lim.process(block)
         peaks.append(float(np.max(np.abs(out))))
