@@ -349,7 +349,7 @@ class Scene:
         colors = {**TYPE_COLORS, "listener path": PATH_COLOR}
         labels = [[k, tuple(c / 255 for c in colors[k])] for k in items]
         self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255,
-                                size=(0.2, 0.04 * len(items) + 0.02), face="circle",
+                                size=(0.3, 0.045 * len(items) + 0.02), face="circle",
                                 name="legend", loc="upper right")  # fmt: skip
 
     # -------------------------------------------------------------- listener
