@@ -143,7 +143,8 @@ def rendered_html(r: Any) -> str:
     fig, ax = _figure(6, 2.2)
     mono = a.mean(axis=0)
     if mono.size > 512:
-        ax.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
+        with np.errstate(divide="ignore"):  # silent stretches are -inf dB, drawn blank
+            ax.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
         ax.set_ylabel("f (Hz)")
         ax.set_xlabel("playback time (s)")
     rows = [("layout", html.escape(str(r.layout.name))), ("rate", f"{r.rate} Hz"),

@@ -203,3 +203,53 @@ def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec
     if spec == "dataset:fire":
         assert drawn["fire"]
     assert not errors
+
+
+def test_render_to_file_records_the_start_time(qtbot, window, tmp_path, errors):
+    import json
+
+    win = window
+    _open(qtbot, win)
+    _detect(qtbot, win)
+    csv = tmp_path / "p.csv"
+    ListenerPath.point(win.volume.center + [0.5, 0, 0], duration=1.2).to_csv(csv)
+    win.load_path(csv)
+    out = tmp_path / "r.wav"
+    win.render_audio(out)  # three 0.5 s blocks
+    qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=60_000)
+    meta = json.loads(Path(f"{out}.json").read_text())
+    assert meta["t_start_data"] == pytest.approx(float(win.volume.times[0]))
+    assert meta["samples"] == round(1.2 * 44100)
+    assert not errors
+
+
+def test_file_menu_open_builtin_save_and_restore_session(qtbot, window, tmp_path, errors,
+                                                         monkeypatch):  # fmt: skip
+    win = window
+    titles = [a.text() for a in win.file_menu.actions() if a.text()]
+    assert titles[:1] == ["&Open…"] and "&Save session" in titles and "&Quit" in titles
+    assert "Save session &as…" in titles
+    builtin = win.builtin_menu
+    names = [a.text() for a in builtin.actions()]
+    assert {"explosion", "monopole", "fire"} <= set(names)
+    next(a for a in builtin.actions() if a.text() == "monopole").trigger()
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    assert win.data["spec"] == "dataset:monopole"
+    _detect(qtbot, win)
+    n_src = win.detection.counts(win.scene.step)["monopole"]
+    f = tmp_path / "s.json"
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName",
+                        lambda *a, **k: (str(f), "Sessions (*.json)"))  # fmt: skip
+    next(a for a in win.file_menu.actions() if a.text() == "Save session &as…").trigger()
+    assert f.exists() and win.session_file == f
+    f.unlink()
+    next(a for a in win.file_menu.actions() if a.text() == "&Save session").trigger()
+    assert f.exists()  # saved again to the same file, without asking
+    win.set_mapping("identity")  # forget the sources
+    assert win.series is None
+    done: list[bool] = []
+    win.load_session(f, then=lambda: done.append(True))
+    qtbot.waitUntil(lambda: bool(done) and not win.busy, timeout=60_000)
+    assert win.series is not None  # the session restores the detected sources
+    assert win.detection.counts(win.scene.step)["monopole"] == n_src
+    assert not errors

@@ -199,7 +199,7 @@ class MainWindow(QtWidgets.QMainWindow):
         act = m.addAction("&Open…")
         act.setShortcut(QtGui.QKeySequence.StandardKey.Open)
         act.triggered.connect(self._ask_open)
-        sub = m.addMenu("Open &built-in dataset")
+        sub = self.builtin_menu = m.addMenu("Open &built-in dataset")
         from auralize.datasets import all_datasets
 
         for name in all_datasets():
@@ -207,7 +207,7 @@ class MainWindow(QtWidgets.QMainWindow):
             a = sub.addAction(name)
             a.triggered.connect(
                 lambda _c=False, n=name, sz=size, st=steps: self._guard(
-                    self.open_data, f"dataset:{n}", size=sz, steps=st
+                    lambda: self.open_data(f"dataset:{n}", size=sz, steps=st)
                 )
             )
         m.addSeparator()
@@ -889,16 +889,20 @@ class MainWindow(QtWidgets.QMainWindow):
             total = max(path.duration, 1e-3)
             blocks, t, blk = [], 0.0, 0.5
             n = int(np.ceil(total / blk))
+            first: dict[str, Any] = {}
             for i in range(n):
                 d = min(blk, total - t)
                 out = render(tracks, path, rate=a["rate"], time_scale=a["time_scale"],
                              layout=a["layout"], start=t, duration=d)  # fmt: skip
+                first = first or dict(out.meta)  # the sound starts at the first block's time
                 blocks.append(out.audio)
                 t += d
                 if not progress(i + 1, n):
                     raise Cancelled(f"rendering cancelled after {t:.1f} of {total:.1f} s")
             r = Rendered(audio=np.concatenate(blocks, axis=1), rate=out.rate, layout=out.layout,
-                         time_scale=out.time_scale, meta={**out.meta, "volume": vol.source})  # fmt: skip
+                         time_scale=out.time_scale,
+                         meta={**out.meta, "t_start_data": first["t_start_data"],
+                               "volume": vol.source})  # fmt: skip
             if filename is not None:
                 save_rendered(r, filename)
             return r
@@ -925,7 +929,8 @@ class MainWindow(QtWidgets.QMainWindow):
         ax1.set_ylabel("p (Pa)")
         mono = r.audio.mean(axis=0)
         if mono.size > 256:
-            ax2.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
+            with np.errstate(divide="ignore"):  # silent stretches are -inf dB, drawn blank
+                ax2.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
         ax2.set_ylabel("f (Hz)")
         ax2.set_xlabel("playback time (s)")
         self._cursors = [ax.axvline(0, color="tab:orange", lw=1) for ax in (ax1, ax2)]
