@@ -71,3 +71,27 @@ def test_comparison_fails_for_blank_and_miscoloured_views() -> None:
         m = ((v @ a) / (norm[..., 0] * np.linalg.norm(a)) > 0.985) & (norm[..., 0] > 60)
         swapped[m] = (b / np.linalg.norm(b) * norm[m]).astype(np.int16)
     assert any("dipole" in p or "quadrupole" in p for p in compare(swapped, ref))
+
+
+def test_one_palette_for_viewer_pictures_plots_and_pvd(tmp_path) -> None:
+    import pyvista as pv
+
+    from auralize.io.sources_file import save_sources_pvd
+    from auralize.pipeline import detect_sources, load
+    from auralize.plots import plot_counts
+    from auralize.scene import TYPE_COLORS, TYPE_LABELS
+    from auralize.viewer.scene import TYPE_COLORS as VIEWER_COLORS
+
+    assert VIEWER_COLORS == PALETTE
+    for code, name in TYPE_LABELS.items():
+        assert TYPE_COLORS[code] == "#{:02x}{:02x}{:02x}".format(*PALETTE[name])
+    series = detect_sources(load("dataset:explosion", size=16, steps=4))
+    save_sources_pvd(series, tmp_path / "s.pvd")
+    step = pv.read(tmp_path / "s_data" / "step_0002.vtp")
+    kinds = np.asarray(step.point_data["kind"])
+    rgb = np.asarray(step.point_data["rgb"])
+    for code, name in TYPE_LABELS.items():
+        assert np.all(rgb[kinds == code] == PALETTE[name])
+    ax = plot_counts(series)
+    for line in ax.get_lines():  # the legend lists only the types present
+        assert np.allclose(line.get_color(), np.asarray(PALETTE[line.get_label()]) / 255)
