@@ -60,7 +60,9 @@ def source_points(centers: np.ndarray, radii: np.ndarray, kinds: np.ndarray):
     import pyvista as pv
 
     c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
-    mesh = pv.PolyData(c) if len(c) else pv.PolyData(np.zeros((0, 3)))
+    if not len(c):
+        return pv.PolyData()
+    mesh = pv.PolyData(c)
     mesh.point_data["radius"] = np.asarray(radii, dtype=np.float64).reshape(-1)
     mesh.point_data["rgb"] = type_rgb(kinds)
     return mesh
@@ -93,7 +95,8 @@ def source_glyphs(series: SourceSeries, step: int):
     f = series.frames[step]
     pts = source_points(series.positions(f.index) if f.index.size else np.zeros((0, 3)),
                         f.radius, f.kind)  # fmt: skip
-    pts.point_data["kind"] = f.kind.astype(np.int32)
+    if pts.n_points:
+        pts.point_data["kind"] = f.kind.astype(np.int32)
     return pts
 
 

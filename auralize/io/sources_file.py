@@ -113,7 +113,8 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
             poly.point_data["strength"] = f.strength
             poly.point_data["radius"] = f.radius
             poly.point_data["volume"] = f.volume
-            poly.point_data["rgb"] = type_rgb(f.kind)  # the palette: colour by it, map off
+            if f.index.size:  # the palette: colour by it with "Map Scalars" off
+                poly.point_data["rgb"] = type_rgb(f.kind)
             name = f"step_{n:04d}.vtp"
             poly.save(tmp_dir / name)
             entries.append((float(series.times[n]), f"{data_dir.name}/{name}"))
