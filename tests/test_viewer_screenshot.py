@@ -95,3 +95,29 @@ def test_one_palette_for_viewer_pictures_plots_and_pvd(tmp_path) -> None:
     ax = plot_counts(series)
     for line in ax.get_lines():  # the legend lists only the types present
         assert np.allclose(line.get_color(), np.asarray(PALETTE[line.get_label()]) / 255)
+
+
+def test_vector_glyphs_and_robust_colour_range() -> None:
+    import pytest
+    import pyvista as pv
+
+    from auralize.errors import ParameterError
+    from auralize.pipeline import load
+    from auralize.viewer.scene import MAX_GLYPHS, Scene, robust_range
+
+    pl = pv.Plotter(off_screen=True, window_size=[200, 150])
+    try:
+        scene = Scene(pl)
+        scene.set_volume(load("dataset:explosion", size=24, steps=4), representation="glyphs")
+        mesh = scene._vol_mesh
+        assert mesh.n_points > 0 and "value" in mesh.point_data
+        assert scene.sources is None  # shown without any detection
+        scene.set_volume(load("dataset:monopole", size=12, steps=4))
+        with pytest.raises(ParameterError, match="no vector field"):
+            scene.set_representation("glyphs")
+    finally:
+        pl.close()
+    assert MAX_GLYPHS >= 1000
+    a = np.concatenate([np.linspace(0, 1, 999), [1e30, -9.99e33, np.nan, np.inf]])
+    lo, hi = robust_range([a])
+    assert 0 <= lo < 0.02 and 0.98 < hi <= 1

@@ -44,7 +44,7 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--color-by", metavar="FIELD",
                    help="field to display (default: first scalar field; a plain --field NAME "
                         "without '=' means the same)")  # fmt: skip
-    g.add_argument("--representation", choices=["volume", "slices", "contour", "none"],
+    g.add_argument("--representation", choices=["volume", "slices", "contour", "glyphs", "none"],
                    default="volume")  # fmt: skip
     g.add_argument(
         "--detect",

@@ -48,7 +48,9 @@ TYPE_COLORS: dict[str, tuple[int, int, int]] = PALETTE
 PATH_COLOR: tuple[int, int, int] = PATH_RGB
 #: background colour (dark, unsaturated)
 BACKGROUND: tuple[int, int, int] = (26, 26, 34)
-REPRESENTATIONS = ("volume", "slices", "contour", "none")
+REPRESENTATIONS = ("volume", "slices", "contour", "glyphs", "none")
+#: most arrows the ``glyphs`` representation draws (the grid is subsampled evenly)
+MAX_GLYPHS = 4000
 #: percentiles of the finite values that span the colour bar
 CLIM_PERCENTILES = (1.0, 99.0)
 #: values at or beyond this magnitude are taken as fill values (not data)
@@ -140,6 +142,8 @@ class Scene:
         self.field = None
         self.sources = None
         self.step = 0
+        if self.representation == "glyphs" and not any(map(volume.is_vector, volume.field_names)):
+            self.representation = "volume"  # nothing to draw as arrows in this volume
         self.set_field(name, render=False)
         if representation is not None:
             self.set_representation(representation, render=False)
@@ -168,9 +172,13 @@ class Scene:
         self.set_step(self.step, render=render)
 
     def set_representation(self, rep: str, *, render: bool = True) -> None:
-        """``volume`` (ray casting), ``slices`` (three orthogonal), ``contour`` or ``none``."""
+        """``volume`` (ray casting), ``slices`` (three orthogonal), ``contour``, ``glyphs``
+        (arrows of a vector field on an evenly subsampled grid, coloured by the displayed
+        field) or ``none``."""
         if rep not in REPRESENTATIONS:
             raise ParameterError(f"representation must be one of {REPRESENTATIONS}, got {rep!r}")
+        if rep == "glyphs" and self.volume is not None:
+            self._vector_field()  # ParameterError when there is none
         self.representation = rep
         self._remove("volume")
         if self.volume is not None:
@@ -241,10 +249,13 @@ class Scene:
                 self._grid = self._actors["volume"].mapper.dataset
             else:
                 self._actors["volume"].mapper.dataset.Modified()
-        elif rep in ("slices", "contour"):
-            if rep == "slices":
+        elif rep in ("slices", "contour", "glyphs"):
+            if rep == "glyphs":
+                mesh = self._glyphs()
+                kw: dict[str, Any] = {"opacity": 1.0}
+            elif rep == "slices":
                 mesh = grid.slice_orthogonal().combine(merge_points=False)
-                kw: dict[str, Any] = {"opacity": max(self.opacity, 0.6)}
+                kw = {"opacity": max(self.opacity, 0.6)}
             else:
                 iso = self.clim[0] + 0.6 * (self.clim[1] - self.clim[0])
                 mesh = grid.contour([iso], scalars="value")
@@ -264,6 +275,39 @@ class Scene:
         else:
             self._remove("volume")
             self._remove_scalar_bar()
+
+    def _vector_field(self) -> str:
+        """The displayed field if it is a vector field, else the volume's first one."""
+        vol = self._need_volume()
+        if self.field is not None and vol.is_vector(self.field):
+            return self.field
+        for name in vol.field_names:
+            if vol.is_vector(name):
+                return name
+        raise ParameterError(f"{vol.source}: no vector field to draw as glyphs (fields: "
+                             f"{', '.join(vol.field_names)})")  # fmt: skip
+
+    def _glyphs(self) -> Any:
+        """Arrows of the vector field at the current step on an evenly subsampled grid."""
+        import pyvista as pv
+
+        vol = self._need_volume()
+        name = self._vector_field()
+        k = max(1, int(np.ceil((vol.n_points / MAX_GLYPHS) ** (1 / 3))))
+        v = vol.frame(name, self.step)[::k, ::k, ::k].reshape(-1, 3)
+        nx, ny, nz = vol.dims
+        ix, iy, iz = np.arange(0, nx, k), np.arange(0, ny, k), np.arange(0, nz, k)
+        zz, yy, xx = np.meshgrid(iz, iy, ix, indexing="ij")
+        flat = (zz * ny + yy) * nx + xx
+        pts = pv.PolyData(vol.points(flat.reshape(-1)))
+        mag = np.linalg.norm(v, axis=1)
+        pts.point_data["vectors"] = v
+        pts.point_data["value"] = self.frame(self.step)[flat.reshape(-1)]
+        top = float(np.percentile(mag, 99)) if mag.size else 0.0
+        pts.point_data["length"] = np.minimum(mag / top, 1.0) if top > 0 else mag * 0
+        length = float(k * vol.spacing.min())
+        return pts.glyph(orient="vectors", scale="length", factor=length,
+                         geom=pv.Arrow(tip_length=0.35, tip_radius=0.12, shaft_radius=0.04))  # fmt: skip
 
     def _scalar_bar(self) -> None:
         """The colour bar of the displayed field (its robust range, with units if known)."""
