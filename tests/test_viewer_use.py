@@ -253,3 +253,33 @@ def test_file_menu_open_builtin_save_and_restore_session(qtbot, window, tmp_path
     assert win.series is not None  # the session restores the detected sources
     assert win.detection.counts(win.scene.step)["monopole"] == n_src
     assert not errors
+
+
+def test_detect_on_a_real_time_series_with_field_options(qtbot, window, tmp_path, errors):
+    import zipfile
+
+    with zipfile.ZipFile(ROOT / "datasets" / "openfoam-cavity" / "OpenFOAM.zip") as z:
+        z.extractall(tmp_path)
+    win = window
+    win.mapping, win.mapping_fields = "identity", {"density": "p", "velocity": "U"}
+    _open(qtbot, win, str(tmp_path / "OpenFOAM" / "cavity" / "case.foam"), size=None)
+    assert win.volume.n_steps == 6 and win.scene.sources is None
+    assert win.detect_btn.isEnabled()
+    _detect(qtbot, win)
+    assert win.series.n_steps == 6
+    assert sum(win.detection.counts(0).values()) > 0
+    assert win.session_state().detection["mapping_fields"] == {"density": "p", "velocity": "U"}
+    assert not errors
+
+
+def test_record_from_the_default_camera(qtbot, window, tmp_path, errors):
+    win = window
+    _open(qtbot, win)
+    autosave = win.start_recording(tmp_path / "cam.csv")
+    qtbot.wait(350)
+    path = win.stop_recording()
+    assert path is not None and path.n_captures >= 3
+    # the default camera looks at the data from outside its box, as in ParaView
+    assert not np.any(win.volume.contains(path.positions))
+    assert ListenerPath.from_csv(autosave).n_captures == path.n_captures
+    assert not errors
