@@ -393,8 +393,8 @@ class Scene:
         colors = {**TYPE_COLORS, "listener path": PATH_COLOR}
         labels = [[k, tuple(c / 255 for c in colors[k])] for k in items]
         self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255,
-                                size=(0.3, 0.045 * len(items) + 0.02), face="circle",
-                                name="legend", loc="upper right")  # fmt: skip
+                                size=(0.22, 0.035 * len(items) + 0.01), face="circle",
+                                name="legend", loc="upper left")  # fmt: skip
 
     # -------------------------------------------------------------- listener
     def set_path(self, path: ListenerPath | None, *, time_scale: float | None = None,
