@@ -18,8 +18,10 @@ do instead (``--downmix``, another device, or writing a file).
 from __future__ import annotations
 
 import json
+import math
 import struct
 import sys
+import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -360,3 +362,258 @@ def downmix(
         raise ParameterError(f"layout {s.name!r} has {s.n_channels} channels, audio has shape "
                              f"{a.shape}")  # fmt: skip
     return downmix_matrix(s, dst) @ a
+
+
+# ------------------------------------------------------------ safe playback
+#: the loudest sample a device is ever given (full scale is 1.0)
+CEILING = 0.99
+#: auto gain of live listening: the first sound's peak is placed this far below full scale
+LIVE_HEADROOM_DB = 6.0
+
+
+class Limiter:
+    """Gain and a peak limiter between pascals and a device: nothing beyond full scale.
+
+    Each block is multiplied by ``gain`` (full scale per pascal, times
+    ``10**(gain_db/20)``), then by a limiter envelope: when a block's peak would
+    exceed :data:`CEILING` the envelope drops at once to bring that peak to the
+    ceiling (instant attack, at the block's start), and recovers towards 1 with
+    time constant ``release_s``.  Within a block the envelope never exceeds the
+    value that keeps the block's peak at the ceiling, so ``|out| <= CEILING``
+    always; a final clip guards against rounding.  The level meter
+    (:attr:`peak_dbfs`, :attr:`rms_dbfs`, :attr:`reduction_db`) describes the
+    last block sent.
+
+    Parameters
+    ----------
+    gain : float or None
+        Full scale per pascal; None (auto) sets it from the first block that is
+        not silent, :data:`LIVE_HEADROOM_DB` below full scale.
+    gain_db : float
+        Extra gain in dB on top (the panel's gain control).
+    rate : int
+        Sample rate in Hz (for the release time).
+    release_s : float
+        Seconds for the limiter's gain reduction to recover by a factor e.
+
+    Examples
+    --------
+    >>> lim = Limiter(gain=1.0, rate=1000)
+    >>> out = lim.process(np.array([[0.5, 4.0, -8.0, 0.1]]))
+    >>> float(np.max(np.abs(out))) < 1.0, round(lim.reduction_db, 1)
+    (True, -18.1)
+    """
+
+    def __init__(self, gain: float | None = None, *, gain_db: float = 0.0, rate: int = 44100,
+                 release_s: float = 0.5) -> None:  # fmt: skip
+        if gain is not None and not (np.isfinite(gain) and gain > 0):
+            raise ParameterError(
+                f"gain must be a positive number (full scale per Pa), got {gain!r}"
+            )
+        self.gain = None if gain is None else float(gain)
+        self.gain_db = check_gain_db(gain_db)
+        self.rate = int(rate)
+        self.release_s = float(release_s)
+        self.envelope = 1.0
+        self.peak_dbfs = -math.inf
+        self.rms_dbfs = -math.inf
+        self.reduction_db = 0.0
+        self.limited_blocks = 0
+
+    def process(self, block: NDArray[np.floating]) -> NDArray[np.float32]:
+        """``(n_channels, n)`` pascals -> float32 samples within ±:data:`CEILING`."""
+        x = np.asarray(block, dtype=np.float64)
+        if x.ndim != 2:
+            raise ParameterError(f"block must be (n_channels, n), got shape {x.shape}")
+        x = np.where(np.isfinite(x), x, 0.0)
+        peak_in = float(np.max(np.abs(x), initial=0.0))
+        if self.gain is None:
+            if peak_in == 0:
+                self._meter(x.astype(np.float32), 1.0)
+                return x.astype(np.float32)
+            self.gain = 10 ** (-LIVE_HEADROOM_DB / 20) / peak_in
+        y = x * (self.gain * 10 ** (self.gain_db / 20))
+        n = y.shape[1]
+        peak = float(np.max(np.abs(y), initial=0.0))
+        cap = CEILING / peak if peak > CEILING else 1.0
+        start = min(self.envelope, cap)
+        if n:
+            rec = 1.0 - np.exp(-n / (self.rate * self.release_s))
+            end = start + (1.0 - start) * rec
+            env = np.minimum(np.linspace(start, end, n), cap)
+            y = np.clip(y * env, -CEILING, CEILING)
+            self.envelope = float(env[-1])
+            if cap < 1.0:
+                self.limited_blocks += 1
+            out = y.astype(np.float32)
+            self._meter(out, float(env.min()))
+            return out
+        return y.astype(np.float32)
+
+    def _meter(self, out: NDArray[np.float32], env_min: float) -> None:
+        p = float(np.max(np.abs(out), initial=0.0))
+        r = float(np.sqrt(np.mean(np.square(out, dtype=np.float64)))) if out.size else 0.0
+        self.peak_dbfs = float(20 * np.log10(p)) if p > 0 else -math.inf
+        self.rms_dbfs = float(20 * np.log10(r)) if r > 0 else -math.inf
+        self.reduction_db = float(20 * np.log10(env_min)) if env_min > 0 else -math.inf
+
+
+def check_gain_db(gain_db: float) -> float:
+    """A gain control value in dB (finite, within ±60 dB)."""
+    try:
+        g = float(gain_db)
+    except (TypeError, ValueError):
+        raise ParameterError(f"gain must be a number of dB, got {gain_db!r}") from None
+    if not (np.isfinite(g) and -60 <= g <= 60):
+        raise ParameterError(f"gain must be within -60..60 dB, got {gain_db!r}")
+    return g
+
+
+class Playback:
+    """A sound being played by :func:`play` (a worker thread feeds the device).
+
+    Attributes
+    ----------
+    limiter : Limiter
+        Its level meter describes the block last sent.
+    frames_sent : int
+        Sample frames given to the device so far.
+    error : BaseException or None
+        What stopped the playback early, if anything.
+    """
+
+    def __init__(self, audio: NDArray[np.float64], rate: int, stream: Any, limiter: Limiter,
+                 block: int) -> None:  # fmt: skip
+        self.audio, self.rate, self.stream, self.limiter = audio, int(rate), stream, limiter
+        self.block = int(block)
+        self.frames_sent = 0
+        self.error: BaseException | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="auralize-play", daemon=True)
+
+    @property
+    def duration_s(self) -> float:
+        return self.audio.shape[1] / self.rate
+
+    @property
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def _run(self) -> None:
+        drained = False
+        try:
+            for a in range(0, self.audio.shape[1], self.block):
+                if self._stop.is_set():
+                    break
+                self.stream.write(self.limiter.process(self.audio[:, a : a + self.block]))
+                self.frames_sent += min(self.block, self.audio.shape[1] - a)
+            else:
+                self.stream.close(drain=True)
+                drained = True
+        except BaseException as exc:  # kept for the caller (the viewer shows it)
+            self.error = exc
+        finally:
+            if not drained:
+                try:
+                    self.stream.close(drain=False)
+                except BaseException as exc:  # the device is gone: nothing more to do
+                    self.error = self.error or exc
+            with _PLAYING_LOCK:
+                if self in _PLAYING:
+                    _PLAYING.remove(self)
+
+    def stop(self, timeout: float = 2.0) -> None:
+        """Stop at the next block (within one block's time) and close the device."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout)
+
+    def wait(self, timeout: float | None = None) -> Playback:
+        """Block until the sound has played (re-raises a device error)."""
+        self._thread.join(timeout)
+        if self.error is not None:
+            raise self.error
+        return self
+
+
+_PLAYING: list[Playback] = []
+_PLAYING_LOCK = threading.Lock()
+
+
+def play(audio: Any, rate: int | None = None, *, device: int | str | None = None,
+         gain: float | str = "auto", gain_db: float = 0.0, blocking: bool = True,
+         block: int = 2048) -> Playback:  # fmt: skip
+    """Play audio (pascals) on a sound device through a gain control and a limiter.
+
+    Parameters
+    ----------
+    audio : (n_channels, n_samples) array in Pa, or a :class:`~auralize.synthesis.Rendered`
+        (its rate is used).
+    rate : int
+        Sample rate in Hz (required for an array).
+    device : int, str or None
+        See :func:`choose_output_device`; the device must have the audio's channels.
+    gain : "auto" or float
+        Full scale per pascal; ``"auto"`` puts the loudest sample at :data:`CEILING`.
+    gain_db : float
+        Extra gain in dB (the Audio panel's control); what would exceed full scale is
+        limited (:class:`Limiter`), never clipped by the device.
+    blocking : bool
+        Wait until the sound has played; else return at once (:meth:`Playback.stop`,
+        :func:`stop`).
+    block : int
+        Frames per block given to the device.
+
+    Returns
+    -------
+    Playback
+
+    Raises
+    ------
+    DeviceError
+        No usable output device, or too few channels.
+
+    Examples
+    --------
+    >>> p = play(np.zeros((2, 4410)), 44100, device="auralize_file")  # doctest: +SKIP
+    >>> p.limiter.peak_dbfs  # doctest: +SKIP
+    -inf
+    """
+    from auralize.live import open_stream
+
+    if hasattr(audio, "audio") and hasattr(audio, "rate"):
+        rate = audio.rate if rate is None else rate
+        audio = audio.audio
+    if rate is None or not (isinstance(rate, int | np.integer) and rate > 0):
+        raise ParameterError(f"rate must be a positive integer number of Hz, got {rate!r}")
+    a = np.asarray(audio, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] == 0:
+        raise ParameterError(f"audio must be (n_channels, n_samples) with samples, got {a.shape}")
+    if gain == "auto":
+        peak = float(np.max(np.abs(a[np.isfinite(a)]), initial=0.0))
+        g = CEILING / peak if peak > 0 else 1.0
+    elif isinstance(gain, int | float) and np.isfinite(gain) and gain > 0:
+        g = float(gain)
+    else:
+        raise ParameterError(f"gain must be 'auto' or a positive number, got {gain!r}")
+    lim = Limiter(g, gain_db=gain_db, rate=int(rate))
+    if not (isinstance(block, int) and block > 0):
+        raise ParameterError(f"block must be a positive number of frames, got {block!r}")
+    stream = open_stream(rate=int(rate), channels=a.shape[0], device=device)
+    pb = Playback(a, int(rate), stream, lim, block)
+    with _PLAYING_LOCK:
+        _PLAYING.append(pb)
+    pb._thread.start()
+    if blocking:
+        pb.wait()
+    return pb
+
+
+def stop() -> None:
+    """Stop every sound started by :func:`play`."""
+    with _PLAYING_LOCK:
+        playing = list(_PLAYING)
+    for pb in playing:
+        pb.stop()

@@ -43,6 +43,12 @@ class ListenerPath:
     array([[5., 0., 0.]])
     """
 
+    def _repr_html_(self) -> str:
+        """Notebook display (:mod:`auralize.notebook`)."""
+        from auralize.notebook import path_html
+
+        return path_html(self)
+
     times: NDArray[np.float64]
     positions: NDArray[np.float64]
     forward: NDArray[np.float64] | None = None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,3 +46,44 @@ def save_spectrogram(audio: NDArray[np.floating], rate: int, out: str | Path, *,
         fig.savefig(tmp, dpi=90, format="png")
     plt.close(fig)
     return out
+
+
+def plot_counts(series: Any, *, ax: Any = None) -> Any:
+    """Sources per time step of each type, in the palette of :mod:`auralize.scene`.
+
+    Parameters
+    ----------
+    series : SourceSeries
+    ax : matplotlib Axes, optional (a new figure's otherwise)
+
+    Returns
+    -------
+    matplotlib Axes
+
+    Examples
+    --------
+    >>> from auralize.pipeline import detect_sources, load
+    >>> ax = plot_counts(detect_sources(load("dataset:monopole", size=8, steps=6)))
+    >>> [line.get_label() for line in ax.get_lines()]
+    ['monopole']
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from auralize.scene import PALETTE
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5, 2), layout="constrained")
+    counts = series.counts()
+    t = np.asarray(series.times, dtype=np.float64)
+    for kind, rgb in PALETTE.items():
+        n = np.array([c[kind] for c in counts])
+        if n.any():  # the legend lists only what is there
+            ax.plot(t, n, color=np.asarray(rgb) / 255, label=kind)
+    ax.set_xlabel("data time (s)")
+    ax.set_ylabel("sources")
+    if ax.get_lines():
+        ax.legend(fontsize=7, loc="upper right")
+    return ax

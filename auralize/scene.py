@@ -16,24 +16,88 @@ from auralize.listener import ListenerPath
 from auralize.sources import SourceSeries
 from auralize.volume import TimeVolume
 
-#: colours of the source types (monopole, dipole, quadrupole) and the path
-TYPE_COLORS = {1: "#e6194b", 2: "#3cb44b", 3: "#4363d8"}
+#: THE palette of the source types (ColorBrewer Set1), RGB 0..255: the viewer, off-screen
+#: pictures, plots and the ``rgb`` array of a ``.pvd`` export all use it
+PALETTE: dict[str, tuple[int, int, int]] = {
+    "monopole": (228, 26, 28),
+    "dipole": (55, 126, 184),
+    "quadrupole": (77, 175, 74),
+}
 TYPE_LABELS = {1: "monopole", 2: "dipole", 3: "quadrupole"}
-PATH_COLOR = "#ffd700"
+#: hex colours by type code (1 monopole, 2 dipole, 3 quadrupole)
+TYPE_COLORS = {k: "#{:02x}{:02x}{:02x}".format(*PALETTE[v]) for k, v in TYPE_LABELS.items()}
+#: RGB of the listener path and its glyph (amber)
+PATH_RGB: tuple[int, int, int] = (255, 170, 0)
+PATH_COLOR = "#{:02x}{:02x}{:02x}".format(*PATH_RGB)
+
+
+def type_rgb(kind: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` uint8 palette colours of type codes ``kind`` (0 = none: black).
+
+    Examples
+    --------
+    >>> type_rgb(np.array([1, 3])).tolist()
+    [[228, 26, 28], [77, 175, 74]]
+    """
+    lut = np.array([(0, 0, 0), *PALETTE.values()], dtype=np.uint8)
+    return lut[np.asarray(kind, dtype=np.int64)]
+
+
+#: above this many sources, draw them as point sprites of a fixed pixel size
+#: instead of sphere impostors at their ΔV radius (fill rate of software renderers)
+SPRITE_LIMIT = 25_000
+
+
+def source_points(centers: np.ndarray, radii: np.ndarray, kinds: np.ndarray):
+    """One point set of sources: ``radius`` (m) and ``rgb`` (palette) point arrays.
+
+    Parameters
+    ----------
+    centers : (N, 3) positions in metres.
+    radii : (N,) ΔV-sphere radii in metres.
+    kinds : (N,) type codes (1 monopole, 2 dipole, 3 quadrupole).
+    """
+    import pyvista as pv
+
+    c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
+    if not len(c):
+        return pv.PolyData()
+    mesh = pv.PolyData(c)
+    mesh.point_data["radius"] = np.asarray(radii, dtype=np.float64).reshape(-1)
+    mesh.point_data["rgb"] = type_rgb(kinds)
+    return mesh
+
+
+def add_source_actor(plotter, mesh, *, name: str = "sources"):
+    """Draw a :func:`source_points` set on ``plotter`` in one GPU draw call.
+
+    Up to :data:`SPRITE_LIMIT` sources are shaded sphere impostors of their ΔV radius
+    (VTK's point-Gaussian mapper: one quad per source, the sphere is made in the
+    fragment shader); more are flat point sprites of 3 pixels in the type's colour
+    (a software renderer draws 100,000 of them at > 10 frames per second; sphere
+    impostors reach ~2).  Either way there is one mesh and one actor, never one
+    mesh per sphere.
+    """
+    if mesh.n_points <= SPRITE_LIMIT:
+        actor = plotter.add_mesh(mesh, scalars="rgb", rgb=True, style="points_gaussian",
+                                 emissive=False, render_points_as_spheres=True, name=name,
+                                 reset_camera=False, render=False)  # fmt: skip
+        actor.mapper.scale_array = "radius"
+    else:
+        actor = plotter.add_mesh(mesh, scalars="rgb", rgb=True, style="points", point_size=3,
+                                 render_points_as_spheres=False, name=name, reset_camera=False,
+                                 render=False)  # fmt: skip
+    return actor
 
 
 def source_glyphs(series: SourceSeries, step: int):
-    """A sphere per source point of ``step`` at its ΔV radius, with a ``kind`` array."""
-    import pyvista as pv
-
+    """The sources of ``step`` as a :func:`source_points` set (``kind`` array too)."""
     f = series.frames[step]
-    pts = pv.PolyData(series.positions(f.index) if f.index.size else np.zeros((0, 3)))
-    pts.point_data["radius"] = f.radius
-    pts.point_data["kind"] = f.kind.astype(np.int32)
-    if f.index.size == 0:
-        return pts
-    return pts.glyph(scale="radius", geom=pv.Sphere(radius=1.0, theta_resolution=10,
-                                                    phi_resolution=10), orient=False)  # fmt: skip
+    pts = source_points(series.positions(f.index) if f.index.size else np.zeros((0, 3)),
+                        f.radius, f.kind)  # fmt: skip
+    if pts.n_points:
+        pts.point_data["kind"] = f.kind.astype(np.int32)
+    return pts
 
 
 def path_tube(path: ListenerPath, radius: float):
@@ -64,6 +128,7 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
         arr = np.linalg.norm(arr, axis=-1)
     grid.point_data[field] = arr.reshape(-1)
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    pl.render_window.SetMultiSamples(0)  # 8× MSAA costs 10× per frame on software GL
     pl.set_background("#101018")  # type: ignore[arg-type]
     pl.add_mesh(grid.outline(), color="#888888")
     lo, hi = float(arr.min()), float(arr.max())
@@ -74,14 +139,13 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
             pl.add_mesh(cont, scalars=field, cmap="bone", opacity=0.18, show_scalar_bar=False)
     if series is not None:
         glyphs = source_glyphs(series, step)
-        for k, color in TYPE_COLORS.items():
-            if glyphs.n_points and "kind" in glyphs.point_data:
-                part = glyphs.extract_points(glyphs.point_data["kind"] == k, adjacent_cells=False)
-                if part.n_points:
-                    pl.add_mesh(part, color=color, smooth_shading=True, label=TYPE_LABELS[k])
+        if glyphs.n_points:
+            add_source_actor(pl, glyphs)
         counts = series.frames[step].counts()
-        for i, (k, color) in enumerate(TYPE_COLORS.items()):
-            pl.add_text(f"{TYPE_LABELS[k]}: {counts[TYPE_LABELS[k]]}", color=color, font_size=12,
+        shown = [k for k in TYPE_LABELS if counts[TYPE_LABELS[k]]]
+        for i, k in enumerate(shown):  # the legend lists only what is shown
+            pl.add_text(f"{TYPE_LABELS[k]}: {counts[TYPE_LABELS[k]]}", color=TYPE_COLORS[k],
+                        font_size=12,
                         position=(window_size[0] - 240, window_size[1] - 40 - 28 * i))  # fmt: skip
     if path is not None:
         pl.add_mesh(path_tube(path, 0.004 * float(np.linalg.norm(volume.spacing * volume.dims))),

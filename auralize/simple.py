@@ -12,15 +12,21 @@ Errors are the library's own (:mod:`auralize.errors`): a missing file raises
 ``FormatError``/``MissingFileError``, an unknown field ``FieldError``, no sound
 device ``DeviceError``, and so on.
 
+Filters take their input positionally or as ``Input=`` / ``source=`` (as
+``paraview.simple`` filters do), and writers take the file name first:
+``DetectSources(src)``, ``RenderAudio(src, path=path)``,
+``SaveAudio("out.wav", rendered)``.  Every public function has an example
+below its description; the test suite runs them all (doctest).
+
 Examples
 --------
 >>> from auralize.simple import *
->>> ResetSession()
+>>> session = ResetSession()
 >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
->>> series = DetectSources(monopole="1%")
->>> path = CreateListenerPath("line", start=src.Volume.center + [1, 0, 0],
-...                           end=src.Volume.center + [2, 0, 0], duration=0.02)
->>> RenderAudio(layout="stereo").audio.shape
+>>> series = DetectSources(src, monopole="1%")
+>>> path = CreateListenerPath("line", start=src.Volume.center + [0.5, 0, 0],
+...                           end=src.Volume.center + [1, 0, 0], duration=0.02)
+>>> RenderAudio(src, path=path, layout="stereo").audio.shape
 (2, 882)
 """
 
@@ -34,7 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from auralize.errors import DeviceError, ParameterError
+from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceSeries, Thresholds
 from auralize.synthesis import Rendered
@@ -68,7 +74,7 @@ __all__ = [
 ]
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, repr=False)
 class DataSource:
     """An opened volume and what was derived from it (the "source proxy").
 
@@ -101,13 +107,42 @@ class DataSource:
         self.Sources = None
         self._detection = None
 
+    def __repr__(self) -> str:
+        v = self.Volume
+        det = ("not detected" if self.Sources is None
+               else f"{sum(sum(c.values()) for c in self.Sources.counts())} detected")  # fmt: skip
+        return (f"<DataSource {self.FileName!r}: {v.dims[0]}×{v.dims[1]}×{v.dims[2]} points, "
+                f"{v.n_steps} steps, fields {', '.join(v.field_names)}; sources {det}>")  # fmt: skip
+
+    def _repr_html_(self) -> str:
+        return self.Volume._repr_html_() if hasattr(self.Volume, "_repr_html_") else repr(self)
+
 
 class View:
     """A 3-D view: an off-screen pyvista plotter with the viewer's :class:`Scene`.
 
     Properties ``CameraPosition``, ``CameraFocalPoint``, ``CameraViewUp``,
     ``ViewTime`` (time step) and ``ViewSize`` (pixels) can be read and set.
+    In a Jupyter notebook a view displays as a static picture (``_repr_png_``).
+
+    Examples
+    --------
+    >>> v = CreateView(size=(160, 120))
+    >>> v.ViewTime = 0  # doctest: +SKIP
+    >>> v._repr_png_()[:4]
+    b'\x89PNG'
     """
+
+    def _repr_png_(self) -> bytes:
+        """The view as PNG bytes (what a notebook shows for ``Show(...)``)."""
+        import io
+
+        from PIL import Image
+
+        img = self.plotter.screenshot(None, return_img=True)
+        buf = io.BytesIO()
+        Image.fromarray(np.asarray(img)).save(buf, format="PNG")
+        return buf.getvalue()
 
     def __init__(self, session: Session, *, size: tuple[int, int] = (800, 600),
                  plotter: Any = None) -> None:  # fmt: skip
@@ -179,6 +214,12 @@ class Session:
     path : ListenerPath or None, the active listener path
     rendered : Rendered or None, the last render
     audio : dict, audio settings (layout, rate, time_scale, device)
+
+    Examples
+    --------
+    >>> s = Session()
+    >>> s.active_source is None, s.audio["layout"]
+    (True, 'mono')
     """
 
     def __init__(self) -> None:
@@ -218,12 +259,24 @@ _SESSION = Session()
 
 
 def GetSession() -> Session:
-    """The session the module-level functions act on."""
+    """The session the module-level functions act on.
+
+    Examples
+    --------
+    >>> GetSession().audio["rate"]
+    44100
+    """
     return _SESSION
 
 
 def ResetSession() -> Session:
-    """Close the views and start a new, empty session."""
+    """Close the views and start a new, empty session.
+
+    Examples
+    --------
+    >>> ResetSession().sources
+    []
+    """
     global _SESSION
     _SESSION.close()
     _SESSION = Session()
@@ -236,7 +289,13 @@ def OpenDataFile(filename: str | Path, *, size: int | None = None, steps: int | 
     """Open a volume file or ``"dataset:NAME"`` and make it the active source.
 
     Raises the reader's errors (e.g. :class:`~auralize.errors.FormatError`) for
-    unreadable files.
+    unreadable files.  Nothing is detected yet (see :func:`DetectSources`).
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> src  # doctest: +ELLIPSIS
+    <DataSource 'dataset:monopole': 12×12×12 points, 60 steps, fields density; sources not detected>
     """
     from auralize.pipeline import auto_mapping, load
 
@@ -251,26 +310,55 @@ def OpenDataFile(filename: str | Path, *, size: int | None = None, steps: int | 
 
 
 def GetActiveSource() -> DataSource | None:
+    """The active data source (the last opened or set), or None.
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> GetActiveSource() is src
+    True
+    """
     return GetSession().active_source
 
 
 def SetActiveSource(source: DataSource) -> None:
+    """Make ``source`` the one filters act on by default.
+
+    Examples
+    --------
+    >>> a = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> b = OpenDataFile("dataset:monopole", size=10, steps=60)
+    >>> SetActiveSource(a); GetActiveSource() is a
+    True
+    """
     s = GetSession()
     if source not in s.sources:
         s.sources.append(source)
     s.active_source = source
 
 
-def ApplyMapping(mapping: str = "paper-density", *, source: DataSource | None = None,
-                 **fields: str) -> DataSource:  # fmt: skip
+def ApplyMapping(Input: DataSource | str | None = None, mapping: str | None = None, *,
+                 source: DataSource | None = None, **fields: str) -> DataSource:  # fmt: skip
     """Choose the acoustic mapping (``paper-density``, ``identity``, ``cfd``) and its fields.
 
-    Checked at once: a field the volume lacks raises
-    :class:`~auralize.errors.FieldError`.
+    ``ApplyMapping(src, "identity", density="rho")`` or, on the active source,
+    ``ApplyMapping("identity", density="rho")``.  Checked at once: a field the
+    volume lacks raises :class:`~auralize.errors.FieldError`.
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> ApplyMapping(src, "identity", density="density").Mapping
+    'identity'
     """
     from auralize.mapping import get_mapping
 
-    src = GetSession().source(source)
+    if isinstance(Input, str):  # ApplyMapping("cfd", ...) on the active source
+        if mapping is not None:
+            raise ParameterError(f"give the mapping once, got {Input!r} and {mapping!r}")
+        Input, mapping = None, Input
+    mapping = mapping or "paper-density"
+    src = GetSession().source(_input(Input, source))
     m = get_mapping(mapping, **fields)
     m.prepare(src.Volume)
     src.Mapping, src.MappingFields = mapping, dict(fields)
@@ -278,14 +366,26 @@ def ApplyMapping(mapping: str = "paper-density", *, source: DataSource | None = 
     return src
 
 
-def DetectSources(*, source: DataSource | None = None, monopole: float | str | None = None,
-                  dipole: float | str | None = None, quadrupole: float | str | None = None,
+def DetectSources(Input: DataSource | None = None, *, source: DataSource | None = None,
+                  monopole: float | str | None = None, dipole: float | str | None = None,
+                  quadrupole: float | str | None = None,
                   zero_fraction: float = 1.0) -> SourceSeries:  # fmt: skip
-    """Detect sources at every step (thresholds absolute, ``"N%"`` of the peak, or
-    ``"auto"``; unset ones keep the viewer defaults ``3%``, ``0.3%``, ``0.1%``)."""
+    """Detect sources at every step of ``Input`` (default: the active source).
+
+    Thresholds are absolute, ``"N%"`` of the peak, or ``"auto"``; unset ones keep
+    the viewer defaults ``3%``, ``0.3%``, ``0.1%``.  Single-step data raises
+    :class:`~auralize.errors.DataError` (strengths are time derivatives).
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> series = DetectSources(src, monopole="1%")
+    >>> series.n_steps, series.counts()[30]["monopole"] > 0
+    (60, True)
+    """
     from auralize.viewer.detection import VIEWER_THRESHOLDS
 
-    src = GetSession().source(source)
+    src = GetSession().source(_input(Input, source))
     given = (monopole, dipole, quadrupole)
     th = Thresholds(*(g if g is not None else d for g, d in zip(given, VIEWER_THRESHOLDS, strict=True)),
                     zero_fraction=zero_fraction)  # fmt: skip
@@ -301,17 +401,26 @@ def DetectSources(*, source: DataSource | None = None, monopole: float | str | N
 
 
 # ------------------------------------------------------------------ listener
-def CreateListenerPath(kind: str = "orbit", *, source: DataSource | None = None,
-                       duration: float | None = None, **kw: Any) -> ListenerPath:  # fmt: skip
+def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
+                       source: DataSource | None = None, duration: float | None = None,
+                       **kw: Any) -> ListenerPath:  # fmt: skip
     """Make the active listener path.
 
     ``kind`` is ``"line"`` (``start``, ``end``, optional ``n``, ``face``),
     ``"orbit"`` (``center``, ``radius``, ``turns``, ``height``, ``rate_hz``),
     ``"point"`` (``at``) or the name of a CSV file.  Defaults come from the
-    active source: centre of the grid, radius 30 % of the smallest extent, and
-    the duration of the data at ``time_scale`` 1.
+    source (``Input=``/``source=``, else the active one): centre of the grid,
+    radius 30 % of the smallest extent, and the duration of the data at
+    ``time_scale`` 1.
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> CreateListenerPath("orbit", radius=1.0, duration=2.0).duration
+    2.0
     """
     s = GetSession()
+    source = _input(Input, source)
     if kind not in ("line", "orbit", "point"):
         if not Path(kind).suffix.lower() == ".csv" and not Path(kind).exists():
             raise ParameterError(f"kind must be 'line', 'orbit', 'point' or a CSV file, "
@@ -347,10 +456,28 @@ def CreateListenerPath(kind: str = "orbit", *, source: DataSource | None = None,
 
 
 def GetListenerPath() -> ListenerPath | None:
+    """The active listener path (None before one is made).
+
+    Examples
+    --------
+    >>> p = CreateListenerPath("point", at=(0, 0, 0), duration=1.0)
+    >>> GetListenerPath() is p
+    True
+    """
     return GetSession().path
 
 
 def SaveListenerPath(filename: str | Path, path: ListenerPath | None = None) -> None:
+    """Write the (active) listener path as a CSV file (``t,x,y,z,fx,fy,fz,ux,uy,uz``).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "path.csv"
+    >>> SaveListenerPath(out, CreateListenerPath("point", at=(0, 0, 0), duration=1.0))
+    >>> out.read_text().splitlines()[0]
+    't,x,y,z,fx,fy,fz,ux,uy,uz'
+    """
     p = path or GetSession().path
     if p is None:
         raise ParameterError("no listener path; call CreateListenerPath or RecordListenerPath")
@@ -369,6 +496,16 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
     captured ``rate_hz`` times a second, exactly as the desktop viewer records
     a flight (same :class:`~auralize.viewer.recorder.PathRecorder`, same
     autosave CSV).  Without keyframes the current camera is held.
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> c = src.Volume.center
+    >>> p = RecordListenerPath([{"position": c + [3, 0, 0], "focal_point": c},
+    ...                         {"position": c + [0, 3, 0], "focal_point": c}],
+    ...                        duration=1.0, rate_hz=10)
+    >>> p.n_captures
+    11
     """
     from auralize.viewer.recorder import PathRecorder
     from auralize.viewer.scene import camera_pose
@@ -409,15 +546,26 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
 
 
 # --------------------------------------------------------------------- audio
-def RenderAudio(*, source: DataSource | None = None, path: ListenerPath | None = None,
-                layout: str | None = None, rate: int | None = None,
-                time_scale: float | None = None, interp: str = "cubic") -> Rendered:  # fmt: skip
-    """Render the sound heard along the (active) path from the (active) source's sources
-    (detected first with the current thresholds if needed)."""
+def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = None,
+                path: ListenerPath | None = None, layout: str | None = None,
+                rate: int | None = None, time_scale: float | None = None,
+                interp: str = "cubic") -> Rendered:  # fmt: skip
+    """Render the sound heard along ``path`` (default: the active path) from the sources
+    of ``Input`` (default: the active source; detected first with the current thresholds
+    if needed).
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> p = CreateListenerPath("point", at=src.Volume.center + [1, 0, 0], duration=0.05)
+    >>> r = RenderAudio(src, path=p, layout="stereo")
+    >>> r.audio.shape, r.rate
+    ((2, 2205), 44100)
+    """
     from auralize.pipeline import auralize
 
     s = GetSession()
-    src = s.source(source)
+    src = s.source(_input(Input, source))
     p = path or s.path
     if p is None:
         raise ParameterError("no listener path; call CreateListenerPath or RecordListenerPath")
@@ -435,7 +583,18 @@ def RenderAudio(*, source: DataSource | None = None, path: ListenerPath | None =
 
 def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
               normalize: str = "peak") -> float:  # fmt: skip
-    """Write the last render (WAV/FLAC + sidecar JSON); returns the gain applied."""
+    """Write ``rendered`` (default: the last render) as WAV/FLAC + sidecar JSON, as
+    ParaView's ``SaveData(filename, proxy)``; returns the gain applied.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> r = RenderAudio(src, path=CreateListenerPath("point", duration=0.05))
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "tone.wav"
+    >>> SaveAudio(out, r) > 0, out.exists(), pathlib.Path(f"{out}.json").exists()
+    (True, True, True)
+    """
     from auralize.pipeline import save_rendered
 
     r = rendered or GetSession().rendered
@@ -444,27 +603,42 @@ def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
     return save_rendered(r, filename, normalize=normalize)
 
 
-def PlayAudio(rendered: Rendered | None = None, *, device: Any = None,
-              blocking: bool = True) -> None:  # fmt: skip
-    """Play the last render on a sound device (the output layer's ``play``).
+def PlayAudio(rendered: Rendered | None = None, *, device: Any = None, gain_db: float = 0.0,
+              blocking: bool = True) -> Any:  # fmt: skip
+    """Play the last render on a sound device through a gain control and a limiter.
 
+    The loudest sample is put at full scale (``gain_db`` adds to that; what would
+    exceed full scale is limited, see :class:`auralize.audio.Limiter`).  Returns
+    the :class:`auralize.audio.Playback` (``.stop()``, ``.limiter`` level meter).
     Raises :class:`~auralize.errors.DeviceError` when no device is usable.
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> r = RenderAudio(src, path=CreateListenerPath("point", duration=0.05))
+    >>> pb = PlayAudio(r, device="auralize_file")  # doctest: +SKIP
+    >>> pb.frames_sent == r.audio.shape[1]  # doctest: +SKIP
+    True
     """
-    import auralize.audio as audio
+    from auralize.audio import play
 
     r = rendered or GetSession().rendered
     if r is None:
         raise ParameterError("nothing rendered yet; call RenderAudio() first")
-    play = getattr(audio, "play", None)
-    if play is None:
-        raise DeviceError("audio playback is not available in auralize.audio (no play())")
     dev = device if device is not None else GetSession().audio.get("device")
-    play(r.audio, r.rate, device=dev, blocking=blocking)
+    return play(r.audio, r.rate, device=dev, gain_db=gain_db, blocking=blocking)
 
 
 # ---------------------------------------------------------------------- views
 def CreateView(*, size: tuple[int, int] = (800, 600)) -> View:
-    """A new off-screen view, made active."""
+    """A new off-screen view, made active.
+
+    Examples
+    --------
+    >>> v = CreateView(size=(320, 240))
+    >>> v.ViewSize, GetActiveView() is v
+    ([320, 240], True)
+    """
     s = GetSession()
     v = View(s, size=size)
     s.views.append(v)
@@ -473,18 +647,41 @@ def CreateView(*, size: tuple[int, int] = (800, 600)) -> View:
 
 
 def GetActiveView() -> View:
-    """The active view (created off screen if there is none)."""
+    """The active view (created off screen if there is none).
+
+    Examples
+    --------
+    >>> GetActiveView() is GetActiveView()
+    True
+    """
     return GetSession().view()
 
 
 def SetActiveView(view: View) -> None:
+    """Make ``view`` the one :func:`Show`, :func:`Render` and screenshots use.
+
+    Examples
+    --------
+    >>> a, b = CreateView(), CreateView()
+    >>> SetActiveView(a); GetActiveView() is a
+    True
+    """
     GetSession().active_view = view
 
 
 def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None, *,
          field: str | None = None, representation: str | None = None,
          step: int | None = None) -> View:  # fmt: skip
-    """Show a data source (volume + its sources) or a listener path in a view."""
+    """Show a data source (its volume, and its sources once detected) or a listener path
+    in a view.  In a Jupyter notebook the returned view displays as a picture.
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> v = Show(src, step=30)
+    >>> v.ViewTime, v.scene.field
+    (30, 'density')
+    """
     s = GetSession()
     v = s.view(view)
     if isinstance(obj, ListenerPath):
@@ -505,7 +702,8 @@ def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None,
     v.scene.show_volume = True
     v.scene.show_sources = True
     src.Field = v.scene.field
-    v.scene.set_sources(src.Detection.frame)
+    # look first: sources are drawn once detected (DetectSources), never detected here
+    v.scene.set_sources(src.Detection.get if src.Sources is not None else None)
     if s.path is not None and v.show_path:
         v.scene.set_path(s.path, time_scale=s.audio["time_scale"], render=False)
     if step is not None:
@@ -514,7 +712,15 @@ def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None,
 
 
 def Hide(obj: DataSource | ListenerPath | str | None = None, view: View | None = None) -> None:
-    """Hide a source, the listener path (a ListenerPath or ``"path"``), or ``"sources"``."""
+    """Hide a source, the listener path (a ListenerPath or ``"path"``), or ``"sources"``.
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> v = Show(src)
+    >>> Hide("sources"); v.scene.show_sources
+    False
+    """
     s = GetSession()
     v = s.view(view)
     if isinstance(obj, ListenerPath) or obj == "path":
@@ -531,6 +737,14 @@ def Hide(obj: DataSource | ListenerPath | str | None = None, view: View | None =
 
 
 def Render(view: View | None = None) -> View:
+    """Redraw the (active) view.
+
+    Examples
+    --------
+    >>> v = Render(Show(OpenDataFile("dataset:monopole", size=12, steps=60)))
+    >>> v is GetActiveView()
+    True
+    """
     v = GetSession().view(view)
     v.plotter.render()
     return v
@@ -538,7 +752,17 @@ def Render(view: View | None = None) -> View:
 
 def SaveScreenshot(filename: str | Path, view: View | None = None, *,
                    resolution: tuple[int, int] | None = None) -> Path:  # fmt: skip
-    """Render the view off screen to a PNG."""
+    """Render the view off screen to a PNG.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> Show(OpenDataFile("dataset:monopole", size=12, steps=60))  # doctest: +ELLIPSIS
+    <auralize.simple.View ...>
+    >>> out = SaveScreenshot(pathlib.Path(tempfile.mkdtemp()) / "v.png", resolution=(160, 120))
+    >>> out.stat().st_size > 1000
+    True
+    """
     v = GetSession().view(view)
     if resolution is not None:
         v.ViewSize = resolution
@@ -551,7 +775,16 @@ def SaveScreenshot(filename: str | Path, view: View | None = None, *,
 
 # ------------------------------------------------------------------- session
 def SaveSession(filename: str | Path) -> Path:
-    """Save the session (data, mapping, thresholds, path, audio settings, camera) as JSON."""
+    """Save the session (data, mapping, thresholds, path, audio settings, camera) as JSON.
+
+    Examples
+    --------
+    >>> import json, tempfile, pathlib
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> f = SaveSession(pathlib.Path(tempfile.mkdtemp()) / "s.json")
+    >>> json.loads(f.read_text())["data"]["spec"]
+    'dataset:monopole'
+    """
     from auralize.viewer.session import SessionState, data_spec
 
     s = GetSession()
@@ -573,7 +806,16 @@ def SaveSession(filename: str | Path) -> Path:
 
 
 def LoadSession(filename: str | Path) -> Session:
-    """Replace the session by one saved with :func:`SaveSession` or the desktop viewer."""
+    """Replace the session by one saved with :func:`SaveSession` or the desktop viewer.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
+    >>> f = SaveSession(pathlib.Path(tempfile.mkdtemp()) / "s.json")
+    >>> LoadSession(f).active_source.Volume.dims
+    (12, 12, 12)
+    """
     from auralize.viewer.session import SessionState
 
     st = SessionState.load(filename)
@@ -600,6 +842,16 @@ def LoadSession(filename: str | Path) -> Session:
             v.scene.set_step(int(view["step"]), render=False)
         v.scene.set_camera(st.camera)
     return s
+
+
+def _input(Input: DataSource | None, source: DataSource | None) -> DataSource | None:
+    """The input a filter was given positionally / as ``Input=`` or as ``source=``."""
+    if Input is not None and source is not None and Input is not source:
+        raise ParameterError("give the input once: positionally, as Input= or as source=")
+    if Input is not None and not isinstance(Input, DataSource):
+        raise ParameterError(f"the input must be a data source from OpenDataFile, got "
+                             f"{type(Input).__name__}")  # fmt: skip
+    return Input if Input is not None else source
 
 
 def _viewer_th() -> tuple[str, str, str]:

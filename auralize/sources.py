@@ -292,6 +292,12 @@ class SourceFrame:
 class SourceSeries:
     """Sources at every step of a volume, plus what is needed to reproduce them."""
 
+    def _repr_html_(self) -> str:
+        """Notebook display (:mod:`auralize.notebook`)."""
+        from auralize.notebook import series_html
+
+        return series_html(self)
+
     frames: list[SourceFrame]
     times: NDArray[np.float64]
     origin: NDArray[np.float64]

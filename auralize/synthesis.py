@@ -58,6 +58,12 @@ class Rendered:
     (also what the sound-model plugins return; ``time_scale`` 1 for sound that is
     not a playback of data time)."""
 
+    def _repr_html_(self) -> str:
+        """Notebook display (:mod:`auralize.notebook`)."""
+        from auralize.notebook import rendered_html
+
+        return rendered_html(self)
+
     audio: NDArray[np.float64]
     rate: int
     layout: Layout

@@ -126,6 +126,12 @@ class TimeVolume:
     ((4, 4, 4), 3, 1.5)
     """
 
+    def _repr_html_(self) -> str:
+        """Notebook display (:mod:`auralize.notebook`)."""
+        from auralize.notebook import volume_html
+
+        return volume_html(self)
+
     origin: NDArray[np.float64]
     spacing: NDArray[np.float64]
     dims: tuple[int, int, int]

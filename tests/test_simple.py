@@ -55,7 +55,8 @@ def test_screenshot_command_shows_sources_and_path(tmp_path, capsys):
     csv.write_text("t,x,y,z\n0,3,3,20\n1,20,3,20\n2,20,20,20\n3,3,20,20\n")
     out = tmp_path / "shot.png"
     rc = main(["view", "dataset:explosion", "--size", "24", "--steps", "6", "--time", "3",
-               "--path", str(csv), "--screenshot", str(out), "--window-size", "640x480"])  # fmt: skip
+               "--detect", "--path", str(csv), "--screenshot", str(out),
+               "--window-size", "640x480"])  # fmt: skip
     assert rc == 0 and f"wrote {out}" in capsys.readouterr().out
     with Image.open(out) as im:
         img = np.asarray(im)

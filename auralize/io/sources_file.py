@@ -12,7 +12,9 @@ HDF5 layout (``auralize_format="sources"``, ``version=1``)::
     attrs: origin, spacing, dims, thresholds (3,), meta (JSON)
 
 The ``.pvd`` export writes one ``.vtp`` per step (point data ``kind``,
-``strength``, ``radius``, ``volume``) so ParaView can glyph them as spheres.
+``strength``, ``radius``, ``volume``, and ``rgb``: the type's colour in the
+palette of :mod:`auralize.scene`, shown as is with "Map Scalars" off) so
+ParaView can glyph them as spheres in the viewer's colours.
 """
 
 from __future__ import annotations
@@ -98,6 +100,8 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
     """Write ``NAME.pvd`` plus ``NAME_data/step_NNNN.vtp`` (one point set per step)."""
     import pyvista as pv
 
+    from auralize.scene import type_rgb
+
     p = Path(path)
     data_dir = p.parent / f"{p.stem}_data"
     tmp_dir = Path(tempfile.mkdtemp(prefix=f".{p.stem}_data.", dir=p.parent))
@@ -110,6 +114,8 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
             poly.point_data["strength"] = f.strength
             poly.point_data["radius"] = f.radius
             poly.point_data["volume"] = f.volume
+            if f.index.size:  # the palette: colour by it with "Map Scalars" off
+                poly.point_data["rgb"] = type_rgb(f.kind)
             name = f"step_{n:04d}.vtp"
             poly.save(tmp_dir / name)
             entries.append((float(series.times[n]), f"{data_dir.name}/{name}"))

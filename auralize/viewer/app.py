@@ -9,14 +9,23 @@ and **Overlays** (sound-model plugin overlays).  Long work (loading,
 detection, rendering) runs in a :class:`Task` thread with a progress bar and a
 Cancel button.  Errors show a message box; the session stays usable.
 
-Navigation: the mouse as in any VTK view, plus flying keys — Up/Down move
-forward/back, Left/Right turn, PageUp/PageDown rise/sink.
+Menus: **File** (Open…, Open built-in dataset, Save session, Save session
+as…, Quit).  Opening shows the data at once (volume, slices or contour, the
+data's outline and a colour bar); sources are detected only when asked
+(Sources panel).
+
+Navigation: the mouse as in any VTK view, plus flying keys whenever no text
+or number box is being edited — Up/W forward, Down/S back, Left/A and
+Right/D turn, PageUp/R rise, PageDown/F sink (Qt key codes, so they work
+whatever name VTK gives the key).  The key map is shown in the Listener
+panel, the camera position in the status bar.
 """
 
 from __future__ import annotations
 
 import os
 import traceback
+import warnings
 from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
@@ -26,7 +35,7 @@ os.environ.setdefault("QT_API", "pyside6")
 
 import numpy as np
 from pyvistaqt import QtInteractor
-from qtpy import QtCore, QtWidgets
+from qtpy import QtCore, QtGui, QtWidgets
 
 from auralize.errors import AuralizeError, ParameterError
 from auralize.listener import ListenerPath
@@ -39,6 +48,60 @@ from auralize.viewer.session import SessionState, data_spec
 LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1")
 MAPPINGS = ("auto", "paper-density", "identity", "cfd")
 CMAPS = ("gray", "viridis", "inferno", "coolwarm", "bone")
+
+
+#: flying keys: Qt key -> (forward, turn, rise) steps
+FLY_KEYS: dict[int, tuple[int, int, int]] = {
+    int(QtCore.Qt.Key.Key_Up): (1, 0, 0), int(QtCore.Qt.Key.Key_W): (1, 0, 0),
+    int(QtCore.Qt.Key.Key_Down): (-1, 0, 0), int(QtCore.Qt.Key.Key_S): (-1, 0, 0),
+    int(QtCore.Qt.Key.Key_Left): (0, 1, 0), int(QtCore.Qt.Key.Key_A): (0, 1, 0),
+    int(QtCore.Qt.Key.Key_Right): (0, -1, 0), int(QtCore.Qt.Key.Key_D): (0, -1, 0),
+    int(QtCore.Qt.Key.Key_PageUp): (0, 0, 1), int(QtCore.Qt.Key.Key_R): (0, 0, 1),
+    int(QtCore.Qt.Key.Key_PageDown): (0, 0, -1), int(QtCore.Qt.Key.Key_F): (0, 0, -1),
+}  # fmt: skip
+KEY_MAP_TEXT = ("fly: ↑/W forward · ↓/S back · ←/A, →/D turn · PgUp/R rise · PgDn/F sink "
+                "(when no box is being edited)")  # fmt: skip
+#: sizes and steps File ▸ Open built-in dataset uses (quick to open); others: their defaults
+BUILTIN_SIZES = {"explosion": (32, 12), "monopole": (16, 60)}
+
+
+class FlyKeys(QtCore.QObject):
+    """Application event filter: flying keys reach the 3-D view unless a text or number
+    box has the focus (then the box gets them, as usual)."""
+
+    def __init__(self, window: MainWindow) -> None:
+        super().__init__(window)
+        self.window = window
+
+    def eventFilter(self, obj: QtCore.QObject, event: QtCore.QEvent) -> bool:
+        if event.type() != QtCore.QEvent.Type.KeyPress:
+            return False
+        key = int(event.key())  # type: ignore[attr-defined]
+        if key not in FLY_KEYS:
+            return False
+        mods = event.modifiers()  # type: ignore[attr-defined]
+        ctrl_alt = (
+            QtCore.Qt.KeyboardModifier.ControlModifier | QtCore.Qt.KeyboardModifier.AltModifier
+        )
+        if mods & ctrl_alt:
+            return False
+        # a key event goes to the focus widget (or the window): that is ``obj``
+        if not isinstance(obj, QtWidgets.QWidget) or obj.window() is not self.window:
+            return False
+        if _edits_text(obj):
+            return False
+        if self.window.volume is None:
+            return False
+        self.window._guard(self.window.fly, *FLY_KEYS[key])
+        return True
+
+
+def _edits_text(w: QtWidgets.QWidget) -> bool:
+    """Whether ``w`` takes typed keys itself (line edits, spin boxes, editable combos)."""
+    if isinstance(w, QtWidgets.QLineEdit | QtWidgets.QAbstractSpinBox | QtWidgets.QTextEdit
+                  | QtWidgets.QPlainTextEdit):  # fmt: skip
+        return True
+    return isinstance(w, QtWidgets.QComboBox) and w.isEditable()
 
 
 def default_autosave_dir() -> Path:
@@ -98,12 +161,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self.detection: Detection | None = None
         self.series: Any = None
         self.mapping = "auto"
+        self.mapping_fields: dict[str, str] = {}
+        self.load_notes: list[str] = []
         self.thresholds = Thresholds(*VIEWER_THRESHOLDS)
         self.autosave_dir = autosave_dir or default_autosave_dir()
         self.recorder = PathRecorder(rate_hz=DEFAULT_RATE_HZ)
         self.path: ListenerPath | None = None
         self.rendered: Any = None
         self.player: Any = None
+        self.playback: Any = None
+        self.gain_db = 0.0
+        self._live_time = 0.0
+        self._tick_pending = False
         self.task: Task | None = None
         self.audio = {"layout": "stereo", "rate": 44100, "time_scale": 1.0, "device": None}
         self._rec_timer = QtCore.QTimer(self)
@@ -111,13 +180,64 @@ class MainWindow(QtWidgets.QMainWindow):
         self._anim_timer = QtCore.QTimer(self)
         self._anim_timer.timeout.connect(self._advance)
         self.live_tick.connect(self._on_live_tick)
+        self._build_menu()
         self._build_toolbar()
         self._build_panels()
         self._build_status()
-        self._add_fly_keys()
+        self.fly_keys = FlyKeys(self)
+        app = QtWidgets.QApplication.instance()
+        if app is not None:
+            app.installEventFilter(self.fly_keys)
+        self._ui_timer = QtCore.QTimer(self)  # camera readout and level meter
+        self._ui_timer.timeout.connect(self._update_readouts)
+        self._ui_timer.start(150)
         self._refresh_enabled()
 
     # ============================================================ building
+    def _build_menu(self) -> None:
+        m = self.menuBar().addMenu("&File")
+        act = m.addAction("&Open…")
+        act.setShortcut(QtGui.QKeySequence.StandardKey.Open)
+        act.triggered.connect(self._ask_open)
+        sub = self.builtin_menu = m.addMenu("Open &built-in dataset")
+        from auralize.datasets import all_datasets
+
+        for name in all_datasets():
+            size, steps = BUILTIN_SIZES.get(name, (None, None))
+            a = sub.addAction(name)
+            a.triggered.connect(
+                lambda _c=False, n=name, sz=size, st=steps: self._guard(
+                    lambda: self.open_data(f"dataset:{n}", size=sz, steps=st)
+                )
+            )
+        m.addSeparator()
+        act = m.addAction("&Save session")
+        act.setShortcut(QtGui.QKeySequence.StandardKey.Save)
+        act.triggered.connect(lambda: self._guard(self.save_session_current))
+        act = m.addAction("Save session &as…")
+        act.triggered.connect(self._ask_save_session)
+        act = m.addAction("Open &session…")
+        act.triggered.connect(
+            lambda: self._ask_file("open", "Sessions (*.json)", self.load_session)
+        )
+        m.addSeparator()
+        act = m.addAction("&Quit")
+        act.setShortcut(QtGui.QKeySequence.StandardKey.Quit)
+        act.triggered.connect(self.close)
+        self.file_menu = m
+        self.session_file: Path | None = None
+
+    def _ask_save_session(self) -> None:
+        self._ask_file("save", "Sessions (*.json)", self.save_session)
+
+    def save_session_current(self) -> Path | None:
+        """File ▸ Save session: to the session's file, or ask for one the first time."""
+        if self.session_file is None:
+            self._ask_save_session()
+            return self.session_file
+        self.save_session(self.session_file)
+        return self.session_file
+
     def _build_toolbar(self) -> None:
         tb = self.addToolBar("Time")
         tb.setObjectName("time")
@@ -207,8 +327,11 @@ class MainWindow(QtWidgets.QMainWindow):
             row.addWidget(lab)
             f.addRow(row)
         self.detect_btn = QtWidgets.QPushButton("Detect")
-        self.detect_btn.clicked.connect(lambda: self._guard(self.detect))
+        self.detect_btn.clicked.connect(lambda: (self._guard(self.detect), self._focus_view()))
         f.addRow(self.detect_btn)
+        self.detect_note = QtWidgets.QLabel("sources are detected when you ask (Detect)")
+        self.detect_note.setWordWrap(True)
+        f.addRow(self.detect_note)
         self._dock("Sources", w)
         # ---- Listener
         w = QtWidgets.QWidget()
@@ -220,7 +343,9 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow("capture rate", self.rate_spin)
         row = QtWidgets.QHBoxLayout()
         self.rec_btn = QtWidgets.QPushButton("Record")
-        self.rec_btn.clicked.connect(lambda: self._guard(self.start_recording))
+        self.rec_btn.clicked.connect(
+            lambda: (self._guard(self.start_recording), self._focus_view())
+        )
         self.stop_btn = QtWidgets.QPushButton("Stop")
         self.stop_btn.clicked.connect(lambda: self._guard(self.stop_recording))
         self.clear_btn = QtWidgets.QPushButton("Clear")
@@ -238,7 +363,11 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow(row)
         self.path_label = QtWidgets.QLabel("no path")
         self.path_label.setWordWrap(True)
+        self.path_label.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
         f.addRow(self.path_label)
+        self.key_map = QtWidgets.QLabel(KEY_MAP_TEXT)
+        self.key_map.setWordWrap(True)
+        f.addRow(self.key_map)
         self._dock("Listener", w)
         # ---- Audio
         w = QtWidgets.QWidget()
@@ -272,6 +401,19 @@ class MainWindow(QtWidgets.QMainWindow):
         b.clicked.connect(lambda: self._guard(self.stop_audio))
         row.addWidget(b)
         f.addRow(row)
+        self.gain_spin = QtWidgets.QDoubleSpinBox()
+        self.gain_spin.setRange(-60, 40)
+        self.gain_spin.setSingleStep(1)
+        self.gain_spin.setSuffix(" dB")
+        self.gain_spin.setToolTip("gain of Play and live listening; a limiter keeps every "
+                                  "sample within full scale")  # fmt: skip
+        self.gain_spin.valueChanged.connect(lambda v: self._guard(self.set_gain_db, v))
+        f.addRow("gain", self.gain_spin)
+        self.meter = QtWidgets.QProgressBar()
+        self.meter.setRange(-60, 0)
+        self.meter.setValue(-60)
+        self.meter.setFormat("level: –")
+        f.addRow("level", self.meter)
         from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
         from matplotlib.figure import Figure
 
@@ -320,6 +462,9 @@ class MainWindow(QtWidgets.QMainWindow):
             v.addWidget(cb)
         if not self.overlay_checks:
             v.addWidget(QtWidgets.QLabel("no sound-model plugin offers an overlay"))
+        self.overlay_note = QtWidgets.QLabel("")
+        self.overlay_note.setWordWrap(True)
+        v.addWidget(self.overlay_note)
         v.addStretch(1)
         self._dock("Overlays", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
 
@@ -331,16 +476,40 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cancel_btn = QtWidgets.QPushButton("Cancel")
         self.cancel_btn.hide()
         self.cancel_btn.clicked.connect(self.cancel_task)
+        self.camera_label = QtWidgets.QLabel("")
+        sb.addPermanentWidget(self.camera_label)
         sb.addPermanentWidget(self.progress)
         sb.addPermanentWidget(self.cancel_btn)
 
-    def _add_fly_keys(self) -> None:
-        keys = {"Up": (1, 0, 0), "Down": (-1, 0, 0), "Left": (0, 1, 0), "Right": (0, -1, 0),
-                "Prior": (0, 0, 1), "Next": (0, 0, -1)}  # fmt: skip
-        for key, (fw, turn, rise) in keys.items():
-            self.plotter.add_key_event(
-                key, lambda fw=fw, turn=turn, rise=rise: self.fly(fw, turn, rise)
+    def _focus_view(self) -> None:
+        """Give the keyboard to the 3-D view (after a button click)."""
+        self.plotter.interactor.setFocus()
+
+    def _update_readouts(self) -> None:
+        """Camera position in the status bar; the level meter of what is playing."""
+        if self.volume is not None:
+            pos, fwd, _ = camera_pose(self.plotter.camera)
+            self.camera_label.setText(
+                f"camera ({pos[0]:.3g}, {pos[1]:.3g}, {pos[2]:.3g}) m, looking "
+                f"({fwd[0]:+.2f}, {fwd[1]:+.2f}, {fwd[2]:+.2f})"
             )
+        lim = None
+        if self.player is not None and self.player.running:
+            lim = self.player.limiter
+        elif self.playback is not None and self.playback.running:
+            lim = self.playback.limiter
+        if lim is None:
+            self.meter.setValue(-60)
+            self.meter.setFormat("level: –")
+            if self.playback is not None and not self.playback.running:
+                pb, self.playback = self.playback, None
+                if pb.error is not None:
+                    self.show_error(pb.error)
+            return
+        peak = lim.peak_dbfs
+        self.meter.setValue(int(max(-60.0, min(0.0, peak))))
+        red = f", limiting {lim.reduction_db:.1f} dB" if lim.reduction_db < -0.05 else ""
+        self.meter.setFormat(f"peak {peak:.1f} dBFS{red}" if peak > -200 else "silence")
 
     # ============================================================== errors
     def show_error(self, exc: BaseException) -> None:
@@ -421,30 +590,50 @@ class MainWindow(QtWidgets.QMainWindow):
         for wdg in (self.detect_btn, self.rec_btn, self.live_btn, self.field_box):
             wdg.setEnabled(has and not self.busy)
         self.open_btn.setEnabled(not self.busy)
+        if has and self.volume.n_steps < 2:
+            self.detect_btn.setEnabled(False)
+            self.detect_note.setText(
+                "one time step: the data is shown, but source detection needs at least two "
+                "steps (strengths are time derivatives)"
+            )
+        elif has and self.series is None:
+            self.detect_note.setText("sources are detected when you ask (Detect)")
 
     # ================================================================ data
     def open_data(self, spec: str | Path, *, size: int | None = None, steps: int | None = None,
-                  seed: int = 0, then: Callable[[], None] | None = None) -> Task:  # fmt: skip
-        """Open a file or ``dataset:NAME`` in the background (frames are read ahead)."""
-        from auralize.pipeline import load
+                  seed: int = 0, fields: dict[str, str] | None = None,
+                  resolution: int | None = None, field: str | None = None,
+                  then: Callable[[], None] | None = None) -> Task:  # fmt: skip
+        """Open a file or ``dataset:NAME`` in the background (frames are read ahead) and show
+        it; no detection runs (see :meth:`detect`).  ``fields``/``resolution`` are the
+        readers' options (``--field NAME=/DATASET``, ``--resolution``), ``field`` the field
+        to display.  Reader warnings (e.g. resampling) are shown in the Data panel."""
+        from auralize.viewer.session import load_data
 
-        d = data_spec(str(spec), size=size, steps=steps, seed=seed)
+        d = data_spec(str(spec), size=size, steps=steps, seed=seed, fields=fields,
+                      resolution=resolution)  # fmt: skip
 
         def work(progress: Callable[[int, int], bool]) -> Any:
-            vol = load(d["spec"], size=size, steps=steps, seed=seed)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                vol = load_data(d)
+            notes = list(dict.fromkeys(str(w.message) for w in caught))
             from auralize.viewer.scene import default_field
 
-            name = default_field(vol)
+            if field is not None:
+                vol._get(field)  # FieldError names the fields there are
+            name = field or default_field(vol)
             frames = []
             for n in range(vol.n_steps):  # read ahead: the slider never waits for I/O
                 a = vol.frame(name, n)
                 frames.append(np.linalg.norm(a, axis=-1) if a.ndim == 4 else a)
                 if not progress(n + 1, vol.n_steps):
                     raise Cancelled(f"opening {spec} cancelled")
-            return vol, name, frames
+            return vol, name, frames, notes
 
         def done(res: Any) -> None:
-            vol, name, frames = res
+            vol, name, frames, notes = res
+            self.load_notes = notes
             self._set_volume(vol, d, name, frames)
             if then is not None:
                 then()
@@ -469,7 +658,10 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{vol.source}\n{vol.dims[0]}×{vol.dims[1]}×{vol.dims[2]} points, spacing "
             f"{', '.join(f'{s:g}' for s in vol.spacing)} m\nx[{b[0]:g}, {b[1]:g}] "
             f"y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m\n{vol.n_steps} steps, "
-            f"{vol.times[0]:g}–{vol.times[-1]:g} s\nfields: {', '.join(vol.field_names)}"
+            f"{vol.times[0]:g}–{vol.times[-1]:g} s"
+            f"{'' if vol.physical_times else ' (no times in the file: frames at 30 Hz)'}\n"
+            f"fields: {', '.join(vol.field_names)}"
+            + "".join(f"\nnote: {n}" for n in self.load_notes)
         )  # fmt: skip
         self.scene.set_path(self.path, time_scale=self.audio["time_scale"], render=False)
         self._update_step_label()
@@ -490,6 +682,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.mapping = name
         self.mapping_box.setCurrentText(name)
         self.detection, self.series = None, None
+        self.stop_live()
         self.scene.set_sources(None)
         self.plotter.render()
 
@@ -503,11 +696,16 @@ class MainWindow(QtWidgets.QMainWindow):
             raise ParameterError("open a data file first")
         th = self.read_thresholds()
         vol, mapping, step = self.volume, self.mapping, self.scene.step
+        mfields = dict(self.mapping_fields)
+        from auralize.sources import _require_steps
+
+        _require_steps(vol)  # one step: say why there is nothing to detect
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             if not progress(0, vol.n_steps):
                 raise Cancelled("detection cancelled")
-            det = Detection(vol, mapping=None if mapping == "auto" else mapping, thresholds=th)
+            det = Detection(vol, mapping=None if mapping == "auto" else mapping, thresholds=th,
+                            **mfields)  # fmt: skip
             det.frame(step)
             return det, det.run(progress)
 
@@ -515,6 +713,10 @@ class MainWindow(QtWidgets.QMainWindow):
             self.detection, self.series = res
             self.thresholds = th
             self.scene.set_sources(self.detection.get)
+            self.detect_note.setText(
+                f"detected (mapping {self.mapping}), thresholds "
+                f"{', '.join(f'{k} {v}' for k, v in th.describe().items() if k in TYPES)}"
+            )
             self._update_step_label()
             self.plotter.render()
             if then is not None:
@@ -622,8 +824,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.path = self.recorder.path()
         self.scene.set_path(self.path, render=False)
         self.scene.listener = pose
-        self.path_label.setText(f"recording: {self.recorder.n_captures} captures, "
-                                f"{self.path.duration if self.path else 0:.1f} s")  # fmt: skip
+        self.path_label.setText(
+            f"recording: {self.recorder.n_captures} captures, "
+            f"{self.path.duration if self.path else 0:.1f} s, "
+            f"{self.recorder.achieved_rate_hz():.1f} Hz achieved (asked {self.recorder.rate_hz:g})"
+            f"\nautosave: {self.recorder.autosave}"
+        )
 
     def stop_recording(self) -> ListenerPath | None:
         self._rec_timer.stop()
@@ -668,7 +874,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Render the path's sound in the background (blocks of 0.5 s, cancellable) and
         write it to ``filename`` (WAV/FLAC) if given."""
         from auralize.pipeline import save_rendered
-        from auralize.synthesis import Rendered, check_inside, render
+        from auralize.synthesis import Rendered, render
 
         if self.volume is None:
             raise ParameterError("open a data file first")
@@ -677,23 +883,26 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.series is None:
             raise ParameterError("detect the sources first (Sources panel)")
         path, series, vol, a = self.path, self.series, self.volume, dict(self.audio)
-        check_inside(path, vol.bounds)
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             tracks = series.tracks()
             total = max(path.duration, 1e-3)
             blocks, t, blk = [], 0.0, 0.5
             n = int(np.ceil(total / blk))
+            first: dict[str, Any] = {}
             for i in range(n):
                 d = min(blk, total - t)
                 out = render(tracks, path, rate=a["rate"], time_scale=a["time_scale"],
                              layout=a["layout"], start=t, duration=d)  # fmt: skip
+                first = first or dict(out.meta)  # the sound starts at the first block's time
                 blocks.append(out.audio)
                 t += d
                 if not progress(i + 1, n):
                     raise Cancelled(f"rendering cancelled after {t:.1f} of {total:.1f} s")
             r = Rendered(audio=np.concatenate(blocks, axis=1), rate=out.rate, layout=out.layout,
-                         time_scale=out.time_scale, meta={**out.meta, "volume": vol.source})  # fmt: skip
+                         time_scale=out.time_scale,
+                         meta={**out.meta, "t_start_data": first["t_start_data"],
+                               "volume": vol.source})  # fmt: skip
             if filename is not None:
                 save_rendered(r, filename)
             return r
@@ -720,7 +929,8 @@ class MainWindow(QtWidgets.QMainWindow):
         ax1.set_ylabel("p (Pa)")
         mono = r.audio.mean(axis=0)
         if mono.size > 256:
-            ax2.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
+            with np.errstate(divide="ignore"):  # silent stretches are -inf dB, drawn blank
+                ax2.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
         ax2.set_ylabel("f (Hz)")
         ax2.set_xlabel("playback time (s)")
         self._cursors = [ax.axvline(0, color="tab:orange", lw=1) for ax in (ax1, ax2)]
@@ -743,20 +953,35 @@ class MainWindow(QtWidgets.QMainWindow):
             c.set_xdata([x, x])
         self.canvas.draw_idle()
 
-    def play_audio(self) -> None:
-        """Play the last render on the chosen device (message box if none is usable)."""
-        from auralize.simple import PlayAudio
+    def play_audio(self) -> Any:
+        """Play the last render on the chosen device (gain control, limiter, level meter);
+        a message box says why if no device is usable."""
+        from auralize.audio import play
 
         if self.rendered is None:
             raise ParameterError("render the audio first")
-        PlayAudio(self.rendered, device=self.audio["device"], blocking=False)
+        self.stop_audio()
+        self.playback = play(self.rendered, device=self.audio["device"], gain_db=self.gain_db,
+                             blocking=False)  # fmt: skip
+        return self.playback
 
     def stop_audio(self) -> None:
-        import auralize.audio as audio
+        """Stop Play (within one block)."""
+        pb, self.playback = self.playback, None
+        if pb is not None:
+            pb.stop()
 
-        stop = getattr(audio, "stop", None)
-        if stop is not None:
-            stop()
+    def set_gain_db(self, gain_db: float) -> None:
+        """The gain control (dB) of Play and live listening (takes effect at once)."""
+        from auralize.audio import check_gain_db
+
+        self.gain_db = check_gain_db(gain_db)
+        if self.gain_spin.value() != self.gain_db:
+            self.gain_spin.setValue(self.gain_db)
+        if self.player is not None and self.player.running:
+            self.player.set_gain_db(self.gain_db)
+        if self.playback is not None:
+            self.playback.limiter.gain_db = self.gain_db
 
     # ================================================================ live
     def start_live(self, output: str | Path | None = None) -> Any:
@@ -775,7 +1000,8 @@ class MainWindow(QtWidgets.QMainWindow):
         n_ch = eng.layout.n_channels
         sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
                 else DeviceSink(rate=a["rate"], channels=n_ch, device=a["device"]))  # fmt: skip
-        self.player = LivePlayer(eng, sink, on_block=self.live_tick.emit)
+        self._tick_pending = False
+        self.player = LivePlayer(eng, sink, on_block=self._on_live_block, gain_db=self.gain_db)
         self.player.set_pose(*camera_pose(self.plotter.camera))
         cam = self.plotter.renderer.GetActiveCamera()
         self._cam_obs = (cam, cam.AddObserver("ModifiedEvent", self._on_camera))
@@ -788,8 +1014,26 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.player is not None:
             self.player.set_pose(*camera_pose(self.plotter.camera))
 
-    def _on_live_tick(self, data_time: float) -> None:
-        if self.volume is None or self.player is None:
+    def _on_live_block(self, data_time: float) -> None:
+        """(Worker thread) a block was played: ask the GUI for one redraw at a time.
+
+        Ticks are coalesced: while one is waiting to be handled no other is sent, so
+        an audio device that asks for blocks faster than the window redraws (an
+        unpaced device) cannot pile up redraws that outlive Stop.
+        """
+        self._live_time = data_time
+        if not self._tick_pending:
+            self._tick_pending = True
+            self.live_tick.emit(data_time)
+
+    def _on_live_tick(self, _data_time: float) -> None:
+        self._tick_pending = False
+        data_time = self._live_time
+        if self.volume is None or self.player is None or not self.player.running:
+            if self.player is not None and self.player.error is not None:
+                err, self.player.error = self.player.error, None
+                self.stop_live()
+                self.show_error(err)
             return
         if self.player.error is not None:
             err, self.player.error = self.player.error, None
@@ -805,12 +1049,15 @@ class MainWindow(QtWidgets.QMainWindow):
             self.live_label.setText(f"live: last move heard after {1000 * lat[-1]:.0f} ms")
 
     def stop_live(self) -> None:
+        """Stop live listening (returns within one block; no redraw follows it)."""
         if getattr(self, "_cam_obs", None):
             cam, tag = self._cam_obs
             cam.RemoveObserver(tag)
             self._cam_obs = None
-        if self.player is not None and self.player.running:
-            self.player.stop()
+        if self.player is not None:
+            self.player.on_block = None
+            if self.player.running:
+                self.player.stop()
             self.live_label.setText("off")
 
     def save_heard(self, csv_file: str | Path, audio_file: str | Path | None = None) -> None:
@@ -821,20 +1068,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self.player.engine.save_heard(csv_file, audio_file)
 
     # ============================================================ overlays
-    def set_overlay(self, name: str, on: bool) -> None:
+    def set_overlay(self, name: str, on: bool) -> bool:
+        """Switch a plugin's overlay on or off; returns whether it is drawn.  An overlay
+        that does not apply to the data (e.g. fields it needs are missing) is switched
+        off again with the reason in the Overlays panel."""
         from auralize.plugins import get_model
 
         if not on:
             self.scene.set_overlay(name, None)
+            self.overlay_note.setText("")
             self.plotter.render()
-            return
+            return False
+        if self.volume is None:
+            raise ParameterError("open a data file first")
         model = get_model(name)
 
         def fn(step: int) -> Any:
             return model.overlay((self.volume, self.path), step)
 
         self.scene.set_overlay(name, fn)
+        err = self.scene.overlay_errors.get(name)
+        if err is not None:
+            self.scene.set_overlay(name, None)
+            cb = self.overlay_checks.get(name)
+            if cb is not None:
+                cb.blockSignals(True)
+                cb.setChecked(False)
+                cb.blockSignals(False)
+            self.overlay_note.setText(f"{name} overlay does not apply to this data: {err}")
+            return False
+        self.overlay_note.setText("")
         self.plotter.render()
+        return True
 
     # ============================================================= session
     def session_state(self) -> SessionState:
@@ -843,6 +1108,7 @@ class MainWindow(QtWidgets.QMainWindow):
                    "cmap": self.scene.cmap, "opacity": self.scene.opacity, "step": self.scene.step,
                    "types": dict(self.scene.visible_types)}  # fmt: skip
         st.detection = {"mapping": self.mapping, "thresholds": self.read_thresholds().describe(),
+                        "mapping_fields": dict(self.mapping_fields),
                         "detected": self.series is not None}  # fmt: skip
         st.set_listener_path(self.path)
         st.recording = {"rate_hz": float(self.rate_spin.value())}
@@ -850,7 +1116,11 @@ class MainWindow(QtWidgets.QMainWindow):
         return st
 
     def save_session(self, filename: str | Path) -> None:
+        """Save the session (data, view, thresholds, path, audio, camera) to a JSON file;
+        File ▸ Save session writes there from now on."""
         self.session_state().save(filename)
+        self.session_file = Path(filename)
+        self.setWindowTitle(f"auralize — {self.session_file.name}")
 
     def load_session(
         self, filename: str | Path, *, then: Callable[[], None] | None = None
@@ -858,6 +1128,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Open a session: data in the background, then view, path, audio, camera
         (and detection if the session had sources)."""
         st = SessionState.load(filename)
+        self.session_file = Path(filename)
 
         def apply() -> None:
             v = st.view or {}
@@ -876,6 +1147,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 if det.get("thresholds"):
                     self.th_edits[k].setText(str(det["thresholds"][k]))
             self.mapping = det.get("mapping") or "auto"
+            self.mapping_fields = dict(det.get("mapping_fields") or {})
             self.mapping_box.setCurrentText(self.mapping)
             a = st.audio or {}
             self.audio.update(a)
@@ -904,12 +1176,18 @@ class MainWindow(QtWidgets.QMainWindow):
             apply()
             return None
         return self.open_data(d["spec"], size=d.get("size"), steps=d.get("steps"),
-                              seed=d.get("seed") or 0, then=apply)  # fmt: skip
+                              seed=d.get("seed") or 0, fields=d.get("fields"),
+                              resolution=d.get("resolution"), then=apply)  # fmt: skip
 
     # ============================================================== window
     def closeEvent(self, event: Any) -> None:
+        app = QtWidgets.QApplication.instance()
+        if app is not None:
+            app.removeEventFilter(self.fly_keys)
+        self._ui_timer.stop()
         self.stop_recording()
         self.stop_live()
+        self.stop_audio()
         self._anim_timer.stop()
         if self.task is not None and self.task.isRunning():
             self.task.cancel()
@@ -933,19 +1211,39 @@ def _devices() -> list[Any]:
 
 def run_app(args: Any) -> int:
     """Start the Qt application (``auralize view``)."""
+    from auralize.sources import TYPES
+    from auralize.viewer.cli import view_options
+
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     win = MainWindow()
     win.show()
+    opts = view_options(args)
+    th = opts["thresholds"].describe()
+    for k in TYPES:
+        if str(th[k]) != "auto":
+            win.th_edits[k].setText(str(th[k]))
+    if opts["mapping"]:
+        win.mapping = opts["mapping"]
+        win.mapping_box.setCurrentText(opts["mapping"])
+    win.mapping_fields = dict(opts["mapping_fields"])
     if getattr(args, "session", None):
         win._guard(win.load_session, args.session)
-    elif getattr(args, "volume", None):
+    elif opts["data"] is not None:
+        d = opts["data"]
 
         def after() -> None:
             if args.path:
                 win._guard(win.load_path, args.path)
             if args.time is not None:
                 win._guard(win.set_step, args.time)
+            if args.representation != "volume":
+                win.rep_box.setCurrentText(args.representation)
+                win._guard(win.scene.set_representation, args.representation)
+            if args.detect:
+                win._guard(win.detect)
 
-        win._guard(lambda: win.open_data(args.volume, size=args.size, steps=args.steps,
-                                         seed=args.seed, then=after))  # fmt: skip
+        win._guard(lambda: win.open_data(d["spec"], size=d["size"], steps=d["steps"],
+                                         seed=d["seed"], fields=d.get("fields"),
+                                         resolution=d.get("resolution"), field=opts["field"],
+                                         then=after))  # fmt: skip
     return int(app.exec())

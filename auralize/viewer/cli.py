@@ -22,29 +22,36 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from auralize.cli import add_detect_options, add_volume_options
 from auralize.errors import MissingDependencyError, ParameterError
 
 
 def add_commands(sub: Any) -> None:
     """Add ``view`` and ``script`` to the ``auralize`` sub-command parser."""
     p = sub.add_parser("view", help="open the desktop viewer (or render a --screenshot off screen)")
-    p.add_argument("volume", metavar="PATH", nargs="?",
-                   help="volume file or dataset:NAME (optional; open one later)")  # fmt: skip
-    p.add_argument("--size", type=int, help="grid size of a built-in dataset")
-    p.add_argument("--steps", type=int, help="time steps of a built-in dataset")
-    p.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
-    p.add_argument("--session", metavar="JSON", help="open a saved session")
-    p.add_argument("--screenshot", metavar="OUT.png", help="render off screen to OUT.png and exit")
-    p.add_argument("--time", type=int, metavar="STEP", help="time step to show (default: middle)")
-    p.add_argument("--path", metavar="CSV", help="listener path to draw")
-    p.add_argument("--field", help="field to display (default: first scalar field)")
-    p.add_argument("--representation", choices=["volume", "slices", "contour", "none"],
+    # the same volume and detection options as 'auralize detect' / 'render'
+    add_volume_options(p)
+    for a in p._actions:  # the volume is optional here: open one later from the File menu
+        if a.dest == "volume":
+            a.nargs = "?"
+            a.help = "volume file or dataset:NAME (optional; open one later)"
+    add_detect_options(p)
+    g = p.add_argument_group("view")
+    g.add_argument("--session", metavar="JSON", help="open a saved session")
+    g.add_argument("--screenshot", metavar="OUT.png", help="render off screen to OUT.png and exit")
+    g.add_argument("--time", type=int, metavar="STEP", help="time step to show (default: middle)")
+    g.add_argument("--path", metavar="CSV", help="listener path to draw")
+    g.add_argument("--color-by", metavar="FIELD",
+                   help="field to display (default: first scalar field; a plain --field NAME "
+                        "without '=' means the same)")  # fmt: skip
+    g.add_argument("--representation", choices=["volume", "slices", "contour", "glyphs", "none"],
                    default="volume")  # fmt: skip
-    p.add_argument("--window-size", default="1200x900", metavar="WxH")
-    for kind, d in zip(("monopole", "dipole", "quadrupole"), ("3%", "0.3%", "0.1%"), strict=True):
-        p.add_argument(f"--threshold-{kind}", default=d, metavar="X",
-                       help=f"{kind} threshold: absolute, 'N%%' of the peak, or auto (default {d})")  # fmt: skip
-    p.add_argument("--mapping", help="paper-density | identity | cfd (default: from the fields)")
+    g.add_argument(
+        "--detect",
+        action="store_true",
+        help="detect sources (with --screenshot; the window detects on request)",
+    )
+    g.add_argument("--window-size", default="1200x900", metavar="WxH")
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("script", help="run a pvpython-like script (auralize.simple)")
@@ -77,28 +84,46 @@ def cmd_view(args: argparse.Namespace) -> int:
     return run_app(args)
 
 
+def view_options(args: argparse.Namespace) -> dict[str, Any]:
+    """What ``auralize view``'s options ask for: the session ``data`` entry, the field to
+    display, the mapping (name and field names) and the thresholds."""
+    from auralize.cli import _field_map, _mapping_fields, _thresholds
+    from auralize.viewer.session import data_spec
+
+    items = list(getattr(args, "field", None) or [])
+    plain = [f for f in items if "=" not in f]
+    if len(plain) > 1:
+        raise ParameterError(f"--field NAME chooses one field to display, got {plain}")
+    color_by = getattr(args, "color_by", None) or (plain[0] if plain else None)
+    fields = _field_map([f for f in items if "=" in f])
+    data = (data_spec(args.volume, size=args.size, steps=args.steps, seed=args.seed,
+                      fields=fields, resolution=args.resolution)
+            if args.volume is not None else None)  # fmt: skip
+    return {"data": data, "field": color_by, "mapping": args.mapping,
+            "mapping_fields": _mapping_fields(args), "thresholds": _thresholds(args)}  # fmt: skip
+
+
 def screenshot(args: argparse.Namespace) -> Path:
-    """Render volume, sources and path off screen (no window, no display needed)."""
+    """Render the data (and the listener path; the sources with ``--detect`` or when the
+    session had them) off screen: no window, no display needed."""
     from auralize.simple import _prefer_egl
 
     _prefer_egl()
     import pyvista as pv
 
     from auralize.listener import ListenerPath
-    from auralize.pipeline import load
     from auralize.sources import Thresholds
     from auralize.viewer.detection import Detection
     from auralize.viewer.scene import Scene
-    from auralize.viewer.session import SessionState
+    from auralize.viewer.session import SessionState, load_data
 
     st = SessionState.load(args.session) if args.session else None
     if args.volume is None and st is None:
         raise ParameterError("--screenshot needs a volume PATH (or --session)")
-    if args.volume is not None:
-        vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed)
+    opts = view_options(args)
+    if opts["data"] is not None:
+        vol = load_data(opts["data"])
     else:
-        from auralize.viewer.session import load_data
-
         assert st is not None
         vol = load_data(st.data)
     w, h = _size(args.window_size)
@@ -106,21 +131,25 @@ def screenshot(args: argparse.Namespace) -> Path:
     try:
         scene = Scene(plotter)
         view = (st.view if st else {}) or {}
-        scene.set_volume(vol, field=args.field or view.get("field"),
+        scene.set_volume(vol, field=opts["field"] or view.get("field"),
                          representation=view.get("representation", args.representation))  # fmt: skip
-        th = Thresholds(args.threshold_monopole, args.threshold_dipole, args.threshold_quadrupole)
-        mapping = args.mapping
+        th, mapping, mfields = opts["thresholds"], opts["mapping"], opts["mapping_fields"]
+        detect = bool(args.detect)
         if st is not None and st.detection:
             t = st.detection.get("thresholds") or {}
             if t:
                 th = Thresholds(t["monopole"], t["dipole"], t["quadrupole"],
                                 zero_fraction=t.get("zero_fraction", 1.0))  # fmt: skip
-            mapping = mapping or st.detection.get("mapping")
-        det = Detection(vol, mapping=mapping, thresholds=th)
+            m = st.detection.get("mapping")
+            mapping = mapping or (None if m == "auto" else m)
+            mfields = mfields or dict(st.detection.get("mapping_fields") or {})
+            detect = detect or bool(st.detection.get("detected"))
         step = args.time if args.time is not None else view.get("step", vol.n_steps // 2)
         if not 0 <= step < vol.n_steps:
             raise ParameterError(f"--time must be a step in 0..{vol.n_steps - 1}, got {step}")
-        scene.set_sources(det.frame)
+        if detect:
+            det = Detection(vol, mapping=mapping, thresholds=th, **mfields)
+            scene.set_sources(det.frame)
         path = (
             ListenerPath.from_csv(args.path) if args.path else (st.listener_path() if st else None)
         )
@@ -132,7 +161,10 @@ def screenshot(args: argparse.Namespace) -> Path:
             scene.frame_all()
         out = Path(args.screenshot)
         out.parent.mkdir(parents=True, exist_ok=True)
-        plotter.screenshot(str(out))
+        from auralize.fileio import atomic_path
+
+        with atomic_path(out, suffix=".part.png") as tmp:
+            plotter.screenshot(str(tmp))
     finally:
         plotter.close()
     return out

@@ -104,6 +104,8 @@ class LiveEngine:
         self.heard_rows: list[NDArray[np.float64]] = []
         self.heard_blocks: list[NDArray[np.float64]] = []
         self.keep_heard = True
+        #: playback seconds of heard audio kept (older blocks are dropped)
+        self.keep_heard_s = 600.0
 
     @property
     def block_s(self) -> float:
@@ -152,7 +154,9 @@ class LiveEngine:
             ]
         if self.keep_heard:
             self.heard_rows.append(np.concatenate([[self.elapsed + dur], *pose]))
-            self.heard_blocks.append(audio)
+            self.heard_blocks.append(audio.astype(np.float32))
+            if len(self.heard_blocks) * dur > self.keep_heard_s:  # bounded memory
+                del self.heard_blocks[0], self.heard_rows[0]
         self._prev = pose
         self.t += dur
         self.elapsed += dur
@@ -164,12 +168,13 @@ class LiveEngine:
         if not self.heard_rows:
             return None
         a = np.asarray(self.heard_rows)
+        a[:, 0] -= a[0, 0] - self.block_s  # from the start of the first block kept
         a = np.vstack([np.concatenate([[0.0], a[0, 1:]]), a])
         return ListenerPath(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10], source="live")
 
     def heard_audio(self) -> Rendered:
         """All blocks heard so far as one :class:`Rendered`."""
-        audio = (np.concatenate(self.heard_blocks, axis=1) if self.heard_blocks
+        audio = (np.concatenate(self.heard_blocks, axis=1).astype(np.float64) if self.heard_blocks
                  else np.zeros((self.layout.n_channels, 0)))  # fmt: skip
         return Rendered(audio=audio, rate=self.rate, layout=self.layout,
                         time_scale=self.time_scale, meta={"live": True})  # fmt: skip
@@ -218,7 +223,7 @@ class WavSink:
         self._queued_s += block.shape[1] / self.rate
         self.write_times.append(time.perf_counter())
 
-    def close(self) -> None:
+    def close(self, drain: bool = True) -> None:
         from auralize.audio import write_audio
 
         if self.blocks:
@@ -249,21 +254,30 @@ class DeviceSink:
     def write(self, block: NDArray[np.float64]) -> None:
         self._stream.write(block)
 
-    def close(self) -> None:
-        self._stream.close()
+    def close(self, drain: bool = True) -> None:
+        self._stream.close(drain=drain)
 
 
 class LivePlayer:
     """Runs a :class:`LiveEngine` into a sink on a worker thread.
 
-    ``on_block(data_time)`` is called after each block (e.g. to move the time
-    slider); :attr:`latencies` holds, for each pose change picked up, the
-    seconds from :meth:`set_pose` until its block was accepted by the sink.
+    Every block passes through :attr:`limiter` (:class:`auralize.audio.Limiter`:
+    automatic gain from the first sound, the gain control ``gain_db``, and a peak
+    limiter), so a sink never receives a sample beyond full scale; the limiter's
+    level meter describes the last block.  ``on_block(data_time)`` is called after
+    each block (e.g. to move the time slider); :attr:`latencies` holds, for each
+    pose change picked up, the seconds from :meth:`set_pose` until its block was
+    accepted by the sink.  :meth:`stop` returns within one block (plus the render
+    of the block in progress).
     """
 
     def __init__(self, engine: LiveEngine, sink: AudioSink, *,
-                 on_block: Callable[[float], None] | None = None) -> None:  # fmt: skip
+                 on_block: Callable[[float], None] | None = None,
+                 gain_db: float = 0.0) -> None:  # fmt: skip
+        from auralize.audio import Limiter
+
         self.engine, self.sink, self.on_block = engine, sink, on_block
+        self.limiter = Limiter(None, gain_db=gain_db, rate=engine.rate)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._pending: dict[int, float] = {}
@@ -285,7 +299,9 @@ class LivePlayer:
         try:
             while not self._stop.is_set():
                 block = self.engine.next_block()
-                self.sink.write(block)
+                if self._stop.is_set():
+                    break
+                self.sink.write(self.limiter.process(block))
                 done = time.perf_counter()
                 v = self.engine.last_version
                 for k in [k for k in self._pending if k <= v]:
@@ -299,9 +315,19 @@ class LivePlayer:
     def running(self) -> bool:
         return self._thread is not None and self._thread.is_alive()
 
+    def set_gain_db(self, gain_db: float) -> None:
+        """Change the gain control (dB) from the next block on."""
+        from auralize.audio import check_gain_db
+
+        self.limiter.gain_db = check_gain_db(gain_db)
+
     def stop(self) -> None:
+        """Stop after the block in progress; the sink is closed without playing its queue."""
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
             self._thread = None
-        self.sink.close()
+        try:
+            self.sink.close(drain=False)  # type: ignore[call-arg]
+        except TypeError:
+            self.sink.close()

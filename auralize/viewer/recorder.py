@@ -5,7 +5,10 @@ user flies through the data.  :class:`PathRecorder` keeps the captures and
 appends each one to an autosave CSV (the listener-path format of DESIGN.md)
 the moment it is taken: the line is flushed at once, so a crash of the
 program loses nothing, and the file is fsync'ed at least once a second, so a
-crash of the machine loses at most one second.
+crash of the machine loses at most one second.  The autosave is always a
+complete path: :meth:`PathRecorder.start` first writes (atomically) the header
+and every capture already held — e.g. a path loaded from a CSV or a session —
+and only then appends.
 
 Examples
 --------
@@ -75,6 +78,15 @@ class PathRecorder:
     def n_captures(self) -> int:
         return len(self.rows)
 
+    def achieved_rate_hz(self, window_s: float = 3.0) -> float:
+        """Captures per second actually taken over the last ``window_s`` seconds of the path
+        (0 with fewer than two captures)."""
+        if len(self.rows) < 2:
+            return 0.0
+        t = np.asarray([r[0] for r in self.rows[-int(window_s * self.rate_hz * 2 + 2) :]])
+        t = t[t >= t[-1] - window_s]
+        return float((t.size - 1) / (t[-1] - t[0])) if t.size > 1 and t[-1] > t[0] else 0.0
+
     def start(self) -> None:
         """Start (or restart after :meth:`clear`) recording; opens the autosave file."""
         if self.recording:
@@ -85,11 +97,12 @@ class PathRecorder:
             self._t0 = self.clock() - float(self.rows[-1][0]) - self.interval_s
         self.recording = True
         if self.autosave is not None:
-            self.autosave.parent.mkdir(parents=True, exist_ok=True)
-            fresh = not self.rows
-            self._file = open(self.autosave, "w" if fresh else "a", encoding="utf-8")
-            if fresh:
-                self._file.write(csv_header() + "\n")
+            from auralize.fileio import atomic_write
+
+            # the file starts complete (header and the captures held), then grows
+            text = "".join(f"{line}\n" for line in [csv_header(), *map(format_row, self.rows)])
+            atomic_write(self.autosave, text.encode("utf-8"))
+            self._file = open(self.autosave, "a", encoding="utf-8")
             self._file.flush()
             self._stop_sync = threading.Event()
             self._syncer = threading.Thread(target=self._sync_loop, args=(self._file, self._stop_sync),

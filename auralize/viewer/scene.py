@@ -7,10 +7,14 @@ camera-like glyph at the current listener, and plugin overlays.  It never
 imports Qt, so the same code draws the desktop window, off-screen screenshots,
 ``auralize.simple`` views and the interactivity benchmark.
 
-Colours are fixed so screenshots can be checked pixel by pixel:
-:data:`TYPE_COLORS` (monopole red, dipole blue, quadrupole green) and
-:data:`PATH_COLOR` (amber); the volume uses a grey colour map, so every
-saturated pixel comes from a source sphere or the path.
+Colours are the one palette of :mod:`auralize.scene` (:data:`TYPE_COLORS`:
+monopole red, dipole blue, quadrupole green; :data:`PATH_COLOR` amber), so
+screenshots can be checked pixel by pixel; the volume uses a grey colour map, so
+every saturated pixel comes from a source or the path.  The data's bounding box
+is always drawn (grey outline) and the displayed field has a colour bar whose
+range is robust (1st–99th percentile of the finite values: outliers and fill
+values do not swamp it).  Sources are one point set drawn by the GPU
+(:func:`auralize.scene.add_source_actor`), never one mesh per sphere.
 
 Examples
 --------
@@ -32,67 +36,27 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import ParameterError
+from auralize.errors import AuralizeError, ParameterError
 from auralize.listener import ListenerPath
+from auralize.scene import PALETTE, PATH_RGB, SPRITE_LIMIT, add_source_actor, source_points
 from auralize.sources import TYPES, SourceFrame
 from auralize.volume import TimeVolume
 
-#: RGB colours of the source types (ColorBrewer Set1)
-TYPE_COLORS: dict[str, tuple[int, int, int]] = {
-    "monopole": (228, 26, 28),
-    "dipole": (55, 126, 184),
-    "quadrupole": (77, 175, 74),
-}
+#: RGB colours of the source types: the one palette of :mod:`auralize.scene`
+TYPE_COLORS: dict[str, tuple[int, int, int]] = PALETTE
 #: RGB colour of the listener path and its glyph
-PATH_COLOR: tuple[int, int, int] = (255, 170, 0)
+PATH_COLOR: tuple[int, int, int] = PATH_RGB
 #: background colour (dark, unsaturated)
 BACKGROUND: tuple[int, int, int] = (26, 26, 34)
-REPRESENTATIONS = ("volume", "slices", "contour", "none")
+REPRESENTATIONS = ("volume", "slices", "contour", "glyphs", "none")
+#: most arrows the ``glyphs`` representation draws (the grid is subsampled evenly)
+MAX_GLYPHS = 4000
+#: percentiles of the finite values that span the colour bar
+CLIM_PERCENTILES = (1.0, 99.0)
+#: values at or beyond this magnitude are taken as fill values (not data)
+FILL_MAGNITUDE = 1e20
 #: display frames kept in memory (float32), in bytes
 FRAME_CACHE_BYTES = 512 * 1024**2
-
-_SPHERE_T = None  # (points (V,3), triangles (F,3)) of the unit glyph sphere
-
-
-def _unit_sphere() -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    global _SPHERE_T
-    if _SPHERE_T is None:
-        import pyvista as pv
-
-        s = pv.Sphere(radius=1.0, theta_resolution=10, phi_resolution=6).triangulate()
-        _SPHERE_T = (np.asarray(s.points, dtype=np.float64),
-                     np.asarray(s.faces).reshape(-1, 4)[:, 1:].astype(np.int64))  # fmt: skip
-    return _SPHERE_T
-
-
-def sphere_glyphs(centers: NDArray[np.floating], radii: NDArray[np.floating],
-                  colors: NDArray[np.uint8]) -> Any:  # fmt: skip
-    """One triangle mesh of spheres (built with numpy; much faster than a glyph filter).
-
-    Parameters
-    ----------
-    centers : (N, 3) sphere centres in metres.
-    radii : (N,) radii in metres.
-    colors : (N, 3) uint8 RGB per sphere.
-
-    Returns
-    -------
-    pyvista.PolyData
-        With point array ``"rgb"`` (uint8, 3 components).
-    """
-    import pyvista as pv
-
-    pts, tri = _unit_sphere()
-    n, v = len(centers), len(pts)
-    c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
-    r = np.asarray(radii, dtype=np.float64).reshape(-1)
-    allp = (c[:, None, :] + r[:, None, None] * pts[None]).reshape(-1, 3)
-    faces = tri[None] + (np.arange(n) * v)[:, None, None]
-    cells = np.concatenate([np.full((n * len(tri), 1), 3), faces.reshape(-1, 3)], 1)
-    mesh = pv.PolyData(allp, cells.ravel()) if n else pv.PolyData()
-    if n:
-        mesh.point_data["rgb"] = np.repeat(np.asarray(colors, dtype=np.uint8), v, axis=0)
-    return mesh
 
 
 def camera_pose(
@@ -152,12 +116,17 @@ class Scene:
         self.time_scale = 1.0
         self.overlays: dict[str, Callable[[int], Any]] = {}
         self.overlay_visible: dict[str, bool] = {}
+        #: overlays that could not be drawn on this data, with the reason (they are hidden)
+        self.overlay_errors: dict[str, str] = {}
         self._frames: OrderedDict[tuple[str, int], NDArray[np.float32]] = OrderedDict()
         self._grid: Any = None
         self._actors: dict[str, Any] = {}
         self.timings: dict[str, float] = {}
         plotter.set_background(np.asarray(BACKGROUND) / 255.0)
-        self._legend_added = False
+        rw = getattr(plotter, "render_window", None)
+        if rw is not None:
+            rw.SetMultiSamples(0)  # 8× MSAA costs ~10× per frame on software GL
+        self._legend_key: tuple[str, ...] | None = None
 
     # ---------------------------------------------------------------- volume
     def set_volume(self, volume: TimeVolume, *, field: str | None = None,
@@ -173,10 +142,21 @@ class Scene:
         self.field = None
         self.sources = None
         self.step = 0
+        if self.representation == "glyphs" and not any(map(volume.is_vector, volume.field_names)):
+            self.representation = "volume"  # nothing to draw as arrows in this volume
         self.set_field(name, render=False)
         if representation is not None:
             self.set_representation(representation, render=False)
-        self._legend()
+        self._remove("outline")
+        import pyvista as pv
+
+        box = pv.ImageData(dimensions=volume.dims, spacing=volume.spacing, origin=volume.origin)
+        self._actors["outline"] = self.plotter.add_mesh(
+            box.outline(), color=(0.6, 0.6, 0.6), line_width=1, lighting=False, name="outline",
+            reset_camera=False, render=False,
+        )  # fmt: skip
+        self._shown_frame: SourceFrame | None = None
+        self._legend(None)
         self.set_step(0, render=False)
         self.plotter.reset_camera()
         self.plotter.view_isometric()
@@ -187,17 +167,18 @@ class Scene:
         vol._get(name)  # FieldError names the valid fields
         self.field = name
         self._remove("volume")
-        a = self.frame(self.step)
-        b = self.frame(vol.n_steps - 1)
-        lo, hi = float(min(a.min(), b.min())), float(max(a.max(), b.max()))
-        self.clim = (lo, hi if hi > lo else lo + 1.0)
+        self.clim = robust_range([self.frame(self.step), self.frame(vol.n_steps - 1)])
         self._grid = None
         self.set_step(self.step, render=render)
 
     def set_representation(self, rep: str, *, render: bool = True) -> None:
-        """``volume`` (ray casting), ``slices`` (three orthogonal), ``contour`` or ``none``."""
+        """``volume`` (ray casting), ``slices`` (three orthogonal), ``contour``, ``glyphs``
+        (arrows of a vector field on an evenly subsampled grid, coloured by the displayed
+        field) or ``none``."""
         if rep not in REPRESENTATIONS:
             raise ParameterError(f"representation must be one of {REPRESENTATIONS}, got {rep!r}")
+        if rep == "glyphs" and self.volume is not None:
+            self._vector_field()  # ParameterError when there is none
         self.representation = rep
         self._remove("volume")
         if self.volume is not None:
@@ -263,14 +244,18 @@ class Scene:
                     opacity=_opacity_tf(self.opacity), show_scalar_bar=False, name="volume",
                     reset_camera=False, render=False,
                 )  # fmt: skip
+                self._scalar_bar()
                 # the mapper keeps its own input: update that one from now on
                 self._grid = self._actors["volume"].mapper.dataset
             else:
                 self._actors["volume"].mapper.dataset.Modified()
-        elif rep in ("slices", "contour"):
-            if rep == "slices":
+        elif rep in ("slices", "contour", "glyphs"):
+            if rep == "glyphs":
+                mesh = self._glyphs()
+                kw: dict[str, Any] = {"opacity": 1.0}
+            elif rep == "slices":
                 mesh = grid.slice_orthogonal().combine(merge_points=False)
-                kw: dict[str, Any] = {"opacity": max(self.opacity, 0.6)}
+                kw = {"opacity": max(self.opacity, 0.6)}
             else:
                 iso = self.clim[0] + 0.6 * (self.clim[1] - self.clim[0])
                 mesh = grid.contour([iso], scalars="value")
@@ -286,8 +271,64 @@ class Scene:
                     mesh, scalars="value", cmap=self.cmap, clim=self.clim,
                     show_scalar_bar=False, name="volume", reset_camera=False, render=False, **kw,
                 )  # fmt: skip
+                self._scalar_bar()
         else:
             self._remove("volume")
+            self._remove_scalar_bar()
+
+    def _vector_field(self) -> str:
+        """The displayed field if it is a vector field, else the volume's first one."""
+        vol = self._need_volume()
+        if self.field is not None and vol.is_vector(self.field):
+            return self.field
+        for name in vol.field_names:
+            if vol.is_vector(name):
+                return name
+        raise ParameterError(f"{vol.source}: no vector field to draw as glyphs (fields: "
+                             f"{', '.join(vol.field_names)})")  # fmt: skip
+
+    def _glyphs(self) -> Any:
+        """Arrows of the vector field at the current step on an evenly subsampled grid."""
+        import pyvista as pv
+
+        vol = self._need_volume()
+        name = self._vector_field()
+        k = max(1, int(np.ceil((vol.n_points / MAX_GLYPHS) ** (1 / 3))))
+        v = vol.frame(name, self.step)[::k, ::k, ::k].reshape(-1, 3)
+        nx, ny, nz = vol.dims
+        ix, iy, iz = np.arange(0, nx, k), np.arange(0, ny, k), np.arange(0, nz, k)
+        zz, yy, xx = np.meshgrid(iz, iy, ix, indexing="ij")
+        flat = (zz * ny + yy) * nx + xx
+        pts = pv.PolyData(vol.points(flat.reshape(-1)))
+        mag = np.linalg.norm(v, axis=1)
+        pts.point_data["vectors"] = v
+        pts.point_data["value"] = self.frame(self.step)[flat.reshape(-1)]
+        top = float(np.percentile(mag, 99)) if mag.size else 0.0
+        pts.point_data["length"] = np.minimum(mag / top, 1.0) if top > 0 else mag * 0
+        length = float(k * vol.spacing.min())
+        return pts.glyph(orient="vectors", scale="length", factor=length,
+                         geom=pv.Arrow(tip_length=0.35, tip_radius=0.12, shaft_radius=0.04))  # fmt: skip
+
+    def _scalar_bar(self) -> None:
+        """The colour bar of the displayed field (its robust range, with units if known)."""
+        self._remove_scalar_bar()
+        vol = self.volume
+        units = (vol.attrs.get("units") or {}) if vol is not None else {}
+        u = units.get(self.field) if isinstance(units, dict) else None
+        title = f"{self.field} ({u})" if u else str(self.field)
+        if self.field and vol is not None and vol.is_vector(self.field):
+            title = f"|{title}|"
+        self._bar_title = title
+        self.plotter.add_scalar_bar(title=title, mapper=self._actors["volume"].mapper,
+                                    n_labels=3, fmt="%.3g", vertical=False, position_x=0.55,
+                                    position_y=0.03, height=0.07, width=0.4,
+                                    title_font_size=12, label_font_size=11)  # fmt: skip
+
+    def _remove_scalar_bar(self) -> None:
+        title = getattr(self, "_bar_title", None)
+        if title is not None and title in self.plotter.scalar_bars:
+            self.plotter.remove_scalar_bar(title, render=False)
+        self._bar_title = None
 
     # --------------------------------------------------------------- sources
     def set_sources(self, getter: Callable[[int], SourceFrame | None] | None) -> None:
@@ -307,6 +348,8 @@ class Scene:
         frame = self.sources(self.step) if (self.sources and self.volume is not None) else None
         if frame is None or not self.show_sources:
             self._remove("sources")
+            self._shown_frame = None
+            self._legend(None)
             return
         keep = np.zeros(frame.kind.size, dtype=bool)
         for k, name in enumerate(TYPES, start=1):
@@ -314,29 +357,44 @@ class Scene:
                 keep |= frame.kind == k
         if not keep.any():
             self._remove("sources")
+            self._shown_frame = None
+            self._legend(None)
             return
         vol = self._need_volume()
-        pts = vol.points(frame.index[keep])
-        lut = np.array([(0, 0, 0), *TYPE_COLORS.values()], dtype=np.uint8)
-        mesh = sphere_glyphs(pts, np.maximum(frame.radius[keep], 1e-3 * vol.spacing.min()),
-                             lut[frame.kind[keep]])  # fmt: skip
-        if "sources" in self._actors:
+        mesh = source_points(vol.points(frame.index[keep]),
+                             np.maximum(frame.radius[keep], 1e-3 * vol.spacing.min()),
+                             frame.kind[keep])  # fmt: skip
+        mode = "sprite" if mesh.n_points <= SPRITE_LIMIT else "point"
+        if "sources" in self._actors and self._src_mode == mode:
             self._src_mesh.copy_from(mesh)
         else:
-            self._src_mesh = mesh
-            self._actors["sources"] = self.plotter.add_mesh(
-                mesh, scalars="rgb", rgb=True, name="sources", reset_camera=False, render=False,
-                smooth_shading=False, ambient=0.35, diffuse=0.75, specular=0.0,
-            )  # fmt: skip
+            self._remove("sources")
+            self._src_mesh, self._src_mode = mesh, mode
+            self._actors["sources"] = add_source_actor(self.plotter, mesh)
+        self._shown_frame = frame
+        self._legend(frame)
 
-    def _legend(self) -> None:
-        if self._legend_added:
+    def _legend(self, frame: SourceFrame | None = None) -> None:
+        """Legend of what is shown: the source types present and visible, and the path."""
+        items: list[str] = []
+        if frame is not None:
+            for k, name in enumerate(TYPES, start=1):
+                if self.visible_types[name] and np.any(frame.kind == k):
+                    items.append(name)
+        if self.path is not None:
+            items.append("listener path")
+        key = tuple(items)
+        if key == self._legend_key:
             return
-        labels = [[k, tuple(c / 255 for c in v)] for k, v in TYPE_COLORS.items()]
-        labels.append(["listener path", tuple(c / 255 for c in PATH_COLOR)])
-        self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255, size=(0.2, 0.16),
-                                face="circle", name="legend", loc="upper right")  # fmt: skip
-        self._legend_added = True
+        self._legend_key = key
+        self.plotter.remove_legend(render=False)
+        if not items:
+            return
+        colors = {**TYPE_COLORS, "listener path": PATH_COLOR}
+        labels = [[k, tuple(c / 255 for c in colors[k])] for k in items]
+        self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255,
+                                size=(0.22, 0.035 * len(items) + 0.01), face="circle",
+                                name="legend", loc="upper left")  # fmt: skip
 
     # -------------------------------------------------------------- listener
     def set_path(self, path: ListenerPath | None, *, time_scale: float | None = None,
@@ -380,6 +438,7 @@ class Scene:
                     line, color=np.asarray(PATH_COLOR) / 255, line_width=5, lighting=False,
                     name="path", reset_camera=False, render=False,
                 )  # fmt: skip
+        self._legend(getattr(self, "_shown_frame", None))
         if p is not None and self.listener is None:
             self._update_glyph()
         elif p is None and self.listener is None:
@@ -420,6 +479,7 @@ class Scene:
             return
         self.overlays[name] = fn
         self.overlay_visible[name] = visible
+        self.overlay_errors.pop(name, None)
         self._update_overlays()
 
     def _update_overlays(self) -> None:
@@ -427,7 +487,12 @@ class Scene:
             self._remove_prefix(f"overlay:{name}")
             if not self.overlay_visible.get(name, True):
                 continue
-            meshes = fn(self.step)
+            try:
+                meshes = fn(self.step)
+            except AuralizeError as exc:  # does not apply to this data: say so once, hide it
+                self.overlay_errors[name] = str(exc)
+                self.overlay_visible[name] = False
+                continue
             if meshes is None:
                 continue
             if not isinstance(meshes, list | tuple):
@@ -499,6 +564,28 @@ def default_field(volume: TimeVolume) -> str:
         if not volume.is_vector(name):
             return name
     return volume.field_names[0]
+
+
+def robust_range(frames: list[NDArray[np.floating]]) -> tuple[float, float]:
+    """Colour range of display frames: the 1st–99th percentile of their finite values
+    below :data:`FILL_MAGNITUDE` (so outliers and fill values do not swamp it).
+
+    Examples
+    --------
+    >>> a = np.r_[np.linspace(0.0, 1.0, 1000), 1e30, np.nan]
+    >>> [round(v, 2) for v in robust_range([a])]
+    [0.01, 0.99]
+    """
+    v = np.concatenate([np.asarray(f, dtype=np.float64).reshape(-1) for f in frames])
+    v = v[np.isfinite(v) & (np.abs(v) < FILL_MAGNITUDE)]
+    if v.size == 0:
+        return (0.0, 1.0)
+    if v.size > 200_000:  # a strided sample is enough for percentiles
+        v = v[:: v.size // 200_000]
+    lo, hi = (float(x) for x in np.percentile(v, CLIM_PERCENTILES))
+    if not hi > lo:
+        lo, hi = float(v.min()), float(v.max())
+    return (lo, hi if hi > lo else lo + 1.0)
 
 
 def _opacity_tf(scale: float) -> NDArray[np.float64]:

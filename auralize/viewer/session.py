@@ -96,12 +96,20 @@ class SessionState:
 
 
 def data_spec(spec: str, *, size: int | None = None, steps: int | None = None,
-              seed: int = 0) -> dict[str, Any]:  # fmt: skip
-    """The ``data`` entry of a session (relative file paths are made absolute)."""
+              seed: int = 0, fields: dict[str, str] | None = None,
+              resolution: int | None = None) -> dict[str, Any]:  # fmt: skip
+    """The ``data`` entry of a session (relative file paths are made absolute); ``fields``
+    (NAME -> HDF5 dataset) and ``resolution`` are the reader options of ``--field`` and
+    ``--resolution``."""
     s = str(spec)
     if not s.startswith("dataset:"):
         s = str(Path(s).expanduser().resolve())
-    return {"spec": s, "size": size, "steps": steps, "seed": seed}
+    d: dict[str, Any] = {"spec": s, "size": size, "steps": steps, "seed": seed}
+    if fields:
+        d["fields"] = dict(fields)
+    if resolution is not None:
+        d["resolution"] = int(resolution)
+    return d
 
 
 def load_data(d: dict[str, Any]) -> Any:
@@ -110,4 +118,5 @@ def load_data(d: dict[str, Any]) -> Any:
 
     if not d or "spec" not in d:
         raise FormatError("session has no data to open (missing data.spec)")
-    return load(d["spec"], size=d.get("size"), steps=d.get("steps"), seed=d.get("seed") or 0)
+    return load(d["spec"], size=d.get("size"), steps=d.get("steps"), seed=d.get("seed") or 0,
+                fields=d.get("fields"), resolution=d.get("resolution"))  # fmt: skip

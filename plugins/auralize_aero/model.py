@@ -26,9 +26,11 @@ def _unpack(inputs: Any) -> dict[str, Any]:
     elif isinstance(inputs, tuple | list) and len(inputs) >= 3:
         d = dict(zip(("texture", "object", "path", "motion", "wind"), inputs, strict=False))
     else:
+        got = (f"a {type(inputs).__name__} of {len(inputs)} items"
+               if isinstance(inputs, tuple | list) else type(inputs).__name__)  # fmt: skip
         raise ParameterError(
             "aero inputs must be a dict with keys texture, object, path and motion and/or wind, "
-            f"or a tuple (texture, object, path, motion, wind); got {type(inputs).__name__}"
+            f"or a tuple of 3 to 5 items (texture, object, path[, motion, wind]); got {got}"
         )
     if not isinstance(d.get("object"), AeroObject):
         raise ParameterError(
@@ -88,6 +90,15 @@ class AeroSound(SoundModel):
         """pyvista meshes at motion pose ``step``: the object's polylines and its point sources."""
         import pyvista as pv
 
+        from auralize.volume import TimeVolume
+
+        if isinstance(inputs, tuple) and inputs and isinstance(inputs[0], TimeVolume):
+            # the viewer's (volume, path): a stick across the middle of the data's box
+            b = np.asarray(inputs[0].bounds, dtype=np.float64).reshape(3, 2)
+            c, span = b.mean(axis=1), 0.6 * float(b[0, 1] - b[0, 0])
+            ends = np.array([c - [span / 2, 0, 0], c + [span / 2, 0, 0]])
+            diameter = max(span, 1e-6) / 100
+            inputs = {"object": AeroObject([ends], diameter, name="stick")}
         d = _unpack(inputs)
         obj: AeroObject = d["object"]
         motion: Motion | None = d.get("motion")

@@ -1,0 +1,285 @@
+"""The viewer as people use it, under Xvfb: open and look first, fly with the keys,
+record (autosave always complete), listen live with safe levels, overlays, sessions."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pytestqt")
+pytest.importorskip("pyvistaqt")
+
+from qtpy import QtCore, QtWidgets
+
+from auralize.errors import DataError
+from auralize.listener import ListenerPath
+from auralize.viewer.app import MainWindow
+from auralize.viewer.recorder import PathRecorder
+from auralize.viewer.scene import camera_pose
+
+ROOT = Path(__file__).parents[1]
+WAVY = ROOT / "datasets" / "paraview-wavy" / "wavy00.vts"
+
+
+@pytest.fixture
+def errors(monkeypatch):
+    shown: list[str] = []
+
+    def critical(parent, title, text, *a, **k):
+        shown.append(text)
+        return QtWidgets.QMessageBox.StandardButton.Ok
+
+    monkeypatch.setattr(QtWidgets.QMessageBox, "critical", critical)
+    return shown
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    win = MainWindow(autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(win)
+    win.resize(900, 650)
+    win.show()
+    qtbot.waitExposed(win)
+    yield win
+    win.close()
+
+
+def _open(qtbot, win, spec="dataset:monopole", **kw):
+    kw.setdefault("size", 12 if spec == "dataset:monopole" else None)
+    win.open_data(spec, **kw)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+
+
+def _detect(qtbot, win):
+    win.detect()
+    qtbot.waitUntil(lambda: win.series is not None and not win.busy, timeout=60_000)
+
+
+def _saturated(img: np.ndarray) -> int:
+    rgb = img[..., :3].astype(int)
+    return int(np.sum(rgb.max(axis=-1) - rgb.min(axis=-1) > 80))
+
+
+def test_single_step_real_file_is_shown_and_detection_explains(qtbot, window, errors):
+    win = window
+    _open(qtbot, win, str(WAVY))
+    assert win.volume.n_steps == 1 and win.scene.field == "z"
+    assert "volume" in win.scene._actors and "outline" in win.scene._actors
+    assert win.scene.sources is None  # nothing detected on opening
+    assert "resampled" in win.info.text()  # the reader's note is shown, not lost
+    img = win.plotter.screenshot()
+    assert img[..., :3].std() > 5  # not a blank view
+    assert not win.detect_btn.isEnabled()
+    assert "two" in win.detect_note.text()
+    with pytest.raises(DataError, match="at least 2 time steps"):
+        win.detect()
+    assert not errors
+
+
+def test_keys_fly_after_clicking_record_and_readouts(qtbot, window, errors, tmp_path):
+    win = window
+    _open(qtbot, win)
+    qtbot.mouseClick(win.rec_btn, QtCore.Qt.MouseButton.LeftButton)
+    assert win.recorder.recording
+    target = QtWidgets.QApplication.focusWidget() or win.rec_btn
+    moves = {}
+    for key in (QtCore.Qt.Key.Key_Up, QtCore.Qt.Key.Key_PageUp, QtCore.Qt.Key.Key_W,
+                QtCore.Qt.Key.Key_PageDown, QtCore.Qt.Key.Key_D):  # fmt: skip
+        before = camera_pose(win.plotter.camera)
+        qtbot.keyClick(target, key)
+        after = camera_pose(win.plotter.camera)
+        moves[key] = (before, after)
+        assert not np.allclose(before[0], after[0]) or not np.allclose(before[1], after[1]), key
+    b, a = moves[QtCore.Qt.Key.Key_PageUp]
+    assert (a[0] - b[0]) @ b[2] > 0  # PageUp rises along the view's up
+    b, a = moves[QtCore.Qt.Key.Key_Up]
+    assert (a[0] - b[0]) @ b[1] > 0  # Up moves forward
+    # while a number box is being edited, the arrows are the box's
+    win.rate_spin.setFocus()
+    qtbot.keyClick(win.rate_spin, QtCore.Qt.Key.Key_Up)
+    assert win.rate_spin.value() == 11.0
+    # also with the keys sent straight to the 3-D view
+    before = camera_pose(win.plotter.camera)[0]
+    qtbot.keyClick(win.plotter.interactor, QtCore.Qt.Key.Key_Down)
+    assert not np.allclose(before, camera_pose(win.plotter.camera)[0])
+    qtbot.wait(450)
+    win._update_readouts()
+    assert win.camera_label.text().startswith("camera (")
+    text = win.path_label.text()
+    assert "Hz achieved" in text and str(win.recorder.autosave) in text
+    assert "PgUp" in win.key_map.text()
+    win.stop_recording()
+    assert not errors
+
+
+def test_autosave_is_complete_after_loading_a_path(qtbot, window, tmp_path, errors):
+    win = window
+    _open(qtbot, win)
+    loaded = ListenerPath.orbit(win.volume.center, radius=2.0, duration=1.0, rate_hz=5)
+    csv = tmp_path / "loaded.csv"
+    loaded.to_csv(csv)
+    win.load_path(csv)
+    autosave = win.start_recording(tmp_path / "auto.csv")
+    qtbot.waitUntil(lambda: win.recorder.n_captures >= loaded.n_captures + 2, timeout=5000)
+    # read back while recording (as after a crash): header, the loaded captures, the new ones
+    back = ListenerPath.from_csv(autosave)
+    assert back.n_captures >= loaded.n_captures + 2
+    assert np.allclose(back.positions[: loaded.n_captures], loaded.positions)
+    assert np.all(np.diff(back.times) > 0)
+    win.stop_recording()
+    # the same after loading a session
+    sess = tmp_path / "s.json"
+    win.save_session(sess)
+    n_before = win.path.n_captures
+    done: list[bool] = []
+    win.load_session(sess, then=lambda: done.append(True))
+    qtbot.waitUntil(lambda: bool(done), timeout=30_000)
+    autosave2 = win.start_recording(tmp_path / "auto2.csv")
+    qtbot.waitUntil(lambda: win.recorder.n_captures >= n_before + 1, timeout=5000)
+    back2 = ListenerPath.from_csv(autosave2)
+    assert back2.n_captures >= n_before + 1
+    win.stop_recording()
+    assert not errors
+
+
+def test_recorder_autosave_starts_with_held_captures(tmp_path) -> None:
+    rec = PathRecorder(rate_hz=10, autosave=tmp_path / "a.csv")
+    rec.load(ListenerPath.point([1.0, 2.0, 3.0], duration=0.5))
+    rec.start()
+    rec.capture([4.0, 5.0, 6.0], [0, 1, 0], [0, 0, 1], t=1.0)
+    back = ListenerPath.from_csv(tmp_path / "a.csv")
+    rec.stop()
+    assert back.n_captures == 3 and np.allclose(back.positions[-1], [4, 5, 6])
+
+
+def test_live_listening_levels_and_quick_stop(qtbot, window, tmp_path, errors):
+    from auralize.audio import read_wav
+
+    win = window
+    _open(qtbot, win)
+    _detect(qtbot, win)
+    win.set_gain_db(30.0)  # far too loud on purpose: the limiter must hold full scale
+    out = tmp_path / "live.wav"
+    steps: list[int] = []
+    orig = win.set_step
+    win.set_step = lambda n: (steps.append(n), orig(n))[1]  # type: ignore[method-assign]
+    player = win.start_live(out)
+    qtbot.waitUntil(lambda: player.engine.elapsed > 0.5 or player.error is not None, timeout=30_000)
+    assert player.error is None, player.error
+    qtbot.waitUntil(lambda: player.limiter.peak_dbfs > -20, timeout=30_000)
+    win._update_readouts()
+    assert win.meter.format().startswith("peak") and "limiting" in win.meter.format()
+    t0 = time.perf_counter()
+    win.stop_live()
+    assert time.perf_counter() - t0 < 1.0
+    n = len(steps)
+    qtbot.wait(400)
+    assert len(steps) == n  # no redraws after Stop
+    audio, _, _ = read_wav(out)
+    assert audio.shape[0] == 2 and np.max(np.abs(audio)) <= 0.99 + 1e-6
+    assert np.max(np.abs(audio)) > 0.5
+    assert not errors
+
+
+@pytest.mark.parametrize("spec", ["dataset:explosion", "dataset:monopole", "dataset:fire"])
+def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec):
+    win = window
+    _open(qtbot, win, spec, size=16, steps=4)
+    drawn = {}
+    for name in win.overlay_checks:
+        drawn[name] = win.set_overlay(name, True)
+        if drawn[name]:
+            assert any(k.startswith(f"overlay:{name}") for k in win.scene._actors)
+            win.set_step(1)  # the overlay follows the time step without error
+            assert name not in win.scene.overlay_errors
+        else:  # does not apply: one clear line, the box unticked
+            assert win.overlay_note.text().startswith(f"{name} overlay does not apply")
+            assert not win.overlay_checks[name].isChecked()
+        win.set_overlay(name, False)
+    assert drawn["aero"] and drawn["spark"]
+    if spec == "dataset:fire":
+        assert drawn["fire"]
+    assert not errors
+
+
+def test_render_to_file_records_the_start_time(qtbot, window, tmp_path, errors):
+    import json
+
+    win = window
+    _open(qtbot, win)
+    _detect(qtbot, win)
+    csv = tmp_path / "p.csv"
+    ListenerPath.point(win.volume.center + [0.5, 0, 0], duration=1.2).to_csv(csv)
+    win.load_path(csv)
+    out = tmp_path / "r.wav"
+    win.render_audio(out)  # three 0.5 s blocks
+    qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=60_000)
+    meta = json.loads(Path(f"{out}.json").read_text())
+    assert meta["t_start_data"] == pytest.approx(float(win.volume.times[0]))
+    assert meta["samples"] == round(1.2 * 44100)
+    assert not errors
+
+
+def test_file_menu_open_builtin_save_and_restore_session(qtbot, window, tmp_path, errors,
+                                                         monkeypatch):  # fmt: skip
+    win = window
+    titles = [a.text() for a in win.file_menu.actions() if a.text()]
+    assert titles[:1] == ["&Open…"] and "&Save session" in titles and "&Quit" in titles
+    assert "Save session &as…" in titles
+    builtin = win.builtin_menu
+    names = [a.text() for a in builtin.actions()]
+    assert {"explosion", "monopole", "fire"} <= set(names)
+    next(a for a in builtin.actions() if a.text() == "monopole").trigger()
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    assert win.data["spec"] == "dataset:monopole"
+    _detect(qtbot, win)
+    n_src = win.detection.counts(win.scene.step)["monopole"]
+    f = tmp_path / "s.json"
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName",
+                        lambda *a, **k: (str(f), "Sessions (*.json)"))  # fmt: skip
+    next(a for a in win.file_menu.actions() if a.text() == "Save session &as…").trigger()
+    assert f.exists() and win.session_file == f
+    f.unlink()
+    next(a for a in win.file_menu.actions() if a.text() == "&Save session").trigger()
+    assert f.exists()  # saved again to the same file, without asking
+    win.set_mapping("identity")  # forget the sources
+    assert win.series is None
+    done: list[bool] = []
+    win.load_session(f, then=lambda: done.append(True))
+    qtbot.waitUntil(lambda: bool(done) and not win.busy, timeout=60_000)
+    assert win.series is not None  # the session restores the detected sources
+    assert win.detection.counts(win.scene.step)["monopole"] == n_src
+    assert not errors
+
+
+def test_detect_on_a_real_time_series_with_field_options(qtbot, window, tmp_path, errors):
+    import zipfile
+
+    with zipfile.ZipFile(ROOT / "datasets" / "openfoam-cavity" / "OpenFOAM.zip") as z:
+        z.extractall(tmp_path)
+    win = window
+    win.mapping, win.mapping_fields = "identity", {"density": "p", "velocity": "U"}
+    _open(qtbot, win, str(tmp_path / "OpenFOAM" / "cavity" / "case.foam"), size=None)
+    assert win.volume.n_steps == 6 and win.scene.sources is None
+    assert win.detect_btn.isEnabled()
+    _detect(qtbot, win)
+    assert win.series.n_steps == 6
+    assert sum(win.detection.counts(0).values()) > 0
+    assert win.session_state().detection["mapping_fields"] == {"density": "p", "velocity": "U"}
+    assert not errors
+
+
+def test_record_from_the_default_camera(qtbot, window, tmp_path, errors):
+    win = window
+    _open(qtbot, win)
+    autosave = win.start_recording(tmp_path / "cam.csv")
+    qtbot.wait(350)
+    path = win.stop_recording()
+    assert path is not None and path.n_captures >= 3
+    # the default camera looks at the data from outside its box, as in ParaView
+    assert not np.any(win.volume.contains(path.positions))
+    assert ListenerPath.from_csv(autosave).n_captures == path.n_captures
+    assert not errors
