@@ -79,6 +79,9 @@ from auralize.spatial import Layout
 from auralize.synthesis import C0, Rendered, _knot_times, check_distance, render
 
 TIMBRES = ("physical", "extended", "tonal")
+#: ``auto`` renders ``physical`` when at least this share of its energy is above 20 Hz,
+#: else ``extended``
+AUDIBLE_SHARE = 0.5
 #: default output high-pass (Hz): below it nothing is audible (paper 001 §6 uses 30 Hz)
 HIGHPASS_HZ = 20.0
 #: tonal carriers per type: ("noise", low Hz, high Hz) or ("tone", Hz)
@@ -253,8 +256,9 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     ----------
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, start, lead
         As :func:`auralize.synthesis.render`.
-    timbre : {"physical", "extended", "tonal"}
-        See the module docstring.
+    timbre : {"physical", "extended", "tonal", "auto"}
+        See the module docstring; ``auto`` is ``physical`` when at least
+        :data:`AUDIBLE_SHARE` of its energy lies above 20 Hz, else ``extended``.
     highpass_hz : float
         Cut-off of the causal output high-pass (Hz); 0 keeps everything.
     seed : int
@@ -268,23 +272,45 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     -------
     Rendered
         ``audio (n_channels, n_samples)`` (pascals for ``physical``); ``meta``
-        holds the timbre, seed, high-pass, and ``share_above_20hz_unfiltered``
-        (the energy share above 20 Hz before the high-pass).
+        holds the timbre used, seed, high-pass, ``share_above_20hz_unfiltered``
+        (the energy share above 20 Hz before the high-pass) and
+        ``timbre_notes`` (what to tell the user: an infrasonic physical render).
     """
-    if timbre not in TIMBRES:
-        raise ParameterError(f"timbre must be one of {', '.join(TIMBRES)}, got {timbre!r}")
+    if timbre not in (*TIMBRES, "auto"):
+        raise ParameterError(f"timbre must be one of {', '.join(TIMBRES)} or auto, got {timbre!r}")
     if not (np.isfinite(alpha) and alpha > 0):
         raise ParameterError(f"alpha (power-law exponent) must be > 0, got {alpha!r}")
     kw: dict[str, Any] = dict(rate=rate, time_scale=time_scale, interp=interp, layout=layout,
                               c0=c0, duration=duration, start=start, lead=lead)  # fmt: skip
     highpass(np.zeros((1, 0)), rate, highpass_hz)  # validate before rendering
     meta: dict[str, Any] = {"timbre": timbre, "seed": int(seed), "highpass_hz": highpass_hz}
+    notes: list[str] = []
+    phys = None
+    if timbre in ("physical", "auto"):
+        phys = render(tracks, path, bounds=bounds, **kw)
+        share = loudness(phys.audio, rate)["share_above"]
+        meta["physical_share_above_20hz"] = share
+        if share < AUDIBLE_SHARE and tracks.n_sources:
+            below = f"{100 * (1 - share):.0f} % of the physical sound lies below 20 Hz"
+            if timbre == "auto":
+                timbre = "extended"
+                notes.append(f"timbre auto: {below} (inaudible); rendered 'extended' "
+                             f"(physical below {cutoff_hz(tracks, time_scale):.3g} Hz, power-law "
+                             f"noise above); --timbre physical keeps the pressure alone")  # fmt: skip
+            else:
+                notes.append(f"note: {below} (inaudible); try --timbre extended, or a smaller "
+                             f"--time-scale (the data played faster)")  # fmt: skip
+        elif timbre == "auto":
+            timbre = "physical"
+        meta["timbre"] = timbre
     if timbre == "physical":
-        out = render(tracks, path, bounds=bounds, **kw)
+        assert phys is not None
+        out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta)
+        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, phys)
     else:
         out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta)
+    meta["timbre_notes"] = notes
     meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
     out.audio = highpass(out.audio, rate, highpass_hz)
     out.meta.update(meta)
@@ -301,8 +327,9 @@ def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
 
 def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
               bounds: tuple[float, ...] | None, seed: int, alpha: float, c0: float, start: float,
-              meta: dict[str, Any]) -> Rendered:  # fmt: skip
-    phys = render(tracks, path, bounds=bounds, **kw)
+              meta: dict[str, Any], phys: Rendered | None = None) -> Rendered:  # fmt: skip
+    if phys is None:
+        phys = render(tracks, path, bounds=bounds, **kw)
     rate = phys.rate
     f_cut = cutoff_hz(tracks, phys.time_scale)
     meta.update({"alpha": alpha, "f_cut_hz": f_cut})
