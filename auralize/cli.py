@@ -88,7 +88,9 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
 
 
 def add_output_options(
-    p: argparse.ArgumentParser, *, layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
+    p: argparse.ArgumentParser,
+    *,
+    layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
     listener_required: bool = True,
 ) -> None:
     g = p.add_argument_group("audio output")
@@ -146,7 +148,7 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
                         "type; auto (default): physical if most of it is above 20 Hz, else "
                         "extended")  # fmt: skip
     p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
-                   help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")
+                   help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
 
 
@@ -300,10 +302,13 @@ def cmd_path(args: argparse.Namespace) -> int:
 
     spec = getattr(args, "volume_pos", None) or getattr(args, "volume", None)
     bounds = None
+    span = 0.0
     if spec:
         from auralize.pipeline import load
 
-        bounds = load(spec).bounds
+        vol = load(spec, size=args.size, steps=args.steps, seed=args.seed)
+        bounds = vol.bounds
+        span = float(vol.times[-1] - vol.times[0])
     duration = args.duration
     if duration is None:
         from auralize.pipeline import DEFAULT_DURATION
@@ -316,28 +321,41 @@ def cmd_path(args: argparse.Namespace) -> int:
                                  f"to place the path around the data")  # fmt: skip
         return value
 
+    # a path around the data moves at most MAX_ORBIT_MACH × c0 in data time when
+    # rendered with the automatic time scale (the data's span in the path's duration)
+    from auralize.pipeline import MAX_ORBIT_MACH
+    from auralize.synthesis import C0
+
+    reach = MAX_ORBIT_MACH * C0 * span  # metres the listener may travel
     if args.kind == "point":
         p = ListenerPath.point(args.at, duration=duration)
     elif args.kind == "line":
         if need("start", args.start) is None or need("end", args.end) is None:
-            p = line_past(bounds, duration=duration)  # type: ignore[arg-type]
+            p = line_past(bounds, duration=duration, length=reach)  # type: ignore[arg-type]
         else:
             p = ListenerPath.line(args.start, args.end, duration=duration, n=args.captures,
                                   face=args.face)  # fmt: skip
     else:
         if need("center", args.center) is None or need("radius", args.radius) is None:
-            p = orbit_around(bounds, duration=duration, turns=args.turns,  # type: ignore[arg-type]
+            p = orbit_around(bounds, duration=duration, turns=args.turns or 1.0,  # type: ignore[arg-type]
                              radius=args.radius, rate_hz=args.rate_hz)  # fmt: skip
+            travel = args.turns or 1.0
+            length = float(np.sum(np.linalg.norm(np.diff(p.positions, axis=0), axis=1)))
+            if args.turns is None and length > reach:
+                travel = reach / length
+                p = orbit_around(bounds, duration=duration, turns=travel,  # type: ignore[arg-type]
+                                 radius=args.radius, rate_hz=args.rate_hz)  # fmt: skip
             if args.center is not None:
                 p = ListenerPath.orbit(args.center, radius=float(np.linalg.norm(
                     p.positions[0] - np.asarray(bounds).reshape(3, 2).mean(axis=1))),
-                    duration=duration, turns=args.turns, height=args.height,
+                    duration=duration, turns=travel, height=args.height,
                     rate_hz=args.rate_hz)  # fmt: skip
             elif args.height:
                 p.positions[:, 2] += args.height
         else:
             p = ListenerPath.orbit(args.center, radius=args.radius, duration=duration,
-                                   turns=args.turns, height=args.height, rate_hz=args.rate_hz)  # fmt: skip
+                                   turns=args.turns or 1.0, height=args.height,
+                                   rate_hz=args.rate_hz)  # fmt: skip
     p.to_csv(args.output)
     from auralize.listener import describe_path
 
@@ -452,13 +470,18 @@ def build_parser() -> argparse.ArgumentParser:
                                       "around the data, two half-diagonals out)")  # fmt: skip
     q.add_argument("--center", type=_vec3, metavar="X,Y,Z")
     q.add_argument("--radius", type=float)
-    q.add_argument("--turns", type=float, default=1.0)
+    q.add_argument("--turns", type=float,
+                   help="default 1, or around a volume: at most what keeps the listener below "
+                        "0.1 c0 in data time at the automatic time scale")  # fmt: skip
     q.add_argument("--height", type=float, default=0.0)
     q.add_argument("--rate-hz", type=float, default=10.0, help="captures per second")
     for q in psub.choices.values():
         q.add_argument("volume_pos", nargs="?", metavar="VOLUME",
                        help="place the path around this volume's bounds (file or dataset:NAME)")  # fmt: skip
         q.add_argument("--volume", metavar="FILE", help="same as the positional VOLUME")
+        q.add_argument("--size", type=int, help="grid size of a built-in dataset")
+        q.add_argument("--steps", type=int, help="time steps of a built-in dataset")
+        q.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
         q.add_argument("--duration", type=float, help="seconds (default 10)")
         q.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_path)

@@ -250,14 +250,18 @@ def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: 
     return p
 
 
-def line_past(bounds: tuple[float, ...] | NDArray[np.floating], *,
-              duration: float) -> ListenerPath:  # fmt: skip
+def line_past(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
+              length: float | None = None) -> ListenerPath:  # fmt: skip
     """A straight fly-by along +x past the data's box, ``ORBIT_RADIUS_FACTOR``
     half-diagonals in front of its centre (−y), from two half-diagonals on the
-    left of it to two on the right, facing along the motion."""
+    left of it to two on the right (or ``length`` metres if shorter, centred),
+    facing along the motion."""
     c, half = _box(bounds)
     off = np.array([0.0, -ORBIT_RADIUS_FACTOR * half, 0.0])
-    d = np.array([ORBIT_RADIUS_FACTOR * half, 0.0, 0.0])
+    reach = ORBIT_RADIUS_FACTOR * half
+    if length is not None and length > 0:
+        reach = min(reach, 0.5 * length)
+    d = np.array([reach, 0.0, 0.0])
     return ListenerPath.line(c + off - d, c + off + d, duration=duration)
 
 

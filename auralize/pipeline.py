@@ -28,7 +28,14 @@ from auralize.errors import ParameterError
 from auralize.listener import ListenerPath, describe_path, orbit_around
 from auralize.mapping import AcousticMapping, get_mapping
 from auralize.sources import TYPES, SourceSeries, SourceTracks, Thresholds, detect
-from auralize.synthesis import C0, Rendered, _extent, box_distances, check_arrival
+from auralize.synthesis import (
+    C0,
+    Rendered,
+    _extent,
+    box_distances,
+    check_arrival,
+    check_distance,
+)
 from auralize.timbre import HIGHPASS_HZ, render_timbre
 from auralize.volume import TimeVolume
 
@@ -252,6 +259,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     tracks = series.tracks()
     plan = plan_render(volume, tracks, path=path, listener=listener, duration=duration,
                        time_scale=time_scale, c0=c0)  # fmt: skip
+    check_distance(plan.path, volume.bounds)
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
                   lead=plan.lead)  # fmt: skip
     out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate, time_scale=plan.time_scale,
