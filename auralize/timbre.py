@@ -76,7 +76,7 @@ from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import TYPES, SourceTracks
 from auralize.spatial import Layout
-from auralize.synthesis import C0, Rendered, _knot_times, check_distance, render
+from auralize.synthesis import C0, Rendered, _cached, _knot_times, check_distance, render
 
 TIMBRES = ("physical", "extended", "tonal")
 #: ``auto`` renders ``physical`` when at least this share of its energy is above 20 Hz,
@@ -150,27 +150,11 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
     the distance whose delay the loudest arrivals share.  Where nothing is
     heard, the nearest control's value is held.
     """
-    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
-    w = np.abs(np.asarray(tracks.q, dtype=np.float64))
     L = path.position_at(t_play)
-    if pos.shape[0] == 0:
+    if tracks.n_sources == 0:
         return np.zeros(t_data.size)
-    lo, hi = pos.min(axis=0), pos.max(axis=0)
-    cell3 = np.minimum((CLUSTERS * (pos - lo) / np.maximum(hi - lo, 1e-300)).astype(np.int64),
-                       CLUSTERS - 1)  # fmt: skip
-    cell = (cell3[:, 0] * CLUSTERS + cell3[:, 1]) * CLUSTERS + cell3[:, 2]
-    used, inv = np.unique(cell, return_inverse=True)
-    C = used.size
-    wk = w.sum(axis=1)
-    wsum = np.bincount(inv, weights=wk, minlength=C)
-    cen = np.stack([np.bincount(inv, weights=wk * pos[:, a], minlength=C) for a in range(3)], 1)
-    plain = np.stack([np.bincount(inv, weights=pos[:, a], minlength=C) for a in range(3)], 1)
-    cnt = np.bincount(inv, minlength=C)
-    cen = np.where(wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1)[:, None],
-                   plain / cnt[:, None])  # fmt: skip
-    T = w.shape[1]
-    W = np.zeros((C, T + 2))  # padded with silent steps like the synthesis knots
-    np.add.at(W, (inv, slice(1, T + 1)), w)
+    cen, W = _cached(tracks, "timbre:clusters", "", lambda: _clusters(tracks))
+    C = cen.shape[0]
     tn = _knot_times(tracks)
     D = np.maximum(np.linalg.norm(L[:, None, :] - cen[None, :, :], axis=2), 1e-9)  # (J, C)
     tau = t_data[:, None] - D / c0
@@ -189,16 +173,63 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
     return np.where(ok, dbar, dbar[nearest])
 
 
-def _noise_table(n: int, rate: float, rng: np.random.Generator,
-                 shape: Any) -> NDArray[np.float64]:  # fmt: skip
-    """``n`` samples of unit-RMS noise whose amplitude spectrum is ``shape(f)``."""
+def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Clusters of the sources for :func:`mean_distance`: |q|-weighted centroids
+    ``(C, 3)`` and summed |q| per step, padded with a silent step at both ends
+    ``(C, T + 2)``."""
+    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
+    w = np.abs(np.asarray(tracks.q, dtype=np.float64))
+    lo, hi = pos.min(axis=0), pos.max(axis=0)
+    cell3 = np.minimum((CLUSTERS * (pos - lo) / np.maximum(hi - lo, 1e-300)).astype(np.int64),
+                       CLUSTERS - 1)  # fmt: skip
+    cell = (cell3[:, 0] * CLUSTERS + cell3[:, 1]) * CLUSTERS + cell3[:, 2]
+    order = np.argsort(cell, kind="stable")
+    cs = cell[order]
+    starts = np.flatnonzero(np.append(True, cs[1:] != cs[:-1]))
+    inv = np.cumsum(np.append(True, cs[1:] != cs[:-1])) - 1  # cluster of each sorted source
+    C = starts.size
+    ws = w[order]
+    wk = ws.sum(axis=1)
+    wsum = np.bincount(inv, weights=wk, minlength=C)
+    ps = pos[order]
+    cen = np.stack([np.bincount(inv, weights=wk * ps[:, a], minlength=C) for a in range(3)], 1)
+    plain = np.stack([np.bincount(inv, weights=ps[:, a], minlength=C) for a in range(3)], 1)
+    cnt = np.bincount(inv, minlength=C)
+    cen = np.where(wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1)[:, None],
+                   plain / cnt[:, None])  # fmt: skip
+    W = np.zeros((C, w.shape[1] + 2))  # padded with silent steps like the synthesis knots
+    W[:, 1:-1] = np.add.reduceat(ws, starts, axis=0)
+    return cen, W
+
+
+_TABLES: dict[tuple[Any, ...], NDArray[np.float64]] = {}
+_TABLES_MAX = 8
+
+
+def _noise_table(n: int, rate: float, seed: tuple[int, ...], shape: Any,
+                 key: tuple[Any, ...]) -> NDArray[np.float64]:  # fmt: skip
+    """``n`` samples of unit-RMS noise whose amplitude spectrum is ``shape(f)``, with
+    uniformly random phases from ``seed`` (paper 001 §4, spectral noise synthesis).
+
+    The last few tables are kept (``key`` names the shape): repeated renders
+    (blocks, other paths, benchmarks) reuse them.
+    """
     n = max(int(n), 2)
+    full = (n, float(rate), seed, key)
+    hit = _TABLES.get(full)
+    if hit is not None:
+        return hit
     f = np.fft.rfftfreq(n, 1.0 / rate)
     amp = shape(f)
-    phase = rng.uniform(-np.pi, np.pi, f.size)
+    phase = np.random.default_rng(list(seed)).uniform(-np.pi, np.pi, f.size)
     x = np.fft.irfft(amp * np.exp(1j * phase), n)
     rms = float(np.sqrt(np.mean(x * x)))
-    return x / rms if rms > 0 else x
+    x = x / rms if rms > 0 else x
+    x.flags.writeable = False
+    if len(_TABLES) >= _TABLES_MAX:
+        _TABLES.pop(next(iter(_TABLES)))
+    _TABLES[full] = x
+    return x
 
 
 class _Clock:
@@ -237,11 +268,6 @@ class _Clock:
         emission time."""
         x = self.phase_s() * self.rate - self.first
         return np.interp(x, np.arange(table.size, dtype=np.float64), table, left=0.0, right=0.0)
-
-
-def _envelope(tracks: SourceTracks, q: NDArray[np.float64], path: ListenerPath,
-              kw: dict[str, Any]) -> Rendered:  # fmt: skip
-    return render(_subset(tracks, q), path, **kw)
 
 
 def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "physical",
@@ -307,7 +333,8 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         assert phys is not None
         out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, phys)
+        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, phys,
+                        highpass_hz)  # fmt: skip
     else:
         out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta)
     meta["timbre_notes"] = notes
@@ -327,38 +354,48 @@ def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
 
 def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
               bounds: tuple[float, ...] | None, seed: int, alpha: float, c0: float, start: float,
-              meta: dict[str, Any], phys: Rendered | None = None) -> Rendered:  # fmt: skip
-    if phys is None:
-        phys = render(tracks, path, bounds=bounds, **kw)
-    rate = phys.rate
-    f_cut = cutoff_hz(tracks, phys.time_scale)
+              meta: dict[str, Any], phys: Rendered | None = None,
+              highpass_hz: float = 0.0) -> Rendered:  # fmt: skip
+    f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
     meta.update({"alpha": alpha, "f_cut_hz": f_cut})
+    # below half the output high-pass the low band is inaudible and filtered out:
+    # its mono sum (for β) is all that is needed
+    keep_low = f_cut > 0.5 * highpass_hz
+    if phys is None:
+        phys = render(tracks, path, bounds=bounds, **(kw if keep_low else {**kw, "layout": "mono"}))
+    rate = phys.rate
     n = phys.audio.shape[1]
     if f_cut >= 0.45 * rate or n < 4 or tracks.n_sources == 0:
         meta["beta"] = 0.0
-        return phys
-    env = _envelope(tracks, np.abs(tracks.q), path, kw)
-    clock = _Clock(tracks, path, phys, start=start, c0=c0)
+        return phys if keep_low else render(tracks, path, bounds=bounds, **kw)
+    absq = _cached(tracks, "timbre:abs", "", lambda: _subset(tracks, np.abs(tracks.q)))
+    env = render(absq, path, **kw)
+    clock = _Clock(tracks, path, env, start=start, c0=c0)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.maximum(f, 0.25 * f_cut) ** (-alpha / 2)
 
-    table = _noise_table(clock.size, rate, np.random.default_rng([int(seed), 1]), shape)
+    table = _noise_table(clock.size, rate, (int(seed), 1), shape, ("power", alpha, f_cut))
     low = _crossover(phys.audio, rate, f_cut, "lowpass")
     high = _crossover(env.audio * clock.noise(table)[None, :], rate, f_cut, "highpass")
-    # Eq. 13 on the channel sums: low + β high matches the physical power under g(f)
+    # Eq. 13, power summed over the channels: low + β high matches the physical
+    # power under g(f) (the cross term needs the low band in every channel;
+    # without it, it is left out: random-phase noise is uncorrelated with it)
     f = np.fft.rfftfreq(n, 1.0 / rate)
     sigma = max(f_cut * 10.0 / 180.0, 3.0 * rate / n)  # Table 1: σ 10 Hz at 180 Hz
     g2 = np.exp(-(((f - f_cut) / sigma) ** 2)) * (f > 0)
-    P, L, H = (np.fft.rfft(x.sum(axis=0)) for x in (phys.audio, low, high))
+    P, L, H = (np.fft.rfft(x, axis=-1) for x in (phys.audio, low, high))
+    same = P.shape[0] == H.shape[0]
     a = float(np.sum(np.abs(H) ** 2 * g2))
-    b = float(2 * np.sum(np.real(L * np.conj(H)) * g2))
+    b = float(2 * np.sum(np.real(L * np.conj(H)) * g2)) if same else 0.0
     c = float(np.sum(np.abs(L) ** 2 * g2) - np.sum(np.abs(P) ** 2 * g2))
     disc = b * b - 4 * a * c
     beta = (-b + np.sqrt(disc)) / (2 * a) if a > 0 and disc >= 0 else 0.0
     meta["beta"] = float(max(beta, 0.0))
-    return Rendered(audio=low + meta["beta"] * high, rate=rate, layout=phys.layout,
-                    time_scale=phys.time_scale, meta=phys.meta)  # fmt: skip
+    meta["low_band"] = "kept" if same else "below half the high-pass: left out"
+    audio = meta["beta"] * high + (low if same else 0.0)
+    return Rendered(audio=audio, rate=rate, layout=env.layout, time_scale=env.time_scale,
+                    meta=env.meta)  # fmt: skip
 
 
 def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> NDArray[np.float64]:
@@ -368,6 +405,21 @@ def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> 
 
     sos = butter(2, f_cut, btype=kind, fs=rate, output="sos")
     return np.asarray(sosfilt(sos, sosfilt(sos, x, axis=-1), axis=-1))
+
+
+def _type_tracks(tracks: SourceTracks) -> list[SourceTracks | None]:
+    """Per type (monopole, dipole, quadrupole): the tracks of |q| where the source
+    has that type, scaled so that every type's peak is the peak of all |q|
+    (None for a type that never occurs)."""
+    qabs = np.abs(np.asarray(tracks.q, dtype=np.float64))
+    kind = np.asarray(tracks.kind)
+    peak_all = float(qabs.max(initial=0.0))
+    out: list[SourceTracks | None] = []
+    for code in range(1, len(TYPES) + 1):
+        qk = np.where(kind == code, qabs, 0.0)
+        peak = float(qk.max(initial=0.0))
+        out.append(_subset(tracks, qk * (peak_all / peak)) if peak > 0 else None)
+    return out
 
 
 def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
@@ -383,16 +435,12 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         check_distance(path, bounds)
     audio: NDArray[np.float64] | None = None
     base: Rendered | None = None
-    qabs = np.abs(np.asarray(tracks.q, dtype=np.float64))
-    kind = np.asarray(tracks.kind)
-    peak_all = float(qabs.max(initial=0.0))
     used = {}
+    by_type = _cached(tracks, "timbre:types", "", lambda: _type_tracks(tracks))
     for code, name in enumerate(TYPES, start=1):
-        qk = np.where(kind == code, qabs, 0.0)
-        peak = float(qk.max(initial=0.0))
-        if peak == 0 or name not in carriers:
+        sub = by_type[code - 1]
+        if sub is None or name not in carriers:
             continue
-        sub = _subset(tracks, qk * (peak_all / peak))
         env = render(sub, path, **kw)
         rate = env.rate
         if audio is None:
@@ -407,8 +455,8 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
             def band(f: NDArray[np.float64], f_lo: float = f_lo, f_hi: float = f_hi) -> Any:
                 return ((f >= f_lo) & (f <= f_hi)).astype(np.float64)
 
-            rng = np.random.default_rng([int(seed), 2, code])
-            car = clock.noise(_noise_table(clock.size, rate, rng, band))
+            car = clock.noise(_noise_table(clock.size, rate, (int(seed), 2, code), band,
+                                           ("band", f_lo, f_hi)))  # fmt: skip
         else:
             raise ParameterError(f"tonal carrier for {name} must be ('tone', Hz) or "
                                  f"('noise', low Hz, high Hz), got {spec!r}")  # fmt: skip
@@ -416,7 +464,9 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         used[name] = list(spec)
     meta["carriers"] = used
     if base is None or audio is None:  # no sources: silence of the right shape
-        base = render(_subset(tracks, np.zeros_like(qabs)), path, **kw)
+        empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, tracks.times.size)),
+                             radius=np.zeros(0), times=tracks.times)  # fmt: skip
+        base = render(empty, path, **kw)
         audio = base.audio
     return Rendered(audio=audio, rate=base.rate, layout=base.layout,
                     time_scale=base.time_scale, meta=base.meta)  # fmt: skip

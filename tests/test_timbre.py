@@ -174,3 +174,16 @@ def test_nonsense_listeners_are_clear_errors(mono_tracks, mono_params) -> None: 
     with pytest.raises(ListenerPathError, match="nothing can be heard"):
         check_arrival(mono_tracks, _at(mono_params, 1000.0, 0.1), time_scale=1.0)
     check_arrival(mono_tracks, _at(mono_params, 17.0, 0.1), time_scale=1.0)
+
+
+@pytest.mark.parametrize("timbre", ["extended", "tonal"])
+def test_timbres_keep_panning(timbre) -> None:  # type: ignore[no-untyped-def]
+    """A source on the listener's left (ring8 channel 2) stays there."""
+    tr = _typed_tracks()
+    keep = np.array([False, True, False])  # the dipole at +y ...
+    tr = SourceTracks(positions=np.array([[-5.0, 0.0, 0.0]]), q=tr.q[keep], radius=tr.radius[keep],
+                      times=tr.times, kind=tr.kind[keep])  # ... moved to the left  # fmt: skip
+    out = render_timbre(tr, ListenerPath.point([0.0, 0.0, 0.0], duration=2.0), rate=8000,
+                        timbre=timbre, layout="ring8")  # fmt: skip
+    e = np.sum(out.audio**2, axis=1)
+    assert np.argmax(e) == 2 and e[2] / e.sum() > 0.99
