@@ -168,6 +168,14 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
             interp=args.interp, layout=args.layout, duration=plan.duration, bounds=vol.bounds,
             block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
         )  # fmt: skip
+    from auralize.timbre import AUDIBLE_SHARE, loudness
+
+    share = loudness(out.audio, args.rate)["share_above"]
+    print(plan.mapping_text + (" (auto)" if plan.auto else ""))
+    if share < AUDIBLE_SHARE:
+        print(f"note: {100 * (1 - share):.0f} % of the physical sound lies below 20 Hz "
+              f"(inaudible); try a smaller --time-scale, or --timbre extended without the Dask "
+              f"options")  # fmt: skip
     out.audio = highpass(out.audio, args.rate, getattr(args, "highpass", 0.0))
     out.meta.update({**plan.as_dict(), "timbre": "physical",
                      "highpass_hz": getattr(args, "highpass", 0.0)})  # fmt: skip
