@@ -344,6 +344,44 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     return out
 
 
+#: envelopes are rendered at no less than 8 f_cut and 1 kHz, at most this many
+#: times below the audio rate, and interpolated linearly
+MAX_DECIMATION = 32
+
+
+def envelope_rate(rate: int, f_cut: float) -> int:
+    """Sample rate (Hz, dividing ``rate``) of the envelope renders: ``rate`` / k with k
+    the largest divisor of ``rate`` not above ``rate / max(8 f_cut, 1 kHz)`` and
+    :data:`MAX_DECIMATION`."""
+    k = int(min(MAX_DECIMATION, max(1.0, rate // max(8.0 * f_cut, 1000.0))))
+    while rate % k:
+        k -= 1
+    return rate // k
+
+
+def _smooth_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
+                   bounds: tuple[float, ...] | None = None) -> Rendered:  # fmt: skip
+    """:func:`render` of a signal band-limited to about ``f_cut`` (an envelope |q|,
+    or the pressure under the data's Nyquist frequency) at :func:`envelope_rate`,
+    linearly interpolated to the audio rate: the retarded-time sum is evaluated
+    exactly at every envelope sample, and most of the per-sample cost is saved."""
+    rate = int(kw["rate"])
+    er = envelope_rate(rate, f_cut)
+    if er == rate:
+        return render(tracks, path, bounds=bounds, **kw)
+    dur = kw["duration"] if kw["duration"] is not None else path.duration - kw["start"]
+    n = round(dur * rate)
+    k = rate // er
+    coarse = render(tracks, path, bounds=bounds,
+                    **{**kw, "rate": er, "duration": (n // k + 2) / er})  # fmt: skip
+    j = np.arange(n)
+    i0, frac = j // k, (j % k) / k
+    e = coarse.audio
+    audio = e[:, i0] * (1.0 - frac) + e[:, i0 + 1] * frac
+    return Rendered(audio=audio, rate=rate, layout=coarse.layout, time_scale=coarse.time_scale,
+                    meta={**coarse.meta, "envelope_rate_hz": er})  # fmt: skip
+
+
 def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
     """Nyquist frequency of the data's time stepping in playback time (Hz): the
     ``extended`` cut-off (paper 001 §4 uses the simulation's Nyquist, 180 Hz)."""
@@ -362,14 +400,15 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     # its mono sum (for β) is all that is needed
     keep_low = f_cut > 0.5 * highpass_hz
     if phys is None:
-        phys = render(tracks, path, bounds=bounds, **(kw if keep_low else {**kw, "layout": "mono"}))
+        phys = _smooth_render(tracks, path, kw if keep_low else {**kw, "layout": "mono"}, f_cut,
+                              bounds)  # fmt: skip
     rate = phys.rate
     n = phys.audio.shape[1]
     if f_cut >= 0.45 * rate or n < 4 or tracks.n_sources == 0:
         meta["beta"] = 0.0
         return phys if keep_low else render(tracks, path, bounds=bounds, **kw)
     absq = _cached(tracks, "timbre:abs", "", lambda: _subset(tracks, np.abs(tracks.q)))
-    env = render(absq, path, **kw)
+    env = _smooth_render(absq, path, kw, f_cut)
     clock = _Clock(tracks, path, env, start=start, c0=c0)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -436,12 +475,13 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     audio: NDArray[np.float64] | None = None
     base: Rendered | None = None
     used = {}
+    f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
     by_type = _cached(tracks, "timbre:types", "", lambda: _type_tracks(tracks))
     for code, name in enumerate(TYPES, start=1):
         sub = by_type[code - 1]
         if sub is None or name not in carriers:
             continue
-        env = render(sub, path, **kw)
+        env = _smooth_render(sub, path, kw, f_cut)
         rate = env.rate
         if audio is None:
             base, audio = env, np.zeros_like(env.audio)
