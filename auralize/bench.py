@@ -21,6 +21,7 @@ import platform
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -199,7 +200,7 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
     return rows
 
 
-def _timbre_rows(tracks, path, size: int) -> list[BenchRow]:  # type: ignore[no-untyped-def]
+def _timbre_rows(tracks: Any, path: Any, size: int) -> list[BenchRow]:
     """``extended`` and ``tonal`` renders (auralize.timbre) along the synthesis rows' path:
     the envelopes' runs or pieces, the per-type tracks and the noise tables are
     built by the first render of the tracks and reused, as for ``physical``."""

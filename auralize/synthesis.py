@@ -16,11 +16,15 @@ data: arrival delay, 1/D decay and the Doppler shift of a moving listener all
 come out of this evaluation.
 
 A listener inside a ΔV sphere would see D → 0: D is clamped to the vertex's
-largest ΔV radius.
+largest ΔV radius.  The listener may be anywhere else, inside the grid or
+far outside it; only nonsense is refused (:func:`check_distance`: farther
+than 10⁴ grid diagonals and 1000 km; :func:`check_arrival`: nothing can be
+heard in the output window).
 
 Time mapping (DESIGN.md): audio sample n is at data time
-``t0 + n / (rate · time_scale)`` and at playback time ``n / rate`` on the
-listener path; propagation uses physical c0 in data time.
+``t0 + lead + n / (rate · time_scale)`` and at playback time ``n / rate`` on
+the listener path; propagation uses physical c0 in data time.  ``lead``
+(default 0) skips the sound's travel to a far listener.
 
 The fast algorithm (:mod:`auralize._synth_kernel`; for unpanned output
 :mod:`auralize._runs_kernel`, one emission per knot) costs

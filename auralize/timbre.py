@@ -199,7 +199,7 @@ def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.flo
                    plain / cnt[:, None])  # fmt: skip
     W = np.zeros((C, w.shape[1] + 2))  # padded with silent steps like the synthesis knots
     W[:, 1:-1] = np.add.reduceat(ws, starts, axis=0)
-    return cen, W
+    return np.asarray(cen, dtype=np.float64), W
 
 
 _TABLES: dict[tuple[Any, ...], NDArray[np.float64]] = {}
