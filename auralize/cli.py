@@ -401,7 +401,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     path.to_csv(out_dir / "explosion_path.csv")
     print("detecting sources and rendering ...", flush=True)
     rendered, series = auralize(vol, path, layout=args.layout, time_scale=args.time_scale,
-                                progress_bar=_progress_wanted())  # fmt: skip
+                                progress_bar=_progress_wanted(), timbre="auto")  # fmt: skip
+    for note in rendered.meta.get("timbre_notes", []):
+        print(note)
     wav = out_dir / f"explosion_{args.layout}.wav"
     save_rendered(rendered, wav, extra={"command": "auralize " + " ".join(sys.argv[1:])})
     png = screenshot(vol, out_dir / "explosion.png", series=series, path=path,
