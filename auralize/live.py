@@ -504,9 +504,9 @@ def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
                              f"got {highpass_hz!r}")  # fmt: skip
     hp: list[Any] = []
     if highpass_hz > 0:
-        from scipy.signal import butter
+        from auralize.timbre import butter_sos
 
-        sos = butter(4, highpass_hz, btype="highpass", fs=rate, output="sos")
+        sos = butter_sos(4, float(highpass_hz), "highpass", float(rate))
         hp = [sos, np.zeros((sos.shape[0], lay.n_channels, 2))]
     align = SpeakerAlignment(lay, rate) if lay.has_distances else None
     synth_times: list[float] = []

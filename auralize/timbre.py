@@ -67,6 +67,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -111,10 +112,18 @@ def highpass(audio: NDArray[np.float64], rate: float, hz: float) -> NDArray[np.f
                              f"the sample rate), got {hz!r}")  # fmt: skip
     if hz == 0 or audio.shape[-1] == 0:
         return audio
-    from scipy.signal import butter, sosfilt
+    from scipy.signal import sosfilt
 
-    sos = butter(4, hz, btype="highpass", fs=rate, output="sos")
-    return np.asarray(sosfilt(sos, audio, axis=-1))
+    return np.asarray(sosfilt(butter_sos(4, float(hz), "highpass", float(rate)), audio, axis=-1))
+
+
+@functools.lru_cache(maxsize=64)
+def butter_sos(order: int, hz: float, kind: str, rate: float) -> NDArray[np.float64]:
+    """Second-order sections of a Butterworth filter (cached: designing one costs
+    more than filtering a second of audio; callers must not modify them)."""
+    from scipy.signal import butter
+
+    return np.asarray(butter(order, hz, btype=kind, fs=rate, output="sos"))
 
 
 def loudness(audio: NDArray[np.float64], rate: float, *,
@@ -440,9 +449,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
 def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> NDArray[np.float64]:
     """One side of a causal 4th-order Linkwitz–Riley crossover at ``f_cut`` (the two
     sides sum to an all-pass: the band split of Eq. 12 without pre-echo)."""
-    from scipy.signal import butter, sosfilt
+    from scipy.signal import sosfilt
 
-    sos = butter(2, f_cut, btype=kind, fs=rate, output="sos")
+    sos = butter_sos(2, float(f_cut), kind, float(rate))
     return np.asarray(sosfilt(sos, sosfilt(sos, x, axis=-1), axis=-1))
 
 
