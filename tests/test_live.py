@@ -241,3 +241,16 @@ def test_viewer_live_listening_on_file_backed_alsa_device(tmp_path) -> None:  # 
     switch = int(np.argmax(dominant == 2))
     assert np.all(dominant[switch:] == 2)
     assert np.sum(dominant[:switch] != 6) <= 1
+
+
+def test_play_command_defaults(alsa_device, capsys) -> None:  # type: ignore[no-untyped-def]
+    """`auralize play` without a listener: default orbit, automatic time scale, high-pass."""
+    from auralize.cli import main
+
+    assert main(["play", "dataset:monopole", "--size", "12", "--steps", "60", "--layout",
+                 "stereo", "--device", "auralize_file2", "--duration", "0.5"]) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    assert "listener: orbit of radius" in out
+    assert "1 s of playback = " in out and "(auto)" in out
+    raw = (alsa_device / "b.raw").read_bytes()
+    assert len(raw) > 0 and any(raw)
