@@ -21,6 +21,7 @@ import platform
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -185,6 +186,7 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
                  + (f"; {speed * n_ch:.0f}× real time per channel" if n_ch > 1 else
                     f"; runs of pieces built once per tracks in {t_prep:.2f} s"),
         ))  # fmt: skip
+    rows += _timbre_rows(tracks, path, size)
     # a recorded path: captures every 50 ms of playback (17 ms of data at
     # time scale 3, about half a data step), so most pieces' arrivals cross a
     # capture and are split there (the listener's velocity changes)
@@ -197,6 +199,31 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
         note=f"time scale 3; pieces split at {orbit.times.size} captures in scalar code: "
              f"{orbit.duration / t * 8:.0f}× real time per channel",
     ))  # fmt: skip
+    return rows
+
+
+def _timbre_rows(tracks: Any, path: Any, size: int) -> list[BenchRow]:
+    """``extended`` and ``tonal`` renders (auralize.timbre) along the synthesis rows' path:
+    the envelopes' runs or pieces, the per-type tracks and the noise tables are
+    built by the first render of the tracks and reused, as for ``physical``."""
+    from auralize.timbre import render_timbre
+
+    rows = []
+    dur = path.duration
+    for timbre in ("extended", "tonal"):
+        for layout in ("mono", "ring8"):
+            fn = functools.partial(render_timbre, tracks, path, layout=layout, timbre=timbre)
+            times = batch_times(fn, repeat=5)
+            t = float(np.median(times))
+            n_ch = 1 if layout == "mono" else 8
+            per_ch = dur / t * n_ch
+            rows.append(BenchRow(
+                "synthesis", f"explosion {size}³ → {layout}, timbre {timbre}", per_ch,
+                "× real time/ch", target="≥ 50× per channel" if size == 64 else "",
+                met=per_ch >= 50 if size == 64 else None,
+                note=f"{dur:.2f} s of audio in {t * 1e3:.0f} ms (median of 5 batches, fastest "
+                     f"{dur / times.min() * n_ch:.0f}× per channel); 20 Hz high-pass included",
+            ))  # fmt: skip
     return rows
 
 

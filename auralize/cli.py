@@ -99,7 +99,10 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
 
 
 def add_output_options(
-    p: argparse.ArgumentParser, *, layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json"
+    p: argparse.ArgumentParser,
+    *,
+    layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
+    listener_required: bool = True,
 ) -> None:
     g = p.add_argument_group("audio output")
     g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
@@ -117,19 +120,47 @@ def add_output_options(
         metavar="PA",
         help="truncate pressures beyond this many pascals (paper 000 §7)",
     )
-    src = g.add_mutually_exclusive_group(required=True)
+    src = g.add_mutually_exclusive_group(required=listener_required)
     src.add_argument(
         "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
     )
     src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument("--duration", type=float, help="seconds to render (with --listener)")
+    g.add_argument(
+        "--duration",
+        type=float,
+        help="seconds to render (with --listener)"
+        if listener_required
+        else "playback seconds (default: the path's length, else 10)",
+    )
+
+
+def _time_scale(text: str) -> float | str:
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a number, got {text!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"time scale must be > 0 or 'auto', got {text!r}")
+    return v
 
 
 def add_render_options(p: argparse.ArgumentParser) -> None:
     """Synthesis options shared by ``render`` and its Dask variant."""
-    p.add_argument("--time-scale", type=float, default=1.0, help="playback seconds per data second")
+    p.add_argument("--time-scale", type=_time_scale, default="auto",
+                   help="playback seconds per data second, or auto (default): the data's span "
+                        "plays in --duration")  # fmt: skip
     p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
     p.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+    p.add_argument("--timbre", choices=["auto", "physical", "extended", "tonal"], default="auto",
+                   help="physical: the retarded-time pressure; extended: plus power-law noise "
+                        "above the data's Nyquist (paper 001 §4); tonal: a carrier per source "
+                        "type; auto (default): physical if most of it is above 20 Hz, else "
+                        "extended")  # fmt: skip
+    p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
+                   help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print the render report as JSON")
 
 
 def listener_from_args(args: argparse.Namespace) -> Any:
@@ -284,10 +315,14 @@ def cmd_detect(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from auralize.pipeline import auralize, save_rendered
+    from auralize.pipeline import auralize, report_line, save_rendered
 
     vol = _load(args)
-    path = listener_from_args(args)
+    path = None
+    if args.path:
+        from auralize.listener import ListenerPath
+
+        path = ListenerPath.from_csv(args.path)
     series = None
     if args.sources:
         from auralize.io.sources_file import load_sources_for
@@ -296,32 +331,96 @@ def cmd_render(args: argparse.Namespace) -> int:
     t = time.perf_counter()
     out, series = auralize(vol, path, mapping=args.mapping, thresholds=_thresholds(args),
                            rate=args.rate, time_scale=args.time_scale, interp=args.interp,
-                           layout=args.layout, duration=args.duration if args.path is None else None,
-                           series=series, progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
+                           layout=args.layout, duration=args.duration, series=series,
+                           progress_bar=_progress_wanted(), timbre=args.timbre,
+                           highpass_hz=args.highpass, seed=args.seed, listener=args.listener,
+                           **_mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
     _report_unavailable("render", series)
+    out.meta["seconds"] = elapsed
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
-    peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
-    print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
-          f"at {out.rate} Hz, peak {peak:.4g} Pa, gain {gain:.4g}; {series.tracks().n_sources} "
-          f"source points; {elapsed:.2f} s")  # fmt: skip
+    report = report_line(out, args.output, gain=gain)
+    if args.json:
+        from auralize.timbre import loudness
+
+        print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
+                          "loudness": loudness(out.audio, out.rate), "report": report},
+                         indent=2, default=str))  # fmt: skip
+        return 0
+    for note in out.meta.get("notes", []):
+        print(note)
+    print(out.meta["time_mapping"] + (" (auto)" if out.meta.get("time_scale_auto") else ""))
+    for note in out.meta.get("timbre_notes", []):
+        print(note)
+    print(report)
     return 0
 
 
 def cmd_path(args: argparse.Namespace) -> int:
-    from auralize.listener import ListenerPath
+    from auralize.listener import ListenerPath, line_past, orbit_around
 
+    spec = getattr(args, "volume_pos", None) or getattr(args, "volume", None)
+    bounds = None
+    span = 0.0
+    if spec:
+        from auralize.pipeline import load
+
+        vol = load(spec, size=args.size, steps=args.steps, seed=args.seed)
+        bounds = vol.bounds
+        span = float(vol.times[-1] - vol.times[0])
+    duration = args.duration
+    if duration is None:
+        from auralize.pipeline import DEFAULT_DURATION
+
+        duration = DEFAULT_DURATION
+
+    def need(name: str, value: Any) -> Any:
+        if value is None and bounds is None:
+            raise ParameterError(f"path {args.kind}: give --{name}, or a volume (--volume FILE) "
+                                 f"to place the path around the data")  # fmt: skip
+        return value
+
+    # a path around the data moves at most MAX_ORBIT_MACH × c0 in data time when
+    # rendered with the automatic time scale (the data's span in the path's duration)
+    from auralize.pipeline import MAX_ORBIT_MACH
+    from auralize.synthesis import C0
+
+    reach = MAX_ORBIT_MACH * C0 * span  # metres the listener may travel
     if args.kind == "point":
-        p = ListenerPath.point(args.at, duration=args.duration)
+        p = ListenerPath.point(args.at, duration=duration)
     elif args.kind == "line":
-        p = ListenerPath.line(args.start, args.end, duration=args.duration, n=args.captures,
-                              face=args.face)  # fmt: skip
+        if need("start", args.start) is None or need("end", args.end) is None:
+            p = line_past(bounds, duration=duration, length=reach)  # type: ignore[arg-type]
+        else:
+            p = ListenerPath.line(args.start, args.end, duration=duration, n=args.captures,
+                                  face=args.face)  # fmt: skip
     else:
-        p = ListenerPath.orbit(args.center, radius=args.radius, duration=args.duration,
-                               turns=args.turns, height=args.height, rate_hz=args.rate_hz)  # fmt: skip
+        if need("center", args.center) is None or need("radius", args.radius) is None:
+            p = orbit_around(bounds, duration=duration, turns=args.turns or 1.0,  # type: ignore[arg-type]
+                             radius=args.radius, rate_hz=args.rate_hz)  # fmt: skip
+            travel = args.turns or 1.0
+            length = float(np.sum(np.linalg.norm(np.diff(p.positions, axis=0), axis=1)))
+            if args.turns is None and length > reach:
+                travel = reach / length
+                p = orbit_around(bounds, duration=duration, turns=travel,  # type: ignore[arg-type]
+                                 radius=args.radius, rate_hz=args.rate_hz)  # fmt: skip
+            if args.center is not None:
+                p = ListenerPath.orbit(args.center, radius=float(np.linalg.norm(
+                    p.positions[0] - np.asarray(bounds).reshape(3, 2).mean(axis=1))),
+                    duration=duration, turns=travel, height=args.height,
+                    rate_hz=args.rate_hz)  # fmt: skip
+            elif args.height:
+                p.positions[:, 2] += args.height
+        else:
+            p = ListenerPath.orbit(args.center, radius=args.radius, duration=duration,
+                                   turns=args.turns or 1.0, height=args.height,
+                                   rate_hz=args.rate_hz)  # fmt: skip
     p.to_csv(args.output)
-    print(f"wrote {args.output}: {args.kind}, {p.n_captures} captures over {p.duration:g} s")
+    from auralize.listener import describe_path
+
+    print(f"wrote {args.output}: {args.kind}, {p.n_captures} captures over {p.duration:g} s, "
+          f"{describe_path(p)}")  # fmt: skip
     return 0
 
 
@@ -362,7 +461,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     path.to_csv(out_dir / "explosion_path.csv")
     print("detecting sources and rendering ...", flush=True)
     rendered, series = auralize(vol, path, layout=args.layout, time_scale=args.time_scale,
-                                progress_bar=_progress_wanted())  # fmt: skip
+                                progress_bar=_progress_wanted(), timbre="auto")  # fmt: skip
+    for note in rendered.meta.get("timbre_notes", []):
+        print(note)
     wav = out_dir / f"explosion_{args.layout}.wav"
     save_rendered(rendered, wav, extra={"command": "auralize " + " ".join(sys.argv[1:])})
     png = screenshot(vol, out_dir / "explosion.png", series=series, path=path,
@@ -413,7 +514,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("render", help="render the sound heard along a listener path")
     add_volume_options(p)
     add_detect_options(p)
-    add_output_options(p)
+    add_output_options(p, listener_required=False)
     add_render_options(p)
     p.set_defaults(func=cmd_render)
 
@@ -421,19 +522,29 @@ def build_parser() -> argparse.ArgumentParser:
     psub = p.add_subparsers(dest="kind", required=True)
     q = psub.add_parser("point", help="static listener")
     q.add_argument("--at", type=_vec3, required=True, metavar="X,Y,Z")
-    q = psub.add_parser("line", help="straight line at constant speed")
-    q.add_argument("--start", type=_vec3, required=True, metavar="X,Y,Z")
-    q.add_argument("--end", type=_vec3, required=True, metavar="X,Y,Z")
+    q = psub.add_parser("line", help="straight line at constant speed (default: a fly-by past "
+                                     "the data)")  # fmt: skip
+    q.add_argument("--start", type=_vec3, metavar="X,Y,Z")
+    q.add_argument("--end", type=_vec3, metavar="X,Y,Z")
     q.add_argument("--captures", type=int, default=2)
     q.add_argument("--face", choices=["forward", "fixed"], default="forward")
-    q = psub.add_parser("orbit", help="horizontal circle around a centre, facing it")
-    q.add_argument("--center", type=_vec3, required=True, metavar="X,Y,Z")
-    q.add_argument("--radius", type=float, required=True)
-    q.add_argument("--turns", type=float, default=1.0)
+    q = psub.add_parser("orbit", help="horizontal circle around a centre, facing it (default: "
+                                      "around the data, two half-diagonals out)")  # fmt: skip
+    q.add_argument("--center", type=_vec3, metavar="X,Y,Z")
+    q.add_argument("--radius", type=float)
+    q.add_argument("--turns", type=float,
+                   help="default 1, or around a volume: at most what keeps the listener below "
+                        "0.1 c0 in data time at the automatic time scale")  # fmt: skip
     q.add_argument("--height", type=float, default=0.0)
     q.add_argument("--rate-hz", type=float, default=10.0, help="captures per second")
     for q in psub.choices.values():
-        q.add_argument("--duration", type=float, required=True, help="seconds")
+        q.add_argument("volume_pos", nargs="?", metavar="VOLUME",
+                       help="place the path around this volume's bounds (file or dataset:NAME)")  # fmt: skip
+        q.add_argument("--volume", metavar="FILE", help="same as the positional VOLUME")
+        q.add_argument("--size", type=int, help="grid size of a built-in dataset")
+        q.add_argument("--steps", type=int, help="time steps of a built-in dataset")
+        q.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
+        q.add_argument("--duration", type=float, help="seconds (default 10)")
         q.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_path)
 

@@ -49,15 +49,15 @@ def cmd_play(args: argparse.Namespace) -> int:
         _mapping_fields,
         _progress_wanted,
         _thresholds,
-        listener_from_args,
     )
+    from auralize.listener import ListenerPath
     from auralize.live import play
-    from auralize.pipeline import detect_sources
+    from auralize.pipeline import detect_sources, plan_render
     from auralize.spatial import get_layout
 
     lay = get_layout(args.layout)  # bad layouts fail before any slow work
     vol = _load(args)
-    path = listener_from_args(args)
+    path = ListenerPath.from_csv(args.path) if args.path else None
     if args.sources:
         from auralize.io.sources_file import load_sources_h5
 
@@ -65,17 +65,25 @@ def cmd_play(args: argparse.Namespace) -> int:
     else:
         series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
                                 progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
-    from auralize.synthesis import check_inside
+    from auralize.synthesis import check_arrival, check_distance
 
-    check_inside(path, vol.bounds)
+    tracks = series.tracks()
+    plan = plan_render(vol, tracks, path=path, listener=args.listener, duration=args.duration,
+                       time_scale=args.time_scale)  # fmt: skip
+    check_distance(plan.path, vol.bounds)
+    check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
+                  lead=plan.lead)  # fmt: skip
+    for note in plan.notes:
+        print(note)
+    print(plan.mapping_text + (" (auto)" if plan.auto else ""))
     downmix: Any = False
     if args.downmix is not None:
         downmix = True if args.downmix == "auto" else args.downmix
     gain: Any = "auto" if args.gain == "auto" else float(args.gain)
-    rep = play(series.tracks(), path, rate=args.rate, layout=lay, device=args.device,
-               time_scale=args.time_scale, interp=args.interp, downmix=downmix, gain=gain,
-               limit_pa=args.limit, block_s=args.block_ms / 1e3,
-               duration=args.duration if args.path is None else None)  # fmt: skip
+    rep = play(tracks, plan.path, rate=args.rate, layout=lay, device=args.device,
+               time_scale=plan.time_scale, interp=args.interp, downmix=downmix, gain=gain,
+               limit_pa=args.limit, block_s=args.block_ms / 1e3, duration=plan.duration,
+               lead=plan.lead, highpass_hz=args.highpass)  # fmt: skip
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2))
     else:
@@ -89,7 +97,7 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
-    from auralize.cli import _vec3, add_detect_options, add_volume_options
+    from auralize.cli import _time_scale, _vec3, add_detect_options, add_volume_options
 
     p = sub.add_parser("devices", help="list sound output devices and their channel counts")
     p.add_argument("--json", action="store_true")
@@ -99,12 +107,13 @@ def add_commands(sub: Any) -> None:
     add_volume_options(p)
     add_detect_options(p)
     g = p.add_argument_group("live output")
-    src = g.add_mutually_exclusive_group(required=True)
+    src = g.add_mutually_exclusive_group()
     src.add_argument(
         "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
     )
     src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument("--duration", type=float, help="seconds to play (with --listener)")
+    g.add_argument("--duration", type=float,
+                   help="playback seconds (default: the path's length, else 10)")  # fmt: skip
     g.add_argument("--layout", default="ring8", help="mono|stereo|ring8|5.1|7.1|FILE.json")
     g.add_argument("--device", type=_device_arg, metavar="N|NAME",
                    help="output device index or name part (see 'auralize devices')")  # fmt: skip
@@ -112,7 +121,11 @@ def add_commands(sub: Any) -> None:
                    help="fold the layout to fit a device with fewer channels (default: the "
                         "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
     g.add_argument("--rate", type=int, default=44100, help="sample rate in Hz (default 44100)")
-    g.add_argument("--time-scale", type=float, default=1.0, help="playback seconds per data second")
+    g.add_argument("--time-scale", type=_time_scale, default="auto",
+                   help="playback seconds per data second, or auto (default): the data's span "
+                        "plays in --duration")  # fmt: skip
+    g.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
+                   help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
     g.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
     g.add_argument("--gain", default="auto",
                    help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "

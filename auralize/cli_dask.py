@@ -134,12 +134,20 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
 
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
-    from auralize.cli import _load, listener_from_args
-    from auralize.pipeline import save_rendered
+    from auralize.cli import _load
+    from auralize.listener import ListenerPath
+    from auralize.pipeline import plan_render, save_rendered
     from auralize.scale import render_distributed
+    from auralize.synthesis import check_arrival
+    from auralize.timbre import highpass
 
+    timbre = getattr(args, "timbre", "physical")
+    if timbre not in ("physical", "auto"):
+        raise ParameterError(f"--timbre {timbre}: the Dask render renders the physical pressure "
+                             f"only; render {timbre} without the Dask options")  # fmt: skip
+    highpass(np.zeros((1, 0)), args.rate, getattr(args, "highpass", 0.0))  # validate early
     vol = _load(args)
-    path = listener_from_args(args)
+    path = ListenerPath.from_csv(args.path) if args.path else None
     t = time.perf_counter()
     with _runner(args) as runner:
         if args.sources:
@@ -148,12 +156,29 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
             series = load_sources_h5(args.sources)
         else:
             series = _detect(args, vol, runner, None)
+        tracks = series.tracks()
+        plan = plan_render(vol, tracks, path=path, listener=args.listener,
+                           duration=args.duration, time_scale=args.time_scale)  # fmt: skip
+        check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
+                      lead=plan.lead)  # fmt: skip
+        for note in plan.notes:
+            print(note)
         out = render_distributed(
-            series.tracks(), path, rate=args.rate, time_scale=args.time_scale,
-            interp=args.interp, layout=args.layout,
-            duration=args.duration if args.path is None else None, bounds=vol.bounds,
-            block_seconds=args.block_seconds, runner=runner,
+            tracks, plan.path, rate=args.rate, time_scale=plan.time_scale,
+            interp=args.interp, layout=args.layout, duration=plan.duration, bounds=vol.bounds,
+            block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
         )  # fmt: skip
+    from auralize.timbre import AUDIBLE_SHARE, loudness
+
+    share = loudness(out.audio, args.rate)["share_above"]
+    print(plan.mapping_text + (" (auto)" if plan.auto else ""))
+    if share < AUDIBLE_SHARE:
+        print(f"note: {100 * (1 - share):.0f} % of the physical sound lies below 20 Hz "
+              f"(inaudible); try a smaller --time-scale, or --timbre extended without the Dask "
+              f"options")  # fmt: skip
+    out.audio = highpass(out.audio, args.rate, getattr(args, "highpass", 0.0))
+    out.meta.update({**plan.as_dict(), "timbre": "physical",
+                     "highpass_hz": getattr(args, "highpass", 0.0)})  # fmt: skip
     elapsed = time.perf_counter() - t
     out.meta.update({"volume": vol.source, "mapping": series.meta.get("mapping"),
                      "thresholds": np.asarray(series.thresholds).tolist()})  # fmt: skip

@@ -226,6 +226,61 @@ class ListenerPath:
         return cls(a[:, 0], a[:, 1:4], source=src)
 
 
+#: default listener distance: the orbit's radius in half-diagonals of the data's box
+#: (nearest and farthest source then differ by at most 3× in distance, ~10 dB)
+ORBIT_RADIUS_FACTOR = 2.0
+
+
+def _box(bounds: tuple[float, ...] | NDArray[np.floating]) -> tuple[NDArray[np.float64], float]:
+    b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
+    if not np.all(np.isfinite(b)) or np.any(b[:, 1] < b[:, 0]):
+        raise ListenerPathError(f"bounds must be finite (xmin, xmax, ymin, ymax, zmin, zmax), "
+                                f"got {np.asarray(bounds).tolist()}")  # fmt: skip
+    half = 0.5 * float(np.linalg.norm(b[:, 1] - b[:, 0]))
+    return b.mean(axis=1), half if half > 0 else 1.0
+
+
+def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
+                 turns: float = 1.0, radius: float | None = None,
+                 rate_hz: float = 20.0) -> ListenerPath:  # fmt: skip
+    """A horizontal orbit around the centre of ``bounds`` (the data's box), facing it.
+
+    The default radius is :data:`ORBIT_RADIUS_FACTOR` half-diagonals: outside the
+    data, close enough that every source is heard (at most 3× farther than the
+    nearest).
+    """
+    c, half = _box(bounds)
+    r = ORBIT_RADIUS_FACTOR * half if radius is None else radius
+    p = ListenerPath.orbit(c, radius=r, duration=duration, turns=turns, rate_hz=rate_hz)
+    p.source = "orbit"
+    return p
+
+
+def line_past(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
+              length: float | None = None) -> ListenerPath:  # fmt: skip
+    """A straight fly-by along +x past the data's box, ``ORBIT_RADIUS_FACTOR``
+    half-diagonals in front of its centre (−y), from two half-diagonals on the
+    left of it to two on the right (or ``length`` metres if shorter, centred),
+    facing along the motion."""
+    c, half = _box(bounds)
+    off = np.array([0.0, -ORBIT_RADIUS_FACTOR * half, 0.0])
+    reach = ORBIT_RADIUS_FACTOR * half
+    if length is not None and length > 0:
+        reach = min(reach, 0.5 * length)
+    d = np.array([reach, 0.0, 0.0])
+    return ListenerPath.line(c + off - d, c + off + d, duration=duration)
+
+
+def describe_path(path: ListenerPath) -> str:
+    """One phrase saying where the listener is (for reports)."""
+    p = path.positions
+    if np.allclose(p, p[0]):
+        return f"at ({', '.join(f'{v:.4g}' for v in p[0])}) m"
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    return (f"{path.source} path of {path.n_captures} captures over {path.duration:.3g} s within "
+            f"x[{lo[0]:.4g}, {hi[0]:.4g}] y[{lo[1]:.4g}, {hi[1]:.4g}] z[{lo[2]:.4g}, {hi[2]:.4g}] m")  # fmt: skip
+
+
 def csv_header() -> str:
     return "t,x,y,z,fx,fy,fz,ux,uy,uz"
 

@@ -93,14 +93,16 @@ class BlockSynth:
     def __init__(self, tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
                  layout: str | Layout = "ring8", time_scale: float = 1.0, interp: str = "cubic",
                  c0: float = C0, block: int | None = None, duration: float | None = None,
-                 threads: int | None = None) -> None:  # fmt: skip
+                 threads: int | None = None, lead: float = 0.0) -> None:  # fmt: skip
         if not (isinstance(rate, int | np.integer) and rate > 0):
             raise ParameterError(f"rate must be a positive integer number of Hz, got {rate!r}")
         if not (math.isfinite(time_scale) and time_scale > 0):
             raise ParameterError(
                 f"time_scale must be > 0 (playback s per data s), got {time_scale!r}"
             )
-        self.tracks, self.path = tracks, path
+        if not (math.isfinite(lead) and lead >= 0):
+            raise ParameterError(f"lead must be >= 0 data seconds, got {lead!r}")
+        self.tracks, self.path, self.lead = tracks, path, float(lead)
         self.rate, self.time_scale, self.interp, self.c0 = int(rate), float(time_scale), interp, c0
         self.layout = get_layout(layout)
         self.threads = threads
@@ -115,7 +117,7 @@ class BlockSynth:
         self.n_samples = round(dur * rate)
         self.n_blocks = -(-self.n_samples // self.block_size)
         times = np.asarray(tracks.times, dtype=np.float64)
-        self._t0 = float(times[0])
+        self._t0 = float(times[0]) + self.lead
         q = np.asarray(tracks.q)
         nz = q != 0
         has = nz.any(axis=1)
@@ -177,7 +179,7 @@ class BlockSynth:
             return np.zeros((self.layout.n_channels, 0))
         out = render(self.tracks, self.path, rate=self.rate, time_scale=self.time_scale,
                      interp=self.interp, layout=self.layout, c0=self.c0, start=start / self.rate,
-                     duration=n / self.rate, threads=self.threads)  # fmt: skip
+                     duration=n / self.rate, threads=self.threads, lead=self.lead)  # fmt: skip
         a = out.audio
         if a.shape[1] != n:  # rounding of duration·rate; never more than a sample
             a = np.pad(a, ((0, 0), (0, max(n - a.shape[1], 0))))[:, :n]
@@ -435,7 +437,8 @@ def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
          limit_pa: float | None = None, block_s: float = DEFAULT_BLOCK_S,
          lookahead_s: float = 0.5, buffer_s: float = 0.5, duration: float | None = None,
          threads: int | None = None, wait_s: float | None = None,
-         on_block: Callable[[int, int], None] | None = None) -> PlaybackReport:  # fmt: skip
+         on_block: Callable[[int, int], None] | None = None, lead: float = 0.0,
+         highpass_hz: float = 0.0) -> PlaybackReport:  # fmt: skip
     """Play the sound along ``path`` live, synthesizing block by block.
 
     Parameters
@@ -461,6 +464,11 @@ def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
         How far synthesis may run ahead of the device.
     on_block : callable(i, n_blocks), optional
         Called on the worker thread after each block is queued.
+    lead : float
+        Data seconds skipped at the start (as :func:`auralize.synthesis.render`).
+    highpass_hz : float
+        Causal high-pass of the output (as :func:`auralize.timbre.highpass`,
+        its state carried from block to block); 0 keeps everything.
 
     Returns
     -------
@@ -490,7 +498,16 @@ def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
     mix = None if out_lay is lay else downmix_matrix(lay, out_lay)
     block = max(round(block_s * rate), 1)
     synth = BlockSynth(tracks, path, rate=rate, layout=lay, time_scale=time_scale, interp=interp,
-                       c0=c0, block=block, duration=duration, threads=threads)  # fmt: skip
+                       c0=c0, block=block, duration=duration, threads=threads, lead=lead)  # fmt: skip
+    if not (math.isfinite(highpass_hz) and 0 <= highpass_hz < rate / 2):
+        raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz, "
+                             f"got {highpass_hz!r}")  # fmt: skip
+    hp: list[Any] = []
+    if highpass_hz > 0:
+        from auralize.timbre import butter_sos
+
+        sos = butter_sos(4, float(highpass_hz), "highpass", float(rate))
+        hp = [sos, np.zeros((sos.shape[0], lay.n_channels, 2))]
     align = SpeakerAlignment(lay, rate) if lay.has_distances else None
     synth_times: list[float] = []
     state = {"gain": None if gain == "auto" else float(gain), "changes": 0}
@@ -500,6 +517,10 @@ def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
     def prepared(i: int) -> NDArray[np.float64]:
         t = time.perf_counter()
         a = synth.block(i)
+        if hp:
+            from scipy.signal import sosfilt
+
+            a, hp[1] = sosfilt(hp[0], a, axis=-1, zi=hp[1])
         if limit_pa is not None:
             a = np.clip(a, -limit_pa, limit_pa)
         if align is not None:

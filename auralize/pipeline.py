@@ -8,34 +8,59 @@ Examples
 >>> import auralize.pipeline as ap
 >>> vol = ap.load("dataset:monopole", size=16, steps=40)
 >>> path = ap.ListenerPath.point(vol.center + [1.0, 0, 0], duration=0.02)
->>> out, series = ap.auralize(vol, path, thresholds=ap.Thresholds(monopole="1%"))
->>> out.audio.shape
-(1, 882)
+>>> out, series = ap.auralize(vol, path, thresholds=ap.Thresholds(monopole="1%"),
+...                           time_scale="auto")
+>>> out.audio.shape, out.meta["time_mapping"]
+((1, 882), '1 s of playback = 959 ms of data')
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from auralize.datasets import DEFAULT_MAPPING, make_dataset
 from auralize.errors import ParameterError
-from auralize.listener import ListenerPath
+from auralize.listener import ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
-from auralize.sources import SourceSeries, Thresholds, detect
-from auralize.synthesis import C0, Rendered, render
+from auralize.sources import TYPES, SourceSeries, SourceTracks, Thresholds, detect
+from auralize.synthesis import (
+    C0,
+    Rendered,
+    _extent,
+    box_distances,
+    check_arrival,
+    check_distance,
+)
+from auralize.timbre import HIGHPASS_HZ, render_timbre
 from auralize.volume import TimeVolume
 
 __all__ = [
+    "DEFAULT_DURATION",
     "ListenerPath",
+    "RenderPlan",
     "Thresholds",
     "auralize",
     "auto_mapping",
+    "describe_time_scale",
     "detect_sources",
     "load",
+    "plan_render",
+    "report_line",
     "resolve_mapping",
     "save_rendered",
 ]
+
+#: playback seconds of a render without --duration or --path
+DEFAULT_DURATION = 10.0
+#: the default orbit is slowed to at most this fraction of c0 in data time
+MAX_ORBIT_MACH = 0.1
+_UNITS = ((365.25 * 86400, "years"), (86400.0, "days"), (3600.0, "h"), (60.0, "min"),
+          (1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns"))  # fmt: skip
 
 
 def load(spec: str | Path | TimeVolume, *, size: int | None = None, steps: int | None = None,
@@ -122,26 +147,195 @@ def detect_sources(volume: TimeVolume, *, mapping: str | AcousticMapping | None 
     return series
 
 
-def auralize(volume: TimeVolume, path: ListenerPath, *,
+def format_data_time(seconds: float, *, physical: bool = True, frame_hz: float = 30.0) -> str:
+    """``seconds`` of data time in a readable unit (``6.3 days``); frames when the
+    data have no physical times (taken as frames at ``frame_hz``)."""
+    if not physical:
+        return f"{seconds * frame_hz:.3g} frames"
+    a = abs(seconds)
+    for size, name in _UNITS:
+        if a >= size:
+            return f"{seconds / size:.3g} {name}"
+    return f"{seconds:.3g} s"
+
+
+def describe_time_scale(time_scale: float, *, physical: bool = True) -> str:
+    """``1 s of playback = 6.3 days of data`` for a time scale (playback s per data s)."""
+    return f"1 s of playback = {format_data_time(1.0 / time_scale, physical=physical)} of data"
+
+
+@dataclass
+class RenderPlan:
+    """Where the listener is and how data time maps to playback time.
+
+    Attributes
+    ----------
+    path : ListenerPath
+    time_scale : float, playback seconds per data second.
+    duration : float, playback seconds rendered.
+    lead : float, data seconds of sound travel skipped at the start (the
+        output starts when the first sound can arrive).
+    auto : bool, the time scale was chosen to fit the data in ``duration``.
+    default_listener : bool, the listener was placed by :func:`plan_render`.
+    notes : list of str, what the user should be told (clipping, placement).
+    """
+
+    path: ListenerPath
+    time_scale: float
+    duration: float
+    lead: float
+    auto: bool
+    default_listener: bool
+    physical_times: bool = True
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def mapping_text(self) -> str:
+        return describe_time_scale(self.time_scale, physical=self.physical_times)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"time_scale": self.time_scale, "time_scale_auto": self.auto,
+                "data_seconds_per_playback_second": 1.0 / self.time_scale,
+                "time_mapping": self.mapping_text, "duration_s": self.duration,
+                "lead_data_s": self.lead, "default_listener": self.default_listener,
+                "listener": describe_path(self.path), "notes": list(self.notes)}  # fmt: skip
+
+
+def _source_box(volume: TimeVolume, tracks: SourceTracks | None) -> tuple[np.ndarray, np.ndarray]:
+    if tracks is not None and tracks.n_sources:
+        lo, hi, _ = _extent(tracks)
+        return lo, hi
+    b = np.asarray(volume.bounds, dtype=np.float64).reshape(3, 2)
+    return b[:, 0], b[:, 1]
+
+
+def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
+                path: ListenerPath | None = None, listener: Any = None,
+                duration: float | None = None, time_scale: float | str = "auto",
+                c0: float = C0) -> RenderPlan:  # fmt: skip
+    """Choose the listener (if none is given), the time scale and the output window.
+
+    * No ``path`` and no ``listener``: an orbit around the data
+      (:func:`auralize.listener.orbit_around`), one turn unless that would
+      move faster than :data:`MAX_ORBIT_MACH` × c0 in data time.
+    * ``duration``: playback seconds (default the path's length, else
+      :data:`DEFAULT_DURATION`).
+    * ``time_scale="auto"``: the data's span, plus the spread of arrival
+      delays between the nearest and the farthest source, plays in
+      ``duration``, whatever the data's time unit.  A number is kept; a
+      ``duration`` beyond the data's sound is clipped (with a note), so no
+      render ends in silence.
+    * The output starts when the first sound can arrive: ``lead`` = nearest
+      distance from the path to the sources' box / c0.
+    """
+    times = np.asarray(volume.times, dtype=np.float64)
+    span = float(times[-1] - times[0]) if times.size >= 2 else 0.0
+    if not span > 0:
+        raise ParameterError(f"{volume.source}: the data have {times.size} time step(s); "
+                             f"rendering needs at least 2")  # fmt: skip
+    auto = isinstance(time_scale, str)
+    if auto and str(time_scale).strip().lower() != "auto":
+        raise ParameterError(f"time scale must be 'auto' or a number of playback seconds per "
+                             f"data second, got {time_scale!r}")  # fmt: skip
+    if not auto and not (math.isfinite(float(time_scale)) and float(time_scale) > 0):
+        raise ParameterError(f"time scale must be > 0 playback seconds per data second, "
+                             f"got {time_scale!r}")  # fmt: skip
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        raise ParameterError(f"duration must be > 0 seconds, got {duration!r}")
+    notes: list[str] = []
+    lo, hi = _source_box(volume, tracks)
+    bounds = np.stack([lo, hi], axis=1).reshape(-1)
+    default = path is None and listener is None
+    if default:
+        dur = duration or DEFAULT_DURATION
+        path = orbit_around(bounds, duration=dur)
+    elif path is None:
+        dur = duration or DEFAULT_DURATION
+        path = ListenerPath.point(np.asarray(listener, dtype=np.float64), duration=dur)
+    else:
+        dur = duration or path.duration
+    near, far = box_distances(path.positions, lo, hi)
+    d_near, d_far = float(near.min()), float(far.max())
+    window = span + max(d_far - d_near, 0.0) / c0  # data seconds that hold sound
+    ts = dur / window if auto else float(time_scale)
+    if not auto and dur > ts * window * (1 + 1e-9):
+        notes.append(f"{dur:g} s requested, but the data's sound lasts {ts * window:.4g} s at "
+                     f"time scale {ts:g}: clipped to {ts * window:.4g} s")  # fmt: skip
+        dur = ts * window
+    if default:
+        speed = float(np.max(path.speeds(), initial=0.0)) * ts  # m per data second
+        if speed > MAX_ORBIT_MACH * c0:
+            path = orbit_around(bounds, duration=dur, turns=MAX_ORBIT_MACH * c0 / speed)
+        c = 0.5 * (lo + hi)
+        r = float(np.linalg.norm(path.positions[0] - c))
+        notes.append(f"listener: orbit of radius {r:.4g} m around the data's centre "
+                     f"({', '.join(f'{v:.4g}' for v in c)}) m, "
+                     f"{_turns(path, c):.3g} turn(s) in {dur:g} s "
+                     f"(give --listener X,Y,Z or --path CSV to choose)")  # fmt: skip
+    lead = d_near / c0
+    return RenderPlan(path=path, time_scale=ts, duration=dur, lead=lead, auto=auto,
+                      default_listener=default, physical_times=bool(volume.physical_times),
+                      notes=notes)  # fmt: skip
+
+
+def _turns(path: ListenerPath, center: np.ndarray) -> float:
+    d = path.positions[:, :2] - center[:2]
+    ang = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    return float(abs(ang[-1] - ang[0]) / (2 * np.pi))
+
+
+def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              mapping: str | AcousticMapping | None = None, thresholds: Thresholds | None = None,
-             rate: int = 44100, time_scale: float = 1.0, interp: str = "cubic",
+             rate: int = 44100, time_scale: float | str = 1.0, interp: str = "cubic",
              layout: str = "mono", c0: float = C0, duration: float | None = None,
              series: SourceSeries | None = None, progress_bar: bool = False,
-             **mapping_fields: str) -> tuple[Rendered, SourceSeries]:  # fmt: skip
+             timbre: str = "physical", highpass_hz: float = HIGHPASS_HZ, seed: int = 0,
+             listener: Any = None, **mapping_fields: str) -> tuple[Rendered, SourceSeries]:  # fmt: skip
     """Detect sources (unless ``series`` is given) and render the sound along ``path``.
 
-    The listener path must stay inside the grid.
+    The listener may be anywhere (see :func:`plan_render`: without ``path`` or
+    ``listener`` an orbit around the data; ``time_scale="auto"`` fits the data
+    in ``duration``; the output starts when the first sound can arrive).
+    ``timbre`` and ``highpass_hz`` as :func:`auralize.timbre.render_timbre`.
+    The plan is recorded in ``meta`` (and so in the sidecar).
     """
     if series is None:
         series = detect_sources(volume, mapping=mapping, thresholds=thresholds,
                                 progress_bar=progress_bar, **mapping_fields)  # fmt: skip
-    out = render(series.tracks(), path, rate=rate, time_scale=time_scale, interp=interp,
-                 layout=layout, c0=c0, duration=duration, bounds=volume.bounds)  # fmt: skip
+    tracks = series.tracks()
+    plan = plan_render(volume, tracks, path=path, listener=listener, duration=duration,
+                       time_scale=time_scale, c0=c0)  # fmt: skip
+    check_distance(plan.path, volume.bounds)
+    check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
+                  lead=plan.lead)  # fmt: skip
+    out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate, time_scale=plan.time_scale,
+                        interp=interp, layout=layout, c0=c0, duration=plan.duration,
+                        bounds=volume.bounds, lead=plan.lead, highpass_hz=highpass_hz,
+                        seed=seed)  # fmt: skip
+    counts = series.counts()
     out.meta.update({"volume": volume.source, "mapping": series.meta.get("mapping"),
-                     "thresholds": series.thresholds.tolist()})  # fmt: skip
+                     "thresholds": series.thresholds.tolist(), **plan.as_dict(),
+                     "sources": {k: int(sum(c[k] for c in counts)) for k in TYPES}})  # fmt: skip
     if series.meta.get("unavailable"):
         out.meta["unavailable"] = series.meta["unavailable"]
     return out, series
+
+
+def report_line(rendered: Rendered, output: str | Path, *, gain: float | None = None) -> str:
+    """The one-line summary of a render: file, mapping, timbre, sources per type, loudness."""
+    from auralize.timbre import loudness
+
+    m = rendered.meta
+    ld = loudness(rendered.audio, rendered.rate)
+    src = m.get("sources") or {}
+    types = ", ".join(f"{src.get(k, 0)} {k}" for k in TYPES)
+    g = f" (gain {gain:.4g})" if gain is not None else ""
+    return (f"wrote {output}: {rendered.duration:.2f} s, {rendered.layout.name} "
+            f"({rendered.audio.shape[0]} ch) at {rendered.rate} Hz; "
+            f"{m.get('time_mapping', describe_time_scale(rendered.time_scale))}; "
+            f"timbre {m.get('timbre', 'physical')}; source points {types}; "
+            f"peak {ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa{g}, "
+            f"{100 * ld['share_above']:.0f} % of the energy above 20 Hz")  # fmt: skip
 
 
 def save_rendered(rendered: Rendered, out: str | Path, *, normalize: str = "peak",

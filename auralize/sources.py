@@ -333,13 +333,15 @@ class SourceSeries:
         all_idx = np.concatenate([f.index for f in self.frames])
         uniq = np.unique(all_idx)
         q = np.zeros((uniq.size, self.n_steps))
+        kind = np.zeros((uniq.size, self.n_steps), dtype=np.int8)
         rmax = np.zeros(uniq.size)
         for n, f in enumerate(self.frames):
             pos = np.searchsorted(uniq, f.index)
             q[pos, n] = f.strength * f.volume
+            kind[pos, n] = f.kind
             np.maximum.at(rmax, pos, f.radius)
         return SourceTracks(positions=self.positions(uniq), q=q, radius=rmax,
-                            times=self.times.copy(), index=uniq)  # fmt: skip
+                            times=self.times.copy(), index=uniq, kind=kind)  # fmt: skip
 
 
 @dataclass
@@ -347,7 +349,9 @@ class SourceTracks:
     """Input of the synthesis: per-source q_k(t_n) = S·ΔV at each step.
 
     ``positions (K, 3)``, ``q (K, T)``, ``radius (K,)`` (largest ΔV radius,
-    used to clamp distances), ``times (T,)``.
+    used to clamp distances), ``times (T,)``; optionally ``kind (K, T)`` int8,
+    the source type at each step (0 where silent, 1 monopole, 2 dipole,
+    3 quadrupole; used by the ``tonal`` timbre).
     """
 
     positions: NDArray[np.float64]
@@ -355,6 +359,7 @@ class SourceTracks:
     radius: NDArray[np.float64]
     times: NDArray[np.float64]
     index: NDArray[np.int64] | None = None
+    kind: NDArray[np.int8] | None = None
     cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property

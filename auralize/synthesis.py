@@ -16,11 +16,15 @@ data: arrival delay, 1/D decay and the Doppler shift of a moving listener all
 come out of this evaluation.
 
 A listener inside a ΔV sphere would see D → 0: D is clamped to the vertex's
-largest ΔV radius.
+largest ΔV radius.  The listener may be anywhere else, inside the grid or
+far outside it; only nonsense is refused (:func:`check_distance`: farther
+than 10⁴ grid diagonals and 1000 km; :func:`check_arrival`: nothing can be
+heard in the output window).
 
 Time mapping (DESIGN.md): audio sample n is at data time
-``t0 + n / (rate · time_scale)`` and at playback time ``n / rate`` on the
-listener path; propagation uses physical c0 in data time.
+``t0 + lead + n / (rate · time_scale)`` and at playback time ``n / rate`` on
+the listener path; propagation uses physical c0 in data time.  ``lead``
+(default 0) skips the sound's travel to a far listener.
 
 The fast algorithm (:mod:`auralize._synth_kernel`; for unpanned output
 :mod:`auralize._runs_kernel`, one emission per knot) costs
@@ -323,19 +327,21 @@ def _orientation_table(path: ListenerPath, tc: NDArray[np.float64],
 
 def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scale: float,
              c0: float, duration: float | None, bounds: tuple[float, ...] | None,
-             start: float = 0.0, orientation: bool = True) -> _Prepared:  # fmt: skip
+             start: float = 0.0, orientation: bool = True, lead: float = 0.0) -> _Prepared:  # fmt: skip
     if not (np.isfinite(rate) and rate > 0):
         raise ParameterError(f"rate must be a positive number of samples per second, got {rate!r}")
     if not (np.isfinite(time_scale) and time_scale > 0):
         raise ParameterError(f"time_scale must be > 0 (playback s per data s), got {time_scale!r}")
     if not (np.isfinite(c0) and c0 > 0):
         raise ParameterError(f"speed of sound c0 must be > 0 m/s, got {c0!r}")
+    if not (np.isfinite(lead) and lead >= 0):
+        raise ParameterError(f"lead must be >= 0 data seconds, got {lead!r}")
     if bounds is not None:
-        check_inside(path, bounds)
+        check_distance(path, bounds)
     # collapse captures with equal times (the last one wins)
     keep = np.append(np.diff(path.times) > 0, True)
     ptimes, ppos = path.times[keep], path.positions[keep]
-    t0 = float(tracks.times[0])
+    t0 = float(tracks.times[0]) + lead
     tc = t0 + (ptimes - path.times[0]) / time_scale
     if tc.size >= 2:
         vc = np.diff(ppos, axis=0) / np.diff(tc)[:, None]
@@ -406,23 +412,71 @@ def _audible_pieces(pr: _Prepared, tracks: SourceTracks, c0: float) -> tuple[int
     return max(n_lo, 0), min(n_hi, tn.size - 1), d_max
 
 
-def check_inside(path: ListenerPath, bounds: tuple[float, ...], *, tol: float = 1e-6) -> None:
-    """Raise :class:`ListenerPathError` if a capture lies outside ``bounds``."""
+#: a listener farther from the data than this many times the data's diagonal
+#: (and than :data:`MAX_DISTANCE_M`) is taken for a mistake
+MAX_DISTANCE_FACTOR = 1e4
+MAX_DISTANCE_M = 1e6
+
+
+def box_distances(points: NDArray[np.float64], lo: NDArray[np.float64],
+                  hi: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """Nearest and farthest distance (m) from each of ``points (N, 3)`` to the box [lo, hi]."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    near = np.linalg.norm(np.maximum(np.maximum(lo - p, p - hi), 0.0), axis=1)
+    far = np.linalg.norm(np.maximum(np.abs(p - lo), np.abs(p - hi)), axis=1)
+    return near, far
+
+
+def check_distance(path: ListenerPath, bounds: tuple[float, ...]) -> None:
+    """Raise :class:`ListenerPathError` if the listener is absurdly far from the data.
+
+    The listener may be anywhere (outside the grid is the usual far-field
+    case); a capture farther from the grid's box than
+    ``MAX_DISTANCE_FACTOR`` times its diagonal and than ``MAX_DISTANCE_M``
+    metres is nonsense (a unit mistake, a stray coordinate).
+    """
     b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
-    outside = np.any((path.positions < b[:, 0] - tol) | (path.positions > b[:, 1] + tol), axis=1)
-    if np.any(outside):
-        i = int(np.argmax(outside))
+    near, _ = box_distances(path.positions, b[:, 0], b[:, 1])
+    diag = float(np.linalg.norm(b[:, 1] - b[:, 0]))
+    limit = max(MAX_DISTANCE_FACTOR * diag, MAX_DISTANCE_M)
+    if np.any(near > limit):
+        i = int(np.argmax(near))
         raise ListenerPathError(
             f"{path.source}: capture {i} at t={path.times[i]:g} s, position "
-            f"{np.round(path.positions[i], 4).tolist()} lies outside the grid "
-            f"x[{b[0, 0]:g}, {b[0, 1]:g}] y[{b[1, 0]:g}, {b[1, 1]:g}] z[{b[2, 0]:g}, {b[2, 1]:g}]"
+            f"{np.round(path.positions[i], 4).tolist()} is {near[i]:.4g} m from the grid "
+            f"x[{b[0, 0]:g}, {b[0, 1]:g}] y[{b[1, 0]:g}, {b[1, 1]:g}] z[{b[2, 0]:g}, {b[2, 1]:g}]; "
+            f"listeners must be within {limit:.4g} m of the data"
+        )
+
+
+def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float,
+                  duration: float | None = None, c0: float = C0, lead: float = 0.0) -> None:  # fmt: skip
+    """Raise :class:`ListenerPathError` when no sound can reach the listener inside the
+    output window (the data ends before the window starts, or the nearest sound
+    arrives after it ends)."""
+    pr = _prepare(tracks, path, rate=1000.0, time_scale=time_scale, c0=c0, duration=duration,
+                  bounds=None, orientation=False, lead=lead)  # fmt: skip
+    source = path.source
+    if tracks.n_sources == 0 or pr.n_samples == 0:
+        return
+    lo_b, hi_b, _ = _extent(tracks)
+    near, far = box_distances(pr.lc, lo_b, hi_b)
+    t_end = pr.t_start + pr.n_samples / pr.fs
+    first = float(tracks.times[0]) + float(np.min(near)) / c0
+    last = float(tracks.times[-1]) + float(np.max(far)) / c0
+    if first >= t_end or last < pr.t_start:
+        raise ListenerPathError(
+            f"{source}: nothing can be heard: sound from the data reaches the listener between "
+            f"data times {first:.6g} and {last:.6g} s, the output covers {pr.t_start:.6g} .. "
+            f"{t_end:.6g} s (nearest source {float(np.min(near)):.4g} m away at c0={c0:g} m/s); "
+            f"move the listener closer, render longer, or use a smaller time scale"
         )
 
 
 def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
            interp: str = "cubic", layout: str | Layout = "mono", c0: float = C0,
            duration: float | None = None, bounds: tuple[float, ...] | None = None,
-           start: float = 0.0, threads: int | None = None) -> Rendered:  # fmt: skip
+           start: float = 0.0, threads: int | None = None, lead: float = 0.0) -> Rendered:  # fmt: skip
     """Synthesize the pressure heard along ``path`` (fast algorithm).
 
     Parameters
@@ -446,7 +500,13 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         and live rendering render consecutive blocks with increasing ``start``;
         the blocks join without seams).
     bounds : tuple, optional
-        Grid bounds; a path leaving them raises :class:`ListenerPathError`.
+        Grid bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)``; the listener may be
+        anywhere, but one absurdly far from them raises
+        :class:`ListenerPathError` (see :func:`check_distance`).
+    lead : float
+        Data seconds between the data's first step and the output's first
+        sample (and the path's start): a far listener hears nothing before
+        the nearest source's delay, so the output can start there.
 
     Returns
     -------
@@ -458,7 +518,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     lay = get_layout(layout)
     spk_az, spk_ch = lay.panning_arrays()
     pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=bounds, start=start, orientation=spk_az.size > 0)  # fmt: skip
+                  bounds=bounds, start=start, orientation=spk_az.size > 0, lead=lead)  # fmt: skip
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
     # accumulation blocks keep the running sums short (numerical safety); no
     # longer than the output (their memory is cleared at every call)
@@ -535,14 +595,14 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     return Rendered(
         audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
         meta={"interp": interp, "c0": c0, "n_sources": tracks.n_sources,
-              "t_start_data": pr.t_start},
+              "t_start_data": pr.t_start, "lead_s": lead},
     )  # fmt: skip
 
 
 def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
                      time_scale: float = 1.0, interp: str = "cubic", layout: str | Layout = "mono",
                      c0: float = C0, duration: float | None = None,
-                     start: float = 0.0) -> NDArray[np.float64]:  # fmt: skip
+                     start: float = 0.0, lead: float = 0.0) -> NDArray[np.float64]:  # fmt: skip
     """Brute-force sample-by-sample evaluation of the same sum (O(sources × samples)).
 
     For tests and validation only: for every sample, every source's distance,
@@ -551,7 +611,7 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
     """
     lay = get_layout(layout)
     pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=None, start=start)  # fmt: skip
+                  bounds=None, start=start, lead=lead)  # fmt: skip
     n = np.arange(pr.n_samples)
     t = pr.t_start + n / pr.fs
     tp = path.times[0] + start + n / rate  # playback time on the path

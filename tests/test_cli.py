@@ -74,10 +74,10 @@ def test_path_command_and_render_with_path(mono_h5, tmp_path) -> None:  # type: 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["render", "dataset:monopole", "--size", "16", "--steps", "20", "--listener", "50,0,0",
-          "--duration", "0.1", "-o", "{out}"], "outside the grid"),
+        (["render", "dataset:monopole", "--size", "16", "--steps", "20", "--listener", "1e9,0,0",
+          "--duration", "0.1", "-o", "{out}"], "listeners must be within"),
         (["render", "dataset:monopole", "--size", "16", "--steps", "20", "--listener", "1,1,1",
-          "-o", "{out}"], "--listener needs --duration"),
+          "--highpass", "30000", "-o", "{out}"], "highpass must be 0 (off) or between"),
         (["render", "dataset:nothing", "--listener", "1,1,1", "--duration", "1", "-o", "{out}"],
          "unknown dataset 'nothing'"),
         (["render", "dataset:monopole", "--size", "16", "--steps", "20", "--listener", "1,1,1",

@@ -97,6 +97,24 @@ def test_block_synthesis_equals_offline() -> None:
         bs.block(40)
 
 
+def test_block_synthesis_with_a_lead_equals_offline() -> None:
+    """A far listener: the output starts after the skipped travel time, block by block too."""
+    tracks, path = _scene()
+    far = ListenerPath(path.times, path.positions + [60.0, 0.0, 0.0], path.forward, path.up)
+    lead = 6429 / 44100  # ~50 m / c0, a whole number of samples
+    off = render(tracks, far, layout="stereo", lead=lead).audio
+    bs = BlockSynth(tracks, far, layout="stereo", block=4410, lead=lead)
+    on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
+    assert on.shape == off.shape and np.max(np.abs(off)) > 0
+    assert np.max(np.abs(on - off)) <= 1e-5 * np.max(np.abs(off))
+    # for a static listener the lead moves the sound earlier by exactly its samples
+    still = ListenerPath.point([60.0, 0.0, 0.0], duration=1.0)
+    led = render(tracks, still, layout="stereo", lead=lead).audio
+    plain = render(tracks, still, layout="stereo", duration=1.0 + lead).audio
+    k = round(lead * 44100)
+    assert np.max(np.abs(plain[:, k : k + 44100] - led[:, :44100])) <= 1e-3 * np.max(np.abs(led))
+
+
 def test_live_playback_on_file_backed_alsa_device(tmp_path) -> None:  # type: ignore[no-untyped-def]
     cfg = tmp_path / "cfg"
     (cfg / "alsa").mkdir(parents=True)
@@ -223,3 +241,16 @@ def test_viewer_live_listening_on_file_backed_alsa_device(tmp_path) -> None:  # 
     switch = int(np.argmax(dominant == 2))
     assert np.all(dominant[switch:] == 2)
     assert np.sum(dominant[:switch] != 6) <= 1
+
+
+def test_play_command_defaults(alsa_device, capsys) -> None:  # type: ignore[no-untyped-def]
+    """`auralize play` without a listener: default orbit, automatic time scale, high-pass."""
+    from auralize.cli import main
+
+    assert main(["play", "dataset:monopole", "--size", "12", "--steps", "60", "--layout",
+                 "stereo", "--device", "auralize_file2", "--duration", "0.5"]) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    assert "listener: orbit of radius" in out
+    assert "1 s of playback = " in out and "(auto)" in out
+    raw = (alsa_device / "b.raw").read_bytes()
+    assert len(raw) > 0 and any(raw)

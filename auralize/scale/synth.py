@@ -210,12 +210,13 @@ def render_distributed(
     address: str | None = None,
     workers: int | None = None,
     log: Any = print,
+    lead: float = 0.0,
 ) -> Rendered:
     """:func:`auralize.synthesis.render` split into (block, source group) tasks over Dask workers.
 
     Parameters
     ----------
-    tracks, path, rate, time_scale, interp, layout, c0, duration, bounds
+    tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, lead
         As for :func:`auralize.synthesis.render`.
     block_seconds : float, optional
         Playback seconds per block.  Every block pays for the retarded-time
@@ -259,7 +260,7 @@ def render_distributed(
     # validate here (a bad path or setting fails on the caller, not in a
     # worker), without rendering: the workers build the piece lists
     pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=bounds, orientation=False)  # fmt: skip
+                  bounds=bounds, orientation=False, lead=lead)  # fmt: skip
     n = pr.n_samples
     audio = np.zeros((lay.n_channels, n))
     own = runner is None
@@ -277,7 +278,7 @@ def render_distributed(
         local = run.scheduler in ("sync", "threads")
         ranges = source_groups(tracks, groups, 1 if local else STRIPES)
         kw: dict[str, Any] = {"time_scale": time_scale, "interp": interp, "layout": lay,
-                              "c0": c0, "bounds": bounds}  # fmt: skip
+                              "c0": c0, "bounds": bounds, "lead": lead}  # fmt: skip
         pa = run.share(path)
         n_blocks = len(edges) - 1
 

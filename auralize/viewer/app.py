@@ -874,7 +874,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Render the path's sound in the background (blocks of 0.5 s, cancellable) and
         write it to ``filename`` (WAV/FLAC) if given."""
         from auralize.pipeline import save_rendered
-        from auralize.synthesis import Rendered, render
+        from auralize.synthesis import Rendered, check_distance, render
 
         if self.volume is None:
             raise ParameterError("open a data file first")
@@ -883,6 +883,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.series is None:
             raise ParameterError("detect the sources first (Sources panel)")
         path, series, vol, a = self.path, self.series, self.volume, dict(self.audio)
+        check_distance(path, vol.bounds)
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             tracks = series.tracks()
