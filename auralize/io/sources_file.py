@@ -19,16 +19,13 @@ from __future__ import annotations
 
 import itertools
 import json
-import shutil
-import tempfile
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 import h5py
 import numpy as np
 
 from auralize.errors import FormatError
-from auralize.fileio import atomic_path, atomic_write
+from auralize.fileio import atomic_path, write_collection
 from auralize.sources import SourceFrame, SourceSeries
 
 FORMAT = "sources"
@@ -94,13 +91,18 @@ def load_sources_h5(path: str | Path) -> SourceSeries:
 
 
 def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
-    """Write ``NAME.pvd`` plus ``NAME_data/step_NNNN.vtp`` (one point set per step)."""
+    """Write ``NAME.pvd`` plus ``NAME_data/step_NNNN.vtp`` (one point set per step), atomically.
+
+    The folder is written under a fresh name (``NAME_data``, or ``NAME_data.1``
+    ... while the previous version holds that name) and the ``.pvd`` replaced
+    in one rename (:func:`auralize.fileio.write_collection`); an existing
+    ``NAME_data`` that auralize did not write is never replaced.
+    """
     import pyvista as pv
 
     p = Path(path)
-    data_dir = p.parent / f"{p.stem}_data"
-    tmp_dir = Path(tempfile.mkdtemp(prefix=f".{p.stem}_data.", dir=p.parent))
-    try:
+
+    def write_steps(folder: Path) -> list[tuple[float, str]]:
         entries = []
         for n, f in enumerate(series.frames):
             pts = series.positions(f.index) if f.index.size else np.zeros((0, 3))
@@ -110,19 +112,8 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
             poly.point_data["radius"] = f.radius
             poly.point_data["volume"] = f.volume
             name = f"step_{n:04d}.vtp"
-            poly.save(tmp_dir / name)
-            entries.append((float(series.times[n]), f"{data_dir.name}/{name}"))
-        if data_dir.exists():
-            shutil.rmtree(data_dir)
-        tmp_dir.rename(data_dir)
-    except BaseException:
-        shutil.rmtree(tmp_dir, ignore_errors=True)
-        raise
-    lines = [
-        '<?xml version="1.0"?>',
-        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
-        "<Collection>",
-    ]
-    lines += [f'<DataSet timestep="{t!r}" part="0" file={quoteattr(fn)}/>' for t, fn in entries]
-    lines += ["</Collection>", "</VTKFile>", ""]
-    atomic_write(p, "\n".join(lines).encode())
+            poly.save(folder / name)
+            entries.append((float(series.times[n]), name))
+        return entries
+
+    write_collection(p, f"{p.stem}_data", write_steps)
