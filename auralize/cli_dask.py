@@ -33,6 +33,8 @@ from auralize.errors import ParameterError
 
 def add_scheduler_options(p: argparse.ArgumentParser) -> None:
     """``--scheduler``, ``--address``, ``--workers`` and the detection chunking options."""
+    from auralize.cli import positive_float, positive_int
+
     g = p.add_argument_group("dask (out-of-core and distributed runs)")
     g.add_argument("--scheduler", choices=["sync", "threads", "processes", "distributed"],
                    help="run on Dask with this scheduler (distributed: a local cluster, or "
@@ -41,25 +43,27 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
                    help="an existing dask.distributed scheduler")  # fmt: skip
     g.add_argument(
         "--workers",
-        type=int,
+        type=positive_int,
         metavar="N",
         help="threads/processes, or workers of a local cluster (default: cores)",
     )
     g.add_argument(
         "--timeout",
-        type=float,
+        type=positive_float,
         default=5.0,
         help="seconds to wait for the scheduler at --address (default 5)",
     )
-    g.add_argument("--chunk-steps", type=int, default=8, help="time steps per detection task")
+    g.add_argument(
+        "--chunk-steps", type=positive_int, default=8, help="time steps per detection task"
+    )
     g.add_argument(
         "--slab-planes",
-        type=int,
+        type=positive_int,
         help="z-planes per detection task (default: what fits --task-memory)",
     )
     g.add_argument(
         "--task-memory",
-        type=float,
+        type=positive_float,
         default=1.0,
         metavar="GIB",
         help="memory budget of one detection task in GiB (default 1)",
@@ -71,7 +75,7 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--block-seconds",
-        type=float,
+        type=positive_float,
         help="playback seconds per synthesis block (default: one block, or blocks of at most "
              "2**25 samples × channels); every block is split in source groups, two per worker",
     )
@@ -134,12 +138,15 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
 
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
-    from auralize.cli import _load, listener_from_args
+    from auralize.cli import _load, check_render_memory, listener_from_args
     from auralize.pipeline import save_rendered
     from auralize.scale import render_distributed
+    from auralize.spatial import get_layout
 
-    vol = _load(args)
     path = listener_from_args(args)
+    duration = args.duration if args.path is None else path.duration
+    check_render_memory(args, duration, get_layout(args.layout).n_channels)
+    vol = _load(args)
     t = time.perf_counter()
     with _runner(args) as runner:
         if args.sources:

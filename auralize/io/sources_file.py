@@ -24,7 +24,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from auralize.errors import FormatError
+from auralize.errors import AuralizeError, FormatError
 from auralize.fileio import atomic_path, write_collection
 from auralize.sources import SourceFrame, SourceSeries
 
@@ -69,25 +69,38 @@ def load_sources_h5(path: str | Path) -> SourceSeries:
         h = h5py.File(p, "r")
     except OSError as exc:
         raise FormatError(f"{p}: not a readable HDF5 file ({exc})") from None
-    with h:
-        if h.attrs.get("auralize_format") != FORMAT:
-            raise FormatError(f"{p}: not an auralize sources file (auralize_format != 'sources')")
-        if int(h.attrs.get("version", -1)) != VERSION:
-            raise FormatError(
-                f"{p}: sources file version {h.attrs.get('version')} is not {VERSION}"
-            )
-        off = h["offsets"][()]
-        idx, kind = h["index"][()], h["kind"][()]
-        strength, radius = h["strength"][()], h["radius"][()]
-        frames = [
-            SourceFrame(index=idx[a:b], kind=kind[a:b], strength=strength[a:b], radius=radius[a:b])
-            for a, b in itertools.pairwise(off)
-        ]
-        return SourceSeries(
-            frames=frames, times=h["time"][()], origin=h.attrs["origin"][()],
-            spacing=h.attrs["spacing"][()], dims=tuple(int(d) for d in h.attrs["dims"]),  # type: ignore[arg-type]
-            thresholds=h.attrs["thresholds"][()], meta=json.loads(h.attrs["meta"]),
-        )  # fmt: skip
+    try:
+        with h:
+            return _read_sources(h, p)
+    except AuralizeError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError, TypeError, IndexError) as exc:
+        raise FormatError(
+            f"{p}: not a readable auralize sources file ({type(exc).__name__}: "
+            f"{' '.join(str(exc).split())})"
+        ) from None
+
+
+def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
+    from auralize.io.hdf5 import check_self_contained
+
+    check_self_contained(h, p)
+    if h.attrs.get("auralize_format") != FORMAT:
+        raise FormatError(f"{p}: not an auralize sources file (auralize_format != 'sources')")
+    if int(h.attrs.get("version", -1)) != VERSION:
+        raise FormatError(f"{p}: sources file version {h.attrs.get('version')} is not {VERSION}")
+    off = h["offsets"][()]
+    idx, kind = h["index"][()], h["kind"][()]
+    strength, radius = h["strength"][()], h["radius"][()]
+    frames = [
+        SourceFrame(index=idx[a:b], kind=kind[a:b], strength=strength[a:b], radius=radius[a:b])
+        for a, b in itertools.pairwise(off)
+    ]
+    return SourceSeries(
+        frames=frames, times=h["time"][()], origin=h.attrs["origin"][()],
+        spacing=h.attrs["spacing"][()], dims=tuple(int(d) for d in h.attrs["dims"]),  # type: ignore[arg-type]
+        thresholds=h.attrs["thresholds"][()], meta=json.loads(h.attrs["meta"]),
+    )  # fmt: skip
 
 
 def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
