@@ -41,6 +41,9 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
                         "--address)")  # fmt: skip
     g.add_argument("--address", metavar="tcp://HOST:PORT",
                    help="an existing dask.distributed scheduler")  # fmt: skip
+    g.add_argument("--dashboard-address", metavar="HOST:PORT",
+                   help="where a local cluster's dashboard listens (default 127.0.0.1, a free "
+                        "port; give 0.0.0.0:8787 to reach it from other machines)")  # fmt: skip
     g.add_argument(
         "--workers",
         type=positive_int,
@@ -91,7 +94,8 @@ def _runner(args: argparse.Namespace) -> Any:
 
     sched = args.scheduler or ("distributed" if args.address or args.workers else "sync")
     return Runner(sched, address=args.address, workers=args.workers, timeout=args.timeout,
-                  log=lambda msg: print(msg, flush=True))  # fmt: skip
+                  log=lambda msg: print(msg, flush=True),
+                  dashboard_address=args.dashboard_address)  # fmt: skip
 
 
 def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:

@@ -58,6 +58,10 @@ class RunError(AuralizeError, RuntimeError):
     """A distributed run stopped (a worker died too often, a pool broke)."""
 
 
+#: interface a local cluster (scheduler, workers, dashboard) binds by default
+LOOPBACK = "127.0.0.1"
+
+
 def default_workers() -> int:
     """Cores available to this process."""
     try:
@@ -93,6 +97,12 @@ class Runner:
         CPU time of the synthesis and detection tasks (measured: 60 s ring8
         from the 256³ explosion, 1 worker, worker user time 111 s with it,
         101 s without).  Clusters given by ``address`` keep their own setting.
+    dashboard_address : str, optional
+        ``HOST:PORT`` the local cluster's dashboard listens on.  Default
+        ``127.0.0.1:0`` (loopback, a free port): the dashboard has no login, so
+        it is only reachable from other machines when an address such as
+        ``0.0.0.0:8787`` is asked for.  The local scheduler and workers always
+        listen on loopback.
 
     Examples
     --------
@@ -107,7 +117,8 @@ class Runner:
                  workers: int | None = None, processes: bool = True,
                  timeout: float = CONNECT_TIMEOUT_S,
                  log: Callable[[str], None] | None = print,
-                 setup_workers: bool = True, profile: bool = False) -> None:  # fmt: skip
+                 setup_workers: bool = True, profile: bool = False,
+                 dashboard_address: str | None = None) -> None:  # fmt: skip
         if address:
             if scheduler not in ("distributed", "sync"):
                 raise ParameterError(
@@ -126,6 +137,8 @@ class Runner:
             )
         self.scheduler = scheduler
         self.address = address
+        #: where a local cluster's dashboard listens: loopback unless asked otherwise
+        self.dashboard_address = dashboard_address or f"{LOOPBACK}:0"
         self.workers = workers
         self.processes = processes
         self.timeout = float(timeout)
@@ -182,7 +195,8 @@ class Runner:
                 with dask.config.set({"distributed.worker.profile.enabled": self.profile}):
                     self._cluster = distributed.LocalCluster(
                         n_workers=n, threads_per_worker=1, processes=self.processes,
-                        dashboard_address=":0", silence_logs=logging.ERROR,
+                        host=LOOPBACK, dashboard_address=self.dashboard_address,
+                        silence_logs=logging.ERROR,
                     )  # fmt: skip
                 self.client = distributed.Client(self._cluster)
             except Exception as exc:  # pragma: no cover - depends on the machine
