@@ -254,7 +254,8 @@ def _check_stored(out: NDArray[np.float64], gain: float, path: Path, encoding: s
     if out.shape[-1] == 0:
         raise ParameterError(f"{path}: the audio has no samples; give a longer duration or rate")
     if encoding == "float32":
-        stored_peak = float(np.max(np.abs(out.astype(np.float32))))
+        with np.errstate(over="ignore"):
+            stored_peak = float(np.max(np.abs(out.astype(np.float32))))
         if not np.isfinite(stored_peak) or peak > _F32_MAX:
             raise ParameterError(
                 f"{path}: peak pressure {peak:.3g} Pa overflows a float32 WAV (max "

@@ -341,10 +341,12 @@ def write_collection(pvd: str | Path, data_name: str,
     ``.pvd`` pointing at it replaces the old one in one rename; the old folder
     is removed afterwards, and only if it is auralize's.  A kill at any point
     leaves the old or the new collection complete; folders of killed writers
-    are removed by the next write of the same ``.pvd``.
+    are removed by the next write of the same ``.pvd`` (folders the ``.pvd``
+    does not list whose writer is this process or no longer runs).
     """
     path = check_output_path(pvd)
     clean_stale(path)
+    clean_stale(path.with_name(data_name))
     referenced = collection_folders(path) if path.is_file() else set()
     base = path.with_name(data_name)
     if (base.exists() or base.is_symlink()) and (
@@ -363,20 +365,25 @@ def write_collection(pvd: str | Path, data_name: str,
     siblings = [base] + sorted(path.parent.glob(f"{_glob_escape(data_name)}.[0-9]*"))
     for folder in siblings:  # folders of writers killed before or after the swap
         mark = _marker(folder) if folder.is_dir() and not folder.is_symlink() else None
+        pid = int(mark.get("pid", 0) or 0) if mark is not None else 0
         if (mark is not None and mark.get("collection") == path.name
                 and folder.name not in referenced
-                and not pid_alive(int(mark.get("pid", 0) or 0))):  # fmt: skip
-            shutil.rmtree(folder, ignore_errors=True)
+                and (pid == os.getpid() or not pid_alive(pid))):  # fmt: skip
+            _discard(folder, base)
     n = 0
     new = base
     while new.exists() or new.is_symlink():
         n += 1
         new = path.with_name(f"{data_name}.{n}")
     tmp_pvd = temp_name(path)
+    tmp_dir = temp_name(base)
     try:
-        os.mkdir(new)  # the usual permissions (umask), not mkdtemp's 0700
-        (new / DATA_MARKER).write_text(json.dumps(
+        # the folder appears under its name already marked, so a kill never leaves
+        # an unmarked folder that would look like the user's
+        os.mkdir(tmp_dir)  # the usual permissions (umask), not mkdtemp's 0700
+        (tmp_dir / DATA_MARKER).write_text(json.dumps(
             {"written_by": "auralize", "collection": path.name, "pid": os.getpid()}))  # fmt: skip
+        os.rename(tmp_dir, new)
         entries = write_steps(new)
         lines = [
             '<?xml version="1.0"?>',
@@ -394,14 +401,27 @@ def write_collection(pvd: str | Path, data_name: str,
         _finish_file(tmp_pvd)
         os.replace(tmp_pvd, path)
     except BaseException:
-        shutil.rmtree(new, ignore_errors=True)
+        if _marker(new) is not None and _marker(new).get("pid") == os.getpid():  # type: ignore[union-attr]
+            _discard(new, base)
+        shutil.rmtree(tmp_dir, ignore_errors=True)
         tmp_pvd.unlink(missing_ok=True)
         raise
     for name in referenced - {new.name}:
         old = path.with_name(name)
         if old.is_dir() and not old.is_symlink() and _owned(old, path, referenced):
-            shutil.rmtree(old, ignore_errors=True)
+            _discard(old, base)
     return new
+
+
+def _discard(folder: Path, base: Path) -> None:
+    """Remove a data folder: first renamed to a hidden temporary of ``base`` (one atomic
+    step, so a kill never leaves a half-emptied folder under a visible name), then deleted."""
+    gone = temp_name(base, suffix=".old")
+    try:
+        os.rename(folder, gone)
+    except OSError:
+        return
+    shutil.rmtree(gone, ignore_errors=True)
 
 
 def _first_item(folder: Path) -> str:

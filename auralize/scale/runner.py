@@ -38,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import re
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
@@ -195,8 +196,10 @@ class Runner:
                 with dask.config.set({"distributed.worker.profile.enabled": self.profile}):
                     self._cluster = distributed.LocalCluster(
                         n_workers=n, threads_per_worker=1, processes=self.processes,
-                        host=LOOPBACK, dashboard_address=self.dashboard_address,
+                        dashboard_address=self.dashboard_address,
+                        worker_dashboard_address=f"{LOOPBACK}:0",
                         silence_logs=logging.ERROR,
+                        **({"host": LOOPBACK} if self.processes else {}),
                     )  # fmt: skip
                 self.client = distributed.Client(self._cluster)
             except Exception as exc:  # pragma: no cover - depends on the machine
@@ -207,6 +210,11 @@ class Runner:
             self._setup_workers()
         self.setup_seconds = time.perf_counter() - t0
         self.dashboard_link = _dashboard(self.client)
+        if self._cluster is not None and self.dashboard_address.startswith(f"{LOOPBACK}:"):
+            # the link names the machine's address; the dashboard listens on loopback only
+            self.dashboard_link = re.sub(
+                r"//[^/:]+:", f"//{LOOPBACK}:", self.dashboard_link, count=1
+            )
         n_workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
         where = self.address or f"local cluster ({'processes' if self.processes else 'threads'})"
         self.log(f"dask: {where}, {n_workers} workers; dashboard: {self.dashboard_link}")
