@@ -193,8 +193,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     silent = _check_stored(out, gain, p, "flac" if suffix == ".flac" else subtype)
     if silent:
         warnings.warn(
-            f"{p}: the audio is silent (every sample is 0): nothing reached the listener "
-            f"within the duration; the file is written, marked silent in its sidecar",
+            f"{p}: the audio is silent (every sample is 0): no sound reached the listener within "
+            f"the duration (no sources, thresholds too high, or the listener too far away); the "
+            f"file is written and marked silent in its sidecar",
             SilentAudioWarning,
             stacklevel=2,
         )

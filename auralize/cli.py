@@ -466,7 +466,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from auralize.scene import screenshot
 
     out_dir = Path(args.output)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(exist_ok=True)  # the output folder itself; its parent must exist
     t = time.perf_counter()
     print(f"generating dataset:explosion ({args.size}³ x 30 steps) ...", flush=True)
     vol = make_dataset("explosion", size=args.size, seed=args.seed).load()

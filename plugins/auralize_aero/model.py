@@ -131,9 +131,7 @@ class AeroSound(SoundModel):
         t.add_argument(
             "--shape", required=True, help="cylinder | square | sword | polygon FILE of x,y rows"
         )
-        t.add_argument(
-            "--diameter", type=positive_float, required=True, help="frontal width D in metres"
-        )
+        t.add_argument("--diameter", type=float, required=True, help="frontal width D in metres")
         t.add_argument("-o", "--output", required=True, help="texture .h5")
         t.add_argument(
             "--speed", type=positive_float, default=10.0, help="base speed v0 in m/s (§7.2)"
