@@ -84,7 +84,7 @@ def check_output_path(path: str | Path, *, folder: bool = False) -> Path:
 
 
 # ----------------------------------------------------------------- temporaries
-_TEMP_RE = r"\.(\d+)-[0-9a-f]{8,32}"
+_TEMP_RE = r"\.(\d+)-[0-9a-f]{12}"
 
 
 def temp_name(target: Path, *, suffix: str = ".part") -> Path:
@@ -112,7 +112,7 @@ def pid_alive(pid: int) -> bool:
 
 
 def _stale_temps(target: Path) -> Iterator[Path]:
-    pattern = re.compile(re.escape(f".{target.name}") + _TEMP_RE + r"(\..*)?$")
+    pattern = re.compile(re.escape(f".{target.name}") + _TEMP_RE + r"(\.[A-Za-z0-9.]*)?$")
     try:
         names = os.listdir(target.parent if str(target.parent) else ".")
     except OSError:

@@ -616,3 +616,17 @@ def test_dask_cluster_listens_on_loopback_only(processes: bool) -> None:
     assert opened, "the cluster opened no listening socket"
     assert all(a.ip in ("127.0.0.1", "::1") for a in opened), opened
     assert "//127.0.0.1:" in link, link
+
+
+def test_stale_temporaries_are_recognised(tmp_path: Path) -> None:
+    from auralize.fileio import atomic_write
+
+    dead = 99_999_999  # above any pid_max: no such process
+    stale = tmp_path / f".o.csv.{dead}-0123456789ab.csv.part"
+    live = tmp_path / f".o.csv.{os.getpid()}-0123456789ab.csv.part"
+    users = tmp_path / ".o.csv.2024-notes.txt"
+    for p in (stale, live, users):
+        p.write_text("x")
+    atomic_write(tmp_path / "o.csv", b"t,x,y,z\n")
+    assert not stale.exists() and live.exists() and users.exists()
+    assert (tmp_path / "o.csv").read_bytes() == b"t,x,y,z\n"
