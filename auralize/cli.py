@@ -69,7 +69,7 @@ RATE_RANGE_HZ = (8000, 768000)
 class _Parser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors are one line (the value and a --help pointer)."""
 
-    def error(self, message: str) -> Any:  # type: ignore[override]
+    def error(self, message: str) -> Any:
         text = " ".join(message.split())
         self.exit(EXIT_USAGE, f"{self.prog}: error: {text} (see '{self.prog} --help')\n")
 

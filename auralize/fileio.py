@@ -293,6 +293,11 @@ def _marker(folder: Path) -> dict[str, object] | None:
     return data if isinstance(data, dict) and data.get("written_by") == "auralize" else None
 
 
+def _marker_pid(mark: dict[str, object] | None) -> int:
+    value = mark.get("pid") if mark is not None else None
+    return value if isinstance(value, int) else 0
+
+
 def _owned(folder: Path, pvd: Path, referenced: set[str]) -> bool:
     """Whether auralize wrote ``folder`` for ``pvd``: it carries the marker of this
     collection, or (folders written before the marker) it holds nothing but
@@ -365,7 +370,7 @@ def write_collection(pvd: str | Path, data_name: str,
     siblings = [base] + sorted(path.parent.glob(f"{_glob_escape(data_name)}.[0-9]*"))
     for folder in siblings:  # folders of writers killed before or after the swap
         mark = _marker(folder) if folder.is_dir() and not folder.is_symlink() else None
-        pid = int(mark.get("pid", 0) or 0) if mark is not None else 0
+        pid = _marker_pid(mark)
         if (mark is not None and mark.get("collection") == path.name
                 and folder.name not in referenced
                 and (pid == os.getpid() or not pid_alive(pid))):  # fmt: skip
@@ -401,7 +406,7 @@ def write_collection(pvd: str | Path, data_name: str,
         _finish_file(tmp_pvd)
         os.replace(tmp_pvd, path)
     except BaseException:
-        if _marker(new) is not None and _marker(new).get("pid") == os.getpid():  # type: ignore[union-attr]
+        if _marker_pid(_marker(new)) == os.getpid():
             _discard(new, base)
         shutil.rmtree(tmp_dir, ignore_errors=True)
         tmp_pvd.unlink(missing_ok=True)
