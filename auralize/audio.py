@@ -226,6 +226,12 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     def sidecar_bytes(sha256: str) -> bytes:
         return json.dumps({**meta, "sha256": sha256}, indent=2, default=_json_default).encode()
 
+    from auralize.resources import require_disk
+
+    bytes_per_sample = 4 if suffix == ".wav" and subtype == "float32" else 3
+    require_disk(
+        p, out.size * bytes_per_sample + 65536, f"{out.shape[1]} samples x {out.shape[0]} channels"
+    )
     write_pair(p, write_main, Path(str(p) + ".json"), sidecar_bytes,
                suffix=".part.flac" if suffix == ".flac" else ".part")  # fmt: skip
     return gain

@@ -26,6 +26,7 @@ import csv
 import hashlib
 import io
 import json
+import logging
 import math
 import os
 import re
@@ -389,7 +390,8 @@ def write_collection(pvd: str | Path, data_name: str,
         (tmp_dir / DATA_MARKER).write_text(json.dumps(
             {"written_by": "auralize", "collection": path.name, "pid": os.getpid()}))  # fmt: skip
         os.rename(tmp_dir, new)
-        entries = write_steps(new)
+        with _vtk_quiet():
+            entries = write_steps(new)
         lines = [
             '<?xml version="1.0"?>',
             '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
@@ -416,6 +418,27 @@ def write_collection(pvd: str | Path, data_name: str,
         if old.is_dir() and not old.is_symlink() and _owned(old, path, referenced):
             _discard(old, base)
     return new
+
+
+class _DropVTK(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "vtk" not in record.getMessage().lower()
+
+
+@contextlib.contextmanager
+def _vtk_quiet() -> Iterator[None]:
+    """Keep VTK's own reports of a failed write (a full disk) off stderr: the error raised
+    (an :class:`OSError` from the write) is what the user sees, on one line."""
+    import pyvista as pv
+
+    root = logging.getLogger()
+    drop = _DropVTK()
+    root.addFilter(drop)
+    try:
+        with pv.vtk_verbosity("off"):
+            yield
+    finally:
+        root.removeFilter(drop)
 
 
 def _discard(folder: Path, base: Path) -> None:

@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
+from pathlib import Path
 
-from auralize.errors import ParameterError, ResourceError
+from auralize.errors import OutputError, ParameterError, ResourceError
 
 _UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 
@@ -121,3 +123,28 @@ def audio_bytes(seconds: float, rate: float, channels: int) -> float:
     file (float32): about 3 × 8 bytes per sample and channel.
     """
     return float(seconds) * float(rate) * max(int(channels), 1) * 24.0
+
+
+def require_disk(path: str | os.PathLike[str], nbytes: float, what: str) -> None:
+    """Refuse to write ``what`` (about ``nbytes``) to ``path`` if its disk has less free.
+
+    Writers check before they start: a disk that fills up half-way through an
+    HDF5 write leaves the HDF5 library in a state that can crash the process
+    when the file is closed.
+
+    Raises
+    ------
+    OutputError
+        The free space of the file system holding ``path``'s folder is below
+        ``nbytes``.
+    """
+    folder = Path(path).expanduser().parent
+    try:
+        free = shutil.disk_usage(folder if str(folder) else ".").free
+    except OSError:
+        return  # the write itself will report the folder's problem
+    if nbytes > free:
+        raise OutputError(
+            f"cannot write {str(path)!r}: {what} needs about {format_bytes(nbytes)} but only "
+            f"{format_bytes(free)} is free on that disk"
+        )

@@ -602,6 +602,16 @@ def write_hdf5(
                 f"non-empty name without '/'"
             )
     check_output_path(path)
+    if compression is None:
+        from auralize.resources import require_disk
+
+        nbytes = sum(
+            volume.n_steps * float(np.prod(volume.fields[n].frame_shape)) * 8
+            for n in volume.field_names
+        )
+        require_disk(
+            path, nbytes + 65536, f"{volume.n_steps} steps of {len(volume.field_names)} field(s)"
+        )
     tmp = temp_sibling(path)
     opts: dict[str, Any] = {}
     if compression == "gzip":

@@ -421,4 +421,10 @@ def write_pvd(
             image.save(folder / name, compression=vtk_compression)
         return [(float(t), name) for t, name in zip(volume.times, names, strict=True)]
 
+    if compression is None:
+        from auralize.resources import require_disk
+
+        comps = sum(3 if volume.is_vector(n) else 1 for n in volume.field_names)
+        require_disk(path, volume.n_steps * float(volume.n_points) * comps * 8 + 65536,
+                     f"{volume.n_steps} steps of {len(volume.field_names)} field(s)")  # fmt: skip
     write_collection(path, f"{stem}_data", write_steps)
