@@ -167,7 +167,7 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("spark-strokes", ["spark", "render", "--strokes", "0", "--listener", "0,0,1", "--duration", "0.1", "-o", "{out}/s.wav"], "usage", "'0'"),
     ("aero-directions", ["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "--directions", "0", "-o", "{out}/t.h5"], "usage", "'0'"),
     ("aero-duration", ["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "--duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
-    ("aero-diameter", ["aero", "texture", "--shape", "cylinder", "--diameter", "-1", "-o", "{out}/t.h5"], "usage", "'-1'"),
+    ("aero-diameter", ["aero", "texture", "--shape", "cylinder", "--diameter", "-1", "-o", "{out}/t.h5"], "usage", "got -1"),
     ("aero-texture-missing", ["aero", "render", "--texture", "{out}/none.h5", "--wind", "5", "--listener", "0,1,0", "--duration", "0.1", "-o", "{out}/a.wav"], None, "none.h5"),
 ]  # fmt: skip
 
@@ -630,3 +630,22 @@ def test_stale_temporaries_are_recognised(tmp_path: Path) -> None:
     atomic_write(tmp_path / "o.csv", b"t,x,y,z\n")
     assert not stale.exists() and live.exists() and users.exists()
     assert (tmp_path / "o.csv").read_bytes() == b"t,x,y,z\n"
+
+
+@pytest.mark.parametrize("out", ["x.h5", "x.pvd", "x.wav"])
+def test_too_little_disk_space_is_refused_before_writing(out: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+    import shutil
+    from collections import namedtuple
+
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda _p: usage(10**6, 10**6 - 1000, 1000))
+    if out == "x.wav":
+        argv = ["render", "dataset:monopole", "--size", "8", "--steps", "4", "--listener", "0.5,0.5,0.5",
+                "--duration", "0.1", "-o", tmp_path / out]  # fmt: skip
+    else:
+        argv = ["dataset", "monopole", "--size", "8", "--steps", "4", "-o", tmp_path / out]
+    code, err = run(argv, capsys)
+    assert code == cli.EXIT_SYSTEM and err.count("\n") == 1
+    assert "free on that disk" in err and out in err
+    assert list(tmp_path.iterdir()) == []
