@@ -18,6 +18,7 @@ exist.
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import math
 import os
@@ -695,6 +696,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if os.environ.get("AURALIZE_DEBUG"):
             traceback.print_exc()
         text, code = error_message(exc)
+        out = getattr(args, "output", None)
+        if (isinstance(exc, OSError) and not isinstance(exc, AuralizeError) and not exc.filename
+                and exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS) and out):  # fmt: skip
+            text = f"cannot write {str(out)!r}: {text}"
         print(f"{name}: error: {text}", file=sys.stderr)
         return code
     finally:
