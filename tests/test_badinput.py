@@ -154,7 +154,12 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("demo-size", ["demo", "-o", "{out}/demo", "--size", "-3"], "usage", "'-3'"),
     ("demo-parent-file", ["demo", "-o", "{in}/afile/demo"], "system", "afile"),
     ("view-window", ["view", "dataset:monopole", "--size", "8", "--steps", "4", "--screenshot", "{out}/v.png", "--window-size", "100000x100000"], "system", "100000x100000"),
+    ("scale-render-block", ["scale-render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--block-seconds", "-1"], "usage", "'-1'"),
+    ("script-missing", ["script", "{out}/nope.py"], None, "nope.py"),
+    ("devices-option", ["devices", "--bogus"], "usage", "--bogus"),
+    ("plugins-option", ["plugins", "--bogus"], "usage", "--bogus"),
     # plugins
+    ("fire-texture-missing", ["fire", "texture", "{out}/none.wav", "-o", "{out}/f.wav"], "data", "none.wav"),
     ("vortex-speeds", ["vortex", "texture", "--speeds", "abc", "-o", "{out}/t.h5"], "usage", "'abc'"),
     ("vortex-duration", ["vortex", "texture", "--speeds", "1,2", "--duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
     ("vortex-seed", ["vortex", "texture", "--speeds", "1,2", "--seed", "-1", "-o", "{out}/t.h5"], "usage", "'-1'"),
