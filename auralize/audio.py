@@ -22,6 +22,7 @@ import math
 import struct
 import sys
 import threading
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DeviceError, FormatError, ParameterError
-from auralize.fileio import atomic_path, atomic_write
+from auralize.fileio import write_pair
 
 if TYPE_CHECKING:
     from auralize.spatial import Layout
@@ -147,7 +148,14 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
                 channel_mask: int | None = None, normalize: str = "peak",
                 limit_pa: float | None = None, sidecar: dict[str, Any] | None = None,
                 subtype: str = "float32", layout: Layout | str | None = None) -> float:  # fmt: skip
-    """Write audio to ``path`` (``.wav`` or ``.flac``) atomically, plus ``path.json``.
+    """Write audio to ``path`` (``.wav`` or ``.flac``) and ``path.json``, both or neither.
+
+    The samples are checked as they will be stored: float32 overflow and a
+    signal that would be stored as all zeros raise :class:`ParameterError`;
+    audio that is silent (all 0) is written with ``"silent": true`` in the
+    sidecar and a :class:`SilentAudioWarning`.  The sidecar records the audio
+    file's SHA-256; the two are written as a pair
+    (:func:`auralize.fileio.write_pair`).
 
     Parameters
     ----------
@@ -180,21 +188,21 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         if channel_mask is None:
             channel_mask = lay.channel_mask
         sidecar = {"layout": lay.describe(), **(sidecar or {})}
-    out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
     suffix = p.suffix.lower()
-    if suffix == ".wav":
-        atomic_write(p, wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=subtype))
-    elif suffix == ".flac":
-        import soundfile as sf
-
-        if normalize == "none" and np.max(np.abs(out), initial=0) > 1:
-            raise ParameterError(
-                "FLAC holds samples in [-1, 1]; use --normalize peak or a WAV file"
-            )
-        with atomic_path(p, suffix=".part.flac") as tmp:
-            sf.write(str(tmp), out.T, int(rate), format="FLAC", subtype="PCM_24")
-    else:
+    if suffix not in (".wav", ".flac"):
         raise ParameterError(f"{p}: audio output must end in .wav or .flac")
+    out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
+    silent = _check_stored(out, gain, p, "flac" if suffix == ".flac" else subtype)
+    if silent:
+        warnings.warn(
+            f"{p}: the audio is silent (every sample is 0): no sound reached the listener within "
+            f"the duration (no sources, thresholds too high, or the listener too far away); the "
+            f"file is written and marked silent in its sidecar",
+            SilentAudioWarning,
+            stacklevel=2,
+        )
+    if suffix == ".flac" and normalize == "none" and np.max(np.abs(out), initial=0) > 1:
+        raise ParameterError("FLAC holds samples in [-1, 1]; use --normalize peak or a WAV file")
     meta = {
         "file": p.name,
         "rate": int(rate),
@@ -204,11 +212,73 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         "gain": gain,
         "units": "Pa" if normalize == "none" else f"full scale = {1 / gain:.6g} Pa",
         "limit_pa": limit_pa,
+        "silent": silent,
         "command": " ".join(sys.argv) if sys.argv and sys.argv[0].endswith("auralize") else None,
         **(sidecar or {}),
     }
-    atomic_write(Path(str(p) + ".json"), json.dumps(meta, indent=2, default=_json_default).encode())
+
+    def write_main(tmp: Path) -> None:
+        if suffix == ".wav":
+            tmp.write_bytes(wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=subtype))
+        else:
+            import soundfile as sf
+
+            sf.write(str(tmp), out.T, int(rate), format="FLAC", subtype="PCM_24")
+
+    def sidecar_bytes(sha256: str) -> bytes:
+        return json.dumps({**meta, "sha256": sha256}, indent=2, default=_json_default).encode()
+
+    from auralize.resources import require_disk
+
+    bytes_per_sample = 4 if suffix == ".wav" and subtype == "float32" else 3
+    require_disk(
+        p, out.size * bytes_per_sample + 65536, f"{out.shape[1]} samples x {out.shape[0]} channels"
+    )
+    write_pair(p, write_main, Path(str(p) + ".json"), sidecar_bytes,
+               suffix=".part.flac" if suffix == ".flac" else ".part")  # fmt: skip
     return gain
+
+
+class SilentAudioWarning(UserWarning):
+    """An audio file was written whose samples are all 0 (nothing was heard)."""
+
+
+#: largest magnitude a float32 sample holds
+_F32_MAX = float(np.finfo(np.float32).max)
+
+
+def _check_stored(out: NDArray[np.float64], gain: float, path: Path, encoding: str) -> bool:
+    """Check the samples as they will be stored; return True if the audio is silent.
+
+    Raises :class:`ParameterError` when float32 overflows (pressures beyond
+    3.4e38 Pa with ``--normalize none``) or when a non-silent signal would be
+    stored as all zeros (values below the encoding's smallest step).
+    """
+    if not np.isfinite(gain):
+        raise ParameterError(
+            f"{path}: the loudest sample is too small to normalise (gain {gain!r}); the signal "
+            f"underflows — check the source strengths, or write --normalize none"
+        )
+    peak = float(np.max(np.abs(out))) if out.size else 0.0
+    if out.shape[-1] == 0:
+        raise ParameterError(f"{path}: the audio has no samples; give a longer duration or rate")
+    if encoding == "float32":
+        with np.errstate(over="ignore"):
+            stored_peak = float(np.max(np.abs(out.astype(np.float32))))
+        if not np.isfinite(stored_peak) or peak > _F32_MAX:
+            raise ParameterError(
+                f"{path}: peak pressure {peak:.3g} Pa overflows a float32 WAV (max "
+                f"{_F32_MAX:.3g}); use --normalize peak or --limit PA"
+            )
+    else:
+        step = 1 / 32767 if encoding == "pcm16" else 1 / 8388607
+        stored_peak = float(np.round(peak / step)) * step
+    if peak > 0 and stored_peak == 0:
+        raise ParameterError(
+            f"{path}: peak pressure {peak:.3g} is below the smallest {encoding} sample, so the "
+            f"file would be all zeros; use --normalize peak"
+        )
+    return peak == 0
 
 
 def _json_default(o: object) -> object:

@@ -31,8 +31,10 @@ reported, with the CPU other processes used meanwhile (:class:`CpuShare`):
 on a shared machine the ratio means little when that is not near 0.
 
 The big file is written once (``auralize.scale.write_chunked_explosion``,
-float32, ~27 GB) to ``$AURALIZE_BENCH_DIR`` (default the system temporary
-folder) and reused.
+float32, ~27 GB) to ``$AURALIZE_BENCH_DIR`` (default a private per-user folder
+``auralize_bench-<uid>`` in the system temporary folder, see :func:`bench_dir`)
+and reused; the temporary of a run killed while writing it is removed by the
+next run.
 """
 
 from __future__ import annotations
@@ -112,12 +114,44 @@ class PeakRSS:
         self.sample()
 
 
+def bench_dir() -> Path:
+    """The benchmark's data folder: ``$AURALIZE_BENCH_DIR``, else a private per-user folder
+    ``auralize_bench-<uid>`` in the system temporary folder.
+
+    The folder is created mode 0700 and must belong to this user and not be
+    writable by others (the shared temporary folder is writable by everyone: a
+    fixed name there could be pre-created, or its file swapped, by another
+    user); otherwise :class:`~auralize.errors.OutputError`.  Written files
+    persist between runs (they take minutes to make).
+    """
+    from auralize.errors import OutputError
+
+    env = os.environ.get("AURALIZE_BENCH_DIR")
+    if env:
+        folder = Path(env).expanduser()
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
+    folder = Path(tempfile.gettempdir()) / f"auralize_bench-{os.getuid()}"
+    try:
+        folder.mkdir(mode=0o700)
+    except FileExistsError:
+        pass
+    st = os.lstat(folder)
+    import stat
+
+    if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid() or st.st_mode & 0o022:
+        raise OutputError(
+            f"{folder} is not a private folder of this user (owner uid {st.st_uid}, mode "
+            f"{stat.filemode(st.st_mode)}); remove it or set AURALIZE_BENCH_DIR"
+        )
+    return folder
+
+
 def big_file(size: int, steps: int) -> Path:
     """The chunked explosion file for the benchmark (written once, then reused)."""
     from auralize.scale import write_chunked_explosion
 
-    folder = Path(os.environ.get("AURALIZE_BENCH_DIR", tempfile.gettempdir())) / "auralize_bench"
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = bench_dir()
     path = folder / f"explosion_{size}x{steps}.h5"
     if not path.exists():
         write_chunked_explosion(path, size, steps, 0, generator="analytic")

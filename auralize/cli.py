@@ -4,24 +4,133 @@ Every command that writes audio takes the same output options: ``-o``,
 ``--layout``, ``--rate``, ``--normalize``, ``--limit`` and either
 ``--listener x,y,z --duration S`` or ``--path CSV``.  Volumes are files or
 built-in datasets written ``dataset:NAME`` (e.g. ``dataset:explosion``).
-Errors print one line naming what is wrong and exit with status 2.
+
+Errors print one line naming what is wrong (never a traceback) and exit with
+a status that tells the kind of failure (see :data:`EXIT_CODES`, documented
+in the README): 2 usage (a bad option or value), 3 data (an input file is
+missing, unreadable or malformed), 4 system (the output cannot be written,
+not enough memory, no device), 1 when the output was written but is silent,
+70 an internal error (a bug: ``AURALIZE_DEBUG=1`` shows the traceback), 130
+interrupted.  Output folders are never created: the folder of ``-o`` must
+exist.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import json
+import math
+import os
 import sys
 import time
+import traceback
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from auralize.errors import AuralizeError, ParameterError
+from auralize.errors import (
+    AuralizeError,
+    DataError,
+    DeviceError,
+    FieldError,
+    FormatError,
+    ListenerPathError,
+    MissingDependencyError,
+    MissingFileError,
+    OutputError,
+    ParameterError,
+    PluginError,
+    ResourceError,
+)
 
+EXIT_SILENT = 1
 EXIT_USAGE = 2
+EXIT_DATA = 3
+EXIT_SYSTEM = 4
+EXIT_INTERNAL = 70
+EXIT_INTERRUPTED = 130
+#: exit status -> meaning (the README's table)
+EXIT_CODES = {
+    0: "success",
+    EXIT_SILENT: "the output was written but is silent (the warning says why)",
+    EXIT_USAGE: "usage error: a bad option or value",
+    EXIT_DATA: "data error: an input file is missing, unreadable or malformed",
+    EXIT_SYSTEM: "system error: the output cannot be written, not enough memory, no device",
+    EXIT_INTERNAL: "internal error (a bug; AURALIZE_DEBUG=1 shows the traceback)",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
+}
+#: lowest and highest sample rate an audio command accepts, Hz
+RATE_RANGE_HZ = (8000, 768000)
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors are one line (the value and a --help pointer)."""
+
+    def error(self, message: str) -> Any:
+        text = " ".join(message.split())
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {text} (see '{self.prog} --help')\n")
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return v
+
+
+def finite_float(text: str) -> float:
+    """argparse type: a finite number."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return v
+
+
+def seed_int(text: str) -> int:
+    """argparse type: a random seed, 0 to 2**32 - 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}") from None
+    if not 0 <= v < 2**32:
+        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}")
+    return v
+
+
+def rate_int(text: str) -> int:
+    """argparse type: an audio sample rate in :data:`RATE_RANGE_HZ`."""
+    lo, hi = RATE_RANGE_HZ
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a sample rate in Hz ({lo}..{hi}), got {text!r}"
+        ) from None
+    if not lo <= v <= hi:
+        raise argparse.ArgumentTypeError(f"sample rate {text!r} Hz is outside {lo}..{hi} Hz")
+    return v
 
 
 # ----------------------------------------------------------------- helpers
@@ -33,6 +142,30 @@ def _vec3(text: str) -> np.ndarray:
     if v.size != 3 or not np.all(np.isfinite(v)):
         raise argparse.ArgumentTypeError(f"expected three finite numbers x,y,z, got {text!r}")
     return v
+
+
+def _captures(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 2, got {text!r}") from None
+    if v < 2:
+        raise argparse.ArgumentTypeError(f"a line needs at least 2 captures, got {text!r}")
+    return v
+
+
+def _sizes(text: str) -> str:
+    """argparse type of ``bench --sizes``: comma-separated whole numbers >= 2 (kept as text)."""
+    for part in text.split(","):
+        try:
+            v = int(part)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated grid sizes like 16,32,64, got {text!r}"
+            ) from None
+        if v < 2:
+            raise argparse.ArgumentTypeError(f"grid sizes must be >= 2, got {part!r} in {text!r}")
+    return text
 
 
 def _field_map(items: list[str] | None) -> dict[str, str] | None:
@@ -57,17 +190,20 @@ def add_volume_options(p: argparse.ArgumentParser) -> None:
         help="read a generic HDF5 file by naming datasets (repeatable)",
     )
     g.add_argument(
-        "--resolution", type=int, help="points per axis when resampling non-uniform grids"
+        "--resolution", type=positive_int, help="points per axis when resampling non-uniform grids"
     )
+    g.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
+    g.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
+    g.add_argument("--seed", type=seed_int, default=0, help="seed of a built-in dataset")
+    g.add_argument("--allow-external", action="store_true",
+                   help="let HDF5 files read data from other files (external storage and "
+                        "links; refused by default)")  # fmt: skip
     g.add_argument(
         "--nan",
         choices=["mask", "error"],
         default="mask",
         help="NaN, fill values and masked cells: mask = no-data (default), error = refuse",
     )
-    g.add_argument("--size", type=int, help="grid size of a built-in dataset")
-    g.add_argument("--steps", type=int, help="time steps of a built-in dataset")
-    g.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
 
 
 def add_detect_options(p: argparse.ArgumentParser) -> None:
@@ -107,7 +243,7 @@ def add_output_options(
     g = p.add_argument_group("audio output")
     g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
     g.add_argument("--layout", default="mono", help=layouts)
-    g.add_argument("--rate", type=int, default=44100, help="sample rate in Hz (default 44100)")
+    g.add_argument("--rate", type=rate_int, default=44100, help="sample rate in Hz (default 44100)")
     g.add_argument(
         "--normalize",
         choices=["peak", "none"],
@@ -116,7 +252,7 @@ def add_output_options(
     )
     g.add_argument(
         "--limit",
-        type=float,
+        type=positive_float,
         metavar="PA",
         help="truncate pressures beyond this many pascals (paper 000 §7)",
     )
@@ -127,7 +263,7 @@ def add_output_options(
     src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
     g.add_argument(
         "--duration",
-        type=float,
+        type=positive_float,
         help="seconds to render (with --listener)"
         if listener_required
         else "playback seconds (default: the path's length, else 10)",
@@ -176,9 +312,45 @@ def listener_from_args(args: argparse.Namespace) -> Any:
 def _load(args: argparse.Namespace) -> Any:
     from auralize.pipeline import load
 
-    return load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
-                fields=_field_map(args.field), resolution=args.resolution,
-                nan=getattr(args, "nan", "mask"))  # fmt: skip
+    vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
+               fields=_field_map(args.field), resolution=args.resolution,
+               nan=getattr(args, "nan", "mask"))  # fmt: skip
+    check_volume_memory(vol)
+    return vol
+
+
+#: float64 frame-sized arrays that detection holds at once (fields, derivatives, masks)
+FRAME_WORK_ARRAYS = 16
+
+
+def check_volume_memory(vol: Any) -> None:
+    """Refuse a volume whose frames (as the file declares them) cannot fit in memory."""
+    from auralize.resources import require_memory
+
+    nx, ny, nz = (int(d) for d in vol.dims)
+    comps = sum(3 if vol.is_vector(n) else 1 for n in vol.field_names)
+    require_memory(
+        float(nx) * ny * nz * 8.0 * max(comps, FRAME_WORK_ARRAYS),
+        f"{vol.source}: one time step of {nx} x {ny} x {nz} points",
+        hint="resample it smaller (--resolution N) or use 'auralize dask-detect'",
+    )
+
+
+def check_render_memory(args: argparse.Namespace, duration_s: float, channels: int) -> None:
+    """Refuse a render whose audio (duration x rate x channels) cannot fit in memory."""
+    from auralize.resources import audio_bytes, require_memory
+
+    rate = getattr(args, "rate", 44100)
+    if duration_s * rate < 2:
+        raise ParameterError(
+            f"--duration {duration_s:g} s at {rate} Hz gives {duration_s * rate:.3g} samples; "
+            f"give at least {2 / rate:.3g} s"
+        )
+    require_memory(
+        audio_bytes(duration_s, rate, channels),
+        f"{duration_s:g} s of {channels}-channel audio at {rate} Hz",
+        hint="render a shorter duration (or split the path) or a lower --rate",
+    )
 
 
 def _thresholds(args: argparse.Namespace) -> Any:
@@ -315,14 +487,17 @@ def cmd_detect(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from auralize.pipeline import auralize, report_line, save_rendered
+    from auralize.pipeline import DEFAULT_DURATION, auralize, report_line, save_rendered
+    from auralize.spatial import get_layout
 
-    vol = _load(args)
     path = None
     if args.path:
         from auralize.listener import ListenerPath
 
         path = ListenerPath.from_csv(args.path)
+    duration = args.duration or (path.duration if path is not None else DEFAULT_DURATION)
+    check_render_memory(args, duration, get_layout(args.layout).n_channels)
+    vol = _load(args)
     series = None
     if args.sources:
         from auralize.io.sources_file import load_sources_for
@@ -450,7 +625,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from auralize.scene import screenshot
 
     out_dir = Path(args.output)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(exist_ok=True)  # the output folder itself; its parent must exist
     t = time.perf_counter()
     print(f"generating dataset:explosion ({args.size}³ x 30 steps) ...", flush=True)
     vol = make_dataset("explosion", size=args.size, seed=args.seed).load()
@@ -487,7 +662,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 # ----------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="auralize", description="Hear 3-D time-varying data.")
+    ap = _Parser(prog="auralize", description="Hear 3-D time-varying data.")
     ap.add_argument("--version", action="version", version="auralize 0.1.0")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -499,9 +674,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("dataset", help="generate a built-in dataset to a file (.h5 or .pvd)")
     p.add_argument("name", help="explosion | monopole")
     p.add_argument("-o", "--output", required=True)
-    p.add_argument("--size", type=int)
-    p.add_argument("--steps", type=int)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--size", type=positive_int)
+    p.add_argument("--steps", type=positive_int)
+    p.add_argument("--seed", type=seed_int, default=0)
     p.set_defaults(func=cmd_dataset)
 
     p = sub.add_parser("detect", help="detect sources; write them to .h5 or ParaView .pvd")
@@ -526,25 +701,25 @@ def build_parser() -> argparse.ArgumentParser:
                                      "the data)")  # fmt: skip
     q.add_argument("--start", type=_vec3, metavar="X,Y,Z")
     q.add_argument("--end", type=_vec3, metavar="X,Y,Z")
-    q.add_argument("--captures", type=int, default=2)
+    q.add_argument("--captures", type=_captures, default=2, help="captures (>= 2)")
     q.add_argument("--face", choices=["forward", "fixed"], default="forward")
     q = psub.add_parser("orbit", help="horizontal circle around a centre, facing it (default: "
                                       "around the data, two half-diagonals out)")  # fmt: skip
     q.add_argument("--center", type=_vec3, metavar="X,Y,Z")
-    q.add_argument("--radius", type=float)
-    q.add_argument("--turns", type=float,
+    q.add_argument("--radius", type=positive_float)
+    q.add_argument("--turns", type=finite_float,
                    help="default 1, or around a volume: at most what keeps the listener below "
                         "0.1 c0 in data time at the automatic time scale")  # fmt: skip
-    q.add_argument("--height", type=float, default=0.0)
-    q.add_argument("--rate-hz", type=float, default=10.0, help="captures per second")
+    q.add_argument("--height", type=finite_float, default=0.0)
+    q.add_argument("--rate-hz", type=positive_float, default=10.0, help="captures per second")
     for q in psub.choices.values():
         q.add_argument("volume_pos", nargs="?", metavar="VOLUME",
                        help="place the path around this volume's bounds (file or dataset:NAME)")  # fmt: skip
         q.add_argument("--volume", metavar="FILE", help="same as the positional VOLUME")
-        q.add_argument("--size", type=int, help="grid size of a built-in dataset")
-        q.add_argument("--steps", type=int, help="time steps of a built-in dataset")
-        q.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")
-        q.add_argument("--duration", type=float, help="seconds (default 10)")
+        q.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
+        q.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
+        q.add_argument("--seed", type=seed_int, default=0, help="seed of a built-in dataset")
+        q.add_argument("--duration", type=positive_float, help="seconds (default 10)")
         q.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_path)
 
@@ -554,15 +729,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="explosion dataset -> 8-channel WAV, screenshot, spectrogram")
     p.add_argument("-o", "--output", default="demo", help="output folder (default ./demo)")
-    p.add_argument("--size", type=int, default=64)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--size", type=positive_int, default=64)
+    p.add_argument("--seed", type=seed_int, default=0)
     p.add_argument("--layout", default="ring8")
-    p.add_argument("--time-scale", type=float, default=3.0, help="playback seconds per data second")
+    p.add_argument("--time-scale", type=positive_float, default=3.0,
+                   help="playback seconds per data second")  # fmt: skip
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("bench", help="timings side by side with the papers' tables")
     p.add_argument("--quick", action="store_true", help="small sizes only (seconds)")
-    p.add_argument("--sizes", help="comma-separated grid sizes for detection (default 10..256)")
+    p.add_argument("--sizes", type=_sizes,
+                   help="comma-separated grid sizes for detection (default 10..256)")  # fmt: skip
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     p.add_argument(
         "--dask-full",
@@ -610,17 +787,101 @@ def _extend_with_plugins(sub: Any) -> None:
             hook(sub)
 
 
+def exit_code(exc: BaseException) -> int:
+    """The exit status for an error (see :data:`EXIT_CODES`)."""
+    if isinstance(exc, ParameterError):
+        return EXIT_USAGE
+    if isinstance(exc, DataError | FormatError | FieldError | ListenerPathError | MissingFileError):
+        return EXIT_DATA
+    if isinstance(exc, OutputError | ResourceError | DeviceError | MissingDependencyError
+                  | PluginError | OSError | MemoryError):  # fmt: skip
+        return EXIT_SYSTEM
+    if isinstance(exc, AuralizeError):
+        return EXIT_USAGE
+    return EXIT_INTERNAL
+
+
+def _from_hdf5(exc: BaseException) -> bool:
+    tb = exc.__traceback__
+    while tb is not None:
+        if f"{os.sep}h5py{os.sep}" in tb.tb_frame.f_code.co_filename:
+            return True
+        tb = tb.tb_next
+    return False
+
+
+def error_message(exc: BaseException) -> tuple[str, int]:
+    """One line describing ``exc`` for the terminal, and the exit status."""
+    if isinstance(exc, AuralizeError):
+        return " ".join(str(exc).split()), exit_code(exc)
+    if isinstance(exc, OSError):
+        what = exc.strerror or str(exc) or type(exc).__name__
+        where = " ".join(repr(str(f)) for f in (exc.filename, exc.filename2) if f)
+        text = f"{where}: {what}" if where else what
+        if _from_hdf5(exc):
+            return f"cannot read HDF5 data: {text}", EXIT_DATA
+        return text, EXIT_SYSTEM
+    if isinstance(exc, MemoryError):
+        return f"not enough memory ({exc or 'allocation failed'})", EXIT_SYSTEM
+    if _from_hdf5(exc):
+        return f"cannot read HDF5 data ({type(exc).__name__}: {exc})", EXIT_DATA
+    return (
+        f"internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (this is a bug; "
+        f"run with AURALIZE_DEBUG=1 to see the traceback)",
+        EXIT_INTERNAL,
+    )
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse an output path that cannot be written before any slow work."""
+    from auralize.fileio import check_output_path
+
+    out = getattr(args, "output", None)
+    if isinstance(out, str | Path) and str(out) != "-":
+        check_output_path(out, folder=getattr(args, "command", None) == "demo")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``auralize`` command; return the exit status (see :data:`EXIT_CODES`)."""
+    from auralize.audio import SilentAudioWarning
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    name = f"auralize {getattr(args, 'command', '')}".strip()
     try:
-        return int(args.func(args) or 0)
-    except AuralizeError as exc:
-        print(f"auralize {args.command}: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
+        if getattr(args, "allow_external", False):
+            from auralize.io.hdf5 import allow_external_data
+
+            allow_external_data(True)
+        _check_outputs(args)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SilentAudioWarning)
+            status = int(args.func(args) or 0)
+        for w in caught:
+            if issubclass(w.category, SilentAudioWarning):
+                print(f"{name}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
+                status = status or EXIT_SILENT
+            else:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        return status
     except KeyboardInterrupt:
-        print(f"auralize {args.command}: interrupted", file=sys.stderr)
-        return 130
+        print(f"{name}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:
+        if os.environ.get("AURALIZE_DEBUG"):
+            traceback.print_exc()
+        text, code = error_message(exc)
+        out = getattr(args, "output", None)
+        if (isinstance(exc, OSError) and not isinstance(exc, AuralizeError) and not exc.filename
+                and exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS) and out):  # fmt: skip
+            text = f"cannot write {str(out)!r}: {text}"
+        print(f"{name}: error: {text}", file=sys.stderr)
+        return code
+    finally:
+        if getattr(args, "allow_external", False):
+            from auralize.io.hdf5 import allow_external_data
+
+            allow_external_data(False)
 
 
 if __name__ == "__main__":

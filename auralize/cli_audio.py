@@ -38,6 +38,20 @@ def cmd_devices(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gain_arg(text: str) -> str | float:
+    """argparse type of ``--gain``: ``auto`` or a finite number > 0 (full scale per pascal)."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    from auralize.cli import positive_float
+
+    try:
+        return positive_float(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(
+            f"expected 'auto' or a gain > 0 (full scale per pascal), got {text!r}"
+        ) from None
+
+
 def _device_arg(text: str) -> int | str:
     return int(text) if text.strip().isdigit() else text
 
@@ -79,7 +93,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     downmix: Any = False
     if args.downmix is not None:
         downmix = True if args.downmix == "auto" else args.downmix
-    gain: Any = "auto" if args.gain == "auto" else float(args.gain)
+    gain: Any = args.gain
     rep = play(tracks, plan.path, rate=args.rate, layout=lay, device=args.device,
                time_scale=plan.time_scale, interp=args.interp, downmix=downmix, gain=gain,
                limit_pa=args.limit, block_s=args.block_ms / 1e3, duration=plan.duration,
@@ -97,7 +111,14 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
-    from auralize.cli import _time_scale, _vec3, add_detect_options, add_volume_options
+    from auralize.cli import (
+        _time_scale,
+        _vec3,
+        add_detect_options,
+        add_volume_options,
+        positive_float,
+        rate_int,
+    )
 
     p = sub.add_parser("devices", help="list sound output devices and their channel counts")
     p.add_argument("--json", action="store_true")
@@ -112,7 +133,7 @@ def add_commands(sub: Any) -> None:
         "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
     )
     src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument("--duration", type=float,
+    g.add_argument("--duration", type=positive_float,
                    help="playback seconds (default: the path's length, else 10)")  # fmt: skip
     g.add_argument("--layout", default="ring8", help="mono|stereo|ring8|5.1|7.1|FILE.json")
     g.add_argument("--device", type=_device_arg, metavar="N|NAME",
@@ -120,18 +141,20 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--downmix", nargs="?", const="auto", metavar="LAYOUT",
                    help="fold the layout to fit a device with fewer channels (default: the "
                         "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
-    g.add_argument("--rate", type=int, default=44100, help="sample rate in Hz (default 44100)")
+    g.add_argument("--rate", type=rate_int, default=44100, help="sample rate in Hz (default 44100)")
     g.add_argument("--time-scale", type=_time_scale, default="auto",
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
     g.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
                    help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
     g.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
-    g.add_argument("--gain", default="auto",
+    g.add_argument("--gain", default="auto", type=_gain_arg,
                    help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "
                         "later blocks would clip)")  # fmt: skip
-    g.add_argument("--limit", type=float, metavar="PA", help="truncate pressures beyond PA pascals")
-    g.add_argument("--block-ms", type=float, default=50.0, help="synthesis block (default 50 ms)")
+    g.add_argument("--limit", type=positive_float, metavar="PA",
+                   help="truncate pressures beyond PA pascals")  # fmt: skip
+    g.add_argument("--block-ms", type=positive_float, default=50.0,
+                   help="synthesis block (default 50 ms)")  # fmt: skip
     g.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
     g.add_argument("--json", action="store_true", help="print the playback report as JSON")
     p.set_defaults(func=cmd_play)

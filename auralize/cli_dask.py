@@ -33,33 +33,40 @@ from auralize.errors import ParameterError
 
 def add_scheduler_options(p: argparse.ArgumentParser) -> None:
     """``--scheduler``, ``--address``, ``--workers`` and the detection chunking options."""
+    from auralize.cli import positive_float, positive_int
+
     g = p.add_argument_group("dask (out-of-core and distributed runs)")
     g.add_argument("--scheduler", choices=["sync", "threads", "processes", "distributed"],
                    help="run on Dask with this scheduler (distributed: a local cluster, or "
                         "--address)")  # fmt: skip
     g.add_argument("--address", metavar="tcp://HOST:PORT",
                    help="an existing dask.distributed scheduler")  # fmt: skip
+    g.add_argument("--dashboard-address", metavar="HOST:PORT",
+                   help="where a local cluster's dashboard listens (default 127.0.0.1, a free "
+                        "port; give 0.0.0.0:8787 to reach it from other machines)")  # fmt: skip
     g.add_argument(
         "--workers",
-        type=int,
+        type=positive_int,
         metavar="N",
         help="threads/processes, or workers of a local cluster (default: cores)",
     )
     g.add_argument(
         "--timeout",
-        type=float,
+        type=positive_float,
         default=5.0,
         help="seconds to wait for the scheduler at --address (default 5)",
     )
-    g.add_argument("--chunk-steps", type=int, default=8, help="time steps per detection task")
+    g.add_argument(
+        "--chunk-steps", type=positive_int, default=8, help="time steps per detection task"
+    )
     g.add_argument(
         "--slab-planes",
-        type=int,
+        type=positive_int,
         help="z-planes per detection task (default: what fits --task-memory)",
     )
     g.add_argument(
         "--task-memory",
-        type=float,
+        type=positive_float,
         default=1.0,
         metavar="GIB",
         help="memory budget of one detection task in GiB (default 1)",
@@ -71,7 +78,7 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--block-seconds",
-        type=float,
+        type=positive_float,
         help="playback seconds per synthesis block (default: one block, or blocks of at most "
              "2**25 samples × channels); every block is split in source groups, two per worker",
     )
@@ -87,7 +94,8 @@ def _runner(args: argparse.Namespace) -> Any:
 
     sched = args.scheduler or ("distributed" if args.address or args.workers else "sync")
     return Runner(sched, address=args.address, workers=args.workers, timeout=args.timeout,
-                  log=lambda msg: print(msg, flush=True))  # fmt: skip
+                  log=lambda msg: print(msg, flush=True),
+                  dashboard_address=args.dashboard_address)  # fmt: skip
 
 
 def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:
@@ -134,7 +142,7 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
 
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
-    from auralize.cli import _load
+    from auralize.cli import _load, check_render_memory
     from auralize.listener import ListenerPath
     from auralize.pipeline import plan_render, save_rendered
     from auralize.scale import render_distributed
@@ -146,8 +154,13 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
         raise ParameterError(f"--timbre {timbre}: the Dask render renders the physical pressure "
                              f"only; render {timbre} without the Dask options")  # fmt: skip
     highpass(np.zeros((1, 0)), args.rate, getattr(args, "highpass", 0.0))  # validate early
-    vol = _load(args)
     path = ListenerPath.from_csv(args.path) if args.path else None
+    from auralize.pipeline import DEFAULT_DURATION
+    from auralize.spatial import get_layout
+
+    duration = args.duration or (path.duration if path is not None else DEFAULT_DURATION)
+    check_render_memory(args, duration, get_layout(args.layout).n_channels)
+    vol = _load(args)
     t = time.perf_counter()
     with _runner(args) as runner:
         if args.sources:

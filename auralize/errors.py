@@ -49,3 +49,16 @@ class MissingDependencyError(AuralizeError, ImportError):
 
 class MissingFileError(AuralizeError, FileNotFoundError):
     """An input file or folder does not exist."""
+
+
+class OutputError(AuralizeError, OSError):
+    """An output cannot be written where asked: a folder, a missing folder, no permission,
+    or a folder that auralize did not write and will not replace."""
+
+
+class ResourceError(AuralizeError, MemoryError):
+    """A request needs more memory than the machine has; the message gives the figure."""
+
+
+class OutputExistsError(OutputError, FileExistsError):
+    """The output would replace something that auralize did not write."""

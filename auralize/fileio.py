@@ -1,20 +1,157 @@
-"""Atomic file output: write to a temporary file beside the target, then rename.
+"""Safe file output: atomic writes, paired files, ParaView collections, stale temporaries.
 
-Bad input or a crash never leaves a partial output file behind.
+Rules every writer in auralize follows (see the README, "Output files"):
+
+* Output folders are never created: a missing folder, a folder given as the
+  output file, or a parent that is a file is refused up front with an
+  :class:`~auralize.errors.OutputError` naming the path.
+* A file is written to a hidden temporary beside the target, named
+  ``.NAME.<pid>-<hex>...``, and renamed onto ``NAME`` when complete, so bad
+  input or a crash never leaves a partial output file behind.  Temporaries
+  left by a process that no longer runs (killed) are removed by the next
+  write of the same target (:func:`clean_stale`).
+* A file and its sidecar (``OUT.wav`` and ``OUT.wav.json``) are written as a
+  pair (:func:`write_pair`): the sidecar records the file's SHA-256, and a
+  pair interrupted between its two renames is completed by the next write.
+* A ``.pvd`` collection's data folder is written under a fresh name, marked
+  as auralize's own (:data:`DATA_MARKER`), and the ``.pvd`` is replaced
+  atomically to point at it; only then is the old folder removed, and only if
+  auralize wrote it (:func:`write_collection`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import io
+import json
+import logging
+import math
 import os
-import tempfile
-from collections.abc import Iterator
+import re
+import shutil
+import uuid
+import xml.etree.ElementTree as ET
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 from numpy.typing import NDArray
+
+from auralize.errors import OutputError, OutputExistsError
+
+#: name of the file that marks a data folder as written by auralize
+DATA_MARKER = ".auralize-data.json"
+
+
+# ----------------------------------------------------------------- output paths
+def check_output_path(path: str | Path, *, folder: bool = False) -> Path:
+    """Check that ``path`` can be written as an output; return it as a :class:`Path`.
+
+    Parameters
+    ----------
+    path : output file (or, with ``folder=True``, an output folder to create).
+    folder : bool
+        The output is a folder: it may exist already (as a folder).
+
+    Raises
+    ------
+    OutputError
+        The parent folder is missing or is a file, ``path`` is an existing
+        folder (for a file output) or file (for a folder output), or the parent
+        folder is not writable.
+    """
+    p = Path(path).expanduser()
+    if not str(path).strip():
+        raise OutputError("the output path is empty; give a file name")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.exists():
+        raise OutputError(
+            f"cannot write {str(p)!r}: the folder {str(parent)!r} does not exist "
+            f"(auralize does not create folders for outputs; create it first)"
+        )
+    if not parent.is_dir():
+        raise OutputError(f"cannot write {str(p)!r}: {str(parent)!r} is a file, not a folder")
+    if folder:
+        if p.exists() and not p.is_dir():
+            raise OutputError(f"cannot use {str(p)!r} as the output folder: it is a file")
+    elif p.is_dir():
+        raise OutputError(f"cannot write {str(p)!r}: it is a folder; give a file name")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"cannot write {str(p)!r}: no permission to write in {str(parent)!r}")
+    return p
+
+
+# ----------------------------------------------------------------- temporaries
+_TEMP_RE = r"\.(\d+)-[0-9a-f]{12}"
+
+
+def temp_name(target: Path, *, suffix: str = ".part") -> Path:
+    """A fresh hidden name beside ``target``: ``.NAME.<pid>-<hex><suffix>``.
+
+    The process id in the name lets :func:`clean_stale` tell the temporaries of
+    a process that was killed from those of one still writing.
+    """
+    return target.with_name(f".{target.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}{suffix}")
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process with id ``pid`` runs on this machine."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    except (OverflowError, ValueError):
+        return False
+    return True
+
+
+def _stale_temps(target: Path) -> Iterator[Path]:
+    pattern = re.compile(re.escape(f".{target.name}") + _TEMP_RE + r"(\.[A-Za-z0-9.]*)?$")
+    try:
+        names = os.listdir(target.parent if str(target.parent) else ".")
+    except OSError:
+        return
+    for name in names:
+        m = pattern.match(name)
+        if m and not pid_alive(int(m.group(1))):
+            yield target.with_name(name)
+
+
+def clean_stale(target: str | Path) -> list[Path]:
+    """Remove temporaries of ``target`` left by processes that no longer run.
+
+    Returns the paths removed.  Pending sidecars of a pair are left to
+    :func:`recover_pair`, which completes or discards them.
+    """
+    t = Path(target)
+    removed = []
+    for p in _stale_temps(t):
+        if p.name.endswith(".pending"):
+            continue
+        with contextlib.suppress(OSError):
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
+            removed.append(p)
+    return removed
+
+
+def _finish_file(tmp: Path) -> None:
+    """Give a finished temporary the usual permissions and flush it to disk."""
+    os.chmod(tmp, 0o666 & ~_umask())
+    fd = os.open(tmp, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 @contextlib.contextmanager
@@ -22,19 +159,16 @@ def atomic_path(path: str | Path, *, suffix: str | None = None) -> Iterator[Path
     """Yield a temporary path in the target's folder; rename it onto ``path`` on success.
 
     On any exception the temporary file is removed and ``path`` is untouched.
+    The target is checked first (:func:`check_output_path`): its folder must
+    exist.
     """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(
-        prefix=f".{target.name}.", suffix=suffix if suffix is not None else target.suffix + ".part",
-        dir=target.parent,
-    )  # fmt: skip
-    os.close(fd)
-    tmp_path = Path(tmp)
+    target = check_output_path(path)
+    clean_stale(target)
+    tmp_path = temp_name(target, suffix=suffix if suffix is not None else target.suffix + ".part")
     try:
+        tmp_path.touch(mode=0o600, exist_ok=False)
         yield tmp_path
-        # mkstemp makes the file private (0600): give it the usual permissions
-        os.chmod(tmp_path, 0o666 & ~_umask())
+        _finish_file(tmp_path)
         os.replace(tmp_path, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
@@ -52,6 +186,284 @@ def atomic_write(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically."""
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
+
+
+# ----------------------------------------------------------------- paired files
+def file_sha256(path: Path) -> str:
+    """Hex SHA-256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def recover_pair(main: str | Path, sidecar: str | Path) -> None:
+    """Complete or discard a pair write that a killed process left half done.
+
+    A pending sidecar (``.SIDECAR.<pid>-<hex>.pending``) of a process that no
+    longer runs is renamed onto ``sidecar`` if ``main`` holds the bytes it
+    describes (the process died between the two renames), else removed.
+    """
+    m, s = Path(main), Path(sidecar)
+    clean_stale(m)
+    for pending in _stale_temps(s):
+        if not pending.name.endswith(".pending"):
+            with contextlib.suppress(OSError):
+                pending.unlink()
+            continue
+        try:
+            digest = json.loads(pending.read_text()).get("sha256")
+            done = m.is_file() and digest == file_sha256(m)
+        except (OSError, ValueError, AttributeError):
+            done = False
+        with contextlib.suppress(OSError):
+            if done:
+                os.replace(pending, s)
+            else:
+                pending.unlink()
+
+
+def write_pair(main: str | Path, write_main: Callable[[Path], None], sidecar: str | Path,
+               sidecar_bytes: Callable[[str], bytes], *, suffix: str = ".part") -> None:  # fmt: skip
+    """Write ``main`` and its ``sidecar`` so that both change or neither does.
+
+    Parameters
+    ----------
+    main, sidecar : the two output paths (e.g. ``OUT.wav`` and ``OUT.wav.json``).
+    write_main : callable
+        Writes the main file's content to the temporary path it is given.
+    sidecar_bytes : callable
+        Given the main file's SHA-256 (hex), returns the sidecar's bytes; the
+        sidecar should record it so that a reader can check the pair.
+    suffix : str
+        Suffix of the main file's temporary (writers that choose a format from
+        the extension need it, e.g. ``".part.flac"``).
+
+    Notes
+    -----
+    Both files are complete on disk before either is renamed into place; the
+    main file is renamed first, then the sidecar.  A process killed between
+    the two renames leaves a pending sidecar that :func:`recover_pair`
+    (called by the next write of the same pair) renames into place.
+    """
+    m = check_output_path(main)
+    s = check_output_path(sidecar)
+    recover_pair(m, s)
+    tmp_main = temp_name(m, suffix=suffix)
+    tmp_side = temp_name(s, suffix=".pending")
+    swapped = False
+    try:
+        tmp_main.touch(mode=0o600, exist_ok=False)
+        write_main(tmp_main)
+        _finish_file(tmp_main)
+        tmp_side.write_bytes(sidecar_bytes(file_sha256(tmp_main)))
+        _finish_file(tmp_side)
+        os.replace(tmp_main, m)
+        swapped = True
+        os.replace(tmp_side, s)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_main.unlink()
+        if not swapped:  # after the first rename the pending sidecar completes the pair later
+            with contextlib.suppress(FileNotFoundError):
+                tmp_side.unlink()
+        raise
+
+
+# ----------------------------------------------------------------- ParaView collections
+def collection_folders(pvd: Path) -> set[str]:
+    """Names of the folders (beside ``pvd``) that an existing ``.pvd`` refers to."""
+    try:
+        root = ET.parse(pvd).getroot()
+    except (OSError, ET.ParseError):
+        return set()
+    out = set()
+    for entry in root.iter("DataSet"):
+        parts = Path(entry.get("file") or "").parts
+        if len(parts) > 1 and parts[0] not in (".", ".."):
+            out.add(parts[0])
+    return out
+
+
+def _marker(folder: Path) -> dict[str, object] | None:
+    try:
+        data = json.loads((folder / DATA_MARKER).read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and data.get("written_by") == "auralize" else None
+
+
+def _marker_pid(mark: dict[str, object] | None) -> int:
+    value = mark.get("pid") if mark is not None else None
+    return value if isinstance(value, int) else 0
+
+
+def _owned(folder: Path, pvd: Path, referenced: set[str]) -> bool:
+    """Whether auralize wrote ``folder`` for ``pvd``: it carries the marker of this
+    collection, or (folders written before the marker) it holds nothing but
+    files the existing ``.pvd`` lists."""
+    mark = _marker(folder)
+    if mark is not None:
+        return mark.get("collection") == pvd.name
+    if folder.name not in referenced:
+        return False
+    try:
+        root = ET.parse(pvd).getroot()
+        listed = {Path(e.get("file") or "").name for e in root.iter("DataSet")}
+        return all(p.is_file() and p.name in listed for p in folder.iterdir())
+    except (OSError, ET.ParseError):
+        return False
+
+
+def write_collection(pvd: str | Path, data_name: str,
+                     write_steps: Callable[[Path], list[tuple[float, str]]]) -> Path:  # fmt: skip
+    """Write a ParaView ``.pvd`` collection and its data folder, atomically.
+
+    Parameters
+    ----------
+    pvd : the ``.pvd`` file to write (replaced if it exists).
+    data_name : str
+        Base name of the data folder beside it, e.g. ``"run_data"``.
+    write_steps : callable
+        Given the (new, empty) data folder, writes one file per step into it and
+        returns ``[(time in s, file name), ...]`` in step order.
+
+    Returns
+    -------
+    Path
+        The data folder the new ``.pvd`` refers to: ``data_name`` if it was
+        free, else ``data_name.1``, ``data_name.2`` ... (the first free name).
+
+    Raises
+    ------
+    OutputError
+        ``data_name`` exists and auralize did not write it for this ``.pvd``
+        (it is never replaced or deleted).
+
+    Notes
+    -----
+    The new folder is marked (:data:`DATA_MARKER`) and filled, then a new
+    ``.pvd`` pointing at it replaces the old one in one rename; the old folder
+    is removed afterwards, and only if it is auralize's.  A kill at any point
+    leaves the old or the new collection complete; folders of killed writers
+    are removed by the next write of the same ``.pvd`` (folders the ``.pvd``
+    does not list whose writer is this process or no longer runs).
+    """
+    path = check_output_path(pvd)
+    clean_stale(path)
+    clean_stale(path.with_name(data_name))
+    referenced = collection_folders(path) if path.is_file() else set()
+    base = path.with_name(data_name)
+    if (base.exists() or base.is_symlink()) and (
+        base.is_symlink() or not base.is_dir() or not _owned(base, path, referenced)
+    ):
+        what = (
+            "is not a folder"
+            if base.is_symlink() or not base.is_dir()
+            else "was not written by auralize"
+        )
+        held = "" if what == "is not a folder" else _first_item(base)
+        raise OutputExistsError(
+            f"cannot write {str(path)!r}: {str(base)!r} exists and {what}{held}; auralize does not "
+            f"replace it (move it away or choose another output name)"
+        )  # fmt: skip
+    siblings = [base] + sorted(path.parent.glob(f"{_glob_escape(data_name)}.[0-9]*"))
+    for folder in siblings:  # folders of writers killed before or after the swap
+        mark = _marker(folder) if folder.is_dir() and not folder.is_symlink() else None
+        pid = _marker_pid(mark)
+        if (mark is not None and mark.get("collection") == path.name
+                and folder.name not in referenced
+                and (pid == os.getpid() or not pid_alive(pid))):  # fmt: skip
+            _discard(folder, base)
+    n = 0
+    new = base
+    while new.exists() or new.is_symlink():
+        n += 1
+        new = path.with_name(f"{data_name}.{n}")
+    tmp_pvd = temp_name(path)
+    tmp_dir = temp_name(base)
+    try:
+        # the folder appears under its name already marked, so a kill never leaves
+        # an unmarked folder that would look like the user's
+        os.mkdir(tmp_dir)  # the usual permissions (umask), not mkdtemp's 0700
+        (tmp_dir / DATA_MARKER).write_text(json.dumps(
+            {"written_by": "auralize", "collection": path.name, "pid": os.getpid()}))  # fmt: skip
+        os.rename(tmp_dir, new)
+        with _vtk_quiet():
+            entries = write_steps(new)
+        lines = [
+            '<?xml version="1.0"?>',
+            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+            "  <Collection>",
+            *(f'    <DataSet timestep={quoteattr(repr(float(t)))} group="" part="0" '
+              f"file={quoteattr(f'{new.name}/{name}')}/>" for t, name in entries),
+            "  </Collection>",
+            "</VTKFile>",
+            "",
+        ]  # fmt: skip
+        for f in new.iterdir():
+            _finish_file(f)
+        tmp_pvd.write_text("\n".join(lines), encoding="utf-8")
+        _finish_file(tmp_pvd)
+        os.replace(tmp_pvd, path)
+    except BaseException:
+        if _marker_pid(_marker(new)) == os.getpid():
+            _discard(new, base)
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+        tmp_pvd.unlink(missing_ok=True)
+        raise
+    for name in referenced - {new.name}:
+        old = path.with_name(name)
+        if old.is_dir() and not old.is_symlink() and _owned(old, path, referenced):
+            _discard(old, base)
+    return new
+
+
+class _DropVTK(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "vtk" not in record.getMessage().lower()
+
+
+@contextlib.contextmanager
+def _vtk_quiet() -> Iterator[None]:
+    """Keep VTK's own reports of a failed write (a full disk) off stderr: the error raised
+    (an :class:`OSError` from the write) is what the user sees, on one line."""
+    import pyvista as pv
+
+    root = logging.getLogger()
+    drop = _DropVTK()
+    root.addFilter(drop)
+    try:
+        with pv.vtk_verbosity("off"):
+            yield
+    finally:
+        root.removeFilter(drop)
+
+
+def _discard(folder: Path, base: Path) -> None:
+    """Remove a data folder: first renamed to a hidden temporary of ``base`` (one atomic
+    step, so a kill never leaves a half-emptied folder under a visible name), then deleted."""
+    gone = temp_name(base, suffix=".old")
+    try:
+        os.rename(folder, gone)
+    except OSError:
+        return
+    shutil.rmtree(gone, ignore_errors=True)
+
+
+def _first_item(folder: Path) -> str:
+    try:
+        items = sorted(p.name for p in folder.iterdir())
+    except OSError:
+        return ""
+    return f" (it holds {items[0]!r})" if items else " (it is empty)"
+
+
+def _glob_escape(name: str) -> str:
+    import glob
+
+    return glob.escape(name)
 
 
 def read_timed_csv(path: str | Path, *, what: str, optional: list[str],
@@ -72,6 +484,10 @@ def read_timed_csv(path: str | Path, *, what: str, optional: list[str],
         raise FormatError(f"{what} file {str(p)!r} does not exist") from None
     except UnicodeDecodeError:
         raise FormatError(f"{p}: not a text CSV file") from None
+    except IsADirectoryError:
+        raise FormatError(f"{what} file {str(p)!r} is a folder, not a CSV file") from None
+    except OSError as exc:
+        raise FormatError(f"{what} file {str(p)!r} cannot be read ({exc.strerror})") from None
     reader = csv.reader(io.StringIO(text))
     want = "t,x,y,z" + "".join("," + c for c in optional)
     try:
@@ -95,6 +511,9 @@ def read_timed_csv(path: str | Path, *, what: str, optional: list[str],
             raise FormatError(f"{p}, line {lineno}: not a number in {row!r}") from None
         if len(vals) != ncol:
             raise FormatError(f"{p}, line {lineno}: expected {ncol} columns, got {len(row)}")
+        bad = [c for c, v in zip(row, vals, strict=False) if not math.isfinite(v)]
+        if bad:
+            raise FormatError(f"{p}, line {lineno}: {bad[0].strip()!r} is not a finite number")
         rows.append(vals)
     if not rows:
         raise FormatError(f"{p}: no {rows_name} after the header")

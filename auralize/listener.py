@@ -75,6 +75,12 @@ class ListenerPath:
         for name, arr in (("times", self.times), ("positions", self.positions)):
             if not np.all(np.isfinite(arr)):
                 raise ListenerPathError(f"{self.source}: {name} contain NaN or Inf")
+        big = np.abs(self.positions).max(initial=0.0)
+        if big > MAX_COORDINATE_M:
+            raise ListenerPathError(
+                f"{self.source}: a position coordinate is {big:g} m; positions must be within "
+                f"±{MAX_COORDINATE_M:g} m (sound takes about a century to cross that)"
+            )
         d = np.diff(self.times)
         if np.any(d < 0):
             i = int(np.argmax(d < 0))
@@ -113,6 +119,9 @@ class ListenerPath:
         ``face="forward"`` looks along the motion; ``"fixed"`` keeps +y.
         """
         _check_duration(duration)
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 2:
+            raise ListenerPathError(f"a line needs at least 2 captures, got n={n!r}")
+        _check_captures(int(n), f"a line of {n} captures")
         a = np.asarray(start, dtype=np.float64).reshape(3)
         b = np.asarray(end, dtype=np.float64).reshape(3)
         w = np.linspace(0.0, 1.0, max(int(n), 2))[:, None]
@@ -137,7 +146,13 @@ class ListenerPath:
         _check_duration(duration)
         if not radius > 0:
             raise ListenerPathError(f"orbit radius must be > 0, got {radius!r}")
+        if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
+            raise ListenerPathError(f"orbit rate_hz must be a positive number, got {rate_hz!r}")
+        for name, v in (("radius", radius), ("turns", turns), ("height", height)):
+            if not math.isfinite(v):
+                raise ListenerPathError(f"orbit {name} must be a finite number, got {v!r}")
         c = np.asarray(center, dtype=np.float64).reshape(3)
+        _check_captures(duration * rate_hz, f"an orbit of {duration:g} s at {rate_hz:g} Hz")
         n = max(int(math.ceil(duration * rate_hz)) + 1, 3)
         t = np.linspace(0.0, duration, n)
         ang = 2 * np.pi * turns * t / duration
@@ -287,6 +302,18 @@ def csv_header() -> str:
 
 def format_row(row: NDArray[np.float64]) -> str:
     return ",".join(f"{v:.9g}" for v in row)
+
+
+#: bytes a capture takes while a path is built and written (arrays and CSV text)
+CAPTURE_BYTES = 512
+#: largest coordinate magnitude accepted, m (sound needs ~100 years to cross it)
+MAX_COORDINATE_M = 1e12
+
+
+def _check_captures(n: float, what: str) -> None:
+    from auralize.resources import require_memory
+
+    require_memory(n * CAPTURE_BYTES, what, hint="use fewer captures per second")
 
 
 def _check_duration(d: float) -> None:

@@ -151,6 +151,13 @@ class TimeVolume:
         self.dims = tuple(int(d) for d in self.dims)  # type: ignore[assignment]
         if len(self.dims) != 3 or min(self.dims) < 1:
             raise DataError(f"{self.source}: dims must be three positive integers, got {self.dims}")
+        far = np.abs(self.origin) + self.spacing * (np.asarray(self.dims) - 1)
+        if np.any(self.spacing < 1e3 * np.spacing(far)):
+            raise DataError(
+                f"{self.source}: grid spacing {self.spacing.tolist()} m is too fine for origin "
+                f"{self.origin.tolist()} m: float64 cannot keep neighbouring points apart that far "
+                f"from 0; move the origin nearer 0"
+            )
         self.times = np.asarray(self.times, dtype=np.float64).reshape(-1)
         if self.times.size == 0:
             raise DataError(f"{self.source}: a volume needs at least one time step")

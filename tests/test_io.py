@@ -225,15 +225,16 @@ def test_pvd_round_trip(tmp_path: Path) -> None:
     out = tmp_path / "run.pvd"
     save_volume(vol, out)
     files = sorted(p.name for p in (tmp_path / "run_data").iterdir())
-    assert files == [f"run_{n:04d}.vti" for n in range(4)]
+    assert files == [".auralize-data.json"] + [f"run_{n:04d}.vti" for n in range(4)]
     assert leftovers(tmp_path) == []
     back = open_volume(out)
     assert_same_volume(vol, back)
     image = pv.read(tmp_path / "run_data" / "run_0002.vti")
     assert image.dimensions == vol.dims
-    # overwrite in place (the old folder only holds .vti files)
+    # overwrite: the new folder takes the next free name, the old one goes
     save_volume(make_volume(n_steps=2), out, compression="gzip")
-    assert len(list((tmp_path / "run_data").iterdir())) == 2
+    assert not (tmp_path / "run_data").exists()
+    assert len(list((tmp_path / "run_data.1").glob("*.vti"))) == 2
     assert open_volume(out).n_steps == 2
     assert leftovers(tmp_path) == []
 

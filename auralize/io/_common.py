@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-import uuid
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -121,8 +120,16 @@ def select_fields(
 
 
 def temp_sibling(path: Path, *, suffix: str = ".tmp") -> Path:
-    """A fresh hidden name next to ``path`` for writing before an atomic rename."""
-    return path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}{suffix}")
+    """A fresh hidden name next to ``path`` for writing before an atomic rename.
+
+    The name ``.NAME.<pid>-<hex><suffix>`` carries the writer's process id;
+    temporaries of ``path`` left by processes that no longer run are removed
+    first (:func:`auralize.fileio.clean_stale`).
+    """
+    from auralize.fileio import clean_stale, temp_name
+
+    clean_stale(path)
+    return temp_name(path, suffix=suffix)
 
 
 def fsync_path(path: Path) -> None:

@@ -31,7 +31,14 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import DataError, FieldError, FormatError, MissingFileError, ParameterError
+from auralize.errors import (
+    AuralizeError,
+    DataError,
+    FieldError,
+    FormatError,
+    ParameterError,
+)
+from auralize.fileio import check_output_path
 from auralize.io._common import (
     FieldsArg,
     fsync_path,
@@ -51,6 +58,65 @@ GENERIC_META_KEYS = ("time", "origin", "spacing")
 _AXES_ORDERS = ("tzyx", "txyz")
 
 HDF5Kind = Literal["auralize", "vtkhdf", "netcdf4", "generic"]
+
+#: Whether files may read data from other files (external links, external
+#: storage, virtual datasets); see :func:`allow_external_data`.
+_ALLOW_EXTERNAL = os.environ.get("AURALIZE_HDF5_EXTERNAL", "") == "1"
+
+
+def allow_external_data(allow: bool = True) -> None:
+    """Let HDF5 files read data from other files, or refuse it again (the default).
+
+    An HDF5 file can point outside itself: external links, datasets whose
+    bytes live in external raw files, virtual datasets.  A crafted file can so
+    make a reader return any readable file on the machine (``/etc/passwd``) as
+    field data, so readers refuse such files unless this is allowed (the
+    ``--allow-external`` option, or ``AURALIZE_HDF5_EXTERNAL=1``).
+    """
+    global _ALLOW_EXTERNAL
+    _ALLOW_EXTERNAL = bool(allow)
+
+
+def check_self_contained(f: h5py.File, path: Path) -> None:
+    """Raise :class:`FormatError` if ``f`` refers to other files (unless allowed).
+
+    Links are inspected without being followed, so dangling links and link
+    loops are reported instead of raised by h5py.
+    """
+    if _ALLOW_EXTERNAL:
+        return
+    found: list[str] = []
+
+    def visit(name: str, link: object) -> None:
+        if isinstance(link, h5py.ExternalLink):
+            found.append(f"/{name} is an external link to {link.filename}:{link.path}")
+
+    f.visititems_links(visit)
+    if not found:
+
+        def visit_obj(name: str, obj: object) -> None:
+            if isinstance(obj, h5py.Dataset) and (obj.external or obj.is_virtual):
+                kind = (
+                    "virtual (data from other files)"
+                    if obj.is_virtual
+                    else "stored in external files"
+                )
+                found.append(f"dataset /{name} is {kind}")
+
+        f.visititems(visit_obj)
+    if found:
+        raise FormatError(
+            f"{path}: {found[0]}; reading data from other files is refused (give "
+            f"--allow-external, or set AURALIZE_HDF5_EXTERNAL=1, if you trust the file)"
+        )
+
+
+def _h5_error(path: Path, exc: BaseException) -> FormatError:
+    text = " ".join(str(exc).split())
+    return FormatError(
+        f"{path}: cannot read as HDF5 ({type(exc).__name__}: {text}); the file may be corrupt, "
+        f"truncated, or hold broken or looping links"
+    )
 
 
 @dataclass
@@ -81,8 +147,16 @@ class HDF5Frames:
         """Read time step ``step`` as a new float64 array of shape ``frame_shape``."""
         try:
             with h5py.File(self.filename, "r") as f:
-                raw = f[self.dataset][step]
-        except (OSError, KeyError, ValueError) as exc:
+                ds = f[self.dataset]
+                if not _ALLOW_EXTERNAL and (ds.external or ds.is_virtual):
+                    raise FormatError(
+                        f"{self.filename}: dataset {self.dataset!r} reads data from other files; "
+                        f"refused (give --allow-external if you trust the file)"
+                    )
+                raw = ds[step]
+        except FormatError:
+            raise
+        except (OSError, KeyError, ValueError, RuntimeError, TypeError) as exc:
             raise FormatError(
                 f"{self.filename}: cannot read step {step} of dataset {self.dataset!r} "
                 f"({exc}); the file may be truncated, corrupt or changed since it was opened"
@@ -128,6 +202,8 @@ def sniff(path: Path) -> HDF5Kind:
             ):
                 return "netcdf4"
             return "generic"
+    except (KeyError, ValueError, RuntimeError, TypeError) as exc:
+        raise _h5_error(path, exc) from exc
     except OSError as exc:
         raise FormatError(
             f"{path}: cannot open as HDF5 ({exc}); the file may be corrupt or truncated"
@@ -248,11 +324,12 @@ def read_hdf5(
     require_exists(path)
     try:
         with h5py.File(path, "r") as f:
+            check_self_contained(f, path)
             return _read_v1(path, f, fields=fields, name_map=name_map)
-    except OSError as exc:
-        raise FormatError(
-            f"{path}: cannot read as HDF5 ({exc}); the file may be corrupt or truncated"
-        ) from exc
+    except AuralizeError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError, TypeError) as exc:
+        raise _h5_error(path, exc) from exc
 
 
 def _read_v1(
@@ -391,11 +468,12 @@ def read_generic_hdf5(
     require_exists(path)
     try:
         with h5py.File(path, "r") as f:
+            check_self_contained(f, path)
             return _read_generic(path, f, spec, name_map=name_map)
-    except OSError as exc:
-        raise FormatError(
-            f"{path}: cannot read as HDF5 ({exc}); the file may be corrupt or truncated"
-        ) from exc
+    except AuralizeError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError, TypeError) as exc:
+        raise _h5_error(path, exc) from exc
 
 
 def field_candidates(f: h5py.File, *, limit: int = 12) -> list[str]:
@@ -551,8 +629,17 @@ def write_hdf5(
                 f"{path}: field name {name!r} cannot be an HDF5 dataset name; use a "
                 f"non-empty name without '/'"
             )
-    if not path.parent.is_dir():
-        raise MissingFileError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
+    check_output_path(path)
+    if compression is None:
+        from auralize.resources import require_disk
+
+        nbytes = sum(
+            volume.n_steps * float(np.prod(volume.fields[n].frame_shape)) * 8
+            for n in volume.field_names
+        )
+        require_disk(
+            path, nbytes + 65536, f"{volume.n_steps} steps of {len(volume.field_names)} field(s)"
+        )
     tmp = temp_sibling(path)
     opts: dict[str, Any] = {}
     if compression == "gzip":

@@ -15,17 +15,15 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from auralize.errors import DataError, FormatError, MissingFileError, ParameterError
-from auralize.io._common import FieldsArg, fsync_path, require_exists, temp_sibling
+from auralize.errors import DataError, FormatError, ParameterError
+from auralize.io._common import FieldsArg, require_exists
 from auralize.io._mesh import import_pyvista, open_mesh_series
 from auralize.io.resample import ResolutionArg
 from auralize.volume import DEFAULT_FRAME_RATE_HZ, TimeVolume
@@ -365,18 +363,21 @@ def write_pvd(
 ) -> None:
     """Write ``volume`` as ``<stem>.pvd`` plus ``<stem>_data/<stem>_NNNN.vti``, atomically.
 
-    The ``.vti`` files are written into a hidden temporary folder that replaces
-    ``<stem>_data/`` only when complete; the ``.pvd`` is written last, the same
-    way.  On any error neither is left half-written.
+    The ``.vti`` files go into a new data folder (``<stem>_data``, or
+    ``<stem>_data.1`` ... when that name holds the previous version), then a
+    new ``.pvd`` pointing at it replaces the old one in one rename, then the
+    old folder is removed (:func:`auralize.fileio.write_collection`).  A crash
+    or a kill at any point leaves the old or the new collection complete.
 
     Parameters
     ----------
     volume : TimeVolume
         The volume; every frame must be finite.
     path : path-like
-        The ``.pvd`` file; it and ``<stem>_data/`` are replaced if they exist.
-        An existing ``<stem>_data/`` holding anything but ``.vti`` files is
-        never replaced (:class:`FileExistsError`).
+        The ``.pvd`` file; it and its data folder are replaced if they exist.
+        Its folder must exist.  An existing ``<stem>_data/`` that auralize did
+        not write for this ``.pvd`` is never replaced
+        (:class:`~auralize.errors.OutputExistsError`, a :class:`FileExistsError`).
     compression : {None, "gzip"}
         Compress the ``.vti`` arrays with zlib (gzip's deflate).
 
@@ -391,35 +392,21 @@ def write_pvd(
     >>> vol = TimeVolume.from_arrays({"p": np.ones((2, 2, 3, 4))}, times=[0.0, 0.5])
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "run.pvd"
     >>> write_pvd(vol, out)
-    >>> sorted(p.name for p in (out.parent / "run_data").iterdir())
+    >>> sorted(p.name for p in (out.parent / "run_data").glob("*.vti"))
     ['run_0000.vti', 'run_0001.vti']
     """
+    from auralize.fileio import write_collection
+
     path = Path(path).expanduser()
     if compression not in (None, "gzip"):
         raise ParameterError(f"{path}: compression={compression!r}; valid are None and 'gzip'")
-    if not path.parent.is_dir():
-        raise MissingFileError(f"{str(path)!r}: the folder {str(path.parent)!r} does not exist")
-    stem = path.stem
-    data_dir = path.with_name(f"{stem}_data")
-    if data_dir.exists() or data_dir.is_symlink():
-        if not data_dir.is_dir() or data_dir.is_symlink():
-            raise FileExistsError(
-                f"{str(data_dir)!r} exists and is not a folder; refusing to replace it"
-            )
-        others = [p.name for p in data_dir.iterdir() if p.suffix.lower() != ".vti"]
-        if others:
-            raise FileExistsError(
-                f"{str(data_dir)!r} exists and holds {others[0]!r}, not a .vti file; refusing "
-                f"to replace it (move it away or choose another output name)"
-            )
     pv = import_pyvista()
     vtk_compression = "zlib" if compression == "gzip" else None
+    stem = path.stem
     width = max(4, len(str(volume.n_steps - 1)))
     names = [f"{stem}_{n:0{width}d}.vti" for n in range(volume.n_steps)]
-    tmp_dir = temp_sibling(data_dir)
-    tmp_pvd = temp_sibling(path)
-    try:
-        tmp_dir.mkdir()
+
+    def write_steps(folder: Path) -> list[tuple[float, str]]:
         nx, ny, nz = volume.dims
         for step, name in enumerate(names):
             image = pv.ImageData(
@@ -431,47 +418,13 @@ def write_pvd(
                 frame = volume.frame(field_name, step)
                 flat = frame.reshape(nx * ny * nz, 3) if frame.ndim == 4 else frame.reshape(-1)
                 image.point_data[field_name] = np.ascontiguousarray(flat)
-            image.save(tmp_dir / name, compression=vtk_compression)
-        lines = [
-            '<?xml version="1.0"?>',
-            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
-            "  <Collection>",
-            *(
-                f'    <DataSet timestep={quoteattr(repr(float(t)))} group="" part="0" '
-                f"file={quoteattr(f'{data_dir.name}/{name}')}/>"
-                for t, name in zip(volume.times, names, strict=True)
-            ),
-            "  </Collection>",
-            "</VTKFile>",
-            "",
-        ]
-        tmp_pvd.write_text("\n".join(lines), encoding="utf-8")
-        fsync_path(tmp_pvd)
-    except BaseException:
-        shutil.rmtree(tmp_dir, ignore_errors=True)
-        tmp_pvd.unlink(missing_ok=True)
-        raise
-    _swap_in(tmp_dir, data_dir, tmp_pvd, path)
+            image.save(folder / name, compression=vtk_compression)
+        return [(float(t), name) for t, name in zip(volume.times, names, strict=True)]
 
+    if compression is None:
+        from auralize.resources import require_disk
 
-def _swap_in(tmp_dir: Path, data_dir: Path, tmp_pvd: Path, pvd: Path) -> None:
-    """Rename the finished folder and .pvd into place, restoring the old ones on failure."""
-    old: Path | None = None
-    try:
-        if data_dir.exists():
-            old = temp_sibling(data_dir, suffix=".old")
-            os.replace(data_dir, old)
-        os.replace(tmp_dir, data_dir)
-        try:
-            os.replace(tmp_pvd, pvd)
-        except BaseException:
-            shutil.rmtree(data_dir, ignore_errors=True)
-            raise
-    except BaseException:
-        if old is not None and not data_dir.exists():
-            os.replace(old, data_dir)
-        shutil.rmtree(tmp_dir, ignore_errors=True)
-        tmp_pvd.unlink(missing_ok=True)
-        raise
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+        comps = sum(3 if volume.is_vector(n) else 1 for n in volume.field_names)
+        require_disk(path, volume.n_steps * float(volume.n_points) * comps * 8 + 65536,
+                     f"{volume.n_steps} steps of {len(volume.field_names)} field(s)")  # fmt: skip
+    write_collection(path, f"{stem}_data", write_steps)

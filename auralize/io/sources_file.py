@@ -21,17 +21,14 @@ from __future__ import annotations
 
 import itertools
 import json
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
-from xml.sax.saxutils import quoteattr
 
 import h5py
 import numpy as np
 
-from auralize.errors import DataError, FormatError
-from auralize.fileio import atomic_path, atomic_write
+from auralize.errors import AuralizeError, DataError, FormatError
+from auralize.fileio import atomic_path, write_collection
 from auralize.sources import SourceFrame, SourceSeries
 
 FORMAT = "sources"
@@ -75,37 +72,55 @@ def load_sources_h5(path: str | Path) -> SourceSeries:
         h = h5py.File(p, "r")
     except OSError as exc:
         raise FormatError(f"{p}: not a readable HDF5 file ({exc})") from None
-    with h:
-        if h.attrs.get("auralize_format") != FORMAT:
-            raise FormatError(f"{p}: not an auralize sources file (auralize_format != 'sources')")
-        if int(h.attrs.get("version", -1)) != VERSION:
-            raise FormatError(
-                f"{p}: sources file version {h.attrs.get('version')} is not {VERSION}"
-            )
-        off = h["offsets"][()]
-        idx, kind = h["index"][()], h["kind"][()]
-        strength, radius = h["strength"][()], h["radius"][()]
-        frames = [
-            SourceFrame(index=idx[a:b], kind=kind[a:b], strength=strength[a:b], radius=radius[a:b])
-            for a, b in itertools.pairwise(off)
-        ]
-        return SourceSeries(
-            frames=frames, times=h["time"][()], origin=h.attrs["origin"][()],
-            spacing=h.attrs["spacing"][()], dims=tuple(int(d) for d in h.attrs["dims"]),  # type: ignore[arg-type]
-            thresholds=h.attrs["thresholds"][()], meta=json.loads(h.attrs["meta"]),
-        )  # fmt: skip
+    try:
+        with h:
+            return _read_sources(h, p)
+    except AuralizeError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError, TypeError, IndexError) as exc:
+        raise FormatError(
+            f"{p}: not a readable auralize sources file ({type(exc).__name__}: "
+            f"{' '.join(str(exc).split())})"
+        ) from None
+
+
+def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
+    from auralize.io.hdf5 import check_self_contained
+
+    check_self_contained(h, p)
+    if h.attrs.get("auralize_format") != FORMAT:
+        raise FormatError(f"{p}: not an auralize sources file (auralize_format != 'sources')")
+    if int(h.attrs.get("version", -1)) != VERSION:
+        raise FormatError(f"{p}: sources file version {h.attrs.get('version')} is not {VERSION}")
+    off = h["offsets"][()]
+    idx, kind = h["index"][()], h["kind"][()]
+    strength, radius = h["strength"][()], h["radius"][()]
+    frames = [
+        SourceFrame(index=idx[a:b], kind=kind[a:b], strength=strength[a:b], radius=radius[a:b])
+        for a, b in itertools.pairwise(off)
+    ]
+    return SourceSeries(
+        frames=frames, times=h["time"][()], origin=h.attrs["origin"][()],
+        spacing=h.attrs["spacing"][()], dims=tuple(int(d) for d in h.attrs["dims"]),  # type: ignore[arg-type]
+        thresholds=h.attrs["thresholds"][()], meta=json.loads(h.attrs["meta"]),
+    )  # fmt: skip
 
 
 def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
-    """Write ``NAME.pvd`` plus ``NAME_data/step_NNNN.vtp`` (one point set per step)."""
+    """Write ``NAME.pvd`` plus ``NAME_data/step_NNNN.vtp`` (one point set per step), atomically.
+
+    The folder is written under a fresh name (``NAME_data``, or ``NAME_data.1``
+    ... while the previous version holds that name) and the ``.pvd`` replaced
+    in one rename (:func:`auralize.fileio.write_collection`); an existing
+    ``NAME_data`` that auralize did not write is never replaced.
+    """
     import pyvista as pv
 
     from auralize.scene import type_rgb
 
     p = Path(path)
-    data_dir = p.parent / f"{p.stem}_data"
-    tmp_dir = Path(tempfile.mkdtemp(prefix=f".{p.stem}_data.", dir=p.parent))
-    try:
+
+    def write_steps(folder: Path) -> list[tuple[float, str]]:
         entries = []
         for n, f in enumerate(series.frames):
             pts = series.positions(f.index) if f.index.size else np.zeros((0, 3))
@@ -117,22 +132,11 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
             if f.index.size:  # the palette: colour by it with "Map Scalars" off
                 poly.point_data["rgb"] = type_rgb(f.kind)
             name = f"step_{n:04d}.vtp"
-            poly.save(tmp_dir / name)
-            entries.append((float(series.times[n]), f"{data_dir.name}/{name}"))
-        if data_dir.exists():
-            shutil.rmtree(data_dir)
-        tmp_dir.rename(data_dir)
-    except BaseException:
-        shutil.rmtree(tmp_dir, ignore_errors=True)
-        raise
-    lines = [
-        '<?xml version="1.0"?>',
-        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
-        "<Collection>",
-    ]
-    lines += [f'<DataSet timestep="{t!r}" part="0" file={quoteattr(fn)}/>' for t, fn in entries]
-    lines += ["</Collection>", "</VTKFile>", ""]
-    atomic_write(p, "\n".join(lines).encode())
+            poly.save(folder / name)
+            entries.append((float(series.times[n]), name))
+        return entries
+
+    write_collection(p, f"{p.stem}_data", write_steps)
 
 
 def load_sources_for(path: str | Path, volume: Any) -> SourceSeries:

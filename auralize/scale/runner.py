@@ -38,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import re
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
@@ -56,6 +57,10 @@ class SchedulerError(AuralizeError, ConnectionError):
 
 class RunError(AuralizeError, RuntimeError):
     """A distributed run stopped (a worker died too often, a pool broke)."""
+
+
+#: interface a local cluster (scheduler, workers, dashboard) binds by default
+LOOPBACK = "127.0.0.1"
 
 
 def default_workers() -> int:
@@ -93,6 +98,12 @@ class Runner:
         CPU time of the synthesis and detection tasks (measured: 60 s ring8
         from the 256³ explosion, 1 worker, worker user time 111 s with it,
         101 s without).  Clusters given by ``address`` keep their own setting.
+    dashboard_address : str, optional
+        ``HOST:PORT`` the local cluster's dashboard listens on.  Default
+        ``127.0.0.1:0`` (loopback, a free port): the dashboard has no login, so
+        it is only reachable from other machines when an address such as
+        ``0.0.0.0:8787`` is asked for.  The local scheduler and workers always
+        listen on loopback.
 
     Examples
     --------
@@ -107,7 +118,8 @@ class Runner:
                  workers: int | None = None, processes: bool = True,
                  timeout: float = CONNECT_TIMEOUT_S,
                  log: Callable[[str], None] | None = print,
-                 setup_workers: bool = True, profile: bool = False) -> None:  # fmt: skip
+                 setup_workers: bool = True, profile: bool = False,
+                 dashboard_address: str | None = None) -> None:  # fmt: skip
         if address:
             if scheduler not in ("distributed", "sync"):
                 raise ParameterError(
@@ -126,6 +138,8 @@ class Runner:
             )
         self.scheduler = scheduler
         self.address = address
+        #: where a local cluster's dashboard listens: loopback unless asked otherwise
+        self.dashboard_address = dashboard_address or f"{LOOPBACK}:0"
         self.workers = workers
         self.processes = processes
         self.timeout = float(timeout)
@@ -182,7 +196,10 @@ class Runner:
                 with dask.config.set({"distributed.worker.profile.enabled": self.profile}):
                     self._cluster = distributed.LocalCluster(
                         n_workers=n, threads_per_worker=1, processes=self.processes,
-                        dashboard_address=":0", silence_logs=logging.ERROR,
+                        dashboard_address=self.dashboard_address,
+                        worker_dashboard_address=f"{LOOPBACK}:0",
+                        silence_logs=logging.ERROR,
+                        **({"host": LOOPBACK} if self.processes else {}),
                     )  # fmt: skip
                 self.client = distributed.Client(self._cluster)
             except Exception as exc:  # pragma: no cover - depends on the machine
@@ -193,6 +210,11 @@ class Runner:
             self._setup_workers()
         self.setup_seconds = time.perf_counter() - t0
         self.dashboard_link = _dashboard(self.client)
+        if self._cluster is not None and self.dashboard_address.startswith(f"{LOOPBACK}:"):
+            # the link names the machine's address; the dashboard listens on loopback only
+            self.dashboard_link = re.sub(
+                r"//[^/:]+:", f"//{LOOPBACK}:", self.dashboard_link, count=1
+            )
         n_workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
         where = self.address or f"local cluster ({'processes' if self.processes else 'threads'})"
         self.log(f"dask: {where}, {n_workers} workers; dashboard: {self.dashboard_link}")

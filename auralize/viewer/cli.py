@@ -67,6 +67,10 @@ def _size(text: str) -> tuple[int, int]:
         raise ParameterError(f"--window-size must be WxH, e.g. 1200x900; got {text!r}") from None
     if w < 16 or h < 16:
         raise ParameterError(f"--window-size must be at least 16x16, got {text!r}")
+    from auralize.resources import require_memory
+
+    # the render window's colour and depth buffers, plus the screenshot's RGB copy
+    require_memory(float(w) * h * 12, f"--window-size {text}", hint="choose a smaller window")
     return w, h
 
 

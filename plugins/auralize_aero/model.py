@@ -124,7 +124,13 @@ class AeroSound(SoundModel):
     # ------------------------------------------------------------------ CLI
     @classmethod
     def add_cli(cls, subparsers: Any) -> None:
-        from auralize.cli import add_output_options
+        from auralize.cli import (
+            add_output_options,
+            finite_float,
+            positive_float,
+            positive_int,
+            seed_int,
+        )
 
         p = subparsers.add_parser(
             "aero", help="aerodynamic sound: sound textures and rendering (paper 004)"
@@ -138,15 +144,23 @@ class AeroSound(SoundModel):
         )
         t.add_argument("--diameter", type=float, required=True, help="frontal width D in metres")
         t.add_argument("-o", "--output", required=True, help="texture .h5")
-        t.add_argument("--speed", type=float, default=10.0, help="base speed v0 in m/s (§7.2)")
         t.add_argument(
-            "--directions", type=int, help="sampled flow directions (default: 5° spacing)"
+            "--speed", type=positive_float, default=10.0, help="base speed v0 in m/s (§7.2)"
         )
-        t.add_argument("--duration", type=float, default=0.05, help="recorded texture seconds")
-        t.add_argument("--resolution", type=int, default=16, help="lattice cells across D")
-        t.add_argument("--reynolds", type=float, default=200.0, help="Reynolds number simulated")
-        t.add_argument("--rate", type=float, default=16000.0, help="texture sample rate in Hz")
-        t.add_argument("--seed", type=int, default=0)
+        t.add_argument(
+            "--directions", type=positive_int, help="sampled flow directions (default: 5° spacing)"
+        )
+        t.add_argument(
+            "--duration", type=positive_float, default=0.05, help="recorded texture seconds"
+        )
+        t.add_argument("--resolution", type=positive_int, default=16, help="lattice cells across D")
+        t.add_argument(
+            "--reynolds", type=positive_float, default=200.0, help="Reynolds number simulated"
+        )
+        t.add_argument(
+            "--rate", type=positive_float, default=16000.0, help="texture sample rate in Hz"
+        )
+        t.add_argument("--seed", type=seed_int, default=0)
         t.add_argument("--no-cache", action="store_true", help="recompute even if cached")
         t.set_defaults(func=cls._cmd_texture)
         r = sub.add_parser("render", help="render the sound of a moving object or of wind (§6)")
@@ -154,21 +168,29 @@ class AeroSound(SoundModel):
         mv = r.add_mutually_exclusive_group(required=True)
         mv.add_argument("--motion", metavar="MOTION.csv", help="object poses t,x,y,z,qw,qx,qy,qz")
         mv.add_argument(
-            "--wind", type=float, metavar="SPEED", help="wind speed on a static object (m/s)"
+            "--wind",
+            type=positive_float,
+            metavar="SPEED",
+            help="wind speed on a static object (m/s)",
         )
         mv.add_argument("--preset", choices=PRESETS, help="a §8 example's object and motion")
-        r.add_argument("--wind-direction", default="1,0,0", help="x,y,z (with --wind)")
+        r.add_argument("--wind-direction", default="0,1,0",
+                       help="x,y,z (with --wind; default +y, across the stick, which lies along "
+                            "+x)")  # fmt: skip
         r.add_argument(
-            "--gust", type=float, default=0.05, help="relative wind fluctuation (with --wind)"
+            "--gust",
+            type=finite_float,
+            default=0.05,
+            help="relative wind fluctuation (with --wind)",
         )
         r.add_argument(
             "--object", default="stick", help="stick | fence | sphere | sword (default stick)"
         )
-        r.add_argument("--length", type=float, default=0.5, help="stick length in metres")
+        r.add_argument("--length", type=positive_float, default=0.5, help="stick length in metres")
         r.add_argument("--exponent", choices=["physical", "paper"], default="physical",
                        help="amplitude ∝ v³ (physical) or v⁶ (paper Eq. 3)")  # fmt: skip
         r.add_argument("--stereo", choices=["ears", "pan"], default="ears")
-        r.add_argument("--seed", type=int, default=0)
+        r.add_argument("--seed", type=seed_int, default=0)
         add_output_options(r)
         r.set_defaults(func=cls._cmd_render)
 
@@ -205,6 +227,7 @@ class AeroSound(SoundModel):
                 wind = Wind(
                     args.wind, tuple(_floats(args.wind_direction)), gust=args.gust, seed=args.seed
                 )
+                _check_crosswind(obj, _floats(args.wind_direction), args.wind_direction)
         t0 = time.perf_counter()
         out = render(tex, obj, path, motion=motion, wind=wind, rate=args.rate, layout=args.layout,
                      exponent=args.exponent, stereo=args.stereo)  # fmt: skip
@@ -263,6 +286,25 @@ def _floats(text: str) -> list[float]:
     if len(v) != 3:
         raise ParameterError(f"expected three numbers x,y,z, got {text!r}")
     return v
+
+
+def _check_crosswind(obj: AeroObject, direction: Any, text: str) -> None:
+    """Refuse a wind that blows along every piece of the object: no shedding, 0 Pa (§6)."""
+    d = np.asarray(direction, dtype=np.float64).reshape(-1)
+    if d.size != 3 or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:
+        raise ParameterError(
+            f"--wind-direction must be three numbers x,y,z, not all 0; got {text!r}"
+        )
+    d = d / np.linalg.norm(d)
+    seg = np.concatenate(
+        [np.diff(np.asarray(pl, dtype=np.float64), axis=0) for pl in obj.polylines]
+    )
+    seg = seg[np.linalg.norm(seg, axis=1) > 0]
+    if seg.size and np.all(np.abs(seg @ d) / np.linalg.norm(seg, axis=1) > 0.9999):
+        raise ParameterError(
+            f"--wind-direction {text} blows along the {obj.name}'s axis: no flow crosses it, so it "
+            f"sheds no vortices and makes no sound (0 Pa); give a direction across it, e.g. 0,1,0"
+        )
 
 
 def _object_from_args(args: argparse.Namespace, diameter: float) -> AeroObject:

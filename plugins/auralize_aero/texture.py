@@ -298,6 +298,13 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
     f_scale = rho0 * (speed / u_lattice) ** 2 * dx  # lattice force -> N/m
     est_period = D / (0.2 * speed)
     n_rec = int(math.ceil((duration + 1.5 * est_period) / dt))
+    from auralize.resources import require_memory
+
+    # D2Q9 populations (two copies) and fields on the lattice, plus the recorded forces
+    require_memory(nx * ny * 9 * 8 * 4.0 + n_rec * 8 * 8.0,
+                   f"a {nx} x {ny} lattice recording {n_rec} steps ({duration:g} s at "
+                   f"resolution {resolution})",
+                   hint="lower --resolution or --duration")  # fmt: skip
     gs, fs, lens, sts, info = [], [], [], [], []
     for j, th_deg in enumerate(dirs):
         th = np.deg2rad(th_deg)
@@ -346,6 +353,7 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
     tex = SoundTexture(section, float(speed), float(rate), dirs, g, F, np.asarray(lens, dtype=np.int64),
                        np.asarray(sts), meta)  # fmt: skip
     if cpath is not None:
+        cpath.parent.mkdir(parents=True, exist_ok=True)  # the cache folder is auralize's own
         tex.save(cpath)
     return tex
 

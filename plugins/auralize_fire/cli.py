@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from auralize.audio import write_audio
+from auralize.cli import finite_float, positive_float, positive_int, rate_int, seed_int
 
 
 def _audio_out(p: argparse.ArgumentParser) -> None:
@@ -36,25 +37,28 @@ def _volume_in(p: argparse.ArgumentParser) -> None:
     p.add_argument("volume", metavar="PATH", help="volume file or dataset:fire")
     p.add_argument("--burn-field", default="burn", help="scalar field of the front (default burn)")
     p.add_argument("--velocity-field", default="velocity", help="velocity field (default velocity)")
-    p.add_argument("--iso", type=float, help="front iso-value (default 10%% of the peak)")
-    p.add_argument("--refine", type=int, default=2, help="B-spline refinement (default 2)")
-    p.add_argument("--highpass", type=float, default=30.0, help="high-pass cutoff Hz (§6; 0 = off)")
-    p.add_argument("--size", type=int, help="grid size of dataset:fire")
-    p.add_argument("--steps", type=int, help="steps of dataset:fire")
+    p.add_argument("--iso", type=finite_float, help="front iso-value (default 10%% of the peak)")
+    p.add_argument("--refine", type=positive_int, default=2, help="B-spline refinement (default 2)")
+    p.add_argument("--highpass", type=finite_float, default=30.0,
+                   help="high-pass cutoff Hz (§6; 0 = off)")  # fmt: skip
+    p.add_argument("--size", type=positive_int, help="grid size of dataset:fire")
+    p.add_argument("--steps", type=positive_int, help="steps of dataset:fire")
 
 
 def _extend_opts(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--alpha", type=float, default=3.0, help="power-law exponent (default 3)")
-    p.add_argument("--fcut", type=float, default=180.0, help="blend centre Hz (default 180)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--alpha", type=finite_float, default=3.0, help="power-law exponent (default 3)")
+    p.add_argument(
+        "--fcut", type=positive_float, default=180.0, help="blend centre Hz (default 180)"
+    )
+    p.add_argument("--seed", type=seed_int, default=0)
 
 
 def _texture_opts(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--levels", type=int, default=6, help="pyramid levels (default 6)")
+    p.add_argument("--levels", type=positive_int, default=6, help="pyramid levels (default 6)")
     p.add_argument("--eps", type=float, default=1.0, help="approximate-NN ε (default 1; 0 exact)")
     p.add_argument("--coarse-weight", type=float, default=3.0,
                    help="weight of the coarser-level (Eq. 16) feature samples (default 3; 1 = unweighted)")  # fmt: skip
-    p.add_argument("--training-rate", type=int, help="rate of a raw .f32 training clip")
+    p.add_argument("--training-rate", type=rate_int, help="rate of a raw .f32 training clip")
 
 
 def _write(args: argparse.Namespace, x: np.ndarray, rate: int, info: dict[str, Any]) -> None:
@@ -151,13 +155,13 @@ def add_fire_cli(subparsers: Any) -> None:
     p = sub.add_parser("lowfreq", help="§3: p = dI/dt of the flame-front flux, at audio rate")
     _volume_in(p)
     _audio_out(p)
-    p.add_argument("--rate", type=int, default=44100, help="audio rate in Hz (default 44100)")
+    p.add_argument("--rate", type=rate_int, default=44100, help="audio rate in Hz (default 44100)")
     p.set_defaults(func=cmd_lowfreq)
 
     p = sub.add_parser("extend", help="§4: spectral bandwidth extension with power-law noise")
     p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
     _audio_out(p)
-    p.add_argument("--rate", type=int, help="sample rate of a raw .f32 input")
+    p.add_argument("--rate", type=rate_int, help="sample rate of a raw .f32 input")
     _extend_opts(p)
     p.set_defaults(func=cmd_extend)
 
@@ -165,7 +169,7 @@ def add_fire_cli(subparsers: Any) -> None:
     p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
     p.add_argument("--training", help="training clip (.wav/.flac/.f32; default: procedural)")
     _audio_out(p)
-    p.add_argument("--rate", type=int, help="sample rate of a raw .f32 input")
+    p.add_argument("--rate", type=rate_int, help="sample rate of a raw .f32 input")
     _texture_opts(p)
     p.set_defaults(func=cmd_texture)
 

@@ -124,6 +124,13 @@ def refine_bspline(field: NDArray[np.floating], refine: int = 2, *,
     """
     if int(refine) != refine or refine < 1:
         raise ParameterError(f"refine must be an integer >= 1, got {refine!r}")
+    from auralize.resources import require_memory
+
+    fine_points = float(np.prod([float(n) * refine for n in np.shape(field)[:3]]))
+    # the refined grid in float64, its per-axis intermediates and the contour's working copies
+    require_memory(fine_points * 8 * 4, f"B-spline refinement {refine} of a "
+                   f"{'x'.join(str(n) for n in np.shape(field)[:3])} grid",
+                   hint="use a smaller --refine (2 is the paper's)")  # fmt: skip
     if engine not in ("numba", "numpy"):
         raise ParameterError(f"engine must be 'numba' or 'numpy', got {engine!r}")
     a = _pad_linear(np.asarray(field, dtype=np.float64), (0, 1, 2))

@@ -380,7 +380,13 @@ class SparkSound(SoundModel):
     # ------------------------------------------------------------------ CLI
     @classmethod
     def add_cli(cls, subparsers: Any) -> None:
-        from auralize.cli import add_output_options
+        from auralize.cli import (
+            add_output_options,
+            finite_float,
+            positive_float,
+            positive_int,
+            seed_int,
+        )
 
         p = subparsers.add_parser("spark", help="spark discharges and thunder (paper 002)")
         sub = p.add_subparsers(dest="spark_command", required=True, metavar="ACTION")
@@ -392,10 +398,14 @@ class SparkSound(SoundModel):
         r.add_argument(
             "--discharge", metavar="CSV", help="discharge tree/polyline CSV instead of growing one"
         )
-        r.add_argument("--seed", type=int, default=0)
-        r.add_argument("--strokes", type=int, help="strokes per flash (default: preset)")
-        r.add_argument("--gamma", type=float, default=2.5, help="Eq. 2 exponent (default 2.5)")
-        r.add_argument("--T0", type=float, help="baseline half-duration in s (default: preset)")
+        r.add_argument("--seed", type=seed_int, default=0)
+        r.add_argument("--strokes", type=positive_int, help="strokes per flash (default: preset)")
+        r.add_argument(
+            "--gamma", type=finite_float, default=2.5, help="Eq. 2 exponent (default 2.5)"
+        )
+        r.add_argument(
+            "--T0", type=positive_float, help="baseline half-duration in s (default: preset)"
+        )
         r.add_argument("--save-discharge", metavar="CSV", help="also write the discharge tree")
         r.add_argument(
             "--json", action="store_true", help="print segments, strokes and timing as JSON"

@@ -480,6 +480,13 @@ def compute_texture(
     cfg: TextureConfig, *, progress: Callable[[str], None] | None = None
 ) -> Texture:
     """Run the pre-process of §5 for every speed and return the texture (not cached)."""
+    from auralize.resources import require_memory
+
+    n_rec = float(cfg.duration) / float(cfg.dt)
+    # recorded pressure and its derivatives per receiver, plus the fluid fields of the box
+    require_memory(n_rec * 8.0 * 8 * max(int(cfg.n_receivers), 1) + float(cfg.size) ** 3 * 8 * 40,
+                   f"a {cfg.duration:g} s texture at dt = {cfg.dt:g} s ({n_rec:.3g} steps)",
+                   hint="lower --duration or raise --dt")  # fmt: skip
     t0 = time.perf_counter()
     rows, infos = [], []
     for i, u in enumerate(cfg.speeds):
@@ -524,6 +531,8 @@ def texture(cfg: TextureConfig | None = None, path: str | Path | None = None, *,
         if old is not None and old.config == cfg:
             return old, True
     tex = compute_texture(cfg, progress=progress)
+    if path is None:
+        p.parent.mkdir(parents=True, exist_ok=True)  # the cache folder is auralize's own
     tex.save(p)
     tex.meta["path"] = str(p)
     return tex, False

@@ -343,7 +343,7 @@ def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     silent = tmp_path / "silent.f32"
     np.zeros(8000, "<f4").tofile(silent)
     assert (
-        main(["fire", "extend", str(silent), "--rate", "44100", "-o", str(tmp_path / "y.wav")]) == 2
+        main(["fire", "extend", str(silent), "--rate", "44100", "-o", str(tmp_path / "y.wav")]) == 3
     )
     assert "silent" in capsys.readouterr().err
     assert not (tmp_path / "y.wav").exists()

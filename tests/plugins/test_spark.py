@@ -515,7 +515,7 @@ def test_cli_render_json_and_errors(tmp_path, capsys) -> None:  # type: ignore[n
     bad = tmp_path / "bad.wav"
     rc = main(["spark", "render", "--scene", str(scene), "--listener", "0,0,1", "-o", str(bad)])
     err = capsys.readouterr().err
-    assert rc == 2 and "no positive charge" in err and err.count("\n") == 1
+    assert rc == 3 and "no positive charge" in err and err.count("\n") == 1
     assert not bad.exists()
 
 
