@@ -13,7 +13,7 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -406,7 +406,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: core modules that add their own sub-commands with ``add_commands(subparsers)``
-CORE_COMMAND_MODULES = ("auralize.cli_audio", "auralize.viewer.cli", "auralize.cli_dask")
+CORE_COMMAND_MODULES = (
+    "auralize.cli_audio",
+    "auralize.viewer.cli",
+    "auralize.cli_dask",
+    "auralize.cli_warmup",
+)
 
 
 def _extend_with_core_modules(sub: Any) -> None:
@@ -425,13 +430,10 @@ def _extend_with_core_modules(sub: Any) -> None:
 
 
 def _extend_with_plugins(sub: Any) -> None:
-    """Let plugins add their own sub-commands (``cli(subparsers)`` hook)."""
-    from auralize.plugins import registry
+    """Let plugins add their own sub-commands (see :mod:`auralize.commands`)."""
+    from auralize.commands import add_plugin_commands
 
-    for _name, cls in registry().items():
-        hook: Callable[[Any], None] | None = getattr(cls, "add_cli", None)
-        if hook is not None:
-            hook(sub)
+    add_plugin_commands(sub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -19,7 +19,9 @@ from auralize.io.hdf5 import HDF5Frames
 from auralize.io.resample import grid_for_bounds
 from auralize.volume import DEFAULT_FRAME_RATE_HZ, TimeVolume
 
-CAVITY_ZIP = Path(__file__).resolve().parents[1] / "datasets" / "openfoam-cavity" / "OpenFOAM.zip"
+CAVITY_ZIP = (
+    Path(__file__).resolve().parents[1] / "auralize" / "data" / "openfoam-cavity" / "OpenFOAM.zip"
+)
 
 
 # --------------------------------------------------------------------------- helpers

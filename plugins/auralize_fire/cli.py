@@ -22,8 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from auralize.audio import write_audio
-
 
 def _audio_out(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("audio output")
@@ -58,6 +56,8 @@ def _texture_opts(p: argparse.ArgumentParser) -> None:
 
 
 def _write(args: argparse.Namespace, x: np.ndarray, rate: int, info: dict[str, Any]) -> None:
+    from auralize.audio import write_audio
+
     gain = write_audio(args.output, x[None] if x.ndim == 1 else x, rate,
                        normalize=args.normalize, sidecar={"model": "fire", **info})  # fmt: skip
     n = x.shape[-1]
@@ -110,6 +110,7 @@ def cmd_texture(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
+    from auralize.audio import write_audio
     from auralize.cli import listener_from_args
     from auralize.propagation import propagate
     from auralize.spatial import get_layout

@@ -181,34 +181,10 @@ class VortexSound(SoundModel):
     # ------------------------------------------------------------------ CLI
     @classmethod
     def add_cli(cls, subparsers: Any) -> None:
-        """``auralize vortex texture ...`` and ``auralize vortex render ...``."""
-        from auralize.cli import add_output_options, add_volume_options
+        """Declare the sub-commands (see :mod:`auralize_vortex.commands`)."""
+        from auralize_vortex.commands import add_commands
 
-        p = subparsers.add_parser("vortex", help="vortex sound with sound textures (paper 000)")
-        sub = p.add_subparsers(dest="vortex_command", required=True, metavar="SUBCOMMAND")
-        t = sub.add_parser("texture", help="pre-compute a sound texture Q(u,t) into HDF5 (§5)")
-        t.add_argument("--speeds", required=True, help="comma-separated increasing speeds in m/s")
-        t.add_argument(
-            "-o", "--output", required=True, help="texture .h5 (reused if the parameters match)"
-        )
-        t.add_argument("--size", type=int, default=16, help="cells per axis of the analysis box")
-        t.add_argument("--duration", type=float, default=1.0, help="seconds recorded per speed")
-        t.add_argument("--seed", type=int, default=0)
-        t.add_argument("--box", type=float, default=0.2, help="analysis box edge in m")
-        t.add_argument("--dt", type=float, default=1e-3, help="fluid time step in s")
-        t.add_argument("--coefficient", choices=["howe", "paper"], default="howe")
-        t.set_defaults(func=cls._cmd_texture)
-        r = sub.add_parser("render", help="render the vortex sound of a velocity volume (§6)")
-        add_volume_options(r)
-        add_output_options(r)
-        r.add_argument(
-            "--texture", metavar="TEX.h5", help="texture (default: cached default texture)"
-        )
-        r.add_argument("--attenuation", choices=["physical", "paper"], default="physical")
-        r.add_argument("--block", type=int, default=5, help="points per sub-volume edge")
-        r.add_argument("--velocity-field", default="velocity")
-        r.add_argument("--time-scale", type=float, default=1.0)
-        r.set_defaults(func=cls._cmd_render)
+        add_commands(subparsers)
 
     @staticmethod
     def _cmd_texture(args: argparse.Namespace) -> int:
