@@ -411,6 +411,7 @@ CORE_COMMAND_MODULES = (
     "auralize.viewer.cli",
     "auralize.cli_dask",
     "auralize.cli_warmup",
+    "auralize.cli_convert",
 )
 
 
