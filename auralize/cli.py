@@ -98,7 +98,13 @@ def add_output_options(
         "--normalize",
         choices=["peak", "none"],
         default="peak",
-        help="peak: loudest sample at 0.99; none: physical pascals (float WAV)",
+        help="peak: loudest sample at 0.99; none: physical pascals in a float WAV, whose "
+        "samples go beyond ±1 by design (scale them before playing)",
+    )
+    g.add_argument(
+        "--format",
+        choices=["float32", "pcm16", "pcm24"],
+        help="sample format (default: float32 WAV, pcm24 FLAC); pcm needs --normalize peak",
     )
     g.add_argument(
         "--limit",
@@ -241,7 +247,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                            series=series, progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                         subtype=args.format, extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
     peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
     print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
           f"at {out.rate} Hz, peak {peak:.4g} Pa, gain {gain:.4g}; {series.tracks().n_sources} "

@@ -97,15 +97,19 @@ def auralize(volume: TimeVolume, path: ListenerPath, *,
 
 
 def save_rendered(rendered: Rendered, out: str | Path, *, normalize: str = "peak",
-                  limit_pa: float | None = None, extra: dict[str, Any] | None = None) -> float:  # fmt: skip
-    """Write a render to WAV/FLAC (atomic) with its sidecar JSON; returns the gain."""
+                  limit_pa: float | None = None, extra: dict[str, Any] | None = None,
+                  subtype: str | None = None) -> float:  # fmt: skip
+    """Write a render to WAV/FLAC (atomic) with its sidecar JSON; returns the gain.
+
+    ``subtype``: sample format, ``float32``, ``pcm16`` or ``pcm24`` (see
+    :func:`auralize.audio.write_audio`)."""
     from auralize.audio import write_audio
 
     if normalize not in ("peak", "none"):
         raise ParameterError(f"normalize must be 'peak' or 'none', got {normalize!r}")
     return write_audio(
         out, rendered.audio, rendered.rate, channel_mask=rendered.layout.channel_mask,
-        normalize=normalize, limit_pa=limit_pa,
+        normalize=normalize, limit_pa=limit_pa, subtype=subtype,
         sidecar={"layout": rendered.layout.describe(), "time_scale": rendered.time_scale,
                  **rendered.meta, **(extra or {})},
     )  # fmt: skip

@@ -156,7 +156,7 @@ class AeroSound(SoundModel):
                      exponent=args.exponent, stereo=args.stereo)  # fmt: skip
         el = time.perf_counter() - t0
         gain = write_audio(args.output, out.audio, out.rate, channel_mask=out.layout.channel_mask,
-                           normalize=args.normalize, limit_pa=args.limit,
+                           normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
                            sidecar={"model": "aero", "texture": str(args.texture), **out.meta,
                                     "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
         peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0

@@ -133,7 +133,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                     duration=args.duration if args.path is None else None)  # fmt: skip
 
     gain = write_audio(args.output, out, args.rate, normalize=args.normalize, limit_pa=args.limit,
-                       sidecar={"model": "fire", "extend": args.extend, "iso": fs.iso,
+                       subtype=args.format, sidecar={"model": "fire", "extend": args.extend, "iso": fs.iso,
                         "layout": lay.name, "seconds": time.perf_counter() - t})  # fmt: skip
     print(f"wrote {args.output}: {lay.name}, {out.shape[0]} ch, {out.shape[1] / args.rate:.2f} s "
           f"at {args.rate} Hz, gain {gain:.4g}")  # fmt: skip

@@ -419,7 +419,7 @@ def cmd_spark_render(args: argparse.Namespace) -> int:
     lay = res.rendered.layout
     gain = write_audio(args.output, res.rendered.audio, res.rendered.rate,
                        channel_mask=lay.channel_mask, normalize=args.normalize,
-                       limit_pa=args.limit,
+                       limit_pa=args.limit, subtype=args.format,
                        sidecar={"model": "spark", "preset": preset, "seed": args.seed,
                                 "segments": summary["segments"], "strokes": summary["strokes"],
                                 "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip

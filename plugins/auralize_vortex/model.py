@@ -224,7 +224,7 @@ class VortexSound(SoundModel):
                           time_scale=args.time_scale, seed=args.seed)  # fmt: skip
         el = time.perf_counter() - t0
         gain = write_audio(args.output, r.audio, r.rate, channel_mask=r.layout.channel_mask,
-                           normalize=args.normalize, limit_pa=args.limit,
+                           normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
                            sidecar={"layout": r.layout.describe(), **r.meta,
                                     "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
         peak = float(np.max(np.abs(r.audio))) if r.audio.size else 0.0
