@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from auralize import __version__
 from auralize.errors import AuralizeError, ParameterError
 
 EXIT_USAGE = 2
@@ -333,7 +334,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="auralize", description="Hear 3-D time-varying data.")
-    ap.add_argument("--version", action="version", version="auralize 0.1.0")
+    ap.add_argument("--version", action="version", version=f"auralize {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("info", help="describe a volume (grid, times, fields)")
@@ -408,7 +409,23 @@ def build_parser() -> argparse.ArgumentParser:
 
     _extend_with_core_modules(sub)
     _extend_with_plugins(sub)
+    _add_verbosity_flags(ap)
     return ap
+
+
+def _add_verbosity_flags(parser: argparse.ArgumentParser, *, top: bool = True) -> None:
+    """``-q/--quiet`` and ``-v/--verbose`` before or after any (sub-)command."""
+    # below the top level the flags do not reset what an earlier position set
+    kw: dict[str, Any] = {} if top else {"default": argparse.SUPPRESS}
+    g = parser.add_argument_group("output") if top else parser
+    g.add_argument("-q", "--quiet", action="store_true",
+                   help="errors only: no warnings, notices or progress bars", **kw)  # fmt: skip
+    g.add_argument("-v", "--verbose", action="count",
+                   help="also debug messages", **({"default": 0} if top else kw))  # fmt: skip
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for p in dict.fromkeys(action.choices.values()):
+                _add_verbosity_flags(p, top=False)
 
 
 #: core modules that add their own sub-commands with ``add_commands(subparsers)``
@@ -446,6 +463,9 @@ def _extend_with_plugins(sub: Any) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from auralize.console import setup_console
+
+    setup_console(quiet=args.quiet, verbose=args.verbose)
     try:
         return int(args.func(args) or 0)
     except AuralizeError as exc:

@@ -22,6 +22,7 @@ from auralize.datasets import DEFAULT_MAPPING, make_dataset
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.mapping import AcousticMapping, get_mapping
+from auralize.progress import progress_step
 from auralize.sources import SourceSeries, Thresholds, detect
 from auralize.synthesis import C0, Rendered, render
 from auralize.volume import TimeVolume
@@ -89,8 +90,9 @@ def auralize(volume: TimeVolume, path: ListenerPath, *,
     if series is None:
         series = detect_sources(volume, mapping=mapping, thresholds=thresholds,
                                 progress_bar=progress_bar, **mapping_fields)  # fmt: skip
-    out = render(series.tracks(), path, rate=rate, time_scale=time_scale, interp=interp,
-                 layout=layout, c0=c0, duration=duration, bounds=volume.bounds)  # fmt: skip
+    with progress_step("render", enabled=progress_bar):
+        out = render(series.tracks(), path, rate=rate, time_scale=time_scale, interp=interp,
+                     layout=layout, c0=c0, duration=duration, bounds=volume.bounds)  # fmt: skip
     out.meta.update({"volume": volume.source, "mapping": series.meta.get("mapping"),
                      "thresholds": series.thresholds.tolist()})  # fmt: skip
     return out, series

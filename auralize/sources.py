@@ -306,13 +306,14 @@ def _require_steps(volume: TimeVolume) -> None:
 
 
 def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
-                   max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.float64]:  # fmt: skip
+                   max_steps: int = AUTO_SAMPLE_STEPS,
+                   progress_bar: bool = False) -> NDArray[np.float64]:  # fmt: skip
     """Largest |S| of each type over evenly spaced sample steps (3,)."""
     steps = np.unique(np.linspace(0, volume.n_steps - 1, min(max_steps, volume.n_steps)).round())
     cache = _StepCache(volume, mapping)
     peak = np.zeros(3)
     buf = K.empty_like_strengths(volume.shape)
-    for n in steps.astype(int):
+    for n in progress(steps.astype(int), desc="peak pass", enabled=progress_bar, unit="step"):
         s = step_strengths(volume, cache, int(n), buf)
         peak = np.maximum(peak, np.abs(s).reshape(3, -1).max(axis=1))
         cache.keep(n, n)
@@ -365,7 +366,7 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     m = get_mapping(mapping, **mapping_fields)
     m.prepare(volume)
     thresholds = thresholds or Thresholds()
-    peak = peak_strengths(volume, m) if thresholds.needs_scale else None
+    peak = peak_strengths(volume, m, progress_bar=progress_bar) if thresholds.needs_scale else None
     thr = thresholds.resolve(peak)
     frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
                                         progress_bar=progress_bar)]  # fmt: skip
