@@ -34,12 +34,28 @@ from numba.core import event
 
 log = logging.getLogger("auralize")
 
-#: seconds of one core to compile each kernel entry point from a cold cache
-#: (measured on the 2-core development machine with ``auralize warmup``;
-#: entries not listed count :data:`_DEFAULT_SECONDS`)
+#: CPU seconds to compile each kernel from a cold cache (measured with
+#: ``auralize warmup`` on the 2-core development machine; numba compiles on one
+#: core).  Helpers compiled as part of a listed kernel count 0; kernels not
+#: listed count :data:`_DEFAULT_SECONDS`.
 COMPILE_SECONDS: dict[str, float] = {
-    "auralize._synth_kernel.render": 110.0,
-    "auralize._runs_kernel.render_runs": 60.0,
+    "auralize._synth_kernel.render": 120.0,
+    "auralize._runs_kernel.render": 45.0,
+    **dict.fromkeys(
+        [
+            f"auralize._synth_kernel.{k}"
+            for k in (
+                "_flush_captures",
+                "_chunk_pieces",
+                "_chunk_pair_gains",
+                "_piece_general",
+                "_piece_across",
+                "_integrate",
+            )
+        ],
+        0.0,
+    ),
+    "auralize._runs_kernel._chunk_step": 0.0,
 }
 _DEFAULT_SECONDS = 2.0
 
