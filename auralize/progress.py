@@ -7,9 +7,10 @@ Jupyter kernel.  ``auralize -q`` turns them off (:func:`set_enabled`).
 from __future__ import annotations
 
 import contextlib
+import logging
 import sys
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any, TypeVar
 
 T = TypeVar("T")
@@ -79,4 +80,39 @@ def progress_step(desc: str, *, enabled: bool = True, interval_s: float = 0.5) -
     finally:
         done.set()
         th.join()
+        bar.close()
+
+
+@contextlib.contextmanager
+def progress_callback(desc: str, *, total: int | None = None, enabled: bool = True,
+                      unit: str = "it") -> Iterator[Callable[..., None]]:  # fmt: skip
+    """A bar driven by a work function's own progress callback.
+
+    Yields ``cb``: ``cb(done, total)`` sets the bar's position, ``cb(message)``
+    advances it by one and shows ``message`` beside it.  Without a visible bar
+    the messages go to the ``auralize`` logger at info level (one line each).
+    """
+    if not enabled or not visible():
+
+        def quiet(*args: Any) -> None:
+            if len(args) == 1:
+                logging.getLogger("auralize").info("%s: %s", desc, args[0])
+
+        yield quiet
+        return
+    bar = _bar(desc=desc, total=total, unit=unit)
+
+    def cb(*args: Any) -> None:
+        if len(args) == 2:
+            bar.total = int(args[1])
+            bar.n = int(args[0])
+            bar.refresh()
+        else:
+            bar.update()
+            if args:
+                bar.set_postfix_str(str(args[0]), refresh=True)
+
+    try:
+        yield cb
+    finally:
         bar.close()

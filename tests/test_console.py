@@ -88,3 +88,17 @@ def test_compile_notice_names_an_estimate_once(caplog, monkeypatch) -> None:  # 
     msgs = [r.getMessage() for r in caplog.records if "compiling kernels" in r.getMessage()]
     assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~")
     assert [n for n, _ in notice.compiled] == ["auralize._test_kernel.twice"] * 2
+
+
+def test_progress_callback_drives_a_bar_or_logs(monkeypatch, caplog) -> None:  # type: ignore[no-untyped-def]
+    out = io.StringIO()
+    monkeypatch.setattr(progress.sys, "stderr", out)
+    with caplog.at_level(logging.INFO, logger="auralize"), \
+            progress.progress_callback("texture", total=2) as cb:  # fmt: skip
+        cb("u = 1 m/s")
+    assert [r.getMessage() for r in caplog.records] == ["texture: u = 1 m/s"]
+    monkeypatch.setattr(out, "isatty", lambda: True, raising=False)
+    with progress.progress_callback("texture", unit="direction") as cb:
+        cb(1, 4)
+        cb(4, 4)
+    assert "texture" in out.getvalue() and "4/4" in out.getvalue()

@@ -120,12 +120,15 @@ class AeroSound(SoundModel):
 
     @staticmethod
     def _cmd_texture(args: argparse.Namespace) -> int:
+        from auralize.progress import progress_callback
+
         sec = get_section(args.shape, args.diameter)
         t0 = time.perf_counter()
-        tex = compute_texture(sec, speed=args.speed, duration=args.duration, rate=args.rate,
-                              resolution=args.resolution, reynolds=args.reynolds,
-                              directions=args.directions, seed=args.seed,
-                              cache=not args.no_cache)  # fmt: skip
+        with progress_callback("texture", unit="direction") as cb:
+            tex = compute_texture(sec, speed=args.speed, duration=args.duration, rate=args.rate,
+                                  resolution=args.resolution, reynolds=args.reynolds,
+                                  directions=args.directions, seed=args.seed,
+                                  cache=not args.no_cache, progress=cb)  # fmt: skip
         tex.save(args.output)
         print(f"wrote {args.output}: {sec.name}, D = {sec.diameter:g} m, v0 = {tex.speed:g} m/s, "
               f"{tex.directions_deg.size} direction(s), St = {', '.join(f'{s:.3f}' for s in tex.strouhal)}, "

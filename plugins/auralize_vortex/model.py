@@ -197,8 +197,11 @@ class VortexSound(SoundModel):
         cfg = TextureConfig(speeds=check_speeds(speeds), size=args.size, duration=args.duration,
                             seed=args.seed, box_m=args.box, dt=args.dt,
                             coefficient=args.coefficient)  # fmt: skip
+        from auralize.progress import progress_callback
+
         t0 = time.perf_counter()
-        tex, cached = texture(cfg, args.output, progress=lambda m: print(f"  {m}", file=sys.stderr))
+        with progress_callback("texture", total=len(cfg.speeds), unit="speed") as cb:
+            tex, cached = texture(cfg, args.output, progress=cb)
         rms = ", ".join(f"{u:g}: {r:.3g}" for u, r in zip(tex.speeds, tex.rms(), strict=True))
         how = (
             "reused (same parameters)"
