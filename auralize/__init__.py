@@ -1,16 +1,10 @@
 """auralize: hear 3-D time-varying data.
 
 ``import auralize`` opens no window and no sound device; the GUI (``auralize.viewer``)
-and the audio device layer (``auralize.audio``) are imported only when used.
+and the audio device layer (``auralize.audio``) are imported only when used, and
+it changes no process-wide setting (the numba kernels' settings apply when a
+kernel module is first imported, see :mod:`auralize._numba_setup`).
 """
-
-import os
-
-# numba's OpenMP threads must sleep, not spin, between parallel regions: on a
-# shared or small machine (and with the GUI, audio and worker threads of the
-# viewer) spinning workers steal the cores the other threads need.  Set before
-# numba's threading layer starts; a user's own setting wins.
-os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 from auralize.errors import AuralizeError
 from auralize.volume import TimeVolume

@@ -24,6 +24,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from auralize._numba_setup import configure as _configure_numba
+
+_configure_numba()  # cache folder, OMP wait policy, compile notice
+
 _NJIT = {"cache": True, "fastmath": False, "nogil": True}
 
 NONE, MONOPOLE, DIPOLE, QUADRUPOLE = 0, 1, 2, 3

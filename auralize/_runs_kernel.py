@@ -34,6 +34,7 @@ import math
 import numba
 import numpy as np
 
+from auralize._numba_setup import configure as _configure_numba
 from auralize._synth_kernel import (
     _CHUNK,
     _LINE,
@@ -55,6 +56,8 @@ from auralize._synth_kernel import (
     _shifted,
     _take_cut,
 )
+
+_configure_numba()  # cache folder, OMP wait policy, compile notice
 
 #: rows of a chunk in the knot data (each _CHUNK lanes): position, clamp
 #: radius, run length (pieces), then per knot j: q at _K_KNOT + 2j, dq/dτ at

@@ -49,6 +49,10 @@ import math
 import numba
 import numpy as np
 
+from auralize._numba_setup import configure as _configure_numba
+
+_configure_numba()  # cache folder, OMP wait policy, compile notice
+
 _NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 

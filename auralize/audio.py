@@ -36,6 +36,8 @@ if TYPE_CHECKING:
     from auralize.spatial import Layout
 
 NORMALIZE_MODES = ("peak", "none")
+#: sample formats of WAV output (``--format``)
+WAV_FORMATS = ("float32", "pcm16", "pcm24")
 PEAK_LEVEL = 0.99  # full scale after peak normalisation
 
 _KSDATAFORMAT_FLOAT = bytes.fromhex("0300000000001000800000aa00389b71")
@@ -87,13 +89,24 @@ def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | Non
     if subtype == "float32":
         data = np.ascontiguousarray(a.T, dtype="<f4").tobytes()
         bits, fmt_guid, fmt_tag = 32, _KSDATAFORMAT_FLOAT, 3
-    elif subtype == "pcm16":
+    elif subtype in ("pcm16", "pcm24"):
         if np.max(np.abs(a), initial=0) > 1.0:
-            raise ParameterError("pcm16 output needs samples in [-1, 1]; use --normalize peak")
-        data = np.ascontiguousarray(np.round(a.T * 32767), dtype="<i2").tobytes()
-        bits, fmt_guid, fmt_tag = 16, _KSDATAFORMAT_PCM, 1
+            raise ParameterError(f"{subtype} output needs samples in [-1, 1]; use --normalize "
+                                 "peak, or --format float32 to keep pascals")  # fmt: skip
+        bits = 16 if subtype == "pcm16" else 24
+        ints = np.round(a.T * (2 ** (bits - 1) - 1))
+        if bits == 16:
+            data = np.ascontiguousarray(ints, dtype="<i2").tobytes()
+        else:  # the three low bytes of each little-endian int32
+            data = (
+                np.ascontiguousarray(ints, dtype="<i4")
+                .view(np.uint8)
+                .reshape(-1, 4)[:, :3]
+                .tobytes()
+            )
+        fmt_guid, fmt_tag = _KSDATAFORMAT_PCM, 1
     else:
-        raise ParameterError(f"subtype must be 'float32' or 'pcm16', got {subtype!r}")
+        raise ParameterError(f"format must be one of {WAV_FORMATS}, got {subtype!r}")
     block_align = n_ch * bits // 8
     extensible = n_ch > 2 or channel_mask is not None
     if extensible:
@@ -105,14 +118,14 @@ def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | Non
         if fmt_tag == 3:
             fmt += struct.pack("<H", 0)
     chunks = b"fmt " + struct.pack("<I", len(fmt)) + fmt
-    if fmt_tag == 3 and not extensible:
+    if fmt_tag == 3:  # every non-PCM WAV (extensible ones too) carries its sample frame count
         chunks += b"fact" + struct.pack("<II", 4, n)
     chunks += b"data" + struct.pack("<I", len(data)) + data
     return b"RIFF" + struct.pack("<I", 4 + len(chunks)) + b"WAVE" + chunks
 
 
 def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
-    """Read a WAV written by :func:`wav_bytes` (float32 or pcm16, plain or extensible).
+    """Read a WAV written by :func:`wav_bytes` (float32, pcm16 or pcm24, plain or extensible).
 
     Returns ``(audio (n_channels, n_samples), rate, channel_mask or None)``.
     """
@@ -139,6 +152,10 @@ def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
         a = np.frombuffer(data, dtype="<f4").astype(np.float64)
     elif tag == 1 and bits == 16:
         a = np.frombuffer(data, dtype="<i2").astype(np.float64) / 32767.0
+    elif tag == 1 and bits == 24:
+        b = np.frombuffer(data, dtype=np.uint8).reshape(-1, 3).astype(np.int32)
+        ints = b[:, 0] | (b[:, 1] << 8) | (b[:, 2] << 16)
+        a = (ints - ((ints & 0x800000) << 1)).astype(np.float64) / 8388607.0
     else:
         raise FormatError(f"{p}: unsupported WAV encoding (format tag {tag}, {bits} bits)")
     return a.reshape(-1, n_ch).T.copy(), int(rate), mask
@@ -147,7 +164,7 @@ def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
 def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
                 channel_mask: int | None = None, normalize: str = "peak",
                 limit_pa: float | None = None, sidecar: dict[str, Any] | None = None,
-                subtype: str = "float32", layout: Layout | str | None = None) -> float:  # fmt: skip
+                subtype: str | None = None, layout: Layout | str | None = None) -> float:  # fmt: skip
     """Write audio to ``path`` (``.wav`` or ``.flac``) and ``path.json``, both or neither.
 
     The samples are checked as they will be stored: float32 overflow and a
@@ -159,10 +176,15 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
 
     Parameters
     ----------
-    path : ``.wav`` (float32 or pcm16, extensible header with ``channel_mask``
-        when > 2 channels) or ``.flac`` (24-bit, needs samples in [-1, 1]).
+    path : ``.wav`` (extensible header with ``channel_mask`` when > 2 channels)
+        or ``.flac`` (needs samples in [-1, 1]).
     audio : (n_channels, n_samples) pressure in Pa.
     rate : sample rate in Hz.
+    subtype : {"float32", "pcm16", "pcm24"}, optional
+        Sample format (``--format``).  Default: float32 for WAV (with a
+        ``fact`` chunk), pcm24 for FLAC.  With ``normalize="none"`` a float
+        WAV holds pascals, so samples beyond ±1 are intended, not clipping;
+        the PCM formats need samples in [-1, 1].
     layout : Layout or name, optional
         The audio's speaker layout: its channel count is checked, its channel
         mask used (unless ``channel_mask`` is given), per-speaker distances are
@@ -189,6 +211,8 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
             channel_mask = lay.channel_mask
         sidecar = {"layout": lay.describe(), **(sidecar or {})}
     suffix = p.suffix.lower()
+    if subtype is not None and subtype not in WAV_FORMATS:
+        raise ParameterError(f"format must be one of {WAV_FORMATS}, got {subtype!r}")
     if suffix not in (".wav", ".flac"):
         raise ParameterError(f"{p}: audio output must end in .wav or .flac")
     out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
@@ -211,6 +235,15 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         "normalize": normalize,
         "gain": gain,
         "units": "Pa" if normalize == "none" else f"full scale = {1 / gain:.6g} Pa",
+        "format": subtype,
+        **(
+            {
+                "note": "float samples in pascals: values beyond ±1 are intended, not clipping; "
+                "scale them before playing"
+            }
+            if normalize == "none" and subtype == "float32"
+            else {}
+        ),
         "limit_pa": limit_pa,
         "silent": silent,
         "command": " ".join(sys.argv) if sys.argv and sys.argv[0].endswith("auralize") else None,

@@ -26,12 +26,13 @@ import sys
 import time
 import traceback
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from auralize import __version__
 from auralize.errors import (
     AuralizeError,
     DataError,
@@ -248,7 +249,13 @@ def add_output_options(
         "--normalize",
         choices=["peak", "none"],
         default="peak",
-        help="peak: loudest sample at 0.99; none: physical pascals (float WAV)",
+        help="peak: loudest sample at 0.99; none: physical pascals in a float WAV, whose "
+        "samples go beyond ±1 by design (scale them before playing)",
+    )
+    g.add_argument(
+        "--format",
+        choices=["float32", "pcm16", "pcm24"],
+        help="sample format (default: float32 WAV, pcm24 FLAC); pcm needs --normalize peak",
     )
     g.add_argument(
         "--limit",
@@ -514,7 +521,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     _report_unavailable("render", series)
     out.meta["seconds"] = elapsed
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                         subtype=args.format, extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
     report = report_line(out, args.output, gain=gain)
     if args.json:
         from auralize.timbre import loudness
@@ -663,7 +670,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="auralize", description="Hear 3-D time-varying data.")
-    ap.add_argument("--version", action="version", version="auralize 0.1.0")
+    ap.add_argument("--version", action="version", version=f"auralize {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("info", help="describe a volume (grid, times, fields)")
@@ -755,11 +762,33 @@ def build_parser() -> argparse.ArgumentParser:
 
     _extend_with_core_modules(sub)
     _extend_with_plugins(sub)
+    _add_verbosity_flags(ap)
     return ap
 
 
+def _add_verbosity_flags(parser: argparse.ArgumentParser, *, top: bool = True) -> None:
+    """``-q/--quiet`` and ``-v/--verbose`` before or after any (sub-)command."""
+    # below the top level the flags do not reset what an earlier position set
+    kw: dict[str, Any] = {} if top else {"default": argparse.SUPPRESS}
+    g = parser.add_argument_group("output") if top else parser
+    g.add_argument("-q", "--quiet", action="store_true",
+                   help="errors only: no warnings, notices or progress bars", **kw)  # fmt: skip
+    g.add_argument("-v", "--verbose", action="count",
+                   help="also debug messages", **({"default": 0} if top else kw))  # fmt: skip
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for p in dict.fromkeys(action.choices.values()):
+                _add_verbosity_flags(p, top=False)
+
+
 #: core modules that add their own sub-commands with ``add_commands(subparsers)``
-CORE_COMMAND_MODULES = ("auralize.cli_audio", "auralize.viewer.cli", "auralize.cli_dask")
+CORE_COMMAND_MODULES = (
+    "auralize.cli_audio",
+    "auralize.viewer.cli",
+    "auralize.cli_dask",
+    "auralize.cli_warmup",
+    "auralize.cli_convert",
+)
 
 
 def _extend_with_core_modules(sub: Any) -> None:
@@ -778,13 +807,10 @@ def _extend_with_core_modules(sub: Any) -> None:
 
 
 def _extend_with_plugins(sub: Any) -> None:
-    """Let plugins add their own sub-commands (``cli(subparsers)`` hook)."""
-    from auralize.plugins import registry
+    """Let plugins add their own sub-commands (see :mod:`auralize.commands`)."""
+    from auralize.commands import add_plugin_commands
 
-    for _name, cls in registry().items():
-        hook: Callable[[Any], None] | None = getattr(cls, "add_cli", None)
-        if hook is not None:
-            hook(sub)
+    add_plugin_commands(sub)
 
 
 def exit_code(exc: BaseException) -> int:
@@ -848,6 +874,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     name = f"auralize {getattr(args, 'command', '')}".strip()
+    from auralize.console import setup_console
+
+    setup_console(quiet=args.quiet, verbose=args.verbose)
     try:
         if getattr(args, "allow_external", False):
             from auralize.io.hdf5 import allow_external_data

@@ -196,7 +196,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     out.meta.update({"volume": vol.source, "mapping": series.meta.get("mapping"),
                      "thresholds": np.asarray(series.thresholds).tolist()})  # fmt: skip
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                         subtype=args.format, extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
     peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
     print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
           f"at {out.rate} Hz in {out.meta['tasks']} tasks ({out.meta['blocks']} blocks × "

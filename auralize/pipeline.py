@@ -27,6 +27,7 @@ from auralize.datasets import DEFAULT_MAPPING, make_dataset
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
+from auralize.progress import progress_step
 from auralize.sources import TYPES, SourceSeries, SourceTracks, Thresholds, detect
 from auralize.synthesis import (
     C0,
@@ -308,10 +309,11 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     check_distance(plan.path, volume.bounds)
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
                   lead=plan.lead)  # fmt: skip
-    out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate, time_scale=plan.time_scale,
-                        interp=interp, layout=layout, c0=c0, duration=plan.duration,
-                        bounds=volume.bounds, lead=plan.lead, highpass_hz=highpass_hz,
-                        seed=seed)  # fmt: skip
+    with progress_step("render", enabled=progress_bar):
+        out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate,
+                            time_scale=plan.time_scale, interp=interp, layout=layout, c0=c0,
+                            duration=plan.duration, bounds=volume.bounds, lead=plan.lead,
+                            highpass_hz=highpass_hz, seed=seed)  # fmt: skip
     counts = series.counts()
     out.meta.update({"volume": volume.source, "mapping": series.meta.get("mapping"),
                      "thresholds": series.thresholds.tolist(), **plan.as_dict(),
@@ -339,15 +341,19 @@ def report_line(rendered: Rendered, output: str | Path, *, gain: float | None = 
 
 
 def save_rendered(rendered: Rendered, out: str | Path, *, normalize: str = "peak",
-                  limit_pa: float | None = None, extra: dict[str, Any] | None = None) -> float:  # fmt: skip
-    """Write a render to WAV/FLAC (atomic) with its sidecar JSON; returns the gain."""
+                  limit_pa: float | None = None, extra: dict[str, Any] | None = None,
+                  subtype: str | None = None) -> float:  # fmt: skip
+    """Write a render to WAV/FLAC (atomic) with its sidecar JSON; returns the gain.
+
+    ``subtype``: sample format, ``float32``, ``pcm16`` or ``pcm24`` (see
+    :func:`auralize.audio.write_audio`)."""
     from auralize.audio import write_audio
 
     if normalize not in ("peak", "none"):
         raise ParameterError(f"normalize must be 'peak' or 'none', got {normalize!r}")
     return write_audio(
         out, rendered.audio, rendered.rate, channel_mask=rendered.layout.channel_mask,
-        normalize=normalize, limit_pa=limit_pa,
+        normalize=normalize, limit_pa=limit_pa, subtype=subtype,
         sidecar={"layout": rendered.layout.describe(), "time_scale": rendered.time_scale,
                  **rendered.meta, **(extra or {})},
     )  # fmt: skip

@@ -1,11 +1,11 @@
 """Real-data regression: what the readers and the detector make of the shipped real datasets.
 
-For every dataset in ``datasets/`` that this project did not make (plus the
+For every dataset in ``auralize/data/`` that this project did not make (plus the
 generated netCDF case), :func:`compute` records the reader's grid and times,
 the valid-point ratio, and — for series of two steps or more — the per-step
 source counts and a short rendered clip's RMS and spectral centroid.
 ``python -m auralize.realdata [--update] [NAME ...]`` compares them with (or
-rewrites) ``datasets/regression/realdata.json``; ``tests/test_realdata.py``
+rewrites) ``auralize/data/regression/realdata.json``; ``tests/test_realdata.py``
 calls :func:`compare`.
 
 Grids and times are compared exactly (relative 1e-9); they depend on the
@@ -31,14 +31,14 @@ import numpy as np
 
 from auralize.fileio import atomic_write
 
-DATASETS = Path(__file__).resolve().parent.parent / "datasets"
+DATASETS = Path(__file__).resolve().parent / "data"
 STORE = DATASETS / "regression" / "realdata.json"
 
 #: Tolerances: grid/times relative; valid ratio absolute; counts relative (at least 2);
 #: rms and centroid relative.
 TOLERANCES = {"grid": 1e-9, "valid_ratio": 1e-3, "counts": 0.02, "rms": 0.02, "centroid": 0.02}
 
-#: ``path`` inside ``datasets/`` (``zip`` + ``member`` for archives), detection options,
+#: ``path`` inside ``auralize/data/`` (``zip`` + ``member`` for archives), detection options,
 #: and a static listener inside the grid for the rendered clip.
 CASES: dict[str, dict[str, Any]] = {
     "openfoam-cavity": {

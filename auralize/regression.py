@@ -1,4 +1,4 @@
-"""Dataset regression: figures a dataset must keep producing, stored in ``datasets/regression``.
+"""Dataset regression: figures a dataset must keep producing, stored in ``auralize/data/regression``.
 
 ``python -m auralize.regression [--update] [NAME ...]`` recomputes the figures
 of the built-in datasets and compares them with (or rewrites) the stored JSON.
@@ -18,7 +18,8 @@ import numpy as np
 
 from auralize.fileio import atomic_write
 
-STORE = Path(__file__).resolve().parent.parent / "datasets" / "regression"
+#: shipped with the package (wheel and checkout alike)
+STORE = Path(__file__).resolve().parent / "data" / "regression"
 
 #: relative tolerances of the stored figures (of the physical pressure, unfiltered: the
 #: figures follow detection and synthesis, not the output high-pass)

@@ -643,12 +643,14 @@ def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np
 
 def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
                    qmean: NDArray[np.float64] | None = None,
-                   max_steps: int = AUTO_SAMPLE_STEPS) -> StrengthStats:  # fmt: skip
+                   max_steps: int = AUTO_SAMPLE_STEPS,
+                   progress_bar: bool = False) -> StrengthStats:  # fmt: skip
     """|S| statistics of each type over evenly spaced sample steps (valid points only)."""
     cache = _StepCache(volume, mapping, qmean=qmean)
     buf = K.empty_like_strengths(volume.shape)
     parts = []
-    for n in sample_steps(volume.n_steps, max_steps):
+    steps = sample_steps(volume.n_steps, max_steps)
+    for n in progress(steps, desc="peak pass", enabled=progress_bar, unit="step"):
         s = step_strengths(volume, cache, int(n), buf)
         parts.append(sample_stats(s, cache.nodata, 0, volume.n_points,
                                   input_scale(volume, cache, int(n))))  # fmt: skip
@@ -657,9 +659,10 @@ def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
 
 
 def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
-                   max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.float64]:  # fmt: skip
+                   max_steps: int = AUTO_SAMPLE_STEPS,
+                   progress_bar: bool = False) -> NDArray[np.float64]:  # fmt: skip
     """Largest |S| of each type over evenly spaced sample steps (3,) (literal strengths)."""
-    return strength_stats(volume, mapping, max_steps=max_steps).peak
+    return strength_stats(volume, mapping, max_steps=max_steps, progress_bar=progress_bar).peak
 
 
 def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64], *,
@@ -759,7 +762,7 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     _rule(delta_v)
     qmean = steady_strength(volume, m, steady)
     thresholds = thresholds or Thresholds()
-    stats = strength_stats(volume, m, qmean=qmean) if thresholds.needs_scale else None
+    stats = strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar) if thresholds.needs_scale else None
     thr = thresholds.resolve(stats)
     frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
                                         progress_bar=progress_bar, qmean=qmean,

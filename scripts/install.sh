@@ -2,7 +2,8 @@
 # Install everything auralize needs on a fresh Debian/Ubuntu machine into ./.venv:
 # system libraries (PortAudio, libsndfile, Mesa/EGL for off-screen VTK, Xvfb and the
 # xcb libraries Qt needs, ALSA tools for the file-backed test device) and the Python
-# packages pinned in pyproject.toml (with the gui and dev extras).
+# packages (pyproject.toml's ranges, at the exact versions CI tests in constraints.txt, with
+# the gui and dev extras), then compiles the numba kernels once (auralize warmup).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -31,5 +32,7 @@ fi
 PY=${PYTHON:-python3}
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
-.venv/bin/python -m pip install -q -e ".[gui,dev]"
+.venv/bin/python -m pip install -q -c constraints.txt -e ".[gui,dev]"
 echo "auralize installed in $(pwd)/.venv"
+# compile the kernels now, with a visible step, so that the first command starts at full speed
+.venv/bin/auralize warmup

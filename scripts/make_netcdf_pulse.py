@@ -1,4 +1,4 @@
-"""Write ``datasets/netcdf-pulse/pulse.nc``: a small CF-1.8 netCDF classic file.
+"""Write ``auralize/data/netcdf-pulse/pulse.nc``: a small CF-1.8 netCDF classic file.
 
 A pulsating Gaussian density blob (the acoustic monopole of paper 003 §4,
 Eq. 6 form: ρ = ρ0 + A sin(2π f t) g(r)) with its linearised mass-conserving
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from scipy.io import netcdf_file
 
-OUT = Path(__file__).resolve().parent.parent / "datasets" / "netcdf-pulse" / "pulse.nc"
+OUT = Path(__file__).resolve().parent.parent / "auralize" / "data" / "netcdf-pulse" / "pulse.nc"
 
 
 def main() -> None:

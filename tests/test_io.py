@@ -20,7 +20,9 @@ from auralize.io.hdf5 import HDF5Frames
 from auralize.io.resample import grid_for_bounds
 from auralize.volume import DEFAULT_FRAME_RATE_HZ, TimeVolume
 
-CAVITY_ZIP = Path(__file__).resolve().parents[1] / "datasets" / "openfoam-cavity" / "OpenFOAM.zip"
+CAVITY_ZIP = (
+    Path(__file__).resolve().parents[1] / "auralize" / "data" / "openfoam-cavity" / "OpenFOAM.zip"
+)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -536,7 +538,7 @@ def test_bad_arguments_and_kinds(tmp_path: Path) -> None:
 
 
 # --------------------------------------------------------------------------- new readers
-REAL = Path(__file__).resolve().parents[1] / "datasets"
+REAL = Path(__file__).resolve().parents[1] / "auralize" / "data"
 
 
 def _copy_dataset(folder: str, tmp_path: Path) -> Path:

@@ -23,7 +23,7 @@ from auralize.mapping import match_field
 from auralize.pipeline import auto_mapping, resolve_mapping
 from auralize.volume import TimeVolume
 
-DATA = Path(__file__).resolve().parents[1] / "datasets"
+DATA = Path(__file__).resolve().parents[1] / "auralize" / "data"
 DOLFINX = DATA / "xdmf-timeseries" / "dolfinx" / "no_checkpoint.xdmf"
 MESHIO = DATA / "xdmf-timeseries" / "meshio" / "out.xdmf"
 ENSIGHT = DATA / "ensight-cylinder" / "cylinder_Re35.case"

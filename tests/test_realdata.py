@@ -1,6 +1,6 @@
 """Real-data regression: the shipped real datasets read, detect and render as recorded.
 
-Figures live in ``datasets/regression/realdata.json`` (refresh with
+Figures live in ``auralize/data/regression/realdata.json`` (refresh with
 ``python -m auralize.realdata --update`` after an intended change in detection
 or synthesis).  Beside the stored figures, each test checks facts of the data
 that hold whatever the detector does (grids, times, the mesh's shape).

@@ -1,5 +1,5 @@
 """Dataset regression: the explosion dataset's per-step source counts and a rendered
-clip's RMS and spectral centroid stay within tolerance of datasets/regression/."""
+clip's RMS and spectral centroid stay within tolerance of auralize/data/regression/."""
 
 from __future__ import annotations
 

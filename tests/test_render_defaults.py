@@ -15,7 +15,7 @@ from auralize.cli import main
 from auralize.listener import ListenerPath
 from auralize.timbre import loudness
 
-DATASETS = Path(__file__).resolve().parent.parent / "datasets"
+DATASETS = Path(__file__).resolve().parent.parent / "auralize" / "data"
 MONO = ["dataset:monopole", "--size", "12", "--steps", "60"]
 
 

@@ -27,7 +27,7 @@ from auralize.synthesis import render
 from auralize.volume import TimeVolume
 
 REPO = Path(__file__).resolve().parent.parent
-CAVITY = REPO / "datasets" / "openfoam-cavity" / "OpenFOAM.zip"
+CAVITY = REPO / "auralize" / "data" / "openfoam-cavity" / "OpenFOAM.zip"
 WAVY = Path("/work/shared/datasets/paraview-wavy/wavy.zip")
 L = 8.0  # extent of the analytic fields (m)
 

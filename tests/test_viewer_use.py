@@ -21,7 +21,7 @@ from auralize.viewer.recorder import PathRecorder
 from auralize.viewer.scene import camera_pose
 
 ROOT = Path(__file__).parents[1]
-WAVY = ROOT / "datasets" / "paraview-wavy" / "wavy00.vts"
+WAVY = ROOT / "auralize" / "data" / "paraview-wavy" / "wavy00.vts"
 
 
 @pytest.fixture
@@ -258,7 +258,7 @@ def test_file_menu_open_builtin_save_and_restore_session(qtbot, window, tmp_path
 def test_detect_on_a_real_time_series_with_field_options(qtbot, window, tmp_path, errors):
     import zipfile
 
-    with zipfile.ZipFile(ROOT / "datasets" / "openfoam-cavity" / "OpenFOAM.zip") as z:
+    with zipfile.ZipFile(ROOT / "auralize" / "data" / "openfoam-cavity" / "OpenFOAM.zip") as z:
         z.extractall(tmp_path)
     win = window
     win.mapping, win.mapping_fields = "identity", {"density": "p", "velocity": "U"}

@@ -87,7 +87,7 @@ READ_SUFFIXES = (
     ".nc",
 )
 #: File name endings :func:`save_volume` writes.
-WRITE_SUFFIXES = (".h5", ".hdf5", ".pvd")
+WRITE_SUFFIXES = (".h5", ".hdf5", ".pvd", ".vtkhdf")
 
 
 def open_volume(
@@ -279,7 +279,8 @@ def save_volume(
     path : path-like
         ``.h5``/``.hdf5``: auralize HDF5 volume file (format v1), one time
         step per chunk.  ``.pvd``: ParaView collection plus one ``.vti`` per
-        step in the sibling folder ``<stem>_data/``.
+        step in the sibling folder ``<stem>_data/``.  ``.vtkhdf``: one temporal
+        VTKHDF ImageData file (:mod:`auralize.io.vtkhdf_write`; uncompressed).
     compression : {None, "gzip"}
         Compress the data (HDF5 gzip with shuffle; VTK zlib in ``.vti``).
 
@@ -306,6 +307,10 @@ def save_volume(
         hdf5.write_hdf5(volume, p, compression=compression)
     elif suffix == ".pvd":
         paraview.write_pvd(volume, p, compression=compression)
+    elif suffix == ".vtkhdf":
+        from auralize.io.vtkhdf_write import write_volume_vtkhdf
+
+        write_volume_vtkhdf(volume, p)
     else:
         raise FormatError(
             f"{p}: cannot write {suffix or '(no suffix)'!r} files; save_volume writes "

@@ -6,15 +6,17 @@ HDF5 layout (``auralize_format="sources"``, ``version=1``)::
     /offsets (T+1,)       sources of step n are rows offsets[n]:offsets[n+1]
     /index (N,) int64     flat vertex index (C order of (nz, ny, nx))
     /position (N, 3)      metres
-    /kind (N,) int8       1 monopole, 2 dipole, 3 quadrupole
+    /kind (N,) int8       1 monopole, 2 dipole, 3 quadrupole (attr legend, JSON)
     /strength (N,)        signed strength of the vertex's type
     /radius (N,)          ΔV-sphere radius, m
     attrs: origin, spacing, dims, thresholds (3,), meta (JSON)
 
 The ``.pvd`` export writes one ``.vtp`` per step (point data ``kind``,
 ``strength``, ``radius``, ``volume``, and ``rgb``: the type's colour in the
-palette of :mod:`auralize.scene`, shown as is with "Map Scalars" off) so
-ParaView can glyph them as spheres in the viewer's colours.
+palette of :mod:`auralize.scene`, shown as is with "Map Scalars" off; field
+data ``kind_code``/``kind_name``, the legend of the codes) so ParaView can
+glyph them as spheres in the viewer's colours.  VTKHDF (``.vtkhdf``):
+:func:`auralize.io.vtkhdf_write.write_sources_vtkhdf`.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy as np
 
 from auralize.errors import AuralizeError, DataError, FormatError
 from auralize.fileio import atomic_path, write_collection
+from auralize.io.vtkhdf_write import KIND_LEGEND
 from auralize.sources import SourceFrame, SourceSeries
 
 FORMAT = "sources"
@@ -59,6 +62,7 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
         h["index"] = index
         h["position"] = series.positions(index) if index.size else np.zeros((0, 3))
         h["kind"] = cat("kind", np.int8)
+        h["kind"].attrs["legend"] = json.dumps(KIND_LEGEND)  # {"1": "monopole", ...}
         h["strength"] = cat("strength", np.float64)
         h["radius"] = cat("radius", np.float64)
 
@@ -131,6 +135,8 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
             poly.point_data["volume"] = f.volume
             if f.index.size:  # the palette: colour by it with "Map Scalars" off
                 poly.point_data["rgb"] = type_rgb(f.kind)
+            poly.field_data["kind_code"] = np.array(list(KIND_LEGEND), dtype=np.int32)
+            poly.field_data["kind_name"] = list(KIND_LEGEND.values())
             name = f"step_{n:04d}.vtp"
             poly.save(folder / name)
             entries.append((float(series.times[n]), name))

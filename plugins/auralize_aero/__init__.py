@@ -21,12 +21,35 @@ Example
 ...              wind=Wind(10.0, (0, 1, 0)))                                # doctest: +SKIP
 """
 
-from .model import AeroSound
-from .objects import AeroObject, Motion, Wind
-from .presets import PRESETS, fence, get_preset, sphere_object, stick, sword_object
-from .render import Rendered, render
-from .shapes import Section, circle, get_section, make_polygon, read_polygon_file, square, sword
-from .texture import SoundTexture, compute_texture
+from auralize._lazy import lazy_exports
+
+#: exported name -> sub-module; imported on first access, so that declaring the
+#: plugin's sub-commands (``auralize --help``) loads none of its physics
+_EXPORTS = {
+    "AeroSound": ".model",
+    "AeroObject": ".objects",
+    "Motion": ".objects",
+    "Wind": ".objects",
+    "PRESETS": ".presets",
+    "fence": ".presets",
+    "get_preset": ".presets",
+    "sphere_object": ".presets",
+    "stick": ".presets",
+    "sword_object": ".presets",
+    "Rendered": ".render",
+    "render": ".render",
+    "Section": ".shapes",
+    "circle": ".shapes",
+    "get_section": ".shapes",
+    "make_polygon": ".shapes",
+    "read_polygon_file": ".shapes",
+    "square": ".shapes",
+    "sword": ".shapes",
+    "SoundTexture": ".texture",
+    "compute_texture": ".texture",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 __all__ = [
     "PRESETS",

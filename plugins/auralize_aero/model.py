@@ -13,7 +13,7 @@ from auralize.errors import ParameterError
 from auralize.plugins import Parameter, SoundModel, SoundOutput
 
 from .objects import AeroObject, Motion, Wind
-from .presets import PRESETS, get_preset, stick
+from .presets import get_preset, stick
 from .render import render
 from .shapes import circle, get_section
 from .texture import SoundTexture, compute_texture
@@ -124,84 +124,22 @@ class AeroSound(SoundModel):
     # ------------------------------------------------------------------ CLI
     @classmethod
     def add_cli(cls, subparsers: Any) -> None:
-        from auralize.cli import (
-            add_output_options,
-            finite_float,
-            positive_float,
-            positive_int,
-            seed_int,
-        )
+        """Declare the sub-commands (see :mod:`auralize_aero.commands`)."""
+        from auralize_aero.commands import add_commands
 
-        p = subparsers.add_parser(
-            "aero", help="aerodynamic sound: sound textures and rendering (paper 004)"
-        )
-        sub = p.add_subparsers(dest="aero_command", required=True, metavar="ACTION")
-        t = sub.add_parser(
-            "texture", help="pre-process a sound texture by 2-D flow simulation (§5)"
-        )
-        t.add_argument(
-            "--shape", required=True, help="cylinder | square | sword | polygon FILE of x,y rows"
-        )
-        t.add_argument("--diameter", type=float, required=True, help="frontal width D in metres")
-        t.add_argument("-o", "--output", required=True, help="texture .h5")
-        t.add_argument(
-            "--speed", type=positive_float, default=10.0, help="base speed v0 in m/s (§7.2)"
-        )
-        t.add_argument(
-            "--directions", type=positive_int, help="sampled flow directions (default: 5° spacing)"
-        )
-        t.add_argument(
-            "--duration", type=positive_float, default=0.05, help="recorded texture seconds"
-        )
-        t.add_argument("--resolution", type=positive_int, default=16, help="lattice cells across D")
-        t.add_argument(
-            "--reynolds", type=positive_float, default=200.0, help="Reynolds number simulated"
-        )
-        t.add_argument(
-            "--rate", type=positive_float, default=16000.0, help="texture sample rate in Hz"
-        )
-        t.add_argument("--seed", type=seed_int, default=0)
-        t.add_argument("--no-cache", action="store_true", help="recompute even if cached")
-        t.set_defaults(func=cls._cmd_texture)
-        r = sub.add_parser("render", help="render the sound of a moving object or of wind (§6)")
-        r.add_argument("--texture", required=True, metavar="TEX.h5")
-        mv = r.add_mutually_exclusive_group(required=True)
-        mv.add_argument("--motion", metavar="MOTION.csv", help="object poses t,x,y,z,qw,qx,qy,qz")
-        mv.add_argument(
-            "--wind",
-            type=positive_float,
-            metavar="SPEED",
-            help="wind speed on a static object (m/s)",
-        )
-        mv.add_argument("--preset", choices=PRESETS, help="a §8 example's object and motion")
-        r.add_argument("--wind-direction", default="0,1,0",
-                       help="x,y,z (with --wind; default +y, across the stick, which lies along "
-                            "+x)")  # fmt: skip
-        r.add_argument(
-            "--gust",
-            type=finite_float,
-            default=0.05,
-            help="relative wind fluctuation (with --wind)",
-        )
-        r.add_argument(
-            "--object", default="stick", help="stick | fence | sphere | sword (default stick)"
-        )
-        r.add_argument("--length", type=positive_float, default=0.5, help="stick length in metres")
-        r.add_argument("--exponent", choices=["physical", "paper"], default="physical",
-                       help="amplitude ∝ v³ (physical) or v⁶ (paper Eq. 3)")  # fmt: skip
-        r.add_argument("--stereo", choices=["ears", "pan"], default="ears")
-        r.add_argument("--seed", type=seed_int, default=0)
-        add_output_options(r)
-        r.set_defaults(func=cls._cmd_render)
+        add_commands(subparsers)
 
     @staticmethod
     def _cmd_texture(args: argparse.Namespace) -> int:
+        from auralize.progress import progress_callback
+
         sec = get_section(args.shape, args.diameter)
         t0 = time.perf_counter()
-        tex = compute_texture(sec, speed=args.speed, duration=args.duration, rate=args.rate,
-                              resolution=args.resolution, reynolds=args.reynolds,
-                              directions=args.directions, seed=args.seed,
-                              cache=not args.no_cache)  # fmt: skip
+        with progress_callback("texture", unit="direction") as cb:
+            tex = compute_texture(sec, speed=args.speed, duration=args.duration, rate=args.rate,
+                                  resolution=args.resolution, reynolds=args.reynolds,
+                                  directions=args.directions, seed=args.seed,
+                                  cache=not args.no_cache, progress=cb)  # fmt: skip
         tex.save(args.output)
         print(f"wrote {args.output}: {sec.name}, D = {sec.diameter:g} m, v0 = {tex.speed:g} m/s, "
               f"{tex.directions_deg.size} direction(s), St = {', '.join(f'{s:.3f}' for s in tex.strouhal)}, "
@@ -233,7 +171,7 @@ class AeroSound(SoundModel):
                      exponent=args.exponent, stereo=args.stereo)  # fmt: skip
         el = time.perf_counter() - t0
         gain = write_audio(args.output, out.audio, out.rate, channel_mask=out.layout.channel_mask,
-                           normalize=args.normalize, limit_pa=args.limit,
+                           normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
                            sidecar={"model": "aero", "texture": str(args.texture), **out.meta,
                                     "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
         peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0

@@ -14,13 +14,27 @@ Examples
 (44100, (1348,))
 """
 
-from auralize_fire.bandwidth import bandwidth_extend
-from auralize_fire.clips import fire_training_clip, read_audio
-from auralize_fire.dataset import make_fire
-from auralize_fire.flamefront import FlameFront, extract_front, refine_bspline
-from auralize_fire.lowfreq import flux_series, lowfreq_pressure, mitchell_netravali
-from auralize_fire.model import FireSound
-from auralize_fire.texture import gaussian_pyramid, texture_synthesize
+from auralize._lazy import lazy_exports
+
+#: exported name -> sub-module; imported on first access, so that declaring the
+#: plugin's sub-commands (``auralize --help``) loads none of its physics
+_EXPORTS = {
+    "bandwidth_extend": ".bandwidth",
+    "fire_training_clip": ".clips",
+    "read_audio": ".clips",
+    "make_fire": ".dataset",
+    "FlameFront": ".flamefront",
+    "extract_front": ".flamefront",
+    "refine_bspline": ".flamefront",
+    "flux_series": ".lowfreq",
+    "lowfreq_pressure": ".lowfreq",
+    "mitchell_netravali": ".lowfreq",
+    "FireSound": ".model",
+    "gaussian_pyramid": ".texture",
+    "texture_synthesize": ".texture",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 __all__ = [
     "FireSound",

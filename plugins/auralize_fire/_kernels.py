@@ -13,6 +13,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from auralize._numba_setup import configure as _configure_numba
+
+_configure_numba()  # cache folder, OMP wait policy, compile notice
+
 
 @numba.njit(cache=True, inline="always")
 def _phi(t: float) -> float:

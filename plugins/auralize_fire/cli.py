@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from auralize.audio import write_audio
 from auralize.cli import finite_float, positive_float, positive_int, rate_int, seed_int
 
 
@@ -62,6 +61,8 @@ def _texture_opts(p: argparse.ArgumentParser) -> None:
 
 
 def _write(args: argparse.Namespace, x: np.ndarray, rate: int, info: dict[str, Any]) -> None:
+    from auralize.audio import write_audio
+
     gain = write_audio(args.output, x[None] if x.ndim == 1 else x, rate,
                        normalize=args.normalize, sidecar={"model": "fire", **info})  # fmt: skip
     n = x.shape[-1]
@@ -114,6 +115,7 @@ def cmd_texture(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
+    from auralize.audio import write_audio
     from auralize.cli import listener_from_args
     from auralize.propagation import propagate
     from auralize.spatial import get_layout
@@ -136,7 +138,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                     duration=args.duration if args.path is None else None)  # fmt: skip
 
     gain = write_audio(args.output, out, args.rate, normalize=args.normalize, limit_pa=args.limit,
-                       sidecar={"model": "fire", "extend": args.extend, "iso": fs.iso,
+                       subtype=args.format, sidecar={"model": "fire", "extend": args.extend, "iso": fs.iso,
                         "layout": lay.name, "seconds": time.perf_counter() - t})  # fmt: skip
     print(f"wrote {args.output}: {lay.name}, {out.shape[0]} ch, {out.shape[1] / args.rate:.2f} s "
           f"at {args.rate} Hz, gain {gain:.4g}")  # fmt: skip

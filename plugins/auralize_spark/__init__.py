@@ -16,23 +16,44 @@ thread (§4.2.1).  Table 1 presets: ``spark-balls``, ``plasma-ball``,
 44100
 """
 
-from .field import ChargeScene, ElectricField, field_from_volume, solve_field, solve_laplace
-from .leader import Discharge, grow_leader
-from .live import ContinuousResult, Delivery, LiveDischarges, continuous_discharges
-from .model import SparkResult, SparkSound, charge_glyphs, discharge_mesh, resolve_source, simulate
-from .presets import PRESETS, Preset, get_preset
-from .waves import (
-    SIGMA0,
-    Emissions,
-    Rendered,
-    WaveParams,
-    emissions,
-    nwave_params,
-    render_discharge,
-    stroke_times,
-    wm_coefficients,
-    wm_wave,
-)
+from auralize._lazy import lazy_exports
+
+#: exported name -> sub-module; imported on first access, so that declaring the
+#: plugin's sub-commands (``auralize --help``) loads none of its physics
+_EXPORTS = {
+    "ChargeScene": ".field",
+    "ElectricField": ".field",
+    "field_from_volume": ".field",
+    "solve_field": ".field",
+    "solve_laplace": ".field",
+    "Discharge": ".leader",
+    "grow_leader": ".leader",
+    "ContinuousResult": ".live",
+    "Delivery": ".live",
+    "LiveDischarges": ".live",
+    "continuous_discharges": ".live",
+    "SparkResult": ".model",
+    "SparkSound": ".model",
+    "charge_glyphs": ".model",
+    "discharge_mesh": ".model",
+    "resolve_source": ".model",
+    "simulate": ".model",
+    "PRESETS": ".presets",
+    "Preset": ".presets",
+    "get_preset": ".presets",
+    "SIGMA0": ".waves",
+    "Emissions": ".waves",
+    "Rendered": ".waves",
+    "WaveParams": ".waves",
+    "emissions": ".waves",
+    "nwave_params": ".waves",
+    "render_discharge": ".waves",
+    "stroke_times": ".waves",
+    "wm_coefficients": ".waves",
+    "wm_wave": ".waves",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 __all__ = [
     "PRESETS",

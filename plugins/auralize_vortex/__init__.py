@@ -7,8 +7,19 @@ time series (§6, Eq. 5, :mod:`.render`).  Registered as the ``vortex`` sound
 model; adds ``auralize vortex texture|render`` and the ``fire-plume`` dataset.
 """
 
-from auralize_vortex.model import VortexSound
-from auralize_vortex.render import render_vortex
-from auralize_vortex.texture import Texture, TextureConfig, compute_texture, texture
+from auralize._lazy import lazy_exports
+
+#: exported name -> sub-module; imported on first access, so that declaring the
+#: plugin's sub-commands (``auralize --help``) loads none of its physics
+_EXPORTS = {
+    "VortexSound": ".model",
+    "render_vortex": ".render",
+    "Texture": ".texture",
+    "TextureConfig": ".texture",
+    "compute_texture": ".texture",
+    "texture": ".texture",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 __all__ = ["Texture", "TextureConfig", "VortexSound", "compute_texture", "render_vortex", "texture"]

@@ -32,7 +32,10 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize._numba_setup import configure as _configure_numba
 from auralize.errors import ParameterError
+
+_configure_numba()  # cache folder, OMP wait policy, compile notice
 
 # Staggering offsets (in cells) of the sample points of each field: (ox, oy, oz).
 OFF_U = (0.0, 0.5, 0.5)

@@ -181,44 +181,10 @@ class VortexSound(SoundModel):
     # ------------------------------------------------------------------ CLI
     @classmethod
     def add_cli(cls, subparsers: Any) -> None:
-        """``auralize vortex texture ...`` and ``auralize vortex render ...``."""
-        from auralize.cli import (
-            add_output_options,
-            add_volume_options,
-            positive_float,
-            positive_int,
-            seed_int,
-        )
+        """Declare the sub-commands (see :mod:`auralize_vortex.commands`)."""
+        from auralize_vortex.commands import add_commands
 
-        p = subparsers.add_parser("vortex", help="vortex sound with sound textures (paper 000)")
-        sub = p.add_subparsers(dest="vortex_command", required=True, metavar="SUBCOMMAND")
-        t = sub.add_parser("texture", help="pre-compute a sound texture Q(u,t) into HDF5 (§5)")
-        t.add_argument("--speeds", required=True, help="comma-separated increasing speeds in m/s")
-        t.add_argument(
-            "-o", "--output", required=True, help="texture .h5 (reused if the parameters match)"
-        )
-        t.add_argument(
-            "--size", type=positive_int, default=16, help="cells per axis of the analysis box"
-        )
-        t.add_argument(
-            "--duration", type=positive_float, default=1.0, help="seconds recorded per speed"
-        )
-        t.add_argument("--seed", type=seed_int, default=0)
-        t.add_argument("--box", type=positive_float, default=0.2, help="analysis box edge in m")
-        t.add_argument("--dt", type=positive_float, default=1e-3, help="fluid time step in s")
-        t.add_argument("--coefficient", choices=["howe", "paper"], default="howe")
-        t.set_defaults(func=cls._cmd_texture)
-        r = sub.add_parser("render", help="render the vortex sound of a velocity volume (§6)")
-        add_volume_options(r)
-        add_output_options(r)
-        r.add_argument(
-            "--texture", metavar="TEX.h5", help="texture (default: cached default texture)"
-        )
-        r.add_argument("--attenuation", choices=["physical", "paper"], default="physical")
-        r.add_argument("--block", type=positive_int, default=5, help="points per sub-volume edge")
-        r.add_argument("--velocity-field", default="velocity")
-        r.add_argument("--time-scale", type=positive_float, default=1.0)
-        r.set_defaults(func=cls._cmd_render)
+        add_commands(subparsers)
 
     @staticmethod
     def _cmd_texture(args: argparse.Namespace) -> int:
@@ -231,8 +197,11 @@ class VortexSound(SoundModel):
         cfg = TextureConfig(speeds=check_speeds(speeds), size=args.size, duration=args.duration,
                             seed=args.seed, box_m=args.box, dt=args.dt,
                             coefficient=args.coefficient)  # fmt: skip
+        from auralize.progress import progress_callback
+
         t0 = time.perf_counter()
-        tex, cached = texture(cfg, args.output, progress=lambda m: print(f"  {m}", file=sys.stderr))
+        with progress_callback("texture", total=len(cfg.speeds), unit="speed") as cb:
+            tex, cached = texture(cfg, args.output, progress=cb)
         rms = ", ".join(f"{u:g}: {r:.3g}" for u, r in zip(tex.speeds, tex.rms(), strict=True))
         how = (
             "reused (same parameters)"
@@ -258,7 +227,7 @@ class VortexSound(SoundModel):
                           time_scale=args.time_scale, seed=args.seed)  # fmt: skip
         el = time.perf_counter() - t0
         gain = write_audio(args.output, r.audio, r.rate, channel_mask=r.layout.channel_mask,
-                           normalize=args.normalize, limit_pa=args.limit,
+                           normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
                            sidecar={"layout": r.layout.describe(), **r.meta,
                                     "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
         peak = float(np.max(np.abs(r.audio))) if r.audio.size else 0.0

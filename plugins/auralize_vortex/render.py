@@ -42,12 +42,15 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import resample_poly
 
+from auralize._numba_setup import configure as _configure_numba
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.propagation import distance_gain
 from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
 from auralize.volume import TimeVolume
 from auralize_vortex.texture import C0, Texture
+
+_configure_numba()  # cache folder, OMP wait policy, compile notice
 
 CONTROL_RATE_HZ = 200.0
 

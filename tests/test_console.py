@@ -1,0 +1,104 @@
+"""-q/-v, one-line warnings, progress bars (tqdm.auto) and the kernel-compile notice."""
+
+from __future__ import annotations
+
+import io
+import logging
+import warnings
+
+import numba
+import pytest
+from numba.core import event
+
+from auralize import _numba_setup, progress
+from auralize.cli import build_parser
+from auralize.console import setup_console
+
+
+@pytest.fixture(autouse=True)
+def _restore() -> None:  # type: ignore[misc]
+    log = logging.getLogger("auralize")
+    handlers, level, prop = list(log.handlers), log.level, log.propagate
+    yield
+    log.handlers[:] = handlers
+    log.setLevel(level)
+    log.propagate = prop
+    progress.set_enabled(True)
+
+
+def test_verbosity_flags_before_or_after_the_command() -> None:
+    ap = build_parser()
+    assert ap.parse_args(["-q", "plugins"]).quiet is True
+    a = ap.parse_args(["plugins", "-q"])
+    assert a.quiet is True and a.verbose == 0
+    assert ap.parse_args(["-vv", "plugins"]).verbose == 2
+    assert ap.parse_args(["plugins", "-vv"]).verbose == 2
+    a = ap.parse_args(["spark", "render", "-o", "x.wav", "--listener", "0,0,1", "--duration",
+                       "0.1", "-q"])  # fmt: skip
+    assert a.quiet is True
+    assert ap.parse_args(["plugins"]).quiet is False
+
+
+def test_warnings_are_one_line_and_quiet_hides_them(capsys) -> None:  # type: ignore[no-untyped-def]
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        setup_console()
+        warnings.warn("grid resampled", UserWarning, stacklevel=1)
+        err = capsys.readouterr().err
+        assert err == "auralize: warning: UserWarning: grid resampled\n"
+        setup_console(quiet=True)
+        warnings.warn("grid resampled", UserWarning, stacklevel=1)
+        assert capsys.readouterr().err == ""
+        assert not progress.visible()
+
+
+def test_progress_bars_show_on_a_terminal_or_in_jupyter(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    out = io.StringIO()
+    monkeypatch.setattr(progress.sys, "stderr", out)
+    assert not progress.visible()  # not a terminal, no Jupyter kernel
+    assert list(progress.progress(range(3), desc="detect")) == [0, 1, 2]
+    assert out.getvalue() == ""
+    monkeypatch.setattr(out, "isatty", lambda: True, raising=False)
+    assert progress.visible()
+    assert list(progress.progress(range(3), desc="peak pass", total=3)) == [0, 1, 2]
+    assert "peak pass" in out.getvalue()
+    with progress.progress_step("render", interval_s=0.01):
+        pass
+    assert "render" in out.getvalue()
+    progress.set_enabled(False)
+    assert not progress.visible()
+
+
+def test_compile_notice_names_an_estimate_once(caplog, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    monkeypatch.setattr(_numba_setup._NOTICE, "announced", True)  # the process-wide one
+    notice = _numba_setup._CompileNotice()
+    event.register("numba:compile", notice)
+    try:
+
+        def twice(x):  # type: ignore[no-untyped-def]
+            return 2 * x
+
+        twice.__module__ = "auralize._test_kernel"
+        twice.__qualname__ = "twice"
+        k = numba.njit(twice)
+        with caplog.at_level(logging.WARNING, logger="auralize"):
+            assert k(2) == 4 and k(2.5) == 5.0  # two specializations, one notice
+    finally:
+        event.unregister("numba:compile", notice)
+    msgs = [r.getMessage() for r in caplog.records if "compiling kernels" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~")
+    assert [n for n, _ in notice.compiled] == ["auralize._test_kernel.twice"] * 2
+
+
+def test_progress_callback_drives_a_bar_or_logs(monkeypatch, caplog) -> None:  # type: ignore[no-untyped-def]
+    out = io.StringIO()
+    monkeypatch.setattr(progress.sys, "stderr", out)
+    with caplog.at_level(logging.INFO, logger="auralize"), \
+            progress.progress_callback("texture", total=2) as cb:  # fmt: skip
+        cb("u = 1 m/s")
+    assert [r.getMessage() for r in caplog.records] == ["texture: u = 1 m/s"]
+    monkeypatch.setattr(out, "isatty", lambda: True, raising=False)
+    with progress.progress_callback("texture", unit="direction") as cb:
+        cb(1, 4)
+        cb(4, 4)
+    assert "texture" in out.getvalue() and "4/4" in out.getvalue()

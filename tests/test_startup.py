@@ -1,0 +1,126 @@
+"""Start-up: ``import auralize`` changes nothing process-wide, plugin sub-commands are
+declared without loading the plugins' physics, lazy plugin exports behave like eager ones."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from auralize.commands import LazyCommand, lazy
+
+ROOT = Path(__file__).resolve().parents[1]
+PLUGINS = ("auralize_vortex", "auralize_fire", "auralize_aero", "auralize_spark")
+
+
+def _run(code: str, **env: str) -> dict:  # type: ignore[type-arg]
+    e = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    e.update(env)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=e,
+                         check=True, timeout=120)  # fmt: skip
+    return json.loads(out.stdout.strip().splitlines()[-1])  # type: ignore[no-any-return]
+
+
+def test_import_auralize_changes_no_process_setting() -> None:
+    got = _run(
+        "import os, sys, json; before = dict(os.environ); import auralize, auralize.cli; "
+        "print(json.dumps({'env': sorted(set(os.environ.items()) ^ set(before.items())), "
+        "'mods': [m for m in ('numba', 'PySide6', 'sounddevice', 'pyvista', 'vtk') if m in sys.modules]}))"
+    )
+    assert got == {"env": [], "mods": []}
+
+
+def test_kernel_modules_set_their_numba_settings_on_import(tmp_path: Path) -> None:
+    got = _run(
+        "import os, json, numba; import auralize._kernels; "
+        "print(json.dumps([os.environ.get('OMP_WAIT_POLICY'), numba.config.CACHE_DIR]))",
+        NUMBA_CACHE_DIR=str(tmp_path),
+    )
+    assert got == ["passive", str(tmp_path)]
+
+
+def test_default_cache_dir_is_the_users_cache(tmp_path: Path) -> None:
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path)
+    out = subprocess.run(
+        [sys.executable, "-c", "import numba, auralize._kernels; print(numba.config.CACHE_DIR)"],
+        capture_output=True, text=True, env=env, check=True, timeout=120,
+    )  # fmt: skip
+    assert out.stdout.strip() == str(tmp_path / "auralize" / "numba")
+
+
+@pytest.mark.parametrize("plugin", PLUGINS)
+def test_plugin_commands_declared_without_physics(plugin: str) -> None:
+    ep = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    target = ep["auralize.commands"][plugin.split("_")[1]]
+    module, func = target.split(":")
+    got = _run(
+        "import argparse, importlib, json, sys; "
+        f"ap = argparse.ArgumentParser(); sub = ap.add_subparsers(dest='command'); "
+        f"getattr(importlib.import_module({module!r}), {func!r})(sub); "
+        f"heavy = [m for m in sys.modules if m.startswith({plugin!r} + '.') "
+        f"and m.split('.')[1] not in ('commands', 'cli')]; "
+        "print(json.dumps({'heavy': heavy, 'numba': 'numba' in sys.modules, "
+        "'scipy': 'scipy' in sys.modules, 'commands': sorted(sub.choices)}))"
+    )
+    assert got == {"heavy": [], "numba": False, "scipy": False,
+                   "commands": [plugin.split("_")[1]]}  # fmt: skip
+
+
+def test_every_plugin_declares_its_commands_by_entry_point() -> None:
+    ep = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    models = {n for n, v in ep["auralize.plugins"].items() if not v.startswith("auralize.")}
+    assert set(ep["auralize.commands"]) == models
+
+
+def test_declared_preset_choices_match_the_presets() -> None:
+    import auralize_aero.commands as aero_cmd
+    import auralize_spark.commands as spark_cmd
+    from auralize_aero.presets import PRESETS as AERO
+    from auralize_spark.presets import PRESETS as SPARK
+
+    assert tuple(aero_cmd.PRESET_NAMES) == tuple(AERO)
+    assert tuple(spark_cmd.PRESET_NAMES) == tuple(SPARK)
+
+
+def test_lazy_command_imports_when_called() -> None:
+    cmd = lazy("auralize.cli:_vec3")
+    assert isinstance(cmd, LazyCommand)
+    assert list(cmd("1,2,3")) == [1.0, 2.0, 3.0]  # type: ignore[arg-type]
+    assert lazy("auralize_vortex.model:VortexSound._cmd_render").resolve().__name__ == "_cmd_render"
+    with pytest.raises(ValueError, match="module:function"):
+        lazy("auralize.cli")
+
+
+def test_lazy_exports_keep_functions_over_submodules() -> None:
+    import auralize_aero.render
+    import auralize_vortex.texture
+    from auralize_aero import render
+    from auralize_vortex import texture
+
+    assert callable(texture) and texture.__module__ == "auralize_vortex.texture"
+    assert callable(render) and render.__module__ == "auralize_aero.render"
+    assert auralize_vortex.texture is texture and auralize_aero.render is render
+    import auralize_vortex
+
+    assert "VortexSound" in dir(auralize_vortex)
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        auralize_vortex.nope  # noqa: B018
+
+
+def test_parser_serves_plugin_commands() -> None:
+    from auralize.cli import build_parser
+
+    ap = build_parser()
+    args = ap.parse_args(["spark", "render", "-o", "x.wav", "--listener", "0,0,1",
+                          "--duration", "0.1"])  # fmt: skip
+    assert isinstance(args.func, LazyCommand)
+    assert args.func.target == "auralize_spark.model:cmd_spark_render"
+    sub = next(a for a in ap._actions if isinstance(a, argparse._SubParsersAction))
+    assert {"vortex", "fire", "aero", "spark", "warmup"} <= set(sub.choices)
