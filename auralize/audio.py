@@ -213,10 +213,14 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     suffix = p.suffix.lower()
     if subtype is not None and subtype not in WAV_FORMATS:
         raise ParameterError(f"format must be one of {WAV_FORMATS}, got {subtype!r}")
+    if subtype is None:
+        subtype = "pcm24" if suffix == ".flac" else "float32"
     if suffix not in (".wav", ".flac"):
         raise ParameterError(f"{p}: audio output must end in .wav or .flac")
     out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
-    silent = _check_stored(out, gain, p, "flac" if suffix == ".flac" else subtype)
+    if suffix == ".flac" and subtype == "float32":
+        raise ParameterError("FLAC holds integer samples; use --format pcm16|pcm24 or a WAV file")
+    silent = _check_stored(out, gain, p, subtype)
     if silent:
         warnings.warn(
             f"{p}: the audio is silent (every sample is 0): no sound reached the listener within "
@@ -256,7 +260,8 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         else:
             import soundfile as sf
 
-            sf.write(str(tmp), out.T, int(rate), format="FLAC", subtype="PCM_24")
+            sf.write(str(tmp), out.T, int(rate), format="FLAC",
+                     subtype=subtype.upper().replace("PCM", "PCM_"))  # fmt: skip
 
     def sidecar_bytes(sha256: str) -> bytes:
         return json.dumps({**meta, "sha256": sha256}, indent=2, default=_json_default).encode()

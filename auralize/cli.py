@@ -454,6 +454,9 @@ def cmd_detect(args: argparse.Namespace) -> int:
     from auralize.pipeline import detect_sources
     from auralize.volume import tally_nonfinite
 
+    out = Path(args.output)
+    if out.suffix.lower() not in (".pvd", ".h5", ".hdf5"):
+        raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
     vol, tally = tally_nonfinite(_load(args))
     t = time.perf_counter()
     series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
@@ -461,13 +464,10 @@ def cmd_detect(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - t
     series.meta["masked_fraction"] = tally.fraction
     _report_unavailable("detect", series)
-    out = Path(args.output)
     if out.suffix.lower() == ".pvd":
         save_sources_pvd(series, out)
-    elif out.suffix.lower() in (".h5", ".hdf5"):
-        save_sources_h5(series, out)
     else:
-        raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
+        save_sources_h5(series, out)
     counts = series.counts()
     if args.json:
         print(json.dumps({
@@ -884,7 +884,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             allow_external_data(True)
         _check_outputs(args)
         with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", SilentAudioWarning)
+            # every warning is collected and shown as one line after the command (a
+            # warning never aborts a command, whatever the process-wide filters say)
+            warnings.simplefilter("always")
+            warnings.simplefilter("ignore", DeprecationWarning)
+            warnings.simplefilter("ignore", PendingDeprecationWarning)
             status = int(args.func(args) or 0)
         for w in caught:
             if issubclass(w.category, SilentAudioWarning):

@@ -113,14 +113,30 @@ PRESET_ROLES = {
 }
 
 
+def _mapping_for_options(names: dict[str, str]) -> str | None:
+    """The preset that field options given without ``--mapping`` ask for, if any.
+
+    A density field means density is known (``cfd`` with momentum, else
+    ``identity``); a pressure field without density means ``incompressible``;
+    a log10-density field means the paper's mapping.
+    """
+    if "density" in names:
+        return "cfd" if "momentum" in names else "identity"
+    if "field" in names:
+        return "paper-density"
+    if "pressure" in names:
+        return "incompressible"
+    return None
+
+
 def resolve_mapping(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
                     **mapping_fields: str) -> AcousticMapping:  # fmt: skip
     """The mapping for ``volume``: the preset (default :func:`auto_mapping`) with its
     field names matched to the volume's fields where not given."""
     if isinstance(mapping, AcousticMapping) or callable(mapping):
         return get_mapping(mapping, **mapping_fields)
-    name = mapping or auto_mapping(volume)
     names = {k: v for k, v in mapping_fields.items() if v}
+    name = mapping or _mapping_for_options(names) or auto_mapping(volume)
     for option, role in PRESET_ROLES.get(name, {}).items():
         if option not in names:
             found = match_field(volume, role)

@@ -24,11 +24,20 @@ def set_enabled(enabled: bool) -> None:
     _enabled = bool(enabled)
 
 
+def _in_jupyter_kernel() -> bool:
+    """True inside a running Jupyter kernel (not merely with ipykernel imported)."""
+    ipython = sys.modules.get("IPython")
+    if ipython is None:
+        return False
+    shell = getattr(ipython, "get_ipython", lambda: None)()
+    return type(shell).__name__ == "ZMQInteractiveShell"
+
+
 def visible() -> bool:
     """True when a bar would be seen: bars allowed and a terminal or a Jupyter kernel."""
     if not _enabled:
         return False
-    if "ipykernel" in sys.modules:
+    if _in_jupyter_kernel():
         return True
     err = sys.stderr
     return bool(err is not None and hasattr(err, "isatty") and err.isatty())
