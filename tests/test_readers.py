@@ -443,3 +443,21 @@ def test_every_format_reads_the_same_series(tmp_path: Path) -> None:
             np.testing.assert_allclose(
                 vol.frame("velocity", 1), ref.frame("velocity", 1), rtol=1e-6, atol=1e-9
             )
+
+
+def test_cartesian_structured_grid_keeps_its_points(tmp_path: Path) -> None:
+    x, y, z = np.meshgrid(np.arange(4) * 0.5, 1 + np.arange(3) * 0.25, [2.0, 3.0], indexing="ij")
+    grid = pv.StructuredGrid(x, y, z)
+    grid.point_data["rho"] = np.arange(grid.n_points, dtype=float)
+    grid.save(tmp_path / "c.vts")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResampledWarning)
+        vol = open_volume(tmp_path / "c.vts")
+    assert vol.dims == (4, 3, 2) and vol.spacing.tolist() == [0.5, 0.25, 1.0]
+    assert vol.origin.tolist() == [0.0, 1.0, 2.0]
+    np.testing.assert_array_equal(vol.frame("rho", 0).reshape(-1), np.arange(24.0))
+    bent = pv.StructuredGrid(x + 0.05 * y, y, z)  # sheared: not axis-aligned
+    bent.point_data["rho"] = np.zeros(bent.n_points)
+    bent.save(tmp_path / "b.vts")
+    with pytest.warns(ResampledWarning, match="resampled"):
+        open_volume(tmp_path / "b.vts")
