@@ -21,7 +21,7 @@ OpenFOAM case folder, ``.foam``,          :func:`auralize.io.openfoam.read_openf
 ``controlDict``
 ``.xdmf``/``.xmf`` (dolfinx, meshio)      :func:`auralize.io.vtk_readers.read_xdmf`
 ``.case`` EnSight Gold                    :func:`auralize.io.vtk_readers.read_ensight`
-PLOT3D ``.xyz``/``.x``/``.g``/``.q``,     :func:`auralize.io.vtk_readers.read_plot3d`
+PLOT3D ``.xyz``/``.x``/``.grd``/``.q``,   :func:`auralize.io.vtk_readers.read_plot3d`
 ``*xyz*.bin`` + ``*q*.bin``
 ``.vthb``/``.vth`` AMR                    :func:`auralize.io.vtk_readers.read_amr`
 ``.nc`` netCDF classic / netCDF4 (CF)     :func:`auralize.io.netcdf.read_netcdf`
@@ -206,7 +206,7 @@ def _open(
     if suffix in netcdf.NETCDF_SUFFIXES:
         return netcdf.read_netcdf(p, **opts)  # type: ignore[arg-type]
     if suffix in (*vtk_readers.PLOT3D_GRID_SUFFIXES, ".q") or (
-        suffix == ".bin" and re.search("xyz|q", p.stem, flags=re.I)
+        suffix == ".bin" and re.search(r"xyz|q[_.-]?\d*$", p.stem, flags=re.I)
     ):
         return vtk_readers.read_plot3d(p, **opts)  # type: ignore[arg-type]
     if suffix in HDF5_SUFFIXES or _looks_like_hdf5(p):
