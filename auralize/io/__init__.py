@@ -82,9 +82,14 @@ READ_SUFFIXES = (
     ".xmf",
     ".case",
     ".xyz",
+    ".x",
+    ".grd",
     ".q",
     ".vthb",
+    ".vth",
     ".nc",
+    ".nc4",
+    ".cdf",
 )
 #: File name endings :func:`save_volume` writes.
 WRITE_SUFFIXES = (".h5", ".hdf5", ".pvd")
