@@ -379,7 +379,7 @@ def test_cli_reports_missing_velocity(tmp_path: Path, capsys) -> None:  # type: 
     out = tmp_path / "s.h5"
     assert main(["detect", str(DOLFINX), "--density-field", "f_5", "-o", str(out), "--json"]) == 0
     captured = capsys.readouterr()
-    assert captured.err.count("no dipole sources: no velocity field") == 1
+    assert captured.err.count("no dipole or quadrupole sources: no velocity field") == 1
     assert json.loads(captured.out)["unavailable"]["quadrupole"].startswith("no velocity field")
     from auralize.io.sources_file import load_sources_h5
 
