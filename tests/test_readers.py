@@ -366,6 +366,8 @@ def test_cli_info_detect_render(path: Path, extra: list[str], tmp_path: Path, ca
     assert main(["detect", str(path), "-o", str(src), "--json", *extra]) == 0
     det = json.loads(capsys.readouterr().out)
     assert len(det["steps"]) == info["n_steps"] and det["valid_ratio"] == info["valid_ratio"]
+    # the pulse's velocity has fill values over a "land" corner: a masked fraction is reported
+    assert (det["masked_fraction"] > 0) == (path == PULSE)
     centre = ",".join(f"{c:g}" for c in np.asarray(info["bounds"]).reshape(3, 2).mean(axis=1))
     wav = tmp_path / "a.wav"
     rc = main(["render", str(path), "--sources", str(src), "--listener", centre, "--duration",
