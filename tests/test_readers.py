@@ -463,3 +463,18 @@ def test_cartesian_structured_grid_keeps_its_points(tmp_path: Path) -> None:
     bent.save(tmp_path / "b.vts")
     with pytest.warns(ResampledWarning, match="resampled"):
         open_volume(tmp_path / "b.vts")
+
+
+def test_exodus_through_pyvista_get_reader(tmp_path: Path) -> None:
+    from vtkmodules.vtkIOExodus import vtkExodusIIWriter
+
+    grid = pv.ImageData(dimensions=(4, 4, 3)).cast_to_unstructured_grid()
+    grid.point_data["density"] = grid.points[:, 0] + 10 * grid.points[:, 2]
+    writer = vtkExodusIIWriter()
+    writer.SetFileName(str(tmp_path / "t.e"))
+    writer.SetInputData(grid)
+    writer.Write()
+    vol = open_volume(tmp_path / "t.e")
+    assert vol.dims == (4, 4, 3) and "density" in vol.field_names  # a lattice: native grid
+    expected = (vol.points()[:, 0] + 10 * vol.points()[:, 2]).reshape(vol.shape)
+    np.testing.assert_allclose(vol.frame("density", 0), expected)

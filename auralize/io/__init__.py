@@ -26,7 +26,8 @@ PLOT3D ``.xyz``/``.x``/``.grd``/``.q``,   :func:`auralize.io.vtk_readers.read_pl
 ``.vthb``/``.vth`` AMR                    :func:`auralize.io.vtk_readers.read_amr`
 ``.nc`` netCDF classic / netCDF4 (CF)     :func:`auralize.io.netcdf.read_netcdf`
 any other kind ``pyvista.get_reader``      :func:`auralize.io.vtk_readers.read_with_pyvista`
-opens (Exodus, CGNS, FLUENT ...)
+opens (Exodus, CGNS, FLUENT ``.cas`` and
+``.cas.h5``, Tecplot ...)
 ========================================  ==========================================
 
 Uniform grids keep their points, and so do meshes whose points form an evenly
@@ -214,6 +215,8 @@ def _open(
         suffix == ".bin" and re.search(r"xyz|q[_.-]?\d*$", p.stem, flags=re.I)
     ):
         return vtk_readers.read_plot3d(p, **opts)  # type: ignore[arg-type]
+    if p.name.lower().endswith(".cas.h5"):  # FLUENT's HDF5 case (with its .dat.h5)
+        return vtk_readers.read_with_pyvista(p, **opts)  # type: ignore[arg-type]
     if suffix in HDF5_SUFFIXES or _looks_like_hdf5(p):
         kind = hdf5.sniff(p)
         if kind == "vtkhdf":
