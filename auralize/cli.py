@@ -384,8 +384,11 @@ def _mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
 
 def _report_unavailable(command: str, series: Any) -> None:
     """Say once, on stderr, which source types could not be computed and why."""
+    by_reason: dict[str, list[str]] = {}
     for kind, why in (series.meta.get("unavailable") or {}).items():
-        print(f"auralize {command}: note: no {kind} sources: {why}", file=sys.stderr)
+        by_reason.setdefault(str(why), []).append(kind)
+    for why, kinds in by_reason.items():
+        print(f"auralize {command}: note: no {' or '.join(kinds)} sources: {why}", file=sys.stderr)
 
 
 def _progress_wanted() -> bool:

@@ -366,6 +366,8 @@ def test_cli_info_detect_render(path: Path, extra: list[str], tmp_path: Path, ca
     assert main(["detect", str(path), "-o", str(src), "--json", *extra]) == 0
     det = json.loads(capsys.readouterr().out)
     assert len(det["steps"]) == info["n_steps"] and det["valid_ratio"] == info["valid_ratio"]
+    # the pulse's velocity has fill values over a "land" corner: a masked fraction is reported
+    assert (det["masked_fraction"] > 0) == (path == PULSE)
     centre = ",".join(f"{c:g}" for c in np.asarray(info["bounds"]).reshape(3, 2).mean(axis=1))
     wav = tmp_path / "a.wav"
     rc = main(["render", str(path), "--sources", str(src), "--listener", centre, "--duration",
@@ -379,7 +381,7 @@ def test_cli_reports_missing_velocity(tmp_path: Path, capsys) -> None:  # type: 
     out = tmp_path / "s.h5"
     assert main(["detect", str(DOLFINX), "--density-field", "f_5", "-o", str(out), "--json"]) == 0
     captured = capsys.readouterr()
-    assert captured.err.count("no dipole sources: no velocity field") == 1
+    assert captured.err.count("no dipole or quadrupole sources: no velocity field") == 1
     assert json.loads(captured.out)["unavailable"]["quadrupole"].startswith("no velocity field")
     from auralize.io.sources_file import load_sources_h5
 
@@ -443,3 +445,76 @@ def test_every_format_reads_the_same_series(tmp_path: Path) -> None:
             np.testing.assert_allclose(
                 vol.frame("velocity", 1), ref.frame("velocity", 1), rtol=1e-6, atol=1e-9
             )
+
+
+def test_cartesian_structured_grid_keeps_its_points(tmp_path: Path) -> None:
+    x, y, z = np.meshgrid(np.arange(4) * 0.5, 1 + np.arange(3) * 0.25, [2.0, 3.0], indexing="ij")
+    grid = pv.StructuredGrid(x, y, z)
+    grid.point_data["rho"] = np.arange(grid.n_points, dtype=float)
+    grid.save(tmp_path / "c.vts")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResampledWarning)
+        vol = open_volume(tmp_path / "c.vts")
+    assert vol.dims == (4, 3, 2) and vol.spacing.tolist() == [0.5, 0.25, 1.0]
+    assert vol.origin.tolist() == [0.0, 1.0, 2.0]
+    np.testing.assert_array_equal(vol.frame("rho", 0).reshape(-1), np.arange(24.0))
+    bent = pv.StructuredGrid(x + 0.05 * y, y, z)  # sheared: not axis-aligned
+    bent.point_data["rho"] = np.zeros(bent.n_points)
+    bent.save(tmp_path / "b.vts")
+    with pytest.warns(ResampledWarning, match="resampled"):
+        open_volume(tmp_path / "b.vts")
+
+
+def test_exodus_through_pyvista_get_reader(tmp_path: Path) -> None:
+    from vtkmodules.vtkIOExodus import vtkExodusIIWriter
+
+    grid = pv.ImageData(dimensions=(4, 4, 3)).cast_to_unstructured_grid()
+    grid.point_data["density"] = grid.points[:, 0] + 10 * grid.points[:, 2]
+    writer = vtkExodusIIWriter()
+    writer.SetFileName(str(tmp_path / "t.e"))
+    writer.SetInputData(grid)
+    writer.Write()
+    vol = open_volume(tmp_path / "t.e")
+    assert vol.dims == (4, 4, 3) and "density" in vol.field_names  # a lattice: native grid
+    expected = (vol.points()[:, 0] + 10 * vol.points()[:, 2]).reshape(vol.shape)
+    np.testing.assert_allclose(vol.frame("density", 0), expected)
+
+
+def test_netcdf_climate_layout(tmp_path: Path) -> None:
+    """A reanalysis-style file: hours since 1800, north-to-south latitude, a level axis of
+    one, packed int16 with valid_range and missing_value, and bounds variables beside."""
+    lat = np.arange(90.0, -91.0, -30.0)
+    lon = np.arange(0.0, 360.0, 60.0)
+    with netcdf_file(tmp_path / "air.nc", "w") as f:
+        for name, size in (("time", None), ("level", 1), ("lat", lat.size), ("lon", lon.size),
+                           ("nbnds", 2)):  # fmt: skip
+            f.createDimension(name, size)
+        t = f.createVariable("time", "f8", ("time",))
+        t.units = "hours since 1800-1-1 00:00:0.0"
+        t[:] = [1753152.0, 1753158.0, 1753164.0]
+        f.createVariable("time_bnds", "f8", ("time", "nbnds"))[:] = np.zeros((3, 2))
+        for name, vals, units in (("level", [1000.0], "millibar"), ("lat", lat, "degrees_north"),
+                                  ("lon", lon, "degrees_east")):  # fmt: skip
+            v = f.createVariable(name, "f4", (name,))
+            v.units = units
+            v[:] = vals
+        air = f.createVariable("air", "i2", ("time", "level", "lat", "lon"))
+        air.units = "degK"
+        air.scale_factor = np.float32(0.01)
+        air.add_offset = np.float32(512.81)
+        air.missing_value = np.int16(32766)
+        air.valid_range = np.array([-32765, -2515], dtype=np.int16)
+        raw = np.full((3, 1, lat.size, lon.size), -24000, dtype=np.int16)
+        raw[0, 0, 0, 0] = 32766  # missing
+        raw[1, 0, 1, 1] = 0  # outside valid_range
+        air[:] = raw
+    vol = open_volume(tmp_path / "air.nc")
+    assert vol.field_names == ["air"] and vol.dims == (6, 7, 1)
+    np.testing.assert_allclose(np.diff(vol.times), [21600.0, 21600.0])  # 6 hours in seconds
+    assert vol.origin.tolist()[:2] == [0.0, -90.0]  # latitude flipped to increasing
+    a0, a1 = vol.frame("air", 0)[0], vol.frame("air", 1)[0]
+    assert np.isnan(a0[-1, 0]) and np.count_nonzero(np.isnan(a0)) == 1  # 90°N is the last row
+    assert np.isnan(a1[-2, 1]) and np.count_nonzero(np.isnan(a1)) == 1
+    np.testing.assert_allclose(a0[0, 0], -24000 * 0.01 + 512.81, rtol=1e-6)
+    assert vol.attrs["units"] == {"air": "degK"}
+    assert vol.attrs["grid_units"] == ["degrees_east", "degrees_north", "millibar"]

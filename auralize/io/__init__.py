@@ -21,12 +21,13 @@ OpenFOAM case folder, ``.foam``,          :func:`auralize.io.openfoam.read_openf
 ``controlDict``
 ``.xdmf``/``.xmf`` (dolfinx, meshio)      :func:`auralize.io.vtk_readers.read_xdmf`
 ``.case`` EnSight Gold                    :func:`auralize.io.vtk_readers.read_ensight`
-PLOT3D ``.xyz``/``.x``/``.g``/``.q``,     :func:`auralize.io.vtk_readers.read_plot3d`
+PLOT3D ``.xyz``/``.x``/``.grd``/``.q``,   :func:`auralize.io.vtk_readers.read_plot3d`
 ``*xyz*.bin`` + ``*q*.bin``
 ``.vthb``/``.vth`` AMR                    :func:`auralize.io.vtk_readers.read_amr`
 ``.nc`` netCDF classic / netCDF4 (CF)     :func:`auralize.io.netcdf.read_netcdf`
 any other kind ``pyvista.get_reader``      :func:`auralize.io.vtk_readers.read_with_pyvista`
-opens (Exodus, CGNS, FLUENT ...)
+opens (Exodus, CGNS, FLUENT ``.cas`` and
+``.cas.h5``, Tecplot ...)
 ========================================  ==========================================
 
 Uniform grids keep their points, and so do meshes whose points form an evenly
@@ -82,9 +83,14 @@ READ_SUFFIXES = (
     ".xmf",
     ".case",
     ".xyz",
+    ".x",
+    ".grd",
     ".q",
     ".vthb",
+    ".vth",
     ".nc",
+    ".nc4",
+    ".cdf",
 )
 #: File name endings :func:`save_volume` writes.
 WRITE_SUFFIXES = (".h5", ".hdf5", ".pvd", ".vtkhdf")
@@ -206,9 +212,11 @@ def _open(
     if suffix in netcdf.NETCDF_SUFFIXES:
         return netcdf.read_netcdf(p, **opts)  # type: ignore[arg-type]
     if suffix in (*vtk_readers.PLOT3D_GRID_SUFFIXES, ".q") or (
-        suffix == ".bin" and re.search("xyz|q", p.stem, flags=re.I)
+        suffix == ".bin" and re.search(r"xyz|q[_.-]?\d*$", p.stem, flags=re.I)
     ):
         return vtk_readers.read_plot3d(p, **opts)  # type: ignore[arg-type]
+    if p.name.lower().endswith(".cas.h5"):  # FLUENT's HDF5 case (with its .dat.h5)
+        return vtk_readers.read_with_pyvista(p, **opts)  # type: ignore[arg-type]
     if suffix in HDF5_SUFFIXES or _looks_like_hdf5(p):
         kind = hdf5.sniff(p)
         if kind == "vtkhdf":

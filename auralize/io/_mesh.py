@@ -152,7 +152,50 @@ def uniform_geometry(mesh: pyvista.DataSet) -> Grid | None:
                 spacing[a] = (c[-1] - c[0]) / (c.size - 1)
         origin = np.array([c[0] for c in coords])
         return origin, spacing, (coords[0].size, coords[1].size, coords[2].size)
+    if isinstance(mesh, pv.StructuredGrid):
+        return _structured_uniform(mesh)
     return None
+
+
+def _structured_uniform(mesh: Any) -> Grid | None:
+    """A structured grid whose i, j, k run evenly along x, y, z is a uniform grid.
+
+    Checked in one pass over the points (PLOT3D and ``.vts`` files of
+    Cartesian grids), with the relative tolerance of :func:`lattice_order`.
+    """
+    ni, nj, nk = (int(d) for d in mesh.dimensions)
+    pts = np.asarray(mesh.points, dtype=np.float64).reshape(nk, nj, ni, 3)
+    lines = (pts[0, 0, :, :], pts[0, :, 0, :], pts[:, 0, 0, :])
+    origin = pts[0, 0, 0].copy()
+    ext = pts.reshape(-1, 3).max(axis=0) - pts.reshape(-1, 3).min(axis=0)
+    scale = float(ext.max())
+    if not np.isfinite(scale) or scale <= 0:
+        return None
+    tol = 1e-5 * scale
+    spacing = np.ones(3)
+    for axis, line in enumerate(lines):
+        if line.shape[0] > 1:
+            step = np.diff(line, axis=0)
+            off_axis = np.delete(step, axis, axis=1)
+            if np.any(np.abs(off_axis) > tol) or step[0, axis] <= tol:
+                return None
+            if np.any(np.abs(step[:, axis] - step[0, axis]) > tol):
+                return None
+            spacing[axis] = (line[-1, axis] - line[0, axis]) / (line.shape[0] - 1)
+    dims = (ni, nj, nk)
+    active = [spacing[a] for a in range(3) if dims[a] > 1]
+    for a in range(3):
+        if dims[a] == 1:
+            spacing[a] = min(active) if active else 1.0
+    grid_z, grid_y, grid_x = (origin[a] + spacing[a] * np.arange(d) for a, d in
+                              ((2, nk), (1, nj), (0, ni)))  # fmt: skip
+    if (
+        np.abs(pts[..., 0] - grid_x[None, None, :]).max() > tol
+        or np.abs(pts[..., 1] - grid_y[None, :, None]).max() > tol
+        or np.abs(pts[..., 2] - grid_z[:, None, None]).max() > tol
+    ):
+        return None
+    return origin, spacing, dims
 
 
 def point_arrays(

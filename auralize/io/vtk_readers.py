@@ -12,8 +12,8 @@ input                                  reader
 dolfinx/FEniCS, meshio series)
 ``.case`` (EnSight Gold, transient     :func:`read_ensight` (``vtkEnSightGoldReader``)
 or single step)
-PLOT3D grid (``.xyz``, ``.x``, ``.g``,  :func:`read_plot3d` (``vtkMultiBlockPLOT3DReader``)
-``.grd``, ``*xyz*.bin``) + ``.q``
+PLOT3D grid (``.xyz``, ``.x``,        :func:`read_plot3d` (``vtkMultiBlockPLOT3DReader``)
+``.grd``, ``*xyz*.bin``) + ``.q``      or numpy for single-grid binary solutions
 series, or a ``.q`` next to its grid
 ``.vthb``/``.vth`` (AMR)               :func:`read_amr` (merged leaf blocks, resampled)
 anything else ``pyvista.get_reader``   :func:`read_with_pyvista`
@@ -39,7 +39,7 @@ from auralize.io.resample import ResolutionArg
 from auralize.volume import TimeVolume
 
 #: Grid-file endings of PLOT3D (solutions are ``.q``).
-PLOT3D_GRID_SUFFIXES = (".xyz", ".x", ".g", ".grd", ".p3dxyz")
+PLOT3D_GRID_SUFFIXES = (".xyz", ".x", ".grd")
 #: AMR file endings (VTK XML hierarchical box data).
 AMR_SUFFIXES = (".vthb", ".vth")
 XDMF_SUFFIXES = (".xdmf", ".xmf", ".xdmf3", ".xdmf2")
@@ -273,7 +273,7 @@ def _natural_key(p: Path) -> list[object]:
 def plot3d_files(path: Path) -> tuple[Path, list[Path]]:
     """The grid file and the solution (``.q``) files a PLOT3D path names.
 
-    A grid file (``.xyz``, ``.x``, ``.g``, ``.grd`` or a ``.bin`` whose name
+    A grid file (``.xyz``, ``.x``, ``.grd`` or a ``.bin`` whose name
     holds ``xyz``) takes the ``.q`` files beside it that share its name's
     stem (``flow.xyz`` -> ``flow*.q``; ``combxyz.bin`` -> ``combq.bin``), in
     natural order; a ``.q`` file takes the grid beside it.
