@@ -81,7 +81,7 @@ AUTO_FRACTIONS = {"monopole": 0.03, "dipole": 0.003, "quadrupole": 0.001}
 #: how many evenly spaced steps are sampled for relative, top and auto thresholds
 AUTO_SAMPLE_STEPS = 8
 #: at most about this many points per sample step enter the statistics
-SAMPLE_POINTS = 1 << 18
+SAMPLE_POINTS = 1 << 15
 #: strengths below this fraction of the size of the terms they are differences of
 #: (:func:`input_scale`) are round-off: relative, top and auto thresholds never go lower
 ROUNDOFF = 1e-9
@@ -395,7 +395,10 @@ class _StepCache:
             rho = np.ascontiguousarray(rho, dtype=np.float64)
             v = np.ascontiguousarray(v, dtype=np.float64)
             ok = self.valid
-            if not (np.isfinite(rho).all() and np.isfinite(v).all()):
+            # (sums first: cheap, and finite whenever every value is, barring overflow)
+            if not (np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v))) and not (
+                np.isfinite(rho).all() and np.isfinite(v).all()
+            ):
                 fin = np.isfinite(rho) & np.isfinite(v).all(axis=-1)
                 ok = fin if ok is None else ok & fin
             if ok is not None:
