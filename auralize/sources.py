@@ -519,11 +519,11 @@ def steady_strength(volume: TimeVolume, m: AcousticMapping,
 
 
 def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
-                      step: int = 0, *, steady: str = "keep") -> NDArray[np.float64]:  # fmt: skip
+                      step: int = 0, *, steady: str = "remove") -> NDArray[np.float64]:  # fmt: skip
     """Strengths ``(3, nz, ny, nx)`` at one step (convenience for inspection).
 
-    ``steady="keep"`` (default here) gives the paper's literal strengths,
-    ``"remove"`` those of the time-varying part, as :func:`detect` uses.
+    ``steady="remove"`` (default, as :func:`detect`): those of the time-varying
+    part; ``"keep"``: the paper's literal strengths.
     """
     _require_steps(volume)
     m = get_mapping(mapping)
