@@ -453,8 +453,11 @@ def stress_blocks(n_steps: int) -> list[tuple[int, int]]:
     return [(a, min(a + STRESS_BLOCK, n_steps)) for a in range(0, n_steps, STRESS_BLOCK)]
 
 
+StressSum = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
+
+
 def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
-                     b: int) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+                     b: int) -> StressSum:  # fmt: skip
     """``(ref, dsum, count)`` of steps ``[a, b)`` (see :func:`stress_sum`)."""
     cache = _StepCache(volume, mapping)
     ref = _stress(*cache.get(0)[:2])
@@ -469,7 +472,7 @@ def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
     return ref, dsum, count
 
 
-def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> tuple[NDArray[np.float64], ...]:
+def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> StressSum:
     """Pieces of the time-mean Lighthill stress ρ v_i v_j over all steps.
 
     Returns ``ref (6, nz, ny, nx)``, the stress at step 0 (order xx, yy, zz,
@@ -480,14 +483,13 @@ def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> tuple[NDArray[np
     (:func:`steady_quadrupole`); taken as an offset from step 0, a steady
     field's mean is step 0's stress exactly, not up to round-off.
     """
-    ref = dsum = count = None
-    for a, b in stress_blocks(volume.n_steps):
-        r, d, c = stress_block_sum(volume, mapping, a, b)
-        if dsum is None:
-            ref, dsum, count = r, np.zeros_like(d), np.zeros_like(c)
+    blocks = stress_blocks(volume.n_steps)
+    ref, dsum, count = stress_block_sum(volume, mapping, *blocks[0])
+    dsum = np.zeros_like(dsum) + dsum  # 0 + first block, as the distributed sum
+    for a, b in blocks[1:]:
+        _, d, c = stress_block_sum(volume, mapping, a, b)
         dsum += d
         count += c
-    assert ref is not None and dsum is not None and count is not None
     return ref, dsum, count
 
 
