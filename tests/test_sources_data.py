@@ -244,3 +244,23 @@ def test_auto_thresholds_find_sources_not_everything_and_warn_when_they_do() -> 
     top = detect(_monopole(17), mapping="identity", thresholds=Thresholds("top:1%", "auto", "auto"))
     # the top 1 % of the valid point-steps at the sample steps, about 1 % overall
     assert top.meta["fraction"]["monopole"] == pytest.approx(0.01, abs=0.005)
+
+
+def test_cli_detect_reports_the_classified_fractions(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    import json
+
+    from auralize.cli import main
+    from auralize.io import save_volume
+
+    src = tmp_path / "mono.h5"
+    save_volume(_monopole(13), src)
+    out = tmp_path / "s.h5"
+    assert main(["detect", str(src), "-o", str(out), "--mapping", "identity",
+                 "--threshold-monopole", "top:2%", "--json"]) == 0  # fmt: skip
+    frac = json.loads(capsys.readouterr().out)["fraction"]
+    assert frac["monopole"] == pytest.approx(0.02, abs=0.01) and frac["dipole"] == 0
+    assert main(["detect", str(src), "-o", str(out), "--mapping", "identity"]) == 0
+    text = capsys.readouterr().out
+    assert "share of the valid points classified:" in text and "% monopole" in text
+    assert main(["detect", str(src), "-o", str(out), "--threshold-dipole", "..%"]) == 2
+    assert "dipole threshold '..%' is not understood" in capsys.readouterr().err
