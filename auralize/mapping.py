@@ -362,8 +362,21 @@ class FunctionMapping(AcousticMapping):
                 f"mapping function returned shapes {rho.shape} and {v.shape}; expected "
                 f"{volume.shape} and {(*volume.shape, 3)}"
             )
-        if not (np.all(np.isfinite(rho)) and np.all(np.isfinite(v))):
-            raise DataError(f"mapping function returned NaN/Inf at step {step}")
+        bad = ~(np.isfinite(rho) & np.isfinite(v).all(axis=-1))
+        if bad.any():
+            # NaN/Inf are no-data where the input has none (outside the mesh, NaN cells)
+            nodata = np.zeros(volume.shape, dtype=bool)
+            valid = getattr(volume, "valid", None)
+            if valid is not None:
+                nodata |= ~np.asarray(valid, dtype=bool)
+            for f in frames.values():
+                fin = np.isfinite(f)
+                nodata |= ~(fin if f.ndim == 3 else fin.all(axis=-1))
+            if (bad & ~nodata).any():
+                raise DataError(
+                    f"mapping function returned NaN/Inf at step {step} at "
+                    f"{int((bad & ~nodata).sum())} points whose input is valid and finite"
+                )
         return rho, v
 
 

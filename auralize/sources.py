@@ -81,7 +81,7 @@ AUTO_FRACTIONS = {"monopole": 0.03, "dipole": 0.003, "quadrupole": 0.001}
 #: how many evenly spaced steps are sampled for relative, top and auto thresholds
 AUTO_SAMPLE_STEPS = 8
 #: at most about this many points per sample step enter the statistics
-SAMPLE_POINTS = 1 << 18
+SAMPLE_POINTS = 1 << 15
 #: strengths below this fraction of the size of the terms they are differences of
 #: (:func:`input_scale`) are round-off: relative, top and auto thresholds never go lower
 ROUNDOFF = 1e-9
@@ -406,7 +406,10 @@ class _StepCache:
             rho = np.ascontiguousarray(rho, dtype=np.float64)
             v = np.ascontiguousarray(v, dtype=np.float64)
             ok = self.valid
-            if not (np.isfinite(rho).all() and np.isfinite(v).all()):
+            # (sums first: cheap, and finite whenever every value is, barring overflow)
+            if not (np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v))) and not (
+                np.isfinite(rho).all() and np.isfinite(v).all()
+            ):
                 fin = np.isfinite(rho) & np.isfinite(v).all(axis=-1)
                 ok = fin if ok is None else ok & fin
             if ok is not None:
@@ -461,8 +464,11 @@ def stress_blocks(n_steps: int) -> list[tuple[int, int]]:
     return [(a, min(a + STRESS_BLOCK, n_steps)) for a in range(0, n_steps, STRESS_BLOCK)]
 
 
+StressSum = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
+
+
 def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
-                     b: int) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+                     b: int) -> StressSum:  # fmt: skip
     """``(ref, dsum, count)`` of steps ``[a, b)`` (see :func:`stress_sum`)."""
     cache = _StepCache(volume, mapping)
     ref = _stress(*cache.get(0)[:2])
@@ -477,7 +483,7 @@ def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
     return ref, dsum, count
 
 
-def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> tuple[NDArray[np.float64], ...]:
+def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> StressSum:
     """Pieces of the time-mean Lighthill stress ρ v_i v_j over all steps.
 
     Returns ``ref (6, nz, ny, nx)``, the stress at step 0 (order xx, yy, zz,
@@ -488,14 +494,13 @@ def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> tuple[NDArray[np
     (:func:`steady_quadrupole`); taken as an offset from step 0, a steady
     field's mean is step 0's stress exactly, not up to round-off.
     """
-    ref = dsum = count = None
-    for a, b in stress_blocks(volume.n_steps):
-        r, d, c = stress_block_sum(volume, mapping, a, b)
-        if dsum is None:
-            ref, dsum, count = r, np.zeros_like(d), np.zeros_like(c)
+    blocks = stress_blocks(volume.n_steps)
+    ref, dsum, count = stress_block_sum(volume, mapping, *blocks[0])
+    dsum = np.zeros_like(dsum) + dsum  # 0 + first block, as the distributed sum
+    for a, b in blocks[1:]:
+        _, d, c = stress_block_sum(volume, mapping, a, b)
         dsum += d
         count += c
-    assert ref is not None and dsum is not None and count is not None
     return ref, dsum, count
 
 
@@ -527,11 +532,11 @@ def steady_strength(volume: TimeVolume, m: AcousticMapping,
 
 
 def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
-                      step: int = 0, *, steady: str = "keep") -> NDArray[np.float64]:  # fmt: skip
+                      step: int = 0, *, steady: str = "remove") -> NDArray[np.float64]:  # fmt: skip
     """Strengths ``(3, nz, ny, nx)`` at one step (convenience for inspection).
 
-    ``steady="keep"`` (default here) gives the paper's literal strengths,
-    ``"remove"`` those of the time-varying part, as :func:`detect` uses.
+    ``steady="remove"`` (default, as :func:`detect`): those of the time-varying
+    part; ``"keep"``: the paper's literal strengths.
     """
     _require_steps(volume)
     m = get_mapping(mapping)

@@ -244,3 +244,53 @@ def test_auto_thresholds_find_sources_not_everything_and_warn_when_they_do() -> 
     top = detect(_monopole(17), mapping="identity", thresholds=Thresholds("top:1%", "auto", "auto"))
     # the top 1 % of the valid point-steps at the sample steps, about 1 % overall
     assert top.meta["fraction"]["monopole"] == pytest.approx(0.01, abs=0.005)
+
+
+def test_cli_detect_reports_the_classified_fractions(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    import json
+
+    from auralize.cli import main
+    from auralize.io import save_volume
+
+    src = tmp_path / "mono.h5"
+    save_volume(_monopole(13), src)
+    out = tmp_path / "s.h5"
+    assert main(["detect", str(src), "-o", str(out), "--mapping", "identity",
+                 "--threshold-monopole", "top:2%", "--json"]) == 0  # fmt: skip
+    frac = json.loads(capsys.readouterr().out)["fraction"]
+    assert frac["monopole"] == pytest.approx(0.02, abs=0.01) and frac["dipole"] == 0
+    assert main(["detect", str(src), "-o", str(out), "--mapping", "identity"]) == 0
+    text = capsys.readouterr().out
+    assert "share of the valid points classified:" in text and "% monopole" in text
+    assert main(["detect", str(src), "-o", str(out), "--threshold-dipole", "..%"]) == 2
+    assert "dipole threshold '..%' is not understood" in capsys.readouterr().err
+
+
+def test_function_mapping_passes_no_data_through_but_not_new_nans() -> None:
+    from auralize.errors import DataError
+
+    n = 10
+    x, y, z, h = _grid(n)
+    t = np.arange(4) / 100.0
+    rho = 1.2 + 0.01 * np.sin(40 * t)[:, None, None, None] * np.exp(-(x**2 + y**2 + z**2))
+    valid = x < 2.0
+    rho[:, ~valid] = np.nan
+    vol = TimeVolume.from_arrays({"density": rho}, spacing=h, times=t)
+    vol.check_finite = False
+    vol.valid = valid  # type: ignore[attr-defined]
+
+    def fn(frames):  # type: ignore[no-untyped-def]
+        r = frames["density"]
+        return r, np.zeros((*r.shape, 3))
+
+    series = detect(vol, mapping=fn)
+    assert all(valid.reshape(-1)[f.index].all() for f in series.frames)
+
+    def broken(frames):  # type: ignore[no-untyped-def]
+        r = np.sqrt(frames["density"] - 1.3)  # NaN where the input is valid
+        return r, np.zeros((*r.shape, 3))
+
+    with pytest.raises(DataError, match="NaN/Inf at step 0 at .* points whose input is valid"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            detect(vol, mapping=broken)

@@ -276,7 +276,7 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
 
 
 def stress_task(volume: TimeVolume, mapping: AcousticMapping, a: int, b: int,
-                slab: Slab) -> tuple[Slab, NDArray[np.float64], ...]:  # fmt: skip
+                slab: Slab) -> tuple[Slab, NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:  # fmt: skip
     """:func:`~auralize.sources.stress_block_sum` of steps ``[a, b)`` in the slab's kept planes."""
     sub, mapping = _local(volume, mapping, slab)
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
