@@ -654,3 +654,53 @@ def test_too_little_disk_space_is_refused_before_writing(out: str, tmp_path: Pat
     assert code == cli.EXIT_SYSTEM and err.count("\n") == 1
     assert "free on that disk" in err and out in err
     assert list(tmp_path.iterdir()) == []
+
+
+_RENDER_LOOP = """
+import sys
+from auralize import cli
+vol, wav = sys.argv[1], sys.argv[2]
+k = 0
+while True:
+    cli.main(["render", vol, "--listener", "0.5,0.5,0.5", "--duration", ("1.0", "0.5")[k % 2],
+              "--layout", ("stereo", "mono")[k % 2], "-o", wav])
+    if k == 1:
+        print("ready", flush=True)
+    k += 1
+"""
+
+
+def test_kill_during_render_command_keeps_old_or_new(tmp_path: Path, inputs: dict[str, Path],
+                                                     capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    """``auralize render`` itself (a separate process: numba's OpenMP forbids forking),
+    killed at random moments of its loop of detection, synthesis and writing."""
+    import subprocess
+    import sys
+
+    from auralize.audio import read_wav
+    from auralize.fileio import file_sha256, recover_pair
+
+    wav, side = tmp_path / "r.wav", tmp_path / "r.wav.json"
+    assert cli.main(["render", str(inputs["m.h5"]), "--listener", "0.5,0.5,0.5", "--duration", "0.5",
+                     "-o", str(wav)]) == 0  # fmt: skip
+    capsys.readouterr()
+    rnd = random.Random(4)
+    seen = set()
+    for _ in range(2):  # each trial starts (and compiles) a process: a few seconds
+        proc = subprocess.Popen([sys.executable, "-c", _RENDER_LOOP, str(inputs["m.h5"]), str(wav)],
+                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)  # fmt: skip
+        assert proc.stdout is not None
+        for line in proc.stdout:  # both versions written once: kernels compiled, warm
+            if line.strip() == "ready":
+                break
+        time.sleep(rnd.uniform(0.0, 0.3))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        proc.stdout.close()
+        recover_pair(wav, side)  # what the next write does first
+        meta = json.loads(side.read_text())
+        assert meta["sha256"] == file_sha256(wav)
+        a, rate, _ = read_wav(wav)
+        assert (a.shape, rate) in (((1, 22050), 44100), ((2, 44100), 44100))
+        seen.add(a.shape[0])
+    assert seen <= {1, 2}
