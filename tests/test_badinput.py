@@ -59,6 +59,9 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         f.create_dataset(
             "rho", shape=(2, 2, 2, 2), dtype="<f8", external=[(str(d / "raw.bin"), 0, 128)]
         )
+    with h5py.File(d / "vtkhdf_link.hdf", "w") as f:
+        f.create_group("VTKHDF").attrs["Type"] = np.bytes_("ImageData")
+        f["VTKHDF/PointData"] = h5py.ExternalLink("/etc/passwd", "/data")
     with h5py.File(d / "loop.h5", "w") as f:
         f["a"] = h5py.SoftLink("/b")
         f["b"] = h5py.SoftLink("/a")
@@ -109,6 +112,7 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("info-garbage", ["info", "{in}/garbage.h5"], "data", "garbage.h5"),
     ("info-extlink", ["info", "{in}/extlink.h5", "--field", "rho=/rho"], "data", "external link"),
     ("info-extstore", ["info", "{in}/extstore.h5", "--field", "rho=/rho"], "data", "external"),
+    ("info-vtkhdf-extlink", ["info", "{in}/vtkhdf_link.hdf"], "data", "external link"),
     ("info-loop", ["info", "{in}/loop.h5", "--field", "rho=/a"], "data", "loop.h5"),
     ("info-badmeta", ["info", "{in}/badmeta.h5"], "data", "badmeta.h5"),
     ("info-far-origin", ["info", "{in}/far_origin.h5"], "data", "1e+30"),
