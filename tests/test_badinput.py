@@ -138,6 +138,7 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("render-csv-nan", ["render", "{in}/m.h5", "--path", "{in}/nan.csv", "-o", "{out}/a.wav"], "data", "'nan'"),
     ("render-csv-far", ["render", "{in}/m.h5", "--path", "{in}/far.csv", "-o", "{out}/a.wav"], "data", "1e+30"),
     ("render-csv-missing", ["render", "{in}/m.h5", "--path", "{out}/none.csv", "-o", "{out}/a.wav"], "data", "none.csv"),
+    ("render-mp3", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.mp3"], "usage", "a.mp3"),
     ("render-out-dir", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{in}/adir"], "system", "adir"),
     ("render-time-scale", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--time-scale", "0"], "usage", "'0'"),
     ("render-limit", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--limit", "-1"], "usage", "'-1'"),
