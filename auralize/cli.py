@@ -868,6 +868,9 @@ def _check_outputs(args: argparse.Namespace) -> None:
     out = getattr(args, "output", None)
     if isinstance(out, str | Path) and str(out) != "-":
         check_output_path(out, folder=getattr(args, "command", None) == "demo")
+        suffix = Path(out).suffix.lower()
+        if hasattr(args, "normalize") and suffix not in (".wav", ".flac"):
+            raise ParameterError(f"{out}: audio output must end in .wav or .flac")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

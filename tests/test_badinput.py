@@ -59,6 +59,9 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         f.create_dataset(
             "rho", shape=(2, 2, 2, 2), dtype="<f8", external=[(str(d / "raw.bin"), 0, 128)]
         )
+    with h5py.File(d / "vtkhdf_link.hdf", "w") as f:
+        f.create_group("VTKHDF").attrs["Type"] = np.bytes_("ImageData")
+        f["VTKHDF/PointData"] = h5py.ExternalLink("/etc/passwd", "/data")
     with h5py.File(d / "loop.h5", "w") as f:
         f["a"] = h5py.SoftLink("/b")
         f["b"] = h5py.SoftLink("/a")
@@ -109,6 +112,7 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("info-garbage", ["info", "{in}/garbage.h5"], "data", "garbage.h5"),
     ("info-extlink", ["info", "{in}/extlink.h5", "--field", "rho=/rho"], "data", "external link"),
     ("info-extstore", ["info", "{in}/extstore.h5", "--field", "rho=/rho"], "data", "external"),
+    ("info-vtkhdf-extlink", ["info", "{in}/vtkhdf_link.hdf"], "data", "external link"),
     ("info-loop", ["info", "{in}/loop.h5", "--field", "rho=/a"], "data", "loop.h5"),
     ("info-badmeta", ["info", "{in}/badmeta.h5"], "data", "badmeta.h5"),
     ("info-far-origin", ["info", "{in}/far_origin.h5"], "data", "1e+30"),
@@ -134,6 +138,7 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("render-csv-nan", ["render", "{in}/m.h5", "--path", "{in}/nan.csv", "-o", "{out}/a.wav"], "data", "'nan'"),
     ("render-csv-far", ["render", "{in}/m.h5", "--path", "{in}/far.csv", "-o", "{out}/a.wav"], "data", "1e+30"),
     ("render-csv-missing", ["render", "{in}/m.h5", "--path", "{out}/none.csv", "-o", "{out}/a.wav"], "data", "none.csv"),
+    ("render-mp3", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.mp3"], "usage", "a.mp3"),
     ("render-out-dir", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{in}/adir"], "system", "adir"),
     ("render-time-scale", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--time-scale", "0"], "usage", "'0'"),
     ("render-limit", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--limit", "-1"], "usage", "'-1'"),
@@ -654,3 +659,53 @@ def test_too_little_disk_space_is_refused_before_writing(out: str, tmp_path: Pat
     assert code == cli.EXIT_SYSTEM and err.count("\n") == 1
     assert "free on that disk" in err and out in err
     assert list(tmp_path.iterdir()) == []
+
+
+_RENDER_LOOP = """
+import sys
+from auralize import cli
+vol, wav = sys.argv[1], sys.argv[2]
+k = 0
+while True:
+    cli.main(["render", vol, "--listener", "0.5,0.5,0.5", "--duration", ("1.0", "0.5")[k % 2],
+              "--layout", ("stereo", "mono")[k % 2], "-o", wav])
+    if k == 1:
+        print("ready", flush=True)
+    k += 1
+"""
+
+
+def test_kill_during_render_command_keeps_old_or_new(tmp_path: Path, inputs: dict[str, Path],
+                                                     capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    """``auralize render`` itself (a separate process: numba's OpenMP forbids forking),
+    killed at random moments of its loop of detection, synthesis and writing."""
+    import subprocess
+    import sys
+
+    from auralize.audio import read_wav
+    from auralize.fileio import file_sha256, recover_pair
+
+    wav, side = tmp_path / "r.wav", tmp_path / "r.wav.json"
+    assert cli.main(["render", str(inputs["m.h5"]), "--listener", "0.5,0.5,0.5", "--duration", "0.5",
+                     "-o", str(wav)]) == 0  # fmt: skip
+    capsys.readouterr()
+    rnd = random.Random(4)
+    seen = set()
+    for _ in range(2):  # each trial starts (and compiles) a process: a few seconds
+        proc = subprocess.Popen([sys.executable, "-c", _RENDER_LOOP, str(inputs["m.h5"]), str(wav)],
+                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)  # fmt: skip
+        assert proc.stdout is not None
+        for line in proc.stdout:  # both versions written once: kernels compiled, warm
+            if line.strip() == "ready":
+                break
+        time.sleep(rnd.uniform(0.0, 0.3))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        proc.stdout.close()
+        recover_pair(wav, side)  # what the next write does first
+        meta = json.loads(side.read_text())
+        assert meta["sha256"] == file_sha256(wav)
+        a, rate, _ = read_wav(wav)
+        assert (a.shape, rate) in (((1, 22050), 44100), ((2, 44100), 44100))
+        seen.add(a.shape[0])
+    assert seen <= {1, 2}

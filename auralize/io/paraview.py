@@ -319,6 +319,21 @@ class _VTKHDFSteps:
         return None if out is None else pv.wrap(out)
 
 
+def _check_vtkhdf_self_contained(path: Path) -> None:
+    """Refuse a VTKHDF file that reads other files (VTK's HDF5 would follow its links)."""
+    import h5py
+
+    from auralize.io.hdf5 import check_self_contained
+
+    try:
+        with h5py.File(path, "r") as f:
+            check_self_contained(f, path)
+    except FormatError:
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError) as exc:
+        raise FormatError(f"{path}: cannot read as VTKHDF ({exc})") from exc
+
+
 def read_vtkhdf(
     path: str | os.PathLike[str],
     *,
@@ -334,6 +349,7 @@ def read_vtkhdf(
     """
     path = Path(path).expanduser()
     require_exists(path)
+    _check_vtkhdf_self_contained(path)
     loader = _VTKHDFSteps(path)
     try:
         times = loader.times()
