@@ -23,7 +23,9 @@ Examples
 >>> from auralize.viewer.scene import Scene
 >>> scene = Scene(pv.Plotter(off_screen=True))
 >>> scene.set_volume(load("dataset:monopole", size=8, steps=4))
->>> scene.set_step(2)
+>>> scene.set_step(2) < 5.0  # seconds the redraw took
+True
+>>> scene.plotter.close()
 """
 
 from __future__ import annotations
