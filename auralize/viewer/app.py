@@ -537,8 +537,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self._guard(action, name)
 
     def _ask_open(self) -> None:
-        self._ask_file("open", "Volumes (*.h5 *.hdf5 *.pvd *.series *.vti *.vts *.vtkhdf);;"
-                               "All files (*)", self.open_data)  # fmt: skip
+        """File ▸ Open: every kind the readers know (built-in datasets are in File ▸ Open
+        built-in dataset)."""
+        from auralize.io import READ_SUFFIXES
+
+        kinds = " ".join(f"*{x}" for x in READ_SUFFIXES)
+        self._ask_file("open", f"Volumes ({kinds});;All files (*)", self.open_data)
 
     # =============================================================== tasks
     def run_task(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
