@@ -190,7 +190,10 @@ def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec
     _open(qtbot, win, spec, size=16, steps=4)
     drawn = {}
     for name in win.overlay_checks:
-        drawn[name] = win.set_overlay(name, True)
+        result: list[bool] = []
+        win.set_overlay(name, True, then=result.append)  # computed in the background
+        qtbot.waitUntil(lambda: bool(result) and not win.busy, timeout=60_000)
+        drawn[name] = result[0]
         if drawn[name]:
             assert any(k.startswith(f"overlay:{name}") for k in win.scene._actors)
             win.set_step(1)  # the overlay follows the time step without error

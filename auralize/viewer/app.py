@@ -457,7 +457,7 @@ class MainWindow(QtWidgets.QMainWindow):
             if cls.overlay is SoundModel.overlay:  # the plugin offers no overlay
                 continue
             cb = QtWidgets.QCheckBox(f"{name}: {cls.description[:40]}")
-            cb.toggled.connect(lambda on, n=name: self._guard(self.set_overlay, n, on))
+            cb.toggled.connect(lambda on, n=name: self._toggle_overlay(n, on))
             self.overlay_checks[name] = cb
             v.addWidget(cb)
         if not self.overlay_checks:
@@ -1072,38 +1072,78 @@ class MainWindow(QtWidgets.QMainWindow):
         self.player.engine.save_heard(csv_file, audio_file)
 
     # ============================================================ overlays
-    def set_overlay(self, name: str, on: bool) -> bool:
-        """Switch a plugin's overlay on or off; returns whether it is drawn.  An overlay
-        that does not apply to the data (e.g. fields it needs are missing) is switched
-        off again with the reason in the Overlays panel."""
+    def _toggle_overlay(self, name: str, on: bool) -> None:
+        """The Overlays panel's check box: untick it again if the overlay cannot start."""
+        if self._guard(self.set_overlay, name, on) is None and on:
+            cb = self.overlay_checks[name]
+            cb.blockSignals(True)
+            cb.setChecked(False)
+            cb.blockSignals(False)
+
+    def set_overlay(self, name: str, on: bool, *,
+                    then: Callable[[bool], None] | None = None) -> Task | None:  # fmt: skip
+        """Switch a plugin's overlay on or off.
+
+        Switching on computes the overlay of the current step in the background
+        (progress bar, Cancel), then draws it; later steps are drawn as the time
+        slider moves.  An overlay that does not apply to the data (e.g. fields it
+        needs are missing) is switched off again with the reason in the Overlays
+        panel.  ``then(drawn)`` is called when done.
+        """
         from auralize.plugins import get_model
 
         if not on:
             self.scene.set_overlay(name, None)
             self.overlay_note.setText("")
             self.plotter.render()
-            return False
+            if then is not None:
+                then(False)
+            return None
         if self.volume is None:
             raise ParameterError("open a data file first")
         model = get_model(name)
+        vol, path, step = self.volume, self.path, self.scene.step
 
-        def fn(step: int) -> Any:
-            return model.overlay((self.volume, self.path), step)
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            progress(0, 1)
+            try:
+                first = model.overlay((vol, path), step)
+            except AuralizeError as exc:
+                return exc
+            if not progress(1, 1):
+                raise Cancelled(f"{name} overlay cancelled")
+            return first
 
-        self.scene.set_overlay(name, fn)
-        err = self.scene.overlay_errors.get(name)
-        if err is not None:
-            self.scene.set_overlay(name, None)
-            cb = self.overlay_checks.get(name)
-            if cb is not None:
-                cb.blockSignals(True)
-                cb.setChecked(False)
-                cb.blockSignals(False)
-            self.overlay_note.setText(f"{name} overlay does not apply to this data: {err}")
-            return False
-        self.overlay_note.setText("")
-        self.plotter.render()
-        return True
+        def done(first: Any) -> None:
+            drawn = not isinstance(first, AuralizeError)
+            if drawn:
+                cache = {step: first}
+
+                def fn(n: int) -> Any:
+                    if n in cache:
+                        return cache[n]
+                    return model.overlay((self.volume, self.path), n)
+
+                self.scene.set_overlay(name, fn)
+                err = self.scene.overlay_errors.get(name)
+                drawn = err is None
+                if not drawn:
+                    self.scene.set_overlay(name, None)
+                    first = AuralizeError(err)
+            if not drawn:
+                cb = self.overlay_checks.get(name)
+                if cb is not None:
+                    cb.blockSignals(True)
+                    cb.setChecked(False)
+                    cb.blockSignals(False)
+                self.overlay_note.setText(f"{name} overlay does not apply to this data: {first}")
+            else:
+                self.overlay_note.setText("")
+                self.plotter.render()
+            if then is not None:
+                then(drawn)
+
+        return self.run_task(f"{name} overlay", work, done)
 
     # ============================================================= session
     def session_state(self) -> SessionState:
