@@ -192,7 +192,7 @@ def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec
     for name in win.overlay_checks:
         result: list[bool] = []
         win.set_overlay(name, True, then=result.append)  # computed in the background
-        qtbot.waitUntil(lambda: bool(result) and not win.busy, timeout=60_000)
+        qtbot.waitUntil(lambda r=result: bool(r) and not win.busy, timeout=60_000)
         drawn[name] = result[0]
         if drawn[name]:
             assert any(k.startswith(f"overlay:{name}") for k in win.scene._actors)
