@@ -658,15 +658,24 @@ class MainWindow(QtWidgets.QMainWindow):
         self.slider.setValue(0)
         self.slider.blockSignals(False)
         b = vol.bounds
-        self.info.setText(
+        name = vol.source if str(vol.source).startswith("dataset:") else Path(vol.source).name
+        text = (
             f"{vol.source}\n{vol.dims[0]}×{vol.dims[1]}×{vol.dims[2]} points, spacing "
             f"{', '.join(f'{s:g}' for s in vol.spacing)} m\nx[{b[0]:g}, {b[1]:g}] "
             f"y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m\n{vol.n_steps} steps, "
             f"{vol.times[0]:g}–{vol.times[-1]:g} s"
             f"{'' if vol.physical_times else ' (no times in the file: frames at 30 Hz)'}\n"
             f"fields: {', '.join(vol.field_names)}"
-            + "".join(f"\nnote: {n}" for n in self.load_notes)
         )  # fmt: skip
+        # the panel shows the file's name and short notes; the tooltip has everything
+        notes = [n.replace(f"{vol.source}: ", "") for n in self.load_notes]
+        short = text.replace(str(vol.source), str(name), 1) + "".join(
+            f"\nnote: {n if len(n) <= 60 else n[:58] + '…'}" for n in notes
+        )
+        self.info.setText(short)
+        lines = short.count("\n") + 1 + sum(len(n) > 40 for n in notes)
+        self.info.setMinimumHeight(lines * self.info.fontMetrics().lineSpacing() + 4)
+        self.info.setToolTip(text + "".join(f"\nnote: {n}" for n in self.load_notes))
         self.scene.set_path(self.path, time_scale=self.audio["time_scale"], render=False)
         self._update_step_label()
         self._refresh_enabled()
