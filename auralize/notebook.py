@@ -35,22 +35,19 @@ def _table(rows: list[tuple[str, str]], title: str) -> str:
 
 
 def _png(fig: Any) -> str:
-    import matplotlib.pyplot as plt
-
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80)
-    plt.close(fig)
     return ("<img src='data:image/png;base64,"
             f"{base64.b64encode(buf.getvalue()).decode('ascii')}'/>")  # fmt: skip
 
 
-def _figure(w: float, h: float) -> Any:
-    import matplotlib
+def _figure(w: float, h: float, ncols: int = 1) -> Any:
+    """A bare matplotlib Figure and its axes (no pyplot: the notebook's backend and its
+    figures are left alone)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt.subplots(figsize=(w, h), layout="constrained")
+    fig = Figure(figsize=(w, h), layout="constrained")
+    return fig, fig.subplots(1, ncols)
 
 
 def volume_html(vol: Any) -> str:
@@ -94,11 +91,7 @@ def series_html(series: Any) -> str:
 
 def path_html(path: Any) -> str:
     """Captures, duration and a small plot of the path (top view and height)."""
-    _figure(0.1, 0.1)[0].clf()  # selects the Agg backend
-    import matplotlib.pyplot as plt
-
-    plt.close("all")
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(6, 2.4), layout="constrained")
+    fig, (a1, a2) = _figure(6, 2.4, ncols=2)
     p = path.positions
     a1.plot(p[:, 0], p[:, 1], color="#ffaa00")
     a1.plot(p[:1, 0], p[:1, 1], "o", color="k", ms=3)

@@ -67,15 +67,12 @@ def plot_counts(series: Any, *, ax: Any = None) -> Any:
     >>> [line.get_label() for line in ax.get_lines()]
     ['monopole']
     """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
     from auralize.scene import PALETTE
 
     if ax is None:
-        _, ax = plt.subplots(figsize=(5, 2), layout="constrained")
+        from matplotlib.figure import Figure
+
+        ax = Figure(figsize=(5, 2), layout="constrained").subplots()
     counts = series.counts()
     t = np.asarray(series.times, dtype=np.float64)
     for kind, rgb in PALETTE.items():

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import doctest
 
+import pytest
+
 import auralize.simple as simple
 
 
@@ -23,3 +25,13 @@ def test_docstring_examples_run(tmp_path, monkeypatch) -> None:
         simple.ResetSession()
     assert res.failed == 0
     assert res.attempted >= 2 * len(simple.__all__)
+
+
+@pytest.mark.parametrize("name", ["auralize.audio", "auralize.notebook", "auralize.plots",
+                                  "auralize.scene", "auralize.viewer.scene",
+                                  "auralize.viewer.recorder"])  # fmt: skip
+def test_docstring_examples_of_the_viewer_modules_run(name: str) -> None:
+    import importlib
+
+    res = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+    assert res.failed == 0 and res.attempted > 0

@@ -190,7 +190,10 @@ def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec
     _open(qtbot, win, spec, size=16, steps=4)
     drawn = {}
     for name in win.overlay_checks:
-        drawn[name] = win.set_overlay(name, True)
+        result: list[bool] = []
+        win.set_overlay(name, True, then=result.append)  # computed in the background
+        qtbot.waitUntil(lambda r=result: bool(r) and not win.busy, timeout=60_000)
+        drawn[name] = result[0]
         if drawn[name]:
             assert any(k.startswith(f"overlay:{name}") for k in win.scene._actors)
             win.set_step(1)  # the overlay follows the time step without error
@@ -282,4 +285,39 @@ def test_record_from_the_default_camera(qtbot, window, tmp_path, errors):
     # the default camera looks at the data from outside its box, as in ParaView
     assert not np.any(win.volume.contains(path.positions))
     assert ListenerPath.from_csv(autosave).n_captures == path.n_captures
+    assert not errors
+
+
+def test_unpaced_device_cannot_flood_the_window(qtbot, window, tmp_path, errors, monkeypatch):
+    """A device that asks for blocks as fast as they come (ALSA null/file plugins) once
+    queued one redraw per block, which went on for minutes after Stop while the heard
+    audio grew without bound: ticks are coalesced and the heard audio is bounded."""
+    import auralize.viewer.listening as listening
+
+    class Unpaced(listening.WavSink):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **{**k, "pace": False})
+
+    monkeypatch.setattr(listening, "WavSink", Unpaced)
+    win = window
+    _open(qtbot, win)
+    _detect(qtbot, win)
+    handled: list[float] = []
+    orig = win._on_live_tick
+    win._on_live_tick = lambda t: (handled.append(t), orig(t))[1]  # type: ignore[method-assign]
+    win.live_tick.disconnect()
+    win.live_tick.connect(win._on_live_tick)
+    player = win.start_live(tmp_path / "fast.wav")
+    player.engine.keep_heard_s = 1.0
+    qtbot.waitUntil(lambda: player.engine.elapsed > 3.0, timeout=30_000)
+    t0 = time.perf_counter()
+    win.stop_live()
+    assert time.perf_counter() - t0 < 1.0
+    blocks = round(player.engine.elapsed / player.engine.block_s)
+    n = len(handled)
+    assert n < blocks  # not one redraw per block
+    qtbot.wait(300)
+    assert len(handled) <= n + 1  # at most the tick already queued, then nothing
+    heard = sum(b.shape[1] for b in player.engine.heard_blocks) / player.engine.rate
+    assert heard <= 1.0 + player.engine.block_s
     assert not errors

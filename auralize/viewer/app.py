@@ -457,7 +457,7 @@ class MainWindow(QtWidgets.QMainWindow):
             if cls.overlay is SoundModel.overlay:  # the plugin offers no overlay
                 continue
             cb = QtWidgets.QCheckBox(f"{name}: {cls.description[:40]}")
-            cb.toggled.connect(lambda on, n=name: self._guard(self.set_overlay, n, on))
+            cb.toggled.connect(lambda on, n=name: self._toggle_overlay(n, on))
             self.overlay_checks[name] = cb
             v.addWidget(cb)
         if not self.overlay_checks:
@@ -537,8 +537,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self._guard(action, name)
 
     def _ask_open(self) -> None:
-        self._ask_file("open", "Volumes (*.h5 *.hdf5 *.pvd *.series *.vti *.vts *.vtkhdf);;"
-                               "All files (*)", self.open_data)  # fmt: skip
+        """File ▸ Open: every kind the readers know (built-in datasets are in File ▸ Open
+        built-in dataset)."""
+        from auralize.io import READ_SUFFIXES
+
+        kinds = " ".join(f"*{x}" for x in READ_SUFFIXES)
+        self._ask_file("open", f"Volumes ({kinds});;All files (*)", self.open_data)
 
     # =============================================================== tasks
     def run_task(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
@@ -654,15 +658,24 @@ class MainWindow(QtWidgets.QMainWindow):
         self.slider.setValue(0)
         self.slider.blockSignals(False)
         b = vol.bounds
-        self.info.setText(
+        name = vol.source if str(vol.source).startswith("dataset:") else Path(vol.source).name
+        text = (
             f"{vol.source}\n{vol.dims[0]}×{vol.dims[1]}×{vol.dims[2]} points, spacing "
             f"{', '.join(f'{s:g}' for s in vol.spacing)} m\nx[{b[0]:g}, {b[1]:g}] "
             f"y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m\n{vol.n_steps} steps, "
             f"{vol.times[0]:g}–{vol.times[-1]:g} s"
             f"{'' if vol.physical_times else ' (no times in the file: frames at 30 Hz)'}\n"
             f"fields: {', '.join(vol.field_names)}"
-            + "".join(f"\nnote: {n}" for n in self.load_notes)
         )  # fmt: skip
+        # the panel shows the file's name and short notes; the tooltip has everything
+        notes = [n.replace(f"{vol.source}: ", "") for n in self.load_notes]
+        short = text.replace(str(vol.source), str(name), 1) + "".join(
+            f"\nnote: {n if len(n) <= 60 else n[:58] + '…'}" for n in notes
+        )
+        self.info.setText(short)
+        lines = short.count("\n") + 1 + sum(len(n) > 40 for n in notes)
+        self.info.setMinimumHeight(lines * self.info.fontMetrics().lineSpacing() + 4)
+        self.info.setToolTip(text + "".join(f"\nnote: {n}" for n in self.load_notes))
         self.scene.set_path(self.path, time_scale=self.audio["time_scale"], render=False)
         self._update_step_label()
         self._refresh_enabled()
@@ -1069,38 +1082,78 @@ class MainWindow(QtWidgets.QMainWindow):
         self.player.engine.save_heard(csv_file, audio_file)
 
     # ============================================================ overlays
-    def set_overlay(self, name: str, on: bool) -> bool:
-        """Switch a plugin's overlay on or off; returns whether it is drawn.  An overlay
-        that does not apply to the data (e.g. fields it needs are missing) is switched
-        off again with the reason in the Overlays panel."""
+    def _toggle_overlay(self, name: str, on: bool) -> None:
+        """The Overlays panel's check box: untick it again if the overlay cannot start."""
+        if self._guard(self.set_overlay, name, on) is None and on:
+            cb = self.overlay_checks[name]
+            cb.blockSignals(True)
+            cb.setChecked(False)
+            cb.blockSignals(False)
+
+    def set_overlay(self, name: str, on: bool, *,
+                    then: Callable[[bool], None] | None = None) -> Task | None:  # fmt: skip
+        """Switch a plugin's overlay on or off.
+
+        Switching on computes the overlay of the current step in the background
+        (progress bar, Cancel), then draws it; later steps are drawn as the time
+        slider moves.  An overlay that does not apply to the data (e.g. fields it
+        needs are missing) is switched off again with the reason in the Overlays
+        panel.  ``then(drawn)`` is called when done.
+        """
         from auralize.plugins import get_model
 
         if not on:
             self.scene.set_overlay(name, None)
             self.overlay_note.setText("")
             self.plotter.render()
-            return False
+            if then is not None:
+                then(False)
+            return None
         if self.volume is None:
             raise ParameterError("open a data file first")
         model = get_model(name)
+        vol, path, step = self.volume, self.path, self.scene.step
 
-        def fn(step: int) -> Any:
-            return model.overlay((self.volume, self.path), step)
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            progress(0, 1)
+            try:
+                first = model.overlay((vol, path), step)
+            except AuralizeError as exc:
+                return exc
+            if not progress(1, 1):
+                raise Cancelled(f"{name} overlay cancelled")
+            return first
 
-        self.scene.set_overlay(name, fn)
-        err = self.scene.overlay_errors.get(name)
-        if err is not None:
-            self.scene.set_overlay(name, None)
-            cb = self.overlay_checks.get(name)
-            if cb is not None:
-                cb.blockSignals(True)
-                cb.setChecked(False)
-                cb.blockSignals(False)
-            self.overlay_note.setText(f"{name} overlay does not apply to this data: {err}")
-            return False
-        self.overlay_note.setText("")
-        self.plotter.render()
-        return True
+        def done(first: Any) -> None:
+            drawn = not isinstance(first, AuralizeError)
+            if drawn:
+                cache = {step: first}
+
+                def fn(n: int) -> Any:
+                    if n in cache:
+                        return cache[n]
+                    return model.overlay((self.volume, self.path), n)
+
+                self.scene.set_overlay(name, fn)
+                err = self.scene.overlay_errors.get(name)
+                drawn = err is None
+                if not drawn:
+                    self.scene.set_overlay(name, None)
+                    first = AuralizeError(err)
+            if not drawn:
+                cb = self.overlay_checks.get(name)
+                if cb is not None:
+                    cb.blockSignals(True)
+                    cb.setChecked(False)
+                    cb.blockSignals(False)
+                self.overlay_note.setText(f"{name} overlay does not apply to this data: {first}")
+            else:
+                self.overlay_note.setText("")
+                self.plotter.render()
+            if then is not None:
+                then(drawn)
+
+        return self.run_task(f"{name} overlay", work, done)
 
     # ============================================================= session
     def session_state(self) -> SessionState:

@@ -23,7 +23,9 @@ Examples
 >>> from auralize.viewer.scene import Scene
 >>> scene = Scene(pv.Plotter(off_screen=True))
 >>> scene.set_volume(load("dataset:monopole", size=8, steps=4))
->>> scene.set_step(2)
+>>> scene.set_step(2) < 5.0  # seconds the redraw took
+True
+>>> scene.plotter.close()
 """
 
 from __future__ import annotations
@@ -49,6 +51,9 @@ PATH_COLOR: tuple[int, int, int] = PATH_RGB
 #: background colour (dark, unsaturated)
 BACKGROUND: tuple[int, int, int] = (26, 26, 34)
 REPRESENTATIONS = ("volume", "slices", "contour", "glyphs", "none")
+#: pixels between the rays of volume rendering (per side; 1 = one ray per pixel): the
+#: volume is smooth, and 2 keeps a 1024×768 redraw near 80 ms on a software renderer
+IMAGE_SAMPLE_DISTANCE = 2.0
 #: most arrows the ``glyphs`` representation draws (the grid is subsampled evenly)
 MAX_GLYPHS = 4000
 #: percentiles of the finite values that span the colour bar
@@ -242,8 +247,13 @@ class Scene:
                 self._actors["volume"] = self.plotter.add_volume(
                     grid, scalars="value", cmap=self.cmap, clim=self.clim,
                     opacity=_opacity_tf(self.opacity), show_scalar_bar=False, name="volume",
-                    reset_camera=False, render=False,
+                    reset_camera=False, render=False, mapper="gpu",
                 )  # fmt: skip
+                # fixed sampling: one ray per IMAGE_SAMPLE_DISTANCE² pixels (the smart
+                # mapper's automatic sampling cost ~5× more per frame on software GL)
+                m = self._actors["volume"].mapper
+                m.SetAutoAdjustSampleDistances(False)
+                m.SetImageSampleDistance(IMAGE_SAMPLE_DISTANCE)
                 self._scalar_bar()
                 # the mapper keeps its own input: update that one from now on
                 self._grid = self._actors["volume"].mapper.dataset
