@@ -521,10 +521,10 @@ def cmd_render(args: argparse.Namespace) -> int:
                            highpass_hz=args.highpass, seed=args.seed, listener=args.listener,
                            **_mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
-    _report_unavailable("render", series)
     out.meta["seconds"] = elapsed
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format, extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+    _report_unavailable("render", series)
     report = report_line(out, args.output, gain=gain)
     if args.json:
         from auralize.timbre import loudness

@@ -64,7 +64,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         what = convert_sources(Path(src).expanduser(), out)
     else:
         if out.suffix.lower() not in WRITE_SUFFIXES:
-            raise FormatError(f"{out}: cannot write {out.suffix or '(no suffix)'!r}; volumes "
+            raise ParameterError(f"{out}: cannot write {out.suffix or '(no suffix)'!r}; volumes "
                               f"convert to {', '.join(WRITE_SUFFIXES)}")  # fmt: skip
         vol = load(src, size=args.size, steps=args.steps, seed=args.seed,
                    fields=_field_map(args.field), resolution=args.resolution)  # fmt: skip

@@ -16,6 +16,7 @@ Examples
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -142,6 +143,14 @@ def resolve_mapping(volume: TimeVolume, mapping: str | AcousticMapping | None = 
             found = match_field(volume, role)
             if found is not None:
                 names[option] = found
+    if name == "identity" and "density" not in names:
+        scalar = next((f for f in volume.field_names if not volume.is_vector(f)), None)
+        if scalar is not None:
+            # no field is named like a density: sonify the first scalar field as one
+            logging.getLogger("auralize").info(
+                "%s: no density field; taking the scalar field %r as density (choose with "
+                "--density-field NAME)", volume.source, scalar)  # fmt: skip
+            names["density"] = scalar
     return get_mapping(name, **names)
 
 

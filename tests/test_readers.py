@@ -256,7 +256,7 @@ def test_ensight_transient(tmp_path: Path) -> None:
     assert all(c["monopole"] == 0 for c in load_sources_h5(out).counts())
     rc = main(["render", str(tmp_path / "t.case"), "--sources", str(out), "--listener",
                "5,0,0", "--duration", "0.01", "--rate", "8000", "-o", str(tmp_path / "e.wav")])  # fmt: skip
-    assert rc == 0
+    assert rc == 1  # written, and said to be silent: a steady flow makes no sound
 
 
 def test_vtm_blocks_are_merged(tmp_path: Path) -> None:
@@ -372,7 +372,9 @@ def test_cli_info_detect_render(path: Path, extra: list[str], tmp_path: Path, ca
     wav = tmp_path / "a.wav"
     rc = main(["render", str(path), "--sources", str(src), "--listener", centre, "--duration",
                "0.01", "--rate", "8000", "-o", str(wav), *extra])  # fmt: skip
-    assert rc == 0 and wav.exists()
+    # dolfinx's f_5 and meshio's phi change linearly in time: a constant dρ/dt, no sound
+    # once DC is removed, so the file is written and said to be silent (status 1)
+    assert rc == (0 if path == PULSE else 1) and wav.exists()
     side = json.loads((tmp_path / "a.wav.json").read_text())
     assert side["volume"] == str(path)
 
@@ -392,7 +394,7 @@ def test_cli_ensight_info_and_single_step_detect(tmp_path: Path, capsys) -> None
     assert main(["info", str(ENSIGHT)]) == 0
     out = capsys.readouterr().out
     assert "velocity (vector, point data)" in out and "default mapping incompressible" in out
-    assert main(["detect", str(ENSIGHT), "-o", str(tmp_path / "s.h5")]) == 2
+    assert main(["detect", str(ENSIGHT), "-o", str(tmp_path / "s.h5")]) == 3  # a data error
     assert "needs at least 2 time steps" in capsys.readouterr().err
 
 
@@ -401,11 +403,11 @@ def test_render_refuses_sources_of_another_grid(tmp_path: Path, capsys) -> None:
     assert main(["detect", str(PULSE), "-o", str(src)]) == 0
     args = ["render", str(PULSE), "--listener", "0.05,0.04,0.03", "--duration", "0.01",
             "-o", str(tmp_path / "a.wav")]  # fmt: skip
-    assert main([*args, "--sources", str(src), "--resolution", "10"]) == 2
+    assert main([*args, "--sources", str(src), "--resolution", "10"]) == 3  # a data error
     err = capsys.readouterr().err
     assert "do not belong to the grid" in err and "dims (20, 16, 12) vs (10, 8, 6)" in err
     assert main(["detect", str(PULSE), "-o", str(tmp_path / "s.pvd")]) == 0
-    assert main([*args, "--sources", str(tmp_path / "s.pvd")]) == 2
+    assert main([*args, "--sources", str(tmp_path / "s.pvd")]) == 3
     assert "--sources needs the .h5" in capsys.readouterr().err
     assert not (tmp_path / "a.wav").exists()
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import json
 import zipfile
 from pathlib import Path
@@ -13,6 +12,7 @@ import pytest
 from auralize.audio import read_wav
 from auralize.cli import main
 from auralize.listener import ListenerPath
+from auralize.realdata import CASES, dataset_path
 from auralize.timbre import loudness
 
 DATASETS = Path(__file__).resolve().parent.parent / "auralize" / "data"
@@ -27,14 +27,17 @@ def _real_input(folder: Path, tmp: Path) -> str:
     cases = sorted(p.parent.parent for p in tmp.glob("**/system/controlDict"))
     if cases:  # OpenFOAM: the first case folder (the cavity)
         return str(next((c for c in cases if c.name == "cavity"), cases[0]))
-    for pattern in ("*.pvd", "*.xdmf", "*.case", "*.h5", "*.vti", "*.vts"):
-        found = sorted(folder.glob(pattern)) + sorted(tmp.glob(f"**/{pattern}"))
-        if found:
-            return str(found[0])
-    raise AssertionError(f"{folder}: no volume file to render")
+    raise AssertionError(f"{folder}: no OpenFOAM case to render")
 
 
-REAL = sorted(p for p in DATASETS.iterdir() if p.is_dir() and p.name != "regression")
+#: shipped real datasets whose fields change in time in a way that sounds
+AUDIBLE = ["openfoam-cavity", "netcdf-pulse"]
+#: a single step (EnSight's steady cylinder, the PLOT3D snapshot): a clear one-line refusal
+SINGLE_STEP = ["ensight-cylinder", "plot3d-combustor"]
+#: no audible sound, said so: dolfinx's and meshio's fields change linearly in time (a
+#: constant dρ/dt, i.e. no sound once DC is removed); wavy is a surface, almost no grid
+#: point of the uniform volume around it holds data
+SILENT = ["xdmf-dolfinx", "xdmf-meshio", "paraview-wavy"]
 
 
 def _check_audible(wav: Path, report: str, duration: float) -> None:
@@ -47,27 +50,46 @@ def _check_audible(wav: Path, report: str, duration: float) -> None:
     assert np.all(np.abs(audio.mean(axis=1)) < 1e-3 * ld["peak"])  # no DC
 
 
-@pytest.mark.parametrize("folder", REAL, ids=[p.name for p in REAL])
-def test_plain_render_of_real_data_is_audible(folder, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
-    src = _real_input(folder, tmp_path / "data")
+def test_every_shipped_real_dataset_is_classified() -> None:
+    assert sorted(AUDIBLE + SINGLE_STEP + SILENT) == sorted(CASES)
+
+
+@pytest.mark.parametrize("name", AUDIBLE)
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")
+def test_plain_render_of_real_data_is_audible(name, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     wav = tmp_path / "out.wav"
-    with pytest.warns(Warning) if "OpenFOAM" in src else contextlib.nullcontext():
-        code = main(["render", src, "-o", str(wav)])
+    with dataset_path(name) as src:
+        code = main(["render", str(src), "-o", str(wav)])
     out, err = capsys.readouterr()
-    if code == 2 and "needs field(s) ['density']" in err:
-        pytest.xfail(f"{folder.name}: no acoustic mapping for its fields yet: {err.strip()}")
     assert code == 0, err
     report = out.strip().splitlines()[-1]
     _check_audible(wav, report, 10.0)
+
+
+@pytest.mark.parametrize("name", SINGLE_STEP)
+def test_plain_render_of_a_single_step_is_refused_in_one_line(name, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    with dataset_path(name) as src:
+        code = main(["render", str(src), "-o", str(tmp_path / "out.wav")])
+    err = capsys.readouterr().err
+    assert code == 3 and "needs at least 2 time steps" in err and err.count("\n") == 1
+    assert not (tmp_path / "out.wav").exists()
+
+
+@pytest.mark.parametrize("name", SILENT)
+def test_plain_render_without_sound_says_so(name, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    wav = tmp_path / "out.wav"
+    with dataset_path(name) as src:
+        code = main(["render", str(src), "-o", str(wav)])
+    err = capsys.readouterr().err
+    assert code == 1 and "silent" in err
+    assert json.loads(Path(str(wav) + ".json").read_text())["silent"] is True
 
 
 def test_cavity_with_a_density_field_is_audible(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     """The OpenFOAM cavity (6 steps over 2.5 s) heard with p as the density field."""
     src = _real_input(DATASETS / "openfoam-cavity", tmp_path / "data")
     wav = tmp_path / "c.wav"
-    with pytest.warns(Warning, match="resampled"):
-        code = main(["render", src, "--density-field", "p", "--velocity-field", "U",
-                     "-o", str(wav)])  # fmt: skip
+    code = main(["render", src, "--density-field", "p", "--velocity-field", "U", "-o", str(wav)])
     out, err = capsys.readouterr()
     assert code == 0, err
     lines = out.strip().splitlines()
