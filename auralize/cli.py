@@ -882,7 +882,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     name = f"auralize {getattr(args, 'command', '')}".strip()
     from auralize.console import setup_console
 
-    setup_console(quiet=args.quiet, verbose=args.verbose)
+    restore_console = setup_console(quiet=args.quiet, verbose=args.verbose)
     try:
         if getattr(args, "allow_external", False):
             from auralize.io.hdf5 import allow_external_data
@@ -917,6 +917,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{name}: error: {text}", file=sys.stderr)
         return code
     finally:
+        restore_console()
         if getattr(args, "allow_external", False):
             from auralize.io.hdf5 import allow_external_data
 

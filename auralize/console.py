@@ -5,7 +5,9 @@ auralize`` installs nothing): messages of the ``auralize`` logger go to stderr
 as ``auralize: message``; Python warnings are shown as one line
 ``auralize: warning: Category: message`` through the same logger (no source
 file and line); ``-q`` shows errors only (no warnings, no compile notice, no
-progress bars), ``-v`` adds debug messages.
+progress bars), ``-v`` adds debug messages.  It returns a function that puts
+the logger, ``warnings.showwarning`` and the bar switch back as they were, for
+callers that run the command inside a longer-lived process (tests, notebooks).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import logging
 import sys
 import warnings
+from collections.abc import Callable
 from typing import Any, TextIO
 
 LOGGER = "auralize"
@@ -38,7 +41,7 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
     logging.getLogger(LOGGER).warning("warning: %s: %s", category.__name__, message)
 
 
-def setup_console(*, quiet: bool = False, verbose: int = 0) -> None:
+def setup_console(*, quiet: bool = False, verbose: int = 0) -> Callable[[], None]:
     """Route the ``auralize`` logger and Python warnings to stderr at the chosen verbosity.
 
     Parameters
@@ -47,10 +50,28 @@ def setup_console(*, quiet: bool = False, verbose: int = 0) -> None:
         Errors only: hides warnings, the compile notice and progress bars.
     verbose : int
         0: info and warnings; 1 or more: also debug messages.
+
+    Returns
+    -------
+    restore : callable
+        ``restore()`` undoes this call: the ``auralize`` logger's handlers,
+        level and propagation, ``warnings.showwarning`` and the progress-bar
+        switch are set back to what they were before it.
     """
     from auralize import progress
 
     log = logging.getLogger(LOGGER)
+    before = (list(log.handlers), log.level, log.propagate, warnings.showwarning,
+              progress.is_enabled())  # fmt: skip
+
+    def restore() -> None:
+        handlers, level, propagate, show, bars = before
+        log.handlers[:] = handlers
+        log.setLevel(level)
+        log.propagate = propagate
+        warnings.showwarning = show
+        progress.set_enabled(bars)
+
     for h in [h for h in log.handlers if isinstance(h, _Handler)]:
         log.removeHandler(h)
     handler = _Handler()
@@ -60,3 +81,4 @@ def setup_console(*, quiet: bool = False, verbose: int = 0) -> None:
     log.setLevel(logging.ERROR if quiet else logging.DEBUG if verbose else logging.INFO)
     warnings.showwarning = _show_warning
     progress.set_enabled(not quiet)
+    return restore

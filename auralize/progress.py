@@ -24,6 +24,11 @@ def set_enabled(enabled: bool) -> None:
     _enabled = bool(enabled)
 
 
+def is_enabled() -> bool:
+    """False after ``set_enabled(False)`` (``auralize -q``): no bar will show."""
+    return _enabled
+
+
 def _in_jupyter_kernel() -> bool:
     """True inside a running Jupyter kernel (not merely with ipykernel imported)."""
     ipython = sys.modules.get("IPython")

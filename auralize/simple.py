@@ -554,13 +554,16 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     of ``Input`` (default: the active source; detected first with the current thresholds
     if needed).
 
+    The audio lasts the path's duration, clipped to the time the data's sound
+    lasts at the session's ``time_scale`` (then ``r.meta["notes"]`` says so).
+
     Examples
     --------
     >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
-    >>> p = CreateListenerPath("point", at=src.Volume.center + [1, 0, 0], duration=0.05)
+    >>> p = CreateListenerPath("point", at=src.Volume.center + [1, 0, 0], duration=0.02)
     >>> r = RenderAudio(src, path=p, layout="stereo")
     >>> r.audio.shape, r.rate
-    ((2, 2205), 44100)
+    ((2, 882), 44100)
     """
     from auralize.pipeline import auralize
 

@@ -87,7 +87,7 @@ def test_path_command_and_render_with_path(mono_h5, tmp_path) -> None:  # type: 
         (["render", "dataset:monopole", "--size", "16", "--steps", "1", "--listener", "1,1,1",
           "--duration", "0.1", "-o", "{out}"], "--steps must be an integer >= 2"),
         (["detect", "dataset:monopole", "--size", "16", "--steps", "20", "--mapping", "cfd",
-          "-o", "{out}"], "mapping 'cfd' needs a momentum field"),
+          "-o", "{out}.h5"], "mapping 'cfd' needs a momentum field"),
     ],
 )  # fmt: skip
 def test_cli_errors_are_one_line_and_leave_no_output(argv, message, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]

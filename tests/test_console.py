@@ -10,20 +10,28 @@ import numba
 import pytest
 from numba.core import event
 
-from auralize import _numba_setup, progress
+from auralize import _numba_setup, console, progress
 from auralize.cli import build_parser
 from auralize.console import setup_console
 
 
 @pytest.fixture(autouse=True)
 def _restore() -> None:  # type: ignore[misc]
+    # each test starts from the state of a fresh process, whatever ran before it
+    # (``auralize.cli.main`` sets the console up), and leaves it as it found it
     log = logging.getLogger("auralize")
     handlers, level, prop = list(log.handlers), log.level, log.propagate
+    show, bars = warnings.showwarning, progress.is_enabled()
+    log.handlers[:] = [h for h in handlers if not isinstance(h, console._Handler)]
+    log.setLevel(logging.NOTSET)
+    log.propagate = True
+    progress.set_enabled(True)
     yield
     log.handlers[:] = handlers
     log.setLevel(level)
     log.propagate = prop
-    progress.set_enabled(True)
+    warnings.showwarning = show
+    progress.set_enabled(bars)
 
 
 def test_verbosity_flags_before_or_after_the_command() -> None:
@@ -50,6 +58,18 @@ def test_warnings_are_one_line_and_quiet_hides_them(capsys) -> None:  # type: ig
         warnings.warn("grid resampled", UserWarning, stacklevel=1)
         assert capsys.readouterr().err == ""
         assert not progress.visible()
+
+
+def test_setup_console_can_put_the_process_back() -> None:
+    log = logging.getLogger("auralize")
+    show = warnings.showwarning
+    restore = setup_console(quiet=True)
+    assert log.propagate is False and log.level == logging.ERROR
+    assert warnings.showwarning is not show and not progress.is_enabled()
+    restore()
+    assert log.propagate is True and log.level == logging.NOTSET
+    assert not [h for h in log.handlers if isinstance(h, console._Handler)]
+    assert warnings.showwarning is show and progress.is_enabled()
 
 
 def test_progress_bars_show_on_a_terminal_or_in_jupyter(monkeypatch) -> None:  # type: ignore[no-untyped-def]
