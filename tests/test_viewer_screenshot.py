@@ -58,6 +58,13 @@ def test_screenshot_matches_reference(tmp_path) -> None:
     assert compare(img, ref) == []
 
 
+def test_screenshot_refuses_a_missing_folder(tmp_path, capsys) -> None:
+    out = tmp_path / "missing" / "shot.png"
+    assert main([*ARGS[:6], "--screenshot", str(out)]) == 4  # OutputError
+    assert "does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "missing").exists()
+
+
 def test_comparison_fails_for_blank_and_miscoloured_views() -> None:
     ref = _read(REFERENCE)
     blank = np.full_like(ref, 26)

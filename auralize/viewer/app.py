@@ -37,7 +37,7 @@ import numpy as np
 from pyvistaqt import QtInteractor
 from qtpy import QtCore, QtGui, QtWidgets
 
-from auralize.errors import AuralizeError, ParameterError
+from auralize.errors import AuralizeError, OutputError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import TYPES, Thresholds
 from auralize.viewer.detection import VIEWER_THRESHOLDS, Cancelled, Detection
@@ -822,6 +822,16 @@ class MainWindow(QtWidgets.QMainWindow):
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
         self.recorder.autosave = Path(autosave) if autosave else (
             out or self.autosave_dir / f"recording-{stamp}.csv")  # fmt: skip
+        if not autosave and self.recorder.autosave.parent == self.autosave_dir:
+            # the autosave folder is the viewer's own state folder (not an output
+            # the user named), so the viewer creates it
+            try:
+                self.autosave_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise OutputError(
+                    f"cannot create the autosave folder {str(self.autosave_dir)!r}: "
+                    f"{e.strerror or e}; give an autosave file in an existing folder"
+                ) from None
         self.recorder.start()
         self.capture()
         self._rec_timer.start(max(int(round(1000 / rate)), 1))

@@ -115,12 +115,15 @@ def screenshot(args: argparse.Namespace) -> Path:
     _prefer_egl()
     import pyvista as pv
 
+    from auralize.fileio import atomic_path, check_output_path
     from auralize.listener import ListenerPath
     from auralize.sources import Thresholds
     from auralize.viewer.detection import Detection
     from auralize.viewer.scene import Scene
     from auralize.viewer.session import SessionState, load_data
 
+    # refused before the data is read: the folder must exist (outputs never create folders)
+    out = check_output_path(args.screenshot)
     st = SessionState.load(args.session) if args.session else None
     if args.volume is None and st is None:
         raise ParameterError("--screenshot needs a volume PATH (or --session)")
@@ -163,10 +166,6 @@ def screenshot(args: argparse.Namespace) -> Path:
             scene.set_camera(st.camera)
         else:
             scene.frame_all()
-        out = Path(args.screenshot)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        from auralize.fileio import atomic_path
-
         with atomic_path(out, suffix=".part.png") as tmp:
             plotter.screenshot(str(tmp))
     finally:
