@@ -11,8 +11,9 @@ process; the first use of a kernel does:
   cores the other threads need).  It must be set before numba's threading
   layer starts, which happens at the first parallel kernel call.
 * One cache directory for the compiled kernels of auralize and its plugins:
-  ``NUMBA_CACHE_DIR`` when set, otherwise ``$XDG_CACHE_HOME/auralize/numba``
-  (``~/.cache/auralize/numba``).  The same place serves an editable checkout,
+  ``NUMBA_CACHE_DIR`` when set, otherwise ``numba/`` in auralize's cache
+  folder (``$AURALIZE_CACHE_DIR``, default ``~/.cache/auralize``; see
+  :mod:`auralize.cache`).  The same place serves an editable checkout,
   an installed wheel (whose ``site-packages`` may be read-only) and Dask
   worker processes.
 * A notice when kernels are compiled rather than loaded from that cache
@@ -64,12 +65,14 @@ _lock = threading.Lock()
 
 
 def cache_dir() -> Path:
-    """The folder of the compiled kernels (``NUMBA_CACHE_DIR``, else the user's cache)."""
+    """The folder of the compiled kernels: ``NUMBA_CACHE_DIR``, else ``numba/`` in
+    :func:`auralize.cache.cache_root` (``$AURALIZE_CACHE_DIR``, ``~/.cache/auralize``)."""
     env = os.environ.get("NUMBA_CACHE_DIR")
     if env:
         return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "auralize" / "numba"
+    from auralize.cache import cache_root
+
+    return cache_root() / "numba"
 
 
 def configure() -> None:

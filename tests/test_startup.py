@@ -45,14 +45,18 @@ def test_kernel_modules_set_their_numba_settings_on_import(tmp_path: Path) -> No
     assert got == ["passive", str(tmp_path)]
 
 
-def test_default_cache_dir_is_the_users_cache(tmp_path: Path) -> None:
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
-    env["XDG_CACHE_HOME"] = str(tmp_path)
-    out = subprocess.run(
-        [sys.executable, "-c", "import numba, auralize._kernels; print(numba.config.CACHE_DIR)"],
-        capture_output=True, text=True, env=env, check=True, timeout=120,
-    )  # fmt: skip
-    assert out.stdout.strip() == str(tmp_path / "auralize" / "numba")
+@pytest.mark.parametrize("var", ["XDG_CACHE_HOME", "AURALIZE_CACHE_DIR"])
+def test_one_cache_folder_for_kernels_and_textures(tmp_path: Path, var: str) -> None:
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("NUMBA_CACHE_DIR", "AURALIZE_CACHE_DIR", "AURALIZE_CACHE")}  # fmt: skip
+    env[var] = str(tmp_path)
+    code = ("import numba, auralize._kernels; from auralize_vortex.texture import cache_dir as v; "
+            "from auralize_aero.texture import cache_dir as a; print(numba.config.CACHE_DIR); "
+            "print(v()); print(a())")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         check=True, timeout=120).stdout.split()  # fmt: skip
+    root = tmp_path / "auralize" if var == "XDG_CACHE_HOME" else tmp_path
+    assert out == [str(root / "numba"), str(root), str(root / "aero")]
 
 
 @pytest.mark.parametrize("plugin", PLUGINS)

@@ -253,8 +253,8 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
     seed : int
         Seeds the symmetry-breaking kick of each simulation.
     cache : bool or path
-        True: the default cache folder (``$AURALIZE_CACHE`` or
-        ``~/.cache/auralize``) ``/aero``; a path: that folder; False: no cache.
+        True: ``aero/`` in auralize's cache folder (``$AURALIZE_CACHE_DIR``,
+        default ``~/.cache/auralize``); a path: that folder; False: no cache.
 
     Returns
     -------
@@ -362,10 +362,11 @@ def cache_dir(cache: bool | str | Path = True) -> Path | None:
     if cache is False:
         return None
     if cache is True:
-        root = os.environ.get("AURALIZE_CACHE") or os.path.join(
-            os.path.expanduser("~"), ".cache", "auralize"
-        )
-        return Path(root) / "aero"
+        from auralize.cache import ENV, cache_root
+
+        # AURALIZE_CACHE: the older name of the variable, still honoured
+        old = os.environ.get("AURALIZE_CACHE")
+        return (Path(old) if old and not os.environ.get(ENV) else cache_root()) / "aero"
     return Path(cache)
 
 

@@ -39,7 +39,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -502,12 +501,10 @@ def compute_texture(
 
 
 def cache_dir() -> Path:
-    """Texture cache folder: ``$AURALIZE_CACHE_DIR`` or ``$XDG_CACHE_HOME/auralize`` or ``~/.cache/auralize``."""
-    env = os.environ.get("AURALIZE_CACHE_DIR")
-    if env:
-        return Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "auralize"
+    """Texture cache folder: auralize's cache folder (:func:`auralize.cache.cache_root`)."""
+    from auralize.cache import cache_root
+
+    return cache_root()
 
 
 def texture(cfg: TextureConfig | None = None, path: str | Path | None = None, *,
