@@ -83,6 +83,24 @@ def match_field(volume: TimeVolume, role: str) -> str | None:
     return None
 
 
+def _velocity_or_zero(volume: TimeVolume, name: str, step: int,
+                      shape: tuple[int, ...]) -> Frame:  # fmt: skip
+    """The velocity frame ``name`` at ``step``, or zeros ``(*shape, 3)`` when it is missing."""
+    if name not in volume.fields:
+        return np.zeros((*shape, 3))
+    v = volume.frame(name, step)
+    _check_vector(volume, name, v)
+    return v
+
+
+def _without_velocity(volume: TimeVolume, name: str) -> dict[str, str]:
+    """The source types a missing velocity field ``name`` leaves out (``{}`` when present)."""
+    if name in volume.fields:
+        return {}
+    why = f"no velocity field ({name!r} is not in the volume)"
+    return {"dipole": why, "quadrupole": why}
+
+
 class AcousticMapping:
     """Base class: ``prepare(volume)`` once, then ``map(volume, step)`` per step."""
 
@@ -131,18 +149,10 @@ class IdentityMapping(AcousticMapping):
     def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
         rho = volume.frame(self.density, step)
         _check_scalar(volume, self.density, rho)
-        if self.velocity in volume.fields:
-            v = volume.frame(self.velocity, step)
-            _check_vector(volume, self.velocity, v)
-        else:
-            v = np.zeros((*rho.shape, 3))
-        return rho, v
+        return rho, _velocity_or_zero(volume, self.velocity, step, rho.shape)
 
     def unavailable(self, volume: TimeVolume) -> dict[str, str]:
-        if self.velocity in volume.fields:
-            return {}
-        why = f"no velocity field ({self.velocity!r} is not in the volume)"
-        return {"dipole": why, "quadrupole": why}
+        return _without_velocity(volume, self.velocity)
 
     def describe(self) -> dict[str, object]:
         return {"name": self.name, "density": self.density, "velocity": self.velocity}
@@ -207,18 +217,10 @@ class IncompressibleMapping(AcousticMapping):
         p = volume.frame(self.pressure, step)
         _check_scalar(volume, self.pressure, p)
         rho = self.rho0 + (p - self._p_ref) * (self._scale / self.c0**2)
-        if self.velocity in volume.fields:
-            v = volume.frame(self.velocity, step)
-            _check_vector(volume, self.velocity, v)
-        else:
-            v = np.zeros((*rho.shape, 3))
-        return rho, v
+        return rho, _velocity_or_zero(volume, self.velocity, step, rho.shape)
 
     def unavailable(self, volume: TimeVolume) -> dict[str, str]:
-        if self.velocity in volume.fields:
-            return {}
-        why = f"no velocity field ({self.velocity!r} is not in the volume)"
-        return {"dipole": why, "quadrupole": why}
+        return _without_velocity(volume, self.velocity)
 
     def describe(self) -> dict[str, object]:
         return {"name": self.name, "pressure": self.pressure, "velocity": self.velocity,
