@@ -307,10 +307,11 @@ def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, 
     engine : ``"numba"`` (fused synthesis loop with its own kd-tree) or
         ``"scipy"`` (Python loop over ``cKDTree.query``; same search rule).
         The method has no random step: same inputs, same output.
-    progress : called with a one-line message after each synthesised level
-        (``levels - 1`` calls, coarse to fine; each level has about twice the
-        samples, and so twice the work, of the one before), e.g. the callback
-        of :func:`auralize.progress.progress_callback`.
+    progress : called with a one-line message (``"level 3: 66120 samples"``;
+        level 1 is the full rate) after each synthesised level: ``levels - 1``
+        calls, coarse to fine, each level having about twice the samples, and
+        so twice the work, of the one before.  E.g. the callback of
+        :func:`auralize.progress.progress_callback`.
 
     Returns
     -------
@@ -352,5 +353,5 @@ def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, 
             current = synthesize_level(dics[k].result(), current, gs[lev].size, prm, scale=scale)
             dics[k] = None  # type: ignore[call-overload]  # free D_ℓ once used
             if progress is not None:
-                progress(f"level {lev + 1}/{L} (1 = full rate): {current.size} samples")
+                progress(f"level {lev + 1}: {current.size} samples")
     return current
