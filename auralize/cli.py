@@ -458,8 +458,8 @@ def cmd_detect(args: argparse.Namespace) -> int:
     from auralize.volume import tally_nonfinite
 
     out = Path(args.output)
-    if out.suffix.lower() not in (".pvd", ".h5", ".hdf5"):
-        raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
+    if out.suffix.lower() not in (".pvd", ".h5", ".hdf5", ".vtkhdf"):
+        raise ParameterError(f"{out}: sources output must end in .h5/.hdf5, .pvd or .vtkhdf")
     vol, tally = tally_nonfinite(_load(args))
     t = time.perf_counter()
     series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
@@ -469,6 +469,10 @@ def cmd_detect(args: argparse.Namespace) -> int:
     _report_unavailable("detect", series)
     if out.suffix.lower() == ".pvd":
         save_sources_pvd(series, out)
+    elif out.suffix.lower() == ".vtkhdf":
+        from auralize.io.vtkhdf_write import write_sources_vtkhdf
+
+        write_sources_vtkhdf(series, out)
     else:
         save_sources_h5(series, out)
     counts = series.counts()
@@ -689,10 +693,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=seed_int, default=0)
     p.set_defaults(func=cmd_dataset)
 
-    p = sub.add_parser("detect", help="detect sources; write them to .h5 or ParaView .pvd")
+    p = sub.add_parser("detect", help="detect sources; write them to .h5, ParaView .pvd or .vtkhdf")
     add_volume_options(p)
     add_detect_options(p)
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("-o", "--output", required=True,
+                   help="sources file: .h5/.hdf5, .pvd (ParaView) or .vtkhdf (ParaView, VTK)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print per-step counts by type as JSON")
     p.set_defaults(func=cmd_detect)
 

@@ -110,3 +110,25 @@ def test_convert_between_volume_formats_and_sources(tmp_path: Path, capsys) -> N
     assert "same file" in capsys.readouterr().err
     with pytest.raises(FormatError, match="cannot write"):
         save_volume(va, tmp_path / "x.vtu")
+
+
+def test_detect_writes_vtkhdf_matching_the_h5_output(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from auralize.io.sources_file import load_sources_h5
+
+    spec = ["dataset:monopole", "--size", "12", "--steps", "20"]
+    h5, vtkhdf = tmp_path / "s.h5", tmp_path / "s.vtkhdf"
+    assert main(["detect", *spec, "-o", str(h5)]) == 0
+    assert main(["detect", *spec, "-o", str(vtkhdf)]) == 0
+    assert f"wrote {vtkhdf}" in capsys.readouterr().out
+    series = load_sources_h5(h5)
+    got_t, polys = _vtk_steps(vtkhdf)
+    assert len(got_t) == series.n_steps == 20
+    assert np.allclose(got_t, series.times)
+    assert sum(p.n_points for p in polys) > 0
+    for f, poly in zip(series.frames, polys, strict=True):
+        assert poly.n_points == f.index.size
+        assert np.allclose(poly.points, series.positions(f.index))
+        assert np.array_equal(poly.point_data["kind"], f.kind)
+    assert not list(tmp_path.glob(".*"))  # no temporary file left
+    assert main(["detect", *spec, "-o", str(tmp_path / "s.vtu")]) == 2
+    assert ".vtkhdf" in capsys.readouterr().err

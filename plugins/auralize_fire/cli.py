@@ -98,6 +98,7 @@ def cmd_extend(args: argparse.Namespace) -> int:
 
 
 def cmd_texture(args: argparse.Namespace) -> int:
+    from auralize.progress import progress_callback
     from auralize_fire.clips import read_audio
     from auralize_fire.model import training_at
     from auralize_fire.texture import texture_synthesize
@@ -105,8 +106,9 @@ def cmd_texture(args: argparse.Namespace) -> int:
     x, rate = read_audio(args.input, rate=args.rate)
     train = training_at(args.training, rate, training_rate=args.training_rate)
     t = time.perf_counter()
-    y = texture_synthesize(x, train, levels=args.levels, eps=args.eps,
-                           coarse_weight=args.coarse_weight)  # fmt: skip
+    with progress_callback("texture", total=args.levels - 1, unit="level") as cb:
+        y = texture_synthesize(x, train, levels=args.levels, eps=args.eps,
+                               coarse_weight=args.coarse_weight, progress=cb)  # fmt: skip
     _write(args, y, rate, {"stage": "texture synthesis (§5)", "training": args.training,
                            "levels": args.levels, "eps": args.eps,
                            "coarse_weight": args.coarse_weight,

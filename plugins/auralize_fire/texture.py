@@ -63,6 +63,7 @@ measure of the constraint.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -289,6 +290,7 @@ def synthesize_level(dic: _Dictionary, coarse: NDArray[np.float64], n: int, prm:
 def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, levels: int = 6,
                        h: int = 4, h_f: int = 3, eps: float = 1.0, range_matching: bool = True,
                        coarse_weight: float = 3.0, engine: str = "numba",
+                       progress: Callable[[str], None] | None = None,
                        ) -> NDArray[np.float64]:  # fmt: skip
     """Fire-sound details from a training clip, synchronised with p_S (paper 001 §5).
 
@@ -305,6 +307,11 @@ def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, 
     engine : ``"numba"`` (fused synthesis loop with its own kd-tree) or
         ``"scipy"`` (Python loop over ``cKDTree.query``; same search rule).
         The method has no random step: same inputs, same output.
+    progress : called with a one-line message (``"level 3: 66120 samples"``;
+        level 1 is the full rate) after each synthesised level: ``levels - 1``
+        calls, coarse to fine, each level having about twice the samples, and
+        so twice the work, of the one before.  E.g. the callback of
+        :func:`auralize.progress.progress_callback`.
 
     Returns
     -------
@@ -345,4 +352,6 @@ def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, 
             scale = _window_ratios(gs, gt, prm) if lev == L - 2 and range_matching else None
             current = synthesize_level(dics[k].result(), current, gs[lev].size, prm, scale=scale)
             dics[k] = None  # type: ignore[call-overload]  # free D_ℓ once used
+            if progress is not None:
+                progress(f"level {lev + 1}: {current.size} samples")
     return current

@@ -242,6 +242,24 @@ def test_texture_exact_engines_agree(candle: np.ndarray) -> None:
     assert np.array_equal(a, b)
 
 
+def test_texture_progress_advances_a_bar_per_level(candle: np.ndarray, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import io
+
+    from auralize import progress
+
+    x, train = candle[:4000], fire_training_clip(0.5, RATE, seed=2)
+    said: list[str] = []
+    texture_synthesize(x, train, levels=3, progress=said.append)
+    assert said == ["level 2: 2000 samples", "level 1: 4000 samples"]
+    out = io.StringIO()
+    monkeypatch.setattr(out, "isatty", lambda: True, raising=False)
+    monkeypatch.setattr(progress.sys, "stderr", out)
+    monkeypatch.setattr(progress, "_enabled", True)
+    with progress.progress_callback("texture", total=2, unit="level") as cb:
+        texture_synthesize(x, train, levels=3, progress=cb)
+    assert "texture" in out.getvalue() and "2/2" in out.getvalue()
+
+
 def test_texture_bad_input(candle: np.ndarray) -> None:
     with pytest.raises(DataError, match="training clip has 100 samples"):
         texture_synthesize(candle[:5000], np.ones(100))
@@ -304,7 +322,8 @@ def test_overlay_off_screen(fire_volume: TimeVolume) -> None:
 
 
 # ------------------------------------------------------------------ CLI
-def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray) -> None:
+def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray,
+                                           capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
     from auralize.audio import read_wav, write_audio
     from auralize.cli import main
 
@@ -320,6 +339,9 @@ def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray) -
     assert main(["fire", "texture", str(raw), "--rate", "44100", "--training", str(train),
                  "-o", str(tex), "--levels", "4"]) == 0  # fmt: skip
     assert read_wav(tex)[0].shape == (1, 22050)
+    logged = [ln for ln in capsys.readouterr().err.splitlines() if "texture: level" in ln]
+    assert logged == [f"auralize: texture: level {lev}: {-(-22050 // 2 ** (lev - 1))} samples"
+                      for lev in (3, 2, 1)]  # fmt: skip  # no terminal: one log line per level
     low = tmp_path / "lowfreq.wav"
     assert (
         main(["fire", "lowfreq", "dataset:fire", "--size", "12", "--steps", "8", "-o", str(low)])
