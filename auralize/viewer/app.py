@@ -1221,9 +1221,16 @@ class MainWindow(QtWidgets.QMainWindow):
         self._threads.add(t)
         t.succeeded.connect(lambda r: self._overlay_step_done(name, t, vol, path, n, r))
         t.failed.connect(lambda e: self._overlay_step_done(name, t, vol, path, n, e))
-        t.finished.connect(lambda: (self._threads.discard(t), t.deleteLater()))
+        t.finished.connect(lambda: self._forget_thread(t))
         t.start()
         self._overlay_progress()
+
+    def _forget_thread(self, t: Task) -> None:
+        """Delete a finished task (``finished`` is sent just before its thread ends:
+        wait for that first, as deleting a running thread aborts the process)."""
+        t.wait()
+        self._threads.discard(t)
+        t.deleteLater()
 
     def _overlay_step_done(self, name: str, t: Task, vol: Any, path: Any, n: int,
                            result: Any) -> None:  # fmt: skip
