@@ -6,8 +6,8 @@ counts), **Listener** (record / stop / clear, capture rate, save / load CSV,
 autosave), **Audio** (layout, device, time scale, render to file, play / stop,
 waveform and spectrogram with a cursor on the time slider), **Live listening**
 and **Overlays** (sound-model plugin overlays).  Long work (loading,
-detection, rendering) runs in a :class:`Task` thread with a progress bar and a
-Cancel button.  Errors show a message box; the session stays usable.
+detection, rendering, each time step of an overlay) runs in a :class:`Task`
+thread with a progress bar and a Cancel button.  Errors show a message box; the session stays usable.
 
 Menus: **File** (Open…, Open built-in dataset, Save session, Save session
 as…, Quit).  Opening shows the data at once (volume, slices or contour, the
