@@ -184,6 +184,85 @@ def test_live_listening_levels_and_quick_stop(qtbot, window, tmp_path, errors):
     assert not errors
 
 
+def test_overlay_steps_compute_off_the_ui_thread(qtbot, window, errors, monkeypatch):
+    """A slow overlay: moving through the steps never blocks the UI thread, results for
+    steps already left are dropped, the overlay shown ends at the current step, and
+    Cancel stops a step being computed."""
+    import threading
+
+    from auralize.plugins import get_model
+
+    cls = type(get_model("aero"))
+    orig = cls.overlay
+    ui = threading.get_ident()
+    computed: list[tuple[int, bool]] = []  # (step, on the UI thread)
+    delay = [0.0]
+
+    def slow(self, inputs, step):
+        computed.append((step, threading.get_ident() == ui))
+        time.sleep(delay[0])
+        meshes = orig(self, inputs, step)
+        out = []
+        for m in meshes if isinstance(meshes, list | tuple) else [meshes]:
+            m = m.copy()
+            m.field_data["step"] = np.array([step])
+            out.append(m)
+        return out
+
+    monkeypatch.setattr(cls, "overlay", slow)
+    win = window
+    _open(qtbot, win, "dataset:monopole", size=12, steps=6)
+    result: list[bool] = []
+    win.set_overlay("aero", True, then=result.append)
+    qtbot.waitUntil(lambda: bool(result) and not win.busy, timeout=60_000)
+    assert result == [True] and win.scene.overlay_shown["aero"] == 0
+
+    def shown_step() -> int:
+        return int(win.scene._actors["overlay:aero:0"].mapper.dataset.field_data["step"][0])
+
+    assert shown_step() == 0
+    delay[0] = 0.8
+    ticks: list[float] = []
+    timer = QtCore.QTimer()
+    timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    timer.start(10)
+    for step in (1, 2, 3, 4):
+        t0 = time.perf_counter()
+        win.set_step(step)
+        t1 = time.perf_counter()
+        assert t1 - t0 < delay[0]  # the overlay is not computed here
+        n = len(ticks)
+        qtbot.waitUntil(lambda n=n: len(ticks) > n, timeout=1000)
+        assert ticks[n] - t1 < 0.1  # the UI thread processes a timer tick at once
+        assert win.progress.isVisible() and win.cancel_btn.isVisible()
+    qtbot.waitUntil(lambda: not win._overlay_tasks, timeout=30_000)
+    timer.stop()
+    gaps = np.diff(ticks)
+    assert gaps.max() < 0.5  # no long freeze while the steps computed
+    assert win.scene.step == 4 and win.scene.overlay_shown["aero"] == 4 and shown_step() == 4
+    assert computed[1][0] == 1 and computed[-1][0] == 4
+    assert len(computed) < 5  # steps 2 and/or 3 were never computed: left before their turn
+    assert not any(on_ui for _, on_ui in computed[1:])
+    assert not win.progress.isVisible() and not win.cancel_btn.isVisible()
+
+    # Cancel stops the step being computed; the overlay keeps showing step 4
+    win.set_step(5)
+    assert win._overlay_tasks
+    qtbot.mouseClick(win.cancel_btn, QtCore.Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not win._overlay_tasks, timeout=30_000)
+    qtbot.wait(50)
+    assert win.scene.overlay_shown["aero"] == 4 and shown_step() == 4
+    assert "cancelled" in win.statusBar().currentMessage()
+
+    # closing while a step computes waits for it and draws nothing afterwards
+    delay[0] = 0.3
+    win.set_step(2)
+    assert win._overlay_tasks
+    win.close()
+    assert not win._threads or all(t.isFinished() for t in win._threads)
+    assert not errors
+
+
 @pytest.mark.parametrize("spec", ["dataset:explosion", "dataset:monopole", "dataset:fire"])
 def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec):
     win = window
@@ -196,8 +275,10 @@ def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec
         drawn[name] = result[0]
         if drawn[name]:
             assert any(k.startswith(f"overlay:{name}") for k in win.scene._actors)
-            win.set_step(1)  # the overlay follows the time step without error
+            win.set_step(1)  # the overlay follows the time step (computed in the background)
+            qtbot.waitUntil(lambda n=name: not win._overlay_tasks, timeout=60_000)
             assert name not in win.scene.overlay_errors
+            assert win.scene.overlay_shown[name] == 1
         else:  # does not apply: one clear line, the box unticked
             assert win.overlay_note.text().startswith(f"{name} overlay does not apply")
             assert not win.overlay_checks[name].isChecked()

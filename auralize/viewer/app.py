@@ -6,8 +6,8 @@ counts), **Listener** (record / stop / clear, capture rate, save / load CSV,
 autosave), **Audio** (layout, device, time scale, render to file, play / stop,
 waveform and spectrogram with a cursor on the time slider), **Live listening**
 and **Overlays** (sound-model plugin overlays).  Long work (loading,
-detection, rendering) runs in a :class:`Task` thread with a progress bar and a
-Cancel button.  Errors show a message box; the session stays usable.
+detection, rendering, each time step of an overlay) runs in a :class:`Task`
+thread with a progress bar and a Cancel button.  Errors show a message box; the session stays usable.
 
 Menus: **File** (Open…, Open built-in dataset, Save session, Save session
 as…, Quit).  Opening shows the data at once (volume, slices or contour, the
@@ -42,7 +42,7 @@ from auralize.listener import ListenerPath
 from auralize.sources import TYPES, Thresholds
 from auralize.viewer.detection import VIEWER_THRESHOLDS, Cancelled, Detection
 from auralize.viewer.recorder import DEFAULT_RATE_HZ, PathRecorder
-from auralize.viewer.scene import REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
+from auralize.viewer.scene import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.viewer.session import SessionState, data_spec
 
 LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1")
@@ -174,6 +174,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self._live_time = 0.0
         self._tick_pending = False
         self.task: Task | None = None
+        # overlay steps computed in the background: the running task, the step wanted
+        # next and the steps computed so far per overlay (for one volume and path)
+        self._overlay_tasks: dict[str, Task] = {}
+        self._overlay_want: dict[str, int] = {}
+        self._overlay_cache: dict[str, tuple[Any, Any, dict[int, Any]]] = {}
+        self._threads: set[Task] = set()
         self.audio = {"layout": "stereo", "rate": 44100, "time_scale": 1.0, "device": None}
         self._rec_timer = QtCore.QTimer(self)
         self._rec_timer.timeout.connect(self.capture)
@@ -565,6 +571,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.progress.hide()
             self.cancel_btn.hide()
             self._refresh_enabled()
+            self._overlay_progress()
 
         def ok(result: Any) -> None:
             finish()
@@ -582,8 +589,12 @@ class MainWindow(QtWidgets.QMainWindow):
         return t
 
     def cancel_task(self) -> None:
+        """The Cancel button: stop the running task and any overlay step being computed."""
         if self.task is not None:
             self.task.cancel()
+        self._overlay_want.clear()
+        for t in self._overlay_tasks.values():
+            t.cancel()
 
     @property
     def busy(self) -> bool:
@@ -1105,14 +1116,21 @@ class MainWindow(QtWidgets.QMainWindow):
         """Switch a plugin's overlay on or off.
 
         Switching on computes the overlay of the current step in the background
-        (progress bar, Cancel), then draws it; later steps are drawn as the time
-        slider moves.  An overlay that does not apply to the data (e.g. fields it
+        (progress bar, Cancel), then draws it.  Later steps are computed in the
+        background too as the time slider moves or playback advances (see
+        :meth:`_overlay_fn`): the view keeps the last overlay drawn until the
+        current step's is ready, and results for steps already left are dropped.  An overlay that does not apply to the data (e.g. fields it
         needs are missing) is switched off again with the reason in the Overlays
         panel.  ``then(drawn)`` is called when done.
         """
         from auralize.plugins import get_model
 
         if not on:
+            self._overlay_want.pop(name, None)
+            self._overlay_cache.pop(name, None)
+            t = self._overlay_tasks.get(name)
+            if t is not None:
+                t.cancel()
             self.scene.set_overlay(name, None)
             self.overlay_note.setText("")
             self.plotter.render()
@@ -1137,14 +1155,8 @@ class MainWindow(QtWidgets.QMainWindow):
         def done(first: Any) -> None:
             drawn = not isinstance(first, AuralizeError)
             if drawn:
-                cache = {step: first}
-
-                def fn(n: int) -> Any:
-                    if n in cache:
-                        return cache[n]
-                    return model.overlay((self.volume, self.path), n)
-
-                self.scene.set_overlay(name, fn)
+                self._overlay_cache[name] = (vol, path, {step: first})
+                self.scene.set_overlay(name, self._overlay_fn(name, model))
                 err = self.scene.overlay_errors.get(name)
                 drawn = err is None
                 if not drawn:
@@ -1164,6 +1176,114 @@ class MainWindow(QtWidgets.QMainWindow):
                 then(drawn)
 
         return self.run_task(f"{name} overlay", work, done)
+
+    def _overlay_fn(self, name: str, model: Any) -> Callable[[int], Any]:
+        """The scene's function for overlay ``name``: the step's meshes when computed,
+        else :data:`~auralize.viewer.scene.PENDING` and the step is computed off the
+        UI thread (:meth:`_request_overlay_step`)."""
+
+        def fn(n: int) -> Any:
+            vol, path, steps = self._overlay_cache.get(name, (None, None, {}))
+            if vol is not self.volume or path is not self.path:
+                steps = {}
+                self._overlay_cache[name] = (self.volume, self.path, steps)
+            if n in steps:
+                got = steps[n]
+                if isinstance(got, AuralizeError):
+                    raise got
+                return got
+            self._request_overlay_step(name, model, n)
+            return PENDING
+
+        return fn
+
+    def _request_overlay_step(self, name: str, model: Any, n: int) -> None:
+        """Compute step ``n`` of overlay ``name`` in a :class:`Task`.  One task per
+        overlay runs at a time; a step asked for meanwhile is started when it ends."""
+        self._overlay_want[name] = n
+        if name in self._overlay_tasks:
+            return
+        vol, path = self.volume, self.path
+        label = f"{name} overlay, step {n}"
+
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            progress(0, 1)
+            try:
+                meshes = model.overlay((vol, path), n)
+            except AuralizeError as exc:  # shown (and the overlay hidden) if still wanted
+                meshes = exc
+            if not progress(1, 1):
+                raise Cancelled(f"{label} cancelled")
+            return meshes
+
+        t = Task(label, work, self)
+        self._overlay_tasks[name] = t
+        self._threads.add(t)
+        t.succeeded.connect(lambda r: self._overlay_step_done(name, t, vol, path, n, r))
+        t.failed.connect(lambda e: self._overlay_step_done(name, t, vol, path, n, e))
+        t.finished.connect(lambda: self._forget_thread(t))
+        t.start()
+        self._overlay_progress()
+
+    def _forget_thread(self, t: Task) -> None:
+        """Delete a finished task (``finished`` is sent just before its thread ends:
+        wait for that first, as deleting a running thread aborts the process)."""
+        t.wait()
+        self._threads.discard(t)
+        t.deleteLater()
+
+    def _overlay_step_done(self, name: str, t: Task, vol: Any, path: Any, n: int,
+                           result: Any) -> None:  # fmt: skip
+        """A computed overlay step arrived on the UI thread: draw it if it is still the
+        current step of the same data, drop it otherwise; then start the step wanted now."""
+        if self._overlay_tasks.get(name) is t:
+            del self._overlay_tasks[name]
+        self._overlay_progress()
+        if isinstance(result, Cancelled) or (
+            isinstance(result, BaseException) and not isinstance(result, AuralizeError)
+        ):
+            if name in self.scene.overlays:
+                if not isinstance(result, Cancelled):  # a failing plugin: switch it off
+                    self._toggle_overlay(name, False)
+                    cb = self.overlay_checks.get(name)
+                    if cb is not None:
+                        cb.blockSignals(True)
+                        cb.setChecked(False)
+                        cb.blockSignals(False)
+                self.show_error(result)  # Cancelled: a status-bar note
+            return
+        entry = self._overlay_cache.get(name)
+        if name not in self.scene.overlays or entry is None:
+            return  # switched off meanwhile
+        if entry[0] is vol and entry[1] is path and vol is self.volume and path is self.path:
+            if n == self.scene.step:
+                steps = entry[2]
+                steps[n] = result
+                while len(steps) > 16:  # keep the most recent steps
+                    del steps[next(iter(steps))]
+        if self._overlay_want.get(name) is None:
+            return  # cancelled: the overlay shows what it showed
+        shown = self.scene.overlay_shown.get(name)
+        self.scene.refresh_overlay(name, render=False)  # draws, or asks for the current step
+        err = self.scene.overlay_errors.get(name)
+        if err is not None:
+            self.overlay_note.setText(f"{name} overlay cannot show step {self.scene.step}: {err}")
+        if self.scene.overlay_shown.get(name) != shown or err is not None:
+            self.plotter.render()
+
+    def _overlay_progress(self) -> None:
+        """Busy bar and Cancel while overlay steps compute (unless a task shows its own)."""
+        if self.busy:
+            return
+        if self._overlay_tasks:
+            t = next(iter(self._overlay_tasks.values()))
+            self.progress.setRange(0, 0)
+            self.progress.setFormat(t.name)
+            self.progress.show()
+            self.cancel_btn.show()
+        else:
+            self.progress.hide()
+            self.cancel_btn.hide()
 
     # ============================================================= session
     def session_state(self) -> SessionState:
@@ -1256,6 +1376,10 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.task is not None and self.task.isRunning():
             self.task.cancel()
             self.task.wait(10_000)
+        self.cancel_task()
+        for t in list(self._threads):
+            t.wait(10_000)
+        self._overlay_tasks.clear()
         self.plotter.close()
         super().closeEvent(event)
 

@@ -123,6 +123,8 @@ class Scene:
         self.overlay_visible: dict[str, bool] = {}
         #: overlays that could not be drawn on this data, with the reason (they are hidden)
         self.overlay_errors: dict[str, str] = {}
+        #: the time step whose meshes each overlay shows (absent: nothing drawn yet)
+        self.overlay_shown: dict[str, int] = {}
         self._frames: OrderedDict[tuple[str, int], NDArray[np.float32]] = OrderedDict()
         self._grid: Any = None
         self._actors: dict[str, Any] = {}
@@ -481,36 +483,61 @@ class Scene:
     # -------------------------------------------------------------- overlays
     def set_overlay(self, name: str, fn: Callable[[int], Any] | None, *,
                     visible: bool = True) -> None:  # fmt: skip
-        """Register ``fn(step) -> mesh | list of meshes | None`` as overlay ``name`` (None removes)."""
+        """Register ``fn(step) -> mesh | list of meshes | None`` as overlay ``name`` (None removes).
+
+        ``fn`` may return :data:`PENDING` when the step's meshes are still being
+        computed elsewhere: the overlay keeps what it shows until
+        :meth:`refresh_overlay` is called with them ready.
+        """
         if fn is None:
             self.overlays.pop(name, None)
             self.overlay_visible.pop(name, None)
+            self.overlay_shown.pop(name, None)
             self._remove_prefix(f"overlay:{name}")
             return
         self.overlays[name] = fn
         self.overlay_visible[name] = visible
         self.overlay_errors.pop(name, None)
-        self._update_overlays()
+        self.overlay_shown.pop(name, None)
+        self._remove_prefix(f"overlay:{name}")
+        self._update_overlay(name, fn)
+
+    def refresh_overlay(self, name: str, *, render: bool = True) -> None:
+        """Draw overlay ``name`` for the current step again (its meshes became ready)."""
+        if name in self.overlays:
+            self._update_overlay(name, self.overlays[name])
+            if render:
+                self.plotter.render()
 
     def _update_overlays(self) -> None:
         for name, fn in self.overlays.items():
+            self._update_overlay(name, fn)
+
+    def _update_overlay(self, name: str, fn: Callable[[int], Any]) -> None:
+        if not self.overlay_visible.get(name, True):
             self._remove_prefix(f"overlay:{name}")
-            if not self.overlay_visible.get(name, True):
-                continue
-            try:
-                meshes = fn(self.step)
-            except AuralizeError as exc:  # does not apply to this data: say so once, hide it
-                self.overlay_errors[name] = str(exc)
-                self.overlay_visible[name] = False
-                continue
-            if meshes is None:
-                continue
-            if not isinstance(meshes, list | tuple):
-                meshes = [meshes]
-            for i, m in enumerate(meshes):
-                key = f"overlay:{name}:{i}"
-                self._actors[key] = self.plotter.add_mesh(m, name=key, reset_camera=False,
-                                                          render=False, opacity=0.6)  # fmt: skip
+            self.overlay_shown.pop(name, None)
+            return
+        try:
+            meshes = fn(self.step)
+        except AuralizeError as exc:  # does not apply to this data: say so once, hide it
+            self.overlay_errors[name] = str(exc)
+            self.overlay_visible[name] = False
+            self._remove_prefix(f"overlay:{name}")
+            self.overlay_shown.pop(name, None)
+            return
+        if meshes is PENDING:
+            return
+        self._remove_prefix(f"overlay:{name}")
+        self.overlay_shown[name] = self.step
+        if meshes is None:
+            return
+        if not isinstance(meshes, list | tuple):
+            meshes = [meshes]
+        for i, m in enumerate(meshes):
+            key = f"overlay:{name}:{i}"
+            self._actors[key] = self.plotter.add_mesh(m, name=key, reset_camera=False,
+                                                      render=False, opacity=0.6)  # fmt: skip
 
     # ------------------------------------------------------------------ time
     def set_step(self, step: int, *, render: bool = True) -> float:
@@ -566,6 +593,10 @@ class Scene:
     def _remove_prefix(self, prefix: str) -> None:
         for k in [k for k in self._actors if k.startswith(prefix)]:
             self._remove(k)
+
+
+#: what an overlay function returns for a step whose meshes are not ready yet
+PENDING = object()
 
 
 def default_field(volume: TimeVolume) -> str:
