@@ -123,6 +123,8 @@ class Task(QtCore.QThread):
         super().__init__(parent)
         self.name, self.fn = name, fn
         self._cancel = False
+        #: set (on the UI thread) once its result or error has been handled
+        self.reported = False
 
     def cancel(self) -> None:
         self._cancel = True
@@ -554,8 +556,11 @@ class MainWindow(QtWidgets.QMainWindow):
     def run_task(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
                  done: Callable[[Any], None]) -> Task:  # fmt: skip
         """Run ``fn`` in a :class:`Task` with the progress bar; ``done(result)`` on success."""
-        if self.task is not None and self.task.isRunning():
+        if self.busy:
+            assert self.task is not None
             raise ParameterError(f"busy with {self.task.name}; wait or cancel it first")
+        if self.task is not None and self.task.isRunning():
+            self.task.wait(5_000)  # it has reported its result; its thread is ending
         t = Task(name, fn, self)
         self.task = t
         self.progress.setRange(0, 0)
@@ -568,6 +573,9 @@ class MainWindow(QtWidgets.QMainWindow):
             self.progress.setValue(d)
 
         def finish() -> None:
+            # its result is in: not busy any more, though the thread may take a moment
+            # to end after emitting it
+            t.reported = True
             self.progress.hide()
             self.cancel_btn.hide()
             self._refresh_enabled()
@@ -598,7 +606,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @property
     def busy(self) -> bool:
-        return self.task is not None and self.task.isRunning()
+        t = self.task
+        return t is not None and t.isRunning() and not t.reported
 
     def _refresh_enabled(self) -> None:
         has = self.volume is not None
