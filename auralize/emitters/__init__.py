@@ -197,3 +197,12 @@ class Sound:
     def __add__(self, other: Sound) -> Sound:
         return Sound(parts=[*self.parts, *other.parts], meta={**self.meta, **other.meta},
                      name="+".join(n for n in (self.name, other.name) if n))  # fmt: skip
+
+
+def __getattr__(name: str) -> Any:
+    # the renderers import synthesis (numba); load them on first use
+    if name in ("render", "render_emitters"):
+        import importlib
+
+        return getattr(importlib.import_module("auralize.emitters.engine"), name)
+    raise AttributeError(name)
