@@ -12,7 +12,12 @@ along one listener path.  Three kinds of parts make up a :class:`Sound`:
 :class:`FieldSources`
     the monopole/dipole/quadrupole sources detected in a volume
     (:class:`auralize.sources.SourceTracks`), sampled at the data's steps and
-    rendered by the piecewise-Hermite kernels of :mod:`auralize.synthesis`.
+    rendered by the piecewise-Hermite kernels of :mod:`auralize.synthesis`;
+a model's own part
+    any object with ``name`` and ``render_part(path, *, rate, layout,
+    duration, start, c0, backend) -> Rendered`` for closed forms that are
+    faster than sampled emission (spark's WM-wave accumulation); it takes its
+    arrival times, distances and panning gains from the engine.
 
 Emitter times are seconds of playback from the listener path's first
 capture: output sample ``n`` is heard at ``start + n / rate``.
@@ -183,7 +188,7 @@ class FieldSources:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
-Part = Emitters | FieldSources
+Part = Emitters | FieldSources | Any  # or a model part with render_part()
 
 
 @dataclass

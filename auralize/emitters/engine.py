@@ -63,6 +63,9 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered
         return render_timbre(part.tracks, path, timbre=part.timbre, time_scale=part.time_scale,
                              interp=part.interp, lead=part.lead, bounds=part.bounds,
                              highpass_hz=0.0, **kw)  # fmt: skip
+    fn = getattr(part, "render_part", None)
+    if callable(fn):  # a model's own closed form, with arrivals and gains from the engine
+        return fn(path, **kw)
     raise ParameterError(f"cannot render a {type(part).__name__}: not an engine part")
 
 
@@ -77,7 +80,7 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     """
     if isinstance(sound, Sound):
         parts = list(sound.parts)
-    elif isinstance(sound, Emitters | FieldSources):
+    elif isinstance(sound, Emitters | FieldSources) or hasattr(sound, "render_part"):
         parts = [sound]
     else:
         parts = list(sound)
