@@ -1,0 +1,327 @@
+"""Higher-order Ambisonics: AmbiX encoding and decoding to loudspeaker layouts.
+
+Conventions
+-----------
+*AmbiX* (Nachbar, Zotter, Deleflie & Sontacchi 2011; Zotter & Frank,
+*Ambisonics*, Springer 2019, §4.8): real spherical harmonics of order
+n ≤ N and degree −n ≤ m ≤ n in **ACN** channel order ``acn = n² + n + m``,
+with **SN3D** normalisation and no Condon–Shortley phase:
+
+    Y_n^m(φ, ϑ) = N_n^|m| · P_n^|m|(sin ϑ) · { cos(m φ)   m ≥ 0
+                                              { sin(|m| φ) m < 0
+    N_n^m = sqrt((2 − δ_m0) (n − m)! / (n + m)!)
+
+with azimuth φ counter-clockwise from the front and elevation ϑ up from the
+horizontal plane (the listener frame of :mod:`auralize.spatial`: x forward,
+y left, z up).  So ACN 0 = W = 1 for every direction (a unit plane wave has
+W = 1), ACN 1 = Y = y (left), ACN 2 = Z = z (up), ACN 3 = X = x (front).
+The harmonics are evaluated in Cartesian form, ``cos^m ϑ · e^{imφ} =
+(x + iy)^m`` times a polynomial in z (the associated Legendre recurrence
+divided by ``(1 − z²)^{m/2}``), exact at the poles and vectorised over
+directions.
+
+SN3D obeys the addition theorem in the form Σ_m Y_n^m(θ) Y_n^m(θ') =
+P_n(cos γ) (γ the angle between θ and θ'), which the decoders below use.
+
+Decoders (:func:`decoder_matrix`)
+--------------------------------
+* **AllRAD** (Zotter & Frank 2012; book §4.9.6): the Ambisonic signal is
+  decoded to a dense virtual layout by the sampling decoder
+  g(θ) = Σ_n (2n+1)/(4π) a_n Σ_m Y_n^m(θ) b_nm, then every virtual speaker
+  is panned onto the real speakers by 3-D VBAP
+  (:func:`auralize.spatial.vbap3d_gains`, with imaginary speakers where the
+  layout has gaps, their signal dropped).  In place of a spherical t-design
+  the virtual layout is a Gauss–Legendre × equiangular product grid with its
+  quadrature weights (:func:`sphere_quadrature`), exact for polynomials up to
+  degree 47: the same role (a dense, exact sampling of the sphere).
+* **Mode matching** (book §4.9.2): ``D = pinv(Y_L) diag(a_n)`` with ``Y_L``
+  the harmonics of the speaker directions; for regular layouts with at least
+  (N+1)² well-spread speakers (refused when ``Y_L`` is ill-conditioned).
+* **Weights** a_n: ``"maxre"`` (default), the max-rE weights
+  a_n = P_n(cos(137.9° / (N + 1.51))) (book §4.7.6, Eq. 4.59's
+  approximation), which concentrate the energy vector rE; ``"basic"`` a_n = 1.
+* Every decoder is scaled so that the loudspeaker energy Σ_s g_s², averaged
+  over all source directions, is 1 (as VBAP's power normalisation).
+
+Examples
+--------
+>>> import numpy as np
+>>> y = sh_gains(1, np.array([[0.0, 1.0, 0.0]]))   # a source straight left
+>>> np.round(y[:, 0], 12).tolist()                  # W, Y, Z, X
+[1.0, 1.0, 0.0, 0.0]
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import ParameterError
+
+if TYPE_CHECKING:
+    from auralize.spatial import Layout
+
+#: highest order accepted by the encoder/decoders
+MAX_ORDER = 10
+#: orders that have a named ``ambixN`` layout
+LAYOUT_ORDERS = (1, 2, 3)
+
+
+def n_channels(order: int) -> int:
+    """Number of AmbiX channels (N+1)² of an order N."""
+    return (int(order) + 1) ** 2
+
+
+def check_order(order: object) -> int:
+    """``order`` as an int in 0..MAX_ORDER, else :class:`ParameterError`."""
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or not (
+        0 <= int(order) <= MAX_ORDER
+    ):
+        raise ParameterError(f"Ambisonics order must be an integer 0..{MAX_ORDER}, got {order!r}")
+    return int(order)
+
+
+def order_of_channels(n_ch: int) -> int:
+    """The order N with (N+1)² = ``n_ch`` channels, else :class:`ParameterError`."""
+    n = math.isqrt(int(n_ch)) - 1
+    if n < 0 or (n + 1) ** 2 != n_ch:
+        raise ParameterError(
+            f"an AmbiX signal has (N+1)² channels (1, 4, 9, 16, ...), got {n_ch} channels"
+        )
+    return n
+
+
+def acn(n: int, m: int) -> int:
+    """ACN channel index of order n, degree m."""
+    return n * n + n + m
+
+
+def acn_orders(order: int) -> NDArray[np.int64]:
+    """Order n of every ACN channel up to ``order``, shape ``((N+1)²,)``."""
+    return np.repeat(np.arange(order + 1), 2 * np.arange(order + 1) + 1)
+
+
+def _unit(directions: NDArray[np.floating]) -> NDArray[np.float64]:
+    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    nrm = np.linalg.norm(d, axis=1, keepdims=True)
+    return d / np.where(nrm > 0, nrm, 1.0)
+
+
+def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Real SN3D spherical harmonics in ACN order for listener-frame directions.
+
+    Parameters
+    ----------
+    order : int
+        Ambisonics order N (0..MAX_ORDER).
+    directions : (M, 3) array
+        Directions (forward, left, up); normalised here (a zero vector gives
+        W = 1 and 0 elsewhere).
+
+    Returns
+    -------
+    (N+1)², M) array
+        Encoding gains: row ``acn(n, m)`` is Y_n^m of each direction.
+    """
+    order = check_order(order)
+    d = _unit(directions)
+    x, y, z = d[:, 0], d[:, 1], d[:, 2]
+    out = np.zeros(((order + 1) ** 2, d.shape[0]))
+    # (x + iy)^m = cos^m(el) e^{i m az}; q[n] = P_n^m(z) / (1 - z²)^{m/2}
+    xy_m = np.ones(d.shape[0], dtype=np.complex128)
+    for m in range(order + 1):
+        if m > 0:
+            xy_m = xy_m * (x + 1j * y)
+        dfact = math.prod(range(1, 2 * m, 2))  # (2m - 1)!!
+        q_prev = np.zeros_like(z)
+        q = np.full_like(z, float(dfact))  # P_m^m / (1 - z²)^{m/2}
+        for n in range(m, order + 1):
+            if n == m + 1:
+                q_prev, q = q, z * (2 * m + 1) * q
+            elif n > m + 1:
+                q_prev, q = q, ((2 * n - 1) * z * q - (n + m - 1) * q_prev) / (n - m)
+            norm = math.sqrt((1.0 if m == 0 else 2.0) * math.factorial(n - m)
+                             / math.factorial(n + m))  # fmt: skip
+            out[acn(n, m)] = norm * q * xy_m.real
+            if m > 0:
+                out[acn(n, -m)] = norm * q * xy_m.imag
+    return out
+
+
+def encode(signal: NDArray[np.floating], order: int,
+           directions: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+    """AmbiX signal ``((N+1)², n)`` of a mono ``signal (n,)`` arriving from
+    ``directions`` (one ``(3,)`` direction, or ``(n, 3)``: one per sample)."""
+    s = np.asarray(signal, dtype=np.float64).reshape(-1)
+    d = np.asarray(directions, dtype=np.float64)
+    g = sh_gains(order, d)
+    if g.shape[1] == 1:
+        return g * s[None, :]
+    if g.shape[1] != s.size:
+        raise ParameterError(
+            f"encode: {g.shape[1]} directions for {s.size} samples; give one direction "
+            f"or one per sample"
+        )
+    return g * s[None, :]
+
+
+def maxre_weights(order: int) -> NDArray[np.float64]:
+    """Per-order max-rE weights a_n = P_n(cos(137.9° / (N + 1.51))), shape (N+1,)."""
+    from scipy.special import eval_legendre
+
+    order = check_order(order)
+    c = math.cos(math.radians(137.9 / (order + 1.51)))
+    return np.array([eval_legendre(n, c) for n in range(order + 1)])
+
+
+def order_weights(order: int, weights: str) -> NDArray[np.float64]:
+    """Per-channel weights ``((N+1)²,)`` of ``"maxre"`` or ``"basic"``."""
+    if weights == "maxre":
+        a = maxre_weights(order)
+    elif weights == "basic":
+        a = np.ones(order + 1)
+    else:
+        raise ParameterError(f"weights must be 'maxre' or 'basic', got {weights!r}")
+    return a[acn_orders(order)]
+
+
+@functools.lru_cache(maxsize=8)
+def sphere_quadrature(n_el: int = 24, n_az: int = 48) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gauss–Legendre (in sin ϑ) × equiangular (in φ) grid on the unit sphere.
+
+    Returns
+    -------
+    directions : (n_el · n_az, 3) array
+    weights : (n_el · n_az,) array
+        Quadrature weights summing to 4π; exact for every polynomial of degree
+        ≤ min(2·n_el − 1, n_az − 1) on the sphere.
+    """
+    zs, wz = np.polynomial.legendre.leggauss(n_el)
+    az = 2 * np.pi * (np.arange(n_az) + 0.5) / n_az
+    r = np.sqrt(1 - zs**2)
+    dirs = np.stack([np.outer(r, np.cos(az)), np.outer(r, np.sin(az)),
+                     np.repeat(zs[:, None], n_az, axis=1)], axis=-1).reshape(-1, 3)  # fmt: skip
+    w = np.repeat(wz * (2 * np.pi / n_az), n_az)
+    return dirs, w
+
+
+def _energy_normalise(dec: NDArray[np.float64], order: int) -> NDArray[np.float64]:
+    dirs, w = sphere_quadrature()
+    g = dec @ sh_gains(order, dirs)
+    mean_e = float(np.sum(w * np.sum(g**2, axis=0)) / (4 * np.pi))
+    if not mean_e > 0:
+        raise ParameterError("Ambisonic decoder has no output energy")
+    return dec / math.sqrt(mean_e)
+
+
+def _decoder_allrad(order: int, layout: Layout, a: NDArray[np.float64]) -> NDArray[np.float64]:
+    from auralize.spatial import vbap3d_gains
+
+    dirs, w = sphere_quadrature()
+    y = sh_gains(order, dirs)  # (K, L)
+    v = vbap3d_gains(layout, dirs)  # (S, L)
+    n_of = acn_orders(order)
+    sampling = (w[:, None] * y.T) * ((2 * n_of + 1) / (4 * np.pi) * a)[None, :]  # (L, K)
+    return v @ sampling
+
+
+def _decoder_mode_matching(order: int, layout: Layout, a: NDArray[np.float64]) -> NDArray[np.float64]:
+    chans = layout.panned_channels
+    k = n_channels(order)
+    if chans.size < k:
+        raise ParameterError(
+            f"mode-matching decoding of order {order} needs at least {k} speakers, layout "
+            f"{layout.name!r} has {chans.size}; use method='allrad'"
+        )
+    y = sh_gains(order, layout.directions()[chans])  # (K, S)
+    n_of = acn_orders(order)
+    y_n3d = y * np.sqrt(2 * n_of + 1)[:, None]
+    cond = np.linalg.cond(y_n3d)
+    if not cond < 1e3:
+        raise ParameterError(
+            f"layout {layout.name!r} is too irregular for mode-matching decoding of order {order} "
+            f"(condition number {cond:.3g}); use method='allrad'"
+        )
+    dec = np.zeros((layout.n_channels, k))
+    dec[chans] = np.linalg.pinv(y) * a[None, :]
+    return dec
+
+
+@functools.lru_cache(maxsize=32)
+def _decoder_cached(order: int, layout: Layout, method: str, weights: str) -> NDArray[np.float64]:
+    a = order_weights(order, weights)
+    if layout.meta.get("ambisonic") or layout.meta.get("binaural"):
+        raise ParameterError(
+            f"cannot decode Ambisonics to {layout.name!r}: decode to a loudspeaker layout "
+            f"(binaural output uses auralize.hrtf.binaural_from_ambisonics)"
+        )
+    if layout.n_channels == 1 or layout.panned_channels.size == 1:
+        dec = np.zeros((layout.n_channels, n_channels(order)))
+        dec[layout.panned_channels if layout.panned_channels.size else 0, 0] = 1.0  # W only
+        return dec
+    if method == "allrad":
+        dec = _decoder_allrad(order, layout, a)
+    elif method == "mode-matching":
+        dec = _decoder_mode_matching(order, layout, a)
+    else:
+        raise ParameterError(f"method must be 'allrad' or 'mode-matching', got {method!r}")
+    dec = _energy_normalise(dec, order)
+    dec.setflags(write=False)
+    return dec
+
+
+def decoder_matrix(order: int, layout: str | Layout, *, method: str = "allrad",
+                   weights: str = "maxre") -> NDArray[np.float64]:  # fmt: skip
+    """Decoding matrix ``(layout.n_channels, (N+1)²)`` from AmbiX to a speaker layout.
+
+    Parameters
+    ----------
+    order : int
+        Ambisonics order N of the signal.
+    layout : str or Layout
+        Any loudspeaker layout (:func:`auralize.spatial.get_layout`); LFE
+        channels get nothing.
+    method : {"allrad", "mode-matching"}
+        See the module docstring.
+    weights : {"maxre", "basic"}
+
+    Returns
+    -------
+    Read-only array; ``D @ audio`` decodes ``audio ((N+1)², n)``.
+    """
+    from auralize.spatial import get_layout
+
+    return _decoder_cached(check_order(order), get_layout(layout), method, weights)
+
+
+def decode_ambisonics(audio: NDArray[np.floating], order: int, layout: str | Layout, *,
+                      method: str = "allrad", weights: str = "maxre") -> NDArray[np.float64]:  # fmt: skip
+    """Decode an AmbiX signal ``((N+1)², n)`` to speaker feeds ``(n_channels, n)``."""
+    a = np.asarray(audio, dtype=np.float64)
+    order = check_order(order)
+    if a.ndim != 2 or a.shape[0] != n_channels(order):
+        raise ParameterError(
+            f"an order-{order} AmbiX signal has shape ({n_channels(order)}, n), got {a.shape}"
+        )
+    return decoder_matrix(order, layout, method=method, weights=weights) @ a
+
+
+def energy_vector(gains: NDArray[np.floating], directions: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Gerzon's energy vector rE = Σ g_s² u_s / Σ g_s² (book §2.2.3).
+
+    Parameters
+    ----------
+    gains : (S, M) speaker gains of M sources
+    directions : (S, 3) unit speaker directions
+
+    Returns
+    -------
+    (M, 3) array; its direction is the perceived direction, its length ≤ 1
+    the spread (1 = a single speaker).
+    """
+    g2 = np.asarray(gains, dtype=np.float64) ** 2
+    return (g2.T @ np.asarray(directions, dtype=np.float64)) / np.sum(g2, axis=0)[:, None]
