@@ -29,6 +29,24 @@ Per-speaker distances (custom layouts) are compensated by
 :class:`SpeakerAlignment`: nearer speakers are delayed and attenuated so that
 every speaker's sound reaches the listener at the same time and level.
 
+Immersive layouts
+-----------------
+* ``ambix1``, ``ambix2``, ``ambix3``: Ambisonics of order N in the AmbiX
+  convention (ACN channel order, SN3D normalisation; :mod:`auralize.ambisonics`),
+  (N+1)² channels without speaker directions or channel mask; ``meta`` says
+  ``ambisonic``, ``order``, ``normalisation`` and ``channel_order``.
+  :func:`pan_gains` returns the spherical-harmonic encoding gains, so every
+  renderer that pans through it writes AmbiX.  :func:`downmix_matrix` decodes
+  AmbiX to any loudspeaker layout (AllRAD with max-rE weights).
+* ``binaural``: two ear signals (L, R).  Binaural output is not a panning law:
+  renderers pan to its Ambisonic intermediate (:func:`synthesis_layout`,
+  order 3) and :func:`output_stage` filters that with head-related impulse
+  responses (:mod:`auralize.hrtf`; the built-in spherical-head model or a
+  SOFA file), so every model gets binaural output, smooth under motion.
+* Layouts from other tools: :func:`load_layout_json` also reads the IEM
+  AllRADecoder / ``LoudspeakerLayout`` JSON (imaginary speakers become
+  triangulation helpers of 3-D VBAP, not channels).
+
 Examples
 --------
 >>> lay = get_layout("ring8")
@@ -211,14 +229,58 @@ BUILTIN_LAYOUTS: dict[str, Layout] = {
 }
 
 
+#: order of the Ambisonic intermediate of the binaural layout
+BINAURAL_ORDER = 3
+
+
+def ambix_layout(order: int) -> Layout:
+    """The AmbiX layout of an order N: (N+1)² channels ``ACN0`` … in ACN order, SN3D.
+
+    Its channels have no direction (they are spherical-harmonic components, not
+    speakers) and the layout no WAVE channel mask.
+    """
+    from auralize.ambisonics import check_order, n_channels
+
+    n = check_order(order)
+    if n < 1:
+        raise ParameterError(f"an Ambisonic layout needs order ≥ 1, got {order!r}")
+    return Layout(f"ambix{n}", tuple(Speaker(f"ACN{k}", None) for k in range(n_channels(n))),
+                  meta={"ambisonic": True, "order": n, "normalisation": "SN3D",
+                        "channel_order": "ACN", "convention": "AmbiX"})  # fmt: skip
+
+
+def binaural_layout() -> Layout:
+    """Two ear signals (L, R); rendered through an order-3 AmbiX intermediate."""
+    return Layout("binaural", (Speaker("L", 90.0), Speaker("R", -90.0)), channel_mask=0x3,
+                  meta={"binaural": True, "intermediate": f"ambix{BINAURAL_ORDER}"})  # fmt: skip
+
+
+#: layouts that are not loudspeaker layouts (no panning law of their own)
+IMMERSIVE_LAYOUTS: dict[str, Layout] = {
+    **{f"ambix{n}": ambix_layout(n) for n in (1, 2, 3)},
+    "binaural": binaural_layout(),
+}
+
+
+def is_ambisonic(layout: Layout) -> bool:
+    """True for an AmbiX layout (``ambix1`` …)."""
+    return bool(layout.meta.get("ambisonic"))
+
+
+def is_binaural(layout: Layout) -> bool:
+    """True for the ``binaural`` layout."""
+    return bool(layout.meta.get("binaural"))
+
+
 def get_layout(spec: str | Path | Layout) -> Layout:
     """A built-in layout by name, or a custom one from a JSON file.
 
     Parameters
     ----------
     spec : str, Path or Layout
-        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1`` or a path ending in
-        ``.json`` (see :func:`load_layout_json`).
+        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1``, ``binaural``,
+        ``ambix1``/``ambix2``/``ambix3`` or a path ending in ``.json`` (our
+        format or an IEM ``LoudspeakerLayout``; see :func:`load_layout_json`).
 
     Raises
     ------
@@ -232,11 +294,13 @@ def get_layout(spec: str | Path | Layout) -> Layout:
     s = str(spec)
     if s in BUILTIN_LAYOUTS:
         return BUILTIN_LAYOUTS[s]
+    if s in IMMERSIVE_LAYOUTS:
+        return IMMERSIVE_LAYOUTS[s]
     if s.lower().endswith(".json"):
         return load_layout_json(Path(s))
     raise ParameterError(
-        f"unknown layout {s!r}; choose one of {sorted(BUILTIN_LAYOUTS)} or a FILE.json "
-        f"with speaker azimuths/elevations in degrees"
+        f"unknown layout {s!r}; choose one of {sorted(BUILTIN_LAYOUTS) + list(IMMERSIVE_LAYOUTS)} "
+        f"or a FILE.json with speaker azimuths/elevations in degrees"
     )
 
 
@@ -261,6 +325,14 @@ def load_layout_json(path: str | Path) -> Layout:
     if one speaker has it, all must, and they must be 0..n-1 exactly once.
     A speaker with ``"lfe": true`` has no direction and is never panned to.
 
+    Also reads the IEM AllRADecoder / Plug-in Suite format ``{"LoudspeakerLayout":
+    {"Name": ..., "Loudspeakers": [{"Azimuth": deg, "Elevation": deg, "Radius": m,
+    "IsImaginary": bool, "Channel": 1-based, "Gain": linear}, ...]}}``: real
+    speakers come out on their ``Channel`` (a channel without a speaker is a
+    silent output without direction), imaginary ones only help 3-D VBAP's
+    triangulation (``meta["imaginary_directions"]``); gains other than 1 are
+    kept in ``meta["channel_gains"]`` (per output channel).
+
     Raises
     ------
     FormatError
@@ -275,6 +347,8 @@ def load_layout_json(path: str | Path) -> Layout:
         raise FormatError(f"layout file {str(p)!r} does not exist") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise FormatError(f"{p}: not valid JSON ({exc})") from None
+    if isinstance(data, dict) and ("LoudspeakerLayout" in data or "Loudspeakers" in data):
+        return _load_iem_layout(p, data)
     if isinstance(data, dict):
         items = data.get("speakers", data.get("channels"))
         name = data.get("name", p.stem)
@@ -325,6 +399,65 @@ def load_layout_json(path: str | Path) -> Layout:
     if len(set(names)) != len(names):
         raise FormatError(f"{p}: duplicate speaker names {names}")
     return make_layout(str(name), speakers, source=str(p))
+
+
+def _load_iem_layout(p: Path, data: dict[str, Any]) -> Layout:
+    """An IEM AllRADecoder ``LoudspeakerLayout`` (see :func:`load_layout_json`)."""
+    import dataclasses
+
+    lay = data.get("LoudspeakerLayout", data)
+    if not isinstance(lay, dict) or not isinstance(lay.get("Loudspeakers"), list) or not lay[
+        "Loudspeakers"
+    ]:
+        raise FormatError(
+            f"{p}: an IEM layout needs 'LoudspeakerLayout': {{'Loudspeakers': [{{'Azimuth', "
+            f"'Elevation', 'Radius', 'IsImaginary', 'Channel', 'Gain'}}, ...]}}"
+        )
+    name = str(lay.get("Name") or data.get("Name") or p.stem)
+    real: dict[int, Speaker] = {}
+    gains: dict[int, float] = {}
+    imaginary: list[list[float]] = []
+    for i, it in enumerate(lay["Loudspeakers"]):
+        if not isinstance(it, dict):
+            raise FormatError(f"{p}: Loudspeakers[{i}] must be an object, got {it!r}")
+        az = _num(p, i, it, "Azimuth", default=None)
+        el = _num(p, i, it, "Elevation", default=None)
+        if az is None or el is None:
+            raise FormatError(f"{p}: Loudspeakers[{i}] needs 'Azimuth' and 'Elevation' in degrees")
+        if not -90.0 <= el <= 90.0:
+            raise FormatError(f"{p}: Loudspeakers[{i}]: Elevation must be in [-90, 90], got {el}")
+        imag = it.get("IsImaginary", False)
+        if not isinstance(imag, bool):
+            raise FormatError(f"{p}: Loudspeakers[{i}]: 'IsImaginary' must be true or false")
+        if imag:  # a triangulation helper, not an output channel
+            imaginary.append(_unit_from_angles(az, el).tolist())
+            continue
+        ch = it.get("Channel")
+        if isinstance(ch, bool) or not isinstance(ch, int) or ch < 1:
+            raise FormatError(
+                f"{p}: Loudspeakers[{i}]: 'Channel' must be an integer ≥ 1 (1-based), got {ch!r}"
+            )
+        if ch in real:
+            raise FormatError(f"{p}: Loudspeakers[{i}]: channel {ch} is used twice")
+        radius = _num(p, i, it, "Radius", default=None)
+        if radius is not None and not radius > 0:
+            raise FormatError(f"{p}: Loudspeakers[{i}]: 'Radius' must be > 0 m, got {radius}")
+        gain = _num(p, i, it, "Gain", default=1.0)
+        assert gain is not None
+        real[ch] = Speaker(f"CH{ch}", az, el, radius)
+        gains[ch] = gain
+    if not real:
+        raise FormatError(f"{p}: the layout has no real (non-imaginary) loudspeaker")
+    n = max(real)
+    # a channel without a speaker (e.g. a subwoofer's) is a silent output without direction
+    speakers = [real.get(c, Speaker(f"CH{c}", None)) for c in range(1, n + 1)]
+    out = make_layout(name, speakers, source=str(p))
+    meta: dict[str, object] = {"format": "IEM LoudspeakerLayout"}
+    if imaginary:
+        meta["imaginary_directions"] = imaginary
+    if any(g != 1.0 for g in gains.values()):
+        meta["channel_gains"] = [gains.get(c, 0.0) for c in range(1, n + 1)]
+    return dataclasses.replace(out, meta=meta)
 
 
 def make_layout(name: str, speakers: list[Speaker] | tuple[Speaker, ...], *,
@@ -423,7 +556,8 @@ class Triangulation:
 
 def triangulate(layout: Layout) -> Triangulation:
     """Convex-hull triangulation of a layout's panned speakers (plus imaginary
-    speakers at the nadir/zenith when no real speaker lies within 20° of them).
+    speakers: those of ``layout.meta["imaginary_directions"]``, and at the
+    nadir/zenith when no speaker lies within 20° of them).
 
     Raises
     ------
@@ -434,11 +568,14 @@ def triangulate(layout: Layout) -> Triangulation:
 
     chans = list(layout.panned_channels)
     pts = [layout.speakers[c].direction for c in chans]
-    els = [layout.speakers[c].elevation_deg for c in chans]
-    imag: list[NDArray[np.float64]] = []
-    if min(els) > -70.0:
+    imag: list[NDArray[np.float64]] = [
+        np.asarray(v, dtype=np.float64) / np.linalg.norm(v)
+        for v in layout.meta.get("imaginary_directions", ())  # type: ignore[attr-defined]
+    ]
+    z = [float(v[2]) for v in pts + imag]
+    if min(z) > -math.sin(math.radians(70.0)):
         imag.append(np.array([0.0, 0.0, -1.0]))
-    if max(els) < 70.0:
+    if max(z) < math.sin(math.radians(70.0)):
         imag.append(np.array([0.0, 0.0, 1.0]))
     allp = np.array(pts + imag)
     labels = np.array(chans + [-1 - k for k in range(len(imag))], dtype=np.int64)
@@ -500,9 +637,27 @@ def vbap3d_gains(layout: Layout, directions: NDArray[np.floating], *,
 def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.float64]:
     """Panning gains ``(n_channels, N)`` of the layout's own law for listener-frame
     directions ``(N, 3)``: 2-D pairwise VBAP on the azimuth for horizontal
-    layouts (elevation ignored), 3-D VBAP for layouts with elevation, 1 for mono.
+    layouts (elevation ignored), 3-D VBAP for layouts with elevation, 1 for mono,
+    the AmbiX encoding gains (SN3D spherical harmonics in ACN order,
+    :func:`auralize.ambisonics.sh_gains`) for ``ambix1..3``.
+
+    Raises
+    ------
+    ParameterError
+        For ``binaural``, which is not a panning law: pan to
+        :func:`synthesis_layout` and filter with :func:`output_stage`.
     """
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    if is_ambisonic(layout):
+        from auralize.ambisonics import sh_gains
+
+        return sh_gains(int(layout.meta["order"]), d)  # type: ignore[call-overload]
+    if is_binaural(layout):
+        raise ParameterError(
+            "the binaural layout has no panning gains: render to "
+            "auralize.spatial.synthesis_layout(layout) (ambix3) and filter the result with "
+            "auralize.spatial.output_stage(layout, rate, hrtf=...)"
+        )
     if layout.n_channels == 1:
         return np.ones((1, d.shape[0]))
     if layout.is_horizontal:
@@ -544,14 +699,34 @@ def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
     layout's law (power-preserving for uncorrelated channels); an LFE channel
     goes to the target's LFE if it has one, else equally (in power) to every
     panned target speaker.  ``dst @ audio`` applies it to ``(n_ch, n)`` audio.
+
+    An AmbiX source is decoded (:func:`auralize.ambisonics.decoder_matrix`,
+    AllRAD with max-rE weights); an AmbiX target encodes each source speaker
+    as a plane wave from its direction (LFE into W); AmbiX to AmbiX keeps the
+    common orders.  Binaural targets need filters, not a matrix (error).
     """
     s, d = get_layout(src), get_layout(dst)
+    if is_binaural(d):
+        raise ParameterError(
+            f"cannot fold {s.name!r} into binaural with a matrix: ear signals need HRIR "
+            f"filtering (auralize.hrtf)"
+        )
+    if is_ambisonic(s):
+        order = int(s.meta["order"])  # type: ignore[call-overload]
+        if is_ambisonic(d):  # truncate or zero-pad the orders
+            m = np.eye(d.n_channels, s.n_channels)
+            return m
+        from auralize.ambisonics import decoder_matrix
+
+        return np.array(decoder_matrix(order, d))
     m = np.zeros((d.n_channels, s.n_channels))
     lfe_dst = [c for c, sp in enumerate(d.speakers) if sp.azimuth_deg is None]
     for c, sp in enumerate(s.speakers):
         if sp.azimuth_deg is None:
             if lfe_dst:
                 m[lfe_dst[0], c] = 1.0
+            elif is_ambisonic(d):  # omnidirectional: W only
+                m[0, c] = 1.0
             else:
                 ch = d.panned_channels if d.n_channels > 1 else np.array([0])
                 m[ch, c] = 1.0 / math.sqrt(ch.size)
@@ -620,3 +795,92 @@ def align_speakers(audio: NDArray[np.floating], layout: Layout, rate: float, *,
     """Apply :class:`SpeakerAlignment` to a whole ``(n_channels, n)`` signal
     (same length: the last ≤ max-delay samples of delayed channels are cut)."""
     return SpeakerAlignment(layout, rate, c0=c0).process(audio)
+
+
+# ------------------------------------------------------------ immersive output
+def synthesis_layout(layout: Layout | str) -> Layout:
+    """The layout a renderer pans to: the layout itself, or for ``binaural`` its
+    AmbiX intermediate (``ambix3``), which :func:`output_stage` turns into ears."""
+    lay = get_layout(layout)
+    if is_binaural(lay):
+        return IMMERSIVE_LAYOUTS[str(lay.meta["intermediate"])]
+    return lay
+
+
+class OutputStage:
+    """From the channels of :func:`synthesis_layout` to the layout's own channels.
+
+    Identity for every layout but ``binaural``, whose stage is an
+    :class:`auralize.hrtf.BinauralDecoder` (stateful: consecutive blocks give the
+    samples of the whole signal).  Build with :func:`output_stage`.
+    """
+
+    def __init__(self, layout: Layout, rate: int, hrtf: object = None) -> None:
+        self.layout = layout
+        self.rate = int(rate)
+        self.decoder = None
+        if is_binaural(layout):
+            from auralize.hrtf import BinauralDecoder, HRIRSet, default_hrirs
+
+            if hrtf is None:
+                hrirs = default_hrirs(self.rate)
+            elif isinstance(hrtf, HRIRSet):
+                hrirs = hrtf
+            else:
+                from auralize.sofa import read_sofa
+
+                hrirs = read_sofa(hrtf)  # type: ignore[arg-type]
+            self.decoder = BinauralDecoder(hrirs, BINAURAL_ORDER, rate=self.rate)
+        elif hrtf is not None:
+            raise ParameterError(
+                f"an HRTF only applies to the binaural layout, not to {layout.name!r}"
+            )
+
+    def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Output channels ``(layout.n_channels, n)`` of a rendered block."""
+        if self.decoder is None:
+            return np.asarray(block, dtype=np.float64)
+        return self.decoder.process(block)
+
+
+def output_stage(layout: Layout | str, rate: int, *, hrtf: object = None) -> OutputStage:
+    """The stage after panning for ``layout`` at ``rate`` Hz.
+
+    Parameters
+    ----------
+    layout : Layout or str
+    rate : int
+        Sample rate of the rendered audio (HRIRs are resampled to it).
+    hrtf : HRIRSet, str or Path, optional
+        Binaural only: an HRIR set or a SOFA file (default the built-in
+        spherical-head model).
+
+    Examples
+    --------
+    >>> st = output_stage("binaural", 48000)
+    >>> st.process(np.zeros((16, 480))).shape
+    (2, 480)
+    """
+    return OutputStage(get_layout(layout), rate, hrtf)
+
+
+def flac_mask_warning(layout: Layout | str) -> str | None:
+    """The warning to print when ``layout`` is written to FLAC, or None.
+
+    FLAC carries no WAVE channel mask: players take the standard channel
+    assignment for the channel count (1–8 channels), so a layout without a
+    standard mask (ring8, custom and AmbiX layouts) may be routed as if it were
+    5.1/7.1 (AmbiX and >8 channels may not be played at all).
+    """
+    lay = get_layout(layout)
+    if lay.channel_mask is not None and lay.n_channels <= 8:
+        return None
+    what = (f"AmbiX order {lay.meta.get('order')} (ACN/SN3D)" if is_ambisonic(lay)
+            else f"a non-standard {lay.n_channels}-channel layout")  # fmt: skip
+    guess = {6: "5.1", 8: "7.1"}.get(lay.n_channels)
+    return (
+        f"layout {lay.name!r} is {what}: FLAC cannot record its channel positions, so "
+        f"players may route its channels as the standard {lay.n_channels}-channel layout"
+        + (f" ({guess})" if guess else "")
+        + "; write WAV (with the sidecar) to keep them, or decode first"
+    )
