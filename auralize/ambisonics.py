@@ -78,8 +78,10 @@ def n_channels(order: int) -> int:
 
 def check_order(order: object) -> int:
     """``order`` as an int in 0..MAX_ORDER, else :class:`ParameterError`."""
-    if isinstance(order, bool) or not isinstance(order, int | np.integer) or not (
-        0 <= int(order) <= MAX_ORDER
+    if (
+        isinstance(order, bool)
+        or not isinstance(order, int | np.integer)
+        or not (0 <= int(order) <= MAX_ORDER)
     ):
         raise ParameterError(f"Ambisonics order must be an integer 0..{MAX_ORDER}, got {order!r}")
     return int(order)
@@ -190,7 +192,9 @@ def order_weights(order: int, weights: str) -> NDArray[np.float64]:
 
 
 @functools.lru_cache(maxsize=8)
-def sphere_quadrature(n_el: int = 24, n_az: int = 48) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def sphere_quadrature(
+    n_el: int = 24, n_az: int = 48
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Gauss–Legendre (in sin ϑ) × equiangular (in φ) grid on the unit sphere.
 
     Returns
@@ -229,7 +233,9 @@ def _decoder_allrad(order: int, layout: Layout, a: NDArray[np.float64]) -> NDArr
     return v @ sampling
 
 
-def _decoder_mode_matching(order: int, layout: Layout, a: NDArray[np.float64]) -> NDArray[np.float64]:
+def _decoder_mode_matching(
+    order: int, layout: Layout, a: NDArray[np.float64]
+) -> NDArray[np.float64]:
     chans = layout.panned_channels
     k = n_channels(order)
     if chans.size < k:
@@ -310,7 +316,9 @@ def decode_ambisonics(audio: NDArray[np.floating], order: int, layout: str | Lay
     return decoder_matrix(order, layout, method=method, weights=weights) @ a
 
 
-def energy_vector(gains: NDArray[np.floating], directions: NDArray[np.floating]) -> NDArray[np.float64]:
+def energy_vector(
+    gains: NDArray[np.floating], directions: NDArray[np.floating]
+) -> NDArray[np.float64]:
     """Gerzon's energy vector rE = Σ g_s² u_s / Σ g_s² (book §2.2.3).
 
     Parameters

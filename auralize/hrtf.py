@@ -104,7 +104,9 @@ class HRIRSet:
         ir = np.asarray(self.ir, dtype=np.float64)
         d = np.asarray(self.directions, dtype=np.float64)
         if ir.ndim != 3 or ir.shape[1] != 2 or ir.shape[2] < 1:
-            raise ParameterError(f"{self.source or 'HRIRSet'}: ir must be (M, 2, N), got {ir.shape}")
+            raise ParameterError(
+                f"{self.source or 'HRIRSet'}: ir must be (M, 2, N), got {ir.shape}"
+            )
         if d.shape != (ir.shape[0], 3):
             raise ParameterError(
                 f"{self.source or 'HRIRSet'}: directions must be ({ir.shape[0]}, 3), got {d.shape}"
@@ -168,7 +170,9 @@ def woodworth_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS,
 def head_shadow_alpha(theta: NDArray[np.floating]) -> NDArray[np.float64]:
     """Zero coefficient α(θ) of the head-shadow filter, Brown & Duda Eq. 4."""
     th = np.asarray(theta, dtype=np.float64)
-    return (1 + ALPHA_MIN / 2) + (1 - ALPHA_MIN / 2) * np.cos(th / math.radians(THETA_MIN_DEG) * np.pi)
+    return (1 + ALPHA_MIN / 2) + (1 - ALPHA_MIN / 2) * np.cos(
+        th / math.radians(THETA_MIN_DEG) * np.pi
+    )
 
 
 def spherical_head_response(directions: NDArray[np.floating], freqs_hz: NDArray[np.floating], *,
@@ -223,7 +227,9 @@ def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: i
     if not (math.isfinite(radius) and 0.01 <= radius <= 1.0):
         raise ParameterError(f"head radius must be in [0.01, 1] m, got {radius!r}")
     if not (isinstance(rate, int | np.integer) and 1000 <= rate <= 768000):
-        raise ParameterError(f"HRIR sample rate must be an integer in [1000, 768000] Hz, got {rate!r}")
+        raise ParameterError(
+            f"HRIR sample rate must be an integer in [1000, 768000] Hz, got {rate!r}"
+        )
     weights = None
     if directions is None:
         directions, weights = sphere_quadrature()
@@ -445,7 +451,9 @@ def binaural_from_ambisonics(audio: NDArray[np.floating], order: int,
     return BinauralDecoder(hrirs, order, rate=rate, method=method).process(audio)
 
 
-def binaural_direct(signal: NDArray[np.floating], hrir: NDArray[np.floating]) -> NDArray[np.float64]:
+def binaural_direct(
+    signal: NDArray[np.floating], hrir: NDArray[np.floating]
+) -> NDArray[np.float64]:
     """Reference ear signals ``(2, n)``: a mono ``signal (n,)`` convolved with one
     HRIR pair ``(2, N)`` (a single static direction, no Ambisonics)."""
     from scipy.signal import oaconvolve

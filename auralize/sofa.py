@@ -49,7 +49,9 @@ def _text(v: Any) -> str:
 def _var(h: Any, path: Path, name: str, *, required: bool = True) -> NDArray[np.float64] | None:
     if name not in h:
         if required:
-            raise FormatError(f"{path}: SOFA variable {name!r} is missing (AES69 SimpleFreeFieldHRIR)")
+            raise FormatError(
+                f"{path}: SOFA variable {name!r} is missing (AES69 SimpleFreeFieldHRIR)"
+            )
         return None
     try:
         a = np.asarray(h[name][()], dtype=np.float64)
@@ -65,9 +67,7 @@ def _to_cartesian(pos: NDArray[np.float64], kind: str, units: str, path: Path,
     if kind == "cartesian":
         return pos
     if kind != "spherical":
-        raise FormatError(
-            f"{path}: {name} has Type={kind!r}; expected 'spherical' or 'cartesian'"
-        )
+        raise FormatError(f"{path}: {name} has Type={kind!r}; expected 'spherical' or 'cartesian'")
     ang = pos[:, :2]
     if "rad" not in units.split(",")[0]:  # degrees (the convention's unit)
         ang = np.deg2rad(ang)
@@ -150,7 +150,9 @@ def read_sofa(path: str | Path) -> HRIRSet:
         if view is not None and view.size >= 3:
             from auralize.spatial import listener_frame
 
-            f = _to_cartesian(view.reshape(-1, 3)[:1], *_attrs(h["ListenerView"]), p, "ListenerView")
+            f = _to_cartesian(
+                view.reshape(-1, 3)[:1], *_attrs(h["ListenerView"]), p, "ListenerView"
+            )
             u = (np.array([[0.0, 0.0, 1.0]]) if up is None or up.size < 3 else
                  _to_cartesian(up.reshape(-1, 3)[:1], *_attrs(h["ListenerUp"]), p, "ListenerUp"))  # fmt: skip
             f = f / np.linalg.norm(f)

@@ -406,9 +406,11 @@ def _load_iem_layout(p: Path, data: dict[str, Any]) -> Layout:
     import dataclasses
 
     lay = data.get("LoudspeakerLayout", data)
-    if not isinstance(lay, dict) or not isinstance(lay.get("Loudspeakers"), list) or not lay[
-        "Loudspeakers"
-    ]:
+    if (
+        not isinstance(lay, dict)
+        or not isinstance(lay.get("Loudspeakers"), list)
+        or not lay["Loudspeakers"]
+    ):
         raise FormatError(
             f"{p}: an IEM layout needs 'LoudspeakerLayout': {{'Loudspeakers': [{{'Azimuth', "
             f"'Elevation', 'Radius', 'IsImaginary', 'Channel', 'Gain'}}, ...]}}"

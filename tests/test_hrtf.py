@@ -1,0 +1,269 @@
+"""Binaural output: spherical-head model, the order-3 Ambisonic chain, SOFA files.
+
+Physics checks on the whole chain (a plane wave encoded in AmbiX order 3,
+decoded with the model's SH-domain filters) beside the direct reference (the
+model's HRIR pair of that one direction convolved with the signal).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from scipy.signal import butter, sosfiltfilt, welch
+
+from auralize import ambisonics as A
+from auralize import hrtf as H
+from auralize.errors import FormatError, MissingFileError, ParameterError
+from auralize.sofa import read_sofa, write_sofa
+from auralize.spatial import get_layout, output_stage, pan_gains, synthesis_layout
+
+RATE = 48000
+#: the order-3 chain reproduces interaural phase up to N c / (2π a) ≈ 1.87 kHz:
+#: ITDs are measured below 1.5 kHz
+ITD_BAND_HZ = 1500.0
+
+
+def unit(az_deg: float, el_deg: float = 0.0) -> np.ndarray:
+    a, e = math.radians(az_deg), math.radians(el_deg)
+    return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+
+
+@pytest.fixture(scope="module")
+def model() -> H.HRIRSet:
+    return H.spherical_head_hrirs(rate=RATE)
+
+
+@pytest.fixture(scope="module")
+def noise() -> np.ndarray:
+    return np.random.default_rng(7).normal(size=RATE // 2)
+
+
+def chain(sig: np.ndarray, d: np.ndarray, hrirs: H.HRIRSet) -> np.ndarray:
+    return H.binaural_from_ambisonics(A.encode(sig, 3, d), 3, hrirs)
+
+
+def direct(sig: np.ndarray, d: np.ndarray) -> np.ndarray:
+    return H.binaural_direct(sig, H.spherical_head_hrirs(d[None], RATE).ir[0])
+
+
+def itd_s(ears: np.ndarray, rate: int = RATE) -> float:
+    """Lag (s) of the left ear behind the right (> 0: right ear first), by
+    cross-correlation below ITD_BAND_HZ, to 1/16 sample, within ±1 ms."""
+    sos = butter(4, ITD_BAND_HZ, fs=rate, output="sos")
+    lo, ro = sosfiltfilt(sos, ears, axis=-1)
+    n, up = lo.size, 16
+    cc = np.fft.irfft(np.fft.rfft(lo, 2 * n) * np.conj(np.fft.rfft(ro, 2 * n)), 2 * n * up)
+    m = int(up * rate * 1e-3)
+    return (int(np.argmax(np.r_[cc[-m:], cc[: m + 1]])) - m) / up / rate
+
+
+def ild_db(ears: np.ndarray, f_hz: float) -> float:
+    """Right minus left ear level (dB) around ``f_hz`` (Welch, 1/3 octave)."""
+    f, p = welch(ears, fs=RATE, nperseg=1024)
+    band = (f > f_hz * 2 ** (-1 / 6)) & (f < f_hz * 2 ** (1 / 6))
+    return float(10 * np.log10(p[1, band].sum() / p[0, band].sum()))
+
+
+def test_woodworth_itd() -> None:
+    a, c = H.HEAD_RADIUS, H.C0
+    # ears on the axis: ITD = (a/c)(θ + sin θ) at θ = 90°
+    itd = float(H.woodworth_delay(np.pi) - H.woodworth_delay(0.0))
+    assert math.isclose(itd, a / c * (math.pi / 2 + 1)) and 0.65e-3 < itd < 0.66e-3
+    for th in np.radians([10.0, 40.0, 75.0]):  # Woodworth for a source at θ from the median plane
+        itd = float(H.woodworth_delay(np.pi / 2 + th) - H.woodworth_delay(np.pi / 2 - th))
+        assert math.isclose(itd, a / c * (th + math.sin(th)), rel_tol=1e-12)
+
+
+def test_right_source_arrives_first_and_louder(model: H.HRIRSet, noise: np.ndarray) -> None:
+    d = unit(-90)
+    e, ref = chain(noise, d, model), direct(noise, d)
+    itd, itd_ref = itd_s(e), itd_s(ref)
+    # the model's LF ITD = Woodworth (0.61 ms for ears at ±100°) plus the head-shadow
+    # filter's low-frequency group delay; the sphere's LF limit is 3a/c = 0.765 ms
+    assert 0.60e-3 <= itd <= 0.765e-3 and 0.60e-3 <= itd_ref <= 0.765e-3
+    assert abs(itd - itd_ref) < 30e-6
+    assert np.sum(e[1] ** 2) > 2 * np.sum(e[0] ** 2)
+
+
+def test_ild_grows_with_frequency(model: H.HRIRSet, noise: np.ndarray) -> None:
+    e, ref = chain(noise, unit(-90), model), direct(noise, unit(-90))
+    bands = [250.0, 1000.0, 4000.0, 8000.0]
+    ild, ild_ref = [ild_db(e, f) for f in bands], [ild_db(ref, f) for f in bands]
+    assert np.all(np.diff(ild) > 0) and np.all(np.diff(ild_ref) > 0)
+    assert ild[2] >= 10.0 and ild_ref[2] >= 10.0  # 4 kHz
+    assert abs(ild[0] - ild_ref[0]) < 1.0 and abs(ild[1] - ild_ref[1]) < 1.5
+
+
+def test_front_equal_ears_front_back_differ(model: H.HRIRSet, noise: np.ndarray) -> None:
+    front, back = chain(noise, unit(0), model), chain(noise, unit(180), model)
+    for e in (front, back):
+        np.testing.assert_allclose(e[0], e[1], atol=1e-9 * np.max(np.abs(e)))
+    f, pf = welch(front[0], fs=RATE, nperseg=1024)
+    _, pb = welch(back[0], fs=RATE, nperseg=1024)
+    band = (f > 2000) & (f < 10000)
+    diff = 10 * np.log10(pf[band] / pb[band])
+    assert np.max(np.abs(diff)) > 2.0  # the ears sit behind the interaural axis
+    fr, br = direct(noise, unit(0)), direct(noise, unit(180))
+    _, pfr = welch(fr[0], fs=RATE, nperseg=1024)
+    _, pbr = welch(br[0], fs=RATE, nperseg=1024)
+    assert np.mean(10 * np.log10(pfr[band] / pbr[band])) * np.mean(diff) > 0  # same sign
+
+
+def test_circling_source_smooth_itd(model: H.HRIRSet) -> None:
+    """One turn in 2 s: the ITD of 50 ms windows follows the direct model and has no steps."""
+    n = 2 * RATE
+    sig = np.random.default_rng(3).normal(size=n)
+    az = 2 * np.pi * np.arange(n) / n
+    d = np.stack([np.cos(az), np.sin(az), np.zeros(n)], 1)
+    e = H.BinauralDecoder(model, 3).process(pan_gains(get_layout("ambix3"), d) * sig)
+    win = RATE // 20
+    itds, ref = [], []
+    for k in range(n // win):
+        seg = slice(k * win, (k + 1) * win)
+        itds.append(itd_s(e[:, seg]))
+        mid = float(az[k * win + win // 2])
+        ref.append(itd_s(direct(sig[seg], unit(math.degrees(mid)))))
+    itds_a, ref_a = np.array(itds), np.array(ref)
+    # no steps: window to window (9° of turn) the ITD changes as the direct model's does
+    steps = np.diff(itds_a) - np.diff(ref_a)
+    assert np.max(np.abs(steps)) < 60e-6
+    assert np.max(np.abs(itds_a - ref_a)) < 40e-6
+    assert itds_a.min() < -0.6e-3 and itds_a.max() > 0.6e-3  # left and right both reached
+
+
+def test_blocks_equal_whole_and_resampling(model: H.HRIRSet, noise: np.ndarray) -> None:
+    b = A.encode(noise[:6000], 3, unit(37, 20))
+    whole = H.BinauralDecoder(model, 3).process(b)
+    dec = H.BinauralDecoder(model, 3, block=500)
+    parts = np.concatenate([dec.process(b[:, s : s + 1234]) for s in range(0, 6000, 1234)], 1)
+    np.testing.assert_allclose(parts, whole, atol=1e-12)
+    d44 = H.BinauralDecoder(model, 3, rate=44100)
+    assert d44.rate == 44100 and d44.hrirs.meta["resampled_from_hz"] == RATE
+    e = d44.process(A.encode(noise, 3, unit(-90)))
+    assert 0.60e-3 < itd_s(e, 44100) < 0.765e-3
+
+
+def test_output_stage_and_binaural_layout(noise: np.ndarray) -> None:
+    lay = get_layout("binaural")
+    assert lay.n_channels == 2 and lay.channel_names == ["L", "R"]
+    assert synthesis_layout(lay).name == "ambix3"
+    with pytest.raises(ParameterError, match="synthesis_layout"):
+        pan_gains(lay, np.ones((1, 3)))
+    st = output_stage("binaural", RATE)
+    out = st.process(A.encode(noise[:4800], 3, unit(90)))
+    assert out.shape == (2, 4800) and np.sum(out[0] ** 2) > 2 * np.sum(out[1] ** 2)
+    same = output_stage("ring8", RATE).process(np.ones((8, 3)))
+    np.testing.assert_array_equal(same, np.ones((8, 3)))
+    with pytest.raises(ParameterError, match="binaural"):
+        output_stage("ring8", RATE, hrtf="x.sofa")
+
+
+# ------------------------------------------------------------------ SOFA
+def fibonacci(k: int) -> np.ndarray:
+    i = np.arange(k) + 0.5
+    z = 1 - 2 * i / k
+    phi = np.pi * (1 + 5**0.5) * i
+    r = np.sqrt(1 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+
+
+def write_synthetic_sofa(path: Path, *, drop: str = "", receivers: int = 2,
+                         conventions: str = "SOFA") -> H.HRIRSet:  # fmt: skip
+    """An AES69 SimpleFreeFieldHRIR file (h5py, the standard's variable names and
+    attributes) of the spherical-head model at 300 directions, 44.1 kHz."""
+    d = fibonacci(300)
+    hr = H.spherical_head_hrirs(d, 44100)
+    az = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+    el = np.degrees(np.arcsin(d[:, 2]))
+    with h5py.File(path, "w") as h:
+        h.attrs.update({"Conventions": conventions, "Version": "2.1",
+                        "SOFAConventions": "SimpleFreeFieldHRIR", "SOFAConventionsVersion": "1.0",
+                        "DataType": "FIR", "RoomType": "free field", "Title": "synthetic",
+                        "License": "CC0-1.0"})  # fmt: skip
+        v = {
+            "Data.IR": (hr.ir[:, :receivers], {}),
+            "Data.SamplingRate": (np.array([44100.0]), {"Units": "hertz"}),
+            "Data.Delay": (np.zeros((1, 2)), {}),
+            "SourcePosition": (np.stack([az, el, 1.5 * np.ones(300)], 1),
+                               {"Type": "spherical", "Units": "degree, degree, metre"}),
+            "ListenerPosition": (np.zeros((1, 3)), {"Type": "cartesian", "Units": "metre"}),
+            "ListenerView": (np.array([[1.0, 0, 0]]), {"Type": "cartesian", "Units": "metre"}),
+            "ListenerUp": (np.array([[0, 0, 1.0]]), {"Type": "cartesian", "Units": "metre"}),
+        }  # fmt: skip
+        for name, (data, attrs) in v.items():
+            if name == drop:
+                continue
+            ds = h.create_dataset(name, data=data)
+            ds.attrs.update(attrs)
+    return hr
+
+
+def test_read_synthetic_sofa_and_use_it(tmp_path: Path, noise: np.ndarray) -> None:
+    p = tmp_path / "head.sofa"
+    hr = write_synthetic_sofa(p)
+    s = read_sofa(p)
+    assert s.rate == 44100 and s.ir.shape == hr.ir.shape and s.weights is None
+    np.testing.assert_allclose(s.ir, hr.ir)
+    np.testing.assert_allclose(s.directions, hr.directions, atol=1e-12)
+    assert s.meta["conventions"] == "SimpleFreeFieldHRIR" and s.meta["license"] == "CC0-1.0"
+    # used: binaural output at 48 kHz through the order-3 chain
+    st = output_stage("binaural", RATE, hrtf=p)
+    e = st.process(A.encode(noise, 3, unit(-90)))
+    assert 0.60e-3 < itd_s(e) < 0.765e-3 and ild_db(e, 4000.0) > 10.0
+
+
+def test_sofa_listener_view_and_delay(tmp_path: Path) -> None:
+    p = tmp_path / "turned.sofa"
+    write_synthetic_sofa(p)
+    with h5py.File(p, "r+") as h:
+        h["ListenerView"][...] = np.array([[0.0, 1.0, 0.0]])  # listener faces +y (source left)
+        h["Data.Delay"][...] = np.array([[3.0, 3.0]])
+    s = read_sofa(p)
+    ref = read_sofa(tmp_path / "turned.sofa")
+    assert s.n_taps == ref.n_taps
+    # a source at +y (azimuth 90° in the file) is straight ahead of this listener
+    k = int(np.argmax(s.directions[:, 0]))
+    d_file = fibonacci(300)[k]
+    assert d_file[1] > 0.99
+    plain = H.spherical_head_hrirs(fibonacci(300), 44100)
+    np.testing.assert_allclose(s.ir[k, :, 3 : plain.n_taps], plain.ir[k, :, : plain.n_taps - 3],
+                               atol=1e-9)  # fmt: skip
+
+
+def test_write_sofa_roundtrip(tmp_path: Path) -> None:
+    hr = H.spherical_head_hrirs(fibonacci(40), 32000)
+    p = write_sofa(tmp_path / "model.sofa", hr)
+    s = read_sofa(p)
+    np.testing.assert_allclose(s.ir, hr.ir)
+    np.testing.assert_allclose(s.directions, hr.directions, atol=1e-12)
+    with h5py.File(p, "r") as h:  # netCDF-4 dimensions are attached
+        assert h["Data.IR"].dims[0][0].name == "/M"
+    assert [q.name for q in tmp_path.iterdir()] == ["model.sofa"]
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    ({"drop": "Data.IR"}, "'Data.IR' is missing"),
+    ({"drop": "SourcePosition"}, "'SourcePosition' is missing"),
+    ({"drop": "Data.SamplingRate"}, "'Data.SamplingRate' is missing"),
+    ({"receivers": 1}, r"Data.IR must be \(M, R=2, N\).*\(300, 1,"),
+    ({"conventions": "CF-1.6"}, "'Conventions' is 'CF-1.6', expected 'SOFA'"),
+])  # fmt: skip
+def test_malformed_sofa(tmp_path: Path, kw: dict, match: str) -> None:  # type: ignore[type-arg]
+    p = tmp_path / "bad.sofa"
+    write_synthetic_sofa(p, **kw)
+    with pytest.raises(FormatError, match=match) as ei:
+        read_sofa(p)
+    assert str(p) in str(ei.value)
+
+
+def test_not_sofa_files(tmp_path: Path) -> None:
+    with pytest.raises(MissingFileError, match="does not exist"):
+        read_sofa(tmp_path / "none.sofa")
+    txt = tmp_path / "text.sofa"
+    txt.write_text("hello")
+    with pytest.raises(FormatError, match="not a SOFA file"):
+        read_sofa(txt)
