@@ -1,0 +1,89 @@
+"""Immersive layouts: IEM LoudspeakerLayout JSON, FLAC channel-mask warning, layout names."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from auralize.errors import FormatError, ParameterError
+from auralize.spatial import (
+    flac_mask_warning,
+    get_layout,
+    load_layout_json,
+    pan_gains,
+    triangulate,
+    vbap3d_gains,
+)
+
+
+def iem(path: Path, speakers: list[dict], name: str = "Studio") -> Path:  # type: ignore[type-arg]
+    path.write_text(json.dumps({"Name": "export", "Description": "IEM AllRADecoder export",
+                                "LoudspeakerLayout": {"Name": name, "Loudspeakers": speakers}}))  # fmt: skip
+    return path
+
+
+def spk(az: float, el: float, ch: int, *, imag: bool = False, gain: float = 1.0,
+        r: float = 1.5) -> dict:  # type: ignore[type-arg]  # fmt: skip
+    return {"Azimuth": az, "Elevation": el, "Radius": r, "IsImaginary": imag, "Channel": ch,
+            "Gain": gain}  # fmt: skip
+
+
+def test_read_iem_layout(tmp_path: Path) -> None:
+    # a ring of 4 at ear height and 4 at 35°, channels given out of order, a subwoofer
+    # channel (5) without a speaker, an imaginary speaker below
+    sp = [spk(45 + 90 * k, 0, ch) for k, ch in enumerate((1, 2, 3, 4))]
+    sp += [spk(90 * k, 35, ch, gain=0.5 if ch == 9 else 1.0) for k, ch in enumerate((9, 8, 7, 6))]
+    sp.append(spk(0, -90, 10, imag=True))
+    lay = load_layout_json(iem(tmp_path / "l.json", sp))
+    assert lay.name == "Studio" and lay.n_channels == 9
+    assert lay.speakers[4].azimuth_deg is None  # channel 5: silent output
+    assert [s.azimuth_deg for s in lay.speakers[5:]] == [270.0, 180.0, 90.0, 0.0]
+    assert lay.speakers[0].distance_m == 1.5 and lay.speakers[8].elevation_deg == 35
+    assert lay.meta["channel_gains"][8] == 0.5 and lay.meta["channel_gains"][4] == 0.0
+    np.testing.assert_allclose(lay.meta["imaginary_directions"], [[0, 0, -1.0]], atol=1e-12)
+    assert get_layout(str(tmp_path / "l.json")).n_channels == 9
+    tri = triangulate(lay)
+    # the file's nadir, and the zenith added because no speaker is within 20° of it
+    np.testing.assert_allclose(tri.imaginary_directions, [[0, 0, -1.0], [0, 0, 1.0]], atol=1e-12)
+    # a source below pans on the ring at its own azimuth (imaginary gain dropped)
+    g = vbap3d_gains(lay, np.array([[math.cos(0.8), math.sin(0.8), -0.9]]))[:, 0]
+    assert int(np.argmax(g)) == 0 and g[4] == 0 and math.isclose(float(np.sum(g**2)), 1.0)
+
+
+def test_iem_layout_errors(tmp_path: Path) -> None:
+    cases = [
+        ([spk(0, 0, 1), spk(90, 0, 1)], "channel 1 is used twice"),
+        ([{"Elevation": 0, "Channel": 1}, spk(90, 0, 2)], "needs 'Azimuth'"),
+        ([spk(0, 0, 0), spk(90, 0, 2)], "'Channel' must be an integer ≥ 1"),
+        ([spk(0, 100, 1), spk(90, 0, 2)], "Elevation must be in"),
+        ([spk(0, 0, 1, imag=True)], "no real"),
+    ]
+    for k, (sp, match) in enumerate(cases):
+        p = iem(tmp_path / f"bad{k}.json", sp)
+        with pytest.raises(FormatError, match=match) as ei:
+            load_layout_json(p)
+        assert str(p) in str(ei.value)
+    p = tmp_path / "empty.json"
+    p.write_text(json.dumps({"LoudspeakerLayout": {"Loudspeakers": []}}))
+    with pytest.raises(FormatError, match="needs 'LoudspeakerLayout'"):
+        load_layout_json(p)
+
+
+def test_flac_mask_warning() -> None:
+    assert flac_mask_warning("5.1") is None and flac_mask_warning("stereo") is None
+    assert flac_mask_warning("binaural") is None
+    w = flac_mask_warning("ring8")
+    assert w is not None and "7.1" in w and "ring8" in w
+    w3 = flac_mask_warning("ambix3")
+    assert w3 is not None and "AmbiX order 3" in w3
+
+
+def test_layout_names() -> None:
+    with pytest.raises(ParameterError, match="binaural.*ambix1|ambix1.*binaural"):
+        get_layout("ambix9")
+    assert get_layout("ambix2").n_channels == 9
+    assert pan_gains(get_layout("ambix1"), np.array([[1.0, 0, 0]]))[:, 0].tolist() == [1, 0, 0, 1]
