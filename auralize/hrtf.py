@@ -354,8 +354,9 @@ class BinauralDecoder:
         HRIRs' rate).
     method : {"magls", "ls"}
         See :func:`sh_hrtf_filters`.
-    block : int
-        Samples per FFT block of the overlap-add convolution.
+    block : int, optional
+        Samples per FFT block of the overlap-add convolution (default: an FFT
+        of 8192 points).
 
     Notes
     -----
@@ -365,7 +366,7 @@ class BinauralDecoder:
     """
 
     def __init__(self, hrirs: HRIRSet | None = None, order: int = 3, *, rate: int | None = None,
-                 method: str = "magls", block: int = 8192) -> None:  # fmt: skip
+                 method: str = "magls", block: int | None = None) -> None:  # fmt: skip
         from auralize.ambisonics import check_order, n_channels
 
         self.order = check_order(order)
@@ -377,7 +378,11 @@ class BinauralDecoder:
         self.rate = hrirs.rate
         self.filters = _cached_filters(hrirs, self.order, method)
         self.n_in = n_channels(self.order)
-        self.block = max(int(block), 64)
+        taps = self.filters.shape[2]
+        # default: blocks whose FFT (block + taps - 1) is a power of two
+        self.block = (
+            max(int(block), 64) if block is not None else max((1 << 13) - taps + 1, 1 << 12)
+        )
         self._tail = np.zeros((2, self.filters.shape[2] - 1))
         self._spectra: dict[int, NDArray[np.complex128]] = {}
 
@@ -408,7 +413,7 @@ class BinauralDecoder:
             chunk = a[:, s0 : s0 + self.block]
             m = chunk.shape[1]
             n_fft = next_fast_len(m + taps - 1, real=True)
-            spec = np.einsum("kf,kef->ef", rfft(chunk, n_fft, axis=-1), self._spectrum(n_fft))
+            spec = (rfft(chunk, n_fft, axis=-1)[:, None, :] * self._spectrum(n_fft)).sum(axis=0)
             y = irfft(spec, n_fft, axis=-1)[:, : m + taps - 1]
             y[:, : taps - 1] += self._tail
             out[:, s0 : s0 + m] = y[:, :m]

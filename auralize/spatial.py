@@ -157,7 +157,19 @@ class Layout:
         For a layout with elevation this is its horizontal projection: at each
         distinct azimuth the speaker nearest the horizontal plane (the kernel
         then pans with the 3-D table instead).
+
+        Raises
+        ------
+        ParameterError
+            For AmbiX and binaural layouts, which have no speaker azimuths
+            (their gains come from :func:`pan_gains` and :func:`output_stage`).
         """
+        if self.meta.get("ambisonic") or self.meta.get("binaural"):
+            raise ParameterError(
+                f"layout {self.name!r} has no speaker azimuths to pan between: AmbiX gains come "
+                f"from auralize.spatial.pan_gains, binaural ears from auralize.spatial.output_stage"
+                f"; this renderer supports loudspeaker layouts only"
+            )
         if self.n_channels == 1:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         best: dict[float, tuple[float, int, float]] = {}

@@ -267,3 +267,36 @@ def test_not_sofa_files(tmp_path: Path) -> None:
     txt.write_text("hello")
     with pytest.raises(FormatError, match="not a SOFA file"):
         read_sofa(txt)
+
+
+def test_emitters_rendered_binaurally_end_to_end() -> None:
+    """The engine's reference renderer pans to the binaural layout's AmbiX
+    intermediate; the output stage gives ears: an emitter on the listener's right
+    arrives first and louder at the right ear."""
+    from auralize.emitters import Emitters
+    from auralize.emitters.engine import render_emitters
+    from auralize.listener import ListenerPath
+
+    rate = 16000
+    sig = np.random.default_rng(5).normal(size=(1, rate // 4))
+    path = ListenerPath.point((0, 0, 0), duration=0.25)  # forward +y, up +z: right is +x
+    em = Emitters(sig, rate, np.array([[4.0, 0.0, 0.0]]))
+    amb = render_emitters(em, path, rate=rate, layout=synthesis_layout("binaural"),
+                          backend="reference").audio  # fmt: skip
+    ears = output_stage("binaural", rate).process(amb)
+    assert ears.shape == (2, amb.shape[1])
+    assert np.sum(ears[1] ** 2) > 2 * np.sum(ears[0] ** 2)
+    assert 0.60e-3 < itd_s(ears, rate) < 0.8e-3
+
+
+def test_speaker_kernels_refuse_immersive_layouts() -> None:
+    """Renderers that need speaker azimuths fail clearly instead of writing W only."""
+    from auralize.listener import ListenerPath
+    from auralize.sources import SourceTracks
+    from auralize.synthesis import render
+
+    tr = SourceTracks(np.array([[1.0, 0, 0]]), np.ones((1, 8)), np.array([0.05]),
+                      np.arange(8) / 100.0)  # fmt: skip
+    for name in ("ambix3", "binaural"):
+        with pytest.raises(ParameterError, match="no speaker azimuths"):
+            render(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout=name)
