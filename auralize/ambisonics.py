@@ -43,6 +43,16 @@ Decoders (:func:`decoder_matrix`)
 * Every decoder is scaled so that the loudspeaker energy Σ_s g_s², averaged
   over all source directions, is 1 (as VBAP's power normalisation).
 
+Using AmbiX files elsewhere
+---------------------------
+An ``ambixN`` WAV has (N+1)² channels in ACN order with SN3D normalisation
+and no channel mask (its sidecar says so).  In a DAW put it on a track with
+(N+1)² channels (Reaper: 4, 9 or 16) and insert a standard AmbiX decoder: the
+IEM Plug-in Suite's *AllRADecoder* (loudspeakers) or *BinauralDecoder*
+(headphones), or SPARTA's *AmbiDEC*/*AmbiBIN*, set to order N, ACN, SN3D.
+Game engines and players that take "AmbiX" (e.g. first order in YouTube/Meta
+360 video) read the same channel order and normalisation.
+
 Examples
 --------
 >>> import numpy as np

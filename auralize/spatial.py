@@ -188,8 +188,13 @@ class Layout:
         return az[order], ch[order]
 
     def describe(self) -> dict[str, object]:
-        """JSON-able description; :func:`load_layout_json` reads it back."""
-        return {
+        """JSON-able description; :func:`load_layout_json` reads it back (for
+        speaker layouts; AmbiX channels are components, not speakers, and the
+        ``meta`` of immersive layouts says what they are)."""
+        if self.meta.get("ambisonic"):
+            return {"name": self.name, "channel_mask": None, "meta": dict(self.meta),
+                    "channels": self.channel_names}  # fmt: skip
+        out: dict[str, object] = {
             "name": self.name,
             "channel_mask": self.channel_mask,
             "speakers": [
@@ -198,6 +203,9 @@ class Layout:
                 for s in self.speakers
             ],
         }  # fmt: skip
+        if self.meta:
+            out["meta"] = dict(self.meta)
+        return out
 
 
 def _sp(name: str, az: float | None, el: float = 0.0) -> Speaker:

@@ -87,3 +87,16 @@ def test_layout_names() -> None:
         get_layout("ambix9")
     assert get_layout("ambix2").n_channels == 9
     assert pan_gains(get_layout("ambix1"), np.array([[1.0, 0, 0]]))[:, 0].tolist() == [1, 0, 0, 1]
+
+
+def test_describe_immersive(tmp_path: Path) -> None:
+    d = get_layout("ambix3").describe()
+    assert d["meta"]["order"] == 3 and d["channels"][:4] == ["ACN0", "ACN1", "ACN2", "ACN3"]
+    assert "speakers" not in d  # components, not (LFE) speakers
+    b = get_layout("binaural").describe()
+    assert b["meta"]["binaural"] and b["channel_mask"] == 3
+    p = iem(tmp_path / "l.json", [spk(0, 0, 1), spk(120, 0, 2), spk(-120, 0, 3)])
+    lay = load_layout_json(p)
+    q = tmp_path / "back.json"
+    q.write_text(json.dumps(lay.describe()))
+    assert [s.azimuth_deg for s in load_layout_json(q).speakers] == [0, 120, -120]
