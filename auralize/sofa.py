@@ -212,9 +212,9 @@ def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs
                          "DateModified": "", "ListenerShortName": hrirs.source}.items():  # fmt: skip
                 h.attrs[k] = v
             dims = {"M": m, "R": 2, "N": n, "I": 1, "C": 3, "E": 1}
-            for name, size in dims.items():
-                ds = h.create_dataset(name, data=np.zeros(size, dtype="f8"))
-                ds.make_scale(name)
+            for name, size in dims.items():  # netCDF-4 dimensions without coordinate variables
+                ds = h.create_dataset(name, data=np.zeros(size, dtype="f4"))
+                ds.make_scale(f"This is a netCDF dimension but not a netCDF variable.{size:10d}")
 
             def var(name: str, data: NDArray[np.float64], dim: tuple[str, ...],
                     **attrs: str) -> None:  # fmt: skip
