@@ -24,6 +24,12 @@ magnitude only, taking each bin's phase from the fit of the bin below
 (magnitude least squares, Schörkhuber, Zaunschirm & Höldrich, DAGA 2018;
 Zotter & Frank, *Ambisonics*, 2019, §4.11), which keeps the interaural level
 differences and the spectrum that plain least squares (``"ls"``) smears.
+Two details of this implementation: the fit crossfades linearly from the
+complex to the magnitude target over the octave above f_N, and the phase is
+extrapolated relative to the set's earliest onset (then the delay is put
+back), since an extrapolated phase carries no group delay and would otherwise
+put the high frequencies before the onset.  The design grid is 4× finer than
+the HRIRs and the filters twice their length.
 
 HRIR sets (:class:`HRIRSet`)
 ----------------------------
