@@ -15,7 +15,8 @@ A SOFA file is netCDF-4, i.e. HDF5 (read here with ``h5py``).  The
   added to the responses; ``ListenerView``/``ListenerUp`` (I, C): the
   listener's orientation (default x forward, z up), and ``ListenerPosition``.
 
-SOFA's coordinate system is the listener frame of :mod:`auralize.spatial`
+Any FIR convention with these variables is read (SimpleFreeFieldHRIR, and
+GeneralFIR files with two receivers).  SOFA's coordinate system is the listener frame of :mod:`auralize.spatial`
 (x forward, y left, z up; azimuth counter-clockwise), so source positions map
 directly to directions once the listener's view and up are taken out.
 """
@@ -33,9 +34,6 @@ from numpy.typing import NDArray
 
 from auralize.errors import FormatError, MissingFileError
 from auralize.hrtf import HRIRSet
-
-#: conventions read by :func:`read_sofa` (same variables for these)
-READ_CONVENTIONS = ("SimpleFreeFieldHRIR", "GeneralFIR", "SimpleFreeFieldHRIR-1.0")
 
 
 def _text(v: Any) -> str:

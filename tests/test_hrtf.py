@@ -303,3 +303,19 @@ def test_speaker_kernels_refuse_immersive_layouts() -> None:
     for name in ("ambix3", "binaural"):
         with pytest.raises(ParameterError, match="no speaker azimuths"):
             render(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout=name)
+
+
+def test_sofa_cartesian_positions(tmp_path: Path) -> None:
+    p = tmp_path / "cart.sofa"
+    hr = write_synthetic_sofa(p)
+    with h5py.File(p, "r+") as h:
+        del h["SourcePosition"]
+        ds = h.create_dataset("SourcePosition", data=2.0 * hr.directions)
+        ds.attrs.update({"Type": "cartesian", "Units": "metre"})
+        h["ListenerPosition"][...] = np.array([[0.0, 0.0, 0.0]])
+    s = read_sofa(p)
+    np.testing.assert_allclose(s.directions, hr.directions, atol=1e-12)
+    with h5py.File(p, "r+") as h:
+        h["SourcePosition"].attrs["Type"] = "polar"
+    with pytest.raises(FormatError, match="SourcePosition has Type='polar'"):
+        read_sofa(p)
