@@ -24,6 +24,10 @@ interval holding the root is found by a vectorised bisection on the captures'
 iterated.  Before the first and after the last capture the listener is held
 at its end positions, as :meth:`ListenerPath.position_at` does.
 
+A moving listener also hears each emission's waveform scaled in time by the
+Doppler factor ``dt/dτ = 1 / (1 − Ḋ/c0)`` (:attr:`Arrivals.doppler`), which
+closed forms apply to their wave's time axis.
+
 The direction, distance and panning gains are those at the arrival: the
 listener's position and orientation at ``t`` and the layout's own law
 (:func:`auralize.spatial.pan_gains`: 2-D VBAP for horizontal layouts, 3-D
@@ -62,6 +66,10 @@ class Arrivals:
     direction_local : (E, 3) float
         The same unit vector in the listener's frame (forward, left, up); the
         sound comes from ``-direction_local``.
+    doppler : (E,) float
+        ``dt/dτ`` at the arrival, ``1 / (1 − Ḋ/c0)`` with ``Ḋ = û · V_L`` the
+        rate at which the moving listener recedes from the emitter: an emitted
+        waveform of duration T is heard lasting ``doppler · T`` (< 1 approaching).
     gains : (n_channels, E) float or None
         Panning gains of the layout for the direction the sound comes from
         (None when no layout was given).
@@ -72,6 +80,7 @@ class Arrivals:
     listener: NDArray[np.float64]
     direction: NDArray[np.float64]
     direction_local: NDArray[np.float64]
+    doppler: NDArray[np.float64]
     gains: NDArray[np.float64] | None = None
 
 
@@ -104,6 +113,12 @@ def arrival_times(positions: NDArray[np.floating], times: NDArray[np.floating],
     -------
     (E,) arrival times in playback seconds since the path's first capture.
     """
+    return _solve(positions, times, path, c0)[0]
+
+
+def _solve(positions: NDArray[np.floating], times: NDArray[np.floating], path: ListenerPath,
+           c0: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """Arrival times (E,) and the listener's velocity (E, 3) (m/s) at them."""
     x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     tau = np.asarray(times, dtype=np.float64).reshape(-1)
     if tau.shape[0] != x.shape[0]:
@@ -135,6 +150,7 @@ def arrival_times(positions: NDArray[np.floating], times: NDArray[np.floating],
         lo[open_[neg]] = mid[neg]
         hi[open_[~neg]] = mid[~neg]
     t = np.empty(E)
+    vel = np.zeros((E, 3))
     held = (lo < 0) | (lo >= N - 1)  # before the first or after the last capture
     if np.any(held):
         i = np.flatnonzero(held)
@@ -144,7 +160,7 @@ def arrival_times(positions: NDArray[np.floating], times: NDArray[np.floating],
     if i.size:
         k = lo[i]
         h = T[k + 1] - T[k]
-        V = (P[k + 1] - P[k]) / np.where(h > 0, h, 1.0)[:, None]
+        V = np.where((h > 0)[:, None], (P[k + 1] - P[k]) / np.where(h > 0, h, 1.0)[:, None], 0.0)
         A = P[k] - x[i]
         b = T[k] - tau[i]
         c2 = c0 * c0
@@ -164,7 +180,8 @@ def arrival_times(positions: NDArray[np.floating], times: NDArray[np.floating],
         s = np.where(ok1 & ok2, np.minimum(r1, r2), np.where(ok1, r1, np.where(ok2, r2, 0.0)))
         s = np.clip(s, 0.0, h)
         t[i] = T[k] + s
-    return t
+        vel[i] = V
+    return t, vel
 
 
 def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
@@ -194,19 +211,21 @@ def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
     """
     path = as_path(listener)
     x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    t = arrival_times(x, times, path, c0=c0)
+    t, vel = _solve(x, times, path, c0)
     ta = path.times[0] + t
     L = path.position_at(ta)
     d_vec = x - L  # listener -> emitter
     D = np.linalg.norm(d_vec, axis=1)
     u = -d_vec / np.where(D > 0, D, 1.0)[:, None]
+    # dt/dτ = 1 / (1 − Ḋ/c0) with Ḋ = û · V the listener's speed away from the emitter
+    doppler = 1.0 / np.maximum(1.0 - np.sum(u * vel, axis=1) / c0, 1e-6)
     fwd, up = path.orientation_at(ta)
     local = listener_frame(u, fwd, up)
     gains = None
     if layout is not None:
         lay = get_layout(layout)
         gains = pan_gains(lay, listener_frame(d_vec, fwd, up))
-    return Arrivals(t, D, L, u, local, gains)
+    return Arrivals(t, D, L, u, local, doppler, gains)
 
 
 def sparse_gains(gains: NDArray[np.floating]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:

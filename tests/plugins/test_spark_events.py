@@ -42,6 +42,7 @@ def test_static_listener_arrives_after_d_over_c0() -> None:
     # a path with several captures standing still gives the same times
     path = ListenerPath(np.array([0.0, 0.7, 3.0, 9.0]), np.tile(L, (4, 1)))
     np.testing.assert_allclose(arrival_times(x, tau, path), tau + D / C, rtol=1e-13)
+    np.testing.assert_array_equal(a.doppler, 1.0)
 
 
 @pytest.mark.parametrize("n_captures", [2, 7, 50])
@@ -61,6 +62,7 @@ def test_listener_moving_towards_the_source(n_captures: int, v: float) -> None:
     np.testing.assert_allclose(a.direction, np.tile([1.0, 0, 0], (25, 1)), atol=1e-12)
     # received spacing of equally spaced emissions: the Doppler factor c0/(c0 + v)
     np.testing.assert_allclose(np.diff(a.time), np.diff(tau) * C / (C + v), rtol=1e-9)
+    np.testing.assert_allclose(a.doppler, C / (C + v), rtol=1e-12)
 
 
 def test_curved_path_matches_brute_force_and_ends_are_held() -> None:
