@@ -197,7 +197,9 @@ def simulate(source: Any = None, listener: ListenerPath | NDArray[np.floating] |
         gamma=gamma, reference=reference, branch_probability=branch_probability,
         branch_length=branch_length, strokes=strokes, seed=seed, step=step,
         charge_field=charge_field)  # fmt: skip
-    lis = np.asarray(get_preset(preset).listener, dtype=np.float64) if listener is None else listener
+    lis = (
+        np.asarray(get_preset(preset).listener, dtype=np.float64) if listener is None else listener
+    )
     ren = part.render_part(as_path(lis), rate=rate, layout=layout, duration=duration, c0=c0)
     return SparkResult(ren, part.discharge, fld, part.strokes, part.params, lis, seed, timings)
 
