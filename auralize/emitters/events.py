@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from auralize.emitters import C0
 from auralize.errors import ParameterError
-from auralize.listener import ListenerPath
+from auralize.listener import FORWARD, UP, ListenerPath
 from auralize.spatial import Layout, get_layout, listener_frame, pan_gains
 
 
@@ -90,12 +90,31 @@ def as_path(
     """A ListenerPath from a path or a static (3,) position (one capture, forward +y, up +z)."""
     if isinstance(listener, ListenerPath):
         return listener
+    return ListenerPath(np.zeros(1), _position(listener)[None], source="static listener")
+
+
+def _position(listener: object) -> NDArray[np.float64]:
     p = np.asarray(listener, dtype=np.float64)
     if p.shape != (3,) or not np.all(np.isfinite(p)):
         raise ParameterError(
             f"listener must be a ListenerPath or a finite (x, y, z) position in m, got {listener!r}"
         )
-    return ListenerPath(np.zeros(1), p[None], source="static listener")
+    return p
+
+
+def _check(positions: NDArray[np.floating], times: NDArray[np.floating],
+           c0: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    tau = np.asarray(times, dtype=np.float64).reshape(-1)
+    if tau.shape[0] != x.shape[0]:
+        raise ParameterError(
+            f"emission times {tau.shape} and positions {x.shape} must both have E rows"
+        )
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(tau))):
+        raise ParameterError("emission positions and times must be finite")
+    if not (np.isfinite(c0) and c0 > 0):
+        raise ParameterError(f"c0 must be a positive speed in m/s, got {c0!r}")
+    return x, tau
 
 
 def arrival_times(positions: NDArray[np.floating], times: NDArray[np.floating],
@@ -119,20 +138,13 @@ def arrival_times(positions: NDArray[np.floating], times: NDArray[np.floating],
 def _solve(positions: NDArray[np.floating], times: NDArray[np.floating], path: ListenerPath,
            c0: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
     """Arrival times (E,) and the listener's velocity (E, 3) (m/s) at them."""
-    x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    tau = np.asarray(times, dtype=np.float64).reshape(-1)
-    if tau.shape[0] != x.shape[0]:
-        raise ParameterError(
-            f"emission times {tau.shape} and positions {x.shape} must both have E rows"
-        )
-    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(tau))):
-        raise ParameterError("emission positions and times must be finite")
-    if not (np.isfinite(c0) and c0 > 0):
-        raise ParameterError(f"c0 must be a positive speed in m/s, got {c0!r}")
+    x, tau = _check(positions, times, c0)
     T = path.times - path.times[0]
     P = path.positions
     N = T.size
     E = tau.size
+    if N == 1:  # a static listener: t = τ + D/c0
+        return tau + np.linalg.norm(P[0] - x, axis=1) / c0, np.zeros((E, 3))
 
     def f(k: NDArray[np.int64], rows: NDArray[np.int64]) -> NDArray[np.float64]:
         """t − τ − D/c0 at capture k for emissions ``rows``."""
@@ -209,23 +221,36 @@ def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
     >>> float(a.time[0]), float(a.distance[0])
     (1.5, 343.0)
     """
-    path = as_path(listener)
-    x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    t, vel = _solve(x, times, path, c0)
-    ta = path.times[0] + t
-    L = path.position_at(ta)
+    if isinstance(listener, ListenerPath) and listener.n_captures > 1:
+        path = listener
+        x, tau = _check(positions, times, c0)
+        t, vel = _solve(x, tau, path, c0)
+        ta = path.times[0] + t
+        L = path.position_at(ta)
+        fwd, up = path.orientation_at(ta)
+    else:  # one place, one orientation: t = τ + D/c0
+        if isinstance(listener, ListenerPath):
+            assert listener.forward is not None and listener.up is not None
+            p0, fwd, up = listener.positions[0], listener.forward[:1], listener.up[:1]
+        else:
+            p0, fwd, up = _position(listener), FORWARD[None], UP[None]
+        x, tau = _check(positions, times, c0)
+        L = np.broadcast_to(p0, x.shape)
+        vel = None
     d_vec = x - L  # listener -> emitter
     D = np.linalg.norm(d_vec, axis=1)
     u = -d_vec / np.where(D > 0, D, 1.0)[:, None]
-    # dt/dτ = 1 / (1 − Ḋ/c0) with Ḋ = û · V the listener's speed away from the emitter
-    doppler = 1.0 / np.maximum(1.0 - np.sum(u * vel, axis=1) / c0, 1e-6)
-    fwd, up = path.orientation_at(ta)
+    if vel is None:
+        t = tau + D / c0
+        doppler = np.ones(D.size)
+    else:
+        # dt/dτ = 1 / (1 − Ḋ/c0) with Ḋ = û · V the listener's speed away from the emitter
+        doppler = 1.0 / np.maximum(1.0 - np.sum(u * vel, axis=1) / c0, 1e-6)
     local = listener_frame(u, fwd, up)
     gains = None
     if layout is not None:
-        lay = get_layout(layout)
-        gains = pan_gains(lay, listener_frame(d_vec, fwd, up))
-    return Arrivals(t, D, L, u, local, doppler, gains)
+        gains = pan_gains(get_layout(layout), -local)
+    return Arrivals(t, D, np.array(L), u, local, doppler, gains)
 
 
 def sparse_gains(gains: NDArray[np.floating]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:

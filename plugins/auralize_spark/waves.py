@@ -53,7 +53,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.emitters import C0
-from auralize.emitters.events import arrivals, as_path, sparse_gains
+from auralize.emitters.events import arrivals, sparse_gains
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout, get_layout
@@ -366,7 +366,7 @@ class DischargePart:
             raise ParameterError(f"start must be a finite time in s, got {start!r}")
         lay = get_layout(layout)
         t_start = time.perf_counter()
-        em = self.emissions(as_path(path), layout=lay, c0=c0)
+        em = self.emissions(path, layout=lay, c0=c0)
         t_geo = time.perf_counter()
         if duration is None:
             duration = em.end_time + 0.01 - start
