@@ -139,9 +139,6 @@ def cmd_render(args: argparse.Namespace) -> int:
                      highpass_hz=args.highpass, alpha=args.alpha, f_cut=args.fcut,
                      levels=args.levels, eps=args.eps, training=train, seed=args.seed)  # fmt: skip
     out = render(snd, path, rate=args.rate, layout=lay, duration=args.duration)
-    out.meta.update(
-        {k: v for k, v in snd.meta.items() if k in ("iso", "extend", "moving", "units")}
-    )
     out.meta["seconds"] = time.perf_counter() - t
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format, extra={"model": "fire"})  # fmt: skip

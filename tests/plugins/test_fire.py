@@ -290,9 +290,8 @@ def test_lowfreq_chain_and_model(fire_volume: TimeVolume) -> None:
     assert np.trapezoid(p, dx=1 / RATE) == pytest.approx(
         fs.flux[-1] - fs.flux[0], rel=0.05, abs=1e-6
     )
-    from auralize.listener import ListenerPath
-
     from auralize.emitters import Emitters, Sound, render
+    from auralize.listener import ListenerPath
 
     snd = FireSound().synthesize(fire_volume, extend="bandwidth", rate=RATE)
     assert isinstance(snd, Sound) and len(snd.parts) == 1
