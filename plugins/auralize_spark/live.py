@@ -83,7 +83,7 @@ class LiveDischarges:
     >>> import numpy as np
     >>> from auralize_spark.waves import WaveParams
     >>> d = Discharge(np.array([[0.0, 0, 0], [0.002, 0, 0]]), [-1, 0], [True, True])
-    >>> with LiveDischarges(np.array([0.0, 100.0, 0.0]),
+    >>> with LiveDischarges(np.array([0.0, 1000.0, 0.0]),  # the sound is due after 2.9 s
     ...                     params=WaveParams(r0=0.05, T0=30e-6, ps0=500.0)) as live:
     ...     report = live.submit(d).result()
     >>> report.exceeded
