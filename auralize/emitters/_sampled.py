@@ -76,6 +76,20 @@ def _position(pos, s, u):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
+def _velocity(pos, s, u, pos_rate):  # type: ignore[no-untyped-def]
+    """Velocity (m/s) of emitter s's trajectory at fractional sample u (0 where held)."""
+    m = pos.shape[1]
+    if m == 1 or u < 0.0 or u >= m - 1:
+        return 0.0, 0.0, 0.0
+    i = int(u)
+    return (
+        (pos[s, i + 1, 0] - pos[s, i, 0]) * pos_rate,
+        (pos[s, i + 1, 1] - pos[s, i, 1]) * pos_rate,
+        (pos[s, i + 1, 2] - pos[s, i, 2]) * pos_rate,
+    )
+
+
+@numba.njit(inline="always", **_NJIT)
 def _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0):  # type: ignore[no-untyped-def]
     """Retarded time of moving emitter s heard at (t, L) by fixed point from ``tau``."""
     for _ in range(60):
@@ -88,141 +102,187 @@ def _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0):  # type: ign
     return tau
 
 
+@numba.njit(inline="always", **_NJIT)
+def _rate(dx, dy, dz, dt, vl, sx, sy, sz, inv_c0):  # type: ignore[no-untyped-def]
+    """dτ/dt for emitter-minus-listener (dx, dy, dz) of length dt, velocities vl, s."""
+    if dt <= 0.0:
+        return 1.0
+    k = -inv_c0 / dt  # n = -(dx, dy, dz) / dt
+    num = 1.0 - k * (dx * vl[0] + dy * vl[1] + dz * vl[2])
+    den = 1.0 - k * (dx * sx + dy * sy + dz * sz)
+    return num / den
+
+
+@numba.njit(inline="always", **_NJIT)
+def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t, lx, ly, lz,
+           fx, fy, fz, ux, uy, uz, tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Emitter s heard at time t by a listener at L with forward f, up u.
+
+    Writes the amplitude weights ``w[j]`` (1/D^e, times the unit vector from
+    the emitter to the listener for a dipole) and panning gains ``g[j]``;
+    returns the emission index, the emitter-minus-listener vector and its
+    length, and the emitter's velocity.  ``tau``: a guess of the retarded
+    time for a moving emitter (the fixed point starts there).
+    """
+    if moving:
+        tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
+        x, y, z = _position(pos, s, (tau - t_pos) * pos_rate)
+        sx, sy, sz = _velocity(pos, s, (tau - t_pos) * pos_rate, pos_rate)
+    else:
+        x, y, z = pos[s, 0, 0], pos[s, 0, 1], pos[s, 0, 2]
+        sx, sy, sz = 0.0, 0.0, 0.0
+    dx, dy, dz = x - lx, y - ly, z - lz
+    dt = math.sqrt(dx * dx + dy * dy + dz * dz)
+    tau = t - dt * inv_c0
+    d = max(dt, radius[s])
+    amp = 1.0 / d if exponent == 1.0 else d ** (-exponent)
+    if sig_c == 1:
+        w[j, 0] = amp
+    elif dt > 0.0:
+        a = amp / dt
+        w[j, 0] = -dx * a
+        w[j, 1] = -dy * a
+        w[j, 2] = -dz * a
+    else:
+        w[j, 0] = 0.0
+        w[j, 1] = 0.0
+        w[j, 2] = 0.0
+    if g.shape[1] > 1:
+        _gains(dx, dy, dz, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, g[j])
+    return (tau - t_sig) * fs, tau, dx, dy, dz, dt, sx, sy, sz
+
+
+@numba.njit(inline="always", **_NJIT)
+def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w, ja, jb, wk, ka,
+             kb, g, gk):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Samples ``i_lo <= i < i_hi`` of a block between positions p0 and p1 (samples):
+    emission index ``x0 + u (h1 + u (h2 + u h3))`` with u = (i − p0)/(p1 − p0), weights
+    and gains linear from row ``ja`` of (w, g) or, if ``ka``, from row ``ja`` of
+    (wk, gk); to row ``jb`` likewise with ``kb``.  Adds to ``out[:, n0 + i]``."""
+    C = sig.shape[1]
+    n_ch = out.shape[0]
+    inv = 1.0 / (p1 - p0)
+    for i in range(i_lo, i_hi):
+        u = (i - p0) * inv
+        xi = x0 + u * (h1 + u * (h2 + u * h3))
+        v = 0.0
+        if xi >= 0.0 and xi <= last:
+            i0 = int(xi)
+            f = xi - i0
+            if i0 >= last:
+                i0 = last
+                f = 0.0
+            i1 = min(i0 + 1, last)
+            for k in range(C):
+                wa = wk[ja, k] if ka else w[ja, k]
+                wb = wk[jb, k] if kb else w[jb, k]
+                s0 = sig[s, k, i0]
+                v += (wa + u * (wb - wa)) * (s0 + f * (sig[s, k, i1] - s0))
+        vbuf[i] = v
+    if n_ch == 1:
+        for i in range(i_lo, i_hi):
+            out[0, n0 + i] += vbuf[i]
+        return
+    for c in range(n_ch):
+        ga = gk[ja, c] if ka else g[ja, c]
+        gb = gk[jb, c] if kb else g[jb, c]
+        if ga == 0.0 and gb == 0.0:  # a silent channel only ever adds 0
+            continue
+        dg = (gb - ga) * inv
+        for i in range(i_lo, i_hi):
+            out[c, n0 + i] += (ga + dg * (i - p0)) * vbuf[i]
+
+
 @numba.njit(**_NJIT)
-def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, F, U,
-            kf, tk, Lk, spk_az, spk_ch, fold, pinv, K, off, out, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip
+def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, VR, VL, F, U,
+            kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, out, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip
     """Add the emitters heard in blocks ``b0 <= b < b1`` to ``out (n_ch, n)``.
 
     ``sig (S, C, n_e)`` emitted signals (C = 1 monopole, 3 dipole G) at rate
     ``fs`` from playback second ``t_sig``; ``pos (S, m, 3)`` positions at
     ``pos_rate`` from ``t_pos`` (m = 1: static); ``tb (B+1,)`` control-point
-    times with listener position ``L``, forward ``F`` and up ``U`` there;
-    block b covers output samples ``b·K − off`` to ``(b+1)·K − off``.
-    ``kf (B,)``: the fractional sample in block b of a listener capture (a
-    kink of the listener's path, where dτ/dt jumps), -1 for none; the
-    emission index is interpolated on both sides of it (listener ``Lk``
-    at time ``tk`` there).
-    Blocks of different ranges write disjoint samples (threads share ``out``).
+    times with listener position ``L``, velocity on the path segment after
+    (``VR``) and before (``VL``), forward ``F`` and up ``U`` there; block b
+    covers output samples ``b·K − off`` to ``(b+1)·K − off``.  The emission
+    index is the cubic Hermite interpolant of the retarded time and its rate
+    ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)`` (n the unit vector from the
+    emitter to the listener) at the block's ends; weights and gains are
+    interpolated linearly.  ``kf (B,)``: the fractional sample in block b of
+    a listener capture (a kink of the listener's path), -1 for none; such a
+    block is split there into two linear pieces (listener ``Lk``, ``Fk``,
+    ``Uk`` at time ``tk``).  Blocks of different ranges write disjoint
+    samples (threads share ``out``).
     """
     S, C, n_e = sig.shape
     n_ch, n = out.shape
     moving = pos.shape[1] > 1
     inv_c0 = 1.0 / c0
-    inv_K = 1.0 / K
     CB = _CHUNK_BLOCKS
     xe = np.empty(CB + 1)
+    ma = np.empty(CB + 1)
+    mb = np.empty(CB + 1)
     xk = np.empty(CB)
     w = np.empty((CB + 1, C))
-    g = np.empty((CB + 1, n_ch))
-    gt = np.empty(n_ch)
+    g = np.zeros((CB + 1, n_ch))
+    wk = np.empty((CB, C))
+    gk = np.zeros((CB, n_ch))
     vbuf = np.empty(K)
-    act = np.empty(n_ch, dtype=np.int64)
     last = n_e - 1
     for cb0 in range(b0, b1, CB):
         cb1 = min(cb0 + CB, b1)
         for s in range(S):
-            tau_prev = 0.0
+            tau = 0.0
             for b in range(cb0, cb1 + 1):
                 j = b - cb0
                 t = tb[b]
-                lx, ly, lz = L[b, 0], L[b, 1], L[b, 2]
-                if moving:
-                    if b == cb0:  # start from the emitter's position at t
+                if moving:  # the guess: the last retarded time, or the emitter's place at t
+                    if b == cb0:
                         x, y, z = _position(pos, s, (t - t_pos) * pos_rate)
-                        tau = t - math.sqrt((lx - x) ** 2 + (ly - y) ** 2 + (lz - z) ** 2) * inv_c0
+                        tau = t - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2
+                                            + (L[b, 2] - z) ** 2) * inv_c0  # fmt: skip
                     else:
-                        tau = tau_prev + (tb[b] - tb[b - 1])
-                    tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
-                    x, y, z = _position(pos, s, (tau - t_pos) * pos_rate)
-                    tau_prev = tau
-                else:
-                    x, y, z = pos[s, 0, 0], pos[s, 0, 1], pos[s, 0, 2]
-                dx, dy, dz = x - lx, y - ly, z - lz
-                dt = math.sqrt(dx * dx + dy * dy + dz * dz)
-                tau = t - dt * inv_c0
-                d = max(dt, radius[s])
-                if exponent == 1.0:
-                    amp = 1.0 / d
-                else:
-                    amp = d ** (-exponent)
-                xe[j] = (tau - t_sig) * fs
+                        tau += t - tb[b - 1]
+                xe[j], tau, dx, dy, dz, dt, sx, sy, sz = _point(
+                    C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t,
+                    L[b, 0], L[b, 1], L[b, 2], F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1], U[b, 2],
+                    tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j)  # fmt: skip
+                # dτ/dt on both sides (the listener's velocity may jump at a
+                # capture), in signal samples per block
+                if b < cb1:
+                    ma[j] = (tb[b + 1] - t) * fs * _rate(dx, dy, dz, dt, VR[b], sx, sy, sz, inv_c0)
+                if b > cb0:
+                    mb[j] = (t - tb[b - 1]) * fs * _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
                 if b < cb1 and kf[b] >= 0.0:  # a capture inside the block
-                    kx, ky, kz = Lk[b, 0], Lk[b, 1], Lk[b, 2]
-                    if moving:
-                        tq = _retarded(pos, s, pos_rate, t_pos, tk[b], kx, ky, kz,
-                                       tau + (tk[b] - t), inv_c0)  # fmt: skip
-                        x, y, z = _position(pos, s, (tq - t_pos) * pos_rate)
-                    tq = tk[b] - math.sqrt((x - kx) ** 2 + (y - ky) ** 2 + (z - kz) ** 2) * inv_c0
-                    xk[j] = (tq - t_sig) * fs
-                if C == 1:
-                    w[j, 0] = amp
-                elif dt > 0.0:
-                    a = amp / dt
-                    w[j, 0] = -dx * a
-                    w[j, 1] = -dy * a
-                    w[j, 2] = -dz * a
-                else:
-                    w[j, 0] = 0.0
-                    w[j, 1] = 0.0
-                    w[j, 2] = 0.0
-                if n_ch > 1:
-                    _gains(dx, dy, dz, F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1], U[b, 2],
-                           spk_az, spk_ch, fold, pinv, gt)  # fmt: skip
-                    for c in range(n_ch):
-                        g[j, c] = gt[c]
+                    xk[j], _, _, _, _, _, _, _, _ = _point(
+                        C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, tk[b],
+                        Lk[b, 0], Lk[b, 1], Lk[b, 2], Fk[b, 0], Fk[b, 1], Fk[b, 2], Uk[b, 0],
+                        Uk[b, 1], Uk[b, 2], tau + (tk[b] - t), t_sig, fs, spk_az, spk_ch, fold,
+                        pinv, wk, gk, j)  # fmt: skip
             for b in range(cb0, cb1):
                 j = b - cb0
                 xa = xe[j]
                 xb = xe[j + 1]
-                if (xa < 0.0 and xb < 0.0) or (xa > last and xb > last):
-                    continue  # silent block (xe is linear within it)
+                if (xa < -1.0 and xb < -1.0) or (xa > last + 1.0 and xb > last + 1.0):
+                    continue  # silent block
                 n0 = b * K - off
                 i_lo = max(0, -n0)
                 i_hi = min(K, n - n0)
                 if i_lo >= i_hi:
                     continue
                 kj = kf[b]
-                dxe = (xb - xa) * inv_K
-                if kj >= 0.0:
-                    dxa = (xk[j] - xa) / kj
-                    dxb = (xb - xk[j]) / (K - kj)
-                for i in range(i_lo, i_hi):
-                    if kj < 0.0:
-                        xi = xa + dxe * i
-                    elif i < kj:
-                        xi = xa + dxa * i
-                    else:
-                        xi = xk[j] + dxb * (i - kj)
-                    v = 0.0
-                    if xi >= 0.0 and xi <= last:
-                        i0 = int(xi)
-                        fi = i * inv_K
-                        if i0 >= last:
-                            for k in range(C):
-                                v += (w[j, k] + fi * (w[j + 1, k] - w[j, k])) * sig[s, k, last]
-                        else:
-                            f = xi - i0
-                            for k in range(C):
-                                s0 = sig[s, k, i0]
-                                v += (w[j, k] + fi * (w[j + 1, k] - w[j, k])) * (
-                                    s0 + f * (sig[s, k, i0 + 1] - s0)
-                                )
-                    vbuf[i] = v
-                if n_ch == 1:
-                    for i in range(i_lo, i_hi):
-                        out[0, n0 + i] += vbuf[i]
-                    continue
-                n_act = 0
-                for c in range(n_ch):  # channels silent at both ends only ever add 0
-                    if g[j, c] != 0.0 or g[j + 1, c] != 0.0:
-                        act[n_act] = c
-                        n_act += 1
-                for ci in range(n_act):
-                    c = act[ci]
-                    ga = g[j, c]
-                    dg = (g[j + 1, c] - ga) * inv_K
-                    for i in range(i_lo, i_hi):
-                        out[c, n0 + i] += (ga + dg * i) * vbuf[i]
+                if kj < 0.0:  # cubic Hermite emission index
+                    h2 = 3.0 * (xb - xa) - 2.0 * ma[j] - mb[j + 1]
+                    h3 = 2.0 * (xa - xb) + ma[j] + mb[j + 1]
+                    _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, 0.0, float(K), xa, ma[j],
+                             h2, h3, w, j, j + 1, wk, False, False, g, gk)  # fmt: skip
+                else:  # linear on both sides of the capture
+                    ik = min(max(int(math.ceil(kj)), i_lo), i_hi)
+                    if ik > i_lo:
+                        _segment(sig, s, last, vbuf, out, n0, i_lo, ik, 0.0, kj, xa, xk[j] - xa,
+                                 0.0, 0.0, w, j, j, wk, False, True, g, gk)  # fmt: skip
+                    if i_hi > ik:
+                        _segment(sig, s, last, vbuf, out, n0, ik, i_hi, kj, float(K), xk[j],
+                                 xb - xk[j], 0.0, 0.0, w, j, j + 1, wk, True, False, g, gk)  # fmt: skip
 
 
 def _run(fn: Callable[[int], None], n: int) -> None:
@@ -298,6 +358,22 @@ def _anti_image(k: int, rate: int, band: float) -> NDArray[np.float64]:
     return np.asarray(firwin(numtaps, band + 0.5 * width, fs=rate, window=("kaiser", beta)))
 
 
+def _path_velocities(path: Any, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+    """Listener velocity (m/s) at path times ``t`` on the segment after and before each."""
+    T, P = path.times, path.positions
+    n = T.size
+    if n < 2:
+        z = np.zeros((t.size, 3))
+        return z, z.copy()
+    dt = np.diff(T)
+    v = np.diff(P, axis=0) / np.where(dt > 0, dt, 1.0)[:, None]
+    v[dt <= 0] = 0.0
+    v = np.vstack([np.zeros((1, 3)), v, np.zeros((1, 3))])  # held outside the path
+    iR = np.searchsorted(T, t, side="right")
+    iL = np.searchsorted(T, t, side="left")
+    return np.ascontiguousarray(v[iR]), np.ascontiguousarray(v[iL])
+
+
 def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, start: float,
                    c0: float, block: int = BLOCK, oversample: int = 4,
                    internal: bool = True, prepared: Prepared | None = None,
@@ -351,6 +427,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     else:
         j_lo, n_int = 0, n_out
         t_of = lambda j: start + j / R  # noqa: E731
+    K = max(4, int(round(K / k)))  # control points as often in time as at the output rate
     meta = {"internal_rate_hz": float(R), "signal_rate_hz": float(fs), "block": K}
     if n_out <= 0:
         return np.zeros((n_ch, max(n_out, 0))), {**meta, "threads": 0}
@@ -373,6 +450,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     off = j_lo % K
     tb = np.array([t_of(j_lo - off + b * K) for b in range(B + 1)])
     L = np.ascontiguousarray(path.position_at(tp0 + tb))
+    VR, VL = _path_velocities(path, tp0 + tb)
     if n_ch > 1:
         F, U = path.orientation_at(tp0 + tb)
         spk_az, spk_ch = lay.panning_arrays()
@@ -391,17 +469,22 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
         frac = (tc - tb[bi]) / (tb[bi + 1] - tb[bi]) * K
         keep = (frac > 1e-6) & (frac < K - 1e-6)
         bi, frac = bi[keep], frac[keep]
-        first = np.r_[True, bi[1:] != bi[:-1]]  # one kink per block (the first)
-        kf[bi[first]] = frac[first]
+        if bi.size:
+            first = np.r_[True, bi[1:] != bi[:-1]]  # one kink per block (the first)
+            kf[bi[first]] = frac[first]
     tk = np.where(kf >= 0, tb[:-1] + np.maximum(kf, 0.0) / K * np.diff(tb), 0.0)
     Lk = np.ascontiguousarray(path.position_at(tp0 + tk))
+    if n_ch > 1:
+        Fk, Uk = (np.ascontiguousarray(a) for a in path.orientation_at(tp0 + tk))
+    else:
+        Fk = Uk = np.zeros((B, 3))
     pos = em.positions if em.moving else em.positions[:, None, :]
     out = np.zeros((n_ch, n_int))
     nt = threads if threads is not None else (_N_THREADS if n_int >= _MIN_SPLIT else 1)
     nt = max(1, min(int(nt), _N_THREADS, B))
     edges = [B * i // nt for i in range(nt + 1)]
     args = (prepared.sig, prepared.fs, prepared.t0, np.ascontiguousarray(pos), float(em.pos_rate),
-            float(em.t0), em.radius, float(e), float(c0), tb, L, F, U, kf, tk, Lk,
+            float(em.t0), em.radius, float(e), float(c0), tb, L, VR, VL, F, U, kf, tk, Lk, Fk, Uk,
             np.ascontiguousarray(spk_az, dtype=np.float64),
             np.ascontiguousarray(spk_ch, dtype=np.int64), bool(lay.fold_front),
             np.ascontiguousarray(pinv, dtype=np.float64), K, off, out)  # fmt: skip
