@@ -268,6 +268,8 @@ def test_bad_input_gives_clear_errors() -> None:
         render_emitters(em, path, backend="fast")
     with pytest.raises(ParameterError, match="block must be"):
         render_emitters(em, path, block=0)
+    with pytest.raises(ParameterError, match="oversample must be"):
+        render_emitters(em, path, oversample=0)
     with pytest.raises(ParameterError, match="duration must be"):
         render_emitters(em, path, duration=-1.0)
     with pytest.raises(ParameterError, match="rate must be"):
@@ -283,3 +285,18 @@ def test_silent_window_and_zero_duration() -> None:
     empty = render_emitters(em, ListenerPath.point((0, 0, 0), duration=0.1), rate=RATE,
                             duration=0.0).audio  # fmt: skip
     assert empty.shape == (1, 0)
+
+
+def test_a_sound_is_the_sum_of_its_parts_and_examples_run() -> None:
+    import doctest
+
+    import auralize.emitters.engine as engine
+
+    path = _path()
+    a, b = _emitters("static monopole"), _emitters("moving dipole")
+    mix = render(Sound([a, b]), path, rate=RATE, layout="ring8")
+    alone = [render_emitters(e, path, rate=RATE, layout="ring8").audio for e in (a, b)]
+    assert np.max(np.abs(mix.audio - alone[0] - alone[1])) < 1e-12 * np.max(np.abs(mix.audio))
+    assert [p["kind"] for p in mix.meta["parts"]] == ["Emitters", "Emitters"]
+    res = doctest.testmod(engine, optionflags=doctest.ELLIPSIS)
+    assert res.failed == 0 and res.attempted > 0

@@ -62,7 +62,8 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     Raises
     ------
     ParameterError
-        Unknown backend, non-positive rate, negative duration or block.
+        Unknown backend, a rate, block or oversampling factor out of range,
+        a negative duration.
     """
     if backend not in BACKENDS:
         raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
@@ -78,6 +79,10 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
         raise ParameterError(f"start must be finite, got {start!r}")
     if isinstance(block, bool) or not (isinstance(block, int | np.integer) and 1 <= block <= 4096):
         raise ParameterError(f"block must be an integer in 1..4096 samples, got {block!r}")
+    if isinstance(oversample, bool) or not (
+        isinstance(oversample, int | np.integer) and 1 <= oversample <= 64
+    ):
+        raise ParameterError(f"oversample must be an integer in 1..64, got {oversample!r}")
     lay = get_layout(layout)
     dur = path.duration - start if duration is None else float(duration)
     if not (np.isfinite(dur) and dur >= 0):
