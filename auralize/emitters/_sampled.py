@@ -467,13 +467,19 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     R = rate / k
     h = _anti_image(k, int(rate), 0.5 * em.rate * 1.25) if k > 1 else np.zeros(0)
     P = (h.size // (2 * k) + 2) if k > 1 else 0
+    # evaluation sample j is at playback second j / R (a grid fixed in time, so
+    # windows join without seams) or, for a start off the output grid, start + j / R
     if aligned:
         j_lo = m0 // k - P
         n_int = -(-(m0 + n_out) // k) - j_lo + P + 1 if k > 1 else n_out
-        t_of = lambda j: j / R  # noqa: E731
+        t_base = 0.0
     else:
         j_lo, n_int = 0, n_out
-        t_of = lambda j: start + j / R  # noqa: E731
+        t_base = float(start)
+
+    def t_of(j: Any) -> Any:
+        return t_base + j / R
+
     K = max(4, int(round(K / k)))  # control points as often in time as at the output rate
     meta = {"internal_rate_hz": float(R), "signal_rate_hz": float(fs), "block": K}
     if n_out <= 0:
@@ -495,7 +501,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
         prepared = prepare(em.signals, em.rate, em.t0, up, i_lo, i_hi)
     B = -(-(n_int + (j_lo % K)) // K)
     off = j_lo % K
-    tb = np.array([t_of(j_lo - off + b * K) for b in range(B + 1)])
+    tb = t_of(j_lo - off + np.arange(B + 1, dtype=np.float64) * K)
     L = np.ascontiguousarray(path.position_at(tp0 + tb))
     VR, VL = _path_velocities(path, tp0 + tb)
     if n_ch > 1:
