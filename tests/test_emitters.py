@@ -157,12 +157,14 @@ def test_block_renderer_equals_one_render() -> None:
     whole = render(sound, path, rate=RATE, layout="5.1").audio
     br = BlockRenderer(sound, path, rate=RATE, layout="5.1", block=1000)
     blocks = list(br)
-    assert len(blocks) == br.n_blocks == 9 and all(b.shape == (6, 1000) for b in blocks)
-    joined = np.concatenate(blocks, axis=1)[:, : whole.shape[1]]
+    assert len(blocks) == br.n_blocks == 9 and br.n_samples == whole.shape[1] == 8820
+    assert [b.shape[1] for b in blocks] == [1000] * 8 + [820]
+    joined = np.concatenate(blocks, axis=1)
     assert np.max(np.abs(joined - whole)) <= 1e-9 * np.max(np.abs(whole))
-    assert (
-        np.max(np.abs(np.concatenate(blocks, axis=1)[:, whole.shape[1] :])) > 0
-    )  # the tail goes on
+    part = br.render_range(1234, 567)  # any range, as live playback asks for
+    assert np.max(np.abs(part - whole[:, 1234:1801])) <= 1e-9 * np.max(np.abs(whole))
+    with pytest.raises(ParameterError, match="block index 9 outside"):
+        br.block(9)
 
 
 # ------------------------------------------------------------------ physics
