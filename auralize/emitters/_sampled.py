@@ -295,7 +295,10 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                 if b < cb1:
                     ma[j] = (tb[b + 1] - t) * fs * rate_prev
                 if b > cb0:
-                    mb[j] = (t - tb[b - 1]) * fs * _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                    r = rate_prev
+                    if VL[b, 0] != VR[b, 0] or VL[b, 1] != VR[b, 1] or VL[b, 2] != VR[b, 2]:
+                        r = _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                    mb[j] = (t - tb[b - 1]) * fs * r
                 if b < cb1 and kf[b] >= 0.0:  # a capture inside the block
                     xk[j], _, _, _, _, _, _, _, _ = _point(
                         C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, tk[b],
