@@ -19,7 +19,7 @@ the weights and gains are interpolated linearly; a block holding a listener
 capture (where the listener's velocity jumps) is split there into two linear
 pieces.  The emitted signal is read linearly at the emission index, weighted
 and added to the channels with non-zero gains.  Against the per-sample numpy
-reference (:mod:`auralize.emitters.reference`) this is within about 1e-5 of
+reference (:mod:`auralize.emitters.reference`) this is within about 1e-4 of
 the peak in mono and 1e-3 panned (the gains have kinks at speaker
 directions) for a turning, moving listener and emitters at tens of m/s.
 
