@@ -184,6 +184,16 @@ def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w,
     xb = x0 + ub * (h1 + ub * (h2 + ub * h3))
     inside = min(xa, xb) >= 0.5 and max(xa, xb) <= last - 1.5
     sg0 = sig[s, 0]
+    if inside and C == 1 and n_ch == 1:  # no bounds to check, straight to the output
+        o = out[0]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            i0 = int(xi)
+            f = xi - i0
+            a0 = sg0[i0]
+            o[n0 + i] += (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+        return
     if inside and C == 1:  # no bounds to check
         for i in range(i_lo, i_hi):
             u = (i - p0) * inv
@@ -192,6 +202,24 @@ def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w,
             f = xi - i0
             a0 = sg0[i0]
             vbuf[i] = (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+    elif inside and n_ch == 1:
+        sg1 = sig[s, 1]
+        sg2 = sig[s, 2]
+        o = out[0]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            i0 = int(xi)
+            f = xi - i0
+            a0 = sg0[i0]
+            a1 = sg1[i0]
+            a2 = sg2[i0]
+            o[n0 + i] += (
+                (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+                + (wa1 + u * dw1) * (a1 + f * (sg1[i0 + 1] - a1))
+                + (wa2 + u * dw2) * (a2 + f * (sg2[i0 + 1] - a2))
+            )
+        return
     elif inside:
         sg1 = sig[s, 1]
         sg2 = sig[s, 2]
