@@ -10,7 +10,7 @@ import pytest
 from auralize_vortex import Texture, TextureConfig, VortexSound, compute_texture, texture
 from auralize_vortex.datasets import make_fire_plume
 from auralize_vortex.fluid import StableFluids, curl
-from auralize_vortex.render import receive, render_vortex, split_subvolumes
+from auralize_vortex.render import render_vortex, split_subvolumes, vortex_emitters
 from auralize_vortex.texture import (
     howe_kernel,
     integral_cell_weights,
@@ -18,9 +18,10 @@ from auralize_vortex.texture import (
     third_derivative,
 )
 
+from auralize.emitters import Emitters, Sound, render
 from auralize.errors import DataError, FieldError, FormatError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.propagation import propagate
+from auralize.spatial import Speaker, make_layout
 from auralize.volume import TimeVolume
 
 C0 = 343.0
@@ -227,16 +228,6 @@ def test_speed_clamped_above_and_u4_below():
     assert top == pytest.approx(16 * clamp, rel=0.01)
 
 
-def test_receive_matches_core_propagate_ring8():
-    rng = np.random.default_rng(3)
-    sig = rng.normal(size=(3, 4000))
-    pos = np.array([[1.0, 5.0, 0.0], [-4.0, 1.0, 0.5], [2.0, -3.0, 0.0]])
-    path = ListenerPath.point((0, 0, 0), duration=0.3)
-    ref = propagate(sig, 8000, pos, path, rate=8000, layout="ring8", emit_t0=-0.05)
-    ours, _ = receive(sig, 8000, pos, path, rate=8000, layout="ring8", emit_t0=-0.05)
-    np.testing.assert_allclose(ours, ref, atol=1e-9)
-
-
 def test_limit_pa_truncates():
     res = render_vortex(_uniform_volume(4.0), ListenerPath.point((0, -1, 0), duration=0.3),
                         _sine_texture(), rate=RATE, limit_pa=1.0)  # fmt: skip
@@ -281,15 +272,26 @@ def test_fire_plume_dataset(plume):
 def test_model_synthesize_and_ring8(plume, tmp_path):
     tex = _sine_texture()
     path = ListenerPath.point(plume.center + [0, -2, 0], duration=0.3)
-    out = VortexSound().synthesize(
-        (plume, path), texture=tex.save(tmp_path / "t.h5").as_posix(), rate=RATE
-    )
-    assert out.signals.shape == (36, out.pressure.size) and out.positions.shape == (36, 3)
-    np.testing.assert_allclose(out.signals.sum(0), out.pressure, atol=1e-12)
+    sound = VortexSound().synthesize(plume, texture=tex.save(tmp_path / "t.h5").as_posix())
+    assert isinstance(sound, Sound) and len(sound.parts) == 1
+    em = sound.parts[0]
+    assert isinstance(em, Emitters) and em.n_emitters == 36 and em.positions.shape == (36, 3)
+    assert em.rate == 8 * tex.rate and em.t0 == -0.5 and sound.meta["n_sources"] == 36
+    # the data's 10 frames at 30 Hz are emitted (plus the lead), then the emitters fall silent
+    assert em.t_end == pytest.approx(9 / 30, abs=2 / em.rate)
+    mono = render(sound, path, rate=RATE)
+    assert mono.audio.shape == (1, int(0.3 * RATE)) and mono.meta["model"] == "vortex"
+    # the mix is the sum of the sub-volumes rendered alone
+    alone = sum(render(Emitters(em.signals[i : i + 1], em.rate, em.positions[i : i + 1], t0=em.t0),
+                       path, rate=RATE).audio for i in range(0, 36, 7))  # fmt: skip
+    some = Emitters(em.signals[::7], em.rate, em.positions[::7], t0=em.t0)
+    np.testing.assert_allclose(render(some, path, rate=RATE).audio, alone, atol=1e-12)
     r8 = render_vortex(plume, path, tex, rate=RATE, layout="ring8")
-    assert r8.audio.shape == (8, out.pressure.size)
+    assert r8.audio.shape == (8, int(0.3 * RATE)) and r8.meta["n_sources"] == 36
     with pytest.raises(ParameterError, match="attenuation"):
-        VortexSound().synthesize((plume, path), attenuation="cubic")
+        VortexSound().synthesize(plume, attenuation="cubic")
+    with pytest.raises(ParameterError, match="listener path goes to"):
+        VortexSound().synthesize((plume, path))
 
 
 def test_overlay_meshes(plume):
