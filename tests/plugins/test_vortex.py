@@ -234,6 +234,98 @@ def test_limit_pa_truncates():
     assert np.max(np.abs(res.audio)) == pytest.approx(1.0)
 
 
+# ---------------------------------------------------------------- the model through the engine
+def _pulse_texture() -> Texture:
+    t = np.arange(1000) / 1000.0
+    pulse = np.exp(-(((t - 0.3) / 0.01) ** 2))
+    return Texture([1.0, 4.0], np.stack([pulse / 256, pulse]), 1000.0, 0.2)
+
+
+def _peak_time(a: np.ndarray) -> float:
+    """Time (s) of the maximum of ``a``, refined by a parabola through its neighbours."""
+    k = int(np.argmax(a))
+    y0, y1, y2 = a[k - 1 : k + 2]
+    return (k + 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)) / RATE
+
+
+@pytest.mark.parametrize("law", ["physical", "paper"])
+def test_engine_arrival_is_distance_over_c0_and_amplitude_follows_the_law(law):
+    vol = _uniform_volume(u=4.0)  # one sub-volume at the origin, as large as the texture box
+    sound = VortexSound().synthesize(vol, texture=_pulse_texture(), offsets="zero", blend=0.0,
+                                     attenuation=law)  # fmt: skip
+    e = 1 if law == "physical" else 3
+    for x in [(3.0, 4.0, 0.0), (0.0, 0.0, -20.0), (10.0, -24.0, 0.0)]:
+        D = float(np.linalg.norm(x))
+        a = render(sound, ListenerPath.point(x, duration=0.5), rate=RATE).audio[0]
+        # the texture's pulse is emitted at 0.3 s and heard D/c0 later, with amplitude 1/D^e
+        assert _peak_time(a) == pytest.approx(0.3 + D / C0, abs=0.2 / RATE)
+        assert a.max() * D**e == pytest.approx(1.0, rel=2e-3)
+
+
+def test_engine_doppler_of_an_approaching_listener():
+    vol, tex = _uniform_volume(u=4.0), _sine_texture(100.0)
+    sound = VortexSound().synthesize(vol, texture=tex, blend=0.0)
+    v = C0 / 10
+    moving = ListenerPath.line((0.0, -40.0, 0.0), (0.0, -40.0 + v, 0.0), duration=1.0)
+    for path, f_expected in [(moving, 100.0 * (1 + v / C0)), (ListenerPath.point((0, -20, 0), duration=1.0), 100.0)]:  # fmt: skip
+        a = render(sound, path, rate=RATE).audio[0, int(0.2 * RATE) : int(0.9 * RATE)]
+        up = np.flatnonzero((a[:-1] < 0) & (a[1:] >= 0))
+        t_up = (up + a[up] / (a[up] - a[up + 1])) / RATE  # upward zero crossings
+        f = (t_up.size - 1) / (t_up[-1] - t_up[0])
+        assert f == pytest.approx(f_expected, abs=0.2)
+
+
+def _dome():
+    spk = [Speaker(f"S{k}", 45.0 * k) for k in range(8)]
+    spk += [Speaker(f"H{k}", 90.0 * k + 45.0, 45.0) for k in range(4)]
+    return make_layout("dome", spk)
+
+
+def test_engine_pans_a_subvolume_above_the_listener_to_the_height_speakers():
+    vol, tex = _uniform_volume(u=4.0), _sine_texture()
+    sound = VortexSound().synthesize(vol, texture=tex)
+    # listener facing +x, +z up; the sub-volume (at the origin) 3.5 m away above-front-left,
+    # in the direction of height speaker H0 (azimuth 45°, elevation 45°), then straight ahead
+    c = np.cos(np.pi / 4)
+    for d, ring8_ch, dome_ch in [(np.array([c * c, c * c, c]), 1, 8), (np.array([1.0, 0, 0]), 0, 0)]:  # fmt: skip
+        x = -3.5 * d
+        path = ListenerPath(np.array([0.0, 0.3]), np.stack([x, x]), np.array([[1.0, 0, 0]] * 2))
+        dome = render(sound, path, rate=RATE, layout=_dome()).audio
+        energy = np.sum(dome**2, axis=1)
+        assert energy[dome_ch] / energy.sum() >= 0.99
+        # a horizontal ring pans on the azimuth only (2-D VBAP)
+        ring = render(sound, path, rate=RATE, layout="ring8").audio
+        energy = np.sum(ring**2, axis=1)
+        assert energy[ring8_ch] / energy.sum() >= 0.99
+
+
+def test_engine_backends_agree_on_a_moving_turning_listener(plume):
+    tex = _sine_texture()
+    c = plume.center
+    path = ListenerPath(np.array([0.0, 0.1, 0.2]),
+                        np.array([c + [2.0, 0.5, -1.0], c + [1.0, 1.5, -0.5], c + [-0.5, 1.8, 0.2]]),
+                        np.array([[0.0, 1, 0], [-1, 1, 0.3], [-1, 0, 0.5]]))  # fmt: skip
+    kw = dict(rate=RATE, layout="ring8", block=8)
+    fast = render_vortex(plume, path, tex, **kw).audio
+    ref = render_vortex(plume, path, tex, backend="reference", **kw).audio
+    assert np.max(np.abs(ref)) > 0
+    assert np.max(np.abs(fast - ref)) / np.max(np.abs(ref)) < 5e-3
+
+
+def test_sound_limit_truncates_the_received_pressure_and_emission_has_soft_ends():
+    sound = VortexSound().synthesize(_uniform_volume(4.0), texture=_sine_texture(), limit_pa=1.0)
+    part = sound.parts[0]
+    assert type(part).__name__ == "TruncatedEmitters" and sound.meta["limit_pa"] == 1.0
+    two = render(sound, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE, layout="stereo")
+    assert np.max(np.abs(two.audio)) == pytest.approx(1.0)
+    free = render(part.emitters, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE)
+    assert np.max(np.abs(free.audio)) > 10.0  # 16 Pa at 1 m, 0.5 m away
+    em = vortex_emitters(_uniform_volume(4.0), _sine_texture(), duration=0.5, lead=0.1)
+    assert em.t0 == -0.1 and em.t_end == pytest.approx(0.5, abs=2 / em.rate)
+    peak = np.max(np.abs(em.signals))
+    assert np.max(np.abs(em.signals[:, [0, -1]])) < 0.01 * peak  # no click where emission stops
+
+
 def test_dataset_without_velocity_is_rejected():
     vol = TimeVolume.from_arrays({"density": np.ones((2, 4, 4, 4))}, times=[0, 1])
     with pytest.raises(FieldError, match="needs a velocity field 'velocity'"):
