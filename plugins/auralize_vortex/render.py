@@ -131,13 +131,25 @@ def velocity_field_name(volume: TimeVolume, name: str = "velocity") -> str:
 
 
 def block_mean(a: NDArray[np.floating], sub: SubVolumes) -> NDArray[np.float64]:
-    """Mean of a scalar frame ``(nz, ny, nx)`` over each sub-volume → ``(S,)``."""
+    """Mean of a scalar frame ``(nz, ny, nx)`` over each sub-volume → ``(S,)``.
+
+    No-data points (NaN, outside a resampled mesh) are left out of the mean;
+    a sub-volume without any valid point gets 0.
+    """
     ex, ey, ez = sub.edges
-    s = np.add.reduceat(np.asarray(a, dtype=np.float64), ez[:-1], axis=0)
-    s = np.add.reduceat(s, ey[:-1], axis=1)
-    s = np.add.reduceat(s, ex[:-1], axis=2)
-    cnt = np.diff(ez)[:, None, None] * np.diff(ey)[None, :, None] * np.diff(ex)[None, None, :]
-    return (s / cnt).ravel()
+    a = np.asarray(a, dtype=np.float64)
+    ok = np.isfinite(a)
+
+    def total(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        x = np.add.reduceat(x, ez[:-1], axis=0)
+        x = np.add.reduceat(x, ey[:-1], axis=1)
+        return np.add.reduceat(x, ex[:-1], axis=2).ravel()
+
+    if ok.all():
+        cnt = np.diff(ez)[:, None, None] * np.diff(ey)[None, :, None] * np.diff(ex)[None, None, :]
+        return total(a) / cnt.ravel()
+    n = total(ok.astype(np.float64))
+    return np.divide(total(np.where(ok, a, 0.0)), n, out=np.zeros_like(n), where=n > 0)
 
 
 def subvolume_speeds(

@@ -326,6 +326,22 @@ def test_sound_limit_truncates_the_received_pressure_and_emission_has_soft_ends(
     assert np.max(np.abs(em.signals[:, [0, -1]])) < 0.01 * peak  # no click where emission stops
 
 
+def test_no_data_points_are_left_out_of_the_subvolume_speeds():
+    from auralize_vortex.render import subvolume_speeds
+
+    v = np.zeros((2, 5, 5, 10, 3))
+    v[..., 2] = 2.0
+    v[:, :, :, 5:, 2] = 4.0
+    v[:, 0, 0, 0] = np.nan  # a no-data point in the first sub-volume
+    v[:, :, :, 5:] = np.nan  # the second sub-volume is all no-data
+    vol = TimeVolume.from_arrays({"velocity": v}, spacing=0.04, times=[0.0, 1.0])
+    vol.valid = np.all(np.isfinite(v[0]), axis=-1)  # as the readers mark them (nan="mask")
+    sub = split_subvolumes(vol, 5)
+    np.testing.assert_array_equal(subvolume_speeds(vol, sub), [[2.0, 0.0], [2.0, 0.0]])
+    r = render_vortex(vol, ListenerPath.point((0, -1, 0), duration=0.2), _sine_texture(), rate=RATE)
+    assert np.all(np.isfinite(r.audio)) and np.max(np.abs(r.audio)) > 0
+
+
 def test_dataset_without_velocity_is_rejected():
     vol = TimeVolume.from_arrays({"density": np.ones((2, 4, 4, 4))}, times=[0, 1])
     with pytest.raises(FieldError, match="needs a velocity field 'velocity'"):
