@@ -106,7 +106,7 @@ class VortexSound(SoundModel):
             0.0,
             range=(0.0, None),
             unit="s",
-            doc="playback seconds of emission (0 = the data's duration × time_scale)",
+            doc="playback seconds of emission (0 = the frames' duration × time_scale)",
         ),  # fmt: skip
         Parameter(
             "lead",

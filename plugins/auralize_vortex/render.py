@@ -280,7 +280,8 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         Emission rate = oversample × texture rate.
     duration : float, optional
         Playback seconds of emission after 0 (default: the data's duration
-        × ``time_scale``).
+        × ``time_scale``, the last frame lasting one frame interval, e.g.
+        2 s for 60 frames at 30 Hz).
     lead : float
         Playback seconds of emission before 0 (first step's speeds): a
         listener up to ``lead × c0`` away hears the flow from the start.
@@ -307,7 +308,8 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
     sub = split_subvolumes(volume, block)
     speeds = subvolume_speeds(volume, sub, velocity_field)
     if duration is None:
-        duration = float(volume.times[-1] - volume.times[0]) * time_scale
+        T = volume.n_steps  # every frame lasts one mean frame interval, the last one too
+        duration = float(volume.times[-1] - volume.times[0]) * T / max(T - 1, 1) * time_scale
         if not duration > 0:
             raise ParameterError(
                 f"{volume.source}: the volume has a single time step; give the emission duration "

@@ -324,6 +324,12 @@ def test_sound_limit_truncates_the_received_pressure_and_emission_has_soft_ends(
     assert em.t0 == -0.1 and em.t_end == pytest.approx(0.5, abs=2 / em.rate)
     peak = np.max(np.abs(em.signals))
     assert np.max(np.abs(em.signals[:, [0, -1]])) < 0.01 * peak  # no click where emission stops
+    one = _uniform_volume(4.0, steps=1)
+    with pytest.raises(ParameterError, match="single time step; give the emission duration"):
+        vortex_emitters(one, _sine_texture())
+    assert vortex_emitters(one, _sine_texture(), duration=0.2, lead=0.0).t_end == pytest.approx(
+        0.2, abs=2 / em.rate
+    )
 
 
 def test_no_data_points_are_left_out_of_the_subvolume_speeds():
@@ -386,7 +392,7 @@ def test_model_synthesize_and_ring8(plume, tmp_path):
     assert isinstance(em, Emitters) and em.n_emitters == 36 and em.positions.shape == (36, 3)
     assert em.rate == 8 * tex.rate and em.t0 == -0.5 and sound.meta["n_sources"] == 36
     # the data's 10 frames at 30 Hz are emitted (plus the lead), then the emitters fall silent
-    assert em.t_end == pytest.approx(9 / 30, abs=2 / em.rate)
+    assert em.t_end == pytest.approx(10 / 30, abs=2 / em.rate)
     mono = render(sound, path, rate=RATE)
     assert mono.audio.shape == (1, int(0.3 * RATE)) and mono.meta["model"] == "vortex"
     # the mix is the sum of the sub-volumes rendered alone
