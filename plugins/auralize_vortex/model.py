@@ -100,7 +100,13 @@ class VortexSound(SoundModel):
             unit="Pa",
             doc="maximum received pressure, truncated beyond (§7); 0 = off",
         ),  # fmt: skip
-        Parameter("oversample", 8, range=(1, 64), doc="emission rate = oversample × texture rate"),
+        Parameter(
+            "oversample",
+            0,
+            range=(0, 64),
+            doc="emission rate = oversample × texture rate (0: 1 for sub-volumes as large as "
+            "the texture box, else 4)",
+        ),  # fmt: skip
         Parameter(
             "duration",
             0.0,

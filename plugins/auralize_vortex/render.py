@@ -25,9 +25,11 @@ Details the paper leaves open, as implemented here:
 * a sub-volume of edge L_i different from the texture box L_tex is rendered
   by similarity: amplitude × L_i/L_tex and time × L_tex/L_i (p ∝ u⁴L, f ∝ u/L).
 * the emitted signals are sampled at ``oversample`` × the texture rate (the
-  texture rows are upsampled band-limited first; the engine interpolates
-  linearly in emission time, so the oversampling keeps its images of the
-  texture's band far below it); they span ``[−lead, duration]`` playback
+  texture rows upsampled band-limited): by default 1 when every sub-volume
+  is as large as the texture box, so that the emitters play the texture's
+  own samples (integer offsets, nothing interpolated; the engine upsamples
+  band-limited), and 4 otherwise, because the similarity time scaling reads
+  between samples (linearly).  They span ``[−lead, duration]`` playback
   seconds with raised-cosine ramps of :data:`EDGE_FADE_S` at both ends, so a
   listener within ``lead × c0`` hears the flow from the first sample and a
   longer render does not click when the emission stops.
@@ -131,19 +133,20 @@ def velocity_field_name(volume: TimeVolume, name: str = "velocity") -> str:
 
 
 def block_mean(a: NDArray[np.floating], sub: SubVolumes) -> NDArray[np.float64]:
-    """Mean of a scalar frame ``(nz, ny, nx)`` over each sub-volume → ``(S,)``.
+    """Mean of scalar frames ``(..., nz, ny, nx)`` over each sub-volume → ``(..., S)``.
 
     No-data points (NaN, outside a resampled mesh) are left out of the mean;
     a sub-volume without any valid point gets 0.
     """
     ex, ey, ez = sub.edges
     a = np.asarray(a, dtype=np.float64)
+    lead = a.shape[:-3]
     ok = np.isfinite(a)
 
     def total(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        x = np.add.reduceat(x, ez[:-1], axis=0)
-        x = np.add.reduceat(x, ey[:-1], axis=1)
-        return np.add.reduceat(x, ex[:-1], axis=2).ravel()
+        x = np.add.reduceat(x, ez[:-1], axis=-3)
+        x = np.add.reduceat(x, ey[:-1], axis=-2)
+        return np.add.reduceat(x, ex[:-1], axis=-1).reshape(*lead, -1)
 
     if ok.all():
         cnt = np.diff(ez)[:, None, None] * np.diff(ey)[None, :, None] * np.diff(ex)[None, None, :]
@@ -155,12 +158,18 @@ def block_mean(a: NDArray[np.floating], sub: SubVolumes) -> NDArray[np.float64]:
 def subvolume_speeds(
     volume: TimeVolume, sub: SubVolumes, field: str = "velocity"
 ) -> NDArray[np.float64]:
-    """Average flow speed u_i of every sub-volume at every step, ``(T, S)`` m/s (§6)."""
+    """Average flow speed u_i of every sub-volume at every step, ``(T, S)`` m/s (§6).
+
+    Frames are read one by one and reduced in batches of about 2²² points.
+    """
     name = velocity_field_name(volume, field)
-    out = np.empty((volume.n_steps, sub.n_sources))
-    for n in range(volume.n_steps):
-        v = volume.frame(name, n)
-        out[n] = block_mean(np.sqrt(np.einsum("...i,...i->...", v, v)), sub)
+    T = volume.n_steps
+    out = np.empty((T, sub.n_sources))
+    batch = max(1, (1 << 22) // max(1, int(np.prod(volume.dims))))
+    for n0 in range(0, T, batch):
+        steps = range(n0, min(n0 + batch, T))
+        speed = np.stack([np.linalg.norm(volume.frame(name, n), axis=-1) for n in steps])
+        out[n0 : n0 + len(steps)] = block_mean(speed, sub)
     return out
 
 
@@ -252,7 +261,7 @@ def _law(attenuation: str | float) -> str | float:
 def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[int, int, int] = 5,
                     attenuation: str | float = "physical", velocity_field: str = "velocity",
                     low_speed: str = "u4", offsets: str = "random", seed: int = 0,
-                    blend: float = 0.05, time_scale: float = 1.0, oversample: int = 8,
+                    blend: float = 0.05, time_scale: float = 1.0, oversample: int = 0,
                     duration: float | None = None, lead: float = 0.5,
                     radius: float = 0.05) -> Emitters:  # fmt: skip
     """The sub-volumes of a velocity time series as static emitters (§4, §6, Eq. 5).
@@ -277,7 +286,9 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         Playback seconds per data second: u_i follows data time
         ``t0 + τ / time_scale`` while the texture plays in playback time τ.
     oversample : int
-        Emission rate = oversample × texture rate.
+        Emission rate = oversample × texture rate; 0: 1 when every
+        sub-volume is as large as the texture box (its own samples are
+        read), else 4 (the similarity scaling interpolates between samples).
     duration : float, optional
         Playback seconds of emission after 0 (default: the data's duration
         × ``time_scale``, the last frame lasting one frame interval, e.g.
@@ -300,8 +311,10 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         raise ParameterError(f"time_scale must be > 0 playback s per data s, got {time_scale!r}")
     if offsets not in ("random", "zero"):
         raise ParameterError(f"offsets must be 'random' or 'zero', got {offsets!r}")
-    if not (isinstance(oversample, int | np.integer) and 1 <= oversample <= 64):
-        raise ParameterError(f"oversample must be an integer in 1..64, got {oversample!r}")
+    if not (isinstance(oversample, int | np.integer) and 0 <= oversample <= 64):
+        raise ParameterError(
+            f"oversample must be an integer in 0..64 (0 = auto), got {oversample!r}"
+        )
     if not (math.isfinite(lead) and lead >= 0):
         raise ParameterError(f"lead must be >= 0 s, got {lead!r}")
     law = _law(attenuation)
@@ -317,6 +330,9 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
             )
     if not (math.isfinite(duration) and duration > 0):
         raise ParameterError(f"duration must be > 0 s, got {duration!r}")
+    ratio = texture.box_m / sub.size_m  # similarity: time × L_tex/L_i, amplitude × L_i/L_tex
+    if oversample == 0:
+        oversample = 1 if np.allclose(ratio, 1.0, rtol=1e-9, atol=0) else 4
     looped = LoopedTexture.build(texture, up=int(oversample), blend=blend)
     R = looped.rate
     n_e = int(math.ceil((duration + lead) * R)) + 1
@@ -327,11 +343,10 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         u[s] = np.interp(t_data, volume.times, speeds[:, s])
     rng = np.random.default_rng(seed)
     start = (
-        rng.uniform(0, looped.period, sub.n_sources)
+        rng.integers(0, looped.period, sub.n_sources).astype(np.float64)
         if offsets == "random"
         else np.zeros(sub.n_sources)
     )
-    ratio = texture.box_m / sub.size_m  # similarity: time × L_tex/L_i, amplitude × L_i/L_tex
     pos = start[:, None] + (tau[None, :] * R) * ratio[:, None]
     emitted = looped.lookup(u, pos, low_speed=low_speed) / ratio[:, None]
     nf = min(int(round(EDGE_FADE_S * R)), n_e // 2)
@@ -403,7 +418,7 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
                   c0: float = C0, velocity_field: str = "velocity", low_speed: str = "u4",
                   offsets: str = "random", seed: int = 0, blend: float = 0.05,
                   time_scale: float = 1.0, limit_pa: float | None = None,
-                  min_distance: float = 0.05, oversample: int = 8,
+                  min_distance: float = 0.05, oversample: int = 0,
                   backend: str = "auto") -> Rendered:  # fmt: skip
     """Render the vortex sound of a velocity time series along a listener path (§6, Eq. 5).
 
@@ -426,7 +441,8 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
         ``t0 + t / time_scale`` while the texture plays in playback time.
     limit_pa : truncate the received pressure beyond ±limit_pa Pa (§7), None = off.
     min_distance : distances are clamped here (m).
-    oversample : emission rate = oversample × texture rate.
+    oversample : emission rate = oversample × texture rate (0: auto, see
+        :func:`vortex_emitters`).
     backend : the engine's backend ("auto" or "reference").
 
     Returns
