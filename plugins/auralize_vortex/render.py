@@ -302,7 +302,8 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
     Returns
     -------
     Emitters
-        ``signals (S, n)`` Pa at 1 m from ``t0 = −lead`` at ``rate`` Hz,
+        ``signals (S, n)`` Pa at 1 m from ``t0 = −lead`` (rounded down to a
+        whole sample) at ``rate`` Hz,
         ``positions (S, 3)`` the sub-volume centres (m); ``meta`` holds
         ``speeds (T, S)`` m/s, ``subvolumes``, ``size_m (S,)`` and the
         texture's rate.
@@ -335,8 +336,11 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         oversample = 1 if np.allclose(ratio, 1.0, rtol=1e-9, atol=0) else 4
     looped = LoopedTexture.build(texture, up=int(oversample), blend=blend)
     R = looped.rate
-    n_e = int(math.ceil((duration + lead) * R)) + 1
-    tau = -lead + np.arange(n_e) / R  # playback time of emission
+    # whole emission samples before 0, so that τ·R is an integer: a sub-volume as large as
+    # the texture box reads the texture's own samples, not linear blends of two (a low-pass)
+    n_lead = int(math.ceil(lead * R - 1e-9))
+    n_e = n_lead + int(math.ceil(duration * R)) + 1
+    tau = (np.arange(n_e) - n_lead) / R  # playback time of emission
     t_data = volume.times[0] + tau / time_scale
     u = np.empty((sub.n_sources, n_e))
     for s in range(sub.n_sources):
@@ -356,7 +360,7 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         emitted[:, n_e - nf :] *= ramp[::-1]
     meta = {"speeds": speeds, "subvolumes": list(sub.shape), "size_m": sub.size_m,
             "texture_rate_hz": texture.rate, "band_hz": 0.5 * texture.rate * float(ratio.max())}  # fmt: skip
-    return Emitters(emitted, R, sub.centres, t0=-lead, radius=radius, law=law, name="vortex",
+    return Emitters(emitted, R, sub.centres, t0=-n_lead / R, radius=radius, law=law, name="vortex",
                     meta=meta)  # fmt: skip
 
 
