@@ -19,7 +19,7 @@ from auralize_vortex.texture import (
 )
 
 from auralize.emitters import Emitters, Sound, render
-from auralize.errors import DataError, FieldError, FormatError, ParameterError
+from auralize.errors import DataError, FieldError, FormatError, MissingFileError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Speaker, make_layout
 from auralize.volume import TimeVolume
@@ -425,6 +425,14 @@ def test_model_synthesize_and_ring8(plume, tmp_path):
         VortexSound().synthesize(plume, attenuation="cubic")
     with pytest.raises(ParameterError, match="listener path goes to"):
         VortexSound().synthesize((plume, path))
+
+
+def test_model_loads_its_inputs_for_scenes(tmp_path):
+    vol = VortexSound().load_input("dataset:fire-plume")
+    assert vol.dims == (15, 15, 20) and vol.is_vector("velocity")
+    f = tmp_path / "u.npz"
+    with pytest.raises(MissingFileError, match="u.npz"):
+        VortexSound().load_input(str(f))
 
 
 def test_overlay_meshes(plume):
