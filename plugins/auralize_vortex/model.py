@@ -147,8 +147,8 @@ class VortexSound(SoundModel):
         Sound
             One :class:`auralize.emitters.Emitters` part: the sub-volume
             centres ``positions (S, 3)`` m emitting ``signals (S, n)`` Pa at
-            1 m from ``t0 = -lead`` (rounded to whole samples; wrapped to truncate the received
-            pressure when ``limit_pa`` > 0).
+            1 m from ``t0 = -lead`` (rounded to whole samples); wrapped to
+            truncate the received pressure when ``limit_pa`` > 0.
         """
         if not isinstance(inputs, TimeVolume):
             raise ParameterError(
