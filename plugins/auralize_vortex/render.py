@@ -475,8 +475,11 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
     if not (math.isfinite(dur) and dur > 0):
         raise ParameterError(f"duration must be > 0 s, got {dur!r}")
     sub = split_subvolumes(volume, block)
-    lp = path.position_at(np.linspace(path.times[0], path.times[-1], 64))
-    dmax = float(np.max(np.linalg.norm(sub.centres[:, None] - lp[None], axis=-1)))
+    # emission starts early enough to be heard anywhere along the path: the path lies
+    # inside the bounding box of its captures, so this bounds every distance
+    c_lo, c_hi = sub.centres.min(0), sub.centres.max(0)
+    p_lo, p_hi = path.positions.min(0), path.positions.max(0)
+    dmax = float(np.linalg.norm(np.maximum(c_hi - p_lo, p_hi - c_lo)))
     sound = vortex_sound(volume, texture, block=block, attenuation=attenuation,
                          velocity_field=velocity_field, low_speed=low_speed, offsets=offsets,
                          seed=seed, blend=blend, time_scale=time_scale, oversample=oversample,
