@@ -12,8 +12,8 @@ This module builds the emitted signals ``Q(u_i(τ), τ)``
 ``1/r³``) and the panning are the engine's (:mod:`auralize.emitters`).
 Details the paper leaves open, as implemented here:
 
-* u_i is the mean speed |v| over the sub-volume's points at each step of the
-  volume, linearly interpolated in (data) time (§6).  Above the largest
+* u_i is the mean speed |v| over the sub-volume's valid points at each step
+  of the volume, linearly interpolated in (data) time (§6).  Above the largest
   texture speed u is clamped (§6); below the smallest the texture row is
   scaled by (u/u_min)⁴ (the compact vortex-sound law, so still air is silent)
   unless ``low_speed="clamp"``.  Between speeds the two rows are linearly
@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
@@ -54,9 +54,11 @@ from auralize.emitters import C0, Emitters, Sound, law_exponent
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout
-from auralize.synthesis import Rendered
 from auralize.volume import TimeVolume
 from auralize_vortex.texture import Texture
+
+if TYPE_CHECKING:
+    from auralize.synthesis import Rendered
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
