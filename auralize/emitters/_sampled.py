@@ -8,13 +8,20 @@ Eq. 5 and paper 004 §6, Eq. 4)
 
 are evaluated at *control points* every ``K`` samples of the evaluation rate:
 the retarded time τ (fixed point for a moving emitter, contraction = its Mach
-number), the clamped distance law ``1/D^e``, a dipole's projection on the unit
-vector from the emitter to the listener, and the layout's panning gains (the
-synthesis kernel's own law, :func:`auralize._synth_kernel._gains`: pairwise
-2-D VBAP, or 3-D VBAP for layouts with elevation, equal to
-:func:`auralize.spatial.pan_gains`).  Inside a block they are interpolated
-linearly and the emitted signal is read at the interpolated emission index
-(linear interpolation), weighted and added to the active channels.
+number) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)``, the clamped
+distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
+projection on the unit vector n from the emitter to the listener, and the
+layout's panning gains (the synthesis kernel's own law,
+:func:`auralize._synth_kernel._gains`: pairwise 2-D VBAP, or 3-D VBAP for
+layouts with elevation, equal to :func:`auralize.spatial.pan_gains`).  Inside
+a block the emission index is the cubic Hermite interpolant of τ and dτ/dt,
+the weights and gains are interpolated linearly; a block holding a listener
+capture (where the listener's velocity jumps) is split there into two linear
+pieces.  The emitted signal is read linearly at the emission index, weighted
+and added to the channels with non-zero gains.  Against the per-sample numpy
+reference (:mod:`auralize.emitters.reference`) this is within about 1e-4 of
+the peak in mono and 1e-3 panned (the gains have kinks at speaker
+directions) for a turning, moving listener and emitters at tens of m/s.
 
 Control points lie on a grid fixed in playback time (multiples of ``K``
 evaluation samples), so a render split into consecutive windows gives the
@@ -177,6 +184,16 @@ def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w,
     xb = x0 + ub * (h1 + ub * (h2 + ub * h3))
     inside = min(xa, xb) >= 0.5 and max(xa, xb) <= last - 1.5
     sg0 = sig[s, 0]
+    if inside and C == 1 and n_ch == 1:  # no bounds to check, straight to the output
+        o = out[0]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            i0 = int(xi)
+            f = xi - i0
+            a0 = sg0[i0]
+            o[n0 + i] += (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+        return
     if inside and C == 1:  # no bounds to check
         for i in range(i_lo, i_hi):
             u = (i - p0) * inv
@@ -185,6 +202,24 @@ def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w,
             f = xi - i0
             a0 = sg0[i0]
             vbuf[i] = (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+    elif inside and n_ch == 1:
+        sg1 = sig[s, 1]
+        sg2 = sig[s, 2]
+        o = out[0]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            i0 = int(xi)
+            f = xi - i0
+            a0 = sg0[i0]
+            a1 = sg1[i0]
+            a2 = sg2[i0]
+            o[n0 + i] += (
+                (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+                + (wa1 + u * dw1) * (a1 + f * (sg1[i0 + 1] - a1))
+                + (wa2 + u * dw2) * (a2 + f * (sg2[i0 + 1] - a2))
+            )
+        return
     elif inside:
         sg1 = sig[s, 1]
         sg2 = sig[s, 2]
@@ -295,7 +330,10 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                 if b < cb1:
                     ma[j] = (tb[b + 1] - t) * fs * rate_prev
                 if b > cb0:
-                    mb[j] = (t - tb[b - 1]) * fs * _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                    r = rate_prev
+                    if VL[b, 0] != VR[b, 0] or VL[b, 1] != VR[b, 1] or VL[b, 2] != VR[b, 2]:
+                        r = _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                    mb[j] = (t - tb[b - 1]) * fs * r
                 if b < cb1 and kf[b] >= 0.0:  # a capture inside the block
                     xk[j], _, _, _, _, _, _, _, _ = _point(
                         C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, tk[b],
