@@ -452,7 +452,7 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     whole = render_emitters(part.emitters(), path, rate=RATE, layout="ring8").audio
     ja, jb = part._window(path, 0.1, 0.15, 343.0)  # a window needs only the emission it hears
     assert 0.05 <= (jb - ja + 1) * part.kin.dt < 0.06
-    monkeypatch.setattr(ar, "CHUNK_BYTES", 1)  # windows of 4096 samples
+    monkeypatch.setattr(ar, "CHUNK_BYTES", 1)  # windows of 256 samples
     sound = Sound([part])
     windows = render_sound(sound, path, rate=RATE, layout="ring8").audio
     assert np.abs(whole).max() > 0
