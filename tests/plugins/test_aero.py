@@ -343,6 +343,11 @@ def test_cli_texture_and_render(tex, cache, tmp_path, monkeypatch, capsys) -> No
                "--duration", "0.3", "-o", str(out2), "--layout", "stereo", "--exponent", "paper"])  # fmt: skip
     assert rc == 0 and read_wav(out2)[0].shape[0] == 2
     capsys.readouterr()
+    out3 = tmp_path / "ears.wav"
+    rc = main(["aero", "render", "--texture", str(texf), "--motion", str(mf), "--listener", "0.3,1,0.2",
+               "--duration", "0.3", "-o", str(out3), "--layout", "stereo", "--stereo", "ears"])  # fmt: skip
+    assert rc == 2 and "no longer renders two ear receivers" in capsys.readouterr().err
+    assert not out3.exists()
     rc = main(
         [
             "aero",
