@@ -475,7 +475,8 @@ class AeroEmission:
         tab = self._table(ja, jb)
         shape = (self.n_sources, 3, (jb - ja + 1) * K)
         if self.engine == "numpy":
-            G = emission_reference(*tab, self.texture, K)
+            e1a, e2a, M, j0, j1, w, st = tab
+            G = emission_reference(e1a, e2a, M, j0, j1, w, st, self.texture, K)
         else:
             size = shape[0] * shape[1] * shape[2]
             G = (buf[:size] if buf is not None and buf.size >= size else np.empty(size)).reshape(
