@@ -49,7 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
-from auralize.emitters import Emitters, Sound
+from auralize.emitters import Emitters
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout
@@ -642,7 +642,8 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
     """Render the aerodynamic sound of ``obj`` heard along ``path`` (§6, Eqs. 3–4).
 
     :func:`emission` at the output rate for the path's duration, rendered by
-    the sound engine (:func:`auralize.emitters.render`).
+    the sound engine (:meth:`AeroEmission.render_part`, equal to
+    ``auralize.emitters.render(Sound([part]), path, ...)``).
 
     Parameters
     ----------
@@ -669,16 +670,14 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
 
     Examples
     --------
-    >>> from auralize_aero.presets import stick, cylinder_texture   # doctest: +SKIP
-    >>> out = render(cylinder_texture(), stick(), ListenerPath.point((0, 1, 0), duration=1),
-    ...              wind=Wind(10.0))                                # doctest: +SKIP
+    >>> from auralize_aero import circle, compute_texture, stick    # doctest: +SKIP
+    >>> out = render(compute_texture(circle(0.01)), stick(), ListenerPath.point((0, 1, 0), duration=1),
+    ...              wind=Wind(10.0), layout="ring8")                # doctest: +SKIP
     """
-    from auralize.emitters import render as render_sound
-
     no_ears(stereo)
     dur = path.duration if duration is None else float(duration)
     part = emission(texture, obj, motion=motion, wind=wind, rate=rate, duration=dur,
                     exponent=exponent, c0=c0, min_distance=min_distance, fade=fade, block=block,
                     engine=engine)  # fmt: skip
-    return render_sound(Sound([part], meta=part.meta, name="aero"), path, rate=rate,
-                        layout=layout, duration=dur, c0=c0, backend=backend)  # fmt: skip
+    # the one part rendered directly: auralize.emitters.render would sum it into a second buffer
+    return part.render_part(path, rate=rate, layout=layout, duration=dur, c0=c0, backend=backend)
