@@ -347,7 +347,8 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     else:
         out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta)
     meta["timbre_notes"] = notes
-    meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
+    if "share_above_20hz_unfiltered" not in meta:
+        meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
     out.audio = highpass(out.audio, rate, highpass_hz)
     out.meta.update(meta)
     return out
@@ -374,21 +375,57 @@ def _smooth_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     or the pressure under the data's Nyquist frequency) at :func:`envelope_rate`,
     linearly interpolated to the audio rate: the retarded-time sum is evaluated
     exactly at every envelope sample, and most of the per-sample cost is saved."""
+    coarse, n, k = _coarse_render(tracks, path, kw, f_cut, bounds)
+    return _upsampled(coarse, coarse.audio, n, k)
+
+
+def _coarse_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
+                   bounds: tuple[float, ...] | None = None) -> tuple[Rendered, int, int]:  # fmt: skip
+    """The envelope-rate render of :func:`_smooth_render` before interpolation:
+    ``(coarse, n, k)``, ``n`` samples at the audio rate, ``k`` audio samples per
+    envelope sample (``coarse`` has ``n // k + 2`` samples; ``k`` 1: ``coarse``
+    is the audio-rate render itself)."""
     rate = int(kw["rate"])
     er = envelope_rate(rate, f_cut)
     if er == rate:
-        return render(tracks, path, bounds=bounds, **kw)
+        out = render(tracks, path, bounds=bounds, **kw)
+        return out, out.audio.shape[1], 1
     dur = kw["duration"] if kw["duration"] is not None else path.duration - kw["start"]
     n = round(dur * rate)
     k = rate // er
     coarse = render(tracks, path, bounds=bounds,
                     **{**kw, "rate": er, "duration": (n // k + 2) / er})  # fmt: skip
+    return coarse, n, k
+
+
+def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rendered:
+    """Envelope-rate samples ``e (n_channels, ≥ n // k + 2)`` of ``coarse``
+    linearly interpolated to ``n`` samples at ``k`` times the rate."""
+    if k == 1:
+        return Rendered(audio=e, rate=coarse.rate, layout=coarse.layout,
+                        time_scale=coarse.time_scale, meta=coarse.meta)  # fmt: skip
+    w = _lerp_weights(n, k)
+    audio = np.empty((e.shape[0], n))
+    for c in range(e.shape[0]):  # per channel: the (n,) temporaries stay in cache
+        pair = e[c, : n // k + 2]
+        np.multiply(pair[w[0]], w[2], out=audio[c])
+        audio[c] += pair[w[1]] * w[3]
+    return Rendered(audio=audio, rate=coarse.rate * k, layout=coarse.layout,
+                    time_scale=coarse.time_scale,
+                    meta={**coarse.meta, "envelope_rate_hz": coarse.rate})  # fmt: skip
+
+
+@functools.lru_cache(maxsize=8)
+def _lerp_weights(n: int, k: int) -> tuple[NDArray[Any], ...]:
+    """Indices and weights of linear interpolation by ``k``: sample j of the
+    output is ``e[i0] (1 − frac) + e[i0 + 1] frac`` with ``i0 = j // k``,
+    ``frac = (j mod k) / k`` (cached: callers must not modify them)."""
     j = np.arange(n)
     i0, frac = j // k, (j % k) / k
-    e = coarse.audio
-    audio = e[:, i0] * (1.0 - frac) + e[:, i0 + 1] * frac
-    return Rendered(audio=audio, rate=rate, layout=coarse.layout, time_scale=coarse.time_scale,
-                    meta={**coarse.meta, "envelope_rate_hz": er})  # fmt: skip
+    out = (i0, i0 + 1, 1.0 - frac, frac)
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
@@ -408,16 +445,30 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     # below half the output high-pass the low band is inaudible and filtered out:
     # its mono sum (for β) is all that is needed
     keep_low = f_cut > 0.5 * highpass_hz
-    if phys is None:
-        phys = _smooth_render(tracks, path, kw if keep_low else {**kw, "layout": "mono"}, f_cut,
-                              bounds)  # fmt: skip
-    rate = phys.rate
+    rate = int(kw["rate"])
+    if phys is None and keep_low and tracks.n_sources and f_cut < 0.45 * rate:
+        # the synthesis is linear in the strengths: one render of the positive
+        # and one of the negative part of q give the pressure (their
+        # difference) and the envelope |q| (their sum), for the cost of about
+        # one render of q
+        pos, neg = _cached(tracks, "timbre:signs", "", lambda: _signs(tracks))
+        cp, n, k = _coarse_render(pos, path, kw, f_cut, bounds)
+        cn = _coarse_render(neg, path, kw, f_cut)[0]
+        phys = _upsampled(cp, cp.audio - cn.audio, n, k)
+        env = _upsampled(cp, cp.audio + cn.audio, n, k)
+    else:
+        if phys is None:
+            phys = _smooth_render(tracks, path, kw if keep_low else {**kw, "layout": "mono"},
+                                  f_cut, bounds)  # fmt: skip
+        if f_cut >= 0.45 * rate or phys.audio.shape[1] < 4 or tracks.n_sources == 0:
+            meta["beta"] = 0.0
+            return phys if keep_low else render(tracks, path, bounds=bounds, **kw)
+        absq = _cached(tracks, "timbre:abs", "", lambda: _subset(tracks, np.abs(tracks.q)))
+        env = _smooth_render(absq, path, kw, f_cut)
     n = phys.audio.shape[1]
-    if f_cut >= 0.45 * rate or n < 4 or tracks.n_sources == 0:
+    if n < 4:
         meta["beta"] = 0.0
-        return phys if keep_low else render(tracks, path, bounds=bounds, **kw)
-    absq = _cached(tracks, "timbre:abs", "", lambda: _subset(tracks, np.abs(tracks.q)))
-    env = _smooth_render(absq, path, kw, f_cut)
+        return phys
     clock = _Clock(tracks, path, env, start=start, c0=c0)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -425,25 +476,47 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
 
     table = _noise_table(clock.size, rate, (int(seed), 1), shape, ("power", alpha, f_cut))
     low = _crossover(phys.audio, rate, f_cut, "lowpass")
-    high = _crossover(env.audio * clock.noise(table)[None, :], rate, f_cut, "highpass")
+    env.audio *= clock.noise(table)[None, :]
+    high = _crossover(env.audio, rate, f_cut, "highpass")
     # Eq. 13, power summed over the channels: low + β high matches the physical
     # power under g(f) (the cross term needs the low band in every channel;
     # without it, it is left out: random-phase noise is uncorrelated with it)
     f = np.fft.rfftfreq(n, 1.0 / rate)
     sigma = max(f_cut * 10.0 / 180.0, 3.0 * rate / n)  # Table 1: σ 10 Hz at 180 Hz
     g2 = np.exp(-(((f - f_cut) / sigma) ** 2)) * (f > 0)
+    band = g2 > 1e-30 * g2.max(initial=0.0)  # where the weights are not negligible
+    g2 = g2[band]
     P, L, H = (np.fft.rfft(x, axis=-1) for x in (phys.audio, low, high))
     same = P.shape[0] == H.shape[0]
-    a = float(np.sum(np.abs(H) ** 2 * g2))
-    b = float(2 * np.sum(np.real(L * np.conj(H)) * g2)) if same else 0.0
-    c = float(np.sum(np.abs(L) ** 2 * g2) - np.sum(np.abs(P) ** 2 * g2))
+    Pb, Lb, Hb = P[:, band], L[:, band], H[:, band]
+    a = float(np.sum(np.abs(Hb) ** 2 * g2))
+    b = float(2 * np.sum(np.real(Lb * np.conj(Hb)) * g2)) if same else 0.0
+    c = float(np.sum(np.abs(Lb) ** 2 * g2) - np.sum(np.abs(Pb) ** 2 * g2))
     disc = b * b - 4 * a * c
     beta = (-b + np.sqrt(disc)) / (2 * a) if a > 0 and disc >= 0 else 0.0
-    meta["beta"] = float(max(beta, 0.0))
+    meta["beta"] = beta = float(max(beta, 0.0))
     meta["low_band"] = "kept" if same else "below half the high-pass: left out"
-    audio = meta["beta"] * high + (low if same else 0.0)
+    # the output's spectrum before the high-pass is β H (+ L): its share above
+    # 20 Hz without another transform
+    H *= beta
+    if same:
+        H += L
+        high *= beta
+        high += low
+        audio = high
+    else:
+        audio = beta * high
+    spec = np.sum(H.real**2 + H.imag**2, axis=0)
+    total = float(spec.sum())
+    meta["share_above_20hz_unfiltered"] = float(spec[f > 20.0].sum() / total) if total > 0 else 0.0
     return Rendered(audio=audio, rate=rate, layout=env.layout, time_scale=env.time_scale,
                     meta=env.meta)  # fmt: skip
+
+
+def _signs(tracks: SourceTracks) -> tuple[SourceTracks, SourceTracks]:
+    """The tracks of the positive and of the negative part of q (max(q, 0), max(−q, 0))."""
+    q = np.asarray(tracks.q, dtype=np.float64)
+    return _subset(tracks, np.maximum(q, 0.0)), _subset(tracks, np.maximum(-q, 0.0))
 
 
 def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> NDArray[np.float64]:
