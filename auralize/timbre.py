@@ -165,13 +165,25 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
     cen, W = _cached(tracks, "timbre:clusters", "", lambda: _clusters(tracks))
     C = cen.shape[0]
     tn = _knot_times(tracks)
-    D = np.maximum(np.linalg.norm(L[:, None, :] - cen[None, :, :], axis=2), 1e-9)  # (J, C)
+    D2 = np.zeros((t_data.size, C))  # (J, C)
+    for a in range(3):
+        d = L[:, a, None] - cen[None, :, a]
+        D2 += d * d
+    D = np.maximum(np.sqrt(D2), 1e-9)
     tau = t_data[:, None] - D / c0
-    n = np.clip(np.searchsorted(tn, tau, side="right") - 1, 0, tn.size - 2)
-    s = np.clip((tau - tn[n]) / (tn[n + 1] - tn[n]), 0.0, 1.0)
-    cols = np.arange(C)[None, :]
-    wt = W[cols, n] * (1 - s) + W[cols, n + 1] * s
-    wt = np.where((tau >= tn[0]) & (tau <= tn[-1]), wt, 0.0)
+    step = np.diff(tn)
+    if np.all(np.abs(step - step[0]) <= 1e-9 * step[0]):  # even steps: the row by division
+        x = (tau - tn[0]) / step[0]
+        n = np.clip(np.floor(x), 0, tn.size - 2).astype(np.int64)
+        s = np.clip(x - n, 0.0, 1.0)
+    else:
+        n = np.clip(np.searchsorted(tn, tau, side="right") - 1, 0, tn.size - 2)
+        s = np.clip((tau - tn[n]) / step[n], 0.0, 1.0)
+    flat = W.ravel()
+    n += np.arange(C) * W.shape[1]  # flat index of (cluster, step)
+    wt = flat[n] * (1 - s)
+    wt += flat[n + 1] * s
+    wt[(tau < tn[0]) | (tau > tn[-1])] = 0.0
     num, den = wt.sum(axis=1), (wt / D).sum(axis=1)
     ok = den > 0
     if not np.any(ok):
@@ -525,7 +537,7 @@ def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> 
     from scipy.signal import sosfilt
 
     sos = butter_sos(2, float(f_cut), kind, float(rate))
-    return np.asarray(sosfilt(sos, sosfilt(sos, x, axis=-1), axis=-1))
+    return np.asarray(sosfilt(np.concatenate([sos, sos]), x, axis=-1))
 
 
 def _type_tracks(tracks: SourceTracks) -> list[SourceTracks | None]:
