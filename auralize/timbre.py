@@ -33,10 +33,18 @@ it is (1/D) and the Doppler shift of a moving listener:
 How the carriers keep the physics.  A source k emits ``|q_k|(τ) c(τ)``
 (envelope times carrier, in emission time τ); the listener hears
 ``Σ_k |q_k|(τ_k) c(τ_k) / D_k`` with ``τ_k = t − D_k/c0``.  The envelope
-sum ``E(t) = Σ_k |q_k|(τ_k)/D_k`` is rendered exactly, per loudspeaker, by
-the fast synthesis (:func:`auralize.synthesis.render` on the tracks |q|),
-so the arrival time, the 1/D law and the panning are those of the physical
-render.  The carrier is evaluated once per type at the envelope-weighted
+sum ``E(t) = Σ_k |q_k|(τ_k)/D_k`` is rendered per loudspeaker by the fast
+synthesis (:func:`auralize.synthesis.render` on the tracks |q|), so the
+arrival time, the 1/D law and the panning are those of the physical
+render.  E changes once per data step Δt, so it is rendered at a reduced
+rate (:func:`envelope_rate`) and from sources merged inside cubes of side
+c0 Δt / 8 (:func:`merged`: arrivals within a cube differ by less than a
+quarter of a step); on the 64³ explosion the envelope moves by 0.5 % of
+its peak, and the render costs a quarter.  The ``extended`` low band (the
+pressure below the data's Nyquist frequency) comes from the same two
+renders: the positive and the negative parts of q, merged alike (their
+difference is the pressure, within 2 % RMS on the explosion; their sum
+|q|).  The carrier is evaluated once per type at the envelope-weighted
 mean emission time ``τ̄(t) = t − D̄(t)/c0`` with
 ``D̄ = Σ w_k / Σ (w_k/D_k)``, ``w_k = |q_k|(τ_k)`` (source clusters of an
 8×8×8 partition of the sources' box, at 100 control points per playback
@@ -146,6 +154,110 @@ def _subset(tracks: SourceTracks, q: NDArray[np.float64]) -> SourceTracks:
     return SourceTracks(positions=np.asarray(tracks.positions).reshape(-1, 3)[keep],
                         q=np.ascontiguousarray(q[keep]), radius=np.asarray(tracks.radius)[keep],
                         times=tracks.times)  # fmt: skip
+
+
+#: the envelope renders merge the sources inside cubes whose side is this
+#: fraction of the distance sound travels in one data step (see :func:`merged`)
+MERGE = 0.125
+
+
+def merge_size(tracks: SourceTracks, c0: float = C0) -> float:
+    """Side (m) of the cubes inside which :func:`merged` joins sources:
+    :data:`MERGE` × c0 × the data's (median) time step."""
+    t = np.asarray(tracks.times, dtype=np.float64)
+    dt = float(np.median(np.diff(t))) if t.size >= 2 else 0.0
+    return MERGE * c0 * dt
+
+
+def merged(tracks: SourceTracks, size: float,
+           keep: NDArray[np.bool_] | None = None) -> SourceTracks:  # fmt: skip
+    """The tracks with the sources inside each cube of side ``size`` (m; cubes
+    aligned with the sources' box) joined into one: strengths summed, at the
+    centroid weighted by Σ_t |q|, clamp radius the largest.  Sources where
+    ``keep (K,)`` is True are left as they are.
+
+    For a signal band-limited to the data's Nyquist frequency (an envelope
+    |q|, or the pressure below it) this changes little: with ``size``
+    c0 Δt / 8 (:func:`merge_size`) the arrivals of sources within a cube
+    differ by at most √3/8 ≈ 0.22 of a data step; the 1/D of a source at D
+    changes by about (size/D)² / 3 and its direction by about size/D, which
+    :func:`_joined` keeps small by keeping the sources near the listener.
+    The tracks themselves are returned when no two sources share a cube.
+    """
+    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
+    if pos.shape[0] < 2 or not (np.isfinite(size) and size > 0):
+        return tracks
+    join = np.ones(pos.shape[0], dtype=bool) if keep is None else ~keep
+    pj = pos[join]
+    if pj.shape[0] < 2:
+        return tracks
+    cell = np.floor((pj - pos.min(axis=0)) / size)
+    order = np.lexsort((cell[:, 2], cell[:, 1], cell[:, 0]))
+    cs = cell[order]
+    new = np.append(True, np.any(cs[1:] != cs[:-1], axis=1))
+    if np.all(new):
+        return tracks
+    starts = np.flatnonzero(new)
+    inv = np.cumsum(new) - 1  # cube of each sorted source
+    q = np.asarray(tracks.q, dtype=np.float64)
+    qs = q[join][order]
+    w = np.abs(qs).sum(axis=1)
+    wsum = np.bincount(inv, weights=w)
+    cnt = np.bincount(inv).astype(np.float64)
+    ps = pj[order]
+    cen = np.stack([np.bincount(inv, weights=w * ps[:, a]) for a in range(3)], 1)
+    plain = np.stack([np.bincount(inv, weights=ps[:, a]) for a in range(3)], 1)
+    cen = np.where(wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1.0)[:, None],
+                   plain / cnt[:, None])  # fmt: skip
+    radius = np.asarray(tracks.radius, dtype=np.float64)
+    rj = np.maximum.reduceat(radius[join][order], starts)
+    return SourceTracks(positions=np.concatenate([pos[~join], cen]),
+                        q=np.concatenate([q[~join], np.add.reduceat(qs, starts, axis=0)]),
+                        radius=np.concatenate([radius[~join], rj]),
+                        times=tracks.times)  # fmt: skip
+
+
+#: sources nearer to the listener's path than this many merging cubes are not merged
+NEAR = 4.0
+
+
+def near_path(points: NDArray[np.float64], path: ListenerPath, dist: float) -> NDArray[np.bool_]:
+    """Which ``points (K, 3)`` lie within about ``dist`` (m) of the polyline of
+    the listener's captures: within 1.125 ``dist`` of its points every
+    ``dist / 4`` (all points within ``dist``, none beyond 1.125 ``dist``)."""
+    from scipy.spatial import cKDTree
+
+    pts = np.asarray(path.positions, dtype=np.float64).reshape(-1, 3)
+    if pts.shape[0] >= 2:
+        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        m = np.maximum(np.ceil(seg / (0.25 * dist)).astype(np.int64), 1)
+        i = np.repeat(np.arange(seg.size), m)
+        f = (np.arange(int(m.sum())) - np.repeat(np.cumsum(m) - m, m)) / np.repeat(m, m)
+        pts = np.concatenate([pts[i] + f[:, None] * (pts[i + 1] - pts[i]), pts[-1:]])
+    d, _ = cKDTree(pts).query(points, distance_upper_bound=1.125 * dist)
+    return np.asarray(np.isfinite(d))
+
+
+def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any,
+            c0: float) -> Any:  # fmt: skip
+    """``build(join)`` with ``join(t)`` the tracks ``t`` merged for the envelope
+    renders (:func:`merged`, cubes of :func:`merge_size`, the sources nearer to
+    ``path`` than :data:`NEAR` cubes kept), cached on ``tracks`` for this path."""
+    size = merge_size(tracks, c0)
+
+    def join(t: SourceTracks) -> SourceTracks:
+        if not (size > 0) or t.n_sources < 2:
+            return t
+        keep = near_path(np.asarray(t.positions, dtype=np.float64), path, NEAR * size)
+        return merged(t, size, keep)
+
+    tkey = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), size)
+    hit = tracks.cache.get(name)  # (the path's arrays are held: their ids stay theirs)
+    if hit is not None and hit[0] == tkey and hit[1] is path.times and hit[2] is path.positions:
+        return hit[3]
+    out = build(join)
+    tracks.cache[name] = (tkey, path.times, path.positions, out)
+    return out
 
 
 def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.float64],
@@ -463,7 +575,8 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         # and one of the negative part of q give the pressure (their
         # difference) and the envelope |q| (their sum), for the cost of about
         # one render of q
-        pos, neg = _cached(tracks, "timbre:signs", "", lambda: _signs(tracks))
+        pos, neg = _joined(tracks, path, "timbre:signs",
+                           lambda join: tuple(join(t) for t in _signs(tracks)), c0)  # fmt: skip
         cp, n, k = _coarse_render(pos, path, kw, f_cut, bounds)
         cn = _coarse_render(neg, path, kw, f_cut)[0]
         phys = _upsampled(cp, cp.audio - cn.audio, n, k)
@@ -475,7 +588,8 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         if f_cut >= 0.45 * rate or phys.audio.shape[1] < 4 or tracks.n_sources == 0:
             meta["beta"] = 0.0
             return phys if keep_low else render(tracks, path, bounds=bounds, **kw)
-        absq = _cached(tracks, "timbre:abs", "", lambda: _subset(tracks, np.abs(tracks.q)))
+        absq = _joined(tracks, path, "timbre:abs",
+                       lambda join: join(_subset(tracks, np.abs(tracks.q))), c0)  # fmt: skip
         env = _smooth_render(absq, path, kw, f_cut)
     n = phys.audio.shape[1]
     if n < 4:
@@ -571,11 +685,13 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     used = {}
     f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
     by_type = _cached(tracks, "timbre:types", "", lambda: _type_tracks(tracks))
+    joined = _joined(tracks, path, "timbre:types:joined",
+                     lambda join: [None if t is None else join(t) for t in by_type], c0)  # fmt: skip
     for code, name in enumerate(TYPES, start=1):
         sub = by_type[code - 1]
         if sub is None or name not in carriers:
             continue
-        env = _smooth_render(sub, path, kw, f_cut)
+        env = _smooth_render(joined[code - 1], path, kw, f_cut)
         rate = env.rate
         if audio is None:
             base, audio = env, np.zeros_like(env.audio)
