@@ -39,13 +39,14 @@ arrival time, the 1/D law and the panning are those of the physical
 render.  E changes once per data step Δt, so it is rendered at a reduced
 rate (:func:`envelope_rate`) and from sources merged inside cubes of side
 c0 Δt / 8 (:func:`merged`: arrivals within a cube differ by less than a
-quarter of a step); on the 64³ explosion the envelope moves by 0.5 % of
-its peak, and the render costs a quarter.  The ``extended`` low band (the
+quarter of a step), except within four cubes of the listener's path,
+where direction and 1/D change fastest.  The ``extended`` low band (the
 pressure below the data's Nyquist frequency) comes from the same two
-renders: the positive and the negative parts of q, merged alike (their
-difference is the pressure, within 2 % RMS on the explosion; their sum
-|q|).  The carrier is evaluated once per type at the envelope-weighted
-mean emission time ``τ̄(t) = t − D̄(t)/c0`` with
+renders: of the positive and of the negative part of q, merged alike
+(their difference is the pressure, their sum |q|).  On the 64³ explosion
+the envelopes move by 0.05 % of their peak and the low band by 0.3 % RMS,
+for a third of the cost of exact renders.  The carrier is evaluated once
+per type at the envelope-weighted mean emission time ``τ̄(t) = t − D̄(t)/c0`` with
 ``D̄ = Σ w_k / Σ (w_k/D_k)``, ``w_k = |q_k|(τ_k)`` (source clusters of an
 8×8×8 partition of the sources' box, at 100 control points per playback
 second), so a moving listener hears the carrier Doppler-shifted by
