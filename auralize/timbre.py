@@ -375,33 +375,43 @@ class _Clock:
         n = out.audio.shape[1]
         self.rate, self.ts = rate, ts
         t_start = float(out.meta["t_start_data"])
-        self.t = t_start + np.arange(n) / (rate * ts)  # data time of each sample
         dur = n / rate
         J = max(int(np.ceil(dur * CONTROL_HZ)) + 1, 2)
         u = np.linspace(0.0, dur, J)
         dbar = mean_distance(tracks, path, t_start + u / ts, path.times[0] + start + u, c0=c0)
-        self.tau = self.t - np.interp(self.t, t_start + u / ts, dbar) / c0
+        # the mean emission time at the controls; between them the data time
+        # and D̄ are linear in the sample index, and so is the emission time
+        tau = t_start + u / ts - dbar / c0
         tn = _knot_times(tracks)
         self.origin = float(tn[0])  # emission-time origin of every carrier
         span = (float(tn[-1]) - self.origin) * ts * rate
         if span <= MAX_TABLE:
             self.first, size = 0, int(np.ceil(span)) + 2
         else:  # only the emission times heard
-            lo = (float(np.min(self.tau, initial=self.origin)) - self.origin) * ts * rate
-            hi = (float(np.max(self.tau, initial=self.origin)) - self.origin) * ts * rate
+            lo = (float(np.min(tau, initial=self.origin)) - self.origin) * ts * rate
+            hi = (float(np.max(tau, initial=self.origin)) - self.origin) * ts * rate
             self.first = int(np.floor(max(lo, 0.0)))
             size = min(int(np.ceil(hi)) - self.first + 2, MAX_TABLE)
         self.size = max(size, 2)
+        self._phase = np.interp(_sample_index(n), u * rate, (tau - self.origin) * ts)
 
     def phase_s(self) -> NDArray[np.float64]:
         """Emission time of each sample in playback seconds since the carriers' origin."""
-        return (self.tau - self.origin) * self.ts
+        return self._phase
 
     def noise(self, table: NDArray[np.float64]) -> NDArray[np.float64]:
         """The noise ``table`` (sampled at the audio rate from the origin) at each sample's
         emission time."""
-        x = self.phase_s() * self.rate - self.first
-        return np.interp(x, np.arange(table.size, dtype=np.float64), table, left=0.0, right=0.0)
+        x = self._phase * self.rate - self.first
+        return np.interp(x, _sample_index(table.size), table, left=0.0, right=0.0)
+
+
+@functools.lru_cache(maxsize=8)
+def _sample_index(n: int) -> NDArray[np.float64]:
+    """``0, 1, …, n − 1`` as floats (cached, read-only)."""
+    j = np.arange(n, dtype=np.float64)
+    j.flags.writeable = False
+    return j
 
 
 def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "physical",
