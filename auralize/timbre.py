@@ -224,19 +224,31 @@ NEAR = 4.0
 
 def near_path(points: NDArray[np.float64], path: ListenerPath, dist: float) -> NDArray[np.bool_]:
     """Which ``points (K, 3)`` lie within about ``dist`` (m) of the polyline of
-    the listener's captures: within 1.125 ``dist`` of its points every
-    ``dist / 4`` (all points within ``dist``, none beyond 1.125 ``dist``)."""
+    the listener's captures: all points within ``dist`` of it, none farther
+    than ``dist`` + h/2, h the spacing of the points on the polyline that the
+    test uses (``dist / 4``, or longer on a path more than 50,000 ``dist``
+    long: at most 200,000 points)."""
     from scipy.spatial import cKDTree
 
     pts = np.asarray(path.positions, dtype=np.float64).reshape(-1, 3)
+    h = 0.0
     if pts.shape[0] >= 2:
         seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        m = np.maximum(np.ceil(seg / (0.25 * dist)).astype(np.int64), 1)
+        h = max(0.25 * dist, float(seg.sum()) / 200_000)
+        m = np.maximum(np.ceil(seg / h), 1).astype(np.int64)
         i = np.repeat(np.arange(seg.size), m)
         f = (np.arange(int(m.sum())) - np.repeat(np.cumsum(m) - m, m)) / np.repeat(m, m)
         pts = np.concatenate([pts[i] + f[:, None] * (pts[i + 1] - pts[i]), pts[-1:]])
-    d, _ = cKDTree(pts).query(points, distance_upper_bound=1.125 * dist)
+    d, _ = cKDTree(pts).query(points, distance_upper_bound=dist + 0.5 * h)
     return np.asarray(np.isfinite(d))
+
+
+def _shared(points: NDArray[np.float64], size: float) -> NDArray[np.bool_]:
+    """Which ``points (K, 3)`` share their cube of side ``size`` (the cubes of
+    :func:`merged`) with another point."""
+    cell = np.floor((points - points.min(axis=0)) / size)
+    _, inv, cnt = np.unique(cell, axis=0, return_inverse=True, return_counts=True)
+    return np.asarray(cnt[inv.ravel()] > 1)
 
 
 def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any,
@@ -249,7 +261,11 @@ def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any,
     def join(t: SourceTracks) -> SourceTracks:
         if not (size > 0) or t.n_sources < 2:
             return t
-        keep = near_path(np.asarray(t.positions, dtype=np.float64), path, NEAR * size)
+        pos = np.asarray(t.positions, dtype=np.float64).reshape(-1, 3)
+        keep = ~_shared(pos, size)
+        if np.all(keep):
+            return t
+        keep[~keep] = near_path(pos[~keep], path, NEAR * size)
         return merged(t, size, keep)
 
     tkey = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), size)

@@ -15,7 +15,15 @@ from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
 from auralize.synthesis import C0, check_arrival, render
-from auralize.timbre import TONAL_CARRIERS, highpass, loudness, merge_size, merged, render_timbre
+from auralize.timbre import (
+    TONAL_CARRIERS,
+    highpass,
+    loudness,
+    merge_size,
+    merged,
+    near_path,
+    render_timbre,
+)
 
 RATE = 44100
 
@@ -240,3 +248,13 @@ def test_merging_changes_the_timbres_little(timbre_name, monkeypatch) -> None:  
     err = np.sqrt(np.mean((a - b) ** 2, axis=1)) / np.sqrt(np.max(np.mean(b**2, axis=1)))
     assert np.max(err) < 0.02
     assert np.array_equal(fast[1], exact[1])
+
+
+def test_near_path_finds_the_points_near_the_listeners_polyline() -> None:
+    path = ListenerPath.line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], duration=1.0)
+    # beside the middle of the path, beyond its end, and off its corner
+    pts = np.array([[5.0, 0.9, 0.0], [5.0, 0.0, 1.2], [10.9, 0.0, 0.0], [11.5, 0.0, 0.0],
+                    [-0.6, 0.6, 0.0], [-0.8, 0.8, 0.0]])  # fmt: skip
+    assert near_path(pts, path, 1.0).tolist() == [True, False, True, False, True, False]
+    point = ListenerPath.point([0.0, 0.0, 0.0], duration=1.0)
+    assert near_path(pts[4:], point, 1.0).tolist() == [True, False]
