@@ -165,9 +165,14 @@ MERGE = 0.125
 def merge_size(tracks: SourceTracks, c0: float = C0) -> float:
     """Side (m) of the cubes inside which :func:`merged` joins sources:
     :data:`MERGE` × c0 × the data's (median) time step."""
+    return MERGE * c0 * (_data_step(tracks) if tracks.times.size >= 2 else 0.0)
+
+
+def _data_step(tracks: SourceTracks) -> float:
+    """The median time step of the data (s; 1 for a single step), cached on the tracks."""
     t = np.asarray(tracks.times, dtype=np.float64)
-    dt = float(np.median(np.diff(t))) if t.size >= 2 else 0.0
-    return MERGE * c0 * dt
+    return float(_cached(tracks, "timbre:step", "",
+                         lambda: np.median(np.diff(t)) if t.size >= 2 else 1.0))  # fmt: skip
 
 
 def merged(tracks: SourceTracks, size: float,
@@ -582,9 +587,7 @@ def _lerp_weights(n: int, k: int) -> tuple[NDArray[Any], ...]:
 def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
     """Nyquist frequency of the data's time stepping in playback time (Hz): the
     ``extended`` cut-off (paper 001 §4 uses the simulation's Nyquist, 180 Hz)."""
-    t = np.asarray(tracks.times, dtype=np.float64)
-    dt = float(np.median(np.diff(t))) if t.size >= 2 else 1.0
-    return 0.5 / (dt * time_scale)
+    return 0.5 / (_data_step(tracks) * time_scale)
 
 
 def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
@@ -684,6 +687,29 @@ def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> 
     return np.asarray(sosfilt(np.concatenate([sos, sos]), x, axis=-1))
 
 
+def _tone(hz: float, phase_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A unit-RMS sine of ``hz`` at the emission times ``phase_s`` (s): the
+    cycles are counted in double precision, the sine of their fraction taken
+    in single precision (1e-7 of the amplitude, at a fraction of the cost)."""
+    cyc = phase_s * hz
+    cyc -= np.floor(cyc)
+    return np.sin(cyc.astype(np.float32) * np.float32(2 * np.pi)) * np.sqrt(2.0)
+
+
+def _share_above(audio: NDArray[np.float64], rate: float, hz: float) -> float:
+    """The share of the energy of ``audio (n_channels, n)`` above ``hz`` (as
+    :func:`loudness`; the spectrum in single precision: six digits)."""
+    from scipy.fft import rfft
+
+    spec = np.zeros(audio.shape[-1] // 2 + 1)
+    for x in audio:  # per channel: the spectra stay small
+        X = rfft(x.astype(np.float32))
+        spec += X.real.astype(np.float64) ** 2 + X.imag.astype(np.float64) ** 2
+    total = float(spec.sum())
+    f = np.fft.rfftfreq(audio.shape[-1], 1.0 / rate)
+    return float(spec[f > hz].sum() / total) if total > 0 else 0.0
+
+
 def _type_tracks(tracks: SourceTracks) -> list[SourceTracks | None]:
     """Per type (monopole, dipole, quadrupole): the tracks of |q| where the source
     has that type, scaled so that every type's peak is the peak of all |q|
@@ -728,7 +754,7 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         clock = _Clock(sub, path, env, start=start, c0=c0)
         spec = carriers[name]
         if spec[0] == "tone":
-            car = np.sqrt(2.0) * np.sin(2 * np.pi * float(spec[1]) * clock.phase_s())
+            car = _tone(float(spec[1]), clock.phase_s())
         elif spec[0] == "noise":
             f_lo, f_hi = float(spec[1]), float(spec[2])
 
@@ -743,6 +769,8 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         audio += env.audio * car[None, :]
         used[name] = list(spec)
     meta["carriers"] = used
+    if audio is not None:
+        meta["share_above_20hz_unfiltered"] = _share_above(audio, float(kw["rate"]), 20.0)
     if base is None or audio is None:  # no sources: silence of the right shape
         empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, tracks.times.size)),
                              radius=np.zeros(0), times=tracks.times)  # fmt: skip
