@@ -79,7 +79,6 @@ from __future__ import annotations
 import functools
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -298,64 +297,35 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
     if tracks.n_sources == 0:
         return np.zeros(t_data.size)
     cen, W = _cached(tracks, "timbre:clusters", "", lambda: _clusters(tracks))
+    C = cen.shape[0]
     tn = _knot_times(tracks)
-    num, den, dmin = _heard_sums(np.ascontiguousarray(L), np.asarray(t_data, dtype=np.float64),
-                                 cen, W, tn, float(c0))  # fmt: skip
+    D2 = np.zeros((t_data.size, C))  # (J, C)
+    for a in range(3):
+        d = L[:, a, None] - cen[None, :, a]
+        D2 += d * d
+    D = np.maximum(np.sqrt(D2), 1e-9)
+    tau = t_data[:, None] - D / c0
+    step = np.diff(tn)
+    if np.all(np.abs(step - step[0]) <= 1e-9 * step[0]):  # even steps: the row by division
+        x = (tau - tn[0]) / step[0]
+        n = np.clip(np.floor(x), 0, tn.size - 2).astype(np.int64)
+        s = np.clip(x - n, 0.0, 1.0)
+    else:
+        n = np.clip(np.searchsorted(tn, tau, side="right") - 1, 0, tn.size - 2)
+        s = np.clip((tau - tn[n]) / step[n], 0.0, 1.0)
+    flat = W.ravel()
+    n += np.arange(C) * W.shape[1]  # flat index of (cluster, step)
+    wt = flat[n] * (1 - s)
+    wt += flat[n + 1] * s
+    wt[(tau < tn[0]) | (tau > tn[-1])] = 0.0
+    num, den = wt.sum(axis=1), (wt / D).sum(axis=1)
     ok = den > 0
     if not np.any(ok):
-        return dmin
+        return np.min(D, axis=1)
     dbar = np.where(ok, num / np.where(ok, den, 1.0), np.nan)
     idx = np.flatnonzero(ok)
     nearest = idx[np.clip(np.searchsorted(idx, np.arange(dbar.size)), 0, idx.size - 1)]
     return np.where(ok, dbar, dbar[nearest])
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _heard_sums(L, t_data, cen, W, tn, c0):  # type: ignore[no-untyped-def]
-    """For :func:`mean_distance`: per control j, ``Σ_c w_c``, ``Σ_c w_c / D_c``
-    and ``min_c D_c`` (D ≥ 1e-9 m), ``w_c`` the cluster's |q| at
-    ``t_data[j] − D_c/c0``, linearly interpolated in ``W (C, T)`` over the
-    knot times ``tn (T,)`` (0 outside them)."""
-    J, C, T = L.shape[0], cen.shape[0], tn.size
-    num, den, dmin = np.zeros(J), np.zeros(J), np.full(J, np.inf)
-    step0 = tn[1] - tn[0]
-    even = True
-    for i in range(1, T - 1):
-        if abs(tn[i + 1] - tn[i] - step0) > 1e-9 * step0:
-            even = False
-    for j in range(J):
-        for c in range(C):
-            dx, dy, dz = L[j, 0] - cen[c, 0], L[j, 1] - cen[c, 1], L[j, 2] - cen[c, 2]
-            d = max(np.sqrt(dx * dx + dy * dy + dz * dz), 1e-9)
-            dmin[j] = min(dmin[j], d)
-            tau = t_data[j] - d / c0
-            if tau < tn[0] or tau > tn[T - 1]:
-                continue
-            if even:
-                n = min(max(int(np.floor((tau - tn[0]) / step0)), 0), T - 2)
-            else:
-                n = min(max(np.searchsorted(tn, tau, side="right") - 1, 0), T - 2)
-            s = min(max((tau - tn[n]) / (tn[n + 1] - tn[n]), 0.0), 1.0)
-            w = W[c, n] * (1.0 - s) + W[c, n + 1] * s
-            num[j] += w
-            den[j] += w / d
-    return num, den, dmin
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _add_product(audio, e, k, car):  # type: ignore[no-untyped-def]
-    """``audio (C, n) += e ↑ k · car (n,)``: the envelope-rate ``e (C, > (n - 1) // k)``
-    linearly interpolated to the audio rate (as :func:`_upsampled`), times the
-    carrier, added in place."""
-    n = audio.shape[1]
-    for ch in range(audio.shape[0]):
-        for j in range(n):
-            i0 = j // k
-            f = (j - i0 * k) / k
-            v = e[ch, i0]
-            if f > 0.0:
-                v = v * (1.0 - f) + e[ch, i0 + 1] * f
-            audio[ch, j] += v * car[j]
 
 
 def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -420,12 +390,12 @@ def _noise_table(n: int, rate: float, seed: tuple[int, ...], shape: Any,
 class _Clock:
     """Sample times of a render and the emission-time axis of its carriers."""
 
-    def __init__(self, tracks: SourceTracks, path: ListenerPath, *, n: int, rate: float,
-                 time_scale: float, t_start: float, start: float, c0: float) -> None:  # fmt: skip
-        """``n`` samples at ``rate`` (Hz), the first at data time ``t_start`` and
-        ``start`` playback seconds into ``path``."""
-        ts = time_scale
+    def __init__(self, tracks: SourceTracks, path: ListenerPath, out: Rendered, *,
+                 start: float, c0: float) -> None:  # fmt: skip
+        rate, ts = out.rate, out.time_scale
+        n = out.audio.shape[1]
         self.rate, self.ts = rate, ts
+        t_start = float(out.meta["t_start_data"])
         dur = n / rate
         J = max(int(np.ceil(dur * CONTROL_HZ)) + 1, 2)
         u = np.linspace(0.0, dur, J)
@@ -642,7 +612,7 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         cp, n, k = _coarse_render(pos, path, kw, f_cut, bounds)
         cn = _coarse_render(neg, path, kw, f_cut)[0]
         phys = _upsampled(cp, cp.audio - cn.audio, n, k)
-        env, env_c = cp, cp.audio + cn.audio
+        env = _upsampled(cp, cp.audio + cn.audio, n, k)
     else:
         if phys is None:
             phys = _smooth_render(tracks, path, kw if keep_low else {**kw, "layout": "mono"},
@@ -652,23 +622,20 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
             return phys if keep_low else render(tracks, path, bounds=bounds, **kw)
         absq = _joined(tracks, path, "timbre:abs",
                        lambda join: join(_subset(tracks, np.abs(tracks.q))), c0)  # fmt: skip
-        env, _, k = _coarse_render(absq, path, kw, f_cut)
-        env_c = env.audio
+        env = _smooth_render(absq, path, kw, f_cut)
     n = phys.audio.shape[1]
     if n < 4:
         meta["beta"] = 0.0
         return phys
-    clock = _Clock(tracks, path, n=n, rate=rate, time_scale=env.time_scale,
-                   t_start=float(env.meta["t_start_data"]), start=start, c0=c0)  # fmt: skip
+    clock = _Clock(tracks, path, env, start=start, c0=c0)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.maximum(f, 0.25 * f_cut) ** (-alpha / 2)
 
     table = _noise_table(clock.size, rate, (int(seed), 1), shape, ("power", alpha, f_cut))
     low = _crossover(phys.audio, rate, f_cut, "lowpass")
-    high = np.zeros((env_c.shape[0], n))  # the envelope at the audio rate times the noise
-    _add_product(high, env_c, k, clock.noise(table))
-    high = _crossover(high, rate, f_cut, "highpass")
+    env.audio *= clock.noise(table)[None, :]
+    high = _crossover(env.audio, rate, f_cut, "highpass")
     # Eq. 13, power summed over the channels: low + β high matches the physical
     # power under g(f) (the cross term needs the low band in every channel;
     # without it, it is left out: random-phase noise is uncorrelated with it)
@@ -702,7 +669,7 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     total = float(spec.sum())
     meta["share_above_20hz_unfiltered"] = float(spec[f > 20.0].sum() / total) if total > 0 else 0.0
     return Rendered(audio=audio, rate=rate, layout=env.layout, time_scale=env.time_scale,
-                    meta=_upsampled(env, env_c, 0, k).meta)  # fmt: skip
+                    meta=env.meta)  # fmt: skip
 
 
 def _signs(tracks: SourceTracks) -> tuple[SourceTracks, SourceTracks]:
@@ -780,13 +747,11 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         sub = by_type[code - 1]
         if sub is None or name not in carriers:
             continue
-        coarse, n, k = _coarse_render(joined[code - 1], path, kw, f_cut)
-        rate = coarse.rate * k
+        env = _smooth_render(joined[code - 1], path, kw, f_cut)
+        rate = env.rate
         if audio is None:
-            audio = np.zeros((coarse.audio.shape[0], n))
-            base = _upsampled(coarse, coarse.audio, 0, k)  # (rate, layout and meta)
-        clock = _Clock(sub, path, n=n, rate=rate, time_scale=coarse.time_scale,
-                       t_start=float(coarse.meta["t_start_data"]), start=start, c0=c0)  # fmt: skip
+            base, audio = env, np.zeros_like(env.audio)
+        clock = _Clock(sub, path, env, start=start, c0=c0)
         spec = carriers[name]
         if spec[0] == "tone":
             car = _tone(float(spec[1]), clock.phase_s())
@@ -801,7 +766,7 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         else:
             raise ParameterError(f"tonal carrier for {name} must be ('tone', Hz) or "
                                  f"('noise', low Hz, high Hz), got {spec!r}")  # fmt: skip
-        _add_product(audio, coarse.audio, k, car)
+        audio += env.audio * car[None, :]
         used[name] = list(spec)
     meta["carriers"] = used
     if audio is not None:
