@@ -258,3 +258,19 @@ def test_near_path_finds_the_points_near_the_listeners_polyline() -> None:
     assert near_path(pts, path, 1.0).tolist() == [True, False, True, False, True, False]
     point = ListenerPath.point([0.0, 0.0, 0.0], duration=1.0)
     assert near_path(pts[4:], point, 1.0).tolist() == [True, False]
+
+
+@pytest.mark.parametrize("layout", ["mono", "ring8"])
+def test_signs_render_the_pressure_and_the_envelope(layout) -> None:  # type: ignore[no-untyped-def]
+    """The ``extended`` renders of the positive and negative parts of q: their
+    difference is the pressure, their sum the render of |q| (the synthesis is
+    linear in the strengths, cubic interpolation included)."""
+    tr = _cloud()
+    path = ListenerPath.line([6.0, -4.0, 1.0], [6.0, 4.0, 1.0], duration=0.6)
+    pos, neg = timbre._signs(tr)
+    a, b = (render(t, path, rate=4000, layout=layout).audio for t in (pos, neg))
+    p = render(tr, path, rate=4000, layout=layout).audio
+    e = render(SourceTracks(tr.positions, np.abs(tr.q), tr.radius, tr.times), path, rate=4000,
+               layout=layout).audio  # fmt: skip
+    assert np.max(np.abs(a - b - p)) < 1e-9 * np.max(np.abs(p))
+    assert np.max(np.abs(a + b - e)) < 1e-9 * np.max(np.abs(e))
