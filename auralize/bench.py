@@ -204,8 +204,9 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
 
 def _timbre_rows(tracks: Any, path: Any, size: int) -> list[BenchRow]:
     """``extended`` and ``tonal`` renders (auralize.timbre) along the synthesis rows' path:
-    the envelopes' runs or pieces, the per-type tracks and the noise tables are
-    built by the first render of the tracks and reused, as for ``physical``."""
+    the merged envelope tracks (per path), their runs or pieces, the per-type
+    tracks and the noise tables are built by the first render of the tracks
+    and reused, as for ``physical``."""
     from auralize.timbre import render_timbre
 
     rows = []

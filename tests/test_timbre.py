@@ -10,11 +10,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from auralize import timbre
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
 from auralize.synthesis import C0, check_arrival, render
-from auralize.timbre import TONAL_CARRIERS, highpass, loudness, render_timbre
+from auralize.timbre import (
+    TONAL_CARRIERS,
+    highpass,
+    loudness,
+    merge_size,
+    merged,
+    near_path,
+    render_timbre,
+)
 
 RATE = 44100
 
@@ -187,3 +196,81 @@ def test_timbres_keep_panning(timbre) -> None:  # type: ignore[no-untyped-def]
                         timbre=timbre, layout="ring8")  # fmt: skip
     e = np.sum(out.audio**2, axis=1)
     assert np.argmax(e) == 2 and e[2] / e.sum() > 0.99
+
+
+def _cloud(n: int = 600, steps: int = 24, dt: float = 0.05) -> SourceTracks:
+    """``n`` sources on a 0.25 m lattice in a 3 m box, strengths of both signs
+    switching on and off at random (slow data: the timbres' envelopes change
+    once per 50 ms step, while sound crosses the box in 9 ms)."""
+    rng = np.random.default_rng(1)
+    pos = rng.integers(0, 12, size=(n, 3)) * 0.25
+    pos = np.unique(pos, axis=0)
+    q = rng.normal(size=(pos.shape[0], steps)) * (rng.random((pos.shape[0], steps)) < 0.4)
+    kind = np.where(q != 0, rng.integers(1, 4, size=q.shape), 0).astype(np.int8)
+    return SourceTracks(positions=pos, q=q, radius=np.full(pos.shape[0], 0.1),
+                        times=np.arange(steps) * dt, kind=kind)  # fmt: skip
+
+
+def test_merged_sources_keep_the_sum_and_the_centroid() -> None:
+    tr = _cloud()
+    tr = SourceTracks(tr.positions, np.abs(tr.q), tr.radius, tr.times)
+    size = merge_size(tr)
+    assert size == pytest.approx(timbre.MERGE * C0 * 0.05)
+    m = merged(tr, size)
+    assert 0 < m.n_sources < tr.n_sources / 10
+    assert np.allclose(m.q.sum(axis=0), tr.q.sum(axis=0))
+    # the |q|-weighted centroid of all sources is kept
+    w, wm = tr.q.sum(axis=1), m.q.sum(axis=1)
+    assert np.allclose(wm @ m.positions / wm.sum(), w @ tr.positions / w.sum(), atol=1e-12)
+    # one source per occupied cube, inside it
+    lo = tr.positions.min(axis=0)
+    cubes = np.unique(np.floor((tr.positions - lo) / size), axis=0)
+    mine = np.floor((m.positions - lo) / size)
+    assert np.array_equal(np.unique(mine, axis=0), cubes) and mine.shape[0] == cubes.shape[0]
+    # sources farther apart than the cube are left alone (the tracks themselves)
+    assert merged(tr, 0.2) is tr
+
+
+@pytest.mark.parametrize("timbre_name", ["extended", "tonal"])
+def test_merging_changes_the_timbres_little(timbre_name, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Envelopes from merged sources (cubes of 2.1 m here) stay within 2 % of
+    the unmerged render in every loudspeaker; near the listener nothing merges."""
+    tr = _cloud()
+    kw = dict(rate=8000, timbre=timbre_name, layout="ring8", seed=2)
+    far = ListenerPath.line([20.0, -6.0, 1.0], [20.0, 6.0, 1.0], duration=1.0)
+    through = ListenerPath.line([1.5, -4.0, 1.0], [1.5, 4.0, 1.0], duration=1.0)
+    fast = [render_timbre(tr, p, **kw).audio for p in (far, through)]
+    monkeypatch.setattr(timbre, "MERGE", 0.0)
+    exact = [render_timbre(tr, p, **kw).audio for p in (far, through)]
+    a, b = fast[0], exact[0]
+    assert not np.array_equal(a, b)
+    # per loudspeaker, relative to the loudest one: panning and levels kept
+    err = np.sqrt(np.mean((a - b) ** 2, axis=1)) / np.sqrt(np.max(np.mean(b**2, axis=1)))
+    assert np.max(err) < 0.02
+    assert np.array_equal(fast[1], exact[1])
+
+
+def test_near_path_finds_the_points_near_the_listeners_polyline() -> None:
+    path = ListenerPath.line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], duration=1.0)
+    # beside the middle of the path, beyond its end, and off its corner
+    pts = np.array([[5.0, 0.9, 0.0], [5.0, 0.0, 1.2], [10.9, 0.0, 0.0], [11.5, 0.0, 0.0],
+                    [-0.6, 0.6, 0.0], [-0.8, 0.8, 0.0]])  # fmt: skip
+    assert near_path(pts, path, 1.0).tolist() == [True, False, True, False, True, False]
+    point = ListenerPath.point([0.0, 0.0, 0.0], duration=1.0)
+    assert near_path(pts[4:], point, 1.0).tolist() == [True, False]
+
+
+@pytest.mark.parametrize("layout", ["mono", "ring8"])
+def test_signs_render_the_pressure_and_the_envelope(layout) -> None:  # type: ignore[no-untyped-def]
+    """The ``extended`` renders of the positive and negative parts of q: their
+    difference is the pressure, their sum the render of |q| (the synthesis is
+    linear in the strengths, cubic interpolation included)."""
+    tr = _cloud()
+    path = ListenerPath.line([6.0, -4.0, 1.0], [6.0, 4.0, 1.0], duration=0.6)
+    pos, neg = timbre._signs(tr)
+    a, b = (render(t, path, rate=4000, layout=layout).audio for t in (pos, neg))
+    p = render(tr, path, rate=4000, layout=layout).audio
+    e = render(SourceTracks(tr.positions, np.abs(tr.q), tr.radius, tr.times), path, rate=4000,
+               layout=layout).audio  # fmt: skip
+    assert np.max(np.abs(a - b - p)) < 1e-9 * np.max(np.abs(p))
+    assert np.max(np.abs(a + b - e)) < 1e-9 * np.max(np.abs(e))
