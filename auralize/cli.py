@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import errno
 import json
-import math
 import os
 import sys
 import time
@@ -33,6 +32,17 @@ from typing import Any
 import numpy as np
 
 from auralize import __version__
+from auralize.cli_options import (  # the shared options; re-exported for older imports
+    RATE_RANGE_HZ,  # noqa: F401
+    add_output_options,
+    finite_float,
+    listener_from_args,  # noqa: F401
+    positive_float,
+    positive_int,
+    rate_int,  # noqa: F401
+    seed_int,
+)
+from auralize.cli_options import vec3 as _vec3
 from auralize.errors import (
     AuralizeError,
     DataError,
@@ -64,8 +74,6 @@ EXIT_CODES = {
     EXIT_INTERNAL: "internal error (a bug; AURALIZE_DEBUG=1 shows the traceback)",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
 }
-#: lowest and highest sample rate an audio command accepts, Hz
-RATE_RANGE_HZ = (8000, 768000)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -76,75 +84,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {text} (see '{self.prog} --help')\n")
 
 
-def positive_float(text: str) -> float:
-    """argparse type: a finite number > 0."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
-    return v
-
-
-def finite_float(text: str) -> float:
-    """argparse type: a finite number."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return v
-
-
-def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return v
-
-
-def seed_int(text: str) -> int:
-    """argparse type: a random seed, 0 to 2**32 - 1."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}") from None
-    if not 0 <= v < 2**32:
-        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}")
-    return v
-
-
-def rate_int(text: str) -> int:
-    """argparse type: an audio sample rate in :data:`RATE_RANGE_HZ`."""
-    lo, hi = RATE_RANGE_HZ
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a sample rate in Hz ({lo}..{hi}), got {text!r}"
-        ) from None
-    if not lo <= v <= hi:
-        raise argparse.ArgumentTypeError(f"sample rate {text!r} Hz is outside {lo}..{hi} Hz")
-    return v
-
-
 # ----------------------------------------------------------------- helpers
-def _vec3(text: str) -> np.ndarray:
-    try:
-        v = np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected x,y,z numbers, got {text!r}") from None
-    if v.size != 3 or not np.all(np.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"expected three finite numbers x,y,z, got {text!r}")
-    return v
-
-
 def _captures(text: str) -> int:
     try:
         v = int(text)
@@ -235,48 +175,6 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def add_output_options(
-    p: argparse.ArgumentParser,
-    *,
-    layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
-    listener_required: bool = True,
-) -> None:
-    g = p.add_argument_group("audio output")
-    g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
-    g.add_argument("--layout", default="mono", help=layouts)
-    g.add_argument("--rate", type=rate_int, default=44100, help="sample rate in Hz (default 44100)")
-    g.add_argument(
-        "--normalize",
-        choices=["peak", "none"],
-        default="peak",
-        help="peak: loudest sample at 0.99; none: physical pascals in a float WAV, whose "
-        "samples go beyond ±1 by design (scale them before playing)",
-    )
-    g.add_argument(
-        "--format",
-        choices=["float32", "pcm16", "pcm24"],
-        help="sample format (default: float32 WAV, pcm24 FLAC); pcm needs --normalize peak",
-    )
-    g.add_argument(
-        "--limit",
-        type=positive_float,
-        metavar="PA",
-        help="truncate pressures beyond this many pascals (paper 000 §7)",
-    )
-    src = g.add_mutually_exclusive_group(required=listener_required)
-    src.add_argument(
-        "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
-    )
-    src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument(
-        "--duration",
-        type=positive_float,
-        help="seconds to render (with --listener)"
-        if listener_required
-        else "playback seconds (default: the path's length, else 10)",
-    )
-
-
 def _time_scale(text: str) -> float | str:
     if text.strip().lower() == "auto":
         return "auto"
@@ -304,16 +202,6 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
                    help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
-
-
-def listener_from_args(args: argparse.Namespace) -> Any:
-    from auralize.listener import ListenerPath
-
-    if args.path:
-        return ListenerPath.from_csv(args.path)
-    if args.duration is None:
-        raise ParameterError("--listener needs --duration S (seconds to render)")
-    return ListenerPath.point(args.listener, duration=args.duration)
 
 
 def _load(args: argparse.Namespace) -> Any:

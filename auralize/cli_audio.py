@@ -111,14 +111,8 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
-    from auralize.cli import (
-        _time_scale,
-        _vec3,
-        add_detect_options,
-        add_volume_options,
-        positive_float,
-        rate_int,
-    )
+    from auralize.cli import _time_scale, add_detect_options, add_volume_options
+    from auralize.cli_options import add_output_options, positive_float
 
     p = sub.add_parser("devices", help="list sound output devices and their channel counts")
     p.add_argument("--json", action="store_true")
@@ -127,21 +121,13 @@ def add_commands(sub: Any) -> None:
     p = sub.add_parser("play", help="play the sound along a listener path live (block by block)")
     add_volume_options(p)
     add_detect_options(p)
-    g = p.add_argument_group("live output")
-    src = g.add_mutually_exclusive_group()
-    src.add_argument(
-        "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
-    )
-    src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument("--duration", type=positive_float,
-                   help="playback seconds (default: the path's length, else 10)")  # fmt: skip
-    g.add_argument("--layout", default="ring8", help="mono|stereo|ring8|5.1|7.1|FILE.json")
+    g = add_output_options(p, file=False, layout="ring8", listener_required=False,
+                           title="live output")  # fmt: skip
     g.add_argument("--device", type=_device_arg, metavar="N|NAME",
                    help="output device index or name part (see 'auralize devices')")  # fmt: skip
     g.add_argument("--downmix", nargs="?", const="auto", metavar="LAYOUT",
                    help="fold the layout to fit a device with fewer channels (default: the "
                         "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
-    g.add_argument("--rate", type=rate_int, default=44100, help="sample rate in Hz (default 44100)")
     g.add_argument("--time-scale", type=_time_scale, default="auto",
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
@@ -151,8 +137,6 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--gain", default="auto", type=_gain_arg,
                    help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "
                         "later blocks would clip)")  # fmt: skip
-    g.add_argument("--limit", type=positive_float, metavar="PA",
-                   help="truncate pressures beyond PA pascals")  # fmt: skip
     g.add_argument("--block-ms", type=positive_float, default=50.0,
                    help="synthesis block (default 50 ms)")  # fmt: skip
     g.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
