@@ -33,6 +33,7 @@ import numpy as np
 
 from auralize import __version__
 from auralize.cli_options import (  # the shared options; re-exported for older imports
+    DEFAULT_RATE,
     RATE_RANGE_HZ,  # noqa: F401
     add_output_options,
     finite_float,
@@ -121,8 +122,11 @@ def _field_map(items: list[str] | None) -> dict[str, str] | None:
     return out
 
 
-def add_volume_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("volume", metavar="PATH", help="volume file, or dataset:NAME for a built-in one")
+def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
+    """The volume positional and the options that read it (``optional``: may be left out)."""
+    p.add_argument("volume", metavar="PATH", nargs="?" if optional else None,
+                   help="volume file, or dataset:NAME for a built-in one"
+                        + (" (optional with --model/--scene)" if optional else ""))  # fmt: skip
     g = p.add_argument_group("volume")
     g.add_argument(
         "--field",
@@ -388,9 +392,109 @@ def cmd_detect(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_scene_options(p: argparse.ArgumentParser) -> None:
+    """``--model NAME:FILE[:key=value,...]`` (repeatable) and ``--scene JSON``."""
+    g = p.add_argument_group("scene (several sound models along one listener path)")
+    g.add_argument("--model", action="append", metavar="NAME:FILE[:key=value,...]",
+                   help="add a sound model's sound (repeatable): NAME a registered model "
+                        "('auralize plugins'), FILE its input (file or dataset:NAME), then "
+                        "optional parameters, e.g. fire:dataset:fire:extend=none")  # fmt: skip
+    g.add_argument("--scene", metavar="SCENE.json",
+                   help="a scene file: listener, layout and a list of {model, input, params} "
+                        "(options given on the command line win)")  # fmt: skip
+
+
+def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
+    """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
+    from auralize.emitters import Sound, render
+    from auralize.listener import ListenerPath
+    from auralize.pipeline import DEFAULT_DURATION, plan_render, save_rendered
+    from auralize.soundscene import load_scene, parse_model_spec, scene_sound
+    from auralize.spatial import get_layout
+    from auralize.timbre import highpass, loudness
+
+    scene = load_scene(args.scene) if args.scene else None
+    models = [*(scene.models if scene else []), *(parse_model_spec(m) for m in args.model or [])]
+    if scene is not None:  # the scene file fills what the command line left at its default
+        for key in ("layout", "rate"):
+            if getattr(scene, key) is not None and getattr(args, key) == parser_defaults[key]:
+                setattr(args, key, getattr(scene, key))
+        if args.duration is None and scene.duration is not None:
+            args.duration = float(scene.duration)
+    lay = get_layout(args.layout)
+    path = ListenerPath.from_csv(args.path) if args.path else None
+    listener = args.listener
+    if path is None and listener is None and scene is not None:
+        path, listener = scene.path, scene.listener
+    notes: list[str] = []
+    sound = Sound(parts=[], meta={}, name="")
+    if args.volume is not None:  # the field of the positional volume, planned as a plain render
+        from auralize.field_model import FieldAuralization
+
+        vol = _load(args)
+        if args.sources:
+            from auralize.io.sources_file import load_sources_for
+
+            series = load_sources_for(args.sources, vol)
+        else:
+            from auralize.pipeline import detect_sources
+
+            series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
+                                    progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
+        plan = plan_render(vol, series.tracks(), path=path, listener=listener,
+                           duration=args.duration, time_scale=args.time_scale)  # fmt: skip
+        path, duration = plan.path, plan.duration
+        notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
+        sound = sound + FieldAuralization().synthesize(
+            (vol, series), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
+            timbre=args.timbre)  # fmt: skip
+        _report_unavailable("render", series)
+    elif args.sources:
+        raise ParameterError("--sources needs the volume they were detected in (PATH)")
+    else:
+        if path is None and listener is None:
+            raise ParameterError("a scene without a volume needs a listener: --path CSV, "
+                                 "--listener X,Y,Z or 'listener' in the scene file")  # fmt: skip
+        if path is None:
+            path = ListenerPath.point(listener, duration=args.duration or DEFAULT_DURATION)
+        duration = args.duration or path.duration
+    check_render_memory(args, duration, lay.n_channels)
+    t = time.perf_counter()
+    sound = sound + scene_sound(models, path, duration)
+    out = render(sound, path, rate=args.rate, layout=lay, duration=duration)
+    if args.highpass > 0:
+        out.audio = highpass(out.audio, out.rate, args.highpass)
+    out.meta.update({"seconds": time.perf_counter() - t, "duration_s": duration,
+                     "highpass_hz": args.highpass, "notes": notes})  # fmt: skip
+    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
+                         subtype=args.format,
+                         extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+    ld = loudness(out.audio, out.rate)
+    kinds = ", ".join(f"{p['model']} ({p['kind']})" for p in out.meta["parts"])
+    report = (f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
+              f"{out.rate} Hz; scene of {len(out.meta['parts'])} part(s): {kinds}; peak "
+              f"{ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa (gain {gain:.4g})")  # fmt: skip
+    if args.json:
+        print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
+                          "loudness": ld, "report": report}, indent=2, default=str))  # fmt: skip
+        return 0
+    for note in notes:
+        print(note)
+    for part in out.meta["parts"]:
+        print(f"  {part['model']:10s} {part['kind']:14s} peak {part['peak_pa']:.4g} Pa")
+    print(report)
+    return 0
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from auralize.pipeline import DEFAULT_DURATION, auralize, report_line, save_rendered
     from auralize.spatial import get_layout
+
+    if args.model or args.scene:
+        return _cmd_render_scene(args, {"layout": "mono", "rate": DEFAULT_RATE})
+    if args.volume is None:
+        raise ParameterError("give a volume PATH, or sound models with --model NAME:FILE or "
+                             "--scene SCENE.json")  # fmt: skip
 
     path = None
     if args.path:
@@ -590,10 +694,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_detect)
 
     p = sub.add_parser("render", help="render the sound heard along a listener path")
-    add_volume_options(p)
+    add_volume_options(p, optional=True)
     add_detect_options(p)
     add_output_options(p, listener_required=False)
     add_render_options(p)
+    add_scene_options(p)
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("path", help="build a listener path CSV")
