@@ -415,6 +415,8 @@ def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any])
 
     scene = load_scene(args.scene) if args.scene else None
     models = [*(scene.models if scene else []), *(parse_model_spec(m) for m in args.model or [])]
+    for sm in models:
+        sm.check()
     if scene is not None:  # the scene file fills what the command line left at its default
         for key in ("layout", "rate"):
             if getattr(scene, key) is not None and getattr(args, key) == parser_defaults[key]:

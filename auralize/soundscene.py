@@ -66,6 +66,16 @@ class SceneModel:
     input: Any
     params: dict[str, Any] = field(default_factory=dict)
 
+    def check(self) -> None:
+        """Fail now (not at the render) on an unknown model or a bad parameter."""
+        from auralize.plugins import get_model
+
+        model = get_model(self.model)
+        params = dict(self.params)
+        if self.model == "field" and params.get("time_scale") == "auto":
+            params.pop("time_scale")  # resolved along the listener path at the render
+        model.resolve(**params)
+
     def describe(self) -> dict[str, Any]:
         """A JSON-friendly description (for sidecars)."""
         inp = self.input if isinstance(self.input, str) else type(self.input).__name__
