@@ -341,3 +341,17 @@ def test_add_sound_model_mixes_in_scripts(tone_models) -> None:  # type: ignore[
             simple.RemoveSoundModel("old.h5")
     finally:
         simple.ResetSession()
+
+
+def test_render_duration_and_rate_mean_the_same_with_a_path(tone_models, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``--duration`` cuts (or extends) a ``--path``; ``--rate`` is the output rate."""
+    from auralize.audio import read_wav
+    from auralize.cli import main
+
+    a, _ = tone_models
+    ListenerPath.line([0, 0, 0], [1, 0, 0], duration=1.0).to_csv(tmp_path / "p.csv")
+    out = tmp_path / "x.wav"
+    assert main(["render", "--model", f"tone:{a}", "--path", str(tmp_path / "p.csv"),
+                 "--duration", "0.25", "--rate", "22050", "-o", str(out)]) == 0  # fmt: skip
+    audio, rate, _ = read_wav(out)
+    assert rate == 22050 and audio.shape == (1, round(0.25 * 22050))
