@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from auralize.plugins import Parameter, SoundModel, load_volume_input
+from auralize.plugins import Parameter, SoundModel
 
 if TYPE_CHECKING:
     from auralize.emitters import Sound
@@ -25,6 +25,7 @@ class FieldAuralization(SoundModel):
         "monopole/dipole/quadrupole sources of a volume, retarded-time summation (Shin & Bajaj 2004)"
     )
     paper: ClassVar[str] = "003 §3.2, §4.1"
+    input_kind: ClassVar[str] = "volume"
     parameters: ClassVar[tuple[Parameter, ...]] = (
         Parameter(
             "mapping",
@@ -105,8 +106,3 @@ class FieldAuralization(SoundModel):
                 "mapping": series.meta.get("mapping"),
                 "thresholds": series.thresholds.tolist()}  # fmt: skip
         return Sound(parts=[part], meta={"field": meta}, name="field")
-
-    def load_input(self, spec: str) -> TimeVolume:
-        """A volume file or ``dataset:NAME`` (see :func:`auralize.pipeline.load`)."""
-        vol: TimeVolume = load_volume_input(spec)
-        return vol

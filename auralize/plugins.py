@@ -115,6 +115,11 @@ class SoundModel:
     #: built-in datasets ``{name: factory(size=, steps=, seed=) -> TimeVolume}``
     #: (``auralize dataset NAME``, ``dataset:NAME`` inputs); default none
     datasets: ClassVar[dict[str, Any]] = {}
+    #: what :meth:`synthesize` takes: ``"volume"`` when its inputs are one
+    #: :class:`~auralize.volume.TimeVolume` (then :meth:`load_input` reads volume
+    #: files and ``dataset:NAME``, and the viewer makes the model's overlay
+    #: audible with the volume on screen); ``""`` (default) for anything else
+    input_kind: ClassVar[str] = ""
 
     def resolve(self, **params: Any) -> dict[str, Any]:
         """Fill defaults and check every given parameter against its declaration."""
@@ -154,10 +159,13 @@ class SoundModel:
         """Read this model's inputs from ``spec`` (a file or ``dataset:NAME``).
 
         Used by ``auralize render --model NAME:FILE`` and scene files; returns
-        what :meth:`synthesize` takes as ``inputs``.  The default refuses:
-        a model that can be mixed into a scene from the command line
-        overrides it (see :func:`load_volume_input` for volume inputs).
+        what :meth:`synthesize` takes as ``inputs``.  The default reads a
+        volume when :attr:`input_kind` is ``"volume"`` and refuses otherwise:
+        a model with other inputs overrides it to be mixed into a scene from
+        the command line.
         """
+        if self.input_kind == "volume":
+            return load_volume_input(spec)
         raise PluginError(
             f"sound model {self.name!r} cannot read its inputs from {spec!r}: it does not "
             f"implement SoundModel.load_input (use it from Python: "
