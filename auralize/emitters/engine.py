@@ -6,6 +6,7 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from auralize.emitters import C0, Emitters, FieldSources, Part, Sound
 from auralize.errors import ParameterError
@@ -13,12 +14,13 @@ from auralize.listener import ListenerPath
 from auralize.spatial import Layout, get_layout
 from auralize.synthesis import Rendered
 
-BACKENDS = ("auto", "reference")
+BACKENDS = ("auto", "sampled", "reference")
 
 
 def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
                     layout: str | Layout = "mono", duration: float | None = None,
-                    start: float = 0.0, c0: float = C0, backend: str = "auto") -> Rendered:  # fmt: skip
+                    start: float = 0.0, c0: float = C0, backend: str = "auto",
+                    block: int = 32, oversample: int = 4) -> Rendered:  # fmt: skip
     """Pressure of point emitters heard along ``path`` (see :mod:`auralize.emitters`).
 
     Parameters
@@ -29,28 +31,71 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     rate : int
         Output sample rate (Hz).
     layout : str or Layout
-        Any output layout.
+        Any output layout (panned with its own law, :func:`auralize.spatial.pan_gains`).
     duration : float, optional
         Playback seconds (default: the path's duration after ``start``).
     start : float
         Playback seconds after the path's first capture of output sample 0
         (consecutive blocks join without seams).
-    backend : {"auto", "reference"}
-        ``reference`` evaluates every sample in numpy (tests).
+    c0 : float
+        Speed of sound (m/s).
+    backend : {"auto", "sampled", "reference"}
+        ``auto`` and ``sampled``: the compiled kernel of
+        :mod:`auralize.emitters._sampled` (retarded time, distance law,
+        dipole projection and panning gains every ``block`` samples,
+        interpolated linearly between); ``reference`` evaluates every sample
+        in numpy (tests; equal within about 1e-3 of the peak).
+    block : int
+        Samples (of the evaluation rate) between control points of ``sampled``.
+    oversample : int
+        ``sampled``: emitters below the output rate are upsampled band-limited
+        to at most this × their rate, evaluated at an integer fraction of the
+        output rate when possible and resampled band-limited (1: read the
+        signals as given, at the output rate).
 
     Returns
     -------
     Rendered
-        ``audio (n_channels, n_samples)`` in Pa.
-    """
-    from auralize.emitters.reference import render_reference
+        ``audio (n_channels, n_samples)`` in Pa; ``meta``: ``model``,
+        ``n_emitters``, ``backend``, ``internal_rate_hz``, ``c0``.
 
+    Raises
+    ------
+    ParameterError
+        Unknown backend, non-positive rate, negative duration or block.
+    """
     if backend not in BACKENDS:
         raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if not isinstance(em, Emitters):
+        raise ParameterError(f"render_emitters needs Emitters, got {type(em).__name__}")
+    if isinstance(rate, bool) or not (
+        isinstance(rate, int | np.integer) and 1000 <= rate <= 768000
+    ):
+        raise ParameterError(f"rate must be an integer in 1000..768000 Hz, got {rate!r}")
+    if not (np.isfinite(c0) and c0 > 0):
+        raise ParameterError(f"c0 must be a positive speed of sound in m/s, got {c0!r}")
+    if not np.isfinite(start):
+        raise ParameterError(f"start must be finite, got {start!r}")
+    if isinstance(block, bool) or not (isinstance(block, int | np.integer) and 1 <= block <= 4096):
+        raise ParameterError(f"block must be an integer in 1..4096 samples, got {block!r}")
     lay = get_layout(layout)
-    audio = render_reference(em, path, rate=rate, layout=lay, duration=duration, start=start, c0=c0)
-    return Rendered(audio=audio, rate=int(rate), layout=lay,
-                    meta={"model": em.name, "n_emitters": em.n_emitters, "c0": c0})  # fmt: skip
+    dur = path.duration - start if duration is None else float(duration)
+    if not (np.isfinite(dur) and dur >= 0):
+        raise ParameterError(f"duration must be >= 0 s, got {dur!r}")
+    n_out = int(round(dur * rate))
+    meta: dict[str, Any] = {"model": em.name, "n_emitters": em.n_emitters, "c0": c0}
+    if backend == "reference":
+        from auralize.emitters.reference import render_reference
+
+        audio = render_reference(em, path, rate=rate, layout=lay, duration=dur, start=start, c0=c0)
+        meta.update(backend="reference", internal_rate_hz=float(rate))
+    else:
+        from auralize.emitters._sampled import render_sampled
+
+        audio, m = render_sampled(em, path, rate=int(rate), layout=lay, n_out=n_out, start=start,
+                                  c0=float(c0), block=int(block), oversample=int(oversample))  # fmt: skip
+        meta.update(backend="sampled", **m)
+    return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
 
 
 def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered:
@@ -69,6 +114,14 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered
     raise ParameterError(f"cannot render a {type(part).__name__}: not an engine part")
 
 
+def _parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
+    if isinstance(sound, Sound):
+        return list(sound.parts)
+    if isinstance(sound, Emitters | FieldSources) or hasattr(sound, "render_part"):
+        return [sound]
+    return list(sound)
+
+
 def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: int = 44100,
            layout: str | Layout = "mono", duration: float | None = None, start: float = 0.0,
            c0: float = C0, backend: str = "auto") -> Rendered:  # fmt: skip
@@ -78,12 +131,7 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     mix equals the sum of the parts rendered alone.  ``meta["parts"]`` lists
     each part's model, kind and peak.
     """
-    if isinstance(sound, Sound):
-        parts = list(sound.parts)
-    elif isinstance(sound, Emitters | FieldSources) or hasattr(sound, "render_part"):
-        parts = [sound]
-    else:
-        parts = list(sound)
+    parts = _parts_of(sound)
     lay = get_layout(layout)
     dur = path.duration - start if duration is None else float(duration)
     kw: dict[str, Any] = dict(rate=rate, layout=lay, duration=dur, start=start, c0=c0,
@@ -100,3 +148,102 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     if isinstance(sound, Sound):
         meta.update(sound.meta)
     return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
+
+
+class BlockRenderer:
+    """Render a sound (or scene) block by block along a listener path, for live playback.
+
+    Block ``i`` holds output samples ``i·block`` to ``(i+1)·block`` after
+    ``start``; concatenated blocks equal one :func:`render` of the whole
+    duration (the engine's control points lie on a grid fixed in playback
+    time, the field kernels carry their state in time too).  Emitted signals
+    that the sampled backend upsamples are prepared once, not per block.
+
+    Parameters
+    ----------
+    sound : Sound, a part or parts
+    path : ListenerPath
+    rate : int
+        Output sample rate (Hz).
+    layout : str or Layout
+    block : int
+        Samples per block.
+    start : float
+        Playback second of block 0's first sample.
+    c0 : float
+        Speed of sound (m/s).
+    backend : {"auto", "sampled", "reference"}
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.emitters import Emitters
+    >>> from auralize.listener import ListenerPath
+    >>> em = Emitters(np.ones((1, 4410)), 44100, [[3.0, 0, 0]])
+    >>> br = BlockRenderer(em, ListenerPath.point((0, 0, 0), duration=0.1), block=1024)
+    >>> br.n_blocks, br.render_block(0).shape
+    (5, (1, 1024))
+    """
+
+    def __init__(self, sound: Sound | Part | Iterable[Part], path: ListenerPath, *,
+                 rate: int = 44100, layout: str | Layout = "mono", block: int = 1024,
+                 start: float = 0.0, c0: float = C0, backend: str = "auto") -> None:  # fmt: skip
+        if backend not in BACKENDS:
+            raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        if isinstance(block, bool) or not (isinstance(block, int | np.integer) and block >= 1):
+            raise ParameterError(f"block must be a positive number of samples, got {block!r}")
+        self.parts = _parts_of(sound)
+        self.meta = dict(sound.meta) if isinstance(sound, Sound) else {}
+        self.path = path
+        self.rate = int(rate)
+        self.layout = get_layout(layout)
+        self.block = int(block)
+        self.start = float(start)
+        self.c0 = float(c0)
+        self.backend = backend
+        self.index = 0
+        self._prepared: dict[int, Any] = {}
+
+    @property
+    def n_blocks(self) -> int:
+        """Blocks up to the path's end."""
+        n = (self.path.duration - self.start) * self.rate / self.block
+        return max(0, int(np.ceil(n - 1e-9)))
+
+    def _prepared_for(self, em: Emitters) -> Any:
+        from auralize.emitters._sampled import prepare, upsampling
+
+        key = id(em)
+        if key not in self._prepared:
+            up = upsampling(em.rate, self.rate, 4)
+            self._prepared[key] = (em, prepare(em.signals, em.rate, em.t0, up))
+        return self._prepared[key][1]
+
+    def render_block(self, i: int) -> NDArray[np.float64]:
+        """Audio ``(n_channels, block)`` of block ``i`` (Pa)."""
+        from auralize.emitters._sampled import render_sampled
+
+        t = self.start + i * self.block / self.rate
+        audio = np.zeros((self.layout.n_channels, self.block))
+        kw: dict[str, Any] = dict(rate=self.rate, layout=self.layout, duration=self.block / self.rate,
+                                  start=t, c0=self.c0, backend=self.backend)  # fmt: skip
+        for part in self.parts:
+            if isinstance(part, Emitters) and self.backend != "reference":
+                a, _ = render_sampled(part, self.path, rate=self.rate, layout=self.layout,
+                                      n_out=self.block, start=t, c0=self.c0,
+                                      prepared=self._prepared_for(part))  # fmt: skip
+            else:
+                a = _render_part(part, self.path, kw).audio
+            n = min(self.block, a.shape[1])
+            audio[:, :n] += a[:, :n]
+        return audio
+
+    def __iter__(self) -> BlockRenderer:
+        return self
+
+    def __next__(self) -> NDArray[np.float64]:
+        if self.index >= self.n_blocks:
+            raise StopIteration
+        out = self.render_block(self.index)
+        self.index += 1
+        return out

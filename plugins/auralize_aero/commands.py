@@ -6,6 +6,7 @@ The commands run :meth:`auralize_aero.model.AeroSound._cmd_texture` and
 
 from __future__ import annotations
 
+import argparse
 from typing import Any
 
 from auralize.cli import add_output_options, finite_float, positive_float, positive_int, seed_int
@@ -66,7 +67,8 @@ def add_commands(subparsers: Any) -> None:
     r.add_argument("--length", type=positive_float, default=0.5, help="stick length in metres")
     r.add_argument("--exponent", choices=["physical", "paper"], default="physical",
                    help="amplitude ∝ v³ (physical) or v⁶ (paper Eq. 3)")  # fmt: skip
-    r.add_argument("--stereo", choices=["ears", "pan"], default="ears")
+    # "--stereo ears" (two ear receivers) is refused with an explanation; stereo is a VBAP layout
+    r.add_argument("--stereo", help=argparse.SUPPRESS)
     r.add_argument("--seed", type=seed_int, default=0)
     add_output_options(r)
     r.set_defaults(func=lazy("auralize_aero.model:AeroSound._cmd_render"))

@@ -9,28 +9,38 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from auralize.emitters import Sound
 from auralize.errors import ParameterError
-from auralize.plugins import Parameter, SoundModel, SoundOutput
+from auralize.listener import ListenerPath
+from auralize.plugins import Parameter, SoundModel
 
 from .objects import AeroObject, Motion, Wind
 from .presets import get_preset, stick
-from .render import render
+from .render import emission, no_ears, render
 from .shapes import circle, get_section
 from .texture import SoundTexture, compute_texture
 
 
 def _unpack(inputs: Any) -> dict[str, Any]:
-    """Inputs as a dict (texture, object, path, motion, wind) or a tuple in that order."""
+    """Inputs as a dict (texture, object, motion, wind) or a tuple in that order.
+
+    A dict's ``path`` entry (the viewer's overlay inputs) is not used here.
+    """
     if isinstance(inputs, dict):
         d = dict(inputs)
-    elif isinstance(inputs, tuple | list) and len(inputs) >= 3:
-        d = dict(zip(("texture", "object", "path", "motion", "wind"), inputs, strict=False))
+    elif isinstance(inputs, tuple | list) and len(inputs) >= 2:
+        if any(isinstance(x, ListenerPath) for x in inputs):
+            raise ParameterError(
+                "aero inputs take no listener path: synthesize((texture, object, motion, wind)) "
+                "and render the returned Sound along the path with auralize.emitters.render"
+            )
+        d = dict(zip(("texture", "object", "motion", "wind"), inputs, strict=False))
     else:
         got = (f"a {type(inputs).__name__} of {len(inputs)} items"
                if isinstance(inputs, tuple | list) else type(inputs).__name__)  # fmt: skip
         raise ParameterError(
-            "aero inputs must be a dict with keys texture, object, path and motion and/or wind, "
-            f"or a tuple of 3 to 5 items (texture, object, path[, motion, wind]); got {got}"
+            "aero inputs must be a dict with keys texture, object and motion and/or wind, "
+            f"or a tuple of 2 to 4 items (texture, object[, motion, wind]); got {got}"
         )
     if not isinstance(d.get("object"), AeroObject):
         raise ParameterError(
@@ -42,8 +52,9 @@ def _unpack(inputs: Any) -> dict[str, Any]:
 class AeroSound(SoundModel):
     """Aerodynamic sound of moving sticks and wind (Dobashi et al. 2003): Curle's model + sound textures.
 
-    ``inputs`` = ``{"texture": SoundTexture, "object": AeroObject, "path":
-    ListenerPath, "motion": Motion | None, "wind": Wind | None}``.
+    ``inputs`` = ``{"texture": SoundTexture, "object": AeroObject, "motion":
+    Motion | None, "wind": Wind | None}`` (or that tuple); :meth:`synthesize`
+    returns the emitted sound (point dipoles) for the sound engine.
     """
 
     name: ClassVar[str] = "aero"
@@ -58,33 +69,49 @@ class AeroSound(SoundModel):
             choices=("physical", "paper"),
             doc="amplitude ∝ v³ (pressure law, DESIGN.md) or the paper's v⁶ (Eq. 3)",
         ),  # fmt: skip
-        Parameter("rate", 44100, range=(8000, 384000), unit="Hz"),
+        Parameter("rate", 44100, range=(1000, 384000), unit="Hz", doc="emission sample rate"),
         Parameter("c0", 343.0, range=(1.0, None), unit="m/s"),
-        Parameter("layout", "mono", doc="mono | stereo | ring8 | 5.1 | 7.1 | FILE.json"),
-        Parameter(
-            "stereo",
-            "ears",
-            choices=("ears", "pan"),
-            doc="stereo by two ear receivers (§6) or VBAP",
-        ),
         Parameter("min_distance", 0.05, range=(1e-6, None), unit="m"),
         Parameter(
-            "duration", 0.0, range=(0.0, None), unit="s", doc="0: the listener path's duration"
+            "duration",
+            0.0,
+            range=(0.0, None),
+            unit="s",
+            doc="seconds of emission; 0: the motion's duration",
         ),
     )
 
-    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
-        """Render; returns the pressure (mono) or ``meta['audio']`` for multichannel layouts (Pa)."""
+    def synthesize(self, inputs: Any, **params: Any) -> Sound:
+        """The emitted sound: one :class:`~auralize_aero.render.AeroEmission` part (§6, Eqs. 3–4).
+
+        Parameters
+        ----------
+        inputs : dict or tuple
+            ``texture`` (SoundTexture), ``object`` (AeroObject), and ``motion``
+            (Motion) and/or ``wind`` (Wind); no listener path.
+        **params
+            ``exponent``, ``rate`` (emission Hz), ``c0`` (m/s), ``min_distance``
+            (m), ``duration`` (s; needed for wind on a static object).
+
+        Returns
+        -------
+        auralize.emitters.Sound
+            Render it along a listener path with :func:`auralize.emitters.render`.
+        """
+        if "stereo" in params:
+            no_ears(params.pop("stereo"))
         p = self.resolve(**params)
         d = _unpack(inputs)
-        out = render(d["texture"], d["object"], d["path"], motion=d.get("motion"), wind=d.get("wind"),
-                     rate=p["rate"], layout=p["layout"], exponent=p["exponent"], c0=p["c0"],
-                     stereo=p["stereo"], min_distance=p["min_distance"],
-                     duration=p["duration"] or None)  # fmt: skip
-        meta = {**out.meta, "layout": out.layout.name, "audio": out.audio}
-        return SoundOutput(
-            rate=out.rate, pressure=out.audio[0] if out.audio.shape[0] == 1 else None, meta=meta
-        )
+        motion: Motion | None = d.get("motion")
+        dur = p["duration"] or (float(motion.times[-1]) if motion is not None else 0.0)
+        if not dur > 0:
+            raise ParameterError(
+                "aero: give duration= (seconds of emission) for wind on a static object"
+            )
+        part = emission(d.get("texture"), d["object"], motion=motion, wind=d.get("wind"),
+                        rate=p["rate"], duration=dur, exponent=p["exponent"], c0=p["c0"],
+                        min_distance=p["min_distance"])  # fmt: skip
+        return Sound([part], meta=dict(part.meta), name=self.name)
 
     def overlay(self, inputs: Any, step: int) -> Any:
         """pyvista meshes at motion pose ``step``: the object's polylines and its point sources."""
@@ -166,9 +193,13 @@ class AeroSound(SoundModel):
                     args.wind, tuple(_floats(args.wind_direction)), gust=args.gust, seed=args.seed
                 )
                 _check_crosswind(obj, _floats(args.wind_direction), args.wind_direction)
+        if getattr(args, "stereo", None) is not None:
+            no_ears(args.stereo)
+            print("note: --stereo is no longer needed: stereo is panned (VBAP) like every layout",
+                  file=sys.stderr)  # fmt: skip
         t0 = time.perf_counter()
         out = render(tex, obj, path, motion=motion, wind=wind, rate=args.rate, layout=args.layout,
-                     exponent=args.exponent, stereo=args.stereo)  # fmt: skip
+                     exponent=args.exponent)  # fmt: skip
         el = time.perf_counter() - t0
         gain = write_audio(args.output, out.audio, out.rate, channel_mask=out.layout.channel_mask,
                            normalize=args.normalize, limit_pa=args.limit, subtype=args.format,

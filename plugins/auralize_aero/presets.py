@@ -90,7 +90,9 @@ def get_preset(name: str, *, duration: float | None = None, seed: int = 0) -> Pr
                       Wind(12.0, (1.0, 0.0, 0.0), gust=0.08, seed=seed), (2.0, 3.0, 1.0), d,
                       "Fig. 14: cold wintry wind through a fence of cylinders")  # fmt: skip
     if name == "throw":
-        return Preset(name, circle(0.01), stick(0.5, 0.01),
+        # the stick flies across its own axis (vertical): a flow along the axis sheds nothing
+        thrown = AeroObject([np.array([[0.0, 0, -0.25], [0.0, 0, 0.25]])], 0.01, name=name)
+        return Preset(name, circle(0.01), thrown,
                       Motion.linear((-15.0, 0.0, 0.0), (15.0, 0.0, 0.0), duration=d), None,
                       (15.0, 0.5, 0.0), d, "Fig. 12: a cylinder thrown at the receiver")  # fmt: skip
     raise ParameterError(f"unknown preset {name!r}; choose one of {PRESETS}")

@@ -1,4 +1,4 @@
-"""Real-time rendering of aerodynamic sound from sound textures (paper 004 §6, Eqs. 3–4).
+"""Aerodynamic sound emitted by sound textures (paper 004 §6, Eqs. 3–4), as dipole emitters.
 
 For every point source l (:meth:`AeroObject.sources`):
 
@@ -7,28 +7,32 @@ For every point source l (:meth:`AeroObject.sources`):
   perpendicular to the object's axis n; φ is the angle between the flow and
   the plane normal to n — the paper's "angle between n and c" must be read
   this way, since a flow along the axis sheds nothing) and the projected
-  direction c' (angle θ in the section frame);
+  flow direction c' (angle θ in the section frame e1, e2);
 * Eq. 3: the texture coordinate advances as ``s_k = s_{k-1} + (v/v0) Δt``,
   and ``g_l = (v/v0)^e w(s_k, c')`` with the amplitude exponent e = 3 for the
   pressure law (DESIGN.md; ``"physical"``) or the paper's e = 6
-  (``"paper"``).  Directions between samples are interpolated linearly;
-  the texture loops (its ends are blended when it is made);
-* Eq. 4 / Eq. 1: ``p(q, t) = Σ_l (q - o_l) · g_l(τ_l) Δh_l / (4π c0 r_l²)``
-  with the retarded time τ_l solving ``τ = t - |q(t) - o_l(τ)| / c0`` — so
-  the Doppler shift of moving sources comes out of the evaluation; before
-  the sound arrives (τ < 0) g = 0.  A 10 ms fade-in at τ = 0 replaces the
+  (``"paper"``).  The flow direction is folded into the texture's
+  fundamental domain and the neighbouring sampled directions are
+  interpolated linearly (§7.3); the texture loops (its ends are blended
+  when it is made).  A 10 ms fade-in at emission time 0 replaces the
   paper's "object static at t = 0" start.
+* Eq. 4 / Eq. 1, ``p(q, t) = Σ_l (q - o_l) · g_l(τ_l) Δh_l / (4π c0 r_l²)``,
+  is a sum of point dipoles: with û = (q - o_l)/r_l it is
+  ``û · G_l(τ_l) / r_l`` for the world-frame dipole vector
+  ``G_l = Δh_l g_l / (4π c0)`` (g rotated from the section frame to the
+  world).  This module emits G_l on an emission-time grid
+  (:class:`AeroEmission`); the sound engine
+  (:func:`auralize.emitters.render_emitters`, distance law exponent 1) does
+  the retarded time τ_l = t - r_l/c0, the 1/r, the Doppler shift of moving
+  sources and the panning to any layout.
 
-Smooth quantities (retarded time, distances, projections, texture
-coordinate, panning gains) are evaluated every ``block`` samples and
-interpolated linearly; the per-sample texture look-up and sum is a numba
-loop.  The default engine does the per-step kinematics and the per-block
-work in fused numba kernels (:func:`_kin_kernel`, :func:`_block_kernel`),
-with the sources split over up to two threads; ``engine="numpy"`` runs the
-reference numpy path (:func:`kinematics_reference`,
-:func:`_receive_reference`), equal up to rounding.  Stereo uses two receivers at the ears (§6); other layouts pan
-each source from its direction with the output layer's VBAP
-(:func:`auralize.spatial.vbap_gains`).
+Smooth quantities (kinematics, amplitude, section frame, direction look-up,
+texture coordinate) live on a grid of one value per ``block`` emission
+samples and are interpolated linearly within a block; the per-sample
+texture read is a numba loop (:func:`_emit_kernel`, sources split over up
+to two threads).  ``engine="numpy"`` runs the reference numpy path
+(:func:`kinematics_reference`, :func:`emission_reference`), equal up to
+rounding.
 """
 
 from __future__ import annotations
@@ -37,16 +41,18 @@ import math
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
+from auralize.emitters import Emitters, Sound
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
+from auralize.spatial import Layout
 from auralize.synthesis import Rendered
 
 from .objects import AeroObject, Motion, Wind, quat_to_matrix
@@ -176,147 +182,6 @@ def kinematics_reference(obj: AeroObject, v0: float, *, motion: Motion | None, w
     return Kinematics(dt, pos, e, e2, c1, c2, a, s, span)
 
 
-@numba.njit(cache=True)
-def _interp_rows(arr: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``arr (S, J, C)`` at fractional indices ``x (S, B)`` (clamped) -> ``(S, B, C)``."""
-    S, J, C = arr.shape
-    B = x.shape[1]
-    out = np.empty((S, B, C))
-    for k in range(S):
-        for b in range(B):
-            v = min(max(x[k, b], 0.0), J - 1.000001)
-            i = int(v)
-            w = v - i
-            for c in range(C):
-                out[k, b, c] = arr[k, i, c] + w * (arr[k, i + 1, c] - arr[k, i, c])
-    return out
-
-
-def _at(arr: NDArray[np.float64], tau: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
-    """Linear interpolation of ``arr (S, J[, C])`` at per-source times ``tau (S, B)``."""
-    if arr.ndim == 2:
-        return _interp_rows(np.ascontiguousarray(arr[..., None]), tau / dt)[..., 0]
-    return _interp_rows(np.ascontiguousarray(arr), tau / dt)
-
-
-@numba.njit(**_NJIT)
-def _synth(out: NDArray[np.float64], tex: NDArray[np.float64], lengths: NDArray[np.int64],
-           tex_rate: float, s: NDArray[np.float64], qs: NDArray[np.float64], qe: NDArray[np.float64],
-           j0: NDArray[np.int64], j1: NDArray[np.int64], wj: NDArray[np.float64],
-           gain: NDArray[np.float64], K: int, b0: int = 0, b1: int = -1) -> None:  # fmt: skip
-    """Σ_l Q_l(t) · w(s_l(t)) with per-block linear interpolation, accumulated into out (C, n).
-
-    Blocks ``b0 <= b < b1`` only (``b1 = -1``: all): disjoint block ranges write
-    disjoint samples, so threads can share ``out``.
-
-    The texture position advances by a constant step within a block and
-    wraps around the loop length (the texture is periodic, §6).  Each block
-    is summed over the sources in a local buffer (same order of additions)
-    and written back once.
-    """
-    C, n_out = out.shape
-    S, B = j0.shape
-    if b1 < 0:
-        b1 = B
-    inv = 1.0 / K
-    act = np.empty(C, dtype=np.int64)
-    acc = np.empty(K)
-    pbuf = np.empty(K)
-    for b in range(b0, b1):
-        n0 = b * K
-        if n0 >= n_out:
-            continue
-        m = min(K, n_out - n0)
-        if C == 1:
-            for i in range(m):
-                acc[i] = out[0, n0 + i]
-        for k in range(S):
-            qa0 = qs[k, b, 0]
-            qa1 = qs[k, b, 1]
-            dq0 = (qe[k, b, 0] - qa0) * inv
-            dq1 = (qe[k, b, 1] - qa1) * inv
-            if qa0 == 0.0 and qa1 == 0.0 and dq0 == 0.0 and dq1 == 0.0:
-                continue
-            ja = j0[k, b]
-            jb = j1[k, b]
-            w = wj[k, b]
-            Na = lengths[ja]
-            Nb = lengths[jb]
-            ta = tex[ja]
-            tb = tex[jb]
-            s0 = s[k, b] * tex_rate
-            ds = (s[k, b + 1] - s[k, b]) * tex_rate * inv
-            pa = s0 - math.floor(s0 / Na) * Na
-            pb = s0 - math.floor(s0 / Nb) * Nb
-            n_act = 0
-            if C > 1:  # channels silent at both block ends only ever add 0.0: skip them
-                for c in range(C):
-                    if gain[k, b, c] != 0.0 or gain[k, b + 1, c] != 0.0:
-                        act[n_act] = c
-                        n_act += 1
-            if w > 0.0:  # between two sampled directions
-                for i in range(m):
-                    ia = int(pa)
-                    if ia >= Na:
-                        ia = Na - 1
-                    fa = pa - ia
-                    ia1 = ia + 1 if ia + 1 < Na else 0
-                    g0 = ta[ia, 0]
-                    g1 = ta[ia, 1]
-                    gx = g0 + fa * (ta[ia1, 0] - g0)
-                    gy = g1 + fa * (ta[ia1, 1] - g1)
-                    ib = int(pb)
-                    if ib >= Nb:
-                        ib = Nb - 1
-                    fb = pb - ib
-                    ib1 = ib + 1 if ib + 1 < Nb else 0
-                    h0 = tb[ib, 0]
-                    h1 = tb[ib, 1]
-                    gx += w * (h0 + fb * (tb[ib1, 0] - h0) - gx)
-                    gy += w * (h1 + fb * (tb[ib1, 1] - h1) - gy)
-                    pbuf[i] = (qa0 + dq0 * i) * gx + (qa1 + dq1 * i) * gy
-                    pa += ds
-                    if pa >= Na:
-                        pa -= Na
-                    elif pa < 0.0:
-                        pa += Na
-                    pb += ds
-                    if pb >= Nb:
-                        pb -= Nb
-                    elif pb < 0.0:
-                        pb += Nb
-            else:  # on a sampled direction: one row
-                for i in range(m):
-                    ia = int(pa)
-                    if ia >= Na:
-                        ia = Na - 1
-                    fa = pa - ia
-                    ia1 = ia + 1 if ia + 1 < Na else 0
-                    g0 = ta[ia, 0]
-                    g1 = ta[ia, 1]
-                    gx = g0 + fa * (ta[ia1, 0] - g0)
-                    gy = g1 + fa * (ta[ia1, 1] - g1)
-                    pbuf[i] = (qa0 + dq0 * i) * gx + (qa1 + dq1 * i) * gy
-                    pa += ds
-                    if pa >= Na:
-                        pa -= Na
-                    elif pa < 0.0:
-                        pa += Na
-            if C == 1:
-                for i in range(m):
-                    acc[i] += pbuf[i]
-            else:
-                for ci in range(n_act):
-                    c = act[ci]
-                    ga = gain[k, b, c]
-                    gb = gain[k, b + 1, c]
-                    for i in range(m):
-                        out[c, n0 + i] += (ga + i * inv * (gb - ga)) * pbuf[i]
-        if C == 1:
-            for i in range(m):
-                out[0, n0 + i] = acc[i]
-
-
 @numba.njit(**_NJIT)
 def _kin_kernel(p: NDArray[np.float64], dp: NDArray[np.float64], R: NDArray[np.float64],
                 dR: NDArray[np.float64], centres: NDArray[np.float64], axes: NDArray[np.float64],
@@ -389,247 +254,6 @@ def _kin_kernel(p: NDArray[np.float64], dp: NDArray[np.float64], R: NDArray[np.f
             so[k, j] = acc
 
 
-@numba.njit(**_NJIT)
-def _lerp_index(x: float, J: int) -> tuple[int, float]:
-    v = min(max(x, 0.0), J - 1.000001)
-    i = int(v)
-    return i, v - i
-
-
-@numba.njit(**_NJIT)
-def _vbap_into(g: NDArray[np.float64], k: int, b: int, phi: float, az: NDArray[np.float64],
-               ch: NDArray[np.int64], fold_front: bool) -> None:  # fmt: skip
-    """Pairwise 2-D VBAP gains of one azimuth written to ``g[k, b] (C,)``: the scalar form
-    of :func:`auralize.spatial.vbap_gains` (same law, same operations)."""
-    for c in range(g.shape[2]):
-        g[k, b, c] = 0.0
-    n = az.size
-    if n == 0:
-        g[k, b, 0] = 1.0
-        return
-    if fold_front:
-        phi = math.atan2(math.sin(phi), abs(math.cos(phi)))
-    if not -np.pi <= phi <= np.pi:  # wrap (an atan2 result already is in range)
-        phi = math.atan2(math.sin(phi), math.cos(phi))
-    i0 = np.searchsorted(az, phi, side="right") - 1
-    if i0 < 0:
-        i0 = n - 1
-    i1 = (i0 + 1) % n
-    two_pi = 2 * np.pi
-    span = az[i1] - az[i0]
-    span = span - math.floor(span / two_pi) * two_pi
-    if span == 0:
-        span = two_pi
-    rel = phi - az[i0]
-    rel = rel - math.floor(rel / two_pi) * two_pi
-    if span > np.pi:
-        rel = 0.0 if rel < 0.5 * span else span
-    else:
-        rel = min(rel, span)
-    s = math.sin(span)
-    if abs(s) < 1e-12:
-        g0 = math.cos(rel * np.pi / (2 * span))
-        g1 = math.sin(rel * np.pi / (2 * span))
-    else:
-        g0 = math.sin(span - rel) / s
-        g1 = math.sin(rel) / s
-    g0 = max(g0, 0.0)
-    g1 = max(g1, 0.0)
-    norm = math.hypot(g0, g1)
-    if not norm > 0:
-        norm = 1.0
-    g[k, b, ch[i0]] += g0 / norm
-    g[k, b, ch[i1]] += g1 / norm
-
-
-@numba.njit(**_NJIT)
-def _block_kernel(pos: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray[np.float64],
-                  c1: NDArray[np.float64], c2: NDArray[np.float64], speed: NDArray[np.float64],
-                  stex: NDArray[np.float64], span: NDArray[np.float64], L: NDArray[np.float64],
-                  tb: NDArray[np.float64], dt: float, c0: float, exponent: float,
-                  min_distance: float, fade: float, k_sym: int, has_mirror: bool, mirror_rad: float,
-                  m: int, dom_start: float, dom_width: float, cyclic: bool,
-                  fwd: NDArray[np.float64], left: NDArray[np.float64], spk_az: NDArray[np.float64],
-                  spk_ch: NDArray[np.int64], fold_front: bool, gain: NDArray[np.float64],
-                  s_out: NDArray[np.float64], qs: NDArray[np.float64],
-                  qe: NDArray[np.float64], j0o: NDArray[np.int64], j1o: NDArray[np.int64],
-                  wo: NDArray[np.float64], k0: int, k1: int) -> None:  # fmt: skip
-    """The per-block work of :func:`_receive_reference` fused: retarded time, interpolated
-    kinematics, amplitude, direction folding and texture look-up (Eq. 4, §7.3)."""
-    J = speed.shape[1]
-    B1 = tb.size
-    pan = gain.shape[0] > 0  # panning gains (several channels) from the source directions
-    P0 = np.empty(B1)
-    P1 = np.empty(B1)
-    Mb = np.empty((B1, 4))
-    four_pi_c0 = 4 * np.pi * c0
-    step = 0.0
-    if m > 1:
-        step = dom_width / (m if cyclic else m - 1)
-    beta = 0.0
-    ax2 = 0.0
-    cr = 0.0
-    sr = 0.0
-    if k_sym != 0:
-        beta = 2 * np.pi / k_sym
-        ax2 = mirror_rad + beta / 2
-        cr = math.cos(2 * ax2)
-        sr = math.sin(2 * ax2)
-    tau_b = np.empty(B1)
-    for k in range(k0, k1):
-        # retarded time: fixed point, contraction = source Mach number; one pass over the
-        # blocks per step so that independent blocks overlap in the pipeline
-        for b in range(B1):
-            dx = L[b, 0] - pos[k, 0, 0]
-            dy = L[b, 1] - pos[k, 0, 1]
-            dz = L[b, 2] - pos[k, 0, 2]
-            tau_b[b] = tb[b] - math.sqrt(dx * dx + dy * dy + dz * dz) / c0
-        for _ in range(4):
-            for b in range(B1):
-                i, w = _lerp_index(tau_b[b] / dt, J)
-                dx = L[b, 0] - (pos[k, i, 0] + w * (pos[k, i + 1, 0] - pos[k, i, 0]))
-                dy = L[b, 1] - (pos[k, i, 1] + w * (pos[k, i + 1, 1] - pos[k, i, 1]))
-                dz = L[b, 2] - (pos[k, i, 2] + w * (pos[k, i + 1, 2] - pos[k, i, 2]))
-                tau_b[b] = tb[b] - math.sqrt(dx * dx + dy * dy + dz * dz) / c0
-        for b in range(B1):
-            tau = tau_b[b]
-            i, w = _lerp_index(tau / dt, J)
-            xx = pos[k, i, 0] + w * (pos[k, i + 1, 0] - pos[k, i, 0])
-            xy = pos[k, i, 1] + w * (pos[k, i + 1, 1] - pos[k, i, 1])
-            xz = pos[k, i, 2] + w * (pos[k, i + 1, 2] - pos[k, i, 2])
-            dx = L[b, 0] - xx
-            dy = L[b, 1] - xy
-            dz = L[b, 2] - xz
-            if pan:  # azimuth of x - L in the listener frame (listener_frame_azimuth)
-                phi = math.atan2(
-                    -dx * left[b, 0] - dy * left[b, 1] - dz * left[b, 2],
-                    -dx * fwd[b, 0] - dy * fwd[b, 1] - dz * fwd[b, 2],
-                )
-                _vbap_into(gain, k, b, phi, spk_az, spk_ch, fold_front)
-            r = max(math.sqrt(dx * dx + dy * dy + dz * dz), min_distance)
-            ux = dx / r
-            uy = dy / r
-            uz = dz / r
-            i1 = i + 1
-            f1 = (
-                ux * (e1[k, i, 0] + w * (e1[k, i1, 0] - e1[k, i, 0]))
-                + uy * (e1[k, i, 1] + w * (e1[k, i1, 1] - e1[k, i, 1]))
-                + uz * (e1[k, i, 2] + w * (e1[k, i1, 2] - e1[k, i, 2]))
-            )
-            f2 = (
-                ux * (e2[k, i, 0] + w * (e2[k, i1, 0] - e2[k, i, 0]))
-                + uy * (e2[k, i, 1] + w * (e2[k, i1, 1] - e2[k, i, 1]))
-                + uz * (e2[k, i, 2] + w * (e2[k, i1, 2] - e2[k, i, 2]))
-            )
-            a = speed[k, i] + w * (speed[k, i1] - speed[k, i])
-            s_out[k, b] = stex[k, i] + w * (stex[k, i1] - stex[k, i])
-            on = min(max(tau / fade, 0.0), 1.0)
-            on = on * on * (3 - 2 * on)
-            amp = on * (a * a * a if exponent == 3.0 else a**exponent) * span[k] / (four_pi_c0 * r)
-            P0[b] = amp * f1
-            P1[b] = amp * f2
-            if b == B1 - 1:
-                continue
-            # direction -> fundamental domain (fold_directions) -> texture rows (lookup)
-            cy = c2[k, i] + w * (c2[k, i1] - c2[k, i])
-            cx = c1[k, i] + w * (c1[k, i1] - c1[k, i])
-            if k_sym == 0:  # rot(atan2(cy, cx)) without the trigonometry
-                thf = 0.0
-                h = math.sqrt(cx * cx + cy * cy)
-                if h > 0.0:
-                    cth = cx / h
-                    sth = cy / h
-                else:  # atan2 of signed zeros
-                    th = math.atan2(cy, cx)
-                    cth = math.cos(th)
-                    sth = math.sin(th)
-                m00, m01, m10, m11 = cth, -sth, sth, cth
-            else:
-                th = math.atan2(cy, cx)
-                rr = math.floor((th - mirror_rad) / beta)
-                thf = th - rr * beta
-                ca = math.cos(rr * beta)
-                sa = math.sin(rr * beta)
-                m00, m01, m10, m11 = ca, -sa, sa, ca
-                if has_mirror and thf > ax2:
-                    thf = 2 * ax2 - thf
-                    m00, m01, m10, m11 = (
-                        ca * cr - sa * sr, ca * sr + sa * cr, sa * cr + ca * sr, sa * sr - ca * cr
-                    )  # fmt: skip
-            if m == 1:
-                j0, j1, wt = 0, 0, 0.0
-            else:
-                u = (thf * (180.0 / np.pi) - dom_start) / step
-                if cyclic:
-                    u = u - math.floor(u / m) * m
-                    fu = math.floor(u)
-                    j0 = int(fu) % m
-                    j1 = (j0 + 1) % m
-                    wt = u - fu
-                else:
-                    u = min(max(u, 0.0), m - 1.0)
-                    j0 = min(int(math.floor(u)), m - 2)
-                    j1 = j0 + 1
-                    wt = u - j0
-            j0o[k, b] = j0
-            j1o[k, b] = j1
-            wo[k, b] = wt
-            Mb[b, 0] = m00
-            Mb[b, 1] = m01
-            Mb[b, 2] = m10
-            Mb[b, 3] = m11
-        for b in range(B1 - 1):  # block b's map at both of its ends
-            qs[k, b, 0] = Mb[b, 0] * P0[b] + Mb[b, 2] * P1[b]
-            qs[k, b, 1] = Mb[b, 1] * P0[b] + Mb[b, 3] * P1[b]
-            qe[k, b, 0] = Mb[b, 0] * P0[b + 1] + Mb[b, 2] * P1[b + 1]
-            qe[k, b, 1] = Mb[b, 1] * P0[b + 1] + Mb[b, 3] * P1[b + 1]
-
-
-def _norm(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.sqrt(a[..., 0] ** 2 + a[..., 1] ** 2 + a[..., 2] ** 2)
-
-
-def _receive_reference(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDArray[np.float64],
-             *, c0: float, exponent: float, min_distance: float, fade: float,
-             layout: Layout | None, fwd: NDArray[np.float64] | None, up: NDArray[np.float64] | None,
-             out: NDArray[np.float64], K: int) -> None:  # fmt: skip
-    """Eq. 4 at one receiver moving along ``L (B+1, 3)`` at block times ``tb (B+1,)`` (numpy).
-
-    The reference for :func:`_receive` (per-block work in numpy arrays).
-    """
-    S = kin.pos.shape[0]
-    tau = np.broadcast_to(tb, (S, tb.size)) - _norm(L[None] - kin.pos[:, :1]) / c0
-    for _ in range(4):  # fixed point; contraction = source Mach number
-        x = _at(kin.pos, tau, kin.dt)
-        tau = tb[None] - _norm(L[None] - x) / c0
-    x = _at(kin.pos, tau, kin.dt)
-    d = L[None] - x
-    r = np.maximum(_norm(d), min_distance)
-    uhat = d / r[..., None]
-    e1 = _at(kin.e1, tau, kin.dt)
-    e2 = _at(kin.e2, tau, kin.dt)
-    theta = np.arctan2(_at(kin.c2, tau, kin.dt), _at(kin.c1, tau, kin.dt))
-    a = _at(kin.speed, tau, kin.dt)
-    s = _at(kin.s, tau, kin.dt)
-    on = np.clip(tau / fade, 0.0, 1.0)
-    on = on * on * (3 - 2 * on)
-    amp = on * a**exponent * kin.span[:, None] / (4 * np.pi * c0 * r)
-    P = np.stack([amp * np.sum(uhat * e1, 2), amp * np.sum(uhat * e2, 2)], -1)  # (S, B+1, 2)
-    j0, j1, w, M = tex.lookup(theta[:, :-1])
-    Mt = np.swapaxes(M, -1, -2)
-    qs = Mt[..., 0] * P[:, :-1, :1] + Mt[..., 1] * P[:, :-1, 1:]
-    qe = Mt[..., 0] * P[:, 1:, :1] + Mt[..., 1] * P[:, 1:, 1:]
-    if layout is None or layout.n_channels == 1:
-        gain = np.ones((S, tb.size, 1))
-    else:
-        az = listener_frame_azimuth((x - L[None]).reshape(-1, 3), np.repeat(fwd[None], S, 0).reshape(-1, 3),
-                                    np.repeat(up[None], S, 0).reshape(-1, 3))  # fmt: skip
-        gain = vbap_gains(layout, az).T.reshape(S, tb.size, layout.n_channels)
-    _synth(out, np.ascontiguousarray(tex.g), tex.lengths, float(tex.rate), np.ascontiguousarray(s),
-           np.ascontiguousarray(qs), np.ascontiguousarray(qe), np.ascontiguousarray(j0),
-           np.ascontiguousarray(j1), np.ascontiguousarray(w), np.ascontiguousarray(gain), K)  # fmt: skip
-
-
 def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind | None,
                dt: float, duration: float) -> Kinematics:  # fmt: skip
     """Source kinematics and the texture-coordinate recurrence of Eq. 3 (§6).
@@ -677,59 +301,273 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
     return Kinematics(dt, pos, e1, e2, c1, c2, a, s, span)
 
 
-def _receive(kin: Kinematics, tex: SoundTexture, L: NDArray[np.float64], tb: NDArray[np.float64],
-             *, c0: float, exponent: float, min_distance: float, fade: float,
-             layout: Layout | None, fwd: NDArray[np.float64] | None, up: NDArray[np.float64] | None,
-             out: NDArray[np.float64], K: int) -> None:  # fmt: skip
-    """Eq. 4 at one receiver moving along ``L (B+1, 3)`` at block times ``tb (B+1,)``.
+#: bytes of emitted signal (S x 3 x n float64) generated per rendered window
+CHUNK_BYTES = 64 << 20
 
-    The per-block work (retarded time, interpolations, direction look-up) is
-    one numba pass (:func:`_block_kernel`), then the per-sample :func:`_synth`;
-    equal to :func:`_receive_reference` up to rounding.
+
+@numba.njit(**_NJIT)
+def _tex_at(t: NDArray[np.float64], N: int, p: float) -> tuple[float, float]:
+    """Looping texture row ``t (N', 2)`` at fractional sample ``0 <= p < N`` (linear)."""
+    i = int(p)
+    if i >= N:
+        i = N - 1
+    f = p - i
+    i1 = i + 1 if i + 1 < N else 0
+    g0 = t[i, 0]
+    g1 = t[i, 1]
+    return g0 + f * (t[i1, 0] - g0), g1 + f * (t[i1, 1] - g1)
+
+
+@numba.njit(**_NJIT)
+def _emit_kernel(G: NDArray[np.float64], e1a: NDArray[np.float64], e2a: NDArray[np.float64],
+                 M: NDArray[np.float64], j0: NDArray[np.int64], j1: NDArray[np.int64],
+                 w: NDArray[np.float64], s: NDArray[np.float64], tex: NDArray[np.float64],
+                 lengths: NDArray[np.int64], tex_rate: float, K: int, k0: int, k1: int) -> None:  # fmt: skip
+    """Dipole vectors of sources ``k0 <= k < k1`` on the samples of B blocks, into ``G (S, 3, B K)``.
+
+    Block b runs from grid point b to b + 1.  Its amplitude-weighted section
+    axes ``e1a, e2a (S, B+1, 3)`` are interpolated linearly between its ends;
+    its direction map ``M (S, B, 4)`` (2x2, row-major), texture rows ``j0, j1``
+    and weight ``w`` of j1 are those of its start; the texture time
+    ``s (S, B+1)`` (s) advances by a constant step.  Per sample,
+    ``G = Q · ((1 - w) w_j0(s) + w w_j1(s))`` with ``Q = [e1a e2a] M`` (3x2).
+    Silent blocks are skipped (G is zero-initialised).
     """
-    S = kin.speed.shape[0]
-    B1 = tb.size
-    B = B1 - 1
-    k_sym, mirror = tex.section.symmetry
-    start, width, cyclic = tex.domain()
-    mono = layout is None or layout.n_channels == 1
-    if mono:
-        fw = lf = np.zeros((0, 3))
-        spk_az, spk_ch, fold = np.zeros(0), np.zeros(0, dtype=np.int64), False
-        gain = np.zeros((0, 0, 1))  # read only for several channels
-    else:
-        fw = np.ascontiguousarray(fwd, dtype=np.float64)
-        lf = np.ascontiguousarray(np.cross(up, fwd), dtype=np.float64)
-        spk_az, spk_ch = layout.panning_arrays()
-        fold = bool(layout.fold_front)
-        gain = np.empty((S, B1, layout.n_channels))
-    s = np.empty((S, B1))
-    qs = np.empty((S, B, 2))
-    qe = np.empty((S, B, 2))
-    j0 = np.empty((S, B), dtype=np.int64)
-    j1 = np.empty((S, B), dtype=np.int64)
-    w = np.empty((S, B))
-    f = np.ascontiguousarray
-    block_args = (f(kin.pos), f(kin.e1), f(kin.e2), f(kin.c1), f(kin.c2), f(kin.speed), f(kin.s),
-                  f(kin.span, dtype=np.float64), f(L, dtype=np.float64), f(tb, dtype=np.float64),
-                  float(kin.dt), float(c0), float(exponent), float(min_distance), float(fade),
-                  int(k_sym), mirror is not None, 0.0 if mirror is None else math.radians(mirror),
-                  int(tex.directions_deg.size), float(start), float(width), bool(cyclic),
-                  fw, lf, f(spk_az, dtype=np.float64), f(spk_ch, dtype=np.int64), fold, gain,
-                  s, qs, qe, j0, j1, w)  # fmt: skip
-    g = f(tex.g)
-    # threads: the block work split by sources, then the synthesis by block ranges
-    _in_parts(lambda k0, k1: _block_kernel(*block_args, k0, k1), S)
-    _in_parts(lambda b0, b1: _synth(out, g, tex.lengths, float(tex.rate), s, qs, qe, j0, j1, w,
-                                    gain, K, b0, b1), B)  # fmt: skip
+    B = j0.shape[1]
+    inv = 1.0 / K
+    for k in range(k0, k1):
+        for b in range(B):
+            m00, m01, m10, m11 = M[k, b, 0], M[k, b, 1], M[k, b, 2], M[k, b, 3]
+            x0, y0, z0 = e1a[k, b, 0], e1a[k, b, 1], e1a[k, b, 2]
+            x1, y1, z1 = e2a[k, b, 0], e2a[k, b, 1], e2a[k, b, 2]
+            qx0, qx1 = x0 * m00 + x1 * m10, x0 * m01 + x1 * m11
+            qy0, qy1 = y0 * m00 + y1 * m10, y0 * m01 + y1 * m11
+            qz0, qz1 = z0 * m00 + z1 * m10, z0 * m01 + z1 * m11
+            x0, y0, z0 = e1a[k, b + 1, 0], e1a[k, b + 1, 1], e1a[k, b + 1, 2]
+            x1, y1, z1 = e2a[k, b + 1, 0], e2a[k, b + 1, 1], e2a[k, b + 1, 2]
+            dx0, dx1 = (x0 * m00 + x1 * m10 - qx0) * inv, (x0 * m01 + x1 * m11 - qx1) * inv
+            dy0, dy1 = (y0 * m00 + y1 * m10 - qy0) * inv, (y0 * m01 + y1 * m11 - qy1) * inv
+            dz0, dz1 = (z0 * m00 + z1 * m10 - qz0) * inv, (z0 * m01 + z1 * m11 - qz1) * inv
+            if (qx0 == 0.0 and qx1 == 0.0 and qy0 == 0.0 and qy1 == 0.0 and qz0 == 0.0
+                    and qz1 == 0.0 and dx0 == 0.0 and dx1 == 0.0 and dy0 == 0.0 and dy1 == 0.0
+                    and dz0 == 0.0 and dz1 == 0.0):  # fmt: skip
+                continue
+            ja = j0[k, b]
+            jb = j1[k, b]
+            wt = w[k, b]
+            Na = lengths[ja]
+            Nb = lengths[jb]
+            ta = tex[ja]
+            tb = tex[jb]
+            s0 = s[k, b] * tex_rate
+            ds = (s[k, b + 1] - s[k, b]) * tex_rate * inv
+            pa = s0 - math.floor(s0 / Na) * Na
+            pb = s0 - math.floor(s0 / Nb) * Nb
+            n0 = b * K
+            for i in range(K):
+                gx, gy = _tex_at(ta, Na, pa)
+                if wt > 0.0:  # between two sampled directions
+                    hx, hy = _tex_at(tb, Nb, pb)
+                    gx += wt * (hx - gx)
+                    gy += wt * (hy - gy)
+                    pb += ds
+                    if pb >= Nb:
+                        pb -= Nb
+                    elif pb < 0.0:
+                        pb += Nb
+                G[k, 0, n0 + i] = (qx0 + dx0 * i) * gx + (qx1 + dx1 * i) * gy
+                G[k, 1, n0 + i] = (qy0 + dy0 * i) * gx + (qy1 + dy1 * i) * gy
+                G[k, 2, n0 + i] = (qz0 + dz0 * i) * gx + (qz1 + dz1 * i) * gy
+                pa += ds
+                if pa >= Na:
+                    pa -= Na
+                elif pa < 0.0:
+                    pa += Na
 
 
-def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion: Motion | None = None,
-           wind: Wind | None = None, rate: int = 44100, layout: str | Layout = "mono",
-           exponent: str | float = "physical", duration: float | None = None, c0: float = C0,
-           stereo: str = "ears", ear_distance: float = 0.18, min_distance: float = 0.05,
-           fade: float = 0.01, block: int = 32, engine: str = "numba") -> Rendered:  # fmt: skip
-    """Render the aerodynamic sound of ``obj`` heard along ``path`` (§6, Eqs. 3–4).
+def emission_reference(e1a: NDArray[np.float64], e2a: NDArray[np.float64], M: NDArray[np.float64],
+                       j0: NDArray[np.int64], j1: NDArray[np.int64], w: NDArray[np.float64],
+                       s: NDArray[np.float64], tex: SoundTexture, K: int) -> NDArray[np.float64]:  # fmt: skip
+    """:func:`_emit_kernel` in numpy (every sample at once): ``G (S, 3, B K)``."""
+    S, B = j0.shape
+    frac = np.arange(K) / K
+    Mr = M.reshape(S, B, 2, 2)
+    Qa = e1a[:, :-1, :, None] * Mr[:, :, None, 0] + e2a[:, :-1, :, None] * Mr[:, :, None, 1]
+    Qz = e1a[:, 1:, :, None] * Mr[:, :, None, 0] + e2a[:, 1:, :, None] * Mr[:, :, None, 1]
+    Q = Qa[:, :, None] + frac[:, None, None] * (Qz - Qa)[:, :, None]  # (S, B, K, 3, 2)
+    p = (s[:, :-1, None] + frac * (s[:, 1:] - s[:, :-1])[..., None]) * tex.rate  # (S, B, K)
+
+    def row(j: NDArray[np.int64]) -> NDArray[np.float64]:
+        N = tex.lengths[j][..., None]
+        q = np.mod(p, N)
+        i = np.minimum(np.floor(q).astype(np.int64), N - 1)
+        f = (q - i)[..., None]
+        i1 = np.where(i + 1 < N, i + 1, 0)
+        jj = np.broadcast_to(j[..., None], i.shape)
+        return tex.g[jj, i] + f * (tex.g[jj, i1] - tex.g[jj, i])
+
+    g = (1 - w[..., None, None]) * row(j0) + w[..., None, None] * row(j1)  # (S, B, K, 2)
+    G = np.einsum("sbkcd,sbkd->scbk", Q, g)
+    return G.reshape(S, 3, B * K)
+
+
+@dataclass
+class AeroEmission:
+    """The aerodynamic sound of one object as point dipoles: a part of :class:`auralize.emitters.Sound`.
+
+    At the object's S point sources, the world-frame dipole vectors
+    ``G_l(τ) = Δh_l g_l(τ) / (4π c0)`` (Pa·m; Eq. 4) on emission samples
+    ``τ = j / rate`` for ``0 <= τ < duration`` (zero outside), with the
+    sources' trajectories sampled every ``block`` samples.  They are
+    generated window by window (:meth:`emitters`), so memory stays bounded
+    for long renders; :meth:`render_part` renders them through
+    :func:`auralize.emitters.render_emitters` one output window at a time.
+
+    Build it with :func:`emission`.
+    """
+
+    texture: SoundTexture
+    kin: Kinematics
+    rate: float
+    block: int
+    exponent: float
+    c0: float = C0
+    fade: float = 0.01
+    radius: float = 0.05
+    static: bool = False
+    engine: str = "numba"
+    name: str = "aero"
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.n_blocks = self.kin.pos.shape[1] - 3  # the grid has 3 points past the last block
+        self._lo = self.kin.pos.min(axis=0)  # (J, 3): the sources' box at each grid point
+        self._hi = self.kin.pos.max(axis=0)
+
+    @property
+    def n_sources(self) -> int:
+        return int(self.kin.pos.shape[0])
+
+    @property
+    def duration(self) -> float:
+        """Seconds of emission (whole blocks)."""
+        return self.n_blocks * self.kin.dt
+
+    def _table(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
+        """Per-block quantities of blocks ``ja..jb`` for :func:`_emit_kernel` (Eq. 3, §7.3)."""
+        kin = self.kin
+        g = slice(ja, jb + 2)
+        on = np.clip(np.arange(ja, jb + 2) * kin.dt / self.fade, 0.0, 1.0)
+        on = on * on * (3 - 2 * on)
+        amp = on * kin.speed[:, g] ** self.exponent * (kin.span[:, None] / (4 * np.pi * self.c0))
+        theta = np.arctan2(kin.c2[:, ja : jb + 1], kin.c1[:, ja : jb + 1])  # flow direction c'
+        j0, j1, w, M = self.texture.lookup(theta)
+        f = np.ascontiguousarray
+        return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]),
+                f(M.reshape(*theta.shape, 4)), f(j0), f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
+
+    def _emitters(self, ja: int, jb: int) -> Emitters:
+        K = self.block
+        tab = self._table(ja, jb)
+        if self.engine == "numpy":
+            G = emission_reference(*tab, self.texture, K)
+        else:
+            G = np.zeros((self.n_sources, 3, (jb - ja + 1) * K))
+            tex = np.ascontiguousarray(self.texture.g)
+            lens, tr = self.texture.lengths, float(self.texture.rate)
+            _in_parts(
+                lambda k0, k1: _emit_kernel(G, *tab, tex, lens, tr, K, k0, k1), self.n_sources
+            )
+        pos = self.kin.pos[:, 0] if self.static else self.kin.pos[:, ja : jb + 2]
+        return Emitters(G, self.rate, pos, t0=ja * self.kin.dt, pos_rate=self.rate / K,
+                        radius=self.radius, law=1.0, name=self.name)  # fmt: skip
+
+    def emitters(self, tau0: float = 0.0, tau1: float | None = None) -> Emitters:
+        """The dipole emitters of emission times ``[tau0, tau1]`` (s; default: all), in whole blocks."""
+        dt = self.kin.dt
+        ja = max(0, math.floor(tau0 / dt))
+        jb = self.n_blocks - 1 if tau1 is None else min(self.n_blocks - 1, math.floor(tau1 / dt))
+        if jb < ja:
+            raise ParameterError(
+                f"emission window [{tau0:g}, {tau1:g}] s is outside [0, {self.duration:g}] s"
+            )
+        return self._emitters(ja, jb)
+
+    def _window(
+        self, path: ListenerPath, t_a: float, t_b: float, c0: float
+    ) -> tuple[int, int] | None:
+        """Blocks that can be heard during ``[t_a, t_b]`` (playback s), or None.
+
+        Bounds only (no retarded time): the distance between the box of the
+        listener's positions and the box of the sources' positions limits the
+        delay; each pass narrows the sources' box to the emission times found.
+        """
+        t0 = path.times[0]
+        inside = path.times[(path.times > t0 + t_a) & (path.times < t0 + t_b)]
+        L = path.position_at(np.concatenate([[t0 + t_a, t0 + t_b], inside]))
+        llo, lhi = L.min(axis=0), L.max(axis=0)
+        dt = self.kin.dt
+        ja, jb = 0, self.n_blocks - 1
+        for _ in range(4):
+            plo = self._lo[ja : jb + 2].min(axis=0)
+            phi = self._hi[ja : jb + 2].max(axis=0)
+            d_hi = float(np.linalg.norm(np.maximum(np.abs(lhi - plo), np.abs(phi - llo))))
+            d_lo = float(np.linalg.norm(np.maximum(0.0, np.maximum(plo - lhi, llo - phi))))
+            a = max(ja, math.floor((t_a - d_hi / c0) / dt) - 1)
+            b = min(jb, math.floor((t_b - d_lo / c0) / dt) + 1)
+            if a > b:
+                return None
+            if (a, b) == (ja, jb):
+                break
+            ja, jb = a, b
+        return ja, jb
+
+    def render_part(self, path: ListenerPath, *, rate: int = 44100, layout: str | Layout = "mono",
+                    duration: float | None = None, start: float = 0.0, c0: float = C0,
+                    backend: str = "auto") -> Rendered:  # fmt: skip
+        """Render along ``path`` with the engine, one output window at a time.
+
+        Each window's emitters cover every emission time that window can hear
+        (:meth:`_window`), so the windows join exactly as one render of all
+        the emission would.
+        """
+        from auralize.emitters import render_emitters
+        from auralize.spatial import get_layout
+
+        lay = get_layout(layout)
+        dur = path.duration - start if duration is None else float(duration)
+        n_out = int(round(dur * rate))
+        out = np.zeros((lay.n_channels, n_out))
+        step = max(4096, int(CHUNK_BYTES / (2 * 24 * self.n_sources) * rate / self.rate))
+        for na in range(0, n_out, step):
+            nb = min(n_out, na + step)
+            t_a = start + na / rate
+            win = self._window(path, t_a, start + nb / rate, c0)
+            if win is None:
+                continue
+            r = render_emitters(self._emitters(*win), path, rate=rate, layout=lay,
+                                duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend)  # fmt: skip
+            m = min(nb - na, r.audio.shape[1])
+            out[:, na : na + m] = r.audio[:, :m]
+        return Rendered(
+            audio=out, rate=int(rate), layout=lay, meta={**self.meta, "model": self.name}
+        )
+
+
+def no_ears(stereo: object) -> None:
+    """Refuse the former ``stereo="ears"`` option (two ear receivers)."""
+    if stereo is not None and stereo != "pan":
+        raise ParameterError(
+            f"stereo={stereo!r}: the aero model no longer renders two ear receivers; stereo is "
+            "panned (VBAP) like every layout; binaural ears come with the binaural output"
+        )
+
+
+def emission(texture: SoundTexture, obj: AeroObject, *, motion: Motion | None = None,
+             wind: Wind | None = None, rate: float = 44100, duration: float,
+             exponent: str | float = "physical", c0: float = C0, min_distance: float = 0.05,
+             fade: float = 0.01, block: int = 32, engine: str = "numba") -> AeroEmission:  # fmt: skip
+    """The emitted aerodynamic sound of ``obj`` (§6, Eqs. 3–4) as point dipoles.
 
     Parameters
     ----------
@@ -737,24 +575,79 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
         Texture of the object's cross-section at base speed v0.
     obj : AeroObject
         Polylines split into point sources at Δh ≈ 3D.
-    path : ListenerPath
-        Listener; output sample n is at data time n / rate.
     motion : Motion, optional
-        Object poses (moving object: Doppler follows from the retarded time).
+        Object poses (moving object: its Doppler shift comes from the engine).
     wind : Wind, optional
         Wind on the object (both may be given: relative velocity).
-    rate : int
-        Output sample rate (Hz).
-    layout : str or Layout
-        ``mono``, ``stereo`` (two ear receivers with ``stereo="ears"``, or
-        VBAP with ``"pan"``), ``ring8``, ``5.1``, ``7.1`` or a JSON layout.
+    rate : float
+        Emission sample rate (Hz).
+    duration : float
+        Seconds of emission from playback time 0.
     exponent : "physical" (pressure ∝ v³, default), "paper" (v⁶) or a number.
+    c0 : float
+        Speed of sound (m/s) of Eq. 4's 1/(4π c0).
+    min_distance : float
+        Distances are clamped here (m) by the engine: no 1/0 at a source.
+    fade : float
+        Fade-in (s) at emission time 0.
+    block : int
+        Emission samples per kinematics step.
+    engine : "numba" (default) or "numpy" (the reference path), equal up to rounding.
+
+    Returns
+    -------
+    AeroEmission
+    """
+    if not isinstance(texture, SoundTexture):
+        raise ParameterError(f"texture must be a SoundTexture, got {type(texture).__name__}")
+    e = resolve_exponent(exponent)
+    if not (math.isfinite(rate) and rate >= 1000):
+        raise ParameterError(f"rate must be >= 1000 Hz, got {rate!r}")
+    if not (math.isfinite(duration) and duration > 0):
+        raise ParameterError(f"duration must be > 0 s, got {duration!r}")
+    if engine not in ("numba", "numpy"):
+        raise ParameterError(f"engine must be 'numba' or 'numpy', got {engine!r}")
+    if not (fade > 0 and int(block) >= 1 and min_distance > 0):
+        raise ParameterError(
+            f"fade, block and min_distance must be > 0, got {fade!r}, {block!r}, {min_distance!r}"
+        )
+    K = int(block)
+    kin_fn = kinematics if engine == "numba" else kinematics_reference
+    kin = kin_fn(obj, texture.speed, motion=motion, wind=wind, dt=K / rate, duration=duration)
+    meta = {"n_sources": int(kin.pos.shape[0]), "exponent": e, "texture_speed": texture.speed,
+            "max_speed_mps": float(kin.speed.max() * texture.speed)}  # fmt: skip
+    return AeroEmission(texture, kin, float(rate), K, e, c0=float(c0), fade=float(fade),
+                        radius=float(min_distance), static=motion is None, engine=engine,
+                        meta=meta)  # fmt: skip
+
+
+def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion: Motion | None = None,
+           wind: Wind | None = None, rate: int = 44100, layout: str | Layout = "mono",
+           exponent: str | float = "physical", duration: float | None = None, c0: float = C0,
+           min_distance: float = 0.05, fade: float = 0.01, block: int = 32, engine: str = "numba",
+           backend: str = "auto", stereo: str | None = None) -> Rendered:  # fmt: skip
+    """Render the aerodynamic sound of ``obj`` heard along ``path`` (§6, Eqs. 3–4).
+
+    :func:`emission` at the output rate for the path's duration, rendered by
+    the sound engine (:func:`auralize.emitters.render`).
+
+    Parameters
+    ----------
+    texture, obj, motion, wind, exponent, c0, min_distance, fade, block, engine
+        As for :func:`emission`.
+    path : ListenerPath
+        Listener; output sample n is heard at playback time n / rate.
+    rate : int
+        Output (and emission) sample rate (Hz).
+    layout : str or Layout
+        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1`` or a JSON layout
+        (panned by the layout's own law, 3-D VBAP for layouts with elevation).
     duration : float, optional
         Seconds to render (default: the path's duration).
-    min_distance : float
-        Distances are clamped here (m): a listener at a source gets no 1/0.
-    engine : "numba" (default: fused per-block kernels) or "numpy" (the
-        reference path: per-block work in numpy arrays); equal up to rounding.
+    backend : {"auto", "reference"}
+        The engine's backend.
+    stereo : None
+        Removed (two ear receivers); any value but ``"pan"`` is refused.
 
     Returns
     -------
@@ -767,42 +660,12 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
     >>> out = render(cylinder_texture(), stick(), ListenerPath.point((0, 1, 0), duration=1),
     ...              wind=Wind(10.0))                                # doctest: +SKIP
     """
-    if not isinstance(texture, SoundTexture):
-        raise ParameterError(f"texture must be a SoundTexture, got {type(texture).__name__}")
-    e = resolve_exponent(exponent)
-    lay = get_layout(layout)
-    if stereo not in ("ears", "pan"):
-        raise ParameterError(f"stereo must be 'ears' or 'pan', got {stereo!r}")
-    if int(rate) < 1000:
-        raise ParameterError(f"rate must be >= 1000 Hz, got {rate!r}")
+    from auralize.emitters import render as render_sound
+
+    no_ears(stereo)
     dur = path.duration if duration is None else float(duration)
-    if not (math.isfinite(dur) and dur > 0):
-        raise ParameterError(f"duration must be > 0 s, got {dur!r}")
-    if engine not in ("numba", "numpy"):
-        raise ParameterError(f"engine must be 'numba' or 'numpy', got {engine!r}")
-    kin_fn, receive = (
-        (kinematics, _receive) if engine == "numba" else (kinematics_reference, _receive_reference)
-    )
-    K = int(block)
-    n_out = int(round(dur * rate))
-    kin = kin_fn(obj, texture.speed, motion=motion, wind=wind, dt=K / rate, duration=dur)
-    B = int(math.ceil(n_out / K))
-    tb = np.arange(B + 1) * (K / rate)
-    t_path = path.times[0] + tb
-    L = path.position_at(t_path)
-    out = np.zeros((lay.n_channels, n_out))
-    common = {"c0": c0, "exponent": e, "min_distance": min_distance, "fade": fade, "K": K}
-    if lay.n_channels == 2 and lay.name == "stereo" and stereo == "ears":
-        fwd, up = path.orientation_at(t_path)
-        left = np.cross(up, fwd)
-        for ch, sign in ((0, 1.0), (1, -1.0)):
-            receive(kin, texture, L + sign * 0.5 * ear_distance * left, tb, layout=None, fwd=None,
-                     up=None, out=out[ch : ch + 1], **common)  # fmt: skip
-    elif lay.n_channels == 1:
-        receive(kin, texture, L, tb, layout=None, fwd=None, up=None, out=out, **common)
-    else:
-        fwd, up = path.orientation_at(t_path)
-        receive(kin, texture, L, tb, layout=lay, fwd=fwd, up=up, out=out, **common)
-    meta = {"n_sources": int(kin.pos.shape[0]), "exponent": e, "texture_speed": texture.speed,
-            "max_speed_mps": float(kin.speed.max() * texture.speed)}  # fmt: skip
-    return Rendered(audio=out, rate=int(rate), layout=lay, meta=meta)
+    part = emission(texture, obj, motion=motion, wind=wind, rate=rate, duration=dur,
+                    exponent=exponent, c0=c0, min_distance=min_distance, fade=fade, block=block,
+                    engine=engine)  # fmt: skip
+    return render_sound(Sound([part], meta=part.meta, name="aero"), path, rate=rate,
+                        layout=layout, duration=dur, c0=c0, backend=backend)  # fmt: skip

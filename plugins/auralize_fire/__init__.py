@@ -4,14 +4,16 @@ Chain: a flame simulation (TimeVolume with a burn-rate and a velocity field)
 → flame front by cubic B-spline + VTK contouring (§3.2) → flux integral
 I(t) = ∫ u·n dS (§3.1) → p = dI/dt at audio rate with the Mitchell–Netravali
 filter (§3.3) → 30 Hz high-pass (§6) → spectral bandwidth extension (§4) or
-sound texture synthesis (§5).
+sound texture synthesis (§5) → one point emitter at the front's centre,
+rendered by the sound engine (:mod:`auralize.emitters`).
 
 Examples
 --------
 >>> from auralize_fire import FireSound, make_fire
->>> out = FireSound().synthesize(make_fire(size=12, steps=12), extend="none")
->>> out.rate, out.pressure.shape
-(44100, (1348,))
+>>> snd = FireSound().synthesize(make_fire(size=12, steps=12), extend="none")
+>>> em = snd.parts[0]
+>>> em.rate, em.signals.shape
+(44100.0, (1, 1348))
 """
 
 from auralize._lazy import lazy_exports
@@ -30,6 +32,7 @@ _EXPORTS = {
     "lowfreq_pressure": ".lowfreq",
     "mitchell_netravali": ".lowfreq",
     "FireSound": ".model",
+    "fire_sound": ".model",
     "gaussian_pyramid": ".texture",
     "texture_synthesize": ".texture",
 }
@@ -41,6 +44,7 @@ __all__ = [
     "FlameFront",
     "bandwidth_extend",
     "extract_front",
+    "fire_sound",
     "fire_training_clip",
     "flux_series",
     "gaussian_pyramid",

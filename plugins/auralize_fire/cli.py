@@ -8,8 +8,11 @@ Sub-commands (paper 001)::
     auralize fire render PATH -o OUT.wav --extend bandwidth|texture --listener X,Y,Z --duration S
 
 ``lowfreq``, ``extend`` and ``texture`` write the emitted (source) signal,
-mono; ``render`` runs the chain and places the sound, emitted at the flame
-front's centre, along a listener path with the common output options.  Raw
+mono; ``render`` runs the chain and renders the fire, one point emitter at
+the flame front's centre (:func:`auralize_fire.model.fire_sound`), along a
+listener path with the engine (:func:`auralize.emitters.render`: retarded
+time, 1/D, Doppler, the layout's 2-D or 3-D panning) and the common output
+options, written by the core writer (channel mask, sidecar).  Raw
 float32 inputs (``.f32``) take ``--rate`` (default: the ``manifest.json``
 beside them).  PATH is a volume file or ``dataset:fire``.
 """
@@ -117,12 +120,13 @@ def cmd_texture(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from auralize.audio import write_audio
     from auralize.cli import listener_from_args
-    from auralize.propagation import propagate
+    from auralize.emitters import render
+    from auralize.pipeline import save_rendered
     from auralize.spatial import get_layout
-    from auralize_fire.model import load_volume, render_chain, training_at, trajectory
+    from auralize_fire.model import fire_sound, load_volume, training_at
 
+    lay = get_layout(args.layout)
     vol = load_volume(args.volume, size=args.size, steps=args.steps)
     path = listener_from_args(args)
     train = None
@@ -130,19 +134,16 @@ def cmd_render(args: argparse.Namespace) -> int:
         train = training_at(args.training, args.rate, seed=args.seed,
                             training_rate=args.training_rate)  # fmt: skip
     t = time.perf_counter()
-    sig, fs = render_chain(vol, extend=args.extend, rate=args.rate, burn_field=args.burn_field,
-                           velocity_field=args.velocity_field, iso=args.iso, refine=args.refine,
-                           highpass_hz=args.highpass, alpha=args.alpha, f_cut=args.fcut,
-                           levels=args.levels, eps=args.eps, training=train, seed=args.seed)  # fmt: skip
-    traj = trajectory(fs, sig.size, args.rate)
-    lay = get_layout(args.layout)
-    out = propagate(sig[None], args.rate, traj[None], path, rate=args.rate, layout=lay,
-                    duration=args.duration if args.path is None else None)  # fmt: skip
-
-    gain = write_audio(args.output, out, args.rate, normalize=args.normalize, limit_pa=args.limit,
-                       subtype=args.format, sidecar={"model": "fire", "extend": args.extend, "iso": fs.iso,
-                        "layout": lay.name, "seconds": time.perf_counter() - t})  # fmt: skip
-    print(f"wrote {args.output}: {lay.name}, {out.shape[0]} ch, {out.shape[1] / args.rate:.2f} s "
+    snd = fire_sound(vol, extend=args.extend, rate=args.rate, burn_field=args.burn_field,
+                     velocity_field=args.velocity_field, iso=args.iso, refine=args.refine,
+                     highpass_hz=args.highpass, alpha=args.alpha, f_cut=args.fcut,
+                     levels=args.levels, eps=args.eps, training=train, seed=args.seed)  # fmt: skip
+    out = render(snd, path, rate=args.rate, layout=lay, duration=args.duration)
+    out.meta["seconds"] = time.perf_counter() - t
+    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
+                         subtype=args.format, extra={"model": "fire"})  # fmt: skip
+    a = out.audio
+    print(f"wrote {args.output}: {lay.name}, {a.shape[0]} ch, {a.shape[1] / args.rate:.2f} s "
           f"at {args.rate} Hz, gain {gain:.4g}")  # fmt: skip
     return 0
 

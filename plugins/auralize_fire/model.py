@@ -8,8 +8,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import Emitters, Sound
 from auralize.errors import ParameterError
-from auralize.plugins import Parameter, SoundModel, SoundOutput
+from auralize.plugins import Parameter, SoundModel
 from auralize.volume import TimeVolume
 from auralize_fire.bandwidth import bandwidth_extend, check_signal
 from auralize_fire.clips import fire_training_clip, read_audio, resample
@@ -18,6 +19,8 @@ from auralize_fire.lowfreq import flux_series, front_at, lowfreq_pressure
 from auralize_fire.texture import texture_synthesize
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "fire-lowfreq"
+#: ρ0 / (4π) (kg/m³): pressure at 1 m of a volume source, p = ρ0/(4π r) · dI/dt
+MONOPOLE_1M = 1.2 / (4.0 * np.pi)
 
 
 def render_chain(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 44100,
@@ -45,13 +48,57 @@ def render_chain(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 4
     return texture_synthesize(low, clip, levels=levels, eps=eps), fs
 
 
+def fire_sound(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 44100,
+               burn_field: str = "burn", velocity_field: str = "velocity",
+               iso: float | None = None, refine: int = 2, highpass_hz: float = 30.0,
+               alpha: float = 3.0, f_cut: float = 180.0, levels: int = 6, eps: float = 1.0,
+               training: NDArray[np.floating] | None = None, seed: int = 0,
+               t0: float = 0.0) -> Sound:  # fmt: skip
+    """The fire of ``volume`` as one point emitter at its flame front (paper 001 §3–§5).
+
+    The emitted signal is the chain of :func:`render_chain` scaled to the
+    pressure at 1 m of a volume source whose volume flow is the front flux I:
+    ``p_1m = ρ0/(4π) · dI/dt`` (the constant §3.1 omits; ρ0 = 1.2 kg/m³), in Pa.
+    The emitter sits at the front's area-weighted centre, moving with it
+    (linear between steps, sampled at ``rate``) or static when the centre
+    does not move.  Propagation, distance law, Doppler and panning are the
+    engine's (:func:`auralize.emitters.render`).
+
+    Parameters
+    ----------
+    volume : TimeVolume with the burn and velocity fields.
+    extend, rate, burn_field, velocity_field, iso, refine, highpass_hz, alpha,
+    f_cut, levels, eps, training, seed : see :func:`render_chain`.
+    t0 : s, playback time (since the listener path's first capture) of the
+        volume's first step.
+
+    Returns
+    -------
+    Sound with one :class:`auralize.emitters.Emitters` (monopole, ``(1, n)`` Pa
+    at 1 m at ``rate`` from ``t0``).
+    """
+    if not isinstance(volume, TimeVolume):
+        raise ParameterError(f"fire model inputs must be a TimeVolume, got {type(volume).__name__}")
+    sig, fs = render_chain(volume, extend=extend, rate=rate, burn_field=burn_field,
+                           velocity_field=velocity_field, iso=iso, refine=refine,
+                           highpass_hz=highpass_hz, alpha=alpha, f_cut=f_cut, levels=levels,
+                           eps=eps, training=training, seed=seed)  # fmt: skip
+    ok = fs.area > 0
+    moving = bool(np.ptp(fs.centroid[ok], axis=0).max() > 0)
+    pos = trajectory(fs, sig.size, rate)[None] if moving else fs.centroid[ok][:1]
+    em = Emitters(sig[None] * MONOPOLE_1M, rate, pos, t0=t0, name="fire",
+                  meta={"source": "flame-front centre"})  # fmt: skip
+    meta = {"model": "fire", "iso": fs.iso, "flux": fs.flux, "front_area": fs.area,
+            "extend": extend, "moving": moving, "units": "Pa at 1 m"}  # fmt: skip
+    return Sound([em], meta=meta, name="fire")
+
+
 class FireSound(SoundModel):
     """Fire sound from flame-front flux with bandwidth extension or textures (paper 001).
 
-    ``inputs`` of :meth:`synthesize`: a TimeVolume (the emitted sound is
-    returned as ``pressure``) or ``(TimeVolume, ListenerPath)`` (the sound,
-    emitted at the flame front's area-weighted centre, is propagated to the
-    listener with :func:`auralize.propagation.propagate`).
+    ``synthesize(volume, **params)`` returns an :class:`auralize.emitters.Sound`
+    with the flame as one point emitter (:func:`fire_sound`); render it along
+    a listener path with :func:`auralize.emitters.render`.
     """
 
     name: ClassVar[str] = "fire"
@@ -71,35 +118,34 @@ class FireSound(SoundModel):
         Parameter("levels", 6, range=(2, 10), doc="pyramid levels L (§5)"),
         Parameter("eps", 1.0, range=(0.0, 10.0), doc="approximate-NN ε (§5.2)"),
         Parameter("seed", 0, range=(0, None)),
-        Parameter("rate", 44100, range=(8000, 192000), unit="Hz"),
+        Parameter("rate", 44100, range=(8000, 192000), unit="Hz", doc="emitted signal's rate"),
+        Parameter("t0", 0.0, range=(None, None), unit="s", doc="playback time of the first step"),
     )
     datasets: ClassVar[dict[str, Any]] = {"fire": make_fire}
 
-    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
-        p = self.resolve(**params)
-        path = None
-        if isinstance(inputs, tuple):
-            volume, path = inputs[0], (inputs[1] if len(inputs) > 1 else None)
-        else:
-            volume = inputs
-        if not isinstance(volume, TimeVolume):
-            raise ParameterError(f"fire model inputs must be a TimeVolume or (TimeVolume, "
-                                 f"ListenerPath), got {type(volume).__name__}")  # fmt: skip
-        sig, fs = render_chain(volume, extend=p["extend"], rate=int(p["rate"]),
-                               burn_field=p["burn_field"], velocity_field=p["velocity_field"],
-                               iso=p["iso"], refine=int(p["refine"]), highpass_hz=p["highpass_hz"],
-                               alpha=p["alpha"], f_cut=p["f_cut"], levels=int(p["levels"]),
-                               eps=p["eps"], seed=int(p["seed"]))  # fmt: skip
-        meta = {"iso": fs.iso, "flux": fs.flux, "front_area": fs.area, "extend": p["extend"]}
-        if path is None:
-            return SoundOutput(rate=int(p["rate"]), pressure=sig, meta=meta)
-        from auralize.propagation import propagate
+    def synthesize(self, inputs: Any, **params: Any) -> Sound:
+        """The fire of a volume (no listener: render the Sound along a path).
 
-        traj = trajectory(fs, sig.size, int(p["rate"]))
-        out = propagate(sig[None], int(p["rate"]), traj[None], path, rate=int(p["rate"]),
-                        emit_t0=0.0)  # fmt: skip
-        return SoundOutput(rate=int(p["rate"]), pressure=out[0], signals=sig[None],
-                           positions=traj[None], meta=meta)  # fmt: skip
+        Parameters
+        ----------
+        inputs : TimeVolume with the ``burn_field`` and ``velocity_field``.
+        **params : the model's :attr:`parameters`.
+
+        Returns
+        -------
+        Sound with one monopole :class:`auralize.emitters.Emitters` (Pa at 1 m).
+        """
+        p = self.resolve(**params)
+        if isinstance(inputs, tuple):
+            raise ParameterError(
+                "fire inputs are the TimeVolume only, without a listener: render the returned "
+                "Sound along a path with auralize.emitters.render"
+            )
+        return fire_sound(inputs, extend=p["extend"], rate=int(p["rate"]),
+                          burn_field=p["burn_field"], velocity_field=p["velocity_field"],
+                          iso=p["iso"], refine=int(p["refine"]), highpass_hz=p["highpass_hz"],
+                          alpha=p["alpha"], f_cut=p["f_cut"], levels=int(p["levels"]),
+                          eps=p["eps"], seed=int(p["seed"]), t0=float(p["t0"]))  # fmt: skip
 
     def overlay(self, inputs: Any, step: int) -> Any:
         """The flame front at ``step`` as pyvista PolyData, cell scalars ``u_dot_n`` (m/s)."""
@@ -129,9 +175,10 @@ class FireSound(SoundModel):
 
 
 def trajectory(fs: Any, n: int, rate: int) -> NDArray[np.float64]:
-    """Front centre per audio sample (n, 3), linear between simulation steps."""
+    """Front centre per audio sample (n, 3), linear between the steps that have a front."""
+    ok = fs.area > 0
     t = np.arange(n) / rate + fs.times[0]
-    return np.stack([np.interp(t, fs.times, fs.centroid[:, k]) for k in range(3)], axis=1)
+    return np.stack([np.interp(t, fs.times[ok], fs.centroid[ok, k]) for k in range(3)], axis=1)
 
 
 def load_volume(spec: str, *, size: int | None = None, steps: int | None = None,

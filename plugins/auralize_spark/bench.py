@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from auralize.bench import BenchRow, best_of
+from auralize.listener import ListenerPath
 
 from .field import ChargeScene, solve_field
 from .leader import Discharge, grow_leader
@@ -68,4 +69,10 @@ def bench_rows(quick: bool) -> list[Any]:
                          repeat=3, min_time=0.1)  # fmt: skip
             rows.append(BenchRow("spark", f"lightning: waveform → ring8 ({dur:.1f} s)", t8 * 1e3, "ms",
                                  note="per-segment VBAP from each segment's direction"))  # fmt: skip
+            orbit = ListenerPath.orbit(lis, radius=200.0, duration=20.0, rate_hz=10.0)
+            to = best_of(lambda d=d, params=params, orbit=orbit: render_discharge(d, orbit, params=params, layout="ring8"),
+                         repeat=3, min_time=0.1)  # fmt: skip
+            rows.append(BenchRow("spark", "lightning: waveform → ring8 along a 10 Hz orbit", to * 1e3, "ms",
+                                 note="exact retarded arrivals, Doppler and gains per segment "
+                                      "(auralize.emitters.events)"))  # fmt: skip
     return rows

@@ -1,7 +1,10 @@
 """Asynchronous generation and continuous discharges (paper 002 §4.2.1, §4.2.4).
 
 :class:`LiveDischarges` computes a discharge's waveform on a worker thread
-and mixes it into a live output stream at its arrival time (§4.2.1).  The
+and mixes it into a live output stream at its arrival time (§4.2.1); the
+arrival times, distances and panning gains of its segments are the engine's
+(:func:`auralize_spark.waves.emissions` takes them from
+:func:`auralize.emitters.events.arrivals`).  The
 stream is pulled by the audio callback (:meth:`LiveDischarges.pull`), which
 never blocks on the computation.  When the computation finishes after the
 first wave should already have arrived (the propagation delay r_min/c is
@@ -126,7 +129,7 @@ class LiveDischarges:
         t_start = self._clock()
         em = emissions(discharge, self.listener, params=self.params, strokes=strokes,
                        layout=self.layout, t0=0.0, rng=np.random.default_rng(seed))  # fmt: skip
-        first = max(float(np.min(em.t_center - (em.psi + em.s) * em.hl / self.params.c)), 0.0)
+        first = max(em.start_time, 0.0)
         n = int(math.ceil((em.end_time - first) * self.rate)) + 2
         em.t_center = em.t_center - first  # waveform relative to its first sample
         wave = accumulate(em, self.layout.n_channels, n, rate=self.rate, c=self.params.c)

@@ -20,14 +20,17 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import C0, Sound
+from auralize.emitters.events import as_path
 from auralize.errors import FormatError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.plugins import Parameter, SoundModel, SoundOutput
+from auralize.plugins import Parameter, SoundModel
+from auralize.spatial import Layout
 
 from .field import ChargeScene, ElectricField, field_from_volume, solve_field
 from .leader import Discharge, grow_leader
 from .presets import PRESETS, Preset, get_preset
-from .waves import SIGMA0, Rendered, WaveParams, render_discharge, stroke_times
+from .waves import SIGMA0, DischargePart, Rendered, WaveParams, stroke_times
 
 PRESET_NAMES = tuple(PRESETS)
 
@@ -45,13 +48,17 @@ class SparkResult:
     seed: int = 0
     timings: dict[str, float] = field(default_factory=dict)
 
-    def render(self, layout: str = "mono") -> Rendered:
+    @property
+    def part(self) -> DischargePart:
+        """The discharge's sound as an engine part (same strokes and T0 jitter)."""
+        return DischargePart(self.discharge, self.params, self.strokes, seed=self.seed)
+
+    def render(self, layout: str | Layout = "mono") -> Rendered:
         """The same discharge, strokes and T0 jitter rendered again to another layout."""
         ren = self.rendered
         n = ren.audio.shape[1]
-        out = render_discharge(self.discharge, self.listener, params=self.params, rate=ren.rate,
-                               layout=layout, strokes=self.strokes, duration=n / ren.rate,
-                               seed=self.seed)  # fmt: skip
+        out = self.part.render_part(as_path(self.listener), rate=ren.rate, layout=layout,
+                                    duration=n / ren.rate, c0=self.params.c)  # fmt: skip
         out.audio = out.audio[:, :n]
         return out
 
@@ -107,14 +114,58 @@ def resolve_source(source: Any, preset: Preset, *, step: int = 0,
     )
 
 
+def make_part(source: Any = None, *, preset: str = "spark-balls", half_length: float | None = None,
+              r0: float | None = None, T0: float | None = None, ps0: float | None = None,
+              sigma0: float = SIGMA0, c0: float = C0, jitter: float = 0.05,
+              amplitude: str = "eq3", n_candidates: int = 8, rho: float = math.pi / 2,
+              gamma: float = 2.5, reference: str = "tip", branch_probability: float | None = None,
+              branch_length: float | None = None, strokes: int | None = None, seed: int = 0,
+              t0: float = 0.0, step: int = 0, charge_field: str = "charge",
+              ) -> tuple[DischargePart, ElectricField | None, dict[str, float]]:  # fmt: skip
+    """Scene (or discharge) to the discharge's sound part (paper 002 Fig. 4–5, before propagation).
+
+    Parameters are those of :func:`simulate` without the listener and the
+    output; ``t0`` is the playback time of the first stroke.
+
+    Returns
+    -------
+    (DischargePart, the solved field or None, timings in s)
+    """
+    pre = get_preset(preset)
+    hl = pre.half_length if half_length is None else float(half_length)
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    fld, dis = resolve_source(source, pre, step=step, charge_field=charge_field)
+    timings["field"] = time.perf_counter() - t
+    if dis is None:
+        assert fld is not None
+        t = time.perf_counter()
+        dis = grow_leader(fld, half_length=hl, n_candidates=n_candidates, rho=rho, gamma=gamma,
+                          seed=seed, reference=reference,
+                          branch_probability=pre.branch_probability if branch_probability is None else branch_probability,
+                          branch_length=pre.branch_length if branch_length is None else branch_length)  # fmt: skip
+        timings["leader"] = time.perf_counter() - t
+    else:
+        dis = dis.subdivided(hl)
+    rng = np.random.default_rng([seed, 7])
+    if strokes is None:
+        st = stroke_times(rng) if pre.multi_stroke else np.zeros(1)
+    else:
+        st = stroke_times(rng, n=int(strokes))
+    params = WaveParams(r0=pre.r0 if r0 is None else float(r0), T0=pre.T0 if T0 is None else float(T0),
+                        ps0=pre.ps0 if ps0 is None else float(ps0), sigma0=sigma0, c=c0,
+                        jitter=jitter, amplitude=amplitude)  # fmt: skip
+    return DischargePart(dis, params, st, t0=t0, seed=seed), fld, timings
+
+
 def simulate(source: Any = None, listener: ListenerPath | NDArray[np.floating] | None = None, *,
              preset: str = "spark-balls", half_length: float | None = None,
              r0: float | None = None, T0: float | None = None, ps0: float | None = None,
-             sigma0: float = SIGMA0, c0: float = 343.0, jitter: float = 0.05,
+             sigma0: float = SIGMA0, c0: float = C0, jitter: float = 0.05,
              amplitude: str = "eq3", n_candidates: int = 8, rho: float = math.pi / 2,
              gamma: float = 2.5, reference: str = "tip", branch_probability: float | None = None,
              branch_length: float | None = None, strokes: int | None = None, seed: int = 0,
-             rate: int = 44100, layout: str = "mono", duration: float | None = None,
+             rate: int = 44100, layout: str | Layout = "mono", duration: float | None = None,
              step: int = 0, charge_field: str = "charge") -> SparkResult:  # fmt: skip
     """Scene (or discharge) to sound at the listener, end to end (paper 002 Fig. 4–5).
 
@@ -140,34 +191,17 @@ def simulate(source: Any = None, listener: ListenerPath | NDArray[np.floating] |
     >>> res.rendered.audio.shape[0], res.summary()["strokes"]
     (1, 1)
     """
-    pre = get_preset(preset)
-    hl = pre.half_length if half_length is None else float(half_length)
-    timings: dict[str, float] = {}
-    t = time.perf_counter()
-    fld, dis = resolve_source(source, pre, step=step, charge_field=charge_field)
-    timings["field"] = time.perf_counter() - t
-    if dis is None:
-        assert fld is not None
-        t = time.perf_counter()
-        dis = grow_leader(fld, half_length=hl, n_candidates=n_candidates, rho=rho, gamma=gamma,
-                          seed=seed, reference=reference,
-                          branch_probability=pre.branch_probability if branch_probability is None else branch_probability,
-                          branch_length=pre.branch_length if branch_length is None else branch_length)  # fmt: skip
-        timings["leader"] = time.perf_counter() - t
-    else:
-        dis = dis.subdivided(hl)
-    rng = np.random.default_rng([seed, 7])
-    if strokes is None:
-        st = stroke_times(rng) if pre.multi_stroke else np.zeros(1)
-    else:
-        st = stroke_times(rng, n=int(strokes))
-    lis = np.asarray(pre.listener, dtype=np.float64) if listener is None else listener
-    params = WaveParams(r0=pre.r0 if r0 is None else float(r0), T0=pre.T0 if T0 is None else float(T0),
-                        ps0=pre.ps0 if ps0 is None else float(ps0), sigma0=sigma0, c=c0,
-                        jitter=jitter, amplitude=amplitude)  # fmt: skip
-    ren = render_discharge(dis, lis, params=params, rate=rate, layout=layout, strokes=st,
-                           duration=duration, seed=seed)  # fmt: skip
-    return SparkResult(ren, dis, fld, st, params, lis, seed, timings)
+    part, fld, timings = make_part(
+        source, preset=preset, half_length=half_length, r0=r0, T0=T0, ps0=ps0, sigma0=sigma0,
+        c0=c0, jitter=jitter, amplitude=amplitude, n_candidates=n_candidates, rho=rho,
+        gamma=gamma, reference=reference, branch_probability=branch_probability,
+        branch_length=branch_length, strokes=strokes, seed=seed, step=step,
+        charge_field=charge_field)  # fmt: skip
+    lis = (
+        np.asarray(get_preset(preset).listener, dtype=np.float64) if listener is None else listener
+    )
+    ren = part.render_part(as_path(lis), rate=rate, layout=layout, duration=duration, c0=c0)
+    return SparkResult(ren, part.discharge, fld, part.strokes, part.params, lis, seed, timings)
 
 
 # ------------------------------------------------------------------ overlay
@@ -253,15 +287,28 @@ def charge_glyphs(fld: ElectricField | None) -> Any:
     return blocks
 
 
+def _fitted(source: Any, step: int, params: dict[str, Any]) -> tuple[Any, int, dict[str, Any]]:
+    """A volume without a ``charge`` field becomes the lightning geometry fitted to its bounds."""
+    params = dict(params)
+    if hasattr(source, "field_names") and "charge" not in source.field_names:
+        source, step = fitted_scene(source), 0
+        params.setdefault("half_length", float(np.ptp(np.asarray(source.coords()[2]))) / 200)
+        params.setdefault("branch_probability", 0.1)
+        params.setdefault("branch_length", 15.0)
+    return source, step, params
+
+
 # -------------------------------------------------------------------- model
 class SparkSound(SoundModel):
     """Spark-discharge and thunder sound (Matsuyama, Fujimoto & Chiba; paper 002).
 
-    ``synthesize(inputs, **params)`` with ``inputs = (source, listener)``:
-    ``source`` as in :func:`resolve_source` (None for the preset's scene) and
-    ``listener`` a ListenerPath, a (3,) position or None (the preset's).
-    Returns the pressure at the listener (mono, Pa) and, for other layouts,
-    the panned audio in ``meta["audio"]`` (n_channels, n_samples).
+    ``synthesize(inputs, **params)`` takes the model's data without a
+    listener: ``inputs`` is a source as in :func:`resolve_source` (None for the
+    preset's scene; a volume without a ``charge`` field gets the lightning
+    geometry fitted to its bounds, as the overlay shows it).  It returns an
+    :class:`auralize.emitters.Sound` with one :class:`DischargePart`; render it
+    along a listener path with :func:`auralize.emitters.render` (any layout,
+    speed of sound ``c0`` of the render).
     """
 
     name: ClassVar[str] = "spark"
@@ -316,41 +363,60 @@ class SparkSound(SoundModel):
             "amplitude", "eq3", choices=("eq3", "paper"), doc="A of Eq. 5: match Eq. 3, or A = 1"
         ),
         Parameter("seed", 0, range=(0, None)),
-        Parameter("rate", 44100, range=(8000, 768000), unit="Hz"),
-        Parameter("layout", "mono", doc="mono | stereo | ring8 | 5.1 | 7.1 | FILE.json"),
-        Parameter("c0", 343.0, range=(1.0, None), unit="m/s"),
+        Parameter("t0", 0.0, range=(None, None), unit="s", doc="playback time of the first stroke"),
     )
 
-    def _run(self, inputs: Any, step: int = 0, **params: Any) -> SparkResult:
+    def _part(self, source: Any, step: int = 0, **params: Any) -> tuple[DischargePart, Any]:
         p = self.resolve(**params)
-        source, listener = inputs if isinstance(inputs, tuple) else (inputs, None)
-        return simulate(
-            source, listener, preset=p["preset"], half_length=p["half_length"] or None,
+        part, fld, _ = make_part(
+            source, preset=p["preset"], half_length=p["half_length"] or None,
             r0=p["r0"] or None, T0=p["T0"] or None, ps0=p["ps0"] or None, sigma0=p["sigma0"],
-            c0=p["c0"], jitter=p["jitter"], amplitude=p["amplitude"],
+            jitter=p["jitter"], amplitude=p["amplitude"],
             n_candidates=int(p["n_candidates"]), rho=p["rho"], gamma=p["gamma"],
             reference=p["reference"], strokes=int(p["strokes"]) or None, seed=int(p["seed"]),
             branch_probability=None if p["branch_probability"] < 0 else p["branch_probability"],
-            branch_length=p["branch_length"] or None,
-            rate=int(p["rate"]), layout=p["layout"], step=step,
+            branch_length=p["branch_length"] or None, t0=float(p["t0"]), step=step,
         )  # fmt: skip
+        return part, fld
 
-    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
-        res = self._run(inputs, **params)
-        ren = res.rendered
-        meta: dict[str, Any] = {**res.summary(), "discharge": res.discharge}
-        if ren.layout.n_channels == 1:
-            pressure = ren.audio[0]
-        else:
-            meta["audio"] = ren.audio
-            pressure = res.render("mono").audio[0]
-        return SoundOutput(rate=ren.rate, pressure=pressure, meta=meta)
+    def synthesize(self, inputs: Any, **params: Any) -> Sound:
+        """The discharge's sound part (no listener: render it with :func:`auralize.emitters.render`).
+
+        Parameters
+        ----------
+        inputs : None, a ChargeScene, ElectricField, TimeVolume, Discharge or a
+            ``.json``/``.toml``/``.csv`` path (see :func:`resolve_source`).
+        **params : the model's :attr:`parameters`.
+
+        Returns
+        -------
+        Sound with one :class:`DischargePart`; ``meta`` has the segment and
+        stroke counts, stroke times and the ``discharge``.
+        """
+        if isinstance(inputs, tuple):
+            raise ParameterError(
+                "spark inputs are the source only (None, a scene, field, volume, discharge or "
+                "file), without a listener: render the returned Sound along a path with "
+                "auralize.emitters.render"
+            )
+        source, step, params = _fitted(inputs, 0, params)
+        part, fld = self._part(source, step=step, **params)
+        dis = part.discharge
+        meta: dict[str, Any] = {
+            "model": "spark", "segments": int(dis.n_segments),
+            "main_segments": int(dis.seg_main.sum()), "branches": dis.n_branches(),
+            "strokes": int(part.strokes.size), "stroke_times_s": part.strokes.tolist(),
+            "discharge": dis,
+        }  # fmt: skip
+        if fld is not None:
+            meta["laplace"] = {"dims": list(fld.dims), **fld.info}
+        return Sound([part], meta=meta, name="spark")
 
     def overlay(self, inputs: Any, step: int) -> Any:
         """pyvista MultiBlock: ``discharge`` lines (brightness by stroke) and ``charges`` glyphs.
 
-        ``inputs = (source, listener[, params])`` as for :meth:`synthesize`; the
-        viewer passes ``(volume, path)``.  A volume with a scalar ``charge``
+        ``inputs = source`` or ``(source, listener[, params])`` (the listener is
+        not used); the viewer passes ``(volume, path)``.  A volume with a scalar ``charge``
         field is solved at ``step``; a volume without one gets the lightning
         geometry fitted to its bounding box (:func:`fitted_scene`), so the
         overlay shows a discharge in any dataset.  Results are cached per
@@ -359,20 +425,15 @@ class SparkSound(SoundModel):
         import pyvista as pv
 
         params = dict(inputs[2]) if isinstance(inputs, tuple) and len(inputs) > 2 else {}
-        source, listener = inputs[:2] if isinstance(inputs, tuple) else (inputs, None)
-        orig = source
-        if hasattr(source, "field_names") and "charge" not in source.field_names:
-            source, step = fitted_scene(source), 0
-            params.setdefault("half_length", float(np.ptp(np.asarray(source.coords()[2]))) / 200)
-            params.setdefault("branch_probability", 0.1)
-            params.setdefault("branch_length", 15.0)
+        orig = inputs[0] if isinstance(inputs, tuple) else inputs
+        source, step, params = _fitted(orig, step, params)
         key = (id(orig), int(step), tuple(sorted(params.items())))
         cache = self.__dict__.setdefault("_overlay_cache", {})
         if key not in cache:
-            res = self._run((source, listener), step=step, **params)
+            part, fld = self._part(source, step=step, **params)
             out = pv.MultiBlock()
-            out["discharge"] = discharge_mesh(res.discharge, res.strokes.size)
-            out["charges"] = charge_glyphs(res.field)
+            out["discharge"] = discharge_mesh(part.discharge, part.strokes.size)
+            out["charges"] = charge_glyphs(fld)
             cache.clear()  # keep only the latest (meshes can be large)
             cache[key] = (orig, out)  # holding orig keeps its id unique
         return cache[key][1]
@@ -394,7 +455,7 @@ class SparkSound(SoundModel):
 
 
 def cmd_spark_render(args: argparse.Namespace) -> int:
-    from auralize.audio import write_audio
+    from auralize.pipeline import save_rendered
 
     if args.scene and args.discharge:
         raise ParameterError("give either --scene FILE or --discharge CSV, not both")
@@ -417,11 +478,9 @@ def cmd_spark_render(args: argparse.Namespace) -> int:
     summary["timing_s"]["total"] = total
     summary["output"] = args.output
     lay = res.rendered.layout
-    gain = write_audio(args.output, res.rendered.audio, res.rendered.rate,
-                       channel_mask=lay.channel_mask, normalize=args.normalize,
-                       limit_pa=args.limit, subtype=args.format,
-                       sidecar={"model": "spark", "preset": preset, "seed": args.seed,
-                                "segments": summary["segments"], "strokes": summary["strokes"],
+    gain = save_rendered(res.rendered, args.output, normalize=args.normalize, limit_pa=args.limit,
+                         subtype=args.format,
+                         extra={"model": "spark", "preset": preset, "seed": args.seed,
                                 "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
     summary["gain"] = gain
     summary["peak_pa"] = float(np.max(np.abs(res.rendered.audio)))

@@ -11,6 +11,13 @@
   at its arrival time r/c.  Here each output sample receives the *mean* of p
   over its sampling interval (exact, from the closed-form antiderivative), so
   the µs-scale shocks of the small presets do not alias at 44.1 kHz.
+* Propagation is the engine's: the arrival time of each segment centre (the
+  retarded time for a moving listener), its distance r, its direction and the
+  layout's panning gains come from :func:`auralize.emitters.events.arrivals`;
+  the discharge is a model part (:class:`DischargePart`) of an
+  :class:`auralize.emitters.Sound`.  Eqs. 3–4 are the model's own physics:
+  they set the amplitude and duration of each wave at its distance r (there is
+  no further 1/r law on top).
 
 Choices written down here:
 
@@ -39,20 +46,22 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import C0
+from auralize.emitters.events import arrivals, sparse_gains
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
+from auralize.spatial import Layout, get_layout
 from auralize.synthesis import Rendered
 
 from ._kernels import accumulate_wm
 from .leader import Discharge
 
-C0 = 343.0
 SIGMA0 = 0.524
 STROKE_P = 0.85
 INTERVAL_UNIT_S = 0.010
@@ -188,7 +197,9 @@ class Emissions:
     Arrays are (E,): arrival time of the segment centre ``t_center`` (s of
     playback), half-length ``hl`` (m, the l of Eq. 5), ``s = sin θ``, ``psi``, ``B`` (Pa),
     true distance ``r`` (m), segment index ``seg`` and ``stroke``; panning
-    ``chans``/``gains`` are (E, K).
+    ``chans``/``gains`` are (E, K); ``c`` the speed of sound (m/s);
+    ``doppler`` (E,) the time scale dt/dτ of each wave at a moving listener
+    (1 for a static one).
     """
 
     t_center: NDArray[np.float64]
@@ -202,42 +213,48 @@ class Emissions:
     chans: NDArray[np.int64]
     gains: NDArray[np.float64]
     clamped: int = 0
+    c: float = C0
+    doppler: NDArray[np.float64] | None = None
+
+    @property
+    def time_length(self) -> NDArray[np.float64]:
+        """(E,) m: the length mapping τ to heard time, ``t = t_center + τ · hl · doppler / c``."""
+        return self.hl if self.doppler is None else self.hl * self.doppler
+
+    @property
+    def start_time(self) -> float:
+        """Playback time (s) before which no wave has arrived."""
+        if self.t_center.size == 0:
+            return 0.0
+        return float(np.min(self.t_center - (self.psi + self.s) * self.time_length / self.c))
 
     @property
     def end_time(self) -> float:
         """Playback time (s) after which every wave has passed."""
         if self.t_center.size == 0:
             return 0.0
-        return float(np.max(self.t_center + (self.psi + self.s) * self.hl / C0 * 1.01))
-
-
-def _listener_state(listener: ListenerPath | NDArray[np.floating], t: NDArray[np.float64]
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]:  # fmt: skip
-    if isinstance(listener, ListenerPath):
-        tt = listener.times[0] + t
-        fwd, up = listener.orientation_at(tt)
-        return listener.position_at(tt), fwd, up
-    p = np.asarray(listener, dtype=np.float64).reshape(3)
-    return np.broadcast_to(p, (t.size, 3)), None, None
+        return float(np.max(self.t_center + (self.psi + self.s) * self.time_length / self.c * 1.01))
 
 
 def emissions(discharge: Discharge, listener: ListenerPath | NDArray[np.floating], *,
               params: WaveParams, strokes: NDArray[np.floating] | None = None,
               layout: str | Layout = "mono", t0: float = 0.0,
               rng: np.random.Generator | None = None) -> Emissions:  # fmt: skip
-    """Geometry and Eq. 3–5 coefficients of every segment of every stroke (§4.2.2 (a)–(b)).
+    """Eq. 3–5 coefficients of every segment of every stroke at its arrival (§4.2.2 (a)–(b)).
 
     Parameters
     ----------
     discharge : the tree; listener : a :class:`ListenerPath` (playback time
         from its first capture) or a static (3,) position in m.
     strokes : (K,) s, stroke emission times relative to ``t0``.
-    layout : output layout; each segment is panned (pairwise VBAP) from its
-        direction in the listener's frame at its arrival time.
+    layout : output layout.
     rng : generator for the T0 jitter (default: seed 0).
 
-    For a moving listener the arrival time solves t = t_e + |L(t) − x|/c by
-    fixed-point iteration (listener speed ≪ c).
+    Arrival times, distances r, directions and panning gains of the segment
+    centres come from the engine (:func:`auralize.emitters.events.arrivals`:
+    the exact retarded time for a moving, turning listener, the layout's own
+    2-D or 3-D law); θ is the angle between the segment and the direction to
+    the listener at arrival.
     """
     rng = np.random.default_rng(0) if rng is None else rng
     lay = get_layout(layout)
@@ -254,18 +271,9 @@ def emissions(discharge: Discharge, listener: ListenerPath | NDArray[np.floating
     seg = np.concatenate(seg_idx).astype(np.int64)
     stroke = np.concatenate(stk).astype(np.int64)
     mid, dirs, hl = mid_all[seg], dirs_all[seg], hl_all[seg]
-    t_emit = t0 + strokes[stroke]
-    # retarded arrival time (static listener: one pass)
-    L, fwd, up = _listener_state(listener, t_emit)
-    t_arr = t_emit + np.linalg.norm(L - mid, axis=1) / params.c
-    if isinstance(listener, ListenerPath):
-        for _ in range(6):
-            L, fwd, up = _listener_state(listener, t_arr)
-            t_arr = t_emit + np.linalg.norm(L - mid, axis=1) / params.c
-    v = L - mid
-    r = np.linalg.norm(v, axis=1)
-    vhat = v / np.where(r > 0, r, 1.0)[:, None]
-    s = np.clip(np.abs(np.sum(vhat * dirs, axis=1)), 0.0, 1.0)
+    arr = arrivals(mid, t0 + strokes[stroke], listener, c0=params.c, layout=lay)
+    r = arr.distance
+    s = np.clip(np.abs(np.sum(arr.direction * dirs, axis=1)), 0.0, 1.0)
     s = np.where(r > 0, s, 0.0)
     s = np.maximum(s, 1e-9)  # Eq. 5 divides by s; pieces of width 2s vanish smoothly
     T0 = params.T0 * np.clip(1.0 + params.jitter * rng.standard_normal(seg.size), 0.5, 1.5)
@@ -273,37 +281,121 @@ def emissions(discharge: Discharge, listener: ListenerPath | NDArray[np.floating
     ps, T = nwave_params(r_eff, r0=params.r0, ps0=params.ps0, T0=1.0, sigma0=params.sigma0)
     T = T * T0
     psi, B = wm_coefficients(r_eff, hl, T, ps, c=params.c, amplitude=params.amplitude)
-    if lay.n_channels == 1:
-        chans = np.zeros((seg.size, 1), dtype=np.int64)
-        gains = np.ones((seg.size, 1))
-    else:
-        az = (
-            listener_frame_azimuth(-v, fwd, up)
-            if fwd is not None
-            else listener_frame_azimuth(
-                -v,
-                np.broadcast_to([0.0, 1.0, 0.0], v.shape),
-                np.broadcast_to([0.0, 0.0, 1.0], v.shape),
-            )
-        )
-        g = vbap_gains(lay, az).T  # (E, n_ch)
-        k = min(2, lay.n_channels)
-        order = np.argsort(-g, axis=1)[:, :k]
-        gains = np.take_along_axis(g, order, axis=1)
-        chans = np.where(gains > 0, order, -1).astype(np.int64)
-    return Emissions(t_arr, hl, s, psi, B, r, seg, stroke, chans, np.ascontiguousarray(gains),
-                     int(np.count_nonzero(r < params.r0)))  # fmt: skip
+    assert arr.gains is not None
+    chans, gains = sparse_gains(arr.gains)
+    return Emissions(arr.time, hl, s, psi, B, r, seg, stroke, chans, gains,
+                     int(np.count_nonzero(r < params.r0)), float(params.c), arr.doppler)  # fmt: skip
 
 
 def accumulate(em: Emissions, n_channels: int, n_samples: int, *, rate: int, c: float = C0,
                out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
-    """Sum the box-filtered WM-waves of ``em`` into a ``(n_channels, n_samples)`` buffer (§4.2.2 (c))."""
+    """Sum the box-filtered WM-waves of ``em`` into a ``(n_channels, n_samples)`` buffer (§4.2.2 (c)).
+
+    Sample n covers playback time ``[(n − ½)/rate, (n + ½)/rate)``; each wave's
+    time axis is scaled by its Doppler factor (the pressure values are those
+    of Eq. 5: a moving listener hears the static wave compressed or stretched).
+    """
     if out is None:
         out = np.zeros((n_channels, n_samples))
-    accumulate_wm(
-        out, em.t_center, em.hl, em.s, em.psi, em.B, em.chans, em.gains, float(rate), float(c)
-    )
+    accumulate_wm(out, em.t_center, np.ascontiguousarray(em.time_length), em.s, em.psi, em.B,
+                  em.chans, em.gains, float(rate), float(c))  # fmt: skip
     return out
+
+
+@dataclass
+class DischargePart:
+    """A discharge's sound as a part of :class:`auralize.emitters.Sound` (paper 002 §4.2.2–4.2.3).
+
+    Rendered in closed form by :meth:`render_part`: one WM-wave (Eq. 5) per
+    segment and stroke, its amplitude and duration from Eqs. 3–4 at the
+    segment's distance, added at its arrival time with the layout's gains;
+    arrival times, distances, directions and gains come from
+    :func:`auralize.emitters.events.arrivals`.
+
+    Parameters
+    ----------
+    discharge : Discharge
+    params : WaveParams (r0, T0, p_s0, σ0, jitter, amplitude; its ``c`` is
+        replaced by the render's speed of sound).
+    strokes : (K,) s, stroke emission times relative to ``t0`` (first 0).
+    t0 : s, playback time of the first stroke (since the listener path's first capture).
+    seed : seeds the T0 jitter (the same seed gives the same waves in any layout).
+    """
+
+    discharge: Discharge
+    params: WaveParams
+    strokes: NDArray[np.float64] = field(default_factory=lambda: np.zeros(1))
+    t0: float = 0.0
+    seed: int = 0
+    name: str = "spark"
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        st = np.atleast_1d(np.asarray(self.strokes, dtype=np.float64))
+        if st.ndim != 1 or st.size == 0 or not np.all(np.isfinite(st)):
+            raise ParameterError(
+                f"strokes must be a non-empty list of finite times in s, got {st!r}"
+            )
+        if not math.isfinite(self.t0):
+            raise ParameterError(f"t0 must be a finite time in s, got {self.t0!r}")
+        self.strokes = st
+
+    def emissions(self, listener: ListenerPath | NDArray[np.floating], *,
+                  layout: str | Layout = "mono", c0: float | None = None) -> Emissions:  # fmt: skip
+        """The emissions heard along ``listener`` (speed of sound ``c0``, default ``params.c``)."""
+        params = self.params if c0 is None else replace(self.params, c=float(c0))
+        return emissions(self.discharge, listener, params=params, strokes=self.strokes,
+                         layout=layout, t0=self.t0, rng=np.random.default_rng(self.seed))  # fmt: skip
+
+    def render_part(self, path: ListenerPath | NDArray[np.floating], *, rate: int = 44100,
+                    layout: str | Layout = "mono", duration: float | None = None,
+                    start: float = 0.0, c0: float = C0, backend: str = "auto") -> Rendered:  # fmt: skip
+        """Pressure ``(n_channels, n_samples)`` in Pa heard along ``path``.
+
+        Output sample n is at playback time ``start + n / rate``; ``duration``
+        None renders until the last wave has passed (+10 ms).  The closed form
+        has one implementation, exact for every ``backend``.
+        """
+        from auralize.emitters.engine import BACKENDS
+
+        if backend not in BACKENDS:
+            raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        if not (isinstance(rate, int | np.integer) and 1000 <= rate <= 768000):
+            raise ParameterError(f"rate must be an integer in [1000, 768000] Hz, got {rate!r}")
+        if not math.isfinite(start):
+            raise ParameterError(f"start must be a finite time in s, got {start!r}")
+        lay = get_layout(layout)
+        t_start = time.perf_counter()
+        em = self.emissions(path, layout=lay, c0=c0)
+        t_geo = time.perf_counter()
+        if duration is None:
+            duration = em.end_time + 0.01 - start
+        if not (math.isfinite(duration) and duration > 0):
+            raise ParameterError(f"duration must be a positive number of seconds, got {duration!r}")
+        n = int(math.ceil(duration * rate))
+        em.t_center = em.t_center - start
+        audio = accumulate(em, lay.n_channels, n, rate=int(rate), c=c0)
+        t_end = time.perf_counter()
+        em.t_center = em.t_center + start
+        dis = self.discharge
+        meta = {
+            "model": self.name,
+            "segments": int(dis.n_segments),
+            "main_segments": int(dis.seg_main.sum()),
+            "emissions": int(em.t_center.size),
+            "strokes": int(self.strokes.size),
+            "stroke_times_s": self.strokes.tolist(),
+            "first_arrival_s": float(em.t_center.min()),
+            "last_arrival_s": float(em.t_center.max()),
+            "wave_duration_s": float(em.end_time - em.t_center.min()),
+            "clamped_segments": em.clamped,
+            "geometry_s": t_geo - t_start,
+            "waveform_s": t_end - t_geo,
+            "rate": int(rate),
+            "layout": lay.name,
+            "c0": float(c0),
+        }
+        return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
 
 
 def render_discharge(discharge: Discharge, listener: ListenerPath | NDArray[np.floating], *,
@@ -311,6 +403,8 @@ def render_discharge(discharge: Discharge, listener: ListenerPath | NDArray[np.f
                      strokes: NDArray[np.floating] | None = None, duration: float | None = None,
                      t0: float = 0.0, seed: int = 0) -> Rendered:  # fmt: skip
     """The sound of ``discharge`` heard by ``listener`` (paper 002 §4.2.2–4.2.3).
+
+    Renders a :class:`DischargePart` with the speed of sound ``params.c``.
 
     Parameters
     ----------
@@ -334,34 +428,6 @@ def render_discharge(discharge: Discharge, listener: ListenerPath | NDArray[np.f
     >>> out.audio.shape[0], round(out.meta["first_arrival_s"] * 1e3, 3)
     (1, 1.458)
     """
-    if not (isinstance(rate, int | np.integer) and 1000 <= rate <= 768000):
-        raise ParameterError(f"rate must be an integer in [1000, 768000] Hz, got {rate!r}")
-    lay = get_layout(layout)
-    st = np.zeros(1) if strokes is None else np.atleast_1d(np.asarray(strokes, dtype=np.float64))
-    t_start = time.perf_counter()
-    em = emissions(discharge, listener, params=params, strokes=st, layout=lay, t0=t0,
-                   rng=np.random.default_rng(seed))  # fmt: skip
-    t_geo = time.perf_counter()
-    if duration is None:
-        duration = em.end_time + 0.01
-    if not (math.isfinite(duration) and duration > 0):
-        raise ParameterError(f"duration must be a positive number of seconds, got {duration!r}")
-    n = int(math.ceil(duration * rate))
-    audio = accumulate(em, lay.n_channels, n, rate=rate, c=params.c)
-    t_end = time.perf_counter()
-    meta = {
-        "segments": int(discharge.n_segments),
-        "main_segments": int(discharge.seg_main.sum()),
-        "emissions": int(em.t_center.size),
-        "strokes": int(st.size),
-        "stroke_times_s": st.tolist(),
-        "first_arrival_s": float(em.t_center.min()),
-        "last_arrival_s": float(em.t_center.max()),
-        "wave_duration_s": float(em.end_time - em.t_center.min()),
-        "clamped_segments": em.clamped,
-        "geometry_s": t_geo - t_start,
-        "waveform_s": t_end - t_geo,
-        "rate": int(rate),
-        "layout": lay.name,
-    }
-    return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
+    st = np.zeros(1) if strokes is None else strokes
+    part = DischargePart(discharge, params, st, t0=t0, seed=seed)
+    return part.render_part(listener, rate=rate, layout=layout, duration=duration, c0=params.c)

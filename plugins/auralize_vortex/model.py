@@ -11,8 +11,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import Sound
 from auralize.errors import DataError, ParameterError
-from auralize.plugins import Parameter, SoundModel, SoundOutput
+from auralize.plugins import Parameter, SoundModel
 from auralize.volume import TimeVolume
 from auralize_vortex.datasets import make_fire_plume
 from auralize_vortex.fluid import curl
@@ -21,6 +22,7 @@ from auralize_vortex.render import (
     render_vortex,
     split_subvolumes,
     velocity_field_name,
+    vortex_sound,
 )
 from auralize_vortex.texture import DEFAULT_SPEEDS, Texture, TextureConfig, check_speeds, texture
 
@@ -40,21 +42,15 @@ def _texture_from(spec: str | Path | Texture | None, *, quiet: bool = True) -> T
     return Texture.load(spec)  # type: ignore[arg-type]
 
 
-def _volume_and_path(inputs: Any) -> tuple[TimeVolume, Any]:
-    if isinstance(inputs, tuple) and len(inputs) == 2:
-        return inputs[0], inputs[1]
-    raise ParameterError(
-        f"vortex inputs must be (TimeVolume, ListenerPath), got {type(inputs).__name__}"
-    )
-
-
 class VortexSound(SoundModel):
     """Vortex sound from turbulent fields with sound textures (Dobashi et al. 2004, paper 000).
 
-    ``synthesize((volume, path), **params)`` renders Eq. 5 with the texture of
-    §5 (``texture=`` a file; empty for the cached default texture, computed
-    once, ~30 s).  ``overlay(inputs, step)`` returns pyvista meshes of the
-    sound-source sub-volumes coloured by average speed.
+    ``synthesize(volume, **params)`` returns what Eq. 5 emits: the
+    sub-volumes as static emitters playing the texture of §5 (``texture=`` a
+    file; empty for the cached default texture, computed once, ~30 s); the
+    engine (:func:`auralize.emitters.render`) propagates and pans them.
+    ``overlay(inputs, step)`` returns pyvista meshes of the sound-source
+    sub-volumes coloured by average speed.
 
     Examples
     --------
@@ -80,8 +76,6 @@ class VortexSound(SoundModel):
             doc="1/r (Howe, DESIGN.md) or the paper's 1/r³ (Eq. 5)",
         ),  # fmt: skip
         Parameter("velocity_field", "velocity", doc="vector field holding the velocity (m/s)"),
-        Parameter("rate", 44100, range=(1000, 384000), unit="Hz"),
-        Parameter("c0", 343.0, range=(1.0, None), unit="m/s"),
         Parameter(
             "low_speed",
             "u4",
@@ -104,8 +98,30 @@ class VortexSound(SoundModel):
             0.0,
             range=(0.0, None),
             unit="Pa",
-            doc="maximum pressure, truncated beyond (§7); 0 = off",
+            doc="maximum received pressure, truncated beyond (§7); 0 = off",
         ),  # fmt: skip
+        Parameter(
+            "oversample",
+            0,
+            range=(0, 64),
+            doc="emission rate = oversample × texture rate (0: 1 for sub-volumes as large as "
+            "the texture box, else 4)",
+        ),  # fmt: skip
+        Parameter(
+            "duration",
+            0.0,
+            range=(0.0, None),
+            unit="s",
+            doc="playback seconds of emission (0 = the frames' duration × time_scale)",
+        ),  # fmt: skip
+        Parameter(
+            "lead",
+            0.5,
+            range=(0.0, None),
+            unit="s",
+            doc="emission before playback 0 (first step's speeds), heard up to lead × c0 away",
+        ),  # fmt: skip
+        Parameter("radius", 0.05, range=(1e-6, None), unit="m", doc="distance clamp"),
     )
     #: built-in datasets (auralize.datasets hook)
     datasets: ClassVar[dict[str, Any]] = {"fire-plume": make_fire_plume}
@@ -115,26 +131,44 @@ class VortexSound(SoundModel):
         self.overlay_isosurface = isosurface
 
     # ------------------------------------------------------------ synthesis
-    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
-        """``inputs = (TimeVolume, ListenerPath)``.
+    def synthesize(self, inputs: Any, **params: Any) -> Sound:
+        """What the velocity volume ``inputs`` emits (§6, Eq. 5).
 
-        Returns the mono pressure at the listener (Pa), plus the per-source
-        received signals ``signals (S, n)`` (delayed and attenuated) at the
-        sub-volume centres ``positions (S, 3)``.
+        Parameters
+        ----------
+        inputs : TimeVolume
+            With the vector field ``velocity_field`` (m/s); no listener path
+            (render the result with :func:`auralize.emitters.render`).
+        **params
+            The declared :attr:`parameters`.
+
+        Returns
+        -------
+        Sound
+            One :class:`auralize.emitters.Emitters` part: the sub-volume
+            centres ``positions (S, 3)`` m emitting ``signals (S, n)`` Pa at
+            1 m from ``t0 = -lead`` (wrapped to truncate the received
+            pressure when ``limit_pa`` > 0).
         """
-        volume, path = _volume_and_path(inputs)
+        if not isinstance(inputs, TimeVolume):
+            raise ParameterError(
+                f"vortex synthesize takes the velocity TimeVolume, got {type(inputs).__name__} "
+                f"(the listener path goes to auralize.emitters.render)"
+            )
         p = self.resolve(**params)
         tex = _texture_from(p["texture"])
-        r = render_vortex(
-            volume, path, tex, block=int(p["block"]), rate=int(p["rate"]), layout="mono",
-            attenuation=p["attenuation"], c0=p["c0"], velocity_field=p["velocity_field"],
-            low_speed=p["low_speed"], offsets=p["offsets"], seed=int(p["seed"]),
-            blend=p["blend"], time_scale=p["time_scale"],
-            limit_pa=p["limit_pa"] or None, per_source=True,
+        return vortex_sound(
+            inputs, tex, block=int(p["block"]), attenuation=p["attenuation"],
+            velocity_field=p["velocity_field"], low_speed=p["low_speed"], offsets=p["offsets"],
+            seed=int(p["seed"]), blend=p["blend"], time_scale=p["time_scale"],
+            oversample=int(p["oversample"]), duration=p["duration"] or None, lead=p["lead"],
+            radius=p["radius"], limit_pa=p["limit_pa"] or None,
         )  # fmt: skip
-        assert r.per_source is not None
-        return SoundOutput(rate=r.rate, pressure=r.audio[0], signals=r.per_source,
-                           positions=r.positions, meta=r.meta)  # fmt: skip
+
+    def load_input(self, spec: str) -> TimeVolume:
+        """The velocity volume of ``spec``: a file, a core dataset or ``dataset:fire-plume``."""
+        return load_volume(argparse.Namespace(volume=spec, seed=0, size=None, steps=None,
+                                              field=None, resolution=None))  # fmt: skip
 
     # -------------------------------------------------------------- overlay
     def overlay(self, inputs: Any, step: int) -> list[Any]:

@@ -1,34 +1,41 @@
-"""Fast rendering of vortex sound with sound textures (paper 000 §6, Eq. 5, Fig. 4).
+"""Vortex sound with sound textures (paper 000 §6, Eq. 5, Fig. 4) as engine emitters.
 
 The domain of a velocity time series is split into sound-source sub-volumes
-(§4, Fig. 2a); each is a point source at its centre whose emitted pressure at
-1 m is the texture read at the sub-volume's average speed:
+(§4, Fig. 2a); each is a static point emitter at its centre whose emitted
+pressure at 1 m is the texture read at the sub-volume's average speed:
 
     p(q, t) = Σ_i g(r_i) Q(u_i(t − r_i/c0), t − r_i/c0)        (Eq. 5)
 
-with ``g = 1/r`` (physical, Howe's far field; DESIGN.md erratum) or the
-paper's ``1/r³``.  Details the paper leaves open, as implemented here:
+This module builds the emitted signals ``Q(u_i(τ), τ)``
+(:func:`vortex_emitters`); the retarded time, the distance law ``g``
+(``1/r`` physical, Howe's far field, DESIGN.md erratum; or the paper's
+``1/r³``) and the panning are the engine's (:mod:`auralize.emitters`).
+Details the paper leaves open, as implemented here:
 
 * u_i is the mean speed |v| over the sub-volume's points at each step of the
   volume, linearly interpolated in (data) time (§6).  Above the largest
   texture speed u is clamped (§6); below the smallest the texture row is
   scaled by (u/u_min)⁴ (the compact vortex-sound law, so still air is silent)
   unless ``low_speed="clamp"``.  Between speeds the two rows are linearly
-  blended.
+  blended.  Before the first step and after the last the speeds are held.
 * the texture is played periodically with its ends cross-faded over
   ``blend`` seconds (§6: "the ends of the texture are blended"); every
   source starts at its own seeded random offset so the sources are mutually
   incoherent (a shared offset would sum them coherently and comb-filter).
 * a sub-volume of edge L_i different from the texture box L_tex is rendered
   by similarity: amplitude × L_i/L_tex and time × L_tex/L_i (p ∝ u⁴L, f ∝ u/L).
-* propagation: retarded time, distance law and pairwise VBAP exactly as
-  :func:`auralize.propagation.propagate` (same core functions), but evaluated
-  at an intermediate rate (4 × the texture rate; the texture holds nothing
-  above its Nyquist frequency) with the panning gains at a 200 Hz control
-  rate, then resampled band-limited to the output rate.  This is what makes
-  rendering ≥ 50× faster than real time (propagate itself renders 36 sources
-  to ring8 at about 2× real time at 44.1 kHz).
-* optional maximum-pressure truncation ``limit_pa`` (§7, explosions).
+* the emitted signals are sampled at ``oversample`` × the texture rate (the
+  texture rows upsampled band-limited): by default 1 when every sub-volume
+  is as large as the texture box, so that the emitters play the texture's
+  own samples (integer offsets, nothing interpolated; the engine upsamples
+  band-limited), and 4 otherwise, because the similarity time scaling reads
+  between samples (linearly).  They span ``[−lead, duration]`` playback
+  seconds with raised-cosine ramps of :data:`EDGE_FADE_S` at both ends, so a
+  listener within ``lead × c0`` hears the flow from the first sample and a
+  longer render does not click when the emission stops.
+* optional maximum-pressure truncation ``limit_pa`` (§7, explosions): a
+  property of the *received* pressure, so it is applied after the engine has
+  summed and panned the sub-volumes (:class:`TruncatedEmitters`).
 """
 
 from __future__ import annotations
@@ -43,16 +50,18 @@ from numpy.typing import NDArray
 from scipy.signal import resample_poly
 
 from auralize._numba_setup import configure as _configure_numba
+from auralize.emitters import C0, Emitters, Sound, law_exponent
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.propagation import distance_gain
-from auralize.spatial import Layout, get_layout, listener_frame_azimuth, vbap_gains
+from auralize.spatial import Layout
+from auralize.synthesis import Rendered
 from auralize.volume import TimeVolume
-from auralize_vortex.texture import C0, Texture
+from auralize_vortex.texture import Texture
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
-CONTROL_RATE_HZ = 200.0
+#: raised-cosine ramp (s) at both ends of the emitted signals
+EDGE_FADE_S = 0.02
 
 
 # ------------------------------------------------------------- sub-volumes
@@ -124,24 +133,43 @@ def velocity_field_name(volume: TimeVolume, name: str = "velocity") -> str:
 
 
 def block_mean(a: NDArray[np.floating], sub: SubVolumes) -> NDArray[np.float64]:
-    """Mean of a scalar frame ``(nz, ny, nx)`` over each sub-volume → ``(S,)``."""
+    """Mean of scalar frames ``(..., nz, ny, nx)`` over each sub-volume → ``(..., S)``.
+
+    No-data points (NaN, outside a resampled mesh) are left out of the mean;
+    a sub-volume without any valid point gets 0.
+    """
     ex, ey, ez = sub.edges
-    s = np.add.reduceat(np.asarray(a, dtype=np.float64), ez[:-1], axis=0)
-    s = np.add.reduceat(s, ey[:-1], axis=1)
-    s = np.add.reduceat(s, ex[:-1], axis=2)
-    cnt = np.diff(ez)[:, None, None] * np.diff(ey)[None, :, None] * np.diff(ex)[None, None, :]
-    return (s / cnt).ravel()
+    a = np.asarray(a, dtype=np.float64)
+    lead = a.shape[:-3]
+    ok = np.isfinite(a)
+
+    def total(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        x = np.add.reduceat(x, ez[:-1], axis=-3)
+        x = np.add.reduceat(x, ey[:-1], axis=-2)
+        return np.add.reduceat(x, ex[:-1], axis=-1).reshape(*lead, -1)
+
+    if ok.all():
+        cnt = np.diff(ez)[:, None, None] * np.diff(ey)[None, :, None] * np.diff(ex)[None, None, :]
+        return total(a) / cnt.ravel()
+    n = total(ok.astype(np.float64))
+    return np.divide(total(np.where(ok, a, 0.0)), n, out=np.zeros_like(n), where=n > 0)
 
 
 def subvolume_speeds(
     volume: TimeVolume, sub: SubVolumes, field: str = "velocity"
 ) -> NDArray[np.float64]:
-    """Average flow speed u_i of every sub-volume at every step, ``(T, S)`` m/s (§6)."""
+    """Average flow speed u_i of every sub-volume at every step, ``(T, S)`` m/s (§6).
+
+    Frames are read one by one and reduced in batches of about 2²² points.
+    """
     name = velocity_field_name(volume, field)
-    out = np.empty((volume.n_steps, sub.n_sources))
-    for n in range(volume.n_steps):
-        v = volume.frame(name, n)
-        out[n] = block_mean(np.sqrt(np.einsum("...i,...i->...", v, v)), sub)
+    T = volume.n_steps
+    out = np.empty((T, sub.n_sources))
+    batch = max(1, (1 << 22) // max(1, int(np.prod(volume.dims))))
+    for n0 in range(0, T, batch):
+        steps = range(n0, min(n0 + batch, T))
+        speed = np.stack([np.linalg.norm(volume.frame(name, n), axis=-1) for n in steps])
+        out[n0 : n0 + len(steps)] = block_mean(speed, sub)
     return out
 
 
@@ -217,158 +245,186 @@ def _lookup(rows, speeds, u, pos, u4, out):  # type: ignore[no-untyped-def]  # p
             out[s, m] = q
 
 
-# -------------------------------------------------------------- propagation
-@numba.njit(cache=True, fastmath=False)
-def _receive(emis, emit_t0, emit_rate, src, lis, t, c0, exponent, dmin, pan, ctrl_step,
-             out, per_src):  # type: ignore[no-untyped-def]  # pragma: no cover - numba  # fmt: skip
-    """Retarded-time sum of static sources at a moving listener (see module docstring)."""
-    S, n_e = emis.shape
-    n = t.size
-    n_ch = out.shape[0]
-    keep = per_src.shape[0] == S
-    for s in range(S):
-        for m in range(n):
-            dx = src[s, 0] - lis[m, 0]
-            dy = src[s, 1] - lis[m, 1]
-            dz = src[s, 2] - lis[m, 2]
-            D = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if D < dmin:
-                D = dmin
-            x = (t[m] - D / c0 - emit_t0) * emit_rate
-            if x < 0.0 or x > n_e - 1:
-                continue
-            i0 = int(x)
-            if i0 >= n_e - 1:
-                i0 = n_e - 2
-            f = x - i0
-            if exponent == 1.0:
-                gain = 1.0 / D
-            elif exponent == 3.0:
-                gain = 1.0 / (D * D * D)
-            else:
-                gain = D ** (-exponent)
-            val = (emis[s, i0] * (1 - f) + emis[s, i0 + 1] * f) * gain
-            if keep:
-                per_src[s, m] = val
-            c = m / ctrl_step
-            k0 = int(c)
-            g = c - k0
-            for ch in range(n_ch):
-                out[ch, m] += val * (pan[s, k0, ch] * (1 - g) + pan[s, k0 + 1, ch] * g)
+# ---------------------------------------------------------------- emitters
+def _law(attenuation: str | float) -> str | float:
+    """The engine's distance law for ``attenuation`` (checked, the error names the option)."""
+    try:
+        law_exponent(attenuation)
+    except ParameterError:
+        raise ParameterError(
+            f"attenuation must be 'physical' (1/r), 'paper' (1/r³, Eq. 5) or an exponent in "
+            f"[0, 6], got {attenuation!r}"
+        ) from None
+    return attenuation
 
 
-def attenuation_exponent(attenuation: str | float) -> float:
-    """Distance-law exponent: ``"physical"`` 1, ``"paper"`` 3 (Eq. 5), or a number."""
-    d = distance_gain(np.array([2.0]), attenuation)[0]  # validates like the core
-    return float(-math.log2(d))
-
-
-def receive(signals: NDArray[np.floating], emit_rate: float, positions: NDArray[np.floating],
-            path: ListenerPath, *, rate: float, duration: float | None = None,
-            emit_t0: float = 0.0, c0: float = C0, attenuation: str | float = "physical",
-            min_distance: float = 0.05, layout: str | Layout = "mono",
-            per_source: bool = False) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:  # fmt: skip
-    """Static sources heard along ``path``: same physics as :func:`auralize.propagation.propagate`.
+def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[int, int, int] = 5,
+                    attenuation: str | float = "physical", velocity_field: str = "velocity",
+                    low_speed: str = "u4", offsets: str = "random", seed: int = 0,
+                    blend: float = 0.05, time_scale: float = 1.0, oversample: int = 0,
+                    duration: float | None = None, lead: float = 0.5,
+                    radius: float = 0.05) -> Emitters:  # fmt: skip
+    """The sub-volumes of a velocity time series as static emitters (§4, §6, Eq. 5).
 
     Parameters
     ----------
-    signals : (S, n_emit) emitted pressure (Pa at 1 m) sampled at ``emit_rate`` from ``emit_t0``.
-    positions : (S, 3) m.
-    rate : output rate (Hz) of this evaluation.
-    per_source : also return the per-source received signals ``(S, n)`` (mono, no panning).
+    volume : TimeVolume
+        With a vector field ``velocity_field`` (m/s).
+    texture : Texture
+        Sound texture Q(u, t) (:mod:`auralize_vortex.texture`), Pa at 1 m.
+    block : int or (3,) int
+        Points per sub-volume edge.
+    attenuation : "physical" (1/r), "paper" (1/r³, Eq. 5) or an exponent
+        The engine's distance law for these emitters.
+    low_speed : {"u4", "clamp"}
+        Below the smallest texture speed: scale by (u/u_min)⁴ or clamp.
+    offsets : {"random", "zero"}
+        Per-source start offsets into the looped texture (seeded by ``seed``).
+    blend : float
+        Cross-fade of the texture's loop ends (s, §6).
+    time_scale : float
+        Playback seconds per data second: u_i follows data time
+        ``t0 + τ / time_scale`` while the texture plays in playback time τ.
+    oversample : int
+        Emission rate = oversample × texture rate; 0: 1 when every
+        sub-volume is as large as the texture box (its own samples are
+        read), else 4 (the similarity scaling interpolates between samples).
+    duration : float, optional
+        Playback seconds of emission after 0 (default: the data's duration
+        × ``time_scale``, the last frame lasting one frame interval, e.g.
+        2 s for 60 frames at 30 Hz).
+    lead : float
+        Playback seconds of emission before 0 (first step's speeds): a
+        listener up to ``lead × c0`` away hears the flow from the start.
+    radius : float
+        The engine clamps distances to this (m).
 
     Returns
     -------
-    (audio (n_channels, n), per_source (S, n) or None)
+    Emitters
+        ``signals (S, n)`` Pa at 1 m from ``t0 = −lead`` at ``rate`` Hz,
+        ``positions (S, 3)`` the sub-volume centres (m); ``meta`` holds
+        ``speeds (T, S)`` m/s, ``subvolumes``, ``size_m (S,)`` and the
+        texture's rate.
     """
-    sig = np.ascontiguousarray(np.atleast_2d(np.asarray(signals, dtype=np.float64)))
-    pos = np.ascontiguousarray(np.asarray(positions, dtype=np.float64).reshape(-1, 3))
-    if pos.shape[0] != sig.shape[0]:
-        raise ParameterError(f"{sig.shape[0]} signals but {pos.shape[0]} positions")
-    lay = get_layout(layout)
-    dur = path.duration if duration is None else float(duration)
-    n = round(dur * rate)
-    t = np.arange(n) / rate
-    lis = path.position_at(path.times[0] + t) if n else np.zeros((0, 3))
-    step = max(1, int(round(rate / CONTROL_RATE_HZ)))
-    n_ctrl = n // step + 2
-    tc = path.times[0] + np.arange(n_ctrl) * step / rate
-    S = pos.shape[0]
-    if lay.n_channels == 1:
-        pan = np.ones((S, n_ctrl, 1))
-    else:
-        lc = path.position_at(tc)
-        fwd, up = path.orientation_at(tc)
-        d = pos[:, None, :] - lc[None]  # (S, n_ctrl, 3)
-        az = listener_frame_azimuth(d.reshape(-1, 3), np.tile(fwd, (S, 1)), np.tile(up, (S, 1)))
-        pan = vbap_gains(lay, az).T.reshape(S, n_ctrl, lay.n_channels)
-    out = np.zeros((lay.n_channels, n))
-    per = np.zeros((S, n)) if per_source else np.zeros((0, 0))
-    _receive(sig, float(emit_t0), float(emit_rate), pos, np.ascontiguousarray(lis), t, float(c0),
-             attenuation_exponent(attenuation), float(min_distance), np.ascontiguousarray(pan),
-             float(step), out, per)  # fmt: skip
-    return out, (per if per_source else None)
+    if not (math.isfinite(time_scale) and time_scale > 0):
+        raise ParameterError(f"time_scale must be > 0 playback s per data s, got {time_scale!r}")
+    if offsets not in ("random", "zero"):
+        raise ParameterError(f"offsets must be 'random' or 'zero', got {offsets!r}")
+    if not (isinstance(oversample, int | np.integer) and 0 <= oversample <= 64):
+        raise ParameterError(
+            f"oversample must be an integer in 0..64 (0 = auto), got {oversample!r}"
+        )
+    if not (math.isfinite(lead) and lead >= 0):
+        raise ParameterError(f"lead must be >= 0 s, got {lead!r}")
+    law = _law(attenuation)
+    sub = split_subvolumes(volume, block)
+    speeds = subvolume_speeds(volume, sub, velocity_field)
+    if duration is None:
+        T = volume.n_steps  # every frame lasts one mean frame interval, the last one too
+        duration = float(volume.times[-1] - volume.times[0]) * T / max(T - 1, 1) * time_scale
+        if not duration > 0:
+            raise ParameterError(
+                f"{volume.source}: the volume has a single time step; give the emission duration "
+                f"(s) to play it for"
+            )
+    if not (math.isfinite(duration) and duration > 0):
+        raise ParameterError(f"duration must be > 0 s, got {duration!r}")
+    ratio = texture.box_m / sub.size_m  # similarity: time × L_tex/L_i, amplitude × L_i/L_tex
+    if oversample == 0:
+        oversample = 1 if np.allclose(ratio, 1.0, rtol=1e-9, atol=0) else 4
+    looped = LoopedTexture.build(texture, up=int(oversample), blend=blend)
+    R = looped.rate
+    n_e = int(math.ceil((duration + lead) * R)) + 1
+    tau = -lead + np.arange(n_e) / R  # playback time of emission
+    t_data = volume.times[0] + tau / time_scale
+    u = np.empty((sub.n_sources, n_e))
+    for s in range(sub.n_sources):
+        u[s] = np.interp(t_data, volume.times, speeds[:, s])
+    rng = np.random.default_rng(seed)
+    start = (
+        rng.integers(0, looped.period, sub.n_sources).astype(np.float64)
+        if offsets == "random"
+        else np.zeros(sub.n_sources)
+    )
+    pos = start[:, None] + (tau[None, :] * R) * ratio[:, None]
+    emitted = looped.lookup(u, pos, low_speed=low_speed) / ratio[:, None]
+    nf = min(int(round(EDGE_FADE_S * R)), n_e // 2)
+    if nf > 0:
+        ramp = 0.5 - 0.5 * np.cos(np.pi * (np.arange(nf) + 0.5) / nf)
+        emitted[:, :nf] *= ramp
+        emitted[:, n_e - nf :] *= ramp[::-1]
+    meta = {"speeds": speeds, "subvolumes": list(sub.shape), "size_m": sub.size_m,
+            "texture_rate_hz": texture.rate, "band_hz": 0.5 * texture.rate * float(ratio.max())}  # fmt: skip
+    return Emitters(emitted, R, sub.centres, t0=-lead, radius=radius, law=law, name="vortex",
+                    meta=meta)  # fmt: skip
+
+
+@dataclass
+class TruncatedEmitters:
+    """Emitters whose received pressure is truncated beyond ±``limit_pa`` Pa (§7).
+
+    An engine part (``render_part``): the engine renders the emitters (its
+    arrivals, distance law and panning), then every output channel is
+    clipped, as a pressure limit of the received sound must be.
+    """
+
+    emitters: Emitters
+    limit_pa: float
+    name: str = "vortex"
+
+    def render_part(self, path: ListenerPath, *, rate: int, layout: str | Layout,
+                    duration: float | None, start: float, c0: float,
+                    backend: str) -> Rendered:  # fmt: skip
+        """Render with :func:`auralize.emitters.render_emitters`, then truncate."""
+        from auralize.emitters import render_emitters
+
+        r = render_emitters(self.emitters, path, rate=rate, layout=layout, duration=duration,
+                            start=start, c0=c0, backend=backend)  # fmt: skip
+        np.clip(r.audio, -self.limit_pa, self.limit_pa, out=r.audio)
+        r.meta["limit_pa"] = self.limit_pa
+        return r
+
+
+def vortex_sound(volume: TimeVolume, texture: Texture, *, limit_pa: float | None = None,
+                 **kw: Any) -> Sound:  # fmt: skip
+    """What the vortex model emits: :func:`vortex_emitters` as an engine :class:`Sound`.
+
+    ``limit_pa`` (Pa, §7) wraps the emitters in :class:`TruncatedEmitters`;
+    ``kw`` go to :func:`vortex_emitters`.  ``meta`` is JSON-ready (model,
+    paper, sub-volumes, texture, speed range).
+    """
+    if limit_pa is not None and not limit_pa > 0:
+        raise ParameterError(f"limit_pa must be a positive pressure in Pa, got {limit_pa!r}")
+    em = vortex_emitters(volume, texture, **kw)
+    speeds = em.meta["speeds"]
+    meta = {
+        "model": "vortex", "paper": "000 §6, Eq. 5", "n_sources": em.n_emitters,
+        "subvolumes": em.meta["subvolumes"], "block": kw.get("block", 5),
+        "attenuation": em.law, "texture_speeds": texture.speeds.tolist(),
+        "texture_rate_hz": texture.rate, "emit_rate_hz": em.rate,
+        "speed_range_m_s": [float(speeds.min()), float(speeds.max())],
+        "low_speed": kw.get("low_speed", "u4"), "offsets": kw.get("offsets", "random"),
+        "seed": kw.get("seed", 0), "limit_pa": limit_pa,
+    }  # fmt: skip
+    part = em if limit_pa is None else TruncatedEmitters(em, float(limit_pa))
+    return Sound(parts=[part], meta=meta, name="vortex")
 
 
 # -------------------------------------------------------------------- render
-@dataclass
-class VortexRender:
-    """Result of :func:`render_vortex`."""
-
-    audio: NDArray[np.float64]  # (n_channels, n) Pa
-    rate: int
-    layout: Layout
-    per_source: NDArray[np.float64] | None  # (S, n) Pa received from each sub-volume
-    positions: NDArray[np.float64]  # (S, 3) m
-    emitted: NDArray[np.float64]  # (S, n_emit) Pa at 1 m
-    emit_rate: float
-    emit_t0: float
-    speeds: NDArray[np.float64]  # (T, S) m/s
-    meta: dict[str, Any]
-
-    @property
-    def duration(self) -> float:
-        return self.audio.shape[1] / self.rate
-
-
-def _resample(x: NDArray[np.float64], src: float, dst: int, pad: int, n_out: int,
-              band_hz: float) -> NDArray[np.float64]:  # fmt: skip
-    """Band-limited resampling of ``(C, n)`` from rate ``src`` to ``dst``; drops ``pad`` input samples.
-
-    The signal holds nothing above ``band_hz`` (the texture's Nyquist
-    frequency), so the anti-imaging filter only needs to stop from
-    ``src − band_hz``: a Kaiser FIR with 80 dB attenuation over that wide
-    transition band is several times shorter than ``resample_poly``'s default.
-    """
-    from scipy.signal import firwin, kaiserord
-
-    if float(src) == float(dst):
-        y = x[:, pad:]
-    else:
-        g = math.gcd(int(round(src)), int(dst))
-        up, down = int(dst) // g, int(round(src)) // g
-        fs = up * float(src)
-        stop = min(float(src), float(dst)) - band_hz
-        width = max(stop - band_hz, 0.05 * src)
-        numtaps, beta = kaiserord(80.0, width / (0.5 * fs))
-        numtaps += 1 - numtaps % 2  # odd: centred
-        h = firwin(numtaps, band_hz + 0.5 * width, fs=fs, window=("kaiser", beta))
-        y = resample_poly(x, up, down, axis=1, window=h)
-        y = y[:, (pad * up) // down :]
-    if y.shape[1] < n_out:
-        y = np.pad(y, ((0, 0), (0, n_out - y.shape[1])))
-    return y[:, :n_out]
-
-
 def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
                   block: int = 5, rate: int = 44100, layout: str | Layout = "mono",
                   duration: float | None = None, attenuation: str | float = "physical",
                   c0: float = C0, velocity_field: str = "velocity", low_speed: str = "u4",
                   offsets: str = "random", seed: int = 0, blend: float = 0.05,
                   time_scale: float = 1.0, limit_pa: float | None = None,
-                  min_distance: float = 0.05, oversample: int = 4,
-                  per_source: bool = False) -> VortexRender:  # fmt: skip
+                  min_distance: float = 0.05, oversample: int = 0,
+                  backend: str = "auto") -> Rendered:  # fmt: skip
     """Render the vortex sound of a velocity time series along a listener path (§6, Eq. 5).
+
+    :func:`vortex_sound` rendered by :func:`auralize.emitters.render`, with
+    the emission spanning exactly what the path can hear (from ``−D_max/c0``
+    to the end of the render).
 
     Parameters
     ----------
@@ -376,17 +432,24 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
     path : listener path (playback seconds).
     texture : sound texture Q(u, t) (:mod:`auralize_vortex.texture`).
     block : points per sub-volume edge.
+    rate : output sample rate (Hz).
     layout : output layout (mono, stereo, ring8, 5.1, 7.1, JSON file).
+    duration : playback seconds (default: the path's duration).
     attenuation : "physical" (1/r, default) or "paper" (1/r³, Eq. 5) or an exponent.
     offsets : "random" (seeded, one start offset per source) or "zero".
     time_scale : playback seconds per data second; u_i(t) follows data time
         ``t0 + t / time_scale`` while the texture plays in playback time.
-    limit_pa : truncate the output beyond ±limit_pa Pa (§7), None = off.
-    oversample : intermediate rate = oversample × texture rate (capped at ``rate``).
+    limit_pa : truncate the received pressure beyond ±limit_pa Pa (§7), None = off.
+    min_distance : distances are clamped here (m).
+    oversample : emission rate = oversample × texture rate (0: auto, see
+        :func:`vortex_emitters`).
+    backend : the engine's backend ("auto" or "reference").
 
     Returns
     -------
-    VortexRender with ``audio (n_channels, n)`` in Pa.
+    Rendered
+        ``audio (n_channels, n)`` in Pa; ``meta`` the model's (sub-volumes,
+        texture, speed range) and the engine's (``parts``, ``c0``).
 
     Examples
     --------
@@ -398,67 +461,22 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
     >>> r.audio.shape
     (1, 1600)
     """
+    from auralize.emitters import render
+
     if not (isinstance(rate, int | np.integer) and 1000 <= rate <= 384000):
         raise ParameterError(f"rate must be an integer in 1000..384000 Hz, got {rate!r}")
-    if not c0 > 0 or not time_scale > 0:
-        raise ParameterError(f"c0 and time_scale must be positive, got {c0!r}, {time_scale!r}")
-    if offsets not in ("random", "zero"):
-        raise ParameterError(f"offsets must be 'random' or 'zero', got {offsets!r}")
-    if limit_pa is not None and not limit_pa > 0:
-        raise ParameterError(f"limit_pa must be a positive pressure in Pa, got {limit_pa!r}")
-    lay = get_layout(layout)
-    sub = split_subvolumes(volume, block)
-    speeds = subvolume_speeds(volume, sub, velocity_field)
-    up = max(1, min(int(oversample), int(rate // texture.rate)))
-    looped = LoopedTexture.build(texture, up=up, blend=blend)
-    R = looped.rate
+    if not (math.isfinite(c0) and c0 > 0):
+        raise ParameterError(f"c0 must be a positive speed in m/s, got {c0!r}")
     dur = path.duration if duration is None else float(duration)
-    if not dur > 0:
+    if not (math.isfinite(dur) and dur > 0):
         raise ParameterError(f"duration must be > 0 s, got {dur!r}")
-    # emission times cover every retarded time the listener can hear
+    sub = split_subvolumes(volume, block)
     lp = path.position_at(np.linspace(path.times[0], path.times[-1], 64))
     dmax = float(np.max(np.linalg.norm(sub.centres[:, None] - lp[None], axis=-1)))
-    emit_t0 = -(dmax / c0) - 0.01
-    n_e = int(math.ceil((dur - emit_t0) * R)) + 2
-    tau = emit_t0 + np.arange(n_e) / R  # playback time of emission
-    t_data = volume.times[0] + tau / time_scale
-    u = np.empty((sub.n_sources, n_e))
-    for s in range(sub.n_sources):
-        u[s] = np.interp(t_data, volume.times, speeds[:, s])
-    rng = np.random.default_rng(seed)
-    start = (
-        rng.uniform(0, looped.period, sub.n_sources)
-        if offsets == "random"
-        else np.zeros(sub.n_sources)
-    )
-    ratio = texture.box_m / sub.size_m  # similarity: time × L_tex/L_i, amplitude × L_i/L_tex
-    pos = start[:, None] + (tau[None, :] * R) * ratio[:, None]
-    emitted = looped.lookup(u, pos, low_speed=low_speed) / ratio[:, None]
-    # propagate at R with a pad so that the band-limited resampling has no edge transient
-    g = math.gcd(int(round(R)), int(rate))
-    down = int(round(R)) // g
-    pad = down * int(math.ceil(64 / down))
-    shifted = ListenerPath(np.concatenate([[path.times[0] - pad / R], path.times]),
-                           np.concatenate([path.positions[:1], path.positions]),
-                           np.concatenate([path.forward[:1], path.forward]),  # type: ignore[index]
-                           np.concatenate([path.up[:1], path.up]), source=path.source)  # type: ignore[index]  # fmt: skip
-    n_out = round(dur * rate)
-    out, per = receive(emitted, R, sub.centres, shifted, rate=R, duration=dur + pad / R + 64 / R,
-                       emit_t0=emit_t0 + pad / R, c0=c0, attenuation=attenuation,
-                       min_distance=min_distance, layout=lay, per_source=per_source)  # fmt: skip
-    band = 0.5 * texture.rate / min(ratio.min(), 1.0)  # the texture's Nyquist, after similarity
-    band = min(band, 0.45 * R)
-    audio = _resample(out, R, int(rate), pad, n_out, band)
-    per_out = _resample(per, R, int(rate), pad, n_out, band) if per is not None else None
-    if limit_pa is not None:
-        audio = np.clip(audio, -limit_pa, limit_pa)
-    meta = {
-        "model": "vortex", "paper": "000 §6, Eq. 5", "n_sources": sub.n_sources,
-        "subvolumes": list(sub.shape), "block": block, "attenuation": attenuation,
-        "texture_speeds": texture.speeds.tolist(), "texture_rate_hz": texture.rate,
-        "intermediate_rate_hz": R, "speed_range_m_s": [float(speeds.min()), float(speeds.max())],
-        "low_speed": low_speed, "offsets": offsets, "seed": seed, "limit_pa": limit_pa,
-    }  # fmt: skip
-    return VortexRender(
-        audio, int(rate), lay, per_out, sub.centres, emitted, R, emit_t0, speeds, meta
-    )
+    sound = vortex_sound(volume, texture, block=block, attenuation=attenuation,
+                         velocity_field=velocity_field, low_speed=low_speed, offsets=offsets,
+                         seed=seed, blend=blend, time_scale=time_scale, oversample=oversample,
+                         duration=dur + EDGE_FADE_S + 0.01, lead=dmax / c0 + EDGE_FADE_S + 0.01,
+                         radius=min_distance, limit_pa=limit_pa)  # fmt: skip
+    return render(sound, path, rate=int(rate), layout=layout, duration=dur, c0=c0,
+                  backend=backend)  # fmt: skip

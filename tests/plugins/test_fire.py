@@ -290,12 +290,19 @@ def test_lowfreq_chain_and_model(fire_volume: TimeVolume) -> None:
     assert np.trapezoid(p, dx=1 / RATE) == pytest.approx(
         fs.flux[-1] - fs.flux[0], rel=0.05, abs=1e-6
     )
+    from auralize.emitters import Emitters, Sound, render
     from auralize.listener import ListenerPath
 
+    snd = FireSound().synthesize(fire_volume, extend="bandwidth", rate=RATE)
+    assert isinstance(snd, Sound) and len(snd.parts) == 1
+    em = snd.parts[0]
+    assert isinstance(em, Emitters) and em.signals.shape == (1, p.size) and em.rate == RATE
     path = ListenerPath.point((0.0, 2.0, 0.2), duration=0.03)
-    out = FireSound().synthesize((fire_volume, path), extend="bandwidth", rate=RATE)
-    assert out.pressure is not None and out.pressure.size == round(0.03 * RATE)
-    assert np.all(np.isfinite(out.pressure)) and np.any(out.pressure)
+    out = render(snd, path, rate=RATE).audio[0]
+    assert out.size == round(0.03 * RATE)
+    assert np.all(np.isfinite(out)) and np.any(out)
+    with pytest.raises(ParameterError, match="without a listener"):
+        FireSound().synthesize((fire_volume, path))
 
 
 def test_missing_fields_are_clear_errors() -> None:
@@ -352,6 +359,15 @@ def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray,
     assert main(["fire", "render", "dataset:fire", "--size", "12", "--steps", "8", "-o", str(ren),
                  "--listener", "0,1,0.2", "--duration", "0.02", "--layout", "stereo"]) == 0  # fmt: skip
     assert read_wav(ren)[0].shape == (2, round(0.02 * RATE))
+    # multichannel files carry the layout's speaker positions (5.1: FL FR FC LFE BL BR)
+    ren51 = tmp_path / "render51.wav"
+    assert main(["fire", "render", "dataset:fire", "--size", "12", "--steps", "8", "-o", str(ren51),
+                 "--listener", "0,1,0.2", "--duration", "0.02", "--layout", "5.1"]) == 0  # fmt: skip
+    a51, _, mask = read_wav(ren51)
+    assert a51.shape == (6, round(0.02 * RATE)) and mask == 0x3F
+    # the fire is behind the listener (who faces +y from y = 1): the back pair, nothing on the LFE
+    e = (a51**2).sum(axis=1)
+    assert e[3] == 0.0 and e[4] + e[5] > 0.99 * e.sum()
 
 
 def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -461,14 +461,24 @@ def test_continuous_discharges_reuse_until_the_field_changes() -> None:
 def test_registered_model_and_overlay_off_screen() -> None:
     import pyvista as pv
 
+    from auralize.emitters import Sound, render
+
     model = get_model("spark")
     assert isinstance(model, SparkSound)
-    out = model.synthesize(
-        (None, np.array([0.3, -1.0, 0.0])), preset="plasma-ball", seed=2, layout="ring8"
-    )
-    assert out.pressure is not None and out.meta["audio"].shape == (8, out.pressure.size)
+    snd = model.synthesize(None, preset="plasma-ball", seed=2)
+    assert isinstance(snd, Sound) and len(snd.parts) == 1 and "audio" not in snd.meta
+    assert snd.meta["segments"] == snd.parts[0].discharge.n_segments
+    # the engine renders the part: the same sound as the end-to-end simulation
+    lis = np.array([0.3, -1.0, 0.0])
+    res = simulate(None, lis, preset="plasma-ball", seed=2, layout="ring8")
+    path = ListenerPath.point(lis, duration=res.rendered.duration)
+    out = render(snd, path, layout="ring8")
+    assert out.audio.shape == res.rendered.audio.shape and out.meta["parts"][0]["model"] == "spark"
+    np.testing.assert_allclose(out.audio, res.rendered.audio, atol=1e-12 * np.abs(out.audio).max())
     with pytest.raises(ParameterError, match="preset"):
-        model.synthesize((None, None), preset="volcano")
+        model.synthesize(None, preset="volcano")
+    with pytest.raises(ParameterError, match="without a listener"):
+        model.synthesize((None, lis))
     blocks = model.overlay((None, None, {"preset": "spark-balls", "seed": 2, "strokes": 3}), 0)
     lines = blocks["discharge"]
     d = simulate(preset="spark-balls", seed=2, strokes=3).discharge

@@ -10,7 +10,7 @@ import pytest
 from auralize_vortex import Texture, TextureConfig, VortexSound, compute_texture, texture
 from auralize_vortex.datasets import make_fire_plume
 from auralize_vortex.fluid import StableFluids, curl
-from auralize_vortex.render import receive, render_vortex, split_subvolumes
+from auralize_vortex.render import render_vortex, split_subvolumes, vortex_emitters
 from auralize_vortex.texture import (
     howe_kernel,
     integral_cell_weights,
@@ -18,9 +18,10 @@ from auralize_vortex.texture import (
     third_derivative,
 )
 
+from auralize.emitters import Emitters, Sound, render
 from auralize.errors import DataError, FieldError, FormatError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.propagation import propagate
+from auralize.spatial import Speaker, make_layout
 from auralize.volume import TimeVolume
 
 C0 = 343.0
@@ -227,20 +228,127 @@ def test_speed_clamped_above_and_u4_below():
     assert top == pytest.approx(16 * clamp, rel=0.01)
 
 
-def test_receive_matches_core_propagate_ring8():
-    rng = np.random.default_rng(3)
-    sig = rng.normal(size=(3, 4000))
-    pos = np.array([[1.0, 5.0, 0.0], [-4.0, 1.0, 0.5], [2.0, -3.0, 0.0]])
-    path = ListenerPath.point((0, 0, 0), duration=0.3)
-    ref = propagate(sig, 8000, pos, path, rate=8000, layout="ring8", emit_t0=-0.05)
-    ours, _ = receive(sig, 8000, pos, path, rate=8000, layout="ring8", emit_t0=-0.05)
-    np.testing.assert_allclose(ours, ref, atol=1e-9)
-
-
 def test_limit_pa_truncates():
     res = render_vortex(_uniform_volume(4.0), ListenerPath.point((0, -1, 0), duration=0.3),
                         _sine_texture(), rate=RATE, limit_pa=1.0)  # fmt: skip
     assert np.max(np.abs(res.audio)) == pytest.approx(1.0)
+
+
+# ---------------------------------------------------------------- the model through the engine
+def _pulse_texture() -> Texture:
+    t = np.arange(1000) / 1000.0
+    pulse = np.exp(-(((t - 0.3) / 0.01) ** 2))
+    return Texture([1.0, 4.0], np.stack([pulse / 256, pulse]), 1000.0, 0.2)
+
+
+def _arrival(a: np.ndarray) -> float:
+    """Energy centroid (s) of the pulse in ``a`` (±50 ms around its peak): a symmetric
+    pulse's centre, whatever symmetric interpolation the renderer used."""
+    k = int(np.argmax(a))
+    n = np.arange(k - 400, k + 400)
+    w = a[n] ** 2
+    return float(np.sum(n * w) / np.sum(w)) / RATE
+
+
+@pytest.mark.parametrize("law", ["physical", "paper"])
+def test_engine_arrival_is_distance_over_c0_and_amplitude_follows_the_law(law):
+    vol = _uniform_volume(u=4.0)  # one sub-volume at the origin, as large as the texture box
+    sound = VortexSound().synthesize(vol, texture=_pulse_texture(), offsets="zero", blend=0.0,
+                                     attenuation=law)  # fmt: skip
+    e = 1 if law == "physical" else 3
+    for x in [(3.0, 4.0, 0.0), (0.0, 0.0, -20.0), (10.0, -24.0, 0.0)]:
+        D = float(np.linalg.norm(x))
+        a = render(sound, ListenerPath.point(x, duration=0.5), rate=RATE).audio[0]
+        # the texture's pulse is emitted at 0.3 s and heard D/c0 later, with amplitude 1/D^e
+        assert _arrival(a) == pytest.approx(0.3 + D / C0, abs=0.01 / RATE)
+        assert a.max() * D**e == pytest.approx(1.0, rel=2e-3)
+
+
+def test_engine_doppler_of_an_approaching_listener():
+    vol, tex = _uniform_volume(u=4.0), _sine_texture(100.0)
+    sound = VortexSound().synthesize(vol, texture=tex, blend=0.0)
+    v = C0 / 10
+    moving = ListenerPath.line((0.0, -40.0, 0.0), (0.0, -40.0 + v, 0.0), duration=1.0)
+    for path, f_expected in [(moving, 100.0 * (1 + v / C0)), (ListenerPath.point((0, -20, 0), duration=1.0), 100.0)]:  # fmt: skip
+        a = render(sound, path, rate=RATE).audio[0, int(0.2 * RATE) : int(0.9 * RATE)]
+        up = np.flatnonzero((a[:-1] < 0) & (a[1:] >= 0))
+        t_up = (up + a[up] / (a[up] - a[up + 1])) / RATE  # upward zero crossings
+        f = (t_up.size - 1) / (t_up[-1] - t_up[0])
+        assert f == pytest.approx(f_expected, abs=0.2)
+
+
+def _dome():
+    spk = [Speaker(f"S{k}", 45.0 * k) for k in range(8)]
+    spk += [Speaker(f"H{k}", 90.0 * k + 45.0, 45.0) for k in range(4)]
+    return make_layout("dome", spk)
+
+
+def test_engine_pans_a_subvolume_above_the_listener_to_the_height_speakers():
+    vol, tex = _uniform_volume(u=4.0), _sine_texture()
+    sound = VortexSound().synthesize(vol, texture=tex)
+    # listener facing +x, +z up; the sub-volume (at the origin) 3.5 m away above-front-left,
+    # in the direction of height speaker H0 (azimuth 45°, elevation 45°), then straight ahead
+    c = np.cos(np.pi / 4)
+    for d, ring8_ch, dome_ch in [(np.array([c * c, c * c, c]), 1, 8), (np.array([1.0, 0, 0]), 0, 0)]:  # fmt: skip
+        x = -3.5 * d
+        path = ListenerPath(np.array([0.0, 0.3]), np.stack([x, x]), np.array([[1.0, 0, 0]] * 2))
+        dome = render(sound, path, rate=RATE, layout=_dome()).audio
+        energy = np.sum(dome**2, axis=1)
+        assert energy[dome_ch] / energy.sum() >= 0.99
+        # a horizontal ring pans on the azimuth only (2-D VBAP)
+        ring = render(sound, path, rate=RATE, layout="ring8").audio
+        energy = np.sum(ring**2, axis=1)
+        assert energy[ring8_ch] / energy.sum() >= 0.99
+
+
+def test_engine_backends_agree_on_a_moving_turning_listener(plume):
+    tex = _sine_texture()
+    c = plume.center
+    path = ListenerPath(np.array([0.0, 0.1, 0.2]),
+                        np.array([c + [2.0, 0.5, -1.0], c + [1.0, 1.5, -0.5], c + [-0.5, 1.8, 0.2]]),
+                        np.array([[0.0, 1, 0], [-1, 1, 0.3], [-1, 0, 0.5]]))  # fmt: skip
+    # sub-volumes of 8 and 7 points: similarity-scaled, read between the texture's samples
+    kw = dict(rate=RATE, layout="ring8", block=8, oversample=8)
+    fast = render_vortex(plume, path, tex, **kw).audio
+    ref = render_vortex(plume, path, tex, backend="reference", **kw).audio
+    assert np.max(np.abs(ref)) > 0
+    assert np.max(np.abs(fast - ref)) / np.max(np.abs(ref)) < 5e-3
+
+
+def test_sound_limit_truncates_the_received_pressure_and_emission_has_soft_ends():
+    sound = VortexSound().synthesize(_uniform_volume(4.0), texture=_sine_texture(), limit_pa=1.0)
+    part = sound.parts[0]
+    assert type(part).__name__ == "TruncatedEmitters" and sound.meta["limit_pa"] == 1.0
+    two = render(sound, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE, layout="stereo")
+    assert np.max(np.abs(two.audio)) == pytest.approx(1.0)
+    free = render(part.emitters, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE)
+    assert np.max(np.abs(free.audio)) > 10.0  # 16 Pa at 1 m, 0.5 m away
+    em = vortex_emitters(_uniform_volume(4.0), _sine_texture(), duration=0.5, lead=0.1)
+    assert em.t0 == -0.1 and em.t_end == pytest.approx(0.5, abs=2 / em.rate)
+    peak = np.max(np.abs(em.signals))
+    assert np.max(np.abs(em.signals[:, [0, -1]])) < 0.01 * peak  # no click where emission stops
+    one = _uniform_volume(4.0, steps=1)
+    with pytest.raises(ParameterError, match="single time step; give the emission duration"):
+        vortex_emitters(one, _sine_texture())
+    assert vortex_emitters(one, _sine_texture(), duration=0.2, lead=0.0).t_end == pytest.approx(
+        0.2, abs=2 / em.rate
+    )
+
+
+def test_no_data_points_are_left_out_of_the_subvolume_speeds():
+    from auralize_vortex.render import subvolume_speeds
+
+    v = np.zeros((2, 5, 5, 10, 3))
+    v[..., 2] = 2.0
+    v[:, :, :, 5:, 2] = 4.0
+    v[:, 0, 0, 0] = np.nan  # a no-data point in the first sub-volume
+    v[:, :, :, 5:] = np.nan  # the second sub-volume is all no-data
+    vol = TimeVolume.from_arrays({"velocity": v}, spacing=0.04, times=[0.0, 1.0])
+    vol.valid = np.all(np.isfinite(v[0]), axis=-1)  # as the readers mark them (nan="mask")
+    sub = split_subvolumes(vol, 5)
+    np.testing.assert_array_equal(subvolume_speeds(vol, sub), [[2.0, 0.0], [2.0, 0.0]])
+    r = render_vortex(vol, ListenerPath.point((0, -1, 0), duration=0.2), _sine_texture(), rate=RATE)
+    assert np.all(np.isfinite(r.audio)) and np.max(np.abs(r.audio)) > 0
 
 
 def test_dataset_without_velocity_is_rejected():
@@ -281,15 +389,28 @@ def test_fire_plume_dataset(plume):
 def test_model_synthesize_and_ring8(plume, tmp_path):
     tex = _sine_texture()
     path = ListenerPath.point(plume.center + [0, -2, 0], duration=0.3)
-    out = VortexSound().synthesize(
-        (plume, path), texture=tex.save(tmp_path / "t.h5").as_posix(), rate=RATE
-    )
-    assert out.signals.shape == (36, out.pressure.size) and out.positions.shape == (36, 3)
-    np.testing.assert_allclose(out.signals.sum(0), out.pressure, atol=1e-12)
+    sound = VortexSound().synthesize(plume, texture=tex.save(tmp_path / "t.h5").as_posix())
+    assert isinstance(sound, Sound) and len(sound.parts) == 1
+    em = sound.parts[0]
+    assert isinstance(em, Emitters) and em.n_emitters == 36 and em.positions.shape == (36, 3)
+    assert (
+        em.rate == tex.rate and em.t0 == -0.5
+    )  # 5³ points of 0.04 m: the texture box and sound.meta["n_sources"] == 36
+    # the data's 10 frames at 30 Hz are emitted (plus the lead), then the emitters fall silent
+    assert em.t_end == pytest.approx(10 / 30, abs=2 / em.rate)
+    mono = render(sound, path, rate=RATE)
+    assert mono.audio.shape == (1, int(0.3 * RATE)) and mono.meta["model"] == "vortex"
+    # the mix is the sum of the sub-volumes rendered alone
+    alone = sum(render(Emitters(em.signals[i : i + 1], em.rate, em.positions[i : i + 1], t0=em.t0),
+                       path, rate=RATE).audio for i in range(0, 36, 7))  # fmt: skip
+    some = Emitters(em.signals[::7], em.rate, em.positions[::7], t0=em.t0)
+    np.testing.assert_allclose(render(some, path, rate=RATE).audio, alone, atol=1e-12)
     r8 = render_vortex(plume, path, tex, rate=RATE, layout="ring8")
-    assert r8.audio.shape == (8, out.pressure.size)
+    assert r8.audio.shape == (8, int(0.3 * RATE)) and r8.meta["n_sources"] == 36
     with pytest.raises(ParameterError, match="attenuation"):
-        VortexSound().synthesize((plume, path), attenuation="cubic")
+        VortexSound().synthesize(plume, attenuation="cubic")
+    with pytest.raises(ParameterError, match="listener path goes to"):
+        VortexSound().synthesize((plume, path))
 
 
 def test_overlay_meshes(plume):

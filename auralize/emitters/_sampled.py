@@ -1,0 +1,498 @@
+"""Sampled backend of the emitters engine: audio-rate point emitters, compiled.
+
+For every emitter the smooth quantities of the received sum (paper 003
+§3.2.4.2 for the retarded time; far-field point-source law, paper 000 §6,
+Eq. 5 and paper 004 §6, Eq. 4)
+
+    p(t) = Σ_s  a_s(τ_s) · g(D_s),   t − τ_s = |L(t) − x_s(τ_s)| / c0
+
+are evaluated at *control points* every ``K`` samples of the evaluation rate:
+the retarded time τ (fixed point for a moving emitter, contraction = its Mach
+number), the clamped distance law ``1/D^e``, a dipole's projection on the unit
+vector from the emitter to the listener, and the layout's panning gains (the
+synthesis kernel's own law, :func:`auralize._synth_kernel._gains`: pairwise
+2-D VBAP, or 3-D VBAP for layouts with elevation, equal to
+:func:`auralize.spatial.pan_gains`).  Inside a block they are interpolated
+linearly and the emitted signal is read at the interpolated emission index
+(linear interpolation), weighted and added to the active channels.
+
+Control points lie on a grid fixed in playback time (multiples of ``K``
+evaluation samples), so a render split into consecutive windows gives the
+same samples as one render: live playback renders block by block.
+
+Emitters sampled well below the output rate are first upsampled band-limited
+(at most ``oversample`` ×) and, when the output rate is an integer multiple
+of that, evaluated at the lower *internal rate* and resampled band-limited to
+the output rate (the signal holds nothing above its own Nyquist frequency, so
+the anti-imaging filter is short).  The output blocks are split between up to
+two threads (the kernel releases the GIL) over disjoint ranges of samples.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize._numba_setup import configure as _configure_numba
+from auralize._synth_kernel import _gains
+
+_configure_numba()  # cache folder, OMP wait policy, compile notice
+
+_NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+#: evaluation samples between control points
+BLOCK = 32
+#: blocks per chunk: a chunk's output stays in cache while every emitter adds to it
+_CHUNK_BLOCKS = 64
+#: evaluation samples below which one thread does all the work
+_MIN_SPLIT = 16384
+_N_THREADS = max(1, min(2, os.cpu_count() or 1))
+_POOL: ThreadPoolExecutor | None = None
+
+
+@numba.njit(inline="always", **_NJIT)
+def _position(pos, s, u):  # type: ignore[no-untyped-def]
+    """Trajectory of emitter s at fractional sample u (linear, held at the ends)."""
+    m = pos.shape[1]
+    if m == 1 or u <= 0.0:
+        return pos[s, 0, 0], pos[s, 0, 1], pos[s, 0, 2]
+    if u >= m - 1:
+        return pos[s, m - 1, 0], pos[s, m - 1, 1], pos[s, m - 1, 2]
+    i = int(u)
+    w = u - i
+    return (
+        pos[s, i, 0] + w * (pos[s, i + 1, 0] - pos[s, i, 0]),
+        pos[s, i, 1] + w * (pos[s, i + 1, 1] - pos[s, i, 1]),
+        pos[s, i, 2] + w * (pos[s, i + 1, 2] - pos[s, i, 2]),
+    )
+
+
+@numba.njit(inline="always", **_NJIT)
+def _velocity(pos, s, u, pos_rate):  # type: ignore[no-untyped-def]
+    """Velocity (m/s) of emitter s's trajectory at fractional sample u (0 where held)."""
+    m = pos.shape[1]
+    if m == 1 or u < 0.0 or u >= m - 1:
+        return 0.0, 0.0, 0.0
+    i = int(u)
+    return (
+        (pos[s, i + 1, 0] - pos[s, i, 0]) * pos_rate,
+        (pos[s, i + 1, 1] - pos[s, i, 1]) * pos_rate,
+        (pos[s, i + 1, 2] - pos[s, i, 2]) * pos_rate,
+    )
+
+
+@numba.njit(inline="always", **_NJIT)
+def _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0):  # type: ignore[no-untyped-def]
+    """Retarded time of moving emitter s heard at (t, L) by fixed point from ``tau``."""
+    for _ in range(60):
+        x, y, z = _position(pos, s, (tau - t_pos) * pos_rate)
+        tn = t - math.sqrt((lx - x) ** 2 + (ly - y) ** 2 + (lz - z) ** 2) * inv_c0
+        done = abs(tn - tau) < 1e-13
+        tau = tn
+        if done:
+            break
+    return tau
+
+
+@numba.njit(inline="always", **_NJIT)
+def _rate(dx, dy, dz, dt, vl, sx, sy, sz, inv_c0):  # type: ignore[no-untyped-def]
+    """dτ/dt for emitter-minus-listener (dx, dy, dz) of length dt, velocities vl, s."""
+    if dt <= 0.0:
+        return 1.0
+    k = -inv_c0 / dt  # n = -(dx, dy, dz) / dt
+    num = 1.0 - k * (dx * vl[0] + dy * vl[1] + dz * vl[2])
+    den = 1.0 - k * (dx * sx + dy * sy + dz * sz)
+    return num / den
+
+
+@numba.njit(inline="always", **_NJIT)
+def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t, lx, ly, lz,
+           fx, fy, fz, ux, uy, uz, tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Emitter s heard at time t by a listener at L with forward f, up u.
+
+    Writes the amplitude weights ``w[j]`` (1/D^e, times the unit vector from
+    the emitter to the listener for a dipole) and panning gains ``g[j]``;
+    returns the emission index, the emitter-minus-listener vector and its
+    length, and the emitter's velocity.  ``tau``: a guess of the retarded
+    time for a moving emitter (the fixed point starts there).
+    """
+    if moving:
+        tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
+        x, y, z = _position(pos, s, (tau - t_pos) * pos_rate)
+        sx, sy, sz = _velocity(pos, s, (tau - t_pos) * pos_rate, pos_rate)
+    else:
+        x, y, z = pos[s, 0, 0], pos[s, 0, 1], pos[s, 0, 2]
+        sx, sy, sz = 0.0, 0.0, 0.0
+    dx, dy, dz = x - lx, y - ly, z - lz
+    dt = math.sqrt(dx * dx + dy * dy + dz * dz)
+    tau = t - dt * inv_c0
+    d = max(dt, radius[s])
+    amp = 1.0 / d if exponent == 1.0 else d ** (-exponent)
+    if sig_c == 1:
+        w[j, 0] = amp
+    elif dt > 0.0:
+        a = amp / dt
+        w[j, 0] = -dx * a
+        w[j, 1] = -dy * a
+        w[j, 2] = -dz * a
+    else:
+        w[j, 0] = 0.0
+        w[j, 1] = 0.0
+        w[j, 2] = 0.0
+    if g.shape[1] > 1:
+        _gains(dx, dy, dz, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, g[j])
+    return (tau - t_sig) * fs, tau, dx, dy, dz, dt, sx, sy, sz
+
+
+@numba.njit(inline="always", **_NJIT)
+def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w, ja, jb, wk, ka,
+             kb, g, gk):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Samples ``i_lo <= i < i_hi`` of a block between positions p0 and p1 (samples):
+    emission index ``x0 + u (h1 + u (h2 + u h3))`` with u = (i − p0)/(p1 − p0), weights
+    and gains linear from row ``ja`` of (w, g) or, if ``ka``, from row ``ja`` of
+    (wk, gk); to row ``jb`` likewise with ``kb``.  Adds to ``out[:, n0 + i]``."""
+    C = sig.shape[1]
+    n_ch = out.shape[0]
+    inv = 1.0 / (p1 - p0)
+    for i in range(i_lo, i_hi):
+        u = (i - p0) * inv
+        xi = x0 + u * (h1 + u * (h2 + u * h3))
+        v = 0.0
+        if xi >= 0.0 and xi <= last:
+            i0 = int(xi)
+            f = xi - i0
+            if i0 >= last:
+                i0 = last
+                f = 0.0
+            i1 = min(i0 + 1, last)
+            for k in range(C):
+                wa = wk[ja, k] if ka else w[ja, k]
+                wb = wk[jb, k] if kb else w[jb, k]
+                s0 = sig[s, k, i0]
+                v += (wa + u * (wb - wa)) * (s0 + f * (sig[s, k, i1] - s0))
+        vbuf[i] = v
+    if n_ch == 1:
+        for i in range(i_lo, i_hi):
+            out[0, n0 + i] += vbuf[i]
+        return
+    for c in range(n_ch):
+        ga = gk[ja, c] if ka else g[ja, c]
+        gb = gk[jb, c] if kb else g[jb, c]
+        if ga == 0.0 and gb == 0.0:  # a silent channel only ever adds 0
+            continue
+        dg = (gb - ga) * inv
+        for i in range(i_lo, i_hi):
+            out[c, n0 + i] += (ga + dg * (i - p0)) * vbuf[i]
+
+
+@numba.njit(**_NJIT)
+def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, VR, VL, F, U,
+            kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, out, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Add the emitters heard in blocks ``b0 <= b < b1`` to ``out (n_ch, n)``.
+
+    ``sig (S, C, n_e)`` emitted signals (C = 1 monopole, 3 dipole G) at rate
+    ``fs`` from playback second ``t_sig``; ``pos (S, m, 3)`` positions at
+    ``pos_rate`` from ``t_pos`` (m = 1: static); ``tb (B+1,)`` control-point
+    times with listener position ``L``, velocity on the path segment after
+    (``VR``) and before (``VL``), forward ``F`` and up ``U`` there; block b
+    covers output samples ``b·K − off`` to ``(b+1)·K − off``.  The emission
+    index is the cubic Hermite interpolant of the retarded time and its rate
+    ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)`` (n the unit vector from the
+    emitter to the listener) at the block's ends; weights and gains are
+    interpolated linearly.  ``kf (B,)``: the fractional sample in block b of
+    a listener capture (a kink of the listener's path), -1 for none; such a
+    block is split there into two linear pieces (listener ``Lk``, ``Fk``,
+    ``Uk`` at time ``tk``).  Blocks of different ranges write disjoint
+    samples (threads share ``out``).
+    """
+    S, C, n_e = sig.shape
+    n_ch, n = out.shape
+    moving = pos.shape[1] > 1
+    inv_c0 = 1.0 / c0
+    CB = _CHUNK_BLOCKS
+    xe = np.empty(CB + 1)
+    ma = np.empty(CB + 1)
+    mb = np.empty(CB + 1)
+    xk = np.empty(CB)
+    w = np.empty((CB + 1, C))
+    g = np.zeros((CB + 1, n_ch))
+    wk = np.empty((CB, C))
+    gk = np.zeros((CB, n_ch))
+    vbuf = np.empty(K)
+    last = n_e - 1
+    for cb0 in range(b0, b1, CB):
+        cb1 = min(cb0 + CB, b1)
+        for s in range(S):
+            tau = 0.0
+            for b in range(cb0, cb1 + 1):
+                j = b - cb0
+                t = tb[b]
+                if moving:  # the guess: the last retarded time, or the emitter's place at t
+                    if b == cb0:
+                        x, y, z = _position(pos, s, (t - t_pos) * pos_rate)
+                        tau = t - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2
+                                            + (L[b, 2] - z) ** 2) * inv_c0  # fmt: skip
+                    else:
+                        tau += t - tb[b - 1]
+                xe[j], tau, dx, dy, dz, dt, sx, sy, sz = _point(
+                    C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t,
+                    L[b, 0], L[b, 1], L[b, 2], F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1], U[b, 2],
+                    tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j)  # fmt: skip
+                # dτ/dt on both sides (the listener's velocity may jump at a
+                # capture), in signal samples per block
+                if b < cb1:
+                    ma[j] = (tb[b + 1] - t) * fs * _rate(dx, dy, dz, dt, VR[b], sx, sy, sz, inv_c0)
+                if b > cb0:
+                    mb[j] = (t - tb[b - 1]) * fs * _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                if b < cb1 and kf[b] >= 0.0:  # a capture inside the block
+                    xk[j], _, _, _, _, _, _, _, _ = _point(
+                        C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, tk[b],
+                        Lk[b, 0], Lk[b, 1], Lk[b, 2], Fk[b, 0], Fk[b, 1], Fk[b, 2], Uk[b, 0],
+                        Uk[b, 1], Uk[b, 2], tau + (tk[b] - t), t_sig, fs, spk_az, spk_ch, fold,
+                        pinv, wk, gk, j)  # fmt: skip
+            for b in range(cb0, cb1):
+                j = b - cb0
+                xa = xe[j]
+                xb = xe[j + 1]
+                if (xa < -1.0 and xb < -1.0) or (xa > last + 1.0 and xb > last + 1.0):
+                    continue  # silent block
+                n0 = b * K - off
+                i_lo = max(0, -n0)
+                i_hi = min(K, n - n0)
+                if i_lo >= i_hi:
+                    continue
+                kj = kf[b]
+                if kj < 0.0:  # cubic Hermite emission index
+                    h2 = 3.0 * (xb - xa) - 2.0 * ma[j] - mb[j + 1]
+                    h3 = 2.0 * (xa - xb) + ma[j] + mb[j + 1]
+                    _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, 0.0, float(K), xa, ma[j],
+                             h2, h3, w, j, j + 1, wk, False, False, g, gk)  # fmt: skip
+                else:  # linear on both sides of the capture
+                    ik = min(max(int(math.ceil(kj)), i_lo), i_hi)
+                    if ik > i_lo:
+                        _segment(sig, s, last, vbuf, out, n0, i_lo, ik, 0.0, kj, xa, xk[j] - xa,
+                                 0.0, 0.0, w, j, j, wk, False, True, g, gk)  # fmt: skip
+                    if i_hi > ik:
+                        _segment(sig, s, last, vbuf, out, n0, ik, i_hi, kj, float(K), xk[j],
+                                 xb - xk[j], 0.0, 0.0, w, j, j + 1, wk, True, False, g, gk)  # fmt: skip
+
+
+def _run(fn: Callable[[int], None], n: int) -> None:
+    """``fn(i)`` for i < n: i = 0 on this thread, the rest on the pool."""
+    global _POOL
+    if n > 1 and _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=_N_THREADS - 1, thread_name_prefix="auralize-emit")
+    futures = [_POOL.submit(fn, i) for i in range(1, n)] if n > 1 and _POOL is not None else []
+    fn(0)
+    for fu in futures:
+        fu.result()
+
+
+@dataclass
+class Prepared:
+    """Emitted signals ready for the kernel: ``sig (S, C, n)`` at rate ``fs`` from ``t0``
+    (band-limited upsampled by ``up`` from the emitters' own rate)."""
+
+    sig: NDArray[np.float64]
+    fs: float
+    t0: float
+    up: int
+
+
+def upsampling(rate_in: float, rate_out: int, oversample: int) -> int:
+    """Integer band-limited upsampling factor of emitted signals (1: none).
+
+    Emitters below half the output rate are upsampled to about ``oversample``
+    × their rate (never above the output rate), so that the linear read at
+    the retarded time has no audible images.
+    """
+    if oversample <= 1 or rate_in * 1.5 > rate_out:
+        return 1
+    return int(max(1, min(int(oversample), math.floor(rate_out / rate_in + 1e-9))))
+
+
+def prepare(signals: NDArray[np.float64], rate: float, t0: float, up: int,
+            i_lo: int = 0, i_hi: int | None = None) -> Prepared:  # fmt: skip
+    """Samples ``i_lo:i_hi`` of ``signals (S, n)`` or ``(S, 3, n)``, upsampled ``up`` ×."""
+    from scipy.signal import resample_poly
+
+    sig = signals[:, None, :] if signals.ndim == 2 else signals
+    n = sig.shape[2]
+    i_hi = n if i_hi is None else i_hi
+    seg = sig[:, :, i_lo:i_hi]
+    if up > 1:
+        seg = resample_poly(seg, up, 1, axis=2)
+    return Prepared(np.ascontiguousarray(seg, dtype=np.float64), float(rate) * up,
+                    float(t0) + i_lo / float(rate), int(up))  # fmt: skip
+
+
+#: half-length (input samples) of :func:`scipy.signal.resample_poly`'s default filter
+_UP_HALF = 12
+
+
+def _internal_factor(rate: int, fs: float) -> int:
+    """Largest k with ``rate % k == 0`` and ``rate / k >= fs`` (1: evaluate at the output rate)."""
+    k = int(math.floor(rate / fs + 1e-9))
+    while k > 1 and rate % k:
+        k -= 1
+    return max(k, 1)
+
+
+def _anti_image(k: int, rate: int, band: float) -> NDArray[np.float64]:
+    """Kaiser FIR (80 dB) at ``rate`` passing ``band`` Hz and stopping from ``rate/k − band``."""
+    from scipy.signal import firwin, kaiserord
+
+    R = rate / k
+    band = min(band, 0.45 * R)
+    width = max(R - 2 * band, 0.05 * R)
+    numtaps, beta = kaiserord(80.0, width / (0.5 * rate))
+    numtaps += 1 - numtaps % 2
+    return np.asarray(firwin(numtaps, band + 0.5 * width, fs=rate, window=("kaiser", beta)))
+
+
+def _path_velocities(path: Any, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+    """Listener velocity (m/s) at path times ``t`` on the segment after and before each."""
+    T, P = path.times, path.positions
+    n = T.size
+    if n < 2:
+        z = np.zeros((t.size, 3))
+        return z, z.copy()
+    dt = np.diff(T)
+    v = np.diff(P, axis=0) / np.where(dt > 0, dt, 1.0)[:, None]
+    v[dt <= 0] = 0.0
+    v = np.vstack([np.zeros((1, 3)), v, np.zeros((1, 3))])  # held outside the path
+    iR = np.searchsorted(T, t, side="right")
+    iL = np.searchsorted(T, t, side="left")
+    return np.ascontiguousarray(v[iR]), np.ascontiguousarray(v[iL])
+
+
+def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, start: float,
+                   c0: float, block: int = BLOCK, oversample: int = 4,
+                   internal: bool = True, prepared: Prepared | None = None,
+                   threads: int | None = None) -> tuple[NDArray[np.float64], dict[str, Any]]:  # fmt: skip
+    """Pressure ``(n_channels, n_out)`` of :class:`auralize.emitters.Emitters` ``em``.
+
+    Output sample n is heard at playback second ``start + n / rate``.
+
+    Parameters
+    ----------
+    block : int
+        Evaluation samples between control points.
+    oversample : int
+        Emitters below the output rate are upsampled band-limited to at most
+        this × their rate (1: read as given).
+    internal : bool
+        Evaluate at an integer fraction of the output rate when the
+        (upsampled) signals allow it, then resample band-limited.
+    prepared : Prepared, optional
+        The whole signals already prepared (:func:`prepare`; block renderers
+        reuse them).
+    threads : int, optional
+        Threads (default: up to 2 for long windows).
+
+    Returns
+    -------
+    audio, meta (``internal_rate_hz``, ``signal_rate_hz``, ``block``, ``threads``)
+    """
+    from auralize.emitters import law_exponent
+    from auralize.synthesis import _pan_table
+
+    lay = layout
+    n_ch = lay.n_channels
+    e = law_exponent(em.law)
+    K = int(block)
+    up = prepared.up if prepared is not None else upsampling(em.rate, rate, oversample)
+    fs = em.rate * up
+    k = _internal_factor(int(rate), fs) if internal else 1
+    m0f = start * rate
+    m0 = int(round(m0f))
+    aligned = abs(m0f - m0) < 1e-6
+    if not aligned:
+        k = 1
+    R = rate / k
+    h = _anti_image(k, int(rate), 0.5 * em.rate * 1.25) if k > 1 else np.zeros(0)
+    P = (h.size // (2 * k) + 2) if k > 1 else 0
+    if aligned:
+        j_lo = m0 // k - P
+        n_int = -(-(m0 + n_out) // k) - j_lo + P + 1 if k > 1 else n_out
+        t_of = lambda j: j / R  # noqa: E731
+    else:
+        j_lo, n_int = 0, n_out
+        t_of = lambda j: start + j / R  # noqa: E731
+    K = max(4, int(round(K / k)))  # control points as often in time as at the output rate
+    meta = {"internal_rate_hz": float(R), "signal_rate_hz": float(fs), "block": K}
+    if n_out <= 0:
+        return np.zeros((n_ch, max(n_out, 0))), {**meta, "threads": 0}
+    t_lo, t_hi = t_of(j_lo), t_of(j_lo + n_int)
+    # emission window: every retarded time of the window, bounded by distances
+    tp0 = path.times[0]
+    lp = path.position_at(tp0 + np.linspace(t_lo, t_hi, 16))
+    ep = em.positions.reshape(-1, 3)
+    lo = np.minimum(lp.min(0), ep.min(0))
+    hi = np.maximum(lp.max(0), ep.max(0))
+    d_max = float(np.linalg.norm(hi - lo))
+    tau_lo, tau_hi = t_lo - d_max / c0, t_hi
+    if prepared is None:
+        i_lo = max(0, int(math.floor((tau_lo - em.t0) * em.rate)) - _UP_HALF)
+        i_hi = min(em.n_samples, int(math.ceil((tau_hi - em.t0) * em.rate)) + _UP_HALF + 1)
+        if i_hi <= i_lo:
+            return np.zeros((n_ch, n_out)), {**meta, "threads": 0}
+        prepared = prepare(em.signals, em.rate, em.t0, up, i_lo, i_hi)
+    B = -(-(n_int + (j_lo % K)) // K)
+    off = j_lo % K
+    tb = np.array([t_of(j_lo - off + b * K) for b in range(B + 1)])
+    L = np.ascontiguousarray(path.position_at(tp0 + tb))
+    VR, VL = _path_velocities(path, tp0 + tb)
+    if n_ch > 1:
+        F, U = path.orientation_at(tp0 + tb)
+        spk_az, spk_ch = lay.panning_arrays()
+        pinv = _pan_table(lay, spk_az)
+    else:
+        F = U = np.zeros((B + 1, 3))
+        spk_az, spk_ch, pinv = np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 4))
+    F, U = np.ascontiguousarray(F), np.ascontiguousarray(U)
+    # listener captures strictly inside a block: kinks of the listener's path
+    kf = np.full(B, -1.0)
+    tcap = path.times - tp0
+    inside = (tcap > tb[0]) & (tcap < tb[-1])
+    if np.any(inside):
+        tc = tcap[inside]
+        bi = np.clip(np.searchsorted(tb, tc, side="right") - 1, 0, B - 1)
+        frac = (tc - tb[bi]) / (tb[bi + 1] - tb[bi]) * K
+        keep = (frac > 1e-6) & (frac < K - 1e-6)
+        bi, frac = bi[keep], frac[keep]
+        if bi.size:
+            first = np.r_[True, bi[1:] != bi[:-1]]  # one kink per block (the first)
+            kf[bi[first]] = frac[first]
+    tk = np.where(kf >= 0, tb[:-1] + np.maximum(kf, 0.0) / K * np.diff(tb), 0.0)
+    Lk = np.ascontiguousarray(path.position_at(tp0 + tk))
+    if n_ch > 1:
+        Fk, Uk = (np.ascontiguousarray(a) for a in path.orientation_at(tp0 + tk))
+    else:
+        Fk = Uk = np.zeros((B, 3))
+    pos = em.positions if em.moving else em.positions[:, None, :]
+    out = np.zeros((n_ch, n_int))
+    nt = threads if threads is not None else (_N_THREADS if n_int >= _MIN_SPLIT else 1)
+    nt = max(1, min(int(nt), _N_THREADS, B))
+    edges = [B * i // nt for i in range(nt + 1)]
+    args = (prepared.sig, prepared.fs, prepared.t0, np.ascontiguousarray(pos), float(em.pos_rate),
+            float(em.t0), em.radius, float(e), float(c0), tb, L, VR, VL, F, U, kf, tk, Lk, Fk, Uk,
+            np.ascontiguousarray(spk_az, dtype=np.float64),
+            np.ascontiguousarray(spk_ch, dtype=np.int64), bool(lay.fold_front),
+            np.ascontiguousarray(pinv, dtype=np.float64), K, off, out)  # fmt: skip
+    _run(lambda i: _render(*args, edges[i], edges[i + 1]), nt)
+    if k > 1:
+        from scipy.signal import resample_poly
+
+        y = resample_poly(out, k, 1, axis=1, window=h)
+        a = m0 - j_lo * k
+        out = np.ascontiguousarray(y[:, a : a + n_out])
+    return out, {**meta, "threads": nt}
