@@ -23,12 +23,9 @@ from __future__ import annotations
 import functools
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any, ClassVar
-
-import numpy as np
-from numpy.typing import NDArray
 
 from auralize.errors import ParameterError, PluginError
 
@@ -79,23 +76,6 @@ class Parameter:
                 )
             return type(self.default)(v) if isinstance(self.default, int | float) else v
         return value
-
-
-@dataclass
-class SoundOutput:
-    """What a model produced before models returned :class:`auralize.emitters.Sound`.
-
-    Kept only while plugins move to the engine; nothing in the core reads it.
-    Either ``pressure (n_samples,)`` heard at the listener, or
-    ``signals (n_sources, n_samples)`` emitted at ``positions (n_sources, 3)``
-    (already delayed and attenuated, so that only panning remains).
-    """
-
-    rate: int
-    pressure: NDArray[np.float64] | None = None
-    signals: NDArray[np.float64] | None = None
-    positions: NDArray[np.float64] | None = None
-    meta: dict[str, Any] = field(default_factory=dict)
 
 
 class SoundModel:
