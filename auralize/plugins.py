@@ -96,9 +96,10 @@ class SoundModel:
     #: (``auralize dataset NAME``, ``dataset:NAME`` inputs); default none
     datasets: ClassVar[dict[str, Any]] = {}
     #: what :meth:`synthesize` takes: ``"volume"`` when its inputs are one
-    #: :class:`~auralize.volume.TimeVolume` (then :meth:`load_input` reads volume
-    #: files and ``dataset:NAME``, and the viewer makes the model's overlay
-    #: audible with the volume on screen); ``""`` (default) for anything else
+    #: :class:`~auralize.volume.TimeVolume` (then the default :meth:`load_input`
+    #: reads volume files and ``dataset:NAME``); another word names other inputs
+    #: (the viewer then does not try to hear the model's overlay); ``""``
+    #: (default) undeclared: the viewer tries ``synthesize(volume)``
     input_kind: ClassVar[str] = ""
 
     def resolve(self, **params: Any) -> dict[str, Any]:

@@ -1143,10 +1143,13 @@ class MainWindow(QtWidgets.QMainWindow):
                     then: Callable[[bool], None] | None = None) -> Task | None:  # fmt: skip
         """Switch a plugin's overlay on or off.
 
-        An overlay whose model makes sound from a volume (``input_kind ==
-        "volume"``) is also heard: its sound is computed in the background once
-        the overlay is drawn, then added to live listening and rendered files
-        (:meth:`overlay_sound`) until the overlay is switched off.
+        An overlay whose model makes sound from the volume on screen is also
+        heard: once the overlay is drawn, ``synthesize(volume)`` runs in the
+        background (unless the model's ``input_kind`` names other inputs), and
+        its sound is added to live listening and rendered files
+        (:meth:`overlay_sound`) until the overlay is switched off; a model that
+        cannot make sound from the volume is shown, not heard, and the Overlays
+        panel says why.
 
         Switching on computes the overlay of the current step in the background
         (progress bar, Cancel), then draws it.  Later steps are computed in the
@@ -1222,18 +1225,18 @@ class MainWindow(QtWidgets.QMainWindow):
         background; once in, it is heard in live listening and in rendered files."""
         from auralize.plugins import synthesize
 
-        if model.input_kind != "volume":
-            self.overlay_note.setText(f"{name} overlay is shown but not heard: its model does "
-                                      f"not make sound from a volume")  # fmt: skip
+        if model.input_kind not in ("", "volume"):
+            self.overlay_note.setText(f"{name} overlay is shown but not heard: its model makes "
+                                      f"sound from {model.input_kind}, not from a volume")  # fmt: skip
             return None
         vol = self.volume
         label = f"{name} sound"
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             progress(0, 1)
-            try:
+            try:  # a model whose inputs are not a volume says so (shown in the panel)
                 sound = synthesize(model, vol)
-            except AuralizeError as exc:  # shown in the Overlays panel
+            except (AuralizeError, NotImplementedError) as exc:
                 return exc
             if not progress(1, 1):
                 raise Cancelled(f"{label} cancelled")
