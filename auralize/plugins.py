@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from auralize.errors import ParameterError, PluginError
+from auralize.errors import AuralizeError, ParameterError, PluginError
 
 if TYPE_CHECKING:
     from auralize.emitters import Sound
@@ -96,10 +96,10 @@ class SoundModel:
     #: (``auralize dataset NAME``, ``dataset:NAME`` inputs); default none
     datasets: ClassVar[dict[str, Any]] = {}
     #: what :meth:`synthesize` takes: ``"volume"`` when its inputs are one
-    #: :class:`~auralize.volume.TimeVolume` (then the default :meth:`load_input`
-    #: reads volume files and ``dataset:NAME``); another word names other inputs
-    #: (the viewer then does not try to hear the model's overlay); ``""``
-    #: (default) undeclared: the viewer tries ``synthesize(volume)``
+    #: :class:`~auralize.volume.TimeVolume`; another word names other inputs
+    #: (the default :meth:`load_input` then refuses, and the viewer does not try
+    #: to hear the model's overlay); ``""`` (default) undeclared: volumes are
+    #: tried (:meth:`load_input` reads one, the viewer calls ``synthesize(volume)``)
     input_kind: ClassVar[str] = ""
 
     def resolve(self, **params: Any) -> dict[str, Any]:
@@ -141,15 +141,24 @@ class SoundModel:
 
         Used by ``auralize render --model NAME:FILE`` and scene files; returns
         what :meth:`synthesize` takes as ``inputs``.  The default reads a
-        volume when :attr:`input_kind` is ``"volume"`` and refuses otherwise:
-        a model with other inputs overrides it to be mixed into a scene from
-        the command line.
+        volume (:func:`load_volume_input`) unless :attr:`input_kind` names
+        other inputs; a model with other inputs overrides it to be mixed into
+        a scene from the command line.  Errors name the model and ``spec``.
         """
-        if self.input_kind == "volume":
-            return load_volume_input(spec)
+        if self.input_kind in ("", "volume"):
+            try:
+                return load_volume_input(spec)
+            except AuralizeError as exc:
+                if self.input_kind == "volume":
+                    raise
+                why = " ".join(str(exc).split())
+                raise PluginError(
+                    f"sound model {self.name!r} cannot read its inputs from {spec!r}: it does "
+                    f"not implement SoundModel.load_input and {spec!r} is not a volume ({why})"
+                ) from None
         raise PluginError(
-            f"sound model {self.name!r} cannot read its inputs from {spec!r}: it does not "
-            f"implement SoundModel.load_input (use it from Python: "
+            f"sound model {self.name!r} cannot read its inputs ({self.input_kind}) from "
+            f"{spec!r}: it does not implement SoundModel.load_input (use it from Python: "
             f"auralize.simple.AddSoundModel({self.name!r}, inputs))"
         )
 

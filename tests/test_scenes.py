@@ -235,8 +235,18 @@ def test_a_model_that_returns_something_else_is_named(tone_models) -> None:  # t
         scene_sound([SceneModel("old", {"x": 1})])
     with pytest.raises(PluginError, match=r"plugin 'vortex' returned ndarray"):
         check_sound("vortex", np.zeros(3))
-    with pytest.raises(PluginError, match=r"'base' cannot read its inputs from 'x.h5'"):
+    with pytest.raises(PluginError, match=r"'base' cannot read its inputs from 'x.h5': it does "
+                                          r"not implement SoundModel.load_input and 'x.h5' is "
+                                          r"not a volume \(.*x.h5"):  # fmt: skip
         SoundModel().load_input("x.h5")
+
+    class TextureModel(SoundModel):
+        name: ClassVar[str] = "tex"
+        input_kind: ClassVar[str] = "a texture"
+
+    with pytest.raises(PluginError, match=r"'tex' cannot read its inputs \(a texture\) from"):
+        TextureModel().load_input("dataset:monopole")
+    assert OldModel().load_input("dataset:monopole").n_steps > 1  # undeclared: volumes tried
     assert SoundModel.bench(True) == [] and SoundModel.add_cli(None) is None
     assert SoundModel.datasets == {}
 
