@@ -404,14 +404,21 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
                         "(options given on the command line win)")  # fmt: skip
 
 
-def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
-    """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
-    from auralize.emitters import Sound, render
+def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
+                    command: str = "render") -> tuple[Any, Any, float, list[str]]:  # fmt: skip
+    """The scene of ``--model``/``--scene`` (plus the field of a positional volume).
+
+    Returns ``(sound, path, duration, notes)``: every model's
+    :class:`~auralize.emitters.Sound` joined, the listener path, the playback
+    seconds and what to tell the user.  ``args.layout``/``args.rate``/
+    ``args.duration`` take the scene file's values where the command line left
+    them at ``parser_defaults``.
+    """
+    from auralize.emitters import Sound
     from auralize.listener import ListenerPath
-    from auralize.pipeline import DEFAULT_DURATION, plan_render, save_rendered
+    from auralize.pipeline import DEFAULT_DURATION, plan_render
     from auralize.soundscene import load_scene, parse_model_spec, scene_sound
     from auralize.spatial import get_layout
-    from auralize.timbre import highpass, loudness
 
     scene = load_scene(args.scene) if args.scene else None
     models = [*(scene.models if scene else []), *(parse_model_spec(m) for m in args.model or [])]
@@ -423,7 +430,7 @@ def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any])
                 setattr(args, key, getattr(scene, key))
         if args.duration is None and scene.duration is not None:
             args.duration = float(scene.duration)
-    lay = get_layout(args.layout)
+    get_layout(args.layout)  # a bad layout fails before any slow work
     path = ListenerPath.from_csv(args.path) if args.path else None
     listener = args.listener
     if path is None and listener is None and scene is not None:
@@ -449,8 +456,8 @@ def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any])
         notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
         sound = sound + FieldAuralization().synthesize(
             (vol, series), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
-            timbre=args.timbre)  # fmt: skip
-        _report_unavailable("render", series)
+            timbre=getattr(args, "timbre", "physical"))  # fmt: skip
+        _report_unavailable(command, series)
     elif args.sources:
         raise ParameterError("--sources needs the volume they were detected in (PATH)")
     else:
@@ -460,9 +467,21 @@ def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any])
         if path is None:
             path = ListenerPath.point(listener, duration=args.duration or DEFAULT_DURATION)
         duration = args.duration or path.duration
-    check_render_memory(args, duration, lay.n_channels)
-    t = time.perf_counter()
+    check_render_memory(args, duration, get_layout(args.layout).n_channels)
     sound = sound + scene_sound(models, path, duration)
+    return sound, path, duration, notes
+
+
+def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
+    """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
+    from auralize.emitters import render
+    from auralize.pipeline import save_rendered
+    from auralize.spatial import get_layout
+    from auralize.timbre import highpass, loudness
+
+    t = time.perf_counter()
+    sound, path, duration, notes = scene_from_args(args, parser_defaults)
+    lay = get_layout(args.layout)
     out = render(sound, path, rate=args.rate, layout=lay, duration=duration)
     if args.highpass > 0:
         out.audio = highpass(out.audio, out.rate, args.highpass)

@@ -359,3 +359,33 @@ def test_render_duration_and_rate_mean_the_same_with_a_path(tone_models, tmp_pat
                  "--duration", "0.25", "--rate", "22050", "-o", str(out)]) == 0  # fmt: skip
     audio, rate, _ = read_wav(out)
     assert rate == 22050 and audio.shape == (1, round(0.25 * 22050))
+
+
+def test_play_command_plays_a_scene(tone_models, tmp_path, monkeypatch, capsys) -> None:  # type: ignore[no-untyped-def]
+    """`auralize play --model ...` sends the scene's offline render to the device."""
+    from auralize.audio import refresh_devices
+    from auralize.cli import main
+
+    a, b = tone_models
+    cfg = tmp_path / "cfg"
+    (cfg / "alsa").mkdir(parents=True)
+    out2 = tmp_path / "dev2.raw"
+    (cfg / "alsa" / "asoundrc").write_text(ASOUNDRC.format(out2=out2))
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(cfg))
+    refresh_devices()
+    try:
+        assert main(["play", "--model", f"tone:{a}", "--model", f"tone:{b}:gain=2",
+                     "--listener", "0,0,0", "--duration", "0.3", "--layout", "stereo",
+                     "--device", "auralize_file2", "--gain", "2", "--highpass", "0",
+                     "--json"]) == 0  # fmt: skip
+    finally:
+        monkeypatch.delenv("XDG_CONFIG_HOME")
+        refresh_devices()
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["layout"] == "stereo" and rep["blocks"] == 6 and rep["duration_s"] == 0.3
+    ref = 2.0 * render(_tone_sound(a, b), ListenerPath.point([0, 0, 0], duration=0.3),
+                       rate=RATE, layout="stereo").audio  # fmt: skip
+    dev = np.fromfile(out2, dtype="<f4").reshape(-1, 2).T.astype(np.float64)
+    lag = int(np.argmax(np.any(dev != 0, axis=0))) - int(np.argmax(np.any(ref != 0, axis=0)))
+    d = dev[:, lag : lag + ref.shape[1]]
+    assert d.shape == ref.shape and np.max(np.abs(d - ref)) <= 1e-5 * np.max(np.abs(ref))
