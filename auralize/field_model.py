@@ -103,6 +103,7 @@ class FieldAuralization(SoundModel):
                             interp=p["interp"], timbre=p["timbre"], bounds=tuple(volume.bounds),
                             name="field")  # fmt: skip
         meta = {"n_sources": tracks.n_sources, "volume": volume.source,
+                "time_scale": part.time_scale, "lead_data_s": part.lead,
                 "mapping": series.meta.get("mapping"),
                 "thresholds": series.thresholds.tolist()}  # fmt: skip
         return Sound(parts=[part], meta={"field": meta}, name="field")

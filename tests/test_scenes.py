@@ -389,3 +389,25 @@ def test_play_command_plays_a_scene(tone_models, tmp_path, monkeypatch, capsys) 
     lag = int(np.argmax(np.any(dev != 0, axis=0))) - int(np.argmax(np.any(ref != 0, axis=0)))
     d = dev[:, lag : lag + ref.shape[1]]
     assert d.shape == ref.shape and np.max(np.abs(d - ref)) <= 1e-5 * np.max(np.abs(ref))
+
+
+def test_field_model_in_a_scene_fits_the_data_in_the_duration(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """``field:...:time_scale=auto``: the data's span plays in the scene's duration."""
+    from auralize.audio import read_wav
+    from auralize.cli import main
+
+    out = tmp_path / "f.wav"
+    assert main(["render", "--model", "field:dataset:monopole:time_scale=auto,"
+                 "threshold_monopole=1%", "--listener", "1.5,0.5,0.5", "--duration", "0.3",
+                 "--highpass", "0", "-o", str(out), "--json"]) == 0  # fmt: skip
+    rep = json.loads(capsys.readouterr().out)
+    assert [p["model"] for p in rep["parts"]] == ["field"] and rep["parts"][0]["peak_pa"] > 0
+    assert rep["scene"][0]["params"] == {"time_scale": "auto", "threshold_monopole": "1%"}
+    audio, rate, _ = read_wav(out)
+    assert audio.shape == (1, round(0.3 * rate))
+    # auto: the data's span (plus the spread of arrival delays) plays in the 0.3 s
+    from auralize.pipeline import load
+
+    times = load("dataset:monopole").times
+    assert rep["field"]["n_sources"] > 0
+    assert 0 < rep["field"]["time_scale"] <= 0.3 / float(times[-1] - times[0])
