@@ -847,7 +847,11 @@ def SaveScreenshot(filename: str | Path, view: View | None = None, *,
 
 # ------------------------------------------------------------------- session
 def SaveSession(filename: str | Path) -> Path:
-    """Save the session (data, mapping, thresholds, path, audio settings, camera) as JSON.
+    """Save the session (data, mapping, thresholds, path, audio settings, camera, and the
+    sound models added with :func:`AddSoundModel`) as JSON.
+
+    Models are saved with their input's file name or ``dataset:NAME``; a model
+    given its inputs in memory cannot be saved and raises ``ParameterError``.
 
     Examples
     --------
@@ -868,6 +872,15 @@ def SaveSession(filename: str | Path) -> Path:
                         "thresholds": (src.Thresholds or Thresholds(*_viewer_th())).describe()}  # fmt: skip
         st.view = {"field": src.Field}
     st.set_listener_path(s.path)
+    for m in s.models:
+        if not isinstance(m.input, str):
+            raise ParameterError(f"cannot save sound model {m.model!r}: its input is a "
+                                 f"{type(m.input).__name__} in memory; add it with a file name "
+                                 f"or dataset:NAME to save the session")  # fmt: skip
+        spec = m.input
+        if not spec.startswith("dataset:") and Path(spec).expanduser().exists():
+            spec = str(Path(spec).expanduser().resolve())
+        st.models.append({"model": m.model, "input": spec, "params": dict(m.params)})
     if s.active_view is not None:
         sc = s.active_view.scene
         st.camera = sc.camera()
@@ -887,6 +900,11 @@ def LoadSession(filename: str | Path) -> Session:
     >>> f = SaveSession(pathlib.Path(tempfile.mkdtemp()) / "s.json")
     >>> LoadSession(f).active_source.Volume.dims
     (12, 12, 12)
+    >>> _ = ResetSession()
+    >>> m = AddSoundModel("field", "dataset:explosion", time_scale="auto")
+    >>> f = SaveSession(pathlib.Path(tempfile.mkdtemp()) / "s.json")
+    >>> [(m.model, m.input) for m in LoadSession(f).models]
+    [('field', 'dataset:explosion')]
     """
     from auralize.viewer.session import SessionState
 
@@ -907,6 +925,8 @@ def LoadSession(filename: str | Path) -> Session:
                                         zero_fraction=t.get("zero_fraction", 1.0))  # fmt: skip
         src.Field = (st.view or {}).get("field")
     s.path = st.listener_path()
+    for m in st.models:
+        AddSoundModel(m["model"], m["input"], **(m.get("params") or {}))
     if st.camera and s.active_source is not None:
         view = st.view or {}
         v = Show(field=view.get("field"), representation=view.get("representation"))

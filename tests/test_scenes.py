@@ -411,3 +411,26 @@ def test_field_model_in_a_scene_fits_the_data_in_the_duration(tmp_path, capsys) 
     times = load("dataset:monopole").times
     assert rep["field"]["n_sources"] > 0
     assert 0 < rep["field"]["time_scale"] <= 0.3 / float(times[-1] - times[0])
+
+
+def test_a_session_keeps_its_sound_models(tone_models, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from auralize import simple
+
+    a, _ = tone_models
+    simple.ResetSession()
+    try:
+        simple.AddSoundModel("tone", str(a), gain=0.5)
+        f = simple.SaveSession(tmp_path / "s.json")
+        assert json.loads(f.read_text())["models"] == [
+            {"model": "tone", "input": str(a.resolve()), "params": {"gain": 0.5}}
+        ]
+        s = simple.LoadSession(f)
+        assert [(m.model, m.input, m.params) for m in s.models] == [
+            ("tone", str(a.resolve()), {"gain": 0.5})
+        ]
+        simple.AddSoundModel("tone", {"position": [0, 0, 0], "freq": 1.0, "amplitude": 1.0})
+        with pytest.raises(ParameterError, match="its input is a dict in memory"):
+            simple.SaveSession(tmp_path / "t.json")
+        assert not (tmp_path / "t.json").exists()
+    finally:
+        simple.ResetSession()
