@@ -177,3 +177,20 @@ def test_the_fire_front_overlay_is_heard(qtbot, window, tmp_path) -> None:  # ty
     assert np.max(np.abs(fire)) > 0
     assert np.max(np.abs(heard - (plain + fire))) <= 1e-9 * np.max(np.abs(heard))
     assert not shown
+
+
+def test_an_overlay_switched_on_is_heard_for_newly_opened_data(qtbot, window) -> None:  # type: ignore[no-untyped-def]
+    win, shown = window
+    win.open_data("dataset:monopole", size=12)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    result: list[bool] = []
+    win.set_overlay("beacon", True, then=result.append)
+    qtbot.waitUntil(lambda: "beacon" in win._overlay_sounds, timeout=60_000)
+    first = win.volume
+    win.open_data("dataset:explosion", size=12, steps=4)
+    qtbot.waitUntil(lambda: win.volume is not first and not win.busy, timeout=60_000)
+    qtbot.waitUntil(lambda: win._overlay_sounds.get("beacon", (None,))[0] is win.volume,
+                    timeout=60_000)  # fmt: skip
+    em = win.overlay_sound().parts[0]
+    assert np.allclose(em.positions[0], np.asarray(win.volume.center) + [0.3, 0.0, 0.0])
+    assert not shown

@@ -675,6 +675,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.volume, self.data = vol, d
         self.detection, self.series = None, None
         self.scene.set_volume(vol, field=name, frames=frames)
+        self._overlay_sounds.clear()
+        if self.scene.overlays:  # the overlays switched on are heard for the new data
+            from auralize.plugins import get_model
+
+            for overlay in list(self.scene.overlays):
+                self._start_overlay_sound(overlay, get_model(overlay))
         self.field_box.clear()
         self.field_box.addItems(vol.field_names)
         self.field_box.setCurrentText(name)
