@@ -260,9 +260,9 @@ def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44
 class SceneBlocks:
     """Block-wise rendering of a :class:`~auralize.emitters.Sound` (a scene) along a path.
 
-    Block ``i`` is :func:`auralize.emitters.render` of samples
-    ``[i * block, (i + 1) * block)`` (``start=``), so the blocks joined equal
-    the offline render.  :func:`auralize.live.play` takes it in place of
+    Block ``i`` holds samples ``[i * block, (i + 1) * block)``, rendered by the
+    engine's :class:`auralize.emitters.engine.BlockRenderer` (emitted signals
+    prepared once), so the blocks joined equal the offline render.  :func:`auralize.live.play` takes it in place of
     source tracks to play a scene live.
 
     Parameters
@@ -302,6 +302,10 @@ class SceneBlocks:
         self.duration = dur
         self.n_samples = round(dur * rate)
         self.n_blocks = -(-self.n_samples // self.block_size)
+        from auralize.emitters.engine import BlockRenderer
+
+        self._blocks = BlockRenderer(sound, path, rate=self.rate, layout=self.layout,
+                                     block=self.block_size, backend=backend)  # fmt: skip
 
     def render_range(self, start: int, n: int) -> Any:
         """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals."""
@@ -323,4 +327,4 @@ class SceneBlocks:
         if not 0 <= i < self.n_blocks:
             raise ParameterError(f"block index {i} outside 0..{self.n_blocks - 1}")
         s = i * self.block_size
-        return self.render_range(s, min(self.block_size, self.n_samples - s))
+        return self._blocks.render_block(i)[:, : min(self.block_size, self.n_samples - s)]
