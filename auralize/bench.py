@@ -227,6 +227,104 @@ def _timbre_rows(tracks: Any, path: Any, size: int) -> list[BenchRow]:
     return rows
 
 
+def emitters_rows(quick: bool) -> list[BenchRow]:
+    """The emitters engine's sampled backend on the plugins' cases, beside their own loops.
+
+    * vortex: 36 static emitters with 11,025 Hz signals (a texture's rate) to
+      ring8 at 44.1 kHz along an orbit, against ``auralize_vortex.render.receive``
+      on the same signals upsampled 4× (what the plugin reads);
+    * aero: 20 moving dipole emitters (a 0.6 m rod swung at 200 Hz poses,
+      tip ≈ 40 m/s) at 44.1 kHz to mono and ring8, against
+      ``auralize_aero.render.render`` of a 20-source swinging stick (its loop
+      also synthesises the texture per sample).
+    """
+    from scipy.signal import resample_poly
+
+    from auralize.emitters import Emitters
+    from auralize.emitters.engine import render_emitters
+    from auralize.listener import ListenerPath
+
+    rows: list[BenchRow] = []
+    rng = np.random.default_rng(0)
+    # vortex: a 6 x 6 grid of static sub-volume centres, 11,025 Hz signals
+    dur = 2.0 if quick else 10.0
+    fe = 11025.0
+    g = np.linspace(-1.0, 1.0, 6)
+    xx, zz = np.meshgrid(g, g + 1.5)
+    pos = np.stack([xx.ravel(), np.zeros(36), zz.ravel()], axis=1)
+    n_e = int((dur + 0.05) * fe)
+    sig = rng.normal(size=(36, n_e))
+    em = Emitters(sig, fe, pos, t0=-0.05, name="vortex-like")
+    orbit = ListenerPath.orbit((0.0, 0.0, 1.5), radius=4.0, duration=dur, turns=1.0)
+    fn = functools.partial(render_emitters, em, orbit, rate=44100, layout="ring8")
+    t = best_of(fn, repeat=3)
+    meta = fn().meta
+    note = (f"{dur:g} s in {t * 1e3:.0f} ms; internal rate {meta['internal_rate_hz']:.0f} Hz, "
+            f"signals upsampled to {meta['signal_rate_hz']:.0f} Hz inside, {meta['threads']} threads")  # fmt: skip
+    rows.append(BenchRow("emitters", "36 static emitters 11 kHz → ring8, engine", dur / t,
+                         "× real time", note=note))  # fmt: skip
+    try:
+        from auralize_vortex.render import receive
+
+        up = resample_poly(sig, 4, 1, axis=1)
+        em44 = Emitters(up, 44100.0, pos, t0=-0.05, name="vortex-like")
+        fe44 = functools.partial(render_emitters, em44, orbit, rate=44100, layout="ring8")
+        t44 = best_of(fe44, repeat=3)
+        rows.append(BenchRow("emitters", "… the same given at 44.1 kHz, engine", dur / t44,
+                             "× real time", note=f"{dur:g} s in {t44 * 1e3:.0f} ms; signals "
+                             "upsampled beforehand (not timed)"))  # fmt: skip
+        fv = functools.partial(receive, up, 44100.0, pos, orbit, rate=44100, emit_t0=-0.05,
+                               layout="ring8")  # fmt: skip
+        tv = best_of(fv, repeat=3)
+        rows.append(BenchRow("emitters", "… the same with vortex's own receive loop", dur / tv,
+                             "× real time", note=f"{dur:g} s in {tv * 1e3:.0f} ms; 2-D pairwise "
+                             f"panning, signals upsampled beforehand (not timed)"))  # fmt: skip
+    except (ImportError, AttributeError) as exc:
+        rows.append(BenchRow("emitters", "vortex's own receive loop", float("nan"), "",
+                             note=f"not available: {exc}"))  # fmt: skip
+    # aero: a rod of 20 dipoles swung about its grip
+    dur = 2.0 if quick else 5.0
+    S, length, prate = 20, 0.6, 200.0
+    tp = np.arange(int(dur * prate) + 2) / prate
+    ang = np.deg2rad(80.0) * np.sin(2 * np.pi * 2.0 * tp)
+    r = (np.arange(S) + 0.5) / S * length
+    traj = np.stack([r[:, None] * np.cos(ang)[None], r[:, None] * np.sin(ang)[None],
+                     np.zeros((S, tp.size))], axis=-1)  # fmt: skip
+    n = int(dur * 44100)
+    G = rng.normal(size=(S, 3, n)) * 1e-3
+    dip = Emitters(G, 44100.0, traj, pos_rate=prate, name="aero-like")
+    path = ListenerPath.point((0.3, 1.0, 0.2), duration=dur)
+    for layout in ("mono", "ring8"):
+        f = functools.partial(render_emitters, dip, path, rate=44100, layout=layout)
+        t = best_of(f, repeat=3)
+        rows.append(BenchRow("emitters", f"20 moving dipoles 44.1 kHz → {layout}, engine",
+                             dur / t, "× real time", note=f"{dur:g} s in {t * 1e3:.0f} ms"))  # fmt: skip
+    try:
+        from auralize_aero.objects import Motion
+        from auralize_aero.presets import stick
+        from auralize_aero.render import render as aero_render
+        from auralize_aero.shapes import circle
+        from auralize_aero.texture import SoundTexture
+
+        N = 4410
+        tex = SoundTexture(circle(0.01), 20.0, 44100.0, np.zeros(1), rng.normal(size=(1, N, 2)),
+                           np.zeros((1, N, 2)), np.array([N]), np.array([0.2]))  # fmt: skip
+        obj = stick(length, 0.01)
+        motion = Motion.swing(duration=dur, swings=2 * dur, amplitude_deg=80.0, rate_hz=prate)
+        for layout in ("mono", "ring8"):
+            fa = functools.partial(aero_render, tex, obj, path, motion=motion, layout=layout)
+            ta = best_of(fa, repeat=3)
+            rows.append(BenchRow(
+                "emitters", f"… aero's own loop, {obj.n_sources} sources → {layout}", dur / ta,
+                "× real time", note=f"{dur:g} s in {ta * 1e3:.0f} ms; texture read per sample "
+                "included, 2-D pairwise panning",
+            ))  # fmt: skip
+    except (ImportError, AttributeError, TypeError) as exc:
+        rows.append(BenchRow("emitters", "aero's own render loop", float("nan"), "",
+                             note=f"not available: {exc}"))  # fmt: skip
+    return rows
+
+
 def plugin_rows(quick: bool) -> list[BenchRow]:
     from auralize.plugins import registry
 
@@ -267,6 +365,9 @@ def run_bench(args: argparse.Namespace) -> int:
     rows = bench_detection(sizes)
     print(format_rows(rows), flush=True)
     more = bench_synthesis(args.quick)
+    print(format_rows(more), flush=True)
+    rows += more
+    more = emitters_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
     from auralize.bench_output import bench_output

@@ -53,6 +53,11 @@ def warmup(*, plugins: bool = False) -> dict[str, Any]:
     # cubic and linear interpolation share their specializations
     for layout, p in (("mono", point), ("mono", path), ("ring8", path), ("5.1", path)):
         auralize(vol, p, layout=layout, series=series, rate=8000)
+    # the emitters engine's sampled kernel (one specialization serves every layout)
+    from auralize.emitters import Emitters
+    from auralize.emitters.engine import render_emitters
+
+    render_emitters(Emitters(np.ones((1, 80)), 8000, centre[None]), point, rate=8000)
 
     if plugins:
         _warm_plugins()

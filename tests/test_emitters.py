@@ -90,7 +90,8 @@ def test_sampled_equals_reference(layout: str, kind: str) -> None:
 @pytest.mark.parametrize("kind", ["moving monopole", "static dipole"])
 def test_sampled_equals_reference_other_kinds(kind: str) -> None:
     em, path = _emitters(kind), _path()
-    for layout, tol in (("mono", TOL["mono"]), ("ring8", TOL["panned"])):
+    for layout, tol in (("mono", TOL["mono"]), ("ring8", TOL["panned"]), ("stereo", TOL["panned"]),
+                        ("7.1", TOL["panned"])):  # fmt: skip
         fast = render_emitters(em, path, rate=RATE, layout=layout).audio
         ref = render_emitters(em, path, rate=RATE, layout=layout, backend="reference").audio
         assert _rel(fast, ref) < tol, (kind, layout)
@@ -157,12 +158,14 @@ def test_block_renderer_equals_one_render() -> None:
     whole = render(sound, path, rate=RATE, layout="5.1").audio
     br = BlockRenderer(sound, path, rate=RATE, layout="5.1", block=1000)
     blocks = list(br)
-    assert len(blocks) == br.n_blocks == 9 and all(b.shape == (6, 1000) for b in blocks)
-    joined = np.concatenate(blocks, axis=1)[:, : whole.shape[1]]
+    assert len(blocks) == br.n_blocks == 9 and br.n_samples == whole.shape[1] == 8820
+    assert [b.shape[1] for b in blocks] == [1000] * 8 + [820]
+    joined = np.concatenate(blocks, axis=1)
     assert np.max(np.abs(joined - whole)) <= 1e-9 * np.max(np.abs(whole))
-    assert (
-        np.max(np.abs(np.concatenate(blocks, axis=1)[:, whole.shape[1] :])) > 0
-    )  # the tail goes on
+    part = br.render_range(1234, 567)  # any range, as live playback asks for
+    assert np.max(np.abs(part - whole[:, 1234:1801])) <= 1e-9 * np.max(np.abs(whole))
+    with pytest.raises(ParameterError, match="block index 9 outside"):
+        br.block(9)
 
 
 # ------------------------------------------------------------------ physics
@@ -268,6 +271,8 @@ def test_bad_input_gives_clear_errors() -> None:
         render_emitters(em, path, backend="fast")
     with pytest.raises(ParameterError, match="block must be"):
         render_emitters(em, path, block=0)
+    with pytest.raises(ParameterError, match="oversample must be"):
+        render_emitters(em, path, oversample=0)
     with pytest.raises(ParameterError, match="duration must be"):
         render_emitters(em, path, duration=-1.0)
     with pytest.raises(ParameterError, match="rate must be"):
@@ -283,3 +288,18 @@ def test_silent_window_and_zero_duration() -> None:
     empty = render_emitters(em, ListenerPath.point((0, 0, 0), duration=0.1), rate=RATE,
                             duration=0.0).audio  # fmt: skip
     assert empty.shape == (1, 0)
+
+
+def test_a_sound_is_the_sum_of_its_parts_and_examples_run() -> None:
+    import doctest
+
+    import auralize.emitters.engine as engine
+
+    path = _path()
+    a, b = _emitters("static monopole"), _emitters("moving dipole")
+    mix = render(Sound([a, b]), path, rate=RATE, layout="ring8")
+    alone = [render_emitters(e, path, rate=RATE, layout="ring8").audio for e in (a, b)]
+    assert np.max(np.abs(mix.audio - alone[0] - alone[1])) < 1e-12 * np.max(np.abs(mix.audio))
+    assert [p["kind"] for p in mix.meta["parts"]] == ["Emitters", "Emitters"]
+    res = doctest.testmod(engine, optionflags=doctest.ELLIPSIS)
+    assert res.failed == 0 and res.attempted > 0

@@ -8,13 +8,20 @@ Eq. 5 and paper 004 §6, Eq. 4)
 
 are evaluated at *control points* every ``K`` samples of the evaluation rate:
 the retarded time τ (fixed point for a moving emitter, contraction = its Mach
-number), the clamped distance law ``1/D^e``, a dipole's projection on the unit
-vector from the emitter to the listener, and the layout's panning gains (the
-synthesis kernel's own law, :func:`auralize._synth_kernel._gains`: pairwise
-2-D VBAP, or 3-D VBAP for layouts with elevation, equal to
-:func:`auralize.spatial.pan_gains`).  Inside a block they are interpolated
-linearly and the emitted signal is read at the interpolated emission index
-(linear interpolation), weighted and added to the active channels.
+number) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)``, the clamped
+distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
+projection on the unit vector n from the emitter to the listener, and the
+layout's panning gains (the synthesis kernel's own law,
+:func:`auralize._synth_kernel._gains`: pairwise 2-D VBAP, or 3-D VBAP for
+layouts with elevation, equal to :func:`auralize.spatial.pan_gains`).  Inside
+a block the emission index is the cubic Hermite interpolant of τ and dτ/dt,
+the weights and gains are interpolated linearly; a block holding a listener
+capture (where the listener's velocity jumps) is split there into two linear
+pieces.  The emitted signal is read linearly at the emission index, weighted
+and added to the channels with non-zero gains.  Against the per-sample numpy
+reference (:mod:`auralize.emitters.reference`) this is within about 1e-4 of
+the peak in mono and 1e-3 panned (the gains have kinks at speaker
+directions) for a turning, moving listener and emitters at tens of m/s.
 
 Control points lie on a grid fixed in playback time (multiples of ``K``
 evaluation samples), so a render split into consecutive windows gives the
@@ -95,7 +102,7 @@ def _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0):  # type: ign
     for _ in range(60):
         x, y, z = _position(pos, s, (tau - t_pos) * pos_rate)
         tn = t - math.sqrt((lx - x) ** 2 + (ly - y) ** 2 + (lz - z) ** 2) * inv_c0
-        done = abs(tn - tau) < 1e-13
+        done = abs(tn - tau) < 1e-11  # s: 4e-7 samples at 44.1 kHz
         tau = tn
         if done:
             break
@@ -162,23 +169,93 @@ def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w,
     C = sig.shape[1]
     n_ch = out.shape[0]
     inv = 1.0 / (p1 - p0)
-    for i in range(i_lo, i_hi):
-        u = (i - p0) * inv
-        xi = x0 + u * (h1 + u * (h2 + u * h3))
-        v = 0.0
-        if xi >= 0.0 and xi <= last:
+    wa0 = wk[ja, 0] if ka else w[ja, 0]
+    dw0 = (wk[jb, 0] if kb else w[jb, 0]) - wa0
+    wa1 = wa2 = dw1 = dw2 = 0.0
+    if C == 3:
+        wa1 = wk[ja, 1] if ka else w[ja, 1]
+        wa2 = wk[ja, 2] if ka else w[ja, 2]
+        dw1 = (wk[jb, 1] if kb else w[jb, 1]) - wa1
+        dw2 = (wk[jb, 2] if kb else w[jb, 2]) - wa2
+    # the emission index at both ends (the cubic is monotonic for subsonic motion)
+    ua = (i_lo - p0) * inv
+    ub = (i_hi - 1 - p0) * inv
+    xa = x0 + ua * (h1 + ua * (h2 + ua * h3))
+    xb = x0 + ub * (h1 + ub * (h2 + ub * h3))
+    inside = min(xa, xb) >= 0.5 and max(xa, xb) <= last - 1.5
+    sg0 = sig[s, 0]
+    if inside and C == 1 and n_ch == 1:  # no bounds to check, straight to the output
+        o = out[0]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
             i0 = int(xi)
             f = xi - i0
-            if i0 >= last:
-                i0 = last
-                f = 0.0
-            i1 = min(i0 + 1, last)
-            for k in range(C):
-                wa = wk[ja, k] if ka else w[ja, k]
-                wb = wk[jb, k] if kb else w[jb, k]
-                s0 = sig[s, k, i0]
-                v += (wa + u * (wb - wa)) * (s0 + f * (sig[s, k, i1] - s0))
-        vbuf[i] = v
+            a0 = sg0[i0]
+            o[n0 + i] += (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+        return
+    if inside and C == 1:  # no bounds to check
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            i0 = int(xi)
+            f = xi - i0
+            a0 = sg0[i0]
+            vbuf[i] = (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+    elif inside and n_ch == 1:
+        sg1 = sig[s, 1]
+        sg2 = sig[s, 2]
+        o = out[0]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            i0 = int(xi)
+            f = xi - i0
+            a0 = sg0[i0]
+            a1 = sg1[i0]
+            a2 = sg2[i0]
+            o[n0 + i] += (
+                (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+                + (wa1 + u * dw1) * (a1 + f * (sg1[i0 + 1] - a1))
+                + (wa2 + u * dw2) * (a2 + f * (sg2[i0 + 1] - a2))
+            )
+        return
+    elif inside:
+        sg1 = sig[s, 1]
+        sg2 = sig[s, 2]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            i0 = int(xi)
+            f = xi - i0
+            a0 = sg0[i0]
+            a1 = sg1[i0]
+            a2 = sg2[i0]
+            vbuf[i] = (
+                (wa0 + u * dw0) * (a0 + f * (sg0[i0 + 1] - a0))
+                + (wa1 + u * dw1) * (a1 + f * (sg1[i0 + 1] - a1))
+                + (wa2 + u * dw2) * (a2 + f * (sg2[i0 + 1] - a2))
+            )
+    else:  # near or beyond the signal's ends: zero outside [0, last]
+        for i in range(i_lo, i_hi):
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            v = 0.0
+            if xi >= 0.0 and xi <= last:
+                i0 = int(xi)
+                f = xi - i0
+                if i0 >= last:
+                    i0 = last
+                    f = 0.0
+                i1 = min(i0 + 1, last)
+                a0 = sig[s, 0, i0]
+                v = (wa0 + u * dw0) * (a0 + f * (sig[s, 0, i1] - a0))
+                if C == 3:
+                    a1 = sig[s, 1, i0]
+                    a2 = sig[s, 2, i0]
+                    v += (wa1 + u * dw1) * (a1 + f * (sig[s, 1, i1] - a1))
+                    v += (wa2 + u * dw2) * (a2 + f * (sig[s, 2, i1] - a2))
+            vbuf[i] = v
     if n_ch == 1:
         for i in range(i_lo, i_hi):
             out[0, n0 + i] += vbuf[i]
@@ -232,6 +309,7 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
         cb1 = min(cb0 + CB, b1)
         for s in range(S):
             tau = 0.0
+            rate_prev = 1.0
             for b in range(cb0, cb1 + 1):
                 j = b - cb0
                 t = tb[b]
@@ -240,18 +318,22 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                         x, y, z = _position(pos, s, (t - t_pos) * pos_rate)
                         tau = t - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2
                                             + (L[b, 2] - z) ** 2) * inv_c0  # fmt: skip
-                    else:
-                        tau += t - tb[b - 1]
+                    else:  # extrapolated with the last dτ/dt: a few iterations
+                        tau += (t - tb[b - 1]) * rate_prev
                 xe[j], tau, dx, dy, dz, dt, sx, sy, sz = _point(
                     C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t,
                     L[b, 0], L[b, 1], L[b, 2], F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1], U[b, 2],
                     tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j)  # fmt: skip
                 # dτ/dt on both sides (the listener's velocity may jump at a
                 # capture), in signal samples per block
+                rate_prev = _rate(dx, dy, dz, dt, VR[b], sx, sy, sz, inv_c0)
                 if b < cb1:
-                    ma[j] = (tb[b + 1] - t) * fs * _rate(dx, dy, dz, dt, VR[b], sx, sy, sz, inv_c0)
+                    ma[j] = (tb[b + 1] - t) * fs * rate_prev
                 if b > cb0:
-                    mb[j] = (t - tb[b - 1]) * fs * _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                    r = rate_prev
+                    if VL[b, 0] != VR[b, 0] or VL[b, 1] != VR[b, 1] or VL[b, 2] != VR[b, 2]:
+                        r = _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                    mb[j] = (t - tb[b - 1]) * fs * r
                 if b < cb1 and kf[b] >= 0.0:  # a capture inside the block
                     xk[j], _, _, _, _, _, _, _, _ = _point(
                         C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, tk[b],
@@ -327,10 +409,13 @@ def prepare(signals: NDArray[np.float64], rate: float, t0: float, up: int,
     sig = signals[:, None, :] if signals.ndim == 2 else signals
     n = sig.shape[2]
     i_hi = n if i_hi is None else i_hi
+    if up == 1:  # read in place (the emitters' arrays are contiguous float64)
+        return Prepared(np.ascontiguousarray(sig, dtype=np.float64), float(rate), float(t0), 1)
     seg = sig[:, :, i_lo:i_hi]
-    if up > 1:
-        seg = resample_poly(seg, up, 1, axis=2)
-    return Prepared(np.ascontiguousarray(seg, dtype=np.float64), float(rate) * up,
+    S, C, m = seg.shape
+    flat = np.ascontiguousarray(seg, dtype=np.float64).reshape(S * C, m)
+    seg = resample_poly(flat, up, 1, axis=1).reshape(S, C, m * up)
+    return Prepared(np.ascontiguousarray(seg), float(rate) * up,
                     float(t0) + i_lo / float(rate), int(up))  # fmt: skip
 
 
@@ -420,13 +505,19 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     R = rate / k
     h = _anti_image(k, int(rate), 0.5 * em.rate * 1.25) if k > 1 else np.zeros(0)
     P = (h.size // (2 * k) + 2) if k > 1 else 0
+    # evaluation sample j is at playback second j / R (a grid fixed in time, so
+    # windows join without seams) or, for a start off the output grid, start + j / R
     if aligned:
         j_lo = m0 // k - P
         n_int = -(-(m0 + n_out) // k) - j_lo + P + 1 if k > 1 else n_out
-        t_of = lambda j: j / R  # noqa: E731
+        t_base = 0.0
     else:
         j_lo, n_int = 0, n_out
-        t_of = lambda j: start + j / R  # noqa: E731
+        t_base = float(start)
+
+    def t_of(j: Any) -> Any:
+        return t_base + j / R
+
     K = max(4, int(round(K / k)))  # control points as often in time as at the output rate
     meta = {"internal_rate_hz": float(R), "signal_rate_hz": float(fs), "block": K}
     if n_out <= 0:
@@ -448,7 +539,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
         prepared = prepare(em.signals, em.rate, em.t0, up, i_lo, i_hi)
     B = -(-(n_int + (j_lo % K)) // K)
     off = j_lo % K
-    tb = np.array([t_of(j_lo - off + b * K) for b in range(B + 1)])
+    tb = t_of(j_lo - off + np.arange(B + 1, dtype=np.float64) * K)
     L = np.ascontiguousarray(path.position_at(tp0 + tb))
     VR, VL = _path_velocities(path, tp0 + tb)
     if n_ch > 1:

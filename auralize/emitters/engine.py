@@ -62,7 +62,8 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     Raises
     ------
     ParameterError
-        Unknown backend, non-positive rate, negative duration or block.
+        Unknown backend, a rate, block or oversampling factor out of range,
+        a negative duration.
     """
     if backend not in BACKENDS:
         raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
@@ -78,6 +79,10 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
         raise ParameterError(f"start must be finite, got {start!r}")
     if isinstance(block, bool) or not (isinstance(block, int | np.integer) and 1 <= block <= 4096):
         raise ParameterError(f"block must be an integer in 1..4096 samples, got {block!r}")
+    if isinstance(oversample, bool) or not (
+        isinstance(oversample, int | np.integer) and 1 <= oversample <= 64
+    ):
+        raise ParameterError(f"oversample must be an integer in 1..64, got {oversample!r}")
     lay = get_layout(layout)
     dur = path.duration - start if duration is None else float(duration)
     if not (np.isfinite(dur) and dur >= 0):
@@ -153,11 +158,14 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
 class BlockRenderer:
     """Render a sound (or scene) block by block along a listener path, for live playback.
 
-    Block ``i`` holds output samples ``i·block`` to ``(i+1)·block`` after
-    ``start``; concatenated blocks equal one :func:`render` of the whole
-    duration (the engine's control points lie on a grid fixed in playback
-    time, the field kernels carry their state in time too).  Emitted signals
-    that the sampled backend upsamples are prepared once, not per block.
+    The interface of :class:`auralize.live.BlockSynth` (``block(i)``,
+    ``render_range(start, n)``, ``n_blocks``, ``n_samples``, ``block_size``)
+    for any :class:`Sound`.  Block ``i`` holds output samples ``i·block`` to
+    ``(i+1)·block`` (the last may be shorter); concatenated blocks equal one
+    :func:`render` of the whole duration, since the sampled backend's control
+    points lie on a grid fixed in playback time and the field kernels carry
+    their state in time too.  Emitted signals that the sampled backend
+    upsamples are prepared once, not per block.
 
     Parameters
     ----------
@@ -166,10 +174,10 @@ class BlockRenderer:
     rate : int
         Output sample rate (Hz).
     layout : str or Layout
-    block : int
-        Samples per block.
-    start : float
-        Playback second of block 0's first sample.
+    block : int, optional
+        Samples per block (default 50 ms).
+    duration : float, optional
+        Playback seconds (default: the path's duration).
     c0 : float
         Speed of sound (m/s).
     backend : {"auto", "sampled", "reference"}
@@ -181,34 +189,37 @@ class BlockRenderer:
     >>> from auralize.listener import ListenerPath
     >>> em = Emitters(np.ones((1, 4410)), 44100, [[3.0, 0, 0]])
     >>> br = BlockRenderer(em, ListenerPath.point((0, 0, 0), duration=0.1), block=1024)
-    >>> br.n_blocks, br.render_block(0).shape
-    (5, (1, 1024))
+    >>> br.n_blocks, br.block(0).shape, br.block(4).shape
+    (5, (1, 1024), (1, 314))
     """
 
     def __init__(self, sound: Sound | Part | Iterable[Part], path: ListenerPath, *,
-                 rate: int = 44100, layout: str | Layout = "mono", block: int = 1024,
-                 start: float = 0.0, c0: float = C0, backend: str = "auto") -> None:  # fmt: skip
+                 rate: int = 44100, layout: str | Layout = "mono", block: int | None = None,
+                 duration: float | None = None, c0: float = C0,
+                 backend: str = "auto") -> None:  # fmt: skip
         if backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
-        if isinstance(block, bool) or not (isinstance(block, int | np.integer) and block >= 1):
+        if isinstance(rate, bool) or not (isinstance(rate, int | np.integer) and rate >= 1000):
+            raise ParameterError(f"rate must be an integer >= 1000 Hz, got {rate!r}")
+        size = round(0.05 * rate) if block is None else block
+        if isinstance(size, bool) or not (isinstance(size, int | np.integer) and size >= 1):
             raise ParameterError(f"block must be a positive number of samples, got {block!r}")
+        dur = path.duration if duration is None else float(duration)
+        if not (np.isfinite(dur) and dur > 0):
+            raise ParameterError(f"nothing to play: duration {dur!r} s (give a duration)")
         self.parts = _parts_of(sound)
         self.meta = dict(sound.meta) if isinstance(sound, Sound) else {}
         self.path = path
         self.rate = int(rate)
         self.layout = get_layout(layout)
-        self.block = int(block)
-        self.start = float(start)
+        self.block_size = int(size)
+        self.duration = dur
+        self.n_samples = int(round(dur * rate))
+        self.n_blocks = -(-self.n_samples // self.block_size)
         self.c0 = float(c0)
         self.backend = backend
         self.index = 0
         self._prepared: dict[int, Any] = {}
-
-    @property
-    def n_blocks(self) -> int:
-        """Blocks up to the path's end."""
-        n = (self.path.duration - self.start) * self.rate / self.block
-        return max(0, int(np.ceil(n - 1e-9)))
 
     def _prepared_for(self, em: Emitters) -> Any:
         from auralize.emitters._sampled import prepare, upsampling
@@ -219,24 +230,33 @@ class BlockRenderer:
             self._prepared[key] = (em, prepare(em.signals, em.rate, em.t0, up))
         return self._prepared[key][1]
 
-    def render_block(self, i: int) -> NDArray[np.float64]:
-        """Audio ``(n_channels, block)`` of block ``i`` (Pa)."""
+    def render_range(self, start: int, n: int) -> NDArray[np.float64]:
+        """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals."""
         from auralize.emitters._sampled import render_sampled
 
-        t = self.start + i * self.block / self.rate
-        audio = np.zeros((self.layout.n_channels, self.block))
-        kw: dict[str, Any] = dict(rate=self.rate, layout=self.layout, duration=self.block / self.rate,
+        t = start / self.rate
+        audio = np.zeros((self.layout.n_channels, max(int(n), 0)))
+        if n <= 0:
+            return audio
+        kw: dict[str, Any] = dict(rate=self.rate, layout=self.layout, duration=n / self.rate,
                                   start=t, c0=self.c0, backend=self.backend)  # fmt: skip
         for part in self.parts:
             if isinstance(part, Emitters) and self.backend != "reference":
                 a, _ = render_sampled(part, self.path, rate=self.rate, layout=self.layout,
-                                      n_out=self.block, start=t, c0=self.c0,
+                                      n_out=int(n), start=t, c0=self.c0,
                                       prepared=self._prepared_for(part))  # fmt: skip
             else:
                 a = _render_part(part, self.path, kw).audio
-            n = min(self.block, a.shape[1])
-            audio[:, :n] += a[:, :n]
+            m = min(int(n), a.shape[1])
+            audio[:, :m] += a[:, :m]
         return audio
+
+    def block(self, i: int) -> NDArray[np.float64]:
+        """Block ``i`` (the last one may be shorter)."""
+        if not 0 <= i < self.n_blocks:
+            raise ParameterError(f"block index {i} outside 0..{self.n_blocks - 1}")
+        s = i * self.block_size
+        return self.render_range(s, min(self.block_size, self.n_samples - s))
 
     def __iter__(self) -> BlockRenderer:
         return self
@@ -244,6 +264,6 @@ class BlockRenderer:
     def __next__(self) -> NDArray[np.float64]:
         if self.index >= self.n_blocks:
             raise StopIteration
-        out = self.render_block(self.index)
+        out = self.block(self.index)
         self.index += 1
         return out

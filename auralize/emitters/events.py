@@ -238,7 +238,7 @@ def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
         L = np.broadcast_to(p0, x.shape)
         vel = None
     d_vec = x - L  # listener -> emitter
-    D = np.linalg.norm(d_vec, axis=1)
+    D = np.sqrt(np.einsum("ij,ij->i", d_vec, d_vec))
     u = -d_vec / np.where(D > 0, D, 1.0)[:, None]
     if vel is None:
         t = tau + D / c0
@@ -246,7 +246,14 @@ def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
     else:
         # dt/dτ = 1 / (1 − Ḋ/c0) with Ḋ = û · V the listener's speed away from the emitter
         doppler = 1.0 / np.maximum(1.0 - np.sum(u * vel, axis=1) / c0, 1e-6)
-    local = listener_frame(u, fwd, up)
+    if fwd.shape[0] == 1:  # one orientation: a single rotation into (forward, left, up)
+        f, w = fwd[0], up[0]
+        left = np.array(
+            [w[1] * f[2] - w[2] * f[1], w[2] * f[0] - w[0] * f[2], w[0] * f[1] - w[1] * f[0]]
+        )
+        local = u @ np.stack([f, left, w], axis=1)
+    else:
+        local = listener_frame(u, fwd, up)
     gains = None
     if layout is not None:
         gains = pan_gains(get_layout(layout), -local)
@@ -260,9 +267,13 @@ def sparse_gains(gains: NDArray[np.floating]) -> tuple[NDArray[np.int64], NDArra
     for pairwise VBAP, up to 3 for 3-D VBAP); unused entries have channel −1.
     """
     g = np.asarray(gains, dtype=np.float64)
-    nz = g != 0.0
-    K = max(int(nz.sum(axis=0).max(initial=0)), 1)
-    order = np.argsort(~nz, axis=0, kind="stable")[:K].T  # (E, K): non-zero channels first
-    gk = np.take_along_axis(g.T, order, axis=1)
+    if g.shape[0] == 1:  # mono
+        return np.zeros((g.shape[1], 1), dtype=np.int64), np.ascontiguousarray(g.T)
+    gt = np.ascontiguousarray(g.T)  # (E, n_channels)
+    nz = gt != 0.0
+    K = max(int(nz.sum(axis=1).max(initial=0)), 1)
+    # the K channels of largest |gain| (all the non-zero ones), in channel order
+    order = np.sort(np.argpartition(-np.abs(gt), K - 1, axis=1)[:, :K], axis=1)
+    gk = np.take_along_axis(gt, order, axis=1)
     chans = np.where(gk != 0.0, order, -1).astype(np.int64)
-    return np.ascontiguousarray(chans), np.ascontiguousarray(gk)
+    return chans, np.ascontiguousarray(gk)

@@ -8,9 +8,10 @@ Pipeline: a 2-D lattice Boltzmann flow past a cross-section
 g = d/dt ∮ n p dl per sampled flow direction, stored as a looping HDF5
 sound texture (:mod:`~auralize_aero.texture`, §5, Eq. 2); objects are
 polylines split into point sources at 3D (:mod:`~auralize_aero.objects`,
-§7.1) and rendered by Eqs. 3–4 with retarded times
-(:mod:`~auralize_aero.render`, §6).  Amplitude ∝ v³ by default (pressure
-law, DESIGN.md) or the paper's v⁶.
+§7.1) and emitted as point dipoles by Eqs. 3–4
+(:mod:`~auralize_aero.render`, §6), which the sound engine
+(:mod:`auralize.emitters`) delays, attenuates and pans to the listener.
+Amplitude ∝ v³ by default (pressure law, DESIGN.md) or the paper's v⁶.
 
 Example
 -------
@@ -36,7 +37,9 @@ _EXPORTS = {
     "sphere_object": ".presets",
     "stick": ".presets",
     "sword_object": ".presets",
+    "AeroEmission": ".render",
     "Rendered": ".render",
+    "emission": ".render",
     "render": ".render",
     "Section": ".shapes",
     "circle": ".shapes",
@@ -53,6 +56,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 __all__ = [
     "PRESETS",
+    "AeroEmission",
     "AeroObject",
     "AeroSound",
     "Motion",
@@ -62,6 +66,7 @@ __all__ = [
     "Wind",
     "circle",
     "compute_texture",
+    "emission",
     "fence",
     "get_preset",
     "get_section",

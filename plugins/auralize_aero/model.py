@@ -108,7 +108,8 @@ class AeroSound(SoundModel):
             raise ParameterError(
                 "aero: give duration= (seconds of emission) for wind on a static object"
             )
-        part = emission(d.get("texture"), d["object"], motion=motion, wind=d.get("wind"),
+        texture: Any = d.get("texture")  # checked by emission()
+        part = emission(texture, d["object"], motion=motion, wind=d.get("wind"),
                         rate=p["rate"], duration=dur, exponent=p["exponent"], c0=p["c0"],
                         min_distance=p["min_distance"])  # fmt: skip
         return Sound([part], meta=dict(part.meta), name=self.name)

@@ -49,7 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
-from auralize.emitters import Emitters, Sound
+from auralize.emitters import Emitters
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout
@@ -302,7 +302,7 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
 
 
 #: bytes of emitted signal (S x 3 x n float64) generated per rendered window
-CHUNK_BYTES = 64 << 20
+CHUNK_BYTES = 16 << 20
 
 
 @numba.njit(**_NJIT)
@@ -331,7 +331,7 @@ def _emit_kernel(G: NDArray[np.float64], e1a: NDArray[np.float64], e2a: NDArray[
     and weight ``w`` of j1 are those of its start; the texture time
     ``s (S, B+1)`` (s) advances by a constant step.  Per sample,
     ``G = Q · ((1 - w) w_j0(s) + w w_j1(s))`` with ``Q = [e1a e2a] M`` (3x2).
-    Silent blocks are skipped (G is zero-initialised).
+    Silent blocks are written as zeros (``G`` may be uninitialised).
     """
     B = j0.shape[1]
     inv = 1.0 / K
@@ -351,6 +351,8 @@ def _emit_kernel(G: NDArray[np.float64], e1a: NDArray[np.float64], e2a: NDArray[
             if (qx0 == 0.0 and qx1 == 0.0 and qy0 == 0.0 and qy1 == 0.0 and qz0 == 0.0
                     and qz1 == 0.0 and dx0 == 0.0 and dx1 == 0.0 and dy0 == 0.0 and dy1 == 0.0
                     and dz0 == 0.0 and dz1 == 0.0):  # fmt: skip
+                for c in range(3):
+                    G[k, c, b * K : (b + 1) * K] = 0.0
                 continue
             ja = j0[k, b]
             jb = j1[k, b]
@@ -466,13 +468,20 @@ class AeroEmission:
         return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]),
                 f(M.reshape(*theta.shape, 4)), f(j0), f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
 
-    def _emitters(self, ja: int, jb: int) -> Emitters:
+    def _emitters(self, ja: int, jb: int, buf: NDArray[np.float64] | None = None) -> Emitters:
+        """Emitters of blocks ``ja..jb``; the numba path writes G into ``buf`` when it is large
+        enough (a flat float64 scratch array reused window after window)."""
         K = self.block
         tab = self._table(ja, jb)
+        shape = (self.n_sources, 3, (jb - ja + 1) * K)
         if self.engine == "numpy":
-            G = emission_reference(*tab, self.texture, K)
+            e1a, e2a, M, j0, j1, w, st = tab
+            G = emission_reference(e1a, e2a, M, j0, j1, w, st, self.texture, K)
         else:
-            G = np.zeros((self.n_sources, 3, (jb - ja + 1) * K))
+            size = shape[0] * shape[1] * shape[2]
+            G = (buf[:size] if buf is not None and buf.size >= size else np.empty(size)).reshape(
+                shape
+            )
             tex = np.ascontiguousarray(self.texture.g)
             lens, tr = self.texture.lengths, float(self.texture.rate)
             _in_parts(
@@ -538,14 +547,18 @@ class AeroEmission:
         dur = path.duration - start if duration is None else float(duration)
         n_out = int(round(dur * rate))
         out = np.zeros((lay.n_channels, n_out))
-        step = max(4096, int(CHUNK_BYTES / (2 * 24 * self.n_sources) * rate / self.rate))
+        step = max(256, int(CHUNK_BYTES / (2 * 24 * self.n_sources) * rate / self.rate))
+        buf = np.empty(0)
         for na in range(0, n_out, step):
             nb = min(n_out, na + step)
             t_a = start + na / rate
             win = self._window(path, t_a, start + nb / rate, c0)
             if win is None:
                 continue
-            r = render_emitters(self._emitters(*win), path, rate=rate, layout=lay,
+            need = 3 * self.n_sources * (win[1] - win[0] + 1) * self.block
+            if buf.size < need:
+                buf = np.empty(need + need // 4)
+            r = render_emitters(self._emitters(*win, buf=buf), path, rate=rate, layout=lay,
                                 duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend)  # fmt: skip
             m = min(nb - na, r.audio.shape[1])
             out[:, na : na + m] = r.audio[:, :m]
@@ -629,7 +642,8 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
     """Render the aerodynamic sound of ``obj`` heard along ``path`` (§6, Eqs. 3–4).
 
     :func:`emission` at the output rate for the path's duration, rendered by
-    the sound engine (:func:`auralize.emitters.render`).
+    the sound engine (:meth:`AeroEmission.render_part`, equal to
+    ``auralize.emitters.render(Sound([part]), path, ...)``).
 
     Parameters
     ----------
@@ -656,16 +670,14 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
 
     Examples
     --------
-    >>> from auralize_aero.presets import stick, cylinder_texture   # doctest: +SKIP
-    >>> out = render(cylinder_texture(), stick(), ListenerPath.point((0, 1, 0), duration=1),
-    ...              wind=Wind(10.0))                                # doctest: +SKIP
+    >>> from auralize_aero import circle, compute_texture, stick    # doctest: +SKIP
+    >>> out = render(compute_texture(circle(0.01)), stick(), ListenerPath.point((0, 1, 0), duration=1),
+    ...              wind=Wind(10.0), layout="ring8")                # doctest: +SKIP
     """
-    from auralize.emitters import render as render_sound
-
     no_ears(stereo)
     dur = path.duration if duration is None else float(duration)
     part = emission(texture, obj, motion=motion, wind=wind, rate=rate, duration=dur,
                     exponent=exponent, c0=c0, min_distance=min_distance, fade=fade, block=block,
                     engine=engine)  # fmt: skip
-    return render_sound(Sound([part], meta=part.meta, name="aero"), path, rate=rate,
-                        layout=layout, duration=dur, c0=c0, backend=backend)  # fmt: skip
+    # the one part rendered directly: auralize.emitters.render would sum it into a second buffer
+    return part.render_part(path, rate=rate, layout=layout, duration=dur, c0=c0, backend=backend)

@@ -139,6 +139,8 @@ def cmd_render(args: argparse.Namespace) -> int:
                      highpass_hz=args.highpass, alpha=args.alpha, f_cut=args.fcut,
                      levels=args.levels, eps=args.eps, training=train, seed=args.seed)  # fmt: skip
     out = render(snd, path, rate=args.rate, layout=lay, duration=args.duration)
+    for per_step in ("flux", "front_area"):  # the sidecar keeps the summary, not the series
+        out.meta.pop(per_step, None)
     out.meta["seconds"] = time.perf_counter() - t
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format, extra={"model": "fire"})  # fmt: skip

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
+from auralize.listener import ListenerPath
 from auralize.spatial import Layout, get_layout
 
 from .leader import Discharge
@@ -67,7 +68,9 @@ class LiveDischarges:
 
     Parameters
     ----------
-    listener : (3,) m, static listener position.
+    listener : (3,) m, static listener position, or a ListenerPath whose
+        playback time is the stream time (arrivals are the exact retarded
+        times along it).
     params : WaveParams of the discharges.
     rate : Hz; layout : output layout.
     capacity_s : length of the ring buffer in seconds (sound due further
@@ -80,17 +83,21 @@ class LiveDischarges:
     >>> import numpy as np
     >>> from auralize_spark.waves import WaveParams
     >>> d = Discharge(np.array([[0.0, 0, 0], [0.002, 0, 0]]), [-1, 0], [True, True])
-    >>> with LiveDischarges(np.array([0.0, 100.0, 0.0]),
+    >>> with LiveDischarges(np.array([0.0, 1000.0, 0.0]),  # the sound is due after 2.9 s
     ...                     params=WaveParams(r0=0.05, T0=30e-6, ps0=500.0)) as live:
     ...     report = live.submit(d).result()
     >>> report.exceeded
     False
     """
 
-    def __init__(self, listener: NDArray[np.floating], *, params: WaveParams, rate: int = 44100,
+    def __init__(self, listener: ListenerPath | NDArray[np.floating], *, params: WaveParams, rate: int = 44100,
                  layout: str | Layout = "mono", capacity_s: float = 60.0,
                  clock: Callable[[], float] | None = None) -> None:  # fmt: skip
-        self.listener = np.asarray(listener, dtype=np.float64).reshape(3)
+        self.listener: ListenerPath | NDArray[np.float64] = (
+            listener
+            if isinstance(listener, ListenerPath)
+            else np.asarray(listener, dtype=np.float64).reshape(3)
+        )
         self.params = params
         self.rate = int(rate)
         self.layout = get_layout(layout)
@@ -128,14 +135,14 @@ class LiveDischarges:
     ) -> Delivery:
         t_start = self._clock()
         em = emissions(discharge, self.listener, params=self.params, strokes=strokes,
-                       layout=self.layout, t0=0.0, rng=np.random.default_rng(seed))  # fmt: skip
-        first = max(em.start_time, 0.0)
-        n = int(math.ceil((em.end_time - first) * self.rate)) + 2
-        em.t_center = em.t_center - first  # waveform relative to its first sample
+                       layout=self.layout, t0=t_d, rng=np.random.default_rng(seed))  # fmt: skip
+        due = max(em.start_time, t_d)  # stream time at which the first wave arrives
+        first = due - t_d
+        n = int(math.ceil((em.end_time - due) * self.rate)) + 2
+        em.t_center = em.t_center - due  # waveform relative to its first sample
         wave = accumulate(em, self.layout.n_channels, n, rate=self.rate, c=self.params.c)
         t_done = self._clock()
         compute = t_done - t_start
-        due = t_d + first  # stream time at which the first wave arrives
         late = max(0.0, (t_done - self._t0) - due)
         start = int(round((due + late) * self.rate))
         with self._lock:

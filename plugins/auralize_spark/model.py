@@ -390,8 +390,8 @@ class SparkSound(SoundModel):
 
         Returns
         -------
-        Sound with one :class:`DischargePart`; ``meta`` has the segment and
-        stroke counts, stroke times and the ``discharge``.
+        Sound with one :class:`DischargePart` (its ``discharge`` is the tree);
+        ``meta`` has the segment and stroke counts and the stroke times.
         """
         if isinstance(inputs, tuple):
             raise ParameterError(
@@ -406,7 +406,6 @@ class SparkSound(SoundModel):
             "model": "spark", "segments": int(dis.n_segments),
             "main_segments": int(dis.seg_main.sum()), "branches": dis.n_branches(),
             "strokes": int(part.strokes.size), "stroke_times_s": part.strokes.tolist(),
-            "discharge": dis,
         }  # fmt: skip
         if fld is not None:
             meta["laplace"] = {"dims": list(fld.dims), **fld.info}

@@ -147,8 +147,8 @@ class VortexSound(SoundModel):
         Sound
             One :class:`auralize.emitters.Emitters` part: the sub-volume
             centres ``positions (S, 3)`` m emitting ``signals (S, n)`` Pa at
-            1 m from ``t0 = -lead`` (wrapped to truncate the received
-            pressure when ``limit_pa`` > 0).
+            1 m from ``t0 = -lead`` (rounded to whole samples); wrapped to
+            truncate the received pressure when ``limit_pa`` > 0.
         """
         if not isinstance(inputs, TimeVolume):
             raise ParameterError(
@@ -304,7 +304,8 @@ class VortexSound(SoundModel):
             rows.append(BenchRow(
                 "vortex", f"render 15×15×20 plume → {layout}, {length:g} s", length / t,
                 "× real time", target="≥ 50×", met=length / t >= 50,
-                paper="10–20 fps interactive (§7)", note=f"{t * 1e3:.1f} ms; 36 sub-volumes of 5³",
+                paper="10–20 fps interactive (§7)",
+                note=f"{t * 1e3:.1f} ms; 36 sub-volumes of 5³ through the sound engine",
             ))  # fmt: skip
         return rows
 

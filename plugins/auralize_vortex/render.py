@@ -12,8 +12,8 @@ This module builds the emitted signals ``Q(u_i(τ), τ)``
 ``1/r³``) and the panning are the engine's (:mod:`auralize.emitters`).
 Details the paper leaves open, as implemented here:
 
-* u_i is the mean speed |v| over the sub-volume's points at each step of the
-  volume, linearly interpolated in (data) time (§6).  Above the largest
+* u_i is the mean speed |v| over the sub-volume's valid points at each step
+  of the volume, linearly interpolated in (data) time (§6).  Above the largest
   texture speed u is clamped (§6); below the smallest the texture row is
   scaled by (u/u_min)⁴ (the compact vortex-sound law, so still air is silent)
   unless ``low_speed="clamp"``.  Between speeds the two rows are linearly
@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
@@ -54,9 +54,11 @@ from auralize.emitters import C0, Emitters, Sound, law_exponent
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout
-from auralize.synthesis import Rendered
 from auralize.volume import TimeVolume
 from auralize_vortex.texture import Texture
+
+if TYPE_CHECKING:
+    from auralize.synthesis import Rendered
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
@@ -168,7 +170,8 @@ def subvolume_speeds(
     batch = max(1, (1 << 22) // max(1, int(np.prod(volume.dims))))
     for n0 in range(0, T, batch):
         steps = range(n0, min(n0 + batch, T))
-        speed = np.stack([np.linalg.norm(volume.frame(name, n), axis=-1) for n in steps])
+        v = np.stack([volume.frame(name, n) for n in steps])
+        speed = np.sqrt(v[..., 0] ** 2 + v[..., 1] ** 2 + v[..., 2] ** 2)
         out[n0 : n0 + len(steps)] = block_mean(speed, sub)
     return out
 
@@ -302,7 +305,8 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
     Returns
     -------
     Emitters
-        ``signals (S, n)`` Pa at 1 m from ``t0 = −lead`` at ``rate`` Hz,
+        ``signals (S, n)`` Pa at 1 m from ``t0 = −lead`` (rounded down to a
+        whole sample) at ``rate`` Hz,
         ``positions (S, 3)`` the sub-volume centres (m); ``meta`` holds
         ``speeds (T, S)`` m/s, ``subvolumes``, ``size_m (S,)`` and the
         texture's rate.
@@ -335,8 +339,11 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         oversample = 1 if np.allclose(ratio, 1.0, rtol=1e-9, atol=0) else 4
     looped = LoopedTexture.build(texture, up=int(oversample), blend=blend)
     R = looped.rate
-    n_e = int(math.ceil((duration + lead) * R)) + 1
-    tau = -lead + np.arange(n_e) / R  # playback time of emission
+    # whole emission samples before 0, so that τ·R is an integer: a sub-volume as large as
+    # the texture box reads the texture's own samples, not linear blends of two (a low-pass)
+    n_lead = int(math.ceil(lead * R - 1e-9))
+    n_e = n_lead + int(math.ceil(duration * R)) + 1
+    tau = (np.arange(n_e) - n_lead) / R  # playback time of emission
     t_data = volume.times[0] + tau / time_scale
     u = np.empty((sub.n_sources, n_e))
     for s in range(sub.n_sources):
@@ -356,7 +363,7 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         emitted[:, n_e - nf :] *= ramp[::-1]
     meta = {"speeds": speeds, "subvolumes": list(sub.shape), "size_m": sub.size_m,
             "texture_rate_hz": texture.rate, "band_hz": 0.5 * texture.rate * float(ratio.max())}  # fmt: skip
-    return Emitters(emitted, R, sub.centres, t0=-lead, radius=radius, law=law, name="vortex",
+    return Emitters(emitted, R, sub.centres, t0=-n_lead / R, radius=radius, law=law, name="vortex",
                     meta=meta)  # fmt: skip
 
 
@@ -471,8 +478,11 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
     if not (math.isfinite(dur) and dur > 0):
         raise ParameterError(f"duration must be > 0 s, got {dur!r}")
     sub = split_subvolumes(volume, block)
-    lp = path.position_at(np.linspace(path.times[0], path.times[-1], 64))
-    dmax = float(np.max(np.linalg.norm(sub.centres[:, None] - lp[None], axis=-1)))
+    # emission starts early enough to be heard anywhere along the path: the path lies
+    # inside the bounding box of its captures, so this bounds every distance
+    c_lo, c_hi = sub.centres.min(0), sub.centres.max(0)
+    p_lo, p_hi = path.positions.min(0), path.positions.max(0)
+    dmax = float(np.linalg.norm(np.maximum(c_hi - p_lo, p_hi - c_lo)))
     sound = vortex_sound(volume, texture, block=block, attenuation=attenuation,
                          velocity_field=velocity_field, low_speed=low_speed, offsets=offsets,
                          seed=seed, blend=blend, time_scale=time_scale, oversample=oversample,

@@ -343,6 +343,11 @@ def test_cli_texture_and_render(tex, cache, tmp_path, monkeypatch, capsys) -> No
                "--duration", "0.3", "-o", str(out2), "--layout", "stereo", "--exponent", "paper"])  # fmt: skip
     assert rc == 0 and read_wav(out2)[0].shape[0] == 2
     capsys.readouterr()
+    out3 = tmp_path / "ears.wav"
+    rc = main(["aero", "render", "--texture", str(texf), "--motion", str(mf), "--listener", "0.3,1,0.2",
+               "--duration", "0.3", "-o", str(out3), "--layout", "stereo", "--stereo", "ears"])  # fmt: skip
+    assert rc == 2 and "no longer renders two ear receivers" in capsys.readouterr().err
+    assert not out3.exists()
     rc = main(
         [
             "aero",
@@ -452,7 +457,7 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     whole = render_emitters(part.emitters(), path, rate=RATE, layout="ring8").audio
     ja, jb = part._window(path, 0.1, 0.15, 343.0)  # a window needs only the emission it hears
     assert 0.05 <= (jb - ja + 1) * part.kin.dt < 0.06
-    monkeypatch.setattr(ar, "CHUNK_BYTES", 1)  # windows of 4096 samples
+    monkeypatch.setattr(ar, "CHUNK_BYTES", 1)  # windows of 256 samples
     sound = Sound([part])
     windows = render_sound(sound, path, rate=RATE, layout="ring8").audio
     assert np.abs(whole).max() > 0

@@ -122,3 +122,22 @@ def test_a_moving_flame_is_a_moving_emitter() -> None:
     # the centre moves 0.08 m per step (front centroid of a sampled ball: a few mm off)
     np.testing.assert_allclose(xs[i], -0.2 + 0.08 * np.arange(i.size), atol=0.01)
     assert np.all(np.diff(xs) >= -1e-12)
+
+
+def test_fire_and_spark_mix_along_one_path(fire) -> None:  # type: ignore[no-untyped-def]
+    """A scene of two models: the mix is the sum of each rendered alone, on any layout."""
+    from auralize_spark import SparkSound
+
+    _, snd = fire
+    spark = SparkSound().synthesize(None, preset="spark-balls", seed=3, t0=0.01)
+    scene = snd + spark
+    assert [type(p).__name__ for p in scene.parts] == ["Emitters", "DischargePart"]
+    path = ListenerPath.line((0.3, -1.0, 0.2), (-0.3, -1.0, 0.2), duration=0.04, n=5)
+    for lay in ("mono", "ring8"):
+        mix = render(scene, path, rate=RATE, layout=lay).audio
+        alone = (
+            render(snd, path, rate=RATE, layout=lay).audio
+            + render(spark, path, rate=RATE, layout=lay).audio
+        )
+        assert np.abs(render(spark, path, rate=RATE, layout=lay).audio).max() > 0
+        np.testing.assert_allclose(mix, alone, atol=1e-12 * np.abs(mix).max())

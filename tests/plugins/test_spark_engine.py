@@ -149,3 +149,25 @@ def test_model_sound_renders_like_the_cli_and_is_listener_free(tmp_path) -> None
     assert audio.shape == ren.audio.shape == (6, round(0.05 * rate))
     np.testing.assert_allclose(audio, ren.audio, atol=1e-6 * np.abs(ren.audio).max())
     assert mask == 0x3F  # FL FR FC LFE BL BR
+
+
+def test_live_discharges_follow_a_moving_listener() -> None:
+    """LiveDischarges with a path: the first wave is due at the exact retarded arrival."""
+    from auralize_spark import LiveDischarges
+
+    from auralize.emitters.events import arrivals
+
+    path = ListenerPath(np.array([0.0, 1.0]), np.array([[0.0, 10.0, 0.0], [0.0, 60.0, 0.0]]))
+    d = segment()
+    with LiveDischarges(path, params=PARAMS, rate=44100, clock=lambda: 0.0) as live:
+        rep = live.submit(d, at=0.05).result(timeout=30)
+        audio = live.pull(int(0.2 * 44100))
+    t = arrivals(d.midpoints, np.array([0.05]), path).time[0]
+    assert t == pytest.approx(
+        0.05 + (10.0 + 50.0 * 0.05) / (C - 50.0), rel=1e-12
+    )  # receding at 50 m/s
+    # the wave starts half an N-wave (T ≈ 70 µs at 12.5 m, Eq. 4, Doppler-stretched) before t
+    assert 0.0 < t - (0.05 + rep.propagation_s) < 1e-4
+    assert not rep.exceeded
+    first = np.flatnonzero(np.abs(audio[0]) > 0)[0]
+    assert first / 44100 == pytest.approx(0.05 + rep.propagation_s, abs=2 / 44100)

@@ -19,7 +19,7 @@ from auralize_vortex.texture import (
 )
 
 from auralize.emitters import Emitters, Sound, render
-from auralize.errors import DataError, FieldError, FormatError, ParameterError
+from auralize.errors import DataError, FieldError, FormatError, MissingFileError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Speaker, make_layout
 from auralize.volume import TimeVolume
@@ -277,6 +277,20 @@ def test_engine_doppler_of_an_approaching_listener():
         assert f == pytest.approx(f_expected, abs=0.2)
 
 
+def test_subvolumes_as_large_as_the_texture_box_emit_its_own_samples():
+    tex = _sine_texture(123.0)
+    row = tex.pressure[1]  # u = 4 reads the top row
+    em = vortex_emitters(_uniform_volume(4.0, n=10), tex, blend=0.0, lead=0.0123, seed=3)
+    assert em.rate == tex.rate and em.n_emitters == 8 and em.t0 == -0.013
+    body = em.signals[:, 40:-40]  # inside the edge fades
+    n = np.arange(body.shape[1])
+    for sig in body:  # a whole-sample offset into the looped texture, nothing interpolated
+        errs = [np.max(np.abs(sig - row[(k + n) % row.size])) for k in range(row.size)]
+        assert min(errs) < 1e-12 * np.max(np.abs(row))
+    shifted = vortex_emitters(_uniform_volume(4.0, n=10), tex, blend=0.0, lead=0.0123, seed=4)
+    assert not np.allclose(shifted.signals, em.signals)  # the seed moves the offsets
+
+
 def _dome():
     spk = [Speaker(f"S{k}", 45.0 * k) for k in range(8)]
     spk += [Speaker(f"H{k}", 90.0 * k + 45.0, 45.0) for k in range(4)]
@@ -411,6 +425,14 @@ def test_model_synthesize_and_ring8(plume, tmp_path):
         VortexSound().synthesize(plume, attenuation="cubic")
     with pytest.raises(ParameterError, match="listener path goes to"):
         VortexSound().synthesize((plume, path))
+
+
+def test_model_loads_its_inputs_for_scenes(tmp_path):
+    vol = VortexSound().load_input("dataset:fire-plume")
+    assert vol.dims == (15, 15, 20) and vol.is_vector("velocity")
+    f = tmp_path / "u.npz"
+    with pytest.raises(MissingFileError, match="u.npz"):
+        VortexSound().load_input(str(f))
 
 
 def test_overlay_meshes(plume):
