@@ -126,16 +126,16 @@ def _play_scene(args: argparse.Namespace) -> int:
     """``auralize play --model/--scene``: the scene rendered block by block into the device."""
     from auralize.cli import scene_from_args
     from auralize.cli_options import DEFAULT_RATE
+    from auralize.emitters.engine import BlockRenderer
     from auralize.live import play
-    from auralize.soundscene import SceneBlocks
 
     sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
                                                           "rate": DEFAULT_RATE}, "play")  # fmt: skip
     for note in notes:
         print(note)
-    blocks = SceneBlocks(sound, path, rate=args.rate, layout=args.layout,
-                         block=max(round(args.block_ms / 1e3 * args.rate), 1),
-                         duration=duration)  # fmt: skip
+    blocks = BlockRenderer(sound, path, rate=args.rate, layout=args.layout,
+                           block=max(round(args.block_ms / 1e3 * args.rate), 1),
+                           duration=duration)  # fmt: skip
     rep = play(blocks, path, rate=args.rate, layout=args.layout, device=args.device,
                downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit,
                highpass_hz=args.highpass)  # fmt: skip

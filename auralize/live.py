@@ -445,7 +445,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     ----------
     tracks, path : the sources and the listener path (as for
         :func:`auralize.synthesis.render`); or, in place of ``tracks``, a
-        block renderer of a scene (:class:`auralize.soundscene.SceneBlocks`,
+        block renderer of a scene (:class:`auralize.emitters.engine.BlockRenderer`,
         whose rate, layout and block length are used).
     layout : speaker layout of the synthesis.
     device : int, str or None
@@ -504,7 +504,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
         synth = BlockSynth(tracks, path, rate=rate, layout=lay, time_scale=time_scale,
                            interp=interp, c0=c0, block=block, duration=duration, threads=threads,
                            lead=lead)  # fmt: skip
-    else:  # a block renderer of a scene (auralize.soundscene.SceneBlocks)
+    else:  # a block renderer of a scene (auralize.emitters.engine.BlockRenderer)
         synth = tracks
         if synth.rate != rate or synth.layout.n_channels != lay.n_channels:
             raise ParameterError(f"the block renderer makes {synth.layout.name} at {synth.rate} "

@@ -24,6 +24,11 @@ is a small JSON document::
 Relative file names in a scene file are relative to the scene file's folder.
 The ``field`` model accepts ``"time_scale": "auto"``: the data's span plays in
 the scene's duration (:func:`auralize.pipeline.plan_render`).
+
+``SceneBlocks(sound, path, rate=, layout=, block=, duration=)`` renders a
+scene block by block for live playback (:func:`auralize.live.play` takes it in
+place of source tracks); it is the engine's
+:class:`auralize.emitters.engine.BlockRenderer`.
 """
 
 from __future__ import annotations
@@ -257,74 +262,10 @@ def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44
                   backend=backend)  # fmt: skip
 
 
-class SceneBlocks:
-    """Block-wise rendering of a :class:`~auralize.emitters.Sound` (a scene) along a path.
-
-    Block ``i`` holds samples ``[i * block, (i + 1) * block)``, rendered by the
-    engine's :class:`auralize.emitters.engine.BlockRenderer` (emitted signals
-    prepared once), so the blocks joined equal the offline render.  :func:`auralize.live.play` takes it in place of
-    source tracks to play a scene live.
-
-    Parameters
-    ----------
-    sound : Sound
-        Everything heard (e.g. :func:`scene_sound`).
-    path : ListenerPath
-    rate : int
-        Sample rate in Hz.
-    layout : str or Layout
-    block : int, optional
-        Samples per block (default 50 ms).
-    duration : float, optional
-        Playback seconds (default: the path's duration).
-    backend : str
-        Engine backend (``"auto"`` or ``"reference"``).
-    """
-
-    def __init__(self, sound: Any, path: ListenerPath, *, rate: int = 44100,
-                 layout: Any = "ring8", block: int | None = None,
-                 duration: float | None = None, backend: str = "auto") -> None:  # fmt: skip
-        import math
-
-        from auralize.spatial import get_layout
-
-        if not (isinstance(rate, int) and rate > 0):
-            raise ParameterError(f"rate must be a positive integer number of Hz, got {rate!r}")
-        self.sound, self.path, self.rate = sound, path, int(rate)
-        self.layout = get_layout(layout)
-        self.backend = backend
-        self.block_size = int(block) if block is not None else round(0.05 * rate)
-        if self.block_size < 1:
-            raise ParameterError(f"block must be >= 1 sample, got {block!r}")
-        dur = path.duration if duration is None else float(duration)
-        if not (math.isfinite(dur) and dur > 0):
-            raise ParameterError(f"nothing to play: duration {dur!r} s (give a duration)")
-        self.duration = dur
-        self.n_samples = round(dur * rate)
-        self.n_blocks = -(-self.n_samples // self.block_size)
+def __getattr__(name: str) -> Any:
+    # SceneBlocks is the engine's block renderer (it imports the numba kernels: on first use)
+    if name == "SceneBlocks":
         from auralize.emitters.engine import BlockRenderer
 
-        self._blocks = BlockRenderer(sound, path, rate=self.rate, layout=self.layout,
-                                     block=self.block_size, backend=backend)  # fmt: skip
-
-    def render_range(self, start: int, n: int) -> Any:
-        """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals."""
-        import numpy as np
-
-        from auralize.emitters import render
-
-        if n <= 0:
-            return np.zeros((self.layout.n_channels, 0))
-        a = render(self.sound, self.path, rate=self.rate, layout=self.layout,
-                   start=start / self.rate, duration=n / self.rate,
-                   backend=self.backend).audio  # fmt: skip
-        if a.shape[1] != n:  # rounding of duration·rate; never more than a sample
-            a = np.pad(a, ((0, 0), (0, max(n - a.shape[1], 0))))[:, :n]
-        return a
-
-    def block(self, i: int) -> Any:
-        """Block ``i`` (the last one may be shorter)."""
-        if not 0 <= i < self.n_blocks:
-            raise ParameterError(f"block index {i} outside 0..{self.n_blocks - 1}")
-        s = i * self.block_size
-        return self._blocks.render_block(i)[:, : min(self.block_size, self.n_samples - s)]
+        return BlockRenderer
+    raise AttributeError(name)
