@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import errno
 import json
-import math
 import os
 import sys
 import time
@@ -33,6 +32,18 @@ from typing import Any
 import numpy as np
 
 from auralize import __version__
+from auralize.cli_options import (  # the shared options; re-exported for older imports
+    DEFAULT_RATE,
+    RATE_RANGE_HZ,  # noqa: F401
+    add_output_options,
+    finite_float,
+    listener_from_args,  # noqa: F401
+    positive_float,
+    positive_int,
+    rate_int,  # noqa: F401
+    seed_int,
+)
+from auralize.cli_options import vec3 as _vec3
 from auralize.errors import (
     AuralizeError,
     DataError,
@@ -64,8 +75,6 @@ EXIT_CODES = {
     EXIT_INTERNAL: "internal error (a bug; AURALIZE_DEBUG=1 shows the traceback)",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
 }
-#: lowest and highest sample rate an audio command accepts, Hz
-RATE_RANGE_HZ = (8000, 768000)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -76,75 +85,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {text} (see '{self.prog} --help')\n")
 
 
-def positive_float(text: str) -> float:
-    """argparse type: a finite number > 0."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
-    return v
-
-
-def finite_float(text: str) -> float:
-    """argparse type: a finite number."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return v
-
-
-def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return v
-
-
-def seed_int(text: str) -> int:
-    """argparse type: a random seed, 0 to 2**32 - 1."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}") from None
-    if not 0 <= v < 2**32:
-        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}")
-    return v
-
-
-def rate_int(text: str) -> int:
-    """argparse type: an audio sample rate in :data:`RATE_RANGE_HZ`."""
-    lo, hi = RATE_RANGE_HZ
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a sample rate in Hz ({lo}..{hi}), got {text!r}"
-        ) from None
-    if not lo <= v <= hi:
-        raise argparse.ArgumentTypeError(f"sample rate {text!r} Hz is outside {lo}..{hi} Hz")
-    return v
-
-
 # ----------------------------------------------------------------- helpers
-def _vec3(text: str) -> np.ndarray:
-    try:
-        v = np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected x,y,z numbers, got {text!r}") from None
-    if v.size != 3 or not np.all(np.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"expected three finite numbers x,y,z, got {text!r}")
-    return v
-
-
 def _captures(text: str) -> int:
     try:
         v = int(text)
@@ -181,8 +122,11 @@ def _field_map(items: list[str] | None) -> dict[str, str] | None:
     return out
 
 
-def add_volume_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("volume", metavar="PATH", help="volume file, or dataset:NAME for a built-in one")
+def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
+    """The volume positional and the options that read it (``optional``: may be left out)."""
+    p.add_argument("volume", metavar="PATH", nargs="?" if optional else None,
+                   help="volume file, or dataset:NAME for a built-in one"
+                        + (" (optional with --model/--scene)" if optional else ""))  # fmt: skip
     g = p.add_argument_group("volume")
     g.add_argument(
         "--field",
@@ -235,48 +179,6 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def add_output_options(
-    p: argparse.ArgumentParser,
-    *,
-    layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
-    listener_required: bool = True,
-) -> None:
-    g = p.add_argument_group("audio output")
-    g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
-    g.add_argument("--layout", default="mono", help=layouts)
-    g.add_argument("--rate", type=rate_int, default=44100, help="sample rate in Hz (default 44100)")
-    g.add_argument(
-        "--normalize",
-        choices=["peak", "none"],
-        default="peak",
-        help="peak: loudest sample at 0.99; none: physical pascals in a float WAV, whose "
-        "samples go beyond ±1 by design (scale them before playing)",
-    )
-    g.add_argument(
-        "--format",
-        choices=["float32", "pcm16", "pcm24"],
-        help="sample format (default: float32 WAV, pcm24 FLAC); pcm needs --normalize peak",
-    )
-    g.add_argument(
-        "--limit",
-        type=positive_float,
-        metavar="PA",
-        help="truncate pressures beyond this many pascals (paper 000 §7)",
-    )
-    src = g.add_mutually_exclusive_group(required=listener_required)
-    src.add_argument(
-        "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
-    )
-    src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument(
-        "--duration",
-        type=positive_float,
-        help="seconds to render (with --listener)"
-        if listener_required
-        else "playback seconds (default: the path's length, else 10)",
-    )
-
-
 def _time_scale(text: str) -> float | str:
     if text.strip().lower() == "auto":
         return "auto"
@@ -304,16 +206,6 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
                    help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
-
-
-def listener_from_args(args: argparse.Namespace) -> Any:
-    from auralize.listener import ListenerPath
-
-    if args.path:
-        return ListenerPath.from_csv(args.path)
-    if args.duration is None:
-        raise ParameterError("--listener needs --duration S (seconds to render)")
-    return ListenerPath.point(args.listener, duration=args.duration)
 
 
 def _load(args: argparse.Namespace) -> Any:
@@ -500,9 +392,130 @@ def cmd_detect(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_scene_options(p: argparse.ArgumentParser) -> None:
+    """``--model NAME:FILE[:key=value,...]`` (repeatable) and ``--scene JSON``."""
+    g = p.add_argument_group("scene (several sound models along one listener path)")
+    g.add_argument("--model", action="append", metavar="NAME:FILE[:key=value,...]",
+                   help="add a sound model's sound (repeatable): NAME a registered model "
+                        "('auralize plugins'), FILE its input (file or dataset:NAME), then "
+                        "optional parameters, e.g. fire:dataset:fire:extend=none")  # fmt: skip
+    g.add_argument("--scene", metavar="SCENE.json",
+                   help="a scene file: listener, layout and a list of {model, input, params} "
+                        "(options given on the command line win)")  # fmt: skip
+
+
+def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
+                    command: str = "render") -> tuple[Any, Any, float, list[str]]:  # fmt: skip
+    """The scene of ``--model``/``--scene`` (plus the field of a positional volume).
+
+    Returns ``(sound, path, duration, notes)``: every model's
+    :class:`~auralize.emitters.Sound` joined, the listener path, the playback
+    seconds and what to tell the user.  ``args.layout``/``args.rate``/
+    ``args.duration`` take the scene file's values where the command line left
+    them at ``parser_defaults``.
+    """
+    from auralize.emitters import Sound
+    from auralize.listener import ListenerPath
+    from auralize.pipeline import DEFAULT_DURATION, plan_render
+    from auralize.soundscene import load_scene, parse_model_spec, scene_sound
+    from auralize.spatial import get_layout
+
+    scene = load_scene(args.scene) if args.scene else None
+    models = [*(scene.models if scene else []), *(parse_model_spec(m) for m in args.model or [])]
+    for sm in models:
+        sm.check()
+    if scene is not None:  # the scene file fills what the command line left at its default
+        for key in ("layout", "rate"):
+            if getattr(scene, key) is not None and getattr(args, key) == parser_defaults[key]:
+                setattr(args, key, getattr(scene, key))
+        if args.duration is None and scene.duration is not None:
+            args.duration = float(scene.duration)
+    get_layout(args.layout)  # a bad layout fails before any slow work
+    path = ListenerPath.from_csv(args.path) if args.path else None
+    listener = args.listener
+    if path is None and listener is None and scene is not None:
+        path, listener = scene.path, scene.listener
+    notes: list[str] = []
+    sound = Sound(parts=[], meta={}, name="")
+    if args.volume is not None:  # the field of the positional volume, planned as a plain render
+        from auralize.field_model import FieldAuralization
+
+        vol = _load(args)
+        if args.sources:
+            from auralize.io.sources_file import load_sources_for
+
+            series = load_sources_for(args.sources, vol)
+        else:
+            from auralize.pipeline import detect_sources
+
+            series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
+                                    progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
+        plan = plan_render(vol, series.tracks(), path=path, listener=listener,
+                           duration=args.duration, time_scale=args.time_scale)  # fmt: skip
+        path, duration = plan.path, plan.duration
+        notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
+        sound = sound + FieldAuralization().synthesize(
+            (vol, series), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
+            timbre=getattr(args, "timbre", "physical"))  # fmt: skip
+        _report_unavailable(command, series)
+    elif args.sources:
+        raise ParameterError("--sources needs the volume they were detected in (PATH)")
+    else:
+        if path is None and listener is None:
+            raise ParameterError("a scene without a volume needs a listener: --path CSV, "
+                                 "--listener X,Y,Z or 'listener' in the scene file")  # fmt: skip
+        if path is None:
+            path = ListenerPath.point(listener, duration=args.duration or DEFAULT_DURATION)
+        duration = args.duration or path.duration
+    check_render_memory(args, duration, get_layout(args.layout).n_channels)
+    sound = sound + scene_sound(models, path, duration)
+    return sound, path, duration, notes
+
+
+def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
+    """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
+    from auralize.emitters import render
+    from auralize.pipeline import save_rendered
+    from auralize.spatial import get_layout
+    from auralize.timbre import highpass, loudness
+
+    t = time.perf_counter()
+    sound, path, duration, notes = scene_from_args(args, parser_defaults)
+    lay = get_layout(args.layout)
+    out = render(sound, path, rate=args.rate, layout=lay, duration=duration)
+    if args.highpass > 0:
+        out.audio = highpass(out.audio, out.rate, args.highpass)
+    out.meta.update({"seconds": time.perf_counter() - t, "duration_s": duration,
+                     "highpass_hz": args.highpass, "notes": notes})  # fmt: skip
+    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
+                         subtype=args.format,
+                         extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+    ld = loudness(out.audio, out.rate)
+    kinds = ", ".join(f"{p['model']} ({p['kind']})" for p in out.meta["parts"])
+    report = (f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
+              f"{out.rate} Hz; scene of {len(out.meta['parts'])} part(s): {kinds}; peak "
+              f"{ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa (gain {gain:.4g})")  # fmt: skip
+    if args.json:
+        print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
+                          "loudness": ld, "report": report}, indent=2, default=str))  # fmt: skip
+        return 0
+    for note in notes:
+        print(note)
+    for part in out.meta["parts"]:
+        print(f"  {part['model']:10s} {part['kind']:14s} peak {part['peak_pa']:.4g} Pa")
+    print(report)
+    return 0
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from auralize.pipeline import DEFAULT_DURATION, auralize, report_line, save_rendered
     from auralize.spatial import get_layout
+
+    if args.model or args.scene:
+        return _cmd_render_scene(args, {"layout": "mono", "rate": DEFAULT_RATE})
+    if args.volume is None:
+        raise ParameterError("give a volume PATH, or sound models with --model NAME:FILE or "
+                             "--scene SCENE.json")  # fmt: skip
 
     path = None
     if args.path:
@@ -702,10 +715,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_detect)
 
     p = sub.add_parser("render", help="render the sound heard along a listener path")
-    add_volume_options(p)
+    add_volume_options(p, optional=True)
     add_detect_options(p)
     add_output_options(p, listener_required=False)
     add_render_options(p)
+    add_scene_options(p)
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("path", help="build a listener path CSV")

@@ -64,12 +64,18 @@ def cmd_play(args: argparse.Namespace) -> int:
         _progress_wanted,
         _thresholds,
     )
+    from auralize.errors import ParameterError
     from auralize.listener import ListenerPath
     from auralize.live import play
     from auralize.pipeline import detect_sources, plan_render
     from auralize.spatial import get_layout
 
     lay = get_layout(args.layout)  # bad layouts fail before any slow work
+    if args.model or args.scene:
+        return _play_scene(args)
+    if args.volume is None:
+        raise ParameterError("give a volume PATH, or sound models with --model NAME:FILE or "
+                             "--scene SCENE.json")  # fmt: skip
     vol = _load(args)
     path = ListenerPath.from_csv(args.path) if args.path else None
     if args.sources:
@@ -90,14 +96,22 @@ def cmd_play(args: argparse.Namespace) -> int:
     for note in plan.notes:
         print(note)
     print(plan.mapping_text + (" (auto)" if plan.auto else ""))
-    downmix: Any = False
-    if args.downmix is not None:
-        downmix = True if args.downmix == "auto" else args.downmix
-    gain: Any = args.gain
     rep = play(tracks, plan.path, rate=args.rate, layout=lay, device=args.device,
-               time_scale=plan.time_scale, interp=args.interp, downmix=downmix, gain=gain,
+               time_scale=plan.time_scale, interp=args.interp, downmix=_downmix_arg(args),
+               gain=args.gain,
                limit_pa=args.limit, block_s=args.block_ms / 1e3, duration=plan.duration,
                lead=plan.lead, highpass_hz=args.highpass)  # fmt: skip
+    _report(args, rep)
+    return 0
+
+
+def _downmix_arg(args: argparse.Namespace) -> Any:
+    if args.downmix is None:
+        return False
+    return True if args.downmix == "auto" else args.downmix
+
+
+def _report(args: argparse.Namespace, rep: Any) -> None:
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2))
     else:
@@ -106,6 +120,26 @@ def cmd_play(args: argparse.Namespace) -> int:
         print(f"auralize play: warning: {rep.underruns} underrun(s): synthesis fell behind the "
               f"device; try a larger --block-ms, higher thresholds, or write a file with "
               f"'auralize render -o out.wav'", file=sys.stderr)  # fmt: skip
+
+
+def _play_scene(args: argparse.Namespace) -> int:
+    """``auralize play --model/--scene``: the scene rendered block by block into the device."""
+    from auralize.cli import scene_from_args
+    from auralize.cli_options import DEFAULT_RATE
+    from auralize.emitters.engine import BlockRenderer
+    from auralize.live import play
+
+    sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
+                                                          "rate": DEFAULT_RATE}, "play")  # fmt: skip
+    for note in notes:
+        print(note)
+    blocks = BlockRenderer(sound, path, rate=args.rate, layout=args.layout,
+                           block=max(round(args.block_ms / 1e3 * args.rate), 1),
+                           duration=duration)  # fmt: skip
+    rep = play(blocks, path, rate=args.rate, layout=args.layout, device=args.device,
+               downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit,
+               highpass_hz=args.highpass)  # fmt: skip
+    _report(args, rep)
     return 0
 
 
@@ -113,35 +147,27 @@ def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
     from auralize.cli import (
         _time_scale,
-        _vec3,
         add_detect_options,
+        add_scene_options,
         add_volume_options,
-        positive_float,
-        rate_int,
     )
+    from auralize.cli_options import add_output_options, positive_float
 
     p = sub.add_parser("devices", help="list sound output devices and their channel counts")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_devices)
 
     p = sub.add_parser("play", help="play the sound along a listener path live (block by block)")
-    add_volume_options(p)
+    add_volume_options(p, optional=True)
     add_detect_options(p)
-    g = p.add_argument_group("live output")
-    src = g.add_mutually_exclusive_group()
-    src.add_argument(
-        "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
-    )
-    src.add_argument("--listener", type=_vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument("--duration", type=positive_float,
-                   help="playback seconds (default: the path's length, else 10)")  # fmt: skip
-    g.add_argument("--layout", default="ring8", help="mono|stereo|ring8|5.1|7.1|FILE.json")
+    add_scene_options(p)
+    g = add_output_options(p, file=False, layout="ring8", listener_required=False,
+                           title="live output")  # fmt: skip
     g.add_argument("--device", type=_device_arg, metavar="N|NAME",
                    help="output device index or name part (see 'auralize devices')")  # fmt: skip
     g.add_argument("--downmix", nargs="?", const="auto", metavar="LAYOUT",
                    help="fold the layout to fit a device with fewer channels (default: the "
                         "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
-    g.add_argument("--rate", type=rate_int, default=44100, help="sample rate in Hz (default 44100)")
     g.add_argument("--time-scale", type=_time_scale, default="auto",
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
@@ -151,8 +177,6 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--gain", default="auto", type=_gain_arg,
                    help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "
                         "later blocks would clip)")  # fmt: skip
-    g.add_argument("--limit", type=positive_float, metavar="PA",
-                   help="truncate pressures beyond PA pascals")  # fmt: skip
     g.add_argument("--block-ms", type=positive_float, default=50.0,
                    help="synthesis block (default 50 ms)")  # fmt: skip
     g.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")

@@ -149,6 +149,11 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     from auralize.synthesis import check_arrival
     from auralize.timbre import highpass
 
+    if getattr(args, "model", None) or getattr(args, "scene", None):
+        raise ParameterError("--model/--scene render on this machine; leave out the Dask options "
+                             "(--scheduler, --address)")  # fmt: skip
+    if getattr(args, "volume", None) is None:
+        raise ParameterError("the Dask render needs a volume PATH")
     timbre = getattr(args, "timbre", "physical")
     if timbre not in ("physical", "auto"):
         raise ParameterError(f"--timbre {timbre}: the Dask render renders the physical pressure "

@@ -70,7 +70,7 @@ def add_plugin_commands(subparsers: Any) -> list[str]:
     whose declarations fail to load produces a
     :class:`~auralize.plugins.PluginWarning` and is left out.
     """
-    from auralize.plugins import ENTRY_POINT_GROUP, PluginWarning
+    from auralize.plugins import ENTRY_POINT_GROUP, PluginWarning, SoundModel
 
     served: list[str] = []
     for ep in entry_points(group=COMMANDS_GROUP):
@@ -97,8 +97,9 @@ def add_plugin_commands(subparsers: Any) -> list[str]:
                 PluginWarning, stacklevel=2,
             )  # fmt: skip
             continue
-        hook = getattr(cls, "add_cli", None)
-        if hook is not None:
-            hook(subparsers)
+        if not (isinstance(cls, type) and issubclass(cls, SoundModel)):
+            continue  # registry() reports it
+        if cls.add_cli.__func__ is not SoundModel.add_cli.__func__:  # type: ignore[attr-defined]
+            cls.add_cli(subparsers)
             served.append(ep.name)
     return served

@@ -282,7 +282,7 @@ def all_datasets() -> dict[str, Callable[..., TimeVolume]]:
 
     out = dict(DATASETS)
     for cls in registry().values():
-        out.update(getattr(cls, "datasets", {}) or {})
+        out.update(cls.datasets)
     return out
 
 

@@ -1,14 +1,22 @@
 """The core field auralization (paper 003) as a registered SoundModel named ``field``.
 
 It shows the plugin contract on the built-in pipeline: parameters declared as
-data, inputs = (volume, listener path), output = the pressure at the listener.
+data, inputs = a volume (no listener), output = what the volume emits, its
+detected monopole/dipole/quadrupole sources as one
+:class:`auralize.emitters.FieldSources` part that the engine renders along
+any listener path.
 """
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
-from auralize.plugins import Parameter, SoundModel, SoundOutput
+from auralize.plugins import Parameter, SoundModel
+
+if TYPE_CHECKING:
+    from auralize.emitters import Sound
+    from auralize.sources import SourceSeries
+    from auralize.volume import TimeVolume
 
 
 class FieldAuralization(SoundModel):
@@ -17,11 +25,12 @@ class FieldAuralization(SoundModel):
         "monopole/dipole/quadrupole sources of a volume, retarded-time summation (Shin & Bajaj 2004)"
     )
     paper: ClassVar[str] = "003 §3.2, §4.1"
+    input_kind: ClassVar[str] = "volume"
     parameters: ClassVar[tuple[Parameter, ...]] = (
         Parameter(
             "mapping",
             "auto",
-            choices=("auto", "paper-density", "identity", "cfd"),
+            choices=("auto", "paper-density", "identity", "cfd", "incompressible"),
             doc="acoustic mapping preset (§3.2.2)",
         ),  # fmt: skip
         Parameter("threshold_monopole", "auto", doc="absolute, 'N%' of peak, or auto"),
@@ -30,22 +39,71 @@ class FieldAuralization(SoundModel):
         Parameter(
             "interp", "cubic", choices=("linear", "cubic"), doc="time interpolation (§3.2.4.3)"
         ),
-        Parameter("rate", 44100, range=(8000, 384000), unit="Hz"),
         Parameter("time_scale", 1.0, range=(1e-6, None), unit="playback s / data s"),
-        Parameter("c0", 343.0, range=(1.0, None), unit="m/s"),
+        Parameter(
+            "lead",
+            0.0,
+            range=(0.0, None),
+            unit="data s",
+            doc="data seconds skipped at the start of playback",
+        ),  # fmt: skip
+        Parameter(
+            "timbre",
+            "physical",
+            choices=("physical", "extended", "tonal", "auto"),
+            doc="how the sources sound (auralize.timbre)",
+        ),
     )
 
-    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
-        """``inputs = (TimeVolume, ListenerPath)``; returns the mono pressure in Pa."""
-        from auralize.pipeline import auralize
-        from auralize.sources import Thresholds
+    def synthesize(self, inputs: TimeVolume | tuple[TimeVolume, SourceSeries],
+                   **params: Any) -> Sound:  # fmt: skip
+        """The sources of a volume, for the engine to render.
 
-        volume, path = inputs
+        Parameters
+        ----------
+        inputs : TimeVolume or (TimeVolume, SourceSeries)
+            The volume; with a :class:`~auralize.sources.SourceSeries` already
+            detected on it (e.g. by ``auralize detect``), detection is skipped.
+        **params
+            ``mapping`` and ``threshold_*`` (detection, paper 003 §3.2.2–3.2.3),
+            ``interp`` (§3.2.4.3), ``time_scale`` (playback s per data s),
+            ``lead`` (data s skipped) and ``timbre``.
+
+        Returns
+        -------
+        auralize.emitters.Sound
+            One :class:`~auralize.emitters.FieldSources` part; ``meta`` holds
+            the number of source tracks, the mapping and the thresholds.
+        """
+        from auralize.emitters import FieldSources, Sound
+        from auralize.errors import ParameterError
+        from auralize.pipeline import detect_sources
+        from auralize.sources import SourceSeries, Thresholds
+        from auralize.volume import TimeVolume
+
+        series = None
+        if isinstance(inputs, tuple) and len(inputs) == 2:
+            volume, series = inputs
+            if not isinstance(series, SourceSeries):
+                raise ParameterError(f"field model: the second input must be a SourceSeries, "
+                                     f"got {type(series).__name__}")  # fmt: skip
+        else:
+            volume = inputs  # type: ignore[assignment]
+        if not isinstance(volume, TimeVolume):
+            raise ParameterError(f"field model inputs must be a TimeVolume or (TimeVolume, "
+                                 f"SourceSeries), got {type(volume).__name__}")  # fmt: skip
         p = self.resolve(**params)
-        th = Thresholds(p["threshold_monopole"], p["threshold_dipole"], p["threshold_quadrupole"])
-        out, series = auralize(
-            volume, path, mapping=None if p["mapping"] == "auto" else p["mapping"], thresholds=th,
-            rate=p["rate"], time_scale=p["time_scale"], interp=p["interp"], c0=p["c0"],
-        )  # fmt: skip
-        return SoundOutput(rate=out.rate, pressure=out.audio[0],
-                           meta={"n_sources": series.tracks().n_sources})  # fmt: skip
+        if series is None:
+            th = Thresholds(p["threshold_monopole"], p["threshold_dipole"],
+                            p["threshold_quadrupole"])  # fmt: skip
+            series = detect_sources(volume, thresholds=th,
+                                    mapping=None if p["mapping"] == "auto" else p["mapping"])  # fmt: skip
+        tracks = series.tracks()
+        part = FieldSources(tracks=tracks, time_scale=float(p["time_scale"]), lead=float(p["lead"]),
+                            interp=p["interp"], timbre=p["timbre"], bounds=tuple(volume.bounds),
+                            name="field")  # fmt: skip
+        meta = {"n_sources": tracks.n_sources, "volume": volume.source,
+                "time_scale": part.time_scale, "lead_data_s": part.lead,
+                "mapping": series.meta.get("mapping"),
+                "thresholds": series.thresholds.tolist()}  # fmt: skip
+        return Sound(parts=[part], meta={"field": meta}, name="field")

@@ -430,7 +430,7 @@ class PlaybackReport:
         return asdict(self)
 
 
-def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
+def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
          layout: str | Layout = "ring8", device: int | str | None = None,
          time_scale: float = 1.0, interp: str = "cubic", c0: float = C0,
          downmix: bool | str | Layout = False, gain: float | str = "auto",
@@ -444,7 +444,9 @@ def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
     Parameters
     ----------
     tracks, path : the sources and the listener path (as for
-        :func:`auralize.synthesis.render`).
+        :func:`auralize.synthesis.render`); or, in place of ``tracks``, a
+        block renderer of a scene (:class:`auralize.emitters.engine.BlockRenderer`,
+        whose rate, layout and block length are used).
     layout : speaker layout of the synthesis.
     device : int, str or None
         Output device (index, name part, or the default).
@@ -497,8 +499,17 @@ def play(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
         out_lay = downmix_target(lay, dev["max_output_channels"])
     mix = None if out_lay is lay else downmix_matrix(lay, out_lay)
     block = max(round(block_s * rate), 1)
-    synth = BlockSynth(tracks, path, rate=rate, layout=lay, time_scale=time_scale, interp=interp,
-                       c0=c0, block=block, duration=duration, threads=threads, lead=lead)  # fmt: skip
+    synth: Any
+    if isinstance(tracks, SourceTracks):
+        synth = BlockSynth(tracks, path, rate=rate, layout=lay, time_scale=time_scale,
+                           interp=interp, c0=c0, block=block, duration=duration, threads=threads,
+                           lead=lead)  # fmt: skip
+    else:  # a block renderer of a scene (auralize.emitters.engine.BlockRenderer)
+        synth = tracks
+        if synth.rate != rate or synth.layout.n_channels != lay.n_channels:
+            raise ParameterError(f"the block renderer makes {synth.layout.name} at {synth.rate} "
+                                 f"Hz; play was asked for {lay.name} at {rate} Hz")  # fmt: skip
+        block = synth.block_size
     if not (math.isfinite(highpass_hz) and 0 <= highpass_hz < rate / 2):
         raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz, "
                              f"got {highpass_hz!r}")  # fmt: skip

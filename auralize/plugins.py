@@ -2,11 +2,15 @@
 
 A plugin is a :class:`SoundModel` subclass that declares its parameters as
 data (:class:`Parameter`: name, default, range or choices, unit) and turns
-inputs into sound: either one pressure signal, or per-source signals with
-positions so that :mod:`auralize.spatial` can place them.  It may offer a
-viewer overlay.  Plugins are found through entry points, loaded once and
-cached; a plugin that fails to load produces a :class:`PluginWarning`, never
-a crash.
+its inputs into what it *emits*: an :class:`auralize.emitters.Sound` (point
+emitters, detected field sources or a closed-form part).  The engine
+(:func:`auralize.emitters.render`) does the propagation, the panning and the
+mixing of several models along one listener path, so a model never sees the
+listener.  A model may also offer a viewer overlay, sub-commands, benchmark
+rows, built-in datasets and a loader of its inputs from a file (the hooks
+below, all optional).  Plugins are found through entry points, loaded once
+and cached; a plugin that fails to load produces a :class:`PluginWarning`,
+never a crash.
 
 Example ``pyproject.toml`` of a plugin package::
 
@@ -19,14 +23,14 @@ from __future__ import annotations
 import functools
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.metadata import entry_points
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
-import numpy as np
-from numpy.typing import NDArray
+from auralize.errors import AuralizeError, ParameterError, PluginError
 
-from auralize.errors import ParameterError, PluginError
+if TYPE_CHECKING:
+    from auralize.emitters import Sound
 
 ENTRY_POINT_GROUP = "auralize.plugins"
 
@@ -74,29 +78,29 @@ class Parameter:
         return value
 
 
-@dataclass
-class SoundOutput:
-    """What a model produces.
-
-    Either ``pressure (n_samples,)`` heard at the listener, or
-    ``signals (n_sources, n_samples)`` emitted at ``positions (n_sources, 3)``
-    (already delayed and attenuated, so that only panning remains).
-    """
-
-    rate: int
-    pressure: NDArray[np.float64] | None = None
-    signals: NDArray[np.float64] | None = None
-    positions: NDArray[np.float64] | None = None
-    meta: dict[str, Any] = field(default_factory=dict)
-
-
 class SoundModel:
-    """Base class of sound models (core field auralization and the plugins)."""
+    """Base class of sound models (core field auralization and the plugins).
+
+    A subclass sets :attr:`name` (its entry-point name), :attr:`description`,
+    :attr:`paper` and :attr:`parameters`, and implements :meth:`synthesize`.
+    The other methods and attributes are optional hooks with working
+    defaults; the command line, the benchmark, the dataset registry, the
+    scene loader and the viewer call them directly.
+    """
 
     name: ClassVar[str] = "base"
     description: ClassVar[str] = ""
     paper: ClassVar[str] = ""
     parameters: ClassVar[tuple[Parameter, ...]] = ()
+    #: built-in datasets ``{name: factory(size=, steps=, seed=) -> TimeVolume}``
+    #: (``auralize dataset NAME``, ``dataset:NAME`` inputs); default none
+    datasets: ClassVar[dict[str, Any]] = {}
+    #: what :meth:`synthesize` takes: ``"volume"`` when its inputs are one
+    #: :class:`~auralize.volume.TimeVolume`; another word names other inputs
+    #: (the default :meth:`load_input` then refuses, and the viewer does not try
+    #: to hear the model's overlay); ``""`` (default) undeclared: volumes are
+    #: tried (:meth:`load_input` reads one, the viewer calls ``synthesize(volume)``)
+    input_kind: ClassVar[str] = ""
 
     def resolve(self, **params: Any) -> dict[str, Any]:
         """Fill defaults and check every given parameter against its declaration."""
@@ -108,12 +112,76 @@ class SoundModel:
             )
         return {n: p.check(params.get(n, p.default)) for n, p in known.items()}
 
-    def synthesize(self, inputs: Any, **params: Any) -> SoundOutput:
-        raise NotImplementedError  # pragma: no cover - each model implements it
+    def synthesize(self, inputs: Any, **params: Any) -> Sound:
+        """What the model emits for ``inputs``, as engine parts.
+
+        Parameters
+        ----------
+        inputs : model-specific
+            The model's data (a :class:`~auralize.volume.TimeVolume`, a
+            texture plus an object, a discharge scene, ...), as
+            :meth:`load_input` returns it.  Never the listener path: the
+            engine places the sound along the path it renders.
+        **params
+            Values of the declared :attr:`parameters` (checked by
+            :meth:`resolve`; the others keep their defaults).
+
+        Returns
+        -------
+        auralize.emitters.Sound
+            Parts (:class:`~auralize.emitters.Emitters` with emitted signals in
+            Pa at 1 m and positions in m, :class:`~auralize.emitters.FieldSources`,
+            or a model part with ``render_part``) plus metadata.  Times are
+            playback seconds from the listener path's first capture.
+        """
+        raise NotImplementedError(f"sound model {self.name!r} does not implement synthesize")
+
+    def load_input(self, spec: str) -> Any:
+        """Read this model's inputs from ``spec`` (a file or ``dataset:NAME``).
+
+        Used by ``auralize render --model NAME:FILE`` and scene files; returns
+        what :meth:`synthesize` takes as ``inputs``.  The default reads a
+        volume (:func:`load_volume_input`) unless :attr:`input_kind` names
+        other inputs; a model with other inputs overrides it to be mixed into
+        a scene from the command line.  Errors name the model and ``spec``.
+        """
+        if self.input_kind in ("", "volume"):
+            try:
+                return load_volume_input(spec)
+            except AuralizeError as exc:
+                if self.input_kind == "volume":
+                    raise
+                why = " ".join(str(exc).split())
+                raise PluginError(
+                    f"sound model {self.name!r} cannot read its inputs from {spec!r}: it does "
+                    f"not implement SoundModel.load_input and {spec!r} is not a volume ({why})"
+                ) from None
+        raise PluginError(
+            f"sound model {self.name!r} cannot read its inputs ({self.input_kind}) from "
+            f"{spec!r}: it does not implement SoundModel.load_input (use it from Python: "
+            f"auralize.simple.AddSoundModel({self.name!r}, inputs))"
+        )
 
     def overlay(self, inputs: Any, step: int) -> Any | None:
         """Optional pyvista mesh(es) for the viewer's Overlays panel (default: none)."""
         return None
+
+    @classmethod
+    def add_cli(cls, subparsers: Any) -> None:
+        """Add the model's sub-commands to ``subparsers`` (default: none).
+
+        Only called for plugins without an ``auralize.commands`` entry point
+        (see :mod:`auralize.commands`).
+        """
+        return None
+
+    @classmethod
+    def bench(cls, quick: bool) -> list[Any]:
+        """Rows (:class:`auralize.bench.BenchRow`) for ``auralize bench`` (default: none).
+
+        ``quick``: small sizes only (seconds).
+        """
+        return []
 
     def describe(self) -> dict[str, Any]:
         return {
@@ -159,3 +227,37 @@ def get_model(name: str) -> SoundModel:
     if name not in models:
         raise PluginError(f"no sound model {name!r}; registered: {sorted(models) or '(none)'}")
     return models[name]()
+
+
+def load_volume_input(spec: str) -> Any:
+    """A :class:`~auralize.volume.TimeVolume` from a file or ``dataset:NAME``.
+
+    ``dataset:NAME`` also finds the datasets that plugins register (their
+    :attr:`SoundModel.datasets`).  Models whose input is a volume use it as
+    their :meth:`SoundModel.load_input`.
+    """
+    from auralize.pipeline import load
+
+    return load(spec)
+
+
+def check_sound(model: SoundModel | str, result: Any) -> Sound:
+    """``result`` if it is an :class:`auralize.emitters.Sound`, else a clear error.
+
+    ``model`` (a model or its name) names the culprit in the message.
+    """
+    from auralize.emitters import Sound
+
+    if isinstance(result, Sound):
+        return result
+    name = model if isinstance(model, str) else model.name
+    raise PluginError(
+        f"plugin {name!r} returned {type(result).__name__}; SoundModel.synthesize must return "
+        f"auralize.emitters.Sound"
+    )
+
+
+def synthesize(model: SoundModel | str, inputs: Any, **params: Any) -> Sound:
+    """Run ``model.synthesize(inputs, **params)`` (a model or a registered name), checked."""
+    m = get_model(model) if isinstance(model, str) else model
+    return check_sound(m, m.synthesize(inputs, **params))

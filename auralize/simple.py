@@ -42,11 +42,13 @@ from numpy.typing import ArrayLike
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
+from auralize.soundscene import SceneModel
 from auralize.sources import SourceSeries, Thresholds
 from auralize.synthesis import Rendered
 from auralize.volume import TimeVolume
 
 __all__ = [
+    "AddSoundModel",
     "ApplyMapping",
     "CreateListenerPath",
     "CreateView",
@@ -60,6 +62,7 @@ __all__ = [
     "OpenDataFile",
     "PlayAudio",
     "RecordListenerPath",
+    "RemoveSoundModel",
     "Render",
     "RenderAudio",
     "ResetSession",
@@ -214,6 +217,7 @@ class Session:
     path : ListenerPath or None, the active listener path
     rendered : Rendered or None, the last render
     audio : dict, audio settings (layout, rate, time_scale, device)
+    models : list of SceneModel, sound models heard with the data (:func:`AddSoundModel`)
 
     Examples
     --------
@@ -231,6 +235,7 @@ class Session:
         self.rendered: Rendered | None = None
         self.audio: dict[str, Any] = {"layout": "mono", "rate": 44100, "time_scale": 1.0,
                                       "device": None}  # fmt: skip
+        self.models: list[SceneModel] = []
 
     def source(self, src: DataSource | None) -> DataSource:
         s = src or self.active_source
@@ -552,10 +557,13 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
                 interp: str = "cubic") -> Rendered:  # fmt: skip
     """Render the sound heard along ``path`` (default: the active path) from the sources
     of ``Input`` (default: the active source; detected first with the current thresholds
-    if needed).
+    if needed), plus every sound model added with :func:`AddSoundModel`.
 
     The audio lasts the path's duration, clipped to the time the data's sound
     lasts at the session's ``time_scale`` (then ``r.meta["notes"]`` says so).
+    The added models are rendered along the same path with the same layout,
+    rate and 20 Hz output high-pass, and summed (``r.meta["parts"]`` lists them);
+    without a data source the render is the models' alone, for the path's duration.
 
     Examples
     --------
@@ -566,22 +574,83 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     ((2, 882), 44100)
     """
     from auralize.pipeline import auralize
+    from auralize.soundscene import render_scene
+    from auralize.timbre import HIGHPASS_HZ, highpass
 
     s = GetSession()
-    src = s.source(_input(Input, source))
+    given = _input(Input, source)
+    src = s.source(given) if given is not None or not s.models else s.active_source
     p = path or s.path
     if p is None:
         raise ParameterError("no listener path; call CreateListenerPath or RecordListenerPath")
     for k, val in (("layout", layout), ("rate", rate), ("time_scale", time_scale)):
         if val is not None:
             s.audio[k] = val
-    if src.Sources is None:
-        src.Sources = src.Detection.run()
-    out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
-                      time_scale=float(s.audio["time_scale"]), layout=s.audio["layout"],
-                      interp=interp)  # fmt: skip
+    out: Rendered | None = None
+    if src is not None:
+        if src.Sources is None:
+            src.Sources = src.Detection.run()
+        out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
+                          time_scale=float(s.audio["time_scale"]), layout=s.audio["layout"],
+                          interp=interp)  # fmt: skip
+    if s.models:
+        dur = out.duration if out is not None else p.duration
+        mix = render_scene(s.models, p, rate=int(s.audio["rate"]), layout=s.audio["layout"],
+                           duration=dur)  # fmt: skip
+        mix.audio = highpass(mix.audio, mix.rate, HIGHPASS_HZ)
+        if out is not None:
+            n = min(out.audio.shape[1], mix.audio.shape[1])
+            out.audio[:, :n] += mix.audio[:, :n]
+            out.meta["parts"] = [{"model": "field", "kind": "FieldSources"},
+                                 *mix.meta["parts"]]  # fmt: skip
+            out.meta["scene"] = mix.meta.get("scene")
+        else:
+            out = mix
+    assert out is not None
     s.rendered = out
     return out
+
+
+def AddSoundModel(name: str, input: Any, **params: Any) -> SceneModel:
+    """Add a sound model to the session's scene: :func:`RenderAudio` (and so
+    :func:`SaveAudio` and :func:`PlayAudio`) then mixes its sound with the data's.
+
+    ``input`` is the model's input (a file or ``dataset:NAME`` read by the
+    model's ``load_input``, or the inputs themselves); ``params`` are the
+    model's parameters (``auralize plugins`` lists them).  Returns the entry
+    (give it to :func:`RemoveSoundModel` to take it out again).
+
+    Examples
+    --------
+    >>> s = ResetSession()
+    >>> m = AddSoundModel("field", "dataset:monopole", threshold_monopole="1%")
+    >>> p = CreateListenerPath("point", at=[1.5, 0.5, 0.5], duration=0.02)
+    >>> r = RenderAudio(path=p)
+    >>> [part["model"] for part in r.meta["parts"]], r.audio.shape
+    (['field'], (1, 882))
+    """
+    entry = SceneModel(model=name, input=input, params=dict(params))
+    entry.check()  # an unknown model or parameter fails here, not at the render
+    GetSession().models.append(entry)
+    return entry
+
+
+def RemoveSoundModel(entry: SceneModel | str) -> None:
+    """Take a model added by :func:`AddSoundModel` out of the scene (the entry, or
+    every entry of a model name).
+
+    Examples
+    --------
+    >>> s = ResetSession()
+    >>> m = AddSoundModel("field", "dataset:monopole")
+    >>> RemoveSoundModel("field"); GetSession().models
+    []
+    """
+    s = GetSession()
+    before = len(s.models)
+    s.models = [m for m in s.models if m is not entry and m.model != entry]
+    if len(s.models) == before:
+        raise ParameterError(f"no sound model {entry!r} in the session's scene")
 
 
 def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
@@ -778,7 +847,11 @@ def SaveScreenshot(filename: str | Path, view: View | None = None, *,
 
 # ------------------------------------------------------------------- session
 def SaveSession(filename: str | Path) -> Path:
-    """Save the session (data, mapping, thresholds, path, audio settings, camera) as JSON.
+    """Save the session (data, mapping, thresholds, path, audio settings, camera, and the
+    sound models added with :func:`AddSoundModel`) as JSON.
+
+    Models are saved with their input's file name or ``dataset:NAME``; a model
+    given its inputs in memory cannot be saved and raises ``ParameterError``.
 
     Examples
     --------
@@ -799,6 +872,15 @@ def SaveSession(filename: str | Path) -> Path:
                         "thresholds": (src.Thresholds or Thresholds(*_viewer_th())).describe()}  # fmt: skip
         st.view = {"field": src.Field}
     st.set_listener_path(s.path)
+    for m in s.models:
+        if not isinstance(m.input, str):
+            raise ParameterError(f"cannot save sound model {m.model!r}: its input is a "
+                                 f"{type(m.input).__name__} in memory; add it with a file name "
+                                 f"or dataset:NAME to save the session")  # fmt: skip
+        spec = m.input
+        if not spec.startswith("dataset:") and Path(spec).expanduser().exists():
+            spec = str(Path(spec).expanduser().resolve())
+        st.models.append({"model": m.model, "input": spec, "params": dict(m.params)})
     if s.active_view is not None:
         sc = s.active_view.scene
         st.camera = sc.camera()
@@ -818,6 +900,11 @@ def LoadSession(filename: str | Path) -> Session:
     >>> f = SaveSession(pathlib.Path(tempfile.mkdtemp()) / "s.json")
     >>> LoadSession(f).active_source.Volume.dims
     (12, 12, 12)
+    >>> _ = ResetSession()
+    >>> m = AddSoundModel("field", "dataset:explosion", time_scale="auto")
+    >>> f = SaveSession(pathlib.Path(tempfile.mkdtemp()) / "s.json")
+    >>> [(m.model, m.input) for m in LoadSession(f).models]
+    [('field', 'dataset:explosion')]
     """
     from auralize.viewer.session import SessionState
 
@@ -838,6 +925,8 @@ def LoadSession(filename: str | Path) -> Session:
                                         zero_fraction=t.get("zero_fraction", 1.0))  # fmt: skip
         src.Field = (st.view or {}).get("field")
     s.path = st.listener_path()
+    for m in st.models:
+        AddSoundModel(m["model"], m["input"], **(m.get("params") or {}))
     if st.camera and s.active_source is not None:
         view = st.view or {}
         v = Show(field=view.get("field"), representation=view.get("representation"))

@@ -28,7 +28,7 @@ def test_docstring_examples_run(tmp_path, monkeypatch) -> None:
 
 
 @pytest.mark.parametrize("name", ["auralize.audio", "auralize.notebook", "auralize.plots",
-                                  "auralize.scene", "auralize.viewer.scene",
+                                  "auralize.scene", "auralize.viewer.scene", "auralize.soundscene",
                                   "auralize.viewer.recorder"])  # fmt: skip
 def test_docstring_examples_of_the_viewer_modules_run(name: str) -> None:
     import importlib

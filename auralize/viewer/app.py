@@ -5,7 +5,8 @@ map, opacity, mapping), **Sources** (thresholds, detect, per-type toggles and
 counts), **Listener** (record / stop / clear, capture rate, save / load CSV,
 autosave), **Audio** (layout, device, time scale, render to file, play / stop,
 waveform and spectrogram with a cursor on the time slider), **Live listening**
-and **Overlays** (sound-model plugin overlays).  Long work (loading,
+and **Overlays** (sound-model plugin overlays; an overlay whose model makes
+sound from the volume is heard too, live and in rendered files).  Long work (loading,
 detection, rendering, each time step of an overlay) runs in a :class:`Task`
 thread with a progress bar and a Cancel button.  Errors show a message box; the session stays usable.
 
@@ -181,6 +182,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._overlay_tasks: dict[str, Task] = {}
         self._overlay_want: dict[str, int] = {}
         self._overlay_cache: dict[str, tuple[Any, Any, dict[int, Any]]] = {}
+        # what an overlay's model emits (heard with the sources): name -> (volume, Sound),
+        # computed in the background after the overlay is drawn
+        self._overlay_sounds: dict[str, tuple[Any, Any]] = {}
+        self._sound_tasks: dict[str, Task] = {}
         self._threads: set[Task] = set()
         self.audio = {"layout": "stereo", "rate": 44100, "time_scale": 1.0, "device": None}
         self._rec_timer = QtCore.QTimer(self)
@@ -670,6 +675,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.volume, self.data = vol, d
         self.detection, self.series = None, None
         self.scene.set_volume(vol, field=name, frames=frames)
+        self._overlay_sounds.clear()
+        if self.scene.overlays:  # the overlays switched on are heard for the new data
+            from auralize.plugins import get_model
+
+            for overlay in list(self.scene.overlays):
+                self._start_overlay_sound(overlay, get_model(overlay))
         self.field_box.clear()
         self.field_box.addItems(vol.field_names)
         self.field_box.setCurrentText(name)
@@ -915,7 +926,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def render_audio(self, filename: str | Path | None = None, *,
                      then: Callable[[], None] | None = None) -> Task:  # fmt: skip
         """Render the path's sound in the background (blocks of 0.5 s, cancellable) and
-        write it to ``filename`` (WAV/FLAC) if given."""
+        write it to ``filename`` (WAV/FLAC) if given.  The sound of every overlay that
+        is switched on and heard (:meth:`overlay_sound`) is added along the same path."""
         from auralize.pipeline import save_rendered
         from auralize.synthesis import Rendered, check_distance, render
 
@@ -926,9 +938,12 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.series is None:
             raise ParameterError("detect the sources first (Sources panel)")
         path, series, vol, a = self.path, self.series, self.volume, dict(self.audio)
+        extra = self.overlay_sound()
         check_distance(path, vol.bounds)
 
         def work(progress: Callable[[int, int], bool]) -> Any:
+            from auralize.emitters import render as render_sound
+
             tracks = series.tracks()
             total = max(path.duration, 1e-3)
             blocks, t, blk = [], 0.0, 0.5
@@ -943,10 +958,18 @@ class MainWindow(QtWidgets.QMainWindow):
                 t += d
                 if not progress(i + 1, n):
                     raise Cancelled(f"rendering cancelled after {t:.1f} of {total:.1f} s")
-            r = Rendered(audio=np.concatenate(blocks, axis=1), rate=out.rate, layout=out.layout,
+            audio = np.concatenate(blocks, axis=1)
+            parts = [{"model": "field", "kind": "FieldSources"}]
+            if extra is not None:  # the audible overlays, along the same path
+                more = render_sound(extra, path, rate=a["rate"], layout=a["layout"],
+                                    duration=audio.shape[1] / a["rate"])  # fmt: skip
+                n = min(audio.shape[1], more.audio.shape[1])
+                audio[:, :n] += more.audio[:, :n]
+                parts += more.meta["parts"]
+            r = Rendered(audio=audio, rate=out.rate, layout=out.layout,
                          time_scale=out.time_scale,
                          meta={**out.meta, "t_start_data": first["t_start_data"],
-                               "volume": vol.source})  # fmt: skip
+                               "volume": vol.source, "parts": parts})  # fmt: skip
             if filename is not None:
                 save_rendered(r, filename)
             return r
@@ -1030,7 +1053,8 @@ class MainWindow(QtWidgets.QMainWindow):
     # ================================================================ live
     def start_live(self, output: str | Path | None = None) -> Any:
         """Listen live: the listener follows the camera, sound is synthesized block by block
-        into the device (or a WAV file given as ``output`` / in the panel)."""
+        into the device (or a WAV file given as ``output`` / in the panel), with the sound
+        of the overlays switched on (added or taken out as they are switched)."""
         from auralize.viewer.listening import DeviceSink, LiveEngine, LivePlayer, WavSink
 
         if self.series is None:
@@ -1039,7 +1063,8 @@ class MainWindow(QtWidgets.QMainWindow):
             return self.player
         a = self.audio
         eng = LiveEngine(self.series.tracks(), layout=a["layout"], rate=a["rate"],
-                         time_scale=a["time_scale"], block=int(self.block_spin.value()))  # fmt: skip
+                         time_scale=a["time_scale"], block=int(self.block_spin.value()),
+                         extra=self.overlay_sound())  # fmt: skip
         target = output or self.live_file.text().strip() or None
         n_ch = eng.layout.n_channels
         sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
@@ -1124,6 +1149,14 @@ class MainWindow(QtWidgets.QMainWindow):
                     then: Callable[[bool], None] | None = None) -> Task | None:  # fmt: skip
         """Switch a plugin's overlay on or off.
 
+        An overlay whose model makes sound from the volume on screen is also
+        heard: once the overlay is drawn, ``synthesize(volume)`` runs in the
+        background (unless the model's ``input_kind`` names other inputs), and
+        its sound is added to live listening and rendered files
+        (:meth:`overlay_sound`) until the overlay is switched off; a model that
+        cannot make sound from the volume is shown, not heard, and the Overlays
+        panel says why.
+
         Switching on computes the overlay of the current step in the background
         (progress bar, Cancel), then draws it.  Later steps are computed in the
         background too as the time slider moves or playback advances (see
@@ -1140,6 +1173,11 @@ class MainWindow(QtWidgets.QMainWindow):
             t = self._overlay_tasks.get(name)
             if t is not None:
                 t.cancel()
+            st = self._sound_tasks.pop(name, None)
+            if st is not None:
+                st.cancel()
+            if self._overlay_sounds.pop(name, None) is not None:
+                self._update_live_sound()
             self.scene.set_overlay(name, None)
             self.overlay_note.setText("")
             self.plotter.render()
@@ -1181,10 +1219,76 @@ class MainWindow(QtWidgets.QMainWindow):
             else:
                 self.overlay_note.setText("")
                 self.plotter.render()
+                self._start_overlay_sound(name, model)
             if then is not None:
                 then(drawn)
 
         return self.run_task(f"{name} overlay", work, done)
+
+    # ------------------------------------------------------ audible overlays
+    def _start_overlay_sound(self, name: str, model: Any) -> Task | None:
+        """Compute what overlay ``name``'s model emits for the volume on screen, in the
+        background; once in, it is heard in live listening and in rendered files."""
+        from auralize.plugins import synthesize
+
+        if model.input_kind not in ("", "volume"):
+            self.overlay_note.setText(f"{name} overlay is shown but not heard: its model makes "
+                                      f"sound from {model.input_kind}, not from a volume")  # fmt: skip
+            return None
+        vol = self.volume
+        label = f"{name} sound"
+
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            progress(0, 1)
+            try:  # a model whose inputs are not a volume says so (shown in the panel)
+                sound = synthesize(model, vol)
+            except (AuralizeError, NotImplementedError) as exc:
+                return exc
+            if not progress(1, 1):
+                raise Cancelled(f"{label} cancelled")
+            return sound
+
+        t = Task(label, work, self)
+        self._sound_tasks[name] = t
+        self._threads.add(t)
+        t.succeeded.connect(lambda r: self._overlay_sound_done(name, t, vol, r))
+        t.failed.connect(lambda e: self._overlay_sound_done(name, t, vol, e))
+        t.finished.connect(lambda: self._forget_thread(t))
+        t.start()
+        return t
+
+    def _overlay_sound_done(self, name: str, t: Task, vol: Any, result: Any) -> None:
+        """An overlay's sound arrived on the UI thread: keep it if the overlay is still on
+        for the same data, and let live listening hear it."""
+        if self._sound_tasks.get(name) is not t:
+            return  # switched off (or on again) meanwhile
+        del self._sound_tasks[name]
+        if isinstance(result, Cancelled):
+            return
+        if isinstance(result, BaseException):
+            self.overlay_note.setText(f"{name} overlay is shown but not heard: "
+                                      f"{' '.join(str(result).split())}")  # fmt: skip
+            return
+        if name in self.scene.overlays and vol is self.volume:
+            self._overlay_sounds[name] = (vol, result)
+            self._update_live_sound()
+
+    def overlay_sound(self) -> Any:
+        """What the switched-on overlays emit for the volume on screen (one
+        :class:`auralize.emitters.Sound`), or None when no overlay is heard."""
+        from auralize.emitters import Sound
+
+        heard = [snd for vol, snd in self._overlay_sounds.values() if vol is self.volume]
+        if not heard:
+            return None
+        total = Sound(parts=[], name="")
+        for snd in heard:
+            total = total + snd
+        return total
+
+    def _update_live_sound(self) -> None:
+        if self.player is not None and self.player.running:
+            self.player.engine.set_extra(self.overlay_sound())
 
     def _overlay_fn(self, name: str, model: Any) -> Callable[[int], Any]:
         """The scene's function for overlay ``name``: the step's meshes when computed,
@@ -1386,9 +1490,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self.task.cancel()
             self.task.wait(10_000)
         self.cancel_task()
+        for t in self._sound_tasks.values():
+            t.cancel()
         for t in list(self._threads):
             t.wait(10_000)
         self._overlay_tasks.clear()
+        self._sound_tasks.clear()
         self.plotter.close()
         super().closeEvent(event)
 

@@ -79,11 +79,15 @@ class LiveEngine:
         Samples per block.
     loop : bool
         Start again at the first step after the last (as the animation loops).
+    extra : Sound, optional
+        More sound heard with the sources (the viewer's audible overlays, an
+        :class:`auralize.emitters.Sound`), rendered by the engine along the same
+        block paths and added (:meth:`set_extra` changes it from the next block on).
     """
 
     def __init__(self, tracks: SourceTracks, *, layout: str = "stereo", rate: int = 44100,
                  time_scale: float = 1.0, block: int = DEFAULT_BLOCK, c0: float = C0,
-                 loop: bool = True) -> None:  # fmt: skip
+                 loop: bool = True, extra: Any = None) -> None:  # fmt: skip
         if not (isinstance(block, int) and 16 <= block <= 1 << 16):
             raise ParameterError(f"block must be 16..65536 samples, got {block!r}")
         self.tracks = tracks
@@ -101,6 +105,7 @@ class LiveEngine:
         self._pose: tuple[NDArray[np.float64], ...] | None = None
         self._pose_version = 0
         self._prev: tuple[NDArray[np.float64], ...] | None = None
+        self.extra = extra
         self.heard_rows: list[NDArray[np.float64]] = []
         self.heard_blocks: list[NDArray[np.float64]] = []
         self.keep_heard = True
@@ -126,10 +131,15 @@ class LiveEngine:
             self._pose_version += 1
             return self._pose_version
 
+    def set_extra(self, sound: Any) -> None:
+        """Hear ``sound`` (a :class:`auralize.emitters.Sound`, or None) from the next block on."""
+        with self._lock:
+            self.extra = sound
+
     def next_block(self) -> NDArray[np.float64]:
         """Render the next block ``(n_channels, block)`` in pascals."""
         with self._lock:
-            pose, version = self._pose, self._pose_version
+            pose, version, extra = self._pose, self._pose_version, self.extra
         if pose is None:
             raise ParameterError("set the listener pose before rendering")
         prev = self._prev if self._prev is not None else pose
@@ -148,6 +158,14 @@ class LiveEngine:
         out = render(self.tracks, path, rate=self.rate, time_scale=self.time_scale,
                      layout=self.layout, c0=self.c0, start=self.t, duration=dur)  # fmt: skip
         audio = out.audio
+        if extra is not None and extra.parts:
+            from auralize.emitters import render as render_sound
+
+            more = render_sound(extra, path, rate=self.rate, layout=self.layout, c0=self.c0,
+                                start=self.t, duration=dur).audio  # fmt: skip
+            n = min(audio.shape[1], more.shape[1])
+            audio = audio.copy()
+            audio[:, :n] += more[:, :n]
         if audio.shape[1] != self.block:  # rounding of duration * rate
             audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[
                 :, : self.block

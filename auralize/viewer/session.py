@@ -12,7 +12,11 @@ viewer and :mod:`auralize.simple` read and write the same format::
      "detection": {"mapping": "paper-density", "thresholds": {...}},
      "path": {"rows": [[t, x, y, z, fx, fy, fz, ux, uy, uz], ...]},
      "audio": {"layout": "ring8", "rate": 44100, "time_scale": 1.0, "device": null},
-     "camera": {"position": [...], "focal_point": [...], "up": [...]}}
+     "camera": {"position": [...], "focal_point": [...], "up": [...]},
+     "models": [{"model": "fire", "input": "/data/fire.h5", "params": {"extend": "none"}}]}
+
+``models`` are the sound models mixed with the data (a scene, see
+:mod:`auralize.soundscene`); older files without it have none.
 
 Examples
 --------
@@ -49,6 +53,7 @@ class SessionState:
     audio: dict[str, Any] = field(default_factory=dict)
     camera: dict[str, Any] | None = None
     recording: dict[str, Any] = field(default_factory=dict)
+    models: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return {"auralize_format": FORMAT, "version": VERSION, **asdict(self)}

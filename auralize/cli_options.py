@@ -1,0 +1,224 @@
+"""The options every audio-writing command shares, importable without the whole CLI.
+
+Plugins declare their sub-commands with these (``from auralize.cli_options
+import add_output_options``), so that ``-o``, ``--layout``, ``--rate``,
+``--normalize``, ``--format``, ``--limit``, ``--listener``/``--path`` and
+``--duration`` mean the same in ``auralize render``, ``auralize play`` and
+every plugin command:
+
+===============  ==================  ======================================================
+option           dest, type          meaning
+===============  ==================  ======================================================
+``-o``           output, str         output .wav or .flac (written atomically, + sidecar)
+``--layout``     layout, str         output layout: a name or a layout JSON file
+``--rate``       rate, int           *output* sample rate in Hz (8000..768000, default 44100)
+``--normalize``  normalize, str      ``peak`` (loudest sample at 0.99) or ``none`` (pascals)
+``--format``     format, str         float32 | pcm16 | pcm24 (default float32 WAV, pcm24 FLAC)
+``--limit``      limit, float        truncate pressures beyond this many pascals
+``--path``       path, str           listener path CSV
+``--listener``   listener, (3,)      static listener position x,y,z (m)
+``--duration``   duration, float     playback seconds rendered (default: the path's length)
+===============  ==================  ======================================================
+
+:data:`OUTPUT_OPTIONS` holds the same table for tests and tools.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+import numpy as np
+
+from auralize.errors import ParameterError
+
+#: lowest and highest sample rate an audio command accepts, Hz
+RATE_RANGE_HZ = (8000, 768000)
+#: default output sample rate, Hz
+DEFAULT_RATE = 44100
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return v
+
+
+def finite_float(text: str) -> float:
+    """argparse type: a finite number."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return v
+
+
+def seed_int(text: str) -> int:
+    """argparse type: a random seed, 0 to 2**32 - 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}") from None
+    if not 0 <= v < 2**32:
+        raise argparse.ArgumentTypeError(f"expected a seed 0..4294967295, got {text!r}")
+    return v
+
+
+def rate_int(text: str) -> int:
+    """argparse type: an audio sample rate in :data:`RATE_RANGE_HZ`."""
+    lo, hi = RATE_RANGE_HZ
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a sample rate in Hz ({lo}..{hi}), got {text!r}"
+        ) from None
+    if not lo <= v <= hi:
+        raise argparse.ArgumentTypeError(f"sample rate {text!r} Hz is outside {lo}..{hi} Hz")
+    return v
+
+
+def vec3(text: str) -> np.ndarray:
+    """argparse type: three finite numbers ``x,y,z`` -> (3,) float."""
+    try:
+        v = np.array([float(x) for x in text.split(",")])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected x,y,z numbers, got {text!r}") from None
+    if v.size != 3 or not np.all(np.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"expected three finite numbers x,y,z, got {text!r}")
+    return v
+
+
+#: dest -> (option strings, argparse type, default) of the shared output options;
+#: ``"layout"``'s default may differ per command (``play`` defaults to ring8)
+OUTPUT_OPTIONS: dict[str, tuple[tuple[str, ...], Any, Any]] = {
+    "output": (("-o", "--output"), None, None),
+    "layout": (("--layout",), None, "mono"),
+    "rate": (("--rate",), rate_int, DEFAULT_RATE),
+    "normalize": (("--normalize",), None, "peak"),
+    "format": (("--format",), None, None),
+    "limit": (("--limit",), positive_float, None),
+    "path": (("--path",), None, None),
+    "listener": (("--listener",), vec3, None),
+    "duration": (("--duration",), positive_float, None),
+}
+#: the subset that live commands (no file) share
+LIVE_OPTIONS = ("layout", "rate", "limit", "path", "listener", "duration")
+
+
+def add_output_options(
+    p: argparse.ArgumentParser,
+    *,
+    layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
+    listener_required: bool = True,
+    file: bool = True,
+    layout: str = "mono",
+    title: str = "audio output",
+) -> argparse._ArgumentGroup:
+    """Add the shared output options (see the module docstring) to ``p``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+    layouts : str
+        Help text of ``--layout`` (the layouts the command offers).
+    listener_required : bool
+        One of ``--path``/``--listener`` must be given (else the command
+        chooses a listener itself).
+    file : bool
+        The command writes a file (``-o``, ``--normalize``, ``--format``);
+        False for live commands.
+    layout : str
+        Default of ``--layout``.
+    title : str
+        Title of the help section.
+
+    Returns
+    -------
+    argparse._ArgumentGroup
+        The group, for command-specific additions.
+    """
+    g = p.add_argument_group(title)
+    if file:
+        g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
+    g.add_argument("--layout", default=layout, help=f"{layouts} (default {layout})")
+    g.add_argument("--rate", type=rate_int, default=DEFAULT_RATE,
+                   help=f"output sample rate in Hz (default {DEFAULT_RATE})")  # fmt: skip
+    if file:
+        g.add_argument(
+            "--normalize",
+            choices=["peak", "none"],
+            default="peak",
+            help="peak: loudest sample at 0.99; none: physical pascals in a float WAV, whose "
+            "samples go beyond ±1 by design (scale them before playing)",
+        )
+        g.add_argument(
+            "--format",
+            choices=["float32", "pcm16", "pcm24"],
+            help="sample format (default: float32 WAV, pcm24 FLAC); pcm needs --normalize peak",
+        )
+    g.add_argument(
+        "--limit",
+        type=positive_float,
+        metavar="PA",
+        help="truncate pressures beyond this many pascals (paper 000 §7)",
+    )
+    src = g.add_mutually_exclusive_group(required=listener_required)
+    src.add_argument(
+        "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
+    )
+    src.add_argument("--listener", type=vec3, metavar="X,Y,Z", help="static listener position")
+    g.add_argument(
+        "--duration",
+        type=positive_float,
+        help="playback seconds to render (default: the listener path's length"
+        + ("; needed with --listener)" if listener_required else ", else 10)"),
+    )
+    return g
+
+
+def listener_from_args(args: argparse.Namespace) -> Any:
+    """The :class:`~auralize.listener.ListenerPath` of ``--path`` or ``--listener``/``--duration``.
+
+    With ``--path`` and ``--duration``, the path is rendered for ``--duration``
+    seconds (its last capture is held beyond its end).
+    """
+    from auralize.listener import ListenerPath
+
+    if args.path:
+        return ListenerPath.from_csv(args.path)
+    if args.listener is None:
+        raise ParameterError("give a listener: --path CSV or --listener X,Y,Z --duration S")
+    if args.duration is None:
+        raise ParameterError("--listener needs --duration S (seconds to render)")
+    return ListenerPath.point(args.listener, duration=args.duration)
+
+
+def render_duration(args: argparse.Namespace, path: Any, default: float | None = None) -> float:
+    """Playback seconds a command renders: ``--duration``, else the path's, else ``default``."""
+    if args.duration is not None:
+        return float(args.duration)
+    if path is not None:
+        return float(path.duration)
+    if default is None:
+        raise ParameterError("give --duration S (playback seconds to render)")
+    return float(default)

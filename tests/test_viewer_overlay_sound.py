@@ -1,0 +1,196 @@
+"""Audible overlays, under Xvfb: switching an overlay on adds exactly its model's
+sound to the rendered file along the recorded path and to live listening;
+switching it off takes it out again."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pytestqt")
+pytest.importorskip("pyvistaqt")
+
+from qtpy import QtWidgets
+
+import auralize.plugins as plugins
+from auralize.emitters import Emitters, Sound, render
+from auralize.listener import ListenerPath
+from auralize.plugins import SoundModel
+from auralize.viewer.listening import LiveEngine
+
+
+class BeaconModel(SoundModel):
+    """A sine emitter beside the volume's centre, with a sphere as its overlay."""
+
+    name: ClassVar[str] = "beacon"
+    description: ClassVar[str] = "a tone beside the data (tests)"
+    input_kind: ClassVar[str] = "volume"
+
+    def synthesize(self, inputs: Any, **params: Any) -> Sound:
+        t = np.arange(8000) / 8000.0
+        em = Emitters(0.3 * np.sin(2 * np.pi * 500.0 * t)[None], 8000.0,
+                      (np.asarray(inputs.center) + [0.3, 0.0, 0.0])[None], name="beacon")  # fmt: skip
+        return Sound(parts=[em], name="beacon")
+
+    def overlay(self, inputs: Any, step: int) -> Any:
+        import pyvista as pv
+
+        vol = inputs[0]
+        return pv.Sphere(radius=0.05, center=tuple(np.asarray(vol.center) + [0.3, 0.0, 0.0]))
+
+
+class SilentModel(SoundModel):
+    """An overlay whose model makes no sound from a volume."""
+
+    name: ClassVar[str] = "sketch"
+    description: ClassVar[str] = "a drawing only (tests)"
+
+    def overlay(self, inputs: Any, step: int) -> Any:
+        import pyvista as pv
+
+        return pv.Sphere(radius=0.05, center=tuple(inputs[0].center))
+
+
+@pytest.fixture
+def window(qtbot, tmp_path, monkeypatch):  # type: ignore[no-untyped-def]
+    from auralize.viewer.app import MainWindow
+
+    shown: list[str] = []
+    monkeypatch.setattr(QtWidgets.QMessageBox, "critical",
+                        lambda *a, **k: shown.append(a[2]) or QtWidgets.QMessageBox.StandardButton.Ok)  # fmt: skip
+    real = plugins.registry()
+    monkeypatch.setattr(plugins, "registry",
+                        lambda: {**real, "beacon": BeaconModel, "sketch": SilentModel})  # fmt: skip
+    win = MainWindow(autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(win)
+    win.resize(900, 650)
+    win.show()
+    qtbot.waitExposed(win)
+    yield win, shown
+    win.close()
+
+
+def _render(qtbot, win, out: Path) -> np.ndarray:  # type: ignore[no-untyped-def]
+    win.rendered = None
+    win.render_audio(out)
+    qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=60_000)
+    return np.array(win.rendered.audio)
+
+
+def test_switching_an_overlay_on_adds_its_sound_to_the_render(qtbot, window, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import json
+
+    win, shown = window
+    win.open_data("dataset:monopole", size=12)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    win.detect()
+    qtbot.waitUntil(lambda: win.series is not None and not win.busy, timeout=60_000)
+    csv = tmp_path / "p.csv"
+    ListenerPath.line(win.volume.center + [0.6, -0.4, 0], win.volume.center + [0.6, 0.4, 0],
+                      duration=0.6).to_csv(csv)  # fmt: skip
+    path = win.load_path(csv)
+    plain = _render(qtbot, win, tmp_path / "plain.wav")
+
+    result: list[bool] = []
+    win.set_overlay("beacon", True, then=result.append)
+    qtbot.waitUntil(lambda: bool(result) and "beacon" in win._overlay_sounds, timeout=60_000)
+    assert result == [True]
+    with_beacon = _render(qtbot, win, tmp_path / "beacon.wav")
+    alone = render(BeaconModel().synthesize(win.volume), path, rate=win.audio["rate"],
+                   layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
+    assert with_beacon.shape == plain.shape == alone.shape
+    assert np.max(np.abs(alone)) > 0.1 * np.max(np.abs(with_beacon))
+    assert np.max(np.abs(with_beacon - (plain + alone))) <= 1e-9 * np.max(np.abs(with_beacon))
+    side = json.loads(Path(f"{tmp_path / 'beacon.wav'}.json").read_text())
+    assert [p["model"] for p in side["parts"]] == ["field", "beacon"]
+
+    # an overlay without sound is drawn, says so, and changes nothing heard
+    win.set_overlay("sketch", True, then=result.append)
+    qtbot.waitUntil(lambda: len(result) == 2 and not win._sound_tasks, timeout=60_000)
+    assert win.overlay_note.text() == ("sketch overlay is shown but not heard: sound model "
+                                       "'sketch' does not implement synthesize")  # fmt: skip
+    assert list(win._overlay_sounds) == ["beacon"]
+
+    # live listening hears it too, and stops hearing it when switched off
+    player = win.start_live(output=str(tmp_path / "live.wav"))
+    try:
+        assert player.engine.extra is not None and player.engine.extra.parts[0].name == "beacon"
+        qtbot.waitUntil(lambda: len(player.engine.heard_blocks) >= 3, timeout=30_000)
+        assert np.max(np.abs(np.concatenate(player.engine.heard_blocks, axis=1))) > 0
+        win.set_overlay("beacon", False)
+        assert player.engine.extra is None
+    finally:
+        win.stop_live()
+    again = _render(qtbot, win, tmp_path / "again.wav")
+    assert np.array_equal(again, plain)
+    assert not shown
+
+
+def test_live_block_with_an_overlay_sound_is_the_sum() -> None:
+    """One live block with an extra sound = the block without it + the engine's render of
+    that sound along the block's path."""
+    from auralize.sources import SourceTracks
+
+    fk = 4000.0
+    t = np.arange(int(0.5 * fk)) / fk
+    tracks = SourceTracks(np.array([[2.0, 0.0, 0.0]]), np.sin(2 * np.pi * 220 * t)[None],
+                          np.array([0.1]), t)  # fmt: skip
+    em = Emitters(np.cos(2 * np.pi * 330 * np.arange(4000) / 8000.0)[None], 8000.0,
+                  np.array([[0.0, 3.0, 0.5]]), name="beacon")  # fmt: skip
+    pose = ((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    a = LiveEngine(tracks, layout="stereo", block=1024)
+    b = LiveEngine(tracks, layout="stereo", block=1024, extra=Sound([em]))
+    for eng in (a, b):
+        eng.set_pose(*pose)
+    blocks = [(a.next_block(), b.next_block()) for _ in range(3)]
+    b.set_extra(None)
+    a4, b4 = a.next_block(), b.next_block()
+    assert np.array_equal(a4, b4)  # taken out from the next block on
+    p = ListenerPath.point(pose[0], duration=1.0)
+    ref = render(Sound([em]), p, rate=44100, layout="stereo", duration=3 * 1024 / 44100).audio
+    got = np.concatenate([y - x for x, y in blocks], axis=1)
+    assert np.max(np.abs(got - ref[:, : got.shape[1]])) <= 1e-9 * np.max(np.abs(ref))
+
+
+def test_the_fire_front_overlay_is_heard(qtbot, window, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The real fire model: its flame-front overlay adds the fire's sound (paper 001 §3)."""
+    from auralize.plugins import synthesize
+
+    win, shown = window
+    win.open_data("dataset:fire", size=12)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    win.detect()
+    qtbot.waitUntil(lambda: win.series is not None and not win.busy, timeout=60_000)
+    csv = tmp_path / "p.csv"
+    ListenerPath.point(win.volume.center + [0.0, -1.0, 0.0], duration=0.3).to_csv(csv)
+    path = win.load_path(csv)
+    plain = _render(qtbot, win, tmp_path / "plain.wav")
+    result: list[bool] = []
+    win.set_overlay("fire", True, then=result.append)
+    qtbot.waitUntil(lambda: bool(result) and "fire" in win._overlay_sounds, timeout=60_000)
+    heard = _render(qtbot, win, tmp_path / "fire.wav")
+    fire = render(synthesize("fire", win.volume), path, rate=win.audio["rate"],
+                  layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
+    assert np.max(np.abs(fire)) > 0
+    assert np.max(np.abs(heard - (plain + fire))) <= 1e-9 * np.max(np.abs(heard))
+    assert not shown
+
+
+def test_an_overlay_switched_on_is_heard_for_newly_opened_data(qtbot, window) -> None:  # type: ignore[no-untyped-def]
+    win, shown = window
+    win.open_data("dataset:monopole", size=12)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    result: list[bool] = []
+    win.set_overlay("beacon", True, then=result.append)
+    qtbot.waitUntil(lambda: "beacon" in win._overlay_sounds, timeout=60_000)
+    first = win.volume
+    win.open_data("dataset:explosion", size=12, steps=4)
+    qtbot.waitUntil(lambda: win.volume is not first and not win.busy, timeout=60_000)
+    qtbot.waitUntil(lambda: win._overlay_sounds.get("beacon", (None,))[0] is win.volume,
+                    timeout=60_000)  # fmt: skip
+    em = win.overlay_sound().parts[0]
+    assert np.allclose(em.positions[0], np.asarray(win.volume.center) + [0.3, 0.0, 0.0])
+    assert not shown
