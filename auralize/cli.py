@@ -36,6 +36,7 @@ from auralize.cli_options import (  # the shared options; re-exported for older 
     DEFAULT_RATE,
     RATE_RANGE_HZ,  # noqa: F401
     add_output_options,
+    add_volume_options,
     finite_float,
     listener_from_args,  # noqa: F401
     positive_float,
@@ -43,6 +44,7 @@ from auralize.cli_options import (  # the shared options; re-exported for older 
     rate_int,  # noqa: F401
     seed_int,
 )
+from auralize.cli_options import field_map as _field_map
 from auralize.cli_options import vec3 as _vec3
 from auralize.errors import (
     AuralizeError,
@@ -108,47 +110,6 @@ def _sizes(text: str) -> str:
         if v < 2:
             raise argparse.ArgumentTypeError(f"grid sizes must be >= 2, got {part!r} in {text!r}")
     return text
-
-
-def _field_map(items: list[str] | None) -> dict[str, str] | None:
-    if not items:
-        return None
-    out = {}
-    for it in items:
-        if "=" not in it:
-            raise ParameterError(f"--field takes NAME=/hdf5/path, got {it!r}")
-        k, v = it.split("=", 1)
-        out[k.strip()] = v.strip()
-    return out
-
-
-def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
-    """The volume positional and the options that read it (``optional``: may be left out)."""
-    p.add_argument("volume", metavar="PATH", nargs="?" if optional else None,
-                   help="volume file, or dataset:NAME for a built-in one"
-                        + (" (optional with --model/--scene)" if optional else ""))  # fmt: skip
-    g = p.add_argument_group("volume")
-    g.add_argument(
-        "--field",
-        action="append",
-        metavar="NAME=/DATASET",
-        help="read a generic HDF5 file by naming datasets (repeatable)",
-    )
-    g.add_argument(
-        "--resolution", type=positive_int, help="points per axis when resampling non-uniform grids"
-    )
-    g.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
-    g.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
-    g.add_argument("--seed", type=seed_int, default=0, help="seed of a built-in dataset")
-    g.add_argument("--allow-external", action="store_true",
-                   help="let HDF5 files read data from other files (external storage and "
-                        "links; refused by default)")  # fmt: skip
-    g.add_argument(
-        "--nan",
-        choices=["mask", "error"],
-        default="mask",
-        help="NaN, fill values and masked cells: mask = no-data (default), error = refuse",
-    )
 
 
 def add_detect_options(p: argparse.ArgumentParser) -> None:

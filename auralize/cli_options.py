@@ -108,6 +108,48 @@ def vec3(text: str) -> np.ndarray:
     return v
 
 
+def field_map(items: list[str] | None) -> dict[str, str] | None:
+    """``--field NAME=/DATASET`` items -> ``{NAME: /DATASET}`` (None if none are given)."""
+    if not items:
+        return None
+    out = {}
+    for it in items:
+        if "=" not in it:
+            raise ParameterError(f"--field takes NAME=/hdf5/path, got {it!r}")
+        k, v = it.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out
+
+
+def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
+    """The volume positional and the options that read it (``optional``: may be left out)."""
+    p.add_argument("volume", metavar="PATH", nargs="?" if optional else None,
+                   help="volume file, or dataset:NAME for a built-in one"
+                        + (" (optional with --model/--scene)" if optional else ""))  # fmt: skip
+    g = p.add_argument_group("volume")
+    g.add_argument(
+        "--field",
+        action="append",
+        metavar="NAME=/DATASET",
+        help="read a generic HDF5 file by naming datasets (repeatable)",
+    )
+    g.add_argument(
+        "--resolution", type=positive_int, help="points per axis when resampling non-uniform grids"
+    )
+    g.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
+    g.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
+    g.add_argument("--seed", type=seed_int, default=0, help="seed of a built-in dataset")
+    g.add_argument("--allow-external", action="store_true",
+                   help="let HDF5 files read data from other files (external storage and "
+                        "links; refused by default)")  # fmt: skip
+    g.add_argument(
+        "--nan",
+        choices=["mask", "error"],
+        default="mask",
+        help="NaN, fill values and masked cells: mask = no-data (default), error = refuse",
+    )
+
+
 #: dest -> (option strings, argparse type, default) of the shared output options;
 #: ``"layout"``'s default may differ per command (``play`` defaults to ring8)
 OUTPUT_OPTIONS: dict[str, tuple[tuple[str, ...], Any, Any]] = {
@@ -123,6 +165,12 @@ OUTPUT_OPTIONS: dict[str, tuple[tuple[str, ...], Any, Any]] = {
 }
 #: the subset that live commands (no file) share
 LIVE_OPTIONS = ("layout", "rate", "limit", "path", "listener", "duration")
+#: the subset that emitted-signal commands share: they write a source's own signal
+#: (mono, at 1 m), so they have no listener and no layout
+EMITTED_OPTIONS = ("output", "rate", "normalize", "format", "limit", "duration")
+#: the argparse default (``p.get_default(EMITTED_SIGNAL)``) that declares a command
+#: an emitted-signal command; set by ``add_output_options(..., emitted=True)``
+EMITTED_SIGNAL = "emitted_signal"
 
 
 def add_output_options(
@@ -133,6 +181,7 @@ def add_output_options(
     file: bool = True,
     layout: str = "mono",
     title: str = "audio output",
+    emitted: bool = False,
 ) -> argparse._ArgumentGroup:
     """Add the shared output options (see the module docstring) to ``p``.
 
@@ -151,6 +200,12 @@ def add_output_options(
         Default of ``--layout``.
     title : str
         Title of the help section.
+    emitted : bool
+        The command writes a source's emitted signal (mono, at 1 m), not a
+        listener's: only :data:`EMITTED_OPTIONS` are added (no ``--layout``,
+        ``--path``, ``--listener``), ``--duration`` cuts or pads that signal
+        (:func:`fit_duration`) and the parser is declared with
+        ``p.set_defaults(emitted_signal=True)``.
 
     Returns
     -------
@@ -158,11 +213,17 @@ def add_output_options(
         The group, for command-specific additions.
     """
     g = p.add_argument_group(title)
+    if emitted:
+        file = True
+        p.set_defaults(**{EMITTED_SIGNAL: True})
     if file:
-        g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
-    g.add_argument("--layout", default=layout, help=f"{layouts} (default {layout})")
+        g.add_argument("-o", "--output", required=True,
+                       help="output .wav or .flac" + (" (mono, the signal at 1 m)" if emitted else ""))  # fmt: skip
+    if not emitted:
+        g.add_argument("--layout", default=layout, help=f"{layouts} (default {layout})")
     g.add_argument("--rate", type=rate_int, default=DEFAULT_RATE,
-                   help=f"output sample rate in Hz (default {DEFAULT_RATE})")  # fmt: skip
+                   help=f"output sample rate in Hz (default {DEFAULT_RATE})"
+                   + ("; an input at another rate is resampled to it" if emitted else ""))  # fmt: skip
     if file:
         g.add_argument(
             "--normalize",
@@ -182,6 +243,11 @@ def add_output_options(
         metavar="PA",
         help="truncate pressures beyond this many pascals (paper 000 §7)",
     )
+    if emitted:
+        g.add_argument("--duration", type=positive_float,
+                       help="seconds written (default: the whole signal; a longer signal is cut, "
+                       "a shorter one padded with silence)")  # fmt: skip
+        return g
     src = g.add_mutually_exclusive_group(required=listener_required)
     src.add_argument(
         "--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,fy,fz,ux,uy,uz])"
@@ -222,3 +288,26 @@ def render_duration(args: argparse.Namespace, path: Any, default: float | None =
     if default is None:
         raise ParameterError("give --duration S (playback seconds to render)")
     return float(default)
+
+
+def fit_duration(x: np.ndarray, rate: int, duration: float | None) -> np.ndarray:
+    """An emitted signal cut, or padded with silence, to ``duration`` seconds.
+
+    Parameters
+    ----------
+    x : (n_samples,) or (n_channels, n_samples) signal.
+    rate : sample rate in Hz.
+    duration : seconds (``--duration``); None returns ``x`` unchanged.
+
+    Returns
+    -------
+    ndarray
+        ``x`` with ``round(duration * rate)`` samples on its last axis.
+    """
+    if duration is None:
+        return x
+    n = round(float(duration) * int(rate))
+    if n <= x.shape[-1]:
+        return x[..., :n]
+    pad = [(0, 0)] * (x.ndim - 1) + [(0, n - x.shape[-1])]
+    return np.pad(x, pad)

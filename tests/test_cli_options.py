@@ -1,32 +1,35 @@
 """One output path: every audio-writing sub-command (core and plugins) declares the
 shared output options of :mod:`auralize.cli_options` with the same dest, type and
 default, so ``-o``, ``--layout``, ``--rate``, ``--normalize``, ``--format``,
-``--limit``, ``--listener``/``--path`` and ``--duration`` mean the same everywhere."""
+``--limit``, ``--listener``/``--path`` and ``--duration`` mean the same everywhere.
+
+Commands that write a source's emitted signal (``fire lowfreq/extend/texture``)
+declare it on their parser and share the :data:`EMITTED_OPTIONS` subset: they have
+no listener and no layout, and the test checks that they have none."""
 
 from __future__ import annotations
 
 import argparse
 from collections.abc import Iterator
 
+import numpy as np
 import pytest
 
 from auralize.cli import build_parser
-from auralize.cli_options import LIVE_OPTIONS, OUTPUT_OPTIONS, add_output_options, rate_int
+from auralize.cli_options import (
+    EMITTED_OPTIONS,
+    EMITTED_SIGNAL,
+    LIVE_OPTIONS,
+    OUTPUT_OPTIONS,
+    add_output_options,
+    fit_duration,
+    rate_int,
+)
 
 #: commands that play live (no file): they share the LIVE_OPTIONS subset
 LIVE_COMMANDS = {"play"}
-#: plugin commands that still differ; each plugin fixes its own (see the scenes report)
-KNOWN_DEVIATIONS = {
-    ("fire lowfreq", "layout"): "writes the emitted mono signal: no layout/listener options",
-    ("fire lowfreq", "format"): "no --format",
-    ("fire lowfreq", "limit"): "no --limit",
-    ("fire lowfreq", "path"): "no listener",
-    ("fire lowfreq", "listener"): "no listener",
-    ("fire lowfreq", "duration"): "no --duration",
-    **{(f"fire {c}", d): "writes the emitted mono signal; --rate is the input's raw rate"
-       for c in ("extend", "texture")
-       for d in ("layout", "rate", "format", "limit", "path", "listener", "duration")},
-}  # fmt: skip
+#: the emitted-signal commands there are today (a new one must be declared, see below)
+EMITTED_COMMANDS = {"fire lowfreq", "fire extend", "fire texture"}
 
 
 def _walk(p: argparse.ArgumentParser, name: tuple[str, ...] = ()) -> Iterator[tuple[str, argparse.ArgumentParser]]:  # fmt: skip
@@ -46,14 +49,18 @@ def _writes_audio(p: argparse.ArgumentParser) -> bool:
     return out is not None and ".wav" in (out.help or "")
 
 
+def _emitted(cmd: str) -> bool:
+    return COMMANDS[cmd].get_default(EMITTED_SIGNAL) is True
+
+
+def _shared(cmd: str) -> tuple[str, ...]:
+    if cmd in LIVE_COMMANDS:
+        return LIVE_OPTIONS
+    return EMITTED_OPTIONS if _emitted(cmd) else tuple(OUTPUT_OPTIONS)
+
+
 AUDIO_COMMANDS = sorted(n for n, p in COMMANDS.items() if _writes_audio(p)) + sorted(LIVE_COMMANDS)
-CASES = [
-    pytest.param(cmd, dest, marks=pytest.mark.xfail(reason=KNOWN_DEVIATIONS[cmd, dest]))
-    if (cmd, dest) in KNOWN_DEVIATIONS
-    else (cmd, dest)
-    for cmd in AUDIO_COMMANDS
-    for dest in (LIVE_OPTIONS if cmd in LIVE_COMMANDS else OUTPUT_OPTIONS)
-]
+CASES = [(cmd, dest) for cmd in AUDIO_COMMANDS for dest in _shared(cmd)]
 
 
 def test_the_walk_finds_core_and_plugin_audio_commands() -> None:
@@ -61,6 +68,25 @@ def test_the_walk_finds_core_and_plugin_audio_commands() -> None:
     plugin = {c for c in AUDIO_COMMANDS if c.split()[0] in ("vortex", "aero", "spark", "fire")}
     assert {"vortex render", "aero render", "spark render", "fire render"} <= plugin
     assert "convert" not in AUDIO_COMMANDS and "detect" not in AUDIO_COMMANDS
+
+
+def test_emitted_signal_commands_are_declared_and_have_no_listener() -> None:
+    assert {c for c in AUDIO_COMMANDS if _emitted(c)} == EMITTED_COMMANDS
+    for cmd in EMITTED_COMMANDS:
+        p = COMMANDS[cmd]
+        dests = {a.dest for a in p._actions}
+        assert not dests & {"layout", "path", "listener"}, cmd
+        # the help says what is written and why there is no listener
+        text = p.format_help()
+        assert "emitted signal" in text and "1 m" in text and "no --layout" in text, cmd
+
+
+def test_fit_duration_cuts_or_pads_with_silence() -> None:
+    x = np.arange(1.0, 11.0)
+    assert fit_duration(x, 10, None) is x
+    assert fit_duration(x, 10, 0.5).tolist() == [1, 2, 3, 4, 5]
+    y = fit_duration(x[None], 10, 1.5)
+    assert y.shape == (1, 15) and y[0, :10].tolist() == x.tolist() and not y[0, 10:].any()
 
 
 @pytest.mark.parametrize(("cmd", "dest"), CASES)

@@ -7,14 +7,20 @@ Sub-commands (paper 001)::
     auralize fire texture IN.wav --training TRAIN.wav -o OUT.wav [--levels L] [--eps E]
     auralize fire render PATH -o OUT.wav --extend bandwidth|texture --listener X,Y,Z --duration S
 
-``lowfreq``, ``extend`` and ``texture`` write the emitted (source) signal,
-mono; ``render`` runs the chain and renders the fire, one point emitter at
+``lowfreq``, ``extend`` and ``texture`` are emitted-signal commands: they
+write the fire's own (source) signal, mono, as at 1 m, with no listener and
+no layout, and share the emitted subset of the output options
+(``add_output_options(..., emitted=True)``: ``-o``, ``--rate`` = the output
+rate, ``--normalize``, ``--format``, ``--limit``, ``--duration``).  An input
+at another rate than ``--rate`` is resampled to it before processing, so the
+extension and the texture fill the output's band.  Raw float32 inputs
+(``.f32``) take ``--input-rate`` (default: the ``manifest.json`` beside them).
+``render`` runs the chain and renders the fire, one point emitter at
 the flame front's centre (:func:`auralize_fire.model.fire_sound`), along a
 listener path with the engine (:func:`auralize.emitters.render`: retarded
 time, 1/D, Doppler, the layout's 2-D or 3-D panning) and the common output
-options, written by the core writer (channel mask, sidecar).  Raw
-float32 inputs (``.f32``) take ``--rate`` (default: the ``manifest.json``
-beside them).  PATH is a volume file or ``dataset:fire``.
+options, written by the core writer (channel mask, sidecar).  PATH is a
+volume file or ``dataset:fire``.
 """
 
 from __future__ import annotations
@@ -25,14 +31,38 @@ from typing import Any
 
 import numpy as np
 
-from auralize.cli import finite_float, positive_float, positive_int, rate_int, seed_int
+from auralize.cli_options import (
+    add_output_options,
+    finite_float,
+    fit_duration,
+    positive_float,
+    positive_int,
+    rate_int,
+    seed_int,
+)
+
+#: help text of the emitted-signal commands' output section
+EMITTED_TITLE = "emitted-signal output (mono, the fire's own signal at 1 m: no listener, no layout)"
 
 
-def _audio_out(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("audio output")
-    g.add_argument("-o", "--output", required=True, help="output .wav or .flac (mono)")
-    g.add_argument("--normalize", choices=["peak", "none"], default="peak",
-                   help="peak: loudest sample at 0.99; none: keep the signal's units")  # fmt: skip
+def _emitted_out(p: argparse.ArgumentParser) -> None:
+    add_output_options(p, emitted=True, title=EMITTED_TITLE)
+
+
+def _signal_in(p: argparse.ArgumentParser) -> None:
+    p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
+    p.add_argument("--input-rate", type=rate_int, metavar="HZ",
+                   help="sample rate of a raw .f32 input (default: its manifest.json)")  # fmt: skip
+
+
+def _read_input(args: argparse.Namespace) -> np.ndarray:
+    """The input signal at the output rate ``--rate``, cut to ``--duration`` if shorter."""
+    from auralize_fire.clips import read_audio, resample
+
+    x, rate = read_audio(args.input, rate=args.input_rate)
+    if args.duration is not None:  # process no more than is written
+        x = x[: round(args.duration * rate)]
+    return resample(x, rate, args.rate)
 
 
 def _volume_in(p: argparse.ArgumentParser) -> None:
@@ -63,13 +93,16 @@ def _texture_opts(p: argparse.ArgumentParser) -> None:
     p.add_argument("--training-rate", type=rate_int, help="rate of a raw .f32 training clip")
 
 
-def _write(args: argparse.Namespace, x: np.ndarray, rate: int, info: dict[str, Any]) -> None:
+def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any]) -> None:
+    """Write the emitted signal ``x`` (n,) at ``--rate``, cut or padded to ``--duration``."""
     from auralize.audio import write_audio
 
-    gain = write_audio(args.output, x[None] if x.ndim == 1 else x, rate,
-                       normalize=args.normalize, sidecar={"model": "fire", **info})  # fmt: skip
-    n = x.shape[-1]
-    print(f"wrote {args.output}: {x.shape[0] if x.ndim == 2 else 1} ch, {n / rate:.2f} s at "
+    rate = args.rate
+    x = fit_duration(x, rate, args.duration)
+    gain = write_audio(args.output, x[None], rate, normalize=args.normalize,
+                       limit_pa=args.limit, subtype=args.format,
+                       sidecar={"model": "fire", "signal": "emitted (source, mono)", **info})  # fmt: skip
+    print(f"wrote {args.output}: emitted signal, mono, {x.shape[-1] / rate:.2f} s at "
           f"{rate} Hz, gain {gain:.4g}")  # fmt: skip
 
 
@@ -82,19 +115,18 @@ def cmd_lowfreq(args: argparse.Namespace) -> int:
     fs = flux_series(vol, burn_field=args.burn_field, velocity_field=args.velocity_field,
                      iso=args.iso, refine=args.refine)  # fmt: skip
     p = lowfreq_pressure(fs, rate=args.rate, highpass_hz=args.highpass)
-    _write(args, p, args.rate, {"stage": "lowfreq (§3)", "iso": fs.iso, "steps": vol.n_steps,
+    _write(args, p, {"stage": "lowfreq (§3)", "iso": fs.iso, "steps": vol.n_steps,
                                 "seconds": time.perf_counter() - t})  # fmt: skip
     return 0
 
 
 def cmd_extend(args: argparse.Namespace) -> int:
     from auralize_fire.bandwidth import bandwidth_extend
-    from auralize_fire.clips import read_audio
 
-    x, rate = read_audio(args.input, rate=args.rate)
+    x = _read_input(args)
     t = time.perf_counter()
-    y = bandwidth_extend(x, rate, alpha=args.alpha, f_cut=args.fcut, seed=args.seed)
-    _write(args, y, rate, {"stage": "bandwidth extension (§4)", "alpha": args.alpha,
+    y = bandwidth_extend(x, args.rate, alpha=args.alpha, f_cut=args.fcut, seed=args.seed)
+    _write(args, y, {"stage": "bandwidth extension (§4)", "alpha": args.alpha,
                            "f_cut": args.fcut, "seed": args.seed,
                            "seconds": time.perf_counter() - t})  # fmt: skip
     return 0
@@ -102,17 +134,16 @@ def cmd_extend(args: argparse.Namespace) -> int:
 
 def cmd_texture(args: argparse.Namespace) -> int:
     from auralize.progress import progress_callback
-    from auralize_fire.clips import read_audio
     from auralize_fire.model import training_at
     from auralize_fire.texture import texture_synthesize
 
-    x, rate = read_audio(args.input, rate=args.rate)
-    train = training_at(args.training, rate, training_rate=args.training_rate)
+    x = _read_input(args)
+    train = training_at(args.training, args.rate, training_rate=args.training_rate)
     t = time.perf_counter()
     with progress_callback("texture", total=args.levels - 1, unit="level") as cb:
         y = texture_synthesize(x, train, levels=args.levels, eps=args.eps,
                                coarse_weight=args.coarse_weight, progress=cb)  # fmt: skip
-    _write(args, y, rate, {"stage": "texture synthesis (§5)", "training": args.training,
+    _write(args, y, {"stage": "texture synthesis (§5)", "training": args.training,
                            "levels": args.levels, "eps": args.eps,
                            "coarse_weight": args.coarse_weight,
                            "seconds": time.perf_counter() - t})  # fmt: skip
@@ -120,7 +151,7 @@ def cmd_texture(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from auralize.cli import listener_from_args
+    from auralize.cli_options import listener_from_args
     from auralize.emitters import render
     from auralize.pipeline import save_rendered
     from auralize.spatial import get_layout
@@ -152,31 +183,35 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def add_fire_cli(subparsers: Any) -> None:
     """Register ``auralize fire`` and its sub-commands."""
-    from auralize.cli import add_output_options
-
     fire = subparsers.add_parser(
         "fire", help="fire sound (paper 001): lowfreq, extend, texture, render"
     )
     sub = fire.add_subparsers(dest="fire_command", required=True, metavar="STAGE")
 
-    p = sub.add_parser("lowfreq", help="§3: p = dI/dt of the flame-front flux, at audio rate")
+    emitted = ("writes the fire's emitted signal (mono, as at 1 m from the source), not what a "
+               "listener hears: no --layout, --path or --listener; `auralize fire render` places "
+               "the fire along a listener path")  # fmt: skip
+    p = sub.add_parser("lowfreq", help="§3: p = dI/dt of the flame-front flux, at audio rate",
+                       description="§3: p = dI/dt of the flame-front flux, at audio rate; "
+                       + emitted)  # fmt: skip
     _volume_in(p)
-    _audio_out(p)
-    p.add_argument("--rate", type=rate_int, default=44100, help="audio rate in Hz (default 44100)")
+    _emitted_out(p)
     p.set_defaults(func=cmd_lowfreq)
 
-    p = sub.add_parser("extend", help="§4: spectral bandwidth extension with power-law noise")
-    p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
-    _audio_out(p)
-    p.add_argument("--rate", type=rate_int, help="sample rate of a raw .f32 input")
+    p = sub.add_parser("extend", help="§4: spectral bandwidth extension with power-law noise",
+                       description="§4: spectral bandwidth extension with power-law noise, at "
+                       "the output rate --rate; " + emitted)  # fmt: skip
+    _signal_in(p)
+    _emitted_out(p)
     _extend_opts(p)
     p.set_defaults(func=cmd_extend)
 
-    p = sub.add_parser("texture", help="§5: sound texture synthesis from a training clip")
-    p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
+    p = sub.add_parser("texture", help="§5: sound texture synthesis from a training clip",
+                       description="§5: sound texture synthesis from a training clip, at the "
+                       "output rate --rate; " + emitted)  # fmt: skip
+    _signal_in(p)
     p.add_argument("--training", help="training clip (.wav/.flac/.f32; default: procedural)")
-    _audio_out(p)
-    p.add_argument("--rate", type=rate_int, help="sample rate of a raw .f32 input")
+    _emitted_out(p)
     _texture_opts(p)
     p.set_defaults(func=cmd_texture)
 

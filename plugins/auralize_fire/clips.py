@@ -80,7 +80,8 @@ def fire_training_clip(duration: float, rate: int = 44100, *, seed: int = 0,
     return 0.5 * out / np.max(np.abs(out))
 
 
-def read_audio(path: str | Path, *, rate: int | None = None) -> tuple[NDArray[np.float64], int]:
+def read_audio(path: str | Path, *, rate: int | None = None,
+               option: str = "--input-rate") -> tuple[NDArray[np.float64], int]:  # fmt: skip
     """Read a mono signal from WAV/FLAC or raw float32 (``.f32``/``.bin``).
 
     Parameters
@@ -89,6 +90,7 @@ def read_audio(path: str | Path, *, rate: int | None = None) -> tuple[NDArray[np
     rate : for raw files, the sample rate (default: ``sample_rate`` of a
         ``manifest.json`` beside the file); for WAV/FLAC, the rate the caller
         expects — a different rate in the file is an error.
+    option : the command-line option that gives ``rate`` (named in errors).
 
     Returns
     -------
@@ -104,7 +106,8 @@ def read_audio(path: str | Path, *, rate: int | None = None) -> tuple[NDArray[np
                 rate = int(json.loads(man.read_text())["sample_rate"])
             except (OSError, KeyError, ValueError, TypeError):
                 raise ParameterError(
-                    f"{p}: raw float32 audio needs its sample rate: pass --rate HZ"
+                    f"{p}: raw float32 audio needs its sample rate: pass {option} HZ "
+                    "(or put a manifest.json with sample_rate beside it)"
                 ) from None
         raw = p.read_bytes()
         if len(raw) % 4:
@@ -118,8 +121,8 @@ def read_audio(path: str | Path, *, rate: int | None = None) -> tuple[NDArray[np
     except Exception as exc:  # soundfile raises its own error types
         raise FormatError(f"{p}: cannot read audio ({exc}); use WAV, FLAC or raw .f32") from None
     if rate is not None and int(rate) != int(file_rate):
-        raise ParameterError(f"{p}: file is at {file_rate} Hz but --rate {rate} Hz was given; "
-                             "rates must match (omit --rate for WAV/FLAC)")  # fmt: skip
+        raise ParameterError(f"{p}: file is at {file_rate} Hz but {option} {rate} Hz was given; "
+                             f"rates must match (omit {option} for WAV/FLAC)")  # fmt: skip
     return data.mean(axis=1), int(file_rate)
 
 

@@ -201,5 +201,5 @@ def training_at(path: str | None, rate: int, *, seed: int = 0,
     """Training clip resampled to ``rate`` (default: procedural, 15 s)."""
     if path is None:
         return fire_training_clip(15.0, rate, seed=seed)
-    x, r = read_audio(path, rate=training_rate)
+    x, r = read_audio(path, rate=training_rate, option="--training-rate")
     return check_signal(resample(x, r, rate), f"training clip {path}")

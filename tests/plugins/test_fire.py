@@ -337,13 +337,16 @@ def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray,
     raw = tmp_path / "low.f32"
     candle[:22050].astype("<f4").tofile(raw)
     out = tmp_path / "ext.wav"
-    assert main(["fire", "extend", str(raw), "--rate", "44100", "-o", str(out), "--seed", "3"]) == 0
+    assert (
+        main(["fire", "extend", str(raw), "--input-rate", "44100", "-o", str(out), "--seed", "3"])
+        == 0
+    )
     a, r, _ = read_wav(out)
     assert r == RATE and a.shape == (1, 22050)
     train = tmp_path / "train.wav"
     write_audio(train, fire_training_clip(1.0, 22050, seed=0)[None], 22050)  # resampled to 44.1 kHz
     tex = tmp_path / "tex.wav"
-    assert main(["fire", "texture", str(raw), "--rate", "44100", "--training", str(train),
+    assert main(["fire", "texture", str(raw), "--input-rate", "44100", "--training", str(train),
                  "-o", str(tex), "--levels", "4"]) == 0  # fmt: skip
     assert read_wav(tex)[0].shape == (1, 22050)
     logged = [ln for ln in capsys.readouterr().err.splitlines() if "texture: level" in ln]
@@ -376,14 +379,65 @@ def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
 
     wav = tmp_path / "in.wav"
     write_audio(wav, np.sin(np.arange(8000) * 0.02)[None], RATE)
-    assert main(["fire", "extend", str(wav), "--rate", "22050", "-o", str(tmp_path / "x.wav")]) == 2
-    assert "rates must match" in capsys.readouterr().err
+    assert (
+        main(["fire", "extend", str(wav), "--input-rate", "22050", "-o", str(tmp_path / "x.wav")])
+        == 2
+    )
+    assert "--input-rate 22050 Hz was given; rates must match" in capsys.readouterr().err
     silent = tmp_path / "silent.f32"
     np.zeros(8000, "<f4").tofile(silent)
     assert (
-        main(["fire", "extend", str(silent), "--rate", "44100", "-o", str(tmp_path / "y.wav")]) == 3
+        main(
+            ["fire", "extend", str(silent), "--input-rate", "44100", "-o", str(tmp_path / "y.wav")]
+        )
+        == 3
     )
     assert "silent" in capsys.readouterr().err
     assert not (tmp_path / "y.wav").exists()
     assert main(["fire", "extend", str(silent), "-o", str(tmp_path / "z.wav")]) == 2
-    assert "--rate" in capsys.readouterr().err
+    assert "pass --input-rate HZ" in capsys.readouterr().err
+    # the emitted-signal commands have no listener: --listener is a usage error
+    with pytest.raises(SystemExit):
+        main(["fire", "extend", str(wav), "--listener", "0,0,0", "-o", str(tmp_path / "l.wav")])
+
+
+def test_cli_emitted_signal_output_options(tmp_path: Path, candle: np.ndarray) -> None:
+    """extend/texture/lowfreq: --rate is the output rate (input resampled), --duration cuts or
+    pads, --format and --limit as for every audio command."""
+    from auralize.audio import read_wav, write_audio
+    from auralize.cli import main
+
+    wav = tmp_path / "in.wav"
+    write_audio(wav, candle[None, : RATE // 4], RATE, normalize="none")  # 0.25 s at 44.1 kHz
+    out = tmp_path / "ext22.wav"
+    assert main(["fire", "extend", str(wav), "--rate", "22050", "-o", str(out)]) == 0
+    a, r, _ = read_wav(out)
+    assert r == 22050 and a.shape == (1, -(-(RATE // 4) // 2))  # polyphase: ceil(n / 2)
+    # the extension fills the output band: energy above 8 kHz, below the 11.025 kHz Nyquist
+    spec = np.abs(np.fft.rfft(a[0])) ** 2
+    f = np.fft.rfftfreq(a.shape[1], 1 / 22050)
+    assert spec[f > 8000].sum() > 1e-4 * spec.sum()
+    # --duration longer than the input: padded with silence
+    pad = tmp_path / "pad.wav"
+    assert main(["fire", "extend", str(wav), "--duration", "0.5", "-o", str(pad)]) == 0
+    a, r, _ = read_wav(pad)
+    assert r == RATE and a.shape == (1, round(0.5 * RATE))
+    assert np.all(a[0, RATE // 4 :] == 0) and np.any(a[0, : RATE // 4] != 0)
+    # --duration shorter: cut (texture synthesises only what is written); --format pcm16
+    tex = tmp_path / "tex.wav"
+    assert main(["fire", "texture", str(wav), "--duration", "0.1", "--levels", "3",
+                 "--format", "pcm16", "-o", str(tex)]) == 0  # fmt: skip
+    a, r, _ = read_wav(tex)
+    assert a.shape == (1, round(0.1 * RATE)) and np.max(np.abs(a)) <= 1.0
+    # --limit truncates the physical signal (--normalize none keeps its units)
+    lim = tmp_path / "lim.wav"
+    limit = float(f"{np.max(np.abs(candle[: RATE // 4])) / 4:.4g}")
+    assert main(["fire", "extend", str(wav), "--alpha", "3", "--normalize", "none",
+                 "--limit", str(limit), "-o", str(lim)]) == 0  # fmt: skip
+    a, _, _ = read_wav(lim)
+    assert limit * (1 - 1e-6) <= np.max(np.abs(a)) <= limit * (1 + 1e-6)
+    low = tmp_path / "low.wav"
+    assert main(["fire", "lowfreq", "dataset:fire", "--size", "12", "--steps", "8",
+                 "--rate", "16000", "--duration", "0.01", "-o", str(low)]) == 0  # fmt: skip
+    a, r, _ = read_wav(low)
+    assert r == 16000 and a.shape == (1, 160)
