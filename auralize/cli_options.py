@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from typing import Any
 
 import numpy as np
@@ -311,3 +312,34 @@ def fit_duration(x: np.ndarray, rate: int, duration: float | None) -> np.ndarray
         return x[..., :n]
     pad = [(0, 0)] * (x.ndim - 1) + [(0, n - x.shape[-1])]
     return np.pad(x, pad)
+
+
+class _RenamedOption(argparse.Action):
+    """The hidden old spelling of a renamed option: stores into the new dest, with a note."""
+
+    def __init__(self, option_strings: list[str], dest: str, *, new: str, **kw: Any) -> None:
+        self.new = new
+        super().__init__(option_strings, dest, **kw)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:  # fmt: skip
+        print(f"note: {parser.prog} {option_string} is deprecated; it is now {self.new}",
+              file=sys.stderr)  # fmt: skip
+        setattr(namespace, self.dest, values)
+
+
+def add_renamed_alias(p: argparse.ArgumentParser, old: str, new: argparse.Action) -> None:
+    """Accept ``old`` as a hidden, deprecated spelling of the option ``new``.
+
+    For command-specific settings that once used a shared option's name (a
+    texture's ``--duration``), so that old command lines keep working.
+
+    Parameters
+    ----------
+    p : the parser ``new`` was added to.
+    old : the old option string, e.g. ``"--duration"``.
+    new : the action :meth:`argparse.ArgumentParser.add_argument` returned.
+    """
+    p.add_argument(old, dest=new.dest, type=new.type, action=_RenamedOption,
+                   new=new.option_strings[-1], default=argparse.SUPPRESS,
+                   help=argparse.SUPPRESS)  # fmt: skip

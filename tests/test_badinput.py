@@ -166,7 +166,7 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     # plugins
     ("fire-texture-missing", ["fire", "texture", "{out}/none.wav", "-o", "{out}/f.wav"], "data", "none.wav"),
     ("vortex-speeds", ["vortex", "texture", "--speeds", "abc", "-o", "{out}/t.h5"], "usage", "'abc'"),
-    ("vortex-duration", ["vortex", "texture", "--speeds", "1,2", "--duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
+    ("vortex-duration", ["vortex", "texture", "--speeds", "1,2", "--texture-duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
     ("vortex-seed", ["vortex", "texture", "--speeds", "1,2", "--seed", "-1", "-o", "{out}/t.h5"], "usage", "'-1'"),
     ("vortex-block", ["vortex", "render", "{in}/m.h5", "--block", "0", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav"], "usage", "'0'"),
     ("fire-rate", ["fire", "lowfreq", "dataset:fire", "--rate", "8", "-o", "{out}/f.wav"], "usage", "'8'"),
@@ -176,7 +176,7 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("spark-T0", ["spark", "render", "--T0", "nan", "--listener", "0,0,1", "--duration", "0.1", "-o", "{out}/s.wav"], "usage", "'nan'"),
     ("spark-strokes", ["spark", "render", "--strokes", "0", "--listener", "0,0,1", "--duration", "0.1", "-o", "{out}/s.wav"], "usage", "'0'"),
     ("aero-directions", ["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "--directions", "0", "-o", "{out}/t.h5"], "usage", "'0'"),
-    ("aero-duration", ["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "--duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
+    ("aero-duration", ["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "--texture-duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
     ("aero-diameter", ["aero", "texture", "--shape", "cylinder", "--diameter", "-1", "-o", "{out}/t.h5"], "usage", "got -1"),
     ("aero-texture-missing", ["aero", "render", "--texture", "{out}/none.h5", "--wind", "5", "--listener", "0,1,0", "--duration", "0.1", "-o", "{out}/a.wav"], None, "none.h5"),
 ]  # fmt: skip

@@ -9,7 +9,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from auralize.cli import add_output_options, finite_float, positive_float, positive_int, seed_int
+from auralize.cli_options import (
+    add_output_options,
+    add_renamed_alias,
+    finite_float,
+    positive_float,
+    positive_int,
+    seed_int,
+)
 from auralize.commands import lazy
 
 #: the §8 examples of :data:`auralize_aero.presets.PRESETS` (a test keeps them equal)
@@ -32,12 +39,16 @@ def add_commands(subparsers: Any) -> None:
     t.add_argument(
         "--directions", type=positive_int, help="sampled flow directions (default: 5° spacing)"
     )
-    t.add_argument("--duration", type=positive_float, default=0.05, help="recorded texture seconds")
+    td = t.add_argument("--texture-duration", type=positive_float, default=0.05, metavar="S",
+                        help="seconds of texture recorded (default 0.05)")  # fmt: skip
+    add_renamed_alias(t, "--duration", td)
     t.add_argument("--resolution", type=positive_int, default=16, help="lattice cells across D")
     t.add_argument(
         "--reynolds", type=positive_float, default=200.0, help="Reynolds number simulated"
     )
-    t.add_argument("--rate", type=positive_float, default=16000.0, help="texture sample rate in Hz")
+    tr = t.add_argument("--texture-rate", type=positive_float, default=16000.0, metavar="HZ",
+                        help="texture sample rate in Hz (default 16000; render resamples it)")  # fmt: skip
+    add_renamed_alias(t, "--rate", tr)
     t.add_argument("--seed", type=seed_int, default=0)
     t.add_argument("--no-cache", action="store_true", help="recompute even if cached")
     t.set_defaults(func=lazy("auralize_aero.model:AeroSound._cmd_texture"))

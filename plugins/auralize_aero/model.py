@@ -164,8 +164,9 @@ class AeroSound(SoundModel):
         sec = get_section(args.shape, args.diameter)
         t0 = time.perf_counter()
         with progress_callback("texture", unit="direction") as cb:
-            tex = compute_texture(sec, speed=args.speed, duration=args.duration, rate=args.rate,
-                                  resolution=args.resolution, reynolds=args.reynolds,
+            tex = compute_texture(sec, speed=args.speed, duration=args.texture_duration,
+                                  rate=args.texture_rate, resolution=args.resolution,
+                                  reynolds=args.reynolds,
                                   directions=args.directions, seed=args.seed,
                                   cache=not args.no_cache, progress=cb)  # fmt: skip
         tex.save(args.output)
@@ -177,13 +178,14 @@ class AeroSound(SoundModel):
     @staticmethod
     def _cmd_render(args: argparse.Namespace) -> int:
         from auralize.audio import write_audio
-        from auralize.cli import listener_from_args
+        from auralize.cli_options import listener_from_args, render_duration
 
         tex = SoundTexture.load(args.texture)
         path = listener_from_args(args)
+        duration = render_duration(args, path)
         motion = wind = None
         if args.preset:
-            pr = get_preset(args.preset, duration=path.duration, seed=args.seed)
+            pr = get_preset(args.preset, duration=duration, seed=args.seed)
             obj, motion, wind = pr.obj, pr.motion, pr.wind
         else:
             obj = _object_from_args(args, tex.diameter)
@@ -200,7 +202,7 @@ class AeroSound(SoundModel):
                   file=sys.stderr)  # fmt: skip
         t0 = time.perf_counter()
         out = render(tex, obj, path, motion=motion, wind=wind, rate=args.rate, layout=args.layout,
-                     exponent=args.exponent)  # fmt: skip
+                     exponent=args.exponent, duration=duration)  # fmt: skip
         el = time.perf_counter() - t0
         gain = write_audio(args.output, out.audio, out.rate, channel_mask=out.layout.channel_mask,
                            normalize=args.normalize, limit_pa=args.limit, subtype=args.format,

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from auralize.cli import (
+from auralize.cli_options import (
     add_output_options,
+    add_renamed_alias,
     add_volume_options,
     positive_float,
     positive_int,
@@ -30,9 +31,9 @@ def add_commands(subparsers: Any) -> None:
     t.add_argument(
         "--size", type=positive_int, default=16, help="cells per axis of the analysis box"
     )
-    t.add_argument(
-        "--duration", type=positive_float, default=1.0, help="seconds recorded per speed"
-    )
+    td = t.add_argument("--texture-duration", type=positive_float, default=1.0, metavar="S",
+                        help="seconds of texture recorded per speed (default 1)")  # fmt: skip
+    add_renamed_alias(t, "--duration", td)
     t.add_argument("--seed", type=seed_int, default=0)
     t.add_argument("--box", type=positive_float, default=0.2, help="analysis box edge in m")
     t.add_argument("--dt", type=positive_float, default=1e-3, help="fluid time step in s")

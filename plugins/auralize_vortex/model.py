@@ -228,7 +228,7 @@ class VortexSound(SoundModel):
             raise ParameterError(
                 f"--speeds takes comma-separated numbers in m/s, got {args.speeds!r}"
             ) from None
-        cfg = TextureConfig(speeds=check_speeds(speeds), size=args.size, duration=args.duration,
+        cfg = TextureConfig(speeds=check_speeds(speeds), size=args.size, duration=args.texture_duration,
                             seed=args.seed, box_m=args.box, dt=args.dt,
                             coefficient=args.coefficient)  # fmt: skip
         from auralize.progress import progress_callback
@@ -249,14 +249,14 @@ class VortexSound(SoundModel):
     @staticmethod
     def _cmd_render(args: argparse.Namespace) -> int:
         from auralize.audio import write_audio
-        from auralize.cli import listener_from_args
+        from auralize.cli_options import listener_from_args
 
         volume = load_volume(args)
         path = listener_from_args(args)
         tex = _texture_from(args.texture, quiet=False)
         t0 = time.perf_counter()
         r = render_vortex(volume, path, tex, block=args.block, rate=args.rate, layout=args.layout,
-                          duration=args.duration if args.path is None else None,
+                          duration=args.duration,
                           attenuation=args.attenuation, velocity_field=args.velocity_field,
                           time_scale=args.time_scale, seed=args.seed)  # fmt: skip
         el = time.perf_counter() - t0
@@ -324,11 +324,11 @@ def load_volume(args: argparse.Namespace) -> TimeVolume:
         if args.steps is not None:
             kw["steps"] = args.steps
         return VortexSound.datasets[spec.split(":", 1)[1]](**kw)
-    from auralize.cli import _field_map
+    from auralize.cli_options import field_map
     from auralize.pipeline import load
 
     vol = load(spec, size=args.size, steps=args.steps, seed=args.seed,
-               fields=_field_map(args.field), resolution=args.resolution)  # fmt: skip
+               fields=field_map(args.field), resolution=args.resolution)  # fmt: skip
     if not isinstance(vol, TimeVolume):  # pragma: no cover - load always returns one
         raise DataError(f"{spec}: not a volume")
     return vol

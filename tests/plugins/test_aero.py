@@ -326,8 +326,17 @@ def test_cli_texture_and_render(tex, cache, tmp_path, monkeypatch, capsys) -> No
             target.write_bytes(p.read_bytes())
     texf = tmp_path / "cyl.h5"
     rc = main(["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "-o", str(texf),
-               "--resolution", "10", "--duration", "0.03"])  # fmt: skip
+               "--resolution", "10", "--texture-duration", "0.03"])  # fmt: skip
     assert rc == 0 and texf.exists()
+    # --duration with --path: the output lasts --duration, not the path's 0.2 s
+    csv = tmp_path / "path.csv"
+    ListenerPath.line((0.25, 0, 2), (0.35, 0, 2), duration=0.2).to_csv(csv)
+    for seconds in (0.1, 0.3):
+        wav = tmp_path / f"path{seconds}.wav"
+        rc = main(["aero", "render", "--texture", str(texf), "--wind", "10", "--path", str(csv),
+                   "--duration", str(seconds), "--rate", "16000", "-o", str(wav)])  # fmt: skip
+        assert rc == 0 and read_wav(wav)[0].shape == (1, round(seconds * 16000))
+    capsys.readouterr()
     out = tmp_path / "wind.wav"
     rc = main(["aero", "render", "--texture", str(texf), "--wind", "10", "--wind-direction", "0,1,0",
                "--listener", "0.25,0,2", "--duration", "0.3", "-o", str(out), "--layout", "ring8"])  # fmt: skip

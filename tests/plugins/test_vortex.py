@@ -451,17 +451,28 @@ def test_cli_texture_and_render(tmp_path, capsys):
 
     tex = tmp_path / "tex.h5"
     assert main(["vortex", "texture", "--speeds", "1,2", "-o", str(tex), "--size", "8",
-                 "--duration", "0.2"]) == 0  # fmt: skip
+                 "--texture-duration", "0.2"]) == 0  # fmt: skip
     assert "computed" in capsys.readouterr().out
+    # the old spelling --duration is a hidden, deprecated alias of --texture-duration
     assert main(["vortex", "texture", "--speeds", "1,2", "-o", str(tex), "--size", "8",
                  "--duration", "0.2"]) == 0  # fmt: skip
-    assert "reused" in capsys.readouterr().out
+    out, err = capsys.readouterr()
+    assert "reused" in out and "--duration is deprecated; it is now --texture-duration" in err
     wav = tmp_path / "out.wav"
     assert main(["vortex", "render", "dataset:fire-plume", "--steps", "4", "--texture", str(tex),
                  "--listener", "0.3,-2,0.4", "--duration", "0.2", "-o", str(wav),
                  "--layout", "ring8", "--rate", "8000"]) == 0  # fmt: skip
     audio, rate, _ = read_wav(wav)
     assert audio.shape == (8, 1600) and rate == 8000
+    # --duration with --path: that many seconds, shorter or longer than the path
+    csv = tmp_path / "path.csv"
+    ListenerPath.line((0.3, -2, 0.4), (0.5, -2, 0.4), duration=0.2).to_csv(csv)
+    for seconds in (0.1, 0.3):
+        wav = tmp_path / f"path{seconds}.wav"
+        assert main(["vortex", "render", "dataset:fire-plume", "--steps", "4", "--texture",
+                     str(tex), "--path", str(csv), "--duration", str(seconds), "-o", str(wav),
+                     "--rate", "8000"]) == 0  # fmt: skip
+        assert read_wav(wav)[0].shape == (1, round(seconds * 8000))
     assert main(["vortex", "texture", "--speeds", "2,1", "-o", str(tmp_path / "x.h5")]) == 2
     assert "strictly increasing" in capsys.readouterr().err
     assert not (tmp_path / "x.h5").exists()
