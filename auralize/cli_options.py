@@ -20,7 +20,14 @@ option           dest, type          meaning
 ``--duration``   duration, float     playback seconds rendered (default: the path's length)
 ===============  ==================  ======================================================
 
-:data:`OUTPUT_OPTIONS` holds the same table for tests and tools.
+:data:`OUTPUT_OPTIONS` holds the same table for tests and tools.  Live commands
+share :data:`LIVE_OPTIONS`.  Commands that write a source's *emitted* signal
+(mono, as at 1 m; ``fire lowfreq/extend/texture``) are declared with
+``add_output_options(p, emitted=True)`` and share :data:`EMITTED_OPTIONS`: no
+listener and no layout, ``--rate`` still the output rate, ``--duration`` the
+seconds written (:func:`fit_duration`).  A command-specific setting that once
+used a shared name keeps it as a hidden deprecated alias
+(:func:`add_renamed_alias`).
 """
 
 from __future__ import annotations
