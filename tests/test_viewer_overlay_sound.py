@@ -194,3 +194,21 @@ def test_an_overlay_switched_on_is_heard_for_newly_opened_data(qtbot, window) ->
     em = win.overlay_sound().parts[0]
     assert np.allclose(em.positions[0], np.asarray(win.volume.center) + [0.3, 0.0, 0.0])
     assert not shown
+
+
+def test_the_aero_overlay_says_why_it_is_not_heard(qtbot, window) -> None:  # type: ignore[no-untyped-def]
+    """aero declares its inputs (a texture and an object), so the viewer draws its stick
+    over the volume and says in one line why it cannot hear it."""
+    win, shown = window
+    win.open_data("dataset:monopole", size=12)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    result: list[bool] = []
+    win.set_overlay("aero", True, then=result.append)
+    qtbot.waitUntil(lambda: bool(result) and not win.busy and not win._sound_tasks,
+                    timeout=60_000)  # fmt: skip
+    assert result == [True] and "aero" not in win._overlay_sounds
+    assert win.overlay_note.text() == (
+        "aero overlay is shown but not heard: its model makes sound from a sound texture "
+        "and a moving object or wind, not from a volume"
+    )
+    assert not shown

@@ -62,6 +62,9 @@ class AeroSound(SoundModel):
         "aerodynamic sound (aeolian tones): CFD sound textures + Curle dipoles (Dobashi et al. 2003)"
     )
     paper: ClassVar[str] = "004 §5–§8, Eqs. 1–4"
+    #: not a volume: the viewer draws the object over a volume but cannot hear it,
+    #: and ``--model aero:FILE`` is refused (use ``AddSoundModel("aero", inputs)``)
+    input_kind: ClassVar[str] = "a sound texture and a moving object or wind"
     parameters: ClassVar[tuple[Parameter, ...]] = (
         Parameter(
             "exponent",

@@ -366,6 +366,21 @@ class SparkSound(SoundModel):
         Parameter("t0", 0.0, range=(None, None), unit="s", doc="playback time of the first stroke"),
     )
 
+    def load_input(self, spec: str) -> Any:
+        """The source in ``spec``: a charge scene (``.json``/``.toml``), a discharge
+        (``.csv``, as ``spark render --save-discharge`` writes), else a volume
+        (``dataset:NAME`` or a volume file, as :meth:`SoundModel.load_input`).
+
+        So ``auralize render --model spark:tree.csv`` mixes a saved discharge
+        into a scene.
+        """
+        suffix = Path(spec).suffix.lower()
+        if suffix == ".csv":
+            return Discharge.from_csv(spec)
+        if suffix in (".json", ".toml"):
+            return ChargeScene.from_file(spec)
+        return super().load_input(spec)
+
     def _part(self, source: Any, step: int = 0, **params: Any) -> tuple[DischargePart, Any]:
         p = self.resolve(**params)
         part, fld, _ = make_part(

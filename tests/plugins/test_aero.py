@@ -473,3 +473,13 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     np.testing.assert_allclose(windows, whole, rtol=0, atol=1e-9 * np.abs(whole).max())
     piece = render_sound(sound, path, rate=RATE, layout="ring8", start=0.1, duration=0.05).audio
     np.testing.assert_allclose(piece, whole[:, 4410:6615], rtol=0, atol=1e-9 * np.abs(whole).max())
+
+
+def test_inputs_are_declared_not_a_volume() -> None:
+    """The viewer and ``--model aero:FILE`` say why aero cannot make sound from a volume."""
+    from auralize.errors import PluginError
+
+    model = get_model("aero")
+    assert model.input_kind not in ("", "volume") and "texture" in model.input_kind
+    with pytest.raises(PluginError, match=r"cannot read its inputs \(a sound texture"):
+        model.load_input("dataset:monopole")

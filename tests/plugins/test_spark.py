@@ -565,3 +565,25 @@ def test_overlay_as_the_viewer_calls_it() -> None:
     assert m0.points[np.argmin(m0.points[:, 2])][2] == pytest.approx(0.0, abs=0.011)
     assert np.min(m1.points[:, 0]) == pytest.approx(0.0, abs=0.011)
     assert not np.array_equal(end0, m1.points[-1])
+
+
+def test_load_input_reads_a_discharge_a_scene_or_a_volume(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``auralize render --model spark:FILE``: a saved discharge renders as the grown one."""
+    model = get_model("spark")
+    d = grow_leader(PRESETS["plasma-ball"].field(), half_length=1e-2, seed=2)
+    csv = tmp_path / "tree.csv"
+    d.to_csv(csv)
+    got = model.load_input(str(csv))
+    assert isinstance(got, Discharge)
+    np.testing.assert_allclose(got.nodes, d.nodes, rtol=1e-8)
+    a = model.synthesize(d, preset="plasma-ball", seed=1).parts[0]
+    b = model.synthesize(got, preset="plasma-ball", seed=1).parts[0]
+    assert a.discharge.n_segments == b.discharge.n_segments
+    np.testing.assert_array_equal(a.strokes, b.strokes)
+    scene = tmp_path / "balls.json"
+    scene.write_text(json.dumps({"grid": {"dims": [8, 8, 8], "spacing": 0.01}, "charges": [
+        {"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "negative"}]}))  # fmt: skip
+    assert isinstance(model.load_input(str(scene)), ChargeScene)
+    assert isinstance(model.load_input("dataset:monopole"), TimeVolume)
+    with pytest.raises(FormatError, match="missing.csv' does not exist"):
+        model.load_input(str(tmp_path / "missing.csv"))
