@@ -127,5 +127,7 @@ def test_old_import_path_still_works() -> None:
     import auralize.cli_options as opts
 
     for name in ("add_output_options", "listener_from_args", "rate_int", "positive_float",
-                 "finite_float", "positive_int", "seed_int", "RATE_RANGE_HZ"):  # fmt: skip
+                 "finite_float", "positive_int", "seed_int", "RATE_RANGE_HZ",
+                 "add_volume_options"):  # fmt: skip
         assert getattr(cli, name) is getattr(opts, name)
+    assert cli._field_map is opts.field_map
