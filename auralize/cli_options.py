@@ -347,6 +347,6 @@ def add_renamed_alias(p: argparse.ArgumentParser, old: str, new: argparse.Action
     old : the old option string, e.g. ``"--duration"``.
     new : the action :meth:`argparse.ArgumentParser.add_argument` returned.
     """
-    p.add_argument(old, dest=new.dest, type=new.type, action=_RenamedOption,
-                   new=new.option_strings[-1], default=argparse.SUPPRESS,
-                   help=argparse.SUPPRESS)  # fmt: skip
+    kind: dict[str, Any] = {} if new.type is None else {"type": new.type}
+    p.add_argument(old, dest=new.dest, action=_RenamedOption, new=new.option_strings[-1],
+                   default=argparse.SUPPRESS, help=argparse.SUPPRESS, **kind)  # fmt: skip

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -126,9 +126,9 @@ def cmd_extend(args: argparse.Namespace) -> int:
     x = _read_input(args)
     t = time.perf_counter()
     y = bandwidth_extend(x, args.rate, alpha=args.alpha, f_cut=args.fcut, seed=args.seed)
-    _write(args, y, {"stage": "bandwidth extension (§4)", "alpha": args.alpha,
-                           "f_cut": args.fcut, "seed": args.seed,
-                           "seconds": time.perf_counter() - t})  # fmt: skip
+    _write(args, cast(np.ndarray, y), {"stage": "bandwidth extension (§4)", "alpha": args.alpha,
+                                       "f_cut": args.fcut, "seed": args.seed,
+                                       "seconds": time.perf_counter() - t})  # fmt: skip
     return 0
 
 
