@@ -380,10 +380,10 @@ def _run(fn: Callable[[int], None], n: int) -> None:
 
 @dataclass
 class Prepared:
-    """Emitted signals ready for the kernel: ``sig (S, C, n)`` at rate ``fs`` from ``t0``
-    (band-limited upsampled by ``up`` from the emitters' own rate)."""
+    """Emitted signals ready for the kernel: ``sig (S, C, n)`` (float64 or float32) at rate
+    ``fs`` from ``t0`` (band-limited upsampled by ``up`` from the emitters' own rate)."""
 
-    sig: NDArray[np.float64]
+    sig: NDArray[np.floating]
     fs: float
     t0: float
     up: int
@@ -409,14 +409,19 @@ def prepare(signals: NDArray[np.float64], rate: float, t0: float, up: int,
     sig = signals[:, None, :] if signals.ndim == 2 else signals
     n = sig.shape[2]
     i_hi = n if i_hi is None else i_hi
-    if up == 1:  # read in place (the emitters' arrays are contiguous float64)
-        return Prepared(np.ascontiguousarray(sig, dtype=np.float64), float(rate), float(t0), 1)
+    if up == 1:  # read in place (contiguous float64, or float32 made by a model)
+        dt = sig.dtype if sig.dtype in (np.float32, np.float64) else np.float64
+        return Prepared(np.ascontiguousarray(sig, dtype=dt), float(rate), float(t0), 1)
     seg = sig[:, :, i_lo:i_hi]
     S, C, m = seg.shape
     flat = np.ascontiguousarray(seg, dtype=np.float64).reshape(S * C, m)
-    seg = resample_poly(flat, up, 1, axis=1).reshape(S, C, m * up)
-    return Prepared(np.ascontiguousarray(seg), float(rate) * up,
-                    float(t0) + i_lo / float(rate), int(up))  # fmt: skip
+    y = resample_poly(flat, up, 1, axis=1)
+    if y.strides[-1] != y.itemsize:
+        y = np.ascontiguousarray(y)
+    # resample_poly's rows are contiguous but padded apart: the kernel reads them in place
+    # (a copy of the whole upsampled array would cost as much as the resampling)
+    return Prepared(y.reshape(S, C, m * up), float(rate) * up, float(t0) + i_lo / float(rate),
+                    int(up))  # fmt: skip
 
 
 #: half-length (input samples) of :func:`scipy.signal.resample_poly`'s default filter

@@ -50,6 +50,7 @@ from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
 from auralize.emitters import Emitters
+from auralize.emitters.engine import model_emitters
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout
@@ -488,8 +489,13 @@ class AeroEmission:
                 lambda k0, k1: _emit_kernel(G, *tab, tex, lens, tr, K, k0, k1), self.n_sources
             )
         pos = self.kin.pos[:, 0] if self.static else self.kin.pos[:, ja : jb + 2]
-        return Emitters(G, self.rate, pos, t0=ja * self.kin.dt, pos_rate=self.rate / K,
-                        radius=self.radius, law=1.0, name=self.name)  # fmt: skip
+        if self.engine == "numpy":
+            return Emitters(G, self.rate, pos, t0=ja * self.kin.dt, pos_rate=self.rate / K,
+                            radius=self.radius, law=1.0, name=self.name)  # fmt: skip
+        # G comes from the finite kinematics and texture tables: no scan of its samples
+        return model_emitters(G, self.rate, np.ascontiguousarray(pos), t0=ja * self.kin.dt,
+                              pos_rate=self.rate / K, radius=self.radius, law=1.0,
+                              name=self.name)  # fmt: skip
 
     def emitters(self, tau0: float = 0.0, tau1: float | None = None) -> Emitters:
         """The dipole emitters of emission times ``[tau0, tau1]`` (s; default: all), in whole blocks."""
