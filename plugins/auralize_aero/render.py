@@ -471,7 +471,28 @@ class AeroEmission:
         return self.n_blocks * self.kin.dt
 
     def _table(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
-        """Per-block quantities of blocks ``ja..jb`` for :func:`_emit_kernel` (Eq. 3, §7.3)."""
+        """Per-block quantities of blocks ``ja..jb`` for :func:`_emit_kernel` (Eq. 3, §7.3).
+
+        Cut from a table of many blocks at once (:meth:`_table_of`, up to
+        about :data:`CHUNK_BYTES`), made again when a window leaves it: the
+        values are the same element by element, with fewer numpy calls.
+        """
+        span = getattr(self, "_span", None)
+        if span is None or not (span[0] <= ja and jb <= span[1]):
+            per_block = 112 * self.n_sources  # bytes of table per block
+            cb = max(jb, min(self.n_blocks - 1, ja + CHUNK_BYTES // per_block))
+            self._span = span = (ja, cb)
+            self._tab = self._table_of(ja, cb)
+        o = ja - span[0]
+        n = jb - ja + 1
+        f = np.ascontiguousarray
+        e1a, e2a, M, j0, j1, w, st = self._tab
+        return (f(e1a[:, o : o + n + 1]), f(e2a[:, o : o + n + 1]), f(M[:, o : o + n]),
+                f(j0[:, o : o + n]), f(j1[:, o : o + n]), f(w[:, o : o + n]),
+                f(st[:, o : o + n + 1]))  # fmt: skip
+
+    def _table_of(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
+        """:meth:`_table` of blocks ``ja..jb`` computed directly."""
         kin = self.kin
         g = slice(ja, jb + 2)
         on = np.clip(np.arange(ja, jb + 2) * kin.dt / self.fade, 0.0, 1.0)
