@@ -322,6 +322,7 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
         for s in range(S):
             tau = 0.0
             rate_prev = 1.0
+            rate_pp = 1.0
             for b in range(cb0, cb1 + 1):
                 j = b - cb0
                 t = tb[b]
@@ -330,14 +331,17 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                         x, y, z = _position(pos, s, (t - t_pos) * pos_rate)
                         tau = t - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2
                                             + (L[b, 2] - z) ** 2) * inv_c0  # fmt: skip
-                    else:  # extrapolated with the last dτ/dt: a few iterations
+                    elif b == cb0 + 1:  # extrapolated with the last dτ/dt
                         tau += (t - tb[b - 1]) * rate_prev
+                    else:  # two-step Adams–Bashforth (uniform steps): one Newton step
+                        tau += (t - tb[b - 1]) * (1.5 * rate_prev - 0.5 * rate_pp)
                 xe[j], tau, dx, dy, dz, dt, sx, sy, sz = _point(
                     C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t,
                     L[b, 0], L[b, 1], L[b, 2], F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1], U[b, 2],
                     tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j)  # fmt: skip
                 # dτ/dt on both sides (the listener's velocity may jump at a
                 # capture), in signal samples per block
+                rate_pp = rate_prev
                 rate_prev = _rate(dx, dy, dz, dt, VR[b], sx, sy, sz, inv_c0)
                 if b < cb1:
                     ma[j] = (tb[b + 1] - t) * fs * rate_prev

@@ -589,6 +589,7 @@ class AeroEmission:
         n_out = int(round(dur * rate))
         out = np.zeros((lay.n_channels, n_out))
         step = max(256, int(CHUNK_BYTES / (2 * 24 * self.n_sources) * rate / self.rate))
+        step = max(1, -(-n_out // max(1, -(-n_out // step))))  # windows of equal length
         buf = np.empty(0)
         for na in range(0, n_out, step):
             nb = min(n_out, na + step)
