@@ -7,8 +7,8 @@ Eq. 5 and paper 004 §6, Eq. 4)
     p(t) = Σ_s  a_s(τ_s) · g(D_s),   t − τ_s = |L(t) − x_s(τ_s)| / c0
 
 are evaluated at *control points* every ``K`` samples of the evaluation rate:
-the retarded time τ (fixed point for a moving emitter, contraction = its Mach
-number) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)``, the clamped
+the retarded time τ (Newton's method for a moving emitter, from a two-step
+extrapolation of the previous control points) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)``, the clamped
 distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
 projection on the unit vector n from the emitter to the listener, and the
 layout's panning gains (the synthesis kernel's own law,
@@ -141,7 +141,7 @@ def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t, 
     the emitter to the listener for a dipole) and panning gains ``g[j]``;
     returns the emission index, the emitter-minus-listener vector and its
     length, and the emitter's velocity.  ``tau``: a guess of the retarded
-    time for a moving emitter (the fixed point starts there).
+    time for a moving emitter (Newton's method starts there).
     """
     if moving:
         tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
