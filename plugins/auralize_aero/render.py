@@ -497,12 +497,23 @@ class AeroEmission:
         g = slice(ja, jb + 2)
         on = np.clip(np.arange(ja, jb + 2) * kin.dt / self.fade, 0.0, 1.0)
         on = on * on * (3 - 2 * on)
-        amp = on * kin.speed[:, g] ** self.exponent * (kin.span[:, None] / (4 * np.pi * self.c0))
-        theta = np.arctan2(kin.c2[:, ja : jb + 1], kin.c1[:, ja : jb + 1])  # flow direction c'
-        j0, j1, w, M = self.texture.lookup(theta)
+        sp = kin.speed[:, g]
+        power = sp * sp * sp if self.exponent == 3.0 else sp**self.exponent
+        amp = on * power * (kin.span[:, None] / (4 * np.pi * self.c0))
+        c1, c2 = kin.c1[:, ja : jb + 1], kin.c2[:, ja : jb + 1]  # flow direction c' (unit)
+        tex = self.texture
+        if tex.section.symmetry[0] == 0 and tex.directions_deg.size == 1:
+            # isotropic section, one sampled direction: the map is the rotation by θ itself,
+            # [[cos θ, −sin θ], [sin θ, cos θ]] = [[c1, −c2], [c2, c1]]
+            j0 = np.zeros(c1.shape, dtype=np.int64)
+            j1, w = j0, np.zeros(c1.shape)
+            M = np.stack([c1, -c2, c2, c1], axis=-1)
+        else:
+            j0, j1, w, M = tex.lookup(np.arctan2(c2, c1))
+            M = M.reshape(*c1.shape, 4)
         f = np.ascontiguousarray
-        return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]),
-                f(M.reshape(*theta.shape, 4)), f(j0), f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
+        return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]), f(M), f(j0),
+                f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
 
     def _emitters(self, ja: int, jb: int, buf: NDArray[np.float64] | None = None) -> Emitters:
         """Emitters of blocks ``ja..jb``; the numba path writes G into ``buf`` when it is large
