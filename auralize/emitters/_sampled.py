@@ -37,6 +37,7 @@ two threads (the kernel releases the GIL) over disjoint ranges of samples.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections.abc import Callable
@@ -397,13 +398,26 @@ def _box(a, b):  # type: ignore[no-untyped-def]
     return lo, hi
 
 
-def _run(fn: Callable[[int], None], n: int) -> None:
-    """``fn(i)`` for i < n: i = 0 on this thread, the rest on the pool."""
+def _run(fn: Callable[[int], None], n: int, nt: int) -> None:
+    """``fn(i)`` for every i < n on ``nt`` threads (this one and the pool).
+
+    Each thread takes the next piece when it is done with one, so a thread
+    slowed down by other processes on its core takes fewer pieces.
+    """
     global _POOL
-    if n > 1 and _POOL is None:
+    nt = max(1, min(n, nt, _N_THREADS))
+    if nt > 1 and _POOL is None:
         _POOL = ThreadPoolExecutor(max_workers=_N_THREADS - 1, thread_name_prefix="auralize-emit")
-    futures = [_POOL.submit(fn, i) for i in range(1, n)] if n > 1 and _POOL is not None else []
-    fn(0)
+    pieces = itertools.count()  # next() is atomic under the GIL
+
+    def work() -> None:
+        for i in pieces:
+            if i >= n:
+                return
+            fn(i)
+
+    futures = [_POOL.submit(work) for _ in range(nt - 1)] if nt > 1 and _POOL is not None else []
+    work()
     for fu in futures:
         fu.result()
 
@@ -609,13 +623,14 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     out = np.zeros((n_ch, n_int))
     nt = threads if threads is not None else (_N_THREADS if n_int >= _MIN_SPLIT else 1)
     nt = max(1, min(int(nt), _N_THREADS, B))
-    edges = [B * i // nt for i in range(nt + 1)]
+    n_pieces = min(B, 4 * nt) if nt > 1 else 1  # taken in turn by the threads
+    edges = [B * i // n_pieces for i in range(n_pieces + 1)]
     args = (prepared.sig, prepared.fs, prepared.t0, np.ascontiguousarray(pos), float(em.pos_rate),
             float(em.t0), em.radius, float(e), float(c0), tb, L, VR, VL, F, U, kf, tk, Lk, Fk, Uk,
             np.ascontiguousarray(spk_az, dtype=np.float64),
             np.ascontiguousarray(spk_ch, dtype=np.int64), bool(lay.fold_front),
             np.ascontiguousarray(pinv, dtype=np.float64), K, off, out)  # fmt: skip
-    _run(lambda i: _render(*args, edges[i], edges[i + 1]), nt)
+    _run(lambda i: _render(*args, edges[i], edges[i + 1]), n_pieces, nt)
     if k > 1:
         from scipy.signal import resample_poly
 

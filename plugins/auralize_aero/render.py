@@ -37,6 +37,7 @@ rounding.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections.abc import Callable
@@ -87,19 +88,30 @@ _POOL: ThreadPoolExecutor | None = None
 
 
 def _parts(S: int) -> list[tuple[int, int]]:
-    """Contiguous ranges of ``range(S)``, one per thread."""
-    n = max(1, min(_N_THREADS, S))
+    """Contiguous ranges of ``range(S)``, up to four per thread (taken in turn)."""
+    n = max(1, min(4 * _N_THREADS if _N_THREADS > 1 else 1, S))
     edges = [S * i // n for i in range(n + 1)]
     return [(edges[i], edges[i + 1]) for i in range(n)]
 
 
 def _run(fn: Callable[[int], None], n: int) -> None:
-    """``fn(i)`` for i < n: i = 0 on this thread, the rest on the pool."""
+    """``fn(i)`` for every i < n on up to two threads (this one and the pool); each
+    thread takes the next piece when it is done, so a thread slowed down by other
+    processes on its core takes fewer."""
     global _POOL
-    if n > 1 and _POOL is None:
+    nt = max(1, min(n, _N_THREADS))
+    if nt > 1 and _POOL is None:
         _POOL = ThreadPoolExecutor(max_workers=_N_THREADS - 1, thread_name_prefix="auralize-aero")
-    futures = [_POOL.submit(fn, i) for i in range(1, n)] if n > 1 and _POOL is not None else []
-    fn(0)
+    pieces = itertools.count()  # next() is atomic under the GIL
+
+    def work() -> None:
+        for i in pieces:
+            if i >= n:
+                return
+            fn(i)
+
+    futures = [_POOL.submit(work) for _ in range(nt - 1)] if nt > 1 and _POOL is not None else []
+    work()
     for fu in futures:
         fu.result()
 
