@@ -8,13 +8,64 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import C0, Emitters, FieldSources, Part, Sound
+from auralize.emitters import C0, Emitters, FieldSources, Part, Sound, law_exponent
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout, get_layout
 from auralize.synthesis import Rendered
 
 BACKENDS = ("auto", "sampled", "reference")
+
+
+def model_emitters(signals: NDArray[np.floating], rate: float, positions: NDArray[np.float64], *,
+                   t0: float = 0.0, pos_rate: float | None = None, radius: float = 0.05,
+                   law: str | float = "physical", name: str = "") -> Emitters:  # fmt: skip
+    """:class:`Emitters` from arrays a model computed itself, without the O(n) checks.
+
+    For models whose emitted signals come from their own finite tables (made
+    window after window while rendering): the shapes, rate, clamp radius and
+    law are checked as by :class:`Emitters`, the samples are not scanned for
+    NaN or copied.  ``signals`` may be float32 (the sampled backend reads
+    them as given); they must be C-contiguous.
+
+    Raises
+    ------
+    ParameterError
+        Shapes, rate, radius or law out of range, or non-contiguous arrays.
+    """
+    sig, pos = signals, positions
+    if not (isinstance(sig, np.ndarray) and sig.dtype in (np.float32, np.float64)
+            and sig.flags.c_contiguous and sig.ndim in (2, 3)
+            and (sig.ndim == 2 or sig.shape[1] == 3)):  # fmt: skip
+        raise ParameterError(
+            f"{name or 'model'} emitter signals must be C-contiguous float64/float32 (S, n) or "
+            f"(S, 3, n), got {getattr(sig, 'shape', None)} {getattr(sig, 'dtype', None)}"
+        )
+    S = sig.shape[0]
+    if not (isinstance(pos, np.ndarray) and pos.dtype == np.float64 and pos.ndim in (2, 3)
+            and pos.shape[0] == S and pos.shape[-1] == 3):  # fmt: skip
+        raise ParameterError(
+            f"{name or 'model'} emitter positions must be float64 (S, 3) or (S, m, 3) for S={S}, "
+            f"got {getattr(pos, 'shape', None)}"
+        )
+    pr = float(rate if pos_rate is None else pos_rate)
+    if not (np.isfinite(rate) and rate > 0 and np.isfinite(pr) and pr > 0 and np.isfinite(t0)):
+        raise ParameterError(f"emitter rate {rate!r}, pos_rate {pos_rate!r} and t0 {t0!r} "
+                             "must be finite, rates > 0")  # fmt: skip
+    if not (np.isfinite(radius) and radius > 0):
+        raise ParameterError(f"emitter clamp radius must be > 0 m, got {radius!r}")
+    law_exponent(law)
+    em = Emitters.__new__(Emitters)
+    em.signals = sig
+    em.rate = float(rate)
+    em.positions = np.ascontiguousarray(pos)
+    em.t0 = float(t0)
+    em.pos_rate = pr
+    em.radius = np.full(S, float(radius))
+    em.law = law
+    em.name = name
+    em.meta = {}
+    return em
 
 
 def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,

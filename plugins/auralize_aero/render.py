@@ -37,6 +37,7 @@ rounding.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections.abc import Callable
@@ -50,6 +51,7 @@ from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
 from auralize.emitters import Emitters
+from auralize.emitters.engine import model_emitters
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Layout
@@ -86,19 +88,30 @@ _POOL: ThreadPoolExecutor | None = None
 
 
 def _parts(S: int) -> list[tuple[int, int]]:
-    """Contiguous ranges of ``range(S)``, one per thread."""
-    n = max(1, min(_N_THREADS, S))
+    """Contiguous ranges of ``range(S)``, up to four per thread (taken in turn)."""
+    n = max(1, min(4 * _N_THREADS if _N_THREADS > 1 else 1, S))
     edges = [S * i // n for i in range(n + 1)]
     return [(edges[i], edges[i + 1]) for i in range(n)]
 
 
 def _run(fn: Callable[[int], None], n: int) -> None:
-    """``fn(i)`` for i < n: i = 0 on this thread, the rest on the pool."""
+    """``fn(i)`` for every i < n on up to two threads (this one and the pool); each
+    thread takes the next piece when it is done, so a thread slowed down by other
+    processes on its core takes fewer."""
     global _POOL
-    if n > 1 and _POOL is None:
+    nt = max(1, min(n, _N_THREADS))
+    if nt > 1 and _POOL is None:
         _POOL = ThreadPoolExecutor(max_workers=_N_THREADS - 1, thread_name_prefix="auralize-aero")
-    futures = [_POOL.submit(fn, i) for i in range(1, n)] if n > 1 and _POOL is not None else []
-    fn(0)
+    pieces = itertools.count()  # next() is atomic under the GIL
+
+    def work() -> None:
+        for i in pieces:
+            if i >= n:
+                return
+            fn(i)
+
+    futures = [_POOL.submit(work) for _ in range(nt - 1)] if nt > 1 and _POOL is not None else []
+    work()
     for fu in futures:
         fu.result()
 
@@ -366,6 +379,20 @@ def _emit_kernel(G: NDArray[np.float64], e1a: NDArray[np.float64], e2a: NDArray[
             pa = s0 - math.floor(s0 / Na) * Na
             pb = s0 - math.floor(s0 / Nb) * Nb
             n0 = b * K
+            pe = pa + ds * K
+            if wt == 0.0 and 1e-3 < pe < Na - 1.001:  # one row, no wrap: no checks per sample
+                for i in range(K):
+                    ia = int(pa)
+                    fa = pa - ia
+                    g0 = ta[ia, 0]
+                    g1 = ta[ia, 1]
+                    gx = g0 + fa * (ta[ia + 1, 0] - g0)
+                    gy = g1 + fa * (ta[ia + 1, 1] - g1)
+                    G[k, 0, n0 + i] = (qx0 + dx0 * i) * gx + (qx1 + dx1 * i) * gy
+                    G[k, 1, n0 + i] = (qy0 + dy0 * i) * gx + (qy1 + dy1 * i) * gy
+                    G[k, 2, n0 + i] = (qz0 + dz0 * i) * gx + (qz1 + dz1 * i) * gy
+                    pa += ds
+                continue
             for i in range(K):
                 gx, gy = _tex_at(ta, Na, pa)
                 if wt > 0.0:  # between two sampled directions
@@ -456,17 +483,49 @@ class AeroEmission:
         return self.n_blocks * self.kin.dt
 
     def _table(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
-        """Per-block quantities of blocks ``ja..jb`` for :func:`_emit_kernel` (Eq. 3, §7.3)."""
+        """Per-block quantities of blocks ``ja..jb`` for :func:`_emit_kernel` (Eq. 3, §7.3).
+
+        Cut from a table of many blocks at once (:meth:`_table_of`, up to
+        about :data:`CHUNK_BYTES`), made again when a window leaves it: the
+        values are the same element by element, with fewer numpy calls.
+        """
+        span = getattr(self, "_span", None)
+        if span is None or not (span[0] <= ja and jb <= span[1]):
+            per_block = 112 * self.n_sources  # bytes of table per block
+            cb = max(jb, min(self.n_blocks - 1, ja + CHUNK_BYTES // per_block))
+            self._span = span = (ja, cb)
+            self._tab = self._table_of(ja, cb)
+        o = ja - span[0]
+        n = jb - ja + 1
+        f = np.ascontiguousarray
+        e1a, e2a, M, j0, j1, w, st = self._tab
+        return (f(e1a[:, o : o + n + 1]), f(e2a[:, o : o + n + 1]), f(M[:, o : o + n]),
+                f(j0[:, o : o + n]), f(j1[:, o : o + n]), f(w[:, o : o + n]),
+                f(st[:, o : o + n + 1]))  # fmt: skip
+
+    def _table_of(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
+        """:meth:`_table` of blocks ``ja..jb`` computed directly."""
         kin = self.kin
         g = slice(ja, jb + 2)
         on = np.clip(np.arange(ja, jb + 2) * kin.dt / self.fade, 0.0, 1.0)
         on = on * on * (3 - 2 * on)
-        amp = on * kin.speed[:, g] ** self.exponent * (kin.span[:, None] / (4 * np.pi * self.c0))
-        theta = np.arctan2(kin.c2[:, ja : jb + 1], kin.c1[:, ja : jb + 1])  # flow direction c'
-        j0, j1, w, M = self.texture.lookup(theta)
+        sp = kin.speed[:, g]
+        power = sp * sp * sp if self.exponent == 3.0 else sp**self.exponent
+        amp = on * power * (kin.span[:, None] / (4 * np.pi * self.c0))
+        c1, c2 = kin.c1[:, ja : jb + 1], kin.c2[:, ja : jb + 1]  # flow direction c' (unit)
+        tex = self.texture
+        if tex.section.symmetry[0] == 0 and tex.directions_deg.size == 1:
+            # isotropic section, one sampled direction: the map is the rotation by θ itself,
+            # [[cos θ, −sin θ], [sin θ, cos θ]] = [[c1, −c2], [c2, c1]]
+            j0 = np.zeros(c1.shape, dtype=np.int64)
+            j1, w = j0, np.zeros(c1.shape)
+            M = np.stack([c1, -c2, c2, c1], axis=-1)
+        else:
+            j0, j1, w, M = tex.lookup(np.arctan2(c2, c1))
+            M = M.reshape(*c1.shape, 4)
         f = np.ascontiguousarray
-        return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]),
-                f(M.reshape(*theta.shape, 4)), f(j0), f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
+        return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]), f(M), f(j0),
+                f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
 
     def _emitters(self, ja: int, jb: int, buf: NDArray[np.float64] | None = None) -> Emitters:
         """Emitters of blocks ``ja..jb``; the numba path writes G into ``buf`` when it is large
@@ -488,8 +547,13 @@ class AeroEmission:
                 lambda k0, k1: _emit_kernel(G, *tab, tex, lens, tr, K, k0, k1), self.n_sources
             )
         pos = self.kin.pos[:, 0] if self.static else self.kin.pos[:, ja : jb + 2]
-        return Emitters(G, self.rate, pos, t0=ja * self.kin.dt, pos_rate=self.rate / K,
-                        radius=self.radius, law=1.0, name=self.name)  # fmt: skip
+        if self.engine == "numpy":
+            return Emitters(G, self.rate, pos, t0=ja * self.kin.dt, pos_rate=self.rate / K,
+                            radius=self.radius, law=1.0, name=self.name)  # fmt: skip
+        # G comes from the finite kinematics and texture tables: no scan of its samples
+        return model_emitters(G, self.rate, np.ascontiguousarray(pos), t0=ja * self.kin.dt,
+                              pos_rate=self.rate / K, radius=self.radius, law=1.0,
+                              name=self.name)  # fmt: skip
 
     def emitters(self, tau0: float = 0.0, tau1: float | None = None) -> Emitters:
         """The dipole emitters of emission times ``[tau0, tau1]`` (s; default: all), in whole blocks."""
@@ -548,6 +612,7 @@ class AeroEmission:
         n_out = int(round(dur * rate))
         out = np.zeros((lay.n_channels, n_out))
         step = max(256, int(CHUNK_BYTES / (2 * 24 * self.n_sources) * rate / self.rate))
+        step = max(1, -(-n_out // max(1, -(-n_out // step))))  # windows of equal length
         buf = np.empty(0)
         for na in range(0, n_out, step):
             nb = min(n_out, na + step)
