@@ -53,6 +53,9 @@ RHO0 = 1.2
 #: unpanned layouts are summed by runs of pieces (:mod:`auralize._runs_kernel`);
 #: False forces the piece-wise kernel (for tests)
 _BY_RUNS = True
+#: the piece-wise kernel loads the accumulator rows of a chunk's pieces before
+#: adding to them (their cache misses overlap); False for comparisons
+_TOUCH = True
 INTERPOLATIONS = ("linear", "cubic")
 
 
@@ -473,6 +476,26 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
         )
 
 
+#: rows whose arrivals may cross more listener captures than this are summed
+#: piece by piece (:func:`auralize._synth_kernel._piece_general`), not in parts
+_MAX_PART_CAPTURES = 48
+
+
+def _line_table(pr: _Prepared, c0: float) -> NDArray[np.float64]:
+    """The listener's line on each capture interval j, at row j + 1 (M + 1, 9):
+    its position at time tr, velocity, tr, c0² - V² and 1/(c0² - V²); held
+    (V = 0) before the first capture and after the last."""
+    m = pr.tc.size
+    LT = np.zeros((m + 1, 9))
+    LT[0, :3], LT[0, 6] = pr.lc[0], pr.tc[0]
+    LT[m, :3], LT[m, 6] = pr.lc[-1], pr.tc[-1]
+    if m >= 2:
+        LT[1:m, :3], LT[1:m, 3:6], LT[1:m, 6] = pr.lc[:-1], pr.vc, pr.tc[:-1]
+    LT[:, 7] = c0 * c0 - np.sum(LT[:, 3:6] ** 2, axis=1)
+    LT[:, 8] = 1.0 / LT[:, 7]
+    return LT
+
+
 def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
            interp: str = "cubic", layout: str | Layout = "mono", c0: float = C0,
            duration: float | None = None, bounds: tuple[float, ...] | None = None,
@@ -575,6 +598,16 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         k_ct = int(np.searchsorted(pr.tc, pr.t_start - 1.0 / pr.fs, side="right"))
         k_end = int(np.searchsorted(pr.tc, pr.t_start + pr.n_samples / pr.fs, side="left"))
         ct = _workspace("captures", (task_blk.shape[0], max(k_end - k_ct, 0) * lay.n_channels * 4))
+        if not by_runs:
+            # rows whose arrivals may cross captures: pieces split into parts
+            # at them (the captures k with t_n < t_k <= t_{n+1} + D_max/c0)
+            k_lo = np.searchsorted(pr.tc, pr.tn[:-1], side="right")
+            k_hi = np.searchsorted(pr.tc, pr.tn[1:] + d_max / c0, side="right")
+            parts = (k_hi > k_lo) & (k_hi - k_lo <= _MAX_PART_CAPTURES)
+            KR = np.zeros((pr.tn.size, 2), dtype=np.int64)
+            KR[:-1, 0] = k_lo
+            KR[:-1, 1] = np.where(parts, k_hi, k_lo)
+            LT = _line_table(pr, c0)
         if by_runs:
             bad = _runs_kernel.render(
                 gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, float(c0),
@@ -587,7 +620,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
                 pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
                 shift, spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels,
                 bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
-                ct, k_ct,
+                ct, k_ct, KR, LT, _TOUCH,
             )  # fmt: skip
         if bad:
             raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "
