@@ -763,7 +763,7 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, 
         a1, d1, dd1, q1, m1, sg1, ok1 = _take_cut(cut, ac, dc, ddc, qc, mc, sg0, a1, d1, dd1, q1,
                                                   m1, sg1, ok1)  # fmt: skip
     return _piece_tail(W, i, a0, d0, dd0, q0, m0, sg0, ok0, a1, d1, dd1, q1, m1, sg1, ok1, c0,
-                       inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)
+                       inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1144,9 +1144,7 @@ def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, 
 #: the listener's line on interval j (row j + 1 of the line table: 9 rows)
 #: and captures j and j + 1 (position and time: 4 rows each)
 _W_J, _W_K0, _W_K1, _W_L0, _W_L1, _W_LN, _W_C0, _W_C1 = 66, 67, 68, 69, 72, 75, 84, 88
-#: (and one row where :func:`_touch_rows`' sums are stored)
-_W_SINK = 92
-_WP_ROWS = 93
+_WP_ROWS = 92
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1214,8 +1212,10 @@ def _part_core(W, i, t_n, t_n1, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv
     at0 = W[_W_K0 * _CHUNK + i] != 0.0
     at1 = W[_W_K1 * _CHUNK + i] != 0.0
     lx, ly, lz = W[_W_LN * _CHUNK + i], W[(_W_LN + 1) * _CHUNK + i], W[(_W_LN + 2) * _CHUNK + i]
-    vx, vy, vz = W[(_W_LN + 3) * _CHUNK + i], W[(_W_LN + 4) * _CHUNK + i], W[(_W_LN + 5) * _CHUNK + i]
-    tr, den, inv_den = W[(_W_LN + 6) * _CHUNK + i], W[(_W_LN + 7) * _CHUNK + i], W[(_W_LN + 8) * _CHUNK + i]
+    vx, vy, vz = (W[(_W_LN + 3) * _CHUNK + i], W[(_W_LN + 4) * _CHUNK + i],
+                  W[(_W_LN + 5) * _CHUNK + i])  # fmt: skip
+    tr, den, inv_den = (W[(_W_LN + 6) * _CHUNK + i], W[(_W_LN + 7) * _CHUNK + i],
+                        W[(_W_LN + 8) * _CHUNK + i])  # fmt: skip
     h = t_n1 - t_n
     a0, d0, e0, qa, ma = _part_end(
         x, y, z, rm, at0, t_n, q0, m0, W[_W_C0 * _CHUNK + i], W[(_W_C0 + 1) * _CHUNK + i],
@@ -1233,29 +1233,6 @@ def _part_core(W, i, t_n, t_n1, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv
     W[(_W_L1 + 2) * _CHUNK + i] = lz + vz * (a1 - tr)
     return _piece_tail(W, i, a0, d0, e0, qa, ma, j, True, a1, d1, e1, qb, mb, j, True, c0, inv_c0,
                        t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
-
-
-@numba.njit(inline="always", **_NJIT)
-def _touch_rows(acc, W, cnt, pairs, spk_ch, nxt, base):  # type: ignore[no-untyped-def]
-    """Load the accumulator rows that the simple pieces in columns 0..cnt-1 of
-    W start and end in (for speaker pairs, the cache lines of their
-    channels) and return a sum of them: independent loads whose cache misses
-    overlap, ahead of the scatter loop that adds to those rows."""
-    t = 0.0
-    for i in range(cnt):
-        simple = W[_W_KIND * _CHUNK + i] == 1.0
-        si = int(W[_W_SI * _CHUNK + i]) if simple else base
-        ei = int(W[_W_EI * _CHUNK + i]) if simple else base
-        ei = ei if ei >= 0 else si
-        if pairs and simple:
-            p0 = int(W[_W_P0 * _CHUNK + i])
-            p1 = int(W[_W_P1 * _CHUNK + i])
-            p0 = p0 if p0 >= 0 else 0
-            p1 = p1 if p1 >= 0 else 0
-            t += acc[si + spk_ch[p0] * 4] + acc[ei + nxt[p1] * 4]
-        else:
-            t += acc[si] + acc[ei]
-    return t
 
 
 @numba.njit(**_NJIT)
@@ -1281,7 +1258,7 @@ def _part_pair_gains(W, cnt, qc, ot, pinv, const_orient):  # type: ignore[no-unt
 @numba.njit(**_NJIT)
 def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_samples, shift, blo,
                 nb, base, n_ch, panned, pairs, const_orient, spk_az, spk_ch, nxt, fold, pinv, acc,
-                ga, gb, o, ct, touch):  # fmt: skip  # type: ignore[no-untyped-def]
+                ga, gb, o, ct):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum the cnt parts in columns 0..cnt-1 of W (see :func:`_chunk_parts`):
     SIMD loops for their polynomials and speaker-pair gains, then a scalar
     loop that adds them to the accumulator (a part over more than two
@@ -1308,8 +1285,6 @@ def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_sa
             _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
     if pairs:
         _part_pair_gains(W, cnt, qc, ot, pinv, const_orient)
-    if touch:
-        W[_W_SINK * _CHUNK] = _touch_rows(acc, W, cnt, pairs, spk_ch, nxt, base)
     nbad = 0
     for i in range(cnt):
         kd = W[_W_KIND * _CHUNK + i]
@@ -1375,7 +1350,7 @@ def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_sa
 @numba.njit(**_NJIT)
 def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs,
                  n_samples, shift, blo, nb, base, n_ch, panned, pairs, const_orient, spk_az, spk_ch,
-                 nxt, fold, pinv, acc, ga, gb, o, ct, CN, touch):  # fmt: skip  # type: ignore[no-untyped-def]
+                 nxt, fold, pinv, acc, ga, gb, o, ct, CN):  # fmt: skip  # type: ignore[no-untyped-def]
     """The cc pieces of chunk ck (row n: knots at t_n, t_n1) of a row whose
     arrivals may cross listener captures k_lo..k_hi-1, split there into parts.
 
@@ -1434,19 +1409,19 @@ def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c
                 nbad += _part_batch(W, p, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs,
                                     n_samples, shift, blo, nb, base, n_ch, panned, pairs,
                                     const_orient, spk_az, spk_ch, nxt, fold, pinv, acc, ga, gb,
-                                    o, ct, touch)  # fmt: skip
+                                    o, ct)  # fmt: skip
                 p = 0
     if p > 0:
         nbad += _part_batch(W, p, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_samples,
                             shift, blo, nb, base, n_ch, panned, pairs, const_orient, spk_az,
-                            spk_ch, nxt, fold, pinv, acc, ga, gb, o, ct, touch)  # fmt: skip
+                            spk_ch, nxt, fold, pinv, acc, ga, gb, o, ct)  # fmt: skip
     return nbad
 
 
 @numba.njit(parallel=True, **_NJIT)
 def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, shift,
            spk_az, spk_ch, pinv, n_ch, fold, n_lo, n_hi, d_max, task_pieces, task_blk, RC, acc,
-           out, ct, k_ct, KR, LT, touch):  # fmt: skip  # type: ignore[no-untyped-def]
+           out, ct, k_ct, KR, LT):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every sounding piece into ``out (n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
@@ -1479,8 +1454,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     are split into parts at those captures (:func:`_chunk_parts`; LT (M+1, 9)
     the listener's line on each capture interval j at row j + 1: position at
     time tr, velocity, tr, c0² - V², 1/(c0² - V²), held before the first and
-    after the last capture).  ``touch``: load the accumulator rows of a
-    chunk's simple pieces before adding to them (:func:`_touch_rows`).
+    after the last capture).
 
     Returns the number of emissions outside the windows (an internal error).
     """
@@ -1527,7 +1501,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                         PD, ck, ccnt[ck], KR[n, 0], KR[n, 1], WP, LT, tc, lc, vc, qc, ot, tn[n],
                         tn[n + 1], c0, t_start, fs, n_samples, shift, blo, nb, base, n_ch, panned,
                         pairs, const_orient, spk_az, spk_ch, nxt, fold, pinv, acc, ga, gb, o, ctj,
-                        CN, touch,
+                        CN,
                     )  # fmt: skip
                 n += 1
                 continue
@@ -1549,8 +1523,6 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                         for c in range(n_ch):
                             G0[i, c] = ga[c]
                             G1[i, c] = gb[c]
-                if touch:
-                    WP[_W_SINK * _CHUNK] = _touch_rows(acc, W, cc, pairs, spk_ch, nxt, base)
                 for i in range(cc):
                     kd = W[_W_KIND * _CHUNK + i]
                     if kd == 0.0:

@@ -50,12 +50,10 @@ from auralize.spatial import Layout, get_layout, listener_frame, pan_gains, tria
 
 C0 = 343.0
 RHO0 = 1.2
-#: unpanned layouts are summed by runs of pieces (:mod:`auralize._runs_kernel`);
-#: False forces the piece-wise kernel (for tests)
-_BY_RUNS = True
-#: the piece-wise kernel loads the accumulator rows of a chunk's pieces before
-#: adding to them (their cache misses overlap); False for comparisons
-_TOUCH = True
+#: unpanned layouts are summed by runs of pieces (:mod:`auralize._runs_kernel`)
+#: unless most of their pieces' arrivals cross listener captures (None); True
+#: forces the runs, False the piece-wise kernel (for tests)
+_BY_RUNS: bool | None = None
 INTERPOLATIONS = ("linear", "cubic")
 
 
@@ -549,8 +547,21 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     block = 1 << shift
     cubic = interp == "cubic"
     n_lo, n_hi, d_max = _audible_pieces(pr, tracks, c0)
-    # unpanned: runs of pieces, one emission per knot; else piece by piece
-    by_runs = _BY_RUNS and spk_az.size == 0 and lay.n_channels == 1
+    # rows whose arrivals can straddle a listener capture (one at or past
+    # the output's end only cuts the pieces: no extra cost)
+    t_end = min(pr.tn[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
+    t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
+    hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
+    costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
+    # unpanned: runs of pieces, one emission per knot; else piece by piece.
+    # The runs split pieces at captures in scalar code, the piece-wise kernel
+    # in SIMD loops (parts): a recorded path, whose captures most pieces'
+    # arrivals cross, takes the piece-wise kernel
+    unpanned = spk_az.size == 0 and lay.n_channels == 1
+    if _BY_RUNS is None:
+        by_runs = unpanned and not (n_hi > n_lo and float(np.mean(costly[n_lo:n_hi])) > 0.5)
+    else:
+        by_runs = _BY_RUNS and unpanned
     if by_runs:
         gr0, glen, gcnt, goff, KD = _runs(tracks, pr.tn, interp)
         some = bool(np.any((gr0 < n_hi) & (gr0 + glen > n_lo)))
@@ -559,12 +570,6 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         some = bool(cptr[n_hi] > cptr[n_lo])
     audio = np.zeros((lay.n_channels, pr.n_samples))
     if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and some:
-        # rows whose arrivals can straddle a listener capture (one at or past
-        # the output's end only cuts the pieces: no extra cost)
-        t_end = min(pr.tn[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
-        t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
-        hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
-        costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
         # rows whose arrivals can pass the next capture (at or after the
         # output's end too) solve two candidate lines: half as dear again
         nxt = np.searchsorted(pr.tc, pr.tn, side="right")
@@ -620,7 +625,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
                 pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
                 shift, spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels,
                 bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
-                ct, k_ct, KR, LT, _TOUCH,
+                ct, k_ct, KR, LT,
             )  # fmt: skip
         if bad:
             raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "

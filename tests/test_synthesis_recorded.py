@@ -28,8 +28,9 @@ def test_recorded_path_equals_sample_by_sample(mono_tracks, mono_params, layout,
     path = ListenerPath.orbit(c, radius=2.4, duration=0.6, turns=0.4, height=0.5, rate_hz=rate_hz)
     sub = _sub(mono_tracks, 5)
     ref = render_reference(sub, path, rate=RATE, layout=layout, time_scale=4.0)
-    # (mono also through the piece-wise kernel, which splits pieces into parts)
-    for by_runs in (True, False) if layout == "mono" else (True,):
+    # (mono: the default choice, and each kernel forced: runs of pieces, or
+    # the piece-wise kernel that splits pieces into parts)
+    for by_runs in (None, True, False) if layout == "mono" else (None,):
         monkeypatch.setattr(synthesis, "_BY_RUNS", by_runs)
         fast = render(sub, path, rate=RATE, layout=layout, time_scale=4.0).audio
         assert fast.shape == ref.shape
