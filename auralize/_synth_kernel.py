@@ -36,6 +36,11 @@ Layout of the work:
   pieces split there fall on one sample with one offset, so they are summed
   in a small per-task table (a row per capture, in cache) and added to the
   accumulator once (:func:`_flush_captures`);
+* a step whose arrivals may cross listener captures (a path recorded at
+  10-20 Hz: most of them) is split there into parts, one per capture
+  interval, each on the listener's line of its interval, and the parts are
+  summed like pieces, in SIMD loops (:func:`_chunk_parts`); the scalar
+  split above remains for steps that cross very many captures;
 * the accumulator is skewed (level j of an impulse at m + j is stored in row
   m, so an emission touches one 32-byte row) with the channels of a sample
   side by side; threads take contiguous ranges of pieces and accumulate into

@@ -27,7 +27,8 @@ the listener path; propagation uses physical c0 in data time.  ``lead``
 (default 0) skips the sound's travel to a far listener.
 
 The fast algorithm (:mod:`auralize._synth_kernel`; for unpanned output
-:mod:`auralize._runs_kernel`, one emission per knot) costs
+:mod:`auralize._runs_kernel`, one emission per knot, unless the path is
+recorded: captures that most pieces' arrivals cross) costs
 O(sources × steps + samples) instead of O(sources × samples) and gives the
 sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
 """
