@@ -36,6 +36,11 @@ Layout of the work:
   pieces split there fall on one sample with one offset, so they are summed
   in a small per-task table (a row per capture, in cache) and added to the
   accumulator once (:func:`_flush_captures`);
+* a step whose arrivals may cross listener captures (a path recorded at
+  10-20 Hz: most of them) is split there into parts, one per capture
+  interval, each on the listener's line of its interval, and the parts are
+  summed like pieces, in SIMD loops (:func:`_chunk_parts`); the scalar
+  split above remains for steps that cross very many captures;
 * the accumulator is skewed (level j of an impulse at m + j is stored in row
   m, so an emission touches one 32-byte row) with the channels of a sample
   side by side; threads take contiguous ranges of pieces and accumulate into
@@ -762,6 +767,16 @@ def _piece_core(W, i, l0a, l0b, l1a, l1b, two, c0, inv_c0, t_start, fs, inv_fs, 
                                                l1a[6], c0, inv_c0, t_start, fs, fn)  # fmt: skip
         a1, d1, dd1, q1, m1, sg1, ok1 = _take_cut(cut, ac, dc, ddc, qc, mc, sg0, a1, d1, dd1, q1,
                                                   m1, sg1, ok1)  # fmt: skip
+    return _piece_tail(W, i, a0, d0, dd0, q0, m0, sg0, ok0, a1, d1, dd1, q1, m1, sg1, ok1, c0,
+                       inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+
+
+@numba.njit(inline="always", **_NJIT)
+def _piece_tail(W, i, a0, d0, dd0, q0, m0, sg0, ok0, a1, d1, dd1, q1, m1, sg1, ok1, c0, inv_c0,
+                t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Kind, accumulator rows and Hermite data of the piece in column i of W
+    from its ends: arrival a, distance D, D·dD/dt, q, dq/dτ, capture interval
+    sg and whether the arrival was found (see :func:`_piece_core`)."""
     W[_W_A0 * _CHUNK + i] = a0
     W[_W_A1 * _CHUNK + i] = a1
     W[_W_S0 * _CHUNK + i] = sg0
@@ -947,14 +962,10 @@ def _pair_normalise(W, i, rp):  # type: ignore[no-untyped-def]
     return (norm > 0.0) & (W[k] >= 0.0)
 
 
-@numba.njit(**_NJIT)
-def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ignore[no-untyped-def]
-    """Pairwise 2-D VBAP gains at both arrivals of the chunk's pieces (the law
-    of :func:`_gains`, fast path: the first speaker pair whose inverse base
-    gives both gains >= 0, power-normalised): pair index and two gains per
-    arrival into W.  The listener's orientation is read from its table in a
-    scalar loop (unless it is constant), the rest in SIMD loops.  A direction
-    straight above or below (no pair) marks the piece general."""
+@numba.njit(inline="always", **_NJIT)
+def _orient_chunk(W, cnt, qc, ot, const_orient):  # type: ignore[no-untyped-def]
+    """The listener's forward and up at both arrivals (rows A0, A1) of the
+    chunk's pieces into rows O0, O1 of W (see :func:`_orient_rows`)."""
     if const_orient:
         for c in range(6):
             v = qc[0, c]
@@ -965,6 +976,34 @@ def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ig
         for i in range(cnt):
             _orient_rows(W, i, _W_O0, qc, ot, W[_W_A0 * _CHUNK + i])
             _orient_rows(W, i, _W_O1, qc, ot, W[_W_A1 * _CHUNK + i])
+
+
+@numba.njit(inline="always", **_NJIT)
+def _pair_search(W, cnt, pinv):  # type: ignore[no-untyped-def]
+    """Pair index and gains at both arrivals from the directions in rows
+    XF0, YL0, XF1, YL1 (pair rows preset to -1); a direction with no pair
+    (straight above or below) marks the piece general."""
+    for p in range(pinv.shape[0]):
+        a0, a1, a2, a3 = pinv[p, 0], pinv[p, 1], pinv[p, 2], pinv[p, 3]
+        fp = float(p)
+        for i in range(cnt):
+            _pair_take(W, i, _W_P0, _W_XF0, _W_YL0, a0, a1, a2, a3, fp)
+            _pair_take(W, i, _W_P1, _W_XF1, _W_YL1, a0, a1, a2, a3, fp)
+    for i in range(cnt):
+        ok = _pair_normalise(W, i, _W_P0) & _pair_normalise(W, i, _W_P1)
+        kd = W[_W_KIND * _CHUNK + i]
+        W[_W_KIND * _CHUNK + i] = 2.0 if (kd != 0.0) & ~ok else kd
+
+
+@numba.njit(**_NJIT)
+def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ignore[no-untyped-def]
+    """Pairwise 2-D VBAP gains at both arrivals of the chunk's pieces (the law
+    of :func:`_gains`, fast path: the first speaker pair whose inverse base
+    gives both gains >= 0, power-normalised): pair index and two gains per
+    arrival into W.  The listener's orientation is read from its table in a
+    scalar loop (unless it is constant), the rest in SIMD loops.  A direction
+    straight above or below (no pair) marks the piece general."""
+    _orient_chunk(W, cnt, qc, ot, const_orient)
     l0a = _line_tuple(RC0, 0)
     l0b = _line_tuple(RC0, _LINE)
     l1a = _line_tuple(RC1, 0)
@@ -988,16 +1027,7 @@ def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ig
         W[_W_YL1 * _CHUNK + i] = yl
         W[_W_P0 * _CHUNK + i] = -1.0
         W[_W_P1 * _CHUNK + i] = -1.0
-    for p in range(pinv.shape[0]):
-        a0, a1, a2, a3 = pinv[p, 0], pinv[p, 1], pinv[p, 2], pinv[p, 3]
-        fp = float(p)
-        for i in range(cnt):
-            _pair_take(W, i, _W_P0, _W_XF0, _W_YL0, a0, a1, a2, a3, fp)
-            _pair_take(W, i, _W_P1, _W_XF1, _W_YL1, a0, a1, a2, a3, fp)
-    for i in range(cnt):
-        ok = _pair_normalise(W, i, _W_P0) & _pair_normalise(W, i, _W_P1)
-        kd = W[_W_KIND * _CHUNK + i]
-        W[_W_KIND * _CHUNK + i] = 2.0 if (kd != 0.0) & ~ok else kd
+    _pair_search(W, cnt, pinv)
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1113,10 +1143,290 @@ def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, 
                               va, wa, vb, wb, gy, gb, fs, panned, ct, r0, -1)  # fmt: skip
 
 
+#: parts (pieces split at the listener's captures, see :func:`_chunk_parts`):
+#: further rows of their work array: the capture interval j, whether each end
+#: is a knot (1) or a capture (0), the listener's position at both arrivals,
+#: the listener's line on interval j (row j + 1 of the line table: 9 rows)
+#: and captures j and j + 1 (position and time: 4 rows each)
+_W_J, _W_K0, _W_K1, _W_L0, _W_L1, _W_LN, _W_C0, _W_C1 = 66, 67, 68, 69, 72, 75, 84, 88
+_WP_ROWS = 92
+
+
+@numba.njit(inline="always", **_NJIT)
+def _hermite_at(t_0, h, q0, m0, q1, m1, tau):  # type: ignore[no-untyped-def]
+    """Strength q and dq/dτ at τ of the cubic Hermite piece from knot t_0 to
+    t_0 + h (values q0, q1, tangents m0, m1 per second; a linear piece has
+    m0 = m1 = its slope, which the Hermite reproduces); branch-free."""
+    s = (tau - t_0) / h
+    s = s if s > 0.0 else 0.0
+    s = s if s < 1.0 else 1.0
+    s2 = s * s
+    s3 = s2 * s
+    hm0 = m0 * h
+    hm1 = m1 * h
+    q = ((2.0 * s3 - 3.0 * s2 + 1.0) * q0 + (s3 - 2.0 * s2 + s) * hm0
+         + (3.0 * s2 - 2.0 * s3) * q1 + (s3 - s2) * hm1)  # fmt: skip
+    m = ((6.0 * s2 - 6.0 * s) * (q0 - q1) + (3.0 * s2 - 4.0 * s + 1.0) * hm0
+         + (3.0 * s2 - 2.0 * s) * hm1) / h  # fmt: skip
+    return q, m
+
+
+@numba.njit(inline="always", **_NJIT)
+def _part_end(x, y, z, rm, at_knot, t_k, qk, mk, cx, cy, cz, ck, lx, ly, lz, vx, vy, vz, tr, den,
+              inv_den, t_n, h, q0, m0, q1, m1, c0, inv_c0):  # fmt: skip  # type: ignore[no-untyped-def]
+    """One end of a part on the listener's line L + V (t - tr): at a knot
+    (``at_knot``: the emission at t_k, strength qk, dq/dτ mk, solved on the
+    line as in :func:`_line_arrival`) or at a capture (arrival ck, the
+    listener at (cx, cy, cz); the emission heard there and its q, dq/dτ from
+    the piece's Hermite); returns arrival, D, D·dD/dt, q and dq/dτ
+    (branch-free)."""
+    dt = t_k - tr
+    a1, d1, e1 = _line_arrival(x, y, z, rm, lx + vx * dt, ly + vy * dt, lz + vz * dt, vx, vy, vz,
+                               t_k, inv_den, den, c0, inv_c0)  # fmt: skip
+    px = cx - x
+    py = cy - y
+    pz = cz - z
+    d = math.sqrt(px * px + py * py + pz * pz)
+    clamp = d <= rm
+    e2 = 0.0 if clamp else px * vx + py * vy + pz * vz
+    d2 = rm if clamp else d
+    a2 = ck
+    q2, m2 = _hermite_at(t_n, h, q0, m0, q1, m1, a2 - d2 * inv_c0)
+    return (a1 if at_knot else a2, d1 if at_knot else d2, e1 if at_knot else e2,
+            qk if at_knot else q2, mk if at_knot else m2)  # fmt: skip
+
+
+@numba.njit(inline="always", **_NJIT)
+def _part_core(W, i, t_n, t_n1, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb,
+               base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Arrivals, kind and accumulator rows of the part in column i of W (see
+    :func:`_chunk_parts`): the piece's emissions heard on the listener's
+    line of capture interval j (rows LN), from its first knot or capture j
+    (rows C0) to its last knot or capture j + 1 (rows C1); returns the
+    Hermite data and emission offsets as :func:`_piece_core`.  Reads W only
+    (no gathers: the loop vectorizes)."""
+    x = W[0 * _CHUNK + i]
+    y = W[1 * _CHUNK + i]
+    z = W[2 * _CHUNK + i]
+    rm = W[3 * _CHUNK + i]
+    q0 = W[4 * _CHUNK + i]
+    m0 = W[5 * _CHUNK + i]
+    q1 = W[6 * _CHUNK + i]
+    m1 = W[7 * _CHUNK + i]
+    j = W[_W_J * _CHUNK + i]
+    at0 = W[_W_K0 * _CHUNK + i] != 0.0
+    at1 = W[_W_K1 * _CHUNK + i] != 0.0
+    lx, ly, lz = W[_W_LN * _CHUNK + i], W[(_W_LN + 1) * _CHUNK + i], W[(_W_LN + 2) * _CHUNK + i]
+    vx, vy, vz = (W[(_W_LN + 3) * _CHUNK + i], W[(_W_LN + 4) * _CHUNK + i],
+                  W[(_W_LN + 5) * _CHUNK + i])  # fmt: skip
+    tr, den, inv_den = (W[(_W_LN + 6) * _CHUNK + i], W[(_W_LN + 7) * _CHUNK + i],
+                        W[(_W_LN + 8) * _CHUNK + i])  # fmt: skip
+    h = t_n1 - t_n
+    a0, d0, e0, qa, ma = _part_end(
+        x, y, z, rm, at0, t_n, q0, m0, W[_W_C0 * _CHUNK + i], W[(_W_C0 + 1) * _CHUNK + i],
+        W[(_W_C0 + 2) * _CHUNK + i], W[(_W_C0 + 3) * _CHUNK + i], lx, ly, lz, vx, vy, vz, tr, den,
+        inv_den, t_n, h, q0, m0, q1, m1, c0, inv_c0)  # fmt: skip
+    a1, d1, e1, qb, mb = _part_end(
+        x, y, z, rm, at1, t_n1, q1, m1, W[_W_C1 * _CHUNK + i], W[(_W_C1 + 1) * _CHUNK + i],
+        W[(_W_C1 + 2) * _CHUNK + i], W[(_W_C1 + 3) * _CHUNK + i], lx, ly, lz, vx, vy, vz, tr, den,
+        inv_den, t_n, h, q0, m0, q1, m1, c0, inv_c0)  # fmt: skip
+    W[_W_L0 * _CHUNK + i] = lx + vx * (a0 - tr)
+    W[(_W_L0 + 1) * _CHUNK + i] = ly + vy * (a0 - tr)
+    W[(_W_L0 + 2) * _CHUNK + i] = lz + vz * (a0 - tr)
+    W[_W_L1 * _CHUNK + i] = lx + vx * (a1 - tr)
+    W[(_W_L1 + 1) * _CHUNK + i] = ly + vy * (a1 - tr)
+    W[(_W_L1 + 2) * _CHUNK + i] = lz + vz * (a1 - tr)
+    return _piece_tail(W, i, a0, d0, e0, qa, ma, j, True, a1, d1, e1, qb, mb, j, True, c0, inv_c0,
+                       t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+
+
+@numba.njit(**_NJIT)
+def _part_pair_gains(W, cnt, qc, ot, pinv, const_orient):  # type: ignore[no-untyped-def]
+    """Pairwise 2-D VBAP gains at both arrivals of a batch of parts (as
+    :func:`_chunk_pair_gains`, the listener's positions from rows L0, L1)."""
+    _orient_chunk(W, cnt, qc, ot, const_orient)
+    for i in range(cnt):
+        x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+        px, py, pz = W[_W_L0 * _CHUNK + i], W[(_W_L0 + 1) * _CHUNK + i], W[(_W_L0 + 2) * _CHUNK + i]
+        xf, yl = _frame_coords(W, i, _W_O0, x - px, y - py, z - pz)
+        W[_W_XF0 * _CHUNK + i] = xf
+        W[_W_YL0 * _CHUNK + i] = yl
+        px, py, pz = W[_W_L1 * _CHUNK + i], W[(_W_L1 + 1) * _CHUNK + i], W[(_W_L1 + 2) * _CHUNK + i]
+        xf, yl = _frame_coords(W, i, _W_O1, x - px, y - py, z - pz)
+        W[_W_XF1 * _CHUNK + i] = xf
+        W[_W_YL1 * _CHUNK + i] = yl
+        W[_W_P0 * _CHUNK + i] = -1.0
+        W[_W_P1 * _CHUNK + i] = -1.0
+    _pair_search(W, cnt, pinv)
+
+
+@numba.njit(**_NJIT)
+def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_samples, shift, blo,
+                nb, base, n_ch, panned, pairs, const_orient, spk_az, spk_ch, nxt, fold, pinv, acc,
+                ga, gb, o, ct):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Sum the cnt parts in columns 0..cnt-1 of W (see :func:`_chunk_parts`):
+    SIMD loops for their polynomials and speaker-pair gains, then a scalar
+    loop that adds them to the accumulator (a part over more than two
+    accumulation blocks, or with no speaker pair, through
+    :func:`_emit_gained`).  Returns the number of emissions outside the window."""
+    inv_c0 = 1.0 / c0
+    inv_fs = 1.0 / fs
+    fn = float(n_samples)
+    fblock = float(1 << shift)
+    inv_block = 1.0 / fblock
+    rs = 4.0 * n_ch
+    if panned:
+        for i in range(cnt):
+            L, inv, f0, w0, f1, w1, x0, x1, x2 = _part_core(
+                W, i, t_n, t_n1, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block, blo,
+                nb, base, rs)  # fmt: skip
+            _piece_values(W, _W_VAL, i, L, inv, f0, w0 - f0 * inv, 0.0, -f1 * inv, x0, x1, x2)
+            _piece_values(W, _W_VAL + 12, i, L, inv, 0.0, f0 * inv, f1, w1 + f1 * inv, x0, x1, x2)
+    else:
+        for i in range(cnt):
+            L, inv, f0, w0, f1, w1, x0, x1, x2 = _part_core(
+                W, i, t_n, t_n1, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv_block, blo,
+                nb, base, rs)  # fmt: skip
+            _piece_values(W, _W_VAL, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
+    if pairs:
+        _part_pair_gains(W, cnt, qc, ot, pinv, const_orient)
+    nbad = 0
+    for i in range(cnt):
+        kd = W[_W_KIND * _CHUNK + i]
+        if kd == 0.0:
+            continue
+        x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+        a0, a1 = W[_W_A0 * _CHUNK + i], W[_W_A1 * _CHUNK + i]
+        sg = int(W[_W_J * _CHUNK + i])
+        if kd == 1.0:
+            si = int(W[_W_SI * _CHUNK + i])
+            ei = int(W[_W_EI * _CHUNK + i])
+            ci = int(W[_W_CI * _CHUNK + i])
+            if not panned:
+                _add_plain(acc, si, W, _W_VAL, i)
+                if ei >= 0:
+                    _add_plain(acc, ei, W, _W_VAL + 4, i)
+                if ci >= 0:
+                    _add_plain(acc, ci, W, _W_VAL + 8, i)
+                continue
+            if pairs:
+                p0 = int(W[_W_P0 * _CHUNK + i])
+                p1 = int(W[_W_P1 * _CHUNK + i])
+                g00, g01 = W[_W_G00 * _CHUNK + i], W[_W_G01 * _CHUNK + i]
+                g10, g11 = W[_W_G10 * _CHUNK + i], W[_W_G11 * _CHUNK + i]
+                c00, c01 = spk_ch[p0], nxt[p0]
+                if p0 == p1:
+                    _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, g10)
+                    _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, g11)
+                else:
+                    c10, c11 = spk_ch[p1], nxt[p1]
+                    _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, 0.0)
+                    _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, 0.0)
+                    _scatter_group(acc, W, i, si, ei, ci, c10 * 4, 0.0, g10)
+                    _scatter_group(acc, W, i, si, ei, ci, c11 * 4, 0.0, g11)
+                continue
+            _pan(x, y, z, a0, sg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
+            _pan(x, y, z, a1, sg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
+            for c in range(n_ch):
+                if ga[c] != 0.0 or gb[c] != 0.0:
+                    _scatter_group(acc, W, i, si, ei, ci, c * 4, ga[c], gb[c])
+            continue
+        # over several accumulation blocks (kind 3), or no speaker pair (2)
+        if pairs and kd == 3.0:
+            for c in range(n_ch):
+                ga[c] = 0.0
+                gb[c] = 0.0
+            p0 = int(W[_W_P0 * _CHUNK + i])
+            p1 = int(W[_W_P1 * _CHUNK + i])
+            ga[spk_ch[p0]] += W[_W_G00 * _CHUNK + i]
+            ga[nxt[p0]] += W[_W_G01 * _CHUNK + i]
+            gb[spk_ch[p1]] += W[_W_G10 * _CHUNK + i]
+            gb[nxt[p1]] += W[_W_G11 * _CHUNK + i]
+        elif panned:
+            _pan(x, y, z, a0, sg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
+            _pan(x, y, z, a1, sg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
+        nbad += _emit_gained(acc, base, blo, nb, n_ch, shift, n_samples, (a0 - t_start) * fs,
+                             (a1 - t_start) * fs, W[_W_F0 * _CHUNK + i], W[_W_WF0 * _CHUNK + i] * fs,
+                             W[_W_F1 * _CHUNK + i], W[_W_WF1 * _CHUNK + i] * fs, ga, gb, fs, panned,
+                             ct, -1, -1)  # fmt: skip
+    return nbad
+
+
+@numba.njit(**_NJIT)
+def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs,
+                 n_samples, shift, blo, nb, base, n_ch, panned, pairs, const_orient, spk_az, spk_ch,
+                 nxt, fold, pinv, acc, ga, gb, o, ct, CN):  # fmt: skip  # type: ignore[no-untyped-def]
+    """The cc pieces of chunk ck (row n: knots at t_n, t_n1) of a row whose
+    arrivals may cross listener captures k_lo..k_hi-1, split there into parts.
+
+    On capture interval j the listener moves on one line, so the emissions of
+    a piece heard there (those between τ_j and τ_{j+1}, τ_k = t_k - D_k/c0
+    the emission heard at capture k, increasing with k) form a part whose
+    ends are a knot (arrival solved on the line) or a capture (arrival t_k,
+    q from the piece's Hermite at τ_k): exactly the split of
+    :func:`_piece_across`, in SIMD loops.  The interval of a knot's arrival
+    is k_lo - 1 plus the number of captures k with τ_k <= its time (a
+    count over the candidate captures, SIMD); the parts are then listed in
+    batches of _CHUNK in W (rows 0-7 the piece's input, J, K0, K1, LN, C0, C1) and summed
+    by :func:`_part_batch`; CN (2·_CHUNK) is work space for the counts.  Returns the number of emissions outside the window.
+    """
+    inv_c0 = 1.0 / c0
+    uck = np.uint64(ck)
+    for i in range(cc):
+        CN[i] = 0.0
+        CN[_CHUNK + i] = 0.0
+    for k in range(k_lo, k_hi):
+        lx, ly, lz, tk = lc[k, 0], lc[k, 1], lc[k, 2], tc[k]
+        for i in range(cc):
+            ui = np.uint64(i)
+            dx = lx - PD[uck, np.uint64(0), ui]
+            dy = ly - PD[uck, np.uint64(1), ui]
+            dz = lz - PD[uck, np.uint64(2), ui]
+            rm = PD[uck, np.uint64(3), ui]
+            d = math.sqrt(dx * dx + dy * dy + dz * dz)
+            d = d if d > rm else rm
+            tau = tk - d * inv_c0
+            CN[ui] += 1.0 if tau <= t_n else 0.0
+            CN[np.uint64(_CHUNK) + ui] += 1.0 if tau <= t_n1 else 0.0
+    nbad = 0
+    p = 0
+    last = tc.size - 1
+    for i in range(cc):
+        s0 = k_lo - 1 + int(CN[i])
+        s1 = k_lo - 1 + int(CN[_CHUNK + i])
+        for j in range(s0, s1 + 1):
+            for r in range(8):
+                W[r * _CHUNK + p] = PD[ck, r, i]
+            W[_W_J * _CHUNK + p] = float(j)
+            W[_W_K0 * _CHUNK + p] = 1.0 if j == s0 else 0.0
+            W[_W_K1 * _CHUNK + p] = 1.0 if j == s1 else 0.0
+            for r in range(9):
+                W[(_W_LN + r) * _CHUNK + p] = LT[j + 1, r]
+            k0 = max(j, 0)
+            k1 = min(j + 1, last)
+            for r in range(3):
+                W[(_W_C0 + r) * _CHUNK + p] = lc[k0, r]
+                W[(_W_C1 + r) * _CHUNK + p] = lc[k1, r]
+            W[(_W_C0 + 3) * _CHUNK + p] = tc[k0]
+            W[(_W_C1 + 3) * _CHUNK + p] = tc[k1]
+            p += 1
+            if p == _CHUNK:
+                nbad += _part_batch(W, p, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs,
+                                    n_samples, shift, blo, nb, base, n_ch, panned, pairs,
+                                    const_orient, spk_az, spk_ch, nxt, fold, pinv, acc, ga, gb,
+                                    o, ct)  # fmt: skip
+                p = 0
+    if p > 0:
+        nbad += _part_batch(W, p, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_samples,
+                            shift, blo, nb, base, n_ch, panned, pairs, const_orient, spk_az,
+                            spk_ch, nxt, fold, pinv, acc, ga, gb, o, ct)  # fmt: skip
+    return nbad
+
+
 @numba.njit(parallel=True, **_NJIT)
 def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, shift,
            spk_az, spk_ch, pinv, n_ch, fold, n_lo, n_hi, d_max, task_pieces, task_blk, RC, acc,
-           out, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
+           out, ct, k_ct, KR, LT):  # fmt: skip  # type: ignore[no-untyped-def]
     """Sum every sounding piece into ``out (n_ch, n_samples)``; see module docstring.
 
     Parameters (all times in data seconds)
@@ -1144,7 +1454,12 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     RC (Tp, 2·_LINE + 1) is work space for the listener's lines per row;
     d_max bounds the source-listener distance.  ct (n_tasks, R·n_ch·4): each
     task's capture table for captures k_ct … k_ct + R - 1 (see
-    :func:`_emit_piece`), cleared here.
+    :func:`_emit_piece`), cleared here.  Rows n with KR[n, 1] > KR[n, 0]
+    (arrivals that may cross the listener's captures KR[n, 0]..KR[n, 1]-1)
+    are split into parts at those captures (:func:`_chunk_parts`; LT (M+1, 9)
+    the listener's line on each capture interval j at row j + 1: position at
+    time tr, velocity, tr, c0² - V², 1/(c0² - V²), held before the first and
+    after the last capture).
 
     Returns the number of emissions outside the windows (an internal error).
     """
@@ -1169,6 +1484,8 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
         blo, nb, base = task_blk[j, 0], task_blk[j, 1], task_blk[j, 2]
         _clear_window(acc, task_blk[j], n_ch, block, n_samples)
         W = np.empty(_W_ROWS * _CHUNK)
+        WP = np.empty(_WP_ROWS * _CHUNK)
+        CN = np.empty(2 * _CHUNK)
         G0 = np.zeros((_CHUNK, ng))
         G1 = np.zeros((_CHUNK, ng))
         ga = np.zeros(n_ch)
@@ -1183,6 +1500,16 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
         while n < n_hi and cptr[n + 1] <= p_a:
             n += 1
         while n < n_hi and cptr[n] < p_b:
+            if KR[n, 1] > KR[n, 0]:
+                for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
+                    nbad += _chunk_parts(
+                        PD, ck, ccnt[ck], KR[n, 0], KR[n, 1], WP, LT, tc, lc, vc, qc, ot, tn[n],
+                        tn[n + 1], c0, t_start, fs, n_samples, shift, blo, nb, base, n_ch, panned,
+                        pairs, const_orient, spk_az, spk_ch, nxt, fold, pinv, acc, ga, gb, o, ctj,
+                        CN,
+                    )  # fmt: skip
+                n += 1
+                continue
             for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
                 cc = ccnt[ck]
                 _chunk_pieces(PD, ck, cc, RC[n], RC[n + 1], c0, t_start, fs, n_samples, shift,

@@ -27,7 +27,8 @@ the listener path; propagation uses physical c0 in data time.  ``lead``
 (default 0) skips the sound's travel to a far listener.
 
 The fast algorithm (:mod:`auralize._synth_kernel`; for unpanned output
-:mod:`auralize._runs_kernel`, one emission per knot) costs
+:mod:`auralize._runs_kernel`, one emission per knot, unless the path is
+recorded: captures that most pieces' arrivals cross) costs
 O(sources × steps + samples) instead of O(sources × samples) and gives the
 sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
 """
@@ -50,9 +51,10 @@ from auralize.spatial import Layout, get_layout, listener_frame, pan_gains, tria
 
 C0 = 343.0
 RHO0 = 1.2
-#: unpanned layouts are summed by runs of pieces (:mod:`auralize._runs_kernel`);
-#: False forces the piece-wise kernel (for tests)
-_BY_RUNS = True
+#: unpanned layouts are summed by runs of pieces (:mod:`auralize._runs_kernel`)
+#: unless most of their pieces' arrivals cross listener captures (None); True
+#: forces the runs, False the piece-wise kernel (for tests)
+_BY_RUNS: bool | None = None
 INTERPOLATIONS = ("linear", "cubic")
 
 
@@ -473,6 +475,26 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
         )
 
 
+#: rows whose arrivals may cross more listener captures than this are summed
+#: piece by piece (:func:`auralize._synth_kernel._piece_general`), not in parts
+_MAX_PART_CAPTURES = 48
+
+
+def _line_table(pr: _Prepared, c0: float) -> NDArray[np.float64]:
+    """The listener's line on each capture interval j, at row j + 1 (M + 1, 9):
+    its position at time tr, velocity, tr, c0² - V² and 1/(c0² - V²); held
+    (V = 0) before the first capture and after the last."""
+    m = pr.tc.size
+    LT = np.zeros((m + 1, 9))
+    LT[0, :3], LT[0, 6] = pr.lc[0], pr.tc[0]
+    LT[m, :3], LT[m, 6] = pr.lc[-1], pr.tc[-1]
+    if m >= 2:
+        LT[1:m, :3], LT[1:m, 3:6], LT[1:m, 6] = pr.lc[:-1], pr.vc, pr.tc[:-1]
+    LT[:, 7] = c0 * c0 - np.sum(LT[:, 3:6] ** 2, axis=1)
+    LT[:, 8] = 1.0 / LT[:, 7]
+    return LT
+
+
 def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
            interp: str = "cubic", layout: str | Layout = "mono", c0: float = C0,
            duration: float | None = None, bounds: tuple[float, ...] | None = None,
@@ -526,8 +548,21 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     block = 1 << shift
     cubic = interp == "cubic"
     n_lo, n_hi, d_max = _audible_pieces(pr, tracks, c0)
-    # unpanned: runs of pieces, one emission per knot; else piece by piece
-    by_runs = _BY_RUNS and spk_az.size == 0 and lay.n_channels == 1
+    # rows whose arrivals can straddle a listener capture (one at or past
+    # the output's end only cuts the pieces: no extra cost)
+    t_end = min(pr.tn[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
+    t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
+    hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
+    costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
+    # unpanned: runs of pieces, one emission per knot; else piece by piece.
+    # The runs split pieces at captures in scalar code, the piece-wise kernel
+    # in SIMD loops (parts): a recorded path, whose captures most pieces'
+    # arrivals cross, takes the piece-wise kernel
+    unpanned = spk_az.size == 0 and lay.n_channels == 1
+    if _BY_RUNS is None:
+        by_runs = unpanned and not (n_hi > n_lo and float(np.mean(costly[n_lo:n_hi])) > 0.5)
+    else:
+        by_runs = _BY_RUNS and unpanned
     if by_runs:
         gr0, glen, gcnt, goff, KD = _runs(tracks, pr.tn, interp)
         some = bool(np.any((gr0 < n_hi) & (gr0 + glen > n_lo)))
@@ -536,12 +571,6 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         some = bool(cptr[n_hi] > cptr[n_lo])
     audio = np.zeros((lay.n_channels, pr.n_samples))
     if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and some:
-        # rows whose arrivals can straddle a listener capture (one at or past
-        # the output's end only cuts the pieces: no extra cost)
-        t_end = min(pr.tn[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
-        t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
-        hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
-        costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
         # rows whose arrivals can pass the next capture (at or after the
         # output's end too) solve two candidate lines: half as dear again
         nxt = np.searchsorted(pr.tc, pr.tn, side="right")
@@ -575,6 +604,16 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         k_ct = int(np.searchsorted(pr.tc, pr.t_start - 1.0 / pr.fs, side="right"))
         k_end = int(np.searchsorted(pr.tc, pr.t_start + pr.n_samples / pr.fs, side="left"))
         ct = _workspace("captures", (task_blk.shape[0], max(k_end - k_ct, 0) * lay.n_channels * 4))
+        if not by_runs:
+            # rows whose arrivals may cross captures: pieces split into parts
+            # at them (the captures k with t_n < t_k <= t_{n+1} + D_max/c0)
+            k_lo = np.searchsorted(pr.tc, pr.tn[:-1], side="right")
+            k_hi = np.searchsorted(pr.tc, pr.tn[1:] + d_max / c0, side="right")
+            parts = (k_hi > k_lo) & (k_hi - k_lo <= _MAX_PART_CAPTURES)
+            KR = np.zeros((pr.tn.size, 2), dtype=np.int64)
+            KR[:-1, 0] = k_lo
+            KR[:-1, 1] = np.where(parts, k_hi, k_lo)
+            LT = _line_table(pr, c0)
         if by_runs:
             bad = _runs_kernel.render(
                 gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, float(c0),
@@ -587,7 +626,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
                 pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
                 shift, spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels,
                 bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
-                ct, k_ct,
+                ct, k_ct, KR, LT,
             )  # fmt: skip
         if bad:
             raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "
