@@ -135,7 +135,8 @@ def _qeval(t_a, h, q0, m0, q1, m1, tau, cubic):  # type: ignore[no-untyped-def]
 def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):  # type: ignore[no-untyped-def]
     """Panning gains (power-normalised) for direction a in the listener frame:
     pairwise 2-D VBAP, or 3-D VBAP when ``pinv`` is a triangle table (12
-    columns, see :func:`_gains3`).
+    columns, see :func:`_gains3`), or the AmbiX encoding gains when ``pinv``
+    is a spherical-harmonic table (2 columns, see :func:`_gains_sh`).
 
     forward f, up u, left = u × f; azimuth counter-clockwise from forward.
     ``fold`` mirrors rear directions to the front (2-speaker layouts).
@@ -151,6 +152,9 @@ def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):
     yl = ax * lx + ay * ly + az * lz
     if pinv.shape[1] == 12:
         _gains3(xf, yl, ax * ux + ay * uy + az * uz, pinv, out)
+        return
+    if pinv.shape[1] == 2:
+        _gains_sh(xf, yl, ax * ux + ay * uy + az * uz, pinv, out)
         return
     if fold and xf < 0.0:
         xf = -xf
@@ -270,6 +274,51 @@ def _gains3(x, y, z, tab, out):  # type: ignore[no-untyped-def]
         inv = 1.0 / math.sqrt(power)
         for c in range(out.size):
             out[c] *= inv
+
+
+@numba.njit(inline="always", **_NJIT)
+def _gains_sh(x, y, z, tab, out):  # type: ignore[no-untyped-def]
+    """AmbiX encoding gains (the law of :func:`auralize.ambisonics.sh_gains`:
+    real SN3D spherical harmonics in ACN order, no Condon–Shortley phase) for
+    direction (x, y, z) = (forward, left, up) in the listener frame, any
+    length (normalised here; zero gives W = 1 and 0 elsewhere).
+
+    ``tab ((N+1)², 2)``: per ACN channel its SN3D factor
+    sqrt((2 − δ_m0)(n − |m|)!/(n + |m|)!), then the order N (every row).
+    Cartesian form, no trigonometry: cos^m ϑ e^{imφ} = (x + iy)^m by complex
+    multiplication, times P_n^m(z)/(1 − z²)^{m/2} by the associated Legendre
+    recurrence in n from (2m − 1)!!.
+    """
+    for c in range(out.size):
+        out[c] = 0.0
+    r2 = x * x + y * y + z * z
+    if r2 == 0.0:
+        out[0] = 1.0
+        return
+    inv = 1.0 / math.sqrt(r2)
+    x *= inv
+    y *= inv
+    z *= inv
+    order = int(tab[0, 1])
+    cm = 1.0  # Re (x + iy)^m
+    sm = 0.0  # Im (x + iy)^m
+    pmm = 1.0  # (2m - 1)!!
+    for m in range(order + 1):
+        if m > 0:
+            cm, sm = cm * x - sm * y, sm * x + cm * y
+            pmm *= 2 * m - 1
+        q_prev = 0.0
+        q = pmm
+        for n in range(m, order + 1):
+            if n == m + 1:
+                q_prev, q = q, z * (2 * m + 1) * q
+            elif n > m + 1:
+                q_prev, q = q, ((2 * n - 1) * z * q - (n + m - 1) * q_prev) / (n - m)
+            k = n * n + n + m
+            out[k] = tab[k, 0] * q * cm
+            if m > 0:
+                k = n * n + n - m
+                out[k] = tab[k, 0] * q * sm
 
 
 @numba.njit(inline="always", **_NJIT)

@@ -488,7 +488,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     audio, meta (``internal_rate_hz``, ``signal_rate_hz``, ``block``, ``threads``)
     """
     from auralize.emitters import law_exponent
-    from auralize.synthesis import _pan_table
+    from auralize.synthesis import _pan_table, _panning_arrays
 
     lay = layout
     n_ch = lay.n_channels
@@ -544,7 +544,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     VR, VL = _path_velocities(path, tp0 + tb)
     if n_ch > 1:
         F, U = path.orientation_at(tp0 + tb)
-        spk_az, spk_ch = lay.panning_arrays()
+        spk_az, spk_ch = _panning_arrays(lay)
         pinv = _pan_table(lay, spk_az)
     else:
         F = U = np.zeros((B + 1, 3))
