@@ -1062,6 +1062,27 @@ def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyp
 
 
 @numba.njit(inline="always", **_NJIT)
+def _add_dense(acc, row, W, r, i, G0, G1, n_ch):  # type: ignore[no-untyped-def]
+    """acc[row + 4c : row + 4c + 4] += G0[i, c]·A + G1[i, c]·B for every channel
+    c (A in rows r.., B in rows r + 12.. of lane i of W; row >= 0): the scatter
+    of layouts whose gains are all non-zero (AmbiX), A and B read once."""
+    a = np.uint64(row)
+    w = np.uint64(r * _CHUNK + i)
+    k = np.uint64(_CHUNK)
+    a0, a1, a2, a3 = W[w], W[w + k], W[w + 2 * k], W[w + 3 * k]
+    w = w + 12 * k
+    b0, b1, b2, b3 = W[w], W[w + k], W[w + 2 * k], W[w + 3 * k]
+    for c in range(n_ch):
+        g0 = G0[i, c]
+        g1 = G1[i, c]
+        o = a + np.uint64(4 * c)
+        acc[o] += g0 * a0 + g1 * b0
+        acc[o + np.uint64(1)] += g0 * a1 + g1 * b1
+        acc[o + np.uint64(2)] += g0 * a2 + g1 * b2
+        acc[o + np.uint64(3)] += g0 * a3 + g1 * b3
+
+
+@numba.njit(inline="always", **_NJIT)
 def _add_plain(acc, row, W, r, i):  # type: ignore[no-untyped-def]
     """acc[row:row + 4] += rows r..r+3 of lane i of W (row >= 0: unsigned
     indices, no wraparound checks)."""
@@ -1202,6 +1223,8 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     panned = spk_az.size > 0
     # speaker pairs (every arc < 180°): gains in SIMD loops
     pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4 and not fold
+    # AmbiX: every channel has a gain (spherical harmonics)
+    dense = panned and pinv.shape[1] == 2
     const_orient = True
     for j in range(1, qc.shape[0]):
         for c in range(6):
@@ -1280,6 +1303,13 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                                 _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, 0.0)
                                 _scatter_group(acc, W, i, si, ei, ci, c10 * 4, 0.0, g10)
                                 _scatter_group(acc, W, i, si, ei, ci, c11 * 4, 0.0, g11)
+                            continue
+                        if dense:
+                            _add_dense(acc, si, W, _W_VAL, i, G0, G1, n_ch)
+                            if ei >= 0:
+                                _add_dense(acc, ei, W, _W_VAL + 4, i, G0, G1, n_ch)
+                            if ci >= 0:
+                                _add_dense(acc, ci, W, _W_VAL + 8, i, G0, G1, n_ch)
                             continue
                         for c in range(n_ch):
                             g0 = G0[i, c]

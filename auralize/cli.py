@@ -238,12 +238,14 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
 def add_output_options(
     p: argparse.ArgumentParser,
     *,
-    layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
+    layouts: str = "mono|stereo|ring8|5.1|7.1|binaural|ambix1|ambix2|ambix3|FILE.json",
     listener_required: bool = True,
 ) -> None:
     g = p.add_argument_group("audio output")
     g.add_argument("-o", "--output", required=True, help="output .wav or .flac")
     g.add_argument("--layout", default="mono", help=layouts)
+    g.add_argument("--hrtf", metavar="FILE.sofa",
+                   help="HRIRs for --layout binaural (AES69 SOFA; default: spherical head)")  # fmt: skip
     g.add_argument("--rate", type=rate_int, default=44100, help="sample rate in Hz (default 44100)")
     g.add_argument(
         "--normalize",
@@ -502,7 +504,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     from auralize.pipeline import DEFAULT_DURATION, auralize, report_line, save_rendered
-    from auralize.spatial import get_layout
+    from auralize.spatial import synthesis_layout
 
     path = None
     if args.path:
@@ -510,7 +512,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
         path = ListenerPath.from_csv(args.path)
     duration = args.duration or (path.duration if path is not None else DEFAULT_DURATION)
-    check_render_memory(args, duration, get_layout(args.layout).n_channels)
+    check_render_memory(args, duration, synthesis_layout(args.layout).n_channels)
     vol = _load(args)
     series = None
     if args.sources:
@@ -876,6 +878,14 @@ def _check_outputs(args: argparse.Namespace) -> None:
         suffix = Path(out).suffix.lower()
         if hasattr(args, "normalize") and suffix not in (".wav", ".flac"):
             raise ParameterError(f"{out}: audio output must end in .wav or .flac")
+    if getattr(args, "hrtf", None):
+        from auralize.sofa import read_sofa
+        from auralize.spatial import get_layout, is_binaural
+
+        if not is_binaural(get_layout(getattr(args, "layout", "mono"))):
+            raise ParameterError(f"--hrtf {args.hrtf}: HRTFs apply to --layout binaural only, "
+                                 f"not {getattr(args, 'layout', 'mono')!r}")  # fmt: skip
+        args.hrtf = read_sofa(args.hrtf)  # a bad file fails before any slow work
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -900,7 +910,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("always")
             warnings.simplefilter("ignore", DeprecationWarning)
             warnings.simplefilter("ignore", PendingDeprecationWarning)
-            status = int(args.func(args) or 0)
+            from auralize.spatial import default_hrtf
+
+            with default_hrtf(getattr(args, "hrtf", None)):  # every renderer's binaural stage
+                status = int(args.func(args) or 0)
         for w in caught:
             if issubclass(w.category, SilentAudioWarning):
                 print(f"{name}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)

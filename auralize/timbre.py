@@ -356,10 +356,11 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     else:
         out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta)
     meta["timbre_notes"] = notes
+    out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
     meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
     out.audio = highpass(out.audio, rate, highpass_hz)
     out.meta.update(meta)
-    return stage.finish(out)
+    return out
 
 
 #: envelopes are rendered at no less than 8 f_cut and 1 kHz, at most this many
