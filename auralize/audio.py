@@ -245,6 +245,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
     if suffix == ".flac" and subtype == "float32":
         raise ParameterError("FLAC holds integer samples; use --format pcm16|pcm24 or a WAV file")
+    if suffix == ".flac" and out.shape[0] > 8:
+        raise ParameterError(f"{p}: FLAC holds at most 8 channels, the audio has {out.shape[0]} "
+                             f"(e.g. ambix2/ambix3): write a WAV file")  # fmt: skip
     silent = _check_stored(out, gain, p, subtype)
     if silent:
         warnings.warn(
