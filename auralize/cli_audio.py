@@ -136,7 +136,7 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--duration", type=positive_float,
                    help="playback seconds (default: the path's length, else 10)")  # fmt: skip
     g.add_argument("--layout", default="ring8",
-                   help="mono|stereo|ring8|5.1|7.1|binaural|ambix1|ambix2|ambix3|FILE.json")
+                   help="mono|stereo|ring8|5.1|7.1|binaural|ambix1|ambix2|ambix3|FILE.json")  # fmt: skip
     g.add_argument("--hrtf", metavar="FILE.sofa",
                    help="HRIRs for --layout binaural (AES69 SOFA; default: spherical head)")  # fmt: skip
     g.add_argument("--device", type=_device_arg, metavar="N|NAME",
