@@ -187,6 +187,9 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
                     f"; runs of pieces built once per tracks in {t_prep:.2f} s"),
         ))  # fmt: skip
     rows += _timbre_rows(tracks, path, size)
+    from auralize.bench_immersive import binaural_render_row
+
+    rows.append(binaural_render_row(tracks, path, size))
     # a recorded path: captures every 50 ms of playback (17 ms of data at
     # time scale 3, about half a data step), so most pieces' arrivals cross a
     # capture and are split there (the listener's velocity changes)
@@ -371,6 +374,11 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
     more = emitters_rows(args.quick)
+    print(format_rows(more), flush=True)
+    rows += more
+    from auralize.bench_immersive import immersive_rows
+
+    more = immersive_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
     from auralize.bench_output import bench_output
