@@ -202,7 +202,10 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     Parameters
     ----------
     path : ``.wav`` (extensible header with ``channel_mask`` when > 2 channels)
-        or ``.flac`` (needs samples in [-1, 1]).
+        or ``.flac`` (needs samples in [-1, 1], at most 8 channels; a layout
+        without a standard channel mask, from ``layout`` or the sidecar's
+        ``layout``, warns that players may route its channels as the standard
+        layout: :func:`auralize.spatial.flac_mask_warning`).
     audio : (n_channels, n_samples) pressure in Pa.
     rate : sample rate in Hz.
     subtype : {"float32", "pcm16", "pcm24"}, optional

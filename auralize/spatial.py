@@ -36,13 +36,19 @@ Immersive layouts
   (N+1)² channels without speaker directions or channel mask; ``meta`` says
   ``ambisonic``, ``order``, ``normalisation`` and ``channel_order``.
   :func:`pan_gains` returns the spherical-harmonic encoding gains, so every
-  renderer that pans through it writes AmbiX.  :func:`downmix_matrix` decodes
+  renderer that pans through it writes AmbiX; the synthesis kernels evaluate
+  the same harmonics per piece (:func:`auralize._synth_kernel._gains_sh`, by
+  recurrence from the Cartesian direction).  :func:`downmix_matrix` decodes
   AmbiX to any loudspeaker layout (AllRAD with max-rE weights).
 * ``binaural``: two ear signals (L, R).  Binaural output is not a panning law:
   renderers pan to its Ambisonic intermediate (:func:`synthesis_layout`,
   order 3) and :func:`output_stage` filters that with head-related impulse
   responses (:mod:`auralize.hrtf`; the built-in spherical-head model or a
-  SOFA file), so every model gets binaural output, smooth under motion.
+  SOFA file), so every model gets binaural output, smooth under motion.  The
+  stage runs once after the parts are summed (offline:
+  :meth:`OutputStage.finish`; block by block: :meth:`OutputStage.process_at`,
+  which carries the filters' state), and ``--hrtf`` of the command line sets
+  its HRIRs for every renderer (:func:`default_hrtf`).
 * Layouts from other tools: :func:`load_layout_json` also reads the IEM
   AllRADecoder / ``LoudspeakerLayout`` JSON (imaginary speakers become
   triangulation helpers of 3-D VBAP, not channels).

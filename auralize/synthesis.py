@@ -535,7 +535,10 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     interp : {"linear", "cubic"}
         Time interpolation of the strengths (§3.2.4.3).
     layout : str or Layout
-        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1`` or a JSON file.
+        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1``, a JSON file, or
+        ``ambix1..3`` (AmbiX encoding gains per piece); ``binaural`` is refused
+        (it needs an output stage after the sum:
+        :func:`auralize.timbre.render_timbre` applies it).
     duration : float, optional
         Playback seconds (default: the path's duration after ``start``).
     start : float
