@@ -316,3 +316,23 @@ def test_flac_of_ambix_warns(tmp_path: Path) -> None:
     with pytest.warns(UserWarning, match="ring8"):
         write_audio(tmp_path / "r.flac", a[:8], RATE, layout="ring8")
     write_audio(tmp_path / "s.flac", a[:6], RATE, layout="5.1")  # a standard mask: no warning
+
+
+def test_viewer_live_engine_binaural_equals_offline() -> None:
+    """The viewer's live engine (the head follows the camera) renders binaural blocks
+    through one stage: for a still pose they equal the offline render."""
+    from auralize.sources import SourceTracks
+    from auralize.viewer.listening import LiveEngine
+
+    fk = 4000.0
+    t = np.arange(int(0.6 * fk)) / fk
+    tr = SourceTracks(np.array([[3.0, 0.0, 0.0]]), np.sin(2 * np.pi * 300 * t)[None, :],
+                      np.array([0.1]), t)  # fmt: skip
+    eng = LiveEngine(tr, layout="binaural", block=2205, loop=False)
+    assert eng.layout.name == "binaural"
+    eng.set_pose([0, 0, 0], [0, 1, 0], [0, 0, 1])  # the source at +x: to the right
+    on = np.concatenate([eng.next_block() for _ in range(10)], axis=1)
+    off = render_timbre(tr, ListenerPath.point((0, 0, 0), duration=0.5), layout="binaural",
+                        highpass_hz=0.0).audio  # fmt: skip
+    assert on.shape == off.shape == (2, 22050) and _rel(on, off) < 1e-5
+    assert np.sqrt(np.mean(on[1] ** 2)) > np.sqrt(np.mean(on[0] ** 2))
