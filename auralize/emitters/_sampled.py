@@ -12,8 +12,9 @@ number) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)``, the cla
 distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
 projection on the unit vector n from the emitter to the listener, and the
 layout's panning gains (the synthesis kernel's own law,
-:func:`auralize._synth_kernel._gains`: pairwise 2-D VBAP, or 3-D VBAP for
-layouts with elevation, equal to :func:`auralize.spatial.pan_gains`).  Inside
+:func:`auralize._synth_kernel._gains`: pairwise 2-D VBAP, 3-D VBAP for
+layouts with elevation, the AmbiX encoding for ``ambix1..3``; equal to
+:func:`auralize.spatial.pan_gains`).  Inside
 a block the emission index is the cubic Hermite interpolant of τ and dτ/dt,
 the weights and gains are interpolated linearly; a block holding a listener
 capture (where the listener's velocity jumps) is split there into two linear
