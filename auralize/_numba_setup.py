@@ -49,6 +49,7 @@ COMPILE_SECONDS: dict[str, float] = {
                 "_flush_captures",
                 "_chunk_pieces",
                 "_chunk_pair_gains",
+                "_chunk_sh_gains",
                 "_piece_general",
                 "_piece_across",
                 "_integrate",

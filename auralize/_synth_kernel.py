@@ -140,7 +140,8 @@ def _qeval(t_a, h, q0, m0, q1, m1, tau, cubic):  # type: ignore[no-untyped-def]
 def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):  # type: ignore[no-untyped-def]
     """Panning gains (power-normalised) for direction a in the listener frame:
     pairwise 2-D VBAP, or 3-D VBAP when ``pinv`` is a triangle table (12
-    columns, see :func:`_gains3`).
+    columns, see :func:`_gains3`), or the AmbiX encoding gains when ``pinv``
+    is a spherical-harmonic table (2 columns, see :func:`_gains_sh`).
 
     forward f, up u, left = u × f; azimuth counter-clockwise from forward.
     ``fold`` mirrors rear directions to the front (2-speaker layouts).
@@ -156,6 +157,9 @@ def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):
     yl = ax * lx + ay * ly + az * lz
     if pinv.shape[1] == 12:
         _gains3(xf, yl, ax * ux + ay * uy + az * uz, pinv, out)
+        return
+    if pinv.shape[1] == 2:
+        _gains_sh(xf, yl, ax * ux + ay * uy + az * uz, pinv, out)
         return
     if fold and xf < 0.0:
         xf = -xf
@@ -275,6 +279,51 @@ def _gains3(x, y, z, tab, out):  # type: ignore[no-untyped-def]
         inv = 1.0 / math.sqrt(power)
         for c in range(out.size):
             out[c] *= inv
+
+
+@numba.njit(inline="always", **_NJIT)
+def _gains_sh(x, y, z, tab, out):  # type: ignore[no-untyped-def]
+    """AmbiX encoding gains (the law of :func:`auralize.ambisonics.sh_gains`:
+    real SN3D spherical harmonics in ACN order, no Condon–Shortley phase) for
+    direction (x, y, z) = (forward, left, up) in the listener frame, any
+    length (normalised here; zero gives W = 1 and 0 elsewhere).
+
+    ``tab ((N+1)², 2)``: per ACN channel its SN3D factor
+    sqrt((2 − δ_m0)(n − |m|)!/(n + |m|)!), then the order N (every row).
+    Cartesian form, no trigonometry: cos^m ϑ e^{imφ} = (x + iy)^m by complex
+    multiplication, times P_n^m(z)/(1 − z²)^{m/2} by the associated Legendre
+    recurrence in n from (2m − 1)!!.
+    """
+    for c in range(out.size):
+        out[c] = 0.0
+    r2 = x * x + y * y + z * z
+    if r2 == 0.0:
+        out[0] = 1.0
+        return
+    inv = 1.0 / math.sqrt(r2)
+    x *= inv
+    y *= inv
+    z *= inv
+    order = int(tab[0, 1])
+    cm = 1.0  # Re (x + iy)^m
+    sm = 0.0  # Im (x + iy)^m
+    pmm = 1.0  # (2m - 1)!!
+    for m in range(order + 1):
+        if m > 0:
+            cm, sm = cm * x - sm * y, sm * x + cm * y
+            pmm *= 2 * m - 1
+        q_prev = 0.0
+        q = pmm
+        for n in range(m, order + 1):
+            if n == m + 1:
+                q_prev, q = q, z * (2 * m + 1) * q
+            elif n > m + 1:
+                q_prev, q = q, ((2 * n - 1) * z * q - (n + m - 1) * q_prev) / (n - m)
+            k = n * n + n + m
+            out[k] = tab[k, 0] * q * cm
+            if m > 0:
+                k = n * n + n - m
+                out[k] = tab[k, 0] * q * sm
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1031,6 +1080,116 @@ def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ig
 
 
 @numba.njit(inline="always", **_NJIT)
+def _frame_coords3(W, i, o, dx, dy, dz):  # type: ignore[no-untyped-def]
+    """As :func:`_frame_coords` with the third coordinate (up)."""
+    fx, fy, fz = W[o * _CHUNK + i], W[(o + 1) * _CHUNK + i], W[(o + 2) * _CHUNK + i]
+    ux, uy, uz = W[(o + 3) * _CHUNK + i], W[(o + 4) * _CHUNK + i], W[(o + 5) * _CHUNK + i]
+    lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
+    return dx * fx + dy * fy + dz * fz, dx * lx + dy * ly + dz * lz, dx * ux + dy * uy + dz * uz
+
+
+@numba.njit(inline="always", **_NJIT)
+def _sh_lanes(W, cnt, rx, ry, rz, tab, G, S):  # type: ignore[no-untyped-def]
+    """AmbiX gains ``G ((N+1)², _CHUNK)`` of the directions in rows rx, ry, rz of
+    W (the law of :func:`_gains_sh`, one SIMD loop per harmonic over the
+    chunk's lanes; the rows are normalised in place; scratch ``S (5, _CHUNK)``)."""
+    order = int(tab[0, 1])
+    for i in range(cnt):
+        x, y, z = W[rx * _CHUNK + i], W[ry * _CHUNK + i], W[rz * _CHUNK + i]
+        r2 = x * x + y * y + z * z
+        nz = r2 > 0.0
+        inv = 1.0 / math.sqrt(r2 if nz else 1.0)
+        W[rx * _CHUNK + i] = x * inv
+        W[ry * _CHUNK + i] = y * inv
+        W[rz * _CHUNK + i] = z * inv
+        S[4, i] = 1.0 if nz else 0.0  # no direction: W only
+        S[0, i] = 1.0  # Re (x + iy)^m
+        S[1, i] = 0.0  # Im (x + iy)^m
+    pmm = 1.0
+    for m in range(order + 1):
+        if m > 0:
+            pmm *= 2 * m - 1
+            for i in range(cnt):
+                x, y = W[rx * _CHUNK + i], W[ry * _CHUNK + i]
+                c, s_ = S[0, i], S[1, i]
+                S[0, i] = c * x - s_ * y
+                S[1, i] = s_ * x + c * y
+        for i in range(cnt):
+            S[2, i] = pmm
+            S[3, i] = 0.0
+        for n in range(m, order + 1):
+            if n == m + 1:
+                a = 2.0 * m + 1.0
+                for i in range(cnt):
+                    q = S[2, i]
+                    S[2, i] = a * W[rz * _CHUNK + i] * q
+                    S[3, i] = q
+            elif n > m + 1:
+                a = (2.0 * n - 1.0) / (n - m)
+                b = (n + m - 1.0) / (n - m)
+                for i in range(cnt):
+                    q = S[2, i]
+                    S[2, i] = a * W[rz * _CHUNK + i] * q - b * S[3, i]
+                    S[3, i] = q
+            k = n * n + n + m
+            f = tab[k, 0]
+            if n == 0:
+                for i in range(cnt):
+                    G[k, i] = f
+            else:
+                for i in range(cnt):
+                    G[k, i] = f * S[2, i] * S[0, i] * S[4, i]
+            if m > 0:
+                k = n * n + n - m
+                f = tab[k, 0]
+                for i in range(cnt):
+                    G[k, i] = f * S[2, i] * S[1, i] * S[4, i]
+
+
+@numba.njit(**_NJIT)
+def _chunk_sh_gains(W, cnt, RC0, RC1, qc, ot, tab, const_orient, G0, G1, S):  # type: ignore[no-untyped-def]
+    """AmbiX gains (:func:`_gains_sh`) at both arrivals of the chunk's pieces into
+    ``G0``/``G1 ((N+1)², _CHUNK)``: listener-frame directions as in
+    :func:`_chunk_pair_gains` (rows _W_XF*, _W_YL* and, unused by AmbiX,
+    _W_P0/_W_P1 for up), harmonics by :func:`_sh_lanes`."""
+    if const_orient:
+        for c in range(6):
+            v = qc[0, c]
+            for i in range(cnt):
+                W[(_W_O0 + c) * _CHUNK + i] = v
+                W[(_W_O1 + c) * _CHUNK + i] = v
+    else:
+        for i in range(cnt):
+            _orient_rows(W, i, _W_O0, qc, ot, W[_W_A0 * _CHUNK + i])
+            _orient_rows(W, i, _W_O1, qc, ot, W[_W_A1 * _CHUNK + i])
+    l0a = _line_tuple(RC0, 0)
+    l0b = _line_tuple(RC0, _LINE)
+    l1a = _line_tuple(RC1, 0)
+    l1b = _line_tuple(RC1, _LINE)
+    for i in range(cnt):
+        x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+        px, py, pz = _listener_at(W[_W_A0 * _CHUNK + i], W[_W_S0 * _CHUNK + i], l0a, l0b)
+        xf, yl, zu = _frame_coords3(W, i, _W_O0, x - px, y - py, z - pz)
+        W[_W_XF0 * _CHUNK + i] = xf
+        W[_W_YL0 * _CHUNK + i] = yl
+        W[_W_P0 * _CHUNK + i] = zu
+        # (a piece cut at a capture, see _cut_at_end, ends on one of its start's lines)
+        a1, s1 = W[_W_A1 * _CHUNK + i], W[_W_S1 * _CHUNK + i]
+        px, py, pz = _listener_at(a1, s1, l1a, l1b)
+        qx, qy, qz = _listener_at(a1, s1, l0a, l0b)
+        on1 = (s1 == l1a[11]) | (s1 == l1b[11])
+        px = px if on1 else qx
+        py = py if on1 else qy
+        pz = pz if on1 else qz
+        xf, yl, zu = _frame_coords3(W, i, _W_O1, x - px, y - py, z - pz)
+        W[_W_XF1 * _CHUNK + i] = xf
+        W[_W_YL1 * _CHUNK + i] = yl
+        W[_W_P1 * _CHUNK + i] = zu
+    _sh_lanes(W, cnt, _W_XF0, _W_YL0, _W_P0, tab, G0, S)
+    _sh_lanes(W, cnt, _W_XF1, _W_YL1, _W_P1, tab, G1, S)
+
+
+@numba.njit(inline="always", **_NJIT)
 def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyped-def]
     """Add g0·A + g1·B of the piece in column i of W to one channel (offset off
     in an accumulator row) at its start, end and continuation rows (unsigned
@@ -1040,6 +1199,27 @@ def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyp
         _add_gained(acc, ei + off, W, _W_VAL + 4, i, g0, g1)
     if ci >= 0:
         _add_gained(acc, ci + off, W, _W_VAL + 8, i, g0, g1)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _add_dense(acc, row, W, r, i, G0, G1, n_ch):  # type: ignore[no-untyped-def]
+    """acc[row + 4c : row + 4c + 4] += G0[c, i]·A + G1[c, i]·B for every channel
+    c (A in rows r.., B in rows r + 12.. of lane i of W; row >= 0): the scatter
+    of layouts whose gains are all non-zero (AmbiX), A and B read once."""
+    a = np.uint64(row)
+    w = np.uint64(r * _CHUNK + i)
+    k = np.uint64(_CHUNK)
+    a0, a1, a2, a3 = W[w], W[w + k], W[w + 2 * k], W[w + 3 * k]
+    w = w + 12 * k
+    b0, b1, b2, b3 = W[w], W[w + k], W[w + 2 * k], W[w + 3 * k]
+    for c in range(n_ch):
+        g0 = G0[c, i]
+        g1 = G1[c, i]
+        o = a + np.uint64(4 * c)
+        acc[o] += g0 * a0 + g1 * b0
+        acc[o + np.uint64(1)] += g0 * a1 + g1 * b1
+        acc[o + np.uint64(2)] += g0 * a2 + g1 * b2
+        acc[o + np.uint64(3)] += g0 * a3 + g1 * b3
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1468,6 +1648,8 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     panned = spk_az.size > 0
     # speaker pairs (every arc < 180°): gains in SIMD loops
     pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4 and not fold
+    # AmbiX: every channel has a gain (spherical harmonics)
+    dense = panned and pinv.shape[1] == 2
     const_orient = True
     for j in range(1, qc.shape[0]):
         for c in range(6):
@@ -1488,6 +1670,9 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
         CN = np.empty(2 * _CHUNK)
         G0 = np.zeros((_CHUNK, ng))
         G1 = np.zeros((_CHUNK, ng))
+        GT0 = np.zeros((ng if dense else 0, _CHUNK))  # AmbiX gains, channel-major
+        GT1 = np.zeros((ng if dense else 0, _CHUNK))
+        SH = np.empty((5, _CHUNK))
         ga = np.zeros(n_ch)
         gb = np.zeros(n_ch)
         gx = np.zeros(n_ch)
@@ -1516,6 +1701,9 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                               blo, nb, base, n_ch, panned, W)  # fmt: skip
                 if pairs:
                     _chunk_pair_gains(W, cc, RC[n], RC[n + 1], qc, ot, pinv, const_orient)
+                elif dense:
+                    _chunk_sh_gains(W, cc, RC[n], RC[n + 1], qc, ot, pinv, const_orient, GT0,
+                                    GT1, SH)  # fmt: skip
                 elif panned:
                     for i in range(cc):
                         if W[_W_KIND * _CHUNK + i] != 1.0 and W[_W_KIND * _CHUNK + i] != 3.0:
@@ -1559,6 +1747,13 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                                 _scatter_group(acc, W, i, si, ei, ci, c10 * 4, 0.0, g10)
                                 _scatter_group(acc, W, i, si, ei, ci, c11 * 4, 0.0, g11)
                             continue
+                        if dense:
+                            _add_dense(acc, si, W, _W_VAL, i, GT0, GT1, n_ch)
+                            if ei >= 0:
+                                _add_dense(acc, ei, W, _W_VAL + 4, i, GT0, GT1, n_ch)
+                            if ci >= 0:
+                                _add_dense(acc, ci, W, _W_VAL + 8, i, GT0, GT1, n_ch)
+                            continue
                         for c in range(n_ch):
                             g0 = G0[i, c]
                             g1 = G1[i, c]
@@ -1578,6 +1773,10 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                             ga[nxt[p0]] += W[_W_G01 * _CHUNK + i]
                             gb[spk_ch[p1]] += W[_W_G10 * _CHUNK + i]
                             gb[nxt[p1]] += W[_W_G11 * _CHUNK + i]
+                        elif dense:
+                            for c in range(n_ch):
+                                ga[c] = GT0[c, i]
+                                gb[c] = GT1[c, i]
                         elif panned:
                             for c in range(n_ch):
                                 ga[c] = G0[i, c]

@@ -161,6 +161,8 @@ def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64
             out[acn(n, m)] = norm * q * xy_m.real
             if m > 0:
                 out[acn(n, -m)] = norm * q * xy_m.imag
+    zero = ~np.any(d != 0.0, axis=1)  # no direction: omnidirectional (W only)
+    out[1:, zero] = 0.0
     return out
 
 

@@ -161,6 +161,31 @@ def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
     return a.reshape(-1, n_ch).T.copy(), int(rate), mask
 
 
+def _flac_mask_note(lay: Layout | None, sidecar: dict[str, Any] | None, n_ch: int) -> str | None:
+    """:func:`auralize.spatial.flac_mask_warning` of the audio's layout: ``lay``, or
+    the built-in layout named in the sidecar's ``layout``; a custom layout
+    there is judged by its channel mask."""
+    from auralize.errors import AuralizeError
+    from auralize.spatial import flac_mask_warning, get_layout
+
+    if lay is None:
+        desc = (sidecar or {}).get("layout")
+        if not isinstance(desc, dict) or "name" not in desc:
+            return None
+        try:
+            lay = get_layout(str(desc["name"]))
+        except (AuralizeError, OSError):
+            lay = None
+        if lay is None or lay.n_channels != n_ch:
+            if desc.get("channel_mask") is None or n_ch > 8:
+                return (f"layout {desc['name']!r} has no standard channel mask: FLAC cannot record "
+                        f"its channel positions, so players may route its {n_ch} channels as the "
+                        f"standard {n_ch}-channel layout; write WAV (with the sidecar) to keep "
+                        f"them")  # fmt: skip
+            return None
+    return flac_mask_warning(lay)
+
+
 def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
                 channel_mask: int | None = None, normalize: str = "peak",
                 limit_pa: float | None = None, sidecar: dict[str, Any] | None = None,
@@ -177,7 +202,10 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     Parameters
     ----------
     path : ``.wav`` (extensible header with ``channel_mask`` when > 2 channels)
-        or ``.flac`` (needs samples in [-1, 1]).
+        or ``.flac`` (needs samples in [-1, 1], at most 8 channels; a layout
+        without a standard channel mask, from ``layout`` or the sidecar's
+        ``layout``, warns that players may route its channels as the standard
+        layout: :func:`auralize.spatial.flac_mask_warning`).
     audio : (n_channels, n_samples) pressure in Pa.
     rate : sample rate in Hz.
     subtype : {"float32", "pcm16", "pcm24"}, optional
@@ -220,6 +248,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
     if suffix == ".flac" and subtype == "float32":
         raise ParameterError("FLAC holds integer samples; use --format pcm16|pcm24 or a WAV file")
+    if suffix == ".flac" and out.shape[0] > 8:
+        raise ParameterError(f"{p}: FLAC holds at most 8 channels, the audio has {out.shape[0]} "
+                             f"(e.g. ambix2/ambix3): write a WAV file")  # fmt: skip
     silent = _check_stored(out, gain, p, subtype)
     if silent:
         warnings.warn(
@@ -231,6 +262,10 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         )
     if suffix == ".flac" and normalize == "none" and np.max(np.abs(out), initial=0) > 1:
         raise ParameterError("FLAC holds samples in [-1, 1]; use --normalize peak or a WAV file")
+    if suffix == ".flac":
+        note = _flac_mask_note(lay if layout is not None else None, sidecar, out.shape[0])
+        if note:
+            warnings.warn(f"{p}: {note}", UserWarning, stacklevel=2)
     meta = {
         "file": p.name,
         "rate": int(rate),

@@ -187,6 +187,9 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
                     f"; runs of pieces built once per tracks in {t_prep:.2f} s"),
         ))  # fmt: skip
     rows += _timbre_rows(tracks, path, size)
+    from auralize.bench_immersive import binaural_render_row
+
+    rows.append(binaural_render_row(tracks, path, size))
     # recorded paths (as the viewer records them): captures every 50 or 100 ms
     # of playback (17 or 33 ms of data at time scale 3, half a data step or
     # one), so most pieces' arrivals cross a capture; they are split there
@@ -341,6 +344,11 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
     more = emitters_rows(args.quick)
+    print(format_rows(more), flush=True)
+    rows += more
+    from auralize.bench_immersive import immersive_rows
+
+    more = immersive_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
     from auralize.bench_output import bench_output

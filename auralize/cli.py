@@ -470,7 +470,7 @@ def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any])
 
 def cmd_render(args: argparse.Namespace) -> int:
     from auralize.pipeline import DEFAULT_DURATION, auralize, report_line, save_rendered
-    from auralize.spatial import get_layout
+    from auralize.spatial import synthesis_layout
 
     if args.model or args.scene:
         return _cmd_render_scene(args, {"layout": "mono", "rate": DEFAULT_RATE})
@@ -484,7 +484,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
         path = ListenerPath.from_csv(args.path)
     duration = args.duration or (path.duration if path is not None else DEFAULT_DURATION)
-    check_render_memory(args, duration, get_layout(args.layout).n_channels)
+    check_render_memory(args, duration, synthesis_layout(args.layout).n_channels)
     vol = _load(args)
     series = None
     if args.sources:
@@ -851,6 +851,14 @@ def _check_outputs(args: argparse.Namespace) -> None:
         suffix = Path(out).suffix.lower()
         if hasattr(args, "normalize") and suffix not in (".wav", ".flac"):
             raise ParameterError(f"{out}: audio output must end in .wav or .flac")
+    if getattr(args, "hrtf", None):
+        from auralize.sofa import read_sofa
+        from auralize.spatial import get_layout, is_binaural
+
+        if not is_binaural(get_layout(getattr(args, "layout", "mono"))):
+            raise ParameterError(f"--hrtf {args.hrtf}: HRTFs apply to --layout binaural only, "
+                                 f"not {getattr(args, 'layout', 'mono')!r}")  # fmt: skip
+        args.hrtf = read_sofa(args.hrtf)  # a bad file fails before any slow work
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -875,7 +883,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("always")
             warnings.simplefilter("ignore", DeprecationWarning)
             warnings.simplefilter("ignore", PendingDeprecationWarning)
-            status = int(args.func(args) or 0)
+            from auralize.spatial import default_hrtf
+
+            with default_hrtf(getattr(args, "hrtf", None)):  # every renderer's binaural stage
+                status = int(args.func(args) or 0)
         for w in caught:
             if issubclass(w.category, SilentAudioWarning):
                 print(f"{name}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)

@@ -184,7 +184,7 @@ EMITTED_SIGNAL = "emitted_signal"
 def add_output_options(
     p: argparse.ArgumentParser,
     *,
-    layouts: str = "mono|stereo|ring8|5.1|7.1|FILE.json",
+    layouts: str = "mono|stereo|ring8|5.1|7.1|binaural|ambix1|ambix2|ambix3|FILE.json",
     listener_required: bool = True,
     file: bool = True,
     layout: str = "mono",
@@ -229,6 +229,8 @@ def add_output_options(
                        help="output .wav or .flac" + (" (mono, the signal at 1 m)" if emitted else ""))  # fmt: skip
     if not emitted:
         g.add_argument("--layout", default=layout, help=f"{layouts} (default {layout})")
+        g.add_argument("--hrtf", metavar="FILE.sofa",
+                       help="HRIRs for --layout binaural (AES69 SOFA; default: spherical head)")  # fmt: skip
     g.add_argument("--rate", type=rate_int, default=DEFAULT_RATE,
                    help=f"output sample rate in Hz (default {DEFAULT_RATE})"
                    + ("; an input at another rate is resampled to it" if emitted else ""))  # fmt: skip

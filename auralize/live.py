@@ -59,6 +59,7 @@ from auralize.spatial import (
     downmix_matrix,
     downmix_target,
     get_layout,
+    output_stage,
 )
 from auralize.synthesis import C0, render
 
@@ -88,12 +89,18 @@ class BlockSynth:
         Playback seconds (default: the path's duration).
     threads : int, optional
         Threads of the synthesis kernel.
+    hrtf : HRIRSet, str or Path, optional
+        ``binaural`` only: the HRIRs (default the built-in spherical head).  A
+        binaural stream is synthesized in its AmbiX intermediate and filtered
+        by one :class:`auralize.spatial.OutputStage` that carries its state
+        from block to block, so consecutive blocks equal one offline render.
     """
 
     def __init__(self, tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
                  layout: str | Layout = "ring8", time_scale: float = 1.0, interp: str = "cubic",
                  c0: float = C0, block: int | None = None, duration: float | None = None,
-                 threads: int | None = None, lead: float = 0.0) -> None:  # fmt: skip
+                 threads: int | None = None, lead: float = 0.0,
+                 hrtf: object = None) -> None:  # fmt: skip
         if not (isinstance(rate, int | np.integer) and rate > 0):
             raise ParameterError(f"rate must be a positive integer number of Hz, got {rate!r}")
         if not (math.isfinite(time_scale) and time_scale > 0):
@@ -104,7 +111,9 @@ class BlockSynth:
             raise ParameterError(f"lead must be >= 0 data seconds, got {lead!r}")
         self.tracks, self.path, self.lead = tracks, path, float(lead)
         self.rate, self.time_scale, self.interp, self.c0 = int(rate), float(time_scale), interp, c0
-        self.layout = get_layout(layout)
+        self.stage = output_stage(layout, int(rate), hrtf=hrtf)
+        self.layout = self.stage.layout
+        self.synthesis_layout = self.stage.synthesis_layout
         self.threads = threads
         self.block_size = int(block) if block is not None else round(DEFAULT_BLOCK_S * rate)
         if self.block_size < 1:
@@ -174,11 +183,18 @@ class BlockSynth:
         The synthesis reads only the data steps whose emissions can arrive in
         the range (its pieces are cached on the tracks at the first call), so
         a block costs what its own sources cost, however long the data.
+        Channels of :attr:`layout` (for ``binaural`` consecutive ranges are
+        cheapest: the ear filters' state is carried, not rebuilt).
         """
         if n <= 0:
             return np.zeros((self.layout.n_channels, 0))
+        return self.stage.process_at(int(start), int(n), self._synthesize)
+
+    def _synthesize(self, start: int, n: int) -> NDArray[np.float64]:
+        """Samples ``[start, start + n)`` of the :attr:`synthesis_layout`."""
         out = render(self.tracks, self.path, rate=self.rate, time_scale=self.time_scale,
-                     interp=self.interp, layout=self.layout, c0=self.c0, start=start / self.rate,
+                     interp=self.interp, layout=self.synthesis_layout, c0=self.c0,
+                     start=start / self.rate,
                      duration=n / self.rate, threads=self.threads, lead=self.lead)  # fmt: skip
         a = out.audio
         if a.shape[1] != n:  # rounding of duration·rate; never more than a sample
@@ -438,7 +454,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
          lookahead_s: float = 0.5, buffer_s: float = 0.5, duration: float | None = None,
          threads: int | None = None, wait_s: float | None = None,
          on_block: Callable[[int, int], None] | None = None, lead: float = 0.0,
-         highpass_hz: float = 0.0) -> PlaybackReport:  # fmt: skip
+         highpass_hz: float = 0.0, hrtf: object = None) -> PlaybackReport:  # fmt: skip
     """Play the sound along ``path`` live, synthesizing block by block.
 
     Parameters
@@ -471,6 +487,8 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     highpass_hz : float
         Causal high-pass of the output (as :func:`auralize.timbre.highpass`,
         its state carried from block to block); 0 keeps everything.
+    hrtf : HRIRSet, str or Path, optional
+        ``binaural`` only: the HRIRs (see :class:`BlockSynth`).
 
     Returns
     -------
@@ -503,7 +521,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     if isinstance(tracks, SourceTracks):
         synth = BlockSynth(tracks, path, rate=rate, layout=lay, time_scale=time_scale,
                            interp=interp, c0=c0, block=block, duration=duration, threads=threads,
-                           lead=lead)  # fmt: skip
+                           lead=lead, hrtf=hrtf)  # fmt: skip
     else:  # a block renderer of a scene (auralize.emitters.engine.BlockRenderer)
         synth = tracks
         if synth.rate != rate or synth.layout.n_channels != lay.n_channels:

@@ -316,13 +316,15 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              layout: str = "mono", c0: float = C0, duration: float | None = None,
              series: SourceSeries | None = None, progress_bar: bool = False,
              timbre: str = "physical", highpass_hz: float = HIGHPASS_HZ, seed: int = 0,
-             listener: Any = None, **mapping_fields: str) -> tuple[Rendered, SourceSeries]:  # fmt: skip
+             listener: Any = None, hrtf: object = None,
+             **mapping_fields: str) -> tuple[Rendered, SourceSeries]:  # fmt: skip
     """Detect sources (unless ``series`` is given) and render the sound along ``path``.
 
     The listener may be anywhere (see :func:`plan_render`: without ``path`` or
     ``listener`` an orbit around the data; ``time_scale="auto"`` fits the data
     in ``duration``; the output starts when the first sound can arrive).
-    ``timbre`` and ``highpass_hz`` as :func:`auralize.timbre.render_timbre`.
+    ``timbre``, ``highpass_hz`` and ``hrtf`` (binaural) as
+    :func:`auralize.timbre.render_timbre`.
     The plan is recorded in ``meta`` (and so in the sidecar).
     """
     if series is None:
@@ -338,7 +340,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
         out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate,
                             time_scale=plan.time_scale, interp=interp, layout=layout, c0=c0,
                             duration=plan.duration, bounds=volume.bounds, lead=plan.lead,
-                            highpass_hz=highpass_hz, seed=seed)  # fmt: skip
+                            highpass_hz=highpass_hz, seed=seed, hrtf=hrtf)  # fmt: skip
     counts = series.counts()
     out.meta.update({"volume": volume.source, "mapping": series.meta.get("mapping"),
                      "thresholds": series.thresholds.tolist(), **plan.as_dict(),

@@ -36,13 +36,19 @@ Immersive layouts
   (N+1)² channels without speaker directions or channel mask; ``meta`` says
   ``ambisonic``, ``order``, ``normalisation`` and ``channel_order``.
   :func:`pan_gains` returns the spherical-harmonic encoding gains, so every
-  renderer that pans through it writes AmbiX.  :func:`downmix_matrix` decodes
+  renderer that pans through it writes AmbiX; the synthesis kernels evaluate
+  the same harmonics per piece (:func:`auralize._synth_kernel._gains_sh`, by
+  recurrence from the Cartesian direction).  :func:`downmix_matrix` decodes
   AmbiX to any loudspeaker layout (AllRAD with max-rE weights).
 * ``binaural``: two ear signals (L, R).  Binaural output is not a panning law:
   renderers pan to its Ambisonic intermediate (:func:`synthesis_layout`,
   order 3) and :func:`output_stage` filters that with head-related impulse
   responses (:mod:`auralize.hrtf`; the built-in spherical-head model or a
-  SOFA file), so every model gets binaural output, smooth under motion.
+  SOFA file), so every model gets binaural output, smooth under motion.  The
+  stage runs once after the parts are summed (offline:
+  :meth:`OutputStage.finish`; block by block: :meth:`OutputStage.process_at`,
+  which carries the filters' state), and ``--hrtf`` of the command line sets
+  its HRIRs for every renderer (:func:`default_hrtf`).
 * Layouts from other tools: :func:`load_layout_json` also reads the IEM
   AllRADecoder / ``LoudspeakerLayout`` JSON (imaginary speakers become
   triangulation helpers of 3-D VBAP, not channels).
@@ -57,8 +63,11 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import json
 import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -839,8 +848,12 @@ class OutputStage:
 
     def __init__(self, layout: Layout, rate: int, hrtf: object = None) -> None:
         self.layout = layout
+        self.synthesis_layout = synthesis_layout(layout)
         self.rate = int(rate)
         self.decoder = None
+        self._pos = -1  # next input sample of process_at's stream (-1: none yet)
+        if hrtf is None and is_binaural(layout):
+            hrtf = _HRTF.get()
         if is_binaural(layout):
             from auralize.hrtf import BinauralDecoder, HRIRSet, default_hrirs
 
@@ -872,6 +885,61 @@ class OutputStage:
         if self.decoder is None:
             return np.asarray(block, dtype=np.float64)
         return self.decoder.process(block)
+
+    @property
+    def history(self) -> int:
+        """Input samples the stage remembers (its filters' length − 1; 0 for identity)."""
+        return 0 if self.decoder is None else int(self.decoder.filters.shape[2]) - 1
+
+    def process_at(self, start: int, n: int,
+                   render: Callable[[int, int], NDArray[np.float64]]) -> NDArray[np.float64]:  # fmt: skip
+        """Output samples ``[start, start + n)`` of a stream rendered on demand.
+
+        ``render(s, m)`` gives the :attr:`synthesis_layout` samples ``[s, s + m)``.
+        Consecutive calls carry the filter state; after a jump (a seek, the
+        first call) the state is rebuilt from the :attr:`history` samples before
+        ``start``, so any call returns the samples of one whole render.
+        """
+        if self.decoder is None:
+            return render(start, n)
+        if start != self._pos:
+            self.decoder.reset()
+            h = min(self.history, start)
+            if h > 0:
+                self.decoder.process(render(start - h, h))
+        out = self.decoder.process(render(start, n))
+        self._pos = start + n
+        return out
+
+    def finish(self, rendered: Any) -> Any:
+        """A whole render (:class:`auralize.synthesis.Rendered` of the
+        :attr:`synthesis_layout`) as a render of :attr:`layout`: filtered from a
+        clear state, ``meta`` updated with :meth:`describe`."""
+        if self.decoder is None:
+            rendered.layout = self.layout
+            return rendered
+        self.decoder.reset()
+        rendered.audio = self.decoder.process(rendered.audio)
+        self._pos = -1
+        rendered.layout = self.layout
+        rendered.meta.update(self.describe())
+        return rendered
+
+
+#: the HRTF of :func:`output_stage` when none is given (see :func:`default_hrtf`)
+_HRTF: contextvars.ContextVar[object] = contextvars.ContextVar("auralize_hrtf", default=None)
+
+
+@contextlib.contextmanager
+def default_hrtf(hrtf: object) -> Iterator[None]:
+    """Within the block, binaural output stages built without an ``hrtf`` use
+    this one (an :class:`auralize.hrtf.HRIRSet` or a SOFA file; None: the
+    built-in spherical head).  The command line's ``--hrtf`` sets it."""
+    token = _HRTF.set(hrtf)
+    try:
+        yield
+    finally:
+        _HRTF.reset(token)
 
 
 def output_stage(layout: Layout | str, rate: int, *, hrtf: object = None) -> OutputStage:

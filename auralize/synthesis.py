@@ -35,6 +35,7 @@ sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
 
 from __future__ import annotations
 
+import math
 import os
 import threading
 from dataclasses import dataclass, field
@@ -47,7 +48,15 @@ from auralize import _runs_kernel, _synth_kernel
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
-from auralize.spatial import Layout, get_layout, listener_frame, pan_gains, triangulate
+from auralize.spatial import (
+    Layout,
+    get_layout,
+    is_ambisonic,
+    is_binaural,
+    listener_frame,
+    pan_gains,
+    triangulate,
+)
 
 C0 = 343.0
 RHO0 = 1.2
@@ -154,10 +163,44 @@ def _workspace(name: str, shape: tuple[int, ...], dtype: type = np.float64) -> N
     return buf[:size].reshape(shape)
 
 
+def _panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The kernel's speaker azimuths and channels (:meth:`Layout.panning_arrays`);
+    for an AmbiX layout one placeholder per channel (its gains come from the
+    spherical-harmonic table of :func:`_pan_table`).
+
+    Raises
+    ------
+    ParameterError
+        For ``binaural``: render to :func:`auralize.spatial.synthesis_layout` and
+        filter with :func:`auralize.spatial.output_stage` (as
+        :func:`auralize.timbre.render_timbre` does).
+    """
+    if is_ambisonic(lay):
+        return np.zeros(lay.n_channels), np.arange(lay.n_channels, dtype=np.int64)
+    if is_binaural(lay):
+        raise ParameterError(
+            "auralize.synthesis.render pans to speaker or AmbiX layouts; for binaural render to "
+            "auralize.spatial.synthesis_layout('binaural') (ambix3) and filter with "
+            "auralize.spatial.output_stage, or use auralize.timbre.render_timbre"
+        )
+    return lay.panning_arrays()
+
+
 def _pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     """The kernel's panning table: speaker-pair inverse bases (2-D VBAP) for a
     horizontal layout, the triangle table of 3-D VBAP for one with elevation
-    (see :func:`auralize._synth_kernel._gains3`)."""
+    (see :func:`auralize._synth_kernel._gains3`), the SN3D factors and order
+    for an AmbiX layout (see :func:`auralize._synth_kernel._gains_sh`)."""
+    if is_ambisonic(lay):
+        n = int(lay.meta["order"])
+        tab = np.zeros(((n + 1) ** 2, 2))
+        for o in range(n + 1):
+            for m in range(-o, o + 1):
+                a = abs(m)
+                tab[o * o + o + m, 0] = math.sqrt((1.0 if a == 0 else 2.0) * math.factorial(o - a)
+                                                  / math.factorial(o + a))  # fmt: skip
+        tab[:, 1] = n
+        return tab
     if lay.n_channels == 1 or lay.is_horizontal or spk_az.size == 0:
         return _pair_inverses(spk_az)
     tri = triangulate(lay)
@@ -514,7 +557,10 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     interp : {"linear", "cubic"}
         Time interpolation of the strengths (§3.2.4.3).
     layout : str or Layout
-        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1`` or a JSON file.
+        ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1``, a JSON file, or
+        ``ambix1..3`` (AmbiX encoding gains per piece); ``binaural`` is refused
+        (it needs an output stage after the sum:
+        :func:`auralize.timbre.render_timbre` applies it).
     duration : float, optional
         Playback seconds (default: the path's duration after ``start``).
     start : float
@@ -538,7 +584,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     if interp not in INTERPOLATIONS:
         raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
     lay = get_layout(layout)
-    spk_az, spk_ch = lay.panning_arrays()
+    spk_az, spk_ch = _panning_arrays(lay)
     pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=bounds, start=start, orientation=spk_az.size > 0, lead=lead)  # fmt: skip
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))

@@ -85,7 +85,7 @@ from numpy.typing import NDArray
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import TYPES, SourceTracks
-from auralize.spatial import Layout
+from auralize.spatial import Layout, output_stage
 from auralize.synthesis import C0, Rendered, _cached, _knot_times, check_distance, render
 
 TIMBRES = ("physical", "extended", "tonal")
@@ -440,8 +440,13 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
                   layout: str | Layout = "mono", c0: float = C0, duration: float | None = None,
                   bounds: tuple[float, ...] | None = None, start: float = 0.0, lead: float = 0.0,
                   highpass_hz: float = HIGHPASS_HZ, seed: int = 0, alpha: float = ALPHA,
-                  carriers: dict[str, tuple[Any, ...]] | None = None) -> Rendered:  # fmt: skip
+                  carriers: dict[str, tuple[Any, ...]] | None = None,
+                  hrtf: object = None) -> Rendered:  # fmt: skip
     """Render ``tracks`` along ``path`` in one of :data:`TIMBRES`, then high-pass.
+
+    Every layout the synthesis pans to is rendered directly; ``binaural`` is
+    rendered to its AmbiX intermediate and filtered once at the end by
+    :func:`auralize.spatial.output_stage` (``hrtf``: its HRIRs).
 
     Parameters
     ----------
@@ -458,6 +463,8 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         Power-law exponent of the ``extended`` noise (power spectrum f^−α).
     carriers : dict, optional
         ``tonal`` carriers per type name (default :data:`TONAL_CARRIERS`).
+    hrtf : HRIRSet, str or Path, optional
+        ``binaural`` only: HRIRs or a SOFA file (default the spherical head).
 
     Returns
     -------
@@ -471,8 +478,10 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         raise ParameterError(f"timbre must be one of {', '.join(TIMBRES)} or auto, got {timbre!r}")
     if not (np.isfinite(alpha) and alpha > 0):
         raise ParameterError(f"alpha (power-law exponent) must be > 0, got {alpha!r}")
-    kw: dict[str, Any] = dict(rate=rate, time_scale=time_scale, interp=interp, layout=layout,
-                              c0=c0, duration=duration, start=start, lead=lead)  # fmt: skip
+    stage = output_stage(layout, int(rate), hrtf=hrtf)
+    kw: dict[str, Any] = dict(rate=rate, time_scale=time_scale, interp=interp,
+                              layout=stage.synthesis_layout, c0=c0, duration=duration,
+                              start=start, lead=lead)  # fmt: skip
     highpass(np.zeros((1, 0)), rate, highpass_hz)  # validate before rendering
     meta: dict[str, Any] = {"timbre": timbre, "seed": int(seed), "highpass_hz": highpass_hz}
     notes: list[str] = []
@@ -503,6 +512,7 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     else:
         out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta)
     meta["timbre_notes"] = notes
+    out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
     if "share_above_20hz_unfiltered" not in meta:
         meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
     out.audio = highpass(out.audio, rate, highpass_hz)

@@ -292,17 +292,26 @@ def test_emitters_rendered_binaurally_end_to_end() -> None:
     assert 0.60e-3 < itd_s(ears, rate) < 0.8e-3
 
 
-def test_speaker_kernels_refuse_immersive_layouts() -> None:
-    """Renderers that need speaker azimuths fail clearly instead of writing W only."""
+def test_immersive_layouts_in_the_speaker_kernels() -> None:
+    """The synthesis kernel encodes AmbiX itself (a source straight ahead, +y for a
+    static listener: X = W, the other first-order channels silent); binaural, which
+    needs the output stage after the sum, is refused clearly instead of writing W
+    only; speaker azimuths stay undefined for immersive layouts."""
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
     from auralize.synthesis import render
 
-    tr = SourceTracks(np.array([[1.0, 0, 0]]), np.ones((1, 8)), np.array([0.05]),
+    tr = SourceTracks(np.array([[0, 1.0, 0]]), np.sin(np.arange(8.0))[None, :], np.array([0.05]),
                       np.arange(8) / 100.0)  # fmt: skip
+    a = render(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout="ambix3").audio
+    assert a.shape[0] == 16 and np.max(np.abs(a[0])) > 0
+    np.testing.assert_allclose(a[3], a[0], atol=1e-12 * np.max(np.abs(a[0])))
+    assert np.max(np.abs(a[1:3])) <= 1e-12 * np.max(np.abs(a[0]))
+    with pytest.raises(ParameterError, match="synthesis_layout"):
+        render(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout="binaural")
     for name in ("ambix3", "binaural"):
         with pytest.raises(ParameterError, match="no speaker azimuths"):
-            render(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout=name)
+            get_layout(name).panning_arrays()
 
 
 def test_sofa_cartesian_positions(tmp_path: Path) -> None:

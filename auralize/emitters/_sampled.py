@@ -12,8 +12,9 @@ extrapolation of the previous control points) and its rate ``dτ/dt = (1 − n·
 distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
 projection on the unit vector n from the emitter to the listener, and the
 layout's panning gains (the synthesis kernel's own law,
-:func:`auralize._synth_kernel._gains`: pairwise 2-D VBAP, or 3-D VBAP for
-layouts with elevation, equal to :func:`auralize.spatial.pan_gains`).  Inside
+:func:`auralize._synth_kernel._gains`: pairwise 2-D VBAP, 3-D VBAP for
+layouts with elevation, the AmbiX encoding for ``ambix1..3``; equal to
+:func:`auralize.spatial.pan_gains`).  Inside
 a block the emission index is the cubic Hermite interpolant of τ and dτ/dt,
 the weights and gains are interpolated linearly; a block holding a listener
 capture (where the listener's velocity jumps) is split there into two linear
@@ -537,7 +538,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     audio, meta (``internal_rate_hz``, ``signal_rate_hz``, ``block``, ``threads``)
     """
     from auralize.emitters import law_exponent
-    from auralize.synthesis import _pan_table
+    from auralize.synthesis import _pan_table, _panning_arrays
 
     lay = layout
     n_ch = lay.n_channels
@@ -591,7 +592,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     VR, VL = _path_velocities(path, tp0 + tb)
     if n_ch > 1:
         F, U = path.orientation_at(tp0 + tb)
-        spk_az, spk_ch = lay.panning_arrays()
+        spk_az, spk_ch = _panning_arrays(lay)
         pinv = _pan_table(lay, spk_az)
     else:
         F = U = np.zeros((B + 1, 3))

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from auralize.emitters import C0, Emitters, FieldSources, Part, Sound, law_exponent
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout, get_layout
+from auralize.spatial import Layout, output_stage
 from auralize.synthesis import Rendered
 
 BACKENDS = ("auto", "sampled", "reference")
@@ -71,7 +71,7 @@ def model_emitters(signals: NDArray[np.floating], rate: float, positions: NDArra
 def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
                     layout: str | Layout = "mono", duration: float | None = None,
                     start: float = 0.0, c0: float = C0, backend: str = "auto",
-                    block: int = 32, oversample: int = 4) -> Rendered:  # fmt: skip
+                    block: int = 32, oversample: int = 4, hrtf: object = None) -> Rendered:  # fmt: skip
     """Pressure of point emitters heard along ``path`` (see :mod:`auralize.emitters`).
 
     Parameters
@@ -82,12 +82,15 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     rate : int
         Output sample rate (Hz).
     layout : str or Layout
-        Any output layout (panned with its own law, :func:`auralize.spatial.pan_gains`).
+        Any output layout (panned with its own law, :func:`auralize.spatial.pan_gains`;
+        ``binaural``: panned to its AmbiX intermediate, then filtered by
+        :func:`auralize.spatial.output_stage`).
     duration : float, optional
         Playback seconds (default: the path's duration after ``start``).
     start : float
         Playback seconds after the path's first capture of output sample 0
-        (consecutive blocks join without seams).
+        (consecutive blocks join without seams; for ``binaural`` use
+        :class:`BlockRenderer`, which carries the ear filters' state).
     c0 : float
         Speed of sound (m/s).
     backend : {"auto", "sampled", "reference"}
@@ -103,6 +106,9 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
         to at most this × their rate, evaluated at an integer fraction of the
         output rate when possible and resampled band-limited (1: read the
         signals as given, at the output rate).
+    hrtf : HRIRSet, str or Path, optional
+        ``binaural`` only: the HRIRs (a SOFA file; default the built-in
+        spherical head).
 
     Returns
     -------
@@ -134,7 +140,8 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
         isinstance(oversample, int | np.integer) and 1 <= oversample <= 64
     ):
         raise ParameterError(f"oversample must be an integer in 1..64, got {oversample!r}")
-    lay = get_layout(layout)
+    stage = output_stage(layout, int(rate), hrtf=hrtf)
+    lay = stage.synthesis_layout
     dur = path.duration - start if duration is None else float(duration)
     if not (np.isfinite(dur) and dur >= 0):
         raise ParameterError(f"duration must be >= 0 s, got {dur!r}")
@@ -151,7 +158,7 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
         audio, m = render_sampled(em, path, rate=int(rate), layout=lay, n_out=n_out, start=start,
                                   c0=float(c0), block=int(block), oversample=int(oversample))  # fmt: skip
         meta.update(backend="sampled", **m)
-    return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
+    return stage.finish(Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta))
 
 
 def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered:
@@ -180,15 +187,19 @@ def _parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
 
 def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: int = 44100,
            layout: str | Layout = "mono", duration: float | None = None, start: float = 0.0,
-           c0: float = C0, backend: str = "auto") -> Rendered:  # fmt: skip
+           c0: float = C0, backend: str = "auto", hrtf: object = None) -> Rendered:  # fmt: skip
     """Render every part of a sound (or a scene of several models) and sum them.
 
     All parts share the listener path, output rate, layout and window, so the
     mix equals the sum of the parts rendered alone.  ``meta["parts"]`` lists
-    each part's model, kind and peak.
+    each part's model, kind and peak.  The parts are rendered to
+    :func:`auralize.spatial.synthesis_layout` (``ambix3`` for ``binaural``)
+    and the sum goes once through :func:`auralize.spatial.output_stage`
+    (``hrtf``: its HRIRs, binaural only); ``meta`` describes the stage.
     """
     parts = _parts_of(sound)
-    lay = get_layout(layout)
+    stage = output_stage(layout, int(rate), hrtf=hrtf)  # a bad HRTF fails before rendering
+    lay = stage.synthesis_layout
     dur = path.duration - start if duration is None else float(duration)
     kw: dict[str, Any] = dict(rate=rate, layout=lay, duration=dur, start=start, c0=c0,
                               backend=backend)  # fmt: skip
@@ -203,7 +214,7 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     meta = {"parts": listing, "c0": c0}
     if isinstance(sound, Sound):
         meta.update(sound.meta)
-    return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
+    return stage.finish(Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta))
 
 
 class BlockRenderer:
@@ -232,6 +243,10 @@ class BlockRenderer:
     c0 : float
         Speed of sound (m/s).
     backend : {"auto", "sampled", "reference"}
+    hrtf : HRIRSet, str or Path, optional
+        ``binaural`` only (see :func:`render`): the blocks are rendered to the
+        AmbiX intermediate and filtered by one output stage that carries its
+        state from block to block (:meth:`auralize.spatial.OutputStage.process_at`).
 
     Examples
     --------
@@ -247,7 +262,7 @@ class BlockRenderer:
     def __init__(self, sound: Sound | Part | Iterable[Part], path: ListenerPath, *,
                  rate: int = 44100, layout: str | Layout = "mono", block: int | None = None,
                  duration: float | None = None, c0: float = C0,
-                 backend: str = "auto") -> None:  # fmt: skip
+                 backend: str = "auto", hrtf: object = None) -> None:  # fmt: skip
         if backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
         if isinstance(rate, bool) or not (isinstance(rate, int | np.integer) and rate >= 1000):
@@ -262,7 +277,9 @@ class BlockRenderer:
         self.meta = dict(sound.meta) if isinstance(sound, Sound) else {}
         self.path = path
         self.rate = int(rate)
-        self.layout = get_layout(layout)
+        self.stage = output_stage(layout, int(rate), hrtf=hrtf)
+        self.layout = self.stage.layout
+        self.synthesis_layout = self.stage.synthesis_layout
         self.block_size = int(size)
         self.duration = dur
         self.n_samples = int(round(dur * rate))
@@ -282,18 +299,26 @@ class BlockRenderer:
         return self._prepared[key][1]
 
     def render_range(self, start: int, n: int) -> NDArray[np.float64]:
-        """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals."""
+        """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals (of
+        :attr:`layout`; consecutive ranges are cheapest for ``binaural``)."""
+        if n <= 0:
+            return np.zeros((self.layout.n_channels, max(int(n), 0)))
+        return self.stage.process_at(int(start), int(n), self._synthesize)
+
+    def _synthesize(self, start: int, n: int) -> NDArray[np.float64]:
+        """Samples ``[start, start + n)`` of the :attr:`synthesis_layout`."""
         from auralize.emitters._sampled import render_sampled
 
         t = start / self.rate
-        audio = np.zeros((self.layout.n_channels, max(int(n), 0)))
+        lay = self.synthesis_layout
+        audio = np.zeros((lay.n_channels, max(int(n), 0)))
         if n <= 0:
             return audio
-        kw: dict[str, Any] = dict(rate=self.rate, layout=self.layout, duration=n / self.rate,
+        kw: dict[str, Any] = dict(rate=self.rate, layout=lay, duration=n / self.rate,
                                   start=t, c0=self.c0, backend=self.backend)  # fmt: skip
         for part in self.parts:
             if isinstance(part, Emitters) and self.backend != "reference":
-                a, _ = render_sampled(part, self.path, rate=self.rate, layout=self.layout,
+                a, _ = render_sampled(part, self.path, rate=self.rate, layout=lay,
                                       n_out=int(n), start=t, c0=self.c0,
                                       prepared=self._prepared_for(part))  # fmt: skip
             else:

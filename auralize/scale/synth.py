@@ -37,7 +37,7 @@ from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.scale.runner import Runner, numba_threads
 from auralize.sources import SourceTracks
-from auralize.spatial import get_layout
+from auralize.spatial import get_layout, output_stage
 from auralize.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
 
 #: default block length: at most this many samples × channels per task (its
@@ -256,7 +256,8 @@ def render_distributed(
         raise ParameterError(f"groups must be a positive integer, got {groups!r}")
     if interp not in INTERPOLATIONS:
         raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
-    lay = get_layout(layout)
+    stage = output_stage(get_layout(layout), int(rate))  # binaural: ears after the sum
+    lay = stage.synthesis_layout
     # validate here (a bad path or setting fails on the caller, not in a
     # worker), without rendering: the workers build the piece lists
     pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
@@ -311,9 +312,10 @@ def render_distributed(
     finally:
         if own:
             run.close()
-    return Rendered(audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
-                    meta={"interp": interp, "c0": c0, "n_sources": tracks.n_sources,
-                          "t_start_data": pr.t_start, "blocks": len(edges) - 1,
-                          "groups": len(ranges), "tasks": n_blocks * len(ranges),
-                          "workers": n_workers,
-                          "scheduler": run.scheduler})  # fmt: skip
+    out = Rendered(audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
+                   meta={"interp": interp, "c0": c0, "n_sources": tracks.n_sources,
+                         "t_start_data": pr.t_start, "blocks": len(edges) - 1,
+                         "groups": len(ranges), "tasks": n_blocks * len(ranges),
+                         "workers": n_workers,
+                         "scheduler": run.scheduler})  # fmt: skip
+    return stage.finish(out)

@@ -46,7 +46,7 @@ from auralize.viewer.recorder import DEFAULT_RATE_HZ, PathRecorder
 from auralize.viewer.scene import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.viewer.session import SessionState, data_spec
 
-LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1")
+LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1", "binaural", "ambix1", "ambix3")
 MAPPINGS = ("auto", "paper-density", "identity", "cfd")
 CMAPS = ("gray", "viridis", "inferno", "coolwarm", "bone")
 

@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
-from auralize.spatial import get_layout
+from auralize.spatial import get_layout, output_stage
 from auralize.synthesis import C0, Rendered, render
 
 #: default block length in samples (23 ms at 44.1 kHz)
@@ -70,7 +70,9 @@ class LiveEngine:
     tracks : SourceTracks
         The detected sources (:meth:`SourceSeries.tracks`).
     layout : str
-        Speaker layout.
+        Speaker layout, AmbiX or ``binaural`` (rendered in its AmbiX
+        intermediate and filtered by one output stage carrying its state from
+        block to block: the head turns with the camera).
     rate : int
         Sample rate in Hz.
     time_scale : float
@@ -91,7 +93,8 @@ class LiveEngine:
         if not (isinstance(block, int) and 16 <= block <= 1 << 16):
             raise ParameterError(f"block must be 16..65536 samples, got {block!r}")
         self.tracks = tracks
-        self.layout = get_layout(layout)
+        self.stage = output_stage(get_layout(layout), int(rate))
+        self.layout = self.stage.layout
         self.rate = int(rate)
         self.time_scale = float(time_scale)
         self.block = block
@@ -156,7 +159,8 @@ class LiveEngine:
         up = [prev[2], prev[2], pose[2]] if self.t > 0 else [prev[2], pose[2]]
         path = ListenerPath(times, np.array(pos), np.array(fwd), np.array(up), source="live")
         out = render(self.tracks, path, rate=self.rate, time_scale=self.time_scale,
-                     layout=self.layout, c0=self.c0, start=self.t, duration=dur)  # fmt: skip
+                     layout=self.stage.synthesis_layout, c0=self.c0, start=self.t,
+                     duration=dur)  # fmt: skip
         audio = out.audio
         if extra is not None and extra.parts:
             from auralize.emitters import render as render_sound
@@ -170,6 +174,7 @@ class LiveEngine:
             audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[
                 :, : self.block
             ]
+        audio = self.stage.process(audio)
         if self.keep_heard:
             self.heard_rows.append(np.concatenate([[self.elapsed + dur], *pose]))
             self.heard_blocks.append(audio.astype(np.float32))
