@@ -605,9 +605,10 @@ class AeroEmission:
         the emission would.
         """
         from auralize.emitters import render_emitters
-        from auralize.spatial import get_layout
+        from auralize.spatial import output_stage
 
-        lay = get_layout(layout)
+        stage = output_stage(layout, int(rate))  # binaural: AmbiX windows, the ears once at the end
+        lay = stage.synthesis_layout
         dur = path.duration - start if duration is None else float(duration)
         n_out = int(round(dur * rate))
         out = np.zeros((lay.n_channels, n_out))
@@ -627,9 +628,9 @@ class AeroEmission:
                                 duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend)  # fmt: skip
             m = min(nb - na, r.audio.shape[1])
             out[:, na : na + m] = r.audio[:, :m]
-        return Rendered(
+        return stage.finish(Rendered(
             audio=out, rate=int(rate), layout=lay, meta={**self.meta, "model": self.name}
-        )
+        ))  # fmt: skip
 
 
 def no_ears(stereo: object) -> None:

@@ -357,6 +357,14 @@ class DischargePart:
         has one implementation, exact for every ``backend``.
         """
         from auralize.emitters.engine import BACKENDS
+        from auralize.spatial import output_stage, synthesis_layout
+
+        lay = get_layout(layout)
+        syn = synthesis_layout(lay)
+        if syn is not lay:  # binaural: the AmbiX intermediate, then the ears' filters
+            out = self.render_part(path, rate=rate, layout=syn, duration=duration, start=start,
+                                   c0=c0, backend=backend)  # fmt: skip
+            return output_stage(lay, rate).finish(out)
 
         if backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")

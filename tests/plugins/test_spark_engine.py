@@ -171,3 +171,25 @@ def test_live_discharges_follow_a_moving_listener() -> None:
     assert not rep.exceeded
     first = np.flatnonzero(np.abs(audio[0]) > 0)[0]
     assert first / 44100 == pytest.approx(0.05 + rep.propagation_s, abs=2 / 44100)
+
+
+def test_binaural_discharge_is_the_ear_stage_of_its_ambix_render() -> None:
+    """A discharge rendered alone to ``binaural`` = its AmbiX render through the ears' filters
+    (the same as the engine's scene render), and a discharge on the right is louder right."""
+    from auralize_spark.waves import Discharge, DischargePart, WaveParams
+
+    from auralize.emitters import Sound, render
+    from auralize.spatial import output_stage
+
+    d = Discharge(np.array([[0.0, 0, 0], [0.0, 0, 0.01]]), [-1, 0], [True, True])
+    part = DischargePart(d, WaveParams(r0=0.05, T0=30e-6, ps0=500.0), np.zeros(1))
+    # listener 1 m west of the spark, facing north (+y): the spark is on its right
+    path = ListenerPath.point((-1.0, 0.0, 0.005), duration=0.02)
+    ears = part.render_part(path, rate=44100, layout="binaural", duration=0.02)
+    amb = part.render_part(path, rate=44100, layout="ambix3", duration=0.02)
+    ref = output_stage("binaural", 44100).finish(amb).audio
+    np.testing.assert_allclose(ears.audio, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    scene = render(Sound([part]), path, rate=44100, layout="binaural", duration=0.02).audio
+    np.testing.assert_allclose(scene, ears.audio, rtol=0, atol=1e-9 * np.abs(ref).max())
+    left, right = np.sum(ears.audio**2, axis=1)
+    assert right > 2 * left
