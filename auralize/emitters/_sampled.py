@@ -38,11 +38,8 @@ two threads (the kernel releases the GIL) over disjoint ranges of samples.
 
 from __future__ import annotations
 
-import itertools
 import math
-import os
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,6 +49,7 @@ from numpy.typing import NDArray
 
 from auralize._numba_setup import configure as _configure_numba
 from auralize._synth_kernel import _gains
+from auralize.parallel import N_THREADS, run_pieces
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
@@ -63,8 +61,7 @@ BLOCK = 32
 _CHUNK_BLOCKS = 64
 #: evaluation samples below which one thread does all the work
 _MIN_SPLIT = 16384
-_N_THREADS = max(1, min(2, os.cpu_count() or 1))
-_POOL: ThreadPoolExecutor | None = None
+_N_THREADS = N_THREADS
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -400,27 +397,8 @@ def _box(a, b):  # type: ignore[no-untyped-def]
 
 
 def _run(fn: Callable[[int], None], n: int, nt: int) -> None:
-    """``fn(i)`` for every i < n on ``nt`` threads (this one and the pool).
-
-    Each thread takes the next piece when it is done with one, so a thread
-    slowed down by other processes on its core takes fewer pieces.
-    """
-    global _POOL
-    nt = max(1, min(n, nt, _N_THREADS))
-    if nt > 1 and _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=_N_THREADS - 1, thread_name_prefix="auralize-emit")
-    pieces = itertools.count()  # next() is atomic under the GIL
-
-    def work() -> None:
-        for i in pieces:
-            if i >= n:
-                return
-            fn(i)
-
-    futures = [_POOL.submit(work) for _ in range(nt - 1)] if nt > 1 and _POOL is not None else []
-    work()
-    for fu in futures:
-        fu.result()
+    """``fn(i)`` for every i < n on up to ``nt`` threads (:func:`auralize.parallel.run_pieces`)."""
+    run_pieces(fn, n, nt)
 
 
 @dataclass

@@ -37,11 +37,8 @@ rounding.
 
 from __future__ import annotations
 
-import itertools
 import math
-import os
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -54,6 +51,7 @@ from auralize.emitters import Emitters
 from auralize.emitters.engine import model_emitters
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
+from auralize.parallel import N_THREADS, run_pieces
 from auralize.spatial import Layout
 from auralize.synthesis import Rendered
 
@@ -83,8 +81,7 @@ def resolve_exponent(exponent: str | float) -> float:
 
 
 # Work is split between up to two threads (the kernels release the GIL).
-_N_THREADS = max(1, min(2, os.cpu_count() or 1))
-_POOL: ThreadPoolExecutor | None = None
+_N_THREADS = N_THREADS
 
 
 def _parts(S: int) -> list[tuple[int, int]]:
@@ -95,25 +92,8 @@ def _parts(S: int) -> list[tuple[int, int]]:
 
 
 def _run(fn: Callable[[int], None], n: int) -> None:
-    """``fn(i)`` for every i < n on up to two threads (this one and the pool); each
-    thread takes the next piece when it is done, so a thread slowed down by other
-    processes on its core takes fewer."""
-    global _POOL
-    nt = max(1, min(n, _N_THREADS))
-    if nt > 1 and _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=_N_THREADS - 1, thread_name_prefix="auralize-aero")
-    pieces = itertools.count()  # next() is atomic under the GIL
-
-    def work() -> None:
-        for i in pieces:
-            if i >= n:
-                return
-            fn(i)
-
-    futures = [_POOL.submit(work) for _ in range(nt - 1)] if nt > 1 and _POOL is not None else []
-    work()
-    for fu in futures:
-        fu.result()
+    """``fn(i)`` for every i < n on up to two threads (:func:`auralize.parallel.run_pieces`)."""
+    run_pieces(fn, n)
 
 
 def _in_parts(fn: Callable[[int, int], None], S: int) -> None:
