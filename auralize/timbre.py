@@ -738,7 +738,7 @@ def _type_tracks(tracks: SourceTracks) -> list[SourceTracks | None]:
 def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
            bounds: tuple[float, ...] | None, seed: int, carriers: dict[str, tuple[Any, ...]],
            c0: float, start: float, meta: dict[str, Any]) -> Rendered:  # fmt: skip
-    if tracks.kind is None:
+    if tracks.kind is None and tracks.n_sources > 0:  # (no sources: silence below)
         raise ParameterError("the tonal timbre needs the source types of the tracks (kind); "
                              "build them with SourceSeries.tracks()")  # fmt: skip
     bad = set(carriers) - set(TYPES)

@@ -274,3 +274,18 @@ def test_signs_render_the_pressure_and_the_envelope(layout) -> None:  # type: ig
                layout=layout).audio  # fmt: skip
     assert np.max(np.abs(a - b - p)) < 1e-9 * np.max(np.abs(p))
     assert np.max(np.abs(a + b - e)) < 1e-9 * np.max(np.abs(e))
+
+
+def test_tonal_without_sources_is_silence_not_a_type_error() -> None:
+    """Data where no sources were found renders ``tonal`` as silence of the stated length
+    (the command then reports a silent output), not a complaint about source types."""
+    from auralize.listener import ListenerPath
+    from auralize.sources import SourceTracks
+    from auralize.timbre import render_timbre
+
+    empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, 5)), radius=np.zeros(0),
+                         times=np.linspace(0.0, 0.4, 5))  # fmt: skip
+    out = render_timbre(empty, ListenerPath.point((1.0, 0.0, 0.0), duration=0.5),
+                        timbre="tonal", rate=8000, layout="ring8")  # fmt: skip
+    assert out.audio.shape == (8, 4000)
+    assert not np.any(out.audio)
