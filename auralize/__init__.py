@@ -1,9 +1,9 @@
 """auralize: hear 3-D time-varying data.
 
 ``import auralize`` opens no window and no sound device; the GUI (``auralize.viewer``)
-and the audio device layer (``auralize.audio``) are imported only when used, and
+and the audio device layer (``auralize.audio.output``) are imported only when used, and
 it changes no process-wide setting (the numba kernels' settings apply when a
-kernel module is first imported, see :mod:`auralize._numba_setup`).
+kernel module is first imported, see :mod:`auralize.runtime.jit`).
 """
 
 from auralize.errors import AuralizeError

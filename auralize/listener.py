@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import ListenerPathError
-from auralize.fileio import atomic_write, read_timed_csv
+from auralize.io.files import atomic_write, read_timed_csv
 
 FORWARD = np.array([0.0, 1.0, 0.0])
 UP = np.array([0.0, 0.0, 1.0])
@@ -44,8 +44,8 @@ class ListenerPath:
     """
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.notebook`)."""
-        from auralize.notebook import path_html
+        """Notebook display (:mod:`auralize.scene.notebook`)."""
+        from auralize.scene.notebook import path_html
 
         return path_html(self)
 
@@ -311,7 +311,7 @@ MAX_COORDINATE_M = 1e12
 
 
 def _check_captures(n: float, what: str) -> None:
-    from auralize.resources import require_memory
+    from auralize.runtime.resources import require_memory
 
     require_memory(n * CAPTURE_BYTES, what, hint="use fewer captures per second")
 

@@ -24,13 +24,13 @@ from typing import Any
 
 import numpy as np
 
-from auralize.datasets import DEFAULT_MAPPING, make_dataset
+from auralize.datasets.synthetic import DEFAULT_MAPPING, make_dataset
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
-from auralize.progress import progress_step
-from auralize.sources import TYPES, SourceSeries, SourceTracks, Thresholds, detect
-from auralize.synthesis import (
+from auralize.runtime.progress import progress_step
+from auralize.sources.detection import TYPES, SourceSeries, SourceTracks, Thresholds, detect
+from auralize.emitters.synthesis import (
     C0,
     Rendered,
     _extent,
@@ -38,7 +38,7 @@ from auralize.synthesis import (
     check_arrival,
     check_distance,
 )
-from auralize.timbre import HIGHPASS_HZ, render_timbre
+from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
 from auralize.volume import TimeVolume
 
 __all__ = [
@@ -324,7 +324,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     ``listener`` an orbit around the data; ``time_scale="auto"`` fits the data
     in ``duration``; the output starts when the first sound can arrive).
     ``timbre``, ``highpass_hz`` and ``hrtf`` (binaural) as
-    :func:`auralize.timbre.render_timbre`.
+    :func:`auralize.emitters.timbre.render_timbre`.
     The plan is recorded in ``meta`` (and so in the sidecar).
     """
     if series is None:
@@ -352,7 +352,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
 
 def report_line(rendered: Rendered, output: str | Path, *, gain: float | None = None) -> str:
     """The one-line summary of a render: file, mapping, timbre, sources per type, loudness."""
-    from auralize.timbre import loudness
+    from auralize.emitters.timbre import loudness
 
     m = rendered.meta
     ld = loudness(rendered.audio, rendered.rate)
@@ -373,8 +373,8 @@ def save_rendered(rendered: Rendered, out: str | Path, *, normalize: str = "peak
     """Write a render to WAV/FLAC (atomic) with its sidecar JSON; returns the gain.
 
     ``subtype``: sample format, ``float32``, ``pcm16`` or ``pcm24`` (see
-    :func:`auralize.audio.write_audio`)."""
-    from auralize.audio import write_audio
+    :func:`auralize.audio.output.write_audio`)."""
+    from auralize.audio.output import write_audio
 
     if normalize not in ("peak", "none"):
         raise ParameterError(f"normalize must be 'peak' or 'none', got {normalize!r}")

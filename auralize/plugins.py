@@ -171,13 +171,13 @@ class SoundModel:
         """Add the model's sub-commands to ``subparsers`` (default: none).
 
         Only called for plugins without an ``auralize.commands`` entry point
-        (see :mod:`auralize.commands`).
+        (see :mod:`auralize.cli.plugin_commands`).
         """
         return None
 
     @classmethod
     def bench(cls, quick: bool) -> list[Any]:
-        """Rows (:class:`auralize.bench.BenchRow`) for ``auralize bench`` (default: none).
+        """Rows (:class:`auralize.bench.runner.BenchRow`) for ``auralize bench`` (default: none).
 
         ``quick``: small sizes only (seconds).
         """

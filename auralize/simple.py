@@ -42,9 +42,9 @@ from numpy.typing import ArrayLike
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.soundscene import SceneModel
-from auralize.sources import SourceSeries, Thresholds
-from auralize.synthesis import Rendered
+from auralize.scene.soundscene import SceneModel
+from auralize.sources.detection import SourceSeries, Thresholds
+from auralize.emitters.synthesis import Rendered
 from auralize.volume import TimeVolume
 
 __all__ = [
@@ -98,7 +98,7 @@ class DataSource:
     @property
     def Detection(self) -> Any:  # the viewer's step-wise detection (built lazily)
         if getattr(self, "_detection", None) is None:
-            from auralize.viewer.detection import Detection
+            from auralize.scene.detection import Detection
 
             self._detection = Detection(self.Volume, mapping=self.Mapping,
                                         thresholds=self.Thresholds, **self.MappingFields)  # fmt: skip
@@ -149,7 +149,7 @@ class View:
 
     def __init__(self, session: Session, *, size: tuple[int, int] = (800, 600),
                  plotter: Any = None) -> None:  # fmt: skip
-        from auralize.viewer.scene import Scene
+        from auralize.scene.view import Scene
 
         if plotter is None:
             _prefer_egl()
@@ -388,7 +388,7 @@ def DetectSources(Input: DataSource | None = None, *, source: DataSource | None 
     >>> series.n_steps, series.counts()[30]["monopole"] > 0
     (60, True)
     """
-    from auralize.viewer.detection import VIEWER_THRESHOLDS
+    from auralize.scene.detection import VIEWER_THRESHOLDS
 
     src = GetSession().source(_input(Input, source))
     given = (monopole, dipole, quadrupole)
@@ -499,7 +499,7 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
     optionally ``up``); the camera moves linearly between them over
     ``duration`` playback seconds (default: the data's duration) and is
     captured ``rate_hz`` times a second, exactly as the desktop viewer records
-    a flight (same :class:`~auralize.viewer.recorder.PathRecorder`, same
+    a flight (same :class:`~auralize.scene.recorder.PathRecorder`, same
     autosave CSV).  Without keyframes the current camera is held.
 
     Examples
@@ -512,8 +512,8 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
     >>> p.n_captures
     11
     """
-    from auralize.viewer.recorder import PathRecorder
-    from auralize.viewer.scene import camera_pose
+    from auralize.scene.recorder import PathRecorder
+    from auralize.scene.view import camera_pose
 
     s = GetSession()
     v = s.view(view)
@@ -574,8 +574,8 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     ((2, 882), 44100)
     """
     from auralize.pipeline import auralize
-    from auralize.soundscene import render_scene
-    from auralize.timbre import HIGHPASS_HZ, highpass
+    from auralize.scene.soundscene import render_scene
+    from auralize.emitters.timbre import HIGHPASS_HZ, highpass
 
     s = GetSession()
     given = _input(Input, source)
@@ -680,8 +680,8 @@ def PlayAudio(rendered: Rendered | None = None, *, device: Any = None, gain_db: 
     """Play the last render on a sound device through a gain control and a limiter.
 
     The loudest sample is put at full scale (``gain_db`` adds to that; what would
-    exceed full scale is limited, see :class:`auralize.audio.Limiter`).  Returns
-    the :class:`auralize.audio.Playback` (``.stop()``, ``.limiter`` level meter).
+    exceed full scale is limited, see :class:`auralize.audio.output.Limiter`).  Returns
+    the :class:`auralize.audio.output.Playback` (``.stop()``, ``.limiter`` level meter).
     Raises :class:`~auralize.errors.DeviceError` when no device is usable.
 
     Examples
@@ -692,7 +692,7 @@ def PlayAudio(rendered: Rendered | None = None, *, device: Any = None, gain_db: 
     >>> pb.frames_sent == r.audio.shape[1]  # doctest: +SKIP
     True
     """
-    from auralize.audio import play
+    from auralize.audio.output import play
 
     r = rendered or GetSession().rendered
     if r is None:
@@ -861,7 +861,7 @@ def SaveSession(filename: str | Path) -> Path:
     >>> json.loads(f.read_text())["data"]["spec"]
     'dataset:monopole'
     """
-    from auralize.viewer.session import SessionState, data_spec
+    from auralize.scene.session import SessionState, data_spec
 
     s = GetSession()
     st = SessionState(audio=dict(s.audio))
@@ -906,7 +906,7 @@ def LoadSession(filename: str | Path) -> Session:
     >>> [(m.model, m.input) for m in LoadSession(f).models]
     [('field', 'dataset:explosion')]
     """
-    from auralize.viewer.session import SessionState
+    from auralize.scene.session import SessionState
 
     st = SessionState.load(filename)
     ResetSession()
@@ -947,7 +947,7 @@ def _input(Input: DataSource | None, source: DataSource | None) -> DataSource | 
 
 
 def _viewer_th() -> tuple[str, str, str]:
-    from auralize.viewer.detection import VIEWER_THRESHOLDS
+    from auralize.scene.detection import VIEWER_THRESHOLDS
 
     return VIEWER_THRESHOLDS
 

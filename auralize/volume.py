@@ -127,8 +127,8 @@ class TimeVolume:
     """
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.notebook`)."""
-        from auralize.notebook import volume_html
+        """Notebook display (:mod:`auralize.scene.notebook`)."""
+        from auralize.scene.notebook import volume_html
 
         return volume_html(self)
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from auralize import ambisonics as A
+from auralize.spatial import ambisonics as A
 from auralize.errors import ParameterError
 from auralize.spatial import Speaker, downmix_matrix, get_layout, make_layout, pan_gains
 

@@ -29,7 +29,7 @@ from auralize.listener import ListenerPath
 from auralize.pipeline import save_rendered
 from auralize.sources import SourceTracks
 from auralize.spatial import BUILTIN_LAYOUTS, Speaker, get_layout, make_layout
-from auralize.synthesis import render
+from auralize.emitters.synthesis import render
 
 MASKS = {"mono": 0x4, "stereo": 0x3, "5.1": 0x3F, "7.1": 0x63F}
 
@@ -214,7 +214,7 @@ def test_import_opens_no_device() -> None:
     import subprocess
     import sys
 
-    code = "import sys, auralize, auralize.audio, auralize.live, auralize.cli_audio; print('sounddevice' in sys.modules)"
+    code = "import sys, auralize, auralize.audio, auralize.audio.live, auralize.cli.audio; print('sounddevice' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])})  # fmt: skip
     assert out.stdout.strip() == "False"

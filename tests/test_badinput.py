@@ -31,7 +31,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from auralize import cli
+from auralize.cli import core as cli
 from auralize.errors import AuralizeError, FormatError, OutputExistsError, ParameterError
 
 EXIT = {"usage": cli.EXIT_USAGE, "data": cli.EXIT_DATA, "system": cli.EXIT_SYSTEM}
@@ -281,7 +281,7 @@ def test_silent_render_says_so(tmp_path: Path, inputs: dict[str, Path], capsys: 
 
 def test_pair_records_the_audio_hash(tmp_path: Path) -> None:
     from auralize.audio import write_audio
-    from auralize.fileio import file_sha256
+    from auralize.io.files import file_sha256
 
     write_audio(tmp_path / "a.wav", np.ones((1, 64)), 44100)
     side = json.loads((tmp_path / "a.wav.json").read_text())
@@ -318,7 +318,7 @@ def test_pvd_never_replaces_a_foreign_folder(tmp_path: Path) -> None:
 
 
 def test_pvd_swap_uses_a_fresh_marked_folder_with_usual_permissions(tmp_path: Path) -> None:
-    from auralize.fileio import DATA_MARKER, collection_folders
+    from auralize.io.files import DATA_MARKER, collection_folders
     from auralize.io.sources_file import save_sources_pvd
 
     pvd = tmp_path / "s.pvd"
@@ -367,7 +367,7 @@ def test_aero_wind_along_the_stick_is_refused() -> None:
 def test_bench_folder_is_private(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import tempfile
 
-    from auralize.bench_dask import bench_dir
+    from auralize.bench.distributed import bench_dir
     from auralize.errors import OutputError
 
     monkeypatch.delenv("AURALIZE_BENCH_DIR", raising=False)
@@ -542,7 +542,7 @@ def _kill_trials(
 
 def test_kill_during_writes_keeps_old_or_new(tmp_path: Path) -> None:
     from auralize.audio import read_wav, write_audio
-    from auralize.fileio import DATA_MARKER, collection_folders, file_sha256, recover_pair
+    from auralize.io.files import DATA_MARKER, collection_folders, file_sha256, recover_pair
     from auralize.io import open_volume, save_volume
     from auralize.io.sources_file import save_sources_pvd
     from auralize.volume import TimeVolume
@@ -611,7 +611,7 @@ def test_dask_cluster_listens_on_loopback_only(processes: bool) -> None:
     pytest.importorskip("distributed")
     import psutil
 
-    from auralize.scale.runner import Runner
+    from auralize.distributed.runner import Runner
 
     me = psutil.Process()
 
@@ -631,7 +631,7 @@ def test_dask_cluster_listens_on_loopback_only(processes: bool) -> None:
 
 
 def test_stale_temporaries_are_recognised(tmp_path: Path) -> None:
-    from auralize.fileio import atomic_write
+    from auralize.io.files import atomic_write
 
     dead = 99_999_999  # above any pid_max: no such process
     stale = tmp_path / f".o.csv.{dead}-0123456789ab.csv.part"
@@ -665,7 +665,7 @@ def test_too_little_disk_space_is_refused_before_writing(out: str, tmp_path: Pat
 
 _RENDER_LOOP = """
 import sys
-from auralize import cli
+from auralize.cli import core as cli
 vol, wav = sys.argv[1], sys.argv[2]
 k = 0
 while True:
@@ -685,7 +685,7 @@ def test_kill_during_render_command_keeps_old_or_new(tmp_path: Path, inputs: dic
     import sys
 
     from auralize.audio import read_wav
-    from auralize.fileio import file_sha256, recover_pair
+    from auralize.io.files import file_sha256, recover_pair
 
     wav, side = tmp_path / "r.wav", tmp_path / "r.wav.json"
     assert cli.main(["render", str(inputs["m.h5"]), "--listener", "0.5,0.5,0.5", "--duration", "0.5",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from auralize.bench import BenchRow
-from auralize.bench_immersive import immersive_rows
+from auralize.bench.immersive import immersive_rows
 
 
 def test_immersive_rows_quick() -> None:

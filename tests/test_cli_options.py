@@ -1,5 +1,5 @@
 """One output path: every audio-writing sub-command (core and plugins) declares the
-shared output options of :mod:`auralize.cli_options` with the same dest, type and
+shared output options of :mod:`auralize.cli.options` with the same dest, type and
 default, so ``-o``, ``--layout``, ``--rate``, ``--normalize``, ``--format``,
 ``--limit``, ``--listener``/``--path`` and ``--duration`` mean the same everywhere.
 
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from auralize.cli import build_parser
-from auralize.cli_options import (
+from auralize.cli.options import (
     EMITTED_OPTIONS,
     EMITTED_SIGNAL,
     LIVE_OPTIONS,
@@ -124,7 +124,7 @@ def test_listener_options_exclude_each_other_and_rate_is_the_output_rate() -> No
 
 def test_old_import_path_still_works() -> None:
     import auralize.cli as cli
-    import auralize.cli_options as opts
+    import auralize.cli.options as opts
 
     for name in ("add_output_options", "listener_from_args", "rate_int", "positive_float",
                  "finite_float", "positive_int", "seed_int", "RATE_RANGE_HZ",

@@ -10,9 +10,13 @@ import numba
 import pytest
 from numba.core import event
 
-from auralize import _numba_setup, console, progress
+from auralize.runtime import jit as _numba_setup
+
+from auralize.cli import console
+
+from auralize.runtime import progress
 from auralize.cli import build_parser
-from auralize.console import setup_console
+from auralize.cli.console import setup_console
 
 
 @pytest.fixture(autouse=True)

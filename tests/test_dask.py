@@ -1,4 +1,4 @@
-"""Out-of-core and distributed preprocessing on Dask (auralize.scale, issue 9)."""
+"""Out-of-core and distributed preprocessing on Dask (auralize.distributed, issue 9)."""
 
 from __future__ import annotations
 
@@ -15,13 +15,13 @@ import pytest
 pytest.importorskip("dask")
 pytest.importorskip("distributed")
 
-from auralize import cli
+from auralize.cli import core as cli
 from auralize.datasets import make_explosion
 from auralize.errors import DataError, MissingDependencyError, ParameterError
 from auralize.io import open_volume
 from auralize.io.sources_file import load_sources_h5
 from auralize.listener import ListenerPath
-from auralize.scale import (
+from auralize.distributed import (
     RunError,
     Runner,
     SchedulerError,
@@ -36,7 +36,7 @@ from auralize.scale import (
     write_chunked_explosion,
 )
 from auralize.sources import SourceSeries, SourceTracks, Thresholds, detect
-from auralize.synthesis import render
+from auralize.emitters.synthesis import render
 from auralize.volume import TimeVolume
 
 # dask.distributed's own start-up/shut-down chatter, not ours
@@ -112,7 +112,7 @@ def counting_volume(vol: TimeVolume, reads: list[int], bad_step: int | None = No
 
 # ------------------------------------------------------------------ imports
 def test_import_auralize_does_not_import_dask() -> None:
-    code = ("import sys, auralize, auralize.scale, auralize.cli_dask, auralize.bench_dask; "
+    code = ("import sys, auralize, auralize.distributed, auralize.cli.distributed, auralize.bench.distributed; "
             "print('dask' in sys.modules, 'distributed' in sys.modules)")  # fmt: skip
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
@@ -184,7 +184,7 @@ def test_plans() -> None:
 def test_preparation_passes_run_one_task_per_chunk_and_slab(
     explosion: TimeVolume, explosion_ref: SourceSeries, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from auralize.scale import detect as D
+    from auralize.distributed import detect as D
 
     calls: dict[str, int] = {}
     graphs: list[int] = []
@@ -221,7 +221,7 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
 
 def test_detection_tasks_save_their_own_sources(tmp_path: Path, explosion: TimeVolume) -> None:
     from auralize.mapping import get_mapping
-    from auralize.scale.detect import Slab, detect_task
+    from auralize.distributed.detect import Slab, detect_task
 
     m = get_mapping("identity", density="log10_density")
     m.prepare(explosion)
@@ -246,7 +246,7 @@ def test_detection_tasks_save_their_own_sources(tmp_path: Path, explosion: TimeV
 
 
 def test_cluster_workers_are_set_up_before_their_first_task() -> None:
-    from auralize.scale.worker_setup import tune_allocator
+    from auralize.distributed.worker_setup import tune_allocator
 
     with Runner("distributed", workers=1, processes=True, log=None) as run:
         (rep,) = run.worker_setup
@@ -472,7 +472,7 @@ def test_distributed_synthesis_blocks_join_without_seams(
 def test_packed_tracks_travel_as_their_nonzero_strengths(explosion_ref: SourceSeries) -> None:
     import pickle
 
-    from auralize.scale.synth import PackedTracks
+    from auralize.distributed.synth import PackedTracks
 
     tr = explosion_ref.tracks()
     packed = PackedTracks(tr)
@@ -496,7 +496,7 @@ def test_packed_tracks_travel_as_their_nonzero_strengths(explosion_ref: SourceSe
 
 
 def test_task_plan_groups_many_pieces_and_blocks_long_outputs() -> None:
-    from auralize.scale.synth import BLOCK_VALUES, PIECES_PER_GROUP, plan_tasks
+    from auralize.distributed.synth import BLOCK_VALUES, PIECES_PER_GROUP, plan_tasks
 
     def tracks(k: int, t: int, dense: bool) -> SourceTracks:
         q = np.ones((k, t)) if dense else np.zeros((k, t))
@@ -518,7 +518,7 @@ def test_task_plan_groups_many_pieces_and_blocks_long_outputs() -> None:
 
 
 def test_source_groups_are_contiguous_balanced_and_cover_every_source() -> None:
-    from auralize.scale.synth import source_groups
+    from auralize.distributed.synth import source_groups
 
     q = np.zeros((100, 32))
     q[:50, :] = 1.0  # the first half sounds at every knot, the second once
@@ -541,7 +541,7 @@ def test_striped_source_groups_interleave_and_balance() -> None:
     """Each group takes every n-th of n × stripes ranges of equal weight: all
     groups sample the whole volume (the cost of a piece depends on where its
     source is), every source is in one group, the weights are equal."""
-    from auralize.scale.synth import source_groups
+    from auralize.distributed.synth import source_groups
 
     rng = np.random.default_rng(3)
     q = (rng.random((4000, 20)) < np.linspace(0.05, 0.6, 4000)[:, None]).astype(float)
@@ -565,7 +565,7 @@ def test_striped_source_groups_interleave_and_balance() -> None:
 def test_distributed_synthesis_renders_every_block_in_a_task(
     explosion: TimeVolume, explosion_ref: SourceSeries, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from auralize.scale import synth
+    from auralize.distributed import synth
 
     sizes: list[int] = []
     real = synth.render
@@ -600,7 +600,7 @@ def test_chunked_recipe_bad_input_leaves_no_file(tmp_path: Path) -> None:
 @pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")  # low thresholds
 def test_cli_dataset_chunked_and_detect_on_dask(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                 capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
-    assert "auralize.cli_dask" in cli.CORE_COMMAND_MODULES
+    assert "auralize.cli.distributed" in cli.CORE_COMMAND_MODULES
     vol = tmp_path / "big.h5"
     assert cli.main(["dataset", "explosion", "--chunked", "--size", "16", "--steps", "5",
                      "--generator", "analytic", "-o", str(vol)]) == 0  # fmt: skip
@@ -639,7 +639,7 @@ def test_client_streams_chunks_to_the_output_file_without_holding_all_sources(
     import h5py
 
     from auralize.io.sources_file import save_sources_h5
-    from auralize.scale import H5Frames
+    from auralize.distributed import H5Frames
     from auralize.sources import SourceFrame
 
     def never(*_a: object, **_k: object) -> None:

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from scipy.signal import butter, sosfiltfilt, welch
 
-from auralize import ambisonics as A
-from auralize import hrtf as H
+from auralize.spatial import ambisonics as A
+from auralize.spatial import hrtf as H
 from auralize.errors import FormatError, MissingFileError, ParameterError
-from auralize.sofa import read_sofa, write_sofa
+from auralize.spatial.sofa import read_sofa, write_sofa
 from auralize.spatial import get_layout, output_stage, pan_gains, synthesis_layout
 
 RATE = 48000
@@ -299,7 +299,7 @@ def test_immersive_layouts_in_the_speaker_kernels() -> None:
     only; speaker azimuths stay undefined for immersive layouts."""
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
-    from auralize.synthesis import render
+    from auralize.emitters.synthesis import render
 
     tr = SourceTracks(np.array([[0, 1.0, 0]]), np.sin(np.arange(8.0))[None, :], np.array([0.05]),
                       np.arange(8) / 100.0)  # fmt: skip

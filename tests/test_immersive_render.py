@@ -17,20 +17,20 @@ import pytest
 import soundfile as sf
 from scipy.signal import butter, sosfiltfilt
 
-from auralize import hrtf as H
-from auralize._synth_kernel import _gains
-from auralize.ambisonics import sh_gains
+from auralize.spatial import hrtf as H
+from auralize.emitters._synth_kernel import _gains
+from auralize.spatial.ambisonics import sh_gains
 from auralize.cli import main
 from auralize.emitters import Emitters
 from auralize.emitters.engine import BlockRenderer, render, render_emitters
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.live import BlockSynth
-from auralize.sofa import write_sofa
+from auralize.audio.live import BlockSynth
+from auralize.spatial.sofa import write_sofa
 from auralize.spatial import get_layout
-from auralize.synthesis import _pan_table, _panning_arrays, render_reference
-from auralize.synthesis import render as synth_render
-from auralize.timbre import render_timbre
+from auralize.emitters.synthesis import _pan_table, _panning_arrays, render_reference
+from auralize.emitters.synthesis import render as synth_render
+from auralize.emitters.timbre import render_timbre
 
 ROOT = Path(__file__).parents[1]
 RATE = 44100
@@ -160,7 +160,7 @@ def scene():
 
 PLAYER = """
 import json
-from auralize.live import play
+from auralize.audio.live import play
 tracks, path = scene()
 r = play(tracks, path, layout="binaural", device="auralize_file2", gain=2.0, wait_s=1.0)
 print(json.dumps(r.as_dict()))
@@ -322,7 +322,7 @@ def test_viewer_live_engine_binaural_equals_offline() -> None:
     """The viewer's live engine (the head follows the camera) renders binaural blocks
     through one stage: for a still pose they equal the offline render."""
     from auralize.sources import SourceTracks
-    from auralize.viewer.listening import LiveEngine
+    from auralize.scene.listening import LiveEngine
 
     fk = 4000.0
     t = np.arange(int(0.6 * fk)) / fk
@@ -340,7 +340,7 @@ def test_viewer_live_engine_binaural_equals_offline() -> None:
 
 def test_distributed_render_binaural_equals_one_render() -> None:
     """Dask-style blocks × source groups are summed in AmbiX, then filtered once."""
-    from auralize.scale.synth import render_distributed
+    from auralize.distributed.synth import render_distributed
     from auralize.sources import SourceTracks
 
     fk = 4000.0

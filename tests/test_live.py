@@ -15,10 +15,10 @@ import pytest
 
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.live import BlockSynth
+from auralize.audio.live import BlockSynth
 from auralize.sources import SourceTracks
 from auralize.spatial import downmix_matrix
-from auralize.synthesis import render
+from auralize.emitters.synthesis import render
 
 ROOT = Path(__file__).parents[1]
 
@@ -55,7 +55,7 @@ pcm.auralize_file2 {{
 
 PLAYER = """
 import json, sys
-from auralize.live import play
+from auralize.audio.live import play
 tracks, path = scene()
 # the null device is unpaced (it asks for the next block as soon as it has the last),
 # so the callback may wait up to 1 s for the worker on this shared 2-core machine
@@ -164,7 +164,7 @@ def alsa_device(tmp_path, monkeypatch):  # type: ignore[no-untyped-def]
 def test_stream_reports_underruns_and_bad_blocks(alsa_device) -> None:  # type: ignore[no-untyped-def]
     import time
 
-    from auralize.live import open_stream
+    from auralize.audio.live import open_stream
 
     s = open_stream(rate=44100, channels=2, device="auralize_file2", block=441, prefill_s=0.01)
     with pytest.raises(ParameterError, match=r"block must be \(2, n\), got shape \(3, 10\)"):
@@ -179,7 +179,7 @@ def test_stream_reports_underruns_and_bad_blocks(alsa_device) -> None:  # type: 
 
 
 def test_play_errors(alsa_device) -> None:  # type: ignore[no-untyped-def]
-    from auralize.live import play
+    from auralize.audio.live import play
 
     tracks, path = _scene()
     with pytest.raises(DeviceError, match=r"device index 42 is out of range"):
@@ -192,7 +192,7 @@ VIEWER_LIVE = """
 import json, time
 import numpy as np
 from auralize.sources import SourceTracks
-from auralize.viewer.listening import DeviceSink, LiveEngine, LivePlayer
+from auralize.scene.listening import DeviceSink, LiveEngine, LivePlayer
 
 fk = 4000.0
 t = np.arange(int(2.4 * fk)) / fk

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auralize import synthesis
+from auralize.emitters import synthesis
 from auralize.datasets import monopole_pressure
 from auralize.listener import ListenerPath
-from auralize.synthesis import C0, render, render_reference
+from auralize.emitters.synthesis import C0, render, render_reference
 
 RATE = 44100
 
@@ -207,7 +207,7 @@ def test_runs_of_pieces_sum_to_the_piecewise_kernel(
     mono_tracks, mono_params, interp, monkeypatch
 ) -> None:  # type: ignore[no-untyped-def]
     # unpanned layouts sum runs of pieces with one emission per knot
-    # (auralize._runs_kernel); the piece-wise kernel sums every piece on its
+    # (auralize.emitters._runs_kernel); the piece-wise kernel sums every piece on its
     # own.  Same signal: on a path captured at 20 Hz (pieces split at
     # captures), from a start inside pieces (restart at the first sample), and
     # over more than one 32768-sample accumulation block (restarts there)

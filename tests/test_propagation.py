@@ -7,7 +7,7 @@ import pytest
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.propagation import propagate
+from auralize.emitters.propagation import propagate
 
 RATE = 8000
 

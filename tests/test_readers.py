@@ -324,7 +324,7 @@ def test_valid_mask_survives_resampling_slabs_and_hdf5(tmp_path: Path) -> None:
     np.testing.assert_array_equal(back.valid, valid)
     assert back.valid_ratio == pytest.approx(4 / 6)
     from auralize.io.resample import resample_uniform
-    from auralize.scale.chunked import slab_volume
+    from auralize.distributed.chunked import slab_volume
 
     with pytest.warns(ResampledWarning):
         fine = resample_uniform(back, (11, 9, 7))
@@ -430,7 +430,7 @@ def test_netcdf_uneven_coordinates_are_resampled(tmp_path: Path) -> None:
 def test_every_format_reads_the_same_series(tmp_path: Path) -> None:
     """The bench series written as HDF5, netCDF classic/4, XDMF, PLOT3D and EnSight
     reads back as the same grid, times and values in each format."""
-    from auralize.bench_readers import write_series
+    from auralize.bench.readers import write_series
 
     paths = write_series(tmp_path, 8, 3)
     assert set(paths) == {"hdf5", "netcdf-classic", "netcdf4", "xdmf", "plot3d", "ensight"}

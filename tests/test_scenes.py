@@ -19,7 +19,7 @@ from auralize.emitters import Emitters, Sound, render
 from auralize.errors import FormatError, MissingFileError, ParameterError, PluginError
 from auralize.listener import ListenerPath
 from auralize.plugins import Parameter, SoundModel, check_sound
-from auralize.soundscene import (
+from auralize.scene.soundscene import (
     SceneBlocks,
     SceneModel,
     load_scene,
@@ -88,7 +88,7 @@ def _vortex_sound() -> Sound:
 
 
 def _field_sound() -> Sound:
-    from auralize.field_model import FieldAuralization
+    from auralize.sources.model import FieldAuralization
     from auralize.pipeline import load
 
     vol = load("dataset:monopole", size=12, steps=60)
@@ -153,7 +153,7 @@ pcm.auralize_file2 {{
 
 def test_scene_plays_live_with_no_underruns(scene, tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     from auralize.audio import refresh_devices
-    from auralize.live import play
+    from auralize.audio.live import play
 
     sound, path = scene
     cfg = tmp_path / "cfg"
@@ -326,7 +326,7 @@ def test_render_scene_errors(tone_models, tmp_path, capsys, args, why, code) -> 
 
 def test_add_sound_model_mixes_in_scripts(tone_models) -> None:  # type: ignore[no-untyped-def]
     from auralize import simple
-    from auralize.timbre import HIGHPASS_HZ, highpass
+    from auralize.emitters.timbre import HIGHPASS_HZ, highpass
 
     a, b = tone_models
     simple.ResetSession()

@@ -28,7 +28,7 @@ from auralize.simple import (
     SetActiveSource,
     Show,
 )
-from auralize.viewer.scene import PATH_COLOR, TYPE_COLORS
+from auralize.scene.view import PATH_COLOR, TYPE_COLORS
 
 SMALL = {"size": 24, "steps": 6}
 
@@ -136,7 +136,7 @@ def test_script_errors_are_library_exceptions(tmp_path):
 def test_live_listening_follows_pose(tmp_path):
     """A pose change during live playback reaches the (file-backed) sink within one block plus
     the render time, and moves the energy between the stereo channels."""
-    from auralize.viewer.listening import LiveEngine, LivePlayer, WavSink
+    from auralize.scene.listening import LiveEngine, LivePlayer, WavSink
 
     src = OpenDataFile("dataset:explosion", **SMALL)
     tracks = DetectSources().tracks()

@@ -23,7 +23,7 @@ from auralize.sources import (
     compute_strengths,
     detect,
 )
-from auralize.synthesis import render
+from auralize.emitters.synthesis import render
 from auralize.volume import TimeVolume
 
 REPO = Path(__file__).resolve().parent.parent

@@ -22,7 +22,7 @@ from auralize.spatial import (
     vbap3d_gains,
     vbap_gains,
 )
-from auralize.synthesis import render
+from auralize.emitters.synthesis import render
 
 RATE = 44100
 F_TONE = 300.0
@@ -219,7 +219,7 @@ def test_downmix_matrix() -> None:
 
 def test_synthesis_pans_in_3d_for_layouts_with_elevation(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
     from auralize.listener import ListenerPath
-    from auralize.synthesis import render, render_reference
+    from auralize.emitters.synthesis import render, render_reference
 
     lay = _dome()
     c = mono_params.center

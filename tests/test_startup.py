@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from auralize.commands import LazyCommand, lazy
+from auralize.cli.plugin_commands import LazyCommand, lazy
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGINS = ("auralize_vortex", "auralize_fire", "auralize_aero", "auralize_spark")
@@ -38,7 +38,7 @@ def test_import_auralize_changes_no_process_setting() -> None:
 
 def test_kernel_modules_set_their_numba_settings_on_import(tmp_path: Path) -> None:
     got = _run(
-        "import os, json, numba; import auralize._kernels; "
+        "import os, json, numba; import auralize.sources._kernels; "
         "print(json.dumps([os.environ.get('OMP_WAIT_POLICY'), numba.config.CACHE_DIR]))",
         NUMBA_CACHE_DIR=str(tmp_path),
     )
@@ -50,7 +50,7 @@ def test_one_cache_folder_for_kernels_and_textures(tmp_path: Path, var: str) -> 
     env = {k: v for k, v in os.environ.items()
            if k not in ("NUMBA_CACHE_DIR", "AURALIZE_CACHE_DIR", "AURALIZE_CACHE")}  # fmt: skip
     env[var] = str(tmp_path)
-    code = ("import numba, auralize._kernels; from auralize_vortex.texture import cache_dir as v; "
+    code = ("import numba, auralize.sources._kernels; from auralize_vortex.texture import cache_dir as v; "
             "from auralize_aero.texture import cache_dir as a; print(numba.config.CACHE_DIR); "
             "print(v()); print(a())")  # fmt: skip
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
@@ -94,7 +94,7 @@ def test_declared_preset_choices_match_the_presets() -> None:
 
 
 def test_lazy_command_imports_when_called() -> None:
-    cmd = lazy("auralize.cli:_vec3")
+    cmd = lazy("auralize.cli.core:_vec3")
     assert isinstance(cmd, LazyCommand)
     assert list(cmd("1,2,3")) == [1.0, 2.0, 3.0]  # type: ignore[arg-type]
     assert lazy("auralize_vortex.model:VortexSound._cmd_render").resolve().__name__ == "_cmd_render"

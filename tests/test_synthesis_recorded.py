@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auralize import synthesis
+from auralize.emitters import synthesis
 from auralize.listener import ListenerPath
-from auralize.synthesis import render, render_reference
+from auralize.emitters.synthesis import render, render_reference
 
 RATE = 44100
 

@@ -10,12 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auralize import timbre
+from auralize.emitters import timbre
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
-from auralize.synthesis import C0, check_arrival, render
-from auralize.timbre import (
+from auralize.emitters.synthesis import C0, check_arrival, render
+from auralize.emitters.timbre import (
     TONAL_CARRIERS,
     highpass,
     loudness,
@@ -281,7 +281,7 @@ def test_tonal_without_sources_is_silence_not_a_type_error() -> None:
     (the command then reports a silent output), not a complaint about source types."""
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
-    from auralize.timbre import render_timbre
+    from auralize.emitters.timbre import render_timbre
 
     empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, 5)), radius=np.zeros(0),
                          times=np.linspace(0.0, 0.4, 5))  # fmt: skip

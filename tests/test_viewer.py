@@ -20,7 +20,7 @@ from qtpy import QtCore, QtWidgets
 
 from auralize.errors import FieldError
 from auralize.viewer.app import MainWindow
-from auralize.viewer.scene import camera_pose
+from auralize.scene.view import camera_pose
 
 DATA = {"spec": "dataset:explosion", "size": 32, "steps": 8}
 

@@ -19,7 +19,7 @@ import auralize.plugins as plugins
 from auralize.emitters import Emitters, Sound, render
 from auralize.listener import ListenerPath
 from auralize.plugins import SoundModel
-from auralize.viewer.listening import LiveEngine
+from auralize.scene.listening import LiveEngine
 
 
 class BeaconModel(SoundModel):

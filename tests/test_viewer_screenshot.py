@@ -85,9 +85,9 @@ def test_one_palette_for_viewer_pictures_plots_and_pvd(tmp_path) -> None:
 
     from auralize.io.sources_file import save_sources_pvd
     from auralize.pipeline import detect_sources, load
-    from auralize.plots import plot_counts
+    from auralize.scene.plots import plot_counts
     from auralize.scene import TYPE_COLORS, TYPE_LABELS
-    from auralize.viewer.scene import TYPE_COLORS as VIEWER_COLORS
+    from auralize.scene.view import TYPE_COLORS as VIEWER_COLORS
 
     assert VIEWER_COLORS == PALETTE
     for code, name in TYPE_LABELS.items():
@@ -110,7 +110,7 @@ def test_vector_glyphs_and_robust_colour_range() -> None:
 
     from auralize.errors import ParameterError
     from auralize.pipeline import load
-    from auralize.viewer.scene import MAX_GLYPHS, Scene, robust_range
+    from auralize.scene.view import MAX_GLYPHS, Scene, robust_range
 
     pl = pv.Plotter(off_screen=True, window_size=[200, 150])
     try:

@@ -17,8 +17,8 @@ from qtpy import QtCore, QtWidgets
 from auralize.errors import DataError
 from auralize.listener import ListenerPath
 from auralize.viewer.app import MainWindow
-from auralize.viewer.recorder import PathRecorder
-from auralize.viewer.scene import camera_pose
+from auralize.scene.recorder import PathRecorder
+from auralize.scene.view import camera_pose
 
 ROOT = Path(__file__).parents[1]
 WAVY = ROOT / "auralize" / "data" / "paraview-wavy" / "wavy00.vts"
@@ -373,7 +373,7 @@ def test_unpaced_device_cannot_flood_the_window(qtbot, window, tmp_path, errors,
     """A device that asks for blocks as fast as they come (ALSA null/file plugins) once
     queued one redraw per block, which went on for minutes after Stop while the heard
     audio grew without bound: ticks are coalesced and the heard audio is bounded."""
-    import auralize.viewer.listening as listening
+    import auralize.scene.listening as listening
 
     class Unpaced(listening.WavSink):
         def __init__(self, *a, **k):

@@ -4,7 +4,7 @@ Three parts:
 
 :class:`BlockSynth`
     Renders any block of samples of the sound along a listener path with the
-    core synthesis (:func:`auralize.synthesis.render` with ``start=``), which
+    core synthesis (:func:`auralize.emitters.synthesis.render` with ``start=``), which
     reads only the data steps whose emissions can arrive inside the block
     (largest source-listener distance / c0 before it).  The result equals the
     offline render sample for sample (up to rounding) at a cost that does not
@@ -31,7 +31,7 @@ callback.  sounddevice is imported inside :class:`LiveStream` only.
 
 Examples
 --------
->>> from auralize.live import BlockSynth                       # doctest: +SKIP
+>>> from auralize.audio.live import BlockSynth                       # doctest: +SKIP
 >>> bs = BlockSynth(tracks, path, layout="ring8", block=2205)  # doctest: +SKIP
 >>> bs.block(0).shape                                          # doctest: +SKIP
 (8, 2205)
@@ -52,8 +52,8 @@ from numpy.typing import NDArray
 
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.sources import SourceTracks
-from auralize.spatial import (
+from auralize.sources.detection import SourceTracks
+from auralize.spatial.layouts import (
     Layout,
     SpeakerAlignment,
     downmix_matrix,
@@ -61,7 +61,7 @@ from auralize.spatial import (
     get_layout,
     output_stage,
 )
-from auralize.synthesis import C0, render
+from auralize.emitters.synthesis import C0, render
 
 #: default block length in seconds (the issue's 50 ms budget)
 DEFAULT_BLOCK_S = 0.05
@@ -92,7 +92,7 @@ class BlockSynth:
     hrtf : HRIRSet, str or Path, optional
         ``binaural`` only: the HRIRs (default the built-in spherical head).  A
         binaural stream is synthesized in its AmbiX intermediate and filtered
-        by one :class:`auralize.spatial.OutputStage` that carries its state
+        by one :class:`auralize.spatial.layouts.OutputStage` that carries its state
         from block to block, so consecutive blocks equal one offline render.
     """
 
@@ -231,7 +231,7 @@ class LiveStream:
     channels : int
         Channels to open on the device.
     device : int, str or None
-        See :func:`auralize.audio.choose_output_device`.
+        See :func:`auralize.audio.output.choose_output_device`.
     block : int, optional
         PortAudio callback size in frames (default 0: PortAudio's choice).
     buffer_s : float
@@ -254,7 +254,7 @@ class LiveStream:
                  block: int = 0, buffer_s: float = 0.5, prefill_s: float = 0.2,
                  wait_s: float | None = None, latency: str | float = "high",
                  stall_s: float = 5.0) -> None:  # fmt: skip
-        from auralize.audio import _sounddevice, choose_output_device
+        from auralize.audio.output import _sounddevice, choose_output_device
 
         if channels < 1:
             raise ParameterError(f"channels must be >= 1, got {channels!r}")
@@ -460,7 +460,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     Parameters
     ----------
     tracks, path : the sources and the listener path (as for
-        :func:`auralize.synthesis.render`); or, in place of ``tracks``, a
+        :func:`auralize.emitters.synthesis.render`); or, in place of ``tracks``, a
         block renderer of a scene (:class:`auralize.emitters.engine.BlockRenderer`,
         whose rate, layout and block length are used).
     layout : speaker layout of the synthesis.
@@ -483,9 +483,9 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     on_block : callable(i, n_blocks), optional
         Called on the worker thread after each block is queued.
     lead : float
-        Data seconds skipped at the start (as :func:`auralize.synthesis.render`).
+        Data seconds skipped at the start (as :func:`auralize.emitters.synthesis.render`).
     highpass_hz : float
-        Causal high-pass of the output (as :func:`auralize.timbre.highpass`,
+        Causal high-pass of the output (as :func:`auralize.emitters.timbre.highpass`,
         its state carried from block to block); 0 keeps everything.
     hrtf : HRIRSet, str or Path, optional
         ``binaural`` only: the HRIRs (see :class:`BlockSynth`).
@@ -499,7 +499,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     DeviceError
         No device, wrong index/name, too few channels without ``downmix``.
     """
-    from auralize.audio import choose_output_device
+    from auralize.audio.output import choose_output_device
 
     lay = get_layout(layout)
     if not (math.isfinite(block_s) and block_s > 0):
@@ -533,7 +533,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
                              f"got {highpass_hz!r}")  # fmt: skip
     hp: list[Any] = []
     if highpass_hz > 0:
-        from auralize.timbre import butter_sos
+        from auralize.emitters.timbre import butter_sos
 
         sos = butter_sos(4, float(highpass_hz), "highpass", float(rate))
         hp = [sos, np.zeros((sos.shape[0], lay.n_channels, 2))]

@@ -1,7 +1,7 @@
 """Sound files and sound devices: the only module that touches them.
 
 Audio arrays are ``(n_channels, n_samples)``; they are transposed only here
-(and in :mod:`auralize.live`, at the sounddevice callback).  WAV files are
+(and in :mod:`auralize.audio.live`, at the sounddevice callback).  WAV files are
 written by our own writer so that multichannel files carry a
 WAVE_FORMAT_EXTENSIBLE header with the layout's channel mask (5.1, 7.1);
 FLAC goes through soundfile.  Every file is written atomically, with a
@@ -30,10 +30,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DeviceError, FormatError, ParameterError
-from auralize.fileio import write_pair
+from auralize.io.files import write_pair
 
 if TYPE_CHECKING:
-    from auralize.spatial import Layout
+    from auralize.spatial.layouts import Layout
 
 NORMALIZE_MODES = ("peak", "none")
 #: sample formats of WAV output (``--format``)
@@ -162,11 +162,11 @@ def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
 
 
 def _flac_mask_note(lay: Layout | None, sidecar: dict[str, Any] | None, n_ch: int) -> str | None:
-    """:func:`auralize.spatial.flac_mask_warning` of the audio's layout: ``lay``, or
+    """:func:`auralize.spatial.layouts.flac_mask_warning` of the audio's layout: ``lay``, or
     the built-in layout named in the sidecar's ``layout``; a custom layout
     there is judged by its channel mask."""
     from auralize.errors import AuralizeError
-    from auralize.spatial import flac_mask_warning, get_layout
+    from auralize.spatial.layouts import flac_mask_warning, get_layout
 
     if lay is None:
         desc = (sidecar or {}).get("layout")
@@ -197,7 +197,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     audio that is silent (all 0) is written with ``"silent": true`` in the
     sidecar and a :class:`SilentAudioWarning`.  The sidecar records the audio
     file's SHA-256; the two are written as a pair
-    (:func:`auralize.fileio.write_pair`).
+    (:func:`auralize.io.files.write_pair`).
 
     Parameters
     ----------
@@ -205,7 +205,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         or ``.flac`` (needs samples in [-1, 1], at most 8 channels; a layout
         without a standard channel mask, from ``layout`` or the sidecar's
         ``layout``, warns that players may route its channels as the standard
-        layout: :func:`auralize.spatial.flac_mask_warning`).
+        layout: :func:`auralize.spatial.layouts.flac_mask_warning`).
     audio : (n_channels, n_samples) pressure in Pa.
     rate : sample rate in Hz.
     subtype : {"float32", "pcm16", "pcm24"}, optional
@@ -216,7 +216,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     layout : Layout or name, optional
         The audio's speaker layout: its channel count is checked, its channel
         mask used (unless ``channel_mask`` is given), per-speaker distances are
-        compensated (:class:`~auralize.spatial.SpeakerAlignment`) and it is
+        compensated (:class:`~auralize.spatial.layouts.SpeakerAlignment`) and it is
         recorded in the sidecar.
 
     Returns
@@ -227,7 +227,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     p = Path(path)
     a = np.asarray(audio, dtype=np.float64)
     if layout is not None:
-        from auralize.spatial import align_speakers, get_layout
+        from auralize.spatial.layouts import align_speakers, get_layout
 
         lay = get_layout(layout)
         if a.ndim != 2 or a.shape[0] != lay.n_channels:
@@ -301,7 +301,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     def sidecar_bytes(sha256: str) -> bytes:
         return json.dumps({**meta, "sha256": sha256}, indent=2, default=_json_default).encode()
 
-    from auralize.resources import require_disk
+    from auralize.runtime.resources import require_disk
 
     bytes_per_sample = 4 if suffix == ".wav" and subtype == "float32" else 3
     require_disk(
@@ -481,7 +481,7 @@ def choose_output_device(device: int | str | None, channels: int, *,
             )
         dev = hits[0]
     if dev["max_output_channels"] < channels and not downmix:
-        from auralize.spatial import downmix_target
+        from auralize.spatial.layouts import downmix_target
 
         target = downmix_target("ring8", dev["max_output_channels"]).name
         raise DeviceError(
@@ -496,8 +496,8 @@ def downmix(
     audio: NDArray[np.floating], src: Layout | str, dst: Layout | str
 ) -> NDArray[np.float64]:
     """Fold ``audio (src.n_channels, n)`` into layout ``dst`` (see
-    :func:`auralize.spatial.downmix_matrix`)."""
-    from auralize.spatial import downmix_matrix, get_layout
+    :func:`auralize.spatial.layouts.downmix_matrix`)."""
+    from auralize.spatial.layouts import downmix_matrix, get_layout
 
     s = get_layout(src)
     a = np.asarray(audio, dtype=np.float64)
@@ -690,7 +690,7 @@ def play(audio: Any, rate: int | None = None, *, device: int | str | None = None
 
     Parameters
     ----------
-    audio : (n_channels, n_samples) array in Pa, or a :class:`~auralize.synthesis.Rendered`
+    audio : (n_channels, n_samples) array in Pa, or a :class:`~auralize.emitters.synthesis.Rendered`
         (its rate is used).
     rate : int
         Sample rate in Hz (required for an array).
@@ -722,7 +722,7 @@ def play(audio: Any, rate: int | None = None, *, device: int | str | None = None
     >>> p.limiter.peak_dbfs  # doctest: +SKIP
     -inf
     """
-    from auralize.live import open_stream
+    from auralize.audio.live import open_stream
 
     if hasattr(audio, "audio") and hasattr(audio, "rate"):
         rate = audio.rate if rate is None else rate

@@ -19,18 +19,18 @@ or 48³ × 12 with ``quick``):
 
 **How it is timed.**  Both worker counts run the same tasks (chunks of
 :data:`DETECT_CHUNK_STEPS` steps; the synthesis split
-:func:`~auralize.scale.synth.plan_tasks` chooses for 2 workers), on
+:func:`~auralize.distributed.synth.plan_tasks` chooses for 2 workers), on
 a fresh local cluster per run, from submission until the sources file is on
 disk (detection) or the audio is in the client (synthesis).  Not timed: the
 cluster's start-up and the workers' one-time set-up
-(:mod:`auralize.scale.worker_setup`: kernels loaded, allocator), and the
+(:mod:`auralize.distributed.worker_setup`: kernels loaded, allocator), and the
 client's own first import and kernel load (:func:`warm_client`) — what a
 long-running cluster and session have done once before their first run.
 1- and 2-worker runs alternate ``repeats`` times and the medians are
 reported, with the CPU other processes used meanwhile (:class:`CpuShare`):
 on a shared machine the ratio means little when that is not near 0.
 
-The big file is written once (``auralize.scale.write_chunked_explosion``,
+The big file is written once (``auralize.distributed.write_chunked_explosion``,
 float32, ~27 GB) to ``$AURALIZE_BENCH_DIR`` (default a private per-user folder
 ``auralize_bench-<uid>`` in the system temporary folder, see :func:`bench_dir`)
 and reused; the temporary of a run killed while writing it is removed by the
@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench import BenchRow
+from auralize.bench.runner import BenchRow
 
 GIB = float(1 << 30)
 #: detection thresholds of the benchmark (relative to the series' peaks)
@@ -149,7 +149,7 @@ def bench_dir() -> Path:
 
 def big_file(size: int, steps: int) -> Path:
     """The chunked explosion file for the benchmark (written once, then reused)."""
-    from auralize.scale import write_chunked_explosion
+    from auralize.distributed import write_chunked_explosion
 
     folder = bench_dir()
     path = folder / f"explosion_{size}x{steps}.h5"
@@ -227,7 +227,7 @@ def warm_client() -> None:
     timed run of the benchmark would otherwise pay it and the next not.
     """
     import auralize.io.sources_file  # noqa: F401 - written by the detection
-    from auralize.scale.worker_setup import warm_kernels
+    from auralize.distributed.worker_setup import warm_kernels
 
     warm_kernels()
 
@@ -235,8 +235,8 @@ def warm_client() -> None:
 def _detect(path: Path, workers: int, size: int) -> Timed:
     """Detection on a fresh local cluster (its start-up and worker set-up not timed)."""
     from auralize.io import open_volume
-    from auralize.scale import Runner, detect_distributed
-    from auralize.sources import Thresholds
+    from auralize.distributed import Runner, detect_distributed
+    from auralize.sources.detection import Thresholds
 
     vol = open_volume(path, fields=["log10_density"])
     out = path.with_name(f"{path.stem}_sources_{workers}w.h5")
@@ -256,7 +256,7 @@ def _detect(path: Path, workers: int, size: int) -> Timed:
 def _synth(tracks: Any, path: Any, workers: int, time_scale: float, block: int,
            groups: int) -> Timed:  # fmt: skip
     """60 s of ring8 on a fresh local cluster, in blocks of ``block`` samples × ``groups``."""
-    from auralize.scale import Runner, render_distributed
+    from auralize.distributed import Runner, render_distributed
 
     with Runner("distributed", workers=workers, processes=True, log=None) as run:
         pids = [os.getpid(), *sorted(set(run.client.run(os.getpid).values()))]
@@ -312,7 +312,7 @@ def _runs_note(runs: list[Timed]) -> str:
     setup = max(r.setup_seconds for r in runs)
     return (f"median of {len(runs)} runs ({times} s); other processes busy {others} cores "
             f"meanwhile; fresh local cluster per run, its start-up and worker set-up "
-            f"(≤ {setup:.1f} s: kernels loaded, see auralize.scale.worker_setup) not timed")
+            f"(≤ {setup:.1f} s: kernels loaded, see auralize.distributed.worker_setup) not timed")
 
 
 def bench_dask(quick: bool, repeats: int | None = None,
@@ -394,7 +394,7 @@ def bench_dask(quick: bool, repeats: int | None = None,
     lp = ListenerPath.orbit(c, radius=0.3 * size, duration=60.0, turns=0.5, height=1.0)
     ts = 60.0 / vol_t
     # both runs split the work as render_distributed would for 2 workers
-    from auralize.scale.synth import plan_tasks
+    from auralize.distributed.synth import plan_tasks
 
     block, groups = plan_tasks(tracks, round(lp.duration * SYNTH_RATE), 8, 2)
     syn = _alternate(lambda w: _synth(tracks, lp, w, ts, block, groups), repeats, quiet_wait)

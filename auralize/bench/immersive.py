@@ -4,7 +4,7 @@
 adds to a loudspeaker render, on explosion-like signals (broadband noise
 bursts from moving emitters):
 
-* the AmbiX order-3 encoding gains (:func:`auralize.ambisonics.sh_gains`)
+* the AmbiX order-3 encoding gains (:func:`auralize.spatial.ambisonics.sh_gains`)
   per million directions — a renderer evaluates them per emitter and sample
   (or per piece);
 * encoding moving emitters into ambix3 in numpy (gains per sample, multiply
@@ -14,7 +14,7 @@ bursts from moving emitters):
   target of half a block).
 
 :func:`binaural_render_row` times the whole binaural render of the
-synthesis benchmark's explosion (:func:`auralize.bench.bench_synthesis`).
+synthesis benchmark's explosion (:func:`auralize.bench.runner.bench_synthesis`).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench import BenchRow, batch_times
+from auralize.bench.runner import BenchRow, batch_times
 
 
 def _moving_emitters(n_em: int, n: int, rate: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -46,8 +46,8 @@ def _moving_emitters(n_em: int, n: int, rate: int, seed: int = 0) -> tuple[np.nd
 
 def immersive_rows(quick: bool) -> list[BenchRow]:
     """Timings of AmbiX encoding and binaural decoding (see the module docstring)."""
-    from auralize.ambisonics import sh_gains
-    from auralize.hrtf import BinauralDecoder, default_hrirs
+    from auralize.spatial.ambisonics import sh_gains
+    from auralize.spatial.hrtf import BinauralDecoder, default_hrirs
 
     rate = 48000
     rows: list[BenchRow] = []
@@ -130,13 +130,13 @@ def immersive_rows(quick: bool) -> list[BenchRow]:
 
 def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
     """The binaural render of the explosion's tracks along ``path``
-    (:func:`auralize.timbre.render_timbre`, ``physical``: the order-3 AmbiX
+    (:func:`auralize.emitters.timbre.render_timbre`, ``physical``: the order-3 AmbiX
     synthesis, the binaural decoder and the 20 Hz high-pass), against the
     issue's target of 20× real time; the ambix3 synthesis alone in the note."""
     import functools
 
-    from auralize.synthesis import render
-    from auralize.timbre import render_timbre
+    from auralize.emitters.synthesis import render
+    from auralize.emitters.timbre import render_timbre
 
     fn = functools.partial(render_timbre, tracks, path, layout="binaural", timbre="physical")
     fn()  # the decoder's filters and the tracks' pieces are built once

@@ -1,12 +1,12 @@
 """``auralize bench`` rows of the output layer (issue 3).
 
 * the 64³ explosion (300 steps at 30 Hz: 10 s of data, thresholds
-  :data:`auralize.bench.BENCH_THRESHOLDS`, ≥ 10,000 active sources per step)
+  :data:`auralize.bench.runner.BENCH_THRESHOLDS`, ≥ 10,000 active sources per step)
   rendered along a 10 s path to ring8 — target ≥ 50× faster than real time;
 * live playback at 44.1 kHz × 8 channels in 50 ms blocks — per-block
-  synthesis time (:class:`auralize.live.BlockSynth`, the worker's job) against
+  synthesis time (:class:`auralize.audio.live.BlockSynth`, the worker's job) against
   the 50 ms budget;
-* an actual live playback (:func:`auralize.live.play`) on a file-backed ALSA
+* an actual live playback (:func:`auralize.audio.live.play`) on a file-backed ALSA
   device (``file`` plugin over ``null``, defined in a temporary
   ``$XDG_CONFIG_HOME/alsa/asoundrc``) — underruns counted.  The null device
   is not paced by a clock, so this row shows whether synthesis keeps ahead of
@@ -24,13 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from auralize.bench import BENCH_THRESHOLDS, BenchRow, best_of
+from auralize.bench.runner import BENCH_THRESHOLDS, BenchRow, best_of
 
 
 def _scene(quick: bool):  # type: ignore[no-untyped-def]
-    from auralize.datasets import make_explosion
+    from auralize.datasets.synthetic import make_explosion
     from auralize.listener import ListenerPath
-    from auralize.sources import Thresholds, detect
+    from auralize.sources.detection import Thresholds, detect
 
     size, steps = (32, 60) if quick else (64, 300)
     vol = make_explosion(size=size, steps=steps).load()
@@ -44,8 +44,8 @@ def _scene(quick: bool):  # type: ignore[no-untyped-def]
 
 
 def _live_on_file_device(tracks, path, seconds: float) -> BenchRow:  # type: ignore[no-untyped-def]
-    from auralize.audio import refresh_devices
-    from auralize.live import play
+    from auralize.audio.output import refresh_devices
+    from auralize.audio.live import play
 
     old = os.environ.get("XDG_CONFIG_HOME")
     with tempfile.TemporaryDirectory() as tmp:
@@ -75,8 +75,8 @@ def _live_on_file_device(tracks, path, seconds: float) -> BenchRow:  # type: ign
 
 def bench_output(quick: bool) -> list[BenchRow]:
     """Benchmark rows of the output layer (see the module docstring)."""
-    from auralize.live import BlockSynth
-    from auralize.synthesis import render
+    from auralize.audio.live import BlockSynth
+    from auralize.emitters.synthesis import render
 
     t0 = time.perf_counter()
     size, tracks, path = _scene(quick)

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auralize.bench import BenchRow
+from auralize.bench.runner import BenchRow
 
 #: (points per axis, steps) of the default and the full benchmark
 QUICK_SIZE = (48, 12)
@@ -188,7 +188,7 @@ import json, resource, sys, time, warnings
 warnings.simplefilter("ignore")
 from auralize.io import open_volume
 from auralize.pipeline import detect_sources
-from auralize.sources import Thresholds
+from auralize.sources.detection import Thresholds
 import numpy as np
 import pyvista  # libraries every format may load, imported before the baseline
 import vtkmodules.all

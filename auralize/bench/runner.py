@@ -95,7 +95,7 @@ def _smooth_volume(n: int, steps: int = 3, seed: int = 0):
 
 def bench_detection(sizes: list[int]) -> list[BenchRow]:
     from auralize.mapping import get_mapping
-    from auralize.sources import (
+    from auralize.sources.detection import (
         Thresholds,
         _StepCache,
         classify,
@@ -141,10 +141,10 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
 
 
 def bench_synthesis(quick: bool) -> list[BenchRow]:
-    from auralize.datasets import make_explosion
+    from auralize.datasets.synthetic import make_explosion
     from auralize.listener import ListenerPath
-    from auralize.sources import Thresholds, detect
-    from auralize.synthesis import render
+    from auralize.sources.detection import Thresholds, detect
+    from auralize.emitters.synthesis import render
 
     size = 32 if quick else 64
     vol = make_explosion(size=size).load()
@@ -164,7 +164,7 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
     # the first render of a set of tracks builds its runs of sounding pieces
     # (mono; panned layouts: its list of pieces), reused by every later render:
     # other paths, blocks, live
-    from auralize.sources import SourceTracks
+    from auralize.sources.detection import SourceTracks
 
     fresh = SourceTracks(tracks.positions, tracks.q, tracks.radius, tracks.times)
     t0 = time.perf_counter()
@@ -187,7 +187,7 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
                     f"; runs of pieces built once per tracks in {t_prep:.2f} s"),
         ))  # fmt: skip
     rows += _timbre_rows(tracks, path, size)
-    from auralize.bench_immersive import binaural_render_row
+    from auralize.bench.immersive import binaural_render_row
 
     rows.append(binaural_render_row(tracks, path, size))
     # recorded paths (as the viewer records them): captures every 50 or 100 ms
@@ -213,11 +213,11 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
 
 
 def _timbre_rows(tracks: Any, path: Any, size: int) -> list[BenchRow]:
-    """``extended`` and ``tonal`` renders (auralize.timbre) along the synthesis rows' path:
+    """``extended`` and ``tonal`` renders (auralize.emitters.timbre) along the synthesis rows' path:
     the merged envelope tracks (per path), their runs or pieces, the per-type
     tracks and the noise tables are built by the first render of the tracks
     and reused, as for ``physical``."""
-    from auralize.timbre import render_timbre
+    from auralize.emitters.timbre import render_timbre
 
     rows = []
     dur = path.duration
@@ -346,14 +346,14 @@ def run_bench(args: argparse.Namespace) -> int:
     more = emitters_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
-    from auralize.bench_immersive import immersive_rows
+    from auralize.bench.immersive import immersive_rows
 
     more = immersive_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
-    from auralize.bench_output import bench_output
-    from auralize.bench_readers import bench_readers
-    from auralize.viewer.bench import bench_viewer
+    from auralize.bench.output import bench_output
+    from auralize.bench.readers import bench_readers
+    from auralize.bench.viewer import bench_viewer
 
     more = bench_readers(full=getattr(args, "readers_full", False))
     print(format_rows(more), flush=True)
@@ -364,7 +364,7 @@ def run_bench(args: argparse.Namespace) -> int:
         print(format_rows(more), flush=True)
         rows += more
     if importlib.util.find_spec("dask") is not None:
-        from auralize.bench_dask import bench_dask
+        from auralize.bench.distributed import bench_dask
 
         # the full Dask rows write a 27 GB, 256³ x 100-step file: only when asked
         more = bench_dask(not getattr(args, "dask_full", False))
@@ -377,7 +377,7 @@ def run_bench(args: argparse.Namespace) -> int:
         print(format_rows(prow), flush=True)
     rows += prow
     if args.json:
-        from auralize.fileio import atomic_write
+        from auralize.io.files import atomic_write
 
         atomic_write(args.json, json.dumps([asdict(r) for r in rows], indent=2).encode())
     return 0

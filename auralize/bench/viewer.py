@@ -5,8 +5,8 @@ redraw in ≤ 100 ms, and recording (one capture, the path polyline update)
 must add no visible lag (≤ 16 ms per capture: less than one 60 Hz frame).
 Many sources: 100,000 sources must draw at ≥ 10 frames per second and an
 off-screen screenshot with 16,000 sources must take < 5 s (one GPU point set,
-:func:`auralize.scene.add_source_actor`).  Live listening: a camera move must
-be heard within 100 ms (:class:`auralize.viewer.listening.LivePlayer`
+:func:`auralize.scene.pictures.add_source_actor`).  Live listening: a camera move must
+be heard within 100 ms (:class:`auralize.scene.listening.LivePlayer`
 latency, on a sink paced in real time).
 """
 
@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench import BenchRow
+from auralize.bench.runner import BenchRow
 
 
 def bench_viewer(quick: bool) -> list[BenchRow]:
@@ -28,9 +28,9 @@ def bench_viewer(quick: bool) -> list[BenchRow]:
     import pyvista as pv
 
     from auralize.pipeline import load
-    from auralize.viewer.detection import Detection
-    from auralize.viewer.recorder import PathRecorder
-    from auralize.viewer.scene import Scene, camera_pose
+    from auralize.scene.detection import Detection
+    from auralize.scene.recorder import PathRecorder
+    from auralize.scene.view import Scene, camera_pose
 
     size, steps = (32, 8) if quick else (64, 30)
     vol = load("dataset:explosion", size=size, steps=steps)
@@ -79,7 +79,7 @@ def bench_viewer(quick: bool) -> list[BenchRow]:
 
 def _fake_frame(vol: Any, n: int, seed: int = 0) -> Any:
     """``n`` sources at random vertices of ``vol`` with all three types."""
-    from auralize.sources import SourceFrame
+    from auralize.sources.detection import SourceFrame
 
     rng = np.random.default_rng(seed)
     idx = np.sort(rng.choice(vol.n_points, size=min(n, vol.n_points), replace=False))
@@ -96,7 +96,7 @@ def bench_many_sources(quick: bool) -> list[BenchRow]:
     import pyvista as pv
 
     from auralize.pipeline import load
-    from auralize.viewer.scene import Scene
+    from auralize.scene.view import Scene
 
     vol = load("dataset:monopole", size=64, steps=2)
     rows: list[BenchRow] = []
@@ -145,7 +145,7 @@ def bench_live_latency(quick: bool) -> BenchRow:
     import tempfile
 
     from auralize.pipeline import detect_sources, load
-    from auralize.viewer.listening import LiveEngine, LivePlayer, WavSink
+    from auralize.scene.listening import LiveEngine, LivePlayer, WavSink
 
     vol = load("dataset:monopole", size=12, steps=60)
     tracks = detect_sources(vol).tracks()

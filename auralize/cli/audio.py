@@ -1,7 +1,7 @@
 """``auralize play`` and ``auralize devices``: live playback and device listing.
 
 Added to the ``auralize`` command by :func:`add_commands` (see
-:data:`auralize.cli.CORE_COMMAND_MODULES`).
+:data:`auralize.cli.core.CORE_COMMAND_MODULES`).
 
 Examples
 --------
@@ -22,7 +22,7 @@ from typing import Any
 
 def cmd_devices(args: argparse.Namespace) -> int:
     """List output devices and their channel counts."""
-    from auralize.audio import list_devices
+    from auralize.audio.output import list_devices
 
     devs = list_devices()
     if args.json:
@@ -42,7 +42,7 @@ def _gain_arg(text: str) -> str | float:
     """argparse type of ``--gain``: ``auto`` or a finite number > 0 (full scale per pascal)."""
     if text.strip().lower() == "auto":
         return "auto"
-    from auralize.cli import positive_float
+    from auralize.cli.core import positive_float
 
     try:
         return positive_float(text)
@@ -58,7 +58,7 @@ def _device_arg(text: str) -> int | str:
 
 def cmd_play(args: argparse.Namespace) -> int:
     """Detect sources (or load them) and play the path live."""
-    from auralize.cli import (
+    from auralize.cli.core import (
         _load,
         _mapping_fields,
         _progress_wanted,
@@ -66,9 +66,9 @@ def cmd_play(args: argparse.Namespace) -> int:
     )
     from auralize.errors import ParameterError
     from auralize.listener import ListenerPath
-    from auralize.live import play
+    from auralize.audio.live import play
     from auralize.pipeline import detect_sources, plan_render
-    from auralize.spatial import get_layout
+    from auralize.spatial.layouts import get_layout
 
     lay = get_layout(args.layout)  # bad layouts fail before any slow work
     if args.model or args.scene:
@@ -85,7 +85,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     else:
         series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
                                 progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
-    from auralize.synthesis import check_arrival, check_distance
+    from auralize.emitters.synthesis import check_arrival, check_distance
 
     tracks = series.tracks()
     plan = plan_render(vol, tracks, path=path, listener=args.listener, duration=args.duration,
@@ -124,10 +124,10 @@ def _report(args: argparse.Namespace, rep: Any) -> None:
 
 def _play_scene(args: argparse.Namespace) -> int:
     """``auralize play --model/--scene``: the scene rendered block by block into the device."""
-    from auralize.cli import scene_from_args
-    from auralize.cli_options import DEFAULT_RATE
+    from auralize.cli.core import scene_from_args
+    from auralize.cli.options import DEFAULT_RATE
     from auralize.emitters.engine import BlockRenderer
-    from auralize.live import play
+    from auralize.audio.live import play
 
     sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
                                                           "rate": DEFAULT_RATE}, "play")  # fmt: skip
@@ -145,13 +145,13 @@ def _play_scene(args: argparse.Namespace) -> int:
 
 def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
-    from auralize.cli import (
+    from auralize.cli.core import (
         _time_scale,
         add_detect_options,
         add_scene_options,
         add_volume_options,
     )
-    from auralize.cli_options import add_output_options, positive_float
+    from auralize.cli.options import add_output_options, positive_float
 
     p = sub.add_parser("devices", help="list sound output devices and their channel counts")
     p.add_argument("--json", action="store_true")

@@ -58,7 +58,7 @@ def setup_console(*, quiet: bool = False, verbose: int = 0) -> Callable[[], None
         level and propagation, ``warnings.showwarning`` and the progress-bar
         switch are set back to what they were before it.
     """
-    from auralize import progress
+    from auralize.runtime import progress
 
     log = logging.getLogger(LOGGER)
     before = (list(log.handlers), log.level, log.propagate, warnings.showwarning,

@@ -52,7 +52,7 @@ def convert_sources(src: Path, out: Path) -> str:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    from auralize.cli import _field_map
+    from auralize.cli.core import _field_map
     from auralize.io import WRITE_SUFFIXES, save_volume
     from auralize.pipeline import load
 

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from auralize import __version__
-from auralize.cli_options import (  # the shared options; re-exported for older imports
+from auralize.cli.options import (  # the shared options; re-exported for older imports
     DEFAULT_RATE,
     RATE_RANGE_HZ,  # noqa: F401
     add_output_options,
@@ -44,8 +44,8 @@ from auralize.cli_options import (  # the shared options; re-exported for older 
     rate_int,  # noqa: F401
     seed_int,
 )
-from auralize.cli_options import field_map as _field_map
-from auralize.cli_options import vec3 as _vec3
+from auralize.cli.options import field_map as _field_map
+from auralize.cli.options import vec3 as _vec3
 from auralize.errors import (
     AuralizeError,
     DataError,
@@ -185,7 +185,7 @@ FRAME_WORK_ARRAYS = 16
 
 def check_volume_memory(vol: Any) -> None:
     """Refuse a volume whose frames (as the file declares them) cannot fit in memory."""
-    from auralize.resources import require_memory
+    from auralize.runtime.resources import require_memory
 
     nx, ny, nz = (int(d) for d in vol.dims)
     comps = sum(3 if vol.is_vector(n) else 1 for n in vol.field_names)
@@ -198,7 +198,7 @@ def check_volume_memory(vol: Any) -> None:
 
 def check_render_memory(args: argparse.Namespace, duration_s: float, channels: int) -> None:
     """Refuse a render whose audio (duration x rate x channels) cannot fit in memory."""
-    from auralize.resources import audio_bytes, require_memory
+    from auralize.runtime.resources import audio_bytes, require_memory
 
     rate = getattr(args, "rate", 44100)
     if duration_s * rate < 2:
@@ -214,7 +214,7 @@ def check_render_memory(args: argparse.Namespace, duration_s: float, channels: i
 
 
 def _thresholds(args: argparse.Namespace) -> Any:
-    from auralize.sources import Thresholds
+    from auralize.sources.detection import Thresholds
 
     return Thresholds(args.threshold_monopole, args.threshold_dipole, args.threshold_quadrupole,
                       zero_fraction=args.zero_fraction)  # fmt: skip
@@ -293,7 +293,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_dataset(args: argparse.Namespace) -> int:
-    from auralize.datasets import make_dataset
+    from auralize.datasets.synthetic import make_dataset
     from auralize.io import save_volume
 
     vol = make_dataset(args.name, size=args.size, steps=args.steps, seed=args.seed)
@@ -378,8 +378,8 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     from auralize.emitters import Sound
     from auralize.listener import ListenerPath
     from auralize.pipeline import DEFAULT_DURATION, plan_render
-    from auralize.soundscene import load_scene, parse_model_spec, scene_sound
-    from auralize.spatial import get_layout
+    from auralize.scene.soundscene import load_scene, parse_model_spec, scene_sound
+    from auralize.spatial.layouts import get_layout
 
     scene = load_scene(args.scene) if args.scene else None
     models = [*(scene.models if scene else []), *(parse_model_spec(m) for m in args.model or [])]
@@ -399,7 +399,7 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     notes: list[str] = []
     sound = Sound(parts=[], meta={}, name="")
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
-        from auralize.field_model import FieldAuralization
+        from auralize.sources.model import FieldAuralization
 
         vol = _load(args)
         if args.sources:
@@ -437,8 +437,8 @@ def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any])
     """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
     from auralize.emitters import render
     from auralize.pipeline import save_rendered
-    from auralize.spatial import get_layout
-    from auralize.timbre import highpass, loudness
+    from auralize.spatial.layouts import get_layout
+    from auralize.emitters.timbre import highpass, loudness
 
     t = time.perf_counter()
     sound, path, duration, notes = scene_from_args(args, parser_defaults)
@@ -470,7 +470,7 @@ def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any])
 
 def cmd_render(args: argparse.Namespace) -> int:
     from auralize.pipeline import DEFAULT_DURATION, auralize, report_line, save_rendered
-    from auralize.spatial import synthesis_layout
+    from auralize.spatial.layouts import synthesis_layout
 
     if args.model or args.scene:
         return _cmd_render_scene(args, {"layout": "mono", "rate": DEFAULT_RATE})
@@ -505,7 +505,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     _report_unavailable("render", series)
     report = report_line(out, args.output, gain=gain)
     if args.json:
-        from auralize.timbre import loudness
+        from auralize.emitters.timbre import loudness
 
         print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
                           "loudness": loudness(out.audio, out.rate), "report": report},
@@ -547,7 +547,7 @@ def cmd_path(args: argparse.Namespace) -> int:
     # a path around the data moves at most MAX_ORBIT_MACH × c0 in data time when
     # rendered with the automatic time scale (the data's span in the path's duration)
     from auralize.pipeline import MAX_ORBIT_MACH
-    from auralize.synthesis import C0
+    from auralize.emitters.synthesis import C0
 
     reach = MAX_ORBIT_MACH * C0 * span  # metres the listener may travel
     if args.kind == "point":
@@ -606,11 +606,11 @@ def cmd_plugins(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """The main job on a built-in dataset: explosion -> sources -> ring8 WAV + pictures."""
-    from auralize.datasets import make_dataset
+    from auralize.datasets.synthetic import make_dataset
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize, save_rendered
-    from auralize.plots import save_spectrogram
-    from auralize.scene import screenshot
+    from auralize.scene.plots import save_spectrogram
+    from auralize.scene.pictures import screenshot
 
     out_dir = Path(args.output)
     out_dir.mkdir(exist_ok=True)  # the output folder itself; its parent must exist
@@ -643,7 +643,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from auralize.bench import run_bench
+    from auralize.bench.runner import run_bench
 
     return run_bench(args)
 
@@ -766,11 +766,11 @@ def _add_verbosity_flags(parser: argparse.ArgumentParser, *, top: bool = True) -
 
 #: core modules that add their own sub-commands with ``add_commands(subparsers)``
 CORE_COMMAND_MODULES = (
-    "auralize.cli_audio",
-    "auralize.viewer.cli",
-    "auralize.cli_dask",
-    "auralize.cli_warmup",
-    "auralize.cli_convert",
+    "auralize.cli.audio",
+    "auralize.cli.view",
+    "auralize.cli.distributed",
+    "auralize.cli.warmup",
+    "auralize.cli.convert",
 )
 
 
@@ -790,8 +790,8 @@ def _extend_with_core_modules(sub: Any) -> None:
 
 
 def _extend_with_plugins(sub: Any) -> None:
-    """Let plugins add their own sub-commands (see :mod:`auralize.commands`)."""
-    from auralize.commands import add_plugin_commands
+    """Let plugins add their own sub-commands (see :mod:`auralize.cli.plugin_commands`)."""
+    from auralize.cli.plugin_commands import add_plugin_commands
 
     add_plugin_commands(sub)
 
@@ -843,7 +843,7 @@ def error_message(exc: BaseException) -> tuple[str, int]:
 
 def _check_outputs(args: argparse.Namespace) -> None:
     """Refuse an output path that cannot be written before any slow work."""
-    from auralize.fileio import check_output_path
+    from auralize.io.files import check_output_path
 
     out = getattr(args, "output", None)
     if isinstance(out, str | Path) and str(out) != "-":
@@ -852,8 +852,8 @@ def _check_outputs(args: argparse.Namespace) -> None:
         if hasattr(args, "normalize") and suffix not in (".wav", ".flac"):
             raise ParameterError(f"{out}: audio output must end in .wav or .flac")
     if getattr(args, "hrtf", None):
-        from auralize.sofa import read_sofa
-        from auralize.spatial import get_layout, is_binaural
+        from auralize.spatial.sofa import read_sofa
+        from auralize.spatial.layouts import get_layout, is_binaural
 
         if not is_binaural(get_layout(getattr(args, "layout", "mono"))):
             raise ParameterError(f"--hrtf {args.hrtf}: HRTFs apply to --layout binaural only, "
@@ -863,12 +863,12 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``auralize`` command; return the exit status (see :data:`EXIT_CODES`)."""
-    from auralize.audio import SilentAudioWarning
+    from auralize.audio.output import SilentAudioWarning
 
     parser = build_parser()
     args = parser.parse_args(argv)
     name = f"auralize {getattr(args, 'command', '')}".strip()
-    from auralize.console import setup_console
+    from auralize.cli.console import setup_console
 
     restore_console = setup_console(quiet=args.quiet, verbose=args.verbose)
     try:
@@ -883,7 +883,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("always")
             warnings.simplefilter("ignore", DeprecationWarning)
             warnings.simplefilter("ignore", PendingDeprecationWarning)
-            from auralize.spatial import default_hrtf
+            from auralize.spatial.layouts import default_hrtf
 
             with default_hrtf(getattr(args, "hrtf", None)):  # every renderer's binaural stage
                 status = int(args.func(args) or 0)

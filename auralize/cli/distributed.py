@@ -4,14 +4,14 @@
 on a laptop, a workstation or a cluster:
 
 ``auralize detect PATH -o S.h5 --scheduler distributed --workers 2``
-    Distributed, resumable detection (:mod:`auralize.scale.detect`); any of
+    Distributed, resumable detection (:mod:`auralize.distributed.detect`); any of
     ``--scheduler``, ``--address`` or ``--workers`` selects it.  Rerun the
     same command after an interruption to resume; ``--restart`` starts over.
 ``auralize render PATH ... --scheduler threads --workers 2``
     Synthesis in independent tasks over the workers, one per (block, source
     group) (and detection too, unless ``--sources`` is given).
 ``auralize dataset explosion -o big.h5 --size 256 --steps 100 --chunked``
-    The big-data recipe (:func:`auralize.scale.write_chunked_explosion`).
+    The big-data recipe (:func:`auralize.distributed.write_chunked_explosion`).
 
 It also adds ``auralize scale-detect`` and ``auralize scale-render``, the
 same as ``detect``/``render`` with a Dask scheduler, for when the core
@@ -33,7 +33,7 @@ from auralize.errors import ParameterError
 
 def add_scheduler_options(p: argparse.ArgumentParser) -> None:
     """``--scheduler``, ``--address``, ``--workers`` and the detection chunking options."""
-    from auralize.cli import positive_float, positive_int
+    from auralize.cli.core import positive_float, positive_int
 
     g = p.add_argument_group("dask (out-of-core and distributed runs)")
     g.add_argument("--scheduler", choices=["sync", "threads", "processes", "distributed"],
@@ -90,7 +90,7 @@ def wants_dask(args: argparse.Namespace) -> bool:
 
 
 def _runner(args: argparse.Namespace) -> Any:
-    from auralize.scale import Runner
+    from auralize.distributed import Runner
 
     sched = args.scheduler or ("distributed" if args.address or args.workers else "sync")
     return Runner(sched, address=args.address, workers=args.workers, timeout=args.timeout,
@@ -99,9 +99,9 @@ def _runner(args: argparse.Namespace) -> Any:
 
 
 def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:
-    from auralize.cli import _mapping_fields, _thresholds
+    from auralize.cli.core import _mapping_fields, _thresholds
     from auralize.pipeline import resolve_mapping
-    from auralize.scale import detect_distributed
+    from auralize.distributed import detect_distributed
 
     return detect_distributed(
         vol, mapping=resolve_mapping(vol, args.mapping, **_mapping_fields(args)),
@@ -113,7 +113,7 @@ def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any
 
 def cmd_detect_dask(args: argparse.Namespace) -> int:
     """``auralize detect`` on Dask: resumable, chunked, with any scheduler."""
-    from auralize.cli import _load
+    from auralize.cli.core import _load
 
     vol = _load(args)
     t = time.perf_counter()
@@ -142,12 +142,12 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
 
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
-    from auralize.cli import _load, check_render_memory
+    from auralize.cli.core import _load, check_render_memory
     from auralize.listener import ListenerPath
     from auralize.pipeline import plan_render, save_rendered
-    from auralize.scale import render_distributed
-    from auralize.synthesis import check_arrival
-    from auralize.timbre import highpass
+    from auralize.distributed import render_distributed
+    from auralize.emitters.synthesis import check_arrival
+    from auralize.emitters.timbre import highpass
 
     if getattr(args, "model", None) or getattr(args, "scene", None):
         raise ParameterError("--model/--scene render on this machine; leave out the Dask options "
@@ -161,7 +161,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     highpass(np.zeros((1, 0)), args.rate, getattr(args, "highpass", 0.0))  # validate early
     path = ListenerPath.from_csv(args.path) if args.path else None
     from auralize.pipeline import DEFAULT_DURATION
-    from auralize.spatial import get_layout
+    from auralize.spatial.layouts import get_layout
 
     duration = args.duration or (path.duration if path is not None else DEFAULT_DURATION)
     check_render_memory(args, duration, get_layout(args.layout).n_channels)
@@ -186,7 +186,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
             interp=args.interp, layout=args.layout, duration=plan.duration, bounds=vol.bounds,
             block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
         )  # fmt: skip
-    from auralize.timbre import AUDIBLE_SHARE, loudness
+    from auralize.emitters.timbre import AUDIBLE_SHARE, loudness
 
     share = loudness(out.audio, args.rate)["share_above"]
     print(plan.mapping_text + (" (auto)" if plan.auto else ""))
@@ -212,7 +212,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
 
 def cmd_dataset_chunked(args: argparse.Namespace) -> int:
     """``auralize dataset explosion --chunked``: the big-data recipe, in bounded memory."""
-    from auralize.scale import write_chunked_explosion
+    from auralize.distributed import write_chunked_explosion
 
     if args.name != "explosion":
         raise ParameterError(f"--chunked writes the 'explosion' dataset, not {args.name!r}")
@@ -240,7 +240,7 @@ def _chain(parser: argparse.ArgumentParser, dask_cmd: Any) -> None:
 
 def add_commands(sub: Any) -> None:
     """Add the Dask options to ``detect``, ``render`` and ``dataset`` and two commands."""
-    from auralize.cli import (
+    from auralize.cli.core import (
         add_detect_options,
         add_output_options,
         add_render_options,

@@ -1,6 +1,6 @@
 """The options every audio-writing command shares, importable without the whole CLI.
 
-Plugins declare their sub-commands with these (``from auralize.cli_options
+Plugins declare their sub-commands with these (``from auralize.cli.options
 import add_output_options``), so that ``-o``, ``--layout``, ``--rate``,
 ``--normalize``, ``--format``, ``--limit``, ``--listener``/``--path`` and
 ``--duration`` mean the same in ``auralize render``, ``auralize play`` and

@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from auralize.cli import add_detect_options, add_volume_options
+from auralize.cli.core import add_detect_options, add_volume_options
 from auralize.errors import MissingDependencyError, ParameterError
 
 
@@ -67,7 +67,7 @@ def _size(text: str) -> tuple[int, int]:
         raise ParameterError(f"--window-size must be WxH, e.g. 1200x900; got {text!r}") from None
     if w < 16 or h < 16:
         raise ParameterError(f"--window-size must be at least 16x16, got {text!r}")
-    from auralize.resources import require_memory
+    from auralize.runtime.resources import require_memory
 
     # the render window's colour and depth buffers, plus the screenshot's RGB copy
     require_memory(float(w) * h * 12, f"--window-size {text}", hint="choose a smaller window")
@@ -91,8 +91,8 @@ def cmd_view(args: argparse.Namespace) -> int:
 def view_options(args: argparse.Namespace) -> dict[str, Any]:
     """What ``auralize view``'s options ask for: the session ``data`` entry, the field to
     display, the mapping (name and field names) and the thresholds."""
-    from auralize.cli import _field_map, _mapping_fields, _thresholds
-    from auralize.viewer.session import data_spec
+    from auralize.cli.core import _field_map, _mapping_fields, _thresholds
+    from auralize.scene.session import data_spec
 
     items = list(getattr(args, "field", None) or [])
     plain = [f for f in items if "=" not in f]
@@ -115,12 +115,12 @@ def screenshot(args: argparse.Namespace) -> Path:
     _prefer_egl()
     import pyvista as pv
 
-    from auralize.fileio import atomic_path, check_output_path
+    from auralize.io.files import atomic_path, check_output_path
     from auralize.listener import ListenerPath
-    from auralize.sources import Thresholds
-    from auralize.viewer.detection import Detection
-    from auralize.viewer.scene import Scene
-    from auralize.viewer.session import SessionState, load_data
+    from auralize.sources.detection import Thresholds
+    from auralize.scene.detection import Detection
+    from auralize.scene.view import Scene
+    from auralize.scene.session import SessionState, load_data
 
     # refused before the data is read: the folder must exist (outputs never create folders)
     out = check_output_path(args.screenshot)

@@ -8,8 +8,8 @@ from typing import Any
 
 
 def cmd_warmup(args: argparse.Namespace) -> int:
-    from auralize._numba_setup import cache_dir
-    from auralize.warmup import warmup
+    from auralize.runtime.jit import cache_dir
+    from auralize.runtime.warmup import warmup
 
     print(f"auralize warmup: compiling the numba kernels into {cache_dir()} "
           "(minutes the first time, seconds afterwards) ...", flush=True)  # fmt: skip

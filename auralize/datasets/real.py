@@ -4,7 +4,7 @@ For every dataset in ``auralize/data/`` that this project did not make (plus the
 generated netCDF case), :func:`compute` records the reader's grid and times,
 the valid-point ratio, and — for series of two steps or more — the per-step
 source counts and a short rendered clip's RMS and spectral centroid.
-``python -m auralize.realdata [--update] [NAME ...]`` compares them with (or
+``python -m auralize.datasets.real [--update] [NAME ...]`` compares them with (or
 rewrites) ``auralize/data/regression/realdata.json``; ``tests/test_realdata.py``
 calls :func:`compare`.
 
@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.fileio import atomic_write
+from auralize.io.files import atomic_write
 
 DATASETS = Path(__file__).resolve().parent / "data"
 STORE = DATASETS / "regression" / "realdata.json"
@@ -92,7 +92,7 @@ def compute(name: str) -> dict[str, Any]:
     from auralize.io import ResampledWarning, open_volume
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize, detect_sources
-    from auralize.regression import spectral_centroid
+    from auralize.datasets.regression import spectral_centroid
 
     case = CASES[name]
     out: dict[str, Any] = {}
@@ -163,7 +163,7 @@ def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m auralize.realdata")
+    ap = argparse.ArgumentParser(prog="python -m auralize.datasets.real")
     ap.add_argument("names", nargs="*", default=list(CASES))
     ap.add_argument("--update", action="store_true", help="rewrite the stored figures")
     args = ap.parse_args(argv)

@@ -1,6 +1,6 @@
 """Dataset regression: figures a dataset must keep producing, stored in ``auralize/data/regression``.
 
-``python -m auralize.regression [--update] [NAME ...]`` recomputes the figures
+``python -m auralize.datasets.regression [--update] [NAME ...]`` recomputes the figures
 of the built-in datasets and compares them with (or rewrites) the stored JSON.
 The test suite calls :func:`compare` so a change in detection or synthesis
 that moves these figures is caught.
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.fileio import atomic_write
+from auralize.io.files import atomic_write
 
 #: shipped with the package (wheel and checkout alike)
 STORE = Path(__file__).resolve().parent / "data" / "regression"
@@ -44,10 +44,10 @@ def spectral_centroid(x: np.ndarray, rate: int) -> float:
 
 def compute(name: str) -> dict[str, Any]:
     """Recompute the figures of one case."""
-    from auralize.datasets import make_dataset
+    from auralize.datasets.synthetic import make_dataset
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize
-    from auralize.sources import Thresholds
+    from auralize.sources.detection import Thresholds
 
     case = CASES[name]
     vol = make_dataset(case["dataset"], size=case["size"], steps=case["steps"], seed=case["seed"])
@@ -84,7 +84,7 @@ def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m auralize.regression")
+    ap = argparse.ArgumentParser(prog="python -m auralize.datasets.regression")
     ap.add_argument("names", nargs="*", default=list(CASES))
     ap.add_argument("--update", action="store_true", help="rewrite the stored figures")
     args = ap.parse_args(argv)

@@ -2,24 +2,24 @@
 
 The same pipeline, on a laptop, a workstation or a cluster:
 
-* :mod:`auralize.scale.chunked` — lazy chunked volumes (Dask arrays, one
+* :mod:`auralize.distributed.chunked` — lazy chunked volumes (Dask arrays, one
   time step per chunk; z-slabs with ghost planes);
-* :mod:`auralize.scale.detect` — distributed, resumable detection,
-  bit-identical to :func:`auralize.sources.detect`;
-* :mod:`auralize.scale.synth` — synthesis in independent blocks;
-* :mod:`auralize.scale.runner` — schedulers (sync, threads, processes,
+* :mod:`auralize.distributed.detect` — distributed, resumable detection,
+  bit-identical to :func:`auralize.sources.detection.detect`;
+* :mod:`auralize.distributed.synth` — synthesis in independent blocks;
+* :mod:`auralize.distributed.runner` — schedulers (sync, threads, processes,
   distributed, ``--address``, local clusters);
-* :mod:`auralize.scale.bigdata` — the chunked big-data explosion recipe.
+* :mod:`auralize.distributed.bigdata` — the chunked big-data explosion recipe.
 
 Dask is optional (``pip install "auralize[dask]"``): ``import auralize`` and
-``import auralize.scale`` do not import it; the functions that need it raise
+``import auralize.distributed`` do not import it; the functions that need it raise
 :class:`~auralize.errors.MissingDependencyError` with the install command.
 """
 
 from __future__ import annotations
 
-from auralize.scale.bigdata import AnalyticExplosion, write_chunked_explosion
-from auralize.scale.chunked import (
+from auralize.distributed.bigdata import AnalyticExplosion, write_chunked_explosion
+from auralize.distributed.chunked import (
     DaskFrames,
     SlabFrames,
     chunked_volume,
@@ -27,15 +27,15 @@ from auralize.scale.chunked import (
     to_dask,
     volume_from_dask,
 )
-from auralize.scale.detect import (
+from auralize.distributed.detect import (
     H5Frames,
     StateStore,
     detect_distributed,
     plan_chunks,
     plan_slabs,
 )
-from auralize.scale.runner import SCHEDULERS, RunError, Runner, SchedulerError
-from auralize.scale.synth import render_distributed
+from auralize.distributed.runner import SCHEDULERS, RunError, Runner, SchedulerError
+from auralize.distributed.synth import render_distributed
 
 __all__ = [
     "SCHEDULERS",

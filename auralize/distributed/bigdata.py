@@ -1,7 +1,7 @@
 """Big-data dataset recipe: the explosion written step by step in bounded memory.
 
 :func:`write_chunked_explosion` writes an auralize HDF5 volume file (format
-v1) with the fields of :func:`auralize.datasets.make_explosion`
+v1) with the fields of :func:`auralize.datasets.synthetic.make_explosion`
 (``log10_density`` and ``velocity``), one time step per HDF5 chunk, generating
 and writing one z-slab of one step at a time, so memory stays at a few slabs
 whatever the grid and the number of steps.
@@ -186,7 +186,7 @@ def write_chunked_explosion(
     """
     import h5py
 
-    from auralize.datasets import _check_size, _check_steps
+    from auralize.datasets.synthetic import _check_size, _check_steps
     from auralize.io._common import fsync_path, temp_sibling
 
     p = Path(path).expanduser()
@@ -204,7 +204,7 @@ def write_chunked_explosion(
     if generator == "auto":
         generator = "particles" if size <= PARTICLE_MAX_SIZE else "analytic"
     if generator == "particles":
-        from auralize.datasets import make_explosion
+        from auralize.datasets.synthetic import make_explosion
 
         vol = make_explosion(size=size, steps=steps, seed=seed)
         times, spacing, attrs = vol.times, vol.spacing, dict(vol.attrs)

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DataError, FormatError
-from auralize.scale._dask import require
+from auralize.distributed._dask import require
 from auralize.volume import FrameSource, TimeVolume
 
 

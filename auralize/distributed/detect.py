@@ -1,4 +1,4 @@
-"""Distributed, resumable source detection (same results as :func:`auralize.sources.detect`).
+"""Distributed, resumable source detection (same results as :func:`auralize.sources.detection.detect`).
 
 The work is cut into tasks of ``chunk_steps`` consecutive time steps × one
 z-slab of the grid:
@@ -16,10 +16,10 @@ z-slab of the grid:
   plane.  Mappings of unknown reach run on whole frames.
 
 Every vertex is computed by the same code on the same numbers as in the
-serial :func:`~auralize.sources.detect`, so the sources are bit-identical,
+serial :func:`~auralize.sources.detection.detect`, so the sources are bit-identical,
 whatever the scheduler, chunking or slabbing.  Relative thresholds use the
 series' peak strengths over the same sample steps as
-:func:`~auralize.sources.peak_strengths` (computed by tasks too); the
+:func:`~auralize.sources.detection.peak_strengths` (computed by tasks too); the
 ``paper-density`` mapping's series-wide range and gradient scale are gathered
 by tasks as well (minima and maxima are exact in any order).
 
@@ -74,9 +74,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize import _kernels as K
+from auralize.sources import _kernels as K
 from auralize.errors import FormatError, ParameterError
-from auralize.fileio import atomic_path
+from auralize.io.files import atomic_path
 from auralize.mapping import (
     AcousticMapping,
     CFDMapping,
@@ -84,9 +84,9 @@ from auralize.mapping import (
     PaperDensityMapping,
     get_mapping,
 )
-from auralize.scale.chunked import slab_volume
-from auralize.scale.runner import RunError, Runner, numba_threads
-from auralize.sources import (
+from auralize.distributed.chunked import slab_volume
+from auralize.distributed.runner import RunError, Runner, numba_threads
+from auralize.sources.detection import (
     AUTO_SAMPLE_STEPS,
     SourceFrame,
     SourceSeries,
@@ -254,7 +254,7 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
               threads: int | None, qmean: NDArray[np.float64] | None = None) -> StrengthStats:  # fmt: skip
     """|S| statistics of each type over ``steps`` in the slab's kept planes.
 
-    Like :func:`~auralize.sources.strength_stats` (the same sampled points,
+    Like :func:`~auralize.sources.detection.strength_stats` (the same sampled points,
     chosen by global index), mapped frames are reused between neighbouring
     sample steps.
     """
@@ -277,7 +277,7 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
 
 def stress_task(volume: TimeVolume, mapping: AcousticMapping, a: int, b: int,
                 slab: Slab) -> tuple[Slab, NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:  # fmt: skip
-    """:func:`~auralize.sources.stress_block_sum` of steps ``[a, b)`` in the slab's kept planes."""
+    """:func:`~auralize.sources.detection.stress_block_sum` of steps ``[a, b)`` in the slab's kept planes."""
     sub, mapping = _local(volume, mapping, slab)
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
     ref, dsum, count = stress_block_sum(sub, mapping, a, b)
@@ -651,7 +651,7 @@ def _steady_q(blocks: list[list[Any]], shape: tuple[int, int, int],
     """The steady quadrupole strength from the stress tasks' partial sums.
 
     ``blocks[i]`` holds block i's ``(slab, ref, dsum, count)`` per slab; the
-    blocks are added in order, as :func:`~auralize.sources.stress_sum` does.
+    blocks are added in order, as :func:`~auralize.sources.detection.stress_sum` does.
     """
     ref = np.zeros((6, *shape))
     dsum = np.zeros((6, *shape))
@@ -723,14 +723,14 @@ def detect_distributed(
     log: Callable[[str], None] | None = print,
     **mapping_fields: str,
 ) -> SourceSeries:
-    """Detect sources like :func:`auralize.sources.detect`, in parallel, out of core, resumably.
+    """Detect sources like :func:`auralize.sources.detection.detect`, in parallel, out of core, resumably.
 
     Parameters
     ----------
     volume : TimeVolume
         At least two steps; read lazily, one slab of one step at a time.
     mapping, thresholds, **mapping_fields
-        As for :func:`auralize.sources.detect`.
+        As for :func:`auralize.sources.detection.detect`.
     output : path-like, optional
         ``.h5``/``.hdf5`` or ``.pvd`` sources file, written when all steps are
         done; finished chunks are kept in ``OUTPUT.parts/`` until then, and a
@@ -740,7 +740,7 @@ def detect_distributed(
         sources to ``OUTPUT.parts/`` themselves: the workers must see
         ``OUTPUT``'s folder under the same path.
     runner : Runner, optional
-        An open :class:`~auralize.scale.runner.Runner`; otherwise one is made
+        An open :class:`~auralize.distributed.runner.Runner`; otherwise one is made
         from ``scheduler``, ``address`` and ``workers`` and closed afterwards.
     chunk_steps : int
         Time steps per task (each task reads one extra step on each side).
@@ -749,7 +749,7 @@ def detect_distributed(
     restart : bool
         Discard saved state of an earlier run instead of resuming it.
     steady, delta_v
-        As for :func:`auralize.sources.detect`; the steady quadrupole
+        As for :func:`auralize.sources.detection.detect`; the steady quadrupole
         strength is gathered by tasks (per block of steps and slab).
     on_chunk : callable, optional
         Called with the ``range`` of steps of every chunk just saved (and
@@ -775,7 +775,7 @@ def detect_distributed(
 
     Examples
     --------
-    >>> from auralize.datasets import make_monopole
+    >>> from auralize.datasets.synthetic import make_monopole
     >>> vol = make_monopole(size=12, steps=6)
     >>> s = detect_distributed(vol, thresholds=Thresholds(1e-3, 1e-3, 1e-3), chunk_steps=2,
     ...                        log=None)

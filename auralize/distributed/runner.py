@@ -20,10 +20,10 @@ scheduler      what runs the tasks
 =============  ============================================================
 
 Every worker of a ``distributed`` cluster (started here or at ``address``, and
-any worker joining later) first runs :class:`~auralize.scale.worker_setup.WorkerSetup`
+any worker joining later) first runs :class:`~auralize.distributed.worker_setup.WorkerSetup`
 once: it loads the numba kernels and undoes the allocator setting of Dask's
 nanny that makes every large array page-fault anew (see
-:mod:`auralize.scale.worker_setup`; ``setup_workers=False`` skips it).  The
+:mod:`auralize.distributed.worker_setup`; ``setup_workers=False`` skips it).  The
 time this took is ``Runner.setup_seconds``.
 
 A worker that dies mid-run is replaced by the cluster and its tasks are
@@ -44,7 +44,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 from auralize.errors import AuralizeError, ParameterError
-from auralize.scale._dask import require
+from auralize.distributed._dask import require
 
 SCHEDULERS = ("sync", "threads", "processes", "distributed")
 #: seconds to wait for a scheduler at ``--address`` before giving up
@@ -89,7 +89,7 @@ class Runner:
     log : callable, optional
         Called with one-line messages (the dashboard address); default print.
     setup_workers : bool
-        Register :class:`~auralize.scale.worker_setup.WorkerSetup` on the
+        Register :class:`~auralize.distributed.worker_setup.WorkerSetup` on the
         cluster's workers (``distributed`` only).
     profile : bool
         Keep the statistical profiler of the local cluster's workers (the
@@ -221,7 +221,7 @@ class Runner:
 
     def _setup_workers(self) -> None:
         """Register the worker set-up plugin; it runs on every worker before this returns."""
-        from auralize.scale.worker_setup import WorkerSetup, setup_report
+        from auralize.distributed.worker_setup import WorkerSetup, setup_report
 
         self.client.register_plugin(WorkerSetup())
         self.worker_setup = sorted(self.client.run(setup_report).values(),

@@ -14,7 +14,7 @@ work splits two ways, and every task is one (block, source group) pair:
   explosion, four contiguous groups of equal weight took 23 to 30 s.  The
   audio of a block is the sum of its groups' renders, added in group order
   (the result does not depend on which task finishes first).
-* **blocks** of playback time: :func:`auralize.synthesis.render` evaluates
+* **blocks** of playback time: :func:`auralize.emitters.synthesis.render` evaluates
   any block ``[start, start + duration)`` on its own; the retarded-time
   look-back a block needs (sources heard in it were emitted up to
   ``D_max / c0`` earlier) is found inside ``render`` from the whole tracks.
@@ -35,10 +35,10 @@ from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.scale.runner import Runner, numba_threads
-from auralize.sources import SourceTracks
-from auralize.spatial import get_layout, output_stage
-from auralize.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
+from auralize.distributed.runner import Runner, numba_threads
+from auralize.sources.detection import SourceTracks
+from auralize.spatial.layouts import get_layout, output_stage
+from auralize.emitters.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
 
 #: default block length: at most this many samples × channels per task (its
 #: accumulator takes 32 bytes per value: 1 GiB)
@@ -212,12 +212,12 @@ def render_distributed(
     log: Any = print,
     lead: float = 0.0,
 ) -> Rendered:
-    """:func:`auralize.synthesis.render` split into (block, source group) tasks over Dask workers.
+    """:func:`auralize.emitters.synthesis.render` split into (block, source group) tasks over Dask workers.
 
     Parameters
     ----------
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, lead
-        As for :func:`auralize.synthesis.render`.
+        As for :func:`auralize.emitters.synthesis.render`.
     block_seconds : float, optional
         Playback seconds per block.  Every block pays for the retarded-time
         look-back it needs, so fewer, longer blocks do less work in all.
@@ -228,7 +228,7 @@ def render_distributed(
         :func:`plan_tasks`: groups for many sounding pieces, blocks for long
         outputs and few pieces, two tasks per worker.
     runner, scheduler, address, workers
-        Where to run (see :class:`~auralize.scale.runner.Runner`).
+        Where to run (see :class:`~auralize.distributed.runner.Runner`).
 
     Returns
     -------

@@ -23,7 +23,7 @@ of the work it is given, and that a long-running cluster pays only once:
   still falls back after a task.
 
 :class:`WorkerSetup` is a ``distributed`` worker plugin doing both; the
-:class:`~auralize.scale.runner.Runner` registers it on every cluster it
+:class:`~auralize.distributed.runner.Runner` registers it on every cluster it
 connects to or starts (also on workers that join later, e.g. replacements
 of a worker that died).
 """
@@ -75,11 +75,11 @@ def warm_kernels() -> dict[str, Any]:
 
         import auralize.io
         import auralize.io.hdf5  # noqa: F401
-        from auralize.datasets import make_monopole
+        from auralize.datasets.synthetic import make_monopole
         from auralize.listener import ListenerPath
-        from auralize.scale.runner import numba_threads
-        from auralize.sources import Thresholds, detect
-        from auralize.synthesis import render
+        from auralize.distributed.runner import numba_threads
+        from auralize.sources.detection import Thresholds, detect
+        from auralize.emitters.synthesis import render
 
         with numba_threads(1):
             vol = make_monopole(size=8, steps=3)

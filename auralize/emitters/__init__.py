@@ -11,8 +11,8 @@ along one listener path.  Three kinds of parts make up a :class:`Sound`:
     object), monopole ``(S, n)`` or dipole ``(S, 3, n)``;
 :class:`FieldSources`
     the monopole/dipole/quadrupole sources detected in a volume
-    (:class:`auralize.sources.SourceTracks`), sampled at the data's steps and
-    rendered by the piecewise-Hermite kernels of :mod:`auralize.synthesis`;
+    (:class:`auralize.sources.detection.SourceTracks`), sampled at the data's steps and
+    rendered by the piecewise-Hermite kernels of :mod:`auralize.emitters.synthesis`;
 a model's own part
     any object with ``name`` and ``render_part(path, *, rate, layout,
     duration, start, c0, backend) -> Rendered`` for closed forms that are
@@ -32,7 +32,7 @@ with ``a_s = q_s`` for a monopole, ``a_s = û_s · G_s`` for a dipole (û the
 unit vector from the emitter to the listener), ``g(D) = 1/D^e`` (``e = 1``,
 "physical"; ``e = 3``, "paper" for paper 000's 1/r³ erratum), and D clamped
 to the emitter's radius.  Panning uses the layout's own law on the
-emitter's direction in the listener's frame (:func:`auralize.spatial.pan_gains`).
+emitter's direction in the listener's frame (:func:`auralize.spatial.layouts.pan_gains`).
 """
 
 from __future__ import annotations
@@ -171,14 +171,14 @@ class Emitters:
 
 @dataclass
 class FieldSources:
-    """Sources detected in a volume, rendered by :func:`auralize.synthesis.render`.
+    """Sources detected in a volume, rendered by :func:`auralize.emitters.synthesis.render`.
 
     ``time_scale`` playback seconds per data second, ``lead`` data seconds
     skipped at the start, ``interp`` the strength interpolation (§3.2.4.3),
-    ``timbre`` one of :data:`auralize.timbre.TIMBRES`.
+    ``timbre`` one of :data:`auralize.emitters.timbre.TIMBRES`.
     """
 
-    tracks: Any  # auralize.sources.SourceTracks
+    tracks: Any  # auralize.sources.detection.SourceTracks
     time_scale: float = 1.0
     lead: float = 0.0
     interp: str = "cubic"

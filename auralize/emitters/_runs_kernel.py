@@ -1,6 +1,6 @@
 """Compiled unpanned synthesis by runs of pieces: one emission per knot.
 
-Same sum as :func:`auralize._synth_kernel.render` (see its module docstring
+Same sum as :func:`auralize.emitters._synth_kernel.render` (see its module docstring
 for the pieces, the Hermite cubic of f = q(τ)/D on each piece and the
 skewed accumulator), organised so that consecutive pieces of a source share
 their common knot:
@@ -34,8 +34,8 @@ import math
 import numba
 import numpy as np
 
-from auralize._numba_setup import configure as _configure_numba
-from auralize._synth_kernel import (
+from auralize.runtime.jit import configure as _configure_numba
+from auralize.emitters._synth_kernel import (
     _CHUNK,
     _LINE,
     _NJIT,
@@ -266,7 +266,7 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
     task_rows[j, 0]..task_rows[j, 1]-1 (the runs cut at its first and last
     knot rows) into its accumulator window (task_blk[j] = first block,
     number of blocks, offset in ``acc``, first sample, as in
-    :func:`auralize._synth_kernel.render`): tasks split time, so their
+    :func:`auralize.emitters._synth_kernel.render`): tasks split time, so their
     windows barely overlap.  The other arguments are those of that
     function.  Returns the number of
     emissions outside the windows (an internal error).
@@ -378,7 +378,7 @@ def find_runs(q, tn, cubic, counts_only, src, r0, length):  # type: ignore[no-un
     """Runs of consecutive sounding pieces of tracks q (K, T) with padded knot
     times tn (T + 2): piece n (padded knots n, n + 1) sounds when q or (cubic)
     its tangent is non-zero at either knot (as in
-    :func:`auralize._synth_kernel.build_pieces`).  With ``counts_only``
+    :func:`auralize.emitters._synth_kernel.build_pieces`).  With ``counts_only``
     returns the number of runs; else fills each run's source, first piece
     and number of pieces."""
     K, T = q.shape

@@ -12,9 +12,9 @@ extrapolation of the previous control points) and its rate ``dτ/dt = (1 − n·
 distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
 projection on the unit vector n from the emitter to the listener, and the
 layout's panning gains (the synthesis kernel's own law,
-:func:`auralize._synth_kernel._gains`: pairwise 2-D VBAP, 3-D VBAP for
+:func:`auralize.emitters._synth_kernel._gains`: pairwise 2-D VBAP, 3-D VBAP for
 layouts with elevation, the AmbiX encoding for ``ambix1..3``; equal to
-:func:`auralize.spatial.pan_gains`).  Inside
+:func:`auralize.spatial.layouts.pan_gains`).  Inside
 a block the emission index is the cubic Hermite interpolant of τ and dτ/dt,
 the weights and gains are interpolated linearly; a block holding a listener
 capture (where the listener's velocity jumps) is split there into two linear
@@ -47,9 +47,9 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize._numba_setup import configure as _configure_numba
-from auralize._synth_kernel import _gains
-from auralize.parallel import N_THREADS, run_pieces
+from auralize.runtime.jit import configure as _configure_numba
+from auralize.emitters._synth_kernel import _gains
+from auralize.emitters.parallel import N_THREADS, run_pieces
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
@@ -397,7 +397,7 @@ def _box(a, b):  # type: ignore[no-untyped-def]
 
 
 def _run(fn: Callable[[int], None], n: int, nt: int) -> None:
-    """``fn(i)`` for every i < n on up to ``nt`` threads (:func:`auralize.parallel.run_pieces`)."""
+    """``fn(i)`` for every i < n on up to ``nt`` threads (:func:`auralize.emitters.parallel.run_pieces`)."""
     run_pieces(fn, n, nt)
 
 
@@ -516,7 +516,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     audio, meta (``internal_rate_hz``, ``signal_rate_hz``, ``block``, ``threads``)
     """
     from auralize.emitters import law_exponent
-    from auralize.synthesis import _pan_table, _panning_arrays
+    from auralize.emitters.synthesis import _pan_table, _panning_arrays
 
     lay = layout
     n_ch = lay.n_channels

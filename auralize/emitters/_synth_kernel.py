@@ -1,4 +1,4 @@
-"""Compiled core of the retarded-time synthesis (see :mod:`auralize.synthesis`).
+"""Compiled core of the retarded-time synthesis (see :mod:`auralize.emitters.synthesis`).
 
 Why numba: the work is a few hundred floating-point operations per (source,
 step) piece with data-dependent control (pieces across listener captures or
@@ -54,7 +54,7 @@ import math
 import numba
 import numpy as np
 
-from auralize._numba_setup import configure as _configure_numba
+from auralize.runtime.jit import configure as _configure_numba
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
@@ -225,7 +225,7 @@ def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):
 
 @numba.njit(inline="always", **_NJIT)
 def _gains3(x, y, z, tab, out):  # type: ignore[no-untyped-def]
-    """3-D VBAP (the law of :func:`auralize.spatial.vbap3d_gains`) for direction
+    """3-D VBAP (the law of :func:`auralize.spatial.layouts.vbap3d_gains`) for direction
     (x, y, z) = (forward, left, up) in the listener frame; ``out`` zeroed.
 
     ``tab`` rows: a hull triangle — the inverse of the matrix of its speaker
@@ -283,7 +283,7 @@ def _gains3(x, y, z, tab, out):  # type: ignore[no-untyped-def]
 
 @numba.njit(inline="always", **_NJIT)
 def _gains_sh(x, y, z, tab, out):  # type: ignore[no-untyped-def]
-    """AmbiX encoding gains (the law of :func:`auralize.ambisonics.sh_gains`:
+    """AmbiX encoding gains (the law of :func:`auralize.spatial.ambisonics.sh_gains`:
     real SN3D spherical harmonics in ACN order, no Condon–Shortley phase) for
     direction (x, y, z) = (forward, left, up) in the listener frame, any
     length (normalised here; zero gives W = 1 and 0 elsewhere).

@@ -11,8 +11,8 @@ from numpy.typing import NDArray
 from auralize.emitters import C0, Emitters, FieldSources, Part, Sound, law_exponent
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout, output_stage
-from auralize.synthesis import Rendered
+from auralize.spatial.layouts import Layout, output_stage
+from auralize.emitters.synthesis import Rendered
 
 BACKENDS = ("auto", "sampled", "reference")
 
@@ -82,9 +82,9 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     rate : int
         Output sample rate (Hz).
     layout : str or Layout
-        Any output layout (panned with its own law, :func:`auralize.spatial.pan_gains`;
+        Any output layout (panned with its own law, :func:`auralize.spatial.layouts.pan_gains`;
         ``binaural``: panned to its AmbiX intermediate, then filtered by
-        :func:`auralize.spatial.output_stage`).
+        :func:`auralize.spatial.layouts.output_stage`).
     duration : float, optional
         Playback seconds (default: the path's duration after ``start``).
     start : float
@@ -165,7 +165,7 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered
     if isinstance(part, Emitters):
         return render_emitters(part, path, **kw)
     if isinstance(part, FieldSources):
-        from auralize.timbre import render_timbre
+        from auralize.emitters.timbre import render_timbre
 
         kw = {k: v for k, v in kw.items() if k != "backend"}
         return render_timbre(part.tracks, path, timbre=part.timbre, time_scale=part.time_scale,
@@ -193,8 +193,8 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     All parts share the listener path, output rate, layout and window, so the
     mix equals the sum of the parts rendered alone.  ``meta["parts"]`` lists
     each part's model, kind and peak.  The parts are rendered to
-    :func:`auralize.spatial.synthesis_layout` (``ambix3`` for ``binaural``)
-    and the sum goes once through :func:`auralize.spatial.output_stage`
+    :func:`auralize.spatial.layouts.synthesis_layout` (``ambix3`` for ``binaural``)
+    and the sum goes once through :func:`auralize.spatial.layouts.output_stage`
     (``hrtf``: its HRIRs, binaural only); ``meta`` describes the stage.
     """
     parts = _parts_of(sound)
@@ -220,7 +220,7 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
 class BlockRenderer:
     """Render a sound (or scene) block by block along a listener path, for live playback.
 
-    The interface of :class:`auralize.live.BlockSynth` (``block(i)``,
+    The interface of :class:`auralize.audio.live.BlockSynth` (``block(i)``,
     ``render_range(start, n)``, ``n_blocks``, ``n_samples``, ``block_size``)
     for any :class:`Sound`.  Block ``i`` holds output samples ``i·block`` to
     ``(i+1)·block`` (the last may be shorter); concatenated blocks equal one
@@ -246,7 +246,7 @@ class BlockRenderer:
     hrtf : HRIRSet, str or Path, optional
         ``binaural`` only (see :func:`render`): the blocks are rendered to the
         AmbiX intermediate and filtered by one output stage that carries its
-        state from block to block (:meth:`auralize.spatial.OutputStage.process_at`).
+        state from block to block (:meth:`auralize.spatial.layouts.OutputStage.process_at`).
 
     Examples
     --------

@@ -30,7 +30,7 @@ closed forms apply to their wave's time axis.
 
 The direction, distance and panning gains are those at the arrival: the
 listener's position and orientation at ``t`` and the layout's own law
-(:func:`auralize.spatial.pan_gains`: 2-D VBAP for horizontal layouts, 3-D
+(:func:`auralize.spatial.layouts.pan_gains`: 2-D VBAP for horizontal layouts, 3-D
 VBAP for layouts with elevation), exactly as the sampled emitters are panned
 (:mod:`auralize.emitters.reference`).
 """
@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 from auralize.emitters import C0
 from auralize.errors import ParameterError
 from auralize.listener import FORWARD, UP, ListenerPath
-from auralize.spatial import Layout, get_layout, listener_frame, pan_gains
+from auralize.spatial.layouts import Layout, get_layout, listener_frame, pan_gains
 
 
 @dataclass
@@ -208,7 +208,7 @@ def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
     listener : ListenerPath, or a static (3,) position (forward +y, up +z).
     c0 : m/s, speed of sound.
     layout : output layout; with it the gains ``(n_channels, E)`` of
-        :func:`auralize.spatial.pan_gains` for each emission's direction in the
+        :func:`auralize.spatial.layouts.pan_gains` for each emission's direction in the
         listener's frame at its arrival.
 
     Returns

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from auralize.emitters import C0, Emitters, law_exponent
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout
+from auralize.spatial.layouts import Layout
 
 
 def distance_gain(D: NDArray[np.float64], law: str | float) -> NDArray[np.float64]:

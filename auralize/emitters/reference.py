@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from auralize.emitters import C0, Emitters, law_exponent
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout, get_layout, listener_frame, pan_gains
+from auralize.spatial.layouts import Layout, get_layout, listener_frame, pan_gains
 
 
 def render_reference(em: Emitters, path: ListenerPath, *, rate: int = 44100,

@@ -26,8 +26,8 @@ Time mapping (DESIGN.md): audio sample n is at data time
 the listener path; propagation uses physical c0 in data time.  ``lead``
 (default 0) skips the sound's travel to a far listener.
 
-The fast algorithm (:mod:`auralize._synth_kernel`; for unpanned output
-:mod:`auralize._runs_kernel`, one emission per knot, unless the path is
+The fast algorithm (:mod:`auralize.emitters._synth_kernel`; for unpanned output
+:mod:`auralize.emitters._runs_kernel`, one emission per knot, unless the path is
 recorded: captures that most pieces' arrivals cross) costs
 O(sources × steps + samples) instead of O(sources × samples) and gives the
 sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
@@ -44,11 +44,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize import _runs_kernel, _synth_kernel
+from auralize.emitters import _runs_kernel
+
+from auralize.emitters import _synth_kernel
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.sources import SourceTracks
-from auralize.spatial import (
+from auralize.sources.detection import SourceTracks
+from auralize.spatial.layouts import (
     Layout,
     get_layout,
     is_ambisonic,
@@ -60,7 +62,7 @@ from auralize.spatial import (
 
 C0 = 343.0
 RHO0 = 1.2
-#: unpanned layouts are summed by runs of pieces (:mod:`auralize._runs_kernel`)
+#: unpanned layouts are summed by runs of pieces (:mod:`auralize.emitters._runs_kernel`)
 #: unless most of their pieces' arrivals cross listener captures (None); True
 #: forces the runs, False the piece-wise kernel (for tests)
 _BY_RUNS: bool | None = None
@@ -74,8 +76,8 @@ class Rendered:
     not a playback of data time)."""
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.notebook`)."""
-        from auralize.notebook import rendered_html
+        """Notebook display (:mod:`auralize.scene.notebook`)."""
+        from auralize.scene.notebook import rendered_html
 
         return rendered_html(self)
 
@@ -171,17 +173,17 @@ def _panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]
     Raises
     ------
     ParameterError
-        For ``binaural``: render to :func:`auralize.spatial.synthesis_layout` and
-        filter with :func:`auralize.spatial.output_stage` (as
-        :func:`auralize.timbre.render_timbre` does).
+        For ``binaural``: render to :func:`auralize.spatial.layouts.synthesis_layout` and
+        filter with :func:`auralize.spatial.layouts.output_stage` (as
+        :func:`auralize.emitters.timbre.render_timbre` does).
     """
     if is_ambisonic(lay):
         return np.zeros(lay.n_channels), np.arange(lay.n_channels, dtype=np.int64)
     if is_binaural(lay):
         raise ParameterError(
-            "auralize.synthesis.render pans to speaker or AmbiX layouts; for binaural render to "
-            "auralize.spatial.synthesis_layout('binaural') (ambix3) and filter with "
-            "auralize.spatial.output_stage, or use auralize.timbre.render_timbre"
+            "auralize.emitters.synthesis.render pans to speaker or AmbiX layouts; for binaural render to "
+            "auralize.spatial.layouts.synthesis_layout('binaural') (ambix3) and filter with "
+            "auralize.spatial.layouts.output_stage, or use auralize.emitters.timbre.render_timbre"
         )
     return lay.panning_arrays()
 
@@ -189,8 +191,8 @@ def _panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]
 def _pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     """The kernel's panning table: speaker-pair inverse bases (2-D VBAP) for a
     horizontal layout, the triangle table of 3-D VBAP for one with elevation
-    (see :func:`auralize._synth_kernel._gains3`), the SN3D factors and order
-    for an AmbiX layout (see :func:`auralize._synth_kernel._gains_sh`)."""
+    (see :func:`auralize.emitters._synth_kernel._gains3`), the SN3D factors and order
+    for an AmbiX layout (see :func:`auralize.emitters._synth_kernel._gains_sh`)."""
     if is_ambisonic(lay):
         n = int(lay.meta["order"])
         tab = np.zeros(((n + 1) ** 2, 2))
@@ -281,7 +283,7 @@ def _build_pieces(tracks: SourceTracks, tn: NDArray[np.float64],
 def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
     """The runs of sounding pieces in chunks, for unpanned layouts:
     ``(gr0, glen, gcnt, goff, KD)`` (cached on the tracks; see
-    :func:`auralize._runs_kernel.render`).
+    :func:`auralize.emitters._runs_kernel.render`).
 
     A run is a maximal stretch of consecutive sounding pieces of a source
     (the same pieces as :func:`_pieces`).  Runs that start in the same row,
@@ -519,7 +521,7 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
 
 
 #: rows whose arrivals may cross more listener captures than this are summed
-#: piece by piece (:func:`auralize._synth_kernel._piece_general`), not in parts
+#: piece by piece (:func:`auralize.emitters._synth_kernel._piece_general`), not in parts
 _MAX_PART_CAPTURES = 48
 
 
@@ -547,7 +549,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     Parameters
     ----------
     tracks : SourceTracks
-        From :meth:`auralize.sources.SourceSeries.tracks`.
+        From :meth:`auralize.sources.detection.SourceSeries.tracks`.
     path : ListenerPath
         Playback-time captures; the listener is held at the ends.
     rate : int
@@ -560,7 +562,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1``, a JSON file, or
         ``ambix1..3`` (AmbiX encoding gains per piece); ``binaural`` is refused
         (it needs an output stage after the sum:
-        :func:`auralize.timbre.render_timbre` applies it).
+        :func:`auralize.emitters.timbre.render_timbre` applies it).
     duration : float, optional
         Playback seconds (default: the path's duration after ``start``).
     start : float

@@ -5,7 +5,7 @@ where a source is (panning), when its sound arrives (delay D/c0), how loud
 it is (1/D) and the Doppler shift of a moving listener:
 
 ``physical``
-    The retarded-time pressure of :func:`auralize.synthesis.render`
+    The retarded-time pressure of :func:`auralize.emitters.synthesis.render`
     (paper 003 Eqs. 15–17).  Honest, and infrasonic whenever the data's time
     steps are long in playback time.
 ``extended``
@@ -34,7 +34,7 @@ How the carriers keep the physics.  A source k emits ``|q_k|(τ) c(τ)``
 (envelope times carrier, in emission time τ); the listener hears
 ``Σ_k |q_k|(τ_k) c(τ_k) / D_k`` with ``τ_k = t − D_k/c0``.  The envelope
 sum ``E(t) = Σ_k |q_k|(τ_k)/D_k`` is rendered per loudspeaker by the fast
-synthesis (:func:`auralize.synthesis.render` on the tracks |q|), so the
+synthesis (:func:`auralize.emitters.synthesis.render` on the tracks |q|), so the
 arrival time, the 1/D law and the panning are those of the physical
 render.  E changes once per data step Δt, so it is rendered at a reduced
 rate (:func:`envelope_rate`) and from sources merged inside cubes of side
@@ -64,7 +64,7 @@ sources (power-law noise is what turbulent flows and flames radiate);
 Examples
 --------
 >>> import numpy as np
->>> from auralize.sources import SourceTracks
+>>> from auralize.sources.detection import SourceTracks
 >>> from auralize.listener import ListenerPath
 >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)), radius=np.full(1, 0.1),
 ...                   times=np.arange(4) * 0.1, kind=np.ones((1, 4), dtype=np.int8))
@@ -84,9 +84,9 @@ from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.sources import TYPES, SourceTracks
-from auralize.spatial import Layout, output_stage
-from auralize.synthesis import C0, Rendered, _cached, _knot_times, check_distance, render
+from auralize.sources.detection import TYPES, SourceTracks
+from auralize.spatial.layouts import Layout, output_stage
+from auralize.emitters.synthesis import C0, Rendered, _cached, _knot_times, check_distance, render
 
 TIMBRES = ("physical", "extended", "tonal")
 #: ``auto`` renders ``physical`` when at least this share of its energy is above 20 Hz,
@@ -446,12 +446,12 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
 
     Every layout the synthesis pans to is rendered directly; ``binaural`` is
     rendered to its AmbiX intermediate and filtered once at the end by
-    :func:`auralize.spatial.output_stage` (``hrtf``: its HRIRs).
+    :func:`auralize.spatial.layouts.output_stage` (``hrtf``: its HRIRs).
 
     Parameters
     ----------
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, start, lead
-        As :func:`auralize.synthesis.render`.
+        As :func:`auralize.emitters.synthesis.render`.
     timbre : {"physical", "extended", "tonal", "auto"}
         See the module docstring; ``auto`` is ``physical`` when at least
         :data:`AUDIBLE_SHARE` of its energy lies above 20 Hz, else ``extended``.

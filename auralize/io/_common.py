@@ -124,9 +124,9 @@ def temp_sibling(path: Path, *, suffix: str = ".tmp") -> Path:
 
     The name ``.NAME.<pid>-<hex><suffix>`` carries the writer's process id;
     temporaries of ``path`` left by processes that no longer run are removed
-    first (:func:`auralize.fileio.clean_stale`).
+    first (:func:`auralize.io.files.clean_stale`).
     """
-    from auralize.fileio import clean_stale, temp_name
+    from auralize.io.files import clean_stale, temp_name
 
     clean_stale(path)
     return temp_name(path, suffix=suffix)

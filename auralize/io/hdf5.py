@@ -38,7 +38,7 @@ from auralize.errors import (
     FormatError,
     ParameterError,
 )
-from auralize.fileio import check_output_path
+from auralize.io.files import check_output_path
 from auralize.io._common import (
     FieldsArg,
     fsync_path,
@@ -631,7 +631,7 @@ def write_hdf5(
             )
     check_output_path(path)
     if compression is None:
-        from auralize.resources import require_disk
+        from auralize.runtime.resources import require_disk
 
         nbytes = sum(
             volume.n_steps * float(np.prod(volume.fields[n].frame_shape)) * 8

@@ -382,7 +382,7 @@ def write_pvd(
     The ``.vti`` files go into a new data folder (``<stem>_data``, or
     ``<stem>_data.1`` ... when that name holds the previous version), then a
     new ``.pvd`` pointing at it replaces the old one in one rename, then the
-    old folder is removed (:func:`auralize.fileio.write_collection`).  A crash
+    old folder is removed (:func:`auralize.io.files.write_collection`).  A crash
     or a kill at any point leaves the old or the new collection complete.
 
     Parameters
@@ -411,7 +411,7 @@ def write_pvd(
     >>> sorted(p.name for p in (out.parent / "run_data").glob("*.vti"))
     ['run_0000.vti', 'run_0001.vti']
     """
-    from auralize.fileio import write_collection
+    from auralize.io.files import write_collection
 
     path = Path(path).expanduser()
     if compression not in (None, "gzip"):
@@ -438,7 +438,7 @@ def write_pvd(
         return [(float(t), name) for t, name in zip(volume.times, names, strict=True)]
 
     if compression is None:
-        from auralize.resources import require_disk
+        from auralize.runtime.resources import require_disk
 
         comps = sum(3 if volume.is_vector(n) else 1 for n in volume.field_names)
         require_disk(path, volume.n_steps * float(volume.n_points) * comps * 8 + 65536,

@@ -13,7 +13,7 @@ HDF5 layout (``auralize_format="sources"``, ``version=1``)::
 
 The ``.pvd`` export writes one ``.vtp`` per step (point data ``kind``,
 ``strength``, ``radius``, ``volume``, and ``rgb``: the type's colour in the
-palette of :mod:`auralize.scene`, shown as is with "Map Scalars" off; field
+palette of :mod:`auralize.scene.pictures`, shown as is with "Map Scalars" off; field
 data ``kind_code``/``kind_name``, the legend of the codes) so ParaView can
 glyph them as spheres in the viewer's colours.  VTKHDF (``.vtkhdf``):
 :func:`auralize.io.vtkhdf_write.write_sources_vtkhdf`.
@@ -30,9 +30,9 @@ import h5py
 import numpy as np
 
 from auralize.errors import AuralizeError, DataError, FormatError
-from auralize.fileio import atomic_path, write_collection
+from auralize.io.files import atomic_path, write_collection
 from auralize.io.vtkhdf_write import KIND_LEGEND
-from auralize.sources import SourceFrame, SourceSeries
+from auralize.sources.detection import SourceFrame, SourceSeries
 
 FORMAT = "sources"
 VERSION = 1
@@ -115,12 +115,12 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
 
     The folder is written under a fresh name (``NAME_data``, or ``NAME_data.1``
     ... while the previous version holds that name) and the ``.pvd`` replaced
-    in one rename (:func:`auralize.fileio.write_collection`); an existing
+    in one rename (:func:`auralize.io.files.write_collection`); an existing
     ``NAME_data`` that auralize did not write is never replaced.
     """
     import pyvista as pv
 
-    from auralize.scene import type_rgb
+    from auralize.scene.pictures import type_rgb
 
     p = Path(path)
 

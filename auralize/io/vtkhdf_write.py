@@ -141,7 +141,7 @@ def sources_polydata(series: Any, step: int) -> Any:
 
 
 def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
-    """Write a :class:`~auralize.sources.SourceSeries` as temporal VTKHDF ``PolyData``, atomically.
+    """Write a :class:`~auralize.sources.detection.SourceSeries` as temporal VTKHDF ``PolyData``, atomically.
 
     Parameters
     ----------

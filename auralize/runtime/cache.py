@@ -2,7 +2,7 @@
 
 ``$AURALIZE_CACHE_DIR`` when set, otherwise ``$XDG_CACHE_HOME/auralize``
 (``~/.cache/auralize``).  It holds ``numba/`` (the compiled kernels, see
-:mod:`auralize._numba_setup`; numba's own ``NUMBA_CACHE_DIR`` wins for them
+:mod:`auralize.runtime.jit`; numba's own ``NUMBA_CACHE_DIR`` wins for them
 when set), the vortex textures and ``aero/``.  Deleting it costs only time.
 """
 

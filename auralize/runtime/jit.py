@@ -1,7 +1,7 @@
 """numba settings of auralize's compiled kernels, applied when a kernel module is imported.
 
-Every kernel module (``auralize._kernels``, ``auralize._synth_kernel``,
-``auralize._runs_kernel`` and the plugins' kernels) calls :func:`configure`
+Every kernel module (``auralize.sources._kernels``, ``auralize.emitters._synth_kernel``,
+``auralize.emitters._runs_kernel`` and the plugins' kernels) calls :func:`configure`
 before it defines its kernels, so ``import auralize`` changes nothing in the
 process; the first use of a kernel does:
 
@@ -13,7 +13,7 @@ process; the first use of a kernel does:
 * One cache directory for the compiled kernels of auralize and its plugins:
   ``NUMBA_CACHE_DIR`` when set, otherwise ``numba/`` in auralize's cache
   folder (``$AURALIZE_CACHE_DIR``, default ``~/.cache/auralize``; see
-  :mod:`auralize.cache`).  The same place serves an editable checkout,
+  :mod:`auralize.runtime.cache`).  The same place serves an editable checkout,
   an installed wheel (whose ``site-packages`` may be read-only) and Dask
   worker processes.
 * A notice when kernels are compiled rather than loaded from that cache
@@ -40,11 +40,11 @@ log = logging.getLogger("auralize")
 #: core).  Helpers compiled as part of a listed kernel count 0; kernels not
 #: listed count :data:`_DEFAULT_SECONDS`.
 COMPILE_SECONDS: dict[str, float] = {
-    "auralize._synth_kernel.render": 120.0,
-    "auralize._runs_kernel.render": 45.0,
+    "auralize.emitters._synth_kernel.render": 120.0,
+    "auralize.emitters._runs_kernel.render": 45.0,
     **dict.fromkeys(
         [
-            f"auralize._synth_kernel.{k}"
+            f"auralize.emitters._synth_kernel.{k}"
             for k in (
                 "_flush_captures",
                 "_chunk_pieces",
@@ -57,7 +57,7 @@ COMPILE_SECONDS: dict[str, float] = {
         ],
         0.0,
     ),
-    "auralize._runs_kernel._chunk_step": 0.0,
+    "auralize.emitters._runs_kernel._chunk_step": 0.0,
 }
 _DEFAULT_SECONDS = 2.0
 
@@ -67,11 +67,11 @@ _lock = threading.Lock()
 
 def cache_dir() -> Path:
     """The folder of the compiled kernels: ``NUMBA_CACHE_DIR``, else ``numba/`` in
-    :func:`auralize.cache.cache_root` (``$AURALIZE_CACHE_DIR``, ``~/.cache/auralize``)."""
+    :func:`auralize.runtime.cache.cache_root` (``$AURALIZE_CACHE_DIR``, ``~/.cache/auralize``)."""
     env = os.environ.get("NUMBA_CACHE_DIR")
     if env:
         return Path(env)
-    from auralize.cache import cache_root
+    from auralize.runtime.cache import cache_root
 
     return cache_root() / "numba"
 

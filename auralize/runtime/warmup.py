@@ -1,7 +1,7 @@
 """Compile the numba kernels ahead, so that the first real command runs at full speed.
 
 The kernels are compiled on first use and kept in one cache folder
-(:func:`auralize._numba_setup.cache_dir`: ``NUMBA_CACHE_DIR``, else
+(:func:`auralize.runtime.jit.cache_dir`: ``NUMBA_CACHE_DIR``, else
 ``~/.cache/auralize/numba``).  From a cold cache the synthesis kernels alone
 take minutes of one core (the piece-wise synthesis kernel is one large
 parallel function with its helpers inlined); :func:`warmup` runs a tiny
@@ -34,13 +34,13 @@ def warmup(*, plugins: bool = False) -> dict[str, Any]:
         ``seconds`` (wall time), ``compiled`` (list of ``(kernel, seconds)``
         compiled in this call; empty when the cache was warm), ``cache`` (folder).
     """
-    from auralize._numba_setup import cache_dir, compiled_kernels, configure
+    from auralize.runtime.jit import cache_dir, compiled_kernels, configure
 
     configure()
     before = len(compiled_kernels())
     t0 = time.perf_counter()
 
-    from auralize.datasets import make_dataset
+    from auralize.datasets.synthetic import make_dataset
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize, detect_sources
 

@@ -3,7 +3,7 @@
 :class:`Detection` prepares the mapping and resolves the thresholds once, then
 detects single steps on demand (the time slider shows sources of the current
 step at once) or all steps with a progress callback that may cancel.  It
-wraps :func:`auralize.sources.iter_detect`; no physics lives here.
+wraps :func:`auralize.sources.detection.iter_detect`; no physics lives here.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 
 from auralize.errors import AuralizeError
 from auralize.mapping import AcousticMapping
-from auralize.sources import (
+from auralize.sources.detection import (
     AUTO_FRACTIONS,
     TYPES,
     SourceFrame,
@@ -51,7 +51,7 @@ class Detection:
 
     Examples
     --------
-    >>> from auralize.datasets import make_monopole
+    >>> from auralize.datasets.synthetic import make_monopole
     >>> det = Detection(make_monopole(size=12, steps=6), mapping="identity")
     >>> det.frame(3).counts()["monopole"] > 0
     True
@@ -66,7 +66,7 @@ class Detection:
         self.mapping = resolve_mapping(volume, mapping, **mapping_fields)
         self.mapping.prepare(volume)
         self.thresholds = thresholds or Thresholds(*VIEWER_THRESHOLDS)
-        # strengths of the time-varying part, as auralize.sources.detect takes them
+        # strengths of the time-varying part, as auralize.sources.detection.detect takes them
         self.qmean = steady_strength(volume, self.mapping)
         stats = (strength_stats(volume, self.mapping, qmean=self.qmean)
                  if self.thresholds.needs_scale else None)  # fmt: skip

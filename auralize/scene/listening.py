@@ -1,7 +1,7 @@
 """Live listening: the listener follows the camera and the sound is synthesized block by block.
 
 While the animation plays and the user flies, :class:`LiveEngine` renders
-consecutive audio blocks with :func:`auralize.synthesis.render` (``start=``
+consecutive audio blocks with :func:`auralize.emitters.synthesis.render` (``start=``
 offsets join blocks without seams) for the latest camera pose, and
 :class:`LivePlayer` pushes them from a worker thread into an :class:`AudioSink`.
 A pose set with :meth:`LiveEngine.set_pose` is used by the next block, so a
@@ -16,7 +16,7 @@ What was heard is kept (:meth:`LiveEngine.heard_path`,
 plus its audio.
 
 Sinks: :class:`DeviceSink` plays through the output layer
-(``auralize.live`` / ``auralize.audio``; it raises
+(``auralize.audio.live`` / ``auralize.audio.output``; it raises
 :class:`~auralize.errors.DeviceError` when no device is usable) and
 :class:`WavSink` writes the stream to a WAV file at real-time pace (what a
 file-backed device does).
@@ -46,9 +46,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.sources import SourceTracks
-from auralize.spatial import get_layout, output_stage
-from auralize.synthesis import C0, Rendered, render
+from auralize.sources.detection import SourceTracks
+from auralize.spatial.layouts import get_layout, output_stage
+from auralize.emitters.synthesis import C0, Rendered, render
 
 #: default block length in samples (23 ms at 44.1 kHz)
 DEFAULT_BLOCK = 1024
@@ -247,14 +247,14 @@ class WavSink:
         self.write_times.append(time.perf_counter())
 
     def close(self, drain: bool = True) -> None:
-        from auralize.audio import write_audio
+        from auralize.audio.output import write_audio
 
         if self.blocks:
             write_audio(self.path, np.concatenate(self.blocks, axis=1), self.rate, normalize="none")
 
 
 class DeviceSink:
-    """Play through the output layer's live stream (``auralize.live``), else raise.
+    """Play through the output layer's live stream (``auralize.audio.live``), else raise.
 
     The output layer (another part of auralize) owns sounddevice; this adapter
     only looks up its stream class.  :class:`~auralize.errors.DeviceError` is
@@ -263,15 +263,15 @@ class DeviceSink:
 
     def __init__(self, *, rate: int, channels: int, device: Any = None) -> None:
         try:
-            live = importlib.import_module("auralize.live")
+            live = importlib.import_module("auralize.audio.live")
         except ModuleNotFoundError as exc:
-            if exc.name != "auralize.live":
+            if exc.name != "auralize.audio.live":
                 raise
             raise DeviceError("live playback is not available: the output layer "
-                              "(auralize.live) is not installed") from None  # fmt: skip
+                              "(auralize.audio.live) is not installed") from None  # fmt: skip
         factory = getattr(live, "open_stream", None) or getattr(live, "LiveStream", None)
         if factory is None:
-            raise DeviceError("auralize.live offers no open_stream/LiveStream for live playback")
+            raise DeviceError("auralize.audio.live offers no open_stream/LiveStream for live playback")
         self._stream = factory(rate=rate, channels=channels, device=device)
 
     def write(self, block: NDArray[np.float64]) -> None:
@@ -284,7 +284,7 @@ class DeviceSink:
 class LivePlayer:
     """Runs a :class:`LiveEngine` into a sink on a worker thread.
 
-    Every block passes through :attr:`limiter` (:class:`auralize.audio.Limiter`:
+    Every block passes through :attr:`limiter` (:class:`auralize.audio.output.Limiter`:
     automatic gain from the first sound, the gain control ``gain_db``, and a peak
     limiter), so a sink never receives a sample beyond full scale; the limiter's
     level meter describes the last block.  ``on_block(data_time)`` is called after
@@ -297,7 +297,7 @@ class LivePlayer:
     def __init__(self, engine: LiveEngine, sink: AudioSink, *,
                  on_block: Callable[[float], None] | None = None,
                  gain_db: float = 0.0) -> None:  # fmt: skip
-        from auralize.audio import Limiter
+        from auralize.audio.output import Limiter
 
         self.engine, self.sink, self.on_block = engine, sink, on_block
         self.limiter = Limiter(None, gain_db=gain_db, rate=engine.rate)
@@ -340,7 +340,7 @@ class LivePlayer:
 
     def set_gain_db(self, gain_db: float) -> None:
         """Change the gain control (dB) from the next block on."""
-        from auralize.audio import check_gain_db
+        from auralize.audio.output import check_gain_db
 
         self.limiter.gain_db = check_gain_db(gain_db)
 

@@ -1,15 +1,15 @@
 """Rich displays for Jupyter notebooks (``_repr_html_`` of the core objects).
 
 :class:`~auralize.volume.TimeVolume` shows its grid, fields and times;
-:class:`~auralize.sources.SourceSeries` its source counts per type (in the
-palette of :mod:`auralize.scene`); :class:`~auralize.listener.ListenerPath`
-a small plot of the path; :class:`~auralize.synthesis.Rendered` an inline
+:class:`~auralize.sources.detection.SourceSeries` its source counts per type (in the
+palette of :mod:`auralize.scene.pictures`); :class:`~auralize.listener.ListenerPath`
+a small plot of the path; :class:`~auralize.emitters.synthesis.Rendered` an inline
 audio player and a spectrogram.  Everything is self-contained HTML (pictures
 and sound as ``data:`` URIs); matplotlib draws with the Agg backend.
 
 Examples
 --------
->>> from auralize.datasets import make_monopole
+>>> from auralize.datasets.synthetic import make_monopole
 >>> html = make_monopole(size=8, steps=4)._repr_html_()
 >>> "<table" in html and "density" in html
 True
@@ -70,7 +70,7 @@ def volume_html(vol: Any) -> str:
 
 def series_html(series: Any) -> str:
     """Source counts per type: total over the steps, most in one step (palette colours)."""
-    from auralize.scene import PALETTE
+    from auralize.scene.pictures import PALETTE
 
     counts = series.counts()
     rows = []
@@ -81,7 +81,7 @@ def series_html(series: Any) -> str:
                            f"at most {int(per.max(initial=0))} in a step"))  # fmt: skip
     out = _table(rows, f"SourceSeries ({series.n_steps} steps)")
     if series.n_steps > 1:
-        from auralize.plots import plot_counts
+        from auralize.scene.plots import plot_counts
 
         fig, ax = _figure(5, 1.8)
         plot_counts(series, ax=ax)
@@ -109,7 +109,7 @@ def path_html(path: Any) -> str:
 
 def wav_data_uri(audio: np.ndarray, rate: int) -> str:
     """A peak-normalised 16-bit WAV of ``audio (n_channels, n)`` as a ``data:`` URI."""
-    from auralize.audio import wav_bytes
+    from auralize.audio.output import wav_bytes
 
     a = np.asarray(audio, dtype=np.float64)
     peak = float(np.max(np.abs(a), initial=0.0))
@@ -125,7 +125,7 @@ def rendered_html(r: Any) -> str:
     a = np.asarray(r.audio, dtype=np.float64)[:, : int(MAX_PLAYER_S * r.rate)]
     note = ""
     if a.shape[0] > 2:
-        from auralize.audio import downmix
+        from auralize.audio.output import downmix
 
         try:
             a = downmix(a, r.layout, "stereo")

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from auralize.fileio import atomic_path
+from auralize.io.files import atomic_path
 from auralize.listener import ListenerPath
-from auralize.sources import SourceSeries
+from auralize.sources.detection import SourceSeries
 from auralize.volume import TimeVolume
 
 #: THE palette of the source types (ColorBrewer Set1), RGB 0..255: the viewer, off-screen

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.fileio import atomic_path
+from auralize.io.files import atomic_path
 
 
 def save_spectrogram(audio: NDArray[np.floating], rate: int, out: str | Path, *,
@@ -49,7 +49,7 @@ def save_spectrogram(audio: NDArray[np.floating], rate: int, out: str | Path, *,
 
 
 def plot_counts(series: Any, *, ax: Any = None) -> Any:
-    """Sources per time step of each type, in the palette of :mod:`auralize.scene`.
+    """Sources per time step of each type, in the palette of :mod:`auralize.scene.pictures`.
 
     Parameters
     ----------
@@ -67,7 +67,7 @@ def plot_counts(series: Any, *, ax: Any = None) -> Any:
     >>> [line.get_label() for line in ax.get_lines()]
     ['monopole']
     """
-    from auralize.scene import PALETTE
+    from auralize.scene.pictures import PALETTE
 
     if ax is None:
         from matplotlib.figure import Figure

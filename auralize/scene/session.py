@@ -16,7 +16,7 @@ viewer and :mod:`auralize.simple` read and write the same format::
      "models": [{"model": "fire", "input": "/data/fire.h5", "params": {"extend": "none"}}]}
 
 ``models`` are the sound models mixed with the data (a scene, see
-:mod:`auralize.soundscene`); older files without it have none.
+:mod:`auralize.scene.soundscene`); older files without it have none.
 
 Examples
 --------
@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from auralize.errors import FormatError
-from auralize.fileio import atomic_write
+from auralize.io.files import atomic_write
 from auralize.listener import ListenerPath
 
 FORMAT = "session"

@@ -26,7 +26,7 @@ The ``field`` model accepts ``"time_scale": "auto"``: the data's span plays in
 the scene's duration (:func:`auralize.pipeline.plan_render`).
 
 ``SceneBlocks(sound, path, rate=, layout=, block=, duration=)`` renders a
-scene block by block for live playback (:func:`auralize.live.play` takes it in
+scene block by block for live playback (:func:`auralize.audio.live.play` takes it in
 place of source tracks); it is the engine's
 :class:`auralize.emitters.engine.BlockRenderer`.
 """

@@ -7,20 +7,20 @@ camera-like glyph at the current listener, and plugin overlays.  It never
 imports Qt, so the same code draws the desktop window, off-screen screenshots,
 ``auralize.simple`` views and the interactivity benchmark.
 
-Colours are the one palette of :mod:`auralize.scene` (:data:`TYPE_COLORS`:
+Colours are the one palette of :mod:`auralize.scene.pictures` (:data:`TYPE_COLORS`:
 monopole red, dipole blue, quadrupole green; :data:`PATH_COLOR` amber), so
 screenshots can be checked pixel by pixel; the volume uses a grey colour map, so
 every saturated pixel comes from a source or the path.  The data's bounding box
 is always drawn (grey outline) and the displayed field has a colour bar whose
 range is robust (1st–99th percentile of the finite values: outliers and fill
 values do not swamp it).  Sources are one point set drawn by the GPU
-(:func:`auralize.scene.add_source_actor`), never one mesh per sphere.
+(:func:`auralize.scene.pictures.add_source_actor`), never one mesh per sphere.
 
 Examples
 --------
 >>> import pyvista as pv
 >>> from auralize.pipeline import load
->>> from auralize.viewer.scene import Scene
+>>> from auralize.scene.view import Scene
 >>> scene = Scene(pv.Plotter(off_screen=True))
 >>> scene.set_volume(load("dataset:monopole", size=8, steps=4))
 >>> scene.set_step(2) < 5.0  # seconds the redraw took
@@ -40,11 +40,11 @@ from numpy.typing import NDArray
 
 from auralize.errors import AuralizeError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.scene import PALETTE, PATH_RGB, SPRITE_LIMIT, add_source_actor, source_points
-from auralize.sources import TYPES, SourceFrame
+from auralize.scene.pictures import PALETTE, PATH_RGB, SPRITE_LIMIT, add_source_actor, source_points
+from auralize.sources.detection import TYPES, SourceFrame
 from auralize.volume import TimeVolume
 
-#: RGB colours of the source types: the one palette of :mod:`auralize.scene`
+#: RGB colours of the source types: the one palette of :mod:`auralize.scene.pictures`
 TYPE_COLORS: dict[str, tuple[int, int, int]] = PALETTE
 #: RGB colour of the listener path and its glyph
 PATH_COLOR: tuple[int, int, int] = PATH_RGB

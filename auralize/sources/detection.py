@@ -9,7 +9,7 @@ density ρ̃ and particle velocity v:
 
 Time derivatives are central differences between the neighbouring steps
 (one-sided at the first and last step); space derivatives are second-order
-finite differences (see :mod:`auralize._kernels`).
+finite differences (see :mod:`auralize.sources._kernels`).
 
 **Steady part.**  A steady flow makes no sound: by default (``steady="remove"``)
 the quadrupole strength is that of the fluctuating stress
@@ -54,10 +54,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize import _kernels as K
+from auralize.sources import _kernels as K
 from auralize.errors import DataError, ParameterError
 from auralize.mapping import AcousticMapping, get_mapping
-from auralize.progress import progress
+from auralize.runtime.progress import progress
 from auralize.volume import TimeVolume
 
 KIND_NAMES = {K.MONOPOLE: "monopole", K.DIPOLE: "dipole", K.QUADRUPOLE: "quadrupole"}
@@ -89,7 +89,7 @@ ROUNDOFF = 1e-9
 WARN_FRACTION = 0.25
 #: how the steady (time-mean) part of the flow is treated (see :func:`detect`)
 STEADY_MODES = ("remove", "keep")
-#: ΔV rules (see :func:`auralize._kernels.classify_and_radius`)
+#: ΔV rules (see :func:`auralize.sources._kernels.classify_and_radius`)
 DELTA_V_RULES = {"cell": K.DV_CELL, "sphere": K.DV_SPHERE}
 
 
@@ -293,8 +293,8 @@ class SourceSeries:
     """Sources at every step of a volume, plus what is needed to reproduce them."""
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.notebook`)."""
-        from auralize.notebook import series_html
+        """Notebook display (:mod:`auralize.scene.notebook`)."""
+        from auralize.scene.notebook import series_html
 
         return series_html(self)
 
@@ -385,7 +385,7 @@ class _StepCache:
 
     ``ok`` is None when every point of the step is valid and finite, else a
     bool mask; no-data values are replaced by 0 (they are masked out of the
-    strengths by :func:`auralize._kernels.mask_nodata`, never used).
+    strengths by :func:`auralize.sources._kernels.mask_nodata`, never used).
     ``qmean`` is the quadrupole strength of the time-mean stress, subtracted
     from every step's (or None: the literal strengths).
     """
@@ -429,7 +429,7 @@ def step_strengths(volume: TimeVolume, cache: _StepCache, n: int,
 
     A point is no-data at step n when it is invalid or non-finite at any of
     the steps its time differences use (n-1, n, n+1); a strength whose
-    stencil reads a no-data point is 0 (see :func:`auralize._kernels.mask_nodata`).
+    stencil reads a no-data point is 0 (see :func:`auralize.sources._kernels.mask_nodata`).
     ``cache.nodata`` holds the step's no-data points afterwards.
     """
     T = volume.n_steps
@@ -569,7 +569,7 @@ def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], sp
     3 quadrupole) and ``radius (nz, ny, nx)`` in metres (0 where no source).
     ``delta_v`` is ``"cell"`` (ΔV = the vertex's share of the source region,
     so Σ S ΔV converges to ∫ S dV) or ``"sphere"`` (paper 003 §3.2.4.1
-    literally); see :func:`auralize._kernels.classify_and_radius`.
+    literally); see :func:`auralize.sources._kernels.classify_and_radius`.
     """
     s = np.ascontiguousarray(strengths, dtype=np.float64)
     thr = np.asarray(thresholds, dtype=np.float64)
@@ -755,7 +755,7 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
 
     Examples
     --------
-    >>> from auralize.datasets import make_monopole
+    >>> from auralize.datasets.synthetic import make_monopole
     >>> vol = make_monopole(size=16, steps=8)
     >>> series = detect(vol, mapping="identity")
     >>> series.counts()[4]["dipole"]

@@ -15,7 +15,7 @@ from auralize.plugins import Parameter, SoundModel
 
 if TYPE_CHECKING:
     from auralize.emitters import Sound
-    from auralize.sources import SourceSeries
+    from auralize.sources.detection import SourceSeries
     from auralize.volume import TimeVolume
 
 
@@ -51,7 +51,7 @@ class FieldAuralization(SoundModel):
             "timbre",
             "physical",
             choices=("physical", "extended", "tonal", "auto"),
-            doc="how the sources sound (auralize.timbre)",
+            doc="how the sources sound (auralize.emitters.timbre)",
         ),
     )
 
@@ -62,7 +62,7 @@ class FieldAuralization(SoundModel):
         Parameters
         ----------
         inputs : TimeVolume or (TimeVolume, SourceSeries)
-            The volume; with a :class:`~auralize.sources.SourceSeries` already
+            The volume; with a :class:`~auralize.sources.detection.SourceSeries` already
             detected on it (e.g. by ``auralize detect``), detection is skipped.
         **params
             ``mapping`` and ``threshold_*`` (detection, paper 003 §3.2.2–3.2.3),
@@ -78,7 +78,7 @@ class FieldAuralization(SoundModel):
         from auralize.emitters import FieldSources, Sound
         from auralize.errors import ParameterError
         from auralize.pipeline import detect_sources
-        from auralize.sources import SourceSeries, Thresholds
+        from auralize.sources.detection import SourceSeries, Thresholds
         from auralize.volume import TimeVolume
 
         series = None

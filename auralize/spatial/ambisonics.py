@@ -12,7 +12,7 @@ with **SN3D** normalisation and no Condon–Shortley phase:
     N_n^m = sqrt((2 − δ_m0) (n − m)! / (n + m)!)
 
 with azimuth φ counter-clockwise from the front and elevation ϑ up from the
-horizontal plane (the listener frame of :mod:`auralize.spatial`: x forward,
+horizontal plane (the listener frame of :mod:`auralize.spatial.layouts`: x forward,
 y left, z up).  So ACN 0 = W = 1 for every direction (a unit plane wave has
 W = 1), ACN 1 = Y = y (left), ACN 2 = Z = z (up), ACN 3 = X = x (front).
 The harmonics are evaluated in Cartesian form, ``cos^m ϑ · e^{imφ} =
@@ -29,7 +29,7 @@ Decoders (:func:`decoder_matrix`)
   decoded to a dense virtual layout by the sampling decoder
   g(θ) = Σ_n (2n+1)/(4π) a_n Σ_m Y_n^m(θ) b_nm, then every virtual speaker
   is panned onto the real speakers by 3-D VBAP
-  (:func:`auralize.spatial.vbap3d_gains`, with imaginary speakers where the
+  (:func:`auralize.spatial.layouts.vbap3d_gains`, with imaginary speakers where the
   layout has gaps, their signal dropped).  In place of a spherical t-design
   the virtual layout is a Gauss–Legendre × equiangular product grid with its
   quadrature weights (:func:`sphere_quadrature`), exact for polynomials up to
@@ -73,7 +73,7 @@ from numpy.typing import NDArray
 from auralize.errors import ParameterError
 
 if TYPE_CHECKING:
-    from auralize.spatial import Layout
+    from auralize.spatial.layouts import Layout
 
 #: highest order accepted by the encoder/decoders
 MAX_ORDER = 10
@@ -235,7 +235,7 @@ def _energy_normalise(dec: NDArray[np.float64], order: int) -> NDArray[np.float6
 
 
 def _decoder_allrad(order: int, layout: Layout, a: NDArray[np.float64]) -> NDArray[np.float64]:
-    from auralize.spatial import vbap3d_gains
+    from auralize.spatial.layouts import vbap3d_gains
 
     dirs, w = sphere_quadrature()
     y = sh_gains(order, dirs)  # (K, L)
@@ -275,7 +275,7 @@ def _decoder_cached(order: int, layout: Layout, method: str, weights: str) -> ND
     if layout.meta.get("ambisonic") or layout.meta.get("binaural"):
         raise ParameterError(
             f"cannot decode Ambisonics to {layout.name!r}: decode to a loudspeaker layout "
-            f"(binaural output uses auralize.hrtf.binaural_from_ambisonics)"
+            f"(binaural output uses auralize.spatial.hrtf.binaural_from_ambisonics)"
         )
     if layout.n_channels == 1 or layout.panned_channels.size == 1:
         dec = np.zeros((layout.n_channels, n_channels(order)))
@@ -301,7 +301,7 @@ def decoder_matrix(order: int, layout: str | Layout, *, method: str = "allrad",
     order : int
         Ambisonics order N of the signal.
     layout : str or Layout
-        Any loudspeaker layout (:func:`auralize.spatial.get_layout`); LFE
+        Any loudspeaker layout (:func:`auralize.spatial.layouts.get_layout`); LFE
         channels get nothing.
     method : {"allrad", "mode-matching"}
         See the module docstring.
@@ -311,7 +311,7 @@ def decoder_matrix(order: int, layout: str | Layout, *, method: str = "allrad",
     -------
     Read-only array; ``D @ audio`` decodes ``audio ((N+1)², n)``.
     """
-    from auralize.spatial import get_layout
+    from auralize.spatial.layouts import get_layout
 
     return _decoder_cached(check_order(order), get_layout(layout), method, weights)
 

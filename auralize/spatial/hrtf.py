@@ -3,7 +3,7 @@
 Approach
 --------
 Ear signals are computed from an Ambisonic intermediate (AmbiX, order 3 by
-default; :mod:`auralize.ambisonics`): every renderer pans to the AmbiX
+default; :mod:`auralize.spatial.ambisonics`): every renderer pans to the AmbiX
 layout, and :class:`BinauralDecoder` filters the (N+1)² channels with
 spherical-harmonic-domain HRTF filters and sums them per ear.  A moving
 source or a turning head then only changes the (smooth) encoding gains: no
@@ -52,9 +52,9 @@ HRIR sets (:class:`HRIRSet`)
   a plus a common bulk delay, evaluated exactly in frequency and sampled
   (no pinna or torso model: the front–back difference comes from the ears
   being behind the interaural axis, and elevation cues are weak).
-* :func:`auralize.sofa.read_sofa`: any AES69 SimpleFreeFieldHRIR file.
+* :func:`auralize.spatial.sofa.read_sofa`: any AES69 SimpleFreeFieldHRIR file.
 
-Coordinates are the listener frame of :mod:`auralize.spatial`: x forward,
+Coordinates are the listener frame of :mod:`auralize.spatial.layouts`: x forward,
 y left, z up; azimuth counter-clockwise (+90° = left).
 """
 
@@ -212,7 +212,7 @@ def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: i
     ----------
     directions : (M, 3) array, optional
         Listener-frame directions; default the dense quadrature grid of
-        :func:`auralize.ambisonics.sphere_quadrature` (with its weights).
+        :func:`auralize.spatial.ambisonics.sphere_quadrature` (with its weights).
     rate : int
         Sample rate (Hz).
     radius : float
@@ -228,7 +228,7 @@ def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: i
         response is sampled on a grid twice as long and cut with a short
         fade at the end.
     """
-    from auralize.ambisonics import sphere_quadrature
+    from auralize.spatial.ambisonics import sphere_quadrature
 
     if not (math.isfinite(radius) and 0.01 <= radius <= 1.0):
         raise ParameterError(f"head radius must be in [0.01, 1] m, got {radius!r}")
@@ -266,7 +266,7 @@ def onset_delay(hrirs: HRIRSet, *, threshold: float = 0.1) -> float:
 
 def _fit_matrix(hrirs: HRIRSet, order: int, reg: float) -> NDArray[np.float64]:
     """Weighted, Tikhonov-regularised least-squares fit ``((N+1)², M)``."""
-    from auralize.ambisonics import sh_gains
+    from auralize.spatial.ambisonics import sh_gains
 
     y = sh_gains(order, hrirs.directions).T  # (M, K)
     w = hrirs.weights if hrirs.weights is not None else np.full(
@@ -299,7 +299,7 @@ def sh_hrtf_filters(hrirs: HRIRSet, order: int = 3, *, method: str = "magls",
     -------
     Filters h_nm,ear (twice the HRIR length) such that ear = Σ_nm h_nm,ear ∗ b_nm.
     """
-    from auralize.ambisonics import check_order, n_channels
+    from auralize.spatial.ambisonics import check_order, n_channels
 
     order = check_order(order)
     if method not in ("magls", "ls"):
@@ -317,7 +317,7 @@ def sh_hrtf_filters(hrirs: HRIRSet, order: int = 3, *, method: str = "magls",
     fit = _fit_matrix(hrirs, order, reg)  # (K, M)
     out = np.einsum("km,mef->kef", fit, h_f)
     if method == "magls":
-        from auralize.ambisonics import sh_gains
+        from auralize.spatial.ambisonics import sh_gains
 
         if f_cut_hz is None:
             f_cut_hz = order * C0 / (2 * np.pi * HEAD_RADIUS)
@@ -375,7 +375,7 @@ class BinauralDecoder:
 
     def __init__(self, hrirs: HRIRSet | None = None, order: int = 3, *, rate: int | None = None,
                  method: str = "magls", block: int | None = None) -> None:  # fmt: skip
-        from auralize.ambisonics import check_order, n_channels
+        from auralize.spatial.ambisonics import check_order, n_channels
 
         self.order = check_order(order)
         if hrirs is None:

@@ -11,7 +11,7 @@ Panning laws
 * **Horizontal layouts** (every panned speaker at elevation 0): pairwise 2-D
   VBAP between the two speakers adjacent to the source azimuth (the convex hull
   methods of 3-D VBAP fail on a coplanar ring).  This is the law the numba
-  synthesis kernel applies per piece (:func:`auralize._synth_kernel._gains`);
+  synthesis kernel applies per piece (:func:`auralize.emitters._synth_kernel._gains`);
   :func:`vbap_gains` is the same law in numpy.
 * **Layouts with elevation**: 3-D VBAP (Pulkki 1997) over the triangles of the
   convex hull of the speaker directions (:func:`vbap3d_gains`).  When no
@@ -19,8 +19,8 @@ Panning laws
   at the nadir (zenith); its gain is dropped and the remaining gains are
   re-normalised, so a source below the ring is heard on the ring at its own
   azimuth; likewise above the highest speakers.  The synthesis kernel applies
-  the same law per piece (:func:`auralize._synth_kernel._gains3`, from the
-  table of :func:`auralize.synthesis._pan_table`).
+  the same law per piece (:func:`auralize.emitters._synth_kernel._gains3`, from the
+  table of :func:`auralize.emitters.synthesis._pan_table`).
 * Every law is **power-normalised** (Σ g² = 1 over the panned speakers) and
   continuous in the direction, so gains change smoothly as a source moves or
   the listener turns.  The LFE channel of 5.1/7.1 is never panned to.
@@ -32,18 +32,18 @@ every speaker's sound reaches the listener at the same time and level.
 Immersive layouts
 -----------------
 * ``ambix1``, ``ambix2``, ``ambix3``: Ambisonics of order N in the AmbiX
-  convention (ACN channel order, SN3D normalisation; :mod:`auralize.ambisonics`),
+  convention (ACN channel order, SN3D normalisation; :mod:`auralize.spatial.ambisonics`),
   (N+1)² channels without speaker directions or channel mask; ``meta`` says
   ``ambisonic``, ``order``, ``normalisation`` and ``channel_order``.
   :func:`pan_gains` returns the spherical-harmonic encoding gains, so every
   renderer that pans through it writes AmbiX; the synthesis kernels evaluate
-  the same harmonics per piece (:func:`auralize._synth_kernel._gains_sh`, by
+  the same harmonics per piece (:func:`auralize.emitters._synth_kernel._gains_sh`, by
   recurrence from the Cartesian direction).  :func:`downmix_matrix` decodes
   AmbiX to any loudspeaker layout (AllRAD with max-rE weights).
 * ``binaural``: two ear signals (L, R).  Binaural output is not a panning law:
   renderers pan to its Ambisonic intermediate (:func:`synthesis_layout`,
   order 3) and :func:`output_stage` filters that with head-related impulse
-  responses (:mod:`auralize.hrtf`; the built-in spherical-head model or a
+  responses (:mod:`auralize.spatial.hrtf`; the built-in spherical-head model or a
   SOFA file), so every model gets binaural output, smooth under motion.  The
   stage runs once after the parts are summed (offline:
   :meth:`OutputStage.finish`; block by block: :meth:`OutputStage.process_at`,
@@ -176,7 +176,7 @@ class Layout:
         if self.meta.get("ambisonic") or self.meta.get("binaural"):
             raise ParameterError(
                 f"layout {self.name!r} has no speaker azimuths to pan between: AmbiX gains come "
-                f"from auralize.spatial.pan_gains, binaural ears from auralize.spatial.output_stage"
+                f"from auralize.spatial.layouts.pan_gains, binaural ears from auralize.spatial.layouts.output_stage"
                 f"; this renderer supports loudspeaker layouts only"
             )
         if self.n_channels == 1:
@@ -268,7 +268,7 @@ def ambix_layout(order: int) -> Layout:
     Its channels have no direction (they are spherical-harmonic components, not
     speakers) and the layout no WAVE channel mask.
     """
-    from auralize.ambisonics import check_order, n_channels
+    from auralize.spatial.ambisonics import check_order, n_channels
 
     n = check_order(order)
     if n < 1:
@@ -670,7 +670,7 @@ def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.fl
     directions ``(N, 3)``: 2-D pairwise VBAP on the azimuth for horizontal
     layouts (elevation ignored), 3-D VBAP for layouts with elevation, 1 for mono,
     the AmbiX encoding gains (SN3D spherical harmonics in ACN order,
-    :func:`auralize.ambisonics.sh_gains`) for ``ambix1..3``.
+    :func:`auralize.spatial.ambisonics.sh_gains`) for ``ambix1..3``.
 
     Raises
     ------
@@ -680,14 +680,14 @@ def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.fl
     """
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     if is_ambisonic(layout):
-        from auralize.ambisonics import sh_gains
+        from auralize.spatial.ambisonics import sh_gains
 
         return sh_gains(int(layout.meta["order"]), d)  # type: ignore[call-overload]
     if is_binaural(layout):
         raise ParameterError(
             "the binaural layout has no panning gains: render to "
-            "auralize.spatial.synthesis_layout(layout) (ambix3) and filter the result with "
-            "auralize.spatial.output_stage(layout, rate, hrtf=...)"
+            "auralize.spatial.layouts.synthesis_layout(layout) (ambix3) and filter the result with "
+            "auralize.spatial.layouts.output_stage(layout, rate, hrtf=...)"
         )
     if layout.n_channels == 1:
         return np.ones((1, d.shape[0]))
@@ -731,7 +731,7 @@ def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
     goes to the target's LFE if it has one, else equally (in power) to every
     panned target speaker.  ``dst @ audio`` applies it to ``(n_ch, n)`` audio.
 
-    An AmbiX source is decoded (:func:`auralize.ambisonics.decoder_matrix`,
+    An AmbiX source is decoded (:func:`auralize.spatial.ambisonics.decoder_matrix`,
     AllRAD with max-rE weights); an AmbiX target encodes each source speaker
     as a plane wave from its direction (LFE into W); AmbiX to AmbiX keeps the
     common orders.  Binaural targets need filters, not a matrix (error).
@@ -740,14 +740,14 @@ def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
     if is_binaural(d):
         raise ParameterError(
             f"cannot fold {s.name!r} into binaural with a matrix: ear signals need HRIR "
-            f"filtering (auralize.hrtf)"
+            f"filtering (auralize.spatial.hrtf)"
         )
     if is_ambisonic(s):
         order = int(s.meta["order"])  # type: ignore[call-overload]
         if is_ambisonic(d):  # truncate or zero-pad the orders
             m = np.eye(d.n_channels, s.n_channels)
             return m
-        from auralize.ambisonics import decoder_matrix
+        from auralize.spatial.ambisonics import decoder_matrix
 
         return np.array(decoder_matrix(order, d))
     m = np.zeros((d.n_channels, s.n_channels))
@@ -787,7 +787,7 @@ class SpeakerAlignment:
 
     Examples
     --------
-    >>> from auralize.spatial import Layout, Speaker
+    >>> from auralize.spatial.layouts import Layout, Speaker
     >>> lay = Layout("x", (Speaker("A", 0.0, 0.0, 2.0), Speaker("B", 90.0, 0.0, 1.0)))
     >>> al = SpeakerAlignment(lay, 343)
     >>> al.delays.tolist(), al.gains.tolist()
@@ -842,7 +842,7 @@ class OutputStage:
     """From the channels of :func:`synthesis_layout` to the layout's own channels.
 
     Identity for every layout but ``binaural``, whose stage is an
-    :class:`auralize.hrtf.BinauralDecoder` (stateful: consecutive blocks give the
+    :class:`auralize.spatial.hrtf.BinauralDecoder` (stateful: consecutive blocks give the
     samples of the whole signal).  Build with :func:`output_stage`.
     """
 
@@ -855,14 +855,14 @@ class OutputStage:
         if hrtf is None and is_binaural(layout):
             hrtf = _HRTF.get()
         if is_binaural(layout):
-            from auralize.hrtf import BinauralDecoder, HRIRSet, default_hrirs
+            from auralize.spatial.hrtf import BinauralDecoder, HRIRSet, default_hrirs
 
             if hrtf is None:
                 hrirs = default_hrirs(self.rate)
             elif isinstance(hrtf, HRIRSet):
                 hrirs = hrtf
             else:
-                from auralize.sofa import read_sofa
+                from auralize.spatial.sofa import read_sofa
 
                 hrirs = read_sofa(hrtf)  # type: ignore[arg-type]
             self.decoder = BinauralDecoder(hrirs, BINAURAL_ORDER, rate=self.rate)
@@ -912,7 +912,7 @@ class OutputStage:
         return out
 
     def finish(self, rendered: Any) -> Any:
-        """A whole render (:class:`auralize.synthesis.Rendered` of the
+        """A whole render (:class:`auralize.emitters.synthesis.Rendered` of the
         :attr:`synthesis_layout`) as a render of :attr:`layout`: filtered from a
         clear state, ``meta`` updated with :meth:`describe`."""
         if self.decoder is None:
@@ -933,7 +933,7 @@ _HRTF: contextvars.ContextVar[object] = contextvars.ContextVar("auralize_hrtf", 
 @contextlib.contextmanager
 def default_hrtf(hrtf: object) -> Iterator[None]:
     """Within the block, binaural output stages built without an ``hrtf`` use
-    this one (an :class:`auralize.hrtf.HRIRSet` or a SOFA file; None: the
+    this one (an :class:`auralize.spatial.hrtf.HRIRSet` or a SOFA file; None: the
     built-in spherical head).  The command line's ``--hrtf`` sets it."""
     token = _HRTF.set(hrtf)
     try:

@@ -16,7 +16,7 @@ A SOFA file is netCDF-4, i.e. HDF5 (read here with ``h5py``).  The
   listener's orientation (default x forward, z up), and ``ListenerPosition``.
 
 Any FIR convention with these variables is read (SimpleFreeFieldHRIR, and
-GeneralFIR files with two receivers).  SOFA's coordinate system is the listener frame of :mod:`auralize.spatial`
+GeneralFIR files with two receivers).  SOFA's coordinate system is the listener frame of :mod:`auralize.spatial.layouts`
 (x forward, y left, z up; azimuth counter-clockwise), so source positions map
 directly to directions once the listener's view and up are taken out.
 """
@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import FormatError, MissingFileError
-from auralize.hrtf import HRIRSet
+from auralize.spatial.hrtf import HRIRSet
 
 
 def _text(v: Any) -> str:
@@ -81,7 +81,7 @@ def _attrs(ds: Any) -> tuple[str, str]:
 
 
 def read_sofa(path: str | Path) -> HRIRSet:
-    """Read an AES69 SimpleFreeFieldHRIR file into an :class:`~auralize.hrtf.HRIRSet`.
+    """Read an AES69 SimpleFreeFieldHRIR file into an :class:`~auralize.spatial.hrtf.HRIRSet`.
 
     Raises
     ------
@@ -146,7 +146,7 @@ def read_sofa(path: str | Path) -> HRIRSet:
         view = _var(h, p, "ListenerView", required=False)
         up = _var(h, p, "ListenerUp", required=False)
         if view is not None and view.size >= 3:
-            from auralize.spatial import listener_frame
+            from auralize.spatial.layouts import listener_frame
 
             f = _to_cartesian(
                 view.reshape(-1, 3)[:1], *_attrs(h["ListenerView"]), p, "ListenerView"
@@ -185,7 +185,7 @@ def _apply_delay(ir: NDArray[np.float64], delay: NDArray[np.float64]) -> NDArray
 
 def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs",
                license_: str = "CC0-1.0") -> Path:  # fmt: skip
-    """Write an :class:`~auralize.hrtf.HRIRSet` as AES69 SimpleFreeFieldHRIR.
+    """Write an :class:`~auralize.spatial.hrtf.HRIRSet` as AES69 SimpleFreeFieldHRIR.
 
     netCDF-4 dimensions (M, R, N, I, C, E) are HDF5 dimension scales, so
     netCDF and SOFA readers open the file; positions are spherical (degrees,

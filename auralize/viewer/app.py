@@ -40,11 +40,11 @@ from qtpy import QtCore, QtGui, QtWidgets
 
 from auralize.errors import AuralizeError, OutputError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.sources import TYPES, Thresholds
-from auralize.viewer.detection import VIEWER_THRESHOLDS, Cancelled, Detection
-from auralize.viewer.recorder import DEFAULT_RATE_HZ, PathRecorder
-from auralize.viewer.scene import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
-from auralize.viewer.session import SessionState, data_spec
+from auralize.sources.detection import TYPES, Thresholds
+from auralize.scene.detection import VIEWER_THRESHOLDS, Cancelled, Detection
+from auralize.scene.recorder import DEFAULT_RATE_HZ, PathRecorder
+from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
+from auralize.scene.session import SessionState, data_spec
 
 LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1", "binaural", "ambix1", "ambix3")
 MAPPINGS = ("auto", "paper-density", "identity", "cfd")
@@ -213,7 +213,7 @@ class MainWindow(QtWidgets.QMainWindow):
         act.setShortcut(QtGui.QKeySequence.StandardKey.Open)
         act.triggered.connect(self._ask_open)
         sub = self.builtin_menu = m.addMenu("Open &built-in dataset")
-        from auralize.datasets import all_datasets
+        from auralize.datasets.synthetic import all_datasets
 
         for name in all_datasets():
             size, steps = BUILTIN_SIZES.get(name, (None, None))
@@ -637,7 +637,7 @@ class MainWindow(QtWidgets.QMainWindow):
         it; no detection runs (see :meth:`detect`).  ``fields``/``resolution`` are the
         readers' options (``--field NAME=/DATASET``, ``--resolution``), ``field`` the field
         to display.  Reader warnings (e.g. resampling) are shown in the Data panel."""
-        from auralize.viewer.session import load_data
+        from auralize.scene.session import load_data
 
         d = data_spec(str(spec), size=size, steps=steps, seed=seed, fields=fields,
                       resolution=resolution)  # fmt: skip
@@ -647,7 +647,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 warnings.simplefilter("always")
                 vol = load_data(d)
             notes = list(dict.fromkeys(str(w.message) for w in caught))
-            from auralize.viewer.scene import default_field
+            from auralize.scene.view import default_field
 
             if field is not None:
                 vol._get(field)  # FieldError names the fields there are
@@ -741,7 +741,7 @@ class MainWindow(QtWidgets.QMainWindow):
         th = self.read_thresholds()
         vol, mapping, step = self.volume, self.mapping, self.scene.step
         mfields = dict(self.mapping_fields)
-        from auralize.sources import _require_steps
+        from auralize.sources.detection import _require_steps
 
         _require_steps(vol)  # one step: say why there is nothing to detect
 
@@ -929,7 +929,7 @@ class MainWindow(QtWidgets.QMainWindow):
         write it to ``filename`` (WAV/FLAC) if given.  The sound of every overlay that
         is switched on and heard (:meth:`overlay_sound`) is added along the same path."""
         from auralize.pipeline import save_rendered
-        from auralize.synthesis import Rendered, check_distance, render
+        from auralize.emitters.synthesis import Rendered, check_distance, render
 
         if self.volume is None:
             raise ParameterError("open a data file first")
@@ -1023,7 +1023,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def play_audio(self) -> Any:
         """Play the last render on the chosen device (gain control, limiter, level meter);
         a message box says why if no device is usable."""
-        from auralize.audio import play
+        from auralize.audio.output import play
 
         if self.rendered is None:
             raise ParameterError("render the audio first")
@@ -1040,7 +1040,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def set_gain_db(self, gain_db: float) -> None:
         """The gain control (dB) of Play and live listening (takes effect at once)."""
-        from auralize.audio import check_gain_db
+        from auralize.audio.output import check_gain_db
 
         self.gain_db = check_gain_db(gain_db)
         if self.gain_spin.value() != self.gain_db:
@@ -1055,7 +1055,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Listen live: the listener follows the camera, sound is synthesized block by block
         into the device (or a WAV file given as ``output`` / in the panel), with the sound
         of the overlays switched on (added or taken out as they are switched)."""
-        from auralize.viewer.listening import DeviceSink, LiveEngine, LivePlayer, WavSink
+        from auralize.scene.listening import DeviceSink, LiveEngine, LivePlayer, WavSink
 
         if self.series is None:
             raise ParameterError("detect the sources first (Sources panel)")
@@ -1292,7 +1292,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _overlay_fn(self, name: str, model: Any) -> Callable[[int], Any]:
         """The scene's function for overlay ``name``: the step's meshes when computed,
-        else :data:`~auralize.viewer.scene.PENDING` and the step is computed off the
+        else :data:`~auralize.scene.view.PENDING` and the step is computed off the
         UI thread (:meth:`_request_overlay_step`)."""
 
         def fn(n: int) -> Any:
@@ -1501,8 +1501,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
 
 def _devices() -> list[Any]:
-    """Output devices offered by the output layer (``auralize.audio.list_devices``), if any."""
-    import auralize.audio as audio
+    """Output devices offered by the output layer (``auralize.audio.output.list_devices``), if any."""
+    import auralize.audio.output as audio
 
     fn = getattr(audio, "list_devices", None) or getattr(audio, "output_devices", None)
     if fn is None:
@@ -1515,8 +1515,8 @@ def _devices() -> list[Any]:
 
 def run_app(args: Any) -> int:
     """Start the Qt application (``auralize view``)."""
-    from auralize.sources import TYPES
-    from auralize.viewer.cli import view_options
+    from auralize.sources.detection import TYPES
+    from auralize.cli.view import view_options
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     win = MainWindow()

@@ -22,7 +22,7 @@ Example
 ...              wind=Wind(10.0, (0, 1, 0)))                                # doctest: +SKIP
 """
 
-from auralize._lazy import lazy_exports
+from auralize.runtime.lazy import lazy_exports
 
 #: exported name -> sub-module; imported on first access, so that declaring the
 #: plugin's sub-commands (``auralize --help``) loads none of its physics

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from auralize.cli_options import (
+from auralize.cli.options import (
     add_output_options,
     add_renamed_alias,
     finite_float,
@@ -17,7 +17,7 @@ from auralize.cli_options import (
     positive_int,
     seed_int,
 )
-from auralize.commands import lazy
+from auralize.cli.plugin_commands import lazy
 
 #: the §8 examples of :data:`auralize_aero.presets.PRESETS` (a test keeps them equal)
 PRESET_NAMES = ("cylinder", "square", "sword", "sphere", "fence", "throw")

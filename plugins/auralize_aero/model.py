@@ -162,7 +162,7 @@ class AeroSound(SoundModel):
 
     @staticmethod
     def _cmd_texture(args: argparse.Namespace) -> int:
-        from auralize.progress import progress_callback
+        from auralize.runtime.progress import progress_callback
 
         sec = get_section(args.shape, args.diameter)
         t0 = time.perf_counter()
@@ -180,8 +180,8 @@ class AeroSound(SoundModel):
 
     @staticmethod
     def _cmd_render(args: argparse.Namespace) -> int:
-        from auralize.audio import write_audio
-        from auralize.cli_options import listener_from_args, render_duration
+        from auralize.audio.output import write_audio
+        from auralize.cli.options import listener_from_args, render_duration
 
         tex = SoundTexture.load(args.texture)
         path = listener_from_args(args)
@@ -221,7 +221,7 @@ class AeroSound(SoundModel):
     @classmethod
     def bench(cls, quick: bool) -> list[Any]:
         """Cylinder texture pre-process (target ≤ 2 min) and 16-source swinging stick (≥ 100×)."""
-        from auralize.bench import BenchRow, best_of
+        from auralize.bench.runner import BenchRow, best_of
         from auralize.listener import ListenerPath
 
         rows = []

@@ -51,9 +51,9 @@ from auralize.emitters import Emitters
 from auralize.emitters.engine import model_emitters
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.parallel import N_THREADS, run_pieces
-from auralize.spatial import Layout
-from auralize.synthesis import Rendered
+from auralize.emitters.parallel import N_THREADS, run_pieces
+from auralize.spatial.layouts import Layout
+from auralize.emitters.synthesis import Rendered
 
 from .objects import AeroObject, Motion, Wind, quat_to_matrix
 from .texture import SoundTexture
@@ -92,7 +92,7 @@ def _parts(S: int) -> list[tuple[int, int]]:
 
 
 def _run(fn: Callable[[int], None], n: int) -> None:
-    """``fn(i)`` for every i < n on up to two threads (:func:`auralize.parallel.run_pieces`)."""
+    """``fn(i)`` for every i < n on up to two threads (:func:`auralize.emitters.parallel.run_pieces`)."""
     run_pieces(fn, n)
 
 
@@ -585,7 +585,7 @@ class AeroEmission:
         the emission would.
         """
         from auralize.emitters import render_emitters
-        from auralize.spatial import output_stage
+        from auralize.spatial.layouts import output_stage
 
         stage = output_stage(layout, int(rate))  # binaural: AmbiX windows, the ears once at the end
         lay = stage.synthesis_layout

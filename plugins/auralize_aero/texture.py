@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from scipy import signal
 
 from auralize.errors import FormatError, ParameterError
-from auralize.fileio import atomic_path
+from auralize.io.files import atomic_path
 
 from .lbm import simulate
 from .shapes import Section, check_diameter, fold_directions
@@ -298,7 +298,7 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
     f_scale = rho0 * (speed / u_lattice) ** 2 * dx  # lattice force -> N/m
     est_period = D / (0.2 * speed)
     n_rec = int(math.ceil((duration + 1.5 * est_period) / dt))
-    from auralize.resources import require_memory
+    from auralize.runtime.resources import require_memory
 
     # D2Q9 populations (two copies) and fields on the lattice, plus the recorded forces
     require_memory(nx * ny * 9 * 8 * 4.0 + n_rec * 8 * 8.0,
@@ -362,7 +362,7 @@ def cache_dir(cache: bool | str | Path = True) -> Path | None:
     if cache is False:
         return None
     if cache is True:
-        from auralize.cache import ENV, cache_root
+        from auralize.runtime.cache import ENV, cache_root
 
         # AURALIZE_CACHE: the older name of the variable, still honoured
         old = os.environ.get("AURALIZE_CACHE")

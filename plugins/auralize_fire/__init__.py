@@ -16,7 +16,7 @@ Examples
 (44100.0, (1, 1348))
 """
 
-from auralize._lazy import lazy_exports
+from auralize.runtime.lazy import lazy_exports
 
 #: exported name -> sub-module; imported on first access, so that declaring the
 #: plugin's sub-commands (``auralize --help``) loads none of its physics

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from auralize._numba_setup import configure as _configure_numba
+from auralize.runtime.jit import configure as _configure_numba
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 

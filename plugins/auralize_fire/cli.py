@@ -31,7 +31,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from auralize.cli_options import (
+from auralize.cli.options import (
     add_output_options,
     finite_float,
     fit_duration,
@@ -95,7 +95,7 @@ def _texture_opts(p: argparse.ArgumentParser) -> None:
 
 def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any]) -> None:
     """Write the emitted signal ``x`` (n,) at ``--rate``, cut or padded to ``--duration``."""
-    from auralize.audio import write_audio
+    from auralize.audio.output import write_audio
 
     rate = args.rate
     x = fit_duration(x, rate, args.duration)
@@ -133,7 +133,7 @@ def cmd_extend(args: argparse.Namespace) -> int:
 
 
 def cmd_texture(args: argparse.Namespace) -> int:
-    from auralize.progress import progress_callback
+    from auralize.runtime.progress import progress_callback
     from auralize_fire.model import training_at
     from auralize_fire.texture import texture_synthesize
 
@@ -151,10 +151,10 @@ def cmd_texture(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from auralize.cli_options import listener_from_args
+    from auralize.cli.options import listener_from_args
     from auralize.emitters import render
     from auralize.pipeline import save_rendered
-    from auralize.spatial import get_layout
+    from auralize.spatial.layouts import get_layout
     from auralize_fire.model import fire_sound, load_volume, training_at
 
     lay = get_layout(args.layout)

@@ -124,7 +124,7 @@ def refine_bspline(field: NDArray[np.floating], refine: int = 2, *,
     """
     if int(refine) != refine or refine < 1:
         raise ParameterError(f"refine must be an integer >= 1, got {refine!r}")
-    from auralize.resources import require_memory
+    from auralize.runtime.resources import require_memory
 
     fine_points = float(np.prod([float(n) * refine for n in np.shape(field)[:3]]))
     # the refined grid in float64, its per-axis intermediates and the contour's working copies

@@ -311,7 +311,7 @@ def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, 
         level 1 is the full rate) after each synthesised level: ``levels - 1``
         calls, coarse to fine, each level having about twice the samples, and
         so twice the work, of the one before.  E.g. the callback of
-        :func:`auralize.progress.progress_callback`.
+        :func:`auralize.runtime.progress.progress_callback`.
 
     Returns
     -------

@@ -16,7 +16,7 @@ thread (§4.2.1).  Table 1 presets: ``spark-balls``, ``plasma-ball``,
 44100
 """
 
-from auralize._lazy import lazy_exports
+from auralize.runtime.lazy import lazy_exports
 
 #: exported name -> sub-module; imported on first access, so that declaring the
 #: plugin's sub-commands (``auralize --help``) loads none of its physics

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench import BenchRow, best_of
+from auralize.bench.runner import BenchRow, best_of
 from auralize.listener import ListenerPath
 
 from .field import ChargeScene, solve_field

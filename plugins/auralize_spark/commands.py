@@ -7,14 +7,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from auralize.cli_options import (
+from auralize.cli.options import (
     add_output_options,
     finite_float,
     positive_float,
     positive_int,
     seed_int,
 )
-from auralize.commands import lazy
+from auralize.cli.plugin_commands import lazy
 
 #: the Table 1 presets of :data:`auralize_spark.presets.PRESETS` (a test keeps them equal)
 PRESET_NAMES = ("spark-balls", "plasma-ball", "lightning")

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout, get_layout
+from auralize.spatial.layouts import Layout, get_layout
 
 from .leader import Discharge
 from .waves import WaveParams, accumulate, emissions

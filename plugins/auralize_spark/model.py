@@ -25,7 +25,7 @@ from auralize.emitters.events import as_path
 from auralize.errors import FormatError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.plugins import Parameter, SoundModel
-from auralize.spatial import Layout
+from auralize.spatial.layouts import Layout
 
 from .field import ChargeScene, ElectricField, field_from_volume, solve_field
 from .leader import Discharge, grow_leader

@@ -56,8 +56,8 @@ from auralize.emitters import C0
 from auralize.emitters.events import arrivals, sparse_gains
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout, get_layout
-from auralize.synthesis import Rendered
+from auralize.spatial.layouts import Layout, get_layout
+from auralize.emitters.synthesis import Rendered
 
 from ._kernels import accumulate_wm
 from .leader import Discharge
@@ -357,7 +357,7 @@ class DischargePart:
         has one implementation, exact for every ``backend``.
         """
         from auralize.emitters.engine import BACKENDS
-        from auralize.spatial import output_stage, synthesis_layout
+        from auralize.spatial.layouts import output_stage, synthesis_layout
 
         lay = get_layout(layout)
         syn = synthesis_layout(lay)

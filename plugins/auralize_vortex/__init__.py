@@ -7,7 +7,7 @@ time series (§6, Eq. 5, :mod:`.render`).  Registered as the ``vortex`` sound
 model; adds ``auralize vortex texture|render`` and the ``fire-plume`` dataset.
 """
 
-from auralize._lazy import lazy_exports
+from auralize.runtime.lazy import lazy_exports
 
 #: exported name -> sub-module; imported on first access, so that declaring the
 #: plugin's sub-commands (``auralize --help``) loads none of its physics

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from auralize.cli_options import (
+from auralize.cli.options import (
     add_output_options,
     add_renamed_alias,
     add_volume_options,
@@ -16,7 +16,7 @@ from auralize.cli_options import (
     positive_int,
     seed_int,
 )
-from auralize.commands import lazy
+from auralize.cli.plugin_commands import lazy
 
 
 def add_commands(subparsers: Any) -> None:

@@ -32,7 +32,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize._numba_setup import configure as _configure_numba
+from auralize.runtime.jit import configure as _configure_numba
 from auralize.errors import ParameterError
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice

@@ -123,7 +123,7 @@ class VortexSound(SoundModel):
         ),  # fmt: skip
         Parameter("radius", 0.05, range=(1e-6, None), unit="m", doc="distance clamp"),
     )
-    #: built-in datasets (auralize.datasets hook)
+    #: built-in datasets (auralize.datasets.synthetic hook)
     datasets: ClassVar[dict[str, Any]] = {"fire-plume": make_fire_plume}
 
     def __init__(self, *, block: int = 5, isosurface: float | str | None = None) -> None:
@@ -231,7 +231,7 @@ class VortexSound(SoundModel):
         cfg = TextureConfig(speeds=check_speeds(speeds), size=args.size, duration=args.texture_duration,
                             seed=args.seed, box_m=args.box, dt=args.dt,
                             coefficient=args.coefficient)  # fmt: skip
-        from auralize.progress import progress_callback
+        from auralize.runtime.progress import progress_callback
 
         t0 = time.perf_counter()
         with progress_callback("texture", total=len(cfg.speeds), unit="speed") as cb:
@@ -248,8 +248,8 @@ class VortexSound(SoundModel):
 
     @staticmethod
     def _cmd_render(args: argparse.Namespace) -> int:
-        from auralize.audio import write_audio
-        from auralize.cli_options import listener_from_args
+        from auralize.audio.output import write_audio
+        from auralize.cli.options import listener_from_args
 
         volume = load_volume(args)
         path = listener_from_args(args)
@@ -274,7 +274,7 @@ class VortexSound(SoundModel):
     @classmethod
     def bench(cls, quick: bool) -> list[Any]:
         """Texture pre-process for 8 speeds (target ≤ 60 s) and rendering speed (≥ 50× real time)."""
-        from auralize.bench import BenchRow, best_of
+        from auralize.bench.runner import BenchRow, best_of
         from auralize.listener import ListenerPath
         from auralize_vortex.texture import compute_texture
 
@@ -324,7 +324,7 @@ def load_volume(args: argparse.Namespace) -> TimeVolume:
         if args.steps is not None:
             kw["steps"] = args.steps
         return VortexSound.datasets[spec.split(":", 1)[1]](**kw)
-    from auralize.cli_options import field_map
+    from auralize.cli.options import field_map
     from auralize.pipeline import load
 
     vol = load(spec, size=args.size, steps=args.steps, seed=args.seed,

@@ -49,16 +49,16 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import resample_poly
 
-from auralize._numba_setup import configure as _configure_numba
+from auralize.runtime.jit import configure as _configure_numba
 from auralize.emitters import C0, Emitters, Sound, law_exponent
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial import Layout
+from auralize.spatial.layouts import Layout
 from auralize.volume import TimeVolume
 from auralize_vortex.texture import Texture
 
 if TYPE_CHECKING:
-    from auralize.synthesis import Rendered
+    from auralize.emitters.synthesis import Rendered
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 

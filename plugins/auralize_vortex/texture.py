@@ -49,7 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DataError, FormatError, ParameterError
-from auralize.fileio import atomic_path
+from auralize.io.files import atomic_path
 from auralize_vortex.fluid import StableFluids, smooth_noise
 
 TEXTURE_FORMAT = "vortex-texture"
@@ -479,7 +479,7 @@ def compute_texture(
     cfg: TextureConfig, *, progress: Callable[[str], None] | None = None
 ) -> Texture:
     """Run the pre-process of §5 for every speed and return the texture (not cached)."""
-    from auralize.resources import require_memory
+    from auralize.runtime.resources import require_memory
 
     n_rec = float(cfg.duration) / float(cfg.dt)
     # recorded pressure and its derivatives per receiver, plus the fluid fields of the box
@@ -501,8 +501,8 @@ def compute_texture(
 
 
 def cache_dir() -> Path:
-    """Texture cache folder: auralize's cache folder (:func:`auralize.cache.cache_root`)."""
-    from auralize.cache import cache_root
+    """Texture cache folder: auralize's cache folder (:func:`auralize.runtime.cache.cache_root`)."""
+    from auralize.runtime.cache import cache_root
 
     return cache_root()
 

@@ -245,7 +245,7 @@ def test_texture_exact_engines_agree(candle: np.ndarray) -> None:
 def test_texture_progress_advances_a_bar_per_level(candle: np.ndarray, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     import io
 
-    from auralize import progress
+    from auralize.runtime import progress
 
     x, train = candle[:4000], fire_training_clip(0.5, RATE, seed=2)
     said: list[str] = []

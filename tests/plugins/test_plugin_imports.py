@@ -1,4 +1,4 @@
-"""Plugins take the shared options from :mod:`auralize.cli_options`, never from the CLI.
+"""Plugins take the shared options from :mod:`auralize.cli.options`, never from the CLI.
 
 ``auralize.cli`` (and its ``cli_*`` parts) is the application; a plugin that
 imports it loads the whole CLI and ties itself to its internals.  The
@@ -18,11 +18,11 @@ import pytest
 
 PLUGINS = Path(__file__).resolve().parents[2] / "plugins"
 SOURCES = sorted(PLUGINS.rglob("*.py"))
-ALLOWED = {"auralize.cli_options"}
+ALLOWED = {"auralize.cli.options"}
 
 
 def _cli_module(name: str) -> bool:
-    """``auralize.cli``, ``auralize.cli_audio``, … or a name in one; not ``cli_options``."""
+    """``auralize.cli``, ``auralize.cli.audio``, … or a name in one; not ``cli_options``."""
     top = ".".join(name.split(".")[:2])
     return top.startswith("auralize.cli") and top not in ALLOWED
 
@@ -55,14 +55,14 @@ def test_the_scan_sees_every_plugin_and_detects_cli_imports() -> None:
         "auralize_spark",
     }
     bad = ast.parse(
-        "from auralize.cli import add_output_options\nimport auralize.cli_audio\n"
+        "from auralize.cli import add_output_options\nimport auralize.cli.audio\n"
         "from auralize import cli\nimportlib.import_module('auralize.cli')\n"
-        "from auralize.cli_options import rate_int\n"
+        "from auralize.cli.options import rate_int\n"
     )
     assert {n for _, n in _imported(bad) if _cli_module(n)} == {
         "auralize.cli",
         "auralize.cli.add_output_options",
-        "auralize.cli_audio",
+        "auralize.cli.audio",
     }
 
 
@@ -73,7 +73,7 @@ def test_plugin_does_not_import_the_cli(src: Path) -> None:
         for line, name in _imported(ast.parse(src.read_text(), str(src)))
         if _cli_module(name)
     ]
-    assert not found, "plugins import auralize.cli_options, not the CLI: " + "; ".join(found)
+    assert not found, "plugins import auralize.cli.options, not the CLI: " + "; ".join(found)
 
 
 def test_declaring_every_plugin_command_loads_no_cli_module() -> None:
@@ -93,4 +93,4 @@ def test_declaring_every_plugin_command_loads_no_cli_module() -> None:
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
     )
-    assert out.stdout.split() == ["['auralize.cli_options']"]
+    assert out.stdout.split() == ["['auralize.cli.options']"]

@@ -16,8 +16,8 @@ from auralize_vortex import render_vortex, texture
 from auralize_vortex.datasets import make_fire_plume
 from scipy.signal import spectrogram
 
-from auralize.audio import write_audio
-from auralize.fileio import atomic_path
+from auralize.audio.output import write_audio
+from auralize.io.files import atomic_path
 from auralize.listener import ListenerPath
 
 HERE = Path(__file__).parent

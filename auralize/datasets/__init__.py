@@ -1,0 +1,36 @@
+"""Datasets: synthetic generators, the shipped real data and their regression checks.
+
+* :mod:`auralize.datasets.synthetic` — analytic monopole and explosion
+  volumes and the dataset registry (the public names below);
+* :mod:`auralize.datasets.real` — the real datasets shipped in ``auralize/data``;
+* :mod:`auralize.datasets.regression` — expected figures of the shipped data.
+"""
+
+from auralize.runtime.lazy import lazy_exports
+
+#: exported name -> sub-module, imported on first access
+_EXPORTS = {
+    "MonopoleParams": ".synthetic",
+    "make_monopole": ".synthetic",
+    "monopole_pressure": ".synthetic",
+    "ExplosionParams": ".synthetic",
+    "make_explosion": ".synthetic",
+    "DATASETS": ".synthetic",
+    "DEFAULT_MAPPING": ".synthetic",
+    "all_datasets": ".synthetic",
+    "make_dataset": ".synthetic",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = [
+    "DATASETS",
+    "DEFAULT_MAPPING",
+    "ExplosionParams",
+    "MonopoleParams",
+    "all_datasets",
+    "make_dataset",
+    "make_explosion",
+    "make_monopole",
+    "monopole_pressure",
+]

@@ -1,0 +1,107 @@
+"""Source detection: strengths, classification and ΔV spheres (paper 003 §3.2.3–3.2.4).
+
+* :mod:`auralize.sources.detection` — monopole/dipole/quadrupole strengths,
+  thresholds, classification and extraction (the public names below);
+* :mod:`auralize.sources._kernels` — its fused numba stencils;
+* :mod:`auralize.sources.model` — the ``field`` sound model
+  (:class:`~auralize.sources.model.FieldAuralization`), detected sources as a
+  :class:`~auralize.plugins.SoundModel`.
+
+The names are imported on first use, so ``import auralize.sources`` compiles
+no kernel.
+"""
+
+from auralize.runtime.lazy import lazy_exports
+
+#: exported name -> sub-module, imported on first access
+_EXPORTS = {
+    "KIND_NAMES": ".detection",
+    "TYPES": ".detection",
+    "AUTO_NOISE_K": ".detection",
+    "AUTO_COVER": ".detection",
+    "AUTO_TOP": ".detection",
+    "AUTO_FRACTIONS": ".detection",
+    "AUTO_SAMPLE_STEPS": ".detection",
+    "SAMPLE_POINTS": ".detection",
+    "ROUNDOFF": ".detection",
+    "WARN_FRACTION": ".detection",
+    "STEADY_MODES": ".detection",
+    "DELTA_V_RULES": ".detection",
+    "SourceFractionWarning": ".detection",
+    "ThresholdSpec": ".detection",
+    "StrengthStats": ".detection",
+    "auto_threshold": ".detection",
+    "Thresholds": ".detection",
+    "SourceFrame": ".detection",
+    "SourceSeries": ".detection",
+    "SourceTracks": ".detection",
+    "valid_mask": ".detection",
+    "step_strengths": ".detection",
+    "STRESS_BLOCK": ".detection",
+    "stress_blocks": ".detection",
+    "StressSum": ".detection",
+    "stress_block_sum": ".detection",
+    "stress_sum": ".detection",
+    "STRESS_PAIRS": ".detection",
+    "steady_quadrupole": ".detection",
+    "steady_strength": ".detection",
+    "compute_strengths": ".detection",
+    "classify": ".detection",
+    "extract": ".detection",
+    "input_scale": ".detection",
+    "sample_stats": ".detection",
+    "sample_steps": ".detection",
+    "strength_stats": ".detection",
+    "peak_strengths": ".detection",
+    "iter_detect": ".detection",
+    "classified_fraction": ".detection",
+    "warn_fraction": ".detection",
+    "detect": ".detection",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = [
+    "AUTO_COVER",
+    "AUTO_FRACTIONS",
+    "AUTO_NOISE_K",
+    "AUTO_SAMPLE_STEPS",
+    "AUTO_TOP",
+    "DELTA_V_RULES",
+    "KIND_NAMES",
+    "ROUNDOFF",
+    "SAMPLE_POINTS",
+    "STEADY_MODES",
+    "STRESS_BLOCK",
+    "STRESS_PAIRS",
+    "SourceFractionWarning",
+    "SourceFrame",
+    "SourceSeries",
+    "SourceTracks",
+    "StrengthStats",
+    "StressSum",
+    "TYPES",
+    "ThresholdSpec",
+    "Thresholds",
+    "WARN_FRACTION",
+    "auto_threshold",
+    "classified_fraction",
+    "classify",
+    "compute_strengths",
+    "detect",
+    "extract",
+    "input_scale",
+    "iter_detect",
+    "peak_strengths",
+    "sample_stats",
+    "sample_steps",
+    "steady_quadrupole",
+    "steady_strength",
+    "step_strengths",
+    "strength_stats",
+    "stress_block_sum",
+    "stress_blocks",
+    "stress_sum",
+    "valid_mask",
+    "warn_fraction",
+]
