@@ -15,11 +15,12 @@ import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import ListenerPathError
+from auralize.errors import ListenerPathError, ParameterError
 from auralize.io.files import atomic_write, read_timed_csv
 
 FORWARD = np.array([0.0, 1.0, 0.0])
@@ -398,3 +399,32 @@ def _quat_axis(q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.flo
         axis=1,
     )
     return r @ v
+
+
+def listener_from_args(args: Any) -> ListenerPath:
+    """The :class:`ListenerPath` of the common output options ``--path`` or ``--listener``/``--duration``.
+
+    ``args`` is any object with attributes ``path``, ``listener`` and
+    ``duration`` (the parsed options of a command that writes audio).
+
+    With ``--path`` and ``--duration``, the path is rendered for ``--duration``
+    seconds (its last capture is held beyond its end).
+    """
+    if args.path:
+        return ListenerPath.from_csv(args.path)
+    if args.listener is None:
+        raise ParameterError("give a listener: --path CSV or --listener X,Y,Z --duration S")
+    if args.duration is None:
+        raise ParameterError("--listener needs --duration S (seconds to render)")
+    return ListenerPath.point(args.listener, duration=args.duration)
+
+
+def render_duration(args: Any, path: Any, default: float | None = None) -> float:
+    """Playback seconds a command renders: ``--duration``, else the path's, else ``default``."""
+    if args.duration is not None:
+        return float(args.duration)
+    if path is not None:
+        return float(path.duration)
+    if default is None:
+        raise ParameterError("give --duration S (playback seconds to render)")
+    return float(default)

@@ -25,11 +25,6 @@ from typing import Any
 import numpy as np
 
 from auralize.datasets.synthetic import DEFAULT_MAPPING, make_dataset
-from auralize.errors import ParameterError
-from auralize.listener import ListenerPath, describe_path, orbit_around
-from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
-from auralize.runtime.progress import progress_step
-from auralize.sources.detection import TYPES, SourceSeries, SourceTracks, Thresholds, detect
 from auralize.emitters.synthesis import (
     C0,
     Rendered,
@@ -39,6 +34,11 @@ from auralize.emitters.synthesis import (
     check_distance,
 )
 from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
+from auralize.errors import ParameterError
+from auralize.listener import ListenerPath, describe_path, orbit_around
+from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
+from auralize.runtime.progress import progress_step
+from auralize.sources.detection import TYPES, SourceSeries, SourceTracks, Thresholds, detect
 from auralize.volume import TimeVolume
 
 __all__ = [

@@ -7,8 +7,8 @@ emitters, detected field sources or a closed-form part).  The engine
 (:func:`auralize.emitters.render`) does the propagation, the panning and the
 mixing of several models along one listener path, so a model never sees the
 listener.  A model may also offer a viewer overlay, sub-commands, benchmark
-rows, built-in datasets and a loader of its inputs from a file (the hooks
-below, all optional).  Plugins are found through entry points, loaded once
+rows (:class:`BenchRow`, timed with :func:`best_of`), built-in datasets and
+a loader of its inputs from a file (the hooks below, all optional).  Plugins are found through entry points, loaded once
 and cached; a plugin that fails to load produces a :class:`PluginWarning`,
 never a crash.
 
@@ -22,10 +22,15 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
 
 from auralize.errors import AuralizeError, ParameterError, PluginError
 
@@ -167,19 +172,38 @@ class SoundModel:
         return None
 
     @classmethod
-    def add_cli(cls, subparsers: Any) -> None:
+    def add_cli(cls, subparsers: Any, options: Any) -> None:
         """Add the model's sub-commands to ``subparsers`` (default: none).
 
         Only called for plugins without an ``auralize.commands`` entry point
-        (see :mod:`auralize.cli.plugin_commands`).
+        (see :mod:`auralize.cli.plugin_commands`), whose ``add_commands``
+        hook takes the same two arguments.
+
+        Parameters
+        ----------
+        subparsers : argparse sub-parsers action
+            Where the commands go (``subparsers.add_parser(name, ...)``).
+        options : module
+            The shared-option helpers of the ``auralize`` command
+            (:mod:`auralize.cli.options`): ``add_output_options``,
+            ``add_volume_options``, ``add_renamed_alias``, the argparse types
+            ``positive_float``, ``finite_float``, ``positive_int``,
+            ``seed_int``, ``rate_int``, and ``lazy("module:function")`` for a
+            command function imported when it runs.  A plugin takes them from
+            here and imports nothing from :mod:`auralize.cli`.  The commands
+            themselves use public functions of the core
+            (:func:`auralize.listener.listener_from_args`,
+            :func:`auralize.listener.render_duration`,
+            :func:`auralize.audio.fit_duration`, :func:`auralize.io.field_map`).
         """
         return None
 
     @classmethod
-    def bench(cls, quick: bool) -> list[Any]:
-        """Rows (:class:`auralize.bench.runner.BenchRow`) for ``auralize bench`` (default: none).
+    def bench(cls, quick: bool) -> list[BenchRow]:
+        """Rows (:class:`BenchRow`) for ``auralize bench`` (default: none).
 
-        ``quick``: small sizes only (seconds).
+        ``quick``: small sizes only (seconds).  Time with :func:`best_of`
+        (or :func:`batch_times`), so model rows are measured like the core's.
         """
         return []
 
@@ -203,6 +227,43 @@ class SoundModel:
 
 
 @functools.cache
+@dataclass
+class BenchRow:
+    """One row of ``auralize bench`` (the return type of :meth:`SoundModel.bench`): one figure: ``value`` in ``unit``, with its target and the paper's figure."""
+
+    group: str
+    name: str
+    value: float
+    unit: str
+    target: str = ""
+    met: bool | None = None
+    paper: str = ""
+    note: str = ""
+
+
+def best_of(fn: Callable[[], object], *, repeat: int = 5, min_time: float = 0.2) -> float:
+    """Median wall time of ``fn`` over ``repeat`` batches (after one warm-up)."""
+    return float(np.median(batch_times(fn, repeat=repeat, min_time=min_time)))
+
+
+def batch_times(fn: Callable[[], object], *, repeat: int = 5,
+                min_time: float = 0.2) -> NDArray[np.float64]:  # fmt: skip
+    """Mean wall time of ``fn`` in each of ``repeat`` batches of about
+    ``min_time / repeat`` seconds (after one warm-up)."""
+    fn()
+    times = []
+    for _ in range(repeat):
+        n, t0 = 0, time.perf_counter()
+        while True:
+            fn()
+            n += 1
+            el = time.perf_counter() - t0
+            if el >= min_time / repeat or n >= 50:
+                break
+        times.append(el / n)
+    return np.array(times)
+
+
 def registry() -> dict[str, type[SoundModel]]:
     """All sound models registered by entry point (loaded once, cached)."""
     found: dict[str, type[SoundModel]] = {}

@@ -40,11 +40,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from auralize.emitters.synthesis import Rendered
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.scene.soundscene import SceneModel
 from auralize.sources.detection import SourceSeries, Thresholds
-from auralize.emitters.synthesis import Rendered
 from auralize.volume import TimeVolume
 
 __all__ = [
@@ -573,9 +573,9 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     >>> r.audio.shape, r.rate
     ((2, 882), 44100)
     """
+    from auralize.emitters.timbre import HIGHPASS_HZ, highpass
     from auralize.pipeline import auralize
     from auralize.scene.soundscene import render_scene
-    from auralize.emitters.timbre import HIGHPASS_HZ, highpass
 
     s = GetSession()
     given = _input(Input, source)

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from auralize.spatial import ambisonics as A
 from auralize.errors import ParameterError
 from auralize.spatial import Speaker, downmix_matrix, get_layout, make_layout, pan_gains
+from auralize.spatial import ambisonics as A
 
 
 def fibonacci(k: int) -> np.ndarray:

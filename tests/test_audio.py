@@ -24,12 +24,12 @@ from auralize.audio import (
     refresh_devices,
     write_audio,
 )
+from auralize.emitters.synthesis import render
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.pipeline import save_rendered
 from auralize.sources import SourceTracks
 from auralize.spatial import BUILTIN_LAYOUTS, Speaker, get_layout, make_layout
-from auralize.emitters.synthesis import render
 
 MASKS = {"mono": 0x4, "stereo": 0x3, "5.1": 0x3F, "7.1": 0x63F}
 

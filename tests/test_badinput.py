@@ -542,8 +542,8 @@ def _kill_trials(
 
 def test_kill_during_writes_keeps_old_or_new(tmp_path: Path) -> None:
     from auralize.audio import read_wav, write_audio
-    from auralize.io.files import DATA_MARKER, collection_folders, file_sha256, recover_pair
     from auralize.io import open_volume, save_volume
+    from auralize.io.files import DATA_MARKER, collection_folders, file_sha256, recover_pair
     from auralize.io.sources_file import save_sources_pvd
     from auralize.volume import TimeVolume
 

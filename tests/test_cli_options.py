@@ -130,4 +130,4 @@ def test_old_import_path_still_works() -> None:
                  "finite_float", "positive_int", "seed_int", "RATE_RANGE_HZ",
                  "add_volume_options"):  # fmt: skip
         assert getattr(cli, name) is getattr(opts, name)
-    assert cli._field_map is opts.field_map
+    assert cli.field_map is opts.field_map

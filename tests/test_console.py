@@ -10,13 +10,10 @@ import numba
 import pytest
 from numba.core import event
 
-from auralize.runtime import jit as _numba_setup
-
-from auralize.cli import console
-
-from auralize.runtime import progress
-from auralize.cli import build_parser
+from auralize.cli import build_parser, console
 from auralize.cli.console import setup_console
+from auralize.runtime import jit as _numba_setup
+from auralize.runtime import progress
 
 
 @pytest.fixture(autouse=True)

@@ -17,10 +17,6 @@ pytest.importorskip("distributed")
 
 from auralize.cli import core as cli
 from auralize.datasets import make_explosion
-from auralize.errors import DataError, MissingDependencyError, ParameterError
-from auralize.io import open_volume
-from auralize.io.sources_file import load_sources_h5
-from auralize.listener import ListenerPath
 from auralize.distributed import (
     RunError,
     Runner,
@@ -35,8 +31,12 @@ from auralize.distributed import (
     volume_from_dask,
     write_chunked_explosion,
 )
-from auralize.sources import SourceSeries, SourceTracks, Thresholds, detect
 from auralize.emitters.synthesis import render
+from auralize.errors import DataError, MissingDependencyError, ParameterError
+from auralize.io import open_volume
+from auralize.io.sources_file import load_sources_h5
+from auralize.listener import ListenerPath
+from auralize.sources import SourceSeries, SourceTracks, Thresholds, detect
 from auralize.volume import TimeVolume
 
 # dask.distributed's own start-up/shut-down chatter, not ours
@@ -220,8 +220,8 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
 
 
 def test_detection_tasks_save_their_own_sources(tmp_path: Path, explosion: TimeVolume) -> None:
-    from auralize.mapping import get_mapping
     from auralize.distributed.detect import Slab, detect_task
+    from auralize.mapping import get_mapping
 
     m = get_mapping("identity", density="log10_density")
     m.prepare(explosion)
@@ -638,8 +638,8 @@ def test_client_streams_chunks_to_the_output_file_without_holding_all_sources(
 
     import h5py
 
-    from auralize.io.sources_file import save_sources_h5
     from auralize.distributed import H5Frames
+    from auralize.io.sources_file import save_sources_h5
     from auralize.sources import SourceFrame
 
     def never(*_a: object, **_k: object) -> None:

@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from scipy.signal import butter, sosfiltfilt, welch
 
-from auralize.spatial import ambisonics as A
-from auralize.spatial import hrtf as H
 from auralize.errors import FormatError, MissingFileError, ParameterError
-from auralize.spatial.sofa import read_sofa, write_sofa
+from auralize.spatial import ambisonics as A
 from auralize.spatial import get_layout, output_stage, pan_gains, synthesis_layout
+from auralize.spatial import hrtf as H
+from auralize.spatial.sofa import read_sofa, write_sofa
 
 RATE = 48000
 #: the order-3 chain reproduces interaural phase up to N c / (2π a) ≈ 1.87 kHz:
@@ -297,9 +297,9 @@ def test_immersive_layouts_in_the_speaker_kernels() -> None:
     static listener: X = W, the other first-order channels silent); binaural, which
     needs the output stage after the sum, is refused clearly instead of writing W
     only; speaker azimuths stay undefined for immersive layouts."""
+    from auralize.emitters.synthesis import render
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
-    from auralize.emitters.synthesis import render
 
     tr = SourceTracks(np.array([[0, 1.0, 0]]), np.sin(np.arange(8.0))[None, :], np.array([0.05]),
                       np.arange(8) / 100.0)  # fmt: skip

@@ -17,20 +17,20 @@ import pytest
 import soundfile as sf
 from scipy.signal import butter, sosfiltfilt
 
-from auralize.spatial import hrtf as H
-from auralize.emitters._synth_kernel import _gains
-from auralize.spatial.ambisonics import sh_gains
+from auralize.audio.live import BlockSynth
 from auralize.cli import main
 from auralize.emitters import Emitters
+from auralize.emitters._synth_kernel import _gains
 from auralize.emitters.engine import BlockRenderer, render, render_emitters
-from auralize.errors import ParameterError
-from auralize.listener import ListenerPath
-from auralize.audio.live import BlockSynth
-from auralize.spatial.sofa import write_sofa
-from auralize.spatial import get_layout
 from auralize.emitters.synthesis import _pan_table, _panning_arrays, render_reference
 from auralize.emitters.synthesis import render as synth_render
 from auralize.emitters.timbre import render_timbre
+from auralize.errors import ParameterError
+from auralize.listener import ListenerPath
+from auralize.spatial import get_layout
+from auralize.spatial import hrtf as H
+from auralize.spatial.ambisonics import sh_gains
+from auralize.spatial.sofa import write_sofa
 
 ROOT = Path(__file__).parents[1]
 RATE = 44100
@@ -321,8 +321,8 @@ def test_flac_of_ambix_warns(tmp_path: Path) -> None:
 def test_viewer_live_engine_binaural_equals_offline() -> None:
     """The viewer's live engine (the head follows the camera) renders binaural blocks
     through one stage: for a still pose they equal the offline render."""
-    from auralize.sources import SourceTracks
     from auralize.scene.listening import LiveEngine
+    from auralize.sources import SourceTracks
 
     fk = 4000.0
     t = np.arange(int(0.6 * fk)) / fk

@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from auralize.audio.live import BlockSynth
+from auralize.emitters.synthesis import render
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.audio.live import BlockSynth
 from auralize.sources import SourceTracks
 from auralize.spatial import downmix_matrix
-from auralize.emitters.synthesis import render
 
 ROOT = Path(__file__).parents[1]
 

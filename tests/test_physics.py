@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auralize.emitters import synthesis
 from auralize.datasets import monopole_pressure
-from auralize.listener import ListenerPath
+from auralize.emitters import synthesis
 from auralize.emitters.synthesis import C0, render, render_reference
+from auralize.listener import ListenerPath
 
 RATE = 44100
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from auralize.emitters.propagation import propagate
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.emitters.propagation import propagate
 
 RATE = 8000
 

@@ -323,8 +323,8 @@ def test_valid_mask_survives_resampling_slabs_and_hdf5(tmp_path: Path) -> None:
     back = open_volume(tmp_path / "v.h5")
     np.testing.assert_array_equal(back.valid, valid)
     assert back.valid_ratio == pytest.approx(4 / 6)
-    from auralize.io.resample import resample_uniform
     from auralize.distributed.chunked import slab_volume
+    from auralize.io.resample import resample_uniform
 
     with pytest.warns(ResampledWarning):
         fine = resample_uniform(back, (11, 9, 7))

@@ -17,8 +17,8 @@ import pytest
 import pyvista as pv
 from scipy.spatial import cKDTree
 
-from auralize.io import ResampledWarning, open_volume
 from auralize.datasets.real import CASES, DATASETS, compare, compute, dataset_path
+from auralize.io import ResampledWarning, open_volume
 
 # a compact blob that fills much of a small grid is legitimately a large share of
 # its points; the warning is for the command line, not a failure here

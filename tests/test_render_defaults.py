@@ -11,9 +11,9 @@ import pytest
 
 from auralize.audio import read_wav
 from auralize.cli import main
-from auralize.listener import ListenerPath
 from auralize.datasets.real import CASES, dataset_path
 from auralize.emitters.timbre import loudness
+from auralize.listener import ListenerPath
 
 DATASETS = Path(__file__).resolve().parent.parent / "auralize" / "data"
 MONO = ["dataset:monopole", "--size", "12", "--steps", "60"]

@@ -10,6 +10,7 @@ from PIL import Image
 
 from auralize.cli import main
 from auralize.errors import FieldError, FormatError, ListenerPathError, ParameterError
+from auralize.scene.view import PATH_COLOR, TYPE_COLORS
 from auralize.simple import (
     ApplyMapping,
     CreateListenerPath,
@@ -28,7 +29,6 @@ from auralize.simple import (
     SetActiveSource,
     Show,
 )
-from auralize.scene.view import PATH_COLOR, TYPE_COLORS
 
 SMALL = {"size": 24, "steps": 6}
 

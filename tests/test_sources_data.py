@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from auralize.emitters.synthesis import render
 from auralize.listener import ListenerPath
 from auralize.sources import (
     SourceFractionWarning,
@@ -23,7 +24,6 @@ from auralize.sources import (
     compute_strengths,
     detect,
 )
-from auralize.emitters.synthesis import render
 from auralize.volume import TimeVolume
 
 REPO = Path(__file__).resolve().parent.parent

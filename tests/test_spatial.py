@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from auralize.emitters.synthesis import render
 from auralize.errors import FormatError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
@@ -22,7 +23,6 @@ from auralize.spatial import (
     vbap3d_gains,
     vbap_gains,
 )
-from auralize.emitters.synthesis import render
 
 RATE = 44100
 F_TONE = 300.0
@@ -218,8 +218,8 @@ def test_downmix_matrix() -> None:
 
 
 def test_synthesis_pans_in_3d_for_layouts_with_elevation(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
-    from auralize.listener import ListenerPath
     from auralize.emitters.synthesis import render, render_reference
+    from auralize.listener import ListenerPath
 
     lay = _dome()
     c = mono_params.center

@@ -67,7 +67,8 @@ def test_plugin_commands_declared_without_physics(plugin: str) -> None:
     got = _run(
         "import argparse, importlib, json, sys; "
         f"ap = argparse.ArgumentParser(); sub = ap.add_subparsers(dest='command'); "
-        f"getattr(importlib.import_module({module!r}), {func!r})(sub); "
+        f"getattr(importlib.import_module({module!r}), {func!r})"
+        "(sub, importlib.import_module('auralize.cli.options')); "
         f"heavy = [m for m in sys.modules if m.startswith({plugin!r} + '.') "
         f"and m.split('.')[1] not in ('commands', 'cli')]; "
         "print(json.dumps({'heavy': heavy, 'numba': 'numba' in sys.modules, "

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from auralize.emitters import synthesis
-from auralize.listener import ListenerPath
 from auralize.emitters.synthesis import render, render_reference
+from auralize.listener import ListenerPath
 
 RATE = 44100
 

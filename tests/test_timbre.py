@@ -11,9 +11,6 @@ import numpy as np
 import pytest
 
 from auralize.emitters import timbre
-from auralize.errors import ListenerPathError, ParameterError
-from auralize.listener import ListenerPath
-from auralize.sources import SourceTracks
 from auralize.emitters.synthesis import C0, check_arrival, render
 from auralize.emitters.timbre import (
     TONAL_CARRIERS,
@@ -24,6 +21,9 @@ from auralize.emitters.timbre import (
     near_path,
     render_timbre,
 )
+from auralize.errors import ListenerPathError, ParameterError
+from auralize.listener import ListenerPath
+from auralize.sources import SourceTracks
 
 RATE = 44100
 
@@ -279,9 +279,9 @@ def test_signs_render_the_pressure_and_the_envelope(layout) -> None:  # type: ig
 def test_tonal_without_sources_is_silence_not_a_type_error() -> None:
     """Data where no sources were found renders ``tonal`` as silence of the stated length
     (the command then reports a silent output), not a complaint about source types."""
+    from auralize.emitters.timbre import render_timbre
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
-    from auralize.emitters.timbre import render_timbre
 
     empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, 5)), radius=np.zeros(0),
                          times=np.linspace(0.0, 0.4, 5))  # fmt: skip

@@ -19,8 +19,8 @@ pytest.importorskip("pyvistaqt")
 from qtpy import QtCore, QtWidgets
 
 from auralize.errors import FieldError
-from auralize.viewer.app import MainWindow
 from auralize.scene.view import camera_pose
+from auralize.viewer.app import MainWindow
 
 DATA = {"spec": "dataset:explosion", "size": 32, "steps": 8}
 

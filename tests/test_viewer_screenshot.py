@@ -85,8 +85,8 @@ def test_one_palette_for_viewer_pictures_plots_and_pvd(tmp_path) -> None:
 
     from auralize.io.sources_file import save_sources_pvd
     from auralize.pipeline import detect_sources, load
-    from auralize.scene.plots import plot_counts
     from auralize.scene import TYPE_COLORS, TYPE_LABELS
+    from auralize.scene.plots import plot_counts
     from auralize.scene.view import TYPE_COLORS as VIEWER_COLORS
 
     assert VIEWER_COLORS == PALETTE

@@ -16,9 +16,9 @@ from qtpy import QtCore, QtWidgets
 
 from auralize.errors import DataError
 from auralize.listener import ListenerPath
-from auralize.viewer.app import MainWindow
 from auralize.scene.recorder import PathRecorder
 from auralize.scene.view import camera_pose
+from auralize.viewer.app import MainWindow
 
 ROOT = Path(__file__).parents[1]
 WAVY = ROOT / "auralize" / "data" / "paraview-wavy" / "wavy00.vts"

@@ -30,6 +30,7 @@ _EXPORTS = {
     "Playback": ".output",
     "play": ".output",
     "stop": ".output",
+    "fit_duration": ".output",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
@@ -37,15 +38,16 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 __all__ = [
     "CEILING",
     "LIVE_HEADROOM_DB",
-    "Limiter",
     "NORMALIZE_MODES",
     "PEAK_LEVEL",
+    "WAV_FORMATS",
+    "Limiter",
     "Playback",
     "SilentAudioWarning",
-    "WAV_FORMATS",
     "check_gain_db",
     "choose_output_device",
     "downmix",
+    "fit_duration",
     "list_devices",
     "normalize_audio",
     "play",

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters.synthesis import C0, render
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
@@ -61,7 +62,6 @@ from auralize.spatial.layouts import (
     get_layout,
     output_stage,
 )
-from auralize.emitters.synthesis import C0, render
 
 #: default block length in seconds (the issue's 50 ms budget)
 DEFAULT_BLOCK_S = 0.05

@@ -760,3 +760,26 @@ def stop() -> None:
         playing = list(_PLAYING)
     for pb in playing:
         pb.stop()
+
+
+def fit_duration(x: np.ndarray, rate: int, duration: float | None) -> np.ndarray:
+    """An emitted signal cut, or padded with silence, to ``duration`` seconds.
+
+    Parameters
+    ----------
+    x : (n_samples,) or (n_channels, n_samples) signal.
+    rate : sample rate in Hz.
+    duration : seconds (``--duration``); None returns ``x`` unchanged.
+
+    Returns
+    -------
+    ndarray
+        ``x`` with ``round(duration * rate)`` samples on its last axis.
+    """
+    if duration is None:
+        return x
+    n = round(float(duration) * int(rate))
+    if n <= x.shape[-1]:
+        return x[..., :n]
+    pad = [(0, 0)] * (x.ndim - 1) + [(0, n - x.shape[-1])]
+    return np.pad(x, pad)

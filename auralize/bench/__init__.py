@@ -30,9 +30,9 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 __all__ = [
     "BENCH_THRESHOLDS",
-    "BenchRow",
     "PAPER_DETECT_S",
     "PAPER_FRAME_US",
+    "BenchRow",
     "batch_times",
     "bench_detection",
     "bench_synthesis",

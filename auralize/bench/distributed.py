@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench.runner import BenchRow
+from auralize.plugins import BenchRow
 
 GIB = float(1 << 30)
 #: detection thresholds of the benchmark (relative to the series' peaks)
@@ -234,8 +234,8 @@ def warm_client() -> None:
 
 def _detect(path: Path, workers: int, size: int) -> Timed:
     """Detection on a fresh local cluster (its start-up and worker set-up not timed)."""
-    from auralize.io import open_volume
     from auralize.distributed import Runner, detect_distributed
+    from auralize.io import open_volume
     from auralize.sources.detection import Thresholds
 
     vol = open_volume(path, fields=["log10_density"])

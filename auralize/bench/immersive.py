@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench.runner import BenchRow, batch_times
+from auralize.plugins import BenchRow, batch_times
 
 
 def _moving_emitters(n_em: int, n: int, rate: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

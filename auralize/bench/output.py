@@ -44,8 +44,8 @@ def _scene(quick: bool):  # type: ignore[no-untyped-def]
 
 
 def _live_on_file_device(tracks, path, seconds: float) -> BenchRow:  # type: ignore[no-untyped-def]
-    from auralize.audio.output import refresh_devices
     from auralize.audio.live import play
+    from auralize.audio.output import refresh_devices
 
     old = os.environ.get("XDG_CONFIG_HOME")
     with tempfile.TemporaryDirectory() as tmp:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auralize.bench.runner import BenchRow
+from auralize.plugins import BenchRow
 
 #: (points per axis, steps) of the default and the full benchmark
 QUICK_SIZE = (48, 12)

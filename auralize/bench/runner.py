@@ -19,12 +19,12 @@ import json
 import os
 import platform
 import time
-from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+
+from auralize.plugins import BenchRow, batch_times, best_of
 
 #: paper 003 §4.2, seconds per time step (monopole, dipole, quadrupole)
 PAPER_DETECT_S = {10: (0.064, 0.056, 0.065), 20: (4.001, 3.912, 4.074),
@@ -37,43 +37,6 @@ PAPER_FRAME_US = {10: 7, 20: 16, 30: 23, 40: 65, 50: 102, 64: 236}
 #: detection thresholds of the synthesis benchmarks: they give the 64³ explosion
 #: at least 10,000 active source points per step on average (issue 2's target case)
 BENCH_THRESHOLDS = ("0.6%", "0.1%", "0.05%")
-
-
-@dataclass
-class BenchRow:
-    """One benchmark figure: ``value`` in ``unit``, with its target and the paper's figure."""
-
-    group: str
-    name: str
-    value: float
-    unit: str
-    target: str = ""
-    met: bool | None = None
-    paper: str = ""
-    note: str = ""
-
-
-def best_of(fn: Callable[[], object], *, repeat: int = 5, min_time: float = 0.2) -> float:
-    """Median wall time of ``fn`` over ``repeat`` batches (after one warm-up)."""
-    return float(np.median(batch_times(fn, repeat=repeat, min_time=min_time)))
-
-
-def batch_times(fn: Callable[[], object], *, repeat: int = 5,
-                min_time: float = 0.2) -> NDArray[np.float64]:  # fmt: skip
-    """Mean wall time of ``fn`` in each of ``repeat`` batches of about
-    ``min_time / repeat`` seconds (after one warm-up)."""
-    fn()
-    times = []
-    for _ in range(repeat):
-        n, t0 = 0, time.perf_counter()
-        while True:
-            fn()
-            n += 1
-            el = time.perf_counter() - t0
-            if el >= min_time / repeat or n >= 50:
-                break
-        times.append(el / n)
-    return np.array(times)
 
 
 def _smooth_volume(n: int, steps: int = 3, seed: int = 0):
@@ -142,9 +105,9 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
 
 def bench_synthesis(quick: bool) -> list[BenchRow]:
     from auralize.datasets.synthetic import make_explosion
+    from auralize.emitters.synthesis import render
     from auralize.listener import ListenerPath
     from auralize.sources.detection import Thresholds, detect
-    from auralize.emitters.synthesis import render
 
     size = 32 if quick else 64
     vol = make_explosion(size=size).load()

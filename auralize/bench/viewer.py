@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench.runner import BenchRow
+from auralize.plugins import BenchRow
 
 
 def bench_viewer(quick: bool) -> list[BenchRow]:

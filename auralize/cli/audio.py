@@ -58,6 +58,7 @@ def _device_arg(text: str) -> int | str:
 
 def cmd_play(args: argparse.Namespace) -> int:
     """Detect sources (or load them) and play the path live."""
+    from auralize.audio.live import play
     from auralize.cli.core import (
         _load,
         _mapping_fields,
@@ -66,7 +67,6 @@ def cmd_play(args: argparse.Namespace) -> int:
     )
     from auralize.errors import ParameterError
     from auralize.listener import ListenerPath
-    from auralize.audio.live import play
     from auralize.pipeline import detect_sources, plan_render
     from auralize.spatial.layouts import get_layout
 
@@ -124,10 +124,10 @@ def _report(args: argparse.Namespace, rep: Any) -> None:
 
 def _play_scene(args: argparse.Namespace) -> int:
     """``auralize play --model/--scene``: the scene rendered block by block into the device."""
+    from auralize.audio.live import play
     from auralize.cli.core import scene_from_args
     from auralize.cli.options import DEFAULT_RATE
     from auralize.emitters.engine import BlockRenderer
-    from auralize.audio.live import play
 
     sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
                                                           "rate": DEFAULT_RATE}, "play")  # fmt: skip

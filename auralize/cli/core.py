@@ -436,9 +436,9 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
 def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
     """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
     from auralize.emitters import render
+    from auralize.emitters.timbre import highpass, loudness
     from auralize.pipeline import save_rendered
     from auralize.spatial.layouts import get_layout
-    from auralize.emitters.timbre import highpass, loudness
 
     t = time.perf_counter()
     sound, path, duration, notes = scene_from_args(args, parser_defaults)
@@ -546,8 +546,8 @@ def cmd_path(args: argparse.Namespace) -> int:
 
     # a path around the data moves at most MAX_ORBIT_MACH × c0 in data time when
     # rendered with the automatic time scale (the data's span in the path's duration)
-    from auralize.pipeline import MAX_ORBIT_MACH
     from auralize.emitters.synthesis import C0
+    from auralize.pipeline import MAX_ORBIT_MACH
 
     reach = MAX_ORBIT_MACH * C0 * span  # metres the listener may travel
     if args.kind == "point":
@@ -609,8 +609,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from auralize.datasets.synthetic import make_dataset
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize, save_rendered
-    from auralize.scene.plots import save_spectrogram
     from auralize.scene.pictures import screenshot
+    from auralize.scene.plots import save_spectrogram
 
     out_dir = Path(args.output)
     out_dir.mkdir(exist_ok=True)  # the output folder itself; its parent must exist
@@ -852,8 +852,8 @@ def _check_outputs(args: argparse.Namespace) -> None:
         if hasattr(args, "normalize") and suffix not in (".wav", ".flac"):
             raise ParameterError(f"{out}: audio output must end in .wav or .flac")
     if getattr(args, "hrtf", None):
-        from auralize.spatial.sofa import read_sofa
         from auralize.spatial.layouts import get_layout, is_binaural
+        from auralize.spatial.sofa import read_sofa
 
         if not is_binaural(get_layout(getattr(args, "layout", "mono"))):
             raise ParameterError(f"--hrtf {args.hrtf}: HRTFs apply to --layout binaural only, "

@@ -100,8 +100,8 @@ def _runner(args: argparse.Namespace) -> Any:
 
 def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:
     from auralize.cli.core import _mapping_fields, _thresholds
-    from auralize.pipeline import resolve_mapping
     from auralize.distributed import detect_distributed
+    from auralize.pipeline import resolve_mapping
 
     return detect_distributed(
         vol, mapping=resolve_mapping(vol, args.mapping, **_mapping_fields(args)),
@@ -143,11 +143,11 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
     from auralize.cli.core import _load, check_render_memory
-    from auralize.listener import ListenerPath
-    from auralize.pipeline import plan_render, save_rendered
     from auralize.distributed import render_distributed
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass
+    from auralize.listener import ListenerPath
+    from auralize.pipeline import plan_render, save_rendered
 
     if getattr(args, "model", None) or getattr(args, "scene", None):
         raise ParameterError("--model/--scene render on this machine; leave out the Dask options "

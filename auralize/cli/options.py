@@ -1,7 +1,8 @@
 """The options every audio-writing command shares, importable without the whole CLI.
 
-Plugins declare their sub-commands with these (``from auralize.cli.options
-import add_output_options``), so that ``-o``, ``--layout``, ``--rate``,
+Plugins declare their sub-commands with these (their ``add_commands`` and
+``add_cli`` hooks receive this module as their ``options`` argument, see
+:meth:`auralize.plugins.SoundModel.add_cli`), so that ``-o``, ``--layout``, ``--rate``,
 ``--normalize``, ``--format``, ``--limit``, ``--listener``/``--path`` and
 ``--duration`` mean the same in ``auralize render``, ``auralize play`` and
 every plugin command:
@@ -39,7 +40,12 @@ from typing import Any
 
 import numpy as np
 
-from auralize.errors import ParameterError
+# re-exported: the helpers every command uses, also handed to plugins' hooks
+from auralize.audio.output import fit_duration as fit_duration
+from auralize.cli.plugin_commands import lazy as lazy
+from auralize.io import field_map as field_map
+from auralize.listener import listener_from_args as listener_from_args
+from auralize.listener import render_duration as render_duration
 
 #: lowest and highest sample rate an audio command accepts, Hz
 RATE_RANGE_HZ = (8000, 768000)
@@ -114,19 +120,6 @@ def vec3(text: str) -> np.ndarray:
     if v.size != 3 or not np.all(np.isfinite(v)):
         raise argparse.ArgumentTypeError(f"expected three finite numbers x,y,z, got {text!r}")
     return v
-
-
-def field_map(items: list[str] | None) -> dict[str, str] | None:
-    """``--field NAME=/DATASET`` items -> ``{NAME: /DATASET}`` (None if none are given)."""
-    if not items:
-        return None
-    out = {}
-    for it in items:
-        if "=" not in it:
-            raise ParameterError(f"--field takes NAME=/hdf5/path, got {it!r}")
-        k, v = it.split("=", 1)
-        out[k.strip()] = v.strip()
-    return out
 
 
 def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
@@ -270,57 +263,6 @@ def add_output_options(
         + ("; needed with --listener)" if listener_required else ", else 10)"),
     )
     return g
-
-
-def listener_from_args(args: argparse.Namespace) -> Any:
-    """The :class:`~auralize.listener.ListenerPath` of ``--path`` or ``--listener``/``--duration``.
-
-    With ``--path`` and ``--duration``, the path is rendered for ``--duration``
-    seconds (its last capture is held beyond its end).
-    """
-    from auralize.listener import ListenerPath
-
-    if args.path:
-        return ListenerPath.from_csv(args.path)
-    if args.listener is None:
-        raise ParameterError("give a listener: --path CSV or --listener X,Y,Z --duration S")
-    if args.duration is None:
-        raise ParameterError("--listener needs --duration S (seconds to render)")
-    return ListenerPath.point(args.listener, duration=args.duration)
-
-
-def render_duration(args: argparse.Namespace, path: Any, default: float | None = None) -> float:
-    """Playback seconds a command renders: ``--duration``, else the path's, else ``default``."""
-    if args.duration is not None:
-        return float(args.duration)
-    if path is not None:
-        return float(path.duration)
-    if default is None:
-        raise ParameterError("give --duration S (playback seconds to render)")
-    return float(default)
-
-
-def fit_duration(x: np.ndarray, rate: int, duration: float | None) -> np.ndarray:
-    """An emitted signal cut, or padded with silence, to ``duration`` seconds.
-
-    Parameters
-    ----------
-    x : (n_samples,) or (n_channels, n_samples) signal.
-    rate : sample rate in Hz.
-    duration : seconds (``--duration``); None returns ``x`` unchanged.
-
-    Returns
-    -------
-    ndarray
-        ``x`` with ``round(duration * rate)`` samples on its last axis.
-    """
-    if duration is None:
-        return x
-    n = round(float(duration) * int(rate))
-    if n <= x.shape[-1]:
-        return x[..., :n]
-    pad = [(0, 0)] * (x.ndim - 1) + [(0, n - x.shape[-1])]
-    return np.pad(x, pad)
 
 
 class _RenamedOption(argparse.Action):

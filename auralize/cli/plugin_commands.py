@@ -7,12 +7,15 @@ the entry-point group ``auralize.commands`` (same name as its sound model in
     [project.entry-points."auralize.commands"]
     vortex = "auralize_vortex.commands:add_commands"
 
-``add_commands(subparsers)`` adds the arguments and sets each command's
-``func`` to :func:`lazy` ``("package.module:function")``, so the module that
+``add_commands(subparsers, options)`` adds the arguments and sets each
+command's ``func`` to ``options.lazy("package.module:function")``, so the module that
 runs the command (and the physics it needs) is imported only when the command
 runs.  ``auralize --help`` and ``auralize vortex --help`` then load argparse
 declarations only.  A plugin without a ``auralize.commands`` entry point still
-works through its model's ``add_cli`` hook, at the cost of loading the model.
+works through its model's ``add_cli(subparsers, options)`` hook, at the cost
+of loading the model.  ``options`` is :mod:`auralize.cli.options`, the shared
+option helpers (:meth:`auralize.plugins.SoundModel.add_cli`): plugins take
+them from the argument and import nothing from :mod:`auralize.cli`.
 """
 
 from __future__ import annotations
@@ -66,10 +69,11 @@ def add_plugin_commands(subparsers: Any) -> list[str]:
 
     Plugins with an ``auralize.commands`` entry point declare theirs without
     loading the model; the other plugins of group ``auralize.plugins`` are
-    loaded and their model's ``add_cli(subparsers)`` hook called.  A plugin
+    loaded and their model's ``add_cli(subparsers, options)`` hook called.  A plugin
     whose declarations fail to load produces a
     :class:`~auralize.plugins.PluginWarning` and is left out.
     """
+    from auralize.cli import options
     from auralize.plugins import ENTRY_POINT_GROUP, PluginWarning, SoundModel
 
     served: list[str] = []
@@ -78,7 +82,7 @@ def add_plugin_commands(subparsers: Any) -> list[str]:
             continue
         try:
             hook = ep.load()
-            hook(subparsers)
+            hook(subparsers, options)
         except Exception as exc:  # a broken plugin must not take the command down
             warnings.warn(
                 f"sub-commands of plugin {ep.name!r} ({ep.value}) could not be declared: {exc}",
@@ -100,6 +104,6 @@ def add_plugin_commands(subparsers: Any) -> list[str]:
         if not (isinstance(cls, type) and issubclass(cls, SoundModel)):
             continue  # registry() reports it
         if cls.add_cli.__func__ is not SoundModel.add_cli.__func__:  # type: ignore[attr-defined]
-            cls.add_cli(subparsers)
+            cls.add_cli(subparsers, options)
             served.append(ep.name)
     return served

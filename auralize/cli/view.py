@@ -117,10 +117,10 @@ def screenshot(args: argparse.Namespace) -> Path:
 
     from auralize.io.files import atomic_path, check_output_path
     from auralize.listener import ListenerPath
-    from auralize.sources.detection import Thresholds
     from auralize.scene.detection import Detection
-    from auralize.scene.view import Scene
     from auralize.scene.session import SessionState, load_data
+    from auralize.scene.view import Scene
+    from auralize.sources.detection import Thresholds
 
     # refused before the data is read: the folder must exist (outputs never create folders)
     out = check_output_path(args.screenshot)

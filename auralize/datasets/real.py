@@ -89,10 +89,10 @@ def dataset_path(name: str) -> Iterator[Path]:
 
 def compute(name: str) -> dict[str, Any]:
     """Recompute the figures of one case (seconds per case)."""
+    from auralize.datasets.regression import spectral_centroid
     from auralize.io import ResampledWarning, open_volume
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize, detect_sources
-    from auralize.datasets.regression import spectral_centroid
 
     case = CASES[name]
     out: dict[str, Any] = {}

@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import DataError, FormatError
 from auralize.distributed._dask import require
+from auralize.errors import DataError, FormatError
 from auralize.volume import FrameSource, TimeVolume
 
 

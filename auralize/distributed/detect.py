@@ -74,7 +74,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.sources import _kernels as K
+from auralize.distributed.chunked import slab_volume
+from auralize.distributed.runner import RunError, Runner, numba_threads
 from auralize.errors import FormatError, ParameterError
 from auralize.io.files import atomic_path
 from auralize.mapping import (
@@ -84,8 +85,7 @@ from auralize.mapping import (
     PaperDensityMapping,
     get_mapping,
 )
-from auralize.distributed.chunked import slab_volume
-from auralize.distributed.runner import RunError, Runner, numba_threads
+from auralize.sources import _kernels as K
 from auralize.sources.detection import (
     AUTO_SAMPLE_STEPS,
     SourceFrame,

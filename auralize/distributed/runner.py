@@ -43,8 +43,8 @@ import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
-from auralize.errors import AuralizeError, ParameterError
 from auralize.distributed._dask import require
+from auralize.errors import AuralizeError, ParameterError
 
 SCHEDULERS = ("sync", "threads", "processes", "distributed")
 #: seconds to wait for a scheduler at ``--address`` before giving up

@@ -33,12 +33,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.distributed.runner import Runner, numba_threads
+from auralize.emitters.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.distributed.runner import Runner, numba_threads
 from auralize.sources.detection import SourceTracks
 from auralize.spatial.layouts import get_layout, output_stage
-from auralize.emitters.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
 
 #: default block length: at most this many samples × channels per task (its
 #: accumulator takes 32 bytes per value: 1 GiB)

@@ -76,10 +76,10 @@ def warm_kernels() -> dict[str, Any]:
         import auralize.io
         import auralize.io.hdf5  # noqa: F401
         from auralize.datasets.synthetic import make_monopole
-        from auralize.listener import ListenerPath
         from auralize.distributed.runner import numba_threads
-        from auralize.sources.detection import Thresholds, detect
         from auralize.emitters.synthesis import render
+        from auralize.listener import ListenerPath
+        from auralize.sources.detection import Thresholds, detect
 
         with numba_threads(1):
             vol = make_monopole(size=8, steps=3)

@@ -34,7 +34,6 @@ import math
 import numba
 import numpy as np
 
-from auralize.runtime.jit import configure as _configure_numba
 from auralize.emitters._synth_kernel import (
     _CHUNK,
     _LINE,
@@ -56,6 +55,7 @@ from auralize.emitters._synth_kernel import (
     _shifted,
     _take_cut,
 )
+from auralize.runtime.jit import configure as _configure_numba
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 

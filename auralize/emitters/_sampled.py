@@ -47,9 +47,9 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.runtime.jit import configure as _configure_numba
 from auralize.emitters._synth_kernel import _gains
 from auralize.emitters.parallel import N_THREADS, run_pieces
+from auralize.runtime.jit import configure as _configure_numba
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 

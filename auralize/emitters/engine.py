@@ -9,10 +9,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.emitters import C0, Emitters, FieldSources, Part, Sound, law_exponent
+from auralize.emitters.synthesis import Rendered
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial.layouts import Layout, output_stage
-from auralize.emitters.synthesis import Rendered
 
 BACKENDS = ("auto", "sampled", "reference")
 

@@ -44,9 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import _runs_kernel
-
-from auralize.emitters import _synth_kernel
+from auralize.emitters import _runs_kernel, _synth_kernel
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks

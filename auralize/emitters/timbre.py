@@ -82,11 +82,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters.synthesis import C0, Rendered, _cached, _knot_times, check_distance, render
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import TYPES, SourceTracks
 from auralize.spatial.layouts import Layout, output_stage
-from auralize.emitters.synthesis import C0, Rendered, _cached, _knot_times, check_distance, render
 
 TIMBRES = ("physical", "extended", "tonal")
 #: ``auto`` renders ``physical`` when at least this share of its energy is above 20 Hz,

@@ -56,6 +56,7 @@ __all__ = [
     "READ_SUFFIXES",
     "WRITE_SUFFIXES",
     "ResampledWarning",
+    "field_map",
     "open_volume",
     "save_volume",
 ]
@@ -324,3 +325,16 @@ def save_volume(
             f"{p}: cannot write {suffix or '(no suffix)'!r} files; save_volume writes "
             f"{', '.join(WRITE_SUFFIXES)}"
         )
+
+
+def field_map(items: list[str] | None) -> dict[str, str] | None:
+    """``--field NAME=/DATASET`` items -> ``{NAME: /DATASET}`` (None if none are given)."""
+    if not items:
+        return None
+    out = {}
+    for it in items:
+        if "=" not in it:
+            raise ParameterError(f"--field takes NAME=/hdf5/path, got {it!r}")
+        k, v = it.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out

@@ -38,7 +38,6 @@ from auralize.errors import (
     FormatError,
     ParameterError,
 )
-from auralize.io.files import check_output_path
 from auralize.io._common import (
     FieldsArg,
     fsync_path,
@@ -46,6 +45,7 @@ from auralize.io._common import (
     select_fields,
     temp_sibling,
 )
+from auralize.io.files import check_output_path
 from auralize.volume import DEFAULT_FRAME_RATE_HZ, FrameSource, TimeVolume
 
 #: Value of the root attribute ``auralize_format`` of a volume file.

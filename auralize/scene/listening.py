@@ -44,11 +44,11 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from auralize.emitters.synthesis import C0, Rendered, render
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
 from auralize.spatial.layouts import get_layout, output_stage
-from auralize.emitters.synthesis import C0, Rendered, render
 
 #: default block length in samples (23 ms at 44.1 kHz)
 DEFAULT_BLOCK = 1024

@@ -54,10 +54,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.sources import _kernels as K
 from auralize.errors import DataError, ParameterError
 from auralize.mapping import AcousticMapping, get_mapping
 from auralize.runtime.progress import progress
+from auralize.sources import _kernels as K
 from auralize.volume import TimeVolume
 
 KIND_NAMES = {K.MONOPOLE: "monopole", K.DIPOLE: "dipole", K.QUADRUPOLE: "quadrupole"}

@@ -40,11 +40,11 @@ from qtpy import QtCore, QtGui, QtWidgets
 
 from auralize.errors import AuralizeError, OutputError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.sources.detection import TYPES, Thresholds
 from auralize.scene.detection import VIEWER_THRESHOLDS, Cancelled, Detection
 from auralize.scene.recorder import DEFAULT_RATE_HZ, PathRecorder
-from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.scene.session import SessionState, data_spec
+from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
+from auralize.sources.detection import TYPES, Thresholds
 
 LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1", "binaural", "ambix1", "ambix3")
 MAPPINGS = ("auto", "paper-density", "identity", "cfd")
@@ -928,8 +928,8 @@ class MainWindow(QtWidgets.QMainWindow):
         """Render the path's sound in the background (blocks of 0.5 s, cancellable) and
         write it to ``filename`` (WAV/FLAC) if given.  The sound of every overlay that
         is switched on and heard (:meth:`overlay_sound`) is added along the same path."""
-        from auralize.pipeline import save_rendered
         from auralize.emitters.synthesis import Rendered, check_distance, render
+        from auralize.pipeline import save_rendered
 
         if self.volume is None:
             raise ParameterError("open a data file first")
@@ -1515,8 +1515,8 @@ def _devices() -> list[Any]:
 
 def run_app(args: Any) -> int:
     """Start the Qt application (``auralize view``)."""
-    from auralize.sources.detection import TYPES
     from auralize.cli.view import view_options
+    from auralize.sources.detection import TYPES
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     win = MainWindow()

@@ -9,22 +9,23 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from auralize.cli.options import (
-    add_output_options,
-    add_renamed_alias,
-    finite_float,
-    positive_float,
-    positive_int,
-    seed_int,
-)
-from auralize.cli.plugin_commands import lazy
-
 #: the §8 examples of :data:`auralize_aero.presets.PRESETS` (a test keeps them equal)
 PRESET_NAMES = ("cylinder", "square", "sword", "sphere", "fence", "throw")
 
 
-def add_commands(subparsers: Any) -> None:
-    """Add the ``aero`` sub-commands; the physics loads when one runs."""
+def add_commands(subparsers: Any, options: Any) -> None:
+    """Add the ``aero`` sub-commands; the physics loads when one runs.
+
+    ``options`` holds the shared-option helpers of the ``auralize`` command
+    (see :meth:`auralize.plugins.SoundModel.add_cli`).
+    """
+    add_output_options = options.add_output_options
+    add_renamed_alias = options.add_renamed_alias
+    finite_float = options.finite_float
+    positive_float = options.positive_float
+    positive_int = options.positive_int
+    seed_int = options.seed_int
+    lazy = options.lazy
     p = subparsers.add_parser(
         "aero", help="aerodynamic sound: sound textures and rendering (paper 004)"
     )

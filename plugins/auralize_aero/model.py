@@ -154,11 +154,11 @@ class AeroSound(SoundModel):
 
     # ------------------------------------------------------------------ CLI
     @classmethod
-    def add_cli(cls, subparsers: Any) -> None:
+    def add_cli(cls, subparsers: Any, options: Any) -> None:
         """Declare the sub-commands (see :mod:`auralize_aero.commands`)."""
         from auralize_aero.commands import add_commands
 
-        add_commands(subparsers)
+        add_commands(subparsers, options)
 
     @staticmethod
     def _cmd_texture(args: argparse.Namespace) -> int:
@@ -181,7 +181,7 @@ class AeroSound(SoundModel):
     @staticmethod
     def _cmd_render(args: argparse.Namespace) -> int:
         from auralize.audio.output import write_audio
-        from auralize.cli.options import listener_from_args, render_duration
+        from auralize.listener import listener_from_args, render_duration
 
         tex = SoundTexture.load(args.texture)
         path = listener_from_args(args)
@@ -221,8 +221,8 @@ class AeroSound(SoundModel):
     @classmethod
     def bench(cls, quick: bool) -> list[Any]:
         """Cylinder texture pre-process (target ≤ 2 min) and 16-source swinging stick (≥ 100×)."""
-        from auralize.bench.runner import BenchRow, best_of
         from auralize.listener import ListenerPath
+        from auralize.plugins import BenchRow, best_of
 
         rows = []
         res, dur = (10, 0.03) if quick else (16, 0.05)

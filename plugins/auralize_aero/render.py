@@ -49,11 +49,11 @@ from scipy.interpolate import CubicSpline
 
 from auralize.emitters import Emitters
 from auralize.emitters.engine import model_emitters
+from auralize.emitters.parallel import N_THREADS, run_pieces
+from auralize.emitters.synthesis import Rendered
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.emitters.parallel import N_THREADS, run_pieces
 from auralize.spatial.layouts import Layout
-from auralize.emitters.synthesis import Rendered
 
 from .objects import AeroObject, Motion, Wind, quat_to_matrix
 from .texture import SoundTexture

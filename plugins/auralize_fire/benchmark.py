@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auralize.bench.runner import BenchRow, best_of
+from auralize.plugins import BenchRow, best_of
 
 PAPER_BE_S = {"dragon": 223, "candle": 151, "torch": 63, "flame_jet": 256, "burning_brick": 64}
 PAPER_STS_S = {"dragon": 56, "candle": 86, "torch": 41, "flame_jet": 54, "burning_brick": 20}

@@ -31,27 +31,19 @@ from typing import Any, cast
 
 import numpy as np
 
-from auralize.cli.options import (
-    add_output_options,
-    finite_float,
-    fit_duration,
-    positive_float,
-    positive_int,
-    rate_int,
-    seed_int,
-)
+from auralize.audio import fit_duration
 
 #: help text of the emitted-signal commands' output section
 EMITTED_TITLE = "emitted-signal output (mono, the fire's own signal at 1 m: no listener, no layout)"
 
 
-def _emitted_out(p: argparse.ArgumentParser) -> None:
-    add_output_options(p, emitted=True, title=EMITTED_TITLE)
+def _emitted_out(p: argparse.ArgumentParser, o: Any) -> None:
+    o.add_output_options(p, emitted=True, title=EMITTED_TITLE)
 
 
-def _signal_in(p: argparse.ArgumentParser) -> None:
+def _signal_in(p: argparse.ArgumentParser, o: Any) -> None:
     p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
-    p.add_argument("--input-rate", type=rate_int, metavar="HZ",
+    p.add_argument("--input-rate", type=o.rate_int, metavar="HZ",
                    help="sample rate of a raw .f32 input (default: its manifest.json)")  # fmt: skip
 
 
@@ -65,32 +57,36 @@ def _read_input(args: argparse.Namespace) -> np.ndarray:
     return resample(x, rate, args.rate)
 
 
-def _volume_in(p: argparse.ArgumentParser) -> None:
+def _volume_in(p: argparse.ArgumentParser, o: Any) -> None:
     p.add_argument("volume", metavar="PATH", help="volume file or dataset:fire")
     p.add_argument("--burn-field", default="burn", help="scalar field of the front (default burn)")
     p.add_argument("--velocity-field", default="velocity", help="velocity field (default velocity)")
-    p.add_argument("--iso", type=finite_float, help="front iso-value (default 10%% of the peak)")
-    p.add_argument("--refine", type=positive_int, default=2, help="B-spline refinement (default 2)")
-    p.add_argument("--highpass", type=finite_float, default=30.0,
-                   help="high-pass cutoff Hz (§6; 0 = off)")  # fmt: skip
-    p.add_argument("--size", type=positive_int, help="grid size of dataset:fire")
-    p.add_argument("--steps", type=positive_int, help="steps of dataset:fire")
-
-
-def _extend_opts(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--alpha", type=finite_float, default=3.0, help="power-law exponent (default 3)")
+    p.add_argument("--iso", type=o.finite_float, help="front iso-value (default 10%% of the peak)")
     p.add_argument(
-        "--fcut", type=positive_float, default=180.0, help="blend centre Hz (default 180)"
+        "--refine", type=o.positive_int, default=2, help="B-spline refinement (default 2)"
     )
-    p.add_argument("--seed", type=seed_int, default=0)
+    p.add_argument("--highpass", type=o.finite_float, default=30.0,
+                   help="high-pass cutoff Hz (§6; 0 = off)")  # fmt: skip
+    p.add_argument("--size", type=o.positive_int, help="grid size of dataset:fire")
+    p.add_argument("--steps", type=o.positive_int, help="steps of dataset:fire")
 
 
-def _texture_opts(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--levels", type=positive_int, default=6, help="pyramid levels (default 6)")
+def _extend_opts(p: argparse.ArgumentParser, o: Any) -> None:
+    p.add_argument(
+        "--alpha", type=o.finite_float, default=3.0, help="power-law exponent (default 3)"
+    )
+    p.add_argument(
+        "--fcut", type=o.positive_float, default=180.0, help="blend centre Hz (default 180)"
+    )
+    p.add_argument("--seed", type=o.seed_int, default=0)
+
+
+def _texture_opts(p: argparse.ArgumentParser, o: Any) -> None:
+    p.add_argument("--levels", type=o.positive_int, default=6, help="pyramid levels (default 6)")
     p.add_argument("--eps", type=float, default=1.0, help="approximate-NN ε (default 1; 0 exact)")
     p.add_argument("--coarse-weight", type=float, default=3.0,
                    help="weight of the coarser-level (Eq. 16) feature samples (default 3; 1 = unweighted)")  # fmt: skip
-    p.add_argument("--training-rate", type=rate_int, help="rate of a raw .f32 training clip")
+    p.add_argument("--training-rate", type=o.rate_int, help="rate of a raw .f32 training clip")
 
 
 def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any]) -> None:
@@ -151,8 +147,8 @@ def cmd_texture(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from auralize.cli.options import listener_from_args
     from auralize.emitters import render
+    from auralize.listener import listener_from_args
     from auralize.pipeline import save_rendered
     from auralize.spatial.layouts import get_layout
     from auralize_fire.model import fire_sound, load_volume, training_at
@@ -181,8 +177,13 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_fire_cli(subparsers: Any) -> None:
-    """Register ``auralize fire`` and its sub-commands."""
+def add_fire_cli(subparsers: Any, options: Any) -> None:
+    """Register ``auralize fire`` and its sub-commands.
+
+    ``options`` holds the shared-option helpers of the ``auralize`` command
+    (see :meth:`auralize.plugins.SoundModel.add_cli`).
+    """
+    o = options
     fire = subparsers.add_parser(
         "fire", help="fire sound (paper 001): lowfreq, extend, texture, render"
     )
@@ -194,32 +195,32 @@ def add_fire_cli(subparsers: Any) -> None:
     p = sub.add_parser("lowfreq", help="§3: p = dI/dt of the flame-front flux, at audio rate",
                        description="§3: p = dI/dt of the flame-front flux, at audio rate; "
                        + emitted)  # fmt: skip
-    _volume_in(p)
-    _emitted_out(p)
+    _volume_in(p, o)
+    _emitted_out(p, o)
     p.set_defaults(func=cmd_lowfreq)
 
     p = sub.add_parser("extend", help="§4: spectral bandwidth extension with power-law noise",
                        description="§4: spectral bandwidth extension with power-law noise, at "
                        "the output rate --rate; " + emitted)  # fmt: skip
-    _signal_in(p)
-    _emitted_out(p)
-    _extend_opts(p)
+    _signal_in(p, o)
+    _emitted_out(p, o)
+    _extend_opts(p, o)
     p.set_defaults(func=cmd_extend)
 
     p = sub.add_parser("texture", help="§5: sound texture synthesis from a training clip",
                        description="§5: sound texture synthesis from a training clip, at the "
                        "output rate --rate; " + emitted)  # fmt: skip
-    _signal_in(p)
+    _signal_in(p, o)
     p.add_argument("--training", help="training clip (.wav/.flac/.f32; default: procedural)")
-    _emitted_out(p)
-    _texture_opts(p)
+    _emitted_out(p, o)
+    _texture_opts(p, o)
     p.set_defaults(func=cmd_texture)
 
     p = sub.add_parser("render", help="the chain §3 → §4/§5, placed along a listener path")
-    _volume_in(p)
+    _volume_in(p, o)
     p.add_argument("--extend", choices=["none", "bandwidth", "texture"], default="bandwidth")
     p.add_argument("--training", help="training clip for --extend texture")
-    _extend_opts(p)
-    _texture_opts(p)
-    add_output_options(p)
+    _extend_opts(p, o)
+    _texture_opts(p, o)
+    o.add_output_options(p)
     p.set_defaults(func=cmd_render)

@@ -162,10 +162,10 @@ class FireSound(SoundModel):
         return mesh
 
     @classmethod
-    def add_cli(cls, subparsers: Any) -> None:
+    def add_cli(cls, subparsers: Any, options: Any) -> None:
         from auralize_fire.cli import add_fire_cli
 
-        add_fire_cli(subparsers)
+        add_fire_cli(subparsers, options)
 
     @classmethod
     def bench(cls, quick: bool) -> list[Any]:

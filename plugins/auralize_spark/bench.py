@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench.runner import BenchRow, best_of
 from auralize.listener import ListenerPath
+from auralize.plugins import BenchRow, best_of
 
 from .field import ChargeScene, solve_field
 from .leader import Discharge, grow_leader

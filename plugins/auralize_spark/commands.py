@@ -7,21 +7,22 @@ from __future__ import annotations
 
 from typing import Any
 
-from auralize.cli.options import (
-    add_output_options,
-    finite_float,
-    positive_float,
-    positive_int,
-    seed_int,
-)
-from auralize.cli.plugin_commands import lazy
-
 #: the Table 1 presets of :data:`auralize_spark.presets.PRESETS` (a test keeps them equal)
 PRESET_NAMES = ("spark-balls", "plasma-ball", "lightning")
 
 
-def add_commands(subparsers: Any) -> None:
-    """Add the ``spark`` sub-commands; the physics loads when one runs."""
+def add_commands(subparsers: Any, options: Any) -> None:
+    """Add the ``spark`` sub-commands; the physics loads when one runs.
+
+    ``options`` holds the shared-option helpers of the ``auralize`` command
+    (see :meth:`auralize.plugins.SoundModel.add_cli`).
+    """
+    add_output_options = options.add_output_options
+    finite_float = options.finite_float
+    positive_float = options.positive_float
+    positive_int = options.positive_int
+    seed_int = options.seed_int
+    lazy = options.lazy
     p = subparsers.add_parser("spark", help="spark discharges and thunder (paper 002)")
     sub = p.add_subparsers(dest="spark_command", required=True, metavar="ACTION")
     r = sub.add_parser("render", help="grow (or read) a discharge and render its sound")

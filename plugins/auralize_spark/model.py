@@ -454,11 +454,11 @@ class SparkSound(SoundModel):
 
     # ------------------------------------------------------------------ CLI
     @classmethod
-    def add_cli(cls, subparsers: Any) -> None:
+    def add_cli(cls, subparsers: Any, options: Any) -> None:
         """Declare the sub-commands (see :mod:`auralize_spark.commands`)."""
         from auralize_spark.commands import add_commands
 
-        add_commands(subparsers)
+        add_commands(subparsers, options)
 
     # ---------------------------------------------------------------- bench
     @classmethod

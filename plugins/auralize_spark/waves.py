@@ -54,10 +54,10 @@ from numpy.typing import NDArray
 
 from auralize.emitters import C0
 from auralize.emitters.events import arrivals, sparse_gains
+from auralize.emitters.synthesis import Rendered
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial.layouts import Layout, get_layout
-from auralize.emitters.synthesis import Rendered
 
 from ._kernels import accumulate_wm
 from .leader import Discharge

@@ -8,19 +8,20 @@ from __future__ import annotations
 
 from typing import Any
 
-from auralize.cli.options import (
-    add_output_options,
-    add_renamed_alias,
-    add_volume_options,
-    positive_float,
-    positive_int,
-    seed_int,
-)
-from auralize.cli.plugin_commands import lazy
 
+def add_commands(subparsers: Any, options: Any) -> None:
+    """Add the ``vortex`` sub-commands; the physics loads when one runs.
 
-def add_commands(subparsers: Any) -> None:
-    """Add the ``vortex`` sub-commands; the physics loads when one runs."""
+    ``options`` holds the shared-option helpers of the ``auralize`` command
+    (see :meth:`auralize.plugins.SoundModel.add_cli`).
+    """
+    add_output_options = options.add_output_options
+    add_renamed_alias = options.add_renamed_alias
+    add_volume_options = options.add_volume_options
+    positive_float = options.positive_float
+    positive_int = options.positive_int
+    seed_int = options.seed_int
+    lazy = options.lazy
     p = subparsers.add_parser("vortex", help="vortex sound with sound textures (paper 000)")
     sub = p.add_subparsers(dest="vortex_command", required=True, metavar="SUBCOMMAND")
     t = sub.add_parser("texture", help="pre-compute a sound texture Q(u,t) into HDF5 (§5)")

@@ -32,8 +32,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.runtime.jit import configure as _configure_numba
 from auralize.errors import ParameterError
+from auralize.runtime.jit import configure as _configure_numba
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 

@@ -214,11 +214,11 @@ class VortexSound(SoundModel):
 
     # ------------------------------------------------------------------ CLI
     @classmethod
-    def add_cli(cls, subparsers: Any) -> None:
+    def add_cli(cls, subparsers: Any, options: Any) -> None:
         """Declare the sub-commands (see :mod:`auralize_vortex.commands`)."""
         from auralize_vortex.commands import add_commands
 
-        add_commands(subparsers)
+        add_commands(subparsers, options)
 
     @staticmethod
     def _cmd_texture(args: argparse.Namespace) -> int:
@@ -249,7 +249,7 @@ class VortexSound(SoundModel):
     @staticmethod
     def _cmd_render(args: argparse.Namespace) -> int:
         from auralize.audio.output import write_audio
-        from auralize.cli.options import listener_from_args
+        from auralize.listener import listener_from_args
 
         volume = load_volume(args)
         path = listener_from_args(args)
@@ -274,8 +274,8 @@ class VortexSound(SoundModel):
     @classmethod
     def bench(cls, quick: bool) -> list[Any]:
         """Texture pre-process for 8 speeds (target ≤ 60 s) and rendering speed (≥ 50× real time)."""
-        from auralize.bench.runner import BenchRow, best_of
         from auralize.listener import ListenerPath
+        from auralize.plugins import BenchRow, best_of
         from auralize_vortex.texture import compute_texture
 
         rows = []
@@ -324,7 +324,7 @@ def load_volume(args: argparse.Namespace) -> TimeVolume:
         if args.steps is not None:
             kw["steps"] = args.steps
         return VortexSound.datasets[spec.split(":", 1)[1]](**kw)
-    from auralize.cli.options import field_map
+    from auralize.io import field_map
     from auralize.pipeline import load
 
     vol = load(spec, size=args.size, steps=args.steps, seed=args.seed,

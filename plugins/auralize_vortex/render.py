@@ -49,10 +49,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import resample_poly
 
-from auralize.runtime.jit import configure as _configure_numba
 from auralize.emitters import C0, Emitters, Sound, law_exponent
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.listener import ListenerPath
+from auralize.runtime.jit import configure as _configure_numba
 from auralize.spatial.layouts import Layout
 from auralize.volume import TimeVolume
 from auralize_vortex.texture import Texture
