@@ -28,10 +28,10 @@ from auralize.datasets.synthetic import DEFAULT_MAPPING, make_dataset
 from auralize.emitters.synthesis import (
     C0,
     Rendered,
-    _extent,
     box_distances,
     check_arrival,
     check_distance,
+    source_extent,
 )
 from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
 from auralize.errors import ParameterError
@@ -229,7 +229,7 @@ class RenderPlan:
 
 def _source_box(volume: TimeVolume, tracks: SourceTracks | None) -> tuple[np.ndarray, np.ndarray]:
     if tracks is not None and tracks.n_sources:
-        lo, hi, _ = _extent(tracks)
+        lo, hi, _ = source_extent(tracks)
         return lo, hi
     b = np.asarray(volume.bounds, dtype=np.float64).reshape(3, 2)
     return b[:, 0], b[:, 1]

@@ -149,10 +149,11 @@ class View:
 
     def __init__(self, session: Session, *, size: tuple[int, int] = (800, 600),
                  plotter: Any = None) -> None:  # fmt: skip
+        from auralize.scene.pictures import prefer_egl
         from auralize.scene.view import Scene
 
         if plotter is None:
-            _prefer_egl()
+            prefer_egl()
             import pyvista as pv
 
             plotter = pv.Plotter(off_screen=True, window_size=list(size))
@@ -950,11 +951,3 @@ def _viewer_th() -> tuple[str, str, str]:
     from auralize.scene.detection import VIEWER_THRESHOLDS
 
     return VIEWER_THRESHOLDS
-
-
-def _prefer_egl() -> None:
-    """Without an X display, let VTK render off screen through EGL (no warnings, no X)."""
-    import os
-
-    if not os.environ.get("DISPLAY") and "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ:
-        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"

@@ -59,8 +59,8 @@ def _smooth_volume(n: int, steps: int = 3, seed: int = 0):
 def bench_detection(sizes: list[int]) -> list[BenchRow]:
     from auralize.mapping import get_mapping
     from auralize.sources.detection import (
+        StepCache,
         Thresholds,
-        _StepCache,
         classify,
         extract,
         steady_strength,
@@ -76,7 +76,7 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         m.prepare(vol)
         qmean = steady_strength(vol, m)
         thr = Thresholds().resolve(strength_stats(vol, m, qmean=qmean))
-        cache = _StepCache(vol, m, qmean=qmean)
+        cache = StepCache(vol, m, qmean=qmean)
         for k in range(3):
             cache.get(k)
         buf = np.empty((3, n, n, n))

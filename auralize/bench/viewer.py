@@ -22,9 +22,9 @@ from auralize.plugins import BenchRow
 
 def bench_viewer(quick: bool) -> list[BenchRow]:
     """Time the viewer's update calls off screen (64³ explosion; 32³ when ``quick``)."""
-    from auralize.simple import _prefer_egl
+    from auralize.scene.pictures import prefer_egl
 
-    _prefer_egl()
+    prefer_egl()
     import pyvista as pv
 
     from auralize.pipeline import load
@@ -90,9 +90,9 @@ def _fake_frame(vol: Any, n: int, seed: int = 0) -> Any:
 
 def bench_many_sources(quick: bool) -> list[BenchRow]:
     """Frame rate with 100,000 sources and the time of a 16,000-source screenshot."""
-    from auralize.simple import _prefer_egl
+    from auralize.scene.pictures import prefer_egl
 
-    _prefer_egl()
+    prefer_egl()
     import pyvista as pv
 
     from auralize.pipeline import load

@@ -110,9 +110,9 @@ def view_options(args: argparse.Namespace) -> dict[str, Any]:
 def screenshot(args: argparse.Namespace) -> Path:
     """Render the data (and the listener path; the sources with ``--detect`` or when the
     session had them) off screen: no window, no display needed."""
-    from auralize.simple import _prefer_egl
+    from auralize.scene.pictures import prefer_egl
 
-    _prefer_egl()
+    prefer_egl()
     import pyvista as pv
 
     from auralize.io.files import atomic_path, check_output_path

@@ -74,7 +74,7 @@ class MonopoleParams:
 
 def make_monopole(*, size: int = 32, steps: int = 300, seed: int = 0, **kw: float) -> TimeVolume:
     """The ``monopole`` dataset (``seed`` is accepted for a uniform interface; it is exact)."""
-    p = MonopoleParams(size=_check_size(size), steps=_check_steps(steps), **kw)
+    p = MonopoleParams(size=check_size(size), steps=check_steps(steps), **kw)
     x = np.arange(p.size) * p.spacing - p.center[0]
     r2 = x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2
     g = np.exp(-r2 / (2 * p.sigma**2))
@@ -147,7 +147,7 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: Any)
     with cloud-in-cell weights and a Gaussian smoothing kernel (the SPH
     kernel's role).  Frames at 30 Hz (the paper's data had no physical times).
     """
-    p = ExplosionParams(size=_check_size(size), steps=_check_steps(steps), seed=int(seed), **kw)
+    p = ExplosionParams(size=check_size(size), steps=check_steps(steps), seed=int(seed), **kw)
     rng = np.random.default_rng(p.seed)
     n = p.size
     L = (n - 1) * p.spacing
@@ -255,13 +255,13 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: Any)
     return vol
 
 
-def _check_size(size: int) -> int:
+def check_size(size: int) -> int:
     if not isinstance(size, int | np.integer) or size < 4 or size > 1024:
         raise ParameterError(f"--size must be an integer in 4..1024, got {size!r}")
     return int(size)
 
 
-def _check_steps(steps: int) -> int:
+def check_steps(steps: int) -> int:
     if not isinstance(steps, int | np.integer) or steps < 2:
         raise ParameterError(f"--steps must be an integer >= 2, got {steps!r}")
     return int(steps)

@@ -186,11 +186,11 @@ def write_chunked_explosion(
     """
     import h5py
 
-    from auralize.datasets.synthetic import _check_size, _check_steps
-    from auralize.io._common import fsync_path, temp_sibling
+    from auralize.datasets.synthetic import check_size, check_steps
+    from auralize.io.files import fsync_path, temp_sibling
 
     p = Path(path).expanduser()
-    size, steps = _check_size(size), _check_steps(steps)
+    size, steps = check_size(size), check_steps(steps)
     if generator not in GENERATORS:
         raise ParameterError(f"generator={generator!r}; valid are {', '.join(GENERATORS)}")
     if dtype not in ("float32", "float64"):

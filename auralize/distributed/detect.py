@@ -85,21 +85,20 @@ from auralize.mapping import (
     PaperDensityMapping,
     get_mapping,
 )
-from auralize.sources import _kernels as K
 from auralize.sources.detection import (
     AUTO_SAMPLE_STEPS,
     SourceFrame,
     SourceSeries,
+    StepCache,
     StrengthStats,
     Thresholds,
-    _require_steps,
-    _rule,
-    _steady,
-    _StepCache,
+    check_steady,
     classified_fraction,
     classify,
+    delta_v_rule,
     extract,
     input_scale,
+    require_steps,
     sample_stats,
     sample_steps,
     steady_quadrupole,
@@ -227,8 +226,8 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     tallies = []
     qm = None if qmean is None else qmean[slab.r0 : slab.r1]
     with numba_threads(threads):
-        cache = _StepCache(sub, mapping, qmean=qm)
-        buf = K.empty_like_strengths(sub.shape)
+        cache = StepCache(sub, mapping, qmean=qm)
+        buf = np.empty((3, *sub.shape))
         for n in range(a, b):
             s = step_strengths(sub, cache, n, buf)
             kind, radius = classify(s, thr, sub.spacing, zero_fraction=zero_fraction,
@@ -264,8 +263,8 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
     parts = []
     qm = None if qmean is None else qmean[slab.r0 : slab.r1]
     with numba_threads(threads):
-        cache = _StepCache(sub, mapping, qmean=qm)
-        buf = K.empty_like_strengths(sub.shape)
+        cache = StepCache(sub, mapping, qmean=qm)
+        buf = np.empty((3, *sub.shape))
         for n in steps:
             s = step_strengths(sub, cache, int(n), buf)
             nodata = None if cache.nodata is None else cache.nodata[lo:hi]
@@ -782,10 +781,10 @@ def detect_distributed(
     >>> s.n_steps, s.meta["scale"]["tasks"]
     (6, 3)
     """
-    _require_steps(volume)
+    require_steps(volume)
     m = get_mapping(mapping, **mapping_fields)
-    _steady(steady)
-    _rule(delta_v)
+    check_steady(steady)
+    delta_v_rule(delta_v)
     thresholds = thresholds or Thresholds()
     if not isinstance(task_memory, int | np.integer) or task_memory < (1 << 20):
         raise ParameterError(f"task_memory must be at least 1 MiB (bytes), got {task_memory!r}")

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.distributed.runner import Runner, numba_threads
-from auralize.emitters.synthesis import C0, INTERPOLATIONS, Rendered, _prepare, render
+from auralize.emitters.synthesis import C0, INTERPOLATIONS, Rendered, prepare_render, render
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
@@ -260,7 +260,7 @@ def render_distributed(
     lay = stage.synthesis_layout
     # validate here (a bad path or setting fails on the caller, not in a
     # worker), without rendering: the workers build the piece lists
-    pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
+    pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=bounds, orientation=False, lead=lead)  # fmt: skip
     n = pr.n_samples
     audio = np.zeros((lay.n_channels, n))

@@ -370,7 +370,7 @@ def _orientation_table(path: ListenerPath, tc: NDArray[np.float64],
     return np.ascontiguousarray(np.hstack([fwd, up])), np.array([tc[0], rate])
 
 
-def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scale: float,
+def prepare_render(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scale: float,
              c0: float, duration: float | None, bounds: tuple[float, ...] | None,
              start: float = 0.0, orientation: bool = True, lead: float = 0.0) -> _Prepared:  # fmt: skip
     if not (np.isfinite(rate) and rate > 0):
@@ -422,7 +422,7 @@ def _prepare(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scal
     )  # fmt: skip
 
 
-def _extent(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+def source_extent(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Bounding box of the source positions and the largest clamp radius (cached)."""
     key = (id(tracks.positions), id(tracks.radius))
     cached = tracks.cache.get("extent")
@@ -447,7 +447,7 @@ def _audible_pieces(pr: _Prepared, tracks: SourceTracks, c0: float) -> tuple[int
     """
     if tracks.n_sources == 0:
         return 0, 0, 0.0
-    lo_b, hi_b, r_max = _extent(tracks)
+    lo_b, hi_b, r_max = source_extent(tracks)
     far = np.maximum(np.abs(pr.lc - lo_b), np.abs(pr.lc - hi_b))
     d_max = float(np.max(np.linalg.norm(far, axis=1))) + r_max
     t_end = pr.t_start + pr.n_samples / pr.fs
@@ -499,12 +499,12 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
     """Raise :class:`ListenerPathError` when no sound can reach the listener inside the
     output window (the data ends before the window starts, or the nearest sound
     arrives after it ends)."""
-    pr = _prepare(tracks, path, rate=1000.0, time_scale=time_scale, c0=c0, duration=duration,
+    pr = prepare_render(tracks, path, rate=1000.0, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=None, orientation=False, lead=lead)  # fmt: skip
     source = path.source
     if tracks.n_sources == 0 or pr.n_samples == 0:
         return
-    lo_b, hi_b, _ = _extent(tracks)
+    lo_b, hi_b, _ = source_extent(tracks)
     near, far = box_distances(pr.lc, lo_b, hi_b)
     t_end = pr.t_start + pr.n_samples / pr.fs
     first = float(tracks.times[0]) + float(np.min(near)) / c0
@@ -585,7 +585,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
         raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
     lay = get_layout(layout)
     spk_az, spk_ch = _panning_arrays(lay)
-    pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
+    pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=bounds, start=start, orientation=spk_az.size > 0, lead=lead)  # fmt: skip
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
     # accumulation blocks keep the running sums short (numerical safety); no
@@ -695,7 +695,7 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
     directly.
     """
     lay = get_layout(layout)
-    pr = _prepare(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
+    pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=None, start=start, lead=lead)  # fmt: skip
     n = np.arange(pr.n_samples)
     t = pr.t_start + n / pr.fs

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import sys
 import warnings
@@ -117,29 +116,3 @@ def select_fields(
     if not chosen:
         raise FieldError(f"{source}: no usable fields (scalar or 3-component arrays) found")
     return chosen
-
-
-def temp_sibling(path: Path, *, suffix: str = ".tmp") -> Path:
-    """A fresh hidden name next to ``path`` for writing before an atomic rename.
-
-    The name ``.NAME.<pid>-<hex><suffix>`` carries the writer's process id;
-    temporaries of ``path`` left by processes that no longer run are removed
-    first (:func:`auralize.io.files.clean_stale`).
-    """
-    from auralize.io.files import clean_stale, temp_name
-
-    clean_stale(path)
-    return temp_name(path, suffix=suffix)
-
-
-def fsync_path(path: Path) -> None:
-    """Flush a written file (or directory entry) to disk; best effort."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        with contextlib.suppress(OSError):  # some filesystems cannot fsync a directory
-            os.fsync(fd)
-    finally:
-        os.close(fd)

@@ -188,6 +188,30 @@ def atomic_write(path: str | Path, data: bytes) -> None:
         tmp.write_bytes(data)
 
 
+def temp_sibling(path: Path, *, suffix: str = ".tmp") -> Path:
+    """A fresh hidden name next to ``path`` for writing before an atomic rename.
+
+    The name ``.NAME.<pid>-<hex><suffix>`` carries the writer's process id;
+    temporaries of ``path`` left by processes that no longer run are removed
+    first (:func:`clean_stale`).
+    """
+    clean_stale(path)
+    return temp_name(path, suffix=suffix)
+
+
+def fsync_path(path: Path) -> None:
+    """Flush a written file (or directory entry) to disk; best effort."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        with contextlib.suppress(OSError):  # some filesystems cannot fsync a directory
+            os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 # ----------------------------------------------------------------- paired files
 def file_sha256(path: Path) -> str:
     """Hex SHA-256 of a file's bytes."""

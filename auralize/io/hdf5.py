@@ -38,14 +38,8 @@ from auralize.errors import (
     FormatError,
     ParameterError,
 )
-from auralize.io._common import (
-    FieldsArg,
-    fsync_path,
-    require_exists,
-    select_fields,
-    temp_sibling,
-)
-from auralize.io.files import check_output_path
+from auralize.io._common import FieldsArg, require_exists, select_fields
+from auralize.io.files import check_output_path, fsync_path, temp_sibling
 from auralize.volume import DEFAULT_FRAME_RATE_HZ, FrameSource, TimeVolume
 
 #: Value of the root attribute ``auralize_format`` of a volume file.

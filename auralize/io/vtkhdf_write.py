@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from auralize.errors import DataError, MissingFileError
-from auralize.io._common import fsync_path, temp_sibling
+from auralize.io.files import fsync_path, temp_sibling
 from auralize.volume import TimeVolume
 
 #: the ``kind`` codes of source files and their names

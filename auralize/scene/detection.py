@@ -21,8 +21,8 @@ from auralize.sources.detection import (
     SourceFrame,
     SourceSeries,
     Thresholds,
-    _require_steps,
     iter_detect,
+    require_steps,
     steady_strength,
     strength_stats,
 )
@@ -61,7 +61,7 @@ class Detection:
                  thresholds: Thresholds | None = None, **mapping_fields: str) -> None:  # fmt: skip
         from auralize.pipeline import resolve_mapping
 
-        _require_steps(volume)
+        require_steps(volume)
         self.volume = volume
         self.mapping = resolve_mapping(volume, mapping, **mapping_fields)
         self.mapping.prepare(volume)

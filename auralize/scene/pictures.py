@@ -165,3 +165,9 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
         pl.screenshot(str(tmp))
     pl.close()
     return out
+
+
+def prefer_egl() -> None:
+    """Without an X display, let VTK render off screen through EGL (no warnings, no X)."""
+    if not os.environ.get("DISPLAY") and "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ:
+        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"

@@ -55,7 +55,7 @@ def _inner(i: int, n: int) -> int:
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, dm, tt):  # type: ignore[no-untyped-def]
+def prepare_render(rho_a, rho_b, m_a, m_b, rho_c, v_c, dm, tt):  # type: ignore[no-untyped-def]
     """Planar momentum change dm (3, ...) and Lighthill stress tt (6, ...) = ρ v_i v_j.
 
     Order of tt: xx, yy, zz, xy, xz, yz (paper 003 Eq. 11).
@@ -98,7 +98,7 @@ def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None):  #
     shape = rho_c.shape
     if work is None or work.shape != (9, *shape):
         work = np.empty((9, *shape))
-    _prepare(rho_a, rho_b, m_a, m_b, rho_c, v_c, work[:3], work[3:])
+    prepare_render(rho_a, rho_b, m_a, m_b, rho_c, v_c, work[:3], work[3:])
     _stencil(rho_a, rho_b, work[:3], work[3:], inv_dt, np.asarray(h, dtype=np.float64), out)
     return work
 

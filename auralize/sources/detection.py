@@ -380,7 +380,7 @@ def valid_mask(volume: TimeVolume) -> NDArray[np.bool_] | None:
     return None if valid.all() else valid
 
 
-class _StepCache:
+class StepCache:
     """Mapped (ρ, v, ρv, ok) frames, kept for the three steps the stencil needs.
 
     ``ok`` is None when every point of the step is valid and finite, else a
@@ -423,7 +423,7 @@ class _StepCache:
             del self._cache[k]
 
 
-def step_strengths(volume: TimeVolume, cache: _StepCache, n: int,
+def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
                    out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
     """Strengths ``(3, nz, ny, nx)`` (monopole, dipole, quadrupole) at step ``n``.
 
@@ -470,7 +470,7 @@ StressSum = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
 def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
                      b: int) -> StressSum:  # fmt: skip
     """``(ref, dsum, count)`` of steps ``[a, b)`` (see :func:`stress_sum`)."""
-    cache = _StepCache(volume, mapping)
+    cache = StepCache(volume, mapping)
     ref = _stress(*cache.get(0)[:2])
     dsum = np.zeros((6, *volume.shape))
     count = np.zeros(volume.shape, dtype=np.int64)
@@ -526,7 +526,7 @@ def steady_quadrupole(ref: NDArray[np.float64], dsum: NDArray[np.float64],
 def steady_strength(volume: TimeVolume, m: AcousticMapping,
                     steady: str = "remove") -> NDArray[np.float64] | None:  # fmt: skip
     """The steady quadrupole strength to subtract (``steady="remove"``), or None (``"keep"``)."""
-    if _steady(steady) == "keep":
+    if check_steady(steady) == "keep":
         return None
     return steady_quadrupole(*stress_sum(volume, m), volume.spacing)
 
@@ -538,20 +538,20 @@ def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None 
     ``steady="remove"`` (default, as :func:`detect`): those of the time-varying
     part; ``"keep"``: the paper's literal strengths.
     """
-    _require_steps(volume)
+    require_steps(volume)
     m = get_mapping(mapping)
     m.prepare(volume)
-    return step_strengths(volume, _StepCache(volume, m, qmean=steady_strength(volume, m, steady)),
+    return step_strengths(volume, StepCache(volume, m, qmean=steady_strength(volume, m, steady)),
                           step)  # fmt: skip
 
 
-def _steady(steady: str) -> str:
+def check_steady(steady: str) -> str:
     if steady not in STEADY_MODES:
         raise ParameterError(f"steady must be one of {STEADY_MODES}, got {steady!r}")
     return steady
 
 
-def _rule(delta_v: str) -> int:
+def delta_v_rule(delta_v: str) -> int:
     try:
         return DELTA_V_RULES[delta_v]
     except KeyError:
@@ -577,7 +577,7 @@ def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], sp
     kind = np.empty(s.shape[1:], dtype=np.int8)
     radius = np.empty(s.shape[1:], dtype=np.float64)
     K.classify_and_radius(s, thr, zero, np.asarray(spacing, dtype=np.float64), kind, radius,
-                          _rule(delta_v))  # fmt: skip
+                          delta_v_rule(delta_v))  # fmt: skip
     return kind, radius
 
 
@@ -592,7 +592,7 @@ def extract(kind: NDArray[np.int8], radius: NDArray[np.float64],
                        radius=radius.reshape(-1)[idx])  # fmt: skip
 
 
-def _require_steps(volume: TimeVolume) -> None:
+def require_steps(volume: TimeVolume) -> None:
     if volume.n_steps < 2:
         raise DataError(
             f"{volume.source}: source detection needs at least 2 time steps (strengths are "
@@ -600,7 +600,7 @@ def _require_steps(volume: TimeVolume) -> None:
         )
 
 
-def input_scale(volume: TimeVolume, cache: _StepCache, n: int, lo: int = 0,
+def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
                 hi: int | None = None) -> NDArray[np.float64]:  # fmt: skip
     """Size of the terms each strength of step ``n`` is a difference of (planes ``[lo, hi)``).
 
@@ -651,7 +651,7 @@ def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
                    max_steps: int = AUTO_SAMPLE_STEPS,
                    progress_bar: bool = False) -> StrengthStats:  # fmt: skip
     """|S| statistics of each type over evenly spaced sample steps (valid points only)."""
-    cache = _StepCache(volume, mapping, qmean=qmean)
+    cache = StepCache(volume, mapping, qmean=qmean)
     buf = K.empty_like_strengths(volume.shape)
     parts = []
     steps = sample_steps(volume.n_steps, max_steps)
@@ -678,7 +678,7 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
 
     Each frame's ``n_valid`` is the number of points with data at that step.
     """
-    cache = _StepCache(volume, mapping, qmean=qmean)
+    cache = StepCache(volume, mapping, qmean=qmean)
     buf = K.empty_like_strengths(volume.shape)
     steps = steps if steps is not None else range(volume.n_steps)
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
@@ -761,10 +761,10 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     >>> series.counts()[4]["dipole"]
     0
     """
-    _require_steps(volume)
+    require_steps(volume)
     m = get_mapping(mapping, **mapping_fields)
     m.prepare(volume)
-    _rule(delta_v)
+    delta_v_rule(delta_v)
     qmean = steady_strength(volume, m, steady)
     thresholds = thresholds or Thresholds()
     stats = strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar) if thresholds.needs_scale else None

@@ -741,9 +741,9 @@ class MainWindow(QtWidgets.QMainWindow):
         th = self.read_thresholds()
         vol, mapping, step = self.volume, self.mapping, self.scene.step
         mfields = dict(self.mapping_fields)
-        from auralize.sources.detection import _require_steps
+        from auralize.sources.detection import require_steps
 
-        _require_steps(vol)  # one step: say why there is nothing to detect
+        require_steps(vol)  # one step: say why there is nothing to detect
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             if not progress(0, vol.n_steps):
