@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import C0
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.volume import TimeVolume
 
@@ -187,7 +188,7 @@ class IncompressibleMapping(AcousticMapping):
     pressure: str = "pressure"
     velocity: str = "velocity"
     rho0: float = 1.2
-    c0: float = 343.0
+    c0: float = C0
     kinematic: bool | None = None
     name = "incompressible"
     _p_ref: float = dataclasses.field(default=np.nan, init=False, repr=False)

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from auralize.emitters import C0
 from auralize.errors import ParameterError
 from auralize.volume import CallableFrames, TimeVolume
 
@@ -94,7 +95,7 @@ def make_monopole(*, size: int = 32, steps: int = 300, seed: int = 0, **kw: floa
 
 
 def monopole_pressure(p: MonopoleParams, point: NDArray[np.floating], t: NDArray[np.floating],
-                      *, c0: float = 343.0, n_quad: int = 4000) -> NDArray[np.float64]:  # fmt: skip
+                      *, c0: float = C0, n_quad: int = 4000) -> NDArray[np.float64]:  # fmt: skip
     """Exact pressure of the continuous blob at a point, for times ``t`` (paper 003 Eq. 6).
 
     The source Ψ = ∂ρ/∂t = A'(t) g(|y|) is spherically symmetric, so with

@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
 
+#: speed of sound in air (m/s): the one default of the core and the plugins
 C0 = 343.0
 LAWS = {"physical": 1.0, "paper": 3.0}
 

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import _runs_kernel, _synth_kernel
+from auralize.emitters import C0, _runs_kernel, _synth_kernel
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
@@ -58,7 +58,6 @@ from auralize.spatial.layouts import (
     triangulate,
 )
 
-C0 = 343.0
 RHO0 = 1.2
 #: unpanned layouts are summed by runs of pieces (:mod:`auralize.emitters._runs_kernel`)
 #: unless most of their pieces' arrivals cross listener captures (None); True

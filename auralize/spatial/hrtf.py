@@ -68,11 +68,11 @@ from fractions import Fraction
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import C0
 from auralize.errors import ParameterError
 
-#: Brown & Duda (1998) head radius (m) and the model's default speed of sound (m/s)
+#: Brown & Duda (1998) head radius (m)
 HEAD_RADIUS = 0.0875
-C0 = 343.0
 #: Brown & Duda's ear azimuth (degrees from the front; left +, right −)
 EAR_AZIMUTH_DEG = 100.0
 #: head-shadow parameters of Brown & Duda Eq. 4

@@ -75,10 +75,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import C0
 from auralize.errors import FormatError, ParameterError
 
 #: speed of sound used to turn speaker distances into delays (m/s)
-C0_ALIGN = 343.0
+C0_ALIGN = C0
 
 
 @dataclass(frozen=True)

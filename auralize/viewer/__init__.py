@@ -1,8 +1,9 @@
-"""The desktop viewer and its Qt-free parts.
+"""The desktop viewer: Qt code only.
 
 ``import auralize.viewer`` imports no Qt: the window lives in
-:mod:`auralize.viewer.app` (imported by ``auralize view``); the scene
-(:mod:`.scene`), detection (:mod:`.detection`), recording (:mod:`.recorder`),
-live listening (:mod:`.listening`) and session files (:mod:`.session`) work
-headless and are shared with :mod:`auralize.simple`.
+:mod:`auralize.viewer.app` (imported by ``auralize view``).  What it shows and
+records is Qt-free and shared with :mod:`auralize.simple`: the scene
+(:mod:`auralize.scene.view`), detection runs (:mod:`auralize.scene.detection`),
+the path recorder (:mod:`auralize.scene.recorder`), live listening
+(:mod:`auralize.scene.listening`) and session files (:mod:`auralize.scene.session`).
 """

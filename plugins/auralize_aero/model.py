@@ -9,7 +9,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from auralize.emitters import Sound
+from auralize.emitters import C0, Sound
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.plugins import Parameter, SoundModel
@@ -73,7 +73,7 @@ class AeroSound(SoundModel):
             doc="amplitude ∝ v³ (pressure law, DESIGN.md) or the paper's v⁶ (Eq. 3)",
         ),  # fmt: skip
         Parameter("rate", 44100, range=(1000, 384000), unit="Hz", doc="emission sample rate"),
-        Parameter("c0", 343.0, range=(1.0, None), unit="m/s"),
+        Parameter("c0", C0, range=(1.0, None), unit="m/s"),
         Parameter("min_distance", 0.05, range=(1e-6, None), unit="m"),
         Parameter(
             "duration",

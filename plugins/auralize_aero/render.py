@@ -47,7 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
-from auralize.emitters import Emitters
+from auralize.emitters import C0, Emitters
 from auralize.emitters.engine import model_emitters
 from auralize.emitters.parallel import N_THREADS, run_pieces
 from auralize.emitters.synthesis import Rendered
@@ -58,7 +58,6 @@ from auralize.spatial.layouts import Layout
 from .objects import AeroObject, Motion, Wind, quat_to_matrix
 from .texture import SoundTexture
 
-C0 = 343.0
 _NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 EXPONENTS = {"physical": 3.0, "paper": 6.0}
 

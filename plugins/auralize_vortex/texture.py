@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.emitters import C0
 from auralize.errors import DataError, FormatError, ParameterError
 from auralize.io.files import atomic_path
 from auralize_vortex.fluid import StableFluids, smooth_noise
@@ -55,7 +56,6 @@ from auralize_vortex.fluid import StableFluids, smooth_noise
 TEXTURE_FORMAT = "vortex-texture"
 TEXTURE_VERSION = 1
 RHO0 = 1.2
-C0 = 343.0
 #: default speeds (m/s) of the built-in texture: 8 speeds covering fire plumes (paper §7)
 DEFAULT_SPEEDS = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
 
