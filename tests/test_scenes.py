@@ -247,7 +247,7 @@ def test_a_model_that_returns_something_else_is_named(tone_models) -> None:  # t
     with pytest.raises(PluginError, match=r"'tex' cannot read its inputs \(a texture\) from"):
         TextureModel().load_input("dataset:monopole")
     assert OldModel().load_input("dataset:monopole").n_steps > 1  # undeclared: volumes tried
-    assert SoundModel.bench(True) == [] and SoundModel.add_cli(None) is None
+    assert SoundModel.bench(True) == [] and SoundModel.add_cli(None, None) is None
     assert SoundModel.datasets == {}
 
 

@@ -15,9 +15,9 @@ _EXPORTS = {
     "PAPER_DETECT_S": ".runner",
     "PAPER_FRAME_US": ".runner",
     "BENCH_THRESHOLDS": ".runner",
-    "BenchRow": ".runner",
-    "best_of": ".runner",
-    "batch_times": ".runner",
+    "BenchRow": "auralize.plugins",  # the contract type, re-exported
+    "best_of": "auralize.plugins",
+    "batch_times": "auralize.plugins",
     "bench_detection": ".runner",
     "bench_synthesis": ".runner",
     "emitters_rows": ".runner",
