@@ -22,7 +22,7 @@ from auralize.cli import main
 from auralize.emitters import Emitters
 from auralize.emitters._synth_kernel import _gains
 from auralize.emitters.engine import BlockRenderer, render, render_emitters
-from auralize.emitters.synthesis import _pan_table, _panning_arrays, render_reference
+from auralize.emitters.synthesis import pan_table, panning_arrays, render_reference
 from auralize.emitters.synthesis import render as synth_render
 from auralize.emitters.timbre import render_timbre
 from auralize.errors import ParameterError
@@ -61,8 +61,8 @@ def test_kernel_sh_gains_equal_ambisonics() -> None:
     local = np.stack([d @ f, d @ left, d @ u], axis=1)
     for name in ("ambix1", "ambix2", "ambix3"):
         lay = get_layout(name)
-        az, ch = _panning_arrays(lay)
-        tab = _pan_table(lay, az)
+        az, ch = panning_arrays(lay)
+        tab = pan_table(lay, az)
         out = np.zeros(lay.n_channels)
         got = []
         for v in d:

@@ -254,13 +254,13 @@ class LiveStream:
                  block: int = 0, buffer_s: float = 0.5, prefill_s: float = 0.2,
                  wait_s: float | None = None, latency: str | float = "high",
                  stall_s: float = 5.0) -> None:  # fmt: skip
-        from auralize.audio.output import _sounddevice, choose_output_device
+        from auralize.audio.output import choose_output_device, import_sounddevice
 
         if channels < 1:
             raise ParameterError(f"channels must be >= 1, got {channels!r}")
         self.rate, self.channels = int(rate), int(channels)
         self.device = choose_output_device(device, self.channels)
-        self._sd = _sounddevice()
+        self._sd = import_sounddevice()
         self._cond = threading.Condition()
         self._chunks: deque[NDArray[np.float32]] = deque()
         self._offset = 0

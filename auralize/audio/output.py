@@ -363,7 +363,7 @@ def _json_default(o: object) -> object:
 
 
 # ------------------------------------------------------------------ devices
-def _sounddevice() -> Any:
+def import_sounddevice() -> Any:
     """Import sounddevice (PortAudio) on demand; DeviceError if it cannot load."""
     try:
         import sounddevice
@@ -380,7 +380,7 @@ def refresh_devices() -> None:
 
     Call after plugging in a device or changing the ALSA configuration.
     """
-    sd = _sounddevice()
+    sd = import_sounddevice()
     sd._terminate()
     sd._initialize()
 
@@ -394,7 +394,7 @@ def list_devices(*, outputs_only: bool = True) -> list[dict[str, Any]]:
     >>> [d["name"] for d in list_devices()]  # doctest: +SKIP
     ['auralize_file']
     """
-    sd = _sounddevice()
+    sd = import_sounddevice()
     try:
         default_out = sd.default.device[1]
         devs = sd.query_devices()

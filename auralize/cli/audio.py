@@ -60,10 +60,10 @@ def cmd_play(args: argparse.Namespace) -> int:
     """Detect sources (or load them) and play the path live."""
     from auralize.audio.live import play
     from auralize.cli.core import (
-        _load,
-        _mapping_fields,
-        _progress_wanted,
-        _thresholds,
+        load_volume,
+        mapping_fields,
+        progress_wanted,
+        thresholds_from_args,
     )
     from auralize.errors import ParameterError
     from auralize.listener import ListenerPath
@@ -76,15 +76,15 @@ def cmd_play(args: argparse.Namespace) -> int:
     if args.volume is None:
         raise ParameterError("give a volume PATH, or sound models with --model NAME:FILE or "
                              "--scene SCENE.json")  # fmt: skip
-    vol = _load(args)
+    vol = load_volume(args)
     path = ListenerPath.from_csv(args.path) if args.path else None
     if args.sources:
         from auralize.io.sources_file import load_sources_h5
 
         series = load_sources_h5(args.sources)
     else:
-        series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
-                                progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
+        series = detect_sources(vol, mapping=args.mapping, thresholds=thresholds_from_args(args),
+                                progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
     from auralize.emitters.synthesis import check_arrival, check_distance
 
     tracks = series.tracks()
@@ -146,10 +146,10 @@ def _play_scene(args: argparse.Namespace) -> int:
 def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
     from auralize.cli.core import (
-        _time_scale,
         add_detect_options,
         add_scene_options,
         add_volume_options,
+        time_scale_arg,
     )
     from auralize.cli.options import add_output_options, positive_float
 
@@ -168,7 +168,7 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--downmix", nargs="?", const="auto", metavar="LAYOUT",
                    help="fold the layout to fit a device with fewer channels (default: the "
                         "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
-    g.add_argument("--time-scale", type=_time_scale, default="auto",
+    g.add_argument("--time-scale", type=time_scale_arg, default="auto",
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
     g.add_argument("--highpass", type=float, default=20.0, metavar="HZ",

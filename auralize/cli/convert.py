@@ -52,7 +52,7 @@ def convert_sources(src: Path, out: Path) -> str:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    from auralize.cli.core import _field_map
+    from auralize.cli.options import field_map
     from auralize.io import WRITE_SUFFIXES, save_volume
     from auralize.pipeline import load
 
@@ -67,7 +67,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
             raise ParameterError(f"{out}: cannot write {out.suffix or '(no suffix)'!r}; volumes "
                               f"convert to {', '.join(WRITE_SUFFIXES)}")  # fmt: skip
         vol = load(src, size=args.size, steps=args.steps, seed=args.seed,
-                   fields=_field_map(args.field), resolution=args.resolution)  # fmt: skip
+                   fields=field_map(args.field), resolution=args.resolution)  # fmt: skip
         save_volume(vol, out, compression=args.compression)
         nx, ny, nz = vol.dims
         what = (f"volume {nx}x{ny}x{nz} x {vol.n_steps} steps, fields "

@@ -140,7 +140,7 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _time_scale(text: str) -> float | str:
+def time_scale_arg(text: str) -> float | str:
     if text.strip().lower() == "auto":
         return "auto"
     try:
@@ -154,7 +154,7 @@ def _time_scale(text: str) -> float | str:
 
 def add_render_options(p: argparse.ArgumentParser) -> None:
     """Synthesis options shared by ``render`` and its Dask variant."""
-    p.add_argument("--time-scale", type=_time_scale, default="auto",
+    p.add_argument("--time-scale", type=time_scale_arg, default="auto",
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
     p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
@@ -169,7 +169,7 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
 
 
-def _load(args: argparse.Namespace) -> Any:
+def load_volume(args: argparse.Namespace) -> Any:
     from auralize.pipeline import load
 
     vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
@@ -213,14 +213,14 @@ def check_render_memory(args: argparse.Namespace, duration_s: float, channels: i
     )
 
 
-def _thresholds(args: argparse.Namespace) -> Any:
+def thresholds_from_args(args: argparse.Namespace) -> Any:
     from auralize.sources.detection import Thresholds
 
     return Thresholds(args.threshold_monopole, args.threshold_dipole, args.threshold_quadrupole,
                       zero_fraction=args.zero_fraction)  # fmt: skip
 
 
-def _mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
+def mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
     out: dict[str, Any] = {}
     if args.density_field:
         out["density"] = args.density_field
@@ -244,7 +244,7 @@ def _report_unavailable(command: str, series: Any) -> None:
         print(f"auralize {command}: note: no {' or '.join(kinds)} sources: {why}", file=sys.stderr)
 
 
-def _progress_wanted() -> bool:
+def progress_wanted() -> bool:
     return sys.stderr.isatty()
 
 
@@ -253,7 +253,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     from auralize.mapping import ROLE_NAMES, match_field
     from auralize.pipeline import auto_mapping
 
-    vol = _load(args)
+    vol = load_volume(args)
     d = vol.describe()
     units = vol.attrs.get("units") if isinstance(vol.attrs.get("units"), dict) else {}
     centring = vol.attrs.get("centring") if isinstance(vol.attrs.get("centring"), dict) else {}
@@ -313,10 +313,10 @@ def cmd_detect(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.suffix.lower() not in (".pvd", ".h5", ".hdf5", ".vtkhdf"):
         raise ParameterError(f"{out}: sources output must end in .h5/.hdf5, .pvd or .vtkhdf")
-    vol, tally = tally_nonfinite(_load(args))
+    vol, tally = tally_nonfinite(load_volume(args))
     t = time.perf_counter()
-    series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
-                            progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
+    series = detect_sources(vol, mapping=args.mapping, thresholds=thresholds_from_args(args),
+                            progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
     series.meta["masked_fraction"] = tally.fraction
     _report_unavailable("detect", series)
@@ -401,7 +401,7 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
         from auralize.sources.model import FieldAuralization
 
-        vol = _load(args)
+        vol = load_volume(args)
         if args.sources:
             from auralize.io.sources_file import load_sources_for
 
@@ -409,8 +409,8 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
         else:
             from auralize.pipeline import detect_sources
 
-            series = detect_sources(vol, mapping=args.mapping, thresholds=_thresholds(args),
-                                    progress_bar=_progress_wanted(), **_mapping_fields(args))  # fmt: skip
+            series = detect_sources(vol, mapping=args.mapping, thresholds=thresholds_from_args(args),
+                                    progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
         plan = plan_render(vol, series.tracks(), path=path, listener=listener,
                            duration=args.duration, time_scale=args.time_scale)  # fmt: skip
         path, duration = plan.path, plan.duration
@@ -485,19 +485,19 @@ def cmd_render(args: argparse.Namespace) -> int:
         path = ListenerPath.from_csv(args.path)
     duration = args.duration or (path.duration if path is not None else DEFAULT_DURATION)
     check_render_memory(args, duration, synthesis_layout(args.layout).n_channels)
-    vol = _load(args)
+    vol = load_volume(args)
     series = None
     if args.sources:
         from auralize.io.sources_file import load_sources_for
 
         series = load_sources_for(args.sources, vol)
     t = time.perf_counter()
-    out, series = auralize(vol, path, mapping=args.mapping, thresholds=_thresholds(args),
+    out, series = auralize(vol, path, mapping=args.mapping, thresholds=thresholds_from_args(args),
                            rate=args.rate, time_scale=args.time_scale, interp=args.interp,
                            layout=args.layout, duration=args.duration, series=series,
-                           progress_bar=_progress_wanted(), timbre=args.timbre,
+                           progress_bar=progress_wanted(), timbre=args.timbre,
                            highpass_hz=args.highpass, seed=args.seed, listener=args.listener,
-                           **_mapping_fields(args))  # fmt: skip
+                           **mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
     out.meta["seconds"] = elapsed
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
@@ -624,7 +624,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     path.to_csv(out_dir / "explosion_path.csv")
     print("detecting sources and rendering ...", flush=True)
     rendered, series = auralize(vol, path, layout=args.layout, time_scale=args.time_scale,
-                                progress_bar=_progress_wanted(), timbre="auto")  # fmt: skip
+                                progress_bar=progress_wanted(), timbre="auto")  # fmt: skip
     for note in rendered.meta.get("timbre_notes", []):
         print(note)
     wav = out_dir / f"explosion_{args.layout}.wav"

@@ -99,13 +99,13 @@ def _runner(args: argparse.Namespace) -> Any:
 
 
 def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:
-    from auralize.cli.core import _mapping_fields, _thresholds
+    from auralize.cli.core import mapping_fields, thresholds_from_args
     from auralize.distributed import detect_distributed
     from auralize.pipeline import resolve_mapping
 
     return detect_distributed(
-        vol, mapping=resolve_mapping(vol, args.mapping, **_mapping_fields(args)),
-        thresholds=_thresholds(args), output=output, runner=runner,
+        vol, mapping=resolve_mapping(vol, args.mapping, **mapping_fields(args)),
+        thresholds=thresholds_from_args(args), output=output, runner=runner,
         chunk_steps=args.chunk_steps, slab_planes=args.slab_planes,
         task_memory=int(args.task_memory * (1 << 30)), restart=args.restart,
     )  # fmt: skip
@@ -113,9 +113,9 @@ def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any
 
 def cmd_detect_dask(args: argparse.Namespace) -> int:
     """``auralize detect`` on Dask: resumable, chunked, with any scheduler."""
-    from auralize.cli.core import _load
+    from auralize.cli.core import load_volume
 
-    vol = _load(args)
+    vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
         series = _detect(args, vol, runner, args.output)
@@ -142,7 +142,7 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
 
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
-    from auralize.cli.core import _load, check_render_memory
+    from auralize.cli.core import check_render_memory, load_volume
     from auralize.distributed import render_distributed
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass
@@ -165,7 +165,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
 
     duration = args.duration or (path.duration if path is not None else DEFAULT_DURATION)
     check_render_memory(args, duration, get_layout(args.layout).n_channels)
-    vol = _load(args)
+    vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
         if args.sources:

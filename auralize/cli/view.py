@@ -91,7 +91,8 @@ def cmd_view(args: argparse.Namespace) -> int:
 def view_options(args: argparse.Namespace) -> dict[str, Any]:
     """What ``auralize view``'s options ask for: the session ``data`` entry, the field to
     display, the mapping (name and field names) and the thresholds."""
-    from auralize.cli.core import _field_map, _mapping_fields, _thresholds
+    from auralize.cli.core import mapping_fields, thresholds_from_args
+    from auralize.cli.options import field_map
     from auralize.scene.session import data_spec
 
     items = list(getattr(args, "field", None) or [])
@@ -99,12 +100,12 @@ def view_options(args: argparse.Namespace) -> dict[str, Any]:
     if len(plain) > 1:
         raise ParameterError(f"--field NAME chooses one field to display, got {plain}")
     color_by = getattr(args, "color_by", None) or (plain[0] if plain else None)
-    fields = _field_map([f for f in items if "=" in f])
+    fields = field_map([f for f in items if "=" in f])
     data = (data_spec(args.volume, size=args.size, steps=args.steps, seed=args.seed,
                       fields=fields, resolution=args.resolution)
             if args.volume is not None else None)  # fmt: skip
     return {"data": data, "field": color_by, "mapping": args.mapping,
-            "mapping_fields": _mapping_fields(args), "thresholds": _thresholds(args)}  # fmt: skip
+            "mapping_fields": mapping_fields(args), "thresholds": thresholds_from_args(args)}  # fmt: skip
 
 
 def screenshot(args: argparse.Namespace) -> Path:

@@ -516,7 +516,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     audio, meta (``internal_rate_hz``, ``signal_rate_hz``, ``block``, ``threads``)
     """
     from auralize.emitters import law_exponent
-    from auralize.emitters.synthesis import _pan_table, _panning_arrays
+    from auralize.emitters.synthesis import pan_table, panning_arrays
 
     lay = layout
     n_ch = lay.n_channels
@@ -570,8 +570,8 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     VR, VL = _path_velocities(path, tp0 + tb)
     if n_ch > 1:
         F, U = path.orientation_at(tp0 + tb)
-        spk_az, spk_ch = _panning_arrays(lay)
-        pinv = _pan_table(lay, spk_az)
+        spk_az, spk_ch = panning_arrays(lay)
+        pinv = pan_table(lay, spk_az)
     else:
         F = U = np.zeros((B + 1, 3))
         spk_az, spk_ch, pinv = np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 4))

@@ -102,7 +102,7 @@ class _Prepared:
     n_samples: int
 
 
-def _knot_times(tracks: SourceTracks) -> NDArray[np.float64]:
+def knot_times(tracks: SourceTracks) -> NDArray[np.float64]:
     """The data times padded with one silent step before and after."""
     t = np.asarray(tracks.times, dtype=np.float64)
     if t.size >= 2:
@@ -113,7 +113,7 @@ def _knot_times(tracks: SourceTracks) -> NDArray[np.float64]:
 
 
 def _pad_knots(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    tn = _knot_times(tracks)
+    tn = knot_times(tracks)
     t = tracks.times
     q = np.zeros((tracks.n_sources, t.size + 2))
     q[:, 1:-1] = tracks.q / (4.0 * np.pi)
@@ -162,10 +162,10 @@ def _workspace(name: str, shape: tuple[int, ...], dtype: type = np.float64) -> N
     return buf[:size].reshape(shape)
 
 
-def _panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+def panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """The kernel's speaker azimuths and channels (:meth:`Layout.panning_arrays`);
     for an AmbiX layout one placeholder per channel (its gains come from the
-    spherical-harmonic table of :func:`_pan_table`).
+    spherical-harmonic table of :func:`pan_table`).
 
     Raises
     ------
@@ -185,7 +185,7 @@ def _panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]
     return lay.panning_arrays()
 
 
-def _pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
+def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     """The kernel's panning table: speaker-pair inverse bases (2-D VBAP) for a
     horizontal layout, the triangle table of 3-D VBAP for one with elevation
     (see :func:`auralize.emitters._synth_kernel._gains3`), the SN3D factors and order
@@ -241,10 +241,10 @@ def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
     dq/dτ is the piece's slope), contiguous per chunk so that the kernel
     streams it.
     """
-    return _cached(tracks, "pieces", interp, lambda: _build_pieces(tracks, tn, interp))
+    return cached_on_tracks(tracks, "pieces", interp, lambda: _build_pieces(tracks, tn, interp))
 
 
-def _cached(tracks: SourceTracks, name: str, interp: str, build: Any) -> Any:
+def cached_on_tracks(tracks: SourceTracks, name: str, interp: str, build: Any) -> Any:
     """``build()``, cached on the tracks under ``name`` while their arrays are the same."""
     key = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), interp)
     cached = tracks.cache.get(name)
@@ -288,7 +288,7 @@ def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[N
     ``gr0[g]``, holds ``gcnt[g]`` runs of at most ``glen[g]`` pieces and its
     knot data at ``KD[goff[g]:]``.
     """
-    return _cached(tracks, "runs", interp, lambda: _build_runs(tracks, tn, interp))
+    return cached_on_tracks(tracks, "runs", interp, lambda: _build_runs(tracks, tn, interp))
 
 
 def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
@@ -409,7 +409,7 @@ def prepare_render(tracks: SourceTracks, path: ListenerPath, *, rate: float, tim
             f"or a positive duration"
         )
     n_samples = round(duration * rate)
-    tn = _knot_times(tracks)
+    tn = knot_times(tracks)
     if orientation:
         otab, ot = _orientation_table(path, tc, time_scale)
     else:  # unpanned: the listener's orientation is not needed
@@ -583,7 +583,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     if interp not in INTERPOLATIONS:
         raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
     lay = get_layout(layout)
-    spk_az, spk_ch = _panning_arrays(lay)
+    spk_az, spk_ch = panning_arrays(lay)
     pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=bounds, start=start, orientation=spk_az.size > 0, lead=lead)  # fmt: skip
     n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
@@ -669,7 +669,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
             bad = _synth_kernel.render(
                 cptr, ccnt, PD, pr.tn, cubic,
                 pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
-                shift, spk_az, spk_ch, _pan_table(lay, spk_az), lay.n_channels,
+                shift, spk_az, spk_ch, pan_table(lay, spk_az), lay.n_channels,
                 bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
                 ct, k_ct, KR, LT,
             )  # fmt: skip

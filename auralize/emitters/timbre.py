@@ -82,7 +82,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters.synthesis import C0, Rendered, _cached, _knot_times, check_distance, render
+from auralize.emitters.synthesis import (
+    C0,
+    Rendered,
+    cached_on_tracks,
+    check_distance,
+    knot_times,
+    render,
+)
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import TYPES, SourceTracks
@@ -171,7 +178,7 @@ def merge_size(tracks: SourceTracks, c0: float = C0) -> float:
 def _data_step(tracks: SourceTracks) -> float:
     """The median time step of the data (s; 1 for a single step), cached on the tracks."""
     t = np.asarray(tracks.times, dtype=np.float64)
-    return float(_cached(tracks, "timbre:step", "",
+    return float(cached_on_tracks(tracks, "timbre:step", "",
                          lambda: np.median(np.diff(t)) if t.size >= 2 else 1.0))  # fmt: skip
 
 
@@ -296,9 +303,9 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
     L = path.position_at(t_play)
     if tracks.n_sources == 0:
         return np.zeros(t_data.size)
-    cen, W = _cached(tracks, "timbre:clusters", "", lambda: _clusters(tracks))
+    cen, W = cached_on_tracks(tracks, "timbre:clusters", "", lambda: _clusters(tracks))
     C = cen.shape[0]
-    tn = _knot_times(tracks)
+    tn = knot_times(tracks)
     D2 = np.zeros((t_data.size, C))  # (J, C)
     for a in range(3):
         d = L[:, a, None] - cen[None, :, a]
@@ -403,7 +410,7 @@ class _Clock:
         # the mean emission time at the controls; between them the data time
         # and D̄ are linear in the sample index, and so is the emission time
         tau = t_start + u / ts - dbar / c0
-        tn = _knot_times(tracks)
+        tn = knot_times(tracks)
         self.origin = float(tn[0])  # emission-time origin of every carrier
         span = (float(tn[-1]) - self.origin) * ts * rate
         if span <= MAX_TABLE:
@@ -750,7 +757,7 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     base: Rendered | None = None
     used = {}
     f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
-    by_type = _cached(tracks, "timbre:types", "", lambda: _type_tracks(tracks))
+    by_type = cached_on_tracks(tracks, "timbre:types", "", lambda: _type_tracks(tracks))
     joined = _joined(tracks, path, "timbre:types:joined",
                      lambda join: [None if t is None else join(t) for t in by_type], c0)  # fmt: skip
     for code, name in enumerate(TYPES, start=1):

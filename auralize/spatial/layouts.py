@@ -20,7 +20,7 @@ Panning laws
   re-normalised, so a source below the ring is heard on the ring at its own
   azimuth; likewise above the highest speakers.  The synthesis kernel applies
   the same law per piece (:func:`auralize.emitters._synth_kernel._gains3`, from the
-  table of :func:`auralize.emitters.synthesis._pan_table`).
+  table of :func:`auralize.emitters.synthesis.pan_table`).
 * Every law is **power-normalised** (Σ g² = 1 over the panned speakers) and
   continuous in the direction, so gains change smoothly as a source moves or
   the listener turns.  The LFE channel of 5.1/7.1 is never panned to.
