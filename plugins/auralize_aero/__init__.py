@@ -11,7 +11,7 @@ polylines split into point sources at 3D (:mod:`~auralize_aero.objects`,
 §7.1) and emitted as point dipoles by Eqs. 3–4
 (:mod:`~auralize_aero.render`, §6), which the sound engine
 (:mod:`auralize.emitters`) delays, attenuates and pans to the listener.
-Amplitude ∝ v³ by default (pressure law, DESIGN.md) or the paper's v⁶.
+Amplitude ∝ v³ by default (pressure law, docs/design.md) or the paper's v⁶.
 
 Example
 -------

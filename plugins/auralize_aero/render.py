@@ -10,7 +10,7 @@ For every point source l (:meth:`AeroObject.sources`):
   flow direction c' (angle θ in the section frame e1, e2);
 * Eq. 3: the texture coordinate advances as ``s_k = s_{k-1} + (v/v0) Δt``,
   and ``g_l = (v/v0)^e w(s_k, c')`` with the amplitude exponent e = 3 for the
-  pressure law (DESIGN.md; ``"physical"``) or the paper's e = 6
+  pressure law (docs/design.md; ``"physical"``) or the paper's e = 6
   (``"paper"``).  The flow direction is folded into the texture's
   fundamental domain and the neighbouring sampled directions are
   interpolated linearly (§7.3); the texture loops (its ends are blended
