@@ -63,7 +63,7 @@ from auralize.spatial import (
 )
 from auralize.synthesis import C0, render
 
-#: default block length in seconds (the issue's 50 ms budget)
+#: default block length in seconds (the 50 ms budget of a block's synthesis)
 DEFAULT_BLOCK_S = 0.05
 PEAK_LEVEL = 0.99
 

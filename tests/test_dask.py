@@ -1,4 +1,4 @@
-"""Out-of-core and distributed preprocessing on Dask (auralize.scale, issue 9)."""
+"""Out-of-core and distributed preprocessing on Dask (auralize.scale)."""
 
 from __future__ import annotations
 

@@ -217,7 +217,7 @@ print(json.dumps({"latencies": player.latencies, "error": repr(player.error)}))
 
 
 def test_viewer_live_listening_on_file_backed_alsa_device(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    """Issue 4: a camera turn during live playback moves the energy across the ring8
+    """A camera turn during live playback moves the energy across the ring8
     channels the device receives, within the 100 ms latency target."""
     cfg = tmp_path / "cfg"
     (cfg / "alsa").mkdir(parents=True)

@@ -28,7 +28,7 @@ Dynamic range matching (§5.3, Eq. 17): at level L-1 the coarse part of each
 feature, taken from G_S(L), is scaled by r = F_T⁻¹(F_S(p_abs,avg)) / p_abs,avg
 with F_S, F_T the CDFs of |G_S(L)| and |G_T(L)|.
 
-Feature weighting (issue #6).  §5.1 asks for "the low-frequency temporal
+Feature weighting.  §5.1 asks for "the low-frequency temporal
 structure of p_S": the only carrier of p_S is G_S(L), which reaches the
 output solely through the Eq. 16 part of the features — at level L-1
 directly, below it through the synthesised level ℓ+1.  The paper names the

@@ -1,6 +1,6 @@
 """``auralize bench`` rows of the spark plugin, side by side with paper 002's Table 2.
 
-Targets (issue 7): the ``lightning`` waveform (~9,400 segments, ~13 s) in
+Targets: the ``lightning`` waveform (~9,400 segments, ~13 s) in
 ≤ 20 ms once the discharge pattern exists (paper: 812 ms); ``spark-balls``
 and ``plasma-ball`` in ≤ 2 ms each (paper: < 16 ms); the Laplace solve of a
 64³ scene in ≤ 1 s (the paper solved it on a GPU).
