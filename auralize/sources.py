@@ -199,8 +199,12 @@ class Thresholds:
 
     Examples
     --------
-    >>> Thresholds(monopole=10.0, dipole="2%").resolve(np.array([1.0, 50.0, 1.0]))[:2]
-    array([10.,  1.])
+    Absolute and relative thresholds resolve from the peak magnitudes (3,)
+    alone; ``"auto"`` and ``"top:"`` need the series' :class:`StrengthStats`:
+
+    >>> t = Thresholds(monopole=10.0, dipole="2%", quadrupole="5%")
+    >>> t.resolve(np.array([1.0, 50.0, 40.0]))
+    array([10.,  1.,  2.])
     """
 
     monopole: ThresholdSpec = "auto"

@@ -716,9 +716,13 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
 
     Examples
     --------
-    >>> from auralize_aero import circle, compute_texture, stick    # doctest: +SKIP
-    >>> out = render(compute_texture(circle(0.01)), stick(), ListenerPath.point((0, 1, 0), duration=1),
-    ...              wind=Wind(10.0), layout="ring8")                # doctest: +SKIP
+    >>> from auralize_aero import circle, compute_texture, stick
+    >>> tex = compute_texture(circle(0.01), resolution=6, duration=0.005, u_lattice=0.15,
+    ...                       cache=False)
+    >>> out = render(tex, stick(), ListenerPath.point((0, 1, 0), duration=0.1),
+    ...              wind=Wind(10.0), layout="ring8")
+    >>> out.audio.shape
+    (8, 4410)
     """
     no_ears(stereo)
     dur = path.duration if duration is None else float(duration)
