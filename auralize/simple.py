@@ -625,9 +625,11 @@ def AddSoundModel(name: str, input: Any, **params: Any) -> SceneModel:
 
     Examples
     --------
+    >>> from auralize.pipeline import load
     >>> s = ResetSession()
-    >>> m = AddSoundModel("field", "dataset:monopole", threshold_monopole="1%")
-    >>> p = CreateListenerPath("point", at=[1.5, 0.5, 0.5], duration=0.02)
+    >>> vol = load("dataset:monopole", size=12, steps=60)  # a spec string works too
+    >>> m = AddSoundModel("field", vol, threshold_monopole="1%")
+    >>> p = CreateListenerPath("point", at=vol.center + [0.5, 0, 0], duration=0.02)
     >>> r = RenderAudio(path=p)
     >>> [part["model"] for part in r.meta["parts"]], r.audio.shape
     (['field'], (1, 882))
