@@ -5,7 +5,7 @@ orientation.  Times are playback seconds, non-decreasing; positions are in
 data coordinates (metres).  Orientation is given by unit ``forward`` and
 ``up`` vectors (default forward +y, up +z).
 
-CSV format (DESIGN.md): header ``t,x,y,z`` plus optional
+CSV format (docs/design.md): header ``t,x,y,z`` plus optional
 ``fx,fy,fz,ux,uy,uz``.
 """
 

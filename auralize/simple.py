@@ -130,8 +130,11 @@ class View:
 
     Examples
     --------
-    >>> v = CreateView(size=(160, 120))
-    >>> v.ViewTime = 0  # doctest: +SKIP
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=6)
+    >>> v = Show(src, CreateView(size=(160, 120)))
+    >>> v.ViewTime = 3
+    >>> v.ViewTime
+    3
     >>> v._repr_png_()[:4]
     b'\x89PNG'
     """
@@ -623,9 +626,11 @@ def AddSoundModel(name: str, input: Any, **params: Any) -> SceneModel:
 
     Examples
     --------
+    >>> from auralize.pipeline import load
     >>> s = ResetSession()
-    >>> m = AddSoundModel("field", "dataset:monopole", threshold_monopole="1%")
-    >>> p = CreateListenerPath("point", at=[1.5, 0.5, 0.5], duration=0.02)
+    >>> vol = load("dataset:monopole", size=12, steps=60)  # a spec string works too
+    >>> m = AddSoundModel("field", vol, threshold_monopole="1%")
+    >>> p = CreateListenerPath("point", at=vol.center + [0.5, 0, 0], duration=0.02)
     >>> r = RenderAudio(path=p)
     >>> [part["model"] for part in r.meta["parts"]], r.audio.shape
     (['field'], (1, 882))
@@ -689,9 +694,12 @@ def PlayAudio(rendered: Rendered | None = None, *, device: Any = None, gain_db: 
     --------
     >>> src = OpenDataFile("dataset:monopole", size=12, steps=60)
     >>> r = RenderAudio(src, path=CreateListenerPath("point", duration=0.05))
-    >>> pb = PlayAudio(r, device="auralize_file")  # doctest: +SKIP
-    >>> pb.frames_sent == r.audio.shape[1]  # doctest: +SKIP
-    True
+    >>> PlayAudio(r, device="no such device")  # the device is checked first
+    Traceback (most recent call last):
+    auralize.errors.DeviceError: ...
+
+    ``PlayAudio(r, device="auralize_file")`` plays it on the device of that name
+    (the test suite's file-backed ALSA device) and waits until it has played.
     """
     from auralize.audio.output import play
 

@@ -1,6 +1,6 @@
 """TimeVolume: a uniform grid with named point fields over strictly increasing times.
 
-Arrays follow the HDF5 volume format v1 of DESIGN.md: a scalar frame has shape
+Arrays follow the HDF5 volume format v1 of docs/design.md: a scalar frame has shape
 ``(nz, ny, nx)``, a vector frame ``(nz, ny, nx, 3)`` with components x, y, z;
 ``dims`` is ``(nx, ny, nz)`` and point ``(i, j, k)`` sits at
 ``origin + (i, j, k) * spacing``.  This is VTK's point order (x fastest), so a

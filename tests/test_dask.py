@@ -1,4 +1,4 @@
-"""Out-of-core and distributed preprocessing on Dask (auralize.distributed, issue 9)."""
+"""Out-of-core and distributed preprocessing on Dask (auralize.distributed)."""
 
 from __future__ import annotations
 

@@ -134,8 +134,9 @@ def test_script_errors_are_library_exceptions(tmp_path):
 
 
 def test_live_listening_follows_pose(tmp_path):
-    """A pose change during live playback reaches the (file-backed) sink within one block plus
-    the render time, and moves the energy between the stereo channels."""
+    """A pose change during live playback reaches the (file-backed) sink in the block after the
+    one in progress, and moves the energy between the stereo channels.  (The latency in
+    milliseconds is a row of ``auralize bench``: live listening, camera move to sound.)"""
     from auralize.scene.listening import LiveEngine, LivePlayer, WavSink
 
     src = OpenDataFile("dataset:explosion", **SMALL)
@@ -147,15 +148,23 @@ def test_live_listening_follows_pose(tmp_path):
     # facing +y from the -x side: the blast is on the right
     player.set_pose(c - [8, 0, 0], [0, 1, 0], [0, 0, 1])
     player.start()
-    time.sleep(0.4)
+
+    def play_until(n_blocks: int) -> None:  # however long the machine takes for them
+        while len(sink.blocks) < n_blocks and player.running:
+            time.sleep(0.01)
+
+    play_until(8)
     n_before = len(sink.blocks)
     player.set_pose(c - [8, 0, 0], [0, -1, 0], [0, 0, 1])  # turn round: now on the left
-    time.sleep(0.4)
+    n_turn = len(sink.blocks)  # blocks accepted by the sink when the turn was made, or more
+    play_until(n_turn + 8)
     player.stop()
     assert player.error is None
     assert len(player.latencies) == 2  # the first pose and the turn
-    # target 100 ms; margin for a shared, loaded test machine
-    assert player.latencies[1] < 0.25
+    # the block in progress at the turn may still face +y; the next one faces -y
+    facing = np.array([row[5] for row in eng.heard_rows[: len(sink.blocks)]])  # forward y
+    assert np.all(facing[:n_before] == 1.0) and facing[-1] == -1.0
+    assert int(np.argmax(facing == -1.0)) <= n_turn + 1
     blocks = np.stack(sink.blocks)  # (n, 2, block)
     e = (blocks**2).sum(axis=2)
     before = e[: n_before - 1].sum(axis=0)

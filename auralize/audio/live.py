@@ -31,9 +31,15 @@ callback.  sounddevice is imported inside :class:`LiveStream` only.
 
 Examples
 --------
->>> from auralize.audio.live import BlockSynth                       # doctest: +SKIP
->>> bs = BlockSynth(tracks, path, layout="ring8", block=2205)  # doctest: +SKIP
->>> bs.block(0).shape                                          # doctest: +SKIP
+Blocks of a render, without a device (:func:`play` feeds them to one):
+
+>>> from auralize.listener import ListenerPath
+>>> from auralize.pipeline import detect_sources, load
+>>> vol = load("dataset:monopole", size=12, steps=60)
+>>> tracks = detect_sources(vol).tracks()
+>>> path = ListenerPath.point(vol.center + [1.0, 0, 0], duration=0.1)
+>>> bs = BlockSynth(tracks, path, layout="ring8", block=2205)
+>>> bs.block(0).shape
 (8, 2205)
 """
 
@@ -63,7 +69,7 @@ from auralize.spatial.layouts import (
     output_stage,
 )
 
-#: default block length in seconds (the issue's 50 ms budget)
+#: default block length in seconds (the 50 ms budget of a block's synthesis)
 DEFAULT_BLOCK_S = 0.05
 PEAK_LEVEL = 0.99
 

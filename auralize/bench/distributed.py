@@ -1,4 +1,4 @@
-"""Benchmark rows of the Dask back end (issue 9), for ``auralize bench``.
+"""Benchmark rows of the Dask back end, for ``auralize bench``.
 
 :func:`bench_dask` measures, on a chunked explosion file (256³ × 100 steps,
 or 48³ × 12 with ``quick``):

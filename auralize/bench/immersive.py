@@ -132,7 +132,7 @@ def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
     """The binaural render of the explosion's tracks along ``path``
     (:func:`auralize.emitters.timbre.render_timbre`, ``physical``: the order-3 AmbiX
     synthesis, the binaural decoder and the 20 Hz high-pass), against the
-    issue's target of 20× real time; the ambix3 synthesis alone in the note."""
+    target of 20× real time; the ambix3 synthesis alone in the note."""
     import functools
 
     from auralize.emitters.synthesis import render

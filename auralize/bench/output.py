@@ -1,4 +1,4 @@
-"""``auralize bench`` rows of the output layer (issue 3).
+"""``auralize bench`` rows of the output layer.
 
 * the 64³ explosion (300 steps at 30 Hz: 10 s of data, thresholds
   :data:`auralize.bench.runner.BENCH_THRESHOLDS`, ≥ 10,000 active sources per step)

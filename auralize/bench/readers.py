@@ -7,7 +7,7 @@ step) and EnSight Gold (binary, one uniform block part).  Each is then opened an
 reports the opening time, the detection time and its peak resident memory
 above the memory after imports (pyvista, VTK, h5py, scipy), compared with the
 same detection on the HDF5 file, in steps' worth (one step of every field as
-float64 frames).  Targets (issue "real data in"): opening under 2 s,
+float64 frames).  Targets: opening under 2 s,
 detection within 2× of the HDF5 file, peak memory within 2 steps.
 
 The default size is 48³ × 12 steps (seconds); ``auralize bench

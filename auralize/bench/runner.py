@@ -35,7 +35,7 @@ PAPER_FRAME_US = {10: 7, 20: 16, 30: 23, 40: 65, 50: 102, 64: 236}
 
 
 #: detection thresholds of the synthesis benchmarks: they give the 64³ explosion
-#: at least 10,000 active source points per step on average (issue 2's target case)
+#: at least 10,000 active source points per step on average (the synthesis target case)
 BENCH_THRESHOLDS = ("0.6%", "0.1%", "0.05%")
 
 

@@ -1,4 +1,4 @@
-"""Out-of-core and distributed preprocessing on Dask (issue 9).
+"""Out-of-core and distributed preprocessing on Dask.
 
 The same pipeline, on a laptop, a workstation or a cluster:
 

@@ -94,8 +94,8 @@ class Runner:
     profile : bool
         Keep the statistical profiler of the local cluster's workers (the
         dashboard's *Profile* page).  Off by default: it walks the stacks of
-        the worker's threads every 10 ms in Python, which took ~9 % of the
-        CPU time of the synthesis and detection tasks (measured: 60 s ring8
+        the worker's threads every 10 ms in Python, which costs ~9 % of the
+        CPU time of the synthesis and detection tasks (60 s ring8
         from the 256³ explosion, 1 worker, worker user time 111 s with it,
         101 s without).  Clusters given by ``address`` keep their own setting.
     dashboard_address : str, optional

@@ -10,8 +10,9 @@ work splits two ways, and every task is one (block, source group) pair:
   group is :data:`STRIPES` interleaved ranges (stripes) rather than one: the
   cost of a sounding piece depends on where its source is (near the
   listener its panning pair changes more often), and contiguous ranges of a
-  volume's vertices are slabs of space: on 60 s of ring8 from the 256³
-  explosion, four contiguous groups of equal weight took 23 to 30 s.  The
+  volume's vertices are slabs of space, so contiguous groups of equal weight
+  differ in cost (by up to a third on 60 s of ring8 from the 256³
+  explosion, four groups).  The
   audio of a block is the sum of its groups' renders, added in group order
   (the result does not depend on which task finishes first).
 * **blocks** of playback time: :func:`auralize.emitters.synthesis.render` evaluates

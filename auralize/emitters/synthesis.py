@@ -21,7 +21,7 @@ far outside it; only nonsense is refused (:func:`check_distance`: farther
 than 10⁴ grid diagonals and 1000 km; :func:`check_arrival`: nothing can be
 heard in the output window).
 
-Time mapping (DESIGN.md): audio sample n is at data time
+Time mapping (docs/design.md): audio sample n is at data time
 ``t0 + lead + n / (rate · time_scale)`` and at playback time ``n / rate`` on
 the listener path; propagation uses physical c0 in data time.  ``lead``
 (default 0) skips the sound's travel to a far listener.

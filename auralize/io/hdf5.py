@@ -1,6 +1,6 @@
 """HDF5 volume files: the auralize format v1 and arbitrary HDF5 datasets.
 
-Format v1 (see DESIGN.md): root attributes ``auralize_format="volume"`` and
+Format v1 (see docs/design.md): root attributes ``auralize_format="volume"`` and
 ``version=1``; ``/time`` float64 ``(T,)`` strictly increasing seconds; group
 ``/grid`` with attributes ``origin`` and ``spacing`` ``(3,)`` in metres;
 ``/fields/<name>`` of shape ``(T, nz, ny, nx)`` or ``(T, nz, ny, nx, 3)``.  A

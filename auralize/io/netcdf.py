@@ -500,9 +500,16 @@ def read_netcdf(
 
     Examples
     --------
-    >>> vol = read_netcdf("air.nc")  # doctest: +SKIP
-    >>> vol.times[:2].tolist()  # doctest: +SKIP
-    [0.0, 21600.0]
+    The small pulse file shipped with auralize (time in milliseconds since a
+    reference date, velocity from ``u``/``v``/``w``):
+
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> vol = read_netcdf(Path(auralize.__file__).parent / "data/netcdf-pulse/pulse.nc")
+    >>> vol.times[:3].tolist(), vol.attrs["time_units"]
+    ([0.0, 0.001, 0.002], 'milliseconds since 2001-01-01 00:00:00')
+    >>> vol.is_vector("velocity")
+    True
     """
     path = Path(path).expanduser()
     require_exists(path)

@@ -136,9 +136,21 @@ def read_openfoam(
 
     Examples
     --------
-    >>> vol = read_openfoam("cavity/case.foam")  # doctest: +SKIP
-    >>> vol.times.tolist(), vol.is_vector("U")  # doctest: +SKIP
+    The lid-driven cavity shipped with auralize (a zipped case):
+
+    >>> import tempfile, zipfile
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> case = Path(auralize.__file__).parent / "data/openfoam-cavity/OpenFOAM.zip"
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> with zipfile.ZipFile(case) as z:
+    ...     z.extractall(tmp.name)
+    >>> vol = read_openfoam(Path(tmp.name) / "OpenFOAM/cavity/case.foam")
+    >>> vol.times.tolist(), vol.is_vector("U")
     ([0.0, 0.5, 1.0, 1.5, 2.0, 2.5], True)
+    >>> vol.frame("U", 5).shape[-1]  # frames are read when asked for
+    3
+    >>> tmp.cleanup()
     """
     path = Path(path).expanduser()
     require_exists(path)

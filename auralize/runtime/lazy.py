@@ -50,7 +50,18 @@ def lazy_exports(
 
     Examples
     --------
-    >>> __getattr__, __dir__ = lazy_exports(__name__, {"VortexSound": ".model"})  # doctest: +SKIP
+    In a package's ``__init__.py``: ``__getattr__, __dir__ = lazy_exports(__name__,
+    {"VortexSound": ".model"})``.  Here with a throw-away package exporting
+    ``math.hypot``:
+
+    >>> import sys, types
+    >>> pkg = sys.modules["lazy_demo"] = types.ModuleType("lazy_demo")
+    >>> pkg.__getattr__, pkg.__dir__ = lazy_exports("lazy_demo", {"hypot": "math"})
+    >>> "hypot" in dir(pkg), "hypot" in vars(pkg)
+    (True, False)
+    >>> pkg.hypot(3.0, 4.0)
+    5.0
+    >>> del sys.modules["lazy_demo"]
     """
     table = dict(exports)
     module = sys.modules[package]

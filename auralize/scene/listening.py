@@ -27,7 +27,8 @@ Examples
 >>> vol = load("dataset:monopole", size=12, steps=60)
 >>> tracks = detect_sources(vol).tracks()
 >>> eng = LiveEngine(tracks, layout="stereo", block=512)
->>> eng.set_pose(vol.center + [1.0, 0, 0], [0, 1, 0], [0, 0, 1])
+>>> eng.set_pose(vol.center + [1.0, 0, 0], [0, 1, 0], [0, 0, 1])  # the pose's version
+1
 >>> eng.next_block().shape
 (2, 512)
 """

@@ -2,7 +2,7 @@
 
 Paper 003 §4.1 records the listener at about 6–10 Hz with timestamps while the
 user flies through the data.  :class:`PathRecorder` keeps the captures and
-appends each one to an autosave CSV (the listener-path format of DESIGN.md)
+appends each one to an autosave CSV (the listener-path format of docs/design.md)
 the moment it is taken: the line is flushed at once, so a crash of the
 program loses nothing, and the file is fsync'ed at least once a second, so a
 crash of the machine loses at most one second.  The autosave is always a

@@ -75,7 +75,7 @@ AUTO_NOISE_K = 5.0
 AUTO_COVER = 0.9
 #: the noise floor never hides the strongest AUTO_TOP of the points of a type that occurs
 AUTO_TOP = 0.01
-#: legacy fractions of each type's peak |S| (the viewer's default relative
+#: fixed fractions of each type's peak |S| (the viewer's default relative
 #: thresholds, given as "3%", "0.3%", "0.1%")
 AUTO_FRACTIONS = {"monopole": 0.03, "dipole": 0.003, "quadrupole": 0.001}
 #: how many evenly spaced steps are sampled for relative, top and auto thresholds
@@ -199,8 +199,12 @@ class Thresholds:
 
     Examples
     --------
-    >>> Thresholds(monopole=10.0, dipole="2%").resolve(np.array([1.0, 50.0, 1.0]))[:2]
-    array([10.,  1.])
+    Absolute and relative thresholds resolve from the peak magnitudes (3,)
+    alone; ``"auto"`` and ``"top:"`` need the series' :class:`StrengthStats`:
+
+    >>> t = Thresholds(monopole=10.0, dipole="2%", quadrupole="5%")
+    >>> t.resolve(np.array([1.0, 50.0, 40.0]))
+    array([10.,  1.,  2.])
     """
 
     monopole: ThresholdSpec = "auto"

@@ -1,6 +1,6 @@
 """Speaker layouts and panning gains.
 
-Conventions (DESIGN.md): azimuths are degrees counter-clockwise from the
+Conventions (docs/design.md): azimuths are degrees counter-clockwise from the
 listener's forward direction (0 front, +90 left, -90 right); elevation degrees
 up from the horizontal plane.  ``ring8`` is eight speakers at 45°·k, channel k.
 Directions in the listener's frame are unit vectors ``(x, y, z)`` = (forward,

@@ -11,15 +11,21 @@ polylines split into point sources at 3D (:mod:`~auralize_aero.objects`,
 §7.1) and emitted as point dipoles by Eqs. 3–4
 (:mod:`~auralize_aero.render`, §6), which the sound engine
 (:mod:`auralize.emitters`) delays, attenuates and pans to the listener.
-Amplitude ∝ v³ by default (pressure law, DESIGN.md) or the paper's v⁶.
+Amplitude ∝ v³ by default (pressure law, docs/design.md) or the paper's v⁶.
 
 Example
 -------
->>> from auralize_aero import circle, compute_texture, stick, Wind, render   # doctest: +SKIP
->>> from auralize.listener import ListenerPath                              # doctest: +SKIP
->>> tex = compute_texture(circle(0.01))                                     # doctest: +SKIP
->>> out = render(tex, stick(0.5), ListenerPath.point((0.25, 0, 2), duration=1),
-...              wind=Wind(10.0, (0, 1, 0)))                                # doctest: +SKIP
+A coarse, short texture (the defaults simulate finer and longer, and cache
+the result in auralize's cache folder; ``cache=False`` keeps nothing):
+
+>>> from auralize_aero import circle, compute_texture, stick, Wind, render
+>>> from auralize.listener import ListenerPath
+>>> tex = compute_texture(circle(0.01), resolution=6, duration=0.005, u_lattice=0.15,
+...                       cache=False)
+>>> out = render(tex, stick(0.5), ListenerPath.point((0.25, 0, 2), duration=0.1),
+...              wind=Wind(10.0, (0, 1, 0)))
+>>> out.audio.shape
+(1, 4410)
 """
 
 from auralize.runtime.lazy import lazy_exports

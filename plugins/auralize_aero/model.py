@@ -70,7 +70,7 @@ class AeroSound(SoundModel):
             "exponent",
             "physical",
             choices=("physical", "paper"),
-            doc="amplitude ∝ v³ (pressure law, DESIGN.md) or the paper's v⁶ (Eq. 3)",
+            doc="amplitude ∝ v³ (pressure law, docs/design.md) or the paper's v⁶ (Eq. 3)",
         ),  # fmt: skip
         Parameter("rate", 44100, range=(1000, 384000), unit="Hz", doc="emission sample rate"),
         Parameter("c0", C0, range=(1.0, None), unit="m/s"),

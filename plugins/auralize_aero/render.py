@@ -10,7 +10,7 @@ For every point source l (:meth:`AeroObject.sources`):
   flow direction c' (angle θ in the section frame e1, e2);
 * Eq. 3: the texture coordinate advances as ``s_k = s_{k-1} + (v/v0) Δt``,
   and ``g_l = (v/v0)^e w(s_k, c')`` with the amplitude exponent e = 3 for the
-  pressure law (DESIGN.md; ``"physical"``) or the paper's e = 6
+  pressure law (docs/design.md; ``"physical"``) or the paper's e = 6
   (``"paper"``).  The flow direction is folded into the texture's
   fundamental domain and the neighbouring sampled directions are
   interpolated linearly (§7.3); the texture loops (its ends are blended
@@ -715,9 +715,13 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
 
     Examples
     --------
-    >>> from auralize_aero import circle, compute_texture, stick    # doctest: +SKIP
-    >>> out = render(compute_texture(circle(0.01)), stick(), ListenerPath.point((0, 1, 0), duration=1),
-    ...              wind=Wind(10.0), layout="ring8")                # doctest: +SKIP
+    >>> from auralize_aero import circle, compute_texture, stick
+    >>> tex = compute_texture(circle(0.01), resolution=6, duration=0.005, u_lattice=0.15,
+    ...                       cache=False)
+    >>> out = render(tex, stick(), ListenerPath.point((0, 1, 0), duration=0.1),
+    ...              wind=Wind(10.0), layout="ring8")
+    >>> out.audio.shape
+    (8, 4410)
     """
     no_ears(stereo)
     dur = path.duration if duration is None else float(duration)

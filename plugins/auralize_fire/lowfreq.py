@@ -39,8 +39,12 @@ def mitchell_netravali(x: NDArray[np.floating] | float, *, B: float = MN_B, C: f
 
     Examples
     --------
-    >>> float(mitchell_netravali(0.0)), float(mitchell_netravali(1.0))
-    (0.8888888888888888, 0.05555555555555555)
+    ψ(0) = 8/9, ψ(±1) = 1/18, zero from |x| = 2 on; the shifted copies sum to one:
+
+    >>> np.allclose(mitchell_netravali([0.0, 1.0, -1.0, 2.0]), [8 / 9, 1 / 18, 1 / 18, 0.0])
+    True
+    >>> round(float(mitchell_netravali(np.arange(-2, 3) + 0.3).sum()), 12)
+    1.0
     """
     t = np.asarray(x, dtype=np.float64)
     a = np.abs(t)

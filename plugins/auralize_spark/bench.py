@@ -1,6 +1,6 @@
 """``auralize bench`` rows of the spark plugin, side by side with paper 002's Table 2.
 
-Targets (issue 7): the ``lightning`` waveform (~9,400 segments, ~13 s) in
+Targets: the ``lightning`` waveform (~9,400 segments, ~13 s) in
 ≤ 20 ms once the discharge pattern exists (paper: 812 ms); ``spark-balls``
 and ``plasma-ball`` in ≤ 2 ms each (paper: < 16 ms); the Laplace solve of a
 64³ scene in ≤ 1 s (the paper solved it on a GPU).
@@ -75,4 +75,9 @@ def bench_rows(quick: bool) -> list[Any]:
             rows.append(BenchRow("spark", "lightning: waveform → ring8 along a 10 Hz orbit", to * 1e3, "ms",
                                  note="exact retarded arrivals, Doppler and gains per segment "
                                       "(auralize.emitters.events)"))  # fmt: skip
+    from .model import simulate
+
+    t = best_of(lambda: simulate(preset="lightning", seed=0, strokes=1), repeat=1, min_time=0.0)
+    rows.append(BenchRow("spark", "lightning: simulate, end to end (mono)", t, "s",
+                         note="preset field, leader growth, strokes and waveform at 44.1 kHz"))  # fmt: skip
     return rows

@@ -73,7 +73,7 @@ class VortexSound(SoundModel):
             "attenuation",
             "physical",
             choices=("physical", "paper"),
-            doc="1/r (Howe, DESIGN.md) or the paper's 1/r³ (Eq. 5)",
+            doc="1/r (Howe, docs/design.md) or the paper's 1/r³ (Eq. 5)",
         ),  # fmt: skip
         Parameter("velocity_field", "velocity", doc="vector field holding the velocity (m/s)"),
         Parameter(

@@ -8,7 +8,7 @@ pressure at 1 m is the texture read at the sub-volume's average speed:
 
 This module builds the emitted signals ``Q(u_i(τ), τ)``
 (:func:`vortex_emitters`); the retarded time, the distance law ``g``
-(``1/r`` physical, Howe's far field, DESIGN.md erratum; or the paper's
+(``1/r`` physical, Howe's far field, docs/design.md erratum; or the paper's
 ``1/r³``) and the panning are the engine's (:mod:`auralize.emitters`).
 Details the paper leaves open, as implemented here:
 

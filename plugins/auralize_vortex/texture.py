@@ -9,10 +9,10 @@ computed with *integral cells* (§5.2):
     f(x, y)   = (x·y) ((y × ω(y)) · x)                                          (Eq. 2)
     w(r_k)    = exp(−α r_k) / Σ_{l'} exp(−α r_{l'})                              (Eq. 4)
 
-Choices and errata (written down as DESIGN.md asks):
+Choices and errata (written down as docs/design.md asks):
 
 * ``C = ρ0 / (12π c0²)`` — Howe's compact-vortex far field, which decays as
-  1/r (DESIGN.md erratum to Eq. 1).  ``coefficient="paper"`` uses the printed
+  1/r (docs/design.md erratum to Eq. 1).  ``coefficient="paper"`` uses the printed
   ``ρ0 c0² / (12π)``.  With either, the texture is the pressure at 1 m.
 * the volume element is Δh³ (Eq. 3 prints Δh², which is not a pressure).
 * r_k in Eq. 4 is measured in voxel edges, so α = 3 weighs face, edge and

@@ -191,7 +191,7 @@ def _rms_envelope(x: np.ndarray, win: int = RATE // 20) -> np.ndarray:
 
 
 def test_texture_keeps_input_low_band(texture_run) -> None:  # type: ignore[no-untyped-def]
-    # Issue #6: correlation >= 0.8 between the 180 Hz low-passed input and output.
+    # the target: correlation >= 0.8 between the 180 Hz low-passed input and output.
     # Eq. 17 maps p_S's amplitudes onto p_T's; on this excerpt its gain is nearly
     # constant, so the output must follow p_S itself (see auralize_fire.texture).
     x, train, y = texture_run

@@ -5,7 +5,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import time
 
 import numpy as np
 import pytest
@@ -530,15 +529,13 @@ def test_cli_render_json_and_errors(tmp_path, capsys) -> None:  # type: ignore[n
 
 
 def test_lightning_thunder_duration_and_segments() -> None:
-    """Lightning preset (Table 1/2): thousands of 3 m segments over a 5 km channel, seconds of thunder."""
-    t = time.perf_counter()
+    """Lightning preset (Table 1/2): thousands of 3 m segments over a 5 km channel, seconds of
+    thunder.  The time it takes is a row of ``auralize bench`` (spark)."""
     res = simulate(preset="lightning", seed=0, strokes=1)
-    elapsed = time.perf_counter() - t
     s = res.summary()
     assert s["segments"] > 1667  # at least the straight 5 km / 3 m
     assert res.discharge.main_length() >= 5000 * 0.95
     assert 8.0 < s["wave_duration_s"] < 20.0  # paper: 13.6 s
-    assert elapsed < 30
 
 
 def test_overlay_as_the_viewer_calls_it() -> None:
