@@ -10,7 +10,6 @@ import pytest
 
 from auralize.errors import DataError
 from auralize.io import ResampledWarning, open_volume
-from auralize.realdata import dataset_path
 
 pv = pytest.importorskip("pyvista")
 
@@ -95,17 +94,3 @@ def test_curved_surface_off_any_lattice_is_resampled(tmp_path: Path) -> None:
     # not projected: sampled onto a volume grid as any mesh, where no grid point lies inside
     with pytest.raises(DataError, match="no point of the uniform grid .* lies inside the mesh"):
         open_volume(f)
-
-
-def test_paraview_wavy_surface_keeps_its_points() -> None:
-    with dataset_path("paraview-wavy") as path:
-        with pytest.warns(ResampledWarning, match=r"80x80x1 points, spacing \(0.25, 0.25"):
-            vol = open_volume(path)
-        assert vol.dims == (80, 80, 1) and vol.valid_ratio == 1.0
-        mesh = pv.read(path.parent / "wavy05.vts")
-        z = vol.frame("z", 5)[0]
-        pts = np.asarray(mesh.points)
-        i = np.rint((pts[:, 0] - vol.origin[0]) / 0.25).astype(int)
-        j = np.rint((pts[:, 1] - vol.origin[1]) / 0.25).astype(int)
-        np.testing.assert_array_equal(z[j, i], np.asarray(mesh.point_data["z"]))
-        assert np.ptp(z) > 1.5  # the wave's ±1 m, not a few resampled points
