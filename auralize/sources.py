@@ -721,14 +721,22 @@ def classified_fraction(frames: Sequence[SourceFrame], n_points: int) -> dict[st
     return out
 
 
-def warn_fraction(fraction: dict[str, float], source: str) -> None:
-    """Warn (once per call site) when more than :data:`WARN_FRACTION` of the points are sources."""
+def warn_fraction(fraction: dict[str, float], source: str, *, uniform: bool = False) -> None:
+    """Warn (once per call site) when more than :data:`WARN_FRACTION` of the points are sources.
+
+    ``uniform``: every sampled point of a classified type has the same |S| (a
+    uniform volume source, which no threshold splits).
+    """
     if fraction["any"] > WARN_FRACTION:
         parts = ", ".join(f"{fraction[k]:.0%} {k}" for k in TYPES)
+        advice = (
+            "every point has the same strength: a uniform volume source, which no threshold splits"
+            if uniform
+            else "the thresholds find everything, not sources: raise them (e.g. 'top:1%' or "
+            "an absolute value)"
+        )
         warnings.warn(
-            f"{source}: {fraction['any']:.0%} of the valid points are sources ({parts}); the "
-            f"thresholds find everything, not sources: raise them (e.g. 'top:1%' or an "
-            f"absolute value)",
+            f"{source}: {fraction['any']:.0%} of the valid points are sources ({parts}); {advice}",
             SourceFractionWarning,
             stacklevel=3,
         )
@@ -795,7 +803,10 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
                                         progress_bar=progress_bar, qmean=qmean,
                                         delta_v=delta_v)]  # fmt: skip
     fraction = classified_fraction(frames, volume.n_points)
-    warn_fraction(fraction, volume.source)
+    uniform = stats is not None and all(
+        x[0] == x[-1] for i, x in enumerate(stats.sample) if x.size and fraction[TYPES[i]] > 0
+    )
+    warn_fraction(fraction, volume.source, uniform=uniform)
     return SourceSeries(
         frames=frames, times=volume.times.copy(), origin=volume.origin.copy(),
         spacing=volume.spacing.copy(), dims=volume.dims, thresholds=thr,

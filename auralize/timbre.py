@@ -495,11 +495,12 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
             if timbre == "auto":
                 timbre = "extended"
                 f_cut = cutoff_hz(tracks, time_scale)
-                low = ("physical below" if f_cut > 0.5 * highpass_hz
-                       else "the physical part, under the high-pass, left out below")  # fmt: skip
-                notes.append(f"timbre auto: {below} (inaudible); rendered 'extended' "
-                             f"({low} {f_cut:.3g} Hz, power-law noise above); --timbre "
-                             f"physical keeps the pressure alone")  # fmt: skip
+                how = (f"physical below {f_cut:.3g} Hz, power-law noise above"
+                       if f_cut > 0.5 * highpass_hz
+                       else f"power-law noise above {f_cut:.3g} Hz; the physical part below "
+                            f"it is under the {highpass_hz:g} Hz high-pass, left out")  # fmt: skip
+                notes.append(f"timbre auto: {below} (inaudible); rendered 'extended' ({how}); "
+                             f"--timbre physical keeps the pressure alone")  # fmt: skip
             else:
                 notes.append(f"note: {below} (inaudible); try --timbre extended, or a smaller "
                              f"--time-scale (the data played faster)")  # fmt: skip
