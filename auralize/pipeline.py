@@ -312,10 +312,10 @@ def _turns(path: ListenerPath, center: np.ndarray) -> float:
 
 def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              mapping: str | AcousticMapping | None = None, thresholds: Thresholds | None = None,
-             rate: int = 44100, time_scale: float | str = 1.0, interp: str = "cubic",
+             rate: int = 44100, time_scale: float | str = "auto", interp: str = "cubic",
              layout: str = "mono", c0: float = C0, duration: float | None = None,
              series: SourceSeries | None = None, progress_bar: bool = False,
-             timbre: str = "physical", highpass_hz: float = HIGHPASS_HZ, seed: int = 0,
+             timbre: str = "auto", highpass_hz: float = HIGHPASS_HZ, seed: int = 0,
              listener: Any = None, hrtf: object = None,
              **mapping_fields: str) -> tuple[Rendered, SourceSeries]:  # fmt: skip
     """Detect sources (unless ``series`` is given) and render the sound along ``path``.
@@ -326,6 +326,14 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     ``timbre``, ``highpass_hz`` and ``hrtf`` (binaural) as
     :func:`auralize.emitters.timbre.render_timbre`.
     The plan is recorded in ``meta`` (and so in the sidecar).
+
+    The defaults are those of ``auralize render FILE -o OUT`` with no other
+    option: the mapping chosen from the fields, ``"auto"`` thresholds, the
+    steady part removed, a default orbit, ``time_scale="auto"`` over
+    ``duration`` = 10 s, ``timbre="auto"``, a 20 Hz high-pass, mono at
+    44.1 kHz, seed 0; :func:`save_rendered` then peak-normalises as the
+    command does, so ``save_rendered(auralize(load(FILE))[0], OUT)`` writes
+    the command's samples.
     """
     if series is None:
         series = detect_sources(volume, mapping=mapping, thresholds=thresholds,

@@ -558,7 +558,7 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
 def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = None,
                 path: ListenerPath | None = None, layout: str | None = None,
                 rate: int | None = None, time_scale: float | None = None,
-                interp: str = "cubic") -> Rendered:  # fmt: skip
+                interp: str = "cubic", timbre: str = "auto") -> Rendered:  # fmt: skip
     """Render the sound heard along ``path`` (default: the active path) from the sources
     of ``Input`` (default: the active source; detected first with the current thresholds
     if needed), plus every sound model added with :func:`AddSoundModel`.
@@ -568,6 +568,14 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     The added models are rendered along the same path with the same layout,
     rate and 20 Hz output high-pass, and summed (``r.meta["parts"]`` lists them);
     without a data source the render is the models' alone, for the path's duration.
+
+    As ``auralize render``: ``timbre="auto"`` (physical if most of its energy is
+    above 20 Hz, else extended), a 20 Hz high-pass, the steady part removed.
+    Unlike it, the session's own settings hold: the listener path is the
+    session's (no default orbit), the time scale is the session's (1 playback
+    second per data second unless set), and detection uses the viewer's
+    thresholds (:func:`DetectSources`); :func:`auralize.pipeline.auralize`
+    has the command's defaults throughout.
 
     Examples
     --------
@@ -596,7 +604,7 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
             src.Sources = src.Detection.run()
         out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
                           time_scale=float(s.audio["time_scale"]), layout=s.audio["layout"],
-                          interp=interp)  # fmt: skip
+                          interp=interp, timbre=timbre)  # fmt: skip
     if s.models:
         dur = out.duration if out is not None else p.duration
         mix = render_scene(s.models, p, rate=int(s.audio["rate"]), layout=s.audio["layout"],

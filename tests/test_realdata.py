@@ -77,20 +77,22 @@ def test_netcdf_pulse_times_and_tone(figures: dict) -> None:  # type: ignore[typ
     assert 200 < got["centroid"] < 300
 
 
-def test_wavy_surface_is_almost_all_no_data() -> None:
-    """A moving 2-D surface in 3-D: only grid points on it are valid; none are invented."""
+def test_wavy_surface_is_read_on_its_own_lattice() -> None:
+    """A 2-D height field z(x, y, t) on an 80x80 lattice: its own points, nothing invented."""
     with dataset_path("paraview-wavy") as path:
-        with pytest.warns(ResampledWarning, match=r"lie outside the mesh and are no-data"):
+        with pytest.warns(ResampledWarning, match=r"a surface .* no interpolation: the lattice "
+                          r"80x80x1 points, spacing \(0.25, 0.25, 0.25\) m"):  # fmt: skip
             vol = open_volume(path)
         surface = pv.read(path.parent / "wavy" / "wavy00.vts")
-        z = vol.frame("z", 0)
-    assert vol.n_steps == 15 and vol.physical_times
-    assert 0 < vol.valid_ratio < 0.01
-    assert np.all(np.isnan(z[~vol.valid])) and np.all(np.isfinite(z[vol.valid]))
-    # valid points lie on the surface (its height field z(x, y) is the array 'z')
-    pts = vol.points(np.flatnonzero(vol.valid.reshape(-1)))
-    closest = np.asarray(surface.points)[cKDTree(np.asarray(surface.points)).query(pts)[1]]
-    assert np.max(np.abs(closest[:, 2] - pts[:, 2])) < 0.5
+        z = vol.frame("z", 0)[0]
+    assert vol.n_steps == 15 and vol.physical_times and vol.valid_ratio == 1.0
+    pts = np.asarray(surface.points)
+    i = np.rint((pts[:, 0] - vol.origin[0]) / vol.spacing[0]).astype(int)
+    j = np.rint((pts[:, 1] - vol.origin[1]) / vol.spacing[1]).astype(int)
+    np.testing.assert_array_equal(z[j, i], np.asarray(surface.point_data["z"]))
+    # the plane at the points' mean height; 'z' is that height itself
+    assert vol.origin[2] == pytest.approx(float(pts[:, 2].mean()))
+    np.testing.assert_array_equal(z[j, i], pts[:, 2])
 
 
 def test_ensight_cylinder_hole_is_invalid() -> None:

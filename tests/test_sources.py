@@ -207,6 +207,24 @@ def test_auto_threshold_is_a_noise_floor_or_the_strong_points() -> None:
     assert x[:500][x[:500] > thr].sum() >= 0.9 * x[:500].sum()
 
 
+def test_points_tied_at_the_top_are_kept() -> None:
+    """A uniform |S| (median = top quantile = maximum) classifies every point, not none."""
+    from auralize.sources import SourceFractionWarning, auto_threshold
+
+    x = np.full(1000, 0.25)
+    assert auto_threshold(x) < 0.25
+    stats = StrengthStats(peak=np.array([0.25, 0, 0]), sample=np.stack([x, 0 * x, 0 * x]))
+    assert np.all(Thresholds("top:1%").resolve(stats)[:1] < 0.25)
+    # a uniform density rising linearly in time: dρ/dt = 2 at every point and step
+    t = np.arange(5) * 0.5
+    rho = np.broadcast_to(1.0 + 2.0 * t[:, None, None, None], (5, 4, 5, 6)).copy()
+    vol = TimeVolume.from_arrays({"density": rho}, times=t)
+    with pytest.warns(SourceFractionWarning, match="100% of the valid points are sources"):
+        series = detect(vol, mapping="identity")
+    assert [c["monopole"] for c in series.counts()] == [120] * 5
+    np.testing.assert_allclose(np.concatenate([f.strength for f in series.frames]), 2.0)
+
+
 def test_bad_inputs_to_detection() -> None:
     x, _, _ = _grid()
     one = TimeVolume.from_arrays({"density": np.ones((1, N, N, N))}, times=[0.0])

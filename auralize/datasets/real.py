@@ -39,7 +39,8 @@ STORE = DATASETS / "regression" / "realdata.json"
 TOLERANCES = {"grid": 1e-9, "valid_ratio": 1e-3, "counts": 0.02, "rms": 0.02, "centroid": 0.02}
 
 #: ``path`` inside ``auralize/data/`` (``zip`` + ``member`` for archives), detection options,
-#: and a static listener inside the grid for the rendered clip.
+#: and a static listener for the rendered clip (timbre ``physical`` unless given; the
+#: fields that do not change at the data's time step are heard ``extended``).
 CASES: dict[str, dict[str, Any]] = {
     "openfoam-cavity": {
         "zip": "openfoam-cavity/OpenFOAM.zip", "member": "OpenFOAM/cavity/case.foam",
@@ -53,15 +54,20 @@ CASES: dict[str, dict[str, Any]] = {
     "xdmf-dolfinx": {
         "path": "xdmf-timeseries/dolfinx/no_checkpoint.xdmf", "mapping": "identity",
         "fields": {"density": "f_5"},
-        "render": {"listener": [0.5, 0.5, 0.5], "duration": 0.05, "time_scale": 0.0125},
+        "render": {"listener": [0.5, 0.5, 0.5], "duration": 0.05, "time_scale": 0.0125,
+                   "timbre": "extended"},
     },
     "xdmf-meshio": {
         "path": "xdmf-timeseries/meshio/out.xdmf", "mapping": "identity",
-        "fields": {"density": "phi"}, "render": None,
+        "fields": {"density": "phi"},
+        "render": {"listener": [0.5, 0.5, 1.0], "duration": 0.05, "time_scale": 0.05,
+                   "timbre": "extended"},
     },
     "paraview-wavy": {
         "zip": "paraview-wavy/wavy.zip", "member": "wavy/wavy.pvd", "mapping": "identity",
-        "fields": {"density": "z"}, "render": None,
+        "fields": {"density": "z"},
+        "render": {"listener": [0.0, 0.0, 3.0], "duration": 0.1, "time_scale": 0.1 / 14,
+                   "timbre": "extended"},
     },
     "ensight-cylinder": {
         "path": "ensight-cylinder/cylinder_Re35.case", "mapping": None, "fields": {},
@@ -119,7 +125,8 @@ def compute(name: str) -> dict[str, Any]:
         if r is not None:
             listener = ListenerPath.point(r["listener"], duration=r["duration"])
             rendered, _ = auralize(vol, listener, series=series, rate=8000,
-                                   time_scale=r["time_scale"], duration=r["duration"])  # fmt: skip
+                                   time_scale=r["time_scale"], duration=r["duration"],
+                                   timbre=r.get("timbre", "physical"))  # fmt: skip
             x = rendered.audio[0]
             out["rms"] = float(np.sqrt(np.mean(x**2)))
             out["centroid"] = spectral_centroid(x, rendered.rate) if np.any(x) else 0.0

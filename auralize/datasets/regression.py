@@ -55,7 +55,7 @@ def compute(name: str) -> dict[str, Any]:
     path = ListenerPath.line(p["start"], p["end"], duration=p["duration"])
     out, series = auralize(vol.load(), path, mapping=case["mapping"],
                            thresholds=Thresholds(*case["thresholds"]), rate=case["rate"],
-                           interp=case["interp"], timbre="physical",
+                           interp=case["interp"], timbre="physical", time_scale=1.0,
                            highpass_hz=case.get("highpass_hz", 0.0))  # fmt: skip
     x = out.audio[0]
     return {

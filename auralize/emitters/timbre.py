@@ -501,9 +501,13 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
             below = f"{100 * (1 - share):.0f} % of the physical sound lies below 20 Hz"
             if timbre == "auto":
                 timbre = "extended"
-                notes.append(f"timbre auto: {below} (inaudible); rendered 'extended' "
-                             f"(physical below {cutoff_hz(tracks, time_scale):.3g} Hz, power-law "
-                             f"noise above); --timbre physical keeps the pressure alone")  # fmt: skip
+                f_cut = cutoff_hz(tracks, time_scale)
+                how = (f"physical below {f_cut:.3g} Hz, power-law noise above"
+                       if f_cut > 0.5 * highpass_hz
+                       else f"power-law noise above {f_cut:.3g} Hz; the physical part below "
+                            f"it is under the {highpass_hz:g} Hz high-pass, left out")  # fmt: skip
+                notes.append(f"timbre auto: {below} (inaudible); rendered 'extended' ({how}); "
+                             f"--timbre physical keeps the pressure alone")  # fmt: skip
             else:
                 notes.append(f"note: {below} (inaudible); try --timbre extended, or a smaller "
                              f"--time-scale (the data played faster)")  # fmt: skip
@@ -518,6 +522,10 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
                         highpass_hz)  # fmt: skip
     else:
         out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta)
+    if meta.get("beta_rule") == "rms":
+        notes.append("the sources' strength does not change at the data's time step (no "
+                     "physical sound to extend): their noise is scaled to the physical "
+                     "pressure's RMS")  # fmt: skip
     meta["timbre_notes"] = notes
     out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
     if "share_above_20hz_unfiltered" not in meta:
@@ -670,12 +678,28 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     c = float(np.sum(np.abs(Lb) ** 2 * g2) - np.sum(np.abs(Pb) ** 2 * g2))
     disc = b * b - 4 * a * c
     beta = (-b + np.sqrt(disc)) / (2 * a) if a > 0 and disc >= 0 else 0.0
-    meta["beta"] = beta = float(max(beta, 0.0))
-    meta["low_band"] = "kept" if same else "below half the high-pass: left out"
+    beta = float(max(beta, 0.0))
+    meta["beta_rule"] = "Eq. 13"
+    if beta == 0.0 and a > 0:
+        # no physical power to match at the cut-off: a strength that does not change
+        # at the data's Nyquist frequency (a uniform linear ramp: dρ/dt constant).
+        # Its sources are still there: the noise carries the physical pressure's
+        # RMS (its level instead of its spectrum at f_cut)
+        p2 = float(np.sum(phys.audio**2))
+        h2 = float(np.sum(high**2))
+        if p2 > 0 and h2 > 0:
+            beta = float(np.sqrt(p2 / h2))
+            meta["beta_rule"] = "rms"
+    meta["beta"] = beta
+    # below half the high-pass the low band is left out of the output, also when it was
+    # rendered in full (by "auto"): what the high-pass would leave of it is the ramp
+    # response of slow changes (a DC step in and out), infrasonic and no part of the sound
+    same_out = same and keep_low
+    meta["low_band"] = "kept" if same_out else "below half the high-pass: left out"
     # the output's spectrum before the high-pass is β H (+ L): its share above
     # 20 Hz without another transform
     H *= beta
-    if same:
+    if same_out:
         H += L
         high *= beta
         high += low

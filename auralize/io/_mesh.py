@@ -7,7 +7,11 @@ returns a :class:`~auralize.volume.TimeVolume` whose fields call the loader
 again, one step per read.  Uniform grids (``ImageData``, evenly spaced
 ``RectilinearGrid``) keep their points; anything else is sampled onto a
 uniform grid covering its bounds with VTK's ``vtkResampleWithDataSet``
-(pyvista's :meth:`~pyvista.DataSetFilters.sample`).
+(pyvista's :meth:`~pyvista.DataSetFilters.sample`).  Meshes whose points
+are an evenly spaced lattice keep their points too, and so does a surface
+(2-D cells) whose points project onto such a lattice, e.g. a height field
+``z(x, y)``: it is read on the lattice in its plane (dims 1 across it),
+with its own point values (:func:`surface_lattice`).
 """
 
 from __future__ import annotations
@@ -240,6 +244,16 @@ def _frame(arr: NDArray[Any], shape: tuple[int, int, int], *, name: str, label: 
     return a.reshape(shape)
 
 
+def _same_grid(a: Grid, b: Grid) -> bool:
+    """Whether two grids have the same dims and (to round-off) origin and spacing."""
+    scale = float(np.max(np.abs(b[1]) * np.maximum(np.asarray(b[2]) - 1, 1)))
+    return (
+        tuple(a[2]) == tuple(b[2])
+        and np.allclose(a[0], b[0], rtol=0.0, atol=1e-5 * scale)
+        and np.allclose(a[1], b[1], rtol=1e-5, atol=0.0)
+    )
+
+
 class _SameGrid:
     """Steps that are uniform grids identical to step 0: reshape, no interpolation."""
 
@@ -327,19 +341,83 @@ def lattice_order(points: NDArray[np.floating]) -> tuple[Grid, NDArray[np.intp]]
     return (origin, spacing, (dims[0], dims[1], dims[2])), order
 
 
-class _Lattice:
-    """Steps whose points are an evenly spaced lattice: reorder point data, no interpolation."""
+@dataclass
+class SurfaceLattice:
+    """A 2-D surface whose points project onto an evenly spaced lattice.
 
-    def __init__(self, grid: Grid, order: NDArray[np.intp], points: NDArray[np.floating]) -> None:
+    ``grid`` is the lattice (dims 1 along ``axis``, at coordinate ``level``),
+    ``order`` as in :func:`lattice_order`, ``deviation`` the largest distance
+    in metres of a point from the plane.
+    """
+
+    grid: Grid
+    order: NDArray[np.intp]
+    axis: int
+    level: float
+    deviation: float
+
+
+def project(points: NDArray[np.floating], axis: int, level: float) -> NDArray[np.float64]:
+    """``points (N, 3)`` with coordinate ``axis`` set to ``level`` (metres)."""
+    pts = np.array(points, dtype=np.float64).reshape(-1, 3)
+    pts[:, axis] = level
+    return pts
+
+
+def surface_lattice(mesh: Any) -> SurfaceLattice | None:
+    """Whether ``mesh`` is a surface lying over an evenly spaced lattice (a height field).
+
+    A mesh whose cells are 2-D (:func:`cell_dimension`) and whose points,
+    projected along the axis of their smallest extent onto the plane at
+    their mean coordinate, form a full evenly spaced lattice
+    (:func:`lattice_order`): its point values are read on that lattice as
+    they are, with no interpolation and no data off the surface.  None for
+    anything else (a volume, or a curved surface that folds over or is not
+    evenly spaced in projection).
+    """
+    if cell_dimension(mesh) != 2:
+        return None
+    pts = np.asarray(mesh.points, dtype=np.float64).reshape(-1, 3)
+    if pts.shape[0] < 4 or not np.all(np.isfinite(pts)):
+        return None
+    ext = pts.max(axis=0) - pts.min(axis=0)
+    axis = int(np.argmin(ext))
+    level = float(pts[:, axis].mean())
+    found = lattice_order(project(pts, axis, level))
+    if found is None:
+        return None
+    grid, order = found
+    if sum(d > 1 for d in grid[2]) != 2:
+        return None
+    return SurfaceLattice(grid=grid, order=order, axis=axis, level=level,
+                          deviation=float(np.max(np.abs(pts[:, axis] - level))))  # fmt: skip
+
+
+class _Lattice:
+    """Steps whose points are an evenly spaced lattice: reorder point data, no interpolation.
+
+    With ``axis`` given (a surface, :func:`surface_lattice`), every step's
+    points are first projected along ``axis`` onto the plane at ``level``,
+    so a surface moving along that axis stays on the same lattice.
+    """
+
+    def __init__(self, grid: Grid, order: NDArray[np.intp], points: NDArray[np.floating],
+                 axis: int | None = None, level: float = 0.0) -> None:  # fmt: skip
         self.origin, self.spacing, self.dims = grid
         self.order = order
-        self._points = np.array(points, dtype=np.float64)
+        self.axis, self.level = axis, level
+        self._points = self._project(points)
+
+    def _project(self, points: Any) -> NDArray[np.float64]:
+        if self.axis is None:
+            return np.array(points, dtype=np.float64)
+        return project(points, self.axis, self.level)
 
     def convert(self, mesh: Any, names: Sequence[str], *, label: str) -> dict[str, NDArray]:
-        pts = np.asarray(mesh.points, dtype=np.float64)
+        pts = self._project(mesh.points)
         if pts.shape != self._points.shape or not np.array_equal(pts, self._points):
             found = lattice_order(pts)
-            if found is None or tuple(found[0][2]) != tuple(self.dims):
+            if found is None or not _same_grid(found[0], (self.origin, self.spacing, self.dims)):
                 raise DataError(
                     f"{label}: the mesh points moved off the first time step's lattice of "
                     f"{describe_grid(self.origin, self.spacing, self.dims)}; every step of a "
@@ -519,6 +597,7 @@ def open_mesh_series(
     names = list(dict.fromkeys(chosen.values()))
     geom = uniform_geometry(mesh0)
     lattice = None if geom is not None else lattice_order(mesh0.points)
+    surface = None if geom is not None or lattice is not None else surface_lattice(mesh0)
     converter: _SameGrid | _Lattice | _Sampler
     valid = None
     if geom is not None:
@@ -530,6 +609,19 @@ def open_mesh_series(
         converter = _Lattice((origin, spacing, dims), order, mesh0.points)
         steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
         steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
+    elif surface is not None:
+        origin, spacing, dims = surface.grid
+        converter = _Lattice(surface.grid, surface.order, mesh0.points, surface.axis,
+                             surface.level)  # fmt: skip
+        steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
+        steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
+        warn_resampled(
+            f"{source}: a surface ({type(mesh0).__name__} with {mesh0.n_points} points, 2-D "
+            f"cells) read on its own points, no interpolation: the lattice "
+            f"{describe_grid(origin, spacing, dims)} in the plane {'xyz'[surface.axis]} = "
+            f"{surface.level:.6g} m; the points lie up to ±{surface.deviation:.3g} m off it "
+            f"(at the first step), and source positions are projected onto it"
+        )
     else:
         origin, spacing, dims = grid_for_bounds(
             mesh0.bounds, n_points=mesh0.n_points, resolution=resolution, source=source
@@ -578,6 +670,6 @@ def open_mesh_series(
         for vol_name, file_name in chosen.items()
     }
     volume.attrs["mesh"] = f"{type(mesh0).__name__} with {mesh0.n_points} points"
-    if geom is not None or lattice is not None:
+    if geom is not None or lattice is not None or surface is not None:
         volume = resample_uniform(volume, resolution)
     return volume

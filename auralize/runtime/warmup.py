@@ -52,7 +52,7 @@ def warmup(*, plugins: bool = False) -> dict[str, Any]:
     # mono uses the run-sweep kernel, the panned layouts the piece-wise one;
     # cubic and linear interpolation share their specializations
     for layout, p in (("mono", point), ("mono", path), ("ring8", path), ("5.1", path)):
-        auralize(vol, p, layout=layout, series=series, rate=8000)
+        auralize(vol, p, layout=layout, series=series, rate=8000, time_scale=1.0, timbre="physical")
     # the emitters engine's sampled kernel (one specialization serves every layout)
     from auralize.emitters import Emitters
     from auralize.emitters.engine import render_emitters

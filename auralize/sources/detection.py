@@ -160,13 +160,31 @@ class StrengthStats:
         return cls(peak=peak, sample=sample, scale=scale)
 
 
+#: a level taken from the samples themselves is lowered by this relative amount, so the
+#: samples at that level (ties included: every point of a uniform field) exceed it
+TIE = 1e-12
+
+
 def _cover_level(x: NDArray[np.float64], cover: float) -> float:
     """Smallest level whose exceeding values carry ``cover`` of Σx (x sorted ascending)."""
     if x.size == 0 or x[-1] <= 0:
         return np.inf
     tail = np.cumsum(x[::-1])
     k = int(np.searchsorted(tail, cover * tail[-1]))
-    return float(x[::-1][min(k, x.size - 1)]) * (1.0 - 1e-12)
+    return float(x[::-1][min(k, x.size - 1)]) * (1.0 - TIE)
+
+
+def top_level(x: NDArray[np.float64], top: float) -> float:
+    """Level exceeded by the strongest fraction ``top`` of ``x`` and every value tied with them.
+
+    The ``1 - top`` quantile lowered by :data:`TIE`: classification is strict
+    (``|S| > T``), so without it a quantile that falls on a sample value
+    would hide that value, and a uniform |S| (median = quantile = maximum)
+    would classify no point at all.
+    """
+    if x.size == 0:
+        return np.inf
+    return float(np.quantile(x, 1.0 - top)) * (1.0 - TIE)
 
 
 def auto_threshold(x: NDArray[np.float64]) -> float:
@@ -175,7 +193,7 @@ def auto_threshold(x: NDArray[np.float64]) -> float:
         return np.inf
     med = float(np.median(x))
     mad = float(np.median(np.abs(x - med)))
-    noise = min(med + AUTO_NOISE_K * 1.4826 * mad, float(np.quantile(x, 1.0 - AUTO_TOP)))
+    noise = min(med + AUTO_NOISE_K * 1.4826 * mad, top_level(x, AUTO_TOP))
     return max(noise, _cover_level(x, AUTO_COVER))
 
 
@@ -251,7 +269,7 @@ class Thresholds:
             elif mode == "top":
                 assert stats is not None
                 x = stats.sample[i]
-                out[i] = float(np.quantile(x, 1.0 - v)) if x.size else np.inf
+                out[i] = top_level(x, v)
             else:
                 assert stats is not None
                 out[i] = auto_threshold(stats.sample[i])
@@ -707,14 +725,22 @@ def classified_fraction(frames: Sequence[SourceFrame], n_points: int) -> dict[st
     return out
 
 
-def warn_fraction(fraction: dict[str, float], source: str) -> None:
-    """Warn (once per call site) when more than :data:`WARN_FRACTION` of the points are sources."""
+def warn_fraction(fraction: dict[str, float], source: str, *, uniform: bool = False) -> None:
+    """Warn (once per call site) when more than :data:`WARN_FRACTION` of the points are sources.
+
+    ``uniform``: every sampled point of a classified type has the same |S| (a
+    uniform volume source, which no threshold splits).
+    """
     if fraction["any"] > WARN_FRACTION:
         parts = ", ".join(f"{fraction[k]:.0%} {k}" for k in TYPES)
+        advice = (
+            "every point has the same strength: a uniform volume source, which no threshold splits"
+            if uniform
+            else "the thresholds find everything, not sources: raise them (e.g. 'top:1%' or "
+            "an absolute value)"
+        )
         warnings.warn(
-            f"{source}: {fraction['any']:.0%} of the valid points are sources ({parts}); the "
-            f"thresholds find everything, not sources: raise them (e.g. 'top:1%' or an "
-            f"absolute value)",
+            f"{source}: {fraction['any']:.0%} of the valid points are sources ({parts}); {advice}",
             SourceFractionWarning,
             stacklevel=3,
         )
@@ -771,13 +797,20 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     delta_v_rule(delta_v)
     qmean = steady_strength(volume, m, steady)
     thresholds = thresholds or Thresholds()
-    stats = strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar) if thresholds.needs_scale else None
+    stats = (
+        strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar)
+        if thresholds.needs_scale
+        else None
+    )
     thr = thresholds.resolve(stats)
     frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
                                         progress_bar=progress_bar, qmean=qmean,
                                         delta_v=delta_v)]  # fmt: skip
     fraction = classified_fraction(frames, volume.n_points)
-    warn_fraction(fraction, volume.source)
+    uniform = stats is not None and all(
+        x[0] == x[-1] for i, x in enumerate(stats.sample) if x.size and fraction[TYPES[i]] > 0
+    )
+    warn_fraction(fraction, volume.source, uniform=uniform)
     return SourceSeries(
         frames=frames, times=volume.times.copy(), origin=volume.origin.copy(),
         spacing=volume.spacing.copy(), dims=volume.dims, thresholds=thr,
