@@ -368,7 +368,8 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
                         "optional parameters, e.g. fire:dataset:fire:extend=none")  # fmt: skip
     g.add_argument("--scene", metavar="SCENE.json",
                    help="a scene file: listener, layout and a list of {model, input, params} "
-                        "(options given on the command line win)")  # fmt: skip
+                        "(options given on the command line win), or a saved session (its "
+                        "data, audible overlays and models along its path)")  # fmt: skip
 
 
 def scene_setup(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> tuple[Any, Any, Any]:

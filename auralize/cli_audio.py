@@ -131,7 +131,7 @@ def _play_scene(args: argparse.Namespace) -> int:
 
     sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
                                                           "rate": DEFAULT_RATE}, "play")  # fmt: skip
-    for note in notes:
+    for note in [] if args.json else notes:
         print(note)
     blocks = SceneBlocks(sound, path, rate=args.rate, layout=args.layout,
                          block=max(round(args.block_ms / 1e3 * args.rate), 1),

@@ -259,6 +259,11 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
             interp=args.interp, layout=lay, duration=plan.duration, bounds=vol.bounds,
             block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
         )  # fmt: skip
+    from auralize.timbre import AUDIBLE_SHARE
+
+    if not args.json and loudness(field.audio, args.rate)["share_above"] < AUDIBLE_SHARE:
+        print("note: most of the volume's physical sound lies below 20 Hz (inaudible); try a "
+              "smaller --time-scale, or --timbre extended without the Dask options")  # fmt: skip
     field.meta["parts"] = [{"model": "field", "kind": "FieldSources (Dask)",
                             "peak_pa": float(np.max(np.abs(field.audio), initial=0.0))}]  # fmt: skip
     dask_meta = {k: field.meta[k] for k in ("blocks", "groups", "tasks", "workers", "scheduler")}

@@ -93,7 +93,9 @@ class SceneModel:
 
     def describe(self) -> dict[str, Any]:
         """A JSON-friendly description (for sidecars)."""
-        inp = self.input if isinstance(self.input, str) else type(self.input).__name__
+        inp = self.input
+        if not isinstance(inp, str) and not (isinstance(inp, dict) and "spec" in inp):
+            inp = type(inp).__name__
         return {"model": self.model, "input": inp, "params": dict(self.params)}
 
 
@@ -179,6 +181,8 @@ def load_scene(path: str | Path) -> SceneFile:
         raise FormatError(f"{p}: not a JSON scene file ({exc})") from None
     if not isinstance(doc, dict):
         raise FormatError(f"{p}: a scene file holds a JSON object, got {type(doc).__name__}")
+    if doc.get("auralize_format") == "session":
+        return session_scene(doc, source=str(p))
     known = {"listener", "duration", "layout", "rate", "models"}
     extra = sorted(set(doc) - known)
     if extra:
@@ -224,6 +228,57 @@ def load_scene(path: str | Path) -> SceneFile:
     return out
 
 
+def session_scene(doc: dict[str, Any], *, source: str = "<memory>") -> SceneFile:
+    """The scene of a saved session (:mod:`auralize.viewer.session`): what it renders.
+
+    The session's data is a ``field`` model detected with the session's
+    mapping and thresholds and played at its time scale; its ``models`` (the
+    viewer's audible overlays, :func:`auralize.simple.AddSoundModel`) follow;
+    the listener is its path, ``layout``/``rate`` its audio settings.  So
+    ``auralize render --scene SESSION.json -o out.wav`` renders what the
+    session heard.
+    """
+    from auralize.viewer.session import SessionState
+
+    st = SessionState.from_dict(doc, source=source)
+    models: list[SceneModel] = []
+    if st.data:
+        det = st.detection or {}
+        if det.get("mapping_fields"):
+            raise FormatError(f"{source}: the session maps its own fields "
+                              f"({det['mapping_fields']}); a scene's field model takes a mapping "
+                              f"preset only")  # fmt: skip
+        params: dict[str, Any] = {"mapping": det.get("mapping") or "auto",
+                                  "time_scale": float((st.audio or {}).get("time_scale", 1.0))}  # fmt: skip
+        for kind, value in (det.get("thresholds") or {}).items():
+            if kind in ("monopole", "dipole", "quadrupole") and value is not None:
+                params[f"threshold_{kind}"] = value
+        models.append(SceneModel("field", dict(st.data), params))
+    for k, it in enumerate(st.models):
+        if not isinstance(it, dict) or "model" not in it or "input" not in it:
+            raise FormatError(f"{source}: models[{k}] must be an object with 'model' and "
+                              f"'input', got {it!r}")  # fmt: skip
+        models.append(SceneModel(str(it["model"]), it["input"], dict(it.get("params") or {})))
+    if not models:
+        raise FormatError(f"{source}: the session has no data and no sound models to render")
+    a = st.audio or {}
+    return SceneFile(models=models, path=st.listener_path(), layout=a.get("layout"),
+                     rate=int(a["rate"]) if a.get("rate") else None, source=source)  # fmt: skip
+
+
+def load_input(model: Any, spec: Any) -> Any:
+    """A scene entry's inputs: a spec string read by the model, a session's data entry
+    (``{"spec": ..., "size": ..., "steps": ..., "seed": ...}``) opened as a volume, or
+    the inputs themselves."""
+    if isinstance(spec, str):
+        return model.load_input(spec)
+    if isinstance(spec, dict) and isinstance(spec.get("spec"), str):
+        from auralize.viewer.session import load_data
+
+        return load_data(spec)
+    return spec
+
+
 def _field_params(inputs: Any, params: dict[str, Any], path: ListenerPath,
                   duration: float) -> dict[str, Any]:  # fmt: skip
     """Resolve the field model's ``time_scale="auto"`` and its lead for ``path``."""
@@ -253,7 +308,7 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
     total = Sound(parts=[], meta={}, name="")
     for sm in models:
         model = get_model(sm.model)
-        inputs = model.load_input(sm.input) if isinstance(sm.input, str) else sm.input
+        inputs = load_input(model, sm.input)
         params = dict(sm.params)
         if (
             rate is not None

@@ -50,8 +50,9 @@ def discharge(tmp_path_factory) -> Path:  # type: ignore[no-untyped-def]
 
 @pytest.fixture(scope="module")
 def fire_file(tmp_path_factory) -> Path:
-    from auralize.io import save_volume
     from auralize_fire.dataset import make_fire
+
+    from auralize.io import save_volume
 
     f = tmp_path_factory.mktemp("fire") / "fire.h5"
     save_volume(make_fire(size=12, steps=12), f)
@@ -111,7 +112,9 @@ def test_field_plus_model_is_the_filtered_field_plus_the_model(discharge, tmp_pa
     assert main(["render", *fa, "--model", spark, "-o", str(mix), *OUT]) == 0
     f, m, x = _wav(field), _wav(model), _wav(mix)
     assert np.max(np.abs(f)) > 0 and np.max(np.abs(m)) > 0
-    assert np.max(np.abs(x - (f + m))) <= 1e-6 * np.max(np.abs(x))
+    # the volume's render lasts as long as the data's sound does (0.3 s at most)
+    assert x.shape == f.shape and 0 < f.shape[1] <= m.shape[1]
+    assert np.max(np.abs(x - (f + m[:, : f.shape[1]]))) <= 1e-6 * np.max(np.abs(x))
     side = _sidecar(mix)
     assert side["highpass_hz"] == 20.0
     assert [p["model"] for p in side["parts"]] == ["field", "spark"]
@@ -154,7 +157,7 @@ def test_dask_render_of_a_scene_file(discharge, tmp_path) -> None:  # type: igno
     assert main(["render", *fa, "--scene", str(scene), "-o", str(dask),
                  "--scheduler", "sync"]) == 0  # fmt: skip
     x, y = _wav(plain), _wav(dask)
-    assert x.shape == (2, round(0.3 * RATE)) and x.shape == y.shape
+    assert x.shape[0] == 2 and x.shape == y.shape and np.max(np.abs(x)) > 0
     assert np.max(np.abs(x - y)) <= 1e-6 * np.max(np.abs(x))
 
 
@@ -188,14 +191,16 @@ def test_play_field_and_model_on_a_file_backed_device(discharge, tmp_path, monke
     gain = 0.9 / float(np.max(np.abs(r)))
     capsys.readouterr()
     try:
-        assert main(["play", *fa, "--model", spark, "--layout", "stereo", "--rate", str(RATE),
+        play = [a for a in fa if a not in ("--timbre", "physical")]  # play is physical
+        assert main(["play", *play, "--model", spark, "--layout", "stereo", "--rate", str(RATE),
                      "--device", "auralize_file3", "--gain", repr(gain), "--json"]) == 0  # fmt: skip
     finally:
         monkeypatch.delenv("XDG_CONFIG_HOME")
         refresh_devices()
     rep = json.loads(capsys.readouterr().out)
     assert rep["underruns"] == 0 and rep["device_underflows"] == 0
-    assert rep["blocks"] == 6 and rep["duration_s"] == pytest.approx(0.3)
+    assert rep["blocks"] == -(-r.shape[1] // round(0.05 * RATE))  # 50 ms blocks
+    assert rep["duration_s"] == pytest.approx(r.shape[1] / RATE)
     dev = np.fromfile(out, dtype="<f4").reshape(-1, 2).T.astype(np.float64)
     lag = int(np.argmax(np.any(dev != 0, axis=0))) - int(np.argmax(np.any(r != 0, axis=0)))
     assert 0 <= lag <= RATE
