@@ -565,8 +565,10 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
 
     The audio lasts the path's duration, clipped to the time the data's sound
     lasts at the session's ``time_scale`` (then ``r.meta["notes"]`` says so).
-    The added models are rendered along the same path with the same layout,
-    rate and 20 Hz output high-pass, and summed (``r.meta["parts"]`` lists them);
+    The added models are rendered along the same path with the same layout
+    and rate, and summed (``r.meta["parts"]`` lists them); the 20 Hz output
+    high-pass filters the data's sources only (a ``field`` model's too: the
+    rule of :func:`auralize.scene.soundscene.render_mix`);
     without a data source the render is the models' alone, for the path's duration.
 
     As ``auralize render``: ``timbre="auto"`` (physical if most of its energy is
@@ -608,8 +610,7 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     if s.models:
         dur = out.duration if out is not None else p.duration
         mix = render_scene(s.models, p, rate=int(s.audio["rate"]), layout=s.audio["layout"],
-                           duration=dur)  # fmt: skip
-        mix.audio = highpass(mix.audio, mix.rate, HIGHPASS_HZ)
+                           duration=dur, highpass_hz=HIGHPASS_HZ)  # fmt: skip
         if out is not None:
             n = min(out.audio.shape[1], mix.audio.shape[1])
             out.audio[:, :n] += mix.audio[:, :n]

@@ -17,12 +17,13 @@ do instead (``--downmix``, another device, or writing a file).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import struct
-import sys
 import threading
 import warnings
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -42,6 +43,47 @@ PEAK_LEVEL = 0.99  # full scale after peak normalisation
 
 _KSDATAFORMAT_FLOAT = bytes.fromhex("0300000000001000800000aa00389b71")
 _KSDATAFORMAT_PCM = bytes.fromhex("0100000000001000800000aa00389b71")
+
+
+#: the command line being run, as the user would retype it (set by :func:`running_command`)
+_COMMAND: list[str | None] = [None]
+
+
+def command_line() -> str | None:
+    """The ``auralize`` command line being run (``auralize ARGS``, shell-quoted), or None.
+
+    Every sidecar records it under ``"command"``; outside :func:`running_command`
+    (audio written from Python) it is None.
+    """
+    return _COMMAND[0]
+
+
+@contextlib.contextmanager
+def running_command(argv: Sequence[str]) -> Iterator[str]:
+    """Record ``auralize ARGV`` (shell-quoted) as :func:`command_line` while the block runs.
+
+    Parameters
+    ----------
+    argv : the arguments :func:`auralize.cli.main` parsed (without the program name).
+
+    Examples
+    --------
+    >>> with running_command(["render", "my data.h5", "-o", "a.wav"]) as cmd:
+    ...     cmd == command_line()
+    True
+    >>> cmd
+    "auralize render 'my data.h5' -o a.wav"
+    >>> command_line() is None
+    True
+    """
+    import shlex
+
+    old = _COMMAND[0]
+    _COMMAND[0] = "auralize " + shlex.join(str(a) for a in argv)
+    try:
+        yield _COMMAND[0]
+    finally:
+        _COMMAND[0] = old
 
 
 def normalize_audio(audio: NDArray[np.floating], mode: str = "peak", *,
@@ -285,7 +327,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         ),
         "limit_pa": limit_pa,
         "silent": silent,
-        "command": " ".join(sys.argv) if sys.argv and sys.argv[0].endswith("auralize") else None,
+        "command": command_line(),
         **(sidecar or {}),
     }
 

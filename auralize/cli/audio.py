@@ -127,18 +127,17 @@ def _play_scene(args: argparse.Namespace) -> int:
     from auralize.audio.live import play
     from auralize.cli.core import scene_from_args
     from auralize.cli.options import DEFAULT_RATE
-    from auralize.emitters.engine import BlockRenderer
+    from auralize.scene.soundscene import SceneBlocks
 
     sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
                                                           "rate": DEFAULT_RATE}, "play")  # fmt: skip
-    for note in notes:
+    for note in [] if args.json else notes:
         print(note)
-    blocks = BlockRenderer(sound, path, rate=args.rate, layout=args.layout,
-                           block=max(round(args.block_ms / 1e3 * args.rate), 1),
-                           duration=duration)  # fmt: skip
+    blocks = SceneBlocks(sound, path, rate=args.rate, layout=args.layout,
+                         block=max(round(args.block_ms / 1e3 * args.rate), 1),
+                         duration=duration, highpass_hz=args.highpass)  # fmt: skip
     rep = play(blocks, path, rate=args.rate, layout=args.layout, device=args.device,
-               downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit,
-               highpass_hz=args.highpass)  # fmt: skip
+               downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit)  # fmt: skip
     _report(args, rep)
     return 0
 
@@ -146,6 +145,7 @@ def _play_scene(args: argparse.Namespace) -> int:
 def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
     from auralize.cli.core import (
+        HIGHPASS_HELP,
         add_detect_options,
         add_scene_options,
         add_volume_options,
@@ -171,8 +171,7 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--time-scale", type=time_scale_arg, default="auto",
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
-    g.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
-                   help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
+    g.add_argument("--highpass", type=float, default=20.0, metavar="HZ", help=HIGHPASS_HELP)
     g.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
     g.add_argument("--gain", default="auto", type=_gain_arg,
                    help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "

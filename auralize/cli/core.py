@@ -152,6 +152,12 @@ def time_scale_arg(text: str) -> float | str:
     return v
 
 
+#: what ``--highpass`` means in ``render``, ``play`` and their Dask variant
+HIGHPASS_HELP = ("causal high-pass of the volume's sources, Hz (default 20; 0 keeps everything); "
+                 "--model/--scene sound models are heard as their model makes them (no "
+                 "high-pass: the same samples as the model's own command)")  # fmt: skip
+
+
 def add_render_options(p: argparse.ArgumentParser) -> None:
     """Synthesis options shared by ``render`` and its Dask variant."""
     p.add_argument("--time-scale", type=time_scale_arg, default="auto",
@@ -165,7 +171,7 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
                         "type; auto (default): physical if most of it is above 20 Hz, else "
                         "extended")  # fmt: skip
     p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
-                   help="output high-pass cut-off (default 20 Hz; 0 keeps everything)")  # fmt: skip
+                   help=HIGHPASS_HELP)  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
 
 
@@ -362,23 +368,16 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
                         "optional parameters, e.g. fire:dataset:fire:extend=none")  # fmt: skip
     g.add_argument("--scene", metavar="SCENE.json",
                    help="a scene file: listener, layout and a list of {model, input, params} "
-                        "(options given on the command line win)")  # fmt: skip
+                        "(options given on the command line win), or a saved session (its "
+                        "data, audible overlays and models along its path)")  # fmt: skip
 
 
-def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
-                    command: str = "render") -> tuple[Any, Any, float, list[str]]:  # fmt: skip
-    """The scene of ``--model``/``--scene`` (plus the field of a positional volume).
-
-    Returns ``(sound, path, duration, notes)``: every model's
-    :class:`~auralize.emitters.Sound` joined, the listener path, the playback
-    seconds and what to tell the user.  ``args.layout``/``args.rate``/
-    ``args.duration`` take the scene file's values where the command line left
-    them at ``parser_defaults``.
-    """
-    from auralize.emitters import Sound
+def scene_setup(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> tuple[Any, Any, Any]:
+    """The models of ``--model``/``--scene`` (checked) and the listener: ``(models, path,
+    listener)``.  ``args.layout``/``args.rate``/``args.duration`` take the scene file's
+    values where the command line left them at ``parser_defaults``."""
     from auralize.listener import ListenerPath
-    from auralize.pipeline import DEFAULT_DURATION, plan_render
-    from auralize.scene.soundscene import load_scene, parse_model_spec, scene_sound
+    from auralize.scene.soundscene import load_scene, parse_model_spec
     from auralize.spatial.layouts import get_layout
 
     scene = load_scene(args.scene) if args.scene else None
@@ -396,6 +395,25 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     listener = args.listener
     if path is None and listener is None and scene is not None:
         path, listener = scene.path, scene.listener
+    return models, path, listener
+
+
+def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
+                    command: str = "render") -> tuple[Any, Any, float, list[str]]:  # fmt: skip
+    """The scene of ``--model``/``--scene`` (plus the field of a positional volume).
+
+    Returns ``(sound, path, duration, notes)``: every model's
+    :class:`~auralize.emitters.Sound` joined, the listener path, the playback
+    seconds and what to tell the user.  ``args.layout``/``args.rate``/
+    ``args.duration`` take the scene file's values where the command line left
+    them at ``parser_defaults``.
+    """
+    from auralize.emitters import Sound
+    from auralize.pipeline import DEFAULT_DURATION, plan_render
+    from auralize.scene.soundscene import scene_sound
+    from auralize.spatial import get_layout
+
+    models, path, listener = scene_setup(args, parser_defaults)
     notes: list[str] = []
     sound = Sound(parts=[], meta={}, name="")
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
@@ -426,31 +444,31 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
             raise ParameterError("a scene without a volume needs a listener: --path CSV, "
                                  "--listener X,Y,Z or 'listener' in the scene file")  # fmt: skip
         if path is None:
+            from auralize.listener import ListenerPath
+
             path = ListenerPath.point(listener, duration=args.duration or DEFAULT_DURATION)
         duration = args.duration or path.duration
     check_render_memory(args, duration, get_layout(args.layout).n_channels)
-    sound = sound + scene_sound(models, path, duration)
+    sound = sound + scene_sound(models, path, duration, rate=args.rate)
     return sound, path, duration, notes
 
 
 def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
     """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
-    from auralize.emitters import render
-    from auralize.emitters.timbre import highpass, loudness
+    from auralize.emitters.timbre import loudness
     from auralize.pipeline import save_rendered
+    from auralize.scene.soundscene import render_mix
     from auralize.spatial.layouts import get_layout
 
     t = time.perf_counter()
     sound, path, duration, notes = scene_from_args(args, parser_defaults)
     lay = get_layout(args.layout)
-    out = render(sound, path, rate=args.rate, layout=lay, duration=duration)
-    if args.highpass > 0:
-        out.audio = highpass(out.audio, out.rate, args.highpass)
+    out = render_mix(sound, path, rate=args.rate, layout=lay, duration=duration,
+                     highpass_hz=args.highpass)  # fmt: skip
     out.meta.update({"seconds": time.perf_counter() - t, "duration_s": duration,
-                     "highpass_hz": args.highpass, "notes": notes})  # fmt: skip
+                     "notes": notes})  # fmt: skip
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format,
-                         extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                         subtype=args.format)  # fmt: skip
     ld = loudness(out.audio, out.rate)
     kinds = ", ".join(f"{p['model']} ({p['kind']})" for p in out.meta["parts"])
     report = (f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
@@ -501,7 +519,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - t
     out.meta["seconds"] = elapsed
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format, extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                         subtype=args.format)  # fmt: skip
     _report_unavailable("render", series)
     report = report_line(out, args.output, gain=gain)
     if args.json:
@@ -628,7 +646,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     for note in rendered.meta.get("timbre_notes", []):
         print(note)
     wav = out_dir / f"explosion_{args.layout}.wav"
-    save_rendered(rendered, wav, extra={"command": "auralize " + " ".join(sys.argv[1:])})
+    save_rendered(rendered, wav)
     png = screenshot(vol, out_dir / "explosion.png", series=series, path=path,
                      step=vol.n_steps // 3)  # fmt: skip
     spec = save_spectrogram(rendered.audio, rendered.rate, out_dir / "explosion_spectrogram.png",
@@ -863,9 +881,10 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``auralize`` command; return the exit status (see :data:`EXIT_CODES`)."""
-    from auralize.audio.output import SilentAudioWarning
+    from auralize.audio.output import SilentAudioWarning, running_command
 
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     name = f"auralize {getattr(args, 'command', '')}".strip()
     from auralize.cli.console import setup_console
@@ -885,7 +904,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("ignore", PendingDeprecationWarning)
             from auralize.spatial.layouts import default_hrtf
 
-            with default_hrtf(getattr(args, "hrtf", None)):  # every renderer's binaural stage
+            # every renderer's binaural stage; every sidecar's "command"
+            with default_hrtf(getattr(args, "hrtf", None)), running_command(argv):
                 status = int(args.func(args) or 0)
         for w in caught:
             if issubclass(w.category, SilentAudioWarning):

@@ -80,7 +80,7 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
         "--block-seconds",
         type=positive_float,
         help="playback seconds per synthesis block (default: one block, or blocks of at most "
-             "2**25 samples × channels); every block is split in source groups, two per worker",
+        "2**25 samples × channels); every block is split in source groups, two per worker",
     )
 
 
@@ -150,8 +150,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     from auralize.pipeline import plan_render, save_rendered
 
     if getattr(args, "model", None) or getattr(args, "scene", None):
-        raise ParameterError("--model/--scene render on this machine; leave out the Dask options "
-                             "(--scheduler, --address)")  # fmt: skip
+        return _render_scene_dask(args)
     if getattr(args, "volume", None) is None:
         raise ParameterError("the Dask render needs a volume PATH")
     timbre = getattr(args, "timbre", "physical")
@@ -201,12 +200,99 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     out.meta.update({"volume": vol.source, "mapping": series.meta.get("mapping"),
                      "thresholds": np.asarray(series.thresholds).tolist()})  # fmt: skip
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format, extra={"command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                         subtype=args.format)  # fmt: skip
     peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
     print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
           f"at {out.rate} Hz in {out.meta['tasks']} tasks ({out.meta['blocks']} blocks × "
           f"{out.meta['groups']} source groups) on {out.meta['workers']} workers, "
           f"peak {peak:.4g} Pa, gain {gain:.4g}; {elapsed:.2f} s")  # fmt: skip
+    return 0
+
+
+def _render_scene_dask(args: argparse.Namespace) -> int:
+    """``auralize render PATH --model/--scene ...`` with Dask options.
+
+    The volume's sources are detected (unless ``--sources``) and synthesized
+    on the Dask workers as in a plain Dask render; the models' parts are
+    rendered by the engine in this process along the same path; the two meet
+    in the one output stage (:func:`auralize.scene.soundscene.add_rendered`: the
+    field high-passed at ``--highpass``, the models as they are), so the file
+    equals the render without the Dask options.
+    """
+    from auralize.cli import _cmd_render_scene, _load, check_render_memory, scene_setup
+    from auralize.cli.options import DEFAULT_RATE
+    from auralize.pipeline import plan_render, save_rendered
+    from auralize.distributed import render_distributed
+    from auralize.scene.soundscene import add_rendered, render_mix, scene_sound
+    from auralize.spatial import get_layout
+    from auralize.emitters.synthesis import check_arrival
+    from auralize.emitters.timbre import highpass, loudness
+
+    defaults = {"layout": "mono", "rate": DEFAULT_RATE}
+    if getattr(args, "volume", None) is None:
+        print("note: the scene has no volume PATH, so nothing runs on Dask: its models render "
+              "on this machine")  # fmt: skip
+        return _cmd_render_scene(args, defaults)
+    if args.timbre not in ("physical", "auto"):
+        raise ParameterError(f"--timbre {args.timbre}: the Dask render renders the physical "
+                             f"pressure only; render {args.timbre} without the Dask options")  # fmt: skip
+    highpass(np.zeros((1, 0)), args.rate, args.highpass)  # validate early
+    models, path, listener = scene_setup(args, defaults)
+    lay = get_layout(args.layout)
+    vol = _load(args)
+    t = time.perf_counter()
+    with _runner(args) as runner:
+        if args.sources:
+            from auralize.io.sources_file import load_sources_for
+
+            series = load_sources_for(args.sources, vol)
+        else:
+            series = _detect(args, vol, runner, None)
+        tracks = series.tracks()
+        plan = plan_render(vol, tracks, path=path, listener=listener, duration=args.duration,
+                           time_scale=args.time_scale)  # fmt: skip
+        check_render_memory(args, plan.duration, lay.n_channels)
+        check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
+                      lead=plan.lead)  # fmt: skip
+        field = render_distributed(
+            tracks, plan.path, rate=args.rate, time_scale=plan.time_scale,
+            interp=args.interp, layout=lay, duration=plan.duration, bounds=vol.bounds,
+            block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
+        )  # fmt: skip
+    from auralize.emitters.timbre import AUDIBLE_SHARE
+
+    if not args.json and loudness(field.audio, args.rate)["share_above"] < AUDIBLE_SHARE:
+        print("note: most of the volume's physical sound lies below 20 Hz (inaudible); try a "
+              "smaller --time-scale, or --timbre extended without the Dask options")  # fmt: skip
+    field.meta["parts"] = [{"model": "field", "kind": "FieldSources (Dask)",
+                            "peak_pa": float(np.max(np.abs(field.audio), initial=0.0))}]  # fmt: skip
+    dask_meta = {k: field.meta[k] for k in ("blocks", "groups", "tasks", "workers", "scheduler")}
+    sound = scene_sound(models, plan.path, plan.duration, rate=args.rate)
+    rest = render_mix(sound, plan.path, rate=args.rate, layout=lay, duration=plan.duration,
+                      highpass_hz=args.highpass)  # fmt: skip
+    out = add_rendered(field, rest, args.highpass)
+    out.meta.update({**plan.as_dict(), "timbre": "physical", "volume": vol.source,
+                     "mapping": series.meta.get("mapping"), "dask": dask_meta,
+                     "thresholds": np.asarray(series.thresholds).tolist(),
+                     "seconds": time.perf_counter() - t})  # fmt: skip
+    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
+                         subtype=args.format)  # fmt: skip
+    ld = loudness(out.audio, out.rate)
+    report = (f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
+              f"{out.rate} Hz; the volume's sources in {dask_meta['tasks']} tasks on "
+              f"{dask_meta['workers']} workers ({dask_meta['scheduler']}) and "
+              f"{len(out.meta['parts']) - 1} model part(s) on this machine; peak "
+              f"{ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa (gain {gain:.4g})")  # fmt: skip
+    if args.json:
+        print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
+                          "loudness": ld, "report": report}, indent=2, default=str))  # fmt: skip
+        return 0
+    for note in plan.notes:
+        print(note)
+    print(plan.mapping_text + (" (auto)" if plan.auto else ""))
+    for part in out.meta["parts"]:
+        print(f"  {part['model']:10s} {part['kind']:20s} peak {part['peak_pa']:.4g} Pa")
+    print(report)
     return 0
 
 
@@ -282,8 +368,9 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print per-step counts as JSON")
     p.set_defaults(func=cmd_detect_dask)
 
-    p = sub.add_parser("scale-render",
-                       help="render with synthesis tasks (blocks × source groups) on Dask workers")
+    p = sub.add_parser(
+        "scale-render", help="render with synthesis tasks (blocks × source groups) on Dask workers"
+    )
     add_volume_options(p)
     add_detect_options(p)
     add_output_options(p)

@@ -25,10 +25,15 @@ Relative file names in a scene file are relative to the scene file's folder.
 The ``field`` model accepts ``"time_scale": "auto"``: the data's span plays in
 the scene's duration (:func:`auralize.pipeline.plan_render`).
 
-``SceneBlocks(sound, path, rate=, layout=, block=, duration=)`` renders a
-scene block by block for live playback (:func:`auralize.audio.live.play` takes it in
-place of source tracks); it is the engine's
-:class:`auralize.emitters.engine.BlockRenderer`.
+One output rule (:func:`render_mix`): the output high-pass (``--highpass``,
+default 20 Hz) filters the field sources, the volume's physical pressure with
+its inaudible sub-20 Hz energy; the other models are heard as they made their
+sound (fire's own ``highpass_hz``, paper 001 §6), so a model mixed into a
+scene writes the same samples as its own command (``spark render``).
+
+``SceneBlocks(sound, path, rate=, layout=, block=, duration=, highpass_hz=)``
+renders a scene block by block for live playback with the same rule
+(:func:`auralize.audio.live.play` takes it in place of source tracks).
 """
 
 from __future__ import annotations
@@ -38,16 +43,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from auralize.errors import FormatError, MissingFileError, ParameterError
 from auralize.listener import ListenerPath
 
 __all__ = [
+    "SceneBlocks",
     "SceneFile",
     "SceneModel",
     "load_scene",
     "parse_model_spec",
+    "render_mix",
     "render_scene",
     "scene_sound",
+    "split_field",
 ]
 
 
@@ -83,7 +93,9 @@ class SceneModel:
 
     def describe(self) -> dict[str, Any]:
         """A JSON-friendly description (for sidecars)."""
-        inp = self.input if isinstance(self.input, str) else type(self.input).__name__
+        inp = self.input
+        if not isinstance(inp, str) and not (isinstance(inp, dict) and "spec" in inp):
+            inp = type(inp).__name__
         return {"model": self.model, "input": inp, "params": dict(self.params)}
 
 
@@ -169,6 +181,8 @@ def load_scene(path: str | Path) -> SceneFile:
         raise FormatError(f"{p}: not a JSON scene file ({exc})") from None
     if not isinstance(doc, dict):
         raise FormatError(f"{p}: a scene file holds a JSON object, got {type(doc).__name__}")
+    if doc.get("auralize_format") == "session":
+        return session_scene(doc, source=str(p))
     known = {"listener", "duration", "layout", "rate", "models"}
     extra = sorted(set(doc) - known)
     if extra:
@@ -214,6 +228,57 @@ def load_scene(path: str | Path) -> SceneFile:
     return out
 
 
+def session_scene(doc: dict[str, Any], *, source: str = "<memory>") -> SceneFile:
+    """The scene of a saved session (:mod:`auralize.scene.session`): what it renders.
+
+    The session's data is a ``field`` model detected with the session's
+    mapping and thresholds and played at its time scale; its ``models`` (the
+    viewer's audible overlays, :func:`auralize.simple.AddSoundModel`) follow;
+    the listener is its path, ``layout``/``rate`` its audio settings.  So
+    ``auralize render --scene SESSION.json -o out.wav`` renders what the
+    session heard.
+    """
+    from auralize.scene.session import SessionState
+
+    st = SessionState.from_dict(doc, source=source)
+    models: list[SceneModel] = []
+    if st.data:
+        det = st.detection or {}
+        if det.get("mapping_fields"):
+            raise FormatError(f"{source}: the session maps its own fields "
+                              f"({det['mapping_fields']}); a scene's field model takes a mapping "
+                              f"preset only")  # fmt: skip
+        params: dict[str, Any] = {"mapping": det.get("mapping") or "auto",
+                                  "time_scale": float((st.audio or {}).get("time_scale", 1.0))}  # fmt: skip
+        for kind, value in (det.get("thresholds") or {}).items():
+            if kind in ("monopole", "dipole", "quadrupole") and value is not None:
+                params[f"threshold_{kind}"] = value
+        models.append(SceneModel("field", dict(st.data), params))
+    for k, it in enumerate(st.models):
+        if not isinstance(it, dict) or "model" not in it or "input" not in it:
+            raise FormatError(f"{source}: models[{k}] must be an object with 'model' and "
+                              f"'input', got {it!r}")  # fmt: skip
+        models.append(SceneModel(str(it["model"]), it["input"], dict(it.get("params") or {})))
+    if not models:
+        raise FormatError(f"{source}: the session has no data and no sound models to render")
+    a = st.audio or {}
+    return SceneFile(models=models, path=st.listener_path(), layout=a.get("layout"),
+                     rate=int(a["rate"]) if a.get("rate") else None, source=source)  # fmt: skip
+
+
+def load_input(model: Any, spec: Any) -> Any:
+    """A scene entry's inputs: a spec string read by the model, a session's data entry
+    (``{"spec": ..., "size": ..., "steps": ..., "seed": ...}``) opened as a volume, or
+    the inputs themselves."""
+    if isinstance(spec, str):
+        return model.load_input(spec)
+    if isinstance(spec, dict) and isinstance(spec.get("spec"), str):
+        from auralize.scene.session import load_data
+
+        return load_data(spec)
+    return spec
+
+
 def _field_params(inputs: Any, params: dict[str, Any], path: ListenerPath,
                   duration: float) -> dict[str, Any]:  # fmt: skip
     """Resolve the field model's ``time_scale="auto"`` and its lead for ``path``."""
@@ -227,11 +292,13 @@ def _field_params(inputs: Any, params: dict[str, Any], path: ListenerPath,
 
 
 def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
-                duration: float | None = None) -> Any:  # fmt: skip
+                duration: float | None = None, rate: int | None = None) -> Any:  # fmt: skip
     """Synthesize every model of a scene and join their sounds (one :class:`Sound`).
 
     ``path`` and ``duration`` are only used to resolve the field model's
-    automatic time scale.  ``meta["scene"]`` lists the models.
+    automatic time scale.  ``rate`` (the output rate, Hz) is the emission rate
+    of a model with a ``rate`` parameter that its entry leaves unset (fire,
+    aero), as in the model's own command.  ``meta["scene"]`` lists the models.
     """
     from auralize.emitters import Sound
     from auralize.plugins import get_model, synthesize
@@ -241,8 +308,14 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
     total = Sound(parts=[], meta={}, name="")
     for sm in models:
         model = get_model(sm.model)
-        inputs = model.load_input(sm.input) if isinstance(sm.input, str) else sm.input
+        inputs = load_input(model, sm.input)
         params = dict(sm.params)
+        if (
+            rate is not None
+            and "rate" not in params
+            and any(p.name == "rate" for p in model.parameters)
+        ):
+            params["rate"] = int(rate)
         if sm.model == "field" and path is not None:
             params = _field_params(inputs, params, path, duration or path.duration)
         total = total + synthesize(model, inputs, **params)
@@ -250,22 +323,219 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
     return total
 
 
+def split_field(sound: Any) -> tuple[Any, Any]:
+    """``(field, models)``: the sound's field-source parts and every other part (two Sounds).
+
+    The field parts are :class:`auralize.emitters.FieldSources` (the sources
+    detected in a volume); the output high-pass of :func:`render_mix` applies
+    to them only.
+    """
+    from auralize.emitters import FieldSources, Sound
+    from auralize.emitters.engine import _parts_of
+
+    parts = _parts_of(sound)
+    meta = dict(sound.meta) if isinstance(sound, Sound) else {}
+    field_parts = [p for p in parts if isinstance(p, FieldSources)]
+    others = [p for p in parts if not isinstance(p, FieldSources)]
+    return Sound(field_parts, meta=meta, name="field"), Sound(others, meta=meta, name="models")
+
+
+def add_rendered(field: Any, models: Any, highpass_hz: float = 0.0) -> Any:
+    """The mix of a rendered field (high-passed at ``highpass_hz``) and rendered models.
+
+    Parameters
+    ----------
+    field, models : Rendered or None
+        The field sources' render and the other models' render, same rate
+        and layout (either may be None).
+    highpass_hz : float
+        Cut-off of the causal high-pass (:func:`auralize.emitters.timbre.highpass`) of
+        the field's render, Hz (0: none).
+
+    Returns
+    -------
+    Rendered
+        The sum, as long as the longer of the two; ``meta`` is the field's
+        (or the models') with ``parts`` listing both and ``highpass_hz``.
+    """
+    from auralize.emitters.timbre import highpass
+
+    if field is None and models is None:
+        raise ParameterError("nothing to mix: no field and no sound model rendered")
+    if field is not None:
+        field.audio = highpass(field.audio, field.rate, highpass_hz)
+    if field is None or models is None:
+        out = field if field is not None else models
+    else:
+        if (field.rate, field.audio.shape[0]) != (models.rate, models.audio.shape[0]):
+            raise ParameterError(f"cannot mix a field render ({field.audio.shape[0]} ch at "
+                                 f"{field.rate} Hz) with models rendered to "
+                                 f"{models.audio.shape[0]} ch at {models.rate} Hz")  # fmt: skip
+        n = max(field.audio.shape[1], models.audio.shape[1])
+        audio = np.zeros((field.audio.shape[0], n))
+        audio[:, : field.audio.shape[1]] += field.audio
+        audio[:, : models.audio.shape[1]] += models.audio
+        parts = [*field.meta.get("parts", [{"model": "field", "kind": "FieldSources"}]),
+                 *models.meta.get("parts", [])]  # fmt: skip
+        meta = {**models.meta, **field.meta, "parts": parts}
+        out = type(field)(audio=audio, rate=field.rate, layout=field.layout,
+                          time_scale=field.time_scale, meta=meta)  # fmt: skip
+    out.meta["highpass_hz"] = float(highpass_hz) if field is not None else 0.0
+    return out
+
+
+def render_mix(sound: Any, path: ListenerPath, *, rate: int = 44100, layout: Any = "mono",
+               duration: float | None = None, start: float = 0.0, highpass_hz: float = 0.0,
+               backend: str = "auto", hrtf: object = None) -> Any:  # fmt: skip
+    """Render a scene's sound with the one output rule of ``auralize render``/``play``.
+
+    The field sources (the volume's, :class:`~auralize.emitters.FieldSources`)
+    go through the causal ``highpass_hz`` high-pass (the data's physical
+    pressure holds much inaudible, sub-20 Hz energy); every other model's
+    parts are heard as the model made them (a model filters its own sound:
+    fire's ``highpass_hz``, paper 001 §6), so ``render --model spark:...``
+    writes the same samples as ``spark render``.  Both are rendered with
+    :func:`auralize.emitters.render` along ``path`` and summed.
+
+    Parameters
+    ----------
+    sound : Sound, a part or parts
+    path : ListenerPath
+    rate : int
+        Output sample rate, Hz.
+    layout : str or Layout
+    duration : float, optional
+        Playback seconds (default: the path's, from ``start``).
+    start : float
+        Playback second of the first output sample.
+    highpass_hz : float
+        High-pass cut-off of the field sources, Hz (0: none).
+    backend, hrtf : as :func:`auralize.emitters.render`.
+
+    Returns
+    -------
+    Rendered
+        ``audio (n_channels, round(duration * rate))`` in Pa; ``meta["parts"]``
+        lists every part, ``meta["highpass_hz"]`` the field's cut-off.
+    """
+    from auralize.emitters import render
+    from auralize.emitters.timbre import highpass
+
+    highpass(np.zeros((1, 0)), rate, highpass_hz)  # a bad cut-off fails before rendering
+    field, models = split_field(sound)
+    kw: dict[str, Any] = dict(rate=rate, layout=layout, duration=duration, start=start,
+                              backend=backend, hrtf=hrtf)  # fmt: skip
+    if not field.parts or not models.parts or highpass_hz == 0:
+        out = render(sound, path, **kw)
+        if field.parts:
+            out.audio = highpass(out.audio, out.rate, highpass_hz)
+        out.meta["highpass_hz"] = float(highpass_hz) if field.parts else 0.0
+        return out
+    return add_rendered(render(field, path, **kw), render(models, path, **kw), highpass_hz)
+
+
 def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44100,
                  layout: str = "mono", duration: float | None = None, start: float = 0.0,
-                 backend: str = "auto") -> Any:  # fmt: skip
-    """Render a scene along ``path``: the sum of every model's sound (a ``Rendered``)."""
-    from auralize.emitters import render
+                 backend: str = "auto", highpass_hz: float = 0.0) -> Any:  # fmt: skip
+    """Render a scene along ``path``: the sum of every model's sound (a ``Rendered``).
 
+    ``highpass_hz`` applies to the field sources only (:func:`render_mix`).
+    """
     dur = path.duration - start if duration is None else float(duration)
-    sound = scene_sound(models, path, dur + start)
-    return render(sound, path, rate=rate, layout=layout, duration=dur, start=start,
-                  backend=backend)  # fmt: skip
+    sound = scene_sound(models, path, dur + start, rate=rate)
+    return render_mix(sound, path, rate=rate, layout=layout, duration=dur, start=start,
+                      backend=backend, highpass_hz=highpass_hz)  # fmt: skip
 
 
-def __getattr__(name: str) -> Any:
-    # SceneBlocks is the engine's block renderer (it imports the numba kernels: on first use)
-    if name == "SceneBlocks":
+class SceneBlocks:
+    """A scene rendered block by block for live playback, with :func:`render_mix`'s rule.
+
+    The interface of :class:`auralize.emitters.engine.BlockRenderer` (which it
+    wraps, and which :func:`auralize.audio.live.play` takes in place of source
+    tracks): ``block(i)``, ``render_range(start, n)``, ``n_blocks``,
+    ``n_samples``, ``block_size``, ``rate``, ``layout``.  The field sources'
+    blocks go through the causal ``highpass_hz`` high-pass, its state carried
+    from block to block, so blocks taken in order join into :func:`render_mix`
+    of the whole duration; the other models' blocks are added as they are.
+
+    Parameters
+    ----------
+    sound : Sound, a part or parts
+    path : ListenerPath
+    rate : int
+        Output sample rate, Hz.
+    layout : str or Layout
+    block : int, optional
+        Samples per block (default 50 ms).
+    duration : float, optional
+        Playback seconds (default: the path's duration).
+    highpass_hz : float
+        High-pass cut-off of the field sources, Hz (0: none).
+    **kw
+        ``c0``, ``backend``, ``hrtf`` of the block renderer.
+    """
+
+    def __init__(self, sound: Any, path: ListenerPath, *, rate: int = 44100,
+                 layout: Any = "mono", block: int | None = None, duration: float | None = None,
+                 highpass_hz: float = 0.0, **kw: Any) -> None:  # fmt: skip
         from auralize.emitters.engine import BlockRenderer
+        from auralize.emitters.timbre import butter_sos, highpass
 
-        return BlockRenderer
-    raise AttributeError(name)
+        highpass(np.zeros((1, 0)), rate, highpass_hz)  # a bad cut-off fails here
+        field, models = split_field(sound)
+        args: dict[str, Any] = dict(rate=rate, layout=layout, block=block, duration=duration,
+                                    **kw)  # fmt: skip
+        self.highpass_hz = float(highpass_hz)
+        if not field.parts or self.highpass_hz == 0:
+            self.field, self.models = None, BlockRenderer(sound, path, **args)
+        else:
+            self.field = BlockRenderer(field, path, **args)
+            self.models = BlockRenderer(models, path, **args) if models.parts else None
+        first = self.field if self.field is not None else self.models
+        assert first is not None
+        for name in ("rate", "layout", "block_size", "n_samples", "n_blocks", "duration"):
+            setattr(self, name, getattr(first, name))
+        self.meta = dict(first.meta)
+        self._sos = None if self.field is None else butter_sos(4, self.highpass_hz, "highpass",
+                                                               float(rate))  # fmt: skip
+        self._zi: Any = None
+        self._next = 0
+
+    def _field_range(self, start: int, n: int, zi: Any) -> tuple[Any, Any]:
+        from scipy.signal import sosfilt
+
+        assert self.field is not None and self._sos is not None
+        a = self.field.render_range(start, n)
+        if zi is None:
+            zi = np.zeros((self._sos.shape[0], a.shape[0], 2))
+        return sosfilt(self._sos, a, axis=-1, zi=zi)
+
+    def render_range(self, start: int, n: int) -> Any:
+        """Samples ``[start, start + n)`` (the field's filter run from sample 0)."""
+        if self.field is None:
+            assert self.models is not None
+            return self.models.render_range(start, n)
+        a, _ = self._field_range(0, int(start) + int(n), None)
+        a = a[:, int(start) :]
+        if self.models is not None:
+            a = a + self.models.render_range(start, n)
+        return a
+
+    def block(self, i: int) -> Any:
+        """Block ``i`` (the last one may be shorter); in order, the filter state carries on."""
+        if self.field is None:
+            assert self.models is not None
+            return self.models.block(i)
+        if not 0 <= i < self.n_blocks:
+            raise ParameterError(f"block index {i} outside 0..{self.n_blocks - 1}")
+        s = i * self.block_size
+        n = min(self.block_size, self.n_samples - s)
+        if i != self._next:  # out of order: run the filter up to the block
+            self._zi = None
+            if s:
+                _, self._zi = self._field_range(0, s, None)
+        a, self._zi = self._field_range(s, n, self._zi)
+        self._next = i + 1
+        if self.models is not None:
+            a = a + self.models.block(i)
+        return a

@@ -1407,6 +1407,11 @@ class MainWindow(QtWidgets.QMainWindow):
         st.detection = {"mapping": self.mapping, "thresholds": self.read_thresholds().describe(),
                         "mapping_fields": dict(self.mapping_fields),
                         "detected": self.series is not None}  # fmt: skip
+        # the overlays switched on, and those heard as sound models mixed with the data
+        st.view["overlays"] = sorted(self.scene.overlays)
+        st.models = [{"model": n, "input": dict(self.data), "params": {}}
+                     for n in sorted(self.scene.overlays)
+                     if n in self._overlay_sounds or n in self._sound_tasks]  # fmt: skip
         st.set_listener_path(self.path)
         st.recording = {"rate_hz": float(self.rate_spin.value())}
         st.camera = self.scene.camera() if self.volume is not None else None
@@ -1463,10 +1468,25 @@ class MainWindow(QtWidgets.QMainWindow):
             if st.camera:
                 self.scene.set_camera(st.camera)
                 self.plotter.render()
-            if det.get("detected"):
-                self.detect(then=then)
-            elif then is not None:
-                then()
+            # overlays (and the models they make heard) come back once the view is set
+            names = [*(v.get("overlays") or []), *(m.get("model") for m in st.models)]
+            wanted = [n for n in dict.fromkeys(names) if n in self.overlay_checks]
+
+            def overlays(k: int = 0) -> None:
+                if k == len(wanted):
+                    if det.get("detected"):
+                        self.detect(then=then)
+                    elif then is not None:
+                        then()
+                    return
+                cb = self.overlay_checks[wanted[k]]
+                cb.blockSignals(True)
+                cb.setChecked(True)
+                cb.blockSignals(False)
+                if self.set_overlay(wanted[k], True, then=lambda _on: overlays(k + 1)) is None:
+                    overlays(k + 1)
+
+            overlays()
 
         d = st.data
         if not d:

@@ -209,8 +209,7 @@ class AeroSound(SoundModel):
         el = time.perf_counter() - t0
         gain = write_audio(args.output, out.audio, out.rate, channel_mask=out.layout.channel_mask,
                            normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
-                           sidecar={"model": "aero", "texture": str(args.texture), **out.meta,
-                                    "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                           sidecar={"model": "aero", "texture": str(args.texture), **out.meta})  # fmt: skip
         peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
         print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s at "
               f"{out.rate} Hz, {out.meta['n_sources']} point sources, peak {peak:.4g} Pa, gain {gain:.4g}; "

@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -494,8 +493,7 @@ def cmd_spark_render(args: argparse.Namespace) -> int:
     lay = res.rendered.layout
     gain = save_rendered(res.rendered, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format,
-                         extra={"model": "spark", "preset": preset, "seed": args.seed,
-                                "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                         extra={"model": "spark", "preset": preset, "seed": args.seed})  # fmt: skip
     summary["gain"] = gain
     summary["peak_pa"] = float(np.max(np.abs(res.rendered.audio)))
     if args.json:

@@ -262,8 +262,7 @@ class VortexSound(SoundModel):
         el = time.perf_counter() - t0
         gain = write_audio(args.output, r.audio, r.rate, channel_mask=r.layout.channel_mask,
                            normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
-                           sidecar={"layout": r.layout.describe(), **r.meta,
-                                    "command": "auralize " + " ".join(sys.argv[1:])})  # fmt: skip
+                           sidecar={"layout": r.layout.describe(), **r.meta})  # fmt: skip
         peak = float(np.max(np.abs(r.audio))) if r.audio.size else 0.0
         print(f"wrote {args.output}: {r.layout.name}, {r.audio.shape[0]} ch, {r.duration:.2f} s at "
               f"{r.rate} Hz, {r.meta['n_sources']} sub-volumes, peak {peak:.3g} Pa, gain {gain:.3g}; "
