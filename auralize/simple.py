@@ -587,7 +587,7 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     >>> r.audio.shape, r.rate
     ((2, 882), 44100)
     """
-    from auralize.emitters.timbre import HIGHPASS_HZ, highpass
+    from auralize.emitters.timbre import HIGHPASS_HZ
     from auralize.pipeline import auralize
     from auralize.scene.soundscene import render_scene
 

@@ -221,12 +221,12 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     """
     from auralize.cli import _cmd_render_scene, _load, check_render_memory, scene_setup
     from auralize.cli.options import DEFAULT_RATE
-    from auralize.pipeline import plan_render, save_rendered
     from auralize.distributed import render_distributed
-    from auralize.scene.soundscene import add_rendered, render_mix, scene_sound
-    from auralize.spatial import get_layout
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass, loudness
+    from auralize.pipeline import plan_render, save_rendered
+    from auralize.scene.soundscene import add_rendered, render_mix, scene_sound
+    from auralize.spatial import get_layout
 
     defaults = {"layout": "mono", "rate": DEFAULT_RATE}
     if getattr(args, "volume", None) is None:
