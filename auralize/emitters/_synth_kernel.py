@@ -53,6 +53,9 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba.core import cgutils, types
+from numba.extending import intrinsic
 
 from auralize.runtime.jit import configure as _configure_numba
 
@@ -1201,6 +1204,56 @@ def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyp
         _add_gained(acc, ci + off, W, _W_VAL + 8, i, g0, g1)
 
 
+@intrinsic
+def _prefetch(typingctx, arr, idx):  # type: ignore[no-untyped-def]
+    """Hint the cache to fetch ``arr[idx]`` for writing (``llvm.prefetch``; a
+    hint only: no effect on the values, never faults, any index)."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [args[1]], wraparound=False)
+        i8p = ir.IntType(8).as_pointer()
+        i32 = ir.IntType(32)
+        fnty = ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch")
+        builder.call(fn, [builder.bitcast(ptr, i8p), i32(1), i32(3), i32(1)])
+        return context.get_dummy_value()
+
+    return types.void(arr, idx), codegen
+
+
+#: lanes ahead that the scatter loops ask the cache for (see :func:`_prefetch_lane`)
+_AHEAD = 6
+
+
+@numba.njit(inline="always", **_NJIT)
+def _prefetch_lane(acc, W, i, cnt, pairs, spk_ch, nxt):  # type: ignore[no-untyped-def]
+    """Prefetch the accumulator rows of lane i of W (if i < cnt and the lane is
+    a simple piece or part, kind 1): its start and end rows at the channels of
+    its first speaker pair (``pairs``) or at the row's start.  The scalar
+    scatter loops call it a few lanes ahead: the rows of arrivals at knots lie
+    anywhere in an accumulator of many megabytes (8 channels × 4 levels per
+    sample), so most of them miss the cache."""
+    if i >= cnt:
+        return
+    if W[_W_KIND * _CHUNK + i] != 1.0:
+        return
+    o0 = 0
+    o1 = 0
+    if pairs:
+        p0 = int(W[_W_P0 * _CHUNK + i])
+        o0 = spk_ch[p0] * 4
+        o1 = nxt[p0] * 4
+    si = int(W[_W_SI * _CHUNK + i])
+    _prefetch(acc, si + o0)
+    _prefetch(acc, si + o1)
+    ei = int(W[_W_EI * _CHUNK + i])
+    if ei >= 0:
+        _prefetch(acc, ei + o0)
+        _prefetch(acc, ei + o1)
+
+
 @numba.njit(inline="always", **_NJIT)
 def _add_dense(acc, row, W, r, i, G0, G1, n_ch):  # type: ignore[no-untyped-def]
     """acc[row + 4c : row + 4c + 4] += G0[c, i]·A + G1[c, i]·B for every channel
@@ -1471,7 +1524,10 @@ def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_sa
     if pairs:
         _part_pair_gains(W, cnt, qc, ot, pinv, const_orient)
     nbad = 0
+    for i in range(_AHEAD):
+        _prefetch_lane(acc, W, i, cnt, pairs, spk_ch, nxt)
     for i in range(cnt):
+        _prefetch_lane(acc, W, i + _AHEAD, cnt, pairs, spk_ch, nxt)
         kd = W[_W_KIND * _CHUNK + i]
         if kd == 0.0:
             continue
@@ -1716,7 +1772,10 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
                         for c in range(n_ch):
                             G0[i, c] = ga[c]
                             G1[i, c] = gb[c]
+                for i in range(_AHEAD):
+                    _prefetch_lane(acc, W, i, cc, pairs, spk_ch, nxt)
                 for i in range(cc):
+                    _prefetch_lane(acc, W, i + _AHEAD, cc, pairs, spk_ch, nxt)
                     kd = W[_W_KIND * _CHUNK + i]
                     if kd == 0.0:
                         continue
