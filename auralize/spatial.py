@@ -155,6 +155,19 @@ class Layout:
     def has_distances(self) -> bool:
         return any(s.distance_m is not None for s in self.speakers)
 
+    @property
+    def channel_gains(self) -> NDArray[np.float64] | None:
+        """Linear output gain per channel ``(n_channels,)`` (an IEM layout's
+        ``Gain``), or None when every channel has gain 1."""
+        g = self.meta.get("channel_gains")
+        return None if g is None else np.asarray(g, dtype=np.float64)
+
+    @property
+    def needs_alignment(self) -> bool:
+        """True when :class:`SpeakerAlignment` changes the output: speaker
+        distances or per-channel gains."""
+        return self.has_distances or self.channel_gains is not None
+
     def directions(self) -> NDArray[np.float64]:
         """Unit vectors ``(n_channels, 3)`` (forward, left, up); LFE rows are zero."""
         return np.stack([s.direction for s in self.speakers])
@@ -359,8 +372,16 @@ def load_layout_json(path: str | Path) -> Layout:
     "IsImaginary": bool, "Channel": 1-based, "Gain": linear}, ...]}}``: real
     speakers come out on their ``Channel`` (a channel without a speaker is a
     silent output without direction), imaginary ones only help 3-D VBAP's
-    triangulation (``meta["imaginary_directions"]``); gains other than 1 are
-    kept in ``meta["channel_gains"]`` (per output channel).
+    triangulation (``meta["imaginary_directions"]``).  A real speaker's ``Gain``
+    (linear, finite; negative inverts the polarity) multiplies its output
+    channel wherever the speakers are aligned (:class:`SpeakerAlignment`: files
+    written with the layout, live playback), after the distance alignment of its
+    ``Radius``; gains other than 1 are kept in ``meta["channel_gains"]``.  An
+    imaginary speaker's ``Gain`` (IEM's share of its signal spread to its
+    neighbours) is not used: the 3-D law drops the imaginary speaker's gain and
+    renormalises the real ones (:func:`vbap3d_gains`).  The file's ``Decoder``
+    object, if any, is not read: decoders are built from the layout
+    (:func:`auralize.ambisonics.decoder_matrix`).
 
     Raises
     ------
@@ -781,9 +802,11 @@ class SpeakerAlignment:
     distance of the farthest one (time- and level-aligned at the listener).
 
     Speaker c at distance d_c gets delay ``round((d_max - d_c)/c0 · rate)``
-    samples and gain ``d_c / d_max`` (1/r law).  Speakers without a distance
-    are taken at d_max.  Processing is stateful, so consecutive blocks give
-    exactly the same samples as the whole signal (:meth:`process`).
+    samples and gain ``d_c / d_max`` (1/r law), times the layout's
+    :attr:`Layout.channel_gains` (an IEM layout's per-speaker ``Gain``).
+    Speakers without a distance are taken at d_max.  Processing is stateful,
+    so consecutive blocks give exactly the same samples as the whole signal
+    (:meth:`process`).
 
     Examples
     --------
@@ -802,6 +825,8 @@ class SpeakerAlignment:
         dd = np.array([d_max if x is None else x for x in dist], dtype=np.float64)
         self.delays = np.round((d_max - dd) / c0 * rate).astype(np.int64)
         self.gains = dd / d_max
+        if layout.channel_gains is not None:
+            self.gains = self.gains * layout.channel_gains
         self.active = bool(np.any(self.delays > 0) or np.any(self.gains != 1.0))
         self._tail = np.zeros((layout.n_channels, int(self.delays.max(initial=0))))
 
