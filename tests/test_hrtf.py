@@ -182,6 +182,24 @@ def test_blocks_equal_whole_and_resampling(model: H.HRIRSet, noise: np.ndarray) 
     assert 0.60e-3 < itd_s(e, 44100) < 0.765e-3
 
 
+def test_decoder_symmetries(model: H.HRIRSet) -> None:
+    """The model's head is left–right and up–down symmetric: the decoder filters
+    only the 10 channels even in z and gets the right ear from the left's filters;
+    either way (and for a set without the symmetries) it equals the sum of the 32
+    convolutions."""
+    from scipy.signal import oaconvolve
+
+    x = np.random.default_rng(5).normal(size=(16, 3000))
+    dec = H.BinauralDecoder(model, 3)
+    assert dec.mirrored and dec.channels.tolist() == [0, 1, 3, 4, 6, 8, 9, 11, 13, 15]
+    lopsided = H.HRIRSet(model.ir * [[[1.0], [1.02]]], model.directions, RATE, model.weights)
+    dec2 = H.BinauralDecoder(lopsided, 3)
+    assert not dec2.mirrored
+    for d in (dec, dec2):
+        ref = oaconvolve(x[:, None, :], d.filters, axes=-1).sum(axis=0)[:, : x.shape[1]]
+        np.testing.assert_allclose(d.process(x), ref, atol=1e-6 * np.max(np.abs(ref)))
+
+
 def test_output_stage_and_binaural_layout(noise: np.ndarray) -> None:
     lay = get_layout("binaural")
     assert lay.n_channels == 2 and lay.channel_names == ["L", "R"]
