@@ -436,20 +436,23 @@ class BinauralDecoder:
         self._tail[:] = 0.0
 
     def process(self, audio: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Ear signals ``(2, n)`` of AmbiX ``audio ((N+1)², n)``."""
+        """Ear signals ``(2, n)`` of AmbiX ``audio ((N+1)², n)``, or of its
+        harmonics :attr:`channels` only (``(len(channels), n)``, in that order)."""
         from scipy.fft import irfft, next_fast_len, rfft
 
         a = np.asarray(audio, dtype=np.float64)
-        if a.ndim != 2 or a.shape[0] != self.n_in:
+        if a.ndim != 2 or a.shape[0] not in (self.n_in, self.channels.size):
             raise ParameterError(
-                f"binaural decoding of order {self.order} needs ({self.n_in}, n) AmbiX audio, "
-                f"got {a.shape}"
+                f"binaural decoding of order {self.order} needs ({self.n_in}, n) AmbiX audio "
+                f"(or its {self.channels.size} harmonics with non-zero filters), got {a.shape}"
             )
         n = a.shape[1]
         taps = self.filters.shape[2]
         out = np.empty((2, n))
         n_even = self._even.size
         sel = np.concatenate([self._even, self._odd]) if self.mirrored else self.channels
+        if a.shape[0] != self.n_in:  # rows are the harmonics self.channels
+            sel = np.searchsorted(self.channels, sel)
         for s0 in range(0, n, self.block):
             chunk = a[sel, s0 : s0 + self.block]
             m = chunk.shape[1]

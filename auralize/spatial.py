@@ -275,20 +275,46 @@ BUILTIN_LAYOUTS: dict[str, Layout] = {
 BINAURAL_ORDER = 3
 
 
-def ambix_layout(order: int) -> Layout:
+def ambix_layout(order: int, channels: NDArray[np.integer] | None = None) -> Layout:
     """The AmbiX layout of an order N: (N+1)² channels ``ACN0`` … in ACN order, SN3D.
 
     Its channels have no direction (they are spherical-harmonic components, not
-    speakers) and the layout no WAVE channel mask.
+    speakers) and the layout no WAVE channel mask.  ``channels`` (increasing ACN
+    indices) keeps a subset of the harmonics (``meta["acn"]``, name
+    ``ambixN[k,...]``): the binaural stage's intermediate when its filters of the
+    other harmonics are zero (:class:`OutputStage`); the renderers pan to the
+    kept harmonics only.
     """
     from auralize.ambisonics import check_order, n_channels
 
     n = check_order(order)
     if n < 1:
         raise ParameterError(f"an Ambisonic layout needs order ≥ 1, got {order!r}")
-    return Layout(f"ambix{n}", tuple(Speaker(f"ACN{k}", None) for k in range(n_channels(n))),
-                  meta={"ambisonic": True, "order": n, "normalisation": "SN3D",
-                        "channel_order": "ACN", "convention": "AmbiX"})  # fmt: skip
+    meta: dict[str, object] = {"ambisonic": True, "order": n, "normalisation": "SN3D",
+                               "channel_order": "ACN", "convention": "AmbiX"}  # fmt: skip
+    acn = np.arange(n_channels(n))
+    name = f"ambix{n}"
+    if channels is not None:
+        acn = np.asarray(channels, dtype=np.int64).reshape(-1)
+        if acn.size == 0 or np.any(np.diff(acn) <= 0) or acn[0] < 0 or acn[-1] >= n_channels(n):
+            raise ParameterError(
+                f"AmbiX channels must be increasing ACN indices in 0..{n_channels(n) - 1}, "
+                f"got {acn.tolist()}"
+            )
+        if acn.size < n_channels(n):
+            meta["acn"] = acn.tolist()
+            name = f"ambix{n}[{','.join(str(int(k)) for k in acn)}]"
+    return Layout(name, tuple(Speaker(f"ACN{int(k)}", None) for k in acn), meta=meta)
+
+
+def ambix_channels(layout: Layout) -> NDArray[np.int64]:
+    """ACN indices of the channels of an AmbiX layout (all (N+1)², or its subset)."""
+    from auralize.ambisonics import n_channels
+
+    acn = layout.meta.get("acn")
+    if acn is not None:
+        return np.asarray(acn, dtype=np.int64)
+    return np.arange(n_channels(int(layout.meta["order"])))  # type: ignore[call-overload]
 
 
 def binaural_layout() -> Layout:
@@ -703,7 +729,8 @@ def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.fl
     if is_ambisonic(layout):
         from auralize.ambisonics import sh_gains
 
-        return sh_gains(int(layout.meta["order"]), d)  # type: ignore[call-overload]
+        g = sh_gains(int(layout.meta["order"]), d)  # type: ignore[call-overload]
+        return g if "acn" not in layout.meta else g[ambix_channels(layout)]
     if is_binaural(layout):
         raise ParameterError(
             "the binaural layout has no panning gains: render to "
@@ -758,6 +785,12 @@ def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
     common orders.  Binaural targets need filters, not a matrix (error).
     """
     s, d = get_layout(src), get_layout(dst)
+    for lay in (s, d):
+        if is_ambisonic(lay) and "acn" in lay.meta:  # a subset of the harmonics
+            full = ambix_layout(int(lay.meta["order"]))  # type: ignore[call-overload]
+            if lay is s:
+                return downmix_matrix(full, d)[:, ambix_channels(s)]
+            return downmix_matrix(s, full)[ambix_channels(d)]
     if is_binaural(d):
         raise ParameterError(
             f"cannot fold {s.name!r} into binaural with a matrix: ear signals need HRIR "
@@ -869,6 +902,11 @@ class OutputStage:
     Identity for every layout but ``binaural``, whose stage is an
     :class:`auralize.hrtf.BinauralDecoder` (stateful: consecutive blocks give the
     samples of the whole signal).  Build with :func:`output_stage`.
+
+    :attr:`synthesis_layout` is what renderers pan to: for ``binaural`` the
+    harmonics of ``ambix3`` whose filters are not zero (10 of 16 for the
+    spherical head, whose harmonics odd in z have none; all 16 for a measured
+    set); :meth:`process` also takes the whole ``ambix3``.
     """
 
     def __init__(self, layout: Layout, rate: int, hrtf: object = None) -> None:
@@ -891,6 +929,8 @@ class OutputStage:
 
                 hrirs = read_sofa(hrtf)  # type: ignore[arg-type]
             self.decoder = BinauralDecoder(hrirs, BINAURAL_ORDER, rate=self.rate)
+            if self.decoder.channels.size < self.decoder.n_in:  # harmonics with zero filters
+                self.synthesis_layout = ambix_layout(BINAURAL_ORDER, self.decoder.channels)
         elif hrtf is not None:
             raise ParameterError(
                 f"an HRTF only applies to the binaural layout, not to {layout.name!r}"
