@@ -943,7 +943,9 @@ class OutputStage:
         return {"binaural": {"hrtf": self.decoder.hrirs.source, "hrtf_rate_hz": self.rate,
                              "intermediate": f"ambix{self.decoder.order}",
                              "decoder": "SH-domain filters, magnitude least squares",
-                             "filter_taps": int(self.decoder.filters.shape[2])}}  # fmt: skip
+                             "filter_taps": int(self.decoder.filters.shape[2]),
+                             "harmonics_rendered": self.decoder.channels.tolist(),
+                             "mirrored_ears": self.decoder.mirrored}}  # fmt: skip
 
     def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
         """Output channels ``(layout.n_channels, n)`` of a rendered block."""
