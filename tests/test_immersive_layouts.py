@@ -100,3 +100,48 @@ def test_describe_immersive(tmp_path: Path) -> None:
     q = tmp_path / "back.json"
     q.write_text(json.dumps(lay.describe()))
     assert [s.azimuth_deg for s in load_layout_json(q).speakers] == [0, 120, -120]
+
+
+def test_iem_gains_applied(tmp_path: Path) -> None:
+    """Each real speaker's ``Gain`` scales its output channel (after the Radius
+    alignment) in files written with the layout and in block-wise alignment."""
+    from auralize.audio import read_wav, write_audio
+    from auralize.spatial import SpeakerAlignment, align_speakers
+
+    rate = 48000
+    # a triangle at 2 m, 2 m and 1 m; channel 2 at half gain, channel 3 inverted at 0.8;
+    # an imaginary speaker's gain is not an output's
+    sp = [spk(0, 0, 1, r=2.0), spk(120, 0, 2, gain=0.5, r=2.0), spk(-120, 0, 3, gain=-0.8, r=1.0),
+          spk(0, 90, 4, imag=True, gain=0.3)]  # fmt: skip
+    lay = load_layout_json(iem(tmp_path / "g.json", sp))
+    assert lay.needs_alignment and lay.channel_gains is not None
+    np.testing.assert_array_equal(lay.channel_gains, [1.0, 0.5, -0.8])
+    x = np.random.default_rng(0).normal(size=(3, 4800)) * 0.1
+    y = align_speakers(x, lay, rate)
+    k = round(1.0 / 343.0 * rate)  # the near speaker is delayed by its 1 m, halved by 1/r
+    np.testing.assert_allclose(y[0], x[0], rtol=1e-15)
+    np.testing.assert_allclose(y[1], 0.5 * x[1], rtol=1e-15)
+    np.testing.assert_allclose(y[2, k:], -0.8 * 0.5 * x[2, :-k], rtol=1e-15)
+    al = SpeakerAlignment(lay, rate)  # the same in blocks
+    blocks = np.concatenate([al.process(x[:, s : s + 1000]) for s in range(0, 4800, 1000)], 1)
+    np.testing.assert_allclose(blocks, y, rtol=1e-15)
+    wav = tmp_path / "g.wav"
+    write_audio(wav, x, rate, layout=lay, normalize="none")
+    back, r, _ = read_wav(wav)
+    assert r == rate
+    np.testing.assert_allclose(back, y, atol=1e-7)
+    # all gains 1 and no Radius: nothing to align
+    plain = load_layout_json(
+        iem(
+            tmp_path / "p.json",
+            [{**spk(a, 0, c), "Radius": None} for c, a in ((1, 0), (2, 120), (3, -120))],
+        )
+    )
+    assert plain.channel_gains is None and not plain.needs_alignment
+
+
+def test_iem_gain_must_be_a_number(tmp_path: Path) -> None:
+    p = iem(tmp_path / "bad.json", [spk(0, 0, 1), {**spk(90, 0, 2), "Gain": "-6 dB"}])
+    with pytest.raises(FormatError, match="'Gain' must be a number") as ei:
+        load_layout_json(p)
+    assert str(p) in str(ei.value)

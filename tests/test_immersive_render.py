@@ -177,7 +177,9 @@ def test_block_synthesis_binaural_equals_offline() -> None:
     tracks, path = _scene()
     off = render_timbre(tracks, path, layout="binaural", highpass_hz=0.0)
     bs = BlockSynth(tracks, path, layout="binaural", block=2205)
-    assert bs.layout.name == "binaural" and bs.synthesis_layout.name == "ambix3"
+    # the spherical head's filters of the harmonics odd in z are zero: they are not rendered
+    assert bs.layout.name == "binaural"
+    assert bs.synthesis_layout.name == "ambix3[0,1,3,4,6,8,9,11,13,15]"
     on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
     assert on.shape == off.audio.shape == (2, 88200)
     assert _rel(on, off.audio) < 1e-5
@@ -208,7 +210,12 @@ def test_live_binaural_on_file_backed_alsa_device(tmp_path) -> None:  # type: ig
     tracks, path = _scene()
     ref = 2.0 * render_timbre(tracks, path, layout="binaural", highpass_hz=0.0).audio
     dev = np.fromfile(out2, dtype="<f4").reshape(-1, 2).T.astype(np.float64)
-    lag = int(np.argmax(np.any(dev != 0, axis=0))) - int(np.argmax(np.any(ref != 0, axis=0)))
+    # the device's delay: first samples above the float32 FFT's rounding (~1e-7 of the peak,
+    # spread over a whole block before the onset)
+    on = 1e-5 * np.max(np.abs(ref))
+    lag = int(np.argmax(np.any(np.abs(dev) > on, axis=0))) - int(
+        np.argmax(np.any(np.abs(ref) > on, axis=0))
+    )
     assert 0 <= lag <= RATE
     d = dev[:, lag : lag + ref.shape[1]]
     assert d.shape == ref.shape and np.max(np.abs(d - ref)) <= 1e-4 * np.max(np.abs(ref))

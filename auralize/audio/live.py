@@ -543,7 +543,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
 
         sos = butter_sos(4, float(highpass_hz), "highpass", float(rate))
         hp = [sos, np.zeros((sos.shape[0], lay.n_channels, 2))]
-    align = SpeakerAlignment(lay, rate) if lay.has_distances else None
+    align = SpeakerAlignment(lay, rate) if lay.needs_alignment else None
     synth_times: list[float] = []
     state = {"gain": None if gain == "auto" else float(gain), "changes": 0}
     err: list[BaseException] = []

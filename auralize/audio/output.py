@@ -257,8 +257,8 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         the PCM formats need samples in [-1, 1].
     layout : Layout or name, optional
         The audio's speaker layout: its channel count is checked, its channel
-        mask used (unless ``channel_mask`` is given), per-speaker distances are
-        compensated (:class:`~auralize.spatial.layouts.SpeakerAlignment`) and it is
+        mask used (unless ``channel_mask`` is given), per-speaker distances and
+        gains are applied (:class:`~auralize.spatial.SpeakerAlignment`) and it is
         recorded in the sidecar.
 
     Returns
@@ -275,7 +275,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         if a.ndim != 2 or a.shape[0] != lay.n_channels:
             raise ParameterError(f"layout {lay.name!r} has {lay.n_channels} channels, audio has "
                                  f"shape {a.shape}")  # fmt: skip
-        if lay.has_distances:
+        if lay.needs_alignment:
             a = align_speakers(a, lay, rate)
         if channel_mask is None:
             channel_mask = lay.channel_mask

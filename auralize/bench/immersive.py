@@ -11,7 +11,12 @@ bursts from moving emitters):
   and sum), in emitter-seconds of audio per second;
 * the binaural decoder (16 channels → 2 ears, SH-domain filters, FFT
   overlap-add), whole signals and 50 ms live blocks (p95 against the live
-  target of half a block).
+  target of half a block);
+* live binaural blocks of the 32³ explosion (:class:`auralize.audio.live.BlockSynth`
+  with ``layout="binaural"``: the AmbiX synthesis of the block and the ears'
+  filters, the worker's whole job per 50 ms block at 44.1 kHz), p95 of the wall
+  time against half a block, with the CPU time per block and the load average
+  in the note (the machine may be shared).
 
 :func:`binaural_render_row` times the whole binaural render of the
 synthesis benchmark's explosion (:func:`auralize.bench.runner.bench_synthesis`).
@@ -125,30 +130,72 @@ def immersive_rows(quick: bool) -> list[BenchRow]:
             note=f"{p95 / 50 * 100:.1f} % of the block",
         )
     )
+    rows.append(live_binaural_row(quick))
     return rows
+
+
+def live_binaural_row(quick: bool) -> BenchRow:
+    """p95 time of a live binaural block (see the module docstring)."""
+    import os
+
+    from auralize.audio.live import BlockSynth
+    from auralize.bench import BENCH_THRESHOLDS
+    from auralize.datasets import make_explosion
+    from auralize.listener import ListenerPath
+    from auralize.sources import Thresholds, detect
+
+    steps = 60
+    vol = make_explosion(size=32, steps=steps).load()
+    tracks = detect(vol, mapping="paper-density", thresholds=Thresholds(*BENCH_THRESHOLDS)).tracks()
+    c = vol.center
+    path = ListenerPath.line(c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2],
+                             duration=steps / 30.0)  # fmt: skip
+    bs = BlockSynth(tracks, path, layout="binaural", rate=44100, block=2205)
+    bs.block(0)  # the tracks' pieces and the decoder's spectra are built once
+    wall, cpu = [], []
+    for _ in range(1 if quick else 3):
+        for i in range(bs.n_blocks):
+            t0, c0 = time.perf_counter(), time.process_time()
+            bs.block(i)
+            wall.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
+    w, cp = 1e3 * np.asarray(wall), 1e3 * np.asarray(cpu)
+    p95 = float(np.percentile(w, 95))
+    return BenchRow(
+        "immersive", "live binaural, 32³ explosion, 50 ms blocks at 44.1 kHz: p95", p95, "ms",
+        target="< 25 ms (half a block)", met=p95 < 25.0,
+        note=f"wall mean {w.mean():.1f} ms, max {w.max():.1f}; CPU per block p95 "
+             f"{np.percentile(cp, 95):.1f} ms, mean {cp.mean():.1f} (all threads); "
+             f"{bs.n_blocks} blocks × {len(w) // bs.n_blocks}; synthesis to "
+             f"{bs.synthesis_layout.name}; load average {os.getloadavg()[0]:.1f}",
+    )  # fmt: skip
 
 
 def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
     """The binaural render of the explosion's tracks along ``path``
     (:func:`auralize.emitters.timbre.render_timbre`, ``physical``: the order-3 AmbiX
     synthesis, the binaural decoder and the 20 Hz high-pass), against the
-    target of 20× real time; the ambix3 synthesis alone in the note."""
+    target of 20× real time; the synthesis of the binaural intermediate
+    (the harmonics the ears' filters use) alone in the note."""
     import functools
 
     from auralize.emitters.synthesis import render
     from auralize.emitters.timbre import render_timbre
+    from auralize.spatial.layouts import output_stage
 
     fn = functools.partial(render_timbre, tracks, path, layout="binaural", timbre="physical")
     fn()  # the decoder's filters and the tracks' pieces are built once
     times = batch_times(fn, repeat=5)
     t = float(np.median(times))
-    t_amb = float(np.median(batch_times(functools.partial(render, tracks, path, layout="ambix3"),
+    lay = output_stage("binaural", 44100).synthesis_layout
+    t_amb = float(np.median(batch_times(functools.partial(render, tracks, path, layout=lay),
                                         repeat=3)))  # fmt: skip
     speed = path.duration / t
     return BenchRow(
         "synthesis", f"explosion {size}³ → binaural, {path.duration:.2f} s of audio", speed,
         "× real time", target="≥ 20×" if size == 64 else "",
         met=speed >= 20 if size == 64 else None,
-        note=f"median of 5 batches (fastest {path.duration / times.min():.1f}×); the ambix3 "
-             f"synthesis alone {path.duration / t_amb:.1f}× (16 channels per piece)",
+        note=f"median of 5 batches (fastest {path.duration / times.min():.1f}×); the synthesis "
+             f"to {lay.name} alone {path.duration / t_amb:.1f}× ({lay.n_channels} channels per "
+             f"piece)",
     )  # fmt: skip

@@ -292,7 +292,9 @@ def _gains_sh(x, y, z, tab, out):  # type: ignore[no-untyped-def]
     length (normalised here; zero gives W = 1 and 0 elsewhere).
 
     ``tab ((N+1)², 2)``: per ACN channel its SN3D factor
-    sqrt((2 − δ_m0)(n − |m|)!/(n + |m|)!), then the order N (every row).
+    sqrt((2 − δ_m0)(n − |m|)!/(n + |m|)!), then the output channel that takes
+    it (−1: not rendered; a layout may keep a subset of the harmonics, see
+    :func:`auralize.spatial.ambix_layout`).  The order N follows from the rows.
     Cartesian form, no trigonometry: cos^m ϑ e^{imφ} = (x + iy)^m by complex
     multiplication, times P_n^m(z)/(1 − z²)^{m/2} by the associated Legendre
     recurrence in n from (2m − 1)!!.
@@ -301,13 +303,15 @@ def _gains_sh(x, y, z, tab, out):  # type: ignore[no-untyped-def]
         out[c] = 0.0
     r2 = x * x + y * y + z * z
     if r2 == 0.0:
-        out[0] = 1.0
+        d = int(tab[0, 1])
+        if d >= 0:
+            out[d] = 1.0
         return
     inv = 1.0 / math.sqrt(r2)
     x *= inv
     y *= inv
     z *= inv
-    order = int(tab[0, 1])
+    order = int(math.sqrt(tab.shape[0]) + 0.5) - 1
     cm = 1.0  # Re (x + iy)^m
     sm = 0.0  # Im (x + iy)^m
     pmm = 1.0  # (2m - 1)!!
@@ -323,10 +327,14 @@ def _gains_sh(x, y, z, tab, out):  # type: ignore[no-untyped-def]
             elif n > m + 1:
                 q_prev, q = q, ((2 * n - 1) * z * q - (n + m - 1) * q_prev) / (n - m)
             k = n * n + n + m
-            out[k] = tab[k, 0] * q * cm
+            d = int(tab[k, 1])
+            if d >= 0:
+                out[d] = tab[k, 0] * q * cm
             if m > 0:
                 k = n * n + n - m
-                out[k] = tab[k, 0] * q * sm
+                d = int(tab[k, 1])
+                if d >= 0:
+                    out[d] = tab[k, 0] * q * sm
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1095,8 +1103,9 @@ def _frame_coords3(W, i, o, dx, dy, dz):  # type: ignore[no-untyped-def]
 def _sh_lanes(W, cnt, rx, ry, rz, tab, G, S):  # type: ignore[no-untyped-def]
     """AmbiX gains ``G ((N+1)², _CHUNK)`` of the directions in rows rx, ry, rz of
     W (the law of :func:`_gains_sh`, one SIMD loop per harmonic over the
-    chunk's lanes; the rows are normalised in place; scratch ``S (5, _CHUNK)``)."""
-    order = int(tab[0, 1])
+    chunk's lanes; the rows are normalised in place; scratch ``S (5, _CHUNK)``;
+    harmonic k goes to row ``tab[k, 1]`` of G, none when −1)."""
+    order = int(math.sqrt(tab.shape[0]) + 0.5) - 1
     for i in range(cnt):
         x, y, z = W[rx * _CHUNK + i], W[ry * _CHUNK + i], W[rz * _CHUNK + i]
         r2 = x * x + y * y + z * z
@@ -1136,17 +1145,22 @@ def _sh_lanes(W, cnt, rx, ry, rz, tab, G, S):  # type: ignore[no-untyped-def]
                     S[3, i] = q
             k = n * n + n + m
             f = tab[k, 0]
-            if n == 0:
+            d = int(tab[k, 1])
+            if d < 0:
+                pass
+            elif n == 0:
                 for i in range(cnt):
-                    G[k, i] = f
+                    G[d, i] = f
             else:
                 for i in range(cnt):
-                    G[k, i] = f * S[2, i] * S[0, i] * S[4, i]
+                    G[d, i] = f * S[2, i] * S[0, i] * S[4, i]
             if m > 0:
                 k = n * n + n - m
                 f = tab[k, 0]
-                for i in range(cnt):
-                    G[k, i] = f * S[2, i] * S[1, i] * S[4, i]
+                d = int(tab[k, 1])
+                if d >= 0:
+                    for i in range(cnt):
+                        G[d, i] = f * S[2, i] * S[1, i] * S[4, i]
 
 
 @numba.njit(**_NJIT)

@@ -198,7 +198,10 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
                 a = abs(m)
                 tab[o * o + o + m, 0] = math.sqrt((1.0 if a == 0 else 2.0) * math.factorial(o - a)
                                                   / math.factorial(o + a))  # fmt: skip
-        tab[:, 1] = n
+        from auralize.spatial import ambix_channels
+
+        tab[:, 1] = -1.0  # each harmonic's output channel (a layout may keep a subset)
+        tab[ambix_channels(lay), 1] = np.arange(lay.n_channels)
         return tab
     if lay.n_channels == 1 or lay.is_horizontal or spk_az.size == 0:
         return _pair_inverses(spk_az)

@@ -371,6 +371,19 @@ class BinauralDecoder:
     convolution runs in single precision, about −140 dB, three times faster).
     The output has as many samples as the input (the last filter length of
     tail stays in the state).
+
+    Two symmetries of the filters are used when they hold (to 1e-9 of the
+    largest tap; both do for the spherical-head model and for any set measured
+    on a symmetric head and grid):
+
+    * left–right: the mirror image y → −y of a direction flips the sign of the
+      harmonics with m < 0 (sin mφ) and keeps the others, so the right ear's
+      filters are the left's with those signs flipped, h_nm,R = ± h_nm,L.  With
+      E = Σ_{m≥0} h_nm,L ∗ b_nm and O = Σ_{m<0} h_nm,L ∗ b_nm, the ears are
+      L = E + O and R = E − O: one product per channel instead of two;
+    * up–down (ears in the horizontal plane): the harmonics odd in z (n + m
+      odd) get zero filters, and those channels are not transformed at all
+      (6 of the 16 at order 3).
     """
 
     def __init__(self, hrirs: HRIRSet | None = None, order: int = 3, *, rate: int | None = None,
@@ -392,14 +405,30 @@ class BinauralDecoder:
             max(int(block), 64) if block is not None else max((1 << 13) - taps + 1, 1 << 12)
         )
         self._tail = np.zeros((2, self.filters.shape[2] - 1))
-        self._spectra: dict[int, NDArray[np.complex64]] = {}
+        self._spectra: dict[int, tuple[NDArray[np.complex64], ...]] = {}
+        f = self.filters
+        tol = 1e-9 * float(np.max(np.abs(f), initial=0.0))
+        ms = np.array([m for n in range(self.order + 1) for m in range(-n, n + 1)])
+        #: the channels with a non-zero filter (see the notes)
+        self.channels = np.flatnonzero(np.max(np.abs(f), axis=(1, 2)) > tol)
+        sign = np.where(ms < 0, -1.0, 1.0)[:, None]
+        #: True when the right ear's filters mirror the left's (see the notes)
+        self.mirrored = bool(np.max(np.abs(f[:, 1] - sign * f[:, 0]), initial=0.0) <= tol)
+        self._even = self.channels[ms[self.channels] >= 0]
+        self._odd = self.channels[ms[self.channels] < 0]
 
-    def _spectrum(self, n_fft: int) -> NDArray[np.complex64]:
+    def _spectrum(self, n_fft: int) -> tuple[NDArray[np.complex64], ...]:
+        """Filter spectra at ``n_fft`` (computed once per size): for mirrored
+        filters the left ear's of the m ≥ 0 and m < 0 channels, else both ears'
+        of the non-zero channels."""
         s = self._spectra.get(n_fft)
         if s is None:
-            s = self._spectra[n_fft] = np.fft.rfft(self.filters, n_fft, axis=-1).astype(
-                np.complex64
-            )
+            h = np.fft.rfft(self.filters, n_fft, axis=-1).astype(np.complex64)
+            if self.mirrored:
+                s = (h[self._even, 0], h[self._odd, 0])
+            else:
+                s = (h[self.channels].transpose(1, 0, 2).copy(),)
+            self._spectra[n_fft] = s
         return s
 
     def reset(self) -> None:
@@ -407,24 +436,36 @@ class BinauralDecoder:
         self._tail[:] = 0.0
 
     def process(self, audio: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Ear signals ``(2, n)`` of AmbiX ``audio ((N+1)², n)``."""
+        """Ear signals ``(2, n)`` of AmbiX ``audio ((N+1)², n)``, or of its
+        harmonics :attr:`channels` only (``(len(channels), n)``, in that order)."""
         from scipy.fft import irfft, next_fast_len, rfft
 
         a = np.asarray(audio, dtype=np.float64)
-        if a.ndim != 2 or a.shape[0] != self.n_in:
+        if a.ndim != 2 or a.shape[0] not in (self.n_in, self.channels.size):
             raise ParameterError(
-                f"binaural decoding of order {self.order} needs ({self.n_in}, n) AmbiX audio, "
-                f"got {a.shape}"
+                f"binaural decoding of order {self.order} needs ({self.n_in}, n) AmbiX audio "
+                f"(or its {self.channels.size} harmonics with non-zero filters), got {a.shape}"
             )
         n = a.shape[1]
         taps = self.filters.shape[2]
         out = np.empty((2, n))
+        n_even = self._even.size
+        sel = np.concatenate([self._even, self._odd]) if self.mirrored else self.channels
+        if a.shape[0] != self.n_in:  # rows are the harmonics self.channels
+            sel = np.searchsorted(self.channels, sel)
         for s0 in range(0, n, self.block):
-            chunk = a[:, s0 : s0 + self.block]
+            chunk = a[sel, s0 : s0 + self.block]
             m = chunk.shape[1]
             n_fft = next_fast_len(m + taps - 1, real=True)
             x = rfft(chunk.astype(np.float32), n_fft, axis=-1)
-            spec = (x[:, None, :] * self._spectrum(n_fft)).sum(axis=0)
+            if self.mirrored:
+                h_even, h_odd = self._spectrum(n_fft)
+                e = (x[:n_even] * h_even).sum(axis=0)
+                o = (x[n_even:] * h_odd).sum(axis=0)
+                spec = np.stack([e + o, e - o])
+            else:
+                (h,) = self._spectrum(n_fft)
+                spec = (x[None, :, :] * h).sum(axis=1)
             y = irfft(spec, n_fft, axis=-1)[:, : m + taps - 1]
             y[:, : taps - 1] += self._tail
             out[:, s0 : s0 + m] = y[:, :m]

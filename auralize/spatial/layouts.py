@@ -156,6 +156,19 @@ class Layout:
     def has_distances(self) -> bool:
         return any(s.distance_m is not None for s in self.speakers)
 
+    @property
+    def channel_gains(self) -> NDArray[np.float64] | None:
+        """Linear output gain per channel ``(n_channels,)`` (an IEM layout's
+        ``Gain``), or None when every channel has gain 1."""
+        g = self.meta.get("channel_gains")
+        return None if g is None else np.asarray(g, dtype=np.float64)
+
+    @property
+    def needs_alignment(self) -> bool:
+        """True when :class:`SpeakerAlignment` changes the output: speaker
+        distances or per-channel gains."""
+        return self.has_distances or self.channel_gains is not None
+
     def directions(self) -> NDArray[np.float64]:
         """Unit vectors ``(n_channels, 3)`` (forward, left, up); LFE rows are zero."""
         return np.stack([s.direction for s in self.speakers])
@@ -263,20 +276,46 @@ BUILTIN_LAYOUTS: dict[str, Layout] = {
 BINAURAL_ORDER = 3
 
 
-def ambix_layout(order: int) -> Layout:
+def ambix_layout(order: int, channels: NDArray[np.integer] | None = None) -> Layout:
     """The AmbiX layout of an order N: (N+1)² channels ``ACN0`` … in ACN order, SN3D.
 
     Its channels have no direction (they are spherical-harmonic components, not
-    speakers) and the layout no WAVE channel mask.
+    speakers) and the layout no WAVE channel mask.  ``channels`` (increasing ACN
+    indices) keeps a subset of the harmonics (``meta["acn"]``, name
+    ``ambixN[k,...]``): the binaural stage's intermediate when its filters of the
+    other harmonics are zero (:class:`OutputStage`); the renderers pan to the
+    kept harmonics only.
     """
     from auralize.spatial.ambisonics import check_order, n_channels
 
     n = check_order(order)
     if n < 1:
         raise ParameterError(f"an Ambisonic layout needs order ≥ 1, got {order!r}")
-    return Layout(f"ambix{n}", tuple(Speaker(f"ACN{k}", None) for k in range(n_channels(n))),
-                  meta={"ambisonic": True, "order": n, "normalisation": "SN3D",
-                        "channel_order": "ACN", "convention": "AmbiX"})  # fmt: skip
+    meta: dict[str, object] = {"ambisonic": True, "order": n, "normalisation": "SN3D",
+                               "channel_order": "ACN", "convention": "AmbiX"}  # fmt: skip
+    acn = np.arange(n_channels(n))
+    name = f"ambix{n}"
+    if channels is not None:
+        acn = np.asarray(channels, dtype=np.int64).reshape(-1)
+        if acn.size == 0 or np.any(np.diff(acn) <= 0) or acn[0] < 0 or acn[-1] >= n_channels(n):
+            raise ParameterError(
+                f"AmbiX channels must be increasing ACN indices in 0..{n_channels(n) - 1}, "
+                f"got {acn.tolist()}"
+            )
+        if acn.size < n_channels(n):
+            meta["acn"] = acn.tolist()
+            name = f"ambix{n}[{','.join(str(int(k)) for k in acn)}]"
+    return Layout(name, tuple(Speaker(f"ACN{int(k)}", None) for k in acn), meta=meta)
+
+
+def ambix_channels(layout: Layout) -> NDArray[np.int64]:
+    """ACN indices of the channels of an AmbiX layout (all (N+1)², or its subset)."""
+    from auralize.spatial.ambisonics import n_channels
+
+    acn = layout.meta.get("acn")
+    if acn is not None:
+        return np.asarray(acn, dtype=np.int64)
+    return np.arange(n_channels(int(layout.meta["order"])))  # type: ignore[call-overload]
 
 
 def binaural_layout() -> Layout:
@@ -360,8 +399,16 @@ def load_layout_json(path: str | Path) -> Layout:
     "IsImaginary": bool, "Channel": 1-based, "Gain": linear}, ...]}}``: real
     speakers come out on their ``Channel`` (a channel without a speaker is a
     silent output without direction), imaginary ones only help 3-D VBAP's
-    triangulation (``meta["imaginary_directions"]``); gains other than 1 are
-    kept in ``meta["channel_gains"]`` (per output channel).
+    triangulation (``meta["imaginary_directions"]``).  A real speaker's ``Gain``
+    (linear, finite; negative inverts the polarity) multiplies its output
+    channel wherever the speakers are aligned (:class:`SpeakerAlignment`: files
+    written with the layout, live playback), after the distance alignment of its
+    ``Radius``; gains other than 1 are kept in ``meta["channel_gains"]``.  An
+    imaginary speaker's ``Gain`` (IEM's share of its signal spread to its
+    neighbours) is not used: the 3-D law drops the imaginary speaker's gain and
+    renormalises the real ones (:func:`vbap3d_gains`).  The file's ``Decoder``
+    object, if any, is not read: decoders are built from the layout
+    (:func:`auralize.spatial.ambisonics.decoder_matrix`).
 
     Raises
     ------
@@ -683,7 +730,8 @@ def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.fl
     if is_ambisonic(layout):
         from auralize.spatial.ambisonics import sh_gains
 
-        return sh_gains(int(layout.meta["order"]), d)  # type: ignore[call-overload]
+        g = sh_gains(int(layout.meta["order"]), d)  # type: ignore[call-overload]
+        return g if "acn" not in layout.meta else g[ambix_channels(layout)]
     if is_binaural(layout):
         raise ParameterError(
             "the binaural layout has no panning gains: render to "
@@ -738,6 +786,12 @@ def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
     common orders.  Binaural targets need filters, not a matrix (error).
     """
     s, d = get_layout(src), get_layout(dst)
+    for lay in (s, d):
+        if is_ambisonic(lay) and "acn" in lay.meta:  # a subset of the harmonics
+            full = ambix_layout(int(lay.meta["order"]))  # type: ignore[call-overload]
+            if lay is s:
+                return downmix_matrix(full, d)[:, ambix_channels(s)]
+            return downmix_matrix(s, full)[ambix_channels(d)]
     if is_binaural(d):
         raise ParameterError(
             f"cannot fold {s.name!r} into binaural with a matrix: ear signals need HRIR "
@@ -782,9 +836,11 @@ class SpeakerAlignment:
     distance of the farthest one (time- and level-aligned at the listener).
 
     Speaker c at distance d_c gets delay ``round((d_max - d_c)/c0 · rate)``
-    samples and gain ``d_c / d_max`` (1/r law).  Speakers without a distance
-    are taken at d_max.  Processing is stateful, so consecutive blocks give
-    exactly the same samples as the whole signal (:meth:`process`).
+    samples and gain ``d_c / d_max`` (1/r law), times the layout's
+    :attr:`Layout.channel_gains` (an IEM layout's per-speaker ``Gain``).
+    Speakers without a distance are taken at d_max.  Processing is stateful,
+    so consecutive blocks give exactly the same samples as the whole signal
+    (:meth:`process`).
 
     Examples
     --------
@@ -803,6 +859,8 @@ class SpeakerAlignment:
         dd = np.array([d_max if x is None else x for x in dist], dtype=np.float64)
         self.delays = np.round((d_max - dd) / c0 * rate).astype(np.int64)
         self.gains = dd / d_max
+        if layout.channel_gains is not None:
+            self.gains = self.gains * layout.channel_gains
         self.active = bool(np.any(self.delays > 0) or np.any(self.gains != 1.0))
         self._tail = np.zeros((layout.n_channels, int(self.delays.max(initial=0))))
 
@@ -845,6 +903,11 @@ class OutputStage:
     Identity for every layout but ``binaural``, whose stage is an
     :class:`auralize.spatial.hrtf.BinauralDecoder` (stateful: consecutive blocks give the
     samples of the whole signal).  Build with :func:`output_stage`.
+
+    :attr:`synthesis_layout` is what renderers pan to: for ``binaural`` the
+    harmonics of ``ambix3`` whose filters are not zero (10 of 16 for the
+    spherical head, whose harmonics odd in z have none; all 16 for a measured
+    set); :meth:`process` also takes the whole ``ambix3``.
     """
 
     def __init__(self, layout: Layout, rate: int, hrtf: object = None) -> None:
@@ -867,6 +930,8 @@ class OutputStage:
 
                 hrirs = read_sofa(hrtf)  # type: ignore[arg-type]
             self.decoder = BinauralDecoder(hrirs, BINAURAL_ORDER, rate=self.rate)
+            if self.decoder.channels.size < self.decoder.n_in:  # harmonics with zero filters
+                self.synthesis_layout = ambix_layout(BINAURAL_ORDER, self.decoder.channels)
         elif hrtf is not None:
             raise ParameterError(
                 f"an HRTF only applies to the binaural layout, not to {layout.name!r}"
@@ -879,7 +944,9 @@ class OutputStage:
         return {"binaural": {"hrtf": self.decoder.hrirs.source, "hrtf_rate_hz": self.rate,
                              "intermediate": f"ambix{self.decoder.order}",
                              "decoder": "SH-domain filters, magnitude least squares",
-                             "filter_taps": int(self.decoder.filters.shape[2])}}  # fmt: skip
+                             "filter_taps": int(self.decoder.filters.shape[2]),
+                             "harmonics_rendered": self.decoder.channels.tolist(),
+                             "mirrored_ears": self.decoder.mirrored}}  # fmt: skip
 
     def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
         """Output channels ``(layout.n_channels, n)`` of a rendered block."""
