@@ -27,8 +27,8 @@ def test_docstring_examples_run(tmp_path, monkeypatch) -> None:
     assert res.attempted >= 2 * len(simple.__all__)
 
 
-@pytest.mark.parametrize("name", ["auralize.audio", "auralize.scene.notebook", "auralize.scene.plots",
-                                  "auralize.scene", "auralize.scene.view", "auralize.scene.soundscene",
+@pytest.mark.parametrize("name", ["auralize.audio.output", "auralize.scene.notebook", "auralize.scene.plots",
+                                  "auralize.scene.pictures", "auralize.scene.view", "auralize.scene.soundscene",
                                   "auralize.scene.recorder"])  # fmt: skip
 def test_docstring_examples_of_the_viewer_modules_run(name: str) -> None:
     import importlib
