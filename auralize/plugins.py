@@ -226,10 +226,12 @@ class SoundModel:
         }
 
 
-@functools.cache
 @dataclass
 class BenchRow:
-    """One row of ``auralize bench`` (the return type of :meth:`SoundModel.bench`): one figure: ``value`` in ``unit``, with its target and the paper's figure."""
+    """One row of ``auralize bench`` (the return type of :meth:`SoundModel.bench`).
+
+    One figure: ``value`` in ``unit``, with its target and the paper's figure.
+    """
 
     group: str
     name: str
@@ -264,6 +266,7 @@ def batch_times(fn: Callable[[], object], *, repeat: int = 5,
     return np.array(times)
 
 
+@functools.cache
 def registry() -> dict[str, type[SoundModel]]:
     """All sound models registered by entry point (loaded once, cached)."""
     found: dict[str, type[SoundModel]] = {}

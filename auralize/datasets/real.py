@@ -31,7 +31,7 @@ import numpy as np
 
 from auralize.io.files import atomic_write
 
-DATASETS = Path(__file__).resolve().parent / "data"
+DATASETS = Path(__file__).resolve().parents[1] / "data"
 STORE = DATASETS / "regression" / "realdata.json"
 
 #: Tolerances: grid/times relative; valid ratio absolute; counts relative (at least 2);

@@ -19,7 +19,7 @@ import numpy as np
 from auralize.io.files import atomic_write
 
 #: shipped with the package (wheel and checkout alike)
-STORE = Path(__file__).resolve().parent / "data" / "regression"
+STORE = Path(__file__).resolve().parents[1] / "data" / "regression"
 
 #: relative tolerances of the stored figures (of the physical pressure, unfiltered: the
 #: figures follow detection and synthesis, not the output high-pass)
