@@ -453,7 +453,7 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     return sound, path, duration, notes
 
 
-def _cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
+def cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> int:
     """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
     from auralize.emitters.timbre import loudness
     from auralize.pipeline import save_rendered
@@ -491,7 +491,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     from auralize.spatial.layouts import synthesis_layout
 
     if args.model or args.scene:
-        return _cmd_render_scene(args, {"layout": "mono", "rate": DEFAULT_RATE})
+        return cmd_render_scene(args, {"layout": "mono", "rate": DEFAULT_RATE})
     if args.volume is None:
         raise ParameterError("give a volume PATH, or sound models with --model NAME:FILE or "
                              "--scene SCENE.json")  # fmt: skip

@@ -219,7 +219,7 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     field high-passed at ``--highpass``, the models as they are), so the file
     equals the render without the Dask options.
     """
-    from auralize.cli import _cmd_render_scene, _load, check_render_memory, scene_setup
+    from auralize.cli.core import check_render_memory, cmd_render_scene, load_volume, scene_setup
     from auralize.cli.options import DEFAULT_RATE
     from auralize.distributed import render_distributed
     from auralize.emitters.synthesis import check_arrival
@@ -232,14 +232,14 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     if getattr(args, "volume", None) is None:
         print("note: the scene has no volume PATH, so nothing runs on Dask: its models render "
               "on this machine")  # fmt: skip
-        return _cmd_render_scene(args, defaults)
+        return cmd_render_scene(args, defaults)
     if args.timbre not in ("physical", "auto"):
         raise ParameterError(f"--timbre {args.timbre}: the Dask render renders the physical "
                              f"pressure only; render {args.timbre} without the Dask options")  # fmt: skip
     highpass(np.zeros((1, 0)), args.rate, args.highpass)  # validate early
     models, path, listener = scene_setup(args, defaults)
     lay = get_layout(args.layout)
-    vol = _load(args)
+    vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
         if args.sources:

@@ -198,7 +198,7 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
                 a = abs(m)
                 tab[o * o + o + m, 0] = math.sqrt((1.0 if a == 0 else 2.0) * math.factorial(o - a)
                                                   / math.factorial(o + a))  # fmt: skip
-        from auralize.spatial import ambix_channels
+        from auralize.spatial.layouts import ambix_channels
 
         tab[:, 1] = -1.0  # each harmonic's output channel (a layout may keep a subset)
         tab[ambix_channels(lay), 1] = np.arange(lay.n_channels)
