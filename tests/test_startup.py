@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -14,6 +15,8 @@ from pathlib import Path
 import pytest
 
 from auralize.cli.plugin_commands import LazyCommand, lazy
+from auralize.runtime import jit
+from auralize.runtime.jit import kernel_digest
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGINS = ("auralize_vortex", "auralize_fire", "auralize_aero", "auralize_spark")
@@ -56,7 +59,19 @@ def test_one_cache_folder_for_kernels_and_textures(tmp_path: Path, var: str) -> 
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
                          check=True, timeout=120).stdout.split()  # fmt: skip
     root = tmp_path / "auralize" if var == "XDG_CACHE_HOME" else tmp_path
-    assert out == [str(root / "numba"), str(root), str(root / "aero")]
+    assert out == [str(root / "numba" / kernel_digest()), str(root), str(root / "aero")]
+
+
+def test_kernel_cache_folder_follows_the_kernel_sources(tmp_path: Path) -> None:
+    """A changed core kernel gets a new cache folder: kernels that inlined it recompile."""
+    pkg = Path(jit.__file__).resolve().parent.parent
+    for rel in jit.KERNEL_SOURCES:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(pkg / rel, tmp_path / rel)
+    assert jit.kernel_digest(tmp_path) == kernel_digest()
+    f = tmp_path / jit.KERNEL_SOURCES[1]
+    f.write_bytes(f.read_bytes() + b"\n# changed\n")
+    assert jit.kernel_digest(tmp_path) != kernel_digest()
 
 
 @pytest.mark.parametrize("plugin", PLUGINS)

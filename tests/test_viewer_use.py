@@ -74,7 +74,8 @@ def test_single_step_real_file_is_shown_and_detection_explains(qtbot, window, er
     assert win.volume.n_steps == 1 and win.scene.field == "z"
     assert "volume" in win.scene._actors and "outline" in win.scene._actors
     assert win.scene.sources is None  # nothing detected on opening
-    assert "resampled" in win.info.text()  # the reader's note is shown, not lost
+    # the reader's note (a surface read on its own lattice) is shown, not lost
+    assert "note: a surface (StructuredGrid" in win.info.text()
     img = win.plotter.screenshot()
     assert img[..., :3].std() > 5  # not a blank view
     assert not win.detect_btn.isEnabled()

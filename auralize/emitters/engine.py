@@ -177,7 +177,8 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered
     raise ParameterError(f"cannot render a {type(part).__name__}: not an engine part")
 
 
-def _parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
+def parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
+    """The parts of ``sound``: a :class:`Sound`'s, one emitter set or custom part, or a list."""
     if isinstance(sound, Sound):
         return list(sound.parts)
     if isinstance(sound, Emitters | FieldSources) or hasattr(sound, "render_part"):
@@ -197,7 +198,7 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     and the sum goes once through :func:`auralize.spatial.layouts.output_stage`
     (``hrtf``: its HRIRs, binaural only); ``meta`` describes the stage.
     """
-    parts = _parts_of(sound)
+    parts = parts_of(sound)
     stage = output_stage(layout, int(rate), hrtf=hrtf)  # a bad HRTF fails before rendering
     lay = stage.synthesis_layout
     dur = path.duration - start if duration is None else float(duration)
@@ -273,7 +274,7 @@ class BlockRenderer:
         dur = path.duration if duration is None else float(duration)
         if not (np.isfinite(dur) and dur > 0):
             raise ParameterError(f"nothing to play: duration {dur!r} s (give a duration)")
-        self.parts = _parts_of(sound)
+        self.parts = parts_of(sound)
         self.meta = dict(sound.meta) if isinstance(sound, Sound) else {}
         self.path = path
         self.rate = int(rate)

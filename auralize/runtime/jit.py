@@ -24,6 +24,7 @@ process; the first use of a kernel does:
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import threading
@@ -65,15 +66,40 @@ _configured = False
 _lock = threading.Lock()
 
 
+#: the core kernel modules, relative to the package: their functions are inlined into
+#: kernels of other modules (``_sampled`` and the plugins use ``_synth_kernel``'s gains),
+#: and numba's cache of a module does not notice a change in a module it inlines from
+KERNEL_SOURCES = ("sources/_kernels.py", "emitters/_synth_kernel.py",
+                  "emitters/_runs_kernel.py", "emitters/_sampled.py")  # fmt: skip
+
+
+def kernel_digest(root: Path | None = None) -> str:
+    """Short digest of :data:`KERNEL_SOURCES` under ``root`` (default: this package),
+    which names the cache folder of those sources."""
+    root = Path(__file__).resolve().parent.parent if root is None else Path(root)
+    h = hashlib.sha256()
+    for rel in KERNEL_SOURCES:
+        f = root / rel
+        h.update(rel.encode())
+        h.update(f.read_bytes() if f.is_file() else b"")
+    return h.hexdigest()[:12]
+
+
 def cache_dir() -> Path:
-    """The folder of the compiled kernels: ``NUMBA_CACHE_DIR``, else ``numba/`` in
-    :func:`auralize.runtime.cache.cache_root` (``$AURALIZE_CACHE_DIR``, ``~/.cache/auralize``)."""
+    """The folder of the compiled kernels: ``NUMBA_CACHE_DIR``, else
+    ``numba/<digest>`` in :func:`auralize.runtime.cache.cache_root`
+    (``$AURALIZE_CACHE_DIR``, ``~/.cache/auralize``).
+
+    ``<digest>`` is :func:`kernel_digest`: when a core kernel changes (an
+    upgrade, a checkout of another version) every kernel that may have inlined
+    it compiles again instead of loading stale machine code.
+    """
     env = os.environ.get("NUMBA_CACHE_DIR")
     if env:
         return Path(env)
     from auralize.runtime.cache import cache_root
 
-    return cache_root() / "numba"
+    return cache_root() / "numba" / kernel_digest()
 
 
 def configure() -> None:

@@ -331,9 +331,9 @@ def split_field(sound: Any) -> tuple[Any, Any]:
     to them only.
     """
     from auralize.emitters import FieldSources, Sound
-    from auralize.emitters.engine import _parts_of
+    from auralize.emitters.engine import parts_of
 
-    parts = _parts_of(sound)
+    parts = parts_of(sound)
     meta = dict(sound.meta) if isinstance(sound, Sound) else {}
     field_parts = [p for p in parts if isinstance(p, FieldSources)]
     others = [p for p in parts if not isinstance(p, FieldSources)]
