@@ -91,7 +91,7 @@ def test_woodworth_itd() -> None:
 def test_right_source_arrives_first_and_louder(model: H.HRIRSet, noise: np.ndarray) -> None:
     """Woodworth's ITD is the ray (high-frequency) delay: measured above the
     head-shadow filter's corner, the model's ITD of a source at 90° right is
-    (a/c)(cos 10° + 4π/9) = 0.607 ms (ears at ±100°), within the issue's 0.6–0.7 ms
+    (a/c)(cos 10° + 4π/9) = 0.607 ms (ears at ±100°), within the required 0.6–0.7 ms
     (0.656 ms for ears at ±90°).  The order-3 chain carries the interaural time
     difference in the band it reproduces (below N c / 2πa ≈ 1.87 kHz, where the
     auditory system uses ITDs): there it equals the model's."""
