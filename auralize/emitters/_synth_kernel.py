@@ -1146,14 +1146,13 @@ def _sh_lanes(W, cnt, rx, ry, rz, tab, G, S):  # type: ignore[no-untyped-def]
             k = n * n + n + m
             f = tab[k, 0]
             d = int(tab[k, 1])
-            if d < 0:
-                pass
-            elif n == 0:
-                for i in range(cnt):
-                    G[d, i] = f
-            else:
-                for i in range(cnt):
-                    G[d, i] = f * S[2, i] * S[0, i] * S[4, i]
+            if d >= 0:  # a harmonic the layout leaves out is skipped; the recurrence goes on
+                if n == 0:
+                    for i in range(cnt):
+                        G[d, i] = f
+                else:
+                    for i in range(cnt):
+                        G[d, i] = f * S[2, i] * S[0, i] * S[4, i]
             if m > 0:
                 k = n * n + n - m
                 f = tab[k, 0]
