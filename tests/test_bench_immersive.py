@@ -16,4 +16,4 @@ def test_immersive_rows_quick() -> None:
     assert "% of the budget" in by["× real time"].note
     live = [r for r in rows if r.unit == "ms"]
     assert len(live) == 2 and all(r.met is not None for r in live)
-    assert "CPU per block" in live[1].note and "ambix3" in live[1].note
+    assert "CPU per block" in live[1].note and "binaural-ears" in live[1].note

@@ -123,17 +123,23 @@ def test_emitters_fast_backend_ambix3_equals_reference() -> None:
 
 
 def test_scene_binaural_is_the_stage_of_the_summed_ambix_render() -> None:
-    """Parts are summed in AmbiX order 3 and filtered once: the binaural render equals
-    the binaural decoder applied to the ambix3 render; blocks (and a seek) equal it."""
+    """Parts are summed in the ears' channels (each ear a receiver) and filtered
+    once: the binaural render equals the ear decoder applied to the render of the
+    ear layout; with an HRIR set, the binaural decoder applied to the ambix3 render;
+    blocks (and a seek) equal it."""
     em, path = _orbit_emitters()
-    amb = render(em, path, rate=RATE, layout="ambix3")
+    ears = render(em, path, rate=RATE, layout=H.ear_layout())
     b = render(em, path, rate=RATE, layout="binaural")
-    assert b.layout.name == "binaural" and b.audio.shape == (2, amb.audio.shape[1])
-    assert b.meta["binaural"]["intermediate"] == "ambix3" and "spherical-head" in str(
+    assert b.layout.name == "binaural" and b.audio.shape == (2, ears.audio.shape[1])
+    assert "ears" in b.meta["binaural"]["receivers"] and "spherical-head" in str(
         b.meta["binaural"]["hrtf"]
     )
+    assert ears.audio.shape[0] == 8 and _rel(b.audio, H.EarDecoder(RATE).process(ears.audio)) < 1e-5
+    amb = render(em, path, rate=RATE, layout="ambix3")
+    sh = render(em, path, rate=RATE, layout="binaural", hrtf=H.default_hrirs(RATE))
+    assert sh.meta["binaural"]["intermediate"] == "ambix3"
     ref = H.BinauralDecoder(H.default_hrirs(RATE), 3).process(amb.audio)
-    assert _rel(b.audio, ref) < 1e-5
+    assert _rel(sh.audio, ref) < 1e-5
     br = BlockRenderer(em, path, rate=RATE, layout="binaural", block=2205)
     on = np.concatenate([br.block(i) for i in range(br.n_blocks)], axis=1)
     assert on.shape == b.audio.shape and _rel(on, b.audio) < 1e-5
@@ -177,9 +183,9 @@ def test_block_synthesis_binaural_equals_offline() -> None:
     tracks, path = _scene()
     off = render_timbre(tracks, path, layout="binaural", highpass_hz=0.0)
     bs = BlockSynth(tracks, path, layout="binaural", block=2205)
-    # the spherical head's filters of the harmonics odd in z are zero: they are not rendered
+    # the built-in head: each ear a receiver with its four zonal harmonics
     assert bs.layout.name == "binaural"
-    assert bs.synthesis_layout.name == "ambix3[0,1,3,4,6,8,9,11,13,15]"
+    assert bs.synthesis_layout.name == "binaural-ears" and bs.synthesis_layout.n_channels == 8
     on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
     assert on.shape == off.audio.shape == (2, 88200)
     assert _rel(on, off.audio) < 1e-5
@@ -268,23 +274,26 @@ def test_cli_binaural_right_source_and_sofa(tmp_path: Path) -> None:
     ears = ears.T
     side = json.loads(Path(str(out) + ".json").read_text())
     assert ears.shape == (2, RATE) and rate == RATE and side["layout"]["name"] == "binaural"
-    assert "spherical-head" in side["binaural"]["hrtf"]
-    assert side["binaural"]["intermediate"] == "ambix3"
-    # right ear first (ITD in test_hrtf's range for the 8.75 cm head) and louder, more so
+    assert "spherical-head" in side["binaural"]["hrtf"] and "ears" in side["binaural"]["receivers"]
+    # right ear first (Woodworth's ITD for the 8.75 cm head, 0.6–0.7 ms) and louder, more so
     # at high frequencies (head shadow)
     itd = itd_phat_s(ears)
-    assert 0.60e-3 <= itd <= 0.765e-3, itd
-    assert itd_s(ears) > 0.5e-3  # plain cross-correlation: right first too
+    assert 0.60e-3 <= itd <= 0.70e-3, itd
+    assert 0.60e-3 <= itd_s(ears) <= 0.70e-3  # plain cross-correlation too
     assert 0.0 < ild_db(ears, 500.0) < ild_db(ears, 4000.0) and ild_db(ears, 4000.0) >= 10.0
-    # a SOFA file of a bigger head (11 cm) via --hrtf: a larger ITD, named in the sidecar
-    sofa = tmp_path / "big_head.sofa"
-    write_sofa(sofa, H.spherical_head_hrirs(_fibonacci(300), RATE, radius=0.11))
-    out2 = tmp_path / "b2.wav"
-    assert _cli_render(tmp_path, out2, "--layout", "binaural", "--hrtf", str(sofa)) == 0
-    ears2 = sf.read(out2, always_2d=True)[0].T
-    side2 = json.loads(Path(str(out2) + ".json").read_text())
-    assert "big_head.sofa" in str(side2["binaural"]["hrtf"])
-    assert itd_phat_s(ears2) == pytest.approx(itd * 0.11 / 0.0875, rel=0.08), (itd, ears2)
+    # SOFA files via --hrtf (the AmbiX chain): a bigger head (11 cm) gives a larger ITD
+    # than the 8.75 cm one, in proportion; the file is named in the sidecar
+    itds = []
+    for radius in (0.0875, 0.11):
+        sofa = tmp_path / f"head_{radius * 1000:.0f}mm.sofa"
+        write_sofa(sofa, H.spherical_head_hrirs(_fibonacci(300), RATE, radius=radius))
+        out2 = tmp_path / f"b_{radius * 1000:.0f}.wav"
+        assert _cli_render(tmp_path, out2, "--layout", "binaural", "--hrtf", str(sofa)) == 0
+        side2 = json.loads(Path(str(out2) + ".json").read_text())
+        assert sofa.name in str(side2["binaural"]["hrtf"])
+        assert side2["binaural"]["intermediate"] == "ambix3"
+        itds.append(itd_phat_s(sf.read(out2, always_2d=True)[0].T))
+    assert itds[1] == pytest.approx(itds[0] * 0.11 / 0.0875, rel=0.08), itds
     # AmbiX order 3 of the same scene: 16 channels, SN3D: Y = -W (right), Z = X = 0
     out3 = tmp_path / "a.wav"
     assert _cli_render(tmp_path, out3, "--layout", "ambix3") == 0

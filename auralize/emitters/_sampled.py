@@ -517,6 +517,14 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     """
     from auralize.emitters import law_exponent
     from auralize.emitters.synthesis import pan_table, panning_arrays
+    from auralize.spatial.layouts import receiver_paths
+
+    ears = receiver_paths(layout, path)
+    if ears:  # several receivers (the ears): each along its own path, channels stacked
+        outs = [render_sampled(em, p, rate=rate, layout=rl, n_out=n_out, start=start, c0=c0,
+                               block=block, oversample=oversample, internal=internal,
+                               prepared=prepared, threads=threads) for rl, p in ears]  # fmt: skip
+        return np.concatenate([o[0] for o in outs]), outs[0][1]
 
     lay = layout
     n_ch = lay.n_channels

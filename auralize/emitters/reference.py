@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from auralize.emitters import C0, Emitters, law_exponent
 from auralize.listener import ListenerPath
-from auralize.spatial.layouts import Layout, get_layout, listener_frame, pan_gains
+from auralize.spatial.layouts import Layout, get_layout, listener_frame, pan_gains, receiver_paths
 
 
 def render_reference(em: Emitters, path: ListenerPath, *, rate: int = 44100,
@@ -25,6 +25,10 @@ def render_reference(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     signals are interpolated linearly in emission time.
     """
     lay = get_layout(layout)
+    ears = receiver_paths(lay, path)
+    if ears:  # several receivers (the ears): each along its own path, channels stacked
+        return np.concatenate([render_reference(em, p, rate=rate, layout=rl, duration=duration,
+                                                start=start, c0=c0) for rl, p in ears])  # fmt: skip
     dur = path.duration - start if duration is None else float(duration)
     n_out = int(round(dur * rate))
     t = start + np.arange(n_out) / rate

@@ -55,6 +55,7 @@ from auralize.spatial.layouts import (
     is_binaural,
     listener_frame,
     pan_gains,
+    receiver_paths,
     triangulate,
 )
 
@@ -179,7 +180,7 @@ def panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]
     if is_binaural(lay):
         raise ParameterError(
             "auralize.emitters.synthesis.render pans to speaker or AmbiX layouts; for binaural render to "
-            "auralize.spatial.layouts.synthesis_layout('binaural') (ambix3) and filter with "
+            "auralize.spatial.layouts.synthesis_layout('binaural') (the ear receivers) and filter with "
             "auralize.spatial.layouts.output_stage, or use auralize.emitters.timbre.render_timbre"
         )
     return lay.panning_arrays()
@@ -586,6 +587,13 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     if interp not in INTERPOLATIONS:
         raise ParameterError(f"interp must be one of {INTERPOLATIONS}, got {interp!r}")
     lay = get_layout(layout)
+    ears = receiver_paths(lay, path)
+    if ears:  # several receivers (the ears): each along its own path, channels stacked
+        outs = [render(tracks, p, rate=rate, time_scale=time_scale, interp=interp, layout=rl,
+                       c0=c0, duration=duration, bounds=bounds, start=start, threads=threads,
+                       lead=lead) for rl, p in ears]  # fmt: skip
+        return Rendered(audio=np.concatenate([o.audio for o in outs]), rate=int(rate), layout=lay,
+                        time_scale=float(time_scale), meta=outs[0].meta)  # fmt: skip
     spk_az, spk_ch = panning_arrays(lay)
     pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=bounds, start=start, orientation=spk_az.size > 0, lead=lead)  # fmt: skip
@@ -697,6 +705,12 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
     directly.
     """
     lay = get_layout(layout)
+    ears = receiver_paths(lay, path)
+    if ears:
+        return np.concatenate([render_reference(tracks, p, rate=rate, time_scale=time_scale,
+                                                interp=interp, layout=rl, c0=c0,
+                                                duration=duration, start=start, lead=lead)
+                               for rl, p in ears])  # fmt: skip
     pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=None, start=start, lead=lead)  # fmt: skip
     n = np.arange(pr.n_samples)

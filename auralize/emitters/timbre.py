@@ -93,7 +93,7 @@ from auralize.emitters.synthesis import (
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import TYPES, SourceTracks
-from auralize.spatial.layouts import Layout, output_stage
+from auralize.spatial.layouts import Layout, output_stage, receiver_paths
 
 TIMBRES = ("physical", "extended", "tonal")
 #: ``auto`` renders ``physical`` when at least this share of its energy is above 20 Hz,
@@ -434,6 +434,29 @@ class _Clock:
         return np.interp(x, _sample_index(table.size), table, left=0.0, right=0.0)
 
 
+def _carriers(tracks: SourceTracks, path: ListenerPath, out: Rendered, carrier: Any, *,
+              start: float, c0: float) -> NDArray[np.float64]:  # fmt: skip
+    """The carrier of each channel of ``out``, ``(1 or n_channels, n)``.
+
+    ``carrier(clock)`` gives a carrier ``(n,)`` read on a :class:`_Clock`.  One
+    clock for a layout heard at one place; for a layout of several receivers
+    (the ears of ``binaural``) each receiver's channels get the carrier read on
+    its own clock, at its own emission times, so that the same emitted noise or
+    tone reaches each ear with that ear's delay.  The receivers' clocks share
+    one table span (the same noise)."""
+    ears = receiver_paths(out.layout, path)
+    if not ears:
+        return carrier(_Clock(tracks, path, out, start=start, c0=c0))[None, :]  # type: ignore[no-any-return]
+    clocks = [_Clock(tracks, p, out, start=start, c0=c0) for _, p in ears]
+    first = min(ck.first for ck in clocks)
+    end = max(ck.first + ck.size for ck in clocks)
+    rows = []
+    for (lay, _), ck in zip(ears, clocks, strict=True):
+        ck.first, ck.size = first, end - first
+        rows.append(np.broadcast_to(carrier(ck), (lay.n_channels, out.audio.shape[1])))
+    return np.concatenate(rows)
+
+
 @functools.lru_cache(maxsize=8)
 def _sample_index(n: int) -> NDArray[np.float64]:
     """``0, 1, …, n − 1`` as floats (cached, read-only)."""
@@ -652,14 +675,15 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     if n < 4:
         meta["beta"] = 0.0
         return phys
-    clock = _Clock(tracks, path, env, start=start, c0=c0)
-
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.maximum(f, 0.25 * f_cut) ** (-alpha / 2)
 
-    table = _noise_table(clock.size, rate, (int(seed), 1), shape, ("power", alpha, f_cut))
+    def carrier(clock: _Clock) -> NDArray[np.float64]:
+        return clock.noise(_noise_table(clock.size, rate, (int(seed), 1), shape,
+                                        ("power", alpha, f_cut)))  # fmt: skip
+
     low = _crossover(phys.audio, rate, f_cut, "lowpass")
-    env.audio *= clock.noise(table)[None, :]
+    env.audio *= _carriers(tracks, path, env, carrier, start=start, c0=c0)
     high = _crossover(env.audio, rate, f_cut, "highpass")
     # Eq. 13, power summed over the channels: low + β high matches the physical
     # power under g(f) (the cross term needs the low band in every channel;
@@ -792,22 +816,27 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         rate = env.rate
         if audio is None:
             base, audio = env, np.zeros_like(env.audio)
-        clock = _Clock(sub, path, env, start=start, c0=c0)
         spec = carriers[name]
         if spec[0] == "tone":
-            car = _tone(float(spec[1]), clock.phase_s())
+
+            def carrier(clock: _Clock, f: float = float(spec[1])) -> NDArray[np.float64]:
+                return _tone(f, clock.phase_s())
+
         elif spec[0] == "noise":
             f_lo, f_hi = float(spec[1]), float(spec[2])
 
             def band(f: NDArray[np.float64], f_lo: float = f_lo, f_hi: float = f_hi) -> Any:
                 return ((f >= f_lo) & (f <= f_hi)).astype(np.float64)
 
-            car = clock.noise(_noise_table(clock.size, rate, (int(seed), 2, code), band,
-                                           ("band", f_lo, f_hi)))  # fmt: skip
+            def carrier(clock: _Clock, band: Any = band, code: int = code, f_lo: float = f_lo,
+                        f_hi: float = f_hi, rate: int = rate) -> NDArray[np.float64]:  # fmt: skip
+                return clock.noise(_noise_table(clock.size, rate, (int(seed), 2, code), band,
+                                                ("band", f_lo, f_hi)))  # fmt: skip
+
         else:
             raise ParameterError(f"tonal carrier for {name} must be ('tone', Hz) or "
                                  f"('noise', low Hz, high Hz), got {spec!r}")  # fmt: skip
-        audio += env.audio * car[None, :]
+        audio += env.audio * _carriers(sub, path, env, carrier, start=start, c0=c0)
         used[name] = list(spec)
     meta["carriers"] = used
     if audio is not None:

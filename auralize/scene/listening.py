@@ -166,7 +166,8 @@ class LiveEngine:
         if extra is not None and extra.parts:
             from auralize.emitters import render as render_sound
 
-            more = render_sound(extra, path, rate=self.rate, layout=self.layout, c0=self.c0,
+            more = render_sound(extra, path, rate=self.rate, layout=self.stage.synthesis_layout,
+                                c0=self.c0,
                                 start=self.t, duration=dur).audio  # fmt: skip
             n = min(audio.shape[1], more.shape[1])
             audio = audio.copy()

@@ -68,7 +68,7 @@ import contextvars
 import json
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -322,6 +322,82 @@ def binaural_layout() -> Layout:
     """Two ear signals (L, R); rendered through an order-3 AmbiX intermediate."""
     return Layout("binaural", (Speaker("L", 90.0), Speaker("R", -90.0)), channel_mask=0x3,
                   meta={"binaural": True, "intermediate": f"ambix{BINAURAL_ORDER}"})  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Receiver:
+    """One receiver of a multi-receiver synthesis layout (:func:`receivers_layout`).
+
+    A point fixed to the listener's head (an ear), with a frame of its own: the
+    renderers solve its retarded times, distances and Doppler from its own
+    position, and pan its channels with ``layout``'s law in its own frame.
+
+    Attributes
+    ----------
+    name : str
+    offset : (3,) tuple
+        Position relative to the listener, in the listener frame (forward,
+        left, up), m.
+    forward, up : (3,) tuples
+        The receiver frame's forward and up axes, in the listener frame.
+    layout : Layout
+        What the receiver's channels are (an AmbiX subset for the ears).
+    """
+
+    name: str
+    offset: tuple[float, float, float]
+    forward: tuple[float, float, float]
+    up: tuple[float, float, float]
+    layout: Layout
+
+
+def receivers_layout(name: str, receivers: tuple[Receiver, ...], **meta: object) -> Layout:
+    """A synthesis layout whose channels are those of several receivers, in turn.
+
+    Renderers given such a layout render each receiver along its own path
+    (:func:`receiver_paths`) and stack the channels; an output stage then
+    combines them (the ears of ``binaural``)."""
+    speakers = tuple(replace(sp, name=f"{r.name}.{sp.name}", azimuth_deg=None)
+                     for r in receivers for sp in r.layout.speakers)  # fmt: skip
+    return Layout(name, speakers, meta={"receivers": tuple(receivers), **meta})
+
+
+def receivers_of(layout: Layout) -> tuple[Receiver, ...]:
+    """The receivers of a :func:`receivers_layout` (empty for any other layout)."""
+    return tuple(layout.meta.get("receivers", ()))  # type: ignore[call-overload]
+
+
+def receiver_path(path: Any, receiver: Receiver) -> Any:
+    """The path of a receiver fixed to the listener of ``path``.
+
+    At each capture the receiver sits at position + R·offset and faces
+    R·forward, R·up, where R turns the listener frame into the world (columns
+    forward, left, up).  Between captures positions are interpolated linearly
+    and orientations by slerp, as for the listener: for an offset of a few
+    centimetres the chord differs from the arc by well under a millimetre at
+    the turn rates of a head.  The result is cached on ``path`` (renderers
+    that key caches on a path's arrays then see the same ones every call).
+    """
+    from auralize.listener import ListenerPath
+
+    f, u = path.forward, path.up
+    key = (path.times, path.positions, f, u)
+    cache = path.__dict__.setdefault("_receiver_paths", {})
+    hit = cache.get(receiver)
+    if hit is not None and all(a is b for a, b in zip(hit[0], key, strict=True)):
+        return hit[1]
+    rot = np.stack([f, np.cross(u, f), u], axis=2)  # (N, 3, 3): world = rot @ local
+    off, fw, up = (np.asarray(v, dtype=np.float64) for v in (receiver.offset, receiver.forward,
+                                                               receiver.up))  # fmt: skip
+    out = ListenerPath(path.times, path.positions + rot @ off, rot @ fw, rot @ up,
+                       source=f"{path.source} ({receiver.name})")  # fmt: skip
+    cache[receiver] = (key, out)
+    return out
+
+
+def receiver_paths(layout: Layout, path: Any) -> list[tuple[Layout, Any]]:
+    """``(layout, path)`` of each receiver of a multi-receiver layout, in channel order."""
+    return [(r.layout, receiver_path(path, r)) for r in receivers_of(layout)]
 
 
 #: layouts that are not loudspeaker layouts (no panning law of their own)
@@ -889,10 +965,16 @@ def align_speakers(audio: NDArray[np.floating], layout: Layout, rate: float, *,
 
 # ------------------------------------------------------------ immersive output
 def synthesis_layout(layout: Layout | str) -> Layout:
-    """The layout a renderer pans to: the layout itself, or for ``binaural`` its
-    AmbiX intermediate (``ambix3``), which :func:`output_stage` turns into ears."""
+    """The layout a renderer pans to: the layout itself, or for ``binaural`` the
+    intermediate that :func:`output_stage` turns into ears: with the built-in
+    head its two ear receivers (:func:`auralize.spatial.hrtf.ear_layout`), with
+    an HRIR set (:func:`default_hrtf`) the AmbiX layout ``ambix3``."""
     lay = get_layout(layout)
     if is_binaural(lay):
+        if _HRTF.get() is None:
+            from auralize.spatial.hrtf import ear_layout
+
+            return ear_layout()
         return IMMERSIVE_LAYOUTS[str(lay.meta["intermediate"])]
     return lay
 
@@ -900,14 +982,19 @@ def synthesis_layout(layout: Layout | str) -> Layout:
 class OutputStage:
     """From the channels of :func:`synthesis_layout` to the layout's own channels.
 
-    Identity for every layout but ``binaural``, whose stage is an
-    :class:`auralize.spatial.hrtf.BinauralDecoder` (stateful: consecutive blocks give the
-    samples of the whole signal).  Build with :func:`output_stage`.
+    Identity for every layout but ``binaural``, whose stage is a decoder
+    (stateful: consecutive blocks give the samples of the whole signal).
+    Build with :func:`output_stage`.
 
-    :attr:`synthesis_layout` is what renderers pan to: for ``binaural`` the
-    harmonics of ``ambix3`` whose filters are not zero (10 of 16 for the
-    spherical head, whose harmonics odd in z have none; all 16 for a measured
-    set); :meth:`process` also takes the whole ``ambix3``.
+    :attr:`synthesis_layout` is what renderers pan to.  For ``binaural``:
+
+    * with the built-in spherical head (no ``hrtf``), the two ear receivers
+      of :func:`auralize.spatial.hrtf.ear_layout`, each rendered with its own
+      retarded time, decoded by :class:`auralize.spatial.hrtf.EarDecoder`;
+    * with an HRIR set or SOFA file, the harmonics of ``ambix3`` whose filters
+      are not zero (all 16 for a measured set), decoded by
+      :class:`auralize.spatial.hrtf.BinauralDecoder`; :meth:`process` also
+      takes the whole ``ambix3``.
     """
 
     def __init__(self, layout: Layout, rate: int, hrtf: object = None) -> None:
@@ -918,12 +1005,16 @@ class OutputStage:
         self._pos = -1  # next input sample of process_at's stream (-1: none yet)
         if hrtf is None and is_binaural(layout):
             hrtf = _HRTF.get()
-        if is_binaural(layout):
-            from auralize.spatial.hrtf import BinauralDecoder, HRIRSet, default_hrirs
+        if is_binaural(layout) and hrtf is None:
+            from auralize.spatial.hrtf import EarDecoder
 
-            if hrtf is None:
-                hrirs = default_hrirs(self.rate)
-            elif isinstance(hrtf, HRIRSet):
+            self.decoder = EarDecoder(self.rate)
+            self.synthesis_layout = self.decoder.layout
+        elif is_binaural(layout):
+            from auralize.spatial.hrtf import BinauralDecoder, HRIRSet
+
+            self.synthesis_layout = IMMERSIVE_LAYOUTS[str(layout.meta["intermediate"])]
+            if isinstance(hrtf, HRIRSet):
                 hrirs = hrtf
             else:
                 from auralize.spatial.sofa import read_sofa
@@ -941,12 +1032,7 @@ class OutputStage:
         """What the stage does, for a sidecar (empty for speaker layouts)."""
         if self.decoder is None:
             return {}
-        return {"binaural": {"hrtf": self.decoder.hrirs.source, "hrtf_rate_hz": self.rate,
-                             "intermediate": f"ambix{self.decoder.order}",
-                             "decoder": "SH-domain filters, magnitude least squares",
-                             "filter_taps": int(self.decoder.filters.shape[2]),
-                             "harmonics_rendered": self.decoder.channels.tolist(),
-                             "mirrored_ears": self.decoder.mirrored}}  # fmt: skip
+        return {"binaural": self.decoder.describe()}
 
     def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
         """Output channels ``(layout.n_channels, n)`` of a rendered block."""

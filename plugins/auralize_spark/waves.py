@@ -357,14 +357,23 @@ class DischargePart:
         has one implementation, exact for every ``backend``.
         """
         from auralize.emitters.engine import BACKENDS
-        from auralize.spatial.layouts import output_stage, synthesis_layout
+        from auralize.spatial.layouts import output_stage, receiver_paths
 
         lay = get_layout(layout)
-        syn = synthesis_layout(lay)
-        if syn is not lay:  # binaural: the AmbiX intermediate, then the ears' filters
-            out = self.render_part(path, rate=rate, layout=syn, duration=duration, start=start,
-                                   c0=c0, backend=backend)  # fmt: skip
-            return output_stage(lay, rate).finish(out)
+        stage = output_stage(lay, int(rate))
+        if stage.synthesis_layout is not lay:  # binaural: its intermediate, then the ears' filters
+            out = self.render_part(path, rate=rate, layout=stage.synthesis_layout,
+                                   duration=duration, start=start, c0=c0, backend=backend)  # fmt: skip
+            return stage.finish(out)
+        if lay.meta.get("receivers"):  # the ears: each along its own path, channels stacked
+            if not isinstance(path, ListenerPath):
+                path = ListenerPath(np.zeros(1), np.asarray(path, dtype=np.float64).reshape(1, 3))
+            if duration is None:  # until the last wave has passed the head's centre, +10 ms
+                duration = self.emissions(path, c0=c0).end_time + 0.01 - start
+            outs = [self.render_part(p, rate=rate, layout=rl, duration=duration, start=start,
+                                     c0=c0, backend=backend) for rl, p in receiver_paths(lay, path)]  # fmt: skip
+            return Rendered(audio=np.concatenate([o.audio for o in outs]), rate=int(rate),
+                            layout=lay, meta={**outs[0].meta, "layout": lay.name})  # fmt: skip
 
         if backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
