@@ -12,7 +12,7 @@ is a small JSON document::
 
     {
       "listener": {"path": "flight.csv"},          # or {"position": [x, y, z]}
-      "duration": 4.0,                              # optional (default: the path's)
+      "duration": 4.0,                              # optional (default: see below)
       "layout": "ring8", "rate": 44100,             # optional
       "models": [
         {"model": "field", "input": "data.h5", "params": {"time_scale": "auto"}},
@@ -22,6 +22,8 @@ is a small JSON document::
     }
 
 Relative file names in a scene file are relative to the scene file's folder.
+Without a ``duration`` a scene lasts its listener path's length, or, at a
+static listener, until every part has been heard (:func:`scene_length`).
 The ``field`` model accepts ``"time_scale": "auto"``: the data's span plays in
 the scene's duration (:func:`auralize.pipeline.plan_render`).
 
