@@ -152,12 +152,17 @@ def test_a_scene_without_duration_lasts_until_every_part_is_heard(discharge, tmp
 
 # ------------------------------------------------------------------------ Dask
 @pytest.mark.filterwarnings("ignore:.*unclosed.*:ResourceWarning")
-@pytest.mark.parametrize("scheduler", ["sync", "threads"])
+@pytest.mark.parametrize(("scheduler", "length"), [("sync", "--duration"), ("threads", "natural")])
 def test_dask_render_of_a_scene_equals_the_render_without_dask(discharge, tmp_path, capsys,  # type: ignore[no-untyped-def]
-                                                               scheduler) -> None:  # fmt: skip
+                                                               scheduler, length) -> None:  # fmt: skip
+    """Also the scene's length: ``--duration`` 0.3 s, or (no duration) until the spark
+    flashing after the volume's sound has been heard."""
     pytest.importorskip("dask")
     fa = _field_args(tmp_path)
     spark = f"spark:{discharge}:seed=3"
+    if length == "natural":
+        fa = [a for a in fa if a not in ("--duration", "0.3")]
+        spark += ",t0=0.05"
     plain, dask = tmp_path / "plain.wav", tmp_path / "dask.wav"
     assert main(["render", *fa, "--model", spark, "-o", str(plain), *OUT]) == 0
     capsys.readouterr()
@@ -167,8 +172,13 @@ def test_dask_render_of_a_scene_equals_the_render_without_dask(discharge, tmp_pa
     assert f"({scheduler})" in text and "1 model part(s) on this machine" in text
     x, y = _wav(plain), _wav(dask)
     assert x.shape == y.shape and np.max(np.abs(x)) > 0
+    if length == "--duration":
+        assert x.shape == (2, round(0.3 * RATE))
+    else:  # the spark flashes at 0.05 s and lasts a few ms
+        assert 0.05 * RATE < x.shape[1] < 0.1 * RATE
     assert np.max(np.abs(x - y)) <= 1e-6 * np.max(np.abs(x))
     side = _sidecar(dask)
+    assert side["duration_s"] == pytest.approx(x.shape[1] / RATE, abs=1 / RATE)
     assert side["dask"]["scheduler"] == scheduler and side["highpass_hz"] == 20.0
     assert [p["model"] for p in side["parts"]] == ["field", "spark"]
 
