@@ -238,7 +238,7 @@ def _source_box(volume: TimeVolume, tracks: SourceTracks | None) -> tuple[np.nda
 def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
                 path: ListenerPath | None = None, listener: Any = None,
                 duration: float | None = None, time_scale: float | str = "auto",
-                c0: float = C0) -> RenderPlan:  # fmt: skip
+                c0: float = C0, clip: bool = True) -> RenderPlan:  # fmt: skip
     """Choose the listener (if none is given), the time scale and the output window.
 
     * No ``path`` and no ``listener``: an orbit around the data
@@ -250,7 +250,8 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
       delays between the nearest and the farthest source, plays in
       ``duration``, whatever the data's time unit.  A number is kept; a
       ``duration`` beyond the data's sound is clipped (with a note), so no
-      render ends in silence.
+      render ends in silence; ``clip=False`` keeps it (a scene, whose other
+      sounds may last longer than the data's).
     * The output starts when the first sound can arrive: ``lead`` = nearest
       distance from the path to the sources' box / c0.
     """
@@ -284,7 +285,7 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
     d_near, d_far = float(near.min()), float(far.max())
     window = span + max(d_far - d_near, 0.0) / c0  # data seconds that hold sound
     ts = dur / window if auto else float(time_scale)
-    if not auto and dur > ts * window * (1 + 1e-9):
+    if clip and not auto and dur > ts * window * (1 + 1e-9):
         notes.append(f"{dur:g} s requested, but the data's sound lasts {ts * window:.4g} s at "
                      f"time scale {ts:g}: clipped to {ts * window:.4g} s")  # fmt: skip
         dur = ts * window
@@ -316,7 +317,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              layout: str = "mono", c0: float = C0, duration: float | None = None,
              series: SourceSeries | None = None, progress_bar: bool = False,
              timbre: str = "auto", highpass_hz: float = HIGHPASS_HZ, seed: int = 0,
-             listener: Any = None, hrtf: object = None,
+             listener: Any = None, hrtf: object = None, clip: bool = True,
              **mapping_fields: str) -> tuple[Rendered, SourceSeries]:  # fmt: skip
     """Detect sources (unless ``series`` is given) and render the sound along ``path``.
 
@@ -324,7 +325,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     ``listener`` an orbit around the data; ``time_scale="auto"`` fits the data
     in ``duration``; the output starts when the first sound can arrive).
     ``timbre``, ``highpass_hz`` and ``hrtf`` (binaural) as
-    :func:`auralize.emitters.timbre.render_timbre`.
+    :func:`auralize.emitters.timbre.render_timbre`; ``clip`` as :func:`plan_render`.
     The plan is recorded in ``meta`` (and so in the sidecar).
 
     The defaults are those of ``auralize render FILE -o OUT`` with no other
@@ -340,7 +341,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
                                 progress_bar=progress_bar, **mapping_fields)  # fmt: skip
     tracks = series.tracks()
     plan = plan_render(volume, tracks, path=path, listener=listener, duration=duration,
-                       time_scale=time_scale, c0=c0)  # fmt: skip
+                       time_scale=time_scale, c0=c0, clip=clip)  # fmt: skip
     check_distance(plan.path, volume.bounds)
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
                   lead=plan.lead)  # fmt: skip

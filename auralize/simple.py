@@ -564,12 +564,14 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     if needed), plus every sound model added with :func:`AddSoundModel`.
 
     The audio lasts the path's duration, clipped to the time the data's sound
-    lasts at the session's ``time_scale`` (then ``r.meta["notes"]`` says so).
+    lasts at the session's ``time_scale`` (then ``r.meta["notes"]`` says so)
+    unless models are added: a scene lasts the path's whole duration,
+    whenever the data's sound ends (as ``auralize render --path``).
     The added models are rendered along the same path with the same layout
     and rate, and summed (``r.meta["parts"]`` lists them); the 20 Hz output
     high-pass filters the data's sources only (a ``field`` model's too: the
-    rule of :func:`auralize.scene.soundscene.render_mix`);
-    without a data source the render is the models' alone, for the path's duration.
+    rule of :func:`auralize.scene.soundscene.render_mix`); without a data
+    source the render is the models' alone, for the path's duration.
 
     As ``auralize render``: ``timbre="auto"`` (physical if most of its energy is
     above 20 Hz, else extended), a 20 Hz high-pass, the steady part removed.
@@ -606,11 +608,10 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
             src.Sources = src.Detection.run()
         out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
                           time_scale=float(s.audio["time_scale"]), layout=s.audio["layout"],
-                          interp=interp, timbre=timbre)  # fmt: skip
+                          interp=interp, timbre=timbre, clip=not s.models)  # fmt: skip
     if s.models:
-        dur = out.duration if out is not None else p.duration
         mix = render_scene(s.models, p, rate=int(s.audio["rate"]), layout=s.audio["layout"],
-                           duration=dur, highpass_hz=HIGHPASS_HZ)  # fmt: skip
+                           duration=p.duration, highpass_hz=HIGHPASS_HZ)  # fmt: skip
         if out is not None:
             n = min(out.audio.shape[1], mix.audio.shape[1])
             out.audio[:, :n] += mix.audio[:, :n]

@@ -112,22 +112,57 @@ def test_field_plus_model_is_the_filtered_field_plus_the_model(discharge, tmp_pa
     assert main(["render", *fa, "--model", spark, "-o", str(mix), *OUT]) == 0
     f, m, x = _wav(field), _wav(model), _wav(mix)
     assert np.max(np.abs(f)) > 0 and np.max(np.abs(m)) > 0
-    # the volume's render lasts as long as the data's sound does (0.3 s at most)
-    assert x.shape == f.shape and 0 < f.shape[1] <= m.shape[1]
-    assert np.max(np.abs(x - (f + m[:, : f.shape[1]]))) <= 1e-6 * np.max(np.abs(x))
+    # the volume alone lasts as long as the data's sound does (shorter than 0.3 s at time
+    # scale 1); the scene lasts the --duration asked, to the sample
+    n = f.shape[1]
+    assert 0 < n < round(0.3 * RATE)
+    assert x.shape == m.shape == (2, round(0.3 * RATE))
+    assert np.max(np.abs(x[:, :n] - (f + m[:, :n]))) <= 1e-6 * np.max(np.abs(x))
+    # after the data's sound: the spark, plus what is left of the field's high-pass
+    assert np.max(np.abs(x[:, n:] - m[:, n:])) <= np.max(np.abs(f))
     side = _sidecar(mix)
-    assert side["highpass_hz"] == 20.0
+    assert side["highpass_hz"] == 20.0 and side["duration_s"] == 0.3
     assert [p["model"] for p in side["parts"]] == ["field", "spark"]
+
+
+def test_a_scene_without_duration_lasts_until_every_part_is_heard(discharge, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """No ``--duration`` and a static listener: the scene lasts until its last part has
+    been heard.  The spark flashes at 0.05 s, after the volume's sound has ended; every
+    one of its waves is in the file, and the file ends soon after the last."""
+    field, model, mix = tmp_path / "f.wav", tmp_path / "m.wav", tmp_path / "mix.wav"
+    fa = [a for a in _field_args(tmp_path) if a not in ("--duration", "0.3")]
+    spark = f"spark:{discharge}:seed=3,t0=0.05"
+    assert main(["render", *fa, "-o", str(field), *OUT]) == 0
+    assert main(["render", "--model", spark, "--listener", "1.5,0.5,0.5", "--duration", "0.3",
+                 "-o", str(model), *OUT]) == 0  # fmt: skip
+    assert main(["render", *fa, "--model", spark, "-o", str(mix), *OUT]) == 0
+    f, m, x = _wav(field), _wav(model), _wav(mix)
+    heard = np.flatnonzero(np.any(m != 0, axis=0))
+    first, last = int(heard[0]), int(heard[-1])
+    assert f.shape[1] < first  # cut to the volume's sound, the file would hold no spark
+    assert last < x.shape[1] <= last + round(0.02 * RATE)
+    assert np.max(np.abs(x[:, : f.shape[1]] - (f + m[:, : f.shape[1]]))) <= 1e-6 * np.max(np.abs(x))
+    assert np.max(np.abs(x[:, first:] - m[:, first : x.shape[1]])) <= 1e-3 * np.max(np.abs(m))
+    # without a volume the spark alone gets the same length
+    alone = tmp_path / "alone.wav"
+    assert main(["render", "--model", spark, "--listener", "1.5,0.5,0.5", "-o", str(alone),
+                 *OUT]) == 0  # fmt: skip
+    assert _wav(alone).shape == x.shape
 
 
 # ------------------------------------------------------------------------ Dask
 @pytest.mark.filterwarnings("ignore:.*unclosed.*:ResourceWarning")
-@pytest.mark.parametrize("scheduler", ["sync", "threads"])
+@pytest.mark.parametrize(("scheduler", "length"), [("sync", "--duration"), ("threads", "natural")])
 def test_dask_render_of_a_scene_equals_the_render_without_dask(discharge, tmp_path, capsys,  # type: ignore[no-untyped-def]
-                                                               scheduler) -> None:  # fmt: skip
+                                                               scheduler, length) -> None:  # fmt: skip
+    """Also the scene's length: ``--duration`` 0.3 s, or (no duration) until the spark
+    flashing after the volume's sound has been heard."""
     pytest.importorskip("dask")
     fa = _field_args(tmp_path)
     spark = f"spark:{discharge}:seed=3"
+    if length == "natural":
+        fa = [a for a in fa if a not in ("--duration", "0.3")]
+        spark += ",t0=0.05"
     plain, dask = tmp_path / "plain.wav", tmp_path / "dask.wav"
     assert main(["render", *fa, "--model", spark, "-o", str(plain), *OUT]) == 0
     capsys.readouterr()
@@ -137,8 +172,13 @@ def test_dask_render_of_a_scene_equals_the_render_without_dask(discharge, tmp_pa
     assert f"({scheduler})" in text and "1 model part(s) on this machine" in text
     x, y = _wav(plain), _wav(dask)
     assert x.shape == y.shape and np.max(np.abs(x)) > 0
+    if length == "--duration":
+        assert x.shape == (2, round(0.3 * RATE))
+    else:  # the spark flashes at 0.05 s and lasts a few ms
+        assert 0.05 * RATE < x.shape[1] < 0.1 * RATE
     assert np.max(np.abs(x - y)) <= 1e-6 * np.max(np.abs(x))
     side = _sidecar(dask)
+    assert side["duration_s"] == pytest.approx(x.shape[1] / RATE, abs=1 / RATE)
     assert side["dask"]["scheduler"] == scheduler and side["highpass_hz"] == 20.0
     assert [p["model"] for p in side["parts"]] == ["field", "spark"]
 

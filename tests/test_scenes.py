@@ -436,3 +436,91 @@ def test_a_session_keeps_its_sound_models(tone_models, tmp_path) -> None:  # typ
         assert not (tmp_path / "t.json").exists()
     finally:
         simple.ResetSession()
+
+
+# ---------------------------------------------------------- the scene's length
+def test_a_scene_lasts_until_its_last_emission_is_heard(tone_models, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Without ``--duration`` and with a static listener the scene ends when the last
+    emitted sample has reached the listener: ``t_end + D / c0`` of each tone (0.5 s of
+    emission, D = √10 m and √8.25 m), the later of the two."""
+    from auralize.audio import read_wav
+    from auralize.cli import main
+    from auralize.emitters import C0
+    from auralize.scene.soundscene import part_end, scene_length
+
+    a, b = tone_models
+    sound = _tone_sound(a, b)
+    p = ListenerPath.point([0, 0, 0], duration=10.0)
+    ends = [part_end(q, p) for q in sound.parts]
+    assert ends == pytest.approx([0.5 + np.sqrt(10.0) / C0, 0.5 + np.sqrt(8.25) / C0], abs=1e-12)
+    assert scene_length(sound, p) == max(ends)
+    out = tmp_path / "x.wav"
+    assert main(["render", "--model", f"tone:{a}", "--model", f"tone:{b}:gain=2",
+                 "--listener", "0,0,0", "--highpass", "0", "--normalize", "none",
+                 "-o", str(out)]) == 0  # fmt: skip
+    audio, rate, _ = read_wav(out)
+    n = round(max(ends) * rate)
+    assert audio.shape == (1, n)
+    # the file holds every arrival: rendered twice as long, nothing more is heard
+    long = render(sound, p, rate=rate, duration=2 * max(ends)).audio
+    assert np.max(np.abs(long[:, n:])) <= 1e-3 * np.max(np.abs(long))
+    assert np.max(np.abs(long[:, n - round(0.01 * rate) : n])) > 0.1 * np.max(np.abs(long))
+    assert np.max(np.abs(audio - long[:, :n])) <= 1e-5 * np.max(np.abs(long))
+
+
+def test_the_volume_part_ends_when_the_data_sound_does() -> None:
+    """The volume's sources end where :func:`plan_render` clips a render at a fixed time
+    scale; a part that cannot tell its end counts the path's duration; a silent scene is
+    refused."""
+    from auralize.emitters import FieldSources
+    from auralize.pipeline import detect_sources, load, plan_render
+    from auralize.scene.soundscene import part_end, scene_length
+    from auralize.sources import SourceTracks
+
+    vol = load("dataset:monopole", size=12, steps=60)
+    tracks = detect_sources(vol, thresholds=None).tracks()
+    assert tracks.n_sources > 0
+    for ts in (1.0, 3.0):
+        plan = plan_render(vol, tracks, listener=[1.5, 0.5, 0.5], duration=10.0, time_scale=ts)
+        assert plan.duration < 10.0  # clipped to the data's sound
+        part = FieldSources(tracks, time_scale=ts, lead=plan.lead)
+        assert part_end(part, plan.path) == pytest.approx(plan.duration, rel=1e-12)
+
+    class Quiet:  # a model part with no end_time
+        name = "quiet"
+
+        def render_part(self, path, **kw):  # type: ignore[no-untyped-def]
+            raise AssertionError("not rendered")
+
+    p = ListenerPath.point([0, 0, 0], duration=2.5)
+    assert part_end(Quiet(), p) is None
+    assert scene_length([Quiet()], p) == 2.5
+    assert scene_length([Quiet()], p, default=0.7) == 0.7
+    empty = SourceTracks(np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0), np.arange(4.0))
+    with pytest.raises(ParameterError, match="silent"):
+        scene_length([FieldSources(empty)], p)
+
+
+def test_add_sound_model_is_heard_after_the_data_sound_ends(tone_models) -> None:  # type: ignore[no-untyped-def]
+    """A script's scene lasts the path's duration even when the data's sound is shorter:
+    the models are not cut to it (the data alone still is)."""
+    from auralize import simple
+    from auralize.pipeline import auralize
+
+    a, _ = tone_models
+    simple.ResetSession()
+    try:
+        src = simple.OpenDataFile("dataset:monopole", size=12, steps=60)
+        p = simple.CreateListenerPath("point", at=[1.5, 0.5, 0.5], duration=0.2)
+        alone = simple.RenderAudio(src, path=p, time_scale=1.0)
+        assert 0 < alone.audio.shape[1] < round(0.2 * RATE)  # the data's sound: clipped
+        simple.AddSoundModel("tone", str(a))
+        r = simple.RenderAudio(src, path=p)
+        assert r.audio.shape == (1, round(0.2 * RATE))
+        field, _ = auralize(src.Volume, p, series=src.Sources, time_scale=1.0, clip=False)
+        tone = render(ToneModel().synthesize(ToneModel().load_input(str(a))), p,
+                      rate=RATE).audio  # fmt: skip
+        assert np.max(np.abs(tone[:, alone.audio.shape[1] :])) > 0.1 * np.max(np.abs(tone))
+        assert np.max(np.abs(r.audio - (field.audio + tone))) <= 1e-9 * np.max(np.abs(r.audio))
+    finally:
+        simple.ResetSession()

@@ -13,8 +13,6 @@ import pytest
 pytest.importorskip("pytestqt")
 pytest.importorskip("pyvistaqt")
 
-from qtpy import QtWidgets
-
 import auralize.plugins as plugins
 from auralize.emitters import Emitters, Sound, render
 from auralize.listener import ListenerPath
@@ -55,32 +53,16 @@ class SilentModel(SoundModel):
 
 
 @pytest.fixture
-def window(qtbot, tmp_path, monkeypatch):  # type: ignore[no-untyped-def]
-    from auralize.viewer.app import MainWindow
-
-    shown: list[str] = []
-    monkeypatch.setattr(QtWidgets.QMessageBox, "critical",
-                        lambda *a, **k: shown.append(a[2]) or QtWidgets.QMessageBox.StandardButton.Ok)  # fmt: skip
+def window(open_viewer, monkeypatch):  # type: ignore[no-untyped-def]
     real = plugins.registry()
     monkeypatch.setattr(plugins, "registry",
                         lambda: {**real, "beacon": BeaconModel, "sketch": SilentModel})  # fmt: skip
-    win = MainWindow(autosave_dir=tmp_path / "autosave")
-    qtbot.addWidget(win)
-    win.resize(900, 650)
-    win.show()
-    qtbot.waitExposed(win)
-    yield win, shown
-    win.close()
+    return open_viewer()
 
 
-def _render(qtbot, win, out: Path) -> np.ndarray:  # type: ignore[no-untyped-def]
-    win.rendered = None
-    win.render_audio(out)
-    qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=60_000)
-    return np.array(win.rendered.audio)
-
-
-def test_switching_an_overlay_on_adds_its_sound_to_the_render(qtbot, window, tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_switching_an_overlay_on_adds_its_sound_to_the_render(
+    qtbot, window, tmp_path, render_in_viewer
+) -> None:  # type: ignore[no-untyped-def]
     import json
 
     win, shown = window
@@ -92,13 +74,13 @@ def test_switching_an_overlay_on_adds_its_sound_to_the_render(qtbot, window, tmp
     ListenerPath.line(win.volume.center + [0.6, -0.4, 0], win.volume.center + [0.6, 0.4, 0],
                       duration=0.6).to_csv(csv)  # fmt: skip
     path = win.load_path(csv)
-    plain = _render(qtbot, win, tmp_path / "plain.wav")
+    plain = render_in_viewer(win, shown, tmp_path / "plain.wav")
 
     result: list[bool] = []
     win.set_overlay("beacon", True, then=result.append)
     qtbot.waitUntil(lambda: bool(result) and "beacon" in win._overlay_sounds, timeout=60_000)
     assert result == [True]
-    with_beacon = _render(qtbot, win, tmp_path / "beacon.wav")
+    with_beacon = render_in_viewer(win, shown, tmp_path / "beacon.wav")
     alone = render(BeaconModel().synthesize(win.volume), path, rate=win.audio["rate"],
                    layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
     assert with_beacon.shape == plain.shape == alone.shape
@@ -124,7 +106,7 @@ def test_switching_an_overlay_on_adds_its_sound_to_the_render(qtbot, window, tmp
         assert player.engine.extra is None
     finally:
         win.stop_live()
-    again = _render(qtbot, win, tmp_path / "again.wav")
+    again = render_in_viewer(win, shown, tmp_path / "again.wav")
     assert np.array_equal(again, plain)
     assert not shown
 
@@ -155,7 +137,7 @@ def test_live_block_with_an_overlay_sound_is_the_sum() -> None:
     assert np.max(np.abs(got - ref[:, : got.shape[1]])) <= 1e-9 * np.max(np.abs(ref))
 
 
-def test_the_fire_front_overlay_is_heard(qtbot, window, tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_the_fire_front_overlay_is_heard(qtbot, window, tmp_path, render_in_viewer) -> None:  # type: ignore[no-untyped-def]
     """The real fire model: its flame-front overlay adds the fire's sound (paper 001 §3)."""
     from auralize.plugins import synthesize
 
@@ -167,11 +149,11 @@ def test_the_fire_front_overlay_is_heard(qtbot, window, tmp_path) -> None:  # ty
     csv = tmp_path / "p.csv"
     ListenerPath.point(win.volume.center + [0.0, -1.0, 0.0], duration=0.3).to_csv(csv)
     path = win.load_path(csv)
-    plain = _render(qtbot, win, tmp_path / "plain.wav")
+    plain = render_in_viewer(win, shown, tmp_path / "plain.wav")
     result: list[bool] = []
     win.set_overlay("fire", True, then=result.append)
     qtbot.waitUntil(lambda: bool(result) and "fire" in win._overlay_sounds, timeout=60_000)
-    heard = _render(qtbot, win, tmp_path / "fire.wav")
+    heard = render_in_viewer(win, shown, tmp_path / "fire.wav")
     fire = render(synthesize("fire", win.volume), path, rate=win.audio["rate"],
                   layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
     assert np.max(np.abs(fire)) > 0

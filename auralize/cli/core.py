@@ -398,15 +398,29 @@ def scene_setup(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> tu
     return models, path, listener
 
 
+def scene_duration(args: argparse.Namespace, sound: Any, path: Any, own_path: bool) -> float:
+    """Playback seconds of a scene: ``--duration`` (or the scene file's) exactly; else the
+    length of a listener path given with the scene (``--path``, the scene's or session's
+    path); else long enough for every part (:func:`auralize.scene.soundscene.scene_length`:
+    a spark until its waves have passed, the volume's sound, a fire's emission heard)."""
+    from auralize.scene.soundscene import scene_length
+
+    if args.duration is not None:
+        return float(args.duration)
+    if own_path:
+        return float(path.duration)
+    return scene_length(sound, path)
+
+
 def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
                     command: str = "render") -> tuple[Any, Any, float, list[str]]:  # fmt: skip
     """The scene of ``--model``/``--scene`` (plus the field of a positional volume).
 
     Returns ``(sound, path, duration, notes)``: every model's
     :class:`~auralize.emitters.Sound` joined, the listener path, the playback
-    seconds and what to tell the user.  ``args.layout``/``args.rate``/
-    ``args.duration`` take the scene file's values where the command line left
-    them at ``parser_defaults``.
+    seconds (:func:`scene_duration`) and what to tell the user.
+    ``args.layout``/``args.rate``/``args.duration`` take the scene file's
+    values where the command line left them at ``parser_defaults``.
     """
     from auralize.emitters import Sound
     from auralize.pipeline import DEFAULT_DURATION, plan_render
@@ -414,6 +428,10 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     from auralize.spatial import get_layout
 
     models, path, listener = scene_setup(args, parser_defaults)
+    own_path = path is not None
+    n_channels = get_layout(args.layout).n_channels
+    if args.duration is not None or own_path:  # a known length fails before any slow work
+        check_render_memory(args, args.duration or path.duration, n_channels)
     notes: list[str] = []
     sound = Sound(parts=[], meta={}, name="")
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
@@ -430,8 +448,9 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
             series = detect_sources(vol, mapping=args.mapping, thresholds=thresholds_from_args(args),
                                     progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
         plan = plan_render(vol, series.tracks(), path=path, listener=listener,
-                           duration=args.duration, time_scale=args.time_scale)  # fmt: skip
-        path, duration = plan.path, plan.duration
+                           duration=args.duration, time_scale=args.time_scale,
+                           clip=False)  # fmt: skip
+        path = plan.path
         notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
         sound = sound + FieldAuralization().synthesize(
             (vol, series), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
@@ -447,9 +466,12 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
             from auralize.listener import ListenerPath
 
             path = ListenerPath.point(listener, duration=args.duration or DEFAULT_DURATION)
-        duration = args.duration or path.duration
-    check_render_memory(args, duration, get_layout(args.layout).n_channels)
-    sound = sound + scene_sound(models, path, duration, rate=args.rate)
+    sound = sound + scene_sound(models, path, args.duration, rate=args.rate)
+    duration = scene_duration(args, sound, path, own_path)
+    if args.duration is None and not own_path:
+        check_render_memory(args, duration, n_channels)
+        notes.append(f"scene length {duration:.4g} s: until every part has been heard "
+                     f"(give --duration to choose)")  # fmt: skip
     return sound, path, duration, notes
 
 

@@ -219,9 +219,17 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     field high-passed at ``--highpass``, the models as they are), so the file
     equals the render without the Dask options.
     """
-    from auralize.cli.core import check_render_memory, cmd_render_scene, load_volume, scene_setup
+    from auralize.cli.core import (
+        check_render_memory,
+        cmd_render_scene,
+        load_volume,
+        scene_duration,
+        scene_setup,
+    )
     from auralize.cli.options import DEFAULT_RATE
     from auralize.distributed import render_distributed
+    from auralize.emitters import FieldSources
+    from auralize.emitters.engine import parts_of
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass, loudness
     from auralize.pipeline import plan_render, save_rendered
@@ -238,6 +246,7 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
                              f"pressure only; render {args.timbre} without the Dask options")  # fmt: skip
     highpass(np.zeros((1, 0)), args.rate, args.highpass)  # validate early
     models, path, listener = scene_setup(args, defaults)
+    own_path = path is not None
     lay = get_layout(args.layout)
     vol = load_volume(args)
     t = time.perf_counter()
@@ -250,13 +259,16 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
             series = _detect(args, vol, runner, None)
         tracks = series.tracks()
         plan = plan_render(vol, tracks, path=path, listener=listener, duration=args.duration,
-                           time_scale=args.time_scale)  # fmt: skip
-        check_render_memory(args, plan.duration, lay.n_channels)
-        check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
+                           time_scale=args.time_scale, clip=False)  # fmt: skip
+        sound = scene_sound(models, plan.path, args.duration, rate=args.rate)
+        mine = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead)
+        duration = scene_duration(args, [mine, *parts_of(sound)], plan.path, own_path)
+        check_render_memory(args, duration, lay.n_channels)
+        check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=duration,
                       lead=plan.lead)  # fmt: skip
         field = render_distributed(
             tracks, plan.path, rate=args.rate, time_scale=plan.time_scale,
-            interp=args.interp, layout=lay, duration=plan.duration, bounds=vol.bounds,
+            interp=args.interp, layout=lay, duration=duration, bounds=vol.bounds,
             block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
         )  # fmt: skip
     from auralize.emitters.timbre import AUDIBLE_SHARE
@@ -267,14 +279,13 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     field.meta["parts"] = [{"model": "field", "kind": "FieldSources (Dask)",
                             "peak_pa": float(np.max(np.abs(field.audio), initial=0.0))}]  # fmt: skip
     dask_meta = {k: field.meta[k] for k in ("blocks", "groups", "tasks", "workers", "scheduler")}
-    sound = scene_sound(models, plan.path, plan.duration, rate=args.rate)
-    rest = render_mix(sound, plan.path, rate=args.rate, layout=lay, duration=plan.duration,
+    rest = render_mix(sound, plan.path, rate=args.rate, layout=lay, duration=duration,
                       highpass_hz=args.highpass)  # fmt: skip
     out = add_rendered(field, rest, args.highpass)
     out.meta.update({**plan.as_dict(), "timbre": "physical", "volume": vol.source,
                      "mapping": series.meta.get("mapping"), "dask": dask_meta,
                      "thresholds": np.asarray(series.thresholds).tolist(),
-                     "seconds": time.perf_counter() - t})  # fmt: skip
+                     "duration_s": duration, "seconds": time.perf_counter() - t})  # fmt: skip
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format)  # fmt: skip
     ld = loudness(out.audio, out.rate)

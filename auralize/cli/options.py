@@ -260,7 +260,12 @@ def add_output_options(
         "--duration",
         type=positive_float,
         help="playback seconds to render (default: the listener path's length"
-        + ("; needed with --listener)" if listener_required else ", else 10)"),
+        + (
+            "; needed with --listener)"
+            if listener_required
+            else ", else 10; a --model/--scene scene at a static listener: until every "
+            "part has been heard)"
+        ),
     )
     return g
 

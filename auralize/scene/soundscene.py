@@ -12,7 +12,7 @@ is a small JSON document::
 
     {
       "listener": {"path": "flight.csv"},          # or {"position": [x, y, z]}
-      "duration": 4.0,                              # optional (default: the path's)
+      "duration": 4.0,                              # optional (default: see below)
       "layout": "ring8", "rate": 44100,             # optional
       "models": [
         {"model": "field", "input": "data.h5", "params": {"time_scale": "auto"}},
@@ -22,6 +22,8 @@ is a small JSON document::
     }
 
 Relative file names in a scene file are relative to the scene file's folder.
+Without a ``duration`` a scene lasts its listener path's length, or, at a
+static listener, until every part has been heard (:func:`scene_length`).
 The ``field`` model accepts ``"time_scale": "auto"``: the data's span plays in
 the scene's duration (:func:`auralize.pipeline.plan_render`).
 
@@ -54,8 +56,10 @@ __all__ = [
     "SceneModel",
     "load_scene",
     "parse_model_spec",
+    "part_end",
     "render_mix",
     "render_scene",
+    "scene_length",
     "scene_sound",
     "split_field",
 ]
@@ -321,6 +325,92 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
         total = total + synthesize(model, inputs, **params)
     total.meta["scene"] = [sm.describe() for sm in models]
     return total
+
+
+def _farthest(points: Any, lo: Any, hi: Any) -> float:
+    """Largest distance (m) from any of ``points (N, 3)`` to the box ``[lo, hi]``."""
+    from auralize.emitters.synthesis import box_distances
+
+    _, far = box_distances(np.asarray(points, dtype=np.float64), lo, hi)
+    return float(np.max(far, initial=0.0))
+
+
+def part_end(part: Any, path: ListenerPath, *, c0: float | None = None) -> float | None:
+    """Playback second after which ``part`` is silent along ``path``, or None if unknown.
+
+    Times count from the path's first capture.  An emitter set ends when its
+    last emitted sample has reached the listener: ``t_end + D_max / c0``, with
+    ``D_max`` the largest distance between the emitters' box and a capture.
+    The volume's sources end when the last data step has arrived: playback
+    time ``t`` hears data time ``t0 + lead + t / time_scale``
+    (:mod:`auralize.emitters.synthesis`), so the end is
+    ``time_scale · (t_last − t0 − lead + D_max / c0)`` (``D_max`` from the
+    sources' box), the length :func:`auralize.pipeline.plan_render` gives
+    the data's sound.  A model's own part tells its end by an
+    ``end_time(path, *, c0)`` method (a spark: when its last wave has
+    passed); a part without one gives None.
+
+    Parameters
+    ----------
+    part : Emitters, FieldSources or a model part
+    path : ListenerPath
+    c0 : float, optional
+        Speed of sound, m/s (default :data:`auralize.emitters.C0`).
+
+    Returns
+    -------
+    float or None
+        Playback seconds (>= 0), or None.
+    """
+    from auralize.emitters import C0, Emitters, FieldSources
+
+    c = C0 if c0 is None else float(c0)
+    pts = np.asarray(path.positions, dtype=np.float64).reshape(-1, 3)
+    if isinstance(part, Emitters):
+        pos = part.positions.reshape(-1, 3)
+        reach = _farthest(pts, pos.min(axis=0), pos.max(axis=0))
+        return max(part.t_end + reach / c, 0.0)
+    if isinstance(part, FieldSources):
+        from auralize.emitters.synthesis import source_extent
+
+        tracks = part.tracks
+        times = np.asarray(tracks.times, dtype=np.float64)
+        if tracks.n_sources == 0 or times.size == 0:
+            return 0.0
+        lo, hi, _ = source_extent(tracks)
+        span = float(times[-1] - times[0]) - float(part.lead) + _farthest(pts, lo, hi) / c
+        return max(float(part.time_scale) * span, 0.0)
+    fn = getattr(part, "end_time", None)
+    if callable(fn):
+        return max(float(fn(path, c0=c)), 0.0)
+    return None
+
+
+def scene_length(sound: Any, path: ListenerPath, *, c0: float | None = None,
+                 default: float | None = None) -> float:  # fmt: skip
+    """Playback seconds long enough for every part of ``sound`` along ``path``.
+
+    The latest :func:`part_end` of the parts; a part that cannot tell its end
+    counts ``default`` seconds (default: the path's duration).  This is the
+    length of a scene rendered without a duration and without a listener path
+    of its own (a static listener): a spark until its waves have passed, the
+    volume's sound (:func:`auralize.pipeline.plan_render`), a fire or a vortex
+    until its emission has reached the listener.
+
+    Raises
+    ------
+    ParameterError
+        When every part is silent (nothing to render).
+    """
+    from auralize.emitters.engine import parts_of
+
+    fallback = path.duration if default is None else float(default)
+    ends = [part_end(p, path, c0=c0) for p in parts_of(sound)]
+    length = max((fallback if e is None else e for e in ends), default=0.0)
+    if not length > 0:
+        raise ParameterError("the scene is silent along the listener path: none of its parts "
+                             "sounds after the path's start; give --duration")  # fmt: skip
+    return float(length)
 
 
 def split_field(sound: Any) -> tuple[Any, Any]:

@@ -927,9 +927,17 @@ class MainWindow(QtWidgets.QMainWindow):
                      then: Callable[[], None] | None = None) -> Task:  # fmt: skip
         """Render the path's sound in the background (blocks of 0.5 s, cancellable) and
         write it to ``filename`` (WAV/FLAC) if given.  The sound of every overlay that
-        is switched on and heard (:meth:`overlay_sound`) is added along the same path."""
+        is switched on and heard (:meth:`overlay_sound`) is added along the same path.
+
+        The output rule of ``auralize render``
+        (:func:`auralize.scene.soundscene.add_rendered`): the volume's sources go
+        through the 20 Hz high-pass (:data:`auralize.emitters.timbre.HIGHPASS_HZ`),
+        the overlays' sound is heard as its model makes it; ``meta["highpass_hz"]``
+        (and so the sidecar) records the cut-off."""
         from auralize.emitters.synthesis import Rendered, check_distance, render
+        from auralize.emitters.timbre import HIGHPASS_HZ
         from auralize.pipeline import save_rendered
+        from auralize.scene.soundscene import add_rendered
 
         if self.volume is None:
             raise ParameterError("open a data file first")
@@ -959,17 +967,17 @@ class MainWindow(QtWidgets.QMainWindow):
                 if not progress(i + 1, n):
                     raise Cancelled(f"rendering cancelled after {t:.1f} of {total:.1f} s")
             audio = np.concatenate(blocks, axis=1)
-            parts = [{"model": "field", "kind": "FieldSources"}]
+            part = {"model": "field", "kind": "FieldSources",
+                    "peak_pa": float(np.max(np.abs(audio), initial=0.0))}  # fmt: skip
+            field = Rendered(audio=audio, rate=out.rate, layout=out.layout,
+                             time_scale=out.time_scale,
+                             meta={**out.meta, "t_start_data": first["t_start_data"],
+                                   "volume": vol.source, "parts": [part]})  # fmt: skip
+            more = None
             if extra is not None:  # the audible overlays, along the same path
                 more = render_sound(extra, path, rate=a["rate"], layout=a["layout"],
                                     duration=audio.shape[1] / a["rate"])  # fmt: skip
-                n = min(audio.shape[1], more.audio.shape[1])
-                audio[:, :n] += more.audio[:, :n]
-                parts += more.meta["parts"]
-            r = Rendered(audio=audio, rate=out.rate, layout=out.layout,
-                         time_scale=out.time_scale,
-                         meta={**out.meta, "t_start_data": first["t_start_data"],
-                               "volume": vol.source, "parts": parts})  # fmt: skip
+            r = add_rendered(field, more, HIGHPASS_HZ)
             if filename is not None:
                 save_rendered(r, filename)
             return r

@@ -347,6 +347,11 @@ class DischargePart:
         return emissions(self.discharge, listener, params=params, strokes=self.strokes,
                          layout=layout, t0=self.t0, rng=np.random.default_rng(self.seed))  # fmt: skip
 
+    def end_time(self, path: ListenerPath | NDArray[np.floating], *, c0: float = C0) -> float:
+        """Playback second (s) when the last wave has passed the listener, +10 ms: the
+        length :meth:`render_part` renders without a duration (scenes take it)."""
+        return self.emissions(path, c0=c0).end_time + 0.01
+
     def render_part(self, path: ListenerPath | NDArray[np.floating], *, rate: int = 44100,
                     layout: str | Layout = "mono", duration: float | None = None,
                     start: float = 0.0, c0: float = C0, backend: str = "auto") -> Rendered:  # fmt: skip

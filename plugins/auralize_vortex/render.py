@@ -380,6 +380,14 @@ class TruncatedEmitters:
     limit_pa: float
     name: str = "vortex"
 
+    def end_time(self, path: ListenerPath, *, c0: float = C0) -> float:
+        """Playback second (s) when the last emitted sample has reached the listener."""
+        from auralize.scene.soundscene import part_end
+
+        end = part_end(self.emitters, path, c0=c0)
+        assert end is not None
+        return end
+
     def render_part(self, path: ListenerPath, *, rate: int, layout: str | Layout,
                     duration: float | None, start: float, c0: float,
                     backend: str) -> Rendered:  # fmt: skip
