@@ -675,6 +675,7 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     if n < 4:
         meta["beta"] = 0.0
         return phys
+
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.maximum(f, 0.25 * f_cut) ** (-alpha / 2)
 

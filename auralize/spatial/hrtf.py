@@ -637,8 +637,9 @@ def ear_filters(rate: int, order: int = EAR_ORDER, *, radius: float = HEAD_RADIU
 
 
 @functools.lru_cache(maxsize=8)
-def ear_layout(order: int = EAR_ORDER, *, radius: float = HEAD_RADIUS,
-               ear_azimuth_deg: float = EAR_AZIMUTH_DEG) -> Layout:
+def ear_layout(
+    order: int = EAR_ORDER, *, radius: float = HEAD_RADIUS, ear_azimuth_deg: float = EAR_AZIMUTH_DEG
+) -> Layout:
     """The synthesis layout of the default ``binaural`` output: two ear receivers.
 
     Each ear (at ±``ear_azimuth_deg`` on the head's horizontal circle of
