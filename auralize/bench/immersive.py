@@ -13,7 +13,7 @@ bursts from moving emitters):
   overlap-add), whole signals and 50 ms live blocks (p95 against the live
   target of half a block);
 * live binaural blocks of the 32³ explosion (:class:`auralize.audio.live.BlockSynth`
-  with ``layout="binaural"``: the AmbiX synthesis of the block and the ears'
+  with ``layout="binaural"``: the synthesis of the block to the ear receivers and the ears'
   filters, the worker's whole job per 50 ms block at 44.1 kHz), p95 of the wall
   time against half a block, with the CPU time per block and the load average
   in the note (the machine may be shared).
@@ -173,10 +173,10 @@ def live_binaural_row(quick: bool) -> BenchRow:
 
 def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
     """The binaural render of the explosion's tracks along ``path``
-    (:func:`auralize.emitters.timbre.render_timbre`, ``physical``: the order-3 AmbiX
-    synthesis, the binaural decoder and the 20 Hz high-pass), against the
-    target of 20× real time; the synthesis of the binaural intermediate
-    (the harmonics the ears' filters use) alone in the note."""
+    (:func:`auralize.emitters.timbre.render_timbre`, ``physical``: the synthesis
+    to the two ear receivers, the ears' filters and the 20 Hz high-pass),
+    against the target of 20× real time; the synthesis of the intermediate
+    alone in the note."""
     import functools
 
     from auralize.emitters.synthesis import render
@@ -196,6 +196,7 @@ def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
         "× real time", target="≥ 20×" if size == 64 else "",
         met=speed >= 20 if size == 64 else None,
         note=f"median of 5 batches (fastest {path.duration / times.min():.1f}×); the synthesis "
-             f"to {lay.name} alone {path.duration / t_amb:.1f}× ({lay.n_channels} channels per "
-             f"piece)",
+             f"to {lay.name} alone {path.duration / t_amb:.1f}× ({lay.n_channels} channels"
+             + (f", {len(lay.meta['receivers'])} receivers" if lay.meta.get("receivers") else "")
+             + ")",
     )  # fmt: skip

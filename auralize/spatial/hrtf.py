@@ -1,9 +1,27 @@
-"""Binaural output: head-related impulse responses and the Ambisonic binaural decoder.
+"""Binaural output: the ears as receivers, head-related impulse responses, the
+Ambisonic binaural decoder.
 
-Approach
---------
-Ear signals are computed from an Ambisonic intermediate (AmbiX, order 3 by
-default; :mod:`auralize.spatial.ambisonics`): every renderer pans to the AmbiX
+Ears as receivers (the built-in head)
+-------------------------------------
+With the spherical-head model (below) each ear is a receiver of its own
+(:func:`ear_layout`): a point on the head at Brown & Duda's ear position, whose
+retarded time, distance and Doppler the renderers solve from its own path, so
+the straight-line part of the interaural delay is exact at every frequency and
+any distance.  What the model adds at the ear, the head-shadow filter and the
+extra delay of the ray that wraps around the head (:func:`ear_response`), depends
+only on the angle θ between the source and the ear: it is rendered as the zonal
+spherical harmonics of a frame along the ear's axis (4 channels per ear at order
+3) and turned into the ear signal by the fitted filters of :func:`ear_filters`
+(:class:`EarDecoder`).  This is bilateral Ambisonics with ear-aligned responses
+(Ben-Hur, Alon, Rafaely & Mehra, "Binaural reproduction based on bilateral
+Ambisonics and ear-aligned HRTFs", IEEE/ACM TASLP 29, 2021), here with the
+model's responses and its exact geometry.
+
+Ambisonic chain (HRIR sets, SOFA files)
+---------------------------------------
+For a measured set (whose ear positions are not known), ear signals are computed
+from an Ambisonic intermediate at the head's centre (AmbiX, order 3;
+:mod:`auralize.spatial.ambisonics`): every renderer pans to the AmbiX
 layout, and :class:`BinauralDecoder` filters the (N+1)² channels with
 spherical-harmonic-domain HRTF filters and sums them per ear.  A moving
 source or a turning head then only changes the (smooth) encoding gains: no

@@ -41,10 +41,15 @@ Immersive layouts
   recurrence from the Cartesian direction).  :func:`downmix_matrix` decodes
   AmbiX to any loudspeaker layout (AllRAD with max-rE weights).
 * ``binaural``: two ear signals (L, R).  Binaural output is not a panning law:
-  renderers pan to its Ambisonic intermediate (:func:`synthesis_layout`,
-  order 3) and :func:`output_stage` filters that with head-related impulse
-  responses (:mod:`auralize.spatial.hrtf`; the built-in spherical-head model or a
-  SOFA file), so every model gets binaural output, smooth under motion.  The
+  renderers pan to its intermediate (:func:`synthesis_layout`) and
+  :func:`output_stage` filters that with the head's responses
+  (:mod:`auralize.spatial.hrtf`), so every model gets binaural output, smooth
+  under motion.  With the built-in spherical head the intermediate is two
+  *receivers*, the ears (:func:`auralize.spatial.hrtf.ear_layout`): a layout of
+  several receivers (:func:`receivers_layout`) is rendered once per receiver,
+  along the receiver's own path (:func:`receiver_path`: a point fixed to the
+  listener's head, with its own frame), and the channels are stacked; with a
+  SOFA file it is AmbiX order 3 at the head's centre.  The
   stage runs once after the parts are summed (offline:
   :meth:`OutputStage.finish`; block by block: :meth:`OutputStage.process_at`,
   which carries the filters' state), and ``--hrtf`` of the command line sets
