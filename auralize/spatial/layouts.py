@@ -1116,7 +1116,9 @@ def output_stage(layout: Layout | str, rate: int, *, hrtf: object = None) -> Out
     Examples
     --------
     >>> st = output_stage("binaural", 48000)
-    >>> st.process(np.zeros((16, 480))).shape
+    >>> st.synthesis_layout.name, st.synthesis_layout.n_channels
+    ('binaural-ears', 8)
+    >>> st.process(np.zeros((8, 480))).shape
     (2, 480)
     """
     return OutputStage(get_layout(layout), rate, hrtf)

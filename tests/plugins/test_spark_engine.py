@@ -174,8 +174,9 @@ def test_live_discharges_follow_a_moving_listener() -> None:
 
 
 def test_binaural_discharge_is_the_ear_stage_of_its_ambix_render() -> None:
-    """A discharge rendered alone to ``binaural`` = its AmbiX render through the ears' filters
-    (the same as the engine's scene render), and a discharge on the right is louder right."""
+    """A discharge rendered alone to ``binaural`` = its render to the ear receivers through
+    the ears' filters (the same as the engine's scene render), and a discharge on the right
+    is louder right and arrives there first."""
     from auralize_spark.waves import Discharge, DischargePart, WaveParams
 
     from auralize.emitters import Sound, render
@@ -186,10 +187,14 @@ def test_binaural_discharge_is_the_ear_stage_of_its_ambix_render() -> None:
     # listener 1 m west of the spark, facing north (+y): the spark is on its right
     path = ListenerPath.point((-1.0, 0.0, 0.005), duration=0.02)
     ears = part.render_part(path, rate=44100, layout="binaural", duration=0.02)
-    amb = part.render_part(path, rate=44100, layout="ambix3", duration=0.02)
-    ref = output_stage("binaural", 44100).finish(amb).audio
+    stage = output_stage("binaural", 44100)
+    amb = part.render_part(path, rate=44100, layout=stage.synthesis_layout, duration=0.02)
+    assert amb.audio.shape[0] == 8
+    ref = stage.finish(amb).audio
     np.testing.assert_allclose(ears.audio, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
     scene = render(Sound([part]), path, rate=44100, layout="binaural", duration=0.02).audio
     np.testing.assert_allclose(scene, ears.audio, rtol=0, atol=1e-9 * np.abs(ref).max())
     left, right = np.sum(ears.audio**2, axis=1)
     assert right > 2 * left
+    onset = np.argmax(np.abs(ears.audio) > 0.05 * np.abs(ears.audio).max(), axis=1)
+    assert onset[0] - onset[1] >= 0.5e-3 * 44100  # the right ear hears it ≥ 0.5 ms earlier
