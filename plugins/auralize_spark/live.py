@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
-from auralize.spatial.layouts import Layout, get_layout
+from auralize.spatial.layouts import Layout, get_layout, output_stage, receiver_paths
 
 from .leader import Discharge
 from .waves import WaveParams, accumulate, emissions
@@ -72,7 +72,7 @@ class LiveDischarges:
         playback time is the stream time (arrivals are the exact retarded
         times along it).
     params : WaveParams of the discharges.
-    rate : Hz; layout : output layout.
+    rate : Hz; layout : output layout (``binaural`` too: each ear a receiver).
     capacity_s : length of the ring buffer in seconds (sound due further
         ahead than this is dropped).
     clock : callable returning seconds (default: :func:`time.perf_counter`);
@@ -100,10 +100,20 @@ class LiveDischarges:
         )
         self.params = params
         self.rate = int(rate)
-        self.layout = get_layout(layout)
+        # binaural: the waves are mixed in the ears' channels (each ear a receiver
+        # with its own arrivals), and pull() filters them with the ears' stage
+        self.stage = output_stage(get_layout(layout), self.rate)
+        self.layout = self.stage.layout
+        syn = self.stage.synthesis_layout
+        if syn.meta.get("receivers"):
+            path = (self.listener if isinstance(self.listener, ListenerPath)
+                    else ListenerPath(np.zeros(1), self.listener.reshape(1, 3)))  # fmt: skip
+            self._receivers: list[tuple[Layout, Any]] = receiver_paths(syn, path)
+        else:
+            self._receivers = [(syn, self.listener)]
         if not capacity_s > 0:
             raise ParameterError(f"capacity_s must be > 0, got {capacity_s!r}")
-        self._buf = np.zeros((self.layout.n_channels, int(math.ceil(capacity_s * self.rate))))
+        self._buf = np.zeros((syn.n_channels, int(math.ceil(capacity_s * self.rate))))
         self._read = 0  # absolute index of the next sample to pull (ring buffer)
         self._lock = threading.Lock()
         self._clock = clock or time.perf_counter
@@ -134,13 +144,18 @@ class LiveDischarges:
         self, discharge: Discharge, t_d: float, strokes: NDArray[np.float64], seed: int
     ) -> Delivery:
         t_start = self._clock()
-        em = emissions(discharge, self.listener, params=self.params, strokes=strokes,
-                       layout=self.layout, t0=t_d, rng=np.random.default_rng(seed))  # fmt: skip
-        due = max(em.start_time, t_d)  # stream time at which the first wave arrives
+        # one set of emissions per receiver (the same seed: the same discharge)
+        ems = [emissions(discharge, lis, params=self.params, strokes=strokes, layout=lay, t0=t_d,
+                         rng=np.random.default_rng(seed)) for lay, lis in self._receivers]  # fmt: skip
+        # stream time at which the first wave arrives
+        due = max(min(em.start_time for em in ems), t_d)
         first = due - t_d
-        n = int(math.ceil((em.end_time - due) * self.rate)) + 2
-        em.t_center = em.t_center - due  # waveform relative to its first sample
-        wave = accumulate(em, self.layout.n_channels, n, rate=self.rate, c=self.params.c)
+        n = int(math.ceil((max(em.end_time for em in ems) - due) * self.rate)) + 2
+        waves = []
+        for (lay, _), em in zip(self._receivers, ems, strict=True):
+            em.t_center = em.t_center - due  # waveform relative to its first sample
+            waves.append(accumulate(em, lay.n_channels, n, rate=self.rate, c=self.params.c))
+        wave = np.concatenate(waves)
         t_done = self._clock()
         compute = t_done - t_start
         late = max(0.0, (t_done - self._t0) - due)
@@ -156,7 +171,9 @@ class LiveDischarges:
 
     # ------------------------------------------------------------- consumer
     def pull(self, n_frames: int) -> NDArray[np.float64]:
-        """The next ``n_frames`` samples of the stream ``(n_channels, n_frames)`` (never blocks on work)."""
+        """The next ``n_frames`` samples of the stream ``(n_channels, n_frames)`` of
+        :attr:`layout` (never blocks on work; binaural: through the ears' filters,
+        whose state carries from pull to pull)."""
         n = int(n_frames)
         cap = self._buf.shape[1]
         with self._lock:
@@ -166,7 +183,7 @@ class LiveDischarges:
                 out[:, cap:] = 0.0
             self._buf[:, idx] = 0.0
             self._read += n
-        return out
+        return self.stage.process(out)
 
     def _mix(self, wave: NDArray[np.float64], start: int) -> None:
         """Add ``wave`` at absolute sample ``start`` (caller holds the lock); beyond capacity is dropped."""

@@ -151,6 +151,38 @@ def test_model_sound_renders_like_the_cli_and_is_listener_free(tmp_path) -> None
     assert mask == 0x3F  # FL FR FC LFE BL BR
 
 
+def test_live_discharges_binaural_match_the_offline_ears() -> None:
+    """LiveDischarges to ``binaural``: the waves are mixed in the ear receivers'
+    channels and pulled through the ears' filters, block after block; the stream
+    matches the discharge part rendered offline to ``binaural``: onset within a
+    sample and ear energies within 25 % (the stream starts each wave on a whole
+    sample, and an N-wave here lasts a few samples), the right ear first and
+    louder for a discharge on the right."""
+    from auralize_spark import LiveDischarges
+    from auralize_spark.waves import DischargePart
+
+    d = Discharge(np.array([[0.0, 0, 0], [0.0, 0, 0.01]]), [-1, 0], [True, True])
+    path = ListenerPath.point((-3.43, 0.0, 0.005), duration=0.05)  # the spark on its right
+    n = int(0.05 * 44100)
+    with LiveDischarges(path, params=PARAMS, rate=44100, layout="binaural",
+                        clock=lambda: 0.0) as live:  # fmt: skip
+        live.submit(d, at=0.0).result(timeout=30)
+        audio = np.concatenate([live.pull(441) for _ in range(n // 441)], axis=1)
+    off = DischargePart(d, PARAMS, np.zeros(1)).render_part(path, rate=44100, layout="binaural",
+                                                            duration=n / 44100)  # fmt: skip
+    assert audio.shape == (2, n // 441 * 441)
+    ref = off.audio[:, : audio.shape[1]]
+    # the stream places the first wave on a whole sample: within one sample of offline
+    lag = np.argmax(np.abs(audio[1]) > 0.05 * np.abs(audio).max())
+    lag_ref = np.argmax(np.abs(ref[1]) > 0.05 * np.abs(ref).max())
+    assert abs(int(lag) - int(lag_ref)) <= 1
+    np.testing.assert_allclose(np.sum(audio**2, axis=1), np.sum(ref**2, axis=1), rtol=0.25)
+    left, right = np.sum(audio**2, axis=1)
+    assert right > 2 * left
+    onset = np.argmax(np.abs(audio) > 0.05 * np.abs(audio).max(), axis=1)
+    assert onset[0] - onset[1] >= 0.5e-3 * 44100
+
+
 def test_live_discharges_follow_a_moving_listener() -> None:
     """LiveDischarges with a path: the first wave is due at the exact retarded arrival."""
     from auralize_spark import LiveDischarges
