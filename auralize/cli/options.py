@@ -223,7 +223,8 @@ def add_output_options(
     if not emitted:
         g.add_argument("--layout", default=layout, help=f"{layouts} (default {layout})")
         g.add_argument("--hrtf", metavar="FILE.sofa",
-                       help="HRIRs for --layout binaural (AES69 SOFA; default: spherical head)")  # fmt: skip
+                       help="HRIRs for --layout binaural (AES69 SOFA, decoded from AmbiX order 3); "
+                            "default: a spherical head whose ears are receivers of their own")  # fmt: skip
     g.add_argument("--rate", type=rate_int, default=DEFAULT_RATE,
                    help=f"output sample rate in Hz (default {DEFAULT_RATE})"
                    + ("; an input at another rate is resampled to it" if emitted else ""))  # fmt: skip
