@@ -270,7 +270,6 @@ class TableEmitters(Emitters):
         pad[np.arange(tab.shape[0]), lens] = tab[:, 0]
         self.padded_table = pad
         self._signals: NDArray[np.float64] | None = None
-        self._rows: NDArray[np.float64] | None = None
         self.rate, self.positions, self.t0, self.pos_rate = rate, positions, t0, pos_rate
         self.radius, self.law, self.name = radius, law, name
         self.meta = {} if meta is None else dict(meta)
@@ -304,19 +303,6 @@ class TableEmitters(Emitters):
         self.rate = float(self.rate)
         self.t0 = float(self.t0)
         self.radius = np.ascontiguousarray(rad)
-
-    @property
-    def row_positions(self) -> NDArray[np.float64]:
-        """``(S, B, 3)``: the table positions at each block's start in rows r0 and r1
-        (each in ``[0, length]``) and the position step per emission sample."""
-        if self._rows is None:
-            start = self.phase[:, :-1]
-            na = self.lengths[self.r0]
-            nb = self.lengths[self.r1]
-            self._rows = np.stack([start - np.floor(start / na) * na,
-                                   start - np.floor(start / nb) * nb,
-                                   np.diff(self.phase, axis=1) / self.block], axis=-1)  # fmt: skip
-        return self._rows
 
     @property  # type: ignore[override]
     def signals(self) -> NDArray[np.float64]:

@@ -333,15 +333,21 @@ def _wrap(x, n):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_hi, p0, p1, x0,
+def _row_pos(x, lf, r):  # type: ignore[no-untyped-def]
+    """Table position x on row r (``lf`` as for :func:`_seg_table`), about in ``[0, length)``
+    (the reads check)."""
+    return x - math.floor(x * lf[r, 1]) * lf[r, 0]
+
+
+@numba.njit(inline="always", **_NJIT)
+def _seg_table(tab, lf, qa, qb, ph, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_hi, p0, p1, x0,
                h1, h2, h3, w, ja, jb, wk, ka, kb, g, gk):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`_segment` for table emitter s (:class:`auralize.emitters.TableEmitters`): its
     signal evaluated at the emission index itself (the table rows read linearly at the
     table position there), each table component weighted by :func:`_lin` for the table
     block of the index; zero outside the emission, as stored samples.  ``tab`` is
-    padded (row r's sample ``lens[r]`` is its sample 0); ``rp (S, B, 3)``: the table
-    positions at each block's start in rows r0 and r1 (in ``[0, lens)``) and their step
-    per emission sample."""
+    padded (row r's sample ``lf[r, 0]`` is its sample 0); ``lf (R, 2)``: the rows' lengths
+    and their inverses; ``ph (S, B + 1)``: the table positions at the blocks' ends."""
     P = tab.shape[2]
     n_ch = out.shape[0]
     x_last = r0.shape[1] * gK - 1.0
@@ -372,9 +378,9 @@ def _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_
             xbeg = float(b * gK)
             xend = xbeg + gK
             ra = r0[s, b]
-            Na = lens[ra]
-            pa = rp[s, b, 0]
-            ds = rp[s, b, 2]
+            Na = lf[ra, 0]
+            pa = _row_pos(ph[s, b], lf, ra)
+            ds = (ph[s, b + 1] - ph[s, b]) * ginv
             if wt[s, b] != 0.0 or ds < 0.0:
                 break  # two rows, or backwards: sample by sample below
             m0, k0 = _lin(qa, qb, s, b, 0, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
@@ -401,8 +407,8 @@ def _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_
                 i += 1
     xbeg = 1.0
     xend = 0.0  # no table block loaded yet
-    ra = rb = Na = Nb = 0
-    pa = pb = ds = wr = 0.0
+    ra = rb = 0
+    Na = Nb = pa = pb = ds = wr = 0.0
     m0 = k0 = m1 = k1 = 0.0
     i_rest = i
     for i in range(i_rest, i_hi):
@@ -419,11 +425,11 @@ def _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_
             ra = r0[s, b]
             rb = r1[s, b]
             wr = wt[s, b]
-            Na = lens[ra]
-            Nb = lens[rb]
-            pa = rp[s, b, 0]
-            pb = rp[s, b, 1]
-            ds = rp[s, b, 2]
+            Na = lf[ra, 0]
+            Nb = lf[rb, 0]
+            pa = _row_pos(ph[s, b], lf, ra)
+            pb = _row_pos(ph[s, b], lf, rb)
+            ds = (ph[s, b + 1] - ph[s, b]) * ginv
             m0, k0 = _lin(qa, qb, s, b, 0, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
             if P == 2:
                 m1, k1 = _lin(qa, qb, s, b, 1, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg,
@@ -469,9 +475,9 @@ def _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_
 
 
 @numba.njit(**_NJIT)
-def _table_samples(tab, lens, qa, qb, rp, r0, r1, wt, K, out, s0, s1):  # type: ignore[no-untyped-def]
+def _table_samples(tab, lf, qa, qb, ph, r0, r1, wt, K, out, s0, s1):  # type: ignore[no-untyped-def]
     """Every emission sample of table emitters ``s0 <= s < s1`` into ``out (S, C, B K)``
-    (the definition in :class:`auralize.emitters.TableEmitters`; ``tab`` and ``rp`` as
+    (the definition in :class:`auralize.emitters.TableEmitters`; ``tab`` and ``lf`` as
     for :func:`_seg_table`)."""
     B = qa.shape[1]
     C = qa.shape[2]
@@ -483,21 +489,21 @@ def _table_samples(tab, lens, qa, qb, rp, r0, r1, wt, K, out, s0, s1):  # type: 
             ra = r0[s, b]
             rb = r1[s, b]
             wr = wt[s, b]
-            Na = lens[ra]
-            Nb = lens[rb]
-            pa = rp[s, b, 0]
-            pb = rp[s, b, 1]
-            ds = rp[s, b, 2]
+            Na = lf[ra, 0]
+            Nb = lf[rb, 0]
+            pa = _row_pos(ph[s, b], lf, ra)
+            pb = _row_pos(ph[s, b], lf, rb)
+            ds = (ph[s, b + 1] - ph[s, b]) * inv
             for j in range(K):
                 x = pa + ds * j
                 if x >= Na or x < 0.0:
-                    x -= math.floor(x / Na) * Na
-                k = min(int(x), Na - 1)
+                    x = _wrap(x, Na)
+                k = int(x)
                 fr = x - k
                 y = pb + ds * j
                 if y >= Nb or y < 0.0:
-                    y -= math.floor(y / Nb) * Nb
-                kb = min(int(y), Nb - 1)
+                    y = _wrap(y, Nb)
+                kb = int(y)
                 fb = y - kb
                 for p in range(P):
                     a = tab[ra, k, p]
@@ -516,7 +522,7 @@ def _table_samples(tab, lens, qa, qb, rp, r0, r1, wt, K, out, s0, s1):  # type: 
 
 @numba.njit(**_NJIT, fastmath={"contract"})
 def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, VR, VL, F, U,
-            kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, gen, tab, lens, qa, qb, rp, r0,
+            kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, gen, tab, lf, qa, qb, ph, r0,
             r1, wt, gK, out, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip
     """Add the emitters heard in blocks ``b0 <= b < b1`` to ``out (n_ch, n)``.
 
@@ -541,8 +547,8 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
     follow and the few points not converged then (a step across a trajectory
     sample) continue alone.
 
-    ``gen``: the emitters are table emitters (``tab`` and ``rp`` as for
-    :func:`_seg_table`, ``lens, qa, qb, r0, r1, wt`` and ``gK`` samples per
+    ``gen``: the emitters are table emitters (``tab``, ``lf`` and ``ph`` as for
+    :func:`_seg_table`, ``qa, qb, r0, r1, wt`` and ``gK`` samples per
     table block, as :class:`auralize.emitters.TableEmitters`; ``sig`` is not
     read): each sample evaluates the signal at its emission index
     (:func:`_seg_table`).
@@ -625,35 +631,30 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                 if i_lo >= i_hi:
                     continue
                 kj = kf[b]
-                if kj < 0.0:  # cubic Hermite emission index
-                    h2 = 3.0 * (xb - xa) - 2.0 * ma[j] - mb[j + 1]
-                    h3 = 2.0 * (xa - xb) + ma[j] + mb[j + 1]
-                    if gen:
-                        _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_hi,
-                                   0.0, float(K), xa, ma[j], h2, h3, w, j, j + 1, wk, False,
-                                   False, g, gk)  # fmt: skip
-                    else:
-                        _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, 0.0, float(K), xa,
-                                 ma[j], h2, h3, w, j, j + 1, wk, False, False, g, gk)  # fmt: skip
-                    continue
-                # linear on both sides of the capture
                 ik = min(max(int(math.ceil(kj)), i_lo), i_hi)
-                if ik > i_lo:
-                    if gen:
-                        _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, ik, 0.0,
-                                   kj, xa, xk[j] - xa, 0.0, 0.0, w, j, j, wk, False, True, g,
-                                   gk)  # fmt: skip
+                # one piece (cubic Hermite emission index), or two linear pieces on both
+                # sides of a capture; one call site each keeps the kernel small
+                for q in range(1 if kj < 0.0 else 2):
+                    if kj < 0.0:
+                        lo, hi, p0, p1, x0, h1 = i_lo, i_hi, 0.0, float(K), xa, ma[j]
+                        h2 = 3.0 * (xb - xa) - 2.0 * ma[j] - mb[j + 1]
+                        h3 = 2.0 * (xa - xb) + ma[j] + mb[j + 1]
+                        ja, jb, ka, kb = j, j + 1, False, False
+                    elif q == 0:
+                        lo, hi, p0, p1, x0, h1, h2, h3 = i_lo, ik, 0.0, kj, xa, xk[j] - xa, 0.0, 0.0
+                        ja, jb, ka, kb = j, j, False, True
                     else:
-                        _segment(sig, s, last, vbuf, out, n0, i_lo, ik, 0.0, kj, xa, xk[j] - xa,
-                                 0.0, 0.0, w, j, j, wk, False, True, g, gk)  # fmt: skip
-                if i_hi > ik:
+                        lo, hi, p0, p1, x0, h1 = ik, i_hi, kj, float(K), xk[j], xb - xk[j]
+                        h2 = h3 = 0.0
+                        ja, jb, ka, kb = j, j + 1, True, False
+                    if hi <= lo:
+                        continue
                     if gen:
-                        _seg_table(tab, lens, qa, qb, rp, r0, r1, wt, gK, s, vbuf, out, n0, ik, i_hi, kj,
-                                   float(K), xk[j], xb - xk[j], 0.0, 0.0, w, j, j + 1, wk, True,
-                                   False, g, gk)  # fmt: skip
+                        _seg_table(tab, lf, qa, qb, ph, r0, r1, wt, gK, s, vbuf, out, n0, lo, hi,
+                                   p0, p1, x0, h1, h2, h3, w, ja, jb, wk, ka, kb, g, gk)  # fmt: skip
                     else:
-                        _segment(sig, s, last, vbuf, out, n0, ik, i_hi, kj, float(K), xk[j],
-                                 xb - xk[j], 0.0, 0.0, w, j, j + 1, wk, True, False, g, gk)  # fmt: skip
+                        _segment(sig, s, last, vbuf, out, n0, lo, hi, p0, p1, x0, h1, h2, h3, w,
+                                 ja, jb, wk, ka, kb, g, gk)  # fmt: skip
 
 
 @numba.njit(**_NJIT)
@@ -676,8 +677,8 @@ def table_signals(em: Any) -> NDArray[np.float64]:
     out = np.empty((S, C, B * em.block))
     n_pieces = max(1, min(S, 4 * _N_THREADS)) if out.size >= _MIN_SPLIT else 1
     edges = [S * i // n_pieces for i in range(n_pieces + 1)]
-    args = (em.padded_table, em.lengths, em.qa, em.qb, em.row_positions, em.r0, em.r1, em.w,
-            em.block, out)  # fmt: skip
+    args = (em.padded_table, _lengths(em), em.qa, em.qb, em.phase, em.r0, em.r1, em.w, em.block,
+            out)  # fmt: skip
     _run(lambda i: _table_samples(*args, edges[i], edges[i + 1]), n_pieces, _N_THREADS)
     return out
 
@@ -685,11 +686,17 @@ def table_signals(em: Any) -> NDArray[np.float64]:
 def _table_args(em: Any, gen: bool) -> tuple[Any, ...]:
     """The table-emitter arguments of :func:`_render` (placeholders for stored signals)."""
     if gen:
-        return (True, em.padded_table, em.lengths, em.qa, em.qb, em.row_positions, em.r0,
-                em.r1, em.w, int(em.block))  # fmt: skip
+        return (True, em.padded_table, _lengths(em), em.qa, em.qb, em.phase, em.r0, em.r1, em.w,
+                int(em.block))  # fmt: skip
     zi = np.zeros((1, 1), dtype=np.int64)
-    return (False, np.zeros((1, 2, 1)), np.ones(1, dtype=np.int64), np.zeros((1, 1, 1, 1)),
-            np.zeros((1, 1, 1, 1)), np.zeros((1, 1, 3)), zi, zi, np.zeros((1, 1)), 1)  # fmt: skip
+    return (False, np.zeros((1, 2, 1)), np.ones((1, 2)), np.zeros((1, 1, 1, 1)),
+            np.zeros((1, 1, 1, 1)), np.zeros((1, 2)), zi, zi, np.zeros((1, 1)), 1)  # fmt: skip
+
+
+def _lengths(em: Any) -> NDArray[np.float64]:
+    """``(R, 2)``: the table rows' lengths and their inverses."""
+    n = em.lengths.astype(np.float64)
+    return np.ascontiguousarray(np.stack([n, 1.0 / n], axis=1))
 
 
 def _run(fn: Callable[[int], None], n: int, nt: int) -> None:

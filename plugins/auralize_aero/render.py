@@ -20,19 +20,22 @@ For every point source l (:meth:`AeroObject.sources`):
   is a sum of point dipoles: with û = (q - o_l)/r_l it is
   ``û · G_l(τ_l) / r_l`` for the world-frame dipole vector
   ``G_l = Δh_l g_l / (4π c0)`` (g rotated from the section frame to the
-  world).  This module emits G_l on an emission-time grid
-  (:class:`AeroEmission`); the sound engine
+  world).  This module emits G_l as table emitters
+  (:class:`AeroEmission`, :class:`auralize.emitters.TableEmitters`: G = Q g
+  with the 3x2 matrix Q linear per block and g the texture read at the
+  texture coordinate); the sound engine
   (:func:`auralize.emitters.render_emitters`, distance law exponent 1) does
   the retarded time τ_l = t - r_l/c0, the 1/r, the Doppler shift of moving
   sources and the panning to any layout.
 
 Smooth quantities (kinematics, amplitude, section frame, direction look-up,
 texture coordinate) live on a grid of one value per ``block`` emission
-samples and are interpolated linearly within a block; the per-sample
-texture read is a numba loop (:func:`_emit_kernel`, sources split over up
-to two threads).  ``engine="numpy"`` runs the reference numpy path
-(:func:`kinematics_reference`, :func:`emission_reference`), equal up to
-rounding.
+samples and are interpolated linearly within a block, computed by one
+numba pass (:func:`_q_kernel`, sources split over up to two threads); the
+engine reads the texture per output sample.  ``engine="numpy"`` runs the
+reference numpy path (:func:`kinematics_reference`,
+:func:`emission_reference`: G stored), whose samples equal the table
+emitters' up to rounding.
 """
 
 from __future__ import annotations
@@ -292,10 +295,10 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
     return Kinematics(dt, pos, e1, e2, c1, c2, a, s, span)
 
 
-#: bytes of per-block tables (kinematics, texture look-up, table emitters) per rendered window
+#: bytes of per-block tables (table emitters) per rendered window
 CHUNK_BYTES = 16 << 20
-#: bytes of those tables per source and block
-_BLOCK_BYTES = 264
+#: bytes of the table emitters' arrays per source and block
+_BLOCK_BYTES = 176
 
 
 @numba.njit(**_NJIT)
@@ -346,7 +349,8 @@ def _q_kernel(e1: NDArray[np.float64], e2: NDArray[np.float64], speed: NDArray[n
 def emission_reference(e1a: NDArray[np.float64], e2a: NDArray[np.float64], M: NDArray[np.float64],
                        j0: NDArray[np.int64], j1: NDArray[np.int64], w: NDArray[np.float64],
                        s: NDArray[np.float64], tex: SoundTexture, K: int) -> NDArray[np.float64]:  # fmt: skip
-    """:func:`_emit_kernel` in numpy (every sample at once): ``G (S, 3, B K)``."""
+    """The samples of the table emitters of :meth:`AeroEmission._emitters`, in numpy (every
+    sample at once): ``G (S, 3, B K)``."""
     S, B = j0.shape
     frac = np.arange(K) / K
     Mr = M.reshape(S, B, 2, 2)
@@ -412,7 +416,7 @@ class AeroEmission:
         return self.n_blocks * self.kin.dt
 
     def _table(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
-        """Per-block quantities of blocks ``ja..jb`` for :func:`_emit_kernel` (Eq. 3, §7.3).
+        """Per-block quantities of blocks ``ja..jb`` for :func:`emission_reference` (Eq. 3, §7.3).
 
         Cut from a table of many blocks at once (:meth:`_table_of`, up to
         about :data:`CHUNK_BYTES`), made again when a window leaves it: the
@@ -540,7 +544,7 @@ class AeroEmission:
         lay = stage.synthesis_layout
         dur = path.duration - start if duration is None else float(duration)
         n_out = int(round(dur * rate))
-        out = np.zeros((lay.n_channels, n_out))
+        out: NDArray[np.float64] | None = None
         blocks = CHUNK_BYTES / (_BLOCK_BYTES * self.n_sources)
         step = max(256, int(blocks * self.block * rate / self.rate))
         step = max(1, -(-n_out // max(1, -(-n_out // step))))  # windows of equal length
@@ -552,8 +556,15 @@ class AeroEmission:
                 continue
             r = render_emitters(self._emitters(*win), path, rate=rate, layout=lay,
                                 duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend)  # fmt: skip
+            if na == 0 and nb == n_out and r.audio.shape == (lay.n_channels, n_out):
+                out = r.audio  # one window: its audio is the result
+                break
+            if out is None:
+                out = np.zeros((lay.n_channels, n_out))
             m = min(nb - na, r.audio.shape[1])
             out[:, na : na + m] = r.audio[:, :m]
+        if out is None:  # nothing audible
+            out = np.zeros((lay.n_channels, n_out))
         return stage.finish(Rendered(
             audio=out, rate=int(rate), layout=lay, meta={**self.meta, "model": self.name}
         ))  # fmt: skip
