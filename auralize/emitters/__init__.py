@@ -253,8 +253,8 @@ class TableEmitters(Emitters):
             raise ParameterError(f"{who}: phase must be (S, B+1) = {(S, B + 1)} and r0, r1, w "
                                  f"(S, B) = {(S, B)}, got {ph.shape}, {r0.shape}, {r1.shape}, "
                                  f"{w.shape}")  # fmt: skip
-        for a in (r0, r1):
-            if a.min() < 0 or a.max() >= tab.shape[0]:
+        for rows in (r0, r1):
+            if rows.min() < 0 or rows.max() >= tab.shape[0]:
                 raise ParameterError(f"{who}: table rows must be in 0..{tab.shape[0] - 1}")
         for key, a in (("table", tab), ("qa", qa), ("qb", qb), ("phase", ph), ("w", w)):
             if not np.isfinite(np.sum(a)):  # one pass: a sum of finite values is finite
@@ -304,8 +304,8 @@ class TableEmitters(Emitters):
         self.t0 = float(self.t0)
         self.radius = np.ascontiguousarray(rad)
 
-    @property  # type: ignore[override]
-    def signals(self) -> NDArray[np.float64]:
+    @property
+    def signals(self) -> NDArray[np.float64]:  # type: ignore[override]
         """The emission samples ``(S, n)`` or ``(S, 3, n)`` (generated on first use)."""
         if self._signals is None:
             from auralize.emitters._sampled import table_signals

@@ -467,7 +467,8 @@ class AeroEmission:
         kin, tex = self.kin, self.texture
         pos = kin.pos[:, 0] if self.static else kin.pos[:, ja : jb + 2]
         if self.engine == "numpy":
-            G = emission_reference(*self._table(ja, jb), tex, K)
+            e1a, e2a, Mt, j0t, j1t, wt, st = self._table(ja, jb)
+            G = emission_reference(e1a, e2a, Mt, j0t, j1t, wt, st, tex, K)
             return Emitters(G, self.rate, pos, t0=ja * kin.dt, pos_rate=self.rate / K,
                             radius=self.radius, law=1.0, name=self.name)  # fmt: skip
         # G = Q g with Q = amp [e1 e2] M (3x2) at both ends of each block, M the block's map
