@@ -9,6 +9,10 @@ along one listener path.  Three kinds of parts make up a :class:`Sound`:
     point emitters with emitted signals sampled at any rate (audio-rate
     textures of vortex and aerodynamic sound, a fire's pressure, a moving
     object), monopole ``(S, n)`` or dipole ``(S, 3, n)``;
+:class:`TableEmitters`
+    emitters whose signals are smooth modulations of looping tables
+    (aerodynamic sound textures), read from the tables where the engine
+    evaluates them;
 :class:`FieldSources`
     the monopole/dipole/quadrupole sources detected in a volume
     (:class:`auralize.sources.detection.SourceTracks`), sampled at the data's steps and
@@ -168,6 +172,164 @@ class Emitters:
         assert self.pos_rate is not None
         tp = self.t0 + np.arange(self.positions.shape[1]) / self.pos_rate
         return np.stack([np.interp(tau, tp, self.positions[s, :, k]) for k in range(3)], axis=1)
+
+
+class TableEmitters(Emitters):
+    """Point emitters whose signals are read from looping tables as the engine renders them.
+
+    For models whose emitted signal is a smooth modulation of a looping
+    table (the sound textures of aerodynamic sound, paper 004 §6, Eq. 3):
+    the sampled backend evaluates the signal where it reads it, at the
+    fractional emission index of each output sample, instead of writing
+    every emission sample to an array and reading it back.  The signal of
+    emitter s at emission index ``x`` (playback second ``t0 + x / rate``;
+    ``0 <= x <= B·block − 1``, zero outside), in table block ``b = ⌊x / block⌋``
+    at ``f = x / block − b``, is
+
+        a_c(x) = Σ_p (qa[s,b,c,p] + f (qb[s,b,c,p] − qa[s,b,c,p])) · T_p(x)
+        T_p(x) = (1 − w[s,b]) R_p(r0[s,b], φ) + w[s,b] R_p(r1[s,b], φ)
+        φ = phase[s,b] + f (phase[s,b+1] − phase[s,b])      (modulo the row's length)
+
+    with ``R_p(r, φ)`` table row r read linearly at position φ, looping (row
+    r holds ``lengths[r]`` samples).  :attr:`signals` are its samples at
+    integer x (generated on first use; the numpy reference backend and
+    upsampling read them); the sampled backend evaluates ``a(x)`` itself,
+    which differs from reading those samples linearly by that linear
+    read's error.  A dipole's projection on the direction to the listener
+    is taken on the P table components once per control point.
+
+    Parameters
+    ----------
+    table : (R, N, P) float
+        R looping rows of P = 1 or 2 components (row r uses its first
+        ``lengths[r]`` samples).
+    lengths : (R,) int
+        Samples per row, in ``2..N``.
+    qa, qb : (S, B, C, P) float
+        Matrix from table components to the emitted signal at the start and
+        at the end of each table block: C = 1 monopole (Pa at 1 m), C = 3
+        dipole (world-frame vector G, as :class:`Emitters`).
+    phase : (S, B + 1) float
+        Table position (table samples) at the block boundaries.
+    r0, r1 : (S, B) int
+        Rows mixed in each block with weights ``1 − w`` and ``w``.
+    w : (S, B) float
+        Weight of row r1 in each block.
+    block : int
+        Emission samples per table block.
+    rate, positions, t0, pos_rate, radius, law, name, meta
+        As for :class:`Emitters`.
+    """
+
+    def __init__(self, table: NDArray[np.float64], lengths: NDArray[np.int64],
+                 qa: NDArray[np.float64], qb: NDArray[np.float64], phase: NDArray[np.float64],
+                 r0: NDArray[np.int64], r1: NDArray[np.int64], w: NDArray[np.float64],
+                 block: int, rate: float, positions: NDArray[np.float64], t0: float = 0.0,
+                 pos_rate: float | None = None, radius: float | NDArray[np.float64] = 0.05,
+                 law: str | float = "physical", name: str = "",
+                 meta: dict[str, Any] | None = None) -> None:  # fmt: skip
+        f = np.ascontiguousarray
+        who = name or "table emitter"
+        tab = f(table, dtype=np.float64)
+        lens = f(lengths, dtype=np.int64)
+        qa, qb = f(qa, dtype=np.float64), f(qb, dtype=np.float64)
+        if tab.ndim != 3 or tab.shape[2] not in (1, 2) or lens.shape != (tab.shape[0],):
+            raise ParameterError(f"{who}: table must be (R, N, P) with P = 1 or 2 and lengths "
+                                 f"(R,), got {tab.shape} and {lens.shape}")  # fmt: skip
+        if np.any(lens < 2) or np.any(lens > tab.shape[1]):
+            raise ParameterError(f"{who}: table row lengths must be in 2..{tab.shape[1]}, got "
+                                 f"{lens.min()}..{lens.max()}")  # fmt: skip
+        if qa.ndim != 4 or qa.shape != qb.shape or qa.shape[2] not in (1, 3):
+            raise ParameterError(f"{who}: qa and qb must be (S, B, C, P) with C = 1 or 3, got "
+                                 f"{qa.shape} and {qb.shape}")  # fmt: skip
+        S, B, _, P = qa.shape
+        if P != tab.shape[2] or B < 1 or S < 1:
+            raise ParameterError(f"{who}: qa {qa.shape} must have the table's {tab.shape[2]} "
+                                 "components, >= 1 emitter and >= 1 block")  # fmt: skip
+        ph = f(phase, dtype=np.float64)
+        r0, r1 = f(r0, dtype=np.int64), f(r1, dtype=np.int64)
+        w = f(w, dtype=np.float64)
+        if ph.shape != (S, B + 1) or r0.shape != (S, B) or r1.shape != (S, B) or w.shape != (S, B):
+            raise ParameterError(f"{who}: phase must be (S, B+1) = {(S, B + 1)} and r0, r1, w "
+                                 f"(S, B) = {(S, B)}, got {ph.shape}, {r0.shape}, {r1.shape}, "
+                                 f"{w.shape}")  # fmt: skip
+        for rows in (r0, r1):
+            if rows.min() < 0 or rows.max() >= tab.shape[0]:
+                raise ParameterError(f"{who}: table rows must be in 0..{tab.shape[0] - 1}")
+        for key, a in (("table", tab), ("qa", qa), ("qb", qb), ("phase", ph), ("w", w)):
+            if not np.isfinite(np.sum(a)):  # one pass: a sum of finite values is finite
+                raise ParameterError(f"{who}: {key} contains NaN or Inf")
+        if isinstance(block, bool) or not (isinstance(block, int | np.integer) and block >= 1):
+            raise ParameterError(f"{who}: block must be a positive integer, got {block!r}")
+        self.table, self.lengths, self.qa, self.qb = tab, lens, qa, qb
+        self.phase, self.r0, self.r1, self.w = ph, r0, r1, w
+        self.block = int(block)
+        # each row followed by its sample 0: a linear read needs no wrap of its second sample
+        pad = np.zeros((tab.shape[0], tab.shape[1] + 1, P))
+        pad[:, : tab.shape[1]] = tab
+        pad[np.arange(tab.shape[0]), lens] = tab[:, 0]
+        self.padded_table = pad
+        self._signals: NDArray[np.float64] | None = None
+        self.rate, self.positions, self.t0, self.pos_rate = rate, positions, t0, pos_rate
+        self.radius, self.law, self.name = radius, law, name
+        self.meta = {} if meta is None else dict(meta)
+        self._place(S)
+
+    def _place(self, S: int) -> None:
+        """Check and normalise the placement fields for S emitters (as :class:`Emitters`)."""
+        who = self.name or "table emitter"
+        pos = np.asarray(self.positions, dtype=np.float64)
+        if pos.ndim == 1:
+            pos = pos[None]
+        if pos.shape[0] != S or pos.shape[-1] != 3 or pos.ndim not in (2, 3):
+            raise ParameterError(
+                f"{who} positions must be (S, 3) or (S, m, 3) for S={S} emitters, got {pos.shape}"
+            )
+        if not np.isfinite(np.sum(pos)):
+            raise ParameterError(f"{who} positions contain NaN or Inf")
+        if not (np.isfinite(self.rate) and self.rate > 0):
+            raise ParameterError(f"{who} rate must be > 0 samples/s, got {self.rate!r}")
+        pr = self.rate if self.pos_rate is None else self.pos_rate
+        if not (np.isfinite(pr) and pr > 0):
+            raise ParameterError(f"{who} pos_rate must be > 0 samples/s, got {pr!r}")
+        if not np.isfinite(self.t0):
+            raise ParameterError(f"{who} t0 must be finite, got {self.t0!r}")
+        rad = np.broadcast_to(np.asarray(self.radius, dtype=np.float64), (S,))
+        if not np.all(np.isfinite(rad) & (rad > 0)):
+            raise ParameterError(f"{who} clamp radius must be > 0 m")
+        law_exponent(self.law)
+        self.positions = np.ascontiguousarray(pos)
+        self.pos_rate = float(pr)
+        self.rate = float(self.rate)
+        self.t0 = float(self.t0)
+        self.radius = np.ascontiguousarray(rad)
+
+    @property
+    def signals(self) -> NDArray[np.float64]:  # type: ignore[override]
+        """The emission samples ``(S, n)`` or ``(S, 3, n)`` (generated on first use)."""
+        if self._signals is None:
+            from auralize.emitters._sampled import table_signals
+
+            sig = table_signals(self)
+            self._signals = sig if self.dipole else sig[:, 0]
+        return self._signals
+
+    @property
+    def n_emitters(self) -> int:
+        return int(self.qa.shape[0])
+
+    @property
+    def dipole(self) -> bool:
+        return self.qa.shape[2] == 3
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.qa.shape[1] * self.block)
+
+    def __repr__(self) -> str:
+        return (f"TableEmitters({self.name!r}, {self.n_emitters} "
+                f"{'dipoles' if self.dipole else 'monopoles'}, {self.n_samples} samples at "
+                f"{self.rate:g} Hz, table {self.table.shape})")  # fmt: skip
 
 
 @dataclass

@@ -96,54 +96,66 @@ def _velocity(pos, s, u, pos_rate):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
-def _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0):  # type: ignore[no-untyped-def]
-    """Retarded time of moving emitter s heard at (t, L): Newton's method from ``tau``.
+def _newton(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0):  # type: ignore[no-untyped-def]
+    """One Newton step for the retarded time of moving emitter s heard at (t, L) from ``tau``.
 
     f(τ) = τ − t + D(τ)/c0 has f' = 1 + n_d·v/c0 >= 1 − Mach > 0 (n_d the unit
-    vector from the listener to the emitter).  On a trajectory segment f'' is
-    at most v²/(D c0), so a step under 1e-7 s leaves an error under about
-    1e-12 s for emitters slower than 100 m/s at 5 cm.
+    vector from the listener to the emitter).  Returns the new τ and whether
+    it is converged: a step under 1e-7 s that stays on the trajectory segment
+    where f' was taken (f'' is at most v²/(D c0) there, so the error left is
+    under about 1e-12 s for emitters slower than 100 m/s at 5 cm).
     """
+    u = (tau - t_pos) * pos_rate
+    x, y, z = _position(pos, s, u)
+    vx, vy, vz = _velocity(pos, s, u, pos_rate)
+    dx, dy, dz = x - lx, y - ly, z - lz
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    f = tau - t + d * inv_c0
+    step = f  # f' = 1 at the listener
+    if d > 0.0:  # f / f' = f d / (d + n_d·v d / c0)
+        step = f * d / (d + (dx * vx + dy * vy + dz * vz) * inv_c0)
+    tau -= step
+    return tau, abs(step) < 1e-7 and int((tau - t_pos) * pos_rate) == int(u)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0):  # type: ignore[no-untyped-def]
+    """Retarded time of moving emitter s heard at (t, L): Newton's method from ``tau``
+    (:func:`_newton` until converged)."""
     for _ in range(60):
-        u = (tau - t_pos) * pos_rate
-        x, y, z = _position(pos, s, u)
-        vx, vy, vz = _velocity(pos, s, u, pos_rate)
-        dx, dy, dz = x - lx, y - ly, z - lz
-        d = math.sqrt(dx * dx + dy * dy + dz * dz)
-        fp = 1.0
-        if d > 0.0:
-            fp = 1.0 + (dx * vx + dy * vy + dz * vz) * inv_c0 / d
-        step = (tau - t + d * inv_c0) / fp
-        tau -= step
-        if abs(step) < 1e-7 and int((tau - t_pos) * pos_rate) == int(u):
+        tau, done = _newton(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
+        if done:
             break
     return tau
 
 
 @numba.njit(inline="always", **_NJIT)
-def _rate(dx, dy, dz, dt, vl, sx, sy, sz, inv_c0):  # type: ignore[no-untyped-def]
-    """dτ/dt for emitter-minus-listener (dx, dy, dz) of length dt, velocities vl, s."""
-    if dt <= 0.0:
+def _rate(dx, dy, dz, inv_dt, vl, sx, sy, sz, inv_c0):  # type: ignore[no-untyped-def]
+    """dτ/dt for emitter-minus-listener (dx, dy, dz) of inverse length ``inv_dt`` (0: the
+    emitter at the listener), velocities vl, s."""
+    if inv_dt == 0.0:
         return 1.0
-    k = -inv_c0 / dt  # n = -(dx, dy, dz) / dt
+    k = -inv_c0 * inv_dt  # n = -(dx, dy, dz) / dt
     num = 1.0 - k * (dx * vl[0] + dy * vl[1] + dz * vl[2])
     den = 1.0 - k * (dx * sx + dy * sy + dz * sz)
     return num / den
 
 
 @numba.njit(inline="always", **_NJIT)
-def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t, lx, ly, lz,
+def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, solve, t, lx, ly, lz,
            fx, fy, fz, ux, uy, uz, tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j):  # type: ignore[no-untyped-def]  # fmt: skip
     """Emitter s heard at time t by a listener at L with forward f, up u.
 
     Writes the amplitude weights ``w[j]`` (1/D^e, times the unit vector from
     the emitter to the listener for a dipole) and panning gains ``g[j]``;
-    returns the emission index, the emitter-minus-listener vector and its
-    length, and the emitter's velocity.  ``tau``: a guess of the retarded
-    time for a moving emitter (Newton's method starts there).
+    returns the emission index, the retarded time, the emitter-minus-listener
+    vector and its inverse length (0 at the emitter), and the emitter's velocity.  ``tau``: for a moving
+    emitter its retarded time or (``solve``) a guess Newton's method starts
+    from.
     """
     if moving:
-        tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
+        if solve:
+            tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
         x, y, z = _position(pos, s, (tau - t_pos) * pos_rate)
         sx, sy, sz = _velocity(pos, s, (tau - t_pos) * pos_rate, pos_rate)
     else:
@@ -152,12 +164,15 @@ def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t, 
     dx, dy, dz = x - lx, y - ly, z - lz
     dt = math.sqrt(dx * dx + dy * dy + dz * dz)
     tau = t - dt * inv_c0
-    d = max(dt, radius[s])
-    amp = 1.0 / d if exponent == 1.0 else d ** (-exponent)
+    inv_dt = 1.0 / dt if dt > 0.0 else 0.0
+    if exponent == 1.0:
+        amp = inv_dt if dt >= radius[s] else 1.0 / radius[s]
+    else:
+        amp = max(dt, radius[s]) ** (-exponent)
     if sig_c == 1:
         w[j, 0] = amp
     elif dt > 0.0:
-        a = amp / dt
+        a = amp * inv_dt
         w[j, 0] = -dx * a
         w[j, 1] = -dy * a
         w[j, 2] = -dz * a
@@ -167,7 +182,36 @@ def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t, 
         w[j, 2] = 0.0
     if g.shape[1] > 1:
         _gains(dx, dy, dz, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, g[j])
-    return (tau - t_sig) * fs, tau, dx, dy, dz, dt, sx, sy, sz
+    return (tau - t_sig) * fs, tau, dx, dy, dz, inv_dt, sx, sy, sz
+
+
+@numba.njit(inline="always", **_NJIT)
+def _lin(qa, qb, s, b, p, ginv, wa0, wa1, wa2, dw0, dw1, dw2, j0, j1):  # type: ignore[no-untyped-def]
+    """The weight of component p of a table emitter's table in its table block b during an
+    output piece, ``m + u k`` at fraction u of the piece.
+
+    Exactly it is ``A + u B + x (C + u D)`` with weights ``wa + u dw`` and x emission
+    samples into the block (``Q = qa + x (qb − qa) / gK``): ``A = wa·qa, B = dw·qa,
+    C = wa·dq, D = dw·dq`` over the signal's components.  x is the piece's cubic emission
+    index, linear in u to within its curvature (the change of the Doppler factor over the
+    piece), so the weight is taken linear through its values at the piece's ends, where
+    x is ``j0`` and ``j1``.
+    """
+    q0 = qa[s, b, 0, p]
+    e0 = (qb[s, b, 0, p] - q0) * ginv
+    if qa.shape[2] == 1:
+        A, B, C, D = wa0 * q0, dw0 * q0, wa0 * e0, dw0 * e0
+    else:
+        q1 = qa[s, b, 1, p]
+        q2 = qa[s, b, 2, p]
+        e1 = (qb[s, b, 1, p] - q1) * ginv
+        e2 = (qb[s, b, 2, p] - q2) * ginv
+        A = wa0 * q0 + wa1 * q1 + wa2 * q2
+        B = dw0 * q0 + dw1 * q1 + dw2 * q2
+        C = wa0 * e0 + wa1 * e1 + wa2 * e2
+        D = dw0 * e0 + dw1 * e1 + dw2 * e2
+    m = A + j0 * C
+    return m, A + B + j1 * (C + D) - m
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -281,9 +325,205 @@ def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w,
             out[c, n0 + i] += (ga + dg * (i - p0)) * vbuf[i]
 
 
+@numba.njit(inline="always", **_NJIT)
+def _wrap(x, n):  # type: ignore[no-untyped-def]
+    """x modulo n, in ``[0, n)`` (a table position on a looping row of n samples)."""
+    y = x - math.floor(x / n) * n
+    return y if 0.0 <= y < n else 0.0
+
+
+@numba.njit(inline="always", **_NJIT)
+def _row_pos(x, lf, r):  # type: ignore[no-untyped-def]
+    """Table position x on row r (``lf`` as for :func:`_seg_table`), about in ``[0, length)``
+    (the reads check)."""
+    return x - math.floor(x * lf[r, 1]) * lf[r, 0]
+
+
+@numba.njit(inline="always", **_NJIT)
+def _seg_table(tab, lf, qa, qb, ph, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_hi, p0, p1, x0,
+               h1, h2, h3, w, ja, jb, wk, ka, kb, g, gk):  # type: ignore[no-untyped-def]  # fmt: skip
+    """:func:`_segment` for table emitter s (:class:`auralize.emitters.TableEmitters`): its
+    signal evaluated at the emission index itself (the table rows read linearly at the
+    table position there), each table component weighted by :func:`_lin` for the table
+    block of the index; zero outside the emission, as stored samples.  ``tab`` is
+    padded (row r's sample ``lf[r, 0]`` is its sample 0); ``lf (R, 2)``: the rows' lengths
+    and their inverses; ``ph (S, B + 1)``: the table positions at the blocks' ends."""
+    P = tab.shape[2]
+    n_ch = out.shape[0]
+    x_last = r0.shape[1] * gK - 1.0
+    inv = 1.0 / (p1 - p0)
+    ginv = 1.0 / gK
+    wa0 = wk[ja, 0] if ka else w[ja, 0]
+    dw0 = (wk[jb, 0] if kb else w[jb, 0]) - wa0
+    wa1 = wa2 = dw1 = dw2 = 0.0
+    if qa.shape[2] == 3:
+        wa1 = wk[ja, 1] if ka else w[ja, 1]
+        wa2 = wk[ja, 2] if ka else w[ja, 2]
+        dw1 = (wk[jb, 1] if kb else w[jb, 1]) - wa1
+        dw2 = (wk[jb, 2] if kb else w[jb, 2]) - wa2
+    # the emission index at the piece's first and last samples, as if the piece were whole
+    # (the result must not depend on where a window cuts it; the cubic is monotonic for
+    # subsonic motion)
+    ua = (math.ceil(p0) - p0) * inv
+    ub = (math.ceil(p1) - 1 - p0) * inv
+    xa = x0 + ua * (h1 + ua * (h2 + ua * h3))
+    xb = x0 + ub * (h1 + ub * (h2 + ub * h3))
+    x1 = x0 + h1 + h2 + h3  # at the piece's end (u = 1)
+    i = i_lo
+    if P == 2 and 0.0 <= xa <= xb <= x_last:  # increasing inside the emission: runs by block
+        while i < i_hi:
+            u = (i - p0) * inv
+            xi = x0 + u * (h1 + u * (h2 + u * h3))
+            b = min(int(xi * ginv), r0.shape[1] - 1)
+            xbeg = float(b * gK)
+            xend = xbeg + gK
+            ra = r0[s, b]
+            Na = lf[ra, 0]
+            pa = _row_pos(ph[s, b], lf, ra)
+            ds = (ph[s, b + 1] - ph[s, b]) * ginv
+            if wt[s, b] != 0.0 or ds < 0.0:
+                break  # two rows, or backwards: sample by sample below
+            m0, k0 = _lin(qa, qb, s, b, 0, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
+            m1, k1 = _lin(qa, qb, s, b, 1, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
+            while i < i_hi:
+                u = (i - p0) * inv
+                xi = x0 + u * (h1 + u * (h2 + u * h3))
+                if xi >= xend:
+                    break
+                jj = xi - xbeg
+                x = pa + ds * jj
+                if x >= Na:
+                    x = _wrap(x, Na)
+                k = int(x)
+                fr = x - k
+                a0 = tab[ra, k, 0]
+                a1 = tab[ra, k, 1]
+                v = (m0 + u * k0) * (a0 + fr * (tab[ra, k + 1, 0] - a0)) + (m1 + u * k1) * (
+                    a1 + fr * (tab[ra, k + 1, 1] - a1))  # fmt: skip
+                if n_ch == 1:
+                    out[0, n0 + i] += v
+                else:
+                    vbuf[i] = v
+                i += 1
+    xbeg = 1.0
+    xend = 0.0  # no table block loaded yet
+    ra = rb = 0
+    Na = Nb = pa = pb = ds = wr = 0.0
+    m0 = k0 = m1 = k1 = 0.0
+    i_rest = i
+    for i in range(i_rest, i_hi):
+        u = (i - p0) * inv
+        xi = x0 + u * (h1 + u * (h2 + u * h3))
+        if xi < 0.0 or xi > x_last:
+            if n_ch > 1:
+                vbuf[i] = 0.0
+            continue
+        if xi < xbeg or xi >= xend:  # the table block holding this index
+            b = int(xi * ginv)
+            xbeg = float(b * gK)
+            xend = xbeg + gK
+            ra = r0[s, b]
+            rb = r1[s, b]
+            wr = wt[s, b]
+            Na = lf[ra, 0]
+            Nb = lf[rb, 0]
+            pa = _row_pos(ph[s, b], lf, ra)
+            pb = _row_pos(ph[s, b], lf, rb)
+            ds = (ph[s, b + 1] - ph[s, b]) * ginv
+            m0, k0 = _lin(qa, qb, s, b, 0, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
+            if P == 2:
+                m1, k1 = _lin(qa, qb, s, b, 1, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg,
+                              x1 - xbeg)  # fmt: skip
+        jj = xi - xbeg
+        x = pa + ds * jj
+        if x >= Na or x < 0.0:
+            x = _wrap(x, Na)
+        k = int(x)
+        fr = x - k
+        a0 = tab[ra, k, 0]
+        gx = a0 + fr * (tab[ra, k + 1, 0] - a0)
+        gy = 0.0
+        if P == 2:
+            a1 = tab[ra, k, 1]
+            gy = a1 + fr * (tab[ra, k + 1, 1] - a1)
+        if wr != 0.0:  # between two rows
+            y = pb + ds * jj
+            if y >= Nb or y < 0.0:
+                y = _wrap(y, Nb)
+            kb_ = int(y)
+            fb = y - kb_
+            a0 = tab[rb, kb_, 0]
+            gx += wr * (a0 + fb * (tab[rb, kb_ + 1, 0] - a0) - gx)
+            if P == 2:
+                a1 = tab[rb, kb_, 1]
+                gy += wr * (a1 + fb * (tab[rb, kb_ + 1, 1] - a1) - gy)
+        v = (m0 + u * k0) * gx + (m1 + u * k1) * gy
+        if n_ch == 1:
+            out[0, n0 + i] += v
+        else:
+            vbuf[i] = v
+    if n_ch == 1:
+        return
+    for c in range(n_ch):
+        ga = gk[ja, c] if ka else g[ja, c]
+        gb = gk[jb, c] if kb else g[jb, c]
+        if ga == 0.0 and gb == 0.0:  # a silent channel only ever adds 0
+            continue
+        dg = (gb - ga) * inv
+        for i in range(i_lo, i_hi):
+            out[c, n0 + i] += (ga + dg * (i - p0)) * vbuf[i]
+
+
 @numba.njit(**_NJIT)
+def _table_samples(tab, lf, qa, qb, ph, r0, r1, wt, K, out, s0, s1):  # type: ignore[no-untyped-def]
+    """Every emission sample of table emitters ``s0 <= s < s1`` into ``out (S, C, B K)``
+    (the definition in :class:`auralize.emitters.TableEmitters`; ``tab`` and ``lf`` as
+    for :func:`_seg_table`)."""
+    B = qa.shape[1]
+    C = qa.shape[2]
+    P = qa.shape[3]
+    inv = 1.0 / K
+    tv = np.empty(P)
+    for s in range(s0, s1):
+        for b in range(B):
+            ra = r0[s, b]
+            rb = r1[s, b]
+            wr = wt[s, b]
+            Na = lf[ra, 0]
+            Nb = lf[rb, 0]
+            pa = _row_pos(ph[s, b], lf, ra)
+            pb = _row_pos(ph[s, b], lf, rb)
+            ds = (ph[s, b + 1] - ph[s, b]) * inv
+            for j in range(K):
+                x = pa + ds * j
+                if x >= Na or x < 0.0:
+                    x = _wrap(x, Na)
+                k = int(x)
+                fr = x - k
+                y = pb + ds * j
+                if y >= Nb or y < 0.0:
+                    y = _wrap(y, Nb)
+                kb = int(y)
+                fb = y - kb
+                for p in range(P):
+                    a = tab[ra, k, p]
+                    v = a + fr * (tab[ra, k + 1, p] - a)
+                    if wr != 0.0:
+                        a = tab[rb, kb, p]
+                        v += wr * (a + fb * (tab[rb, kb + 1, p] - a) - v)
+                    tv[p] = v
+                for c in range(C):
+                    acc = 0.0
+                    for p in range(P):
+                        q = qa[s, b, c, p]
+                        acc += (q + (qb[s, b, c, p] - q) * (j * inv)) * tv[p]
+                    out[s, c, b * K + j] = acc
+
+
+@numba.njit(**_NJIT, fastmath={"contract"})
 def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, VR, VL, F, U,
-            kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, out, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip
+            kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, gen, tab, lf, qa, qb, ph, r0,
+            r1, wt, gK, out, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip
     """Add the emitters heard in blocks ``b0 <= b < b1`` to ``out (n_ch, n)``.
 
     ``sig (S, C, n_e)`` emitted signals (C = 1 monopole, 3 dipole G) at rate
@@ -300,8 +540,25 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
     block is split there into two linear pieces (listener ``Lk``, ``Fk``,
     ``Uk`` at time ``tk``).  Blocks of different ranges write disjoint
     samples (threads share ``out``).
+
+    The retarded times of a chunk of control points are found together, each
+    pass over the chunk independent point by point (the processor overlaps
+    them): the emitter's place at t gives the first guess, two Newton steps
+    follow and the few points not converged then (a step across a trajectory
+    sample) continue alone.
+
+    ``gen``: the emitters are table emitters (``tab``, ``lf`` and ``ph`` as for
+    :func:`_seg_table`, ``qa, qb, r0, r1, wt`` and ``gK`` samples per
+    table block, as :class:`auralize.emitters.TableEmitters`; ``sig`` is not
+    read): each sample evaluates the signal at its emission index
+    (:func:`_seg_table`).
     """
-    S, C, n_e = sig.shape
+    if gen:
+        S = qa.shape[0]
+        C = qa.shape[2]
+        n_e = r0.shape[1] * gK
+    else:
+        S, C, n_e = sig.shape
     n_ch, n = out.shape
     moving = pos.shape[1] > 1
     inv_c0 = 1.0 / c0
@@ -310,6 +567,7 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
     ma = np.empty(CB + 1)
     mb = np.empty(CB + 1)
     xk = np.empty(CB)
+    tq = np.empty(CB + 1)
     w = np.empty((CB + 1, C))
     g = np.zeros((CB + 1, n_ch))
     wk = np.empty((CB, C))
@@ -318,40 +576,46 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
     last = n_e - 1
     for cb0 in range(b0, b1, CB):
         cb1 = min(cb0 + CB, b1)
+        nb = cb1 - cb0 + 1
         for s in range(S):
-            tau = 0.0
-            rate_prev = 1.0
-            rate_pp = 1.0
+            if moving:  # retarded times of the chunk's control points
+                for j in range(nb):
+                    b = cb0 + j
+                    t = tb[b]
+                    x, y, z = _position(pos, s, (t - t_pos) * pos_rate)
+                    tq[j] = t - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2
+                                          + (L[b, 2] - z) ** 2) * inv_c0  # fmt: skip
+                for j in range(nb):
+                    b = cb0 + j
+                    tq[j], _ = _newton(pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1], L[b, 2],
+                                       tq[j], inv_c0)  # fmt: skip
+                for j in range(nb):
+                    b = cb0 + j
+                    tau, done = _newton(pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1], L[b, 2],
+                                        tq[j], inv_c0)  # fmt: skip
+                    if not done:
+                        tau = _retarded(pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1],
+                                        L[b, 2], tau, inv_c0)  # fmt: skip
+                    tq[j] = tau
             for b in range(cb0, cb1 + 1):
                 j = b - cb0
                 t = tb[b]
-                if moving:  # the guess: the last retarded time, or the emitter's place at t
-                    if b == cb0:
-                        x, y, z = _position(pos, s, (t - t_pos) * pos_rate)
-                        tau = t - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2
-                                            + (L[b, 2] - z) ** 2) * inv_c0  # fmt: skip
-                    elif b == cb0 + 1:  # extrapolated with the last dτ/dt
-                        tau += (t - tb[b - 1]) * rate_prev
-                    else:  # two-step Adams–Bashforth (uniform steps): one Newton step
-                        tau += (t - tb[b - 1]) * (1.5 * rate_prev - 0.5 * rate_pp)
-                xe[j], tau, dx, dy, dz, dt, sx, sy, sz = _point(
-                    C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, t,
+                xe[j], tau, dx, dy, dz, idt, sx, sy, sz = _point(
+                    C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, False, t,
                     L[b, 0], L[b, 1], L[b, 2], F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1], U[b, 2],
-                    tau, t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j)  # fmt: skip
+                    tq[j], t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j)  # fmt: skip
                 # dτ/dt on both sides (the listener's velocity may jump at a
                 # capture), in signal samples per block
-                rate_pp = rate_prev
-                rate_prev = _rate(dx, dy, dz, dt, VR[b], sx, sy, sz, inv_c0)
+                r = _rate(dx, dy, dz, idt, VR[b], sx, sy, sz, inv_c0)
                 if b < cb1:
-                    ma[j] = (tb[b + 1] - t) * fs * rate_prev
+                    ma[j] = (tb[b + 1] - t) * fs * r
                 if b > cb0:
-                    r = rate_prev
                     if VL[b, 0] != VR[b, 0] or VL[b, 1] != VR[b, 1] or VL[b, 2] != VR[b, 2]:
-                        r = _rate(dx, dy, dz, dt, VL[b], sx, sy, sz, inv_c0)
+                        r = _rate(dx, dy, dz, idt, VL[b], sx, sy, sz, inv_c0)
                     mb[j] = (t - tb[b - 1]) * fs * r
                 if b < cb1 and kf[b] >= 0.0:  # a capture inside the block
                     xk[j], _, _, _, _, _, _, _, _ = _point(
-                        C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, tk[b],
+                        C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, True, tk[b],
                         Lk[b, 0], Lk[b, 1], Lk[b, 2], Fk[b, 0], Fk[b, 1], Fk[b, 2], Uk[b, 0],
                         Uk[b, 1], Uk[b, 2], tau + (tk[b] - t), t_sig, fs, spk_az, spk_ch, fold,
                         pinv, wk, gk, j)  # fmt: skip
@@ -367,19 +631,30 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                 if i_lo >= i_hi:
                     continue
                 kj = kf[b]
-                if kj < 0.0:  # cubic Hermite emission index
-                    h2 = 3.0 * (xb - xa) - 2.0 * ma[j] - mb[j + 1]
-                    h3 = 2.0 * (xa - xb) + ma[j] + mb[j + 1]
-                    _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, 0.0, float(K), xa, ma[j],
-                             h2, h3, w, j, j + 1, wk, False, False, g, gk)  # fmt: skip
-                else:  # linear on both sides of the capture
-                    ik = min(max(int(math.ceil(kj)), i_lo), i_hi)
-                    if ik > i_lo:
-                        _segment(sig, s, last, vbuf, out, n0, i_lo, ik, 0.0, kj, xa, xk[j] - xa,
-                                 0.0, 0.0, w, j, j, wk, False, True, g, gk)  # fmt: skip
-                    if i_hi > ik:
-                        _segment(sig, s, last, vbuf, out, n0, ik, i_hi, kj, float(K), xk[j],
-                                 xb - xk[j], 0.0, 0.0, w, j, j + 1, wk, True, False, g, gk)  # fmt: skip
+                ik = min(max(int(math.ceil(kj)), i_lo), i_hi)
+                # one piece (cubic Hermite emission index), or two linear pieces on both
+                # sides of a capture; one call site each keeps the kernel small
+                for q in range(1 if kj < 0.0 else 2):
+                    if kj < 0.0:
+                        lo, hi, p0, p1, x0, h1 = i_lo, i_hi, 0.0, float(K), xa, ma[j]
+                        h2 = 3.0 * (xb - xa) - 2.0 * ma[j] - mb[j + 1]
+                        h3 = 2.0 * (xa - xb) + ma[j] + mb[j + 1]
+                        ja, jb, ka, kb = j, j + 1, False, False
+                    elif q == 0:
+                        lo, hi, p0, p1, x0, h1, h2, h3 = i_lo, ik, 0.0, kj, xa, xk[j] - xa, 0.0, 0.0
+                        ja, jb, ka, kb = j, j, False, True
+                    else:
+                        lo, hi, p0, p1, x0, h1 = ik, i_hi, kj, float(K), xk[j], xb - xk[j]
+                        h2 = h3 = 0.0
+                        ja, jb, ka, kb = j, j + 1, True, False
+                    if hi <= lo:
+                        continue
+                    if gen:
+                        _seg_table(tab, lf, qa, qb, ph, r0, r1, wt, gK, s, vbuf, out, n0, lo, hi,
+                                   p0, p1, x0, h1, h2, h3, w, ja, jb, wk, ka, kb, g, gk)  # fmt: skip
+                    else:
+                        _segment(sig, s, last, vbuf, out, n0, lo, hi, p0, p1, x0, h1, h2, h3, w,
+                                 ja, jb, wk, ka, kb, g, gk)  # fmt: skip
 
 
 @numba.njit(**_NJIT)
@@ -394,6 +669,34 @@ def _box(a, b):  # type: ignore[no-untyped-def]
                 lo[k] = min(lo[k], v)
                 hi[k] = max(hi[k], v)
     return lo, hi
+
+
+def table_signals(em: Any) -> NDArray[np.float64]:
+    """The emission samples ``(S, C, n)`` of :class:`auralize.emitters.TableEmitters` ``em``."""
+    S, B, C, _ = em.qa.shape
+    out = np.empty((S, C, B * em.block))
+    n_pieces = max(1, min(S, 4 * _N_THREADS)) if out.size >= _MIN_SPLIT else 1
+    edges = [S * i // n_pieces for i in range(n_pieces + 1)]
+    args = (em.padded_table, _lengths(em), em.qa, em.qb, em.phase, em.r0, em.r1, em.w, em.block,
+            out)  # fmt: skip
+    _run(lambda i: _table_samples(*args, edges[i], edges[i + 1]), n_pieces, _N_THREADS)
+    return out
+
+
+def _table_args(em: Any, gen: bool) -> tuple[Any, ...]:
+    """The table-emitter arguments of :func:`_render` (placeholders for stored signals)."""
+    if gen:
+        return (True, em.padded_table, _lengths(em), em.qa, em.qb, em.phase, em.r0, em.r1, em.w,
+                int(em.block))  # fmt: skip
+    zi = np.zeros((1, 1), dtype=np.int64)
+    return (False, np.zeros((1, 2, 1)), np.ones((1, 2)), np.zeros((1, 1, 1, 1)),
+            np.zeros((1, 1, 1, 1)), np.zeros((1, 2)), zi, zi, np.zeros((1, 1)), 1)  # fmt: skip
+
+
+def _lengths(em: Any) -> NDArray[np.float64]:
+    """``(R, 2)``: the table rows' lengths and their inverses."""
+    n = em.lengths.astype(np.float64)
+    return np.ascontiguousarray(np.stack([n, 1.0 / n], axis=1))
 
 
 def _run(fn: Callable[[int], None], n: int, nt: int) -> None:
@@ -515,7 +818,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     -------
     audio, meta (``internal_rate_hz``, ``signal_rate_hz``, ``block``, ``threads``)
     """
-    from auralize.emitters import law_exponent
+    from auralize.emitters import TableEmitters, law_exponent
     from auralize.emitters.synthesis import pan_table, panning_arrays
     from auralize.spatial.layouts import receiver_paths
 
@@ -526,11 +829,16 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
                                prepared=prepared, threads=threads) for rl, p in ears]  # fmt: skip
         return np.concatenate([o[0] for o in outs]), outs[0][1]
 
+    # table emitters are read from their tables, unless they need upsampling
+    gen = isinstance(em, TableEmitters) and upsampling(em.rate, rate, oversample) == 1
     lay = layout
     n_ch = lay.n_channels
     e = law_exponent(em.law)
     K = int(block)
-    up = prepared.up if prepared is not None else upsampling(em.rate, rate, oversample)
+    if gen:
+        up = 1
+    else:
+        up = prepared.up if prepared is not None else upsampling(em.rate, rate, oversample)
     fs = em.rate * up
     k = _internal_factor(int(rate), fs) if internal else 1
     m0f = start * rate
@@ -565,7 +873,9 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     lo, hi = _box(em.positions.reshape(-1, 3), lp)
     d_max = float(np.linalg.norm(hi - lo))
     tau_lo, tau_hi = t_lo - d_max / c0, t_hi
-    if prepared is None:
+    if gen:  # generated where they are read: no signal window
+        prepared = Prepared(np.zeros((1, em.qa.shape[2], 1)), float(em.rate), float(em.t0), 1)
+    elif prepared is None:
         i_lo = max(0, int(math.floor((tau_lo - em.t0) * em.rate)) - _UP_HALF)
         i_hi = min(em.n_samples, int(math.ceil((tau_hi - em.t0) * em.rate)) + _UP_HALF + 1)
         if i_hi <= i_lo:
@@ -616,7 +926,8 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
             float(em.t0), em.radius, float(e), float(c0), tb, L, VR, VL, F, U, kf, tk, Lk, Fk, Uk,
             np.ascontiguousarray(spk_az, dtype=np.float64),
             np.ascontiguousarray(spk_ch, dtype=np.int64), bool(lay.fold_front),
-            np.ascontiguousarray(pinv, dtype=np.float64), K, off, out)  # fmt: skip
+            np.ascontiguousarray(pinv, dtype=np.float64), K, off,
+            *_table_args(em, gen), out)  # fmt: skip
     _run(lambda i: _render(*args, edges[i], edges[i + 1]), n_pieces, nt)
     if k > 1:
         from scipy.signal import resample_poly

@@ -20,19 +20,22 @@ For every point source l (:meth:`AeroObject.sources`):
   is a sum of point dipoles: with û = (q - o_l)/r_l it is
   ``û · G_l(τ_l) / r_l`` for the world-frame dipole vector
   ``G_l = Δh_l g_l / (4π c0)`` (g rotated from the section frame to the
-  world).  This module emits G_l on an emission-time grid
-  (:class:`AeroEmission`); the sound engine
+  world).  This module emits G_l as table emitters
+  (:class:`AeroEmission`, :class:`auralize.emitters.TableEmitters`: G = Q g
+  with the 3x2 matrix Q linear per block and g the texture read at the
+  texture coordinate); the sound engine
   (:func:`auralize.emitters.render_emitters`, distance law exponent 1) does
   the retarded time τ_l = t - r_l/c0, the 1/r, the Doppler shift of moving
   sources and the panning to any layout.
 
 Smooth quantities (kinematics, amplitude, section frame, direction look-up,
 texture coordinate) live on a grid of one value per ``block`` emission
-samples and are interpolated linearly within a block; the per-sample
-texture read is a numba loop (:func:`_emit_kernel`, sources split over up
-to two threads).  ``engine="numpy"`` runs the reference numpy path
-(:func:`kinematics_reference`, :func:`emission_reference`), equal up to
-rounding.
+samples and are interpolated linearly within a block, computed by one
+numba pass (:func:`_q_kernel`, sources split over up to two threads); the
+engine reads the texture per output sample.  ``engine="numpy"`` runs the
+reference numpy path (:func:`kinematics_reference`,
+:func:`emission_reference`: G stored), whose samples equal the table
+emitters' up to rounding.
 """
 
 from __future__ import annotations
@@ -47,8 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
-from auralize.emitters import C0, Emitters
-from auralize.emitters.engine import model_emitters
+from auralize.emitters import C0, Emitters, TableEmitters
 from auralize.emitters.parallel import N_THREADS, run_pieces
 from auralize.emitters.synthesis import Rendered
 from auralize.errors import ParameterError
@@ -293,110 +295,62 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
     return Kinematics(dt, pos, e1, e2, c1, c2, a, s, span)
 
 
-#: bytes of emitted signal (S x 3 x n float64) generated per rendered window
+#: bytes of per-block tables (table emitters) per rendered window
 CHUNK_BYTES = 16 << 20
+#: bytes of the table emitters' arrays per source and block
+_BLOCK_BYTES = 176
 
 
 @numba.njit(**_NJIT)
-def _tex_at(t: NDArray[np.float64], N: int, p: float) -> tuple[float, float]:
-    """Looping texture row ``t (N', 2)`` at fractional sample ``0 <= p < N`` (linear)."""
-    i = int(p)
-    if i >= N:
-        i = N - 1
-    f = p - i
-    i1 = i + 1 if i + 1 < N else 0
-    g0 = t[i, 0]
-    g1 = t[i, 1]
-    return g0 + f * (t[i1, 0] - g0), g1 + f * (t[i1, 1] - g1)
-
-
-@numba.njit(**_NJIT)
-def _emit_kernel(G: NDArray[np.float64], e1a: NDArray[np.float64], e2a: NDArray[np.float64],
-                 M: NDArray[np.float64], j0: NDArray[np.int64], j1: NDArray[np.int64],
-                 w: NDArray[np.float64], s: NDArray[np.float64], tex: NDArray[np.float64],
-                 lengths: NDArray[np.int64], tex_rate: float, K: int, k0: int, k1: int) -> None:  # fmt: skip
-    """Dipole vectors of sources ``k0 <= k < k1`` on the samples of B blocks, into ``G (S, 3, B K)``.
-
-    Block b runs from grid point b to b + 1.  Its amplitude-weighted section
-    axes ``e1a, e2a (S, B+1, 3)`` are interpolated linearly between its ends;
-    its direction map ``M (S, B, 4)`` (2x2, row-major), texture rows ``j0, j1``
-    and weight ``w`` of j1 are those of its start; the texture time
-    ``s (S, B+1)`` (s) advances by a constant step.  Per sample,
-    ``G = Q · ((1 - w) w_j0(s) + w w_j1(s))`` with ``Q = [e1a e2a] M`` (3x2).
-    Silent blocks are written as zeros (``G`` may be uninitialised).
-    """
-    B = j0.shape[1]
-    inv = 1.0 / K
+def _q_kernel(e1: NDArray[np.float64], e2: NDArray[np.float64], speed: NDArray[np.float64],
+              scale: NDArray[np.float64], c1: NDArray[np.float64], c2: NDArray[np.float64],
+              s: NDArray[np.float64], M: NDArray[np.float64], iso: bool, ja: int, dt_fade: float,
+              exponent: float, tex_rate: float, qa: NDArray[np.float64], qb: NDArray[np.float64],
+              ph: NDArray[np.float64], k0: int, k1: int) -> None:  # fmt: skip
+    """The table-emitter arrays of sources ``k0 <= k < k1`` for the n blocks from grid point
+    ``ja`` (what :meth:`AeroEmission._table_of` and the products ``[e1a e2a] M`` give, in one
+    pass): ``qa, qb (S, n, 3, 2)`` the matrices ``Q = amp [e1 e2] M`` at each block's start
+    and end with the block's direction map M (``iso``: the rotation by the flow direction
+    ``[[c1, −c2], [c2, c1]]``, else ``M (S, n, 4)``), amp the faded ``speed^e`` times
+    ``scale = Δh / (4π c0)``; ``ph (S, n + 1)`` the texture position (texture samples)."""
+    n = qa.shape[1]
     for k in range(k0, k1):
-        for b in range(B):
-            m00, m01, m10, m11 = M[k, b, 0], M[k, b, 1], M[k, b, 2], M[k, b, 3]
-            x0, y0, z0 = e1a[k, b, 0], e1a[k, b, 1], e1a[k, b, 2]
-            x1, y1, z1 = e2a[k, b, 0], e2a[k, b, 1], e2a[k, b, 2]
-            qx0, qx1 = x0 * m00 + x1 * m10, x0 * m01 + x1 * m11
-            qy0, qy1 = y0 * m00 + y1 * m10, y0 * m01 + y1 * m11
-            qz0, qz1 = z0 * m00 + z1 * m10, z0 * m01 + z1 * m11
-            x0, y0, z0 = e1a[k, b + 1, 0], e1a[k, b + 1, 1], e1a[k, b + 1, 2]
-            x1, y1, z1 = e2a[k, b + 1, 0], e2a[k, b + 1, 1], e2a[k, b + 1, 2]
-            dx0, dx1 = (x0 * m00 + x1 * m10 - qx0) * inv, (x0 * m01 + x1 * m11 - qx1) * inv
-            dy0, dy1 = (y0 * m00 + y1 * m10 - qy0) * inv, (y0 * m01 + y1 * m11 - qy1) * inv
-            dz0, dz1 = (z0 * m00 + z1 * m10 - qz0) * inv, (z0 * m01 + z1 * m11 - qz1) * inv
-            if (qx0 == 0.0 and qx1 == 0.0 and qy0 == 0.0 and qy1 == 0.0 and qz0 == 0.0
-                    and qz1 == 0.0 and dx0 == 0.0 and dx1 == 0.0 and dy0 == 0.0 and dy1 == 0.0
-                    and dz0 == 0.0 and dz1 == 0.0):  # fmt: skip
-                for c in range(3):
-                    G[k, c, b * K : (b + 1) * K] = 0.0
-                continue
-            ja = j0[k, b]
-            jb = j1[k, b]
-            wt = w[k, b]
-            Na = lengths[ja]
-            Nb = lengths[jb]
-            ta = tex[ja]
-            tb = tex[jb]
-            s0 = s[k, b] * tex_rate
-            ds = (s[k, b + 1] - s[k, b]) * tex_rate * inv
-            pa = s0 - math.floor(s0 / Na) * Na
-            pb = s0 - math.floor(s0 / Nb) * Nb
-            n0 = b * K
-            pe = pa + ds * K
-            if wt == 0.0 and 1e-3 < pe < Na - 1.001:  # one row, no wrap: no checks per sample
-                for i in range(K):
-                    ia = int(pa)
-                    fa = pa - ia
-                    g0 = ta[ia, 0]
-                    g1 = ta[ia, 1]
-                    gx = g0 + fa * (ta[ia + 1, 0] - g0)
-                    gy = g1 + fa * (ta[ia + 1, 1] - g1)
-                    G[k, 0, n0 + i] = (qx0 + dx0 * i) * gx + (qx1 + dx1 * i) * gy
-                    G[k, 1, n0 + i] = (qy0 + dy0 * i) * gx + (qy1 + dy1 * i) * gy
-                    G[k, 2, n0 + i] = (qz0 + dz0 * i) * gx + (qz1 + dz1 * i) * gy
-                    pa += ds
-                continue
-            for i in range(K):
-                gx, gy = _tex_at(ta, Na, pa)
-                if wt > 0.0:  # between two sampled directions
-                    hx, hy = _tex_at(tb, Nb, pb)
-                    gx += wt * (hx - gx)
-                    gy += wt * (hy - gy)
-                    pb += ds
-                    if pb >= Nb:
-                        pb -= Nb
-                    elif pb < 0.0:
-                        pb += Nb
-                G[k, 0, n0 + i] = (qx0 + dx0 * i) * gx + (qx1 + dx1 * i) * gy
-                G[k, 1, n0 + i] = (qy0 + dy0 * i) * gx + (qy1 + dy1 * i) * gy
-                G[k, 2, n0 + i] = (qz0 + dz0 * i) * gx + (qz1 + dz1 * i) * gy
-                pa += ds
-                if pa >= Na:
-                    pa -= Na
-                elif pa < 0.0:
-                    pa += Na
+        p00 = p01 = p10 = p11 = 0.0
+        for b in range(n + 1):
+            g = ja + b
+            on = min(max(g * dt_fade, 0.0), 1.0)
+            on = on * on * (3 - 2 * on)
+            sp = speed[k, g]
+            amp = on * (sp * sp * sp if exponent == 3.0 else sp**exponent) * scale[k]
+            ph[k, b] = s[k, g] * tex_rate
+            x0, x1, x2 = amp * e1[k, g, 0], amp * e1[k, g, 1], amp * e1[k, g, 2]
+            y0, y1, y2 = amp * e2[k, g, 0], amp * e2[k, g, 1], amp * e2[k, g, 2]
+            if b > 0:  # the end of block b - 1, with its map
+                qb[k, b - 1, 0, 0] = x0 * p00 + y0 * p10
+                qb[k, b - 1, 0, 1] = x0 * p01 + y0 * p11
+                qb[k, b - 1, 1, 0] = x1 * p00 + y1 * p10
+                qb[k, b - 1, 1, 1] = x1 * p01 + y1 * p11
+                qb[k, b - 1, 2, 0] = x2 * p00 + y2 * p10
+                qb[k, b - 1, 2, 1] = x2 * p01 + y2 * p11
+            if b == n:
+                break
+            if iso:
+                p00, p01, p10, p11 = c1[k, g], -c2[k, g], c2[k, g], c1[k, g]
+            else:
+                p00, p01, p10, p11 = M[k, b, 0], M[k, b, 1], M[k, b, 2], M[k, b, 3]
+            qa[k, b, 0, 0] = x0 * p00 + y0 * p10
+            qa[k, b, 0, 1] = x0 * p01 + y0 * p11
+            qa[k, b, 1, 0] = x1 * p00 + y1 * p10
+            qa[k, b, 1, 1] = x1 * p01 + y1 * p11
+            qa[k, b, 2, 0] = x2 * p00 + y2 * p10
+            qa[k, b, 2, 1] = x2 * p01 + y2 * p11
 
 
 def emission_reference(e1a: NDArray[np.float64], e2a: NDArray[np.float64], M: NDArray[np.float64],
                        j0: NDArray[np.int64], j1: NDArray[np.int64], w: NDArray[np.float64],
                        s: NDArray[np.float64], tex: SoundTexture, K: int) -> NDArray[np.float64]:  # fmt: skip
-    """:func:`_emit_kernel` in numpy (every sample at once): ``G (S, 3, B K)``."""
+    """The samples of the table emitters of :meth:`AeroEmission._emitters`, in numpy (every
+    sample at once): ``G (S, 3, B K)``."""
     S, B = j0.shape
     frac = np.arange(K) / K
     Mr = M.reshape(S, B, 2, 2)
@@ -462,7 +416,7 @@ class AeroEmission:
         return self.n_blocks * self.kin.dt
 
     def _table(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
-        """Per-block quantities of blocks ``ja..jb`` for :func:`_emit_kernel` (Eq. 3, §7.3).
+        """Per-block quantities of blocks ``ja..jb`` for :func:`emission_reference` (Eq. 3, §7.3).
 
         Cut from a table of many blocks at once (:meth:`_table_of`, up to
         about :data:`CHUNK_BYTES`), made again when a window leaves it: the
@@ -506,33 +460,34 @@ class AeroEmission:
         return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]), f(M), f(j0),
                 f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
 
-    def _emitters(self, ja: int, jb: int, buf: NDArray[np.float64] | None = None) -> Emitters:
-        """Emitters of blocks ``ja..jb``; the numba path writes G into ``buf`` when it is large
-        enough (a flat float64 scratch array reused window after window)."""
+    def _emitters(self, ja: int, jb: int) -> Emitters:
+        """Emitters of blocks ``ja..jb``: :class:`auralize.emitters.TableEmitters` reading the
+        texture (``engine="numba"``), or the samples of :func:`emission_reference` stored."""
         K = self.block
-        tab = self._table(ja, jb)
-        shape = (self.n_sources, 3, (jb - ja + 1) * K)
+        kin, tex = self.kin, self.texture
+        pos = kin.pos[:, 0] if self.static else kin.pos[:, ja : jb + 2]
         if self.engine == "numpy":
-            e1a, e2a, M, j0, j1, w, st = tab
-            G = emission_reference(e1a, e2a, M, j0, j1, w, st, self.texture, K)
-        else:
-            size = shape[0] * shape[1] * shape[2]
-            G = (buf[:size] if buf is not None and buf.size >= size else np.empty(size)).reshape(
-                shape
-            )
-            tex = np.ascontiguousarray(self.texture.g)
-            lens, tr = self.texture.lengths, float(self.texture.rate)
-            _in_parts(
-                lambda k0, k1: _emit_kernel(G, *tab, tex, lens, tr, K, k0, k1), self.n_sources
-            )
-        pos = self.kin.pos[:, 0] if self.static else self.kin.pos[:, ja : jb + 2]
-        if self.engine == "numpy":
-            return Emitters(G, self.rate, pos, t0=ja * self.kin.dt, pos_rate=self.rate / K,
+            e1a, e2a, Mt, j0t, j1t, wt, st = self._table(ja, jb)
+            G = emission_reference(e1a, e2a, Mt, j0t, j1t, wt, st, tex, K)
+            return Emitters(G, self.rate, pos, t0=ja * kin.dt, pos_rate=self.rate / K,
                             radius=self.radius, law=1.0, name=self.name)  # fmt: skip
-        # G comes from the finite kinematics and texture tables: no scan of its samples
-        return model_emitters(G, self.rate, np.ascontiguousarray(pos), t0=ja * self.kin.dt,
-                              pos_rate=self.rate / K, radius=self.radius, law=1.0,
-                              name=self.name)  # fmt: skip
+        # G = Q g with Q = amp [e1 e2] M (3x2) at both ends of each block, M the block's map
+        S, n = self.n_sources, jb - ja + 1
+        iso = tex.section.symmetry[0] == 0 and tex.directions_deg.size == 1
+        if iso:  # isotropic section, one sampled direction: M is the rotation by θ itself
+            j0 = np.zeros((S, n), dtype=np.int64)
+            j1, w, M = j0, np.zeros((S, n)), np.zeros((1, 1, 4))
+        else:
+            j0, j1, w, M = tex.lookup(np.arctan2(kin.c2[:, ja : jb + 1], kin.c1[:, ja : jb + 1]))
+            M = np.ascontiguousarray(M.reshape(S, n, 4))
+        qa, qb, ph = np.empty((S, n, 3, 2)), np.empty((S, n, 3, 2)), np.empty((S, n + 1))
+        scale = np.ascontiguousarray(kin.span, dtype=np.float64) / (4 * np.pi * self.c0)
+        args = (kin.e1, kin.e2, kin.speed, scale, kin.c1, kin.c2, kin.s, M, iso, ja,
+                kin.dt / self.fade, float(self.exponent), float(tex.rate), qa, qb, ph)  # fmt: skip
+        _in_parts(lambda k0, k1: _q_kernel(*args, k0, k1), S)
+        return TableEmitters(tex.g, tex.lengths, qa, qb, ph, j0, j1, w, K, self.rate, pos,
+                             t0=ja * kin.dt, pos_rate=self.rate / K, radius=self.radius, law=1.0,
+                             name=self.name)  # fmt: skip
 
     def emitters(self, tau0: float = 0.0, tau1: float | None = None) -> Emitters:
         """The dipole emitters of emission times ``[tau0, tau1]`` (s; default: all), in whole blocks."""
@@ -590,23 +545,27 @@ class AeroEmission:
         lay = stage.synthesis_layout
         dur = path.duration - start if duration is None else float(duration)
         n_out = int(round(dur * rate))
-        out = np.zeros((lay.n_channels, n_out))
-        step = max(256, int(CHUNK_BYTES / (2 * 24 * self.n_sources) * rate / self.rate))
+        out: NDArray[np.float64] | None = None
+        blocks = CHUNK_BYTES / (_BLOCK_BYTES * self.n_sources)
+        step = max(256, int(blocks * self.block * rate / self.rate))
         step = max(1, -(-n_out // max(1, -(-n_out // step))))  # windows of equal length
-        buf = np.empty(0)
         for na in range(0, n_out, step):
             nb = min(n_out, na + step)
             t_a = start + na / rate
             win = self._window(path, t_a, start + nb / rate, c0)
             if win is None:
                 continue
-            need = 3 * self.n_sources * (win[1] - win[0] + 1) * self.block
-            if buf.size < need:
-                buf = np.empty(need + need // 4)
-            r = render_emitters(self._emitters(*win, buf=buf), path, rate=rate, layout=lay,
+            r = render_emitters(self._emitters(*win), path, rate=rate, layout=lay,
                                 duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend)  # fmt: skip
+            if na == 0 and nb == n_out and r.audio.shape == (lay.n_channels, n_out):
+                out = r.audio  # one window: its audio is the result
+                break
+            if out is None:
+                out = np.zeros((lay.n_channels, n_out))
             m = min(nb - na, r.audio.shape[1])
             out[:, na : na + m] = r.audio[:, :m]
+        if out is None:  # nothing audible
+            out = np.zeros((lay.n_channels, n_out))
         return stage.finish(Rendered(
             audio=out, rate=int(rate), layout=lay, meta={**self.meta, "model": self.name}
         ))  # fmt: skip

@@ -476,10 +476,14 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     piece = render_sound(sound, path, rate=RATE, layout="ring8", start=0.1, duration=0.05).audio
     np.testing.assert_allclose(piece, whole[:, 4410:6615], rtol=0, atol=1e-9 * np.abs(whole).max())
     # binaural: the windows are AmbiX, the ears' filters run once over their sum
+    amb = part.render_part(path, rate=RATE, layout="ambix1").audio
+    amb_direct = render_emitters(part.emitters(), path, rate=RATE, layout="ambix1").audio
+    np.testing.assert_allclose(amb, amb_direct, rtol=0, atol=1e-9 * np.abs(amb_direct).max())
     ears = part.render_part(path, rate=RATE, layout="binaural").audio
     direct = render_emitters(part.emitters(), path, rate=RATE, layout="binaural").audio
     assert ears.shape == direct.shape == (2, whole.shape[1])
-    np.testing.assert_allclose(ears, direct, rtol=0, atol=1e-9 * np.abs(direct).max())
+    # the ears' filters turn rounding differences of the AmbiX sums into ~1e-7 of the peak
+    np.testing.assert_allclose(ears, direct, rtol=0, atol=1e-6 * np.abs(direct).max())
 
 
 def test_inputs_are_declared_not_a_volume() -> None:
