@@ -1052,17 +1052,47 @@ def _orient_lane(W, i, o, qc, t0, rate, top, t):  # type: ignore[no-untyped-def]
     t from the orientation table qc (at least two rows, the last at ``top`` =
     rows - 1) sampled every 1/rate s from t0 (see :func:`_orient`); held
     outside the table.  Branch-free."""
-    u = (t - t0) * rate
-    u = u if u > 0.0 else 0.0
-    u = u if u < top else top
-    jf = math.floor(u)
-    jf = jf if jf < top - 1.0 else top - 1.0
-    w = u - jf
-    j = np.uint64(jf)
+    j, w = _orient_cell(t0, rate, top, t)
     for c in range(6):
         uc = np.uint64(c)
         a = qc[j, uc]
         W[(o + c) * _CHUNK + i] = a + w * (qc[j + np.uint64(1), uc] - a)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _orient_cell(t0, rate, top, t):  # type: ignore[no-untyped-def]
+    """Row j (unsigned) and weight w of the orientation table (at least two
+    rows, the last at ``top``) at data time t: the value is row j + w·(row j+1
+    - row j); held outside the table (see :func:`_orient_lane`)."""
+    u = (t - t0) * rate
+    u = u if u > 0.0 else 0.0
+    u = u if u < top else top
+    jf = np.floor(u)
+    jf = jf if jf < top - 1.0 else top - 1.0
+    return np.uint64(jf), u - jf
+
+
+@numba.njit(inline="always", **_NJIT)
+def _frame_at(qc, t0, rate, top, t, dx, dy, dz):  # type: ignore[no-untyped-def]
+    """(forward, left) coordinates of direction (dx, dy, dz) in the listener's
+    frame at data time t, forward and up from the orientation table qc (at
+    least two rows; see :func:`_orient_lane`), left = up × forward."""
+    j, w = _orient_cell(t0, rate, top, t)
+    k = j + np.uint64(1)
+    a = qc[j, np.uint64(0)]
+    fx = a + w * (qc[k, np.uint64(0)] - a)
+    a = qc[j, np.uint64(1)]
+    fy = a + w * (qc[k, np.uint64(1)] - a)
+    a = qc[j, np.uint64(2)]
+    fz = a + w * (qc[k, np.uint64(2)] - a)
+    a = qc[j, np.uint64(3)]
+    ux = a + w * (qc[k, np.uint64(3)] - a)
+    a = qc[j, np.uint64(4)]
+    uy = a + w * (qc[k, np.uint64(4)] - a)
+    a = qc[j, np.uint64(5)]
+    uz = a + w * (qc[k, np.uint64(5)] - a)
+    lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
+    return dx * fx + dy * fy + dz * fz, dx * lx + dy * ly + dz * lz
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1554,17 +1584,38 @@ def _part_core(W, i, t_n, t_n1, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv
 def _part_pair_gains(W, cnt, qc, ot, pinv, const_orient):  # type: ignore[no-untyped-def]
     """Pairwise 2-D VBAP gains at both arrivals of a batch of parts (as
     :func:`_chunk_pair_gains`, the listener's positions from rows L0, L1)."""
-    _orient_chunk(W, cnt, qc, ot, const_orient)
+    if const_orient:
+        _orient_chunk(W, cnt, qc, ot, const_orient)
+        for i in range(cnt):
+            x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+            px, py, pz = (W[_W_L0 * _CHUNK + i], W[(_W_L0 + 1) * _CHUNK + i],
+                          W[(_W_L0 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_coords(W, i, _W_O0, x - px, y - py, z - pz)
+            W[_W_XF0 * _CHUNK + i] = xf
+            W[_W_YL0 * _CHUNK + i] = yl
+            px, py, pz = (W[_W_L1 * _CHUNK + i], W[(_W_L1 + 1) * _CHUNK + i],
+                          W[(_W_L1 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_coords(W, i, _W_O1, x - px, y - py, z - pz)
+            W[_W_XF1 * _CHUNK + i] = xf
+            W[_W_YL1 * _CHUNK + i] = yl
+    else:
+        # the table's look-ups are gathers (a scalar loop): the frame is used
+        # where it is read, not stored
+        top = float(qc.shape[0] - 1)
+        t0, rate = ot[0], ot[1]
+        for i in range(cnt):
+            x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+            px, py, pz = (W[_W_L0 * _CHUNK + i], W[(_W_L0 + 1) * _CHUNK + i],
+                          W[(_W_L0 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_at(qc, t0, rate, top, W[_W_A0 * _CHUNK + i], x - px, y - py, z - pz)
+            W[_W_XF0 * _CHUNK + i] = xf
+            W[_W_YL0 * _CHUNK + i] = yl
+            px, py, pz = (W[_W_L1 * _CHUNK + i], W[(_W_L1 + 1) * _CHUNK + i],
+                          W[(_W_L1 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_at(qc, t0, rate, top, W[_W_A1 * _CHUNK + i], x - px, y - py, z - pz)
+            W[_W_XF1 * _CHUNK + i] = xf
+            W[_W_YL1 * _CHUNK + i] = yl
     for i in range(cnt):
-        x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
-        px, py, pz = W[_W_L0 * _CHUNK + i], W[(_W_L0 + 1) * _CHUNK + i], W[(_W_L0 + 2) * _CHUNK + i]
-        xf, yl = _frame_coords(W, i, _W_O0, x - px, y - py, z - pz)
-        W[_W_XF0 * _CHUNK + i] = xf
-        W[_W_YL0 * _CHUNK + i] = yl
-        px, py, pz = W[_W_L1 * _CHUNK + i], W[(_W_L1 + 1) * _CHUNK + i], W[(_W_L1 + 2) * _CHUNK + i]
-        xf, yl = _frame_coords(W, i, _W_O1, x - px, y - py, z - pz)
-        W[_W_XF1 * _CHUNK + i] = xf
-        W[_W_YL1 * _CHUNK + i] = yl
         W[_W_P0 * _CHUNK + i] = -1.0
         W[_W_P1 * _CHUNK + i] = -1.0
     _pair_search(W, cnt, pinv)
@@ -1684,21 +1735,24 @@ def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c
     for i in range(cc):
         s0 = k_lo - 1 + int(CN[i])
         s1 = k_lo - 1 + int(CN[_CHUNK + i])
+        ui = np.uint64(i)
         for j in range(s0, s1 + 1):
+            # (unsigned indices, all >= 0: no wraparound checks in this scalar copy)
             for r in range(8):
-                W[r * _CHUNK + p] = PD[ck, r, i]
-            W[_W_J * _CHUNK + p] = float(j)
-            W[_W_K0 * _CHUNK + p] = 1.0 if j == s0 else 0.0
-            W[_W_K1 * _CHUNK + p] = 1.0 if j == s1 else 0.0
+                W[np.uint64(r * _CHUNK + p)] = PD[uck, np.uint64(r), ui]
+            W[np.uint64(_W_J * _CHUNK + p)] = float(j)
+            W[np.uint64(_W_K0 * _CHUNK + p)] = 1.0 if j == s0 else 0.0
+            W[np.uint64(_W_K1 * _CHUNK + p)] = 1.0 if j == s1 else 0.0
+            lt = np.uint64(j + 1)
             for r in range(9):
-                W[(_W_LN + r) * _CHUNK + p] = LT[j + 1, r]
-            k0 = max(j, 0)
-            k1 = min(j + 1, last)
+                W[np.uint64((_W_LN + r) * _CHUNK + p)] = LT[lt, np.uint64(r)]
+            k0 = np.uint64(max(j, 0))
+            k1 = np.uint64(min(j + 1, last))
             for r in range(3):
-                W[(_W_C0 + r) * _CHUNK + p] = lc[k0, r]
-                W[(_W_C1 + r) * _CHUNK + p] = lc[k1, r]
-            W[(_W_C0 + 3) * _CHUNK + p] = tc[k0]
-            W[(_W_C1 + 3) * _CHUNK + p] = tc[k1]
+                W[np.uint64((_W_C0 + r) * _CHUNK + p)] = lc[k0, np.uint64(r)]
+                W[np.uint64((_W_C1 + r) * _CHUNK + p)] = lc[k1, np.uint64(r)]
+            W[np.uint64((_W_C0 + 3) * _CHUNK + p)] = tc[k0]
+            W[np.uint64((_W_C1 + 3) * _CHUNK + p)] = tc[k1]
             p += 1
             if p == _CHUNK:
                 nbad += _part_batch(W, p, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs,
@@ -1931,8 +1985,9 @@ def _clear_window(acc, blk, n_ch, block, n_samples):  # type: ignore[no-untyped-
     reads levels 1-3 from the rows before a sample) to the last sample."""
     w0 = blk[0] * block
     first = max(blk[3] - 3 - w0, 0)
+    # (unsigned indices, all >= 0: contiguous stores, not a scatter)
     for i in range(blk[2] + n_ch * first * 4, blk[2] + n_ch * min(blk[1] * block, n_samples - w0) * 4):
-        acc[i] = 0.0
+        acc[np.uint64(i)] = 0.0
 
 
 @numba.njit(**_NJIT)
@@ -1946,6 +2001,15 @@ def _integrate(acc, task_blk, c_lo, c_hi, b, n_ch, block, n_samples, out):  # ty
     nc = c_hi - c_lo
     run = np.zeros((nc, 4))
     lim = min(block, n_samples - b * block)
+    # the tasks whose window holds block b: the offset of their row of sample
+    # 0 at channel c_lo and the first sample they count from
+    row0 = np.zeros(n_tasks, dtype=np.int64)
+    i0 = np.full(n_tasks, lim, dtype=np.int64)
+    for j in range(n_tasks):
+        jb = b - task_blk[j, 0]
+        if 0 <= jb < task_blk[j, 1]:
+            row0[j] = task_blk[j, 2] + (jb * block * n_ch + c_lo) * 4
+            i0[j] = max(task_blk[j, 3] - b * block, 0)
     for i in range(lim):
         for c in range(nc):
             v3 = 0.0
@@ -1953,17 +2017,17 @@ def _integrate(acc, task_blk, c_lo, c_hi, b, n_ch, block, n_samples, out):  # ty
             v1 = 0.0
             v0 = 0.0
             for j in range(n_tasks):
-                jb = b - task_blk[j, 0]
-                if jb < 0 or jb >= task_blk[j, 1] or b * block + i < task_blk[j, 3]:
+                if i < i0[j]:
                     continue
-                r = task_blk[j, 2] + ((jb * block + i) * n_ch + c_lo + c) * 4
+                # (unsigned: the rows read are >= 0)
+                r = np.uint64(row0[j] + (i * n_ch + c) * 4)
                 v0 += acc[r]
                 if i >= 1:
-                    v1 += acc[r - rs + 1]
+                    v1 += acc[r - np.uint64(rs - 1)]
                 if i >= 2:
-                    v2 += acc[r - 2 * rs + 2]
+                    v2 += acc[r - np.uint64(2 * rs - 2)]
                 if i >= 3:
-                    v3 += acc[r - 3 * rs + 3]
+                    v3 += acc[r - np.uint64(3 * rs - 3)]
             r3 = run[c, 3] + v3
             r2 = run[c, 2] + v2 + r3
             r1 = run[c, 1] + v1 + r2
