@@ -1331,7 +1331,7 @@ def _prefetch(typingctx, arr, idx):  # type: ignore[no-untyped-def]
 
 
 #: lanes ahead that the scatter loops ask the cache for (see :func:`_prefetch_lane`)
-_AHEAD = 6
+_AHEAD = 12
 
 
 @numba.njit(inline="always", **_NJIT)
