@@ -62,6 +62,12 @@ from auralize.runtime.jit import configure as _configure_numba
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
 _NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+#: kernels that allocate nothing: compiled without reference counting (numba's
+#: runtime increments and decrements an array's count, with atomic
+#: instructions, wherever its code copies the array's handle: in every
+#: iteration of the scatter loops, where the helpers taking arrays are
+#: inlined); the arrays they get belong to their caller for the whole call
+_NJIT_NORC = {**_NJIT, "_nrt": False}
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -447,7 +453,7 @@ def _emit_piece(acc, base, blo, nb, ch, n_ch, shift, n_samples, u0, u1, p0, p1, 
         ms = bend
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _flush_captures(acc, ct, k_ct, tc, t_start, fs, n_samples, shift, blo, nb, base, n_ch,
                     m_first):  # fmt: skip  # type: ignore[no-untyped-def]
     """Add a task's capture table (see :func:`_emit_piece`: row r holds the
@@ -675,7 +681,7 @@ def _line_arrival(x, y, z, rm, lx, ly, lz, vx, vy, vz, t_n, inv_den, den, c0, in
 _LINE = 12
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _row_lines(tn, tc, lc, vc, c0, d_max, n_lo, n_hi, RC):  # type: ignore[no-untyped-def]
     """Per knot row n, two candidate lines of the listener for the arrivals of
     the emissions at t_n: the capture interval s holding t_n and the next one.
@@ -889,7 +895,7 @@ def _line_tuple(R, o):  # type: ignore[no-untyped-def]
             R[o + 9], R[o + 10], R[o + 11])  # fmt: skip
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _chunk_pieces(PD, ck, cnt, RC0, RC1, c0, t_start, fs, n_samples, shift, blo, nb, base,
                   n_ch, panned, W):  # fmt: skip  # type: ignore[no-untyped-def]
     """The cnt pieces of chunk ck (PD[ck], of one row n: knots at t_n with the
@@ -1033,9 +1039,60 @@ def _orient_chunk(W, cnt, qc, ot, const_orient):  # type: ignore[no-untyped-def]
                 W[(_W_O0 + c) * _CHUNK + i] = v
                 W[(_W_O1 + c) * _CHUNK + i] = v
     else:
+        # (not constant: at least two rows) branch-free, unsigned indices: SIMD
+        top = float(qc.shape[0] - 1)
         for i in range(cnt):
-            _orient_rows(W, i, _W_O0, qc, ot, W[_W_A0 * _CHUNK + i])
-            _orient_rows(W, i, _W_O1, qc, ot, W[_W_A1 * _CHUNK + i])
+            _orient_lane(W, i, _W_O0, qc, ot[0], ot[1], top, W[_W_A0 * _CHUNK + i])
+            _orient_lane(W, i, _W_O1, qc, ot[0], ot[1], top, W[_W_A1 * _CHUNK + i])
+
+
+@numba.njit(inline="always", **_NJIT)
+def _orient_lane(W, i, o, qc, t0, rate, top, t):  # type: ignore[no-untyped-def]
+    """Rows o..o+5 of column i of W: the listener's forward and up at data time
+    t from the orientation table qc (at least two rows, the last at ``top`` =
+    rows - 1) sampled every 1/rate s from t0 (see :func:`_orient`); held
+    outside the table.  Branch-free."""
+    j, w = _orient_cell(t0, rate, top, t)
+    for c in range(6):
+        uc = np.uint64(c)
+        a = qc[j, uc]
+        W[(o + c) * _CHUNK + i] = a + w * (qc[j + np.uint64(1), uc] - a)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _orient_cell(t0, rate, top, t):  # type: ignore[no-untyped-def]
+    """Row j (unsigned) and weight w of the orientation table (at least two
+    rows, the last at ``top``) at data time t: the value is row j + w·(row j+1
+    - row j); held outside the table (see :func:`_orient_lane`)."""
+    u = (t - t0) * rate
+    u = u if u > 0.0 else 0.0
+    u = u if u < top else top
+    jf = np.floor(u)
+    jf = jf if jf < top - 1.0 else top - 1.0
+    return np.uint64(jf), u - jf
+
+
+@numba.njit(inline="always", **_NJIT)
+def _frame_at(qc, t0, rate, top, t, dx, dy, dz):  # type: ignore[no-untyped-def]
+    """(forward, left) coordinates of direction (dx, dy, dz) in the listener's
+    frame at data time t, forward and up from the orientation table qc (at
+    least two rows; see :func:`_orient_lane`), left = up × forward."""
+    j, w = _orient_cell(t0, rate, top, t)
+    k = j + np.uint64(1)
+    a = qc[j, np.uint64(0)]
+    fx = a + w * (qc[k, np.uint64(0)] - a)
+    a = qc[j, np.uint64(1)]
+    fy = a + w * (qc[k, np.uint64(1)] - a)
+    a = qc[j, np.uint64(2)]
+    fz = a + w * (qc[k, np.uint64(2)] - a)
+    a = qc[j, np.uint64(3)]
+    ux = a + w * (qc[k, np.uint64(3)] - a)
+    a = qc[j, np.uint64(4)]
+    uy = a + w * (qc[k, np.uint64(4)] - a)
+    a = qc[j, np.uint64(5)]
+    uz = a + w * (qc[k, np.uint64(5)] - a)
+    lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
+    return dx * fx + dy * fy + dz * fz, dx * lx + dy * ly + dz * lz
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1055,7 +1112,7 @@ def _pair_search(W, cnt, pinv):  # type: ignore[no-untyped-def]
         W[_W_KIND * _CHUNK + i] = 2.0 if (kd != 0.0) & ~ok else kd
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _chunk_pair_gains(W, cnt, RC0, RC1, qc, ot, pinv, const_orient):  # type: ignore[no-untyped-def]
     """Pairwise 2-D VBAP gains at both arrivals of the chunk's pieces (the law
     of :func:`_gains`, fast path: the first speaker pair whose inverse base
@@ -1217,6 +1274,43 @@ def _scatter_group(acc, W, i, si, ei, ci, off, g0, g1):  # type: ignore[no-untyp
         _add_gained(acc, ci + off, W, _W_VAL + 8, i, g0, g1)
 
 
+@numba.njit(inline="always", **_NJIT)
+def _scatter_simple(acc, W, i, panned, pairs, spk_ch, nxt):  # type: ignore[no-untyped-def]
+    """Add the simple piece or part (kind 1) in lane i of W to the accumulator
+    when the layout is unpanned (its polynomial at its start, end and
+    continuation rows SI, EI, CI) or panned by speaker pairs (g0·A + g1·B on
+    the two channels of the pair at each end; nxt: the channel of the next
+    speaker).  Returns whether it was added, and the rows SI, EI, CI (-1: none)
+    for the caller to add it otherwise."""
+    si = int(W[_W_SI * _CHUNK + i])
+    ei = int(W[_W_EI * _CHUNK + i])
+    ci = int(W[_W_CI * _CHUNK + i])
+    if not panned:
+        _add_plain(acc, si, W, _W_VAL, i)
+        if ei >= 0:
+            _add_plain(acc, ei, W, _W_VAL + 4, i)
+        if ci >= 0:
+            _add_plain(acc, ci, W, _W_VAL + 8, i)
+        return True, si, ei, ci
+    if not pairs:
+        return False, si, ei, ci
+    p0 = int(W[_W_P0 * _CHUNK + i])
+    p1 = int(W[_W_P1 * _CHUNK + i])
+    g00, g01 = W[_W_G00 * _CHUNK + i], W[_W_G01 * _CHUNK + i]
+    g10, g11 = W[_W_G10 * _CHUNK + i], W[_W_G11 * _CHUNK + i]
+    c00, c01 = spk_ch[p0], nxt[p0]
+    if p0 == p1:
+        _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, g10)
+        _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, g11)
+    else:
+        c10, c11 = spk_ch[p1], nxt[p1]
+        _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, 0.0)
+        _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, 0.0)
+        _scatter_group(acc, W, i, si, ei, ci, c10 * 4, 0.0, g10)
+        _scatter_group(acc, W, i, si, ei, ci, c11 * 4, 0.0, g11)
+    return True, si, ei, ci
+
+
 @intrinsic
 def _prefetch(typingctx, arr, idx):  # type: ignore[no-untyped-def]
     """Hint the cache to fetch ``arr[idx]`` for writing (``llvm.prefetch``; a
@@ -1237,7 +1331,7 @@ def _prefetch(typingctx, arr, idx):  # type: ignore[no-untyped-def]
 
 
 #: lanes ahead that the scatter loops ask the cache for (see :func:`_prefetch_lane`)
-_AHEAD = 6
+_AHEAD = 12
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -1309,7 +1403,7 @@ def _add_gained(acc, row, W, r, i, g0, g1):  # type: ignore[no-untyped-def]
                                   + g1 * W[w + np.uint64((v + 12) * _CHUNK)])  # fmt: skip
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, seg, x, y, z, rmin, tn, q0,
                    m0, q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
                    fold, pinv, panned, ga, gb, gx, gy, o, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
@@ -1333,7 +1427,7 @@ def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, seg, x, y, z, 
                          k_ct)  # fmt: skip
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0, q1,
                   m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
                   panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
@@ -1486,27 +1580,48 @@ def _part_core(W, i, t_n, t_n1, c0, inv_c0, t_start, fs, inv_fs, fn, fblock, inv
                        t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _part_pair_gains(W, cnt, qc, ot, pinv, const_orient):  # type: ignore[no-untyped-def]
     """Pairwise 2-D VBAP gains at both arrivals of a batch of parts (as
     :func:`_chunk_pair_gains`, the listener's positions from rows L0, L1)."""
-    _orient_chunk(W, cnt, qc, ot, const_orient)
+    if const_orient:
+        _orient_chunk(W, cnt, qc, ot, const_orient)
+        for i in range(cnt):
+            x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+            px, py, pz = (W[_W_L0 * _CHUNK + i], W[(_W_L0 + 1) * _CHUNK + i],
+                          W[(_W_L0 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_coords(W, i, _W_O0, x - px, y - py, z - pz)
+            W[_W_XF0 * _CHUNK + i] = xf
+            W[_W_YL0 * _CHUNK + i] = yl
+            px, py, pz = (W[_W_L1 * _CHUNK + i], W[(_W_L1 + 1) * _CHUNK + i],
+                          W[(_W_L1 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_coords(W, i, _W_O1, x - px, y - py, z - pz)
+            W[_W_XF1 * _CHUNK + i] = xf
+            W[_W_YL1 * _CHUNK + i] = yl
+    else:
+        # the table's look-ups are gathers (a scalar loop): the frame is used
+        # where it is read, not stored
+        top = float(qc.shape[0] - 1)
+        t0, rate = ot[0], ot[1]
+        for i in range(cnt):
+            x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
+            px, py, pz = (W[_W_L0 * _CHUNK + i], W[(_W_L0 + 1) * _CHUNK + i],
+                          W[(_W_L0 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_at(qc, t0, rate, top, W[_W_A0 * _CHUNK + i], x - px, y - py, z - pz)
+            W[_W_XF0 * _CHUNK + i] = xf
+            W[_W_YL0 * _CHUNK + i] = yl
+            px, py, pz = (W[_W_L1 * _CHUNK + i], W[(_W_L1 + 1) * _CHUNK + i],
+                          W[(_W_L1 + 2) * _CHUNK + i])  # fmt: skip
+            xf, yl = _frame_at(qc, t0, rate, top, W[_W_A1 * _CHUNK + i], x - px, y - py, z - pz)
+            W[_W_XF1 * _CHUNK + i] = xf
+            W[_W_YL1 * _CHUNK + i] = yl
     for i in range(cnt):
-        x, y, z = W[0 * _CHUNK + i], W[1 * _CHUNK + i], W[2 * _CHUNK + i]
-        px, py, pz = W[_W_L0 * _CHUNK + i], W[(_W_L0 + 1) * _CHUNK + i], W[(_W_L0 + 2) * _CHUNK + i]
-        xf, yl = _frame_coords(W, i, _W_O0, x - px, y - py, z - pz)
-        W[_W_XF0 * _CHUNK + i] = xf
-        W[_W_YL0 * _CHUNK + i] = yl
-        px, py, pz = W[_W_L1 * _CHUNK + i], W[(_W_L1 + 1) * _CHUNK + i], W[(_W_L1 + 2) * _CHUNK + i]
-        xf, yl = _frame_coords(W, i, _W_O1, x - px, y - py, z - pz)
-        W[_W_XF1 * _CHUNK + i] = xf
-        W[_W_YL1 * _CHUNK + i] = yl
         W[_W_P0 * _CHUNK + i] = -1.0
         W[_W_P1 * _CHUNK + i] = -1.0
     _pair_search(W, cnt, pinv)
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_samples, shift, blo,
                 nb, base, n_ch, panned, pairs, const_orient, spk_az, spk_ch, nxt, fold, pinv, acc,
                 ga, gb, o, ct):  # fmt: skip  # type: ignore[no-untyped-def]
@@ -1548,31 +1663,8 @@ def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_sa
         a0, a1 = W[_W_A0 * _CHUNK + i], W[_W_A1 * _CHUNK + i]
         sg = int(W[_W_J * _CHUNK + i])
         if kd == 1.0:
-            si = int(W[_W_SI * _CHUNK + i])
-            ei = int(W[_W_EI * _CHUNK + i])
-            ci = int(W[_W_CI * _CHUNK + i])
-            if not panned:
-                _add_plain(acc, si, W, _W_VAL, i)
-                if ei >= 0:
-                    _add_plain(acc, ei, W, _W_VAL + 4, i)
-                if ci >= 0:
-                    _add_plain(acc, ci, W, _W_VAL + 8, i)
-                continue
-            if pairs:
-                p0 = int(W[_W_P0 * _CHUNK + i])
-                p1 = int(W[_W_P1 * _CHUNK + i])
-                g00, g01 = W[_W_G00 * _CHUNK + i], W[_W_G01 * _CHUNK + i]
-                g10, g11 = W[_W_G10 * _CHUNK + i], W[_W_G11 * _CHUNK + i]
-                c00, c01 = spk_ch[p0], nxt[p0]
-                if p0 == p1:
-                    _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, g10)
-                    _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, g11)
-                else:
-                    c10, c11 = spk_ch[p1], nxt[p1]
-                    _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, 0.0)
-                    _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, 0.0)
-                    _scatter_group(acc, W, i, si, ei, ci, c10 * 4, 0.0, g10)
-                    _scatter_group(acc, W, i, si, ei, ci, c11 * 4, 0.0, g11)
+            done, si, ei, ci = _scatter_simple(acc, W, i, panned, pairs, spk_ch, nxt)
+            if done:
                 continue
             _pan(x, y, z, a0, sg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
             _pan(x, y, z, a1, sg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
@@ -1601,7 +1693,7 @@ def _part_batch(W, cnt, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_sa
     return nbad
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_NJIT_NORC)
 def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs,
                  n_samples, shift, blo, nb, base, n_ch, panned, pairs, const_orient, spk_az, spk_ch,
                  nxt, fold, pinv, acc, ga, gb, o, ct, CN):  # fmt: skip  # type: ignore[no-untyped-def]
@@ -1643,21 +1735,24 @@ def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c
     for i in range(cc):
         s0 = k_lo - 1 + int(CN[i])
         s1 = k_lo - 1 + int(CN[_CHUNK + i])
+        ui = np.uint64(i)
         for j in range(s0, s1 + 1):
+            # (unsigned indices, all >= 0: no wraparound checks in this scalar copy)
             for r in range(8):
-                W[r * _CHUNK + p] = PD[ck, r, i]
-            W[_W_J * _CHUNK + p] = float(j)
-            W[_W_K0 * _CHUNK + p] = 1.0 if j == s0 else 0.0
-            W[_W_K1 * _CHUNK + p] = 1.0 if j == s1 else 0.0
+                W[np.uint64(r * _CHUNK + p)] = PD[uck, np.uint64(r), ui]
+            W[np.uint64(_W_J * _CHUNK + p)] = float(j)
+            W[np.uint64(_W_K0 * _CHUNK + p)] = 1.0 if j == s0 else 0.0
+            W[np.uint64(_W_K1 * _CHUNK + p)] = 1.0 if j == s1 else 0.0
+            lt = np.uint64(j + 1)
             for r in range(9):
-                W[(_W_LN + r) * _CHUNK + p] = LT[j + 1, r]
-            k0 = max(j, 0)
-            k1 = min(j + 1, last)
+                W[np.uint64((_W_LN + r) * _CHUNK + p)] = LT[lt, np.uint64(r)]
+            k0 = np.uint64(max(j, 0))
+            k1 = np.uint64(min(j + 1, last))
             for r in range(3):
-                W[(_W_C0 + r) * _CHUNK + p] = lc[k0, r]
-                W[(_W_C1 + r) * _CHUNK + p] = lc[k1, r]
-            W[(_W_C0 + 3) * _CHUNK + p] = tc[k0]
-            W[(_W_C1 + 3) * _CHUNK + p] = tc[k1]
+                W[np.uint64((_W_C0 + r) * _CHUNK + p)] = lc[k0, np.uint64(r)]
+                W[np.uint64((_W_C1 + r) * _CHUNK + p)] = lc[k1, np.uint64(r)]
+            W[np.uint64((_W_C0 + 3) * _CHUNK + p)] = tc[k0]
+            W[np.uint64((_W_C1 + 3) * _CHUNK + p)] = tc[k1]
             p += 1
             if p == _CHUNK:
                 nbad += _part_batch(W, p, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs,
@@ -1749,129 +1844,12 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
         o = np.zeros(6)
         ctj = ct[j]
         ctj[:] = 0.0
-        nbad = 0
-        n = n_lo
-        while n < n_hi and cptr[n + 1] <= p_a:
-            n += 1
-        while n < n_hi and cptr[n] < p_b:
-            if KR[n, 1] > KR[n, 0]:
-                for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
-                    nbad += _chunk_parts(
-                        PD, ck, ccnt[ck], KR[n, 0], KR[n, 1], WP, LT, tc, lc, vc, qc, ot, tn[n],
-                        tn[n + 1], c0, t_start, fs, n_samples, shift, blo, nb, base, n_ch, panned,
-                        pairs, const_orient, spk_az, spk_ch, nxt, fold, pinv, acc, ga, gb, o, ctj,
-                        CN,
-                    )  # fmt: skip
-                n += 1
-                continue
-            for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
-                cc = ccnt[ck]
-                _chunk_pieces(PD, ck, cc, RC[n], RC[n + 1], c0, t_start, fs, n_samples, shift,
-                              blo, nb, base, n_ch, panned, W)  # fmt: skip
-                if pairs:
-                    _chunk_pair_gains(W, cc, RC[n], RC[n + 1], qc, ot, pinv, const_orient)
-                elif dense:
-                    _chunk_sh_gains(W, cc, RC[n], RC[n + 1], qc, ot, pinv, const_orient, GT0,
-                                    GT1, SH)  # fmt: skip
-                elif panned:
-                    for i in range(cc):
-                        if W[_W_KIND * _CHUNK + i] != 1.0 and W[_W_KIND * _CHUNK + i] != 3.0:
-                            continue
-                        x, y, z = PD[ck, 0, i], PD[ck, 1, i], PD[ck, 2, i]
-                        _pan(x, y, z, W[_W_A0 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]), tc, lc, vc, qc, ot, spk_az,
-                             spk_ch, fold, pinv, ga, o)  # fmt: skip
-                        _pan(x, y, z, W[_W_A1 * _CHUNK + i], int(W[_W_S1 * _CHUNK + i]), tc, lc, vc, qc, ot, spk_az,
-                             spk_ch, fold, pinv, gb, o)  # fmt: skip
-                        for c in range(n_ch):
-                            G0[i, c] = ga[c]
-                            G1[i, c] = gb[c]
-                for i in range(_AHEAD):
-                    _prefetch_lane(acc, W, i, cc, pairs, spk_ch, nxt)
-                for i in range(cc):
-                    _prefetch_lane(acc, W, i + _AHEAD, cc, pairs, spk_ch, nxt)
-                    kd = W[_W_KIND * _CHUNK + i]
-                    if kd == 0.0:
-                        continue
-                    if kd == 1.0:
-                        si = int(W[_W_SI * _CHUNK + i])
-                        ei = int(W[_W_EI * _CHUNK + i])
-                        ci = int(W[_W_CI * _CHUNK + i])
-                        if not panned:
-                            _add_plain(acc, si, W, _W_VAL, i)
-                            if ei >= 0:
-                                _add_plain(acc, ei, W, _W_VAL + 4, i)
-                            if ci >= 0:
-                                _add_plain(acc, ci, W, _W_VAL + 8, i)
-                            continue
-                        if pairs:
-                            p0 = int(W[_W_P0 * _CHUNK + i])
-                            p1 = int(W[_W_P1 * _CHUNK + i])
-                            g00, g01 = W[_W_G00 * _CHUNK + i], W[_W_G01 * _CHUNK + i]
-                            g10, g11 = W[_W_G10 * _CHUNK + i], W[_W_G11 * _CHUNK + i]
-                            c00, c01 = spk_ch[p0], nxt[p0]
-                            if p0 == p1:
-                                _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, g10)
-                                _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, g11)
-                            else:
-                                c10, c11 = spk_ch[p1], nxt[p1]
-                                _scatter_group(acc, W, i, si, ei, ci, c00 * 4, g00, 0.0)
-                                _scatter_group(acc, W, i, si, ei, ci, c01 * 4, g01, 0.0)
-                                _scatter_group(acc, W, i, si, ei, ci, c10 * 4, 0.0, g10)
-                                _scatter_group(acc, W, i, si, ei, ci, c11 * 4, 0.0, g11)
-                            continue
-                        if dense:
-                            _add_dense(acc, si, W, _W_VAL, i, GT0, GT1, n_ch)
-                            if ei >= 0:
-                                _add_dense(acc, ei, W, _W_VAL + 4, i, GT0, GT1, n_ch)
-                            if ci >= 0:
-                                _add_dense(acc, ci, W, _W_VAL + 8, i, GT0, GT1, n_ch)
-                            continue
-                        for c in range(n_ch):
-                            g0 = G0[i, c]
-                            g1 = G1[i, c]
-                            if g0 != 0.0 or g1 != 0.0:
-                                _scatter_group(acc, W, i, si, ei, ci, c * 4, g0, g1)
-                        continue
-                    if kd == 3.0:
-                        # across listener captures or several blocks: arrivals,
-                        # values and gains from the SIMD loops
-                        if pairs:
-                            for c in range(n_ch):
-                                ga[c] = 0.0
-                                gb[c] = 0.0
-                            p0 = int(W[_W_P0 * _CHUNK + i])
-                            p1 = int(W[_W_P1 * _CHUNK + i])
-                            ga[spk_ch[p0]] += W[_W_G00 * _CHUNK + i]
-                            ga[nxt[p0]] += W[_W_G01 * _CHUNK + i]
-                            gb[spk_ch[p1]] += W[_W_G10 * _CHUNK + i]
-                            gb[nxt[p1]] += W[_W_G11 * _CHUNK + i]
-                        elif dense:
-                            for c in range(n_ch):
-                                ga[c] = GT0[c, i]
-                                gb[c] = GT1[c, i]
-                        elif panned:
-                            for c in range(n_ch):
-                                ga[c] = G0[i, c]
-                                gb[c] = G1[i, c]
-                        nbad += _piece_across(
-                            acc, base, blo, nb, n_ch, shift, n_samples, n, PD[ck, 0, i],
-                            PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i],
-                            PD[ck, 5, i], PD[ck, 6, i], PD[ck, 7, i], cubic, tc, lc, vc, qc, ot, c0,
-                            t_start, fs, spk_az, spk_ch, fold, pinv, panned, W[_W_A0 * _CHUNK + i],
-                            W[_W_A1 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]),
-                            int(W[_W_S1 * _CHUNK + i]), W[_W_F0 * _CHUNK + i],
-                            W[_W_WF0 * _CHUNK + i] * fs, W[_W_F1 * _CHUNK + i],
-                            W[_W_WF1 * _CHUNK + i] * fs, ga, gb, gx, gy, o, ctj, k_ct,
-                        )  # fmt: skip
-                        continue
-                    nbad += _piece_general(
-                        acc, base, blo, nb, n_ch, shift, n_samples, n, int(RC[n, 11]), PD[ck, 0, i],
-                        PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i], PD[ck, 5, i],
-                        PD[ck, 6, i], PD[ck, 7, i],
-                        cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
-                        panned, ga, gb, gx, gy, o, ctj, k_ct,
-                    )  # fmt: skip
-            n += 1
+        nbad = _task_sum(
+            PD, cptr, ccnt, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, shift,
+            spk_az, spk_ch, nxt, pinv, n_ch, fold, panned, pairs, dense, const_orient, n_lo, n_hi,
+            p_a, p_b, blo, nb, base, RC, KR, LT, acc, ctj, k_ct, W, WP, CN, G0, G1, GT0, GT1, SH,
+            ga, gb, gx, gy, o,
+        )  # fmt: skip
         bad[j] = nbad + _flush_captures(acc, ctj, k_ct, tc, t_start, fs, n_samples, shift, blo, nb,
                                         base, n_ch, task_blk[j, 3])  # fmt: skip
     # integrate: per channel and block, the sum of the tasks' skewed levels,
@@ -1887,6 +1865,119 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     return int(bad.sum())
 
 
+@numba.njit(**_NJIT_NORC)
+def _task_sum(PD, cptr, ccnt, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples, shift,
+              spk_az, spk_ch, nxt, pinv, n_ch, fold, panned, pairs, dense, const_orient, n_lo,
+              n_hi, p_a, p_b, blo, nb, base, RC, KR, LT, acc, ctj, k_ct, W, WP, CN, G0, G1, GT0,
+              GT1, SH, ga, gb, gx, gy, o):  # fmt: skip  # type: ignore[no-untyped-def]
+    """One task of :func:`render`: its pieces (chunks p_a..p_b-1 of rows
+    n_lo..n_hi-1) into its accumulator window (blocks blo..blo+nb-1 at offset
+    ``base``) and capture table ``ctj``; W, WP, CN, G0, G1, GT0, GT1, SH, ga, gb,
+    gx, gy and o are its work arrays.  Returns the number of emissions outside
+    the window."""
+    nbad = 0
+    n = n_lo
+    while n < n_hi and cptr[n + 1] <= p_a:
+        n += 1
+    while n < n_hi and cptr[n] < p_b:
+        if KR[n, 1] > KR[n, 0]:
+            for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
+                nbad += _chunk_parts(
+                    PD, ck, ccnt[ck], KR[n, 0], KR[n, 1], WP, LT, tc, lc, vc, qc, ot, tn[n],
+                    tn[n + 1], c0, t_start, fs, n_samples, shift, blo, nb, base, n_ch, panned,
+                    pairs, const_orient, spk_az, spk_ch, nxt, fold, pinv, acc, ga, gb, o, ctj,
+                    CN,
+                )  # fmt: skip
+            n += 1
+            continue
+        for ck in range(max(cptr[n], p_a), min(cptr[n + 1], p_b)):
+            cc = ccnt[ck]
+            _chunk_pieces(PD, ck, cc, RC[n], RC[n + 1], c0, t_start, fs, n_samples, shift,
+                          blo, nb, base, n_ch, panned, W)  # fmt: skip
+            if pairs:
+                _chunk_pair_gains(W, cc, RC[n], RC[n + 1], qc, ot, pinv, const_orient)
+            elif dense:
+                _chunk_sh_gains(W, cc, RC[n], RC[n + 1], qc, ot, pinv, const_orient, GT0,
+                                GT1, SH)  # fmt: skip
+            elif panned:
+                for i in range(cc):
+                    if W[_W_KIND * _CHUNK + i] != 1.0 and W[_W_KIND * _CHUNK + i] != 3.0:
+                        continue
+                    x, y, z = PD[ck, 0, i], PD[ck, 1, i], PD[ck, 2, i]
+                    _pan(x, y, z, W[_W_A0 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]), tc, lc, vc, qc, ot, spk_az,
+                         spk_ch, fold, pinv, ga, o)  # fmt: skip
+                    _pan(x, y, z, W[_W_A1 * _CHUNK + i], int(W[_W_S1 * _CHUNK + i]), tc, lc, vc, qc, ot, spk_az,
+                         spk_ch, fold, pinv, gb, o)  # fmt: skip
+                    for c in range(n_ch):
+                        G0[i, c] = ga[c]
+                        G1[i, c] = gb[c]
+            for i in range(_AHEAD):
+                _prefetch_lane(acc, W, i, cc, pairs, spk_ch, nxt)
+            for i in range(cc):
+                _prefetch_lane(acc, W, i + _AHEAD, cc, pairs, spk_ch, nxt)
+                kd = W[_W_KIND * _CHUNK + i]
+                if kd == 0.0:
+                    continue
+                if kd == 1.0:
+                    done, si, ei, ci = _scatter_simple(acc, W, i, panned, pairs, spk_ch, nxt)
+                    if done:
+                        continue
+                    if dense:
+                        _add_dense(acc, si, W, _W_VAL, i, GT0, GT1, n_ch)
+                        if ei >= 0:
+                            _add_dense(acc, ei, W, _W_VAL + 4, i, GT0, GT1, n_ch)
+                        if ci >= 0:
+                            _add_dense(acc, ci, W, _W_VAL + 8, i, GT0, GT1, n_ch)
+                        continue
+                    for c in range(n_ch):
+                        g0 = G0[i, c]
+                        g1 = G1[i, c]
+                        if g0 != 0.0 or g1 != 0.0:
+                            _scatter_group(acc, W, i, si, ei, ci, c * 4, g0, g1)
+                    continue
+                if kd == 3.0:
+                    # across listener captures or several blocks: arrivals,
+                    # values and gains from the SIMD loops
+                    if pairs:
+                        for c in range(n_ch):
+                            ga[c] = 0.0
+                            gb[c] = 0.0
+                        p0 = int(W[_W_P0 * _CHUNK + i])
+                        p1 = int(W[_W_P1 * _CHUNK + i])
+                        ga[spk_ch[p0]] += W[_W_G00 * _CHUNK + i]
+                        ga[nxt[p0]] += W[_W_G01 * _CHUNK + i]
+                        gb[spk_ch[p1]] += W[_W_G10 * _CHUNK + i]
+                        gb[nxt[p1]] += W[_W_G11 * _CHUNK + i]
+                    elif dense:
+                        for c in range(n_ch):
+                            ga[c] = GT0[c, i]
+                            gb[c] = GT1[c, i]
+                    elif panned:
+                        for c in range(n_ch):
+                            ga[c] = G0[i, c]
+                            gb[c] = G1[i, c]
+                    nbad += _piece_across(
+                        acc, base, blo, nb, n_ch, shift, n_samples, n, PD[ck, 0, i],
+                        PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i],
+                        PD[ck, 5, i], PD[ck, 6, i], PD[ck, 7, i], cubic, tc, lc, vc, qc, ot, c0,
+                        t_start, fs, spk_az, spk_ch, fold, pinv, panned, W[_W_A0 * _CHUNK + i],
+                        W[_W_A1 * _CHUNK + i], int(W[_W_S0 * _CHUNK + i]),
+                        int(W[_W_S1 * _CHUNK + i]), W[_W_F0 * _CHUNK + i],
+                        W[_W_WF0 * _CHUNK + i] * fs, W[_W_F1 * _CHUNK + i],
+                        W[_W_WF1 * _CHUNK + i] * fs, ga, gb, gx, gy, o, ctj, k_ct,
+                    )  # fmt: skip
+                    continue
+                nbad += _piece_general(
+                    acc, base, blo, nb, n_ch, shift, n_samples, n, int(RC[n, 11]), PD[ck, 0, i],
+                    PD[ck, 1, i], PD[ck, 2, i], PD[ck, 3, i], tn, PD[ck, 4, i], PD[ck, 5, i],
+                    PD[ck, 6, i], PD[ck, 7, i],
+                    cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold, pinv,
+                    panned, ga, gb, gx, gy, o, ctj, k_ct,
+                )  # fmt: skip
+        n += 1
+    return nbad
+
+
 @numba.njit(inline="always", **_NJIT)
 def _clear_window(acc, blk, n_ch, block, n_samples):  # type: ignore[no-untyped-def]
     """Zero a task's accumulator window blk = (first block, blocks, offset,
@@ -1894,8 +1985,9 @@ def _clear_window(acc, blk, n_ch, block, n_samples):  # type: ignore[no-untyped-
     reads levels 1-3 from the rows before a sample) to the last sample."""
     w0 = blk[0] * block
     first = max(blk[3] - 3 - w0, 0)
+    # (unsigned indices, all >= 0: contiguous stores, not a scatter)
     for i in range(blk[2] + n_ch * first * 4, blk[2] + n_ch * min(blk[1] * block, n_samples - w0) * 4):
-        acc[i] = 0.0
+        acc[np.uint64(i)] = 0.0
 
 
 @numba.njit(**_NJIT)
@@ -1909,6 +2001,15 @@ def _integrate(acc, task_blk, c_lo, c_hi, b, n_ch, block, n_samples, out):  # ty
     nc = c_hi - c_lo
     run = np.zeros((nc, 4))
     lim = min(block, n_samples - b * block)
+    # the tasks whose window holds block b: the offset of their row of sample
+    # 0 at channel c_lo and the first sample they count from
+    row0 = np.zeros(n_tasks, dtype=np.int64)
+    i0 = np.full(n_tasks, lim, dtype=np.int64)
+    for j in range(n_tasks):
+        jb = b - task_blk[j, 0]
+        if 0 <= jb < task_blk[j, 1]:
+            row0[j] = task_blk[j, 2] + (jb * block * n_ch + c_lo) * 4
+            i0[j] = max(task_blk[j, 3] - b * block, 0)
     for i in range(lim):
         for c in range(nc):
             v3 = 0.0
@@ -1916,17 +2017,17 @@ def _integrate(acc, task_blk, c_lo, c_hi, b, n_ch, block, n_samples, out):  # ty
             v1 = 0.0
             v0 = 0.0
             for j in range(n_tasks):
-                jb = b - task_blk[j, 0]
-                if jb < 0 or jb >= task_blk[j, 1] or b * block + i < task_blk[j, 3]:
+                if i < i0[j]:
                     continue
-                r = task_blk[j, 2] + ((jb * block + i) * n_ch + c_lo + c) * 4
+                # (unsigned: the rows read are >= 0)
+                r = np.uint64(row0[j] + (i * n_ch + c) * 4)
                 v0 += acc[r]
                 if i >= 1:
-                    v1 += acc[r - rs + 1]
+                    v1 += acc[r - np.uint64(rs - 1)]
                 if i >= 2:
-                    v2 += acc[r - 2 * rs + 2]
+                    v2 += acc[r - np.uint64(2 * rs - 2)]
                 if i >= 3:
-                    v3 += acc[r - 3 * rs + 3]
+                    v3 += acc[r - np.uint64(3 * rs - 3)]
             r3 = run[c, 3] + v3
             r2 = run[c, 2] + v2 + r3
             r1 = run[c, 1] + v1 + r2
@@ -2008,4 +2109,3 @@ def build_pieces(q, tn, pos, radius, cubic, counts_only, cptr, ccnt, PD):  # typ
             for c in range(cptr[r], cptr[r + 1]):
                 ccnt[c] = min(_CHUNK, cur[r] - (c - cptr[r]) * _CHUNK)
     return counts if counts_only else cur
-
