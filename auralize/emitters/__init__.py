@@ -116,28 +116,32 @@ class Emitters:
             )
         if not np.all(np.isfinite(sig)):
             raise ParameterError(f"{self.name or 'emitter'} signals contain NaN or Inf")
+        self.signals = np.ascontiguousarray(sig)
+        self._place(sig.shape[0], self.name or "emitter")
+
+    def _place(self, S: int, who: str) -> None:
+        """Check and normalise the placement fields (positions, rates, t0, clamp
+        radius, law) for S emitters; ``who`` names them in the messages."""
         pos = np.asarray(self.positions, dtype=np.float64)
         if pos.ndim == 1:
             pos = pos[None]
-        S = sig.shape[0]
         if pos.shape[0] != S or pos.shape[-1] != 3 or pos.ndim not in (2, 3):
             raise ParameterError(
-                f"emitter positions must be (S, 3) or (S, m, 3) for S={S} signals, got {pos.shape}"
+                f"{who} positions must be (S, 3) or (S, m, 3) for S={S} emitters, got {pos.shape}"
             )
         if not np.all(np.isfinite(pos)):
-            raise ParameterError(f"{self.name or 'emitter'} positions contain NaN or Inf")
+            raise ParameterError(f"{who} positions contain NaN or Inf")
         if not (np.isfinite(self.rate) and self.rate > 0):
-            raise ParameterError(f"emitter rate must be > 0 samples/s, got {self.rate!r}")
+            raise ParameterError(f"{who} rate must be > 0 samples/s, got {self.rate!r}")
         pr = self.rate if self.pos_rate is None else self.pos_rate
         if not (np.isfinite(pr) and pr > 0):
-            raise ParameterError(f"emitter pos_rate must be > 0 samples/s, got {pr!r}")
+            raise ParameterError(f"{who} pos_rate must be > 0 samples/s, got {pr!r}")
         if not np.isfinite(self.t0):
-            raise ParameterError(f"emitter t0 must be finite, got {self.t0!r}")
+            raise ParameterError(f"{who} t0 must be finite, got {self.t0!r}")
         rad = np.broadcast_to(np.asarray(self.radius, dtype=np.float64), (S,))
         if not np.all(np.isfinite(rad) & (rad > 0)):
-            raise ParameterError("emitter clamp radius must be > 0 m")
+            raise ParameterError(f"{who} clamp radius must be > 0 m")
         law_exponent(self.law)
-        self.signals = np.ascontiguousarray(sig)
         self.positions = np.ascontiguousarray(pos)
         self.pos_rate = float(pr)
         self.rate = float(self.rate)
@@ -273,36 +277,7 @@ class TableEmitters(Emitters):
         self.rate, self.positions, self.t0, self.pos_rate = rate, positions, t0, pos_rate
         self.radius, self.law, self.name = radius, law, name
         self.meta = {} if meta is None else dict(meta)
-        self._place(S)
-
-    def _place(self, S: int) -> None:
-        """Check and normalise the placement fields for S emitters (as :class:`Emitters`)."""
-        who = self.name or "table emitter"
-        pos = np.asarray(self.positions, dtype=np.float64)
-        if pos.ndim == 1:
-            pos = pos[None]
-        if pos.shape[0] != S or pos.shape[-1] != 3 or pos.ndim not in (2, 3):
-            raise ParameterError(
-                f"{who} positions must be (S, 3) or (S, m, 3) for S={S} emitters, got {pos.shape}"
-            )
-        if not np.isfinite(np.sum(pos)):
-            raise ParameterError(f"{who} positions contain NaN or Inf")
-        if not (np.isfinite(self.rate) and self.rate > 0):
-            raise ParameterError(f"{who} rate must be > 0 samples/s, got {self.rate!r}")
-        pr = self.rate if self.pos_rate is None else self.pos_rate
-        if not (np.isfinite(pr) and pr > 0):
-            raise ParameterError(f"{who} pos_rate must be > 0 samples/s, got {pr!r}")
-        if not np.isfinite(self.t0):
-            raise ParameterError(f"{who} t0 must be finite, got {self.t0!r}")
-        rad = np.broadcast_to(np.asarray(self.radius, dtype=np.float64), (S,))
-        if not np.all(np.isfinite(rad) & (rad > 0)):
-            raise ParameterError(f"{who} clamp radius must be > 0 m")
-        law_exponent(self.law)
-        self.positions = np.ascontiguousarray(pos)
-        self.pos_rate = float(pr)
-        self.rate = float(self.rate)
-        self.t0 = float(self.t0)
-        self.radius = np.ascontiguousarray(rad)
+        self._place(S, self.name or "table emitter")
 
     @property
     def signals(self) -> NDArray[np.float64]:  # type: ignore[override]
