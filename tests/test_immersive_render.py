@@ -351,7 +351,7 @@ def test_viewer_live_engine_binaural_equals_offline() -> None:
     t = np.arange(int(0.6 * fk)) / fk
     tr = SourceTracks(np.array([[3.0, 0.0, 0.0]]), np.sin(2 * np.pi * 300 * t)[None, :],
                       np.array([0.1]), t)  # fmt: skip
-    eng = LiveEngine(tr, layout="binaural", block=2205, loop=False)
+    eng = LiveEngine(tr, layout="binaural", block=2205, loop=False, highpass_hz=0.0)
     assert eng.layout.name == "binaural"
     eng.set_pose([0, 0, 0], [0, 1, 0], [0, 0, 1])  # the source at +x: to the right
     on = np.concatenate([eng.next_block() for _ in range(10)], axis=1)

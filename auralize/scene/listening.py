@@ -11,6 +11,18 @@ a block the listener moves linearly from the previous pose to the new one
 (Doppler stays physical); a jump faster than half the speed of sound is
 applied at the block edge instead.
 
+The sound is the one the viewer's rendered file holds (the output rule of
+``auralize render``, :func:`auralize.scene.soundscene.add_rendered`): the
+sources' ``physical`` pressure through the causal 20 Hz high-pass
+(``highpass_hz``, default :data:`auralize.emitters.timbre.HIGHPASS_HZ`; 0 keeps
+everything), a 4th-order Butterworth whose state is carried from block to
+block, so that the blocks heard at a still pose join into the offline render
+filtered once; the overlays' sound (``extra``) is added as its model makes it,
+unfiltered.  The timbre is ``physical``: ``extended`` and ``tonal`` (and the
+choice of ``auto``) need the whole render along a path known in advance (β of
+paper 001 Eq. 13 is matched over the render), which a camera-driven listener
+does not have; the viewer's rendered file is ``physical`` for the same reason.
+
 What was heard is kept (:meth:`LiveEngine.heard_path`,
 :meth:`LiveEngine.heard_audio`) so it can be saved as a listener-path CSV
 plus its audio.
@@ -46,6 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from auralize.emitters.synthesis import C0, Rendered, render
+from auralize.emitters.timbre import HIGHPASS_HZ, butter_sos, highpass
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
@@ -86,13 +99,21 @@ class LiveEngine:
         More sound heard with the sources (the viewer's audible overlays, an
         :class:`auralize.emitters.Sound`), rendered by the engine along the same
         block paths and added (:meth:`set_extra` changes it from the next block on).
+    highpass_hz : float
+        Cut-off (Hz) of the causal 4th-order Butterworth high-pass of the
+        sources' sound (not of ``extra``), as ``auralize render --highpass``
+        (default 20 Hz; 0 keeps everything).  Its state is carried from block
+        to block (and across a loop); per block it costs one ``sosfilt`` of
+        the block, nothing is designed or allocated beyond the block.
     """
 
     def __init__(self, tracks: SourceTracks, *, layout: str = "stereo", rate: int = 44100,
                  time_scale: float = 1.0, block: int = DEFAULT_BLOCK, c0: float = C0,
-                 loop: bool = True, extra: Any = None) -> None:  # fmt: skip
+                 loop: bool = True, extra: Any = None,
+                 highpass_hz: float = HIGHPASS_HZ) -> None:  # fmt: skip
         if not (isinstance(block, int) and 16 <= block <= 1 << 16):
             raise ParameterError(f"block must be 16..65536 samples, got {block!r}")
+        highpass(np.zeros((1, 0)), int(rate), highpass_hz)  # a bad cut-off fails here
         self.tracks = tracks
         self.stage = output_stage(get_layout(layout), int(rate))
         self.layout = self.stage.layout
@@ -115,6 +136,12 @@ class LiveEngine:
         self.keep_heard = True
         #: playback seconds of heard audio kept (older blocks are dropped)
         self.keep_heard_s = 600.0
+        self.highpass_hz = float(highpass_hz)
+        n_synth = self.stage.synthesis_layout.n_channels
+        self._hp_sos = (butter_sos(4, self.highpass_hz, "highpass", float(self.rate))
+                        if self.highpass_hz > 0 else None)  # fmt: skip
+        self._hp_zi = (np.zeros((self._hp_sos.shape[0], n_synth, 2))
+                       if self._hp_sos is not None else None)  # fmt: skip
 
     @property
     def block_s(self) -> float:
@@ -163,6 +190,14 @@ class LiveEngine:
                      layout=self.stage.synthesis_layout, c0=self.c0, start=self.t,
                      duration=dur)  # fmt: skip
         audio = out.audio
+        if audio.shape[1] != self.block:  # rounding of duration * rate
+            audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[
+                :, : self.block
+            ]
+        if self._hp_sos is not None:  # the sources' sound only, as add_rendered does
+            from scipy.signal import sosfilt
+
+            audio, self._hp_zi = sosfilt(self._hp_sos, audio, axis=-1, zi=self._hp_zi)
         if extra is not None and extra.parts:
             from auralize.emitters import render as render_sound
 
@@ -170,12 +205,8 @@ class LiveEngine:
                                 c0=self.c0,
                                 start=self.t, duration=dur).audio  # fmt: skip
             n = min(audio.shape[1], more.shape[1])
-            audio = audio.copy()
+            audio = np.array(audio)
             audio[:, :n] += more[:, :n]
-        if audio.shape[1] != self.block:  # rounding of duration * rate
-            audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[
-                :, : self.block
-            ]
         audio = self.stage.process(audio)
         if self.keep_heard:
             self.heard_rows.append(np.concatenate([[self.elapsed + dur], *pose]))
@@ -273,7 +304,9 @@ class DeviceSink:
                               "(auralize.audio.live) is not installed") from None  # fmt: skip
         factory = getattr(live, "open_stream", None) or getattr(live, "LiveStream", None)
         if factory is None:
-            raise DeviceError("auralize.audio.live offers no open_stream/LiveStream for live playback")
+            raise DeviceError(
+                "auralize.audio.live offers no open_stream/LiveStream for live playback"
+            )
         self._stream = factory(rate=rate, channels=channels, device=device)
 
     def write(self, block: NDArray[np.float64]) -> None:

@@ -933,7 +933,8 @@ class MainWindow(QtWidgets.QMainWindow):
         (:func:`auralize.scene.soundscene.add_rendered`): the volume's sources go
         through the 20 Hz high-pass (:data:`auralize.emitters.timbre.HIGHPASS_HZ`),
         the overlays' sound is heard as its model makes it; ``meta["highpass_hz"]``
-        (and so the sidecar) records the cut-off."""
+        (and so the sidecar) records the cut-off.  The timbre is ``physical``, as
+        in live listening (:meth:`start_live`), which plays the same sound."""
         from auralize.emitters.synthesis import Rendered, check_distance, render
         from auralize.emitters.timbre import HIGHPASS_HZ
         from auralize.pipeline import save_rendered
@@ -1062,7 +1063,14 @@ class MainWindow(QtWidgets.QMainWindow):
     def start_live(self, output: str | Path | None = None) -> Any:
         """Listen live: the listener follows the camera, sound is synthesized block by block
         into the device (or a WAV file given as ``output`` / in the panel), with the sound
-        of the overlays switched on (added or taken out as they are switched)."""
+        of the overlays switched on (added or taken out as they are switched).
+
+        The same sound as the rendered file (:meth:`render_audio`): the sources'
+        ``physical`` pressure through the 20 Hz high-pass
+        (:data:`auralize.emitters.timbre.HIGHPASS_HZ`, its filter state carried from
+        block to block), the overlays' sound unfiltered; at a still camera the live
+        blocks equal the file rendered along a path standing at the camera."""
+        from auralize.emitters.timbre import HIGHPASS_HZ
         from auralize.scene.listening import DeviceSink, LiveEngine, LivePlayer, WavSink
 
         if self.series is None:
@@ -1072,7 +1080,7 @@ class MainWindow(QtWidgets.QMainWindow):
         a = self.audio
         eng = LiveEngine(self.series.tracks(), layout=a["layout"], rate=a["rate"],
                          time_scale=a["time_scale"], block=int(self.block_spin.value()),
-                         extra=self.overlay_sound())  # fmt: skip
+                         extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ)  # fmt: skip
         target = output or self.live_file.text().strip() or None
         n_ch = eng.layout.n_channels
         sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
