@@ -231,8 +231,7 @@ def test_play_field_and_model_on_a_file_backed_device(discharge, tmp_path, monke
     gain = 0.9 / float(np.max(np.abs(r)))
     capsys.readouterr()
     try:
-        play = [a for a in fa if a not in ("--timbre", "physical")]  # play is physical
-        assert main(["play", *play, "--model", spark, "--layout", "stereo", "--rate", str(RATE),
+        assert main(["play", *fa, "--model", spark, "--layout", "stereo", "--rate", str(RATE),
                      "--device", "auralize_file3", "--gain", repr(gain), "--json"]) == 0  # fmt: skip
     finally:
         monkeypatch.delenv("XDG_CONFIG_HOME")

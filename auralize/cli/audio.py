@@ -10,6 +10,18 @@ Examples
     auralize devices
     auralize play dataset:explosion --path flight.csv --layout ring8 --device 0
     auralize play data.h5 --path flight.csv --layout ring8 --device "USB" --downmix
+
+``play`` makes the sound ``render`` writes, with the same options and defaults
+(``--timbre auto``, ``--highpass 20``, ``--seed``, ``--hrtf``): ``--timbre
+physical`` is synthesized block by block as it plays (the high-pass carries
+its filter state from block to block, so the blocks join into the offline
+render).  ``extended`` and ``tonal`` need the whole render (β of paper 001
+Eq. 13 is matched over it, the carriers' clock spans it), and ``auto`` chooses
+from the whole physical render along the path (physical if at least half its
+energy is above 20 Hz), so with those the sound is rendered once ahead,
+exactly as ``render`` does, and then streamed in blocks (the report says how
+long that took).  A scene (``--model``/``--scene``) follows the same rule for
+its volume's sources.
 """
 
 from __future__ import annotations
@@ -56,8 +68,42 @@ def _device_arg(text: str) -> int | str:
     return int(text) if text.strip().isdigit() else text
 
 
+class _RenderedBlocks:
+    """Blocks of a sound rendered ahead, in the interface :func:`auralize.audio.live.play`
+    takes in place of source tracks (``block(i)``, ``render_range(start, n)``,
+    ``n_blocks``, ``n_samples``, ``block_size``, ``rate``, ``layout``)."""
+
+    def __init__(self, rendered: Any, block: int) -> None:
+        self.audio = rendered.audio
+        self.rate, self.layout = int(rendered.rate), rendered.layout
+        self.block_size = max(int(block), 1)
+        self.n_samples = int(self.audio.shape[1])
+        self.n_blocks = -(-self.n_samples // self.block_size)
+
+    def render_range(self, start: int, n: int) -> Any:
+        return self.audio[:, start : start + max(int(n), 0)]
+
+    def block(self, i: int) -> Any:
+        from auralize.errors import ParameterError
+
+        if not 0 <= i < self.n_blocks:
+            raise ParameterError(f"block index {i} outside 0..{self.n_blocks - 1}")
+        return self.render_range(i * self.block_size, self.block_size)
+
+
+def _ahead_note(timbre: str, resolved: str, seconds: float, duration: float, *,
+                scene: bool = False) -> str:  # fmt: skip
+    """What ``play`` says when it renders the sound ahead (see the module docstring)."""
+    why = ("chosen from the whole physical render" if timbre == "auto"
+           else "it needs the whole render")  # fmt: skip
+    name = resolved if resolved == timbre else f"{resolved} ({timbre})"
+    how = "a field whose timbre is physical" if scene else "--timbre physical"
+    return (f"timbre {name}: rendered ahead in {seconds:.2f} s ({why}), then played block by "
+            f"block; {how} is synthesized as it plays ({duration:.3g} s)")  # fmt: skip
+
+
 def cmd_play(args: argparse.Namespace) -> int:
-    """Detect sources (or load them) and play the path live."""
+    """Detect sources (or load them) and play the path live (the sound ``render`` writes)."""
     from auralize.audio.live import play
     from auralize.cli.core import (
         load_volume,
@@ -96,11 +142,32 @@ def cmd_play(args: argparse.Namespace) -> int:
     for note in plan.notes:
         print(note)
     print(plan.mapping_text + (" (auto)" if plan.auto else ""))
-    rep = play(tracks, plan.path, rate=args.rate, layout=lay, device=args.device,
+    block_s = args.block_ms / 1e3
+    source: Any = tracks
+    highpass_hz = args.highpass
+    if args.timbre != "physical":  # rendered ahead as `render` renders it (module docstring)
+        import time
+
+        from auralize.cli.core import check_render_memory
+        from auralize.emitters.timbre import render_timbre
+        from auralize.spatial.layouts import synthesis_layout
+
+        check_render_memory(args, plan.duration, synthesis_layout(lay).n_channels)
+        t = time.perf_counter()
+        out = render_timbre(tracks, plan.path, timbre=args.timbre, rate=args.rate,
+                            time_scale=plan.time_scale, interp=args.interp, layout=lay,
+                            duration=plan.duration, bounds=vol.bounds, lead=plan.lead,
+                            highpass_hz=args.highpass, seed=args.seed, hrtf=args.hrtf)  # fmt: skip
+        for note in out.meta.get("timbre_notes", []):
+            print(note)
+        print(_ahead_note(args.timbre, out.meta["timbre"], time.perf_counter() - t,
+                          plan.duration))  # fmt: skip
+        source, highpass_hz = _RenderedBlocks(out, max(round(block_s * args.rate), 1)), 0.0
+    rep = play(source, plan.path, rate=args.rate, layout=lay, device=args.device,
                time_scale=plan.time_scale, interp=args.interp, downmix=_downmix_arg(args),
                gain=args.gain,
-               limit_pa=args.limit, block_s=args.block_ms / 1e3, duration=plan.duration,
-               lead=plan.lead, highpass_hz=args.highpass)  # fmt: skip
+               limit_pa=args.limit, block_s=block_s, duration=plan.duration,
+               lead=plan.lead, highpass_hz=highpass_hz, hrtf=args.hrtf)  # fmt: skip
     _report(args, rep)
     return 0
 
@@ -133,9 +200,28 @@ def _play_scene(args: argparse.Namespace) -> int:
                                                           "rate": DEFAULT_RATE}, "play")  # fmt: skip
     for note in [] if args.json else notes:
         print(note)
-    blocks = SceneBlocks(sound, path, rate=args.rate, layout=args.layout,
-                         block=max(round(args.block_ms / 1e3 * args.rate), 1),
-                         duration=duration, highpass_hz=args.highpass)  # fmt: skip
+    block = max(round(args.block_ms / 1e3 * args.rate), 1)
+    timbres = {getattr(p, "timbre", "physical") for p in sound.parts}
+    blocks: Any
+    if timbres - {"physical"}:  # the field's timbre needs the whole render (module docstring)
+        import time
+
+        from auralize.cli.core import check_render_memory
+        from auralize.scene.soundscene import render_mix
+        from auralize.spatial.layouts import synthesis_layout
+
+        check_render_memory(args, duration, synthesis_layout(args.layout).n_channels)
+        t = time.perf_counter()
+        out = render_mix(sound, path, rate=args.rate, layout=args.layout, duration=duration,
+                         highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
+        if not args.json:
+            timbre = "/".join(sorted(timbres - {"physical"}))
+            print(_ahead_note(timbre, timbre, time.perf_counter() - t, duration, scene=True))
+        blocks = _RenderedBlocks(out, block)
+    else:
+        blocks = SceneBlocks(sound, path, rate=args.rate, layout=args.layout, block=block,
+                             duration=duration, highpass_hz=args.highpass,
+                             hrtf=args.hrtf)  # fmt: skip
     rep = play(blocks, path, rate=args.rate, layout=args.layout, device=args.device,
                downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit)  # fmt: skip
     _report(args, rep)
@@ -146,6 +232,7 @@ def add_commands(sub: Any) -> None:
     """Add ``play`` and ``devices`` to the ``auralize`` sub-command parsers."""
     from auralize.cli.core import (
         HIGHPASS_HELP,
+        TIMBRE_HELP,
         add_detect_options,
         add_scene_options,
         add_volume_options,
@@ -172,6 +259,8 @@ def add_commands(sub: Any) -> None:
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
     g.add_argument("--highpass", type=float, default=20.0, metavar="HZ", help=HIGHPASS_HELP)
+    g.add_argument("--timbre", choices=["auto", "physical", "extended", "tonal"], default="auto",
+                   help=TIMBRE_HELP + "; all but physical are rendered ahead, then played")  # fmt: skip
     g.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
     g.add_argument("--gain", default="auto", type=_gain_arg,
                    help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "

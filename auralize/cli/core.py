@@ -158,6 +158,12 @@ HIGHPASS_HELP = ("causal high-pass of the volume's sources, Hz (default 20; 0 ke
                  "high-pass: the same samples as the model's own command)")  # fmt: skip
 
 
+#: what ``--timbre`` means in ``render`` and ``play``
+TIMBRE_HELP = ("physical: the retarded-time pressure; extended: plus power-law noise above the "
+               "data's Nyquist (paper 001 §4); tonal: a carrier per source type; auto "
+               "(default): physical if most of it is above 20 Hz, else extended")  # fmt: skip
+
+
 def add_render_options(p: argparse.ArgumentParser) -> None:
     """Synthesis options shared by ``render`` and its Dask variant."""
     p.add_argument("--time-scale", type=time_scale_arg, default="auto",
@@ -166,10 +172,7 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
     p.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
     p.add_argument("--timbre", choices=["auto", "physical", "extended", "tonal"], default="auto",
-                   help="physical: the retarded-time pressure; extended: plus power-law noise "
-                        "above the data's Nyquist (paper 001 §4); tonal: a carrier per source "
-                        "type; auto (default): physical if most of it is above 20 Hz, else "
-                        "extended")  # fmt: skip
+                   help=TIMBRE_HELP)  # fmt: skip
     p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
                    help=HIGHPASS_HELP)  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
