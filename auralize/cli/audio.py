@@ -158,10 +158,11 @@ def cmd_play(args: argparse.Namespace) -> int:
                             time_scale=plan.time_scale, interp=args.interp, layout=lay,
                             duration=plan.duration, bounds=vol.bounds, lead=plan.lead,
                             highpass_hz=args.highpass, seed=args.seed, hrtf=args.hrtf)  # fmt: skip
-        for note in out.meta.get("timbre_notes", []):
+        seconds = time.perf_counter() - t
+        for note in [] if args.json else out.meta.get("timbre_notes", []):
             print(note)
-        print(_ahead_note(args.timbre, out.meta["timbre"], time.perf_counter() - t,
-                          plan.duration))  # fmt: skip
+        if not args.json:
+            print(_ahead_note(args.timbre, out.meta["timbre"], seconds, plan.duration))
         source, highpass_hz = _RenderedBlocks(out, max(round(block_s * args.rate), 1)), 0.0
     rep = play(source, plan.path, rate=args.rate, layout=lay, device=args.device,
                time_scale=plan.time_scale, interp=args.interp, downmix=_downmix_arg(args),

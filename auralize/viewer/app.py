@@ -1092,7 +1092,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._cam_obs = (cam, cam.AddObserver("ModifiedEvent", self._on_camera))
         self.player.start()
         self.live_label.setText(f"live: {eng.layout.name}, block {eng.block} samples "
-                                f"({1000 * eng.block_s:.0f} ms)")  # fmt: skip
+                                f"({1000 * eng.block_s:.0f} ms), physical, "
+                                f"{eng.highpass_hz:g} Hz high-pass")  # fmt: skip
         return self.player
 
     def _on_camera(self, *_: Any) -> None:
