@@ -17,7 +17,7 @@ from auralize.cli import main
 # high-pass and the timbre choice decide what is heard
 DATA = ["dataset:monopole", "--size", "12", "--steps", "60", "--threshold-monopole", "1%"]
 WHERE = ["--listener", "5,1.4,1.4", "--duration", "0.5", "--layout", "stereo"]
-DEVICES = ("hp20", "hp0", "auto", "scene", "scene_phys")
+DEVICES = ("hp20", "hp0", "auto", "tonal", "scene", "scene_phys")
 ASOUNDRC = "".join(
     f'pcm.live18_{d} {{\n type file\n slave.pcm "null"\n file "{{tmp}}/{d}.raw"\n format "raw"\n}}\n'
     for d in DEVICES
@@ -93,6 +93,9 @@ def test_play_default_timbre_is_renders_auto(devices, capsys) -> None:  # type: 
     assert _rel(got, ref) < 1e-5
     phys = _render(devices, "phys", *args, "--timbre", "physical")
     assert _rel(phys, ref) > 0.5  # a different sound from the physical one
+    tonal = _render(devices, "tonal", *args, "--timbre", "tonal")
+    got, out = _play(devices, "tonal", tonal, capsys, *args, "--timbre", "tonal")
+    assert "timbre tonal: rendered ahead in" in out and _rel(got, tonal) < 1e-5
 
 
 def test_play_a_scene_follows_the_fields_timbre(devices, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
