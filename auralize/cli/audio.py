@@ -202,7 +202,9 @@ def _play_scene(args: argparse.Namespace) -> int:
     for note in [] if args.json else notes:
         print(note)
     block = max(round(args.block_ms / 1e3 * args.rate), 1)
-    timbres = {getattr(p, "timbre", "physical") for p in sound.parts}
+    from auralize.emitters import FieldSources
+
+    timbres = {p.timbre for p in sound.parts if isinstance(p, FieldSources)}
     blocks: Any
     if timbres - {"physical"}:  # the field's timbre needs the whole render (module docstring)
         import time
