@@ -65,6 +65,7 @@ from auralize.emitters._synth_kernel import (
     _pan,
     _piece_across,
     _piece_general,
+    _prefetch,
     _row_lines,
     _sh_lanes,
     _shifted,
@@ -100,6 +101,8 @@ _R_ROWS = 40
 #: knot's arrival and the knot's direction in the listener's frame
 _R_GX, _R_GY, _R_GZ, _R_CA, _R_PA, _R_OR, _R_DIR = 40, 44, 48, 52, 55, 58, 64
 _RG_ROWS = 67
+#: lanes ahead whose emission rows the AmbiX scatter prefetches
+_AHEAD_G = 8
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -363,9 +366,12 @@ def _add_split(acc, row, W, i, g2, g1, g0, n_ch):  # type: ignore[no-untyped-def
     every channel c (X, Y, Z in rows GX, GY, GZ of lane i; row >= 0)."""
     a = np.uint64(row)
     o = _CHUNK
-    x0, x1, x2, x3 = W[_R_GX * o + i], W[(_R_GX + 1) * o + i], W[(_R_GX + 2) * o + i], W[(_R_GX + 3) * o + i]
-    y0, y1, y2, y3 = W[_R_GY * o + i], W[(_R_GY + 1) * o + i], W[(_R_GY + 2) * o + i], W[(_R_GY + 3) * o + i]
-    z0, z1, z2, z3 = W[_R_GZ * o + i], W[(_R_GZ + 1) * o + i], W[(_R_GZ + 2) * o + i], W[(_R_GZ + 3) * o + i]
+    x0, x1 = W[_R_GX * o + i], W[(_R_GX + 1) * o + i]
+    x2, x3 = W[(_R_GX + 2) * o + i], W[(_R_GX + 3) * o + i]
+    y0, y1 = W[_R_GY * o + i], W[(_R_GY + 1) * o + i]
+    y2, y3 = W[(_R_GY + 2) * o + i], W[(_R_GY + 3) * o + i]
+    z0, z1 = W[_R_GZ * o + i], W[(_R_GZ + 1) * o + i]
+    z2, z3 = W[(_R_GZ + 2) * o + i], W[(_R_GZ + 3) * o + i]
     for c in range(n_ch):
         a2 = g2[c, i]
         a1 = g1[c, i]
@@ -480,6 +486,13 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start
                 if first:
                     continue
                 for i in range(cnt):
+                    if gained and i + _AHEAD_G < cnt:
+                        # the emission rows of AmbiX layouts span several cache
+                        # lines: fetched a few lanes ahead
+                        ea = W[_R_EROW * _CHUNK + i + _AHEAD_G]
+                        if ea >= 0.0:
+                            for k in range(0, 4 * n_ch, 8):
+                                _prefetch(acc, np.uint64(ea) + np.uint64(k))
                     er = W[_R_EROW * _CHUNK + i]
                     if er >= 0.0:
                         if gained:
