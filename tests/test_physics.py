@@ -202,15 +202,22 @@ def test_blocks_longer_than_the_accumulation_block_with_time_scale(
         assert np.max(np.abs(part - whole[:, start : start + 40000])) <= 1e-5 * peak, start
 
 
-@pytest.mark.parametrize("interp", ["cubic", "linear"])
+@pytest.mark.parametrize(("interp", "layout"), [("cubic", "mono"), ("linear", "mono"),
+                                               ("cubic", "ambix3"), ("linear", "ambix1"),
+                                               ("cubic", "ears")])  # fmt: skip
 def test_runs_of_pieces_sum_to_the_piecewise_kernel(
-    mono_tracks, mono_params, interp, monkeypatch
+    mono_tracks, mono_params, interp, layout, monkeypatch
 ) -> None:  # type: ignore[no-untyped-def]
-    # unpanned layouts sum runs of pieces with one emission per knot
-    # (auralize.emitters._runs_kernel); the piece-wise kernel sums every piece on its
-    # own.  Same signal: on a path captured at 20 Hz (pieces split at
-    # captures), from a start inside pieces (restart at the first sample), and
-    # over more than one 32768-sample accumulation block (restarts there)
+    # unpanned and AmbiX layouts (the binaural ears too: two receivers of
+    # four harmonics each, turning with the listener) sum runs of pieces with
+    # one emission per knot (auralize.emitters._runs_kernel); the piece-wise
+    # kernel sums every piece on its own.  Same signal: on a path captured at
+    # 20 Hz (pieces split at captures), from a start inside pieces (restart at
+    # the first sample), and over more than one 32768-sample accumulation
+    # block (restarts there)
+    from auralize.spatial.layouts import synthesis_layout
+
+    lay = synthesis_layout("binaural") if layout == "ears" else layout
     c = mono_params.center
     cases = [
         (ListenerPath.orbit(c, radius=2.5, duration=0.4, turns=0.3), {}),
@@ -221,10 +228,11 @@ def test_runs_of_pieces_sum_to_the_piecewise_kernel(
     ]  # fmt: skip
     for path, kw in cases:
         monkeypatch.setattr(synthesis, "_BY_RUNS", False)
-        pieces = render(mono_tracks, path, rate=RATE, interp=interp, **kw).audio
+        pieces = render(mono_tracks, path, rate=RATE, interp=interp, layout=lay, **kw).audio
         monkeypatch.setattr(synthesis, "_BY_RUNS", True)
-        runs = render(mono_tracks, path, rate=RATE, interp=interp, **kw).audio
+        runs = render(mono_tracks, path, rate=RATE, interp=interp, layout=lay, **kw).audio
         assert runs.shape == pieces.shape
+        assert np.max(np.abs(pieces)) > 0.0
         # (rounding: the running sums over a whole 17640-sample render reach
         # ~5e-8 of the peak; a piece summed wrongly is off by 1e-3 or more)
         err = np.max(np.abs(runs - pieces)) / np.max(np.abs(pieces))

@@ -22,9 +22,20 @@ their common knot:
 Pieces whose arrivals straddle a listener capture, whose knot is heard
 beyond the listener's candidate lines, or that need more than one restart
 of an accumulation block leave the shared emissions and are summed in full
-by the scalar code of the piece-wise kernel.  Panned layouts (gains change
-along each piece, so the slope jumps at knots per channel) use the
-piece-wise kernel.
+by the scalar code of the piece-wise kernel.
+
+AmbiX layouts (the spherical harmonics of :func:`_synth_kernel._gains_sh`,
+every channel gained; the binaural ear receivers are such layouts) are
+summed by runs too: the piece-wise kernel gives a piece the gains G(a) of
+its two arrivals, g₀·A + g₁·B (the Hermite cubic of g·f for g linear along
+the piece).  At a knot the gain is shared, so a channel's cubics meet with
+equal value (their slopes differ), and the emission at knot j − 1 of
+channel c is G_{j−2,c}·X + G_{j−1,c}·Y + G_{j,c}·Z: X the
+previous piece's A end (subtracted), Y this piece's A start minus the
+previous piece's B end, Z this piece's B start.  Three 4-vectors per knot,
+the gains per knot (not per piece end): one arrival and one set of
+harmonics per knot instead of two.  Other panned layouts (speaker pairs
+switch between knots) use the piece-wise kernel.
 """
 
 from __future__ import annotations
@@ -49,9 +60,14 @@ from auralize.emitters._synth_kernel import (
     _knot_m,
     _knot_q,
     _line_tuple,
+    _listener_at,
+    _orient_rows,
+    _pan,
     _piece_across,
     _piece_general,
+    _prefetch,
     _row_lines,
+    _sh_lanes,
     _shifted,
     _take_cut,
 )
@@ -78,11 +94,20 @@ _R_A0, _R_A1, _R_S0, _R_S1, _R_F0, _R_WF0, _R_F1, _R_WF1 = 20, 21, 22, 23, 24, 2
 #: (4 Taylor coefficients around the arrival; flag)
 _R_U, _R_SM, _R_F, _R_W, _R_A, _R_SG, _R_OK, _R_P, _R_PF = 28, 29, 30, 31, 32, 33, 34, 35, 39
 _R_ROWS = 40
+#: AmbiX runs only: the emission at the previous knot split by gain (X, Y, Z:
+#: 4 rows each, see the module docstring), the A part of this piece's c2, c3
+#: and f/L at its start (B's slope there), the A part of the pending end (its
+#: slope, c2, c3: its value is 0), the listener's forward and up at the
+#: knot's arrival and the knot's direction in the listener's frame
+_R_GX, _R_GY, _R_GZ, _R_CA, _R_PA, _R_OR, _R_DIR = 40, 44, 48, 52, 55, 58, 64
+_RG_ROWS = 67
+#: lanes ahead whose emission rows the AmbiX scatter prefetches
+_AHEAD_G = 8
 
 
 @numba.njit(inline="always", **_NJIT)
 def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t_start, fs,
-              inv_fs, fn, fblock, inv_block, blo, nb, base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+              inv_fs, fn, fblock, inv_block, blo, nb, base, rs, gained):  # fmt: skip  # type: ignore[no-untyped-def]
     """Knot j (time t_n, candidate lines la, lb) of the run in lane i, and the
     piece from knot j - 1 (lines la_p, lb_p) to it; branch-free.
 
@@ -92,6 +117,9 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
     the first sample of the next accumulation block it runs into), its kind
     (0 silent or outside, 1 in the shared emissions, 2 general, 3 across
     captures: both summed by the scalar code), and carries knot j's state.
+    ``gained`` (AmbiX runs): also the emission split by gain (rows GX, GY,
+    GZ) and the A parts (rows CA, PA); a piece cut at a capture is left to
+    the scalar code (its end's gains are not the knot's).
     """
     o = _CHUNK
     x = W[_R_X * o + i]
@@ -146,6 +174,8 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
     clip0 = sp < 0.0
     simple = (valid & (sgp == sg1) & (b1 <= b0 + 1.0) & ~(clip0 & (b1 > b0)) & (b0 >= blo)
               & (b1 < blo + nb))  # fmt: skip
+    if gained:
+        simple = simple & ~cut
     W[_R_KIND * o + i] = ((1.0 if simple else 3.0) if valid else 0.0) if found else (2.0 if live else 0.0)
     dlt = (f1 - fp) * inv_l
     c2 = (3.0 * dlt - 2.0 * wp - w1) * inv_l
@@ -163,6 +193,40 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
     W[(_R_E + 1) * o + i] = v1
     W[(_R_E + 2) * o + i] = v2
     W[(_R_E + 3) * o + i] = v3
+    if gained:
+        # A: the part of the piece that the gain at its start multiplies (the
+        # gain linear along the piece, as the piece-wise kernel's g0·A + g1·B):
+        # the Hermite cubic of value fp, slope wp - fp/L at the start, value
+        # 0, slope -f1/L at the end; B = the piece - A
+        fl = fp * inv_l
+        c2a = (f1 * inv_l - fl - 2.0 * wp) * inv_l
+        c3a = (wp + fl - f1 * inv_l) * inv_l * inv_l
+        pa1 = W[_R_PA * o + i]
+        pa2 = W[(_R_PA + 1) * o + i]
+        pa3 = W[(_R_PA + 2) * o + i]
+        x0, x1, x2, x3 = _shifted(0.0, -pa1, -pa2, -pa3, sp - up)
+        y0, y1, y2, y3 = _shifted(
+            (fp if simple else 0.0) - W[_R_P * o + i],
+            ((wp - fl) if simple else 0.0) - (W[(_R_P + 1) * o + i] - pa1),
+            (c2a if simple else 0.0) - (W[(_R_P + 2) * o + i] - pa2),
+            (c3a if simple else 0.0) - (W[(_R_P + 3) * o + i] - pa3), sp - up)  # fmt: skip
+        z0, z1, z2, z3 = _shifted(0.0, fl if simple else 0.0, (c2 - c2a) if simple else 0.0,
+                                  (c3 - c3a) if simple else 0.0, sp - up)  # fmt: skip
+        W[_R_GX * o + i] = x0
+        W[(_R_GX + 1) * o + i] = x1
+        W[(_R_GX + 2) * o + i] = x2
+        W[(_R_GX + 3) * o + i] = x3
+        W[_R_GY * o + i] = y0
+        W[(_R_GY + 1) * o + i] = y1
+        W[(_R_GY + 2) * o + i] = y2
+        W[(_R_GY + 3) * o + i] = y3
+        W[_R_GZ * o + i] = z0
+        W[(_R_GZ + 1) * o + i] = z1
+        W[(_R_GZ + 2) * o + i] = z2
+        W[(_R_GZ + 3) * o + i] = z3
+        W[_R_CA * o + i] = c2a
+        W[(_R_CA + 1) * o + i] = c3a
+        W[(_R_CA + 2) * o + i] = fl
     # restart (rare: emitted by the scalar code from the cubic's c2, c3): at
     # the output's first sample, or at the next accumulation block's
     mr0 = 0.0 if clip0 else b1 * fblock
@@ -187,6 +251,10 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
     W[(_R_P + 2) * o + i] = c2 + 3.0 * c3 * L if end else 0.0
     W[(_R_P + 3) * o + i] = c3 if end else 0.0
     W[_R_PF * o + i] = 1.0 if end else 0.0
+    if gained:
+        W[_R_PA * o + i] = -f1 * inv_l if end else 0.0
+        W[(_R_PA + 1) * o + i] = c2a + 3.0 * c3a * L if end else 0.0
+        W[(_R_PA + 2) * o + i] = c3a if end else 0.0
     W[_R_U * o + i] = u
     W[_R_SM * o + i] = s
     W[_R_F * o + i] = f
@@ -197,7 +265,7 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
 
 
 @numba.njit(inline="always", **_NJIT)
-def _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs):  # type: ignore[no-untyped-def]
+def _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs, gained):  # type: ignore[no-untyped-def]
     """The state of the first knot of the run in lane i that a task sweeps
     (see :func:`_run_step`; no piece ends there)."""
     o = _CHUNK
@@ -216,13 +284,17 @@ def _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs):  # type: ign
     W[_R_OK * o + i] = 1.0 if ok else 0.0
     for r in range(_R_P, _R_PF + 1):
         W[r * o + i] = 0.0
+    if gained:
+        for r in range(_R_PA, _R_PA + 3):
+            W[r * o + i] = 0.0
 
 
 @numba.njit(fastmath={"contract"}, **_NJIT)
 def _chunk_step(W, cnt, j, RCp, RC, two, cubic, first, c0, t_start, fs, fn, fblock, blo, nb,
-                base, rs):  # fmt: skip  # type: ignore[no-untyped-def]
+                base, rs, gained):  # fmt: skip  # type: ignore[no-untyped-def]
     """:func:`_run_step` over the cnt lanes of a chunk (separate loops for one
-    and two candidate lines, so that each stays branch-free)."""
+    and two candidate lines, with and without gains, so that each stays
+    branch-free)."""
     inv_c0 = 1.0 / c0
     inv_fs = 1.0 / fs
     inv_block = 1.0 / fblock
@@ -232,16 +304,83 @@ def _chunk_step(W, cnt, j, RCp, RC, two, cubic, first, c0, t_start, fs, fn, fblo
     lb_p = _line_tuple(RCp, _LINE)
     fj = float(j)
     if first:  # the knot only: no piece ends here
-        for i in range(cnt):
-            _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs)
+        if gained:
+            for i in range(cnt):
+                _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs, True)
+        else:
+            for i in range(cnt):
+                _run_first(W, i, la, lb, two, c0, inv_c0, t_start, fs, inv_fs, False)
+    elif gained:
+        if two:
+            for i in range(cnt):
+                _run_step(W, i, fj, la_p, lb_p, la, lb, la[6], True, cubic, first, c0, inv_c0,
+                          t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs, True)  # fmt: skip
+        else:
+            for i in range(cnt):
+                _run_step(W, i, fj, la_p, lb_p, la, lb, la[6], False, cubic, first, c0, inv_c0,
+                          t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs, True)  # fmt: skip
     elif two:
         for i in range(cnt):
             _run_step(W, i, fj, la_p, lb_p, la, lb, la[6], True, cubic, first, c0, inv_c0,
-                      t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+                      t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs, False)  # fmt: skip
     else:
         for i in range(cnt):
             _run_step(W, i, fj, la_p, lb_p, la, lb, la[6], False, cubic, first, c0, inv_c0,
-                      t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs)  # fmt: skip
+                      t_start, fs, inv_fs, fn, fblock, inv_block, blo, nb, base, rs, False)  # fmt: skip
+
+
+@numba.njit(**_NJIT)
+def _knot_gains(W, cnt, RC, qc, ot, tab, const_orient, G, S):  # type: ignore[no-untyped-def]
+    """AmbiX gains ``G (n_ch, _CHUNK)`` of the knot just solved in each lane
+    (arrival and capture interval in rows A, SG; the listener on the
+    candidate lines of RC): the direction in the listener's frame at the
+    arrival, harmonics by :func:`_sh_lanes` (as the piece-wise kernel's
+    :func:`_synth_kernel._chunk_sh_gains` at a piece's ends).  A knot heard
+    on neither line (left to the scalar code) gets some finite gains."""
+    o = _CHUNK
+    la = _line_tuple(RC, 0)
+    lb = _line_tuple(RC, _LINE)
+    if not const_orient:
+        for i in range(cnt):
+            _orient_rows(W, i, _R_OR, qc, ot, W[_R_A * o + i])
+    # (branch-free: the loop vectorizes)
+    for i in range(cnt):
+        a = W[_R_A * o + i]
+        px, py, pz = _listener_at(a, W[_R_SG * o + i], la, lb)
+        dx = W[_R_X * o + i] - px
+        dy = W[_R_Y * o + i] - py
+        dz = W[_R_Z * o + i] - pz
+        fx, fy, fz = W[_R_OR * o + i], W[(_R_OR + 1) * o + i], W[(_R_OR + 2) * o + i]
+        ux, uy, uz = W[(_R_OR + 3) * o + i], W[(_R_OR + 4) * o + i], W[(_R_OR + 5) * o + i]
+        lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
+        ok = W[_R_OK * o + i] != 0.0
+        W[_R_DIR * o + i] = (dx * fx + dy * fy + dz * fz) if ok else 1.0
+        W[(_R_DIR + 1) * o + i] = (dx * lx + dy * ly + dz * lz) if ok else 0.0
+        W[(_R_DIR + 2) * o + i] = (dx * ux + dy * uy + dz * uz) if ok else 0.0
+    _sh_lanes(W, cnt, _R_DIR, _R_DIR + 1, _R_DIR + 2, tab, G, S)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _add_split(acc, row, W, i, g2, g1, g0, n_ch):  # type: ignore[no-untyped-def]
+    """acc[row + 4c : row + 4c + 4] += g2[c, i]·X + g1[c, i]·Y + g0[c, i]·Z for
+    every channel c (X, Y, Z in rows GX, GY, GZ of lane i; row >= 0)."""
+    a = np.uint64(row)
+    o = _CHUNK
+    x0, x1 = W[_R_GX * o + i], W[(_R_GX + 1) * o + i]
+    x2, x3 = W[(_R_GX + 2) * o + i], W[(_R_GX + 3) * o + i]
+    y0, y1 = W[_R_GY * o + i], W[(_R_GY + 1) * o + i]
+    y2, y3 = W[(_R_GY + 2) * o + i], W[(_R_GY + 3) * o + i]
+    z0, z1 = W[_R_GZ * o + i], W[(_R_GZ + 1) * o + i]
+    z2, z3 = W[(_R_GZ + 2) * o + i], W[(_R_GZ + 3) * o + i]
+    for c in range(n_ch):
+        a2 = g2[c, i]
+        a1 = g1[c, i]
+        a0 = g0[c, i]
+        r = a + np.uint64(4 * c)
+        acc[r] += a2 * x0 + a1 * y0 + a0 * z0
+        acc[r + np.uint64(1)] += a2 * x1 + a1 * y1 + a0 * z1
+        acc[r + np.uint64(2)] += a2 * x2 + a1 * y2 + a0 * z2
+        acc[r + np.uint64(3)] += a2 * x3 + a1 * y3 + a0 * z3
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -256,9 +395,9 @@ def _copy_rows(W, r, KD, off, n_rows, cnt):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(parallel=True, **_NJIT)
-def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_samples, shift,
-           n_lo, n_hi, d_max, task_rows, task_blk, RC, acc, out, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
-    """Sum every run of sounding pieces into ``out (1, n_samples)``.
+def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_samples,
+           shift, n_ch, tab, n_lo, n_hi, d_max, task_rows, task_blk, RC, acc, out, ct, k_ct):  # fmt: skip  # type: ignore[no-untyped-def]
+    """Sum every run of sounding pieces into ``out (n_ch, n_samples)``.
 
     Chunk g holds gcnt[g] runs whose first piece is in row gr0[g], the
     longest glen[g] pieces, at offset goff[g] of the knot data KD (rows of
@@ -267,31 +406,42 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
     knot rows) into its accumulator window (task_blk[j] = first block,
     number of blocks, offset in ``acc``, first sample, as in
     :func:`auralize.emitters._synth_kernel.render`): tasks split time, so their
-    windows barely overlap.  The other arguments are those of that
-    function.  Returns the number of
+    windows barely overlap.  ``tab`` is the spherical-harmonic table of an
+    AmbiX layout of n_ch channels (:func:`_synth_kernel._gains_sh`; with qc,
+    ot the listener's orientation) or has no rows (unpanned, n_ch = 1).  The
+    other arguments are those of that function.  Returns the number of
     emissions outside the windows (an internal error).
     """
     n_tasks = task_rows.shape[0]
     block = 1 << shift
     fblock = float(block)
     fn = float(n_samples)
+    gained = tab.shape[0] > 0
+    rs = 4.0 * n_ch
+    const_orient = True
+    for j in range(1, qc.shape[0]):
+        for c in range(6):
+            const_orient = const_orient and qc[j, c] == qc[0, c]
     _row_lines(tn, tc, lc, vc, c0, d_max, n_lo, n_hi, RC)
     bad = np.zeros(n_tasks, dtype=np.int64)
     for jt in numba.prange(n_tasks):
         blo, nb, base = task_blk[jt, 0], task_blk[jt, 1], task_blk[jt, 2]
-        _clear_window(acc, task_blk[jt], 1, block, n_samples)
-        W = np.zeros(_R_ROWS * _CHUNK)
-        # (unused by the unpanned scalar code)
-        qc = np.zeros((1, 6))
-        ot = np.zeros(2)
-        spk_az = np.zeros(0)
-        spk_ch = np.zeros(0, dtype=np.int64)
-        pinv = np.zeros((0, 4))
-        g1 = np.ones(1)
-        g2 = np.ones(1)
-        g3 = np.ones(1)
-        g4 = np.ones(1)
+        _clear_window(acc, task_blk[jt], n_ch, block, n_samples)
+        n_rows = _RG_ROWS if gained else _R_ROWS
+        W = np.zeros(n_rows * _CHUNK)
+        # the scalar code's panning: AmbiX gains from the table (placeholder
+        # speakers), none when unpanned
+        spk_az = np.zeros(n_ch if gained else 0)
+        spk_ch = np.arange(n_ch)
+        pinv = tab if gained else np.zeros((0, 4))
+        ga = np.ones(n_ch)
+        gb = np.ones(n_ch)
+        gx = np.ones(n_ch)
+        gy = np.ones(n_ch)
         o6 = np.zeros(6)
+        # gains of the last three knots (slot k % 3 for knot k), scratch
+        G = np.zeros((3, n_ch if gained else 0, _CHUNK))
+        S = np.empty((5, _CHUNK))
         ctj = ct[jt]
         ctj[:] = 0.0
         nbad = 0
@@ -308,9 +458,15 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
             if kb <= ka:
                 continue
             _copy_rows(W, 0, KD, off, 5, cnt)
-            for r in range(_R_U, _R_ROWS):
+            for r in range(_R_U, n_rows):
                 for i in range(cnt):
                     W[r * _CHUNK + i] = 0.0
+            if gained:
+                G[:] = 0.0
+                if const_orient:
+                    for c in range(6):
+                        for i in range(cnt):
+                            W[(_R_OR + c) * _CHUNK + i] = qc[0, c]
             for n in range(ka, kb + 1):
                 jk = n - r0
                 kq = off + (_K_KNOT + 2 * jk) * _CHUNK
@@ -321,19 +477,44 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
                 two = RC[n, 2 * _LINE] != 0.0 or (not first and RC[n - 1, 2 * _LINE] != 0.0)
                 rp = n if first else n - 1
                 _chunk_step(W, cnt, jk, RC[rp], RC[n], two, cubic, first, c0, t_start, fs, fn,
-                            fblock, blo, nb, base, 4.0)  # fmt: skip
+                            fblock, blo, nb, base, rs, gained)  # fmt: skip
+                g0 = G[jk % 3]  # knot n
+                g1 = G[(jk + 2) % 3]  # knot n - 1
+                g2 = G[(jk + 1) % 3]  # knot n - 2
+                if gained:
+                    _knot_gains(W, cnt, RC[n], qc, ot, tab, const_orient, g0, S)
                 if first:
                     continue
                 for i in range(cnt):
+                    if gained and i + _AHEAD_G < cnt:
+                        # the emission rows of AmbiX layouts span several cache
+                        # lines: fetched a few lanes ahead
+                        ea = W[_R_EROW * _CHUNK + i + _AHEAD_G]
+                        if ea >= 0.0:
+                            for k in range(0, 4 * n_ch, 8):
+                                _prefetch(acc, np.uint64(ea) + np.uint64(k))
                     er = W[_R_EROW * _CHUNK + i]
                     if er >= 0.0:
-                        _add_plain(acc, er, W, _R_E, i)
+                        if gained:
+                            _add_split(acc, er, W, i, g2, g1, g0, n_ch)
+                        else:
+                            _add_plain(acc, er, W, _R_E, i)
                     mr0 = W[_R_RROW * _CHUNK + i]
                     if mr0 >= 0.0:
-                        _emit1(acc, int(base + (mr0 - blo * fblock) * 4.0),
-                               mr0 - (W[_R_A0 * _CHUNK + i] - t_start) * fs, W[_R_F0 * _CHUNK + i],
-                               W[_R_WF0 * _CHUNK + i], W[_R_C2 * _CHUNK + i],
-                               W[(_R_C2 + 1) * _CHUNK + i], 1.0)  # fmt: skip
+                        row = int(base + (mr0 - blo * fblock) * rs)
+                        x = mr0 - (W[_R_A0 * _CHUNK + i] - t_start) * fs
+                        f0, w0 = W[_R_F0 * _CHUNK + i], W[_R_WF0 * _CHUNK + i]
+                        c2, c3 = W[_R_C2 * _CHUNK + i], W[(_R_C2 + 1) * _CHUNK + i]
+                        if gained:
+                            c2a, c3a = W[_R_CA * _CHUNK + i], W[(_R_CA + 1) * _CHUNK + i]
+                            fl = W[(_R_CA + 2) * _CHUNK + i]
+                            for c in range(n_ch):
+                                ha = g1[c, i]
+                                hb = g0[c, i]
+                                _emit1(acc, row + 4 * c, x, ha * f0, ha * (w0 - fl) + hb * fl,
+                                       ha * c2a + hb * (c2 - c2a), ha * c3a + hb * (c3 - c3a), 1.0)  # fmt: skip
+                        else:
+                            _emit1(acc, row, x, f0, w0, c2, c3, 1.0)
                     kd = W[_R_KIND * _CHUNK + i]
                     if kd < 2.0:
                         continue
@@ -342,34 +523,58 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, c0, t_start, fs, n_
                     q1 = W[_R_Q * _CHUNK + i]
                     m1 = W[_R_M * _CHUNK + i] if cubic else m0
                     if kd == 3.0:
+                        a0, a1 = W[_R_A0 * _CHUNK + i], W[_R_A1 * _CHUNK + i]
+                        s0, s1 = int(W[_R_S0 * _CHUNK + i]), int(W[_R_S1 * _CHUNK + i])
+                        if gained:
+                            _pan(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, False, pinv,
+                                 ga, o6)  # fmt: skip
+                            _pan(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, False, pinv,
+                                 gb, o6)  # fmt: skip
                         nbad += _piece_across(
-                            acc, base, blo, nb, 1, shift, n_samples, n - 1, x, y, z, rm, tn, q0, m0,
-                            q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
-                            False, pinv, False, W[_R_A0 * _CHUNK + i], W[_R_A1 * _CHUNK + i],
-                            int(W[_R_S0 * _CHUNK + i]), int(W[_R_S1 * _CHUNK + i]),
-                            W[_R_F0 * _CHUNK + i], W[_R_WF0 * _CHUNK + i] * fs,
-                            W[_R_F1 * _CHUNK + i], W[_R_WF1 * _CHUNK + i] * fs, g1, g2, g3, g4, o6,
-                            ctj, k_ct,
+                            acc, base, blo, nb, n_ch, shift, n_samples, n - 1, x, y, z, rm, tn, q0,
+                            m0, q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch,
+                            False, pinv, gained, a0, a1, s0, s1, W[_R_F0 * _CHUNK + i],
+                            W[_R_WF0 * _CHUNK + i] * fs, W[_R_F1 * _CHUNK + i],
+                            W[_R_WF1 * _CHUNK + i] * fs, ga, gb, gx, gy, o6, ctj, k_ct,
                         )  # fmt: skip
                     else:
                         nbad += _piece_general(
-                            acc, base, blo, nb, 1, shift, n_samples, n - 1, int(RC[n - 1, 11]), x,
-                            y, z, rm, tn, q0, m0, q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start,
-                            fs, spk_az, spk_ch, False, pinv, False, g1, g2, g3, g4, o6, ctj, k_ct,
+                            acc, base, blo, nb, n_ch, shift, n_samples, n - 1, int(RC[n - 1, 11]),
+                            x, y, z, rm, tn, q0, m0, q1, m1, cubic, tc, lc, vc, qc, ot, c0,
+                            t_start, fs, spk_az, spk_ch, False, pinv, gained, ga, gb, gx, gy, o6,
+                            ctj, k_ct,
                         )  # fmt: skip
-            # the end of the last piece (its knot has no piece after it here)
+            # the end of the last piece (its knot has no piece after it here):
+            # slots as after the last knot, kb
+            g0 = G[(kb - r0) % 3]
+            g1 = G[(kb - r0 + 2) % 3]
             for i in range(cnt):
                 if W[_R_PF * _CHUNK + i] != 0.0:
                     sm = W[_R_SM * _CHUNK + i]
-                    _emit1(acc, int(base + (sm - blo * fblock) * 4.0),
-                           sm - W[_R_U * _CHUNK + i], W[_R_P * _CHUNK + i],
-                           W[(_R_P + 1) * _CHUNK + i], W[(_R_P + 2) * _CHUNK + i],
-                           W[(_R_P + 3) * _CHUNK + i], -1.0)  # fmt: skip
+                    row = int(base + (sm - blo * fblock) * rs)
+                    x = sm - W[_R_U * _CHUNK + i]
+                    p0, p1 = W[_R_P * _CHUNK + i], W[(_R_P + 1) * _CHUNK + i]
+                    p2, p3 = W[(_R_P + 2) * _CHUNK + i], W[(_R_P + 3) * _CHUNK + i]
+                    if gained:
+                        pa1, pa2 = W[_R_PA * _CHUNK + i], W[(_R_PA + 1) * _CHUNK + i]
+                        pa3 = W[(_R_PA + 2) * _CHUNK + i]
+                        for c in range(n_ch):
+                            ha = g1[c, i]
+                            hb = g0[c, i]
+                            _emit1(acc, row + 4 * c, x, hb * p0, ha * pa1 + hb * (p1 - pa1),
+                                   ha * pa2 + hb * (p2 - pa2), ha * pa3 + hb * (p3 - pa3), -1.0)  # fmt: skip
+                    else:
+                        _emit1(acc, row, x, p0, p1, p2, p3, -1.0)
         bad[jt] = nbad + _flush_captures(acc, ctj, k_ct, tc, t_start, fs, n_samples, shift, blo, nb,
-                                         base, 1, task_blk[jt, 3])  # fmt: skip
+                                         base, n_ch, task_blk[jt, 3])  # fmt: skip
+    # integrate: per channel group and block (as the piece-wise kernel)
+    n_groups = min(n_tasks, n_ch)
     n_blocks = (n_samples + block - 1) // block
-    for b in numba.prange(n_blocks):
-        _integrate(acc, task_blk, 0, 1, b, 1, block, n_samples, out)
+    for k in numba.prange(n_groups * n_blocks):
+        gi = k // n_blocks
+        b = k - gi * n_blocks
+        _integrate(acc, task_blk, gi * n_ch // n_groups, (gi + 1) * n_ch // n_groups, b, n_ch,
+                   block, n_samples, out)  # fmt: skip
     return int(bad.sum())
 
 

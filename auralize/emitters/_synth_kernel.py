@@ -1161,8 +1161,17 @@ def _sh_lanes(W, cnt, rx, ry, rz, tab, G, S):  # type: ignore[no-untyped-def]
     """AmbiX gains ``G ((N+1)², _CHUNK)`` of the directions in rows rx, ry, rz of
     W (the law of :func:`_gains_sh`, one SIMD loop per harmonic over the
     chunk's lanes; the rows are normalised in place; scratch ``S (5, _CHUNK)``;
-    harmonic k goes to row ``tab[k, 1]`` of G, none when −1)."""
-    order = int(math.sqrt(tab.shape[0]) + 0.5) - 1
+    harmonic k goes to row ``tab[k, 1]`` of G, none when −1; the recurrence
+    stops at the highest degree and the highest |m| the layout keeps, e.g.
+    m = 0 for the zonal harmonics of the ear receivers)."""
+    order = 0
+    m_top = 0
+    for k in range(tab.shape[0]):
+        if tab[k, 1] >= 0.0:
+            n_k = int(math.sqrt(k) + 1e-9)
+            m_k = abs(k - n_k * n_k - n_k)
+            order = max(order, n_k)
+            m_top = max(m_top, m_k)
     for i in range(cnt):
         x, y, z = W[rx * _CHUNK + i], W[ry * _CHUNK + i], W[rz * _CHUNK + i]
         r2 = x * x + y * y + z * z
@@ -1175,7 +1184,7 @@ def _sh_lanes(W, cnt, rx, ry, rz, tab, G, S):  # type: ignore[no-untyped-def]
         S[0, i] = 1.0  # Re (x + iy)^m
         S[1, i] = 0.0  # Im (x + iy)^m
     pmm = 1.0
-    for m in range(order + 1):
+    for m in range(m_top + 1):
         if m > 0:
             pmm *= 2 * m - 1
             for i in range(cnt):

@@ -26,8 +26,8 @@ Time mapping (docs/design.md): audio sample n is at data time
 the listener path; propagation uses physical c0 in data time.  ``lead``
 (default 0) skips the sound's travel to a far listener.
 
-The fast algorithm (:mod:`auralize.emitters._synth_kernel`; for unpanned output
-:mod:`auralize.emitters._runs_kernel`, one emission per knot, unless the path is
+The fast algorithm (:mod:`auralize.emitters._synth_kernel`; for unpanned and
+AmbiX output :mod:`auralize.emitters._runs_kernel`, one emission per knot, unless the path is
 recorded: captures that most pieces' arrivals cross) costs
 O(sources × steps + samples) instead of O(sources × samples) and gives the
 sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
@@ -60,8 +60,8 @@ from auralize.spatial.layouts import (
 )
 
 RHO0 = 1.2
-#: unpanned layouts are summed by runs of pieces (:mod:`auralize.emitters._runs_kernel`)
-#: unless most of their pieces' arrivals cross listener captures (None); True
+#: unpanned and AmbiX layouts (the binaural ears among them) are summed by
+#: runs of pieces (:mod:`auralize.emitters._runs_kernel`) unless most of their pieces' arrivals cross listener captures (None); True
 #: forces the runs, False the piece-wise kernel (for tests)
 _BY_RUNS: bool | None = None
 INTERPOLATIONS = ("linear", "cubic")
@@ -610,15 +610,16 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
     hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
     costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
-    # unpanned: runs of pieces, one emission per knot; else piece by piece.
-    # The runs split pieces at captures in scalar code, the piece-wise kernel
-    # in SIMD loops (parts): a recorded path, whose captures most pieces'
-    # arrivals cross, takes the piece-wise kernel
-    unpanned = spk_az.size == 0 and lay.n_channels == 1
+    # unpanned or AmbiX (gains at the knots): runs of pieces, one emission per
+    # knot; else piece by piece.  The runs split pieces at captures in scalar
+    # code, the piece-wise kernel in SIMD loops (parts): a recorded path, whose
+    # captures most pieces' arrivals cross, takes the piece-wise kernel
+    ambix = is_ambisonic(lay)
+    runs_ok = ambix or (spk_az.size == 0 and lay.n_channels == 1)
     if _BY_RUNS is None:
-        by_runs = unpanned and not (n_hi > n_lo and float(np.mean(costly[n_lo:n_hi])) > 0.5)
+        by_runs = runs_ok and not (n_hi > n_lo and float(np.mean(costly[n_lo:n_hi])) > 0.5)
     else:
-        by_runs = _BY_RUNS and unpanned
+        by_runs = _BY_RUNS and runs_ok
     if by_runs:
         gr0, glen, gcnt, goff, KD = _runs(tracks, pr.tn, interp)
         some = bool(np.any((gr0 < n_hi) & (gr0 + glen > n_lo)))
@@ -671,10 +672,11 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
             KR[:-1, 1] = np.where(parts, k_hi, k_lo)
             LT = _line_table(pr, c0)
         if by_runs:
+            tab = pan_table(lay, spk_az) if ambix else np.zeros((0, 2))
             bad = _runs_kernel.render(
-                gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, float(c0),
-                pr.t_start, pr.fs, pr.n_samples, shift, n_lo, n_hi, d_max, task_chunks, task_blk,
-                rc, acc, audio, ct, k_ct,
+                gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, pr.qc, pr.ot,
+                float(c0), pr.t_start, pr.fs, pr.n_samples, shift, lay.n_channels, tab, n_lo, n_hi,
+                d_max, task_chunks, task_blk, rc, acc, audio, ct, k_ct,
             )  # fmt: skip
         else:
             bad = _synth_kernel.render(

@@ -144,12 +144,17 @@ def butter_sos(order: int, hz: float, kind: str, rate: float) -> NDArray[np.floa
 
 def loudness(audio: NDArray[np.float64], rate: float, *,
              split_hz: float = 20.0) -> dict[str, float]:  # fmt: skip
-    """Peak and RMS (over all channels) and the share of the energy above ``split_hz``."""
+    """Peak and RMS (over all channels) and the share of the energy above
+    ``split_hz`` (from the power spectrum, the signal zero-padded to a fast
+    FFT length)."""
+    from scipy.fft import next_fast_len, rfft
+
     a = np.atleast_2d(audio)
     if a.size == 0:
         return {"peak": 0.0, "rms": 0.0, "above_hz": split_hz, "share_above": 0.0}
-    spec = np.sum(np.abs(np.fft.rfft(a, axis=-1)) ** 2, axis=0)
-    f = np.fft.rfftfreq(a.shape[-1], 1.0 / rate)
+    n_fft = next_fast_len(a.shape[-1], real=True)
+    spec = np.sum(np.abs(rfft(a, n_fft, axis=-1)) ** 2, axis=0)
+    f = np.fft.rfftfreq(n_fft, 1.0 / rate)
     total = float(spec.sum())
     share = float(spec[f > split_hz].sum() / total) if total > 0 else 0.0
     return {"peak": float(np.max(np.abs(a))), "rms": float(np.sqrt(np.mean(a * a))),
@@ -516,9 +521,15 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     meta: dict[str, Any] = {"timbre": timbre, "seed": int(seed), "highpass_hz": highpass_hz}
     notes: list[str] = []
     phys = None
+    finished = timbre == "physical"  # (its output's share: the ears', not their harmonics')
     if timbre in ("physical", "auto"):
         phys = render(tracks, path, bounds=bounds, **kw)
-        share = loudness(phys.audio, rate)["share_above"]
+        if finished:
+            phys = stage.finish(phys)
+            meta["share_above_20hz_unfiltered"] = loudness(phys.audio, rate)["share_above"]
+            share = meta["share_above_20hz_unfiltered"]
+        else:
+            share = loudness(phys.audio, rate)["share_above"]
         meta["physical_share_above_20hz"] = share
         if share < AUDIBLE_SHARE and tracks.n_sources:
             below = f"{100 * (1 - share):.0f} % of the physical sound lies below 20 Hz"
@@ -550,7 +561,8 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
                      "physical sound to extend): their noise is scaled to the physical "
                      "pressure's RMS")  # fmt: skip
     meta["timbre_notes"] = notes
-    out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
+    if not finished:
+        out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
     if "share_above_20hz_unfiltered" not in meta:
         meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
     out.audio = highpass(out.audio, rate, highpass_hz)

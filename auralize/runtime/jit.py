@@ -54,11 +54,15 @@ COMPILE_SECONDS: dict[str, float] = {
                 "_piece_general",
                 "_piece_across",
                 "_integrate",
+                "_task_sum",
+                "_part_pair_gains",
+                "_chunk_parts",
             )
         ],
         0.0,
     ),
     "auralize.emitters._runs_kernel._chunk_step": 0.0,
+    "auralize.emitters._runs_kernel._knot_gains": 0.0,
 }
 _DEFAULT_SECONDS = 2.0
 
