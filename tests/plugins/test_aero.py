@@ -465,7 +465,8 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     motion = Motion.swing(duration=0.3, swings=1.0, rate_hz=200.0)
     path = ListenerPath.line((0.3, 1.0, 0.2), (-0.3, 1.5, 0.0), duration=0.3)
     part = emission(tex, stick(0.5, 0.01), motion=motion, duration=0.3)
-    whole = render_emitters(part.emitters(), path, rate=RATE, layout="ring8").audio
+    kw = {"rate": RATE, "block": ar.CONTROL_BLOCK}  # the control points render_part uses
+    whole = render_emitters(part.emitters(), path, layout="ring8", **kw).audio
     ja, jb = part._window(path, 0.1, 0.15, 343.0)  # a window needs only the emission it hears
     assert 0.05 <= (jb - ja + 1) * part.kin.dt < 0.06
     monkeypatch.setattr(ar, "CHUNK_BYTES", 1)  # windows of 256 samples
@@ -477,10 +478,10 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     np.testing.assert_allclose(piece, whole[:, 4410:6615], rtol=0, atol=1e-9 * np.abs(whole).max())
     # binaural: the windows are AmbiX, the ears' filters run once over their sum
     amb = part.render_part(path, rate=RATE, layout="ambix1").audio
-    amb_direct = render_emitters(part.emitters(), path, rate=RATE, layout="ambix1").audio
+    amb_direct = render_emitters(part.emitters(), path, layout="ambix1", **kw).audio
     np.testing.assert_allclose(amb, amb_direct, rtol=0, atol=1e-9 * np.abs(amb_direct).max())
     ears = part.render_part(path, rate=RATE, layout="binaural").audio
-    direct = render_emitters(part.emitters(), path, rate=RATE, layout="binaural").audio
+    direct = render_emitters(part.emitters(), path, layout="binaural", **kw).audio
     assert ears.shape == direct.shape == (2, whole.shape[1])
     # the ears' filters turn rounding differences of the AmbiX sums into ~1e-7 of the peak
     np.testing.assert_allclose(ears, direct, rtol=0, atol=1e-6 * np.abs(direct).max())
