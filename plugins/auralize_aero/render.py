@@ -301,10 +301,10 @@ CHUNK_BYTES = 16 << 20
 #: projection, panning gains) for these emitters, 1.5 times the engine's default: between
 #: control points the emission index is a cubic and the weights and gains are linear, and
 #: the emission of a swinging object changes its Doppler factor slowly on that scale.
-#: Bench case (16 sources of a swinging stick at 44.1 kHz) against a per-sample render
+#: Bench case (16 sources of a swinging stick, 4 s at 44.1 kHz) against a per-sample render
 #: (:mod:`auralize.emitters.reference`) of the emission sampled 4x finer, of the peak:
-#: mono 4.7e-4 at most, 3.8e-5 r.m.s.; ring8 6.0e-4 at most, 2.1e-5 r.m.s. (32 samples:
-#: 2.2e-4 and 3.8e-4 at most; 64: 8.6e-4 and 8.5e-4, 7.1e-5 r.m.s. in mono).
+#: mono 2.5e-4 at most, 8.9e-6 r.m.s.; ring8 4.2e-4 at most, 7.1e-6 r.m.s. (64 samples:
+#: 5.3e-4 and 6.2e-4 at most, 1.5e-5 and 1.1e-5 r.m.s.).
 CONTROL_BLOCK = 48
 #: bytes of the table emitters' arrays per source and block
 _BLOCK_BYTES = 176
