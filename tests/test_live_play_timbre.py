@@ -17,7 +17,7 @@ from auralize.cli import main
 # high-pass and the timbre choice decide what is heard
 DATA = ["dataset:monopole", "--size", "12", "--steps", "60", "--threshold-monopole", "1%"]
 WHERE = ["--listener", "5,1.4,1.4", "--duration", "0.5", "--layout", "stereo"]
-DEVICES = ("hp20", "hp0", "auto", "tonal", "scene", "scene_phys")
+DEVICES = ("hp20", "hp0", "auto", "tonal", "scene", "scene_phys", "json")
 ASOUNDRC = "".join(
     f'pcm.live18_{d} {{\n type file\n slave.pcm "null"\n file "{{tmp}}/{d}.raw"\n format "raw"\n}}\n'
     for d in DEVICES
@@ -114,3 +114,15 @@ def test_play_a_scene_follows_the_fields_timbre(devices, tmp_path, capsys) -> No
         got, out = _play(devices, name, ref, capsys, "--scene", str(scene))
         assert ("timbre auto: rendered ahead in" in out) == (timbre == "auto")
         assert _rel(got, ref) < 1e-5
+
+
+def test_play_json_prints_the_report_alone(devices, capsys) -> None:  # type: ignore[no-untyped-def]
+    """``--json``: standard output is one JSON document (the plan's notes and mapping go
+    to standard error), and it reports the blocks played without underruns."""
+    capsys.readouterr()
+    args = [*DATA, *WHERE, "--timbre", "physical", "--device", "live18_json", "--json"]
+    assert main(["play", *args]) == 0
+    got = capsys.readouterr()
+    rep = json.loads(got.out)
+    assert rep["underruns"] == 0 and rep["blocks"] > 0 and rep["channels"] == 2
+    assert "s of playback =" in got.err  # the time mapping, for the person at the terminal

@@ -139,9 +139,11 @@ def cmd_play(args: argparse.Namespace) -> int:
     check_distance(plan.path, vol.bounds)
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
                   lead=plan.lead)  # fmt: skip
+    # with --json, standard output carries the report alone: what the plan says goes to stderr
+    say = sys.stderr if args.json else sys.stdout
     for note in plan.notes:
-        print(note)
-    print(plan.mapping_text + (" (auto)" if plan.auto else ""))
+        print(note, file=say)
+    print(plan.mapping_text + (" (auto)" if plan.auto else ""), file=say)
     block_s = args.block_ms / 1e3
     source: Any = tracks
     highpass_hz = args.highpass
@@ -271,5 +273,7 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--block-ms", type=positive_float, default=50.0,
                    help="synthesis block (default 50 ms)")  # fmt: skip
     g.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
-    g.add_argument("--json", action="store_true", help="print the playback report as JSON")
+    g.add_argument("--json", action="store_true",
+                   help="print the playback report as JSON (alone on standard output; notes "
+                   "go to standard error)")  # fmt: skip
     p.set_defaults(func=cmd_play)
