@@ -192,3 +192,30 @@ def test_detection_can_be_cancelled(qtbot, window, errors):
     assert win.scene.step == 2 and win.slider.value() == 2
     assert all(label.text() == "–" for label in win.count_labels.values())
     assert not errors
+
+
+def test_a_closed_window_leaves_no_stale_qt_wrappers(qtbot, tmp_path):
+    """After the window is closed and Qt has deleted it, PySide holds no wrapper of
+    its OpenGL surface or context (a stale one is handed back for the next Qt object
+    allocated at that address: a menu action that "is" a ``QSurface``)."""
+    from qtpy import QtGui
+    from shiboken6 import Shiboken
+
+    def gl_wrappers() -> list[object]:
+        kinds = (QtGui.QSurface, QtGui.QOpenGLContext)
+        return [w for w in Shiboken.getAllValidWrappers() if isinstance(w, kinds)]
+
+    before = {id(w) for w in gl_wrappers()}
+    win = MainWindow(autosave_dir=tmp_path / "autosave")
+    win.resize(600, 400)
+    win.show()
+    qtbot.waitExposed(win)
+    win.plotter.render()
+    qtbot.waitUntil(lambda: win.plotter._surface is not None)  # the widget's GL is up
+    assert [w for w in gl_wrappers() if id(w) not in before]
+    win.close()
+    win.deleteLater()
+    QtWidgets.QApplication.sendPostedEvents(None, QtCore.QEvent.Type.DeferredDelete)
+    qtbot.wait(50)
+    assert not Shiboken.isValid(win)  # the C++ window is gone, its Python object is not
+    assert [w for w in gl_wrappers() if id(w) not in before] == []

@@ -1534,7 +1534,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self._overlay_tasks.clear()
         self._sound_tasks.clear()
         self.plotter.close()
+        _release_gl_wrappers(self.plotter)
         super().closeEvent(event)
+
+
+def _release_gl_wrappers(interactor: Any) -> None:
+    """Unregister the interactor's ``QSurface`` wrapper when Qt deletes the surface.
+
+    pyvistaqt's widget keeps a Python wrapper of its OpenGL surface to make its
+    context current.  A ``QSurface`` is not a ``QObject``, so PySide is never told
+    when Qt deletes it with the widget: the wrapper stays registered at that address
+    and PySide hands it back for the next Qt object allocated there (a menu's
+    ``QAction`` then "is" a ``QSurface``).  Qt deletes the widget's context first
+    and its surface right after, and the context's ``aboutToBeDestroyed`` slots may
+    still use the surface (pyvistaqt's own makes the context current to free its GL
+    objects); a slot connected here runs after those and invalidates the wrapper
+    before the surface goes.
+    """
+    from shiboken6 import Shiboken
+
+    ctx = interactor.context() if Shiboken.isValid(interactor) else None
+    if ctx is None or getattr(interactor, "_surface_watched", False):
+        return
+    surface = ctx.surface()
+    if surface is None:
+        return
+    interactor._surface_watched = True
+
+    def release() -> None:
+        if Shiboken.isValid(surface):
+            Shiboken.invalidate(surface)
+
+    ctx.aboutToBeDestroyed.connect(release)
 
 
 def _devices() -> list[Any]:
