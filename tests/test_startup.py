@@ -48,6 +48,53 @@ def test_kernel_modules_set_their_numba_settings_on_import(tmp_path: Path) -> No
     assert got == ["passive", str(tmp_path)]
 
 
+GLIBC = sys.platform == "linux" and __import__("platform").libc_ver()[0] == "glibc"
+#: a 2 s swinging stick rendered 8 times (results discarded, as a bench or a batch does):
+#: status of the allocator tuning, and the pages first touched by each render
+_RENDERS = (
+    "import json, resource; from auralize.listener import ListenerPath; "
+    "from auralize_aero import circle, compute_texture, stick; "
+    "from auralize_aero.objects import Motion; from auralize_aero.render import render; "
+    "from auralize.runtime.allocator import status; "
+    "tex = compute_texture(circle(0.01), resolution=6, duration=0.005, u_lattice=0.15, cache=False); "
+    "m = Motion.swing(duration=2.0, swings=4, amplitude_deg=80.0, rate_hz=200.0); "
+    "p = ListenerPath.point((0.3, 1.0, 0.2), duration=2.0); obj = stick(0.5, 0.01); faults = []\n"
+    "for _ in range(8):\n"
+    "    f0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt; render(tex, obj, p, motion=m)\n"
+    "    faults.append(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0)\n"
+    "print(json.dumps([status(), faults]))"
+)
+
+
+def test_import_auralize_leaves_the_allocator_alone() -> None:
+    got = _run("import json, auralize, auralize.cli; from auralize.runtime.allocator import status; "
+               "print(json.dumps(status()))")  # fmt: skip
+    assert got is None
+
+
+@pytest.mark.skipif(not GLIBC, reason="the allocator tuning is glibc's mallopt")
+def test_renders_reuse_their_memory_once_kernels_are_loaded() -> None:
+    """With the tuning, a render's arrays land on memory freed by the previous render
+    (no page is touched for the first time); glibc's defaults unmap and map them again."""
+    status, faults = _run(_RENDERS)
+    assert status == "tuned"
+    assert max(faults[3:]) < 50, faults  # a render of this case touches ~2,000 new pages
+    status, untuned = _run(_RENDERS, AURALIZE_MALLOC_TUNING="0")
+    assert status == "AURALIZE_MALLOC_TUNING=0"
+    assert min(untuned[3:]) > 10 * max(50, max(faults[3:])), (faults, untuned)
+
+
+@pytest.mark.skipif(not GLIBC, reason="the allocator tuning is glibc's mallopt")
+def test_the_users_allocator_settings_are_kept() -> None:
+    code = ("import json, auralize.sources._kernels; from auralize.runtime.allocator import status; "
+            "print(json.dumps(status()))")  # fmt: skip
+    assert _run(code, GLIBC_TUNABLES="glibc.malloc.trim_threshold=65536") == (
+        "the allocator is tuned by the environment"
+    )
+    assert _run(code, MALLOC_MMAP_THRESHOLD_="65536") == "the allocator is tuned by the environment"
+    assert _run(code) == "tuned"
+
+
 @pytest.mark.parametrize("var", ["XDG_CACHE_HOME", "AURALIZE_CACHE_DIR"])
 def test_one_cache_folder_for_kernels_and_textures(tmp_path: Path, var: str) -> None:
     env = {k: v for k, v in os.environ.items()

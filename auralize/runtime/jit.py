@@ -16,6 +16,9 @@ process; the first use of a kernel does:
   :mod:`auralize.runtime.cache`).  The same place serves an editable checkout,
   an installed wheel (whose ``site-packages`` may be read-only) and Dask
   worker processes.
+* glibc's allocator keeps the memory of a render's large temporary arrays for
+  the next one instead of unmapping it (:mod:`auralize.runtime.allocator`;
+  ``AURALIZE_MALLOC_TUNING=0`` leaves it alone).
 * A notice when kernels are compiled rather than loaded from that cache
   (``compiling kernels, once: ~N s``), logged as a warning on the
   ``auralize`` logger, so ``-q`` silences it.  ``auralize warmup`` compiles
@@ -114,6 +117,9 @@ def configure() -> None:
             return
         _configured = True
         os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+        from auralize.runtime.allocator import tune
+
+        tune()
         import numba
 
         config: Any = numba.config
