@@ -23,7 +23,9 @@ PLUGINS = ("auralize_vortex", "auralize_fire", "auralize_aero", "auralize_spark"
 
 
 def _run(code: str, **env: str) -> dict:  # type: ignore[type-arg]
-    e = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    # a process as a user starts it (Dask's tests leave MALLOC_TRIM_THRESHOLD_ in this one)
+    e = {k: v for k, v in os.environ.items()
+         if k not in ("OMP_WAIT_POLICY", "GLIBC_TUNABLES") and not k.startswith("MALLOC_")}  # fmt: skip
     e.update(env)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=e,
                          check=True, timeout=120)  # fmt: skip
@@ -93,6 +95,15 @@ def test_the_users_allocator_settings_are_kept() -> None:
     )
     assert _run(code, MALLOC_MMAP_THRESHOLD_="65536") == "the allocator is tuned by the environment"
     assert _run(code) == "tuned"
+    # a Dask worker overrides its nanny's setting
+    forced = code.replace("print(json.dumps(status()))",
+                          "from auralize.distributed.worker_setup import tune_allocator; "
+                          "print(json.dumps([status(), tune_allocator(), status()]))")  # fmt: skip
+    assert _run(forced, MALLOC_TRIM_THRESHOLD_="65536") == [
+        "the allocator is tuned by the environment",
+        True,
+        "tuned",
+    ]
 
 
 @pytest.mark.parametrize("var", ["XDG_CACHE_HOME", "AURALIZE_CACHE_DIR"])

@@ -16,11 +16,11 @@ of the work it is given, and that a long-running cluster pays only once:
   a fresh ``mmap``: each task's frame-sized temporaries (read, ``10**x``,
   gradients, strengths) page-fault and are zeroed by the kernel again on
   every use.  Measured on the detection tasks of a 48³ volume: 2.5-3× slower
-  than the same calls in a normal process.  :func:`tune_allocator` restores
-  glibc's own default ceiling (arrays up to 32 MiB reused from the heap,
-  free memory above 64 MiB at the top of the heap returned to the system),
-  so a worker computes as fast as a serial run, and its resident memory
-  still falls back after a task.
+  than the same calls in a normal process.  :func:`tune_allocator` gives the
+  worker the settings of any auralize process
+  (:func:`auralize.runtime.allocator.tune`, forced over the nanny's), so a
+  worker computes as fast as a serial run, and its resident memory still
+  falls back after a task.
 
 :class:`WorkerSetup` is a ``distributed`` worker plugin doing both; the
 :class:`~auralize.distributed.runner.Runner` registers it on every cluster it
@@ -31,34 +31,17 @@ of a worker that died).
 from __future__ import annotations
 
 import asyncio
-import ctypes
-import ctypes.util
 import os
-import sys
 import time
 from typing import Any
 
-#: glibc ``mallopt`` parameters (malloc.h)
-M_TRIM_THRESHOLD = -1
-M_MMAP_THRESHOLD = -3
-#: glibc's dynamic mmap threshold never exceeds this (64-bit): its default ceiling
-MMAP_THRESHOLD = 32 << 20
-TRIM_THRESHOLD = 2 * MMAP_THRESHOLD
-
 
 def tune_allocator() -> bool:
-    """Give this process glibc's default large-array reuse back (False: not glibc)."""
-    if not sys.platform.startswith("linux"):
-        return False
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):  # musl, or no libc found
-        return False
-    mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
-    mallopt.restype = ctypes.c_int
-    ok = mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
-    return bool(ok and mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1)
+    """This worker's allocator set as in any auralize process, over the nanny's
+    environment setting (False: not glibc, or ``AURALIZE_MALLOC_TUNING=0``)."""
+    from auralize.runtime.allocator import tune
+
+    return tune(force=True) == "tuned"
 
 
 def warm_kernels() -> dict[str, Any]:

@@ -8,16 +8,21 @@ memory above the heap's trim threshold to the system, so each render touches
 its arrays' pages for the first time again: a page fault and a zeroed page per
 4 KiB, which two threads faulting at once take in turn.  Untuned, the 4 s aero
 bench case (16 dipoles, mono) renders in 37 ms instead of 29 ms on one thread
-and in 28 ms instead of 17 ms on two.
+and in 26-28 ms instead of 17 ms on two.  Setting any threshold in the
+environment (a Dask nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_``)
+also turns glibc's dynamic mmap threshold off, so then every array above
+128 KiB is a fresh ``mmap``.
 
-:func:`tune` raises both thresholds once per process (``mallopt``): blocks up
-to :data:`MMAP_THRESHOLD` come from the heap and up to :data:`TRIM_THRESHOLD`
-of free heap stays mapped for the next render.  The process keeps at most that
-much free memory mapped.  It does nothing
+:func:`tune` sets both thresholds to the ceiling glibc's dynamic adjustment
+would reach (``mallopt``): blocks up to :data:`MMAP_THRESHOLD` come from the
+heap, and free memory at the heap's top is returned to the system above
+:data:`TRIM_THRESHOLD`, so the process keeps at most that much free memory
+mapped.  It does nothing
 
 * on a C library other than glibc (``mallopt`` is glibc's),
-* when the user tuned the allocator (``MALLOC_MMAP_THRESHOLD_``,
+* when the environment sets the allocator (``MALLOC_MMAP_THRESHOLD_``,
   ``MALLOC_TRIM_THRESHOLD_``, or ``glibc.malloc`` in ``GLIBC_TUNABLES``),
+  unless forced (a Dask worker, :mod:`auralize.distributed.worker_setup`),
 * when ``AURALIZE_MALLOC_TUNING=0``.
 
 :func:`auralize.runtime.jit.configure` calls it when the first kernel module is
@@ -34,7 +39,7 @@ import threading
 #: blocks up to this size are served from the heap (glibc's upper limit for it)
 MMAP_THRESHOLD = 32 << 20
 #: free memory at the heap's top kept mapped for the next allocations
-TRIM_THRESHOLD = 128 << 20
+TRIM_THRESHOLD = 2 * MMAP_THRESHOLD
 
 _M_TRIM_THRESHOLD = -1  # mallopt parameters (glibc's malloc.h)
 _M_MMAP_THRESHOLD = -3
@@ -44,11 +49,12 @@ _state: dict[str, str] = {}
 _lock = threading.Lock()
 
 
-def _reason_not_to() -> str | None:
+def _reason_not_to(force: bool) -> str | None:
     if os.environ.get("AURALIZE_MALLOC_TUNING", "1").strip().lower() in ("0", "no", "off", "false"):
         return "AURALIZE_MALLOC_TUNING=0"
-    if any(k in os.environ for k in _USER_SETTINGS) or "glibc.malloc" in os.environ.get(
-        "GLIBC_TUNABLES", ""
+    if not force and (
+        any(k in os.environ for k in _USER_SETTINGS)
+        or "glibc.malloc" in os.environ.get("GLIBC_TUNABLES", "")
     ):
         return "the allocator is tuned by the environment"
     if platform.system() != "Linux" or platform.libc_ver()[0] != "glibc":
@@ -56,23 +62,27 @@ def _reason_not_to() -> str | None:
     return None
 
 
-def tune() -> str:
-    """Raise glibc's mmap and trim thresholds once per process; returns what was done.
+def tune(*, force: bool = False) -> str:
+    """Set glibc's mmap and trim thresholds once per process; returns what was done.
 
     Returns ``"tuned"``, or why not (``"not glibc"``, ``"AURALIZE_MALLOC_TUNING=0"``,
     ``"the allocator is tuned by the environment"``, ``"mallopt refused"``).
-    Idempotent and thread-safe.
+    ``force`` tunes even when the environment sets the allocator.  Idempotent
+    and thread-safe.
     """
     with _lock:
-        if "result" in _state:
-            return _state["result"]
-        why = _reason_not_to()
+        done = _state.get("result")
+        if done == "tuned" or (done is not None and not force):
+            return done
+        why = _reason_not_to(force)
         if why is None:
             try:
-                libc = ctypes.CDLL(None)
-                ok = libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
-                ok = libc.mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1 and ok
-            except (OSError, AttributeError):
+                mallopt = ctypes.CDLL(None).mallopt
+                mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
+                mallopt.restype = ctypes.c_int
+                ok = mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
+                ok = mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1 and ok
+            except (OSError, AttributeError):  # no mallopt in this C library
                 ok = False
             why = "tuned" if ok else "mallopt refused"
         _state["result"] = why
