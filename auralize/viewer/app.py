@@ -1534,11 +1534,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self._overlay_tasks.clear()
         self._sound_tasks.clear()
         self.plotter.close()
-        _release_gl_wrappers(self.plotter)
+        _drop_surface_wrapper_on_delete(self.plotter)
         super().closeEvent(event)
 
 
-def _release_gl_wrappers(interactor: Any) -> None:
+def _drop_surface_wrapper_on_delete(interactor: Any) -> None:
     """Unregister the interactor's ``QSurface`` wrapper when Qt deletes the surface.
 
     pyvistaqt's widget keeps a Python wrapper of its OpenGL surface to make its
