@@ -297,6 +297,17 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
 
 #: bytes of per-block tables (table emitters) per rendered window
 CHUNK_BYTES = 16 << 20
+#: output samples between the engine's control points (retarded time, distance law, dipole
+#: projection, panning gains) for these emitters: twice the engine's default, as the table
+#: emitters are evaluated exactly inside each table block (:func:`auralize.emitters._sampled.
+#: _seg_table`) and only the amplitude weights and panning gains are taken linear between
+#: control points.  Bench case (16 sources of a swinging stick, 4 s at 44.1 kHz) against a
+#: per-sample render (:mod:`auralize.emitters.reference`) of the emission sampled 4x finer,
+#: of the peak: mono 1.4e-4 at most, 7e-6 r.m.s.; ring8 6.2e-4 at most (the linear panning
+#: gains), 1.0e-5 r.m.s. over the channels.  For comparison, 32-sample control points with
+#: the emission index linear between them: 1.0e-3 at most in both (5.5e-4 after the first
+#: 50 ms), 4.4e-5 and 1.6e-5 r.m.s.; 32-sample control points here: 1.4e-4 and 2.6e-4.
+CONTROL_BLOCK = 64
 #: bytes of the table emitters' arrays per source and block
 _BLOCK_BYTES = 176
 
@@ -465,7 +476,9 @@ class AeroEmission:
         texture (``engine="numba"``), or the samples of :func:`emission_reference` stored."""
         K = self.block
         kin, tex = self.kin, self.texture
-        pos = kin.pos[:, 0] if self.static else kin.pos[:, ja : jb + 2]
+        # the grid points of the blocks and the one after (all of them from the first block
+        # on: the whole array, no copy; past the emission the signal is zero)
+        pos = kin.pos[:, 0] if self.static else kin.pos[:, ja : None if ja == 0 else jb + 2]
         if self.engine == "numpy":
             e1a, e2a, Mt, j0t, j1t, wt, st = self._table(ja, jb)
             G = emission_reference(e1a, e2a, Mt, j0t, j1t, wt, st, tex, K)
@@ -487,7 +500,7 @@ class AeroEmission:
         _in_parts(lambda k0, k1: _q_kernel(*args, k0, k1), S)
         return TableEmitters(tex.g, tex.lengths, qa, qb, ph, j0, j1, w, K, self.rate, pos,
                              t0=ja * kin.dt, pos_rate=self.rate / K, radius=self.radius, law=1.0,
-                             name=self.name)  # fmt: skip
+                             name=self.name, check=False)  # fmt: skip
 
     def emitters(self, tau0: float = 0.0, tau1: float | None = None) -> Emitters:
         """The dipole emitters of emission times ``[tau0, tau1]`` (s; default: all), in whole blocks."""
@@ -552,11 +565,14 @@ class AeroEmission:
         for na in range(0, n_out, step):
             nb = min(n_out, na + step)
             t_a = start + na / rate
-            win = self._window(path, t_a, start + nb / rate, c0)
+            # the emission the window hears, and that of the control points around it
+            pad = CONTROL_BLOCK / rate
+            win = self._window(path, t_a - pad, start + nb / rate + pad, c0)
             if win is None:
                 continue
             r = render_emitters(self._emitters(*win), path, rate=rate, layout=lay,
-                                duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend)  # fmt: skip
+                                duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend,
+                                block=CONTROL_BLOCK)  # fmt: skip
             if na == 0 and nb == n_out and r.audio.shape == (lay.n_channels, n_out):
                 out = r.audio  # one window: its audio is the result
                 break

@@ -465,7 +465,8 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     motion = Motion.swing(duration=0.3, swings=1.0, rate_hz=200.0)
     path = ListenerPath.line((0.3, 1.0, 0.2), (-0.3, 1.5, 0.0), duration=0.3)
     part = emission(tex, stick(0.5, 0.01), motion=motion, duration=0.3)
-    whole = render_emitters(part.emitters(), path, rate=RATE, layout="ring8").audio
+    kw = {"rate": RATE, "block": ar.CONTROL_BLOCK}  # the control points render_part uses
+    whole = render_emitters(part.emitters(), path, layout="ring8", **kw).audio
     ja, jb = part._window(path, 0.1, 0.15, 343.0)  # a window needs only the emission it hears
     assert 0.05 <= (jb - ja + 1) * part.kin.dt < 0.06
     monkeypatch.setattr(ar, "CHUNK_BYTES", 1)  # windows of 256 samples
@@ -477,10 +478,10 @@ def test_windows_join_exactly(tex: SoundTexture, monkeypatch) -> None:  # type: 
     np.testing.assert_allclose(piece, whole[:, 4410:6615], rtol=0, atol=1e-9 * np.abs(whole).max())
     # binaural: the windows are AmbiX, the ears' filters run once over their sum
     amb = part.render_part(path, rate=RATE, layout="ambix1").audio
-    amb_direct = render_emitters(part.emitters(), path, rate=RATE, layout="ambix1").audio
+    amb_direct = render_emitters(part.emitters(), path, layout="ambix1", **kw).audio
     np.testing.assert_allclose(amb, amb_direct, rtol=0, atol=1e-9 * np.abs(amb_direct).max())
     ears = part.render_part(path, rate=RATE, layout="binaural").audio
-    direct = render_emitters(part.emitters(), path, rate=RATE, layout="binaural").audio
+    direct = render_emitters(part.emitters(), path, layout="binaural", **kw).audio
     assert ears.shape == direct.shape == (2, whole.shape[1])
     # the ears' filters turn rounding differences of the AmbiX sums into ~1e-7 of the peak
     np.testing.assert_allclose(ears, direct, rtol=0, atol=1e-6 * np.abs(direct).max())
@@ -494,3 +495,26 @@ def test_inputs_are_declared_not_a_volume() -> None:
     assert model.input_kind not in ("", "volume") and "texture" in model.input_kind
     with pytest.raises(PluginError, match=r"cannot read its inputs \(a sound texture"):
         model.load_input("dataset:monopole")
+
+
+@pytest.mark.parametrize(("layout", "bound"), [("mono", 5e-4), ("ring8", 2.5e-3)])
+def test_render_error_against_a_finer_reference(tex: SoundTexture, layout: str,
+                                                bound: float) -> None:  # fmt: skip
+    """The engine's render (control points every CONTROL_BLOCK samples) against every output
+    sample's retarded time solved (numpy reference) on the emission sampled 4x finer."""
+    import importlib
+
+    from auralize.emitters.reference import render_reference
+
+    ar = importlib.import_module("auralize_aero.render")
+    obj = stick(0.5, 0.01)
+    motion = Motion.swing(duration=0.3, swings=1.0, amplitude_deg=80.0, rate_hz=200.0)
+    path = ListenerPath.point((0.3, 1.0, 0.2), duration=0.3)
+    out = emission(tex, obj, motion=motion, duration=0.3).render_part(path, layout=layout).audio
+    fine = emission(tex, obj, motion=motion, duration=0.3, rate=4 * RATE, block=4 * 32,
+                    engine="numpy")  # the same kinematics grid, 4x the samples  # fmt: skip
+    truth = render_reference(fine.emitters(), path, rate=RATE, layout=layout)
+    peak = np.abs(truth).max()
+    err = np.abs(out - truth) / peak
+    assert peak > 0 and ar.CONTROL_BLOCK == 64
+    assert err.max() < bound and np.sqrt(np.mean(err**2)) < bound / 10
