@@ -227,6 +227,12 @@ class TableEmitters(Emitters):
         Scan the table, matrices, phases and weights for NaN or Inf (False:
         arrays a model computed from its own finite inputs; shapes, rows and
         placement are still checked).
+
+    Attributes
+    ----------
+    padded_table : (R, N + 2 block + 2, P) float
+        Each row continued past its length by its own samples from 0, so that
+        the sampled backend reads a table block without wrapping.
     """
 
     def __init__(self, table: NDArray[np.float64], lengths: NDArray[np.int64],
@@ -272,11 +278,12 @@ class TableEmitters(Emitters):
         self.table, self.lengths, self.qa, self.qb = tab, lens, qa, qb
         self.phase, self.r0, self.r1, self.w = ph, r0, r1, w
         self.block = int(block)
-        # each row followed by its sample 0: a linear read needs no wrap of its second sample
-        pad = np.zeros((tab.shape[0], tab.shape[1] + 1, P))
-        pad[:, : tab.shape[1]] = tab
-        pad[np.arange(tab.shape[0]), lens] = tab[:, 0]
-        self.padded_table = pad
+        # each row continued past its length by its own samples from 0 (2 blocks and one
+        # more at unit table speed): a linear read needs no wrap of its second sample, and a
+        # table block read inside the padding none at all
+        i = np.arange(tab.shape[1] + 2 * self.block + 2)
+        self.padded_table = np.ascontiguousarray(tab[np.arange(tab.shape[0])[:, None],
+                                                     i[None, :] % lens[:, None]])  # fmt: skip
         self._signals: NDArray[np.float64] | None = None
         self.rate, self.positions, self.t0, self.pos_rate = rate, positions, t0, pos_rate
         self.radius, self.law, self.name = radius, law, name

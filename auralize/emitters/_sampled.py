@@ -7,8 +7,8 @@ Eq. 5 and paper 004 §6, Eq. 4)
     p(t) = Σ_s  a_s(τ_s) · g(D_s),   t − τ_s = |L(t) − x_s(τ_s)| / c0
 
 are evaluated at *control points* every ``K`` samples of the evaluation rate:
-the retarded time τ (Newton's method for a moving emitter, from a two-step
-extrapolation of the previous control points) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)``, the clamped
+the retarded time τ (Newton's method for a moving emitter, from the delay of
+the emitter's place at t) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·v_s/c0)``, the clamped
 distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
 projection on the unit vector n from the emitter to the listener, and the
 layout's panning gains (the synthesis kernel's own law,
@@ -19,7 +19,12 @@ a block the emission index is the cubic Hermite interpolant of τ and dτ/dt,
 the weights and gains are interpolated linearly; a block holding a listener
 capture (where the listener's velocity jumps) is split there into two linear
 pieces.  The emitted signal is read linearly at the emission index, weighted
-and added to the channels with non-zero gains.  Against the per-sample numpy
+and added to the channels with non-zero gains.  Table emitters
+(:class:`auralize.emitters.TableEmitters`) are evaluated at the emission index
+itself: inside each of their table blocks the table position is linear in the
+index (exact) and the weights of the table components are taken linear
+through their values at the block's ends and at the control points; the
+index advances by forward differences of its cubic.  Against the per-sample numpy
 reference (:mod:`auralize.emitters.reference`) this is within about 1e-4 of
 the peak in mono and 1e-3 panned (the gains have kinks at speaker
 directions) for a turning, moving listener and emitters at tens of m/s.
@@ -150,19 +155,39 @@ def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, sol
     the emitter to the listener for a dipole) and panning gains ``g[j]``;
     returns the emission index, the retarded time, the emitter-minus-listener
     vector and its inverse length (0 at the emitter), and the emitter's velocity.  ``tau``: for a moving
-    emitter its retarded time or (``solve``) a guess Newton's method starts
-    from.
+    emitter, a guess Newton's method starts from (``solve``), or the result of
+    one Newton step (not ``solve``): the next step, taken from the quantities
+    evaluated here anyway, converges it (as :func:`_newton`; the position moves
+    along the trajectory's segment), else Newton's method continues.
     """
     if moving:
         if solve:
             tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau, inv_c0)
-        x, y, z = _position(pos, s, (tau - t_pos) * pos_rate)
-        sx, sy, sz = _velocity(pos, s, (tau - t_pos) * pos_rate, pos_rate)
+        for _ in range(2):
+            u = (tau - t_pos) * pos_rate
+            x, y, z = _position(pos, s, u)
+            sx, sy, sz = _velocity(pos, s, u, pos_rate)
+            dx, dy, dz = x - lx, y - ly, z - lz
+            dt = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if solve:
+                break
+            step = tau - t + dt * inv_c0
+            if dt > 0.0:
+                step = step * dt / (dt + (dx * sx + dy * sy + dz * sz) * inv_c0)
+            if abs(step) < 1e-7 and int((tau - step - t_pos) * pos_rate) == int(u):
+                # the step taken: the trajectory is linear on the segment
+                tau -= step
+                x, y, z = x - sx * step, y - sy * step, z - sz * step
+                dx, dy, dz = x - lx, y - ly, z - lz
+                dt = math.sqrt(dx * dx + dy * dy + dz * dz)
+                break
+            tau = _retarded(pos, s, pos_rate, t_pos, t, lx, ly, lz, tau - step, inv_c0)
+            solve = True
     else:
         x, y, z = pos[s, 0, 0], pos[s, 0, 1], pos[s, 0, 2]
         sx, sy, sz = 0.0, 0.0, 0.0
-    dx, dy, dz = x - lx, y - ly, z - lz
-    dt = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz = x - lx, y - ly, z - lz
+        dt = math.sqrt(dx * dx + dy * dy + dz * dz)
     tau = t - dt * inv_c0
     inv_dt = 1.0 / dt if dt > 0.0 else 0.0
     if exponent == 1.0:
@@ -186,32 +211,18 @@ def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, sol
 
 
 @numba.njit(inline="always", **_NJIT)
-def _lin(qa, qb, s, b, p, ginv, wa0, wa1, wa2, dw0, dw1, dw2, j0, j1):  # type: ignore[no-untyped-def]
-    """The weight of component p of a table emitter's table in its table block b during an
-    output piece, ``m + u k`` at fraction u of the piece.
-
-    Exactly it is ``A + u B + x (C + u D)`` with weights ``wa + u dw`` and x emission
-    samples into the block (``Q = qa + x (qb − qa) / gK``): ``A = wa·qa, B = dw·qa,
-    C = wa·dq, D = dw·dq`` over the signal's components.  x is the piece's cubic emission
-    index, linear in u to within its curvature (the change of the Doppler factor over the
-    piece), so the weight is taken linear through its values at the piece's ends, where
-    x is ``j0`` and ``j1``.
-    """
-    q0 = qa[s, b, 0, p]
-    e0 = (qb[s, b, 0, p] - q0) * ginv
-    if qa.shape[2] == 1:
-        A, B, C, D = wa0 * q0, dw0 * q0, wa0 * e0, dw0 * e0
-    else:
-        q1 = qa[s, b, 1, p]
-        q2 = qa[s, b, 2, p]
-        e1 = (qb[s, b, 1, p] - q1) * ginv
-        e2 = (qb[s, b, 2, p] - q2) * ginv
-        A = wa0 * q0 + wa1 * q1 + wa2 * q2
-        B = dw0 * q0 + dw1 * q1 + dw2 * q2
-        C = wa0 * e0 + wa1 * e1 + wa2 * e2
-        D = dw0 * e0 + dw1 * e1 + dw2 * e2
-    m = A + j0 * C
-    return m, A + B + j1 * (C + D) - m
+def _scatter(out, vbuf, n0, i_lo, i_hi, p0, inv, g, ja, ka, gk, jb, kb):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Add ``vbuf[i]`` (``i_lo <= i < i_hi``) to the channels of ``out[:, n0 + i]`` with
+    the panning gains linear from row ``ja`` of ``g`` (or of ``gk`` if ``ka``) at sample
+    ``p0`` to row ``jb`` likewise at ``p0 + 1 / inv``."""
+    for c in range(out.shape[0]):
+        ga = gk[ja, c] if ka else g[ja, c]
+        gb = gk[jb, c] if kb else g[jb, c]
+        if ga == 0.0 and gb == 0.0:  # a silent channel only ever adds 0
+            continue
+        dg = (gb - ga) * inv
+        for i in range(i_lo, i_hi):
+            out[c, n0 + i] += (ga + dg * (i - p0)) * vbuf[i]
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -315,14 +326,7 @@ def _segment(sig, s, last, vbuf, out, n0, i_lo, i_hi, p0, p1, x0, h1, h2, h3, w,
         for i in range(i_lo, i_hi):
             out[0, n0 + i] += vbuf[i]
         return
-    for c in range(n_ch):
-        ga = gk[ja, c] if ka else g[ja, c]
-        gb = gk[jb, c] if kb else g[jb, c]
-        if ga == 0.0 and gb == 0.0:  # a silent channel only ever adds 0
-            continue
-        dg = (gb - ga) * inv
-        for i in range(i_lo, i_hi):
-            out[c, n0 + i] += (ga + dg * (i - p0)) * vbuf[i]
+    _scatter(out, vbuf, n0, i_lo, i_hi, p0, inv, g, ja, ka, gk, jb, kb)
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -340,17 +344,151 @@ def _row_pos(x, lf, r):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(inline="always", **_NJIT)
+def _cubic(x0, h1, h2, h3, u):  # type: ignore[no-untyped-def]
+    """The emission index ``x0 + u (h1 + u (h2 + u h3))`` at fraction u of a piece."""
+    return x0 + u * (h1 + u * (h2 + u * h3))
+
+
+@numba.njit(inline="always", **_NJIT)
+def _m_node(qa, qb, s, b, x, ginv, u, wa0, wa1, wa2, dw0, dw1, dw2, p):  # type: ignore[no-untyped-def]
+    """Weight of table component p of table emitter s at emission index x, with the
+    matrix of table block b (linear across it, extended past its ends) and the amplitude
+    weights ``wa + u dw`` at fraction u of the output piece."""
+    f = x * ginv - b
+    q0 = qa[s, b, 0, p]
+    m = (wa0 + u * dw0) * (q0 + f * (qb[s, b, 0, p] - q0))
+    if qa.shape[2] == 3:
+        q1 = qa[s, b, 1, p]
+        q2 = qa[s, b, 2, p]
+        m += (wa1 + u * dw1) * (q1 + f * (qb[s, b, 1, p] - q1))
+        m += (wa2 + u * dw2) * (q2 + f * (qb[s, b, 2, p] - q2))
+    return m
+
+
+@numba.njit(inline="always", **_NJIT)
+def _tab_weights(qa, qb, s, x, w, j, ginv):  # type: ignore[no-untyped-def]
+    """Weights ``w[j, C + p]`` of the P table components of table emitter s at emission
+    index x: its amplitude weights ``w[j, :C]`` applied to the matrix of the table block
+    holding x (linear from ``qa`` to ``qb`` across the block; extended linearly past the
+    emission's ends, where the signal is zero anyway)."""
+    b = min(max(int(math.floor(x * ginv)), 0), qa.shape[1] - 1)
+    f = x * ginv - b
+    for p in range(qa.shape[3]):
+        acc = 0.0
+        for c in range(qa.shape[2]):
+            q = qa[s, b, c, p]
+            acc += w[j, c] * (q + f * (qb[s, b, c, p] - q))
+        w[j, qa.shape[2] + p] = acc
+
+
+@numba.njit(inline="always", **_NJIT)
+def _node_line(qa, qb, s, b, gK, x0, X1, mA, mZ, iX, wa0, wa1, wa2, dw0, dw1, dw2, p):  # type: ignore[no-untyped-def]  # fmt: skip
+    """The weight of table component p over the part of an output piece in table block b,
+    linear in the emission index: ``(xl, ml, slope)`` through its values at the part's
+    ends, the piece's ends (``mA`` at index ``x0``, ``mZ`` at ``X1``: the control points')
+    where they lie in the block, else the block's ends (:func:`_m_node`)."""
+    ginv = 1.0 / gK
+    xbeg = b * gK
+    xend = xbeg + gK
+    if x0 <= X1:
+        XL, XR, mL, mR = x0, X1, mA, mZ
+    else:
+        XL, XR, mL, mR = X1, x0, mZ, mA
+    if XL >= xbeg:
+        xl, ml = XL, mL
+    else:
+        xl = xbeg
+        ml = _m_node(qa, qb, s, b, xl, ginv, (xl - x0) * iX, wa0, wa1, wa2, dw0, dw1, dw2, p)
+    if XR < xend:
+        xr, mr = XR, mR
+    else:
+        xr = xend
+        mr = _m_node(qa, qb, s, b, xr, ginv, (xr - x0) * iX, wa0, wa1, wa2, dw0, dw1, dw2, p)
+    return xl, ml, (mr - ml) / max(xr - xl, 1e-9)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _read_row(tab, r, out, vbuf, n0, i0, i1, x, d, m0, s0, m1, s1, D1, D2, D3):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Samples ``i0 <= i < i1`` of a table emitter read from row r of ``tab`` without wrap:
+    table position x and component weights m0, m1 advanced by ``d``, ``s0``, ``s1`` times
+    the step ``D1`` of the emission index (forward differences ``D1, D2, D3`` of its
+    cubic); added to ``out[0, n0 + i]`` (one channel) or written to ``vbuf[i]``."""
+    if tab.shape[2] == 2 and out.shape[0] == 1:
+        for i in range(i0, i1):
+            k = int(x)
+            fr = x - k
+            a0 = tab[r, k, 0]
+            a1 = tab[r, k, 1]
+            out[0, n0 + i] += m0 * (a0 + fr * (tab[r, k + 1, 0] - a0)) + m1 * (
+                a1 + fr * (tab[r, k + 1, 1] - a1))  # fmt: skip
+            x += d * D1
+            m0 += s0 * D1
+            m1 += s1 * D1
+            D1 += D2
+            D2 += D3
+        return
+    for i in range(i0, i1):
+        k = int(x)
+        fr = x - k
+        a0 = tab[r, k, 0]
+        v = m0 * (a0 + fr * (tab[r, k + 1, 0] - a0))
+        if tab.shape[2] == 2:
+            a1 = tab[r, k, 1]
+            v += m1 * (a1 + fr * (tab[r, k + 1, 1] - a1))
+        if out.shape[0] == 1:
+            out[0, n0 + i] += v
+        else:
+            vbuf[i] = v
+        x += d * D1
+        m0 += s0 * D1
+        m1 += s1 * D1
+        D1 += D2
+        D2 += D3
+
+
+@numba.njit(inline="always", **_NJIT)
+def _row_at(tab, r, x, n):  # type: ignore[no-untyped-def]
+    """Row r of ``tab`` (:func:`_seg_table`; ``n`` samples long) read linearly at table
+    position x, wrapped: its components 0 and 1 (0.0 for a one-component table)."""
+    if x >= n or x < 0.0:
+        x = _wrap(x, n)
+    k = int(x)
+    fr = x - k
+    a0 = tab[r, k, 0]
+    g0 = a0 + fr * (tab[r, k + 1, 0] - a0)
+    g1 = 0.0
+    if tab.shape[2] == 2:
+        a1 = tab[r, k, 1]
+        g1 = a1 + fr * (tab[r, k + 1, 1] - a1)
+    return g0, g1
+
+
+@numba.njit(inline="always", **_NJIT)
 def _seg_table(tab, lf, qa, qb, ph, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_hi, p0, p1, x0,
                h1, h2, h3, w, ja, jb, wk, ka, kb, g, gk):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`_segment` for table emitter s (:class:`auralize.emitters.TableEmitters`): its
-    signal evaluated at the emission index itself (the table rows read linearly at the
-    table position there), each table component weighted by :func:`_lin` for the table
-    block of the index; zero outside the emission, as stored samples.  ``tab`` is
-    padded (row r's sample ``lf[r, 0]`` is its sample 0); ``lf (R, 2)``: the rows' lengths
-    and their inverses; ``ph (S, B + 1)``: the table positions at the blocks' ends."""
+    signal evaluated at the emission index itself, zero outside the emission, as stored
+    samples.  Inside a table block the table position is linear in the emission index
+    (exact) and so, taken, are the weights of the P table components (the amplitude
+    weights, linear over the piece, times the block's matrix; exact at the piece's ends
+    and at the table blocks' ends inside it; those at the control points follow the
+    amplitude weights in the rows of ``w`` and ``wk``, :func:`_tab_weights`).  ``tab`` is
+    padded
+    (:attr:`auralize.emitters.TableEmitters.padded_table`: row r continues past its
+    length with its own samples from 0); ``lf (R, 2)``: the rows' lengths and their
+    inverses; ``ph (S, B + 1)``: the table positions at the blocks' ends.
+
+    A piece inside the emission, on one row, across at most two table blocks' ends and
+    read inside the padding (the common case) runs without per-sample tests, block by
+    block: the emission index by forward differences of its cubic, the table position and
+    the weights advanced with it.  The choice is made on the whole piece, so that the samples do not
+    depend on where a window cuts it.
+    """
     P = tab.shape[2]
     n_ch = out.shape[0]
-    x_last = r0.shape[1] * gK - 1.0
+    nb = r0.shape[1]
+    x_last = nb * gK - 1.0
+    top = tab.shape[1] - 2.0  # a position below this reads inside the padding
     inv = 1.0 / (p1 - p0)
     ginv = 1.0 / gK
     wa0 = wk[ja, 0] if ka else w[ja, 0]
@@ -361,117 +499,114 @@ def _seg_table(tab, lf, qa, qb, ph, r0, r1, wt, gK, s, vbuf, out, n0, i_lo, i_hi
         wa2 = wk[ja, 2] if ka else w[ja, 2]
         dw1 = (wk[jb, 1] if kb else w[jb, 1]) - wa1
         dw2 = (wk[jb, 2] if kb else w[jb, 2]) - wa2
+    X1 = x0 + h1 + h2 + h3  # the emission index at the piece's end (u = 1)
+    iX = 1.0 / (X1 - x0) if abs(X1 - x0) > 1e-12 else 0.0  # u of an index, linearly
     # the emission index at the piece's first and last samples, as if the piece were whole
-    # (the result must not depend on where a window cuts it; the cubic is monotonic for
-    # subsonic motion)
-    ua = (math.ceil(p0) - p0) * inv
-    ub = (math.ceil(p1) - 1 - p0) * inv
-    xa = x0 + ua * (h1 + ua * (h2 + ua * h3))
-    xb = x0 + ub * (h1 + ub * (h2 + ub * h3))
-    x1 = x0 + h1 + h2 + h3  # at the piece's end (u = 1)
-    i = i_lo
-    if P == 2 and 0.0 <= xa <= xb <= x_last:  # increasing inside the emission: runs by block
-        while i < i_hi:
+    xa = _cubic(x0, h1, h2, h3, (math.ceil(p0) - p0) * inv)
+    xb = _cubic(x0, h1, h2, h3, (math.ceil(p1) - 1 - p0) * inv)
+    # the component weights at the piece's ends: the control points' (:func:`_tab_weights`)
+    C = qa.shape[2]
+    mA0 = wk[ja, C] if ka else w[ja, C]
+    mZ0 = wk[jb, C] if kb else w[jb, C]
+    mA1 = mZ1 = 0.0
+    if P == 2:
+        mA1 = wk[ja, C + 1] if ka else w[ja, C + 1]
+        mZ1 = wk[jb, C + 1] if kb else w[jb, C + 1]
+    fast = False
+    ba = bz = ra = 0
+    if 0.0 <= xa <= xb <= x_last:
+        ba = int(xa * ginv)
+        bz = min(int(xb * ginv), nb - 1)
+        ra = r0[s, ba]
+        fast = bz - ba <= 2
+        for b in range(ba, bz + 1):
+            if not fast:
+                break
+            # one row, read inside the padding over the piece's part in the block
+            pr = _row_pos(ph[s, b], lf, ra)
+            span = ph[s, b + 1] - ph[s, b]
+            fast = (wt[s, b] == 0.0 and r0[s, b] == ra and pr + min(span, 0.0) >= 0.0
+                    and pr + max(span, 0.0) < top)  # fmt: skip
+    if fast:
+        i0 = i_lo
+        for b in range(ba, bz + 1):
+            xbeg = b * gK
+            xend = xbeg + gK
+            # the samples up to the first at or past the block's end (from a linear guess)
+            i1 = i_hi
+            if b < bz:
+                i1 = min(max(int(math.ceil(p0 + (xend - x0) * iX * (p1 - p0))), i0), i_hi)
+                while i1 > i0 and _cubic(x0, h1, h2, h3, (i1 - 1 - p0) * inv) >= xend:
+                    i1 -= 1
+                while i1 < i_hi and _cubic(x0, h1, h2, h3, (i1 - p0) * inv) < xend:
+                    i1 += 1
+            if i1 <= i0:
+                continue
+            # weights linear in the index inside the block (:func:`_node_line`)
+            xl, ml0, s0 = _node_line(qa, qb, s, b, gK, x0, X1, mA0, mZ0, iX, wa0, wa1, wa2, dw0,
+                                     dw1, dw2, 0)  # fmt: skip
+            ml1 = s1 = 0.0
+            if P == 2:
+                xl, ml1, s1 = _node_line(qa, qb, s, b, gK, x0, X1, mA1, mZ1, iX, wa0, wa1, wa2,
+                                         dw0, dw1, dw2, 1)  # fmt: skip
+            # the index at the first sample and its forward differences (exact for a cubic:
+            # x(u + e) − x(u) and its differences, e the step in u of one sample); the
+            # table position there, linear in the index inside the block
+            u = (i0 - p0) * inv
+            e = inv
+            xi = _cubic(x0, h1, h2, h3, u)
+            D1 = e * (h1 + h2 * (2.0 * u + e) + h3 * (3.0 * u * (u + e) + e * e))
+            D2 = e * e * (2.0 * h2 + h3 * (6.0 * (u + e)))
+            D3 = 6.0 * h3 * e * e * e
+            d = (ph[s, b + 1] - ph[s, b]) * ginv
+            ps = _row_pos(ph[s, b], lf, ra) + d * (xi - xbeg)
+            _read_row(tab, ra, out, vbuf, n0, i0, i1, ps, d, ml0 + s0 * (xi - xl), s0,
+                      ml1 + s1 * (xi - xl), s1, D1, D2, D3)  # fmt: skip
+            i0 = i1
+    else:
+        xbeg = 1.0
+        xend = 0.0  # no table block loaded yet
+        ra = rb = 0
+        Na = Nb = pa = pb = ds = wr = xl = 0.0
+        ml0 = ml1 = sl0 = sl1 = 0.0
+        for i in range(i_lo, i_hi):
             u = (i - p0) * inv
-            xi = x0 + u * (h1 + u * (h2 + u * h3))
-            b = min(int(xi * ginv), r0.shape[1] - 1)
-            xbeg = float(b * gK)
-            xend = xbeg + gK
-            ra = r0[s, b]
-            Na = lf[ra, 0]
-            pa = _row_pos(ph[s, b], lf, ra)
-            ds = (ph[s, b + 1] - ph[s, b]) * ginv
-            if wt[s, b] != 0.0 or ds < 0.0:
-                break  # two rows, or backwards: sample by sample below
-            m0, k0 = _lin(qa, qb, s, b, 0, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
-            m1, k1 = _lin(qa, qb, s, b, 1, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
-            while i < i_hi:
-                u = (i - p0) * inv
-                xi = x0 + u * (h1 + u * (h2 + u * h3))
-                if xi >= xend:
-                    break
-                jj = xi - xbeg
-                x = pa + ds * jj
-                if x >= Na:
-                    x = _wrap(x, Na)
-                k = int(x)
-                fr = x - k
-                a0 = tab[ra, k, 0]
-                a1 = tab[ra, k, 1]
-                v = (m0 + u * k0) * (a0 + fr * (tab[ra, k + 1, 0] - a0)) + (m1 + u * k1) * (
-                    a1 + fr * (tab[ra, k + 1, 1] - a1))  # fmt: skip
-                if n_ch == 1:
-                    out[0, n0 + i] += v
-                else:
-                    vbuf[i] = v
-                i += 1
-    xbeg = 1.0
-    xend = 0.0  # no table block loaded yet
-    ra = rb = 0
-    Na = Nb = pa = pb = ds = wr = 0.0
-    m0 = k0 = m1 = k1 = 0.0
-    i_rest = i
-    for i in range(i_rest, i_hi):
-        u = (i - p0) * inv
-        xi = x0 + u * (h1 + u * (h2 + u * h3))
-        if xi < 0.0 or xi > x_last:
-            if n_ch > 1:
-                vbuf[i] = 0.0
-            continue
-        if xi < xbeg or xi >= xend:  # the table block holding this index
-            b = int(xi * ginv)
-            xbeg = float(b * gK)
-            xend = xbeg + gK
-            ra = r0[s, b]
-            rb = r1[s, b]
-            wr = wt[s, b]
-            Na = lf[ra, 0]
-            Nb = lf[rb, 0]
-            pa = _row_pos(ph[s, b], lf, ra)
-            pb = _row_pos(ph[s, b], lf, rb)
-            ds = (ph[s, b + 1] - ph[s, b]) * ginv
-            m0, k0 = _lin(qa, qb, s, b, 0, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg, x1 - xbeg)
-            if P == 2:
-                m1, k1 = _lin(qa, qb, s, b, 1, ginv, wa0, wa1, wa2, dw0, dw1, dw2, x0 - xbeg,
-                              x1 - xbeg)  # fmt: skip
-        jj = xi - xbeg
-        x = pa + ds * jj
-        if x >= Na or x < 0.0:
-            x = _wrap(x, Na)
-        k = int(x)
-        fr = x - k
-        a0 = tab[ra, k, 0]
-        gx = a0 + fr * (tab[ra, k + 1, 0] - a0)
-        gy = 0.0
-        if P == 2:
-            a1 = tab[ra, k, 1]
-            gy = a1 + fr * (tab[ra, k + 1, 1] - a1)
-        if wr != 0.0:  # between two rows
-            y = pb + ds * jj
-            if y >= Nb or y < 0.0:
-                y = _wrap(y, Nb)
-            kb_ = int(y)
-            fb = y - kb_
-            a0 = tab[rb, kb_, 0]
-            gx += wr * (a0 + fb * (tab[rb, kb_ + 1, 0] - a0) - gx)
-            if P == 2:
-                a1 = tab[rb, kb_, 1]
-                gy += wr * (a1 + fb * (tab[rb, kb_ + 1, 1] - a1) - gy)
-        v = (m0 + u * k0) * gx + (m1 + u * k1) * gy
-        if n_ch == 1:
-            out[0, n0 + i] += v
-        else:
-            vbuf[i] = v
+            xi = _cubic(x0, h1, h2, h3, u)
+            if xi < 0.0 or xi > x_last:
+                if n_ch > 1:
+                    vbuf[i] = 0.0
+                continue
+            if xi < xbeg or xi >= xend:  # the table block holding this index
+                b = min(int(xi * ginv), nb - 1)
+                xbeg = float(b * gK)
+                xend = xbeg + gK
+                ra = r0[s, b]
+                rb = r1[s, b]
+                wr = wt[s, b]
+                Na = lf[ra, 0]
+                Nb = lf[rb, 0]
+                ds = (ph[s, b + 1] - ph[s, b]) * ginv
+                pa = _row_pos(ph[s, b], lf, ra) - ds * xbeg  # row ra's position: pa + ds x
+                pb = _row_pos(ph[s, b], lf, rb) - ds * xbeg
+                # weights linear in the index inside the block (:func:`_node_line`)
+                xl, ml0, sl0 = _node_line(qa, qb, s, b, gK, x0, X1, mA0, mZ0, iX, wa0, wa1, wa2,
+                                          dw0, dw1, dw2, 0)  # fmt: skip
+                if P == 2:
+                    xl, ml1, sl1 = _node_line(qa, qb, s, b, gK, x0, X1, mA1, mZ1, iX, wa0, wa1,
+                                              wa2, dw0, dw1, dw2, 1)  # fmt: skip
+            gx, gy = _row_at(tab, ra, pa + ds * xi, Na)
+            if wr != 0.0:  # between two rows
+                hx, hy = _row_at(tab, rb, pb + ds * xi, Nb)
+                gx += wr * (hx - gx)
+                gy += wr * (hy - gy)
+            v = (ml0 + sl0 * (xi - xl)) * gx + (ml1 + sl1 * (xi - xl)) * gy
+            if n_ch == 1:
+                out[0, n0 + i] += v
+            else:
+                vbuf[i] = v
     if n_ch == 1:
         return
-    for c in range(n_ch):
-        ga = gk[ja, c] if ka else g[ja, c]
-        gb = gk[jb, c] if kb else g[jb, c]
-        if ga == 0.0 and gb == 0.0:  # a silent channel only ever adds 0
-            continue
-        dg = (gb - ga) * inv
-        for i in range(i_lo, i_hi):
-            out[c, n0 + i] += (ga + dg * (i - p0)) * vbuf[i]
+    _scatter(out, vbuf, n0, i_lo, i_hi, p0, inv, g, ja, ka, gk, jb, kb)
 
 
 @numba.njit(**_NJIT)
@@ -543,9 +678,10 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
 
     The retarded times of a chunk of control points are found together, each
     pass over the chunk independent point by point (the processor overlaps
-    them): the emitter's place at t gives the first guess, two Newton steps
-    follow and the few points not converged then (a step across a trajectory
-    sample) continue alone.
+    them): the emitter's place at t gives the first guess, one Newton step
+    follows, and :func:`_point` checks convergence with the quantities it
+    evaluates there; the few points not converged then (a step across a
+    trajectory sample) continue alone.
 
     ``gen``: the emitters are table emitters (``tab``, ``lf`` and ``ph`` as for
     :func:`_seg_table`, ``qa, qb, r0, r1, wt`` and ``gK`` samples per
@@ -561,6 +697,7 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
         S, C, n_e = sig.shape
     n_ch, n = out.shape
     moving = pos.shape[1] > 1
+    ginv = 1.0 / gK
     inv_c0 = 1.0 / c0
     CB = _CHUNK_BLOCKS
     xe = np.empty(CB + 1)
@@ -568,10 +705,11 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
     mb = np.empty(CB + 1)
     xk = np.empty(CB)
     tq = np.empty(CB + 1)
-    w = np.empty((CB + 1, C))
+    w = np.empty((CB + 1, C + qa.shape[3]))  # then a table emitter's component weights
     g = np.zeros((CB + 1, n_ch))
-    wk = np.empty((CB, C))
+    wk = np.empty((CB, C + qa.shape[3]))
     gk = np.zeros((CB, n_ch))
+
     vbuf = np.empty(K)
     last = n_e - 1
     for cb0 in range(b0, b1, CB):
@@ -589,14 +727,6 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                     b = cb0 + j
                     tq[j], _ = _newton(pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1], L[b, 2],
                                        tq[j], inv_c0)  # fmt: skip
-                for j in range(nb):
-                    b = cb0 + j
-                    tau, done = _newton(pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1], L[b, 2],
-                                        tq[j], inv_c0)  # fmt: skip
-                    if not done:
-                        tau = _retarded(pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1],
-                                        L[b, 2], tau, inv_c0)  # fmt: skip
-                    tq[j] = tau
             for b in range(cb0, cb1 + 1):
                 j = b - cb0
                 t = tb[b]
@@ -604,6 +734,8 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                     C, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, False, t,
                     L[b, 0], L[b, 1], L[b, 2], F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1], U[b, 2],
                     tq[j], t_sig, fs, spk_az, spk_ch, fold, pinv, w, g, j)  # fmt: skip
+                if gen:
+                    _tab_weights(qa, qb, s, xe[j], w, j, ginv)
                 # dτ/dt on both sides (the listener's velocity may jump at a
                 # capture), in signal samples per block
                 r = _rate(dx, dy, dz, idt, VR[b], sx, sy, sz, inv_c0)
@@ -619,6 +751,8 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
                         Lk[b, 0], Lk[b, 1], Lk[b, 2], Fk[b, 0], Fk[b, 1], Fk[b, 2], Uk[b, 0],
                         Uk[b, 1], Uk[b, 2], tau + (tk[b] - t), t_sig, fs, spk_az, spk_ch, fold,
                         pinv, wk, gk, j)  # fmt: skip
+                    if gen:
+                        _tab_weights(qa, qb, s, xk[j], wk, j, ginv)
             for b in range(cb0, cb1):
                 j = b - cb0
                 xa = xe[j]
@@ -790,6 +924,16 @@ def _path_velocities(path: Any, t: NDArray[np.float64]) -> tuple[NDArray[np.floa
     return np.ascontiguousarray(v[iR]), np.ascontiguousarray(v[iL])
 
 
+def _orientations(path: Any, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+    """Forward and up ``(len(t), 3)`` at path times t: :meth:`ListenerPath.orientation_at`,
+    or its one orientation repeated when the path never turns."""
+    f, u = path.forward, path.up
+    if f is not None and u is not None and np.all(f == f[0]) and np.all(u == u[0]):
+        F, U = path.orientation_at(t[:1])
+        return np.repeat(F, t.size, axis=0), np.repeat(U, t.size, axis=0)
+    return tuple(path.orientation_at(t))
+
+
 def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, start: float,
                    c0: float, block: int = BLOCK, oversample: int = 4,
                    internal: bool = True, prepared: Prepared | None = None,
@@ -867,15 +1011,15 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     if n_out <= 0:
         return np.zeros((n_ch, max(n_out, 0))), {**meta, "threads": 0}
     t_lo, t_hi = t_of(j_lo), t_of(j_lo + n_int)
-    # emission window: every retarded time of the window, bounded by distances
     tp0 = path.times[0]
-    lp = path.position_at(tp0 + np.linspace(t_lo, t_hi, 16))
-    lo, hi = _box(em.positions.reshape(-1, 3), lp)
-    d_max = float(np.linalg.norm(hi - lo))
-    tau_lo, tau_hi = t_lo - d_max / c0, t_hi
     if gen:  # generated where they are read: no signal window
         prepared = Prepared(np.zeros((1, em.qa.shape[2], 1)), float(em.rate), float(em.t0), 1)
     elif prepared is None:
+        # emission window: every retarded time of the window, bounded by distances
+        lp = path.position_at(tp0 + np.linspace(t_lo, t_hi, 16))
+        lo, hi = _box(em.positions.reshape(-1, 3), lp)
+        d_max = float(np.linalg.norm(hi - lo))
+        tau_lo, tau_hi = t_lo - d_max / c0, t_hi
         i_lo = max(0, int(math.floor((tau_lo - em.t0) * em.rate)) - _UP_HALF)
         i_hi = min(em.n_samples, int(math.ceil((tau_hi - em.t0) * em.rate)) + _UP_HALF + 1)
         if i_hi <= i_lo:
@@ -887,7 +1031,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     L = np.ascontiguousarray(path.position_at(tp0 + tb))
     VR, VL = _path_velocities(path, tp0 + tb)
     if n_ch > 1:
-        F, U = path.orientation_at(tp0 + tb)
+        F, U = _orientations(path, tp0 + tb)
         spk_az, spk_ch = panning_arrays(lay)
         pinv = pan_table(lay, spk_az)
     else:

@@ -298,14 +298,16 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
 #: bytes of per-block tables (table emitters) per rendered window
 CHUNK_BYTES = 16 << 20
 #: output samples between the engine's control points (retarded time, distance law, dipole
-#: projection, panning gains) for these emitters, 1.5 times the engine's default: between
-#: control points the emission index is a cubic and the weights and gains are linear, and
-#: the emission of a swinging object changes its Doppler factor slowly on that scale.
-#: Bench case (16 sources of a swinging stick, 4 s at 44.1 kHz) against a per-sample render
-#: (:mod:`auralize.emitters.reference`) of the emission sampled 4x finer, of the peak:
-#: mono 2.5e-4 at most, 8.9e-6 r.m.s.; ring8 4.2e-4 at most, 7.1e-6 r.m.s. (64 samples:
-#: 5.3e-4 and 6.2e-4 at most, 1.5e-5 and 1.1e-5 r.m.s.).
-CONTROL_BLOCK = 48
+#: projection, panning gains) for these emitters: twice the engine's default, as the table
+#: emitters are evaluated exactly inside each table block (:func:`auralize.emitters._sampled.
+#: _seg_table`) and only the amplitude weights and panning gains are taken linear between
+#: control points.  Bench case (16 sources of a swinging stick, 4 s at 44.1 kHz) against a
+#: per-sample render (:mod:`auralize.emitters.reference`) of the emission sampled 4x finer,
+#: of the peak: mono 1.4e-4 at most, 7e-6 r.m.s.; ring8 6.2e-4 at most (the linear panning
+#: gains), 1.0e-5 r.m.s. over the channels.  For comparison, 32-sample control points with
+#: the emission index linear between them: 1.0e-3 at most in both (5.5e-4 after the first
+#: 50 ms), 4.4e-5 and 1.6e-5 r.m.s.; 32-sample control points here: 1.4e-4 and 2.6e-4.
+CONTROL_BLOCK = 64
 #: bytes of the table emitters' arrays per source and block
 _BLOCK_BYTES = 176
 
