@@ -720,7 +720,7 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
     gk, o = scratch[o : o + CB * n_ch].reshape((CB, n_ch)), o + CB * n_ch
     g[:, :] = 0.0
     gk[:, :] = 0.0
-    vbuf = scratch[o:o + K]
+    vbuf = scratch[o : o + K]
     last = n_e - 1
     for cb0 in range(b0, b1, CB):
         cb1 = min(cb0 + CB, b1)
