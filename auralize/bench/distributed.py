@@ -310,9 +310,11 @@ def _runs_note(runs: list[Timed]) -> str:
     times = ", ".join(f"{r.seconds:.2f}" for r in runs)
     others = ", ".join(f"{r.cpu.others:.2f}" for r in runs)
     setup = max(r.setup_seconds for r in runs)
-    return (f"median of {len(runs)} runs ({times} s); other processes busy {others} cores "
-            f"meanwhile; fresh local cluster per run, its start-up and worker set-up "
-            f"(≤ {setup:.1f} s: kernels loaded, see auralize.distributed.worker_setup) not timed")
+    return (
+        f"median of {len(runs)} runs ({times} s); other processes busy {others} cores "
+        f"meanwhile; fresh local cluster per run, its start-up and worker set-up "
+        f"(≤ {setup:.1f} s: kernels loaded, see auralize.distributed.worker_setup) not timed"
+    )
 
 
 def bench_dask(quick: bool, repeats: int | None = None,
@@ -423,8 +425,11 @@ def main() -> None:  # pragma: no cover - manual use
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json")
     ap.add_argument("--repeats", type=int, help="runs per measurement (median reported)")
-    ap.add_argument("--quiet-wait", type=float,
-                    help="seconds each run may wait for other processes to leave the cores")
+    ap.add_argument(
+        "--quiet-wait",
+        type=float,
+        help="seconds each run may wait for other processes to leave the cores",
+    )
     args = ap.parse_args()
     rows = bench_dask(args.quick, args.repeats, args.quiet_wait)
     for r in rows:

@@ -169,9 +169,11 @@ class PackedTracks:
         self.flat = flat.astype(np.uint32) if n * T < (1 << 32) else flat
         self.values = np.concatenate(values) if values else np.zeros(0)
         self.positions = np.ascontiguousarray(
-            np.concatenate([np.asarray(p.positions, dtype=np.float64) for p in parts]))
+            np.concatenate([np.asarray(p.positions, dtype=np.float64) for p in parts])
+        )
         self.radius = np.ascontiguousarray(
-            np.concatenate([np.asarray(p.radius, dtype=np.float64) for p in parts]))
+            np.concatenate([np.asarray(p.radius, dtype=np.float64) for p in parts])
+        )
         self.times = np.ascontiguousarray(tracks.times, dtype=np.float64)
         self.index = None if tracks.index is None else np.concatenate([p.index for p in parts])
         self._tracks: SourceTracks | None = None

@@ -176,7 +176,9 @@ def _run_step(W, i, j, la_p, lb_p, la, lb, t_n, two, cubic, first, c0, inv_c0, t
               & (b1 < blo + nb))  # fmt: skip
     if gained:
         simple = simple & ~cut
-    W[_R_KIND * o + i] = ((1.0 if simple else 3.0) if valid else 0.0) if found else (2.0 if live else 0.0)
+    W[_R_KIND * o + i] = (
+        ((1.0 if simple else 3.0) if valid else 0.0) if found else (2.0 if live else 0.0)
+    )
     dlt = (f1 - fp) * inv_l
     c2 = (3.0 * dlt - 2.0 * wp - w1) * inv_l
     c3 = (wp + w1 - 2.0 * dlt) * inv_l * inv_l
@@ -594,7 +596,9 @@ def find_runs(q, tn, cubic, counts_only, src, r0, length):  # type: ignore[no-un
         nz_prev = False
         start = -1
         for n in range(Tp):
-            nz = _knot_q(q, k, n, T, scale) != 0.0 or (cubic and _knot_m(q, k, n, T, tn, scale) != 0.0)
+            nz = _knot_q(q, k, n, T, scale) != 0.0 or (
+                cubic and _knot_m(q, k, n, T, tn, scale) != 0.0
+            )
             sounds = n > 0 and (nz or nz_prev)  # piece n - 1
             if sounds and start < 0:
                 start = n - 1

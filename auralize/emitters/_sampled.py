@@ -52,18 +52,13 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters._synth_kernel import _gains
+from auralize.emitters._synth_kernel import _NJIT_NORC, _gains
 from auralize.emitters.parallel import N_THREADS, run_pieces
 from auralize.runtime.jit import configure as _configure_numba
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
 _NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
-#: numba's reference counting off (its ``_nrt`` option) for a kernel that allocates
-#: nothing: its caller hands it the scratch (:func:`_scratch`).  Counted, every array an
-#: inlined helper receives costs two atomic operations per call, a quarter of the time of
-#: a table-emitter render.
-_NO_NRT = {"_nrt": False}
 
 #: evaluation samples between control points
 BLOCK = 32
@@ -660,7 +655,7 @@ def _table_samples(tab, lf, qa, qb, ph, r0, r1, wt, K, out, s0, s1):  # type: ig
                     out[s, c, b * K + j] = acc
 
 
-@numba.njit(**_NJIT, **_NO_NRT, fastmath={"contract"})
+@numba.njit(**_NJIT_NORC, fastmath={"contract"})  # allocates nothing: :func:`_scratch`
 def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, VR, VL, F, U,
             kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, gen, tab, lf, qa, qb, ph, r0,
             r1, wt, gK, out, scratch, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip

@@ -877,7 +877,9 @@ def _piece_tail(W, i, a0, d0, dd0, q0, m0, sg0, ok0, a1, d1, dd1, q1, m1, sg1, o
     W[_W_KIND * _CHUNK + i] = 2.0 if general else ((1.0 if simple else 3.0) if valid else 0.0)
     W[_W_SI * _CHUNK + i] = base + ((b0 - blo) * fblock + (s0 - b0 * fblock)) * rs
     end_inside = (s1 < fn) & (s1 < (b1 + 1.0) * fblock)
-    W[_W_EI * _CHUNK + i] = base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * rs if end_inside else -1.0
+    W[_W_EI * _CHUNK + i] = (
+        base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * rs if end_inside else -1.0
+    )
     W[_W_CI * _CHUNK + i] = base + (b1 - blo) * fblock * rs if b1 > b0 else -1.0
     return L, inv_l, f0, w0, f1, w1, s0 - u0, s1 - u0, b1 * fblock - u0
 
@@ -1995,7 +1997,9 @@ def _clear_window(acc, blk, n_ch, block, n_samples):  # type: ignore[no-untyped-
     w0 = blk[0] * block
     first = max(blk[3] - 3 - w0, 0)
     # (unsigned indices, all >= 0: contiguous stores, not a scatter)
-    for i in range(blk[2] + n_ch * first * 4, blk[2] + n_ch * min(blk[1] * block, n_samples - w0) * 4):
+    for i in range(
+        blk[2] + n_ch * first * 4, blk[2] + n_ch * min(blk[1] * block, n_samples - w0) * 4
+    ):
         acc[np.uint64(i)] = 0.0
 
 
@@ -2061,7 +2065,9 @@ def _knot_m(q, k, n, T, tn, scale):  # type: ignore[no-untyped-def]
     """Central-difference tangent dq/dτ at padded knot n (zero at the pads)."""
     if n < 1 or n > T:
         return 0.0
-    return (_knot_q(q, k, n + 1, T, scale) - _knot_q(q, k, n - 1, T, scale)) / (tn[n + 1] - tn[n - 1])
+    return (_knot_q(q, k, n + 1, T, scale) - _knot_q(q, k, n - 1, T, scale)) / (
+        tn[n + 1] - tn[n - 1]
+    )
 
 
 @numba.njit(**_NJIT)

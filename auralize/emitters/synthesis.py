@@ -344,8 +344,15 @@ def _tasks(cptr: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
                           axis=1)  # fmt: skip
 
 
-def _run_tasks(gr0: NDArray[np.int64], glen: NDArray[np.int64], gcnt: NDArray[np.int64],
-               n_lo: int, n_hi: int, n_threads: int, cost: NDArray[np.float64]) -> NDArray[np.int64]:
+def _run_tasks(
+    gr0: NDArray[np.int64],
+    glen: NDArray[np.int64],
+    gcnt: NDArray[np.int64],
+    n_lo: int,
+    n_hi: int,
+    n_threads: int,
+    cost: NDArray[np.float64],
+) -> NDArray[np.int64]:
     """Split the knot rows n_lo..n_hi in ``n_threads`` ranges of about equal
     cost (per row: the runs' lanes swept there, times ``cost[n]``); returns
     each task's first and last knot rows (T, 2) (the runs are cut there)."""
