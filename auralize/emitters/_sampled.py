@@ -655,7 +655,7 @@ def _table_samples(tab, lf, qa, qb, ph, r0, r1, wt, K, out, s0, s1):  # type: ig
                     out[s, c, b * K + j] = acc
 
 
-@numba.njit(**_NJIT_NORC, fastmath={"contract"})  # allocates nothing: :func:`_scratch`
+@numba.njit(**_NJIT_NORC, fastmath={"contract"})
 def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, VR, VL, F, U,
             kf, tk, Lk, Fk, Uk, spk_az, spk_ch, fold, pinv, K, off, gen, tab, lf, qa, qb, ph, r0,
             r1, wt, gK, out, scratch, b0, b1):  # type: ignore[no-untyped-def]  # fmt: skip
@@ -674,7 +674,8 @@ def _render(sig, fs, t_sig, pos, pos_rate, t_pos, radius, exponent, c0, tb, L, V
     a listener capture (a kink of the listener's path), -1 for none; such a
     block is split there into two linear pieces (listener ``Lk``, ``Fk``,
     ``Uk`` at time ``tk``).  Blocks of different ranges write disjoint
-    samples (threads share ``out``).
+    samples (threads share ``out``); ``scratch`` is the call's own working
+    memory (:func:`_scratch`), as the kernel allocates nothing.
 
     The retarded times of a chunk of control points are found together, each
     pass over the chunk independent point by point (the processor overlaps
