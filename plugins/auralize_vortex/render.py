@@ -124,7 +124,8 @@ def velocity_field_name(volume: TimeVolume, name: str = "velocity") -> str:
         vectors = [k for k in volume.fields if volume.is_vector(k)]
         raise FieldError(
             f"{volume.source}: vortex sound needs a velocity field {name!r}; the volume has "
-            f"{volume.field_names} (vector fields: {vectors or 'none'})"
+            f"{volume.field_names} (vector fields: {vectors or 'none'}); name the velocity "
+            f"with --velocity-field NAME, or velocity_field=NAME in --model vortex:FILE:..."
         )
     if not volume.is_vector(name):
         raise DataError(
