@@ -51,6 +51,7 @@ from auralize.emitters._synth_kernel import (
     _NJIT,
     _add_plain,
     _clear_window,
+    _constant_rows,
     _cut_at_end,
     _emit1,
     _flush_captures,
@@ -420,10 +421,7 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start
     fn = float(n_samples)
     gained = tab.shape[0] > 0
     rs = 4.0 * n_ch
-    const_orient = True
-    for j in range(1, qc.shape[0]):
-        for c in range(6):
-            const_orient = const_orient and qc[j, c] == qc[0, c]
+    const_orient = _constant_rows(qc)
     _row_lines(tn, tc, lc, vc, c0, d_max, n_lo, n_hi, RC)
     bad = np.zeros(n_tasks, dtype=np.int64)
     for jt in numba.prange(n_tasks):

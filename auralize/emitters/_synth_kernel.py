@@ -1741,7 +1741,7 @@ def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c
             CN[ui] += 1.0 if tau <= t_n else 0.0
             CN[np.uint64(_CHUNK) + ui] += 1.0 if tau <= t_n1 else 0.0
     nbad = 0
-    p = 0
+    p = np.int64(0)  # typed int64, not the literal 0 (see _constant_rows)
     last = tc.size - 1
     for i in range(cc):
         s0 = k_lo - 1 + int(CN[i])
@@ -1770,12 +1770,28 @@ def _chunk_parts(PD, ck, cc, k_lo, k_hi, W, LT, tc, lc, vc, qc, ot, t_n, t_n1, c
                                     n_samples, shift, blo, nb, base, n_ch, panned, pairs,
                                     const_orient, spk_az, spk_ch, nxt, fold, pinv, acc, ga, gb,
                                     o, ct)  # fmt: skip
-                p = 0
+                p = np.int64(0)
     if p > 0:
         nbad += _part_batch(W, p, LT, tc, lc, vc, qc, ot, t_n, t_n1, c0, t_start, fs, n_samples,
                             shift, blo, nb, base, n_ch, panned, pairs, const_orient, spk_az,
                             spk_ch, nxt, fold, pinv, acc, ga, gb, o, ct)  # fmt: skip
     return nbad
+
+
+@numba.njit(**_NJIT_NORC)
+def _constant_rows(qc):  # type: ignore[no-untyped-def]
+    """Whether every row of the orientation table qc equals its first.
+
+    Typed ``bool``: a flag initialised from the literal ``True`` (or a
+    counter from ``0``) and passed to a compiled, not inlined, kernel types
+    first as ``Literal[bool](True)`` and then as ``bool``, and numba compiles
+    that kernel, and everything it calls, once for each: minutes of compile
+    time for nothing."""
+    n_diff = 0
+    for j in range(1, qc.shape[0]):
+        for c in range(qc.shape[1]):
+            n_diff += 1 if qc[j, c] != qc[0, c] else 0
+    return n_diff == 0
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -1825,10 +1841,7 @@ def render(cptr, ccnt, PD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, n_sam
     pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4 and not fold
     # AmbiX: every channel has a gain (spherical harmonics)
     dense = panned and pinv.shape[1] == 2
-    const_orient = True
-    for j in range(1, qc.shape[0]):
-        for c in range(6):
-            const_orient = const_orient and qc[j, c] == qc[0, c]
+    const_orient = _constant_rows(qc)
     n_spk = spk_az.size
     nxt = np.empty(max(n_spk, 1), dtype=np.int64)  # channel of the next speaker
     for p in range(n_spk):
