@@ -63,7 +63,7 @@ from auralize.emitters._synth_kernel import (
     _line_tuple,
     _listener_at,
     _orient_rows,
-    _pan,
+    _pan_far,
     _piece_across,
     _piece_general,
     _prefetch,
@@ -526,9 +526,9 @@ def render(gr0, glen, gcnt, goff, KD, tn, cubic, tc, lc, vc, qc, ot, c0, t_start
                         a0, a1 = W[_R_A0 * _CHUNK + i], W[_R_A1 * _CHUNK + i]
                         s0, s1 = int(W[_R_S0 * _CHUNK + i]), int(W[_R_S1 * _CHUNK + i])
                         if gained:
-                            _pan(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, False, pinv,
+                            _pan_far(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, False, pinv,
                                  ga, o6)  # fmt: skip
-                            _pan(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, False, pinv,
+                            _pan_far(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, False, pinv,
                                  gb, o6)  # fmt: skip
                         nbad += _piece_across(
                             acc, base, blo, nb, n_ch, shift, n_samples, n - 1, x, y, z, rm, tn, q0,

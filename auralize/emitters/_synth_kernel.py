@@ -383,6 +383,17 @@ def _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o):  
            pinv, g)  # fmt: skip
 
 
+@numba.njit(**_NJIT_NORC)
+def _pan_far(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o):  # type: ignore[no-untyped-def]
+    """:func:`_pan` compiled once and called, for the paths a render takes
+    rarely (a piece over several accumulation blocks, the general fallback,
+    the run kernel's panned pieces): inlining every copy of the listener,
+    orientation and gain laws costs a minute of compile time.  The hot loops
+    inline :func:`_pan` (a call, with its ten array arguments, costs them
+    up to 70 %)."""
+    _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o)
+
+
 @numba.njit(inline="always", **_NJIT)
 def _emit1(acc, i, x, c0, c1, c2, c3, sign):  # type: ignore[no-untyped-def]
     """Add sign × P(m - m_start + x) for m >= m_start to the row ``i`` of a
@@ -1430,8 +1441,8 @@ def _piece_general(acc, base, blo, nb, n_ch, shift, n_samples, n, seg, x, y, z, 
     va, wa = _fval(q0, m0, d0, dd0, c0)
     vb, wb = _fval(q1, m1, d1, dd1, c0)
     if panned:
-        _pan(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
-        _pan(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
+        _pan_far(x, y, z, a0, s0, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, ga, o)
+        _pan_far(x, y, z, a1, s1, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gb, o)
     return _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, tn, q0, m0,
                          q1, m1, cubic, tc, lc, vc, qc, ot, c0, t_start, fs, spk_az, spk_ch, fold,
                          pinv, panned, a0, a1, s0, s1, va, wa, vb, wb, ga, gb, gx, gy, o, ct,
@@ -1472,7 +1483,7 @@ def _piece_across(acc, base, blo, nb, n_ch, shift, n_samples, n, x, y, z, rmin, 
             ddl = (px * vc[seg, 0] + py * vc[seg, 1] + pz * vc[seg, 2]) / d
         v1, w1 = _fval(qv, dq, d, ddl, c0)
         if panned:
-            _pan(x, y, z, t1, seg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gx, o)
+            _pan_far(x, y, z, t1, seg, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, gx, o)
         u1 = (t1 - t_start) * fs
         r1 = seg + 1 - k_ct
         if r1 < 0 or r1 >= n_ct:

@@ -44,8 +44,9 @@ log = logging.getLogger("auralize")
 #: core).  Helpers compiled as part of a listed kernel count 0; kernels not
 #: listed count :data:`_DEFAULT_SECONDS`.
 COMPILE_SECONDS: dict[str, float] = {
-    "auralize.emitters._synth_kernel.render": 120.0,
-    "auralize.emitters._runs_kernel.render": 45.0,
+    "auralize.emitters._synth_kernel.render": 170.0,
+    "auralize.emitters._runs_kernel.render": 55.0,
+    "auralize.emitters._sampled._render": 47.0,
     **dict.fromkeys(
         [
             f"auralize.emitters._synth_kernel.{k}"
@@ -60,6 +61,9 @@ COMPILE_SECONDS: dict[str, float] = {
                 "_task_sum",
                 "_part_pair_gains",
                 "_chunk_parts",
+                "_part_batch",
+                "_pan_far",
+                "_constant_rows",
             )
         ],
         0.0,
