@@ -99,6 +99,25 @@ def test_cli_errors_are_one_line_and_leave_no_output(argv, message, tmp_path, ca
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["aero", "render", "-o", "x.wav"],
+         "required: --texture; and one of --motion --wind --preset; and one of --path --listener"),
+        (["aero", "render", "--texture=t.h5", "--preset", "sword", "-o", "x.wav"],
+         "one of the arguments --path --listener is required"),
+        (["aero", "render", "--texture", "t.h5", "--wind=3", "--path", "p.csv"],
+         "required: -o/--output (see"),
+    ],
+)  # fmt: skip
+def test_usage_error_names_every_missing_option_at_once(argv, message, capsys) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1, err
+
+
 def test_corrupt_volume_file(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     bad = tmp_path / "bad.h5"
     bad.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(200))

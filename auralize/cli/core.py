@@ -80,11 +80,37 @@ EXIT_CODES = {
 
 
 class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose usage errors are one line (the value and a --help pointer)."""
+    """ArgumentParser whose usage errors are one line (the value and a --help pointer).
+
+    When required options are missing, the one line names all of them: the
+    required options and every required choice (``--motion | --wind``) that
+    none of the given options answers, where argparse alone reports the
+    choices one run at a time, after the options.
+    """
+
+    _given: list[str] | None = None
+
+    def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:  # type: ignore[override]
+        self._given = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
 
     def error(self, message: str) -> Any:
         text = " ".join(message.split())
+        if text.startswith("the following arguments are required:"):
+            text += "".join(f"; and one of {' '.join(g)}" for g in self._open_choices())
         self.exit(EXIT_USAGE, f"{self.prog}: error: {text} (see '{self.prog} --help')\n")
+
+    def _open_choices(self) -> list[list[str]]:
+        """The required mutually exclusive groups with none of their options given."""
+        given = {a.split("=", 1)[0] for a in self._given or [] if a.startswith("-")}
+        out = []
+        for group in self._mutually_exclusive_groups:
+            if not group.required:
+                continue
+            names = [o for a in group._group_actions for o in a.option_strings]
+            if not given.intersection(names):
+                out.append([a.option_strings[-1] for a in group._group_actions if a.option_strings])
+        return out
 
 
 # ----------------------------------------------------------------- helpers

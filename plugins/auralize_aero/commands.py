@@ -54,7 +54,12 @@ def add_commands(subparsers: Any, options: Any) -> None:
     t.add_argument("--no-cache", action="store_true", help="recompute even if cached")
     t.set_defaults(func=lazy("auralize_aero.model:AeroSound._cmd_texture"))
     r = sub.add_parser("render", help="render the sound of a moving object or of wind (§6)")
-    r.add_argument("--texture", required=True, metavar="TEX.h5")
+    r.add_argument(
+        "--texture",
+        required=True,
+        metavar="TEX.h5",
+        help="the object's sound texture (written by 'auralize aero texture')",
+    )
     mv = r.add_mutually_exclusive_group(required=True)
     mv.add_argument("--motion", metavar="MOTION.csv", help="object poses t,x,y,z,qw,qx,qy,qz")
     mv.add_argument(
