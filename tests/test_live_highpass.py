@@ -80,3 +80,32 @@ def test_live_engine_defaults_and_bad_cutoff() -> None:
     with pytest.raises(ParameterError, match=r"highpass must be 0 \(off\) or between 0 and "
                                              r"22050 Hz.*got -1"):  # fmt: skip
         LiveEngine(tracks, highpass_hz=-1.0)
+
+
+def test_the_highpass_starts_in_its_steady_state_so_a_sound_already_on_does_not_click() -> None:
+    from auralize.emitters.timbre import highpass
+
+    rate = 44100
+    t = np.arange(rate // 2) / rate
+    tone = 0.01 * np.sin(2 * np.pi * 220.0 * t)
+    level = np.array([[3.0], [-1.5]])  # a sound that was on before the output starts
+    both = highpass(level + tone, rate, 20.0)
+    # linear, from the steady state of the first samples: the constant adds exactly
+    # nothing (a filter at rest would start with a step as loud as the constant)
+    assert np.max(np.abs(both - highpass(np.vstack([tone, tone]), rate, 20.0))) < 1e-9
+    assert np.max(np.abs(highpass(level + 0 * t, rate, 20.0))) < 1e-9
+
+
+def test_a_steady_field_renders_without_a_click_at_the_start() -> None:
+    """Sources of constant strength, on before the render starts: their pressure at
+    the listener is constant, below any high-pass; the file starts silent (the
+    filter at rest turned the constant into a click as loud as the pressure)."""
+    tk = np.linspace(0.0, 1.2, 5)
+    q = np.ones((2, tk.size))
+    tracks = SourceTracks(np.array([[1.0, 0.5, 0.0], [-1.0, 1.0, 0.5]]), q, np.full(2, 0.1), tk)
+    path = ListenerPath.point((0.0, 0.0, 0.0), duration=1.0)
+    raw = render_timbre(tracks, path, timbre="physical", highpass_hz=0).audio
+    level = float(np.mean(np.abs(raw[:, 4410:])))
+    assert level > 0 and np.abs(raw[:, 0]).min() > 0.9 * level  # on from the first sample
+    out = render_timbre(tracks, path, timbre="physical").audio  # the default 20 Hz high-pass
+    assert np.max(np.abs(out)) < 0.02 * level

@@ -121,7 +121,10 @@ def highpass(audio: NDArray[np.float64], rate: float, hz: float) -> NDArray[np.f
     """Causal 4th-order Butterworth high-pass of ``audio (n_channels, n_samples)``.
 
     ``hz`` 0 returns the audio unchanged.  Causal, so nothing arrives before
-    its time (a zero-phase filter would ring ahead of onsets).
+    its time (a zero-phase filter would ring ahead of onsets).  The filter
+    starts in its steady state for the first sample (:func:`highpass_start`),
+    so that a sound already going on when the output starts begins without
+    a click.
     """
     if not (np.isfinite(hz) and 0 <= hz < rate / 2):
         raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz (half "
@@ -130,7 +133,31 @@ def highpass(audio: NDArray[np.float64], rate: float, hz: float) -> NDArray[np.f
         return audio
     from scipy.signal import sosfilt
 
-    return np.asarray(sosfilt(butter_sos(4, float(hz), "highpass", float(rate)), audio, axis=-1))
+    sos = butter_sos(4, float(hz), "highpass", float(rate))
+    a = np.asarray(audio)
+    out, _ = sosfilt(sos, a, axis=-1, zi=highpass_start(sos, a[..., 0]))
+    return np.asarray(out)
+
+
+def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Initial state ``zi`` of ``sosfilt(sos, x, axis=-1, zi=...)`` for signals
+    ``x (n_channels, n)`` whose first samples are ``first (n_channels,)``: the
+    state after a constant input equal to them, forever.
+
+    Field sources sound from the first sample of a render (their emission
+    was going on before it); a filter started at rest would see a step
+    there, and a high-pass passes a step whole: a click at the start that
+    can be louder than everything after it (on a slowly varying field,
+    whose sound lies mostly under the cut-off, the whole file is then
+    normalised to the click).  From this state the high-pass of a constant
+    is exactly 0.  Live playback starts its filter the same way, so live
+    blocks equal the rendered file.
+    """
+    from scipy.signal import sosfilt_zi
+
+    zi = np.asarray(sosfilt_zi(sos))  # (sections, 2), for a unit step
+    f = np.asarray(first, dtype=np.float64).reshape(-1)
+    return zi[:, None, :] * f[None, :, None]
 
 
 @functools.lru_cache(maxsize=64)

@@ -58,7 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from auralize.emitters.synthesis import C0, Rendered, render
-from auralize.emitters.timbre import HIGHPASS_HZ, butter_sos, highpass
+from auralize.emitters.timbre import HIGHPASS_HZ, butter_sos, highpass, highpass_start
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
@@ -137,11 +137,11 @@ class LiveEngine:
         #: playback seconds of heard audio kept (older blocks are dropped)
         self.keep_heard_s = 600.0
         self.highpass_hz = float(highpass_hz)
-        n_synth = self.stage.synthesis_layout.n_channels
         self._hp_sos = (butter_sos(4, self.highpass_hz, "highpass", float(self.rate))
                         if self.highpass_hz > 0 else None)  # fmt: skip
-        self._hp_zi = (np.zeros((self._hp_sos.shape[0], n_synth, 2))
-                       if self._hp_sos is not None else None)  # fmt: skip
+        # the filter's state; set from the first block (highpass_start), as
+        # the rendered file's filter starts
+        self._hp_zi: Any = None
 
     @property
     def block_s(self) -> float:
@@ -197,6 +197,8 @@ class LiveEngine:
         if self._hp_sos is not None:  # the sources' sound only, as add_rendered does
             from scipy.signal import sosfilt
 
+            if self._hp_zi is None:
+                self._hp_zi = highpass_start(self._hp_sos, audio[:, 0])
             audio, self._hp_zi = sosfilt(self._hp_sos, audio, axis=-1, zi=self._hp_zi)
         if extra is not None and extra.parts:
             from auralize.emitters import render as render_sound

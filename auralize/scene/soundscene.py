@@ -594,10 +594,12 @@ class SceneBlocks:
     def _field_range(self, start: int, n: int, zi: Any) -> tuple[Any, Any]:
         from scipy.signal import sosfilt
 
+        from auralize.emitters.timbre import highpass_start
+
         assert self.field is not None and self._sos is not None
         a = self.field.render_range(start, n)
-        if zi is None:
-            zi = np.zeros((self._sos.shape[0], a.shape[0], 2))
+        if zi is None:  # from sample 0, as highpass() starts
+            zi = highpass_start(self._sos, a[:, 0] if a.shape[1] else np.zeros(a.shape[0]))
         return sosfilt(self._sos, a, axis=-1, zi=zi)
 
     def render_range(self, start: int, n: int) -> Any:
