@@ -94,6 +94,8 @@ def test_the_highpass_starts_in_its_steady_state_so_a_sound_already_on_does_not_
     # nothing (a filter at rest would start with a step as loud as the constant)
     assert np.max(np.abs(both - highpass(np.vstack([tone, tone]), rate, 20.0))) < 1e-9
     assert np.max(np.abs(highpass(level + 0 * t, rate, 20.0))) < 1e-9
+    # one signal (1-D) as one channel
+    assert np.max(np.abs(highpass(3.0 + tone, rate, 20.0) - highpass(tone, rate, 20.0))) < 1e-9
 
 
 def test_a_steady_field_renders_without_a_click_at_the_start() -> None:

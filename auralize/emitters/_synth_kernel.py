@@ -389,8 +389,8 @@ def _pan_far(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o
     rarely (a piece over several accumulation blocks, the general fallback,
     the run kernel's panned pieces): inlining every copy of the listener,
     orientation and gain laws costs a minute of compile time.  The hot loops
-    inline :func:`_pan` (a call, with its ten array arguments, costs them
-    up to 70 %)."""
+    inline :func:`_pan` (a call, with its ten array arguments, made stereo
+    along a 10 Hz recorded path 75 % slower)."""
     _pan(x, y, z, t, s, tc, lc, vc, qc, ot, spk_az, spk_ch, fold, pinv, g, o)
 
 

@@ -141,8 +141,9 @@ def highpass(audio: NDArray[np.float64], rate: float, hz: float) -> NDArray[np.f
 
 def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDArray[np.float64]:
     """Initial state ``zi`` of ``sosfilt(sos, x, axis=-1, zi=...)`` for signals
-    ``x (n_channels, n)`` whose first samples are ``first (n_channels,)``: the
-    state after a constant input equal to them, forever.
+    ``x (n_channels, n)`` whose first samples are ``first (n_channels,)`` (or
+    one signal ``x (n,)`` and its first sample): the state after a constant
+    input equal to them, forever.
 
     Field sources sound from the first sample of a render (their emission
     was going on before it); a filter started at rest would see a step
@@ -156,8 +157,8 @@ def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDAr
     from scipy.signal import sosfilt_zi
 
     zi = np.asarray(sosfilt_zi(sos))  # (sections, 2), for a unit step
-    f = np.asarray(first, dtype=np.float64).reshape(-1)
-    return zi[:, None, :] * f[None, :, None]
+    f = np.asarray(first, dtype=np.float64)
+    return zi.reshape(zi.shape[0], *([1] * f.ndim), 2) * f[None, ..., None]
 
 
 @functools.lru_cache(maxsize=64)
