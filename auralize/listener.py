@@ -138,31 +138,59 @@ class ListenerPath:
     @classmethod
     def orbit(cls, center: tuple[float, float, float] | NDArray[np.floating], *, radius: float,
               duration: float, turns: float = 1.0, height: float = 0.0,
-              rate_hz: float = 20.0, face: str = "center") -> ListenerPath:  # fmt: skip
+              rate_hz: float | None = 20.0, face: str = "center") -> ListenerPath:  # fmt: skip
         """Horizontal circle around ``center`` (counter-clockwise seen from +z).
 
-        Captured at ``rate_hz``; ``face="center"`` looks at the centre,
-        ``"forward"`` along the motion.
+        Captured at ``rate_hz`` (None: as often as the circle needs, every
+        :data:`ORBIT_STEP_RAD` of arc, so that the polyline of captures is
+        within 10⁻⁴ of the radius of the circle), at least 3 captures.
+        ``face``: ``"center"`` looks at the centre; ``"forward"`` along the
+        motion; ``"fixed"`` along +y throughout (a fixed world orientation);
+        ``"sweep"`` turns the head so that the centre passes around the
+        listener (front, left, back, right) :data:`SWEEP_TURNS` times over
+        the orbit, whatever part of a turn the orbit covers: every speaker of
+        a layout hears the data, also when their sound lasts only part of the
+        render.
         """
         _check_duration(duration)
         if not radius > 0:
             raise ListenerPathError(f"orbit radius must be > 0, got {radius!r}")
-        if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
+        if rate_hz is not None and not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz)
+                                        and rate_hz > 0):  # fmt: skip
             raise ListenerPathError(f"orbit rate_hz must be a positive number, got {rate_hz!r}")
         for name, v in (("radius", radius), ("turns", turns), ("height", height)):
             if not math.isfinite(v):
                 raise ListenerPathError(f"orbit {name} must be a finite number, got {v!r}")
+        if face not in ORBIT_FACES:
+            raise ListenerPathError(
+                f"orbit face must be one of {', '.join(ORBIT_FACES)}, got {face!r}"
+            )
         c = np.asarray(center, dtype=np.float64).reshape(3)
-        _check_captures(duration * rate_hz, f"an orbit of {duration:g} s at {rate_hz:g} Hz")
-        n = max(int(math.ceil(duration * rate_hz)) + 1, 3)
+        if rate_hz is None:
+            arc = 2 * np.pi * abs(turns)
+            n = max(int(math.ceil(arc / ORBIT_STEP_RAD)) + 1, 3)
+            if face == "sweep":  # slerp between captures follows a steady turn of the head
+                n = max(n, int(math.ceil(2 * np.pi * (SWEEP_TURNS + abs(turns)) / (np.pi / 8))) + 1)
+        else:
+            _check_captures(duration * rate_hz, f"an orbit of {duration:g} s at {rate_hz:g} Hz")
+            n = max(int(math.ceil(duration * rate_hz)) + 1, 3)
+        _check_captures(n, f"an orbit of {n} captures")
         t = np.linspace(0.0, duration, n)
         ang = 2 * np.pi * turns * t / duration
         pos = c + np.stack([radius * np.cos(ang), radius * np.sin(ang), np.full(n, height)], 1)
         if face == "center":
             fwd = c - pos
             fwd[:, 2] = 0.0
-        else:
-            fwd = np.stack([-np.sin(ang), np.cos(ang), np.zeros(n)], 1)
+        elif face == "forward":
+            fwd = np.stack([-np.sin(ang), np.cos(ang), np.zeros(n)], 1) * (
+                1.0 if turns >= 0 else -1.0
+            )
+        elif face == "fixed":
+            fwd = np.broadcast_to(np.array([0.0, 1.0, 0.0]), pos.shape).copy()
+        else:  # sweep: the centre's azimuth in the listener's frame goes once round
+            to_centre = ang + np.pi
+            heading = to_centre - 2 * np.pi * SWEEP_TURNS * t / duration
+            fwd = np.stack([np.cos(heading), np.sin(heading), np.zeros(n)], 1)
         return cls(t, pos, fwd, np.broadcast_to(UP, pos.shape), source="orbit")
 
     # -------------------------------------------------------------- queries
@@ -242,6 +270,14 @@ class ListenerPath:
         return cls(a[:, 0], a[:, 1:4], source=src)
 
 
+#: what an orbit's listener faces (:meth:`ListenerPath.orbit`)
+ORBIT_FACES = ("sweep", "center", "forward", "fixed")
+#: how many times the data pass around a ``face="sweep"`` orbit's listener
+SWEEP_TURNS = 2.0
+#: arc between the captures of an orbit captured as often as it needs: the polyline
+#: then departs from the circle by r (1 − cos(θ/2)) ≈ 10⁻⁴ r
+ORBIT_STEP_RAD = 0.028
+
 #: default listener distance: the orbit's radius in half-diagonals of the data's box
 #: (nearest and farthest source then differ by at most 3× in distance, ~10 dB)
 ORBIT_RADIUS_FACTOR = 2.0
@@ -258,16 +294,19 @@ def _box(bounds: tuple[float, ...] | NDArray[np.floating]) -> tuple[NDArray[np.f
 
 def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
                  turns: float = 1.0, radius: float | None = None,
-                 rate_hz: float = 20.0) -> ListenerPath:  # fmt: skip
-    """A horizontal orbit around the centre of ``bounds`` (the data's box), facing it.
+                 rate_hz: float | None = None, face: str = "sweep") -> ListenerPath:  # fmt: skip
+    """A horizontal orbit around the centre of ``bounds`` (the data's box).
 
     The default radius is :data:`ORBIT_RADIUS_FACTOR` half-diagonals: outside the
     data, close enough that every source is heard (at most 3× farther than the
-    nearest).
+    nearest).  By default the listener's head turns so that the data pass once
+    around it (``face="sweep"``, see :meth:`ListenerPath.orbit`): on a
+    speaker layout every channel carries them in turn.  Captured as often as
+    the circle needs (``rate_hz=None``).
     """
     c, half = _box(bounds)
     r = ORBIT_RADIUS_FACTOR * half if radius is None else radius
-    p = ListenerPath.orbit(c, radius=r, duration=duration, turns=turns, rate_hz=rate_hz)
+    p = ListenerPath.orbit(c, radius=r, duration=duration, turns=turns, rate_hz=rate_hz, face=face)
     p.source = "orbit"
     return p
 

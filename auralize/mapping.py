@@ -106,6 +106,9 @@ class AcousticMapping:
     """Base class: ``prepare(volume)`` once, then ``map(volume, step)`` per step."""
 
     name = "base"
+    #: how the continuity residual's mass flux is made (:func:`auralize.sources.field.mass_flux_rule`):
+    #: "mapped" ρ̃v; "constant" ρ0 v (density not carried by the flow); "none" (no flow)
+    mass_flux = "mapped"
 
     def unavailable(self, volume: TimeVolume) -> dict[str, str]:
         """Source types this mapping cannot compute on ``volume``, with the reason.
@@ -191,6 +194,7 @@ class IncompressibleMapping(AcousticMapping):
     c0: float = C0
     kinematic: bool | None = None
     name = "incompressible"
+    mass_flux = "constant"
     _p_ref: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _scale: float = dataclasses.field(default=1.0, init=False, repr=False)
     _prepared_for: int = dataclasses.field(default=0, init=False, repr=False)
@@ -282,6 +286,7 @@ class PaperDensityMapping(AcousticMapping):
     rho_range: tuple[float, float] = (0.5, 15.0)
     velocity_max: float = 150.0
     name = "paper-density"
+    mass_flux = "none"
     _lo: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _hi: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _gscale: float = dataclasses.field(default=np.nan, init=False, repr=False)

@@ -8,10 +8,9 @@ Examples
 >>> import auralize.pipeline as ap
 >>> vol = ap.load("dataset:monopole", size=16, steps=40)
 >>> path = ap.ListenerPath.point(vol.center + [1.0, 0, 0], duration=0.02)
->>> out, series = ap.auralize(vol, path, thresholds=ap.Thresholds(monopole="1%"),
-...                           time_scale="auto")
->>> out.audio.shape, out.meta["time_mapping"]
-((1, 882), '1 s of playback = 959 ms of data')
+>>> out, _ = ap.auralize(vol, path, time_scale="auto")
+>>> out.audio.shape, out.meta["time_mapping"], out.meta["heard"]
+((1, 882), '1 s of playback = 1.22 s of data', 'field')
 """
 
 from __future__ import annotations
@@ -38,11 +37,21 @@ from auralize.errors import ParameterError
 from auralize.listener import ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
 from auralize.runtime.progress import progress_step
-from auralize.sources.detection import TYPES, SourceSeries, SourceTracks, Thresholds, detect
+from auralize.sources.detection import (
+    TYPES,
+    SourceSeries,
+    SourceTracks,
+    Thresholds,
+    detect,
+    require_steps,
+)
+from auralize.sources.field import FLOOR, Heard, field_tracks, parse_heard
 from auralize.volume import TimeVolume
 
 __all__ = [
     "DEFAULT_DURATION",
+    "Heard",
+    "HeardSound",
     "ListenerPath",
     "RenderPlan",
     "Thresholds",
@@ -50,6 +59,8 @@ __all__ = [
     "auto_mapping",
     "describe_time_scale",
     "detect_sources",
+    "heard_sound",
+    "heard_tracks",
     "load",
     "plan_render",
     "report_line",
@@ -238,12 +249,15 @@ def _source_box(volume: TimeVolume, tracks: SourceTracks | None) -> tuple[np.nda
 def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
                 path: ListenerPath | None = None, listener: Any = None,
                 duration: float | None = None, time_scale: float | str = "auto",
-                c0: float = C0, clip: bool = True) -> RenderPlan:  # fmt: skip
+                c0: float = C0, clip: bool = True, face: str = "sweep") -> RenderPlan:  # fmt: skip
     """Choose the listener (if none is given), the time scale and the output window.
 
     * No ``path`` and no ``listener``: an orbit around the data
       (:func:`auralize.listener.orbit_around`), one turn unless that would
-      move faster than :data:`MAX_ORBIT_MACH` × c0 in data time.
+      move faster than :data:`MAX_ORBIT_MACH` × c0 in data time; ``face``
+      as :meth:`auralize.listener.ListenerPath.orbit` (default ``"sweep"``:
+      the head turns so that the data pass once around the listener, so
+      every speaker of a layout carries them).
     * ``duration``: playback seconds (default the path's length, else
       :data:`DEFAULT_DURATION`).
     * ``time_scale="auto"``: the data's span, plus the spread of arrival
@@ -275,7 +289,7 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
     default = path is None and listener is None
     if default:
         dur = duration or DEFAULT_DURATION
-        path = orbit_around(bounds, duration=dur)
+        path = orbit_around(bounds, duration=dur, face=face)
     elif path is None:
         dur = duration or DEFAULT_DURATION
         path = ListenerPath.point(np.asarray(listener, dtype=np.float64), duration=dur)
@@ -292,12 +306,16 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
     if default:
         speed = float(np.max(path.speeds(), initial=0.0)) * ts  # m per data second
         if speed > MAX_ORBIT_MACH * c0:
-            path = orbit_around(bounds, duration=dur, turns=MAX_ORBIT_MACH * c0 / speed)
+            path = orbit_around(bounds, duration=dur, turns=MAX_ORBIT_MACH * c0 / speed,
+                                face=face)  # fmt: skip
         c = 0.5 * (lo + hi)
         r = float(np.linalg.norm(path.positions[0] - c))
+        facing = {"sweep": "the head turning so the data pass once around the listener",
+                  "center": "facing the data", "forward": "facing along the motion",
+                  "fixed": "facing +y"}.get(face, face)  # fmt: skip
         notes.append(f"listener: orbit of radius {r:.4g} m around the data's centre "
                      f"({', '.join(f'{v:.4g}' for v in c)}) m, "
-                     f"{_turns(path, c):.3g} turn(s) in {dur:g} s "
+                     f"{_turns(path, c):.3g} turn(s) in {dur:g} s, {facing} "
                      f"(give --listener X,Y,Z or --path CSV to choose)")  # fmt: skip
     lead = d_near / c0
     return RenderPlan(path=path, time_scale=ts, duration=dur, lead=lead, auto=auto,
@@ -318,45 +336,175 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              series: SourceSeries | None = None, progress_bar: bool = False,
              timbre: str = "auto", highpass_hz: float = HIGHPASS_HZ, seed: int = 0,
              listener: Any = None, hrtf: object = None, clip: bool = True,
-             **mapping_fields: str) -> tuple[Rendered, SourceSeries]:  # fmt: skip
-    """Detect sources (unless ``series`` is given) and render the sound along ``path``.
+             heard: str | Heard = "field", orbit_face: str = "sweep", block: int | None = None,
+             **mapping_fields: str) -> tuple[Rendered, SourceSeries | None]:  # fmt: skip
+    """Render the sound of ``volume`` along ``path``.
+
+    What is heard (``heard``, :func:`auralize.sources.field.parse_heard`):
+    ``"field"`` (default) is the physical sound of the whole field, summed
+    over every valid point with no threshold (:func:`auralize.sources.field.field_tracks`:
+    Lighthill's stress term and the continuity residual); ``"detected"`` is
+    paper 003's detected sources (``series``, or detected here with
+    ``thresholds``), and ``"dipole,quadrupole"`` mutes the other types of
+    them.  Detection decides what is drawn; in ``field`` mode it is not run
+    (``series`` is returned as given, or None).
 
     The listener may be anywhere (see :func:`plan_render`: without ``path`` or
-    ``listener`` an orbit around the data; ``time_scale="auto"`` fits the data
-    in ``duration``; the output starts when the first sound can arrive).
-    ``timbre``, ``highpass_hz`` and ``hrtf`` (binaural) as
-    :func:`auralize.emitters.timbre.render_timbre`; ``clip`` as :func:`plan_render`.
-    The plan is recorded in ``meta`` (and so in the sidecar).
+    ``listener`` an orbit around the data, ``orbit_face`` as
+    :meth:`auralize.listener.ListenerPath.orbit`; ``time_scale="auto"`` fits
+    the data in ``duration``; the output starts when the first sound can
+    arrive).  ``timbre``, ``highpass_hz`` and ``hrtf`` (binaural) as
+    :func:`auralize.emitters.timbre.render_timbre`; ``clip`` as
+    :func:`plan_render`; ``block`` the field's block size
+    (:func:`auralize.sources.field.block_plan`).  The plan and what was heard
+    are recorded in ``meta`` (and so in the sidecar).
 
     The defaults are those of ``auralize render FILE -o OUT`` with no other
-    option: the mapping chosen from the fields, ``"auto"`` thresholds, the
+    option: the mapping chosen from the fields, the whole field heard, the
     steady part removed, a default orbit, ``time_scale="auto"`` over
     ``duration`` = 10 s, ``timbre="auto"``, a 20 Hz high-pass, mono at
     44.1 kHz, seed 0; :func:`save_rendered` then peak-normalises as the
     command does, so ``save_rendered(auralize(load(FILE))[0], OUT)`` writes
     the command's samples.
     """
-    if series is None:
-        series = detect_sources(volume, mapping=mapping, thresholds=thresholds,
-                                progress_bar=progress_bar, **mapping_fields)  # fmt: skip
-    tracks = series.tracks()
-    plan = plan_render(volume, tracks, path=path, listener=listener, duration=duration,
-                       time_scale=time_scale, c0=c0, clip=clip)  # fmt: skip
-    check_distance(plan.path, volume.bounds)
+    hd = parse_heard(heard)
+    planned: dict[str, Any] = {}
+
+    def plan_for(tracks: SourceTracks | None) -> ListenerPath:
+        plan = plan_render(volume, tracks, path=path, listener=listener, duration=duration,
+                           time_scale=time_scale, c0=c0, clip=clip, face=orbit_face)  # fmt: skip
+        check_distance(plan.path, volume.bounds)
+        planned["plan"] = plan
+        return plan.path
+
+    hs = heard_sound(volume, heard=hd, series=series, mapping=mapping, thresholds=thresholds,
+                     path=plan_for, block=block, c0=c0, progress_bar=progress_bar,
+                     **mapping_fields)  # fmt: skip
+    plan = planned["plan"]
+    tracks = hs.tracks
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
                   lead=plan.lead)  # fmt: skip
     with progress_step("render", enabled=progress_bar):
         out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate,
                             time_scale=plan.time_scale, interp=interp, layout=layout, c0=c0,
                             duration=plan.duration, bounds=volume.bounds, lead=plan.lead,
-                            highpass_hz=highpass_hz, seed=seed, hrtf=hrtf)  # fmt: skip
-    counts = series.counts()
-    out.meta.update({"volume": volume.source, "mapping": series.meta.get("mapping"),
-                     "thresholds": series.thresholds.tolist(), **plan.as_dict(),
-                     "sources": {k: int(sum(c[k] for c in counts)) for k in TYPES}})  # fmt: skip
-    if series.meta.get("unavailable"):
-        out.meta["unavailable"] = series.meta["unavailable"]
-    return out, series
+                            highpass_hz=highpass_hz, seed=seed, hrtf=hrtf,
+                            by_type=hs.by_type)  # fmt: skip
+    out.meta.update({"volume": volume.source, **plan.as_dict(), **hs.meta})
+    return out, hs.series
+
+
+@dataclass
+class HeardSound:
+    """What a render of a volume hears (:func:`heard_sound`).
+
+    ``tracks`` the engine's input; ``by_type`` the tracks of each type heard
+    (the ``tonal`` timbre's, or None to take them from ``tracks.kind``);
+    ``heard`` the :class:`Heard`; ``series`` the detected sources (None
+    when the whole field is heard and none were given); ``meta`` what to
+    record: ``heard``, ``heard_text``, ``mapping``, and ``field`` (blocks,
+    rows, points) or ``sources`` and ``thresholds`` (counts per type).
+    """
+
+    tracks: SourceTracks
+    heard: Heard
+    meta: dict[str, Any]
+    by_type: dict[str, SourceTracks] | None = None
+    series: SourceSeries | None = None
+
+
+def heard_sound(volume: TimeVolume, *, heard: str | Heard = "field",
+                series: SourceSeries | None = None, mapping: str | AcousticMapping | None = None,
+                thresholds: Thresholds | None = None, path: Any = None,
+                block: int | None = None, c0: float = C0, progress_bar: bool = False,
+                **mapping_fields: str) -> HeardSound:  # fmt: skip
+    """The sound of ``volume`` that renders hear: the whole field or the detected sources.
+
+    The one place where what is heard is decided, for the command line,
+    ``simple``, the viewer, live listening and scenes alike.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+    heard : str or Heard
+        ``"field"`` (default), ``"detected"``, types such as
+        ``"dipole,quadrupole"``, or ``"field:quadrupole"``
+        (:func:`auralize.sources.field.parse_heard`).
+    series : SourceSeries, optional
+        Detected sources to hear (``detected`` mode; detected here otherwise).
+    mapping, thresholds, **mapping_fields
+        As :func:`detect_sources`; ``thresholds.floor`` is also the whole
+        field's residual floor.
+    path : ListenerPath or callable, optional
+        Where the listener goes (blocks near it are heard as points); a
+        callable ``path(tracks_or_None) -> ListenerPath`` is called once the
+        detected tracks are known (None for the whole field), so that a
+        default path can be planned around them.
+    block : int, optional
+        The whole field's block size (:func:`auralize.sources.field.block_plan`).
+
+    Returns
+    -------
+    HeardSound
+
+    Examples
+    --------
+    >>> vol = load("dataset:monopole", size=12, steps=8)
+    >>> hs = heard_sound(vol)
+    >>> hs.meta["heard"], hs.tracks.n_sources > 0
+    ('field', True)
+    """
+    hd = parse_heard(heard)
+    require_steps(volume)
+    if hd.mode == "detected":
+        if series is None:
+            series = detect_sources(volume, mapping=mapping, thresholds=thresholds,
+                                    progress_bar=progress_bar, **mapping_fields)  # fmt: skip
+        tracks = heard_tracks(series, hd)
+        if callable(path):
+            path(tracks)
+        counts = series.counts()
+        meta: dict[str, Any] = {
+            "heard": hd.label, "heard_text": hd.describe(), "mapping": series.meta.get("mapping"),
+            "thresholds": series.thresholds.tolist(),
+            "sources": {k: int(sum(c[k] for c in counts)) for k in TYPES}}  # fmt: skip
+        if series.meta.get("unavailable"):
+            meta["unavailable"] = series.meta["unavailable"]
+        return HeardSound(tracks=tracks, heard=hd, meta=meta, series=series)
+    m = resolve_mapping(volume, mapping, **mapping_fields)
+    m.prepare(volume)
+    where = path(None) if callable(path) else path
+    ft = field_tracks(volume, m, heard=hd, path=where, block=block, c0=c0,
+                      floor=thresholds.floor if thresholds is not None else FLOOR,
+                      progress_bar=progress_bar)  # fmt: skip
+    meta = {"heard": hd.label, "mapping": m.describe(), "field": ft.meta,
+            "heard_text": f"{ft.meta['heard_text']}, {ft.meta['valid_points']:,} points as "
+                          f"{ft.meta['rows']:,} rows"}  # fmt: skip
+    unavailable = m.unavailable(volume)
+    if unavailable:
+        meta["unavailable"] = unavailable
+    return HeardSound(tracks=ft.tracks(), heard=hd, meta=meta, by_type=_by_type(ft), series=series)
+
+
+def _by_type(ft: Any) -> dict[str, SourceTracks]:
+    """The whole field's tracks of each of its terms (for the ``tonal`` timbre)."""
+    return {t: ft.tracks((t,)) for t in ft.q}
+
+
+def heard_tracks(series: SourceSeries, heard: Heard | str = "detected") -> SourceTracks:
+    """The tracks of the detected sources of the types ``heard`` names (the others muted)."""
+    hd = parse_heard(heard)
+    tracks = series.tracks()
+    if hd.mode != "detected" or tuple(hd.types) == TYPES or tracks.kind is None:
+        return tracks
+    codes = [1 + TYPES.index(t) for t in hd.types]
+    on = np.isin(tracks.kind, codes)
+    q = np.where(on, tracks.q, 0.0)
+    keep = np.any(q != 0, axis=1)
+    return SourceTracks(positions=tracks.positions[keep], q=np.ascontiguousarray(q[keep]),
+                        radius=tracks.radius[keep], times=tracks.times, origin=tracks.origin,
+                        end=tracks.end, index=None if tracks.index is None else tracks.index[keep],
+                        kind=np.where(on, tracks.kind, 0).astype(np.int8)[keep])  # fmt: skip
 
 
 def report_line(rendered: Rendered, output: str | Path, *, gain: float | None = None) -> str:
@@ -365,13 +513,17 @@ def report_line(rendered: Rendered, output: str | Path, *, gain: float | None = 
 
     m = rendered.meta
     ld = loudness(rendered.audio, rendered.rate)
-    src = m.get("sources") or {}
-    types = ", ".join(f"{src.get(k, 0)} {k}" for k in TYPES)
+    if "sources" in m:
+        src = m["sources"]
+        heard = (f"heard {m.get('heard_text', 'the detected sources')} "
+                 f"({', '.join(f'{src.get(k, 0)} {k}' for k in TYPES)} source points)")  # fmt: skip
+    else:
+        heard = f"heard {m.get('heard_text', 'the whole field')}"
     g = f" (gain {gain:.4g})" if gain is not None else ""
     return (f"wrote {output}: {rendered.duration:.2f} s, {rendered.layout.name} "
             f"({rendered.audio.shape[0]} ch) at {rendered.rate} Hz; "
             f"{m.get('time_mapping', describe_time_scale(rendered.time_scale))}; "
-            f"timbre {m.get('timbre', 'physical')}; source points {types}; "
+            f"timbre {m.get('timbre', 'physical')}; {heard}; "
             f"peak {ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa{g}, "
             f"{100 * ld['share_above']:.0f} % of the energy above 20 Hz")  # fmt: skip
 

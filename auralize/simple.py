@@ -238,7 +238,7 @@ class Session:
         self.path: ListenerPath | None = None
         self.rendered: Rendered | None = None
         self.audio: dict[str, Any] = {"layout": "mono", "rate": 44100, "time_scale": 1.0,
-                                      "device": None}  # fmt: skip
+                                      "device": None, "heard": "field"}  # fmt: skip
         self.models: list[SceneModel] = []
 
     def source(self, src: DataSource | None) -> DataSource:
@@ -558,10 +558,16 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
 def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = None,
                 path: ListenerPath | None = None, layout: str | None = None,
                 rate: int | None = None, time_scale: float | None = None,
-                interp: str = "cubic", timbre: str = "auto") -> Rendered:  # fmt: skip
-    """Render the sound heard along ``path`` (default: the active path) from the sources
-    of ``Input`` (default: the active source; detected first with the current thresholds
-    if needed), plus every sound model added with :func:`AddSoundModel`.
+                interp: str = "cubic", timbre: str = "auto",
+                heard: str | None = None) -> Rendered:  # fmt: skip
+    """Render the sound heard along ``path`` (default: the active path) from ``Input``
+    (default: the active source), plus every sound model added with :func:`AddSoundModel`.
+
+    What is heard is the session's ``audio["heard"]`` (``heard`` sets it):
+    ``"field"`` (default) the whole field, ``"detected"`` the detected sources
+    (detected first with the current thresholds if needed), ``"dipole,quadrupole"``
+    some of their types, ``"field:quadrupole"`` one term of the whole field
+    (:func:`auralize.sources.field.parse_heard`).
 
     The audio lasts the path's duration, clipped to the time the data's sound
     lasts at the session's ``time_scale`` (then ``r.meta["notes"]`` says so)
@@ -599,16 +605,25 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     p = path or s.path
     if p is None:
         raise ParameterError("no listener path; call CreateListenerPath or RecordListenerPath")
+    if heard is not None:
+        from auralize.sources.field import parse_heard
+
+        s.audio["heard"] = parse_heard(heard).label
     for k, val in (("layout", layout), ("rate", rate), ("time_scale", time_scale)):
         if val is not None:
             s.audio[k] = val
     out: Rendered | None = None
     if src is not None:
-        if src.Sources is None:
+        from auralize.sources.field import parse_heard
+
+        hd = parse_heard(s.audio.get("heard") or "field")
+        if src.Sources is None and hd.mode == "detected":
             src.Sources = src.Detection.run()
         out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
                           time_scale=float(s.audio["time_scale"]), layout=s.audio["layout"],
-                          interp=interp, timbre=timbre, clip=not s.models)  # fmt: skip
+                          interp=interp, timbre=timbre, clip=not s.models, heard=hd,
+                          thresholds=src.Thresholds, mapping=src.Mapping,
+                          **dict[str, Any](src.MappingFields))  # fmt: skip
     if s.models:
         mix = render_scene(s.models, p, rate=int(s.audio["rate"]), layout=s.audio["layout"],
                            duration=p.duration, highpass_hz=HIGHPASS_HZ)  # fmt: skip

@@ -272,7 +272,8 @@ def test_silent_render_says_so(tmp_path: Path, inputs: dict[str, Path], capsys: 
     assert json.loads((tmp_path / "z.wav.json").read_text())["silent"] is True
     # nothing arrives within 1 ms at 10 m from the data: written, flagged, exit 1
     code, err = run(["render", inputs["m.h5"], "--listener", "0.5,0.5,0.5", "--duration", "0.001",
-                     "--threshold-monopole", "1e300", "-o", tmp_path / "s.wav"], capsys)  # fmt: skip
+                     "--heard", "detected", "--threshold-monopole", "1e300", "-o", tmp_path / "s.wav"],
+                    capsys)  # fmt: skip
     # one warning line (a note that no velocity means no dipoles may come with it)
     lines = [ln for ln in err.splitlines() if ": note: " not in ln]
     assert code == cli.EXIT_SILENT and "silent" in err and len(lines) == 1

@@ -77,9 +77,10 @@ def test_play_physical_is_the_render_with_its_highpass(devices, capsys) -> None:
     assert "synthesis per block" in out and "rendered ahead" not in out
     p0, _ = _play(devices, "hp0", r0, capsys, *phys, "--highpass", "0")
     assert _rel(p20, r20) < 1e-5 and _rel(p0, r0) < 1e-5
-    # the sound is mostly below 20 Hz: without the high-pass it is 20x louder and another
-    assert np.max(np.abs(r0)) > 10 * np.max(np.abs(r20))
-    assert _rel(p20, r0) > 0.9 and _rel(p0, r20) > 10
+    # the sound is mostly below 20 Hz: without the high-pass it is several times louder
+    # and another
+    assert np.max(np.abs(r0)) > 5 * np.max(np.abs(r20))
+    assert _rel(p20, r0) > 0.9 and _rel(p0, r20) > 4
 
 
 def test_play_default_timbre_is_renders_auto(devices, capsys) -> None:  # type: ignore[no-untyped-def]

@@ -30,11 +30,12 @@ def _real_input(folder: Path, tmp: Path) -> str:
     raise AssertionError(f"{folder}: no OpenFOAM case to render")
 
 
-#: shipped real datasets with at least two steps: all render audibly.  dolfinx's and
-#: meshio's fields are uniform and rise linearly in time (every point a monopole of
-#: constant strength: extended noise at the pressure's level); wavy is a surface read on
-#: its own 80x80 lattice
-AUDIBLE = ["openfoam-cavity", "netcdf-pulse", "xdmf-dolfinx", "xdmf-meshio", "paraview-wavy"]
+#: shipped real datasets with at least two steps that change: they render audibly (wavy
+#: is a surface read on its own 80x80 lattice)
+AUDIBLE = ["openfoam-cavity", "netcdf-pulse", "paraview-wavy"]
+#: dolfinx's and meshio's fields rise linearly in time at every point: ∂ρ/∂t is
+#: constant, so the pressure is constant and nothing sounds; the render says so
+STEADY_RATE = ["xdmf-dolfinx", "xdmf-meshio"]
 #: a single step (EnSight's steady cylinder, the PLOT3D snapshot): a clear one-line refusal
 SINGLE_STEP = ["ensight-cylinder", "plot3d-combustor"]
 
@@ -50,7 +51,21 @@ def _check_audible(wav: Path, report: str, duration: float) -> None:
 
 
 def test_every_shipped_real_dataset_is_classified() -> None:
-    assert sorted(AUDIBLE + SINGLE_STEP) == sorted(CASES)
+    assert sorted(AUDIBLE + STEADY_RATE + SINGLE_STEP) == sorted(CASES)
+
+
+@pytest.mark.parametrize("name", STEADY_RATE)
+def test_plain_render_of_a_field_changing_at_a_constant_rate_is_silent(
+    name, tmp_path, capsys
+) -> None:  # type: ignore[no-untyped-def]
+    wav = tmp_path / "out.wav"
+    with dataset_path(name) as src:
+        code = main(["render", str(src), "-o", str(wav)])
+    out, err = capsys.readouterr()
+    assert code == 1 and "silent" in err, err  # written, marked silent (EXIT_SILENT)
+    assert "silent: nothing in the data changes in a way that sounds" in out
+    audio, _, _ = read_wav(wav)
+    assert not np.any(audio)
 
 
 @pytest.mark.parametrize("name", AUDIBLE)
@@ -74,36 +89,29 @@ def test_plain_render_of_a_single_step_is_refused_in_one_line(name, tmp_path, ca
     assert not (tmp_path / "out.wav").exists()
 
 
-def test_uniform_ramp_is_heard_as_constant_noise_and_said(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
-    """meshio's phi = t on every point: each point a monopole of constant strength."""
-    wav = tmp_path / "out.wav"
-    with dataset_path("xdmf-meshio") as src:
-        code = main(["render", str(src), "-o", str(wav)])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    # every point is a source: a warning line, not a failure
-    assert "warning: SourceFractionWarning:" in err and "100% of the valid points" in err
-    assert "timbre auto: 100 % of the physical sound lies below 20 Hz" in out
-    assert "their noise is scaled to the physical pressure's RMS" in out
-    assert "timbre extended; source points 20 monopole, 0 dipole, 0 quadrupole" in out
-    side = json.loads(Path(str(wav) + ".json").read_text())
-    assert side["beta_rule"] == "rms" and side["low_band"].endswith("left out")
-    audio, rate, _ = read_wav(wav)
-    # a constant envelope: the RMS of each second within 2 dB of the whole file's
-    # (after the high-pass's first 50 ms)
-    sec = audio[0, : 10 * rate].reshape(10, rate)[:, rate // 20 :]
-    level = 20 * np.log10(np.sqrt(np.mean(sec**2, axis=1)) / np.sqrt(np.mean(sec**2)))
-    assert np.all(np.abs(level) < 2.0), level
+def test_uniform_ramp_is_silent_and_said(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """meshio's phi = t on every point: ∂ρ/∂t is the same constant everywhere, so the
+    pressure is constant: nothing changes that sounds, in any timbre."""
+    for timbre in ("auto", "tonal"):
+        wav = tmp_path / f"{timbre}.wav"
+        with dataset_path("xdmf-meshio") as src:
+            code = main(["render", str(src), "--timbre", timbre, "-o", str(wav)])
+        out, err = capsys.readouterr()
+        assert code == 1 and "silent" in err, err  # EXIT_SILENT: written, flagged
+        assert "silent: nothing in the data changes in a way that sounds" in out
+        side = json.loads(Path(str(wav) + ".json").read_text())
+        assert side["silent"] is True and side["heard"] == "field"
+        audio, _, _ = read_wav(wav)
+        assert not np.any(audio)
 
 
 def test_python_render_equals_the_plain_command(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     import auralize.pipeline as ap
 
-    with dataset_path("xdmf-meshio") as src:
+    with dataset_path("netcdf-pulse") as src:
         assert main(["render", str(src), "-o", str(tmp_path / "cli.wav")]) == 0
         capsys.readouterr()
-        with pytest.warns(UserWarning, match="100% of the valid points are sources"):
-            out, _ = ap.auralize(ap.load(src))
+        out, _ = ap.auralize(ap.load(src))
     ap.save_rendered(out, tmp_path / "py.wav")
     a, rate_a, _ = read_wav(tmp_path / "cli.wav")
     b, rate_b, _ = read_wav(tmp_path / "py.wav")
@@ -111,7 +119,15 @@ def test_python_render_equals_the_plain_command(tmp_path, capsys) -> None:  # ty
     np.testing.assert_array_equal(a, b)
     cli = json.loads((tmp_path / "cli.wav.json").read_text())
     py = json.loads((tmp_path / "py.wav.json").read_text())
-    for key in ("timbre", "time_mapping", "highpass_hz", "listener", "sources", "thresholds"):
+    for key in (
+        "timbre",
+        "time_mapping",
+        "highpass_hz",
+        "listener",
+        "heard",
+        "heard_text",
+        "field",
+    ):
         assert py[key] == cli[key], key
 
 
@@ -138,7 +154,9 @@ def test_report_line_and_json(tmp_path, capsys) -> None:  # type: ignore[no-unty
     assert main(["render", *MONO, "--timbre", "tonal", "-o", str(wav)]) == 0
     line = capsys.readouterr().out.strip().splitlines()[-1]
     assert line.startswith(f"wrote {wav}: 10.00 s, mono (1 ch) at 44100 Hz; 1 s of playback = ")
-    assert "timbre tonal; source points " in line and " monopole, 0 dipole, 0 quadrupole" in line
+    assert "timbre tonal; heard whole field: mass sources (continuity residual), " in line.replace(
+        " + Lighthill stress", ""
+    )
     assert "% of the energy above 20 Hz" in line and "peak " in line and "RMS " in line
     assert main(["render", *MONO, "--timbre", "tonal", "-o", str(wav), "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)

@@ -137,10 +137,11 @@ def test_live_listening_follows_pose(tmp_path):
     """A pose change during live playback reaches the (file-backed) sink in the block after the
     one in progress, and moves the energy between the stereo channels.  (The latency in
     milliseconds is a row of ``auralize bench``: live listening, camera move to sound.)"""
+    from auralize.pipeline import heard_sound
     from auralize.scene.listening import LiveEngine, LivePlayer, WavSink
 
     src = OpenDataFile("dataset:explosion", **SMALL)
-    tracks = DetectSources().tracks()
+    tracks = heard_sound(src.Volume).tracks  # what renders hear: the whole field
     c = src.Volume.center
     # (at this time scale the blast is infrasonic: the pan is measured without the high-pass)
     eng = LiveEngine(tracks, layout="stereo", block=1024, time_scale=4.0, highpass_hz=0.0)

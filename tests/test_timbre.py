@@ -120,10 +120,11 @@ def test_timbres_are_deterministic_with_a_seed(timbre) -> None:  # type: ignore[
 
 
 def _typed_tracks(steps: int = 40, dt: float = 0.05) -> SourceTracks:
-    """Three sources, one of each type, steady over the data (strengths of very
+    """Three sources, one of each type, changing over the data (strengths of very
     different size: the tonal timbre balances types)."""
     q = np.zeros((3, steps))
-    q[:, 2:-2] = np.array([[1e-3], [1.0], [50.0]])
+    wobble = 1.0 + 0.5 * np.sin(2 * np.pi * 2.0 * np.arange(steps - 4) * dt)
+    q[:, 2:-2] = np.array([[1e-3], [1.0], [50.0]]) * wobble
     kind = np.zeros((3, steps), dtype=np.int8)
     kind[:, 2:-2] = np.array([[1], [2], [3]])
     pos = np.array([[5.0, 0, 0], [0, 5.0, 0], [-5.0, 0, 0]])
@@ -146,8 +147,9 @@ def test_tonal_carriers_per_type_appear_in_the_spectrum() -> None:
     _, lo_m, hi_m = TONAL_CARRIERS["monopole"]
     f_d, f_q = TONAL_CARRIERS["dipole"][1], TONAL_CARRIERS["quadrupole"][1]
     # each type is heard: its carrier holds a fair share of the energy
-    shares = [band(lo_m, hi_m) / total, band(f_d - 3, f_d + 3) / total,
-              band(f_q - 3, f_q + 3) / total]  # fmt: skip
+    # (the carriers follow the strengths' 2 Hz wobble: sidebands within ±15 Hz)
+    shares = [band(lo_m - 15, hi_m + 15) / total, band(f_d - 15, f_d + 15) / total,
+              band(f_q - 15, f_q + 15) / total]  # fmt: skip
     assert min(shares) > 0.15 and sum(shares) > 0.97
     # the tones are spectral peaks at their frequencies
     for fc in (f_d, f_q):
@@ -165,6 +167,8 @@ def test_tonal_needs_source_types() -> None:
 
 def test_highpass_removes_dc() -> None:
     tr = _typed_tracks()
+    steady_q = np.where(tr.q != 0, np.array([[1e-3], [1.0], [50.0]]), 0.0)  # constant strengths
+    tr = SourceTracks(tr.positions, steady_q, tr.radius, tr.times, kind=tr.kind)
     path = ListenerPath.point([0.0, 0.0, 30.0], duration=2.0)
     raw = render_timbre(tr, path, rate=8000, highpass_hz=0).audio[0]
     hp = render_timbre(tr, path, rate=8000).audio[0]  # default 20 Hz
@@ -217,7 +221,7 @@ def test_merged_sources_keep_the_sum_and_the_centroid() -> None:
     size = merge_size(tr)
     assert size == pytest.approx(timbre.MERGE * C0 * 0.05)
     m = merged(tr, size)
-    assert 0 < m.n_sources < tr.n_sources / 10
+    assert 0 < m.n_sources < tr.n_sources / 2
     assert np.allclose(m.q.sum(axis=0), tr.q.sum(axis=0))
     # the |q|-weighted centroid of all sources is kept
     w, wm = tr.q.sum(axis=1), m.q.sum(axis=1)
@@ -233,7 +237,7 @@ def test_merged_sources_keep_the_sum_and_the_centroid() -> None:
 
 @pytest.mark.parametrize("timbre_name", ["extended", "tonal"])
 def test_merging_changes_the_timbres_little(timbre_name, monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    """Envelopes from merged sources (cubes of 2.1 m here) stay within 2 % of
+    """Envelopes from merged sources (cubes of 0.54 m here) stay within 2 % of
     the unmerged render in every loudspeaker; near the listener nothing merges."""
     tr = _cloud()
     kw = dict(rate=8000, timbre=timbre_name, layout="ring8", seed=2)
@@ -260,20 +264,17 @@ def test_near_path_finds_the_points_near_the_listeners_polyline() -> None:
     assert near_path(pts[4:], point, 1.0).tolist() == [True, False]
 
 
-@pytest.mark.parametrize("layout", ["mono", "ring8"])
-def test_signs_render_the_pressure_and_the_envelope(layout) -> None:  # type: ignore[no-untyped-def]
-    """The ``extended`` renders of the positive and negative parts of q: their
-    difference is the pressure, their sum the render of |q| (the synthesis is
-    linear in the strengths, cubic interpolation included)."""
-    tr = _cloud()
-    path = ListenerPath.line([6.0, -4.0, 1.0], [6.0, 4.0, 1.0], duration=0.6)
-    pos, neg = timbre._signs(tr)
-    a, b = (render(t, path, rate=4000, layout=layout).audio for t in (pos, neg))
-    p = render(tr, path, rate=4000, layout=layout).audio
-    e = render(SourceTracks(tr.positions, np.abs(tr.q), tr.radius, tr.times), path, rate=4000,
-               layout=layout).audio  # fmt: skip
-    assert np.max(np.abs(a - b - p)) < 1e-9 * np.max(np.abs(p))
-    assert np.max(np.abs(a + b - e)) < 1e-9 * np.max(np.abs(e))
+def test_change_tracks_are_zero_where_nothing_changes() -> None:
+    """The drive of ``extended`` and ``tonal``: the change per step of each strength,
+    0 over steady stretches, so that a steady field adds nothing, whatever the
+    listener does; tracks held before and after their data have no change there."""
+    from auralize.emitters.timbre import change_tracks
+
+    q = np.array([[0.0, 1.0, 2.0, 2.0, 2.0, 2.0]])
+    tr = SourceTracks(np.zeros((1, 3)), q, np.ones(1), np.arange(6.0))
+    np.testing.assert_allclose(change_tracks(tr).q, [[0.5, 1.0, 0.5, 0.0, 0.0, -1.0]])
+    held = SourceTracks(np.zeros((1, 3)), q, np.ones(1), np.arange(6.0) - 2.0, origin=0.0)
+    np.testing.assert_allclose(change_tracks(held).q, [[0.5, 1.0, 0.5, 0.0, 0.0, 0.0]])
 
 
 def test_tonal_without_sources_is_silence_not_a_type_error() -> None:

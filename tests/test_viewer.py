@@ -166,9 +166,17 @@ def test_bad_input_shows_message_and_stays_usable(qtbot, window, tmp_path, error
     # unreadable listener path
     win._guard(win.load_path, tmp_path / "missing.csv")
     assert "missing.csv" in errors[-1]
-    # live listening / playback without sources or device
+    # live listening to the detected sources before detecting; every type muted;
+    # playback without a render
+    win.set_heard("detected")
     win._guard(win.start_live)
     assert "detect" in errors[-1]
+    win.set_heard("field")
+    for k in ("monopole", "quadrupole"):
+        win.hear_checks[k].setChecked(False)
+    win._guard(win.start_live)
+    assert "muted" in errors[-1]
+    win.set_heard("field")
     win._guard(win.play_audio)
     assert "render" in errors[-1]
     n = len(errors)

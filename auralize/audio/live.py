@@ -131,8 +131,7 @@ class BlockSynth:
         self.duration = dur
         self.n_samples = round(dur * rate)
         self.n_blocks = -(-self.n_samples // self.block_size)
-        times = np.asarray(tracks.times, dtype=np.float64)
-        self._t0 = float(times[0]) + self.lead
+        self._t0 = tracks.t_first + self.lead
         q = np.asarray(tracks.q)
         nz = q != 0
         has = nz.any(axis=1)
@@ -181,7 +180,9 @@ class BlockSynth:
         if a > 0:  # keep the data's first time (the time origin) as a silent knot
             tw = np.concatenate([times[:1], tw])
             qw = np.concatenate([np.zeros((rows.size, 1)), qw], axis=1)
-        return SourceTracks(pos, np.ascontiguousarray(qw), tr.radius[rows], tw)
+        return SourceTracks(
+            pos, np.ascontiguousarray(qw), tr.radius[rows], tw, origin=tr.t_first, end=tr.t_last
+        )
 
     def render_range(self, start: int, n: int) -> NDArray[np.float64]:
         """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals.

@@ -106,6 +106,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     """Detect sources (or load them) and play the path live (the sound ``render`` writes)."""
     from auralize.audio.live import play
     from auralize.cli.core import (
+        heard_arg,
         load_volume,
         mapping_fields,
         progress_wanted,
@@ -113,7 +114,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     )
     from auralize.errors import ParameterError
     from auralize.listener import ListenerPath
-    from auralize.pipeline import detect_sources, plan_render
+    from auralize.pipeline import heard_sound, plan_render
     from auralize.spatial.layouts import get_layout
 
     lay = get_layout(args.layout)  # bad layouts fail before any slow work
@@ -124,19 +125,27 @@ def cmd_play(args: argparse.Namespace) -> int:
                              "--scene SCENE.json")  # fmt: skip
     vol = load_volume(args)
     path = ListenerPath.from_csv(args.path) if args.path else None
+    series = None
     if args.sources:
         from auralize.io.sources_file import load_sources_h5
 
         series = load_sources_h5(args.sources)
-    else:
-        series = detect_sources(vol, mapping=args.mapping, thresholds=thresholds_from_args(args),
-                                progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
     from auralize.emitters.synthesis import check_arrival, check_distance
 
-    tracks = series.tracks()
-    plan = plan_render(vol, tracks, path=path, listener=args.listener, duration=args.duration,
-                       time_scale=args.time_scale)  # fmt: skip
-    check_distance(plan.path, vol.bounds)
+    planned: dict[str, Any] = {}
+
+    def plan_for(tr: Any) -> ListenerPath:
+        planned["plan"] = plan_render(vol, tr, path=path, listener=args.listener,
+                                      duration=args.duration, time_scale=args.time_scale,
+                                      face=args.orbit_face)  # fmt: skip
+        check_distance(planned["plan"].path, vol.bounds)
+        return planned["plan"].path
+
+    hs = heard_sound(vol, heard=heard_arg(args), series=series, mapping=args.mapping,
+                     thresholds=thresholds_from_args(args), path=plan_for,
+                     progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
+    tracks = hs.tracks
+    plan = planned["plan"]
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
                   lead=plan.lead)  # fmt: skip
     # with --json, standard output carries the report alone: what the plan says goes to stderr
@@ -159,7 +168,8 @@ def cmd_play(args: argparse.Namespace) -> int:
         out = render_timbre(tracks, plan.path, timbre=args.timbre, rate=args.rate,
                             time_scale=plan.time_scale, interp=args.interp, layout=lay,
                             duration=plan.duration, bounds=vol.bounds, lead=plan.lead,
-                            highpass_hz=args.highpass, seed=args.seed, hrtf=args.hrtf)  # fmt: skip
+                            highpass_hz=args.highpass, seed=args.seed, hrtf=args.hrtf,
+                            by_type=hs.by_type)  # fmt: skip
         seconds = time.perf_counter() - t
         for note in [] if args.json else out.meta.get("timbre_notes", []):
             print(note)
@@ -239,6 +249,7 @@ def add_commands(sub: Any) -> None:
         HIGHPASS_HELP,
         TIMBRE_HELP,
         add_detect_options,
+        add_heard_options,
         add_scene_options,
         add_volume_options,
         time_scale_arg,
@@ -272,7 +283,10 @@ def add_commands(sub: Any) -> None:
                         "later blocks would clip)")  # fmt: skip
     g.add_argument("--block-ms", type=positive_float, default=50.0,
                    help="synthesis block (default 50 ms)")  # fmt: skip
-    g.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+    g.add_argument("--sources", metavar="SOURCES.h5",
+                   help="reuse sources from 'auralize detect' (heard with --heard detected, "
+                        "which this implies)")  # fmt: skip
+    add_heard_options(g)
     g.add_argument("--json", action="store_true",
                    help="print the playback report as JSON (alone on standard output; notes "
                    "go to standard error)")  # fmt: skip

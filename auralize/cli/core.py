@@ -164,6 +164,15 @@ def add_detect_options(p: argparse.ArgumentParser) -> None:
         default=1.0,
         help="'almost zero' = below this fraction of the other types' thresholds",
     )
+    g.add_argument(
+        "--floor",
+        type=float,
+        default=3.0,
+        metavar="X",
+        help="a strength not above X times its own discretisation error (the same difference "
+        "over 2h and 2Δt compared with it) is not a source, whatever the threshold (default 3; "
+        "0: paper 003's literal detection)",
+    )
 
 
 def time_scale_arg(text: str) -> float | str:
@@ -190,13 +199,44 @@ TIMBRE_HELP = ("physical: the retarded-time pressure; extended: plus power-law n
                "(default): physical if most of it is above 20 Hz, else extended")  # fmt: skip
 
 
+#: what ``--heard`` means in ``render`` and ``play``
+HEARD_HELP = ("what is heard: field (default: the physical sound of the whole field, every valid "
+              "point, no threshold: Lighthill's stress and the continuity residual); detected "
+              "(paper 003: the detected sources); a list of types such as dipole,quadrupole "
+              "(the detected sources of those types, the others muted); field:quadrupole or "
+              "field:monopole (one term of the whole field)")  # fmt: skip
+
+
+def add_heard_options(p: Any) -> None:
+    """``--heard`` and ``--orbit-face``: what a render of a volume hears, and how the
+    default orbit's listener faces."""
+    p.add_argument("--heard", default=None, metavar="WHAT", help=HEARD_HELP)
+    p.add_argument("--orbit-face", choices=["sweep", "center", "forward", "fixed"],
+                   default="sweep",
+                   help="the default orbit's listener (no --listener or --path): sweep "
+                        "(default: the head turns so the data pass around the listener, every "
+                        "speaker carries them), center (faces the data), forward (along the "
+                        "motion), fixed (faces +y)")  # fmt: skip
+
+
+def heard_arg(args: argparse.Namespace) -> str:
+    """``--heard`` as given, or ``detected`` when ``--sources`` gives detected sources."""
+    h = getattr(args, "heard", None)
+    if h:
+        return str(h)
+    return "detected" if getattr(args, "sources", None) else "field"
+
+
 def add_render_options(p: argparse.ArgumentParser) -> None:
     """Synthesis options shared by ``render`` and its Dask variant."""
     p.add_argument("--time-scale", type=time_scale_arg, default="auto",
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
     p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
-    p.add_argument("--sources", metavar="SOURCES.h5", help="reuse sources from 'auralize detect'")
+    p.add_argument("--sources", metavar="SOURCES.h5",
+                   help="reuse sources from 'auralize detect' (heard with --heard detected, "
+                        "which this implies)")  # fmt: skip
+    add_heard_options(p)
     p.add_argument("--timbre", choices=["auto", "physical", "extended", "tonal"], default="auto",
                    help=TIMBRE_HELP)  # fmt: skip
     p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
@@ -252,7 +292,7 @@ def thresholds_from_args(args: argparse.Namespace) -> Any:
     from auralize.sources.detection import Thresholds
 
     return Thresholds(args.threshold_monopole, args.threshold_dipole, args.threshold_quadrupole,
-                      zero_fraction=args.zero_fraction)  # fmt: skip
+                      zero_fraction=args.zero_fraction, floor=getattr(args, "floor", 3.0))  # fmt: skip
 
 
 def mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
@@ -271,9 +311,11 @@ def mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _report_unavailable(command: str, series: Any) -> None:
-    """Say once, on stderr, which source types could not be computed and why."""
+    """Say once, on stderr, which source types could not be computed and why
+    (``series``: a SourceSeries or a render's meta)."""
+    meta = series if isinstance(series, dict) else getattr(series, "meta", {})
     by_reason: dict[str, list[str]] = {}
-    for kind, why in (series.meta.get("unavailable") or {}).items():
+    for kind, why in (meta.get("unavailable") or {}).items():
         by_reason.setdefault(str(why), []).append(kind)
     for why, kinds in by_reason.items():
         print(f"auralize {command}: note: no {' or '.join(kinds)} sources: {why}", file=sys.stderr)
@@ -464,27 +506,33 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     notes: list[str] = []
     sound = Sound(parts=[], meta={}, name="")
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
+        from auralize.pipeline import heard_sound
         from auralize.sources.model import FieldAuralization
 
         vol = load_volume(args)
+        series = None
         if args.sources:
             from auralize.io.sources_file import load_sources_for
 
             series = load_sources_for(args.sources, vol)
-        else:
-            from auralize.pipeline import detect_sources
+        planned: dict[str, Any] = {}
 
-            series = detect_sources(vol, mapping=args.mapping, thresholds=thresholds_from_args(args),
-                                    progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
-        plan = plan_render(vol, series.tracks(), path=path, listener=listener,
-                           duration=args.duration, time_scale=args.time_scale,
-                           clip=False)  # fmt: skip
+        def plan_for(tr: Any) -> Any:
+            planned["plan"] = plan_render(vol, tr, path=path, listener=listener,
+                                          duration=args.duration, time_scale=args.time_scale,
+                                          clip=False, face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
+            return planned["plan"].path
+
+        hs = heard_sound(vol, heard=heard_arg(args), series=series, mapping=args.mapping,
+                         thresholds=thresholds_from_args(args), path=plan_for,
+                         progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
+        plan = planned["plan"]
         path = plan.path
         notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
         sound = sound + FieldAuralization().synthesize(
-            (vol, series), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
+            (vol, hs), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
             timbre=getattr(args, "timbre", "physical"))  # fmt: skip
-        _report_unavailable(command, series)
+        _report_unavailable(command, hs.meta)
     elif args.sources:
         raise ParameterError("--sources needs the volume they were detected in (PATH)")
     else:
@@ -566,12 +614,13 @@ def cmd_render(args: argparse.Namespace) -> int:
                            layout=args.layout, duration=args.duration, series=series,
                            progress_bar=progress_wanted(), timbre=args.timbre,
                            highpass_hz=args.highpass, seed=args.seed, listener=args.listener,
+                           heard=heard_arg(args), orbit_face=args.orbit_face,
                            **mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
     out.meta["seconds"] = elapsed
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format)  # fmt: skip
-    _report_unavailable("render", series)
+    _report_unavailable("render", out.meta)
     report = report_line(out, args.output, gain=gain)
     if args.json:
         from auralize.emitters.timbre import loudness
@@ -677,7 +726,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     """The main job on a built-in dataset: explosion -> sources -> ring8 WAV + pictures."""
     from auralize.datasets.synthetic import make_dataset
     from auralize.listener import ListenerPath
-    from auralize.pipeline import auralize, save_rendered
+    from auralize.pipeline import auralize, detect_sources, save_rendered
     from auralize.scene.pictures import screenshot
     from auralize.scene.plots import save_spectrogram
 
@@ -691,9 +740,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     duration = float(vol.times[-1] - vol.times[0] + 1 / 30) * args.time_scale
     path = ListenerPath.orbit(c, radius=radius, duration=duration, turns=0.25, height=2.0)
     path.to_csv(out_dir / "explosion_path.csv")
-    print("detecting sources and rendering ...", flush=True)
-    rendered, series = auralize(vol, path, layout=args.layout, time_scale=args.time_scale,
-                                progress_bar=progress_wanted(), timbre="auto")  # fmt: skip
+    print("detecting sources (drawn) and rendering the whole field (heard) ...", flush=True)
+    series = detect_sources(vol, progress_bar=progress_wanted())
+    rendered, _ = auralize(vol, path, layout=args.layout, time_scale=args.time_scale,
+                           progress_bar=progress_wanted(), timbre="auto")  # fmt: skip
     for note in rendered.meta.get("timbre_notes", []):
         print(note)
     wav = out_dir / f"explosion_{args.layout}.wav"
@@ -706,8 +756,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     tot = {k: sum(c[k] for c in counts) for k in ("monopole", "dipole", "quadrupole")}
     print(f"wrote {wav} ({rendered.layout.n_channels} channels, {rendered.duration:.2f} s), "
           f"{png}, {spec}")  # fmt: skip
-    print(f"sources over {vol.n_steps} steps: {tot['monopole']} monopole, {tot['dipole']} dipole, "
-          f"{tot['quadrupole']} quadrupole; {time.perf_counter() - t:.1f} s in all")  # fmt: skip
+    print(f"drawn: sources over {vol.n_steps} steps: {tot['monopole']} monopole, {tot['dipole']} "
+          f"dipole, {tot['quadrupole']} quadrupole; heard: {rendered.meta['heard_text']}; "
+          f"{time.perf_counter() - t:.1f} s in all")  # fmt: skip
     return 0
 
 

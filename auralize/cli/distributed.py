@@ -140,6 +140,36 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
     return 0
 
 
+def _heard(args: argparse.Namespace, vol: Any, runner: Any, plan_for: Any) -> Any:
+    """What a Dask render of ``vol`` hears (as the render without Dask options,
+    :func:`auralize.pipeline.heard_sound`): the whole field, computed here as
+    it streams through the steps, or the detected sources, detected on the
+    workers (or read from ``--sources``)."""
+    from auralize.cli.core import heard_arg, mapping_fields, progress_wanted, thresholds_from_args
+    from auralize.pipeline import heard_sound
+    from auralize.sources.field import parse_heard
+
+    heard = heard_arg(args)
+    series = None
+    if parse_heard(heard).mode == "detected":
+        if args.sources:
+            from auralize.io.sources_file import load_sources_for
+
+            series = load_sources_for(args.sources, vol)
+        else:
+            series = _detect(args, vol, runner, None)
+    return heard_sound(
+        vol,
+        heard=heard,
+        series=series,
+        mapping=args.mapping,
+        thresholds=thresholds_from_args(args),
+        path=plan_for,
+        progress_bar=progress_wanted(),
+        **mapping_fields(args),
+    )
+
+
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
     from auralize.cli.core import check_render_memory, load_volume
@@ -167,15 +197,17 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
-        if args.sources:
-            from auralize.io.sources_file import load_sources_h5
+        planned: dict[str, Any] = {}
 
-            series = load_sources_h5(args.sources)
-        else:
-            series = _detect(args, vol, runner, None)
-        tracks = series.tracks()
-        plan = plan_render(vol, tracks, path=path, listener=args.listener,
-                           duration=args.duration, time_scale=args.time_scale)  # fmt: skip
+        def plan_for(tr: Any) -> Any:
+            planned["plan"] = plan_render(vol, tr, path=path, listener=args.listener,
+                                          duration=args.duration, time_scale=args.time_scale,
+                                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
+            return planned["plan"].path
+
+        hs = _heard(args, vol, runner, plan_for)
+        tracks = hs.tracks
+        plan = planned["plan"]
         check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
                       lead=plan.lead)  # fmt: skip
         for note in plan.notes:
@@ -197,8 +229,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     out.meta.update({**plan.as_dict(), "timbre": "physical",
                      "highpass_hz": getattr(args, "highpass", 0.0)})  # fmt: skip
     elapsed = time.perf_counter() - t
-    out.meta.update({"volume": vol.source, "mapping": series.meta.get("mapping"),
-                     "thresholds": np.asarray(series.thresholds).tolist()})  # fmt: skip
+    out.meta.update({"volume": vol.source, **hs.meta})
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format)  # fmt: skip
     peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
@@ -251,15 +282,17 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
-        if args.sources:
-            from auralize.io.sources_file import load_sources_for
+        planned: dict[str, Any] = {}
 
-            series = load_sources_for(args.sources, vol)
-        else:
-            series = _detect(args, vol, runner, None)
-        tracks = series.tracks()
-        plan = plan_render(vol, tracks, path=path, listener=listener, duration=args.duration,
-                           time_scale=args.time_scale, clip=False)  # fmt: skip
+        def plan_for(tr: Any) -> Any:
+            planned["plan"] = plan_render(vol, tr, path=path, listener=listener,
+                                          duration=args.duration, time_scale=args.time_scale,
+                                          clip=False, face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
+            return planned["plan"].path
+
+        hs = _heard(args, vol, runner, plan_for)
+        tracks = hs.tracks
+        plan = planned["plan"]
         sound = scene_sound(models, plan.path, args.duration, rate=args.rate)
         mine = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead)
         duration = scene_duration(args, [mine, *parts_of(sound)], plan.path, own_path)
@@ -282,10 +315,9 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     rest = render_mix(sound, plan.path, rate=args.rate, layout=lay, duration=duration,
                       highpass_hz=args.highpass)  # fmt: skip
     out = add_rendered(field, rest, args.highpass)
-    out.meta.update({**plan.as_dict(), "timbre": "physical", "volume": vol.source,
-                     "mapping": series.meta.get("mapping"), "dask": dask_meta,
-                     "thresholds": np.asarray(series.thresholds).tolist(),
-                     "duration_s": duration, "seconds": time.perf_counter() - t})  # fmt: skip
+    out.meta.update({**plan.as_dict(), "timbre": "physical", "volume": vol.source, **hs.meta,
+                     "dask": dask_meta, "duration_s": duration,
+                     "seconds": time.perf_counter() - t})  # fmt: skip
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
                          subtype=args.format)  # fmt: skip
     ld = loudness(out.audio, out.rate)

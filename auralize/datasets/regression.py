@@ -46,17 +46,20 @@ def compute(name: str) -> dict[str, Any]:
     """Recompute the figures of one case."""
     from auralize.datasets.synthetic import make_dataset
     from auralize.listener import ListenerPath
-    from auralize.pipeline import auralize
+    from auralize.pipeline import auralize, detect_sources
     from auralize.sources.detection import Thresholds
 
     case = CASES[name]
     vol = make_dataset(case["dataset"], size=case["size"], steps=case["steps"], seed=case["seed"])
+    vol = vol.load()
     p = case["path"]
     path = ListenerPath.line(p["start"], p["end"], duration=p["duration"])
-    out, series = auralize(vol.load(), path, mapping=case["mapping"],
-                           thresholds=Thresholds(*case["thresholds"]), rate=case["rate"],
-                           interp=case["interp"], timbre="physical", time_scale=1.0,
-                           highpass_hz=case.get("highpass_hz", 0.0))  # fmt: skip
+    th = Thresholds(*case["thresholds"])
+    # what is drawn (the detected sources) and what is heard (the whole field)
+    series = detect_sources(vol, mapping=case["mapping"], thresholds=th)
+    out, _ = auralize(vol, path, mapping=case["mapping"], thresholds=th, rate=case["rate"],
+                      interp=case["interp"], timbre="physical", time_scale=1.0,
+                      highpass_hz=case.get("highpass_hz", 0.0))  # fmt: skip
     x = out.audio[0]
     return {
         "case": case,

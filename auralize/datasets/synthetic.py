@@ -9,6 +9,12 @@
     A compact pulsating density blob ρ = ρ0 + A(t) g(x) with a Gaussian g and
     a tone A(t), no velocity; :func:`monopole_pressure` gives its exact
     retarded-potential pressure (paper 003 Eq. 6).
+``spinning``
+    A compact spinning quadrupole: an elliptic Gaussian vortex turning at a
+    steady rate, constant density, divergence-free velocity (Lighthill's
+    classic compact source); :func:`lighthill_far_field` gives its compact
+    far field from the same arrays.  ``kL`` sets its compactness,
+    ``freeze_after`` stops it turning.
 
 Every generator takes ``size``, ``steps`` and ``seed`` and returns a lazily
 evaluated :class:`~auralize.volume.TimeVolume`.
@@ -256,6 +262,171 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: Any)
     return vol
 
 
+# -------------------------------------------------------------------- spinning
+
+
+@dataclass(frozen=True)
+class SpinningParams:
+    """Parameters of the ``spinning`` dataset (SI units).
+
+    The stream function ψ = U σ exp(−(x'²/a² + y'²/b²)/2) exp(−z²/2σ²), with
+    (x', y') the axes turned by Ω t, a = σ and b = σ/2, gives the velocity
+    v = (∂ψ/∂y, −∂ψ/∂x, 0), divergence-free; the density is ρ0 everywhere.
+    The stress ρ0 v_i v_j turns with the vortex, so its integral turns at
+    2Ω: the sound's frequency is ``frequency`` = 2Ω/2π.  The source size is
+    L = 2σ, and ``kL`` = 2π f L / c0 sets it (the grid spacing is σ/3, the
+    frames come ``per_period`` to a period of the sound).
+    """
+
+    size: int = 32
+    steps: int = 97
+    kL: float = 0.4
+    frequency: float = 180.0
+    speed: float = 1.0  # m/s, the vortex's peak velocity scale U
+    rho0: float = 1.2
+    per_period: int = 16
+    #: the vortex stops turning after this many periods of the sound (None: never)
+    freeze_after: float | None = None
+
+    @property
+    def length(self) -> float:
+        """L = 2σ (m)."""
+        return float(self.kL * C0 / (2 * np.pi * self.frequency))
+
+    @property
+    def sigma(self) -> float:
+        return 0.5 * self.length
+
+    @property
+    def spacing(self) -> float:
+        return self.sigma / 3.0
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / (self.frequency * self.per_period)
+
+    def angle(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The vortex's angle Ω t (held from ``freeze_after`` periods on)."""
+        om = np.pi * self.frequency  # Ω: the stress turns at 2Ω = 2π f
+        tt = np.asarray(t, dtype=np.float64)
+        if self.freeze_after is not None:
+            tt = np.minimum(tt, self.freeze_after / self.frequency)
+        return om * tt
+
+
+def make_spinning(*, size: int = 32, steps: int = 97, seed: int = 0, **kw: Any) -> TimeVolume:
+    """The ``spinning`` dataset (see :class:`SpinningParams`; ``seed`` is accepted for a
+    uniform interface: it is exact)."""
+    p = SpinningParams(size=check_size(size), steps=check_steps(steps), **kw)
+    n, h, s = p.size, p.spacing, p.sigma
+    x = (np.arange(n) - 0.5 * (n - 1)) * h
+    Z, Y, X = np.meshgrid(x, x, x, indexing="ij")
+    gz = np.exp(-(Z**2) / (2 * s**2))
+    a, b = s, 0.5 * s
+    times = np.arange(p.steps, dtype=np.float64) * p.dt
+    ang = p.angle(times)
+
+    def velocity(k: int) -> NDArray[np.float64]:
+        c, sn = np.cos(ang[k]), np.sin(ang[k])
+        xp, yp = c * X + sn * Y, -sn * X + c * Y
+        e = np.exp(-(xp**2 / a**2 + yp**2 / b**2) / 2) * gz * p.speed * s
+        px = e * (-xp / a**2 * c + yp / b**2 * sn)
+        py = e * (-xp / a**2 * sn - yp / b**2 * c)
+        return np.stack([py, -px, np.zeros_like(X)], -1)
+
+    shape = (n, n, n)
+    vol = TimeVolume(
+        origin=np.full(3, x[0]), spacing=np.full(3, h), dims=shape, times=times,
+        fields={"density": CallableFrames(lambda k: np.full(shape, p.rho0), p.steps, shape),
+                "velocity": CallableFrames(velocity, p.steps, (*shape, 3))},
+        source="dataset:spinning",
+    )  # fmt: skip
+    vol.attrs = {"dataset": "spinning", **asdict(p), "seed": seed}
+    return vol
+
+
+def lighthill_far_field(volume: TimeVolume, direction: NDArray[np.floating], distance: float, *,
+                        c0: float = C0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """Lighthill's compact far field of a volume's stress, from its own arrays.
+
+    p(r, t) = x̂_i x̂_j / (4π c0² r) ∂²/∂t² ∫ T_ij(y, t − r/c0) dV with T_ij =
+    ρ v_i v_j (the trapezoid rule over the grid; the second derivative by
+    Fourier differentiation of the series, which must hold whole periods),
+    at ``distance`` along ``direction`` from the grid's centre.  Returns the
+    emission times ``(T,)`` (the data's: the pressure arrives r/c0 later)
+    and the pressure ``(T,)`` in Pa.
+    """
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    w = np.array(
+        [d[0] ** 2, d[1] ** 2, d[2] ** 2, 2 * d[0] * d[1], 2 * d[0] * d[2], 2 * d[1] * d[2]]
+    )
+    dV = float(np.prod(volume.spacing))
+    pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+    moment = np.zeros(volume.n_steps)  # x̂_i x̂_j ∫ T_ij dV
+    for k in range(volume.n_steps):
+        rho = volume.frame("density", k)
+        v = volume.frame("velocity", k)
+        moment[k] = dV * sum(
+            wi * float(np.sum(rho * v[..., i] * v[..., j]))
+            for wi, (i, j) in zip(w, pairs, strict=True)
+        )
+    t = np.asarray(volume.times, dtype=np.float64)
+    T = t.size - 1  # the last step repeats the first one period later: drop it
+    f = np.fft.rfftfreq(T, t[1] - t[0])
+    d2 = np.fft.irfft(np.fft.rfft(moment[:T]) * (2j * np.pi * f) ** 2, T)
+    return t[:T], d2 / (4 * np.pi * c0**2 * distance)
+
+
+# -------------------------------------------------------------- moving pulse
+
+
+@dataclass(frozen=True)
+class MovingPulseParams:
+    """A pulsating Gaussian density blob ρ = ρ0 + A sin(2π f t) g(x − U t) moving
+    along +x at ``mach`` × c0 through the grid (no velocity field: heard as
+    ∂ρ/∂t).  Heard from far ahead its tone is at f/(1 − M), from behind at
+    f/(1 + M): the Doppler shift of a moving source, from the retarded time."""
+
+    nx: int = 121
+    nyz: int = 13
+    steps: int = 193
+    frequency: float = 200.0
+    mach: float = 0.3
+    amplitude: float = 0.01
+    sigma: float = 0.1
+    spacing: float = 0.05
+    per_period: int = 16
+    rho0: float = 1.2
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / (self.frequency * self.per_period)
+
+
+def make_moving_pulse(**kw: Any) -> TimeVolume:
+    """The moving pulsating blob of :class:`MovingPulseParams` (starts at x = 0.5 m)."""
+    p = MovingPulseParams(**kw)
+    x = np.arange(p.nx) * p.spacing
+    yz = (np.arange(p.nyz) - 0.5 * (p.nyz - 1)) * p.spacing
+    Z, Y, X = np.meshgrid(yz, yz, x, indexing="ij")
+    times = np.arange(p.steps, dtype=np.float64) * p.dt
+    U = p.mach * C0
+
+    def density(k: int) -> NDArray[np.float64]:
+        t = times[k]
+        g = np.exp(-((X - 0.5 - U * t) ** 2 + Y**2 + Z**2) / (2 * p.sigma**2))
+        return p.rho0 + p.amplitude * np.sin(2 * np.pi * p.frequency * t) * g
+
+    shape = (p.nyz, p.nyz, p.nx)
+    vol = TimeVolume(origin=np.array([0.0, yz[0], yz[0]]), spacing=np.full(3, p.spacing),
+                     dims=(p.nx, p.nyz, p.nyz), times=times,
+                     fields={"density": CallableFrames(density, p.steps, shape)},
+                     source="moving-pulse")  # fmt: skip
+    vol.attrs = {"dataset": "moving-pulse", **asdict(p)}
+    return vol
+
+
 def check_size(size: int) -> int:
     if not isinstance(size, int | np.integer) or size < 4 or size > 1024:
         raise ParameterError(f"--size must be an integer in 4..1024, got {size!r}")
@@ -271,10 +442,11 @@ def check_steps(steps: int) -> int:
 DATASETS: dict[str, Callable[..., TimeVolume]] = {
     "explosion": make_explosion,
     "monopole": make_monopole,
+    "spinning": make_spinning,
 }
 
 #: what ``auralize dataset`` and ``auralize render`` use for each built-in dataset
-DEFAULT_MAPPING = {"explosion": "paper-density", "monopole": "identity"}
+DEFAULT_MAPPING = {"explosion": "paper-density", "monopole": "identity", "spinning": "identity"}
 
 
 def all_datasets() -> dict[str, Callable[..., TimeVolume]]:

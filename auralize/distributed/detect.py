@@ -87,8 +87,10 @@ from auralize.mapping import (
 )
 from auralize.sources.detection import (
     AUTO_SAMPLE_STEPS,
+    STEADY_RTOL,
     SourceFrame,
     SourceSeries,
+    SteadyBase,
     StepCache,
     StrengthStats,
     Thresholds,
@@ -101,10 +103,7 @@ from auralize.sources.detection import (
     require_steps,
     sample_stats,
     sample_steps,
-    steady_quadrupole,
     step_strengths,
-    stress_block_sum,
-    stress_blocks,
     warn_fraction,
 )
 from auralize.volume import TimeVolume
@@ -115,7 +114,7 @@ TASK_MEMORY = 1 << 30
 #: ρv; strengths; kernel scratch; kind/radius; mapping temporaries)
 PLANES_PER_TASK_PLANE = 40
 STATE_SUFFIX = ".parts"
-STATE_VERSION = 1
+STATE_VERSION = 2
 
 
 # --------------------------------------------------------------- task layout
@@ -209,9 +208,13 @@ def _rss() -> tuple[int, int]:
 def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64],
                 zero_fraction: float, a: int, b: int, slab: Slab,
                 threads: int | None, store_dir: str | None = None,
-                qmean: NDArray[np.float64] | None = None,
-                delta_v: str = "cell") -> dict[str, Any]:  # fmt: skip
+                qmean: NDArray[np.int64] | None = None,
+                delta_v: str = "cell", floor: float = 0.0) -> dict[str, Any]:  # fmt: skip
     """Sources of steps ``[a, b)`` in planes ``[slab.z0, slab.z1)`` (global flat indices).
+
+    ``qmean`` are the anchor steps of the field's local steady state
+    (:class:`~auralize.sources.detection.SteadyBase`; None: the literal
+    strengths), ``floor`` the discretisation floor (:class:`~auralize.sources.detection.StepCache`).
 
     With ``store_dir`` (a run's ``OUTPUT.parts/``) the task saves them there
     itself, as a slab piece (:meth:`StateStore.write_piece`, synced to disk),
@@ -224,9 +227,9 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     plane = sub.shape[1] * sub.shape[2]
     frames = []
     tallies = []
-    qm = None if qmean is None else qmean[slab.r0 : slab.r1]
+    qm = None if qmean is None else SteadyBase(sub, mapping, qmean)
     with numba_threads(threads):
-        cache = StepCache(sub, mapping, qmean=qm)
+        cache = StepCache(sub, mapping, qmean=qm, floor=floor)
         buf = np.empty((3, *sub.shape))
         for n in range(a, b):
             s = step_strengths(sub, cache, n, buf)
@@ -250,7 +253,8 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
 
 
 def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int], slab: Slab,
-              threads: int | None, qmean: NDArray[np.float64] | None = None) -> StrengthStats:  # fmt: skip
+              threads: int | None, qmean: NDArray[np.int64] | None = None,
+              floor: float = 0.0) -> StrengthStats:  # fmt: skip
     """|S| statistics of each type over ``steps`` in the slab's kept planes.
 
     Like :func:`~auralize.sources.detection.strength_stats` (the same sampled points,
@@ -261,9 +265,9 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
     plane = sub.shape[1] * sub.shape[2]
     parts = []
-    qm = None if qmean is None else qmean[slab.r0 : slab.r1]
+    qm = None if qmean is None else SteadyBase(sub, mapping, qmean)
     with numba_threads(threads):
-        cache = StepCache(sub, mapping, qmean=qm)
+        cache = StepCache(sub, mapping, qmean=qm, floor=floor)
         buf = np.empty((3, *sub.shape))
         for n in steps:
             s = step_strengths(sub, cache, int(n), buf)
@@ -274,13 +278,28 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
     return StrengthStats.merge(parts)
 
 
-def stress_task(volume: TimeVolume, mapping: AcousticMapping, a: int, b: int,
-                slab: Slab) -> tuple[Slab, NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:  # fmt: skip
-    """:func:`~auralize.sources.detection.stress_block_sum` of steps ``[a, b)`` in the slab's kept planes."""
+def steady_task(volume: TimeVolume, mapping: AcousticMapping, a: int, b: int,
+                slab: Slab) -> NDArray[np.float64]:  # fmt: skip
+    """For each step n of ``[a, b)`` with n >= 1, in the slab's kept planes: the largest
+    change of the mapped density and mass flux from step n - 1 and their largest
+    magnitudes, ``(b - a, 4)`` (rows of step 0: zero), for
+    :func:`~auralize.sources.detection.steady_anchors`."""
+    from auralize.sources.detection import StepCache as _Cache
+
     sub, mapping = _local(volume, mapping, slab)
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
-    ref, dsum, count = stress_block_sum(sub, mapping, a, b)
-    return slab, ref[:, lo:hi].copy(), dsum[:, lo:hi].copy(), count[lo:hi].copy()
+    cache = _Cache(sub, mapping)
+    out = np.zeros((b - a, 4))
+    for n in range(max(a, 1), b):
+        r0, _, m0, _ = cache.get(n - 1)
+        r1, _, m1, _ = cache.get(n)
+        r0, r1, m0, m1 = r0[lo:hi], r1[lo:hi], m0[lo:hi], m1[lo:hi]
+        out[n - a] = [float(np.max(np.abs(r1 - r0), initial=0.0)),
+                      float(np.max(np.abs(m1 - m0), initial=0.0)),
+                      max(float(np.max(np.abs(r0), initial=0.0)), float(np.max(np.abs(r1), initial=0.0))),
+                      max(float(np.max(np.abs(m0), initial=0.0)), float(np.max(np.abs(m1), initial=0.0)))]  # fmt: skip
+        cache.keep(n, n)
+    return out
 
 
 def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int],
@@ -645,25 +664,17 @@ def _merge_stats(parts: list[StrengthStats]) -> StrengthStats:
     return StrengthStats.merge(parts)
 
 
-def _steady_q(blocks: list[list[Any]], shape: tuple[int, int, int],
-              spacing: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
-    """The steady quadrupole strength from the stress tasks' partial sums.
-
-    ``blocks[i]`` holds block i's ``(slab, ref, dsum, count)`` per slab; the
-    blocks are added in order, as :func:`~auralize.sources.detection.stress_sum` does.
-    """
-    ref = np.zeros((6, *shape))
-    dsum = np.zeros((6, *shape))
-    count = np.zeros(shape, dtype=np.int64)
-    for i, parts in enumerate(blocks):
-        part = np.zeros((6, *shape))
-        for slab, r, d, c in parts:
-            if i == 0:
-                ref[:, slab.z0 : slab.z1] = r
-            part[:, slab.z0 : slab.z1] = d
-            count[slab.z0 : slab.z1] += c
-        dsum += part
-    return steady_quadrupole(ref, dsum, count, spacing)
+def _anchors(blocks: list[list[NDArray[np.float64]]], n_steps: int) -> NDArray[np.int64]:
+    """The anchor steps of the field's local steady state from the steady tasks'
+    maxima (``blocks[i]``: block i's per-slab rows), as
+    :func:`~auralize.sources.detection.steady_anchors` finds them."""
+    rows = np.concatenate([np.max(np.stack(parts), axis=0) for parts in blocks])
+    anchors = {0, n_steps - 1}
+    for n in range(1, n_steps):
+        dr, dm, sr, sm = rows[n]
+        if dr <= STEADY_RTOL * sr and dm <= STEADY_RTOL * sm:
+            anchors.update((n - 1, n))
+    return np.array(sorted(anchors), dtype=np.int64)
 
 
 def _stack(*parts: Any) -> list[Any]:
@@ -686,20 +697,31 @@ def _prepare_paper(run: _Run) -> Any:
     return call(_with_gscale, ranged, run.tasks(paper_gradient_task, range(T), mapping=ranged))
 
 
-def _peaks(run: _Run, mapping: Any, qmean: Any, max_steps: int = AUTO_SAMPLE_STEPS) -> Any:
+def _peaks(run: _Run, mapping: Any, qmean: Any, max_steps: int = AUTO_SAMPLE_STEPS,
+           floor: float = 0.0) -> Any:  # fmt: skip
     """The |S| statistics of each type over the sample steps: a lazy call."""
     steps = sample_steps(run.volume.n_steps, max_steps)
-    peaks = run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task, qmean,
+    peaks = run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task, qmean, floor,
                       mapping=mapping)  # fmt: skip
     return run.runner.call(_merge_stats, peaks)
 
 
+#: steps per steady task
+STEADY_BLOCK = 8
+
+
 def _steady_node(run: _Run, mapping: Any) -> Any:
-    """The steady quadrupole strength (full grid) from per-block, per-slab tasks: a lazy call."""
+    """The anchor steps of the local steady state, from per-block, per-slab tasks: a
+    lazy call (a mapping without velocity has no stress: the first and last step)."""
     call = run.runner.call
-    blocks = [call(_stack, *[call(stress_task, run.shared, mapping, a, b, s) for s in run.slabs])
-              for a, b in stress_blocks(run.volume.n_steps)]  # fmt: skip
-    return call(_steady_q, blocks, run.volume.shape, run.volume.spacing.copy())
+    T = run.volume.n_steps
+    # (``mapping`` may be a lazy call's result; which fields exist is the run's mapping's)
+    if T < 3 or run.mapping.unavailable(run.volume).get("quadrupole"):
+        return np.array(sorted({0, T - 1}), dtype=np.int64)
+    blocks = [call(_stack, *[call(steady_task, run.shared, mapping, a, min(a + STEADY_BLOCK, T), s)
+                             for s in run.slabs])
+              for a in range(0, T, STEADY_BLOCK)]  # fmt: skip
+    return call(_anchors, blocks, T)
 
 
 def detect_distributed(
@@ -792,7 +814,10 @@ def detect_distributed(
     if out is not None and out.suffix.lower() not in (".h5", ".hdf5", ".pvd"):
         raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
     reach = mapping_reach(m)
-    slabs = plan_slabs(volume.shape, ghost=None if reach is None else reach + 2,
+    # ghost planes: strengths read the mapped fields one plane further (two with the
+    # floor's 2h stencils, three for its error's neighbourhood), the ΔV radius one more
+    extra = 4 if thresholds.floor > 0 else 2
+    slabs = plan_slabs(volume.shape, ghost=None if reach is None else reach + extra,
                        planes=slab_planes, memory=int(task_memory))  # fmt: skip
     plan_chunks([], chunk_steps)  # validates chunk_steps
     store = StateStore(out) if out is not None else None
@@ -841,7 +866,11 @@ def detect_distributed(
                 m.prepare(volume)
                 m_node = m
             q_node = _steady_node(run, m_node) if steady == "remove" else None
-            peak = _peaks(run, m_node, q_node) if thresholds.needs_scale else None
+            peak = (
+                _peaks(run, m_node, q_node, floor=thresholds.floor)
+                if thresholds.needs_scale
+                else None
+            )
             thr = run_.call(thresholds.resolve, peak) if peak is not None else \
                 thresholds.resolve(None)  # fmt: skip
             state_known = False
@@ -860,7 +889,8 @@ def detect_distributed(
         parts_dir = None if store is None else str(store.dir)
         nthr = run_.threads_per_task
         calls = [(detect_task, (vol, m_node, thr, thresholds.zero_fraction, a, b, s, nthr,
-                                parts_dir, q_node, delta_v)) for a, b in chunks for s in slabs]  # fmt: skip
+                                parts_dir, q_node, delta_v, thresholds.floor))
+                 for a, b in chunks for s in slabs]  # fmt: skip
         # per (chunk, slab): monopole, dipole, quadrupole and valid point-steps (a task
         # that ran twice, after a worker died, counts once)
         tallies: dict[tuple[int, int], NDArray[np.int64]] = {}

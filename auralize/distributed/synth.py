@@ -137,7 +137,8 @@ def _subset(tracks: SourceTracks, a: int, b: int) -> SourceTracks:
     """Sources ``a … b-1`` (views of the arrays: no copy, nothing cached)."""
     return SourceTracks(positions=tracks.positions[a:b], q=tracks.q[a:b],
                         radius=tracks.radius[a:b], times=tracks.times,
-                        index=None if tracks.index is None else tracks.index[a:b])  # fmt: skip
+                        index=None if tracks.index is None else tracks.index[a:b],
+                        origin=tracks.origin, end=tracks.end)  # fmt: skip
 
 
 class PackedTracks:
@@ -176,6 +177,7 @@ class PackedTracks:
         )
         self.times = np.ascontiguousarray(tracks.times, dtype=np.float64)
         self.index = None if tracks.index is None else np.concatenate([p.index for p in parts])
+        self.origin, self.end = tracks.origin, tracks.end
         self._tracks: SourceTracks | None = None
 
     def __getstate__(self) -> dict[str, Any]:
@@ -191,7 +193,8 @@ class PackedTracks:
             q = np.zeros(self.shape)
             q.ravel()[self.flat] = self.values
             self._tracks = SourceTracks(positions=self.positions, q=q, radius=self.radius,
-                                        times=self.times, index=self.index)  # fmt: skip
+                                        times=self.times, index=self.index,
+                                        origin=self.origin, end=self.end)  # fmt: skip
         return self._tracks
 
 

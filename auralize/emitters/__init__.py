@@ -320,11 +320,14 @@ class TableEmitters(Emitters):
 
 @dataclass
 class FieldSources:
-    """Sources detected in a volume, rendered by :func:`auralize.emitters.synthesis.render`.
+    """The heard sound of a volume (its whole field, or its detected sources),
+    rendered by :func:`auralize.emitters.synthesis.render`.
 
     ``time_scale`` playback seconds per data second, ``lead`` data seconds
     skipped at the start, ``interp`` the strength interpolation (§3.2.4.3),
-    ``timbre`` one of :data:`auralize.emitters.timbre.TIMBRES`.
+    ``timbre`` one of :data:`auralize.emitters.timbre.TIMBRES`, ``by_type``
+    the tracks of each type heard (the ``tonal`` timbre's; None: from
+    ``tracks.kind``).
     """
 
     tracks: Any  # auralize.sources.detection.SourceTracks
@@ -335,6 +338,7 @@ class FieldSources:
     bounds: tuple[float, ...] | None = None
     name: str = "field"
     meta: dict[str, Any] = field(default_factory=dict)
+    by_type: dict[str, Any] | None = None
 
 
 Part = Emitters | FieldSources | Any  # or a model part with render_part()

@@ -170,7 +170,7 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered
         kw = {k: v for k, v in kw.items() if k != "backend"}
         return render_timbre(part.tracks, path, timbre=part.timbre, time_scale=part.time_scale,
                              interp=part.interp, lead=part.lead, bounds=part.bounds,
-                             highpass_hz=0.0, **kw)  # fmt: skip
+                             highpass_hz=0.0, by_type=part.by_type, **kw)  # fmt: skip
     fn = getattr(part, "render_part", None)
     if callable(fn):  # a model's own closed form, with arrivals and gains from the engine
         return fn(path, **kw)

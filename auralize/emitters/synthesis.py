@@ -396,7 +396,7 @@ def prepare_render(tracks: SourceTracks, path: ListenerPath, *, rate: float, tim
     # collapse captures with equal times (the last one wins)
     keep = np.append(np.diff(path.times) > 0, True)
     ptimes, ppos = path.times[keep], path.positions[keep]
-    t0 = float(tracks.times[0]) + lead
+    t0 = tracks.t_first + lead
     tc = t0 + (ptimes - path.times[0]) / time_scale
     if tc.size >= 2:
         vc = np.diff(ppos, axis=0) / np.diff(tc)[:, None]
@@ -517,8 +517,8 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
     lo_b, hi_b, _ = source_extent(tracks)
     near, far = box_distances(pr.lc, lo_b, hi_b)
     t_end = pr.t_start + pr.n_samples / pr.fs
-    first = float(tracks.times[0]) + float(np.min(near)) / c0
-    last = float(tracks.times[-1]) + float(np.max(far)) / c0
+    first = tracks.t_first + float(np.min(near)) / c0
+    last = tracks.t_last + float(np.max(far)) / c0
     if first >= t_end or last < pr.t_start:
         raise ListenerPathError(
             f"{source}: nothing can be heard: sound from the data reaches the listener between "

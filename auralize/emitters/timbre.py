@@ -12,8 +12,12 @@ it is (1/D) and the Doppler shift of a moving listener:
     Spectral bandwidth extension after paper 001 §4 (Eqs. 12–13, Table 1):
     the physical pressure is kept below the cut-off ``f_cut`` (the Nyquist
     frequency of the data's time stepping in playback time), and above it
-    each source's strength envelope |q_k| drives noise with a power-law
-    spectrum f^(−α) (Table 1: α 2.5–3.5).  The band split of Eq. 12 is a
+    noise with a power-law spectrum f^(−α) (Table 1: α 2.5–3.5) follows the
+    power of what changes: in each channel its amplitude is the standard
+    deviation, over two data steps, of the pressure rendered from the
+    sources' change per step (:func:`change_tracks`, :func:`change_envelope`).
+    Sources that do not change drive nothing, also for a listener moving
+    through their steady field: nothing changing means nothing added.  The band split of Eq. 12 is a
     causal 4th-order Linkwitz–Riley crossover at ``f_cut`` (the paper blends
     FFT windows linearly over ±15 Hz; a causal split keeps every onset at
     its arrival time), and the noise is scaled by β, the positive root of
@@ -25,27 +29,27 @@ it is (1/D) and the Doppler shift of a moving listener:
 ``tonal``
     Parameter-mapping sonification: every source type gets its own carrier
     (monopoles a one-octave noise band around 250 Hz, dipoles a 440 Hz tone,
-    quadrupoles 660 Hz, a fifth above), its amplitude the source's strength
-    envelope |q_k|.  Each type's strengths are divided by the type's peak so
-    that the three are heard side by side (loudness across types is not
-    physical; within a type, and with distance, it is).
+    quadrupoles 660 Hz, a fifth above), its amplitude the envelope of that
+    type's changes (as ``extended``'s).  Each type's envelope is
+    divided by its peak so that the types are heard side by side (loudness
+    across types is not physical; within a type, and with distance, it is).
+    Of the whole field (``heard="field"``) the types are its terms: the
+    continuity residual (monopole) and Lighthill's stress (quadrupole).
 
-How the carriers keep the physics.  A source k emits ``|q_k|(τ) c(τ)``
-(envelope times carrier, in emission time τ); the listener hears
-``Σ_k |q_k|(τ_k) c(τ_k) / D_k`` with ``τ_k = t − D_k/c0``.  The envelope
-sum ``E(t) = Σ_k |q_k|(τ_k)/D_k`` is rendered per loudspeaker by the fast
-synthesis (:func:`auralize.emitters.synthesis.render` on the tracks |q|), so the
-arrival time, the 1/D law and the panning are those of the physical
-render.  E changes once per data step Δt, so it is rendered at a reduced
-rate (:func:`envelope_rate`) and from sources merged inside cubes of side
-c0 Δt / 8 (:func:`merged`: arrivals within a cube differ by less than a
-quarter of a step), except within four cubes of the listener's path,
-where direction and 1/D change fastest.  The ``extended`` low band (the
-pressure below the data's Nyquist frequency) comes from the same two
-renders: of the positive and of the negative part of q, merged alike
-(their difference is the pressure, their sum |q|).  On the 64³ explosion
-the envelopes move by 0.05 % of their peak and the low band by 0.3 % RMS,
-for a third of the cost of exact renders.  The carrier is evaluated once
+How the carriers keep the physics.  The change pressure
+``C(t) = Σ_k Δq_k(τ_k)/D_k`` (``τ_k = t − D_k/c0``, Δq the change per step)
+is rendered per loudspeaker by the fast synthesis
+(:func:`auralize.emitters.synthesis.render`), so the arrival time, the 1/D
+law and the panning are those of the physical render; its standard
+deviation over two data steps (:func:`change_envelope`) is the envelope
+E(t) of each channel.  C changes once per data step Δt, so it is rendered
+at a reduced rate
+(:func:`envelope_rate`) and from sources merged inside cubes of side
+c0 Δt / 32 (:func:`merged`: arrivals within a cube differ by less than a
+sixteenth of a step; the change pressure is signed, so its envelope moves
+with the merged arrivals' spread to first order), except within four cubes of the listener's path,
+where direction and 1/D change fastest; the ``extended`` low band (the
+pressure below the data's Nyquist frequency) is rendered the same way.  The carrier is evaluated once
 per type at the envelope-weighted mean emission time ``τ̄(t) = t − D̄(t)/c0`` with
 ``D̄ = Σ w_k / Σ (w_k/D_k)``, ``w_k = |q_k|(τ_k)`` (source clusters of an
 8×8×8 partition of the sources' box, at 100 control points per playback
@@ -93,7 +97,13 @@ from auralize.emitters.synthesis import (
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import TYPES, SourceTracks
-from auralize.spatial.layouts import Layout, output_stage, receiver_paths
+from auralize.spatial.layouts import (
+    Layout,
+    is_ambisonic,
+    output_stage,
+    receiver_paths,
+    receivers_of,
+)
 
 TIMBRES = ("physical", "extended", "tonal")
 #: ``auto`` renders ``physical`` when at least this share of its energy is above 20 Hz,
@@ -194,12 +204,12 @@ def _subset(tracks: SourceTracks, q: NDArray[np.float64]) -> SourceTracks:
     keep = np.any(q != 0, axis=1)
     return SourceTracks(positions=np.asarray(tracks.positions).reshape(-1, 3)[keep],
                         q=np.ascontiguousarray(q[keep]), radius=np.asarray(tracks.radius)[keep],
-                        times=tracks.times)  # fmt: skip
+                        times=tracks.times, origin=tracks.origin, end=tracks.end)  # fmt: skip
 
 
 #: the envelope renders merge the sources inside cubes whose side is this
 #: fraction of the distance sound travels in one data step (see :func:`merged`)
-MERGE = 0.125
+MERGE = 1.0 / 32.0
 
 
 def merge_size(tracks: SourceTracks, c0: float = C0) -> float:
@@ -224,8 +234,8 @@ def merged(tracks: SourceTracks, size: float,
 
     For a signal band-limited to the data's Nyquist frequency (an envelope
     |q|, or the pressure below it) this changes little: with ``size``
-    c0 Δt / 8 (:func:`merge_size`) the arrivals of sources within a cube
-    differ by at most √3/8 ≈ 0.22 of a data step; the 1/D of a source at D
+    c0 Δt / 32 (:func:`merge_size`) the arrivals of sources within a cube
+    differ by at most √3/32 ≈ 0.054 of a data step; the 1/D of a source at D
     changes by about (size/D)² / 3 and its direction by about size/D, which
     :func:`_joined` keeps small by keeping the sources near the listener.
     The tracks themselves are returned when no two sources share a cube.
@@ -260,7 +270,7 @@ def merged(tracks: SourceTracks, size: float,
     return SourceTracks(positions=np.concatenate([pos[~join], cen]),
                         q=np.concatenate([q[~join], np.add.reduceat(qs, starts, axis=0)]),
                         radius=np.concatenate([radius[~join], rj]),
-                        times=tracks.times)  # fmt: skip
+                        times=tracks.times, origin=tracks.origin, end=tracks.end)  # fmt: skip
 
 
 #: sources nearer to the listener's path than this many merging cubes are not merged
@@ -397,6 +407,89 @@ def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.flo
     return np.asarray(cen, dtype=np.float64), W
 
 
+#: the envelope of the physical changes is the standard deviation of the change
+#: pressure over this many data steps (:func:`change_envelope`)
+ENVELOPE_STEPS = 2.0
+
+
+def change_tracks(tracks: SourceTracks) -> SourceTracks:
+    """The tracks of the strengths' change per step, ``(q(n+1) − q(n−1)) / 2`` at
+    every knot (the padded silent knots included), cached on ``tracks``: exactly
+    0 wherever the sources do not change, whatever the listener does.
+
+    Rendered, they give the pressure of what changes in the data
+    (:func:`change_envelope`), the drive of the ``extended`` and ``tonal``
+    timbres: a listener moving through a steady field hears no change.
+    """
+
+    def build() -> SourceTracks:
+        q = np.asarray(tracks.q, dtype=np.float64)
+        # tracks held before and after the data (their first knots lie before
+        # their origin) go on as they were there: no change beyond them
+        held = tracks.origin is not None and float(tracks.times[0]) < tracks.origin
+        padded = np.pad(q, ((0, 0), (1, 1)), mode="edge" if held else "constant")
+        return _subset(tracks, 0.5 * (padded[:, 2:] - padded[:, :-2]))
+
+    out: SourceTracks = cached_on_tracks(tracks, "timbre:change", "", build)
+    return out
+
+
+def change_envelope(audio: NDArray[np.float64], rate: float, step_s: float, *,
+                    ambisonic: bool = False) -> NDArray[np.float64]:  # fmt: skip
+    """The envelope of the change pressure ``audio (n_channels, n)`` (the render of
+    :func:`change_tracks`): its standard deviation over a centred window of
+    :data:`ENVELOPE_STEPS` data steps (``step_s`` playback seconds each; at
+    least 4 samples).
+
+    Sources that do not change, or change at a constant rate, give none;
+    changing ones their local RMS: the drive of the ``extended`` and
+    ``tonal`` timbres follows the power of what changes, and nothing
+    changing adds nothing.
+
+    ``ambisonic``: the channels are spherical-harmonic components (channel
+    0 the omnidirectional one), whose signs carry the direction: each
+    channel's envelope is its covariance with channel 0 over the window,
+    divided by channel 0's standard deviation (for sound from one direction,
+    channel 0's envelope times that channel's encoding gain).
+    """
+    from scipy.ndimage import uniform_filter1d
+
+    w = max(int(round(ENVELOPE_STEPS * step_s * rate)), 4)
+    x = np.asarray(audio, dtype=np.float64)
+    m1 = uniform_filter1d(x, size=w, axis=-1, mode="nearest")
+    if ambisonic and x.shape[0] > 1:
+        cov = uniform_filter1d(x * x[:1], size=w, axis=-1, mode="nearest") - m1 * m1[:1]
+        var0 = cov[0].copy()
+        floor = 1e-12 * uniform_filter1d(x[0] * x[0], size=w, mode="nearest")
+        sd0 = np.sqrt(np.where(var0 > floor, var0, 0.0))
+        return np.where(sd0 > 0, cov / np.where(sd0 > 0, sd0, 1.0), 0.0)
+    m2 = uniform_filter1d(x * x, size=w, axis=-1, mode="nearest")
+    var = m2 - m1 * m1
+    # (a difference of two means: below their round-off it is no change at all)
+    var[var <= 1e-12 * m2] = 0.0
+    return np.sqrt(var)
+
+
+#: a render whose pressure is below this fraction of the size of the terms it
+#: sums (:func:`term_level`) is round-off: silent
+ROUNDOFF_LEVEL = 1e-10
+
+
+def term_level(tracks: SourceTracks, path: ListenerPath) -> float:
+    """The pressure (Pa) the tracks' rows would make if none cancelled another:
+    Σ_k max_t |q_k| / (4π D_k), D_k the row's nearest distance to the path's
+    captures (at least its clamp radius).  A render far below it is round-off."""
+    if tracks.n_sources == 0:
+        return 0.0
+    from scipy.spatial import cKDTree
+
+    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
+    d, _ = cKDTree(np.asarray(path.positions, dtype=np.float64)).query(pos)
+    d = np.maximum(d, np.maximum(np.asarray(tracks.radius, dtype=np.float64), 1e-9))
+    peak = np.max(np.abs(np.asarray(tracks.q, dtype=np.float64)), axis=1)
+    return float(np.sum(peak / (4 * np.pi * d)))
+
+
 _TABLES: dict[tuple[Any, ...], NDArray[np.float64]] = {}
 _TABLES_MAX = 8
 
@@ -504,7 +597,8 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
                   bounds: tuple[float, ...] | None = None, start: float = 0.0, lead: float = 0.0,
                   highpass_hz: float = HIGHPASS_HZ, seed: int = 0, alpha: float = ALPHA,
                   carriers: dict[str, tuple[Any, ...]] | None = None,
-                  hrtf: object = None) -> Rendered:  # fmt: skip
+                  hrtf: object = None,
+                  by_type: dict[str, SourceTracks] | None = None) -> Rendered:  # fmt: skip
     """Render ``tracks`` along ``path`` in one of :data:`TIMBRES`, then high-pass.
 
     Every layout the synthesis pans to is rendered directly; ``binaural`` is
@@ -528,6 +622,13 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         ``tonal`` carriers per type name (default :data:`TONAL_CARRIERS`).
     hrtf : HRIRSet, str or Path, optional
         ``binaural`` only: HRIRs or a SOFA file (default the spherical head).
+    by_type : dict, optional
+        ``tonal``: the tracks of each type (``{name: SourceTracks}``, the
+        whole field's terms); default from ``tracks.kind``.
+
+    A render whose pressure is round-off (below :data:`ROUNDOFF_LEVEL` of
+    :func:`term_level`) is silence: its samples are 0 and ``meta["silent_why"]``
+    says why, so that nothing amplifies round-off to full scale.
 
     Returns
     -------
@@ -550,14 +651,25 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     notes: list[str] = []
     phys = None
     finished = timbre == "physical"  # (its output's share: the ears', not their harmonics')
+    coarse: tuple[Rendered, int, int] | None = None
     if timbre in ("physical", "auto"):
-        phys = render(tracks, path, bounds=bounds, **kw)
-        if finished:
-            phys = stage.finish(phys)
-            meta["share_above_20hz_unfiltered"] = loudness(phys.audio, rate)["share_above"]
-            share = meta["share_above_20hz_unfiltered"]
+        f_cut = cutoff_hz(tracks, time_scale) if tracks.times.size >= 2 else 0.0
+        if not finished and 0 < f_cut and envelope_rate(int(rate), f_cut) < rate:
+            # data too slow to sound above the envelope rate's band: whether the
+            # physical render is audible is decided from its envelope-rate render
+            # (the images of the interpolation above it hold a negligible share)
+            joined = _joined(tracks, path, "timbre:joined", lambda join: join(tracks), c0)
+            coarse = _coarse_render(joined, path, kw, f_cut, bounds)
+            share = _share_above(coarse[0].audio, float(coarse[0].rate), 20.0)
+            phys = None
         else:
-            share = loudness(phys.audio, rate)["share_above"]
+            phys = render(tracks, path, bounds=bounds, **kw)
+            if finished:
+                phys = stage.finish(phys)
+                meta["share_above_20hz_unfiltered"] = loudness(phys.audio, rate)["share_above"]
+                share = meta["share_above_20hz_unfiltered"]
+            else:
+                share = loudness(phys.audio, rate)["share_above"]
         meta["physical_share_above_20hz"] = share
         if share < AUDIBLE_SHARE and tracks.n_sources:
             below = f"{100 * (1 - share):.0f} % of the physical sound lies below 20 Hz"
@@ -575,25 +687,37 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
                              f"--time-scale (the data played faster)")  # fmt: skip
         elif timbre == "auto":
             timbre = "physical"
+        if phys is None and timbre == "physical":
+            phys = render(tracks, path, bounds=bounds, **kw)
         meta["timbre"] = timbre
     if timbre == "physical":
         assert phys is not None
         out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, phys,
+        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse,
                         highpass_hz)  # fmt: skip
     else:
-        out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta)
+        out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta,
+                     by_type)  # fmt: skip
     if meta.get("beta_rule") == "rms":
-        notes.append("the sources' strength does not change at the data's time step (no "
-                     "physical sound to extend): their noise is scaled to the physical "
-                     "pressure's RMS")  # fmt: skip
+        notes.append("the field changes slowly against the data's time step (no physical "
+                     "sound at the cut-off to extend): the noise is scaled to the RMS of the "
+                     "physical pressure's changes")  # fmt: skip
     meta["timbre_notes"] = notes
     if not finished:
         out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
     if "share_above_20hz_unfiltered" not in meta:
         meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
     out.audio = highpass(out.audio, rate, highpass_hz)
+    level = ROUNDOFF_LEVEL * term_level(tracks, path)
+    peak = float(np.max(np.abs(out.audio), initial=0.0))
+    if peak <= level:
+        meta["silent_why"] = (f"nothing in the data changes in a way that sounds: the "
+                          f"{'pressure' if timbre == 'physical' else 'sound'} peaks at {peak:.3g} "
+                          f"Pa, round-off against the {level / ROUNDOFF_LEVEL:.3g} Pa its terms "
+                          f"would make without cancelling; written as silence, not amplified")  # fmt: skip
+        meta["timbre_notes"] = [*meta.get("timbre_notes", []), f"silent: {meta['silent_why']}"]
+        out.audio = np.zeros_like(out.audio)
     out.meta.update(meta)
     return out
 
@@ -642,6 +766,25 @@ def _coarse_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     return coarse, n, k
 
 
+def _envelope_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
+                     bounds: tuple[float, ...] | None, c0: float) -> Rendered:  # fmt: skip
+    """:func:`change_envelope` in every channel, taken at the envelope rate (sources
+    merged as :func:`_joined`) and interpolated to the audio rate."""
+    joined = _joined(tracks, path, "timbre:change", lambda join: join(change_tracks(tracks)), c0)
+    coarse, n, k = _coarse_render(joined, path, kw, f_cut, bounds)
+    step_s = _data_step(tracks) * float(kw["time_scale"])
+    parts = receivers_of(coarse.layout) or [None]
+    env = np.empty_like(coarse.audio)
+    c = 0
+    for r in parts:  # each receiver's channels (the ears of binaural: AmbiX each)
+        lay = coarse.layout if r is None else r.layout
+        m = lay.n_channels
+        env[c : c + m] = change_envelope(coarse.audio[c : c + m], coarse.rate, step_s,
+                                         ambisonic=is_ambisonic(lay))  # fmt: skip
+        c += m
+    return _upsampled(coarse, env, n, k)
+
+
 def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rendered:
     """Envelope-rate samples ``e (n_channels, ≥ n // k + 2)`` of ``coarse``
     linearly interpolated to ``n`` samples at ``k`` times the rate."""
@@ -680,41 +823,26 @@ def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
 
 def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
               bounds: tuple[float, ...] | None, seed: int, alpha: float, c0: float, start: float,
-              meta: dict[str, Any], phys: Rendered | None = None,
+              meta: dict[str, Any], coarse: tuple[Rendered, int, int] | None = None,
               highpass_hz: float = 0.0) -> Rendered:  # fmt: skip
     from scipy.fft import rfft
 
     f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
     meta.update({"alpha": alpha, "f_cut_hz": f_cut})
-    # below half the output high-pass the low band is inaudible and filtered out:
-    # its mono sum (for β) is all that is needed
+    # below half the output high-pass the low band is inaudible and filtered out
     keep_low = f_cut > 0.5 * highpass_hz
     rate = int(kw["rate"])
-    if phys is None and keep_low and tracks.n_sources and f_cut < 0.45 * rate:
-        # the synthesis is linear in the strengths: one render of the positive
-        # and one of the negative part of q give the pressure (their
-        # difference) and the envelope |q| (their sum), for the cost of about
-        # one render of q
-        pos, neg = _joined(tracks, path, "timbre:signs",
-                           lambda join: tuple(join(t) for t in _signs(tracks)), c0)  # fmt: skip
-        cp, n, k = _coarse_render(pos, path, kw, f_cut, bounds)
-        cn = _coarse_render(neg, path, kw, f_cut)[0]
-        phys = _upsampled(cp, cp.audio - cn.audio, n, k)
-        env = _upsampled(cp, cp.audio + cn.audio, n, k)
-    else:
-        if phys is None:
-            phys = _smooth_render(tracks, path, kw if keep_low else {**kw, "layout": "mono"},
-                                  f_cut, bounds)  # fmt: skip
-        if f_cut >= 0.45 * rate or phys.audio.shape[1] < 4 or tracks.n_sources == 0:
-            meta["beta"] = 0.0
-            return phys if keep_low else render(tracks, path, bounds=bounds, **kw)
-        absq = _joined(tracks, path, "timbre:abs",
-                       lambda join: join(_subset(tracks, np.abs(tracks.q))), c0)  # fmt: skip
-        env = _smooth_render(absq, path, kw, f_cut)
-    n = phys.audio.shape[1]
+    if f_cut >= 0.45 * rate or tracks.n_sources == 0:
+        meta["beta"] = 0.0
+        return render(tracks, path, bounds=bounds, **kw)
+    if coarse is None:
+        joined = _joined(tracks, path, "timbre:joined", lambda join: join(tracks), c0)
+        coarse = _coarse_render(joined, path, kw, f_cut, bounds)
+    low_r, n, k = coarse
     if n < 4:
         meta["beta"] = 0.0
-        return phys
+        return _upsampled(low_r, low_r.audio, n, k)
+    env = _envelope_render(tracks, path, kw, f_cut, bounds, c0)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.maximum(f, 0.25 * f_cut) ** (-alpha / 2)
@@ -723,74 +851,106 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         return clock.noise(_noise_table(clock.size, rate, (int(seed), 1), shape,
                                         ("power", alpha, f_cut)))  # fmt: skip
 
-    low = _crossover(phys.audio, rate, f_cut, "lowpass")
     env.audio *= _carriers(tracks, path, env, carrier, start=start, c0=c0)
     high = _crossover(env.audio, rate, f_cut, "highpass")
     # Eq. 13, power summed over the channels: low + β high matches the physical
-    # power under g(f) (the cross term needs the low band in every channel;
-    # without it, it is left out: random-phase noise is uncorrelated with it)
-    f = np.fft.rfftfreq(n, 1.0 / rate)
+    # power under g(f).  Spectra are normalised by their length (amplitudes, the
+    # same for any sample rate), so the physical pressure's may come from its
+    # envelope-rate render when the low band is not kept (then the cross term,
+    # which needs the low band at the audio rate, is left out: random-phase
+    # noise is uncorrelated with it)
     sigma = max(f_cut * 10.0 / 180.0, 3.0 * rate / n)  # Table 1: σ 10 Hz at 180 Hz
-    g2 = np.exp(-(((f - f_cut) / sigma) ** 2)) * (f > 0)
-    band = g2 > 1e-30 * g2.max(initial=0.0)  # where the weights are not negligible
-    g2 = g2[band]
+
+    def weights(
+        m: int, r: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+        f = np.asarray(np.fft.rfftfreq(m, 1.0 / r), dtype=np.float64)
+        g2 = np.exp(-(((f - f_cut) / sigma) ** 2)) * (f > 0)
+        band = g2 > 1e-30 * g2.max(initial=0.0)  # where the weights are not negligible
+        return f, band, g2[band]
+
+    f, band, g2 = weights(n, rate)
     # (in single precision: the sums below need 6 digits, at half the cost)
-    P, L, H = (rfft(x.astype(np.float32), axis=-1) for x in (phys.audio, low, high))
-    same = P.shape[0] == H.shape[0]
-    Pb, Lb, Hb = P[:, band], L[:, band], H[:, band]
+    H = rfft(high.astype(np.float32), axis=-1) / n
+    Hb = H[:, band]
     a = float(np.sum(np.abs(Hb) ** 2 * g2))
-    b = float(2 * np.sum(np.real(Lb * np.conj(Hb)) * g2)) if same else 0.0
-    c = float(np.sum(np.abs(Lb) ** 2 * g2) - np.sum(np.abs(Pb) ** 2 * g2))
-    disc = b * b - 4 * a * c
+    low = None
+    if keep_low:
+        phys_full = _upsampled(low_r, low_r.audio, n, k).audio
+        low = _crossover(phys_full, rate, f_cut, "lowpass")
+        P, L = (rfft(x.astype(np.float32), axis=-1) / n for x in (phys_full, low))
+        Pb, Lb = P[:, band], L[:, band]
+        b = float(2 * np.sum(np.real(Lb * np.conj(Hb)) * g2))
+    else:
+        m = low_r.audio.shape[1]
+        _, cb, cg2 = weights(m, low_r.rate)
+        P = rfft(low_r.audio, axis=-1) / m
+        fc = np.fft.rfftfreq(m, 1.0 / low_r.rate)
+        Pb = P[:, cb]
+        Lb = Pb * _lowpass_response(np.asarray(fc[cb], dtype=np.float64), low_r.rate, f_cut)
+        # the two grids' bins differ: weight each spectrum's bins by its own g2
+        b = 0.0
+        c_l = float(np.sum(np.abs(Lb) ** 2 * cg2) - np.sum(np.abs(Pb) ** 2 * cg2))
+    if keep_low:
+        c_l = float(np.sum(np.abs(Lb) ** 2 * g2) - np.sum(np.abs(Pb) ** 2 * g2))
+    disc = b * b - 4 * a * c_l
     beta = (-b + np.sqrt(disc)) / (2 * a) if a > 0 and disc >= 0 else 0.0
     beta = float(max(beta, 0.0))
     meta["beta_rule"] = "Eq. 13"
     if beta == 0.0 and a > 0:
-        # no physical power to match at the cut-off: a strength that does not change
-        # at the data's Nyquist frequency (a uniform linear ramp: dρ/dt constant).
-        # Its sources are still there: the noise carries the physical pressure's
-        # RMS (its level instead of its spectrum at f_cut)
-        p2 = float(np.sum(phys.audio**2))
-        h2 = float(np.sum(high**2))
+        # changes whose pressure has no power left at the cut-off (they are slow
+        # against the data's step): the noise carries the physical pressure's
+        # RMS over the band the changes occupy (its level instead of its
+        # spectrum at f_cut)
+        p2 = float(np.mean(_crossover(low_r.audio, low_r.rate, 0.25 * f_cut, "highpass") ** 2))
+        h2 = float(np.mean(high**2))
         if p2 > 0 and h2 > 0:
             beta = float(np.sqrt(p2 / h2))
             meta["beta_rule"] = "rms"
     meta["beta"] = beta
-    # below half the high-pass the low band is left out of the output, also when it was
-    # rendered in full (by "auto"): what the high-pass would leave of it is the ramp
-    # response of slow changes (a DC step in and out), infrasonic and no part of the sound
-    same_out = same and keep_low
-    meta["low_band"] = "kept" if same_out else "below half the high-pass: left out"
+    # below half the high-pass the low band is left out of the output: what the
+    # high-pass would leave of it is the ramp response of slow changes (a DC step
+    # in and out), infrasonic and no part of the sound
+    meta["low_band"] = "kept" if keep_low else "below half the high-pass: left out"
     # the output's spectrum before the high-pass is β H (+ L): its share above
     # 20 Hz without another transform
     H *= beta
-    if same_out:
+    high *= beta
+    if keep_low:
+        assert low is not None
         H += L
-        high *= beta
         high += low
-        audio = high
-    else:
-        audio = beta * high
     spec = np.sum(H.real**2 + H.imag**2, axis=0, dtype=np.float64)
     total = float(spec.sum())
     meta["share_above_20hz_unfiltered"] = float(spec[f > 20.0].sum() / total) if total > 0 else 0.0
-    return Rendered(audio=audio, rate=rate, layout=env.layout, time_scale=env.time_scale,
+    return Rendered(audio=high, rate=rate, layout=env.layout, time_scale=env.time_scale,
                     meta=env.meta)  # fmt: skip
 
 
-def _signs(tracks: SourceTracks) -> tuple[SourceTracks, SourceTracks]:
-    """The tracks of the positive and of the negative part of q (max(q, 0), max(−q, 0))."""
-    q = np.asarray(tracks.q, dtype=np.float64)
-    return _subset(tracks, np.maximum(q, 0.0)), _subset(tracks, np.maximum(-q, 0.0))
+def _lowpass_response(f: NDArray[np.float64], rate: float, f_cut: float) -> NDArray[np.complex128]:
+    """The frequency response at ``f`` of the crossover's low side (:func:`_crossover`)."""
+    from scipy.signal import sosfreqz
+
+    sos = butter_sos(2, float(f_cut), "lowpass", float(rate))
+    _, h = sosfreqz(
+        np.concatenate([sos, sos]), worN=np.asarray(f, dtype=np.float64), fs=float(rate)
+    )
+    return np.asarray(h)
 
 
 def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> NDArray[np.float64]:
     """One side of a causal 4th-order Linkwitz–Riley crossover at ``f_cut`` (the two
-    sides sum to an all-pass: the band split of Eq. 12 without pre-echo)."""
+    sides sum to an all-pass: the band split of Eq. 12 without pre-echo), started
+    in its steady state for the first sample (:func:`highpass_start`): a sound
+    already going on at the start passes without a transient."""
     from scipy.signal import sosfilt
 
-    sos = butter_sos(2, float(f_cut), kind, float(rate))
-    return np.asarray(sosfilt(np.concatenate([sos, sos]), x, axis=-1))
+    sos = np.concatenate([butter_sos(2, float(f_cut), kind, float(rate))] * 2)
+    a = np.asarray(x)
+    if a.shape[-1] == 0:
+        return a
+    out, _ = sosfilt(sos, a, axis=-1, zi=highpass_start(sos, a[..., 0]))
+    return np.asarray(out)
 
 
 def _tone(hz: float, phase_s: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -816,27 +976,26 @@ def _share_above(audio: NDArray[np.float64], rate: float, hz: float) -> float:
     return float(spec[f > hz].sum() / total) if total > 0 else 0.0
 
 
-def _type_tracks(tracks: SourceTracks) -> list[SourceTracks | None]:
-    """Per type (monopole, dipole, quadrupole): the tracks of |q| where the source
-    has that type, scaled so that every type's peak is the peak of all |q|
-    (None for a type that never occurs)."""
-    qabs = np.abs(np.asarray(tracks.q, dtype=np.float64))
+def _type_tracks(tracks: SourceTracks) -> dict[str, SourceTracks]:
+    """Per type that occurs (monopole, dipole, quadrupole): the tracks of q where
+    the source has that type."""
+    q = np.asarray(tracks.q, dtype=np.float64)
     kind = np.asarray(tracks.kind)
-    peak_all = float(qabs.max(initial=0.0))
-    out: list[SourceTracks | None] = []
-    for code in range(1, len(TYPES) + 1):
-        qk = np.where(kind == code, qabs, 0.0)
-        peak = float(qk.max(initial=0.0))
-        out.append(_subset(tracks, qk * (peak_all / peak)) if peak > 0 else None)
+    out: dict[str, SourceTracks] = {}
+    for code, name in enumerate(TYPES, start=1):
+        on = kind == code
+        if np.any(on & (q != 0)):
+            out[name] = _subset(tracks, np.where(on, q, 0.0))
     return out
 
 
 def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
            bounds: tuple[float, ...] | None, seed: int, carriers: dict[str, tuple[Any, ...]],
-           c0: float, start: float, meta: dict[str, Any]) -> Rendered:  # fmt: skip
-    if tracks.kind is None and tracks.n_sources > 0:  # (no sources: silence below)
+           c0: float, start: float, meta: dict[str, Any],
+           by_type: dict[str, SourceTracks] | None = None) -> Rendered:  # fmt: skip
+    if by_type is None and tracks.kind is None and tracks.n_sources > 0:  # (no sources: silence)
         raise ParameterError("the tonal timbre needs the source types of the tracks (kind); "
-                             "build them with SourceSeries.tracks()")  # fmt: skip
+                             "build them with SourceSeries.tracks(), or give by_type")  # fmt: skip
     bad = set(carriers) - set(TYPES)
     if bad:
         raise ParameterError(f"tonal carriers are given per type {TYPES}, got {sorted(bad)}")
@@ -846,14 +1005,28 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     base: Rendered | None = None
     used = {}
     f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
-    by_type = cached_on_tracks(tracks, "timbre:types", "", lambda: _type_tracks(tracks))
-    joined = _joined(tracks, path, "timbre:types:joined",
-                     lambda join: [None if t is None else join(t) for t in by_type], c0)  # fmt: skip
-    for code, name in enumerate(TYPES, start=1):
-        sub = by_type[code - 1]
-        if sub is None or name not in carriers:
+    if by_type is None:
+        by_type = cached_on_tracks(tracks, "timbre:types", "", lambda: _type_tracks(tracks))
+    envs: dict[str, Rendered] = {}
+    # each type's changes scaled so that its largest equals the largest of all types
+    # (a property of the data, not of this render: distance and direction keep
+    # their effect; loudness across types is not physical)
+    peak = {name: float(np.max(np.abs(change_tracks(t).q), initial=0.0))
+            for name, t in by_type.items() if t is not None and t.n_sources}  # fmt: skip
+    top = max(peak.values(), default=0.0)
+    for name in TYPES:
+        sub = by_type.get(name)
+        if sub is None or sub.n_sources == 0 or name not in carriers or not peak.get(name):
             continue
-        env = _smooth_render(joined[code - 1], path, kw, f_cut)
+        env = _envelope_render(sub, path, kw, f_cut, bounds, c0)
+        if float(np.max(np.abs(env.audio), initial=0.0)) > 0:
+            env.audio *= top / peak[name]
+            envs[name] = env
+    for code, name in enumerate(TYPES, start=1):
+        if name not in envs:
+            continue
+        env = envs[name]
+        sub = by_type[name]
         rate = env.rate
         if audio is None:
             base, audio = env, np.zeros_like(env.audio)
@@ -877,15 +1050,24 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         else:
             raise ParameterError(f"tonal carrier for {name} must be ('tone', Hz) or "
                                  f"('noise', low Hz, high Hz), got {spec!r}")  # fmt: skip
-        audio += env.audio * _carriers(sub, path, env, carrier, start=start, c0=c0)
+        audio += env.audio * _carriers(_abs_tracks(sub), path, env, carrier, start=start, c0=c0)
         used[name] = list(spec)
     meta["carriers"] = used
     if audio is not None:
         meta["share_above_20hz_unfiltered"] = _share_above(audio, float(kw["rate"]), 20.0)
-    if base is None or audio is None:  # no sources: silence of the right shape
+    if base is None or audio is None:  # nothing changes: silence of the right shape
         empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, tracks.times.size)),
-                             radius=np.zeros(0), times=tracks.times)  # fmt: skip
+                             radius=np.zeros(0), times=tracks.times, origin=tracks.origin,
+                             end=tracks.end)  # fmt: skip
         base = render(empty, path, **kw)
         audio = base.audio
     return Rendered(audio=audio, rate=base.rate, layout=base.layout,
                     time_scale=base.time_scale, meta=base.meta)  # fmt: skip
+
+
+def _abs_tracks(tracks: SourceTracks) -> SourceTracks:
+    """The tracks with |q| (the weights of the carriers' mean emission time), cached."""
+    out: SourceTracks = cached_on_tracks(
+        tracks, "timbre:abs", "", lambda: _subset(tracks, np.abs(np.asarray(tracks.q)))
+    )
+    return out

@@ -122,7 +122,7 @@ class LiveEngine:
         self.block = block
         self.c0 = float(c0)
         self.loop = loop
-        span = float(tracks.times[-1] - tracks.times[0]) if tracks.times.size > 1 else 0.0
+        span = tracks.t_last - tracks.t_first if tracks.times.size > 1 else 0.0
         self.span_s = span * self.time_scale  # playback seconds of one loop
         self.t = 0.0  # playback seconds into the current loop
         self.elapsed = 0.0  # playback seconds since start
@@ -150,7 +150,7 @@ class LiveEngine:
     @property
     def data_time(self) -> float:
         """Data time (s) of the next block's first sample (for the time slider)."""
-        return float(self.tracks.times[0] + self.t / self.time_scale)
+        return float(self.tracks.t_first + self.t / self.time_scale)
 
     def set_pose(self, position: ArrayLike, forward: ArrayLike, up: ArrayLike) -> int:
         """Set the listener pose used from the next block on; returns a version number."""

@@ -378,7 +378,7 @@ def part_end(part: Any, path: ListenerPath, *, c0: float | None = None) -> float
         if tracks.n_sources == 0 or times.size == 0:
             return 0.0
         lo, hi, _ = source_extent(tracks)
-        span = float(times[-1] - times[0]) - float(part.lead) + _farthest(pts, lo, hi) / c
+        span = tracks.t_last - tracks.t_first - float(part.lead) + _farthest(pts, lo, hi) / c
         return max(float(part.time_scale) * span, 0.0)
     fn = getattr(part, "end_time", None)
     if callable(fn):

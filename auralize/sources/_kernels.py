@@ -319,3 +319,223 @@ def quadrupole_of_stress(tt, h):  # type: ignore[no-untyped-def]
 
 def empty_like_strengths(shape: tuple[int, int, int]) -> np.ndarray:
     return np.empty((3, *shape), dtype=np.float64)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _inner2(i: int, n: int) -> int:
+    """Centre of a 5-point (2h) stencil kept inside [0, n) (-1 if n < 5: no 2h stencil)."""
+    if n < 5:
+        return -1
+    if i < 2:
+        return 2
+    if i > n - 3:
+        return n - 3
+    return i
+
+
+@numba.njit(parallel=True, **_NJIT)
+def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err):  # type: ignore[no-untyped-def]
+    """Discretisation-error estimates ``err (3, nz, ny, nx)`` of the strengths ``s``.
+
+    Each strength is a second-order finite difference; the same difference
+    over twice the step (2h in space, 2Δt in time) differs from it by about
+    three times its truncation error (Richardson), so ``|S_h − S_2h| / 3``
+    estimates the error of S_h: the monopole's from the time stencil, the
+    dipole's from its divergence (space) and its time difference, the
+    quadrupole's from its second and mixed differences.  Where a wider
+    stencil does not fit (an axis of fewer than 5 points, a series of
+    fewer than 4 steps) or would read a no-data point (``bad``), that part
+    of the estimate is 0.
+    """
+    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    hx, hy, hz = h[0], h[1], h[2]
+    wide_t = inv_dt2 > 0.0
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        k2 = _inner2(k, nz)
+        for j in range(ny):
+            j2 = _inner2(j, ny)
+            for i in range(nx):
+                i2 = _inner2(i, nx)
+                if bad[k, j, i]:
+                    err[0, k, j, i] = 0.0
+                    err[1, k, j, i] = 0.0
+                    err[2, k, j, i] = 0.0
+                    continue
+                # monopole: time stencil over 2Δt
+                em = 0.0
+                if wide_t:
+                    em = abs(s[0, k, j, i] - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
+                # dipole: divergence over 2h (space), and over 2Δt (time)
+                ed = 0.0
+                ok_x = i2 >= 0 and not (bad[k, j, i2 - 2] or bad[k, j, i2 + 2])
+                ok_y = j2 >= 0 and not (bad[k, j2 - 2, i] or bad[k, j2 + 2, i])
+                ok_z = k2 >= 0 and not (bad[k2 - 2, j, i] or bad[k2 + 2, j, i])
+                div2 = 0.0
+                div1 = 0.0
+                if ok_x:
+                    div2 += (dm[0, k, j, i2 + 2] - dm[0, k, j, i2 - 2]) / (4.0 * hx)
+                    div1 += (dm[0, k, j, i2 + 1] - dm[0, k, j, i2 - 1]) / (2.0 * hx)
+                if ok_y:
+                    div2 += (dm[1, k, j2 + 2, i] - dm[1, k, j2 - 2, i]) / (4.0 * hy)
+                    div1 += (dm[1, k, j2 + 1, i] - dm[1, k, j2 - 1, i]) / (2.0 * hy)
+                if ok_z:
+                    div2 += (dm[2, k2 + 2, j, i] - dm[2, k2 - 2, j, i]) / (4.0 * hz)
+                    div1 += (dm[2, k2 + 1, j, i] - dm[2, k2 - 1, j, i]) / (2.0 * hz)
+                ed = abs(div1 - div2) * inv_dt / 3.0
+                if wide_t:
+                    d2 = 0.0
+                    i0, i1 = _lohi(i, nx)
+                    j0, j1 = _lohi(j, ny)
+                    k0, k1 = _lohi(k, nz)
+                    if i1 > i0:
+                        d2 += (dm2[0, k, j, i1] - dm2[0, k, j, i0]) / ((i1 - i0) * hx)
+                    if j1 > j0:
+                        d2 += (dm2[1, k, j1, i] - dm2[1, k, j0, i]) / ((j1 - j0) * hy)
+                    if k1 > k0:
+                        d2 += (dm2[2, k1, j, i] - dm2[2, k0, j, i]) / ((k1 - k0) * hz)
+                    ed += abs(s[1, k, j, i] - d2 * inv_dt2) / 3.0
+                # quadrupole: second differences over 2h, mixed ones as products of 2h differences
+                eq = 0.0
+                if ok_x:
+                    a = tt[0, k, j, i2 + 1] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 1]
+                    b = 0.25 * (tt[0, k, j, i2 + 2] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 2])
+                    eq += (a - b) / (hx * hx)
+                if ok_y:
+                    a = tt[1, k, j2 + 1, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 1, i]
+                    b = 0.25 * (tt[1, k, j2 + 2, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 2, i])
+                    eq += (a - b) / (hy * hy)
+                if ok_z:
+                    a = tt[2, k2 + 1, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 1, j, i]
+                    b = 0.25 * (tt[2, k2 + 2, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 2, j, i])
+                    eq += (a - b) / (hz * hz)
+                if ok_x and ok_y:
+                    a = (
+                        tt[3, k, j2 + 1, i2 + 1]
+                        - tt[3, k, j2 + 1, i2 - 1]
+                        - tt[3, k, j2 - 1, i2 + 1]
+                        + tt[3, k, j2 - 1, i2 - 1]
+                    ) / 4.0
+                    b = (
+                        tt[3, k, j2 + 2, i2 + 2]
+                        - tt[3, k, j2 + 2, i2 - 2]
+                        - tt[3, k, j2 - 2, i2 + 2]
+                        + tt[3, k, j2 - 2, i2 - 2]
+                    ) / 16.0
+                    eq += 2.0 * (a - b) / (hx * hy)
+                if ok_x and ok_z:
+                    a = (
+                        tt[4, k2 + 1, j, i2 + 1]
+                        - tt[4, k2 + 1, j, i2 - 1]
+                        - tt[4, k2 - 1, j, i2 + 1]
+                        + tt[4, k2 - 1, j, i2 - 1]
+                    ) / 4.0
+                    b = (
+                        tt[4, k2 + 2, j, i2 + 2]
+                        - tt[4, k2 + 2, j, i2 - 2]
+                        - tt[4, k2 - 2, j, i2 + 2]
+                        + tt[4, k2 - 2, j, i2 - 2]
+                    ) / 16.0
+                    eq += 2.0 * (a - b) / (hx * hz)
+                if ok_y and ok_z:
+                    a = (
+                        tt[5, k2 + 1, j2 + 1, i]
+                        - tt[5, k2 + 1, j2 - 1, i]
+                        - tt[5, k2 - 1, j2 + 1, i]
+                        + tt[5, k2 - 1, j2 - 1, i]
+                    ) / 4.0
+                    b = (
+                        tt[5, k2 + 2, j2 + 2, i]
+                        - tt[5, k2 + 2, j2 - 2, i]
+                        - tt[5, k2 - 2, j2 + 2, i]
+                        + tt[5, k2 - 2, j2 - 2, i]
+                    ) / 16.0
+                    eq += 2.0 * (a - b) / (hy * hz)
+                err[0, k, j, i] = em
+                err[1, k, j, i] = ed
+                err[2, k, j, i] = abs(eq) / 3.0
+
+
+@numba.njit(parallel=True, **_NJIT)
+def apply_floor(s, err, factor, roundoff):  # type: ignore[no-untyped-def]
+    """Zero each strength of ``s (3, ...)`` not above ``factor`` times its error
+    estimate or above ``roundoff (3,)`` (in place).
+
+    The estimate of a point is the largest of ``err`` over the point and its
+    26 neighbours: a truncation error varies smoothly in space, and the
+    Richardson estimate of one point can vanish where the leading error term
+    changes sign while the strength, made of the same error, does not.
+    """
+    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        k0, k1 = _lohi(k, nz)
+        for j in range(ny):
+            j0, j1 = _lohi(j, ny)
+            for i in range(nx):
+                i0, i1 = _lohi(i, nx)
+                for c in range(3):
+                    a = abs(s[c, k, j, i])
+                    if a == 0.0:
+                        continue
+                    if a <= roundoff[c]:
+                        s[c, k, j, i] = 0.0
+                        continue
+                    e = 0.0
+                    for kk in range(k0, k1 + 1):
+                        for jj in range(j0, j1 + 1):
+                            for ii in range(i0, i1 + 1):
+                                e = max(e, err[c, kk, jj, ii])
+                    if a <= factor * e:
+                        s[c, k, j, i] = 0.0
+
+
+@numba.njit(parallel=True, **_NJIT)
+def residual(rho_a, rho_b, rho_a2, rho_b2, m_c, inv_dt, inv_dt2, h, bad, out, err):  # type: ignore[no-untyped-def]
+    """Continuity residual ``Q = ∂ρ/∂t + ∇·m`` (``out (nz, ny, nx)``) and its
+    discretisation-error estimate ``err`` (as :func:`_error_stencil`: the
+    difference of the Δt and 2Δt time stencils and of the h and 2h
+    divergences, over 3).
+
+    ``m_c (nz, ny, nx, 3)`` is the mass flux at the step itself; ``inv_dt2``
+    0 means no 2Δt stencil.  The divergence uses the detection's first
+    differences (central inside, one-sided at grid faces).
+    """
+    nz, ny, nx = rho_a.shape
+    hx, hy, hz = h[0], h[1], h[2]
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        k0, k1 = _lohi(k, nz)
+        k2 = _inner2(k, nz)
+        fz = 1.0 / ((k1 - k0) * hz) if k1 > k0 else 0.0
+        for j in range(ny):
+            j0, j1 = _lohi(j, ny)
+            j2 = _inner2(j, ny)
+            fy = 1.0 / ((j1 - j0) * hy) if j1 > j0 else 0.0
+            for i in range(nx):
+                i0, i1 = _lohi(i, nx)
+                i2 = _inner2(i, nx)
+                fx = 1.0 / ((i1 - i0) * hx) if i1 > i0 else 0.0
+                dt1 = (rho_b[k, j, i] - rho_a[k, j, i]) * inv_dt
+                div = ((m_c[k, j, i1, 0] - m_c[k, j, i0, 0]) * fx
+                       + (m_c[k, j1, i, 1] - m_c[k, j0, i, 1]) * fy
+                       + (m_c[k1, j, i, 2] - m_c[k0, j, i, 2]) * fz)  # fmt: skip
+                out[k, j, i] = dt1 + div
+                if bad[k, j, i]:
+                    err[k, j, i] = 0.0
+                    continue
+                e = 0.0
+                if inv_dt2 > 0.0:
+                    e += abs(dt1 - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
+                d1 = 0.0
+                d2 = 0.0
+                if i2 >= 0 and not (bad[k, j, i2 - 2] or bad[k, j, i2 + 2]):
+                    d1 += (m_c[k, j, i2 + 1, 0] - m_c[k, j, i2 - 1, 0]) / (2.0 * hx)
+                    d2 += (m_c[k, j, i2 + 2, 0] - m_c[k, j, i2 - 2, 0]) / (4.0 * hx)
+                if j2 >= 0 and not (bad[k, j2 - 2, i] or bad[k, j2 + 2, i]):
+                    d1 += (m_c[k, j2 + 1, i, 1] - m_c[k, j2 - 1, i, 1]) / (2.0 * hy)
+                    d2 += (m_c[k, j2 + 2, i, 1] - m_c[k, j2 - 2, i, 1]) / (4.0 * hy)
+                if k2 >= 0 and not (bad[k2 - 2, j, i] or bad[k2 + 2, j, i]):
+                    d1 += (m_c[k2 + 1, j, i, 2] - m_c[k2 - 1, j, i, 2]) / (2.0 * hz)
+                    d2 += (m_c[k2 + 2, j, i, 2] - m_c[k2 - 2, j, i, 2]) / (4.0 * hz)
+                err[k, j, i] = e + abs(d1 - d2) / 3.0

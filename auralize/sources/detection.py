@@ -204,7 +204,8 @@ class Thresholds:
     Each of ``monopole``, ``dipole``, ``quadrupole`` is
 
     * ``"auto"`` (default): adapts to the data, per type, from |S| over the
-      valid points of up to :data:`AUTO_SAMPLE_STEPS` evenly spaced steps:
+      valid points of up to :data:`AUTO_SAMPLE_STEPS` evenly spaced steps
+      (strengths within their discretisation error already 0, see ``floor``):
       the larger of a robust noise floor (median + 5 · 1.4826 · MAD, at most
       the level of the strongest 1 %) and the level above which the
       strongest points carry 90 % of Σ|S|;
@@ -214,6 +215,13 @@ class Thresholds:
       refined, so on resampled meshes this does not converge);
     * an absolute value, in that strength's units: kg/(m³·s) for monopoles,
       kg/(m⁴·s) for dipoles, kg/(m³·s²) for quadrupoles.
+
+    Whatever the threshold, a strength is a source only where it rises above
+    ``floor`` times its own discretisation error (the same difference over
+    2h and 2Δt compared with it, :func:`step_strengths`): constant density
+    has no monopoles, a divergence-free flow at constant density no dipoles
+    (its ∇·(ρv) is truncation error), however the rest of the data are
+    distributed.  ``floor=0`` is paper 003's literal detection.
 
     Examples
     --------
@@ -229,11 +237,15 @@ class Thresholds:
     dipole: ThresholdSpec = "auto"
     quadrupole: ThresholdSpec = "auto"
     zero_fraction: float = 1.0
+    #: a strength not above this many times its discretisation-error estimate is
+    #: not a source, whatever the threshold (0: no floor, paper 003 literally)
+    floor: float = 3.0
 
     def __post_init__(self) -> None:
         self._parsed = [_parse_threshold(getattr(self, k), k) for k in TYPES]
         if not (math.isfinite(self.zero_fraction) and self.zero_fraction >= 0):
             raise ParameterError(f"zero_fraction must be >= 0, got {self.zero_fraction!r}")
+        self.floor = check_floor(self.floor)
 
     @property
     def needs_scale(self) -> bool:
@@ -277,7 +289,7 @@ class Thresholds:
         return out
 
     def describe(self) -> dict[str, object]:
-        return {k: getattr(self, k) for k in (*TYPES, "zero_fraction")}
+        return {k: getattr(self, k) for k in (*TYPES, "zero_fraction", "floor")}
 
 
 @dataclass
@@ -383,10 +395,25 @@ class SourceTracks:
     index: NDArray[np.int64] | None = None
     kind: NDArray[np.int8] | None = None
     cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    #: data time of the first and the last data step (default ``times[0]`` and
+    #: ``times[-1]``); tracks with knots held before and after the data
+    #: (:meth:`auralize.sources.field.FieldTracks.tracks`) set them
+    origin: float | None = None
+    end: float | None = None
 
     @property
     def n_sources(self) -> int:
         return int(self.q.shape[0])
+
+    @property
+    def t_first(self) -> float:
+        """Data time of the first data step: the time origin of a render."""
+        return float(self.times[0]) if self.origin is None else float(self.origin)
+
+    @property
+    def t_last(self) -> float:
+        """Data time of the last data step."""
+        return float(self.times[-1]) if self.end is None else float(self.end)
 
 
 def valid_mask(volume: TimeVolume) -> NDArray[np.bool_] | None:
@@ -413,10 +440,14 @@ class StepCache:
     """
 
     def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
-                 qmean: NDArray[np.float64] | None = None) -> None:  # fmt: skip
+                 qmean: SteadyBase | NDArray[np.float64] | None = None,
+                 floor: float = 0.0) -> None:  # fmt: skip
         self.volume, self.mapping = volume, mapping
         self.valid = valid_mask(volume)
         self.qmean = qmean
+        #: strengths not above ``floor`` times their error estimate are zeroed (0: off)
+        self.floor = check_floor(floor)
+        self.err: np.ndarray | None = None  # error estimates of the last step (floor > 0)
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = {}
         self.work: np.ndarray | None = None  # kernel scratch, reused between steps
         #: no-data points ``(nz, ny, nx)`` of the last step computed (None: none)
@@ -441,6 +472,10 @@ class StepCache:
         return self._cache[n]
 
     def keep(self, lo: int, hi: int) -> None:
+        """Drop the frames outside steps ``[lo, hi]`` (one more on each side when the
+        floor's 2Δt stencil reads them)."""
+        if self.floor > 0:
+            lo, hi = lo - 1, hi + 1
         for k in [k for k in self._cache if k < lo or k > hi]:
             del self._cache[k]
 
@@ -453,6 +488,13 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
     the steps its time differences use (n-1, n, n+1); a strength whose
     stencil reads a no-data point is 0 (see :func:`auralize.sources._kernels.mask_nodata`).
     ``cache.nodata`` holds the step's no-data points afterwards.
+
+    The quadrupole strength is that of the stress minus the field's local
+    steady state (``cache.qmean``, :class:`SteadyBase`).  With ``cache.floor``
+    > 0, a strength not above that many times its discretisation-error
+    estimate (:func:`auralize.sources._kernels._error_stencil`: the h and 2h
+    stencils compared) or above round-off (:data:`ROUNDOFF` of
+    :func:`input_scale`) is 0: it is not a source.
     """
     T = volume.n_steps
     a, b = max(n - 1, 0), min(n + 1, T - 1)
@@ -464,8 +506,18 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
     inv_dt = 1.0 / (volume.times[b] - volume.times[a])
     cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing, out,
                              cache.work)  # fmt: skip
-    if cache.qmean is not None:
-        np.subtract(out[2], cache.qmean, out=out[2])
+    tt = cache.work[3:]
+    base = cache.qmean
+    if isinstance(base, SteadyBase):
+        here = base.at(n)
+        if here is None:  # the field's own steady state: no fluctuation
+            out[2] = 0.0
+        else:
+            np.subtract(out[2], here[0], out=out[2])
+            if cache.floor > 0:
+                np.subtract(tt, here[1], out=tt)
+    elif base is not None:
+        np.subtract(out[2], base, out=out[2])
     oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
     if oks:
         ok = oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)
@@ -473,7 +525,155 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
         K.mask_nodata(cache.nodata, out)
     else:
         cache.nodata = None
+    if cache.floor > 0:
+        _apply_floor(volume, cache, n, a, b, inv_dt, out)
     return out
+
+
+def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, inv_dt: float,
+                 out: NDArray[np.float64]) -> None:  # fmt: skip
+    """Zero the strengths of step ``n`` within their discretisation error (see :func:`step_strengths`)."""
+    T = volume.n_steps
+    a2, b2 = max(n - 2, 0), min(n + 2, T - 1)
+    wide = (a2, b2) != (a, b)
+    rho_a2, _, m_a2, ok_a2 = cache.get(a2)
+    rho_b2, _, m_b2, ok_b2 = cache.get(b2)
+    inv_dt2 = 1.0 / (volume.times[b2] - volume.times[a2]) if wide else 0.0
+    dm2 = np.ascontiguousarray(np.moveaxis(m_b2 - m_a2, -1, 0))
+    bad = cache.nodata
+    extra = [o for o in (ok_a2, ok_b2) if o is not None]
+    if extra:
+        wider = ~np.logical_and.reduce(extra)
+        bad = wider if bad is None else bad | wider
+    if bad is None:
+        bad = _no_bad(volume.shape)
+    if cache.err is None or cache.err.shape != out.shape:
+        cache.err = np.empty_like(out)
+    work = cache.work
+    assert work is not None
+    K._error_stencil(rho_a2, rho_b2, work[:3], dm2, work[3:], inv_dt, inv_dt2,
+                     np.asarray(volume.spacing, dtype=np.float64), out, bad, cache.err)  # fmt: skip
+    roundoff = ROUNDOFF * input_scale(volume, cache, n)
+    K.apply_floor(out, cache.err, float(cache.floor), roundoff)
+
+
+_NO_BAD: dict[tuple[int, ...], NDArray[np.bool_]] = {}
+
+
+def _no_bad(shape: tuple[int, ...]) -> NDArray[np.bool_]:
+    """An all-False mask of ``shape`` (cached, read-only)."""
+    m = _NO_BAD.get(shape)
+    if m is None:
+        if len(_NO_BAD) > 4:
+            _NO_BAD.clear()
+        m = _NO_BAD[shape] = np.zeros(shape, dtype=bool)
+        m.flags.writeable = False
+    return m
+
+
+def check_floor(floor: float) -> float:
+    """A valid floor factor (>= 0; 0 turns the floor off)."""
+    try:
+        f = float(floor)
+    except (TypeError, ValueError):
+        raise ParameterError(f"floor must be a number >= 0 (0: off), got {floor!r}") from None
+    if not (math.isfinite(f) and f >= 0):
+        raise ParameterError(f"floor must be a number >= 0 (0: off), got {floor!r}")
+    return f
+
+
+#: relative change of the mapped density and mass flux between two steps below which
+#: the second step is taken as steady (six significant digits: text output's precision)
+STEADY_RTOL = 1e-6
+
+
+def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
+                   rtol: float = STEADY_RTOL) -> NDArray[np.int64]:  # fmt: skip
+    """The steps where the field is in its own steady state: the first and the
+    last step, and both ends of every step over which nothing changed (the mapped
+    density and mass flux within ``rtol`` of their largest magnitude).
+
+    Between two anchors the field's local steady state is the linear
+    interpolation of the stress at them (:class:`SteadyBase`).
+    """
+    T = volume.n_steps
+    anchors = {0, T - 1}
+    if T < 3 or mapping.unavailable(volume).get("quadrupole"):
+        return np.array(sorted(anchors), dtype=np.int64)
+    cache = StepCache(volume, mapping)
+    for n in range(1, T):
+        r0, _, m0, _ = cache.get(n - 1)
+        r1, _, m1, _ = cache.get(n)
+        scale_r = max(
+            float(np.max(np.abs(r0), initial=0.0)), float(np.max(np.abs(r1), initial=0.0))
+        )
+        scale_m = max(
+            float(np.max(np.abs(m0), initial=0.0)), float(np.max(np.abs(m1), initial=0.0))
+        )
+        dr = float(np.max(np.abs(r1 - r0), initial=0.0))
+        dm = float(np.max(np.abs(m1 - m0), initial=0.0))
+        if dr <= rtol * scale_r and dm <= rtol * scale_m:
+            anchors.update((n - 1, n))
+        cache.keep(n, n)
+    return np.array(sorted(anchors), dtype=np.int64)
+
+
+class SteadyBase:
+    """The field's local steady state, whose sound is removed (``steady="remove"``).
+
+    Lighthill's far field depends on the time changes of the stress
+    T_ij = ρ v_i v_j only, and a flow that is steady, or has become steady,
+    makes no sound.  The steady state is judged locally in time: at the
+    anchor steps (:func:`steady_anchors`: the first and the last step, and
+    every stretch over which nothing changed) it is the stress itself, and
+    between two anchors the linear interpolation of the stress at them.  The
+    quadrupole strength of step n is that of T(n) minus this state: exactly
+    0 at an anchor (a steady stretch, the ends of the series) and, since the
+    state is linear in time between anchors, its ∂²/∂t² is 0 there and the
+    far field it removes is nothing but the static near field of the mean
+    stress.
+
+    Parameters
+    ----------
+    volume, mapping
+        The volume (or one slab of it) and its mapping.
+    anchors : (A,) int
+        Sorted anchor steps (:func:`steady_anchors`).
+    """
+
+    def __init__(self, volume: TimeVolume, mapping: AcousticMapping,
+                 anchors: NDArray[np.integer]) -> None:  # fmt: skip
+        self.volume, self.mapping = volume, mapping
+        self.anchors = np.unique(np.asarray(anchors, dtype=np.int64))
+        self._held: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+
+    def for_volume(self, volume: TimeVolume, mapping: AcousticMapping | None = None) -> SteadyBase:
+        """The same anchors on another volume (a slab of this one)."""
+        return SteadyBase(volume, self.mapping if mapping is None else mapping, self.anchors)
+
+    def _state(self, a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        hit = self._held.get(a)
+        if hit is None:
+            rho, v, _, _ = StepCache(self.volume, self.mapping).get(a)
+            tt = np.ascontiguousarray(_stress(rho, v))
+            hit = (K.quadrupole_of_stress(tt, self.volume.spacing), tt)
+            if len(self._held) >= 2:
+                self._held.pop(next(iter(self._held)))
+            self._held[a] = hit
+        return hit
+
+    def at(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """``(S_q, stress)`` of the steady state at step ``n``, or None at an anchor
+        (the field is its own steady state there)."""
+        i = int(np.searchsorted(self.anchors, n))
+        if i < self.anchors.size and self.anchors[i] == n:
+            return None
+        a, b = int(self.anchors[i - 1]), int(self.anchors[i])
+        t = self.volume.times
+        f = float((t[n] - t[a]) / (t[b] - t[a]))
+        sa, ta = self._state(a)
+        sb, tb = self._state(b)
+        return (1.0 - f) * sa + f * sb, (1.0 - f) * ta + f * tb
 
 
 #: steps per partial sum of the time-mean stress (fixed, so serial and
@@ -546,11 +746,12 @@ def steady_quadrupole(ref: NDArray[np.float64], dsum: NDArray[np.float64],
 
 
 def steady_strength(volume: TimeVolume, m: AcousticMapping,
-                    steady: str = "remove") -> NDArray[np.float64] | None:  # fmt: skip
-    """The steady quadrupole strength to subtract (``steady="remove"``), or None (``"keep"``)."""
+                    steady: str = "remove") -> SteadyBase | None:  # fmt: skip
+    """The field's local steady state to subtract (``steady="remove"``,
+    :class:`SteadyBase`), or None (``"keep"``)."""
     if check_steady(steady) == "keep":
         return None
-    return steady_quadrupole(*stress_sum(volume, m), volume.spacing)
+    return SteadyBase(volume, m, steady_anchors(volume, m))
 
 
 def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
@@ -669,11 +870,13 @@ def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np
 
 
 def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
-                   qmean: NDArray[np.float64] | None = None,
-                   max_steps: int = AUTO_SAMPLE_STEPS,
+                   qmean: SteadyBase | NDArray[np.float64] | None = None,
+                   max_steps: int = AUTO_SAMPLE_STEPS, floor: float = 0.0,
                    progress_bar: bool = False) -> StrengthStats:  # fmt: skip
-    """|S| statistics of each type over evenly spaced sample steps (valid points only)."""
-    cache = StepCache(volume, mapping, qmean=qmean)
+    """|S| statistics of each type over evenly spaced sample steps (valid points only;
+    strengths within their discretisation error are 0 with ``floor`` > 0, see
+    :func:`step_strengths`)."""
+    cache = StepCache(volume, mapping, qmean=qmean, floor=floor)
     buf = K.empty_like_strengths(volume.shape)
     parts = []
     steps = sample_steps(volume.n_steps, max_steps)
@@ -694,13 +897,14 @@ def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
 
 def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64], *,
                 zero_fraction: float = 1.0, steps: range | None = None,
-                progress_bar: bool = False, qmean: NDArray[np.float64] | None = None,
-                delta_v: str = "cell") -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
+                progress_bar: bool = False, qmean: SteadyBase | NDArray[np.float64] | None = None,
+                delta_v: str = "cell", floor: float = 0.0) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
     """Yield ``(step, SourceFrame)`` for each step, reading frames one at a time.
 
-    Each frame's ``n_valid`` is the number of points with data at that step.
+    Each frame's ``n_valid`` is the number of points with data at that step;
+    ``floor`` as :class:`StepCache`.
     """
-    cache = StepCache(volume, mapping, qmean=qmean)
+    cache = StepCache(volume, mapping, qmean=qmean, floor=floor)
     buf = K.empty_like_strengths(volume.shape)
     steps = steps if steps is not None else range(volume.n_steps)
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
@@ -798,14 +1002,14 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     qmean = steady_strength(volume, m, steady)
     thresholds = thresholds or Thresholds()
     stats = (
-        strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar)
+        strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar, floor=thresholds.floor)
         if thresholds.needs_scale
         else None
     )
     thr = thresholds.resolve(stats)
     frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
                                         progress_bar=progress_bar, qmean=qmean,
-                                        delta_v=delta_v)]  # fmt: skip
+                                        delta_v=delta_v, floor=thresholds.floor)]  # fmt: skip
     fraction = classified_fraction(frames, volume.n_points)
     uniform = stats is not None and all(
         x[0] == x[-1] for i, x in enumerate(stats.sample) if x.size and fraction[TYPES[i]] > 0

@@ -1,8 +1,9 @@
 """The core field auralization (paper 003) as a registered SoundModel named ``field``.
 
 It shows the plugin contract on the built-in pipeline: parameters declared as
-data, inputs = a volume (no listener), output = what the volume emits, its
-detected monopole/dipole/quadrupole sources as one
+data, inputs = a volume (no listener), output = what the volume emits — by
+default the sound of its whole field, or its detected monopole/dipole/quadrupole
+sources (``heard``, :func:`auralize.pipeline.heard_sound`) — as one
 :class:`auralize.emitters.FieldSources` part that the engine renders along
 any listener path.
 """
@@ -15,6 +16,7 @@ from auralize.plugins import Parameter, SoundModel
 
 if TYPE_CHECKING:
     from auralize.emitters import Sound
+    from auralize.pipeline import HeardSound
     from auralize.sources.detection import SourceSeries
     from auralize.volume import TimeVolume
 
@@ -53,17 +55,25 @@ class FieldAuralization(SoundModel):
             choices=("physical", "extended", "tonal", "auto"),
             doc="how the sources sound (auralize.emitters.timbre)",
         ),
+        Parameter(
+            "heard",
+            "field",
+            doc="what is heard: field (the whole field), detected, a list of types such as "
+            "dipole,quadrupole, or field:quadrupole (auralize.sources.field.parse_heard)",
+        ),
     )
 
-    def synthesize(self, inputs: TimeVolume | tuple[TimeVolume, SourceSeries],
+    def synthesize(self, inputs: TimeVolume | tuple[TimeVolume, SourceSeries | HeardSound],
                    **params: Any) -> Sound:  # fmt: skip
         """The sources of a volume, for the engine to render.
 
         Parameters
         ----------
-        inputs : TimeVolume or (TimeVolume, SourceSeries)
+        inputs : TimeVolume, (TimeVolume, SourceSeries) or (TimeVolume, HeardSound)
             The volume; with a :class:`~auralize.sources.detection.SourceSeries` already
-            detected on it (e.g. by ``auralize detect``), detection is skipped.
+            detected on it (e.g. by ``auralize detect``), those sources are heard;
+            with a :class:`~auralize.pipeline.HeardSound` (:func:`auralize.pipeline.heard_sound`),
+            that sound.
         **params
             ``mapping`` and ``threshold_*`` (detection, paper 003 §3.2.2–3.2.3),
             ``interp`` (§3.2.4.3), ``time_scale`` (playback s per data s),
@@ -77,33 +87,39 @@ class FieldAuralization(SoundModel):
         """
         from auralize.emitters import FieldSources, Sound
         from auralize.errors import ParameterError
-        from auralize.pipeline import detect_sources
+        from auralize.pipeline import HeardSound, heard_sound
         from auralize.sources.detection import SourceSeries, Thresholds
+        from auralize.sources.field import parse_heard
         from auralize.volume import TimeVolume
 
         series = None
+        given: HeardSound | None = None
         if isinstance(inputs, tuple) and len(inputs) == 2:
-            volume, series = inputs
-            if not isinstance(series, SourceSeries):
-                raise ParameterError(f"field model: the second input must be a SourceSeries, "
-                                     f"got {type(series).__name__}")  # fmt: skip
+            volume, second = inputs
+            if isinstance(second, HeardSound):
+                given = second
+            elif isinstance(second, SourceSeries):
+                series = second
+            else:
+                raise ParameterError(f"field model: the second input must be a SourceSeries or "
+                                     f"a HeardSound, got {type(second).__name__}")  # fmt: skip
         else:
             volume = inputs  # type: ignore[assignment]
         if not isinstance(volume, TimeVolume):
             raise ParameterError(f"field model inputs must be a TimeVolume or (TimeVolume, "
                                  f"SourceSeries), got {type(volume).__name__}")  # fmt: skip
         p = self.resolve(**params)
-        if series is None:
-            th = Thresholds(p["threshold_monopole"], p["threshold_dipole"],
-                            p["threshold_quadrupole"])  # fmt: skip
-            series = detect_sources(volume, thresholds=th,
-                                    mapping=None if p["mapping"] == "auto" else p["mapping"])  # fmt: skip
-        tracks = series.tracks()
+        th = Thresholds(p["threshold_monopole"], p["threshold_dipole"], p["threshold_quadrupole"])
+        heard = parse_heard(p["heard"])
+        if series is not None and params.get("heard") is None:
+            heard = parse_heard("detected")  # sources given: they are what is heard
+        # (a model never sees the listener: every block of the field is compressed)
+        hs = given or heard_sound(volume, heard=heard, series=series, thresholds=th,
+                                  mapping=None if p["mapping"] == "auto" else p["mapping"])  # fmt: skip
+        tracks = hs.tracks
         part = FieldSources(tracks=tracks, time_scale=float(p["time_scale"]), lead=float(p["lead"]),
                             interp=p["interp"], timbre=p["timbre"], bounds=tuple(volume.bounds),
-                            name="field")  # fmt: skip
+                            name="field", by_type=hs.by_type)  # fmt: skip
         meta = {"n_sources": tracks.n_sources, "volume": volume.source,
-                "time_scale": part.time_scale, "lead_data_s": part.lead,
-                "mapping": series.meta.get("mapping"),
-                "thresholds": series.thresholds.tolist()}  # fmt: skip
+                "time_scale": part.time_scale, "lead_data_s": part.lead, **hs.meta}  # fmt: skip
         return Sound(parts=[part], meta={"field": meta}, name="field")

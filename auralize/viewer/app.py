@@ -187,7 +187,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self._overlay_sounds: dict[str, tuple[Any, Any]] = {}
         self._sound_tasks: dict[str, Task] = {}
         self._threads: set[Task] = set()
-        self.audio = {"layout": "stereo", "rate": 44100, "time_scale": 1.0, "device": None}
+        self.audio = {"layout": "stereo", "rate": 44100, "time_scale": 1.0, "device": None,
+                      "heard": "field"}  # fmt: skip
+        self._heard: Any = None
         self._rec_timer = QtCore.QTimer(self)
         self._rec_timer.timeout.connect(self.capture)
         self._anim_timer = QtCore.QTimer(self)
@@ -326,19 +328,35 @@ class MainWindow(QtWidgets.QMainWindow):
             e = QtWidgets.QLineEdit(d)
             self.th_edits[kind] = e
             f.addRow(f"{kind} threshold", e)
+        self.heard_box = QtWidgets.QComboBox()
+        self.heard_box.addItems(["whole field", "detected"])
+        self.heard_box.setToolTip(
+            "what is heard: the whole field (every point, no threshold: Lighthill's stress and "
+            "the continuity residual) or the detected sources drawn here (paper 003)")  # fmt: skip
+        self.heard_box.activated.connect(lambda _i: self._guard(self._heard_changed))
+        f.addRow("heard", self.heard_box)
+        self.hear_checks: dict[str, QtWidgets.QCheckBox] = {}
         for kind in TYPES:
             row = QtWidgets.QHBoxLayout()
             cb = QtWidgets.QCheckBox(kind)
             cb.setChecked(True)
             r, g, b = TYPE_COLORS[kind]
             cb.setStyleSheet(f"color: rgb({r},{g},{b}); font-weight: bold")
+            cb.setToolTip(f"draw the {kind}s")
             cb.toggled.connect(lambda on, k=kind: self._guard(self.scene.set_type_visible, k, on))
             self.type_checks[kind] = cb
             lab = QtWidgets.QLabel("–")
             self.count_labels[kind] = lab
+            hear = QtWidgets.QCheckBox("heard")
+            hear.setChecked(True)
+            hear.setToolTip(f"hear the {kind} term (mute it by unticking)")
+            hear.toggled.connect(lambda _on: self._guard(self._heard_changed))
+            self.hear_checks[kind] = hear
             row.addWidget(cb)
             row.addWidget(lab)
+            row.addWidget(hear)
             f.addRow(row)
+        self._sync_hear_checks()
         self.detect_btn = QtWidgets.QPushButton("Detect")
         self.detect_btn.clicked.connect(lambda: (self._guard(self.detect), self._focus_view()))
         f.addRow(self.detect_btn)
@@ -730,6 +748,71 @@ class MainWindow(QtWidgets.QMainWindow):
         self.scene.set_sources(None)
         self.plotter.render()
 
+    # ============================================================= heard
+    def heard_spec(self) -> str:
+        """What the viewer's renders and live listening hear, for
+        :func:`auralize.sources.field.parse_heard`: ``field`` or ``detected``,
+        with the unticked types muted."""
+        from auralize.sources.field import FIELD_TERMS
+
+        mode = "detected" if self.heard_box.currentText() == "detected" else "field"
+        every = TYPES if mode == "detected" else FIELD_TERMS
+        on = [k for k in every if self.hear_checks[k].isChecked()]
+        if not on:
+            raise ParameterError("every source type is muted: tick at least one 'heard' box")
+        return mode if len(on) == len(every) else f"{mode}:{','.join(on)}"
+
+    def set_heard(self, spec: str) -> None:
+        """Set what is heard (``field``, ``detected``, ``detected:dipole,quadrupole``, ...)."""
+        from auralize.sources.field import parse_heard
+
+        hd = parse_heard(spec)
+        self.heard_box.setCurrentText("detected" if hd.mode == "detected" else "whole field")
+        for k in TYPES:
+            self.hear_checks[k].blockSignals(True)
+            self.hear_checks[k].setChecked(k in hd.types)
+            self.hear_checks[k].blockSignals(False)
+        self._heard_changed()
+
+    def _sync_hear_checks(self) -> None:
+        """The whole field has no dipole term: its 'heard' box is off and disabled there."""
+        field_mode = self.heard_box.currentText() != "detected"
+        box = self.hear_checks["dipole"]
+        box.setEnabled(not field_mode)
+        box.setToolTip("the whole field has no dipole term (forces would need the pressure)"
+                       if field_mode else "hear the dipole term (mute it by unticking)")  # fmt: skip
+
+    def _heard_changed(self) -> None:
+        self._sync_hear_checks()
+        self._heard = None
+        self.audio["heard"] = self.heard_spec()
+        self.stop_live()
+
+    def heard_sound(self) -> Any:
+        """The :class:`auralize.pipeline.HeardSound` of the volume (cached until the data,
+        mapping, thresholds, sources or the 'heard' choice change)."""
+        from auralize.pipeline import heard_sound
+        from auralize.sources.field import parse_heard
+
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        spec = self.heard_spec()
+        hd = parse_heard(spec)
+        if hd.mode == "detected" and self.series is None:
+            raise ParameterError("detect the sources first (Sources panel), or hear the whole "
+                                 "field")  # fmt: skip
+        th = self.read_thresholds()
+        key = (spec, id(self.volume), self.mapping, tuple(sorted(self.mapping_fields.items())),
+               repr(th.describe()), id(self.series) if hd.mode == "detected" else None)  # fmt: skip
+        hit = getattr(self, "_heard", None)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        hs = heard_sound(self.volume, heard=hd, series=self.series, thresholds=th,
+                         mapping=None if self.mapping == "auto" else self.mapping,
+                         **dict[str, Any](self.mapping_fields))  # fmt: skip
+        self._heard = (key, hs)
+        return hs
+
     # ============================================================= sources
     def read_thresholds(self) -> Thresholds:
         return Thresholds(*(self.th_edits[k].text().strip() for k in TYPES))
@@ -944,16 +1027,16 @@ class MainWindow(QtWidgets.QMainWindow):
             raise ParameterError("open a data file first")
         if self.path is None:
             raise ParameterError("no listener path; record or load one first")
-        if self.series is None:
-            raise ParameterError("detect the sources first (Sources panel)")
-        path, series, vol, a = self.path, self.series, self.volume, dict(self.audio)
+        path, vol, a = self.path, self.volume, dict(self.audio)
+        self.heard_spec()  # every type muted: say so before the work starts
         extra = self.overlay_sound()
         check_distance(path, vol.bounds)
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             from auralize.emitters import render as render_sound
 
-            tracks = series.tracks()
+            hs = self.heard_sound()
+            tracks = hs.tracks
             total = max(path.duration, 1e-3)
             blocks, t, blk = [], 0.0, 0.5
             n = int(np.ceil(total / blk))
@@ -973,7 +1056,7 @@ class MainWindow(QtWidgets.QMainWindow):
             field = Rendered(audio=audio, rate=out.rate, layout=out.layout,
                              time_scale=out.time_scale,
                              meta={**out.meta, "t_start_data": first["t_start_data"],
-                                   "volume": vol.source, "parts": [part]})  # fmt: skip
+                                   "volume": vol.source, "parts": [part], **hs.meta})  # fmt: skip
             more = None
             if extra is not None:  # the audible overlays, along the same path
                 more = render_sound(extra, path, rate=a["rate"], layout=a["layout"],
@@ -1073,12 +1156,10 @@ class MainWindow(QtWidgets.QMainWindow):
         from auralize.emitters.timbre import HIGHPASS_HZ
         from auralize.scene.listening import DeviceSink, LiveEngine, LivePlayer, WavSink
 
-        if self.series is None:
-            raise ParameterError("detect the sources first (Sources panel)")
         if self.player is not None and self.player.running:
             return self.player
         a = self.audio
-        eng = LiveEngine(self.series.tracks(), layout=a["layout"], rate=a["rate"],
+        eng = LiveEngine(self.heard_sound().tracks, layout=a["layout"], rate=a["rate"],
                          time_scale=a["time_scale"], block=int(self.block_spin.value()),
                          extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ)  # fmt: skip
         target = output or self.live_file.text().strip() or None
@@ -1470,6 +1551,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.mapping_box.setCurrentText(self.mapping)
             a = st.audio or {}
             self.audio.update(a)
+            self.set_heard(str(self.audio.get("heard") or "field"))
             self.layout_box.setCurrentText(self.audio["layout"])
             self.ts_spin.setValue(float(self.audio["time_scale"]))
             self.rate_spin.setValue(float((st.recording or {}).get("rate_hz", DEFAULT_RATE_HZ)))
