@@ -127,14 +127,17 @@ CLUSTERS = 8
 MAX_TABLE = 1 << 24
 
 
-def highpass(audio: NDArray[np.float64], rate: float, hz: float) -> NDArray[np.float64]:
+def highpass(audio: NDArray[np.float64], rate: float, hz: float, *,
+             single: bool = False) -> NDArray[np.float64]:  # fmt: skip
     """Causal 4th-order Butterworth high-pass of ``audio (n_channels, n_samples)``.
 
     ``hz`` 0 returns the audio unchanged.  Causal, so nothing arrives before
     its time (a zero-phase filter would ring ahead of onsets).  The filter
     starts in its steady state for the first sample (:func:`highpass_start`),
     so that a sound already going on when the output starts begins without
-    a click.
+    a click.  ``single``: filter in single precision (for the added timbres'
+    noise and tones, never for a physical pressure, whose offsets can dwarf
+    its sound).
     """
     if not (np.isfinite(hz) and 0 <= hz < rate / 2):
         raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz (half "
@@ -145,8 +148,11 @@ def highpass(audio: NDArray[np.float64], rate: float, hz: float) -> NDArray[np.f
 
     sos = butter_sos(4, float(hz), "highpass", float(rate))
     a = np.asarray(audio)
-    out, _ = sosfilt(sos, a, axis=-1, zi=highpass_start(sos, a[..., 0]))
-    return np.asarray(out)
+    zi = highpass_start(sos, a[..., 0])  # (solved in double precision)
+    if single:  # noise carriers: single precision is 1e-6 of their level, at a third of the cost
+        sos, a, zi = sos.astype(np.float32), a.astype(np.float32), zi.astype(np.float32)
+    out, _ = sosfilt(sos, a, axis=-1, zi=zi)
+    return np.asarray(out, dtype=np.float64)
 
 
 def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -532,7 +538,16 @@ class _Clock:
         dur = n / rate
         J = max(int(np.ceil(dur * CONTROL_HZ)) + 1, 2)
         u = np.linspace(0.0, dur, J)
-        dbar = mean_distance(tracks, path, t_start + u / ts, path.times[0] + start + u, c0=c0)
+        # the same controls serve every clock of a render (the audio rate's and the
+        # envelope rate's) and of its repeats: kept on the tracks for this path (the
+        # path's arrays are held, so their identity stays theirs)
+        key = (t_start, dur, ts, start, c0, J)
+        hit = tracks.cache.get("timbre:dbar")
+        if hit is not None and hit[0] is path.positions and hit[1] is path.times and hit[2] == key:
+            dbar = hit[3]
+        else:
+            dbar = mean_distance(tracks, path, t_start + u / ts, path.times[0] + start + u, c0=c0)
+            tracks.cache["timbre:dbar"] = (path.positions, path.times, key, dbar)
         # the mean emission time at the controls; between them the data time
         # and D̄ are linear in the sample index, and so is the emission time
         tau = t_start + u / ts - dbar / c0
@@ -659,7 +674,10 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
             # physical render is audible is decided from its envelope-rate render
             # (the images of the interpolation above it hold a negligible share)
             joined = _joined(tracks, path, "timbre:joined", lambda join: join(tracks), c0)
-            coarse = _coarse_render(joined, path, kw, f_cut, bounds)
+            # (below half the high-pass the physical low band is not kept by
+            # `extended`: its mono sum decides, and sets β)
+            low_kw = kw if f_cut > 0.5 * highpass_hz else {**kw, "layout": "mono"}
+            coarse = _coarse_render(joined, path, low_kw, f_cut, bounds)
             share = _share_above(coarse[0].audio, float(coarse[0].rate), 20.0)
             phys = None
         else:
@@ -708,7 +726,12 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
     if "share_above_20hz_unfiltered" not in meta:
         meta["share_above_20hz_unfiltered"] = loudness(out.audio, rate)["share_above"]
-    out.audio = highpass(out.audio, rate, highpass_hz)
+    out.audio = highpass(
+        out.audio,
+        rate,
+        highpass_hz,
+        single=meta["timbre"] != "physical" and not meta.get("low_band") == "kept",
+    )
     level = ROUNDOFF_LEVEL * term_level(tracks, path)
     peak = float(np.max(np.abs(out.audio), initial=0.0))
     if peak <= level:
@@ -722,16 +745,19 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     return out
 
 
-#: envelopes are rendered at no less than 8 f_cut and 1 kHz, at most this many
+#: envelopes are rendered at no less than 8 f_cut and :data:`MIN_ENVELOPE_HZ`, at most this many
 #: times below the audio rate, and interpolated linearly
-MAX_DECIMATION = 32
+MAX_DECIMATION = 256
+#: the lowest envelope rate (Hz): it still holds every frequency the high-pass lets
+#: through below 5 × 20 Hz, where the share of audible sound is judged
+MIN_ENVELOPE_HZ = 250.0
 
 
 def envelope_rate(rate: int, f_cut: float) -> int:
     """Sample rate (Hz, dividing ``rate``) of the envelope renders: ``rate`` / k with k
-    the largest divisor of ``rate`` not above ``rate / max(8 f_cut, 1 kHz)`` and
+    the largest divisor of ``rate`` not above ``rate / max(8 f_cut, MIN_ENVELOPE_HZ)`` and
     :data:`MAX_DECIMATION`."""
-    k = int(min(MAX_DECIMATION, max(1.0, rate // max(8.0 * f_cut, 1000.0))))
+    k = int(min(MAX_DECIMATION, max(1.0, rate // max(8.0 * f_cut, MIN_ENVELOPE_HZ))))
     while rate % k:
         k -= 1
     return rate // k
@@ -770,6 +796,15 @@ def _envelope_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any
                      bounds: tuple[float, ...] | None, c0: float) -> Rendered:  # fmt: skip
     """:func:`change_envelope` in every channel, taken at the envelope rate (sources
     merged as :func:`_joined`) and interpolated to the audio rate."""
+    coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    return _upsampled(coarse, coarse.audio, n, k)
+
+
+def _envelope_coarse(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
+                     bounds: tuple[float, ...] | None, c0: float) -> tuple[Rendered, int, int]:  # fmt: skip
+    """:func:`_envelope_render` before its interpolation to the audio rate: the
+    envelopes at the envelope rate (a :class:`Rendered`), ``n`` and ``k`` as
+    :func:`_coarse_render`."""
     joined = _joined(tracks, path, "timbre:change", lambda join: join(change_tracks(tracks)), c0)
     coarse, n, k = _coarse_render(joined, path, kw, f_cut, bounds)
     step_s = _data_step(tracks) * float(kw["time_scale"])
@@ -782,7 +817,8 @@ def _envelope_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any
         env[c : c + m] = change_envelope(coarse.audio[c : c + m], coarse.rate, step_s,
                                          ambisonic=is_ambisonic(lay))  # fmt: skip
         c += m
-    return _upsampled(coarse, env, n, k)
+    return Rendered(audio=env, rate=coarse.rate, layout=coarse.layout,
+                    time_scale=coarse.time_scale, meta=coarse.meta), n, k  # fmt: skip
 
 
 def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rendered:
@@ -837,22 +873,29 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         return render(tracks, path, bounds=bounds, **kw)
     if coarse is None:
         joined = _joined(tracks, path, "timbre:joined", lambda join: join(tracks), c0)
-        coarse = _coarse_render(joined, path, kw, f_cut, bounds)
+        # without the low band in the output, its mono sum is all β needs
+        coarse = _coarse_render(joined, path, kw if keep_low else {**kw, "layout": "mono"},
+                                f_cut, bounds)  # fmt: skip
     low_r, n, k = coarse
     if n < 4:
         meta["beta"] = 0.0
-        return _upsampled(low_r, low_r.audio, n, k)
-    env = _envelope_render(tracks, path, kw, f_cut, bounds, c0)
+        return render(tracks, path, bounds=bounds, **kw)
+    env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    env = _upsampled(env_c, env_c.audio, n, k)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.maximum(f, 0.25 * f_cut) ** (-alpha / 2)
 
-    def carrier(clock: _Clock) -> NDArray[np.float64]:
-        return clock.noise(_noise_table(clock.size, rate, (int(seed), 1), shape,
-                                        ("power", alpha, f_cut)))  # fmt: skip
+    def carrier_at(r: int) -> Any:
+        def carrier(clock: _Clock) -> NDArray[np.float64]:
+            return clock.noise(_noise_table(clock.size, r, (int(seed), 1), shape,
+                                            ("power", alpha, f_cut)))  # fmt: skip
 
-    env.audio *= _carriers(tracks, path, env, carrier, start=start, c0=c0)
-    high = _crossover(env.audio, rate, f_cut, "highpass")
+        return carrier
+
+    env.audio *= _carriers(tracks, path, env, carrier_at(rate), start=start, c0=c0)
+    # the noise band in single precision (a third of the cost; 1e-6 of a noise's level)
+    high = _crossover(env.audio, rate, f_cut, "highpass", single=True).astype(np.float64)
     # Eq. 13, power summed over the channels: low + β high matches the physical
     # power under g(f).  Spectra are normalised by their length (amplitudes, the
     # same for any sample rate), so the physical pressure's may come from its
@@ -870,11 +913,23 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         return f, band, g2[band]
 
     f, band, g2 = weights(n, rate)
-    # (in single precision: the sums below need 6 digits, at half the cost)
-    H = rfft(high.astype(np.float32), axis=-1) / n
-    Hb = H[:, band]
-    a = float(np.sum(np.abs(Hb) ** 2 * g2))
     low = None
+    H: NDArray[Any] | None = None
+    if keep_low or k == 1:
+        # (in single precision: the sums below need 6 digits, at half the cost)
+        H = rfft(high.astype(np.float32), axis=-1) / n
+        Hb = H[:, band]
+        a = float(np.sum(np.abs(Hb) ** 2 * g2))
+    else:
+        # the noise band's power at the cut-off from the same noise spectrum read at
+        # the envelope rate (which holds the cut-off and 20 Hz many times over):
+        # the audio-rate transform is not needed
+        m_c = env_c.audio.shape[1]
+        noise_c = env_c.audio * _carriers(tracks, path, env_c, carrier_at(env_c.rate),
+                                          start=start, c0=c0)  # fmt: skip
+        Hc = rfft(_crossover(noise_c, env_c.rate, f_cut, "highpass"), axis=-1) / m_c
+        _, hb, hg2 = weights(m_c, env_c.rate)
+        a = float(np.sum(np.abs(Hc[:, hb]) ** 2 * hg2))
     if keep_low:
         phys_full = _upsampled(low_r, low_r.audio, n, k).audio
         low = _crossover(phys_full, rate, f_cut, "lowpass")
@@ -902,8 +957,10 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         # against the data's step): the noise carries the physical pressure's
         # RMS over the band the changes occupy (its level instead of its
         # spectrum at f_cut)
-        p2 = float(np.mean(_crossover(low_r.audio, low_r.rate, 0.25 * f_cut, "highpass") ** 2))
-        h2 = float(np.mean(high**2))
+        # (power per sample summed over the channels: the low band may be their mono sum)
+        p2 = float(np.sum(_crossover(low_r.audio, low_r.rate, 0.25 * f_cut, "highpass") ** 2))
+        p2 /= low_r.audio.shape[1]
+        h2 = float(np.sum(high**2)) / high.shape[1]
         if p2 > 0 and h2 > 0:
             beta = float(np.sqrt(p2 / h2))
             meta["beta_rule"] = "rms"
@@ -914,15 +971,25 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     meta["low_band"] = "kept" if keep_low else "below half the high-pass: left out"
     # the output's spectrum before the high-pass is β H (+ L): its share above
     # 20 Hz without another transform
-    H *= beta
     high *= beta
-    if keep_low:
-        assert low is not None
-        H += L
-        high += low
-    spec = np.sum(H.real**2 + H.imag**2, axis=0, dtype=np.float64)
-    total = float(spec.sum())
-    meta["share_above_20hz_unfiltered"] = float(spec[f > 20.0].sum() / total) if total > 0 else 0.0
+    if H is not None:
+        H *= beta
+        if keep_low:
+            assert low is not None
+            H += L
+            high += low
+        spec = np.sum(H.real**2 + H.imag**2, axis=0, dtype=np.float64)
+        total = float(spec.sum())
+        share = float(spec[f > 20.0].sum() / total) if total > 0 else 0.0
+    else:
+        # the power below 20 Hz per sample from the envelope-rate spectrum (Parseval,
+        # one-sided), against the output's power per sample
+        fc2 = np.fft.rfftfreq(m_c, 1.0 / env_c.rate)
+        w = np.where(fc2 == 0, 1.0, 2.0)
+        below = float(np.sum((np.abs(Hc) ** 2 * w)[:, fc2 <= 20.0])) * beta**2
+        total = float(np.sum(high**2)) / n
+        share = min(max(1.0 - below / total, 0.0), 1.0) if total > 0 else 0.0
+    meta["share_above_20hz_unfiltered"] = share
     return Rendered(audio=high, rate=rate, layout=env.layout, time_scale=env.time_scale,
                     meta=env.meta)  # fmt: skip
 
@@ -938,7 +1005,9 @@ def _lowpass_response(f: NDArray[np.float64], rate: float, f_cut: float) -> NDAr
     return np.asarray(h)
 
 
-def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> NDArray[np.float64]:
+def _crossover(
+    x: NDArray[np.float64], rate: float, f_cut: float, kind: str, *, single: bool = False
+) -> NDArray[Any]:
     """One side of a causal 4th-order Linkwitz–Riley crossover at ``f_cut`` (the two
     sides sum to an all-pass: the band split of Eq. 12 without pre-echo), started
     in its steady state for the first sample (:func:`highpass_start`): a sound
@@ -949,7 +1018,10 @@ def _crossover(x: NDArray[np.float64], rate: float, f_cut: float, kind: str) -> 
     a = np.asarray(x)
     if a.shape[-1] == 0:
         return a
-    out, _ = sosfilt(sos, a, axis=-1, zi=highpass_start(sos, a[..., 0]))
+    zi = highpass_start(sos, a[..., 0])  # (solved in double precision)
+    if single:
+        sos, a, zi = sos.astype(np.float32), a.astype(np.float32), zi.astype(np.float32)
+    out, _ = sosfilt(sos, a, axis=-1, zi=zi)
     return np.asarray(out)
 
 
