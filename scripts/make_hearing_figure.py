@@ -21,16 +21,16 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-import auralize.pipeline as ap  # noqa: E402
-from auralize.datasets.synthetic import (  # noqa: E402
+import auralize.pipeline as ap
+from auralize.datasets.synthetic import (
     SpinningParams,
     lighthill_far_field,
     make_spinning,
 )
-from auralize.emitters.synthesis import C0  # noqa: E402
+from auralize.emitters.synthesis import C0
 
 
 def _rms(x: np.ndarray) -> float:
