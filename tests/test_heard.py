@@ -253,3 +253,21 @@ def test_heard_specs() -> None:
         parse_heard("field:dipole")
     with pytest.raises(ValueError, match="not a source type"):
         parse_heard("hexapole")
+
+
+def test_a_pressure_below_anything_audible_is_not_amplified(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A vortex model of a field at 1e-17 m/s makes 1e-78 Pa: written as silence, said
+    so, never normalised to full scale (the gain stays 1)."""
+    import json
+    import warnings
+
+    from auralize.audio import SilentAudioWarning, write_audio
+
+    x = np.full((1, 100), 4e-78)
+    with pytest.warns(SilentAudioWarning, match="round-off or nothing"):
+        gain = write_audio(tmp_path / "q.wav", x, 8000)
+    side = json.loads((tmp_path / "q.wav.json").read_text())
+    assert gain == 1.0 and side["silent"] is True and "1e-15 Pa" in side["silent_why"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert write_audio(tmp_path / "p.wav", x * 1e70, 8000) > 1.0  # small but real: normalised

@@ -287,6 +287,14 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         subtype = "pcm24" if suffix == ".flac" else "float32"
     if suffix not in (".wav", ".flac"):
         raise ParameterError(f"{p}: audio output must end in .wav or .flac")
+    nothing = ""
+    peak_in = float(np.max(np.abs(a), initial=0.0)) if a.size and np.all(np.isfinite(a)) else 0.0
+    if normalize == "peak" and 0.0 < peak_in < NOTHING_PA:
+        # no pressure this small is sound (10⁹ below the thermal noise of air): it is
+        # round-off, or a field that does nothing; full scale would make it sound
+        nothing = (f"the pressure peaks at {peak_in:.3g} Pa, below {NOTHING_PA:g} Pa: round-off "
+                   f"or nothing, written as silence rather than amplified to full scale")  # fmt: skip
+        a = np.zeros_like(a)
     out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
     if suffix == ".flac" and subtype == "float32":
         raise ParameterError("FLAC holds integer samples; use --format pcm16|pcm24 or a WAV file")
@@ -295,10 +303,11 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
                              f"(e.g. ambix2/ambix3): write a WAV file")  # fmt: skip
     silent = _check_stored(out, gain, p, subtype)
     if silent:
+        why = nothing or ("no sound reached the listener within the duration (no sources, "
+                          "thresholds too high, or the listener too far away)")  # fmt: skip
         warnings.warn(
-            f"{p}: the audio is silent (every sample is 0): no sound reached the listener within "
-            f"the duration (no sources, thresholds too high, or the listener too far away); the "
-            f"file is written and marked silent in its sidecar",
+            f"{p}: the audio is silent (every sample is 0): {why}; the file is written and "
+            f"marked silent in its sidecar",
             SilentAudioWarning,
             stacklevel=2,
         )
@@ -327,6 +336,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         ),
         "limit_pa": limit_pa,
         "silent": silent,
+        **({"silent_why": nothing} if nothing else {}),
         "command": command_line(),
         **(sidecar or {}),
     }
@@ -352,6 +362,11 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     write_pair(p, write_main, Path(str(p) + ".json"), sidecar_bytes,
                suffix=".part.flac" if suffix == ".flac" else ".part")  # fmt: skip
     return gain
+
+
+#: a peak pressure below this (Pa) is not normalised to full scale but written as
+#: silence: −334 dB re 20 µPa, 10⁹ below the thermal noise of air (about 10⁻⁶ Pa)
+NOTHING_PA = 1e-15
 
 
 class SilentAudioWarning(UserWarning):

@@ -51,7 +51,10 @@ Darve, 2009; every moment of the block up to degree p − 1 per axis is kept,
 so the monopole, dipole and quadrupole moments and the directivity they make
 are exact).  Each proxy is an ordinary point of the engine: its own retarded
 time, Doppler shift and panning.  Blocks the listener comes nearer to than
-:data:`NEAR_BLOCKS` block sizes are kept as their points.  The block size
+:data:`NEAR_BLOCKS` block sizes are kept as their points; without a path
+(live listening, a scene's model) every block is compressed, and a listener
+who comes into one hears it from no nearer than half its extent (the proxies'
+clamp radius): bounded, blurred, where the interpolation does not hold.  The block size
 follows from the error rule in ``docs/design.md`` (:func:`block_plan`).
 """
 
@@ -469,10 +472,13 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
                 qs[t][R_prox:, n] = w.reshape(-1)[point_index]
         cache.keep(n, n + 1)
     positions = np.concatenate([prox_pos, point_pos]) if R_pts else prox_pos
-    # clamp radii: a proxy stands for a block (half its node spacing), a point for its cell
-    node_gap = min(float(np.min(np.diff(nd)) if nd.size > 1 else 1.0) for nd in nodes)
-    radius = np.concatenate([np.full(R_prox, 0.5 * node_gap * float(np.min(h))),
-                             np.full(R_pts, 0.5 * float(np.min(h)))])  # fmt: skip
+    # clamp radii: a point its half cell; a proxy half its block's extent, so that a
+    # listener who comes into a compressed block (no path was given, or it strays from
+    # it) hears the block as a source that far away, bounded, not the proxies' large
+    # alternating weights over tiny distances (the interpolation holds only outside)
+    cell = 0.5 * float(np.min(h))
+    radius = np.concatenate([np.full(R_prox, max(0.5 * plan.size, cell) if plan.compresses else cell),
+                             np.full(R_pts, cell)])  # fmt: skip
     meta = {"heard": hd.label, "heard_text": hd.describe(), "terms": terms, "mass_flux": flux,
             "points": int(volume.n_points), "valid_points": int(round(volume.n_points * volume.valid_ratio)),
             "blocks": int(Bz * By * Bx), "blocks_as_points": int(near_blocks.size),

@@ -788,9 +788,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.audio["heard"] = self.heard_spec()
         self.stop_live()
 
-    def heard_sound(self) -> Any:
+    def heard_sound(self, path: Any = None) -> Any:
         """The :class:`auralize.pipeline.HeardSound` of the volume (cached until the data,
-        mapping, thresholds, sources or the 'heard' choice change)."""
+        mapping, thresholds, sources, the 'heard' choice or ``path`` change).
+
+        With ``path`` (a render along the recorded path) the blocks of the whole
+        field that the path comes near are heard as their points; live listening
+        (no path: the camera goes anywhere) hears every block through its proxies."""
         from auralize.pipeline import heard_sound
         from auralize.sources.field import parse_heard
 
@@ -805,12 +809,12 @@ class MainWindow(QtWidgets.QMainWindow):
         key = (spec, id(self.volume), self.mapping, tuple(sorted(self.mapping_fields.items())),
                repr(th.describe()), id(self.series) if hd.mode == "detected" else None)  # fmt: skip
         hit = getattr(self, "_heard", None)
-        if hit is not None and hit[0] == key:
-            return hit[1]
-        hs = heard_sound(self.volume, heard=hd, series=self.series, thresholds=th,
+        if hit is not None and hit[0] == key and hit[1] is path:  # (the path held: its own)
+            return hit[2]
+        hs = heard_sound(self.volume, heard=hd, series=self.series, thresholds=th, path=path,
                          mapping=None if self.mapping == "auto" else self.mapping,
                          **dict[str, Any](self.mapping_fields))  # fmt: skip
-        self._heard = (key, hs)
+        self._heard = (key, path, hs)
         return hs
 
     # ============================================================= sources
@@ -1035,7 +1039,7 @@ class MainWindow(QtWidgets.QMainWindow):
         def work(progress: Callable[[int, int], bool]) -> Any:
             from auralize.emitters import render as render_sound
 
-            hs = self.heard_sound()
+            hs = self.heard_sound(path)
             tracks = hs.tracks
             total = max(path.duration, 1e-3)
             blocks, t, blk = [], 0.0, 0.5
