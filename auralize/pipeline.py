@@ -34,7 +34,7 @@ from auralize.emitters.synthesis import (
 )
 from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
 from auralize.errors import ParameterError
-from auralize.listener import ListenerPath, describe_path, orbit_around
+from auralize.listener import SWEEP_TURNS, ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
 from auralize.runtime.progress import progress_step
 from auralize.sources.detection import (
@@ -53,6 +53,7 @@ __all__ = [
     "Heard",
     "HeardSound",
     "ListenerPath",
+    "Planner",
     "RenderPlan",
     "Thresholds",
     "auralize",
@@ -256,7 +257,7 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
       (:func:`auralize.listener.orbit_around`), one turn unless that would
       move faster than :data:`MAX_ORBIT_MACH` × c0 in data time; ``face``
       as :meth:`auralize.listener.ListenerPath.orbit` (default ``"sweep"``:
-      the head turns so that the data pass once around the listener, so
+      the head turns so that the data pass around the listener, so
       every speaker of a layout carries them).
     * ``duration``: playback seconds (default the path's length, else
       :data:`DEFAULT_DURATION`).
@@ -310,7 +311,8 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
                                 face=face)  # fmt: skip
         c = 0.5 * (lo + hi)
         r = float(np.linalg.norm(path.positions[0] - c))
-        facing = {"sweep": "the head turning so the data pass once around the listener",
+        facing = {"sweep": f"the head turning so the data pass {SWEEP_TURNS:g} times around "
+                           f"the listener",
                   "center": "facing the data", "forward": "facing along the motion",
                   "fixed": "facing +y"}.get(face, face)  # fmt: skip
         notes.append(f"listener: orbit of radius {r:.4g} m around the data's centre "
@@ -368,19 +370,12 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     the command's samples.
     """
     hd = parse_heard(heard)
-    planned: dict[str, Any] = {}
-
-    def plan_for(tracks: SourceTracks | None) -> ListenerPath:
-        plan = plan_render(volume, tracks, path=path, listener=listener, duration=duration,
-                           time_scale=time_scale, c0=c0, clip=clip, face=orbit_face)  # fmt: skip
-        check_distance(plan.path, volume.bounds)
-        planned["plan"] = plan
-        return plan.path
-
+    planner = Planner(volume, path=path, listener=listener, duration=duration,
+                      time_scale=time_scale, c0=c0, clip=clip, face=orbit_face)  # fmt: skip
     hs = heard_sound(volume, heard=hd, series=series, mapping=mapping, thresholds=thresholds,
-                     path=plan_for, block=block, c0=c0, progress_bar=progress_bar,
+                     path=planner, block=block, c0=c0, progress_bar=progress_bar,
                      **mapping_fields)  # fmt: skip
-    plan = planned["plan"]
+    plan = planner.plan
     tracks = hs.tracks
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
                   lead=plan.lead)  # fmt: skip
@@ -392,6 +387,39 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
                             by_type=hs.by_type)  # fmt: skip
     out.meta.update({"volume": volume.source, **plan.as_dict(), **hs.meta})
     return out, hs.series
+
+
+class Planner:
+    """Plans a render once the tracks it hears are known: the ``path`` callback of
+    :func:`heard_sound`, whose default listener goes around the detected sources
+    (or the data's box for the whole field).  ``planner.plan`` is the
+    :class:`RenderPlan` afterwards; its listener is checked against the data's
+    box (:func:`~auralize.emitters.synthesis.check_distance`).
+
+    Examples
+    --------
+    >>> vol = load("dataset:monopole", size=12, steps=8)
+    >>> planner = Planner(vol, duration=1.0)
+    >>> hs = heard_sound(vol, path=planner)
+    >>> planner.plan.duration, planner.plan.default_listener
+    (1.0, True)
+    """
+
+    def __init__(self, volume: TimeVolume, **plan: Any) -> None:
+        self.volume = volume
+        self.options = plan
+        self._plan: RenderPlan | None = None
+
+    def __call__(self, tracks: SourceTracks | None) -> ListenerPath:
+        self._plan = plan_render(self.volume, tracks, **self.options)
+        check_distance(self._plan.path, self.volume.bounds)
+        return self._plan.path
+
+    @property
+    def plan(self) -> RenderPlan:
+        if self._plan is None:
+            raise ParameterError("nothing planned yet: pass the Planner as heard_sound's path")
+        return self._plan
 
 
 @dataclass

@@ -197,7 +197,7 @@ def whole_field_rows(vol: Any, size: int) -> list[BenchRow]:
         note=f"{fm['valid_points']:,} points × {vol.n_steps} steps → {fm['rows']:,} rows "
              f"(blocks of {fm['block'][0]}³, {fm['proxies_per_block']} proxies)",
     ))  # fmt: skip
-    kw = dict(time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead)
+    kw: dict[str, Any] = dict(time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead)
     for layout, target in (("mono", 100.0), ("ring8", 50.0)):
         fn = functools.partial(render_timbre, hs.tracks, plan.path, layout=layout, timbre="auto",
                                by_type=hs.by_type, **kw)  # fmt: skip
@@ -213,7 +213,7 @@ def whole_field_rows(vol: Any, size: int) -> list[BenchRow]:
                  f"{fn().meta['timbre']}); with the field rows built: {total:.1f}× real time",
         ))  # fmt: skip
     every = field_tracks(vol, hs_mapping(vol), block=1).tracks()
-    kw4 = {**kw, "rate": 4000}
+    kw4: dict[str, Any] = {**kw, "rate": 4000}
     a = render(every, plan.path, **kw4).audio[0]
     b = render(hs.tracks, plan.path, **kw4).audio[0]
     A, B = np.fft.rfft(a), np.fft.rfft(b)

@@ -114,7 +114,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     )
     from auralize.errors import ParameterError
     from auralize.listener import ListenerPath
-    from auralize.pipeline import heard_sound, plan_render
+    from auralize.pipeline import Planner, heard_sound
     from auralize.spatial.layouts import get_layout
 
     lay = get_layout(args.layout)  # bad layouts fail before any slow work
@@ -130,22 +130,15 @@ def cmd_play(args: argparse.Namespace) -> int:
         from auralize.io.sources_file import load_sources_h5
 
         series = load_sources_h5(args.sources)
-    from auralize.emitters.synthesis import check_arrival, check_distance
+    from auralize.emitters.synthesis import check_arrival
 
-    planned: dict[str, Any] = {}
-
-    def plan_for(tr: Any) -> ListenerPath:
-        planned["plan"] = plan_render(vol, tr, path=path, listener=args.listener,
-                                      duration=args.duration, time_scale=args.time_scale,
-                                      face=args.orbit_face)  # fmt: skip
-        check_distance(planned["plan"].path, vol.bounds)
-        return planned["plan"].path
-
+    planner = Planner(vol, path=path, listener=args.listener, duration=args.duration,
+                      time_scale=args.time_scale, face=args.orbit_face)  # fmt: skip
     hs = heard_sound(vol, heard=heard_arg(args), series=series, mapping=args.mapping,
-                     thresholds=thresholds_from_args(args), path=plan_for,
+                     thresholds=thresholds_from_args(args), path=planner,
                      progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
     tracks = hs.tracks
-    plan = planned["plan"]
+    plan = planner.plan
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
                   lead=plan.lead)  # fmt: skip
     # with --json, standard output carries the report alone: what the plan says goes to stderr

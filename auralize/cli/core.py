@@ -494,7 +494,7 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     values where the command line left them at ``parser_defaults``.
     """
     from auralize.emitters import Sound
-    from auralize.pipeline import DEFAULT_DURATION, plan_render
+    from auralize.pipeline import DEFAULT_DURATION
     from auralize.scene.soundscene import scene_sound
     from auralize.spatial import get_layout
 
@@ -506,7 +506,7 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     notes: list[str] = []
     sound = Sound(parts=[], meta={}, name="")
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
-        from auralize.pipeline import heard_sound
+        from auralize.pipeline import Planner, heard_sound
         from auralize.sources.model import FieldAuralization
 
         vol = load_volume(args)
@@ -515,18 +515,13 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
             from auralize.io.sources_file import load_sources_for
 
             series = load_sources_for(args.sources, vol)
-        planned: dict[str, Any] = {}
-
-        def plan_for(tr: Any) -> Any:
-            planned["plan"] = plan_render(vol, tr, path=path, listener=listener,
-                                          duration=args.duration, time_scale=args.time_scale,
-                                          clip=False, face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
-            return planned["plan"].path
-
+        planner = Planner(vol, path=path, listener=listener, duration=args.duration,
+                          time_scale=args.time_scale, clip=False,
+                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
         hs = heard_sound(vol, heard=heard_arg(args), series=series, mapping=args.mapping,
-                         thresholds=thresholds_from_args(args), path=plan_for,
+                         thresholds=thresholds_from_args(args), path=planner,
                          progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
-        plan = planned["plan"]
+        plan = planner.plan
         path = plan.path
         notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
         sound = sound + FieldAuralization().synthesize(

@@ -140,7 +140,7 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
     return 0
 
 
-def _heard(args: argparse.Namespace, vol: Any, runner: Any, plan_for: Any) -> Any:
+def _heard(args: argparse.Namespace, vol: Any, runner: Any, planner: Any) -> Any:
     """What a Dask render of ``vol`` hears (as the render without Dask options,
     :func:`auralize.pipeline.heard_sound`): the whole field, computed here as
     it streams through the steps, or the detected sources, detected on the
@@ -164,7 +164,7 @@ def _heard(args: argparse.Namespace, vol: Any, runner: Any, plan_for: Any) -> An
         series=series,
         mapping=args.mapping,
         thresholds=thresholds_from_args(args),
-        path=plan_for,
+        path=planner,
         progress_bar=progress_wanted(),
         **mapping_fields(args),
     )
@@ -177,7 +177,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass
     from auralize.listener import ListenerPath
-    from auralize.pipeline import plan_render, save_rendered
+    from auralize.pipeline import Planner, save_rendered
 
     if getattr(args, "model", None) or getattr(args, "scene", None):
         return _render_scene_dask(args)
@@ -197,17 +197,12 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
-        planned: dict[str, Any] = {}
-
-        def plan_for(tr: Any) -> Any:
-            planned["plan"] = plan_render(vol, tr, path=path, listener=args.listener,
-                                          duration=args.duration, time_scale=args.time_scale,
-                                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
-            return planned["plan"].path
-
-        hs = _heard(args, vol, runner, plan_for)
+        planner = Planner(vol, path=path, listener=args.listener, duration=args.duration,
+                          time_scale=args.time_scale,
+                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
+        hs = _heard(args, vol, runner, planner)
         tracks = hs.tracks
-        plan = planned["plan"]
+        plan = planner.plan
         check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
                       lead=plan.lead)  # fmt: skip
         for note in plan.notes:
@@ -263,7 +258,7 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     from auralize.emitters.engine import parts_of
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass, loudness
-    from auralize.pipeline import plan_render, save_rendered
+    from auralize.pipeline import Planner, save_rendered
     from auralize.scene.soundscene import add_rendered, render_mix, scene_sound
     from auralize.spatial import get_layout
 
@@ -282,17 +277,12 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
-        planned: dict[str, Any] = {}
-
-        def plan_for(tr: Any) -> Any:
-            planned["plan"] = plan_render(vol, tr, path=path, listener=listener,
-                                          duration=args.duration, time_scale=args.time_scale,
-                                          clip=False, face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
-            return planned["plan"].path
-
-        hs = _heard(args, vol, runner, plan_for)
+        planner = Planner(vol, path=path, listener=listener, duration=args.duration,
+                          time_scale=args.time_scale, clip=False,
+                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
+        hs = _heard(args, vol, runner, planner)
         tracks = hs.tracks
-        plan = planned["plan"]
+        plan = planner.plan
         sound = scene_sound(models, plan.path, args.duration, rate=args.rate)
         mine = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead)
         duration = scene_duration(args, [mine, *parts_of(sound)], plan.path, own_path)

@@ -300,7 +300,8 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
     """Synthesize every model of a scene and join their sounds (one :class:`Sound`).
 
     ``path`` and ``duration`` are only used to resolve the field model's
-    automatic time scale.  ``rate`` (the output rate, Hz) is the emission rate
+    automatic time scale, and to hear the blocks of its whole field near the
+    path as their points.  ``rate`` (the output rate, Hz) is the emission rate
     of a model with a ``rate`` parameter that its entry leaves unset (fire,
     aero), as in the model's own command.  ``meta["scene"]`` lists the models.
     """
@@ -322,6 +323,10 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
             params["rate"] = int(rate)
         if sm.model == "field" and path is not None:
             params = _field_params(inputs, params, path, duration or path.duration)
+            from auralize.volume import TimeVolume
+
+            if isinstance(inputs, TimeVolume):  # the whole field's blocks near it as points
+                inputs = (inputs, path)
         total = total + synthesize(model, inputs, **params)
     total.meta["scene"] = [sm.describe() for sm in models]
     return total

@@ -17,7 +17,6 @@ from auralize.plugins import Parameter, SoundModel
 if TYPE_CHECKING:
     from auralize.emitters import Sound
     from auralize.pipeline import HeardSound
-    from auralize.sources.detection import SourceSeries
     from auralize.volume import TimeVolume
 
 
@@ -63,17 +62,20 @@ class FieldAuralization(SoundModel):
         ),
     )
 
-    def synthesize(self, inputs: TimeVolume | tuple[TimeVolume, SourceSeries | HeardSound],
+    def synthesize(self, inputs: TimeVolume | tuple[TimeVolume, Any],
                    **params: Any) -> Sound:  # fmt: skip
         """The sources of a volume, for the engine to render.
 
         Parameters
         ----------
-        inputs : TimeVolume, (TimeVolume, SourceSeries) or (TimeVolume, HeardSound)
+        inputs : TimeVolume, or (TimeVolume, SourceSeries | HeardSound | ListenerPath)
             The volume; with a :class:`~auralize.sources.detection.SourceSeries` already
             detected on it (e.g. by ``auralize detect``), those sources are heard;
             with a :class:`~auralize.pipeline.HeardSound` (:func:`auralize.pipeline.heard_sound`),
-            that sound.
+            that sound; with the :class:`~auralize.listener.ListenerPath` a scene
+            renders along, the whole field's blocks near it are heard as their points
+            (:func:`auralize.sources.field.field_tracks`; the model's sound is still
+            rendered by the engine along any path).
         **params
             ``mapping`` and ``threshold_*`` (detection, paper 003 §3.2.2–3.2.3),
             ``interp`` (§3.2.4.3), ``time_scale`` (playback s per data s),
@@ -87,6 +89,7 @@ class FieldAuralization(SoundModel):
         """
         from auralize.emitters import FieldSources, Sound
         from auralize.errors import ParameterError
+        from auralize.listener import ListenerPath
         from auralize.pipeline import HeardSound, heard_sound
         from auralize.sources.detection import SourceSeries, Thresholds
         from auralize.sources.field import parse_heard
@@ -94,15 +97,19 @@ class FieldAuralization(SoundModel):
 
         series = None
         given: HeardSound | None = None
+        near = None
         if isinstance(inputs, tuple) and len(inputs) == 2:
             volume, second = inputs
             if isinstance(second, HeardSound):
                 given = second
             elif isinstance(second, SourceSeries):
                 series = second
+            elif isinstance(second, ListenerPath):
+                near = second
             else:
-                raise ParameterError(f"field model: the second input must be a SourceSeries or "
-                                     f"a HeardSound, got {type(second).__name__}")  # fmt: skip
+                raise ParameterError(f"field model: the second input must be a SourceSeries, a "
+                                     f"HeardSound or a ListenerPath, got "
+                                     f"{type(second).__name__}")  # fmt: skip
         else:
             volume = inputs  # type: ignore[assignment]
         if not isinstance(volume, TimeVolume):
@@ -113,8 +120,8 @@ class FieldAuralization(SoundModel):
         heard = parse_heard(p["heard"])
         if series is not None and params.get("heard") is None:
             heard = parse_heard("detected")  # sources given: they are what is heard
-        # (a model never sees the listener: every block of the field is compressed)
-        hs = given or heard_sound(volume, heard=heard, series=series, thresholds=th,
+        # (without a path every block of the whole field is heard through its proxies)
+        hs = given or heard_sound(volume, heard=heard, series=series, thresholds=th, path=near,
                                   mapping=None if p["mapping"] == "auto" else p["mapping"])  # fmt: skip
         tracks = hs.tracks
         part = FieldSources(tracks=tracks, time_scale=float(p["time_scale"]), lead=float(p["lead"]),
