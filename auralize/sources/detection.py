@@ -561,13 +561,13 @@ _NO_BAD: dict[tuple[int, ...], NDArray[np.bool_]] = {}
 
 
 def _no_bad(shape: tuple[int, ...]) -> NDArray[np.bool_]:
-    """An all-False mask of ``shape`` (cached, read-only)."""
+    """An all-False mask of ``shape`` (cached; the kernels only read it, and it stays
+    writable so that they are compiled for one kind of mask, not two)."""
     m = _NO_BAD.get(shape)
     if m is None:
         if len(_NO_BAD) > 4:
             _NO_BAD.clear()
         m = _NO_BAD[shape] = np.zeros(shape, dtype=bool)
-        m.flags.writeable = False
     return m
 
 
