@@ -1,7 +1,10 @@
 """Source detection: strengths, classification and ΔV spheres (paper 003 §3.2.3–3.2.4).
 
 * :mod:`auralize.sources.detection` — monopole/dipole/quadrupole strengths,
-  thresholds, classification and extraction (the public names below);
+  thresholds, classification and extraction (the public names below): what
+  is *drawn*;
+* :mod:`auralize.sources.field` — the whole field's sound (every point, no
+  threshold, blocks heard through proxies): what is *heard*;
 * :mod:`auralize.sources._kernels` — its fused numba stencils;
 * :mod:`auralize.sources.model` — the ``field`` sound model
   (:class:`~auralize.sources.model.FieldAuralization`), detected sources as a
@@ -36,15 +39,15 @@ _EXPORTS = {
     "SourceSeries": ".detection",
     "SourceTracks": ".detection",
     "valid_mask": ".detection",
+    "field_tracks": ".field",
+    "FieldTracks": ".field",
+    "Heard": ".field",
+    "parse_heard": ".field",
     "step_strengths": ".detection",
-    "STRESS_BLOCK": ".detection",
-    "stress_blocks": ".detection",
-    "StressSum": ".detection",
-    "stress_block_sum": ".detection",
-    "stress_sum": ".detection",
     "STRESS_PAIRS": ".detection",
-    "steady_quadrupole": ".detection",
     "steady_strength": ".detection",
+    "SteadyBase": ".detection",
+    "steady_anchors": ".detection",
     "compute_strengths": ".detection",
     "classify": ".detection",
     "extract": ".detection",
@@ -72,16 +75,17 @@ __all__ = [
     "ROUNDOFF",
     "SAMPLE_POINTS",
     "STEADY_MODES",
-    "STRESS_BLOCK",
     "STRESS_PAIRS",
     "TYPES",
     "WARN_FRACTION",
+    "FieldTracks",
+    "Heard",
     "SourceFractionWarning",
     "SourceFrame",
     "SourceSeries",
     "SourceTracks",
+    "SteadyBase",
     "StrengthStats",
-    "StressSum",
     "ThresholdSpec",
     "Thresholds",
     "auto_threshold",
@@ -90,18 +94,17 @@ __all__ = [
     "compute_strengths",
     "detect",
     "extract",
+    "field_tracks",
     "input_scale",
     "iter_detect",
+    "parse_heard",
     "peak_strengths",
     "sample_stats",
     "sample_steps",
-    "steady_quadrupole",
+    "steady_anchors",
     "steady_strength",
     "step_strengths",
     "strength_stats",
-    "stress_block_sum",
-    "stress_blocks",
-    "stress_sum",
     "valid_mask",
     "warn_fraction",
 ]

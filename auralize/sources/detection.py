@@ -676,73 +676,12 @@ class SteadyBase:
         return (1.0 - f) * sa + f * sb, (1.0 - f) * ta + f * tb
 
 
-#: steps per partial sum of the time-mean stress (fixed, so serial and
-#: distributed detection add the same partial sums in the same order)
-STRESS_BLOCK = 8
-
-
-def stress_blocks(n_steps: int) -> list[tuple[int, int]]:
-    """The ``[a, b)`` step blocks of :data:`STRESS_BLOCK` steps."""
-    return [(a, min(a + STRESS_BLOCK, n_steps)) for a in range(0, n_steps, STRESS_BLOCK)]
-
-
-StressSum = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
-
-
-def stress_block_sum(volume: TimeVolume, mapping: AcousticMapping, a: int,
-                     b: int) -> StressSum:  # fmt: skip
-    """``(ref, dsum, count)`` of steps ``[a, b)`` (see :func:`stress_sum`)."""
-    cache = StepCache(volume, mapping)
-    ref = _stress(*cache.get(0)[:2])
-    dsum = np.zeros((6, *volume.shape))
-    count = np.zeros(volume.shape, dtype=np.int64)
-    for n in range(a, b):
-        rho, v, _, ok = cache.get(n)
-        d = _stress(rho, v) - ref
-        dsum += d if ok is None else d * ok
-        count += 1 if ok is None else ok
-        cache.keep(0, 0)
-    return ref, dsum, count
-
-
-def stress_sum(volume: TimeVolume, mapping: AcousticMapping) -> StressSum:
-    """Pieces of the time-mean Lighthill stress ρ v_i v_j over all steps.
-
-    Returns ``ref (6, nz, ny, nx)``, the stress at step 0 (order xx, yy, zz,
-    xy, xz, yz; 0 where step 0 has no data), ``dsum``, the sum of
-    (stress − ref) over the steps at the points with data (added block by
-    block, :data:`STRESS_BLOCK` steps each), and ``count (nz, ny, nx)``, the
-    number of such steps.  ``ref + dsum / count`` is the mean
-    (:func:`steady_quadrupole`); taken as an offset from step 0, a steady
-    field's mean is step 0's stress exactly, not up to round-off.
-    """
-    blocks = stress_blocks(volume.n_steps)
-    ref, dsum, count = stress_block_sum(volume, mapping, *blocks[0])
-    dsum = np.zeros_like(dsum) + dsum  # 0 + first block, as the distributed sum
-    for a, b in blocks[1:]:
-        _, d, c = stress_block_sum(volume, mapping, a, b)
-        dsum += d
-        count += c
-    return ref, dsum, count
-
-
 def _stress(rho: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.stack([rho * v[..., p] * v[..., q] for p, q in STRESS_PAIRS])
 
 
 #: component pairs of the stress in the kernels' order xx, yy, zz, xy, xz, yz
 STRESS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-
-
-def steady_quadrupole(ref: NDArray[np.float64], dsum: NDArray[np.float64],
-                      count: NDArray[np.int64], spacing: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
-    """Quadrupole strength ``(nz, ny, nx)`` of the time-mean stress (see :func:`stress_sum`).
-
-    By linearity, S_q(ρ v_i v_j) − S_q(⟨ρ v_i v_j⟩) is the strength of the
-    fluctuating stress; it is exactly 0 for a steady field.
-    """
-    mean = ref + dsum / np.maximum(count, 1)
-    return K.quadrupole_of_stress(mean, spacing)
 
 
 def steady_strength(volume: TimeVolume, m: AcousticMapping,
