@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.errors import DeviceError, FormatError, ParameterError
+from auralize.errors import DeviceError, FormatError, OutputError, ParameterError
 from auralize.io.files import write_pair
 
 if TYPE_CHECKING:
@@ -317,7 +317,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         note = _flac_mask_note(lay if layout is not None else None, sidecar, out.shape[0])
         if note:
             warnings.warn(f"{p}: {note}", UserWarning, stacklevel=2)
+    check_sidecar_target(Path(str(p) + ".json"))
     meta = {
+        "auralize_format": SIDECAR_FORMAT,
         "file": p.name,
         "rate": int(rate),
         "channels": int(out.shape[0]),
@@ -362,6 +364,38 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     write_pair(p, write_main, Path(str(p) + ".json"), sidecar_bytes,
                suffix=".part.flac" if suffix == ".flac" else ".part")  # fmt: skip
     return gain
+
+
+#: the marker of an audio file's sidecar (``OUT.wav.json``)
+SIDECAR_FORMAT = "audio-sidecar"
+
+
+def check_sidecar_target(path: str | Path) -> None:
+    """Refuse to replace ``path`` (an audio file's sidecar to be) unless auralize
+    wrote it: a sidecar of ours carries ``"auralize_format": "audio-sidecar"`` (or,
+    written before that marker, the keys ``file``, ``rate`` and ``command``).
+
+    Raises
+    ------
+    OutputError
+        ``path`` exists and is not one of auralize's sidecars.
+    """
+    p = Path(path)
+    if not p.exists():
+        return
+    ours = False
+    try:
+        if p.is_file() and p.stat().st_size < (16 << 20):
+            d = json.loads(p.read_text())
+            ours = isinstance(d, dict) and (d.get("auralize_format") == SIDECAR_FORMAT
+                                            or {"file", "rate", "command"} <= set(d))  # fmt: skip
+    except (OSError, ValueError, UnicodeDecodeError):
+        ours = False
+    if not ours:
+        raise OutputError(
+            f"{p}: exists and is not an auralize sidecar; writing the audio would replace it "
+            f"(the sidecar of OUT.wav is OUT.wav.json): move it, or name another output"
+        )
 
 
 #: a peak pressure below this (Pa) is not normalised to full scale but written as

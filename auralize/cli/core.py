@@ -65,6 +65,7 @@ EXIT_SILENT = 1
 EXIT_USAGE = 2
 EXIT_DATA = 3
 EXIT_SYSTEM = 4
+EXIT_SCRIPT = 5
 EXIT_INTERNAL = 70
 EXIT_INTERRUPTED = 130
 #: exit status -> meaning (the README's table)
@@ -74,6 +75,7 @@ EXIT_CODES = {
     EXIT_USAGE: "usage error: a bad option or value",
     EXIT_DATA: "data error: an input file is missing, unreadable or malformed",
     EXIT_SYSTEM: "system error: the output cannot be written, not enough memory, no device",
+    EXIT_SCRIPT: "the script run by 'auralize script' raised an error (its traceback is shown)",
     EXIT_INTERNAL: "internal error (a bug; AURALIZE_DEBUG=1 shows the traceback)",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
 }
@@ -956,16 +958,72 @@ def error_message(exc: BaseException) -> tuple[str, int]:
     )
 
 
+#: the options whose values may name a command's input files
+INPUT_OPTIONS = ("volume", "volume_pos", "input", "sources", "path", "scene", "texture",
+                 "discharge", "layout", "hrtf", "file")  # fmt: skip
+
+
+def _inputs(args: argparse.Namespace) -> list[Path]:
+    """The existing files and folders a command reads (its positional input, sources,
+    path, scene, model inputs ...)."""
+    out: list[Path] = []
+    for name in INPUT_OPTIONS:
+        v = getattr(args, name, None)
+        if isinstance(v, str | Path) and str(v) and not str(v).startswith("dataset:"):
+            out.append(Path(v).expanduser())
+    for spec in getattr(args, "model", None) or []:
+        from auralize.scene.soundscene import parse_model_spec
+
+        try:
+            src = parse_model_spec(spec).input
+        except Exception:  # a bad spec is reported by the command itself
+            continue
+        if isinstance(src, str | Path) and not str(src).startswith("dataset:"):
+            out.append(Path(src).expanduser())
+    return [p for p in out if p.exists()]
+
+
+def check_not_input(out: str | Path, inputs: Sequence[str | Path]) -> None:
+    """Refuse an output that is one of the inputs (by resolved path and by inode: a
+    link to it too), would be written into an input folder's place, or whose own
+    folder of pieces (``.pvd``: ``NAME_data/``) holds an input."""
+    o = Path(out).expanduser()
+    targets = [o, Path(str(o) + ".json")]
+    if o.suffix.lower() == ".pvd":
+        targets.append(o.with_name(o.stem + "_data"))
+    for src in inputs:
+        s = Path(src).expanduser()
+        for t in targets:
+            same = t.resolve() == s.resolve()
+            if not same and t.exists():
+                try:
+                    same = os.path.samefile(t, s)
+                except OSError:
+                    same = False
+            inside = t.is_dir() or (t.suffix == "" and t.name.endswith("_data"))
+            if same or (inside and s.resolve().is_relative_to(t.resolve())):
+                raise ParameterError(
+                    f"{o}: writing it would replace the input {str(s)!r}; name another output"
+                )
+
+
 def _check_outputs(args: argparse.Namespace) -> None:
-    """Refuse an output path that cannot be written before any slow work."""
+    """Refuse an output path that cannot be written before any slow work (a missing
+    folder, no permission, an output that would replace an input, a sidecar that
+    auralize did not write)."""
     from auralize.io.files import check_output_path
 
     out = getattr(args, "output", None)
     if isinstance(out, str | Path) and str(out) != "-":
         check_output_path(out, folder=getattr(args, "command", None) == "demo")
+        check_not_input(out, _inputs(args))
         suffix = Path(out).suffix.lower()
         if hasattr(args, "normalize") and suffix not in (".wav", ".flac"):
             raise ParameterError(f"{out}: audio output must end in .wav or .flac")
+        if suffix in (".wav", ".flac"):
+            from auralize.audio.output import check_sidecar_target
+
+            check_sidecar_target(Path(str(out) + ".json"))
     if getattr(args, "hrtf", None):
         from auralize.spatial.layouts import get_layout, is_binaural
         from auralize.spatial.sofa import read_sofa
@@ -1014,6 +1072,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{name}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        # the reader of our output went away (``auralize plugins | head -1``): it had
+        # what it wanted; end quietly, and keep Python's exit-time flush quiet too
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
     except Exception as exc:
         if os.environ.get("AURALIZE_DEBUG"):
             traceback.print_exc()

@@ -54,8 +54,15 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--window-size", default="1200x900", metavar="WxH")
     p.set_defaults(func=cmd_view)
 
-    p = sub.add_parser("script", help="run a pvpython-like script (auralize.simple)")
-    p.add_argument("file", metavar="FILE.py")
+    p = sub.add_parser(
+        "script",
+        help="run a pvpython-like script (auralize.simple)",
+        description="Run FILE.py as Python, with your rights (it can read, write and run "
+        "anything you can: run only scripts you trust), as __main__ with sys.argv = [FILE, "
+        "ARGS...]; 'from auralize.simple import *' gives the pvpython-like API. An error in "
+        "the script prints the script's own traceback and exits with status 5.",
+    )
+    p.add_argument("file", metavar="FILE.py", help="the script (Python, run with your rights)")
     p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the script")
     p.set_defaults(func=cmd_script)
 
@@ -189,6 +196,33 @@ def cmd_script(args: argparse.Namespace) -> int:
             return int(exc.code or 0)
         print(exc.code, file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:
+        # the script's own error, not auralize's: its traceback from the script's
+        # first frame on (a syntax error: where it is), then the status of a script error
+        print(_script_traceback(exc, f), file=sys.stderr, end="")
+        from auralize.cli.core import EXIT_SCRIPT
+
+        return EXIT_SCRIPT
     finally:
         sys.argv = old
     return 0
+
+
+def _script_traceback(exc: BaseException, script: Path) -> str:
+    """The traceback of an exception raised by ``script``: its frames from the first
+    one in the script on (runpy's and auralize's own frames before it left out)."""
+    import traceback
+
+    if (
+        isinstance(exc, SyntaxError)
+        and exc.filename
+        and Path(exc.filename).resolve() == script.resolve()
+    ):
+        return "".join(traceback.format_exception_only(type(exc), exc))
+    tb = exc.__traceback__
+    here = script.resolve()
+    while tb is not None and Path(tb.tb_frame.f_code.co_filename).resolve() != here:
+        tb = tb.tb_next
+    return "".join(traceback.format_exception(type(exc), exc, tb or exc.__traceback__))

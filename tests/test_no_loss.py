@@ -1,0 +1,92 @@
+"""Nothing lost: no output replaces an input or a file auralize did not write; a
+closed pipe ends quietly; a script's error is the script's."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from auralize.cli import main
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    code = main([str(a) for a in argv])
+    return code, capsys.readouterr().err
+
+
+@pytest.fixture
+def volume(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Path:
+    v = tmp_path / "m.h5"
+    assert main(["dataset", "monopole", "--size", "8", "--steps", "6", "-o", str(v)]) == 0
+    capsys.readouterr()
+    return v
+
+
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(
+    volume: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    before = volume.read_bytes()
+    code, err = _run(["detect", volume, "-o", volume], capsys)
+    assert code == 2 and "would replace the input" in err and volume.read_bytes() == before
+    # the same file under another name (a hard link) is the same file
+    link = tmp_path / "link.h5"
+    os.link(volume, link)
+    code, err = _run(["detect", volume, "-o", link], capsys)
+    assert code == 2 and "would replace the input" in err and volume.read_bytes() == before
+    # sources read by render are inputs too
+    src = tmp_path / "s.h5"
+    assert _run(["detect", volume, "-o", src], capsys)[0] == 0
+    kept = src.read_bytes()
+    code, err = _run(["render", volume, "--sources", src, "-o", src], capsys)
+    assert code == 2 and "would replace the input" in err and src.read_bytes() == kept
+    # an input inside the folder a .pvd output writes its pieces to
+    data = tmp_path / "out_data"
+    data.mkdir()
+    inside = data / "m.h5"
+    inside.write_bytes(before)
+    code, err = _run(["detect", inside, "-o", tmp_path / "out.pvd"], capsys)
+    assert code == 2 and "would replace the input" in err and inside.read_bytes() == before
+
+
+def test_a_sidecar_auralize_did_not_write_is_never_replaced(
+    volume: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    wav = tmp_path / "o.wav"
+    theirs = tmp_path / "o.wav.json"
+    theirs.write_text('{"mine": 1}')
+    args = ["render", volume, "--listener", "1,1,4", "--duration", "0.05", "-o", wav]
+    code, err = _run(args, capsys)
+    assert code == 4 and "not an auralize sidecar" in err
+    assert theirs.read_text() == '{"mine": 1}' and not wav.exists()
+    # ours is recognised by its marker, and replaced by the next render
+    theirs.unlink()
+    assert _run(args, capsys)[0] == 0
+    assert json.loads(theirs.read_text())["auralize_format"] == "audio-sidecar"
+    assert _run(args, capsys)[0] == 0
+
+
+def test_a_closed_pipe_ends_quietly() -> None:
+    """``auralize plugins | head -1``: the line, exit 0, nothing on stderr."""
+    exe = Path(sys.executable).parent / "auralize"
+    p = subprocess.run(f"'{exe}' plugins | head -1; exit ${{PIPESTATUS[0]}}", shell=True,
+                       executable="/bin/bash", capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.count("\n") == 1 and p.stderr == ""
+
+
+def test_a_scripts_error_is_the_scripts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f():\n    return 1 / 0\n\nf()\n")
+    code, err = _run(["script", bad], capsys)
+    assert code == 5 and "internal error" not in err and "this is a bug" not in err
+    assert err.startswith("Traceback") and f'File "{bad}", line 4' in err
+    assert "ZeroDivisionError: division by zero" in err and "runpy" not in err
+    syn = tmp_path / "syn.py"
+    syn.write_text("x = (\n")
+    code, err = _run(["script", syn], capsys)
+    assert code == 5 and "SyntaxError" in err and f'File "{syn}", line 1' in err
