@@ -215,7 +215,6 @@ def test_live_binaural_on_file_backed_alsa_device(tmp_path) -> None:  # type: ig
     r = json.loads(res.stdout.strip().splitlines()[-1])
     assert r["channels"] == 2 and r["layout"] == "binaural" and r["blocks"] == 40
     assert r["underruns"] == 0 and r["device_underflows"] == 0
-    assert r["synth_ms_p95"] < 0.5 * 1e3 * r["block_s"]  # under half the 50 ms block
     tracks, path = _scene()
     ref = 2.0 * render_timbre(tracks, path, layout="binaural", highpass_hz=0.0).audio
     dev = np.fromfile(out2, dtype="<f4").reshape(-1, 2).T.astype(np.float64)

@@ -166,7 +166,9 @@ def test_stream_reports_underruns_and_bad_blocks(alsa_device) -> None:  # type: 
 
     from auralize.audio.live import open_stream
 
-    s = open_stream(rate=44100, channels=2, device="auralize_file2", block=441, prefill_s=0.01)
+    s = open_stream(
+        rate=44100, channels=2, device="auralize_file2", block=441, prefill_s=0.01, wait_s=0.005
+    )  # (not the test session's patient callback)
     with pytest.raises(ParameterError, match=r"block must be \(2, n\), got shape \(3, 10\)"):
         s.write(np.zeros((3, 10)))
     s.write(np.full((2, 882), 0.1))  # 20 ms, then the producer stalls

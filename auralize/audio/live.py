@@ -46,6 +46,7 @@ Blocks of a render, without a device (:func:`play` feeds them to one):
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from collections import deque
@@ -248,7 +249,9 @@ class LiveStream:
         empty queue).
     wait_s : float, optional
         Longest wait of the callback for a late block before it plays silence
-        and counts an underrun (default: half the callback period, 10 ms when
+        and counts an underrun (default: ``$AURALIZE_LIVE_WAIT_S`` seconds when
+        set — a device that is a file, not a clock, can wait for any producer —
+        else half the callback period, 10 ms when
         the period is not fixed).
     latency : str or float
         PortAudio latency (``"high"`` for robustness).
@@ -274,6 +277,8 @@ class LiveStream:
         self._queued = 0
         self._capacity = max(int(buffer_s * rate), 1)
         self._prefill = max(int(prefill_s * rate), 1)
+        if wait_s is None and os.environ.get("AURALIZE_LIVE_WAIT_S"):
+            wait_s = _env_seconds("AURALIZE_LIVE_WAIT_S")
         self._wait = (0.5 * block / rate if block else 0.010) if wait_s is None else float(wait_s)
         self._closing = False
         self._started = False
@@ -397,6 +402,18 @@ class LiveStream:
             st.underruns += 1
             st.underrun_times.append(st.frames / self.rate)
         st.frames += frames
+
+
+def _env_seconds(name: str) -> float:
+    """A duration in seconds from the environment variable ``name`` (>= 0)."""
+    text = os.environ.get(name, "")
+    try:
+        v = float(text)
+    except ValueError:
+        raise ParameterError(f"{name}={text!r}: give a number of seconds") from None
+    if not (math.isfinite(v) and v >= 0):
+        raise ParameterError(f"{name}={text!r}: give a number of seconds >= 0")
+    return v
 
 
 def open_stream(*, rate: int, channels: int, device: int | str | None = None,
