@@ -33,7 +33,7 @@ from auralize.emitters.synthesis import (
     source_extent,
 )
 from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
-from auralize.errors import ParameterError
+from auralize.errors import FieldError, ParameterError
 from auralize.listener import SWEEP_TURNS, ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
 from auralize.runtime.progress import progress_step
@@ -149,6 +149,13 @@ def resolve_mapping(volume: TimeVolume, mapping: str | AcousticMapping | None = 
     if isinstance(mapping, AcousticMapping) or callable(mapping):
         return get_mapping(mapping, **mapping_fields)
     names = {k: v for k, v in mapping_fields.items() if v}
+    for option, field_name in names.items():  # a field named by the user must exist
+        if field_name not in volume.fields:
+            flag = "--log-density-field" if option == "field" else f"--{option}-field"
+            raise FieldError(
+                f"{volume.source}: {flag} {field_name!r} is not a field of the volume; it has "
+                f"{volume.field_names}"
+            )
     name = mapping or _mapping_for_options(names) or auto_mapping(volume)
     for option, role in PRESET_ROLES.get(name, {}).items():
         if option not in names:
@@ -270,6 +277,8 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
     * The output starts when the first sound can arrive: ``lead`` = nearest
       distance from the path to the sources' box / c0.
     """
+    if not (math.isfinite(c0) and c0 > 0):
+        raise ParameterError(f"speed of sound c0 must be > 0 m/s, got {c0!r}")
     times = np.asarray(volume.times, dtype=np.float64)
     span = float(times[-1] - times[0]) if times.size >= 2 else 0.0
     if not span > 0:

@@ -698,8 +698,10 @@ def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
     >>> SaveAudio(out, r) > 0, out.exists(), pathlib.Path(f"{out}.json").exists()
     (True, True, True)
     """
+    from auralize.io.files import check_output_path
     from auralize.pipeline import save_rendered
 
+    check_output_path(filename)  # a bad place fails before anything else
     r = rendered or GetSession().rendered
     if r is None:
         raise ParameterError("nothing rendered yet; call RenderAudio() first")

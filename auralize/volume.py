@@ -148,6 +148,12 @@ class TimeVolume:
         self.spacing = _vec3(self.spacing, "spacing")
         if np.any(self.spacing <= 0):
             raise DataError(f"{self.source}: grid spacing must be positive, got {self.spacing}")
+        # second derivatives divide by h²: it must be a finite, non-zero number
+        if np.any(self.spacing < 1e-100) or np.any(self.spacing > 1e100):
+            raise DataError(
+                f"{self.source}: grid spacing {self.spacing.tolist()} m is outside 1e-100 … 1e100 m "
+                f"(the strengths divide by its square); check the grid's units"
+            )
         self.dims = tuple(int(d) for d in self.dims)  # type: ignore[assignment]
         if len(self.dims) != 3 or min(self.dims) < 1:
             raise DataError(f"{self.source}: dims must be three positive integers, got {self.dims}")

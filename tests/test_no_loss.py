@@ -90,3 +90,32 @@ def test_a_scripts_error_is_the_scripts(tmp_path: Path, capsys: pytest.CaptureFi
     syn.write_text("x = (\n")
     code, err = _run(["script", syn], capsys)
     assert code == 5 and "SyntaxError" in err and f'File "{syn}", line 1' in err
+
+
+def test_impossible_numbers_are_refused_by_name(
+    volume: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import numpy as np
+
+    from auralize.errors import DataError, OutputError, ParameterError
+    from auralize.pipeline import plan_render
+    from auralize.simple import SaveAudio
+    from auralize.volume import TimeVolume
+
+    # a field the user names must exist; the message lists the ones that do
+    code, err = _run(
+        ["render", volume, "--velocity-field", "nosuch", "-o", tmp_path / "o.wav"], capsys
+    )
+    assert code == 3 and "--velocity-field 'nosuch'" in err and not (tmp_path / "o.wav").exists()
+    # a spacing whose square under- or overflows is a units mistake, said so
+    times = np.arange(3) * 1e-3
+    for h in (1e-200, 1e200):
+        with pytest.raises(DataError, match="check the grid's units"):
+            TimeVolume.from_arrays({"p": np.zeros((3, 2, 2, 2))}, spacing=h, times=times)
+    ok = TimeVolume.from_arrays({"p": np.zeros((3, 2, 2, 2))}, times=times)
+    for c0 in (0.0, -343.0, float("nan"), float("inf")):
+        with pytest.raises(ParameterError, match="speed of sound"):
+            plan_render(ok, c0=c0)
+    # saving to a folder that does not exist fails before looking for a render
+    with pytest.raises(OutputError, match="does not exist"):
+        SaveAudio(tmp_path / "nowhere" / "o.wav")
