@@ -446,7 +446,10 @@ def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
             center = kw.pop("center", vol.center if vol is not None else None)
             radius = kw.pop("radius", None)
             if radius is None and vol is not None:
-                radius = 0.3 * float(np.min(np.asarray(vol.bounds).reshape(3, 2) @ [-1, 1]))
+                # 0.3 of the box's smallest side; a one-layer grid's zero side is no side
+                sides = np.asarray(vol.bounds, dtype=np.float64).reshape(3, 2) @ [-1.0, 1.0]
+                if np.any(sides > 0):
+                    radius = 0.3 * float(np.min(sides[sides > 0]))
             if center is None or radius is None:
                 raise ParameterError("orbit needs center= and radius=")
             path = ListenerPath.orbit(center, radius=radius, duration=duration, **kw)

@@ -177,3 +177,20 @@ def test_live_listening_follows_pose(tmp_path):
     assert heard is not None and np.allclose(heard.forward[-1], [0, -1, 0])
     eng.save_heard(tmp_path / "heard.csv", tmp_path / "heard.wav")
     assert (tmp_path / "live.wav").exists() and (tmp_path / "heard.wav").exists()
+
+
+def test_default_orbit_around_a_one_layer_grid(tmp_path):
+    """A flat (one-layer) grid has a zero side; the default orbit ignores it."""
+    from auralize.io import save_volume
+    from auralize.volume import TimeVolume
+
+    ResetSession()
+    t = np.arange(12) * 1e-3
+    for shape in ((1, 8, 8), (8, 1, 8)):
+        rho = 1.2 + 1e-3 * np.random.default_rng(0).random((12, *shape))
+        f = tmp_path / f"flat{shape[0]}{shape[1]}.h5"
+        save_volume(TimeVolume.from_arrays({"density": rho}, spacing=0.5, times=t), f)
+        src = OpenDataFile(f)
+        path = CreateListenerPath("orbit", duration=1.0)
+        r = np.linalg.norm(path.positions[:, :2] - np.asarray(src.Volume.center)[:2], axis=1)
+        assert np.allclose(r, 0.3 * 3.5, rtol=1e-6)  # 0.3 × the 3.5 m side, not 0
