@@ -128,3 +128,30 @@ def test_vector_glyphs_and_robust_colour_range() -> None:
     a = np.concatenate([np.linspace(0, 1, 999), [1e30, -9.99e33, np.nan, np.inf]])
     lo, hi = robust_range([a])
     assert 0 <= lo < 0.02 and 0.98 < hi <= 1
+
+
+def test_a_one_layer_grid_is_drawn_as_a_coloured_surface(tmp_path) -> None:
+    """A flat grid has no inside to ray-cast or contour: it is drawn as its coloured
+    surface in the viewer's scene and in the demo's pictures (not only an outline)."""
+    from auralize.io import save_volume
+    from auralize.scene.pictures import screenshot
+    from auralize.volume import TimeVolume
+
+    t = np.arange(8) * 1e-3
+    x = np.linspace(-1, 1, 24)
+    bump = np.exp(-(x[None, :] ** 2 + x[:, None] ** 2) / 0.1)
+    rho = 1.2 - 1e-3 * (1 + t)[:, None, None, None] * bump[None, None]
+    vol = TimeVolume.from_arrays({"density": rho}, spacing=2 / 23, times=t)
+    f = tmp_path / "flat.h5"
+    save_volume(vol, f)
+    shots = [tmp_path / "view.png", tmp_path / "picture.png"]
+    assert main(["view", str(f), "--time", "4", "--window-size", "400x300",
+                 "--screenshot", str(shots[0])]) == 0  # fmt: skip
+    screenshot(vol, shots[1], step=4, window_size=(400, 300))
+    for shot in shots:
+        img = _read(shot)[:250]  # above the colour bar
+        grey = img.mean(axis=2)
+        lit = grey > 60  # the background is near black
+        # the surface covers a good part of the picture and shows the bump's gradient
+        assert lit.mean() > 0.15, shot.name
+        assert np.ptp(grey[lit]) > 100 and np.unique(grey[lit].round()).size > 50, shot.name

@@ -132,7 +132,10 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
     pl.set_background("#101018")  # type: ignore[arg-type]
     pl.add_mesh(grid.outline(), color="#888888")
     lo, hi = float(arr.min()), float(arr.max())
-    if hi > lo:
+    if min(volume.dims) == 1:  # a one-layer grid is drawn as its coloured surface
+        pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), scalars=field, cmap="viridis",
+                    clim=(lo, hi) if hi > lo else None, show_scalar_bar=False)  # fmt: skip
+    elif hi > lo:
         levels = np.linspace(lo, hi, 5)[2:-1]
         cont = grid.contour(levels.tolist(), scalars=field)
         if cont.n_points:

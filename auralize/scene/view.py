@@ -244,6 +244,8 @@ class Scene:
         grid.point_data["value"][:] = arr
         grid.Modified()
         rep = self.representation if self.show_volume else "none"
+        if rep in ("volume", "contour") and min(self._need_volume().dims) == 1:
+            rep = "surface"  # a one-layer grid has no inside to ray-cast or contour
         if rep == "volume":
             if "volume" not in self._actors:
                 self._actors["volume"] = self.plotter.add_volume(
@@ -261,8 +263,11 @@ class Scene:
                 self._grid = self._actors["volume"].mapper.dataset
             else:
                 self._actors["volume"].mapper.dataset.Modified()
-        elif rep in ("slices", "contour", "glyphs"):
-            if rep == "glyphs":
+        elif rep in ("slices", "contour", "glyphs", "surface"):
+            if rep == "surface":
+                mesh = grid.extract_surface(algorithm="dataset_surface")
+                kw = {"opacity": 1.0}
+            elif rep == "glyphs":
                 mesh = self._glyphs()
                 kw: dict[str, Any] = {"opacity": 1.0}
             elif rep == "slices":
@@ -332,7 +337,8 @@ class Scene:
             title = f"|{title}|"
         self._bar_title = title
         self.plotter.add_scalar_bar(title=title, mapper=self._actors["volume"].mapper,
-                                    n_labels=3, fmt="%.3g", vertical=False, position_x=0.55,
+                                    n_labels=3, fmt=label_format(self.clim), vertical=False,
+                                    position_x=0.55,
                                     position_y=0.03, height=0.07, width=0.4,
                                     title_font_size=12, label_font_size=11)  # fmt: skip
 
@@ -627,6 +633,23 @@ def robust_range(frames: list[NDArray[np.floating]]) -> tuple[float, float]:
     if not hi > lo:
         lo, hi = float(v.min()), float(v.max())
     return (lo, hi if hi > lo else lo + 1.0)
+
+
+def label_format(clim: tuple[float, float]) -> str:
+    """A printf format whose three labels over ``clim`` differ: enough significant
+    digits for the range's width relative to its size (at least 3).
+
+    Examples
+    --------
+    >>> label_format((0.0, 1.0)), label_format((1.1997, 1.2))
+    ('%.3g', '%.7g')
+    """
+    lo, hi = clim
+    size = max(abs(lo), abs(hi))
+    width = hi - lo
+    if not (width > 0 and np.isfinite(size)) or size == 0:
+        return "%.3g"
+    return f"%.{int(min(12, max(3, np.ceil(np.log10(size / width)) + 3)))}g"
 
 
 def _opacity_tf(scale: float) -> NDArray[np.float64]:
