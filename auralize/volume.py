@@ -106,7 +106,9 @@ class TimeVolume:
     check_finite : bool
         True: :meth:`frame` raises :class:`~auralize.errors.DataError` on
         NaN/Inf at valid points (``--nan error``); False: NaN, fill values and
-        masked cells stay NaN in the frames as no-data (``--nan mask``).
+        masked cells stay NaN in the frames as no-data (``--nan mask``), and
+        +Inf/-Inf are read as NaN: no-data too, never a value (a mapping's
+        range or peak would otherwise become infinite).
     attrs : dict
         Free-form metadata (dataset name, units, centring ...).
     valid : ndarray of bool, shape (nz, ny, nx), optional
@@ -280,7 +282,13 @@ class TimeVolume:
             ) from None
 
     def frame(self, name: str, step: int) -> NDArray[np.float64]:
-        """Read one time step of one field (validated: finite values only)."""
+        """Read one time step of one field: finite values and NaN (no-data) only.
+
+        With ``check_finite`` a NaN or ±Inf at a valid point raises
+        :class:`~auralize.errors.DataError`; without it ±Inf is replaced by NaN,
+        so every consumer treats it as the no-data it is (counted alike by
+        :func:`tally_nonfinite`).
+        """
         src = self._get(name)
         if not -self.n_steps <= step < self.n_steps:
             raise IndexError(
@@ -288,6 +296,8 @@ class TimeVolume:
             )
         step = step % self.n_steps
         arr = np.asarray(src.read(step), dtype=np.float64)
+        if not self.check_finite:
+            arr = inf_as_nan(arr)
         if self.check_finite and not np.all(np.isfinite(arr)):
             bad_points: NDArray[np.bool_] = np.asarray(~np.isfinite(arr))
             if bad_points.ndim == 4:
@@ -366,6 +376,24 @@ class TimeVolume:
                 for k, v in self.fields.items()
             },
         }
+
+
+def inf_as_nan(arr: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``arr`` with +Inf/-Inf replaced by NaN: no-data, as NaN is (``--nan mask``).
+
+    Returns ``arr`` itself when it holds no infinity, else a new array (the
+    caller's data are never modified).
+
+    Examples
+    --------
+    >>> inf_as_nan(np.array([1.0, -np.inf, np.nan, np.inf])).tolist()
+    [1.0, nan, nan, nan]
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        if np.isfinite(np.sum(arr)):  # the common case: one pass, no mask allocated
+            return arr
+    inf = np.isinf(arr)
+    return np.where(inf, np.nan, arr) if inf.any() else arr
 
 
 @dataclass

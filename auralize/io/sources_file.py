@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from auralize.errors import AuralizeError, DataError, FormatError
 from auralize.io.files import atomic_path, write_collection
+from auralize.io.json_check import parse_json
 from auralize.io.vtkhdf_write import KIND_LEGEND
 from auralize.sources.detection import SourceFrame, SourceSeries
 
@@ -68,7 +70,25 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
 
 
 def load_sources_h5(path: str | Path) -> SourceSeries:
-    """Read a sources file written by :func:`save_sources_h5`."""
+    """Read a sources file written by :func:`save_sources_h5`, checking every field.
+
+    Raises
+    ------
+    FormatError
+        Missing, not HDF5, not a sources file, another version, or links to
+        other files.
+    DataError
+        A field out of its valid range, in one line naming the file, the field
+        (and the first bad row) and what is valid: missing datasets or
+        attributes; ``dims`` not 3 whole numbers >= 1; ``origin``/``spacing``
+        not finite (spacing > 0); thresholds NaN or negative; ``meta`` not a
+        JSON object; step times not finite and strictly increasing;
+        ``offsets`` not rising from 0 to the number of sources, one more than
+        the steps; ``index``, ``kind``, ``strength``, ``radius`` (and
+        ``position``) of other lengths; an index outside the grid or listed
+        twice in a step; a kind code other than 1, 2, 3; a strength not finite;
+        a radius not finite and > 0; a position not where its index lies.
+    """
     p = Path(path)
     if not p.exists():
         raise FormatError(f"sources file {str(p)!r} does not exist")
@@ -88,26 +108,177 @@ def load_sources_h5(path: str | Path) -> SourceSeries:
         ) from None
 
 
+#: the datasets and root attributes :func:`load_sources_h5` reads (``/position`` is checked
+#: when present: it repeats what ``/index`` says on the grid)
+DATASETS = ("time", "offsets", "index", "kind", "strength", "radius")
+ATTRS = ("origin", "spacing", "dims", "thresholds", "meta")
+#: the kind codes a sources file may hold
+KIND_CODES = tuple(int(k) for k in KIND_LEGEND)
+#: largest grid (points) a sources file may describe
+MAX_POINTS = 2**40
+
+
+def _fault(p: Path, field: str, what: str) -> DataError:
+    return DataError(f"{p}: {field} {what}")
+
+
+def _first(bad: Any) -> int:
+    """Index of the first True of a boolean array."""
+    return int(np.argmax(bad))
+
+
+def _attr(h: h5py.File, p: Path, name: str, *, kinds: str = "iuf") -> np.ndarray:
+    """A root attribute of 3 numbers as an array (3,)."""
+    a = np.asarray(h.attrs[name])
+    if a.dtype.kind not in kinds or a.shape != (3,):
+        raise _fault(p, f"attribute {name!r}", f"must be 3 numbers, got {a.tolist()!r:.80}")
+    return a
+
+
+def _dataset(h: h5py.File, p: Path, name: str, shape: tuple[int, ...], kinds: str,
+             what: str) -> np.ndarray:  # fmt: skip
+    """Dataset ``/name`` read after its shape and type are checked."""
+    ds = h[name]
+    if not isinstance(ds, h5py.Dataset):
+        raise _fault(p, f"/{name}", f"must be a dataset of {what}, not a group")
+    if ds.dtype.kind not in kinds or ds.shape != shape:
+        raise _fault(p, f"/{name}", f"must be {what} of shape {shape}, got {ds.dtype} of shape "
+                                    f"{ds.shape}")  # fmt: skip
+    return np.asarray(ds[()])
+
+
 def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
+    """Read a sources file and check every field the writer puts there (one-line DataError)."""
     from auralize.io.hdf5 import check_self_contained
 
     check_self_contained(h, p)
     if h.attrs.get("auralize_format") != FORMAT:
         raise FormatError(f"{p}: not an auralize sources file (auralize_format != 'sources')")
-    if int(h.attrs.get("version", -1)) != VERSION:
+    version = np.asarray(h.attrs.get("version", -1))
+    if version.shape != () or version.dtype.kind not in "iu" or int(version) != VERSION:
         raise FormatError(f"{p}: sources file version {h.attrs.get('version')} is not {VERSION}")
-    off = h["offsets"][()]
-    idx, kind = h["index"][()], h["kind"][()]
-    strength, radius = h["strength"][()], h["radius"][()]
-    frames = [
-        SourceFrame(index=idx[a:b], kind=kind[a:b], strength=strength[a:b], radius=radius[a:b])
+    missing = [f"/{n}" for n in DATASETS if n not in h] + [
+        f"attribute {n!r}" for n in ATTRS if n not in h.attrs
+    ]
+    if missing:
+        raise DataError(f"{p}: missing {', '.join(missing)}; a sources file holds "
+                        f"{', '.join('/' + n for n in DATASETS)} and the attributes "
+                        f"{', '.join(ATTRS)} ('auralize detect -o SOURCES.h5' writes them)")  # fmt: skip
+
+    # the grid
+    dims_a = _attr(h, p, "dims")
+    if not (np.all(np.isfinite(dims_a)) and np.all(dims_a == np.round(dims_a))
+            and np.all(dims_a >= 1)):  # fmt: skip
+        raise _fault(p, "attribute 'dims'", f"must be 3 whole numbers >= 1 (nx, ny, nz), got "
+                                            f"{dims_a.tolist()}")  # fmt: skip
+    dims = tuple(int(d) for d in dims_a)
+    n_points = math.prod(dims)
+    if n_points > MAX_POINTS:
+        raise _fault(p, "attribute 'dims'", f"{dims} make {n_points:.3g} grid points; at most "
+                                            f"{MAX_POINTS:.3g} are read")  # fmt: skip
+    origin = _attr(h, p, "origin").astype(np.float64)
+    spacing = _attr(h, p, "spacing").astype(np.float64)
+    if not np.all(np.isfinite(origin)):
+        raise _fault(p, "attribute 'origin'", f"must be 3 finite numbers, got {origin.tolist()}")
+    if not (np.all(np.isfinite(spacing)) and np.all(spacing > 0)):
+        raise _fault(p, "attribute 'spacing'", f"must be 3 finite numbers > 0 m, got "
+                                               f"{spacing.tolist()}")  # fmt: skip
+    thresholds = _attr(h, p, "thresholds", kinds="iuf").astype(np.float64)
+    if np.any(np.isnan(thresholds)) or np.any(thresholds < 0):
+        raise _fault(p, "attribute 'thresholds'", f"must be 3 numbers >= 0 (inf: none), got "
+                                                  f"{thresholds.tolist()}")  # fmt: skip
+    meta_raw = h.attrs["meta"]
+    if isinstance(meta_raw, bytes):
+        meta_raw = meta_raw.decode("utf-8", "replace")
+    if not isinstance(meta_raw, str):
+        raise _fault(p, "attribute 'meta'", f"must be JSON text, got {type(meta_raw).__name__}")
+    meta = parse_json(meta_raw, f"{p}: attribute 'meta'", error=DataError, nonfinite=True)
+    if not isinstance(meta, dict):
+        raise _fault(p, "attribute 'meta'", f"must be a JSON object, got {type(meta).__name__}")
+
+    # the steps
+    t_ds = h["time"]
+    if not isinstance(t_ds, h5py.Dataset) or t_ds.ndim != 1 or t_ds.shape[0] < 1:
+        raise _fault(p, "/time", "must be a 1-D dataset of at least one step time in seconds")
+    n_steps = int(t_ds.shape[0])
+    times = _dataset(h, p, "time", (n_steps,), "iuf", "step times (s)").astype(np.float64)
+    if not np.all(np.isfinite(times)):
+        k = _first(~np.isfinite(times))
+        raise _fault(p, f"/time[{k}]", f"= {times[k]} is not finite; step times are finite seconds")
+    if np.any(np.diff(times) <= 0):
+        k = _first(np.diff(times) <= 0)
+        raise _fault(p, "/time", f"must be strictly increasing; t[{k}]={times[k]:g} >= "
+                                 f"t[{k + 1}]={times[k + 1]:g} s")  # fmt: skip
+
+    # the sources: sizes before contents (nothing larger than the grid is read)
+    i_ds = h["index"]
+    if not isinstance(i_ds, h5py.Dataset) or i_ds.ndim != 1:
+        raise _fault(p, "/index", "must be a 1-D dataset of flat grid indices")
+    n = int(i_ds.shape[0])
+    if n > n_steps * n_points:
+        raise _fault(p, "/index", f"holds {n} sources, more than {n_steps} steps x {n_points} "
+                                  f"grid points")  # fmt: skip
+    for name in ("kind", "strength", "radius"):
+        ds = h[name]
+        if not isinstance(ds, h5py.Dataset) or ds.shape != (n,):
+            got = ds.shape if isinstance(ds, h5py.Dataset) else "a group"
+            raise _fault(p, f"/{name}", f"must hold one value per source, shape ({n},) like "
+                                        f"/index, got {got}")  # fmt: skip
+    off = _dataset(h, p, "offsets", (n_steps + 1,), "iu",
+                   f"integer row offsets (one more than the {n_steps} steps)").astype(np.int64)  # fmt: skip
+    if off[0] != 0 or off[-1] != n or np.any(np.diff(off) < 0):
+        raise _fault(p, "/offsets", f"must rise from 0 to {n} (the number of sources) without "
+                                    f"decreasing, got {off[:8].tolist()}"
+                                    f"{'...' if off.size > 8 else ''} ending {int(off[-1])}")  # fmt: skip
+    idx = _dataset(h, p, "index", (n,), "iu", "flat grid indices").astype(np.int64)
+    bad = (idx < 0) | (idx >= n_points)
+    if bad.any():
+        k = _first(bad)
+        raise _fault(p, f"/index[{k}]", f"= {idx[k]} is outside the grid {dims}: valid flat "
+                                        f"indices are 0..{n_points - 1}")  # fmt: skip
+    kind = _dataset(h, p, "kind", (n,), "iu", "kind codes")
+    bad = ~np.isin(kind, KIND_CODES)
+    if bad.any():
+        k = _first(bad)
+        raise _fault(p, f"/kind[{k}]", f"= {kind[k]} is not a kind code; valid: "
+                                       f"{', '.join(f'{c} {m}' for c, m in KIND_LEGEND.items())}")  # fmt: skip
+    strength = _dataset(h, p, "strength", (n,), "iuf", "strengths").astype(np.float64)
+    bad = ~np.isfinite(strength)
+    if bad.any():
+        k = _first(bad)
+        raise _fault(p, f"/strength[{k}]", f"= {strength[k]} is not finite; strengths are "
+                                           f"finite numbers")  # fmt: skip
+    radius = _dataset(h, p, "radius", (n,), "iuf", "radii (m)").astype(np.float64)
+    bad = ~(np.isfinite(radius) & (radius > 0))
+    if bad.any():
+        k = _first(bad)
+        raise _fault(p, f"/radius[{k}]", f"= {radius[k]} m; ΔV-sphere radii are finite and > 0 m")
+    step = np.repeat(np.arange(n_steps), np.diff(off))
+    order = np.lexsort((idx, step))
+    dup = (np.diff(step[order]) == 0) & (np.diff(idx[order]) == 0)
+    if dup.any():
+        r = int(order[_first(dup)])
+        raise _fault(p, "/index", f"lists vertex {idx[r]} twice at step {step[r]}; each vertex "
+                                  f"is at most one source per step")  # fmt: skip
+    series = SourceSeries(
+        frames=[], times=times, origin=origin, spacing=spacing, dims=dims,  # type: ignore[arg-type]
+        thresholds=thresholds, meta=meta,
+    )  # fmt: skip
+    if "position" in h:
+        pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
+        tol = 1e-6 * float(spacing.min())
+        far = ~(np.abs(pos - series.positions(idx)) <= tol + 1e-9 * np.abs(pos)).all(axis=1)
+        if far.any():
+            k = _first(far)
+            raise _fault(p, f"/position[{k}]", f"= {pos[k].tolist()} is not where /index[{k}] "
+                                               f"= {idx[k]} lies on the grid "
+                                               f"({series.positions(idx[k]).tolist()})")  # fmt: skip
+    kind8 = kind.astype(np.int8)
+    series.frames = [
+        SourceFrame(index=idx[a:b], kind=kind8[a:b], strength=strength[a:b], radius=radius[a:b])
         for a, b in itertools.pairwise(off)
     ]
-    return SourceSeries(
-        frames=frames, times=h["time"][()], origin=h.attrs["origin"][()],
-        spacing=h.attrs["spacing"][()], dims=tuple(int(d) for d in h.attrs["dims"]),  # type: ignore[arg-type]
-        thresholds=h.attrs["thresholds"][()], meta=json.loads(h.attrs["meta"]),
-    )  # fmt: skip
+    return series
 
 
 def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:

@@ -18,6 +18,13 @@ viewer and :mod:`auralize.simple` read and write the same format::
 ``models`` are the sound models mixed with the data (a scene, see
 :mod:`auralize.scene.soundscene`); older files without it have none.
 
+A session is checked when it is read (:meth:`SessionState.from_dict`, which
+:meth:`SessionState.load` uses): the JSON is bounded in depth and number size
+(:mod:`auralize.io.json_check`) and every known key has its type and range
+(:data:`SCHEMA`); a fault raises :class:`~auralize.errors.FormatError` naming
+the file and the key.  Keys this version does not know are kept out of the
+way, not refused, so newer files still open.
+
 Examples
 --------
 >>> s = SessionState(data={"spec": "dataset:monopole", "size": 8, "steps": 4})
@@ -28,7 +35,7 @@ True
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -36,10 +43,90 @@ import numpy as np
 
 from auralize.errors import FormatError
 from auralize.io.files import atomic_write
+from auralize.io.json_check import (
+    AnyJSON,
+    Bool,
+    DictOf,
+    Either,
+    ListOf,
+    Num,
+    Obj,
+    Table,
+    Text,
+    check,
+    optional,
+    read_json,
+    vec3,
+)
 from auralize.listener import ListenerPath
 
 FORMAT = "session"
 VERSION = 1
+
+_TYPES = ("monopole", "dipole", "quadrupole")
+_COUNT = Num(lo=1, integer=True)
+#: what a session's ``data`` (and a model's input given as data) holds
+DATA_SCHEMA = Obj({
+    "spec": Text(nonempty=True),
+    "size": optional(_COUNT),
+    "steps": optional(_COUNT),
+    "seed": optional(Num(lo=0, integer=True)),
+    "fields": optional(DictOf(Text(nonempty=True))),
+    "resolution": optional(Either(_COUNT, ListOf(_COUNT, min_len=3, max_len=3))),
+}, required=("spec",), other=AnyJSON())  # fmt: skip
+_THRESHOLD = optional(Either(Num(lo=0), Text(nonempty=True),
+                             what="a number >= 0 or a text such as 'auto', 'top:1%', '5%'"))  # fmt: skip
+#: the types and ranges of a session file's keys (unknown keys pass as any JSON)
+SCHEMA = Obj({
+    "auralize_format": Text(),
+    "version": Num(integer=True),
+    "data": Obj(DATA_SCHEMA.fields, required=DATA_SCHEMA.required, other=AnyJSON(),
+                empty_ok=True),
+    "view": Obj({
+        "field": optional(Text()),
+        "representation": optional(Text()),
+        "cmap": optional(Text()),
+        "opacity": optional(Num(lo=0, hi=1)),
+        "step": Num(lo=0, integer=True),
+        "types": DictOf(Bool(), keys=_TYPES),
+        "overlays": ListOf(Text(nonempty=True)),
+    }, other=AnyJSON()),
+    "detection": Obj({
+        "mapping": optional(Text(nonempty=True)),
+        "mapping_fields": optional(DictOf(Text(nonempty=True))),
+        "thresholds": optional(Obj({
+            **dict.fromkeys(_TYPES, _THRESHOLD),
+            "zero_fraction": Num(lo=0),
+            "floor": Num(lo=0),
+        }, required=_TYPES, other=AnyJSON())),
+        "detected": Bool(),
+    }, other=AnyJSON()),
+    "path": optional(Obj({
+        "rows": Table(10, what="a list of rows [t, x, y, z, fx, fy, fz, ux, uy, uz] of finite "
+                               "numbers"),
+        "csv": Text(nonempty=True),
+    }, other=AnyJSON())),
+    "audio": Obj({
+        "layout": Text(nonempty=True),
+        "rate": Num(lo=1),
+        "time_scale": Num(lo=0, lo_open=True),
+        "device": optional(Either(Text(), Num(lo=0, integer=True))),
+        "heard": Text(nonempty=True),
+    }, other=AnyJSON()),
+    "camera": optional(Obj({
+        "position": vec3(),
+        "focal_point": vec3(),
+        "up": vec3(),
+        "view_angle": Num(lo=0, lo_open=True, hi=180),
+    }, required=("position", "focal_point", "up"), other=AnyJSON())),
+    "recording": Obj({"rate_hz": Num(lo=0, lo_open=True)}, other=AnyJSON()),
+    "models": ListOf(Obj({
+        "model": Text(nonempty=True),
+        "input": Either(Text(nonempty=True), DATA_SCHEMA,
+                        what="a file name, dataset:NAME or a data object with 'spec'"),
+        "params": optional(DictOf(AnyJSON())),
+    }, required=("model", "input"), other=AnyJSON())),
+}, other=AnyJSON())  # fmt: skip
 
 
 @dataclass
@@ -54,20 +141,34 @@ class SessionState:
     camera: dict[str, Any] | None = None
     recording: dict[str, Any] = field(default_factory=dict)
     models: list[dict[str, Any]] = field(default_factory=list)
+    #: the file the session was read from (named in messages; not saved)
+    source: str = field(default="<memory>", repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"auralize_format": FORMAT, "version": VERSION, **asdict(self)}
+        d = asdict(self)
+        d.pop("source")
+        return {"auralize_format": FORMAT, "version": VERSION, **d}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], *, source: str = "<memory>") -> SessionState:
+        """The session a JSON-like dict describes, checked against :data:`SCHEMA`.
+
+        Raises
+        ------
+        FormatError
+            Not a session, another version, or a key of the wrong type or out of
+            range (the message names ``source`` and the key).
+        """
         if not isinstance(d, dict) or d.get("auralize_format") != FORMAT:
             raise FormatError(f"{source}: not an auralize session file "
                               f"(expected \"auralize_format\": \"session\")")  # fmt: skip
-        if d.get("version") != VERSION:
+        version = d.get("version")
+        if isinstance(version, bool) or version != VERSION:
             raise FormatError(f"{source}: session version {d.get('version')!r} is not "
                               f"supported (this auralize reads version {VERSION})")  # fmt: skip
-        known = {k: d[k] for k in cls.__dataclass_fields__ if k in d}
-        return cls(**known)
+        check(d, SCHEMA, source)
+        known = {f.name: d[f.name] for f in fields(cls) if f.name != "source" and f.name in d}
+        return cls(**known, source=source)
 
     def save(self, path: str | Path) -> None:
         """Write the session JSON atomically."""
@@ -77,11 +178,9 @@ class SessionState:
     def load(cls, path: str | Path) -> SessionState:
         p = Path(path)
         try:
-            d = json.loads(p.read_text())
+            d = read_json(p)
         except FileNotFoundError:
             raise FormatError(f"session file {str(p)!r} does not exist") from None
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise FormatError(f"{p}: not a JSON session file ({exc})") from None
         return cls.from_dict(d, source=str(p))
 
     # ------------------------------------------------------------ path helpers
@@ -91,7 +190,8 @@ class SessionState:
             return None
         if self.path.get("rows"):
             a = np.asarray(self.path["rows"], dtype=np.float64)
-            return ListenerPath(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10], source="session")
+            return ListenerPath(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10],
+                                source=f"{self.source}: path.rows")  # fmt: skip
         if self.path.get("csv"):
             return ListenerPath.from_csv(self.path["csv"])
         return None

@@ -40,7 +40,6 @@ renders a scene block by block for live playback with the same rule
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,7 +47,19 @@ from typing import Any
 import numpy as np
 
 from auralize.errors import FormatError, MissingFileError, ParameterError
+from auralize.io.json_check import (
+    AnyJSON,
+    Either,
+    Num,
+    Obj,
+    Text,
+    check,
+    parse_json,
+    read_json,
+    vec3,
+)
 from auralize.listener import ListenerPath
+from auralize.scene.session import DATA_SCHEMA
 
 __all__ = [
     "SceneBlocks",
@@ -106,8 +117,8 @@ class SceneModel:
 def _value(text: str) -> Any:
     """A parameter value from text: a JSON number/boolean/null, else the text."""
     try:
-        v = json.loads(text)
-    except ValueError:
+        v = parse_json(text, "--model", error=ParameterError)
+    except ParameterError:
         return text
     return v if isinstance(v, int | float | bool) or v is None else text
 
@@ -174,15 +185,39 @@ def _resolve(spec: Any, folder: Path) -> Any:
     return str(folder / spec)
 
 
+#: a scene file's listener: a path CSV or a fixed position
+_LISTENER = Either(Obj({"path": Text(nonempty=True)}, required=("path",)),
+                   Obj({"position": vec3("[x, y, z]")}, required=("position",)),
+                   what='{"path": CSV} or {"position": [x, y, z]}')  # fmt: skip
+#: the ranges of a scene file's settings (their types are checked with the messages above)
+_SCENE_RANGES = Obj({"duration": Num(lo=0, lo_open=True), "rate": Num(lo=1, integer=True),
+                     "layout": Text(nonempty=True)}, other=AnyJSON())  # fmt: skip
+
+
 def load_scene(path: str | Path) -> SceneFile:
-    """Read a scene JSON file (see the module docstring)."""
+    """Read a scene JSON file (see the module docstring).
+
+    The file is read with :func:`auralize.io.json_check.read_json` (bounded
+    depth and numbers) and its keys are checked for type and range; a saved
+    session is checked by :meth:`auralize.scene.session.SessionState.from_dict`.
+
+    Raises
+    ------
+    MissingFileError
+        No such file.
+    FormatError
+        Not JSON, or a key of the wrong type or out of range (the message
+        names the file and the key).
+    """
     p = Path(path).expanduser()
     if not p.is_file():
         raise MissingFileError(f"{p}: scene file not found")
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise FormatError(f"{p}: not a JSON scene file ({exc})") from None
+        doc = read_json(p)
+    except FormatError as exc:
+        raise FormatError(
+            f"{p}: not a JSON scene file ({str(exc).removeprefix(f'{p}: ')})"
+        ) from None
     if not isinstance(doc, dict):
         raise FormatError(f"{p}: a scene file holds a JSON object, got {type(doc).__name__}")
     if doc.get("auralize_format") == "session":
@@ -203,6 +238,11 @@ def load_scene(path: str | Path) -> SceneFile:
         prm = it.get("params", {})
         if not isinstance(prm, dict):
             raise FormatError(f"{p}: models[{k}].params must be an object, got {prm!r}")
+        check(it["model"], Text(nonempty=True), str(p), where=f"models[{k}].model")
+        inp = it["input"]
+        if isinstance(inp, str) or (isinstance(inp, dict) and "spec" in inp):  # else the inputs
+            check(inp, Text(nonempty=True) if isinstance(inp, str) else DATA_SCHEMA, str(p),
+                  where=f"models[{k}].input")  # fmt: skip
         bad = sorted(set(it) - {"model", "input", "params"})
         if bad:
             raise FormatError(f"{p}: models[{k}] has unknown key(s) {bad}")
@@ -213,14 +253,11 @@ def load_scene(path: str | Path) -> SceneFile:
         if not isinstance(lis, dict) or len(set(lis) & {"path", "position"}) != 1:
             raise FormatError(f"{p}: 'listener' must be {{\"path\": CSV}} or "
                               f"{{\"position\": [x, y, z]}}, got {lis!r}")  # fmt: skip
+        check(lis, _LISTENER, str(p), where="listener")
         if "path" in lis:
-            out.path = ListenerPath.from_csv(_resolve(str(lis["path"]), p.parent))
+            out.path = ListenerPath.from_csv(_resolve(lis["path"], p.parent))
         else:
-            pos = lis["position"]
-            if not (isinstance(pos, list) and len(pos) == 3
-                    and all(isinstance(v, int | float) for v in pos)):  # fmt: skip
-                raise FormatError(f"{p}: listener.position must be [x, y, z], got {pos!r}")
-            out.listener = [float(v) for v in pos]
+            out.listener = [float(v) for v in lis["position"]]
     for key, kind in (("duration", (int, float)), ("rate", (int,)), ("layout", (str,))):
         if key in doc:
             val = doc[key]
@@ -229,6 +266,7 @@ def load_scene(path: str | Path) -> SceneFile:
             setattr(out, key, val)
     if out.duration is not None and not out.duration > 0:
         raise FormatError(f"{p}: 'duration' must be > 0 seconds, got {out.duration!r}")
+    check(doc, _SCENE_RANGES, str(p))
     return out
 
 

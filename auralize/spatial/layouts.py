@@ -70,7 +70,6 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-import json
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
@@ -82,6 +81,7 @@ from numpy.typing import NDArray
 
 from auralize.emitters import C0
 from auralize.errors import FormatError, ParameterError
+from auralize.io.json_check import AnyJSON, Bool, Obj, Text, check, optional, read_json
 
 #: speed of sound used to turn speaker distances into delays (m/s)
 C0_ALIGN = C0
@@ -454,6 +454,13 @@ def get_layout(spec: str | Path | Layout) -> Layout:
     )
 
 
+#: most speakers (or channels) a layout file may hold
+MAX_SPEAKERS = 1024
+_NAME = Text(nonempty=True)
+#: a speaker's optional keys besides its numbers (checked by :func:`_num`)
+_SPEAKER = Obj({"name": optional(_NAME), "lfe": optional(Bool())}, other=AnyJSON())
+
+
 def _num(path: Path, i: int, it: dict[str, Any], *keys: str, default: float | None) -> float | None:
     for k in keys:
         if k in it and it[k] is not None:
@@ -494,17 +501,18 @@ def load_layout_json(path: str | Path) -> Layout:
     Raises
     ------
     FormatError
-        Missing file, invalid JSON, missing/duplicate channels, non-numeric or
-        out-of-range angles, duplicate directions or names, non-positive
-        distances, fewer than two speakers to pan between.
+        Missing file, invalid JSON (or nested deeper, or with longer numbers,
+        than :mod:`auralize.io.json_check` reads), missing/duplicate channels,
+        non-numeric or out-of-range angles, a name that is not a string, an
+        ``lfe`` that is not true or false, duplicate directions or names,
+        non-positive distances, fewer than two speakers to pan between or more
+        than :data:`MAX_SPEAKERS`.
     """
     p = Path(path)
     try:
-        data = json.loads(p.read_text())
+        data = read_json(p)
     except FileNotFoundError:
         raise FormatError(f"layout file {str(p)!r} does not exist") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise FormatError(f"{p}: not valid JSON ({exc})") from None
     if isinstance(data, dict) and ("LoudspeakerLayout" in data or "Loudspeakers" in data):
         return _load_iem_layout(p, data)
     if isinstance(data, dict):
@@ -516,12 +524,16 @@ def load_layout_json(path: str | Path) -> Layout:
         raise FormatError(
             f"{p}: expected a non-empty list 'speakers' of {{azimuth, elevation}} objects"
         )
+    if len(items) > MAX_SPEAKERS:
+        raise FormatError(f"{p}: {len(items)} speakers; a layout has at most {MAX_SPEAKERS}")
+    check(name, _NAME, str(p), where="name")
     speakers: list[Speaker] = []
     chans: list[int | None] = []
     for i, it in enumerate(items):
         if not isinstance(it, dict):
             raise FormatError(f"{p}: speaker {i} must be an object, got {it!r}")
-        lfe = bool(it.get("lfe", False))
+        check(it, _SPEAKER, str(p), where=f"speakers[{i}]")
+        lfe = it.get("lfe") is True
         az = _num(p, i, it, "azimuth", "azimuth_deg", default=None)
         if az is None and not lfe:
             raise FormatError(f"{p}: speaker {i} needs an 'azimuth' in degrees, got {it!r}")
@@ -536,7 +548,7 @@ def load_layout_json(path: str | Path) -> Layout:
         if ch is not None and (isinstance(ch, bool) or not isinstance(ch, int)):
             raise FormatError(f"{p}: speaker {i}: 'channel' must be an integer, got {ch!r}")
         chans.append(ch)
-        speakers.append(Speaker(str(it.get("name", f"S{i}")), None if lfe else az, el, dist))
+        speakers.append(Speaker(it.get("name") or f"S{i}", None if lfe else az, el, dist))
     n = len(speakers)
     given = [c for c in chans if c is not None]
     if given:
@@ -573,7 +585,11 @@ def _load_iem_layout(p: Path, data: dict[str, Any]) -> Layout:
             f"{p}: an IEM layout needs 'LoudspeakerLayout': {{'Loudspeakers': [{{'Azimuth', "
             f"'Elevation', 'Radius', 'IsImaginary', 'Channel', 'Gain'}}, ...]}}"
         )
-    name = str(lay.get("Name") or data.get("Name") or p.stem)
+    if len(lay["Loudspeakers"]) > MAX_SPEAKERS:
+        raise FormatError(f"{p}: {len(lay['Loudspeakers'])} loudspeakers; a layout has at most "
+                          f"{MAX_SPEAKERS}")  # fmt: skip
+    name = lay.get("Name") or data.get("Name") or p.stem
+    check(name, _NAME, str(p), where="Name")
     real: dict[int, Speaker] = {}
     gains: dict[int, float] = {}
     imaginary: list[list[float]] = []
@@ -593,9 +609,10 @@ def _load_iem_layout(p: Path, data: dict[str, Any]) -> Layout:
             imaginary.append(_unit_from_angles(az, el).tolist())
             continue
         ch = it.get("Channel")
-        if isinstance(ch, bool) or not isinstance(ch, int) or ch < 1:
+        if isinstance(ch, bool) or not isinstance(ch, int) or not 1 <= ch <= MAX_SPEAKERS:
             raise FormatError(
-                f"{p}: Loudspeakers[{i}]: 'Channel' must be an integer ≥ 1 (1-based), got {ch!r}"
+                f"{p}: Loudspeakers[{i}]: 'Channel' must be an integer ≥ 1 (1-based) and "
+                f"≤ {MAX_SPEAKERS}, got {ch!r}"
             )
         if ch in real:
             raise FormatError(f"{p}: Loudspeakers[{i}]: channel {ch} is used twice")
