@@ -64,10 +64,13 @@ def as_dataset(obj: object, *, label: str) -> pyvista.DataSet:
     if not isinstance(obj, pv.DataObject):
         obj = pv.wrap(obj)
     if isinstance(obj, pv.DataSet):
+        check_mesh(obj, label=label)
         return obj
     if isinstance(obj, pv.MultiBlock) and "internalMesh" in obj.keys():
         return as_dataset(obj["internalMesh"], label=label)
     leaves = [b for b in _leaves(obj, label=label) if b.n_points > 0]
+    for b in leaves:
+        check_mesh(b, label=label)  # before VTK's merge filter follows the cells
     if not leaves:
         raise FormatError(f"{label}: the file holds no points")
     # Boundary parts (EnSight parts, OpenFOAM patches, XDMF surfaces) have cells of a
@@ -85,6 +88,112 @@ def as_dataset(obj: object, *, label: str) -> pyvista.DataSet:
     if len(blocks) == 1:
         return blocks[0]
     return pv.MultiBlock(blocks).combine(merge_points=True)
+
+
+#: Points per cell of VTK's fixed-size cell types, by type id (-1: any number).
+_CELL_POINTS = np.full(256, -1, dtype=np.int64)
+_CELL_POINTS[[1, 3, 5, 8, 9, 10, 11, 12, 13, 14, 15, 16]] = [1, 2, 3, 4, 4, 4, 8, 8, 6, 5, 10, 12]
+_CELL_POINTS[[21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34]] = [
+    3,
+    6,
+    8,
+    10,
+    20,
+    15,
+    13,
+    9,
+    27,
+    18,
+    7,
+    12,
+    15,
+    6,
+]
+
+
+def _vtk_array(arr: Any) -> NDArray[Any]:
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    return np.empty(0, dtype=np.int64) if arr is None else vtk_to_numpy(arr)
+
+
+def _check_cell_array(cells: Any, n_points: int, *, label: str, what: str) -> None:
+    """Offsets rising from 0 to the connectivity's length; every point id in range."""
+    if cells is None:
+        return
+    conn = _vtk_array(cells.GetConnectivityArray())
+    off = _vtk_array(cells.GetOffsetsArray())
+    if off.size and (off[0] != 0 or off[-1] != conn.size or np.any(np.diff(off) < 0)):
+        raise DataError(
+            f"{label}: the mesh is corrupt: the {what} offsets do not run from 0 to the "
+            f"{conn.size} point ids of its connectivity"
+        )
+    if conn.size and (int(conn.min()) < 0 or int(conn.max()) >= n_points):
+        bad = int(conn.min()) if int(conn.min()) < 0 else int(conn.max())
+        raise DataError(
+            f"{label}: the mesh is corrupt: a {what} refers to point {bad}, but the mesh has "
+            f"{n_points} points (valid ids 0 to {n_points - 1}); the file is damaged"
+        )
+
+
+def check_mesh(mesh: Any, *, label: str) -> None:
+    """Raise :class:`DataError` unless ``mesh`` is structurally sound.
+
+    VTK's filters (merging, probing, cell-to-point conversion) trust a mesh's
+    cells: a point id past the end of the points, offsets that run backwards
+    or a cell type VTK does not know make them read outside their arrays and
+    end the process.  A damaged file can make a reader return exactly such a
+    mesh (a flipped bit in a connectivity block), so every mesh is checked
+    here, in a few vectorized passes, before any filter sees it: point
+    coordinates are finite, cell offsets rise from 0 to the connectivity's
+    length, every point id (of cells and polyhedron faces) lies in
+    ``[0, n_points)``, every cell type is one VTK knows and fixed-size cells
+    (triangles, tetrahedra, hexahedra ...) have their number of points.
+    """
+    pv = import_pyvista()
+    if isinstance(mesh, pv.ImageData):
+        geometry = np.concatenate([np.asarray(mesh.origin), np.asarray(mesh.spacing)])
+    elif isinstance(mesh, pv.RectilinearGrid):
+        geometry = np.concatenate([np.asarray(c) for c in (mesh.x, mesh.y, mesh.z)])
+    else:
+        geometry = np.asarray(mesh.points) if mesh.n_points else np.zeros(0)
+    if not np.all(np.isfinite(geometry)):
+        raise DataError(
+            f"{label}: the mesh is corrupt: its point coordinates include NaN or infinite "
+            f"values; the file is damaged"
+        )
+    n = int(mesh.n_points)
+    if isinstance(mesh, pv.UnstructuredGrid):
+        from vtkmodules.vtkCommonDataModel import vtkCellTypeUtilities
+
+        _check_cell_array(mesh.GetCells(), n, label=label, what="cell")
+        types = np.asarray(mesh.celltypes, dtype=np.int64)
+        if types.size != mesh.n_cells:
+            raise DataError(
+                f"{label}: the mesh is corrupt: {types.size} cell types for {mesh.n_cells} cells"
+            )
+        for t in np.unique(types).tolist():
+            if not 0 <= t < 256 or vtkCellTypeUtilities.GetClassNameFromTypeId(t) == "UnknownClass":
+                raise DataError(
+                    f"{label}: the mesh is corrupt: cell type {t} is not a VTK cell type; "
+                    f"the file is damaged"
+                )
+        if types.size:
+            counts = np.diff(_vtk_array(mesh.GetCells().GetOffsetsArray()))
+            expected = _CELL_POINTS[types]
+            wrong = np.flatnonzero((expected >= 0) & (counts != expected))
+            if wrong.size:
+                k = int(wrong[0])
+                raise DataError(
+                    f"{label}: the mesh is corrupt: cell {k} (type {int(types[k])}) has "
+                    f"{int(counts[k])} points, but that cell type has {int(expected[k])}"
+                )
+        if 42 in types and hasattr(mesh, "GetPolyhedronFaces"):
+            _check_cell_array(mesh.GetPolyhedronFaces(), n, label=label, what="polyhedron face")
+    elif isinstance(mesh, pv.PolyData):
+        for cells, what in ((mesh.GetVerts(), "vertex"), (mesh.GetLines(), "line"),
+                            (mesh.GetPolys(), "polygon"), (mesh.GetStrips(), "strip")):  # fmt: skip
+            _check_cell_array(cells, n, label=label, what=what)
 
 
 def _leaves(obj: Any, *, label: str) -> list[Any]:

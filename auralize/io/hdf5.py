@@ -71,11 +71,30 @@ def allow_external_data(allow: bool = True) -> None:
     _ALLOW_EXTERNAL = bool(allow)
 
 
-def check_self_contained(f: h5py.File, path: Path) -> None:
+def external_data_allowed() -> bool:
+    """Whether files may read data from other files (see :func:`allow_external_data`)."""
+    return _ALLOW_EXTERNAL
+
+
+def refused_external(path: Path | str, what: str) -> FormatError:
+    """The error for a file that reads data from elsewhere: ``"{path}: {what}; ... refused"``.
+
+    One message for every reader that refuses such files (HDF5, netCDF4,
+    SOFA, XDMF), naming the way to allow it.
+    """
+    return FormatError(
+        f"{path}: {what}; reading data from other files is refused (give "
+        f"--allow-external, or set AURALIZE_HDF5_EXTERNAL=1, if you trust the file)"
+    )
+
+
+def check_self_contained(f: h5py.File, path: Path | str) -> None:
     """Raise :class:`FormatError` if ``f`` refers to other files (unless allowed).
 
-    Links are inspected without being followed, so dangling links and link
-    loops are reported instead of raised by h5py.
+    Used by every reader of HDF5-based files (volume and sources ``.h5``,
+    VTKHDF, netCDF4, SOFA, the HDF5 companions of XDMF).  Links are inspected
+    without being followed, so dangling links and link loops are reported
+    instead of raised by h5py.
     """
     if _ALLOW_EXTERNAL:
         return
@@ -99,10 +118,7 @@ def check_self_contained(f: h5py.File, path: Path) -> None:
 
         f.visititems(visit_obj)
     if found:
-        raise FormatError(
-            f"{path}: {found[0]}; reading data from other files is refused (give "
-            f"--allow-external, or set AURALIZE_HDF5_EXTERNAL=1, if you trust the file)"
-        )
+        raise refused_external(path, found[0])
 
 
 def _h5_error(path: Path, exc: BaseException) -> FormatError:

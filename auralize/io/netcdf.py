@@ -3,6 +3,9 @@
 Read lazily, one time step per read: classic files with
 :class:`scipy.io.netcdf_file` (memory-mapped), netCDF4 files with h5py (a
 netCDF4 file is an HDF5 file whose dimensions are HDF5 dimension scales).
+Like every HDF5 file, a netCDF4 file that reads data from other files
+(external links, external raw storage, virtual datasets) is refused unless
+:func:`~auralize.io.hdf5.allow_external_data` allows it.
 Both libraries are dependencies already, so reading netCDF needs nothing more.
 
 CF conventions honoured
@@ -134,13 +137,24 @@ class _Backend:
             self.kind = "netCDF4"
             import h5py
 
+            from auralize.io.hdf5 import check_self_contained
+
             try:
                 self._file = h5py.File(path, "r")
-                self.vars = self._h5_vars(self._file)
             except OSError as exc:
                 raise FormatError(
                     f"{path}: cannot read as netCDF4/HDF5 ({exc}); the file may be truncated"
                 ) from exc
+            try:
+                check_self_contained(self._file, path)
+                self.vars = self._h5_vars(self._file)
+            except BaseException as exc:
+                self._file.close()
+                if isinstance(exc, OSError):
+                    raise FormatError(
+                        f"{path}: cannot read as netCDF4/HDF5 ({exc}); the file may be truncated"
+                    ) from exc
+                raise
         else:
             raise FormatError(
                 f"{path}: not a netCDF file (it starts with neither 'CDF' nor the HDF5 "

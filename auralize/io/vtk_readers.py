@@ -3,7 +3,10 @@
 Each reader here hands :func:`auralize.io._mesh.open_mesh_series` a loader
 that reads one time step per call with a VTK reader (through pyvista), so
 volumes stay lazy: one step in memory at a time, and opening reads the time
-values plus the first step (to learn the grid and the arrays).
+values plus the first step (to learn the grid and the arrays).  VTK's XDMF
+and EnSight readers end the process on some damaged files: XDMF files and
+their heavy data are checked first (:mod:`auralize.io.xdmf_check`), EnSight
+cases are read in a child process (:class:`ChildEnSightSteps`).
 
 =====================================  ==============================================
 input                                  reader
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import os
 import re
+import sys
 import threading
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -32,10 +36,11 @@ from typing import Any
 
 import numpy as np
 
-from auralize.errors import AuralizeError, FormatError
+from auralize.errors import AuralizeError, DataError, FormatError
 from auralize.io._common import FieldsArg, require_exists
-from auralize.io._mesh import import_pyvista, open_mesh_series
+from auralize.io._mesh import as_dataset, import_pyvista, open_mesh_series
 from auralize.io.resample import ResolutionArg
+from auralize.io.xdmf_check import check_xdmf
 from auralize.volume import TimeVolume
 
 #: Grid-file endings of PLOT3D (solutions are ``.q``).
@@ -48,11 +53,17 @@ XDMF_SUFFIXES = (".xdmf", ".xmf", ".xdmf3", ".xdmf2")
 class _TimeReaderSteps:
     """Loader over the time values of one pyvista reader (kept open, one step per read)."""
 
-    def __init__(self, make: Callable[[], Any], label: str) -> None:
+    def __init__(
+        self,
+        make: Callable[[], Any],
+        label: str,
+        before_read: Callable[[float | None], None] | None = None,
+    ) -> None:
         self._make = make
         self._reader: Any = None
         self._lock = threading.Lock()
         self.label = label
+        self._before_read = before_read
 
     def _get(self) -> Any:
         if self._reader is None:
@@ -74,6 +85,8 @@ class _TimeReaderSteps:
         with self._lock:
             reader = self._get()
             values = self._values()
+            if self._before_read is not None:
+                self._before_read(values[step] if values else None)
             if values:
                 reader.set_active_time_value(values[step])
             return reader.read()
@@ -87,8 +100,9 @@ def _open_reader_series(
     fields: FieldsArg,
     resolution: ResolutionArg,
     name_map: Mapping[str, str] | None,
+    before_read: Callable[[float | None], None] | None = None,
 ) -> TimeVolume:
-    loader = _TimeReaderSteps(make, str(path))
+    loader = _TimeReaderSteps(make, str(path), before_read)
     try:
         times = loader.times()
     except AuralizeError:
@@ -125,6 +139,13 @@ def read_xdmf(
     step is read.  A mesh grid listed beside the temporal collection (as
     meshio writes it) is the same mesh and is not counted twice.
 
+    VTK's reader ends the process on damaged heavy data and reads files from
+    anywhere, so the XML and every file it names are checked first
+    (:mod:`auralize.io.xdmf_check`): heavy data outside the XDMF's folder and
+    XIncludes of other files are refused unless
+    :func:`~auralize.io.hdf5.allow_external_data` allows them, and damaged
+    HDF5 data raise :class:`FormatError` instead of crashing.
+
     Parameters
     ----------
     path : path-like
@@ -134,7 +155,7 @@ def read_xdmf(
     """
     path = Path(path).expanduser()
     require_exists(path)
-    _check_xml(path, "XDMF", root="Xdmf")
+    checked = check_xdmf(path)
 
     def make() -> Any:
         pv = import_pyvista()
@@ -146,7 +167,13 @@ def read_xdmf(
             return _StaticReader(vtkXdmfReader, str(path))
 
     return _open_reader_series(
-        path, make, kind="XDMF", fields=fields, resolution=resolution, name_map=name_map
+        path,
+        make,
+        kind="XDMF",
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+        before_read=checked.check_step,
     )
 
 
@@ -166,20 +193,6 @@ class _StaticReader:
         return pv.wrap(reader.GetOutputDataObject(0))
 
 
-def _check_xml(path: Path, kind: str, *, root: str) -> None:
-    """A clear error for XML files that are not ``<root>`` documents (VTK would crash or hang)."""
-    import xml.etree.ElementTree as ET
-
-    try:
-        tag = ET.parse(path).getroot().tag
-    except ET.ParseError as exc:
-        raise FormatError(
-            f"{path}: not a valid {kind} file (XML error: {exc}); the file may be truncated"
-        ) from exc
-    if tag.rsplit("}", 1)[-1] != root:
-        raise FormatError(f"{path}: not a {kind} file (root element <{tag}>, expected <{root}>)")
-
-
 # --------------------------------------------------------------------------- EnSight
 def read_ensight(
     path: str | os.PathLike[str],
@@ -193,7 +206,11 @@ def read_ensight(
     A transient case gives one step per time value of its ``TIME`` section;
     a case without one is a single step at time 0 (``physical_times=False``).
     Boundary parts (lower-dimensional cells) are dropped; the volume parts
-    are merged.
+    are merged.  VTK reads each step in a child process
+    (:class:`ChildEnSightSteps`) and the merged mesh is checked
+    (:func:`~auralize.io._mesh.check_mesh`), so a damaged geometry or
+    variable file raises :class:`FormatError` or :class:`DataError` naming the
+    case instead of ending the process.
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -207,62 +224,308 @@ def read_ensight(
             f"may be truncated"
         )
 
-    _probe_ensight_geometry(path)
-
-    def make() -> Any:
-        pv = import_pyvista()
-        reader = pv.EnSightReader(str(path))
-        return reader
-
-    return _open_reader_series(
-        path, make, kind="EnSight Gold", fields=fields, resolution=resolution, name_map=name_map
+    loader = ChildEnSightSteps(path)
+    try:
+        times = loader.times()
+    except BaseException:
+        loader.close()
+        raise
+    physical = len(times) > 0
+    times = times or [0.0]
+    return open_mesh_series(
+        source=str(path),
+        loader=loader,
+        labels=[f"{path} t={t:g}" for t in times] if physical else [str(path)],
+        times=times,
+        physical_times=physical,
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
     )
 
 
-_ENSIGHT_PROBE = """
-import sys
-from vtkmodules.vtkIOEnSight import vtkGenericEnSightReader
-r = vtkGenericEnSightReader()
-r.SetCaseFileName(sys.argv[1])
-r.Update()
-out = r.GetOutput()
-sys.exit(0 if out is not None and out.GetNumberOfPoints() > 0 else 3)
-"""
+#: The child process of :class:`ChildEnSightSteps`.
+_CHILD_PROGRAM = (
+    "import sys; from auralize.io.vtk_readers import serve_ensight; serve_ensight(sys.argv[1])"
+)
+#: Seconds one request to the child may take before it is given up.
+CHILD_TIMEOUT_S = 600.0
 
 
-def _probe_ensight_geometry(path: Path) -> None:
-    """Read the case's first step in a child process first.
+def serve_ensight(case: str) -> None:
+    """Child side of :class:`ChildEnSightSteps`: read steps of ``case`` on request.
 
-    VTK's EnSight readers crash the process (segmentation fault) on a
-    truncated binary geometry file, or log an error and return part of the
-    data; a child that crashes or logs an error turns into a
-    :class:`FormatError` here instead.
+    Requests arrive on stdin, one a line: ``times`` or ``read <time>`` (``read -``
+    for a case without times).  Each answer on stdout is a status byte (``+``
+    done, ``!`` refused), an 8-byte big-endian length and the payload: the
+    times as JSON, the step's mesh (merged, checked by
+    :func:`~auralize.io._mesh.as_dataset`) as :func:`marshal_mesh` gives it, or
+    ``<error class>\\n<message>``.  VTK's error messages are collected, not
+    printed: a read that logs one is refused with it.
     """
-    import subprocess
-    import sys
+    import json
+    import struct
 
-    try:
-        done = subprocess.run(
-            [sys.executable, "-c", _ENSIGHT_PROBE, str(path)],
-            capture_output=True,
-            timeout=300,
-            check=False,
-        )
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        raise FormatError(f"{path}: cannot read the EnSight geometry ({exc})") from exc
-    if done.returncode == 3:
-        raise FormatError(f"{path}: the EnSight geometry holds no points")
-    logged = [
-        line.split("ERR|", 1)[1].strip()
-        for line in done.stderr.decode("utf-8", errors="replace").splitlines()
-        if "ERR|" in line
-    ]
-    if done.returncode != 0 or logged:
-        why = f"exit status {done.returncode}" if done.returncode else logged[0]
+    from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow
+
+    proto = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)  # stray prints of C code must not reach the answers
+    pv = import_pyvista()
+    window = vtkStringOutputWindow()
+    vtkOutputWindow.SetInstance(window)
+    reader: Any = None
+
+    def answer(ok: bool, payload: bytes) -> None:
+        proto.write((b"+" if ok else b"!") + struct.pack(">Q", len(payload)) + payload)
+        proto.flush()
+
+    for line in sys.stdin.buffer:
+        command, _, arg = line.decode().strip().partition(" ")
+        seen = len(window.GetOutput())
+        try:
+            if reader is None:
+                reader = pv.EnSightReader(case)
+            if command == "times":
+                values = getattr(reader, "time_values", None) or []
+                answer(True, json.dumps([float(t) for t in values]).encode())
+                continue
+            if arg != "-":
+                reader.set_active_time_value(float(arg))
+            out = reader.read()
+            logged = window.GetOutput()[seen:].split("ERROR: In ")[1:]
+            if logged:  # "ERROR: In <source>, line <n>" then the message
+                lines = [ln for ln in logged[0].splitlines() if ln.strip()]
+                raise FormatError(" ".join(lines[min(1, len(lines) - 1)].split()))
+            mesh = as_dataset(out, label=case)
+            if mesh.n_points == 0:
+                raise FormatError("the EnSight geometry holds no points")
+            answer(True, marshal_mesh(mesh))
+        except AuralizeError as exc:
+            answer(False, f"{type(exc).__name__}\n{exc}".encode())
+        except Exception as exc:  # VTK and pyvista raise many kinds
+            answer(False, f"FormatError\n{type(exc).__name__}: {exc}".encode())
+
+
+#: The data set classes a child process may send back.
+_MESH_CLASSES = ("vtkUnstructuredGrid", "vtkPolyData", "vtkStructuredGrid",
+                 "vtkRectilinearGrid", "vtkImageData")  # fmt: skip
+
+
+def marshal_mesh(mesh: Any) -> bytes:
+    """``mesh`` as bytes for another process: a JSON header line, then VTK's marshalled form.
+
+    VTK's marshalling (its legacy binary format) keeps every array exactly but
+    writes an image's origin, spacing and direction as text of 6 digits, so
+    the header carries them in full.  No pickle crosses processes.
+    """
+    import json
+
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkCommonCore import vtkCharArray
+    from vtkmodules.vtkParallelCore import vtkCommunicator
+
+    name = mesh.GetClassName()
+    if name not in _MESH_CLASSES:
+        raise FormatError(f"the reader returned a {name}, not a mesh with point or cell data")
+    head: dict[str, object] = {"class": name}
+    for key, data in (("point", mesh.GetPointData()), ("cell", mesh.GetCellData())):
+        head[key] = [data.GetArrayName(i) for i in range(data.GetNumberOfArrays())]
+    if name == "vtkImageData":
+        head["origin"] = list(mesh.GetOrigin())
+        head["spacing"] = list(mesh.GetSpacing())
+        matrix = mesh.GetDirectionMatrix()
+        head["direction"] = [matrix.GetElement(i, j) for i in range(3) for j in range(3)]
+    buffer = vtkCharArray()
+    if not vtkCommunicator.MarshalDataObject(mesh, buffer):
+        raise FormatError(f"VTK cannot marshal the {name} the reader returned")
+    return json.dumps(head).encode() + b"\n" + vtk_to_numpy(buffer).tobytes()
+
+
+def unmarshal_mesh(data: bytes) -> Any:
+    """The mesh :func:`marshal_mesh` turned into ``data``."""
+    import json
+
+    from vtkmodules import vtkCommonDataModel
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkCommonCore import vtkCharArray
+    from vtkmodules.vtkParallelCore import vtkCommunicator
+
+    pv = import_pyvista()
+    line, _, body = data.partition(b"\n")
+    head = json.loads(line)
+    name = head.get("class")
+    if name not in _MESH_CLASSES:
+        raise FormatError(f"the reading process sent a {name!r}, not a mesh")
+    buffer = vtkCharArray()
+    buffer.SetNumberOfTuples(len(body))
+    view = vtk_to_numpy(buffer)
+    view[:] = np.frombuffer(body, dtype=view.dtype)
+    mesh = getattr(vtkCommonDataModel, name)()
+    if not vtkCommunicator.UnMarshalDataObject(buffer, mesh):
+        raise FormatError(f"the {name} the reading process sent cannot be read back")
+    for key, data in (("point", mesh.GetPointData()), ("cell", mesh.GetCellData())):
+        _restore_order(data, head[key])
+    if name == "vtkImageData":
+        mesh.SetOrigin(*head["origin"])
+        mesh.SetSpacing(*head["spacing"])
+        mesh.SetDirectionMatrix(*head["direction"])
+    return pv.wrap(mesh)
+
+
+def _restore_order(data: Any, names: list[str]) -> None:
+    """Put the arrays of ``data`` (point or cell data) in the order ``names`` (the file's).
+
+    VTK's marshalled form lists the active scalars and vectors first; the
+    order of arrays is the order of a volume's fields, so it is restored.
+    """
+    have = [data.GetArrayName(i) for i in range(data.GetNumberOfArrays())]
+    if have == names:
+        return
+    if sorted(have) != sorted(names):
+        raise FormatError(f"the reading process sent arrays {have}, expected {names}")
+    scalars, vectors = data.GetScalars(), data.GetVectors()
+    arrays = [data.GetAbstractArray(n) for n in names]
+    for n in names:
+        data.RemoveArray(n)
+    for array in arrays:
+        data.AddArray(array)
+    if scalars is not None:
+        data.SetActiveScalars(scalars.GetName())
+    if vectors is not None:
+        data.SetActiveVectors(vectors.GetName())
+
+
+class ChildEnSightSteps:
+    """Loader of an EnSight case whose steps VTK reads in a child process.
+
+    VTK's EnSight readers end the process (segmentation fault) on some
+    damaged geometry files, and return meshes with garbage connectivity on
+    others.  Here one child process (started on first use, kept for the
+    volume's life, ended when the loader is garbage-collected or the program
+    exits) reads each step with VTK, merges its parts and checks the result
+    (:func:`~auralize.io._mesh.check_mesh`); the mesh comes back in VTK's
+    marshalled form (:func:`marshal_mesh`).
+    A child that crashes, hangs for :data:`CHILD_TIMEOUT_S` or reports a VTK
+    error becomes a :class:`FormatError` naming the case, and the next read
+    starts a new child.  Opening a valid case costs one process start, about
+    what the import of VTK costs.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.label = str(path)
+        self._lock = threading.Lock()
+        self._proc: Any = None
+        self._times: list[float] | None = None
+        self._finalizer: Any = None
+
+    def _start(self) -> Any:
+        import subprocess
+        import weakref
+
+        if self._proc is None or self._proc.poll() is not None:
+            try:
+                self._proc = subprocess.Popen(
+                    [sys.executable, "-c", _CHILD_PROGRAM, str(self.path)],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.DEVNULL,
+                )
+            except OSError as exc:
+                raise FormatError(
+                    f"{self.path}: cannot start a process to read it ({exc})"
+                ) from exc
+            if self._finalizer is not None:
+                self._finalizer.detach()
+            self._finalizer = weakref.finalize(self, _stop_child, self._proc)
+        return self._proc
+
+    def close(self) -> None:
+        """End the child process (a later read starts a new one)."""
+        with self._lock:
+            if self._finalizer is not None:
+                self._finalizer()
+            self._proc = None
+
+    def _ask(self, request: str) -> bytes:
+        import struct
+
+        proc = self._start()
+        try:
+            proc.stdin.write(request.encode() + b"\n")
+            proc.stdin.flush()
+            head = _read_exact(proc.stdout, 9, self.path)
+            body = _read_exact(proc.stdout, struct.unpack(">Q", head[1:])[0], self.path)
+        except (OSError, FormatError, struct.error) as exc:
+            _stop_child(proc)
+            status = proc.poll()
+            why = f"exit status {status}" if status else f"{type(exc).__name__}: {exc}"
+            if status is not None and status < 0:
+                why = f"the reading process crashed with signal {-status}"
+            raise FormatError(
+                f"{self.path}: VTK's EnSight reader failed ({why}); a geometry or variable "
+                f"file of the case is truncated or corrupt"
+            ) from None
+        if head[:1] == b"+":
+            return body
+        kind, _, message = body.decode("utf-8", "replace").partition("\n")
+        if kind == "DataError":
+            raise DataError(f"{self.path}: {message.removeprefix(str(self.path) + ': ')}")
         raise FormatError(
-            f"{path}: VTK's EnSight reader failed ({why}); a geometry or variable file of "
-            f"the case is truncated or corrupt"
+            f"{self.path}: VTK's EnSight reader failed ({message}); a geometry or variable "
+            f"file of the case is truncated or corrupt"
         )
+
+    def times(self) -> list[float]:
+        """The case's time values in seconds (empty for a case without a TIME section)."""
+        import json
+
+        with self._lock:
+            if self._times is None:
+                self._times = [float(t) for t in json.loads(self._ask("times"))]
+            return list(self._times)
+
+    def __call__(self, step: int) -> Any:
+        times = self.times()
+        with self._lock:
+            request = f"read {times[step]!r}" if times else "read -"
+            data = self._ask(request)
+        return unmarshal_mesh(data)
+
+
+def _stop_child(proc: Any) -> None:
+    import subprocess
+
+    if proc.poll() is None:
+        proc.kill()
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:  # pragma: no cover - a kill is not refused
+        pass
+    for stream in (proc.stdin, proc.stdout):
+        try:
+            stream.close()
+        except OSError:
+            pass
+
+
+def _read_exact(stream: Any, n: int, path: Path) -> bytes:
+    """``n`` bytes from the child's stdout, or :class:`FormatError` at EOF or timeout."""
+    import select
+    import time
+
+    out = bytearray()
+    deadline = time.monotonic() + CHILD_TIMEOUT_S
+    fd = stream.fileno()
+    while len(out) < n:
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([fd], [], [], left)[0]:
+            raise FormatError(f"no answer within {CHILD_TIMEOUT_S:g} s")
+        chunk = os.read(fd, min(n - len(out), 1 << 20))
+        if not chunk:
+            raise FormatError("the reading process ended")
+        out += chunk
+    return bytes(out)
 
 
 # --------------------------------------------------------------------------- PLOT3D

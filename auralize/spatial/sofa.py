@@ -90,7 +90,10 @@ def read_sofa(path: str | Path) -> HRIRSet:
     FormatError
         Not HDF5/netCDF-4, not SOFA, a data type other than FIR, a missing or
         misshapen variable (the message names it and the expected shape), not
-        two receivers, or a sampling rate that is not one positive value.
+        two receivers, or a sampling rate that is not one positive value; or
+        the file reads data from other files (external links, external
+        storage, virtual datasets) and :func:`auralize.io.hdf5.allow_external_data`
+        does not allow it (``--allow-external``, ``AURALIZE_HDF5_EXTERNAL=1``).
     """
     import h5py
 
@@ -102,6 +105,9 @@ def read_sofa(path: str | Path) -> HRIRSet:
     except OSError as exc:
         raise FormatError(f"{p}: not a SOFA file (not netCDF-4/HDF5: {exc})") from None
     with h:
+        from auralize.io.hdf5 import check_self_contained
+
+        check_self_contained(h, p)  # HRIRs stored in /etc/passwd are refused
         conv = _text(h.attrs.get("Conventions", ""))
         if conv != "SOFA":
             raise FormatError(
