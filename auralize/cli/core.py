@@ -18,8 +18,8 @@ exist.
 from __future__ import annotations
 
 import argparse
-import errno
 import json
+import logging
 import os
 import sys
 import time
@@ -60,6 +60,7 @@ from auralize.errors import (
     PluginError,
     ResourceError,
 )
+from auralize.runtime.resources import FRAME_WORK_ARRAYS  # noqa: F401  (re-exported)
 
 EXIT_SILENT = 1
 EXIT_USAGE = 2
@@ -252,25 +253,33 @@ def load_volume(args: argparse.Namespace) -> Any:
     vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
                fields=_field_map(args.field), resolution=args.resolution,
                nan=getattr(args, "nan", "mask"))  # fmt: skip
-    check_volume_memory(vol)
+    command = str(getattr(args, "command", "") or "")
+    # Dask spreads the steps over workers: only one step must fit in this process
+    nbytes = check_volume_memory(vol, data=not command.startswith("scale-"))
+    if command not in ("info", "") and not command.startswith("scale-"):
+        from auralize.runtime.resources import estimate_note
+
+        note = estimate_note(nbytes)
+        if note and logging.getLogger("auralize").isEnabledFor(logging.INFO):  # not with -q
+            print(f"auralize {command}: note: {vol.source}: {note}", file=sys.stderr)
     return vol
 
 
-#: float64 frame-sized arrays that detection holds at once (fields, derivatives, masks)
-FRAME_WORK_ARRAYS = 16
+def check_volume_memory(vol: Any, *, data: bool = True) -> float:
+    """Refuse a volume larger than the machine before any work: one time step's working
+    arrays plus the bookkeeping of every step must fit in memory, and (``data``) the
+    steps x points x components to read must stay below ``AURALIZE_DATA_LIMIT``
+    (:func:`auralize.runtime.resources.require_volume`).  Returns the bytes of data
+    the work reads."""
+    from auralize.runtime.resources import require_volume
 
-
-def check_volume_memory(vol: Any) -> None:
-    """Refuse a volume whose frames (as the file declares them) cannot fit in memory."""
-    from auralize.runtime.resources import require_memory
-
-    nx, ny, nz = (int(d) for d in vol.dims)
     comps = sum(3 if vol.is_vector(n) else 1 for n in vol.field_names)
-    require_memory(
-        float(nx) * ny * nz * 8.0 * max(comps, FRAME_WORK_ARRAYS),
-        f"{vol.source}: one time step of {nx} x {ny} x {nz} points",
-        hint="resample it smaller (--resolution N) or use 'auralize dask-detect'",
-    )
+    return require_volume(
+        vol.dims, vol.n_steps, comps, str(vol.source),
+        hint="resample it smaller (--resolution N), read fewer fields or steps, or use "
+             "'auralize scale-detect'",
+        data=data,
+    )  # fmt: skip
 
 
 def check_render_memory(args: argparse.Namespace, duration_s: float, channels: int) -> None:
@@ -423,7 +432,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
         print(f"wrote {out}: {series.n_steps} steps in {elapsed:.2f} s; source points over all "
               f"steps: {tot['monopole']} monopole, {tot['dipole']} dipole, {tot['quadrupole']} "
               f"quadrupole (thresholds {', '.join(f'{x:.4g}' for x in series.thresholds)}); "
-              f"valid points {100.0 * vol.valid_ratio:.1f} %, masked (NaN) "
+              f"valid points {100.0 * vol.valid_ratio:.1f} %, masked (NaN/Inf) "
               f"{100.0 * tally.fraction:.2f} %")  # fmt: skip
         frac = series.meta.get("fraction") or {}
         if frac:
@@ -927,30 +936,40 @@ def exit_code(exc: BaseException) -> int:
     return EXIT_INTERNAL
 
 
-def _from_hdf5(exc: BaseException) -> bool:
-    tb = exc.__traceback__
-    while tb is not None:
-        if f"{os.sep}h5py{os.sep}" in tb.tb_frame.f_code.co_filename:
-            return True
-        tb = tb.tb_next
-    return False
+def error_message(
+    exc: BaseException, output: str | os.PathLike[str] | None = None
+) -> tuple[str, int]:
+    """One line describing ``exc`` for the terminal, and the exit status.
 
+    ``output`` is the command's output file, named when an OS error of a write
+    does not say which file (a full disk).  The conversions that are not the
+    CLI's own are shared with the API, so both say the same:
+    :func:`auralize.io.files.output_error` (a failed write) and
+    :func:`auralize.runtime.resources.memory_error` (a failed allocation).
+    """
+    from auralize.io.files import is_disk_full, output_error, raised_in_hdf5
+    from auralize.runtime.resources import memory_error
 
-def error_message(exc: BaseException) -> tuple[str, int]:
-    """One line describing ``exc`` for the terminal, and the exit status."""
     if isinstance(exc, AuralizeError):
         return " ".join(str(exc).split()), exit_code(exc)
+    if isinstance(exc, MemoryError):
+        return " ".join(str(memory_error(exc, "")).split()), EXIT_SYSTEM
+    if isinstance(exc, OSError | RuntimeError) and is_disk_full(exc):
+        target = output or getattr(exc, "filename", None) or "the output"
+        return " ".join(str(output_error(exc, target)).split()), EXIT_SYSTEM
     if isinstance(exc, OSError):
         what = exc.strerror or str(exc) or type(exc).__name__
         where = " ".join(repr(str(f)) for f in (exc.filename, exc.filename2) if f)
         text = f"{where}: {what}" if where else what
-        if _from_hdf5(exc):
+        text = " ".join(text.split())
+        if raised_in_hdf5(exc):
             return f"cannot read HDF5 data: {text}", EXIT_DATA
         return text, EXIT_SYSTEM
-    if isinstance(exc, MemoryError):
-        return f"not enough memory ({exc or 'allocation failed'})", EXIT_SYSTEM
-    if _from_hdf5(exc):
-        return f"cannot read HDF5 data ({type(exc).__name__}: {exc})", EXIT_DATA
+    if raised_in_hdf5(exc):
+        return (
+            f"cannot read HDF5 data ({type(exc).__name__}: {' '.join(str(exc).split())})",
+            EXIT_DATA,
+        )
     return (
         f"internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (this is a bug; "
         f"run with AURALIZE_DEBUG=1 to see the traceback)",
@@ -1001,6 +1020,11 @@ def check_not_input(out: str | Path, inputs: Sequence[str | Path]) -> None:
                 except OSError:
                     same = False
             inside = t.is_dir() or (t.suffix == "" and t.name.endswith("_data"))
+            if same and t == o:
+                raise ParameterError(
+                    f"{o}: it is the same file as the input {str(s)!r}; writing it would "
+                    f"replace the input; name another output"
+                )
             if same or (inside and s.resolve().is_relative_to(t.resolve())):
                 raise ParameterError(
                     f"{o}: writing it would replace the input {str(s)!r}; name another output"
@@ -1045,6 +1069,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from auralize.cli.console import setup_console
 
     restore_console = setup_console(quiet=args.quiet, verbose=args.verbose)
+    # --allow-external holds for this command only; the setting before it (the
+    # caller's, or AURALIZE_HDF5_EXTERNAL's) is put back after (h5py is not
+    # imported for commands that read no HDF5)
+    hdf5 = sys.modules.get("auralize.io.hdf5")
+    external_before = hdf5.external_data_allowed() if hdf5 is not None else None
     try:
         if getattr(args, "allow_external", False):
             from auralize.io.hdf5 import allow_external_data
@@ -1081,19 +1110,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         if os.environ.get("AURALIZE_DEBUG"):
             traceback.print_exc()
-        text, code = error_message(exc)
         out = getattr(args, "output", None)
-        if (isinstance(exc, OSError) and not isinstance(exc, AuralizeError) and not exc.filename
-                and exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS) and out):  # fmt: skip
-            text = f"cannot write {str(out)!r}: {text}"
+        text, code = error_message(exc, out if isinstance(out, str | Path) and out else None)
         print(f"{name}: error: {text}", file=sys.stderr)
         return code
     finally:
         restore_console()
-        if getattr(args, "allow_external", False):
-            from auralize.io.hdf5 import allow_external_data
-
-            allow_external_data(False)
+        hdf5 = sys.modules.get("auralize.io.hdf5")
+        if hdf5 is not None:
+            env = os.environ.get("AURALIZE_HDF5_EXTERNAL", "") == "1"
+            hdf5.allow_external_data(env if external_before is None else external_before)
 
 
 if __name__ == "__main__":

@@ -17,12 +17,20 @@ Rules every writer in auralize follows (see the README, "Output files"):
   as auralize's own (:data:`DATA_MARKER`), and the ``.pvd`` is replaced
   atomically to point at it; only then is the old folder removed, and only if
   auralize wrote it (:func:`write_collection`).
+* A write that fails stops there: the first failed write raises, the
+  temporary is removed, and the error is an :class:`~auralize.errors.OutputError`
+  naming the output (not the temporary) on one line, e.g. ``cannot write
+  'out.h5': No space left on device (about 38 MiB needed, 12 KiB free)``
+  (:func:`output_error`; the CLI prints the same line and exits 4).  HDF5
+  files are written through :func:`atomic_hdf5`, which also leaves the HDF5
+  library in a sound state after a full disk.
 """
 
 from __future__ import annotations
 
 import contextlib
 import csv
+import errno
 import hashlib
 import io
 import json
@@ -31,10 +39,12 @@ import math
 import os
 import re
 import shutil
+import sys
 import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -44,6 +54,89 @@ from auralize.errors import OutputError, OutputExistsError
 
 #: name of the file that marks a data folder as written by auralize
 DATA_MARKER = ".auralize-data.json"
+
+
+# ----------------------------------------------------------------- failed writes
+#: errno values that say the output's disk (or quota) cannot take the file
+DISK_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS)
+
+
+def raised_in_hdf5(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised by h5py (its traceback passes through the package)."""
+    tb = exc.__traceback__
+    while tb is not None:
+        if f"{os.sep}h5py{os.sep}" in tb.tb_frame.f_code.co_filename:
+            return True
+        tb = tb.tb_next
+    return False
+
+
+def write_errno(exc: BaseException) -> int | None:
+    """The OS error number behind a failed write: ``exc.errno``, or the ``errno = N``
+    that HDF5 puts in the messages of its failed writes."""
+    number = getattr(exc, "errno", None)
+    if isinstance(number, int) and number > 0:
+        return number
+    m = re.search(r"errno = (\d+)", str(exc))
+    return int(m.group(1)) if m else None
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """Whether ``exc`` says that a disk (or quota) is full or read-only (:data:`DISK_ERRNOS`)."""
+    return write_errno(exc) in DISK_ERRNOS
+
+
+def output_error(exc: BaseException, target: str | os.PathLike[str], *,
+                 nbytes: float | None = None) -> OutputError:  # fmt: skip
+    """The one-line :class:`~auralize.errors.OutputError` of a failed write of ``target``.
+
+    Parameters
+    ----------
+    exc : the error raised by the write (an :class:`OSError`, or h5py's error).
+    target : the output file (named in the message instead of its temporary).
+    nbytes : about how many bytes the whole file needs, when known.
+
+    Examples
+    --------
+    >>> import errno
+    >>> str(output_error(OSError(errno.ENOSPC, "No space left on device"), "o.h5", nbytes=2**20))[:48]
+    "cannot write 'o.h5': No space left on device (ab"
+    """
+    if isinstance(exc, OutputError):
+        return exc
+    number = write_errno(exc)
+    if number is not None and number in errno.errorcode:
+        why = os.strerror(number)
+    elif isinstance(exc, OSError) and exc.strerror:
+        why = str(exc.strerror)
+    else:
+        why = " ".join(str(exc).split("(", 1)[0].split()) or type(exc).__name__
+    extra = []
+    if number in (errno.ENOSPC, errno.EDQUOT):
+        from auralize.runtime.resources import format_bytes
+
+        if nbytes is not None and math.isfinite(nbytes):
+            extra.append(f"about {format_bytes(nbytes)} needed")
+        folder = Path(target).expanduser().parent
+        with contextlib.suppress(OSError):
+            extra.append(f"{format_bytes(shutil.disk_usage(str(folder) or '.').free)} free")
+    tail = f" ({', '.join(extra)})" if extra else ""
+    return OutputError(f"cannot write {str(target)!r}: {why}{tail}")
+
+
+def _as_output_error(exc: BaseException, target: Path, tmp: Path | None,
+                     nbytes: float | None) -> BaseException:  # fmt: skip
+    """``exc`` as :func:`output_error` when it is a failure to write ``target`` (a full
+    disk, or an OS error about the temporary ``tmp``), else ``exc`` itself."""
+    if isinstance(exc, OutputError) or not isinstance(exc, OSError | RuntimeError):
+        return exc
+    if isinstance(exc, OSError) and (exc.filename or exc.filename2) and not is_disk_full(exc):
+        named = {str(f) for f in (exc.filename, exc.filename2) if f}
+        if not named & {str(target), str(tmp)}:
+            return exc  # an input that cannot be read: not the output's fault
+    elif not is_disk_full(exc) and (tmp is None or str(tmp) not in str(exc)):
+        return exc
+    return output_error(exc, target, nbytes=nbytes)
 
 
 # ----------------------------------------------------------------- output paths
@@ -160,20 +253,30 @@ def atomic_path(path: str | Path, *, suffix: str | None = None) -> Iterator[Path
 
     On any exception the temporary file is removed and ``path`` is untouched.
     The target is checked first (:func:`check_output_path`): its folder must
-    exist.
+    exist.  A failed write of the temporary raises
+    :class:`~auralize.errors.OutputError` naming ``path`` (:func:`output_error`),
+    also one that a library only reported without raising (h5py reports the
+    writes that fail while it closes a file that way; write HDF5 files with
+    :func:`atomic_hdf5`, which sees them in time).
     """
     target = check_output_path(path)
     clean_stale(target)
     tmp_path = temp_name(target, suffix=suffix if suffix is not None else target.suffix + ".part")
     try:
         tmp_path.touch(mode=0o600, exist_ok=False)
-        yield tmp_path
+        with _unreported_failures(tmp_path) as failures:
+            yield tmp_path
+        if failures:  # a library reported a failed write of the temporary but did not raise
+            raise failures[0]
         _finish_file(tmp_path)
         os.replace(tmp_path, target)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()
-        raise
+        err = _as_output_error(exc, target, tmp_path, None)
+        if err is exc:
+            raise
+        raise err from exc
 
 
 def _umask() -> int:
@@ -186,6 +289,209 @@ def atomic_write(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically."""
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
+
+
+@contextlib.contextmanager
+def _unreported_failures(tmp: Path) -> Iterator[list[BaseException]]:
+    """Collect the errors about ``tmp`` that are reported without being raised (an
+    object freed after a failed write: :data:`sys.unraisablehook`), instead of
+    printing them; the list is filled when the block ends."""
+    seen: list[BaseException] = []
+    previous, previous_except = sys.unraisablehook, sys.excepthook
+
+    def hook(unraisable: Any) -> None:
+        exc = getattr(unraisable, "exc_value", None)
+        if isinstance(exc, BaseException) and str(tmp) in str(exc):
+            seen.append(exc)
+        else:
+            previous(unraisable)
+
+    def excepthook(kind: Any, exc: Any, tb: Any) -> None:  # Cython prints them this way too
+        if isinstance(exc, BaseException) and str(tmp) in str(exc):
+            seen.append(exc)
+        else:
+            previous_except(kind, exc, tb)
+
+    sys.unraisablehook, sys.excepthook = hook, excepthook
+    try:
+        yield seen
+    finally:
+        if sys.unraisablehook is hook:
+            sys.unraisablehook = previous
+        if sys.excepthook is excepthook:
+            sys.excepthook = previous_except
+
+
+class _Sink:
+    """The file object HDF5 writes an output through (h5py's ``fileobj`` driver).
+
+    A write the OS refuses (a full disk) is recorded, not passed on: HDF5 is told
+    it succeeded and later writes are dropped, so the library never meets a
+    failed write (after one it can crash the process when its objects are
+    freed).  The writer asks :func:`stop_if_failed` after each step and
+    :func:`atomic_hdf5` raises the recorded error as an
+    :class:`~auralize.errors.OutputError`; the temporary is removed.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.raw = open(path, "x+b")  # closed by close()
+        self.failed: OSError | None = None
+        self.written = 0
+
+    def _fail(self, exc: OSError) -> None:
+        if self.failed is None:
+            self.failed = exc
+
+    def write(self, data: Any) -> int:
+        view = memoryview(data).cast("B")
+        if self.failed is None:
+            try:
+                done = 0
+                while done < len(view):
+                    done += self.raw.write(view[done:]) or 0
+                self.written += done
+            except OSError as exc:
+                self._fail(exc)
+        return len(view)
+
+    def read(self, size: int = -1) -> bytes:
+        data = self.raw.read(size)
+        if self.failed is not None and size > 0 and len(data) < size:
+            data += bytes(size - len(data))  # what a dropped write would have held
+        return data
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self.raw.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self.raw.tell()
+
+    def truncate(self, size: int | None = None) -> int:
+        if self.failed is None:
+            try:
+                return self.raw.truncate(size)
+            except OSError as exc:
+                self._fail(exc)
+        return self.raw.tell() if size is None else size
+
+    def flush(self) -> None:
+        if self.failed is None:
+            try:
+                self.raw.flush()
+            except OSError as exc:
+                self._fail(exc)
+
+    def close(self) -> None:
+        try:
+            self.flush()
+        finally:
+            with contextlib.suppress(OSError):
+                self.raw.close()
+
+
+def _sink_of(f: Any) -> _Sink | None:
+    sink = getattr(f, "_auralize_sink", None)
+    return sink if isinstance(sink, _Sink) else None
+
+
+def stop_if_failed(f: Any) -> None:
+    """Raise the error of the first failed write of an :func:`atomic_hdf5` file, if any.
+
+    Writers call it after each step (each chunk written), so that a full disk
+    ends them at once instead of at the end of the file; the error raised (an
+    :class:`OSError` with the OS's error number) becomes the
+    :class:`~auralize.errors.OutputError` of :func:`atomic_hdf5`.
+    """
+    sink = _sink_of(f)
+    if sink is not None and sink.failed is not None:
+        raise sink.failed
+
+
+@contextlib.contextmanager
+def atomic_hdf5(path: str | Path, *, suffix: str = ".part.h5", nbytes: float | None = None,
+                what: str = "the file", **file_options: Any) -> Iterator[Any]:  # fmt: skip
+    """Yield an :class:`h5py.File` open for writing on a temporary beside ``path``; rename
+    it onto ``path`` when the block ends without error.
+
+    Parameters
+    ----------
+    path : the output file; its folder must exist (:func:`check_output_path`).
+    suffix : str
+        Suffix of the temporary.
+    nbytes : float, optional
+        About how many bytes the file needs: refused up front (before HDF5 writes
+        anything) if its disk has less free (:func:`~auralize.runtime.resources.require_disk`),
+        and said in the error of a disk that fills up during the write.
+    what : str
+        What the file holds, for that refusal (e.g. ``"10 steps of 2 field(s)"``).
+    **file_options
+        Passed to :class:`h5py.File` (e.g. ``rdcc_nbytes=0``: no chunk cache, so
+        that every chunk goes to disk when it is written).
+
+    Raises
+    ------
+    OutputError
+        The folder cannot be written, the disk has too little space, or a write
+        failed (a full disk, a quota, an I/O error): one line naming ``path``.
+        The temporary is removed; ``path`` is untouched.  Any other error raised
+        inside the block (bad data) passes through unchanged, also after
+        removing the temporary.
+
+    Notes
+    -----
+    HDF5 writes through a file object that records a refused write instead of
+    failing it (:class:`_Sink`): the library never sees a failed write, so a
+    full disk cannot leave it in a state that crashes the process, and nothing
+    of it reaches stderr.  Call :func:`stop_if_failed` after each step to end
+    at the first failed write.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> with atomic_hdf5(pathlib.Path(tempfile.mkdtemp()) / "a.h5") as f:
+    ...     f["x"] = np.arange(3)
+    """
+    import h5py
+
+    target = check_output_path(path)
+    if nbytes is not None:
+        from auralize.runtime.resources import require_disk
+
+        require_disk(target, nbytes, what)
+    clean_stale(target)
+    tmp = temp_name(target, suffix=suffix)
+    sink: _Sink | None = None
+    f = None
+    try:
+        sink = _Sink(tmp)
+        f = h5py.File(sink, "w", **file_options)
+        f._auralize_sink = sink
+        yield f
+        stop_if_failed(f)
+        f.close()
+        sink.close()
+        if sink.failed is not None:
+            raise sink.failed
+        _finish_file(tmp)
+        os.replace(tmp, target)
+    except BaseException as exc:
+        failed = sink.failed if sink is not None else None
+        if f is not None:
+            with contextlib.suppress(Exception):
+                f.close()
+        if sink is not None:
+            sink.close()
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+        if failed is not None and not isinstance(exc, OutputError):
+            exc = failed  # the refused write, whatever HDF5 made of the data it did not get
+        err = _as_output_error(exc, target, tmp, nbytes)
+        if err is exc and exc is failed:
+            err = output_error(exc, target, nbytes=nbytes)
+        if err is exc:
+            raise
+        raise err from exc
 
 
 def temp_sibling(path: Path, *, suffix: str = ".tmp") -> Path:
@@ -286,13 +592,18 @@ def write_pair(main: str | Path, write_main: Callable[[Path], None], sidecar: st
         os.replace(tmp_main, m)
         swapped = True
         os.replace(tmp_side, s)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp_main.unlink()
         if not swapped:  # after the first rename the pending sidecar completes the pair later
             with contextlib.suppress(FileNotFoundError):
                 tmp_side.unlink()
-        raise
+        err = _as_output_error(exc, m, tmp_main, None)
+        if err is exc:
+            err = _as_output_error(exc, s, tmp_side, None)
+        if err is exc:
+            raise
+        raise err from exc
 
 
 # ----------------------------------------------------------------- ParaView collections
@@ -431,12 +742,15 @@ def write_collection(pvd: str | Path, data_name: str,
         tmp_pvd.write_text("\n".join(lines), encoding="utf-8")
         _finish_file(tmp_pvd)
         os.replace(tmp_pvd, path)
-    except BaseException:
+    except BaseException as exc:
         if _marker_pid(_marker(new)) == os.getpid():
             _discard(new, base)
         shutil.rmtree(tmp_dir, ignore_errors=True)
         tmp_pvd.unlink(missing_ok=True)
-        raise
+        err = _as_output_error(exc, path, tmp_pvd, None)
+        if err is exc:
+            raise
+        raise err from exc
     for name in referenced - {new.name}:
         old = path.with_name(name)
         if old.is_dir() and not old.is_symlink() and _owned(old, path, referenced):

@@ -8,14 +8,17 @@ Volumes are temporal ``ImageData`` (VTKHDF 2.x, written with h5py)::
     /VTKHDF/Steps           attr NSteps = T; Values (T,) the step times in s;
                             PointDataOffsets/NAME (T,) = 0 .. T-1
 
-Sources are temporal ``PolyData`` (one vertex per source point and step,
-written by VTK's own ``vtkHDFWriter``): point data ``kind`` (int8 codes),
+Sources are temporal ``PolyData`` (one vertex per source point and step, in
+the layout VTK's own ``vtkHDFWriter`` writes): point data ``kind`` (int8 codes),
 ``strength``, ``radius`` (m) and ``volume`` (ΔV, m³), and the legend of the
 ``kind`` codes as field data (``kind_code`` = 1, 2, 3 and ``kind_name`` =
 monopole, dipole, quadrupole; :data:`KIND_LEGEND`).
 
-Both are written to a hidden temporary file beside the target and renamed
-over it only when complete.
+Both are written with h5py to a hidden temporary file beside the target and
+renamed over it only when complete (:func:`~auralize.io.files.atomic_hdf5`):
+a disk with too little free space is refused before the first byte, and a
+write that fails anyway (the disk filled meanwhile) ends the writer at once
+with one :class:`~auralize.errors.OutputError`.
 """
 
 from __future__ import annotations
@@ -25,9 +28,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from auralize.errors import DataError, MissingFileError
-from auralize.io.files import fsync_path, temp_sibling
+from auralize.io.files import atomic_hdf5, stop_if_failed
 from auralize.volume import TimeVolume
 
 #: the ``kind`` codes of source files and their names
@@ -35,6 +39,9 @@ KIND_LEGEND: dict[int, str] = {1: "monopole", 2: "dipole", 3: "quadrupole"}
 
 #: VTKHDF version written (temporal data needs major version 2)
 VERSION = (2, 2)
+
+#: bytes of an HDF5 file beyond its arrays (superblock, groups, attributes), for disk checks
+_OVERHEAD = 65536.0
 
 
 def _ascii_attr(group: Any, name: str, value: str) -> None:
@@ -60,14 +67,19 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
     path : path-like
         The ``.vtkhdf`` file; replaced if it exists.
 
+    Raises
+    ------
+    OutputError
+        The disk has less free space than the file needs (refused before
+        writing), or a write failed: the first failed write ends it, and
+        nothing is left behind (:func:`~auralize.io.files.atomic_hdf5`).
+
     Examples
     --------
     >>> import numpy as np, tempfile, pathlib
     >>> vol = TimeVolume.from_arrays({"p": np.zeros((2, 3, 4, 5))}, times=[0.0, 0.1])
     >>> write_volume_vtkhdf(vol, pathlib.Path(tempfile.mkdtemp()) / "p.vtkhdf")
     """
-    import h5py
-
     p = _checked_target(path)
     for name in volume.field_names:
         if not name or "/" in name or name in (".", ".."):
@@ -75,33 +87,30 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
                             "non-empty name without '/'")  # fmt: skip
     nx, ny, nz = (int(d) for d in volume.dims)
     n = int(volume.n_steps)
-    tmp = temp_sibling(p)
-    try:
-        with h5py.File(tmp, "w-") as f:
-            root = f.create_group("VTKHDF")
-            root.attrs["Version"] = np.asarray(VERSION, dtype=np.int64)
-            _ascii_attr(root, "Type", "ImageData")
-            root.attrs["WholeExtent"] = np.asarray([0, nx - 1, 0, ny - 1, 0, nz - 1], np.int64)
-            root.attrs["Origin"] = np.asarray(volume.origin, dtype=np.float64)
-            root.attrs["Spacing"] = np.asarray(volume.spacing, dtype=np.float64)
-            root.attrs["Direction"] = np.eye(3).ravel()
-            pdata = root.create_group("PointData", track_order=True)
-            steps = root.create_group("Steps")
-            steps.attrs["NSteps"] = np.int64(n)
-            steps.create_dataset("Values", data=np.asarray(volume.times, dtype=np.float64))
-            offsets = steps.create_group("PointDataOffsets")
-            for name in volume.field_names:
-                shape = tuple(volume.fields[name].frame_shape)
-                ds = pdata.create_dataset(name, shape=(n, *shape), dtype=np.float64,
-                                          chunks=(1, *shape))  # fmt: skip
-                for step in range(n):
-                    ds[step] = volume.frame(name, step)
-                offsets.create_dataset(name, data=np.arange(n, dtype=np.int64))
-        fsync_path(tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    shapes = {name: tuple(volume.fields[name].frame_shape) for name in volume.field_names}
+    nbytes = n * sum(8.0 * float(np.prod(s)) for s in shapes.values()) + 16.0 * n + _OVERHEAD
+    what = f"{n} steps of {len(shapes)} field(s)"
+    # no chunk cache: each step goes to disk when written, so a full disk stops at that step
+    with atomic_hdf5(p, suffix=".vtkhdf.part", nbytes=nbytes, what=what, rdcc_nbytes=0) as f:
+        root = f.create_group("VTKHDF")
+        root.attrs["Version"] = np.asarray(VERSION, dtype=np.int64)
+        _ascii_attr(root, "Type", "ImageData")
+        root.attrs["WholeExtent"] = np.asarray([0, nx - 1, 0, ny - 1, 0, nz - 1], np.int64)
+        root.attrs["Origin"] = np.asarray(volume.origin, dtype=np.float64)
+        root.attrs["Spacing"] = np.asarray(volume.spacing, dtype=np.float64)
+        root.attrs["Direction"] = np.eye(3).ravel()
+        pdata = root.create_group("PointData", track_order=True)
+        steps = root.create_group("Steps")
+        steps.attrs["NSteps"] = np.int64(n)
+        steps.create_dataset("Values", data=np.asarray(volume.times, dtype=np.float64))
+        offsets = steps.create_group("PointDataOffsets")
+        for name, shape in shapes.items():
+            ds = pdata.create_dataset(name, shape=(n, *shape), dtype=np.float64,
+                                      chunks=(1, *shape))  # fmt: skip
+            for step in range(n):
+                ds[step] = volume.frame(name, step)
+                stop_if_failed(f)  # a full disk ends the writer here, not after every step
+            offsets.create_dataset(name, data=np.arange(n, dtype=np.int64))
 
 
 def _legend_arrays() -> tuple[Any, Any]:
@@ -143,59 +152,94 @@ def sources_polydata(series: Any, step: int) -> Any:
 def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
     """Write a :class:`~auralize.sources.detection.SourceSeries` as temporal VTKHDF ``PolyData``, atomically.
 
+    One vertex cell per source point and step; point data ``kind`` (int8 codes),
+    ``strength``, ``radius`` (m) and ``volume`` (m³); field data ``kind_code`` /
+    ``kind_name`` (:data:`KIND_LEGEND`) in every step.  The layout is the one
+    VTK's own ``vtkHDFWriter`` writes, so ParaView and ``vtkHDFReader`` open it.
+
     Parameters
     ----------
     series : SourceSeries
-        Detected sources; step n is written at time ``series.times[n]`` (s).
+        Detected sources; step n is written at time ``series.times[n]`` (s, float64).
     path : path-like
         The ``.vtkhdf`` file; replaced if it exists.
+
+    Raises
+    ------
+    OutputError
+        The disk has less free space than the file needs (refused before
+        writing), or a write failed: the first failed write ends it, and
+        nothing is left behind (:func:`~auralize.io.files.atomic_hdf5`).
     """
-    from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-    from vtkmodules.vtkCommonDataModel import vtkPolyData
-    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
-    from vtkmodules.vtkIOHDF import vtkHDFWriter
-
     p = _checked_target(path)
-    times = [float(t) for t in series.times]
-    polys = [sources_polydata(series, n) for n in range(len(times))]
+    frames = list(series.frames)
+    n = len(frames)
+    times = np.asarray([float(t) for t in series.times], dtype=np.float64)
+    counts = np.asarray([f.index.size for f in frames], dtype=np.int64)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64) if n else counts
+    total = int(counts.sum())
 
-    class _Steps(VTKPythonAlgorithmBase):
-        """A source serving ``polys[n]`` at ``times[n]`` (the writer asks step by step)."""
+    def cat(name: str, dtype: Any) -> NDArray[Any]:
+        parts = [np.asarray(getattr(f, name), dtype=dtype) for f in frames]
+        return np.concatenate(parts) if parts else np.zeros(0, dtype)
 
-        def __init__(self) -> None:
-            super().__init__(nInputPorts=0, nOutputPorts=1, outputType="vtkPolyData")
+    index = cat("index", np.int64)
+    points = np.asarray(series.positions(index), np.float64) if total else np.zeros((0, 3))
+    point_data = {"kind": cat("kind", np.int8), "strength": cat("strength", np.float64),
+                  "radius": cat("radius", np.float64), "volume": cat("volume", np.float64)}  # fmt: skip
+    codes = np.asarray(list(KIND_LEGEND), dtype=np.int32)
+    names = [name.encode("ascii") for name in KIND_LEGEND.values()]
+    nbytes = 73.0 * total + 400.0 * n + _OVERHEAD  # points, data, connectivity; per step
+    what = f"{total} source points over {n} steps"
+    with atomic_hdf5(p, suffix=".vtkhdf.part", nbytes=nbytes, what=what) as f:
+        root = f.create_group("VTKHDF")
+        root.attrs["Version"] = np.asarray(VERSION, dtype=np.int64)
+        _ascii_attr(root, "Type", "PolyData")
+        root.create_dataset("NumberOfPoints", data=counts)
+        root.create_dataset("Points", data=points.reshape(-1, 3))
+        local = [np.arange(c, dtype=np.int64) for c in counts]
+        for topo in ("Vertices", "Lines", "Polygons", "Strips"):
+            g = root.create_group(topo)
+            cells = counts if topo == "Vertices" else np.zeros(n, np.int64)
+            g.create_dataset("NumberOfCells", data=cells)
+            g.create_dataset("NumberOfConnectivityIds", data=cells)
+            if topo == "Vertices" and n:
+                g.create_dataset("Offsets", data=np.concatenate([np.arange(c + 1) for c in counts]))
+                g.create_dataset("Connectivity", data=np.concatenate(local))
+            else:
+                g.create_dataset("Offsets", data=np.zeros(n, np.int64))
+                g.create_dataset("Connectivity", data=np.zeros(0, np.int64))
+        pdata = root.create_group("PointData", track_order=True)
+        for name, values in point_data.items():
+            ds = pdata.create_dataset(name, data=values)
+            if name == "kind":
+                _ascii_attr(ds, "Attribute", "Scalars")
+        root.create_group("CellData")
+        fdata = root.create_group("FieldData", track_order=True)
+        fdata.create_dataset("kind_code", data=np.tile(codes, n))
+        fdata.create_dataset("kind_name", data=names * n, dtype=h5py_string())
+        steps = root.create_group("Steps")
+        steps.attrs["NSteps"] = np.int64(n)
+        steps.create_dataset("Values", data=times)
+        steps.create_dataset("PartOffsets", data=np.arange(n, dtype=np.int64))
+        steps.create_dataset("NumberOfParts", data=np.ones(n, np.int64))
+        steps.create_dataset("PointOffsets", data=starts)
+        topo_offsets = np.zeros((n, 4), np.int64)
+        topo_offsets[:, 0] = starts
+        steps.create_dataset("CellOffsets", data=topo_offsets)
+        steps.create_dataset("ConnectivityIdOffsets", data=topo_offsets)
+        pdo = steps.create_group("PointDataOffsets")
+        for name in point_data:
+            pdo.create_dataset(name, data=starts)
+        steps.create_group("CellDataOffsets")
+        fdo, fds = steps.create_group("FieldDataOffsets"), steps.create_group("FieldDataSizes")
+        for name in ("kind_code", "kind_name"):
+            fdo.create_dataset(name, data=np.arange(n, dtype=np.int64) * len(KIND_LEGEND))
+            fds.create_dataset(name, data=np.tile([1, len(KIND_LEGEND)], (n, 1)).astype(np.int64))
 
-        def RequestInformation(self, request: Any, in_info: Any, out_info: Any) -> int:
-            info = out_info.GetInformationObject(0)
-            info.Set(sddp.TIME_STEPS(), times, len(times))
-            info.Set(sddp.TIME_RANGE(), [times[0], times[-1]], 2)
-            return 1
 
-        def RequestData(self, request: Any, in_info: Any, out_info: Any) -> int:
-            info = out_info.GetInformationObject(0)
-            t = info.Get(sddp.UPDATE_TIME_STEP()) if info.Has(sddp.UPDATE_TIME_STEP()) else times[0]
-            step = int(np.argmin(np.abs(np.asarray(times) - t)))
-            vtkPolyData.GetData(out_info, 0).ShallowCopy(polys[step])
-            return 1
+def h5py_string() -> Any:
+    """The HDF5 type of VTKHDF string arrays: variable-length ASCII."""
+    import h5py
 
-    tmp = temp_sibling(p, suffix=".vtkhdf")
-    try:
-        steps = _Steps()  # held: the pipeline calls back into this Python object
-        writer = vtkHDFWriter()
-        writer.SetInputConnection(steps.GetOutputPort())
-        writer.SetFileName(str(tmp))
-        writer.SetWriteAllTimeSteps(len(times) > 1)
-        if not writer.Write() or not tmp.is_file():
-            raise DataError(f"{p}: VTK could not write the sources as VTKHDF")
-        if len(times) > 1:  # the writer stores the step times as float32: keep them exact
-            import h5py
-
-            with h5py.File(tmp, "r+") as f:
-                steps_group = f["VTKHDF/Steps"]
-                del steps_group["Values"]
-                steps_group.create_dataset("Values", data=np.asarray(times, dtype=np.float64))
-        fsync_path(tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    return h5py.string_dtype("ascii")
