@@ -17,13 +17,16 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from auralize.datasets.synthetic import DEFAULT_MAPPING, make_dataset
+from auralize.emitters import RATE_RANGE_HZ
 from auralize.emitters.synthesis import (
     C0,
     Rendered,
@@ -37,6 +40,7 @@ from auralize.errors import FieldError, ParameterError
 from auralize.listener import SWEEP_TURNS, ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
 from auralize.runtime.progress import progress_step
+from auralize.runtime.resources import audio_bytes, memory_guard, require_memory
 from auralize.sources.detection import (
     TYPES,
     SourceSeries,
@@ -46,6 +50,7 @@ from auralize.sources.detection import (
     require_steps,
 )
 from auralize.sources.field import FLOOR, Heard, field_tracks, parse_heard
+from auralize.spatial.layouts import get_layout
 from auralize.volume import TimeVolume
 
 __all__ = [
@@ -173,6 +178,41 @@ def resolve_mapping(volume: TimeVolume, mapping: str | AcousticMapping | None = 
     return get_mapping(name, **names)
 
 
+def volume_arg(volume: Any, who: str) -> TimeVolume:
+    """``volume`` as a :class:`TimeVolume`: one already, or a file name / ``"dataset:NAME"``
+    opened with :func:`load`; anything else is a :class:`ParameterError`."""
+    if isinstance(volume, TimeVolume):
+        return volume
+    if isinstance(volume, str | os.PathLike):
+        return load(volume)
+    raise ParameterError(f"{who} needs a TimeVolume (auralize.load(FILE) opens one) or a file "
+                         f"name, got {type(volume).__name__} {volume!r:.60}")  # fmt: skip
+
+
+def check_rate(rate: Any) -> int:
+    """``rate`` as an output sample rate: a whole number of Hz in :data:`RATE_RANGE_HZ`.
+
+    >>> check_rate(48000)
+    48000
+    """
+    lo, hi = RATE_RANGE_HZ
+    if isinstance(rate, bool) or not isinstance(rate, int | np.integer) or not lo <= rate <= hi:
+        raise ParameterError(f"rate must be a whole number of Hz in {lo}..{hi}, got {rate!r}")
+    return int(rate)
+
+
+def check_listener(listener: Any) -> NDArray[np.float64]:
+    """A fixed listener position: three finite numbers x, y, z in metres."""
+    try:
+        p = np.asarray(listener, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        p = np.full(3, np.nan)
+    if not np.all(np.isfinite(p)):
+        raise ParameterError(f"listener must be three finite numbers x, y, z in metres, "
+                             f"got {listener!r:.80}")  # fmt: skip
+    return p
+
+
 def detect_sources(volume: TimeVolume, *, mapping: str | AcousticMapping | None = None,
                    thresholds: Thresholds | None = None, progress_bar: bool = False,
                    **mapping_fields: str) -> SourceSeries:  # fmt: skip
@@ -183,8 +223,13 @@ def detect_sources(volume: TimeVolume, *, mapping: str | AcousticMapping | None 
     (``{type: reason}``), and the volume's valid-point ratio in
     ``series.meta["valid_ratio"]``.
     """
+    volume = volume_arg(volume, "detect_sources")
+    if thresholds is not None and not isinstance(thresholds, Thresholds):
+        raise ParameterError(f"thresholds must be a Thresholds(monopole, dipole, quadrupole), "
+                             f"got {thresholds!r}")  # fmt: skip
     m = resolve_mapping(volume, mapping, **mapping_fields)
-    series = detect(volume, mapping=m, thresholds=thresholds, progress_bar=progress_bar)
+    with memory_guard(f"detecting sources in {volume.source}"):
+        series = detect(volume, mapping=m, thresholds=thresholds, progress_bar=progress_bar)
     unavailable = m.unavailable(volume)
     if unavailable:
         series.meta["unavailable"] = unavailable
@@ -302,7 +347,7 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
         path = orbit_around(bounds, duration=dur, face=face)
     elif path is None:
         dur = duration or DEFAULT_DURATION
-        path = ListenerPath.point(np.asarray(listener, dtype=np.float64), duration=dur)
+        path = ListenerPath.point(check_listener(listener), duration=dur)
     else:
         dur = duration or path.duration
     near, far = box_distances(path.positions, lo, hi)
@@ -378,17 +423,38 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     command does, so ``save_rendered(auralize(load(FILE))[0], OUT)`` writes
     the command's samples.
     """
+    # everything that can be checked before the work is checked first
+    volume = volume_arg(volume, "auralize")
+    rate = check_rate(rate)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**32:
+        raise ParameterError(f"seed must be a whole number in 0..4294967295, got {seed!r}")
+    if thresholds is not None and not isinstance(thresholds, Thresholds):
+        raise ParameterError(f"thresholds must be a Thresholds(monopole, dipole, quadrupole), "
+                             f"got {thresholds!r}")  # fmt: skip
+    if listener is not None:
+        listener = check_listener(listener)
+    channels = get_layout(layout).n_channels
+
+    def check_memory(seconds: float) -> None:
+        require_memory(audio_bytes(seconds, rate, channels),
+                       f"{seconds:g} s of {channels}-channel audio at {rate} Hz",
+                       hint="render a shorter duration or at a lower rate")  # fmt: skip
+
+    if duration is not None and math.isfinite(duration) and duration > 0:
+        check_memory(duration)
     hd = parse_heard(heard)
     planner = Planner(volume, path=path, listener=listener, duration=duration,
                       time_scale=time_scale, c0=c0, clip=clip, face=orbit_face)  # fmt: skip
-    hs = heard_sound(volume, heard=hd, series=series, mapping=mapping, thresholds=thresholds,
-                     path=planner, block=block, c0=c0, progress_bar=progress_bar,
-                     **mapping_fields)  # fmt: skip
+    with memory_guard(f"rendering {volume.source}"):
+        hs = heard_sound(volume, heard=hd, series=series, mapping=mapping, thresholds=thresholds,
+                         path=planner, block=block, c0=c0, progress_bar=progress_bar,
+                         **mapping_fields)  # fmt: skip
     plan = planner.plan
+    check_memory(plan.duration)
     tracks = hs.tracks
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
                   lead=plan.lead)  # fmt: skip
-    with progress_step("render", enabled=progress_bar):
+    with progress_step("render", enabled=progress_bar), memory_guard(f"rendering {volume.source}"):
         out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate,
                             time_scale=plan.time_scale, interp=interp, layout=layout, c0=c0,
                             duration=plan.duration, bounds=volume.bounds, lead=plan.lead,

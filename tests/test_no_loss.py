@@ -119,3 +119,49 @@ def test_impossible_numbers_are_refused_by_name(
     # saving to a folder that does not exist fails before looking for a render
     with pytest.raises(OutputError, match="does not exist"):
         SaveAudio(tmp_path / "nowhere" / "o.wav")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"rate": 0}, "ParameterError", "rate must be a whole number of Hz in 8000..768000"),
+        ({"rate": "x"}, "ParameterError", "rate must be a whole number"),
+        ({"rate": 44100.5}, "ParameterError", "rate must be a whole number"),
+        ({"rate": True}, "ParameterError", "rate must be a whole number"),
+        ({"duration": 1e12}, "ResourceError", "1e+12 s of 1-channel audio at 44100 Hz needs"),
+        ({"listener": (1, 2)}, "ParameterError", "listener must be three finite numbers"),
+        ({"listener": "a"}, "ParameterError", "listener must be three finite numbers"),
+        ({"listener": (0, 0, float("nan"))}, "ParameterError", "listener must be three finite"),
+        ({"seed": -1}, "ParameterError", "seed must be a whole number in 0..4294967295"),
+        ({"thresholds": "x"}, "ParameterError", "thresholds must be a Thresholds"),
+    ],
+)
+def test_the_api_raises_auralizes_errors_before_any_work(
+    kwargs: dict[str, object], error: str, message: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The public render function checks its arguments before any work, with auralize's
+    errors (which still subclass the builtins a caller may catch)."""
+    import auralize.errors as errors
+    import auralize.pipeline as pipeline
+
+    vol = pipeline.load("dataset:monopole", size=8, steps=6)
+
+    def no_work(*a: object, **k: object) -> None:
+        raise AssertionError("the work started before the arguments were checked")
+
+    monkeypatch.setattr(pipeline, "heard_sound", no_work)
+    with pytest.raises(getattr(errors, error), match=message.replace("+", r"\+")) as e:
+        pipeline.auralize(vol, **kwargs)  # type: ignore[arg-type]
+    assert isinstance(e.value, ValueError | MemoryError)
+
+
+def test_the_api_takes_a_file_name_and_names_what_it_needs() -> None:
+    from auralize.errors import MissingFileError, ParameterError
+    from auralize.pipeline import auralize, detect_sources
+
+    out, _ = auralize("dataset:monopole", duration=0.5, rate=8000)
+    assert out.audio.shape[1] == 4000 and out.audio.any()
+    with pytest.raises(ParameterError, match="needs a TimeVolume .* got NoneType"):
+        detect_sources(None)  # type: ignore[arg-type]
+    with pytest.raises(MissingFileError, match="'nosuch.h5': no such file"):
+        detect_sources("nosuch.h5")  # type: ignore[arg-type]
