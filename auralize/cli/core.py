@@ -342,10 +342,11 @@ def cmd_info(args: argparse.Namespace) -> int:
     from auralize.pipeline import auto_mapping
 
     vol = load_volume(args)
+    # first: a vector stored as components is assembled into a field of the volume
+    roles = {r: match_field(vol, r) for r in ROLE_NAMES}
     d = vol.describe()
     units = vol.attrs.get("units") if isinstance(vol.attrs.get("units"), dict) else {}
     centring = vol.attrs.get("centring") if isinstance(vol.attrs.get("centring"), dict) else {}
-    roles = {r: match_field(vol, r) for r in ROLE_NAMES}
     d["times"] = vol.times.tolist()
     d["field_info"] = {
         k: {"kind": d["fields"][k], "units": units.get(k), "centring": centring.get(k, "point")}
