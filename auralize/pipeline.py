@@ -85,7 +85,9 @@ _UNITS = ((365.25 * 86400, "years"), (86400.0, "days"), (3600.0, "h"), (60.0, "m
 def load(spec: str | Path | TimeVolume, *, size: int | None = None, steps: int | None = None,
          seed: int = 0, fields: dict[str, str] | None = None,
          resolution: int | tuple[int, int, int] | None = None, nan: str = "mask") -> TimeVolume:  # fmt: skip
-    """Open a volume file, or generate a built-in dataset with ``"dataset:NAME"``.
+    """Open a volume file, or a dataset that comes with auralize by ``"dataset:NAME"``:
+    generated (``size``, ``steps``, ``seed``) or shipped (``dataset:cavity``, ...;
+    :mod:`auralize.datasets.shipped`).
 
     ``nan`` (``"mask"`` or ``"error"``) is what NaN, fill values and masked
     cells in a file are; see :func:`auralize.io.open_volume`.
@@ -93,9 +95,18 @@ def load(spec: str | Path | TimeVolume, *, size: int | None = None, steps: int |
     if isinstance(spec, TimeVolume):
         return spec
     s = str(spec)
-    if s.startswith("dataset:"):
-        return make_dataset(s.split(":", 1)[1], size=size, steps=steps, seed=seed)
     from auralize.io import open_volume
+
+    if s.startswith("dataset:"):
+        from auralize.datasets.shipped import SHIPPED, shipped_path
+
+        name = s.split(":", 1)[1]
+        if name not in SHIPPED:
+            return make_dataset(name, size=size, steps=steps, seed=seed)
+        if size is not None or steps is not None:
+            raise ParameterError(f"dataset:{name} is a shipped file ({SHIPPED[name][1]}); "
+                                 f"--size and --steps apply to generated datasets")  # fmt: skip
+        return open_volume(shipped_path(name), fields=fields, resolution=resolution, nan=nan)
 
     return open_volume(s, fields=fields, resolution=resolution, nan=nan)
 

@@ -135,3 +135,35 @@ def test_datasets_have_licences_and_provenance() -> None:
     with zipfile.ZipFile(DATASETS / "paraview-wavy" / "wavy.zip") as z:
         assert "wavy/wavy.pvd" in z.namelist()
     assert Path(DATASETS / "netcdf-pulse" / "pulse.nc").stat().st_size < 1_000_000
+
+
+def test_every_dataset_opens_by_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                     capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    """``dataset:NAME`` opens each shipped file as its own path does (archives unpacked
+    once into the cache), and the command's help lists every name."""
+    from auralize.cli import main
+    from auralize.datasets.shipped import GENERATED, SHIPPED, describe, shipped_path
+    from auralize.datasets.synthetic import DATASETS as GENERATORS
+    from auralize.errors import ParameterError
+    from auralize.pipeline import load
+
+    assert tuple(GENERATORS) == GENERATED
+    assert set(SHIPPED) == {"cavity", "pulse", "dolfinx", "meshio", "wavy", "cylinder",
+                            "combustor"} and {c for c, _ in SHIPPED.values()} == set(CASES)  # fmt: skip
+    monkeypatch.setenv("AURALIZE_CACHE_DIR", str(tmp_path / "cache"))
+    warnings.simplefilter("ignore", ResampledWarning)
+    for name, (case, _) in SHIPPED.items():
+        by_name = load(f"dataset:{name}")
+        with dataset_path(case) as path:
+            direct = open_volume(path)
+            assert by_name.dims == direct.dims and by_name.field_names == direct.field_names
+            assert np.array_equal(by_name.times, direct.times), name
+    assert shipped_path("cavity").is_relative_to(tmp_path / "cache")
+    assert len(list((tmp_path / "cache" / "data").iterdir())) == 2  # cavity and wavy
+    with pytest.raises(ParameterError, match="shipped file .* --size and --steps"):
+        load("dataset:cavity", size=8)
+    out = tmp_path / "cavity.h5"
+    assert main(["dataset", "cavity", "-o", str(out)]) == 0
+    assert load(out).dims == load("dataset:cavity").dims
+    for name in (*GENERATED, *SHIPPED):
+        assert name in describe()

@@ -382,10 +382,10 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_dataset(args: argparse.Namespace) -> int:
-    from auralize.datasets.synthetic import make_dataset
     from auralize.io import save_volume
+    from auralize.pipeline import load
 
-    vol = make_dataset(args.name, size=args.size, steps=args.steps, seed=args.seed)
+    vol = load(f"dataset:{args.name}", size=args.size, steps=args.steps, seed=args.seed)
     t = time.perf_counter()
     save_volume(vol, args.output)
     print(f"wrote {args.output}: {args.name}, {vol.dims[0]}x{vol.dims[1]}x{vol.dims[2]} x "
@@ -786,8 +786,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_info)
 
-    p = sub.add_parser("dataset", help="generate a built-in dataset to a file (.h5 or .pvd)")
-    p.add_argument("name", help="explosion | monopole")
+    from auralize.datasets.shipped import describe as describe_datasets
+
+    p = sub.add_parser("dataset", help="write a dataset that comes with auralize to a file "
+                       "(.h5, .pvd, ...)",
+                       description="Write a generated dataset, or a shipped real one, to a "
+                       "file. Every command also opens them as dataset:NAME.")  # fmt: skip
+    p.add_argument("name", help=f"{describe_datasets()}; plugins add generated ones "
+                   "(auralize plugins)")  # fmt: skip
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--size", type=positive_int)
     p.add_argument("--steps", type=positive_int)
