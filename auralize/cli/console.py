@@ -58,13 +58,14 @@ def setup_console(*, quiet: bool = False, verbose: int = 0) -> Callable[[], None
         level and propagation, ``warnings.showwarning`` and the progress-bar
         switch are set back to what they were before it.
     """
-    from auralize.runtime import progress
+    from auralize.runtime import progress, vtklog
 
     log = logging.getLogger(LOGGER)
     before = (list(log.handlers), log.level, log.propagate, warnings.showwarning,
               progress.is_enabled())  # fmt: skip
 
     def restore() -> None:
+        vtklog.disable()
         handlers, level, propagate, show, bars = before
         log.handlers[:] = handlers
         log.setLevel(level)
@@ -81,4 +82,5 @@ def setup_console(*, quiet: bool = False, verbose: int = 0) -> Callable[[], None
     log.setLevel(logging.ERROR if quiet else logging.DEBUG if verbose else logging.INFO)
     warnings.showwarning = _show_warning
     progress.set_enabled(not quiet)
+    vtklog.enable()  # VTK's messages: one line each in this log, shown with -v
     return restore

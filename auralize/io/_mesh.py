@@ -53,6 +53,9 @@ def import_pyvista() -> Any:
             "reading and writing VTK, ParaView and OpenFOAM files needs pyvista and vtk: "
             "pip install pyvista vtk"
         ) from exc
+    from auralize.runtime.vtklog import route_if_enabled
+
+    route_if_enabled()  # on the command line VTK's messages go to auralize's log
     return pyvista
 
 
@@ -585,13 +588,24 @@ class _Sampler:
 
 
 def _load(loader: Loader, step: int, label: str) -> pyvista.DataSet:
+    from auralize.runtime.vtklog import error_mark, first_error, one_line
+
+    mark = getattr(loader, "error_mark", None)
+    mark = error_mark() if mark is None else mark
     try:
         obj = loader(step)
     except AuralizeError:
         raise
-    except Exception as exc:  # VTK and pyvista raise many kinds; name the file
-        raise FormatError(f"{label}: cannot read ({type(exc).__name__}: {exc})") from exc
-    return as_dataset(obj, label=label)
+    except Exception as exc:  # VTK and pyvista raise many kinds; name the file and VTK's reason
+        why = first_error(mark) or f"{type(exc).__name__}: {one_line(str(exc))}"
+        raise FormatError(f"{label}: cannot read ({why})") from exc
+    try:
+        return as_dataset(obj, label=label)
+    except FormatError as exc:
+        why = first_error(mark)  # the reader said why it returned nothing usable
+        if why is None or why in str(exc):
+            raise
+        raise FormatError(f"{exc} (VTK: {why})") from exc
 
 
 @dataclass
@@ -681,12 +695,18 @@ def open_mesh_series(
     resolution = check_resolution(resolution, source=source)
     if len(labels) != len(times):
         raise FormatError(f"{source}: {len(labels)} step files for {len(times)} times")
+    from auralize.runtime.vtklog import error_mark, first_error
+
+    mark = error_mark()
     mesh0 = _load(loader, 0, labels[0])
     if mesh0.n_points == 0:
-        raise FormatError(
-            f"{labels[0]}: the mesh has no points (a data file it refers to may be missing, "
-            f"truncated or corrupt)"
+        vtk_why = first_error(getattr(loader, "error_mark", mark))
+        why = (
+            f"VTK: {vtk_why}"
+            if vtk_why
+            else "a data file it refers to may be missing, truncated or corrupt"
         )
+        raise FormatError(f"{labels[0]}: the mesh has no points ({why})")
     comps = array_components(mesh0)
     requested: list[str] = []
     if isinstance(fields, str):

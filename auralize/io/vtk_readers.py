@@ -41,6 +41,7 @@ from auralize.io._common import FieldsArg, require_exists
 from auralize.io._mesh import as_dataset, import_pyvista, open_mesh_series
 from auralize.io.resample import ResolutionArg
 from auralize.io.xdmf_check import check_xdmf
+from auralize.runtime.vtklog import c_stderr_logged, error_mark, first_error, one_line
 from auralize.volume import TimeVolume
 
 #: Grid-file endings of PLOT3D (solutions are ``.q``).
@@ -67,6 +68,7 @@ class _TimeReaderSteps:
 
     def _get(self) -> Any:
         if self._reader is None:
+            self.error_mark = error_mark()  # a failed read reports the reader's first error
             self._reader = self._make()
         return self._reader
 
@@ -78,11 +80,11 @@ class _TimeReaderSteps:
         return [float(t) for t in values] if values else []
 
     def times(self) -> list[float]:
-        with self._lock:
+        with self._lock, c_stderr_logged():
             return self._values()
 
     def __call__(self, step: int) -> Any:
-        with self._lock:
+        with self._lock, c_stderr_logged():
             reader = self._get()
             values = self._values()
             if self._before_read is not None:
@@ -103,12 +105,14 @@ def _open_reader_series(
     before_read: Callable[[float | None], None] | None = None,
 ) -> TimeVolume:
     loader = _TimeReaderSteps(make, str(path), before_read)
+    mark = error_mark()
     try:
         times = loader.times()
     except AuralizeError:
         raise
-    except Exception as exc:  # VTK raises many kinds; name the file and the kind
-        raise FormatError(f"{path}: cannot read as {kind} ({type(exc).__name__}: {exc})") from exc
+    except Exception as exc:  # VTK raises many kinds; name the file, the kind and VTK's reason
+        why = first_error(mark) or f"{type(exc).__name__}: {one_line(str(exc))}"
+        raise FormatError(f"{path}: cannot read as {kind} ({why})") from exc
     physical = len(times) > 0
     if not times:
         times = [0.0]
