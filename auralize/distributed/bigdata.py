@@ -184,10 +184,8 @@ def write_chunked_explosion(
     >>> open_volume(f).dims
     (12, 12, 12)
     """
-    import h5py
-
     from auralize.datasets.synthetic import check_size, check_steps
-    from auralize.io.files import fsync_path, temp_sibling
+    from auralize.io.files import atomic_hdf5, stop_if_failed
 
     p = Path(path).expanduser()
     size, steps = check_size(size), check_steps(steps)
@@ -223,38 +221,35 @@ def write_chunked_explosion(
                 yield z0, z1, *ana.slab(step, z0, z1)
 
     shape = (size, size, size)
-    tmp = temp_sibling(p)
-    try:
-        with h5py.File(tmp, "w-") as f:
-            f.attrs["auralize_format"] = "volume"
-            f.attrs["version"] = np.int64(1)
-            f.attrs["physical_times"] = False
-            f.attrs["dataset_attrs"] = json.dumps(attrs, default=str)
-            f.create_dataset("time", data=np.asarray(times, dtype=np.float64)).attrs["units"] = "s"
-            grid = f.create_group("grid")
-            grid.attrs["origin"] = np.zeros(3)
-            grid.attrs["spacing"] = np.asarray(spacing, dtype=np.float64)
-            grid.attrs["dims"] = np.asarray(shape, dtype=np.int64)
-            group = f.create_group("fields", track_order=True)
-            rho_ds = group.create_dataset(
-                "log10_density", shape=(steps, *shape), dtype=dtype, chunks=(1, *shape)
-            )
-            vel_ds = group.create_dataset(
-                "velocity", shape=(steps, *shape, 3), dtype=dtype, chunks=(1, *shape, 3)
-            )
-            for step in range(steps):
-                for z0, z1, rho, vel in slabs(step):
-                    if not (np.all(np.isfinite(rho)) and np.all(np.isfinite(vel))):
-                        raise ParameterError(  # pragma: no cover - generator bug guard
-                            f"{p}: generated NaN/Inf at step {step}; choose other parameters"
-                        )
-                    rho_ds[step, z0:z1] = rho
-                    vel_ds[step, z0:z1] = vel
-                if progress:
-                    print(f"  step {step + 1}/{steps} written", flush=True)
-        fsync_path(tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    nbytes = float(steps) * size**3 * 4 * np.dtype(dtype).itemsize + 16.0 * steps + 65536
+    what = f"{steps} steps of {size}^3 points in {dtype}"
+    # no chunk cache: each step goes to disk when written, so a full disk stops at that step
+    with atomic_hdf5(p, nbytes=nbytes, what=what, rdcc_nbytes=0) as f:
+        f.attrs["auralize_format"] = "volume"
+        f.attrs["version"] = np.int64(1)
+        f.attrs["physical_times"] = False
+        f.attrs["dataset_attrs"] = json.dumps(attrs, default=str)
+        f.create_dataset("time", data=np.asarray(times, dtype=np.float64)).attrs["units"] = "s"
+        grid = f.create_group("grid")
+        grid.attrs["origin"] = np.zeros(3)
+        grid.attrs["spacing"] = np.asarray(spacing, dtype=np.float64)
+        grid.attrs["dims"] = np.asarray(shape, dtype=np.int64)
+        group = f.create_group("fields", track_order=True)
+        rho_ds = group.create_dataset(
+            "log10_density", shape=(steps, *shape), dtype=dtype, chunks=(1, *shape)
+        )
+        vel_ds = group.create_dataset(
+            "velocity", shape=(steps, *shape, 3), dtype=dtype, chunks=(1, *shape, 3)
+        )
+        for step in range(steps):
+            for z0, z1, rho, vel in slabs(step):
+                if not (np.all(np.isfinite(rho)) and np.all(np.isfinite(vel))):
+                    raise ParameterError(  # pragma: no cover - generator bug guard
+                        f"{p}: generated NaN/Inf at step {step}; choose other parameters"
+                    )
+                rho_ds[step, z0:z1] = rho
+                vel_ds[step, z0:z1] = vel
+                stop_if_failed(f)  # a full disk ends the writer at this slab
+            if progress:
+                print(f"  step {step + 1}/{steps} written", flush=True)
     return p

@@ -27,18 +27,22 @@ from numpy.typing import NDArray
 
 from auralize.distributed._dask import require
 from auralize.errors import DataError, FormatError
-from auralize.volume import FrameSource, TimeVolume
+from auralize.volume import FrameSource, TimeVolume, inf_as_nan
 
 
 def _read_step(
-    src: FrameSource, step: int, shape: tuple[int, ...], label: str
+    src: FrameSource, step: int, shape: tuple[int, ...], label: str, no_inf: bool = False
 ) -> NDArray[np.float64]:
+    """One step as a chunk ``(1, *shape)``; with ``no_inf`` ±Inf is read as NaN (no-data),
+    as :meth:`TimeVolume.frame <auralize.volume.TimeVolume.frame>` reads it."""
     arr = np.asarray(src.read(step), dtype=np.float64)
     if arr.shape != shape:
         raise DataError(
             f"{label}: step {step} has shape {arr.shape}, but the chunk is declared as {shape}; "
             f"every step of a field must have the same frame shape"
         )
+    if no_inf:
+        arr = inf_as_nan(arr)
     return arr[None]
 
 
@@ -58,6 +62,8 @@ def to_dask(volume: TimeVolume, name: str) -> Any:
     dask.array.Array
         float64; computing a chunk calls the field's ``read(step)`` and checks
         the shape (a mismatch raises :class:`~auralize.errors.DataError`).
+        When the volume does not check finiteness (``check_finite`` False,
+        ``--nan mask``) ±Inf is read as NaN, as :meth:`TimeVolume.frame` reads it.
 
     Examples
     --------
@@ -71,10 +77,13 @@ def to_dask(volume: TimeVolume, name: str) -> Any:
     src = volume._get(name)
     shape = tuple(int(s) for s in src.frame_shape)
     label = f"{volume.source}: field {name!r}"
-    tok = require("dask.base").tokenize(volume.source, name, shape, volume.times.tobytes(), id(src))
+    no_inf = not volume.check_finite
+    tok = require("dask.base").tokenize(
+        volume.source, name, shape, volume.times.tobytes(), id(src), no_inf
+    )
     key = f"auralize-frames-{name}-{tok}"
     layer = {
-        (key, n, *(0,) * len(shape)): (_read_step, src, n, shape, label)
+        (key, n, *(0,) * len(shape)): (_read_step, src, n, shape, label, no_inf)
         for n in range(volume.n_steps)
     }
     chunks = ((1,) * volume.n_steps, *((s,) for s in shape))

@@ -77,7 +77,7 @@ from numpy.typing import NDArray
 from auralize.distributed.chunked import slab_volume
 from auralize.distributed.runner import RunError, Runner, numba_threads
 from auralize.errors import FormatError, ParameterError
-from auralize.io.files import atomic_path
+from auralize.io.files import atomic_hdf5, atomic_path, stop_if_failed
 from auralize.mapping import (
     AcousticMapping,
     CFDMapping,
@@ -471,15 +471,15 @@ class StateStore:
         :func:`~auralize.io.sources_file.save_sources_h5` writes for the
         whole series.  Returns the largest number of sources held at once.
         """
-        import h5py
-
         from auralize.io.sources_file import FORMAT, VERSION
 
         n_steps = head.times.size
         offsets = self.step_offsets(n_steps)
         total = int(offsets[-1])
         held = 0
-        with atomic_path(path, suffix=".part.h5") as tmp, h5py.File(tmp, "w") as h:
+        nbytes = 57.0 * total + 16.0 * n_steps + 65536.0  # rows, times and offsets, overhead
+        what = f"{total} source points over {n_steps} steps"
+        with atomic_hdf5(path, nbytes=nbytes, what=what) as h:
             h.attrs["auralize_format"] = FORMAT
             h.attrs["version"] = VERSION
             h.attrs["origin"] = head.origin
@@ -513,6 +513,7 @@ class StateStore:
                 ds["kind"][r0:r1] = kind.astype(np.int8)
                 ds["strength"][r0:r1] = strength.astype(np.float64)
                 ds["radius"][r0:r1] = radius.astype(np.float64)
+                stop_if_failed(h)  # a full disk ends the writer at this part
         return held
 
     def load_frames(self, n_steps: int) -> list[SourceFrame]:

@@ -383,6 +383,8 @@ class _Sink:
                 self._fail(exc)
 
     def close(self) -> None:
+        if self.raw.closed:  # closed once already (an error after the close is handled)
+            return
         try:
             self.flush()
         finally:

@@ -39,7 +39,8 @@ from auralize.errors import (
     ParameterError,
 )
 from auralize.io._common import FieldsArg, require_exists, select_fields
-from auralize.io.files import check_output_path, fsync_path, temp_sibling
+from auralize.io.files import atomic_hdf5, stop_if_failed
+from auralize.runtime.resources import require_memory
 from auralize.volume import DEFAULT_FRAME_RATE_HZ, FrameSource, TimeVolume
 
 #: Value of the root attribute ``auralize_format`` of a volume file.
@@ -377,6 +378,7 @@ def _read_v1(
             f"{path}: /time must be a 1-D array of numbers (T,); got shape {tds.shape}, "
             f"dtype {tds.dtype}"
         )
+    require_memory(8.0 * tds.shape[0], f"{path}: {tds.shape[0]} time steps")
     times = np.asarray(tds[()], dtype=np.float64)
     if "grid" not in f or not isinstance(f["grid"], h5py.Group):
         raise FormatError(
@@ -562,6 +564,7 @@ def _read_generic(
     times = lookup("time", ("time", "times"), ("/",))
     if times is None and "time" in f and isinstance(f["time"], h5py.Dataset):
         if f["time"].shape == (n_steps,) and f["time"].dtype.kind in "fiu":
+            require_memory(8.0 * n_steps, f"{path}: {n_steps} time steps")
             times = np.asarray(f["time"][()], dtype=np.float64)
     physical = times is not None
     if times is None:
@@ -619,6 +622,14 @@ def write_hdf5(
     compression_level : int
         gzip level 0–9.
 
+    Raises
+    ------
+    OutputError
+        The folder cannot be written, the disk has less free space than the
+        uncompressed file needs (refused before writing), or a write failed:
+        the first failed write ends it, and nothing is left behind
+        (:func:`~auralize.io.files.atomic_hdf5`).
+
     Examples
     --------
     >>> import numpy as np, tempfile, pathlib
@@ -639,52 +650,47 @@ def write_hdf5(
                 f"{path}: field name {name!r} cannot be an HDF5 dataset name; use a "
                 f"non-empty name without '/'"
             )
-    check_output_path(path)
-    if compression is None:
-        from auralize.runtime.resources import require_disk
-
-        nbytes = sum(
-            volume.n_steps * float(np.prod(volume.fields[n].frame_shape)) * 8
-            for n in volume.field_names
-        )
-        require_disk(
-            path, nbytes + 65536, f"{volume.n_steps} steps of {len(volume.field_names)} field(s)"
-        )
-    tmp = temp_sibling(path)
+    n_steps = int(volume.n_steps)
+    data_bytes = sum(
+        n_steps * float(np.prod(volume.fields[n].frame_shape)) * 8 for n in volume.field_names
+    )
     opts: dict[str, Any] = {}
+    file_options: dict[str, Any] = {}
     if compression == "gzip":
         opts = {"compression": "gzip", "compression_opts": compression_level, "shuffle": True}
-    try:
-        with h5py.File(tmp, "w-") as f:
-            f.attrs["auralize_format"] = FORMAT_NAME
-            f.attrs["version"] = np.int64(FORMAT_VERSION)
-            f.attrs["physical_times"] = bool(volume.physical_times)
-            tds = f.create_dataset("time", data=np.asarray(volume.times, dtype=np.float64))
-            tds.attrs["units"] = "s"
-            grid = f.create_group("grid")
-            grid.attrs["origin"] = np.asarray(volume.origin, dtype=np.float64)
-            grid.attrs["spacing"] = np.asarray(volume.spacing, dtype=np.float64)
-            grid.attrs["dims"] = np.asarray(volume.dims, dtype=np.int64)
-            if volume.valid is not None:
-                f.create_dataset("valid", data=np.asarray(volume.valid, dtype=bool))
-            units = volume.attrs.get("units")
-            units = units if isinstance(units, dict) else {}
-            group = f.create_group("fields", track_order=True)
-            for name in volume.field_names:
-                shape = tuple(volume.fields[name].frame_shape)
-                ds = group.create_dataset(
-                    name,
-                    shape=(volume.n_steps, *shape),
-                    dtype=np.float64,
-                    chunks=(1, *shape),
-                    **opts,
-                )
-                if isinstance(units.get(name), str) and units[name]:
-                    ds.attrs["units"] = units[name]
-                for step in range(volume.n_steps):
-                    ds[step] = volume.frame(name, step)
-        fsync_path(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    else:
+        file_options["rdcc_nbytes"] = 0  # no chunk cache: each step reaches disk when written
+    with atomic_hdf5(
+        path,
+        nbytes=None if compression else data_bytes + 16.0 * n_steps + 65536,
+        what=f"{n_steps} steps of {len(volume.field_names)} field(s)",
+        **file_options,
+    ) as f:
+        f.attrs["auralize_format"] = FORMAT_NAME
+        f.attrs["version"] = np.int64(FORMAT_VERSION)
+        f.attrs["physical_times"] = bool(volume.physical_times)
+        tds = f.create_dataset("time", data=np.asarray(volume.times, dtype=np.float64))
+        tds.attrs["units"] = "s"
+        grid = f.create_group("grid")
+        grid.attrs["origin"] = np.asarray(volume.origin, dtype=np.float64)
+        grid.attrs["spacing"] = np.asarray(volume.spacing, dtype=np.float64)
+        grid.attrs["dims"] = np.asarray(volume.dims, dtype=np.int64)
+        if volume.valid is not None:
+            f.create_dataset("valid", data=np.asarray(volume.valid, dtype=bool))
+        units = volume.attrs.get("units")
+        units = units if isinstance(units, dict) else {}
+        group = f.create_group("fields", track_order=True)
+        for name in volume.field_names:
+            shape = tuple(volume.fields[name].frame_shape)
+            ds = group.create_dataset(
+                name,
+                shape=(n_steps, *shape),
+                dtype=np.float64,
+                chunks=(1, *shape),
+                **opts,
+            )
+            if isinstance(units.get(name), str) and units[name]:
+                ds.attrs["units"] = units[name]
+            for step in range(n_steps):
+                ds[step] = volume.frame(name, step)
+                stop_if_failed(f)  # a full disk ends the writer at this step

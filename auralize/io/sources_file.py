@@ -31,7 +31,7 @@ import h5py
 import numpy as np
 
 from auralize.errors import AuralizeError, DataError, FormatError
-from auralize.io.files import atomic_path, write_collection
+from auralize.io.files import atomic_hdf5, stop_if_failed, write_collection
 from auralize.io.json_check import parse_json
 from auralize.io.vtkhdf_write import KIND_LEGEND
 from auralize.sources.detection import SourceFrame, SourceSeries
@@ -51,7 +51,10 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
                if frames else np.zeros(0, dt))  # fmt: skip
 
     index = cat("index", np.int64)
-    with atomic_path(path, suffix=".part.h5") as tmp, h5py.File(tmp, "w") as h:
+    n, steps = int(index.size), len(frames)
+    nbytes = 57.0 * n + 16.0 * steps + 65536.0  # rows, times and offsets, HDF5 overhead
+    what = f"{n} source points over {steps} steps"
+    with atomic_hdf5(path, nbytes=nbytes, what=what) as h:
         h.attrs["auralize_format"] = FORMAT
         h.attrs["version"] = VERSION
         h.attrs["origin"] = series.origin
@@ -62,10 +65,13 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
         h["time"] = series.times
         h["offsets"] = offsets
         h["index"] = index
+        stop_if_failed(h)
         h["position"] = series.positions(index) if index.size else np.zeros((0, 3))
+        stop_if_failed(h)
         h["kind"] = cat("kind", np.int8)
         h["kind"].attrs["legend"] = json.dumps(KIND_LEGEND)  # {"1": "monopole", ...}
         h["strength"] = cat("strength", np.float64)
+        stop_if_failed(h)
         h["radius"] = cat("radius", np.float64)
 
 

@@ -24,8 +24,6 @@ directly to directions once the listener's view and up are taken out.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -195,55 +193,53 @@ def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs
 
     netCDF-4 dimensions (M, R, N, I, C, E) are HDF5 dimension scales, so
     netCDF and SOFA readers open the file; positions are spherical (degrees,
-    distance 1 m).  Written atomically (a temporary file, then renamed).
+    distance 1 m).  Written atomically (a temporary file, then renamed;
+    :func:`~auralize.io.files.atomic_hdf5`): a failed write raises one
+    :class:`~auralize.errors.OutputError` and leaves nothing behind.
     """
-    import h5py
+    from auralize.io.files import atomic_hdf5, stop_if_failed
 
     p = Path(path)
     d = hrirs.directions
     az = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
     el = np.degrees(np.arcsin(np.clip(d[:, 2], -1.0, 1.0)))
     m, _, n = hrirs.ir.shape
-    fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent or ".")
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as h:
-            for k, v in {"Conventions": "SOFA", "Version": "2.1",
-                         "SOFAConventions": "SimpleFreeFieldHRIR", "SOFAConventionsVersion": "1.0",
-                         "DataType": "FIR", "RoomType": "free field", "Title": title,
-                         "License": license_, "APIName": "auralize", "APIVersion": "1",
-                         "AuthorContact": "", "Organization": "", "DateCreated": "",
-                         "DateModified": "", "ListenerShortName": hrirs.source}.items():  # fmt: skip
-                h.attrs[k] = v
-            dims = {"M": m, "R": 2, "N": n, "I": 1, "C": 3, "E": 1}
-            for name, size in dims.items():  # netCDF-4 dimensions without coordinate variables
-                ds = h.create_dataset(name, data=np.zeros(size, dtype="f4"))
-                ds.make_scale(f"This is a netCDF dimension but not a netCDF variable.{size:10d}")
+    nbytes = 8.0 * hrirs.ir.size + 24.0 * m + 65536.0  # responses, directions, overhead
+    what = f"{m} HRIR pairs of {n} samples"
+    with atomic_hdf5(p, suffix=".sofa.part", nbytes=nbytes, what=what) as h:
+        for k, v in {"Conventions": "SOFA", "Version": "2.1",
+                     "SOFAConventions": "SimpleFreeFieldHRIR", "SOFAConventionsVersion": "1.0",
+                     "DataType": "FIR", "RoomType": "free field", "Title": title,
+                     "License": license_, "APIName": "auralize", "APIVersion": "1",
+                     "AuthorContact": "", "Organization": "", "DateCreated": "",
+                     "DateModified": "", "ListenerShortName": hrirs.source}.items():  # fmt: skip
+            h.attrs[k] = v
+        dims = {"M": m, "R": 2, "N": n, "I": 1, "C": 3, "E": 1}
+        for name, size in dims.items():  # netCDF-4 dimensions without coordinate variables
+            ds = h.create_dataset(name, data=np.zeros(size, dtype="f4"))
+            ds.make_scale(f"This is a netCDF dimension but not a netCDF variable.{size:10d}")
 
-            def var(name: str, data: NDArray[np.float64], dim: tuple[str, ...],
-                    **attrs: str) -> None:  # fmt: skip
-                ds = h.create_dataset(name, data=data)
-                for i, dn in enumerate(dim):
-                    ds.dims[i].attach_scale(h[dn])
-                for k, v in attrs.items():
-                    ds.attrs[k] = v
+        def var(name: str, data: NDArray[np.float64], dim: tuple[str, ...],
+                **attrs: str) -> None:  # fmt: skip
+            ds = h.create_dataset(name, data=data)
+            for i, dn in enumerate(dim):
+                ds.dims[i].attach_scale(h[dn])
+            for k, v in attrs.items():
+                ds.attrs[k] = v
 
-            var("ListenerPosition", np.zeros((1, 3)), ("I", "C"), Type="cartesian", Units="metre")
-            var("ListenerView", np.array([[1.0, 0.0, 0.0]]), ("I", "C"), Type="cartesian",
-                Units="metre")  # fmt: skip
-            var("ListenerUp", np.array([[0.0, 0.0, 1.0]]), ("I", "C"), Type="cartesian",
-                Units="metre")  # fmt: skip
-            var("ReceiverPosition", np.array([[[0.0], [0.0875], [0.0]], [[0.0], [-0.0875], [0.0]]]),
-                ("R", "C", "I"), Type="cartesian", Units="metre")  # fmt: skip
-            var("SourcePosition", np.stack([az, el, np.ones(m)], 1), ("M", "C"), Type="spherical",
-                Units="degree, degree, metre")  # fmt: skip
-            var("EmitterPosition", np.zeros((1, 3, 1)), ("E", "C", "I"), Type="cartesian",
-                Units="metre")  # fmt: skip
-            var("Data.IR", hrirs.ir, ("M", "R", "N"))
-            var("Data.SamplingRate", np.array([float(hrirs.rate)]), ("I",), Units="hertz")
-            var("Data.Delay", np.zeros((1, 2)), ("I", "R"))
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        var("ListenerPosition", np.zeros((1, 3)), ("I", "C"), Type="cartesian", Units="metre")
+        var("ListenerView", np.array([[1.0, 0.0, 0.0]]), ("I", "C"), Type="cartesian",
+            Units="metre")  # fmt: skip
+        var("ListenerUp", np.array([[0.0, 0.0, 1.0]]), ("I", "C"), Type="cartesian",
+            Units="metre")  # fmt: skip
+        var("ReceiverPosition", np.array([[[0.0], [0.0875], [0.0]], [[0.0], [-0.0875], [0.0]]]),
+            ("R", "C", "I"), Type="cartesian", Units="metre")  # fmt: skip
+        var("SourcePosition", np.stack([az, el, np.ones(m)], 1), ("M", "C"), Type="spherical",
+            Units="degree, degree, metre")  # fmt: skip
+        var("EmitterPosition", np.zeros((1, 3, 1)), ("E", "C", "I"), Type="cartesian",
+            Units="metre")  # fmt: skip
+        var("Data.IR", hrirs.ir, ("M", "R", "N"))
+        stop_if_failed(h)
+        var("Data.SamplingRate", np.array([float(hrirs.rate)]), ("I",), Units="hertz")
+        var("Data.Delay", np.zeros((1, 2)), ("I", "R"))
     return p

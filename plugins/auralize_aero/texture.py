@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from scipy import signal
 
 from auralize.errors import FormatError, ParameterError
-from auralize.io.files import atomic_path
+from auralize.io.files import atomic_hdf5, stop_if_failed
 
 from .lbm import simulate
 from .shapes import Section, check_diameter, fold_directions
@@ -122,9 +122,9 @@ class SoundTexture:
 
     def save(self, path: str | Path) -> None:
         """Write the texture to HDF5 atomically (format ``aero_texture`` v1)."""
-        import h5py
-
-        with atomic_path(path, suffix=".part.h5") as tmp, h5py.File(tmp, "w") as h:
+        nbytes = 4.0 * (self.g.size + self.force.size) + 65536.0  # float32 arrays, at most
+        what = f"a texture of {self.directions_deg.size} directions"
+        with atomic_hdf5(path, nbytes=nbytes, what=what) as h:
             h.attrs["auralize_format"] = FORMAT
             h.attrs["version"] = VERSION
             h.attrs["shape"] = self.section.name
@@ -138,6 +138,7 @@ class SoundTexture:
             h["lengths"] = self.lengths
             h["strouhal"] = self.strouhal
             h.create_dataset("g", data=self.g.astype(np.float32), compression="gzip")
+            stop_if_failed(h)
             h.create_dataset("force", data=self.force.astype(np.float32), compression="gzip")
             h["g"].attrs["units"] = "N/(m*s)"
             h["force"].attrs["units"] = "N/m"

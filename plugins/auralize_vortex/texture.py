@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 
 from auralize.emitters import C0
 from auralize.errors import DataError, FormatError, ParameterError
-from auralize.io.files import atomic_path
+from auralize.io.files import atomic_hdf5, stop_if_failed
 from auralize_vortex.fluid import StableFluids, smooth_noise
 
 TEXTURE_FORMAT = "vortex-texture"
@@ -332,10 +332,10 @@ class Texture:
     # -------------------------------------------------------------- file i/o
     def save(self, path: str | Path) -> Path:
         """Write the texture to HDF5 atomically (format ``vortex-texture`` v1)."""
-        import h5py
-
         p = Path(path)
-        with atomic_path(p) as tmp, h5py.File(tmp, "w") as f:
+        nbytes = 8.0 * self.pressure.size + 16.0 * self.speeds.size + 65536.0
+        what = f"a texture of {self.speeds.size} speeds x {self.n_samples} samples"
+        with atomic_hdf5(p, nbytes=nbytes, what=what) as f:
             f.attrs["auralize_format"] = TEXTURE_FORMAT
             f.attrs["version"] = TEXTURE_VERSION
             f.attrs["rate_hz"] = float(self.rate)
@@ -349,6 +349,7 @@ class Texture:
                     f.attrs[f"param_{k}"] = v
             f.create_dataset("speeds", data=self.speeds).attrs["units"] = "m/s"
             ds = f.create_dataset("pressure", data=self.pressure)
+            stop_if_failed(f)
             ds.attrs["units"] = "Pa at 1 m"
             ds.attrs["axes"] = "speed, time"
             f.create_dataset("rms", data=self.rms()).attrs["units"] = "Pa at 1 m"
