@@ -113,9 +113,15 @@ def _open_reader_series(
     except Exception as exc:  # VTK raises many kinds; name the file, the kind and VTK's reason
         why = first_error(mark) or f"{type(exc).__name__}: {one_line(str(exc))}"
         raise FormatError(f"{path}: cannot read as {kind} ({why})") from exc
+    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
+                        name_map=name_map)  # fmt: skip
+
+
+def _mesh_series(path: Path, loader: Any, times: list[float], *, fields: FieldsArg,
+                 resolution: ResolutionArg, name_map: Mapping[str, str] | None) -> TimeVolume:  # fmt: skip
+    """The lazy volume of a reader's steps; no times means one step at frame 0."""
     physical = len(times) > 0
-    if not times:
-        times = [0.0]
+    times = times or [0.0]
     return open_mesh_series(
         source=str(path),
         loader=loader,
@@ -234,18 +240,8 @@ def read_ensight(
     except BaseException:
         loader.close()
         raise
-    physical = len(times) > 0
-    times = times or [0.0]
-    return open_mesh_series(
-        source=str(path),
-        loader=loader,
-        labels=[f"{path} t={t:g}" for t in times] if physical else [str(path)],
-        times=times,
-        physical_times=physical,
-        fields=fields,
-        resolution=resolution,
-        name_map=name_map,
-    )
+    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
+                        name_map=name_map)  # fmt: skip
 
 
 #: The child process of :class:`ChildEnSightSteps`.
