@@ -195,7 +195,7 @@ def volume_arg(volume: Any, who: str) -> TimeVolume:
     if isinstance(volume, TimeVolume):
         return volume
     if isinstance(volume, str | os.PathLike):
-        return load(volume)
+        return load(os.fspath(volume))
     raise ParameterError(f"{who} needs a TimeVolume (auralize.load(FILE) opens one) or a file "
                          f"name, got {type(volume).__name__} {volume!r:.60}")  # fmt: skip
 

@@ -602,10 +602,10 @@ def _load(loader: Loader, step: int, label: str) -> pyvista.DataSet:
     try:
         return as_dataset(obj, label=label)
     except FormatError as exc:
-        why = first_error(mark)  # the reader said why it returned nothing usable
-        if why is None or why in str(exc):
+        reason = first_error(mark)  # the reader said why it returned nothing usable
+        if reason is None or reason in str(exc):
             raise
-        raise FormatError(f"{exc} (VTK: {why})") from exc
+        raise FormatError(f"{exc} (VTK: {reason})") from exc
 
 
 @dataclass

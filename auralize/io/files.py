@@ -411,7 +411,7 @@ def stop_if_failed(f: Any) -> None:
 
 
 @contextlib.contextmanager
-def atomic_hdf5(path: str | Path, *, suffix: str = ".part.h5", nbytes: float | None = None,
+def atomic_hdf5(path: str | os.PathLike[str], *, suffix: str = ".part.h5", nbytes: float | None = None,
                 what: str = "the file", **file_options: Any) -> Iterator[Any]:  # fmt: skip
     """Yield an :class:`h5py.File` open for writing on a temporary beside ``path``; rename
     it onto ``path`` when the block ends without error.

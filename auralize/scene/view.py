@@ -264,12 +264,13 @@ class Scene:
             else:
                 self._actors["volume"].mapper.dataset.Modified()
         elif rep in ("slices", "contour", "glyphs", "surface"):
+            kw: dict[str, Any]
             if rep == "surface":
                 mesh = grid.extract_surface(algorithm="dataset_surface")
                 kw = {"opacity": 1.0}
             elif rep == "glyphs":
                 mesh = self._glyphs()
-                kw: dict[str, Any] = {"opacity": 1.0}
+                kw = {"opacity": 1.0}
             elif rep == "slices":
                 mesh = grid.slice_orthogonal().combine(merge_points=False)
                 kw = {"opacity": max(self.opacity, 0.6)}
