@@ -222,6 +222,19 @@ def test_round_off_is_written_as_silence() -> None:
     assert not np.any(out.audio) and "nothing in the data changes" in out.meta["silent_why"]
 
 
+def test_the_silence_warning_gives_the_renders_reason(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """meshio's shipped XDMF series rises linearly in time: its pressure is round-off, and
+    the command's warning says that (not 'no sources or the listener too far')."""
+    from auralize.cli import main
+
+    out = tmp_path / "m.wav"
+    code = main(["render", "dataset:meshio", "--density-field", "phi", "--duration", "1",
+                 "-o", str(out)])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 1 and "nothing in the data changes in a way that sounds" in err, err
+    assert "listener too far away" not in err and out.exists()
+
+
 def test_block_compression_matches_every_point_within_two_percent() -> None:
     """The proxies of each block (Chebyshev nodes) against every point heard as itself,
     below the data's Nyquist frequency (what the data hold), for a listener beyond

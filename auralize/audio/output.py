@@ -303,8 +303,10 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
                              f"(e.g. ambix2/ambix3): write a WAV file")  # fmt: skip
     silent = _check_stored(out, gain, p, subtype)
     if silent:
-        why = nothing or ("no sound reached the listener within the duration (no sources, "
-                          "thresholds too high, or the listener too far away)")  # fmt: skip
+        # the render's own reason when it has one (a field that does nothing that sounds)
+        why = nothing or str((sidecar or {}).get("silent_why") or "") or (
+            "no sound reached the listener within the duration (no sources, thresholds too "
+            "high, or the listener too far away)")  # fmt: skip
         warnings.warn(
             f"{p}: the audio is silent (every sample is 0): {why}; the file is written and "
             f"marked silent in its sidecar",

@@ -35,6 +35,7 @@ s.json: rate must be an integer >= 1, got 'fast'
 
 from __future__ import annotations
 
+import abc
 import json
 import math
 import re
@@ -176,14 +177,14 @@ def _is_number(v: Any) -> bool:
     return not isinstance(v, int) or abs(v) < MAX_INT
 
 
-class Schema:
+class Schema(abc.ABC):
     """A node of a schema: :meth:`problem` says what is wrong with a value, or None."""
 
     what = "a value"
 
+    @abc.abstractmethod
     def problem(self, value: Any, where: str) -> tuple[str, str, Any] | None:
         """``(where, what, value)`` of the first fault, or None when ``value`` fits."""
-        raise NotImplementedError
 
 
 class Num(Schema):
