@@ -84,13 +84,15 @@ _UNITS = ((365.25 * 86400, "years"), (86400.0, "days"), (3600.0, "h"), (60.0, "m
 
 def load(spec: str | Path | TimeVolume, *, size: int | None = None, steps: int | None = None,
          seed: int = 0, fields: dict[str, str] | None = None,
-         resolution: int | tuple[int, int, int] | None = None, nan: str = "mask") -> TimeVolume:  # fmt: skip
+         resolution: int | tuple[int, int, int] | None = None, nan: str = "mask",
+         time_dim: str | None = None, axis_scale: Any = None, box: Any = None) -> TimeVolume:  # fmt: skip
     """Open a volume file, or a dataset that comes with auralize by ``"dataset:NAME"``:
     generated (``size``, ``steps``, ``seed``) or shipped (``dataset:cavity``, ...;
     :mod:`auralize.datasets.shipped`).
 
     ``nan`` (``"mask"`` or ``"error"``) is what NaN, fill values and masked
-    cells in a file are; see :func:`auralize.io.open_volume`.
+    cells in a file are; ``time_dim``, ``axis_scale`` and ``box`` are the
+    readers' options; see :func:`auralize.io.open_volume`.
     """
     if isinstance(spec, TimeVolume):
         return spec
@@ -102,13 +104,22 @@ def load(spec: str | Path | TimeVolume, *, size: int | None = None, steps: int |
 
         name = s.split(":", 1)[1]
         if name not in SHIPPED:
-            return make_dataset(name, size=size, steps=steps, seed=seed)
+            from auralize.io.options import ReadOptions, check_axis_scale, check_box, finish
+
+            if time_dim is not None:
+                raise ParameterError(f"dataset:{name} is generated; time_dim (--time-dim) "
+                                     f"names a netCDF file's time dimension")  # fmt: skip
+            vol = make_dataset(name, size=size, steps=steps, seed=seed)
+            return finish(vol, ReadOptions(axis_scale=check_axis_scale(axis_scale, source=s),
+                                           box=check_box(box, source=s)))  # fmt: skip
         if size is not None or steps is not None:
             raise ParameterError(f"dataset:{name} is a shipped file ({SHIPPED[name][1]}); "
                                  f"--size and --steps apply to generated datasets")  # fmt: skip
-        return open_volume(shipped_path(name), fields=fields, resolution=resolution, nan=nan)
+        return open_volume(shipped_path(name), fields=fields, resolution=resolution, nan=nan,
+                           time_dim=time_dim, axis_scale=axis_scale, box=box)  # fmt: skip
 
-    return open_volume(s, fields=fields, resolution=resolution, nan=nan)
+    return open_volume(s, fields=fields, resolution=resolution, nan=nan, time_dim=time_dim,
+                       axis_scale=axis_scale, box=box)  # fmt: skip
 
 
 def auto_mapping(volume: TimeVolume) -> str:

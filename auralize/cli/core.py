@@ -252,7 +252,8 @@ def load_volume(args: argparse.Namespace) -> Any:
 
     vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
                fields=_field_map(args.field), resolution=args.resolution,
-               nan=getattr(args, "nan", "mask"))  # fmt: skip
+               nan=getattr(args, "nan", "mask"), time_dim=getattr(args, "time_dim", None),
+               axis_scale=getattr(args, "axis_scale", None), box=getattr(args, "box", None))  # fmt: skip
     command = str(getattr(args, "command", "") or "")
     # Dask spreads the steps over workers: only one step must fit in this process
     nbytes = check_volume_memory(vol, data=not command.startswith("scale-"))

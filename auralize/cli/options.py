@@ -110,6 +110,35 @@ def rate_int(text: str) -> int:
     return v
 
 
+def _numbers(text: str, counts: tuple[int, ...], what: str) -> list[float]:
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+    if len(v) not in counts or not all(np.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+    return v
+
+
+def axis_scale_arg(text: str) -> tuple[float, float, float]:
+    """argparse type: metres per file unit, ``S`` or ``SX,SY,SZ`` (all positive)."""
+    v = _numbers(text, (1, 3), "one or three positive numbers (metres per file unit)")
+    if min(v) <= 0:
+        raise argparse.ArgumentTypeError(f"axis scales must be positive, got {text!r}")
+    return (v[0], v[0], v[0]) if len(v) == 1 else (v[0], v[1], v[2])
+
+
+def box_arg(text: str) -> tuple[float, ...]:
+    """argparse type: ``XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX`` in metres, min <= max."""
+    v = _numbers(text, (6,), "six numbers XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX")
+    bad = [a for i, a in enumerate("xyz") if v[2 * i] > v[2 * i + 1]]
+    if bad:
+        raise argparse.ArgumentTypeError(
+            f"box minimum above maximum along {', '.join(bad)}: {text!r}"
+        )
+    return tuple(v)
+
+
 def vec3(text: str) -> np.ndarray:
     """argparse type: three finite numbers ``x,y,z`` -> (3,) float."""
     try:
@@ -136,6 +165,15 @@ def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) ->
     g.add_argument(
         "--resolution", type=positive_int, help="points per axis when resampling non-uniform grids"
     )
+    g.add_argument("--time-dim", metavar="NAME",
+                   help="name of a netCDF file's time dimension, when it is not found by CF's "
+                        "axis='T', 'units: ... since ...' or a common name (time, month, ...)")  # fmt: skip
+    g.add_argument("--axis-scale", type=axis_scale_arg, metavar="S|SX,SY,SZ",
+                   help="metres per file unit along x, y, z (e.g. 1000 for a grid in km); "
+                        "overrides a netCDF file's own conversion of degrees and pressure levels")  # fmt: skip
+    g.add_argument("--box", type=box_arg, metavar="XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
+                   help="region of interest in metres: keep the grid inside it; a mesh's "
+                        "resolution is chosen from its cells inside it")  # fmt: skip
     g.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
     g.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
     g.add_argument("--seed", type=seed_int, default=0, help="seed of a built-in dataset")

@@ -104,6 +104,9 @@ def open_volume(
     resolution: ResolutionArg = None,
     name_map: Mapping[str, str] | None = None,
     nan: str = "mask",
+    time_dim: str | None = None,
+    axis_scale: float | tuple[float, float, float] | None = None,
+    box: tuple[float, float, float, float, float, float] | None = None,
 ) -> TimeVolume:
     """Open a volume time series, reading frames lazily.
 
@@ -134,6 +137,17 @@ def open_volume(
         NaN (no-data) in the frames; ``"error"`` makes reading a frame that
         holds any at a valid point raise :class:`DataError` naming the file,
         field and step.
+    time_dim : str, optional
+        Name of the time dimension of a netCDF file whose time is not found by
+        CF's ``axis="T"``, ``units="... since ..."`` or a common name.
+    axis_scale : float or (float, float, float), optional
+        Metres per file unit along x, y and z, for grids in other units (km,
+        cm, or to override a netCDF reader's own conversion of degrees and
+        pressure levels).
+    box : (xmin, xmax, ymin, ymax, zmin, zmax), optional
+        Region of interest in metres (after ``axis_scale``): only grid points
+        inside it are kept, and a mesh's resolution is chosen from its cells
+        inside it.
 
     Returns
     -------
@@ -173,7 +187,24 @@ def open_volume(
     """
     if nan not in NAN_POLICIES:
         raise ParameterError(f"{path}: nan={nan!r}; valid are {', '.join(NAN_POLICIES)}")
-    volume = _open(path, fields=fields, resolution=resolution, name_map=name_map)
+    from auralize.io.options import ReadOptions, check_axis_scale, check_box, finish, reading
+
+    src = str(path)
+    if time_dim is not None and (not isinstance(time_dim, str) or not time_dim.strip()):
+        raise ParameterError(f"{src}: time_dim={time_dim!r} is not a dimension name")
+    options = ReadOptions(
+        time_dim=time_dim,
+        axis_scale=check_axis_scale(axis_scale, source=src),
+        box=check_box(box, source=src),
+    )
+    with reading(options):
+        volume = _open(path, fields=fields, resolution=resolution, name_map=name_map)
+    if time_dim is not None and volume.attrs.get("time_dim") != time_dim:
+        raise ParameterError(
+            f"{src}: time_dim={time_dim!r} (--time-dim) names a netCDF time dimension; this "
+            f"file is read by another reader, which finds its times itself"
+        )
+    volume = finish(volume, options)
     volume.check_finite = nan == "error"
     return volume
 

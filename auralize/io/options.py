@@ -1,0 +1,221 @@
+"""Reader options that apply to every kind of file: the time dimension's name,
+a per-axis scale to metres, and a region of interest.
+
+:func:`auralize.io.open_volume` takes them as ``time_dim=``, ``axis_scale=`` and
+``box=`` and makes them visible to the reader it calls through
+:func:`current` (a context variable, set only while the file is opened), so
+the mesh and netCDF readers can use them where they matter most: a mesh is
+scaled before its grid is chosen, a region picks the cells whose size sets the
+resolution.  Whatever a reader leaves undone, :func:`finish` does on the
+uniform volume it returns: it scales the grid's axes and keeps the grid points
+inside the box.  Both are idempotent (a reader marks a scale it applied in
+``attrs["axis_scale_applied"]``; a volume already inside its box is returned as
+it is).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Iterator, Sequence
+from contextvars import ContextVar
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from auralize.errors import DataError, ParameterError
+from auralize.volume import TimeVolume
+
+__all__ = ["ReadOptions", "check_axis_scale", "check_box", "current", "finish", "reading"]
+
+Box = tuple[float, float, float, float, float, float]
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """What the user asked of every reader.
+
+    Attributes
+    ----------
+    time_dim : str or None
+        Name of the time dimension (netCDF); ``None`` finds it (CF ``axis="T"``,
+        ``units="... since ..."``, or a common name).
+    axis_scale : (float, float, float) or None
+        Metres per file unit along x, y and z; ``None`` keeps the file's units
+        (a reader that knows them, such as netCDF with degrees or pressure
+        levels, converts them to metres itself).
+    box : (xmin, xmax, ymin, ymax, zmin, zmax) or None
+        Region of interest in metres (after ``axis_scale``); the volume keeps
+        the grid points inside it, and a mesh's resolution is chosen from the
+        cells inside it.
+    """
+
+    time_dim: str | None = None
+    axis_scale: tuple[float, float, float] | None = None
+    box: Box | None = None
+
+
+_CURRENT: ContextVar[ReadOptions | None] = ContextVar("auralize_read_options", default=None)
+
+
+def current() -> ReadOptions:
+    """The options of the file being opened (defaults outside :func:`reading`)."""
+    return _CURRENT.get() or ReadOptions()
+
+
+@contextlib.contextmanager
+def reading(options: ReadOptions) -> Iterator[ReadOptions]:
+    """Make ``options`` the :func:`current` ones while a file is opened."""
+    token = _CURRENT.set(options)
+    try:
+        yield options
+    finally:
+        _CURRENT.reset(token)
+
+
+def check_axis_scale(value: object, *, source: str) -> tuple[float, float, float] | None:
+    """Validate ``axis_scale=``: ``None``, one positive number, or three.
+
+    >>> check_axis_scale(2, source="f.nc"), check_axis_scale([1, 1, 1e3], source="f.nc")
+    ((2.0, 2.0, 2.0), (1.0, 1.0, 1000.0))
+    """
+    if value is None:
+        return None
+    items: Sequence[object]
+    if isinstance(value, int | float | np.number) and not isinstance(value, bool):
+        items = [value, value, value]
+    elif isinstance(value, Sequence | np.ndarray) and not isinstance(value, str):
+        items = list(value)
+    else:
+        items = []
+    try:
+        out = tuple(float(v) for v in items)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        out = ()
+    if len(out) != 3 or not all(math.isfinite(v) and v > 0 for v in out):
+        raise ParameterError(
+            f"{source}: axis_scale={value!r} is not valid; give metres per file unit as one "
+            f"positive number or three (x, y, z), e.g. --axis-scale 1,1,1000 for z in km"
+        )
+    return (out[0], out[1], out[2])
+
+
+def check_box(value: object, *, source: str) -> Box | None:
+    """Validate ``box=``: ``None`` or six finite numbers with min < max on each axis.
+
+    >>> check_box((0, 1, 0, 1, -1, 1), source="f.vtu")
+    (0.0, 1.0, 0.0, 1.0, -1.0, 1.0)
+    """
+    if value is None:
+        return None
+    try:
+        out = tuple(float(v) for v in value)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        out = ()
+    if len(out) != 6 or not all(math.isfinite(v) for v in out):
+        raise ParameterError(
+            f"{source}: box={value!r} is not valid; give six numbers xmin,xmax,ymin,ymax,"
+            f"zmin,zmax in metres"
+        )
+    bad = [a for i, a in enumerate("xyz") if not out[2 * i] <= out[2 * i + 1]]
+    if bad:
+        raise ParameterError(
+            f"{source}: box={value!r} has its minimum above its maximum along {', '.join(bad)}; "
+            f"give xmin,xmax,ymin,ymax,zmin,zmax"
+        )
+    return out  # type: ignore[return-value]
+
+
+@dataclass
+class _Window:
+    """Frames of ``inner`` cut to the index window ``(k0, k1, j0, j1, i0, i1)``."""
+
+    inner: object
+    window: tuple[int, int, int, int, int, int]
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.inner.n_steps)  # type: ignore[attr-defined]
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:
+        k0, k1, j0, j1, i0, i1 = self.window
+        rest = tuple(self.inner.frame_shape[3:])  # type: ignore[attr-defined]
+        return (k1 - k0, j1 - j0, i1 - i0, *rest)
+
+    def read(self, step: int) -> NDArray[np.floating]:
+        k0, k1, j0, j1, i0, i1 = self.window
+        return np.ascontiguousarray(self.inner.read(step)[k0:k1, j0:j1, i0:i1])  # type: ignore[attr-defined]
+
+
+def _scaled(volume: TimeVolume, scale: tuple[float, float, float]) -> TimeVolume:
+    s = np.asarray(scale, dtype=np.float64)
+    out = TimeVolume(
+        origin=np.asarray(volume.origin) * s,
+        spacing=np.asarray(volume.spacing) * s,
+        dims=volume.dims,
+        times=volume.times,
+        fields=volume.fields,
+        physical_times=volume.physical_times,
+        source=volume.source,
+        check_finite=volume.check_finite,
+        attrs=dict(volume.attrs),
+        valid=volume.valid,
+    )
+    out.attrs["axis_scale_applied"] = list(scale)
+    return out
+
+
+def _cropped(volume: TimeVolume, box: Box) -> TimeVolume:
+    origin = np.asarray(volume.origin, dtype=np.float64)
+    spacing = np.asarray(volume.spacing, dtype=np.float64)
+    lo_hi: list[tuple[int, int]] = []
+    for a in range(3):
+        n = int(volume.dims[a])
+        if n == 1:  # a flat axis is kept whatever the box says about it
+            lo_hi.append((0, 1))
+            continue
+        tol = 1e-9 * spacing[a]
+        i0 = max(0, math.ceil((box[2 * a] - origin[a] - tol) / spacing[a]))
+        i1 = min(n - 1, math.floor((box[2 * a + 1] - origin[a] + tol) / spacing[a]))
+        if i1 < i0:
+            b = volume.bounds
+            raise DataError(
+                f"{volume.source}: the box {', '.join(f'{v:g}' for v in box)} m holds no grid "
+                f"point along {'xyz'[a]} (the volume spans {b[2 * a]:g} .. {b[2 * a + 1]:g} m)"
+            )
+        lo_hi.append((i0, i1 + 1))
+    (i0, i1), (j0, j1), (k0, k1) = lo_hi
+    if (i0, i1, j0, j1, k0, k1) == (0, volume.dims[0], 0, volume.dims[1], 0, volume.dims[2]):
+        return volume
+    window = (k0, k1, j0, j1, i0, i1)
+    valid = None if volume.valid is None else volume.valid[k0:k1, j0:j1, i0:i1].copy()
+    out = TimeVolume(
+        origin=origin + spacing * np.array([i0, j0, k0]),
+        spacing=spacing,
+        dims=(i1 - i0, j1 - j0, k1 - k0),
+        times=volume.times,
+        fields={n: _Window(src, window) for n, src in volume.fields.items()},
+        physical_times=volume.physical_times,
+        source=volume.source,
+        check_finite=volume.check_finite,
+        attrs=dict(volume.attrs),
+        valid=valid,
+    )
+    out.attrs["box"] = list(box)
+    return out
+
+
+def finish(volume: TimeVolume, options: ReadOptions) -> TimeVolume:
+    """Apply what the reader left of ``options`` to the uniform ``volume``.
+
+    The axis scale (unless the reader applied it) multiplies the origin and
+    spacing; the box keeps the grid points inside it, lazily (frames are cut
+    as they are read).
+    """
+    if options.axis_scale is not None and "axis_scale_applied" not in volume.attrs:
+        volume = _scaled(volume, options.axis_scale)
+    if options.box is not None:
+        volume = _cropped(volume, options.box)
+    return volume
