@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
@@ -254,6 +255,24 @@ def read_series(
 
 
 # --------------------------------------------------------------------------- single files
+#: VTK XML data set types read as AMR: VTK 5 wrote hierarchical box data sets as ``.vtm``.
+AMR_TYPES = ("vtkOverlappingAMR", "vtkNonOverlappingAMR", "vtkHierarchicalBoxDataSet")
+
+
+def xml_root_type(path: Path) -> str | None:
+    """The ``type`` of a VTK XML file's ``<VTKFile>`` element (``None`` if it has none).
+
+    Reads the first 4 KiB only: the element opens every VTK XML file.
+    """
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return None
+    m = re.search(rb"<VTKFile\b[^>]*?\btype\s*=\s*[\"']([A-Za-z0-9_]+)[\"']", head)
+    return m.group(1).decode() if m else None
+
+
 def read_mesh_file(
     path: str | os.PathLike[str],
     *,
@@ -267,6 +286,10 @@ def read_mesh_file(
     """
     path = Path(path).expanduser()
     require_exists(path)
+    if xml_root_type(path) in AMR_TYPES:  # an AMR file by another name (VTK 5's .vtm)
+        from auralize.io.vtk_readers import read_amr
+
+        return read_amr(path, fields=fields, resolution=resolution, name_map=name_map)
     file = _step_file(path.parent, path.name, collection=path, what="file")
     return open_mesh_series(
         source=str(path),

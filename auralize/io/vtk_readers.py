@@ -244,17 +244,47 @@ def read_ensight(
                         name_map=name_map)  # fmt: skip
 
 
-#: The child process of :class:`ChildEnSightSteps`.
+#: The child process of :class:`ChildEnSightSteps`: ``<program> KIND PATH``.
 _CHILD_PROGRAM = (
-    "import sys; from auralize.io.vtk_readers import serve_ensight; serve_ensight(sys.argv[1])"
+    "import sys; from auralize.io.vtk_readers import serve_child; "
+    "serve_child(sys.argv[1], sys.argv[2])"
 )
+#: What a child process reads: kind -> the name of VTK's reader in messages.
+CHILD_KINDS = {"ensight": "EnSight", "enzo": "Enzo"}
 #: Seconds one request to the child may take before it is given up.
 CHILD_TIMEOUT_S = 600.0
 
 
-def serve_ensight(case: str) -> None:
-    """Child side of :class:`ChildEnSightSteps`: read steps of ``case`` on request.
+class _EnzoAMR:
+    """One Enzo output through VTK's ``vtkAMREnzoReader``: its grids as a MultiBlock.
 
+    ``path`` is the output's ``.hierarchy`` file (VTK finds the parameter file
+    and the HDF5 grid files beside it); every level and every cell array is read.
+    """
+
+    time_values: tuple[float, ...] = ()
+
+    def __init__(self, path: str) -> None:
+        self.path = str(Path(path).resolve())  # VTK resolves grid files against its folder
+
+    def read(self) -> Any:
+        from vtkmodules.vtkIOAMR import vtkAMREnzoReader
+
+        reader = vtkAMREnzoReader()
+        reader.SetFileName(self.path)
+        reader.SetMaxLevel(64)
+        reader.UpdateInformation()
+        for i in range(reader.GetNumberOfCellArrays()):
+            reader.SetCellArrayStatus(reader.GetCellArrayName(i), 1)
+        reader.Update()
+        return amr_leaves(reader.GetOutputDataObject(0), label=self.path)
+
+
+def serve_child(kind: str, path: str) -> None:
+    """Child side of :class:`ChildEnSightSteps`: read steps of ``path`` on request.
+
+    ``kind`` is a key of :data:`CHILD_KINDS`: ``ensight`` (an EnSight case) or
+    ``enzo`` (one Enzo output's ``.hierarchy``).
     Requests arrive on stdin, one a line: ``times`` or ``read <time>`` (``read -``
     for a case without times).  Each answer on stdout is a status byte (``+``
     done, ``!`` refused), an 8-byte big-endian length and the payload: the
@@ -284,7 +314,7 @@ def serve_ensight(case: str) -> None:
         seen = len(window.GetOutput())
         try:
             if reader is None:
-                reader = pv.EnSightReader(case)
+                reader = pv.EnSightReader(path) if kind == "ensight" else _EnzoAMR(path)
             if command == "times":
                 values = getattr(reader, "time_values", None) or []
                 answer(True, json.dumps([float(t) for t in values]).encode())
@@ -296,9 +326,9 @@ def serve_ensight(case: str) -> None:
             if logged:  # "ERROR: In <source>, line <n>" then the message
                 lines = [ln for ln in logged[0].splitlines() if ln.strip()]
                 raise FormatError(" ".join(lines[min(1, len(lines) - 1)].split()))
-            mesh = as_dataset(out, label=case)
+            mesh = as_dataset(out, label=path)
             if mesh.n_points == 0:
-                raise FormatError("the EnSight geometry holds no points")
+                raise FormatError(f"the {CHILD_KINDS[kind]} data hold no points")
             answer(True, marshal_mesh(mesh))
         except AuralizeError as exc:
             answer(False, f"{type(exc).__name__}\n{exc}".encode())
@@ -411,8 +441,9 @@ class ChildEnSightSteps:
     what the import of VTK costs.
     """
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, kind: str = "ensight") -> None:
         self.path = path
+        self.kind = kind
         self.label = str(path)
         self._lock = threading.Lock()
         self._proc: Any = None
@@ -426,7 +457,7 @@ class ChildEnSightSteps:
         if self._proc is None or self._proc.poll() is not None:
             try:
                 self._proc = subprocess.Popen(
-                    [sys.executable, "-c", _CHILD_PROGRAM, str(self.path)],
+                    [sys.executable, "-c", _CHILD_PROGRAM, self.kind, str(self.path)],
                     stdin=subprocess.PIPE,
                     stdout=subprocess.PIPE,
                     stderr=subprocess.DEVNULL,
@@ -462,19 +493,23 @@ class ChildEnSightSteps:
             why = f"exit status {status}" if status else f"{type(exc).__name__}: {exc}"
             if status is not None and status < 0:
                 why = f"the reading process crashed with signal {-status}"
-            raise FormatError(
-                f"{self.path}: VTK's EnSight reader failed ({why}); a geometry or variable "
-                f"file of the case is truncated or corrupt"
-            ) from None
+            raise FormatError(f"{self.path}: VTK's {CHILD_KINDS[self.kind]} reader failed "
+                              f"({why}); {self._damaged}") from None  # fmt: skip
         if head[:1] == b"+":
             return body
         kind, _, message = body.decode("utf-8", "replace").partition("\n")
         if kind == "DataError":
             raise DataError(f"{self.path}: {message.removeprefix(str(self.path) + ': ')}")
         raise FormatError(
-            f"{self.path}: VTK's EnSight reader failed ({message}); a geometry or variable "
-            f"file of the case is truncated or corrupt"
+            f"{self.path}: VTK's {CHILD_KINDS[self.kind]} reader failed ({message}); "
+            f"{self._damaged}"
         )
+
+    @property
+    def _damaged(self) -> str:
+        if self.kind == "enzo":
+            return "the hierarchy, parameter or grid files of the output are truncated or corrupt"
+        return "a geometry or variable file of the case is truncated or corrupt"
 
     def times(self) -> list[float]:
         """The case's time values in seconds (empty for a case without a TIME section)."""
@@ -807,3 +842,73 @@ def pyvista_suffixes() -> tuple[str, ...]:
     except ImportError:  # pragma: no cover - layout of older pyvista
         return ()
     return tuple(sorted(CLASS_READERS))
+
+
+# --------------------------------------------------------------------------- Enzo
+def enzo_hierarchy(path: Path) -> Path | None:
+    """The ``.hierarchy`` file of the Enzo output ``path`` belongs to, or ``None``.
+
+    ``path`` may be the hierarchy itself, the output's parameter file
+    (``data0010`` beside ``data0010.hierarchy``) or one of its HDF5 grid files
+    (``data0010.cpu0000``).
+    """
+    name = path.name
+    if name.endswith(".hierarchy"):
+        return path
+    base = re.sub(r"\.cpu\d{4,}$", "", name)
+    candidate = path.with_name(base + ".hierarchy")
+    return candidate if candidate.is_file() else None
+
+
+def read_enzo(
+    path: str | os.PathLike[str],
+    *,
+    fields: FieldsArg = None,
+    resolution: ResolutionArg = None,
+    name_map: Mapping[str, str] | None = None,
+) -> TimeVolume:
+    """Open one Enzo AMR output with VTK's Enzo reader: one step, grids merged and resampled.
+
+    ``path`` is the output's ``.hierarchy``, its parameter file or one of its
+    ``.cpuNNNN`` grid files.  The grid files the hierarchy names must lie in
+    its folder (nothing outside it is read) and be HDF5 files.  VTK reads in a
+    child process (:class:`ChildEnSightSteps`), since its Enzo reader ends the
+    process on some malformed hierarchies.
+    """
+    import h5py
+
+    path = Path(path).expanduser()
+    require_exists(path)
+    hierarchy = enzo_hierarchy(path)
+    if hierarchy is None:
+        raise FormatError(
+            f"{path}: an Enzo output needs its .hierarchy file beside it "
+            f"({path.with_name(re.sub(r'[.]cpu[0-9]+$', '', path.name) + '.hierarchy').name})"
+        )
+    try:
+        text = hierarchy.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise FormatError(f"{hierarchy}: cannot read ({exc})") from exc
+    grids = re.findall(r"^\s*BaryonFileName\s*=\s*(\S+)", text, flags=re.M)
+    if not re.search(r"^\s*Grid\s*=\s*1\b", text, flags=re.M) or not grids:
+        raise FormatError(
+            f"{hierarchy}: not an Enzo hierarchy (no 'Grid = 1' with a BaryonFileName)"
+        )
+    parameters = hierarchy.with_name(hierarchy.name.removesuffix(".hierarchy"))
+    if not parameters.is_file():
+        raise FormatError(f"{hierarchy}: the Enzo parameter file {parameters.name} is missing")
+    folder = hierarchy.parent.resolve()
+    for name in sorted(set(grids)):
+        grid = folder / Path(name).name  # VTK reads grid files from the hierarchy's folder
+        if not grid.is_file() or not h5py.is_hdf5(str(grid)):
+            raise FormatError(
+                f"{hierarchy}: the grid file {grid.name} it names is missing or not HDF5"
+            )
+    loader = ChildEnSightSteps(hierarchy, kind="enzo")
+    try:
+        times = loader.times()
+    except BaseException:
+        loader.close()
+        raise
+    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
+                        name_map=name_map)  # fmt: skip

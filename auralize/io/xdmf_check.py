@@ -247,6 +247,7 @@ def check_xdmf(path: Path) -> XdmfCheck:
     root = read_xml_file(path)
     if _local(root.tag)[1] != "Xdmf":
         raise FormatError(f"{path}: not an XDMF file (root element <{root.tag}>, expected <Xdmf>)")
+    _refuse_checkpoint(root, path)
     walker = _Walker(path, allow=external_data_allowed())
     walker.walk(root, None, path, 0)
     plan = XdmfCheck(path, walker.items)
@@ -255,6 +256,29 @@ def check_xdmf(path: Path) -> XdmfCheck:
         for file, group in _by_file([it for it in plan.items if it.time is None]).items():
             plan._read_all(file, group)
     return plan
+
+
+def _refuse_checkpoint(root: ET.Element, path: Path) -> None:
+    """Refuse a dolfin ``write_checkpoint`` file whose functions are all coefficients.
+
+    Such a file stores each function as ``<Attribute ItemType="FiniteElementFunction">``
+    (cell dofs and coefficient vectors, not values at points), which VTK's XDMF
+    reader skips: the file would open with no fields.
+    """
+    attributes = [e for e in root.iter() if _local(e.tag)[1] == "Attribute"]
+    fe = [e for e in attributes if e.get("ItemType") == "FiniteElementFunction"]
+    if not fe or len(fe) < len(attributes):
+        return
+    names = ", ".join(sorted({e.get("Name", "?") for e in fe}))
+    kinds = ", ".join(
+        sorted({f"{e.get('ElementFamily', '?')} degree {e.get('ElementDegree', '?')}" for e in fe})
+    )
+    raise FormatError(
+        f"{path}: a checkpoint written by dolfin's XDMFFile.write_checkpoint; its functions "
+        f"({names}) hold finite-element coefficients ({kinds}), not values at points, which "
+        f"VTK's XDMF reader cannot read; write them with XDMFFile.write_function (dolfinx) or "
+        f"XDMFFile.write (legacy dolfin) and open that file"
+    )
 
 
 class _Walker:
