@@ -225,6 +225,19 @@ class AcousticMapping:
                 f"...) or choose another --mapping"
             )
 
+    def prepare_series(self, volume: TimeVolume, *, hold_bytes: int = 0) -> None:
+        """:meth:`prepare`, for a caller that maps every step next, each once.
+
+        A mapping whose statistics read the frames may keep up to
+        ``hold_bytes`` of what it read for those :meth:`map` calls (each kept
+        frame handed out once, then dropped), so that each frame is read
+        once; :meth:`release` drops what is left.  Default: :meth:`prepare`.
+        """
+        self.prepare(volume)
+
+    def release(self) -> None:
+        """Drop the frames :meth:`prepare_series` kept and :meth:`map` has not used."""
+
     def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
         raise NotImplementedError  # pragma: no cover - abstract
 
@@ -384,6 +397,8 @@ class PaperDensityMapping(AcousticMapping):
     _hi: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _gscale: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _prepared_for: int = dataclasses.field(default=0, init=False, repr=False)
+    #: 10**x frames read by :meth:`prepare_series`, each handed to :meth:`map` once
+    _held: dict[int, Frame] = dataclasses.field(default_factory=dict, init=False, repr=False)
 
     def required_fields(self) -> list[str]:
         return [self.field]
@@ -400,19 +415,37 @@ class PaperDensityMapping(AcousticMapping):
         return np.power(10.0, x)
 
     def prepare(self, volume: TimeVolume) -> None:
+        self._prepare(volume, 0)
+
+    def prepare_series(self, volume: TimeVolume, *, hold_bytes: int = 0) -> None:
+        """:meth:`prepare` reading each frame once: the 10**x frames of its first
+        pass (lo, hi) are kept, up to ``hold_bytes``, for its gradient pass and
+        then for the next :meth:`map` of each step (frames beyond it are read again)."""
+        self._prepare(volume, hold_bytes)
+
+    def release(self) -> None:
+        self._held = {}
+
+    def _prepare(self, volume: TimeVolume, hold_bytes: int) -> None:
         super().prepare(volume)
+        self._held = {}
+        room = int(hold_bytes) // max(8 * volume.n_points, 1)
+        kept: dict[int, Frame] = {}
         lo, hi = np.inf, -np.inf
         for n in range(volume.n_steps):
             r = self._rho(volume, n)  # no-data (NaN) points do not count
             lo = min(lo, float(np.nanmin(r, initial=np.inf)))
             hi = max(hi, float(np.nanmax(r, initial=-np.inf)))
+            if len(kept) < room:
+                kept[n] = r
         self._lo, self._hi = lo, hi
         gmax = 0.0
         for n in range(volume.n_steps):
-            g = self._grad(volume, self._scaled(self._rho(volume, n)))
-            gmax = max(gmax, float(np.nanmax(np.abs(g), initial=0.0)))
+            r = kept[n] if n in kept else self._rho(volume, n)
+            gmax = max(gmax, _gradient_absmax(self._scaled(r), volume.spacing))
         self._gscale = self.velocity_max / gmax if gmax > 0 else 0.0
         self._prepared_for = id(volume)
+        self._held = kept
 
     def _scaled(self, r: Frame) -> Frame:
         a, b = self.rho_range
@@ -422,19 +455,19 @@ class PaperDensityMapping(AcousticMapping):
         return a + (b - a) * (r - self._lo) / span
 
     @staticmethod
-    def _grad(volume: TimeVolume, rho: Frame) -> Frame:
-        out = np.zeros((*rho.shape, 3))
-        # array axes are (z, y, x); components are (x, y, z)
-        for comp, axis in ((0, 2), (1, 1), (2, 0)):
-            if rho.shape[axis] >= 2:
-                out[..., comp] = np.gradient(rho, volume.spacing[comp], axis=axis)
-        return out
+    def _grad(volume: TimeVolume, rho: Frame, scale: float = 1.0) -> Frame:
+        """∇ρ̃ · ``scale`` (components x, y, z): :func:`numpy.gradient`'s differences,
+        in the detection's compiled stencil (the same numbers)."""
+        from auralize.sources.detection import gradient
+
+        return gradient(rho, volume.spacing, scale)
 
     def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
         if self._prepared_for != id(volume):
             self.prepare(volume)
-        rho = self._scaled(self._rho(volume, step))
-        return rho, self._grad(volume, rho) * self._gscale
+        r = self._held.pop(step, None)
+        rho = self._scaled(self._rho(volume, step) if r is None else r)
+        return rho, self._grad(volume, rho, self._gscale)
 
     def describe(self) -> dict[str, object]:
         return {"name": self.name, "field": self.field, "rho_range": list(self.rho_range),
@@ -522,6 +555,13 @@ def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]]
         return cls(**{k: v for k, v in field_names.items() if v is not None})
     except TypeError as exc:
         raise ParameterError(f"mapping {spec!r}: {exc}") from None
+
+
+def _gradient_absmax(f: Frame, spacing: NDArray[np.float64]) -> float:
+    """``np.nanmax(np.abs(np.gradient(f)), initial=0.0)`` over the axes of 2 points or more."""
+    from auralize.sources.detection import gradient_absmax
+
+    return gradient_absmax(f, spacing)
 
 
 def _check_scalar(volume: TimeVolume, name: str, arr: Frame) -> None:

@@ -429,6 +429,76 @@ def valid_mask(volume: TimeVolume) -> NDArray[np.bool_] | None:
     return None if valid.all() else valid
 
 
+#: most bytes of mapped frames :func:`detect` keeps for the whole series (see
+#: :class:`MappedSeries`); also at most a quarter of the memory available
+SERIES_BYTES = 2 << 30
+
+
+def map_step(volume: TimeVolume, mapping: AcousticMapping, n: int,
+             valid: NDArray[np.bool_] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:  # fmt: skip
+    """Step ``n`` mapped: ``(rho, v, ok)``, no-data values replaced by 0 (see :class:`StepCache`)."""
+    rho, v = mapping.map(volume, n)
+    rho = np.ascontiguousarray(rho, dtype=np.float64)
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    ok = valid
+    # (sums first: cheap, and finite whenever every value is, barring overflow)
+    if not (np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v))) and not (
+        np.isfinite(rho).all() and np.isfinite(v).all()
+    ):
+        fin = np.isfinite(rho) & np.isfinite(v).all(axis=-1)
+        ok = fin if ok is None else ok & fin
+    if ok is not None:
+        rho = np.where(ok, rho, 0.0)
+        v = np.where(ok[..., None], v, 0.0)
+    return rho, v, ok
+
+
+class MappedSeries:
+    """Every step's mapped ``(rho, v, ok)``, each step read and mapped once.
+
+    :func:`detect` needs each step several times: to find the steady anchors
+    (consecutive steps compared), for the anchors' stress, for the strengths
+    of the threshold sample steps (and their neighbours) and for detection.
+    The mapped frames are kept after their first use, up to ``max_bytes``
+    (default the smaller of :data:`SERIES_BYTES` and a quarter of the memory
+    available: 64³ × 70 steps is 0.6 GB); steps beyond it are mapped again
+    (read again) each time they are needed, as before this store existed.
+    Bigger data are for :mod:`auralize.distributed` (chunked, out of core).
+    ``maps`` counts the mapping evaluations.
+    """
+
+    def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
+                 max_bytes: int | None = None) -> None:  # fmt: skip
+        self.volume, self.mapping = volume, mapping
+        self.valid = valid_mask(volume)
+        budget = series_bytes() if max_bytes is None else int(max_bytes)
+        self.max_steps = budget // step_bytes(volume)
+        self.frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
+        self.maps = 0
+
+    def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        hit = self.frames.get(n)
+        if hit is None:
+            hit = map_step(self.volume, self.mapping, n, self.valid)
+            self.maps += 1
+            if len(self.frames) < self.max_steps:
+                self.frames[n] = hit
+        return hit
+
+
+def step_bytes(volume: TimeVolume) -> int:
+    """Bytes of one mapped step in :class:`MappedSeries` (rho and v, float64)."""
+    return max(32 * volume.n_points, 1)
+
+
+def series_bytes() -> int:
+    """The default memory for :class:`MappedSeries`: :data:`SERIES_BYTES`, at most a quarter
+    of the memory available."""
+    from auralize.runtime.resources import available_bytes
+
+    return int(min(SERIES_BYTES, available_bytes() // 4))
+
+
 class StepCache:
     """Mapped (ρ, v, ρv, ok) frames, kept for the three steps the stencil needs.
 
@@ -436,38 +506,32 @@ class StepCache:
     bool mask; no-data values are replaced by 0 (they are masked out of the
     strengths by :func:`auralize.sources._kernels.mask_nodata`, never used).
     ``qmean`` is the quadrupole strength of the time-mean stress, subtracted
-    from every step's (or None: the literal strengths).
+    from every step's (or None: the literal strengths).  With ``store``
+    (:class:`MappedSeries`) the mapped frames come from it.
     """
 
     def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
                  qmean: SteadyBase | NDArray[np.float64] | None = None,
-                 floor: float = 0.0) -> None:  # fmt: skip
+                 floor: float = 0.0, store: MappedSeries | None = None) -> None:  # fmt: skip
         self.volume, self.mapping = volume, mapping
         self.valid = valid_mask(volume)
         self.qmean = qmean
+        self.store = store
         #: strengths not above ``floor`` times their error estimate are zeroed (0: off)
         self.floor = check_floor(floor)
         self.err: np.ndarray | None = None  # error estimates of the last step (floor > 0)
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = {}
         self.work: np.ndarray | None = None  # kernel scratch, reused between steps
+        self.floor_work: np.ndarray | None = None  # scratch of the floor
         #: no-data points ``(nz, ny, nx)`` of the last step computed (None: none)
         self.nodata: np.ndarray | None = None
 
     def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         if n not in self._cache:
-            rho, v = self.mapping.map(self.volume, n)
-            rho = np.ascontiguousarray(rho, dtype=np.float64)
-            v = np.ascontiguousarray(v, dtype=np.float64)
-            ok = self.valid
-            # (sums first: cheap, and finite whenever every value is, barring overflow)
-            if not (np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v))) and not (
-                np.isfinite(rho).all() and np.isfinite(v).all()
-            ):
-                fin = np.isfinite(rho) & np.isfinite(v).all(axis=-1)
-                ok = fin if ok is None else ok & fin
-            if ok is not None:
-                rho = np.where(ok, rho, 0.0)
-                v = np.where(ok[..., None], v, 0.0)
+            if self.store is not None:
+                rho, v, ok = self.store.get(n)
+            else:
+                rho, v, ok = map_step(self.volume, self.mapping, n, self.valid)
             self._cache[n] = (rho, v, rho[..., None] * v, ok)
         return self._cache[n]
 
@@ -509,13 +573,7 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
     tt = cache.work[3:]
     base = cache.qmean
     if isinstance(base, SteadyBase):
-        here = base.at(n)
-        if here is None:  # the field's own steady state: no fluctuation
-            out[2] = 0.0
-        else:
-            np.subtract(out[2], here[0], out=out[2])
-            if cache.floor > 0:
-                np.subtract(tt, here[1], out=tt)
+        base.subtract(n, out[2], tt, with_stress=cache.floor > 0)
     elif base is not None:
         np.subtract(out[2], base, out=out[2])
     oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
@@ -554,7 +612,8 @@ def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, i
     K._error_stencil(rho_a2, rho_b2, work[:3], dm2, work[3:], inv_dt, inv_dt2,
                      np.asarray(volume.spacing, dtype=np.float64), out, bad, cache.err)  # fmt: skip
     roundoff = ROUNDOFF * input_scale(volume, cache, n)
-    K.apply_floor(out, cache.err, float(cache.floor), roundoff)
+    cache.floor_work = K.apply_floor(out, cache.err, float(cache.floor), roundoff,
+                                     cache.floor_work)  # fmt: skip
 
 
 _NO_BAD: dict[tuple[int, ...], NDArray[np.bool_]] = {}
@@ -588,30 +647,29 @@ STEADY_RTOL = 1e-6
 
 
 def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
-                   rtol: float = STEADY_RTOL) -> NDArray[np.int64]:  # fmt: skip
+                   rtol: float = STEADY_RTOL,
+                   store: MappedSeries | None = None) -> NDArray[np.int64]:  # fmt: skip
     """The steps where the field is in its own steady state: the first and the
     last step, and both ends of every step over which nothing changed (the mapped
     density and mass flux within ``rtol`` of their largest magnitude).
 
     Between two anchors the field's local steady state is the linear
-    interpolation of the stress at them (:class:`SteadyBase`).
+    interpolation of the stress at them (:class:`SteadyBase`).  With ``store``
+    the mapped frames come from (and stay in) it.
     """
     T = volume.n_steps
     anchors = {0, T - 1}
     if T < 3 or mapping.unavailable(volume).get("quadrupole"):
         return np.array(sorted(anchors), dtype=np.int64)
-    cache = StepCache(volume, mapping)
+    cache = StepCache(volume, mapping, store=store)
     for n in range(1, T):
         r0, _, m0, _ = cache.get(n - 1)
         r1, _, m1, _ = cache.get(n)
-        scale_r = max(
-            float(np.max(np.abs(r0), initial=0.0)), float(np.max(np.abs(r1), initial=0.0))
-        )
-        scale_m = max(
-            float(np.max(np.abs(m0), initial=0.0)), float(np.max(np.abs(m1), initial=0.0))
-        )
-        dr = float(np.max(np.abs(r1 - r0), initial=0.0))
-        dm = float(np.max(np.abs(m1 - m0), initial=0.0))
+        # max|r0|, max|r1|, max|r1 - r0| (and of m) in one compiled pass each
+        a0, a1, dr = K.absmax_pair(r0, r1)
+        b0, b1, dm = K.absmax_pair(m0, m1)
+        scale_r = max(a0, a1)
+        scale_m = max(b0, b1)
         if dr <= rtol * scale_r and dm <= rtol * scale_m:
             anchors.update((n - 1, n))
         cache.keep(n, n)
@@ -642,9 +700,10 @@ class SteadyBase:
     """
 
     def __init__(self, volume: TimeVolume, mapping: AcousticMapping,
-                 anchors: NDArray[np.integer]) -> None:  # fmt: skip
+                 anchors: NDArray[np.integer], *, store: MappedSeries | None = None) -> None:  # fmt: skip
         self.volume, self.mapping = volume, mapping
         self.anchors = np.unique(np.asarray(anchors, dtype=np.int64))
+        self.store = store
         self._held: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
 
     def for_volume(self, volume: TimeVolume, mapping: AcousticMapping | None = None) -> SteadyBase:
@@ -654,7 +713,7 @@ class SteadyBase:
     def _state(self, a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         hit = self._held.get(a)
         if hit is None:
-            rho, v, _, _ = StepCache(self.volume, self.mapping).get(a)
+            rho, v, _, _ = StepCache(self.volume, self.mapping, store=self.store).get(a)
             tt = np.ascontiguousarray(_stress(rho, v))
             hit = (K.quadrupole_of_stress(tt, self.volume.spacing), tt)
             if len(self._held) >= 2:
@@ -675,6 +734,22 @@ class SteadyBase:
         sb, tb = self._state(b)
         return (1.0 - f) * sa + f * sb, (1.0 - f) * ta + f * tb
 
+    def subtract(self, n: int, sq: NDArray[np.float64], tt: NDArray[np.float64], *,
+                 with_stress: bool) -> None:  # fmt: skip
+        """Subtract the steady state at step ``n`` from the quadrupole strength ``sq``
+        (and, ``with_stress``, from the stress ``tt``) in place: ``sq - at(n)[0]``
+        (0 at an anchor) in one compiled pass, without :meth:`at`'s arrays."""
+        i = int(np.searchsorted(self.anchors, n))
+        if i < self.anchors.size and self.anchors[i] == n:
+            sq[...] = 0.0  # the field's own steady state: no fluctuation
+            return
+        a, b = int(self.anchors[i - 1]), int(self.anchors[i])
+        t = self.volume.times
+        f = float((t[n] - t[a]) / (t[b] - t[a]))
+        sa, ta = self._state(a)
+        sb, tb = self._state(b)
+        K.subtract_steady(sq, sa, sb, tt, ta, tb, f, bool(with_stress))
+
 
 def _stress(rho: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.stack([rho * v[..., p] * v[..., q] for p, q in STRESS_PAIRS])
@@ -684,13 +759,13 @@ def _stress(rho: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.floa
 STRESS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
-def steady_strength(volume: TimeVolume, m: AcousticMapping,
-                    steady: str = "remove") -> SteadyBase | None:  # fmt: skip
+def steady_strength(volume: TimeVolume, m: AcousticMapping, steady: str = "remove", *,
+                    store: MappedSeries | None = None) -> SteadyBase | None:  # fmt: skip
     """The field's local steady state to subtract (``steady="remove"``,
-    :class:`SteadyBase`), or None (``"keep"``)."""
+    :class:`SteadyBase`), or None (``"keep"``); ``store`` as :func:`steady_anchors`."""
     if check_steady(steady) == "keep":
         return None
-    return SteadyBase(volume, m, steady_anchors(volume, m))
+    return SteadyBase(volume, m, steady_anchors(volume, m, store=store), store=store)
 
 
 def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
@@ -754,6 +829,23 @@ def extract(kind: NDArray[np.int8], radius: NDArray[np.float64],
                        radius=radius.reshape(-1)[idx])  # fmt: skip
 
 
+def gradient(f: NDArray[np.float64], spacing: NDArray[np.float64],
+             scale: float = 1.0) -> NDArray[np.float64]:  # fmt: skip
+    """∇f · ``scale`` ``(nz, ny, nx, 3)`` (components x, y, z) of ``f (nz, ny, nx)``:
+    :func:`numpy.gradient`'s differences (central inside, one-sided at the faces;
+    0 along an axis of one point) in the compiled stencil, the same numbers."""
+    f = np.ascontiguousarray(f, dtype=np.float64)
+    out = np.empty((*f.shape, 3))
+    K.gradient(f, np.asarray(spacing, dtype=np.float64), float(scale), out)
+    return out
+
+
+def gradient_absmax(f: NDArray[np.float64], spacing: NDArray[np.float64]) -> float:
+    """The largest |component| of :func:`gradient` over the finite ones (0 if none),
+    without making the gradient."""
+    return float(K.gradient_absmax(f, spacing))
+
+
 def require_steps(volume: TimeVolume) -> None:
     if volume.n_steps < 2:
         raise DataError(
@@ -811,11 +903,18 @@ def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np
 def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
                    qmean: SteadyBase | NDArray[np.float64] | None = None,
                    max_steps: int = AUTO_SAMPLE_STEPS, floor: float = 0.0,
-                   progress_bar: bool = False) -> StrengthStats:  # fmt: skip
+                   progress_bar: bool = False, store: MappedSeries | None = None,
+                   keep: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
+                   ) -> StrengthStats:  # fmt: skip
     """|S| statistics of each type over evenly spaced sample steps (valid points only;
     strengths within their discretisation error are 0 with ``floor`` > 0, see
-    :func:`step_strengths`)."""
-    cache = StepCache(volume, mapping, qmean=qmean, floor=floor)
+    :func:`step_strengths`).
+
+    ``store`` (:class:`MappedSeries`): the mapped frames come from it.
+    ``keep``: a dict that receives each sample step's strengths and no-data
+    mask (``{step: (strengths, nodata)}``), for :func:`iter_detect` to reuse.
+    """
+    cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
     buf = K.empty_like_strengths(volume.shape)
     parts = []
     steps = sample_steps(volume.n_steps, max_steps)
@@ -823,6 +922,8 @@ def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
         s = step_strengths(volume, cache, int(n), buf)
         parts.append(sample_stats(s, cache.nodata, 0, volume.n_points,
                                   input_scale(volume, cache, int(n))))  # fmt: skip
+        if keep is not None:
+            keep[int(n)] = (s.copy(), cache.nodata)
         cache.keep(int(n), int(n))
     return StrengthStats.merge(parts)
 
@@ -837,21 +938,32 @@ def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
 def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64], *,
                 zero_fraction: float = 1.0, steps: range | None = None,
                 progress_bar: bool = False, qmean: SteadyBase | NDArray[np.float64] | None = None,
-                delta_v: str = "cell", floor: float = 0.0) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
+                delta_v: str = "cell", floor: float = 0.0, store: MappedSeries | None = None,
+                known: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
+                ) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
     """Yield ``(step, SourceFrame)`` for each step, reading frames one at a time.
 
     Each frame's ``n_valid`` is the number of points with data at that step;
-    ``floor`` as :class:`StepCache`.
+    ``floor`` as :class:`StepCache`.  ``store`` (:class:`MappedSeries`): the
+    mapped frames come from it; ``known``: strengths already computed with the
+    same ``qmean`` and ``floor`` (:func:`strength_stats`'s ``keep``), used
+    (and dropped) instead of computing them again.
     """
-    cache = StepCache(volume, mapping, qmean=qmean, floor=floor)
+    cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
     buf = K.empty_like_strengths(volume.shape)
     steps = steps if steps is not None else range(volume.n_steps)
+    known = {} if known is None else known
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
-        s = step_strengths(volume, cache, n, buf)
+        hit = known.pop(n, None)
+        if hit is None:
+            s = step_strengths(volume, cache, n, buf)
+            nodata = cache.nodata
+        else:
+            s, nodata = hit
         kind, radius = classify(s, thr, volume.spacing, zero_fraction=zero_fraction,
                                 delta_v=delta_v)  # fmt: skip
         f = extract(kind, radius, s)
-        f.n_valid = volume.n_points - (0 if cache.nodata is None else int(cache.nodata.sum()))
+        f.n_valid = volume.n_points - (0 if nodata is None else int(nodata.sum()))
         yield n, f
         cache.keep(n, n + 1)
 
@@ -919,6 +1031,14 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     delta_v : {"cell", "sphere"}
         ΔV rule (see :func:`classify`); ``"cell"`` converges under refinement.
 
+    Each step is read and mapped once: the mapping's series statistics keep
+    what they read for the first mapping of each step, and the mapped frames
+    are kept (:class:`MappedSeries`, up to :data:`SERIES_BYTES` and a quarter
+    of the memory available) for the steady anchors, the threshold statistics
+    (the same :data:`AUTO_SAMPLE_STEPS` sample steps as before, whose
+    strengths detection then reuses) and detection.  The results are those of
+    separate passes, bit for bit; beyond the budget steps are read again.
+
     Returns
     -------
     SourceSeries
@@ -936,19 +1056,31 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     """
     require_steps(volume)
     m = get_mapping(mapping, **mapping_fields)
-    m.prepare(volume)
     delta_v_rule(delta_v)
-    qmean = steady_strength(volume, m, steady)
+    check_steady(steady)
     thresholds = thresholds or Thresholds()
-    stats = (
-        strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar, floor=thresholds.floor)
-        if thresholds.needs_scale
-        else None
-    )
-    thr = thresholds.resolve(stats)
-    frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
-                                        progress_bar=progress_bar, qmean=qmean,
-                                        delta_v=delta_v, floor=thresholds.floor)]  # fmt: skip
+    store = MappedSeries(volume, m)
+    # the mapping's series statistics read each frame once; what they read is
+    # kept for the first map() of each step (paper-density), as much as the store holds
+    m.prepare_series(volume, hold_bytes=min(store.max_steps, volume.n_steps) * 8 * volume.n_points)
+    try:
+        # pass 1 (each step read and mapped once, kept in the store): the steady anchors
+        qmean = steady_strength(volume, m, steady, store=store)
+        known: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
+        stats = (
+            strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar,
+                           floor=thresholds.floor, store=store,
+                           keep=known if store.max_steps >= volume.n_steps else None)
+            if thresholds.needs_scale
+            else None
+        )  # fmt: skip
+        thr = thresholds.resolve(stats)
+        frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
+                                            progress_bar=progress_bar, qmean=qmean,
+                                            delta_v=delta_v, floor=thresholds.floor,
+                                            store=store, known=known)]  # fmt: skip
+    finally:
+        m.release()
     fraction = classified_fraction(frames, volume.n_points)
     uniform = stats is not None and all(
         x[0] == x[-1] for i, x in enumerate(stats.sample) if x.size and fraction[TYPES[i]] > 0

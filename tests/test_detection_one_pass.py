@@ -1,0 +1,227 @@
+"""Detection reads and maps each step once (issue "Kernels a newcomer can read", item 4).
+
+:func:`auralize.sources.detection.detect` keeps the mapped frames of the series
+(:class:`~auralize.sources.detection.MappedSeries`) so that the steady anchors,
+the threshold statistics and detection share one read and one mapping of each
+step; the results must be those of the straightforward passes, each mapping
+the steps it needs itself.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+import numpy as np
+import pytest
+
+from auralize.datasets.synthetic import make_explosion, make_spinning
+from auralize.mapping import get_mapping
+from auralize.pipeline import detect_sources
+from auralize.sources import _kernels as K
+from auralize.sources.detection import (
+    MappedSeries,
+    SourceSeries,
+    Thresholds,
+    detect,
+    gradient,
+    gradient_absmax,
+    iter_detect,
+    steady_strength,
+    strength_stats,
+)
+from auralize.volume import TimeVolume
+
+
+class CountingFrames:
+    """A FrameSource that counts the reads of each step."""
+
+    def __init__(self, src: Any, name: str, reads: Counter[tuple[str, int]]) -> None:
+        self.src, self.name, self.reads = src, name, reads
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.src.n_steps)
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:
+        return tuple(self.src.frame_shape)
+
+    def read(self, step: int) -> np.ndarray:
+        self.reads[(self.name, step)] += 1
+        return self.src.read(step)
+
+
+def counted(vol: TimeVolume) -> Counter[tuple[str, int]]:
+    reads: Counter[tuple[str, int]] = Counter()
+    for name in list(vol.fields):
+        vol.fields[name] = CountingFrames(vol.fields[name], name, reads)  # type: ignore[assignment]
+    return reads
+
+
+def reference(vol: TimeVolume, mapping: str, thresholds: Thresholds) -> tuple[Any, list[Any]]:
+    """The straightforward passes: steady anchors, threshold statistics and detection,
+    each mapping every step it needs itself (no store, nothing kept)."""
+    m = get_mapping(mapping)
+    m.prepare(vol)
+    qmean = steady_strength(vol, m)
+    stats = (strength_stats(vol, m, qmean=qmean, floor=thresholds.floor)
+             if thresholds.needs_scale else None)  # fmt: skip
+    thr = thresholds.resolve(stats)
+    frames = [f for _, f in iter_detect(vol, m, thr, zero_fraction=thresholds.zero_fraction,
+                                        qmean=qmean, floor=thresholds.floor)]  # fmt: skip
+    return thr, frames
+
+
+def assert_same(series: SourceSeries, thr: np.ndarray, frames: list[Any]) -> None:
+    np.testing.assert_array_equal(series.thresholds, thr)
+    assert len(series.frames) == len(frames)
+    for a, b in zip(series.frames, frames, strict=True):
+        np.testing.assert_array_equal(a.index, b.index)
+        np.testing.assert_array_equal(a.kind, b.kind)
+        np.testing.assert_array_equal(a.strength, b.strength)
+        np.testing.assert_array_equal(a.radius, b.radius)
+        assert a.n_valid == b.n_valid
+
+
+def masked_spinning() -> TimeVolume:
+    vol = make_spinning(size=14, steps=12).load()
+    valid = np.ones(vol.shape, dtype=bool)
+    valid[:3, :4, :] = False
+    vol.valid = valid
+    return vol
+
+
+CASES = [
+    ("explosion", lambda: make_explosion(size=14, steps=9).load(), "paper-density", Thresholds()),
+    ("explosion-mixed", lambda: make_explosion(size=14, steps=9).load(), "paper-density",
+     Thresholds("top:2%", "1%", "auto")),
+    ("spinning", lambda: make_spinning(size=14, steps=12).load(), "identity", Thresholds()),
+    ("spinning-abs", lambda: make_spinning(size=14, steps=12).load(), "identity",
+     Thresholds(1e-3, 1e-3, 1e-3, floor=0.0)),
+    ("masked", masked_spinning, "identity", Thresholds()),
+]  # fmt: skip
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_one_pass_detection_equals_the_separate_passes(case: Any) -> None:
+    _, make, mapping, thresholds = case
+    series = detect(make(), mapping=mapping, thresholds=thresholds)
+    thr, frames = reference(make(), mapping, thresholds)
+    assert_same(series, thr, frames)
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
+def test_a_store_that_holds_nothing_gives_the_same_sources(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Beyond the memory budget the steps are mapped again when needed: same results."""
+    import auralize.sources.detection as D
+
+    full = detect(make_explosion(size=14, steps=9).load(), mapping="paper-density")
+    monkeypatch.setattr(D, "SERIES_BYTES", 0)
+    vol = make_explosion(size=14, steps=9).load()
+    reads = counted(vol)
+    none = detect(vol, mapping="paper-density")
+    assert_same(none, full.thresholds, full.frames)
+    assert max(reads.values()) > 1  # nothing kept: steps are read again
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
+@pytest.mark.parametrize(
+    "make", [lambda: make_explosion(size=14, steps=9), lambda: make_spinning(size=14, steps=12)],
+    ids=["explosion-paper-density", "spinning-identity"],
+)  # fmt: skip
+def test_detect_sources_reads_each_frame_once(make: Any) -> None:
+    """auto thresholds (statistics, steady anchors, detection): one read per field and step."""
+    vol = make().load()
+    reads = counted(vol)
+    detect_sources(vol)
+    assert reads, "nothing was read"
+    assert set(reads.values()) == {1}
+    steps = {n for _, n in reads}
+    assert steps == set(range(vol.n_steps))
+
+
+def test_each_step_is_mapped_once() -> None:
+    vol = make_spinning(size=12, steps=10).load()
+    m = get_mapping("identity")
+    m.prepare(vol)
+    store = MappedSeries(vol, m)
+    qmean = steady_strength(vol, m, store=store)
+    strength_stats(vol, m, qmean=qmean, floor=3.0, store=store)
+    list(iter_detect(vol, m, np.ones(3), qmean=qmean, floor=3.0, store=store))
+    assert store.maps == vol.n_steps
+
+
+def test_gradient_is_numpys() -> None:
+    rng = np.random.default_rng(1)
+    h = np.array([0.3, 0.7, 1.1])
+    for shape in [(5, 6, 7), (1, 4, 5), (2, 1, 3), (3, 2, 1)]:
+        f = rng.normal(size=shape)
+        want = np.zeros((*shape, 3))
+        for comp, axis in ((0, 2), (1, 1), (2, 0)):
+            if shape[axis] >= 2:
+                want[..., comp] = np.gradient(f, h[comp], axis=axis)
+        np.testing.assert_array_equal(gradient(f, h), want)
+        np.testing.assert_array_equal(gradient(f, h, 2.5), want * 2.5)
+        f[0, 0, 0] = np.nan
+        w = np.zeros((*shape, 3))
+        for comp, axis in ((0, 2), (1, 1), (2, 0)):
+            if shape[axis] >= 2:
+                w[..., comp] = np.gradient(f, h[comp], axis=axis)
+        assert gradient_absmax(f, h) == float(np.nanmax(np.abs(w), initial=0.0))
+
+
+def test_floor_is_the_27_point_maximum() -> None:
+    rng = np.random.default_rng(2)
+    s = rng.normal(size=(3, 6, 5, 7))
+    s[:, 2, 2, 2] = 0.0
+    err = np.abs(rng.normal(size=s.shape)) * 0.5
+    roundoff = np.array([0.05, 0.1, 0.0])
+    want = s.copy()
+    padded = np.pad(err, ((0, 0), (1, 1), (1, 1), (1, 1)), mode="edge")
+    nz, ny, nx = s.shape[1:]
+    for c in range(3):
+        for k in range(nz):
+            for j in range(ny):
+                for i in range(nx):
+                    a = abs(want[c, k, j, i])
+                    e = padded[c, k : k + 3, j : j + 3, i : i + 3].max()
+                    if a <= roundoff[c] or a <= 3.0 * e:
+                        want[c, k, j, i] = 0.0
+    got = s.copy()
+    K.apply_floor(got, err, 3.0, roundoff)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_steady_subtraction_is_the_numpy_expression() -> None:
+    rng = np.random.default_rng(3)
+    sq, sa, sb = (rng.normal(size=(4, 5, 6)) for _ in range(3))
+    tt, ta, tb = (rng.normal(size=(6, 4, 5, 6)) for _ in range(3))
+    f = 0.37
+    want_q = sq - ((1.0 - f) * sa + f * sb)
+    want_t = tt - ((1.0 - f) * ta + f * tb)
+    q, t = sq.copy(), tt.copy()
+    K.subtract_steady(q, sa, sb, t, ta, tb, f, True)
+    np.testing.assert_array_equal(q, want_q)
+    np.testing.assert_array_equal(t, want_t)
+
+
+def test_paper_density_series_mapping_equals_prepare() -> None:
+    vol = make_explosion(size=12, steps=5).load()
+    a = get_mapping("paper-density")
+    a.prepare(vol)
+    want = [a.map(vol, n) for n in range(vol.n_steps)]
+    b = get_mapping("paper-density")
+    reads = counted(vol)
+    b.prepare_series(vol, hold_bytes=1 << 30)
+    assert set(reads.values()) == {1}
+    for n in range(vol.n_steps):
+        ra, va = want[n]
+        rb, vb = b.map(vol, n)
+        np.testing.assert_array_equal(ra, rb)
+        np.testing.assert_array_equal(va, vb)
+    assert set(reads.values()) == {1}  # the held frames were used, once each
+    b.map(vol, 0)
+    assert reads[("log10_density", 0)] == 2  # handed out once: then read again
+    b.release()
