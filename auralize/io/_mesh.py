@@ -6,19 +6,26 @@ OpenFOAM) supplies a *loader* ``loader(step) -> mesh`` and the step times;
 returns a :class:`~auralize.volume.TimeVolume` whose fields call the loader
 again, one step per read.  Uniform grids (``ImageData``, evenly spaced
 ``RectilinearGrid``) keep their points; anything else is sampled onto a
-uniform grid covering its bounds with VTK's ``vtkResampleWithDataSet``
-(pyvista's :meth:`~pyvista.DataSetFilters.sample`).  Meshes whose points
-are an evenly spaced lattice keep their points too, and so does a surface
-(2-D cells) whose points project onto such a lattice, e.g. a height field
+uniform grid covering its bounds (or the region of interest, ``box=``) with
+VTK's ``vtkResampleWithDataSet`` (pyvista's
+:meth:`~pyvista.DataSetFilters.sample`), at a voxel chosen from the mesh's
+own cell sizes in that region (:func:`cell_sizes`,
+:func:`auralize.io.resample.grid_for_cells`).  Meshes whose points are an
+evenly spaced lattice keep their points too, and so does a surface (2-D
+cells) whose points project onto such a lattice, e.g. a height field
 ``z(x, y)``: it is read on the lattice in its plane (dims 1 across it),
-with its own point values (:func:`surface_lattice`).
+with its own point values (:func:`surface_lattice`).  Any other curved
+surface (a shell) is read as the grid points it passes through, with the
+surface's values interpolated there (:func:`shell_voxels`).  The reader
+option ``axis_scale=`` scales every step's mesh as it is loaded, before any
+of this.
 """
 
 from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -27,10 +34,13 @@ from numpy.typing import NDArray
 from auralize.errors import AuralizeError, DataError, FormatError, MissingDependencyError
 from auralize.io._common import FieldsArg, select_fields, warn_resampled
 from auralize.io.resample import (
+    AUTO_MAX_GRID_POINTS_2D,
+    AUTO_MAX_GRID_POINTS_3D,
+    GridChoice,
     ResolutionArg,
     check_resolution,
     describe_grid,
-    grid_for_bounds,
+    grid_for_cells,
     resample_uniform,
 )
 from auralize.volume import FrameSource, TimeVolume
@@ -544,6 +554,133 @@ class _Lattice:
         }
 
 
+def scale_mesh(mesh: Any, scale: NDArray[np.float64] | None) -> Any:
+    """``mesh`` with its coordinates multiplied by ``scale`` (x, y, z), as a shallow copy.
+
+    Uniform and rectilinear grids keep their kind (origin and spacing, or the
+    axis coordinates, are scaled); any other mesh gets a scaled copy of its
+    points.  The loaded mesh itself is not changed (a reader may cache it).
+    """
+    if scale is None:
+        return mesh
+    pv = import_pyvista()
+    s = np.asarray(scale, dtype=np.float64)
+    if isinstance(mesh, pv.ImageData):
+        direction = np.asarray(getattr(mesh, "direction_matrix", np.eye(3)))
+        if np.allclose(direction, np.eye(3)):
+            out = mesh.copy(deep=False)
+            out.origin = tuple(np.asarray(mesh.origin, dtype=np.float64) * s)
+            out.spacing = tuple(np.asarray(mesh.spacing, dtype=np.float64) * s)
+            return out
+        mesh = mesh.cast_to_structured_grid()  # a rotated image: scale its points
+    if isinstance(mesh, pv.RectilinearGrid):
+        out = mesh.copy(deep=False)
+        out.x, out.y, out.z = (np.asarray(c, dtype=np.float64) * s[a]
+                               for a, c in enumerate((mesh.x, mesh.y, mesh.z)))  # fmt: skip
+        return out
+    out = mesh.copy(deep=False)
+    out.points = np.asarray(mesh.points, dtype=np.float64) * s
+    return out
+
+
+#: Cells of a VTK type per mesh point in a regular mesh of that type, by type id: a cube
+#: is 6 tetrahedra, 3 pyramids or 2 wedges, a square 2 triangles, so
+#: ``(cells_per_point * volume) ** (1/3)`` is the edge of the cube each point stands for.
+_CELLS_PER_POINT = np.ones(256)
+_CELLS_PER_POINT[[5, 22]] = 2.0  # triangles (linear, quadratic)
+_CELLS_PER_POINT[[10, 24]] = 6.0  # tetrahedra
+_CELLS_PER_POINT[[13, 26, 32]] = 2.0  # wedges
+_CELLS_PER_POINT[[14, 27]] = 3.0  # pyramids
+
+_MEASURE = {1: "Length", 2: "Area", 3: "Volume"}
+
+
+@dataclass
+class CellSizes:
+    """Sizes of a mesh's cells of its highest dimension.
+
+    ``size`` holds each cell's equivalent edge in metres (the edge of the
+    cube, square or segment that one mesh point stands for in a regular mesh
+    of such cells: ``(cells_per_point * measure) ** (1 / dim)``), ``inside``
+    whether the cell's centre lies in the region of interest; cells of zero
+    size (degenerate, or of a lower dimension) are left out.
+    """
+
+    size: NDArray[np.float64]
+    inside: NDArray[np.bool_]
+    dim: int
+
+
+def cell_sizes(mesh: Any, box: Sequence[float] | None = None) -> CellSizes:
+    """The equivalent edges of ``mesh``'s cells, and which lie in ``box`` (vectorised)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    pv = import_pyvista()
+    dim = cell_dimension(mesh)
+    if dim == 0:
+        return CellSizes(np.zeros(0), np.zeros(0, dtype=bool), 0)
+    sized = mesh.compute_cell_sizes(length=dim == 1, area=dim == 2, volume=dim == 3,
+                                    vertex_count=False)  # fmt: skip
+    measure = np.abs(np.asarray(sized.cell_data[_MEASURE[dim]], dtype=np.float64))
+    if isinstance(mesh, pv.UnstructuredGrid):
+        per_point = _CELLS_PER_POINT[np.asarray(mesh.celltypes, dtype=np.intp)]
+    elif isinstance(mesh, pv.PolyData) and dim == 2:
+        # cells run vertices, lines, polygons, strips; a polygon of 3 points is a triangle
+        per_point = np.ones(mesh.n_cells)
+        n_before = mesh.GetVerts().GetNumberOfCells() + mesh.GetLines().GetNumberOfCells()
+        off = vtk_to_numpy(mesh.GetPolys().GetOffsetsArray())
+        counts = np.diff(off) if off.size else np.zeros(0, dtype=np.int64)
+        per_point[n_before : n_before + counts.size] = np.where(counts == 3, 2.0, 1.0)
+        off = vtk_to_numpy(mesh.GetStrips().GetOffsetsArray())
+        if off.size > 1:  # a strip of k points is k - 2 triangles
+            k = np.diff(off).astype(np.float64)
+            per_point[n_before + counts.size :] = 2.0 / np.maximum(k - 2.0, 1.0)
+    else:  # structured grids: hexahedra, quadrilaterals, lines
+        per_point = np.ones(mesh.n_cells)
+    keep = measure > 0
+    size = (per_point[keep] * measure[keep]) ** (1.0 / dim)
+    if box is None:
+        inside = np.ones(size.size, dtype=bool)
+    else:
+        centres = np.asarray(mesh.cell_centers().points, dtype=np.float64)[keep]
+        inside = in_box(centres, box, mesh.bounds)
+    return CellSizes(size, inside, dim)
+
+
+def in_box(points: NDArray[np.floating], box: Sequence[float],
+           bounds: Sequence[float]) -> NDArray[np.bool_]:  # fmt: skip
+    """Which ``points`` lie in ``box`` along the axes on which the mesh (``bounds``) is not flat."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
+    ext = b[:, 1] - b[:, 0]
+    inside = np.ones(pts.shape[0], dtype=bool)
+    for a in range(3):
+        if ext[a] > 1e-9 * float(ext.max()):
+            tol = 1e-9 * float(ext.max())
+            inside &= (pts[:, a] >= box[2 * a] - tol) & (pts[:, a] <= box[2 * a + 1] + tol)
+    return inside
+
+
+def region_bounds(bounds: Sequence[float], box: Sequence[float] | None, *,
+                  source: str) -> tuple[float, ...]:  # fmt: skip
+    """The mesh ``bounds`` cut to ``box`` (along the axes on which the mesh is not flat)."""
+    b = [float(v) for v in bounds]
+    if box is None:
+        return tuple(b)
+    ext = [b[2 * a + 1] - b[2 * a] for a in range(3)]
+    out = list(b)
+    for a in range(3):
+        if ext[a] > 1e-9 * max(ext):
+            out[2 * a] = max(b[2 * a], float(box[2 * a]))
+            out[2 * a + 1] = min(b[2 * a + 1], float(box[2 * a + 1]))
+            if out[2 * a] > out[2 * a + 1]:
+                raise DataError(
+                    f"{source}: the box {', '.join(f'{v:g}' for v in box)} m holds none of the "
+                    f"mesh: along {'xyz'[a]} the mesh spans {b[2 * a]:g} .. {b[2 * a + 1]:g} m"
+                )
+    return tuple(out)
+
+
 class _Sampler:
     """Sample any mesh onto a fixed uniform grid (linear interpolation in each cell).
 
@@ -587,7 +724,163 @@ class _Sampler:
         return result
 
 
-def _load(loader: Loader, step: int, label: str) -> pyvista.DataSet:
+def surface_triangles(mesh: Any) -> NDArray[np.intp]:
+    """``(T, 3)`` point ids of the triangles that cover ``mesh``'s 2-D cells.
+
+    Quadrilaterals, polygons and strips are split by VTK (``vtkGeometryFilter``
+    then ``vtkTriangleFilter``); the ids index ``mesh.points``.
+    """
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+    from vtkmodules.vtkFiltersGeometry import vtkGeometryFilter
+
+    src = mesh.copy(deep=False)
+    src.clear_data()
+    src.point_data["auralize_point_id"] = np.arange(mesh.n_points, dtype=np.int64)
+    geometry = vtkGeometryFilter()
+    geometry.SetInputData(src)
+    triangles = vtkTriangleFilter()
+    triangles.SetInputConnection(geometry.GetOutputPort())
+    triangles.PassVertsOff()
+    triangles.PassLinesOff()
+    triangles.Update()
+    out = triangles.GetOutput()
+    conn = vtk_to_numpy(out.GetPolys().GetConnectivityArray()).astype(np.intp).reshape(-1, 3)
+    ids = vtk_to_numpy(out.GetPointData().GetArray("auralize_point_id")).astype(np.intp)
+    return ids[conn]
+
+
+#: Most surface samples :func:`shell_voxels` holds at once (its memory stays ~100 MB).
+_SHELL_CHUNK = 1 << 20
+
+
+def shell_voxels(
+    points: NDArray[np.floating], triangles: NDArray[np.intp], grid: Grid
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+    """The grid points a triangulated surface passes through, and how to interpolate there.
+
+    Every triangle is sampled on a barycentric lattice no coarser than half
+    the grid's spacing (one pass per subdivision level, in chunks; a triangle
+    smaller than that by its own corners, shared with its neighbours); each
+    sample is rounded to its nearest grid point, and each grid point hit
+    keeps the sample nearest to it.
+
+    Returns
+    -------
+    voxels : ndarray of int, shape (K,)
+        C-order indices ``(z, y, x)`` of the grid points hit, ascending.
+    ids, weights : ndarray, shape (K, 3)
+        The point ids of the triangle of each voxel's sample and the sample's
+        barycentric weights: a point field ``f`` at the voxel is
+        ``(weights * f[ids]).sum(axis=1)``.
+    """
+    origin, spacing, dims = grid
+    o, h = np.asarray(origin, dtype=np.float64), np.asarray(spacing, dtype=np.float64)
+    n = np.asarray(dims, dtype=np.int64)
+    step = 0.5 * float(np.min([h[a] for a in range(3) if n[a] > 1] or [h.min()]))
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    tri = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    corner = pts[tri]  # (T, 3 corners, 3)
+    longest = np.max(np.linalg.norm(corner - np.roll(corner, 1, axis=1), axis=2), axis=1)
+    levels = np.maximum(np.ceil(longest / step), 1).astype(np.int64)
+    d2_max = 0.25 * float(np.sum(h**2))  # a sample is at most half a diagonal from its voxel
+    found: list[tuple[NDArray, ...]] = []
+
+    def nearest(vox: NDArray, d2: NDArray, ids: NDArray, w: NDArray) -> tuple[NDArray, ...]:
+        """Per voxel, the sample nearest it: one sort on (voxel, quantized distance)."""
+        q = np.clip(d2 / d2_max, 0.0, 1.0) * float(2**30)
+        order = np.argsort((vox << np.int64(31)) + q.astype(np.int64))
+        v = vox[order]
+        first = np.concatenate([[True], v[1:] != v[:-1]])
+        pick = order[first]
+        return vox[pick], d2[pick], ids[pick], w[pick]
+
+    def add(x: NDArray, ids: NDArray, w: NDArray) -> None:
+        idx = np.rint((x - o) / h).astype(np.int64)
+        inside = np.all((idx >= 0) & (idx < n), axis=1)
+        idx, x = idx[inside], x[inside]
+        vox = (idx[:, 2] * n[1] + idx[:, 1]) * n[0] + idx[:, 0]
+        d2 = np.sum((x - (o + idx * h)) ** 2, axis=1)
+        found.append(nearest(vox, d2, ids[inside], w[inside]))
+
+    corners_only = np.unique(tri[levels == 1])  # small triangles: their corners suffice
+    for start in range(0, corners_only.size, _SHELL_CHUNK):
+        v = corners_only[start : start + _SHELL_CHUNK]
+        w = np.zeros((v.size, 3))
+        w[:, 0] = 1.0
+        add(pts[v], np.repeat(v[:, None], 3, axis=1), w)
+    for m in np.unique(levels[levels > 1]).tolist():  # one pass per level, not per cell
+        i, j = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
+        ok = i + j <= m
+        w = np.stack([i[ok], j[ok], m - i[ok] - j[ok]], axis=1).astype(np.float64) / m  # (S, 3)
+        cells = np.flatnonzero(levels == m)
+        per_chunk = max(1, _SHELL_CHUNK // w.shape[0])
+        for start in range(0, cells.size, per_chunk):
+            sel = cells[start : start + per_chunk]
+            x = np.einsum("sk,tkd->tsd", w, corner[sel]).reshape(-1, 3)
+            add(x, np.repeat(tri[sel], w.shape[0], axis=0), np.tile(w, (sel.size, 1)))
+    if not found:
+        return np.zeros(0, dtype=np.intp), np.zeros((0, 3), dtype=np.intp), np.zeros((0, 3))
+    vox, _, ids, w = nearest(*(np.concatenate(parts) for parts in zip(*found, strict=True)))
+    return vox.astype(np.intp), ids, w
+
+
+class _Shell:
+    """A curved surface read as the grid points it passes through (a one-voxel shell).
+
+    :attr:`valid` marks the grid points the first step's surface passes
+    through (:func:`shell_voxels`); each holds the surface's point values
+    interpolated linearly in a triangle at the surface point nearest it.  A
+    step whose points or cells differ from the last one's is voxelized anew,
+    and the first step's shell voxels it misses are NaN.
+    """
+
+    def __init__(self, grid: Grid, mesh: Any) -> None:
+        self.origin, self.spacing, self.dims = grid
+        self._points = np.array(mesh.points, dtype=np.float64)
+        self._n_cells = int(mesh.n_cells)
+        self.voxels, self.ids, self.weights = shell_voxels(
+            self._points, surface_triangles(mesh), grid
+        )
+        nx, ny, nz = self.dims
+        valid = np.zeros(nx * ny * nz, dtype=bool)
+        valid[self.voxels] = True
+        self.valid = valid.reshape(nz, ny, nx)
+
+    def convert(self, mesh: Any, names: Sequence[str], *, label: str) -> dict[str, NDArray]:
+        pts = np.asarray(mesh.points, dtype=np.float64)
+        if (pts.shape != self._points.shape or int(mesh.n_cells) != self._n_cells
+                or not np.array_equal(pts, self._points)):  # fmt: skip
+            grid = (self.origin, self.spacing, self.dims)
+            vox, ids, w = shell_voxels(pts, surface_triangles(mesh), grid)
+            keep = self.valid.reshape(-1)[vox]
+            self.voxels, self.ids, self.weights = vox[keep], ids[keep], w[keep]
+            self._points, self._n_cells = pts.copy(), int(mesh.n_cells)
+        nx, ny, nz = self.dims
+        out = {}
+        for name, arr in point_arrays(mesh, names, label=label).items():
+            a = np.asarray(arr, dtype=np.float64)
+            if a.ndim == 2 and a.shape[1] == 1:
+                a = a[:, 0]
+            if a.shape not in ((pts.shape[0],), (pts.shape[0], 3)):
+                raise DataError(
+                    f"{label}: array {name!r} has shape {a.shape}; expected ({pts.shape[0]},) "
+                    f"or ({pts.shape[0]}, 3) on a surface of {pts.shape[0]} points"
+                )
+            vals = np.einsum("kc,kc...->k...", self.weights, a[self.ids])
+            frame = np.full((nx * ny * nz, *a.shape[1:]), np.nan)
+            frame[self.voxels] = vals
+            out[name] = frame.reshape((nz, ny, nx, *a.shape[1:]))
+        return out
+
+
+def _load(loader: Loader, step: int, label: str,
+          scale: NDArray[np.float64] | None = None) -> pyvista.DataSet:  # fmt: skip
+    """Step ``step`` as one checked DataSet, its coordinates times ``scale`` (axis_scale)."""
+    return scale_mesh(_load_raw(loader, step, label), scale)
+
+
+def _load_raw(loader: Loader, step: int, label: str) -> pyvista.DataSet:
     from auralize.runtime.vtklog import error_mark, first_error, one_line
 
     mark = getattr(loader, "error_mark", None)
@@ -618,8 +911,9 @@ class MeshSteps:
 
     loader: Loader
     labels: Sequence[str]
-    converter: _SameGrid | _Lattice | _Sampler
+    converter: _SameGrid | _Lattice | _Sampler | _Shell
     names: Sequence[str]
+    scale: NDArray[np.float64] | None = None
     n_loads: int = 0
     _step: int | None = None
     _mesh: Any = None
@@ -640,11 +934,12 @@ class MeshSteps:
         with self._lock:
             label = self.labels[step]
             if self._step != step:
-                self._mesh = _load(self.loader, step, label)
+                self._mesh = _load(self.loader, step, label, self.scale)
                 self._arrays = {}
                 self._step = step
                 self.n_loads += 1
-            wanted = self.names if name is None or isinstance(self.converter, _Sampler) else [name]
+            whole = isinstance(self.converter, _Sampler | _Shell)
+            wanted = self.names if name is None or whole else [name]
             missing = [n for n in wanted if n not in self._arrays]
             if missing:
                 self._arrays.update(self.converter.convert(self._mesh, missing, label=label))
@@ -674,8 +969,28 @@ def open_mesh_series(
     fields: FieldsArg,
     resolution: ResolutionArg,
     name_map: Mapping[str, str] | None,
+    apply_axis_scale: bool = True,
 ) -> TimeVolume:
     """Build a lazy :class:`TimeVolume` over the meshes ``loader`` returns.
+
+    The reader options (:func:`auralize.io.options.current`) apply first:
+    ``axis_scale`` multiplies every step's coordinates as it is loaded (so the
+    grid is chosen in metres; ``attrs["axis_scale_applied"]`` says so), and
+    ``box`` is the region whose cells set an automatic resolution and that
+    a resampled grid covers.
+
+    A mesh that is neither a uniform grid, a lattice nor a surface over a
+    lattice is put on a uniform grid: a curved surface (2-D cells, not
+    planar) as the shell of grid points it passes through (:class:`_Shell`),
+    anything else by linear interpolation in its cells (:class:`_Sampler`).
+    The automatic grid's voxel is a low percentile of the cells' sizes in the
+    region (:func:`auralize.io.resample.grid_for_cells`), within a point
+    budget that the memory available may lower; a grid (automatic or from
+    ``resolution=``) that cannot fit in memory is refused before it is
+    allocated (:class:`~auralize.errors.ResourceError`).  The one
+    :class:`~auralize.io.ResampledWarning` says what was lost: the share of
+    cells smaller than a voxel and of points outside the grid, also in
+    ``attrs["resampling"]``.
 
     Parameters
     ----------
@@ -691,14 +1006,24 @@ def open_mesh_series(
         False when ``times`` are frame indices at 30 Hz.
     fields, resolution, name_map
         As in :func:`auralize.io.open_volume`.
+    apply_axis_scale : bool
+        False for a reader that scales its coordinates itself.
     """
+    from auralize.io.options import current
+
     resolution = check_resolution(resolution, source=source)
     if len(labels) != len(times):
         raise FormatError(f"{source}: {len(labels)} step files for {len(times)} times")
     from auralize.runtime.vtklog import error_mark, first_error
 
+    options = current()
+    scale = (
+        np.asarray(options.axis_scale, dtype=np.float64)
+        if apply_axis_scale and options.axis_scale is not None
+        else None
+    )
     mark = error_mark()
-    mesh0 = _load(loader, 0, labels[0])
+    mesh0 = _load(loader, 0, labels[0], scale)
     if mesh0.n_points == 0:
         vtk_why = first_error(getattr(loader, "error_mark", mark))
         why = (
@@ -727,22 +1052,28 @@ def open_mesh_series(
     geom = uniform_geometry(mesh0)
     lattice = None if geom is not None else lattice_order(mesh0.points)
     surface = None if geom is not None or lattice is not None else surface_lattice(mesh0)
-    converter: _SameGrid | _Lattice | _Sampler
+    converter: _SameGrid | _Lattice | _Sampler | _Shell
     valid = None
+    resampling: dict[str, Any] | None = None
+
+    def new_steps() -> MeshSteps:
+        return MeshSteps(loader=loader, labels=labels, converter=converter, names=names,
+                         scale=scale)  # fmt: skip
+
     if geom is not None:
         origin, spacing, dims = geom
         converter = _SameGrid(geom)
-        steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
+        steps = new_steps()
     elif lattice is not None:
         (origin, spacing, dims), order = lattice
         converter = _Lattice((origin, spacing, dims), order, mesh0.points)
-        steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
+        steps = new_steps()
         steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
     elif surface is not None:
         origin, spacing, dims = surface.grid
         converter = _Lattice(surface.grid, surface.order, mesh0.points, surface.axis,
                              surface.level)  # fmt: skip
-        steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
+        steps = new_steps()
         steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
         warn_resampled(
             f"{source}: a surface ({type(mesh0).__name__} with {mesh0.n_points} points, 2-D "
@@ -752,28 +1083,67 @@ def open_mesh_series(
             f"(at the first step), and source positions are projected onto it"
         )
     else:
-        origin, spacing, dims = grid_for_bounds(
-            mesh0.bounds, n_points=mesh0.n_points, resolution=resolution, source=source
+        shell = cell_dimension(mesh0) == 2 and not _is_flat(mesh0.bounds)
+        n_comps = sum(comps[n] for n in names)
+        choice, sizes, points_out = _choose_grid(
+            mesh0, box=options.box, resolution=resolution, components=n_comps,
+            n_steps=len(times), source=source,
+        )  # fmt: skip
+        origin, spacing, dims = choice.origin, choice.spacing, choice.dims
+        converter = (
+            _Shell((origin, spacing, dims), mesh0) if shell else _Sampler((origin, spacing, dims))
         )
-        sampler = _Sampler((origin, spacing, dims))
-        converter = sampler
-        steps = MeshSteps(loader=loader, labels=labels, converter=converter, names=names)
+        steps = new_steps()
         steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
-        valid = sampler.valid
+        valid = converter.valid
         assert valid is not None
-        n_out = int(np.count_nonzero(~valid))
-        how = "automatic" if resolution is None else f"resolution={resolution!r}"
-        outside = (
-            f"; {n_out} of {valid.size} grid points ({100.0 * n_out / valid.size:.1f} %) lie "
-            f"outside the mesh and are no-data (NaN, valid=False)"
-            if n_out
-            else ""
+        below = float(np.mean(sizes < choice.voxel)) if sizes.size else 0.0
+        resampling = {
+            "cells_below_voxel": below,
+            "points_outside": points_out,
+            "voxel": choice.voxel,
+            "why": choice.why,
+        }
+        in_box = " in the box" if options.box is not None else ""
+        lost = (
+            f"; lost: {100.0 * below:.1f} % of the mesh's cells{in_box} are smaller than a "
+            f"voxel ({choice.voxel:.3g} m), {100.0 * points_out:.1f} % of its points lie "
+            f"outside the grid"
         )
-        warn_resampled(
-            f"{source}: {type(mesh0).__name__} with {mesh0.n_points} points resampled by "
-            f"linear interpolation onto a uniform grid of {describe_grid(origin, spacing, dims)} "
-            f"({how}){outside}"
-        )
+        if choice.capped:
+            lost += (
+                f"; the finest cells are not resolved (the grid would need a "
+                f"{choice.cell:.3g} m voxel): pass --box (box=) for a region, or --resolution "
+                f"for a finer grid"
+            )
+        n_valid = int(np.count_nonzero(valid))
+        if shell:
+            if n_valid == 0:
+                raise DataError(
+                    f"{labels[0]}: the surface passes through no point of the grid "
+                    f"{describe_grid(origin, spacing, dims)}; pass a finer resolution="
+                )
+            warn_resampled(
+                f"{source}: a surface ({type(mesh0).__name__} with {mesh0.n_points} points, "
+                f"2-D cells, not planar) read as a shell of {n_valid} voxels "
+                f"({100.0 * n_valid / valid.size:.2f} % of the grid "
+                f"{describe_grid(origin, spacing, dims)}; {choice.why}): each holds the "
+                f"surface's values interpolated at the surface point nearest it, the rest is "
+                f"no-data (NaN, valid=False){lost}"
+            )
+        else:
+            n_out = valid.size - n_valid
+            outside = (
+                f"; {n_out} of {valid.size} grid points ({100.0 * n_out / valid.size:.1f} %) "
+                f"lie outside the mesh and are no-data (NaN, valid=False)"
+                if n_out
+                else ""
+            )
+            warn_resampled(
+                f"{source}: {type(mesh0).__name__} with {mesh0.n_points} points resampled by "
+                f"linear interpolation onto a uniform grid of "
+                f"{describe_grid(origin, spacing, dims)} ({choice.why}){outside}{lost}"
+            )
     nx, ny, nz = dims
     frames: dict[str, FrameSource] = {
         vol_name: MeshFrames(
@@ -799,6 +1169,60 @@ def open_mesh_series(
         for vol_name, file_name in chosen.items()
     }
     volume.attrs["mesh"] = f"{type(mesh0).__name__} with {mesh0.n_points} points"
+    if resampling is not None:
+        volume.attrs["resampling"] = resampling
+    if scale is not None:
+        volume.attrs["axis_scale_applied"] = scale.tolist()
     if geom is not None or lattice is not None or surface is not None:
         volume = resample_uniform(volume, resolution)
     return volume
+
+
+def _is_flat(bounds: Sequence[float]) -> bool:
+    """Whether a mesh of these bounds has zero extent along some axis (a 2-D mesh)."""
+    ext = np.asarray(bounds, dtype=np.float64).reshape(3, 2) @ np.array([-1.0, 1.0])
+    return bool(np.any(ext <= 1e-9 * float(ext.max())))
+
+
+def _choose_grid(
+    mesh: Any,
+    *,
+    box: Sequence[float] | None,
+    resolution: ResolutionArg,
+    components: int,
+    n_steps: int,
+    source: str,
+) -> tuple[GridChoice, NDArray[np.float64], float]:
+    """The grid a mesh is resampled onto, its cell sizes in the box, and the share of its
+    points outside the box; refuses a grid that cannot fit in memory."""
+    from auralize.runtime.resources import (
+        FRAME_WORK_ARRAYS,
+        available_bytes,
+        format_bytes,
+        require_volume,
+    )
+
+    region = region_bounds(mesh.bounds, box, source=source)
+    cells = cell_sizes(mesh, box)
+    sizes = cells.size[cells.inside]
+    if box is None:
+        n_in, points_out = int(mesh.n_points), 0.0
+    else:
+        n_in = int(np.count_nonzero(in_box(mesh.points, box, mesh.bounds)))
+        points_out = 1.0 - n_in / max(int(mesh.n_points), 1)
+    budget = AUTO_MAX_GRID_POINTS_2D if _is_flat(region) else AUTO_MAX_GRID_POINTS_3D
+    # the automatic grid also leaves half the memory available free
+    per_point = 8.0 * max(int(components), FRAME_WORK_ARRAYS)
+    fits = int(0.5 * available_bytes() / per_point)
+    memory_bound = fits < budget
+    budget = max(min(budget, fits), 8)
+    choice = grid_for_cells(region, sizes, n_points=max(n_in, 8), resolution=resolution,
+                            budget=budget, source=source)  # fmt: skip
+    if choice.capped and memory_bound:
+        choice = replace(choice, why=f"{choice.why} (half the {format_bytes(2 * fits * per_point)} "
+                                     f"of memory available)")  # fmt: skip
+    require_volume(
+        choice.dims, n_steps, components, f"{source}: resampled onto a uniform grid",
+        hint="pass a coarser --resolution (resolution=) or a smaller --box (box=)", data=False,
+    )  # fmt: skip
+    return choice, sizes, points_out

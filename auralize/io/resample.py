@@ -2,8 +2,10 @@
 
 Non-uniform meshes are sampled with VTK in :mod:`auralize.io._mesh`; this
 module holds the pure-numpy parts: the grid that covers a bounding box at a
-requested ``resolution=``, and lazy trilinear resampling of a uniform
-:class:`~auralize.volume.TimeVolume` onto another uniform grid.
+requested ``resolution=`` (:func:`grid_for_bounds`), the automatic grid of a
+mesh chosen from its own cell sizes (:func:`grid_for_cells`), and lazy
+trilinear resampling of a uniform :class:`~auralize.volume.TimeVolume` onto
+another uniform grid.
 """
 
 from __future__ import annotations
@@ -18,8 +20,27 @@ from auralize.errors import DataError, ParameterError
 from auralize.io._common import warn_resampled
 from auralize.volume import FrameSource, TimeVolume
 
-#: Largest number of points per axis the automatic resolution picks.
+#: Largest number of points per axis :func:`grid_for_bounds`'s automatic resolution picks.
 AUTO_MAX_POINTS_PER_AXIS = 128
+
+#: Percentile of a mesh's cell sizes (cells in the region of interest) that the automatic
+#: voxel matches (:func:`grid_for_cells`).  Graded meshes put most of their cells where the
+#: features are (boundary layers, wakes, the body), so a low percentile is the size of the
+#: cells that resolve them; the 20th rather than the minimum or the 5th because the very
+#: smallest cells are outliers (first boundary-layer rows, slivers, cells squeezed at a
+#: trailing edge or an O-grid's axis) that would make every other region needlessly fine.
+AUTO_CELL_PERCENTILE = 20.0
+
+#: Most grid points the automatic resolution of a 3-D mesh picks (159^3): one step's
+#: detection works on about 16 float64 arrays of the grid's size
+#: (:data:`auralize.runtime.resources.FRAME_WORK_ARRAYS`), 512 MB at this size, and VTK
+#: probes about a few million points per second, so a step stays around a second.
+AUTO_MAX_GRID_POINTS_3D = 4_000_000
+
+#: Most grid points the automatic resolution of a flat (2-D) mesh picks (1414^2): already
+#: finer than a screen shows, and half the 3-D budget because 2-D series are typically
+#: long transients (many steps) that are read step by step.
+AUTO_MAX_GRID_POINTS_2D = 2_000_000
 
 #: What ``resolution=`` may be: automatic, max points per axis, or exact ``(nx, ny, nz)``.
 ResolutionArg = int | tuple[int, int, int] | None
@@ -104,19 +125,10 @@ def grid_for_bounds(
     flat = ext <= 1e-9 * scale
 
     def dims_for(h: float, cap: int) -> NDArray[np.int64]:
-        d = np.clip(np.round(ext / h).astype(np.int64) + 1, 2, cap)
-        return np.where(flat, 1, d)
+        return _dims_for(ext, flat, h, cap)
 
     if resolution is None:
-        target = max(int(n_points), 8)
-        h_small, h_big = scale / 1e5, scale
-        for _ in range(80):
-            h_mid = float(np.sqrt(h_small * h_big))
-            count = float(np.prod(dims_for(h_mid, 2**31).astype(np.float64)))
-            if count > target:
-                h_small = h_mid
-            else:
-                h_big = h_mid
+        h_big = _spacing_for_count(ext, flat, max(int(n_points), 8))
         dims = dims_for(h_big, AUTO_MAX_POINTS_PER_AXIS)
     elif isinstance(resolution, int):
         dims = dims_for(scale / (resolution - 1), resolution)
@@ -128,12 +140,125 @@ def grid_for_bounds(
                 f"{source}: resolution={resolution!r} asks for {bad[0][1]} points along "
                 f"{bad[0][0]}, but the mesh has zero extent there; use 1 for that axis"
             )
+    return lo, _spacing_of(ext, dims), (int(dims[0]), int(dims[1]), int(dims[2]))
+
+
+def _dims_for(ext: NDArray[np.float64], flat: NDArray[np.bool_], h: float,
+              cap: int) -> NDArray[np.int64]:  # fmt: skip
+    """Points per axis at spacing about ``h`` (at least 2, at most ``cap``; 1 if flat)."""
+    d = np.clip(np.round(ext / h).astype(np.int64) + 1, 2, cap)
+    return np.where(flat, 1, d)
+
+
+def _count(ext: NDArray[np.float64], flat: NDArray[np.bool_], h: float) -> float:
+    return float(np.prod(_dims_for(ext, flat, h, 2**31).astype(np.float64)))
+
+
+def _spacing_for_count(ext: NDArray[np.float64], flat: NDArray[np.bool_], target: float) -> float:
+    """The finest spacing (to 1e-9 relative) whose grid has at most ``target`` points."""
+    scale = float(ext.max())
+    h_small, h_big = scale / 1e6, scale
+    for _ in range(80):
+        h_mid = float(np.sqrt(h_small * h_big))
+        if _count(ext, flat, h_mid) > target:
+            h_small = h_mid
+        else:
+            h_big = h_mid
+    return h_big
+
+
+def _spacing_of(ext: NDArray[np.float64], dims: NDArray[np.int64]) -> NDArray[np.float64]:
     active = dims > 1
     spacing = np.ones(3)
     spacing[active] = ext[active] / (dims[active] - 1)
     if np.any(active):
         spacing[~active] = spacing[active].min()
-    return lo, spacing, (int(dims[0]), int(dims[1]), int(dims[2]))
+    return spacing
+
+
+@dataclass(frozen=True)
+class GridChoice:
+    """The uniform grid a mesh is resampled onto, and why.
+
+    ``voxel`` is the grid's edge in metres (the geometric mean of the spacing
+    along its non-flat axes), ``capped`` whether the point budget made it
+    coarser than the mesh's cells asked, ``cell`` the percentile cell size the
+    automatic choice aimed at (NaN when ``resolution=`` was given or no cell
+    has a size), ``why`` the choice in words.
+    """
+
+    origin: NDArray[np.float64]
+    spacing: NDArray[np.float64]
+    dims: tuple[int, int, int]
+    voxel: float
+    capped: bool
+    cell: float
+    why: str
+
+
+def voxel_edge(spacing: NDArray[np.float64], dims: tuple[int, int, int]) -> float:
+    """Geometric mean of ``spacing`` along the axes with more than one point."""
+    active = [float(spacing[a]) for a in range(3) if dims[a] > 1]
+    return float(np.exp(np.mean(np.log(active)))) if active else float(np.min(spacing))
+
+
+def grid_for_cells(
+    bounds: tuple[float, ...] | NDArray[np.floating],
+    cell_sizes: NDArray[np.floating],
+    *,
+    n_points: int,
+    resolution: ResolutionArg,
+    budget: int,
+    source: str,
+) -> GridChoice:
+    """The uniform grid a mesh's region ``bounds`` is resampled onto.
+
+    With ``resolution=None`` the voxel is the :data:`AUTO_CELL_PERCENTILE`-th
+    percentile of ``cell_sizes`` (equivalent edge lengths of the mesh's cells
+    in the region, metres), or the spacing that keeps about ``n_points`` grid
+    points, whichever is finer (so a grid is never coarser than the point
+    count alone gave); then coarsened, if needed, until the grid has at most
+    ``budget`` points (``capped``).  An explicit ``resolution`` means what it
+    means in :func:`grid_for_bounds`, over ``bounds``.
+
+    Examples
+    --------
+    >>> g = grid_for_cells((0, 10, 0, 10, 0, 0), np.full(50, 0.5), n_points=100,
+    ...                    resolution=None, budget=10**6, source="x")
+    >>> g.dims, g.voxel, g.capped
+    ((21, 21, 1), 0.5, False)
+    >>> grid_for_cells((0, 10, 0, 10, 0, 0), np.full(50, 0.5), n_points=100,
+    ...                resolution=None, budget=100, source="x").dims
+    (10, 10, 1)
+    """
+    if resolution is not None:
+        origin, spacing, dims = grid_for_bounds(
+            bounds, n_points=n_points, resolution=resolution, source=source
+        )
+        return GridChoice(origin, spacing, dims, voxel_edge(spacing, dims), False, float("nan"),
+                          f"resolution={resolution!r}")  # fmt: skip
+    b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
+    origin, _, _ = grid_for_bounds(bounds, n_points=8, resolution=2, source=source)  # checks
+    ext = b[:, 1] - b[:, 0]
+    flat = ext <= 1e-9 * float(ext.max())
+    sizes = np.asarray(cell_sizes, dtype=np.float64).reshape(-1)
+    sizes = sizes[np.isfinite(sizes) & (sizes > 0)]
+    h_points = _spacing_for_count(ext, flat, max(int(n_points), 8))
+    cell = float(np.percentile(sizes, AUTO_CELL_PERCENTILE)) if sizes.size else float("nan")
+    h = min(cell, h_points) if sizes.size else h_points
+    why = (
+        f"automatic: the {AUTO_CELL_PERCENTILE:g}th-percentile cell size {cell:.3g} m"
+        if sizes.size and cell <= h_points
+        else f"automatic: about as many grid points as the mesh's {int(n_points)}"
+    )
+    capped = _count(ext, flat, h) > budget
+    if capped:
+        h = max(h, _spacing_for_count(ext, flat, float(budget)))
+        why += f", capped at {budget:,} grid points"
+    counts = _dims_for(ext, flat, h, 2**31)
+    spacing = _spacing_of(ext, counts)
+    d = (int(counts[0]), int(counts[1]), int(counts[2]))
+    return GridChoice(origin, spacing, d, voxel_edge(spacing, d), capped, cell, why)
 
 
 def describe_grid(
