@@ -88,10 +88,9 @@ def _enzo_output(folder: Path, *, grid_name: str = "data0001.cpu0000") -> Path:
 
 @pytest.mark.parametrize("name", ["data0001.hierarchy", "data0001", "data0001.cpu0000"])
 def test_an_enzo_output_is_read_through_vtk(tmp_path: Path, name: str) -> None:
-    from auralize.io.vtk_readers import read_enzo
-
     out = _enzo_output(tmp_path)
-    vol = read_enzo(out / name)
+    vol = open_volume(out / name)  # chosen by content: each of the output's files leads to it
+    assert vol.attrs["reader"] == "enzo"
     assert vol.field_names == ["Density"]
     assert vol.n_steps == 1
     # 8³ cells on the unit cube: cell centres 1/16 .. 15/16, values 0 .. 511
@@ -174,3 +173,21 @@ def test_a_dolfin_checkpoint_says_which_writer_to_use(tmp_path: Path) -> None:
         lines = done.stderr.strip().splitlines()
         assert len(lines) == 1, done.stderr
         assert "write_checkpoint" in lines[0] and "write_function" in lines[0]
+
+
+def test_kinds_vtk_cannot_read_are_named_with_what_to_do(tmp_path: Path) -> None:
+    cth = tmp_path / "blast.spcth.0"
+    cth.write_bytes(b"spydata" + bytes(100))
+    with pytest.raises(FormatError, match="Spectral CTH.*ParaView.*auralize info"):
+        open_volume(cth)
+    chombo = tmp_path / "plt0010.hdf5"
+    with h5py.File(chombo, "w") as f:
+        f.attrs["num_levels"] = 1
+        f.create_group("level_0")["data:datatype=0"] = np.zeros(8)
+    with pytest.raises(FormatError, match="Chombo AMR file.*yt"):
+        open_volume(chombo)
+    lone = tmp_path / "data0009.cpu0000"  # an Enzo grid file without its hierarchy
+    with h5py.File(lone, "w") as f:
+        f.create_group("Grid00000001")["Density"] = np.zeros((2, 2, 2))
+    with pytest.raises(FormatError, match="Enzo output without its .hierarchy"):
+        open_volume(lone)

@@ -1,34 +1,55 @@
 """Readers and writers of volume time series.
 
-:func:`open_volume` picks a reader by file kind and returns a lazy
+:func:`open_volume` picks a reader by what the file holds and returns a lazy
 :class:`~auralize.volume.TimeVolume` (frames are read one time step at a
 time); :func:`save_volume` writes one, atomically.
 
-========================================  ==========================================
-input                                     reader
-========================================  ==========================================
-``.h5``/``.hdf5`` auralize volume (v1)    :func:`auralize.io.hdf5.read_hdf5`
-any HDF5 with ``fields={name: path}``     :func:`auralize.io.hdf5.read_generic_hdf5`
-VTKHDF (``/VTKHDF`` group; ``.vtkhdf``,   :func:`auralize.io.paraview.read_vtkhdf`
-``.hdf``, ``.h5``)
-``.pvd`` collection                       :func:`auralize.io.paraview.read_pvd`
-``.series`` (ParaView JSON)               :func:`auralize.io.paraview.read_series`
-``.vti``, ``.vts``, ``.vtr``, ``.vtu``    :func:`auralize.io.paraview.read_mesh_file`
-... (one step)
-``.vtm`` multiblock                       :func:`auralize.io.paraview.read_mesh_file`
-                                          (blocks merged)
-OpenFOAM case folder, ``.foam``,          :func:`auralize.io.openfoam.read_openfoam`
-``controlDict``
-``.xdmf``/``.xmf`` (dolfinx, meshio)      :func:`auralize.io.vtk_readers.read_xdmf`
-``.case`` EnSight Gold                    :func:`auralize.io.vtk_readers.read_ensight`
-PLOT3D ``.xyz``/``.x``/``.grd``/``.q``,   :func:`auralize.io.vtk_readers.read_plot3d`
-``*xyz*.bin`` + ``*q*.bin``
-``.vthb``/``.vth`` AMR                    :func:`auralize.io.vtk_readers.read_amr`
-``.nc`` netCDF classic / netCDF4 (CF)     :func:`auralize.io.netcdf.read_netcdf`
-any other kind ``pyvista.get_reader``      :func:`auralize.io.vtk_readers.read_with_pyvista`
-opens (Exodus, CGNS, FLUENT ``.cas`` and
-``.cas.h5``, Tecplot ...)
-========================================  ==========================================
+Each reader is a backend (:mod:`auralize.io.backends`) with a cheap content
+check: magic bytes, a header, the root element of an XML file, the root of
+an HDF5 file.  The most specific content wins (an Exodus II file is a netCDF
+file, a VTKHDF file an HDF5 file: each goes to its own reader whatever it is
+called); the file name ending only breaks ties and decides when no content
+check applies (an empty ``.foam``, a ``.q`` solution, a damaged file).  The
+volume's ``attrs["reader"]`` names the backend.  Packages add backends through
+the entry-point group ``auralize.readers``.
+
+==================  ==========================================  ==========================================
+backend             told by (content; then endings)             reader
+==================  ==========================================  ==========================================
+``exodus``          netCDF (classic or HDF5) with ``num_dim``,  VTK's Exodus II reader, whatever the
+                    ``coordx``, ``connect1``, ``api_version``;  ending (:func:`auralize.io.vtk_readers.
+                    ``.exo``, ``.e``, ``.ex2``                  read_with_pyvista` for ``.exo`` ...)
+``vtkhdf``          HDF5 with a ``/VTKHDF`` group;              :func:`auralize.io.paraview.read_vtkhdf`
+                    ``.vtkhdf``
+``auralize-hdf5``   HDF5 with root attribute                    :func:`auralize.io.hdf5.read_hdf5`
+                    ``auralize_format``; ``.h5``, ``.hdf5``
+``fluent-cff``      HDF5 with ``/meshes`` and ``/settings``;    :func:`auralize.io.vtk_readers.read_with_pyvista`
+                    ``.cas.h5`` (its ``.dat.h5`` beside it)
+``openfoam``        a folder, a ``FoamFile`` controlDict;       :func:`auralize.io.openfoam.read_openfoam`
+                    ``.foam``
+``pvd``             ``<VTKFile type="Collection">``; ``.pvd``   :func:`auralize.io.paraview.read_pvd`
+``series``          JSON ``{"file-series-version": ...}``;      :func:`auralize.io.paraview.read_series`
+                    ``.series``
+``vtk``             ``<VTKFile type="ImageData">`` ... or       :func:`auralize.io.paraview.read_mesh_file`
+                    legacy ``# vtk DataFile``; ``.vti``,        (one step; a ``.vtm`` merged); read as the
+                    ``.vts``, ``.vtr``, ``.vtu``, ``.vtm`` ...  type it says whatever its ending
+``xdmf``            ``<Xdmf>`` root; ``.xdmf``, ``.xmf``        :func:`auralize.io.vtk_readers.read_xdmf`
+``ensight``         text with ``FORMAT`` / ``type: ensight``;   :func:`auralize.io.vtk_readers.read_ensight`
+                    ``.case``
+``vtk-amr``         ``<VTKFile type="vtkOverlappingAMR">``;     :func:`auralize.io.vtk_readers.read_amr`
+                    ``.vthb``, ``.vth``
+``netcdf``          ``CDF`` magic (CDF-1/2); HDF5 with          :func:`auralize.io.netcdf.read_netcdf`
+                    ``_NCProperties`` or dimension scales;
+                    ``.nc``, ``.nc4``, ``.cdf``
+``plot3d``          binary grid whose header dimensions give    :func:`auralize.io.vtk_readers.read_plot3d`
+                    its size; ``.xyz``, ``.x``, ``.grd``,
+                    ``.q``, ``*xyz*.bin`` + ``*q*.bin``
+``hdf5``            any other HDF5 (the signature), read with   :func:`auralize.io.hdf5.read_generic_hdf5`
+                    ``fields={name: "/dataset/path"}``
+                    (``--field NAME=/dataset/path``)
+``pyvista``         last: any ending ``pyvista.get_reader``     :func:`auralize.io.vtk_readers.read_with_pyvista`
+                    knows (CGNS, FLUENT ``.cas``, Tecplot ...)
+==================  ==========================================  ==========================================
 
 Uniform grids keep their points, and so do meshes whose points form an evenly
 spaced axis-aligned lattice (OpenFOAM ``blockMesh`` boxes, 2-D slabs one cell
@@ -42,13 +63,13 @@ extrapolated: they are NaN in the frames and False in
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Mapping
 from pathlib import Path
 
 from auralize.errors import FormatError, ParameterError
 from auralize.io._common import FieldsArg, ResampledWarning, require_exists
-from auralize.io.resample import ResolutionArg, check_resolution, resample_uniform
+from auralize.io.backends import HDF5_SUFFIXES
+from auralize.io.resample import ResolutionArg, check_resolution
 from auralize.volume import TimeVolume
 
 __all__ = [
@@ -61,8 +82,6 @@ __all__ = [
     "save_volume",
 ]
 
-#: File name endings read as HDF5 (auralize v1, VTKHDF or generic).
-HDF5_SUFFIXES = (".h5", ".hdf5", ".he5", ".hdf", ".vtkhdf")
 #: Every file name ending :func:`open_volume` knows (plus OpenFOAM case folders).
 READ_SUFFIXES = (
     *HDF5_SUFFIXES,
@@ -113,8 +132,8 @@ def open_volume(
     Parameters
     ----------
     path : path-like
-        A file (kind chosen by suffix, see the module docstring; HDF5 files are
-        told apart by content) or an OpenFOAM case folder.
+        A file (kind chosen by content, then by suffix: see the module
+        docstring) or an OpenFOAM case folder.
     fields : None, str, sequence of str or mapping, optional
         Which arrays become fields: ``None`` all scalar and 3-component arrays;
         a name or list of names; or ``{volume name: name in the file}``.  For
@@ -124,8 +143,10 @@ def open_volume(
         ``"/object@attribute"`` or a value); see
         :func:`auralize.io.hdf5.read_generic_hdf5`.
     resolution : None, int or (int, int, int), optional
-        Grid for meshes that are not uniform: ``None`` keeps about the mesh's
-        point count (at most 128 points per axis); an int is the number of
+        Grid for meshes that are not uniform: ``None`` chooses the voxel from
+        the mesh's own cell sizes inside ``box`` (their 20th percentile, so
+        the finest features get several voxels; at most 4 M grid points, 2 M
+        for a flat mesh, and half the free memory); an int is the number of
         points along the longest axis; a tuple is ``(nx, ny, nz)``.  For
         uniform inputs, an int caps the points per axis and a tuple sets them;
         either resamples (trilinearly) only when the grid would change.
@@ -152,8 +173,8 @@ def open_volume(
     Returns
     -------
     TimeVolume
-        ``source`` is ``str(path)``; no frame beyond what is needed to learn
-        the grid has been read.
+        ``source`` is ``str(path)``; ``attrs["reader"]`` names the backend that
+        read it; no frame beyond what is needed to learn the grid has been read.
 
     Raises
     ------
@@ -220,86 +241,36 @@ def _open(
     resolution: ResolutionArg,
     name_map: Mapping[str, str] | None,
 ) -> TimeVolume:
-    from auralize.io import hdf5, netcdf, openfoam, paraview, vtk_readers
+    from auralize.io.backends import ENTRY_POINT_GROUP, choose
 
     p = Path(path).expanduser()
     require_exists(p)
     resolution = check_resolution(resolution, source=str(p))
-    suffix = p.suffix.lower()
-    opts: dict[str, object] = {"fields": fields, "resolution": resolution, "name_map": name_map}
-    if p.is_dir() or suffix == ".foam" or p.name == "controlDict":
-        return openfoam.read_openfoam(p, **opts)  # type: ignore[arg-type]
-    if suffix == ".pvd":
-        return paraview.read_pvd(p, **opts)  # type: ignore[arg-type]
-    if suffix == ".series":
-        return paraview.read_series(p, **opts)  # type: ignore[arg-type]
-    if suffix in paraview.MESH_SUFFIXES:
-        return paraview.read_mesh_file(p, **opts)  # type: ignore[arg-type]
-    if suffix in vtk_readers.XDMF_SUFFIXES:
-        return vtk_readers.read_xdmf(p, **opts)  # type: ignore[arg-type]
-    if suffix == ".case":
-        return vtk_readers.read_ensight(p, **opts)  # type: ignore[arg-type]
-    if suffix in vtk_readers.AMR_SUFFIXES:
-        return vtk_readers.read_amr(p, **opts)  # type: ignore[arg-type]
-    if suffix in netcdf.NETCDF_SUFFIXES:
-        return netcdf.read_netcdf(p, **opts)  # type: ignore[arg-type]
-    if suffix in (*vtk_readers.PLOT3D_GRID_SUFFIXES, ".q") or (
-        suffix == ".bin" and re.search(r"xyz|q[_.-]?\d*$", p.stem, flags=re.I)
-    ):
-        return vtk_readers.read_plot3d(p, **opts)  # type: ignore[arg-type]
-    if p.name.lower().endswith(".cas.h5"):  # FLUENT's HDF5 case (with its .dat.h5)
-        return vtk_readers.read_with_pyvista(p, **opts)  # type: ignore[arg-type]
-    if suffix in HDF5_SUFFIXES or _looks_like_hdf5(p):
-        kind = hdf5.sniff(p)
-        if kind == "vtkhdf":
-            return paraview.read_vtkhdf(p, **opts)  # type: ignore[arg-type]
-        if kind == "netcdf4" and not hdf5.wants_generic(kind, fields):
-            return netcdf.read_netcdf(p, **opts)  # type: ignore[arg-type]
-        if hdf5.wants_generic(kind, fields):
-            assert isinstance(fields, Mapping)
-            volume = hdf5.read_generic_hdf5(p, fields, name_map=name_map)
-        elif kind == "auralize":
-            volume = hdf5.read_hdf5(p, fields=fields, name_map=name_map)
-        else:
-            raise FormatError(_not_a_volume_message(p))
-        return resample_uniform(volume, resolution)
-    if suffix in vtk_readers.pyvista_suffixes():
-        return vtk_readers.read_with_pyvista(p, **opts)  # type: ignore[arg-type]
-    raise FormatError(
-        f"{p}: unknown file kind {suffix or '(no suffix)'!r}; auralize reads "
-        f"{', '.join(READ_SUFFIXES)} files, OpenFOAM case folders and every kind "
-        f"pyvista.get_reader opens; convert the data to one of them, e.g. in ParaView "
-        f"(File > Save Data as .pvd/.vti or VTKHDF) or with meshio "
-        f"('meshio convert {p.name} {p.stem}.vtu')"
-    )
+    backend = choose(p)
+    if backend is None:
+        from auralize.io.foreign import explain
 
-
-def _looks_like_hdf5(path: Path) -> bool:
-    import h5py
-
-    try:
-        return bool(h5py.is_hdf5(str(path)))
-    except OSError:
-        return False
+        known = explain(p)
+        if known:
+            raise FormatError(known)
+        suffix = p.suffix.lower()
+        raise FormatError(
+            f"{p}: unknown file kind {suffix or '(no suffix)'!r} (no reader recognises its "
+            f"content); auralize reads {', '.join(READ_SUFFIXES)} files, OpenFOAM case folders, "
+            f"every kind pyvista.get_reader opens and those of reader plugins (entry points "
+            f"{ENTRY_POINT_GROUP!r}); convert the data to one of them, e.g. in ParaView "
+            f"(File > Save Data as .pvd/.vti or VTKHDF) or with meshio "
+            f"('meshio convert {p.name} {p.stem}.vtu')"
+        )
+    volume = backend.open(p, fields=fields, resolution=resolution, name_map=name_map)
+    volume.attrs["reader"] = backend.name
+    return volume
 
 
 def _not_a_volume_message(path: Path) -> str:
-    import h5py
+    from auralize.io.backends import not_a_volume_message
 
-    from auralize.io.hdf5 import field_candidates
-
-    try:
-        with h5py.File(path, "r") as f:
-            cands = field_candidates(f)
-    except OSError:
-        cands = []
-    example = cands[0] if cands else "/path/to/dataset"
-    return (
-        f"{path}: an HDF5 file, but not an auralize volume file (root attribute "
-        f"auralize_format='volume' is missing) nor VTKHDF; to read its datasets pass "
-        f"fields={{'name': {example!r}}} (datasets shaped like fields: "
-        f"{', '.join(cands) or 'none'})"
-    )
+    return not_a_volume_message(path)
 
 
 def save_volume(
