@@ -177,6 +177,52 @@ def match_field(volume: TimeVolume, role: str) -> str | None:
     return None
 
 
+#: Which tool or convention writes a role's name (lower case).
+_NAME_ORIGINS = {
+    "sv_density": "FLUENT", "sv_velocity": "FLUENT", "sv_p": "FLUENT", "sv_u": "FLUENT",
+    "velocityx": "CGNS", "momentumx": "CGNS",
+    "air_density": "a CF standard name", "sea_water_density": "a CF standard name",
+    "air_pressure": "a CF standard name", "sea_water_pressure": "a CF standard name",
+    "eastward_wind": "CF standard names", "eastward_sea_water_velocity": "CF standard names",
+    "p": "OpenFOAM", "u": "OpenFOAM",
+}  # fmt: skip
+
+
+def role_reason(volume: TimeVolume, role: str, field: str | None) -> str:
+    """Why ``field`` plays ``role`` in ``volume`` (as :func:`match_field` chose it), in words.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.volume import TimeVolume
+    >>> u = np.ones((2, 1, 2, 2))
+    >>> vol = TimeVolume.from_arrays({"SV_U": u, "SV_V": u, "SV_DENSITY": u})
+    >>> role_reason(vol, "density", match_field(vol, "density"))
+    "named 'SV_DENSITY' (FLUENT)"
+    >>> role_reason(vol, "velocity", match_field(vol, "velocity"))
+    'assembled from the components SV_U, SV_V (z = 0: a 2-D flow) (FLUENT)'
+    >>> role_reason(vol, "pressure", None)
+    'no field named pressure, p, press, ...'
+    """
+    names = ROLE_NAMES.get(role, (role,))
+    if field is None:
+        return f"no field named {', '.join(names[:3])}, ..."
+    units = volume.attrs.get("units")
+    unit = units.get(field) if isinstance(units, dict) else None
+    tail = f"; {unit}" if unit else ""
+    if field.startswith("(") and field.endswith(")"):
+        parts = [c.strip() for c in field[1:-1].split(",")]
+        comps = [c for c in parts if c != "0"]
+        flat = " (z = 0: a 2-D flow)" if len(comps) < len(parts) else ""
+        origin = _NAME_ORIGINS.get(comps[0].lower())
+        return (f"assembled from the components {', '.join(comps)}{flat}"
+                + (f" ({origin})" if origin else "") + tail)  # fmt: skip
+    origin = _NAME_ORIGINS.get(field.lower())
+    if field.lower() == role:
+        return f"named {field!r}{tail}"
+    return f"named {field!r}" + (f" ({origin})" if origin else f" (a usual name of {role})") + tail
+
+
 def _velocity_or_zero(volume: TimeVolume, name: str, step: int,
                       shape: tuple[int, ...]) -> Frame:  # fmt: skip
     """The velocity frame ``name`` at ``step``, or zeros ``(*shape, 3)`` when it is missing."""

@@ -54,9 +54,17 @@ def test_roles_under_the_tools_names(tool: str, tmp_path: Path,
     save_volume(_volume(names, np.random.default_rng(1))[0], f)
     capsys.readouterr()
     assert main(["info", str(f), "--json"]) == 0
-    roles = json.loads(capsys.readouterr().out)["roles"]
-    assert roles == {"density": names["density"], "velocity": velocity,
-                     "pressure": names["pressure"]}  # fmt: skip
+    d = json.loads(capsys.readouterr().out)
+    assert d["roles"] == {"density": names["density"], "velocity": velocity,
+                          "pressure": names["pressure"]}  # fmt: skip
+    # ... and why: the name it matched, or the components it assembled
+    assert d["role_reasons"]["density"].startswith(f"named {names['density']!r}")
+    assert d["role_reasons"]["velocity"].startswith("assembled from the components " + names["x"])
+    if tool == "fluent":
+        assert "(FLUENT)" in d["role_reasons"]["density"]
+    assert main(["info", str(f)]) == 0
+    text = capsys.readouterr().out
+    assert f"role     density = {names['density']}: named" in text
 
 
 def test_a_vector_field_wins_over_components() -> None:

@@ -213,9 +213,10 @@ def test_plot3d_cfd_from_the_cli(tmp_path: Path, capsys) -> None:  # type: ignor
     assert d["mapping"]["name"] == "cfd" and d["mapping"]["momentum"] == "Momentum"
     assert 0.3 < d["valid_ratio"] < 0.6 and len(d["steps"]) == 3
     assert main(["info", str(grid)]) == 0
-    assert "roles    density=Density, momentum=Momentum; default mapping cfd" in (
-        capsys.readouterr().out
-    )
+    text = capsys.readouterr().out
+    assert "role     density = Density: named 'Density'" in text
+    assert "role     momentum = Momentum: named 'Momentum'" in text
+    assert "mapping  cfd (default" in text
     wav = tmp_path / "p.wav"
     rc = main(["render", str(grid), "--sources", str(out), "--listener", "8,0,30", "--duration",
                "0.01", "--rate", "8000", "-o", str(wav)])  # fmt: skip
@@ -395,7 +396,7 @@ def test_cli_reports_missing_velocity(tmp_path: Path, capsys) -> None:  # type: 
 def test_cli_ensight_info_and_single_step_detect(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     assert main(["info", str(ENSIGHT)]) == 0
     out = capsys.readouterr().out
-    assert "velocity (vector, point data)" in out and "default mapping incompressible" in out
+    assert "velocity (vector, point data)" in out and "mapping  incompressible (default" in out
     assert main(["detect", str(ENSIGHT), "-o", str(tmp_path / "s.h5")]) == 3  # a data error
     assert "needs at least 2 time steps" in capsys.readouterr().err
 
@@ -515,7 +516,8 @@ def test_netcdf_climate_layout(tmp_path: Path) -> None:
     vol = open_volume(tmp_path / "air.nc")
     assert vol.field_names == ["air"] and vol.dims == (6, 7, 1)
     np.testing.assert_allclose(np.diff(vol.times), [21600.0, 21600.0])  # 6 hours in seconds
-    assert vol.origin.tolist()[:2] == [0.0, -90.0]  # latitude flipped to increasing
+    # latitude flipped to increasing, and in metres (R·φ), not degrees
+    assert vol.origin[:2].tolist() == pytest.approx([0.0, -6371000.0 * np.pi / 2])
     a0, a1 = vol.frame("air", 0)[0], vol.frame("air", 1)[0]
     assert np.isnan(a0[-1, 0]) and np.count_nonzero(np.isnan(a0)) == 1  # 90°N is the last row
     assert np.isnan(a1[-2, 1]) and np.count_nonzero(np.isnan(a1)) == 1

@@ -339,7 +339,7 @@ def progress_wanted() -> bool:
 
 # ----------------------------------------------------------------- commands
 def cmd_info(args: argparse.Namespace) -> int:
-    from auralize.mapping import ROLE_NAMES, match_field
+    from auralize.mapping import ROLE_NAMES, match_field, role_reason
     from auralize.pipeline import auto_mapping
 
     vol = load_volume(args)
@@ -354,8 +354,9 @@ def cmd_info(args: argparse.Namespace) -> int:
         for k in vol.field_names
     }
     d["roles"] = {r: f for r, f in roles.items() if f is not None}
+    d["role_reasons"] = {r: role_reason(vol, r, f) for r, f in d["roles"].items()}
     d["mapping"] = auto_mapping(vol)
-    for key in ("time_units", "grid_units", "mesh"):
+    for key in ("time_units", "time_dim", "grid_units", "axis_units", "projection", "mesh"):
         if key in vol.attrs:
             d[key] = vol.attrs[key]
     if args.json:
@@ -368,17 +369,23 @@ def cmd_info(args: argparse.Namespace) -> int:
           f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m")  # fmt: skip
     b = vol.bounds
     print(f"  bounds   x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m")
+    axis_units = vol.attrs.get("axis_units")
+    if isinstance(axis_units, dict) and axis_units:
+        print(f"  axes     {', '.join(f'{a}: {u}' for a, u in axis_units.items())}")
     print(f"  valid    {100.0 * vol.valid_ratio:.1f} % of the grid points lie inside the mesh")
     tnote = "" if vol.physical_times else " (no physical times: frames at 30 Hz)"
     print(f"  times    {vol.n_steps} steps, {vol.times[0]:g} .. {vol.times[-1]:g} s{tnote}")
     shown = ", ".join(f"{t:g}" for t in vol.times[:8]) + (" ..." if vol.n_steps > 8 else "")
     print(f"           t = {shown} s"
-          + (f" ({vol.attrs['time_units']} in the file)" if "time_units" in vol.attrs else ""))  # fmt: skip
+          + (f" (the file's time units: {vol.attrs['time_units']})" if "time_units" in vol.attrs else ""))  # fmt: skip
     for name, info in d["field_info"].items():
         unit = f", {info['units']}" if info["units"] else ""
         print(f"  field    {name} ({info['kind']}, {info['centring']} data{unit})")
-    role_text = ", ".join(f"{r}={f}" for r, f in d["roles"].items()) or "none recognised"
-    print(f"  roles    {role_text}; default mapping {d['mapping']}")
+    if not d["roles"]:
+        print("  roles    none recognised (name them with --density-field, --velocity-field ...)")
+    for r, f in d["roles"].items():
+        print(f"  role     {r} = {f}: {d['role_reasons'][r]}")
+    print(f"  mapping  {d['mapping']} (default; --mapping to choose)")
     return 0
 
 

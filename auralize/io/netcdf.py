@@ -7,36 +7,84 @@ Like every HDF5 file, a netCDF4 file that reads data from other files
 (external links, external raw storage, virtual datasets) is refused unless
 :func:`~auralize.io.hdf5.allow_external_data` allows it.
 Both libraries are dependencies already, so reading netCDF needs nothing more.
+Section numbers below are those of the CF conventions (1.11).
 
-CF conventions honoured
------------------------
-- The time axis is the coordinate whose ``axis`` is ``T``, whose
-  ``standard_name`` is ``time``, or which is named ``time``/``t``; its
-  ``units`` (``"days since 2001-01-01"``, ``"hours since ..."``, ``"s"``)
-  are converted to seconds after the reference date (UDUNITS lengths: a
-  month is 1/12 of a 365.242198781-day year).  A file without a time axis
-  is a single step (``physical_times=False``).
-- ``scale_factor``/``add_offset`` are applied; ``_FillValue``,
-  ``missing_value`` and values outside ``valid_min``/``valid_max``/
-  ``valid_range`` become NaN (no-data).
-- Spatial axes are the variable's dimensions after time, in CF order
-  (Z, Y, X: the last is x); their coordinate variables give the grid
-  (metres, or whatever ``units`` says: degrees of longitude/latitude stay
-  degrees).  Decreasing coordinates are flipped; unevenly spaced ones are
-  resampled onto a uniform grid.  Dimensions without a coordinate variable
-  are index coordinates 0, 1, 2 ...
-- Variables ``u``, ``v`` (and ``w``), or those whose ``standard_name`` is
-  ``eastward_*``/``northward_*``/``upward_*``, also form a vector field
-  ``velocity``.
-"""
+Time
+----
+- The time dimension is the one the user names (``open_volume(time_dim=)``,
+  ``--time-dim NAME``: a name the file does not have is an error listing its
+  dimensions); else a coordinate CF marks as time (§4.4: ``axis="T"``,
+  ``standard_name="time"`` or ``units="<unit> since <date>"``); else a
+  dimension with a common name (:data:`TIME_NAMES`: ``time``, ``t``,
+  ``month``, ``ocean_time``, ``valid_time`` ..., case-insensitive).  A file
+  with 4-D variables and none of these is refused with a message saying so.
+  ``attrs["time_dim"]`` names the dimension used.
+- Its ``units`` (``"days since 2001-01-01"``, ``"hours since ..."``, ``"s"``,
+  ``"months"``) are converted to seconds after the reference date (UDUNITS
+  lengths: a month is 1/12 of a 365.242198781-day year).  A coordinate
+  without units is refused if it calls itself time (CF needs units), and
+  otherwise (``month`` = 1 .. 12, or the one ``--time-dim`` names) gives
+  frames at 30 Hz (``physical_times=False``), as does a time dimension
+  without a coordinate; ``attrs["time_units"]`` says which.  A file without
+  a time dimension is a single step.
+
+Values
+------
+- ``scale_factor``/``add_offset`` are applied (§8.1, packed integers are
+  made float64 first); ``_FillValue``, ``missing_value`` and values outside
+  ``valid_min``/``valid_max``/``valid_range`` become NaN (no-data, §2.5.1).
+- Variables whose names or ``standard_name`` are velocity components
+  (:data:`auralize.mapping.COMPONENT_NAMES`: ``u``/``v``/``w``,
+  ``eastward_wind``/``northward_wind``/``upward_air_velocity`` ...) also form a
+  vector field ``velocity`` (units those of its x component), stacked by
+  :func:`auralize.mapping.assemble_vector` like every reader's components.
+
+Spatial axes: always metres
+---------------------------
+The spatial axes are the variable's dimensions after time, in CF order
+(Z, Y, X: the last is x, §2.4); their coordinate variables give the grid,
+converted to metres so that the speed of sound applies to it:
+
+- longitude/latitude (``units`` ``degrees_east``/``degrees_north`` §4.1-4.2,
+  or ``degrees`` with ``standard_name``, ``axis`` or the axis' place telling
+  which): the local equirectangular projection about the grid's middle
+  latitude φm, ``x = R cos(φm) λ``, ``y = R φ`` (``R`` = 6 371 000 m, angles
+  in radians).  The grid stays uniform; distances are exact along φm and the
+  meridians only, east-west ones off by ``cos φm / cos φ`` elsewhere (a
+  :class:`~auralize.io.ResampledWarning` when the latitudes span more than
+  30°).  ``attrs["projection"]`` states it.
+- pressure levels (``hPa``, ``mbar``, ``millibar``, ``Pa``, or
+  ``standard_name="air_pressure"``, §4.3.1): geopotential height in the
+  ICAO standard atmosphere (:func:`standard_height`), so they are unevenly
+  spaced and resampled (below).
+- lengths: ``km`` x 1000, ``cm`` x 0.01, ``m``/``metre(s)``/``meter(s)`` as
+  they are; ``positive="down"`` (depth, §4.3) is negated into height.
+  Coordinates without units, or with units that are not lengths, and
+  dimensions without a coordinate variable (index 0, 1, 2 ...) are taken as
+  metres, and ``attrs["axis_units"]`` says so.
+- parametric vertical coordinates (sigma, hybrid, s-levels, §4.3.3 and
+  Appendix D) have no single height per level: refused.
+- ``axis_scale=`` (``--axis-scale``) replaces all of this: the file's
+  coordinates times the scale (``attrs["axis_scale_applied"]``).
+
+``attrs["axis_units"]`` tells for each axis how it became metres
+(``{"x": "degrees_east -> m (R cos 45.0°)", "y": "degrees_north -> m",
+"z": "hPa -> m (standard atmosphere)"}``), ``attrs["grid_units"]`` keeps the
+file's units.  Decreasing coordinates are flipped.  Unevenly spaced ones are
+resampled onto a uniform grid (with a :class:`~auralize.io.ResampledWarning`
+saying why): the evenly spaced axes keep their points, an uneven one takes
+its finest step (at most twice its points) unless ``resolution=`` says
+otherwise."""
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import re
 import threading
-from collections.abc import Iterator, Mapping
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -45,9 +93,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DataError, FormatError
-from auralize.io._common import FieldsArg, require_exists, select_fields
+from auralize.io._common import (
+    FieldsArg,
+    ResampledWarning,
+    require_exists,
+    select_fields,
+    warn_resampled,
+)
 from auralize.io._mesh import import_pyvista, open_mesh_series
+from auralize.io.options import current as read_options
 from auralize.io.resample import ResolutionArg, check_resolution, resample_uniform
+from auralize.mapping import COMPONENT_NAMES, assemble_vector
 from auralize.volume import CallableFrames, FrameSource, TimeVolume
 
 NETCDF_SUFFIXES = (".nc", ".nc4", ".cdf", ".netcdf")
@@ -246,15 +302,36 @@ def _h5_reader(ds: Any) -> Any:
     return read
 
 
+def _is_fill(a: NDArray[Any], r: NDArray[np.float64], fill: object) -> NDArray[np.bool_]:
+    """Where the raw values ``a`` (``r``: the same as float64) equal the fill value ``fill``.
+
+    Floating data compare in their own precision (a float64 fill attribute of a
+    float32 variable matches the rounded value the file stores); integer data
+    compare as float64, so a NaN or out-of-range fill value is never cast to an
+    integer type (that cast warns and yields an arbitrary integer).
+    """
+    if a.dtype.kind == "f":
+        with np.errstate(all="ignore"):
+            f = np.asarray(fill).astype(a.dtype)
+        return np.isnan(a) if np.isnan(f) else a == f
+    fv = float(np.asarray(fill, dtype=np.float64))
+    return r == fv if np.isfinite(fv) else np.zeros(a.shape, dtype=bool)
+
+
 def _decode(var: _Var, raw: NDArray[Any], *, source: str) -> NDArray[np.float64]:
-    """Apply CF packing and fill/missing/valid-range masking: no-data becomes NaN."""
+    """Apply CF packing and fill/missing/valid-range masking: no-data becomes NaN.
+
+    Packed integers are converted to float64 first, and every comparison with
+    ``_FillValue``/``missing_value``/``valid_*`` (in packed units, CF §8.1) is
+    made on those floats, so NaN fill values of integer data cast nothing.
+    """
     a = np.asarray(raw)
     out = a.astype(np.float64)
     bad = np.zeros(a.shape, dtype=bool)
     for key in ("_FillValue", "missing_value"):
         if key in var.attrs:
-            for fv in np.atleast_1d(np.asarray(var.attrs[key])).astype(a.dtype, copy=False):
-                bad |= (a == fv) if not (np.issubdtype(a.dtype, np.floating) and np.isnan(fv)) else np.isnan(a)  # fmt: skip
+            for fv in np.atleast_1d(np.asarray(var.attrs[key])).reshape(-1):
+                bad |= _is_fill(a, out, fv)
     lo = hi = None
     if "valid_range" in var.attrs:
         vr = np.asarray(var.attrs["valid_range"]).reshape(-1)
@@ -262,10 +339,11 @@ def _decode(var: _Var, raw: NDArray[Any], *, source: str) -> NDArray[np.float64]
             lo, hi = vr[0], vr[1]
     lo = var.attrs.get("valid_min", lo)
     hi = var.attrs.get("valid_max", hi)
-    if lo is not None:
-        bad |= a < np.asarray(lo).reshape(-1)[0]
-    if hi is not None:
-        bad |= a > np.asarray(hi).reshape(-1)[0]
+    with np.errstate(invalid="ignore"):
+        if lo is not None:
+            bad |= out < float(np.asarray(lo, dtype=np.float64).reshape(-1)[0])
+        if hi is not None:
+            bad |= out > float(np.asarray(hi, dtype=np.float64).reshape(-1)[0])
     if "scale_factor" in var.attrs:
         out *= float(np.asarray(var.attrs["scale_factor"]).reshape(-1)[0])
     if "add_offset" in var.attrs:
@@ -274,49 +352,351 @@ def _decode(var: _Var, raw: NDArray[Any], *, source: str) -> NDArray[np.float64]
     return out
 
 
-# --------------------------------------------------------------------------- layout
+# --------------------------------------------------------------------------- time
+#: Dimension names taken as time when no coordinate says so (compared case-insensitively,
+#: in this order of preference).
+TIME_NAMES = ("time", "t", "month", "months", "ocean_time", "valid_time", "date", "year",
+              "day", "step")  # fmt: skip
+
+
 def _is_time(var: _Var) -> bool:
+    """A coordinate that CF marks as time (§4.4): ``axis="T"``, ``standard_name="time"`` or
+    ``units="<unit> since <date>"``."""
     std = _text(var.attrs.get("standard_name", "")).lower()
     axis = _text(var.attrs.get("axis", "")).upper()
     units = _text(var.attrs.get("units", "")).lower()
-    return axis == "T" or std == "time" or var.name.lower() in ("time", "t") or " since " in units
+    return axis == "T" or std == "time" or " since " in f" {units} "
 
 
+def _dims_text(b: _Backend, dims: list[str]) -> str:
+    return ", ".join(f"{d} ({b.dim_size(d)})" for d in dims) or "(none)"
+
+
+def _find_time(b: _Backend, coord_vars: dict[str, _Var], wanted: str | None,
+               *, source: str) -> str | None:  # fmt: skip
+    """The time dimension: the user's ``wanted``, a CF time coordinate, or a common name."""
+    by_rank = sorted(b.vars.values(), key=lambda v: -len(v.dims))  # data variables' order
+    all_dims = list(dict.fromkeys(d for v in by_rank for d in v.dims))
+    if wanted is not None:
+        if wanted not in all_dims:
+            raise FormatError(
+                f"{source}: --time-dim {wanted!r}: the file has no such dimension; its "
+                f"dimensions are {_dims_text(b, all_dims)}"
+            )
+        return wanted
+    used = list(dict.fromkeys(
+        d for n, v in b.vars.items() if n not in coord_vars and len(v.dims) >= 2 for d in v.dims
+    )) or all_dims  # fmt: skip
+    for n, v in coord_vars.items():
+        if n in used and _is_time(v):
+            return n
+    for name in TIME_NAMES:
+        for d in used:
+            if d.lower() == name:
+                return d
+    return None
+
+
+def _time_axis(b: _Backend, coord_vars: dict[str, _Var], time_dim: str, *, named: bool,
+               source: str) -> tuple[NDArray[np.float64], bool, str | None]:  # fmt: skip
+    """``(times in s, physical, time_units)`` of the time dimension ``time_dim``."""
+    n_t = b.dim_size(time_dim) or 0
+    if n_t == 0:
+        raise FormatError(f"{source}: the time dimension {time_dim!r} has no steps")
+    frames = np.arange(n_t) / 30.0
+    if time_dim not in coord_vars:
+        return (
+            frames,
+            False,
+            f"none: no coordinate variable {time_dim!r}, its steps are frames at 30 Hz",
+        )
+    tv = coord_vars[time_dim]
+    units = _text(tv.attrs.get("units", "")).strip()
+    cf_time = (_is_time(tv) or time_dim.lower() in ("time", "t")) and not named
+    if not units:
+        if cf_time:
+            raise FormatError(
+                f"{source}: the time coordinate {time_dim!r} has no 'units' attribute; CF "
+                f"needs e.g. units='seconds since 2001-01-01'"
+            )
+        return frames, False, f"none: {time_dim!r} has no units, its steps are frames at 30 Hz"
+    try:
+        factor, ref = time_unit_seconds(units, source=source)
+    except FormatError:
+        if cf_time:
+            raise
+        return frames, False, f"{units!r}, not a time unit: its steps are frames at 30 Hz"
+    raw = _decode(tv, tv.read(), source=source).reshape(-1)
+    if not np.all(np.isfinite(raw)):
+        raise DataError(f"{source}: the time coordinate {time_dim!r} has missing values")
+    if ref is None:
+        return raw * factor, True, f"{units} (no reference date; one unit = {factor:g} s)"
+    return raw * factor, True, units
+
+
+# --------------------------------------------------------------------------- spatial axes
+#: Mean Earth radius (m) of the local projection of longitude/latitude.
+EARTH_RADIUS = 6_371_000.0
+_LON_UNITS = {"degrees_east", "degree_east", "degrees_e", "degree_e", "degreese", "degreee"}
+_LAT_UNITS = {"degrees_north", "degree_north", "degrees_n", "degree_n", "degreesn", "degreen"}
+_DEG_UNITS = {"degrees", "degree", "deg", "arc_degree", "angular_degree"}
+#: Metres per length unit.
+_LENGTH_UNITS = {
+    "m": 1.0, "metre": 1.0, "metres": 1.0, "meter": 1.0, "meters": 1.0,
+    "km": 1e3, "kilometre": 1e3, "kilometres": 1e3, "kilometer": 1e3, "kilometers": 1e3,
+    "cm": 1e-2, "centimetre": 1e-2, "centimetres": 1e-2, "centimeter": 1e-2,
+    "centimeters": 1e-2, "mm": 1e-3, "ft": 0.3048, "feet": 0.3048,
+}  # fmt: skip
+#: Pascals per pressure unit.
+_PRESSURE_UNITS = {
+    "pa": 1.0, "hpa": 100.0, "mbar": 100.0, "millibar": 100.0, "millibars": 100.0,
+    "mb": 100.0, "kpa": 1e3, "bar": 1e5, "bars": 1e5, "atm": 101325.0,
+}  # fmt: skip
+#: CF parametric vertical coordinates (CF Appendix D): heights vary from point to point.
+_PARAMETRIC = {
+    "atmosphere_ln_pressure_coordinate", "atmosphere_sigma_coordinate",
+    "atmosphere_hybrid_sigma_pressure_coordinate", "atmosphere_hybrid_height_coordinate",
+    "atmosphere_sleve_coordinate", "ocean_sigma_coordinate", "ocean_s_coordinate",
+    "ocean_s_coordinate_g1", "ocean_s_coordinate_g2", "ocean_sigma_z_coordinate",
+    "ocean_double_sigma_coordinate",
+}  # fmt: skip
+#: ICAO standard atmosphere (ISO 2533): layer base geopotential height (m) and
+#: temperature gradient (K/m), from sea level (288.15 K, 101325 Pa).
+_ICAO = ((0.0, -0.0065), (11000.0, 0.0), (20000.0, 0.001), (32000.0, 0.0028),
+         (47000.0, 0.0), (51000.0, -0.0028), (71000.0, -0.002))  # fmt: skip
+_T0, _P0, _G0, _R_AIR = 288.15, 101325.0, 9.80665, 287.05287
+
+
+def _icao_bases() -> list[tuple[float, float, float, float]]:
+    """``(base height m, base temperature K, base pressure Pa, gradient K/m)`` per layer."""
+    out = []
+    t, p = _T0, _P0
+    for k, (h, a) in enumerate(_ICAO):
+        out.append((h, t, p, a))
+        if k + 1 < len(_ICAO):
+            dh = _ICAO[k + 1][0] - h
+            t1 = t + a * dh
+            p = p * (t1 / t) ** (-_G0 / (a * _R_AIR)) if a else p * np.exp(-_G0 * dh / (_R_AIR * t))
+            t = t1
+    return out
+
+
+def standard_height(p: NDArray[np.float64] | float) -> NDArray[np.float64]:
+    """Geopotential height (m) of pressure ``p`` (Pa) in the ICAO standard atmosphere.
+
+    Troposphere: ``z = T0/L (1 - (p/p0)^(R L/g))`` with ``T0 = 288.15 K``,
+    ``L = 0.0065 K/m``, ``p0 = 101325 Pa``, ``R = 287.05287 J/(kg K)``,
+    ``g = 9.80665 m/s²``; above 11 km the isothermal and warming layers of
+    ISO 2533 up to 71 km (the top layer extends beyond).  Pressures above
+    ``p0`` give heights below 0.
+
+    Examples
+    --------
+    >>> standard_height([101325.0, 50000.0, 22632.06]).round(1).tolist()
+    [0.0, 5574.4, 11000.0]
+    """
+    p = np.asarray(p, dtype=np.float64)
+    z = np.empty_like(p)
+    bases = _icao_bases()
+    for k, (h, t, pb, a) in enumerate(bases):
+        top = bases[k + 1][2] if k + 1 < len(bases) else 0.0
+        sel = (p <= pb) & (p > top) if k else p > top
+        z[sel] = (h + t / a * ((p[sel] / pb) ** (-a * _R_AIR / _G0) - 1.0) if a
+                  else h + _R_AIR * t / _G0 * np.log(pb / p[sel]))  # fmt: skip
+    return z
+
+
+_LON_NAMES = ("lon", "longitude", "long", "x_lon", "nav_lon")
+_LAT_NAMES = ("lat", "latitude", "y_lat", "nav_lat")
+
+
+def _axis_kind(name: str, var: _Var | None, letter: str) -> str:
+    """What an axis measures: lon, lat, pressure, parametric, depth, length, index, none, other."""
+    if var is None:
+        return "index"
+    units = _text(var.attrs.get("units", "")).strip().lower()
+    std = _text(var.attrs.get("standard_name", "")).strip().lower()
+    axis = _text(var.attrs.get("axis", "")).strip().upper()
+    positive = _text(var.attrs.get("positive", "")).strip().lower()
+    if std in _PARAMETRIC or "formula_terms" in var.attrs:
+        return "parametric"
+    if units in _LENGTH_UNITS:
+        return "depth" if positive == "down" else "length"
+    if units in _PRESSURE_UNITS or std == "air_pressure":
+        return "pressure"
+    if units in _LON_UNITS:
+        return "lon"
+    if units in _LAT_UNITS:
+        return "lat"
+    if units in _DEG_UNITS or (not units and std in ("longitude", "latitude")):
+        if std in ("longitude", "grid_longitude") or axis == "X" or name.lower() in _LON_NAMES:
+            return "lon"
+        if std in ("latitude", "grid_latitude") or axis == "Y" or name.lower() in _LAT_NAMES:
+            return "lat"
+        return {"x": "lon", "y": "lat"}.get(letter, "degrees")
+    return "none" if not units else "other"
+
+
+@dataclass
+class _Axis:
+    """One spatial axis: its dimension, the file's coordinate, and what it measures."""
+
+    dim: str
+    letter: str  # x, y or z
+    raw: NDArray[np.float64]
+    units: str  # the file's ``units`` ("" if none)
+    kind: str
+
+
+def _unwrap_longitude(c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Longitudes that cross the date line (350, 355, 0, 5) made monotonic (.., 360, 365)."""
+    if c.size < 2 or np.all(np.diff(c) > 0) or np.all(np.diff(c) < 0):
+        return c
+    return np.rad2deg(np.unwrap(np.deg2rad(c)))
+
+
+def _to_metres(axes: list[_Axis], scale: tuple[float, float, float] | None, *,
+               source: str) -> tuple[list[NDArray[np.float64]], dict[str, str], str | None]:  # fmt: skip
+    """Each axis' coordinates in metres (upward for z), how each was converted, and the
+    map projection used (None if no longitude/latitude)."""
+    out: list[NDArray[np.float64]] = []
+    notes: dict[str, str] = {}
+    if scale is not None:
+        for ax in axes:
+            s = scale["xyz".index(ax.letter)]
+            out.append(ax.raw * s)
+            notes[ax.letter] = f"{ax.units or 'no units'} x {s:g} (--axis-scale)"
+        return out, notes, None
+    lat = next((ax for ax in axes if ax.kind == "lat"), None)
+    mid = 0.0 if lat is None else 0.5 * float(np.nanmin(lat.raw) + np.nanmax(lat.raw))
+    if lat is not None:
+        lo, hi = float(np.nanmin(lat.raw)), float(np.nanmax(lat.raw))
+        if hi - lo > 30.0:
+            edge = np.cos(np.deg2rad(max(abs(lo), abs(hi))))
+            off = f"{np.cos(np.deg2rad(mid)) / edge:.3g}" if edge > 1e-9 else "an unbounded factor"
+            warn_resampled(
+                f"{source}: latitude spans {hi - lo:g}° ({lo:g}° .. {hi:g}°); the grid is the "
+                f"local equirectangular projection about {mid:.1f}° (x = R cos({mid:.1f}°) λ, "
+                f"y = R φ), whose east-west distances are off by up to {off} at its edges; cut "
+                f"a smaller region or give --axis-scale"
+            )
+    for ax in axes:
+        u, c = ax.units, ax.raw
+        if ax.kind == "lon":
+            c = _unwrap_longitude(c)
+            out.append(EARTH_RADIUS * np.cos(np.deg2rad(mid)) * np.deg2rad(c))
+            at = f"R cos {mid:.1f}°" if lat is not None else "R: no latitude axis, at the equator"
+            notes[ax.letter] = f"{u or 'degrees'} -> m ({at})"
+        elif ax.kind == "lat":
+            out.append(EARTH_RADIUS * np.deg2rad(c))
+            notes[ax.letter] = f"{u or 'degrees'} -> m"
+        elif ax.kind == "pressure":
+            factor = _PRESSURE_UNITS.get(u.lower())
+            if factor is None:
+                raise FormatError(
+                    f"{source}: the pressure coordinate {ax.dim!r} has units {u!r}; use hPa, "
+                    f"mbar or Pa, or give --axis-scale"
+                )
+            if np.any(c <= 0):
+                raise DataError(f"{source}: the pressure coordinate {ax.dim!r} has values <= 0")
+            out.append(standard_height(c * factor))
+            notes[ax.letter] = f"{u} -> m (standard atmosphere)"
+        elif ax.kind == "parametric":
+            raise FormatError(
+                f"{source}: {ax.dim!r} is a parametric vertical coordinate (CF Appendix D: "
+                f"sigma, hybrid or s-levels), whose heights change from point to point; "
+                f"auralize needs one height per level: give --axis-scale SX,SY,SZ to use "
+                f"its values ({np.nanmin(c):g} .. {np.nanmax(c):g}) times SZ metres"
+            )
+        elif ax.kind == "degrees":
+            raise FormatError(
+                f"{source}: the {ax.letter} axis {ax.dim!r} is in {u!r}, neither longitude nor "
+                f"latitude; give --axis-scale to turn it into metres"
+            )
+        elif ax.kind in ("length", "depth"):
+            f = _LENGTH_UNITS[u.lower()]
+            sign = -1.0 if ax.kind == "depth" else 1.0
+            out.append(sign * f * c)
+            notes[ax.letter] = u if f == 1.0 else f"{u} -> m"
+            if ax.kind == "depth":
+                notes[ax.letter] += " (positive down -> height: negated)"
+        elif ax.kind == "index":
+            out.append(c)
+            notes[ax.letter] = "index 0, 1, 2 ... (no coordinate variable): taken as m"
+        elif ax.kind == "none":
+            out.append(c)
+            notes[ax.letter] = "no units: taken as m"
+        else:
+            out.append(c)
+            notes[ax.letter] = f"{u} (not a length) taken as m"
+    projection = None
+    if any(ax.kind in ("lon", "lat") for ax in axes):
+        projection = (
+            f"local equirectangular about latitude {mid:.4g}°: x = R cos({mid:.4g}°) λ, "
+            f"y = R φ, R = {EARTH_RADIUS:.0f} m (distances exact along the middle latitude "
+            f"and the meridians only)"
+        )
+    return out, notes, projection
+
+
+# --------------------------------------------------------------------------- layout
 @dataclass
 class _Layout:
     time_dim: str | None
     times: NDArray[np.float64]
     physical: bool
     spatial: tuple[str, ...]  # CF order (z, y, x) or shorter
-    coords: list[NDArray[np.float64]]  # x, y, z coordinates (each increasing)
+    coords: list[NDArray[np.float64]]  # x, y, z coordinates in metres (each increasing)
     flip: list[bool]  # per spatial dim (in ``spatial`` order): reversed
     variables: dict[str, _Var]  # scalar data variables by name
-    vectors: dict[str, tuple[str, ...]]  # vector field name -> component variables
+    vectors: dict[str, tuple[str | None, ...]]  # vector name -> (x, y, z) component variables
     units: dict[str, str]
     coord_units: list[str]
     time_units: str | None
+    axis_units: dict[str, str]  # x/y/z -> how the file's coordinate became metres
+    projection: str | None  # how longitude/latitude became x/y
+
+
+def _velocity_parts(variables: dict[str, _Var]) -> tuple[str | None, ...] | None:
+    """The variables that are the x, y (and z) components of a velocity.
+
+    Matched against :data:`auralize.mapping.COMPONENT_NAMES` (the names every
+    reader's scalar components go by: ``u``/``v``/``w``, ``eastward_wind`` ...)
+    first by variable name, then by ``standard_name`` (CF standard names).
+    """
+    names = {n.lower(): n for n in reversed(variables)}
+    stds = {_text(v.attrs.get("standard_name", "")).lower(): n
+            for n, v in reversed(variables.items())}  # fmt: skip
+    for table in (names, stds):
+        for triple in COMPONENT_NAMES["velocity"]:
+            found = tuple(table.get(c) for c in triple)
+            if found[0] is not None and found[1] is not None:
+                return found
+    return None
 
 
 def _layout(b: _Backend, *, source: str) -> _Layout:
+    opts = read_options()
     coord_vars = {n: v for n, v in b.vars.items() if v.dims == (n,)}
-    time_dim: str | None = None
-    for n, v in coord_vars.items():
-        if _is_time(v):
-            time_dim = n
-            break
-    if time_dim is None:  # a time dimension without a coordinate variable
-        for d in {d for v in b.vars.values() for d in v.dims}:
-            if d.lower() in ("time", "t"):
-                time_dim = d
-    data = {
+    time_dim = _find_time(b, coord_vars, opts.time_dim, source=source)
+    numeric = {
         n: v
         for n, v in b.vars.items()
-        if n not in coord_vars
-        and v.shape
-        and np.issubdtype(v.dtype, np.number)
-        and 1 <= len([d for d in v.dims if d != time_dim]) <= 3
+        if n not in coord_vars and v.shape and np.issubdtype(v.dtype, np.number)
+    }
+    data = {
+        n: v
+        for n, v in numeric.items()
+        if 1 <= len([d for d in v.dims if d != time_dim]) <= 3
         and (time_dim is None or time_dim in v.dims)
     }
+    four = [v for v in numeric.values() if len(v.dims) == 4]
+    if time_dim is None and four:
+        raise FormatError(
+            f"{source}: no time dimension found among ({', '.join(four[0].dims)}): name it "
+            f"with --time-dim NAME (CF: a coordinate with axis='T' or units '<unit> since "
+            f"<date>')"
+        )
     if not data:
         raise FormatError(
             f"{source}: no data variable with 1 to 3 spatial dimensions"
@@ -336,75 +716,52 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
                 f"{time_dim!r} must come first"
             )
     if time_dim is not None:
-        n_t = b.dim_size(time_dim) or 0
-        if time_dim in coord_vars:
-            tv = coord_vars[time_dim]
-            units = tv.attrs.get("units")
-            if units is None:
-                raise FormatError(
-                    f"{source}: the time coordinate {time_dim!r} has no 'units' attribute; CF "
-                    f"needs e.g. units='seconds since 2001-01-01'"
-                )
-            factor, _ref = time_unit_seconds(_text(units), source=source)
-            raw = _decode(tv, tv.read(), source=source)
-            if not np.all(np.isfinite(raw)):
-                raise DataError(f"{source}: the time coordinate {time_dim!r} has missing values")
-            times = raw * factor
-            physical, time_units = True, _text(units)
-        else:
-            times = np.arange(n_t) / 30.0
-            physical, time_units = False, None
-        if times.size == 0:
-            raise FormatError(f"{source}: the time dimension {time_dim!r} has no steps")
+        times, physical, time_units = _time_axis(
+            b, coord_vars, time_dim, named=opts.time_dim is not None, source=source
+        )
     else:
         times, physical, time_units = np.zeros(1), False, None
-    coords_cf: list[NDArray[np.float64]] = []
-    coord_units: list[str] = []
-    flip: list[bool] = []
-    for d in spatial:
-        n_d = int(first.shape[first.dims.index(d)])
-        if d in coord_vars:
-            c = _decode(coord_vars[d], coord_vars[d].read(), source=source)
-            coord_units.append(_text(coord_vars[d].attrs.get("units", "")))
+    axes: list[_Axis] = []
+    for k, d in enumerate(spatial):
+        letter = "xyz"[len(spatial) - 1 - k]
+        cv = coord_vars.get(d)
+        if cv is not None:
+            c = _decode(cv, cv.read(), source=source).reshape(-1)
         else:
-            c = np.arange(n_d, dtype=np.float64)
-            coord_units.append("")
+            c = np.arange(int(first.shape[first.dims.index(d)]), dtype=np.float64)
+        c_units = _text(cv.attrs.get("units", "")).strip() if cv is not None else ""
+        axes.append(_Axis(d, letter, c, c_units, _axis_kind(d, cv, letter)))
+    metres, axis_units, projection = _to_metres(axes, opts.axis_scale, source=source)
+    coords_cf: list[NDArray[np.float64]] = []
+    flip: list[bool] = []
+    for ax, c in zip(axes, metres, strict=True):
         if not np.all(np.isfinite(c)) or (
             c.size > 1 and not (np.all(np.diff(c) > 0) or np.all(np.diff(c) < 0))
         ):
-            raise DataError(f"{source}: coordinate {d!r} must be finite and monotonic")  # fmt: skip
+            raise DataError(f"{source}: coordinate {ax.dim!r} must be finite and monotonic")
         rev = bool(c.size > 1 and c[1] < c[0])
         flip.append(rev)
         coords_cf.append(c[::-1].copy() if rev else c)
     xyz = coords_cf[::-1] + [np.zeros(1)] * (3 - len(coords_cf))
-    vectors: dict[str, tuple[str, ...]] = {}
-    lower = {n.lower(): n for n in variables}
-    comps = [lower.get(c) for c in ("u", "v", "w")]
-    if comps[0] and comps[1]:
-        vectors["velocity"] = tuple(c for c in comps if c)
-    else:
-        by_std = {
-            _text(v.attrs.get("standard_name", "")).split("_", 1)[0]: n
-            for n, v in variables.items()
-        }
-        if "eastward" in by_std and "northward" in by_std:
-            vectors["velocity"] = tuple(
-                by_std[k] for k in ("eastward", "northward", "upward") if k in by_std
-            )
-    if "velocity" in variables:
-        vectors.pop("velocity", None)
+    vectors: dict[str, tuple[str | None, ...]] = {}
+    parts = _velocity_parts(variables)
+    if parts is not None and "velocity" not in variables:
+        vectors["velocity"] = parts
     units = {n: _text(v.attrs["units"]) for n, v in variables.items() if "units" in v.attrs}
     if "velocity" in vectors and vectors["velocity"][0] in units:
-        units["velocity"] = units[vectors["velocity"][0]]
-    return _Layout(time_dim, np.asarray(times, dtype=np.float64), physical, spatial,
-                   xyz, flip, variables, vectors, units, coord_units[::-1], time_units)  # fmt: skip
+        units["velocity"] = units[str(vectors["velocity"][0])]
+    coord_units = [ax.units for ax in axes][::-1]
+    return _Layout(time_dim, np.asarray(times, dtype=np.float64), physical, spatial, xyz,
+                   flip, variables, vectors, units, coord_units, time_units,
+                   dict(sorted(axis_units.items())), projection)  # fmt: skip
 
 
 class _NetCDFSteps:
-    """Loader: one time step of every selected variable as a pyvista RectilinearGrid."""
+    """Loader: one time step of the variables ``names`` as a pyvista RectilinearGrid."""
 
-    def __init__(self, backend: _Backend, layout: _Layout, source: str) -> None:
-        self.b, self.lay, self.source = backend, layout, source
+    def __init__(self, backend: _Backend, layout: _Layout, source: str,
+                 names: list[str]) -> None:  # fmt: skip
+        self.b, self.lay, self.source, self.names = backend, layout, source, names
 
     def slab(self, var: _Var, step: int) -> NDArray[np.float64]:
         """One step of ``var``, decoded (NaN for no-data), flipped, flattened x fastest."""
@@ -418,15 +775,9 @@ class _NetCDFSteps:
 
     def __call__(self, step: int) -> Any:
         pv = import_pyvista()
-        lay = self.lay
-        grid = pv.RectilinearGrid(*lay.coords)
-        for name, var in lay.variables.items():
-            grid.point_data[name] = self.slab(var, step)
-        for name, parts in lay.vectors.items():
-            cols = [self.slab(lay.variables[p], step) for p in parts]
-            while len(cols) < 3:
-                cols.append(np.zeros_like(cols[0]))
-            grid.point_data[name] = np.stack(cols, axis=-1)
+        grid = pv.RectilinearGrid(*self.lay.coords)
+        for name in self.names:
+            grid.point_data[name] = self.slab(self.lay.variables[name], step)
         return grid
 
 
@@ -437,17 +788,9 @@ def _evenly_spaced(c: NDArray[np.float64]) -> bool:
     return bool(np.allclose(d, d[0], rtol=1e-6, atol=0.0))
 
 
-def _uniform_volume(
-    loader: _NetCDFSteps,
-    lay: _Layout,
-    source: str,
-    fields: FieldsArg,
-    name_map: Mapping[str, str] | None,
-) -> TimeVolume:
-    """Evenly spaced coordinates: each field reads its own variable(s), one step per read."""
+def _uniform_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> TimeVolume:
+    """Evenly spaced coordinates: each of ``loader.names`` reads its variable, a step a read."""
     nx, ny, nz = (c.size for c in lay.coords)
-    available = [*lay.variables, *lay.vectors]
-    chosen = select_fields(available, fields, name_map, source=source)
     n_t = lay.times.size
 
     def scalar(var: _Var) -> CallableFrames:
@@ -455,19 +798,7 @@ def _uniform_volume(
             lambda step: loader.slab(var, step).reshape(nz, ny, nx), n_t, (nz, ny, nx)
         )
 
-    def vector(parts: tuple[str, ...]) -> CallableFrames:
-        def read(step: int) -> NDArray[np.float64]:
-            out = np.zeros((nz * ny * nx, 3))
-            for k, p in enumerate(parts):
-                out[:, k] = loader.slab(lay.variables[p], step)
-            return out.reshape(nz, ny, nx, 3)
-
-        return CallableFrames(read, n_t, (nz, ny, nx, 3))
-
-    frames: dict[str, FrameSource] = {
-        vol_name: vector(lay.vectors[name]) if name in lay.vectors else scalar(lay.variables[name])
-        for vol_name, name in chosen.items()
-    }
+    frames: dict[str, FrameSource] = {n: scalar(lay.variables[n]) for n in loader.names}
     origin = np.array([c[0] for c in lay.coords])
     spacing = np.array([(c[-1] - c[0]) / (c.size - 1) if c.size > 1 else 0.0 for c in lay.coords])
     if np.any(spacing > 0):
@@ -483,9 +814,68 @@ def _uniform_volume(
         physical_times=lay.physical,
         source=source,
     )
-    volume.attrs["centring"] = dict.fromkeys(chosen, "point")
     volume.attrs["mesh"] = f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points"
     return volume
+
+
+def _assembled(volume: TimeVolume, parts: tuple[str | None, ...]) -> FrameSource:
+    """The vector of the scalar fields ``parts`` (x, y, z; None: 0), stacked the one way
+    every reader's components are: :func:`auralize.mapping.assemble_vector`."""
+    keys = ("u", "v", "w")  # a triple of COMPONENT_NAMES["velocity"]
+    comps = {k: volume.fields[p] for k, p in zip(keys, parts, strict=False) if p is not None}
+    view = dataclasses.replace(volume, fields=comps, attrs={})
+    name = assemble_vector(view, "velocity")
+    if name is None:  # pragma: no cover - keys are one of COMPONENT_NAMES' triples
+        raise AssertionError(f"{volume.source}: velocity components {parts} not assembled")
+    return view.fields[name]
+
+
+def _reissue(caught: list[warnings.WarningMessage], why: str) -> None:
+    """Issue the warnings ``caught`` again, each :class:`ResampledWarning` with ``why``."""
+    for w in caught:
+        if issubclass(w.category, ResampledWarning):
+            warn_resampled(f"{w.message}; resampled because {why}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+def _native_resolution(lay: _Layout, box: Sequence[float] | None) -> tuple[int, int, int]:
+    """Grid points per axis for unevenly spaced coordinates: an evenly spaced axis keeps
+    its step, an uneven one gets its finest step, with at most twice its points; over
+    the region ``box`` (of interest) when there is one."""
+    out = []
+    for a, c in enumerate(lay.coords):
+        if c.size < 2:
+            out.append(c.size)
+            continue
+        lo, hi = float(c[0]), float(c[-1])
+        if box is not None:
+            lo, hi = max(lo, float(box[2 * a])), min(hi, float(box[2 * a + 1]))
+        if hi <= lo:  # the box misses it: open_mesh_series says so
+            out.append(c.size)
+            continue
+        even = _evenly_spaced(c)
+        step = float(c[-1] - c[0]) / (c.size - 1) if even else float(np.diff(c).min())
+        n = int(np.ceil((hi - lo) / step - 1e-6)) + 1
+        out.append(n if even else min(n, 2 * c.size))
+    return (out[0], out[1], out[2])
+
+
+def _uneven_reason(lay: _Layout, dims: tuple[int, int, int] | None) -> str:
+    out = []
+    for k, c in enumerate(lay.coords):
+        if not _evenly_spaced(c):
+            d = np.diff(c)
+            letter = "xyz"[k]
+            out.append(
+                f"the {letter} coordinate ({lay.axis_units.get(letter, '')}) is unevenly "
+                f"spaced: {c.size} points, {c[0]:.6g} .. {c[-1]:.6g} m in steps of "
+                f"{d.min():.4g} .. {d.max():.4g} m"
+                + (f", taken as {dims[k]} points (its finest step, at most twice its "
+                   f"{c.size} points)"
+                   if dims is not None else "")
+            )  # fmt: skip
+    return "; ".join(out)
 
 
 def read_netcdf(
@@ -496,6 +886,11 @@ def read_netcdf(
     name_map: Mapping[str, str] | None = None,
 ) -> TimeVolume:
     """Open a netCDF (classic or netCDF4) file with CF conventions as a lazy volume.
+
+    The time dimension and the axis units follow the rules of this module's
+    docstring; the reader options of :func:`auralize.io.open_volume`
+    (``time_dim=``, ``axis_scale=``) are read from
+    :func:`auralize.io.options.current`.
 
     Parameters
     ----------
@@ -508,9 +903,13 @@ def read_netcdf(
     Returns
     -------
     TimeVolume
-        Times in seconds after the time units' reference date;
-        ``attrs["units"]`` holds each field's ``units``, ``attrs["time_units"]``
-        the time axis' own.
+        Times in seconds after the time units' reference date; grid in
+        metres.  ``attrs``: ``units`` (each field's), ``time_units`` (the
+        time axis' own), ``time_dim`` (the time dimension's name, if any),
+        ``axis_units`` (``{"x": "degrees_east -> m (R cos 45.0°)", ...}``),
+        ``grid_units`` (the coordinates' units in the file, x, y, z),
+        ``projection`` (for longitude/latitude) and ``axis_scale_applied``
+        (when ``axis_scale=`` replaced the conversions).
 
     Examples
     --------
@@ -522,33 +921,54 @@ def read_netcdf(
     >>> vol = read_netcdf(Path(auralize.__file__).parent / "data/netcdf-pulse/pulse.nc")
     >>> vol.times[:3].tolist(), vol.attrs["time_units"]
     ([0.0, 0.001, 0.002], 'milliseconds since 2001-01-01 00:00:00')
-    >>> vol.is_vector("velocity")
-    True
+    >>> vol.is_vector("velocity"), vol.attrs["time_dim"], vol.attrs["axis_units"]["x"]
+    (True, 'time', 'm')
     """
     path = Path(path).expanduser()
     require_exists(path)
+    src = str(path)
     backend = _Backend(path)
-    lay = _layout(backend, source=str(path))
-    loader = _NetCDFSteps(backend, lay, str(path))
+    lay = _layout(backend, source=src)
+    chosen = select_fields([*lay.variables, *lay.vectors], fields, name_map, source=src)
+    needed = list(dict.fromkeys(
+        p for f in chosen.values() for p in lay.vectors.get(f, (f,)) if p is not None
+    ))  # fmt: skip
+    loader = _NetCDFSteps(backend, lay, src, needed)
     if all(_evenly_spaced(c) for c in lay.coords):
-        volume = _uniform_volume(loader, lay, str(path), fields, name_map)
-        volume = resample_uniform(volume, check_resolution(resolution, source=str(path)))
+        base = _uniform_volume(loader, lay, src)
+        base = resample_uniform(base, check_resolution(resolution, source=src))
     else:
-        volume = open_mesh_series(
-            source=str(path),
-            loader=loader,
-            labels=[f"{path} step {n}" for n in range(lay.times.size)],
-            times=lay.times,
-            physical_times=lay.physical,
-            fields=fields,
-            resolution=resolution,
-            name_map=name_map,
-        )
-    rename = dict(name_map or {})
-    volume.attrs["units"] = {
-        rename.get(k, k): u for k, u in lay.units.items() if rename.get(k, k) in volume.fields
+        native = _native_resolution(lay, read_options().box) if resolution is None else None
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            base = open_mesh_series(
+                source=src,
+                loader=loader,
+                labels=[f"{path} step {n}" for n in range(lay.times.size)],
+                times=lay.times,
+                physical_times=lay.physical,
+                fields=needed,
+                resolution=native or resolution,
+                name_map=None,
+                apply_axis_scale=False,  # the coordinates are scaled already
+            )
+        _reissue(caught, _uneven_reason(lay, native))
+    frames: dict[str, FrameSource] = {
+        vol_name: _assembled(base, lay.vectors[f]) if f in lay.vectors else base.fields[f]
+        for vol_name, f in chosen.items()
     }
+    volume = dataclasses.replace(base, fields=frames, attrs=dict(base.attrs))
+    volume.attrs["centring"] = dict.fromkeys(chosen, "point")
+    volume.attrs["units"] = {v: lay.units[f] for v, f in chosen.items() if f in lay.units}
     volume.attrs["grid_units"] = lay.coord_units
+    volume.attrs["axis_units"] = lay.axis_units
+    if lay.projection:
+        volume.attrs["projection"] = lay.projection
+    scale = read_options().axis_scale
+    if scale is not None:
+        volume.attrs["axis_scale_applied"] = list(scale)
+    if lay.time_dim is not None:
+        volume.attrs["time_dim"] = lay.time_dim
     if lay.time_units:
         volume.attrs["time_units"] = lay.time_units
     return volume
