@@ -191,3 +191,11 @@ def test_kinds_vtk_cannot_read_are_named_with_what_to_do(tmp_path: Path) -> None
         f.create_group("Grid00000001")["Density"] = np.zeros((2, 2, 2))
     with pytest.raises(FormatError, match="Enzo output without its .hierarchy"):
         open_volume(lone)
+
+
+def test_info_names_the_reader_that_took_the_file(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from auralize.cli import main
+
+    out = _enzo_output(tmp_path)
+    assert main(["info", str(out / "data0001")]) == 0
+    assert "  reader   enzo\n" in capsys.readouterr().out

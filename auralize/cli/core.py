@@ -356,13 +356,16 @@ def cmd_info(args: argparse.Namespace) -> int:
     d["roles"] = {r: f for r, f in roles.items() if f is not None}
     d["role_reasons"] = {r: role_reason(vol, r, f) for r, f in d["roles"].items()}
     d["mapping"] = auto_mapping(vol)
-    for key in ("time_units", "time_dim", "grid_units", "axis_units", "projection", "mesh"):
+    for key in ("reader", "time_units", "time_dim", "grid_units", "axis_units", "projection",
+                "mesh", "resampling"):  # fmt: skip
         if key in vol.attrs:
             d[key] = vol.attrs[key]
     if args.json:
         print(json.dumps(d, indent=2, default=str))
         return 0
     print(f"{d['source']}")
+    if "reader" in vol.attrs:
+        print(f"  reader   {vol.attrs['reader']}")
     if "mesh" in vol.attrs:
         print(f"  mesh     {vol.attrs['mesh']}")
     print(f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "

@@ -111,6 +111,11 @@ READ_SUFFIXES = (
     ".nc",
     ".nc4",
     ".cdf",
+    ".exo",
+    ".e",
+    ".ex2",
+    ".exii",
+    ".hierarchy",
 )
 #: File name endings :func:`save_volume` writes.
 WRITE_SUFFIXES = (".h5", ".hdf5", ".pvd", ".vtkhdf")

@@ -625,7 +625,6 @@ def not_a_volume_message(path: Path) -> str:
     import h5py
 
     from auralize.io.foreign import explain
-
     from auralize.io.hdf5 import field_candidates
 
     try:
