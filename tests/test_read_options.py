@@ -60,3 +60,30 @@ def test_bad_reader_options_are_refused_clearly(ramp_file, kw, match):
     path, _ = ramp_file
     with pytest.raises(ParameterError, match=match):
         open_volume(path, **kw)
+
+
+def test_a_session_keeps_the_reader_options(ramp_file):
+    import json
+
+    from auralize.io.json_check import check
+    from auralize.scene.session import DATA_SCHEMA, data_spec, load_data
+
+    path, frames = ramp_file
+    d = data_spec(str(path), axis_scale=(2, 2, 2), box=(0, 4, 0, 100, 0, 100))
+    again = json.loads(json.dumps(d))  # as a session file holds it
+    check(again, DATA_SCHEMA, "session.json")
+    vol = load_data(again)
+    # x points 2, 3, ..., 7 m after scaling: inside [0, 4] are 2, 3, 4 (i = 0..2)
+    assert vol.dims == (3, 5, 4)
+    np.testing.assert_array_equal(vol.frame("rho", 0), frames[0, :, :, :3])
+
+
+def test_convert_takes_the_reader_options(ramp_file, tmp_path):
+    from auralize.cli import main
+
+    path, frames = ramp_file
+    out = tmp_path / "cut.h5"
+    assert main(["convert", str(path), str(out), "--box", "1,2,0,10,0,10", "-q"]) == 0
+    vol = open_volume(out)
+    assert vol.dims == (3, 5, 4)
+    np.testing.assert_array_equal(vol.frame("rho", 2), frames[2, :, :, :3])

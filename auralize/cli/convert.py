@@ -67,7 +67,8 @@ def cmd_convert(args: argparse.Namespace) -> int:
             raise ParameterError(f"{out}: cannot write {out.suffix or '(no suffix)'!r}; volumes "
                               f"convert to {', '.join(WRITE_SUFFIXES)}")  # fmt: skip
         vol = load(src, size=args.size, steps=args.steps, seed=args.seed,
-                   fields=field_map(args.field), resolution=args.resolution)  # fmt: skip
+                   fields=field_map(args.field), resolution=args.resolution,
+                   time_dim=args.time_dim, axis_scale=args.axis_scale, box=args.box)  # fmt: skip
         save_volume(vol, out, compression=args.compression)
         nx, ny, nz = vol.dims
         what = (f"volume {nx}x{ny}x{nz} x {vol.n_steps} steps, fields "
@@ -77,6 +78,8 @@ def cmd_convert(args: argparse.Namespace) -> int:
 
 
 def add_commands(sub: Any) -> None:
+    from auralize.cli.options import add_reader_options
+
     p = sub.add_parser(
         "convert",
         help="convert a volume (or a sources file) between formats, e.g. .pvd -> .vtkhdf",
@@ -89,6 +92,7 @@ def add_commands(sub: Any) -> None:
     p.add_argument(
         "--resolution", type=int, help="points per axis when resampling non-uniform grids"
     )
+    add_reader_options(p)
     p.add_argument("--size", type=int, help="grid size of a built-in dataset")
     p.add_argument("--steps", type=int, help="time steps of a built-in dataset")
     p.add_argument("--seed", type=int, default=0, help="seed of a built-in dataset")

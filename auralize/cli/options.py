@@ -150,6 +150,19 @@ def vec3(text: str) -> np.ndarray:
     return v
 
 
+def add_reader_options(g: Any) -> None:
+    """``--time-dim``, ``--axis-scale`` and ``--box``: the options every reader takes."""
+    g.add_argument("--time-dim", metavar="NAME",
+                   help="name of a netCDF file's time dimension, when it is not found by CF's "
+                        "axis='T', 'units: ... since ...' or a common name (time, month, ...)")  # fmt: skip
+    g.add_argument("--axis-scale", type=axis_scale_arg, metavar="S|SX,SY,SZ",
+                   help="metres per file unit along x, y, z (e.g. 1000 for a grid in km); "
+                        "overrides a netCDF file's own conversion of degrees and pressure levels")  # fmt: skip
+    g.add_argument("--box", type=box_arg, metavar="XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
+                   help="region of interest in metres: keep the grid inside it; a mesh's "
+                        "resolution is chosen from its cells inside it")  # fmt: skip
+
+
 def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
     """The volume positional and the options that read it (``optional``: may be left out)."""
     p.add_argument("volume", metavar="PATH", nargs="?" if optional else None,
@@ -165,15 +178,7 @@ def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) ->
     g.add_argument(
         "--resolution", type=positive_int, help="points per axis when resampling non-uniform grids"
     )
-    g.add_argument("--time-dim", metavar="NAME",
-                   help="name of a netCDF file's time dimension, when it is not found by CF's "
-                        "axis='T', 'units: ... since ...' or a common name (time, month, ...)")  # fmt: skip
-    g.add_argument("--axis-scale", type=axis_scale_arg, metavar="S|SX,SY,SZ",
-                   help="metres per file unit along x, y, z (e.g. 1000 for a grid in km); "
-                        "overrides a netCDF file's own conversion of degrees and pressure levels")  # fmt: skip
-    g.add_argument("--box", type=box_arg, metavar="XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
-                   help="region of interest in metres: keep the grid inside it; a mesh's "
-                        "resolution is chosen from its cells inside it")  # fmt: skip
+    add_reader_options(g)
     g.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
     g.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
     g.add_argument("--seed", type=seed_int, default=0, help="seed of a built-in dataset")

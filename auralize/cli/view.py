@@ -109,7 +109,8 @@ def view_options(args: argparse.Namespace) -> dict[str, Any]:
     color_by = getattr(args, "color_by", None) or (plain[0] if plain else None)
     fields = field_map([f for f in items if "=" in f])
     data = (data_spec(args.volume, size=args.size, steps=args.steps, seed=args.seed,
-                      fields=fields, resolution=args.resolution)
+                      fields=fields, resolution=args.resolution, time_dim=args.time_dim,
+                      axis_scale=args.axis_scale, box=args.box)
             if args.volume is not None else None)  # fmt: skip
     return {"data": data, "field": color_by, "mapping": args.mapping,
             "mapping_fields": mapping_fields(args), "thresholds": thresholds_from_args(args)}  # fmt: skip

@@ -73,6 +73,9 @@ DATA_SCHEMA = Obj({
     "seed": optional(Num(lo=0, integer=True)),
     "fields": optional(DictOf(Text(nonempty=True))),
     "resolution": optional(Either(_COUNT, ListOf(_COUNT, min_len=3, max_len=3))),
+    "time_dim": optional(Text(nonempty=True)),
+    "axis_scale": optional(ListOf(Num(lo=0), min_len=3, max_len=3)),
+    "box": optional(ListOf(Num(), min_len=6, max_len=6)),
 }, required=("spec",), other=AnyJSON())  # fmt: skip
 _THRESHOLD = optional(Either(Num(lo=0), Text(nonempty=True),
                              what="a number >= 0 or a text such as 'auto', 'top:1%', '5%'"))  # fmt: skip
@@ -202,10 +205,12 @@ class SessionState:
 
 def data_spec(spec: str, *, size: int | None = None, steps: int | None = None,
               seed: int = 0, fields: dict[str, str] | None = None,
-              resolution: int | None = None) -> dict[str, Any]:  # fmt: skip
+              resolution: int | None = None, time_dim: str | None = None,
+              axis_scale: Any = None, box: Any = None) -> dict[str, Any]:  # fmt: skip
     """The ``data`` entry of a session (relative file paths are made absolute); ``fields``
-    (NAME -> HDF5 dataset) and ``resolution`` are the reader options of ``--field`` and
-    ``--resolution``."""
+    (NAME -> HDF5 dataset), ``resolution``, ``time_dim``, ``axis_scale`` and ``box`` are
+    the reader options of ``--field``, ``--resolution``, ``--time-dim``, ``--axis-scale``
+    and ``--box``."""
     s = str(spec)
     if not s.startswith("dataset:"):
         s = str(Path(s).expanduser().resolve())
@@ -214,7 +219,18 @@ def data_spec(spec: str, *, size: int | None = None, steps: int | None = None,
         d["fields"] = dict(fields)
     if resolution is not None:
         d["resolution"] = int(resolution)
+    if time_dim is not None:
+        d["time_dim"] = str(time_dim)
+    if axis_scale is not None:
+        d["axis_scale"] = [float(v) for v in axis_scale]
+    if box is not None:
+        d["box"] = [float(v) for v in box]
     return d
+
+
+def reader_options(d: dict[str, Any]) -> dict[str, Any]:
+    """The ``time_dim``, ``axis_scale`` and ``box`` of a session's ``data`` entry, as keywords."""
+    return {k: d.get(k) for k in ("time_dim", "axis_scale", "box")}
 
 
 def load_data(d: dict[str, Any]) -> Any:
@@ -224,4 +240,5 @@ def load_data(d: dict[str, Any]) -> Any:
     if not d or "spec" not in d:
         raise FormatError("session has no data to open (missing data.spec)")
     return load(d["spec"], size=d.get("size"), steps=d.get("steps"), seed=d.get("seed") or 0,
-                fields=d.get("fields"), resolution=d.get("resolution"))  # fmt: skip
+                fields=d.get("fields"), resolution=d.get("resolution"),
+                time_dim=d.get("time_dim"), axis_scale=d.get("axis_scale"), box=d.get("box"))  # fmt: skip

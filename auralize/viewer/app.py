@@ -42,7 +42,7 @@ from auralize.errors import AuralizeError, OutputError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.scene.detection import VIEWER_THRESHOLDS, Cancelled, Detection
 from auralize.scene.recorder import DEFAULT_RATE_HZ, PathRecorder
-from auralize.scene.session import SessionState, data_spec
+from auralize.scene.session import SessionState, data_spec, reader_options
 from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.sources.detection import TYPES, Thresholds
 
@@ -650,15 +650,17 @@ class MainWindow(QtWidgets.QMainWindow):
     def open_data(self, spec: str | Path, *, size: int | None = None, steps: int | None = None,
                   seed: int = 0, fields: dict[str, str] | None = None,
                   resolution: int | None = None, field: str | None = None,
-                  then: Callable[[], None] | None = None) -> Task:  # fmt: skip
+                  then: Callable[[], None] | None = None, time_dim: str | None = None,
+                  axis_scale: Any = None, box: Any = None) -> Task:  # fmt: skip
         """Open a file or ``dataset:NAME`` in the background (frames are read ahead) and show
-        it; no detection runs (see :meth:`detect`).  ``fields``/``resolution`` are the
-        readers' options (``--field NAME=/DATASET``, ``--resolution``), ``field`` the field
+        it; no detection runs (see :meth:`detect`).  ``fields``, ``resolution``,
+        ``time_dim``, ``axis_scale`` and ``box`` are the readers' options (``--field
+        NAME=/DATASET``, ``--resolution``, ``--time-dim`` ...), ``field`` the field
         to display.  Reader warnings (e.g. resampling) are shown in the Data panel."""
         from auralize.scene.session import load_data
 
         d = data_spec(str(spec), size=size, steps=steps, seed=seed, fields=fields,
-                      resolution=resolution)  # fmt: skip
+                      resolution=resolution, time_dim=time_dim, axis_scale=axis_scale, box=box)  # fmt: skip
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             with warnings.catch_warnings(record=True) as caught:
@@ -1597,7 +1599,8 @@ class MainWindow(QtWidgets.QMainWindow):
             return None
         return self.open_data(d["spec"], size=d.get("size"), steps=d.get("steps"),
                               seed=d.get("seed") or 0, fields=d.get("fields"),
-                              resolution=d.get("resolution"), then=apply)  # fmt: skip
+                              resolution=d.get("resolution"), then=apply,
+                              **reader_options(d))  # fmt: skip
 
     # ============================================================== window
     def closeEvent(self, event: Any) -> None:
@@ -1703,5 +1706,5 @@ def run_app(args: Any) -> int:
         win._guard(lambda: win.open_data(d["spec"], size=d["size"], steps=d["steps"],
                                          seed=d["seed"], fields=d.get("fields"),
                                          resolution=d.get("resolution"), field=opts["field"],
-                                         then=after))  # fmt: skip
+                                         then=after, **reader_options(d)))  # fmt: skip
     return int(app.exec())
