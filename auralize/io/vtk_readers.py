@@ -234,7 +234,13 @@ def read_ensight(
             f"may be truncated"
         )
 
-    loader = ChildEnSightSteps(path)
+    return _child_series(path, ChildEnSightSteps(path), fields=fields, resolution=resolution,
+                         name_map=name_map)  # fmt: skip
+
+
+def _child_series(path: Path, loader: ChildEnSightSteps, *, fields: FieldsArg,
+                  resolution: ResolutionArg, name_map: Mapping[str, str] | None) -> TimeVolume:  # fmt: skip
+    """The lazy volume of the steps a child process reads (the child ends if opening fails)."""
     try:
         times = loader.times()
     except BaseException:
@@ -904,11 +910,5 @@ def read_enzo(
             raise FormatError(
                 f"{hierarchy}: the grid file {grid.name} it names is missing or not HDF5"
             )
-    loader = ChildEnSightSteps(hierarchy, kind="enzo")
-    try:
-        times = loader.times()
-    except BaseException:
-        loader.close()
-        raise
-    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
-                        name_map=name_map)  # fmt: skip
+    return _child_series(path, ChildEnSightSteps(hierarchy, kind="enzo"), fields=fields,
+                         resolution=resolution, name_map=name_map)  # fmt: skip
