@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.metadata
+import json
 import logging
 import shutil
 from collections.abc import Callable, Iterator
@@ -307,3 +308,24 @@ def test_hdf5_of_no_known_layout_says_how_to_read_it(tmp_path: Path) -> None:
     assert "fields={'rho': '/Grid00000001/Density'}" in text
     vol = open_volume(path, fields={"rho": "/Grid00000001/Density"})
     assert vol.attrs["reader"] == "hdf5" and vol.n_steps == 3
+
+
+def test_exodus_named_nc_through_info_detect_and_render(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from auralize.cli import main
+
+    path = tmp_path / "case.nc"
+    write_exodus(path, n_steps=4)
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "  reader   exodus" in out and "field    temp (scalar" in out
+    assert "4 steps, 0 .. 1.5 s" in out
+    sources = tmp_path / "s.h5"
+    assert main(["detect", str(path), "--density-field", "temp", "-o", str(sources),
+                 "--json"]) == 0  # fmt: skip
+    d = json.loads(capsys.readouterr().out)
+    assert len(d["steps"]) == 4 and d["mapping"]["density"] == "temp"
+    wav = tmp_path / "a.wav"
+    assert main(["render", str(path), "--density-field", "temp", "--duration", "0.05",
+                 "--rate", "8000", "-o", str(wav), "--json"]) == 0  # fmt: skip
+    report = json.loads(capsys.readouterr().out)
+    assert wav.exists() and report["duration_s"] == pytest.approx(0.05)
