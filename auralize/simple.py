@@ -77,6 +77,11 @@ __all__ = [
 ]
 
 
+class ArgumentError(ParameterError, TypeError):
+    """An argument of the wrong kind (a listener path where a view goes, ...): a
+    :class:`~auralize.errors.ParameterError` that is also a ``TypeError``."""
+
+
 @dataclass(eq=False, repr=False)
 class DataSource:
     """An opened volume and what was derived from it (the "source proxy").
@@ -220,14 +225,16 @@ class Session:
     active_source, active_view : the current ones (or None)
     path : ListenerPath or None, the active listener path
     rendered : Rendered or None, the last render
-    audio : dict, audio settings (layout, rate, time_scale, device)
+    audio : dict, audio settings (layout, rate, time_scale, device); ``time_scale`` is
+        ``"auto"`` (the default, as ``auralize render``'s: the data's sound fits the
+        path's duration) or playback seconds per data second
     models : list of SceneModel, sound models heard with the data (:func:`AddSoundModel`)
 
     Examples
     --------
     >>> s = Session()
-    >>> s.active_source is None, s.audio["layout"]
-    (True, 'mono')
+    >>> s.active_source is None, s.audio["layout"], s.audio["time_scale"]
+    (True, 'mono', 'auto')
     """
 
     def __init__(self) -> None:
@@ -237,7 +244,7 @@ class Session:
         self.active_view: View | None = None
         self.path: ListenerPath | None = None
         self.rendered: Rendered | None = None
-        self.audio: dict[str, Any] = {"layout": "mono", "rate": 44100, "time_scale": 1.0,
+        self.audio: dict[str, Any] = {"layout": "mono", "rate": 44100, "time_scale": "auto",
                                       "device": None, "heard": "field"}  # fmt: skip
         self.models: list[SceneModel] = []
 
@@ -247,7 +254,14 @@ class Session:
             raise ParameterError("no active source; call OpenDataFile(...) first")
         return s
 
-    def view(self, view: View | None = None, *, create: bool = True) -> View:
+    def view(self, view: View | None = None, *, create: bool = True,
+             caller: str = "") -> View:  # fmt: skip
+        if view is not None and not isinstance(view, View):
+            hint = (f"; to show a listener path, give it as the first argument: {caller}(path)"
+                    if isinstance(view, ListenerPath) and caller == "Show" else "")  # fmt: skip
+            raise ArgumentError(f"{caller or 'the'} view argument must be a View (from "
+                                f"CreateView() or GetActiveView()) or None for the active "
+                                f"view, got a {type(view).__name__}{hint}")  # fmt: skip
         v = view or self.active_view
         if v is None:
             if not create:
@@ -419,8 +433,9 @@ def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
     ``"orbit"`` (``center``, ``radius``, ``turns``, ``height``, ``rate_hz``),
     ``"point"`` (``at``) or the name of a CSV file.  Defaults come from the
     source (``Input=``/``source=``, else the active one): centre of the grid,
-    radius 30 % of the smallest extent, and the duration of the data at
-    ``time_scale`` 1.
+    radius 30 % of the smallest extent, and the duration of the data at the session's
+    ``time_scale`` (at 1 when it is ``"auto"``: the data's span in real time; the
+    render then fits the data's sound in the path's duration).
 
     Examples
     --------
@@ -441,7 +456,7 @@ def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
         if duration is None:
             if vol is None:
                 raise ParameterError("give duration= (no active source to take it from)")
-            duration = float(vol.times[-1] - vol.times[0]) * s.audio["time_scale"]
+            duration = float(vol.times[-1] - vol.times[0]) * _fixed_scale(s)
         if kind == "orbit":
             center = kw.pop("center", vol.center if vol is not None else None)
             radius = kw.pop("radius", None)
@@ -462,7 +477,7 @@ def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
             path = ListenerPath.point(at, duration=duration, **kw)
     s.path = path
     for v in s.views:
-        v.scene.set_path(path if v.show_path else None, time_scale=s.audio["time_scale"],
+        v.scene.set_path(path if v.show_path else None, time_scale=_time_scale(s, v, path),
                          render=False)  # fmt: skip
     return path
 
@@ -523,7 +538,7 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
     from auralize.scene.view import camera_pose
 
     s = GetSession()
-    v = s.view(view)
+    v = s.view(view, caller="RecordListenerPath")
     cam = v.plotter.camera
     if not keyframes:
         keyframes = [{"position": cam.position, "focal_point": cam.focal_point, "up": cam.up}]
@@ -531,7 +546,7 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
         src = v.shown or s.active_source
         if src is None:
             raise ParameterError("give duration= (no data source to take it from)")
-        duration = float(src.Volume.times[-1] - src.Volume.times[0]) * s.audio["time_scale"]
+        duration = float(src.Volume.times[-1] - src.Volume.times[0]) * _fixed_scale(s)
     rec = PathRecorder(rate_hz=rate_hz, autosave=autosave)
     n = max(int(math.floor(duration * rec.rate_hz + 1e-9)) + 1, 2)
     kf = [{k: np.asarray(f.get(k, (0, 0, 1) if k == "up" else None), dtype=float)
@@ -552,7 +567,7 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
     path = rec.stop()
     assert path is not None
     s.path = path
-    v.scene.set_path(path if v.show_path else None, time_scale=s.audio["time_scale"],
+    v.scene.set_path(path if v.show_path else None, time_scale=_time_scale(s, v, path),
                      render=False)  # fmt: skip
     return path
 
@@ -560,7 +575,7 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
 # --------------------------------------------------------------------- audio
 def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = None,
                 path: ListenerPath | None = None, layout: str | None = None,
-                rate: int | None = None, time_scale: float | None = None,
+                rate: int | None = None, time_scale: float | str | None = None,
                 interp: str = "cubic", timbre: str = "auto",
                 heard: str | None = None) -> Rendered:  # fmt: skip
     """Render the sound heard along ``path`` (default: the active path) from ``Input``
@@ -585,8 +600,9 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     As ``auralize render``: ``timbre="auto"`` (physical if most of its energy is
     above 20 Hz, else extended), a 20 Hz high-pass, the steady part removed.
     Unlike it, the session's own settings hold: the listener path is the
-    session's (no default orbit), the time scale is the session's (1 playback
-    second per data second unless set), and detection uses the viewer's
+    session's (no default orbit), the time scale is the session's (``"auto"``,
+    as the command's, unless set: the data's sound fits the path's duration),
+    and detection uses the viewer's
     thresholds (:func:`DetectSources`); :func:`auralize.pipeline.auralize`
     has the command's defaults throughout.
 
@@ -612,6 +628,8 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
         from auralize.sources.field import parse_heard
 
         s.audio["heard"] = parse_heard(heard).label
+    if time_scale is not None:
+        _check_time_scale(time_scale)
     for k, val in (("layout", layout), ("rate", rate), ("time_scale", time_scale)):
         if val is not None:
             s.audio[k] = val
@@ -623,7 +641,8 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
         if src.Sources is None and hd.mode == "detected":
             src.Sources = src.Detection.run()
         out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
-                          time_scale=float(s.audio["time_scale"]), layout=s.audio["layout"],
+                          time_scale=_check_time_scale(s.audio["time_scale"]),
+                          layout=s.audio["layout"],
                           interp=interp, timbre=timbre, clip=not s.models, heard=hd,
                           thresholds=src.Thresholds, mapping=src.Mapping,
                           **dict[str, Any](src.MappingFields))  # fmt: skip
@@ -794,12 +813,16 @@ def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None,
     (30, 'density')
     """
     s = GetSession()
-    v = s.view(view)
+    v = s.view(view, caller="Show")
+    if obj is not None and not isinstance(obj, DataSource | ListenerPath):
+        raise ArgumentError(f"Show's first argument must be a data source (OpenDataFile), a "
+                            f"ListenerPath or None for the active source, got a "
+                            f"{type(obj).__name__}")  # fmt: skip
     if isinstance(obj, ListenerPath):
         s.path = obj
         obj = None
         v.show_path = True
-        v.scene.set_path(s.path, time_scale=s.audio["time_scale"], render=False)
+        v.scene.set_path(s.path, time_scale=_time_scale(s, v, s.path), render=False)
         return v
     src = s.source(obj)
     if v.shown is not src:
@@ -816,7 +839,7 @@ def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None,
     # look first: sources are drawn once detected (DetectSources), never detected here
     v.scene.set_sources(src.Detection.get if src.Sources is not None else None)
     if s.path is not None and v.show_path:
-        v.scene.set_path(s.path, time_scale=s.audio["time_scale"], render=False)
+        v.scene.set_path(s.path, time_scale=_time_scale(s, v, s.path), render=False)
     if step is not None:
         v.scene.set_step(step, render=False)
     return v
@@ -833,7 +856,7 @@ def Hide(obj: DataSource | ListenerPath | str | None = None, view: View | None =
     False
     """
     s = GetSession()
-    v = s.view(view)
+    v = s.view(view, caller="Hide")
     if isinstance(obj, ListenerPath) or obj == "path":
         v.show_path = False
         v.scene.set_path(None, render=False)
@@ -856,7 +879,7 @@ def Render(view: View | None = None) -> View:
     >>> v is GetActiveView()
     True
     """
-    v = GetSession().view(view)
+    v = GetSession().view(view, caller="Render")
     v.plotter.render()
     return v
 
@@ -864,6 +887,11 @@ def Render(view: View | None = None) -> View:
 def SaveScreenshot(filename: str | Path, view: View | None = None, *,
                    resolution: tuple[int, int] | None = None) -> Path:  # fmt: skip
     """Render the view off screen to a PNG.
+
+    As ParaView's ``SaveScreenshot``, the view is rendered with what is shown in
+    it; a view nothing was shown in first shows the active source (as
+    :func:`Show` would), and with no source (and no listener path) to show
+    ``ParameterError`` says so rather than writing a dark picture.
 
     Examples
     --------
@@ -874,7 +902,18 @@ def SaveScreenshot(filename: str | Path, view: View | None = None, *,
     >>> out.stat().st_size > 1000
     True
     """
-    v = GetSession().view(view)
+    s = GetSession()
+    v = s.view(view, caller="SaveScreenshot")
+    if v.shown is None and v.scene.volume is None:
+        if s.active_source is not None:
+            Show(s.active_source, v)
+        elif s.path is not None and v.show_path:
+            Show(s.path, v)
+            v.plotter.reset_camera()
+        else:
+            raise ParameterError(f"nothing to show in the screenshot {str(filename)!r}: open "
+                                 f"data first (OpenDataFile) and Show it, or Show a listener "
+                                 f"path")  # fmt: skip
     if resolution is not None:
         v.ViewSize = resolution
     out = Path(filename)
@@ -973,6 +1012,45 @@ def LoadSession(filename: str | Path) -> Session:
             v.scene.set_step(int(view["step"]), render=False)
         v.scene.set_camera(st.camera)
     return s
+
+
+def _is_auto(time_scale: Any) -> bool:
+    return isinstance(time_scale, str) and time_scale.strip().lower() == "auto"
+
+
+def _check_time_scale(time_scale: Any) -> float | str:
+    """``"auto"`` or a number > 0 (playback seconds per data second), else ParameterError."""
+    if _is_auto(time_scale):
+        return "auto"
+    try:
+        ts = float(time_scale)
+    except (TypeError, ValueError):
+        ts = math.nan
+    if not (math.isfinite(ts) and ts > 0):
+        raise ParameterError(f"time_scale must be 'auto' or a number > 0 of playback seconds "
+                             f"per data second, got {time_scale!r}")  # fmt: skip
+    return ts
+
+
+def _fixed_scale(s: Session) -> float:
+    """The session's time scale where a number is needed before there is a path (default
+    durations): 1 for ``"auto"`` (the data's span in real time)."""
+    ts = _check_time_scale(s.audio["time_scale"])
+    return 1.0 if isinstance(ts, str) else ts
+
+
+def _time_scale(s: Session, view: View, path: ListenerPath | None) -> float:
+    """The time scale a view places the listener glyph with: the session's, or for
+    ``"auto"`` the one a render along ``path`` uses (:func:`auralize.pipeline.plan_render`)."""
+    ts = _check_time_scale(s.audio["time_scale"])
+    if not isinstance(ts, str):
+        return ts
+    vol = view.scene.volume
+    if vol is None or path is None or vol.n_steps < 2:
+        return 1.0
+    from auralize.pipeline import plan_render
+
+    return plan_render(vol, path=path, time_scale="auto", clip=False).time_scale
 
 
 def _input(Input: DataSource | None, source: DataSource | None) -> DataSource | None:

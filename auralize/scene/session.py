@@ -112,7 +112,8 @@ SCHEMA = Obj({
     "audio": Obj({
         "layout": Text(nonempty=True),
         "rate": Num(lo=1),
-        "time_scale": Num(lo=0, lo_open=True),
+        "time_scale": Either(Num(lo=0, lo_open=True), Text(choices=("auto",)),
+                             what="a number > 0 (playback seconds per data second) or 'auto'"),
         "device": optional(Either(Text(), Num(lo=0, integer=True))),
         "heard": Text(nonempty=True),
     }, other=AnyJSON()),

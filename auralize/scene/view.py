@@ -51,6 +51,8 @@ PATH_COLOR: tuple[int, int, int] = PATH_RGB
 #: background colour (dark, unsaturated)
 BACKGROUND: tuple[int, int, int] = (26, 26, 34)
 REPRESENTATIONS = ("volume", "slices", "contour", "glyphs", "none")
+#: view direction of the default (isometric) view, as ParaView's: from (+1, +1, +1)
+ISOMETRIC: tuple[float, float, float] = (-1.0, -1.0, -1.0)
 #: pixels between the rays of volume rendering (per side; 1 = one ray per pixel): the
 #: volume is smooth, and 2 keeps a 1024×768 redraw near 80 ms on a software renderer
 IMAGE_SAMPLE_DISTANCE = 2.0
@@ -165,8 +167,8 @@ class Scene:
         self._shown_frame: SourceFrame | None = None
         self._legend(None)
         self.set_step(0, render=False)
-        self.plotter.reset_camera()
-        self.plotter.view_isometric()
+        # frame the new data (not a listener path or overlay of other data still shown)
+        self.reset_camera(ISOMETRIC, (0.0, 0.0, 1.0))
 
     def set_field(self, name: str, *, render: bool = True) -> None:
         """Choose the displayed field (raises FieldError for an unknown name)."""
@@ -580,6 +582,34 @@ class Scene:
         if "view_angle" in cam:
             c.view_angle = float(cam["view_angle"])
         self.plotter.renderer.ResetCameraClippingRange()
+
+    def reset_camera(self, direction: Any = None, up: Any = None) -> None:
+        """Frame the data: the focal point at the centre of the volume's bounding box,
+        which fits the view (ParaView's Reset Camera; listener paths and overlays are
+        not framed, so a path far away does not shrink the data to a dot).
+
+        ``direction`` (the view direction, from the camera to the data) and ``up``
+        set the view (a standard view); without them it is kept.  No redraw."""
+        vol = self._need_volume()
+        cam = self.plotter.camera
+        b = np.asarray(vol.bounds, dtype=np.float64).reshape(3, 2)
+        centre = b.mean(axis=1)
+        if direction is None:
+            d = np.asarray(cam.focal_point, dtype=np.float64) - np.asarray(cam.position)
+            u = np.asarray(cam.up, dtype=np.float64)
+        else:
+            d, u = np.asarray(direction, dtype=np.float64), np.asarray(up, dtype=np.float64)
+        d = d / np.linalg.norm(d)
+        u = u - (u @ d) * d
+        if not np.linalg.norm(u) > 1e-9:  # up along the view: any perpendicular
+            u = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+        cam.focal_point = tuple(centre)
+        cam.position = tuple(centre - d)
+        cam.up = tuple(u / np.linalg.norm(u))
+        ren = self.plotter.renderer
+        ren.ResetCamera(*b.reshape(-1))  # keeps the direction, fits the box's sphere
+        ren.ResetCameraClippingRange()  # everything shown stays unclipped
+        ren.camera_set = True  # pyvista resets no more on its own
 
     def frame_all(self) -> None:
         """Fit the camera to everything shown (isometric)."""

@@ -11,15 +11,27 @@ detection, rendering, each time step of an overlay) runs in a :class:`Task`
 thread with a progress bar and a Cancel button.  Errors show a message box; the session stays usable.
 
 Menus: **File** (Open…, Open built-in dataset, Save session, Save session
-as…, Quit).  Opening shows the data at once (volume, slices or contour, the
-data's outline and a colour bar); sources are detected only when asked
-(Sources panel).
+as…, Open session…, Save Screenshot…, Quit), **View** (Reset Camera, the six
+standard views, show / hide each panel and toolbar) and **Help** (Keys, Documentation,
+About).  Opening shows the data at once (volume, slices or contour, the
+data's outline and a colour bar) with the camera framing it; a listener path
+recorded for the previous data is discarded unless the user keeps it (a
+question, Discard by default; ``open_data(keep_path=...)`` or
+:attr:`MainWindow.keep_path_answer` answer it in scripts and tests).  Sources
+are detected only when asked (Sources panel).
 
-Navigation: the mouse as in any VTK view, plus flying keys whenever no text
-or number box is being edited — Up/W forward, Down/S back, Left/A and
-Right/D turn, PageUp/R rise, PageDown/F sink (Qt key codes, so they work
-whatever name VTK gives the key).  The key map is shown in the Listener
-panel, the camera position in the status bar.
+Toolbars, as ParaView's: **Camera** (Reset Camera: frame the data keeping the
+view direction; +X … −Z: look along an axis) and **Time** (first, previous,
+Play, next, last frame, the time slider).
+
+Keys: one table, :data:`KEYS`, makes the key handling, the menus' shortcuts and
+Help ▸ Keys.  The view keys work whenever no text or number box is being
+edited (Qt key codes, so they work whatever name VTK gives the key): flying —
+Up/W forward, Down/S back, Left/A and Right/D turn, PageUp/R rise, PageDown/F
+sink; camera — C Reset Camera, X / Y / Z look along +X / +Y / +Z, Shift+X / Y / Z
+along −X / −Y / −Z; time — Home first, ``,`` previous, ``.`` next, End last
+frame.  Menus: Ctrl+O open, Ctrl+S save session, Ctrl+Shift+S save screenshot,
+Ctrl+Q quit, F1 keys.  The camera position is in the status bar.
 """
 
 from __future__ import annotations
@@ -28,6 +40,7 @@ import os
 import traceback
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -51,24 +64,116 @@ MAPPINGS = ("auto", "paper-density", "identity", "cfd")
 CMAPS = ("gray", "viridis", "inferno", "coolwarm", "bone")
 
 
-#: flying keys: Qt key -> (forward, turn, rise) steps
-FLY_KEYS: dict[int, tuple[int, int, int]] = {
-    int(QtCore.Qt.Key.Key_Up): (1, 0, 0), int(QtCore.Qt.Key.Key_W): (1, 0, 0),
-    int(QtCore.Qt.Key.Key_Down): (-1, 0, 0), int(QtCore.Qt.Key.Key_S): (-1, 0, 0),
-    int(QtCore.Qt.Key.Key_Left): (0, 1, 0), int(QtCore.Qt.Key.Key_A): (0, 1, 0),
-    int(QtCore.Qt.Key.Key_Right): (0, -1, 0), int(QtCore.Qt.Key.Key_D): (0, -1, 0),
-    int(QtCore.Qt.Key.Key_PageUp): (0, 0, 1), int(QtCore.Qt.Key.Key_R): (0, 0, 1),
-    int(QtCore.Qt.Key.Key_PageDown): (0, 0, -1), int(QtCore.Qt.Key.Key_F): (0, 0, -1),
+@dataclass(frozen=True)
+class KeyBinding:
+    """One row of :data:`KEYS`: ``keys`` (Qt key-sequence text, e.g. ``"Shift+X"``) call
+    the window's method ``action`` with ``args``; ``what`` is its line in Help ▸ Keys.
+
+    ``view`` keys act on the 3-D view: they work whenever no text or number box
+    is being edited (:class:`ViewKeys`, an application event filter), and only
+    once data is open; the others are menu shortcuts (Qt's).  A binding whose
+    action is on a menu or toolbar (:meth:`MainWindow._act`) is also that action's
+    shortcut, so the menus show its keys (Qt's shortcut or the filter handles a key
+    press, never both)."""
+
+    group: str
+    keys: tuple[str, ...]
+    action: str
+    what: str
+    args: tuple[Any, ...] = ()
+    view: bool = True
+
+
+#: every key binding of the viewer: the key handling (:class:`ViewKeys`, the menu and
+#: toolbar actions' shortcuts) and Help ▸ Keys are made from this one table
+KEYS: tuple[KeyBinding, ...] = (
+    KeyBinding("Fly (the camera is the listener)", ("Up", "W"), "fly", "forward", (1, 0, 0)),
+    KeyBinding("Fly (the camera is the listener)", ("Down", "S"), "fly", "back", (-1, 0, 0)),
+    KeyBinding("Fly (the camera is the listener)", ("Left", "A"), "fly", "turn left", (0, 1, 0)),
+    KeyBinding("Fly (the camera is the listener)", ("Right", "D"), "fly", "turn right",
+               (0, -1, 0)),
+    KeyBinding("Fly (the camera is the listener)", ("PgUp", "R"), "fly", "rise", (0, 0, 1)),
+    KeyBinding("Fly (the camera is the listener)", ("PgDown", "F"), "fly", "sink", (0, 0, -1)),
+    KeyBinding("Camera", ("C",), "reset_camera",
+               "Reset Camera: frame the data, keeping the view direction"),
+    KeyBinding("Camera", ("X",), "look", "view direction +X (look along +X)", ("+X",)),
+    KeyBinding("Camera", ("Shift+X",), "look", "view direction −X", ("-X",)),
+    KeyBinding("Camera", ("Y",), "look", "view direction +Y", ("+Y",)),
+    KeyBinding("Camera", ("Shift+Y",), "look", "view direction −Y", ("-Y",)),
+    KeyBinding("Camera", ("Z",), "look", "view direction +Z (look down)", ("+Z",)),
+    KeyBinding("Camera", ("Shift+Z",), "look", "view direction −Z (look up)", ("-Z",)),
+    KeyBinding("Time", ("Home",), "first_step", "first frame"),
+    KeyBinding("Time", (",",), "previous_step", "previous frame"),
+    KeyBinding("Time", (".",), "next_step", "next frame"),
+    KeyBinding("Time", ("End",), "last_step", "last frame"),
+    KeyBinding("Menus", ("Ctrl+O",), "_ask_open", "File ▸ Open…", view=False),
+    KeyBinding("Menus", ("Ctrl+S",), "save_session_current", "File ▸ Save session", view=False),
+    KeyBinding("Menus", ("Ctrl+Shift+S",), "save_screenshot", "File ▸ Save Screenshot…",
+               view=False),
+    KeyBinding("Menus", ("Ctrl+Q",), "close", "File ▸ Quit", view=False),
+    KeyBinding("Menus", ("F1",), "show_keys", "Help ▸ Keys (this list)", view=False),
+)  # fmt: skip
+#: the six standard views (ParaView's camera toolbar): name -> (view direction, view up)
+STANDARD_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    "+X": ((1, 0, 0), (0, 0, 1)), "-X": ((-1, 0, 0), (0, 0, 1)),
+    "+Y": ((0, 1, 0), (0, 0, 1)), "-Y": ((0, -1, 0), (0, 0, 1)),
+    "+Z": ((0, 0, 1), (0, 1, 0)), "-Z": ((0, 0, -1), (0, 1, 0)),
 }  # fmt: skip
-KEY_MAP_TEXT = ("fly: ↑/W forward · ↓/S back · ←/A, →/D turn · PgUp/R rise · PgDn/F sink "
-                "(when no box is being edited)")  # fmt: skip
+_MODS = (QtCore.Qt.KeyboardModifier.ShiftModifier | QtCore.Qt.KeyboardModifier.ControlModifier
+         | QtCore.Qt.KeyboardModifier.AltModifier | QtCore.Qt.KeyboardModifier.MetaModifier)  # fmt: skip
+
+
+def binding(action: str, *args: Any) -> KeyBinding:
+    """The row of :data:`KEYS` for ``action`` called with ``args``."""
+    for b in KEYS:
+        if b.action == action and b.args == args:
+            return b
+    raise KeyError((action, args))
+
+
+def key_text(b: KeyBinding) -> str:
+    """The keys of a binding as the menus show them (``"Up / W"``)."""
+    return " / ".join(QtGui.QKeySequence(k).toString(QtGui.QKeySequence.SequenceFormat.NativeText)
+                      for k in b.keys)  # fmt: skip
+
+
+def keys_html() -> str:
+    """Help ▸ Keys: every binding of :data:`KEYS`, grouped, as an HTML table."""
+    rows, group = [], None
+    for b in KEYS:
+        if b.group != group:
+            group = b.group
+            rows.append(f"<tr><th colspan=2 align=left><br>{group}</th></tr>")
+        rows.append(f"<tr><td><b>{key_text(b)}</b></td><td>{b.what}</td></tr>")
+    return ("<p>View keys work whenever no text or number box is being edited "
+            "(click the 3-D view first).</p><table cellspacing=4>" + "".join(rows) + "</table>")  # fmt: skip
+
+
+def _combo(key: int, mods: Any) -> int:
+    return int(QtCore.QKeyCombination(QtCore.Qt.KeyboardModifier(mods & _MODS),
+                                      QtCore.Qt.Key(key)).toCombined())  # fmt: skip
+
+
+#: view keys: key combination -> binding
+VIEW_KEYS: dict[int, KeyBinding] = {
+    QtGui.QKeySequence(k)[0].toCombined(): b  # type: ignore[index]
+    for b in KEYS
+    if b.view
+    for k in b.keys
+}
+KEY_MAP_TEXT = (
+    "fly: "
+    + " · ".join(f"{key_text(b)} {b.what}" for b in KEYS if b.action == "fly")
+    + " (when no box is being edited; Help ▸ Keys lists every key)"
+)
 #: sizes and steps File ▸ Open built-in dataset uses (quick to open); others: their defaults
 BUILTIN_SIZES = {"explosion": (32, 12), "monopole": (16, 60)}
 
 
-class FlyKeys(QtCore.QObject):
-    """Application event filter: flying keys reach the 3-D view unless a text or number
-    box has the focus (then the box gets them, as usual)."""
+class ViewKeys(QtCore.QObject):
+    """Application event filter: the view keys of :data:`KEYS` (flying, camera, time)
+    reach the window unless a text or number box has the focus (then the box gets
+    them, as usual).  Flying keys work with Shift held too."""
 
     def __init__(self, window: MainWindow) -> None:
         super().__init__(window)
@@ -78,13 +183,13 @@ class FlyKeys(QtCore.QObject):
         if event.type() != QtCore.QEvent.Type.KeyPress:
             return False
         key = int(event.key())  # type: ignore[attr-defined]
-        if key not in FLY_KEYS:
-            return False
         mods = event.modifiers()  # type: ignore[attr-defined]
-        ctrl_alt = (
-            QtCore.Qt.KeyboardModifier.ControlModifier | QtCore.Qt.KeyboardModifier.AltModifier
-        )
-        if mods & ctrl_alt:
+        b = VIEW_KEYS.get(_combo(key, mods))
+        if b is None and mods & QtCore.Qt.KeyboardModifier.ShiftModifier:
+            b = VIEW_KEYS.get(_combo(key, mods & ~QtCore.Qt.KeyboardModifier.ShiftModifier))
+            if b is not None and b.action != "fly":
+                b = None
+        if b is None:
             return False
         # a key event goes to the focus widget (or the window): that is ``obj``
         if not isinstance(obj, QtWidgets.QWidget) or obj.window() is not self.window:
@@ -93,8 +198,12 @@ class FlyKeys(QtCore.QObject):
             return False
         if self.window.volume is None:
             return False
-        self.window._guard(self.window.fly, *FLY_KEYS[key])
+        self.window._guard(getattr(self.window, b.action), *b.args)
         return True
+
+
+#: the old name
+FlyKeys = ViewKeys
 
 
 def _edits_text(w: QtWidgets.QWidget) -> bool:
@@ -177,6 +286,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._live_time = 0.0
         self._tick_pending = False
         self.task: Task | None = None
+        #: answer to "keep the listener path for the new data?" (None: ask; tests set it)
+        self.keep_path_answer: bool | None = None
         # overlay steps computed in the background: the running task, the step wanted
         # next and the steps computed so far per overlay (for one volume and path)
         self._overlay_tasks: dict[str, Task] = {}
@@ -198,8 +309,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_menu()
         self._build_toolbar()
         self._build_panels()
+        self._build_view_menu()
         self._build_status()
-        self.fly_keys = FlyKeys(self)
+        self._qt_button_tips()
+        self.fly_keys = ViewKeys(self)
         app = QtWidgets.QApplication.instance()
         if app is not None:
             app.installEventFilter(self.fly_keys)
@@ -209,11 +322,31 @@ class MainWindow(QtWidgets.QMainWindow):
         self._refresh_enabled()
 
     # ============================================================ building
+    def _act(self, text: str, action: str, *args: Any, tip: str = "",
+             icon: Any = None) -> QtGui.QAction:  # fmt: skip
+        """A menu / toolbar action calling ``self.<action>(*args)``; its shortcut (and
+        the key in its tooltip) comes from :data:`KEYS`."""
+        a = QtGui.QAction(text, self)
+        if icon is not None:
+            a.setIcon(self.style().standardIcon(icon))
+        tip = tip or text.replace("&", "").rstrip("…")
+        try:
+            b = binding(action, *args)
+        except KeyError:
+            pass
+        else:
+            a.setShortcuts([QtGui.QKeySequence(k) for k in b.keys])
+            tip = f"{tip} ({key_text(b)})"
+        a.setToolTip(tip)
+        a.setStatusTip(tip)
+        fn = getattr(self, action)
+        a.triggered.connect(lambda _c=False: self._guard(fn, *args))
+        return a
+
     def _build_menu(self) -> None:
         m = self.menuBar().addMenu("&File")
-        act = m.addAction("&Open…")
-        act.setShortcut(QtGui.QKeySequence.StandardKey.Open)
-        act.triggered.connect(self._ask_open)
+        m.setToolTipsVisible(True)
+        m.addAction(self._act("&Open…", "_ask_open", tip="Open a data file"))
         sub = self.builtin_menu = m.addMenu("Open &built-in dataset")
         from auralize.datasets.synthetic import all_datasets
 
@@ -226,9 +359,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 )
             )
         m.addSeparator()
-        act = m.addAction("&Save session")
-        act.setShortcut(QtGui.QKeySequence.StandardKey.Save)
-        act.triggered.connect(lambda: self._guard(self.save_session_current))
+        m.addAction(self._act("&Save session", "save_session_current",
+                              tip="Save the session (to its file, or ask for one)"))  # fmt: skip
         act = m.addAction("Save session &as…")
         act.triggered.connect(self._ask_save_session)
         act = m.addAction("Open &session…")
@@ -236,11 +368,43 @@ class MainWindow(QtWidgets.QMainWindow):
             lambda: self._ask_file("open", "Sessions (*.json)", self.load_session)
         )
         m.addSeparator()
-        act = m.addAction("&Quit")
-        act.setShortcut(QtGui.QKeySequence.StandardKey.Quit)
-        act.triggered.connect(self.close)
+        self.screenshot_action = self._act(
+            "Save Screens&hot…", "save_screenshot",
+            tip="Save the 3-D view as a PNG image (asks for a file name)")  # fmt: skip
+        m.addAction(self.screenshot_action)
+        m.addSeparator()
+        m.addAction(self._act("&Quit", "close", tip="Close the window"))
         self.file_menu = m
         self.session_file: Path | None = None
+        # filled once the panels and toolbars exist (_build_view_menu)
+        self.view_menu = self.menuBar().addMenu("&View")
+        self.view_menu.setToolTipsVisible(True)
+        h = self.help_menu = self.menuBar().addMenu("&Help")
+        h.setToolTipsVisible(True)
+        h.addAction(self._act("&Keys…", "show_keys", tip="Every key binding"))
+        h.addAction(self._act("&Documentation", "open_docs",
+                              tip="Open the README (the docs/ folder has the design notes)"))  # fmt: skip
+        h.addAction(self._act("&About auralize", "show_about", tip="Version and links"))
+
+    def _build_view_menu(self) -> None:
+        """View: Reset Camera, the six standard views, and show / hide each panel and
+        toolbar."""
+        v = self.view_menu
+        v.addAction(self.reset_camera_action)
+        for a in self.view_actions.values():
+            v.addAction(a)
+        v.addSeparator()
+        for title, d in self.docks.items():
+            a = d.toggleViewAction()
+            a.setText(f"{title} panel")
+            a.setToolTip(f"Show or hide the {title} panel")
+            v.addAction(a)
+        v.addSeparator()
+        for tb in (self.time_toolbar, self.camera_toolbar):
+            a = tb.toggleViewAction()
+            a.setText(f"{tb.windowTitle()} toolbar")
+            a.setToolTip(f"Show or hide the {tb.windowTitle()} toolbar")
+            v.addAction(a)
 
     def _ask_save_session(self) -> None:
         self._ask_file("save", "Sessions (*.json)", self.save_session)
@@ -254,18 +418,54 @@ class MainWindow(QtWidgets.QMainWindow):
         return self.session_file
 
     def _build_toolbar(self) -> None:
-        tb = self.addToolBar("Time")
+        sp = QtWidgets.QStyle.StandardPixmap
+        cam = self.camera_toolbar = self.addToolBar("Camera")
+        cam.setObjectName("camera")
+        self.reset_camera_action = self._act(
+            "Reset Camera", "reset_camera", icon=sp.SP_BrowserReload,
+            tip="Reset Camera: frame the data, keeping the view direction")  # fmt: skip
+        cam.addAction(self.reset_camera_action)
+        self.view_actions: dict[str, QtGui.QAction] = {}
+        for name in STANDARD_VIEWS:
+            label = name.replace("-", "−")
+            a = self._act(label, "look", name, tip=f"Set view direction to {label}")
+            self.view_actions[name] = a
+            cam.addAction(a)
+        tb = self.time_toolbar = self.addToolBar("Time")
         tb.setObjectName("time")
+        self.time_actions: dict[str, QtGui.QAction] = {}
+        for action, icon, text in (("first_step", sp.SP_MediaSkipBackward, "First frame"),
+                                   ("previous_step", sp.SP_MediaSeekBackward, "Previous frame")):  # fmt: skip
+            self.time_actions[action] = a = self._act(text, action, icon=icon)
+            tb.addAction(a)
         self.play_btn = QtWidgets.QPushButton("Play")
         self.play_btn.setCheckable(True)
+        self.play_btn.setToolTip("Play / pause: step through time at the time scale")
         self.play_btn.toggled.connect(self.set_playing)
         tb.addWidget(self.play_btn)
+        for action, icon, text in (("next_step", sp.SP_MediaSeekForward, "Next frame"),
+                                   ("last_step", sp.SP_MediaSkipForward, "Last frame")):  # fmt: skip
+            self.time_actions[action] = a = self._act(text, action, icon=icon)
+            tb.addAction(a)
         self.slider = QtWidgets.QSlider(QtCore.Qt.Orientation.Horizontal)
-        self.slider.setMinimumWidth(400)
+        self.slider.setMinimumWidth(300)
+        self.slider.setToolTip(
+            f"Time step (first / previous / next / last frame: "
+            f"{', '.join(key_text(binding(a)) for a in self.time_actions)})")  # fmt: skip
         self.slider.valueChanged.connect(self._on_slider)
         tb.addWidget(self.slider)
         self.step_label = QtWidgets.QLabel("no data")
         tb.addWidget(self.step_label)
+
+    def _qt_button_tips(self) -> None:
+        """Tooltips for the buttons Qt makes itself (dock title bars, overflow arrows)."""
+        tips = {"qt_dockwidget_closebutton": "hide this panel (View menu shows it again)",
+                "qt_dockwidget_floatbutton": "float this panel in its own window, or dock it again",
+                "qt_toolbar_ext_button": "more of this toolbar",
+                "qt_menubar_ext_button": "more menus"}  # fmt: skip
+        for b in self.findChildren(QtWidgets.QAbstractButton):
+            if not b.toolTip() and b.objectName() in tips:
+                b.setToolTip(tips[b.objectName()])
 
     def _dock(self, title: str, widget: QtWidgets.QWidget,
               area: QtCore.Qt.DockWidgetArea = QtCore.Qt.DockWidgetArea.LeftDockWidgetArea,
@@ -283,24 +483,29 @@ class MainWindow(QtWidgets.QMainWindow):
         w = QtWidgets.QWidget()
         f = _form(w)
         self.open_btn = QtWidgets.QPushButton("Open…")
+        self.open_btn.setToolTip("Open a data file (File ▸ Open built-in dataset has examples)")
         self.open_btn.clicked.connect(self._ask_open)
         f.addRow(self.open_btn)
         self.info = QtWidgets.QLabel("no data")
         self.info.setWordWrap(True)
         f.addRow(self.info)
         self.field_box = QtWidgets.QComboBox()
+        self.field_box.setToolTip("the field shown (vector fields: their magnitude)")
         self.field_box.activated.connect(
             lambda _i: self._guard(self.set_field, self.field_box.currentText())
         )
         f.addRow("field", self.field_box)
         self.rep_box = QtWidgets.QComboBox()
         self.rep_box.addItems(list(REPRESENTATIONS))
+        self.rep_box.setToolTip("how the field is drawn: volume rendering, three orthogonal "
+                                "slices, a contour, arrows of a vector field, or nothing")  # fmt: skip
         self.rep_box.activated.connect(
             lambda _i: self._guard(self.scene.set_representation, self.rep_box.currentText())
         )
         f.addRow("show as", self.rep_box)
         self.cmap_box = QtWidgets.QComboBox()
         self.cmap_box.addItems(list(CMAPS))
+        self.cmap_box.setToolTip("colour map of the field")
         self.cmap_box.activated.connect(
             lambda _i: self._guard(self.scene.set_colormap, self.cmap_box.currentText())
         )
@@ -309,10 +514,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.opacity.setRange(0, 1)
         self.opacity.setSingleStep(0.05)
         self.opacity.setValue(self.scene.opacity)
+        self.opacity.setToolTip("overall opacity of the field (0 transparent, 1 opaque)")
         self.opacity.valueChanged.connect(lambda v: self._guard(self.scene.set_colormap, None, v))
         f.addRow("opacity", self.opacity)
         self.mapping_box = QtWidgets.QComboBox()
         self.mapping_box.addItems(list(MAPPINGS))
+        self.mapping_box.setToolTip("acoustic mapping: how field values become density and "
+                                    "particle velocity (auto chooses from the fields)")  # fmt: skip
         self.mapping_box.activated.connect(
             lambda _i: self._guard(self.set_mapping, self.mapping_box.currentText())
         )
@@ -326,6 +534,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.count_labels: dict[str, QtWidgets.QLabel] = {}
         for kind, d in zip(TYPES, VIEWER_THRESHOLDS, strict=True):
             e = QtWidgets.QLineEdit(d)
+            e.setToolTip(f"{kind} detection threshold: an absolute strength, N% of the peak, "
+                         f"or auto")  # fmt: skip
             self.th_edits[kind] = e
             f.addRow(f"{kind} threshold", e)
         self.heard_box = QtWidgets.QComboBox()
@@ -340,8 +550,8 @@ class MainWindow(QtWidgets.QMainWindow):
             row = QtWidgets.QHBoxLayout()
             cb = QtWidgets.QCheckBox(kind)
             cb.setChecked(True)
-            r, g, b = TYPE_COLORS[kind]
-            cb.setStyleSheet(f"color: rgb({r},{g},{b}); font-weight: bold")
+            r, g, bl = TYPE_COLORS[kind]
+            cb.setStyleSheet(f"color: rgb({r},{g},{bl}); font-weight: bold")
             cb.setToolTip(f"draw the {kind}s")
             cb.toggled.connect(lambda on, k=kind: self._guard(self.scene.set_type_visible, k, on))
             self.type_checks[kind] = cb
@@ -358,6 +568,8 @@ class MainWindow(QtWidgets.QMainWindow):
             f.addRow(row)
         self._sync_hear_checks()
         self.detect_btn = QtWidgets.QPushButton("Detect")
+        self.detect_btn.setToolTip("detect the sound sources at every time step (in the "
+                                   "background, the current step first)")  # fmt: skip
         self.detect_btn.clicked.connect(lambda: (self._guard(self.detect), self._focus_view()))
         f.addRow(self.detect_btn)
         self.detect_note = QtWidgets.QLabel("sources are detected when you ask (Detect)")
@@ -371,6 +583,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.rate_spin.setRange(0.5, 60)
         self.rate_spin.setValue(DEFAULT_RATE_HZ)
         self.rate_spin.setSuffix(" Hz")
+        self.rate_spin.setToolTip("how often the camera is captured while recording")
         f.addRow("capture rate", self.rate_spin)
         row = QtWidgets.QHBoxLayout()
         self.rec_btn = QtWidgets.QPushButton("Record")
@@ -381,14 +594,20 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stop_btn.clicked.connect(lambda: self._guard(self.stop_recording))
         self.clear_btn = QtWidgets.QPushButton("Clear")
         self.clear_btn.clicked.connect(lambda: self._guard(self.clear_path))
+        self.rec_btn.setToolTip("record the camera as the listener path (fly with the keys "
+                                "or the mouse); autosaved as it goes")  # fmt: skip
+        self.stop_btn.setToolTip("stop recording")
+        self.clear_btn.setToolTip("forget the listener path")
         for b in (self.rec_btn, self.stop_btn, self.clear_btn):
             row.addWidget(b)
         f.addRow(row)
         row = QtWidgets.QHBoxLayout()
         b = QtWidgets.QPushButton("Save CSV…")
+        b.setToolTip("save the listener path as CSV (t,x,y,z,fx,fy,fz,ux,uy,uz)")
         b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_path))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Load CSV…")
+        b.setToolTip("load a listener path from CSV")
         b.clicked.connect(lambda: self._ask_file("open", "CSV (*.csv)", self.load_path))
         row.addWidget(b)
         f.addRow(row)
@@ -397,6 +616,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.path_label.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
         f.addRow(self.path_label)
         self.key_map = QtWidgets.QLabel(KEY_MAP_TEXT)
+        self.key_map.setToolTip("Help ▸ Keys lists every key")
         self.key_map.setWordWrap(True)
         f.addRow(self.key_map)
         self._dock("Listener", w)
@@ -405,11 +625,14 @@ class MainWindow(QtWidgets.QMainWindow):
         f = _form(w)
         self.layout_box = QtWidgets.QComboBox()
         self.layout_box.addItems(list(LAYOUTS))
+        self.layout_box.setToolTip("loudspeaker layout (or binaural / Ambisonics) of renders "
+                                   "and live listening")  # fmt: skip
         self.layout_box.setCurrentText(self.audio["layout"])
         self.layout_box.currentTextChanged.connect(lambda t: self.audio.__setitem__("layout", t))
         f.addRow("layout", self.layout_box)
         self.device_box = QtWidgets.QComboBox()
         self.device_box.addItem("default")
+        self.device_box.setToolTip("sound device for Play and live listening")
         self.device_box.addItems([str(d) for d in _devices()])
         self.device_box.currentTextChanged.connect(
             lambda t: self.audio.__setitem__("device", None if t == "default" else t)
@@ -419,16 +642,20 @@ class MainWindow(QtWidgets.QMainWindow):
         self.ts_spin.setRange(0.01, 1000)
         self.ts_spin.setDecimals(3)
         self.ts_spin.setValue(1.0)
+        self.ts_spin.setToolTip("time scale: playback seconds per data second")
         self.ts_spin.valueChanged.connect(self._on_time_scale)
         f.addRow("time scale", self.ts_spin)
         row = QtWidgets.QHBoxLayout()
         b = QtWidgets.QPushButton("Render to file…")
+        b.setToolTip("render the sound heard along the listener path to a WAV/FLAC file")
         b.clicked.connect(lambda: self._ask_file("save", "Audio (*.wav *.flac)", self.render_audio))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Play")
+        b.setToolTip("play the last render on the sound device")
         b.clicked.connect(lambda: self._guard(self.play_audio))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Stop")
+        b.setToolTip("stop playing")
         b.clicked.connect(lambda: self._guard(self.stop_audio))
         row.addWidget(b)
         f.addRow(row)
@@ -444,6 +671,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.meter.setRange(-60, 0)
         self.meter.setValue(-60)
         self.meter.setFormat("level: –")
+        self.meter.setToolTip("peak level of what is playing (dBFS) and the limiter's reduction")
         f.addRow("level", self.meter)
         from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
         from matplotlib.figure import Figure
@@ -460,18 +688,24 @@ class MainWindow(QtWidgets.QMainWindow):
         self.block_spin = QtWidgets.QSpinBox()
         self.block_spin.setRange(256, 16384)
         self.block_spin.setValue(2048)
+        self.block_spin.setToolTip("samples synthesized per block in live listening (larger: "
+                                   "steadier, more latency)")  # fmt: skip
         f.addRow("block (samples)", self.block_spin)
         self.live_file = QtWidgets.QLineEdit()
         self.live_file.setPlaceholderText("device (or a WAV file to write instead)")
+        self.live_file.setToolTip("empty: the sound device; a WAV file name: write there instead")
         f.addRow("output", self.live_file)
         row = QtWidgets.QHBoxLayout()
         self.live_btn = QtWidgets.QPushButton("Listen live")
         self.live_btn.clicked.connect(lambda: self._guard(self.start_live))
+        self.live_btn.setToolTip("hear the data live: the listener follows the camera")
         row.addWidget(self.live_btn)
         b = QtWidgets.QPushButton("Stop")
+        b.setToolTip("stop live listening")
         b.clicked.connect(lambda: self._guard(self.stop_live))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Save heard…")
+        b.setToolTip("save what live listening played: the path CSV and a WAV beside it")
         b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_heard))
         row.addWidget(b)
         f.addRow(row)
@@ -488,6 +722,8 @@ class MainWindow(QtWidgets.QMainWindow):
             if cls.overlay is SoundModel.overlay:  # the plugin offers no overlay
                 continue
             cb = QtWidgets.QCheckBox(f"{name}: {cls.description[:40]}")
+            cb.setToolTip(f"show the {name} model's overlay (and hear its sound): "
+                          f"{cls.description}")  # fmt: skip
             cb.toggled.connect(lambda on, n=name: self._toggle_overlay(n, on))
             self.overlay_checks[name] = cb
             v.addWidget(cb)
@@ -505,6 +741,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.progress.setMaximumWidth(240)
         self.progress.hide()
         self.cancel_btn = QtWidgets.QPushButton("Cancel")
+        self.cancel_btn.setToolTip("cancel the work in progress")
         self.cancel_btn.hide()
         self.cancel_btn.clicked.connect(self.cancel_task)
         self.camera_label = QtWidgets.QLabel("")
@@ -579,9 +816,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def run_task(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
                  done: Callable[[Any], None]) -> Task:  # fmt: skip
         """Run ``fn`` in a :class:`Task` with the progress bar; ``done(result)`` on success."""
-        if self.busy:
-            assert self.task is not None
-            raise ParameterError(f"busy with {self.task.name}; wait or cancel it first")
+        self._check_idle()
         if self.task is not None and self.task.isRunning():
             self.task.wait(5_000)  # it has reported its result; its thread is ending
         t = Task(name, fn, self)
@@ -619,6 +854,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self._refresh_enabled()
         return t
 
+    def _check_idle(self) -> None:
+        if self.busy:
+            assert self.task is not None
+            raise ParameterError(f"busy with {self.task.name}; wait or cancel it first")
+
     def cancel_task(self) -> None:
         """The Cancel button: stop the running task and any overlay step being computed."""
         if self.task is not None:
@@ -651,13 +891,22 @@ class MainWindow(QtWidgets.QMainWindow):
                   seed: int = 0, fields: dict[str, str] | None = None,
                   resolution: int | None = None, field: str | None = None,
                   then: Callable[[], None] | None = None, time_dim: str | None = None,
-                  axis_scale: Any = None, box: Any = None) -> Task:  # fmt: skip
+                  axis_scale: Any = None, box: Any = None,
+                  keep_path: bool | None = None) -> Task:  # fmt: skip
         """Open a file or ``dataset:NAME`` in the background (frames are read ahead) and show
         it; no detection runs (see :meth:`detect`).  ``fields``, ``resolution``,
         ``time_dim``, ``axis_scale`` and ``box`` are the readers' options (``--field
         NAME=/DATASET``, ``--resolution``, ``--time-dim`` ...), ``field`` the field
-        to display.  Reader warnings (e.g. resampling) are shown in the Data panel."""
+        to display.  Reader warnings (e.g. resampling) are shown in the Data panel.
+
+        The camera frames the new data.  A listener path recorded (or loaded) for
+        the data on screen is discarded unless ``keep_path`` is True; None asks
+        (:meth:`ask_keep_path`, Discard by default) when there is one."""
         from auralize.scene.session import load_data
+
+        self._check_idle()
+        if keep_path is None:
+            keep_path = self.path is not None and self.ask_keep_path()
 
         d = data_spec(str(spec), size=size, steps=steps, seed=seed, fields=fields,
                       resolution=resolution, time_dim=time_dim, axis_scale=axis_scale, box=box)  # fmt: skip
@@ -683,6 +932,8 @@ class MainWindow(QtWidgets.QMainWindow):
         def done(res: Any) -> None:
             vol, name, frames, notes = res
             self.load_notes = notes
+            if not keep_path:
+                self._drop_path()
             self._set_volume(vol, d, name, frames)
             if then is not None:
                 then()
@@ -731,6 +982,36 @@ class MainWindow(QtWidgets.QMainWindow):
         self._update_step_label()
         self._refresh_enabled()
         self.plotter.render()
+
+    def ask_keep_path(self) -> bool:
+        """Ask whether the listener path of the data on screen is kept for the data being
+        opened (Keep / Discard, Discard by default: its positions are in the old data's
+        coordinates).  :attr:`keep_path_answer` (True / False), when set, answers
+        without asking (scripts and tests)."""
+        if self.keep_path_answer is not None:
+            return bool(self.keep_path_answer)
+        mb = QtWidgets.QMessageBox
+        box = mb(mb.Icon.Question, "auralize", "Keep the listener path for the new data?",
+                 mb.StandardButton.Discard | mb.StandardButton.Yes, self)  # fmt: skip
+        keep = box.button(mb.StandardButton.Yes)
+        keep.setText("Keep")
+        box.setDefaultButton(mb.StandardButton.Discard)
+        p = self.path
+        box.setInformativeText(
+            (f"The path ({p.n_captures} captures, {p.duration:.2f} s) was recorded for "
+             f"{self.data.get('spec', 'the data on screen')}; its positions are in that "
+             "data's coordinates." if p is not None else "")
+            + " Discard it (the default) or keep it for the new data.")  # fmt: skip
+        box.exec()
+        return box.clickedButton() is keep
+
+    def _drop_path(self) -> None:
+        """Forget the listener path (opening other data)."""
+        self.stop_recording()
+        self.recorder.clear()
+        self.path = None
+        self.scene.set_path(None, render=False)
+        self._path_info()
 
     def set_field(self, name: str) -> None:
         if self.volume is None:
@@ -903,6 +1184,127 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_time_scale(self, v: float) -> None:
         self.audio["time_scale"] = float(v)
         self.scene.time_scale = float(v)
+
+    def first_step(self) -> None:
+        """First frame (ParaView's VCR control; stops Play)."""
+        self._step_to(0)
+
+    def previous_step(self) -> None:
+        """Previous frame (stays at the first)."""
+        self._step_to(self.scene.step - 1)
+
+    def next_step(self) -> None:
+        """Next frame (stays at the last)."""
+        self._step_to(self.scene.step + 1)
+
+    def last_step(self) -> None:
+        """Last frame."""
+        self._step_to(self.volume.n_steps - 1 if self.volume is not None else 0)
+
+    def _step_to(self, step: int) -> None:
+        if self.volume is None:
+            return
+        self.set_playing(False)
+        self.set_step(int(np.clip(step, 0, self.volume.n_steps - 1)))
+
+    # ============================================================== camera
+    def reset_camera(self) -> None:
+        """Reset Camera (ParaView's): frame the data (its bounding box, not a listener
+        path far from it), keeping the view direction."""
+        if self.volume is None:
+            return
+        self.scene.reset_camera()
+        self.plotter.render()
+
+    def look(self, direction: str) -> None:
+        """One of the six standard views (ParaView's camera toolbar): ``"+X"`` looks along
+        +X (from the −X side), ... ``"-Z"`` looks up; the data is framed."""
+        if direction not in STANDARD_VIEWS:
+            raise ParameterError(f"view direction must be one of {', '.join(STANDARD_VIEWS)}, "
+                                 f"got {direction!r}")  # fmt: skip
+        if self.volume is None:
+            return
+        self.scene.reset_camera(*STANDARD_VIEWS[direction])
+        self.plotter.render()
+
+    def save_screenshot(self, filename: str | Path | None = None) -> Path | None:
+        """File ▸ Save Screenshot: the 3-D view as a PNG (asks for a file name unless
+        ``filename`` is given; a name without a suffix gets ``.png``)."""
+        from auralize.io.files import check_output_path
+
+        if filename is None:
+            name, _ = QtWidgets.QFileDialog.getSaveFileName(
+                self, "Save Screenshot", "", "PNG image (*.png);;JPEG image (*.jpg *.jpeg)")  # fmt: skip
+            if not name:
+                return None
+            filename = name
+        out = Path(filename).expanduser()
+        if not out.suffix:
+            out = out.with_suffix(".png")
+        if out.suffix.lower() not in (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"):
+            raise ParameterError(f"cannot save a screenshot as {out.suffix!r} ({out}); "
+                                 f"give a .png or .jpg file")  # fmt: skip
+        check_output_path(out)
+        self.plotter.render()
+        self.plotter.screenshot(str(out))
+        self.statusBar().showMessage(f"screenshot saved: {out}", 5000)
+        return out
+
+    # ================================================================ help
+    def show_keys(self) -> QtWidgets.QDialog:
+        """Help ▸ Keys: every key binding (from :data:`KEYS`), in a window that stays open."""
+        dlg = getattr(self, "keys_dialog", None)
+        if dlg is None:
+            dlg = self.keys_dialog = QtWidgets.QDialog(self)
+            dlg.setWindowTitle("auralize — keys")
+            lay = QtWidgets.QVBoxLayout(dlg)
+            self.keys_view = QtWidgets.QTextBrowser()
+            self.keys_view.setHtml(keys_html())
+            lay.addWidget(self.keys_view)
+            dlg.resize(520, 620)
+        dlg.show()
+        dlg.raise_()
+        return dlg
+
+    def docs_path(self) -> Path | None:
+        """The README of the source tree (beside the ``docs/`` folder), if installed from
+        a checkout."""
+        import auralize
+
+        root = Path(auralize.__file__).resolve().parents[1]
+        readme = root / "README.md"
+        return readme if readme.exists() else None
+
+    def about_text(self) -> str:
+        import auralize
+
+        doc = self.docs_path()
+        where = (f'<a href="{doc.as_uri()}">{doc}</a> and <a href="{(doc.parent / "docs").as_uri()}">'
+                 f'{doc.parent / "docs"}</a>' if doc is not None
+                 else "README.md and docs/ in the source distribution")  # fmt: skip
+        return (f"<h3>auralize {auralize.__version__}</h3><p>Hear time-varying 3-D data: "
+                f"sound sources found in a volume time series, heard along the path the "
+                f"camera flies.</p><p>Documentation: {where}</p>"
+                f"<p>Help ▸ Keys lists every key.</p>")  # fmt: skip
+
+    def show_about(self) -> QtWidgets.QMessageBox:
+        """Help ▸ About: version and where the documentation is (a window that stays open)."""
+        box = QtWidgets.QMessageBox(self)
+        box.setWindowTitle("About auralize")
+        box.setTextFormat(QtCore.Qt.TextFormat.RichText)
+        box.setText(self.about_text())
+        box.setWindowModality(QtCore.Qt.WindowModality.NonModal)
+        box.show()
+        self.about_box = box
+        return box
+
+    def open_docs(self) -> None:
+        """Help ▸ Documentation: the README in the desktop's viewer."""
+        doc = self.docs_path()
+        if doc is None:
+            raise ParameterError("no README here (an installed package): see the project's "
+                                 "README.md and docs/ in its source")  # fmt: skip
+        QtGui.QDesktopServices.openUrl(QtCore.QUrl.fromLocalFile(str(doc)))
 
     # ============================================================ listener
     def fly(self, forward: float = 0.0, turn: float = 0.0, rise: float = 0.0) -> None:
@@ -1557,6 +1959,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.mapping_box.setCurrentText(self.mapping)
             a = st.audio or {}
             self.audio.update(a)
+            if isinstance(self.audio["time_scale"], str):  # "auto" (a script's session):
+                self.audio["time_scale"] = float(self.ts_spin.value())  # the viewer's is a number
             self.set_heard(str(self.audio.get("heard") or "field"))
             self.layout_box.setCurrentText(self.audio["layout"])
             self.ts_spin.setValue(float(self.audio["time_scale"]))
@@ -1600,7 +2004,7 @@ class MainWindow(QtWidgets.QMainWindow):
         return self.open_data(d["spec"], size=d.get("size"), steps=d.get("steps"),
                               seed=d.get("seed") or 0, fields=d.get("fields"),
                               resolution=d.get("resolution"), then=apply,
-                              **reader_options(d))  # fmt: skip
+                              keep_path=False, **reader_options(d))  # fmt: skip
 
     # ============================================================== window
     def closeEvent(self, event: Any) -> None:
