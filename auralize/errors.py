@@ -35,6 +35,11 @@ class ParameterError(AuralizeError, ValueError):
     """A parameter is out of its valid range or of the wrong kind."""
 
 
+class ArgumentError(ParameterError, TypeError):
+    """An argument of the wrong kind (a listener path where a view goes, ...): a
+    :class:`ParameterError` that is also a ``TypeError``."""
+
+
 class DeviceError(AuralizeError, RuntimeError):
     """No usable sound device, or the device cannot do what was asked."""
 

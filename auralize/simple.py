@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from auralize.emitters.synthesis import Rendered
-from auralize.errors import ParameterError
+from auralize.errors import ArgumentError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.scene.soundscene import SceneModel
 from auralize.sources.detection import SourceSeries, Thresholds
@@ -75,11 +75,6 @@ __all__ = [
     "SetActiveView",
     "Show",
 ]
-
-
-class ArgumentError(ParameterError, TypeError):
-    """An argument of the wrong kind (a listener path where a view goes, ...): a
-    :class:`~auralize.errors.ParameterError` that is also a ``TypeError``."""
 
 
 @dataclass(eq=False, repr=False)
