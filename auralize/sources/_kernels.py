@@ -104,6 +104,19 @@ def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None):  #
 
 
 @numba.njit(parallel=True, **_NJIT)
+def momentum_change(m_a, m_b, dm):  # type: ignore[no-untyped-def]
+    """Planar momentum change ``dm (3, nz, ny, nx)`` = ``m_b - m_a`` of two ``(nz, ny, nx, 3)``
+    momenta (as :func:`prepare_render`'s; the 2Δt one of the floor, paper 003 Eq. 13)."""
+    nz, ny, nx = dm.shape[1], dm.shape[2], dm.shape[3]
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        for j in range(ny):
+            for i in range(nx):
+                for c in range(3):
+                    dm[c, k, j, i] = m_b[k, j, i, c] - m_a[k, j, i, c]
+
+
+@numba.njit(parallel=True, **_NJIT)
 def _stencil(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-def]
     """Finite-difference stencils on planar arrays (see :func:`strengths`)."""
     nz, ny, nx = rho_a.shape
@@ -333,11 +346,12 @@ def _inner2(i: int, n: int) -> int:
     return i
 
 
-@numba.njit(parallel=True, **_NJIT)
-def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err):  # type: ignore[no-untyped-def]
-    """Discretisation-error estimates ``err (3, nz, ny, nx)`` of the strengths ``s``.
+@numba.njit(**_NJIT)
+def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, err):  # type: ignore[no-untyped-def]
+    """Discretisation-error estimates ``err (3, ny, nx)`` of the strengths ``s`` in plane ``k``.
 
-    Each strength is a second-order finite difference; the same difference
+    Each strength is a second-order finite difference (paper 003 §3.2.3:
+    ``S_m = ∂ρ/∂t``, ``S_d`` of Eq. 13, ``S_q`` of Eq. 14); the same difference
     over twice the step (2h in space, 2Δt in time) differs from it by about
     three times its truncation error (Richardson), so ``|S_h − S_2h| / 3``
     estimates the error of S_h: the monopole's from the time stencil, the
@@ -346,114 +360,129 @@ def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err)
     stencil does not fit (an axis of fewer than 5 points, a series of
     fewer than 4 steps) or would read a no-data point (``bad``), that part
     of the estimate is 0.
+
+    ``rho_a2, rho_b2`` densities at steps n-2 and n+2 (clipped); ``dm``,
+    ``dm2`` the momentum changes ``(3, nz, ny, nx)`` over the Δt and 2Δt
+    stencils; ``tt (6, nz, ny, nx)`` the stress the quadrupole strength was
+    taken of (steady state removed); ``inv_dt``, ``inv_dt2`` the inverse
+    time spans (``inv_dt2`` 0: no 2Δt stencil); ``h (3,)`` the spacing.
+    Only ``s[:, k]`` of the strengths is read.
     """
     nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
     hx, hy, hz = h[0], h[1], h[2]
     wide_t = inv_dt2 > 0.0
-    for kp in numba.prange(nz):
+    k2 = _inner2(k, nz)
+    for j in range(ny):
+        j2 = _inner2(j, ny)
+        for i in range(nx):
+            i2 = _inner2(i, nx)
+            if bad[k, j, i]:
+                err[0, j, i] = 0.0
+                err[1, j, i] = 0.0
+                err[2, j, i] = 0.0
+                continue
+            # monopole: time stencil over 2Δt
+            em = 0.0
+            if wide_t:
+                em = abs(s[0, k, j, i] - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
+            # dipole: divergence over 2h (space), and over 2Δt (time)
+            ed = 0.0
+            ok_x = i2 >= 0 and not (bad[k, j, i2 - 2] or bad[k, j, i2 + 2])
+            ok_y = j2 >= 0 and not (bad[k, j2 - 2, i] or bad[k, j2 + 2, i])
+            ok_z = k2 >= 0 and not (bad[k2 - 2, j, i] or bad[k2 + 2, j, i])
+            div2 = 0.0
+            div1 = 0.0
+            if ok_x:
+                div2 += (dm[0, k, j, i2 + 2] - dm[0, k, j, i2 - 2]) / (4.0 * hx)
+                div1 += (dm[0, k, j, i2 + 1] - dm[0, k, j, i2 - 1]) / (2.0 * hx)
+            if ok_y:
+                div2 += (dm[1, k, j2 + 2, i] - dm[1, k, j2 - 2, i]) / (4.0 * hy)
+                div1 += (dm[1, k, j2 + 1, i] - dm[1, k, j2 - 1, i]) / (2.0 * hy)
+            if ok_z:
+                div2 += (dm[2, k2 + 2, j, i] - dm[2, k2 - 2, j, i]) / (4.0 * hz)
+                div1 += (dm[2, k2 + 1, j, i] - dm[2, k2 - 1, j, i]) / (2.0 * hz)
+            ed = abs(div1 - div2) * inv_dt / 3.0
+            if wide_t:
+                d2 = 0.0
+                i0, i1 = _lohi(i, nx)
+                j0, j1 = _lohi(j, ny)
+                k0, k1 = _lohi(k, nz)
+                if i1 > i0:
+                    d2 += (dm2[0, k, j, i1] - dm2[0, k, j, i0]) / ((i1 - i0) * hx)
+                if j1 > j0:
+                    d2 += (dm2[1, k, j1, i] - dm2[1, k, j0, i]) / ((j1 - j0) * hy)
+                if k1 > k0:
+                    d2 += (dm2[2, k1, j, i] - dm2[2, k0, j, i]) / ((k1 - k0) * hz)
+                ed += abs(s[1, k, j, i] - d2 * inv_dt2) / 3.0
+            # quadrupole: second differences over 2h, mixed ones as products of 2h differences
+            eq = 0.0
+            if ok_x:
+                a = tt[0, k, j, i2 + 1] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 1]
+                b = 0.25 * (tt[0, k, j, i2 + 2] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 2])
+                eq += (a - b) / (hx * hx)
+            if ok_y:
+                a = tt[1, k, j2 + 1, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 1, i]
+                b = 0.25 * (tt[1, k, j2 + 2, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 2, i])
+                eq += (a - b) / (hy * hy)
+            if ok_z:
+                a = tt[2, k2 + 1, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 1, j, i]
+                b = 0.25 * (tt[2, k2 + 2, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 2, j, i])
+                eq += (a - b) / (hz * hz)
+            if ok_x and ok_y:
+                a = (
+                    tt[3, k, j2 + 1, i2 + 1]
+                    - tt[3, k, j2 + 1, i2 - 1]
+                    - tt[3, k, j2 - 1, i2 + 1]
+                    + tt[3, k, j2 - 1, i2 - 1]
+                ) / 4.0
+                b = (
+                    tt[3, k, j2 + 2, i2 + 2]
+                    - tt[3, k, j2 + 2, i2 - 2]
+                    - tt[3, k, j2 - 2, i2 + 2]
+                    + tt[3, k, j2 - 2, i2 - 2]
+                ) / 16.0
+                eq += 2.0 * (a - b) / (hx * hy)
+            if ok_x and ok_z:
+                a = (
+                    tt[4, k2 + 1, j, i2 + 1]
+                    - tt[4, k2 + 1, j, i2 - 1]
+                    - tt[4, k2 - 1, j, i2 + 1]
+                    + tt[4, k2 - 1, j, i2 - 1]
+                ) / 4.0
+                b = (
+                    tt[4, k2 + 2, j, i2 + 2]
+                    - tt[4, k2 + 2, j, i2 - 2]
+                    - tt[4, k2 - 2, j, i2 + 2]
+                    + tt[4, k2 - 2, j, i2 - 2]
+                ) / 16.0
+                eq += 2.0 * (a - b) / (hx * hz)
+            if ok_y and ok_z:
+                a = (
+                    tt[5, k2 + 1, j2 + 1, i]
+                    - tt[5, k2 + 1, j2 - 1, i]
+                    - tt[5, k2 - 1, j2 + 1, i]
+                    + tt[5, k2 - 1, j2 - 1, i]
+                ) / 4.0
+                b = (
+                    tt[5, k2 + 2, j2 + 2, i]
+                    - tt[5, k2 + 2, j2 - 2, i]
+                    - tt[5, k2 - 2, j2 + 2, i]
+                    + tt[5, k2 - 2, j2 - 2, i]
+                ) / 16.0
+                eq += 2.0 * (a - b) / (hy * hz)
+            err[0, j, i] = em
+            err[1, j, i] = ed
+            err[2, j, i] = abs(eq) / 3.0
+
+
+@numba.njit(parallel=True, **_NJIT)
+def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err):  # type: ignore[no-untyped-def]
+    """Discretisation-error estimates ``err (3, nz, ny, nx)`` of the strengths ``s``,
+    plane by plane (see :func:`_error_plane`); :func:`floor_strengths` uses the
+    same planes without this array."""
+    for kp in numba.prange(s.shape[1]):
         k = np.int64(kp)
-        k2 = _inner2(k, nz)
-        for j in range(ny):
-            j2 = _inner2(j, ny)
-            for i in range(nx):
-                i2 = _inner2(i, nx)
-                if bad[k, j, i]:
-                    err[0, k, j, i] = 0.0
-                    err[1, k, j, i] = 0.0
-                    err[2, k, j, i] = 0.0
-                    continue
-                # monopole: time stencil over 2Δt
-                em = 0.0
-                if wide_t:
-                    em = abs(s[0, k, j, i] - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
-                # dipole: divergence over 2h (space), and over 2Δt (time)
-                ed = 0.0
-                ok_x = i2 >= 0 and not (bad[k, j, i2 - 2] or bad[k, j, i2 + 2])
-                ok_y = j2 >= 0 and not (bad[k, j2 - 2, i] or bad[k, j2 + 2, i])
-                ok_z = k2 >= 0 and not (bad[k2 - 2, j, i] or bad[k2 + 2, j, i])
-                div2 = 0.0
-                div1 = 0.0
-                if ok_x:
-                    div2 += (dm[0, k, j, i2 + 2] - dm[0, k, j, i2 - 2]) / (4.0 * hx)
-                    div1 += (dm[0, k, j, i2 + 1] - dm[0, k, j, i2 - 1]) / (2.0 * hx)
-                if ok_y:
-                    div2 += (dm[1, k, j2 + 2, i] - dm[1, k, j2 - 2, i]) / (4.0 * hy)
-                    div1 += (dm[1, k, j2 + 1, i] - dm[1, k, j2 - 1, i]) / (2.0 * hy)
-                if ok_z:
-                    div2 += (dm[2, k2 + 2, j, i] - dm[2, k2 - 2, j, i]) / (4.0 * hz)
-                    div1 += (dm[2, k2 + 1, j, i] - dm[2, k2 - 1, j, i]) / (2.0 * hz)
-                ed = abs(div1 - div2) * inv_dt / 3.0
-                if wide_t:
-                    d2 = 0.0
-                    i0, i1 = _lohi(i, nx)
-                    j0, j1 = _lohi(j, ny)
-                    k0, k1 = _lohi(k, nz)
-                    if i1 > i0:
-                        d2 += (dm2[0, k, j, i1] - dm2[0, k, j, i0]) / ((i1 - i0) * hx)
-                    if j1 > j0:
-                        d2 += (dm2[1, k, j1, i] - dm2[1, k, j0, i]) / ((j1 - j0) * hy)
-                    if k1 > k0:
-                        d2 += (dm2[2, k1, j, i] - dm2[2, k0, j, i]) / ((k1 - k0) * hz)
-                    ed += abs(s[1, k, j, i] - d2 * inv_dt2) / 3.0
-                # quadrupole: second differences over 2h, mixed ones as products of 2h differences
-                eq = 0.0
-                if ok_x:
-                    a = tt[0, k, j, i2 + 1] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 1]
-                    b = 0.25 * (tt[0, k, j, i2 + 2] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 2])
-                    eq += (a - b) / (hx * hx)
-                if ok_y:
-                    a = tt[1, k, j2 + 1, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 1, i]
-                    b = 0.25 * (tt[1, k, j2 + 2, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 2, i])
-                    eq += (a - b) / (hy * hy)
-                if ok_z:
-                    a = tt[2, k2 + 1, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 1, j, i]
-                    b = 0.25 * (tt[2, k2 + 2, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 2, j, i])
-                    eq += (a - b) / (hz * hz)
-                if ok_x and ok_y:
-                    a = (
-                        tt[3, k, j2 + 1, i2 + 1]
-                        - tt[3, k, j2 + 1, i2 - 1]
-                        - tt[3, k, j2 - 1, i2 + 1]
-                        + tt[3, k, j2 - 1, i2 - 1]
-                    ) / 4.0
-                    b = (
-                        tt[3, k, j2 + 2, i2 + 2]
-                        - tt[3, k, j2 + 2, i2 - 2]
-                        - tt[3, k, j2 - 2, i2 + 2]
-                        + tt[3, k, j2 - 2, i2 - 2]
-                    ) / 16.0
-                    eq += 2.0 * (a - b) / (hx * hy)
-                if ok_x and ok_z:
-                    a = (
-                        tt[4, k2 + 1, j, i2 + 1]
-                        - tt[4, k2 + 1, j, i2 - 1]
-                        - tt[4, k2 - 1, j, i2 + 1]
-                        + tt[4, k2 - 1, j, i2 - 1]
-                    ) / 4.0
-                    b = (
-                        tt[4, k2 + 2, j, i2 + 2]
-                        - tt[4, k2 + 2, j, i2 - 2]
-                        - tt[4, k2 - 2, j, i2 + 2]
-                        + tt[4, k2 - 2, j, i2 - 2]
-                    ) / 16.0
-                    eq += 2.0 * (a - b) / (hx * hz)
-                if ok_y and ok_z:
-                    a = (
-                        tt[5, k2 + 1, j2 + 1, i]
-                        - tt[5, k2 + 1, j2 - 1, i]
-                        - tt[5, k2 - 1, j2 + 1, i]
-                        + tt[5, k2 - 1, j2 - 1, i]
-                    ) / 4.0
-                    b = (
-                        tt[5, k2 + 2, j2 + 2, i]
-                        - tt[5, k2 + 2, j2 - 2, i]
-                        - tt[5, k2 - 2, j2 + 2, i]
-                        + tt[5, k2 - 2, j2 - 2, i]
-                    ) / 16.0
-                    eq += 2.0 * (a - b) / (hy * hz)
-                err[0, k, j, i] = em
-                err[1, k, j, i] = ed
-                err[2, k, j, i] = abs(eq) / 3.0
+        _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, err[:, k])
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -559,6 +588,168 @@ def apply_floor(s, err, factor, roundoff, work=None):  # type: ignore[no-untyped
     _max_along_x(err, work)
     _floor_with(s, work, factor, roundoff)
     return work
+
+
+@numba.njit(**_NJIT)
+def _max_x(plane, out):  # type: ignore[no-untyped-def]
+    """``out[c, j, i]`` = the largest of ``plane[c, j, i-1..i+1]`` (clipped at the faces), 0 at
+    least (NaN ignored, as ``max(e, x)`` from 0)."""
+    nc, ny, nx = plane.shape
+    for c in range(nc):
+        for j in range(ny):
+            for i in range(nx):
+                i0, i1 = _lohi(i, nx)
+                e = 0.0
+                for ii in range(i0, i1 + 1):
+                    x = plane[c, j, ii]
+                    if x > e:
+                        e = x
+                out[c, j, i] = e
+
+
+@numba.njit(**_NJIT)
+def _max_y(plane, out):  # type: ignore[no-untyped-def]
+    """As :func:`_max_x`, along y (the middle axis)."""
+    nc, ny, nx = plane.shape
+    for c in range(nc):
+        for j in range(ny):
+            j0, j1 = _lohi(j, ny)
+            for i in range(nx):
+                e = 0.0
+                for jj in range(j0, j1 + 1):
+                    x = plane[c, jj, i]
+                    if x > e:
+                        e = x
+                out[c, j, i] = e
+
+
+@numba.njit(**_NJIT)
+def _floor_plane(s, near, k, factor, roundoff):  # type: ignore[no-untyped-def]
+    """Zero the strengths ``s[:, k]`` not above ``roundoff (3,)`` or ``factor`` times the largest
+    error estimate around them; ``near (3, 3, ny, nx)`` holds the estimates of planes
+    k-1, k, k+1 (slot ``plane % 3``), each already the largest over the 3 × 3 points
+    around in x and y (see :func:`apply_floor`)."""
+    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    k0, k1 = _lohi(k, nz)
+    for c in range(3):
+        lim = roundoff[c]
+        for j in range(ny):
+            for i in range(nx):
+                a = abs(s[c, k, j, i])
+                if a == 0.0:
+                    continue
+                if a <= lim:
+                    s[c, k, j, i] = 0.0
+                    continue
+                e = 0.0
+                for kk in range(k0, k1 + 1):
+                    x = near[kk % 3, c, j, i]
+                    if x > e:
+                        e = x
+                if a <= factor * e:
+                    s[c, k, j, i] = 0.0
+
+
+@numba.njit(**_NJIT)
+def _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, out):  # type: ignore[no-untyped-def]
+    """Error estimates of plane ``k`` (:func:`_error_plane`), each the largest over the
+    3 × 3 points around it in x and y, into ``out (3, ny, nx)``."""
+    err = np.empty_like(out)
+    _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, err)
+    _max_x(err, out)
+    _max_y(out, err)
+    out[...] = err
+
+
+def floor_strengths(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h, factor, roundoff):  # type: ignore[no-untyped-def]
+    """:func:`_error_stencil` then :func:`apply_floor`, in place on ``s (3, nz, ny, nx)``, in one
+    sweep along z without the error array: the same numbers.
+
+    A strength (paper 003 §3.2.3, Eqs. 13, 14) is zeroed when it is not above
+    ``roundoff[c]`` or not above ``factor`` times the largest Richardson error
+    estimate (:func:`_error_plane`) of the 27 points around it.  Arguments as
+    :func:`_error_stencil`.  The planes are split into one block per thread;
+    a block sweeps its planes keeping the estimates of three (maximised over
+    x and y) and floors plane k once plane k+1's are known.  The estimates of
+    the planes just outside each block are taken first, before any block
+    floors its strengths (an estimate reads the strengths of its own point).
+    """
+    nz = s.shape[1]
+    n_blocks = max(1, min(nz, numba.get_num_threads()))
+    edges = np.linspace(0, nz, n_blocks + 1).astype(np.int64)
+    _floor_sweep(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h,
+                 (float(factor), np.asarray(roundoff, dtype=np.float64)), edges)  # fmt: skip
+
+
+@numba.njit(parallel=True, **_NJIT)
+def _floor_sweep(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h, floor, edges):  # type: ignore[no-untyped-def]
+    """:func:`floor_strengths` over the blocks of planes ``[edges[b], edges[b + 1])``;
+    ``floor`` is ``(factor, roundoff)``."""
+    factor, roundoff = floor
+    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    n_blocks = edges.size - 1
+    # estimates of the plane below (0) and above (1) each block
+    outside = np.zeros((n_blocks, 2, 3, ny, nx))
+    for bp in numba.prange(n_blocks):
+        b = np.int64(bp)
+        lo, hi = edges[b], edges[b + 1]
+        if lo > 0:
+            _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, lo - 1,
+                        outside[b, 0])  # fmt: skip
+        if hi < nz:
+            _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, hi,
+                        outside[b, 1])  # fmt: skip
+    for bp in numba.prange(n_blocks):
+        b = np.int64(bp)
+        lo, hi = edges[b], edges[b + 1]
+        near = np.empty((3, 3, ny, nx))  # planes k-1, k, k+1 at slots plane % 3
+        if lo > 0:
+            near[(lo - 1) % 3] = outside[b, 0]
+        _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, lo,
+                    near[lo % 3])  # fmt: skip
+        for k in range(lo, hi):
+            if k + 1 < hi:
+                _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k + 1,
+                            near[(k + 1) % 3])  # fmt: skip
+            elif k + 1 < nz:
+                near[(k + 1) % 3] = outside[b, 1]
+            _floor_plane(s, near, k, factor, roundoff)
+
+
+@numba.njit(parallel=True, **_NJIT)
+def _scale_planes(rho, m, v, out):  # type: ignore[no-untyped-def]
+    nz = rho.shape[0]
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        r = 0.0
+        mm = 0.0
+        t = 0.0
+        for j in range(rho.shape[1]):
+            for i in range(rho.shape[2]):
+                x = abs(rho[k, j, i])
+                if x > r or x != x:
+                    r = x
+                for c in range(3):
+                    y = abs(m[k, j, i, c])
+                    if y > mm or y != y:
+                        mm = y
+                    z = abs(m[k, j, i, c] * v[k, j, i, c])
+                    if z > t or z != z:
+                        t = z
+        out[k, 0] = r
+        out[k, 1] = mm
+        out[k, 2] = t
+
+
+def input_maxima(rho, m, v):  # type: ignore[no-untyped-def]
+    """``(max|ρ|, max|ρv|, max|ρv ∘ v|)`` over ``rho (nz, ny, nx)``, ``m, v (nz, ny, nx, 3)``,
+    each at least 0 and NaN if any value is (as ``np.max(np.abs(x), initial=0.0)``),
+    without temporaries."""
+    planes = np.zeros((rho.shape[0], 3))
+    if rho.size:
+        _scale_planes(rho, m, v, planes)
+    top = np.max(planes, axis=0, initial=0.0)
+    return float(top[0]), float(top[1]), float(top[2])
 
 
 @numba.njit(parallel=True, **_NJIT)

@@ -519,10 +519,9 @@ class StepCache:
         self.store = store
         #: strengths not above ``floor`` times their error estimate are zeroed (0: off)
         self.floor = check_floor(floor)
-        self.err: np.ndarray | None = None  # error estimates of the last step (floor > 0)
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = {}
         self.work: np.ndarray | None = None  # kernel scratch, reused between steps
-        self.floor_work: np.ndarray | None = None  # scratch of the floor
+        self.floor_work: np.ndarray | None = None  # scratch of the floor (2Δt momentum change)
         #: no-data points ``(nz, ny, nx)`` of the last step computed (None: none)
         self.nodata: np.ndarray | None = None
 
@@ -597,7 +596,10 @@ def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, i
     rho_a2, _, m_a2, ok_a2 = cache.get(a2)
     rho_b2, _, m_b2, ok_b2 = cache.get(b2)
     inv_dt2 = 1.0 / (volume.times[b2] - volume.times[a2]) if wide else 0.0
-    dm2 = np.ascontiguousarray(np.moveaxis(m_b2 - m_a2, -1, 0))
+    if cache.floor_work is None or cache.floor_work.shape != out.shape:
+        cache.floor_work = np.empty_like(out)
+    dm2 = cache.floor_work  # the momentum change over 2Δt, planar
+    K.momentum_change(m_a2, m_b2, dm2)
     bad = cache.nodata
     extra = [o for o in (ok_a2, ok_b2) if o is not None]
     if extra:
@@ -605,15 +607,12 @@ def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, i
         bad = wider if bad is None else bad | wider
     if bad is None:
         bad = _no_bad(volume.shape)
-    if cache.err is None or cache.err.shape != out.shape:
-        cache.err = np.empty_like(out)
     work = cache.work
     assert work is not None
-    K._error_stencil(rho_a2, rho_b2, work[:3], dm2, work[3:], inv_dt, inv_dt2,
-                     np.asarray(volume.spacing, dtype=np.float64), out, bad, cache.err)  # fmt: skip
     roundoff = ROUNDOFF * input_scale(volume, cache, n)
-    cache.floor_work = K.apply_floor(out, cache.err, float(cache.floor), roundoff,
-                                     cache.floor_work)  # fmt: skip
+    K.floor_strengths(out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad, inv_dt, inv_dt2,
+                      np.asarray(volume.spacing, dtype=np.float64), float(cache.floor),
+                      roundoff)  # fmt: skip
 
 
 _NO_BAD: dict[tuple[int, ...], NDArray[np.bool_]] = {}
@@ -868,9 +867,7 @@ def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
     dt = float(np.min(np.diff(volume.times)))
     live = [volume.spacing[a] for a in range(3) if volume.dims[a] > 1]
     h = float(min(live)) if live else 1.0
-    r = float(np.max(np.abs(rho[sl]), initial=0.0))
-    mm = float(np.max(np.abs(m[sl]), initial=0.0))
-    t = float(np.max(np.abs(m[sl] * v[sl]), initial=0.0))
+    r, mm, t = K.input_maxima(rho[sl], m[sl], v[sl])
     return np.array([r / dt, mm / (h * dt), t / (h * h)])
 
 
