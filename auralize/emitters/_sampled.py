@@ -55,6 +55,7 @@ from numpy.typing import NDArray
 from auralize.emitters._synth_kernel import _NJIT_NORC, _gains
 from auralize.emitters.parallel import N_THREADS, run_pieces
 from auralize.runtime.jit import configure as _configure_numba
+from auralize.runtime.jit import kernel_arg, kernel_args
 
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
@@ -824,8 +825,8 @@ def table_signals(em: Any) -> NDArray[np.float64]:
     out = np.empty((S, C, B * em.block))
     n_pieces = max(1, min(S, 4 * _N_THREADS)) if out.size >= _MIN_SPLIT else 1
     edges = [S * i // n_pieces for i in range(n_pieces + 1)]
-    args = (em.padded_table, _lengths(em), em.qa, em.qb, em.phase, em.r0, em.r1, em.w, em.block,
-            out)  # fmt: skip
+    args = kernel_args(em.padded_table, _lengths(em), em.qa, em.qb, em.phase, em.r0, em.r1, em.w,
+                       em.block, out)  # fmt: skip
     _run(lambda i: _table_samples(*args, edges[i], edges[i + 1]), n_pieces, _N_THREADS)
     return out
 
@@ -853,10 +854,11 @@ def _run(fn: Callable[[int], None], n: int, nt: int) -> None:
 
 @dataclass
 class Prepared:
-    """Emitted signals ready for the kernel: ``sig (S, C, n)`` (float64 or float32) at rate
-    ``fs`` from ``t0`` (band-limited upsampled by ``up`` from the emitters' own rate)."""
+    """Emitted signals ready for the kernel: ``sig (S, C, n)`` (C-contiguous, writable
+    float64: :func:`auralize.runtime.jit.kernel_arg`) at rate ``fs`` from ``t0``
+    (band-limited upsampled by ``up`` from the emitters' own rate)."""
 
-    sig: NDArray[np.floating]
+    sig: NDArray[np.float64]
     fs: float
     t0: float
     up: int
@@ -882,17 +884,14 @@ def prepare(signals: NDArray[np.float64], rate: float, t0: float, up: int,
     sig = signals[:, None, :] if signals.ndim == 2 else signals
     n = sig.shape[2]
     i_hi = n if i_hi is None else i_hi
-    if up == 1:  # read in place (contiguous float64, or float32 made by a model)
-        dt = sig.dtype if sig.dtype in (np.float32, np.float64) else np.float64
-        return Prepared(np.ascontiguousarray(sig, dtype=dt), float(rate), float(t0), 1)
+    if up == 1:  # read in place when contiguous float64 (float32 of a model: widened, exactly)
+        return Prepared(kernel_arg(sig), float(rate), float(t0), 1)
     seg = sig[:, :, i_lo:i_hi]
     S, C, m = seg.shape
     flat = np.ascontiguousarray(seg, dtype=np.float64).reshape(S * C, m)
-    y = resample_poly(flat, up, 1, axis=1)
-    if y.strides[-1] != y.itemsize:
-        y = np.ascontiguousarray(y)
-    # resample_poly's rows are contiguous but padded apart: the kernel reads them in place
-    # (a copy of the whole upsampled array would cost as much as the resampling)
+    # resample_poly's rows are padded apart: one contiguous copy, so that the kernel has
+    # one signature (a strided 'A' array would be a second specialization to compile)
+    y = kernel_arg(resample_poly(flat, up, 1, axis=1))
     return Prepared(y.reshape(S, C, m * up), float(rate) * up, float(t0) + i_lo / float(rate),
                     int(up))  # fmt: skip
 
@@ -1030,7 +1029,7 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     elif prepared is None:
         # emission window: every retarded time of the window, bounded by distances
         lp = path.position_at(tp0 + np.linspace(t_lo, t_hi, 16))
-        lo, hi = _box(em.positions.reshape(-1, 3), lp)
+        lo, hi = _box(*kernel_args(em.positions.reshape(-1, 3), lp))
         d_max = float(np.linalg.norm(hi - lo))
         tau_lo, tau_hi = t_lo - d_max / c0, t_hi
         i_lo = max(0, int(math.floor((tau_lo - em.t0) * em.rate)) - _UP_HALF)
@@ -1080,7 +1079,10 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     n_pieces = min(B, 4 * nt) if nt > 1 else 1  # taken in turn by the threads
     edges = [B * i // n_pieces for i in range(n_pieces + 1)]
     tab_args = _table_args(em, gen)
-    args = (prepared.sig, prepared.fs, prepared.t0, np.ascontiguousarray(pos), float(em.pos_rate),
+    # one compiled signature whatever the arrays' dtype, layout and write flag (the
+    # outputs are this function's own C-contiguous float64 arrays, passed as they are)
+    args = kernel_args(
+            prepared.sig, prepared.fs, prepared.t0, np.ascontiguousarray(pos), float(em.pos_rate),
             float(em.t0), em.radius, float(e), float(c0), tb, L, VR, VL, F, U, kf, tk, Lk, Fk, Uk,
             np.ascontiguousarray(spk_az, dtype=np.float64),
             np.ascontiguousarray(spk_ch, dtype=np.int64), bool(lay.fold_front),

@@ -25,8 +25,9 @@ def model_emitters(signals: NDArray[np.floating], rate: float, positions: NDArra
     For models whose emitted signals come from their own finite tables (made
     window after window while rendering): the shapes, rate, clamp radius and
     law are checked as by :class:`Emitters`, the samples are not scanned for
-    NaN or copied.  ``signals`` may be float32 (the sampled backend reads
-    them as given); they must be C-contiguous.
+    NaN or copied.  ``signals`` may be float32 (the sampled backend widens
+    them to float64 once per render, exactly: its kernel has one compiled
+    signature); they must be C-contiguous.
 
     Raises
     ------

@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 from auralize.emitters import C0, _runs_kernel, _synth_kernel
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
+from auralize.runtime.jit import kernel_args
 from auralize.sources.detection import SourceTracks
 from auralize.spatial.layouts import (
     Layout,
@@ -272,12 +273,12 @@ def _build_pieces(tracks: SourceTracks, tn: NDArray[np.float64],
     cubic = interp == "cubic"
     W = _synth_kernel._CHUNK
     none = np.zeros(1, dtype=np.int64)
-    counts = _synth_kernel.build_pieces(q, tn, pos, radius, cubic, True, none, none,
-                                        np.zeros((1, 8, W)))  # fmt: skip
+    counts = _synth_kernel.build_pieces(*kernel_args(q, tn, pos, radius, cubic, True, none, none,
+                                                     np.zeros((1, 8, W))))  # fmt: skip
     cptr = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
     ccnt = np.zeros(int(cptr[-1]), dtype=np.int64)
     PD = np.empty((int(cptr[-1]), 8, W))  # lanes past ccnt are never read
-    _synth_kernel.build_pieces(q, tn, pos, radius, cubic, False, cptr, ccnt, PD)
+    _synth_kernel.build_pieces(*kernel_args(q, tn, pos, radius, cubic, False, cptr, ccnt, PD))
     return cptr, ccnt, PD
 
 
@@ -301,9 +302,9 @@ def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
     cubic = interp == "cubic"
     W = _synth_kernel._CHUNK
     none = np.zeros(0, dtype=np.int64)
-    n = _runs_kernel.find_runs(q, tn, cubic, True, none, none, none)
+    n = _runs_kernel.find_runs(*kernel_args(q, tn, cubic, True, none, none, none))
     src, r0, length = (np.empty(n, dtype=np.int64) for _ in range(3))
-    _runs_kernel.find_runs(q, tn, cubic, False, src, r0, length)
+    _runs_kernel.find_runs(*kernel_args(q, tn, cubic, False, src, r0, length))
     order = np.lexsort((-length, r0))
     src, r0, length = src[order], r0[order], length[order]
     # chunks: _CHUNK runs at a time among those that start in the same row
@@ -317,7 +318,8 @@ def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
     size = (_runs_kernel._K_KNOT + 2 * (glen + 1)) * W
     goff = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
     KD = np.zeros(int(size.sum()))
-    _runs_kernel.fill_runs(q, tn, pos, radius, cubic, src, r0, length, chunk, lane, goff, KD)
+    _runs_kernel.fill_runs(*kernel_args(q, tn, pos, radius, cubic, src, r0, length, chunk, lane,
+                                        goff, KD))  # fmt: skip
     return gr0, glen, gcnt, goff, KD
 
 
@@ -680,19 +682,19 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
             LT = _line_table(pr, c0)
         if by_runs:
             tab = pan_table(lay, spk_az) if ambix else np.zeros((0, 2))
-            bad = _runs_kernel.render(
+            bad = _runs_kernel.render(*kernel_args(
                 gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, pr.qc, pr.ot,
                 float(c0), pr.t_start, pr.fs, pr.n_samples, shift, lay.n_channels, tab, n_lo, n_hi,
                 d_max, task_chunks, task_blk, rc, acc, audio, ct, k_ct,
-            )  # fmt: skip
+            ))  # fmt: skip
         else:
-            bad = _synth_kernel.render(
+            bad = _synth_kernel.render(*kernel_args(
                 cptr, ccnt, PD, pr.tn, cubic,
                 pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
                 shift, spk_az, spk_ch, pan_table(lay, spk_az), lay.n_channels,
                 bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
                 ct, k_ct, KR, LT,
-            )  # fmt: skip
+            ))  # fmt: skip
         if bad:
             raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "
                                f"output windows")  # fmt: skip

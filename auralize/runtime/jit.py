@@ -20,9 +20,13 @@ process; the first use of a kernel does:
   the next one instead of unmapping it (:mod:`auralize.runtime.allocator`;
   ``AURALIZE_MALLOC_TUNING=0`` leaves it alone).
 * A notice when kernels are compiled rather than loaded from that cache
-  (``compiling kernels, once: ~N s``), logged as a warning on the
-  ``auralize`` logger, so ``-q`` silences it.  ``auralize warmup`` compiles
-  them ahead (``scripts/install.sh`` runs it).
+  (``compiling kernels, once: ~N s (kernel; cache: ...)``), logged as a
+  warning on the ``auralize`` logger, so ``-q`` silences it: at the first
+  compile, and again as each of the large synthesis kernels starts, with N
+  from :data:`COMPILE_SECONDS` for what is compiling.  ``auralize warmup``
+  compiles them ahead (``scripts/install.sh`` runs it).
+* One specialization per kernel: :func:`kernel_args` at each kernel's Python
+  boundary gives every call the same argument types.
 """
 
 from __future__ import annotations
@@ -35,43 +39,51 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from numba.core import event
 
 log = logging.getLogger("auralize")
 
-#: CPU seconds to compile each kernel from a cold cache (measured with
-#: ``auralize warmup`` on the 2-core development machine; numba compiles on one
-#: core).  Helpers compiled as part of a listed kernel count 0; kernels not
-#: listed count :data:`_DEFAULT_SECONDS`.
 COMPILE_SECONDS: dict[str, float] = {
+    # the synthesis kernels, each announced on its own
     "auralize.emitters._synth_kernel.render": 170.0,
-    "auralize.emitters._runs_kernel.render": 55.0,
-    "auralize.emitters._sampled._render": 47.0,
+    "auralize.emitters._runs_kernel.render": 65.0,
+    "auralize.emitters._sampled._render": 45.0,
+    # detection and field sources
+    **{f"auralize.sources._kernels.{k}": v for k, v in (
+        ("_error_stencil", 3.5), ("residual", 2.3), ("_stencil", 2.0), ("_radii", 1.9),
+        ("_floor_with", 1.6), ("gradient", 1.4), ("_gradient_absmax_planes", 1.3),
+        ("subtract_steady", 0.9), ("prepare_render", 0.9), ("_classify_all", 0.8),
+        ("_absmax_pair_planes", 1.1), ("_max_along_x", 0.5))},
+    # run and piece tables
+    "auralize.emitters._sampled._box": 0.8,
+    "auralize.emitters._runs_kernel.find_runs": 0.6,
+    "auralize.emitters._runs_kernel.fill_runs": 0.4,
+    "auralize.emitters._synth_kernel.build_pieces": 0.5,
+    # helpers compiled as part of a kernel above
     **dict.fromkeys(
-        [
-            f"auralize.emitters._synth_kernel.{k}"
-            for k in (
-                "_flush_captures",
-                "_chunk_pieces",
-                "_chunk_pair_gains",
-                "_chunk_sh_gains",
-                "_piece_general",
-                "_piece_across",
-                "_integrate",
-                "_task_sum",
-                "_part_pair_gains",
-                "_chunk_parts",
-                "_part_batch",
-                "_pan_far",
-                "_constant_rows",
-            )
-        ],
+        [f"auralize.emitters._synth_kernel.{k}" for k in (
+            "_flush_captures", "_chunk_pieces", "_chunk_pair_gains", "_chunk_sh_gains",
+            "_piece_general", "_piece_across", "_integrate", "_task_sum", "_part_pair_gains",
+            "_chunk_parts", "_part_batch", "_pan_far", "_constant_rows", "_row_lines")]
+        + ["auralize.emitters._runs_kernel._chunk_step",
+           "auralize.emitters._runs_kernel._knot_gains"],
         0.0,
     ),
-    "auralize.emitters._runs_kernel._chunk_step": 0.0,
-    "auralize.emitters._runs_kernel._knot_gains": 0.0,
-}
-_DEFAULT_SECONDS = 2.0
+}  # fmt: skip
+"""Seconds to compile each kernel (``module.name``) from an empty cache, one core.
+
+Measured, not guessed: ``NUMBA_CACHE_DIR=$(mktemp -d) auralize warmup --json``
+lists the seconds of every kernel it compiled (``compiled``); refresh these
+from it on the 2-core development machine (quiet, load below 1) whenever a
+kernel grows or shrinks by more than a third.  Helpers compiled as part of a
+listed kernel count 0; kernels not listed (the plugins') count
+:data:`DEFAULT_SECONDS`.  Only :func:`estimate_seconds` (the compile
+notice) reads them.
+"""
+DEFAULT_SECONDS = 2.0
+#: a kernel at least this dear (seconds) is announced on its own when it starts compiling
+NOTICE_AGAIN_SECONDS = 10.0
 
 _configured = False
 _lock = threading.Lock()
@@ -142,7 +154,12 @@ def _kernel_name(event_data: Any) -> str | None:
 
 
 class _CompileNotice(event.Listener):
-    """numba event listener: one notice per process when auralize kernels compile.
+    """numba event listener: a notice when auralize kernels compile.
+
+    The first compile in the process is announced with the estimate of its
+    module's uncached kernels (:func:`estimate_seconds`); after it, each kernel
+    whose own estimate is at least :data:`NOTICE_AGAIN_SECONDS` once more, when
+    it starts (once per kernel, not per specialization).
 
     ``compiled`` lists ``(kernel, seconds)`` of every top-level compilation of
     an auralize kernel in this process (``auralize warmup`` reports them).
@@ -151,16 +168,22 @@ class _CompileNotice(event.Listener):
     def __init__(self) -> None:
         self.local = threading.local()
         self.announced = False
+        self.named: set[str] = set()
         self.compiled: list[tuple[str, float]] = []
 
     def on_start(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])
         name = _kernel_name(ev.data) if not stack else None
         stack.append((name, time.perf_counter()))
-        if name is not None and not self.announced:
-            self.announced = True
-            est = estimate_seconds()
-            log.warning("compiling kernels, once: ~%d s (cache: %s)", round(est), cache_dir())
+        if name is None or name in self.named:
+            return
+        if self.announced and COMPILE_SECONDS.get(name, DEFAULT_SECONDS) < NOTICE_AGAIN_SECONDS:
+            return
+        self.announced = True
+        self.named.add(name)
+        short = ".".join(name.split(".")[-2:])  # module.kernel
+        log.warning("compiling kernels, once: ~%d s (%s; cache: %s)", round(estimate_seconds(name)),
+                    short, cache_dir())  # fmt: skip
 
     def on_end(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])
@@ -175,31 +198,79 @@ def compiled_kernels() -> list[tuple[str, float]]:
     return list(_NOTICE.compiled)
 
 
-def estimate_seconds() -> float:
-    """Seconds to compile the kernels that the cache lacks (from :data:`COMPILE_SECONDS`).
+def estimate_seconds(kernel: str) -> float:
+    """Seconds to compile ``kernel`` (``module.name``), from :data:`COMPILE_SECONDS`.
 
-    Counts the kernels (not the inlined helpers) of the loaded kernel modules
-    that have no cache index yet; at least :data:`_DEFAULT_SECONDS`.
+    A kernel of at least :data:`NOTICE_AGAIN_SECONDS` counts alone (it is
+    announced alone); a cheaper one with the other cheap kernels of its module
+    that have no cache index yet, as they tend to compile together (at least
+    :data:`DEFAULT_SECONDS`).
     """
     import sys
 
     from numba.core.registry import CPUDispatcher
 
-    total = 0.0
-    for modname, mod in list(sys.modules.items()):
-        if mod is None or not modname.startswith(("auralize.", "auralize_")):
+    own = COMPILE_SECONDS.get(kernel, DEFAULT_SECONDS)
+    if own >= NOTICE_AGAIN_SECONDS:
+        return own
+    modname = kernel.rsplit(".", 1)[0]
+    mod = sys.modules.get(modname)
+    total = own
+    for name, obj in list(vars(mod).items()) if mod is not None else []:
+        if not isinstance(obj, CPUDispatcher) or obj.py_func.__module__ != modname:
             continue
-        for name, obj in list(vars(mod).items()):
-            if not isinstance(obj, CPUDispatcher) or obj.py_func.__module__ != modname:
-                continue
-            if obj.targetoptions.get("inline", "never") == "always":
-                continue
-            cache_file = getattr(getattr(obj, "_cache", None), "_cache_file", None)
-            index = getattr(cache_file, "_index_path", None)
-            if index is not None and os.path.exists(index):
-                continue
-            total += COMPILE_SECONDS.get(f"{modname}.{name}", _DEFAULT_SECONDS)
-    return max(total, _DEFAULT_SECONDS)
+        full = f"{modname}.{name}"
+        if full == kernel or obj.targetoptions.get("inline", "never") == "always":
+            continue
+        sec = COMPILE_SECONDS.get(full, DEFAULT_SECONDS)
+        if sec >= NOTICE_AGAIN_SECONDS:
+            continue
+        cache_file = getattr(getattr(obj, "_cache", None), "_cache_file", None)
+        index = getattr(cache_file, "_index_path", None)
+        if index is not None and os.path.exists(index):
+            continue
+        total += sec
+    return max(total, DEFAULT_SECONDS)
+
+
+#: the one dtype of a kernel's arrays, by numpy dtype kind
+_KERNEL_DTYPES: dict[str, type] = {"f": np.float64, "i": np.int64, "u": np.int64, "b": np.bool_}
+
+
+def kernel_arg(x: Any) -> Any:
+    """``x`` in the one form a compiled kernel's signature takes.
+
+    numba compiles one specialization per distinct argument type, and an
+    array's type includes its dtype, memory layout ('C' or 'A') and whether
+    it is read-only; each specialization of a large kernel costs a cold
+    compile of its own (tens of CPU-seconds to minutes).  So at the Python
+    boundary of every kernel, arrays become C-contiguous, aligned, writable
+    float64 (floating), int64 (integer) or bool, and numpy scalars Python
+    ``float``/``int``/``bool``.  An array already in that form is returned
+    itself (output arrays stay the caller's); otherwise it is copied (a
+    float32 array is widened exactly).  Other objects pass unchanged.
+    """
+    if isinstance(x, np.ndarray):
+        dt = _KERNEL_DTYPES.get(x.dtype.kind)
+        if dt is None:
+            raise TypeError(f"kernel arrays are floating, integer or bool, got {x.dtype}")
+        a: np.ndarray[Any, Any] = np.ascontiguousarray(x, dtype=dt)
+        if not (a.flags.writeable and a.flags.aligned):
+            a = a.copy()
+        return a
+    if isinstance(x, bool | np.bool_):
+        return bool(x)
+    if isinstance(x, int | np.integer):
+        return int(x)
+    if isinstance(x, float | np.floating):
+        return float(x)
+    return x
+
+
+def kernel_args(*args: Any) -> tuple[Any, ...]:
+    """:func:`kernel_arg` of each argument: one compiled signature per kernel, whatever
+    the dtype, layout or write flag of the arrays a caller passes."""
+    return tuple(kernel_arg(a) for a in args)
 
 
 _NOTICE = _CompileNotice()

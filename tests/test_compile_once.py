@@ -1,0 +1,229 @@
+"""One compiled specialization per kernel, a parallel warmup, and an honest compile notice.
+
+A cold compile of the synthesis kernels is minutes, so these tests never
+compile one: they replace a kernel by a recorder and check what its Python
+boundary passes to it (the numba type of every argument, which is what
+numba specializes on).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numba
+import numpy as np
+import pytest
+from numba.core import event
+
+from auralize.emitters import Emitters, _runs_kernel, _sampled, _synth_kernel
+from auralize.emitters.engine import model_emitters, render_emitters
+from auralize.emitters.synthesis import render as synth_render
+from auralize.listener import ListenerPath
+from auralize.runtime import jit, warmup
+from auralize.runtime.jit import kernel_arg, kernel_args
+from auralize.sources.detection import SourceTracks
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a = np.array(a)
+    a.flags.writeable = False
+    return a
+
+
+def _check_forms(args: tuple) -> None:  # type: ignore[type-arg]
+    for a in args:
+        if isinstance(a, np.ndarray):
+            assert a.flags.c_contiguous and a.flags.writeable and a.flags.aligned
+            assert a.dtype in (np.float64, np.int64, np.bool_), a.dtype
+        else:
+            assert not isinstance(a, np.generic), type(a)  # numpy scalars: Python's own
+
+
+class _Recorder:
+    """Stands in for a kernel: records the numba signature of each call."""
+
+    def __init__(self, result: object = None) -> None:
+        self.signatures: set[tuple[object, ...]] = set()
+        self.calls = 0
+        self.result = result
+
+    def __call__(self, *args: object) -> object:
+        _check_forms(args)
+        self.signatures.add(tuple(numba.typeof(a) for a in args))
+        self.calls += 1
+        return self.result
+
+
+def test_kernel_arg_makes_one_form_and_keeps_conforming_arrays() -> None:
+    base = np.arange(24.0).reshape(4, 6)
+    cases = [base.astype(np.float32), base[:, ::2], base.T, _read_only(base),
+             np.asfortranarray(base)]  # fmt: skip
+    for x in cases:
+        a = kernel_arg(x)
+        assert a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable
+        assert np.array_equal(a, x)  # float32 widened exactly
+        assert numba.typeof(a) == numba.typeof(base)
+    assert kernel_arg(base) is base  # an output array stays the caller's
+    i = kernel_arg(np.arange(5, dtype=np.int32)[::2])
+    assert i.dtype == np.int64 and i.flags.c_contiguous
+    b = np.zeros(3, dtype=bool)
+    assert kernel_arg(b) is b
+    scal = kernel_args(np.float32(0.5), np.int32(3), np.bool_(True), 2.0, 3, False, "x")
+    assert [type(v) for v in scal] == [float, int, bool, float, int, bool, str]
+    with pytest.raises(TypeError, match="complex"):
+        kernel_arg(np.zeros(2, dtype=complex))
+
+
+def test_sampled_kernel_gets_one_signature_for_any_input(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    rec = _Recorder()
+    monkeypatch.setattr(_sampled, "_render", rec)
+    rng = np.random.default_rng(0)
+    sig = rng.standard_normal((2, 800))
+    pos = np.array([[3.0, 0.0, 0.0], [0.0, 4.0, 1.0]])
+    path = ListenerPath.orbit((0.0, 0.0, 0.0), radius=0.5, duration=0.05, turns=0.1)
+    wide = np.zeros((2, 1600))
+    wide[:, ::2] = sig
+    ems = [
+        Emitters(sig, 8000, pos),
+        model_emitters(sig.astype(np.float32), 8000, pos),  # float32, as a model makes it
+        Emitters(wide[:, ::2], 8000, pos),  # sliced
+        Emitters(_read_only(sig), 8000, _read_only(pos)),  # read-only
+        Emitters(sig, 2000, pos),  # upsampled: resample_poly's padded rows
+    ]
+    ro = model_emitters(_read_only(sig), 8000, _read_only(pos))
+    ro.radius = _read_only(ro.radius)
+    ems.append(ro)
+    for em in ems:
+        for layout in ("mono", "ring8"):
+            render_emitters(em, path, rate=8000, layout=layout)
+    assert rec.calls >= 2 * len(ems)
+    assert len(rec.signatures) == 1
+
+
+def test_synthesis_kernels_get_one_signature_each(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    runs, pieces = _Recorder(0), _Recorder(0)
+    monkeypatch.setattr(_runs_kernel, "render", runs)
+    monkeypatch.setattr(_synth_kernel, "render", pieces)
+    t = np.linspace(0.0, 0.2, 9)
+    q = np.sin(40.0 * t)[None].repeat(3, axis=0) * np.array([[1.0], [0.5], [0.2]])
+    pos = np.array([[2.0, 0.0, 0.0], [0.0, 3.0, 0.0], [1.0, 1.0, 1.0]])
+    rad = np.full(3, 0.05)
+    point = ListenerPath.point((0.0, 0.0, 0.0), duration=0.2)
+    orbit = ListenerPath.orbit((0.0, 0.0, 0.0), radius=0.3, duration=0.2, turns=0.2)
+    wide = np.zeros((3, 18))
+    wide[:, ::2] = q
+    variants = [
+        SourceTracks(pos, q, rad, t),
+        SourceTracks(
+            pos.astype(np.float32),
+            q.astype(np.float32),
+            rad.astype(np.float32),
+            t.astype(np.float32),
+        ),  # fmt: skip
+        SourceTracks(pos.T.copy().T, wide[:, ::2], rad, t),  # non-contiguous
+        SourceTracks(_read_only(pos), _read_only(q), _read_only(rad), _read_only(t)),
+    ]
+    for tr in variants:
+        synth_render(tr, point, rate=8000, layout="mono", time_scale=1.0)
+        synth_render(tr, orbit, rate=8000, layout="ring8", time_scale=1.0)
+        synth_render(tr, orbit, rate=8000, layout="ambix1", time_scale=1.0)
+    assert runs.calls >= len(variants) and pieces.calls >= len(variants)
+    assert len(runs.signatures) == 1
+    assert len(pieces.signatures) == 1
+
+
+def test_warmup_runs_every_group_and_reports_each(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    ran: list[str] = []
+    monkeypatch.setattr(warmup, "_RUNS", {n: (lambda n=n: ran.append(n)) for n in warmup._RUNS})
+    seen: list[str] = []
+    out = warmup.warmup(processes=1, progress=lambda r: seen.append(r["group"]))
+    assert ran == seen == list(warmup.GROUPS)
+    assert out["processes"] == 1 and [g["group"] for g in out["groups"]] == list(warmup.GROUPS)
+    assert out["compiled"] == []
+
+
+def test_warmup_groups_run_in_processes_by_default(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    monkeypatch.setattr(warmup.os, "cpu_count", lambda: 8)
+    used: dict[str, int] = {}
+
+    class Pool:
+        def __init__(self, n: int, **kw: object) -> None:
+            used["n"] = n
+            assert kw["mp_context"].get_start_method() == "spawn"
+
+        def __enter__(self) -> Pool:
+            return self
+
+        def __exit__(self, *a: object) -> None:
+            pass
+
+        def submit(self, fn, name):  # type: ignore[no-untyped-def]
+            from concurrent.futures import Future
+
+            f: Future[dict[str, object]] = Future()
+            f.set_result({"group": name, "seconds": 0.0, "compiled": [(name, 1.0)]})
+            return f
+
+    import concurrent.futures
+
+    monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", Pool)
+    out = warmup.warmup()
+    assert used["n"] == 2 == out["processes"]
+    assert [c[0] for c in out["compiled"]] == list(warmup.GROUPS)
+
+
+def test_cheap_kernels_of_a_module_are_announced_once_together(caplog, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import sys
+    import types
+
+    mod = types.ModuleType("auralize._test_cheap")
+    kernels = {}
+    for name, body in (("one", lambda x: x + 1), ("two", lambda x: x + 2)):
+        body.__module__, body.__qualname__ = mod.__name__, name
+        kernels[name] = numba.njit(body)
+        setattr(mod, name, kernels[name])
+        monkeypatch.setitem(jit.COMPILE_SECONDS, f"{mod.__name__}.{name}", 7.0)
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+    monkeypatch.setattr(jit._NOTICE, "announced", True)
+    monkeypatch.setattr(jit._NOTICE, "named", {f"{mod.__name__}.one", f"{mod.__name__}.two"})
+    notice = jit._CompileNotice()
+    event.register("numba:compile", notice)
+    try:
+        with caplog.at_level(logging.WARNING, logger="auralize"):
+            assert kernels["one"](1) == 2 and kernels["two"](1) == 3
+    finally:
+        event.unregister("numba:compile", notice)
+    msgs = [r.getMessage() for r in caplog.records if "compiling kernels" in r.getMessage()]
+    # one notice for both (7 s each, below NOTICE_AGAIN_SECONDS), estimating both
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~14 s"), msgs
+
+
+def test_compile_notice_estimates_the_kernel_that_compiles(caplog, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # the process-wide notice stays quiet about these
+    monkeypatch.setattr(jit._NOTICE, "announced", True)
+    monkeypatch.setattr(
+        jit._NOTICE, "named", {"auralize._test_small.small", "auralize._test_big.big"}
+    )
+    monkeypatch.setitem(jit.COMPILE_SECONDS, "auralize._test_big.big", 120.0)
+    notice = jit._CompileNotice()
+    event.register("numba:compile", notice)
+
+    def small(x):  # type: ignore[no-untyped-def]
+        return x + 1
+
+    def big(x):  # type: ignore[no-untyped-def]
+        return x * 3
+
+    small.__module__, small.__qualname__ = "auralize._test_small", "small"
+    big.__module__, big.__qualname__ = "auralize._test_big", "big"
+    try:
+        with caplog.at_level(logging.WARNING, logger="auralize"):
+            assert numba.njit(small)(1) == 2
+            k = numba.njit(big)
+            assert k(1) == 3 and k(1.5) == 4.5
+    finally:
+        event.unregister("numba:compile", notice)
+    msgs = [r.getMessage() for r in caplog.records if "compiling kernels" in r.getMessage()]
+    # the first compile, then the expensive kernel once (not per specialization)
+    assert len(msgs) == 2, msgs
+    assert msgs[1].startswith("compiling kernels, once: ~120 s")
