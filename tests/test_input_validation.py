@@ -235,9 +235,10 @@ JSON_CASES: list[tuple[str, Callable[[Path, str], None], str, type[Exception], s
     ("session audio a list", _load_session, _session(audio=[1, 2, 3]),
      FormatError, r"audio must be an object, got \[1, 2, 3\]"),
     ("session time_scale a text", _load_session, _session(audio={"time_scale": "eval('1')"}),
-     FormatError, r"audio.time_scale must be a number > 0, got \"eval\('1'\)\""),
+     FormatError, r"audio.time_scale must be a number > 0 \(playback seconds per data "
+                  r"second\) or 'auto', got \"eval\('1'\)\""),
     ("session time_scale zero", _scene, _session(audio={"time_scale": 0}, models=MODEL),
-     FormatError, "audio.time_scale must be a number > 0, got 0"),
+     FormatError, r"audio.time_scale must be a number > 0 \(.*\) or 'auto', got 0"),
     ("session path row of two", _load_session, _session(path={"rows": [[0.0, 1.0]]}),
      FormatError, r"path.rows\[0\] must be a row of 10 finite numbers, got \[0.0, 1.0\]"),
     ("session thresholds without a key", _scene,
