@@ -202,3 +202,17 @@ def test_parser_serves_plugin_commands() -> None:
     assert args.func.target == "auralize_spark.model:cmd_spark_render"
     sub = next(a for a in ap._actions if isinstance(a, argparse._SubParsersAction))
     assert {"vortex", "fire", "aero", "spark", "warmup"} <= set(sub.choices)
+
+
+def test_version_and_help_load_no_physics() -> None:
+    # every registered model is listed (its class loaded), none of their physics is
+    for args in (["--version"], ["--help"]):
+        got = _run(
+            "import sys, json, contextlib, io\n"
+            "from auralize.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    try: main({args!r})\n"
+            "    except SystemExit: pass\n"
+            "print(json.dumps({m: m in sys.modules for m in ('scipy', 'numba', 'pyvista')}))"
+        )
+        assert got == {"scipy": False, "numba": False, "pyvista": False}, args

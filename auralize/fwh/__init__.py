@@ -14,21 +14,24 @@ Examples
 96
 """
 
-from auralize.fwh.formulation import (
-    fwh_emitters,
-    fwh_pressure,
-    fwh_pressure_from_sources,
-    fwh_sources,
-    fwh_time_window,
-)
-from auralize.fwh.sampling import SurfaceSamples, sample_surface
-from auralize.fwh.surface import (
-    Surface,
-    box_surface,
-    mesh_surface,
-    sphere_surface,
-    surface_from_spec,
-)
+from auralize.runtime.lazy import lazy_exports
+
+#: exported name -> sub-module; imported on first access, so that listing the
+#: ``fwh`` model (``auralize --help``, ``--version``) loads none of its physics
+_EXPORTS = {
+    "fwh_emitters": ".formulation",
+    "fwh_pressure": ".formulation",
+    "fwh_pressure_from_sources": ".formulation",
+    "fwh_sources": ".formulation",
+    "fwh_time_window": ".formulation",
+    "SurfaceSamples": ".sampling",
+    "sample_surface": ".sampling",
+    "Surface": ".surface",
+    "box_surface": ".surface",
+    "mesh_surface": ".surface",
+    "sphere_surface": ".surface",
+    "surface_from_spec": ".surface",
+}
 
 __all__ = [
     "Surface",
@@ -44,3 +47,5 @@ __all__ = [
     "sphere_surface",
     "surface_from_spec",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
