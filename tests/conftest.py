@@ -47,35 +47,58 @@ def rng() -> np.random.Generator:
 
 # ------------------------------------------------------------------ the viewer under Xvfb
 @pytest.fixture
-def open_viewer(qtbot, tmp_path, monkeypatch):  # type: ignore[no-untyped-def]
+def errors(monkeypatch):  # type: ignore[no-untyped-def]
+    """Error boxes are recorded instead of shown (they would block): their texts."""
+    from qtpy import QtWidgets
+
+    shown: list[str] = []
+
+    def critical(parent, title, text, *a, **k):  # type: ignore[no-untyped-def]
+        shown.append(text)
+        return QtWidgets.QMessageBox.StandardButton.Ok
+
+    monkeypatch.setattr(QtWidgets.QMessageBox, "critical", critical)
+    return shown
+
+
+@pytest.fixture
+def window_size() -> tuple[int, int]:
+    """Width and height of the viewer's window in a test (a test file may override it)."""
+    return (900, 650)
+
+
+@pytest.fixture
+def open_viewer(qtbot, tmp_path, errors, window_size):  # type: ignore[no-untyped-def]
     """A factory: ``open_viewer()`` shows the viewer's main window and returns
     ``(window, shown)``.
 
     The window autosaves under ``tmp_path`` and is closed after the test; error
-    boxes are not shown, their texts are appended to ``shown``.  Patches made
-    before the call (a test's sound-model registry) hold for the window.
+    boxes are not shown, their texts are appended to ``shown`` (the ``errors``
+    fixture).  Patches made before the call (a test's sound-model registry) hold
+    for the window.
     """
-    from qtpy import QtWidgets
-
     from auralize.viewer.app import MainWindow
 
-    shown: list[str] = []
-    monkeypatch.setattr(QtWidgets.QMessageBox, "critical",
-                        lambda *a, **k: shown.append(a[2]) or QtWidgets.QMessageBox.StandardButton.Ok)  # fmt: skip
     opened = []
 
     def open_window():  # type: ignore[no-untyped-def]
         win = MainWindow(autosave_dir=tmp_path / "autosave")
         qtbot.addWidget(win)
-        win.resize(900, 650)
+        win.resize(*window_size)
         win.show()
         qtbot.waitExposed(win)
         opened.append(win)
-        return win, shown
+        return win, errors
 
     yield open_window
     for win in opened:
         win.close()
+
+
+@pytest.fixture
+def window(open_viewer):  # type: ignore[no-untyped-def]
+    """The viewer's main window, shown (see :func:`open_viewer`)."""
+    return open_viewer()[0]
 
 
 @pytest.fixture

@@ -25,27 +25,8 @@ DATA = {"spec": "dataset:explosion", "size": 32, "steps": 8}
 
 
 @pytest.fixture
-def errors(monkeypatch):
-    """Message boxes are recorded instead of shown (they would block)."""
-    shown: list[str] = []
-
-    def critical(parent, title, text, *a, **k):
-        shown.append(text)
-        return QtWidgets.QMessageBox.StandardButton.Ok
-
-    monkeypatch.setattr(QtWidgets.QMessageBox, "critical", critical)
-    return shown
-
-
-@pytest.fixture
-def window(qtbot, tmp_path):
-    win = MainWindow(autosave_dir=tmp_path / "autosave")
-    qtbot.addWidget(win)
-    win.resize(900, 700)
-    win.show()
-    qtbot.waitExposed(win)
-    yield win
-    win.close()
+def window_size() -> tuple[int, int]:
+    return (900, 700)
 
 
 def _open(qtbot, win, **kw):

@@ -15,7 +15,7 @@ from qtpy import QtCore, QtWidgets
 import auralize
 from auralize.listener import ListenerPath
 from auralize.scene.view import BACKGROUND
-from auralize.viewer.app import KEYS, STANDARD_VIEWS, MainWindow, key_text
+from auralize.viewer.app import KEYS, STANDARD_VIEWS, key_text
 
 Key = QtCore.Qt.Key
 SHIFT = QtCore.Qt.KeyboardModifier.ShiftModifier
@@ -24,27 +24,8 @@ AXES = {"+X": (1, 0, 0), "-X": (-1, 0, 0), "+Y": (0, 1, 0), "-Y": (0, -1, 0),
 
 
 @pytest.fixture
-def errors(monkeypatch):
-    """Error boxes are recorded instead of shown (they would block)."""
-    shown: list[str] = []
-
-    def critical(parent, title, text, *a, **k):
-        shown.append(text)
-        return QtWidgets.QMessageBox.StandardButton.Ok
-
-    monkeypatch.setattr(QtWidgets.QMessageBox, "critical", critical)
-    return shown
-
-
-@pytest.fixture
-def window(qtbot, tmp_path):
-    win = MainWindow(autosave_dir=tmp_path / "autosave")
-    qtbot.addWidget(win)
-    win.resize(1000, 700)
-    win.show()
-    qtbot.waitExposed(win)
-    yield win
-    win.close()
+def window_size() -> tuple[int, int]:
+    return (1000, 700)
 
 
 def _open(qtbot, win, spec="dataset:explosion", size=16, steps=6, **kw):

@@ -18,33 +18,9 @@ from auralize.errors import DataError
 from auralize.listener import ListenerPath
 from auralize.scene.recorder import PathRecorder
 from auralize.scene.view import camera_pose
-from auralize.viewer.app import MainWindow
 
 ROOT = Path(__file__).parents[1]
 WAVY = ROOT / "auralize" / "data" / "paraview-wavy" / "wavy00.vts"
-
-
-@pytest.fixture
-def errors(monkeypatch):
-    shown: list[str] = []
-
-    def critical(parent, title, text, *a, **k):
-        shown.append(text)
-        return QtWidgets.QMessageBox.StandardButton.Ok
-
-    monkeypatch.setattr(QtWidgets.QMessageBox, "critical", critical)
-    return shown
-
-
-@pytest.fixture
-def window(qtbot, tmp_path):
-    win = MainWindow(autosave_dir=tmp_path / "autosave")
-    qtbot.addWidget(win)
-    win.resize(900, 650)
-    win.show()
-    qtbot.waitExposed(win)
-    yield win
-    win.close()
 
 
 def _open(qtbot, win, spec="dataset:monopole", **kw):
