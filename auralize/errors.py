@@ -67,3 +67,7 @@ class ResourceError(AuralizeError, MemoryError):
 
 class OutputExistsError(OutputError, FileExistsError):
     """The output would replace something that auralize did not write."""
+
+
+class Cancelled(AuralizeError):
+    """Long work was cancelled by the user."""

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.datasets.synthetic import DEFAULT_MAPPING, make_dataset
+from auralize.defaults import DEFAULTS
 from auralize.emitters import RATE_RANGE_HZ
 from auralize.emitters.synthesis import (
     C0,
@@ -35,7 +36,7 @@ from auralize.emitters.synthesis import (
     check_distance,
     source_extent,
 )
-from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
+from auralize.emitters.timbre import render_timbre
 from auralize.errors import FieldError, ParameterError
 from auralize.listener import SWEEP_TURNS, ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
@@ -68,6 +69,7 @@ __all__ = [
     "heard_sound",
     "heard_tracks",
     "load",
+    "plan_heard",
     "plan_render",
     "report_line",
     "resolve_mapping",
@@ -75,7 +77,7 @@ __all__ = [
 ]
 
 #: playback seconds of a render without --duration or --path
-DEFAULT_DURATION = 10.0
+DEFAULT_DURATION = DEFAULTS.duration
 #: the default orbit is slowed to at most this fraction of c0 in data time
 MAX_ORBIT_MACH = 0.1
 _UNITS = ((365.25 * 86400, "years"), (86400.0, "days"), (3600.0, "h"), (60.0, "min"),
@@ -313,7 +315,9 @@ class RenderPlan:
                 "listener": describe_path(self.path), "notes": list(self.notes)}  # fmt: skip
 
 
-def _source_box(volume: TimeVolume, tracks: SourceTracks | None) -> tuple[np.ndarray, np.ndarray]:
+def source_box(volume: TimeVolume, tracks: SourceTracks | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)``: the box a render plans around: the detected sources' (``tracks``),
+    else the data's bounds (the whole field)."""
     if tracks is not None and tracks.n_sources:
         lo, hi, _ = source_extent(tracks)
         return lo, hi
@@ -323,8 +327,9 @@ def _source_box(volume: TimeVolume, tracks: SourceTracks | None) -> tuple[np.nda
 
 def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
                 path: ListenerPath | None = None, listener: Any = None,
-                duration: float | None = None, time_scale: float | str = "auto",
-                c0: float = C0, clip: bool = True, face: str = "sweep") -> RenderPlan:  # fmt: skip
+                duration: float | None = None, time_scale: float | str = DEFAULTS.time_scale,
+                c0: float = C0, clip: bool = True,
+                face: str = DEFAULTS.orbit_face) -> RenderPlan:  # fmt: skip
     """Choose the listener (if none is given), the time scale and the output window.
 
     * No ``path`` and no ``listener``: an orbit around the data
@@ -361,7 +366,7 @@ def plan_render(volume: TimeVolume, tracks: SourceTracks | None = None, *,
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         raise ParameterError(f"duration must be > 0 seconds, got {duration!r}")
     notes: list[str] = []
-    lo, hi = _source_box(volume, tracks)
+    lo, hi = source_box(volume, tracks)
     bounds = np.stack([lo, hi], axis=1).reshape(-1)
     default = path is None and listener is None
     if default:
@@ -409,12 +414,13 @@ def _turns(path: ListenerPath, center: np.ndarray) -> float:
 
 def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              mapping: str | AcousticMapping | None = None, thresholds: Thresholds | None = None,
-             rate: int = 44100, time_scale: float | str = "auto", interp: str = "cubic",
-             layout: str = "mono", c0: float = C0, duration: float | None = None,
-             series: SourceSeries | None = None, progress_bar: bool = False,
-             timbre: str = "auto", highpass_hz: float = HIGHPASS_HZ, seed: int = 0,
-             listener: Any = None, hrtf: object = None, clip: bool = True,
-             heard: str | Heard = "field", orbit_face: str = "sweep", block: int | None = None,
+             rate: int = DEFAULTS.rate, time_scale: float | str = DEFAULTS.time_scale,
+             interp: str = DEFAULTS.interp, layout: str = DEFAULTS.layout, c0: float = C0,
+             duration: float | None = None, series: SourceSeries | None = None,
+             progress_bar: bool = False, timbre: str = DEFAULTS.timbre,
+             highpass_hz: float = DEFAULTS.highpass_hz, seed: int = 0, listener: Any = None,
+             hrtf: object = None, clip: bool = True, heard: str | Heard = DEFAULTS.heard,
+             orbit_face: str = DEFAULTS.orbit_face, block: int | None = None,
              **mapping_fields: str) -> tuple[Rendered, SourceSeries | None]:  # fmt: skip
     """Render the sound of ``volume`` along ``path``.
 
@@ -465,13 +471,11 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     if duration is not None and math.isfinite(duration) and duration > 0:
         check_memory(duration)
     hd = parse_heard(heard)
-    planner = Planner(volume, path=path, listener=listener, duration=duration,
-                      time_scale=time_scale, c0=c0, clip=clip, face=orbit_face)  # fmt: skip
     with memory_guard(f"rendering {volume.source}"):
-        hs = heard_sound(volume, heard=hd, series=series, mapping=mapping, thresholds=thresholds,
-                         path=planner, block=block, c0=c0, progress_bar=progress_bar,
-                         **mapping_fields)  # fmt: skip
-    plan = planner.plan
+        hs, plan = plan_heard(volume, path=path, listener=listener, duration=duration,
+                              time_scale=time_scale, c0=c0, clip=clip, orbit_face=orbit_face,
+                              heard=hd, series=series, mapping=mapping, thresholds=thresholds,
+                              block=block, progress_bar=progress_bar, **mapping_fields)  # fmt: skip
     check_memory(plan.duration)
     tracks = hs.tracks
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
@@ -484,6 +488,48 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
                             by_type=hs.by_type)  # fmt: skip
     out.meta.update({"volume": volume.source, **plan.as_dict(), **hs.meta})
     return out, hs.series
+
+
+def plan_heard(volume: TimeVolume, *, path: ListenerPath | None = None, listener: Any = None,
+               duration: float | None = None, time_scale: float | str = DEFAULTS.time_scale,
+               c0: float = C0, clip: bool = True, orbit_face: str = DEFAULTS.orbit_face,
+               heard: str | Heard = DEFAULTS.heard, series: SourceSeries | None = None,
+               mapping: str | AcousticMapping | None = None, thresholds: Thresholds | None = None,
+               block: int | None = None, progress_bar: bool = False,
+               **mapping_fields: str) -> tuple[HeardSound, RenderPlan]:  # fmt: skip
+    """What a render of ``volume`` hears, and its plan: the one planning step of every
+    front end (:func:`auralize`, ``auralize render`` with or without a scene,
+    the ``field`` model in scene files and sessions, the viewer's Render to file).
+
+    :func:`heard_sound` with a :class:`Planner` as its path, so the default
+    listener goes around what is heard and the time scale and the travel time
+    skipped (``lead``) are those of :func:`plan_render`, whatever the time scale.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+    path, listener, duration, time_scale, c0, clip, orbit_face
+        As :func:`plan_render` (``orbit_face`` is its ``face``).
+    heard, series, mapping, thresholds, block, progress_bar, **mapping_fields
+        As :func:`heard_sound`.
+
+    Returns
+    -------
+    (HeardSound, RenderPlan)
+
+    Examples
+    --------
+    >>> vol = load("dataset:monopole", size=12, steps=8)
+    >>> hs, plan = plan_heard(vol, duration=2.0)
+    >>> plan.duration, plan.auto, hs.meta["heard"]
+    (2.0, True, 'field')
+    """
+    planner = Planner(volume, path=path, listener=listener, duration=duration,
+                      time_scale=time_scale, c0=c0, clip=clip, face=orbit_face)  # fmt: skip
+    hs = heard_sound(volume, heard=heard, series=series, mapping=mapping, thresholds=thresholds,
+                     path=planner, block=block, c0=c0, progress_bar=progress_bar,
+                     **mapping_fields)  # fmt: skip
+    return hs, planner.plan
 
 
 class Planner:

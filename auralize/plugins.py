@@ -36,6 +36,7 @@ from auralize.errors import AuralizeError, ParameterError, PluginError
 
 if TYPE_CHECKING:
     from auralize.emitters import Sound
+    from auralize.listener import ListenerPath
 
 ENTRY_POINT_GROUP = "auralize.plugins"
 
@@ -49,7 +50,8 @@ class Parameter:
     """A declared model parameter.
 
     ``range`` is an inclusive ``(low, high)`` for numbers (None for open ends);
-    ``choices`` lists allowed values for strings.
+    ``choices`` lists allowed values for strings; ``auto`` accepts the string
+    ``"auto"`` beside the numbers of ``range`` (the model then chooses).
     """
 
     name: str
@@ -58,8 +60,11 @@ class Parameter:
     choices: tuple[Any, ...] | None = None
     unit: str = ""
     doc: str = ""
+    auto: bool = False
 
     def check(self, value: Any) -> Any:
+        if self.auto and isinstance(value, str) and value.strip().lower() == "auto":
+            return "auto"
         if self.choices is not None:
             if value not in self.choices:
                 raise ParameterError(
@@ -140,6 +145,18 @@ class SoundModel:
             playback seconds from the listener path's first capture.
         """
         raise NotImplementedError(f"sound model {self.name!r} does not implement synthesize")
+
+    def plan(self, inputs: Any, params: dict[str, Any], path: ListenerPath,
+             duration: float) -> tuple[Any, dict[str, Any]]:  # fmt: skip
+        """Inputs and parameters for a render along ``path`` of ``duration`` playback seconds.
+
+        A scene (:func:`auralize.scene.soundscene.scene_sound`) calls it before
+        :meth:`synthesize` once it knows where the listener goes; a model whose
+        sound depends on the listener's place (the ``field`` model: its time
+        scale, the travel time skipped, the blocks of its field near the path)
+        overrides it.  The default returns ``(inputs, params)`` unchanged.
+        """
+        return inputs, params
 
     def load_input(self, spec: str) -> Any:
         """Read this model's inputs from ``spec`` (a file or ``dataset:NAME``).

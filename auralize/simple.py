@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from auralize.defaults import DEFAULTS, TIMBRE_CHOICES
 from auralize.emitters.synthesis import Rendered
 from auralize.errors import ArgumentError, ParameterError
 from auralize.listener import ListenerPath
@@ -239,8 +240,9 @@ class Session:
         self.active_view: View | None = None
         self.path: ListenerPath | None = None
         self.rendered: Rendered | None = None
-        self.audio: dict[str, Any] = {"layout": "mono", "rate": 44100, "time_scale": "auto",
-                                      "device": None, "heard": "field"}  # fmt: skip
+        self.audio: dict[str, Any] = {"layout": DEFAULTS.layout, "rate": DEFAULTS.rate,
+                                      "time_scale": DEFAULTS.time_scale, "device": None,
+                                      "heard": DEFAULTS.heard, "timbre": DEFAULTS.timbre}  # fmt: skip
         self.models: list[SceneModel] = []
 
     def source(self, src: DataSource | None) -> DataSource:
@@ -390,8 +392,8 @@ def DetectSources(Input: DataSource | None = None, *, source: DataSource | None 
                   zero_fraction: float = 1.0) -> SourceSeries:  # fmt: skip
     """Detect sources at every step of ``Input`` (default: the active source).
 
-    Thresholds are absolute, ``"N%"`` of the peak, or ``"auto"``; unset ones keep
-    the viewer defaults ``3%``, ``0.3%``, ``0.1%``.  Single-step data raises
+    Thresholds are absolute, ``"N%"`` of the peak, or ``"auto"``; unset ones are
+    ``"auto"``, as in ``auralize detect`` and the viewer.  Single-step data raises
     :class:`~auralize.errors.DataError` (strengths are time derivatives).
 
     Examples
@@ -401,11 +403,9 @@ def DetectSources(Input: DataSource | None = None, *, source: DataSource | None 
     >>> series.n_steps, series.counts()[30]["monopole"] > 0
     (60, True)
     """
-    from auralize.scene.detection import VIEWER_THRESHOLDS
-
     src = GetSession().source(_input(Input, source))
     given = (monopole, dipole, quadrupole)
-    th = Thresholds(*(g if g is not None else d for g, d in zip(given, VIEWER_THRESHOLDS, strict=True)),
+    th = Thresholds(*(g if g is not None else d for g, d in zip(given, DEFAULTS.thresholds, strict=True)),
                     zero_fraction=zero_fraction)  # fmt: skip
     det = getattr(src, "_detection", None)
     if det is None or det.thresholds.describe() != th.describe():
@@ -571,7 +571,7 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
 def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = None,
                 path: ListenerPath | None = None, layout: str | None = None,
                 rate: int | None = None, time_scale: float | str | None = None,
-                interp: str = "cubic", timbre: str = "auto",
+                interp: str = DEFAULTS.interp, timbre: str | None = None,
                 heard: str | None = None) -> Rendered:  # fmt: skip
     """Render the sound heard along ``path`` (default: the active path) from ``Input``
     (default: the active source), plus every sound model added with :func:`AddSoundModel`.
@@ -592,14 +592,13 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     rule of :func:`auralize.scene.soundscene.render_mix`); without a data
     source the render is the models' alone, for the path's duration.
 
-    As ``auralize render``: ``timbre="auto"`` (physical if most of its energy is
-    above 20 Hz, else extended), a 20 Hz high-pass, the steady part removed.
-    Unlike it, the session's own settings hold: the listener path is the
-    session's (no default orbit), the time scale is the session's (``"auto"``,
-    as the command's, unless set: the data's sound fits the path's duration),
-    and detection uses the viewer's
-    thresholds (:func:`DetectSources`); :func:`auralize.pipeline.auralize`
-    has the command's defaults throughout.
+    The defaults are those of ``auralize render`` and the viewer
+    (:data:`auralize.defaults.DEFAULTS`): the session's ``timbre`` ``"auto"``
+    (physical if most of its energy is above 20 Hz, else extended; ``timbre``
+    sets it), a 20 Hz high-pass, the steady part removed, the time scale
+    ``"auto"`` (the data's sound fits the path's duration) and ``auto``
+    detection thresholds (:func:`DetectSources`).  The listener path is the
+    session's (no default orbit).
 
     Examples
     --------
@@ -623,6 +622,10 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
         from auralize.sources.field import parse_heard
 
         s.audio["heard"] = parse_heard(heard).label
+    if timbre is not None:
+        if timbre not in TIMBRE_CHOICES:
+            raise ParameterError(f"timbre must be one of {list(TIMBRE_CHOICES)}, got {timbre!r}")
+        s.audio["timbre"] = timbre
     if time_scale is not None:
         _check_time_scale(time_scale)
     for k, val in (("layout", layout), ("rate", rate), ("time_scale", time_scale)):
@@ -638,7 +641,8 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
         out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
                           time_scale=_check_time_scale(s.audio["time_scale"]),
                           layout=s.audio["layout"],
-                          interp=interp, timbre=timbre, clip=not s.models, heard=hd,
+                          interp=interp, timbre=s.audio.get("timbre", DEFAULTS.timbre),
+                          clip=not s.models, heard=hd,
                           thresholds=src.Thresholds, mapping=src.Mapping,
                           **dict[str, Any](src.MappingFields))  # fmt: skip
     if s.models:
@@ -942,7 +946,7 @@ def SaveSession(filename: str | Path) -> Path:
     if src is not None:
         st.data = data_spec(src.FileName, **src.LoadOptions)
         st.detection = {"mapping": src.Mapping, "mapping_fields": src.MappingFields,
-                        "thresholds": (src.Thresholds or Thresholds(*_viewer_th())).describe()}  # fmt: skip
+                        "thresholds": (src.Thresholds or Thresholds(*DEFAULTS.thresholds)).describe()}  # fmt: skip
         st.view = {"field": src.Field}
     st.set_listener_path(s.path)
     for m in s.models:
@@ -1056,9 +1060,3 @@ def _input(Input: DataSource | None, source: DataSource | None) -> DataSource | 
         raise ParameterError(f"the input must be a data source from OpenDataFile, got "
                              f"{type(Input).__name__}")  # fmt: skip
     return Input if Input is not None else source
-
-
-def _viewer_th() -> tuple[str, str, str]:
-    from auralize.scene.detection import VIEWER_THRESHOLDS
-
-    return VIEWER_THRESHOLDS

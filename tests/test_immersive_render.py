@@ -357,8 +357,10 @@ def test_viewer_live_engine_binaural_equals_offline() -> None:
     assert eng.layout.name == "binaural"
     eng.set_pose([0, 0, 0], [0, 1, 0], [0, 0, 1])  # the source at +x: to the right
     on = np.concatenate([eng.next_block() for _ in range(10)], axis=1)
+    # (the live clock skips the travel time to the source, as a render's plan does)
+    assert eng.lead == pytest.approx(3.0 / 343.0)
     off = render_timbre(tr, ListenerPath.point((0, 0, 0), duration=0.5), layout="binaural",
-                        highpass_hz=0.0).audio  # fmt: skip
+                        highpass_hz=0.0, lead=eng.lead).audio  # fmt: skip
     assert on.shape == off.shape == (2, 22050) and _rel(on, off) < 1e-5
     assert np.sqrt(np.mean(on[1] ** 2)) > np.sqrt(np.mean(on[0] ** 2))
 

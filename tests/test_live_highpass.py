@@ -9,7 +9,7 @@ import pytest
 
 from auralize.emitters import Emitters, Sound
 from auralize.emitters import render as render_sound
-from auralize.emitters.synthesis import render
+from auralize.emitters.synthesis import C0, box_distances, render, source_extent
 from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
@@ -45,16 +45,25 @@ def test_live_blocks_equal_the_offline_render_with_the_highpass() -> None:
     n_blocks = 20  # 1 s in 50 ms blocks
     path = ListenerPath.point(POSE[0], duration=1.0)
     on = _live(tracks, n_blocks)
+    # the clock of a render standing there (plan_render): the travel time from the
+    # sources' box to the listener is skipped
+    lo, hi, _ = source_extent(tracks)
+    lead = float(box_distances(np.array([POSE[0]]), lo, hi)[0][0]) / C0
+    assert lead > 0.001
     # auralize render --timbre physical (default --highpass 20)
-    off = render_timbre(tracks, path, timbre="physical", layout="stereo").audio
+    off = render_timbre(tracks, path, timbre="physical", layout="stereo", lead=lead).audio
     assert off.shape == on.shape == (2, 44100)
     assert _rel(on, off) < 1e-5
     # the viewer's file: the physical render, then add_rendered's high-pass
-    file = add_rendered(render(tracks, path, layout="stereo"), None, HIGHPASS_HZ)
+    file = add_rendered(render(tracks, path, layout="stereo", lead=lead), None, HIGHPASS_HZ)
     assert file.meta["highpass_hz"] == 20.0 and _rel(on, file.audio) < 1e-5
+    # without the lead the first sound would come later: a different signal
+    late = render_timbre(tracks, path, timbre="physical", layout="stereo").audio
+    assert _rel(on, late) > 0.1
     # --highpass 0: the live blocks keep the swell and equal the unfiltered render
     raw = _live(tracks, n_blocks, highpass_hz=0.0)
-    plain = render_timbre(tracks, path, timbre="physical", layout="stereo", highpass_hz=0).audio
+    plain = render_timbre(tracks, path, timbre="physical", layout="stereo", highpass_hz=0,
+                          lead=lead).audio  # fmt: skip
     assert _rel(raw, plain) < 1e-5
     # ... which is a different sound: mostly the 3 Hz swell the high-pass removes
     assert _rel(raw, off) > 1.0

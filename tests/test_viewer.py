@@ -101,7 +101,18 @@ def test_record_detect_session_roundtrip(qtbot, window, tmp_path, errors):
     # --- time slider moves the step; the audio cursor follows
     win.slider.setValue(5)
     assert win.scene.step == 5
-    assert win.cursor_time() == pytest.approx(win.volume.times[5] - win.volume.times[0])
+    # the cursor is where the step's sound from the nearest point is heard: the render's
+    # clock skips the travel time from the data's box to the path (plan_render)
+    from auralize.emitters.synthesis import C0, box_distances
+
+    assert win.audio["time_scale"] == "auto"
+    win.ts_spin.setValue(1.0)
+    b = np.asarray(win.volume.bounds).reshape(3, 2)
+    lead = float(box_distances(path.positions, b[:, 0], b[:, 1])[0].min()) / C0
+    dt = float(win.volume.times[5] - win.volume.times[0])
+    assert win.cursor_time() == pytest.approx(max(dt - lead, 0.0), abs=1e-12)
+    win.ts_spin.setValue(0.0)  # back to auto (shown as "auto")
+    assert win.audio["time_scale"] == "auto" and win.ts_spin.text() == "auto"
 
     # --- session save/load round trip
     f1 = tmp_path / "s1.json"
@@ -125,6 +136,8 @@ def test_record_detect_session_roundtrip(qtbot, window, tmp_path, errors):
     win.save_session(f2)
     a, b = json.loads(f1.read_text()), json.loads(f2.read_text())
     assert np.allclose(a.pop("path")["rows"], b.pop("path")["rows"], rtol=1e-12, atol=1e-12)
+    ca, cb = a.pop("camera"), b.pop("camera")  # (VTK re-orthogonalises the view-up vector)
+    assert ca.keys() == cb.keys() and all(np.allclose(ca[k], cb[k], atol=1e-12) for k in ca)
     assert a == b
     assert not errors
 

@@ -33,6 +33,7 @@ def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbo
     qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
     win.ts_spin.setValue(40.0)  # the data slowed down: its sound is infrasonic
     assert win.audio["time_scale"] == 40.0
+    win.timbre_box.setCurrentText("physical")  # live listening's timbre
     win.detect()
     qtbot.waitUntil(lambda: win.series is not None and not win.busy, timeout=60_000)
     # a listener path standing where the camera will stand, looking at the data

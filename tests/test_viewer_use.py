@@ -277,22 +277,56 @@ def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec
     assert not errors
 
 
-def test_render_to_file_records_the_start_time(qtbot, window, tmp_path, errors):
+@pytest.mark.parametrize("heard", ["field", "detected"])
+def test_render_to_file_is_auralize_render_and_records_how(qtbot, window, tmp_path, errors,
+                                                          heard):  # fmt: skip
+    """One plan: the viewer's Render to file, with its default settings, writes the
+    samples of ``auralize render DATA --path P --layout stereo`` (the command's own
+    defaults: auto time scale and thresholds, auto timbre, 20 Hz high-pass), and its
+    sidecar holds a command (``render --scene`` of the session saved beside it) that
+    writes them again."""
     import json
+    import shlex
+
+    from auralize.audio import read_wav
+    from auralize.cli import main
+    from auralize.defaults import DEFAULTS
 
     win = window
-    _open(qtbot, win)
-    _detect(qtbot, win)
+    _open(qtbot, win, steps=40)
+    win.set_heard(heard)
+    if heard == "detected":
+        _detect(qtbot, win)
+    assert win.audio["time_scale"] == DEFAULTS.time_scale == "auto"
+    assert win.audio["timbre"] == DEFAULTS.timbre
+    assert tuple(win.read_thresholds().describe().values())[:3] == DEFAULTS.thresholds
     csv = tmp_path / "p.csv"
-    ListenerPath.point(win.volume.center + [0.5, 0, 0], duration=1.2).to_csv(csv)
+    ListenerPath.line(win.volume.center + [3.0, -2, 0], win.volume.center + [3.0, 2, 0],
+                      duration=0.6).to_csv(csv)  # fmt: skip
     win.load_path(csv)
     out = tmp_path / "r.wav"
-    win.render_audio(out)  # three 0.5 s blocks
-    qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=60_000)
-    meta = json.loads(Path(f"{out}.json").read_text())
-    assert meta["t_start_data"] == pytest.approx(float(win.volume.times[0]))
-    assert meta["samples"] == round(1.2 * 44100)
+    win.render_audio(out)
+    qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=120_000)
     assert not errors
+    viewer, rate, _ = read_wav(out)
+    assert rate == 44100 and viewer.shape == (2, round(0.6 * 44100))
+    assert np.max(np.abs(viewer)) > 0.5  # peak-normalised, as the command writes
+
+    cli = tmp_path / "cli.wav"
+    args = ["render", "dataset:monopole", "--size", "12", "--steps", "40", "--path", str(csv),
+            "--layout", "stereo", "--heard", heard, "-o", str(cli)]  # fmt: skip
+    assert main(args) == 0
+    assert np.array_equal(read_wav(cli)[0], viewer)
+
+    side = json.loads(Path(f"{out}.json").read_text())
+    session = Path(side["session"])
+    assert session == tmp_path / "r.wav.session.json" and session.is_file()
+    cmd = shlex.split(side["command"])
+    assert cmd[:4] == ["auralize", "render", "--scene", str(session)]
+    again = tmp_path / "again.wav"
+    assert main([*cmd[1:-1], str(again)]) == 0
+    assert np.array_equal(read_wav(again)[0], viewer)
+    assert json.loads(session.read_text())["audio"]["heard"] == heard
 
 
 def test_file_menu_open_builtin_save_and_restore_session(qtbot, window, tmp_path, errors,

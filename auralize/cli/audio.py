@@ -31,6 +31,8 @@ import json
 import sys
 from typing import Any
 
+from auralize.defaults import DEFAULTS, TIMBRE_CHOICES
+
 
 def cmd_devices(args: argparse.Namespace) -> int:
     """List output devices and their channel counts."""
@@ -264,11 +266,13 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--downmix", nargs="?", const="auto", metavar="LAYOUT",
                    help="fold the layout to fit a device with fewer channels (default: the "
                         "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
-    g.add_argument("--time-scale", type=time_scale_arg, default="auto",
+    g.add_argument("--time-scale", type=time_scale_arg, default=DEFAULTS.time_scale,
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
-    g.add_argument("--highpass", type=float, default=20.0, metavar="HZ", help=HIGHPASS_HELP)
-    g.add_argument("--timbre", choices=["auto", "physical", "extended", "tonal"], default="auto",
+    g.add_argument(
+        "--highpass", type=float, default=DEFAULTS.highpass_hz, metavar="HZ", help=HIGHPASS_HELP
+    )
+    g.add_argument("--timbre", choices=TIMBRE_CHOICES, default=DEFAULTS.timbre,
                    help=TIMBRE_HELP + "; all but physical are rendered ahead, then played")  # fmt: skip
     g.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
     g.add_argument("--gain", default="auto", type=_gain_arg,

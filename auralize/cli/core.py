@@ -46,6 +46,7 @@ from auralize.cli.options import (  # the shared options; re-exported for older 
 )
 from auralize.cli.options import field_map as _field_map
 from auralize.cli.options import vec3 as _vec3
+from auralize.defaults import DEFAULTS, ORBIT_FACES, TIMBRE_CHOICES
 from auralize.errors import (
     AuralizeError,
     DataError,
@@ -214,8 +215,7 @@ def add_heard_options(p: Any) -> None:
     """``--heard`` and ``--orbit-face``: what a render of a volume hears, and how the
     default orbit's listener faces."""
     p.add_argument("--heard", default=None, metavar="WHAT", help=HEARD_HELP)
-    p.add_argument("--orbit-face", choices=["sweep", "center", "forward", "fixed"],
-                   default="sweep",
+    p.add_argument("--orbit-face", choices=ORBIT_FACES, default=DEFAULTS.orbit_face,
                    help="the default orbit's listener (no --listener or --path): sweep "
                         "(default: the head turns so the data pass around the listener, every "
                         "speaker carries them), center (faces the data), forward (along the "
@@ -232,7 +232,7 @@ def heard_arg(args: argparse.Namespace) -> str:
 
 def add_render_options(p: argparse.ArgumentParser) -> None:
     """Synthesis options shared by ``render`` and its Dask variant."""
-    p.add_argument("--time-scale", type=time_scale_arg, default="auto",
+    p.add_argument("--time-scale", type=time_scale_arg, default=DEFAULTS.time_scale,
                    help="playback seconds per data second, or auto (default): the data's span "
                         "plays in --duration")  # fmt: skip
     p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
@@ -240,9 +240,9 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
                    help="reuse sources from 'auralize detect' (heard with --heard detected, "
                         "which this implies)")  # fmt: skip
     add_heard_options(p)
-    p.add_argument("--timbre", choices=["auto", "physical", "extended", "tonal"], default="auto",
+    p.add_argument("--timbre", choices=TIMBRE_CHOICES, default=DEFAULTS.timbre,
                    help=TIMBRE_HELP)  # fmt: skip
-    p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
+    p.add_argument("--highpass", type=float, default=DEFAULTS.highpass_hz, metavar="HZ",
                    help=HIGHPASS_HELP)  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
 
@@ -529,7 +529,7 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     notes: list[str] = []
     sound = Sound(parts=[], meta={}, name="")
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
-        from auralize.pipeline import Planner, heard_sound
+        from auralize.pipeline import plan_heard
         from auralize.sources.model import FieldAuralization
 
         vol = load_volume(args)
@@ -538,18 +538,17 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
             from auralize.io.sources_file import load_sources_for
 
             series = load_sources_for(args.sources, vol)
-        planner = Planner(vol, path=path, listener=listener, duration=args.duration,
-                          time_scale=args.time_scale, clip=False,
-                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
-        hs = heard_sound(vol, heard=heard_arg(args), series=series, mapping=args.mapping,
-                         thresholds=thresholds_from_args(args), path=planner,
-                         progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
-        plan = planner.plan
+        hs, plan = plan_heard(vol, path=path, listener=listener, duration=args.duration,
+                              time_scale=args.time_scale, clip=False,
+                              orbit_face=getattr(args, "orbit_face", DEFAULTS.orbit_face),
+                              heard=heard_arg(args), series=series, mapping=args.mapping,
+                              thresholds=thresholds_from_args(args),
+                              progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
         path = plan.path
         notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
         sound = sound + FieldAuralization().synthesize(
             (vol, hs), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
-            timbre=getattr(args, "timbre", "physical"))  # fmt: skip
+            timbre=getattr(args, "timbre", DEFAULTS.timbre))  # fmt: skip
         _report_unavailable(command, hs.meta)
     elif args.sources:
         raise ParameterError("--sources needs the volume they were detected in (PATH)")

@@ -43,13 +43,14 @@ import numpy as np
 # re-exported: the helpers every command uses, also handed to plugins' hooks
 from auralize.audio.output import fit_duration as fit_duration
 from auralize.cli.plugin_commands import lazy as lazy
+from auralize.defaults import DEFAULTS
 from auralize.emitters import RATE_RANGE_HZ as RATE_RANGE_HZ
 from auralize.io import field_map as field_map
 from auralize.listener import listener_from_args as listener_from_args
 from auralize.listener import render_duration as render_duration
 
 #: default output sample rate, Hz
-DEFAULT_RATE = 44100
+DEFAULT_RATE = DEFAULTS.rate
 
 
 def positive_float(text: str) -> float:

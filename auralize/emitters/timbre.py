@@ -86,6 +86,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.defaults import DEFAULTS, TIMBRE_CHOICES
 from auralize.emitters.synthesis import (
     C0,
     Rendered,
@@ -105,12 +106,12 @@ from auralize.spatial.layouts import (
     receivers_of,
 )
 
-TIMBRES = ("physical", "extended", "tonal")
+TIMBRES = tuple(t for t in TIMBRE_CHOICES if t != "auto")
 #: ``auto`` renders ``physical`` when at least this share of its energy is above 20 Hz,
 #: else ``extended``
 AUDIBLE_SHARE = 0.5
 #: default output high-pass (Hz): below it nothing is audible (paper 001 §6 uses 30 Hz)
-HIGHPASS_HZ = 20.0
+HIGHPASS_HZ = DEFAULTS.highpass_hz
 #: tonal carriers per type: ("noise", low Hz, high Hz) or ("tone", Hz)
 TONAL_CARRIERS: dict[str, tuple[Any, ...]] = {
     "monopole": ("noise", 177.0, 354.0),

@@ -13,11 +13,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from auralize.defaults import DEFAULTS
 from auralize.errors import AuralizeError
+from auralize.errors import Cancelled as Cancelled  # (re-exported: the viewer's tasks raise it)
 from auralize.mapping import AcousticMapping
 from auralize.sources.detection import (
-    AUTO_FRACTIONS,
-    TYPES,
     SourceFrame,
     SourceSeries,
     Thresholds,
@@ -28,14 +28,10 @@ from auralize.sources.detection import (
 )
 from auralize.volume import TimeVolume
 
-#: the viewer's default thresholds: relative to each type's peak, lower for
-#: dipoles and quadrupoles (whose peaks come from a few extreme vertices), so
-#: that all three types show on the explosion dataset
-VIEWER_THRESHOLDS = tuple(f"{AUTO_FRACTIONS[k] * 100:g}%" for k in TYPES)
-
-
-class Cancelled(AuralizeError):
-    """Long work was cancelled by the user."""
+#: the viewer's default thresholds: those of every front end (``auto`` for each
+#: type, :data:`auralize.defaults.DEFAULTS`), so that the viewer draws the
+#: sources ``auralize detect`` finds
+VIEWER_THRESHOLDS: tuple[str, str, str] = DEFAULTS.thresholds
 
 
 class Detection:

@@ -21,7 +21,13 @@ filtered once; the overlays' sound (``extra``) is added as its model makes it,
 unfiltered.  The timbre is ``physical``: ``extended`` and ``tonal`` (and the
 choice of ``auto``) need the whole render along a path known in advance (β of
 paper 001 Eq. 13 is matched over the render), which a camera-driven listener
-does not have; the viewer's rendered file is ``physical`` for the same reason.
+does not have (the viewer's rendered file, along a recorded path, has them).
+
+The clock is placed as a render's (:func:`auralize.pipeline.plan_render`): each
+loop starts when the first sound can reach the camera (``lead``), so a camera
+a kilometre away hears the data at once rather than after three seconds of
+silence per loop; :meth:`LiveEngine.why_silent` says in words why nothing can
+be heard when nothing can.
 
 What was heard is kept (:meth:`LiveEngine.heard_path`,
 :meth:`LiveEngine.heard_audio`) so it can be saved as a listener-path CSV
@@ -48,6 +54,7 @@ Examples
 from __future__ import annotations
 
 import importlib
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -57,7 +64,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from auralize.emitters.synthesis import C0, Rendered, render
+from auralize.emitters.synthesis import C0, Rendered, box_distances, render, source_extent
 from auralize.emitters.timbre import HIGHPASS_HZ, butter_sos, highpass, highpass_start
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
@@ -105,12 +112,23 @@ class LiveEngine:
         (default 20 Hz; 0 keeps everything).  Its state is carried from block
         to block (and across a loop); per block it costs one ``sosfilt`` of
         the block, nothing is designed or allocated beyond the block.
+    lead : float or "auto"
+        Data seconds of sound travel skipped at the start of each loop, as
+        :func:`auralize.pipeline.plan_render` places a render's clock.
+        ``"auto"`` (default): at each loop's start, the travel time from the
+        sources' box to the listener then (:attr:`lead`), so the first sound
+        is heard at once however far away the camera is; each loop lasts the
+        data's span plus the spread of arrival delays across the box.
+    box : (lo, hi), optional
+        The box the clock is placed from (default: the sources'); a render of
+        the whole field plans from the data's bounds
+        (:func:`auralize.pipeline.source_box`), which the viewer passes.
     """
 
     def __init__(self, tracks: SourceTracks, *, layout: str = "stereo", rate: int = 44100,
                  time_scale: float = 1.0, block: int = DEFAULT_BLOCK, c0: float = C0,
-                 loop: bool = True, extra: Any = None,
-                 highpass_hz: float = HIGHPASS_HZ) -> None:  # fmt: skip
+                 loop: bool = True, extra: Any = None, highpass_hz: float = HIGHPASS_HZ,
+                 lead: float | str = "auto", box: Any = None) -> None:  # fmt: skip
         if not (isinstance(block, int) and 16 <= block <= 1 << 16):
             raise ParameterError(f"block must be 16..65536 samples, got {block!r}")
         highpass(np.zeros((1, 0)), int(rate), highpass_hz)  # a bad cut-off fails here
@@ -122,7 +140,16 @@ class LiveEngine:
         self.block = block
         self.c0 = float(c0)
         self.loop = loop
+        if not (lead == "auto" or (isinstance(lead, int | float) and math.isfinite(lead)
+                                   and lead >= 0)):  # fmt: skip
+            raise ParameterError(f"lead must be 'auto' or data seconds >= 0, got {lead!r}")
+        self.auto_lead = lead == "auto"
+        #: data seconds of travel skipped in the current loop
+        self.lead = 0.0 if self.auto_lead else float(lead)
+        self.box = (None if not tracks.n_sources else source_extent(tracks)[:2] if box is None
+                    else tuple(np.asarray(b, dtype=np.float64).reshape(3) for b in box))  # fmt: skip
         span = tracks.t_last - tracks.t_first if tracks.times.size > 1 else 0.0
+        self.data_span = float(span)
         self.span_s = span * self.time_scale  # playback seconds of one loop
         self.t = 0.0  # playback seconds into the current loop
         self.elapsed = 0.0  # playback seconds since start
@@ -149,8 +176,52 @@ class LiveEngine:
 
     @property
     def data_time(self) -> float:
-        """Data time (s) of the next block's first sample (for the time slider)."""
+        """Data time (s) of the next block's first sample (for the time slider): when
+        the sound the listener hears then left the nearest source."""
         return float(self.tracks.t_first + self.t / self.time_scale)
+
+    def distances(self, position: ArrayLike) -> tuple[float, float]:
+        """Nearest and farthest distance (m) from ``position`` to the sources' box
+        (``(inf, inf)`` when nothing is heard)."""
+        if self.box is None:
+            return math.inf, math.inf
+        near, far = box_distances(np.asarray(position, dtype=np.float64).reshape(1, 3), *self.box)
+        return float(near[0]), float(far[0])
+
+    def _start_loop(self, position: NDArray[np.float64]) -> None:
+        """Place a loop's clock for the listener at ``position``: skip the travel time to
+        the first arrival (``lead``) and last the data's span plus the spread of
+        arrival delays, as a render along a path standing there."""
+        near, far = self.distances(position)
+        if not math.isfinite(near):
+            return
+        if self.auto_lead:
+            self.lead = near / self.c0
+        self.span_s = self.time_scale * (self.data_span + max(far - near, 0.0) / self.c0)
+
+    def why_silent(self) -> str | None:
+        """Why nothing can be heard now, in words (None when something can)."""
+        if self.tracks.n_sources == 0:
+            return ("nothing is heard: no sources (detect with lower thresholds, unmute a "
+                    "type, or hear the whole field)")  # fmt: skip
+        if self.data_span <= 0:
+            return "nothing is heard: the data have one time step, so nothing changes"
+        q = np.asarray(self.tracks.q, dtype=np.float64)
+        if q.size and not np.any(q.max(axis=1) > q.min(axis=1)):
+            return "nothing is heard: no source's strength changes in time (the field is steady)"
+        return None
+
+    def describe_distance(self) -> str:
+        """Where the listener is from the sources, and the travel time skipped."""
+        with self._lock:
+            pose = self._pose
+        if pose is None or self.box is None:
+            return ""
+        near, _ = self.distances(pose[0])
+        where = f"{near / 1000:.3g} km" if near >= 1000 else f"{near:.3g} m"
+        return (f"the data are {where} away: sound takes {near / self.c0:.3g} s "
+                f"(skipped: the first arrival plays at once)" if self.auto_lead
+                else f"the data are {where} away: sound takes {near / self.c0:.3g} s")  # fmt: skip
 
     def set_pose(self, position: ArrayLike, forward: ArrayLike, up: ArrayLike) -> int:
         """Set the listener pose used from the next block on; returns a version number."""
@@ -176,6 +247,8 @@ class LiveEngine:
         prev = self._prev if self._prev is not None else pose
         if self.loop and self.span_s > 0 and self.t >= self.span_s:
             self.t = 0.0
+        if self.t == 0.0:
+            self._start_loop(pose[0])
         dur = self.block_s
         move = float(np.linalg.norm(pose[0] - prev[0]))
         if move / (dur / self.time_scale) >= 0.5 * self.c0:
@@ -188,7 +261,7 @@ class LiveEngine:
         path = ListenerPath(times, np.array(pos), np.array(fwd), np.array(up), source="live")
         out = render(self.tracks, path, rate=self.rate, time_scale=self.time_scale,
                      layout=self.stage.synthesis_layout, c0=self.c0, start=self.t,
-                     duration=dur)  # fmt: skip
+                     duration=dur, lead=self.lead)  # fmt: skip
         audio = out.audio
         if audio.shape[1] != self.block:  # rounding of duration * rate
             audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from auralize.defaults import TIMBRE_CHOICES
 from auralize.errors import FormatError
 from auralize.io.files import atomic_write
 from auralize.io.json_check import (
@@ -116,6 +117,7 @@ SCHEMA = Obj({
                              what="a number > 0 (playback seconds per data second) or 'auto'"),
         "device": optional(Either(Text(), Num(lo=0, integer=True))),
         "heard": Text(nonempty=True),
+        "timbre": Text(choices=TIMBRE_CHOICES),
     }, other=AnyJSON()),
     "camera": optional(Obj({
         "position": vec3(),

@@ -40,13 +40,15 @@ renders a scene block by block for live playback with the same rule
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from auralize.errors import FormatError, MissingFileError, ParameterError
+from auralize.defaults import DEFAULTS
+from auralize.errors import Cancelled, FormatError, MissingFileError, ParameterError
 from auralize.io.json_check import (
     AnyJSON,
     Either,
@@ -274,7 +276,8 @@ def session_scene(doc: dict[str, Any], *, source: str = "<memory>") -> SceneFile
     """The scene of a saved session (:mod:`auralize.scene.session`): what it renders.
 
     The session's data is a ``field`` model detected with the session's
-    mapping and thresholds and played at its time scale; its ``models`` (the
+    mapping and thresholds, heard as it was (``heard``), with its time scale
+    and timbre (:data:`auralize.defaults.DEFAULTS` where it has none); its ``models`` (the
     viewer's audible overlays, :func:`auralize.simple.AddSoundModel`) follow;
     the listener is its path, ``layout``/``rate`` its audio settings.  So
     ``auralize render --scene SESSION.json -o out.wav`` renders what the
@@ -286,12 +289,13 @@ def session_scene(doc: dict[str, Any], *, source: str = "<memory>") -> SceneFile
     models: list[SceneModel] = []
     if st.data:
         det = st.detection or {}
+        a = st.audio or {}
+        params: dict[str, Any] = {"mapping": det.get("mapping") or DEFAULTS.mapping}
         if det.get("mapping_fields"):
-            raise FormatError(f"{source}: the session maps its own fields "
-                              f"({det['mapping_fields']}); a scene's field model takes a mapping "
-                              f"preset only")  # fmt: skip
-        params: dict[str, Any] = {"mapping": det.get("mapping") or "auto",
-                                  "time_scale": float((st.audio or {}).get("time_scale", 1.0))}  # fmt: skip
+            params["fields"] = dict(det["mapping_fields"])
+        for key in ("time_scale", "timbre", "heard"):  # absent: the defaults of every front end
+            if a.get(key) is not None:
+                params[key] = a[key]
         for kind, value in (det.get("thresholds") or {}).items():
             if kind in ("monopole", "dipole", "quadrupole") and value is not None:
                 params[f"threshold_{kind}"] = value
@@ -308,10 +312,27 @@ def session_scene(doc: dict[str, Any], *, source: str = "<memory>") -> SceneFile
                      rate=int(a["rate"]) if a.get("rate") else None, source=source)  # fmt: skip
 
 
-def load_input(model: Any, spec: Any) -> Any:
+def input_key(spec: Any) -> str | None:
+    """The key of a scene entry's input in :func:`scene_sound`'s ``loaded`` (a file
+    name or ``dataset:NAME``, or a session's data entry as canonical JSON), or None
+    when the entry holds the inputs themselves."""
+    import json
+
+    if isinstance(spec, str):
+        return spec
+    if isinstance(spec, dict) and isinstance(spec.get("spec"), str):
+        return json.dumps(spec, sort_keys=True, default=str)
+    return None
+
+
+def load_input(model: Any, spec: Any, loaded: dict[str, Any] | None = None) -> Any:
     """A scene entry's inputs: a spec string read by the model, a session's data entry
     (``{"spec": ..., "size": ..., "steps": ..., "seed": ...}``) opened as a volume, or
-    the inputs themselves."""
+    the inputs themselves.  ``loaded`` maps :func:`input_key` to inputs already
+    read (the viewer's volume on screen), which are taken as they are."""
+    key = input_key(spec)
+    if loaded and key is not None and key in loaded:
+        return loaded[key]
     if isinstance(spec, str):
         return model.load_input(spec)
     if isinstance(spec, dict) and isinstance(spec.get("spec"), str):
@@ -321,27 +342,20 @@ def load_input(model: Any, spec: Any) -> Any:
     return spec
 
 
-def _field_params(inputs: Any, params: dict[str, Any], path: ListenerPath,
-                  duration: float) -> dict[str, Any]:  # fmt: skip
-    """Resolve the field model's ``time_scale="auto"`` and its lead for ``path``."""
-    from auralize.pipeline import plan_render
-
-    if params.get("time_scale", 1.0) != "auto":
-        return params
-    volume = inputs[0] if isinstance(inputs, tuple) else inputs
-    plan = plan_render(volume, None, path=path, duration=duration, time_scale="auto")
-    return {**params, "time_scale": plan.time_scale, "lead": params.get("lead", plan.lead)}
-
-
 def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
-                duration: float | None = None, rate: int | None = None) -> Any:  # fmt: skip
+                duration: float | None = None, rate: int | None = None, *,
+                loaded: dict[str, Any] | None = None,
+                progress: Callable[[int, int], bool] | None = None) -> Any:  # fmt: skip
     """Synthesize every model of a scene and join their sounds (one :class:`Sound`).
 
-    ``path`` and ``duration`` are only used to resolve the field model's
-    automatic time scale, and to hear the blocks of its whole field near the
-    path as their points.  ``rate`` (the output rate, Hz) is the emission rate
+    ``path`` and ``duration`` go to each model's :meth:`~auralize.plugins.SoundModel.plan`
+    (the ``field`` model plans as ``auralize render`` does: its automatic time
+    scale, the travel time skipped, the blocks of its whole field near the
+    path heard as their points).  ``rate`` (the output rate, Hz) is the emission rate
     of a model with a ``rate`` parameter that its entry leaves unset (fire,
     aero), as in the model's own command.  ``meta["scene"]`` lists the models.
+    ``loaded`` as :func:`load_input`; ``progress(done, total)`` is called after
+    each model (returning False cancels with :class:`~auralize.errors.Cancelled`).
     """
     from auralize.emitters import Sound
     from auralize.plugins import get_model, synthesize
@@ -349,9 +363,11 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
     if not models:
         raise ParameterError("a scene needs at least one sound model")
     total = Sound(parts=[], meta={}, name="")
-    for sm in models:
+    for k, sm in enumerate(models):
+        if progress is not None and not progress(k, len(models) + 1):
+            raise Cancelled(f"scene cancelled before its {sm.model} model")
         model = get_model(sm.model)
-        inputs = load_input(model, sm.input)
+        inputs = load_input(model, sm.input, loaded)
         params = dict(sm.params)
         if (
             rate is not None
@@ -359,12 +375,8 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
             and any(p.name == "rate" for p in model.parameters)
         ):
             params["rate"] = int(rate)
-        if sm.model == "field" and path is not None:
-            params = _field_params(inputs, params, path, duration or path.duration)
-            from auralize.volume import TimeVolume
-
-            if isinstance(inputs, TimeVolume):  # the whole field's blocks near it as points
-                inputs = (inputs, path)
+        if path is not None:  # what depends on where the listener goes (the field's plan)
+            inputs, params = model.plan(inputs, params, path, duration or path.duration)
         total = total + synthesize(model, inputs, **params)
     total.meta["scene"] = [sm.describe() for sm in models]
     return total
@@ -578,6 +590,66 @@ def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44
     sound = scene_sound(models, path, dur + start, rate=rate)
     return render_mix(sound, path, rate=rate, layout=layout, duration=dur, start=start,
                       backend=backend, highpass_hz=highpass_hz)  # fmt: skip
+
+
+def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpass_hz,
+                      loaded: dict[str, Any] | None = None,
+                      progress: Callable[[int, int], bool] | None = None) -> Any:  # fmt: skip
+    """Render a scene file (or a session's scene) as ``auralize render --scene FILE``
+    with no other option does: its layout, rate and duration (else the
+    defaults: mono at 44.1 kHz, as long as its listener path or until every part
+    has been heard), every model planned for its listener and mixed with
+    :func:`render_mix`'s rule.
+
+    Parameters
+    ----------
+    scene : SceneFile
+        From :func:`load_scene` or :func:`session_scene`; it needs a listener
+        (a path or a position).
+    highpass_hz : float
+        The field sources' high-pass, Hz (``--highpass``).
+    loaded : dict, optional
+        Inputs already read, as :func:`load_input` takes them (the viewer
+        passes the volume on screen, so it is not read again).
+    progress : callable, optional
+        ``progress(done, total) -> bool`` after each model and after the
+        render; False cancels (:class:`~auralize.errors.Cancelled`).
+
+    Returns
+    -------
+    Rendered
+        As :func:`render_mix`; ``meta["duration_s"]`` is the length rendered.
+
+    Raises
+    ------
+    ParameterError
+        The scene has no listener, or a model's parameter is wrong.
+    """
+    from auralize.spatial.layouts import get_layout
+
+    path = scene.path
+    if path is None:
+        if scene.listener is None:
+            raise ParameterError(f"{scene.source}: the scene has no listener (a path or a "
+                                 f"position) to render for")  # fmt: skip
+        path = ListenerPath.point(scene.listener, duration=scene.duration or DEFAULTS.duration)
+    rate = int(scene.rate or DEFAULTS.rate)
+    layout = get_layout(scene.layout or DEFAULTS.layout)
+    sound = scene_sound(scene.models, path, scene.duration, rate=rate, loaded=loaded,
+                        progress=progress)  # fmt: skip
+    if scene.duration is not None:
+        duration = float(scene.duration)
+    elif scene.path is not None:
+        duration = float(path.duration)
+    else:
+        duration = scene_length(sound, path)
+    out = render_mix(sound, path, rate=rate, layout=layout, duration=duration,
+                     highpass_hz=highpass_hz)  # fmt: skip
+    n = len(scene.models) + 1
+    if progress is not None and not progress(n, n):
+        raise Cancelled("scene cancelled")
+    out.meta["duration_s"] = duration
+    return out
 
 
 class SceneBlocks:

@@ -37,6 +37,7 @@ Ctrl+Q quit, F1 keys.  The camera position is in the status bar.
 from __future__ import annotations
 
 import os
+import shlex
 import traceback
 import warnings
 from collections.abc import Callable
@@ -51,11 +52,13 @@ import numpy as np
 from pyvistaqt import QtInteractor
 from qtpy import QtCore, QtGui, QtWidgets
 
+from auralize.defaults import DEFAULTS, TIMBRE_CHOICES
 from auralize.errors import AuralizeError, OutputError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.scene.detection import VIEWER_THRESHOLDS, Cancelled, Detection
+from auralize.scene.detection import Cancelled, Detection
 from auralize.scene.recorder import DEFAULT_RATE_HZ, PathRecorder
 from auralize.scene.session import SessionState, data_spec, reader_options
+from auralize.scene.soundscene import input_key
 from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.sources.detection import TYPES, Thresholds
 
@@ -275,7 +278,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.mapping = "auto"
         self.mapping_fields: dict[str, str] = {}
         self.load_notes: list[str] = []
-        self.thresholds = Thresholds(*VIEWER_THRESHOLDS)
+        self.thresholds = Thresholds(*DEFAULTS.thresholds)
         self.autosave_dir = autosave_dir or default_autosave_dir()
         self.recorder = PathRecorder(rate_hz=DEFAULT_RATE_HZ)
         self.path: ListenerPath | None = None
@@ -298,8 +301,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self._overlay_sounds: dict[str, tuple[Any, Any]] = {}
         self._sound_tasks: dict[str, Task] = {}
         self._threads: set[Task] = set()
-        self.audio = {"layout": "stereo", "rate": 44100, "time_scale": 1.0, "device": None,
-                      "heard": "field"}  # fmt: skip
+        # the command line's plan (auralize.defaults), but stereo on the desktop's device
+        self.audio: dict[str, Any] = {
+            "layout": "stereo", "rate": DEFAULTS.rate, "time_scale": DEFAULTS.time_scale,
+            "timbre": DEFAULTS.timbre, "device": None, "heard": DEFAULTS.heard}  # fmt: skip
+        self._plan_cache: tuple[Any, Any] | None = None
         self._heard: Any = None
         self._rec_timer = QtCore.QTimer(self)
         self._rec_timer.timeout.connect(self.capture)
@@ -532,7 +538,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.th_edits: dict[str, QtWidgets.QLineEdit] = {}
         self.type_checks: dict[str, QtWidgets.QCheckBox] = {}
         self.count_labels: dict[str, QtWidgets.QLabel] = {}
-        for kind, d in zip(TYPES, VIEWER_THRESHOLDS, strict=True):
+        for kind, d in zip(TYPES, DEFAULTS.thresholds, strict=True):
             e = QtWidgets.QLineEdit(d)
             e.setToolTip(f"{kind} detection threshold: an absolute strength, N% of the peak, "
                          f"or auto")  # fmt: skip
@@ -639,12 +645,23 @@ class MainWindow(QtWidgets.QMainWindow):
         )
         f.addRow("device", self.device_box)
         self.ts_spin = QtWidgets.QDoubleSpinBox()
-        self.ts_spin.setRange(0.01, 1000)
+        self.ts_spin.setRange(0.0, 1e6)
         self.ts_spin.setDecimals(3)
-        self.ts_spin.setValue(1.0)
-        self.ts_spin.setToolTip("time scale: playback seconds per data second")
+        self.ts_spin.setSpecialValueText("auto")  # shown at the minimum, 0
+        self.ts_spin.setValue(0.0 if DEFAULTS.time_scale == "auto" else float(DEFAULTS.time_scale))
+        self.ts_spin.setToolTip("time scale: playback seconds per data second; auto (as "
+                                "auralize render): the data's sound plays in the listener "
+                                "path's duration (10 s without a path)")  # fmt: skip
         self.ts_spin.valueChanged.connect(self._on_time_scale)
         f.addRow("time scale", self.ts_spin)
+        self.timbre_box = QtWidgets.QComboBox()
+        self.timbre_box.addItems(list(TIMBRE_CHOICES))
+        self.timbre_box.setCurrentText(DEFAULTS.timbre)
+        self.timbre_box.setToolTip("how the sources sound in rendered files (as auralize render "
+                                   "--timbre; auto: physical when most of the sound is "
+                                   "audible, else extended); live listening is physical")  # fmt: skip
+        self.timbre_box.currentTextChanged.connect(lambda t: self.audio.__setitem__("timbre", t))
+        f.addRow("timbre", self.timbre_box)
         row = QtWidgets.QHBoxLayout()
         b = QtWidgets.QPushButton("Render to file…")
         b.setToolTip("render the sound heard along the listener path to a WAV/FLAC file")
@@ -778,6 +795,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.meter.setValue(int(max(-60.0, min(0.0, peak))))
         red = f", limiting {lim.reduction_db:.1f} dB" if lim.reduction_db < -0.05 else ""
         self.meter.setFormat(f"peak {peak:.1f} dBFS{red}" if peak > -200 else "silence")
+        if peak <= -200 and self.player is not None and self.player.running:
+            why = self.player.engine.why_silent()  # silent live listening says why in words
+            if why:
+                self.live_label.setText(why)
 
     # ============================================================== errors
     def show_error(self, exc: BaseException) -> None:
@@ -978,7 +999,7 @@ class MainWindow(QtWidgets.QMainWindow):
         lines = short.count("\n") + 1 + sum(len(n) > 40 for n in notes)
         self.info.setMinimumHeight(lines * self.info.fontMetrics().lineSpacing() + 4)
         self.info.setToolTip(text + "".join(f"\nnote: {n}" for n in self.load_notes))
-        self.scene.set_path(self.path, time_scale=self.audio["time_scale"], render=False)
+        self.scene.set_path(self.path, time_scale=self.time_scale_value(), render=False)
         self._update_step_label()
         self._refresh_enabled()
         self.plotter.render()
@@ -1168,7 +1189,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def set_playing(self, on: bool) -> None:
         if on and self.volume is not None:
             dt = np.diff(self.volume.times).mean() if self.volume.n_steps > 1 else 0.1
-            self._anim_timer.start(max(int(1000 * dt * self.audio["time_scale"]), 15))
+            self._anim_timer.start(max(int(1000 * dt * self.time_scale_value()), 15))
         else:
             self._anim_timer.stop()
         self.play_btn.blockSignals(True)
@@ -1182,8 +1203,34 @@ class MainWindow(QtWidgets.QMainWindow):
         self._guard(self.set_step, (self.scene.step + 1) % self.volume.n_steps)
 
     def _on_time_scale(self, v: float) -> None:
-        self.audio["time_scale"] = float(v)
-        self.scene.time_scale = float(v)
+        self.audio["time_scale"] = "auto" if v <= 0 else float(v)
+        self.scene.time_scale = self.time_scale_value()
+
+    def playback_plan(self) -> Any:
+        """The plan of a render of the data on screen along the listener path (without a
+        path: the default orbit), with the viewer's time scale
+        (:func:`auralize.pipeline.plan_render`): its time scale places the cursor,
+        paces Play and live listening."""
+        from auralize.pipeline import plan_render
+
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        key = (id(self.volume), id(self.path), self.audio["time_scale"])
+        if self._plan_cache is not None and self._plan_cache[0] == key:
+            return self._plan_cache[1]
+        plan = plan_render(self.volume, None, path=self.path, clip=False,
+                           time_scale=self.audio["time_scale"])  # fmt: skip
+        self._plan_cache = (key, plan)
+        return plan
+
+    def time_scale_value(self) -> float:
+        """Playback seconds per data second now (``auto`` resolved by :meth:`playback_plan`)."""
+        ts = self.audio["time_scale"]
+        if ts != "auto":
+            return float(ts)
+        if self.volume is None or self.volume.n_steps < 2:
+            return 1.0
+        return float(self.playback_plan().time_scale)
 
     def first_step(self) -> None:
         """First frame (ParaView's VCR control; stops Play)."""
@@ -1404,7 +1451,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stop_recording()
         self.recorder.load(p)
         self.path = p
-        self.scene.set_path(p, time_scale=self.audio["time_scale"])
+        self.scene.set_path(p, time_scale=self.time_scale_value())
         self._path_info()
         return p
 
@@ -1416,62 +1463,44 @@ class MainWindow(QtWidgets.QMainWindow):
     # =============================================================== audio
     def render_audio(self, filename: str | Path | None = None, *,
                      then: Callable[[], None] | None = None) -> Task:  # fmt: skip
-        """Render the path's sound in the background (blocks of 0.5 s, cancellable) and
-        write it to ``filename`` (WAV/FLAC) if given.  The sound of every overlay that
-        is switched on and heard (:meth:`overlay_sound`) is added along the same path.
+        """Render the sound heard along the listener path in the background and write it
+        to ``filename`` (WAV/FLAC) if given.
 
-        The output rule of ``auralize render``
-        (:func:`auralize.scene.soundscene.add_rendered`): the volume's sources go
-        through the 20 Hz high-pass (:data:`auralize.emitters.timbre.HIGHPASS_HZ`),
-        the overlays' sound is heard as its model makes it; ``meta["highpass_hz"]``
-        (and so the sidecar) records the cut-off.  The timbre is ``physical``, as
-        in live listening (:meth:`start_live`), which plays the same sound."""
-        from auralize.emitters.synthesis import Rendered, check_distance, render
-        from auralize.emitters.timbre import HIGHPASS_HZ
-        from auralize.pipeline import save_rendered
-        from auralize.scene.soundscene import add_rendered
+        The render is ``auralize render --scene SESSION``'s: the viewer's session
+        (data, mapping, thresholds, what is heard, time scale, timbre, layout,
+        rate, the path, every overlay that is heard) becomes a scene
+        (:func:`auralize.scene.soundscene.session_scene`) rendered by
+        :func:`auralize.scene.soundscene.render_scene_file`, the volume on screen
+        taken as it is.  With ``filename``, that session is saved beside it as
+        ``FILE.session.json`` and the sidecar's ``command`` is
+        ``auralize render --scene FILE.session.json -o FILE``, which writes the
+        same samples.  Overlays whose sound is still being computed are
+        computed here (the progress bar counts them), so none is left out."""
+        from auralize.scene.soundscene import render_scene_file, session_scene
 
         if self.volume is None:
             raise ParameterError("open a data file first")
         if self.path is None:
             raise ParameterError("no listener path; record or load one first")
-        path, vol, a = self.path, self.volume, dict(self.audio)
         self.heard_spec()  # every type muted: say so before the work starts
-        extra = self.overlay_sound()
-        check_distance(path, vol.bounds)
+        from auralize.emitters.synthesis import check_distance
+
+        check_distance(self.path, self.volume.bounds)
+        doc = self.session_state().to_dict()
+        scene = session_scene(doc, source="the viewer's session")
+        loaded = {input_key(self.data): self.volume}
+        out = None if filename is None else Path(filename).expanduser().resolve()
+        session_file = None if out is None else out.with_name(out.name + ".session.json")
 
         def work(progress: Callable[[int, int], bool]) -> Any:
-            from auralize.emitters import render as render_sound
+            from auralize.pipeline import save_rendered
 
-            hs = self.heard_sound(path)
-            tracks = hs.tracks
-            total = max(path.duration, 1e-3)
-            blocks, t, blk = [], 0.0, 0.5
-            n = int(np.ceil(total / blk))
-            first: dict[str, Any] = {}
-            for i in range(n):
-                d = min(blk, total - t)
-                out = render(tracks, path, rate=a["rate"], time_scale=a["time_scale"],
-                             layout=a["layout"], start=t, duration=d)  # fmt: skip
-                first = first or dict(out.meta)  # the sound starts at the first block's time
-                blocks.append(out.audio)
-                t += d
-                if not progress(i + 1, n):
-                    raise Cancelled(f"rendering cancelled after {t:.1f} of {total:.1f} s")
-            audio = np.concatenate(blocks, axis=1)
-            part = {"model": "field", "kind": "FieldSources",
-                    "peak_pa": float(np.max(np.abs(audio), initial=0.0))}  # fmt: skip
-            field = Rendered(audio=audio, rate=out.rate, layout=out.layout,
-                             time_scale=out.time_scale,
-                             meta={**out.meta, "t_start_data": first["t_start_data"],
-                                   "volume": vol.source, "parts": [part], **hs.meta})  # fmt: skip
-            more = None
-            if extra is not None:  # the audible overlays, along the same path
-                more = render_sound(extra, path, rate=a["rate"], layout=a["layout"],
-                                    duration=audio.shape[1] / a["rate"])  # fmt: skip
-            r = add_rendered(field, more, HIGHPASS_HZ)
-            if filename is not None:
-                save_rendered(r, filename)
+            r = render_scene_file(scene, loaded=loaded, progress=progress)
+            if out is not None and session_file is not None:
+                SessionState.from_dict(doc, source=str(session_file)).save(session_file)
+                cmd = shlex.join(["auralize", "render", "--scene", str(session_file),
+                                  "-o", str(out)])  # fmt: skip
+                save_rendered(r, out, extra={"command": cmd, "session": str(session_file)})
             return r
 
         def done(r: Any) -> None:
@@ -1505,12 +1534,11 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def cursor_time(self) -> float:
         """Playback seconds of the current step (where the cursor is drawn)."""
-        if self.volume is None:
+        if self.volume is None or self.volume.n_steps < 2:
             return 0.0
-        return (
-            float(self.volume.times[self.scene.step] - self.volume.times[0])
-            * self.audio["time_scale"]
-        )
+        plan = self.playback_plan()  # the render's clock: its time scale and the travel skipped
+        data = float(self.volume.times[self.scene.step] - self.volume.times[0]) - plan.lead
+        return max(data, 0.0) * plan.time_scale
 
     def _update_cursor(self) -> None:
         if not self._cursors:
@@ -1566,10 +1594,14 @@ class MainWindow(QtWidgets.QMainWindow):
 
         if self.player is not None and self.player.running:
             return self.player
+        from auralize.pipeline import source_box
+
         a = self.audio
-        eng = LiveEngine(self.heard_sound().tracks, layout=a["layout"], rate=a["rate"],
-                         time_scale=a["time_scale"], block=int(self.block_spin.value()),
-                         extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ)  # fmt: skip
+        hs = self.heard_sound()
+        box = source_box(self.volume, hs.tracks if hs.heard.mode == "detected" else None)
+        eng = LiveEngine(hs.tracks, layout=a["layout"], rate=a["rate"],
+                         time_scale=self.time_scale_value(), block=int(self.block_spin.value()),
+                         extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ, box=box)  # fmt: skip
         target = output or self.live_file.text().strip() or None
         n_ch = eng.layout.n_channels
         sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
@@ -1580,9 +1612,11 @@ class MainWindow(QtWidgets.QMainWindow):
         cam = self.plotter.renderer.GetActiveCamera()
         self._cam_obs = (cam, cam.AddObserver("ModifiedEvent", self._on_camera))
         self.player.start()
-        self.live_label.setText(f"live: {eng.layout.name}, block {eng.block} samples "
-                                f"({1000 * eng.block_s:.0f} ms), physical, "
-                                f"{eng.highpass_hz:g} Hz high-pass")  # fmt: skip
+        why = eng.why_silent()
+        self.live_label.setText(why or f"live: {eng.layout.name}, block {eng.block} samples "
+                                       f"({1000 * eng.block_s:.0f} ms), physical, "
+                                       f"{eng.highpass_hz:g} Hz high-pass; "
+                                       f"{eng.describe_distance()}")  # fmt: skip
         return self.player
 
     def _on_camera(self, *_: Any) -> None:
@@ -1959,11 +1993,13 @@ class MainWindow(QtWidgets.QMainWindow):
             self.mapping_box.setCurrentText(self.mapping)
             a = st.audio or {}
             self.audio.update(a)
-            if isinstance(self.audio["time_scale"], str):  # "auto" (a script's session):
-                self.audio["time_scale"] = float(self.ts_spin.value())  # the viewer's is a number
-            self.set_heard(str(self.audio.get("heard") or "field"))
+            self.audio.setdefault("time_scale", DEFAULTS.time_scale)
+            self.audio.setdefault("timbre", DEFAULTS.timbre)
+            self.set_heard(str(self.audio.get("heard") or DEFAULTS.heard))
             self.layout_box.setCurrentText(self.audio["layout"])
-            self.ts_spin.setValue(float(self.audio["time_scale"]))
+            self.timbre_box.setCurrentText(str(self.audio["timbre"]))
+            ts = self.audio["time_scale"]
+            self.ts_spin.setValue(0.0 if ts == "auto" else float(ts))
             self.rate_spin.setValue(float((st.recording or {}).get("rate_hz", DEFAULT_RATE_HZ)))
             p = st.listener_path()
             if p is not None:
@@ -1971,7 +2007,7 @@ class MainWindow(QtWidgets.QMainWindow):
             else:
                 self.recorder.clear()
             self.path = p
-            self.scene.set_path(p, time_scale=self.audio["time_scale"], render=False)
+            self.scene.set_path(p, time_scale=self.time_scale_value(), render=False)
             self._path_info()
             self.set_step(int(v.get("step", 0)))
             if st.camera:
