@@ -77,3 +77,42 @@ def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbo
     unfiltered = np.concatenate([raw.next_block() for _ in range(-(-n // raw.block))], 1)[:, :n]
     assert loudness(unfiltered, 44100)["share_above"] < 0.5
     assert np.max(np.abs(unfiltered - file)) > 10 * peak  # 28x here
+
+
+def test_live_listening_a_kilometre_away_is_heard_in_the_first_block(open_viewer, qtbot,  # type: ignore[no-untyped-def]
+                                                                     tmp_path, monkeypatch) -> None:  # fmt: skip
+    """The camera 1 km from the data: sound takes 2.9 s to come, three times the
+    data's span; live listening skips that travel (as a render does), so the first
+    block already holds the data's sound, and the panel says how far away they are."""
+    import auralize.scene.listening as listening
+
+    class Unpaced(listening.WavSink):
+        def __init__(self, *a, **k):  # type: ignore[no-untyped-def]
+            super().__init__(*a, **{**k, "pace": False})
+
+    monkeypatch.setattr(listening, "WavSink", Unpaced)
+    win, shown = open_viewer()
+    win.open_data("dataset:explosion", size=16, steps=20)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    c = np.asarray(win.volume.center)
+    cam = win.plotter.camera
+    cam.position, cam.focal_point, cam.up = tuple(c + [1000.0, 0, 0]), tuple(c), (0.0, 0.0, 1.0)
+    player = win.start_live(tmp_path / "far.wav")
+    try:
+        qtbot.waitUntil(lambda: len(player.engine.heard_blocks) >= 1, timeout=60_000)
+        text = win.live_label.text()
+    finally:
+        win.stop_live()
+    assert player.error is None and not shown
+    first = player.engine.heard_blocks[0]
+    assert np.any(first != 0)
+    assert player.engine.lead > 2.8  # data seconds of travel skipped
+    b = np.asarray(win.volume.bounds).reshape(3, 2)
+    near = 1000.0 - (b[0, 1] - c[0])
+    assert f"the data are {near:.3g} m away: sound takes {near / 343:.3g} s" in text, text
+    # the clock without the lead: the same first block is exact silence
+    tracks = win.heard_sound().tracks
+    late = listening.LiveEngine(tracks, layout=win.audio["layout"], block=player.engine.block,
+                                time_scale=player.engine.time_scale, lead=0.0)  # fmt: skip
+    late.set_pose(*camera_pose(cam))
+    assert not np.any(late.next_block())

@@ -4,6 +4,7 @@ switching it off takes it out again."""
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -52,12 +53,63 @@ class SilentModel(SoundModel):
         return pv.Sphere(radius=0.05, center=tuple(inputs[0].center))
 
 
+class SlowBeaconModel(BeaconModel):
+    """The beacon, whose first synthesis (the viewer's background sound task) waits
+    until :attr:`gate` is set: its sound is still being computed."""
+
+    name: ClassVar[str] = "slowbeacon"
+    gate = threading.Event()
+    calls: ClassVar[list[str]] = []
+
+    def synthesize(self, inputs: Any, **params: Any) -> Sound:
+        self.calls.append(threading.current_thread().name)
+        if len(self.calls) == 1:
+            self.gate.wait(120)
+        return super().synthesize(inputs, **params)
+
+
 @pytest.fixture
 def window(open_viewer, monkeypatch):  # type: ignore[no-untyped-def]
     real = plugins.registry()
     monkeypatch.setattr(plugins, "registry",
-                        lambda: {**real, "beacon": BeaconModel, "sketch": SilentModel})  # fmt: skip
+                        lambda: {**real, "beacon": BeaconModel, "sketch": SilentModel,
+                                 "slowbeacon": SlowBeaconModel})  # fmt: skip
     return open_viewer()
+
+
+def test_a_render_never_leaves_out_an_overlay(qtbot, window, tmp_path, render_in_viewer) -> None:  # type: ignore[no-untyped-def]
+    """An overlay whose sound is still being computed is computed by the render (so it
+    is in the file); an overlay that makes no sound is named, with why, in the status
+    bar and the sidecar."""
+    import json
+
+    win, shown = window
+    win.open_data("dataset:monopole", size=12)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    csv = tmp_path / "p.csv"
+    ListenerPath.point(win.volume.center + [0.6, 0.0, 0.0], duration=0.4).to_csv(csv)
+    win.load_path(csv)
+    result: list[bool] = []
+    SlowBeaconModel.calls.clear()
+    try:
+        win.set_overlay("slowbeacon", True, then=result.append)
+        qtbot.waitUntil(lambda: len(result) == 1 and not win.busy, timeout=60_000)
+        win.set_overlay("sketch", True, then=result.append)
+        qtbot.waitUntil(lambda: len(result) == 2 and "sketch" in win._overlay_unheard,
+                        timeout=60_000)  # fmt: skip
+        assert "slowbeacon" in win._sound_tasks and "slowbeacon" not in win._overlay_sounds
+        out = tmp_path / "r.wav"
+        render_in_viewer(win, shown, out)
+    finally:
+        SlowBeaconModel.gate.set()
+    side = json.loads(Path(f"{out}.json").read_text())
+    assert [p["model"] for p in side["parts"]] == ["field", "beacon"]  # (its sound's name)
+    assert side["overlays_not_heard"] == {
+        "sketch": "sound model 'sketch' does not implement synthesize"}  # fmt: skip
+    msg = win.statusBar().currentMessage()
+    assert "field + beacon" in msg and "sketch overlay not heard" in msg
+    assert len(SlowBeaconModel.calls) == 2  # the waiting task's, and the render's own
+    assert not shown
 
 
 def test_switching_an_overlay_on_adds_its_sound_to_the_render(

@@ -300,6 +300,8 @@ class MainWindow(QtWidgets.QMainWindow):
         # computed in the background after the overlay is drawn
         self._overlay_sounds: dict[str, tuple[Any, Any]] = {}
         self._sound_tasks: dict[str, Task] = {}
+        # overlays drawn whose model makes no sound from the volume: name -> why
+        self._overlay_unheard: dict[str, str] = {}
         self._threads: set[Task] = set()
         # the command line's plan (auralize.defaults), but stereo on the desktop's device
         self.audio: dict[str, Any] = {
@@ -1475,7 +1477,9 @@ class MainWindow(QtWidgets.QMainWindow):
         ``FILE.session.json`` and the sidecar's ``command`` is
         ``auralize render --scene FILE.session.json -o FILE``, which writes the
         same samples.  Overlays whose sound is still being computed are
-        computed here (the progress bar counts them), so none is left out."""
+        computed here (the progress bar counts them), so none is left out; an
+        overlay whose model makes no sound from the data is named, with why,
+        in the status bar and the sidecar (``overlays_not_heard``)."""
         from auralize.scene.soundscene import render_scene_file, session_scene
 
         if self.volume is None:
@@ -1488,6 +1492,7 @@ class MainWindow(QtWidgets.QMainWindow):
         check_distance(self.path, self.volume.bounds)
         doc = self.session_state().to_dict()
         scene = session_scene(doc, source="the viewer's session")
+        unheard = {n: why for n, why in self._overlay_unheard.items() if n in self.scene.overlays}
         loaded = {input_key(self.data): self.volume}
         out = None if filename is None else Path(filename).expanduser().resolve()
         session_file = None if out is None else out.with_name(out.name + ".session.json")
@@ -1500,12 +1505,17 @@ class MainWindow(QtWidgets.QMainWindow):
                 SessionState.from_dict(doc, source=str(session_file)).save(session_file)
                 cmd = shlex.join(["auralize", "render", "--scene", str(session_file),
                                   "-o", str(out)])  # fmt: skip
-                save_rendered(r, out, extra={"command": cmd, "session": str(session_file)})
+                save_rendered(r, out, extra={"command": cmd, "session": str(session_file),
+                                             "overlays_not_heard": unheard})  # fmt: skip
             return r
 
         def done(r: Any) -> None:
             self.rendered = r
             self.plot_audio()
+            parts = " + ".join(p["model"] for p in r.meta.get("parts", []))
+            where = f"wrote {out.name}" if out is not None else "rendered"
+            more = "".join(f"; {n} overlay not heard: {why}" for n, why in unheard.items())
+            self.statusBar().showMessage(f"{where}: {r.duration:.2f} s of {parts}{more}", 15000)
             if then is not None:
                 then()
 
@@ -1654,8 +1664,13 @@ class MainWindow(QtWidgets.QMainWindow):
         if step != self.scene.step:
             self._guard(self.set_step, step)
         lat = self.player.latencies
-        if lat:
-            self.live_label.setText(f"live: last move heard after {1000 * lat[-1]:.0f} ms")
+        eng = self.player.engine
+        why = eng.why_silent()
+        if why:
+            self.live_label.setText(why)
+        elif lat:
+            self.live_label.setText(f"live: last move heard after {1000 * lat[-1]:.0f} ms; "
+                                    f"{eng.describe_distance()}")  # fmt: skip
 
     def stop_live(self) -> None:
         """Stop live listening (returns within one block; no redraw follows it)."""
@@ -1707,6 +1722,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """
         from auralize.plugins import get_model
 
+        self._overlay_unheard.pop(name, None)
         if not on:
             self._overlay_want.pop(name, None)
             self._overlay_cache.pop(name, None)
@@ -1772,8 +1788,9 @@ class MainWindow(QtWidgets.QMainWindow):
         from auralize.plugins import synthesize
 
         if model.input_kind not in ("", "volume"):
-            self.overlay_note.setText(f"{name} overlay is shown but not heard: its model makes "
-                                      f"sound from {model.input_kind}, not from a volume")  # fmt: skip
+            why = f"its model makes sound from {model.input_kind}, not from a volume"
+            self._overlay_unheard[name] = why
+            self.overlay_note.setText(f"{name} overlay is shown but not heard: {why}")
             return None
         vol = self.volume
         label = f"{name} sound"
@@ -1806,8 +1823,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if isinstance(result, Cancelled):
             return
         if isinstance(result, BaseException):
-            self.overlay_note.setText(f"{name} overlay is shown but not heard: "
-                                      f"{' '.join(str(result).split())}")  # fmt: skip
+            why = " ".join(str(result).split())
+            self._overlay_unheard[name] = why
+            self.overlay_note.setText(f"{name} overlay is shown but not heard: {why}")
             return
         if name in self.scene.overlays and vol is self.volume:
             self._overlay_sounds[name] = (vol, result)
