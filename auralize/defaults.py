@@ -30,7 +30,10 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-__all__ = ["DEFAULTS", "ORBIT_FACES", "TIMBRE_CHOICES", "RenderDefaults"]
+__all__ = ["DEFAULTS", "LAYOUT_NAMES", "ORBIT_FACES", "TIMBRE_CHOICES", "RenderDefaults"]
+
+#: the named output layouts (``--layout``; a layout JSON file is also accepted)
+LAYOUT_NAMES = ("mono", "stereo", "ring8", "5.1", "7.1", "binaural", "ambix1", "ambix2", "ambix3")
 
 #: the ``--timbre`` choices (``auto`` picks one of the others)
 TIMBRE_CHOICES = ("auto", "physical", "extended", "tonal")

@@ -43,7 +43,7 @@ import numpy as np
 # re-exported: the helpers every command uses, also handed to plugins' hooks
 from auralize.audio.output import fit_duration as fit_duration
 from auralize.cli.plugin_commands import lazy as lazy
-from auralize.defaults import DEFAULTS
+from auralize.defaults import DEFAULTS, LAYOUT_NAMES
 from auralize.emitters import RATE_RANGE_HZ as RATE_RANGE_HZ
 from auralize.io import field_map as field_map
 from auralize.listener import listener_from_args as listener_from_args
@@ -220,7 +220,7 @@ EMITTED_SIGNAL = "emitted_signal"
 def add_output_options(
     p: argparse.ArgumentParser,
     *,
-    layouts: str = "mono|stereo|ring8|5.1|7.1|binaural|ambix1|ambix2|ambix3|FILE.json",
+    layouts: str = "|".join([*LAYOUT_NAMES, "FILE.json"]),
     listener_required: bool = True,
     file: bool = True,
     layout: str = "mono",

@@ -339,11 +339,12 @@ class Scene:
         if self.field and vol is not None and vol.is_vector(self.field):
             title = f"|{title}|"
         self._bar_title = title
-        self.plotter.add_scalar_bar(title=title, mapper=self._actors["volume"].mapper,
-                                    n_labels=3, fmt=label_format(self.clim), vertical=False,
-                                    position_x=0.55,
-                                    position_y=0.03, height=0.07, width=0.4,
-                                    title_font_size=12, label_font_size=11)  # fmt: skip
+        bar = self.plotter.add_scalar_bar(title=title, mapper=self._actors["volume"].mapper,
+                                          n_labels=3, fmt=label_format(self.clim),
+                                          vertical=False, position_x=0.55, position_y=0.03,
+                                          height=0.1, width=0.4, title_font_size=12,
+                                          label_font_size=11)  # fmt: skip
+        bar.SetTextPositionToPrecedeScalarBar()  # labels below the bar, the title above
 
     def _remove_scalar_bar(self) -> None:
         title = getattr(self, "_bar_title", None)
@@ -546,7 +547,34 @@ class Scene:
         for i, m in enumerate(meshes):
             key = f"overlay:{name}:{i}"
             self._actors[key] = self.plotter.add_mesh(m, name=key, reset_camera=False,
-                                                      render=False, opacity=0.6)  # fmt: skip
+                                                      render=False, opacity=0.6,
+                                                      show_scalar_bar=False)  # fmt: skip
+        self._overlay_bars()
+
+    def _overlay_bars(self) -> None:
+        """One colour bar per coloured overlay, stacked at the bottom left, clear of the
+        field's bar (bottom right): its title names the overlay and the quantity."""
+        for title in [t for t in self.plotter.scalar_bars.keys() if " overlay: " in t]:
+            self.plotter.remove_scalar_bar(title, render=False)
+        k = 0
+        for key, actor in self._actors.items():
+            if not key.startswith("overlay:") or not key.endswith(":0"):
+                continue
+            mapper = actor.mapper
+            data = getattr(mapper, "dataset", None)
+            scalars = getattr(data, "active_scalars_name", None) if data is not None else None
+            if not scalars or not mapper.GetScalarVisibility():
+                continue
+            name = key.split(":")[1]
+            lo, hi = mapper.scalar_range
+            bar = self.plotter.add_scalar_bar(title=f"{name} overlay: {scalars}", mapper=mapper,
+                                              n_labels=3, fmt=label_format((lo, hi)),
+                                              vertical=False, position_x=0.05,
+                                              position_y=0.03 + 0.14 * k, height=0.1,
+                                              width=0.4, title_font_size=12,
+                                              label_font_size=11)  # fmt: skip
+            bar.SetTextPositionToPrecedeScalarBar()
+            k += 1
 
     # ------------------------------------------------------------------ time
     def set_step(self, step: int, *, render: bool = True) -> float:
@@ -630,6 +658,8 @@ class Scene:
     def _remove_prefix(self, prefix: str) -> None:
         for k in [k for k in self._actors if k.startswith(prefix)]:
             self._remove(k)
+        if prefix.startswith("overlay:"):
+            self._overlay_bars()
 
 
 #: what an overlay function returns for a step whose meshes are not ready yet

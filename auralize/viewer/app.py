@@ -52,7 +52,7 @@ import numpy as np
 from pyvistaqt import QtInteractor
 from qtpy import QtCore, QtGui, QtWidgets
 
-from auralize.defaults import DEFAULTS, TIMBRE_CHOICES
+from auralize.defaults import DEFAULTS, LAYOUT_NAMES, TIMBRE_CHOICES
 from auralize.errors import AuralizeError, OutputError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.scene.detection import Cancelled, Detection
@@ -62,7 +62,18 @@ from auralize.scene.soundscene import input_key
 from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.sources.detection import TYPES, Thresholds
 
-LAYOUTS = ("mono", "stereo", "ring8", "5.1", "7.1", "binaural", "ambix1", "ambix3")
+#: the Audio panel's entry that asks for a custom layout JSON file
+CUSTOM_LAYOUT = "custom layout file…"
+
+
+def _short(text: str, n: int = 34) -> str:
+    """``text`` cut at a word before ``n`` characters, with an ellipsis."""
+    if len(text) <= n:
+        return text
+    cut = text[:n].rsplit(" ", 1)[0].rstrip(",:;(")
+    return cut + "…"
+
+
 MAPPINGS = ("auto", "paper-density", "identity", "cfd")
 CMAPS = ("gray", "viridis", "inferno", "coolwarm", "bone")
 
@@ -632,11 +643,12 @@ class MainWindow(QtWidgets.QMainWindow):
         w = QtWidgets.QWidget()
         f = _form(w)
         self.layout_box = QtWidgets.QComboBox()
-        self.layout_box.addItems(list(LAYOUTS))
+        self.layout_box.addItems([*LAYOUT_NAMES, CUSTOM_LAYOUT])
         self.layout_box.setToolTip("loudspeaker layout (or binaural / Ambisonics) of renders "
-                                   "and live listening")  # fmt: skip
+                                   "and live listening: the layouts of auralize render "
+                                   "--layout, or a custom layout JSON file")  # fmt: skip
         self.layout_box.setCurrentText(self.audio["layout"])
-        self.layout_box.currentTextChanged.connect(lambda t: self.audio.__setitem__("layout", t))
+        self.layout_box.textActivated.connect(lambda t: self._guard(self._on_layout, t))
         f.addRow("layout", self.layout_box)
         self.device_box = QtWidgets.QComboBox()
         self.device_box.addItem("default")
@@ -729,6 +741,7 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(b)
         f.addRow(row)
         self.live_label = QtWidgets.QLabel("off")
+        self.live_label.setWordWrap(True)
         f.addRow(self.live_label)
         self._dock("Live listening", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
         # ---- Overlays
@@ -740,7 +753,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for name, cls in registry().items():
             if cls.overlay is SoundModel.overlay:  # the plugin offers no overlay
                 continue
-            cb = QtWidgets.QCheckBox(f"{name}: {cls.description[:40]}")
+            cb = QtWidgets.QCheckBox(f"{name}: {_short(cls.description)}")
             cb.setToolTip(f"show the {name} model's overlay (and hear its sound): "
                           f"{cls.description}")  # fmt: skip
             cb.toggled.connect(lambda on, n=name: self._toggle_overlay(n, on))
@@ -752,7 +765,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.overlay_note.setWordWrap(True)
         v.addWidget(self.overlay_note)
         v.addStretch(1)
-        self._dock("Overlays", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
+        scroll = QtWidgets.QScrollArea()  # a long note scrolls rather than being cut off
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
+        scroll.setWidget(w)
+        self._dock("Overlays", scroll, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
 
     def _build_status(self) -> None:
         sb = self.statusBar()
@@ -1203,6 +1220,35 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.volume is None or (self.player is not None and self.player.running):
             return  # live listening drives the slider itself
         self._guard(self.set_step, (self.scene.step + 1) % self.volume.n_steps)
+
+    def _on_layout(self, text: str) -> None:
+        """A layout chosen in the Audio panel; "custom layout file…" asks for a JSON file."""
+        if text == CUSTOM_LAYOUT:
+            name, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Custom layout", "",
+                                                            "Layout (*.json)")  # fmt: skip
+            if not name:
+                self.layout_box.setCurrentText(str(self.audio["layout"]))
+                return
+            self.set_layout(name)
+            return
+        self.set_layout(text)
+
+    def set_layout(self, layout: str | Path) -> None:
+        """Set the output layout: a name of :data:`auralize.defaults.LAYOUT_NAMES` or a
+        custom layout JSON file (checked now, as ``--layout FILE.json`` is)."""
+        from auralize.spatial.layouts import get_layout
+
+        text = str(layout)
+        try:
+            get_layout(text)  # a bad file fails here, with the reason
+        finally:
+            if self.layout_box.currentText() != str(self.audio["layout"]):
+                self.layout_box.setCurrentText(str(self.audio["layout"]))
+        if self.layout_box.findText(text) < 0:
+            self.layout_box.insertItem(self.layout_box.count() - 1, text)
+        self.layout_box.setCurrentText(text)
+        self.audio["layout"] = text
+        self.stop_live()
 
     def _on_time_scale(self, v: float) -> None:
         self.audio["time_scale"] = "auto" if v <= 0 else float(v)
@@ -1722,6 +1768,11 @@ class MainWindow(QtWidgets.QMainWindow):
         """
         from auralize.plugins import get_model
 
+        cb = self.overlay_checks.get(name)
+        if cb is not None and cb.isChecked() != on:  # switched from a script or a session
+            cb.blockSignals(True)
+            cb.setChecked(on)
+            cb.blockSignals(False)
         self._overlay_unheard.pop(name, None)
         if not on:
             self._overlay_want.pop(name, None)
@@ -2014,7 +2065,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.audio.setdefault("time_scale", DEFAULTS.time_scale)
             self.audio.setdefault("timbre", DEFAULTS.timbre)
             self.set_heard(str(self.audio.get("heard") or DEFAULTS.heard))
-            self.layout_box.setCurrentText(self.audio["layout"])
+            self.set_layout(self.audio["layout"])
             self.timbre_box.setCurrentText(str(self.audio["timbre"]))
             ts = self.audio["time_scale"]
             self.ts_spin.setValue(0.0 if ts == "auto" else float(ts))
