@@ -313,3 +313,26 @@ def test_saving_a_curvilinear_volume_resamples_it(vts_series, tmp_path) -> None:
     blob = np.exp(-((p[:, 0]) ** 2 + (p[:, 1] - 1.0) ** 2 + (p[:, 2] - 0.25) ** 2) / 0.02)
     exact = 1.2 + 0.01 * np.sin(2 * np.pi * 10 * times[2]) * blob
     assert np.abs(d.reshape(-1)[back.valid_mask().reshape(-1)] - exact).max() < 4e-3
+
+
+def test_view_and_pictures_draw_the_grid_natively(vts_series, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The viewer's scene and the pictures draw a curvilinear volume on its own points
+    (a StructuredGrid; the volume representation as slices), with its detected sources."""
+    import matplotlib.image as mpimg
+
+    from auralize.cli import main
+    from auralize.io import open_volume
+    from auralize.scene.pictures import data_grid, screenshot
+
+    path, c, _ = vts_series
+    vol = open_volume(path)
+    grid = data_grid(vol)
+    assert type(grid).__name__ == "StructuredGrid" and grid.n_points == vol.n_points
+    np.testing.assert_allclose(np.asarray(grid.points), c.reshape(-1, 3))
+    shots = [tmp_path / "view.png", tmp_path / "picture.png"]
+    assert main(["view", str(path), "--detect", "--time", "3", "--window-size", "400x300",
+                 "--screenshot", str(shots[0])]) == 0  # fmt: skip
+    screenshot(vol, shots[1], step=3, window_size=(400, 300))
+    for shot in shots:
+        grey = (mpimg.imread(shot)[:250, :, :3] * 255).mean(axis=2)
+        assert (grey > 60).mean() > 0.02, shot.name  # more than the outline on black

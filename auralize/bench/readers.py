@@ -234,7 +234,7 @@ def write_curvilinear_series(folder: Path, n_around: int, n_across: int, n_z: in
                              steps: int) -> Path:  # fmt: skip
     """An O-grid around a cylinder of radius 0.5 m out to 3 m, ``.vts`` per step (VTK's
     XML structured-grid writer) in a ``.pvd``: its cells grow geometrically from 2 mm at
-    the wall (a boundary layer) to ~0.25 m; a density blob pulses and moves in the
+    the wall (a boundary layer) to ~0.25 m; a density layer 1 cm thick pulses in the
     boundary layer, with a swirling velocity."""
     import pyvista as pv
 
@@ -248,10 +248,13 @@ def write_curvilinear_series(folder: Path, n_around: int, n_across: int, n_z: in
     grid = pv.StructuredGrid(rr * np.cos(tt), rr * np.sin(tt), zz)
     p = np.asarray(grid.points)
     entries = []
+    # a layer 1 cm thick at 1 cm from the wall, 0.3 m long around it and along z
+    radius = np.hypot(p[:, 0], p[:, 1])
+    arc = 0.5 * np.arctan2(p[:, 1], p[:, 0])
+    g = np.exp(
+        -((radius - 0.51) ** 2) / (2 * 0.01**2) - (arc**2 + (p[:, 2] - 0.25) ** 2) / (2 * 0.1**2)
+    )
     for s in range(steps):
-        ang = 0.3 * s / max(steps - 1, 1)
-        c = np.array([0.51 * np.cos(ang), 0.51 * np.sin(ang), 0.25])
-        g = np.exp(-np.sum((p - c) ** 2, axis=1) / (2 * 0.01**2))
         step = grid.copy()
         step.point_data["density"] = (1.2 + 0.01 * np.sin(0.7 * s) * g).astype(np.float32)
         step.point_data["velocity"] = (
