@@ -336,3 +336,23 @@ def test_view_and_pictures_draw_the_grid_natively(vts_series, tmp_path) -> None:
     for shot in shots:
         grey = (mpimg.imread(shot)[:250, :, :3] * 255).mean(axis=2)
         assert (grey > 60).mean() > 0.02, shot.name  # more than the outline on black
+
+
+def test_uniform_only_paths_resample_or_refuse(vts_series) -> None:  # type: ignore[no-untyped-def]
+    """Sound models read a curvilinear grid resampled (their physics takes uniform
+    spacing); Dask's slabs and the FW-H sampling refuse it, naming --resample."""
+    from auralize.fwh.sampling import trilinear_weights
+    from auralize.io import ResampledWarning, open_volume
+    from auralize.plugins import load_volume_input
+
+    path, _, _ = vts_series
+    with pytest.warns(ResampledWarning):
+        assert not load_volume_input(str(path)).curvilinear
+    vol = open_volume(path)
+    with pytest.raises(DataError, match="FW-H .*--resample"):
+        trilinear_weights(vol, np.zeros((1, 3)))
+    pytest.importorskip("dask")
+    from auralize.distributed import detect_distributed
+
+    with pytest.raises(DataError, match="uniform slabs.*--resample"):
+        detect_distributed(vol, log=None)
