@@ -287,6 +287,16 @@ def test_cli_info_detect_render_natively(vts_series, tmp_path, capsys) -> None: 
     centre = pos.mean(axis=0)
     assert np.linalg.norm(centre - [0.0, 1.0, 0.25]) < 0.15
 
+    from auralize.io.sources_file import load_sources_h5
+
+    again = load_sources_h5(out)  # alone: the sources' own points known, the others NaN
+    assert again.coords is not None and np.isnan(again.coords).any()
+    np.testing.assert_allclose(again.positions(index), pos)
+    wav_s = tmp_path / "s.wav"
+    assert main(["render", str(path), "--sources", str(out), "--heard", "detected", "--listener",
+                 "0,-1,0.25", "--duration", "0.05", "--rate", "8000", "-o", str(wav_s)]) == 0  # fmt: skip
+    capsys.readouterr()
+    assert np.abs(read_wav(wav_s)[0]).max() > 0
     wav = tmp_path / "a.wav"
     assert main(["render", str(path), "--listener", "0,-1,0.25", "--duration", "0.05", "--rate",
                  "8000", "-o", str(wav), "--normalize", "none", "--json"]) == 0  # fmt: skip

@@ -379,7 +379,7 @@ def load_sources_for(path: str | Path, volume: Any) -> SourceSeries:
     if (series.coords is None) != (curvilinear is None):
         mismatches.append("a curvilinear grid vs a uniform one" if series.coords is not None
                           else "a uniform grid vs a curvilinear one")  # fmt: skip
-    elif series.coords is not None and not mismatches:
+    elif series.coords is not None and curvilinear is not None and not mismatches:
         known = np.isfinite(series.coords[..., 0])
         scale = float(np.max(np.abs(curvilinear))) if curvilinear.size else 1.0
         if not np.allclose(series.coords[known], curvilinear[known], rtol=0.0, atol=1e-9 * scale):
