@@ -427,8 +427,11 @@ def test_netcdf_uneven_coordinates_are_resampled(tmp_path: Path) -> None:
         t[:] = [0.0, 1.0]
         f.createVariable("x", "f8", ("x",))[:] = [0.0, 1.0, 3.0, 6.0]
         f.createVariable("rho", "f8", ("time", "x"))[:] = [[0.0, 1.0, 3.0, 6.0]] * 2
+    native = open_volume(tmp_path / "uneven.nc")  # on its own points, by default
+    assert native.curvilinear and native.points()[:, 0].tolist() == [0.0, 1.0, 3.0, 6.0]
+    np.testing.assert_array_equal(native.frame("rho", 1).reshape(-1), [0.0, 1.0, 3.0, 6.0])
     with pytest.warns(ResampledWarning, match="RectilinearGrid with 4 points resampled"):
-        vol = open_volume(tmp_path / "uneven.nc")
+        vol = open_volume(tmp_path / "uneven.nc", curvilinear="resample")
     x = vol.points()[:, 0]
     np.testing.assert_allclose(vol.frame("rho", 1).reshape(-1), x, atol=1e-12)  # rho = x
 

@@ -71,10 +71,13 @@ converted to metres so that the speed of sound applies to it:
 (``{"x": "degrees_east -> m (R cos 45.0°)", "y": "degrees_north -> m",
 "z": "hPa -> m (standard atmosphere)"}``), ``attrs["grid_units"]`` keeps the
 file's units.  Decreasing coordinates are flipped.  Unevenly spaced ones are
-resampled onto a uniform grid (with a :class:`~auralize.io.ResampledWarning`
-saying why): the evenly spaced axes keep their points, an uneven one takes
-its finest step (at most twice its points) unless ``resolution=`` says
-otherwise."""
+read on their own points (a rectilinear grid: ``TimeVolume.coords``, the
+derivatives by its metric terms, :mod:`auralize.curvilinear`); with
+``curvilinear="resample"`` (``--resample``), a ``resolution`` or a ``box``
+they are resampled onto a uniform grid (with a
+:class:`~auralize.io.ResampledWarning` saying why): the evenly spaced axes
+keep their points, an uneven one takes its finest step (at most twice its
+points) unless ``resolution=`` says otherwise."""
 
 from __future__ import annotations
 
@@ -818,6 +821,36 @@ def _uniform_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> TimeVolu
     return volume
 
 
+def _rectilinear_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> TimeVolume:
+    """Unevenly spaced coordinates, read natively: the grid of the coordinates' points
+    (``TimeVolume.coords``, a rectilinear grid; derivatives by its metric terms)."""
+    from auralize.curvilinear import nominal_spacing
+
+    nx, ny, nz = (c.size for c in lay.coords)
+    n_t = lay.times.size
+    zz, yy, xx = np.meshgrid(lay.coords[2], lay.coords[1], lay.coords[0], indexing="ij")
+    coords = np.stack([xx, yy, zz], axis=-1)
+
+    def scalar(var: _Var) -> CallableFrames:
+        return CallableFrames(
+            lambda step: loader.slab(var, step).reshape(nz, ny, nx), n_t, (nz, ny, nx)
+        )
+
+    volume = TimeVolume(
+        origin=np.array([c[0] for c in lay.coords]),
+        spacing=nominal_spacing(coords),
+        dims=(nx, ny, nz),
+        times=lay.times,
+        fields={n: scalar(lay.variables[n]) for n in loader.names},
+        physical_times=lay.physical,
+        source=source,
+        coords=coords,
+    )
+    volume.attrs["mesh"] = (f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points, "
+                            f"{_uneven_reason(lay, None)}: read on its own points")  # fmt: skip
+    return volume
+
+
 def _assembled(volume: TimeVolume, parts: tuple[str | None, ...]) -> FrameSource:
     """The vector of the scalar fields ``parts`` (x, y, z; None: 0), stacked the one way
     every reader's components are: :func:`auralize.mapping.assemble_vector`."""
@@ -934,9 +967,12 @@ def read_netcdf(
         p for f in chosen.values() for p in lay.vectors.get(f, (f,)) if p is not None
     ))  # fmt: skip
     loader = _NetCDFSteps(backend, lay, src, needed)
+    options = read_options()
     if all(_evenly_spaced(c) for c in lay.coords):
         base = _uniform_volume(loader, lay, src)
         base = resample_uniform(base, check_resolution(resolution, source=src))
+    elif options.curvilinear == "native" and resolution is None and options.box is None:
+        base = _rectilinear_volume(loader, lay, src)
     else:
         native = _native_resolution(lay, read_options().box) if resolution is None else None
         with warnings.catch_warnings(record=True) as caught:
