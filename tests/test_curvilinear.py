@@ -366,3 +366,19 @@ def test_uniform_only_paths_resample_or_refuse(vts_series) -> None:  # type: ign
 
     with pytest.raises(DataError, match="uniform slabs.*--resample"):
         detect_distributed(vol, log=None)
+
+
+def test_uneven_rectilinear_vtr_is_read_natively(tmp_path: Path) -> None:
+    from auralize.io import ResampledWarning, open_volume
+
+    x, y, z = np.array([0.0, 0.1, 0.3, 0.7, 1.5]), np.array([0.0, 1.0, 2.0]), np.array([0.0, 0.5])
+    grid = pv.RectilinearGrid(x, y, z)
+    grid.point_data["rho"] = np.asarray(grid.points)[:, 0] * 2.0
+    grid.save(tmp_path / "r.vtr")
+    vol = open_volume(tmp_path / "r.vtr")
+    assert vol.curvilinear and vol.dims == (5, 3, 2)
+    np.testing.assert_array_equal(vol.coords[0, 0, :, 0], x)
+    g = vol.metric.gradient(vol.frame("rho", 0))
+    assert np.abs(g - [2.0, 0.0, 0.0]).max() < 1e-12  # ∂(2x)/∂x on the uneven axis
+    with pytest.warns(ResampledWarning, match="RectilinearGrid"):
+        assert not open_volume(tmp_path / "r.vtr", curvilinear="resample").curvilinear

@@ -408,9 +408,15 @@ class _SameGrid:
 
 def curvilinear_points(mesh: Any) -> NDArray[np.float64] | None:
     """The points ``(nz, ny, nx, 3)`` of a structured curvilinear grid (a
-    ``vtkStructuredGrid``: PLOT3D, ``.vts``), in VTK's point order (i fastest);
-    None for any other mesh."""
+    ``vtkStructuredGrid``: PLOT3D, ``.vts``; or a ``vtkRectilinearGrid``, ``.vtr``),
+    in VTK's point order (i fastest); None for any other mesh."""
     pv = import_pyvista()
+    if isinstance(mesh, pv.RectilinearGrid):
+        axes = [np.asarray(c, dtype=np.float64) for c in (mesh.x, mesh.y, mesh.z)]
+        if any(c.size > 1 and np.any(np.diff(c) <= 0) for c in axes):
+            return None
+        zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+        return np.stack([xx, yy, zz], axis=-1)
     if not isinstance(mesh, pv.StructuredGrid):
         return None
     ni, nj, nk = (int(d) for d in mesh.dimensions)
