@@ -275,6 +275,17 @@ def nominal_spacing(coords: Array) -> Array:
     return h
 
 
+def max_edge(coords: Array, thickness: Array) -> Array:
+    """Longest edge between neighbouring points along each index direction (x, y, z
+    order of i, j, k) in metres; ``thickness`` along an axis of one point."""
+    h = np.asarray(thickness, dtype=np.float64).copy()
+    for a in range(3):
+        ax = _axis(a, 4)
+        if coords.shape[ax] > 1:
+            h[a] = float(np.max(np.linalg.norm(np.diff(coords, axis=ax), axis=-1)))
+    return h
+
+
 def curvilinear_strengths(metric: CurvilinearMetric, rho_a: Array, rho_b: Array, dm: Array,
                           tt: Array, inv_dt: float, out: Array) -> None:  # fmt: skip
     """Monopole, dipole and quadrupole strengths (paper 003 §3.2.3) on a curvilinear grid

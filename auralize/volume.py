@@ -151,7 +151,6 @@ class TimeVolume:
     attrs: dict[str, object] = field(default_factory=dict)
     valid: NDArray[np.bool_] | None = None
     coords: NDArray[np.float64] | None = None
-    _metric: object = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.origin = _vec3(self.origin, "origin")
@@ -277,12 +276,14 @@ class TimeVolume:
         (computed once); None on a uniform grid."""
         if self.coords is None:
             return None
-        if self._metric is None:
+        # kept outside the dataclass' fields (Dask rebuilds a volume from those)
+        cached = self.__dict__.get("_metric_cache")
+        if cached is None:
             from auralize.curvilinear import CurvilinearMetric
 
-            self._metric = CurvilinearMetric(self.coords, thickness=self.spacing,
-                                             source=self.source)  # fmt: skip
-        return self._metric
+            cached = CurvilinearMetric(self.coords, thickness=self.spacing, source=self.source)
+            self.__dict__["_metric_cache"] = cached
+        return cached
 
     @property
     def n_steps(self) -> int:

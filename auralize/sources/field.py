@@ -215,8 +215,14 @@ def block_plan(volume: TimeVolume, *, block: int | None = None,
     the highest the data can hold.  The block is the largest (up to
     :data:`MAX_BLOCK` points) that keeps this under :data:`TARGET_ERROR`;
     data sampled faster than sound crosses a few cells are not compressed.
+    On a curvilinear grid the cell size is its longest edge along each index
+    direction (the blocks are index blocks: the largest one sets the bound).
     """
     h = np.asarray(volume.spacing, dtype=np.float64)
+    if volume.coords is not None:
+        from auralize.curvilinear import max_edge
+
+        h = max_edge(volume.coords, h)
     dims = tuple(int(d) for d in volume.dims)
     t = np.asarray(volume.times, dtype=np.float64)
     dt = float(np.min(np.diff(t))) if t.size >= 2 else 1.0
@@ -487,8 +493,11 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     # it) hears the block as a source that far away, bounded, not the proxies' large
     # alternating weights over tiny distances (the interpolation holds only outside)
     cell = 0.5 * float(np.min(h))
+    # a point's own half cell (on a curvilinear grid, of its cell volume |det ∂x/∂ξ|)
+    pts_r = (np.full(R_pts, cell) if volume.metric is None
+             else 0.5 * np.cbrt(volume.metric.jac.reshape(-1)[point_index]))  # fmt: skip
     radius = np.concatenate([np.full(R_prox, max(0.5 * plan.size, cell) if plan.compresses else cell),
-                             np.full(R_pts, cell)])  # fmt: skip
+                             pts_r])  # fmt: skip
     meta = {"heard": hd.label, "heard_text": hd.describe(), "terms": terms, "mass_flux": flux,
             "points": int(volume.n_points), "valid_points": int(round(volume.n_points * volume.valid_ratio)),
             "blocks": int(Bz * By * Bx), "blocks_as_points": int(near_blocks.size),
