@@ -388,3 +388,51 @@ def test_uneven_rectilinear_vtr_is_read_natively(tmp_path: Path) -> None:
     assert np.abs(g - [2.0, 0.0, 0.0]).max() < 1e-12  # ∂(2x)/∂x on the uneven axis
     with pytest.warns(ResampledWarning, match="RectilinearGrid"):
         assert not open_volume(tmp_path / "r.vtr", curvilinear="resample").curvilinear
+
+
+def write_curvilinear_nc(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """A netCDF file on a rotated lat/lon grid (2-D ``lon(y, x)``, ``lat(y, x)`` named by
+    CF's ``coordinates``), three depth levels; ``rho`` is linear in longitude."""
+    from scipy.io import netcdf_file
+
+    j, i = np.meshgrid(np.arange(7.0), np.arange(9.0), indexing="ij")
+    a = np.deg2rad(30.0)
+    lon = 10.0 + 0.1 * (np.cos(a) * i - np.sin(a) * j)
+    lat = 45.0 + 0.1 * (np.sin(a) * i + np.cos(a) * j)
+    with netcdf_file(path, "w") as f:
+        for name, n in (("time", 3), ("depth", 3), ("eta", 7), ("xi", 9)):
+            f.createDimension(name, n)
+        t = f.createVariable("time", "f8", ("time",))
+        t.units = "hours since 2001-01-01"
+        t[:] = [0.0, 1.0, 2.0]
+        d = f.createVariable("depth", "f8", ("depth",))
+        d.units, d.positive = "m", "down"
+        d[:] = [0.0, 10.0, 30.0]
+        for name, values, units in (("lon", lon, "degrees_east"), ("lat", lat, "degrees_north")):
+            v = f.createVariable(name, "f8", ("eta", "xi"))
+            v.units = units
+            v[:] = values
+        rho = f.createVariable("rho", "f8", ("time", "depth", "eta", "xi"))
+        rho.coordinates = "lon lat"
+        rho[:] = 1025.0 + np.arange(3.0)[:, None, None, None] * 1e-3 + 0.0 * lon + lon[None, None]
+    return lon, lat
+
+
+def test_netcdf_2d_lat_lon_is_read_natively(tmp_path: Path) -> None:
+    from auralize.io import ResampledWarning, open_volume
+
+    lon, lat = write_curvilinear_nc(tmp_path / "roms.nc")
+    vol = open_volume(tmp_path / "roms.nc")
+    assert vol.curvilinear and vol.dims == (9, 7, 3) and vol.n_steps == 3
+    mid = np.deg2rad(0.5 * (lat.min() + lat.max()))
+    R = 6371000.0
+    np.testing.assert_allclose(vol.coords[0, ..., 0], R * np.cos(mid) * np.deg2rad(lon))
+    np.testing.assert_allclose(vol.coords[0, ..., 1], R * np.deg2rad(lat))
+    np.testing.assert_allclose(vol.coords[:, 0, 0, 2], [-30.0, -10.0, 0.0])  # depth: flipped up
+    assert vol.attrs["axis_units"]["x"].startswith("longitude (2-D) -> m")
+    # rho - 1025 - step/1000 is the longitude: its gradient is 1 / (R cos φm) per degree, east
+    g = vol.metric.gradient(vol.frame("rho", 0))
+    np.testing.assert_allclose(g[..., 0], 1.0 / (R * np.cos(mid) * np.deg2rad(1.0)), rtol=1e-9)
+    assert np.abs(g[..., 1:]).max() < 1e-12  # 0 to round-off (g_x is 1.3e-5)
+    with pytest.warns(ResampledWarning, match="StructuredGrid with 189 points resampled"):
+        assert not open_volume(tmp_path / "roms.nc", curvilinear="resample").curvilinear
