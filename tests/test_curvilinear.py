@@ -436,3 +436,20 @@ def test_netcdf_2d_lat_lon_is_read_natively(tmp_path: Path) -> None:
     assert np.abs(g[..., 1:]).max() < 1e-12  # 0 to round-off (g_x is 1.3e-5)
     with pytest.warns(ResampledWarning, match="StructuredGrid with 189 points resampled"):
         assert not open_volume(tmp_path / "roms.nc", curvilinear="resample").curvilinear
+
+
+def test_sessions_and_convert_keep_the_resample_choice(vts_series, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from auralize.cli import main
+    from auralize.io import ResampledWarning, open_volume
+    from auralize.scene.session import data_spec, load_data
+
+    path, _, times = vts_series
+    assert load_data(data_spec(str(path))).curvilinear
+    d = data_spec(str(path), curvilinear="resample")
+    assert d["curvilinear"] == "resample"
+    with pytest.warns(ResampledWarning):
+        assert not load_data(d).curvilinear
+    out = tmp_path / "c.h5"  # a uniform format: resampled either way
+    assert main(["convert", str(path), str(out), "--resample"]) == 0
+    back = open_volume(out)
+    assert not back.curvilinear and back.n_steps == times.size
