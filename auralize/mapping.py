@@ -488,7 +488,7 @@ class PaperDensityMapping(AcousticMapping):
         gmax = 0.0
         for n in range(volume.n_steps):
             r = kept[n] if n in kept else self._rho(volume, n)
-            gmax = max(gmax, _gradient_absmax(self._scaled(r), volume.spacing))
+            gmax = max(gmax, _gradient_absmax(self._scaled(r), volume))
         self._gscale = self.velocity_max / gmax if gmax > 0 else 0.0
         self._prepared_for = id(volume)
         self._held = kept
@@ -503,9 +503,12 @@ class PaperDensityMapping(AcousticMapping):
     @staticmethod
     def _grad(volume: TimeVolume, rho: Frame, scale: float = 1.0) -> Frame:
         """∇ρ̃ · ``scale`` (components x, y, z): :func:`numpy.gradient`'s differences,
-        in the detection's compiled stencil (the same numbers)."""
+        in the detection's compiled stencil (the same numbers); on a curvilinear grid
+        its metric terms (:meth:`~auralize.curvilinear.CurvilinearMetric.gradient`)."""
         from auralize.sources.detection import gradient
 
+        if volume.metric is not None:
+            return np.asarray(volume.metric.gradient(rho) * scale)
         return gradient(rho, volume.spacing, scale)
 
     def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
@@ -603,11 +606,14 @@ def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]]
         raise ParameterError(f"mapping {spec!r}: {exc}") from None
 
 
-def _gradient_absmax(f: Frame, spacing: NDArray[np.float64]) -> float:
-    """``np.nanmax(np.abs(np.gradient(f)), initial=0.0)`` over the axes of 2 points or more."""
+def _gradient_absmax(f: Frame, volume: TimeVolume) -> float:
+    """``np.nanmax(np.abs(np.gradient(f)), initial=0.0)`` over the axes of 2 points or more
+    (on a curvilinear grid, of its metric gradient)."""
     from auralize.sources.detection import gradient_absmax
 
-    return gradient_absmax(f, spacing)
+    if volume.metric is not None:
+        return float(np.nanmax(np.abs(volume.metric.gradient(f)), initial=0.0))
+    return gradient_absmax(f, volume.spacing)
 
 
 def _check_scalar(volume: TimeVolume, name: str, arr: Frame) -> None:

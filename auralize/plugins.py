@@ -315,11 +315,14 @@ def load_volume_input(spec: str) -> Any:
 
     ``dataset:NAME`` also finds the datasets that plugins register (their
     :attr:`SoundModel.datasets`).  Models whose input is a volume use it as
-    their :meth:`SoundModel.load_input`.
+    their :meth:`SoundModel.load_input`.  A structured curvilinear grid is read
+    resampled onto a uniform grid (a model's physics takes uniform spacing).
     """
+    from auralize.io.options import curvilinear_mode
     from auralize.pipeline import load
 
-    return load(spec)
+    with curvilinear_mode("resample"):
+        return load(spec)
 
 
 def check_sound(model: SoundModel | str, result: Any) -> Sound:

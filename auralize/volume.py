@@ -1,10 +1,16 @@
-"""TimeVolume: a uniform grid with named point fields over strictly increasing times.
+"""TimeVolume: a uniform or curvilinear grid with named point fields over increasing times.
 
 Arrays follow the HDF5 volume format v1 of docs/design.md: a scalar frame has shape
 ``(nz, ny, nx)``, a vector frame ``(nz, ny, nx, 3)`` with components x, y, z;
 ``dims`` is ``(nx, ny, nz)`` and point ``(i, j, k)`` sits at
 ``origin + (i, j, k) * spacing``.  This is VTK's point order (x fastest), so a
 C-order ravel of a frame is directly a VTK point array.
+
+A structured curvilinear grid (PLOT3D, ``vtkStructuredGrid``) keeps its own
+points: ``coords (nz, ny, nx, 3)`` gives each point's position, and the
+derivatives use its metric terms (:mod:`auralize.curvilinear`); ``origin`` is
+then the corner of its bounding box and ``spacing`` the mean edge length along
+each index direction (a nominal size, for scales and messages).
 
 Frames are read lazily, one time step at a time, through a :class:`FrameSource`;
 nothing loads a whole series unless asked to (:meth:`TimeVolume.load`).
@@ -15,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -144,6 +150,7 @@ class TimeVolume:
     check_finite: bool = True
     attrs: dict[str, object] = field(default_factory=dict)
     valid: NDArray[np.bool_] | None = None
+    coords: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         self.origin = _vec3(self.origin, "origin")
@@ -178,6 +185,16 @@ class TimeVolume:
                 f"t[{bad}]={self.times[bad]!r} >= t[{bad + 1}]={self.times[bad + 1]!r}"
             )
         nx, ny, nz = self.dims
+        if self.coords is not None:
+            coords = np.ascontiguousarray(self.coords, dtype=np.float64)
+            if coords.shape != (nz, ny, nx, 3):
+                raise DataError(
+                    f"{self.source}: the curvilinear grid's coordinates have shape "
+                    f"{coords.shape}; the grid (nx, ny, nz)={self.dims} needs {(nz, ny, nx, 3)}"
+                )
+            if not np.all(np.isfinite(coords)):
+                raise DataError(f"{self.source}: the curvilinear grid's coordinates hold NaN/Inf")
+            self.coords = coords
         if self.valid is not None:
             valid = np.asarray(self.valid)
             if valid.shape != (nz, ny, nx):
@@ -209,11 +226,22 @@ class TimeVolume:
         spacing: float | tuple[float, float, float] = 1.0,
         times: NDArray[np.floating] | list[float] | None = None,
         source: str = "<memory>",
+        coords: NDArray[np.floating] | None = None,
     ) -> TimeVolume:
         """Build a volume from in-memory ``(T, nz, ny, nx[, 3])`` arrays.
 
         ``times=None`` means frames at :data:`DEFAULT_FRAME_RATE_HZ`.
+        ``coords (nz, ny, nx, 3)``: the points of a structured curvilinear
+        grid (``origin`` and ``spacing`` are then taken from them).
         """
+        if coords is not None:
+            from auralize.curvilinear import nominal_spacing
+
+            c = np.asarray(coords, dtype=np.float64)
+            if c.ndim == 4 and c.shape[-1] == 3:
+                lo, h = c.reshape(-1, 3).min(axis=0), nominal_spacing(c)
+                origin = (float(lo[0]), float(lo[1]), float(lo[2]))
+                spacing = (float(h[0]), float(h[1]), float(h[2]))
         if not fields:
             raise DataError("a volume needs at least one field")
         frames: dict[str, FrameSource] = {k: ArrayFrames(np.asarray(v)) for k, v in fields.items()}
@@ -233,9 +261,30 @@ class TimeVolume:
             fields=dict(frames),
             physical_times=physical,
             source=source,
+            coords=None if coords is None else np.asarray(coords, dtype=np.float64),
         )
 
     # --------------------------------------------------------------- queries
+    @property
+    def curvilinear(self) -> bool:
+        """Whether the grid is structured curvilinear (:attr:`coords`), read natively."""
+        return self.coords is not None
+
+    @property
+    def metric(self) -> Any:
+        """The :class:`~auralize.curvilinear.CurvilinearMetric` of a curvilinear grid
+        (computed once); None on a uniform grid."""
+        if self.coords is None:
+            return None
+        # kept outside the dataclass' fields (Dask rebuilds a volume from those)
+        cached = self.__dict__.get("_metric_cache")
+        if cached is None:
+            from auralize.curvilinear import CurvilinearMetric
+
+            cached = CurvilinearMetric(self.coords, thickness=self.spacing, source=self.source)
+            self.__dict__["_metric_cache"] = cached
+        return cached
+
     @property
     def n_steps(self) -> int:
         return int(self.times.size)
@@ -257,6 +306,10 @@ class TimeVolume:
     @property
     def bounds(self) -> tuple[float, float, float, float, float, float]:
         """``(xmin, xmax, ymin, ymax, zmin, zmax)`` in metres (pyvista order)."""
+        if self.coords is not None:
+            flat = self.coords.reshape(-1, 3)
+            lo_c, hi_c = flat.min(axis=0), flat.max(axis=0)
+            return tuple(float(v) for a in range(3) for v in (lo_c[a], hi_c[a]))  # type: ignore[return-value]
         hi = self.origin + self.spacing * (np.asarray(self.dims) - 1)
         return (
             float(self.origin[0]), float(hi[0]),
@@ -325,16 +378,23 @@ class TimeVolume:
             times=self.times.copy(), fields=dict(loaded),
             physical_times=self.physical_times, source=self.source,
             check_finite=self.check_finite, attrs=dict(self.attrs), valid=self.valid,
+            coords=self.coords,
         )  # fmt: skip
 
     def axis_coords(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Coordinates along x, y, z (1-D arrays)."""
+        """Coordinates along x, y, z (1-D arrays) of a uniform grid."""
+        if self.coords is not None:
+            raise DataError(
+                f"{self.source}: a curvilinear grid has no coordinate axes; use points()"
+            )
         return tuple(self.origin[a] + self.spacing[a] * np.arange(self.dims[a]) for a in range(3))
 
     def points(self, flat_index: NDArray[np.integer] | None = None) -> NDArray[np.float64]:
         """Point positions ``(N, 3)`` for C-order flat indices (all points if None)."""
         if flat_index is None:
             flat_index = np.arange(self.n_points)
+        if self.coords is not None:
+            return self.coords.reshape(-1, 3)[np.asarray(flat_index)]
         k, j, i = np.unravel_index(np.asarray(flat_index), self.shape)
         ijk = np.stack([i, j, k], axis=-1).astype(np.float64)
         return self.origin + ijk * self.spacing
@@ -359,9 +419,17 @@ class TimeVolume:
         return self.valid
 
     def describe(self) -> dict[str, object]:
-        """A JSON-able summary (used by ``auralize info``)."""
-        return {
+        """A JSON-able summary (used by ``auralize info``); a curvilinear grid adds the
+        shortest and longest edge between neighbouring points (``edge_lengths``, m)."""
+        extra: dict[str, object] = {}
+        if self.coords is not None:
+            lengths = [np.linalg.norm(np.diff(self.coords, axis=ax), axis=-1).reshape(-1)
+                       for ax in range(3) if self.coords.shape[ax] > 1]  # fmt: skip
+            flat = np.concatenate(lengths) if lengths else np.zeros(1)
+            extra["edge_lengths"] = [float(flat.min()), float(flat.max())]
+        return extra | {
             "source": self.source,
+            "grid": "curvilinear, native" if self.coords is not None else "uniform",
             "dims": list(self.dims),
             "origin": self.origin.tolist(),
             "spacing": self.spacing.tolist(),

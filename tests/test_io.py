@@ -339,6 +339,7 @@ def test_series_bad_input(tmp_path: Path) -> None:
 
 # --------------------------------------------------------------------------- .vts, resampled
 def test_vts_curvilinear_is_resampled(tmp_path: Path) -> None:
+    """Read with curvilinear='resample' (the default reads it natively, tests/test_curvilinear.py)."""
     grid = warped_grid()
     entries = []
     for n, scale in enumerate([1.0, 2.0]):
@@ -349,8 +350,12 @@ def test_vts_curvilinear_is_resampled(tmp_path: Path) -> None:
     path = tmp_path / "g.vts.series"
     path.write_text(json.dumps({"file-series-version": "1.0", "files": entries}))
 
+    native = open_volume(path)
+    assert native.curvilinear and native.dims == (9, 11, 7)
+    np.testing.assert_allclose(native.frame("f", 1).reshape(-1),
+                               2.0 * (grid.points @ np.array([1.0, 2.0, 3.0])), rtol=1e-12)  # fmt: skip
     with pytest.warns(ResampledWarning, match=r"StructuredGrid with 693 points resampled") as rec:
-        vol = open_volume(path)
+        vol = open_volume(path, curvilinear="resample")
     assert rec[0].filename == __file__  # attributed to the caller of open_volume
     nx, ny, nz = vol.dims
     assert max(vol.dims) <= 128 and 0.5 * 693 <= nx * ny * nz <= 2 * 693

@@ -99,9 +99,15 @@ def test_standard_atmosphere_heights() -> None:
 def test_era_like_file_in_metres(tmp_path: Path, units: str | None, physical: bool,
                                  times: list[float]) -> None:  # fmt: skip
     path = write_era(tmp_path / "era.nc", time_units=units)
+    native = open_volume(path)  # the pressure levels on their own points (a rectilinear grid)
+    assert native.curvilinear and native.dims == (14, 13, 3)
+    zs = np.array([isa_height(p) for p in (1000.0, 850.0, 500.0)])
+    np.testing.assert_allclose(native.coords[:, 0, 0, 2], zs, rtol=1e-6)
+    np.testing.assert_allclose(native.frame("u", 1)[:, 0, 0], zs, rtol=1e-6)  # u: the height
+    assert "unevenly spaced: 3 points" in str(native.attrs["mesh"])
     with pytest.warns(ResampledWarning, match=r"z coordinate \(millibars -> m \(standard "
                       r"atmosphere\)\) is unevenly spaced: 3 points"):  # fmt: skip
-        vol = open_volume(path)
+        vol = open_volume(path, curvilinear="resample")
     assert vol.attrs["time_dim"] == "month"
     assert vol.physical_times is physical
     np.testing.assert_allclose(vol.times, times, rtol=1e-12)
@@ -147,8 +153,7 @@ def test_latitude_span_over_30_degrees_warns(tmp_path: Path) -> None:
 
 
 def test_axis_scale_overrides_the_conversions(era: Path) -> None:
-    with pytest.warns(ResampledWarning, match="z coordinate"):
-        vol = open_volume(era, axis_scale=(1000.0, 1000.0, 10.0))
+    vol = open_volume(era, axis_scale=(1000.0, 1000.0, 10.0))
     assert vol.attrs["axis_scale_applied"] == [1000.0, 1000.0, 10.0]
     assert vol.spacing[:2].tolist() == pytest.approx([750.0, 750.0], rel=1e-12)
     assert vol.origin[:2].tolist() == pytest.approx([0.0, 40000.0], rel=1e-12)
@@ -199,8 +204,7 @@ def test_sigma_levels_are_refused_unless_scaled(tmp_path: Path) -> None:
     with pytest.raises(FormatError, match=r"'level' is a parametric vertical coordinate .*"
                        r"--axis-scale"):  # fmt: skip
         open_volume(path)
-    with pytest.warns(ResampledWarning, match="z coordinate"):
-        vol = open_volume(path, axis_scale=(1.0, 1.0, 0.01))
+    vol = open_volume(path, axis_scale=(1.0, 1.0, 0.01))
     assert vol.bounds[4:] == pytest.approx((5.0, 10.0))
 
 
@@ -322,7 +326,7 @@ def test_cli_detect_and_render_era_like(era: Path, tmp_path: Path, capsys) -> No
 
 def test_velocity_alone_is_assembled_from_its_components(era: Path) -> None:
     with pytest.warns(ResampledWarning, match="z coordinate"):
-        vol = open_volume(era, fields={"wind": "velocity"})
+        vol = open_volume(era, fields={"wind": "velocity"}, curvilinear="resample")
     assert vol.field_names == ["wind"] and vol.attrs["units"] == {"wind": "m s**-1"}
     wind = vol.frame("wind", 0)
     assert wind.shape == (6, 13, 14, 3)

@@ -200,7 +200,10 @@ def test_plot3d_series_of_q_files(tmp_path: Path) -> None:
     assert auto_mapping(vol) == "cfd"
     d0, d1 = vol.frame("Density", 0), vol.frame("Density", 1)
     assert np.nanmax(np.abs(d1 - d0)) > 0
-    assert np.array_equal(np.isnan(d0), ~vol.valid)
+    assert vol.curvilinear and vol.valid is None and np.isfinite(d0).all()  # natively
+    with pytest.warns(ResampledWarning):
+        res = open_volume(grid, curvilinear="resample")
+    assert np.array_equal(np.isnan(res.frame("Density", 0)), ~res.valid)
 
 
 def test_plot3d_cfd_from_the_cli(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
@@ -211,7 +214,7 @@ def test_plot3d_cfd_from_the_cli(tmp_path: Path, capsys) -> None:  # type: ignor
     assert rc == 0
     d = json.loads(capsys.readouterr().out)
     assert d["mapping"]["name"] == "cfd" and d["mapping"]["momentum"] == "Momentum"
-    assert 0.3 < d["valid_ratio"] < 0.6 and len(d["steps"]) == 3
+    assert d["valid_ratio"] == 1.0 and len(d["steps"]) == 3  # natively: every point
     assert main(["info", str(grid)]) == 0
     text = capsys.readouterr().out
     assert "role     density = Density: named 'Density'" in text
@@ -424,8 +427,11 @@ def test_netcdf_uneven_coordinates_are_resampled(tmp_path: Path) -> None:
         t[:] = [0.0, 1.0]
         f.createVariable("x", "f8", ("x",))[:] = [0.0, 1.0, 3.0, 6.0]
         f.createVariable("rho", "f8", ("time", "x"))[:] = [[0.0, 1.0, 3.0, 6.0]] * 2
+    native = open_volume(tmp_path / "uneven.nc")  # on its own points, by default
+    assert native.curvilinear and native.points()[:, 0].tolist() == [0.0, 1.0, 3.0, 6.0]
+    np.testing.assert_array_equal(native.frame("rho", 1).reshape(-1), [0.0, 1.0, 3.0, 6.0])
     with pytest.warns(ResampledWarning, match="RectilinearGrid with 4 points resampled"):
-        vol = open_volume(tmp_path / "uneven.nc")
+        vol = open_volume(tmp_path / "uneven.nc", curvilinear="resample")
     x = vol.points()[:, 0]
     np.testing.assert_allclose(vol.frame("rho", 1).reshape(-1), x, atol=1e-12)  # rho = x
 
@@ -466,8 +472,9 @@ def test_cartesian_structured_grid_keeps_its_points(tmp_path: Path) -> None:
     bent = pv.StructuredGrid(x + 0.05 * y, y, z)  # sheared: not axis-aligned
     bent.point_data["rho"] = np.zeros(bent.n_points)
     bent.save(tmp_path / "b.vts")
+    assert open_volume(tmp_path / "b.vts").curvilinear  # read on its own points
     with pytest.warns(ResampledWarning, match="resampled"):
-        open_volume(tmp_path / "b.vts")
+        open_volume(tmp_path / "b.vts", curvilinear="resample")
 
 
 def test_exodus_through_pyvista_get_reader(tmp_path: Path) -> None:

@@ -112,8 +112,15 @@ def test_ensight_cylinder_hole_is_invalid() -> None:
 
 
 def test_plot3d_combustor_fields_and_mask() -> None:
+    path = DATASETS / "plot3d-combustor" / "combxyz.bin"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResampledWarning)
+        native = open_volume(path)  # on its own 57 x 33 x 25 points, every one valid
+    assert native.curvilinear and native.dims == (57, 33, 25) and native.valid is None
+    assert native.field_names == ["Density", "Momentum", "StagnationEnergy"]
+    assert np.all(native.frame("Density", 0) > 0)
     with pytest.warns(ResampledWarning, match="StructuredGrid with 47025 points"):
-        vol = open_volume(DATASETS / "plot3d-combustor" / "combxyz.bin")
+        vol = open_volume(path, curvilinear="resample")
     assert vol.field_names == ["Density", "Momentum", "StagnationEnergy"]
     assert vol.is_vector("Momentum") and 0.3 < vol.valid_ratio < 0.6
     rho = vol.frame("Density", 0)

@@ -66,9 +66,12 @@ def cmd_convert(args: argparse.Namespace) -> int:
         if out.suffix.lower() not in WRITE_SUFFIXES:
             raise ParameterError(f"{out}: cannot write {out.suffix or '(no suffix)'!r}; volumes "
                               f"convert to {', '.join(WRITE_SUFFIXES)}")  # fmt: skip
-        vol = load(src, size=args.size, steps=args.steps, seed=args.seed,
-                   fields=field_map(args.field), resolution=args.resolution,
-                   time_dim=args.time_dim, axis_scale=args.axis_scale, box=args.box)  # fmt: skip
+        from auralize.io.options import curvilinear_mode
+
+        with curvilinear_mode("resample" if getattr(args, "resample", False) else "native"):
+            vol = load(src, size=args.size, steps=args.steps, seed=args.seed,
+                       fields=field_map(args.field), resolution=args.resolution,
+                       time_dim=args.time_dim, axis_scale=args.axis_scale, box=args.box)  # fmt: skip
         save_volume(vol, out, compression=args.compression)
         nx, ny, nz = vol.dims
         what = (f"volume {nx}x{ny}x{nz} x {vol.n_steps} steps, fields "

@@ -248,12 +248,14 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
 
 
 def load_volume(args: argparse.Namespace) -> Any:
+    from auralize.io.options import curvilinear_mode
     from auralize.pipeline import load
 
-    vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
-               fields=_field_map(args.field), resolution=args.resolution,
-               nan=getattr(args, "nan", "mask"), time_dim=getattr(args, "time_dim", None),
-               axis_scale=getattr(args, "axis_scale", None), box=getattr(args, "box", None))  # fmt: skip
+    with curvilinear_mode("resample" if getattr(args, "resample", False) else "native"):
+        vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
+                   fields=_field_map(args.field), resolution=args.resolution,
+                   nan=getattr(args, "nan", "mask"), time_dim=getattr(args, "time_dim", None),
+                   axis_scale=getattr(args, "axis_scale", None), box=getattr(args, "box", None))  # fmt: skip
     command = str(getattr(args, "command", "") or "")
     # Dask spreads the steps over workers: only one step must fit in this process
     nbytes = check_volume_memory(vol, data=not command.startswith("scale-"))
@@ -368,9 +370,16 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"  reader   {vol.attrs['reader']}")
     if "mesh" in vol.attrs:
         print(f"  mesh     {vol.attrs['mesh']}")
-    print(f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "
-          f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m")  # fmt: skip
     b = vol.bounds
+    if vol.coords is not None:
+        edges = d["edge_lengths"]
+        print(f"  grid     curvilinear, native: {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} "
+              f"points (i, j, k), edges {edges[0]:.3g} .. {edges[1]:.3g} m, extent "
+              f"x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m "
+              f"(--resample: onto a uniform grid)")  # fmt: skip
+    else:
+        print(f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "
+              f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m")  # fmt: skip
     print(f"  bounds   x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m")
     axis_units = vol.attrs.get("axis_units")
     if isinstance(axis_units, dict) and axis_units:

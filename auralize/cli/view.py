@@ -110,7 +110,8 @@ def view_options(args: argparse.Namespace) -> dict[str, Any]:
     fields = field_map([f for f in items if "=" in f])
     data = (data_spec(args.volume, size=args.size, steps=args.steps, seed=args.seed,
                       fields=fields, resolution=args.resolution, time_dim=args.time_dim,
-                      axis_scale=args.axis_scale, box=args.box)
+                      axis_scale=args.axis_scale, box=args.box,
+                      curvilinear="resample" if getattr(args, "resample", False) else None)
             if args.volume is not None else None)  # fmt: skip
     return {"data": data, "field": color_by, "mapping": args.mapping,
             "mapping_fields": mapping_fields(args), "thresholds": thresholds_from_args(args)}  # fmt: skip

@@ -76,7 +76,7 @@ from numpy.typing import NDArray
 
 from auralize.distributed.chunked import slab_volume
 from auralize.distributed.runner import RunError, Runner, numba_threads
-from auralize.errors import FormatError, ParameterError
+from auralize.errors import DataError, FormatError, ParameterError
 from auralize.io.files import atomic_hdf5, atomic_path, stop_if_failed
 from auralize.mapping import (
     AcousticMapping,
@@ -805,6 +805,12 @@ def detect_distributed(
     (6, 3)
     """
     require_steps(volume)
+    if volume.coords is not None:
+        raise DataError(
+            f"{volume.source}: distributed detection cuts the grid into uniform slabs; this "
+            f"curvilinear grid is detected natively in one process (without --scheduler), or "
+            f"read it resampled (--resample) for Dask"
+        )
     m = get_mapping(mapping, **mapping_fields)
     check_steady(steady)
     delta_v_rule(delta_v)

@@ -87,6 +87,13 @@ def trilinear_weights(volume: TimeVolume, points: NDArray[np.floating]
     >>> float((f.reshape(-1)[idx] * w).sum())
     4.25
     """
+    if volume.coords is not None:
+        from auralize.errors import DataError
+
+        raise DataError(
+            f"{volume.source}: the FW-H surface is sampled on a uniform grid; read this "
+            f"curvilinear grid resampled (--resample, curvilinear='resample')"
+        )
     nx, ny, nz = volume.dims
     f = (np.asarray(points, dtype=np.float64) - volume.origin) / volume.spacing
     base = np.empty((f.shape[0], 3), dtype=np.int64)

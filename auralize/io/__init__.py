@@ -131,6 +131,7 @@ def open_volume(
     time_dim: str | None = None,
     axis_scale: float | tuple[float, float, float] | None = None,
     box: tuple[float, float, float, float, float, float] | None = None,
+    curvilinear: str | None = None,
 ) -> TimeVolume:
     """Open a volume time series, reading frames lazily.
 
@@ -174,6 +175,15 @@ def open_volume(
         Region of interest in metres (after ``axis_scale``): only grid points
         inside it are kept, and a mesh's resolution is chosen from its cells
         inside it.
+    curvilinear : {"native", "resample"}, optional
+        How a structured curvilinear grid (PLOT3D, ``vtkStructuredGrid`` in
+        ``.vts``/``.vtk``/``.vtm``/``.pvd``) is read: ``"native"`` keeps its
+        points (``TimeVolume.coords``; derivatives by its metric terms,
+        :mod:`auralize.curvilinear`), ``"resample"`` puts it on a uniform grid
+        as any other mesh.  ``None``: the mode in force
+        (:func:`auralize.io.options.curvilinear_mode`, the command line's
+        ``--resample``), by default ``"native"``.  A ``resolution`` or a
+        ``box`` resamples it as well (both choose a uniform grid).
 
     Returns
     -------
@@ -213,7 +223,14 @@ def open_volume(
     """
     if nan not in NAN_POLICIES:
         raise ParameterError(f"{path}: nan={nan!r}; valid are {', '.join(NAN_POLICIES)}")
-    from auralize.io.options import ReadOptions, check_axis_scale, check_box, finish, reading
+    from auralize.io.options import (
+        ReadOptions,
+        check_axis_scale,
+        check_box,
+        check_curvilinear,
+        finish,
+        reading,
+    )
 
     src = str(path)
     if time_dim is not None and (not isinstance(time_dim, str) or not time_dim.strip()):
@@ -222,6 +239,7 @@ def open_volume(
         time_dim=time_dim,
         axis_scale=check_axis_scale(axis_scale, source=src),
         box=check_box(box, source=src),
+        curvilinear=check_curvilinear(curvilinear, source=src),
     )
     with reading(options):
         volume = _open(path, fields=fields, resolution=resolution, name_map=name_map)
@@ -291,7 +309,10 @@ def save_volume(
     volume : TimeVolume
         The volume; frames are read one step at a time.  NaN (no-data) is written
         as NaN, and the valid-point mask as /valid in HDF5; a volume opened with
-        ``nan="error"`` refuses frames holding NaN/Inf at valid points.
+        ``nan="error"`` refuses frames holding NaN/Inf at valid points.  Every
+        format holds a uniform grid: a curvilinear volume is resampled onto one
+        (:func:`auralize.io._mesh.resample_curvilinear`, with a
+        :class:`ResampledWarning`).
     path : path-like
         ``.h5``/``.hdf5``: auralize HDF5 volume file (format v1), one time
         step per chunk.  ``.pvd``: ParaView collection plus one ``.vti`` per
@@ -319,6 +340,11 @@ def save_volume(
 
     p = Path(path).expanduser()
     suffix = p.suffix.lower()
+    if volume.coords is not None and suffix in (".h5", ".hdf5", ".pvd", ".vtkhdf"):
+        # these formats hold uniform grids: a curvilinear one is resampled (and says so)
+        from auralize.io._mesh import resample_curvilinear
+
+        volume = resample_curvilinear(volume)
     if suffix in (".h5", ".hdf5"):
         hdf5.write_hdf5(volume, p, compression=compression)
     elif suffix == ".pvd":

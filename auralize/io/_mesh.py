@@ -16,7 +16,12 @@ cells) whose points project onto such a lattice, e.g. a height field
 ``z(x, y)``: it is read on the lattice in its plane (dims 1 across it),
 with its own point values (:func:`surface_lattice`).  Any other curved
 surface (a shell) is read as the grid points it passes through, with the
-surface's values interpolated there (:func:`shell_voxels`).  The reader
+surface's values interpolated there (:func:`shell_voxels`).  A structured
+curvilinear grid (``vtkStructuredGrid``: ``.vts``, PLOT3D) keeps its own
+points (``TimeVolume.coords``; derivatives by its metric terms,
+:mod:`auralize.curvilinear`) unless the reader options ask for resampling
+(``curvilinear="resample"``, a ``resolution`` or a ``box``);
+:func:`resample_curvilinear` puts one on a uniform grid for what needs it.  The reader
 option ``axis_scale=`` scales every step's mesh as it is loaded, before any
 of this.
 """
@@ -399,6 +404,56 @@ class _SameGrid:
         nx, ny, nz = self.dims
         arrays = point_arrays(mesh, names, label=label)
         return {n: _frame(a, (nz, ny, nx), name=n, label=label) for n, a in arrays.items()}
+
+
+def curvilinear_points(mesh: Any) -> NDArray[np.float64] | None:
+    """The points ``(nz, ny, nx, 3)`` of a structured curvilinear grid (a
+    ``vtkStructuredGrid``: PLOT3D, ``.vts``; or a ``vtkRectilinearGrid``, ``.vtr``),
+    in VTK's point order (i fastest); None for any other mesh."""
+    pv = import_pyvista()
+    if isinstance(mesh, pv.RectilinearGrid):
+        axes = [np.asarray(c, dtype=np.float64) for c in (mesh.x, mesh.y, mesh.z)]
+        if any(c.size > 1 and np.any(np.diff(c) <= 0) for c in axes):
+            return None
+        zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+        return np.stack([xx, yy, zz], axis=-1)
+    if not isinstance(mesh, pv.StructuredGrid):
+        return None
+    ni, nj, nk = (int(d) for d in mesh.dimensions)
+    pts = np.asarray(mesh.points, dtype=np.float64)
+    if pts.shape != (ni * nj * nk, 3) or ni * nj * nk < 2:
+        return None
+    return pts.reshape(nk, nj, ni, 3).copy()
+
+
+class _Structured:
+    """Steps that are the same structured curvilinear grid as step 0: its own points,
+    no interpolation (``TimeVolume.coords``)."""
+
+    def __init__(self, coords: NDArray[np.float64]) -> None:
+        self.coords = coords
+        ext = coords.reshape(-1, 3).max(axis=0) - coords.reshape(-1, 3).min(axis=0)
+        self.tol = 1e-6 * float(np.max(ext))
+
+    def convert(self, mesh: Any, names: Sequence[str], *, label: str) -> dict[str, NDArray]:
+        pts = curvilinear_points(mesh)
+        if pts is None or pts.shape != self.coords.shape:
+            nz, ny, nx = self.coords.shape[:3]
+            got = (f"a {type(mesh).__name__}" if pts is None
+                   else f"a structured grid of {pts.shape[2]}x{pts.shape[1]}x{pts.shape[0]} points")  # fmt: skip
+            raise DataError(
+                f"{label}: has {got}, but the first time step has a curvilinear grid of "
+                f"{nx}x{ny}x{nz} points; every step of a series must share one grid"
+            )
+        if not np.allclose(pts, self.coords, rtol=0.0, atol=self.tol):
+            raise DataError(
+                f"{label}: the curvilinear grid's points moved (by up to "
+                f"{float(np.abs(pts - self.coords).max()):.3g} m) from the first time step's; "
+                f"a moving grid is read resampled (--resample, curvilinear='resample')"
+            )
+        shape = self.coords.shape[:3]
+        arrays = point_arrays(mesh, names, label=label)
+        return {n: _frame(a, shape, name=n, label=label) for n, a in arrays.items()}
 
 
 def lattice_order(points: NDArray[np.floating]) -> tuple[Grid, NDArray[np.intp]] | None:
@@ -911,7 +966,7 @@ class MeshSteps:
 
     loader: Loader
     labels: Sequence[str]
-    converter: _SameGrid | _Lattice | _Sampler | _Shell
+    converter: _SameGrid | _Lattice | _Sampler | _Shell | _Structured
     names: Sequence[str]
     scale: NDArray[np.float64] | None = None
     n_loads: int = 0
@@ -1052,7 +1107,17 @@ def open_mesh_series(
     geom = uniform_geometry(mesh0)
     lattice = None if geom is not None else lattice_order(mesh0.points)
     surface = None if geom is not None or lattice is not None else surface_lattice(mesh0)
-    converter: _SameGrid | _Lattice | _Sampler | _Shell
+    native = (
+        geom is None
+        and lattice is None
+        and surface is None
+        and options.curvilinear == "native"
+        and resolution is None
+        and options.box is None
+        and curvilinear_points(mesh0) is not None
+    )
+    converter: _SameGrid | _Lattice | _Sampler | _Shell | _Structured
+    coords = None
     valid = None
     resampling: dict[str, Any] | None = None
 
@@ -1063,6 +1128,16 @@ def open_mesh_series(
     if geom is not None:
         origin, spacing, dims = geom
         converter = _SameGrid(geom)
+        steps = new_steps()
+    elif native:
+        from auralize.curvilinear import nominal_spacing
+
+        coords = curvilinear_points(mesh0)
+        assert coords is not None
+        dims = (int(coords.shape[2]), int(coords.shape[1]), int(coords.shape[0]))
+        origin = coords.reshape(-1, 3).min(axis=0)
+        spacing = nominal_spacing(coords)
+        converter = _Structured(coords)
         steps = new_steps()
     elif lattice is not None:
         (origin, spacing, dims), order = lattice
@@ -1163,6 +1238,7 @@ def open_mesh_series(
         physical_times=physical_times,
         source=source,
         valid=valid,
+        coords=coords,
     )
     volume.attrs["centring"] = {
         vol_name: ("point" if file_name in mesh0.point_data.keys() else "cell")
@@ -1176,6 +1252,47 @@ def open_mesh_series(
     if geom is not None or lattice is not None or surface is not None:
         volume = resample_uniform(volume, resolution)
     return volume
+
+
+def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None) -> TimeVolume:
+    """A curvilinear volume (``volume.coords``) put on a uniform grid, lazily; any other
+    volume as it is.
+
+    For what needs a uniform grid (the uniform file formats of
+    :func:`auralize.io.save_volume`, the viewer's volume rendering): each step
+    is made a ``vtkStructuredGrid`` of the volume's points and frames and
+    sampled as :func:`open_mesh_series` samples a mesh (the voxel from its
+    cells, a :class:`~auralize.io.ResampledWarning` saying what is lost).
+    Detection and rendering keep the native grid.
+    """
+    if volume.coords is None:
+        return volume
+    from auralize.io.options import ReadOptions, reading
+
+    pv = import_pyvista()
+    nz, ny, nx = volume.shape
+    base = pv.StructuredGrid()
+    base.points = volume.coords.reshape(-1, 3)
+    base.dimensions = (nx, ny, nz)
+    names = [n for n in volume.field_names if not n.startswith("(")]  # not assembled ones
+
+    def loader(step: int) -> Any:
+        g = base.copy(deep=False)
+        for n in names:
+            a = volume.frame(n, step)
+            g.point_data[n] = a.reshape(-1, 3) if a.ndim == 4 else a.reshape(-1)
+        return g
+
+    with reading(ReadOptions(curvilinear="resample")):
+        out = open_mesh_series(
+            source=volume.source, loader=loader,
+            labels=[f"{volume.source} step {n}" for n in range(volume.n_steps)],
+            times=volume.times, physical_times=volume.physical_times, fields=None,
+            resolution=resolution, name_map=None, apply_axis_scale=False,
+        )  # fmt: skip
+    out.attrs = {**volume.attrs, **out.attrs}
+    out.check_finite = volume.check_finite
+    return out
 
 
 def _is_flat(bounds: Sequence[float]) -> bool:

@@ -71,10 +71,17 @@ converted to metres so that the speed of sound applies to it:
 (``{"x": "degrees_east -> m (R cos 45.0°)", "y": "degrees_north -> m",
 "z": "hPa -> m (standard atmosphere)"}``), ``attrs["grid_units"]`` keeps the
 file's units.  Decreasing coordinates are flipped.  Unevenly spaced ones are
-resampled onto a uniform grid (with a :class:`~auralize.io.ResampledWarning`
-saying why): the evenly spaced axes keep their points, an uneven one takes
-its finest step (at most twice its points) unless ``resolution=`` says
-otherwise."""
+read on their own points (a rectilinear grid: ``TimeVolume.coords``, the
+derivatives by its metric terms, :mod:`auralize.curvilinear`); with
+``curvilinear="resample"`` (``--resample``), a ``resolution`` or a ``box``
+they are resampled onto a uniform grid (with a
+:class:`~auralize.io.ResampledWarning` saying why): the evenly spaced axes
+keep their points, an uneven one takes its finest step (at most twice its
+points) unless ``resolution=`` says otherwise.  A curvilinear lat/lon grid
+(2-D longitude/latitude variables over the last two spatial dimensions, named
+by the data variable's CF ``coordinates`` attribute, §5.2: ocean and regional
+models) is read on its own points likewise, each point's longitude/latitude
+projected as above (``attrs["axis_units"]`` says ``longitude (2-D)``)."""
 
 from __future__ import annotations
 
@@ -655,6 +662,9 @@ class _Layout:
     time_units: str | None
     axis_units: dict[str, str]  # x/y/z -> how the file's coordinate became metres
     projection: str | None  # how longitude/latitude became x/y
+    #: points (nz, ny, nx, 3) in metres of a grid whose horizontal position is given by
+    #: 2-D longitude/latitude auxiliary coordinates (CF ``coordinates``; None: none)
+    aux: NDArray[np.float64] | None = None
 
 
 def _velocity_parts(variables: dict[str, _Var]) -> tuple[str | None, ...] | None:
@@ -751,9 +761,74 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
     if "velocity" in vectors and vectors["velocity"][0] in units:
         units["velocity"] = units[str(vectors["velocity"][0])]
     coord_units = [ax.units for ax in axes][::-1]
+    aux = _aux_lonlat(b, first, spatial, source=source)
+    points = None
+    if aux is not None:
+        lon, lat = aux
+        xs, ys, note_x, note_y, projection = _lonlat_metres(lon, lat, opts.axis_scale,
+                                                            source=source)  # fmt: skip
+        axis_units["x"], axis_units["y"] = note_x, note_y
+        nz = xyz[2].size
+        points = np.empty((nz, *xs.shape, 3))
+        points[..., 0] = xs[None]
+        points[..., 1] = ys[None]
+        points[..., 2] = xyz[2][:, None, None]
     return _Layout(time_dim, np.asarray(times, dtype=np.float64), physical, spatial, xyz,
                    flip, variables, vectors, units, coord_units, time_units,
-                   dict(sorted(axis_units.items())), projection)  # fmt: skip
+                   dict(sorted(axis_units.items())), projection, points)  # fmt: skip
+
+
+def _aux_lonlat(b: _Backend, var: _Var, spatial: tuple[str, ...], *,
+                source: str) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:  # fmt: skip
+    """2-D longitude and latitude ``(ny, nx)`` that CF's ``coordinates`` attribute of
+    ``var`` names over its last two spatial dimensions (a curvilinear lat/lon grid:
+    ocean and regional models), or None."""
+    names = _text(var.attrs.get("coordinates", "")).split()
+    if len(spatial) < 2 or not names:
+        return None
+    horizontal = spatial[-2:]
+    found: dict[str, NDArray[np.float64]] = {}
+    for name in names:
+        cv = b.vars.get(name)
+        if cv is None or tuple(cv.dims) != horizontal:
+            continue
+        kind = _axis_kind(name, cv, "x")
+        if kind == "lon" or (kind == "degrees" and name.lower() in _LON_NAMES):
+            found.setdefault("lon", _decode(cv, cv.read(), source=source))
+        elif _axis_kind(name, cv, "y") == "lat":
+            found.setdefault("lat", _decode(cv, cv.read(), source=source))
+    if set(found) != {"lon", "lat"}:
+        return None
+    lon, lat = found["lon"], found["lat"]
+    if not (np.all(np.isfinite(lon)) and np.all(np.isfinite(lat))):
+        raise DataError(f"{source}: the 2-D longitude/latitude coordinates hold NaN or fill values")
+    return lon, lat
+
+
+def _lonlat_metres(lon: NDArray[np.float64], lat: NDArray[np.float64],
+                   scale: tuple[float, float, float] | None, *,
+                   source: str) -> tuple[NDArray[np.float64], NDArray[np.float64], str, str, str | None]:  # fmt: skip
+    """2-D longitude/latitude in metres: the local equirectangular projection of
+    :func:`_to_metres` (or ``--axis-scale``), with the notes of ``axis_units``."""
+    if scale is not None:
+        return (lon * scale[0], lat * scale[1], f"longitude (2-D) x {scale[0]:g} (--axis-scale)",
+                f"latitude (2-D) x {scale[1]:g} (--axis-scale)", None)  # fmt: skip
+    mid = 0.5 * float(lat.min() + lat.max())
+    if float(lat.max() - lat.min()) > 30.0:
+        warn_resampled(
+            f"{source}: latitude spans {float(lat.max() - lat.min()):g}°; the grid is the local "
+            f"equirectangular projection about {mid:.1f}°, whose east-west distances are off "
+            f"away from it; cut a smaller region or give --axis-scale"
+        )
+    lon = np.rad2deg(np.unwrap(np.deg2rad(lon), axis=-1))
+    x = EARTH_RADIUS * np.cos(np.deg2rad(mid)) * np.deg2rad(lon)
+    y = EARTH_RADIUS * np.deg2rad(lat)
+    projection = (
+        f"local equirectangular about latitude {mid:.4g}°: x = R cos({mid:.4g}°) λ, "
+        f"y = R φ, R = {EARTH_RADIUS:.0f} m, of the 2-D longitude/latitude of each point"
+    )
+    return (x, y, f"longitude (2-D) -> m (R cos {mid:.1f}°)", "latitude (2-D) -> m",
+            projection)  # fmt: skip
 
 
 class _NetCDFSteps:
@@ -775,6 +850,13 @@ class _NetCDFSteps:
 
     def __call__(self, step: int) -> Any:
         pv = import_pyvista()
+        if self.lay.aux is not None:  # 2-D longitude/latitude: a curvilinear grid
+            grid = pv.StructuredGrid()
+            grid.points = self.lay.aux.reshape(-1, 3)
+            grid.dimensions = (self.lay.aux.shape[2], self.lay.aux.shape[1], self.lay.aux.shape[0])
+            for name in self.names:
+                grid.point_data[name] = self.slab(self.lay.variables[name], step)
+            return grid
         grid = pv.RectilinearGrid(*self.lay.coords)
         for name in self.names:
             grid.point_data[name] = self.slab(self.lay.variables[name], step)
@@ -815,6 +897,41 @@ def _uniform_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> TimeVolu
         source=source,
     )
     volume.attrs["mesh"] = f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points"
+    return volume
+
+
+def _rectilinear_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> TimeVolume:
+    """Unevenly spaced coordinates, read natively: the grid of the coordinates' points
+    (``TimeVolume.coords``, a rectilinear grid; derivatives by its metric terms)."""
+    from auralize.curvilinear import nominal_spacing
+
+    nx, ny, nz = (c.size for c in lay.coords)
+    n_t = lay.times.size
+    if lay.aux is not None:
+        coords = lay.aux
+    else:
+        zz, yy, xx = np.meshgrid(lay.coords[2], lay.coords[1], lay.coords[0], indexing="ij")
+        coords = np.stack([xx, yy, zz], axis=-1)
+
+    def scalar(var: _Var) -> CallableFrames:
+        return CallableFrames(
+            lambda step: loader.slab(var, step).reshape(nz, ny, nx), n_t, (nz, ny, nx)
+        )
+
+    volume = TimeVolume(
+        origin=np.array([c[0] for c in lay.coords]),
+        spacing=nominal_spacing(coords),
+        dims=(nx, ny, nz),
+        times=lay.times,
+        fields={n: scalar(lay.variables[n]) for n in loader.names},
+        physical_times=lay.physical,
+        source=source,
+        coords=coords,
+    )
+    why = ("2-D longitude/latitude coordinates" if lay.aux is not None
+           else _uneven_reason(lay, None))  # fmt: skip
+    volume.attrs["mesh"] = (f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points, "
+                            f"{why}: read on its own points")  # fmt: skip
     return volume
 
 
@@ -934,9 +1051,19 @@ def read_netcdf(
         p for f in chosen.values() for p in lay.vectors.get(f, (f,)) if p is not None
     ))  # fmt: skip
     loader = _NetCDFSteps(backend, lay, src, needed)
-    if all(_evenly_spaced(c) for c in lay.coords):
+    options = read_options()
+    on_points = options.curvilinear == "native" and resolution is None and options.box is None
+    if lay.aux is None and all(_evenly_spaced(c) for c in lay.coords):
         base = _uniform_volume(loader, lay, src)
         base = resample_uniform(base, check_resolution(resolution, source=src))
+    elif on_points:
+        base = _rectilinear_volume(loader, lay, src)
+    elif lay.aux is not None:  # resampled as any curvilinear mesh
+        base = open_mesh_series(
+            source=src, loader=loader, labels=[f"{path} step {n}" for n in range(lay.times.size)],
+            times=lay.times, physical_times=lay.physical, fields=needed, resolution=resolution,
+            name_map=None, apply_axis_scale=False,
+        )  # fmt: skip
     else:
         native = _native_resolution(lay, read_options().box) if resolution is None else None
         with warnings.catch_warnings(record=True) as caught:

@@ -27,7 +27,22 @@ from numpy.typing import NDArray
 from auralize.errors import DataError, ParameterError
 from auralize.volume import TimeVolume
 
-__all__ = ["ReadOptions", "check_axis_scale", "check_box", "current", "finish", "reading"]
+__all__ = [
+    "CURVILINEAR_MODES",
+    "ReadOptions",
+    "check_axis_scale",
+    "check_box",
+    "check_curvilinear",
+    "current",
+    "curvilinear_mode",
+    "finish",
+    "reading",
+]
+
+#: How a structured curvilinear grid (PLOT3D, ``vtkStructuredGrid``) is read:
+#: ``"native"`` on its own points (derivatives by its metric terms,
+#: :mod:`auralize.curvilinear`), ``"resample"`` onto a uniform grid.
+CURVILINEAR_MODES = ("native", "resample")
 
 Box = tuple[float, float, float, float, float, float]
 
@@ -54,9 +69,41 @@ class ReadOptions:
     time_dim: str | None = None
     axis_scale: tuple[float, float, float] | None = None
     box: Box | None = None
+    #: ``"native"`` (default) or ``"resample"`` (:data:`CURVILINEAR_MODES`); a
+    #: ``box`` or a ``resolution`` resamples a curvilinear grid too
+    curvilinear: str = "native"
 
 
 _CURRENT: ContextVar[ReadOptions | None] = ContextVar("auralize_read_options", default=None)
+_CURVILINEAR: ContextVar[str] = ContextVar("auralize_curvilinear", default="native")
+
+
+def check_curvilinear(value: object, *, source: str) -> str:
+    """Validate ``curvilinear=``: ``None`` (the :func:`curvilinear_mode` in force, by
+    default ``"native"``) or one of :data:`CURVILINEAR_MODES`.
+
+    >>> check_curvilinear(None, source="f.vts"), check_curvilinear("resample", source="f.vts")
+    ('native', 'resample')
+    """
+    if value is None:
+        return _CURVILINEAR.get()
+    if value not in CURVILINEAR_MODES:
+        raise ParameterError(
+            f"{source}: curvilinear={value!r}; give one of {', '.join(CURVILINEAR_MODES)} "
+            f"(--resample reads a curvilinear grid resampled onto a uniform one)"
+        )
+    return str(value)
+
+
+@contextlib.contextmanager
+def curvilinear_mode(mode: str) -> Iterator[str]:
+    """Make ``mode`` the default ``curvilinear=`` of every file opened inside (the
+    command line's ``--resample``)."""
+    token = _CURVILINEAR.set(check_curvilinear(mode, source="curvilinear_mode"))
+    try:
+        yield mode
+    finally:
+        _CURVILINEAR.reset(token)
 
 
 def current() -> ReadOptions:
@@ -162,12 +209,21 @@ def _scaled(volume: TimeVolume, scale: tuple[float, float, float]) -> TimeVolume
         check_finite=volume.check_finite,
         attrs=dict(volume.attrs),
         valid=volume.valid,
+        coords=None if volume.coords is None else volume.coords * s,
     )
     out.attrs["axis_scale_applied"] = list(scale)
     return out
 
 
 def _cropped(volume: TimeVolume, box: Box) -> TimeVolume:
+    if volume.coords is not None:
+        b = volume.bounds
+        if all(box[2 * a] <= b[2 * a] and b[2 * a + 1] <= box[2 * a + 1] for a in range(3)):
+            return volume
+        raise DataError(
+            f"{volume.source}: a box (region of interest) cuts a curvilinear grid; read it "
+            f"resampled (--resample, curvilinear='resample') to keep the region"
+        )
     origin = np.asarray(volume.origin, dtype=np.float64)
     spacing = np.asarray(volume.spacing, dtype=np.float64)
     lo_hi: list[tuple[int, int]] = []

@@ -270,7 +270,19 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
         frames=[], times=times, origin=origin, spacing=spacing, dims=dims,  # type: ignore[arg-type]
         thresholds=thresholds, meta=meta,
     )  # fmt: skip
-    if "position" in h:
+    if meta.get("grid") == "curvilinear":
+        # detected on a curvilinear grid: the positions are its points (no formula gives
+        # them); the points of the sources are known, the others NaN until
+        # load_sources_for() puts the volume's own points in
+        if "position" not in h:
+            raise _fault(p, "/position", "is missing; sources detected on a curvilinear grid "
+                                         "need their positions")  # fmt: skip
+        pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
+        nx, ny, nz = (int(d) for d in dims)
+        coords = np.full((nz * ny * nx, 3), np.nan)
+        coords[idx] = pos
+        series.coords = coords.reshape(nz, ny, nx, 3)
+    elif "position" in h:
         pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
         tol = 1e-6 * float(spacing.min())
         far = ~(np.abs(pos - series.positions(idx)) <= tol + 1e-9 * np.abs(pos)).all(axis=1)
@@ -363,6 +375,16 @@ def load_sources_for(path: str | Path, volume: Any) -> SourceSeries:
             f"{t_s.size} times {t_s[0]:g}..{t_s[-1]:g} s vs {t_v.size} times "
             f"{t_v[0]:g}..{t_v[-1]:g} s"
         )
+    curvilinear = getattr(volume, "coords", None)
+    if (series.coords is None) != (curvilinear is None):
+        mismatches.append("a curvilinear grid vs a uniform one" if series.coords is not None
+                          else "a uniform grid vs a curvilinear one")  # fmt: skip
+    elif series.coords is not None and curvilinear is not None and not mismatches:
+        known = np.isfinite(series.coords[..., 0])
+        scale = float(np.max(np.abs(curvilinear))) if curvilinear.size else 1.0
+        if not np.allclose(series.coords[known], curvilinear[known], rtol=0.0, atol=1e-9 * scale):
+            mismatches.append("source positions that are not the curvilinear grid's points")
+        series.coords = curvilinear
     if mismatches:
         origin = series.meta.get("source", "another volume")
         raise DataError(

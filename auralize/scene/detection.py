@@ -126,6 +126,7 @@ class Detection:
             meta={"mapping": self.mapping.describe(), "thresholds": self.thresholds.describe(),
                   "peak": None if self.peak is None else self.peak.tolist(),
                   "source": vol.source},
+            coords=vol.coords,
         )  # fmt: skip
 
     def counts(self, step: int) -> dict[str, int] | None:

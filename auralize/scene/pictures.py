@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -29,6 +30,19 @@ TYPE_COLORS = {k: "#{:02x}{:02x}{:02x}".format(*PALETTE[v]) for k, v in TYPE_LAB
 #: RGB of the listener path and its glyph (amber)
 PATH_RGB: tuple[int, int, int] = (255, 170, 0)
 PATH_COLOR = "#{:02x}{:02x}{:02x}".format(*PATH_RGB)
+
+
+def data_grid(volume: TimeVolume) -> Any:
+    """The volume's grid as a pyvista dataset: ``ImageData`` for a uniform grid, a
+    ``StructuredGrid`` of its own points for a curvilinear one (drawn natively)."""
+    import pyvista as pv
+
+    if volume.coords is None:
+        return pv.ImageData(dimensions=volume.dims, spacing=volume.spacing, origin=volume.origin)
+    grid = pv.StructuredGrid()
+    grid.points = volume.coords.reshape(-1, 3)
+    grid.dimensions = volume.dims
+    return grid
 
 
 def type_rgb(kind: np.ndarray) -> np.ndarray:
@@ -122,7 +136,7 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
         vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
     step = volume.n_steps // 2 if step is None else step
     field = field or volume.field_names[0]
-    grid = pv.ImageData(dimensions=volume.dims, spacing=volume.spacing, origin=volume.origin)
+    grid = data_grid(volume)
     arr = volume.frame(field, step)
     if arr.ndim == 4:
         arr = np.linalg.norm(arr, axis=-1)
@@ -130,7 +144,7 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
     pl.render_window.SetMultiSamples(0)  # 8× MSAA costs 10× per frame on software GL
     pl.set_background("#101018")  # type: ignore[arg-type]
-    pl.add_mesh(grid.outline(), color="#888888")
+    pl.add_mesh(pv.Box(bounds=volume.bounds).outline(), color="#888888")
     lo, hi = float(arr.min()), float(arr.max())
     if min(volume.dims) == 1:  # a one-layer grid is drawn as its coloured surface
         pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), scalars=field, cmap="viridis",

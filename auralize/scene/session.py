@@ -77,6 +77,7 @@ DATA_SCHEMA = Obj({
     "time_dim": optional(Text(nonempty=True)),
     "axis_scale": optional(ListOf(Num(lo=0), min_len=3, max_len=3)),
     "box": optional(ListOf(Num(), min_len=6, max_len=6)),
+    "curvilinear": optional(Text(nonempty=True)),
 }, required=("spec",), other=AnyJSON())  # fmt: skip
 _THRESHOLD = optional(Either(Num(lo=0), Text(nonempty=True),
                              what="a number >= 0 or a text such as 'auto', 'top:1%', '5%'"))  # fmt: skip
@@ -209,11 +210,12 @@ class SessionState:
 def data_spec(spec: str, *, size: int | None = None, steps: int | None = None,
               seed: int = 0, fields: dict[str, str] | None = None,
               resolution: int | None = None, time_dim: str | None = None,
-              axis_scale: Any = None, box: Any = None) -> dict[str, Any]:  # fmt: skip
+              axis_scale: Any = None, box: Any = None,
+              curvilinear: str | None = None) -> dict[str, Any]:  # fmt: skip
     """The ``data`` entry of a session (relative file paths are made absolute); ``fields``
-    (NAME -> HDF5 dataset), ``resolution``, ``time_dim``, ``axis_scale`` and ``box`` are
-    the reader options of ``--field``, ``--resolution``, ``--time-dim``, ``--axis-scale``
-    and ``--box``."""
+    (NAME -> HDF5 dataset), ``resolution``, ``time_dim``, ``axis_scale``, ``box`` and
+    ``curvilinear`` are the reader options of ``--field``, ``--resolution``,
+    ``--time-dim``, ``--axis-scale``, ``--box`` and ``--resample``."""
     s = str(spec)
     if not s.startswith("dataset:"):
         s = str(Path(s).expanduser().resolve())
@@ -228,6 +230,8 @@ def data_spec(spec: str, *, size: int | None = None, steps: int | None = None,
         d["axis_scale"] = [float(v) for v in axis_scale]
     if box is not None:
         d["box"] = [float(v) for v in box]
+    if curvilinear is not None:
+        d["curvilinear"] = str(curvilinear)
     return d
 
 
@@ -238,10 +242,13 @@ def reader_options(d: dict[str, Any]) -> dict[str, Any]:
 
 def load_data(d: dict[str, Any]) -> Any:
     """Open the volume a session's ``data`` entry names."""
+    from auralize.io.options import curvilinear_mode
     from auralize.pipeline import load
 
     if not d or "spec" not in d:
         raise FormatError("session has no data to open (missing data.spec)")
-    return load(d["spec"], size=d.get("size"), steps=d.get("steps"), seed=d.get("seed") or 0,
-                fields=d.get("fields"), resolution=d.get("resolution"),
-                time_dim=d.get("time_dim"), axis_scale=d.get("axis_scale"), box=d.get("box"))  # fmt: skip
+    with curvilinear_mode(d.get("curvilinear") or "native"):
+        return load(d["spec"], size=d.get("size"), steps=d.get("steps"),
+                    seed=d.get("seed") or 0, fields=d.get("fields"),
+                    resolution=d.get("resolution"), time_dim=d.get("time_dim"),
+                    axis_scale=d.get("axis_scale"), box=d.get("box"))  # fmt: skip

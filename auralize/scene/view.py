@@ -40,7 +40,14 @@ from numpy.typing import NDArray
 
 from auralize.errors import AuralizeError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.scene.pictures import PALETTE, PATH_RGB, SPRITE_LIMIT, add_source_actor, source_points
+from auralize.scene.pictures import (
+    PALETTE,
+    PATH_RGB,
+    SPRITE_LIMIT,
+    add_source_actor,
+    data_grid,
+    source_points,
+)
 from auralize.sources.detection import TYPES, SourceFrame
 from auralize.volume import TimeVolume
 
@@ -159,9 +166,8 @@ class Scene:
         self._remove("outline")
         import pyvista as pv
 
-        box = pv.ImageData(dimensions=volume.dims, spacing=volume.spacing, origin=volume.origin)
         self._actors["outline"] = self.plotter.add_mesh(
-            box.outline(), color=(0.6, 0.6, 0.6), line_width=1, lighting=False, name="outline",
+            pv.Box(bounds=volume.bounds).outline(), color=(0.6, 0.6, 0.6), line_width=1, lighting=False, name="outline",
             reset_camera=False, render=False,
         )  # fmt: skip
         self._shown_frame: SourceFrame | None = None
@@ -232,11 +238,10 @@ class Scene:
                 return
 
     def _ensure_grid(self) -> Any:
-        import pyvista as pv
 
         vol = self._need_volume()
         if self._grid is None:
-            self._grid = pv.ImageData(dimensions=vol.dims, spacing=vol.spacing, origin=vol.origin)
+            self._grid = data_grid(vol)
             self._grid.point_data["value"] = self.frame(self.step).copy()
         return self._grid
 
@@ -248,6 +253,8 @@ class Scene:
         rep = self.representation if self.show_volume else "none"
         if rep in ("volume", "contour") and min(self._need_volume().dims) == 1:
             rep = "surface"  # a one-layer grid has no inside to ray-cast or contour
+        if rep == "volume" and self._need_volume().coords is not None:
+            rep = "slices"  # a curvilinear grid is drawn on its own points: no ray casting
         if rep == "volume":
             if "volume" not in self._actors:
                 self._actors["volume"] = self.plotter.add_volume(

@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.curvilinear import curvilinear_errors, curvilinear_strengths
 from auralize.errors import DataError, ParameterError
 from auralize.mapping import AcousticMapping, get_mapping
 from auralize.runtime.progress import progress
@@ -339,6 +340,8 @@ class SourceSeries:
     dims: tuple[int, int, int]
     thresholds: NDArray[np.float64]
     meta: dict[str, object] = field(default_factory=dict)
+    #: point positions ``(nz, ny, nx, 3)`` of a curvilinear grid (None: uniform)
+    coords: NDArray[np.float64] | None = None
 
     @property
     def n_steps(self) -> int:
@@ -350,6 +353,8 @@ class SourceSeries:
         return (nz, ny, nx)
 
     def positions(self, index: NDArray[np.integer]) -> NDArray[np.float64]:
+        if self.coords is not None:
+            return self.coords.reshape(-1, 3)[np.asarray(index)]
         k, j, i = np.unravel_index(np.asarray(index), self.shape)
         return self.origin + np.stack([i, j, k], axis=-1) * self.spacing
 
@@ -567,8 +572,15 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
     if out is None:
         out = K.empty_like_strengths(volume.shape)
     inv_dt = 1.0 / (volume.times[b] - volume.times[a])
-    cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing, out,
-                             cache.work)  # fmt: skip
+    metric = volume.metric
+    if metric is None:
+        cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing,
+                                 out, cache.work)  # fmt: skip
+    else:
+        if cache.work is None or cache.work.shape != (9, *volume.shape):
+            cache.work = np.empty((9, *volume.shape))
+        K.prepare_render(rho_a, rho_b, m_a, m_b, rho_c, v_c, cache.work[:3], cache.work[3:])
+        curvilinear_strengths(metric, rho_a, rho_b, cache.work[:3], cache.work[3:], inv_dt, out)
     tt = cache.work[3:]
     base = cache.qmean
     if isinstance(base, SteadyBase):
@@ -579,7 +591,10 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
     if oks:
         ok = oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)
         cache.nodata = ~ok
-        K.mask_nodata(cache.nodata, out)
+        if metric is None:
+            K.mask_nodata(cache.nodata, out)
+        else:
+            metric.mask_nodata(cache.nodata, out)
     else:
         cache.nodata = None
     if cache.floor > 0:
@@ -610,6 +625,11 @@ def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, i
     work = cache.work
     assert work is not None
     roundoff = ROUNDOFF * input_scale(volume, cache, n)
+    if volume.metric is not None:
+        err = curvilinear_errors(volume.metric, out, rho_a2, rho_b2, work[:3], dm2, work[3:],
+                                 bad, inv_dt, inv_dt2)  # fmt: skip
+        K.apply_floor(out, err, float(cache.floor), roundoff)
+        return
     K.floor_strengths(out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad, inv_dt, inv_dt2,
                       np.asarray(volume.spacing, dtype=np.float64), float(cache.floor),
                       roundoff)  # fmt: skip
@@ -714,7 +734,10 @@ class SteadyBase:
         if hit is None:
             rho, v, _, _ = StepCache(self.volume, self.mapping, store=self.store).get(a)
             tt = np.ascontiguousarray(_stress(rho, v))
-            hit = (K.quadrupole_of_stress(tt, self.volume.spacing), tt)
+            metric = self.volume.metric
+            sq = (K.quadrupole_of_stress(tt, self.volume.spacing) if metric is None
+                  else metric.quadrupole(tt))  # fmt: skip
+            hit = (sq, tt)
             if len(self._held) >= 2:
                 self._held.pop(next(iter(self._held)))
             self._held[a] = hit
@@ -797,8 +820,8 @@ def delta_v_rule(delta_v: str) -> int:
 
 
 def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], spacing: NDArray[np.float64],
-             *, zero_fraction: float = 1.0,
-             delta_v: str = "cell") -> tuple[NDArray[np.int8], NDArray[np.float64]]:  # fmt: skip
+             *, zero_fraction: float = 1.0, delta_v: str = "cell",
+             cell: NDArray[np.float64] | None = None) -> tuple[NDArray[np.int8], NDArray[np.float64]]:  # fmt: skip
     """Classify vertices and compute ΔV radii from strengths ``(3, nz, ny, nx)``.
 
     Returns ``kind (nz, ny, nx)`` int8 (0 none, 1 monopole, 2 dipole,
@@ -806,14 +829,21 @@ def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], sp
     ``delta_v`` is ``"cell"`` (ΔV = the vertex's share of the source region,
     so Σ S ΔV converges to ∫ S dV) or ``"sphere"`` (paper 003 §3.2.4.1
     literally); see :func:`auralize.sources._kernels.classify_and_radius`.
+
+    ``cell (nz, ny, nx)``: on a curvilinear grid, each point's cell volume
+    |det ∂x/∂ξ| (:class:`~auralize.curvilinear.CurvilinearMetric`); the cuts
+    are then taken in index units (``spacing`` ignored) and ΔV is their box
+    times the cell volume (a radius times its cube root).
     """
     s = np.ascontiguousarray(strengths, dtype=np.float64)
     thr = np.asarray(thresholds, dtype=np.float64)
     zero = thr * zero_fraction
     kind = np.empty(s.shape[1:], dtype=np.int8)
     radius = np.empty(s.shape[1:], dtype=np.float64)
-    K.classify_and_radius(s, thr, zero, np.asarray(spacing, dtype=np.float64), kind, radius,
-                          delta_v_rule(delta_v))  # fmt: skip
+    h = np.ones(3) if cell is not None else np.asarray(spacing, dtype=np.float64)
+    K.classify_and_radius(s, thr, zero, h, kind, radius, delta_v_rule(delta_v))
+    if cell is not None:
+        radius *= np.cbrt(cell)
     return kind, radius
 
 
@@ -948,6 +978,7 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     """
     cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
     buf = K.empty_like_strengths(volume.shape)
+    cell = None if volume.metric is None else volume.metric.jac
     steps = steps if steps is not None else range(volume.n_steps)
     known = {} if known is None else known
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
@@ -958,7 +989,7 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
         else:
             s, nodata = hit
         kind, radius = classify(s, thr, volume.spacing, zero_fraction=zero_fraction,
-                                delta_v=delta_v)  # fmt: skip
+                                delta_v=delta_v, cell=cell)  # fmt: skip
         f = extract(kind, radius, s)
         f.n_valid = volume.n_points - (0 if nodata is None else int(nodata.sum()))
         yield n, f
@@ -1089,7 +1120,9 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
         meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
               "peak": None if stats is None else stats.peak.tolist(), "source": volume.source,
               "steady": steady, "delta_v": delta_v, "fraction": fraction,
-              "valid_points": _valid_share(frames, volume.n_points)},
+              "valid_points": _valid_share(frames, volume.n_points),
+              **({"grid": "curvilinear"} if volume.coords is not None else {})},
+        coords=volume.coords,
     )  # fmt: skip
 
 

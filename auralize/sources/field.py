@@ -68,6 +68,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.curvilinear import curvilinear_residual
 from auralize.errors import ParameterError
 from auralize.mapping import AcousticMapping
 from auralize.runtime.progress import progress
@@ -214,8 +215,14 @@ def block_plan(volume: TimeVolume, *, block: int | None = None,
     the highest the data can hold.  The block is the largest (up to
     :data:`MAX_BLOCK` points) that keeps this under :data:`TARGET_ERROR`;
     data sampled faster than sound crosses a few cells are not compressed.
+    On a curvilinear grid the cell size is its longest edge along each index
+    direction (the blocks are index blocks: the largest one sets the bound).
     """
     h = np.asarray(volume.spacing, dtype=np.float64)
+    if volume.coords is not None:
+        from auralize.curvilinear import max_edge
+
+        h = max_edge(volume.coords, h)
     dims = tuple(int(d) for d in volume.dims)
     t = np.asarray(volume.times, dtype=np.float64)
     dt = float(np.min(np.diff(t))) if t.size >= 2 else 1.0
@@ -419,7 +426,13 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     bi = np.stack(np.meshgrid(np.arange(Bx), np.arange(By), np.arange(Bz), indexing="ij"), -1)
     bi = bi.transpose(2, 1, 0, 3).reshape(-1, 3)  # (z, y, x) order of blocks, columns x, y, z
     blk = np.array([bx, by, bz])
-    centres = volume.origin + (bi * blk + 0.5 * (blk - 1)) * h
+    coords = volume.coords
+    if coords is None:
+        centres = volume.origin + (bi * blk + 0.5 * (blk - 1)) * h
+    else:  # a curvilinear grid: the positions at those index positions
+        from auralize.curvilinear import interp_coords
+
+        centres = interp_coords(coords, bi * blk + 0.5 * (blk - 1))
     near = _near_blocks(centres, path, NEAR_BLOCKS * max(plan.size, float(np.max(h))))
     if not plan.compresses:
         near[:] = False  # blocks of single points: the proxies are the points
@@ -429,7 +442,10 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     nd3 = np.stack(np.meshgrid(nodes[0], nodes[1], nodes[2], indexing="ij"), -1)  # (px, py, pz, 3)
     nd3 = nd3.transpose(2, 1, 0, 3).reshape(-1, 3)  # node order (z, y, x)
     P = nd3.shape[0]
-    prox_pos = (volume.origin + (bi[far_blocks, None, :] * blk + nd3[None]) * h).reshape(-1, 3)
+    if coords is None:
+        prox_pos = (volume.origin + (bi[far_blocks, None, :] * blk + nd3[None]) * h).reshape(-1, 3)
+    else:
+        prox_pos = interp_coords(coords, (bi[far_blocks, None, :] * blk + nd3[None]).reshape(-1, 3))
     # the points of the near blocks, as flat grid indices
     if near_blocks.size:
         lz, ly, lx = np.meshgrid(np.arange(bz), np.arange(by), np.arange(bx), indexing="ij")
@@ -441,11 +457,11 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     else:
         point_index = np.zeros(0, dtype=np.int64)
         pts = np.zeros((0, 3), dtype=np.int64)
-    point_pos = volume.origin + pts * h
+    point_pos = volume.origin + pts * h if coords is None else volume.points(point_index)
     T = volume.n_steps
     R_prox, R_pts = far_blocks.size * P, point_index.size
     qs = {t: np.zeros((R_prox + R_pts, T)) for t in terms}
-    dV = _trapezoid((nx, ny, nz), h)
+    dV = _trapezoid((nx, ny, nz), h) if volume.metric is None else volume.metric.cell_volume()
     pad = (Bz * bz - nz, By * by - ny, Bx * bx - nx)
     mask_far = np.zeros(Bz * By * Bx, dtype=bool)
     mask_far[far_blocks] = True
@@ -477,18 +493,30 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     # it) hears the block as a source that far away, bounded, not the proxies' large
     # alternating weights over tiny distances (the interpolation holds only outside)
     cell = 0.5 * float(np.min(h))
+    # a point's own half cell (on a curvilinear grid, of its cell volume |det ∂x/∂ξ|)
+    pts_r = (np.full(R_pts, cell) if volume.metric is None
+             else 0.5 * np.cbrt(volume.metric.jac.reshape(-1)[point_index]))  # fmt: skip
     radius = np.concatenate([np.full(R_prox, max(0.5 * plan.size, cell) if plan.compresses else cell),
-                             np.full(R_pts, cell)])  # fmt: skip
+                             pts_r])  # fmt: skip
     meta = {"heard": hd.label, "heard_text": hd.describe(), "terms": terms, "mass_flux": flux,
             "points": int(volume.n_points), "valid_points": int(round(volume.n_points * volume.valid_ratio)),
             "blocks": int(Bz * By * Bx), "blocks_as_points": int(near_blocks.size),
             "block": list(plan.block), "proxies_per_block": int(P), "rows": int(R_prox + R_pts),
             "block_size_m": plan.size, "block_rule": plan.rule, "floor": floor, "steady": steady,
-            "diagonal_m": float(np.linalg.norm((np.asarray(volume.dims) - 1) * h)), "c0": c0,
+            "diagonal_m": _diagonal(volume), "c0": c0,
             "residual_share_above_floor": (stats["residual_points"] - stats["residual_floored"])
             / max(stats["residual_points"], 1)}  # fmt: skip
     return FieldTracks(positions=np.ascontiguousarray(positions), q=qs, radius=radius,
                        times=np.asarray(volume.times, dtype=np.float64).copy(), meta=meta)  # fmt: skip
+
+
+def _diagonal(volume: TimeVolume) -> float:
+    """The length of the grid's diagonal (of its bounding box on a curvilinear grid), m."""
+    if volume.coords is None:
+        h = np.asarray(volume.spacing, dtype=np.float64)
+        return float(np.linalg.norm((np.asarray(volume.dims) - 1) * h))
+    b = np.asarray(volume.bounds).reshape(3, 2)
+    return float(np.linalg.norm(b[:, 1] - b[:, 0]))
 
 
 def _residual(volume: TimeVolume, cache: StepCache, n: int, flux: str, floor: float,
@@ -517,13 +545,21 @@ def _residual(volume: TimeVolume, cache: StepCache, n: int, flux: str, floor: fl
         m = m_c
     oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
     bad = ~np.logical_and.reduce(oks) if oks else np.zeros(volume.shape, dtype=bool)
-    K.residual(rho_a, rho_b, rho_a2, rho_b2, np.ascontiguousarray(m), inv_dt, inv_dt2,
-               np.asarray(volume.spacing, dtype=np.float64), bad, out, err)  # fmt: skip
+    metric = volume.metric
+    if metric is None:
+        K.residual(rho_a, rho_b, rho_a2, rho_b2, np.ascontiguousarray(m), inv_dt, inv_dt2,
+                   np.asarray(volume.spacing, dtype=np.float64), bad, out, err)  # fmt: skip
+    else:
+        curvilinear_residual(metric, rho_a, rho_b, rho_a2, rho_b2, np.asarray(m), inv_dt,
+                             inv_dt2, bad, out, err)  # fmt: skip
     if oks:
         # a residual whose stencil reads a no-data point is no-data too (as the dipole's)
         s3 = np.zeros((3, *volume.shape))
         s3[1] = out
-        K.mask_nodata(bad, s3)
+        if metric is None:
+            K.mask_nodata(bad, s3)
+        else:
+            metric.mask_nodata(bad, s3)
         out[...] = s3[1]
     stats["residual_points"] += int(np.count_nonzero(out))
     if floor > 0:

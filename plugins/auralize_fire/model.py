@@ -191,9 +191,11 @@ def load_volume(spec: str, *, size: int | None = None, steps: int | None = None,
         if steps is not None:
             kw["steps"] = steps
         return make_fire(**kw)
+    from auralize.io.options import curvilinear_mode
     from auralize.pipeline import load
 
-    return load(spec, size=size, steps=steps, seed=seed)
+    with curvilinear_mode("resample"):  # the flame front takes uniform spacing
+        return load(spec, size=size, steps=steps, seed=seed)
 
 
 def training_at(path: str | None, rate: int, *, seed: int = 0,

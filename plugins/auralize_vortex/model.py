@@ -324,10 +324,12 @@ def load_volume(args: argparse.Namespace) -> TimeVolume:
             kw["steps"] = args.steps
         return VortexSound.datasets[spec.split(":", 1)[1]](**kw)
     from auralize.io import field_map
+    from auralize.io.options import curvilinear_mode
     from auralize.pipeline import load
 
-    vol = load(spec, size=args.size, steps=args.steps, seed=args.seed,
-               fields=field_map(args.field), resolution=args.resolution)  # fmt: skip
+    with curvilinear_mode("resample"):  # the vorticity takes uniform spacing
+        vol = load(spec, size=args.size, steps=args.steps, seed=args.seed,
+                   fields=field_map(args.field), resolution=args.resolution)  # fmt: skip
     if not isinstance(vol, TimeVolume):  # pragma: no cover - load always returns one
         raise DataError(f"{spec}: not a volume")
     return vol
