@@ -236,8 +236,9 @@ def data_spec(spec: str, *, size: int | None = None, steps: int | None = None,
 
 
 def reader_options(d: dict[str, Any]) -> dict[str, Any]:
-    """The ``time_dim``, ``axis_scale`` and ``box`` of a session's ``data`` entry, as keywords."""
-    return {k: d.get(k) for k in ("time_dim", "axis_scale", "box")}
+    """The ``time_dim``, ``axis_scale``, ``box`` and ``curvilinear`` of a session's ``data``
+    entry, as keywords."""
+    return {k: d.get(k) for k in ("time_dim", "axis_scale", "box", "curvilinear")}
 
 
 def load_data(d: dict[str, Any]) -> Any:

@@ -931,12 +931,13 @@ class MainWindow(QtWidgets.QMainWindow):
                   seed: int = 0, fields: dict[str, str] | None = None,
                   resolution: int | None = None, field: str | None = None,
                   then: Callable[[], None] | None = None, time_dim: str | None = None,
-                  axis_scale: Any = None, box: Any = None,
+                  axis_scale: Any = None, box: Any = None, curvilinear: str | None = None,
                   keep_path: bool | None = None) -> Task:  # fmt: skip
         """Open a file or ``dataset:NAME`` in the background (frames are read ahead) and show
         it; no detection runs (see :meth:`detect`).  ``fields``, ``resolution``,
-        ``time_dim``, ``axis_scale`` and ``box`` are the readers' options (``--field
-        NAME=/DATASET``, ``--resolution``, ``--time-dim`` ...), ``field`` the field
+        ``time_dim``, ``axis_scale``, ``box`` and ``curvilinear`` are the readers'
+        options (``--field NAME=/DATASET``, ``--resolution``, ``--time-dim``, ...,
+        ``--resample``), ``field`` the field
         to display.  Reader warnings (e.g. resampling) are shown in the Data panel.
 
         The camera frames the new data.  A listener path recorded (or loaded) for
@@ -949,7 +950,8 @@ class MainWindow(QtWidgets.QMainWindow):
             keep_path = self.path is not None and self.ask_keep_path()
 
         d = data_spec(str(spec), size=size, steps=steps, seed=seed, fields=fields,
-                      resolution=resolution, time_dim=time_dim, axis_scale=axis_scale, box=box)  # fmt: skip
+                      resolution=resolution, time_dim=time_dim, axis_scale=axis_scale, box=box,
+                      curvilinear=curvilinear)  # fmt: skip
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             with warnings.catch_warnings(record=True) as caught:
