@@ -70,3 +70,27 @@ def test_the_layouts_are_the_command_lines_and_a_custom_file_is_checked(window, 
     window._guard(window.set_layout, bad)
     assert str(bad) in errors[-1] or "bad.json" in errors[-1]
     assert window.audio["layout"] == str(f) and window.layout_box.currentText() == str(f)
+
+
+def test_opening_new_data_clears_what_the_panels_said_of_the_old(qtbot, open_viewer,  # type: ignore[no-untyped-def]
+                                                                 tmp_path) -> None:  # fmt: skip
+    from auralize.listener import ListenerPath
+
+    win, shown = open_viewer()
+    win.open_data("dataset:monopole", size=12, steps=20)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    win.detect()
+    qtbot.waitUntil(lambda: win.series is not None and not win.busy, timeout=60_000)
+    csv = tmp_path / "p.csv"
+    ListenerPath.point(win.volume.center + [1.0, 0, 0], duration=0.2).to_csv(csv)
+    win.load_path(csv)
+    win.render_audio()
+    qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=60_000)
+    assert win.detect_note.text().startswith("detected") and win.figure.axes
+    win.open_data("dataset:explosion", size=12, steps=6, keep_path=False)
+    qtbot.waitUntil(lambda: not win.busy and win.volume.source == "dataset:explosion",
+                    timeout=60_000)  # fmt: skip
+    assert win.rendered is None and not win.figure.axes
+    assert win.detect_note.text() == "sources are detected when you ask (Detect)"
+    assert win.live_label.text() == "off" and win.count_labels["monopole"].text() == "–"
+    assert not shown

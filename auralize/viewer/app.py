@@ -989,6 +989,14 @@ class MainWindow(QtWidgets.QMainWindow):
         self.detection, self.series = None, None
         self.scene.set_volume(vol, field=name, frames=frames)
         self._overlay_sounds.clear()
+        self._overlay_unheard.clear()
+        # the panels describe the data on screen only: what was said of the old data goes
+        self.rendered = None
+        self.plot_audio()
+        self.detect_note.setText("sources are detected when you ask (Detect)")
+        self.overlay_note.setText("")
+        self.live_label.setText("off")
+        self.statusBar().clearMessage()
         if self.scene.overlays:  # the overlays switched on are heard for the new data
             from auralize.plugins import get_model
 
