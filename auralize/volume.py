@@ -418,6 +418,27 @@ class TimeVolume:
             return np.ones(self.shape, dtype=bool)
         return self.valid
 
+    def __repr__(self) -> str:
+        """A few lines: the grid, the times, the fields (never the arrays)."""
+        from auralize.runtime.reprs import number, span, summary
+
+        nx, ny, nz = self.dims
+        b = self.bounds
+        box = f"x[{number(b[0])}, {number(b[1])}] y[{number(b[2])}, {number(b[3])}] z[{number(b[4])}, {number(b[5])}] m"  # fmt: skip
+        if self.coords is not None:
+            grid = f"curvilinear {nx} × {ny} × {nz} points, {box}"
+        else:
+            grid = (f"{nx} × {ny} × {nz} points, spacing "
+                    f"{', '.join(number(v) for v in self.spacing)} m, {box}")  # fmt: skip
+        valid = self.valid_ratio
+        times = f"{self.n_steps} steps, {span(self.times)}" + (
+            "" if self.physical_times else " (frame numbers: no times in the file)")  # fmt: skip
+        fields = ", ".join(f"{k} ({'vector' if self.is_vector(k) else 'scalar'})"
+                           for k in self.field_names)  # fmt: skip
+        return summary(f"TimeVolume {self.source}", [
+            ("grid", grid), ("valid", "" if valid >= 1 else f"{100 * valid:.3g} % of the points"),
+            ("times", times), ("fields", fields or "none")])  # fmt: skip
+
     def describe(self) -> dict[str, object]:
         """A JSON-able summary (used by ``auralize info``); a curvilinear grid adds the
         shortest and longest edge between neighbouring points (``edge_lengths``, m)."""

@@ -90,6 +90,14 @@ class Rendered:
     def duration(self) -> float:
         return self.audio.shape[1] / self.rate
 
+    def __repr__(self) -> str:
+        """One line: length, layout, rate and level (never the samples)."""
+        a = self.audio
+        peak = float(np.max(np.abs(a), initial=0.0))
+        rms = float(np.sqrt(np.mean(np.square(a)))) if a.size else 0.0
+        return (f"<Rendered: {self.duration:.4g} s, {self.layout.name} ({a.shape[0]} ch) at "
+                f"{self.rate} Hz, peak {peak:.4g} Pa, RMS {rms:.4g} Pa>")  # fmt: skip
+
 
 @dataclass
 class _Prepared:

@@ -322,6 +322,18 @@ class SourceFrame:
         c = np.bincount(self.kind, minlength=4)
         return {name: int(c[k]) for k, name in KIND_NAMES.items()}
 
+    def __repr__(self) -> str:
+        from auralize.runtime.reprs import counts_text
+
+        return f"<SourceFrame: {self.index.size:,} sources ({counts_text(self.counts())})>"
+
+
+def _mapping_name(meta: Any) -> str:
+    """The mapping's name from a series' ``meta["mapping"]`` (a description or a name)."""
+    if isinstance(meta, dict):
+        return str(meta.get("name") or "")
+    return "" if meta is None else str(meta)
+
 
 @dataclass
 class SourceSeries:
@@ -361,6 +373,22 @@ class SourceSeries:
     def counts(self) -> list[dict[str, int]]:
         """Per-step counts by type."""
         return [f.counts() for f in self.frames]
+
+    def __repr__(self) -> str:
+        """A few lines: steps, counts per type, thresholds, mapping (never the arrays)."""
+        from auralize.runtime.reprs import counts_text, number, span, summary
+
+        counts = self.counts()
+        total = {k: sum(c[k] for c in counts) for k in TYPES}
+        busiest = max((f.index.size for f in self.frames), default=0)
+        nx, ny, nz = self.dims
+        th = ", ".join(
+            f"{k} {number(float(v))}" for k, v in zip(TYPES, self.thresholds, strict=False)
+        )
+        return summary("SourceSeries", [
+            ("steps", f"{self.n_steps} on a {nx} × {ny} × {nz} grid, {span(self.times)}"),
+            ("sources", f"{counts_text(total)} over all steps; at most {busiest:,} in a step"),
+            ("thresholds", th), ("mapping", _mapping_name(self.meta.get("mapping")))])  # fmt: skip
 
     def tracks(self) -> SourceTracks:
         """Per-vertex strength·ΔV over time for every vertex that is ever a source."""
@@ -409,6 +437,16 @@ class SourceTracks:
     @property
     def n_sources(self) -> int:
         return int(self.q.shape[0])
+
+    def __repr__(self) -> str:
+        from auralize.runtime.reprs import number, span
+
+        if not self.n_sources:
+            return f"<SourceTracks: no sources, {self.times.size} knots>"
+        lo, hi = self.positions.min(axis=0), self.positions.max(axis=0)
+        box = " ".join(f"{a}[{number(a0)}, {number(a1)}]" for a, a0, a1 in zip("xyz", lo, hi, strict=True))  # fmt: skip
+        return (f"<SourceTracks: {self.n_sources:,} sources × {self.times.size} knots, "
+                f"{span([self.t_first, self.t_last])}, {box} m>")  # fmt: skip
 
     @property
     def t_first(self) -> float:

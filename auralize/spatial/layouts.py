@@ -141,6 +141,9 @@ class Layout:
     def n_channels(self) -> int:
         return len(self.speakers)
 
+    def __repr__(self) -> str:
+        return f"<Layout {self.name}: {self.n_channels} channels ({', '.join(self.channel_names)})>"
+
     @property
     def channel_names(self) -> list[str]:
         return [s.name for s in self.speakers]
