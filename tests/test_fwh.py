@@ -305,3 +305,22 @@ def test_sound_model_makes_the_same_emitters(mono) -> None:
         np.testing.assert_allclose(a.signals, b.signals)
     with pytest.raises(ParameterError, match="needs surface="):
         FWHSound().synthesize(mono)
+
+
+def test_spectrum_at_an_observer_by_fwh_is_the_exact_fields(mono) -> None:
+    """``auralize spectrum DATA --listener ... --method fwh``: the observer's pressure by
+    the FW-H integral has the exact field's level (to 0.1 dB) and its band shape."""
+    from auralize.spectrum import observer_pressure, spectrum
+
+    obs = XS + np.array([0.0, 0.0, 40.0])
+    rate = 200_000  # the pulse lasts a few σ = 0.5 ms
+    p, what = observer_pressure(mono, obs, method="fwh", surface="box=-0.6;0.6;-0.6;0.6;-0.6;0.6",
+                                rate=rate)  # fmt: skip
+    assert what.startswith("FW-H on box=") and p.shape[0] == 1 and p.shape[1] > 1000
+    w = fwh_time_window(mono.times, box_surface(BOX, panel_size=H), obs[None], c0=C0)[0]
+    t = w[0] + np.arange(p.shape[1]) / rate
+    exact = _field("monopole", XS, t, obs[None, :])[0][None]
+    got, ref = spectrum(p, rate, fmax=20000), spectrum(exact, rate, fmax=20000)
+    assert got.oaspl[0] == pytest.approx(ref.oaspl[0], abs=0.1)
+    loud = ref.band_levels[0] > ref.band_levels[0].max() - 30
+    assert np.max(np.abs(got.band_levels[0][loud] - ref.band_levels[0][loud])) < 0.5

@@ -923,6 +923,7 @@ CORE_COMMAND_MODULES = (
     "auralize.cli.distributed",
     "auralize.cli.warmup",
     "auralize.cli.convert",
+    "auralize.cli.spectrum",
 )
 
 
