@@ -342,10 +342,22 @@ def load_input(model: Any, spec: Any, loaded: dict[str, Any] | None = None) -> A
     return spec
 
 
+def model_params(model: Any, params: dict[str, Any], rate: int | None) -> dict[str, Any]:
+    """A scene entry's parameters: ``params``, plus the output ``rate`` as the emission
+    rate of a model with a ``rate`` parameter that the entry leaves unset (fire,
+    aero), as in the model's own command."""
+    out = dict(params)
+    if rate is not None and "rate" not in out and any(p.name == "rate" for p in model.parameters):
+        out["rate"] = int(rate)
+    return out
+
+
 def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
                 duration: float | None = None, rate: int | None = None, *,
                 loaded: dict[str, Any] | None = None,
-                progress: Callable[[int, int], bool] | None = None) -> Any:  # fmt: skip
+                progress: Callable[[int, int], bool] | None = None,
+                sounds: dict[tuple[str, str | None], tuple[dict[str, Any], Any]] | None = None,
+                ) -> Any:  # fmt: skip
     """Synthesize every model of a scene and join their sounds (one :class:`Sound`).
 
     ``path`` and ``duration`` go to each model's :meth:`~auralize.plugins.SoundModel.plan`
@@ -355,7 +367,11 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
     of a model with a ``rate`` parameter that its entry leaves unset (fire,
     aero), as in the model's own command.  ``meta["scene"]`` lists the models.
     ``loaded`` as :func:`load_input`; ``progress(done, total)`` is called after
-    each model (returning False cancels with :class:`~auralize.errors.Cancelled`).
+    each model (returning False cancels with :class:`~auralize.errors.Cancelled`);
+    ``sounds`` maps ``(model name, input_key)`` to ``(params, Sound)`` already
+    synthesized (the viewer's audible overlays), taken when the parameters
+    are the same (:func:`model_params`) and the model does not plan for the
+    listener.
     """
     from auralize.emitters import Sound
     from auralize.plugins import get_model, synthesize
@@ -367,14 +383,12 @@ def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
         if progress is not None and not progress(k, len(models) + 1):
             raise Cancelled(f"scene cancelled before its {sm.model} model")
         model = get_model(sm.model)
+        params = model_params(model, sm.params, rate)
+        ready = (sounds or {}).get((sm.model, input_key(sm.input)))
+        if ready is not None and ready[0] == params:  # made already, from the same inputs
+            total = total + ready[1]
+            continue
         inputs = load_input(model, sm.input, loaded)
-        params = dict(sm.params)
-        if (
-            rate is not None
-            and "rate" not in params
-            and any(p.name == "rate" for p in model.parameters)
-        ):
-            params["rate"] = int(rate)
         if path is not None:  # what depends on where the listener goes (the field's plan)
             inputs, params = model.plan(inputs, params, path, duration or path.duration)
         total = total + synthesize(model, inputs, **params)
@@ -594,7 +608,9 @@ def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44
 
 def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpass_hz,
                       loaded: dict[str, Any] | None = None,
-                      progress: Callable[[int, int], bool] | None = None) -> Any:  # fmt: skip
+                      progress: Callable[[int, int], bool] | None = None,
+                      sounds: dict[tuple[str, str | None], tuple[dict[str, Any], Any]] | None = None,
+                      ) -> Any:  # fmt: skip
     """Render a scene file (or a session's scene) as ``auralize render --scene FILE``
     with no other option does: its layout, rate and duration (else the
     defaults: mono at 44.1 kHz, as long as its listener path or until every part
@@ -614,6 +630,8 @@ def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpas
     progress : callable, optional
         ``progress(done, total) -> bool`` after each model and after the
         render; False cancels (:class:`~auralize.errors.Cancelled`).
+    sounds : dict, optional
+        Models' sounds already made, as :func:`scene_sound` takes them.
 
     Returns
     -------
@@ -636,7 +654,7 @@ def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpas
     rate = int(scene.rate or DEFAULTS.rate)
     layout = get_layout(scene.layout or DEFAULTS.layout)
     sound = scene_sound(scene.models, path, scene.duration, rate=rate, loaded=loaded,
-                        progress=progress)  # fmt: skip
+                        progress=progress, sounds=sounds)  # fmt: skip
     if scene.duration is not None:
         duration = float(scene.duration)
     elif scene.path is not None:

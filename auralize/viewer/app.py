@@ -311,6 +311,7 @@ class MainWindow(QtWidgets.QMainWindow):
         # computed in the background after the overlay is drawn
         self._overlay_sounds: dict[str, tuple[Any, Any]] = {}
         self._sound_tasks: dict[str, Task] = {}
+        self._overlay_params: dict[str, dict[str, Any]] = {}
         # overlays drawn whose model makes no sound from the volume: name -> why
         self._overlay_unheard: dict[str, str] = {}
         self._threads: set[Task] = set()
@@ -1549,14 +1550,17 @@ class MainWindow(QtWidgets.QMainWindow):
         doc = self.session_state().to_dict()
         scene = session_scene(doc, source="the viewer's session")
         unheard = {n: why for n, why in self._overlay_unheard.items() if n in self.scene.overlays}
-        loaded = {input_key(self.data): self.volume}
+        key = input_key(self.data)
+        loaded = {key: self.volume}
+        ready = {(n, key): (self._overlay_params.get(n), snd)
+                 for n, (vol, snd) in self._overlay_sounds.items() if vol is self.volume}  # fmt: skip
         out = None if filename is None else Path(filename).expanduser().resolve()
         session_file = None if out is None else out.with_name(out.name + ".session.json")
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             from auralize.pipeline import save_rendered
 
-            r = render_scene_file(scene, loaded=loaded, progress=progress)
+            r = render_scene_file(scene, loaded=loaded, progress=progress, sounds=ready)
             if out is not None and session_file is not None:
                 SessionState.from_dict(doc, source=str(session_file)).save(session_file)
                 cmd = shlex.join(["auralize", "render", "--scene", str(session_file),
@@ -1853,13 +1857,18 @@ class MainWindow(QtWidgets.QMainWindow):
             self._overlay_unheard[name] = why
             self.overlay_note.setText(f"{name} overlay is shown but not heard: {why}")
             return None
+        from auralize.scene.soundscene import model_params
+
         vol = self.volume
         label = f"{name} sound"
+        # the parameters a render of the session gives it (the output rate): the render
+        # takes this sound as it is
+        params = model_params(model, {}, int(self.audio["rate"]))
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             progress(0, 1)
             try:  # a model whose inputs are not a volume says so (shown in the panel)
-                sound = synthesize(model, vol)
+                sound = (params, synthesize(model, vol, **params))
             except (AuralizeError, NotImplementedError) as exc:
                 return exc
             if not progress(1, 1):
@@ -1889,7 +1898,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.overlay_note.setText(f"{name} overlay is shown but not heard: {why}")
             return
         if name in self.scene.overlays and vol is self.volume:
-            self._overlay_sounds[name] = (vol, result)
+            self._overlay_sounds[name] = (vol, result[1])
+            self._overlay_params[name] = result[0]
             self._update_live_sound()
 
     def overlay_sound(self) -> Any:
