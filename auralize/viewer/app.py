@@ -1550,9 +1550,9 @@ class MainWindow(QtWidgets.QMainWindow):
         doc = self.session_state().to_dict()
         scene = session_scene(doc, source="the viewer's session")
         unheard = {n: why for n, why in self._overlay_unheard.items() if n in self.scene.overlays}
-        key = input_key(self.data)
+        key = str(input_key(self.data))
         loaded = {key: self.volume}
-        ready = {(n, key): (self._overlay_params.get(n), snd)
+        ready = {(n, key): (self._overlay_params.get(n, {}), snd)
                  for n, (vol, snd) in self._overlay_sounds.items() if vol is self.volume}  # fmt: skip
         out = None if filename is None else Path(filename).expanduser().resolve()
         session_file = None if out is None else out.with_name(out.name + ".session.json")
