@@ -20,7 +20,7 @@ from scipy.signal import butter, sosfiltfilt
 from auralize.audio.live import BlockSynth
 from auralize.cli import main
 from auralize.emitters import Emitters
-from auralize.emitters._synth_kernel import _gains
+from auralize.emitters._kernels.gains import _gains
 from auralize.emitters.engine import BlockRenderer, render, render_emitters
 from auralize.emitters.synthesis import pan_table, panning_arrays, render_reference
 from auralize.emitters.synthesis import render as synth_render
