@@ -208,7 +208,7 @@ def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, sol
         w[j, 1] = 0.0
         w[j, 2] = 0.0
     if g.shape[1] > 1:
-        _gains(dx, dy, dz, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, g[j])
+        _gains((dx, dy, dz), (fx, fy, fz, ux, uy, uz), spk_az, spk_ch, fold, pinv, g[j])
     return (tau - t_sig) * fs, tau, dx, dy, dz, inv_dt, sx, sy, sz
 
 

@@ -21,15 +21,18 @@ from auralize.emitters._kernels.common import _NJIT, _NJIT_NORC
 
 
 @numba.njit(inline="always", **_NJIT)
-def _gains(ax, ay, az, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, out):
-    """Panning gains (power-normalised) for direction a in the listener frame:
-    pairwise 2-D VBAP, or 3-D VBAP when ``pinv`` is a triangle table (12
-    columns, see :func:`_gains3`), or the AmbiX encoding gains when ``pinv``
-    is a spherical-harmonic table (2 columns, see :func:`_gains_sh`).
+def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
+    """Panning gains ``out`` (power-normalised) for ``direction`` a = (ax, ay,
+    az) in the listener's ``frame`` = (fx, fy, fz, ux, uy, uz), its forward f
+    and up u: pairwise 2-D VBAP, or 3-D VBAP when ``pinv`` is a triangle
+    table (12 columns, see :func:`_gains3`), or the AmbiX encoding gains when
+    ``pinv`` is a spherical-harmonic table (2 columns, see :func:`_gains_sh`).
 
-    forward f, up u, left = u × f; azimuth counter-clockwise from forward.
-    ``fold`` mirrors rear directions to the front (2-speaker layouts).
+    left = u × f; azimuth counter-clockwise from forward.  ``fold`` mirrors
+    rear directions to the front (2-speaker layouts).
     """
+    ax, ay, az = direction
+    fx, fy, fz, ux, uy, uz = frame
     n = spk_az.size
     for c in range(out.size):
         out[c] = 0.0
@@ -252,7 +255,7 @@ def _pan(x, y, z, t, s, lis, pan, g, frame):
     lx, ly, lz, _, _, _ = _listener(lis.times, lis.pos, lis.vel, t, s)
     _orient(lis.orient_table, lis.orient_clock, t, frame)
     o = frame
-    _gains(x - lx, y - ly, z - lz, o[0], o[1], o[2], o[3], o[4], o[5], pan.spk_az, pan.spk_ch,
+    _gains((x - lx, y - ly, z - lz), (o[0], o[1], o[2], o[3], o[4], o[5]), pan.spk_az, pan.spk_ch,
            pan.fold, pan.pinv, g)  # fmt: skip
 
 
@@ -274,8 +277,8 @@ def _constant_rows(orient_table):
     Typed ``bool``: a flag initialised from the literal ``True`` (or a
     counter from ``0``) and passed to a compiled, not inlined, kernel types
     first as ``Literal[bool](True)`` and then as ``bool``, and numba compiles
-    that kernel, and everything it calls, once for each: minutes of compile
-    time for nothing."""
+    that kernel, and everything it calls, once for each: a second cold
+    compile for nothing."""
     n_diff = 0
     for j in range(1, orient_table.shape[0]):
         for c in range(orient_table.shape[1]):
