@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from numba.core import event
 
-from auralize.emitters import Emitters, _runs_kernel, _sampled, _synth_kernel
+from auralize.emitters import Emitters, _sampled
+from auralize.emitters._kernels import render_pieces, render_runs
 from auralize.emitters.engine import model_emitters, render_emitters
 from auralize.emitters.synthesis import render as synth_render
 from auralize.listener import ListenerPath
@@ -102,8 +103,8 @@ def test_sampled_kernel_gets_one_signature_for_any_input(monkeypatch) -> None:  
 
 def test_synthesis_kernels_get_one_signature_each(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     runs, pieces = _Recorder(0), _Recorder(0)
-    monkeypatch.setattr(_runs_kernel, "render", runs)
-    monkeypatch.setattr(_synth_kernel, "render", pieces)
+    monkeypatch.setattr(render_runs, "render", runs)
+    monkeypatch.setattr(render_pieces, "render", pieces)
     t = np.linspace(0.0, 0.2, 9)
     q = np.sin(40.0 * t)[None].repeat(3, axis=0) * np.array([[1.0], [0.5], [0.2]])
     pos = np.array([[2.0, 0.0, 0.0], [0.0, 3.0, 0.0], [1.0, 1.0, 1.0]])

@@ -20,7 +20,7 @@ from scipy.signal import butter, sosfiltfilt
 from auralize.audio.live import BlockSynth
 from auralize.cli import main
 from auralize.emitters import Emitters
-from auralize.emitters._synth_kernel import _gains
+from auralize.emitters._kernels.gains import _gains
 from auralize.emitters.engine import BlockRenderer, render, render_emitters
 from auralize.emitters.synthesis import pan_table, panning_arrays, render_reference
 from auralize.emitters.synthesis import render as synth_render
@@ -69,7 +69,7 @@ def test_kernel_sh_gains_equal_ambisonics() -> None:
         out = np.zeros(lay.n_channels)
         got = []
         for v in d:
-            _gains(v[0], v[1], v[2], *f, *u, az, ch, False, tab, out)
+            _gains((v[0], v[1], v[2]), (*f, *u), az, ch, False, tab, out)
             got.append(out.copy())
         np.testing.assert_allclose(np.array(got).T, sh_gains(lay.meta["order"], local),
                                    atol=1e-13)  # fmt: skip

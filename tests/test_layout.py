@@ -134,7 +134,7 @@ def _private_imports(known: dict[str, Path], root: Path = ROOT) -> list[str]:
     """``from auralize.x import _name`` lines where ``_name`` is not the importer's own.
 
     A package's private modules (``auralize.sources._kernels``,
-    ``auralize.emitters._synth_kernel``) are its implementation: the modules
+    ``auralize.emitters._kernels.gains``) are its implementation: the modules
     of the same package may import them and their private names.  Anything
     else takes public names only.
     """

@@ -210,7 +210,7 @@ def test_runs_of_pieces_sum_to_the_piecewise_kernel(
 ) -> None:  # type: ignore[no-untyped-def]
     # unpanned and AmbiX layouts (the binaural ears too: two receivers of
     # four harmonics each, turning with the listener) sum runs of pieces with
-    # one emission per knot (auralize.emitters._runs_kernel); the piece-wise
+    # one emission per knot (auralize.emitters._kernels.render_runs); the piece-wise
     # kernel sums every piece on its own.  Same signal: on a path captured at
     # 20 Hz (pieces split at captures), from a start inside pieces (restart at
     # the first sample), and over more than one 32768-sample accumulation

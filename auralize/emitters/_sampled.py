@@ -12,7 +12,7 @@ the emitter's place at t) and its rate ``dτ/dt = (1 − n·v_L/c0) / (1 − n·
 distance law ``1/D^e`` (the delay uses the unclamped distance), a dipole's
 projection on the unit vector n from the emitter to the listener, and the
 layout's panning gains (the synthesis kernel's own law,
-:func:`auralize.emitters._synth_kernel._gains`: pairwise 2-D VBAP, 3-D VBAP for
+:func:`auralize.emitters._kernels.gains._gains`: pairwise 2-D VBAP, 3-D VBAP for
 layouts with elevation, the AmbiX encoding for ``ambix1..3``; equal to
 :func:`auralize.spatial.layouts.pan_gains`).  Inside
 a block the emission index is the cubic Hermite interpolant of τ and dτ/dt,
@@ -52,7 +52,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters._synth_kernel import _NJIT_NORC, _gains
+from auralize.emitters._kernels.common import _NJIT_NORC
+from auralize.emitters._kernels.gains import _gains
 from auralize.emitters.parallel import N_THREADS, run_pieces
 from auralize.runtime.jit import configure as _configure_numba
 from auralize.runtime.jit import kernel_arg, kernel_args
@@ -207,7 +208,7 @@ def _point(sig_c, pos, s, pos_rate, t_pos, radius, exponent, inv_c0, moving, sol
         w[j, 1] = 0.0
         w[j, 2] = 0.0
     if g.shape[1] > 1:
-        _gains(dx, dy, dz, fx, fy, fz, ux, uy, uz, spk_az, spk_ch, fold, pinv, g[j])
+        _gains((dx, dy, dz), (fx, fy, fz, ux, uy, uz), spk_az, spk_ch, fold, pinv, g[j])
     return (tau - t_sig) * fs, tau, dx, dy, dz, inv_dt, sx, sy, sz
 
 

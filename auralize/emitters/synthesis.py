@@ -26,8 +26,8 @@ Time mapping (docs/design.md): audio sample n is at data time
 the listener path; propagation uses physical c0 in data time.  ``lead``
 (default 0) skips the sound's travel to a far listener.
 
-The fast algorithm (:mod:`auralize.emitters._synth_kernel`; for unpanned and
-AmbiX output :mod:`auralize.emitters._runs_kernel`, one emission per knot, unless the path is
+The fast algorithm (:mod:`auralize.emitters._kernels.render_pieces`; for unpanned and
+AmbiX output :mod:`auralize.emitters._kernels.render_runs`, one emission per knot, unless the path is
 recorded: captures that most pieces' arrivals cross) costs
 O(sources × steps + samples) instead of O(sources × samples) and gives the
 sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
@@ -44,7 +44,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import C0, _runs_kernel, _synth_kernel
+from auralize.emitters import C0
+from auralize.emitters._kernels import render_pieces, render_runs, tables
+from auralize.emitters._kernels.arrivals import _LINE
+from auralize.emitters._kernels.common import _CHUNK, KNOT_ROW
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.runtime.jit import kernel_args
@@ -62,7 +65,7 @@ from auralize.spatial.layouts import (
 
 RHO0 = 1.2
 #: unpanned and AmbiX layouts (the binaural ears among them) are summed by
-#: runs of pieces (:mod:`auralize.emitters._runs_kernel`) unless most of their pieces' arrivals cross listener captures (None); True
+#: runs of pieces (:mod:`auralize.emitters._kernels.render_runs`) unless most of their pieces' arrivals cross listener captures (None); True
 #: forces the runs, False the piece-wise kernel (for tests)
 _BY_RUNS: bool | None = None
 INTERPOLATIONS = ("linear", "cubic")
@@ -198,8 +201,8 @@ def panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]
 def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     """The kernel's panning table: speaker-pair inverse bases (2-D VBAP) for a
     horizontal layout, the triangle table of 3-D VBAP for one with elevation
-    (see :func:`auralize.emitters._synth_kernel._gains3`), the SN3D factors and order
-    for an AmbiX layout (see :func:`auralize.emitters._synth_kernel._gains_sh`)."""
+    (see :func:`auralize.emitters._kernels.gains._gains3`), the SN3D factors and order
+    for an AmbiX layout (see :func:`auralize.emitters._kernels.gains._gains_sh`)."""
     if is_ambisonic(lay):
         n = int(lay.meta["order"])
         tab = np.zeros(((n + 1) ** 2, 2))
@@ -279,21 +282,21 @@ def _build_pieces(tracks: SourceTracks, tn: NDArray[np.float64],
                   interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
     q, pos, radius = _track_arrays(tracks)
     cubic = interp == "cubic"
-    W = _synth_kernel._CHUNK
+    W = _CHUNK
     none = np.zeros(1, dtype=np.int64)
-    counts = _synth_kernel.build_pieces(*kernel_args(q, tn, pos, radius, cubic, True, none, none,
+    counts = tables.build_pieces(*kernel_args(q, tn, pos, radius, cubic, True, none, none,
                                                      np.zeros((1, 8, W))))  # fmt: skip
     cptr = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
     ccnt = np.zeros(int(cptr[-1]), dtype=np.int64)
     PD = np.empty((int(cptr[-1]), 8, W))  # lanes past ccnt are never read
-    _synth_kernel.build_pieces(*kernel_args(q, tn, pos, radius, cubic, False, cptr, ccnt, PD))
+    tables.build_pieces(*kernel_args(q, tn, pos, radius, cubic, False, cptr, ccnt, PD))
     return cptr, ccnt, PD
 
 
 def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
     """The runs of sounding pieces in chunks, for unpanned layouts:
     ``(gr0, glen, gcnt, goff, KD)`` (cached on the tracks; see
-    :func:`auralize.emitters._runs_kernel.render`).
+    :func:`auralize.emitters._kernels.render_runs.render`).
 
     A run is a maximal stretch of consecutive sounding pieces of a source
     (the same pieces as :func:`_pieces`).  Runs that start in the same row,
@@ -308,11 +311,11 @@ def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
                 interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
     q, pos, radius = _track_arrays(tracks)
     cubic = interp == "cubic"
-    W = _synth_kernel._CHUNK
+    W = _CHUNK
     none = np.zeros(0, dtype=np.int64)
-    n = _runs_kernel.find_runs(*kernel_args(q, tn, cubic, True, none, none, none))
+    n = tables.find_runs(*kernel_args(q, tn, cubic, True, none, none, none))
     src, r0, length = (np.empty(n, dtype=np.int64) for _ in range(3))
-    _runs_kernel.find_runs(*kernel_args(q, tn, cubic, False, src, r0, length))
+    tables.find_runs(*kernel_args(q, tn, cubic, False, src, r0, length))
     order = np.lexsort((-length, r0))
     src, r0, length = src[order], r0[order], length[order]
     # chunks: _CHUNK runs at a time among those that start in the same row
@@ -323,10 +326,10 @@ def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
     chunk = np.cumsum(lane == 0) - 1
     gr0, glen = r0[starts], length[starts]
     gcnt = np.diff(np.append(starts, n)).astype(np.int64)
-    size = (_runs_kernel._K_KNOT + 2 * (glen + 1)) * W
+    size = (KNOT_ROW.KNOT + 2 * (glen + 1)) * W
     goff = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
     KD = np.zeros(int(size.sum()))
-    _runs_kernel.fill_runs(*kernel_args(q, tn, pos, radius, cubic, src, r0, length, chunk, lane,
+    tables.fill_runs(*kernel_args(q, tn, pos, radius, cubic, src, r0, length, chunk, lane,
                                         goff, KD))  # fmt: skip
     return gr0, glen, gcnt, goff, KD
 
@@ -539,7 +542,7 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
 
 
 #: rows whose arrivals may cross more listener captures than this are summed
-#: piece by piece (:func:`auralize.emitters._synth_kernel._piece_general`), not in parts
+#: piece by piece (:func:`auralize.emitters._kernels.pieces._piece_general`), not in parts
 _MAX_PART_CAPTURES = 48
 
 
@@ -672,7 +675,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
             np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]]), m_lo], axis=1),
             dtype=np.int64)  # fmt: skip
         acc = _workspace("acc", (int(size.sum()),))
-        rc = _workspace("lines", (pr.tn.size, 2 * _synth_kernel._LINE + 1))
+        rc = _workspace("lines", (pr.tn.size, 2 * _LINE + 1))
         # per task, a row for each listener capture heard inside the output:
         # the emissions of pieces split there are summed in it (in cache)
         k_ct = int(np.searchsorted(pr.tc, pr.t_start - 1.0 / pr.fs, side="right"))
@@ -690,13 +693,13 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
             LT = _line_table(pr, c0)
         if by_runs:
             tab = pan_table(lay, spk_az) if ambix else np.zeros((0, 2))
-            bad = _runs_kernel.render(*kernel_args(
+            bad = render_runs.render(*kernel_args(
                 gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, pr.qc, pr.ot,
                 float(c0), pr.t_start, pr.fs, pr.n_samples, shift, lay.n_channels, tab, n_lo, n_hi,
                 d_max, task_chunks, task_blk, rc, acc, audio, ct, k_ct,
             ))  # fmt: skip
         else:
-            bad = _synth_kernel.render(*kernel_args(
+            bad = render_pieces.render(*kernel_args(
                 cptr, ccnt, PD, pr.tn, cubic,
                 pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
                 shift, spk_az, spk_ch, pan_table(lay, spk_az), lay.n_channels,

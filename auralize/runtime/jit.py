@@ -1,7 +1,7 @@
 """numba settings of auralize's compiled kernels, applied when a kernel module is imported.
 
-Every kernel module (``auralize.sources._kernels``, ``auralize.emitters._synth_kernel``,
-``auralize.emitters._runs_kernel`` and the plugins' kernels) calls :func:`configure`
+Every kernel module (``auralize.sources._kernels``, the modules of
+``auralize.emitters._kernels`` and the plugins' kernels) calls :func:`configure`
 before it defines its kernels, so ``import auralize`` changes nothing in the
 process; the first use of a kernel does:
 
@@ -46,8 +46,8 @@ log = logging.getLogger("auralize")
 
 COMPILE_SECONDS: dict[str, float] = {
     # the synthesis kernels, each announced on its own
-    "auralize.emitters._synth_kernel.render": 170.0,
-    "auralize.emitters._runs_kernel.render": 65.0,
+    "auralize.emitters._kernels.render_pieces.render": 170.0,
+    "auralize.emitters._kernels.render_runs.render": 65.0,
     "auralize.emitters._sampled._render": 45.0,
     # detection and field sources
     **{f"auralize.sources._kernels.{k}": v for k, v in (
@@ -57,17 +57,18 @@ COMPILE_SECONDS: dict[str, float] = {
         ("_absmax_pair_planes", 1.1), ("_max_along_x", 0.5))},
     # run and piece tables
     "auralize.emitters._sampled._box": 0.8,
-    "auralize.emitters._runs_kernel.find_runs": 0.6,
-    "auralize.emitters._runs_kernel.fill_runs": 0.4,
-    "auralize.emitters._synth_kernel.build_pieces": 0.5,
+    "auralize.emitters._kernels.tables.find_runs": 0.6,
+    "auralize.emitters._kernels.tables.fill_runs": 0.4,
+    "auralize.emitters._kernels.tables.build_pieces": 0.5,
     # helpers compiled as part of a kernel above
     **dict.fromkeys(
-        [f"auralize.emitters._synth_kernel.{k}" for k in (
-            "_flush_captures", "_chunk_pieces", "_chunk_pair_gains", "_chunk_sh_gains",
-            "_piece_general", "_piece_across", "_integrate", "_task_sum", "_part_pair_gains",
-            "_chunk_parts", "_part_batch", "_pan_far", "_constant_rows", "_row_lines")]
-        + ["auralize.emitters._runs_kernel._chunk_step",
-           "auralize.emitters._runs_kernel._knot_gains"],
+        [f"auralize.emitters._kernels.{k}" for k in (
+            "accumulate._flush_captures", "accumulate._integrate", "accumulate._integrate_tasks",
+            "pieces._chunk_pieces", "pieces._piece_general", "pieces._piece_across",
+            "lane_gains._chunk_pair_gains", "lane_gains._chunk_sh_gains",
+            "lane_gains._part_pair_gains", "parts._chunk_parts", "parts._part_batch",
+            "gains._pan_far", "gains._constant_rows", "arrivals._row_lines",
+            "render_pieces._task_sum", "render_runs._chunk_step", "render_runs._knot_gains")],
         0.0,
     ),
 }  # fmt: skip
@@ -90,10 +91,17 @@ _lock = threading.Lock()
 
 
 #: the core kernel modules, relative to the package: their functions are inlined into
-#: kernels of other modules (``_sampled`` and the plugins use ``_synth_kernel``'s gains),
-#: and numba's cache of a module does not notice a change in a module it inlines from
-KERNEL_SOURCES = ("sources/_kernels.py", "emitters/_synth_kernel.py",
-                  "emitters/_runs_kernel.py", "emitters/_sampled.py")  # fmt: skip
+#: kernels of other modules (the synthesis kernels are split by stage over
+#: ``emitters/_kernels/``; ``_sampled`` and the plugins use its gains), and numba's
+#: cache of a module does not notice a change in a module it inlines from
+KERNEL_SOURCES: tuple[str, ...] = (
+    "sources/_kernels.py",
+    *sorted(
+        f"emitters/_kernels/{f.name}"
+        for f in (Path(__file__).resolve().parent.parent / "emitters" / "_kernels").glob("*.py")
+    ),
+    "emitters/_sampled.py",
+)
 
 
 def kernel_digest(root: Path | None = None) -> str:

@@ -32,8 +32,8 @@ import numpy as np
 #: kernel groups compiled by one worker process each, the longest first (a
 #: process that starts first ends last); each names the kernels it compiles
 GROUPS: dict[str, str] = {
-    "panned": "piece-wise synthesis (stereo, 5.1, ring8, ...): _synth_kernel.render",
-    "mono": "detection, field sources, run-sweep synthesis (mono, AmbiX): _runs_kernel.render",
+    "panned": "piece-wise synthesis (stereo, 5.1, ring8, ...): _kernels.render_pieces.render",
+    "mono": "detection, field sources, run-sweep synthesis (mono, AmbiX): _kernels.render_runs.render",
     "emitters": "the emitters engine (every sound model): _sampled._render",
 }
 #: compiled with ``plugins=True``

@@ -11,7 +11,7 @@ Panning laws
 * **Horizontal layouts** (every panned speaker at elevation 0): pairwise 2-D
   VBAP between the two speakers adjacent to the source azimuth (the convex hull
   methods of 3-D VBAP fail on a coplanar ring).  This is the law the numba
-  synthesis kernel applies per piece (:func:`auralize.emitters._synth_kernel._gains`);
+  synthesis kernel applies per piece (:func:`auralize.emitters._kernels.gains._gains`);
   :func:`vbap_gains` is the same law in numpy.
 * **Layouts with elevation**: 3-D VBAP (Pulkki 1997) over the triangles of the
   convex hull of the speaker directions (:func:`vbap3d_gains`).  When no
@@ -19,7 +19,7 @@ Panning laws
   at the nadir (zenith); its gain is dropped and the remaining gains are
   re-normalised, so a source below the ring is heard on the ring at its own
   azimuth; likewise above the highest speakers.  The synthesis kernel applies
-  the same law per piece (:func:`auralize.emitters._synth_kernel._gains3`, from the
+  the same law per piece (:func:`auralize.emitters._kernels.gains._gains3`, from the
   table of :func:`auralize.emitters.synthesis.pan_table`).
 * Every law is **power-normalised** (Σ g² = 1 over the panned speakers) and
   continuous in the direction, so gains change smoothly as a source moves or
@@ -37,7 +37,7 @@ Immersive layouts
   ``ambisonic``, ``order``, ``normalisation`` and ``channel_order``.
   :func:`pan_gains` returns the spherical-harmonic encoding gains, so every
   renderer that pans through it writes AmbiX; the synthesis kernels evaluate
-  the same harmonics per piece (:func:`auralize.emitters._synth_kernel._gains_sh`, by
+  the same harmonics per piece (:func:`auralize.emitters._kernels.gains._gains_sh`, by
   recurrence from the Cartesian direction).  :func:`downmix_matrix` decodes
   AmbiX to any loudspeaker layout (AllRAD with max-rE weights).
 * ``binaural``: two ear signals (L, R).  Binaural output is not a panning law:
