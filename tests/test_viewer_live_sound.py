@@ -19,8 +19,9 @@ from auralize.scene.view import camera_pose
 DURATION = 0.5  # playback s, within one loop of the data (0.79 s at time scale 40)
 
 
-def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbot, tmp_path,  # type: ignore[no-untyped-def]
-                                             monkeypatch) -> None:  # fmt: skip
+@pytest.fixture
+def unpaced(monkeypatch):  # type: ignore[no-untyped-def]
+    """Live listening's WAV sink writes without waiting for real time."""
     import auralize.scene.listening as listening
 
     class Unpaced(listening.WavSink):  # a file-backed sink that does not wait
@@ -28,6 +29,12 @@ def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbo
             super().__init__(*a, **{**k, "pace": False})
 
     monkeypatch.setattr(listening, "WavSink", Unpaced)
+    return listening
+
+
+def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbot, tmp_path,  # type: ignore[no-untyped-def]
+                                             unpaced) -> None:  # fmt: skip
+    listening = unpaced
     win, shown = open_viewer()
     win.open_data("dataset:monopole", size=12, steps=60)
     qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
@@ -80,17 +87,11 @@ def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbo
 
 
 def test_live_listening_a_kilometre_away_is_heard_in_the_first_block(open_viewer, qtbot,  # type: ignore[no-untyped-def]
-                                                                     tmp_path, monkeypatch) -> None:  # fmt: skip
+                                                                     tmp_path, unpaced) -> None:  # fmt: skip
     """The camera 1 km from the data: sound takes 2.9 s to come, three times the
     data's span; live listening skips that travel (as a render does), so the first
     block already holds the data's sound, and the panel says how far away they are."""
-    import auralize.scene.listening as listening
-
-    class Unpaced(listening.WavSink):
-        def __init__(self, *a, **k):  # type: ignore[no-untyped-def]
-            super().__init__(*a, **{**k, "pace": False})
-
-    monkeypatch.setattr(listening, "WavSink", Unpaced)
+    listening = unpaced
     win, shown = open_viewer()
     win.open_data("dataset:explosion", size=16, steps=20)
     qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
