@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import C0
+from auralize.constants import C0
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.volume import TimeVolume
 

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from auralize.emitters import C0
+from auralize.constants import C0
 from auralize.errors import ParameterError
 from auralize.volume import CallableFrames, TimeVolume
 

@@ -47,10 +47,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.constants import C0 as C0  # (re-exported: the engine's default)
 from auralize.errors import ParameterError
 
-#: speed of sound in air (m/s): the one default of the core and the plugins
-C0 = 343.0
 #: lowest and highest output sample rate a render accepts (command line and API), Hz
 RATE_RANGE_HZ = (8000, 768000)
 LAWS = {"physical": 1.0, "paper": 3.0}

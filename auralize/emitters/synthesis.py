@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.constants import RHO0 as RHO0  # (re-exported)
 from auralize.emitters import C0
 from auralize.emitters._kernels import render_pieces, render_runs, tables
 from auralize.emitters._kernels.arrivals import _LINE
@@ -63,7 +64,6 @@ from auralize.spatial.layouts import (
     triangulate,
 )
 
-RHO0 = 1.2
 #: unpanned and AmbiX layouts (the binaural ears among them) are summed by
 #: runs of pieces (:mod:`auralize.emitters._kernels.render_runs`) unless most of their pieces' arrivals cross listener captures (None); True
 #: forces the runs, False the piece-wise kernel (for tests)

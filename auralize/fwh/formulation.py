@@ -46,9 +46,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
+from auralize.constants import RHO0
 from auralize.emitters import C0, Emitters, Sound
 from auralize.errors import ParameterError
-from auralize.fwh.sampling import RHO0, SurfaceSamples, sample_surface
+from auralize.fwh.sampling import SurfaceSamples, sample_surface
 from auralize.fwh.surface import Surface
 from auralize.volume import TimeVolume
 

@@ -27,14 +27,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import C0
+from auralize.constants import C0, RHO0
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.fwh.surface import Surface
 from auralize.mapping import AcousticMapping, CFDMapping, IncompressibleMapping, match_field
 from auralize.volume import TimeVolume
 
 #: the default ambient density (kg/m³), docs/design.md
-RHO0 = 1.2
 
 
 @dataclass

@@ -87,7 +87,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import C0
+from auralize.constants import C0
 from auralize.errors import ParameterError
 
 if TYPE_CHECKING:

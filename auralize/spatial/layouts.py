@@ -79,7 +79,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters import C0
+from auralize.constants import C0
 from auralize.errors import FormatError, ParameterError
 from auralize.io.json_check import AnyJSON, Bool, Obj, Text, check, optional, read_json
 

@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal
 
+from auralize.constants import RHO0
 from auralize.errors import FormatError, ParameterError
 from auralize.io.files import atomic_hdf5, stop_if_failed
 
@@ -47,7 +48,6 @@ from .shapes import Section, check_diameter, fold_directions
 
 FORMAT = "aero_texture"
 VERSION = 1
-RHO0 = 1.2
 
 
 @dataclass

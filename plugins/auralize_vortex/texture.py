@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from auralize.constants import RHO0
 from auralize.emitters import C0
 from auralize.errors import DataError, FormatError, ParameterError
 from auralize.io.files import atomic_hdf5, stop_if_failed
@@ -55,7 +56,7 @@ from auralize_vortex.fluid import StableFluids, smooth_noise
 
 TEXTURE_FORMAT = "vortex-texture"
 TEXTURE_VERSION = 1
-RHO0 = 1.2
+
 #: default speeds (m/s) of the built-in texture: 8 speeds covering fire plumes (paper §7)
 DEFAULT_SPEEDS = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
 
