@@ -188,6 +188,11 @@ class SoundModel:
         """Optional pyvista mesh(es) for the viewer's Overlays panel (default: none)."""
         return None
 
+    def warm_up(self) -> None:
+        """Compile the model's numba kernels on a small case (``auralize warmup
+        --plugins`` calls it for every registered model; default: nothing to compile)."""
+        return None
+
     @classmethod
     def add_cli(cls, subparsers: Any, options: Any) -> None:
         """Add the model's sub-commands to ``subparsers`` (default: none).

@@ -228,3 +228,24 @@ def test_compile_notice_estimates_the_kernel_that_compiles(caplog, monkeypatch) 
     # the first compile, then the expensive kernel once (not per specialization)
     assert len(msgs) == 2, msgs
     assert msgs[1].startswith("compiling kernels, once: ~120 s")
+
+
+def test_plugins_are_warmed_through_their_hook(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """``warmup --plugins`` asks every registered model to warm up (no plugin named in
+    the core): a model registered by a third party is warmed too."""
+    import auralize.plugins as plugins
+    from auralize.plugins import SoundModel
+    from auralize.runtime import warmup
+
+    warmed: list[str] = []
+
+    class Probe(SoundModel):
+        name = "probe"
+
+        def warm_up(self) -> None:
+            warmed.append(self.name)
+
+    monkeypatch.setattr(plugins, "registry", lambda: {"probe": Probe, "base": SoundModel})
+    warmup._warm_plugins()
+    assert warmed == ["probe"]
+    assert SoundModel().warm_up() is None  # the default: nothing to compile

@@ -37,7 +37,7 @@ GROUPS: dict[str, str] = {
     "emitters": "the emitters engine (every sound model): _sampled._render",
 }
 #: compiled with ``plugins=True``
-PLUGIN_GROUPS: dict[str, str] = {"plugins": "fire, spark and vortex kernels"}
+PLUGIN_GROUPS: dict[str, str] = {"plugins": "the sound-model plugins' kernels (their warm_up)"}
 
 
 def warmup(*, plugins: bool = False, processes: int | None = None,
@@ -179,13 +179,11 @@ def _warm_emitters() -> None:
 
 
 def _warm_plugins() -> None:
-    from auralize_fire import FireSound, make_fire
-    from auralize_spark import simulate
-    from auralize_vortex import TextureConfig, compute_texture
+    """Every registered sound model's :meth:`~auralize.plugins.SoundModel.warm_up`."""
+    from auralize.plugins import registry
 
-    FireSound().synthesize(make_fire(size=12, steps=12), extend="none")
-    simulate(preset="plasma-ball", seed=1)
-    compute_texture(TextureConfig(speeds=(5.0, 10.0), size=8, duration=0.02))
+    for cls in registry().values():
+        cls().warm_up()
 
 
 _RUNS: dict[str, Callable[[], None]] = {

@@ -147,6 +147,10 @@ class FireSound(SoundModel):
                           alpha=p["alpha"], f_cut=p["f_cut"], levels=int(p["levels"]),
                           eps=p["eps"], seed=int(p["seed"]), t0=float(p["t0"]))  # fmt: skip
 
+    def warm_up(self) -> None:
+        """Compile the fire kernels on a small fire (``auralize warmup --plugins``)."""
+        self.synthesize(make_fire(size=12, steps=12), extend="none")
+
     def overlay(self, inputs: Any, step: int) -> Any:
         """The flame front at ``step`` as pyvista PolyData, cell scalars ``u_dot_n`` (m/s)."""
         volume = inputs[0] if isinstance(inputs, tuple) else inputs

@@ -425,6 +425,12 @@ class SparkSound(SoundModel):
             meta["laplace"] = {"dims": list(fld.dims), **fld.info}
         return Sound([part], meta=meta, name="spark")
 
+    def warm_up(self) -> None:
+        """Compile the spark kernels on the plasma ball (``auralize warmup --plugins``)."""
+        from auralize_spark import simulate
+
+        simulate(preset="plasma-ball", seed=1)
+
     def overlay(self, inputs: Any, step: int) -> Any:
         """pyvista MultiBlock: ``discharge`` lines (brightness by stroke) and ``charges`` glyphs.
 

@@ -171,6 +171,12 @@ class VortexSound(SoundModel):
                                               field=None, resolution=None))  # fmt: skip
 
     # -------------------------------------------------------------- overlay
+    def warm_up(self) -> None:
+        """Compile the texture kernels on a tiny texture (``auralize warmup --plugins``)."""
+        from auralize_vortex import TextureConfig, compute_texture
+
+        compute_texture(TextureConfig(speeds=(5.0, 10.0), size=8, duration=0.02))
+
     def overlay(self, inputs: Any, step: int) -> list[Any]:
         """Pyvista meshes for the viewer at time step ``step``.
 
