@@ -22,16 +22,13 @@ from __future__ import annotations
 
 import functools
 import math
-import time
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any, ClassVar
 
-import numpy as np
-from numpy.typing import NDArray
-
+from auralize.bench.timing import batch_times as batch_times  # (plugin authors' import)
+from auralize.bench.timing import best_of as best_of
 from auralize.errors import AuralizeError, ParameterError, PluginError
 
 if TYPE_CHECKING:
@@ -263,29 +260,6 @@ class BenchRow:
     met: bool | None = None
     paper: str = ""
     note: str = ""
-
-
-def best_of(fn: Callable[[], object], *, repeat: int = 5, min_time: float = 0.2) -> float:
-    """Median wall time of ``fn`` over ``repeat`` batches (after one warm-up)."""
-    return float(np.median(batch_times(fn, repeat=repeat, min_time=min_time)))
-
-
-def batch_times(fn: Callable[[], object], *, repeat: int = 5,
-                min_time: float = 0.2) -> NDArray[np.float64]:  # fmt: skip
-    """Mean wall time of ``fn`` in each of ``repeat`` batches of about
-    ``min_time / repeat`` seconds (after one warm-up)."""
-    fn()
-    times = []
-    for _ in range(repeat):
-        n, t0 = 0, time.perf_counter()
-        while True:
-            fn()
-            n += 1
-            el = time.perf_counter() - t0
-            if el >= min_time / repeat or n >= 50:
-                break
-        times.append(el / n)
-    return np.array(times)
 
 
 @functools.cache

@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from auralize.plugins import BenchRow, batch_times
+from auralize.bench.timing import batch_times
+from auralize.plugins import BenchRow
 
 
 def _moving_emitters(n_em: int, n: int, rate: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

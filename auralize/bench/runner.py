@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from auralize.plugins import BenchRow, batch_times, best_of
+from auralize.bench.timing import batch_times, best_of
+from auralize.plugins import BenchRow
 
 #: paper 003 §4.2, seconds per time step (monopole, dipole, quadrupole)
 PAPER_DETECT_S = {10: (0.064, 0.056, 0.065), 20: (4.001, 3.912, 4.074),
