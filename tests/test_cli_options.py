@@ -111,11 +111,13 @@ def test_shared_output_option(cmd: str, dest: str) -> None:
         assert a.required
 
 
-def test_listener_options_exclude_each_other_and_rate_is_the_output_rate() -> None:
+def test_listener_options_exclude_each_other_and_rate_is_the_output_rate(capsys) -> None:  # type: ignore[no-untyped-def]
     p = argparse.ArgumentParser()
     add_output_options(p)
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as e:
         p.parse_args(["-o", "x.wav", "--path", "p.csv", "--listener", "0,0,0"])
+    assert e.value.code == 2
+    assert "argument --listener: not allowed with argument --path" in capsys.readouterr().err
     args = p.parse_args(["-o", "x.wav", "--listener", "1,2,3", "--rate", "22050"])
     assert args.rate == 22050 and args.listener.tolist() == [1.0, 2.0, 3.0]
     with pytest.raises(argparse.ArgumentTypeError, match="outside 8000..768000"):

@@ -70,12 +70,14 @@ def test_float_pascals_beyond_one_are_noted_and_pcm_refuses_them(tmp_path: Path)
     assert "note" not in json.loads((tmp_path / "e.wav.json").read_text())
 
 
-def test_render_command_writes_the_requested_format(tmp_path: Path) -> None:
+def test_render_command_writes_the_requested_format(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     from auralize.cli import build_parser
 
     args = build_parser().parse_args(["render", "dataset:monopole", "--listener", "1,1,1",
                                       "--duration", "0.1", "-o", "x.wav", "--format", "pcm24"])  # fmt: skip
     assert args.format == "pcm24"
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as e:
         build_parser().parse_args(["render", "dataset:monopole", "--listener", "1,1,1",
                                    "--duration", "0.1", "-o", "x.wav", "--format", "pcm8"])  # fmt: skip
+    assert e.value.code == 2
+    assert "--format: invalid choice: 'pcm8'" in capsys.readouterr().err

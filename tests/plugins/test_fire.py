@@ -397,8 +397,10 @@ def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["fire", "extend", str(silent), "-o", str(tmp_path / "z.wav")]) == 2
     assert "pass --input-rate HZ" in capsys.readouterr().err
     # the emitted-signal commands have no listener: --listener is a usage error
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as e:
         main(["fire", "extend", str(wav), "--listener", "0,0,0", "-o", str(tmp_path / "l.wav")])
+    assert e.value.code == 2
+    assert "unrecognized arguments: --listener 0,0,0" in capsys.readouterr().err
 
 
 def test_cli_emitted_signal_output_options(tmp_path: Path, candle: np.ndarray) -> None:
