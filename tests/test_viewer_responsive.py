@@ -142,3 +142,22 @@ def test_drawing_the_path_does_not_redraw(qtbot, window) -> None:  # type: ignor
     win.scene.set_path(path, render=False)  # adds "listener path" to the legend
     assert "listener path" in win.scene._legend_key
     assert ends == []
+
+
+def test_the_periodic_redraw_skips_a_view_just_drawn(qtbot, window) -> None:  # type: ignore[no-untyped-def]
+    """pyvistaqt's periodic redraw (which shows changes made without one) is skipped when
+    the view was drawn within its period anyway, and made when it was not."""
+    win = window
+    _open(qtbot, win)
+    ends: list[int] = []
+    win.plotter.render_window.AddObserver("EndEvent", lambda *_: ends.append(1))
+    timer = win.plotter.render_timer
+    win.plotter.render()
+    n = len(ends)
+    # (drawn "just now" whatever the machine's speed: an hour ahead of the clock)
+    win._drawn_at = time.perf_counter() + 3600
+    timer.timeout.emit()
+    assert len(ends) == n  # just drawn: skipped
+    win._drawn_at = time.perf_counter() - 2 * timer.interval() / 1000
+    timer.timeout.emit()
+    assert len(ends) == n + 1  # not drawn for a period: drawn

@@ -331,10 +331,32 @@ class MainWindow(QtWidgets.QMainWindow):
         app = QtWidgets.QApplication.instance()
         if app is not None:
             app.installEventFilter(self.fly_keys)
+        self._quiet_auto_render()
         self._ui_timer = QtCore.QTimer(self)  # camera readout and level meter
         self._ui_timer.timeout.connect(self._update_readouts)
         self._ui_timer.start(150)
         self._refresh_enabled()
+
+    def _quiet_auto_render(self) -> None:
+        """pyvistaqt redraws the view several times a second, whatever happens (to show
+        changes made without a redraw, e.g. a capture drawn).  Skip that redraw when the
+        view was drawn within the period anyway (a key, a live time step): every change
+        is still shown within two periods, and the window's thread is not spent
+        drawing the same picture again while the user flies."""
+        timer = getattr(self.plotter, "render_timer", None)
+        rw = self.plotter.render_window
+        if timer is None or rw is None or not timer.isActive():
+            return
+        self._drawn_at = 0.0
+        rw.AddObserver("EndEvent", lambda *_: setattr(self, "_drawn_at", time.perf_counter()))
+        period = timer.interval() / 1000
+
+        def auto_render() -> None:
+            if time.perf_counter() - self._drawn_at >= period:
+                self.plotter._auto_render()
+
+        timer.timeout.disconnect()
+        timer.timeout.connect(auto_render)
 
     # ============================================================ building
     def _act(self, text: str, action: str, *args: Any, tip: str = "",
