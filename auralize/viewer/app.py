@@ -169,10 +169,12 @@ KEY_MAP_TEXT = (
 )
 #: live listening moves the time slider no sooner than this after its last redraw (s) ...
 LIVE_REDRAW_GAP_S = 0.1
-#: ... nor sooner than this many times that redraw's duration after it, so that time steps
-#: shown while listening take at most 1 / (1 + LIVE_REDRAW_DUTY) of the window's thread
-#: and keys, the mouse and recording keep the rest
-LIVE_REDRAW_DUTY = 2.0
+#: ... nor sooner than this many times that redraw's duration after it.  The widget's
+#: paint draws each frame once more after it (pyvistaqt), so a step shown costs about
+#: twice the time measured: time steps shown while listening take at most about
+#: 2 / (2 + LIVE_REDRAW_DUTY) = 1/3 of the window's thread; keys, the mouse and
+#: recording keep the rest
+LIVE_REDRAW_DUTY = 4.0
 #: sizes and steps File ▸ Open built-in dataset uses (quick to open); others: their defaults
 BUILTIN_SIZES = {"explosion": (32, 12), "monopole": (16, 60)}
 
