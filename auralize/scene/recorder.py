@@ -10,6 +10,13 @@ complete path: :meth:`PathRecorder.start` first writes (atomically) the header
 and every capture already held — e.g. a path loaded from a CSV or a session —
 and only then appends.
 
+Captures may come from a driver of the caller's (a GUI timer, a script calling
+:meth:`PathRecorder.capture`) or from the recorder's own clock thread
+(:meth:`PathRecorder.drive`): it captures ``pose()`` every
+:attr:`~PathRecorder.interval_s` whatever the calling thread is doing, so a
+viewer busy redrawing (or listening live) still records at the asked rate;
+``pose`` only returns the latest camera pose the viewer has seen.
+
 Examples
 --------
 >>> import numpy as np
@@ -69,6 +76,12 @@ class PathRecorder:
         self._stop_sync = threading.Event()
         self._syncer: threading.Thread | None = None
         self.capture_seconds: list[float] = []  # cost of each capture (benchmark)
+        self._stop_drive = threading.Event()
+        self._driver: threading.Thread | None = None
+        #: the error that stopped :meth:`drive` (None while it runs or after a clean stop)
+        self.drive_error: BaseException | None = None
+        #: the ident of the thread :meth:`drive` captures on (not the caller's)
+        self.driver_thread: int | None = None
 
     @property
     def interval_s(self) -> float:
@@ -115,20 +128,68 @@ class PathRecorder:
         if not self.recording:
             raise ParameterError("not recording; call start() first")
         t0 = time.perf_counter()
-        tt = self.clock() - self._t0 if t is None else float(t)
-        if self.rows and tt < self.rows[-1][0]:
-            raise ParameterError(f"capture time {tt:g} s is before the previous one")
-        row = np.concatenate([[tt], np.asarray(position, float).reshape(3),
-                              np.asarray(forward, float).reshape(3),
-                              np.asarray(up, float).reshape(3)])  # fmt: skip
-        if not np.all(np.isfinite(row)):
-            raise ParameterError(f"capture contains NaN or Inf: {row.tolist()}")
-        self.rows.append(row)
-        if self._file is not None:
-            with self._lock:
+        pose = [np.asarray(v, float).reshape(3) for v in (position, forward, up)]
+        with self._lock:  # the clock thread (drive) and a caller may both capture
+            tt = self.clock() - self._t0 if t is None else float(t)
+            if self.rows and tt < self.rows[-1][0]:
+                raise ParameterError(f"capture time {tt:g} s is before the previous one")
+            row = np.concatenate([[tt], *pose])
+            if not np.all(np.isfinite(row)):
+                raise ParameterError(f"capture contains NaN or Inf: {row.tolist()}")
+            self.rows.append(row)
+            if self._file is not None:
                 self._file.write(format_row(row) + "\n")
                 self._file.flush()
         self.capture_seconds.append(time.perf_counter() - t0)
+
+    def drive(self, pose: Callable[[], tuple[ArrayLike, ArrayLike, ArrayLike]]) -> None:
+        """Capture ``pose()`` now, then every :attr:`interval_s` on a thread of its own,
+        until :meth:`stop` (starts recording if needed).
+
+        The captures keep the asked rate whatever the caller's thread is doing (a
+        viewer redrawing or listening live): ``pose`` should only hand back the
+        latest pose the caller has seen (a tuple it replaces, never a camera to
+        read).  Slots missed (the machine was busy) are skipped, not taken late in a
+        burst.  An error of ``pose`` or of a capture stops the clock and is kept in
+        :attr:`drive_error`.
+        """
+        self.start()
+        self._end_drive()
+        self.drive_error = None
+        stop = self._stop_drive = threading.Event()
+        self.capture(*pose())  # the first one at once, on the caller's thread
+        t_first = time.perf_counter()
+
+        def run() -> None:
+            self.driver_thread = threading.get_ident()
+            t_next = t_first
+            try:
+                while self.recording and not stop.is_set():
+                    now = time.perf_counter()
+                    t_next += self.interval_s
+                    if t_next <= now:  # late: the next slot still ahead
+                        t_next += math.ceil((now - t_next) / self.interval_s) * self.interval_s
+                    if stop.wait(t_next - now) or not self.recording:
+                        break
+                    self.capture(*pose())
+            except BaseException as exc:  # kept for the caller, never lost
+                if self.recording and not stop.is_set():
+                    self.drive_error = exc
+
+        self._driver = threading.Thread(target=run, name="auralize-capture", daemon=True)
+        self._driver.start()
+
+    @property
+    def driving(self) -> bool:
+        """Whether the clock thread of :meth:`drive` is capturing."""
+        return self._driver is not None and self._driver.is_alive()
+
+    def _end_drive(self) -> None:
+        self._stop_drive.set()
+        if self._driver is not None:
+            if self._driver is not threading.current_thread():
+                self._driver.join(timeout=5)
+            self._driver = None
 
     def _sync_loop(self, fh: IO[str], stop: threading.Event) -> None:
         """fsync ``fh`` every :data:`FSYNC_INTERVAL_S` until stopped, then close it."""
@@ -141,8 +202,10 @@ class PathRecorder:
         fh.close()
 
     def stop(self) -> ListenerPath | None:
-        """Stop recording; returns the path so far (None without captures)."""
+        """Stop recording (and the clock of :meth:`drive`); returns the path so far (None
+        without captures)."""
         self.recording = False
+        self._end_drive()
         if self._file is not None:
             with self._lock:
                 self._file.flush()

@@ -421,9 +421,15 @@ class Scene:
             return
         colors = {**TYPE_COLORS, "listener path": PATH_COLOR}
         labels = [[k, tuple(c / 255 for c in colors[k])] for k in items]
-        self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255,
-                                size=(0.22, 0.035 * len(items) + 0.01), face="circle",
-                                name="legend", loc="upper left")  # fmt: skip
+        # (pyvista's add_legend redraws: the caller redraws once, after everything)
+        quiet = self.plotter.suppress_rendering
+        self.plotter.suppress_rendering = True
+        try:
+            self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255,
+                                    size=(0.22, 0.035 * len(items) + 0.01), face="circle",
+                                    name="legend", loc="upper left")  # fmt: skip
+        finally:
+            self.plotter.suppress_rendering = quiet
 
     # -------------------------------------------------------------- listener
     def set_path(self, path: ListenerPath | None, *, time_scale: float | None = None,

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import os
 import shlex
+import time
 import traceback
 import warnings
 from collections.abc import Callable
@@ -180,6 +181,14 @@ KEY_MAP_TEXT = (
     + " · ".join(f"{key_text(b)} {b.what}" for b in KEYS if b.action == "fly")
     + " (when no box is being edited; Help ▸ Keys lists every key)"
 )
+#: live listening moves the time slider no sooner than this after its last redraw (s) ...
+LIVE_REDRAW_GAP_S = 0.1
+#: ... nor sooner than this many times that redraw's duration after it.  The widget's
+#: paint draws each frame once more after it (pyvistaqt), so a step shown costs about
+#: twice the time measured: time steps shown while listening take at most about
+#: 2 / (2 + LIVE_REDRAW_DUTY) = 1/3 of the window's thread; keys, the mouse and
+#: recording keep the rest
+LIVE_REDRAW_DUTY = 4.0
 #: sizes and steps File ▸ Open built-in dataset uses (quick to open); others: their defaults
 BUILTIN_SIZES = {"explosion": (32, 12), "monopole": (16, 60)}
 
@@ -298,7 +307,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.playback: Any = None
         self.gain_db = 0.0
         self._live_time = 0.0
+        #: the latest camera pose seen (the capture clock's and live listening's listener)
+        self._cam_pose: tuple[Any, ...] = camera_pose(self.plotter.camera)
+        self._cam_obs: tuple[Any, int] | None = None
+        self._shown_captures = -1
         self._tick_pending = False
+        self._live_redraw_at = 0.0  # perf_counter time of the next live step redraw allowed
         self.task: Task | None = None
         #: answer to "keep the listener path for the new data?" (None: ask; tests set it)
         self.keep_path_answer: bool | None = None
@@ -322,10 +336,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self._plan_cache: tuple[Any, Any] | None = None
         self._heard: Any = None
         self._rec_timer = QtCore.QTimer(self)
-        self._rec_timer.timeout.connect(self.capture)
+        self._rec_timer.timeout.connect(self._show_recording)
         self._anim_timer = QtCore.QTimer(self)
         self._anim_timer.timeout.connect(self._advance)
         self.live_tick.connect(self._on_live_tick)
+        self._live_redraw_timer = QtCore.QTimer(self)  # a live step redraw put off
+        self._live_redraw_timer.setSingleShot(True)
+        self._live_redraw_timer.timeout.connect(self._live_redraw)
         self._build_menu()
         self._build_toolbar()
         self._build_panels()
@@ -336,10 +353,32 @@ class MainWindow(QtWidgets.QMainWindow):
         app = QtWidgets.QApplication.instance()
         if app is not None:
             app.installEventFilter(self.fly_keys)
+        self._quiet_auto_render()
         self._ui_timer = QtCore.QTimer(self)  # camera readout and level meter
         self._ui_timer.timeout.connect(self._update_readouts)
         self._ui_timer.start(150)
         self._refresh_enabled()
+
+    def _quiet_auto_render(self) -> None:
+        """pyvistaqt redraws the view several times a second, whatever happens (to show
+        changes made without a redraw, e.g. a capture drawn).  Skip that redraw when the
+        view was drawn within the period anyway (a key, a live time step): every change
+        is still shown within two periods, and the window's thread is not spent
+        drawing the same picture again while the user flies."""
+        timer = getattr(self.plotter, "render_timer", None)
+        rw = self.plotter.render_window
+        if timer is None or rw is None or not timer.isActive():
+            return
+        self._drawn_at = 0.0
+        rw.AddObserver("EndEvent", lambda *_: setattr(self, "_drawn_at", time.perf_counter()))
+        period = timer.interval() / 1000
+
+        def auto_render() -> None:
+            if time.perf_counter() - self._drawn_at >= period:
+                self.plotter._auto_render()
+
+        timer.timeout.disconnect()
+        timer.timeout.connect(auto_render)
 
     # ============================================================ building
     def _act(self, text: str, action: str, *args: Any, tip: str = "",
@@ -1461,20 +1500,59 @@ class MainWindow(QtWidgets.QMainWindow):
                     f"{e.strerror or e}; give an autosave file in an existing folder"
                 ) from None
         self.recorder.start()
-        self.capture()
+        # the captures are taken by the recorder's clock thread (at the asked rate
+        # whatever the window is drawing, e.g. while listening live) from the latest
+        # camera pose this thread has seen; the timer only shows the path so far
+        self._watch_camera()
+        self.recorder.drive(lambda: self._cam_pose)
+        self._shown_captures = -1
+        self._show_recording()
         self._rec_timer.start(max(int(round(1000 / rate)), 1))
         self.rec_btn.setText("Recording…")
         return self.recorder.autosave
 
     def capture(self) -> None:
-        """Take one capture of the camera (the recording timer calls this)."""
+        """Take one capture of the camera now (besides the recorder's clock) and show it."""
         if not self.recorder.recording:
             return
-        pose = camera_pose(self.plotter.camera)
-        self.recorder.capture(*pose)
+        self._cam_pose = camera_pose(self.plotter.camera)
+        self.recorder.capture(*self._cam_pose)
+        self._show_recording()
+
+    def _watch_camera(self) -> None:
+        """Keep :attr:`_cam_pose` (the pose the capture clock and live listening use) up
+        to date: a camera observer (installed once) refreshes it on every change."""
+        cam = self.plotter.renderer.GetActiveCamera()
+        self._cam_pose = camera_pose(self.plotter.camera)
+        if self._cam_obs is not None and self._cam_obs[0] is cam:
+            return
+        self._unwatch_camera()
+        self._cam_obs = (cam, cam.AddObserver("ModifiedEvent", self._on_camera))
+
+    def _unwatch_camera(self) -> None:
+        if self._cam_obs is not None:
+            cam, tag = self._cam_obs
+            cam.RemoveObserver(tag)
+            self._cam_obs = None
+
+    def _show_recording(self) -> None:
+        """(The recording timer) draw the path recorded so far, once per new capture."""
+        if not self.recorder.recording:
+            return
+        if self.recorder.drive_error is not None:
+            err, self.recorder.drive_error = self.recorder.drive_error, None
+            self.stop_recording()
+            self.show_error(err)
+            return
+        # the camera replaced (a session loaded): watch the new one
+        self._watch_camera()
+        n = self.recorder.n_captures
+        if n == self._shown_captures:
+            return
+        self._shown_captures = n
         self.path = self.recorder.path()
         self.scene.set_path(self.path, render=False)
-        self.scene.listener = pose
+        self.scene.listener = self._cam_pose
         self.path_label.setText(
             f"recording: {self.recorder.n_captures} captures, "
             f"{self.path.duration if self.path else 0:.1f} s, "
@@ -1487,6 +1565,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if not self.recorder.recording:
             return self.path
         self.path = self.recorder.stop()
+        if self.player is None or not self.player.running:
+            self._unwatch_camera()
         self.scene.listener = None
         self.scene.set_path(self.path)
         self.rec_btn.setText("Record")
@@ -1678,9 +1758,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 else DeviceSink(rate=a["rate"], channels=n_ch, device=a["device"]))  # fmt: skip
         self._tick_pending = False
         self.player = LivePlayer(eng, sink, on_block=self._on_live_block, gain_db=self.gain_db)
-        self.player.set_pose(*camera_pose(self.plotter.camera))
-        cam = self.plotter.renderer.GetActiveCamera()
-        self._cam_obs = (cam, cam.AddObserver("ModifiedEvent", self._on_camera))
+        self._watch_camera()
+        self.player.set_pose(*self._cam_pose)
         self.player.start()
         why = eng.why_silent()
         self.live_label.setText(why or f"live: {eng.layout.name}, block {eng.block} samples "
@@ -1690,8 +1769,10 @@ class MainWindow(QtWidgets.QMainWindow):
         return self.player
 
     def _on_camera(self, *_: Any) -> None:
-        if self.player is not None:
-            self.player.set_pose(*camera_pose(self.plotter.camera))
+        """(Camera ModifiedEvent) the latest pose, for the capture clock and live listening."""
+        self._cam_pose = camera_pose(self.plotter.camera)
+        if self.player is not None and self.player.running:
+            self.player.set_pose(*self._cam_pose)
 
     def _on_live_block(self, data_time: float) -> None:
         """(Worker thread) a block was played: ask the GUI for one redraw at a time.
@@ -1719,10 +1800,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.stop_live()
             self.show_error(err)
             return
-        step = int(np.clip(np.searchsorted(self.volume.times, data_time, side="right") - 1,
-                           0, self.volume.n_steps - 1))  # fmt: skip
-        if step != self.scene.step:
-            self._guard(self.set_step, step)
+        self._live_redraw(data_time)
         lat = self.player.latencies
         eng = self.player.engine
         why = eng.why_silent()
@@ -1732,12 +1810,32 @@ class MainWindow(QtWidgets.QMainWindow):
             self.live_label.setText(f"live: last move heard after {1000 * lat[-1]:.0f} ms; "
                                     f"{eng.describe_distance()}")  # fmt: skip
 
+    def _live_redraw(self, data_time: float | None = None) -> None:
+        """Show the time step live listening is playing, if it changed: at most one redraw
+        per :data:`LIVE_REDRAW_GAP_S` and per :data:`LIVE_REDRAW_DUTY` times the last one's
+        duration (a step due sooner is shown when that time comes, by a single-shot timer),
+        so that the window's thread stays free for the user's keys and mouse."""
+        if self.volume is None or self.player is None or not self.player.running:
+            return
+        t = self._live_time if data_time is None else data_time
+        step = int(np.clip(np.searchsorted(self.volume.times, t, side="right") - 1,
+                           0, self.volume.n_steps - 1))  # fmt: skip
+        if step == self.scene.step:
+            return
+        now = time.perf_counter()
+        if now < self._live_redraw_at:
+            if not self._live_redraw_timer.isActive():
+                self._live_redraw_timer.start(max(int(1000 * (self._live_redraw_at - now)) + 1, 1))
+            return
+        self._guard(self.set_step, step)
+        end = time.perf_counter()
+        self._live_redraw_at = end + max(LIVE_REDRAW_GAP_S, LIVE_REDRAW_DUTY * (end - now))
+
     def stop_live(self) -> None:
         """Stop live listening (returns within one block; no redraw follows it)."""
-        if getattr(self, "_cam_obs", None):
-            cam, tag = self._cam_obs
-            cam.RemoveObserver(tag)
-            self._cam_obs = None
+        self._live_redraw_timer.stop()
+        if not self.recorder.recording:
+            self._unwatch_camera()
         if self.player is not None:
             self.player.on_block = None
             if self.player.running:
