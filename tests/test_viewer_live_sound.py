@@ -117,3 +117,32 @@ def test_live_listening_a_kilometre_away_is_heard_in_the_first_block(open_viewer
                                 time_scale=player.engine.time_scale, lead=0.0)  # fmt: skip
     late.set_pose(*camera_pose(cam))
     assert not np.any(late.next_block())
+
+
+def test_listen_live_makes_its_sound_off_the_qt_thread(open_viewer, qtbot, tmp_path, unpaced,  # type: ignore[no-untyped-def]
+                                                       monkeypatch) -> None:  # fmt: skip
+    """The Listen live button returns at once: the sound heard is made in a task (progress
+    bar, Cancel) on a worker thread, and listening starts when it is in."""
+    import threading
+
+    import auralize.pipeline as pipeline
+
+    made_on: list[str] = []
+    real = pipeline.heard_sound
+
+    def spy(*a, **k):  # type: ignore[no-untyped-def]
+        made_on.append(threading.current_thread().name)
+        return real(*a, **k)
+
+    monkeypatch.setattr(pipeline, "heard_sound", spy)
+    win, shown = open_viewer()
+    win.open_data("dataset:monopole", size=12, steps=20)
+    qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    win.live_file.setText(str(tmp_path / "button.wav"))
+    win.live_btn.click()
+    assert win.player is None and win.task is not None and win.task.name == "live sound"
+    qtbot.waitUntil(lambda: win.player is not None and len(win.player.engine.heard_blocks) >= 2,
+                    timeout=60_000)  # fmt: skip
+    win.stop_live()
+    assert made_on and threading.main_thread().name not in made_on
+    assert not shown

@@ -768,7 +768,7 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow("output", self.live_file)
         row = QtWidgets.QHBoxLayout()
         self.live_btn = QtWidgets.QPushButton("Listen live")
-        self.live_btn.clicked.connect(lambda: self._guard(self.start_live))
+        self.live_btn.clicked.connect(lambda: self._guard(lambda: self.start_live(wait=False)))
         self.live_btn.setToolTip("hear the data live: the listener follows the camera")
         row.addWidget(self.live_btn)
         b = QtWidgets.QPushButton("Stop")
@@ -1168,6 +1168,16 @@ class MainWindow(QtWidgets.QMainWindow):
         With ``path`` (a render along the recorded path) the blocks of the whole
         field that the path comes near are heard as their points; live listening
         (no path: the camera goes anywhere) hears every block through its proxies."""
+        key, hit, compute = self._heard_request(path)
+        if hit is not None:
+            return hit
+        hs = compute()
+        self._heard = (key, path, hs)
+        return hs
+
+    def _heard_request(self, path: Any = None) -> tuple[Any, Any, Callable[[], Any]]:
+        """``(key, cached sound or None, compute)``: the widgets are read here (on the Qt
+        thread); ``compute()`` touches none, so it may run in a worker."""
         from auralize.pipeline import heard_sound
         from auralize.sources.field import parse_heard
 
@@ -1183,12 +1193,19 @@ class MainWindow(QtWidgets.QMainWindow):
                repr(th.describe()), id(self.series) if hd.mode == "detected" else None)  # fmt: skip
         hit = getattr(self, "_heard", None)
         if hit is not None and hit[0] == key and hit[1] is path:  # (the path held: its own)
-            return hit[2]
-        hs = heard_sound(self.volume, heard=hd, series=self.series, thresholds=th, path=path,
-                         mapping=None if self.mapping == "auto" else self.mapping,
-                         **dict[str, Any](self.mapping_fields))  # fmt: skip
-        self._heard = (key, path, hs)
-        return hs
+            return key, hit[2], lambda: hit[2]
+        vol, series, mapping, fields = (
+            self.volume,
+            self.series,
+            self.mapping,
+            dict(self.mapping_fields),
+        )
+
+        def compute() -> Any:
+            return heard_sound(vol, heard=hd, series=series, thresholds=th, path=path,
+                               mapping=None if mapping == "auto" else mapping, **fields)  # fmt: skip
+
+        return key, None, compute
 
     # ============================================================= sources
     def read_thresholds(self) -> Thresholds:
@@ -1729,10 +1746,15 @@ class MainWindow(QtWidgets.QMainWindow):
             self.playback.limiter.gain_db = self.gain_db
 
     # ================================================================ live
-    def start_live(self, output: str | Path | None = None) -> Any:
+    def start_live(self, output: str | Path | None = None, *, wait: bool = True) -> Any:
         """Listen live: the listener follows the camera, sound is synthesized block by block
         into the device (or a WAV file given as ``output`` / in the panel), with the sound
         of the overlays switched on (added or taken out as they are switched).
+
+        The sound heard (:meth:`heard_sound`) is made first if it is not ready: with
+        ``wait=False`` (the Listen live button) in the background, with the progress
+        bar and Cancel, and listening starts when it is in (the :class:`Task` is
+        returned); with ``wait=True`` (scripts) here, and the player is returned.
 
         The same sound as the rendered file (:meth:`render_audio`): the sources'
         ``physical`` pressure through the 20 Hz high-pass
@@ -1746,6 +1768,21 @@ class MainWindow(QtWidgets.QMainWindow):
             return self.player
         from auralize.pipeline import source_box
 
+        key, hit, compute = self._heard_request()
+        if hit is None and not wait:
+
+            def work(progress: Callable[[int, int], bool]) -> Any:
+                progress(0, 1)
+                hs = compute()
+                if not progress(1, 1):
+                    raise Cancelled("live listening cancelled")
+                return hs
+
+            def ready(hs: Any) -> None:
+                self._heard = (key, None, hs)
+                self.start_live(output)
+
+            return self.run_task("live sound", work, ready)
         a = self.audio
         hs = self.heard_sound()
         box = source_box(self.volume, hs.tracks if hs.heard.mode == "detected" else None)
