@@ -73,6 +73,10 @@ def add_commands(sub: Any) -> None:
         "(--method fwh --surface ...).",
     )  # fmt: skip
     add_volume_options(p)
+    for action in p._actions:
+        if action.dest == "volume":
+            action.help = ("a .wav/.flac written by auralize, or a volume file or dataset:NAME "
+                           "(with --listener)")  # fmt: skip
     g = p.add_argument_group("output")
     g.add_argument("-o", "--output", metavar="LEVELS.csv|.json",
                    help="write the levels (one row per band, one column per channel)")  # fmt: skip
