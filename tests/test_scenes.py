@@ -524,3 +524,31 @@ def test_add_sound_model_is_heard_after_the_data_sound_ends(tone_models) -> None
         assert np.max(np.abs(r.audio - (field.audio + tone))) <= 1e-9 * np.max(np.abs(r.audio))
     finally:
         simple.ResetSession()
+
+
+@pytest.mark.parametrize("timbre", ["extended", "auto"])
+def test_a_scene_of_the_field_is_auralize_render_whatever_the_timbre(tmp_path, timbre) -> None:  # type: ignore[no-untyped-def]
+    """The field model in a scene file writes the samples of ``auralize render`` with the
+    same data, path and timbre: the 20 Hz high-pass is the timbre's (its ``auto`` and
+    ``extended`` choices depend on it), not a second filter after it."""
+    import json
+
+    import auralize
+    from auralize.audio import read_wav
+    from auralize.cli import main
+
+    # the shipped cavity (a real simulation): its sound lies below 20 Hz, so the
+    # timbre's choices depend on the high-pass
+    vol = auralize.open("dataset:cavity")
+    c, w = np.asarray(vol.center), vol.bounds[3] - vol.bounds[2]
+    csv = tmp_path / "p.csv"
+    ListenerPath.line(c + [0, -w, 0], c + [0, w, 0], duration=1.0).to_csv(csv)
+    data = {"spec": "dataset:cavity"}
+    (tmp_path / "s.json").write_text(json.dumps({
+        "listener": {"path": str(csv)}, "layout": "stereo",
+        "models": [{"model": "field", "input": data, "params": {"timbre": timbre}}]}))  # fmt: skip
+    assert main(["render", "--scene", str(tmp_path / "s.json"), "-o", str(tmp_path / "a.wav")]) == 0
+    assert main(["render", "dataset:cavity", "--path", str(csv), "--layout", "stereo",
+                 "--timbre", timbre, "-o", str(tmp_path / "b.wav")]) == 0  # fmt: skip
+    a, b = read_wav(tmp_path / "a.wav")[0], read_wav(tmp_path / "b.wav")[0]
+    assert np.max(np.abs(b)) > 0.5 and np.array_equal(a, b)

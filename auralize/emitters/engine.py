@@ -162,7 +162,8 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     return stage.finish(Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta))
 
 
-def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered:
+def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any],
+                 field_highpass_hz: float = 0.0) -> Rendered:  # fmt: skip
     if isinstance(part, Emitters):
         return render_emitters(part, path, **kw)
     if isinstance(part, FieldSources):
@@ -171,7 +172,7 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any]) -> Rendered
         kw = {k: v for k, v in kw.items() if k != "backend"}
         return render_timbre(part.tracks, path, timbre=part.timbre, time_scale=part.time_scale,
                              interp=part.interp, lead=part.lead, bounds=part.bounds,
-                             highpass_hz=0.0, by_type=part.by_type, **kw)  # fmt: skip
+                             highpass_hz=field_highpass_hz, by_type=part.by_type, **kw)  # fmt: skip
     fn = getattr(part, "render_part", None)
     if callable(fn):  # a model's own closed form, with arrivals and gains from the engine
         return fn(path, **kw)
@@ -189,7 +190,8 @@ def parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
 
 def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: int = 44100,
            layout: str | Layout = "mono", duration: float | None = None, start: float = 0.0,
-           c0: float = C0, backend: str = "auto", hrtf: object = None) -> Rendered:  # fmt: skip
+           c0: float = C0, backend: str = "auto", hrtf: object = None,
+           field_highpass_hz: float = 0.0) -> Rendered:  # fmt: skip
     """Render every part of a sound (or a scene of several models) and sum them.
 
     All parts share the listener path, output rate, layout and window, so the
@@ -198,6 +200,10 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     :func:`auralize.spatial.layouts.synthesis_layout` (``ambix3`` for ``binaural``)
     and the sum goes once through :func:`auralize.spatial.layouts.output_stage`
     (``hrtf``: its HRIRs, binaural only); ``meta`` describes the stage.
+    ``field_highpass_hz``: the output high-pass of the volume's sources
+    (:class:`FieldSources`), applied by their timbre
+    (:func:`auralize.emitters.timbre.render_timbre`, whose ``auto`` and
+    ``extended`` choices depend on it), as ``auralize render`` does.
     """
     parts = parts_of(sound)
     stage = output_stage(layout, int(rate), hrtf=hrtf)  # a bad HRTF fails before rendering
@@ -208,7 +214,7 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     audio = np.zeros((lay.n_channels, int(round(dur * rate))))
     listing = []
     for part in parts:
-        r = _render_part(part, path, kw)
+        r = _render_part(part, path, kw, field_highpass_hz)
         n = min(audio.shape[1], r.audio.shape[1])
         audio[:, :n] += r.audio[:, :n]
         listing.append({"model": part.name, "kind": type(part).__name__,

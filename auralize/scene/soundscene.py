@@ -584,13 +584,16 @@ def render_mix(sound: Any, path: ListenerPath, *, rate: int = 44100, layout: Any
     field, models = split_field(sound)
     kw: dict[str, Any] = dict(rate=rate, layout=layout, duration=duration, start=start,
                               backend=backend, hrtf=hrtf)  # fmt: skip
+    # the field's high-pass is applied by its timbre, as auralize render applies it (the
+    # timbre's auto and extended choices depend on it)
     if not field.parts or not models.parts or highpass_hz == 0:
-        out = render(sound, path, **kw)
-        if field.parts:
-            out.audio = highpass(out.audio, out.rate, highpass_hz)
+        out = render(sound, path, **kw, field_highpass_hz=highpass_hz)
         out.meta["highpass_hz"] = float(highpass_hz) if field.parts else 0.0
         return out
-    return add_rendered(render(field, path, **kw), render(models, path, **kw), highpass_hz)
+    out = add_rendered(render(field, path, **kw, field_highpass_hz=highpass_hz),
+                       render(models, path, **kw), 0.0)  # fmt: skip
+    out.meta["highpass_hz"] = float(highpass_hz)
+    return out
 
 
 def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44100,
