@@ -131,6 +131,10 @@ def test_demo_writes_ring8_wav_and_pictures(tmp_path) -> None:  # type: ignore[n
     assert main(["demo", "-o", str(tmp_path), "--size", "24", "--time-scale", "1"]) == 0
     audio, rate, mask = read_wav(tmp_path / "explosion_ring8.wav")
     assert audio.shape[0] == 8 and rate == 44100 and np.max(np.abs(audio)) > 0.9
+    # every speaker of the ring carries the data (the head turns as the default orbit's):
+    # no channel more than 20 dB below the loudest
+    level = 10 * np.log10(np.mean(audio**2, axis=1))
+    assert level.max() - level.min() < 20, level
     img = mpimg.imread(tmp_path / "explosion.png")[..., :3]
     assert img.std() > 0.02  # not blank
 

@@ -764,7 +764,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     c = vol.center
     radius = 0.3 * float(vol.bounds[1] - vol.bounds[0])
     duration = float(vol.times[-1] - vol.times[0] + 1 / 30) * args.time_scale
-    path = ListenerPath.orbit(c, radius=radius, duration=duration, turns=0.25, height=2.0)
+    # the head turns as the default orbit's does (DEFAULTS.orbit_face): every speaker carries
+    # the data, not only those facing the centre
+    path = ListenerPath.orbit(
+        c, radius=radius, duration=duration, turns=0.25, height=2.0, face=DEFAULTS.orbit_face
+    )
     path.to_csv(out_dir / "explosion_path.csv")
     print("detecting sources (drawn) and rendering the whole field (heard) ...", flush=True)
     series = detect_sources(vol, progress_bar=progress_wanted())
