@@ -3,6 +3,7 @@ viewer's window with its render (GUI tests, under Xvfb)."""
 
 from __future__ import annotations
 
+import gc
 import os
 from pathlib import Path
 
@@ -93,6 +94,14 @@ def open_viewer(qtbot, tmp_path, errors, window_size):  # type: ignore[no-untype
     yield open_window
     for win in opened:
         win.close()
+    # free the closed windows' VTK and OpenGL objects now, while nothing renders: left to
+    # the cyclic garbage collector they may be freed in the middle of a later window's
+    # render (a Python callback inside VTK's render can run a collection)
+    from PySide6 import QtWidgets
+
+    QtWidgets.QApplication.processEvents()
+    opened.clear()
+    gc.collect()
 
 
 @pytest.fixture
