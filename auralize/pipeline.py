@@ -36,10 +36,10 @@ from auralize.emitters.synthesis import (
     check_distance,
     source_extent,
 )
-from auralize.emitters.timbre import render_timbre
 from auralize.errors import FieldError, ParameterError
 from auralize.listener import SWEEP_TURNS, ListenerPath, describe_path, orbit_around
 from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
+from auralize.rendering import Carry, RenderBlocks, render
 from auralize.runtime.progress import progress_step
 from auralize.runtime.resources import audio_bytes, memory_guard, require_memory
 from auralize.sources.detection import (
@@ -56,10 +56,12 @@ from auralize.volume import TimeVolume
 
 __all__ = [
     "DEFAULT_DURATION",
+    "Carry",
     "Heard",
     "HeardSound",
     "ListenerPath",
     "Planner",
+    "RenderBlocks",
     "RenderPlan",
     "Thresholds",
     "auralize",
@@ -71,6 +73,7 @@ __all__ = [
     "load",
     "plan_heard",
     "plan_render",
+    "render",
     "report_line",
     "resolve_mapping",
     "save_rendered",
@@ -421,6 +424,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              highpass_hz: float = DEFAULTS.highpass_hz, seed: int = 0, listener: Any = None,
              hrtf: object = None, clip: bool = True, heard: str | Heard = DEFAULTS.heard,
              orbit_face: str = DEFAULTS.orbit_face, block: int | None = None,
+             extra: Any = None,
              **mapping_fields: str) -> tuple[Rendered, SourceSeries | None]:  # fmt: skip
     """Render the sound of ``volume`` along ``path``.
 
@@ -440,7 +444,9 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     arrive).  ``timbre``, ``highpass_hz`` and ``hrtf`` (binaural) as
     :func:`auralize.emitters.timbre.render_timbre`; ``clip`` as
     :func:`plan_render`; ``block`` the field's block size
-    (:func:`auralize.sources.field.block_plan`).  The plan and what was heard
+    (:func:`auralize.sources.field.block_plan`).  ``extra``: other models' sound
+    (an :class:`auralize.emitters.Sound`) heard with the volume's along the
+    same path, mixed by :func:`render`'s rule.  The plan and what was heard
     are recorded in ``meta`` (and so in the sidecar).
 
     The defaults are those of ``auralize render FILE -o OUT`` with no other
@@ -480,12 +486,16 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     tracks = hs.tracks
     check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, c0=c0,
                   lead=plan.lead)  # fmt: skip
+    from auralize.emitters import FieldSources, Sound
+
+    sound = Sound([FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead, interp=interp,
+                                timbre=timbre, bounds=volume.bounds, by_type=hs.by_type,
+                                seed=seed)], name="field")  # fmt: skip
+    if extra is not None:
+        sound = sound + extra
     with progress_step("render", enabled=progress_bar), memory_guard(f"rendering {volume.source}"):
-        out = render_timbre(tracks, plan.path, timbre=timbre, rate=rate,
-                            time_scale=plan.time_scale, interp=interp, layout=layout, c0=c0,
-                            duration=plan.duration, bounds=volume.bounds, lead=plan.lead,
-                            highpass_hz=highpass_hz, seed=seed, hrtf=hrtf,
-                            by_type=hs.by_type)  # fmt: skip
+        out = render(sound, plan.path, rate=rate, layout=layout, duration=plan.duration, c0=c0,
+                     highpass_hz=highpass_hz, hrtf=hrtf)  # fmt: skip
     out.meta.update({"volume": volume.source, **plan.as_dict(), **hs.meta})
     return out, hs.series
 

@@ -589,7 +589,7 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     The added models are rendered along the same path with the same layout
     and rate, and summed (``r.meta["parts"]`` lists them); the 20 Hz output
     high-pass filters the data's sources only (a ``field`` model's too: the
-    rule of :func:`auralize.scene.soundscene.render_mix`); without a data
+    rule of :func:`auralize.pipeline.render`); without a data
     source the render is the models' alone, for the path's duration.
 
     The defaults are those of ``auralize render`` and the viewer
@@ -609,8 +609,8 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     ((2, 882), 44100)
     """
     from auralize.emitters.timbre import HIGHPASS_HZ
-    from auralize.pipeline import auralize
-    from auralize.scene.soundscene import render_scene
+    from auralize.pipeline import auralize, render
+    from auralize.scene.soundscene import scene_sound
 
     s = GetSession()
     given = _input(Input, source)
@@ -631,31 +631,26 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     for k, val in (("layout", layout), ("rate", rate), ("time_scale", time_scale)):
         if val is not None:
             s.audio[k] = val
-    out: Rendered | None = None
+    rate = int(s.audio["rate"])
+    models = scene_sound(s.models, p, p.duration, rate=rate) if s.models else None
+    out: Rendered
     if src is not None:
         from auralize.sources.field import parse_heard
 
         hd = parse_heard(s.audio.get("heard") or "field")
         if src.Sources is None and hd.mode == "detected":
             src.Sources = src.Detection.run()
-        out, _ = auralize(src.Volume, p, series=src.Sources, rate=int(s.audio["rate"]),
+        out, _ = auralize(src.Volume, p, series=src.Sources, rate=rate,
                           time_scale=_check_time_scale(s.audio["time_scale"]),
                           layout=s.audio["layout"],
                           interp=interp, timbre=s.audio.get("timbre", DEFAULTS.timbre),
-                          clip=not s.models, heard=hd,
+                          clip=not s.models, heard=hd, extra=models,
                           thresholds=src.Thresholds, mapping=src.Mapping,
                           **dict[str, Any](src.MappingFields))  # fmt: skip
-    if s.models:
-        mix = render_scene(s.models, p, rate=int(s.audio["rate"]), layout=s.audio["layout"],
-                           duration=p.duration, highpass_hz=HIGHPASS_HZ)  # fmt: skip
-        if out is not None:
-            n = min(out.audio.shape[1], mix.audio.shape[1])
-            out.audio[:, :n] += mix.audio[:, :n]
-            out.meta["parts"] = [{"model": "field", "kind": "FieldSources"},
-                                 *mix.meta["parts"]]  # fmt: skip
-            out.meta["scene"] = mix.meta.get("scene")
-        else:
-            out = mix
+    else:
+        assert models is not None
+        out = render(models, p, rate=rate, layout=s.audio["layout"], duration=p.duration,
+                     highpass_hz=HIGHPASS_HZ)  # fmt: skip
     assert out is not None
     s.rendered = out
     return out

@@ -18,9 +18,9 @@ import auralize.plugins as plugins
 from auralize.emitters import Emitters, Sound, render
 from auralize.errors import FormatError, MissingFileError, ParameterError, PluginError
 from auralize.listener import ListenerPath
+from auralize.pipeline import render as render_heard
 from auralize.plugins import Parameter, SoundModel, check_sound
 from auralize.scene.soundscene import (
-    SceneBlocks,
     SceneModel,
     load_scene,
     parse_model_spec,
@@ -133,7 +133,7 @@ def test_scene_equals_the_sum_of_its_models_rendered_alone(scene) -> None:  # ty
 def test_scene_blocks_join_into_the_offline_render(scene) -> None:  # type: ignore[no-untyped-def]
     sound, path = scene
     off = render(sound, path, rate=RATE, layout="stereo").audio
-    sb = SceneBlocks(sound, path, rate=RATE, layout="stereo", block=2205)
+    sb = render_heard(sound, path, rate=RATE, layout="stereo", block=2205, highpass_hz=0)
     on = np.concatenate([sb.block(i) for i in range(sb.n_blocks)], axis=1)
     assert sb.n_blocks == 6 and on.shape == off.shape
     assert np.max(np.abs(on - off)) <= 1e-6 * np.max(np.abs(off))
@@ -165,7 +165,7 @@ def test_scene_plays_live_with_no_underruns(scene, tmp_path, monkeypatch) -> Non
     try:
         ref = render(sound, path, rate=RATE, layout="stereo").audio
         gain = 0.9 / float(np.max(np.abs(ref)))
-        sb = SceneBlocks(sound, path, rate=RATE, layout="stereo", block=2205)
+        sb = render_heard(sound, path, rate=RATE, layout="stereo", block=2205, highpass_hz=0)
         rep = play(sb, path, rate=RATE, layout="stereo", device="auralize_file2", gain=gain,
                    wait_s=1.0)  # fmt: skip
     finally:

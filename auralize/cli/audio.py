@@ -148,34 +148,35 @@ def cmd_play(args: argparse.Namespace) -> int:
     for note in plan.notes:
         print(note, file=say)
     print(plan.mapping_text + (" (auto)" if plan.auto else ""), file=say)
-    block_s = args.block_ms / 1e3
-    source: Any = tracks
-    highpass_hz = args.highpass
+    from auralize.emitters import FieldSources
+    from auralize.rendering import render
+
+    sound = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
+                         timbre=args.timbre, bounds=vol.bounds, by_type=hs.by_type,
+                         seed=args.seed)  # fmt: skip
+    block = max(round(args.block_ms / 1e3 * args.rate), 1)
+    source: Any
     if args.timbre != "physical":  # rendered ahead as `render` renders it (module docstring)
         import time
 
         from auralize.cli.core import check_render_memory
-        from auralize.emitters.timbre import render_timbre
         from auralize.spatial.layouts import synthesis_layout
 
         check_render_memory(args, plan.duration, synthesis_layout(lay).n_channels)
         t = time.perf_counter()
-        out = render_timbre(tracks, plan.path, timbre=args.timbre, rate=args.rate,
-                            time_scale=plan.time_scale, interp=args.interp, layout=lay,
-                            duration=plan.duration, bounds=vol.bounds, lead=plan.lead,
-                            highpass_hz=args.highpass, seed=args.seed, hrtf=args.hrtf,
-                            by_type=hs.by_type)  # fmt: skip
+        out = render(sound, plan.path, rate=args.rate, layout=lay, duration=plan.duration,
+                     highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
         seconds = time.perf_counter() - t
         for note in [] if args.json else out.meta.get("timbre_notes", []):
             print(note)
         if not args.json:
             print(_ahead_note(args.timbre, out.meta["timbre"], seconds, plan.duration))
-        source, highpass_hz = _RenderedBlocks(out, max(round(block_s * args.rate), 1)), 0.0
+        source = _RenderedBlocks(out, block)
+    else:
+        source = render(sound, plan.path, rate=args.rate, layout=lay, duration=plan.duration,
+                        block=block, highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
     rep = play(source, plan.path, rate=args.rate, layout=lay, device=args.device,
-               time_scale=plan.time_scale, interp=args.interp, downmix=_downmix_arg(args),
-               gain=args.gain,
-               limit_pa=args.limit, block_s=block_s, duration=plan.duration,
-               lead=plan.lead, highpass_hz=highpass_hz, hrtf=args.hrtf)  # fmt: skip
+               downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit)  # fmt: skip
     _report(args, rep)
     return 0
 
@@ -202,7 +203,7 @@ def _play_scene(args: argparse.Namespace) -> int:
     from auralize.audio.live import play
     from auralize.cli.core import scene_from_args
     from auralize.cli.options import DEFAULT_RATE
-    from auralize.scene.soundscene import SceneBlocks
+    from auralize.rendering import render
 
     sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
                                                           "rate": DEFAULT_RATE}, "play")  # fmt: skip
@@ -217,21 +218,19 @@ def _play_scene(args: argparse.Namespace) -> int:
         import time
 
         from auralize.cli.core import check_render_memory
-        from auralize.scene.soundscene import render_mix
         from auralize.spatial.layouts import synthesis_layout
 
         check_render_memory(args, duration, synthesis_layout(args.layout).n_channels)
         t = time.perf_counter()
-        out = render_mix(sound, path, rate=args.rate, layout=args.layout, duration=duration,
-                         highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
+        out = render(sound, path, rate=args.rate, layout=args.layout, duration=duration,
+                     highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
         if not args.json:
             timbre = "/".join(sorted(timbres - {"physical"}))
             print(_ahead_note(timbre, timbre, time.perf_counter() - t, duration, scene=True))
         blocks = _RenderedBlocks(out, block)
     else:
-        blocks = SceneBlocks(sound, path, rate=args.rate, layout=args.layout, block=block,
-                             duration=duration, highpass_hz=args.highpass,
-                             hrtf=args.hrtf)  # fmt: skip
+        blocks = render(sound, path, rate=args.rate, layout=args.layout, block=block,
+                        duration=duration, highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
     rep = play(blocks, path, rate=args.rate, layout=args.layout, device=args.device,
                downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit)  # fmt: skip
     _report(args, rep)

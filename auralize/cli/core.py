@@ -582,14 +582,14 @@ def cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) 
     """``auralize render`` with ``--model``/``--scene``: every model summed along one path."""
     from auralize.emitters.timbre import loudness
     from auralize.pipeline import save_rendered
-    from auralize.scene.soundscene import render_mix
+    from auralize.rendering import render
     from auralize.spatial.layouts import get_layout
 
     t = time.perf_counter()
     sound, path, duration, notes = scene_from_args(args, parser_defaults)
     lay = get_layout(args.layout)
-    out = render_mix(sound, path, rate=args.rate, layout=lay, duration=duration,
-                     highpass_hz=args.highpass)  # fmt: skip
+    out = render(sound, path, rate=args.rate, layout=lay, duration=duration,
+                 highpass_hz=args.highpass)  # fmt: skip
     out.meta.update({"seconds": time.perf_counter() - t, "duration_s": duration,
                      "notes": notes})  # fmt: skip
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,

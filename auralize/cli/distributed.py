@@ -173,11 +173,12 @@ def _heard(args: argparse.Namespace, vol: Any, runner: Any, planner: Any) -> Any
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
     from auralize.cli.core import check_render_memory, load_volume
-    from auralize.distributed import render_distributed
+    from auralize.emitters import FieldSources
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass
     from auralize.listener import ListenerPath
     from auralize.pipeline import Planner, save_rendered
+    from auralize.rendering import render
 
     if getattr(args, "model", None) or getattr(args, "scene", None):
         return _render_scene_dask(args)
@@ -207,22 +208,20 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
                       lead=plan.lead)  # fmt: skip
         for note in plan.notes:
             print(note)
-        out = render_distributed(
-            tracks, plan.path, rate=args.rate, time_scale=plan.time_scale,
-            interp=args.interp, layout=args.layout, duration=plan.duration, bounds=vol.bounds,
-            block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
-        )  # fmt: skip
-    from auralize.emitters.timbre import AUDIBLE_SHARE, loudness
+        field = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead,
+                             interp=args.interp, bounds=vol.bounds)  # fmt: skip
+        out = render(field, plan.path, rate=args.rate, layout=args.layout, duration=plan.duration,
+                     highpass_hz=getattr(args, "highpass", 0.0), runner=runner,
+                     block_seconds=args.block_seconds)  # fmt: skip
+    from auralize.emitters.timbre import AUDIBLE_SHARE
 
-    share = loudness(out.audio, args.rate)["share_above"]
+    share = out.meta["share_above_20hz_unfiltered"]
     print(plan.mapping_text + (" (auto)" if plan.auto else ""))
     if share < AUDIBLE_SHARE:
         print(f"note: {100 * (1 - share):.0f} % of the physical sound lies below 20 Hz "
               f"(inaudible); try a smaller --time-scale, or --timbre extended without the Dask "
               f"options")  # fmt: skip
-    out.audio = highpass(out.audio, args.rate, getattr(args, "highpass", 0.0))
-    out.meta.update({**plan.as_dict(), "timbre": "physical",
-                     "highpass_hz": getattr(args, "highpass", 0.0)})  # fmt: skip
+    out.meta.update(plan.as_dict())
     elapsed = time.perf_counter() - t
     out.meta.update({"volume": vol.source, **hs.meta})
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
@@ -241,7 +240,7 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     The volume's sources are detected (unless ``--sources``) and synthesized
     on the Dask workers as in a plain Dask render; the models' parts are
     rendered by the engine in this process along the same path; the two meet
-    in the one output stage (:func:`auralize.scene.soundscene.add_rendered`: the
+    by the one render's rule (:func:`auralize.pipeline.render`: the
     field high-passed at ``--highpass``, the models as they are), so the file
     equals the render without the Dask options.
     """
@@ -253,13 +252,13 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
         scene_setup,
     )
     from auralize.cli.options import DEFAULT_RATE
-    from auralize.distributed import render_distributed
-    from auralize.emitters import FieldSources
+    from auralize.emitters import FieldSources, Sound
     from auralize.emitters.engine import parts_of
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass, loudness
     from auralize.pipeline import Planner, save_rendered
-    from auralize.scene.soundscene import add_rendered, render_mix, scene_sound
+    from auralize.rendering import render
+    from auralize.scene.soundscene import scene_sound
     from auralize.spatial import get_layout
 
     defaults = {"layout": "mono", "rate": DEFAULT_RATE}
@@ -284,27 +283,21 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
         tracks = hs.tracks
         plan = planner.plan
         sound = scene_sound(models, plan.path, args.duration, rate=args.rate)
-        mine = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead)
+        mine = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead,
+                            interp=args.interp, bounds=vol.bounds)  # fmt: skip
         duration = scene_duration(args, [mine, *parts_of(sound)], plan.path, own_path)
         check_render_memory(args, duration, lay.n_channels)
         check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=duration,
                       lead=plan.lead)  # fmt: skip
-        field = render_distributed(
-            tracks, plan.path, rate=args.rate, time_scale=plan.time_scale,
-            interp=args.interp, layout=lay, duration=duration, bounds=vol.bounds,
-            block_seconds=args.block_seconds, runner=runner, lead=plan.lead,
-        )  # fmt: skip
+        out = render(Sound([mine]) + sound, plan.path, rate=args.rate, layout=lay,
+                     duration=duration, highpass_hz=args.highpass, runner=runner,
+                     block_seconds=args.block_seconds)  # fmt: skip
     from auralize.emitters.timbre import AUDIBLE_SHARE
 
-    if not args.json and loudness(field.audio, args.rate)["share_above"] < AUDIBLE_SHARE:
+    if not args.json and out.meta["share_above_20hz_unfiltered"] < AUDIBLE_SHARE:
         print("note: most of the volume's physical sound lies below 20 Hz (inaudible); try a "
               "smaller --time-scale, or --timbre extended without the Dask options")  # fmt: skip
-    field.meta["parts"] = [{"model": "field", "kind": "FieldSources (Dask)",
-                            "peak_pa": float(np.max(np.abs(field.audio), initial=0.0))}]  # fmt: skip
-    dask_meta = {k: field.meta[k] for k in ("blocks", "groups", "tasks", "workers", "scheduler")}
-    rest = render_mix(sound, plan.path, rate=args.rate, layout=lay, duration=duration,
-                      highpass_hz=args.highpass)  # fmt: skip
-    out = add_rendered(field, rest, args.highpass)
+    dask_meta = {k: out.meta[k] for k in ("blocks", "groups", "tasks", "workers", "scheduler")}
     out.meta.update({**plan.as_dict(), "timbre": "physical", "volume": vol.source, **hs.meta,
                      "dask": dask_meta, "duration_s": duration,
                      "seconds": time.perf_counter() - t})  # fmt: skip

@@ -328,7 +328,7 @@ class FieldSources:
     skipped at the start, ``interp`` the strength interpolation (§3.2.4.3),
     ``timbre`` one of :data:`auralize.emitters.timbre.TIMBRES`, ``by_type``
     the tracks of each type heard (the ``tonal`` timbre's; None: from
-    ``tracks.kind``).
+    ``tracks.kind``), ``seed`` the seed of the timbre's noise carriers.
     """
 
     tracks: Any  # auralize.sources.detection.SourceTracks
@@ -340,6 +340,7 @@ class FieldSources:
     name: str = "field"
     meta: dict[str, Any] = field(default_factory=dict)
     by_type: dict[str, Any] | None = None
+    seed: int = 0
 
 
 Part = Emitters | FieldSources | Any  # or a model part with render_part()

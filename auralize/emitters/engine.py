@@ -172,11 +172,21 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any],
         kw = {k: v for k, v in kw.items() if k != "backend"}
         return render_timbre(part.tracks, path, timbre=part.timbre, time_scale=part.time_scale,
                              interp=part.interp, lead=part.lead, bounds=part.bounds,
-                             highpass_hz=field_highpass_hz, by_type=part.by_type, **kw)  # fmt: skip
+                             highpass_hz=field_highpass_hz, by_type=part.by_type, seed=part.seed,
+                             **kw)  # fmt: skip
     fn = getattr(part, "render_part", None)
     if callable(fn):  # a model's own closed form, with arrivals and gains from the engine
         return fn(path, **kw)
     raise ParameterError(f"cannot render a {type(part).__name__}: not an engine part")
+
+
+def _listed(part: Part, r: Rendered) -> dict[str, Any]:
+    """How ``meta["parts"]`` lists a part rendered as ``r``."""
+    return {
+        "model": part.name,
+        "kind": type(part).__name__,
+        "peak_pa": float(np.max(np.abs(r.audio), initial=0.0)),
+    }
 
 
 def parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
@@ -211,17 +221,24 @@ def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: in
     dur = path.duration - start if duration is None else float(duration)
     kw: dict[str, Any] = dict(rate=rate, layout=lay, duration=dur, start=start, c0=c0,
                               backend=backend)  # fmt: skip
+    meta: dict[str, Any] = {"c0": c0}
+    if isinstance(sound, Sound):
+        meta.update(sound.meta)
+    if len(parts) == 1 and isinstance(parts[0], FieldSources):
+        # the volume's sound alone: its timbre renders the output layout itself (the
+        # output stage before its high-pass), as a render of the volume does
+        one = _render_part(parts[0], path, {**kw, "layout": layout, "hrtf": hrtf},
+                           field_highpass_hz)  # fmt: skip
+        one.meta.update({**meta, "parts": [_listed(parts[0], one)]})
+        return one
     audio = np.zeros((lay.n_channels, int(round(dur * rate))))
     listing = []
     for part in parts:
         r = _render_part(part, path, kw, field_highpass_hz)
         n = min(audio.shape[1], r.audio.shape[1])
         audio[:, :n] += r.audio[:, :n]
-        listing.append({"model": part.name, "kind": type(part).__name__,
-                        "peak_pa": float(np.max(np.abs(r.audio), initial=0.0))})  # fmt: skip
-    meta = {"parts": listing, "c0": c0}
-    if isinstance(sound, Sound):
-        meta.update(sound.meta)
+        listing.append(_listed(part, r))
+    meta["parts"] = listing
     return stage.finish(Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta))
 
 

@@ -1,8 +1,8 @@
 """Live listening: the listener follows the camera and the sound is synthesized block by block.
 
 While the animation plays and the user flies, :class:`LiveEngine` renders
-consecutive audio blocks with :func:`auralize.emitters.synthesis.render` (``start=``
-offsets join blocks without seams) for the latest camera pose, and
+consecutive audio blocks with the one render, :func:`auralize.pipeline.render`
+(continued: ``start=`` offsets and a carried filter state join blocks without seams) for the latest camera pose, and
 :class:`LivePlayer` pushes them from a worker thread into an :class:`AudioSink`.
 A pose set with :meth:`LiveEngine.set_pose` is used by the next block, so a
 camera move reaches the sink within one block plus the render time
@@ -12,7 +12,7 @@ a block the listener moves linearly from the previous pose to the new one
 applied at the block edge instead.
 
 The sound is the one the viewer's rendered file holds (the output rule of
-``auralize render``, :func:`auralize.scene.soundscene.add_rendered`): the
+``auralize render``, :func:`auralize.pipeline.render`): the
 sources' ``physical`` pressure through the causal 20 Hz high-pass
 (``highpass_hz``, default :data:`auralize.emitters.timbre.HIGHPASS_HZ`; 0 keeps
 everything), a 4th-order Butterworth whose state is carried from block to
@@ -64,10 +64,12 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from auralize.emitters.synthesis import C0, Rendered, box_distances, render, source_extent
-from auralize.emitters.timbre import HIGHPASS_HZ, butter_sos, highpass, highpass_start
+from auralize.emitters import FieldSources, Sound
+from auralize.emitters.synthesis import C0, Rendered, box_distances, source_extent
+from auralize.emitters.timbre import HIGHPASS_HZ, highpass
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
+from auralize.rendering import Carry, render
 from auralize.sources.detection import SourceTracks
 from auralize.spatial.layouts import get_layout, output_stage
 
@@ -164,11 +166,8 @@ class LiveEngine:
         #: playback seconds of heard audio kept (older blocks are dropped)
         self.keep_heard_s = 600.0
         self.highpass_hz = float(highpass_hz)
-        self._hp_sos = (butter_sos(4, self.highpass_hz, "highpass", float(self.rate))
-                        if self.highpass_hz > 0 else None)  # fmt: skip
-        # the filter's state; set from the first block (highpass_start), as
-        # the rendered file's filter starts
-        self._hp_zi: Any = None
+        # the high-pass's state, carried from block to block (and across a loop)
+        self._carry = Carry()
 
     @property
     def block_s(self) -> float:
@@ -259,29 +258,18 @@ class LiveEngine:
         fwd = [prev[1], prev[1], pose[1]] if self.t > 0 else [prev[1], pose[1]]
         up = [prev[2], prev[2], pose[2]] if self.t > 0 else [prev[2], pose[2]]
         path = ListenerPath(times, np.array(pos), np.array(fwd), np.array(up), source="live")
-        out = render(self.tracks, path, rate=self.rate, time_scale=self.time_scale,
-                     layout=self.stage.synthesis_layout, c0=self.c0, start=self.t,
-                     duration=dur, lead=self.lead)  # fmt: skip
+        sound = Sound([FieldSources(self.tracks, time_scale=self.time_scale, lead=self.lead)],
+                      name="field")  # fmt: skip
+        if extra is not None and extra.parts:
+            sound = sound + extra
+        out = render(sound, path, rate=self.rate, layout=self.stage.synthesis_layout, c0=self.c0,
+                     start=self.t, duration=dur, highpass_hz=self.highpass_hz,
+                     carry=self._carry)  # fmt: skip
         audio = out.audio
         if audio.shape[1] != self.block:  # rounding of duration * rate
             audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[
                 :, : self.block
             ]
-        if self._hp_sos is not None:  # the sources' sound only, as add_rendered does
-            from scipy.signal import sosfilt
-
-            if self._hp_zi is None:
-                self._hp_zi = highpass_start(self._hp_sos, audio[:, 0])
-            audio, self._hp_zi = sosfilt(self._hp_sos, audio, axis=-1, zi=self._hp_zi)
-        if extra is not None and extra.parts:
-            from auralize.emitters import render as render_sound
-
-            more = render_sound(extra, path, rate=self.rate, layout=self.stage.synthesis_layout,
-                                c0=self.c0,
-                                start=self.t, duration=dur).audio  # fmt: skip
-            n = min(audio.shape[1], more.shape[1])
-            audio = np.array(audio)
-            audio[:, :n] += more[:, :n]
         audio = self.stage.process(audio)
         if self.keep_heard:
             self.heard_rows.append(np.concatenate([[self.elapsed + dur], *pose]))

@@ -3,7 +3,7 @@
 A scene is a list of models, each with its inputs and parameters
 (:class:`SceneModel`).  Every model's :meth:`~auralize.plugins.SoundModel.synthesize`
 returns what it emits (an :class:`auralize.emitters.Sound`); the sounds are
-concatenated and rendered by :func:`auralize.emitters.render` along the one
+concatenated and rendered by :func:`auralize.pipeline.render` along the one
 listener path, so the mix is exactly the sum of the models rendered alone.
 
 On the command line a model is written ``NAME:INPUT[:key=value,...]``
@@ -27,15 +27,14 @@ static listener, until every part has been heard (:func:`scene_length`).
 The ``field`` model accepts ``"time_scale": "auto"``: the data's span plays in
 the scene's duration (:func:`auralize.pipeline.plan_render`).
 
-One output rule (:func:`render_mix`): the output high-pass (``--highpass``,
+One output rule (:func:`auralize.pipeline.render`'s): the output high-pass (``--highpass``,
 default 20 Hz) filters the field sources, the volume's physical pressure with
 its inaudible sub-20 Hz energy; the other models are heard as they made their
 sound (fire's own ``highpass_hz``, paper 001 §6), so a model mixed into a
 scene writes the same samples as its own command (``spark render``).
 
-``SceneBlocks(sound, path, rate=, layout=, block=, duration=, highpass_hz=)``
-renders a scene block by block for live playback with the same rule
-(:func:`auralize.audio.live.play` takes it in place of source tracks).
+Scenes are rendered, offline and block by block for live playback, by the one
+render function, :func:`auralize.pipeline.render`.
 """
 
 from __future__ import annotations
@@ -64,17 +63,14 @@ from auralize.listener import ListenerPath
 from auralize.scene.session import DATA_SCHEMA
 
 __all__ = [
-    "SceneBlocks",
     "SceneFile",
     "SceneModel",
     "load_scene",
     "parse_model_spec",
     "part_end",
-    "render_mix",
     "render_scene",
     "scene_length",
     "scene_sound",
-    "split_field",
 ]
 
 
@@ -482,131 +478,19 @@ def scene_length(sound: Any, path: ListenerPath, *, c0: float | None = None,
     return float(length)
 
 
-def split_field(sound: Any) -> tuple[Any, Any]:
-    """``(field, models)``: the sound's field-source parts and every other part (two Sounds).
-
-    The field parts are :class:`auralize.emitters.FieldSources` (the sources
-    detected in a volume); the output high-pass of :func:`render_mix` applies
-    to them only.
-    """
-    from auralize.emitters import FieldSources, Sound
-    from auralize.emitters.engine import parts_of
-
-    parts = parts_of(sound)
-    meta = dict(sound.meta) if isinstance(sound, Sound) else {}
-    field_parts = [p for p in parts if isinstance(p, FieldSources)]
-    others = [p for p in parts if not isinstance(p, FieldSources)]
-    return Sound(field_parts, meta=meta, name="field"), Sound(others, meta=meta, name="models")
-
-
-def add_rendered(field: Any, models: Any, highpass_hz: float = 0.0) -> Any:
-    """The mix of a rendered field (high-passed at ``highpass_hz``) and rendered models.
-
-    Parameters
-    ----------
-    field, models : Rendered or None
-        The field sources' render and the other models' render, same rate
-        and layout (either may be None).
-    highpass_hz : float
-        Cut-off of the causal high-pass (:func:`auralize.emitters.timbre.highpass`) of
-        the field's render, Hz (0: none).
-
-    Returns
-    -------
-    Rendered
-        The sum, as long as the longer of the two; ``meta`` is the field's
-        (or the models') with ``parts`` listing both and ``highpass_hz``.
-    """
-    from auralize.emitters.timbre import highpass
-
-    if field is None and models is None:
-        raise ParameterError("nothing to mix: no field and no sound model rendered")
-    if field is not None:
-        field.audio = highpass(field.audio, field.rate, highpass_hz)
-    if field is None or models is None:
-        out = field if field is not None else models
-    else:
-        if (field.rate, field.audio.shape[0]) != (models.rate, models.audio.shape[0]):
-            raise ParameterError(f"cannot mix a field render ({field.audio.shape[0]} ch at "
-                                 f"{field.rate} Hz) with models rendered to "
-                                 f"{models.audio.shape[0]} ch at {models.rate} Hz")  # fmt: skip
-        n = max(field.audio.shape[1], models.audio.shape[1])
-        audio = np.zeros((field.audio.shape[0], n))
-        audio[:, : field.audio.shape[1]] += field.audio
-        audio[:, : models.audio.shape[1]] += models.audio
-        parts = [*field.meta.get("parts", [{"model": "field", "kind": "FieldSources"}]),
-                 *models.meta.get("parts", [])]  # fmt: skip
-        meta = {**models.meta, **field.meta, "parts": parts}
-        out = type(field)(audio=audio, rate=field.rate, layout=field.layout,
-                          time_scale=field.time_scale, meta=meta)  # fmt: skip
-    out.meta["highpass_hz"] = float(highpass_hz) if field is not None else 0.0
-    return out
-
-
-def render_mix(sound: Any, path: ListenerPath, *, rate: int = 44100, layout: Any = "mono",
-               duration: float | None = None, start: float = 0.0, highpass_hz: float = 0.0,
-               backend: str = "auto", hrtf: object = None) -> Any:  # fmt: skip
-    """Render a scene's sound with the one output rule of ``auralize render``/``play``.
-
-    The field sources (the volume's, :class:`~auralize.emitters.FieldSources`)
-    go through the causal ``highpass_hz`` high-pass (the data's physical
-    pressure holds much inaudible, sub-20 Hz energy); every other model's
-    parts are heard as the model made them (a model filters its own sound:
-    fire's ``highpass_hz``, paper 001 §6), so ``render --model spark:...``
-    writes the same samples as ``spark render``.  Both are rendered with
-    :func:`auralize.emitters.render` along ``path`` and summed.
-
-    Parameters
-    ----------
-    sound : Sound, a part or parts
-    path : ListenerPath
-    rate : int
-        Output sample rate, Hz.
-    layout : str or Layout
-    duration : float, optional
-        Playback seconds (default: the path's, from ``start``).
-    start : float
-        Playback second of the first output sample.
-    highpass_hz : float
-        High-pass cut-off of the field sources, Hz (0: none).
-    backend, hrtf : as :func:`auralize.emitters.render`.
-
-    Returns
-    -------
-    Rendered
-        ``audio (n_channels, round(duration * rate))`` in Pa; ``meta["parts"]``
-        lists every part, ``meta["highpass_hz"]`` the field's cut-off.
-    """
-    from auralize.emitters import render
-    from auralize.emitters.timbre import highpass
-
-    highpass(np.zeros((1, 0)), rate, highpass_hz)  # a bad cut-off fails before rendering
-    field, models = split_field(sound)
-    kw: dict[str, Any] = dict(rate=rate, layout=layout, duration=duration, start=start,
-                              backend=backend, hrtf=hrtf)  # fmt: skip
-    # the field's high-pass is applied by its timbre, as auralize render applies it (the
-    # timbre's auto and extended choices depend on it)
-    if not field.parts or not models.parts or highpass_hz == 0:
-        out = render(sound, path, **kw, field_highpass_hz=highpass_hz)
-        out.meta["highpass_hz"] = float(highpass_hz) if field.parts else 0.0
-        return out
-    out = add_rendered(render(field, path, **kw, field_highpass_hz=highpass_hz),
-                       render(models, path, **kw), 0.0)  # fmt: skip
-    out.meta["highpass_hz"] = float(highpass_hz)
-    return out
-
-
 def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44100,
                  layout: str = "mono", duration: float | None = None, start: float = 0.0,
                  backend: str = "auto", highpass_hz: float = 0.0) -> Any:  # fmt: skip
     """Render a scene along ``path``: the sum of every model's sound (a ``Rendered``).
 
-    ``highpass_hz`` applies to the field sources only (:func:`render_mix`).
+    ``highpass_hz`` applies to the field sources only (:func:`auralize.pipeline.render`).
     """
+    from auralize.rendering import render
+
     dur = path.duration - start if duration is None else float(duration)
     sound = scene_sound(models, path, dur + start, rate=rate)
-    return render_mix(sound, path, rate=rate, layout=layout, duration=dur, start=start,
-                      backend=backend, highpass_hz=highpass_hz)  # fmt: skip
+    return render(sound, path, rate=rate, layout=layout, duration=dur, start=start,
+                  backend=backend, highpass_hz=highpass_hz)  # fmt: skip
 
 
 def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpass_hz,
@@ -618,7 +502,7 @@ def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpas
     with no other option does: its layout, rate and duration (else the
     defaults: mono at 44.1 kHz, as long as its listener path or until every part
     has been heard), every model planned for its listener and mixed with
-    :func:`render_mix`'s rule.
+    :func:`auralize.pipeline.render`'s rule.
 
     Parameters
     ----------
@@ -639,13 +523,14 @@ def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpas
     Returns
     -------
     Rendered
-        As :func:`render_mix`; ``meta["duration_s"]`` is the length rendered.
+        As :func:`auralize.pipeline.render`; ``meta["duration_s"]`` is the length rendered.
 
     Raises
     ------
     ParameterError
         The scene has no listener, or a model's parameter is wrong.
     """
+    from auralize.rendering import render
     from auralize.spatial.layouts import get_layout
 
     path = scene.path
@@ -664,106 +549,10 @@ def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpas
         duration = float(path.duration)
     else:
         duration = scene_length(sound, path)
-    out = render_mix(sound, path, rate=rate, layout=layout, duration=duration,
-                     highpass_hz=highpass_hz)  # fmt: skip
+    out = render(sound, path, rate=rate, layout=layout, duration=duration,
+                 highpass_hz=highpass_hz)  # fmt: skip
     n = len(scene.models) + 1
     if progress is not None and not progress(n, n):
         raise Cancelled("scene cancelled")
     out.meta["duration_s"] = duration
     return out
-
-
-class SceneBlocks:
-    """A scene rendered block by block for live playback, with :func:`render_mix`'s rule.
-
-    The interface of :class:`auralize.emitters.engine.BlockRenderer` (which it
-    wraps, and which :func:`auralize.audio.live.play` takes in place of source
-    tracks): ``block(i)``, ``render_range(start, n)``, ``n_blocks``,
-    ``n_samples``, ``block_size``, ``rate``, ``layout``.  The field sources'
-    blocks go through the causal ``highpass_hz`` high-pass, its state carried
-    from block to block, so blocks taken in order join into :func:`render_mix`
-    of the whole duration; the other models' blocks are added as they are.
-
-    Parameters
-    ----------
-    sound : Sound, a part or parts
-    path : ListenerPath
-    rate : int
-        Output sample rate, Hz.
-    layout : str or Layout
-    block : int, optional
-        Samples per block (default 50 ms).
-    duration : float, optional
-        Playback seconds (default: the path's duration).
-    highpass_hz : float
-        High-pass cut-off of the field sources, Hz (0: none).
-    **kw
-        ``c0``, ``backend``, ``hrtf`` of the block renderer.
-    """
-
-    def __init__(self, sound: Any, path: ListenerPath, *, rate: int = 44100,
-                 layout: Any = "mono", block: int | None = None, duration: float | None = None,
-                 highpass_hz: float = 0.0, **kw: Any) -> None:  # fmt: skip
-        from auralize.emitters.engine import BlockRenderer
-        from auralize.emitters.timbre import butter_sos, highpass
-
-        highpass(np.zeros((1, 0)), rate, highpass_hz)  # a bad cut-off fails here
-        field, models = split_field(sound)
-        args: dict[str, Any] = dict(rate=rate, layout=layout, block=block, duration=duration,
-                                    **kw)  # fmt: skip
-        self.highpass_hz = float(highpass_hz)
-        if not field.parts or self.highpass_hz == 0:
-            self.field, self.models = None, BlockRenderer(sound, path, **args)
-        else:
-            self.field = BlockRenderer(field, path, **args)
-            self.models = BlockRenderer(models, path, **args) if models.parts else None
-        first = self.field if self.field is not None else self.models
-        assert first is not None
-        for name in ("rate", "layout", "block_size", "n_samples", "n_blocks", "duration"):
-            setattr(self, name, getattr(first, name))
-        self.meta = dict(first.meta)
-        self._sos = None if self.field is None else butter_sos(4, self.highpass_hz, "highpass",
-                                                               float(rate))  # fmt: skip
-        self._zi: Any = None
-        self._next = 0
-
-    def _field_range(self, start: int, n: int, zi: Any) -> tuple[Any, Any]:
-        from scipy.signal import sosfilt
-
-        from auralize.emitters.timbre import highpass_start
-
-        assert self.field is not None and self._sos is not None
-        a = self.field.render_range(start, n)
-        if zi is None:  # from sample 0, as highpass() starts
-            zi = highpass_start(self._sos, a[:, 0] if a.shape[1] else np.zeros(a.shape[0]))
-        return sosfilt(self._sos, a, axis=-1, zi=zi)
-
-    def render_range(self, start: int, n: int) -> Any:
-        """Samples ``[start, start + n)`` (the field's filter run from sample 0)."""
-        if self.field is None:
-            assert self.models is not None
-            return self.models.render_range(start, n)
-        a, _ = self._field_range(0, int(start) + int(n), None)
-        a = a[:, int(start) :]
-        if self.models is not None:
-            a = a + self.models.render_range(start, n)
-        return a
-
-    def block(self, i: int) -> Any:
-        """Block ``i`` (the last one may be shorter); in order, the filter state carries on."""
-        if self.field is None:
-            assert self.models is not None
-            return self.models.block(i)
-        if not 0 <= i < self.n_blocks:
-            raise ParameterError(f"block index {i} outside 0..{self.n_blocks - 1}")
-        s = i * self.block_size
-        n = min(self.block_size, self.n_samples - s)
-        if i != self._next:  # out of order: run the filter up to the block
-            self._zi = None
-            if s:
-                _, self._zi = self._field_range(0, s, None)
-        a, self._zi = self._field_range(s, n, self._zi)
-        self._next = i + 1
-        if self.models is not None:
-            a = a + self.models.block(i)
-        return a

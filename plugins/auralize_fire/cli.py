@@ -147,9 +147,9 @@ def cmd_texture(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from auralize.emitters import render
     from auralize.listener import listener_from_args
     from auralize.pipeline import save_rendered
+    from auralize.rendering import render
     from auralize.spatial.layouts import get_layout
     from auralize_fire.model import fire_sound, load_volume, training_at
 

@@ -477,7 +477,7 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
     >>> r.audio.shape
     (1, 1600)
     """
-    from auralize.emitters import render
+    from auralize.rendering import render
 
     if not (isinstance(rate, int | np.integer) and 1000 <= rate <= 384000):
         raise ParameterError(f"rate must be an integer in 1000..384000 Hz, got {rate!r}")
