@@ -12,6 +12,9 @@ whichever way a user comes in.  The values:
   ``extended`` (:mod:`auralize.emitters.timbre`);
 * a 20 Hz causal high-pass of the volume's sound (paper 001 §6 uses 30 Hz);
 * the whole field heard (``heard="field"``, :func:`auralize.sources.field.parse_heard`);
+* ``method="auto"``: data that hold sound waves (a compressible simulation's
+  acoustics) are heard through the FW-H integral on a box inside them, other
+  data by the volume sum of their sources (:mod:`auralize.fwh.classify`);
 * without a path, an orbit around the data whose head turns so that every
   speaker carries the sound (``orbit_face="sweep"``), for 10 s.
 
@@ -70,6 +73,9 @@ class RenderDefaults:
         Time interpolation of the sources (paper 003 §3.2.4.3).
     mapping : str
         Acoustic mapping preset (``auto`` chooses from the fields).
+    method : str
+        How a volume is heard: ``auto`` (the FW-H integral when the data hold
+        sound waves, else the volume sum), ``volume`` or ``fwh``.
     """
 
     time_scale: str | float = "auto"
@@ -83,6 +89,7 @@ class RenderDefaults:
     layout: str = "mono"
     interp: str = "cubic"
     mapping: str = "auto"
+    method: str = "auto"
 
     def as_dict(self) -> dict[str, Any]:
         """The settings as a plain dict (for sidecars and comparisons)."""

@@ -424,7 +424,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              highpass_hz: float = DEFAULTS.highpass_hz, seed: int = 0, listener: Any = None,
              hrtf: object = None, clip: bool = True, heard: str | Heard = DEFAULTS.heard,
              orbit_face: str = DEFAULTS.orbit_face, block: int | None = None,
-             extra: Any = None,
+             extra: Any = None, method: str = DEFAULTS.method, surface: str | None = None,
              **mapping_fields: str) -> tuple[Rendered, SourceSeries | None]:  # fmt: skip
     """Render the sound of ``volume`` along ``path``.
 
@@ -448,6 +448,15 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     (an :class:`auralize.emitters.Sound`) heard with the volume's along the
     same path, mixed by :func:`render`'s rule.  The plan and what was heard
     are recorded in ``meta`` (and so in the sidecar).
+
+    ``method``: how the volume is heard (:func:`auralize.fwh.classify.choose_method`):
+    ``"volume"`` the sum of its sources as above; ``"fwh"`` the
+    Ffowcs Williams–Hawkings integral on ``surface`` (a surface spec as the
+    ``fwh`` model's; default a box inside the data), the data's own sound waves
+    played in their own time (time scale 1); ``"auto"`` (default) the FW-H
+    integral when the whole field would be heard and the data hold sound waves
+    (their pressure or density obeys the wave equation), else the volume sum.
+    ``meta["method"]`` and ``meta["method_text"]`` say which, and why.
 
     The defaults are those of ``auralize render FILE -o OUT`` with no other
     option: the mapping chosen from the fields, the whole field heard, the
@@ -477,6 +486,18 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     if duration is not None and math.isfinite(duration) and duration > 0:
         check_memory(duration)
     hd = parse_heard(heard)
+    from auralize.fwh.classify import Method, choose_method
+
+    if method == "auto" and (series is not None or hd.label != DEFAULTS.heard):
+        how = Method("volume", f"the {hd.describe() if hd.mode == 'detected' else hd.label} "
+                               f"asked for")  # fmt: skip
+    else:
+        how = choose_method(volume, method, surface=surface, c0=c0)
+    if how.name == "fwh":
+        return _auralize_fwh(volume, how, path=path, listener=listener, duration=duration,
+                             time_scale=time_scale, rate=rate, layout=layout, c0=c0, clip=clip,
+                             orbit_face=orbit_face, hrtf=hrtf, extra=extra,
+                             check_memory=check_memory), series  # fmt: skip
     with memory_guard(f"rendering {volume.source}"):
         hs, plan = plan_heard(volume, path=path, listener=listener, duration=duration,
                               time_scale=time_scale, c0=c0, clip=clip, orbit_face=orbit_face,
@@ -496,8 +517,63 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     with progress_step("render", enabled=progress_bar), memory_guard(f"rendering {volume.source}"):
         out = render(sound, plan.path, rate=rate, layout=layout, duration=plan.duration, c0=c0,
                      highpass_hz=highpass_hz, hrtf=hrtf)  # fmt: skip
-    out.meta.update({"volume": volume.source, **plan.as_dict(), **hs.meta})
+    out.meta.update({"volume": volume.source, **plan.as_dict(), **hs.meta, "method": "volume",
+                     "method_text": how.describe()})  # fmt: skip
     return out, hs.series
+
+
+def _auralize_fwh(volume: TimeVolume, how: Any, *, path: ListenerPath | None, listener: Any,
+                  duration: float | None, time_scale: float | str, rate: int, layout: str,
+                  c0: float, clip: bool, orbit_face: str, hrtf: object, extra: Any,
+                  check_memory: Any) -> Rendered:  # fmt: skip
+    """:func:`auralize` by the FW-H integral on ``how.surface``: the data's sound waves
+    through the surface, heard along the path in the data's own time."""
+    from auralize.fwh.model import FWHSound
+    from auralize.fwh.surface import surface_from_spec
+
+    if not (time_scale == "auto" or float(time_scale) == 1.0):
+        raise ParameterError(f"the FW-H method plays the data's sound waves in their own time "
+                             f"(time scale 1), not at time scale {time_scale!r}; give "
+                             f"--method volume to hear the data's sources at another pace")  # fmt: skip
+    asked = duration
+    placed = path is None and listener is None
+    if placed:  # the data's sound lasts milliseconds: a listener standing where the orbit starts
+        listener = orbit_around(volume.bounds, duration=1.0, face=orbit_face).positions[0]
+    if duration is None and path is None:
+        duration = DEFAULT_DURATION
+    plan = plan_render(volume, None, path=path, listener=listener, duration=duration,
+                       time_scale=1.0, c0=c0, clip=clip, face=orbit_face)  # fmt: skip
+    if asked is None and path is None:  # no length was asked: the data's sound's own
+        plan.notes = [n for n in plan.notes if "requested" not in n]
+        plan.notes.append(f"the data's sound lasts {plan.duration:.4g} s (data time: the FW-H "
+                          f"method plays it at its own pace)")  # fmt: skip
+    if placed:
+        where = ", ".join(f"{v:.4g}" for v in listener)
+        plan.notes.insert(0, f"listener: standing at ({where}) m, outside the data (give "
+                             f"--listener X,Y,Z or --path CSV to choose)")  # fmt: skip
+    check_memory(plan.duration)
+    spacing = float(np.min(volume.spacing))
+    inside = surface_from_spec(str(how.surface), panel_size=spacing)
+    lo, hi = np.asarray(inside.bounds, dtype=np.float64).reshape(3, 2).T
+    pos = np.asarray(plan.path.positions, dtype=np.float64)
+    if np.any(np.all((pos >= lo) & (pos <= hi), axis=1)):
+        raise ParameterError(f"the listener must stay outside the FW-H surface {how.surface} "
+                             f"(inside it the integral is not the sound); move the path or give "
+                             f"a smaller --surface")  # fmt: skip
+    sound = FWHSound().synthesize(volume, surface=str(how.surface), c0=c0,
+                                  time_origin=float(volume.times[0]) + plan.lead)  # fmt: skip
+    if extra is not None:
+        sound = sound + extra
+    with memory_guard(f"rendering {volume.source}"):
+        out = render(sound, plan.path, rate=rate, layout=layout, duration=plan.duration, c0=c0,
+                     hrtf=hrtf)  # fmt: skip
+    out.meta.update({"volume": volume.source, **plan.as_dict(), "method": "fwh",
+                     "method_text": how.describe(), "surface": how.surface, "heard": "fwh",
+                     "heard_text": f"the sound waves through the FW-H surface {how.surface}",
+                     "timbre": "physical", "time_mapping": "data time (time scale 1)"})  # fmt: skip
+    if how.test is not None:
+        out.meta["wave_residual"] = how.test.residual
+    return out
 
 
 def plan_heard(volume: TimeVolume, *, path: ListenerPath | None = None, listener: Any = None,

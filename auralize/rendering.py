@@ -74,7 +74,7 @@ def split_field(sound: Any) -> tuple[Any, Any]:
     snd = as_sound(sound)
     field_parts = [p for p in snd.parts if isinstance(p, FieldSources)]
     others = [p for p in snd.parts if not isinstance(p, FieldSources)]
-    return (Sound(field_parts, meta=dict(snd.meta), name="field"),
+    return (Sound(list[Any](field_parts), meta=dict(snd.meta), name="field"),
             Sound(others, meta=dict(snd.meta), name="models"))  # fmt: skip
 
 
@@ -235,7 +235,7 @@ def _on_dask(snd: Any, path: Any, kw: dict[str, Any], highpass_hz: float, runner
     if odd:
         raise ParameterError(f"timbre {'/'.join(odd)}: the Dask render renders the physical "
                              f"pressure only; render it without the Dask options")  # fmt: skip
-    lay = get_layout(kw["layout"])
+    lay: Any = get_layout(kw["layout"])
     path_dur = path.duration - kw["start"]
     duration = path_dur if kw["duration"] is None else float(kw["duration"])
     if kw["start"]:
@@ -292,6 +292,8 @@ class RenderBlocks:
         args: dict[str, Any] = dict(rate=rate, layout=layout, block=block, duration=duration,
                                     **kw)  # fmt: skip
         self.highpass_hz = float(highpass_hz)
+        self.field: Any
+        self.models: Any
         if not field.parts or self.highpass_hz == 0:
             self.field, self.models = None, BlockRenderer(snd, path, **args)
         else:
@@ -299,8 +301,12 @@ class RenderBlocks:
             self.models = BlockRenderer(models, path, **args) if models.parts else None
         first = self.field if self.field is not None else self.models
         assert first is not None
-        for name in ("rate", "layout", "block_size", "n_samples", "n_blocks", "duration"):
-            setattr(self, name, getattr(first, name))
+        self.rate: int = first.rate
+        self.layout: Any = first.layout
+        self.block_size: int = first.block_size
+        self.n_samples: int = first.n_samples
+        self.n_blocks: int = first.n_blocks
+        self.duration: float = first.duration
         self.meta = dict(first.meta)
         self._carry: Carry | None = None
         self._next = 0

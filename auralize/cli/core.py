@@ -244,6 +244,15 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
                    help=TIMBRE_HELP)  # fmt: skip
     p.add_argument("--highpass", type=float, default=DEFAULTS.highpass_hz, metavar="HZ",
                    help=HIGHPASS_HELP)  # fmt: skip
+    p.add_argument("--method", choices=("auto", "volume", "fwh"), default=DEFAULTS.method,
+                   help="how the volume is heard: volume (the sum of its sources, paper 003), "
+                        "fwh (the Ffowcs Williams-Hawkings integral on --surface: the sound "
+                        "waves a compressible simulation holds, in data time), auto (default: "
+                        "fwh when the data's pressure or density obeys the wave equation, else "
+                        "volume)")  # fmt: skip
+    p.add_argument("--surface", metavar="SPEC", default=None,
+                   help="the FW-H surface: box=x0;x1;y0;y1;z0;z1, sphere=cx;cy;cz;r or "
+                        "file=PATH (default: a box 10%% of the extent inside the data)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
 
 
@@ -641,6 +650,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                            progress_bar=progress_wanted(), timbre=args.timbre,
                            highpass_hz=args.highpass, seed=args.seed, listener=args.listener,
                            heard=heard_arg(args), orbit_face=args.orbit_face,
+                           method=args.method, surface=args.surface,
                            **mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
     out.meta["seconds"] = elapsed
@@ -657,6 +667,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         return 0
     for note in out.meta.get("notes", []):
         print(note)
+    print(out.meta["method_text"])
     print(out.meta["time_mapping"] + (" (auto)" if out.meta.get("time_scale_auto") else ""))
     for note in out.meta.get("timbre_notes", []):
         print(note)

@@ -180,6 +180,9 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     from auralize.pipeline import Planner, save_rendered
     from auralize.rendering import render
 
+    if getattr(args, "method", "auto") == "fwh":
+        raise ParameterError("--method fwh runs on this machine: render without the Dask "
+                             "options (the Dask render sums the volume's sources)")  # fmt: skip
     if getattr(args, "model", None) or getattr(args, "scene", None):
         return _render_scene_dask(args)
     if getattr(args, "volume", None) is None:
