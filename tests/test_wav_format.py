@@ -71,11 +71,15 @@ def test_float_pascals_beyond_one_are_noted_and_pcm_refuses_them(tmp_path: Path)
 
 
 def test_render_command_writes_the_requested_format(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
-    from auralize.cli import build_parser
+    import soundfile as sf
 
-    args = build_parser().parse_args(["render", "dataset:monopole", "--listener", "1,1,1",
-                                      "--duration", "0.1", "-o", "x.wav", "--format", "pcm24"])  # fmt: skip
-    assert args.format == "pcm24"
+    from auralize.cli import build_parser, main
+
+    out = tmp_path / "x.wav"
+    assert main(["render", "dataset:monopole", "--size", "12", "--steps", "30", "--listener",
+                 "1,1,1", "--duration", "0.1", "-o", str(out), "--format", "pcm24"]) == 0  # fmt: skip
+    info = sf.info(str(out))
+    assert info.subtype == "PCM_24" and info.frames == 4410
     with pytest.raises(SystemExit) as e:
         build_parser().parse_args(["render", "dataset:monopole", "--listener", "1,1,1",
                                    "--duration", "0.1", "-o", "x.wav", "--format", "pcm8"])  # fmt: skip
