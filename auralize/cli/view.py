@@ -52,6 +52,10 @@ def add_commands(sub: Any) -> None:
         help="detect sources (with --screenshot; the window detects on request)",
     )
     g.add_argument("--window-size", default="1200x900", metavar="WxH")
+    g.add_argument("--head-tracking", type=int, metavar="PORT", default=None,
+                   help="turn the live listener's head by a head tracker's OSC messages on this "
+                        "UDP port (SPARTA's /ypr, /quaternion; IEM SceneRotator's "
+                        "/SceneRotator/ypr, /SceneRotator/quaternions)")  # fmt: skip
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser(
@@ -114,7 +118,8 @@ def view_options(args: argparse.Namespace) -> dict[str, Any]:
                       curvilinear="resample" if getattr(args, "resample", False) else None)
             if args.volume is not None else None)  # fmt: skip
     return {"data": data, "field": color_by, "mapping": args.mapping,
-            "mapping_fields": mapping_fields(args), "thresholds": thresholds_from_args(args)}  # fmt: skip
+            "mapping_fields": mapping_fields(args), "thresholds": thresholds_from_args(args),
+            "head_tracking": getattr(args, "head_tracking", None)}  # fmt: skip
 
 
 def screenshot(args: argparse.Namespace) -> Path:

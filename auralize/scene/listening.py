@@ -125,12 +125,17 @@ class LiveEngine:
         The box the clock is placed from (default: the sources'); a render of
         the whole field plans from the data's bounds
         (:func:`auralize.pipeline.source_box`), which the viewer passes.
+    head : HeadOrientation, optional
+        The listener's head orientation relative to the pose
+        (:class:`auralize.audio.headtrack.OSCHeadTracker` from a head tracker):
+        each block turns the pose's frame by it, so binaural and Ambisonics
+        output follow the head (:meth:`set_head` changes it).
     """
 
     def __init__(self, tracks: SourceTracks, *, layout: str = "stereo", rate: int = 44100,
                  time_scale: float = 1.0, block: int = DEFAULT_BLOCK, c0: float = C0,
                  loop: bool = True, extra: Any = None, highpass_hz: float = HIGHPASS_HZ,
-                 lead: float | str = "auto", box: Any = None) -> None:  # fmt: skip
+                 lead: float | str = "auto", box: Any = None, head: Any = None) -> None:  # fmt: skip
         if not (isinstance(block, int) and 16 <= block <= 1 << 16):
             raise ParameterError(f"block must be 16..65536 samples, got {block!r}")
         highpass(np.zeros((1, 0)), int(rate), highpass_hz)  # a bad cut-off fails here
@@ -168,6 +173,7 @@ class LiveEngine:
         self.highpass_hz = float(highpass_hz)
         # the high-pass's state, carried from block to block (and across a loop)
         self._carry = Carry()
+        self.head = head
 
     @property
     def block_s(self) -> float:
@@ -232,6 +238,12 @@ class LiveEngine:
             self._pose_version += 1
             return self._pose_version
 
+    def set_head(self, head: Any) -> None:
+        """Turn the listener's head by ``head`` (a :class:`~auralize.audio.headtrack.HeadOrientation`,
+        or None to face the pose) from the next block on."""
+        with self._lock:
+            self.head = head
+
     def set_extra(self, sound: Any) -> None:
         """Hear ``sound`` (a :class:`auralize.emitters.Sound`, or None) from the next block on."""
         with self._lock:
@@ -240,10 +252,14 @@ class LiveEngine:
     def next_block(self) -> NDArray[np.float64]:
         """Render the next block ``(n_channels, block)`` in pascals."""
         with self._lock:
-            pose, version, extra = self._pose, self._pose_version, self.extra
+            pose, version, extra, head = self._pose, self._pose_version, self.extra, self.head
         if pose is None:
             raise ParameterError("set the listener pose before rendering")
         prev = self._prev if self._prev is not None else pose
+        self._prev = pose  # the pose as set (the head turns it afresh each block)
+        if head is not None:  # the head's orientation at this block, on both poses
+            pose = (pose[0], *head.apply(pose[1], pose[2]))
+            prev = (prev[0], *head.apply(prev[1], prev[2]))
         if self.loop and self.span_s > 0 and self.t >= self.span_s:
             self.t = 0.0
         if self.t == 0.0:
@@ -276,7 +292,6 @@ class LiveEngine:
             self.heard_blocks.append(audio.astype(np.float32))
             if len(self.heard_blocks) * dur > self.keep_heard_s:  # bounded memory
                 del self.heard_blocks[0], self.heard_rows[0]
-        self._prev = pose
         self.t += dur
         self.elapsed += dur
         self.last_version = version

@@ -297,6 +297,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.series: Any = None
         self.mapping = "auto"
         self.mapping_fields: dict[str, str] = {}
+        #: UDP port of a head tracker for live listening (``--head-tracking``), or None
+        self.head_tracking_port: int | None = None
+        self._head: Any = None
         self.load_notes: list[str] = []
         self.thresholds = Thresholds(*DEFAULTS.thresholds)
         self.autosave_dir = autosave_dir or default_autosave_dir()
@@ -1788,7 +1791,8 @@ class MainWindow(QtWidgets.QMainWindow):
         box = source_box(self.volume, hs.tracks if hs.heard.mode == "detected" else None)
         eng = LiveEngine(hs.tracks, layout=a["layout"], rate=a["rate"],
                          time_scale=self.time_scale_value(), block=int(self.block_spin.value()),
-                         extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ, box=box)  # fmt: skip
+                         extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ, box=box,
+                         head=self.head_tracker())  # fmt: skip
         target = output or self.live_file.text().strip() or None
         n_ch = eng.layout.n_channels
         sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
@@ -1799,11 +1803,25 @@ class MainWindow(QtWidgets.QMainWindow):
         self.player.set_pose(*self._cam_pose)
         self.player.start()
         why = eng.why_silent()
+        head = ("" if self._head is None else
+                f"; head tracking on UDP port {self._head.port} (SPARTA/IEM messages)")  # fmt: skip
         self.live_label.setText(why or f"live: {eng.layout.name}, block {eng.block} samples "
                                        f"({1000 * eng.block_s:.0f} ms), physical, "
                                        f"{eng.highpass_hz:g} Hz high-pass; "
-                                       f"{eng.describe_distance()}")  # fmt: skip
+                                       f"{eng.describe_distance()}{head}")  # fmt: skip
         return self.player
+
+    def head_tracker(self) -> Any:
+        """The head tracker live listening turns the listener's head by (None without
+        ``head_tracking_port``): an OSC listener opened on first use and kept until the
+        window closes (:class:`auralize.audio.headtrack.OSCHeadTracker`)."""
+        if self.head_tracking_port is None:
+            return None
+        if self._head is None:
+            from auralize.audio.headtrack import OSCHeadTracker
+
+            self._head = OSCHeadTracker(port=self.head_tracking_port)
+        return self._head
 
     def _on_camera(self, *_: Any) -> None:
         """(Camera ModifiedEvent) the latest pose, for the capture clock and live listening."""
@@ -2275,6 +2293,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stop_recording()
         self.stop_live()
         self.stop_audio()
+        if self._head is not None:
+            self._head.close()
+            self._head = None
         self._anim_timer.stop()
         if self.task is not None and self.task.isRunning():
             self.task.cancel()
@@ -2351,6 +2372,7 @@ def run_app(args: Any) -> int:
         win.mapping = opts["mapping"]
         win.mapping_box.setCurrentText(opts["mapping"])
     win.mapping_fields = dict(opts["mapping_fields"])
+    win.head_tracking_port = opts["head_tracking"]
     if getattr(args, "session", None):
         win._guard(win.load_session, args.session)
     elif opts["data"] is not None:
