@@ -37,65 +37,27 @@ from auralize.fwh import (
     sphere_surface,
     surface_from_spec,
 )
-from auralize.volume import CallableFrames, TimeVolume
+from auralize.fwh.analytic import Pulse, pulse_field, pulse_volume
+from auralize.volume import TimeVolume
 
 C0, RHO0, P0 = 343.0, 1.2, 101325.0
 H, N, ORIGIN = 0.05, 41, -1.0
 SIG, TC, A, DT, T = 5e-4, 6e-3, 5e-3, 1.5e-4, 85
 XS = np.array([0.013, -0.007, 0.011])  # the source, off the grid nodes
 BOX = (-0.6, 0.6, -0.6, 0.6, -0.6, 0.6)
-
-
-def _q(tau: np.ndarray) -> tuple[np.ndarray, ...]:
-    """q and its first two derivatives (Gaussian pulse)."""
-    s = tau - TC
-    g = A * np.exp(-(s**2) / (2 * SIG**2))
-    return g, -s / SIG**2 * g, (s**2 / SIG**4 - 1 / SIG**2) * g
+PULSE = Pulse(amplitude=A, sigma=SIG, centre=TC, c0=C0, rho0=RHO0, p0=P0)
 
 
 def _field(kind: str, xs: np.ndarray, t: float | np.ndarray, pts: np.ndarray):
     """Exact linear p' and u of a monopole or z-dipole at ``xs``."""
-    d = pts - xs
-    r = np.linalg.norm(d, axis=-1)
-    rh = d / r[..., None]
-    q, q1, q2 = _q(t - r / C0)
-    if kind == "monopole":
-        p = RHO0 * q1 / (4 * np.pi * r)
-        u = rh * (q / (4 * np.pi * r**2) + q1 / (4 * np.pi * r * C0))[..., None]
-        return p, u
-    z = d[..., 2]
-    p = -RHO0 * (z / r) * (q1 / (4 * np.pi * r**2) + q2 / (4 * np.pi * r * C0))
-    h = q / (4 * np.pi * r**3) + q1 / (4 * np.pi * r**2 * C0)
-    hr = -(3 * q / r**4 + 3 * q1 / (r**3 * C0) + q2 / (r**2 * C0**2)) / (4 * np.pi)
-    u = h[..., None] * np.array([0.0, 0.0, 1.0]) + (z * hr)[..., None] * rh
-    return p, u
+    return pulse_field(kind, xs, t, pts, PULSE)
 
 
 def _volume(kind: str = "monopole", xs: np.ndarray = XS, *, names=("density", "velocity",
             "pressure")) -> TimeVolume:  # fmt: skip
     """The exact field on the grid, computed lazily step by step."""
-    ax = ORIGIN + H * np.arange(N)
-    Z, Y, X = np.meshgrid(ax, ax, ax, indexing="ij")
-    pts = np.stack([X, Y, Z], axis=-1)
-    times = DT * np.arange(T)
-    cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-
-    def get(n: int) -> tuple[np.ndarray, np.ndarray]:
-        if n not in cache:
-            cache.clear()
-            cache[n] = _field(kind, xs, times[n], pts)
-        return cache[n]
-
-    shape = (N, N, N)
-    makers = {
-        "density": (lambda n: RHO0 + get(n)[0] / C0**2, shape),
-        "velocity": (lambda n: get(n)[1], (*shape, 3)),
-        "pressure": (lambda n: P0 + get(n)[0], shape),
-        "momentum": (lambda n: (RHO0 + get(n)[0] / C0**2)[..., None] * get(n)[1], (*shape, 3)),
-    }
-    fields = {k: CallableFrames(makers[k][0], T, makers[k][1]) for k in names}
-    return TimeVolume(origin=np.full(3, ORIGIN), spacing=np.full(3, H), dims=(N, N, N),
-                      times=times, fields=dict(fields), source="<analytic>")  # fmt: skip
+    return pulse_volume(kind, xs, n=N, spacing=H, origin=ORIGIN, steps=T, dt=DT, names=names,
+                        pulse=PULSE)  # fmt: skip
 
 
 def _observers(R: float, degrees) -> np.ndarray:

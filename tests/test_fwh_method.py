@@ -1,8 +1,8 @@
 """A render tells data that hold sound from data that hold sources, and hears each rightly.
 
 Data that hold sound: the exact linear field of a pulsating point source
-(monopole) or of a dipole stored as density, velocity and pressure (the
-fields of ``test_fwh.py``).  Data that hold sources: the built-in pulsating
+(monopole) or of a dipole stored as density, velocity and pressure
+(:mod:`auralize.fwh.analytic`, the fields of ``test_fwh.py``).  Data that hold sources: the built-in pulsating
 blob (``dataset:monopole``) and the shipped CF pulse.  The default render
 (``method="auto"``) hears the first through the FW-H integral, and gets the
 analytic far field 40 m away within 2 % (the volume sum hears it at 0.42×);
@@ -18,13 +18,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_fwh import XS, _field, _volume
 
 from auralize.errors import ParameterError
+from auralize.fwh.analytic import pulse_field, pulse_volume
 from auralize.fwh.classify import WAVE_RESIDUAL, choose_method, default_surface, wave_test
 from auralize.pipeline import ListenerPath, auralize, load
 
 RATE = 44100
+XS = np.array([0.013, -0.007, 0.011])  # pulse_volume's source, off the grid nodes
+
+
+def _volume(kind: str = "monopole", names: tuple[str, ...] = ("density", "velocity", "pressure")):  # type: ignore[no-untyped-def]
+    return pulse_volume(kind, XS, names=names)
+
+
+def _field(kind, xs, t, pts):  # type: ignore[no-untyped-def]
+    return pulse_field(kind, xs, t, pts)
 
 
 @pytest.fixture(scope="module")
@@ -145,3 +154,12 @@ def test_command_on_a_vtk_series_says_which_method(tmp_path: Path) -> None:
                          capture_output=True, text=True, timeout=600)  # fmt: skip
     assert vol.returncode == 0, vol.stderr
     assert "method: the volume sum of its sources (paper 003); as asked" in vol.stdout
+
+
+def test_bench_rows_report_the_fwh_error() -> None:
+    from auralize.bench.fwh import fwh_rows
+
+    rows = {r.name: r for r in fwh_rows(quick=True)}
+    assert rows["FW-H error against the exact field"].met is True
+    assert rows["FW-H render 40 m away, mono"].value > 0
+    assert "hold sound waves" in rows["wave test, 25³ x 85 steps"].note

@@ -434,6 +434,7 @@ def run_bench(args: argparse.Namespace) -> int:
     more = immersive_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
+    from auralize.bench.fwh import fwh_rows
     from auralize.bench.output import bench_output
     from auralize.bench.readers import bench_readers
     from auralize.bench.viewer import bench_viewer
@@ -442,7 +443,7 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
 
-    for fn in (bench_output, bench_viewer):
+    for fn in (fwh_rows, bench_output, bench_viewer):
         more = fn(args.quick)
         print(format_rows(more), flush=True)
         rows += more
