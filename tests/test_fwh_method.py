@@ -154,6 +154,11 @@ def test_command_on_a_vtk_series_says_which_method(tmp_path: Path) -> None:
                          capture_output=True, text=True, timeout=600)  # fmt: skip
     assert vol.returncode == 0, vol.stderr
     assert "method: the volume sum of its sources (paper 003); as asked" in vol.stdout
+    # info says which method a render would use, and why
+    info = subprocess.run([sys.executable, "-m", "auralize", "info", str(pvd)],
+                          capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert info.returncode == 0, info.stderr
+    assert "method   fwh: the data hold sound waves" in info.stdout
 
 
 def test_bench_rows_report_the_fwh_error() -> None:

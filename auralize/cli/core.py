@@ -367,6 +367,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     d["roles"] = {r: f for r, f in roles.items() if f is not None}
     d["role_reasons"] = {r: role_reason(vol, r, f) for r, f in d["roles"].items()}
     d["mapping"] = auto_mapping(vol)
+    d["method"] = _render_method(vol)
     for key in ("reader", "time_units", "time_dim", "grid_units", "axis_units", "projection",
                 "mesh", "resampling"):  # fmt: skip
         if key in vol.attrs:
@@ -407,7 +408,28 @@ def cmd_info(args: argparse.Namespace) -> int:
     for r, f in d["roles"].items():
         print(f"  role     {r} = {f}: {d['role_reasons'][r]}")
     print(f"  mapping  {d['mapping']} (default; --mapping to choose)")
+    m = d["method"]
+    print(f"  method   {m['name']}: {m['why']} (render's --method auto; --method to choose)")
     return 0
+
+
+#: grid values (points x steps read) above which ``info`` leaves the wave test to the render
+INFO_WAVE_TEST_VALUES = 50_000_000
+
+
+def _render_method(vol: Any) -> dict[str, str]:
+    """How ``auralize render`` would hear ``vol`` (:func:`auralize.fwh.classify.choose_method`),
+    unless the wave test would read too much for ``info`` (then said so)."""
+    from auralize.fwh.classify import SAMPLE_STEPS, choose_method
+
+    if vol.n_points * 6 * SAMPLE_STEPS > INFO_WAVE_TEST_VALUES:
+        return {
+            "name": "decided by render",
+            "why": "the wave test reads 48 steps, left to the render for data this large",
+        }
+    how = choose_method(vol)
+    name = "fwh" if how.name == "fwh" else "volume"
+    return {"name": name, "why": how.why}
 
 
 def cmd_dataset(args: argparse.Namespace) -> int:
