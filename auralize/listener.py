@@ -15,7 +15,7 @@ import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,9 +25,6 @@ from auralize.io.files import atomic_write, read_timed_csv
 
 FORWARD = np.array([0.0, 1.0, 0.0])
 UP = np.array([0.0, 0.0, 1.0])
-
-#: what an orbit's listener faces (:meth:`ListenerPath.orbit`)
-OrbitFace = Literal["sweep", "center", "forward", "fixed"]
 
 
 @dataclass
@@ -206,7 +203,7 @@ class ListenerPath:
     @classmethod
     def orbit(cls, center: tuple[float, float, float] | NDArray[np.floating], *, radius: float,
               duration: float, turns: float = 1.0, height: float = 0.0,
-              rate_hz: float | None = 20.0, face: OrbitFace = "center") -> ListenerPath:  # fmt: skip
+              rate_hz: float | None = 20.0, face: str = "center") -> ListenerPath:  # fmt: skip
         """Horizontal circle around ``center`` (counter-clockwise seen from +z).
 
         Parameters
@@ -502,7 +499,7 @@ class ListenerPath:
 
 
 #: what an orbit's listener faces (:meth:`ListenerPath.orbit`)
-ORBIT_FACES: tuple[str, ...] = get_args(OrbitFace)
+ORBIT_FACES = ("sweep", "center", "forward", "fixed")
 #: how many times the data pass around a ``face="sweep"`` orbit's listener
 SWEEP_TURNS = 2.0
 #: arc between the captures of an orbit captured as often as it needs: the polyline
@@ -525,7 +522,7 @@ def _box(bounds: tuple[float, ...] | NDArray[np.floating]) -> tuple[NDArray[np.f
 
 def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
                  turns: float = 1.0, radius: float | None = None,
-                 rate_hz: float | None = None, face: OrbitFace = "sweep") -> ListenerPath:  # fmt: skip
+                 rate_hz: float | None = None, face: str = "sweep") -> ListenerPath:  # fmt: skip
     """A horizontal orbit around the centre of ``bounds`` (the data's box).
 
     Parameters

@@ -25,7 +25,7 @@ import threading
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -320,9 +320,9 @@ def _flac_mask_note(lay: Layout | None, sidecar: dict[str, Any] | None, n_ch: in
 
 
 def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
-                channel_mask: int | None = None, normalize: Normalize = "peak",
+                channel_mask: int | None = None, normalize: str = "peak",
                 limit_pa: float | None = None, sidecar: dict[str, Any] | None = None,
-                subtype: SampleFormat | None = None, layout: Layout | str | None = None) -> float:  # fmt: skip
+                subtype: str | None = None, layout: Layout | str | None = None) -> float:  # fmt: skip
     """Write audio to ``path`` (``.wav`` or ``.flac``) and ``path.json``, both or neither.
 
     The samples are checked as they will be stored: float32 overflow and a
@@ -410,6 +410,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         raise ParameterError(f"format must be one of {WAV_FORMATS}, got {subtype!r}")
     if subtype is None:
         subtype = "pcm24" if suffix == ".flac" else "float32"
+    sample_format = cast(SampleFormat, subtype)  # one of WAV_FORMATS (checked above)
     if suffix not in (".wav", ".flac"):
         raise ParameterError(f"{p}: audio output must end in .wav or .flac")
     nothing = ""
@@ -420,7 +421,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         nothing = (f"the pressure peaks at {peak_in:.3g} Pa, below {NOTHING_PA:g} Pa: round-off "
                    f"or nothing, written as silence rather than amplified to full scale")  # fmt: skip
         a = np.zeros_like(a)
-    out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
+    out, gain = normalize_audio(a, cast(Normalize, normalize), limit_pa=limit_pa)  # checked there
     if suffix == ".flac" and subtype == "float32":
         raise ParameterError("FLAC holds integer samples; use --format pcm16|pcm24 or a WAV file")
     if suffix == ".flac" and out.shape[0] > 8:
@@ -472,7 +473,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
 
     def write_main(tmp: Path) -> None:
         if suffix == ".wav":
-            tmp.write_bytes(wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=subtype))
+            tmp.write_bytes(
+                wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=sample_format)
+            )
         else:
             import soundfile as sf
 
