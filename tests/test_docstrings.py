@@ -26,6 +26,10 @@ DOCUMENTED_MODULES: tuple[str, ...] = (
     "auralize.listener",
     "auralize.volume",
     "auralize.audio.output",
+    "auralize.spatial.ambisonics",
+    "auralize.spatial.hrtf",
+    "auralize.spatial.layouts",
+    "auralize.spatial.sofa",
 )
 
 
