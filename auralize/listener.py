@@ -477,11 +477,12 @@ class ListenerPath:
 
         Raises
         ------
-        MissingFileError
-            The file does not exist.
+        FormatError
+            The file does not exist or cannot be read as a path CSV (missing
+            columns, non-numbers ...).
         ListenerPathError
-            A malformed file or path (missing columns, non-numbers, times
-            that decrease ...).
+            The captures do not make a path (times that decrease, zero
+            orientation vectors ...).
 
         Examples
         --------
@@ -788,8 +789,10 @@ def listener_from_args(args: Any) -> ListenerPath:
     ParameterError
         Neither ``--path`` nor ``--listener``, or ``--listener`` without
         ``--duration``.
+    FormatError
+        A path file that does not exist or is not a path CSV.
     ListenerPathError
-        A bad path file or duration.
+        Captures that do not make a path, or a bad duration.
 
     Examples
     --------

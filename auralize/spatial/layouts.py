@@ -1612,6 +1612,8 @@ class OutputStage:
     ------
     ParameterError
         An ``hrtf`` for a layout other than binaural.
+    MissingFileError
+        A SOFA file that does not exist.
     FormatError
         A SOFA file that cannot be read.
 
@@ -1836,6 +1838,8 @@ def output_stage(layout: Layout | str, rate: int, *, hrtf: object = None) -> Out
     ------
     ParameterError
         An unknown layout, or an ``hrtf`` for a layout other than binaural.
+    MissingFileError
+        A SOFA file that does not exist.
     FormatError
         A SOFA file that cannot be read.
 
