@@ -15,7 +15,7 @@ import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,19 +29,33 @@ UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass
 class ListenerPath:
-    """Timed listener captures.
+    """Timed listener captures: positions and orientations at playback times.
 
     Parameters
     ----------
-    times : (N,) playback seconds, non-decreasing (N >= 1).
-    positions : (N, 3) metres.
-    forward, up : (N, 3), optional unit vectors (defaults +y and +z).
+    times : array_like, shape (N,)
+        Playback seconds of the captures, non-decreasing (N >= 1).
+    positions : array_like, shape (N, 3)
+        Listener positions in data coordinates, m (within ±:data:`MAX_COORDINATE_M`).
+    forward, up : array_like, shape (N, 3), optional
+        Forward and up vectors (normalised here; ``up`` is made orthogonal to
+        ``forward``).  Default +y and +z at every capture.
+    source : str
+        Where the path came from (for messages): a file name, ``"orbit"`` ...
+
+    Raises
+    ------
+    ListenerPathError
+        No capture; shapes that disagree; NaN/Inf; decreasing times; zero or
+        parallel orientation vectors; a coordinate beyond :data:`MAX_COORDINATE_M`.
 
     Examples
     --------
     >>> p = ListenerPath.line((0, 0, 0), (10, 0, 0), duration=2.0)
     >>> p.position_at(np.array([1.0]))
     array([[5., 0., 0.]])
+    >>> ListenerPath([0.0, 1.0], [[0, 0, 0], [1, 0, 0]], up=[[0, 1, 1], [0, 0, 1]]).up[0]
+    array([0., 0., 1.])
     """
 
     def _repr_html_(self) -> str:
@@ -105,7 +119,33 @@ class ListenerPath:
     def point(cls, position: tuple[float, float, float] | NDArray[np.floating], *,
               duration: float, forward: tuple[float, float, float] = (0, 1, 0),
               up: tuple[float, float, float] = (0, 0, 1)) -> ListenerPath:  # fmt: skip
-        """A static listener for ``duration`` seconds."""
+        """A static listener for ``duration`` seconds.
+
+        Parameters
+        ----------
+        position : array_like, shape (3,)
+            Where the listener stands, m.
+        duration : float
+            Playback seconds, > 0.
+        forward, up : array_like, shape (3,)
+            Orientation (default forward +y, up +z).
+
+        Returns
+        -------
+        ListenerPath
+            Two captures, at 0 and ``duration``.
+
+        Raises
+        ------
+        ListenerPathError
+            ``duration`` is not a positive number of seconds.
+
+        Examples
+        --------
+        >>> p = ListenerPath.point((1.0, 2.0, 0.0), duration=3.0)
+        >>> p.times.tolist(), p.position_at(1.5).tolist()
+        ([0.0, 3.0], [[1.0, 2.0, 0.0]])
+        """
         _check_duration(duration)
         p = np.asarray(position, dtype=np.float64).reshape(3)
         return cls(np.array([0.0, duration]), np.stack([p, p]),
@@ -114,10 +154,35 @@ class ListenerPath:
     @classmethod
     def line(cls, start: tuple[float, float, float] | NDArray[np.floating],
              end: tuple[float, float, float] | NDArray[np.floating], *, duration: float,
-             n: int = 2, face: str = "forward") -> ListenerPath:  # fmt: skip
+             n: int = 2, face: Literal["forward", "fixed"] = "forward") -> ListenerPath:  # fmt: skip
         """Straight line from ``start`` to ``end`` at constant speed.
 
-        ``face="forward"`` looks along the motion; ``"fixed"`` keeps +y.
+        Parameters
+        ----------
+        start, end : array_like, shape (3,)
+            First and last position, m.
+        duration : float
+            Playback seconds from ``start`` to ``end``, > 0.
+        n : int
+            Number of captures (>= 2), evenly spaced.
+        face : {"forward", "fixed"}
+            ``"forward"`` looks along the motion; ``"fixed"`` keeps forward +y
+            (also used when ``start == end``).
+
+        Returns
+        -------
+        ListenerPath
+
+        Raises
+        ------
+        ListenerPathError
+            A bad ``duration`` or ``n``.
+
+        Examples
+        --------
+        >>> p = ListenerPath.line((0, 0, 0), (4, 0, 0), duration=2.0, n=3)
+        >>> p.positions[:, 0].tolist(), p.forward[0].tolist()
+        ([0.0, 2.0, 4.0], [1.0, 0.0, 0.0])
         """
         _check_duration(duration)
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 2:
@@ -141,16 +206,47 @@ class ListenerPath:
               rate_hz: float | None = 20.0, face: str = "center") -> ListenerPath:  # fmt: skip
         """Horizontal circle around ``center`` (counter-clockwise seen from +z).
 
-        Captured at ``rate_hz`` (None: as often as the circle needs, every
-        :data:`ORBIT_STEP_RAD` of arc, so that the polyline of captures is
-        within 10⁻⁴ of the radius of the circle), at least 3 captures.
-        ``face``: ``"center"`` looks at the centre; ``"forward"`` along the
-        motion; ``"fixed"`` along +y throughout (a fixed world orientation);
-        ``"sweep"`` turns the head so that the centre passes around the
-        listener (front, left, back, right) :data:`SWEEP_TURNS` times over
-        the orbit, whatever part of a turn the orbit covers: every speaker of
-        a layout hears the data, also when their sound lasts only part of the
-        render.
+        Parameters
+        ----------
+        center : array_like, shape (3,)
+            Centre of the circle, m.
+        radius : float
+            Radius of the circle, m, > 0.
+        duration : float
+            Playback seconds of the orbit, > 0.
+        turns : float
+            Turns over ``duration`` (negative: clockwise).
+        height : float
+            Height of the circle above ``center``, m.
+        rate_hz : float or None
+            Captures per playback second; None: as often as the circle needs,
+            every :data:`ORBIT_STEP_RAD` of arc, so that the polyline of
+            captures is within 10⁻⁴ of the radius of the circle.  At least 3
+            captures either way.
+        face : {"center", "forward", "fixed", "sweep"}
+            ``"center"`` looks at the centre; ``"forward"`` along the motion;
+            ``"fixed"`` along +y throughout (a fixed world orientation);
+            ``"sweep"`` turns the head so that the centre passes around the
+            listener (front, left, back, right) :data:`SWEEP_TURNS` times over
+            the orbit, whatever part of a turn the orbit covers: every speaker
+            of a layout hears the data, also when their sound lasts only part
+            of the render.
+
+        Returns
+        -------
+        ListenerPath
+
+        Raises
+        ------
+        ListenerPathError
+            A bad duration, radius, rate, turns, height or face; more captures
+            than memory holds.
+
+        Examples
+        --------
+        >>> p = ListenerPath.orbit((0, 0, 0), radius=2.0, duration=1.0, rate_hz=4)
+        >>> p.n_captures, np.round(p.position_at(0.25), 12).tolist(), p.forward[0].tolist()
+        (5, [[0.0, 2.0, 0.0]], [-1.0, 0.0, 0.0])
         """
         _check_duration(duration)
         if not radius > 0:
@@ -196,21 +292,66 @@ class ListenerPath:
     # -------------------------------------------------------------- queries
     @property
     def duration(self) -> float:
+        """Playback seconds from the first capture to the last.
+
+        Examples
+        --------
+        >>> ListenerPath([0.5, 2.0], np.zeros((2, 3))).duration
+        1.5
+        """
         return float(self.times[-1] - self.times[0])
 
     @property
     def n_captures(self) -> int:
+        """Number of captures N.
+
+        Examples
+        --------
+        >>> ListenerPath.line((0, 0, 0), (1, 0, 0), duration=1.0, n=5).n_captures
+        5
+        """
         return int(self.times.size)
 
     def position_at(self, t: NDArray[np.floating] | float) -> NDArray[np.float64]:
-        """Linearly interpolated positions ``(len(t), 3)`` (held outside the path)."""
+        """Listener positions at playback times, interpolated linearly.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (M,)
+            Playback seconds; before the first capture or after the last the
+            position is held.
+
+        Returns
+        -------
+        ndarray, shape (M, 3)
+            Positions, m.
+
+        Examples
+        --------
+        >>> p = ListenerPath.line((0, 0, 0), (10, 0, 0), duration=2.0)
+        >>> p.position_at([0.5, 3.0])[:, 0].tolist()
+        [2.5, 10.0]
+        """
         tt = np.atleast_1d(np.asarray(t, dtype=np.float64))
         return np.stack([np.interp(tt, self.times, self.positions[:, a]) for a in range(3)], 1)
 
     def quaternions(self) -> NDArray[np.float64]:
-        """Orientation of each capture as a unit quaternion ``(N, 4)`` (w, x, y, z),
-        rotating the reference frame (forward +y, up +z) onto (forward, up).
-        Consecutive quaternions share a hemisphere so slerp takes the short way.
+        """Orientation of each capture as a unit quaternion.
+
+        The quaternion rotates the reference frame (forward +y, up +z) onto
+        the capture's (forward, up).  Consecutive quaternions share a
+        hemisphere so slerp takes the short way.
+
+        Returns
+        -------
+        ndarray, shape (N, 4)
+            Unit quaternions (w, x, y, z).
+
+        Examples
+        --------
+        >>> p = ListenerPath([0, 1], np.zeros((2, 3)), forward=[[0, 1, 0], [-1, 0, 0]])
+        >>> np.round(p.quaternions(), 6).tolist()   # identity, then 90° about +z
+        [[1.0, 0.0, 0.0, 0.0], [0.707107, 0.0, 0.0, 0.707107]]
         """
         assert self.forward is not None and self.up is not None
         f, u = self.forward, self.up
@@ -225,7 +366,25 @@ class ListenerPath:
     def orientation_at(
         self, t: NDArray[np.floating] | float
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Forward and up ``(len(t), 3)`` by slerp between captures."""
+        """Forward and up vectors at playback times, by slerp between captures.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (M,)
+            Playback seconds (held before the first and after the last capture).
+
+        Returns
+        -------
+        forward, up : ndarray, shape (M, 3)
+            Unit vectors in data coordinates.
+
+        Examples
+        --------
+        >>> p = ListenerPath([0, 1], np.zeros((2, 3)), forward=[[0, 1, 0], [-1, 0, 0]])
+        >>> f, u = p.orientation_at(0.5)
+        >>> np.round(f, 6).tolist(), u.tolist()
+        ([[-0.707107, 0.707107, 0.0]], [[0.0, 0.0, 1.0]])
+        """
         tt = np.atleast_1d(np.asarray(t, dtype=np.float64))
         q = self.quaternions()
         if self.n_captures == 1:
@@ -240,7 +399,19 @@ class ListenerPath:
         return _quat_axis(qi, FORWARD), _quat_axis(qi, UP)
 
     def speeds(self) -> NDArray[np.float64]:
-        """Speed on each capture interval (m per playback second)."""
+        """Speed on each capture interval.
+
+        Returns
+        -------
+        ndarray, shape (N - 1,)
+            m per playback second; inf where the listener jumps (a move in
+            zero time), 0 where it stands still.
+
+        Examples
+        --------
+        >>> ListenerPath([0, 1, 1, 3], [[0, 0, 0], [2, 0, 0], [3, 0, 0], [3, 0, 0]]).speeds()
+        array([ 2., inf,  0.])
+        """
         dt = np.diff(self.times)
         dp = np.linalg.norm(np.diff(self.positions, axis=0), axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -248,7 +419,27 @@ class ListenerPath:
 
     # ------------------------------------------------------------------ I/O
     def to_csv(self, path: str | Path) -> None:
-        """Write ``t,x,y,z,fx,fy,fz,ux,uy,uz`` atomically."""
+        """Write the path as CSV ``t,x,y,z,fx,fy,fz,ux,uy,uz``, atomically.
+
+        Parameters
+        ----------
+        path : str or Path
+            The file to write (replaced as a whole, or left as it was).
+
+        Raises
+        ------
+        OutputError
+            The file cannot be written.
+
+        Examples
+        --------
+        >>> out = Path("path.csv")   # examples run in a temporary folder
+        >>> ListenerPath.point((1, 0, 0), duration=2.0).to_csv(out)
+        >>> out.read_text().splitlines()[1]
+        '0,1,0,0,0,1,0,0,0,1'
+        >>> ListenerPath.from_csv(out).duration
+        2.0
+        """
         buf = io.StringIO()
         buf.write(csv_header() + "\n")
         for row in self.rows():
@@ -256,12 +447,50 @@ class ListenerPath:
         atomic_write(Path(path), buf.getvalue().encode())
 
     def rows(self) -> NDArray[np.float64]:
+        """The captures as the rows of the CSV format (:func:`csv_header`).
+
+        Returns
+        -------
+        ndarray, shape (N, 10)
+            ``t, x, y, z, fx, fy, fz, ux, uy, uz`` per capture.
+
+        Examples
+        --------
+        >>> ListenerPath.point((1, 2, 3), duration=1.0).rows()[1].tolist()
+        [1.0, 1.0, 2.0, 3.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        """
         assert self.forward is not None and self.up is not None
         return np.column_stack([self.times, self.positions, self.forward, self.up])
 
     @classmethod
     def from_csv(cls, path: str | Path) -> ListenerPath:
-        """Read a path CSV (header ``t,x,y,z`` [``,fx,fy,fz,ux,uy,uz``])."""
+        """Read a path CSV (header ``t,x,y,z`` [``,fx,fy,fz,ux,uy,uz``]).
+
+        Parameters
+        ----------
+        path : str or Path
+            The CSV file (see the module docstring for its format).
+
+        Returns
+        -------
+        ListenerPath
+
+        Raises
+        ------
+        FormatError
+            The file does not exist or cannot be read as a path CSV (missing
+            columns, non-numbers ...).
+        ListenerPathError
+            The captures do not make a path (times that decrease, zero
+            orientation vectors ...).
+
+        Examples
+        --------
+        >>> f = Path("walk.csv")
+        >>> _ = f.write_text("t,x,y,z\\n0,0,0,0\\n2,4,0,0\\n")
+        >>> ListenerPath.from_csv(f).position_at(1.0).tolist()
+        [[2.0, 0.0, 0.0]]
+        """
         a, has_orient, src = read_timed_csv(
             path, what="listener path", optional=["fx", "fy", "fz", "ux", "uy", "uz"]
         )
@@ -297,12 +526,39 @@ def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: 
                  rate_hz: float | None = None, face: str = "sweep") -> ListenerPath:  # fmt: skip
     """A horizontal orbit around the centre of ``bounds`` (the data's box).
 
-    The default radius is :data:`ORBIT_RADIUS_FACTOR` half-diagonals: outside the
-    data, close enough that every source is heard (at most 3× farther than the
-    nearest).  By default the listener's head turns so that the data pass once
-    around it (``face="sweep"``, see :meth:`ListenerPath.orbit`): on a
-    speaker layout every channel carries them in turn.  Captured as often as
-    the circle needs (``rate_hz=None``).
+    Parameters
+    ----------
+    bounds : array_like, shape (6,)
+        ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the data, m.
+    duration : float
+        Playback seconds, > 0.
+    turns : float
+        Turns over ``duration``.
+    radius : float, optional
+        m; default :data:`ORBIT_RADIUS_FACTOR` half-diagonals of the box:
+        outside the data, close enough that every source is heard (at most
+        3× farther than the nearest).
+    rate_hz : float, optional
+        Captures per playback second; default as often as the circle needs.
+    face : {"sweep", "center", "forward", "fixed"}
+        See :meth:`ListenerPath.orbit`.  By default the listener's head turns
+        so that the data pass around it: on a speaker layout every channel
+        carries them in turn.
+
+    Returns
+    -------
+    ListenerPath
+
+    Raises
+    ------
+    ListenerPathError
+        Bounds that are not finite or have max < min; a bad orbit parameter.
+
+    Examples
+    --------
+    >>> p = orbit_around((0, 2, 0, 2, 0, 0), duration=1.0, face="center")
+    >>> round(float(np.linalg.norm(p.positions[0] - [1, 1, 0])), 6)   # 2 half-diagonals
+    2.828427
     """
     c, half = _box(bounds)
     r = ORBIT_RADIUS_FACTOR * half if radius is None else radius
@@ -313,10 +569,36 @@ def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: 
 
 def line_past(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
               length: float | None = None) -> ListenerPath:  # fmt: skip
-    """A straight fly-by along +x past the data's box, ``ORBIT_RADIUS_FACTOR``
-    half-diagonals in front of its centre (−y), from two half-diagonals on the
-    left of it to two on the right (or ``length`` metres if shorter, centred),
-    facing along the motion."""
+    """A straight fly-by along +x past the data's box, facing along the motion.
+
+    The line runs :data:`ORBIT_RADIUS_FACTOR` half-diagonals in front of the
+    box's centre (towards −y), from two half-diagonals on the left of it to two
+    on the right (or ``length`` metres if that is shorter, centred).
+
+    Parameters
+    ----------
+    bounds : array_like, shape (6,)
+        ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the data, m.
+    duration : float
+        Playback seconds, > 0.
+    length : float, optional
+        Largest length of the line, m.
+
+    Returns
+    -------
+    ListenerPath
+
+    Raises
+    ------
+    ListenerPathError
+        Bounds that are not finite or have max < min; a bad duration.
+
+    Examples
+    --------
+    >>> p = line_past((-1, 1, -1, 1, -1, 1), duration=2.0, length=2.0)
+    >>> np.round(p.positions, 4).tolist()
+    [[-1.0, -3.4641, 0.0], [1.0, -3.4641, 0.0]]
+    """
     c, half = _box(bounds)
     off = np.array([0.0, -ORBIT_RADIUS_FACTOR * half, 0.0])
     reach = ORBIT_RADIUS_FACTOR * half
@@ -327,7 +609,25 @@ def line_past(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: flo
 
 
 def describe_path(path: ListenerPath) -> str:
-    """One phrase saying where the listener is (for reports)."""
+    """One phrase saying where the listener is (for reports).
+
+    Parameters
+    ----------
+    path : ListenerPath
+
+    Returns
+    -------
+    str
+        Its position when it stands still, else its source, captures, duration
+        and bounding box.
+
+    Examples
+    --------
+    >>> describe_path(ListenerPath.point((1, 2, 3), duration=1.0))
+    'at (1, 2, 3) m'
+    >>> describe_path(ListenerPath.line((0, 0, 0), (4, 0, 0), duration=2.0))
+    'line path of 2 captures over 2 s within x[0, 4] y[0, 0] z[0, 0] m'
+    """
     p = path.positions
     if np.allclose(p, p[0]):
         return f"at ({', '.join(f'{v:.4g}' for v in p[0])}) m"
@@ -337,10 +637,37 @@ def describe_path(path: ListenerPath) -> str:
 
 
 def csv_header() -> str:
+    """The header line of a listener path CSV as written (without a newline).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> csv_header()
+    't,x,y,z,fx,fy,fz,ux,uy,uz'
+    """
     return "t,x,y,z,fx,fy,fz,ux,uy,uz"
 
 
 def format_row(row: NDArray[np.float64]) -> str:
+    """One CSV line of a capture, 9 significant digits per value (no newline).
+
+    Parameters
+    ----------
+    row : ndarray, shape (10,)
+        A row of :meth:`ListenerPath.rows`.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> format_row(np.array([0.5, 1 / 3, 0, 0, 0, 1, 0, 0, 0, 1]))
+    '0.5,0.333333333,0,0,0,1,0,0,0,1'
+    """
     return ",".join(f"{v:.9g}" for v in row)
 
 
@@ -443,11 +770,38 @@ def _quat_axis(q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.flo
 def listener_from_args(args: Any) -> ListenerPath:
     """The :class:`ListenerPath` of the common output options ``--path`` or ``--listener``/``--duration``.
 
-    ``args`` is any object with attributes ``path``, ``listener`` and
-    ``duration`` (the parsed options of a command that writes audio).
-
     With ``--path`` and ``--duration``, the path is rendered for ``--duration``
-    seconds (its last capture is held beyond its end).
+    seconds (its last capture is held beyond its end: :func:`render_duration`).
+
+    Parameters
+    ----------
+    args : object
+        Any object with attributes ``path`` (CSV file or None), ``listener``
+        (x, y, z in m, or None) and ``duration`` (playback seconds or None):
+        the parsed options of a command that writes audio.
+
+    Returns
+    -------
+    ListenerPath
+
+    Raises
+    ------
+    ParameterError
+        Neither ``--path`` nor ``--listener``, or ``--listener`` without
+        ``--duration``.
+    FormatError
+        A path file that does not exist or is not a path CSV.
+    ListenerPathError
+        Captures that do not make a path, or a bad duration.
+
+    Examples
+    --------
+    >>> from argparse import Namespace
+    >>> listener_from_args(Namespace(path=None, listener=(0, 0, 1), duration=2.0)).duration
+    2.0
+    >>> listener_from_args(Namespace(path=None, listener=(0, 0, 1), duration=None))
+    Traceback (most recent call last):
+    auralize.errors.ParameterError: --listener needs --duration S (seconds to render)
     """
     if args.path:
         return ListenerPath.from_csv(args.path)
@@ -458,8 +812,37 @@ def listener_from_args(args: Any) -> ListenerPath:
     return ListenerPath.point(args.listener, duration=args.duration)
 
 
-def render_duration(args: Any, path: Any, default: float | None = None) -> float:
-    """Playback seconds a command renders: ``--duration``, else the path's, else ``default``."""
+def render_duration(args: Any, path: Any, *, default: float | None = None) -> float:
+    """Playback seconds a command renders: ``--duration``, else the path's, else ``default``.
+
+    Parameters
+    ----------
+    args : object
+        Parsed options with an attribute ``duration`` (seconds or None).
+    path : ListenerPath or None
+        The listener path, if any.
+    default : float, optional
+        Seconds when neither gives a duration.
+
+    Returns
+    -------
+    float
+        Playback seconds.
+
+    Raises
+    ------
+    ParameterError
+        No duration from any of the three.
+
+    Examples
+    --------
+    >>> from argparse import Namespace
+    >>> path = ListenerPath.point((0, 0, 0), duration=3.0)
+    >>> render_duration(Namespace(duration=None), path), render_duration(Namespace(duration=1), path)
+    (3.0, 1.0)
+    >>> render_duration(Namespace(duration=None), None, default=0.5)
+    0.5
+    """
     if args.duration is not None:
         return float(args.duration)
     if path is not None:

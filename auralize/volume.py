@@ -37,21 +37,78 @@ class FrameSource(Protocol):
     """Anything that can hand out one time step of one field.
 
     ``frame_shape`` is ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)``; ``read(step)``
-    returns a new float array of that shape.
+    returns a new float array of that shape.  :class:`ArrayFrames`,
+    :class:`CallableFrames` and the readers of :mod:`auralize.io` are frame
+    sources.
+
+    Examples
+    --------
+    >>> isinstance(ArrayFrames(np.zeros((2, 3, 4, 5))), FrameSource)
+    True
     """
 
     @property
-    def n_steps(self) -> int: ...
+    def n_steps(self) -> int:
+        """Number of time steps T.
+
+        Examples
+        --------
+        >>> ArrayFrames(np.zeros((2, 3, 4, 5))).n_steps
+        2
+        """
+        ...
 
     @property
-    def frame_shape(self) -> tuple[int, ...]: ...
+    def frame_shape(self) -> tuple[int, ...]:
+        """Shape of one frame: ``(nz, ny, nx)`` (scalar) or ``(nz, ny, nx, 3)`` (vector).
 
-    def read(self, step: int) -> NDArray[np.floating]: ...
+        Examples
+        --------
+        >>> ArrayFrames(np.zeros((2, 3, 4, 5, 3))).frame_shape
+        (3, 4, 5, 3)
+        """
+        ...
+
+    def read(self, step: int) -> NDArray[np.floating]:
+        """One time step as a new float array.
+
+        Parameters
+        ----------
+        step : int
+            Time step, 0 <= step < :attr:`n_steps`.
+
+        Returns
+        -------
+        ndarray, shape :attr:`frame_shape`
+
+        Examples
+        --------
+        >>> ArrayFrames(np.arange(4.0).reshape(4, 1, 1, 1)).read(2).tolist()
+        [[[2.0]]]
+        """
+        ...
 
 
 @dataclass
 class ArrayFrames:
-    """Frames held in memory as one ``(T, nz, ny, nx[, 3])`` array."""
+    """Frames held in memory as one ``(T, nz, ny, nx[, 3])`` array.
+
+    Parameters
+    ----------
+    array : array_like, shape (T, nz, ny, nx) or (T, nz, ny, nx, 3)
+        The field's values at every time step (not copied).
+
+    Raises
+    ------
+    DataError
+        Any other shape.
+
+    Examples
+    --------
+    >>> frames = ArrayFrames(np.ones((3, 2, 2, 2)))
+    >>> frames.n_steps, frames.frame_shape, float(frames.read(0).sum())
+    (3, (2, 2, 2), 8.0)
+    """
 
     array: NDArray[np.floating]
 
@@ -65,25 +122,93 @@ class ArrayFrames:
 
     @property
     def n_steps(self) -> int:
+        """Number of time steps T (the array's first axis).
+
+        Examples
+        --------
+        >>> ArrayFrames(np.zeros((3, 2, 2, 2))).n_steps
+        3
+        """
         return int(self.array.shape[0])
 
     @property
     def frame_shape(self) -> tuple[int, ...]:
+        """Shape of one frame, ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)``.
+
+        Examples
+        --------
+        >>> ArrayFrames(np.zeros((3, 2, 4, 5))).frame_shape
+        (2, 4, 5)
+        """
         return tuple(int(s) for s in self.array.shape[1:])
 
     def read(self, step: int) -> NDArray[np.floating]:
+        """A float64 copy of time step ``step``.
+
+        Parameters
+        ----------
+        step : int
+            Time step (negative counts from the end, as in numpy).
+
+        Returns
+        -------
+        ndarray, shape :attr:`frame_shape`
+
+        Examples
+        --------
+        >>> ArrayFrames(np.arange(3).reshape(3, 1, 1, 1)).read(-1).dtype
+        dtype('float64')
+        """
         return np.array(self.array[step], dtype=np.float64)
 
 
 @dataclass
 class CallableFrames:
-    """Frames computed on demand by ``fn(step) -> array`` (generators, readers)."""
+    """Frames computed on demand by ``fn(step) -> array`` (generators, readers).
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(step)`` returns time step ``step`` as an array of ``frame_shape``.
+    n_steps : int
+        Number of time steps T.
+    frame_shape : tuple of int
+        ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)``.
+
+    Examples
+    --------
+    >>> frames = CallableFrames(lambda k: np.full((2, 2, 2), k), n_steps=4, frame_shape=(2, 2, 2))
+    >>> float(frames.read(3)[0, 0, 0])
+    3.0
+    """
 
     fn: Callable[[int], NDArray[np.floating]]
     n_steps: int
     frame_shape: tuple[int, ...]
 
     def read(self, step: int) -> NDArray[np.floating]:
+        """Time step ``step``, computed by ``fn``, as float64.
+
+        Parameters
+        ----------
+        step : int
+            Time step.
+
+        Returns
+        -------
+        ndarray, shape :attr:`frame_shape`
+
+        Raises
+        ------
+        DataError
+            ``fn`` returned an array of another shape.
+
+        Examples
+        --------
+        >>> CallableFrames(lambda k: np.zeros(3), n_steps=1, frame_shape=(1, 1, 1)).read(0)
+        Traceback (most recent call last):
+        auralize.errors.DataError: frame 0 has shape (3,), expected (1, 1, 1)
+        """
         out = np.asarray(self.fn(step), dtype=np.float64)
         if out.shape != self.frame_shape:
             raise DataError(f"frame {step} has shape {out.shape}, expected {self.frame_shape}")
@@ -92,7 +217,7 @@ class CallableFrames:
 
 @dataclass
 class TimeVolume:
-    """A time series of point fields on a uniform grid.
+    """A time series of point fields on a uniform or curvilinear grid.
 
     Parameters
     ----------
@@ -123,6 +248,16 @@ class TimeVolume:
         False.  ``None`` means every point is valid.  Static over time: it is
         the first step's mesh; a mesh that moves (ParaView's ``wavy``) has NaN
         in later frames where it has left a point.
+    coords : ndarray, shape (nz, ny, nx, 3), optional
+        Each point's position (m) on a structured curvilinear grid; None on a
+        uniform grid (see the module docstring).
+
+    Raises
+    ------
+    DataError
+        Non-positive or unusable spacing, bad dims, times that are empty,
+        not finite or not strictly increasing, or fields, mask or coordinates
+        whose shapes disagree with the grid.
 
     Examples
     --------
@@ -230,9 +365,38 @@ class TimeVolume:
     ) -> TimeVolume:
         """Build a volume from in-memory ``(T, nz, ny, nx[, 3])`` arrays.
 
-        ``times=None`` means frames at :data:`DEFAULT_FRAME_RATE_HZ`.
-        ``coords (nz, ny, nx, 3)``: the points of a structured curvilinear
-        grid (``origin`` and ``spacing`` are then taken from them).
+        Parameters
+        ----------
+        fields : mapping of str to array_like
+            Named fields, each ``(T, nz, ny, nx)`` (scalar) or
+            ``(T, nz, ny, nx, 3)`` (vector), all on the same grid.
+        origin : float or (3,) tuple
+            Position of point (0, 0, 0), m (one number: the same on every axis).
+        spacing : float or (3,) tuple
+            Point spacing, m.
+        times : array_like, shape (T,), optional
+            Seconds, strictly increasing; None means frames at
+            :data:`DEFAULT_FRAME_RATE_HZ` (``physical_times`` False).
+        source : str
+            Name for messages.
+        coords : ndarray, shape (nz, ny, nx, 3), optional
+            The points of a structured curvilinear grid (``origin`` and
+            ``spacing`` are then taken from them).
+
+        Returns
+        -------
+        TimeVolume
+
+        Raises
+        ------
+        DataError
+            No field, or arrays of a bad or inconsistent shape.
+
+        Examples
+        --------
+        >>> vol = TimeVolume.from_arrays({"u": np.zeros((2, 3, 4, 5, 3))}, origin=(1, 0, 0))
+        >>> vol.dims, vol.is_vector("u"), vol.physical_times, vol.times.tolist()[1]
+        ((5, 4, 3), True, False, 0.03333333333333333)
         """
         if coords is not None:
             from auralize.curvilinear import nominal_spacing
@@ -267,13 +431,25 @@ class TimeVolume:
     # --------------------------------------------------------------- queries
     @property
     def curvilinear(self) -> bool:
-        """Whether the grid is structured curvilinear (:attr:`coords`), read natively."""
+        """Whether the grid is structured curvilinear (:attr:`coords`), read natively.
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 2))}).curvilinear
+        False
+        """
         return self.coords is not None
 
     @property
     def metric(self) -> Any:
         """The :class:`~auralize.curvilinear.CurvilinearMetric` of a curvilinear grid
-        (computed once); None on a uniform grid."""
+        (computed once); None on a uniform grid.
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 2))}).metric is None
+        True
+        """
         if self.coords is None:
             return None
         # kept outside the dataclass' fields (Dask rebuilds a volume from those)
@@ -287,25 +463,58 @@ class TimeVolume:
 
     @property
     def n_steps(self) -> int:
+        """Number of time steps T.
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((5, 2, 2, 2))}).n_steps
+        5
+        """
         return int(self.times.size)
 
     @property
     def n_points(self) -> int:
+        """Number of grid points, nx · ny · nz.
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 2, 3, 4))}).n_points
+        24
+        """
         return int(np.prod(self.dims))
 
     @property
     def shape(self) -> tuple[int, int, int]:
-        """Array shape of a scalar frame, ``(nz, ny, nx)``."""
+        """Array shape of a scalar frame, ``(nz, ny, nx)``.
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 2, 3, 4))}).shape
+        (2, 3, 4)
+        """
         nx, ny, nz = self.dims
         return (nz, ny, nx)
 
     @property
     def field_names(self) -> list[str]:
+        """Names of the fields, in order.
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 2)), "q": np.zeros((1, 2, 2, 2))}).field_names
+        ['p', 'q']
+        """
         return list(self.fields)
 
     @property
     def bounds(self) -> tuple[float, float, float, float, float, float]:
-        """``(xmin, xmax, ymin, ymax, zmin, zmax)`` in metres (pyvista order)."""
+        """``(xmin, xmax, ymin, ymax, zmin, zmax)`` in metres (pyvista order).
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 3))}, spacing=0.5).bounds
+        (0.0, 1.0, 0.0, 0.5, 0.0, 0.5)
+        """
         if self.coords is not None:
             flat = self.coords.reshape(-1, 3)
             lo_c, hi_c = flat.min(axis=0), flat.max(axis=0)
@@ -319,10 +528,42 @@ class TimeVolume:
 
     @property
     def center(self) -> NDArray[np.float64]:
+        """Centre of the bounding box, ``(3,)`` m.
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 3))}, origin=1.0).center.tolist()
+        [2.0, 1.5, 1.5]
+        """
         b = np.asarray(self.bounds).reshape(3, 2)
         return b.mean(axis=1)
 
     def is_vector(self, name: str) -> bool:
+        """Whether field ``name`` is a vector field (frames ``(nz, ny, nx, 3)``).
+
+        Parameters
+        ----------
+        name : str
+            A field of the volume.
+
+        Returns
+        -------
+        bool
+
+        Raises
+        ------
+        FieldError
+            No field of that name.
+
+        Examples
+        --------
+        >>> vol = TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 2))})
+        >>> vol.is_vector("p")
+        False
+        >>> vol.is_vector("velocity")
+        Traceback (most recent call last):
+        auralize.errors.FieldError: <memory>: no field 'velocity'; available fields: p
+        """
         return len(self._get(name).frame_shape) == 4
 
     def _get(self, name: str) -> FrameSource:
@@ -341,6 +582,37 @@ class TimeVolume:
         :class:`~auralize.errors.DataError`; without it ±Inf is replaced by NaN,
         so every consumer treats it as the no-data it is (counted alike by
         :func:`tally_nonfinite`).
+
+        Parameters
+        ----------
+        name : str
+            Field name.
+        step : int
+            Time step (negative counts from the end).
+
+        Returns
+        -------
+        ndarray, shape (nz, ny, nx) or (nz, ny, nx, 3)
+            A new float64 array.
+
+        Raises
+        ------
+        FieldError
+            No field of that name.
+        IndexError
+            ``step`` out of range.
+        DataError
+            NaN/Inf at a valid point with ``check_finite``.
+
+        Examples
+        --------
+        >>> a = np.arange(8.0).reshape(2, 1, 2, 2)
+        >>> TimeVolume.from_arrays({"p": a}).frame("p", -1).ravel().tolist()
+        [4.0, 5.0, 6.0, 7.0]
+        >>> bad = TimeVolume.from_arrays({"p": np.full((1, 1, 1, 2), np.inf)})
+        >>> bad.frame("p", 0)
+        Traceback (most recent call last):
+        auralize.errors.DataError: <memory>: field 'p' at step 0 (t=0 s) has 2 NaN/Inf values ...
         """
         src = self._get(name)
         if not -self.n_steps <= step < self.n_steps:
@@ -367,11 +639,41 @@ class TimeVolume:
         return arr
 
     def iter_frames(self, name: str) -> Iterator[NDArray[np.float64]]:
+        """Every time step of a field in turn, read as :meth:`frame` reads it.
+
+        Parameters
+        ----------
+        name : str
+            Field name.
+
+        Yields
+        ------
+        ndarray, shape (nz, ny, nx) or (nz, ny, nx, 3)
+
+        Examples
+        --------
+        >>> vol = TimeVolume.from_arrays({"p": np.arange(3.0).reshape(3, 1, 1, 1)})
+        >>> [float(f[0, 0, 0]) for f in vol.iter_frames("p")]
+        [0.0, 1.0, 2.0]
+        """
         for n in range(self.n_steps):
             yield self.frame(name, n)
 
     def load(self) -> TimeVolume:
-        """Return a copy with every field read into memory."""
+        """Return a copy with every field read into memory.
+
+        Returns
+        -------
+        TimeVolume
+            The same grid, times and attributes; fields are :class:`ArrayFrames`.
+
+        Examples
+        --------
+        >>> lazy = TimeVolume.from_arrays({"p": np.zeros((2, 1, 1, 1))})
+        >>> lazy.fields["p"] = CallableFrames(lambda k: np.full((1, 1, 1), k), 2, (1, 1, 1))
+        >>> type(lazy.load().fields["p"]).__name__, lazy.load().frame("p", 1).item()
+        ('ArrayFrames', 1.0)
+        """
         loaded = {k: ArrayFrames(np.stack(list(self.iter_frames(k)))) for k in self.fields}
         return TimeVolume(
             origin=self.origin.copy(), spacing=self.spacing.copy(), dims=self.dims,
@@ -382,7 +684,24 @@ class TimeVolume:
         )  # fmt: skip
 
     def axis_coords(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Coordinates along x, y, z (1-D arrays) of a uniform grid."""
+        """Coordinates along x, y, z of a uniform grid.
+
+        Returns
+        -------
+        x, y, z : ndarray, shapes (nx,), (ny,), (nz,)
+            Point coordinates, m.
+
+        Raises
+        ------
+        DataError
+            The grid is curvilinear (use :meth:`points`).
+
+        Examples
+        --------
+        >>> x, y, z = TimeVolume.from_arrays({"p": np.zeros((1, 1, 1, 3))}, spacing=0.5).axis_coords()
+        >>> x.tolist(), z.tolist()
+        ([0.0, 0.5, 1.0], [0.0])
+        """
         if self.coords is not None:
             raise DataError(
                 f"{self.source}: a curvilinear grid has no coordinate axes; use points()"
@@ -390,7 +709,25 @@ class TimeVolume:
         return tuple(self.origin[a] + self.spacing[a] * np.arange(self.dims[a]) for a in range(3))
 
     def points(self, flat_index: NDArray[np.integer] | None = None) -> NDArray[np.float64]:
-        """Point positions ``(N, 3)`` for C-order flat indices (all points if None)."""
+        """Point positions for C-order flat indices of a scalar frame.
+
+        Parameters
+        ----------
+        flat_index : array_like of int, shape (N,), optional
+            Indices into a C-order ravel of a ``(nz, ny, nx)`` frame; None:
+            all points.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            Positions, m.
+
+        Examples
+        --------
+        >>> vol = TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 2))}, spacing=2.0)
+        >>> vol.points(np.array([1, 7])).tolist()
+        [[2.0, 0.0, 0.0], [2.0, 2.0, 2.0]]
+        """
         if flat_index is None:
             flat_index = np.arange(self.n_points)
         if self.coords is not None:
@@ -400,20 +737,59 @@ class TimeVolume:
         return self.origin + ijk * self.spacing
 
     def contains(self, pts: NDArray[np.floating], *, tol: float = 1e-9) -> NDArray[np.bool_]:
-        """Which of ``pts (N, 3)`` lie inside the grid's bounding box."""
+        """Which points lie inside the grid's bounding box.
+
+        Parameters
+        ----------
+        pts : array_like, shape (N, 3)
+            Positions, m.
+        tol : float
+            Tolerance on each face, m.
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+
+        Examples
+        --------
+        >>> vol = TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 2))})
+        >>> vol.contains([[0.5, 0.5, 0.5], [2.0, 0.0, 0.0]]).tolist()
+        [True, False]
+        """
         b = np.asarray(self.bounds).reshape(3, 2)
         p = np.asarray(pts, dtype=np.float64).reshape(-1, 3)
         return np.all((p >= b[:, 0] - tol) & (p <= b[:, 1] + tol), axis=1)
 
     @property
     def valid_ratio(self) -> float:
-        """Fraction of grid points inside the input mesh (1.0 without a mask)."""
+        """Fraction of grid points inside the input mesh (1.0 without a mask).
+
+        Examples
+        --------
+        >>> import dataclasses
+        >>> vol = TimeVolume.from_arrays({"p": np.zeros((1, 1, 2, 2))})
+        >>> vol.valid_ratio
+        1.0
+        >>> mask = np.array([True, False, True, True]).reshape(1, 2, 2)
+        >>> dataclasses.replace(vol, valid=mask).valid_ratio
+        0.75
+        """
         if self.valid is None:
             return 1.0
         return float(np.count_nonzero(self.valid)) / float(self.valid.size)
 
     def valid_mask(self) -> NDArray[np.bool_]:
-        """The valid-point mask ``(nz, ny, nx)`` (all True when :attr:`valid` is None)."""
+        """The valid-point mask (all True when :attr:`valid` is None).
+
+        Returns
+        -------
+        ndarray of bool, shape (nz, ny, nx)
+
+        Examples
+        --------
+        >>> TimeVolume.from_arrays({"p": np.zeros((1, 1, 2, 2))}).valid_mask().tolist()
+        [[[True, True], [True, True]]]
+        """
         if self.valid is None:
             return np.ones(self.shape, dtype=bool)
         return self.valid
@@ -440,8 +816,23 @@ class TimeVolume:
             ("times", times), ("fields", fields or "none")])  # fmt: skip
 
     def describe(self) -> dict[str, object]:
-        """A JSON-able summary (used by ``auralize info``); a curvilinear grid adds the
-        shortest and longest edge between neighbouring points (``edge_lengths``, m)."""
+        """A JSON-able summary (used by ``auralize info``).
+
+        Returns
+        -------
+        dict
+            Source, grid kind, dims, origin, spacing and bounds (m), number of
+            steps, first and last time (s), whether the times are physical,
+            the valid ratio and each field's kind; a curvilinear grid adds the
+            shortest and longest edge between neighbouring points
+            (``edge_lengths``, m).
+
+        Examples
+        --------
+        >>> d = TimeVolume.from_arrays({"p": np.zeros((2, 1, 1, 2))}, times=[0, 0.5]).describe()
+        >>> d["grid"], d["dims"], d["t_end"], d["fields"]
+        ('uniform', [2, 1, 1], 0.5, {'p': 'scalar'})
+        """
         extra: dict[str, object] = {}
         if self.coords is not None:
             lengths = [np.linalg.norm(np.diff(self.coords, axis=ax), axis=-1).reshape(-1)
@@ -470,8 +861,16 @@ class TimeVolume:
 def inf_as_nan(arr: NDArray[np.float64]) -> NDArray[np.float64]:
     """``arr`` with +Inf/-Inf replaced by NaN: no-data, as NaN is (``--nan mask``).
 
-    Returns ``arr`` itself when it holds no infinity, else a new array (the
-    caller's data are never modified).
+    Parameters
+    ----------
+    arr : ndarray
+        Any float array.
+
+    Returns
+    -------
+    ndarray
+        ``arr`` itself when it holds no infinity, else a new array (the
+        caller's data are never modified).
 
     Examples
     --------
@@ -487,14 +886,35 @@ def inf_as_nan(arr: NDArray[np.float64]) -> NDArray[np.float64]:
 
 @dataclass
 class NonFiniteTally:
-    """Counts of NaN/Inf (no-data) values seen at valid points while frames are read."""
+    """Counts of NaN/Inf (no-data) values seen at valid points while frames are read.
+
+    Made by :func:`tally_nonfinite`, which updates it as frames are read.
+
+    Parameters
+    ----------
+    points_read : int
+        Valid points read so far (per frame, not per vector component).
+    nonfinite : int
+        Of those, the points with a NaN or ±Inf.
+
+    Examples
+    --------
+    >>> NonFiniteTally(points_read=8, nonfinite=2).fraction
+    0.25
+    """
 
     points_read: int = 0
     nonfinite: int = 0
 
     @property
     def fraction(self) -> float:
-        """Masked (no-data) fraction of the valid points read so far."""
+        """Masked (no-data) fraction of the valid points read so far (0 before any).
+
+        Examples
+        --------
+        >>> NonFiniteTally().fraction
+        0.0
+        """
         return self.nonfinite / self.points_read if self.points_read else 0.0
 
 
@@ -531,6 +951,28 @@ def tally_nonfinite(volume: TimeVolume) -> tuple[TimeVolume, NonFiniteTally]:
 
     Used to report the masked fraction of a run without a second pass over
     the data.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        Usually read with ``check_finite=False`` (``--nan mask``).
+
+    Returns
+    -------
+    volume : TimeVolume
+        A copy whose fields count as they are read.
+    tally : NonFiniteTally
+        The counts, updated by every frame read from the copy.
+
+    Examples
+    --------
+    >>> a = np.ones((1, 1, 2, 2)); a[0, 0, 0, 0] = np.nan
+    >>> vol = TimeVolume.from_arrays({"p": a})
+    >>> vol.check_finite = False
+    >>> counted, tally = tally_nonfinite(vol)
+    >>> _ = counted.frame("p", 0)
+    >>> tally.nonfinite, tally.points_read, tally.fraction
+    (1, 4, 0.25)
     """
     import dataclasses
 
@@ -551,4 +993,21 @@ def _vec3(value: object, name: str) -> NDArray[np.float64]:
 
 
 def as_path(p: str | Path) -> Path:
+    """A file name as a :class:`~pathlib.Path`, with ``~`` expanded.
+
+    Parameters
+    ----------
+    p : str or Path
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> as_path("data/run.h5").parts
+    ('data', 'run.h5')
+    >>> as_path("~/run.h5").is_absolute()
+    True
+    """
     return Path(p).expanduser()

@@ -25,7 +25,7 @@ import threading
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,9 +36,12 @@ from auralize.io.files import write_pair
 if TYPE_CHECKING:
     from auralize.spatial.layouts import Layout
 
-NORMALIZE_MODES = ("peak", "none")
+#: normalisation of written audio (``--normalize``): peak to full scale, or pascals
+Normalize = Literal["peak", "none"]
+NORMALIZE_MODES: tuple[str, ...] = get_args(Normalize)
 #: sample formats of WAV output (``--format``)
-WAV_FORMATS = ("float32", "pcm16", "pcm24")
+SampleFormat = Literal["float32", "pcm16", "pcm24"]
+WAV_FORMATS: tuple[str, ...] = get_args(SampleFormat)
 PEAK_LEVEL = 0.99  # full scale after peak normalisation
 
 _KSDATAFORMAT_FLOAT = bytes.fromhex("0300000000001000800000aa00389b71")
@@ -52,8 +55,20 @@ _COMMAND: list[str | None] = [None]
 def command_line() -> str | None:
     """The ``auralize`` command line being run (``auralize ARGS``, shell-quoted), or None.
 
-    Every sidecar records it under ``"command"``; outside :func:`running_command`
-    (audio written from Python) it is None.
+    Every sidecar records it under ``"command"``.
+
+    Returns
+    -------
+    str or None
+        None outside :func:`running_command` (audio written from Python).
+
+    Examples
+    --------
+    >>> command_line() is None
+    True
+    >>> with running_command(["info", "a.h5"]):
+    ...     command_line()
+    'auralize info a.h5'
     """
     return _COMMAND[0]
 
@@ -64,7 +79,13 @@ def running_command(argv: Sequence[str]) -> Iterator[str]:
 
     Parameters
     ----------
-    argv : the arguments :func:`auralize.cli.main` parsed (without the program name).
+    argv : sequence of str
+        The arguments :func:`auralize.cli.main` parsed (without the program name).
+
+    Yields
+    ------
+    str
+        The recorded command line.
 
     Examples
     --------
@@ -86,22 +107,39 @@ def running_command(argv: Sequence[str]) -> Iterator[str]:
         _COMMAND[0] = old
 
 
-def normalize_audio(audio: NDArray[np.floating], mode: str = "peak", *,
+def normalize_audio(audio: NDArray[np.floating], mode: Normalize = "peak", *,
                     limit_pa: float | None = None) -> tuple[NDArray[np.float64], float]:  # fmt: skip
     """Apply the optional pressure limiter, then the normalisation.
 
     Parameters
     ----------
-    audio : (n_channels, n_samples) pressure in Pa.
-    mode : ``"peak"`` scales the loudest sample to 0.99 full scale; ``"none"``
-        keeps pascals (a float file holds them exactly).
+    audio : array_like, shape (n_channels, n_samples)
+        Pressure in Pa.
+    mode : {"peak", "none"}
+        ``"peak"`` scales the loudest sample to :data:`PEAK_LEVEL` (0.99) full
+        scale; ``"none"`` keeps pascals (a float file holds them exactly).
     limit_pa : float, optional
         Maximum pressure in Pa: samples beyond ±limit_pa are truncated, as a
         microphone's maximum sound pressure does (paper 000 §7, explosions).
 
     Returns
     -------
-    (audio, gain) : the output and the gain applied after limiting.
+    audio : ndarray, shape (n_channels, n_samples)
+        The output.
+    gain : float
+        The gain applied after limiting (output units per Pa; 1 for ``"none"``).
+
+    Raises
+    ------
+    ParameterError
+        An unknown mode, audio that is not 2-D or holds NaN/Inf, or a limit
+        that is not a positive pressure.
+
+    Examples
+    --------
+    >>> out, gain = normalize_audio(np.array([[0.5, -2.0]]), limit_pa=1.0)
+    >>> out.tolist(), gain
+    ([[0.495, -0.99]], 0.99)
     """
     if mode not in NORMALIZE_MODES:
         raise ParameterError(f"normalize must be one of {NORMALIZE_MODES}, got {mode!r}")
@@ -123,9 +161,38 @@ def normalize_audio(audio: NDArray[np.floating], mode: str = "peak", *,
 
 
 def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | None = None,
-              subtype: str = "float32") -> bytes:  # fmt: skip
-    """Encode ``(n_channels, n_samples)`` as a WAV file (extensible header when > 2 channels
-    or when a channel mask is given)."""
+              subtype: SampleFormat = "float32") -> bytes:  # fmt: skip
+    """Encode audio as the bytes of a WAV file.
+
+    The header is WAVE_FORMAT_EXTENSIBLE when there are more than 2 channels or
+    a channel mask is given; float files carry a ``fact`` chunk.
+
+    Parameters
+    ----------
+    audio : array_like, shape (n_channels, n_samples)
+        Samples (full scale 1 for the PCM formats).
+    rate : int
+        Sample rate, Hz.
+    channel_mask : int, optional
+        WAVE ``dwChannelMask`` (speaker positions of the channels).
+    subtype : {"float32", "pcm16", "pcm24"}
+        Sample format.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    ParameterError
+        An unknown format, or PCM samples beyond [-1, 1].
+
+    Examples
+    --------
+    >>> data = wav_bytes(np.zeros((2, 100)), 48000, subtype="pcm16")
+    >>> data[:4], data[8:12], len(data)   # 44-byte header + 2 ch × 100 × 2 bytes
+    (b'RIFF', b'WAVE', 444)
+    """
     a = np.asarray(audio, dtype=np.float64)
     n_ch, n = a.shape
     if subtype == "float32":
@@ -169,7 +236,31 @@ def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | Non
 def read_wav(path: str | Path) -> tuple[NDArray[np.float64], int, int | None]:
     """Read a WAV written by :func:`wav_bytes` (float32, pcm16 or pcm24, plain or extensible).
 
-    Returns ``(audio (n_channels, n_samples), rate, channel_mask or None)``.
+    Parameters
+    ----------
+    path : str or Path
+        The WAV file.
+
+    Returns
+    -------
+    audio : ndarray, shape (n_channels, n_samples)
+        Samples as float64 (PCM scaled to full scale 1).
+    rate : int
+        Sample rate, Hz.
+    channel_mask : int or None
+        The extensible header's channel mask, None for a plain header.
+
+    Raises
+    ------
+    FormatError
+        Not RIFF/WAVE, no fmt or data chunk, or an unsupported encoding.
+
+    Examples
+    --------
+    >>> _ = Path("five.wav").write_bytes(wav_bytes(np.ones((6, 3)), 44100, channel_mask=0x3F))
+    >>> audio, rate, mask = read_wav("five.wav")
+    >>> audio.shape, rate, hex(mask)
+    ((6, 3), 44100, '0x3f')
     """
     p = Path(path)
     raw = p.read_bytes()
@@ -243,13 +334,26 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
 
     Parameters
     ----------
-    path : ``.wav`` (extensible header with ``channel_mask`` when > 2 channels)
+    path : str or Path
+        ``.wav`` (extensible header with ``channel_mask`` when > 2 channels)
         or ``.flac`` (needs samples in [-1, 1], at most 8 channels; a layout
         without a standard channel mask, from ``layout`` or the sidecar's
         ``layout``, warns that players may route its channels as the standard
         layout: :func:`auralize.spatial.layouts.flac_mask_warning`).
-    audio : (n_channels, n_samples) pressure in Pa.
-    rate : sample rate in Hz.
+    audio : array_like, shape (n_channels, n_samples)
+        Pressure in Pa.
+    rate : int
+        Sample rate in Hz.
+    channel_mask : int, optional
+        WAVE ``dwChannelMask``; default the layout's.
+    normalize : {"peak", "none"}
+        See :func:`normalize_audio`.  With ``"peak"`` a peak below
+        :data:`NOTHING_PA` is written as silence.
+    limit_pa : float, optional
+        Pressure limit in Pa (:func:`normalize_audio`).
+    sidecar : dict, optional
+        Extra entries for the sidecar JSON (``silent_why``: the reason given
+        when the audio is silent).
     subtype : {"float32", "pcm16", "pcm24"}, optional
         Sample format (``--format``).  Default: float32 for WAV (with a
         ``fact`` chunk), pcm24 for FLAC.  With ``normalize="none"`` a float
@@ -265,6 +369,27 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     -------
     float
         The normalisation gain (output units per pascal).
+
+    Raises
+    ------
+    ParameterError
+        A bad suffix, format, normalisation, limit or shape; samples that
+        would overflow or be stored as all zeros; FLAC with float samples,
+        samples beyond [-1, 1] or more than 8 channels.
+    OutputError
+        The sidecar's name is taken by a file auralize did not write, or the
+        files cannot be written.
+
+    Examples
+    --------
+    >>> pressure = np.array([[0.0, 2.0, -1.0, 0.5]])   # Pa
+    >>> gain = write_audio("tone.wav", pressure, 48000)
+    >>> audio, rate, _ = read_wav("tone.wav")
+    >>> np.round(audio, 4).tolist(), rate, gain
+    ([[0.0, 0.99, -0.495, 0.2475]], 48000, 0.495)
+    >>> import json
+    >>> json.loads(Path("tone.wav.json").read_text())["units"]
+    'full scale = 2.0202 Pa'
     """
     p = Path(path)
     a = np.asarray(audio, dtype=np.float64)
@@ -285,6 +410,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         raise ParameterError(f"format must be one of {WAV_FORMATS}, got {subtype!r}")
     if subtype is None:
         subtype = "pcm24" if suffix == ".flac" else "float32"
+    sample_format = cast(SampleFormat, subtype)  # one of WAV_FORMATS (checked above)
     if suffix not in (".wav", ".flac"):
         raise ParameterError(f"{p}: audio output must end in .wav or .flac")
     nothing = ""
@@ -295,7 +421,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         nothing = (f"the pressure peaks at {peak_in:.3g} Pa, below {NOTHING_PA:g} Pa: round-off "
                    f"or nothing, written as silence rather than amplified to full scale")  # fmt: skip
         a = np.zeros_like(a)
-    out, gain = normalize_audio(a, normalize, limit_pa=limit_pa)
+    out, gain = normalize_audio(a, cast(Normalize, normalize), limit_pa=limit_pa)  # checked there
     if suffix == ".flac" and subtype == "float32":
         raise ParameterError("FLAC holds integer samples; use --format pcm16|pcm24 or a WAV file")
     if suffix == ".flac" and out.shape[0] > 8:
@@ -347,7 +473,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
 
     def write_main(tmp: Path) -> None:
         if suffix == ".wav":
-            tmp.write_bytes(wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=subtype))
+            tmp.write_bytes(
+                wav_bytes(out, int(rate), channel_mask=channel_mask, subtype=sample_format)
+            )
         else:
             import soundfile as sf
 
@@ -373,14 +501,28 @@ SIDECAR_FORMAT = "audio-sidecar"
 
 
 def check_sidecar_target(path: str | Path) -> None:
-    """Refuse to replace ``path`` (an audio file's sidecar to be) unless auralize
-    wrote it: a sidecar of ours carries ``"auralize_format": "audio-sidecar"`` (or,
+    """Refuse to replace ``path`` (an audio file's sidecar to be) unless auralize wrote it.
+
+    A sidecar of ours carries ``"auralize_format": "audio-sidecar"`` (or,
     written before that marker, the keys ``file``, ``rate`` and ``command``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The sidecar to be written (``OUT.wav.json``).
 
     Raises
     ------
     OutputError
         ``path`` exists and is not one of auralize's sidecars.
+
+    Examples
+    --------
+    >>> check_sidecar_target("new.wav.json")   # does not exist: fine
+    >>> _ = Path("notes.wav.json").write_text('{"mine": 1}')
+    >>> check_sidecar_target("notes.wav.json")
+    Traceback (most recent call last):
+    auralize.errors.OutputError: notes.wav.json: exists and is not an auralize sidecar; ...
     """
     p = Path(path)
     if not p.exists():
@@ -406,7 +548,17 @@ NOTHING_PA = 1e-15
 
 
 class SilentAudioWarning(UserWarning):
-    """An audio file was written whose samples are all 0 (nothing was heard)."""
+    """An audio file was written whose samples are all 0 (nothing was heard).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = write_audio("quiet.wav", np.zeros((1, 64)), 8000)
+    >>> [w.category.__name__ for w in caught]
+    ['SilentAudioWarning']
+    """
 
 
 #: largest magnitude a float32 sample holds
@@ -457,7 +609,23 @@ def _json_default(o: object) -> object:
 
 # ------------------------------------------------------------------ devices
 def import_sounddevice() -> Any:
-    """Import sounddevice (PortAudio) on demand; DeviceError if it cannot load."""
+    """Import sounddevice (PortAudio) on demand.
+
+    Returns
+    -------
+    module
+        The ``sounddevice`` module.
+
+    Raises
+    ------
+    DeviceError
+        PortAudio cannot be loaded (with the package to install).
+
+    Examples
+    --------
+    >>> import_sounddevice().__name__
+    'sounddevice'
+    """
     try:
         import sounddevice
     except OSError as exc:  # libportaudio missing
@@ -472,6 +640,17 @@ def refresh_devices() -> None:
     """Re-scan sound devices (PortAudio enumerates them once, at initialisation).
 
     Call after plugging in a device or changing the ALSA configuration.
+
+    Raises
+    ------
+    DeviceError
+        PortAudio cannot be loaded.
+
+    Examples
+    --------
+    >>> refresh_devices()
+    >>> isinstance(list_devices(), list)
+    True
     """
     sd = import_sounddevice()
     sd._terminate()
@@ -479,8 +658,24 @@ def refresh_devices() -> None:
 
 
 def list_devices(*, outputs_only: bool = True) -> list[dict[str, Any]]:
-    """Sound devices as dicts ``index, name, hostapi, max_output_channels,
-    max_input_channels, default_samplerate, default`` (output devices only by default).
+    """Sound devices as dicts (output devices only by default).
+
+    Parameters
+    ----------
+    outputs_only : bool
+        Leave out devices without output channels.
+
+    Returns
+    -------
+    list of dict
+        One dict per device with ``index``, ``name``, ``hostapi``,
+        ``max_output_channels``, ``max_input_channels``,
+        ``default_samplerate`` (Hz) and ``default`` (the default output).
+
+    Raises
+    ------
+    DeviceError
+        PortAudio cannot be loaded or queried.
 
     Examples
     --------
@@ -541,6 +736,12 @@ def choose_output_device(device: int | str | None, channels: int, *,
     DeviceError
         No output device at all; index out of range; no or several matching
         names; an input-only device; too few channels without ``downmix``.
+
+    Examples
+    --------
+    >>> choose_output_device("no such device", 2)
+    Traceback (most recent call last):
+    auralize.errors.DeviceError: ...
     """
     all_devs = list_devices(outputs_only=False)
     outs = [d for d in all_devs if d["max_output_channels"] > 0]
@@ -589,8 +790,33 @@ def choose_output_device(device: int | str | None, channels: int, *,
 def downmix(
     audio: NDArray[np.floating], src: Layout | str, dst: Layout | str
 ) -> NDArray[np.float64]:
-    """Fold ``audio (src.n_channels, n)`` into layout ``dst`` (see
-    :func:`auralize.spatial.layouts.downmix_matrix`)."""
+    """Fold audio of one layout into another.
+
+    Parameters
+    ----------
+    audio : array_like, shape (src.n_channels, n)
+        Audio in ``src``'s channel order.
+    src, dst : Layout or str
+        Layouts (names or JSON files, :func:`auralize.spatial.layouts.get_layout`).
+
+    Returns
+    -------
+    ndarray, shape (dst.n_channels, n)
+        ``downmix_matrix(src, dst) @ audio``
+        (:func:`auralize.spatial.layouts.downmix_matrix`).
+
+    Raises
+    ------
+    ParameterError
+        ``audio`` does not have ``src``'s channels; a target that needs filters
+        (binaural).
+
+    Examples
+    --------
+    >>> front = np.zeros((8, 3)); front[0] = 1.0      # ring8 channel 0: straight ahead
+    >>> np.round(downmix(front, "ring8", "stereo"), 4).tolist()
+    [[0.7071, 0.7071, 0.7071], [0.7071, 0.7071, 0.7071]]
+    """
     from auralize.spatial.layouts import downmix_matrix, get_layout
 
     s = get_layout(src)
@@ -658,7 +884,29 @@ class Limiter:
         self.limited_blocks = 0
 
     def process(self, block: NDArray[np.floating]) -> NDArray[np.float32]:
-        """``(n_channels, n)`` pascals -> float32 samples within ±:data:`CEILING`."""
+        """Gain and limit one block: pascals to float32 samples within ±:data:`CEILING`.
+
+        Parameters
+        ----------
+        block : array_like, shape (n_channels, n)
+            Pressure in Pa (NaN/Inf are taken as 0).
+
+        Returns
+        -------
+        ndarray of float32, shape (n_channels, n)
+
+        Raises
+        ------
+        ParameterError
+            A block that is not 2-D.
+
+        Examples
+        --------
+        >>> lim = Limiter(gain=None)   # auto: the first sound 6 dB below full scale
+        >>> out = lim.process(np.array([[0.0, 2.0, -1.0]]))
+        >>> np.round(out.astype(float), 4).tolist(), round(lim.peak_dbfs, 2)
+        ([[0.0, 0.5012, -0.2506]], -6.0)
+        """
         x = np.asarray(block, dtype=np.float64)
         if x.ndim != 2:
             raise ParameterError(f"block must be (n_channels, n), got shape {x.shape}")
@@ -696,7 +944,30 @@ class Limiter:
 
 
 def check_gain_db(gain_db: float) -> float:
-    """A gain control value in dB (finite, within ±60 dB)."""
+    """A gain control value in dB, checked (finite, within ±60 dB).
+
+    Parameters
+    ----------
+    gain_db : float
+        Gain in dB (anything ``float()`` accepts).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ParameterError
+        Not a number, or outside -60..60 dB.
+
+    Examples
+    --------
+    >>> check_gain_db("-6")
+    -6.0
+    >>> check_gain_db(80)
+    Traceback (most recent call last):
+    auralize.errors.ParameterError: gain must be within -60..60 dB, got 80
+    """
     try:
         g = float(gain_db)
     except (TypeError, ValueError):
@@ -709,6 +980,23 @@ def check_gain_db(gain_db: float) -> float:
 class Playback:
     """A sound being played by :func:`play` (a worker thread feeds the device).
 
+    :func:`play` builds it on a device's stream and starts its thread.
+
+    Parameters
+    ----------
+    audio : ndarray, shape (n_channels, n_samples)
+        Pressure in Pa.
+    rate : int
+        Sample rate, Hz.
+    stream : object
+        Where the blocks go: ``write(block)`` takes a float32
+        ``(n_channels, n)`` block, ``close(drain=...)`` ends the stream (a
+        :class:`auralize.audio.live.LiveStream` on a device).
+    limiter : Limiter
+        Gain and limiter applied to each block.
+    block : int
+        Frames per block.
+
     Attributes
     ----------
     limiter : Limiter
@@ -717,9 +1005,19 @@ class Playback:
         Sample frames given to the device so far.
     error : BaseException or None
         What stopped the playback early, if anything.
+
+    Examples
+    --------
+    >>> class Sink:   # anything with write(block) and close(drain=...)
+    ...     def __init__(self): self.blocks = []
+    ...     def write(self, block): self.blocks.append(block)
+    ...     def close(self, drain): self.drained = drain
+    >>> pb = Playback(np.ones((2, 10)), 10, stream=Sink(), limiter=Limiter(0.5), block=4)
+    >>> pb.duration_s, pb.running, pb.frames_sent
+    (1.0, False, 0)
     """
 
-    def __init__(self, audio: NDArray[np.float64], rate: int, stream: Any, limiter: Limiter,
+    def __init__(self, audio: NDArray[np.float64], rate: int, *, stream: Any, limiter: Limiter,
                  block: int) -> None:  # fmt: skip
         self.audio, self.rate, self.stream, self.limiter = audio, int(rate), stream, limiter
         self.block = int(block)
@@ -730,10 +1028,24 @@ class Playback:
 
     @property
     def duration_s(self) -> float:
+        """Length of the sound, s.
+
+        Examples
+        --------
+        >>> Playback(np.ones((1, 22050)), 44100, stream=None, limiter=Limiter(), block=1024).duration_s
+        0.5
+        """
         return self.audio.shape[1] / self.rate
 
     @property
     def running(self) -> bool:
+        """Whether the sound is still being played.
+
+        Examples
+        --------
+        >>> Playback(np.ones((1, 10)), 10, stream=None, limiter=Limiter(), block=4).running
+        False
+        """
         return self._thread.is_alive()
 
     def _run(self) -> None:
@@ -760,13 +1072,52 @@ class Playback:
                     _PLAYING.remove(self)
 
     def stop(self, timeout: float = 2.0) -> None:
-        """Stop at the next block (within one block's time) and close the device."""
+        """Stop at the next block (within one block's time) and close the device.
+
+        Parameters
+        ----------
+        timeout : float
+            Seconds to wait for the worker thread to end.
+
+        Examples
+        --------
+        >>> pb = Playback(np.ones((1, 10)), 10, stream=None, limiter=Limiter(), block=4)
+        >>> pb.stop()   # before it starts: nothing will be played
+        >>> pb.running, pb.frames_sent
+        (False, 0)
+        """
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(timeout)
 
     def wait(self, timeout: float | None = None) -> Playback:
-        """Block until the sound has played (re-raises a device error)."""
+        """Block until the sound has played (re-raises a device error).
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Seconds to wait at most (None: until the end).
+
+        Returns
+        -------
+        Playback
+            Itself.
+
+        Raises
+        ------
+        BaseException
+            What stopped the playback (a device error), if anything.
+
+        Examples
+        --------
+        >>> class Sink:
+        ...     def write(self, block): pass
+        ...     def close(self, drain): pass
+        >>> pb = Playback(np.ones((2, 10)), 10, stream=Sink(), limiter=Limiter(0.5), block=4)
+        >>> pb._thread.start()   # as play() does
+        >>> pb.wait().frames_sent, pb.running
+        (10, False)
+        """
         self._thread.join(timeout)
         if self.error is not None:
             raise self.error
@@ -778,7 +1129,7 @@ _PLAYING_LOCK = threading.Lock()
 
 
 def play(audio: Any, rate: int | None = None, *, device: int | str | None = None,
-         gain: float | str = "auto", gain_db: float = 0.0, blocking: bool = True,
+         gain: float | Literal["auto"] = "auto", gain_db: float = 0.0, blocking: bool = True,
          block: int = 2048) -> Playback:  # fmt: skip
     """Play audio (pascals) on a sound device through a gain control and a limiter.
 
@@ -804,9 +1155,12 @@ def play(audio: Any, rate: int | None = None, *, device: int | str | None = None
     Returns
     -------
     Playback
+        The sound being played (finished when ``blocking``).
 
     Raises
     ------
+    ParameterError
+        A bad rate, audio shape, gain or block.
     DeviceError
         No usable output device, or too few channels.
 
@@ -844,7 +1198,7 @@ def play(audio: Any, rate: int | None = None, *, device: int | str | None = None
     if not (isinstance(block, int) and block > 0):
         raise ParameterError(f"block must be a positive number of frames, got {block!r}")
     stream = open_stream(rate=int(rate), channels=a.shape[0], device=device)
-    pb = Playback(a, int(rate), stream, lim, block)
+    pb = Playback(a, int(rate), stream=stream, limiter=lim, block=block)
     with _PLAYING_LOCK:
         _PLAYING.append(pb)
     pb._thread.start()
@@ -854,7 +1208,12 @@ def play(audio: Any, rate: int | None = None, *, device: int | str | None = None
 
 
 def stop() -> None:
-    """Stop every sound started by :func:`play`."""
+    """Stop every sound started by :func:`play`.
+
+    Examples
+    --------
+    >>> stop()   # nothing playing: nothing to do
+    """
     with _PLAYING_LOCK:
         playing = list(_PLAYING)
     for pb in playing:
@@ -866,14 +1225,24 @@ def fit_duration(x: np.ndarray, rate: int, duration: float | None) -> np.ndarray
 
     Parameters
     ----------
-    x : (n_samples,) or (n_channels, n_samples) signal.
-    rate : sample rate in Hz.
-    duration : seconds (``--duration``); None returns ``x`` unchanged.
+    x : ndarray, shape (n_samples,) or (n_channels, n_samples)
+        The signal.
+    rate : int
+        Sample rate in Hz.
+    duration : float or None
+        Seconds (``--duration``); None returns ``x`` unchanged.
 
     Returns
     -------
     ndarray
         ``x`` with ``round(duration * rate)`` samples on its last axis.
+
+    Examples
+    --------
+    >>> fit_duration(np.arange(1.0, 6.0), 10, 0.3).tolist()
+    [1.0, 2.0, 3.0]
+    >>> fit_duration(np.ones((1, 2)), 10, 0.4).tolist()
+    [[1.0, 1.0, 0.0, 0.0]]
     """
     if duration is None:
         return x

@@ -65,7 +65,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -79,15 +79,58 @@ if TYPE_CHECKING:
 MAX_ORDER = 10
 #: orders that have a named ``ambixN`` layout
 LAYOUT_ORDERS = (1, 2, 3)
+#: how :func:`decoder_matrix` decodes (see the module docstring)
+DecoderMethod = Literal["allrad", "mode-matching"]
+#: per-order weights of a decoder: max-rE or none
+OrderWeights = Literal["maxre", "basic"]
 
 
 def n_channels(order: int) -> int:
-    """Number of AmbiX channels (N+1)² of an order N."""
+    """Number of AmbiX channels (N+1)² of an order N.
+
+    Parameters
+    ----------
+    order : int
+        Ambisonics order N.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> [n_channels(n) for n in range(4)]
+    [1, 4, 9, 16]
+    """
     return (int(order) + 1) ** 2
 
 
 def check_order(order: object) -> int:
-    """``order`` as an int in 0..MAX_ORDER, else :class:`ParameterError`."""
+    """``order`` checked as an Ambisonics order.
+
+    Parameters
+    ----------
+    order : object
+        What was given as an order.
+
+    Returns
+    -------
+    int
+        The order, in 0..:data:`MAX_ORDER`.
+
+    Raises
+    ------
+    ParameterError
+        Not an integer (bools refused) or out of range.
+
+    Examples
+    --------
+    >>> check_order(np.int64(3))
+    3
+    >>> check_order(2.0)
+    Traceback (most recent call last):
+    auralize.errors.ParameterError: Ambisonics order must be an integer 0..10, got 2.0
+    """
     if (
         isinstance(order, bool)
         or not isinstance(order, int | np.integer)
@@ -98,7 +141,30 @@ def check_order(order: object) -> int:
 
 
 def order_of_channels(n_ch: int) -> int:
-    """The order N with (N+1)² = ``n_ch`` channels, else :class:`ParameterError`."""
+    """The order N of a signal of (N+1)² channels.
+
+    Parameters
+    ----------
+    n_ch : int
+        Number of channels.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ParameterError
+        ``n_ch`` is not a square.
+
+    Examples
+    --------
+    >>> order_of_channels(16)
+    3
+    >>> order_of_channels(5)
+    Traceback (most recent call last):
+    auralize.errors.ParameterError: an AmbiX signal has (N+1)² channels (1, 4, 9, 16, ...), got 5 channels
+    """
     n = math.isqrt(int(n_ch)) - 1
     if n < 0 or (n + 1) ** 2 != n_ch:
         raise ParameterError(
@@ -108,12 +174,44 @@ def order_of_channels(n_ch: int) -> int:
 
 
 def acn(n: int, m: int) -> int:
-    """ACN channel index of order n, degree m."""
+    """ACN channel index of order n, degree m: n² + n + m.
+
+    Parameters
+    ----------
+    n : int
+        Order, n >= 0.
+    m : int
+        Degree, -n <= m <= n.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> acn(0, 0), acn(1, -1), acn(1, 1), acn(3, 0)
+    (0, 1, 3, 12)
+    """
     return n * n + n + m
 
 
 def acn_orders(order: int) -> NDArray[np.int64]:
-    """Order n of every ACN channel up to ``order``, shape ``((N+1)²,)``."""
+    """Order n of every ACN channel up to ``order``.
+
+    Parameters
+    ----------
+    order : int
+        Ambisonics order N.
+
+    Returns
+    -------
+    ndarray of int, shape ((N+1)²,)
+
+    Examples
+    --------
+    >>> acn_orders(2).tolist()
+    [0, 1, 1, 1, 2, 2, 2, 2, 2]
+    """
     return np.repeat(np.arange(order + 1), 2 * np.arange(order + 1) + 1)
 
 
@@ -136,8 +234,19 @@ def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64
 
     Returns
     -------
-    (N+1)², M) array
+    ndarray, shape ((N+1)², M)
         Encoding gains: row ``acn(n, m)`` is Y_n^m of each direction.
+
+    Raises
+    ------
+    ParameterError
+        A bad order.
+
+    Examples
+    --------
+    >>> up = sh_gains(2, np.array([[0.0, 0.0, 1.0]]))[:, 0]
+    >>> np.round(up, 12).tolist()     # W, then Z = 1 and ACN 6 = P_2(1) = 1
+    [1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
     """
     order = check_order(order)
     d = _unit(directions)
@@ -168,8 +277,33 @@ def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64
 
 def encode(signal: NDArray[np.floating], order: int,
            directions: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
-    """AmbiX signal ``((N+1)², n)`` of a mono ``signal (n,)`` arriving from
-    ``directions`` (one ``(3,)`` direction, or ``(n, 3)``: one per sample)."""
+    """Encode a mono signal arriving from a direction as AmbiX (a plane wave).
+
+    Parameters
+    ----------
+    signal : array_like, shape (n,)
+        Pressure, Pa.
+    order : int
+        Ambisonics order N.
+    directions : array_like, shape (3,) or (n, 3)
+        Listener-frame direction (forward, left, up) the sound comes from,
+        one for all samples or one per sample.
+
+    Returns
+    -------
+    ndarray, shape ((N+1)², n)
+
+    Raises
+    ------
+    ParameterError
+        A bad order, or a number of directions that is neither 1 nor n.
+
+    Examples
+    --------
+    >>> b = encode(np.array([1.0, -0.5]), 1, np.array([1.0, 0.0, 0.0]))   # from the front
+    >>> b.tolist()   # W, Y, Z, X
+    [[1.0, -0.5], [0.0, -0.0], [0.0, -0.0], [1.0, -0.5]]
+    """
     s = np.asarray(signal, dtype=np.float64).reshape(-1)
     d = np.asarray(directions, dtype=np.float64)
     g = sh_gains(order, d)
@@ -184,7 +318,28 @@ def encode(signal: NDArray[np.floating], order: int,
 
 
 def maxre_weights(order: int) -> NDArray[np.float64]:
-    """Per-order max-rE weights a_n = P_n(cos(137.9° / (N + 1.51))), shape (N+1,)."""
+    """Per-order max-rE weights a_n = P_n(cos(137.9° / (N + 1.51))) (book §4.7.6).
+
+    Parameters
+    ----------
+    order : int
+        Ambisonics order N.
+
+    Returns
+    -------
+    ndarray, shape (N+1,)
+        a_0 … a_N (a_0 = 1).
+
+    Raises
+    ------
+    ParameterError
+        A bad order.
+
+    Examples
+    --------
+    >>> np.round(maxre_weights(1), 4).tolist()
+    [1.0, 0.5744]
+    """
     from scipy.special import eval_legendre
 
     order = check_order(order)
@@ -192,8 +347,32 @@ def maxre_weights(order: int) -> NDArray[np.float64]:
     return np.array([eval_legendre(n, c) for n in range(order + 1)])
 
 
-def order_weights(order: int, weights: str) -> NDArray[np.float64]:
-    """Per-channel weights ``((N+1)²,)`` of ``"maxre"`` or ``"basic"``."""
+def order_weights(order: int, weights: OrderWeights) -> NDArray[np.float64]:
+    """Per-channel decoder weights: each channel's a_n.
+
+    Parameters
+    ----------
+    order : int
+        Ambisonics order N.
+    weights : {"maxre", "basic"}
+        Max-rE weights (:func:`maxre_weights`) or all 1.
+
+    Returns
+    -------
+    ndarray, shape ((N+1)²,)
+
+    Raises
+    ------
+    ParameterError
+        Unknown weights or a bad order.
+
+    Examples
+    --------
+    >>> np.round(order_weights(1, "maxre"), 4).tolist()
+    [1.0, 0.5744, 0.5744, 0.5744]
+    >>> order_weights(1, "basic").tolist()
+    [1.0, 1.0, 1.0, 1.0]
+    """
     if weights == "maxre":
         a = maxre_weights(order)
     elif weights == "basic":
@@ -209,12 +388,26 @@ def sphere_quadrature(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Gauss–Legendre (in sin ϑ) × equiangular (in φ) grid on the unit sphere.
 
+    Parameters
+    ----------
+    n_el : int
+        Gauss–Legendre nodes in sin ϑ (elevations).
+    n_az : int
+        Equally spaced azimuths.
+
     Returns
     -------
-    directions : (n_el · n_az, 3) array
-    weights : (n_el · n_az,) array
+    directions : ndarray, shape (n_el · n_az, 3)
+        Unit vectors.
+    weights : ndarray, shape (n_el · n_az,)
         Quadrature weights summing to 4π; exact for every polynomial of degree
         ≤ min(2·n_el − 1, n_az − 1) on the sphere.
+
+    Examples
+    --------
+    >>> d, w = sphere_quadrature(4, 8)
+    >>> d.shape, round(float(w.sum() / np.pi), 12), round(float(w @ d[:, 2] ** 2 / np.pi), 12)
+    ((32, 3), 4.0, 1.333333333333)
     """
     zs, wz = np.polynomial.legendre.leggauss(n_el)
     az = 2 * np.pi * (np.arange(n_az) + 0.5) / n_az
@@ -270,7 +463,9 @@ def _decoder_mode_matching(
 
 
 @functools.lru_cache(maxsize=32)
-def _decoder_cached(order: int, layout: Layout, method: str, weights: str) -> NDArray[np.float64]:
+def _decoder_cached(
+    order: int, layout: Layout, method: DecoderMethod, weights: OrderWeights
+) -> NDArray[np.float64]:
     a = order_weights(order, weights)
     if layout.meta.get("ambisonic") or layout.meta.get("binaural"):
         raise ParameterError(
@@ -292,8 +487,8 @@ def _decoder_cached(order: int, layout: Layout, method: str, weights: str) -> ND
     return dec
 
 
-def decoder_matrix(order: int, layout: str | Layout, *, method: str = "allrad",
-                   weights: str = "maxre") -> NDArray[np.float64]:  # fmt: skip
+def decoder_matrix(order: int, layout: str | Layout, *, method: DecoderMethod = "allrad",
+                   weights: OrderWeights = "maxre") -> NDArray[np.float64]:  # fmt: skip
     """Decoding matrix ``(layout.n_channels, (N+1)²)`` from AmbiX to a speaker layout.
 
     Parameters
@@ -306,10 +501,28 @@ def decoder_matrix(order: int, layout: str | Layout, *, method: str = "allrad",
     method : {"allrad", "mode-matching"}
         See the module docstring.
     weights : {"maxre", "basic"}
+        Per-order weights (:func:`order_weights`).
 
     Returns
     -------
-    Read-only array; ``D @ audio`` decodes ``audio ((N+1)², n)``.
+    ndarray, shape (layout.n_channels, (N+1)²)
+        Read-only; ``D @ audio`` decodes ``audio ((N+1)², n)``.  Scaled so that
+        the loudspeaker energy averaged over all directions is 1.
+
+    Raises
+    ------
+    ParameterError
+        A bad order, method or weights; an AmbiX or binaural layout; a layout
+        too small or irregular for mode matching.
+
+    Examples
+    --------
+    >>> D = decoder_matrix(1, "ring8")
+    >>> D.shape, D.flags.writeable
+    ((8, 4), False)
+    >>> g = D @ sh_gains(1, np.array([[0.0, 1.0, 0.0]]))[:, 0]   # a source on the left
+    >>> int(np.argmax(g))                                          # speaker 2 (90°)
+    2
     """
     from auralize.spatial.layouts import get_layout
 
@@ -317,8 +530,40 @@ def decoder_matrix(order: int, layout: str | Layout, *, method: str = "allrad",
 
 
 def decode_ambisonics(audio: NDArray[np.floating], order: int, layout: str | Layout, *,
-                      method: str = "allrad", weights: str = "maxre") -> NDArray[np.float64]:  # fmt: skip
-    """Decode an AmbiX signal ``((N+1)², n)`` to speaker feeds ``(n_channels, n)``."""
+                      method: DecoderMethod = "allrad",
+                      weights: OrderWeights = "maxre") -> NDArray[np.float64]:  # fmt: skip
+    """Decode an AmbiX signal to speaker feeds (:func:`decoder_matrix`).
+
+    Parameters
+    ----------
+    audio : array_like, shape ((N+1)², n)
+        AmbiX signal (ACN, SN3D), Pa.
+    order : int
+        Its order N.
+    layout : str or Layout
+        A loudspeaker layout.
+    method : {"allrad", "mode-matching"}
+        See :func:`decoder_matrix`.
+    weights : {"maxre", "basic"}
+        See :func:`decoder_matrix`.
+
+    Returns
+    -------
+    ndarray, shape (layout.n_channels, n)
+        Speaker feeds.
+
+    Raises
+    ------
+    ParameterError
+        ``audio`` of another shape; see :func:`decoder_matrix`.
+
+    Examples
+    --------
+    >>> b = encode(np.ones(3), 1, np.array([-1.0, 0.0, 0.0]))   # from behind
+    >>> feeds = decode_ambisonics(b, 1, "ring8")
+    >>> feeds.shape, int(np.argmax(feeds[:, 0]))                  # speaker 4 (180°)
+    ((8, 3), 4)
+    """
     a = np.asarray(audio, dtype=np.float64)
     order = check_order(order)
     if a.ndim != 2 or a.shape[0] != n_channels(order):
@@ -335,13 +580,22 @@ def energy_vector(
 
     Parameters
     ----------
-    gains : (S, M) speaker gains of M sources
-    directions : (S, 3) unit speaker directions
+    gains : array_like, shape (S, M)
+        Speaker gains of M sources.
+    directions : array_like, shape (S, 3)
+        Unit speaker directions.
 
     Returns
     -------
-    (M, 3) array; its direction is the perceived direction, its length ≤ 1
-    the spread (1 = a single speaker).
+    ndarray, shape (M, 3)
+        Its direction is the perceived direction, its length ≤ 1 the spread
+        (1 = a single speaker).
+
+    Examples
+    --------
+    >>> dirs = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    >>> energy_vector(np.array([[1.0, 1.0], [0.0, 1.0]]), dirs).tolist()
+    [[1.0, 0.0, 0.0], [0.5, 0.5, 0.0]]
     """
     g2 = np.asarray(gains, dtype=np.float64) ** 2
     return (g2.T @ np.asarray(directions, dtype=np.float64)) / np.sum(g2, axis=0)[:, None]

@@ -82,7 +82,7 @@ import functools
 import math
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -100,25 +100,43 @@ EAR_AZIMUTH_DEG = 100.0
 #: head-shadow parameters of Brown & Duda Eq. 4
 ALPHA_MIN = 0.1
 THETA_MIN_DEG = 150.0
+#: how :func:`sh_hrtf_filters` fits: magnitude least squares above f_N, or plain least squares
+HrtfFit = Literal["magls", "ls"]
 
 
 @dataclass(frozen=True, eq=False)
 class HRIRSet:
     """Head-related impulse responses of M directions.
 
-    Attributes
+    Parameters
     ----------
-    ir : (M, 2, N) array
+    ir : array_like, shape (M, 2, N)
         Impulse responses, ears in order (left, right), N taps at ``rate``.
-    directions : (M, 3) array
-        Unit source directions in the listener frame (forward, left, up).
+    directions : array_like, shape (M, 3)
+        Source directions in the listener frame (forward, left, up);
+        normalised here.
     rate : int
         Sample rate (Hz).
-    weights : (M,) array or None
+    weights : ndarray, shape (M,), optional
         Quadrature weights of the directions (sum 4π) when they sample the
         sphere exactly, else None (least-squares fits weigh them equally).
     source : str
         Where the set comes from (a file, the model).
+    meta : dict
+        Free-form description (model parameters, file attributes).
+
+    Raises
+    ------
+    ParameterError
+        Shapes that disagree, zero directions, non-finite responses or a rate
+        that is not a positive integer.
+
+    Examples
+    --------
+    >>> ir = np.zeros((2, 2, 4)); ir[:, :, 0] = 1.0
+    >>> hs = HRIRSet(ir, [[2.0, 0, 0], [0, 1.0, 0]], 48000, source="clicks")
+    >>> hs.n_directions, hs.n_taps, hs.directions[0].tolist()
+    (2, 4, [1.0, 0.0, 0.0])
     """
 
     ir: NDArray[np.float64]
@@ -152,14 +170,46 @@ class HRIRSet:
 
     @property
     def n_directions(self) -> int:
+        """Number of directions M.
+
+        Examples
+        --------
+        >>> spherical_head_hrirs(np.eye(3), 8000).n_directions
+        3
+        """
         return int(self.ir.shape[0])
 
     @property
     def n_taps(self) -> int:
+        """Length N of each response, samples.
+
+        Examples
+        --------
+        >>> spherical_head_hrirs(np.eye(3), 8000).n_taps   # the power of two ≥ 4 ms
+        32
+        """
         return int(self.ir.shape[2])
 
     def resampled(self, rate: int) -> HRIRSet:
-        """The same set at another sample rate (polyphase resampling, scipy)."""
+        """The same set at another sample rate (polyphase resampling, scipy).
+
+        Parameters
+        ----------
+        rate : int
+            New sample rate, Hz.
+
+        Returns
+        -------
+        HRIRSet
+            Itself when the rate is the same; else a new set whose ``meta``
+            records ``resampled_from_hz``.
+
+        Examples
+        --------
+        >>> hs = spherical_head_hrirs(np.eye(3), 8000).resampled(16000)
+        >>> hs.rate, hs.n_taps, hs.meta["resampled_from_hz"]
+        (16000, 64, 8000)
+        """
         from scipy.signal import resample_poly
 
         rate = int(rate)
@@ -171,32 +221,102 @@ class HRIRSet:
                        {**self.meta, "resampled_from_hz": self.rate})  # fmt: skip
 
     def nearest(self, direction: NDArray[np.floating]) -> NDArray[np.float64]:
-        """The measured pair ``(2, N)`` nearest to a listener-frame direction."""
+        """The measured pair nearest to a listener-frame direction.
+
+        Parameters
+        ----------
+        direction : array_like, shape (3,)
+            (forward, left, up); any length but 0.
+
+        Returns
+        -------
+        ndarray, shape (2, N)
+            Left and right responses.
+
+        Examples
+        --------
+        >>> hs = spherical_head_hrirs(np.eye(3), 8000)
+        >>> pair = hs.nearest([0.1, 5.0, 0.0])          # almost straight left
+        >>> bool(np.abs(pair[0]).max() > np.abs(pair[1]).max())   # the left ear is louder
+        True
+        """
         d = np.asarray(direction, dtype=np.float64).reshape(3)
         return self.ir[int(np.argmax(self.directions @ (d / np.linalg.norm(d))))]
 
 
 # ------------------------------------------------------------ spherical head
 def ear_directions(ear_azimuth_deg: float = EAR_AZIMUTH_DEG) -> NDArray[np.float64]:
-    """Unit vectors ``(2, 3)`` of the left and right ears."""
+    """Unit vectors of the left and right ears in the listener frame.
+
+    Parameters
+    ----------
+    ear_azimuth_deg : float
+        Azimuth of the left ear, degrees from the front (the right ear mirrors it).
+
+    Returns
+    -------
+    ndarray, shape (2, 3)
+        Left, right.
+
+    Examples
+    --------
+    >>> np.round(ear_directions(90.0), 12).tolist()
+    [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]
+    """
     a = math.radians(ear_azimuth_deg)
     return np.array([[math.cos(a), math.sin(a), 0.0], [math.cos(a), -math.sin(a), 0.0]])
 
 
-def woodworth_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS,
+def woodworth_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS, *,
                     c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
-    """Arrival time (s) at an ear relative to the head's centre, Brown & Duda Eq. 5.
+    """Arrival time at an ear relative to the head's centre, Brown & Duda Eq. 5.
 
-    ``theta`` (radians) is the angle between the source direction and the ear:
     −(a/c) cos θ in front of the ear's tangent plane, (a/c)(θ − π/2) around
     the sphere beyond it.
+
+    Parameters
+    ----------
+    theta : array_like
+        Angle between the source direction and the ear, radians.
+    radius : float
+        Head radius a, m.
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    ndarray
+        Delay in s (negative: before the centre), shaped like ``theta``.
+
+    Examples
+    --------
+    >>> itd = woodworth_delay(np.pi) - woodworth_delay(0.0)   # source on the ear's axis
+    >>> round(float(itd) * 1e3, 3)                             # ms: (a/c)(π/2 + 1)
+    0.656
     """
     th = np.asarray(theta, dtype=np.float64)
     return np.where(th < np.pi / 2, -np.cos(th), th - np.pi / 2) * (radius / c0)
 
 
 def head_shadow_alpha(theta: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Zero coefficient α(θ) of the head-shadow filter, Brown & Duda Eq. 4."""
+    """Zero coefficient α(θ) of the head-shadow filter, Brown & Duda Eq. 4.
+
+    Parameters
+    ----------
+    theta : array_like
+        Angle between the source direction and the ear, radians.
+
+    Returns
+    -------
+    ndarray
+        α, from 2 (facing the ear: +6 dB at high frequencies) down to
+        :data:`ALPHA_MIN` at :data:`THETA_MIN_DEG`.
+
+    Examples
+    --------
+    >>> np.round(head_shadow_alpha(np.radians([0.0, 150.0])), 12).tolist()
+    [2.0, 0.1]
+    """
     th = np.asarray(theta, dtype=np.float64)
     return (1 + ALPHA_MIN / 2) + (1 - ALPHA_MIN / 2) * np.cos(
         th / math.radians(THETA_MIN_DEG) * np.pi
@@ -207,17 +327,42 @@ def spherical_head_response(directions: NDArray[np.floating], freqs_hz: NDArray[
                             radius: float = HEAD_RADIUS, c0: float = C0,
                             ear_azimuth_deg: float = EAR_AZIMUTH_DEG,
                             bulk_delay_s: float = 0.0) -> NDArray[np.complex128]:  # fmt: skip
-    """Model HRTFs ``(M, 2, F)`` of directions ``(M, 3)`` at ``freqs_hz (F,)``.
+    """Model HRTFs of the spherical head: head shadow times the Woodworth delay.
 
-    Head shadow times the Woodworth delay (plus ``bulk_delay_s``); see the
-    module docstring.
+    See the module docstring (Brown & Duda 1998, Eqs. 3–5).
+
+    Parameters
+    ----------
+    directions : array_like, shape (M, 3)
+        Listener-frame source directions.
+    freqs_hz : array_like, shape (F,)
+        Frequencies, Hz.
+    radius : float
+        Head radius a, m.
+    c0 : float
+        Speed of sound, m/s.
+    ear_azimuth_deg : float
+        Ear azimuth, degrees from the front.
+    bulk_delay_s : float
+        Delay added to every response, s.
+
+    Returns
+    -------
+    ndarray of complex, shape (M, 2, F)
+        Left and right ear responses.
+
+    Examples
+    --------
+    >>> h = spherical_head_response(np.array([[0.0, 1.0, 0.0]]), np.array([0.0, 8000.0]))
+    >>> np.round(np.abs(h[0]), 2).tolist()   # left: louder at 8 kHz; right: shadowed
+    [[1.0, 1.96], [1.0, 0.24]]
     """
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
     cosang = np.clip(d @ ear_directions(ear_azimuth_deg).T, -1.0, 1.0)  # (M, 2)
     theta = np.arccos(cosang)
     alpha = head_shadow_alpha(theta)[..., None]
-    delay = (woodworth_delay(theta, radius, c0) + bulk_delay_s)[..., None]
+    delay = (woodworth_delay(theta, radius, c0=c0) + bulk_delay_s)[..., None]
     w = 2 * np.pi * np.asarray(freqs_hz, dtype=np.float64)[None, None, :]
     w0 = c0 / radius
     shadow = (1 + 1j * alpha * w / (2 * w0)) / (1 + 1j * w / (2 * w0))
@@ -239,6 +384,10 @@ def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: i
         Sample rate (Hz).
     radius : float
         Head radius a (m), default 8.75 cm.
+    c0 : float
+        Speed of sound, m/s.
+    ear_azimuth_deg : float
+        Ear azimuth, degrees from the front.
     n_taps : int, optional
         Length (default: the power of two ≥ 4 ms).
 
@@ -249,6 +398,18 @@ def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: i
         least 12 samples) so every ear's delay is causal; the frequency
         response is sampled on a grid twice as long and cut with a short
         fade at the end.
+
+    Raises
+    ------
+    ParameterError
+        A radius outside [0.01, 1] m or a rate outside [1000, 768000] Hz.
+
+    Examples
+    --------
+    >>> hs = spherical_head_hrirs(np.array([[0.0, 1.0, 0.0]]), 48000)
+    >>> onset = np.argmax(np.abs(hs.ir[0]) > 0.1 * np.abs(hs.ir[0]).max(), axis=1)
+    >>> round(float(onset[1] - onset[0]) / 48, 2)   # ms the right ear hears it later
+    0.65
     """
     from auralize.spatial.ambisonics import sphere_quadrature
 
@@ -279,8 +440,26 @@ def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: i
 
 # ------------------------------------------------------------ SH-domain filters
 def onset_delay(hrirs: HRIRSet, *, threshold: float = 0.1) -> float:
-    """Earliest onset (s) of a set: the first sample of any response reaching
-    ``threshold`` × its own peak, minus one sample."""
+    """Earliest onset of a set: the first sample of any response reaching
+    ``threshold`` × its own peak, minus one sample.
+
+    Parameters
+    ----------
+    hrirs : HRIRSet
+    threshold : float
+        Fraction of each response's peak.
+
+    Returns
+    -------
+    float
+        Seconds.
+
+    Examples
+    --------
+    >>> ir = np.zeros((1, 2, 8)); ir[0, 0, 3] = 1.0; ir[0, 1, 5] = 1.0
+    >>> onset_delay(HRIRSet(ir, [[1.0, 0, 0]], 1000))
+    0.002
+    """
     a = np.abs(hrirs.ir)
     first = np.argmax(a >= threshold * a.max(axis=-1, keepdims=True), axis=-1)
     return max(int(first.min()) - 1, 0) / hrirs.rate
@@ -298,7 +477,7 @@ def _fit_matrix(hrirs: HRIRSet, order: int, reg: float) -> NDArray[np.float64]:
     return np.linalg.solve(a + lam * np.eye(a.shape[0]), y.T * w[None, :])
 
 
-def sh_hrtf_filters(hrirs: HRIRSet, order: int = 3, *, method: str = "magls",
+def sh_hrtf_filters(hrirs: HRIRSet, order: int = 3, *, method: HrtfFit = "magls",
                     f_cut_hz: float | None = None, reg: float = 1e-4) -> NDArray[np.float64]:  # fmt: skip
     """Spherical-harmonic-domain binaural filters ``((N+1)², 2, N_taps)``.
 
@@ -319,7 +498,21 @@ def sh_hrtf_filters(hrirs: HRIRSet, order: int = 3, *, method: str = "magls",
 
     Returns
     -------
-    Filters h_nm,ear (twice the HRIR length) such that ear = Σ_nm h_nm,ear ∗ b_nm.
+    ndarray, shape ((N+1)², 2, 2 · hrirs.n_taps)
+        Filters h_nm,ear (twice the HRIR length) such that
+        ear = Σ_nm h_nm,ear ∗ b_nm.
+
+    Raises
+    ------
+    ParameterError
+        A bad order or method, or fewer than (N+1)² directions.
+
+    Examples
+    --------
+    >>> from auralize.spatial.ambisonics import sphere_quadrature
+    >>> hs = spherical_head_hrirs(sphere_quadrature(8, 16)[0], 8000)
+    >>> sh_hrtf_filters(hs, 1).shape
+    (4, 2, 64)
     """
     from auralize.spatial.ambisonics import check_order, n_channels
 
@@ -386,6 +579,11 @@ class BinauralDecoder:
         Samples per FFT block of the overlap-add convolution (default: an FFT
         of 8192 points).
 
+    Raises
+    ------
+    ParameterError
+        A bad order or method, or too few HRIR directions for the order.
+
     Notes
     -----
     :meth:`process` keeps the convolution tail between calls, so consecutive
@@ -406,10 +604,21 @@ class BinauralDecoder:
     * up–down (ears in the horizontal plane): the harmonics odd in z (n + m
       odd) get zero filters, and those channels are not transformed at all
       (6 of the 16 at order 3).
+
+    Examples
+    --------
+    >>> from auralize.spatial.ambisonics import encode
+    >>> dec = BinauralDecoder(order=1, rate=8000)
+    >>> b = encode(np.r_[1.0, np.zeros(799)], 1, np.array([0.0, 1.0, 0.0]))  # a click from the left
+    >>> ears = dec.process(b)
+    >>> ears.shape, bool(np.abs(ears[0]).max() > 2 * np.abs(ears[1]).max())
+    ((2, 800), True)
+    >>> dec.mirrored, dec.channels.tolist()   # the head is symmetric: Z has no filter
+    (True, [0, 1, 3])
     """
 
     def __init__(self, hrirs: HRIRSet | None = None, order: int = 3, *, rate: int | None = None,
-                 method: str = "magls", block: int | None = None) -> None:  # fmt: skip
+                 method: HrtfFit = "magls", block: int | None = None) -> None:  # fmt: skip
         from auralize.spatial.ambisonics import check_order, n_channels
 
         self.order = check_order(order)
@@ -449,7 +658,19 @@ class BinauralDecoder:
         self._even = self._odd = self.channels[:0]
 
     def describe(self) -> dict[str, object]:
-        """What the decoder does, for a sidecar."""
+        """What the decoder does, for a sidecar.
+
+        Returns
+        -------
+        dict
+            HRTF source and rate (Hz), intermediate, method, filter length,
+            the harmonics rendered and whether the ears are mirrored.
+
+        Examples
+        --------
+        >>> BinauralDecoder(order=1, rate=8000).describe()["intermediate"]
+        'ambix1'
+        """
         return {"hrtf": self.hrirs.source, "hrtf_rate_hz": self.rate,
                 "intermediate": f"ambix{self.order}",
                 "decoder": "SH-domain filters, magnitude least squares",
@@ -471,12 +692,49 @@ class BinauralDecoder:
         return s
 
     def reset(self) -> None:
-        """Forget the convolution tail (a new, unrelated signal follows)."""
+        """Forget the convolution tail (a new, unrelated signal follows).
+
+        Examples
+        --------
+        >>> dec = BinauralDecoder(order=1, rate=8000)
+        >>> b = np.zeros((4, 100)); b[0, -1] = 1.0                # a click at the very end
+        >>> _ = dec.process(b)
+        >>> bool(np.any(dec.process(np.zeros((4, 100)))))       # its tail follows
+        True
+        >>> _ = dec.process(b); dec.reset()
+        >>> bool(np.any(dec.process(np.zeros((4, 100)))))
+        False
+        """
         self._tail[:] = 0.0
 
     def process(self, audio: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Ear signals ``(2, n)`` of AmbiX ``audio ((N+1)², n)``, or of its
-        harmonics :attr:`channels` only (``(len(channels), n)``, in that order)."""
+        """Ear signals of the next block of an AmbiX signal.
+
+        Parameters
+        ----------
+        audio : array_like, shape ((N+1)², n) or (len(channels), n)
+            AmbiX block (ACN, SN3D), or its harmonics :attr:`channels` only,
+            in that order.
+
+        Returns
+        -------
+        ndarray, shape (2, n)
+            Left and right ear; the convolution tail is carried to the next call.
+
+        Raises
+        ------
+        ParameterError
+            ``audio`` of another shape.
+
+        Examples
+        --------
+        >>> dec = BinauralDecoder(order=1, rate=8000)
+        >>> x = np.random.default_rng(0).standard_normal((4, 1000))
+        >>> whole = dec.process(x); dec.reset()
+        >>> parts = np.hstack([dec.process(x[:, :300]), dec.process(x[:, 300:])])
+        >>> bool(np.allclose(whole, parts, atol=1e-5))
+        True
+        """
         from scipy.fft import irfft, next_fast_len, rfft
 
         a = np.asarray(audio, dtype=np.float64)
@@ -515,7 +773,7 @@ class BinauralDecoder:
 _FILTER_CACHE: dict[tuple[int, int, str], tuple[HRIRSet, NDArray[np.float64]]] = {}
 
 
-def _cached_filters(hrirs: HRIRSet, order: int, method: str) -> NDArray[np.float64]:
+def _cached_filters(hrirs: HRIRSet, order: int, method: HrtfFit) -> NDArray[np.float64]:
     """SH filters of a set, computed once per (set, order, method)."""
     key = (id(hrirs), order, method)
     hit = _FILTER_CACHE.get(key)
@@ -530,17 +788,62 @@ def _cached_filters(hrirs: HRIRSet, order: int, method: str) -> NDArray[np.float
 
 @functools.lru_cache(maxsize=4)
 def default_hrirs(rate: int) -> HRIRSet:
-    """The built-in spherical-head set at ``rate`` (computed once per rate)."""
+    """The built-in spherical-head set at ``rate`` (computed once per rate).
+
+    Parameters
+    ----------
+    rate : int
+        Sample rate, Hz.
+
+    Returns
+    -------
+    HRIRSet
+        :func:`spherical_head_hrirs` on the dense quadrature grid.
+
+    Examples
+    --------
+    >>> default_hrirs(8000) is default_hrirs(8000), default_hrirs(8000).n_directions
+    (True, 1152)
+    """
     return spherical_head_hrirs(rate=int(rate))
 
 
 def binaural_from_ambisonics(audio: NDArray[np.floating], order: int,
                              hrirs: HRIRSet | None = None, *, rate: int | None = None,
-                             method: str = "magls") -> NDArray[np.float64]:  # fmt: skip
-    """Ear signals ``(2, n)`` of a whole AmbiX signal ``((N+1)², n)``.
+                             method: HrtfFit = "magls") -> NDArray[np.float64]:  # fmt: skip
+    """Ear signals of a whole AmbiX signal (:class:`BinauralDecoder`).
 
-    ``hrirs`` default: the spherical-head model at ``rate`` (48 kHz if not
-    given); a set at another rate is resampled to ``rate``.
+    Parameters
+    ----------
+    audio : array_like, shape ((N+1)², n)
+        AmbiX signal (ACN, SN3D), Pa.
+    order : int
+        Its order N.
+    hrirs : HRIRSet, optional
+        Default the spherical-head model at ``rate``; a set at another rate
+        is resampled to ``rate``.
+    rate : int, optional
+        Sample rate of ``audio``, Hz (default the set's, 48 kHz for the model).
+    method : {"magls", "ls"}
+        See :func:`sh_hrtf_filters`.
+
+    Returns
+    -------
+    ndarray, shape (2, n)
+        Left and right ear.
+
+    Raises
+    ------
+    ParameterError
+        ``audio`` of another shape; a bad order or method.
+
+    Examples
+    --------
+    >>> from auralize.spatial.ambisonics import encode
+    >>> b = encode(np.r_[1.0, np.zeros(399)], 1, np.array([0.0, -1.0, 0.0]))  # from the right
+    >>> ears = binaural_from_ambisonics(b, 1, rate=8000)
+    >>> ears.shape, bool(np.abs(ears[1]).max() > np.abs(ears[0]).max())
+    ((2, 400), True)
     """
     if hrirs is None:
         hrirs = default_hrirs(int(rate) if rate is not None else 48000)
@@ -550,8 +853,32 @@ def binaural_from_ambisonics(audio: NDArray[np.floating], order: int,
 def binaural_direct(
     signal: NDArray[np.floating], hrir: NDArray[np.floating]
 ) -> NDArray[np.float64]:
-    """Reference ear signals ``(2, n)``: a mono ``signal (n,)`` convolved with one
-    HRIR pair ``(2, N)`` (a single static direction, no Ambisonics)."""
+    """Reference ear signals: a mono signal convolved with one HRIR pair.
+
+    A single static direction, no Ambisonics: what the decoders are compared with.
+
+    Parameters
+    ----------
+    signal : array_like, shape (n,)
+        Pressure, Pa.
+    hrir : array_like, shape (2, N)
+        Left and right responses (e.g. :meth:`HRIRSet.nearest`).
+
+    Returns
+    -------
+    ndarray, shape (2, n)
+        Left and right ear (cut to the signal's length).
+
+    Raises
+    ------
+    ParameterError
+        ``hrir`` not of shape (2, N).
+
+    Examples
+    --------
+    >>> np.round(binaural_direct(np.array([1.0, 0.0, 0.0]), np.array([[0.5, 0.5], [0.0, 1.0]])), 12).tolist()
+    [[0.5, 0.5, 0.0], [0.0, 1.0, 0.0]]
+    """
     from scipy.signal import oaconvolve
 
     s = np.asarray(signal, dtype=np.float64).reshape(1, -1)
@@ -568,31 +895,75 @@ EAR_ORDER = 3
 EAR_MAGLS_HZ = 1500.0
 
 
-def ear_residual_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS,
+def ear_residual_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS, *,
                        c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
-    """Woodworth's delay (:func:`woodworth_delay`) minus the straight-line delay
-    −(a/c) cos θ to a point on the ear: 0 where the ear sees the source, and
-    (a/c)(θ − π/2 + cos θ) where the ray wraps around the head (0.145 ms at
-    θ = π for a = 8.75 cm)."""
+    """Woodworth's delay minus the straight-line delay to a point on the ear.
+
+    :func:`woodworth_delay` minus −(a/c) cos θ: 0 where the ear sees the
+    source, and (a/c)(θ − π/2 + cos θ) where the ray wraps around the head (0.146 ms at
+    θ = π for a = 8.75 cm).
+
+    Parameters
+    ----------
+    theta : array_like
+        Angle between the source direction and the ear, radians.
+    radius : float
+        Head radius a, m.
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    ndarray
+        Delay in s, shaped like ``theta``.
+
+    Examples
+    --------
+    >>> [round(float(ear_residual_delay(t)) * 1e3, 3) for t in (0.0, np.pi)]   # ms
+    [0.0, 0.146]
+    """
     th = np.asarray(theta, dtype=np.float64)
-    return woodworth_delay(th, radius, c0) + np.cos(th) * (radius / c0)
+    return woodworth_delay(th, radius, c0=c0) + np.cos(th) * (radius / c0)
 
 
 def ear_response(theta: NDArray[np.floating], freqs_hz: NDArray[np.floating], *,
                  radius: float = HEAD_RADIUS, c0: float = C0,
                  bulk_delay_s: float = 0.0) -> NDArray[np.complex128]:  # fmt: skip
-    """What an ear adds to the sound arriving at its own position ``(T, F)``.
+    """What an ear adds to the sound arriving at its own position.
 
     The spherical-head model (Brown & Duda 1998, Eqs. 3–5) with the
     straight-line delay to the ear taken out: the head-shadow filter of the
     angle θ between the source and the ear, times the delay of
     :func:`ear_residual_delay` (plus ``bulk_delay_s``).
+
+    Parameters
+    ----------
+    theta : array_like, shape (T,)
+        Angles between the source direction and the ear, radians.
+    freqs_hz : array_like, shape (F,)
+        Frequencies, Hz.
+    radius : float
+        Head radius a, m.
+    c0 : float
+        Speed of sound, m/s.
+    bulk_delay_s : float
+        Delay added to every response, s.
+
+    Returns
+    -------
+    ndarray of complex, shape (T, F)
+
+    Examples
+    --------
+    >>> h = ear_response(np.array([0.0, np.pi]), np.array([0.0, 10000.0]))
+    >>> np.round(np.abs(h), 2).tolist()   # facing the ear: +6 dB at high frequencies
+    [[1.0, 1.99], [1.0, 0.31]]
     """
     th = np.asarray(theta, dtype=np.float64).reshape(-1, 1)
     w = 2 * np.pi * np.asarray(freqs_hz, dtype=np.float64)[None, :]
     w0 = c0 / radius
     shadow = (1 + 1j * head_shadow_alpha(th) * w / (2 * w0)) / (1 + 1j * w / (2 * w0))
-    return shadow * np.exp(-1j * w * (ear_residual_delay(th, radius, c0) + bulk_delay_s))
+    return shadow * np.exp(-1j * w * (ear_residual_delay(th, radius, c0=c0) + bulk_delay_s))
 
 
 @functools.lru_cache(maxsize=8)
@@ -620,6 +991,32 @@ def ear_filters(rate: int, order: int = EAR_ORDER, *, radius: float = HEAD_RADIU
     The filters (the power of two ≥ 8 ms) are the fit sampled on a grid twice
     their length, with the model's bulk delay a/c + max(0.25 ms, 12 samples) so that they are causal
     and the ears are in time with :func:`spherical_head_hrirs`.
+
+    Parameters
+    ----------
+    rate : int
+        Sample rate, Hz.
+    order : int
+        Order of the zonal fit.
+    radius : float
+        Head radius a, m.
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    filters : ndarray, shape (order + 1, n_taps)
+        Read-only; row n is F_n.
+    bulk_delay_s : float
+        Their common delay, s.
+
+    Examples
+    --------
+    >>> F, bulk = ear_filters(8000)
+    >>> F.shape, round(bulk * 1e3, 3)   # 64 taps at 8 kHz; ms
+    ((4, 64), 1.755)
+    >>> round(float(F.sum()), 6)   # Σ_n F_n(0 Hz) P_n(1): no shadow at 0 Hz
+    1.0
     """
     from numpy.polynomial import legendre
 
@@ -663,9 +1060,30 @@ def ear_layout(
     Each ear (at ±``ear_azimuth_deg`` on the head's horizontal circle of
     ``radius``, Brown & Duda's positions) is a receiver with its own
     retarded time, distance and Doppler; its frame's z axis points out of the
-    ear, and its channels are the zonal SN3D harmonics of that frame (ACN 0,
+    ear), and its channels are the zonal SN3D harmonics of that frame (ACN 0,
     2, 6, 12 at order 3).  :class:`EarDecoder` turns the 2 (order + 1)
     channels into the ear signals.
+
+    Parameters
+    ----------
+    order : int
+        Order of each ear's zonal harmonics.
+    radius : float
+        Head radius, m.
+    ear_azimuth_deg : float
+        Ear azimuth, degrees from the front.
+
+    Returns
+    -------
+    Layout
+        A :func:`~auralize.spatial.layouts.receivers_layout` of 2 (order + 1)
+        channels.
+
+    Examples
+    --------
+    >>> lay = ear_layout()
+    >>> lay.name, lay.channel_names[:4]
+    ('binaural-ears', ['L.ACN0', 'L.ACN2', 'L.ACN6', 'L.ACN12'])
     """
     from auralize.spatial.layouts import Receiver, ambix_layout, receivers_layout
 
@@ -687,6 +1105,23 @@ class EarDecoder(BinauralDecoder):
     the fitted residual delay, so it is right at every frequency; the head
     shadow and the front–back difference come from the filters.  Block
     processing as :class:`BinauralDecoder` (whose convolution it uses).
+
+    Parameters
+    ----------
+    rate : int
+        Sample rate, Hz.
+    order : int
+        Order of each ear's zonal harmonics (:func:`ear_layout`).
+    block : int, optional
+        Samples per FFT block (see :class:`BinauralDecoder`).
+
+    Examples
+    --------
+    >>> dec = EarDecoder(8000)
+    >>> x = np.zeros((dec.layout.n_channels, 200)); x[0, 0] = 1.0   # the left ear's W
+    >>> ears = dec.process(x)
+    >>> ears.shape, float(np.abs(ears[1]).max())
+    ((2, 200), 0.0)
     """
 
     def __init__(self, rate: int, order: int = EAR_ORDER, *, block: int | None = None) -> None:
@@ -704,6 +1139,19 @@ class EarDecoder(BinauralDecoder):
         self._setup(filters, 2 * k, block)
 
     def describe(self) -> dict[str, object]:
+        """What the decoder does, for a sidecar.
+
+        Returns
+        -------
+        dict
+            The model, rate (Hz), receivers, head geometry, intermediate,
+            decoder, filter length and bulk delay (s).
+
+        Examples
+        --------
+        >>> EarDecoder(8000).describe()["intermediate"]
+        'zonal harmonics of order 3 per ear (8 channels)'
+        """
         return {"hrtf": "spherical-head model (Brown & Duda 1998)", "hrtf_rate_hz": self.rate,
                 "receivers": "two ears, each with its own retarded time, distance and Doppler",
                 "head_radius_m": HEAD_RADIUS, "ear_azimuth_deg": EAR_AZIMUTH_DEG,

@@ -91,9 +91,23 @@ C0_ALIGN = C0
 class Speaker:
     """One output channel.
 
-    ``azimuth_deg`` None marks a channel that is never panned to (LFE);
-    ``distance_m`` (optional) is the speaker's distance from the listening
-    position, used for delay/gain alignment.
+    Parameters
+    ----------
+    name : str
+        Channel name (``FL``, ``S3`` …).
+    azimuth_deg : float or None
+        Degrees counter-clockwise from the front; None marks a channel that is
+        never panned to (LFE).
+    elevation_deg : float
+        Degrees up from the horizontal plane.
+    distance_m : float, optional
+        The speaker's distance from the listening position, m, used for
+        delay/gain alignment (:class:`SpeakerAlignment`).
+
+    Examples
+    --------
+    >>> Speaker("SL", 90.0, distance_m=2.5)
+    Speaker(name='SL', azimuth_deg=90.0, elevation_deg=0.0, distance_m=2.5)
     """
 
     name: str
@@ -103,7 +117,15 @@ class Speaker:
 
     @property
     def direction(self) -> NDArray[np.float64]:
-        """Unit vector (forward, left, up) of the speaker (zeros for LFE)."""
+        """Unit vector (forward, left, up) of the speaker, ``(3,)`` (zeros for LFE).
+
+        Examples
+        --------
+        >>> np.round(Speaker("top", 90.0, 90.0).direction, 12).tolist()
+        [0.0, 0.0, 1.0]
+        >>> Speaker("LFE", None).direction.tolist()
+        [0.0, 0.0, 0.0]
+        """
         if self.azimuth_deg is None:
             return np.zeros(3)
         return _unit_from_angles(self.azimuth_deg, self.elevation_deg)
@@ -129,6 +151,17 @@ class Layout:
     channel_mask : int, optional
         WAVE_FORMAT_EXTENSIBLE ``dwChannelMask`` (speaker positions of the
         channels, in order); None for layouts without standard positions.
+    meta : dict
+        What else describes the layout (AmbiX order, binaural intermediate,
+        receivers, an IEM file's imaginary speakers and channel gains).
+
+    Examples
+    --------
+    >>> lay = Layout("pair", (Speaker("A", 45.0), Speaker("B", -45.0)), fold_front=True)
+    >>> lay
+    <Layout pair: 2 channels (A, B)>
+    >>> get_layout("5.1").channel_names
+    ['FL', 'FR', 'FC', 'LFE', 'BL', 'BR']
     """
 
     name: str
@@ -139,6 +172,13 @@ class Layout:
 
     @property
     def n_channels(self) -> int:
+        """Number of output channels.
+
+        Examples
+        --------
+        >>> get_layout("7.1").n_channels
+        8
+        """
         return len(self.speakers)
 
     def __repr__(self) -> str:
@@ -146,39 +186,89 @@ class Layout:
 
     @property
     def channel_names(self) -> list[str]:
+        """Names of the channels, in order.
+
+        Examples
+        --------
+        >>> get_layout("stereo").channel_names
+        ['L', 'R']
+        """
         return [s.name for s in self.speakers]
 
     @property
     def panned_channels(self) -> NDArray[np.int64]:
-        """Indices of the channels that take part in panning (all but LFE)."""
+        """Indices of the channels that take part in panning (all but LFE).
+
+        Examples
+        --------
+        >>> get_layout("5.1").panned_channels.tolist()
+        [0, 1, 2, 4, 5]
+        """
         return np.array(
             [c for c, s in enumerate(self.speakers) if s.azimuth_deg is not None], dtype=np.int64
         )
 
     @property
     def is_horizontal(self) -> bool:
-        """True when every panned speaker lies in the horizontal plane."""
+        """True when every panned speaker lies in the horizontal plane.
+
+        Examples
+        --------
+        >>> get_layout("ring8").is_horizontal
+        True
+        """
         return all(abs(s.elevation_deg) < 1e-9 for s in self.speakers if s.azimuth_deg is not None)
 
     @property
     def has_distances(self) -> bool:
+        """True when any speaker has a distance (:class:`SpeakerAlignment` applies).
+
+        Examples
+        --------
+        >>> get_layout("ring8").has_distances
+        False
+        """
         return any(s.distance_m is not None for s in self.speakers)
 
     @property
     def channel_gains(self) -> NDArray[np.float64] | None:
         """Linear output gain per channel ``(n_channels,)`` (an IEM layout's
-        ``Gain``), or None when every channel has gain 1."""
+        ``Gain``), or None when every channel has gain 1.
+
+        Examples
+        --------
+        >>> get_layout("stereo").channel_gains is None
+        True
+        """
         g = self.meta.get("channel_gains")
         return None if g is None else np.asarray(g, dtype=np.float64)
 
     @property
     def needs_alignment(self) -> bool:
         """True when :class:`SpeakerAlignment` changes the output: speaker
-        distances or per-channel gains."""
+        distances or per-channel gains.
+
+        Examples
+        --------
+        >>> lay = make_layout("x", [Speaker("A", 30.0, 0.0, 2.0), Speaker("B", -30.0, 0.0, 2.0)])
+        >>> lay.needs_alignment, get_layout("5.1").needs_alignment
+        (True, False)
+        """
         return self.has_distances or self.channel_gains is not None
 
     def directions(self) -> NDArray[np.float64]:
-        """Unit vectors ``(n_channels, 3)`` (forward, left, up); LFE rows are zero."""
+        """Speaker directions in the listener frame; LFE rows are zero.
+
+        Returns
+        -------
+        ndarray, shape (n_channels, 3)
+            Unit vectors (forward, left, up).
+
+        Examples
+        --------
+        >>> np.round(get_layout("stereo").directions(), 4).tolist()
+        [[0.866, 0.5, 0.0], [0.866, -0.5, 0.0]]
+        """
         return np.stack([s.direction for s in self.speakers])
 
     def panning_arrays(self) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -189,11 +279,24 @@ class Layout:
         distinct azimuth the speaker nearest the horizontal plane (the kernel
         then pans with the 3-D table instead).
 
+        Returns
+        -------
+        azimuths : ndarray, shape (S,)
+            Radians in (-π, π], increasing.
+        channels : ndarray of int, shape (S,)
+            The channel of each azimuth.
+
         Raises
         ------
         ParameterError
             For AmbiX and binaural layouts, which have no speaker azimuths
             (their gains come from :func:`pan_gains` and :func:`output_stage`).
+
+        Examples
+        --------
+        >>> az, ch = get_layout("5.1").panning_arrays()
+        >>> np.round(np.degrees(az)).tolist(), ch.tolist()
+        ([-110.0, -30.0, 0.0, 30.0, 110.0], [5, 1, 2, 0, 4])
         """
         if self.meta.get("ambisonic") or self.meta.get("binaural"):
             raise ParameterError(
@@ -219,9 +322,28 @@ class Layout:
         return az[order], ch[order]
 
     def describe(self) -> dict[str, object]:
-        """JSON-able description; :func:`load_layout_json` reads it back (for
-        speaker layouts; AmbiX channels are components, not speakers, and the
-        ``meta`` of immersive layouts says what they are)."""
+        """JSON-able description; :func:`load_layout_json` reads it back.
+
+        That holds for speaker layouts; AmbiX channels are components, not
+        speakers, and the ``meta`` of immersive layouts says what they are.
+
+        Returns
+        -------
+        dict
+            ``name``, ``channel_mask`` and ``speakers`` (name, azimuth and
+            elevation in degrees, distance in m, ``lfe``), or for AmbiX
+            ``channels`` and ``meta``.
+
+        Examples
+        --------
+        >>> import json
+        >>> d = get_layout("stereo").describe()
+        >>> d["speakers"][0]
+        {'name': 'L', 'azimuth': 30.0, 'elevation': 0.0, 'distance': None}
+        >>> _ = Path("stereo.json").write_text(json.dumps(d))
+        >>> load_layout_json("stereo.json").channel_names
+        ['L', 'R']
+        """
         if self.meta.get("ambisonic"):
             return {"name": self.name, "channel_mask": None, "meta": dict(self.meta),
                     "channels": self.channel_names}  # fmt: skip
@@ -288,11 +410,33 @@ def ambix_layout(order: int, channels: NDArray[np.integer] | None = None) -> Lay
     """The AmbiX layout of an order N: (N+1)² channels ``ACN0`` … in ACN order, SN3D.
 
     Its channels have no direction (they are spherical-harmonic components, not
-    speakers) and the layout no WAVE channel mask.  ``channels`` (increasing ACN
-    indices) keeps a subset of the harmonics (``meta["acn"]``, name
-    ``ambixN[k,...]``): the binaural stage's intermediate when its filters of the
-    other harmonics are zero (:class:`OutputStage`); the renderers pan to the
-    kept harmonics only.
+    speakers) and the layout no WAVE channel mask.
+
+    Parameters
+    ----------
+    order : int
+        Ambisonics order N >= 1.
+    channels : array_like of int, optional
+        Increasing ACN indices: keeps a subset of the harmonics
+        (``meta["acn"]``, name ``ambixN[k,...]``), the binaural stage's
+        intermediate when its filters of the other harmonics are zero
+        (:class:`OutputStage`); the renderers pan to the kept harmonics only.
+
+    Returns
+    -------
+    Layout
+
+    Raises
+    ------
+    ParameterError
+        A bad order, or channels that are not increasing ACN indices of it.
+
+    Examples
+    --------
+    >>> ambix_layout(1).channel_names
+    ['ACN0', 'ACN1', 'ACN2', 'ACN3']
+    >>> ambix_layout(3, [0, 2, 6, 12]).name
+    'ambix3[0,2,6,12]'
     """
     from auralize.spatial.ambisonics import check_order, n_channels
 
@@ -317,7 +461,22 @@ def ambix_layout(order: int, channels: NDArray[np.integer] | None = None) -> Lay
 
 
 def ambix_channels(layout: Layout) -> NDArray[np.int64]:
-    """ACN indices of the channels of an AmbiX layout (all (N+1)², or its subset)."""
+    """ACN indices of the channels of an AmbiX layout (all (N+1)², or its subset).
+
+    Parameters
+    ----------
+    layout : Layout
+        An AmbiX layout (:func:`ambix_layout`).
+
+    Returns
+    -------
+    ndarray of int, shape (n_channels,)
+
+    Examples
+    --------
+    >>> ambix_channels(ambix_layout(1)).tolist(), ambix_channels(ambix_layout(2, [0, 2, 6])).tolist()
+    ([0, 1, 2, 3], [0, 2, 6])
+    """
     from auralize.spatial.ambisonics import n_channels
 
     acn = layout.meta.get("acn")
@@ -327,7 +486,21 @@ def ambix_channels(layout: Layout) -> NDArray[np.int64]:
 
 
 def binaural_layout() -> Layout:
-    """Two ear signals (L, R); rendered through an order-3 AmbiX intermediate."""
+    """The ``binaural`` layout: two ear signals (L, R).
+
+    Rendered through an intermediate (:func:`synthesis_layout`) and filtered
+    into ears by :func:`output_stage`.
+
+    Returns
+    -------
+    Layout
+
+    Examples
+    --------
+    >>> lay = binaural_layout()
+    >>> lay.channel_names, is_binaural(lay)
+    (['L', 'R'], True)
+    """
     return Layout("binaural", (Speaker("L", 90.0), Speaker("R", -90.0)), channel_mask=0x3,
                   meta={"binaural": True, "intermediate": f"ambix{BINAURAL_ORDER}"})  # fmt: skip
 
@@ -340,9 +513,10 @@ class Receiver:
     renderers solve its retarded times, distances and Doppler from its own
     position, and pan its channels with ``layout``'s law in its own frame.
 
-    Attributes
+    Parameters
     ----------
     name : str
+        Prefix of its channels' names (``L`` → ``L.ACN0`` …).
     offset : (3,) tuple
         Position relative to the listener, in the listener frame (forward,
         left, up), m.
@@ -350,6 +524,12 @@ class Receiver:
         The receiver frame's forward and up axes, in the listener frame.
     layout : Layout
         What the receiver's channels are (an AmbiX subset for the ears).
+
+    Examples
+    --------
+    >>> left = Receiver("L", (0.0, 0.1, 0.0), (0.0, 0.0, 1.0), (0.0, 1.0, 0.0), ambix_layout(1))
+    >>> receivers_layout("one-ear", (left,)).channel_names
+    ['L.ACN0', 'L.ACN1', 'L.ACN2', 'L.ACN3']
     """
 
     name: str
@@ -364,14 +544,53 @@ def receivers_layout(name: str, receivers: tuple[Receiver, ...], **meta: object)
 
     Renderers given such a layout render each receiver along its own path
     (:func:`receiver_paths`) and stack the channels; an output stage then
-    combines them (the ears of ``binaural``)."""
+    combines them (the ears of ``binaural``).
+
+    Parameters
+    ----------
+    name : str
+        Layout name.
+    receivers : tuple of Receiver
+        In channel order.
+    **meta : object
+        Extra entries of the layout's ``meta``.
+
+    Returns
+    -------
+    Layout
+        Channels without direction, ``meta["receivers"]`` the receivers.
+
+    Examples
+    --------
+    >>> ears = [Receiver(n, (0.0, y, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), ambix_layout(1))
+    ...         for n, y in (("L", 0.09), ("R", -0.09))]
+    >>> lay = receivers_layout("two", tuple(ears), head_radius_m=0.09)
+    >>> lay.n_channels, [r.name for r in receivers_of(lay)], lay.meta["head_radius_m"]
+    (8, ['L', 'R'], 0.09)
+    """
     speakers = tuple(replace(sp, name=f"{r.name}.{sp.name}", azimuth_deg=None)
                      for r in receivers for sp in r.layout.speakers)  # fmt: skip
     return Layout(name, speakers, meta={"receivers": tuple(receivers), **meta})
 
 
 def receivers_of(layout: Layout) -> tuple[Receiver, ...]:
-    """The receivers of a :func:`receivers_layout` (empty for any other layout)."""
+    """The receivers of a :func:`receivers_layout` (empty for any other layout).
+
+    Parameters
+    ----------
+    layout : Layout
+
+    Returns
+    -------
+    tuple of Receiver
+
+    Examples
+    --------
+    >>> receivers_of(get_layout("ring8"))
+    ()
+    >>> [r.name for r in receivers_of(synthesis_layout("binaural"))]
+    ['L', 'R']
+    """
     return tuple(layout.meta.get("receivers", ()))  # type: ignore[call-overload]
 
 
@@ -385,6 +604,25 @@ def receiver_path(path: Any, receiver: Receiver) -> Any:
     centimetres the chord differs from the arc by well under a millimetre at
     the turn rates of a head.  The result is cached on ``path`` (renderers
     that key caches on a path's arrays then see the same ones every call).
+
+    Parameters
+    ----------
+    path : ListenerPath
+        The listener's path.
+    receiver : Receiver
+
+    Returns
+    -------
+    ListenerPath
+        The receiver's path (same times).
+
+    Examples
+    --------
+    >>> from auralize.listener import ListenerPath
+    >>> ear = receivers_of(synthesis_layout("binaural"))[0]          # the left ear
+    >>> path = ListenerPath.point((0, 0, 0), duration=1.0)           # facing +y
+    >>> np.round(receiver_path(path, ear).positions[0], 4).tolist()  # left of +y is -x
+    [-0.0862, -0.0152, 0.0]
     """
     from auralize.listener import ListenerPath
 
@@ -404,7 +642,27 @@ def receiver_path(path: Any, receiver: Receiver) -> Any:
 
 
 def receiver_paths(layout: Layout, path: Any) -> list[tuple[Layout, Any]]:
-    """``(layout, path)`` of each receiver of a multi-receiver layout, in channel order."""
+    """``(layout, path)`` of each receiver of a multi-receiver layout, in channel order.
+
+    Parameters
+    ----------
+    layout : Layout
+        A :func:`receivers_layout` (any other layout: an empty list).
+    path : ListenerPath
+        The listener's path.
+
+    Returns
+    -------
+    list of (Layout, ListenerPath)
+        Each receiver's channels and path (:func:`receiver_path`).
+
+    Examples
+    --------
+    >>> from auralize.listener import ListenerPath
+    >>> parts = receiver_paths(synthesis_layout("binaural"), ListenerPath.point((0, 0, 0), duration=1.0))
+    >>> [(lay.n_channels, p.source) for lay, p in parts]
+    [(4, 'point (L)'), (4, 'point (R)')]
+    """
     return [(r.layout, receiver_path(path, r)) for r in receivers_of(layout)]
 
 
@@ -416,12 +674,40 @@ IMMERSIVE_LAYOUTS: dict[str, Layout] = {
 
 
 def is_ambisonic(layout: Layout) -> bool:
-    """True for an AmbiX layout (``ambix1`` …)."""
+    """True for an AmbiX layout (``ambix1`` …).
+
+    Parameters
+    ----------
+    layout : Layout
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> is_ambisonic(get_layout("ambix2")), is_ambisonic(get_layout("5.1"))
+    (True, False)
+    """
     return bool(layout.meta.get("ambisonic"))
 
 
 def is_binaural(layout: Layout) -> bool:
-    """True for the ``binaural`` layout."""
+    """True for the ``binaural`` layout.
+
+    Parameters
+    ----------
+    layout : Layout
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> is_binaural(get_layout("binaural")), is_binaural(get_layout("stereo"))
+    (True, False)
+    """
     return bool(layout.meta.get("binaural"))
 
 
@@ -434,6 +720,11 @@ def get_layout(spec: str | Path | Layout) -> Layout:
         ``mono``, ``stereo``, ``ring8``, ``5.1``, ``7.1``, ``binaural``,
         ``ambix1``/``ambix2``/``ambix3`` or a path ending in ``.json`` (our
         format or an IEM ``LoudspeakerLayout``; see :func:`load_layout_json`).
+        A Layout is returned as it is.
+
+    Returns
+    -------
+    Layout
 
     Raises
     ------
@@ -441,6 +732,14 @@ def get_layout(spec: str | Path | Layout) -> Layout:
         Unknown name.
     FormatError
         Malformed or invalid JSON layout.
+
+    Examples
+    --------
+    >>> get_layout("ring8")
+    <Layout ring8: 8 channels (S0, S1, S2, S3, S4, S5, S6, S7)>
+    >>> get_layout("quad")
+    Traceback (most recent call last):
+    auralize.errors.ParameterError: unknown layout 'quad'; choose one of ...
     """
     if isinstance(spec, Layout):
         return spec
@@ -501,6 +800,15 @@ def load_layout_json(path: str | Path) -> Layout:
     object, if any, is not read: decoders are built from the layout
     (:func:`auralize.spatial.ambisonics.decoder_matrix`).
 
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file.
+
+    Returns
+    -------
+    Layout
+
     Raises
     ------
     FormatError
@@ -510,6 +818,19 @@ def load_layout_json(path: str | Path) -> Layout:
         ``lfe`` that is not true or false, duplicate directions or names,
         non-positive distances, fewer than two speakers to pan between or more
         than :data:`MAX_SPEAKERS`.
+
+    Examples
+    --------
+    >>> _ = Path("tri.json").write_text('{"name": "tri", "speakers": ['
+    ...     '{"azimuth": 0}, {"azimuth": 120, "distance": 2}, {"azimuth": -120}]}')
+    >>> lay = load_layout_json("tri.json")
+    >>> lay.name, lay.channel_names, lay.speakers[1].distance_m
+    ('tri', ['S0', 'S1', 'S2'], 2.0)
+    >>> _ = Path("iem.json").write_text('{"LoudspeakerLayout": {"Name": "pair", "Loudspeakers": ['
+    ...     '{"Azimuth": 30, "Elevation": 0, "Channel": 1, "IsImaginary": false, "Gain": 0.5},'
+    ...     '{"Azimuth": -30, "Elevation": 0, "Channel": 2, "IsImaginary": false}]}}')
+    >>> load_layout_json("iem.json").channel_gains.tolist()
+    [0.5, 1.0]
     """
     p = Path(path)
     try:
@@ -644,10 +965,34 @@ def make_layout(name: str, speakers: list[Speaker] | tuple[Speaker, ...], *,
                 channel_mask: int | None = None, source: str = "<layout>") -> Layout:  # fmt: skip
     """Validate and build a custom :class:`Layout`.
 
+    Parameters
+    ----------
+    name : str
+        Layout name.
+    speakers : sequence of Speaker
+        In channel order.
+    channel_mask : int, optional
+        WAVE ``dwChannelMask``.
+    source : str
+        Where the layout comes from (for messages).
+
+    Returns
+    -------
+    Layout
+        Two panned speakers fold rear directions to the front.
+
     Raises
     ------
     FormatError
         Fewer than two panned speakers, or two speakers in the same direction.
+
+    Examples
+    --------
+    >>> make_layout("pair", [Speaker("A", 30.0), Speaker("B", -30.0)]).fold_front
+    True
+    >>> make_layout("same", [Speaker("A", 30.0), Speaker("B", 30.0)])
+    Traceback (most recent call last):
+    auralize.errors.FormatError: <layout>: speakers 'A' and 'B' point the same way (azimuth 30.0°, elevation 0.0°)
     """
     panned = [s for s in speakers if s.azimuth_deg is not None]
     if len(panned) < 2:
@@ -674,14 +1019,28 @@ def vbap_gains(layout: Layout, azimuth_rad: NDArray[np.floating]) -> NDArray[np.
     Parameters
     ----------
     layout : Layout
-    azimuth_rad : (N,) source azimuths in the listener's frame (radians,
-        counter-clockwise from forward).
+        A loudspeaker layout.
+    azimuth_rad : array_like, shape (N,)
+        Source azimuths in the listener's frame (radians, counter-clockwise
+        from forward).
 
     Returns
     -------
-    (n_channels, N) gains; the squared gains of each direction sum to 1.
-    Elevated layouts are panned on their horizontal projection
-    (:meth:`Layout.panning_arrays`); use :func:`pan_gains` for the 3-D law.
+    ndarray, shape (n_channels, N)
+        Gains; the squared gains of each direction sum to 1.  Elevated layouts
+        are panned on their horizontal projection
+        (:meth:`Layout.panning_arrays`); use :func:`pan_gains` for the 3-D law.
+
+    Raises
+    ------
+    ParameterError
+        An AmbiX or binaural layout.
+
+    Examples
+    --------
+    >>> g = vbap_gains(get_layout("ring8"), np.radians([22.5]))   # between speakers 0 and 1
+    >>> np.round(g[:2, 0], 4).tolist()
+    [0.7071, 0.7071]
     """
     az, ch = layout.panning_arrays()
     phi = np.atleast_1d(np.asarray(azimuth_rad, dtype=np.float64))
@@ -718,14 +1077,27 @@ def vbap_gains(layout: Layout, azimuth_rad: NDArray[np.floating]) -> NDArray[np.
 # ------------------------------------------------------------------ 3-D VBAP
 @dataclass(frozen=True)
 class Triangulation:
-    """Speaker triangles for 3-D VBAP.
+    """Speaker triangles for 3-D VBAP (made by :func:`triangulate`).
 
-    ``inverse (T, 3, 3)``: per triangle the inverse of the matrix whose rows
-    are its three speaker directions, so gains are ``p @ inverse[t]``;
-    ``channels (T, 3)``: output channel of each vertex, -1 for an imaginary
-    speaker; ``imaginary_neighbours``: for each imaginary speaker, the real
-    channels adjacent to it on the hull (they share its gain when a source lies
-    exactly at it).
+    Parameters
+    ----------
+    inverse : ndarray, shape (T, 3, 3)
+        Per triangle the inverse of the matrix whose rows are its three
+        speaker directions, so gains are ``p @ inverse[t]``.
+    channels : ndarray of int, shape (T, 3)
+        Output channel of each vertex, -1 for an imaginary speaker.
+    imaginary_neighbours : tuple of tuple of int
+        For each imaginary speaker, the real channels adjacent to it on the
+        hull (they share its gain when a source lies exactly at it).
+    imaginary_directions : ndarray, shape (K, 3)
+        Unit directions of the imaginary speakers.
+
+    Examples
+    --------
+    >>> tri = triangulate(make_layout("dome", [Speaker(f"S{k}", 90.0 * k) for k in range(4)]
+    ...                               + [Speaker("top", 0.0, 90.0)]))
+    >>> tri.channels.shape, tri.imaginary_directions.tolist()   # a nadir speaker added
+    ((8, 3), [[0.0, 0.0, -1.0]])
     """
 
     inverse: NDArray[np.float64]
@@ -735,14 +1107,29 @@ class Triangulation:
 
 
 def triangulate(layout: Layout) -> Triangulation:
-    """Convex-hull triangulation of a layout's panned speakers (plus imaginary
-    speakers: those of ``layout.meta["imaginary_directions"]``, and at the
-    nadir/zenith when no speaker lies within 20° of them).
+    """Convex-hull triangulation of a layout's panned speakers, for 3-D VBAP.
+
+    Imaginary speakers are added: those of ``layout.meta["imaginary_directions"]``,
+    and at the nadir/zenith when no speaker lies within 20° of them.
+
+    Parameters
+    ----------
+    layout : Layout
+
+    Returns
+    -------
+    Triangulation
 
     Raises
     ------
     ParameterError
         The layout has fewer than three non-coplanar directions (use the 2-D law).
+
+    Examples
+    --------
+    >>> tri = triangulate(get_layout("ring8"))      # a ring: closed by nadir and zenith
+    >>> tri.channels.shape, bool((tri.channels == -1).any(axis=1).all())
+    ((16, 3), True)
     """
     from scipy.spatial import ConvexHull, QhullError
 
@@ -785,12 +1172,37 @@ def triangulate(layout: Layout) -> Triangulation:
 
 def vbap3d_gains(layout: Layout, directions: NDArray[np.floating], *,
                  triangulation: Triangulation | None = None) -> NDArray[np.float64]:  # fmt: skip
-    """3-D VBAP gains ``(n_channels, N)`` for directions ``(N, 3)`` in the listener frame.
+    """3-D VBAP gains (Pulkki 1997) for directions in the listener frame.
 
     For each direction the triangle whose gains have the largest minimum is
     used (all gains ≥ 0 inside the hull; outside the layout's coverage the
     negative gains are clipped); imaginary speakers' gains are dropped; the
     result is power-normalised (Σ g² = 1).
+
+    Parameters
+    ----------
+    layout : Layout
+        A layout whose directions span 3-D space.
+    directions : array_like, shape (N, 3)
+        Source directions (forward, left, up), any length but 0.
+    triangulation : Triangulation, optional
+        The layout's :func:`triangulate` (computed when not given).
+
+    Returns
+    -------
+    ndarray, shape (n_channels, N)
+
+    Raises
+    ------
+    ParameterError
+        The layout's directions do not span 3-D space.
+
+    Examples
+    --------
+    >>> dome = make_layout("dome", [Speaker(f"S{k}", 90.0 * k) for k in range(4)]
+    ...                    + [Speaker("top", 0.0, 90.0)])
+    >>> np.round(vbap3d_gains(dome, np.array([[1.0, 0.0, 1.0]]))[:, 0], 4).tolist()
+    [0.7071, 0.0, 0.0, 0.0, 0.7071]
     """
     tri = triangulation if triangulation is not None else triangulate(layout)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
@@ -821,11 +1233,30 @@ def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.fl
     the AmbiX encoding gains (SN3D spherical harmonics in ACN order,
     :func:`auralize.spatial.ambisonics.sh_gains`) for ``ambix1..3``.
 
+    Parameters
+    ----------
+    layout : Layout
+        Any layout but ``binaural``.
+    directions : array_like, shape (N, 3)
+        Source directions (forward, left, up).
+
+    Returns
+    -------
+    ndarray, shape (n_channels, N)
+
     Raises
     ------
     ParameterError
         For ``binaural``, which is not a panning law: pan to
         :func:`synthesis_layout` and filter with :func:`output_stage`.
+
+    Examples
+    --------
+    >>> right = np.array([[0.0, -1.0, 0.0]])
+    >>> np.round(pan_gains(get_layout("7.1"), right)[:, 0], 4).tolist()   # SR
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    >>> pan_gains(get_layout("ambix1"), right)[:, 0].tolist()             # W, Y, Z, X
+    [1.0, -1.0, 0.0, 0.0]
     """
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     if is_ambisonic(layout):
@@ -852,9 +1283,28 @@ def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.fl
     return vbap3d_gains(layout, d)
 
 
-def listener_frame_azimuth(direction: NDArray[np.floating], forward: NDArray[np.floating],
+def listener_frame_azimuth(direction: NDArray[np.floating], *, forward: NDArray[np.floating],
                            up: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
-    """Azimuth (radians, counter-clockwise from forward) of ``direction (N,3)``."""
+    """Azimuth of world directions in a listener's frame.
+
+    Parameters
+    ----------
+    direction : array_like, shape (N, 3)
+        World directions (from the listener towards the source).
+    forward, up : array_like, shape (N, 3) or (3,)
+        The listener's unit forward and up vectors.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Radians, counter-clockwise from forward, in [-π, π].
+
+    Examples
+    --------
+    >>> az = listener_frame_azimuth(np.array([[1.0, 0.0, 0.0]]), forward=[0, 1, 0], up=[0, 0, 1])
+    >>> np.degrees(az).tolist()   # +x is on the right of a listener facing +y
+    [-90.0]
+    """
     d = np.asarray(direction, dtype=np.float64).reshape(-1, 3)
     f = np.asarray(forward, dtype=np.float64).reshape(-1, 3)
     u = np.asarray(up, dtype=np.float64).reshape(-1, 3)
@@ -864,7 +1314,25 @@ def listener_frame_azimuth(direction: NDArray[np.floating], forward: NDArray[np.
 
 def listener_frame(direction: NDArray[np.floating], forward: NDArray[np.floating],
                    up: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
-    """World directions ``(N, 3)`` expressed in the listener frame (forward, left, up)."""
+    """World directions expressed in the listener frame (forward, left, up).
+
+    Parameters
+    ----------
+    direction : array_like, shape (N, 3)
+        World directions.
+    forward, up : array_like, shape (N, 3) or (3,)
+        The listener's unit forward and up vectors.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        Components along forward, left and up.
+
+    Examples
+    --------
+    >>> listener_frame(np.array([[1.0, 0.0, 0.0]]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])).tolist()
+    [[0.0, -1.0, 0.0]]
+    """
     d = np.asarray(direction, dtype=np.float64).reshape(-1, 3)
     f = np.asarray(forward, dtype=np.float64).reshape(-1, 3)
     u = np.asarray(up, dtype=np.float64).reshape(-1, 3)
@@ -885,6 +1353,26 @@ def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
     AllRAD with max-rE weights); an AmbiX target encodes each source speaker
     as a plane wave from its direction (LFE into W); AmbiX to AmbiX keeps the
     common orders.  Binaural targets need filters, not a matrix (error).
+
+    Parameters
+    ----------
+    src, dst : Layout or str
+        Source and target layouts (:func:`get_layout`).
+
+    Returns
+    -------
+    ndarray, shape (dst.n_channels, src.n_channels)
+
+    Raises
+    ------
+    ParameterError
+        A binaural target; unknown layouts.
+
+    Examples
+    --------
+    >>> np.round(downmix_matrix("5.1", "stereo"), 4)
+    array([[1.    , 0.    , 0.7071, 0.7071, 1.    , 0.    ],
+           [0.    , 1.    , 0.7071, 0.7071, 0.    , 1.    ]])
     """
     s, d = get_layout(src), get_layout(dst)
     for lay in (s, d):
@@ -923,7 +1411,29 @@ def downmix_matrix(src: Layout | str, dst: Layout | str) -> NDArray[np.float64]:
 
 
 def downmix_target(layout: Layout | str, max_channels: int) -> Layout:
-    """The largest built-in layout (7.1, 5.1, stereo, mono) fitting ``max_channels``."""
+    """The largest built-in layout (7.1, 5.1, stereo, mono) fitting ``max_channels``.
+
+    Parameters
+    ----------
+    layout : Layout or str
+        The layout to be folded (not used: the targets are the same for all).
+    max_channels : int
+        Channels of the device.
+
+    Returns
+    -------
+    Layout
+
+    Raises
+    ------
+    ParameterError
+        ``max_channels`` < 1.
+
+    Examples
+    --------
+    >>> downmix_target("ring8", 6).name, downmix_target("ring8", 3).name
+    ('5.1', 'stereo')
+    """
     for name in ("7.1", "5.1", "stereo", "mono"):
         lay = BUILTIN_LAYOUTS[name]
         if lay.n_channels <= max_channels:
@@ -942,6 +1452,19 @@ class SpeakerAlignment:
     Speakers without a distance are taken at d_max.  Processing is stateful,
     so consecutive blocks give exactly the same samples as the whole signal
     (:meth:`process`).
+
+    Parameters
+    ----------
+    layout : Layout
+    rate : float
+        Sample rate, Hz.
+    c0 : float
+        Speed of sound turning distances into delays, m/s.
+
+    Raises
+    ------
+    ParameterError
+        A rate that is not a positive number.
 
     Examples
     --------
@@ -966,7 +1489,25 @@ class SpeakerAlignment:
         self._tail = np.zeros((layout.n_channels, int(self.delays.max(initial=0))))
 
     def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Aligned copy of ``block (n_channels, n)`` (state carried to the next block)."""
+        """Aligned copy of the next block (state carried to the next block).
+
+        Parameters
+        ----------
+        block : array_like, shape (n_channels, n)
+            The next samples of every channel.
+
+        Returns
+        -------
+        ndarray, shape (n_channels, n)
+
+        Examples
+        --------
+        >>> lay = Layout("x", (Speaker("A", 0.0, 0.0, 3.0), Speaker("B", 90.0, 0.0, 1.0)))
+        >>> al = SpeakerAlignment(lay, 343)   # B is 2 m nearer: 2 samples later, 1/3 as loud
+        >>> x = np.array([[1.0, 2, 3], [3.0, 6, 9]])
+        >>> np.hstack([al.process(x[:, :2]), al.process(x[:, 2:])]).tolist()
+        [[1.0, 2.0, 3.0], [0.0, 0.0, 1.0]]
+        """
         b = np.asarray(block, dtype=np.float64)
         if not self.active:
             return b
@@ -983,17 +1524,54 @@ class SpeakerAlignment:
 
 def align_speakers(audio: NDArray[np.floating], layout: Layout, rate: float, *,
                    c0: float = C0_ALIGN) -> NDArray[np.float64]:  # fmt: skip
-    """Apply :class:`SpeakerAlignment` to a whole ``(n_channels, n)`` signal
-    (same length: the last ≤ max-delay samples of delayed channels are cut)."""
+    """Apply :class:`SpeakerAlignment` to a whole signal.
+
+    Parameters
+    ----------
+    audio : array_like, shape (n_channels, n)
+        The layout's channels.
+    layout : Layout
+    rate : float
+        Sample rate, Hz.
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    ndarray, shape (n_channels, n)
+        Same length: the last ≤ max-delay samples of delayed channels are cut.
+
+    Examples
+    --------
+    >>> lay = Layout("x", (Speaker("A", 0.0, 0.0, 2.0), Speaker("B", 90.0, 0.0, 1.0)))
+    >>> align_speakers(np.ones((2, 3)), lay, 343).tolist()
+    [[1.0, 1.0, 1.0], [0.0, 0.5, 0.5]]
+    """
     return SpeakerAlignment(layout, rate, c0=c0).process(audio)
 
 
 # ------------------------------------------------------------ immersive output
 def synthesis_layout(layout: Layout | str) -> Layout:
-    """The layout a renderer pans to: the layout itself, or for ``binaural`` the
-    intermediate that :func:`output_stage` turns into ears: with the built-in
-    head its two ear receivers (:func:`auralize.spatial.hrtf.ear_layout`), with
-    an HRIR set (:func:`default_hrtf`) the AmbiX layout ``ambix3``."""
+    """The layout a renderer pans to.
+
+    The layout itself, or for ``binaural`` the intermediate that
+    :func:`output_stage` turns into ears: with the built-in head its two ear
+    receivers (:func:`auralize.spatial.hrtf.ear_layout`), with an HRIR set
+    (:func:`default_hrtf`) the AmbiX layout ``ambix3``.
+
+    Parameters
+    ----------
+    layout : Layout or str
+
+    Returns
+    -------
+    Layout
+
+    Examples
+    --------
+    >>> synthesis_layout("5.1").name, synthesis_layout("binaural").name
+    ('5.1', 'binaural-ears')
+    """
     lay = get_layout(layout)
     if is_binaural(lay):
         if _HRTF.get() is None:
@@ -1020,9 +1598,33 @@ class OutputStage:
       are not zero (all 16 for a measured set), decoded by
       :class:`auralize.spatial.hrtf.BinauralDecoder`; :meth:`process` also
       takes the whole ``ambix3``.
+
+    Parameters
+    ----------
+    layout : Layout
+        The output layout.
+    rate : int
+        Sample rate, Hz.
+    hrtf : HRIRSet, str or Path, optional
+        See :func:`output_stage`.
+
+    Raises
+    ------
+    ParameterError
+        An ``hrtf`` for a layout other than binaural.
+    MissingFileError
+        A SOFA file that does not exist.
+    FormatError
+        A SOFA file that cannot be read.
+
+    Examples
+    --------
+    >>> st = OutputStage(get_layout("ring8"), 48000)
+    >>> st.synthesis_layout.name, st.history, st.describe()
+    ('ring8', 0, {})
     """
 
-    def __init__(self, layout: Layout, rate: int, hrtf: object = None) -> None:
+    def __init__(self, layout: Layout, rate: int, *, hrtf: object = None) -> None:
         self.layout = layout
         self.synthesis_layout = synthesis_layout(layout)
         self.rate = int(rate)
@@ -1054,20 +1656,52 @@ class OutputStage:
             )
 
     def describe(self) -> dict[str, object]:
-        """What the stage does, for a sidecar (empty for speaker layouts)."""
+        """What the stage does, for a sidecar (empty for speaker layouts).
+
+        Returns
+        -------
+        dict
+            ``{"binaural": decoder description}`` or ``{}``.
+
+        Examples
+        --------
+        >>> sorted(output_stage("binaural", 8000).describe()["binaural"])[:3]
+        ['bulk_delay_s', 'decoder', 'ear_azimuth_deg']
+        """
         if self.decoder is None:
             return {}
         return {"binaural": self.decoder.describe()}
 
     def process(self, block: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Output channels ``(layout.n_channels, n)`` of a rendered block."""
+        """Output channels of the next rendered block (filter state carried on).
+
+        Parameters
+        ----------
+        block : array_like, shape (synthesis_layout.n_channels, n)
+            Rendered channels.
+
+        Returns
+        -------
+        ndarray, shape (layout.n_channels, n)
+
+        Examples
+        --------
+        >>> output_stage("ring8", 48000).process(np.ones((8, 4))).shape
+        (8, 4)
+        """
         if self.decoder is None:
             return np.asarray(block, dtype=np.float64)
         return self.decoder.process(block)
 
     @property
     def history(self) -> int:
-        """Input samples the stage remembers (its filters' length − 1; 0 for identity)."""
+        """Input samples the stage remembers (its filters' length − 1; 0 for identity).
+
+        Examples
+        --------
+        >>> output_stage("ring8", 48000).history, output_stage("binaural", 8000).history
+        (0, 63)
+        """
         return 0 if self.decoder is None else int(self.decoder.filters.shape[2]) - 1
 
     def process_at(self, start: int, n: int,
@@ -1078,6 +1712,29 @@ class OutputStage:
         Consecutive calls carry the filter state; after a jump (a seek, the
         first call) the state is rebuilt from the :attr:`history` samples before
         ``start``, so any call returns the samples of one whole render.
+
+        Parameters
+        ----------
+        start : int
+            First output sample.
+        n : int
+            Number of samples.
+        render : callable
+            ``render(s, m)`` returns the rendered samples ``[s, s + m)``,
+            ``(synthesis_layout.n_channels, m)``.
+
+        Returns
+        -------
+        ndarray, shape (layout.n_channels, n)
+
+        Examples
+        --------
+        >>> st = output_stage("binaural", 8000)
+        >>> sig = np.random.default_rng(1).standard_normal((8, 400))
+        >>> render = lambda s, m: sig[:, s : s + m]
+        >>> whole = st.process_at(0, 400, render)
+        >>> bool(np.allclose(st.process_at(250, 150, render), whole[:, 250:], atol=1e-5))  # a seek
+        True
         """
         if self.decoder is None:
             return render(start, n)
@@ -1091,9 +1748,29 @@ class OutputStage:
         return out
 
     def finish(self, rendered: Any) -> Any:
-        """A whole render (:class:`auralize.emitters.synthesis.Rendered` of the
-        :attr:`synthesis_layout`) as a render of :attr:`layout`: filtered from a
-        clear state, ``meta`` updated with :meth:`describe`."""
+        """A whole render of the :attr:`synthesis_layout` as a render of :attr:`layout`.
+
+        Filtered from a clear state, ``meta`` updated with :meth:`describe`.
+
+        Parameters
+        ----------
+        rendered : Rendered
+            A :class:`auralize.emitters.synthesis.Rendered` of the
+            :attr:`synthesis_layout` (changed in place).
+
+        Returns
+        -------
+        Rendered
+            ``rendered``, now of :attr:`layout`.
+
+        Examples
+        --------
+        >>> from auralize.emitters.synthesis import Rendered
+        >>> st = output_stage("binaural", 8000)
+        >>> r = st.finish(Rendered(np.zeros((8, 100)), 8000, st.synthesis_layout))
+        >>> r.layout.name, r.audio.shape
+        ('binaural', (2, 100))
+        """
         if self.decoder is None:
             rendered.layout = self.layout
             return rendered
@@ -1111,9 +1788,29 @@ _HRTF: contextvars.ContextVar[object] = contextvars.ContextVar("auralize_hrtf", 
 
 @contextlib.contextmanager
 def default_hrtf(hrtf: object) -> Iterator[None]:
-    """Within the block, binaural output stages built without an ``hrtf`` use
-    this one (an :class:`auralize.spatial.hrtf.HRIRSet` or a SOFA file; None: the
-    built-in spherical head).  The command line's ``--hrtf`` sets it."""
+    """Within the block, binaural output stages built without an ``hrtf`` use this one.
+
+    The command line's ``--hrtf`` sets it.
+
+    Parameters
+    ----------
+    hrtf : HRIRSet, str, Path or None
+        An :class:`auralize.spatial.hrtf.HRIRSet` or a SOFA file; None: the
+        built-in spherical head.
+
+    Yields
+    ------
+    None
+
+    Examples
+    --------
+    >>> from auralize.spatial.hrtf import spherical_head_hrirs
+    >>> with default_hrtf(spherical_head_hrirs(rate=8000)):
+    ...     synthesis_layout("binaural").name
+    'ambix3'
+    >>> synthesis_layout("binaural").name
+    'binaural-ears'
+    """
     token = _HRTF.set(hrtf)
     try:
         yield
@@ -1133,15 +1830,28 @@ def output_stage(layout: Layout | str, rate: int, *, hrtf: object = None) -> Out
         Binaural only: an HRIR set or a SOFA file (default the built-in
         spherical-head model).
 
+    Returns
+    -------
+    OutputStage
+
+    Raises
+    ------
+    ParameterError
+        An unknown layout, or an ``hrtf`` for a layout other than binaural.
+    MissingFileError
+        A SOFA file that does not exist.
+    FormatError
+        A SOFA file that cannot be read.
+
     Examples
     --------
-    >>> st = output_stage("binaural", 48000)
+    >>> st = output_stage("binaural", 8000)
     >>> st.synthesis_layout.name, st.synthesis_layout.n_channels
     ('binaural-ears', 8)
     >>> st.process(np.zeros((8, 480))).shape
     (2, 480)
     """
-    return OutputStage(get_layout(layout), rate, hrtf)
+    return OutputStage(get_layout(layout), rate, hrtf=hrtf)
 
 
 def flac_mask_warning(layout: Layout | str) -> str | None:
@@ -1151,6 +1861,21 @@ def flac_mask_warning(layout: Layout | str) -> str | None:
     assignment for the channel count (1–8 channels), so a layout without a
     standard mask (ring8, custom and AmbiX layouts) may be routed as if it were
     5.1/7.1 (AmbiX and >8 channels may not be played at all).
+
+    Parameters
+    ----------
+    layout : Layout or str
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> flac_mask_warning("5.1") is None
+    True
+    >>> flac_mask_warning("ring8")
+    "layout 'ring8' is a non-standard 8-channel layout: FLAC cannot record its channel positions, ..."
     """
     lay = get_layout(layout)
     if lay.channel_mask is not None and lay.n_channels <= 8:

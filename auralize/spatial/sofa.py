@@ -81,6 +81,21 @@ def _attrs(ds: Any) -> tuple[str, str]:
 def read_sofa(path: str | Path) -> HRIRSet:
     """Read an AES69 SimpleFreeFieldHRIR file into an :class:`~auralize.spatial.hrtf.HRIRSet`.
 
+    Source positions are turned into unit directions in the listener frame
+    (the file's listener position, view and up taken out); ``Data.Delay`` is
+    applied to the responses.
+
+    Parameters
+    ----------
+    path : str or Path
+        The SOFA file.
+
+    Returns
+    -------
+    HRIRSet
+        ``source`` is the file name; ``meta`` holds its conventions, title,
+        licence, organisation, database and listener names when given.
+
     Raises
     ------
     MissingFileError
@@ -92,6 +107,17 @@ def read_sofa(path: str | Path) -> HRIRSet:
         the file reads data from other files (external links, external
         storage, virtual datasets) and :func:`auralize.io.hdf5.allow_external_data`
         does not allow it (``--allow-external``, ``AURALIZE_HDF5_EXTERNAL=1``).
+
+    Examples
+    --------
+    >>> from auralize.spatial.hrtf import spherical_head_hrirs
+    >>> hrirs = spherical_head_hrirs(np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]), 8000)
+    >>> back = read_sofa(write_sofa("head.sofa", hrirs))
+    >>> back.rate, back.ir.shape, np.allclose(back.ir, hrirs.ir), np.round(back.directions, 9).tolist()
+    (8000, (3, 2, 32), True, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> read_sofa("missing.sofa")
+    Traceback (most recent call last):
+    auralize.errors.MissingFileError: SOFA file 'missing.sofa' does not exist
     """
     import h5py
 
@@ -196,6 +222,36 @@ def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs
     distance 1 m).  Written atomically (a temporary file, then renamed;
     :func:`~auralize.io.files.atomic_hdf5`): a failed write raises one
     :class:`~auralize.errors.OutputError` and leaves nothing behind.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (``.sofa``).
+    hrirs : HRIRSet
+        The responses and their directions.
+    title : str
+        The file's ``Title`` attribute.
+    license_ : str
+        The file's ``License`` attribute.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OutputError
+        The file cannot be written (or the disk is too small for it).
+
+    Examples
+    --------
+    >>> import h5py
+    >>> from auralize.spatial.hrtf import spherical_head_hrirs
+    >>> out = write_sofa("model.sofa", spherical_head_hrirs(np.eye(3), 8000), title="model")
+    >>> with h5py.File(out) as h:
+    ...     h.attrs["SOFAConventions"], h.attrs["Title"], h["Data.IR"].shape
+    ('SimpleFreeFieldHRIR', 'model', (3, 2, 32))
     """
     from auralize.io.files import atomic_hdf5, stop_if_failed
 
