@@ -221,12 +221,20 @@ def test_uniform_volumes_have_no_coords() -> None:
 
 
 # ------------------------------------------------------------------ readers
-def write_vts_series(folder: Path, n: tuple[int, int, int] = (10, 24, 5),
-                     steps: int = 8) -> tuple[Path, np.ndarray, np.ndarray]:  # fmt: skip
+def write_vts_series(folder: Path, n: tuple[int, int, int] = (10, 24, 5), steps: int = 8, *,
+                     swirl: float = 0.0,
+                     block: tuple[int, ...] | None = None) -> tuple[Path, np.ndarray, np.ndarray]:  # fmt: skip
     """A ``.pvd`` of ``.vts`` files (VTK's vtkXMLStructuredGridWriter, via pyvista) of a
-    pulsating blob on a cylindrical shell; returns the path, the points and the times."""
+    pulsating blob on a cylindrical shell; returns the path, the points and the times.
+
+    ``swirl``: the blob also turns about the z axis through (0, 1) at that peak speed
+    (m/s), pulsating (dipoles and quadrupoles too).  ``block (i0, i1, j0, j1, k0, k1)``:
+    only those points of the shell (the same values at the same points)."""
     folder.mkdir(parents=True, exist_ok=True)
     c = shell(n, r0=0.5, r1=1.5, span=np.pi, height=0.5)
+    if block is not None:
+        i0, i1, j0, j1, k0, k1 = block
+        c = c[k0:k1, j0:j1, i0:i1]
     grid = pv.StructuredGrid(*(c[..., a].transpose(2, 1, 0) for a in range(3)))
     times = np.arange(steps) * 0.01
     entries = []
@@ -235,7 +243,9 @@ def write_vts_series(folder: Path, n: tuple[int, int, int] = (10, 24, 5),
         p = np.asarray(g.points)
         blob = np.exp(-((p[:, 0]) ** 2 + (p[:, 1] - 1.0) ** 2 + (p[:, 2] - 0.25) ** 2) / 0.02)
         g.point_data["density"] = 1.2 + 0.01 * np.sin(2 * np.pi * 10 * t) * blob
-        g.point_data["velocity"] = np.zeros((g.n_points, 3))
+        turn = swirl * np.sin(2 * np.pi * 10 * t) * blob
+        g.point_data["velocity"] = np.stack([-(p[:, 1] - 1.0) * turn, p[:, 0] * turn,
+                                             np.zeros(g.n_points)], axis=-1)  # fmt: skip
         g.save(folder / f"step_{k}.vts")
         entries.append(f'<DataSet timestep="{float(t)!r}" file="step_{k}.vts"/>')
     path = folder / "series.pvd"
@@ -521,3 +531,129 @@ def test_divergence_free_flow_has_no_dipoles_on_a_warped_grid() -> None:
                         ("monopole", "dipole", "quadrupole")]  # fmt: skip
     assert counts["curvilinear"][:2] == [0, 0] and counts["uniform"][:2] == [0, 0]
     assert counts["curvilinear"][2] == pytest.approx(counts["uniform"][2], rel=0.1)
+
+
+# ---------------------------------------------------------- box: index space
+BOX = (-0.6, 0.6, 0.6, 1.6, 0.0, 0.5)
+#: absolute thresholds (the same in every run, whatever region it sees)
+THRESHOLDS = ["--threshold-monopole", "0.05", "--threshold-dipole", "0.5",
+              "--threshold-quadrupole", "0.01"]  # fmt: skip
+
+
+def _sources(path: Path) -> dict[str, np.ndarray]:
+    import h5py
+
+    with h5py.File(path) as h:
+        return {k: h[k][...] for k in ("offsets", "index", "position", "kind", "strength",
+                                       "radius")}  # fmt: skip
+
+
+def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """--box keeps a curvilinear grid native: the smallest index block holding every point
+    in the box.  info, detect and render on it equal those on a file of that block alone
+    (bit for bit), and detection inside it equals the whole grid's away from the cut faces."""
+    from auralize.audio import read_wav
+    from auralize.cli import main
+    from auralize.io import ResampledWarning, open_volume
+
+    full, c, times = write_vts_series(tmp_path / "full", swirl=0.5)
+    box = "--box=" + ",".join(f"{v:g}" for v in BOX)  # '=': it starts with a minus sign
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResampledWarning)
+        vol = open_volume(full, box=BOX)
+    tol = 1e-9 * 3.0
+    inside = np.ones(c.shape[:3], dtype=bool)
+    for a in range(3):
+        inside &= (c[..., a] >= BOX[2 * a] - tol) & (c[..., a] <= BOX[2 * a + 1] + tol)
+    blk = vol.attrs["index_block"]
+    (i0, i1), (j0, j1), (k0, k1) = blk["i"], blk["j"], blk["k"]
+    assert blk["of"] == [10, 24, 5] and (i0, i1, j0, j1, k0, k1) == (1, 9, 6, 17, 0, 4)
+    assert vol.curvilinear and vol.dims == (i1 - i0 + 1, j1 - j0 + 1, k1 - k0 + 1)
+    assert vol.n_points == 9 * 12 * 5 < c.shape[0] * c.shape[1] * c.shape[2]
+    np.testing.assert_array_equal(vol.coords, c[k0 : k1 + 1, j0 : j1 + 1, i0 : i1 + 1])
+    # every point in the box is in the block, and each face of the block holds one (smallest)
+    in_block = np.zeros_like(inside)
+    in_block[k0 : k1 + 1, j0 : j1 + 1, i0 : i1 + 1] = True
+    assert inside.sum() == 340 and not (inside & ~in_block).any()
+    sub = inside[k0 : k1 + 1, j0 : j1 + 1, i0 : i1 + 1]
+    for face in (sub[:, :, 0], sub[:, :, -1], sub[:, 0], sub[:, -1], sub[0], sub[-1]):
+        assert face.any()
+    b = vol.bounds
+    flat = c[in_block]
+    assert b == pytest.approx(tuple(v for a in range(3) for v in (flat[:, a].min(),
+                                                                flat[:, a].max())))  # fmt: skip
+    np.testing.assert_array_equal(vol.frame("density", 3),
+                                  open_volume(full).frame("density", 3)[k0:k1 + 1, j0:j1 + 1,
+                                                                        i0:i1 + 1])  # fmt: skip
+
+    assert main(["info", str(full), box, "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["grid"] == "curvilinear, native" and d["dims"] == [9, 12, 5]
+    assert d["index_block"] == blk and d["bounds"] == pytest.approx(list(b))
+    assert main(["info", str(full), box]) == 0
+    text = capsys.readouterr().out
+    assert "curvilinear, native: 9 x 12 x 5 points" in text
+    assert "box      index block i 1..9, j 6..17, k 0..4 of 10 x 24 x 5 points" in text
+
+    # the same block written alone: the same sources and sound, bit for bit
+    part, _, _ = write_vts_series(tmp_path / "part", swirl=0.5,
+                                  block=(i0, i1 + 1, j0, j1 + 1, k0, k1 + 1))  # fmt: skip
+    got = {}
+    for name, args in (("box", [str(full), box]), ("part", [str(part)]),
+                       ("full", [str(full)])):  # fmt: skip
+        out = tmp_path / f"{name}.h5"
+        assert main(["detect", *args, *THRESHOLDS, "-o", str(out)]) == 0
+        got[name] = _sources(out)
+    capsys.readouterr()
+    for k in got["box"]:
+        np.testing.assert_array_equal(got["box"][k], got["part"][k], err_msg=k)
+    wavs = {}
+    for name, args in (("box", [str(full), box]), ("part", [str(part)])):
+        wav = tmp_path / f"{name}.wav"
+        assert main(["render", *args, "--listener", "0,-1,0.25", "--duration", "0.05", "--rate",
+                     "8000", "-o", str(wav), "--normalize", "none"]) == 0  # fmt: skip
+        wavs[name] = read_wav(wav)[0]
+    capsys.readouterr()
+    assert np.abs(wavs["box"]).max() > 0 and np.array_equal(wavs["box"], wavs["part"])
+
+    # against the whole grid's sources in the block: equal (1e-12) where no stencil
+    # reaches a cut face (3 index points: the quadrupole's two divergences and the ΔV
+    # radius's neighbours; a face of the whole grid is no cut: k spans it all); near
+    # them, the cropped grid's one-sided differences and half cells differ
+    shape = (k1 - k0 + 1, j1 - j0 + 1, i1 - i0 + 1)
+    inner = np.zeros(shape, dtype=bool).reshape(-1)
+    inner.reshape(shape)[:, 3:-3, 3:-3] = True
+    to_full = np.ravel_multi_index(
+        tuple(g + o for g, o in zip(np.unravel_index(np.arange(inner.size), shape), (k0, j0, i0),
+                                    strict=True)), c.shape[:3])  # fmt: skip
+    box_s, full_s = got["box"], got["full"]
+    compared, sums = 0, np.zeros(2)
+    for n in range(times.size):
+        b_rows = np.arange(*box_s["offsets"][n : n + 2])
+        f_rows = np.arange(*full_s["offsets"][n : n + 2])
+        f_at = dict(zip(full_s["index"][f_rows].tolist(), f_rows.tolist(), strict=True))
+        here = b_rows[inner[box_s["index"][b_rows]]]
+        there = [f_at.get(int(to_full[x])) for x in box_s["index"][here]]
+        assert None not in there, n  # every inner source of the crop is one of the grid's
+        wanted = set(to_full[inner].tolist())
+        assert sum(int(x) in wanted for x in full_s["index"][f_rows]) == here.size, n
+        for key in ("kind", "strength", "radius", "position"):
+            np.testing.assert_allclose(box_s[key][here], full_s[key][there], rtol=1e-12,
+                                       err_msg=f"step {n}: {key}")  # fmt: skip
+        compared += here.size
+        # monopoles at the points inside the box, whole block (cut faces included)
+        pts = box_s["position"][b_rows]
+        sel = (box_s["kind"][b_rows] == 1) & np.all((pts >= np.array(BOX[::2]) - tol)
+                                                    & (pts <= np.array(BOX[1::2]) + tol), axis=1)  # fmt: skip
+        sums[0] += np.abs(box_s["strength"][b_rows][sel] * box_s["radius"][b_rows][sel] ** 3).sum()
+        pts = full_s["position"][f_rows]
+        sel = (full_s["kind"][f_rows] == 1) & np.all((pts >= np.array(BOX[::2]) - tol)
+                                                     & (pts <= np.array(BOX[1::2]) + tol), axis=1)  # fmt: skip
+        sums[1] += np.abs(
+            full_s["strength"][f_rows][sel] * full_s["radius"][f_rows][sel] ** 3
+        ).sum()
+    assert compared > 100, compared
+    # the monopoles at the points in the box, cut faces included: Σ |S| r³ as the whole
+    # grid's (∂ρ/∂t is point-wise; only the ΔV radius changes at a cut face, where the
+    # blob's monopoles do not reach)
+    assert sums[1] > 0 and sums[0] == pytest.approx(sums[1], rel=1e-9), sums

@@ -20,8 +20,9 @@ surface's values interpolated there (:func:`shell_voxels`).  A structured
 curvilinear grid (``vtkStructuredGrid``: ``.vts``, PLOT3D) keeps its own
 points (``TimeVolume.coords``; derivatives by its metric terms,
 :mod:`auralize.curvilinear`) unless the reader options ask for resampling
-(``curvilinear="resample"``, a ``resolution`` or a ``box``);
-:func:`resample_curvilinear` puts one on a uniform grid for what needs it.  The reader
+(``curvilinear="resample"`` or a ``resolution``; a ``box`` crops it in index
+space, :func:`auralize.io.options.index_block`); :func:`resample_curvilinear`
+puts one on a uniform grid for what needs it.  The reader
 option ``axis_scale=`` scales every step's mesh as it is loaded, before any
 of this.
 """
@@ -1113,7 +1114,6 @@ def open_mesh_series(
         and surface is None
         and options.curvilinear == "native"
         and resolution is None
-        and options.box is None
         and curvilinear_points(mesh0) is not None
     )
     converter: _SameGrid | _Lattice | _Sampler | _Shell | _Structured

@@ -72,9 +72,10 @@ converted to metres so that the speed of sound applies to it:
 "z": "hPa -> m (standard atmosphere)"}``), ``attrs["grid_units"]`` keeps the
 file's units.  Decreasing coordinates are flipped.  Unevenly spaced ones are
 read on their own points (a rectilinear grid: ``TimeVolume.coords``, the
-derivatives by its metric terms, :mod:`auralize.curvilinear`); with
-``curvilinear="resample"`` (``--resample``), a ``resolution`` or a ``box``
-they are resampled onto a uniform grid (with a
+derivatives by its metric terms, :mod:`auralize.curvilinear`; a ``box``
+keeps the smallest index block holding its points inside); with
+``curvilinear="resample"`` (``--resample``) or a ``resolution`` they are
+resampled onto a uniform grid (with a
 :class:`~auralize.io.ResampledWarning` saying why): the evenly spaced axes
 keep their points, an uneven one takes its finest step (at most twice its
 points) unless ``resolution=`` says otherwise.  A curvilinear lat/lon grid
@@ -1052,7 +1053,7 @@ def read_netcdf(
     ))  # fmt: skip
     loader = _NetCDFSteps(backend, lay, src, needed)
     options = read_options()
-    on_points = options.curvilinear == "native" and resolution is None and options.box is None
+    on_points = options.curvilinear == "native" and resolution is None
     if lay.aux is None and all(_evenly_spaced(c) for c in lay.coords):
         base = _uniform_volume(loader, lay, src)
         base = resample_uniform(base, check_resolution(resolution, source=src))

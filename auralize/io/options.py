@@ -7,10 +7,11 @@ a per-axis scale to metres, and a region of interest.
 the mesh and netCDF readers can use them where they matter most: a mesh is
 scaled before its grid is chosen, a region picks the cells whose size sets the
 resolution.  Whatever a reader leaves undone, :func:`finish` does on the
-uniform volume it returns: it scales the grid's axes and keeps the grid points
-inside the box.  Both are idempotent (a reader marks a scale it applied in
-``attrs["axis_scale_applied"]``; a volume already inside its box is returned as
-it is).
+volume it returns: it scales the grid's axes and keeps the grid points inside
+the box (on a curvilinear grid read natively, the smallest index block holding
+every point inside the box: :func:`index_block`).  Both are idempotent (a
+reader marks a scale it applied in ``attrs["axis_scale_applied"]``; a volume
+already inside its box is returned as it is).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ __all__ = [
     "current",
     "curvilinear_mode",
     "finish",
+    "index_block",
     "reading",
 ]
 
@@ -62,15 +64,16 @@ class ReadOptions:
         levels, converts them to metres itself).
     box : (xmin, xmax, ymin, ymax, zmin, zmax) or None
         Region of interest in metres (after ``axis_scale``); the volume keeps
-        the grid points inside it, and a mesh's resolution is chosen from the
-        cells inside it.
+        the grid points inside it (a curvilinear grid the smallest index block
+        holding them), and a mesh's resolution is chosen from the cells inside
+        it.
     """
 
     time_dim: str | None = None
     axis_scale: tuple[float, float, float] | None = None
     box: Box | None = None
     #: ``"native"`` (default) or ``"resample"`` (:data:`CURVILINEAR_MODES`); a
-    #: ``box`` or a ``resolution`` resamples a curvilinear grid too
+    #: ``resolution`` resamples a curvilinear grid too, a ``box`` crops it natively
     curvilinear: str = "native"
 
 
@@ -215,15 +218,79 @@ def _scaled(volume: TimeVolume, scale: tuple[float, float, float]) -> TimeVolume
     return out
 
 
+def index_block(
+    coords: NDArray[np.float64], box: Box, *, source: str = "<memory>"
+) -> tuple[int, int, int, int, int, int]:
+    """The smallest index block ``(i0, i1, j0, j1, k0, k1)`` (half-open) of a curvilinear
+    grid's points ``coords (nz, ny, nx, 3)`` that holds every point inside ``box``.
+
+    A point is inside when it lies in the box along each axis on which the grid
+    is not flat (a one-layer grid is kept whatever the box says across it), to
+    1e-9 of the grid's extent.  A box that holds no point is an error.
+
+    Examples
+    --------
+    >>> zz, yy, xx = np.meshgrid(np.arange(3.0), np.arange(4.0), np.arange(5.0), indexing="ij")
+    >>> c = np.stack([xx + 0.1 * yy, yy, zz], axis=-1)  # x sheared along y
+    >>> index_block(c, (0.9, 2.1, 0.0, 1.5, 1.0, 2.0))
+    (1, 3, 0, 2, 1, 3)
+    """
+    from auralize.io._mesh import in_box
+
+    flat = coords.reshape(-1, 3)
+    lo, hi = flat.min(axis=0), flat.max(axis=0)
+    bounds = [float(v) for a in range(3) for v in (lo[a], hi[a])]
+    inside = in_box(flat, box, bounds).reshape(coords.shape[:3])
+    if not inside.any():
+        raise DataError(
+            f"{source}: the box {', '.join(f'{v:g}' for v in box)} m holds no point of the "
+            f"curvilinear grid (it spans x[{lo[0]:g}, {hi[0]:g}] y[{lo[1]:g}, {hi[1]:g}] "
+            f"z[{lo[2]:g}, {hi[2]:g}] m)"
+        )
+    out: list[int] = []
+    for ax in (2, 1, 0):  # i (x fastest: the last array axis), j, k
+        other = tuple(b for b in range(3) if b != ax)
+        hit = np.flatnonzero(inside.any(axis=other))
+        out += [int(hit[0]), int(hit[-1]) + 1]
+    return (out[0], out[1], out[2], out[3], out[4], out[5])
+
+
+def _cropped_curvilinear(volume: TimeVolume, box: Box) -> TimeVolume:
+    """A curvilinear volume cut to :func:`index_block` of ``box``, natively and lazily."""
+    from auralize.curvilinear import nominal_spacing
+
+    assert volume.coords is not None
+    i0, i1, j0, j1, k0, k1 = index_block(volume.coords, box, source=volume.source)
+    nx, ny, nz = volume.dims
+    if (i0, i1, j0, j1, k0, k1) == (0, nx, 0, ny, 0, nz):
+        return volume
+    coords = volume.coords[k0:k1, j0:j1, i0:i1].copy()
+    dims = (i1 - i0, j1 - j0, k1 - k0)
+    # an index direction cut to one point keeps its nominal length (its thickness)
+    spacing = np.where(np.asarray(dims) > 1, nominal_spacing(coords), volume.spacing)
+    window = (k0, k1, j0, j1, i0, i1)
+    out = TimeVolume(
+        origin=coords.reshape(-1, 3).min(axis=0),
+        spacing=spacing,
+        dims=dims,
+        times=volume.times,
+        fields={n: _Window(src, window) for n, src in volume.fields.items()},
+        physical_times=volume.physical_times,
+        source=volume.source,
+        check_finite=volume.check_finite,
+        attrs=dict(volume.attrs),
+        valid=None if volume.valid is None else volume.valid[k0:k1, j0:j1, i0:i1].copy(),
+        coords=coords,
+    )
+    out.attrs["box"] = list(box)
+    out.attrs["index_block"] = {"i": [i0, i1 - 1], "j": [j0, j1 - 1], "k": [k0, k1 - 1],
+                                "of": [nx, ny, nz]}  # fmt: skip
+    return out
+
+
 def _cropped(volume: TimeVolume, box: Box) -> TimeVolume:
     if volume.coords is not None:
-        b = volume.bounds
-        if all(box[2 * a] <= b[2 * a] and b[2 * a + 1] <= box[2 * a + 1] for a in range(3)):
-            return volume
-        raise DataError(
-            f"{volume.source}: a box (region of interest) cuts a curvilinear grid; read it "
-            f"resampled (--resample, curvilinear='resample') to keep the region"
-        )
+        return _cropped_curvilinear(volume, box)
     origin = np.asarray(volume.origin, dtype=np.float64)
     spacing = np.asarray(volume.spacing, dtype=np.float64)
     lo_hi: list[tuple[int, int]] = []
@@ -264,11 +331,13 @@ def _cropped(volume: TimeVolume, box: Box) -> TimeVolume:
 
 
 def finish(volume: TimeVolume, options: ReadOptions) -> TimeVolume:
-    """Apply what the reader left of ``options`` to the uniform ``volume``.
+    """Apply what the reader left of ``options`` to ``volume``.
 
     The axis scale (unless the reader applied it) multiplies the origin and
-    spacing; the box keeps the grid points inside it, lazily (frames are cut
-    as they are read).
+    spacing (a curvilinear grid's points); the box keeps the grid points inside
+    it, lazily (frames are cut as they are read): on a curvilinear grid the
+    smallest index block that holds them (:func:`index_block`;
+    ``attrs["index_block"]`` gives its inclusive index ranges).
     """
     if options.axis_scale is not None and "axis_scale_applied" not in volume.attrs:
         volume = _scaled(volume, options.axis_scale)
