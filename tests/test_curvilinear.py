@@ -399,9 +399,11 @@ def test_view_and_pictures_draw_the_grid_natively(vts_series, tmp_path) -> None:
         assert (grey > 60).mean() > 0.02, shot.name  # more than the outline on black
 
 
-def test_uniform_only_paths_resample_or_refuse(vts_series) -> None:  # type: ignore[no-untyped-def]
+def test_sound_models_resample_and_fwh_refuses_in_one_line(vts_series, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     """Sound models read a curvilinear grid resampled (their physics takes uniform
-    spacing); Dask's slabs and the FW-H sampling refuse it, naming --resample."""
+    spacing); the FW-H sampling refuses it in one line naming --resample, with which
+    the same command runs."""
+    from auralize.cli import main
     from auralize.fwh.sampling import trilinear_weights
     from auralize.io import ResampledWarning, open_volume
     from auralize.plugins import load_volume_input
@@ -409,14 +411,91 @@ def test_uniform_only_paths_resample_or_refuse(vts_series) -> None:  # type: ign
     path, _, _ = vts_series
     with pytest.warns(ResampledWarning):
         assert not load_volume_input(str(path)).curvilinear
-    vol = open_volume(path)
-    with pytest.raises(DataError, match="FW-H .*--resample"):
-        trilinear_weights(vol, np.zeros((1, 3)))
-    pytest.importorskip("dask")
-    from auralize.distributed import detect_distributed
+    with pytest.raises(DataError, match="FW-H integral .* add --resample"):
+        trilinear_weights(open_volume(path), np.zeros((1, 3)))
+    fwh = [str(path), "--method", "fwh", "--surface", "box=-0.3;0.3;0.7;1.2;0.1;0.4",
+           "--listener", "0,-2,0.25"]  # fmt: skip
+    assert main(["spectrum", *fwh]) == 3
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "Traceback" not in err, err
+    assert err == (f"auralize spectrum: error: {path}: the FW-H integral samples its surface on "
+                   f"a uniform grid, and this curvilinear grid is read on its own points: add "
+                   f"--resample (curvilinear='resample' in Python) to read it resampled onto a "
+                   f"uniform grid")  # fmt: skip
+    assert main(["spectrum", *fwh, "--resample", "--json"]) == 0
+    got = capsys.readouterr()
+    assert "FW-H on box" in json.loads(got.out)["source"] and "resampled by linear" in got.err
 
-    with pytest.raises(DataError, match="uniform slabs.*--resample"):
-        detect_distributed(vol, log=None)
+
+def _warped_series(n: tuple[int, int, int] = (14, 12, 22), steps: int = 7) -> TimeVolume:
+    """A pulsating blob in a pulsating swirl on a warped grid (curvilinear, in memory)."""
+    c = warped(n, a=0.08)
+    t = np.arange(steps) * 0.01
+    blob = np.exp(-((c - 0.5) ** 2).sum(-1) / 0.02)
+    rho = 1.2 + 0.01 * np.sin(2 * np.pi * 7 * t)[:, None, None, None] * blob[None]
+    vel = np.stack([np.sin(3 * c[..., 1]), np.cos(2 * c[..., 2]), np.sin(2 * c[..., 0])], -1)
+    amp = 1 + 0.3 * np.sin(2 * np.pi * 5 * t)
+    return TimeVolume.from_arrays({"density": rho, "velocity": amp[:, None, None, None, None]
+                                   * vel[None]}, times=t, coords=c)  # fmt: skip
+
+
+@pytest.mark.parametrize("mapping", ["identity", "paper-density"])
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")  # low thresholds
+def test_distributed_detection_on_a_curvilinear_grid_is_the_serial_one(mapping: str) -> None:
+    """Dask's z-slabs of a curvilinear grid hold their points; with the ghost planes of its
+    stencils (a divergence of divergences, the 2h ones of the floor) every slab's
+    sources are the whole grid's, bit for bit, as on a uniform grid."""
+    pytest.importorskip("dask")
+    from auralize.distributed import chunked_volume, detect_distributed
+    from auralize.sources.detection import Thresholds, detect
+
+    vol = _warped_series()
+    kw = {"field": "density"} if mapping == "paper-density" else {}
+    for thr in (Thresholds(), Thresholds(1e-3, 1e-3, 1e-3, floor=0.0)):
+        serial = detect(vol, mapping=mapping, thresholds=thr, **kw)
+        dask = detect_distributed(chunked_volume(vol), mapping=mapping, thresholds=thr,
+                                  slab_planes=4, chunk_steps=3, log=None, **kw)  # fmt: skip
+        assert len(dask.meta["scale"]["slabs"]) == 6 and dask.meta["grid"] == "curvilinear"
+        np.testing.assert_array_equal(dask.thresholds, serial.thresholds)
+        n = 0
+        for a, b in zip(serial.frames, dask.frames, strict=True):
+            for key in ("index", "kind", "strength", "radius"):
+                np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
+            n += a.index.size
+        assert n > 500
+        np.testing.assert_array_equal(dask.positions(serial.frames[3].index),
+                                      vol.points(serial.frames[3].index))  # fmt: skip
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")
+def test_cli_detect_and_render_on_dask_natively(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """``detect``/``render`` with a Dask scheduler on a curvilinear series: the serial
+    sources, bit for bit; the Dask render detecting on its workers sounds as the Dask
+    render of the serial sources file."""
+    pytest.importorskip("dask")
+    from auralize.audio import read_wav
+    from auralize.cli import main
+
+    path, c, _ = write_vts_series(tmp_path / "s", n=(8, 16, 12), swirl=0.5)
+    dask = ["--scheduler", "threads", "--workers", "2"]
+    assert main(["detect", str(path), *THRESHOLDS, "-o", str(tmp_path / "serial.h5")]) == 0
+    assert main(["detect", str(path), *THRESHOLDS, "-o", str(tmp_path / "dask.h5"), *dask,
+                 "--chunk-steps", "3", "--slab-planes", "4"]) == 0  # fmt: skip
+    assert "3 slabs" in capsys.readouterr().out
+    serial, on_dask = _sources(tmp_path / "serial.h5"), _sources(tmp_path / "dask.h5")
+    assert serial["index"].size > 50
+    for key, value in serial.items():
+        np.testing.assert_array_equal(on_dask[key], value, err_msg=key)
+    np.testing.assert_array_equal(serial["position"], c.reshape(-1, 3)[serial["index"]])
+    wavs = []
+    for extra in ([], ["--sources", str(tmp_path / "serial.h5")]):
+        wav = tmp_path / f"{len(wavs)}.wav"
+        assert main(["render", str(path), "--heard", "detected", *THRESHOLDS, *dask,
+                     "--listener", "0,-1,0.25", "--duration", "0.05", "--rate", "8000",
+                     "--normalize", "none", "-o", str(wav), *extra]) == 0  # fmt: skip
+        wavs.append(read_wav(wav)[0])
+    capsys.readouterr()
+    assert np.abs(wavs[0]).max() > 0 and np.array_equal(wavs[0], wavs[1])
 
 
 def test_uneven_rectilinear_vtr_is_read_natively(tmp_path: Path) -> None:
