@@ -562,6 +562,272 @@ def test_netcdf_2d_lat_lon_is_read_natively(tmp_path: Path) -> None:
         assert not open_volume(tmp_path / "roms.nc", curvilinear="resample").curvilinear
 
 
+# ------------------------------------------------- netCDF: 3-D vertical coordinates
+def write_nc4(path: Path, dims: dict[str, np.ndarray | int],
+              variables: dict[str, tuple[tuple[str, ...], np.ndarray, dict[str, str]]]) -> None:  # fmt: skip
+    """A netCDF4 file (HDF5 with dimension scales, as the netCDF library writes it):
+    ``dims`` name -> coordinate values (or a length: a dimension without a variable),
+    ``variables`` name -> (dimensions, values, attributes)."""
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        for name, vals in dims.items():
+            if isinstance(vals, int):
+                ds = f.create_dataset(name, data=np.zeros(vals))
+                ds.make_scale("This is a netCDF dimension but not a netCDF variable.")
+            else:
+                ds = f.create_dataset(name, data=np.asarray(vals, dtype=np.float64))
+                ds.make_scale(name)
+        for name, (vdims, vals, attrs) in variables.items():
+            ds = f[name] if name in f else f.create_dataset(name, data=np.asarray(vals, float))
+            for k, v in attrs.items():
+                ds.attrs[k] = v
+            for axis, d in enumerate(vdims):
+                if d != name:
+                    ds.dims[axis].attach_scale(f[d])
+
+
+def roms_like(path: Path, *, nt: int = 6, nk: int = 6, ny: int = 7, nx: int = 9) -> dict[str, np.ndarray]:  # fmt: skip
+    """A ROMS-like file: 2-D ``lon_rho``/``lat_rho`` named by ``coordinates``, s-levels
+    ``ocean_s_coordinate_g2`` (``formula_terms``: s_rho, Cs_r, zeta, h, hc) under a free
+    surface ``zeta`` that moves, ``rho`` a pulsating blob, ``temp`` linear in height.
+    Returns the closed forms: ``z`` (the heights at zeta's time mean), ``lon``, ``lat``."""
+    t = np.arange(nt) * 0.01
+    j, i = np.meshgrid(np.arange(ny, dtype=float), np.arange(nx, dtype=float), indexing="ij")
+    lon, lat = 10.0 + 0.002 * i + 0.0005 * j, 45.0 + 0.0004 * i + 0.0015 * j
+    s_rho = (np.arange(nk) - nk + 0.5) / nk
+    cs = -(s_rho**2) + 0.2 * s_rho  # stretching: C(0) = 0, C(-1) = -1.2
+    h = 40.0 + 1.5 * i + 0.8 * j
+    hc = 5.0
+    zeta = 0.05 * np.sin(2 * np.pi * 10 * t)[:, None, None] * (1 + 0.01 * i)[None]
+    eta = zeta.mean(axis=0)
+    big_s = (hc * s_rho[:, None, None] + h[None] * cs[:, None, None]) / (hc + h[None])
+    z = eta[None] + (eta[None] + h[None]) * big_s
+    x = 6371000.0 * np.cos(np.deg2rad(0.5 * (lat.min() + lat.max()))) * np.deg2rad(lon)
+    y = 6371000.0 * np.deg2rad(lat)
+    r2 = ((x - x.mean()) / 120.0) ** 2 + ((y - y.mean()) / 120.0) ** 2
+    blob = np.exp(-0.5 * (r2[None] + ((z + 20.0) / 8.0) ** 2))
+    rho = 1025.0 + 0.01 * np.sin(2 * np.pi * 10 * t)[:, None, None, None] * blob[None]
+    hor = ("eta_rho", "xi_rho")
+    write_nc4(path, {"ocean_time": t, "s_rho": s_rho, "eta_rho": ny, "xi_rho": nx}, {
+        "ocean_time": (("ocean_time",), t, {"units": "seconds since 2001-01-01"}),
+        "s_rho": (("s_rho",), s_rho, {
+            "standard_name": "ocean_s_coordinate_g2", "positive": "up",
+            "formula_terms": "s: s_rho C: Cs_r eta: zeta depth: h depth_c: hc"}),
+        "Cs_r": (("s_rho",), cs, {}),
+        "hc": ((), np.asarray(hc), {"units": "m"}),
+        "h": (hor, h, {"units": "m"}),
+        "zeta": (("ocean_time", *hor), zeta, {"units": "m"}),
+        "lon_rho": (hor, lon, {"units": "degree_east"}),
+        "lat_rho": (hor, lat, {"units": "degree_north"}),
+        "rho": (("ocean_time", "s_rho", *hor), rho, {"units": "kg m-3",
+                                                     "coordinates": "lon_rho lat_rho"}),
+        "temp": (("ocean_time", "s_rho", *hor), np.broadcast_to(20.0 + 0.1 * z, rho.shape),
+                 {"units": "degC", "coordinates": "lon_rho lat_rho"}),
+    })  # fmt: skip
+    return {"z": z, "x": x, "y": y, "zeta": zeta}
+
+
+def test_netcdf_s_levels_are_read_natively(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """CF ocean_s_coordinate_g2 (formula_terms) under 2-D lon/lat: the heights of every
+    point, in metres, at the free surface's time mean; a field linear in height has the
+    gradient (0, 0, k) on them; info, detect and render through the command line."""
+    from auralize.audio import read_wav
+    from auralize.cli import main
+    from auralize.io import ResampledWarning, open_volume
+
+    path = tmp_path / "roms.nc"
+    want = roms_like(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResampledWarning)
+        vol = open_volume(path)
+    assert vol.curvilinear and vol.dims == (9, 7, 6) and vol.n_steps == 6
+    np.testing.assert_allclose(vol.coords[..., 2], want["z"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(vol.coords[..., 0], np.broadcast_to(want["x"], want["z"].shape))
+    np.testing.assert_allclose(vol.coords[..., 1], np.broadcast_to(want["y"], want["z"].shape))
+    note = vol.attrs["axis_units"]["z"]
+    assert note.startswith("ocean_s_coordinate_g2 -> m per point (formula_terms s: s_rho, C: "
+                           "Cs_r, eta: zeta, depth: h, depth_c: hc)")  # fmt: skip
+    moved = float(np.ptp(want["zeta"], axis=0).max())
+    assert f"at the time mean of what moves (zeta by up to {moved:.3g} m): a fixed grid" in note
+    g = vol.metric.gradient(vol.frame("temp", 2))
+    assert np.abs(g - [0.0, 0.0, 0.1]).max() < 1e-9  # (levels taken flat: |g_x| ~ 1e-3)
+
+    assert main(["info", str(path)]) == 0
+    text = capsys.readouterr().out
+    assert "grid     curvilinear, native: 9 x 7 x 6 points" in text
+    assert "z: ocean_s_coordinate_g2 -> m per point" in text
+    assert "a 3-D vertical coordinate (ocean_s_coordinate_g2): read on its own points" in text
+    out = tmp_path / "s.h5"
+    assert main(["detect", str(path), "--density-field", "rho", "--threshold-monopole", "10%",
+                 "-o", str(out)]) == 0  # fmt: skip
+    got = _sources(out)
+    assert (got["kind"] == 1).sum() > 20
+    np.testing.assert_allclose(got["position"], vol.points(got["index"]))
+    centre = got["position"].mean(axis=0)
+    assert abs(centre[2] + 20.0) < 4.0  # the blob's height
+    wav = tmp_path / "a.wav"
+    listener = ",".join(f"{v:.6f}" for v in (want["x"].mean(), want["y"].mean() - 500, -20.0))
+    assert main(["render", str(path), "--density-field", "rho", "--listener", listener,
+                 "--duration", "0.05", "--rate", "8000", "-o", str(wav), "--normalize",
+                 "none"]) == 0  # fmt: skip
+    audio = read_wav(wav)[0]
+    assert np.isfinite(audio).all() and np.abs(audio).max() > 0
+    capsys.readouterr()
+    # --resample: onto a uniform grid over the same heights
+    with pytest.warns(ResampledWarning, match="StructuredGrid with 378 points resampled"):
+        res = open_volume(path, curvilinear="resample")
+    assert not res.curvilinear
+    assert res.bounds[4:] == pytest.approx((want["z"].min(), want["z"].max()), abs=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["height in km", "depth, moving"])
+def test_netcdf_3d_height_named_by_coordinates(tmp_path: Path, kind: str) -> None:
+    """A height (or depth) per point named by CF ``coordinates`` is the grid's z: its
+    units to metres, positive down negated, a 4-D one at its time mean."""
+    from auralize.io import open_volume
+
+    nt, nk, ny, nx = 3, 4, 5, 6
+    k, j, i = np.meshgrid(np.arange(nk, dtype=float), np.arange(ny, dtype=float),
+                          np.arange(nx, dtype=float), indexing="ij")  # fmt: skip
+    height = (0.1 + 0.02 * i) * (k + 1) + 0.01 * j  # km, increasing with k
+    t = np.arange(nt) * 0.5
+    variables = {
+        "time": (("time",), t, {"units": "s"}),
+        "x": (("x",), np.arange(nx) * 100.0, {"units": "m"}),
+        "y": (("y",), np.arange(ny) * 100.0, {"units": "m"}),
+        "rho": (("time", "lev", "y", "x"), np.ones((nt, nk, ny, nx)),
+                {"coordinates": "zz"}),
+    }  # fmt: skip
+    if kind == "height in km":
+        variables["zz"] = (("lev", "y", "x"), height, {"units": "km", "axis": "Z"})
+        want = 1000.0 * height
+    else:
+        depth = 1000.0 * height[None] + np.array([0.0, 0.3, 0.9])[:, None, None, None]
+        variables["zz"] = (
+            ("time", "lev", "y", "x"),
+            depth,
+            {"units": "m", "standard_name": "depth", "positive": "down"},
+        )
+        want = -depth.mean(axis=0)
+    write_nc4(tmp_path / "z.nc", {"time": t, "lev": nk, "y": np.arange(ny) * 100.0,
+                                  "x": np.arange(nx) * 100.0}, variables)  # fmt: skip
+    vol = open_volume(tmp_path / "z.nc")
+    assert vol.curvilinear and vol.dims == (nx, ny, nk)
+    np.testing.assert_allclose(vol.coords[..., 2], want, rtol=1e-12)
+    np.testing.assert_array_equal(vol.coords[0, 0, :, 0], np.arange(nx) * 100.0)
+    note = vol.attrs["axis_units"]["z"]
+    if kind == "height in km":
+        assert note == "zz (3-D, km) -> m per point"
+    else:
+        assert note == ("zz (3-D, m) -> m per point (positive down -> height: negated); at "
+                        "the time mean of what moves (zz by up to 0.9 m): a fixed grid")  # fmt: skip
+
+
+#: CF Appendix D, written out: formula_terms -> height (m) of the terms below
+_CF = {
+    "ocean_sigma_coordinate": ("sigma: lev eta: eta depth: depth",
+                               lambda v: v["eta"] + v["lev"] * (v["depth"] + v["eta"])),
+    "ocean_s_coordinate": (
+        "s: lev eta: eta depth: depth a: a b: b depth_c: hc",
+        lambda v: v["eta"] * (1 + v["lev"]) + v["hc"] * v["lev"] + (v["depth"] - v["hc"]) * (
+            (1 - v["b"]) * np.sinh(v["a"] * v["lev"]) / np.sinh(v["a"]) + v["b"] * (
+                np.tanh(v["a"] * (v["lev"] + 0.5)) / (2 * np.tanh(0.5 * v["a"])) - 0.5))),
+    "ocean_s_coordinate_g1": (
+        "s: lev C: cs eta: eta depth: depth depth_c: hc",
+        lambda v: (v["hc"] * v["lev"] + (v["depth"] - v["hc"]) * v["cs"]) * (1 + v["eta"]
+                   / v["depth"]) + v["eta"]),
+    "atmosphere_hybrid_height_coordinate": ("a: ah b: cs orog: orog",
+                                            lambda v: v["ah"] + v["cs"] * v["orog"]),
+    "atmosphere_sigma_coordinate": ("sigma: sig ps: ps ptop: ptop",
+                                    lambda v: v["ptop"] + v["sig"] * (v["ps"] - v["ptop"])),
+    "atmosphere_ln_pressure_coordinate": ("p0: p0 lev: lnp", lambda v: v["p0"] * np.exp(-v["lnp"])),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("std", sorted(_CF))
+def test_netcdf_parametric_formulas(tmp_path: Path, std: str) -> None:
+    """Every CF Appendix D formula evaluated gives the heights it defines per point
+    (pressures through the standard atmosphere); time-varying terms at their mean."""
+    from auralize.io import open_volume
+    from auralize.io.netcdf import standard_height
+
+    nt, nk, ny, nx = 3, 4, 3, 5
+    rng = np.random.default_rng(len(std))
+    lev = np.linspace(-0.9, -0.1, nk)
+    v = {"lev": lev[:, None, None], "cs": (lev**3)[:, None, None], "hc": np.array(8.0),
+         "a": np.array(3.0), "b": np.array(0.4), "ah": np.linspace(10, 900, nk)[:, None, None],
+         "depth": 30.0 + rng.uniform(0, 20, (ny, nx)), "orog": rng.uniform(0, 500, (ny, nx)),
+         "sig": np.linspace(0.95, 0.2, nk)[:, None, None], "ptop": np.array(1000.0),
+         "ps": 1e5 + rng.uniform(-500, 500, (ny, nx)), "p0": np.array(1e5),
+         "lnp": np.linspace(0.05, 1.5, nk)[:, None, None]}  # fmt: skip
+    eta_t = rng.uniform(-0.2, 0.2, (nt, ny, nx))
+    v["eta"] = eta_t.mean(axis=0)
+    terms, height = _CF[std]
+    want = np.broadcast_to(height(v), (nk, ny, nx))
+    if not std.startswith("ocean") and std != "atmosphere_hybrid_height_coordinate":
+        want = standard_height(np.ascontiguousarray(want))
+    dims = {"time": np.arange(nt) * 1.0, "lev": lev, "y": np.arange(ny) * 10.0,
+            "x": np.arange(nx) * 10.0}  # fmt: skip
+    shapes = {3: ("lev", "y", "x"), 2: ("y", "x"), 0: ()}
+    variables = {
+        "time": (("time",), dims["time"], {"units": "s"}),
+        "lev": (("lev",), lev, {"standard_name": std, "formula_terms": terms}),
+        "eta": (("time", "y", "x"), eta_t, {"units": "m"}),
+        "f": (("time", "lev", "y", "x"), np.zeros((nt, nk, ny, nx)), {}),
+    }  # fmt: skip
+    for name, value in v.items():
+        if name in ("lev", "eta") or f": {name}" not in terms:
+            continue
+        a = np.asarray(value)
+        a = a.reshape(-1) if a.ndim == 3 else a  # 1-D over lev
+        dn = ("lev",) if np.asarray(value).ndim == 3 else shapes[a.ndim]
+        variables[name] = (dn, a, {"units": "Pa"} if name in ("ps", "ptop", "p0") else {})
+    write_nc4(tmp_path / "v.nc", dims, variables)
+    vol = open_volume(tmp_path / "v.nc")
+    assert vol.curvilinear and vol.attrs["axis_units"]["z"].startswith(f"{std} -> m per point")
+    np.testing.assert_allclose(vol.coords[..., 2], want, rtol=1e-12, atol=1e-9)
+
+
+def test_netcdf_pressure_formula_and_what_is_not_evaluated(tmp_path: Path) -> None:
+    """atmosphere_hybrid_sigma_pressure_coordinate (ap, b, ps): heights of the standard
+    atmosphere per point; a formula not evaluated is refused naming those that are and
+    --axis-scale, which gives one height per level (its values times SZ)."""
+    from auralize.errors import FormatError
+    from auralize.io import open_volume
+    from auralize.io.netcdf import standard_height
+
+    nt, nk, ny, nx = 2, 3, 4, 5
+    ap, b = np.array([5000.0, 20000.0, 0.0]), np.array([0.0, 0.3, 0.9])
+    ps = 100000.0 + 200.0 * np.arange(nx)[None, :] + 50.0 * np.arange(ny)[:, None]
+    dims = {"time": np.arange(nt) * 1.0, "lev": np.arange(nk) * 1.0, "y": ny, "x": nx}
+    variables = {
+        "time": (("time",), dims["time"], {"units": "s"}),
+        "lev": (("lev",), dims["lev"], {"standard_name":
+                                         "atmosphere_hybrid_sigma_pressure_coordinate",
+                                         "formula_terms": "ap: hyam b: hybm ps: PS"}),
+        "hyam": (("lev",), ap, {"units": "Pa"}),
+        "hybm": (("lev",), b, {}),
+        "PS": (("y", "x"), ps / 100.0, {"units": "hPa"}),
+        "ua": (("time", "lev", "y", "x"), np.ones((nt, nk, ny, nx)), {}),
+    }  # fmt: skip
+    write_nc4(tmp_path / "p.nc", dims, variables)
+    vol = open_volume(tmp_path / "p.nc")
+    p = ap[:, None, None] + b[:, None, None] * ps[None]
+    np.testing.assert_allclose(vol.coords[..., 2], standard_height(p), rtol=1e-12)
+    assert vol.attrs["axis_units"]["z"].endswith("pressure -> height in the standard atmosphere)")
+    # ocean_sigma_z_coordinate: not evaluated
+    variables["lev"] = (("lev",), dims["lev"], {"standard_name": "ocean_sigma_z_coordinate",
+                                                "formula_terms": "sigma: lev"})  # fmt: skip
+    write_nc4(tmp_path / "q.nc", dims, variables)
+    with pytest.raises(FormatError, match=r"'lev' is a parametric vertical coordinate .* "
+                       r"evaluates atmosphere_hybrid_height_coordinate, .*ocean_s_coordinate_g2, "
+                       r"ocean_sigma_coordinate from their formula_terms\); give --axis-scale "):  # fmt: skip
+        open_volume(tmp_path / "q.nc")
+    levels = open_volume(tmp_path / "q.nc", axis_scale=(1.0, 1.0, 100.0))
+    assert not levels.curvilinear and levels.spacing[2] == pytest.approx(100.0)
+
+
 def test_sessions_and_convert_keep_the_resample_choice(vts_series, tmp_path) -> None:  # type: ignore[no-untyped-def]
     from auralize.cli import main
     from auralize.io import ResampledWarning, open_volume
