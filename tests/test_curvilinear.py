@@ -468,6 +468,24 @@ def test_distributed_detection_on_a_curvilinear_grid_is_the_serial_one(mapping: 
 
 
 @pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")
+def test_one_ghost_plane_fewer_changes_the_sources(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The curvilinear ghost planes are no more than the stencils need: with one fewer,
+    the slabs' sources differ from the whole grid's (so the test above can fail)."""
+    pytest.importorskip("dask")
+    import auralize.distributed.detect as dd
+    from auralize.sources.detection import Thresholds, detect
+
+    vol = _warped_series()
+    need = dd.ghost_planes
+    monkeypatch.setattr(dd, "ghost_planes", lambda v, *, floor: need(v, floor=floor) - 1)
+    for thr in (Thresholds(1e-3, 1e-3, 1e-3), Thresholds(1e-3, 1e-3, 1e-3, floor=0.0)):
+        serial = detect(vol, mapping="identity", thresholds=thr)
+        short = dd.detect_distributed(vol, thresholds=thr, slab_planes=4, chunk_steps=3, log=None)
+        assert not all(np.array_equal(a.strength, b.strength) and np.array_equal(a.radius, b.radius)
+                       for a, b in zip(serial.frames, short.frames, strict=True))  # fmt: skip
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")
 def test_cli_detect_and_render_on_dask_natively(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     """``detect``/``render`` with a Dask scheduler on a curvilinear series: the serial
     sources, bit for bit; the Dask render detecting on its workers sounds as the Dask
