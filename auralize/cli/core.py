@@ -382,7 +382,7 @@ def cmd_info(args: argparse.Namespace) -> int:
             n = blk["of"]
             print(f"  box      index block i {blk['i'][0]}..{blk['i'][1]}, j {blk['j'][0]}.."
                   f"{blk['j'][1]}, k {blk['k'][0]}..{blk['k'][1]} of {n[0]} x {n[1]} x {n[2]} "
-                  f"points: the smallest holding every point inside --box")  # fmt: skip
+                  f"points: the smallest whose cells cover --box")  # fmt: skip
     else:
         print(f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "
               f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m")  # fmt: skip

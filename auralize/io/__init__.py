@@ -174,8 +174,8 @@ def open_volume(
     box : (xmin, xmax, ymin, ymax, zmin, zmax), optional
         Region of interest in metres (after ``axis_scale``): only grid points
         inside it are kept (of a curvilinear grid, the smallest index block
-        holding them), and a mesh's resolution is chosen from its cells
-        inside it.
+        whose cells cover the box), and a mesh's resolution is chosen from its
+        cells inside it.
     curvilinear : {"native", "resample"}, optional
         How a structured curvilinear grid (PLOT3D, ``vtkStructuredGrid`` in
         ``.vts``/``.vtk``/``.vtm``/``.pvd``) is read: ``"native"`` keeps its
@@ -185,8 +185,8 @@ def open_volume(
         (:func:`auralize.io.options.curvilinear_mode`, the command line's
         ``--resample``), by default ``"native"``.  A ``resolution`` resamples
         it as well (it chooses a uniform grid); a ``box`` keeps it native,
-        cropped to the smallest index block that holds every point inside the
-        box (:func:`auralize.io.options.index_block`).
+        cropped to the smallest index block whose cells cover the box
+        (:func:`auralize.io.options.index_block`).
 
     Returns
     -------

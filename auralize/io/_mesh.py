@@ -21,7 +21,7 @@ curvilinear grid (``vtkStructuredGrid``: ``.vts``, PLOT3D) keeps its own
 points (``TimeVolume.coords``; derivatives by its metric terms,
 :mod:`auralize.curvilinear`) unless the reader options ask for resampling
 (``curvilinear="resample"`` or a ``resolution``; a ``box`` crops it in index
-space, :func:`auralize.io.options.index_block`); :func:`resample_curvilinear`
+space to the block whose cells cover it, :func:`auralize.io.options.index_block`); :func:`resample_curvilinear`
 puts one on a uniform grid for what needs it.  The reader
 option ``axis_scale=`` scales every step's mesh as it is loaded, before any
 of this.

@@ -83,7 +83,7 @@ converted to metres so that the speed of sound applies to it:
 file's units.  Decreasing coordinates are flipped.  Unevenly spaced ones are
 read on their own points (a rectilinear grid: ``TimeVolume.coords``, the
 derivatives by its metric terms, :mod:`auralize.curvilinear`; a ``box``
-keeps the smallest index block holding its points inside); with
+keeps the smallest index block whose cells cover it); with
 ``curvilinear="resample"`` (``--resample``) or a ``resolution`` they are
 resampled onto a uniform grid (with a
 :class:`~auralize.io.ResampledWarning` saying why): the evenly spaced axes

@@ -8,8 +8,8 @@ the mesh and netCDF readers can use them where they matter most: a mesh is
 scaled before its grid is chosen, a region picks the cells whose size sets the
 resolution.  Whatever a reader leaves undone, :func:`finish` does on the
 volume it returns: it scales the grid's axes and keeps the grid points inside
-the box (on a curvilinear grid read natively, the smallest index block holding
-every point inside the box: :func:`index_block`).  Both are idempotent (a
+the box (on a curvilinear grid read natively, the smallest index block whose
+cells cover the box: :func:`index_block`).  Both are idempotent (a
 reader marks a scale it applied in ``attrs["axis_scale_applied"]``; a volume
 already inside its box is returned as it is).
 """
@@ -65,8 +65,8 @@ class ReadOptions:
     box : (xmin, xmax, ymin, ymax, zmin, zmax) or None
         Region of interest in metres (after ``axis_scale``); the volume keeps
         the grid points inside it (a curvilinear grid the smallest index block
-        holding them), and a mesh's resolution is chosen from the cells inside
-        it.
+        whose cells cover it), and a mesh's resolution is chosen from the cells
+        inside it.
     """
 
     time_dim: str | None = None
@@ -222,36 +222,54 @@ def index_block(
     coords: NDArray[np.float64], box: Box, *, source: str = "<memory>"
 ) -> tuple[int, int, int, int, int, int]:
     """The smallest index block ``(i0, i1, j0, j1, k0, k1)`` (half-open) of a curvilinear
-    grid's points ``coords (nz, ny, nx, 3)`` that holds every point inside ``box``.
+    grid's points ``coords (nz, ny, nx, 3)`` whose cells cover ``box``: every cell
+    (between neighbouring points; along an axis of one point, the point) that
+    overlaps the box, with its corners.
 
-    A point is inside when it lies in the box along each axis on which the grid
-    is not flat (a one-layer grid is kept whatever the box says across it), to
-    1e-9 of the grid's extent.  A box that holds no point is an error.
+    A cell overlaps the box when its corners' bounding box does, by more than
+    1e-9 of the grid's extent (a cell that only touches a face of the box is
+    left out; along an axis on which the box is thinner than that, touching
+    counts), along each axis on which the grid is not flat (a one-layer grid is
+    kept whatever the box says across it).  A cell of a strongly warped grid
+    may overlap the box by its bounding box only: the block is then a little
+    larger than it needs be.  A box that overlaps no cell is an error.
 
     Examples
     --------
     >>> zz, yy, xx = np.meshgrid(np.arange(3.0), np.arange(4.0), np.arange(5.0), indexing="ij")
     >>> c = np.stack([xx + 0.1 * yy, yy, zz], axis=-1)  # x sheared along y
-    >>> index_block(c, (0.9, 2.1, 0.0, 1.5, 1.0, 2.0))
-    (1, 3, 0, 2, 1, 3)
+    >>> index_block(c, (0.9, 2.05, 0.0, 1.5, 1.0, 2.0))
+    (0, 4, 0, 3, 1, 3)
     """
-    from auralize.io._mesh import in_box
-
+    lo_c, hi_c = coords, coords
+    for ax in range(3):  # the corners' extremes, one index direction at a time
+        if coords.shape[ax] > 1:
+            lo_v, hi_v = np.moveaxis(lo_c, ax, 0), np.moveaxis(hi_c, ax, 0)
+            lo_c = np.moveaxis(np.minimum(lo_v[:-1], lo_v[1:]), 0, ax)
+            hi_c = np.moveaxis(np.maximum(hi_v[:-1], hi_v[1:]), 0, ax)
     flat = coords.reshape(-1, 3)
     lo, hi = flat.min(axis=0), flat.max(axis=0)
-    bounds = [float(v) for a in range(3) for v in (lo[a], hi[a])]
-    inside = in_box(flat, box, bounds).reshape(coords.shape[:3])
-    if not inside.any():
+    tol = 1e-9 * float(np.max(hi - lo))
+    meets = np.ones(lo_c.shape[:3], dtype=bool)
+    for a in range(3):
+        if hi[a] - lo[a] <= tol:
+            continue
+        b0, b1 = float(box[2 * a]), float(box[2 * a + 1])
+        if b1 - b0 > 2 * tol:
+            meets &= (lo_c[..., a] < b1 - tol) & (hi_c[..., a] > b0 + tol)
+        else:
+            meets &= (lo_c[..., a] <= b1 + tol) & (hi_c[..., a] >= b0 - tol)
+    if not meets.any():
         raise DataError(
-            f"{source}: the box {', '.join(f'{v:g}' for v in box)} m holds no point of the "
+            f"{source}: the box {', '.join(f'{v:g}' for v in box)} m overlaps no cell of the "
             f"curvilinear grid (it spans x[{lo[0]:g}, {hi[0]:g}] y[{lo[1]:g}, {hi[1]:g}] "
             f"z[{lo[2]:g}, {hi[2]:g}] m)"
         )
     out: list[int] = []
     for ax in (2, 1, 0):  # i (x fastest: the last array axis), j, k
-        other = tuple(b for b in range(3) if b != ax)
-        hit = np.flatnonzero(inside.any(axis=other))
-        out += [int(hit[0]), int(hit[-1]) + 1]
+        other = tuple(o for o in range(3) if o != ax)
+        hit = np.flatnonzero(meets.any(axis=other))
+        out += [int(hit[0]), int(hit[-1]) + (2 if coords.shape[ax] > 1 else 1)]
     return (out[0], out[1], out[2], out[3], out[4], out[5])
 
 
@@ -336,7 +354,7 @@ def finish(volume: TimeVolume, options: ReadOptions) -> TimeVolume:
     The axis scale (unless the reader applied it) multiplies the origin and
     spacing (a curvilinear grid's points); the box keeps the grid points inside
     it, lazily (frames are cut as they are read): on a curvilinear grid the
-    smallest index block that holds them (:func:`index_block`;
+    smallest index block whose cells cover the box (:func:`index_block`;
     ``attrs["index_block"]`` gives its inclusive index ranges).
     """
     if options.axis_scale is not None and "axis_scale_applied" not in volume.attrs:
