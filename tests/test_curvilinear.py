@@ -863,6 +863,50 @@ def test_sessions_and_convert_keep_the_resample_choice(vts_series, tmp_path) -> 
     assert not back.curvilinear and back.n_steps == times.size
 
 
+def test_convert_saves_a_curvilinear_series_resampled_correctly(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """``convert`` to the uniform formats: read natively and resampled on saving, or read
+    resampled (--resample), the same frames in .h5, .pvd and .vtkhdf, on the points of
+    the shell equal to the blob to interpolation error; with --box (cropped natively,
+    then saved) the uniform grid over the box that --resample --box gives."""
+    from auralize.cli import main
+    from auralize.io import open_volume
+
+    path, c, times = write_vts_series(tmp_path / "s", swirl=0.5)
+    box = "--box=" + ",".join(f"{v:g}" for v in BOX)
+    runs = {"native.h5": [], "resampled.h5": ["--resample"], "native.pvd": [],
+            "native.vtkhdf": [], "box.h5": [box], "resampled-box.h5": ["--resample", box]}  # fmt: skip
+    vols = {}
+    for name, extra in runs.items():
+        assert main(["convert", str(path), str(tmp_path / name), *extra]) == 0
+        assert "resampled by linear interpolation" in capsys.readouterr().err
+        vols[name] = open_volume(tmp_path / name)
+    ref = vols["native.h5"]
+    assert not ref.curvilinear and ref.dims == (29, 15, 6) and ref.n_steps == times.size
+    assert ref.bounds == pytest.approx(open_volume(path).bounds, abs=1e-9)
+    assert 0.6 < ref.valid_ratio < 0.7  # the half-annulus in its bounding box
+    for a, b in (("native.h5", "resampled.h5"), ("native.h5", "native.pvd"),
+                 ("native.h5", "native.vtkhdf"), ("box.h5", "resampled-box.h5")):  # fmt: skip
+        va, vb = vols[a], vols[b]
+        assert (va.dims, va.origin.tolist(), va.spacing.tolist()) == (
+            vb.dims, vb.origin.tolist(), vb.spacing.tolist()), (a, b)  # fmt: skip
+        for n in range(times.size):
+            for f in ("density", "velocity"):
+                np.testing.assert_array_equal(va.frame(f, n), vb.frame(f, n), err_msg=f"{b} {f}")
+    # inside the shell, the blob to interpolation error (the coarse shell: 2.7e-3 of 5.9e-3)
+    ok = ref.valid_mask().reshape(-1)
+    p = ref.points()[ok]
+    blob = np.exp(-(p[:, 0] ** 2 + (p[:, 1] - 1.0) ** 2 + (p[:, 2] - 0.25) ** 2) / 0.02)
+    exact = 1.2 + 0.01 * np.sin(2 * np.pi * 10 * times[2]) * blob
+    err = np.abs(ref.frame("density", 2).reshape(-1)[ok] - exact)
+    assert err.max() < 4e-3 and np.isnan(ref.frame("density", 2).reshape(-1)[~ok]).all()
+    # the box: a uniform grid over it (not over the index block, which is larger)
+    vb = vols["box.h5"]
+    b = vb.bounds
+    assert b[0] == pytest.approx(BOX[0]) and b[2] == pytest.approx(BOX[2]) and b[4] == 0.0
+    assert all(b[2 * a + 1] <= BOX[2 * a + 1] + 1e-9 for a in range(3))
+    assert vb.valid_ratio > 0.85
+
+
 def test_divergence_free_flow_has_no_dipoles_on_a_warped_grid() -> None:
     """∇·(ρv) of a divergence-free flow at constant density is truncation error on the
     warped grid (not 0 as on the uniform one): the floor (its Richardson estimate) keeps

@@ -1262,8 +1262,10 @@ def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None
     :func:`auralize.io.save_volume`, the viewer's volume rendering): each step
     is made a ``vtkStructuredGrid`` of the volume's points and frames and
     sampled as :func:`open_mesh_series` samples a mesh (the voxel from its
-    cells, a :class:`~auralize.io.ResampledWarning` saying what is lost).
-    Detection and rendering keep the native grid.
+    cells, a :class:`~auralize.io.ResampledWarning` saying what is lost).  A
+    volume cut to a box (``attrs["box"]``: its index block, whose cells cover
+    the box) is sampled over that box, as reading the file resampled with the
+    box would.  Detection and rendering keep the native grid.
     """
     if volume.coords is None:
         return volume
@@ -1283,7 +1285,9 @@ def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None
             g.point_data[n] = a.reshape(-1, 3) if a.ndim == 4 else a.reshape(-1)
         return g
 
-    with reading(ReadOptions(curvilinear="resample")):
+    box = volume.attrs.get("box")
+    region = None if box is None else tuple(float(v) for v in box)  # type: ignore[attr-defined]
+    with reading(ReadOptions(curvilinear="resample", box=region)):  # type: ignore[arg-type]
         out = open_mesh_series(
             source=volume.source, loader=loader,
             labels=[f"{volume.source} step {n}" for n in range(volume.n_steps)],
