@@ -955,6 +955,22 @@ def _sources(path: Path) -> dict[str, np.ndarray]:
                                        "radius")}  # fmt: skip
 
 
+def test_a_box_around_or_beside_a_curvilinear_grid(vts_series) -> None:  # type: ignore[no-untyped-def]
+    """A box holding the whole grid keeps it all (and says so); one beside it is refused
+    with the grid's extent."""
+    from auralize.io import open_volume
+
+    path, c, _ = vts_series
+    whole = open_volume(path, box=(-2, 2, -1, 2, -1, 1))
+    assert whole.dims == (10, 24, 5) and whole.attrs["index_block"] == {
+        "i": [0, 9], "j": [0, 23], "k": [0, 4], "of": [10, 24, 5]}  # fmt: skip
+    np.testing.assert_array_equal(whole.coords, c)
+    with pytest.raises(DataError, match=r"the box 2, 3, 0, 1, 0, 1 m overlaps no cell of the "
+                       r"curvilinear grid \(it spans x\[-1.5, 1.5\] y\[0, 1.4965\] "
+                       r"z\[0, 0.5\] m\)"):  # fmt: skip
+        open_volume(path, box=(2, 3, 0, 1, 0, 1))
+
+
 def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     """--box keeps a curvilinear grid native: the smallest index block whose cells cover
     the box.  info, detect and render on it equal those on a file of that block alone

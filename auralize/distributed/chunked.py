@@ -273,7 +273,8 @@ def _read_hdf5_slab(b: Any, step: int, z0: int, z1: int) -> NDArray[np.float64]:
 def slab_volume(volume: TimeVolume, z0: int, z1: int) -> TimeVolume:
     """Planes ``[z0, z1)`` of ``volume`` as a volume of its own (origin moved to plane z0).
 
-    A curvilinear volume's slab holds those planes' points (``coords``) and keeps
+    A curvilinear volume's slab holds those planes' points (``coords``; its origin
+    is their lowest corner) and keeps
     the volume's nominal spacing (the thickness of an axis of one point), so its
     metric terms (:mod:`auralize.curvilinear`) are the whole grid's wherever the
     stencils stay inside the slab.

@@ -21,10 +21,10 @@ curvilinear grid (``vtkStructuredGrid``: ``.vts``, PLOT3D) keeps its own
 points (``TimeVolume.coords``; derivatives by its metric terms,
 :mod:`auralize.curvilinear`) unless the reader options ask for resampling
 (``curvilinear="resample"`` or a ``resolution``; a ``box`` crops it in index
-space to the block whose cells cover it, :func:`auralize.io.options.index_block`); :func:`resample_curvilinear`
-puts one on a uniform grid for what needs it.  The reader
-option ``axis_scale=`` scales every step's mesh as it is loaded, before any
-of this.
+space to the block whose cells cover it, :func:`auralize.io.options.index_block`);
+:func:`resample_curvilinear` puts one on a uniform grid for what needs it.  The
+reader option ``axis_scale=`` scales every step's mesh as it is loaded, before
+any of this.
 """
 
 from __future__ import annotations
@@ -1269,7 +1269,7 @@ def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None
     """
     if volume.coords is None:
         return volume
-    from auralize.io.options import ReadOptions, reading
+    from auralize.io.options import ReadOptions, check_box, reading
 
     pv = import_pyvista()
     nz, ny, nx = volume.shape
@@ -1285,9 +1285,8 @@ def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None
             g.point_data[n] = a.reshape(-1, 3) if a.ndim == 4 else a.reshape(-1)
         return g
 
-    box = volume.attrs.get("box")
-    region = None if box is None else tuple(float(v) for v in box)  # type: ignore[attr-defined]
-    with reading(ReadOptions(curvilinear="resample", box=region)):  # type: ignore[arg-type]
+    region = check_box(volume.attrs.get("box"), source=volume.source)
+    with reading(ReadOptions(curvilinear="resample", box=region)):
         out = open_mesh_series(
             source=volume.source, loader=loader,
             labels=[f"{volume.source} step {n}" for n in range(volume.n_steps)],

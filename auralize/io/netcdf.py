@@ -850,7 +850,7 @@ def _monotonic(c: NDArray[np.float64]) -> bool:
 
 
 #: CF Appendix D formulas evaluated into a height per point: standard name -> the
-#: terms it needs (a name in brackets: one of the alternatives)
+#: terms it needs (hybrid sigma-pressure: ap, b, ps or, without ap, a, b, ps, p0)
 VERTICAL_FORMULAS: dict[str, tuple[str, ...]] = {
     "ocean_sigma_coordinate": ("sigma", "eta", "depth"),
     "ocean_s_coordinate": ("s", "eta", "depth", "a", "b", "depth_c"),
@@ -858,7 +858,7 @@ VERTICAL_FORMULAS: dict[str, tuple[str, ...]] = {
     "ocean_s_coordinate_g2": ("s", "C", "eta", "depth", "depth_c"),
     "atmosphere_hybrid_height_coordinate": ("a", "b", "orog"),
     "atmosphere_sigma_coordinate": ("sigma", "ps", "ptop"),
-    "atmosphere_hybrid_sigma_pressure_coordinate": ("b", "ps"),
+    "atmosphere_hybrid_sigma_pressure_coordinate": ("ap", "b", "ps"),
     "atmosphere_ln_pressure_coordinate": ("p0", "lev"),
 }
 #: terms that are lengths (m after their units) and pressures (Pa); the rest are numbers
@@ -1001,8 +1001,8 @@ def _formula_height(b: _Backend, coord: _Var, terms: _Terms, *,
     return z, note + ")"
 
 
-def _height_variable(b: _Backend, var: _Var, spatial: tuple[str, ...], time_dim: str | None,
-                     source: str) -> _Var | None:  # fmt: skip
+def _height_variable(b: _Backend, var: _Var, spatial: tuple[str, ...],
+                     time_dim: str | None) -> _Var | None:  # fmt: skip
     """The variable that CF's ``coordinates`` attribute of ``var`` names as its height (or
     depth) per point: over the spatial dimensions (after time), a length."""
     for name in _text(var.attrs.get("coordinates", "")).split():
@@ -1033,7 +1033,7 @@ def _vertical_3d(b: _Backend, var: _Var, spatial: tuple[str, ...], axes: list[_A
     if len(spatial) != 3:
         return None
     terms = _Terms(b, spatial, time_dim, source)
-    hv = _height_variable(b, var, spatial, time_dim, source)
+    hv = _height_variable(b, var, spatial, time_dim)
     if hv is not None:
         std = _text(hv.attrs.get("standard_name", "")).strip().lower()
         positive = _text(hv.attrs.get("positive", "")).strip().lower()

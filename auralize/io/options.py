@@ -11,7 +11,8 @@ volume it returns: it scales the grid's axes and keeps the grid points inside
 the box (on a curvilinear grid read natively, the smallest index block whose
 cells cover the box: :func:`index_block`).  Both are idempotent (a
 reader marks a scale it applied in ``attrs["axis_scale_applied"]``; a volume
-already inside its box is returned as it is).
+already inside its box is returned as it is, a curvilinear one with the box
+noted in its ``attrs``).
 """
 
 from __future__ import annotations
@@ -274,14 +275,20 @@ def index_block(
 
 
 def _cropped_curvilinear(volume: TimeVolume, box: Box) -> TimeVolume:
-    """A curvilinear volume cut to :func:`index_block` of ``box``, natively and lazily."""
+    """A curvilinear volume cut to :func:`index_block` of ``box``, natively and lazily
+    (``attrs["box"]`` and ``attrs["index_block"]`` say so, also when the block is the
+    whole grid: saving it resamples it over the box)."""
+    import dataclasses
+
     from auralize.curvilinear import nominal_spacing
 
     assert volume.coords is not None
     i0, i1, j0, j1, k0, k1 = index_block(volume.coords, box, source=volume.source)
     nx, ny, nz = volume.dims
+    said = {"box": list(box), "index_block": {"i": [i0, i1 - 1], "j": [j0, j1 - 1],
+                                              "k": [k0, k1 - 1], "of": [nx, ny, nz]}}  # fmt: skip
     if (i0, i1, j0, j1, k0, k1) == (0, nx, 0, ny, 0, nz):
-        return volume
+        return dataclasses.replace(volume, attrs={**volume.attrs, **said})
     coords = volume.coords[k0:k1, j0:j1, i0:i1].copy()
     dims = (i1 - i0, j1 - j0, k1 - k0)
     # an index direction cut to one point keeps its nominal length (its thickness)
@@ -300,9 +307,7 @@ def _cropped_curvilinear(volume: TimeVolume, box: Box) -> TimeVolume:
         valid=None if volume.valid is None else volume.valid[k0:k1, j0:j1, i0:i1].copy(),
         coords=coords,
     )
-    out.attrs["box"] = list(box)
-    out.attrs["index_block"] = {"i": [i0, i1 - 1], "j": [j0, j1 - 1], "k": [k0, k1 - 1],
-                                "of": [nx, ny, nz]}  # fmt: skip
+    out.attrs.update(said)
     return out
 
 
