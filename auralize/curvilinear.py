@@ -27,9 +27,13 @@ Since the index derivative is linear and applied alike to the coordinates
 and to a field, the gradient of a field linear in x is exact (to round-off)
 on any grid; a smooth field's converges at second order.  Second
 derivatives (Lighthill's ∂²T_ij/∂x_i∂x_j) are two first derivatives
-(∂_j (∂_i T_ij)), the divergence of the divergence.  Everything here is
-numpy: the curvilinear path is slower than the compiled uniform stencil of
-:mod:`auralize.sources._kernels`, which uniform grids keep, bit for bit.
+(∂_j (∂_i T_ij)), the divergence of the divergence.  The divergence, which
+every strength and its error estimate are made of, is one compiled kernel
+(numba, parallel over z-planes, compiled on first use: :func:`_kernel`); the
+rest is numpy.  The kernel does the numpy reference's arithmetic in its order
+(``CurvilinearMetric.divergence(..., compiled=False)``), so both agree to
+round-off.  Uniform grids keep the stencil of :mod:`auralize.sources._kernels`,
+bit for bit.
 """
 
 from __future__ import annotations
@@ -182,9 +186,20 @@ class CurvilinearMetric:
         return np.einsum("...a,...ai->...i", d, self._inv(wide))
 
     def divergence(self, comps: tuple[Array, Array, Array] | Array, *,
-                   wide: bool = False) -> Array:  # fmt: skip
-        """∇·F ``(nz, ny, nx)`` of the components ``(F_x, F_y, F_z)`` (each ``(nz, ny, nx)``)."""
+                   wide: bool = False, compiled: bool = True) -> Array:  # fmt: skip
+        """∇·F ``(nz, ny, nx)`` of the components ``(F_x, F_y, F_z)`` (each ``(nz, ny, nx)``).
+
+        ``compiled``: the numba kernel (:func:`_divergence_planes`); False: the
+        numpy reference, whose numbers it gives to round-off.
+        """
         inv = self._inv(wide)
+        if compiled:
+            from auralize.runtime.jit import kernel_args
+
+            out = np.empty(self.shape)
+            f = comps if isinstance(comps, np.ndarray) else np.stack(comps)
+            _kernel()(*kernel_args(inv, f, int(wide), out))
+            return out
         out = np.zeros(self.shape)
         for i in range(3):
             fi = comps[i]
@@ -193,11 +208,12 @@ class CurvilinearMetric:
                     out += inv[..., a, i] * index_derivative(fi, _axis(a, 3), wide=wide)
         return out
 
-    def quadrupole(self, tt: Array, *, wide: bool = False) -> Array:
+    def quadrupole(self, tt: Array, *, wide: bool = False, compiled: bool = True) -> Array:
         """Σ_ij ∂²T_ij/∂x_i∂x_j ``(nz, ny, nx)`` of the symmetric stress ``tt (6, nz, ny, nx)``
         (order xx, yy, zz, xy, xz, yz): ∂_j (∂_i T_ij)."""
-        w = [self.divergence(tt[list(_STRESS_INDEX[j])], wide=wide) for j in range(3)]
-        return self.divergence((w[0], w[1], w[2]), wide=wide)
+        w = np.stack([self.divergence(tt[list(_STRESS_INDEX[j])], wide=wide, compiled=compiled)
+                      for j in range(3)])  # fmt: skip
+        return self.divergence(w, wide=wide, compiled=compiled)
 
     # --------------------------------------------------------------- volumes
     def cell_volume(self) -> Array:
@@ -236,6 +252,97 @@ class CurvilinearMetric:
         out[0][bad] = 0.0
         out[1][once] = 0.0
         out[2][self.spread(once)] = 0.0
+
+
+def _divergence_planes(inv, f, wide, out):
+    """``out (nz, ny, nx)`` = Σ_i Σ_a ∂ξ_a/∂x_i ∂f_i/∂ξ_a of ``f (3, nz, ny, nx)`` with
+    ``inv (nz, ny, nx, 3, 3)`` (:attr:`CurvilinearMetric.inv`), z-planes in parallel.
+
+    The index derivative is :func:`index_derivative`'s as a 3-point stencil per
+    point and axis (tabulated first): :func:`numpy.gradient`'s central
+    ``(f[q+1] - f[q-1]) / 2``, ``-1.5 f0 + 2 f1 - 0.5 f2`` and ``0.5 f[-3] - 2 f[-2]
+    + 1.5 f[-1]`` at the faces, one difference on 2 points; ``wide`` (1): the
+    same over every second point, halved, on axes of 6 points or more.  Its
+    weights are those of numpy's formulas (halving is exact), and the sum is
+    taken in the numpy reference's order, so the two agree to round-off.
+    Compiled by :func:`_kernel`.
+    """
+    nz, ny, nx = out.shape
+    dims = (nx, ny, nz)
+    big = max(nx, ny, nz)
+    at = np.zeros((3, big, 3), dtype=np.int64)  # [axis, q, m]: the stencil's points
+    wt = np.zeros((3, big, 3))  # and their weights
+    for a in range(3):
+        n = dims[a]
+        s = 2 if wide == 1 and n >= 6 else 1
+        h = 0.5 if s == 2 else 1.0
+        for q in range(n):
+            if n == 1:
+                at[a, q, 0], at[a, q, 1], at[a, q, 2] = 0, 0, 0
+            elif n == 2:
+                at[a, q, 0], at[a, q, 1], at[a, q, 2] = 0, 1, 1
+                wt[a, q, 0], wt[a, q, 1] = -1.0, 1.0
+            elif q < s:  # the first point of its subsequence
+                at[a, q, 0], at[a, q, 1], at[a, q, 2] = q, q + s, q + 2 * s
+                wt[a, q, 0], wt[a, q, 1], wt[a, q, 2] = -1.5 * h, 2.0 * h, -0.5 * h
+            elif q > n - 1 - s:  # the last
+                at[a, q, 0], at[a, q, 1], at[a, q, 2] = q - 2 * s, q - s, q
+                wt[a, q, 0], wt[a, q, 1], wt[a, q, 2] = 0.5 * h, -2.0 * h, 1.5 * h
+            else:
+                at[a, q, 0], at[a, q, 1], at[a, q, 2] = q - s, q, q + s
+                wt[a, q, 0], wt[a, q, 2] = -0.5 * h, 0.5 * h
+    for kp in prange(nz):
+        k = np.int64(kp)  # prange's index may be unsigned: keep the index arithmetic signed
+        k0, k1, k2 = at[2, k, 0], at[2, k, 1], at[2, k, 2]
+        z0, z1, z2 = wt[2, k, 0], wt[2, k, 1], wt[2, k, 2]
+        for j in range(ny):
+            j0, j1, j2 = at[1, j, 0], at[1, j, 1], at[1, j, 2]
+            y0, y1, y2 = wt[1, j, 0], wt[1, j, 1], wt[1, j, 2]
+            for i in range(nx):
+                i0, i1, i2 = at[0, i, 0], at[0, i, 1], at[0, i, 2]
+                x0, x1, x2 = wt[0, i, 0], wt[0, i, 1], wt[0, i, 2]
+                acc = 0.0
+                for c in range(3):
+                    if nx > 1:
+                        d = x0 * f[c, k, j, i0] + x1 * f[c, k, j, i1] + x2 * f[c, k, j, i2]
+                        acc += inv[k, j, i, 0, c] * d
+                    if ny > 1:
+                        d = y0 * f[c, k, j0, i] + y1 * f[c, k, j1, i] + y2 * f[c, k, j2, i]
+                        acc += inv[k, j, i, 1, c] * d
+                    if nz > 1:
+                        d = z0 * f[c, k0, j, i] + z1 * f[c, k1, j, i] + z2 * f[c, k2, j, i]
+                        acc += inv[k, j, i, 2, c] * d
+                out[k, j, i] = acc
+
+
+def prange(n: int) -> range:
+    """``range``; :func:`_kernel` compiles :func:`_divergence_planes` with numba's
+    ``prange`` in its place."""
+    return range(n)
+
+
+_COMPILED: list[Any] = []
+
+
+def _kernel() -> Any:
+    """:func:`_divergence_planes` compiled (once per process, from numba's cache when
+    it holds it), one specialization: C-contiguous float64 arrays and an int.
+
+    numba is imported here, not when the module is, so reading a curvilinear
+    grid (``auralize info``) loads no compiler.
+    """
+    if not _COMPILED:
+        import numba
+
+        from auralize.runtime.jit import configure
+
+        configure()  # cache folder, OMP wait policy, compile notice
+        globals()["prange"] = numba.prange
+        _COMPILED.append(numba.njit(
+            "void(float64[:, :, :, :, ::1], float64[:, :, :, ::1], int64, float64[:, :, ::1])",
+            parallel=True, cache=True, nogil=True, fastmath=False,
+        )(_divergence_planes))  # fmt: skip
+    return _COMPILED[0]
 
 
 def interp_coords(coords: Array, ijk: NDArray[np.floating]) -> Array:
@@ -293,7 +400,7 @@ def curvilinear_strengths(metric: CurvilinearMetric, rho_a: Array, rho_b: Array,
     momentum change ``dm (3, ...)`` and stress ``tt (6, ...)`` (as
     :func:`auralize.sources._kernels.strengths`)."""
     np.multiply(rho_b - rho_a, inv_dt, out=out[0])
-    np.multiply(metric.divergence((dm[0], dm[1], dm[2])), inv_dt, out=out[1])
+    np.multiply(metric.divergence(dm), inv_dt, out=out[1])
     out[2] = metric.quadrupole(tt)
 
 
@@ -307,11 +414,11 @@ def curvilinear_errors(metric: CurvilinearMetric, s: Array, rho_a2: Array, rho_b
     err = np.zeros_like(s)
     if inv_dt2 > 0.0:
         err[0] = np.abs(s[0] - (rho_b2 - rho_a2) * inv_dt2) / 3.0
-    d1 = metric.divergence((dm[0], dm[1], dm[2]))
-    d2 = metric.divergence((dm[0], dm[1], dm[2]), wide=True)
+    d1 = metric.divergence(dm)
+    d2 = metric.divergence(dm, wide=True)
     err[1] = np.abs(d1 - d2) * (inv_dt / 3.0)
     if inv_dt2 > 0.0:
-        err[1] += np.abs(s[1] - metric.divergence((dm2[0], dm2[1], dm2[2])) * inv_dt2) / 3.0
+        err[1] += np.abs(s[1] - metric.divergence(dm2) * inv_dt2) / 3.0
     err[2] = np.abs(metric.quadrupole(tt) - metric.quadrupole(tt, wide=True)) / 3.0
     err[:, bad] = 0.0
     return err

@@ -201,8 +201,9 @@ def test_vertical_length_units(tmp_path: Path, units: str, attrs: dict[str, str]
 def test_sigma_levels_are_refused_unless_scaled(tmp_path: Path) -> None:
     path = write_era(tmp_path / "sigma.nc", time_units="months", level_units="1",
                      level_attrs={"standard_name": "atmosphere_sigma_coordinate"})  # fmt: skip
-    with pytest.raises(FormatError, match=r"'level' is a parametric vertical coordinate .*"
-                       r"--axis-scale"):  # fmt: skip
+    with pytest.raises(FormatError, match=r"'level' is a parametric vertical coordinate "
+                       r"\(atmosphere_sigma_coordinate, CF Appendix D\) whose formula_terms '' "
+                       r"leave out .*sigma, ps, ptop\); give them, or --axis-scale"):  # fmt: skip
         open_volume(path)
     vol = open_volume(path, axis_scale=(1.0, 1.0, 0.01))
     assert vol.bounds[4:] == pytest.approx((5.0, 10.0))

@@ -5,7 +5,9 @@ is written as auralize HDF5 (the reference), netCDF classic, netCDF4, XDMF
 (``3DCoRectMesh`` + HDF5 heavy data), PLOT3D (grid + one ``.q`` per
 step) and EnSight Gold (binary, one uniform block part); a structured
 curvilinear series (an O-grid with a boundary layer, ``.vts`` files) is opened
-and detected natively and resampled (:func:`bench_curvilinear`).  Each is then opened and detected in a fresh child process, which
+and detected natively and resampled (:func:`bench_curvilinear`), and its
+strengths are computed by the compiled metric divergence and by the numpy
+reference (:func:`bench_curvilinear_strengths`).  Each is then opened and detected in a fresh child process, which
 reports the opening time, the detection time and its peak resident memory
 above the memory after imports (pyvista, VTK, h5py, scipy), compared with the
 same detection on the HDF5 file, in steps' worth (one step of every field as
@@ -230,6 +232,56 @@ CURVI_QUICK = (96, 40, 6, 8)
 CURVI_FULL = (256, 96, 16, 20)
 
 
+def ogrid_points(n_around: int, n_across: int, n_z: int) -> np.ndarray:
+    """The O-grid of :func:`write_curvilinear_series`: points ``(n_z, n_around, n_across, 3)``
+    (i across, from the wall out; j around; k along z)."""
+    growth = np.geomspace(0.002, 0.25, n_across - 1)
+    r = 0.5 + np.concatenate([[0.0], np.cumsum(growth)])
+    r = 0.5 + (r - 0.5) * (2.5 / (r[-1] - 0.5))  # out to 3 m
+    t = np.linspace(0.0, 2 * np.pi, n_around, endpoint=False)
+    zz, tt, rr = np.meshgrid(np.linspace(0.0, 0.5, n_z), t, r, indexing="ij")
+    return np.stack([rr * np.cos(tt), rr * np.sin(tt), zz], axis=-1)
+
+
+def bench_curvilinear_strengths(full: bool = False) -> list[BenchRow]:
+    """The dipole and quadrupole strengths of one step on the O-grid's points
+    (:func:`auralize.curvilinear.curvilinear_strengths`: the metric divergences of
+    ``∇·Δm`` and ``∂_j ∂_i T_ij``), compiled vs the numpy reference
+    (``compiled=False``): CPU time per point-step on one thread, median of 7."""
+    import time
+
+    import numba
+
+    from auralize.curvilinear import CurvilinearMetric, nominal_spacing
+
+    na, nc, nz, _ = CURVI_FULL if full else CURVI_QUICK
+    coords = ogrid_points(na, nc, nz)
+    metric = CurvilinearMetric(coords, thickness=nominal_spacing(coords))
+    rng = np.random.default_rng(0)
+    dm, tt = rng.normal(size=(3, *metric.shape)), rng.normal(size=(6, *metric.shape))
+
+    def strengths(compiled: bool) -> float:
+        best = []
+        for _ in range(8):  # the first compiles or warms up
+            t0 = time.process_time()
+            metric.divergence(dm, compiled=compiled)
+            metric.quadrupole(tt, compiled=compiled)
+            best.append(time.process_time() - t0)
+        return float(np.median(best[1:])) / coords[..., 0].size
+
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        fast, ref = strengths(True), strengths(False)
+    finally:
+        numba.set_num_threads(threads)
+    return [BenchRow(
+        "readers", f"curvilinear strengths O-grid {na}×{nc}×{nz}: compiled", fast * 1e9,
+        "ns/point", target="< numpy", met=fast < ref,
+        note=f"numpy reference {ref * 1e9:.0f} ns per point and step ({ref / fast:.1f}×), "
+             f"one thread, CPU time; dipole + quadrupole: 5 metric divergences")]  # fmt: skip
+
+
 def write_curvilinear_series(folder: Path, n_around: int, n_across: int, n_z: int,
                              steps: int) -> Path:  # fmt: skip
     """An O-grid around a cylinder of radius 0.5 m out to 3 m, ``.vts`` per step (VTK's
@@ -239,13 +291,8 @@ def write_curvilinear_series(folder: Path, n_around: int, n_across: int, n_z: in
     import pyvista as pv
 
     folder.mkdir(parents=True, exist_ok=True)
-    growth = np.geomspace(0.002, 0.25, n_across - 1)
-    r = 0.5 + np.concatenate([[0.0], np.cumsum(growth)])
-    r = 0.5 + (r - 0.5) * (2.5 / (r[-1] - 0.5))  # out to 3 m
-    t = np.linspace(0.0, 2 * np.pi, n_around, endpoint=False)
-    z = np.linspace(0.0, 0.5, n_z)
-    rr, tt, zz = np.meshgrid(r, t, z, indexing="ij")
-    grid = pv.StructuredGrid(rr * np.cos(tt), rr * np.sin(tt), zz)
+    c = ogrid_points(n_around, n_across, n_z)
+    grid = pv.StructuredGrid(*(c[..., a].transpose(2, 1, 0) for a in range(3)))
     p = np.asarray(grid.points)
     entries = []
     # a layer 1 cm thick at 1 cm from the wall, 0.3 m long around it and along z
@@ -365,4 +412,4 @@ def bench_readers(full: bool = False) -> list[BenchRow]:
                              note=f"peak {got['peak'] / 2**20:.0f} MiB above imports "
                                   f"(HDF5: {ref['peak'] / 2**20 if ref else float('nan'):.0f} MiB); "
                                   f"a step (float64 frames) is {got['step_bytes'] / 2**20:.1f} MiB"))  # fmt: skip
-    return rows + bench_curvilinear(full)
+    return rows + bench_curvilinear(full) + bench_curvilinear_strengths(full)

@@ -369,7 +369,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     d["mapping"] = auto_mapping(vol)
     d["method"] = _render_method(vol)
     for key in ("reader", "time_units", "time_dim", "grid_units", "axis_units", "projection",
-                "mesh", "resampling"):  # fmt: skip
+                "mesh", "resampling", "index_block"):  # fmt: skip
         if key in vol.attrs:
             d[key] = vol.attrs[key]
     if args.json:
@@ -387,6 +387,12 @@ def cmd_info(args: argparse.Namespace) -> int:
               f"points (i, j, k), edges {edges[0]:.3g} .. {edges[1]:.3g} m, extent "
               f"x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m "
               f"(--resample: onto a uniform grid)")  # fmt: skip
+        blk = vol.attrs.get("index_block")
+        if isinstance(blk, dict):
+            n = blk["of"]
+            print(f"  box      index block i {blk['i'][0]}..{blk['i'][1]}, j {blk['j'][0]}.."
+                  f"{blk['j'][1]}, k {blk['k'][0]}..{blk['k'][1]} of {n[0]} x {n[1]} x {n[2]} "
+                  f"points: the smallest whose cells cover --box")  # fmt: skip
     else:
         print(f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "
               f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m")  # fmt: skip

@@ -160,12 +160,13 @@ def add_reader_options(g: Any) -> None:
                    help="metres per file unit along x, y, z (e.g. 1000 for a grid in km); "
                         "overrides a netCDF file's own conversion of degrees and pressure levels")  # fmt: skip
     g.add_argument("--box", type=box_arg, metavar="XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
-                   help="region of interest in metres: keep the grid inside it; a mesh's "
-                        "resolution is chosen from its cells inside it")  # fmt: skip
+                   help="region of interest in metres: keep the grid inside it (of a "
+                        "curvilinear grid, the smallest index block whose cells cover it); a "
+                        "mesh's resolution is chosen from its cells inside it")  # fmt: skip
     g.add_argument("--resample", action="store_true",
                    help="read a structured curvilinear grid (PLOT3D, .vts) resampled onto a "
                         "uniform grid instead of on its own points (the default: derivatives "
-                        "by its metric terms); --resolution and --box resample it too")  # fmt: skip
+                        "by its metric terms); --resolution resamples it too")  # fmt: skip
 
 
 def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:

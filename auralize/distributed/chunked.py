@@ -138,6 +138,7 @@ def volume_from_dask(
     origin: float | tuple[float, float, float] = 0.0,
     spacing: float | tuple[float, float, float] = 1.0,
     source: str = "<dask>",
+    coords: NDArray[np.floating] | None = None,
 ) -> TimeVolume:
     """A lazy :class:`TimeVolume` whose fields are Dask arrays ``(T, nz, ny, nx[, 3])``.
 
@@ -151,6 +152,10 @@ def volume_from_dask(
         Seconds; default: frames at 30 Hz.
     origin, spacing : float or (3,)
         Grid geometry in metres.
+    coords : (nz, ny, nx, 3) array, optional
+        The points of a structured curvilinear grid (``origin`` is then their
+        lowest corner; ``spacing`` the nominal size, as in
+        :class:`~auralize.volume.TimeVolume`).
 
     Raises
     ------
@@ -181,10 +186,13 @@ def volume_from_dask(
     physical = times is not None
     t = np.arange(first.n_steps) / 30.0 if times is None else np.asarray(times, dtype=np.float64)
     nz, ny, nx = grid
+    if coords is not None:
+        origin = tuple(np.asarray(coords, dtype=np.float64).reshape(-1, 3).min(axis=0))
     return TimeVolume(
         origin=np.broadcast_to(np.asarray(origin, dtype=np.float64), (3,)).copy(),
         spacing=np.broadcast_to(np.asarray(spacing, dtype=np.float64), (3,)).copy(),
         dims=(nx, ny, nz), times=t, fields=dict(frames), physical_times=physical, source=source,
+        coords=None if coords is None else np.asarray(coords, dtype=np.float64),
     )  # fmt: skip
 
 
@@ -193,7 +201,7 @@ def chunked_volume(volume: TimeVolume) -> TimeVolume:
     vol = volume_from_dask(
         {name: to_dask(volume, name) for name in volume.field_names},
         times=volume.times, origin=tuple(volume.origin), spacing=tuple(volume.spacing),
-        source=volume.source,
+        source=volume.source, coords=volume.coords,
     )  # fmt: skip
     vol.physical_times = volume.physical_times
     vol.attrs = dict(volume.attrs)
@@ -263,18 +271,29 @@ def _read_hdf5_slab(b: Any, step: int, z0: int, z1: int) -> NDArray[np.float64]:
 
 
 def slab_volume(volume: TimeVolume, z0: int, z1: int) -> TimeVolume:
-    """Planes ``[z0, z1)`` of ``volume`` as a volume of its own (origin moved to plane z0)."""
+    """Planes ``[z0, z1)`` of ``volume`` as a volume of its own (origin moved to plane z0).
+
+    A curvilinear volume's slab holds those planes' points (``coords``; its origin
+    is their lowest corner) and keeps
+    the volume's nominal spacing (the thickness of an axis of one point), so its
+    metric terms (:mod:`auralize.curvilinear`) are the whole grid's wherever the
+    stencils stay inside the slab.
+    """
     nx, ny, nz = volume.dims
     if not 0 <= z0 < z1 <= nz:
         raise DataError(f"{volume.source}: slab {z0}:{z1} outside the {nz} z-planes")
     origin = volume.origin.copy()
-    origin[2] += z0 * volume.spacing[2]
+    coords = None if volume.coords is None else volume.coords[z0:z1]
+    if coords is not None:
+        origin = coords.reshape(-1, 3).min(axis=0)
+    else:
+        origin[2] += z0 * volume.spacing[2]
     sub = TimeVolume(
         origin=origin, spacing=volume.spacing.copy(), dims=(nx, ny, z1 - z0),
         times=volume.times, fields={k: SlabFrames(v, z0, z1) for k, v in volume.fields.items()},
         physical_times=volume.physical_times, source=f"{volume.source}[z {z0}:{z1}]",
         check_finite=volume.check_finite,
-        valid=None if volume.valid is None else volume.valid[z0:z1],
+        valid=None if volume.valid is None else volume.valid[z0:z1], coords=coords,
     )  # fmt: skip
     valid = getattr(volume, "valid", None)  # the validity mask (nz, ny, nx), if any
     if valid is not None:

@@ -76,7 +76,7 @@ from numpy.typing import NDArray
 
 from auralize.distributed.chunked import slab_volume
 from auralize.distributed.runner import RunError, Runner, numba_threads
-from auralize.errors import DataError, FormatError, ParameterError
+from auralize.errors import FormatError, ParameterError
 from auralize.io.files import atomic_hdf5, atomic_path, stop_if_failed
 from auralize.mapping import (
     AcousticMapping,
@@ -125,6 +125,23 @@ def mapping_reach(mapping: AcousticMapping) -> int | None:
     if type(mapping) in (IdentityMapping, CFDMapping):
         return 0
     return None
+
+
+def ghost_planes(volume: TimeVolume, *, floor: bool) -> int:
+    """Ghost planes a slab reads on each side beyond the mapping's reach, so that its
+    kept planes' sources are the whole grid's.
+
+    Uniform grid: the strengths read the mapped fields one plane further (two
+    with the floor's 2h stencils, three for its error's neighbourhood), the ΔV
+    radius one more.  Curvilinear grid (:mod:`auralize.curvilinear`): the
+    quadrupole strength is a divergence of divergences, so it reads two planes
+    further (four with the 2h stencils), plus the floor's neighbourhood and the
+    radius; the metric terms of each plane come from the grid's points one
+    plane away (two for the 2h stencils), which the slab holds as they are.
+    """
+    if volume.coords is None:
+        return 4 if floor else 2
+    return 6 if floor else 3
 
 
 @dataclass(frozen=True)
@@ -228,13 +245,15 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     frames = []
     tallies = []
     qm = None if qmean is None else SteadyBase(sub, mapping, qmean)
+    # a curvilinear slab's cell volumes: its metric terms, from its own points
+    cell = None if sub.metric is None else sub.metric.jac
     with numba_threads(threads):
         cache = StepCache(sub, mapping, qmean=qm, floor=floor)
         buf = np.empty((3, *sub.shape))
         for n in range(a, b):
             s = step_strengths(sub, cache, n, buf)
             kind, radius = classify(s, thr, sub.spacing, zero_fraction=zero_fraction,
-                                    delta_v=delta_v)  # fmt: skip
+                                    delta_v=delta_v, cell=cell)  # fmt: skip
             f = extract(kind[lo:hi], radius[lo:hi], s[:, lo:hi])
             f.index += slab.z0 * plane
             frames.append(f)
@@ -614,6 +633,8 @@ def fingerprint(volume: TimeVolume, mapping: AcousticMapping, thresholds: Thresh
         "mapping": mapping.describe(), "thresholds": thresholds.describe(), **options,
     }, sort_keys=True, default=_jsonable).encode())  # fmt: skip
     h.update(np.ascontiguousarray(volume.times).tobytes())
+    if volume.coords is not None:
+        h.update(np.ascontiguousarray(volume.coords).tobytes())
     return h.hexdigest()
 
 
@@ -805,12 +826,6 @@ def detect_distributed(
     (6, 3)
     """
     require_steps(volume)
-    if volume.coords is not None:
-        raise DataError(
-            f"{volume.source}: distributed detection cuts the grid into uniform slabs; this "
-            f"curvilinear grid is detected natively in one process (without --scheduler), or "
-            f"read it resampled (--resample) for Dask"
-        )
     m = get_mapping(mapping, **mapping_fields)
     check_steady(steady)
     delta_v_rule(delta_v)
@@ -821,10 +836,8 @@ def detect_distributed(
     if out is not None and out.suffix.lower() not in (".h5", ".hdf5", ".pvd"):
         raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
     reach = mapping_reach(m)
-    # ghost planes: strengths read the mapped fields one plane further (two with the
-    # floor's 2h stencils, three for its error's neighbourhood), the ΔV radius one more
-    extra = 4 if thresholds.floor > 0 else 2
-    slabs = plan_slabs(volume.shape, ghost=None if reach is None else reach + extra,
+    slabs = plan_slabs(volume.shape, ghost=None if reach is None else reach + ghost_planes(
+                           volume, floor=thresholds.floor > 0),
                        planes=slab_planes, memory=int(task_memory))  # fmt: skip
     plan_chunks([], chunk_steps)  # validates chunk_steps
     store = StateStore(out) if out is not None else None
@@ -1004,12 +1017,14 @@ def detect_distributed(
               "peak": None if peak is None else np.asarray(peak).tolist(),
               "source": volume.source, "steady": steady, "delta_v": delta_v,
               "fraction": fraction,
+              **({"grid": "curvilinear"} if volume.coords is not None else {}),
               "scale": {"scheduler": run_.scheduler, "workers": n_workers,
                         "computed_steps": todo, "resumed_steps": len(done),
                         "tasks": len(calls), "chunks": len(chunks), "chunk_steps": chunk_steps,
                         "slabs": [(s.z0, s.z1) for s in slabs], "seconds": elapsed,
                         "task_seconds": task_seconds[0], "computed_sources": n_sources[0],
                         "peak_rss_per_process": sorted(rss.values(), reverse=True)}},
+        coords=volume.coords,
     )  # fmt: skip
     if streamed:
         assert out is not None and store is not None

@@ -90,8 +90,9 @@ def trilinear_weights(volume: TimeVolume, points: NDArray[np.floating]
         from auralize.errors import DataError
 
         raise DataError(
-            f"{volume.source}: the FW-H surface is sampled on a uniform grid; read this "
-            f"curvilinear grid resampled (--resample, curvilinear='resample')"
+            f"{volume.source}: the FW-H integral samples its surface on a uniform grid, and this "
+            f"curvilinear grid is read on its own points: add --resample (curvilinear='resample' "
+            f"in Python) to read it resampled onto a uniform grid"
         )
     nx, ny, nz = volume.dims
     f = (np.asarray(points, dtype=np.float64) - volume.origin) / volume.spacing

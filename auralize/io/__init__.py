@@ -173,8 +173,9 @@ def open_volume(
         pressure levels).
     box : (xmin, xmax, ymin, ymax, zmin, zmax), optional
         Region of interest in metres (after ``axis_scale``): only grid points
-        inside it are kept, and a mesh's resolution is chosen from its cells
-        inside it.
+        inside it are kept (of a curvilinear grid, the smallest index block
+        whose cells cover the box), and a mesh's resolution is chosen from its
+        cells inside it.
     curvilinear : {"native", "resample"}, optional
         How a structured curvilinear grid (PLOT3D, ``vtkStructuredGrid`` in
         ``.vts``/``.vtk``/``.vtm``/``.pvd``) is read: ``"native"`` keeps its
@@ -182,8 +183,10 @@ def open_volume(
         :mod:`auralize.curvilinear`), ``"resample"`` puts it on a uniform grid
         as any other mesh.  ``None``: the mode in force
         (:func:`auralize.io.options.curvilinear_mode`, the command line's
-        ``--resample``), by default ``"native"``.  A ``resolution`` or a
-        ``box`` resamples it as well (both choose a uniform grid).
+        ``--resample``), by default ``"native"``.  A ``resolution`` resamples
+        it as well (it chooses a uniform grid); a ``box`` keeps it native,
+        cropped to the smallest index block whose cells cover the box
+        (:func:`auralize.io.options.index_block`).
 
     Returns
     -------

@@ -20,10 +20,11 @@ surface's values interpolated there (:func:`shell_voxels`).  A structured
 curvilinear grid (``vtkStructuredGrid``: ``.vts``, PLOT3D) keeps its own
 points (``TimeVolume.coords``; derivatives by its metric terms,
 :mod:`auralize.curvilinear`) unless the reader options ask for resampling
-(``curvilinear="resample"``, a ``resolution`` or a ``box``);
-:func:`resample_curvilinear` puts one on a uniform grid for what needs it.  The reader
-option ``axis_scale=`` scales every step's mesh as it is loaded, before any
-of this.
+(``curvilinear="resample"`` or a ``resolution``; a ``box`` crops it in index
+space to the block whose cells cover it, :func:`auralize.io.options.index_block`);
+:func:`resample_curvilinear` puts one on a uniform grid for what needs it.  The
+reader option ``axis_scale=`` scales every step's mesh as it is loaded, before
+any of this.
 """
 
 from __future__ import annotations
@@ -1113,7 +1114,6 @@ def open_mesh_series(
         and surface is None
         and options.curvilinear == "native"
         and resolution is None
-        and options.box is None
         and curvilinear_points(mesh0) is not None
     )
     converter: _SameGrid | _Lattice | _Sampler | _Shell | _Structured
@@ -1262,12 +1262,14 @@ def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None
     :func:`auralize.io.save_volume`, the viewer's volume rendering): each step
     is made a ``vtkStructuredGrid`` of the volume's points and frames and
     sampled as :func:`open_mesh_series` samples a mesh (the voxel from its
-    cells, a :class:`~auralize.io.ResampledWarning` saying what is lost).
-    Detection and rendering keep the native grid.
+    cells, a :class:`~auralize.io.ResampledWarning` saying what is lost).  A
+    volume cut to a box (``attrs["box"]``: its index block, whose cells cover
+    the box) is sampled over that box, as reading the file resampled with the
+    box would.  Detection and rendering keep the native grid.
     """
     if volume.coords is None:
         return volume
-    from auralize.io.options import ReadOptions, reading
+    from auralize.io.options import ReadOptions, check_box, reading
 
     pv = import_pyvista()
     nz, ny, nx = volume.shape
@@ -1283,7 +1285,8 @@ def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None
             g.point_data[n] = a.reshape(-1, 3) if a.ndim == 4 else a.reshape(-1)
         return g
 
-    with reading(ReadOptions(curvilinear="resample")):
+    region = check_box(volume.attrs.get("box"), source=volume.source)
+    with reading(ReadOptions(curvilinear="resample", box=region)):
         out = open_mesh_series(
             source=volume.source, loader=loader,
             labels=[f"{volume.source} step {n}" for n in range(volume.n_steps)],

@@ -62,19 +62,30 @@ converted to metres so that the speed of sound applies to it:
   Coordinates without units, or with units that are not lengths, and
   dimensions without a coordinate variable (index 0, 1, 2 ...) are taken as
   metres, and ``attrs["axis_units"]`` says so.
-- parametric vertical coordinates (sigma, hybrid, s-levels, §4.3.3 and
-  Appendix D) have no single height per level: refused.
+- a vertical position that varies from point to point makes the grid
+  curvilinear, read on its own points (``TimeVolume.coords``, heights in
+  metres): a 3-D height or depth named by the data variable's CF
+  ``coordinates`` (§5; a 4-D one, with time, at its time mean; ``positive="down"``
+  negated), else a parametric vertical coordinate (§4.3.3, Appendix D: sigma,
+  s-levels, hybrid height, sigma and hybrid pressure: :data:`VERTICAL_FORMULAS`)
+  evaluated from its ``formula_terms`` (pressures to heights in the standard
+  atmosphere; a term that changes over time, such as the free surface, at its
+  time mean: the grid is fixed, ``attrs["axis_units"]["z"]`` says by how much it
+  moves).  Other parametric coordinates are refused, naming ``--axis-scale``
+  (one height per level: its values times the scale).
 - ``axis_scale=`` (``--axis-scale``) replaces all of this: the file's
-  coordinates times the scale (``attrs["axis_scale_applied"]``).
+  coordinates times the scale (``attrs["axis_scale_applied"]``); a
+  parametric coordinate's values are then one height per level.
 
 ``attrs["axis_units"]`` tells for each axis how it became metres
 (``{"x": "degrees_east -> m (R cos 45.0°)", "y": "degrees_north -> m",
 "z": "hPa -> m (standard atmosphere)"}``), ``attrs["grid_units"]`` keeps the
 file's units.  Decreasing coordinates are flipped.  Unevenly spaced ones are
 read on their own points (a rectilinear grid: ``TimeVolume.coords``, the
-derivatives by its metric terms, :mod:`auralize.curvilinear`); with
-``curvilinear="resample"`` (``--resample``), a ``resolution`` or a ``box``
-they are resampled onto a uniform grid (with a
+derivatives by its metric terms, :mod:`auralize.curvilinear`; a ``box``
+keeps the smallest index block whose cells cover it); with
+``curvilinear="resample"`` (``--resample``) or a ``resolution`` they are
+resampled onto a uniform grid (with a
 :class:`~auralize.io.ResampledWarning` saying why): the evenly spaced axes
 keep their points, an uneven one takes its finest step (at most twice its
 points) unless ``resolution=`` says otherwise.  A curvilinear lat/lon grid
@@ -608,12 +619,16 @@ def _to_metres(axes: list[_Axis], scale: tuple[float, float, float] | None, *,
                 raise DataError(f"{source}: the pressure coordinate {ax.dim!r} has values <= 0")
             out.append(standard_height(c * factor))
             notes[ax.letter] = f"{u} -> m (standard atmosphere)"
+        elif ax.kind == "aux3d":  # heights per point: the layout's 3-D vertical coordinate
+            out.append(c)
+            notes[ax.letter] = "3-D (per point)"
         elif ax.kind == "parametric":
             raise FormatError(
-                f"{source}: {ax.dim!r} is a parametric vertical coordinate (CF Appendix D: "
-                f"sigma, hybrid or s-levels), whose heights change from point to point; "
-                f"auralize needs one height per level: give --axis-scale SX,SY,SZ to use "
-                f"its values ({np.nanmin(c):g} .. {np.nanmax(c):g}) times SZ metres"
+                f"{source}: {ax.dim!r} is a parametric vertical coordinate (CF Appendix D) "
+                f"whose formula auralize does not evaluate (it evaluates "
+                f"{', '.join(sorted(VERTICAL_FORMULAS))} from their formula_terms); give "
+                f"--axis-scale SX,SY,SZ to use its values ({np.nanmin(c):g} .. "
+                f"{np.nanmax(c):g}) times SZ metres as one height per level"
             )
         elif ax.kind == "degrees":
             raise FormatError(
@@ -663,8 +678,11 @@ class _Layout:
     axis_units: dict[str, str]  # x/y/z -> how the file's coordinate became metres
     projection: str | None  # how longitude/latitude became x/y
     #: points (nz, ny, nx, 3) in metres of a grid whose horizontal position is given by
-    #: 2-D longitude/latitude auxiliary coordinates (CF ``coordinates``; None: none)
+    #: 2-D longitude/latitude auxiliary coordinates (CF ``coordinates``) or whose height
+    #: by a 3-D vertical coordinate (None: neither)
     aux: NDArray[np.float64] | None = None
+    #: what made the grid curvilinear (for ``attrs["mesh"]``)
+    aux_why: str = ""
 
 
 def _velocity_parts(variables: dict[str, _Var]) -> tuple[str | None, ...] | None:
@@ -741,6 +759,11 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
             c = np.arange(int(first.shape[first.dims.index(d)]), dtype=np.float64)
         c_units = _text(cv.attrs.get("units", "")).strip() if cv is not None else ""
         axes.append(_Axis(d, letter, c, c_units, _axis_kind(d, cv, letter)))
+    vertical = _vertical_3d(b, first, spatial, axes, time_dim, opts.axis_scale, source=source)
+    if vertical is not None:  # the levels' own values stand for the index (a monotonic one)
+        raw = axes[0].raw
+        raw = raw if _monotonic(raw) else np.arange(raw.size, dtype=np.float64)
+        axes[0] = dataclasses.replace(axes[0], kind="aux3d", raw=raw)
     metres, axis_units, projection = _to_metres(axes, opts.axis_scale, source=source)
     coords_cf: list[NDArray[np.float64]] = []
     flip: list[bool] = []
@@ -763,19 +786,35 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
     coord_units = [ax.units for ax in axes][::-1]
     aux = _aux_lonlat(b, first, spatial, source=source)
     points = None
-    if aux is not None:
-        lon, lat = aux
-        xs, ys, note_x, note_y, projection = _lonlat_metres(lon, lat, opts.axis_scale,
-                                                            source=source)  # fmt: skip
-        axis_units["x"], axis_units["y"] = note_x, note_y
-        nz = xyz[2].size
-        points = np.empty((nz, *xs.shape, 3))
-        points[..., 0] = xs[None]
-        points[..., 1] = ys[None]
-        points[..., 2] = xyz[2][:, None, None]
+    why = []
+    if aux is not None or vertical is not None:
+        nz, ny, nx = xyz[2].size, xyz[1].size, xyz[0].size
+        points = np.empty((nz, ny, nx, 3))
+        if aux is not None:
+            lon, lat = aux
+            xs, ys, note_x, note_y, projection = _lonlat_metres(lon, lat, opts.axis_scale,
+                                                                source=source)  # fmt: skip
+            axis_units["x"], axis_units["y"] = note_x, note_y
+            points[..., 0] = xs[None]
+            points[..., 1] = ys[None]
+            why.append("2-D longitude/latitude coordinates")
+        else:
+            points[..., 0] = xyz[0][None, None, :]
+            points[..., 1] = xyz[1][None, :, None]
+        if vertical is not None:
+            z, note = vertical
+            for axis, rev in enumerate(flip):  # as the data's slabs are flipped
+                if rev:
+                    z = np.flip(z, axis=axis)
+            points[..., 2] = z
+            axis_units["z"] = note
+            why.append(f"a 3-D vertical coordinate ({note.split(' ->')[0]})")
+        else:
+            points[..., 2] = xyz[2][:, None, None]
     return _Layout(time_dim, np.asarray(times, dtype=np.float64), physical, spatial, xyz,
                    flip, variables, vectors, units, coord_units, time_units,
-                   dict(sorted(axis_units.items())), projection, points)  # fmt: skip
+                   dict(sorted(axis_units.items())), projection, points,
+                   " and ".join(why))  # fmt: skip
 
 
 def _aux_lonlat(b: _Backend, var: _Var, spatial: tuple[str, ...], *,
@@ -803,6 +842,228 @@ def _aux_lonlat(b: _Backend, var: _Var, spatial: tuple[str, ...], *,
     if not (np.all(np.isfinite(lon)) and np.all(np.isfinite(lat))):
         raise DataError(f"{source}: the 2-D longitude/latitude coordinates hold NaN or fill values")
     return lon, lat
+
+
+def _monotonic(c: NDArray[np.float64]) -> bool:
+    return bool(np.all(np.isfinite(c)) and (c.size < 2 or np.all(np.diff(c) > 0)
+                                             or np.all(np.diff(c) < 0)))  # fmt: skip
+
+
+#: CF Appendix D formulas evaluated into a height per point: standard name -> the
+#: terms it needs (hybrid sigma-pressure: ap, b, ps or, without ap, a, b, ps, p0)
+VERTICAL_FORMULAS: dict[str, tuple[str, ...]] = {
+    "ocean_sigma_coordinate": ("sigma", "eta", "depth"),
+    "ocean_s_coordinate": ("s", "eta", "depth", "a", "b", "depth_c"),
+    "ocean_s_coordinate_g1": ("s", "C", "eta", "depth", "depth_c"),
+    "ocean_s_coordinate_g2": ("s", "C", "eta", "depth", "depth_c"),
+    "atmosphere_hybrid_height_coordinate": ("a", "b", "orog"),
+    "atmosphere_sigma_coordinate": ("sigma", "ps", "ptop"),
+    "atmosphere_hybrid_sigma_pressure_coordinate": ("ap", "b", "ps"),
+    "atmosphere_ln_pressure_coordinate": ("p0", "lev"),
+}
+#: terms that are lengths (m after their units) and pressures (Pa); the rest are numbers
+_LENGTH_TERMS = ("eta", "depth", "depth_c", "orog")
+_PRESSURE_TERMS = ("ps", "ptop", "p0", "ap")
+#: standard names of a height (or a depth: positive down) given per point
+_HEIGHT_NAMES = {"height", "altitude", "height_above_mean_sea_level",
+                 "height_above_reference_ellipsoid", "height_above_geopotential_datum",
+                 "geopotential_height", "depth", "depth_below_geoid", "sea_floor_depth"}  # fmt: skip
+
+
+class _Terms:
+    """The variables a vertical coordinate's formula reads, each broadcast onto the
+    spatial dimensions (time-varying ones averaged over the steps)."""
+
+    def __init__(self, b: _Backend, spatial: tuple[str, ...], time_dim: str | None,
+                 source: str) -> None:  # fmt: skip
+        self.b, self.spatial, self.time_dim, self.source = b, spatial, time_dim, source
+        #: the largest change over the steps of a time-varying term (with its unit), by name
+        self.moves: dict[str, str] = {}
+
+    def read(self, var: _Var, kind: str) -> NDArray[np.float64]:
+        """``var`` decoded, in metres (``kind="length"``), pascals (``"pressure"``) or as
+        it is, shaped to broadcast over the spatial dimensions (CF order)."""
+        dims = list(var.dims)
+        if self.time_dim is not None and self.time_dim in dims:
+            if dims.index(self.time_dim) != 0:
+                raise FormatError(f"{self.source}: {var.name!r} has dimensions {var.dims}; the "
+                                  f"time dimension {self.time_dim!r} must come first")  # fmt: skip
+            n_t = int(var.shape[0])
+            lo = hi = total = None
+            for n in range(n_t):  # a step at a time: a 4-D height need not fit twice
+                a = _decode(var, var.read((n,)), source=self.source)
+                total = a.copy() if total is None else total + a
+                lo = a.copy() if lo is None else np.fmin(lo, a)
+                hi = a.copy() if hi is None else np.fmax(hi, a)
+            assert total is not None and lo is not None and hi is not None
+            values = total / n_t
+            dims = dims[1:]
+            move = float(np.nanmax(hi - lo, initial=0.0))
+        else:
+            values, move = _decode(var, var.read(), source=self.source), 0.0
+        extra = [d for d in dims if d not in self.spatial]
+        if extra:
+            raise FormatError(
+                f"{self.source}: the vertical coordinate's term {var.name!r} has dimensions "
+                f"{var.dims}, not among the data's ({', '.join(self.spatial)})"
+            )
+        units = _text(var.attrs.get("units", "")).strip().lower()
+        factor = 1.0
+        if kind == "length" and units:
+            if units not in _LENGTH_UNITS:
+                raise FormatError(f"{self.source}: {var.name!r} has units {units!r}, not a "
+                                  f"length (m, km, ...)")  # fmt: skip
+            factor = _LENGTH_UNITS[units]
+        elif kind == "pressure" and units:
+            if units not in _PRESSURE_UNITS:
+                raise FormatError(f"{self.source}: {var.name!r} has units {units!r}, not a "
+                                  f"pressure (Pa, hPa, ...)")  # fmt: skip
+            factor = _PRESSURE_UNITS[units]
+        if move > 0.0:
+            unit = {"length": " m", "pressure": " Pa"}.get(kind, "")
+            self.moves[var.name] = f"{move * factor:.3g}{unit}"
+        present = sorted(dims, key=self.spatial.index)
+        values = np.transpose(np.asarray(values, dtype=np.float64) * factor,
+                              [dims.index(d) for d in present])  # fmt: skip
+        shape = [values.shape[present.index(d)] if d in present else 1 for d in self.spatial]
+        return values.reshape(shape)
+
+
+def _formula_height(b: _Backend, coord: _Var, terms: _Terms, *,
+                    source: str) -> tuple[NDArray[np.float64], str] | None:  # fmt: skip
+    """Height (m, up) per point of a parametric vertical coordinate by its CF Appendix D
+    formula (:data:`VERTICAL_FORMULAS`), and how it was made; None for a formula not
+    evaluated here."""
+    std = _text(coord.attrs.get("standard_name", "")).strip().lower()
+    if std not in VERTICAL_FORMULAS:
+        return None
+    text = _text(coord.attrs.get("formula_terms", ""))
+    pairs = re.findall(r"(\w+)\s*:\s*(\S+)", text)
+    names = dict(pairs)
+    need: tuple[str, ...]
+    if std == "atmosphere_hybrid_sigma_pressure_coordinate" and "ap" not in names:
+        need = ("a", "b", "ps", "p0")
+    else:
+        need = VERTICAL_FORMULAS[std]
+    missing = [t for t in need if t not in names or names[t] not in b.vars]
+    if missing:
+        raw = _decode(coord, coord.read(), source=source)
+        raise FormatError(
+            f"{source}: {coord.name!r} is a parametric vertical coordinate ({std}, CF Appendix "
+            f"D) whose formula_terms {text!r} leave out or name no variable for "
+            f"{', '.join(missing)} (it needs {', '.join(need)}); give them, or --axis-scale "
+            f"SX,SY,SZ to use its values ({np.nanmin(raw):g} .. {np.nanmax(raw):g}) times SZ "
+            f"metres as one height per level"
+        )
+
+    def term(t: str) -> NDArray[np.float64]:
+        kind = "length" if t in _LENGTH_TERMS else "pressure" if t in _PRESSURE_TERMS else "number"
+        return terms.read(b.vars[names[t]], kind)
+
+    if std == "ocean_sigma_coordinate":
+        eta, depth = term("eta"), term("depth")
+        z = eta + term("sigma") * (depth + eta)
+    elif std == "ocean_s_coordinate":
+        sv, a, bb, eta, depth, hc = (term(t) for t in ("s", "a", "b", "eta", "depth", "depth_c"))
+        c = ((1 - bb) * np.sinh(a * sv) / np.sinh(a)
+             + bb * (np.tanh(a * (sv + 0.5)) / (2 * np.tanh(0.5 * a)) - 0.5))  # fmt: skip
+        z = eta * (1 + sv) + hc * sv + (depth - hc) * c
+    elif std == "ocean_s_coordinate_g1":
+        sv, c, eta, depth, hc = (term(t) for t in ("s", "C", "eta", "depth", "depth_c"))
+        big_s = hc * sv + (depth - hc) * c
+        z = big_s + eta * (1 + big_s / depth)
+    elif std == "ocean_s_coordinate_g2":
+        sv, c, eta, depth, hc = (term(t) for t in ("s", "C", "eta", "depth", "depth_c"))
+        big_s = (hc * sv + depth * c) / (hc + depth)
+        z = eta + (eta + depth) * big_s
+    elif std == "atmosphere_hybrid_height_coordinate":
+        z = term("a") + term("b") * term("orog")
+    else:  # pressure: heights of the ICAO standard atmosphere
+        if std == "atmosphere_sigma_coordinate":
+            ptop = term("ptop")
+            p = ptop + term("sigma") * (term("ps") - ptop)
+        elif std == "atmosphere_ln_pressure_coordinate":
+            p = term("p0") * np.exp(-term("lev"))
+        elif "ap" in names:
+            p = term("ap") + term("b") * term("ps")
+        else:
+            p = term("a") * term("p0") + term("b") * term("ps")
+        if np.any(~(p > 0)):
+            raise DataError(f"{source}: the vertical coordinate {coord.name!r} ({std}) gives "
+                            f"pressures <= 0 or missing")  # fmt: skip
+        z = standard_height(np.asarray(p, dtype=np.float64))
+    shape = tuple(int(terms.b.dim_size(d) or 1) for d in terms.spatial)
+    z = np.broadcast_to(np.asarray(z, dtype=np.float64), shape).copy()
+    used = ", ".join(f"{t}: {names[t]}" for t in need)
+    note = f"{std} -> m per point (formula_terms {used}"
+    if std.startswith("atmosphere") and std != "atmosphere_hybrid_height_coordinate":
+        note += "; pressure -> height in the standard atmosphere"
+    return z, note + ")"
+
+
+def _height_variable(b: _Backend, var: _Var, spatial: tuple[str, ...],
+                     time_dim: str | None) -> _Var | None:  # fmt: skip
+    """The variable that CF's ``coordinates`` attribute of ``var`` names as its height (or
+    depth) per point: over the spatial dimensions (after time), a length."""
+    for name in _text(var.attrs.get("coordinates", "")).split():
+        cv = b.vars.get(name)
+        if cv is None:
+            continue
+        dims = tuple(d for d in cv.dims if d != time_dim)
+        if dims != spatial or (len(cv.dims) > len(dims) and cv.dims[0] != time_dim):
+            continue
+        units = _text(cv.attrs.get("units", "")).strip().lower()
+        std = _text(cv.attrs.get("standard_name", "")).strip().lower()
+        axis = _text(cv.attrs.get("axis", "")).strip().upper()
+        if units in _LENGTH_UNITS or (not units and (axis == "Z" or std in _HEIGHT_NAMES)):
+            return cv
+    return None
+
+
+def _vertical_3d(b: _Backend, var: _Var, spatial: tuple[str, ...], axes: list[_Axis],
+                 time_dim: str | None, scale: tuple[float, float, float] | None, *,
+                 source: str) -> tuple[NDArray[np.float64], str] | None:  # fmt: skip
+    """A height per point ``(nz, ny, nx)`` in metres (CF order, as the file holds it) and
+    how it was made, for a data variable ``var`` over three spatial dimensions whose
+    vertical position varies from point to point: a 3-D (or 4-D with time) height
+    named by its CF ``coordinates`` (§5), else the vertical axis' CF Appendix D
+    formula (``formula_terms``, :data:`VERTICAL_FORMULAS`).  Terms or heights that
+    change over time are taken at their time mean (the grid is fixed); the note
+    says by how much they move.  None for a grid of one height per level."""
+    if len(spatial) != 3:
+        return None
+    terms = _Terms(b, spatial, time_dim, source)
+    hv = _height_variable(b, var, spatial, time_dim)
+    if hv is not None:
+        std = _text(hv.attrs.get("standard_name", "")).strip().lower()
+        positive = _text(hv.attrs.get("positive", "")).strip().lower()
+        down = positive == "down" or (std.startswith("depth") and positive != "up")
+        units = _text(hv.attrs.get("units", "")).strip() or "no units: taken as m"
+        z = terms.read(hv, "number" if scale is not None else "length")
+        z = np.broadcast_to(z, tuple(int(b.dim_size(d) or 1) for d in spatial)).copy()
+        if scale is not None:
+            z = z * scale[2]
+            note = f"{hv.name} (3-D, {units}) x {scale[2]:g} (--axis-scale)"
+        else:
+            note = f"{hv.name} (3-D, {units}) -> m per point"
+        if down:
+            z = -z
+            note += " (positive down -> height: negated)"
+    else:
+        coord = b.vars.get(spatial[0])
+        if coord is None or axes[0].kind != "parametric" or scale is not None:
+            return None  # with --axis-scale, a parametric axis' values times SZ (see _to_metres)
+        made = _formula_height(b, coord, terms, source=source)
+        if made is None:
+            return None
+        z, note = made
+    if not np.all(np.isfinite(z)):
+        raise DataError(f"{source}: the 3-D vertical coordinate holds NaN or fill values "
+                        f"({int(np.count_nonzero(~np.isfinite(z)))} points)")  # fmt: skip
+    if terms.moves:
+        moved = ", ".join(f"{k} by up to {v}" for k, v in terms.moves.items())
+        note += f"; at the time mean of what moves ({moved}): a fixed grid"
+    return z, note
 
 
 def _lonlat_metres(lon: NDArray[np.float64], lat: NDArray[np.float64],
@@ -928,8 +1189,7 @@ def _rectilinear_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> Time
         source=source,
         coords=coords,
     )
-    why = ("2-D longitude/latitude coordinates" if lay.aux is not None
-           else _uneven_reason(lay, None))  # fmt: skip
+    why = lay.aux_why if lay.aux is not None else _uneven_reason(lay, None)
     volume.attrs["mesh"] = (f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points, "
                             f"{why}: read on its own points")  # fmt: skip
     return volume
@@ -1052,7 +1312,7 @@ def read_netcdf(
     ))  # fmt: skip
     loader = _NetCDFSteps(backend, lay, src, needed)
     options = read_options()
-    on_points = options.curvilinear == "native" and resolution is None and options.box is None
+    on_points = options.curvilinear == "native" and resolution is None
     if lay.aux is None and all(_evenly_spaced(c) for c in lay.coords):
         base = _uniform_volume(loader, lay, src)
         base = resample_uniform(base, check_resolution(resolution, source=src))

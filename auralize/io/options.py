@@ -7,10 +7,12 @@ a per-axis scale to metres, and a region of interest.
 the mesh and netCDF readers can use them where they matter most: a mesh is
 scaled before its grid is chosen, a region picks the cells whose size sets the
 resolution.  Whatever a reader leaves undone, :func:`finish` does on the
-uniform volume it returns: it scales the grid's axes and keeps the grid points
-inside the box.  Both are idempotent (a reader marks a scale it applied in
-``attrs["axis_scale_applied"]``; a volume already inside its box is returned as
-it is).
+volume it returns: it scales the grid's axes and keeps the grid points inside
+the box (on a curvilinear grid read natively, the smallest index block whose
+cells cover the box: :func:`index_block`).  Both are idempotent (a
+reader marks a scale it applied in ``attrs["axis_scale_applied"]``; a volume
+already inside its box is returned as it is, a curvilinear one with the box
+noted in its ``attrs``).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ __all__ = [
     "current",
     "curvilinear_mode",
     "finish",
+    "index_block",
     "reading",
 ]
 
@@ -62,15 +65,16 @@ class ReadOptions:
         levels, converts them to metres itself).
     box : (xmin, xmax, ymin, ymax, zmin, zmax) or None
         Region of interest in metres (after ``axis_scale``); the volume keeps
-        the grid points inside it, and a mesh's resolution is chosen from the
-        cells inside it.
+        the grid points inside it (a curvilinear grid the smallest index block
+        whose cells cover it), and a mesh's resolution is chosen from the cells
+        inside it.
     """
 
     time_dim: str | None = None
     axis_scale: tuple[float, float, float] | None = None
     box: Box | None = None
     #: ``"native"`` (default) or ``"resample"`` (:data:`CURVILINEAR_MODES`); a
-    #: ``box`` or a ``resolution`` resamples a curvilinear grid too
+    #: ``resolution`` resamples a curvilinear grid too, a ``box`` crops it natively
     curvilinear: str = "native"
 
 
@@ -215,15 +219,101 @@ def _scaled(volume: TimeVolume, scale: tuple[float, float, float]) -> TimeVolume
     return out
 
 
+def index_block(
+    coords: NDArray[np.float64], box: Box, *, source: str = "<memory>"
+) -> tuple[int, int, int, int, int, int]:
+    """The smallest index block ``(i0, i1, j0, j1, k0, k1)`` (half-open) of a curvilinear
+    grid's points ``coords (nz, ny, nx, 3)`` whose cells cover ``box``: every cell
+    (between neighbouring points; along an axis of one point, the point) that
+    overlaps the box, with its corners.
+
+    A cell overlaps the box when its corners' bounding box does, by more than
+    1e-9 of the grid's extent (a cell that only touches a face of the box is
+    left out; along an axis on which the box is thinner than that, touching
+    counts), along each axis on which the grid is not flat (a one-layer grid is
+    kept whatever the box says across it).  A cell of a strongly warped grid
+    may overlap the box by its bounding box only: the block is then a little
+    larger than it needs be.  A box that overlaps no cell is an error.
+
+    Examples
+    --------
+    >>> zz, yy, xx = np.meshgrid(np.arange(3.0), np.arange(4.0), np.arange(5.0), indexing="ij")
+    >>> c = np.stack([xx + 0.1 * yy, yy, zz], axis=-1)  # x sheared along y
+    >>> index_block(c, (0.9, 2.05, 0.0, 1.5, 1.0, 2.0))
+    (0, 4, 0, 3, 1, 3)
+    """
+    lo_c, hi_c = coords, coords
+    for ax in range(3):  # the corners' extremes, one index direction at a time
+        if coords.shape[ax] > 1:
+            lo_v, hi_v = np.moveaxis(lo_c, ax, 0), np.moveaxis(hi_c, ax, 0)
+            lo_c = np.moveaxis(np.minimum(lo_v[:-1], lo_v[1:]), 0, ax)
+            hi_c = np.moveaxis(np.maximum(hi_v[:-1], hi_v[1:]), 0, ax)
+    flat = coords.reshape(-1, 3)
+    lo, hi = flat.min(axis=0), flat.max(axis=0)
+    tol = 1e-9 * float(np.max(hi - lo))
+    meets = np.ones(lo_c.shape[:3], dtype=bool)
+    for a in range(3):
+        if hi[a] - lo[a] <= tol:
+            continue
+        b0, b1 = float(box[2 * a]), float(box[2 * a + 1])
+        if b1 - b0 > 2 * tol:
+            meets &= (lo_c[..., a] < b1 - tol) & (hi_c[..., a] > b0 + tol)
+        else:
+            meets &= (lo_c[..., a] <= b1 + tol) & (hi_c[..., a] >= b0 - tol)
+    if not meets.any():
+        raise DataError(
+            f"{source}: the box {', '.join(f'{v:g}' for v in box)} m overlaps no cell of the "
+            f"curvilinear grid (it spans x[{lo[0]:g}, {hi[0]:g}] y[{lo[1]:g}, {hi[1]:g}] "
+            f"z[{lo[2]:g}, {hi[2]:g}] m)"
+        )
+    out: list[int] = []
+    for ax in (2, 1, 0):  # i (x fastest: the last array axis), j, k
+        other = tuple(o for o in range(3) if o != ax)
+        hit = np.flatnonzero(meets.any(axis=other))
+        out += [int(hit[0]), int(hit[-1]) + (2 if coords.shape[ax] > 1 else 1)]
+    return (out[0], out[1], out[2], out[3], out[4], out[5])
+
+
+def _cropped_curvilinear(volume: TimeVolume, box: Box) -> TimeVolume:
+    """A curvilinear volume cut to :func:`index_block` of ``box``, natively and lazily
+    (``attrs["box"]`` and ``attrs["index_block"]`` say so, also when the block is the
+    whole grid: saving it resamples it over the box)."""
+    import dataclasses
+
+    from auralize.curvilinear import nominal_spacing
+
+    assert volume.coords is not None
+    i0, i1, j0, j1, k0, k1 = index_block(volume.coords, box, source=volume.source)
+    nx, ny, nz = volume.dims
+    said = {"box": list(box), "index_block": {"i": [i0, i1 - 1], "j": [j0, j1 - 1],
+                                              "k": [k0, k1 - 1], "of": [nx, ny, nz]}}  # fmt: skip
+    if (i0, i1, j0, j1, k0, k1) == (0, nx, 0, ny, 0, nz):
+        return dataclasses.replace(volume, attrs={**volume.attrs, **said})
+    coords = volume.coords[k0:k1, j0:j1, i0:i1].copy()
+    dims = (i1 - i0, j1 - j0, k1 - k0)
+    # an index direction cut to one point keeps its nominal length (its thickness)
+    spacing = np.where(np.asarray(dims) > 1, nominal_spacing(coords), volume.spacing)
+    window = (k0, k1, j0, j1, i0, i1)
+    out = TimeVolume(
+        origin=coords.reshape(-1, 3).min(axis=0),
+        spacing=spacing,
+        dims=dims,
+        times=volume.times,
+        fields={n: _Window(src, window) for n, src in volume.fields.items()},
+        physical_times=volume.physical_times,
+        source=volume.source,
+        check_finite=volume.check_finite,
+        attrs=dict(volume.attrs),
+        valid=None if volume.valid is None else volume.valid[k0:k1, j0:j1, i0:i1].copy(),
+        coords=coords,
+    )
+    out.attrs.update(said)
+    return out
+
+
 def _cropped(volume: TimeVolume, box: Box) -> TimeVolume:
     if volume.coords is not None:
-        b = volume.bounds
-        if all(box[2 * a] <= b[2 * a] and b[2 * a + 1] <= box[2 * a + 1] for a in range(3)):
-            return volume
-        raise DataError(
-            f"{volume.source}: a box (region of interest) cuts a curvilinear grid; read it "
-            f"resampled (--resample, curvilinear='resample') to keep the region"
-        )
+        return _cropped_curvilinear(volume, box)
     origin = np.asarray(volume.origin, dtype=np.float64)
     spacing = np.asarray(volume.spacing, dtype=np.float64)
     lo_hi: list[tuple[int, int]] = []
@@ -264,11 +354,13 @@ def _cropped(volume: TimeVolume, box: Box) -> TimeVolume:
 
 
 def finish(volume: TimeVolume, options: ReadOptions) -> TimeVolume:
-    """Apply what the reader left of ``options`` to the uniform ``volume``.
+    """Apply what the reader left of ``options`` to ``volume``.
 
     The axis scale (unless the reader applied it) multiplies the origin and
-    spacing; the box keeps the grid points inside it, lazily (frames are cut
-    as they are read).
+    spacing (a curvilinear grid's points); the box keeps the grid points inside
+    it, lazily (frames are cut as they are read): on a curvilinear grid the
+    smallest index block whose cells cover the box (:func:`index_block`;
+    ``attrs["index_block"]`` gives its inclusive index ranges).
     """
     if options.axis_scale is not None and "axis_scale_applied" not in volume.attrs:
         volume = _scaled(volume, options.axis_scale)
