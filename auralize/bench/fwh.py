@@ -36,7 +36,7 @@ def fwh_rows(quick: bool) -> list[Any]:
     rows.append(BenchRow(
         "fwh", f"wave test, {n}³ x {vol.n_steps} steps", t_test * 1e3, "ms",
         note=f"residual {100 * wt.residual:.1f} % ({wt.field}): {wt.describe().split(':')[0]}; "
-             f"{6 * len(wt.steps)} frames read",
+             f"{5 * len(wt.steps)} frames read",
     ))  # fmt: skip
     how = choose_method(vol)
     xs = np.array([0.013, -0.007, 0.011])
