@@ -29,7 +29,15 @@ PATH_COLOR = "#{:02x}{:02x}{:02x}".format(*PATH_RGB)
 
 def data_grid(volume: TimeVolume) -> Any:
     """The volume's grid as a pyvista dataset: ``ImageData`` for a uniform grid, a
-    ``StructuredGrid`` of its own points for a curvilinear one (drawn natively)."""
+    ``StructuredGrid`` of its own points for a curvilinear one (drawn natively).
+
+    Examples
+    --------
+    >>> from auralize.datasets.synthetic import make_monopole
+    >>> grid = data_grid(make_monopole(size=8, steps=4))
+    >>> type(grid).__name__, tuple(grid.dimensions)
+    ('ImageData', (8, 8, 8))
+    """
     import pyvista as pv
 
     if volume.coords is None:
