@@ -615,6 +615,20 @@ def near_path(points: NDArray[np.float64], path: ListenerPath, dist: float) -> N
     test uses (``dist / 4``, or longer on a path more than 50,000 ``dist``
     long: at most 200,000 points).
 
+    Parameters
+    ----------
+    points : ndarray, shape (K, 3)
+        Positions in data coordinates, m.
+    path : ListenerPath
+        The listener's captures (a point or a polyline).
+    dist : float
+        Distance, m.
+
+    Returns
+    -------
+    ndarray of bool, shape (K,)
+        True for the points near the path.
+
     Examples
     --------
     >>> path = ListenerPath(np.array([0.0, 1.0]), np.array([[0.0, 0, 0], [10.0, 0, 0]]))

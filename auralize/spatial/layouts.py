@@ -188,6 +188,17 @@ class Layout:
         """Fold ``audio (n_channels, n)`` of this layout into ``dst``: ``downmix_matrix(self,
         dst) @ audio`` (:func:`downmix_matrix`).
 
+        Parameters
+        ----------
+        audio : array_like, shape (n_channels, n)
+            Audio in this layout's channel order.
+        dst : Layout or str
+            The target layout (a name or JSON file, :func:`get_layout`).
+
+        Returns
+        -------
+        ndarray, shape (dst.n_channels, n)
+
         Raises
         ------
         ParameterError
