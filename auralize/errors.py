@@ -71,3 +71,7 @@ class OutputExistsError(OutputError, FileExistsError):
 
 class Cancelled(AuralizeError):
     """Long work was cancelled by the user."""
+
+
+class PluginWarning(UserWarning):
+    """A plugin could not be loaded; the rest of the application carries on."""

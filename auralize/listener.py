@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import ListenerPathError, ParameterError
-from auralize.io.files import atomic_write, read_timed_csv
+from auralize.runtime.files import atomic_write, read_timed_csv
 
 FORWARD = np.array([0.0, 1.0, 0.0])
 UP = np.array([0.0, 0.0, 1.0])
@@ -59,8 +59,8 @@ class ListenerPath:
     """
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.scene.notebook`)."""
-        from auralize.scene.notebook import path_html
+        """Notebook display (:mod:`auralize.runtime.notebook`)."""
+        from auralize.runtime.notebook import path_html
 
         return path_html(self)
 
@@ -606,6 +606,48 @@ def line_past(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: flo
         reach = min(reach, 0.5 * length)
     d = np.array([reach, 0.0, 0.0])
     return ListenerPath.line(c + off - d, c + off + d, duration=duration)
+
+
+def near_path(points: NDArray[np.float64], path: ListenerPath, dist: float) -> NDArray[np.bool_]:
+    """Which ``points (K, 3)`` lie within about ``dist`` (m) of the polyline of
+    the listener's captures: all points within ``dist`` of it, none farther
+    than ``dist`` + h/2, h the spacing of the points on the polyline that the
+    test uses (``dist / 4``, or longer on a path more than 50,000 ``dist``
+    long: at most 200,000 points).
+
+    Parameters
+    ----------
+    points : ndarray, shape (K, 3)
+        Positions in data coordinates, m.
+    path : ListenerPath
+        The listener's captures (a point or a polyline).
+    dist : float
+        Distance, m.
+
+    Returns
+    -------
+    ndarray of bool, shape (K,)
+        True for the points near the path.
+
+    Examples
+    --------
+    >>> path = ListenerPath(np.array([0.0, 1.0]), np.array([[0.0, 0, 0], [10.0, 0, 0]]))
+    >>> near_path(np.array([[5.0, 0.5, 0], [5.0, 3.0, 0]]), path, 1.0).tolist()
+    [True, False]
+    """
+    from scipy.spatial import cKDTree
+
+    pts = np.asarray(path.positions, dtype=np.float64).reshape(-1, 3)
+    h = 0.0
+    if pts.shape[0] >= 2:
+        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        h = max(0.25 * dist, float(seg.sum()) / 200_000)
+        m = np.maximum(np.ceil(seg / h), 1).astype(np.int64)
+        i = np.repeat(np.arange(seg.size), m)
+        f = (np.arange(int(m.sum())) - np.repeat(np.cumsum(m) - m, m)) / np.repeat(m, m)
+        pts = np.concatenate([pts[i] + f[:, None] * (pts[i + 1] - pts[i]), pts[-1:]])
+    d, _ = cKDTree(pts).query(points, distance_upper_bound=dist + 0.5 * h)
+    return np.asarray(np.isfinite(d))
 
 
 def describe_path(path: ListenerPath) -> str:

@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.datasets.synthetic import DEFAULT_MAPPING, make_dataset
+from auralize.datasets.opener import load as load
+from auralize.datasets.synthetic import DEFAULT_MAPPING
 from auralize.defaults import DEFAULTS
 from auralize.emitters import RATE_RANGE_HZ
 from auralize.emitters.synthesis import (
@@ -38,7 +39,6 @@ from auralize.emitters.synthesis import (
 )
 from auralize.errors import FieldError, ParameterError
 from auralize.listener import SWEEP_TURNS, ListenerPath, describe_path, orbit_around
-from auralize.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
 from auralize.rendering import Carry, RenderBlocks, render
 from auralize.runtime.progress import progress_step
 from auralize.runtime.resources import audio_bytes, memory_guard, require_memory
@@ -51,6 +51,7 @@ from auralize.sources.detection import (
     require_steps,
 )
 from auralize.sources.field import FLOOR, Heard, field_tracks, parse_heard
+from auralize.sources.mapping import ROLE_NAMES, AcousticMapping, get_mapping, match_field
 from auralize.spatial.layouts import get_layout
 from auralize.volume import TimeVolume
 
@@ -87,46 +88,6 @@ _UNITS = ((365.25 * 86400, "years"), (86400.0, "days"), (3600.0, "h"), (60.0, "m
           (1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns"))  # fmt: skip
 
 
-def load(spec: str | Path | TimeVolume, *, size: int | None = None, steps: int | None = None,
-         seed: int = 0, fields: dict[str, str] | None = None,
-         resolution: int | tuple[int, int, int] | None = None, nan: str = "mask",
-         time_dim: str | None = None, axis_scale: Any = None, box: Any = None) -> TimeVolume:  # fmt: skip
-    """Open a volume file, or a dataset that comes with auralize by ``"dataset:NAME"``:
-    generated (``size``, ``steps``, ``seed``) or shipped (``dataset:cavity``, ...;
-    :mod:`auralize.datasets.shipped`).
-
-    ``nan`` (``"mask"`` or ``"error"``) is what NaN, fill values and masked
-    cells in a file are; ``time_dim``, ``axis_scale`` and ``box`` are the
-    readers' options; see :func:`auralize.io.open_volume`.
-    """
-    if isinstance(spec, TimeVolume):
-        return spec
-    s = str(spec)
-    from auralize.io import open_volume
-
-    if s.startswith("dataset:"):
-        from auralize.datasets.shipped import SHIPPED, shipped_path
-
-        name = s.split(":", 1)[1]
-        if name not in SHIPPED:
-            from auralize.io.options import ReadOptions, check_axis_scale, check_box, finish
-
-            if time_dim is not None:
-                raise ParameterError(f"dataset:{name} is generated; time_dim (--time-dim) "
-                                     f"names a netCDF file's time dimension")  # fmt: skip
-            vol = make_dataset(name, size=size, steps=steps, seed=seed)
-            return finish(vol, ReadOptions(axis_scale=check_axis_scale(axis_scale, source=s),
-                                           box=check_box(box, source=s)))  # fmt: skip
-        if size is not None or steps is not None:
-            raise ParameterError(f"dataset:{name} is a shipped file ({SHIPPED[name][1]}); "
-                                 f"--size and --steps apply to generated datasets")  # fmt: skip
-        return open_volume(shipped_path(name), fields=fields, resolution=resolution, nan=nan,
-                           time_dim=time_dim, axis_scale=axis_scale, box=box)  # fmt: skip
-
-    return open_volume(s, fields=fields, resolution=resolution, nan=nan, time_dim=time_dim,
-                       axis_scale=axis_scale, box=box)  # fmt: skip
-
-
 def auto_mapping(volume: TimeVolume) -> str:
     """The mapping preset a volume most likely wants.
 
@@ -134,7 +95,7 @@ def auto_mapping(volume: TimeVolume) -> str:
     mapping; density plus momentum means ``cfd``; pressure without density
     (incompressible CFD such as OpenFOAM's ``p`` and ``U``) means
     ``incompressible``; otherwise ``identity``.  Field roles are found by
-    :func:`auralize.mapping.match_field`.
+    :func:`auralize.sources.mapping.match_field`.
     """
     ds = volume.attrs.get("dataset")
     if isinstance(ds, str) and ds in DEFAULT_MAPPING:

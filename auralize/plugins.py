@@ -24,22 +24,19 @@ import functools
 import math
 import warnings
 from dataclasses import dataclass
-from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from auralize.bench.timing import batch_times as batch_times  # (plugin authors' import)
-from auralize.bench.timing import best_of as best_of
 from auralize.errors import AuralizeError, ParameterError, PluginError
+from auralize.errors import PluginWarning as PluginWarning
+from auralize.runtime.entrypoints import loaded
+from auralize.runtime.timing import batch_times as batch_times  # (plugin authors' import)
+from auralize.runtime.timing import best_of as best_of
 
 if TYPE_CHECKING:
     from auralize.emitters import Sound
     from auralize.listener import ListenerPath
 
 ENTRY_POINT_GROUP = "auralize.plugins"
-
-
-class PluginWarning(UserWarning):
-    """A plugin could not be loaded; the rest of the application carries on."""
 
 
 @dataclass(frozen=True)
@@ -266,18 +263,15 @@ class BenchRow:
 def registry() -> dict[str, type[SoundModel]]:
     """All sound models registered by entry point (loaded once, cached)."""
     found: dict[str, type[SoundModel]] = {}
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        try:
-            obj = ep.load()
-            if not (isinstance(obj, type) and issubclass(obj, SoundModel)):
-                raise TypeError(f"{ep.value} is not a SoundModel subclass")
-        except Exception as exc:  # a broken plugin must not take the app down
+    for name, value, obj in loaded(ENTRY_POINT_GROUP, "sound-model plugin"):
+        if not (isinstance(obj, type) and issubclass(obj, SoundModel)):
             warnings.warn(
-                f"sound-model plugin {ep.name!r} ({ep.value}) could not be loaded: {exc}",
+                f"sound-model plugin {name!r} ({value}) could not be loaded: {value} is not a "
+                f"SoundModel subclass",
                 PluginWarning, stacklevel=2,
             )  # fmt: skip
             continue
-        found[ep.name] = obj
+        found[name] = obj
     return found
 
 
@@ -297,8 +291,8 @@ def load_volume_input(spec: str) -> Any:
     their :meth:`SoundModel.load_input`.  A structured curvilinear grid is read
     resampled onto a uniform grid (a model's physics takes uniform spacing).
     """
+    from auralize.datasets.opener import load
     from auralize.io.options import curvilinear_mode
-    from auralize.pipeline import load
 
     with curvilinear_mode("resample"):
         return load(spec)

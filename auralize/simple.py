@@ -371,7 +371,7 @@ def ApplyMapping(Input: DataSource | str | None = None, mapping: str | None = No
     >>> ApplyMapping(src, "identity", density="density").Mapping
     'identity'
     """
-    from auralize.mapping import get_mapping
+    from auralize.sources.mapping import get_mapping
 
     if isinstance(Input, str):  # ApplyMapping("cfd", ...) on the active source
         if mapping is not None:
@@ -714,8 +714,8 @@ def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
     >>> SaveAudio(out, r) > 0, out.exists(), pathlib.Path(f"{out}.json").exists()
     (True, True, True)
     """
-    from auralize.io.files import check_output_path
     from auralize.pipeline import save_rendered
+    from auralize.runtime.files import check_output_path
 
     check_output_path(filename)  # a bad place fails before anything else
     r = rendered or GetSession().rendered

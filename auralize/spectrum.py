@@ -170,7 +170,7 @@ class Spectrum:
 
     def save(self, path: str | Path) -> Path:
         """Write the levels as ``.csv`` or ``.json`` (atomically); returns the path."""
-        from auralize.io.files import atomic_write
+        from auralize.runtime.files import atomic_write
 
         p = Path(path)
         suffix = p.suffix.lower()
@@ -189,7 +189,7 @@ class Spectrum:
         matplotlib.use("Agg", force=False)
         from matplotlib.figure import Figure
 
-        from auralize.io.files import atomic_path
+        from auralize.runtime.files import atomic_path
 
         fig = Figure(figsize=(8, 6), layout="constrained")
         ax1, ax2 = fig.subplots(2, 1)
@@ -307,7 +307,7 @@ def read_pascals(path: str | Path) -> tuple[NDArray[np.float64], int, list[str],
     if not side_path.is_file():
         raise FormatError(f"{p}: no sidecar {side_path.name}, so the samples' unit is unknown; "
                           f"analyse a file written by auralize (render, play --output, ...)")  # fmt: skip
-    from auralize.io.json_check import read_json
+    from auralize.runtime.json_check import read_json
 
     side = read_json(side_path)
     if not isinstance(side, dict) or side.get("auralize_format") != "audio-sidecar":

@@ -270,8 +270,8 @@ class TimeVolume:
     """
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.scene.notebook`)."""
-        from auralize.scene.notebook import volume_html
+        """Notebook display (:mod:`auralize.runtime.notebook`)."""
+        from auralize.runtime.notebook import volume_html
 
         return volume_html(self)
 

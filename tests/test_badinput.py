@@ -285,7 +285,7 @@ def test_silent_render_says_so(tmp_path: Path, inputs: dict[str, Path], capsys: 
 
 def test_pair_records_the_audio_hash(tmp_path: Path) -> None:
     from auralize.audio import write_audio
-    from auralize.io.files import file_sha256
+    from auralize.runtime.files import file_sha256
 
     write_audio(tmp_path / "a.wav", np.ones((1, 64)), 44100)
     side = json.loads((tmp_path / "a.wav.json").read_text())
@@ -304,7 +304,7 @@ def small_series(n_steps: int = 2) -> Any:
 
 
 def test_pvd_never_replaces_a_foreign_folder(tmp_path: Path) -> None:
-    from auralize.io.sources_file import save_sources_pvd
+    from auralize.sources.sources_file import save_sources_pvd
 
     mine = tmp_path / "s_data"
     mine.mkdir()
@@ -322,8 +322,8 @@ def test_pvd_never_replaces_a_foreign_folder(tmp_path: Path) -> None:
 
 
 def test_pvd_swap_uses_a_fresh_marked_folder_with_usual_permissions(tmp_path: Path) -> None:
-    from auralize.io.files import DATA_MARKER, collection_folders
-    from auralize.io.sources_file import save_sources_pvd
+    from auralize.runtime.files import DATA_MARKER, collection_folders
+    from auralize.sources.sources_file import save_sources_pvd
 
     pvd = tmp_path / "s.pvd"
     save_sources_pvd(small_series(2), pvd)
@@ -547,8 +547,8 @@ def _kill_trials(
 def test_kill_during_writes_keeps_old_or_new(tmp_path: Path) -> None:
     from auralize.audio import read_wav, write_audio
     from auralize.io import open_volume, save_volume
-    from auralize.io.files import DATA_MARKER, collection_folders, file_sha256, recover_pair
-    from auralize.io.sources_file import save_sources_pvd
+    from auralize.runtime.files import DATA_MARKER, collection_folders, file_sha256, recover_pair
+    from auralize.sources.sources_file import save_sources_pvd
     from auralize.volume import TimeVolume
 
     # a render's output: the WAV and its sidecar, versions of 1 and 3 channels
@@ -635,7 +635,7 @@ def test_dask_cluster_listens_on_loopback_only(processes: bool) -> None:
 
 
 def test_stale_temporaries_are_recognised(tmp_path: Path) -> None:
-    from auralize.io.files import atomic_write
+    from auralize.runtime.files import atomic_write
 
     dead = 99_999_999  # above any pid_max: no such process
     stale = tmp_path / f".o.csv.{dead}-0123456789ab.csv.part"
@@ -689,7 +689,7 @@ def test_kill_during_render_command_keeps_old_or_new(tmp_path: Path, inputs: dic
     import sys
 
     from auralize.audio import read_wav
-    from auralize.io.files import file_sha256, recover_pair
+    from auralize.runtime.files import file_sha256, recover_pair
 
     wav, side = tmp_path / "r.wav", tmp_path / "r.wav.json"
     assert cli.main(["render", str(inputs["m.h5"]), "--listener", "0.5,0.5,0.5", "--duration", "0.5",

@@ -34,7 +34,7 @@ def test_detect_json_and_outputs(mono_h5, tmp_path, capsys) -> None:  # type: ig
     assert len(steps) == 120
     assert sum(s["monopole"] for s in steps) > 0
     assert sum(s["dipole"] + s["quadrupole"] for s in steps) == 0
-    from auralize.io.sources_file import load_sources_h5
+    from auralize.sources.sources_file import load_sources_h5
 
     series = load_sources_h5(out)
     assert [sum(c.values()) for c in series.counts()] == [

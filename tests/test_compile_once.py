@@ -15,12 +15,13 @@ import numpy as np
 import pytest
 from numba.core import event
 
+from auralize import warmup
 from auralize.emitters import Emitters, _sampled
 from auralize.emitters._kernels import render_pieces, render_runs
 from auralize.emitters.engine import model_emitters, render_emitters
 from auralize.emitters.synthesis import render as synth_render
 from auralize.listener import ListenerPath
-from auralize.runtime import jit, warmup
+from auralize.runtime import jit
 from auralize.runtime.jit import kernel_arg, kernel_args
 from auralize.sources.detection import SourceTracks
 
@@ -235,7 +236,6 @@ def test_plugins_are_warmed_through_their_hook(monkeypatch) -> None:  # type: ig
     the core): a model registered by a third party is warmed too."""
     import auralize.plugins as plugins
     from auralize.plugins import SoundModel
-    from auralize.runtime import warmup
 
     warmed: list[str] = []
 

@@ -162,9 +162,9 @@ def _blob(c: np.ndarray, times: np.ndarray, sigma: float = 0.08) -> np.ndarray:
 
 
 def test_monopole_detected_natively_matches_the_uniform_grid() -> None:
-    from auralize.mapping import get_mapping
     from auralize.sources.detection import Thresholds, detect
     from auralize.sources.field import field_tracks
+    from auralize.sources.mapping import get_mapping
 
     n, times = 24, np.arange(12) / 100.0
     s = np.linspace(0.0, 1.0, n)
@@ -331,7 +331,7 @@ def test_cli_info_detect_render_natively(vts_series, tmp_path, capsys) -> None: 
     centre = pos.mean(axis=0)
     assert np.linalg.norm(centre - [0.0, 1.0, 0.25]) < 0.15
 
-    from auralize.io.sources_file import load_sources_h5
+    from auralize.sources.sources_file import load_sources_h5
 
     again = load_sources_h5(out)  # alone: the sources' own points known, the others NaN
     assert again.coords is not None and np.isnan(again.coords).any()

@@ -34,9 +34,9 @@ from auralize.distributed import (
 from auralize.emitters.synthesis import render
 from auralize.errors import DataError, MissingDependencyError, ParameterError
 from auralize.io import open_volume
-from auralize.io.sources_file import load_sources_h5
 from auralize.listener import ListenerPath
 from auralize.sources import SourceSeries, SourceTracks, Thresholds, detect
+from auralize.sources.sources_file import load_sources_h5
 from auralize.volume import TimeVolume
 
 # dask.distributed's own start-up/shut-down chatter, not ours
@@ -222,7 +222,7 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
 
 def test_detection_tasks_save_their_own_sources(tmp_path: Path, explosion: TimeVolume) -> None:
     from auralize.distributed.detect import Slab, detect_task
-    from auralize.mapping import get_mapping
+    from auralize.sources.mapping import get_mapping
 
     m = get_mapping("identity", density="log10_density")
     m.prepare(explosion)
@@ -646,8 +646,8 @@ def test_client_streams_chunks_to_the_output_file_without_holding_all_sources(
     import h5py
 
     from auralize.distributed import H5Frames
-    from auralize.io.sources_file import save_sources_h5
     from auralize.sources import SourceFrame
+    from auralize.sources.sources_file import save_sources_h5
 
     def never(*_a: object, **_k: object) -> None:
         raise AssertionError("the client loaded every step's sources")

@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 
 from auralize.datasets.synthetic import make_explosion, make_spinning
-from auralize.mapping import get_mapping
 from auralize.pipeline import detect_sources
 from auralize.sources import _kernels as K
 from auralize.sources.detection import (
@@ -30,6 +29,7 @@ from auralize.sources.detection import (
     steady_strength,
     strength_stats,
 )
+from auralize.sources.mapping import get_mapping
 from auralize.volume import TimeVolume
 
 

@@ -32,9 +32,8 @@ import pytest
 
 from auralize.cli import core as cli
 from auralize.errors import OutputError, ParameterError, ResourceError
-from auralize.io import files
 from auralize.io.vtkhdf_write import write_sources_vtkhdf, write_volume_vtkhdf
-from auralize.runtime import resources
+from auralize.runtime import files, resources
 from auralize.volume import TimeVolume
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -45,7 +44,7 @@ TMPFS_BYTES = 256 * 1024
 # so the disk fills during the write.
 _DRIVER = """
 import os, resource, signal, sys
-import auralize.io.files as files
+import auralize.runtime.files as files
 if os.environ.get("LIMIT"):
     room, name = int(os.environ["LIMIT"]), files.temp_name
     def limited(*a, **k):
@@ -180,7 +179,7 @@ def test_hdf5_outputs_on_a_full_disk_end_with_one_line_every_time(
 _API_DRIVER = """
 import os, resource, signal, sys
 import numpy as np
-import auralize.io.files as files
+import auralize.runtime.files as files
 from auralize.errors import OutputError
 room, name = int(os.environ["ROOM"]), files.temp_name
 def limited(*a, **k):

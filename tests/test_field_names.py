@@ -11,7 +11,7 @@ import pytest
 
 from auralize.cli import main
 from auralize.io import save_volume
-from auralize.mapping import match_field
+from auralize.sources.mapping import match_field
 from auralize.volume import TimeVolume
 
 STEPS, N = 6, 5

@@ -19,10 +19,10 @@ import pytest
 
 from auralize.cli import main
 from auralize.errors import DataError, FormatError
-from auralize.io.json_check import MAX_DEPTH, parse_json
-from auralize.io.sources_file import load_sources_for, load_sources_h5
+from auralize.runtime.json_check import MAX_DEPTH, parse_json
 from auralize.scene.session import SessionState
 from auralize.scene.soundscene import load_scene
+from auralize.sources.sources_file import load_sources_for, load_sources_h5
 from auralize.spatial.layouts import get_layout, load_layout_json
 
 LISTEN = ["--listener", "0.5,0.5,0.5", "--duration", "0.1"]

@@ -65,7 +65,7 @@ def test_bad_reader_options_are_refused_clearly(ramp_file, kw, match):
 def test_a_session_keeps_the_reader_options(ramp_file):
     import json
 
-    from auralize.io.json_check import check
+    from auralize.runtime.json_check import check
     from auralize.scene.session import DATA_SCHEMA, data_spec, load_data
 
     path, frames = ramp_file

@@ -19,8 +19,8 @@ from auralize.errors import DataError, FormatError
 from auralize.io import ResampledWarning, open_volume, save_volume
 from auralize.io._mesh import MeshFrames, lattice_order
 from auralize.io.netcdf import time_unit_seconds
-from auralize.mapping import match_field
 from auralize.pipeline import auto_mapping, resolve_mapping
+from auralize.sources.mapping import match_field
 from auralize.volume import TimeVolume
 
 DATA = Path(__file__).resolve().parents[1] / "auralize" / "data"
@@ -255,7 +255,7 @@ def test_ensight_transient(tmp_path: Path) -> None:
     # from the command line: a steady flow repeated makes no monopoles
     out = tmp_path / "s.h5"
     assert main(["detect", str(tmp_path / "t.case"), "-o", str(out)]) == 0
-    from auralize.io.sources_file import load_sources_h5
+    from auralize.sources.sources_file import load_sources_h5
 
     assert all(c["monopole"] == 0 for c in load_sources_h5(out).counts())
     rc = main(["render", str(tmp_path / "t.case"), "--sources", str(out), "--listener",
@@ -391,7 +391,7 @@ def test_cli_reports_missing_velocity(tmp_path: Path, capsys) -> None:  # type: 
     captured = capsys.readouterr()
     assert captured.err.count("no dipole or quadrupole sources: no velocity field") == 1
     assert json.loads(captured.out)["unavailable"]["quadrupole"].startswith("no velocity field")
-    from auralize.io.sources_file import load_sources_h5
+    from auralize.sources.sources_file import load_sources_h5
 
     assert "dipole" in load_sources_h5(out).meta["unavailable"]
 

@@ -1,7 +1,7 @@
 """Real-data regression: the shipped real datasets read, detect and render as recorded.
 
 Figures live in ``auralize/data/regression/realdata.json`` (refresh with
-``python -m auralize.datasets.real --update`` after an intended change in detection
+``python -m auralize.regression.real --update`` after an intended change in detection
 or synthesis).  Beside the stored figures, each test checks facts of the data
 that hold whatever the detector does (grids, times, the mesh's shape).
 """
@@ -17,8 +17,9 @@ import pytest
 import pyvista as pv
 from scipy.spatial import cKDTree
 
-from auralize.datasets.real import CASES, DATASETS, compare, compute, dataset_path
+from auralize.datasets.real import CASES, DATASETS, dataset_path
 from auralize.io import ResampledWarning, open_volume
+from auralize.regression.real import compare, compute
 
 # a compact blob that fills much of a small grid is legitimately a large share of
 # its points; the warning is for the command line, not a failure here

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from auralize.datasets.regression import STORE, compare, compute, spectral_centroid
+from auralize.regression.synthetic import STORE, compare, compute, spectral_centroid
 
 
 def test_explosion_matches_stored_figures() -> None:

@@ -88,8 +88,8 @@ def _vortex_sound() -> Sound:
 
 
 def _field_sound() -> Sound:
+    from auralize.field_model import FieldAuralization
     from auralize.pipeline import load
-    from auralize.sources.model import FieldAuralization
 
     vol = load("dataset:monopole", size=12, steps=60)
     return FieldAuralization().synthesize(vol, threshold_monopole="1%", time_scale=1.0)

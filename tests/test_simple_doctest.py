@@ -21,7 +21,7 @@ def test_every_public_name_has_an_example() -> None:
     assert missing == []
 
 
-@pytest.mark.parametrize("name", ["auralize.audio.output", "auralize.scene.notebook", "auralize.scene.plots",
+@pytest.mark.parametrize("name", ["auralize.audio.output", "auralize.runtime.notebook", "auralize.scene.plots",
                                   "auralize.scene.pictures", "auralize.scene.view", "auralize.scene.soundscene",
                                   "auralize.scene.recorder"])  # fmt: skip
 def test_the_viewer_modules_have_examples(name: str) -> None:

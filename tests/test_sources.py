@@ -246,7 +246,7 @@ def test_bad_inputs_to_detection() -> None:
 
 
 def test_paper_density_mapping_ranges() -> None:
-    from auralize.mapping import get_mapping
+    from auralize.sources.mapping import get_mapping
 
     x, y, z = _grid()
     frames = np.stack([-2 + 2.5 * np.exp(-(x**2 + y**2 + z**2) / (1 + k)) for k in range(3)])

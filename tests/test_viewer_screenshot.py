@@ -83,11 +83,11 @@ def test_comparison_fails_for_blank_and_miscoloured_views() -> None:
 def test_one_palette_for_viewer_pictures_plots_and_pvd(tmp_path) -> None:
     import pyvista as pv
 
-    from auralize.io.sources_file import save_sources_pvd
     from auralize.pipeline import detect_sources, load
     from auralize.scene import TYPE_COLORS, TYPE_LABELS
     from auralize.scene.plots import plot_counts
     from auralize.scene.view import TYPE_COLORS as VIEWER_COLORS
+    from auralize.sources.sources_file import save_sources_pvd
 
     assert VIEWER_COLORS == PALETTE
     for code, name in TYPE_LABELS.items():

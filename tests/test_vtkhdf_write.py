@@ -113,7 +113,7 @@ def test_convert_between_volume_formats_and_sources(tmp_path: Path, capsys) -> N
 
 
 def test_detect_writes_vtkhdf_matching_the_h5_output(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
-    from auralize.io.sources_file import load_sources_h5
+    from auralize.sources.sources_file import load_sources_h5
 
     spec = ["dataset:monopole", "--size", "12", "--steps", "20"]
     h5, vtkhdf = tmp_path / "s.h5", tmp_path / "s.vtkhdf"

@@ -124,7 +124,7 @@ def test_installed_wheel_starts_fast_and_runs_the_demo_and_regression(installed:
     assert "compiling kernels" not in out, out
     for f in ("explosion_ring8.wav", "explosion.png", "explosion_spectrogram.png"):
         assert (run / "demo" / f).stat().st_size > 1000
-    _sh([py, "-m", "auralize.datasets.regression"], cwd=run, env=env)
+    _sh([py, "-m", "auralize.regression.synthetic"], cwd=run, env=env)
     clip = _sh([py, "-c", "import numpy as np; from auralize_fire.benchmark import DATA; "
                 "print(np.fromfile(DATA / 'candle_2s.f32', dtype='<f4').size)"], cwd=run, env=env)  # fmt: skip
     assert int(clip.split()[-1]) == 88200

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DeviceError, FormatError, OutputError, ParameterError
-from auralize.io.files import write_pair
+from auralize.runtime.files import write_pair
 
 if TYPE_CHECKING:
     from auralize.spatial.layouts import Layout
@@ -330,7 +330,7 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     audio that is silent (all 0) is written with ``"silent": true`` in the
     sidecar and a :class:`SilentAudioWarning`.  The sidecar records the audio
     file's SHA-256; the two are written as a pair
-    (:func:`auralize.io.files.write_pair`).
+    (:func:`auralize.runtime.files.write_pair`).
 
     Parameters
     ----------
@@ -817,14 +817,9 @@ def downmix(
     >>> np.round(downmix(front, "ring8", "stereo"), 4).tolist()
     [[0.7071, 0.7071, 0.7071], [0.7071, 0.7071, 0.7071]]
     """
-    from auralize.spatial.layouts import downmix_matrix, get_layout
+    from auralize.spatial.layouts import get_layout
 
-    s = get_layout(src)
-    a = np.asarray(audio, dtype=np.float64)
-    if a.ndim != 2 or a.shape[0] != s.n_channels:
-        raise ParameterError(f"layout {s.name!r} has {s.n_channels} channels, audio has shape "
-                             f"{a.shape}")  # fmt: skip
-    return downmix_matrix(s, dst) @ a
+    return get_layout(src).downmix(audio, dst)
 
 
 # ------------------------------------------------------------ safe playback

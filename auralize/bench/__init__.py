@@ -16,8 +16,8 @@ _EXPORTS = {
     "PAPER_FRAME_US": ".runner",
     "BENCH_THRESHOLDS": ".runner",
     "BenchRow": "auralize.plugins",  # the contract type, re-exported
-    "best_of": ".timing",
-    "batch_times": ".timing",
+    "best_of": "auralize.runtime.timing",  # the timers of every bench row, re-exported
+    "batch_times": "auralize.runtime.timing",
     "bench_detection": ".runner",
     "bench_synthesis": ".runner",
     "emitters_rows": ".runner",

@@ -226,7 +226,7 @@ def warm_client() -> None:
     A long-running session has done this before its first run; the first
     timed run of the benchmark would otherwise pay it and the next not.
     """
-    import auralize.io.sources_file  # noqa: F401 - written by the detection
+    import auralize.sources.sources_file  # noqa: F401 - written by the detection
     from auralize.distributed.worker_setup import warm_kernels
 
     warm_kernels()

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench.timing import best_of
+from auralize.runtime.timing import best_of
 
 
 def fwh_rows(quick: bool) -> list[Any]:

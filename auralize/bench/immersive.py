@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench.timing import batch_times
 from auralize.plugins import BenchRow
+from auralize.runtime.timing import batch_times
 
 
 def _moving_emitters(n_em: int, n: int, rate: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

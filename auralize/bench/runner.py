@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from auralize.bench.timing import batch_times, best_of
 from auralize.plugins import BenchRow
+from auralize.runtime.timing import batch_times, best_of
 
 #: paper 003 §4.2, seconds per time step (monopole, dipole, quadrupole)
 PAPER_DETECT_S = {10: (0.064, 0.056, 0.065), 20: (4.001, 3.912, 4.074),
@@ -58,7 +58,6 @@ def _smooth_volume(n: int, steps: int = 3, seed: int = 0):
 
 
 def bench_detection(sizes: list[int]) -> list[BenchRow]:
-    from auralize.mapping import get_mapping
     from auralize.sources.detection import (
         StepCache,
         Thresholds,
@@ -68,6 +67,7 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         step_strengths,
         strength_stats,
     )
+    from auralize.sources.mapping import get_mapping
 
     rows = []
     per_step = {}
@@ -461,7 +461,7 @@ def run_bench(args: argparse.Namespace) -> int:
         print(format_rows(prow), flush=True)
     rows += prow
     if args.json:
-        from auralize.io.files import atomic_write
+        from auralize.runtime.files import atomic_write
 
         atomic_write(args.json, json.dumps([asdict(r) for r in rows], indent=2).encode())
     return 0

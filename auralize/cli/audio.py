@@ -129,7 +129,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     path = ListenerPath.from_csv(args.path) if args.path else None
     series = None
     if args.sources:
-        from auralize.io.sources_file import load_sources_for
+        from auralize.sources.sources_file import load_sources_for
 
         series = load_sources_for(args.sources, vol)
     from auralize.emitters.synthesis import check_arrival

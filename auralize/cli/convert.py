@@ -33,8 +33,8 @@ def _is_sources_file(path: Path) -> bool:
 
 def convert_sources(src: Path, out: Path) -> str:
     """Write the sources file ``src`` as ``out`` (by suffix); return a summary."""
-    from auralize.io.sources_file import load_sources_h5, save_sources_h5, save_sources_pvd
     from auralize.io.vtkhdf_write import write_sources_vtkhdf
+    from auralize.sources.sources_file import load_sources_h5, save_sources_h5, save_sources_pvd
 
     suffix = out.suffix.lower()
     if suffix not in SOURCES_SUFFIXES:

@@ -350,8 +350,8 @@ def progress_wanted() -> bool:
 
 # ----------------------------------------------------------------- commands
 def cmd_info(args: argparse.Namespace) -> int:
-    from auralize.mapping import ROLE_NAMES, match_field, role_reason
     from auralize.pipeline import auto_mapping
+    from auralize.sources.mapping import ROLE_NAMES, match_field, role_reason
 
     vol = load_volume(args)
     # first: a vector stored as components is assembled into a field of the volume
@@ -452,8 +452,8 @@ def cmd_dataset(args: argparse.Namespace) -> int:
 
 
 def cmd_detect(args: argparse.Namespace) -> int:
-    from auralize.io.sources_file import save_sources_h5, save_sources_pvd
     from auralize.pipeline import detect_sources
+    from auralize.sources.sources_file import save_sources_h5, save_sources_pvd
     from auralize.volume import tally_nonfinite
 
     out = Path(args.output)
@@ -575,13 +575,13 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     notes: list[str] = []
     sound = Sound(parts=[], meta={}, name="")
     if args.volume is not None:  # the field of the positional volume, planned as a plain render
+        from auralize.field_model import FieldAuralization
         from auralize.pipeline import plan_heard
-        from auralize.sources.model import FieldAuralization
 
         vol = load_volume(args)
         series = None
         if args.sources:
-            from auralize.io.sources_file import load_sources_for
+            from auralize.sources.sources_file import load_sources_for
 
             series = load_sources_for(args.sources, vol)
         hs, plan = plan_heard(vol, path=path, listener=listener, duration=args.duration,
@@ -668,7 +668,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     vol = load_volume(args)
     series = None
     if args.sources:
-        from auralize.io.sources_file import load_sources_for
+        from auralize.sources.sources_file import load_sources_for
 
         series = load_sources_for(args.sources, vol)
     t = time.perf_counter()
@@ -1014,10 +1014,10 @@ def error_message(
     ``output`` is the command's output file, named when an OS error of a write
     does not say which file (a full disk).  The conversions that are not the
     CLI's own are shared with the API, so both say the same:
-    :func:`auralize.io.files.output_error` (a failed write) and
+    :func:`auralize.runtime.files.output_error` (a failed write) and
     :func:`auralize.runtime.resources.memory_error` (a failed allocation).
     """
-    from auralize.io.files import is_disk_full, output_error, raised_in_hdf5
+    from auralize.runtime.files import is_disk_full, output_error, raised_in_hdf5
     from auralize.runtime.resources import memory_error
 
     if isinstance(exc, AuralizeError):
@@ -1105,7 +1105,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
     """Refuse an output path that cannot be written before any slow work (a missing
     folder, no permission, an output that would replace an input, a sidecar that
     auralize did not write)."""
-    from auralize.io.files import check_output_path
+    from auralize.runtime.files import check_output_path
 
     out = getattr(args, "output", None)
     if isinstance(out, str | Path) and str(out) != "-":

@@ -153,7 +153,7 @@ def _heard(args: argparse.Namespace, vol: Any, runner: Any, planner: Any) -> Any
     series = None
     if parse_heard(heard).mode == "detected":
         if args.sources:
-            from auralize.io.sources_file import load_sources_for
+            from auralize.sources.sources_file import load_sources_for
 
             series = load_sources_for(args.sources, vol)
         else:

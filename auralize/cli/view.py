@@ -96,7 +96,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         raise MissingDependencyError(
             f"the desktop viewer needs Qt ({exc}); install it with: pip install 'auralize[gui]'"
         ) from None
-    return run_app(args)
+    return run_app(args, view_options(args))
 
 
 def view_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -130,8 +130,8 @@ def screenshot(args: argparse.Namespace) -> Path:
     prefer_egl()
     import pyvista as pv
 
-    from auralize.io.files import atomic_path, check_output_path
     from auralize.listener import ListenerPath
+    from auralize.runtime.files import atomic_path, check_output_path
     from auralize.scene.detection import Detection
     from auralize.scene.session import SessionState, load_data
     from auralize.scene.view import Scene

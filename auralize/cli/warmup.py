@@ -10,7 +10,7 @@ from typing import Any
 
 def cmd_warmup(args: argparse.Namespace) -> int:
     from auralize.runtime.jit import cache_dir
-    from auralize.runtime.warmup import GROUPS, PLUGIN_GROUPS, warmup
+    from auralize.warmup import GROUPS, PLUGIN_GROUPS, warmup
 
     groups = {**GROUPS, **(PLUGIN_GROUPS if args.plugins else {})}
     print(f"auralize warmup: compiling the numba kernels into {cache_dir()} "

@@ -1,9 +1,13 @@
-"""Datasets: synthetic generators, the shipped real data and their regression checks.
+"""Datasets: synthetic generators, the shipped real data, and opening either by name.
 
 * :mod:`auralize.datasets.synthetic` — analytic monopole and explosion
   volumes and the dataset registry (the public names below);
 * :mod:`auralize.datasets.real` — the real datasets shipped in ``auralize/data``;
-* :mod:`auralize.datasets.regression` — expected figures of the shipped data.
+* :mod:`auralize.datasets.shipped` — their files, unpacked on first use;
+* :mod:`auralize.datasets.opener` — :func:`~auralize.datasets.opener.load`: a
+  volume file or ``dataset:NAME`` (what :func:`auralize.pipeline.load` is).
+
+The figures they must keep producing are :mod:`auralize.regression`'s.
 """
 
 from auralize.runtime.lazy import lazy_exports

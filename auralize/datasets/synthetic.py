@@ -22,7 +22,7 @@ evaluated :class:`~auralize.volume.TimeVolume`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -450,12 +450,21 @@ DEFAULT_MAPPING = {"explosion": "paper-density", "monopole": "identity", "spinni
 
 
 def all_datasets() -> dict[str, Callable[..., TimeVolume]]:
-    """Core datasets plus those registered by sound-model plugins."""
-    from auralize.plugins import registry
+    """Core datasets plus those registered by sound-model plugins.
+
+    A plugin's datasets are the ``datasets`` mapping of its class in the
+    entry-point group ``auralize.plugins`` (:attr:`auralize.plugins.SoundModel.datasets`),
+    read from the entry points themselves (:func:`auralize.runtime.entrypoints.loaded`,
+    shared with the sound-model registry) so that the datasets sit below the
+    plugin contract.
+    """
+    from auralize.runtime.entrypoints import loaded
 
     out = dict(DATASETS)
-    for cls in registry().values():
-        out.update(cls.datasets)
+    for _, _, obj in loaded("auralize.plugins", "sound-model plugin"):
+        extra = getattr(obj, "datasets", None) if isinstance(obj, type) else None
+        if isinstance(extra, Mapping):
+            out.update(extra)
     return out
 
 

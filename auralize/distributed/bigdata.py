@@ -185,7 +185,7 @@ def write_chunked_explosion(
     (12, 12, 12)
     """
     from auralize.datasets.synthetic import check_size, check_steps
-    from auralize.io.files import atomic_hdf5, stop_if_failed
+    from auralize.runtime.files import atomic_hdf5, stop_if_failed
 
     p = Path(path).expanduser()
     size, steps = check_size(size), check_steps(steps)

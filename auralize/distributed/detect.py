@@ -43,7 +43,7 @@ pieces of a chunk of several slabs are merged into it by the client, one
 chunk at a time.  So ``OUTPUT``'s folder must be reachable by the workers
 under the same path, as the input file must.  An ``.h5`` ``OUTPUT`` is
 assembled from the parts on disk one part at a time (same datasets, dtypes
-and attributes as :func:`auralize.io.sources_file.save_sources_h5` writes
+and attributes as :func:`auralize.sources.sources_file.save_sources_h5` writes
 for the serial result).  The returned series then reads its frames lazily
 from ``OUTPUT`` (:class:`H5Frames`).  Without ``output`` every step's
 sources are returned in memory; a ``.pvd`` ``OUTPUT`` is also written from
@@ -77,14 +77,7 @@ from numpy.typing import NDArray
 from auralize.distributed.chunked import slab_volume
 from auralize.distributed.runner import RunError, Runner, numba_threads
 from auralize.errors import FormatError, ParameterError
-from auralize.io.files import atomic_hdf5, atomic_path, stop_if_failed
-from auralize.mapping import (
-    AcousticMapping,
-    CFDMapping,
-    IdentityMapping,
-    PaperDensityMapping,
-    get_mapping,
-)
+from auralize.runtime.files import atomic_hdf5, atomic_path, stop_if_failed
 from auralize.sources.detection import (
     AUTO_SAMPLE_STEPS,
     STEADY_RTOL,
@@ -105,6 +98,13 @@ from auralize.sources.detection import (
     sample_steps,
     step_strengths,
     warn_fraction,
+)
+from auralize.sources.mapping import (
+    AcousticMapping,
+    CFDMapping,
+    IdentityMapping,
+    PaperDensityMapping,
+    get_mapping,
 )
 from auralize.volume import TimeVolume
 
@@ -487,10 +487,10 @@ class StateStore:
 
         ``head`` gives the times, grid, thresholds and meta (its frames are
         ignored).  The file holds the same datasets, dtypes and attributes as
-        :func:`~auralize.io.sources_file.save_sources_h5` writes for the
+        :func:`~auralize.sources.sources_file.save_sources_h5` writes for the
         whole series.  Returns the largest number of sources held at once.
         """
-        from auralize.io.sources_file import FORMAT, VERSION
+        from auralize.sources.sources_file import FORMAT, VERSION
 
         n_steps = head.times.size
         offsets = self.step_offsets(n_steps)
@@ -1032,7 +1032,7 @@ def detect_distributed(
         store.clear()
         return replace(series, frames=H5Frames(out))  # type: ignore[arg-type]
     if out is not None and store is not None:
-        from auralize.io.sources_file import save_sources_pvd
+        from auralize.sources.sources_file import save_sources_pvd
 
         save_sources_pvd(series, out)
         store.clear()

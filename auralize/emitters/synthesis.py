@@ -78,8 +78,8 @@ class Rendered:
     not a playback of data time)."""
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.scene.notebook`)."""
-        from auralize.scene.notebook import rendered_html
+        """Notebook display (:mod:`auralize.runtime.notebook`)."""
+        from auralize.runtime.notebook import rendered_html
 
         return rendered_html(self)
 

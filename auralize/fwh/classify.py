@@ -78,7 +78,7 @@ class WaveTest:
 def _scalar_field(volume: TimeVolume) -> str | None:
     """The field whose fluctuations are measured: pressure, else density (by their
     roles' usual names), else None."""
-    from auralize.mapping import match_field
+    from auralize.sources.mapping import match_field
 
     for role in ("pressure", "density"):
         name = match_field(volume, role)

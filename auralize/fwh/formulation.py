@@ -242,7 +242,7 @@ def fwh_pressure(volume: TimeVolume | SurfaceSamples, surface: Surface | None, o
         Ambient pressure (Pa); default the mean of the first step's pressure.
     **fields : str
         ``density=``, ``velocity=``, ``momentum=``, ``pressure=`` field names
-        (default: found by role, :func:`auralize.mapping.match_field`).
+        (default: found by role, :func:`auralize.sources.mapping.match_field`).
 
     Returns
     -------

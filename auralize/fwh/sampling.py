@@ -1,13 +1,13 @@
 """The flow on an FW-H surface: density, velocity and pressure at the panel centres.
 
-Fields are found by role (:func:`auralize.mapping.match_field`) and made
+Fields are found by role (:func:`auralize.sources.mapping.match_field`) and made
 into ``(ρ, u)`` by the core's acoustic mappings, so the FW-H integral sees
 the flow every other part of auralize sees:
 
 * density with velocity or momentum: the ``cfd`` mapping
-  (:class:`auralize.mapping.CFDMapping`, v = m/ρ for momentum);
+  (:class:`auralize.sources.mapping.CFDMapping`, v = m/ρ for momentum);
 * pressure without density: the ``incompressible`` mapping
-  (:class:`auralize.mapping.IncompressibleMapping`, ρ = ρ0 + p'/c0², its
+  (:class:`auralize.sources.mapping.IncompressibleMapping`, ρ = ρ0 + p'/c0², its
   kinematic-pressure scaling and its reference, the first step's mean);
 * the pressure fluctuation p' = p − p0 from a pressure field (p0 the mean of
   the first step over its finite points, or given); without one, the linear
@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from auralize.constants import C0, RHO0
 from auralize.errors import DataError, FieldError, ParameterError
 from auralize.fwh.surface import Surface
-from auralize.mapping import AcousticMapping, CFDMapping, IncompressibleMapping, match_field
+from auralize.sources.mapping import AcousticMapping, CFDMapping, IncompressibleMapping, match_field
 from auralize.volume import TimeVolume
 
 #: the default ambient density (kg/m³), docs/design.md
@@ -193,7 +193,7 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
         Only with a density field (without one the incompressible mapping's
         reference, the same mean, is used).
     density, velocity, momentum, pressure : str, optional
-        Field names (default: :func:`auralize.mapping.match_field`).
+        Field names (default: :func:`auralize.sources.mapping.match_field`).
 
     Raises
     ------

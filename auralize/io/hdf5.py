@@ -39,7 +39,11 @@ from auralize.errors import (
     ParameterError,
 )
 from auralize.io._common import FieldsArg, require_exists, select_fields
-from auralize.io.files import atomic_hdf5, stop_if_failed
+from auralize.runtime.files import atomic_hdf5, stop_if_failed
+from auralize.runtime.hdf5safe import allow_external_data as allow_external_data
+from auralize.runtime.hdf5safe import check_self_contained as check_self_contained
+from auralize.runtime.hdf5safe import external_data_allowed as external_data_allowed
+from auralize.runtime.hdf5safe import refused_external as refused_external
 from auralize.runtime.resources import require_memory
 from auralize.volume import DEFAULT_FRAME_RATE_HZ, FrameSource, TimeVolume
 
@@ -53,73 +57,6 @@ GENERIC_META_KEYS = ("time", "origin", "spacing")
 _AXES_ORDERS = ("tzyx", "txyz")
 
 HDF5Kind = Literal["auralize", "vtkhdf", "netcdf4", "generic"]
-
-#: Whether files may read data from other files (external links, external
-#: storage, virtual datasets); see :func:`allow_external_data`.
-_ALLOW_EXTERNAL = os.environ.get("AURALIZE_HDF5_EXTERNAL", "") == "1"
-
-
-def allow_external_data(allow: bool = True) -> None:
-    """Let HDF5 files read data from other files, or refuse it again (the default).
-
-    An HDF5 file can point outside itself: external links, datasets whose
-    bytes live in external raw files, virtual datasets.  A crafted file can so
-    make a reader return any readable file on the machine (``/etc/passwd``) as
-    field data, so readers refuse such files unless this is allowed (the
-    ``--allow-external`` option, or ``AURALIZE_HDF5_EXTERNAL=1``).
-    """
-    global _ALLOW_EXTERNAL
-    _ALLOW_EXTERNAL = bool(allow)
-
-
-def external_data_allowed() -> bool:
-    """Whether files may read data from other files (see :func:`allow_external_data`)."""
-    return _ALLOW_EXTERNAL
-
-
-def refused_external(path: Path | str, what: str) -> FormatError:
-    """The error for a file that reads data from elsewhere: ``"{path}: {what}; ... refused"``.
-
-    One message for every reader that refuses such files (HDF5, netCDF4,
-    SOFA, XDMF), naming the way to allow it.
-    """
-    return FormatError(
-        f"{path}: {what}; reading data from other files is refused (give "
-        f"--allow-external, or set AURALIZE_HDF5_EXTERNAL=1, if you trust the file)"
-    )
-
-
-def check_self_contained(f: h5py.File, path: Path | str) -> None:
-    """Raise :class:`FormatError` if ``f`` refers to other files (unless allowed).
-
-    Used by every reader of HDF5-based files (volume and sources ``.h5``,
-    VTKHDF, netCDF4, SOFA, the HDF5 companions of XDMF).  Links are inspected
-    without being followed, so dangling links and link loops are reported
-    instead of raised by h5py.
-    """
-    if _ALLOW_EXTERNAL:
-        return
-    found: list[str] = []
-
-    def visit(name: str, link: object) -> None:
-        if isinstance(link, h5py.ExternalLink):
-            found.append(f"/{name} is an external link to {link.filename}:{link.path}")
-
-    f.visititems_links(visit)
-    if not found:
-
-        def visit_obj(name: str, obj: object) -> None:
-            if isinstance(obj, h5py.Dataset) and (obj.external or obj.is_virtual):
-                kind = (
-                    "virtual (data from other files)"
-                    if obj.is_virtual
-                    else "stored in external files"
-                )
-                found.append(f"dataset /{name} is {kind}")
-
-        f.visititems(visit_obj)
-    if found:
-        raise refused_external(path, found[0])
 
 
 def _h5_error(path: Path, exc: BaseException) -> FormatError:
@@ -159,7 +96,7 @@ class HDF5Frames:
         try:
             with h5py.File(self.filename, "r") as f:
                 ds = f[self.dataset]
-                if not _ALLOW_EXTERNAL and (ds.external or ds.is_virtual):
+                if not external_data_allowed() and (ds.external or ds.is_virtual):
                     raise FormatError(
                         f"{self.filename}: dataset {self.dataset!r} reads data from other files; "
                         f"refused (give --allow-external if you trust the file)"
@@ -628,7 +565,7 @@ def write_hdf5(
         The folder cannot be written, the disk has less free space than the
         uncompressed file needs (refused before writing), or a write failed:
         the first failed write ends it, and nothing is left behind
-        (:func:`~auralize.io.files.atomic_hdf5`).
+        (:func:`~auralize.runtime.files.atomic_hdf5`).
 
     Examples
     --------

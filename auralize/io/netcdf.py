@@ -34,10 +34,10 @@ Values
   made float64 first); ``_FillValue``, ``missing_value`` and values outside
   ``valid_min``/``valid_max``/``valid_range`` become NaN (no-data, §2.5.1).
 - Variables whose names or ``standard_name`` are velocity components
-  (:data:`auralize.mapping.COMPONENT_NAMES`: ``u``/``v``/``w``,
+  (:data:`auralize.roles.COMPONENT_NAMES`: ``u``/``v``/``w``,
   ``eastward_wind``/``northward_wind``/``upward_air_velocity`` ...) also form a
   vector field ``velocity`` (units those of its x component), stacked by
-  :func:`auralize.mapping.assemble_vector` like every reader's components.
+  :func:`auralize.roles.assemble_vector` like every reader's components.
 
 Spatial axes: always metres
 ---------------------------
@@ -121,7 +121,7 @@ from auralize.io._common import (
 from auralize.io._mesh import import_pyvista, open_mesh_series
 from auralize.io.options import current as read_options
 from auralize.io.resample import ResolutionArg, check_resolution, resample_uniform
-from auralize.mapping import COMPONENT_NAMES, assemble_vector
+from auralize.roles import COMPONENT_NAMES, assemble_vector
 from auralize.volume import CallableFrames, FrameSource, TimeVolume
 
 NETCDF_SUFFIXES = (".nc", ".nc4", ".cdf", ".netcdf")
@@ -688,7 +688,7 @@ class _Layout:
 def _velocity_parts(variables: dict[str, _Var]) -> tuple[str | None, ...] | None:
     """The variables that are the x, y (and z) components of a velocity.
 
-    Matched against :data:`auralize.mapping.COMPONENT_NAMES` (the names every
+    Matched against :data:`auralize.roles.COMPONENT_NAMES` (the names every
     reader's scalar components go by: ``u``/``v``/``w``, ``eastward_wind`` ...)
     first by variable name, then by ``standard_name`` (CF standard names).
     """
@@ -1197,7 +1197,7 @@ def _rectilinear_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> Time
 
 def _assembled(volume: TimeVolume, parts: tuple[str | None, ...]) -> FrameSource:
     """The vector of the scalar fields ``parts`` (x, y, z; None: 0), stacked the one way
-    every reader's components are: :func:`auralize.mapping.assemble_vector`."""
+    every reader's components are: :func:`auralize.roles.assemble_vector`."""
     keys = ("u", "v", "w")  # a triple of COMPONENT_NAMES["velocity"]
     comps = {k: volume.fields[p] for k, p in zip(keys, parts, strict=False) if p is not None}
     view = dataclasses.replace(volume, fields=comps, attrs={})

@@ -405,7 +405,7 @@ def write_pvd(
     The ``.vti`` files go into a new data folder (``<stem>_data``, or
     ``<stem>_data.1`` ... when that name holds the previous version), then a
     new ``.pvd`` pointing at it replaces the old one in one rename, then the
-    old folder is removed (:func:`auralize.io.files.write_collection`).  A crash
+    old folder is removed (:func:`auralize.runtime.files.write_collection`).  A crash
     or a kill at any point leaves the old or the new collection complete.
 
     Parameters
@@ -434,7 +434,7 @@ def write_pvd(
     >>> sorted(p.name for p in (out.parent / "run_data").glob("*.vti"))
     ['run_0000.vti', 'run_0001.vti']
     """
-    from auralize.io.files import write_collection
+    from auralize.runtime.files import write_collection
 
     path = Path(path).expanduser()
     if compression not in (None, "gzip"):

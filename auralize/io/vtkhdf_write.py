@@ -15,7 +15,7 @@ the layout VTK's own ``vtkHDFWriter`` writes): point data ``kind`` (int8 codes),
 monopole, dipole, quadrupole; :data:`KIND_LEGEND`).
 
 Both are written with h5py to a hidden temporary file beside the target and
-renamed over it only when complete (:func:`~auralize.io.files.atomic_hdf5`):
+renamed over it only when complete (:func:`~auralize.runtime.files.atomic_hdf5`):
 a disk with too little free space is refused before the first byte, and a
 write that fails anyway (the disk filled meanwhile) ends the writer at once
 with one :class:`~auralize.errors.OutputError`.
@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import DataError, MissingFileError
-from auralize.io.files import atomic_hdf5, stop_if_failed
+from auralize.runtime.files import atomic_hdf5, stop_if_failed
 from auralize.volume import TimeVolume
 
 #: the ``kind`` codes of source files and their names
@@ -72,7 +72,7 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
     OutputError
         The disk has less free space than the file needs (refused before
         writing), or a write failed: the first failed write ends it, and
-        nothing is left behind (:func:`~auralize.io.files.atomic_hdf5`).
+        nothing is left behind (:func:`~auralize.runtime.files.atomic_hdf5`).
 
     Examples
     --------
@@ -169,7 +169,7 @@ def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
     OutputError
         The disk has less free space than the file needs (refused before
         writing), or a write failed: the first failed write ends it, and
-        nothing is left behind (:func:`~auralize.io.files.atomic_hdf5`).
+        nothing is left behind (:func:`~auralize.runtime.files.atomic_hdf5`).
     """
     p = _checked_target(path)
     frames = list(series.frames)

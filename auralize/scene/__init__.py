@@ -8,8 +8,8 @@
 * :mod:`auralize.scene.session` — session files;
 * :mod:`auralize.scene.listening` — live listening while the scene moves;
 * :mod:`auralize.scene.soundscene` — scene files mixing several sound models;
-* :mod:`auralize.scene.notebook`, :mod:`auralize.scene.plots` — notebook
-  displays and matplotlib figures.
+* :mod:`auralize.scene.plots` — matplotlib figures (the notebook displays of
+  the core objects are in :mod:`auralize.runtime.notebook`).
 
 Nothing here imports Qt; only :mod:`auralize.viewer` does.
 """

@@ -16,7 +16,6 @@ import numpy as np
 from auralize.defaults import DEFAULTS
 from auralize.errors import AuralizeError
 from auralize.errors import Cancelled as Cancelled  # (re-exported: the viewer's tasks raise it)
-from auralize.mapping import AcousticMapping
 from auralize.sources.detection import (
     SourceFrame,
     SourceSeries,
@@ -26,6 +25,7 @@ from auralize.sources.detection import (
     steady_strength,
     strength_stats,
 )
+from auralize.sources.mapping import AcousticMapping
 from auralize.volume import TimeVolume
 
 #: the viewer's default thresholds: those of every front end (``auto`` for each

@@ -12,18 +12,13 @@ from typing import Any
 
 import numpy as np
 
-from auralize.io.files import atomic_path
 from auralize.listener import ListenerPath
+from auralize.palette import PALETTE as PALETTE
+from auralize.palette import type_rgb as type_rgb
+from auralize.runtime.files import atomic_path
 from auralize.sources.detection import SourceSeries
 from auralize.volume import TimeVolume
 
-#: THE palette of the source types (ColorBrewer Set1), RGB 0..255: the viewer, off-screen
-#: pictures, plots and the ``rgb`` array of a ``.pvd`` export all use it
-PALETTE: dict[str, tuple[int, int, int]] = {
-    "monopole": (228, 26, 28),
-    "dipole": (55, 126, 184),
-    "quadrupole": (77, 175, 74),
-}
 TYPE_LABELS = {1: "monopole", 2: "dipole", 3: "quadrupole"}
 #: hex colours by type code (1 monopole, 2 dipole, 3 quadrupole)
 TYPE_COLORS = {k: "#{:02x}{:02x}{:02x}".format(*PALETTE[v]) for k, v in TYPE_LABELS.items()}
@@ -34,7 +29,15 @@ PATH_COLOR = "#{:02x}{:02x}{:02x}".format(*PATH_RGB)
 
 def data_grid(volume: TimeVolume) -> Any:
     """The volume's grid as a pyvista dataset: ``ImageData`` for a uniform grid, a
-    ``StructuredGrid`` of its own points for a curvilinear one (drawn natively)."""
+    ``StructuredGrid`` of its own points for a curvilinear one (drawn natively).
+
+    Examples
+    --------
+    >>> from auralize.datasets.synthetic import make_monopole
+    >>> grid = data_grid(make_monopole(size=8, steps=4))
+    >>> type(grid).__name__, tuple(grid.dimensions)
+    ('ImageData', (8, 8, 8))
+    """
     import pyvista as pv
 
     if volume.coords is None:
@@ -43,18 +46,6 @@ def data_grid(volume: TimeVolume) -> Any:
     grid.points = volume.coords.reshape(-1, 3)
     grid.dimensions = volume.dims
     return grid
-
-
-def type_rgb(kind: np.ndarray) -> np.ndarray:
-    """``(N, 3)`` uint8 palette colours of type codes ``kind`` (0 = none: black).
-
-    Examples
-    --------
-    >>> type_rgb(np.array([1, 3])).tolist()
-    [[228, 26, 28], [77, 175, 74]]
-    """
-    lut = np.array([(0, 0, 0), *PALETTE.values()], dtype=np.uint8)
-    return lut[np.asarray(kind, dtype=np.int64)]
 
 
 #: above this many sources, draw them as point sprites of a fixed pixel size

@@ -3,17 +3,25 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.io.files import atomic_path
+from auralize.runtime.files import atomic_path
+from auralize.runtime.notebook import plot_counts as plot_counts
 
 
 def save_spectrogram(audio: NDArray[np.floating], rate: int, out: str | Path, *,
                      channel_names: list[str] | None = None, max_channels: int = 8) -> Path:  # fmt: skip
-    """Waveform and spectrogram of each channel (up to ``max_channels``) to a PNG."""
+    """Waveform and spectrogram of each channel (up to ``max_channels``) to a PNG.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = save_spectrogram(np.zeros((1, 4800)), 48000, Path(tempfile.mkdtemp()) / "s.png")
+    >>> out.read_bytes()[:4]
+    b'\x89PNG'
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -46,41 +54,3 @@ def save_spectrogram(audio: NDArray[np.floating], rate: int, out: str | Path, *,
         fig.savefig(tmp, dpi=90, format="png")
     plt.close(fig)
     return out
-
-
-def plot_counts(series: Any, *, ax: Any = None) -> Any:
-    """Sources per time step of each type, in the palette of :mod:`auralize.scene.pictures`.
-
-    Parameters
-    ----------
-    series : SourceSeries
-    ax : matplotlib Axes, optional (a new figure's otherwise)
-
-    Returns
-    -------
-    matplotlib Axes
-
-    Examples
-    --------
-    >>> from auralize.pipeline import detect_sources, load
-    >>> ax = plot_counts(detect_sources(load("dataset:monopole", size=8, steps=6)))
-    >>> [line.get_label() for line in ax.get_lines()]
-    ['monopole']
-    """
-    from auralize.scene.pictures import PALETTE
-
-    if ax is None:
-        from matplotlib.figure import Figure
-
-        ax = Figure(figsize=(5, 2), layout="constrained").subplots()
-    counts = series.counts()
-    t = np.asarray(series.times, dtype=np.float64)
-    for kind, rgb in PALETTE.items():
-        n = np.array([c[kind] for c in counts])
-        if n.any():  # the legend lists only what is there
-            ax.plot(t, n, color=np.asarray(rgb) / 255, label=kind)
-    ax.set_xlabel("data time (s)")
-    ax.set_ylabel("sources")
-    if ax.get_lines():
-        ax.legend(fontsize=7, loc="upper right")
-    return ax

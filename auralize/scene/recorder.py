@@ -110,7 +110,7 @@ class PathRecorder:
             self._t0 = self.clock() - float(self.rows[-1][0]) - self.interval_s
         self.recording = True
         if self.autosave is not None:
-            from auralize.io.files import atomic_write
+            from auralize.runtime.files import atomic_write
 
             # the file starts complete (header and the captures held), then grows
             text = "".join(f"{line}\n" for line in [csv_header(), *map(format_row, self.rows)])

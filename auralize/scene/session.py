@@ -20,7 +20,7 @@ viewer and :mod:`auralize.simple` read and write the same format::
 
 A session is checked when it is read (:meth:`SessionState.from_dict`, which
 :meth:`SessionState.load` uses): the JSON is bounded in depth and number size
-(:mod:`auralize.io.json_check`) and every known key has its type and range
+(:mod:`auralize.runtime.json_check`) and every known key has its type and range
 (:data:`SCHEMA`); a fault raises :class:`~auralize.errors.FormatError` naming
 the file and the key.  Keys this version does not know are kept out of the
 way, not refused, so newer files still open.
@@ -43,8 +43,9 @@ import numpy as np
 
 from auralize.defaults import TIMBRE_CHOICES
 from auralize.errors import FormatError
-from auralize.io.files import atomic_write
-from auralize.io.json_check import (
+from auralize.listener import ListenerPath
+from auralize.runtime.files import atomic_write
+from auralize.runtime.json_check import (
     AnyJSON,
     Bool,
     DictOf,
@@ -59,7 +60,6 @@ from auralize.io.json_check import (
     read_json,
     vec3,
 )
-from auralize.listener import ListenerPath
 
 FORMAT = "session"
 VERSION = 1

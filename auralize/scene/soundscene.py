@@ -48,7 +48,8 @@ import numpy as np
 
 from auralize.defaults import DEFAULTS
 from auralize.errors import Cancelled, FormatError, MissingFileError, ParameterError
-from auralize.io.json_check import (
+from auralize.listener import ListenerPath
+from auralize.runtime.json_check import (
     AnyJSON,
     Either,
     Num,
@@ -59,7 +60,6 @@ from auralize.io.json_check import (
     read_json,
     vec3,
 )
-from auralize.listener import ListenerPath
 from auralize.scene.session import DATA_SCHEMA
 
 __all__ = [
@@ -195,7 +195,7 @@ _SCENE_RANGES = Obj({"duration": Num(lo=0, lo_open=True), "rate": Num(lo=1, inte
 def load_scene(path: str | Path) -> SceneFile:
     """Read a scene JSON file (see the module docstring).
 
-    The file is read with :func:`auralize.io.json_check.read_json` (bounded
+    The file is read with :func:`auralize.runtime.json_check.read_json` (bounded
     depth and numbers) and its keys are checked for type and range; a saved
     session is checked by :meth:`auralize.scene.session.SessionState.from_dict`.
 

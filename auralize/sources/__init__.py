@@ -5,10 +5,15 @@
   is *drawn*;
 * :mod:`auralize.sources.field` — the whole field's sound (every point, no
   threshold, blocks heard through proxies): what is *heard*;
-* :mod:`auralize.sources._kernels` — its fused numba stencils;
-* :mod:`auralize.sources.model` — the ``field`` sound model
-  (:class:`~auralize.sources.model.FieldAuralization`), detected sources as a
-  :class:`~auralize.plugins.SoundModel`.
+* :mod:`auralize.sources.mapping` — acoustic mappings: field values to
+  density and particle velocity (paper 003 §3.2.2), the first step of both;
+* :mod:`auralize.sources.sources_file` — detected sources saved and read back
+  (``.h5``, ``.pvd``);
+* :mod:`auralize.sources._kernels` — its fused numba stencils.
+
+The ``field`` sound model (detected sources as a
+:class:`~auralize.plugins.SoundModel`) is :mod:`auralize.field_model`, above
+the pipeline it drives.
 
 The names are imported on first use, so ``import auralize.sources`` compiles
 no kernel.

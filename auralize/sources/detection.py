@@ -56,9 +56,9 @@ from numpy.typing import NDArray
 
 from auralize.curvilinear import curvilinear_errors, curvilinear_strengths
 from auralize.errors import DataError, ParameterError
-from auralize.mapping import AcousticMapping, get_mapping
 from auralize.runtime.progress import progress
 from auralize.sources import _kernels as K
+from auralize.sources.mapping import AcousticMapping, get_mapping
 from auralize.volume import TimeVolume
 
 KIND_NAMES = {K.MONOPOLE: "monopole", K.DIPOLE: "dipole", K.QUADRUPOLE: "quadrupole"}
@@ -340,8 +340,8 @@ class SourceSeries:
     """Sources at every step of a volume, plus what is needed to reproduce them."""
 
     def _repr_html_(self) -> str:
-        """Notebook display (:mod:`auralize.scene.notebook`)."""
-        from auralize.scene.notebook import series_html
+        """Notebook display (:mod:`auralize.runtime.notebook`)."""
+        from auralize.runtime.notebook import series_html
 
         return series_html(self)
 
@@ -1081,7 +1081,7 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
         no-data: they are never sources and no stencil reads them (a
         derivative that would is no-data too, see :func:`step_strengths`).
     mapping : str or AcousticMapping
-        Acoustic mapping preset or instance (see :mod:`auralize.mapping`).
+        Acoustic mapping preset or instance (see :mod:`auralize.sources.mapping`).
     thresholds : Thresholds, optional
         Default: ``"auto"`` for all three types.
     progress_bar : bool

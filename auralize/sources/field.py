@@ -70,7 +70,6 @@ from numpy.typing import NDArray
 
 from auralize.curvilinear import curvilinear_residual
 from auralize.errors import ParameterError
-from auralize.mapping import AcousticMapping
 from auralize.runtime.progress import progress
 from auralize.sources import _kernels as K
 from auralize.sources.detection import (
@@ -84,6 +83,7 @@ from auralize.sources.detection import (
     steady_anchors,
     step_strengths,
 )
+from auralize.sources.mapping import AcousticMapping
 from auralize.volume import TimeVolume
 
 #: the terms of the whole-field sound (their kind codes: 1 monopole, 3 quadrupole)
@@ -357,7 +357,7 @@ def _near_blocks(centres: NDArray[np.float64], path: Any, dist: float) -> NDArra
     """Which block ``centres (B, 3)`` the listener's path comes within ``dist`` of."""
     if path is None or centres.shape[0] == 0:
         return np.zeros(centres.shape[0], dtype=bool)
-    from auralize.emitters.timbre import near_path
+    from auralize.listener import near_path
 
     return near_path(centres, path, dist)
 
@@ -399,7 +399,7 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     Examples
     --------
     >>> from auralize.datasets.synthetic import make_monopole
-    >>> from auralize.mapping import get_mapping
+    >>> from auralize.sources.mapping import get_mapping
     >>> vol = make_monopole(size=12, steps=8)
     >>> ft = field_tracks(vol, get_mapping("identity"))
     >>> ft.meta["terms"], ft.times.size, bool(ft.tracks().t_first == ft.times[0])

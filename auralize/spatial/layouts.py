@@ -81,7 +81,7 @@ from numpy.typing import NDArray
 
 from auralize.constants import C0
 from auralize.errors import FormatError, ParameterError
-from auralize.io.json_check import AnyJSON, Bool, Obj, Text, check, optional, read_json
+from auralize.runtime.json_check import AnyJSON, Bool, Obj, Text, check, optional, read_json
 
 #: speed of sound used to turn speaker distances into delays (m/s)
 C0_ALIGN = C0
@@ -183,6 +183,39 @@ class Layout:
 
     def __repr__(self) -> str:
         return f"<Layout {self.name}: {self.n_channels} channels ({', '.join(self.channel_names)})>"
+
+    def downmix(self, audio: NDArray[np.floating], dst: Layout | str) -> NDArray[np.float64]:
+        """Fold ``audio (n_channels, n)`` of this layout into ``dst``: ``downmix_matrix(self,
+        dst) @ audio`` (:func:`downmix_matrix`).
+
+        Parameters
+        ----------
+        audio : array_like, shape (n_channels, n)
+            Audio in this layout's channel order.
+        dst : Layout or str
+            The target layout (a name or JSON file, :func:`get_layout`).
+
+        Returns
+        -------
+        ndarray, shape (dst.n_channels, n)
+
+        Raises
+        ------
+        ParameterError
+            ``audio`` does not have this layout's channels; a target that needs
+            filters (binaural).
+
+        Examples
+        --------
+        >>> front = np.zeros((8, 3)); front[0] = 1.0      # ring8 channel 0: straight ahead
+        >>> np.round(get_layout("ring8").downmix(front, "stereo"), 4).tolist()
+        [[0.7071, 0.7071, 0.7071], [0.7071, 0.7071, 0.7071]]
+        """
+        a = np.asarray(audio, dtype=np.float64)
+        if a.ndim != 2 or a.shape[0] != self.n_channels:
+            raise ParameterError(f"layout {self.name!r} has {self.n_channels} channels, audio "
+                                 f"has shape {a.shape}")  # fmt: skip
+        return downmix_matrix(self, dst) @ a
 
     @property
     def channel_names(self) -> list[str]:
@@ -813,7 +846,7 @@ def load_layout_json(path: str | Path) -> Layout:
     ------
     FormatError
         Missing file, invalid JSON (or nested deeper, or with longer numbers,
-        than :mod:`auralize.io.json_check` reads), missing/duplicate channels,
+        than :mod:`auralize.runtime.json_check` reads), missing/duplicate channels,
         non-numeric or out-of-range angles, a name that is not a string, an
         ``lfe`` that is not true or false, duplicate directions or names,
         non-positive distances, fewer than two speakers to pan between or more

@@ -105,7 +105,7 @@ def read_sofa(path: str | Path) -> HRIRSet:
         misshapen variable (the message names it and the expected shape), not
         two receivers, or a sampling rate that is not one positive value; or
         the file reads data from other files (external links, external
-        storage, virtual datasets) and :func:`auralize.io.hdf5.allow_external_data`
+        storage, virtual datasets) and :func:`auralize.runtime.hdf5safe.allow_external_data`
         does not allow it (``--allow-external``, ``AURALIZE_HDF5_EXTERNAL=1``).
 
     Examples
@@ -129,7 +129,7 @@ def read_sofa(path: str | Path) -> HRIRSet:
     except OSError as exc:
         raise FormatError(f"{p}: not a SOFA file (not netCDF-4/HDF5: {exc})") from None
     with h:
-        from auralize.io.hdf5 import check_self_contained
+        from auralize.runtime.hdf5safe import check_self_contained
 
         check_self_contained(h, p)  # HRIRs stored in /etc/passwd are refused
         conv = _text(h.attrs.get("Conventions", ""))
@@ -220,7 +220,7 @@ def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs
     netCDF-4 dimensions (M, R, N, I, C, E) are HDF5 dimension scales, so
     netCDF and SOFA readers open the file; positions are spherical (degrees,
     distance 1 m).  Written atomically (a temporary file, then renamed;
-    :func:`~auralize.io.files.atomic_hdf5`): a failed write raises one
+    :func:`~auralize.runtime.files.atomic_hdf5`): a failed write raises one
     :class:`~auralize.errors.OutputError` and leaves nothing behind.
 
     Parameters
@@ -253,7 +253,7 @@ def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs
     ...     h.attrs["SOFAConventions"], h.attrs["Title"], h["Data.IR"].shape
     ('SimpleFreeFieldHRIR', 'model', (3, 2, 32))
     """
-    from auralize.io.files import atomic_hdf5, stop_if_failed
+    from auralize.runtime.files import atomic_hdf5, stop_if_failed
 
     p = Path(path)
     d = hrirs.directions

@@ -1113,7 +1113,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.field_box.setCurrentText(name)
 
     def set_mapping(self, name: str) -> None:
-        from auralize.mapping import get_mapping
+        from auralize.sources.mapping import get_mapping
 
         if self.volume is not None and name != "auto":
             get_mapping(name).prepare(self.volume)  # FieldError if the fields are missing
@@ -1395,7 +1395,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def save_screenshot(self, filename: str | Path | None = None) -> Path | None:
         """File ▸ Save Screenshot: the 3-D view as a PNG (asks for a file name unless
         ``filename`` is given; a name without a suffix gets ``.png``)."""
-        from auralize.io.files import check_output_path
+        from auralize.runtime.files import check_output_path
 
         if filename is None:
             name, _ = QtWidgets.QFileDialog.getSaveFileName(
@@ -2355,15 +2355,18 @@ def _devices() -> list[Any]:
         return []
 
 
-def run_app(args: Any) -> int:
-    """Start the Qt application (``auralize view``)."""
-    from auralize.cli.view import view_options
+def run_app(args: Any, opts: dict[str, Any]) -> int:
+    """Start the Qt application (``auralize view``).
+
+    ``args`` are the command's parsed options, ``opts`` what they ask for
+    (:func:`auralize.cli.view.view_options`: the data, field, mapping,
+    thresholds and head-tracking port).
+    """
     from auralize.sources.detection import TYPES
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     win = MainWindow()
     win.show()
-    opts = view_options(args)
     th = opts["thresholds"].describe()
     for k in TYPES:
         if str(th[k]) != "auto":

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.errors import ParameterError
-from auralize.io.files import atomic_write, read_timed_csv
+from auralize.runtime.files import atomic_write, read_timed_csv
 
 from .shapes import check_diameter
 

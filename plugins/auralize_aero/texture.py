@@ -41,7 +41,7 @@ from scipy import signal
 
 from auralize.constants import RHO0
 from auralize.errors import FormatError, ParameterError
-from auralize.io.files import atomic_hdf5, stop_if_failed
+from auralize.runtime.files import atomic_hdf5, stop_if_failed
 
 from .lbm import simulate
 from .shapes import Section, check_diameter, fold_directions

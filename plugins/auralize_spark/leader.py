@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from auralize.errors import DataError, FormatError, ParameterError
-from auralize.io.files import atomic_write
+from auralize.runtime.files import atomic_write
 
 from .field import ElectricField
 

@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 from auralize.constants import RHO0
 from auralize.emitters import C0
 from auralize.errors import DataError, FormatError, ParameterError
-from auralize.io.files import atomic_hdf5, stop_if_failed
+from auralize.runtime.files import atomic_hdf5, stop_if_failed
 from auralize_vortex.fluid import StableFluids, smooth_noise
 
 TEXTURE_FORMAT = "vortex-texture"

@@ -17,8 +17,8 @@ from auralize_vortex.datasets import make_fire_plume
 from scipy.signal import spectrogram
 
 from auralize.audio.output import write_audio
-from auralize.io.files import atomic_path
 from auralize.listener import ListenerPath
+from auralize.runtime.files import atomic_path
 
 HERE = Path(__file__).parent
 

@@ -1,6 +1,6 @@
 """Dataset regression: figures a dataset must keep producing, stored in ``auralize/data/regression``.
 
-``python -m auralize.datasets.regression [--update] [NAME ...]`` recomputes the figures
+``python -m auralize.regression.synthetic [--update] [NAME ...]`` recomputes the figures
 of the built-in datasets and compares them with (or rewrites) the stored JSON.
 The test suite calls :func:`compare` so a change in detection or synthesis
 that moves these figures is caught.
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from auralize.io.files import atomic_write
+from auralize.runtime.files import atomic_write
 
 #: shipped with the package (wheel and checkout alike)
 STORE = Path(__file__).resolve().parents[1] / "data" / "regression"
@@ -87,7 +87,7 @@ def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m auralize.datasets.regression")
+    ap = argparse.ArgumentParser(prog="python -m auralize.regression.synthetic")
     ap.add_argument("names", nargs="*", default=list(CASES))
     ap.add_argument("--update", action="store_true", help="rewrite the stored figures")
     args = ap.parse_args(argv)

@@ -13,7 +13,7 @@ HDF5 layout (``auralize_format="sources"``, ``version=1``)::
 
 The ``.pvd`` export writes one ``.vtp`` per step (point data ``kind``,
 ``strength``, ``radius``, ``volume``, and ``rgb``: the type's colour in the
-palette of :mod:`auralize.scene.pictures`, shown as is with "Map Scalars" off; field
+palette of :mod:`auralize.palette`, shown as is with "Map Scalars" off; field
 data ``kind_code``/``kind_name``, the legend of the codes) so ParaView can
 glyph them as spheres in the viewer's colours.  VTKHDF (``.vtkhdf``):
 :func:`auralize.io.vtkhdf_write.write_sources_vtkhdf`.
@@ -31,9 +31,9 @@ import h5py
 import numpy as np
 
 from auralize.errors import AuralizeError, DataError, FormatError
-from auralize.io.files import atomic_hdf5, stop_if_failed, write_collection
-from auralize.io.json_check import parse_json
 from auralize.io.vtkhdf_write import KIND_LEGEND
+from auralize.runtime.files import atomic_hdf5, stop_if_failed, write_collection
+from auralize.runtime.json_check import parse_json
 from auralize.sources.detection import SourceFrame, SourceSeries
 
 FORMAT = "sources"
@@ -155,7 +155,7 @@ def _dataset(h: h5py.File, p: Path, name: str, shape: tuple[int, ...], kinds: st
 
 def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
     """Read a sources file and check every field the writer puts there (one-line DataError)."""
-    from auralize.io.hdf5 import check_self_contained
+    from auralize.runtime.hdf5safe import check_self_contained
 
     check_self_contained(h, p)
     if h.attrs.get("auralize_format") != FORMAT:
@@ -304,12 +304,12 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
 
     The folder is written under a fresh name (``NAME_data``, or ``NAME_data.1``
     ... while the previous version holds that name) and the ``.pvd`` replaced
-    in one rename (:func:`auralize.io.files.write_collection`); an existing
+    in one rename (:func:`auralize.runtime.files.write_collection`); an existing
     ``NAME_data`` that auralize did not write is never replaced.
     """
     import pyvista as pv
 
-    from auralize.scene.pictures import type_rgb
+    from auralize.palette import type_rgb
 
     p = Path(path)
 

@@ -2,10 +2,16 @@
 
 :class:`~auralize.volume.TimeVolume` shows its grid, fields and times;
 :class:`~auralize.sources.detection.SourceSeries` its source counts per type (in the
-palette of :mod:`auralize.scene.pictures`); :class:`~auralize.listener.ListenerPath`
+palette of :mod:`auralize.palette`); :class:`~auralize.listener.ListenerPath`
 a small plot of the path; :class:`~auralize.emitters.synthesis.Rendered` an inline
 audio player and a spectrogram.  Everything is self-contained HTML (pictures
 and sound as ``data:`` URIs); matplotlib draws with the Agg backend.
+
+The core types import this module when a notebook displays them, so it sits at
+the bottom of the layers: it imports no other part of auralize than the palette
+and reads the objects it shows through their attributes (a render's layout
+folds its own channels to stereo, :meth:`auralize.spatial.layouts.Layout.downmix`;
+the player's WAV bytes are written with :mod:`wave`).
 
 Examples
 --------
@@ -20,9 +26,12 @@ from __future__ import annotations
 import base64
 import html
 import io
+import wave
 from typing import Any
 
 import numpy as np
+
+from auralize.palette import PALETTE
 
 #: longest audio put into a notebook player (seconds; longer renders are cut)
 MAX_PLAYER_S = 60.0
@@ -70,8 +79,6 @@ def volume_html(vol: Any) -> str:
 
 def series_html(series: Any) -> str:
     """Source counts per type: total over the steps, most in one step (palette colours)."""
-    from auralize.scene.pictures import PALETTE
-
     counts = series.counts()
     rows = []
     for kind, rgb in PALETTE.items():
@@ -81,12 +88,46 @@ def series_html(series: Any) -> str:
                            f"at most {int(per.max(initial=0))} in a step"))  # fmt: skip
     out = _table(rows, f"SourceSeries ({series.n_steps} steps)")
     if series.n_steps > 1:
-        from auralize.scene.plots import plot_counts
-
         fig, ax = _figure(5, 1.8)
         plot_counts(series, ax=ax)
         out += _png(fig)
     return out
+
+
+def plot_counts(series: Any, *, ax: Any = None) -> Any:
+    """Sources per time step of each type, in the palette of :mod:`auralize.palette`.
+
+    Parameters
+    ----------
+    series : SourceSeries
+    ax : matplotlib Axes, optional (a new figure's otherwise)
+
+    Returns
+    -------
+    matplotlib Axes
+
+    Examples
+    --------
+    >>> from auralize.pipeline import detect_sources, load
+    >>> ax = plot_counts(detect_sources(load("dataset:monopole", size=8, steps=6)))
+    >>> [line.get_label() for line in ax.get_lines()]
+    ['monopole']
+    """
+    if ax is None:
+        from matplotlib.figure import Figure
+
+        ax = Figure(figsize=(5, 2), layout="constrained").subplots()
+    counts = series.counts()
+    t = np.asarray(series.times, dtype=np.float64)
+    for kind, rgb in PALETTE.items():
+        n = np.array([c[kind] for c in counts])
+        if n.any():  # the legend lists only what is there
+            ax.plot(t, n, color=np.asarray(rgb) / 255, label=kind)
+    ax.set_xlabel("data time (s)")
+    ax.set_ylabel("sources")
+    if ax.get_lines():
+        ax.legend(fontsize=7, loc="upper right")
+    return ax
 
 
 def path_html(path: Any) -> str:
@@ -108,15 +149,25 @@ def path_html(path: Any) -> str:
 
 
 def wav_data_uri(audio: np.ndarray, rate: int) -> str:
-    """A peak-normalised 16-bit WAV of ``audio (n_channels, n)`` as a ``data:`` URI."""
-    from auralize.audio.output import wav_bytes
+    """A peak-normalised 16-bit WAV of ``audio (n_channels, n)`` (one or two channels) as a
+    ``data:`` URI: the bytes :func:`auralize.audio.output.wav_bytes` writes for ``pcm16``.
 
+    Examples
+    --------
+    >>> uri = wav_data_uri(np.ones((2, 10)), 8000)
+    >>> base64.b64decode(uri.split(",", 1)[1])[:4]
+    b'RIFF'
+    """
     a = np.asarray(audio, dtype=np.float64)
     peak = float(np.max(np.abs(a), initial=0.0))
     a = a * (0.99 / peak) if peak > 0 else a
-    return "data:audio/wav;base64," + base64.b64encode(
-        wav_bytes(a, int(rate), subtype="pcm16")
-    ).decode("ascii")
+    buf = io.BytesIO()
+    with wave.open(buf, "wb") as w:
+        w.setnchannels(a.shape[0])
+        w.setsampwidth(2)
+        w.setframerate(int(rate))
+        w.writeframes(np.ascontiguousarray(np.round(a.T * 32767), dtype="<i2").tobytes())
+    return "data:audio/wav;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
 def rendered_html(r: Any) -> str:
@@ -125,10 +176,8 @@ def rendered_html(r: Any) -> str:
     a = np.asarray(r.audio, dtype=np.float64)[:, : int(MAX_PLAYER_S * r.rate)]
     note = ""
     if a.shape[0] > 2:
-        from auralize.audio.output import downmix
-
         try:
-            a = downmix(a, r.layout, "stereo")
+            a = r.layout.downmix(a, "stereo")
             note = f" (layout {r.layout.name} folded to stereo for the browser)"
         except Exception:  # a layout without a stereo fold: its first two channels
             a = a[:2]
