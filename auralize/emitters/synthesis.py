@@ -228,19 +228,35 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Inverse bases (n, 4) of adjacent speaker pairs for 2-D VBAP, or (0, 4) when a
-    layout has an arc of 180° or more (then the kernel uses its angular law)."""
+    """Inverse bases (n, 4) of adjacent speaker pairs for 2-D VBAP, or when a
+    layout has an arc of 180° or more (then the kernel uses its angular law)
+    the table of its arc wider than 180° (:func:`_wide_arc`)."""
     n = spk_az.size
-    if n < 3:
+    if n < 2:
         return np.zeros((0, 4))
     a0 = spk_az
     a1 = np.roll(spk_az, -1)
     span = np.mod(a1 - a0, 2 * np.pi)
-    if np.any(span >= np.pi - 1e-9) or np.any(span <= 1e-9):
-        return np.zeros((0, 4))
+    if n < 3 or np.any(span >= np.pi - 1e-9) or np.any(span <= 1e-9):
+        return _wide_arc(spk_az, span)
     base = np.stack([np.stack([np.cos(a0), np.cos(a1)], -1),
                      np.stack([np.sin(a0), np.sin(a1)], -1)], 1)  # (n, 2, 2)  # fmt: skip
     return np.ascontiguousarray(np.linalg.inv(base).reshape(n, 4))
+
+
+def _wide_arc(spk_az: NDArray[np.float64], span: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The kernel's table (1, 7) of a horizontal layout's arc wider than 180°
+    (spanning ``span`` from speaker i to i + 1, counter-clockwise): i, the
+    unit vectors (forward, left) of its two ends and of its middle (see
+    :func:`auralize.emitters._kernels.gains._wide_end`); (0, 4) when no arc
+    is clearly wider than 180° (by 1e-6 rad)."""
+    wide = np.flatnonzero(span > np.pi + 1e-6)
+    if spk_az.size < 2 or wide.size != 1:
+        return np.zeros((0, 4))
+    i = int(wide[0])
+    a, b = float(spk_az[i]), float(spk_az[(i + 1) % spk_az.size])
+    m = a + 0.5 * float(span[i])
+    return np.array([[float(i), np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(m), np.sin(m)]])
 
 
 def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],

@@ -356,33 +356,66 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
     cen, W = cached_on_tracks(tracks, "timbre:clusters", "", lambda: _clusters(tracks))
     C = cen.shape[0]
     tn = knot_times(tracks)
-    D2 = np.zeros((t_data.size, C))  # (J, C)
-    for a in range(3):
-        d = L[:, a, None] - cen[None, :, a]
-        D2 += d * d
-    D = np.maximum(np.sqrt(D2), 1e-9)
-    tau = t_data[:, None] - D / c0
+    J = t_data.size
+    num, den, d_min = np.empty(J), np.empty(J), np.empty(J)
+    # controls in blocks whose (rows, C) temporaries stay in cache
+    rows = max(1, _MEAN_BLOCK // max(C, 1))
+    for j in range(0, J, rows):
+        sl = slice(j, min(j + rows, J))
+        num[sl], den[sl], d_min[sl] = _mean_terms(L[sl], t_data[sl], cen, W, tn, c0)
+    ok = den > 0
+    if not np.any(ok):
+        return d_min
+    dbar = np.where(ok, num / np.where(ok, den, 1.0), np.nan)
+    idx = np.flatnonzero(ok)
+    nearest = idx[np.clip(np.searchsorted(idx, np.arange(dbar.size)), 0, idx.size - 1)]
+    return np.where(ok, dbar, dbar[nearest])
+
+
+#: elements of the (controls, clusters) arrays of :func:`mean_distance` per block
+_MEAN_BLOCK = 16384
+
+
+def _mean_terms(L: NDArray[np.float64], t_data: NDArray[np.float64], cen: NDArray[np.float64],
+                W: NDArray[np.float64], tn: NDArray[np.float64],
+                c0: float) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+    """For controls at listener positions ``L (J, 3)`` and data times ``t_data (J,)``:
+    Σ_c w_c, Σ_c w_c / D_c and min_c D_c over the clusters ``cen (C, 3)`` whose
+    summed |q| per padded knot ``tn`` is ``W (C, T + 2)`` (see :func:`mean_distance`)."""
+    C = cen.shape[0]
+    shape = (t_data.size, C)  # (J, C); the operations in place, in this order
+    D, d = np.empty(shape), np.empty(shape)
+    np.subtract(L[:, 0, None], cen[None, :, 0], out=d)
+    np.multiply(d, d, out=D)
+    for a in (1, 2):
+        np.subtract(L[:, a, None], cen[None, :, a], out=d)
+        d *= d
+        D += d
+    np.sqrt(D, out=D)
+    np.maximum(D, 1e-9, out=D)
+    tau = np.divide(D, c0, out=d)
+    np.subtract(t_data[:, None], tau, out=tau)
     step = np.diff(tn)
     if np.all(np.abs(step - step[0]) <= 1e-9 * step[0]):  # even steps: the row by division
         x = (tau - tn[0]) / step[0]
-        n = np.clip(np.floor(x), 0, tn.size - 2).astype(np.int64)
-        s = np.clip(x - n, 0.0, 1.0)
+        fl = np.floor(x)
+        np.clip(fl, 0, tn.size - 2, out=fl)
+        n = fl.astype(np.int64)
+        s = np.subtract(x, fl, out=x)  # (fl holds n exactly)
+        np.clip(s, 0.0, 1.0, out=s)
     else:
         n = np.clip(np.searchsorted(tn, tau, side="right") - 1, 0, tn.size - 2)
         s = np.clip((tau - tn[n]) / step[n], 0.0, 1.0)
     flat = W.ravel()
     n += np.arange(C) * W.shape[1]  # flat index of (cluster, step)
-    wt = flat[n] * (1 - s)
-    wt += flat[n + 1] * s
+    wt = flat[n]
+    wt *= 1 - s
+    n += 1
+    g = flat[n]
+    g *= s
+    wt += g
     wt[(tau < tn[0]) | (tau > tn[-1])] = 0.0
-    num, den = wt.sum(axis=1), (wt / D).sum(axis=1)
-    ok = den > 0
-    if not np.any(ok):
-        return np.min(D, axis=1)
-    dbar = np.where(ok, num / np.where(ok, den, 1.0), np.nan)
-    idx = np.flatnonzero(ok)
-    nearest = idx[np.clip(np.searchsorted(idx, np.arange(dbar.size)), 0, idx.size - 1)]
-    return np.where(ok, dbar, dbar[nearest])
+    return wt.sum(axis=1), np.divide(wt, D, out=g).sum(axis=1), np.min(D, axis=1)
 
 
 def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -488,13 +521,21 @@ def term_level(tracks: SourceTracks, path: ListenerPath) -> float:
     captures (at least its clamp radius).  A render far below it is round-off."""
     if tracks.n_sources == 0:
         return 0.0
+    # the same for every render of these tracks along this path: kept on the
+    # tracks (the path's arrays are held, so their identity stays theirs)
+    key = (id(tracks.q), tracks.q.shape, id(tracks.positions), id(tracks.radius))
+    hit = tracks.cache.get("timbre:terms")
+    if hit is not None and hit[0] == key and hit[1] is path.positions:
+        return float(hit[2])
     from scipy.spatial import cKDTree
 
     pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
     d, _ = cKDTree(np.asarray(path.positions, dtype=np.float64)).query(pos)
     d = np.maximum(d, np.maximum(np.asarray(tracks.radius, dtype=np.float64), 1e-9))
     peak = np.max(np.abs(np.asarray(tracks.q, dtype=np.float64)), axis=1)
-    return float(np.sum(peak / (4 * np.pi * d)))
+    level = float(np.sum(peak / (4 * np.pi * d)))
+    tracks.cache["timbre:terms"] = (key, path.positions, level)
+    return level
 
 
 _TABLES: dict[tuple[Any, ...], NDArray[np.float64]] = {}
@@ -830,10 +871,17 @@ def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rend
                         time_scale=coarse.time_scale, meta=coarse.meta)  # fmt: skip
     w = _lerp_weights(n, k)
     audio = np.empty((e.shape[0], n))
-    for c in range(e.shape[0]):  # per channel: the (n,) temporaries stay in cache
-        pair = e[c, : n // k + 2]
-        np.multiply(pair[w[0]], w[2], out=audio[c])
-        audio[c] += pair[w[1]] * w[3]
+    m = n // k  # whole envelope steps; then the n - m k samples of a last one
+    for c in range(e.shape[0]):  # per channel: the temporaries stay in cache
+        pair = e[c, : m + 2]
+        # sample j = i k + r is e[i] (1 - r/k) + e[i + 1] r/k: per step a row
+        if m:
+            steps = audio[c, : m * k].reshape(m, k)
+            np.multiply(pair[:m, None], w[2][:k], out=steps)
+            steps += pair[1 : m + 1, None] * w[3][:k]
+        tail = audio[c, m * k :]
+        np.multiply(pair[w[0][m * k :]], w[2][m * k :], out=tail)
+        tail += pair[w[1][m * k :]] * w[3][m * k :]
     return Rendered(audio=audio, rate=coarse.rate * k, layout=coarse.layout,
                     time_scale=coarse.time_scale,
                     meta={**coarse.meta, "envelope_rate_hz": coarse.rate})  # fmt: skip
@@ -913,10 +961,11 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         band = g2 > 1e-30 * g2.max(initial=0.0)  # where the weights are not negligible
         return f, band, g2[band]
 
-    f, band, g2 = weights(n, rate)
     low = None
     H: NDArray[Any] | None = None
     if keep_low or k == 1:
+        # the audio-rate spectrum's weights (the other branch reads none)
+        f, band, g2 = weights(n, rate)
         # (in single precision: the sums below need 6 digits, at half the cost)
         H = rfft(high.astype(np.float32), axis=-1) / n
         Hb = H[:, band]

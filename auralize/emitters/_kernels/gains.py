@@ -30,6 +30,15 @@ def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
 
     left = u × f; azimuth counter-clockwise from forward.  ``fold`` mirrors
     rear directions to the front (2-speaker layouts).
+
+    A horizontal layout with an arc of more than 180° (stereo) gives ``pinv``
+    one row of 7 instead of pairs (:func:`auralize.emitters.synthesis.pan_table`):
+    the index i of the arc's first speaker and the unit vectors (forward,
+    left) of its two ends and of its middle.  A direction inside that arc
+    goes whole to its nearer end: decided by the signs of cross products
+    (when they are clear of round-off; else by the angles below), the gains
+    are those of the angular law (exactly 1 and 0) without its atan2 and
+    sines.
     """
     ax, ay, az = direction
     fx, fy, fz, ux, uy, uz = frame
@@ -55,9 +64,14 @@ def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
         for i in range(n):
             out[spk_ch[i]] = 1.0 / math.sqrt(n)
         return
+    if pinv.shape[1] == 7 and pinv.shape[0] == 1:
+        near = _wide_end(xf, yl, pinv)
+        if near >= 0:
+            out[spk_ch[near % n]] = 1.0
+            return
     # fast path (every arc < 180°): the pair whose inverse base gives both
     # gains >= 0 -- the same law as below without atan2 and sines
-    npair = pinv.shape[0]
+    npair = pinv.shape[0] if pinv.shape[1] == 4 else 0
     for i in range(npair):
         g0 = pinv[i, 0] * xf + pinv[i, 1] * yl
         g1 = pinv[i, 2] * xf + pinv[i, 3] * yl
@@ -108,6 +122,29 @@ def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
     if norm > 0.0:
         out[spk_ch[i0]] += g0 / norm
         out[spk_ch[i1]] += g1 / norm
+
+
+@numba.njit(inline="always", **_NJIT)
+def _wide_end(xf, yl, tab):
+    """The speaker index (i or i + 1) that takes the whole of direction (xf, yl)
+    (forward, left) inside the arc of more than 180° from speaker i to i + 1,
+    counter-clockwise, whose table row ``tab[0]`` = (i, its ends' unit
+    vectors a and b, its middle m); -1 unless the direction is inside the
+    arc and on one side of its middle by more than 1e-9 of its length (the
+    caller then takes the angles).
+
+    The rest of the circle, from b to a, spans less than 180°: a direction is
+    inside the wide arc when it is clockwise of b or counter-clockwise of a,
+    and nearer to a (its angle from a below half the arc) when it is
+    clockwise of m."""
+    ax, ay, bx, by, mx, my = tab[0, 1], tab[0, 2], tab[0, 3], tab[0, 4], tab[0, 5], tab[0, 6]
+    eps = 1e-9 * (abs(xf) + abs(yl))
+    inside = (bx * yl - by * xf < -eps) or (xf * ay - yl * ax < -eps)
+    side = mx * yl - my * xf
+    i = int(tab[0, 0])
+    if not inside or abs(side) <= eps:
+        return -1
+    return i if side < 0.0 else i + 1
 
 
 @numba.njit(inline="always", **_NJIT)

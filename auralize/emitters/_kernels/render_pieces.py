@@ -62,7 +62,9 @@ def render(cptr, ccnt, piece_data, tn, cubic, listener_times, listener_pos, list
     from orient_clock[0] at rate orient_clock[1] (see :func:`~auralize.emitters._kernels.gains._orient`); fs samples per data
     second; 2**shift samples per accumulation block; spk_az/spk_ch speaker
     azimuths (sorted) and channels; pinv (n_pairs, 4) inverse bases of
-    adjacent speaker pairs (empty when an arc spans 180° or more, e.g. stereo),
+    adjacent speaker pairs (empty when an arc spans 180° or more; one row
+    of 7 when an arc is wider than 180°, e.g. stereo: see
+    :func:`~auralize.emitters._kernels.gains._gains`),
     or for layouts with elevation the 3-D VBAP table of
     :func:`~auralize.emitters._kernels.gains._gains3`, or the AmbiX table of
     :func:`~auralize.emitters._kernels.gains._gains_sh`.
