@@ -96,7 +96,7 @@ from auralize.emitters.synthesis import (
     render,
 )
 from auralize.errors import ParameterError
-from auralize.listener import ListenerPath
+from auralize.listener import ListenerPath, near_path
 from auralize.sources.detection import TYPES, SourceTracks
 from auralize.spatial.layouts import (
     Layout,
@@ -282,27 +282,6 @@ def merged(tracks: SourceTracks, size: float,
 
 #: sources nearer to the listener's path than this many merging cubes are not merged
 NEAR = 4.0
-
-
-def near_path(points: NDArray[np.float64], path: ListenerPath, dist: float) -> NDArray[np.bool_]:
-    """Which ``points (K, 3)`` lie within about ``dist`` (m) of the polyline of
-    the listener's captures: all points within ``dist`` of it, none farther
-    than ``dist`` + h/2, h the spacing of the points on the polyline that the
-    test uses (``dist / 4``, or longer on a path more than 50,000 ``dist``
-    long: at most 200,000 points)."""
-    from scipy.spatial import cKDTree
-
-    pts = np.asarray(path.positions, dtype=np.float64).reshape(-1, 3)
-    h = 0.0
-    if pts.shape[0] >= 2:
-        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        h = max(0.25 * dist, float(seg.sum()) / 200_000)
-        m = np.maximum(np.ceil(seg / h), 1).astype(np.int64)
-        i = np.repeat(np.arange(seg.size), m)
-        f = (np.arange(int(m.sum())) - np.repeat(np.cumsum(m) - m, m)) / np.repeat(m, m)
-        pts = np.concatenate([pts[i] + f[:, None] * (pts[i + 1] - pts[i]), pts[-1:]])
-    d, _ = cKDTree(pts).query(points, distance_upper_bound=dist + 0.5 * h)
-    return np.asarray(np.isfinite(d))
 
 
 def _shared(points: NDArray[np.float64], size: float) -> NDArray[np.bool_]:
