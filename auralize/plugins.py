@@ -4,7 +4,7 @@ A plugin is a :class:`SoundModel` subclass that declares its parameters as
 data (:class:`Parameter`: name, default, range or choices, unit) and turns
 its inputs into what it *emits*: an :class:`auralize.emitters.Sound` (point
 emitters, detected field sources or a closed-form part).  The engine
-(:func:`auralize.emitters.render`) does the propagation, the panning and the
+(:func:`auralize.emitters.render_sound`) does the propagation, the panning and the
 mixing of several models along one listener path, so a model never sees the
 listener.  A model may also offer a viewer overlay, sub-commands, benchmark
 rows (:class:`BenchRow`, timed with :func:`best_of`), built-in datasets and

@@ -196,24 +196,24 @@ def render(sound: Any, path: Any, *, rate: int = DEFAULTS.rate, layout: Any = DE
         return _on_dask(snd, path, kw, highpass_hz, runner, block_seconds)
     if carry is not None:
         return _continued(snd, path, kw, highpass_hz, carry)
-    from auralize.emitters.engine import render as render_parts
+    from auralize.emitters.engine import render_sound
 
     field, _ = split_field(snd)
-    out = render_parts(snd, path, **kw, field_highpass_hz=highpass_hz)
+    out = render_sound(snd, path, **kw, field_highpass_hz=highpass_hz)
     out.meta["highpass_hz"] = float(highpass_hz) if field.parts else 0.0
     return out
 
 
 def _continued(snd: Any, path: Any, kw: dict[str, Any], highpass_hz: float, carry: Carry) -> Any:
     """One stretch of a continued render: the field high-passed with the carried state."""
-    from auralize.emitters.engine import render as render_parts
+    from auralize.emitters.engine import render_sound
 
     field, models = split_field(snd)
-    out = render_parts(field if field.parts else models, path, **kw)
+    out = render_sound(field if field.parts else models, path, **kw)
     if field.parts and highpass_hz > 0:
         out.audio = carry.filter(out.audio, highpass_hz, kw["rate"])
     if field.parts and models.parts:
-        more = render_parts(models, path, **kw)
+        more = render_sound(models, path, **kw)
         n = min(out.audio.shape[1], more.audio.shape[1])
         out.audio = np.array(out.audio)
         out.audio[:, :n] += more.audio[:, :n]
@@ -226,7 +226,7 @@ def _on_dask(snd: Any, path: Any, kw: dict[str, Any], highpass_hz: float, runner
              block_seconds: float | None) -> Any:  # fmt: skip
     """The volume's sources synthesized on the runner's workers, the other parts here."""
     from auralize.distributed import render_distributed
-    from auralize.emitters.engine import render as render_parts
+    from auralize.emitters.engine import render_sound
     from auralize.emitters.timbre import highpass, loudness
     from auralize.spatial.layouts import get_layout
 
@@ -260,7 +260,7 @@ def _on_dask(snd: Any, path: Any, kw: dict[str, Any], highpass_hz: float, runner
     out.meta.update({"parts": listing, "highpass_hz": float(highpass_hz), "timbre": "physical",
                      "share_above_20hz_unfiltered": share, **snd.meta})  # fmt: skip
     if models.parts:
-        more = render_parts(models, path, **{**kw, "duration": duration})
+        more = render_sound(models, path, **{**kw, "duration": duration})
         n = min(out.audio.shape[1], more.audio.shape[1])
         out.audio[:, :n] += more.audio[:, :n]
         out.meta["parts"] = [*listing, *more.meta["parts"]]

@@ -142,8 +142,8 @@ def _scene() -> tuple[Any, ...]:
 
 def _warm_panned() -> None:
     # the piece-wise kernel alone (no detection: the "mono" group compiles it), through
-    # synthesis.render, whose kernel_args give every caller this one specialization
-    from auralize.emitters.synthesis import render
+    # synthesis.render_tracks, whose kernel_args give every caller this one specialization
+    from auralize.emitters.synthesis import render_tracks
     from auralize.listener import ListenerPath
     from auralize.sources.detection import SourceTracks
 
@@ -152,7 +152,7 @@ def _warm_panned() -> None:
                           np.sin(30.0 * t)[None].repeat(2, axis=0), np.full(2, 0.05), t)  # fmt: skip
     path = ListenerPath.orbit((0.0, 0.0, 0.0), radius=0.5, duration=0.1, turns=0.1)
     for layout in ("ring8", "5.1"):
-        render(tracks, path, rate=8000, layout=layout, time_scale=1.0)
+        render_tracks(tracks, path, rate=8000, layout=layout, time_scale=1.0)
 
 
 def _warm_mono() -> None:

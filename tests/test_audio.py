@@ -24,7 +24,7 @@ from auralize.audio import (
     refresh_devices,
     write_audio,
 )
-from auralize.emitters.synthesis import render
+from auralize.emitters.synthesis import render_tracks
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.pipeline import save_rendered
@@ -97,7 +97,7 @@ def test_wav_per_layout_reads_back(tmp_path, name: str) -> None:  # type: ignore
     for c in panned:
         tr = tone_tracks(at_azimuth(lay.speakers[c].azimuth_deg)[None, :])  # type: ignore[arg-type]
         out = tmp_path / f"{name}_{c}.wav"
-        save_rendered(render(tr, path, layout=lay), out)
+        save_rendered(render_tracks(tr, path, layout=lay), out)
         hdr = parse_wav_header(out)
         assert hdr["channels"] == lay.n_channels and hdr["rate"] == 44100 and hdr["bits"] == 32
         if lay.n_channels > 2:

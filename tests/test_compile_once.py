@@ -19,7 +19,7 @@ from auralize import warmup
 from auralize.emitters import Emitters, _sampled
 from auralize.emitters._kernels import render_pieces, render_runs
 from auralize.emitters.engine import model_emitters, render_emitters
-from auralize.emitters.synthesis import render as synth_render
+from auralize.emitters.synthesis import render_tracks as synth_render
 from auralize.listener import ListenerPath
 from auralize.runtime import jit
 from auralize.runtime.jit import kernel_arg, kernel_args

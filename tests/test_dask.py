@@ -31,7 +31,7 @@ from auralize.distributed import (
     volume_from_dask,
     write_chunked_explosion,
 )
-from auralize.emitters.synthesis import render
+from auralize.emitters.synthesis import render_tracks
 from auralize.errors import DataError, MissingDependencyError, ParameterError
 from auralize.io import open_volume
 from auralize.listener import ListenerPath
@@ -444,7 +444,7 @@ def test_distributed_synthesis_blocks_join_without_seams(
 ) -> None:
     tracks = explosion_ref.tracks()
     path = ListenerPath.orbit(explosion.center, radius=6.0, duration=0.4, turns=0.3)
-    whole = render(tracks, path, rate=16000, layout="ring8").audio
+    whole = render_tracks(tracks, path, rate=16000, layout="ring8").audio
     with Runner("threads", workers=2, log=None) as run:
         got = render_distributed(tracks, path, rate=16000, layout="ring8", block_seconds=0.037,
                                  groups=4, runner=run)  # fmt: skip
@@ -575,14 +575,14 @@ def test_distributed_synthesis_renders_every_block_in_a_task(
     from auralize.distributed import synth
 
     sizes: list[int] = []
-    real = synth.render
+    real = synth.render_tracks
 
     def spy(*a: Any, **k: Any) -> Any:
         out = real(*a, **k)
         sizes.append(out.audio.shape[1])
         return out
 
-    monkeypatch.setattr(synth, "render", spy)
+    monkeypatch.setattr(synth, "render_tracks", spy)
     path = ListenerPath.orbit(explosion.center, radius=6.0, duration=0.4, turns=0.3)
     got = render_distributed(explosion_ref.tracks(), path, rate=16000, layout="ring8",
                              block_seconds=0.1, log=None)  # fmt: skip

@@ -9,7 +9,7 @@ import pytest
 from scipy.signal import resample_poly
 
 from auralize.emitters import Emitters, Sound
-from auralize.emitters.engine import BlockRenderer, render, render_emitters
+from auralize.emitters.engine import BlockRenderer, render_emitters, render_sound
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Speaker, make_layout
@@ -155,7 +155,7 @@ def test_block_renderer_equals_one_render() -> None:
     path = _path()
     sound = Sound([_emitters("static monopole"), _emitters("moving dipole", rate=RATE / 4)],
                   name="two")  # fmt: skip
-    whole = render(sound, path, rate=RATE, layout="5.1").audio
+    whole = render_sound(sound, path, rate=RATE, layout="5.1").audio
     br = BlockRenderer(sound, path, rate=RATE, layout="5.1", block=1000)
     blocks = list(br)
     assert len(blocks) == br.n_blocks == 9 and br.n_samples == whole.shape[1] == 8820
@@ -297,7 +297,7 @@ def test_a_sound_is_the_sum_of_its_parts_and_examples_run() -> None:
 
     path = _path()
     a, b = _emitters("static monopole"), _emitters("moving dipole")
-    mix = render(Sound([a, b]), path, rate=RATE, layout="ring8")
+    mix = render_sound(Sound([a, b]), path, rate=RATE, layout="ring8")
     alone = [render_emitters(e, path, rate=RATE, layout="ring8").audio for e in (a, b)]
     assert np.max(np.abs(mix.audio - alone[0] - alone[1])) < 1e-12 * np.max(np.abs(mix.audio))
     assert [p["kind"] for p in mix.meta["parts"]] == ["Emitters", "Emitters"]

@@ -169,7 +169,7 @@ def test_emitters_render_like_fwh_pressure(mono) -> None:
     """The panels as engine emitters (monopole + two dipoles) heard at a fixed listener
     equal fwh_pressure within 2 % RMS (reference backend: linear interpolation of
     signals sampled 4× per data step)."""
-    from auralize.emitters.engine import render
+    from auralize.emitters.engine import render_sound
     from auralize.listener import ListenerPath
 
     smp = sample_surface(mono, box_surface(BOX, panel_size=3 * H))
@@ -180,7 +180,7 @@ def test_emitters_render_like_fwh_pressure(mono) -> None:
                                              "fwh-loading-near"]  # fmt: skip
     rate = 48000
     dur = w[1] - w[0]
-    out = render(sound, ListenerPath.point(x[0], duration=dur), rate=rate, duration=dur,
+    out = render_sound(sound, ListenerPath.point(x[0], duration=dur), rate=rate, duration=dur,
                  backend="reference").audio[0]  # fmt: skip
     t = w[0] + np.arange(out.size) / rate
     p = fwh_pressure(smp, None, x, t)[0]

@@ -246,10 +246,10 @@ def test_block_compression_matches_every_point_within_two_percent() -> None:
     fast = field_tracks(vol, m, path=plan.path)
     assert fast.meta["rows"] < 0.6 * every.n_sources
     kw = dict(time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead, rate=4000)
-    from auralize.emitters.synthesis import render
+    from auralize.emitters.synthesis import render_tracks
 
-    a = render(every, plan.path, **kw).audio[0]
-    b = render(fast.tracks(), plan.path, **kw).audio[0]
+    a = render_tracks(every, plan.path, **kw).audio[0]
+    b = render_tracks(fast.tracks(), plan.path, **kw).audio[0]
     f = np.fft.rfftfreq(a.size, 1 / 4000)
     nyq = 0.5 / ((vol.times[1] - vol.times[0]) * plan.time_scale)
     A, B = np.fft.rfft(a), np.fft.rfft(b)

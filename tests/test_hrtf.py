@@ -356,18 +356,18 @@ def test_immersive_layouts_in_the_speaker_kernels() -> None:
     static listener: X = W, the other first-order channels silent); binaural, which
     needs the output stage after the sum, is refused clearly instead of writing W
     only; speaker azimuths stay undefined for immersive layouts."""
-    from auralize.emitters.synthesis import render
+    from auralize.emitters.synthesis import render_tracks
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
 
     tr = SourceTracks(np.array([[0, 1.0, 0]]), np.sin(np.arange(8.0))[None, :], np.array([0.05]),
                       np.arange(8) / 100.0)  # fmt: skip
-    a = render(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout="ambix3").audio
+    a = render_tracks(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout="ambix3").audio
     assert a.shape[0] == 16 and np.max(np.abs(a[0])) > 0
     np.testing.assert_allclose(a[3], a[0], atol=1e-12 * np.max(np.abs(a[0])))
     assert np.max(np.abs(a[1:3])) <= 1e-12 * np.max(np.abs(a[0]))
     with pytest.raises(ParameterError, match="synthesis_layout"):
-        render(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout="binaural")
+        render_tracks(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout="binaural")
     for name in ("ambix3", "binaural"):
         with pytest.raises(ParameterError, match="no speaker azimuths"):
             get_layout(name).panning_arrays()

@@ -21,9 +21,9 @@ from auralize.audio.live import BlockSynth
 from auralize.cli import main
 from auralize.emitters import Emitters
 from auralize.emitters._kernels.gains import _gains
-from auralize.emitters.engine import BlockRenderer, render, render_emitters
+from auralize.emitters.engine import BlockRenderer, render_emitters, render_sound
 from auralize.emitters.synthesis import pan_table, panning_arrays, render_reference
-from auralize.emitters.synthesis import render as synth_render
+from auralize.emitters.synthesis import render_tracks as synth_render
 from auralize.emitters.timbre import render_timbre
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
@@ -131,15 +131,15 @@ def test_scene_binaural_is_the_stage_of_the_summed_ambix_render() -> None:
     ear layout; with an HRIR set, the binaural decoder applied to the ambix3 render;
     blocks (and a seek) equal it."""
     em, path = _orbit_emitters()
-    ears = render(em, path, rate=RATE, layout=H.ear_layout())
-    b = render(em, path, rate=RATE, layout="binaural")
+    ears = render_sound(em, path, rate=RATE, layout=H.ear_layout())
+    b = render_sound(em, path, rate=RATE, layout="binaural")
     assert b.layout.name == "binaural" and b.audio.shape == (2, ears.audio.shape[1])
     assert "ears" in b.meta["binaural"]["receivers"] and "spherical-head" in str(
         b.meta["binaural"]["hrtf"]
     )
     assert ears.audio.shape[0] == 8 and _rel(b.audio, H.EarDecoder(RATE).process(ears.audio)) < 1e-5
-    amb = render(em, path, rate=RATE, layout="ambix3")
-    sh = render(em, path, rate=RATE, layout="binaural", hrtf=H.default_hrirs(RATE))
+    amb = render_sound(em, path, rate=RATE, layout="ambix3")
+    sh = render_sound(em, path, rate=RATE, layout="binaural", hrtf=H.default_hrirs(RATE))
     assert sh.meta["binaural"]["intermediate"] == "ambix3"
     ref = H.BinauralDecoder(H.default_hrirs(RATE), 3).process(amb.audio)
     assert _rel(sh.audio, ref) < 1e-5

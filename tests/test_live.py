@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from auralize.audio.live import BlockSynth
-from auralize.emitters.synthesis import render
+from auralize.emitters.synthesis import render_tracks
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
@@ -85,7 +85,7 @@ def _aligned_corr(dev: np.ndarray, ref: np.ndarray) -> tuple[float, int]:
 
 def test_block_synthesis_equals_offline() -> None:
     tracks, path = _scene()
-    off = render(tracks, path, layout="ring8").audio
+    off = render_tracks(tracks, path, layout="ring8").audio
     bs = BlockSynth(tracks, path, layout="ring8", block=2205)
     on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
     assert on.shape == off.shape == (8, 88200)
@@ -102,15 +102,15 @@ def test_block_synthesis_with_a_lead_equals_offline() -> None:
     tracks, path = _scene()
     far = ListenerPath(path.times, path.positions + [60.0, 0.0, 0.0], path.forward, path.up)
     lead = 6429 / 44100  # ~50 m / c0, a whole number of samples
-    off = render(tracks, far, layout="stereo", lead=lead).audio
+    off = render_tracks(tracks, far, layout="stereo", lead=lead).audio
     bs = BlockSynth(tracks, far, layout="stereo", block=4410, lead=lead)
     on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
     assert on.shape == off.shape and np.max(np.abs(off)) > 0
     assert np.max(np.abs(on - off)) <= 1e-5 * np.max(np.abs(off))
     # for a static listener the lead moves the sound earlier by exactly its samples
     still = ListenerPath.point([60.0, 0.0, 0.0], duration=1.0)
-    led = render(tracks, still, layout="stereo", lead=lead).audio
-    plain = render(tracks, still, layout="stereo", duration=1.0 + lead).audio
+    led = render_tracks(tracks, still, layout="stereo", lead=lead).audio
+    plain = render_tracks(tracks, still, layout="stereo", duration=1.0 + lead).audio
     k = round(lead * 44100)
     assert np.max(np.abs(plain[:, k : k + 44100] - led[:, :44100])) <= 1e-3 * np.max(np.abs(led))
 
@@ -131,7 +131,7 @@ def test_live_playback_on_file_backed_alsa_device(tmp_path) -> None:  # type: ig
         assert r["blocks"] == 40 and r["gain_changes"] == 0
     assert r8["channels"] == 8 and r2["channels"] == 2 and r2["output_layout"] == "stereo"
     tracks, path = _scene()
-    ref = 2.0 * render(tracks, path, layout="ring8").audio
+    ref = 2.0 * render_tracks(tracks, path, layout="ring8").audio
     # the file plugin stores the float32 frames the device was given, interleaved
     dev8 = np.fromfile(out8, dtype="<f4").reshape(-1, 8).T.astype(np.float64)
     assert dev8.shape[1] >= ref.shape[1]

@@ -7,8 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auralize.emitters import Emitters, Sound
-from auralize.emitters import render as render_sound
+from auralize.emitters import Emitters, Sound, render_sound
 from auralize.emitters.synthesis import C0, box_distances, source_extent
 from auralize.emitters.timbre import HIGHPASS_HZ, render_timbre
 from auralize.errors import ParameterError

@@ -24,9 +24,9 @@ ROOT = Path(__file__).resolve().parents[1]
 #: what renders sound below the one render (and may only be called by it, the bench,
 #: the warm-up and the engine's own modules)
 LOW_LEVEL = {
-    ("auralize.emitters", "render"),
-    ("auralize.emitters.engine", "render"),
-    ("auralize.emitters.synthesis", "render"),
+    ("auralize.emitters", "render_sound"),
+    ("auralize.emitters.engine", "render_sound"),
+    ("auralize.emitters.synthesis", "render_tracks"),
     ("auralize.emitters.timbre", "render_timbre"),
     ("auralize.distributed", "render_distributed"),
 }

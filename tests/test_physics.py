@@ -7,7 +7,7 @@ import pytest
 
 from auralize.datasets import monopole_pressure
 from auralize.emitters import synthesis
-from auralize.emitters.synthesis import C0, render, render_reference
+from auralize.emitters.synthesis import C0, render_reference, render_tracks
 from auralize.listener import ListenerPath
 
 RATE = 44100
@@ -17,7 +17,7 @@ def _static(tracks, params, D, duration=0.12, axis=0):  # type: ignore[no-untype
     offset = np.zeros(3)
     offset[axis] = D
     pos = params.center + offset
-    out = render(tracks, ListenerPath.point(pos, duration=duration), rate=RATE)
+    out = render_tracks(tracks, ListenerPath.point(pos, duration=duration), rate=RATE)
     return pos, out.audio[0]
 
 
@@ -68,7 +68,7 @@ def test_moving_listener_hears_doppler_shift(mono_tracks, mono_params) -> None: 
     dur = 0.1
     end = start - np.array([v * dur, 0, 0])
     path = ListenerPath.line(start, end, duration=dur)
-    p = render(mono_tracks, path, rate=RATE).audio[0]
+    p = render_tracks(mono_tracks, path, rate=RATE).audio[0]
     _, still = _static(mono_tracks, mono_params, 2.5, duration=dur)
     # steady part: after arrival and the fade-in ramp, before the fade-out
     ramp = mono_params.ramp_periods / mono_params.frequency
@@ -94,7 +94,7 @@ def test_fast_synthesis_equals_sample_by_sample(mono_tracks, mono_params, interp
         times=mono_tracks.times,
     )
     for layout in ("mono", "stereo", "ring8"):
-        fast = render(sub, path, rate=RATE, interp=interp, layout=layout).audio
+        fast = render_tracks(sub, path, rate=RATE, interp=interp, layout=layout).audio
         ref = render_reference(sub, path, rate=RATE, interp=interp, layout=layout)
         assert fast.shape == ref.shape
         err = np.max(np.abs(fast - ref)) / np.max(np.abs(ref))
@@ -114,13 +114,13 @@ def test_fast_synthesis_with_dense_captures_and_short_blocks(mono_tracks, mono_p
     path = ListenerPath.orbit(c, radius=2.2, duration=0.05, turns=0.15, rate_hz=500.0)
     sub = type(mono_tracks)(positions=mono_tracks.positions[::5], q=mono_tracks.q[::5],
                             radius=mono_tracks.radius[::5], times=mono_tracks.times)  # fmt: skip
-    fast = render(sub, path, rate=RATE, layout=layout).audio
+    fast = render_tracks(sub, path, rate=RATE, layout=layout).audio
     ref = render_reference(sub, path, rate=RATE, layout=layout)
     err = np.max(np.abs(fast - ref)) / np.max(np.abs(ref))
     assert err < (2e-4 if layout == "mono" else 5e-3), (layout, err)
     # the same samples rendered in short pieces join without seams
     n = fast.shape[1]
-    parts = [render(sub, path, rate=RATE, layout=layout, start=a / RATE,
+    parts = [render_tracks(sub, path, rate=RATE, layout=layout, start=a / RATE,
                     duration=min(700, n - a) / RATE).audio for a in range(0, n, 700)]  # fmt: skip
     joined = np.concatenate(parts, axis=1)
     assert np.max(np.abs(joined - fast)) <= 1e-9 * np.max(np.abs(fast))
@@ -128,17 +128,17 @@ def test_fast_synthesis_with_dense_captures_and_short_blocks(mono_tracks, mono_p
 
 def test_static_fast_synthesis_is_exact(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
     path = ListenerPath.point(mono_params.center + [0.5, 1.5, 0.2], duration=0.03)
-    fast = render(mono_tracks, path, rate=RATE).audio
+    fast = render_tracks(mono_tracks, path, rate=RATE).audio
     ref = render_reference(mono_tracks, path, rate=RATE)
     assert np.max(np.abs(fast - ref)) / np.max(np.abs(ref)) < 1e-7
 
 
 def test_time_scale_slows_playback(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
     pos = mono_params.center + [2.0, 0, 0]
-    a = render(mono_tracks, ListenerPath.point(pos, duration=0.1), rate=RATE).audio[0]
-    b = render(mono_tracks, ListenerPath.point(pos, duration=0.2), rate=RATE, time_scale=2.0).audio[
-        0
-    ]
+    a = render_tracks(mono_tracks, ListenerPath.point(pos, duration=0.1), rate=RATE).audio[0]
+    b = render_tracks(
+        mono_tracks, ListenerPath.point(pos, duration=0.2), rate=RATE, time_scale=2.0
+    ).audio[0]
     assert b.size == 2 * a.size
     win = slice(int(0.03 * RATE), int(0.08 * RATE))
     winb = slice(2 * win.start, 2 * win.stop)
@@ -148,7 +148,9 @@ def test_time_scale_slows_playback(mono_tracks, mono_params) -> None:  # type: i
 
 
 def test_listener_inside_a_sphere_is_clamped(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
-    out = render(mono_tracks, ListenerPath.point(mono_params.center, duration=0.05), rate=RATE)
+    out = render_tracks(
+        mono_tracks, ListenerPath.point(mono_params.center, duration=0.05), rate=RATE
+    )
     assert np.all(np.isfinite(out.audio))
     assert np.max(np.abs(out.audio)) > 0
 
@@ -156,10 +158,10 @@ def test_listener_inside_a_sphere_is_clamped(mono_tracks, mono_params) -> None: 
 def test_blockwise_rendering_has_no_seams(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
     c = mono_params.center
     path = ListenerPath.line(c + [3.0, 0.5, 0], c + [-1.0, 2.0, 0.5], duration=0.09)
-    whole = render(mono_tracks, path, rate=RATE, layout="ring8").audio
+    whole = render_tracks(mono_tracks, path, rate=RATE, layout="ring8").audio
     block = 1000
     parts = [
-        render(mono_tracks, path, rate=RATE, layout="ring8", start=a / RATE,
+        render_tracks(mono_tracks, path, rate=RATE, layout="ring8", start=a / RATE,
                duration=min(block, whole.shape[1] - a) / RATE).audio
         for a in range(0, whole.shape[1], block)
     ]  # fmt: skip
@@ -177,9 +179,9 @@ def test_blocks_ending_inside_pieces_that_cross_captures_join_without_seams(
     # whole render splits them there: the same samples either way
     c = mono_params.center
     path = ListenerPath.orbit(c, radius=2.5, duration=0.4, turns=0.3)
-    whole = render(mono_tracks, path, rate=16000, layout=layout).audio
+    whole = render_tracks(mono_tracks, path, rate=16000, layout=layout).audio
     n, block = whole.shape[1], 592
-    parts = [render(mono_tracks, path, rate=16000, layout=layout, start=a / 16000,
+    parts = [render_tracks(mono_tracks, path, rate=16000, layout=layout, start=a / 16000,
                     duration=min(block, n - a) / 16000).audio for a in range(0, n, block)]  # fmt: skip
     joined = np.concatenate(parts, axis=1)
     # (-140 dB: the whole render's running sums carry their rounding over 6400
@@ -194,10 +196,10 @@ def test_blocks_longer_than_the_accumulation_block_with_time_scale(
     # internal 32768-sample accumulation blocks lost the sample at the boundary
     c = mono_params.center
     path = ListenerPath.orbit(c, radius=2.5, duration=1.6, turns=0.3)
-    whole = render(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8").audio
+    whole = render_tracks(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8").audio
     peak = np.max(np.abs(whole))
     for start in (5948, 8422, 13370, 17081):  # starts at which the boundary fell between samples
-        part = render(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8",
+        part = render_tracks(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8",
                       start=start / RATE, duration=40000 / RATE).audio  # fmt: skip
         assert np.max(np.abs(part - whole[:, start : start + 40000])) <= 1e-5 * peak, start
 
@@ -228,9 +230,9 @@ def test_runs_of_pieces_sum_to_the_piecewise_kernel(
     ]  # fmt: skip
     for path, kw in cases:
         monkeypatch.setattr(synthesis, "_BY_RUNS", False)
-        pieces = render(mono_tracks, path, rate=RATE, interp=interp, layout=lay, **kw).audio
+        pieces = render_tracks(mono_tracks, path, rate=RATE, interp=interp, layout=lay, **kw).audio
         monkeypatch.setattr(synthesis, "_BY_RUNS", True)
-        runs = render(mono_tracks, path, rate=RATE, interp=interp, layout=lay, **kw).audio
+        runs = render_tracks(mono_tracks, path, rate=RATE, interp=interp, layout=lay, **kw).audio
         assert runs.shape == pieces.shape
         assert np.max(np.abs(pieces)) > 0.0
         # (rounding: the running sums over a whole 17640-sample render reach

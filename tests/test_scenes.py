@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import auralize.plugins as plugins
-from auralize.emitters import Emitters, Sound, render
+from auralize.emitters import Emitters, Sound, render_sound
 from auralize.errors import FormatError, MissingFileError, ParameterError, PluginError
 from auralize.listener import ListenerPath
 from auralize.pipeline import render as render_heard
@@ -116,8 +116,8 @@ def test_field_model_emits_field_sources_without_rendering() -> None:
 def test_scene_equals_the_sum_of_its_models_rendered_alone(scene) -> None:  # type: ignore[no-untyped-def]
     sound, path = scene
     assert [p.name for p in sound.parts] == ["field", "fire", "vortex"]
-    mix = render(sound, path, rate=RATE, layout="ring8")
-    alone = [render(p, path, rate=RATE, layout="ring8").audio for p in sound.parts]
+    mix = render_sound(sound, path, rate=RATE, layout="ring8")
+    alone = [render_sound(p, path, rate=RATE, layout="ring8").audio for p in sound.parts]
     assert mix.audio.shape == (8, round(0.3 * RATE))
     total = np.sum(alone, axis=0)
     assert np.max(np.abs(mix.audio - total)) <= 1e-12 * np.max(np.abs(total))
@@ -132,7 +132,7 @@ def test_scene_equals_the_sum_of_its_models_rendered_alone(scene) -> None:  # ty
 
 def test_scene_blocks_join_into_the_offline_render(scene) -> None:  # type: ignore[no-untyped-def]
     sound, path = scene
-    off = render(sound, path, rate=RATE, layout="stereo").audio
+    off = render_sound(sound, path, rate=RATE, layout="stereo").audio
     sb = render_heard(sound, path, rate=RATE, layout="stereo", block=2205, highpass_hz=0)
     on = np.concatenate([sb.block(i) for i in range(sb.n_blocks)], axis=1)
     assert sb.n_blocks == 6 and on.shape == off.shape
@@ -163,7 +163,7 @@ def test_scene_plays_live_with_no_underruns(scene, tmp_path, monkeypatch) -> Non
     monkeypatch.setenv("XDG_CONFIG_HOME", str(cfg))
     refresh_devices()
     try:
-        ref = render(sound, path, rate=RATE, layout="stereo").audio
+        ref = render_sound(sound, path, rate=RATE, layout="stereo").audio
         gain = 0.9 / float(np.max(np.abs(ref)))
         sb = render_heard(sound, path, rate=RATE, layout="stereo", block=2205, highpass_hz=0)
         rep = play(sb, path, rate=RATE, layout="stereo", device="auralize_file2", gain=gain,
@@ -270,7 +270,7 @@ def test_render_models_equals_their_sum(tone_models, tmp_path, capsys) -> None: 
     assert "scene of 2 part(s): tone (Emitters), tone (Emitters)" in capsys.readouterr().out
     got, rate, mask = read_wav(out)
     path = ListenerPath.point([0, 0, 0], duration=0.4)
-    ref = render(_tone_sound(a, b), path, rate=RATE, layout="stereo").audio
+    ref = render_sound(_tone_sound(a, b), path, rate=RATE, layout="stereo").audio
     assert rate == RATE and mask == 0x3 and got.shape == ref.shape
     assert np.max(np.abs(got - ref)) <= 1e-6 * np.max(np.abs(ref))  # float32 WAV
     side = json.loads(Path(f"{out}.json").read_text())
@@ -299,7 +299,7 @@ def test_render_field_plus_model_equals_field_render_plus_model(tone_models, tmp
     assert main(["render", *field, "--model", f"tone:{a}", "-o", str(tmp_path / "m.wav")]) == 0
     f, m = read_wav(tmp_path / "f.wav")[0], read_wav(tmp_path / "m.wav")[0]
     t = ToneModel()
-    tone = render(t.synthesize(t.load_input(str(a))), ListenerPath.point([1.5, 0.5, 0.5], duration=0.3),
+    tone = render_sound(t.synthesize(t.load_input(str(a))), ListenerPath.point([1.5, 0.5, 0.5], duration=0.3),
                   rate=RATE, layout="stereo").audio  # fmt: skip
     assert f.shape == m.shape == tone.shape
     assert np.max(np.abs(f)) > 0.01 * np.max(np.abs(tone))
@@ -335,7 +335,7 @@ def test_add_sound_model_mixes_in_scripts(tone_models) -> None:  # type: ignore[
         simple.AddSoundModel("tone", str(a))
         m = simple.AddSoundModel("tone", str(b), gain=2.0)
         r = simple.RenderAudio(path=p, layout="stereo")
-        ref = render(_tone_sound(a, b), p, rate=RATE, layout="stereo").audio
+        ref = render_sound(_tone_sound(a, b), p, rate=RATE, layout="stereo").audio
         # the models are heard as they are: the output high-pass filters the data's sources
         assert np.allclose(r.audio, ref, rtol=0, atol=1e-12)
         assert np.max(np.abs(highpass(ref, RATE, HIGHPASS_HZ) - ref)) > 1e-3 * np.max(np.abs(ref))
@@ -385,7 +385,7 @@ def test_play_command_plays_a_scene(tone_models, tmp_path, monkeypatch, capsys) 
         refresh_devices()
     rep = json.loads(capsys.readouterr().out)
     assert rep["layout"] == "stereo" and rep["blocks"] == 6 and rep["duration_s"] == 0.3
-    ref = 2.0 * render(_tone_sound(a, b), ListenerPath.point([0, 0, 0], duration=0.3),
+    ref = 2.0 * render_sound(_tone_sound(a, b), ListenerPath.point([0, 0, 0], duration=0.3),
                        rate=RATE, layout="stereo").audio  # fmt: skip
     dev = np.fromfile(out2, dtype="<f4").reshape(-1, 2).T.astype(np.float64)
     lag = int(np.argmax(np.any(dev != 0, axis=0))) - int(np.argmax(np.any(ref != 0, axis=0)))
@@ -462,7 +462,7 @@ def test_a_scene_lasts_until_its_last_emission_is_heard(tone_models, tmp_path) -
     n = round(max(ends) * rate)
     assert audio.shape == (1, n)
     # the file holds every arrival: rendered twice as long, nothing more is heard
-    long = render(sound, p, rate=rate, duration=2 * max(ends)).audio
+    long = render_sound(sound, p, rate=rate, duration=2 * max(ends)).audio
     assert np.max(np.abs(long[:, n:])) <= 1e-3 * np.max(np.abs(long))
     assert np.max(np.abs(long[:, n - round(0.01 * rate) : n])) > 0.1 * np.max(np.abs(long))
     assert np.max(np.abs(audio - long[:, :n])) <= 1e-5 * np.max(np.abs(long))
@@ -518,7 +518,7 @@ def test_add_sound_model_is_heard_after_the_data_sound_ends(tone_models) -> None
         r = simple.RenderAudio(src, path=p)
         assert r.audio.shape == (1, round(0.2 * RATE))
         field, _ = auralize(src.Volume, p, series=src.Sources, time_scale=1.0, clip=False)
-        tone = render(ToneModel().synthesize(ToneModel().load_input(str(a))), p,
+        tone = render_sound(ToneModel().synthesize(ToneModel().load_input(str(a))), p,
                       rate=RATE).audio  # fmt: skip
         assert np.max(np.abs(tone[:, alone.audio.shape[1] :])) > 0.1 * np.max(np.abs(tone))
         assert np.max(np.abs(r.audio - (field.audio + tone))) <= 1e-9 * np.max(np.abs(r.audio))

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from auralize.emitters.synthesis import render
+from auralize.emitters.synthesis import render_tracks
 from auralize.listener import ListenerPath
 from auralize.sources import (
     SourceFractionWarning,
@@ -45,7 +45,7 @@ def _grid(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
 
 def _rms(series, listener=(0.0, 0.0, 3.5), rate=4000) -> float:  # type: ignore[no-untyped-def]
     path = ListenerPath.point(listener, duration=float(series.times[-1] - series.times[0]))
-    out = render(series.tracks(), path, rate=rate, interp="linear")
+    out = render_tracks(series.tracks(), path, rate=rate, interp="linear")
     return float(np.sqrt(np.mean(out.audio**2)))
 
 
@@ -150,7 +150,7 @@ def test_steady_rotating_flow_renders_to_silence() -> None:
     loud = detect(varying, mapping="identity")
     p_loud = _rms(loud)
     assert p_loud > 0
-    out = render(quiet.tracks(), ListenerPath.point((0, 0, 3.5), duration=t[-1]), rate=4000)
+    out = render_tracks(quiet.tracks(), ListenerPath.point((0, 0, 3.5), duration=t[-1]), rate=4000)
     p_quiet = float(np.sqrt(np.mean(out.audio**2)))
     assert p_quiet <= 1e-3 * p_loud  # below -60 dB
     # the paper's literal form keeps the steady stress as a source

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from auralize.emitters.synthesis import render
+from auralize.emitters.synthesis import render_tracks
 from auralize.errors import FormatError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources import SourceTracks
@@ -48,7 +48,7 @@ def at_azimuth(az_deg: float, r: float = 2.0) -> np.ndarray:
 def energies(layout: str, az_deg: float, *, forward=(0, 1, 0)) -> np.ndarray:  # type: ignore[no-untyped-def]
     tr = tone_tracks(at_azimuth(az_deg)[None, :])
     path = ListenerPath.point((0, 0, 0), duration=0.2, forward=forward)
-    a = render(tr, path, layout=layout, rate=RATE).audio
+    a = render_tracks(tr, path, layout=layout, rate=RATE).audio
     e = np.sum(a**2, axis=1)
     assert e.sum() > 0
     return e / e.sum()
@@ -99,7 +99,7 @@ def test_gains_power_normalized_and_kernel_consistent() -> None:
     # the kernel pans with the same law: channel amplitudes of a static source
     for a_deg in (10.0, 100.0, -160.0):
         tr = tone_tracks(at_azimuth(a_deg)[None, :])
-        out = render(tr, ListenerPath.point((0, 0, 0), duration=0.2), layout="7.1").audio
+        out = render_tracks(tr, ListenerPath.point((0, 0, 0), duration=0.2), layout="7.1").audio
         amp = np.sqrt(np.sum(out**2, axis=1))
         g = vbap_gains(get_layout("7.1"), np.deg2rad([a_deg]))[:, 0]
         assert np.allclose(amp / np.linalg.norm(amp), g, atol=1e-6)
@@ -218,7 +218,7 @@ def test_downmix_matrix() -> None:
 
 
 def test_synthesis_pans_in_3d_for_layouts_with_elevation(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
-    from auralize.emitters.synthesis import render, render_reference
+    from auralize.emitters.synthesis import render_reference, render_tracks
     from auralize.listener import ListenerPath
 
     lay = _dome()
@@ -230,7 +230,7 @@ def test_synthesis_pans_in_3d_for_layouts_with_elevation(mono_tracks, mono_param
     listener = c - 3.5 * d
     path = ListenerPath(np.array([0.0, 0.04]), np.array([listener, listener]),
                         np.array([[1.0, 0, 0], [1.0, 0, 0]]))  # fmt: skip
-    out = render(mono_tracks, path, rate=44100, layout=lay).audio
+    out = render_tracks(mono_tracks, path, rate=44100, layout=lay).audio
     energy = np.sum(out**2, axis=1)
     assert energy[8] / energy.sum() >= 0.99  # H0 is channel 8
     # a moving, turning listener: the kernel's 3-D law equals the per-sample one
@@ -239,7 +239,7 @@ def test_synthesis_pans_in_3d_for_layouts_with_elevation(mono_tracks, mono_param
                         np.array([[0.0, 1, 0], [-1, 1, 0.3], [-1, 0, 0.5]]))  # fmt: skip
     sub = type(mono_tracks)(positions=mono_tracks.positions[::5], q=mono_tracks.q[::5],
                             radius=mono_tracks.radius[::5], times=mono_tracks.times)  # fmt: skip
-    fast = render(sub, path, rate=44100, layout=lay).audio
+    fast = render_tracks(sub, path, rate=44100, layout=lay).audio
     ref = render_reference(sub, path, rate=44100, layout=lay)
     assert np.max(np.abs(fast - ref)) / np.max(np.abs(ref)) < 5e-3
     assert np.sum(fast[8:] ** 2) > 0.01 * np.sum(fast**2)  # the height speakers sound

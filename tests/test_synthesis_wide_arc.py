@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from auralize.emitters import synthesis
-from auralize.emitters.synthesis import render
+from auralize.emitters.synthesis import render_tracks
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
 from auralize.spatial.layouts import get_layout
@@ -68,10 +68,10 @@ def test_wide_arc_gains_are_the_angular_law(azimuths, fold) -> None:  # type: ig
 @pytest.mark.parametrize("rate_hz", [None, 10.0])
 def test_stereo_render_equals_the_angular_law(monkeypatch, rate_hz) -> None:  # type: ignore[no-untyped-def]
     tracks, path = _scene(), _orbit(rate_hz)
-    fast = render(tracks, path, rate=RATE, layout="stereo", time_scale=2.5).audio
+    fast = render_tracks(tracks, path, rate=RATE, layout="stereo", time_scale=2.5).audio
     # without the wide arc's table every gain comes from atan2 and sines
     monkeypatch.setattr(synthesis, "pan_table", lambda lay, az: np.zeros((0, 4)))
-    law = render(tracks, path, rate=RATE, layout="stereo", time_scale=2.5).audio
+    law = render_tracks(tracks, path, rate=RATE, layout="stereo", time_scale=2.5).audio
     assert np.max(np.abs(law)) > 0
     assert np.array_equal(fast, law)
 
@@ -83,8 +83,8 @@ def test_stereo_rear_source_is_heard_from_the_nearer_speaker() -> None:
     tr = SourceTracks(positions=np.array([[-3.0, -4.0, 0.0]]), q=np.sin(np.arange(12))[None, :],
                       radius=np.full(1, 0.05), times=np.arange(12) / 30.0)  # fmt: skip
     path = ListenerPath.point([0.0, 0.0, 0.0], duration=0.5)
-    out = render(tr, path, rate=RATE, layout="stereo").audio
-    mono = render(tr, path, rate=RATE, layout="mono").audio[0]
+    out = render_tracks(tr, path, rate=RATE, layout="stereo").audio
+    mono = render_tracks(tr, path, rate=RATE, layout="mono").audio[0]
     lay = get_layout("stereo")
     left = [s.name for s in lay.speakers].index("L")
     assert np.max(np.abs(out[1 - left])) == 0.0

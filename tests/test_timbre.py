@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from auralize.emitters import timbre
-from auralize.emitters.synthesis import C0, check_arrival, render
+from auralize.emitters.synthesis import C0, check_arrival, render_tracks
 from auralize.emitters.timbre import (
     TONAL_CARRIERS,
     highpass,
@@ -96,7 +96,7 @@ def test_timbres_keep_arrival_time_and_distance_law(mono_tracks, mono_params, ti
         # (with a tone for the monopoles' noise band, whose local power fluctuates)
         tone = render_timbre(mono_tracks, _at(mono_params, D, 0.25), rate=RATE, timbre=timbre,
                              carriers={"monopole": ("tone", 300.0)}).audio[0]  # fmt: skip
-        phys = render(mono_tracks, _at(mono_params, D, 0.25), rate=RATE).audio[0]
+        phys = render_tracks(mono_tracks, _at(mono_params, D, 0.25), rate=RATE).audio[0]
         t_mean = np.sum(t * tone**2) / np.sum(tone**2)
         t_phys = np.sum(t * phys**2) / np.sum(phys**2)
         assert t_mean == pytest.approx(t_phys, abs=1e-3)  # (filters: ~0.3 ms group delay)
@@ -182,7 +182,7 @@ def test_highpass_removes_dc() -> None:
 def test_nonsense_listeners_are_clear_errors(mono_tracks, mono_params) -> None:  # type: ignore[no-untyped-def]
     bounds = (0.0, 7.75, 0.0, 7.75, 0.0, 7.75)
     with pytest.raises(ListenerPathError, match="within"):
-        render(mono_tracks, _at(mono_params, 1e9, 0.1), rate=8000, bounds=bounds)
+        render_tracks(mono_tracks, _at(mono_params, 1e9, 0.1), rate=8000, bounds=bounds)
     # 1 km away: sound arrives after 2.9 s; a 0.1 s render hears nothing
     with pytest.raises(ListenerPathError, match="nothing can be heard"):
         check_arrival(mono_tracks, _at(mono_params, 1000.0, 0.1), time_scale=1.0)

@@ -15,7 +15,7 @@ pytest.importorskip("pytestqt")
 pytest.importorskip("pyvistaqt")
 
 import auralize.plugins as plugins
-from auralize.emitters import Emitters, Sound, render
+from auralize.emitters import Emitters, Sound, render_sound
 from auralize.listener import ListenerPath
 from auralize.plugins import SoundModel
 from auralize.scene.listening import LiveEngine
@@ -133,7 +133,7 @@ def test_switching_an_overlay_on_adds_its_sound_to_the_render(
     qtbot.waitUntil(lambda: bool(result) and "beacon" in win._overlay_sounds, timeout=60_000)
     assert result == [True]
     with_beacon = render_in_viewer(win, shown, tmp_path / "beacon.wav")
-    alone = render(BeaconModel().synthesize(win.volume), path, rate=win.audio["rate"],
+    alone = render_sound(BeaconModel().synthesize(win.volume), path, rate=win.audio["rate"],
                    layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
     assert with_beacon.shape == plain.shape == alone.shape
     assert np.max(np.abs(alone)) > 0.1 * np.max(np.abs(with_beacon))
@@ -184,7 +184,7 @@ def test_live_block_with_an_overlay_sound_is_the_sum() -> None:
     a4, b4 = a.next_block(), b.next_block()
     assert np.array_equal(a4, b4)  # taken out from the next block on
     p = ListenerPath.point(pose[0], duration=1.0)
-    ref = render(Sound([em]), p, rate=44100, layout="stereo", duration=3 * 1024 / 44100).audio
+    ref = render_sound(Sound([em]), p, rate=44100, layout="stereo", duration=3 * 1024 / 44100).audio
     got = np.concatenate([y - x for x, y in blocks], axis=1)
     assert np.max(np.abs(got - ref[:, : got.shape[1]])) <= 1e-9 * np.max(np.abs(ref))
 
@@ -206,7 +206,7 @@ def test_the_fire_front_overlay_is_heard(qtbot, window, tmp_path, render_in_view
     win.set_overlay("fire", True, then=result.append)
     qtbot.waitUntil(lambda: bool(result) and "fire" in win._overlay_sounds, timeout=60_000)
     heard = render_in_viewer(win, shown, tmp_path / "fire.wav")
-    fire = render(synthesize("fire", win.volume), path, rate=win.audio["rate"],
+    fire = render_sound(synthesize("fire", win.volume), path, rate=win.audio["rate"],
                   layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
     assert np.max(np.abs(fire)) > 0
     assert np.max(np.abs(heard - (plain + fire))) <= 1e-9 * np.max(np.abs(heard))

@@ -4,7 +4,7 @@ Three parts:
 
 :class:`BlockSynth`
     Renders any block of samples of the sound along a listener path with the
-    core synthesis (:func:`auralize.emitters.synthesis.render` with ``start=``), which
+    core synthesis (:func:`auralize.emitters.synthesis.render_tracks` with ``start=``), which
     reads only the data steps whose emissions can arrive inside the block
     (largest source-listener distance / c0 before it).  The result equals the
     offline render sample for sample (up to rounding) at a cost that does not
@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters.synthesis import C0, render
+from auralize.emitters.synthesis import C0, render_tracks
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
@@ -200,7 +200,7 @@ class BlockSynth:
 
     def _synthesize(self, start: int, n: int) -> NDArray[np.float64]:
         """Samples ``[start, start + n)`` of the :attr:`synthesis_layout`."""
-        out = render(self.tracks, self.path, rate=self.rate, time_scale=self.time_scale,
+        out = render_tracks(self.tracks, self.path, rate=self.rate, time_scale=self.time_scale,
                      interp=self.interp, layout=self.synthesis_layout, c0=self.c0,
                      start=start / self.rate,
                      duration=n / self.rate, threads=self.threads, lead=self.lead)  # fmt: skip
@@ -484,7 +484,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     Parameters
     ----------
     tracks, path : the sources and the listener path (as for
-        :func:`auralize.emitters.synthesis.render`); or, in place of ``tracks``, a
+        :func:`auralize.emitters.synthesis.render_tracks`); or, in place of ``tracks``, a
         block renderer of a scene (:class:`auralize.emitters.engine.BlockRenderer`,
         whose rate, layout and block length are used).
     layout : speaker layout of the synthesis.
@@ -507,7 +507,7 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     on_block : callable(i, n_blocks), optional
         Called on the worker thread after each block is queued.
     lead : float
-        Data seconds skipped at the start (as :func:`auralize.emitters.synthesis.render`).
+        Data seconds skipped at the start (as :func:`auralize.emitters.synthesis.render_tracks`).
     highpass_hz : float
         Causal high-pass of the output (as :func:`auralize.emitters.timbre.highpass`,
         its state carried from block to block); 0 keeps everything.

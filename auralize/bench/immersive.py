@@ -180,7 +180,7 @@ def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
     alone in the note."""
     import functools
 
-    from auralize.emitters.synthesis import render
+    from auralize.emitters.synthesis import render_tracks
     from auralize.emitters.timbre import render_timbre
     from auralize.spatial.layouts import output_stage
 
@@ -189,7 +189,7 @@ def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
     times = batch_times(fn, repeat=5)
     t = float(np.median(times))
     lay = output_stage("binaural", 44100).synthesis_layout
-    t_amb = float(np.median(batch_times(functools.partial(render, tracks, path, layout=lay),
+    t_amb = float(np.median(batch_times(functools.partial(render_tracks, tracks, path, layout=lay),
                                         repeat=3)))  # fmt: skip
     speed = path.duration / t
     return BenchRow(

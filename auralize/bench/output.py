@@ -76,14 +76,14 @@ def _live_on_file_device(tracks, path, seconds: float) -> BenchRow:  # type: ign
 def bench_output(quick: bool) -> list[BenchRow]:
     """Benchmark rows of the output layer (see the module docstring)."""
     from auralize.audio.live import BlockSynth
-    from auralize.emitters.synthesis import render
+    from auralize.emitters.synthesis import render_tracks
 
     t0 = time.perf_counter()
     size, tracks, path = _scene(quick)
     t_scene = time.perf_counter() - t0
     dur = path.duration
     rows = []
-    t = best_of(lambda: render(tracks, path, layout="ring8"), repeat=1 if not quick else 3,
+    t = best_of(lambda: render_tracks(tracks, path, layout="ring8"), repeat=1 if not quick else 3,
                 min_time=0.0)  # fmt: skip
     rows.append(BenchRow(
         "output", f"explosion {size}³ → ring8 file, {dur:.0f} s path", dur / t, "× real time",

@@ -158,7 +158,7 @@ def bench_detection_whole(quick: bool) -> list[BenchRow]:
 
 def bench_synthesis(quick: bool) -> list[BenchRow]:
     from auralize.datasets.synthetic import make_explosion
-    from auralize.emitters.synthesis import render
+    from auralize.emitters.synthesis import render_tracks
     from auralize.listener import ListenerPath
     from auralize.sources.detection import Thresholds, detect
 
@@ -184,10 +184,10 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
 
     fresh = SourceTracks(tracks.positions, tracks.q, tracks.radius, tracks.times)
     t0 = time.perf_counter()
-    render(fresh, path, duration=1e-3)
+    render_tracks(fresh, path, duration=1e-3)
     t_prep = time.perf_counter() - t0
     for layout in ("mono", "ring8"):
-        times = batch_times(functools.partial(render, tracks, path, layout=layout), repeat=5)
+        times = batch_times(functools.partial(render_tracks, tracks, path, layout=layout), repeat=5)
         t = float(np.median(times))
         dur = path.duration
         speed = dur / t
@@ -214,7 +214,7 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
     for hz, what in ((20.0, "a 20 Hz orbit"), (10.0, "a 10 Hz recorded path")):
         orbit = ListenerPath.orbit(c, radius=0.3 * size, duration=3 * float(vol.times[-1]),
                                    turns=0.5, height=1.0, rate_hz=hz)  # fmt: skip
-        times = batch_times(functools.partial(render, tracks, orbit, layout="ring8",
+        times = batch_times(functools.partial(render_tracks, tracks, orbit, layout="ring8",
                                               time_scale=3.0), repeat=5)  # fmt: skip
         speed = orbit.duration / float(np.median(times))
         rows.append(BenchRow(
@@ -234,7 +234,7 @@ def whole_field_rows(vol: Any, size: int) -> list[BenchRow]:
     heard, the default orbit, ``timbre="auto"``, 10 s): building the field's rows
     (every point's strengths, the blocks' proxies), the render from them to mono
     and ring8, and the compression's error against every point heard as itself."""
-    from auralize.emitters.synthesis import render
+    from auralize.emitters.synthesis import render_tracks
     from auralize.emitters.timbre import render_timbre
     from auralize.pipeline import heard_sound, plan_render
     from auralize.sources.field import field_tracks
@@ -267,8 +267,8 @@ def whole_field_rows(vol: Any, size: int) -> list[BenchRow]:
         ))  # fmt: skip
     every = field_tracks(vol, hs_mapping(vol), block=1).tracks()
     kw4: dict[str, Any] = {**kw, "rate": 4000}
-    a = render(every, plan.path, **kw4).audio[0]
-    b = render(hs.tracks, plan.path, **kw4).audio[0]
+    a = render_tracks(every, plan.path, **kw4).audio[0]
+    b = render_tracks(hs.tracks, plan.path, **kw4).audio[0]
     A, B = np.fft.rfft(a), np.fft.rfft(b)
     f = np.fft.rfftfreq(a.size, 1 / 4000)
     nyq = 0.5 / (float(np.median(np.diff(vol.times))) * plan.time_scale)
@@ -317,7 +317,7 @@ def scaling_rows(quick: bool) -> list[BenchRow]:
     :func:`scaling_scene` heard from an orbit 30 m from its centre (captures
     at 20 Hz, the head sweeping, so that every speaker hears the sources),
     1 s of data per 10 s of audio.  ``quick``: 2 s and 1k, 10k sources."""
-    from auralize.emitters.synthesis import render
+    from auralize.emitters.synthesis import render_tracks
     from auralize.listener import ListenerPath
 
     dur = 2.0 if quick else 10.0
@@ -328,7 +328,7 @@ def scaling_rows(quick: bool) -> list[BenchRow]:
         # (half a turn per 10 s of audio: 94 m per data second)
         path = ListenerPath.orbit((0.0, 0.0, 0.0), radius=30.0, duration=dur * mult,
                                   turns=0.05 * dur * mult, height=1.0, face=face)  # fmt: skip
-        return _cpu_time(functools.partial(render, tracks, path, time_scale=10.0, layout=layout,
+        return _cpu_time(functools.partial(render_tracks, tracks, path, time_scale=10.0, layout=layout,
                                            duration=dur * mult))  # fmt: skip
 
     rows: list[BenchRow] = []

@@ -15,7 +15,7 @@ work splits two ways, and every task is one (block, source group) pair:
   explosion, four groups).  The
   audio of a block is the sum of its groups' renders, added in group order
   (the result does not depend on which task finishes first).
-* **blocks** of playback time: :func:`auralize.emitters.synthesis.render` evaluates
+* **blocks** of playback time: :func:`auralize.emitters.synthesis.render_tracks` evaluates
   any block ``[start, start + duration)`` on its own; the retarded-time
   look-back a block needs (sources heard in it were emitted up to
   ``D_max / c0`` earlier) is found inside ``render`` from the whole tracks.
@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.distributed.runner import Runner, numba_threads
-from auralize.emitters.synthesis import C0, INTERPOLATIONS, Rendered, prepare_render, render
+from auralize.emitters.synthesis import C0, INTERPOLATIONS, Rendered, prepare_render, render_tracks
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.sources.detection import SourceTracks
@@ -60,7 +60,7 @@ def render_block(tracks: SourceTracks | PackedTracks, path: ListenerPath, a: int
     # (all the kernel's parallel loops on the task's threads: a worker's other
     # cores belong to other workers)
     with numba_threads(threads):
-        out = render(tracks, path, rate=rate, start=a / rate, duration=(b - a) / rate,
+        out = render_tracks(tracks, path, rate=rate, start=a / rate, duration=(b - a) / rate,
                      threads=threads or None, **kw)  # fmt: skip
     if out.audio.shape[1] != b - a:  # pragma: no cover - guards sample rounding
         raise ParameterError(f"block {a}:{b} rendered {out.audio.shape[1]} samples")
@@ -218,12 +218,12 @@ def render_distributed(
     log: Any = print,
     lead: float = 0.0,
 ) -> Rendered:
-    """:func:`auralize.emitters.synthesis.render` split into (block, source group) tasks over Dask workers.
+    """:func:`auralize.emitters.synthesis.render_tracks` split into (block, source group) tasks over Dask workers.
 
     Parameters
     ----------
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, lead
-        As for :func:`auralize.emitters.synthesis.render`.
+        As for :func:`auralize.emitters.synthesis.render_tracks`.
     block_seconds : float, optional
         Playback seconds per block.  Every block pays for the retarded-time
         look-back it needs, so fewer, longer blocks do less work in all.

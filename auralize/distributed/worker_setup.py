@@ -60,7 +60,7 @@ def warm_kernels() -> dict[str, Any]:
         import auralize.io.hdf5  # noqa: F401
         from auralize.datasets.synthetic import make_monopole
         from auralize.distributed.runner import numba_threads
-        from auralize.emitters.synthesis import render
+        from auralize.emitters.synthesis import render_tracks
         from auralize.listener import ListenerPath
         from auralize.sources.detection import Thresholds, detect
 
@@ -69,7 +69,7 @@ def warm_kernels() -> dict[str, Any]:
             series = detect(vol, mapping="identity", thresholds=Thresholds(0.0, 0.0, 0.0))
             tracks = series.tracks()
             path = ListenerPath.point(np.full(3, 2.0), duration=0.01)
-            render(tracks, path, rate=8000, layout="ring8", time_scale=1.0, threads=1)
+            render_tracks(tracks, path, rate=8000, layout="ring8", time_scale=1.0, threads=1)
         done["kernels"] = True
     except Exception as exc:
         done["error"] = f"{type(exc).__name__}: {exc}"

@@ -322,7 +322,7 @@ class TableEmitters(Emitters):
 @dataclass
 class FieldSources:
     """The heard sound of a volume (its whole field, or its detected sources),
-    rendered by :func:`auralize.emitters.synthesis.render`.
+    rendered by :func:`auralize.emitters.synthesis.render_tracks`.
 
     ``time_scale`` playback seconds per data second, ``lead`` data seconds
     skipped at the start, ``interp`` the strength interpolation (§3.2.4.3),
@@ -361,7 +361,7 @@ class Sound:
 
 def __getattr__(name: str) -> Any:
     # the renderers import synthesis (numba); load them on first use
-    if name in ("render", "render_emitters"):
+    if name in ("render_sound", "render_emitters"):
         import importlib
 
         return getattr(importlib.import_module("auralize.emitters.engine"), name)

@@ -198,7 +198,7 @@ def parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
     return list(sound)
 
 
-def render(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: int = 44100,
+def render_sound(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: int = 44100,
            layout: str | Layout = "mono", duration: float | None = None, start: float = 0.0,
            c0: float = C0, backend: str = "auto", hrtf: object = None,
            field_highpass_hz: float = 0.0) -> Rendered:  # fmt: skip

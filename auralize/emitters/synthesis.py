@@ -191,7 +191,7 @@ def panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]
         return np.zeros(lay.n_channels), np.arange(lay.n_channels, dtype=np.int64)
     if is_binaural(lay):
         raise ParameterError(
-            "auralize.emitters.synthesis.render pans to speaker or AmbiX layouts; for binaural render to "
+            "auralize.emitters.synthesis.render_tracks pans to speaker or AmbiX layouts; for binaural render to "
             "auralize.spatial.layouts.synthesis_layout('binaural') (the ear receivers) and filter with "
             "auralize.spatial.layouts.output_stage, or use auralize.emitters.timbre.render_timbre"
         )
@@ -577,7 +577,7 @@ def _line_table(pr: _Prepared, c0: float) -> NDArray[np.float64]:
     return LT
 
 
-def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
+def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
            interp: str = "cubic", layout: str | Layout = "mono", c0: float = C0,
            duration: float | None = None, bounds: tuple[float, ...] | None = None,
            start: float = 0.0, threads: int | None = None, lead: float = 0.0) -> Rendered:  # fmt: skip
@@ -625,7 +625,7 @@ def render(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_
     lay = get_layout(layout)
     ears = receiver_paths(lay, path)
     if ears:  # several receivers (the ears): each along its own path, channels stacked
-        outs = [render(tracks, p, rate=rate, time_scale=time_scale, interp=interp, layout=rl,
+        outs = [render_tracks(tracks, p, rate=rate, time_scale=time_scale, interp=interp, layout=rl,
                        c0=c0, duration=duration, bounds=bounds, start=start, threads=threads,
                        lead=lead) for rl, p in ears]  # fmt: skip
         return Rendered(audio=np.concatenate([o.audio for o in outs]), rate=int(rate), layout=lay,

@@ -5,7 +5,7 @@ where a source is (panning), when its sound arrives (delay D/c0), how loud
 it is (1/D) and the Doppler shift of a moving listener:
 
 ``physical``
-    The retarded-time pressure of :func:`auralize.emitters.synthesis.render`
+    The retarded-time pressure of :func:`auralize.emitters.synthesis.render_tracks`
     (paper 003 Eqs. 15–17).  Honest, and infrasonic whenever the data's time
     steps are long in playback time.
 ``extended``
@@ -39,7 +39,7 @@ it is (1/D) and the Doppler shift of a moving listener:
 How the carriers keep the physics.  The change pressure
 ``C(t) = Σ_k Δq_k(τ_k)/D_k`` (``τ_k = t − D_k/c0``, Δq the change per step)
 is rendered per loudspeaker by the fast synthesis
-(:func:`auralize.emitters.synthesis.render`), so the arrival time, the 1/D
+(:func:`auralize.emitters.synthesis.render_tracks`), so the arrival time, the 1/D
 law and the panning are those of the physical render; its standard
 deviation over two data steps (:func:`change_envelope`) is the envelope
 E(t) of each channel.  C changes once per data step Δt, so it is rendered
@@ -93,7 +93,7 @@ from auralize.emitters.synthesis import (
     cached_on_tracks,
     check_distance,
     knot_times,
-    render,
+    render_tracks,
 )
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath, near_path
@@ -644,7 +644,7 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     Parameters
     ----------
     tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, start, lead
-        As :func:`auralize.emitters.synthesis.render`.
+        As :func:`auralize.emitters.synthesis.render_tracks`.
     timbre : {"physical", "extended", "tonal", "auto"}
         See the module docstring; ``auto`` is ``physical`` when at least
         :data:`AUDIBLE_SHARE` of its energy lies above 20 Hz, else ``extended``.
@@ -702,7 +702,7 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
             share = _share_above(coarse[0].audio, float(coarse[0].rate), 20.0)
             phys = None
         else:
-            phys = render(tracks, path, bounds=bounds, **kw)
+            phys = render_tracks(tracks, path, bounds=bounds, **kw)
             if finished:
                 phys = stage.finish(phys)
                 meta["share_above_20hz_unfiltered"] = loudness(phys.audio, rate)["share_above"]
@@ -727,7 +727,7 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         elif timbre == "auto":
             timbre = "physical"
         if phys is None and timbre == "physical":
-            phys = render(tracks, path, bounds=bounds, **kw)
+            phys = render_tracks(tracks, path, bounds=bounds, **kw)
         meta["timbre"] = timbre
     if timbre == "physical":
         assert phys is not None
@@ -803,12 +803,12 @@ def _coarse_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     rate = int(kw["rate"])
     er = envelope_rate(rate, f_cut)
     if er == rate:
-        out = render(tracks, path, bounds=bounds, **kw)
+        out = render_tracks(tracks, path, bounds=bounds, **kw)
         return out, out.audio.shape[1], 1
     dur = kw["duration"] if kw["duration"] is not None else path.duration - kw["start"]
     n = round(dur * rate)
     k = rate // er
-    coarse = render(tracks, path, bounds=bounds,
+    coarse = render_tracks(tracks, path, bounds=bounds,
                     **{**kw, "rate": er, "duration": (n // k + 2) / er})  # fmt: skip
     return coarse, n, k
 
@@ -898,7 +898,7 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     rate = int(kw["rate"])
     if f_cut >= 0.45 * rate or tracks.n_sources == 0:
         meta["beta"] = 0.0
-        return render(tracks, path, bounds=bounds, **kw)
+        return render_tracks(tracks, path, bounds=bounds, **kw)
     if coarse is None:
         joined = _joined(tracks, path, "timbre:joined", lambda join: join(tracks), c0)
         # without the low band in the output, its mono sum is all β needs
@@ -907,7 +907,7 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     low_r, n, k = coarse
     if n < 4:
         meta["beta"] = 0.0
-        return render(tracks, path, bounds=bounds, **kw)
+        return render_tracks(tracks, path, bounds=bounds, **kw)
     env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
     env = _upsampled(env_c, env_c.audio, n, k)
 
@@ -1160,7 +1160,7 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, tracks.times.size)),
                              radius=np.zeros(0), times=tracks.times, origin=tracks.origin,
                              end=tracks.end)  # fmt: skip
-        base = render(empty, path, **kw)
+        base = render_tracks(empty, path, **kw)
         audio = base.audio
     return Rendered(audio=audio, rate=base.rate, layout=base.layout,
                     time_scale=base.time_scale, meta=base.meta)  # fmt: skip

@@ -32,7 +32,7 @@ def _unpack(inputs: Any) -> dict[str, Any]:
         if any(isinstance(x, ListenerPath) for x in inputs):
             raise ParameterError(
                 "aero inputs take no listener path: synthesize((texture, object, motion, wind)) "
-                "and render the returned Sound along the path with auralize.emitters.render"
+                "and render the returned Sound along the path with auralize.pipeline.render"
             )
         d = dict(zip(("texture", "object", "motion", "wind"), inputs, strict=False))
     else:
@@ -99,7 +99,7 @@ class AeroSound(SoundModel):
         Returns
         -------
         auralize.emitters.Sound
-            Render it along a listener path with :func:`auralize.emitters.render`.
+            Render it along a listener path with :func:`auralize.emitters.render_sound`.
         """
         if "stereo" in params:
             no_ears(params.pop("stereo"))

@@ -663,7 +663,7 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
 
     :func:`emission` at the output rate for the path's duration, rendered by
     the sound engine (:meth:`AeroEmission.render_part`, equal to
-    ``auralize.emitters.render(Sound([part]), path, ...)``).
+    ``auralize.emitters.render_sound(Sound([part]), path, ...)``).
 
     Parameters
     ----------
@@ -703,5 +703,5 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
     part = emission(texture, obj, motion=motion, wind=wind, rate=rate, duration=dur,
                     exponent=exponent, c0=c0, min_distance=min_distance, fade=fade, block=block,
                     engine=engine)  # fmt: skip
-    # the one part rendered directly: auralize.emitters.render would sum it into a second buffer
+    # the one part rendered directly: auralize.emitters.render_sound would sum it into a second buffer
     return part.render_part(path, rate=rate, layout=layout, duration=dur, c0=c0, backend=backend)

@@ -17,7 +17,7 @@ extension and the texture fill the output's band.  Raw float32 inputs
 (``.f32``) take ``--input-rate`` (default: the ``manifest.json`` beside them).
 ``render`` runs the chain and renders the fire, one point emitter at
 the flame front's centre (:func:`auralize_fire.model.fire_sound`), along a
-listener path with the engine (:func:`auralize.emitters.render`: retarded
+listener path with the engine (:func:`auralize.emitters.render_sound`: retarded
 time, 1/D, Doppler, the layout's 2-D or 3-D panning) and the common output
 options, written by the core writer (channel mask, sidecar).  PATH is a
 volume file or ``dataset:fire``.

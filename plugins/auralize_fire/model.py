@@ -62,7 +62,7 @@ def fire_sound(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 441
     The emitter sits at the front's area-weighted centre, moving with it
     (linear between steps, sampled at ``rate``) or static when the centre
     does not move.  Propagation, distance law, Doppler and panning are the
-    engine's (:func:`auralize.emitters.render`).
+    engine's (:func:`auralize.emitters.render_sound`).
 
     Parameters
     ----------
@@ -98,7 +98,7 @@ class FireSound(SoundModel):
 
     ``synthesize(volume, **params)`` returns an :class:`auralize.emitters.Sound`
     with the flame as one point emitter (:func:`fire_sound`); render it along
-    a listener path with :func:`auralize.emitters.render`.
+    a listener path with :func:`auralize.emitters.render_sound`.
     """
 
     name: ClassVar[str] = "fire"
@@ -139,7 +139,7 @@ class FireSound(SoundModel):
         if isinstance(inputs, tuple):
             raise ParameterError(
                 "fire inputs are the TimeVolume only, without a listener: render the returned "
-                "Sound along a path with auralize.emitters.render"
+                "Sound along a path with auralize.pipeline.render"
             )
         return fire_sound(inputs, extend=p["extend"], rate=int(p["rate"]),
                           burn_field=p["burn_field"], velocity_field=p["velocity_field"],

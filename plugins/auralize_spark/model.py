@@ -306,7 +306,7 @@ class SparkSound(SoundModel):
     preset's scene; a volume without a ``charge`` field gets the lightning
     geometry fitted to its bounds, as the overlay shows it).  It returns an
     :class:`auralize.emitters.Sound` with one :class:`DischargePart`; render it
-    along a listener path with :func:`auralize.emitters.render` (any layout,
+    along a listener path with :func:`auralize.emitters.render_sound` (any layout,
     speed of sound ``c0`` of the render).
     """
 
@@ -394,7 +394,7 @@ class SparkSound(SoundModel):
         return part, fld
 
     def synthesize(self, inputs: Any, **params: Any) -> Sound:
-        """The discharge's sound part (no listener: render it with :func:`auralize.emitters.render`).
+        """The discharge's sound part (no listener: render it with :func:`auralize.emitters.render_sound`).
 
         Parameters
         ----------
@@ -411,7 +411,7 @@ class SparkSound(SoundModel):
             raise ParameterError(
                 "spark inputs are the source only (None, a scene, field, volume, discharge or "
                 "file), without a listener: render the returned Sound along a path with "
-                "auralize.emitters.render"
+                "auralize.pipeline.render"
             )
         source, step, params = _fitted(inputs, 0, params)
         part, fld = self._part(source, step=step, **params)

@@ -48,7 +48,7 @@ class VortexSound(SoundModel):
     ``synthesize(volume, **params)`` returns what Eq. 5 emits: the
     sub-volumes as static emitters playing the texture of §5 (``texture=`` a
     file; empty for the cached default texture, computed once, ~30 s); the
-    engine (:func:`auralize.emitters.render`) propagates and pans them.
+    engine (:func:`auralize.emitters.render_sound`) propagates and pans them.
     ``overlay(inputs, step)`` returns pyvista meshes of the sound-source
     sub-volumes coloured by average speed.
 
@@ -138,7 +138,7 @@ class VortexSound(SoundModel):
         ----------
         inputs : TimeVolume
             With the vector field ``velocity_field`` (m/s); no listener path
-            (render the result with :func:`auralize.emitters.render`).
+            (render the result with :func:`auralize.emitters.render_sound`).
         **params
             The declared :attr:`parameters`.
 
@@ -153,7 +153,7 @@ class VortexSound(SoundModel):
         if not isinstance(inputs, TimeVolume):
             raise ParameterError(
                 f"vortex synthesize takes the velocity TimeVolume, got {type(inputs).__name__} "
-                f"(the listener path goes to auralize.emitters.render)"
+                f"(the listener path goes to auralize.pipeline.render)"
             )
         p = self.resolve(**params)
         tex = _texture_from(p["texture"])

@@ -438,7 +438,7 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
                   backend: str = "auto") -> Rendered:  # fmt: skip
     """Render the vortex sound of a velocity time series along a listener path (§6, Eq. 5).
 
-    :func:`vortex_sound` rendered by :func:`auralize.emitters.render`, with
+    :func:`vortex_sound` rendered by :func:`auralize.emitters.render_sound`, with
     the emission spanning exactly what the path can hear (from ``−D_max/c0``
     to the end of the render).
 

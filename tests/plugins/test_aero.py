@@ -25,8 +25,7 @@ from auralize_aero.shapes import fold_directions
 
 from auralize.audio import read_wav
 from auralize.cli import main
-from auralize.emitters import Sound
-from auralize.emitters import render as render_sound
+from auralize.emitters import Sound, render_sound
 from auralize.errors import FormatError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.plugins import get_model

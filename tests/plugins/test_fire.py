@@ -290,7 +290,7 @@ def test_lowfreq_chain_and_model(fire_volume: TimeVolume) -> None:
     assert np.trapezoid(p, dx=1 / RATE) == pytest.approx(
         fs.flux[-1] - fs.flux[0], rel=0.05, abs=1e-6
     )
-    from auralize.emitters import Emitters, Sound, render
+    from auralize.emitters import Emitters, Sound, render_sound
     from auralize.listener import ListenerPath
 
     snd = FireSound().synthesize(fire_volume, extend="bandwidth", rate=RATE)
@@ -298,7 +298,7 @@ def test_lowfreq_chain_and_model(fire_volume: TimeVolume) -> None:
     em = snd.parts[0]
     assert isinstance(em, Emitters) and em.signals.shape == (1, p.size) and em.rate == RATE
     path = ListenerPath.point((0.0, 2.0, 0.2), duration=0.03)
-    out = render(snd, path, rate=RATE).audio[0]
+    out = render_sound(snd, path, rate=RATE).audio[0]
     assert out.size == round(0.03 * RATE)
     assert np.all(np.isfinite(out)) and np.any(out)
     with pytest.raises(ParameterError, match="without a listener"):

@@ -7,7 +7,7 @@ import pytest
 from auralize_fire import FireSound, make_fire
 from auralize_fire.model import MONOPOLE_1M, fire_sound, render_chain
 
-from auralize.emitters import Emitters, Sound, render
+from auralize.emitters import Emitters, Sound, render_sound
 from auralize.listener import ListenerPath
 from auralize.spatial import Speaker, make_layout
 from auralize.volume import TimeVolume
@@ -50,7 +50,7 @@ def test_static_listener_hears_the_fire_after_d_over_c0_at_one_over_d(fire, D: f
     x = em.positions[0, 0] if em.moving else em.positions[0]
     lis = x + np.array([0.0, -D, 0.0])
     dur = D / C + em.n_samples / em.rate + 0.005
-    out = render(snd, ListenerPath.point(lis, duration=dur), rate=RATE).audio[0]
+    out = render_sound(snd, ListenerPath.point(lis, duration=dur), rate=RATE).audio[0]
     t = np.arange(out.size) / RATE
     ref = heard(em, t, np.full(out.size, D))
     assert np.abs(out).max() > 0
@@ -67,7 +67,7 @@ def test_approaching_listener_hears_doppler(fire) -> None:  # type: ignore[no-un
     x = em.positions[0, 0] if em.moving else em.positions[0]
     X0, v, dur = 10.0, 60.0, 0.06
     path = ListenerPath(np.array([0.0, dur]), np.stack([x + [0, X0, 0], x + [0, X0 - v * dur, 0]]))
-    out = render(snd, path, rate=RATE).audio[0]
+    out = render_sound(snd, path, rate=RATE).audio[0]
     t = np.arange(out.size) / RATE
     D = X0 - v * t
     ref = heard(em, t, D)
@@ -88,13 +88,13 @@ def test_fire_above_the_listener_goes_to_the_height_speakers(fire) -> None:  # t
     em = snd.parts[0]
     x = em.positions[0, 0] if em.moving else em.positions[0]
     below = ListenerPath.point(x - [0.0, 0.0, 3.0], duration=0.04)
-    out = render(snd, below, rate=RATE, layout=dome).audio
+    out = render_sound(snd, below, rate=RATE, layout=dome).audio
     e = (out**2).sum(axis=1)
     assert e[8:].sum() > 0.999 * e.sum()  # straight overhead: the height ring only
     # azimuth 135°, elevation 45°: speaker H1 (channel 9) for a listener facing +y
     d = np.array([-0.5, -0.5, np.sqrt(0.5)])  # world direction to the fire (left-behind, up)
     lis = x - 3.0 * d
-    out = render(snd, ListenerPath.point(lis, duration=0.04), rate=RATE, layout=dome).audio
+    out = render_sound(snd, ListenerPath.point(lis, duration=0.04), rate=RATE, layout=dome).audio
     e = (out**2).sum(axis=1)
     assert e[9] > 0.99 * e.sum()
 
@@ -135,10 +135,10 @@ def test_fire_and_spark_mix_along_one_path(fire) -> None:  # type: ignore[no-unt
     assert [type(p).__name__ for p in scene.parts] == ["Emitters", "DischargePart"]
     path = ListenerPath.line((0.3, -1.0, 0.2), (-0.3, -1.0, 0.2), duration=0.04, n=5)
     for lay in ("mono", "ring8"):
-        mix = render(scene, path, rate=RATE, layout=lay).audio
+        mix = render_sound(scene, path, rate=RATE, layout=lay).audio
         alone = (
-            render(snd, path, rate=RATE, layout=lay).audio
-            + render(spark, path, rate=RATE, layout=lay).audio
+            render_sound(snd, path, rate=RATE, layout=lay).audio
+            + render_sound(spark, path, rate=RATE, layout=lay).audio
         )
-        assert np.abs(render(spark, path, rate=RATE, layout=lay).audio).max() > 0
+        assert np.abs(render_sound(spark, path, rate=RATE, layout=lay).audio).max() > 0
         np.testing.assert_allclose(mix, alone, atol=1e-12 * np.abs(mix).max())

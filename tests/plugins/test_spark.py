@@ -460,7 +460,7 @@ def test_continuous_discharges_reuse_until_the_field_changes() -> None:
 def test_registered_model_and_overlay_off_screen() -> None:
     import pyvista as pv
 
-    from auralize.emitters import Sound, render
+    from auralize.emitters import Sound, render_sound
 
     model = get_model("spark")
     assert isinstance(model, SparkSound)
@@ -471,7 +471,7 @@ def test_registered_model_and_overlay_off_screen() -> None:
     lis = np.array([0.3, -1.0, 0.0])
     res = simulate(None, lis, preset="plasma-ball", seed=2, layout="ring8")
     path = ListenerPath.point(lis, duration=res.rendered.duration)
-    out = render(snd, path, layout="ring8")
+    out = render_sound(snd, path, layout="ring8")
     assert out.audio.shape == res.rendered.audio.shape and out.meta["parts"][0]["model"] == "spark"
     np.testing.assert_allclose(out.audio, res.rendered.audio, atol=1e-12 * np.abs(out.audio).max())
     with pytest.raises(ParameterError, match="preset"):

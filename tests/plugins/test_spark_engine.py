@@ -9,7 +9,7 @@ import pytest
 from auralize_spark import Discharge, SparkSound, WaveParams
 from auralize_spark.waves import DischargePart
 
-from auralize.emitters import Sound, render
+from auralize.emitters import Sound, render_sound
 from auralize.listener import ListenerPath
 from auralize.spatial import Speaker, make_layout
 
@@ -38,7 +38,7 @@ def test_engine_render_arrives_at_d_over_c0_in_the_render_window() -> None:
     part = DischargePart(segment(), PARAMS, np.zeros(1), t0=t0)
     path = ListenerPath.point((0.0, D, 0.0), duration=0.2)
     for start in (0.0, 0.0125):
-        out = render(Sound([part]), path, rate=rate, start=start, duration=0.05).audio[0]
+        out = render_sound(Sound([part]), path, rate=rate, start=start, duration=0.05).audio[0]
         _, _, t_cross = lobes(out, rate)
         assert start + t_cross == pytest.approx(t0 + D / C, abs=1.5 / rate)
 
@@ -56,7 +56,7 @@ def test_amplitude_follows_eq3_and_impulse_falls_as_one_over_d() -> None:
     areas = {}
     for D in (0.5, 2.0, 8.0):
         path = ListenerPath.point((0.0, D, 0.0), duration=D / C + 0.002)
-        out = render(snd, path, rate=rate, c0=C).audio[0]
+        out = render_sound(snd, path, rate=rate, c0=C).audio[0]
         pos, neg, _ = lobes(out, rate)
         k = math.sqrt(1 + SIGMA0 * math.log(D / PARAMS.r0))
         ps = PARAMS.r0 * PARAMS.ps0 / (D * k)
@@ -77,8 +77,8 @@ def test_moving_listener_hears_doppler() -> None:
     path = ListenerPath(
         np.array([0.0, 0.2]), np.array([[0.0, 10.0, 0.0], [0.0, 10.0 - 0.2 * v, 0.0]])
     )
-    out = render(Sound([part]), path, rate=rate, duration=0.06).audio[0]
-    static = render(
+    out = render_sound(Sound([part]), path, rate=rate, duration=0.06).audio[0]
+    static = render_sound(
         Sound([part]), ListenerPath.point((0.0, 10.0, 0.0), duration=0.06), rate=rate
     ).audio[0]
     f = C / (C + v)
@@ -118,15 +118,15 @@ def test_discharge_above_the_listener_goes_to_the_height_speakers() -> None:
     rate = 96_000
     over = Sound([DischargePart(segment((0.0, 0.0, 5.0)), PARAMS)])
     path = ListenerPath.point((0.0, 0.0, 0.0), duration=0.02, forward=(1.0, 0.0, 0.0))
-    e = (render(over, path, rate=rate, layout=lay).audio ** 2).sum(axis=1)
+    e = (render_sound(over, path, rate=rate, layout=lay).audio ** 2).sum(axis=1)
     assert e[8:].sum() > (1 - 1e-12) * e.sum()
     np.testing.assert_allclose(e[8:] / e[8:].sum(), 0.25, atol=1e-9)
     d = np.array([0.5, 0.5, math.sqrt(0.5)])  # azimuth 45°, elevation 45° for a listener facing +x
     h0 = Sound([DischargePart(segment(tuple(4.0 * d), axis=2), PARAMS)])
-    out = render(h0, path, rate=rate, layout=lay).audio
+    out = render_sound(h0, path, rate=rate, layout=lay).audio
     e = (out**2).sum(axis=1)
     assert e[8] > 0.999 * e.sum()
-    mono = render(h0, path, rate=rate).audio[0]
+    mono = render_sound(h0, path, rate=rate).audio[0]
     np.testing.assert_allclose(
         np.sqrt((out**2).sum(axis=0)), np.abs(mono), atol=1e-9 * np.abs(mono).max()
     )
@@ -145,7 +145,7 @@ def test_model_sound_renders_like_the_cli_and_is_listener_free(tmp_path) -> None
                  "--listener", "0,-0.5,0", "--duration", "0.05", "--layout", "5.1",
                  "-o", str(out), "--normalize", "none"]) == 0  # fmt: skip
     audio, rate, mask = read_wav(out)
-    ren = render(snd, ListenerPath.point((0.0, -0.5, 0.0), duration=0.05), layout="5.1")
+    ren = render_sound(snd, ListenerPath.point((0.0, -0.5, 0.0), duration=0.05), layout="5.1")
     assert audio.shape == ren.audio.shape == (6, round(0.05 * rate))
     np.testing.assert_allclose(audio, ren.audio, atol=1e-6 * np.abs(ren.audio).max())
     assert mask == 0x3F  # FL FR FC LFE BL BR
@@ -211,7 +211,7 @@ def test_binaural_discharge_is_the_ear_stage_of_its_ambix_render() -> None:
     is louder right and arrives there first."""
     from auralize_spark.waves import Discharge, DischargePart, WaveParams
 
-    from auralize.emitters import Sound, render
+    from auralize.emitters import Sound, render_sound
     from auralize.spatial import output_stage
 
     d = Discharge(np.array([[0.0, 0, 0], [0.0, 0, 0.01]]), [-1, 0], [True, True])
@@ -224,7 +224,7 @@ def test_binaural_discharge_is_the_ear_stage_of_its_ambix_render() -> None:
     assert amb.audio.shape[0] == 8
     ref = stage.finish(amb).audio
     np.testing.assert_allclose(ears.audio, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
-    scene = render(Sound([part]), path, rate=44100, layout="binaural", duration=0.02).audio
+    scene = render_sound(Sound([part]), path, rate=44100, layout="binaural", duration=0.02).audio
     np.testing.assert_allclose(scene, ears.audio, rtol=0, atol=1e-9 * np.abs(ref).max())
     left, right = np.sum(ears.audio**2, axis=1)
     assert right > 2 * left

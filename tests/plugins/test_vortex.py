@@ -18,7 +18,7 @@ from auralize_vortex.texture import (
     third_derivative,
 )
 
-from auralize.emitters import Emitters, Sound, render
+from auralize.emitters import Emitters, Sound, render_sound
 from auralize.errors import DataError, FieldError, FormatError, MissingFileError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial import Speaker, make_layout
@@ -258,7 +258,7 @@ def test_engine_arrival_is_distance_over_c0_and_amplitude_follows_the_law(law):
     e = 1 if law == "physical" else 3
     for x in [(3.0, 4.0, 0.0), (0.0, 0.0, -20.0), (10.0, -24.0, 0.0)]:
         D = float(np.linalg.norm(x))
-        a = render(sound, ListenerPath.point(x, duration=0.5), rate=RATE).audio[0]
+        a = render_sound(sound, ListenerPath.point(x, duration=0.5), rate=RATE).audio[0]
         # the texture's pulse is emitted at 0.3 s and heard D/c0 later, with amplitude 1/D^e
         assert _arrival(a) == pytest.approx(0.3 + D / C0, abs=0.01 / RATE)
         assert a.max() * D**e == pytest.approx(1.0, rel=2e-3)
@@ -270,7 +270,7 @@ def test_engine_doppler_of_an_approaching_listener():
     v = C0 / 10
     moving = ListenerPath.line((0.0, -40.0, 0.0), (0.0, -40.0 + v, 0.0), duration=1.0)
     for path, f_expected in [(moving, 100.0 * (1 + v / C0)), (ListenerPath.point((0, -20, 0), duration=1.0), 100.0)]:  # fmt: skip
-        a = render(sound, path, rate=RATE).audio[0, int(0.2 * RATE) : int(0.9 * RATE)]
+        a = render_sound(sound, path, rate=RATE).audio[0, int(0.2 * RATE) : int(0.9 * RATE)]
         up = np.flatnonzero((a[:-1] < 0) & (a[1:] >= 0))
         t_up = (up + a[up] / (a[up] - a[up + 1])) / RATE  # upward zero crossings
         f = (t_up.size - 1) / (t_up[-1] - t_up[0])
@@ -306,11 +306,11 @@ def test_engine_pans_a_subvolume_above_the_listener_to_the_height_speakers():
     for d, ring8_ch, dome_ch in [(np.array([c * c, c * c, c]), 1, 8), (np.array([1.0, 0, 0]), 0, 0)]:  # fmt: skip
         x = -3.5 * d
         path = ListenerPath(np.array([0.0, 0.3]), np.stack([x, x]), np.array([[1.0, 0, 0]] * 2))
-        dome = render(sound, path, rate=RATE, layout=_dome()).audio
+        dome = render_sound(sound, path, rate=RATE, layout=_dome()).audio
         energy = np.sum(dome**2, axis=1)
         assert energy[dome_ch] / energy.sum() >= 0.99
         # a horizontal ring pans on the azimuth only (2-D VBAP)
-        ring = render(sound, path, rate=RATE, layout="ring8").audio
+        ring = render_sound(sound, path, rate=RATE, layout="ring8").audio
         energy = np.sum(ring**2, axis=1)
         assert energy[ring8_ch] / energy.sum() >= 0.99
 
@@ -333,9 +333,11 @@ def test_sound_limit_truncates_the_received_pressure_and_emission_has_soft_ends(
     sound = VortexSound().synthesize(_uniform_volume(4.0), texture=_sine_texture(), limit_pa=1.0)
     part = sound.parts[0]
     assert type(part).__name__ == "TruncatedEmitters" and sound.meta["limit_pa"] == 1.0
-    two = render(sound, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE, layout="stereo")
+    two = render_sound(
+        sound, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE, layout="stereo"
+    )
     assert np.max(np.abs(two.audio)) == pytest.approx(1.0)
-    free = render(part.emitters, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE)
+    free = render_sound(part.emitters, ListenerPath.point((0, -0.5, 0), duration=0.3), rate=RATE)
     assert np.max(np.abs(free.audio)) > 10.0  # 16 Pa at 1 m, 0.5 m away
     em = vortex_emitters(_uniform_volume(4.0), _sine_texture(), duration=0.5, lead=0.1)
     assert em.t0 == -0.1 and em.t_end == pytest.approx(0.5, abs=2 / em.rate)
@@ -412,13 +414,13 @@ def test_model_synthesize_and_ring8(plume, tmp_path):
     )  # 5³ points of 0.04 m: the texture box and sound.meta["n_sources"] == 36
     # the data's 10 frames at 30 Hz are emitted (plus the lead), then the emitters fall silent
     assert em.t_end == pytest.approx(10 / 30, abs=2 / em.rate)
-    mono = render(sound, path, rate=RATE)
+    mono = render_sound(sound, path, rate=RATE)
     assert mono.audio.shape == (1, int(0.3 * RATE)) and mono.meta["model"] == "vortex"
     # the mix is the sum of the sub-volumes rendered alone
-    alone = sum(render(Emitters(em.signals[i : i + 1], em.rate, em.positions[i : i + 1], t0=em.t0),
+    alone = sum(render_sound(Emitters(em.signals[i : i + 1], em.rate, em.positions[i : i + 1], t0=em.t0),
                        path, rate=RATE).audio for i in range(0, 36, 7))  # fmt: skip
     some = Emitters(em.signals[::7], em.rate, em.positions[::7], t0=em.t0)
-    np.testing.assert_allclose(render(some, path, rate=RATE).audio, alone, atol=1e-12)
+    np.testing.assert_allclose(render_sound(some, path, rate=RATE).audio, alone, atol=1e-12)
     r8 = render_vortex(plume, path, tex, rate=RATE, layout="ring8")
     assert r8.audio.shape == (8, int(0.3 * RATE)) and r8.meta["n_sources"] == 36
     with pytest.raises(ParameterError, match="attenuation"):
