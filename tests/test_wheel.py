@@ -84,6 +84,17 @@ def test_wheel_and_sdist_carry_data_licences_and_examples(installed: dict) -> No
         assert f in names, f
     meta = zipfile.ZipFile(installed["wheel"]).read("auralize-0.1.0.dist-info/METADATA").decode()
     assert "License-Expression: BSD-3-Clause" in meta
+    # every licence file shipped beside a dataset is named in the metadata too
+    shipped = sorted(
+        n.split("/", 1)[1]
+        for n in names
+        if "/data/" in n and ".dist-info/" not in n and n.rsplit("/", 1)[-1].startswith("LICENSE")
+    )
+    assert len(shipped) >= 7, shipped
+    declared = {ln.split(": ", 1)[1] for ln in meta.splitlines() if ln.startswith("License-File:")}
+    for lic in shipped:
+        assert any(d.endswith(lic) for d in declared), (lic, declared)
+    assert "Provides-Extra: notebook" in meta
     requires = [ln for ln in meta.splitlines() if ln.startswith("Requires-Dist:")]
     assert "Requires-Dist: numpy>=2.4.6" in requires
     assert not [r for r in requires if "==" in r.split(";")[0]], requires
@@ -92,6 +103,7 @@ def test_wheel_and_sdist_carry_data_licences_and_examples(installed: dict) -> No
     members = {m.split("/", 1)[1] for m in tarfile.open(installed["sdist"]).getnames() if "/" in m}
     for f in ("LICENSE", "constraints.txt", "examples/explosion_tour.py",
               "examples/regression_check.py", "examples/batch_render.py",
+              "examples/notebook_tour.ipynb",
               "auralize/data/regression/explosion.json", "tests/test_wheel.py"):  # fmt: skip
         assert f in members, f
 
