@@ -265,8 +265,37 @@ def test_sound_model_makes_the_same_emitters(mono) -> None:
     assert len(sound.parts) == 3 and sound.meta["panels"] == 384
     for a, b in zip(sound.parts, direct.parts, strict=True):
         np.testing.assert_allclose(a.signals, b.signals)
-    with pytest.raises(ParameterError, match="needs surface="):
-        FWHSound().synthesize(mono)
+    # no surface: the default box inside the data, the one `auralize render` uses
+    from auralize.fwh.classify import default_surface
+
+    small = pulse_volume("monopole", XS, n=13, spacing=4 * H, origin=-0.3 * 4, steps=8,
+                         dt=4 * DT, pulse=PULSE)  # fmt: skip
+    plain = FWHSound().synthesize(small)
+    spec = default_surface(small)
+    assert spec == "box=-0.6;0.6;-0.6;0.6;-0.6;0.6"  # 3 cells in: more than 10 % here
+    boxed = fwh_emitters(small, box_surface([-0.6, 0.6] * 3, panel_size=4 * H))
+    assert plain.meta["panels"] == boxed.meta["panels"] == 6 * 6 * 6
+    for a, b in zip(plain.parts, boxed.parts, strict=True):
+        np.testing.assert_allclose(a.signals, b.signals)
+
+
+def test_overlay_is_the_surface_coloured_by_the_pressure(mono) -> None:
+    """The viewer's overlay: the panels ``synthesize`` integrates over, each coloured by
+    the exact p' at its centre for the step shown (the grid's trilinear error aside)."""
+    from auralize.fwh.model import FWHSound
+
+    surface = box_surface([-0.8, 0.8] * 3, panel_size=H)  # the default: 10 % inside
+    step = 63  # the pulse is crossing the box faces
+    mesh = FWHSound().overlay((mono, None), step)
+    assert mesh.n_cells == surface.n_panels == 6 * 32 * 32
+    np.testing.assert_allclose(mesh.cell_centers().points, surface.centres, atol=1e-12)
+    got = mesh.cell_data["p' (Pa)"]
+    exact = _field("monopole", XS, mono.times[step], surface.centres)[0]
+    assert np.max(np.abs(exact)) > 0.3  # a step where the faces carry the wave
+    assert np.max(np.abs(got - exact)) < 0.05 * np.max(np.abs(exact))
+    flat = TimeVolume.from_arrays({"pressure": np.ones((4, 9, 9, 9))}, spacing=1.0)
+    with pytest.raises(FieldError, match="needs the flow velocity"):
+        FWHSound().overlay(flat, 0)
 
 
 def test_spectrum_at_an_observer_by_fwh_is_the_exact_fields(mono) -> None:

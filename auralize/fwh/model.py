@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, ClassVar
 
+import numpy as np
+
 from auralize.plugins import Parameter, SoundModel
 
 if TYPE_CHECKING:
@@ -40,7 +42,8 @@ class FWHSound(SoundModel):
             "surface",
             "",
             doc="box=x0;x1;y0;y1;z0;z1, sphere=cx;cy;cz;r[;nsub] or "
-            "file=PATH (a closed surface inside the grid, around the sources)",
+            "file=PATH (a closed surface inside the grid, around the sources; "
+            "default: a box 10 % of the extent, at least 3 cells, inside each face)",
         ),  # fmt: skip
         Parameter(
             "panel_size",
@@ -56,22 +59,62 @@ class FWHSound(SoundModel):
         Parameter("time_origin", "auto", doc="data second at playback 0 (auto: first step)"),
     )
 
+    def surface_of(self, volume: Any, params: dict[str, Any]) -> Any:
+        """The :class:`~auralize.fwh.surface.Surface` the resolved ``params`` place in
+        ``volume``: the ``surface`` given, or the default box
+        (:func:`auralize.fwh.classify.default_surface`, as ``auralize render`` uses)."""
+        from auralize.fwh.classify import default_surface
+        from auralize.fwh.surface import surface_from_spec
+
+        spec = str(params["surface"]) or default_surface(volume)
+        panel = float(params["panel_size"]) or float(volume.spacing.min())
+        return surface_from_spec(spec, panel_size=panel)
+
+    def overlay(self, inputs: Any, step: int) -> Any:
+        """The FW-H surface for the viewer, its panels coloured by p' (Pa) at ``step``.
+
+        ``inputs`` is a TimeVolume or ``(TimeVolume, path)``; the surface is the
+        one :meth:`synthesize` integrates over with the model's parameters
+        (default: the box inside the data that ``auralize render`` uses).
+
+        Raises
+        ------
+        FieldError, DataError
+            The data cannot be heard through the surface (no velocity, no density
+            or pressure, a curvilinear grid, the surface outside the grid): the
+            viewer says so in its Overlays panel.
+        """
+        import pyvista as pv
+
+        from auralize.errors import ParameterError
+        from auralize.fwh.sampling import panel_pressure, trilinear_weights
+        from auralize.volume import TimeVolume
+
+        volume = inputs[0] if isinstance(inputs, tuple) else inputs
+        if not isinstance(volume, TimeVolume):
+            raise ParameterError(f"fwh overlay needs a TimeVolume, got {type(volume).__name__}")
+        p = self.resolve()
+        surface = self.surface_of(volume, p)
+        trilinear_weights(volume, surface.centres[:1])  # a curvilinear grid says why it cannot
+        corners = surface.corners
+        P, k = corners.shape[:2]
+        faces = np.hstack([np.full((P, 1), k), np.arange(P * k).reshape(P, k)]).ravel()
+        mesh = pv.PolyData(corners.reshape(-1, 3).copy(), faces=faces)
+        mesh.cell_data["p' (Pa)"] = panel_pressure(volume, surface, step, rho0=float(p["rho0"]),
+                                                   c0=float(p["c0"]))  # fmt: skip
+        return mesh
+
     def synthesize(self, inputs: Any, **params: Any) -> Sound:
         """The FW-H emitters of a volume (see :func:`auralize.fwh.formulation.fwh_emitters`)."""
         from auralize.errors import ParameterError
         from auralize.fwh.formulation import fwh_emitters
-        from auralize.fwh.surface import surface_from_spec
         from auralize.volume import TimeVolume
 
         if not isinstance(inputs, TimeVolume):
             raise ParameterError(f"fwh model inputs must be a TimeVolume, got "
                                  f"{type(inputs).__name__}")  # fmt: skip
         p = self.resolve(**params)
-        if not p["surface"]:
-            raise ParameterError("fwh model needs surface=box=x0;x1;y0;y1;z0;z1, "
-                                 "sphere=cx;cy;cz;r or file=PATH")  # fmt: skip
-        panel = float(p["panel_size"]) or float(inputs.spacing.min())
-        surface = surface_from_spec(str(p["surface"]), panel_size=panel)
+        surface = self.surface_of(inputs, p)
 
         def number(key: str) -> float | None:
             v = p[key]

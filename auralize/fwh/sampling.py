@@ -174,6 +174,69 @@ def _mapping(roles: dict[str, str | None], rho0: float, c0: float) -> AcousticMa
                                  rho0=rho0, c0=c0)  # fmt: skip
 
 
+def _sample_step(volume: TimeVolume, n: int, mapping: AcousticMapping, idx: NDArray[np.int64],
+                 w: NDArray[np.float64], pname: str | None, p0: float | None, rho0: float,
+                 c0: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """ρ, u and p' interpolated to the panel centres (``idx``, ``w``) at step ``n``."""
+    r, u = mapping.map(volume, n)
+    rho = np.einsum("pc,pc->p", r.reshape(-1)[idx], w)
+    vel = np.einsum("pcj,pc->pj", u.reshape(-1, 3)[idx], w)
+    if pname is not None:
+        assert p0 is not None
+        pp = np.einsum("pc,pc->p", volume.frame(pname, n).reshape(-1)[idx], w) - p0
+    else:  # the linear acoustic relation p' = c0² ρ'
+        pp = c0**2 * (rho - rho0)
+    return rho, vel, pp
+
+
+def panel_pressure(volume: TimeVolume, surface: Surface, step: int, *, rho0: float = RHO0,
+                   c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+    """The pressure fluctuation p' (Pa) on the panel centres of ``surface`` at one step.
+
+    The same interpolation and field rules as :func:`sample_surface` (p' from the
+    pressure less its first step's mean, or c0² (ρ − ρ0) without a pressure
+    field), for one step only: what the viewer colours the FW-H surface by.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        Uniform grid with the FW-H fields (see :func:`resolve_fields`).
+    surface : Surface
+        Inside the grid.
+    step : int
+        Time step index.
+    rho0, c0 : float
+        Ambient density (kg/m³) and speed of sound (m/s).
+
+    Returns
+    -------
+    (P,) float
+        p' in Pa per panel (NaN where the data have none).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.fwh.surface import box_surface
+    >>> p = 1e5 + np.arange(2.0)[:, None, None, None] * np.ones((2, 5, 5, 5))  # +1 Pa at step 1
+    >>> vol = TimeVolume.from_arrays({"pressure": p, "velocity": np.zeros((2, 5, 5, 5, 3))},
+    ...                              spacing=1.0)
+    >>> panel_pressure(vol, box_surface((1, 3, 1, 3, 1, 3), n=2), 1).round(9)[:3].tolist()
+    [1.0, 1.0, 1.0]
+    """
+    check_inside(volume, surface)
+    roles = resolve_fields(volume)
+    mapping = _mapping(roles, rho0, c0)
+    mapping.prepare(volume)
+    idx, w = trilinear_weights(volume, surface.centres)
+    pname = roles["pressure"] if roles["density"] is not None else None
+    p0 = None
+    if pname is not None:
+        first = volume.frame(pname, 0)
+        finite = np.isfinite(first)
+        p0 = float(first[finite].mean()) if finite.any() else 0.0
+    return _sample_step(volume, int(step), mapping, idx, w, pname, p0, rho0, c0)[2]
+
+
 def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, c0: float = C0,
                    p0: float | None = None, density: str | None = None,
                    velocity: str | None = None, momentum: str | None = None,
@@ -232,14 +295,7 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
     vel = np.empty((T, P, 3))
     pp = np.empty((T, P))
     for n in range(T):
-        r, u = mapping.map(volume, n)
-        rho[n] = np.einsum("pc,pc->p", r.reshape(-1)[idx], w)
-        vel[n] = np.einsum("pcj,pc->pj", u.reshape(-1, 3)[idx], w)
-        if pname is not None:
-            assert p0 is not None
-            pp[n] = np.einsum("pc,pc->p", volume.frame(pname, n).reshape(-1)[idx], w) - p0
-        else:  # the linear acoustic relation p' = c0² ρ'
-            pp[n] = c0**2 * (rho[n] - rho0)
+        rho[n], vel[n], pp[n] = _sample_step(volume, n, mapping, idx, w, pname, p0, rho0, c0)
         bad = ~(np.isfinite(rho[n]) & np.isfinite(vel[n]).all(axis=1) & np.isfinite(pp[n]))
         if bad.any():
             raise DataError(
