@@ -9,7 +9,7 @@ readers (:mod:`auralize.io`) and the datasets it names.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from auralize.datasets.synthetic import make_dataset
 from auralize.errors import ParameterError
@@ -20,7 +20,7 @@ __all__ = ["load"]
 
 def load(spec: str | Path | TimeVolume, *, size: int | None = None, steps: int | None = None,
          seed: int = 0, fields: dict[str, str] | None = None,
-         resolution: int | tuple[int, int, int] | None = None, nan: str = "mask",
+         resolution: int | tuple[int, int, int] | None = None, nan: Literal["mask", "error"] = "mask",
          time_dim: str | None = None, axis_scale: Any = None, box: Any = None) -> TimeVolume:  # fmt: skip
     """Open a volume file, or a dataset that comes with auralize by ``"dataset:NAME"``:
     generated (``size``, ``steps``, ``seed``) or shipped (``dataset:cavity``, ...;

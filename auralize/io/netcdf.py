@@ -143,6 +143,27 @@ _TIME_UNITS = {
 def time_unit_seconds(units: str, *, source: str) -> tuple[float, str | None]:
     """Seconds per unit of a CF time ``units`` string, and its reference date.
 
+    Parameters
+    ----------
+    units : str
+        ``"<unit>"`` or ``"<unit> since <date>"`` (CF): seconds, milliseconds,
+        microseconds, minutes, hours, days, weeks, months, years and their
+        abbreviations (``s``, ``ms``, ``min``, ``h``, ``d`` ...).
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    factor : float
+        Seconds per unit (a year is 365.242198781 days, a month a twelfth of it).
+    reference : str or None
+        The text after ``since``, None without one.
+
+    Raises
+    ------
+    FormatError
+        Units that are not a CF time unit.
+
     Examples
     --------
     >>> time_unit_seconds("days since 2001-01-01", source="x.nc")
@@ -507,6 +528,16 @@ def standard_height(p: NDArray[np.float64] | float) -> NDArray[np.float64]:
     ``g = 9.80665 m/s²``; above 11 km the isothermal and warming layers of
     ISO 2533 up to 71 km (the top layer extends beyond).  Pressures above
     ``p0`` give heights below 0.
+
+    Parameters
+    ----------
+    p : float or array_like
+        Pressure in Pa, any shape.
+
+    Returns
+    -------
+    ndarray
+        Height in m, the shape of ``p`` (float64).
 
     Examples
     --------
@@ -1287,6 +1318,21 @@ def read_netcdf(
         ``grid_units`` (the coordinates' units in the file, x, y, z),
         ``projection`` (for longitude/latitude) and ``axis_scale_applied``
         (when ``axis_scale=`` replaced the conversions).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not a readable netCDF file, time units or coordinates it cannot
+        understand, no time or spatial dimensions it can use.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Missing time or coordinate values, coordinates that are not finite and
+        monotonic, pressure levels <= 0, times not strictly increasing.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
 
     Examples
     --------

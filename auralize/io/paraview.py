@@ -19,7 +19,7 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -99,6 +99,36 @@ def read_pvd(
         ``<DataSet timestep=... file=.../>`` entries, files relative to it.
     fields, resolution, name_map
         As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step per timestep of the collection; step 0 has been read to
+        learn the grid.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not a ``<VTKFile type="Collection">`` with ``DataSet`` entries,
+        entries without a file or with a timestep that is no number, step
+        files that do not exist or are not VTK data files, a damaged step file.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Timesteps that are not finite or occur twice (same part); steps whose
+        grids or arrays disagree, a damaged mesh, a ``box`` that holds none of
+        the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
 
     Notes
     -----
@@ -201,9 +231,52 @@ def read_series(
     fields, resolution, name_map
         As in :func:`auralize.io.open_volume`.
 
+    Returns
+    -------
+    TimeVolume
+        One step per file, at its ``time`` (s).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not valid JSON, no ``files`` list, an unknown
+        ``file-series-version``, an entry without a name or a numeric time,
+        step files that do not exist or are not VTK data files.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Times that are not finite or occur twice; steps whose grids or arrays
+        disagree, a damaged mesh, a ``box`` that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
     Notes
     -----
     Files are taken in increasing time order; two files at one time are an error.
+
+    Examples
+    --------
+    >>> import json, tempfile, pathlib, numpy as np, pyvista as pv
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> for n in range(2):
+    ...     img = pv.ImageData(dimensions=(4, 3, 2))
+    ...     img.point_data["rho"] = np.full(24, float(n))
+    ...     img.save(folder / f"a_{n}.vti")
+    >>> files = [{"name": "a_0.vti", "time": 0.0}, {"name": "a_1.vti", "time": 0.25}]
+    >>> _ = (folder / "a.series").write_text(
+    ...     json.dumps({"file-series-version": "1.0", "files": files}))
+    >>> vol = read_series(folder / "a.series")
+    >>> vol.times.tolist(), vol.dims, float(vol.frame("rho", 1).max())
+    ([0.0, 0.25], (4, 3, 2), 1.0)
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -263,6 +336,24 @@ def xml_root_type(path: Path) -> str | None:
     """The ``type`` of a VTK XML file's ``<VTKFile>`` element (``None`` if it has none).
 
     Reads the first 4 KiB only: the element opens every VTK XML file.
+
+    Parameters
+    ----------
+    path : Path
+        Any path; an unreadable one has no type.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"ImageData"``, ``"Collection"``, ``"vtkOverlappingAMR"``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "old.vtm"
+    >>> _ = f.write_text('<?xml version="1.0"?><VTKFile type="vtkHierarchicalBoxDataSet">')
+    >>> xml_root_type(f), xml_root_type(f.parent / "missing.vtm")
+    ('vtkHierarchicalBoxDataSet', None)
     """
     try:
         with open(path, "rb") as f:
@@ -282,7 +373,53 @@ def read_mesh_file(
 ) -> TimeVolume:
     """Open one VTK data file (``.vti``, ``.vts``, ``.vtu`` ...) as a one-step volume.
 
-    The single time is 0 with ``physical_times=False``.
+    The single time is 0 with ``physical_times=False``.  An AMR file by another
+    name (VTK 5 wrote hierarchical box data sets as ``.vtm``) is read by
+    :func:`auralize.io.vtk_readers.read_amr`.
+
+    Parameters
+    ----------
+    path : path-like
+        A file of one of :data:`MESH_SUFFIXES`; a ``.vtm``'s blocks are merged.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step; its frame has been read to learn the grid.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not a VTK data file, a damaged file, a file that holds no points.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np, pyvista as pv
+    >>> img = pv.ImageData(dimensions=(4, 3, 2), spacing=(0.5, 0.5, 0.5))
+    >>> img.point_data["rho"] = np.arange(24.0)
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "rho.vti"
+    >>> img.save(f)
+    >>> vol = read_mesh_file(f)
+    >>> vol.dims, vol.spacing.tolist(), vol.n_steps, vol.physical_times
+    ((4, 3, 2), [0.5, 0.5, 0.5], 1, False)
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -369,6 +506,53 @@ def read_vtkhdf(
     Temporal files (a ``/VTKHDF/Steps`` group) give one time step per step,
     read with VTK's ``vtkHDFReader.SetStep``; others give one step at time 0
     with ``physical_times=False``.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.vtkhdf`` (or other HDF5) file.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        Times from ``/VTKHDF/Steps/Values`` (s).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not readable as VTKHDF, data in other files (external
+        links or datasets, unless allowed:
+        :func:`auralize.io.hdf5.allow_external_data`).
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.io.vtkhdf_write import write_volume_vtkhdf
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.zeros((3, 2, 3, 4))}, times=[0.0, 0.1, 0.2])
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "p.vtkhdf"
+    >>> write_volume_vtkhdf(vol, f)
+    >>> again = read_vtkhdf(f)
+    >>> again.times.tolist(), again.dims
+    ([0.0, 0.1, 0.2], (4, 3, 2))
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -398,7 +582,7 @@ def write_pvd(
     volume: TimeVolume,
     path: str | os.PathLike[str],
     *,
-    compression: str | None = None,
+    compression: Literal["gzip"] | None = None,
 ) -> None:
     """Write ``volume`` as ``<stem>.pvd`` plus ``<stem>_data/<stem>_NNNN.vti``, atomically.
 
@@ -419,6 +603,19 @@ def write_pvd(
         (:class:`~auralize.errors.OutputExistsError`, a :class:`FileExistsError`).
     compression : {None, "gzip"}
         Compress the ``.vti`` arrays with zlib (gzip's deflate).
+
+    Raises
+    ------
+    ParameterError
+        ``compression`` is neither None nor ``"gzip"``.
+    DataError
+        A frame holds NaN/Inf at a valid point of a volume that checks
+        (``check_finite``); the old collection is kept.
+    OutputError
+        The folder cannot be written or the disk has too little free space
+        (uncompressed: refused before writing);
+        :class:`~auralize.errors.OutputExistsError` when ``<stem>_data/``
+        exists and auralize did not write it.
 
     Notes
     -----

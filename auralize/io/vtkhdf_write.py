@@ -69,6 +69,12 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
 
     Raises
     ------
+    MissingFileError
+        The folder of ``path`` does not exist.
+    DataError
+        A field name cannot name a VTKHDF array (empty, ``/``), or a frame
+        holds NaN/Inf at a valid point of a volume that checks
+        (``check_finite``); nothing is left behind.
     OutputError
         The disk has less free space than the file needs (refused before
         writing), or a write failed: the first failed write ends it, and
@@ -76,9 +82,13 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
 
     Examples
     --------
-    >>> import numpy as np, tempfile, pathlib
+    >>> import h5py, numpy as np, tempfile, pathlib
     >>> vol = TimeVolume.from_arrays({"p": np.zeros((2, 3, 4, 5))}, times=[0.0, 0.1])
-    >>> write_volume_vtkhdf(vol, pathlib.Path(tempfile.mkdtemp()) / "p.vtkhdf")
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "p.vtkhdf"
+    >>> write_volume_vtkhdf(vol, f)
+    >>> with h5py.File(f, "r") as h:
+    ...     h["VTKHDF/PointData/p"].shape, h["VTKHDF/Steps/Values"][()].tolist()
+    ((2, 3, 4, 5), [0.0, 0.1])
     """
     p = _checked_target(path)
     for name in volume.field_names:
@@ -130,6 +140,31 @@ def sources_polydata(series: Any, step: int) -> Any:
 
     Point data ``kind``, ``strength``, ``radius`` (m), ``volume`` (m³); field
     data ``kind_code`` / ``kind_name``, the legend of the ``kind`` codes.
+
+    Parameters
+    ----------
+    series : SourceSeries
+        Detected sources (:class:`~auralize.sources.detection.SourceSeries`).
+    step : int
+        Time step, 0 to ``series.n_steps - 1``.
+
+    Returns
+    -------
+    pyvista.PolyData
+        Points at the sources' grid positions (m).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources import SourceFrame, SourceSeries
+    >>> frames = [SourceFrame(index=np.array([0, 5]), kind=np.array([1, 2], np.int8),
+    ...                       strength=np.array([0.5, -1.0]), radius=np.array([0.1, 0.2]))]
+    >>> series = SourceSeries(frames=frames, times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2),
+    ...                       thresholds=np.ones(3))
+    >>> poly = sources_polydata(series, 0)
+    >>> poly.points.tolist(), poly.point_data["kind"].tolist()
+    ([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0]], [1, 2])
     """
     import pyvista as pv
 
@@ -166,10 +201,28 @@ def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
 
     Raises
     ------
+    MissingFileError
+        The folder of ``path`` does not exist.
     OutputError
         The disk has less free space than the file needs (refused before
         writing), or a write failed: the first failed write ends it, and
         nothing is left behind (:func:`~auralize.runtime.files.atomic_hdf5`).
+
+    Examples
+    --------
+    >>> import h5py, tempfile, pathlib
+    >>> import numpy as np
+    >>> from auralize.sources import SourceFrame, SourceSeries
+    >>> frames = [SourceFrame(index=np.array([0, 5]), kind=np.array([1, 2], np.int8),
+    ...                       strength=np.array([0.5, -1.0]), radius=np.array([0.1, 0.2]))]
+    >>> series = SourceSeries(frames=frames, times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2),
+    ...                       thresholds=np.ones(3))
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "sources.vtkhdf"
+    >>> write_sources_vtkhdf(series, f)
+    >>> with h5py.File(f, "r") as h:
+    ...     h["VTKHDF/NumberOfPoints"][()].tolist(), h["VTKHDF/PointData/strength"][()].tolist()
+    ([2], [0.5, -1.0])
     """
     p = _checked_target(path)
     frames = list(series.frames)
@@ -239,7 +292,19 @@ def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
 
 
 def h5py_string() -> Any:
-    """The HDF5 type of VTKHDF string arrays: variable-length ASCII."""
+    """The HDF5 type of VTKHDF string arrays: variable-length ASCII.
+
+    Returns
+    -------
+    numpy.dtype
+        ``h5py.string_dtype("ascii")``.
+
+    Examples
+    --------
+    >>> import h5py
+    >>> h5py.check_string_dtype(h5py_string()).encoding
+    'ascii'
+    """
     import h5py
 
     return h5py.string_dtype("ascii")
