@@ -122,6 +122,32 @@ def test_a_damaged_enzo_hierarchy_is_an_error_not_a_crash(tmp_path: Path) -> Non
         read_enzo(hier)
 
 
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (("GridEndIndex = 7 7 7\n", ""), "grid 1's entry has GridEndIndex missing"),
+        (("NumberOfParticles = 0\n", ""), "NumberOfParticles missing"),
+        (("GridLeftEdge", "GridRightEdgeX"), "GridLeftEdge missing"),
+        (("GridStartIndex = 0 0 0\nGridEndIndex = 7 7 7",
+          "GridEndIndex = 7 7 7\nGridStartIndex = 0 0 0"), "GridEndIndex out of order"),
+    ],
+)  # fmt: skip
+def test_an_enzo_hierarchy_vtk_would_scan_forever_is_refused_at_once(
+    tmp_path: Path, change: tuple[str, str], message: str
+) -> None:
+    """VTK's Enzo reader scans forward for each grid key in turn: a key missing or out of
+    order makes it spin past the end of the file (until the child's time limit)."""
+    from auralize.io.vtk_readers import read_enzo
+
+    out = _enzo_output(tmp_path)
+    hier = out / "data0001.hierarchy"
+    text = hier.read_text()
+    assert change[0] in text
+    hier.write_text(text.replace(*change))
+    with pytest.raises(FormatError, match=message):
+        read_enzo(hier)
+
+
 def _dolfin_checkpoint(folder: Path) -> Path:
     h5 = folder / "u.h5"
     with h5py.File(h5, "w") as f:

@@ -1337,6 +1337,34 @@ def enzo_hierarchy(path: Path) -> Path | None:
     return candidate if candidate.is_file() else None
 
 
+#: keys VTK's Enzo reader looks for in each grid's entry of a hierarchy, in this order:
+#: it scans forward for each one in turn, and one missing (or out of order) makes it
+#: scan past the end of the file without stopping
+ENZO_GRID_KEYS = ("GridStartIndex", "GridEndIndex", "GridLeftEdge", "GridRightEdge",
+                  "BaryonFileName", "NumberOfParticles")  # fmt: skip
+
+
+def _check_enzo_grid_keys(hierarchy: Path, text: str) -> None:
+    """Raise :class:`FormatError` unless every grid entry of the hierarchy ``text`` holds
+    :data:`ENZO_GRID_KEYS` in order (VTK's reader would never return on it)."""
+    starts = [m.start() for m in re.finditer(r"^\s*Grid\s*=\s*\d+", text, flags=re.M)]
+    for a, b in zip(starts, [*starts[1:], len(text)], strict=True):
+        entry = text[a:b]
+        grid = entry.split("=", 1)[1].split()[0]
+        at = 0
+        for key in ENZO_GRID_KEYS:
+            m = re.compile(rf"^\s*{key}\s*=", flags=re.M).search(entry, at)
+            if m is None:
+                where = "missing" if re.search(rf"^\s*{key}\s*=", entry, re.M) is None else (
+                    "out of order")  # fmt: skip
+                raise FormatError(
+                    f"{hierarchy}: grid {grid}'s entry has {key} {where} (an Enzo hierarchy "
+                    f"gives each grid {', '.join(ENZO_GRID_KEYS)} in this order); the file is "
+                    f"damaged or not written by Enzo"
+                )
+            at = m.end()
+
+
 def read_enzo(
     path: str | os.PathLike[str],
     *,
@@ -1430,6 +1458,7 @@ def read_enzo(
         raise FormatError(
             f"{hierarchy}: not an Enzo hierarchy (no 'Grid = 1' with a BaryonFileName)"
         )
+    _check_enzo_grid_keys(hierarchy, text)
     parameters = hierarchy.with_name(hierarchy.name.removesuffix(".hierarchy"))
     if not parameters.is_file():
         raise FormatError(f"{hierarchy}: the Enzo parameter file {parameters.name} is missing")
