@@ -32,9 +32,9 @@ save_rendered(rendered, "explosion.wav", subtype="pcm16")  # half the size of fl
 
 # %%
 # The render is in pascals at the listener.  Its level (dB re 20 µPa) over each
-# second of playback, per channel, with the 100 ms level as a line: the blast's
-# front arrives, swells while the listener swings past the nearest side, and
-# fades as the field settles.
+# second of playback, per channel, with the 100 ms level as a line: loudest as
+# the blast's front arrives; after that the two channels trade places while the
+# listener's head turns on the orbit.
 
 rate = rendered.rate
 left_right = rendered.audio
