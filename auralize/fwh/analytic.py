@@ -125,7 +125,7 @@ NAMES = ("density", "velocity", "pressure", "momentum")
 STEP = 1e-20
 
 Array = NDArray[np.float64]
-#: real or complex (the complex step) arrays
+# real or complex (the complex step) arrays
 Num = NDArray[Any]
 Field = Callable[[float, NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
 

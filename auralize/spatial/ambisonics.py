@@ -5,7 +5,7 @@ Conventions
 *AmbiX* (Nachbar, Zotter, Deleflie & Sontacchi 2011; Zotter & Frank,
 *Ambisonics*, Springer 2019, §4.8): real spherical harmonics of order
 n ≤ N and degree −n ≤ m ≤ n in **ACN** channel order ``acn = n² + n + m``,
-with **SN3D** normalisation and no Condon–Shortley phase:
+with **SN3D** normalisation and no Condon–Shortley phase::
 
     Y_n^m(φ, ϑ) = N_n^|m| · P_n^|m|(sin ϑ) · { cos(m φ)   m ≥ 0
                                               { sin(|m| φ) m < 0
@@ -24,7 +24,7 @@ SN3D obeys the addition theorem in the form Σ_m Y_n^m(θ) Y_n^m(θ') =
 P_n(cos γ) (γ the angle between θ and θ'), which the decoders below use.
 
 Decoders (:func:`decoder_matrix`)
---------------------------------
+---------------------------------
 * **AllRAD** (Zotter & Frank 2012; book §4.9.6): the Ambisonic signal is
   decoded to a dense virtual layout by the sampling decoder
   g(θ) = Σ_n (2n+1)/(4π) a_n Σ_m Y_n^m(θ) b_nm, then every virtual speaker
