@@ -385,6 +385,6 @@ def observer_pressure(volume: Any, listener: Any, *, method: str = "volume",
         raise ParameterError(f"method must be 'volume' or 'fwh', got {method!r}")
     from auralize.pipeline import auralize
 
-    out, _ = auralize(volume, listener=at[0], rate=int(rate), time_scale=1.0,
+    out, _ = auralize(volume, listener=at[0], rate=int(rate), time_scale=1.0, method="volume",
                       timbre="physical", highpass_hz=0.0, layout="mono")  # fmt: skip
     return out.audio, "volume sum (whole field)"

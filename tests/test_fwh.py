@@ -315,3 +315,20 @@ def test_spectrum_at_an_observer_by_fwh_is_the_exact_fields(mono) -> None:
     assert got.oaspl[0] == pytest.approx(ref.oaspl[0], abs=0.1)
     loud = ref.band_levels[0] > ref.band_levels[0].max() - 30
     assert np.max(np.abs(got.band_levels[0][loud] - ref.band_levels[0][loud])) < 0.5
+
+
+def test_spectrum_by_the_volume_sum_is_the_volume_sum_on_data_that_hold_sound(mono) -> None:
+    """``observer_pressure(method="volume")`` hears the volume sum even where the render's
+    ``auto`` would choose the FW-H integral (the data hold sound waves)."""
+    from auralize.fwh.classify import choose_method
+    from auralize.pipeline import auralize
+    from auralize.spectrum import observer_pressure
+
+    assert choose_method(mono, "auto").name == "fwh"
+    obs = XS + [0.0, 0.0, 40.0]
+    p, what = observer_pressure(mono, obs, method="volume")
+    assert what == "volume sum (whole field)"
+    vol, _ = auralize(mono, listener=obs, rate=44100, time_scale=1.0, method="volume",
+                      timbre="physical", highpass_hz=0.0, layout="mono")  # fmt: skip
+    assert vol.meta["method"] == "volume"
+    np.testing.assert_array_equal(p, vol.audio)
