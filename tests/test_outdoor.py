@@ -484,3 +484,20 @@ def test_simple_render_audio_outdoors() -> None:
     assert wet.meta["outdoor"]["ground"]["height_m"] == -0.5 and "outdoor" not in dry.meta
     assert wet.audio.shape == dry.audio.shape and not np.allclose(wet.audio, dry.audio)
     ResetSession()
+
+
+def test_continued_renders_outdoors_join_into_the_render() -> None:
+    """``render(carry=...)`` stretch by stretch (live listening) hears the same outdoors."""
+    from auralize.rendering import Carry
+
+    n = int(0.3 * RATE)
+    em = Emitters(np.random.default_rng(8).normal(size=(2, n)), RATE,
+                  np.array([[3.0, 40.0, 2.0], [-5.0, 20.0, 6.0]]))  # fmt: skip
+    path = ListenerPath.line((0, 0, 1.5), (1, 0, 1.5), duration=0.3)
+    kw: dict[str, Any] = dict(rate=RATE, layout="ring8", air=Air(20, 40), ground=Ground(0, 0.8))
+    whole = render(em, path, **kw).audio
+    carry = Carry()
+    cut = [0, 4000, 9001, n]
+    parts = [render(em, path, start=a / RATE, duration=(b - a) / RATE, carry=carry, **kw).audio
+             for a, b in itertools.pairwise(cut)]  # fmt: skip
+    assert np.allclose(np.concatenate(parts, axis=1), whole, atol=1e-9 * np.max(np.abs(whole)))
