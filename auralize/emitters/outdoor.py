@@ -46,9 +46,9 @@ the volume's sources (:class:`~auralize.emitters.FieldSources`: tracks at the da
     (the |q|-weighted harmonic mean the timbre's carriers follow).  The
     approximation: all of a volume's sources are taken at one distance, so
     the attenuation of band f is off by about α(f) ΔD across a source
-    region ΔD deep (at 4 kHz, 20 °C, 70 %: 0.02 dB per metre of depth);
-    the data's time stretched by ``time_scale`` is heard at the heard
-    frequencies, the air's are not stretched.
+    region ΔD deep (at 4 kHz, 20 °C, 70 %: 0.02 dB per metre of depth).
+    The air absorbs at the frequencies heard, also when ``time_scale``
+    stretches the data's time (the air's time is not stretched).
 a model's own part (``render_part``: closed forms, windowed emitters)
     on the emitters it renders through the engine
     (:func:`auralize.emitters.engine.render_emitters`, as above), else on
