@@ -58,8 +58,15 @@ def outdoor_rows(quick: bool) -> list[Any]:
     air = Air(20.0, 70.0)
     rows: list[Any] = []
     for what, em in (("static", still), ("moving (Doppler-shifted α)", moving)):
-        t_air = _cpu(lambda em=em: absorbed_emitters(em, path, air), repeat)
-        t_dry = _cpu(lambda em=em: render(em, path, rate=rate, layout="ring8"), repeat)
+
+        def filtered(em: Emitters = em) -> object:
+            return absorbed_emitters(em, path, air)
+
+        def rendered(em: Emitters = em) -> object:
+            return render(em, path, rate=rate, layout="ring8")
+
+        t_air = _cpu(filtered, repeat)
+        t_dry = _cpu(rendered, repeat)
         rows.append(BenchRow(
             "outdoor", f"air filter, {S} {what} emitters", S * n / t_air / 1e6,
             "M emitter-samples/CPU-s",

@@ -336,7 +336,7 @@ def stft_filter(x: NDArray[np.floating], frame: int,
     H = frame // 2
     total, K = frames(n, frame, lead)
     w = _window(frame)
-    out = np.empty((R, n), dtype=dtype)
+    out: NDArray[Any] = np.empty((R, n), dtype=dtype)
     step = max(1, _CHUNK // max(1, K * (frame // 2 + 1)))
     for r0 in range(0, R, step):  # row chunks: the frames of a chunk stay within _CHUNK
         rows = slice(r0, min(R, r0 + step))
@@ -431,7 +431,7 @@ def absorbed_emitters(em: Emitters, path: ListenerPath, air: Air, *, c0: float =
     C = 3 if em.dipole else 1
     N = frame_length(em.rate)
     _, K = frames(n, N, lead=N)
-    tau = em.t0 + (np.arange(K) * (N // 2) + 0.5 * N - N) / em.rate  # the frames' centres
+    tau = em.t0 + (np.arange(K, dtype=np.float64) * (N // 2) - 0.5 * N) / em.rate  # frame centres
     D, gamma = retarded_distance(em, path, tau, c0=c0)
     f = np.fft.rfftfreq(N, 1.0 / em.rate)
     nd = -_DB * D  # (S, K)
