@@ -386,6 +386,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
              hrtf: object = None, clip: bool = True, heard: str | Heard = DEFAULTS.heard,
              orbit_face: str = DEFAULTS.orbit_face, block: int | None = None,
              extra: Any = None, method: str = DEFAULTS.method, surface: str | None = None,
+             air: Any = None, ground: Any = None,
              **mapping_fields: str) -> tuple[Rendered, SourceSeries | None]:  # fmt: skip
     """Render the sound of ``volume`` along ``path``.
 
@@ -419,6 +420,10 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     (their pressure or density obeys the wave equation), else the volume sum.
     ``meta["method"]`` and ``meta["method_text"]`` say which, and why.
 
+    ``air`` (:class:`auralize.emitters.outdoor.Air`) and ``ground``
+    (:class:`auralize.emitters.outdoor.Ground`): outdoor propagation, as
+    :func:`render` (None, the default: neither).
+
     The defaults are those of ``auralize render FILE -o OUT`` with no other
     option: the mapping chosen from the fields, the whole field heard, the
     steady part removed, a default orbit, ``time_scale="auto"`` over
@@ -430,6 +435,10 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
     # everything that can be checked before the work is checked first
     volume = volume_arg(volume, "auralize")
     rate = check_rate(rate)
+    from auralize.emitters.outdoor import check_options
+
+    check_options(air, ground)
+    outdoor = {} if air is None and ground is None else {"air": air, "ground": ground}
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**32:
         raise ParameterError(f"seed must be a whole number in 0..4294967295, got {seed!r}")
     if thresholds is not None and not isinstance(thresholds, Thresholds):
@@ -458,7 +467,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
         return _auralize_fwh(volume, how, path=path, listener=listener, duration=duration,
                              time_scale=time_scale, rate=rate, layout=layout, c0=c0, clip=clip,
                              orbit_face=orbit_face, hrtf=hrtf, extra=extra,
-                             check_memory=check_memory), series  # fmt: skip
+                             check_memory=check_memory, outdoor=outdoor), series  # fmt: skip
     with memory_guard(f"rendering {volume.source}"):
         hs, plan = plan_heard(volume, path=path, listener=listener, duration=duration,
                               time_scale=time_scale, c0=c0, clip=clip, orbit_face=orbit_face,
@@ -477,7 +486,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
         sound = sound + extra
     with progress_step("render", enabled=progress_bar), memory_guard(f"rendering {volume.source}"):
         out = render(sound, plan.path, rate=rate, layout=layout, duration=plan.duration, c0=c0,
-                     highpass_hz=highpass_hz, hrtf=hrtf)  # fmt: skip
+                     highpass_hz=highpass_hz, hrtf=hrtf, **outdoor)  # fmt: skip
     out.meta.update({"volume": volume.source, **plan.as_dict(), **hs.meta, "method": "volume",
                      "method_text": how.describe()})  # fmt: skip
     return out, hs.series
@@ -486,7 +495,7 @@ def auralize(volume: TimeVolume, path: ListenerPath | None = None, *,
 def _auralize_fwh(volume: TimeVolume, how: Any, *, path: ListenerPath | None, listener: Any,
                   duration: float | None, time_scale: float | str, rate: int, layout: str,
                   c0: float, clip: bool, orbit_face: str, hrtf: object, extra: Any,
-                  check_memory: Any) -> Rendered:  # fmt: skip
+                  check_memory: Any, outdoor: dict[str, Any]) -> Rendered:  # fmt: skip
     """:func:`auralize` by the FW-H integral on ``how.surface``: the data's sound waves
     through the surface, heard along the path in the data's own time."""
     from auralize.fwh.model import FWHSound
@@ -527,7 +536,7 @@ def _auralize_fwh(volume: TimeVolume, how: Any, *, path: ListenerPath | None, li
         sound = sound + extra
     with memory_guard(f"rendering {volume.source}"):
         out = render(sound, plan.path, rate=rate, layout=layout, duration=plan.duration, c0=c0,
-                     hrtf=hrtf)  # fmt: skip
+                     hrtf=hrtf, **outdoor)  # fmt: skip
     out.meta.update({"volume": volume.source, **plan.as_dict(), "method": "fwh",
                      "method_text": how.describe(), "surface": how.surface, "heard": "fwh",
                      "heard_text": f"the sound waves through the FW-H surface {how.surface}",

@@ -116,7 +116,8 @@ def render(sound: Any, path: Any, *, rate: int = DEFAULTS.rate, layout: Any = DE
            duration: float | None = None, start: float = 0.0,
            highpass_hz: float = DEFAULTS.highpass_hz, c0: float = C0, hrtf: object = None,
            backend: str = "auto", block: int | None = None, carry: Carry | None = None,
-           runner: Any = None, block_seconds: float | None = None) -> Any:  # fmt: skip
+           runner: Any = None, block_seconds: float | None = None, air: Any = None,
+           ground: Any = None) -> Any:  # fmt: skip
     """Render what is heard along a listener path: the one render of every front end.
 
     Parameters
@@ -152,6 +153,14 @@ def render(sound: Any, path: Any, *, rate: int = DEFAULTS.rate, layout: Any = DE
         volume's sources are synthesized on its workers (physical timbre only).
     block_seconds : float, optional
         Playback seconds per Dask task block (``runner`` only).
+    air : Air, optional
+        Outdoor propagation: every part heard through still air that absorbs
+        after ISO 9613-1 (:class:`auralize.emitters.outdoor.Air`); None (default): none.
+    ground : Ground, optional
+        Outdoor propagation: a flat ground with a reflection factor, every
+        source heard with its image (:class:`auralize.emitters.outdoor.Ground`);
+        None (default): none.  Without ``air`` and ``ground`` the render is
+        what it always was, sample for sample.
 
     Returns
     -------
@@ -175,9 +184,11 @@ def render(sound: Any, path: Any, *, rate: int = DEFAULTS.rate, layout: Any = DE
     >>> r.audio.shape, [p["kind"] for p in r.meta["parts"]]
     ((2, 4410), ['Emitters'])
     """
+    from auralize.emitters.outdoor import check_options
     from auralize.emitters.timbre import highpass
 
     highpass(np.zeros((1, 0)), int(rate), highpass_hz)  # a bad cut-off fails before rendering
+    check_options(air, ground)
     ways = [name for name, v in (("block", block), ("carry", carry), ("runner", runner))
             if v is not None]  # fmt: skip
     if len(ways) > 1:
@@ -189,9 +200,10 @@ def render(sound: Any, path: Any, *, rate: int = DEFAULTS.rate, layout: Any = DE
             raise ParameterError("a block-by-block render starts at the path's first capture "
                                  "(start=0)")  # fmt: skip
         return RenderBlocks(snd, path, rate=rate, layout=layout, block=block, duration=duration,
-                            highpass_hz=highpass_hz, c0=c0, backend=backend, hrtf=hrtf)  # fmt: skip
+                            highpass_hz=highpass_hz, c0=c0, backend=backend, hrtf=hrtf,
+                            **_outdoor(air, ground))  # fmt: skip
     kw: dict[str, Any] = dict(rate=int(rate), layout=layout, duration=duration, start=start,
-                              c0=c0, backend=backend, hrtf=hrtf)  # fmt: skip
+                              c0=c0, backend=backend, hrtf=hrtf, **_outdoor(air, ground))  # fmt: skip
     if runner is not None:
         return _on_dask(snd, path, kw, highpass_hz, runner, block_seconds)
     if carry is not None:
@@ -202,6 +214,12 @@ def render(sound: Any, path: Any, *, rate: int = DEFAULTS.rate, layout: Any = DE
     out = render_sound(snd, path, **kw, field_highpass_hz=highpass_hz)
     out.meta["highpass_hz"] = float(highpass_hz) if field.parts else 0.0
     return out
+
+
+def _outdoor(air: Any, ground: Any) -> dict[str, Any]:
+    """The outdoor keywords of the engine's renders: none when both are off (the
+    engine then renders exactly as it did before they existed)."""
+    return {} if air is None and ground is None else {"air": air, "ground": ground}
 
 
 def _continued(snd: Any, path: Any, kw: dict[str, Any], highpass_hz: float, carry: Carry) -> Any:
@@ -242,11 +260,27 @@ def _on_dask(snd: Any, path: Any, kw: dict[str, Any], highpass_hz: float, runner
         raise ParameterError("a Dask render starts at the path's first capture (start=0)")
     out = None
     listing = []
+    if "air" in kw:  # outdoors: the sources with their ground images, through the air
+        from auralize.emitters.outdoor import outdoor_parts
+
+        field.parts = outdoor_parts(field.parts, path, air=kw["air"], ground=kw["ground"],
+                                    c0=kw["c0"])  # fmt: skip
     for part in field.parts:
-        r = render_distributed(part.tracks, path, rate=kw["rate"], time_scale=part.time_scale,
-                               interp=part.interp, layout=lay, c0=kw["c0"], duration=duration,
-                               bounds=part.bounds, block_seconds=block_seconds, runner=runner,
-                               lead=part.lead)  # fmt: skip
+
+        def run(k: dict[str, Any], part: Any = part) -> Any:
+            return render_distributed(part.tracks, path, rate=kw["rate"],
+                                      time_scale=part.time_scale, interp=part.interp, layout=lay,
+                                      c0=kw["c0"], duration=k["duration"], bounds=part.bounds,
+                                      block_seconds=block_seconds, runner=runner,
+                                      lead=part.lead)  # fmt: skip
+
+        if getattr(part, "air", None) is not None:
+            from auralize.emitters.outdoor import field_distance, received
+
+            r = received(run, {"rate": kw["rate"], "start": 0.0, "duration": duration}, path,
+                         part.air, field_distance(part, path, c0=kw["c0"]))  # fmt: skip
+        else:
+            r = run({"duration": duration})
         listing.append({"model": part.name, "kind": "FieldSources (Dask)",
                         "peak_pa": float(np.max(np.abs(r.audio), initial=0.0))})  # fmt: skip
         if out is None:
@@ -259,6 +293,10 @@ def _on_dask(snd: Any, path: Any, kw: dict[str, Any], highpass_hz: float, runner
     out.audio = highpass(out.audio, out.rate, highpass_hz)
     out.meta.update({"parts": listing, "highpass_hz": float(highpass_hz), "timbre": "physical",
                      "share_above_20hz_unfiltered": share, **snd.meta})  # fmt: skip
+    if "air" in kw:
+        from auralize.emitters.outdoor import describe
+
+        out.meta["outdoor"] = describe(kw["air"], kw["ground"])
     if models.parts:
         more = render_sound(models, path, **{**kw, "duration": duration})
         n = min(out.audio.shape[1], more.audio.shape[1])

@@ -572,7 +572,7 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
                 path: ListenerPath | None = None, layout: str | None = None,
                 rate: int | None = None, time_scale: float | str | None = None,
                 interp: str = DEFAULTS.interp, timbre: str | None = None,
-                heard: str | None = None) -> Rendered:  # fmt: skip
+                heard: str | None = None, air: Any = None, ground: Any = None) -> Rendered:  # fmt: skip
     """Render the sound heard along ``path`` (default: the active path) from ``Input``
     (default: the active source), plus every sound model added with :func:`AddSoundModel`.
 
@@ -599,6 +599,11 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     ``"auto"`` (the data's sound fits the path's duration) and ``auto``
     detection thresholds (:func:`DetectSources`).  The listener path is the
     session's (no default orbit).
+
+    ``air`` and ``ground`` hear it outdoors (off by default): air absorption
+    after ISO 9613-1 and a flat reflecting ground, for the data's sources and
+    every model (:class:`auralize.emitters.outdoor.Air`,
+    :class:`auralize.emitters.outdoor.Ground`; :func:`auralize.pipeline.render`).
 
     Examples
     --------
@@ -632,6 +637,7 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
         if val is not None:
             s.audio[k] = val
     rate = int(s.audio["rate"])
+    outdoor = {} if air is None and ground is None else {"air": air, "ground": ground}
     models = scene_sound(s.models, p, p.duration, rate=rate) if s.models else None
     out: Rendered
     if src is not None:
@@ -645,12 +651,12 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
                           layout=s.audio["layout"],
                           interp=interp, timbre=s.audio.get("timbre", DEFAULTS.timbre),
                           clip=not s.models, heard=hd, extra=models,
-                          thresholds=src.Thresholds, mapping=src.Mapping,
+                          thresholds=src.Thresholds, mapping=src.Mapping, **outdoor,
                           **dict[str, Any](src.MappingFields))  # fmt: skip
     else:
         assert models is not None
         out = render(models, p, rate=rate, layout=s.audio["layout"], duration=p.duration,
-                     highpass_hz=HIGHPASS_HZ)  # fmt: skip
+                     highpass_hz=HIGHPASS_HZ, **outdoor)  # fmt: skip
     assert out is not None
     s.rendered = out
     return out

@@ -256,6 +256,52 @@ def add_render_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
 
 
+def _air_arg(text: str) -> Any:
+    from auralize.emitters.outdoor import Air
+
+    try:
+        return Air.parse(text)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _ground_arg(text: str) -> Any:
+    from auralize.emitters.outdoor import Ground
+
+    try:
+        return Ground.parse(text)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_outdoor_options(p: argparse.ArgumentParser) -> None:
+    """``--air T[,RH[,P]]`` and ``--ground H[,Q]``: outdoor propagation of every part."""
+    g = p.add_argument_group("outdoors (off by default)")
+    g.add_argument("--air", type=_air_arg, default=None, metavar="T[,RH[,P]]",
+                   help="air absorption after ISO 9613-1 along every source-listener path: "
+                        "temperature °C, relative humidity %% (default 70), pressure kPa "
+                        "(default 101.325), e.g. --air 20,70")  # fmt: skip
+    g.add_argument("--ground", type=_ground_arg, default=None, metavar="H[,Q]",
+                   help="a flat ground at z = H m with reflection factor Q (-1..1, default 1: "
+                        "rigid): every source heard with its image, e.g. --ground 0,0.8 "
+                        "(a negative height: --ground=-2,0.9)")  # fmt: skip
+
+
+def _print_outdoor(meta: dict[str, Any]) -> None:
+    """The outdoor line of a render report (nothing when outdoor propagation is off)."""
+    od = meta.get("outdoor")
+    if od:
+        print(od["text"])
+        for note in od.get("notes", []):
+            print(f"note: {note}")
+
+
+def outdoor_args(args: argparse.Namespace) -> dict[str, Any]:
+    """``air``/``ground`` keywords of the render from ``--air``/``--ground`` (none when off)."""
+    air, ground = getattr(args, "air", None), getattr(args, "ground", None)
+    return {} if air is None and ground is None else {"air": air, "ground": ground}
+
+
 def load_volume(args: argparse.Namespace) -> Any:
     from auralize.io.options import curvilinear_mode
     from auralize.pipeline import load
@@ -626,7 +672,7 @@ def cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) 
     sound, path, duration, notes = scene_from_args(args, parser_defaults)
     lay = get_layout(args.layout)
     out = render(sound, path, rate=args.rate, layout=lay, duration=duration,
-                 highpass_hz=args.highpass)  # fmt: skip
+                 highpass_hz=args.highpass, **outdoor_args(args))  # fmt: skip
     out.meta.update({"seconds": time.perf_counter() - t, "duration_s": duration,
                      "notes": notes})  # fmt: skip
     gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
@@ -644,6 +690,7 @@ def cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) 
         print(note)
     for part in out.meta["parts"]:
         print(f"  {part['model']:10s} {part['kind']:14s} peak {part['peak_pa']:.4g} Pa")
+    _print_outdoor(out.meta)
     print(report)
     return 0
 
@@ -678,7 +725,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                            progress_bar=progress_wanted(), timbre=args.timbre,
                            highpass_hz=args.highpass, seed=args.seed, listener=args.listener,
                            heard=heard_arg(args), orbit_face=args.orbit_face,
-                           method=args.method, surface=args.surface,
+                           method=args.method, surface=args.surface, **outdoor_args(args),
                            **mapping_fields(args))  # fmt: skip
     elapsed = time.perf_counter() - t
     out.meta["seconds"] = elapsed
@@ -699,6 +746,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     print(out.meta["time_mapping"] + (" (auto)" if out.meta.get("time_scale_auto") else ""))
     for note in out.meta.get("timbre_notes", []):
         print(note)
+    _print_outdoor(out.meta)
     print(report)
     return 0
 
@@ -876,6 +924,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_output_options(p, listener_required=False)
     add_render_options(p)
     add_scene_options(p)
+    add_outdoor_options(p)
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("path", help="build a listener path CSV")

@@ -172,7 +172,7 @@ def _heard(args: argparse.Namespace, vol: Any, runner: Any, planner: Any) -> Any
 
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
-    from auralize.cli.core import check_render_memory, load_volume
+    from auralize.cli.core import check_render_memory, load_volume, outdoor_args
     from auralize.emitters import FieldSources
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass
@@ -215,7 +215,7 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
                              interp=args.interp, bounds=vol.bounds)  # fmt: skip
         out = render(field, plan.path, rate=args.rate, layout=args.layout, duration=plan.duration,
                      highpass_hz=getattr(args, "highpass", 0.0), runner=runner,
-                     block_seconds=args.block_seconds)  # fmt: skip
+                     block_seconds=args.block_seconds, **outdoor_args(args))  # fmt: skip
     from auralize.emitters.timbre import AUDIBLE_SHARE
 
     share = out.meta["share_above_20hz_unfiltered"]
@@ -251,6 +251,7 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
         check_render_memory,
         cmd_render_scene,
         load_volume,
+        outdoor_args,
         scene_duration,
         scene_setup,
     )
@@ -294,7 +295,7 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
                       lead=plan.lead)  # fmt: skip
         out = render(Sound([mine]) + sound, plan.path, rate=args.rate, layout=lay,
                      duration=duration, highpass_hz=args.highpass, runner=runner,
-                     block_seconds=args.block_seconds)  # fmt: skip
+                     block_seconds=args.block_seconds, **outdoor_args(args))  # fmt: skip
     from auralize.emitters.timbre import AUDIBLE_SHARE
 
     if not args.json and out.meta["share_above_20hz_unfiltered"] < AUDIBLE_SHARE:

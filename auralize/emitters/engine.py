@@ -9,6 +9,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.emitters import C0, Emitters, FieldSources, Part, Sound, law_exponent
+from auralize.emitters.outdoor import (
+    Air,
+    Ground,
+    OutdoorPart,
+    describe,
+    field_distance,
+    in_air,
+    outdoor_parts,
+    received,
+)
 from auralize.emitters.synthesis import Rendered
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
@@ -147,6 +157,7 @@ def render_emitters(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     if not (np.isfinite(dur) and dur >= 0):
         raise ParameterError(f"duration must be >= 0 s, got {dur!r}")
     n_out = int(round(dur * rate))
+    em = in_air(em, path)  # inside a model part heard outdoors: filtered through its air
     meta: dict[str, Any] = {"model": em.name, "n_emitters": em.n_emitters, "c0": c0}
     if backend == "reference":
         from auralize.emitters.reference import render_reference
@@ -169,11 +180,17 @@ def _render_part(part: Part, path: ListenerPath, kw: dict[str, Any],
     if isinstance(part, FieldSources):
         from auralize.emitters.timbre import render_timbre
 
+        def run(k: dict[str, Any]) -> Rendered:
+            return render_timbre(part.tracks, path, timbre=part.timbre, time_scale=part.time_scale,
+                                 interp=part.interp, lead=part.lead, bounds=part.bounds,
+                                 highpass_hz=field_highpass_hz, by_type=part.by_type,
+                                 seed=part.seed, **k)  # fmt: skip
+
         kw = {k: v for k, v in kw.items() if k != "backend"}
-        return render_timbre(part.tracks, path, timbre=part.timbre, time_scale=part.time_scale,
-                             interp=part.interp, lead=part.lead, bounds=part.bounds,
-                             highpass_hz=field_highpass_hz, by_type=part.by_type, seed=part.seed,
-                             **kw)  # fmt: skip
+        air = getattr(part, "air", None)
+        if air is not None:  # heard outdoors: its output through the air at its mean distance
+            return received(run, kw, path, air, field_distance(part, path, c0=kw["c0"]))
+        return run(kw)
     fn = getattr(part, "render_part", None)
     if callable(fn):  # a model's own closed form, with arrivals and gains from the engine
         return fn(path, **kw)
@@ -201,7 +218,8 @@ def parts_of(sound: Sound | Part | Iterable[Part]) -> list[Part]:
 def render_sound(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, rate: int = 44100,
            layout: str | Layout = "mono", duration: float | None = None, start: float = 0.0,
            c0: float = C0, backend: str = "auto", hrtf: object = None,
-           field_highpass_hz: float = 0.0) -> Rendered:  # fmt: skip
+           field_highpass_hz: float = 0.0, air: Air | None = None,
+           ground: Ground | None = None) -> Rendered:  # fmt: skip
     """Render every part of a sound (or a scene of several models) and sum them.
 
     All parts share the listener path, output rate, layout and window, so the
@@ -214,8 +232,11 @@ def render_sound(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, ra
     (:class:`FieldSources`), applied by their timbre
     (:func:`auralize.emitters.timbre.render_timbre`, whose ``auto`` and
     ``extended`` choices depend on it), as ``auralize render`` does.
+    ``air`` and ``ground``: outdoor propagation, every part heard through the
+    air and over the ground (:mod:`auralize.emitters.outdoor`; None, the
+    default: neither, and ``meta`` has no ``outdoor`` entry).
     """
-    parts = parts_of(sound)
+    parts = outdoor_parts(parts_of(sound), path, air=air, ground=ground, c0=c0)
     stage = output_stage(layout, int(rate), hrtf=hrtf)  # a bad HRTF fails before rendering
     lay = stage.synthesis_layout
     dur = path.duration - start if duration is None else float(duration)
@@ -224,6 +245,8 @@ def render_sound(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, ra
     meta: dict[str, Any] = {"c0": c0}
     if isinstance(sound, Sound):
         meta.update(sound.meta)
+    if air is not None or ground is not None:
+        meta["outdoor"] = describe(air, ground)
     if len(parts) == 1 and isinstance(parts[0], FieldSources):
         # the volume's sound alone: its timbre renders the output layout itself (the
         # output stage before its high-pass), as a render of the volume does
@@ -239,6 +262,9 @@ def render_sound(sound: Sound | Part | Iterable[Part], path: ListenerPath, *, ra
         audio[:, :n] += r.audio[:, :n]
         listing.append(_listed(part, r))
     meta["parts"] = listing
+    notes = [n for p in parts if isinstance(p, OutdoorPart) for n in p.meta.get("notes", [])]
+    if notes:
+        meta["outdoor"]["notes"] = notes
     return stage.finish(Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta))
 
 
@@ -272,6 +298,9 @@ class BlockRenderer:
         ``binaural`` only (see :func:`render`): the blocks are rendered to the
         AmbiX intermediate and filtered by one output stage that carries its
         state from block to block (:meth:`auralize.spatial.layouts.OutputStage.process_at`).
+    air, ground : optional
+        Outdoor propagation, as :func:`render_sound` (the emitters are filtered
+        once, here; the volume's blocks are filtered over the frames around them).
 
     Examples
     --------
@@ -287,7 +316,8 @@ class BlockRenderer:
     def __init__(self, sound: Sound | Part | Iterable[Part], path: ListenerPath, *,
                  rate: int = 44100, layout: str | Layout = "mono", block: int | None = None,
                  duration: float | None = None, c0: float = C0,
-                 backend: str = "auto", hrtf: object = None) -> None:  # fmt: skip
+                 backend: str = "auto", hrtf: object = None, air: Air | None = None,
+                 ground: Ground | None = None) -> None:  # fmt: skip
         if backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
         if isinstance(rate, bool) or not (isinstance(rate, int | np.integer) and rate >= 1000):
@@ -298,8 +328,10 @@ class BlockRenderer:
         dur = path.duration if duration is None else float(duration)
         if not (np.isfinite(dur) and dur > 0):
             raise ParameterError(f"nothing to play: duration {dur!r} s (give a duration)")
-        self.parts = parts_of(sound)
+        self.parts = outdoor_parts(parts_of(sound), path, air=air, ground=ground, c0=float(c0))
         self.meta = dict(sound.meta) if isinstance(sound, Sound) else {}
+        if air is not None or ground is not None:
+            self.meta["outdoor"] = describe(air, ground)
         self.path = path
         self.rate = int(rate)
         self.stage = output_stage(layout, int(rate), hrtf=hrtf)

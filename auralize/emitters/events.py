@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.emitters import C0
+from auralize.emitters.outdoor import note_arrivals
 from auralize.errors import ParameterError
 from auralize.listener import FORWARD, UP, ListenerPath
 from auralize.spatial.layouts import Layout, get_layout, listener_frame, pan_gains
@@ -257,6 +258,7 @@ def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
     gains = None
     if layout is not None:
         gains = pan_gains(get_layout(layout), -local)
+    note_arrivals(t, D)  # a part heard outdoors filters its output along these distances
     return Arrivals(t, D, np.array(L), u, local, doppler, gains)
 
 
