@@ -967,6 +967,8 @@ CORE_COMMAND_MODULES = (
     "auralize.cli.warmup",
     "auralize.cli.convert",
     "auralize.cli.spectrum",
+    "auralize.cli.describe",
+    "auralize.cli.regress",
 )
 
 
