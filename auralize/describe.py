@@ -494,8 +494,8 @@ def _type_stats(series: SourceSeries) -> dict[str, NDArray[np.float64]]:
     # points of zero strength still have a place: weigh them equally then
     wz = np.where(wsum[g] > 0, w, 1.0)
     wzs = np.bincount(g, weights=wz, minlength=n)
-    c = np.stack([np.bincount(g, weights=wz * pos[:, a], minlength=n) for a in range(3)], 1)
-    c = c / np.where(wzs > 0, wzs, 1.0)[:, None]
+    sums = np.stack([np.bincount(g, weights=wz * pos[:, a], minlength=n) for a in range(3)], 1)
+    c = sums / np.where(wzs > 0, wzs, 1.0)[:, None]
     r2 = np.bincount(g, weights=wz * np.sum((pos - c[g]) ** 2, axis=1), minlength=n)
     spread = np.sqrt(r2 / np.where(wzs > 0, wzs, 1.0))
     return {"count": count, "strength": wsum.reshape(T, 3), "centre": c.reshape(T, 3, 3),
