@@ -209,7 +209,7 @@ class Description:
                     else "at the first step."),
                  f"Heard: {self.heard}. Levels are those of each type's detected sources at "
                  f"the listener, in dB relative to the loudest."]  # fmt: skip
-        lines += self.notes
+        lines += [n[:1].upper() + n[1:] for n in self.notes]
         if not self.events:
             lines.append("No sources were detected at any step.")
             return "\n".join(lines) + "\n"
@@ -339,7 +339,8 @@ def _range_phrase(rows: list[StepRow]) -> str:
          else f"{min(dist):.3g} .. {max(dist):.3g} m away")  # fmt: skip
     count = _points(most) if len(rows) == 1 else f"up to {_points(most)}"
     size = 2 * max(r.spread_m for r in rows)
-    over = "" if r0.region.startswith("spread") else f", spread over about {size:.2g} m"
+    over = ("" if r0.region.startswith("spread") or size <= 0
+            else f", spread over about {size:.2g} m")  # fmt: skip
     return (f"{_plural(r0.type, most)} ({count}) {r0.region}{over}, {d}, {r0.direction}, "
             f"{_db(max(levels) if levels else None)}")  # fmt: skip
 

@@ -20,14 +20,14 @@ description…), **Listener** (Record, Stop, Clear, save / load the path),
 Documentation, About): every button of the panels and toolbars is also a menu
 entry, most with a key.
 
-**Describe** (:mod:`auralize.viewer.describe_panel`): the sources in words
+**Describe** (:mod:`auralize.viewer.describe_panel`, under the 3-D view): the sources in words
 (:mod:`auralize.describe`): what the listener hears when, step by step, in a
 read-only text box, and a line about the step on screen that follows the time
 slider.
 
 Keyboard and screen readers (:mod:`auralize.viewer.access`): Tab visits the
-3-D view, then the panels (left column, then right, each top down; status texts
-too), then the toolbars; every control has an accessible name (what a screen
+3-D view, then the panels (left column, the Describe panel, the right column,
+each top down; status texts too), then the toolbars; every control has an accessible name (what a screen
 reader says) and a description (its tooltip).  Opening shows the data at once (volume, slices or contour, the
 data's outline and a colour bar) with the camera framing it; a listener path
 recorded for the previous data is discarded unless the user keeps it (a
@@ -167,7 +167,8 @@ KEYS: tuple[KeyBinding, ...] = (
       for i, title in enumerate(("Data", "Sources", "Listener", "Describe", "Audio",
                                  "Live listening", "Overlays"), start=1)),
 )  # fmt: skip
-#: the panels in the order Tab visits them (the left column, then the right, each top down)
+#: the panels in the order Tab visits them (the left column, the one under the 3-D view,
+#: the right column; each top down)
 PANEL_ORDER = ("Data", "Sources", "Listener", "Describe", "Audio", "Live listening", "Overlays")
 #: the six standard views (ParaView's camera toolbar): name -> (view direction, view up)
 STANDARD_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
@@ -341,6 +342,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.resize(1400, 900)
         self.plotter = QtInteractor(self)
         self.setCentralWidget(self.plotter.interactor)
+        # the side columns run the window's height; a bottom panel sits under the view only
+        for corner, area in ((QtCore.Qt.Corner.BottomLeftCorner,
+                              QtCore.Qt.DockWidgetArea.LeftDockWidgetArea),
+                             (QtCore.Qt.Corner.BottomRightCorner,
+                              QtCore.Qt.DockWidgetArea.RightDockWidgetArea)):  # fmt: skip
+            self.setCorner(corner, area)
         self.scene = Scene(self.plotter)
         self.volume: Any = None
         self.data: dict[str, Any] = {}
@@ -875,7 +882,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.describe_panel = DescribePanel()
         self.describe_panel.describe_btn.clicked.connect(lambda: self._guard(self.describe))
         self.describe_panel.save_btn.clicked.connect(self._ask_save_description)
-        self._dock("Describe", self.describe_panel)
+        self._dock("Describe", self.describe_panel, QtCore.Qt.DockWidgetArea.BottomDockWidgetArea)
         # ---- Audio
         w = QtWidgets.QWidget()
         f = _form(w)

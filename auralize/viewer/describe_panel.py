@@ -1,7 +1,7 @@
 """The viewer's Describe panel: the sources in words (:mod:`auralize.describe`).
 
-A line about the time step on screen (it follows the time slider) and the
-whole description in a read-only text box a screen reader reads line by line
+Under the 3-D view: a line about the time step on screen (it follows the
+time slider) and, beside it, the whole description in a read-only text box a screen reader reads line by line
 (Tab reaches both; the arrows move through the text).  The window fills it
 (:meth:`auralize.viewer.app.MainWindow.describe`).
 """
@@ -22,7 +22,10 @@ class DescribePanel(QtWidgets.QWidget):
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.description: Any = None
-        lay = QtWidgets.QVBoxLayout(self)
+        # a wide, low panel under the 3-D view: the buttons and the step's line on the
+        # left, the whole description beside them
+        lay = QtWidgets.QHBoxLayout(self)
+        left = QtWidgets.QVBoxLayout()
         row = QtWidgets.QHBoxLayout()
         self.describe_btn = QtWidgets.QPushButton("Describe")
         self.describe_btn.setToolTip("put the sources into words: per step their types, where "
@@ -35,15 +38,17 @@ class DescribePanel(QtWidgets.QWidget):
         self.save_btn.setAccessibleName("Save the description")
         row.addWidget(self.describe_btn)
         row.addWidget(self.save_btn)
-        lay.addLayout(row)
+        left.addLayout(row)
         self.now = QtWidgets.QLabel(EMPTY)
         self.now.setWordWrap(True)
+        self.now.setAlignment(QtCore.Qt.AlignmentFlag.AlignTop | QtCore.Qt.AlignmentFlag.AlignLeft)
         self.now.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByKeyboard
                                          | QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)  # fmt: skip
         self.now.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
         self.now.setToolTip("the sources at the time step on screen")
         self.now.setAccessibleName("Sources at this step")
-        lay.addWidget(self.now)
+        left.addWidget(self.now, 1)
+        lay.addLayout(left, 2)
         self.text = QtWidgets.QPlainTextEdit()
         self.text.setReadOnly(True)
         self.text.setTabChangesFocus(True)  # Tab leaves the box; the arrows read it
@@ -51,8 +56,8 @@ class DescribePanel(QtWidgets.QWidget):
         self.text.setToolTip("the whole description: what you will hear when, then step by "
                              "step (arrow keys move through it)")  # fmt: skip
         self.text.setAccessibleName("Description of the sources")
-        self.text.setMinimumHeight(160)
-        lay.addWidget(self.text, 1)
+        self.text.setMinimumHeight(90)
+        lay.addWidget(self.text, 3)
         self.clear()
 
     def clear(self, why: str = EMPTY) -> None:
