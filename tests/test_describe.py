@@ -222,3 +222,18 @@ def test_command_refuses_a_bad_format(capsys) -> None:  # type: ignore[no-untype
         main(["describe", "dataset:monopole", "--format", "yaml"])
     assert err.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_the_default_plan_is_the_default_renders() -> None:
+    """Without a listener or a time scale, the description's clock is that of ``auralize
+    render`` with the same options: the same orbit, time scale and travel skipped."""
+    vol = load("dataset:explosion", size=16, steps=8)
+    d = describe(vol, duration=2.0)
+    out, _ = auralize(vol, duration=2.0, rate=8000, method="volume")
+    for key in ("time_scale", "lead_data_s", "duration_s", "listener", "time_mapping"):
+        assert d.plan[key] == out.meta[key], key
+    # and with --heard detected, whose default orbit goes around the detected sources
+    d = describe(vol, duration=2.0, heard="detected")
+    out, _ = auralize(vol, duration=2.0, rate=8000, method="volume", heard="detected")
+    assert d.plan["lead_data_s"] == out.meta["lead_data_s"]
+    assert d.plan["listener"] == out.meta["listener"]
