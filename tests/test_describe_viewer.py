@@ -146,7 +146,8 @@ def test_describe_panel_speaks_after_its_key(qtbot, window, errors, tmp_path) ->
     out = win.save_description(tmp_path / "d.csv")
     assert out.read_text().startswith("step,time,type,count")
     # new sources: the old words go
+    before = win.series
     win.detect()
-    qtbot.waitUntil(lambda: not win.busy, timeout=120_000)
+    qtbot.waitUntil(lambda: win.series is not before and not win.busy, timeout=120_000)
     assert panel.description is None and "detected again" in panel.now.text()
     assert not errors
