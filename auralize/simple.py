@@ -53,6 +53,7 @@ __all__ = [
     "ApplyMapping",
     "CreateListenerPath",
     "CreateView",
+    "Describe",
     "DetectSources",
     "GetActiveSource",
     "GetActiveView",
@@ -660,6 +661,43 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     assert out is not None
     s.rendered = out
     return out
+
+
+def Describe(Input: DataSource | None = None, *, source: DataSource | None = None,
+             path: ListenerPath | None = None, time_scale: float | str | None = None,
+             heard: str | None = None) -> Any:  # fmt: skip
+    """Describe the sources of ``Input`` (default: the active source) in words, and when
+    the listener hears them: an :class:`auralize.describe.Description` (``print`` it for
+    the text; ``.rows`` and ``.events`` hold the figures, ``.save("d.csv")`` writes them).
+
+    The sources are the source's detected ones (detected first, as
+    :func:`DetectSources` does, if needed); the render described is
+    :func:`RenderAudio`'s: the session's listener path (``path`` overrides it;
+    with none, the default orbit of ``auralize render``), its time scale and
+    what it hears.  Levels are those of each type's detected sources at the
+    listener, in dB relative to the loudest (:mod:`auralize.describe`).
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=16)
+    >>> p = CreateListenerPath("point", at=(0.9, 0.5, 0.5), duration=1.0)
+    >>> d = Describe(src)
+    >>> [e.type for e in d.events], d.plan["duration_s"]
+    (['monopole'], 1.0)
+    >>> str(d).splitlines()[0]
+    'Sources in dataset:monopole (12 × 12 × 12 points, 16 steps, 0 .. 0.005 s)'
+    """
+    from auralize.describe import describe
+    from auralize.sources.field import parse_heard
+
+    s = GetSession()
+    src = s.source(_input(Input, source))
+    if src.Sources is None:
+        src.Sources = src.Detection.run()
+    ts = _check_time_scale(time_scale if time_scale is not None else s.audio["time_scale"])
+    hd = parse_heard(heard if heard is not None else s.audio.get("heard") or DEFAULTS.heard)
+    return describe(src.Volume, series=src.Sources, path=path or s.path, time_scale=ts,
+                    heard=hd.label, name=src.FileName)  # fmt: skip
 
 
 def AddSoundModel(name: str, input: Any, **params: Any) -> SceneModel:

@@ -212,7 +212,7 @@ def test_frame_buttons_and_keys_step_through_time(qtbot, window, errors):
 def test_menus_have_their_actions_and_shortcuts(qtbot, window, errors):
     win = window
     bar = [a.text() for a in win.menuBar().actions()]
-    assert bar == ["&File", "&View", "&Help"]
+    assert bar == ["&File", "&View", "&Sources", "&Listener", "&Audio", "&Time", "&Help"]
 
     def by_text(menu):
         return {a.text(): a for a in menu.actions() if a.text()}

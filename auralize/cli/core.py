@@ -11,8 +11,8 @@ in the README): 2 usage (a bad option or value), 3 data (an input file is
 missing, unreadable or malformed), 4 system (the output cannot be written,
 not enough memory, no device), 1 when the output was written but is silent,
 70 an internal error (a bug: ``AURALIZE_DEBUG=1`` shows the traceback), 130
-interrupted.  Output folders are never created: the folder of ``-o`` must
-exist.
+interrupted; ``auralize regress check`` exits 6 when a figure moved.  Output
+folders are never created: the folder of ``-o`` must exist.
 """
 
 from __future__ import annotations
@@ -68,6 +68,7 @@ EXIT_USAGE = 2
 EXIT_DATA = 3
 EXIT_SYSTEM = 4
 EXIT_SCRIPT = 5
+EXIT_REGRESSION = 6
 EXIT_INTERNAL = 70
 EXIT_INTERRUPTED = 130
 #: exit status -> meaning (the README's table)
@@ -78,6 +79,7 @@ EXIT_CODES = {
     EXIT_DATA: "data error: an input file is missing, unreadable or malformed",
     EXIT_SYSTEM: "system error: the output cannot be written, not enough memory, no device",
     EXIT_SCRIPT: "the script run by 'auralize script' raised an error (its traceback is shown)",
+    EXIT_REGRESSION: "'auralize regress check': a figure moved beyond its tolerance (each is named)",
     EXIT_INTERNAL: "internal error (a bug; AURALIZE_DEBUG=1 shows the traceback)",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
 }
@@ -1016,6 +1018,8 @@ CORE_COMMAND_MODULES = (
     "auralize.cli.warmup",
     "auralize.cli.convert",
     "auralize.cli.spectrum",
+    "auralize.cli.describe",
+    "auralize.cli.regress",
 )
 
 

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from auralize.datasets.real import CASES, DATASETS, dataset_path
+from auralize.regression.compare import count_changes, relative_change
 from auralize.runtime.files import atomic_write
 
 STORE = DATASETS / "regression" / "realdata.json"
@@ -39,7 +40,7 @@ def compute(name: str) -> dict[str, Any]:
     from auralize.io import ResampledWarning, open_volume
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize, detect_sources
-    from auralize.regression.synthetic import spectral_centroid
+    from auralize.regression.compare import spectral_centroid
 
     case = CASES[name]
     out: dict[str, Any] = {}
@@ -99,14 +100,14 @@ def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
     if ("counts" in got) != ("counts" in stored):
         problems.append("counts: present in only one of recomputed and stored")
     elif "counts" in got:
-        for n, (a, b) in enumerate(zip(got["counts"], stored["counts"], strict=True)):
-            for k in ("monopole", "dipole", "quadrupole"):
-                if abs(a[k] - b[k]) > max(2, TOLERANCES["counts"] * b[k]):
-                    problems.append(f"step {n} {k}: {a[k]} vs stored {b[k]}")
+        problems += [str(m) for m in count_changes(got["counts"], stored["counts"],
+                                                   rel=TOLERANCES["counts"])]  # fmt: skip
     for key in ("rms", "centroid"):
-        if key in stored and not np.isclose(got.get(key, np.nan), stored[key],
-                                            rtol=TOLERANCES[key], atol=1e-15):  # fmt: skip
-            problems.append(f"{key}: {got.get(key)} vs stored {stored[key]:.6g}")
+        if key in stored:
+            m = relative_change(key, key, got.get(key, np.nan), stored[key],
+                                rtol=TOLERANCES[key], atol=1e-15)  # fmt: skip
+            if m is not None:
+                problems.append(str(m))
     return problems
 
 

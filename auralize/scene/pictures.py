@@ -115,8 +115,10 @@ def path_tube(path: ListenerPath, radius: float):
 
 def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | None = None,
                step: int | None = None, path: ListenerPath | None = None, field: str | None = None,
-               window_size: tuple[int, int] = (1280, 960)) -> Path:  # fmt: skip
-    """Render volume (translucent contours of ``field``), ΔV spheres and path to a PNG."""
+               window_size: tuple[int, int] = (1280, 960), title: str | None = None) -> Path:  # fmt: skip
+    """Render volume (translucent contours of ``field``), ΔV spheres and path to a PNG.
+
+    ``title``: the caption (default the data's source, the step and its time)."""
     import pyvista as pv
 
     if not os.environ.get("DISPLAY"):
@@ -156,16 +158,20 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
                         font_size=12,
                         position=(window_size[0] - 240, window_size[1] - 40 - 28 * i))  # fmt: skip
     if path is not None:
-        pl.add_mesh(path_tube(path, 0.004 * float(np.linalg.norm(volume.spacing * volume.dims))),
-                    color=PATH_COLOR)  # fmt: skip
+        r = 0.004 * float(np.linalg.norm(volume.spacing * volume.dims))
+        if np.ptp(path.positions, axis=0).max() > 0:
+            pl.add_mesh(path_tube(path, r), color=PATH_COLOR)
+        else:  # a listener standing still: a dot where it stands (a tube of it is empty)
+            pl.add_mesh(pv.Sphere(radius=3 * r, center=path.positions[0]), color=PATH_COLOR)
         f, _ = path.orientation_at(path.times[-1])
         tip = path.positions[-1]
         size = 0.03 * float(np.max(volume.spacing * volume.dims))
         pl.add_mesh(
             pv.Cone(center=tip, direction=f[0], height=size, radius=0.4 * size), color=PATH_COLOR
         )
-    pl.add_text(f"{volume.source}  step {step}  t = {volume.times[step]:.3f} s", font_size=10,
-                color="white")  # fmt: skip
+    if title is None:
+        title = f"{volume.source}  step {step}  t = {volume.times[step]:.3f} s"
+    pl.add_text(title, font_size=10, color="white")
     pl.view_isometric()  # type: ignore[call-arg]
     pl.camera.zoom(1.2)
     out = Path(out)

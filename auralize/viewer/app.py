@@ -12,8 +12,23 @@ thread with a progress bar and a Cancel button.  Errors show a message box; the 
 
 Menus: **File** (Open…, Open built-in dataset, Save session, Save session
 as…, Open session…, Save Screenshot…, Quit), **View** (Reset Camera, the six
-standard views, show / hide each panel and toolbar) and **Help** (Keys, Documentation,
-About).  Opening shows the data at once (volume, slices or contour, the
+standard views, show / hide each panel and toolbar, Go to: the keyboard focus to
+the 3-D view or a panel), **Sources** (Detect, Describe in words, Save
+description…), **Listener** (Record, Stop, Clear, save / load the path),
+**Audio** (Render to file…, Play, Stop, Listen live, Stop live, Save heard…),
+**Time** (first, previous, play / pause, next, last frame) and **Help** (Keys,
+Documentation, About): every button of the panels and toolbars is also a menu
+entry, most with a key.
+
+**Describe** (:mod:`auralize.viewer.describe_panel`, under the 3-D view): the sources in words
+(:mod:`auralize.describe`): what the listener hears when, step by step, in a
+read-only text box, and a line about the step on screen that follows the time
+slider.
+
+Keyboard and screen readers (:mod:`auralize.viewer.access`): Tab visits the
+3-D view, then the panels (left column, the Describe panel, the right column,
+each top down; status texts too), then the toolbars; every control has an accessible name (what a screen
+reader says) and a description (its tooltip).  Opening shows the data at once (volume, slices or contour, the
 data's outline and a colour bar) with the camera framing it; a listener path
 recorded for the previous data is discarded unless the user keeps it (a
 question, Discard by default; ``open_data(keep_path=...)`` or
@@ -31,7 +46,10 @@ Up/W forward, Down/S back, Left/A and Right/D turn, PageUp/R rise, PageDown/F
 sink; camera — C Reset Camera, X / Y / Z look along +X / +Y / +Z, Shift+X / Y / Z
 along −X / −Y / −Z; time — Home first, ``,`` previous, ``.`` next, End last
 frame.  Menus: Ctrl+O open, Ctrl+S save session, Ctrl+Shift+S save screenshot,
-Ctrl+Q quit, F1 keys.  The camera position is in the status bar.
+Ctrl+Q quit, F1 keys; Ctrl+D detect, Ctrl+Shift+D describe, Ctrl+R / Ctrl+Shift+R
+record / stop, Ctrl+E render to file, Ctrl+P / Ctrl+Shift+P play / stop, Ctrl+L /
+Ctrl+Shift+L live listening on / off, P play / pause the time steps, Alt+0 the
+3-D view, Alt+1 … Alt+7 the panels.  The camera position is in the status bar.
 """
 
 from __future__ import annotations
@@ -62,6 +80,8 @@ from auralize.scene.session import SessionState, data_spec, reader_options
 from auralize.scene.soundscene import input_key
 from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.sources.detection import TYPES, Thresholds
+from auralize.viewer.access import name_widgets, set_focus_chain
+from auralize.viewer.describe_panel import DescribePanel
 
 #: the Audio panel's entry that asks for a custom layout JSON file
 CUSTOM_LAYOUT = "custom layout file…"
@@ -127,7 +147,29 @@ KEYS: tuple[KeyBinding, ...] = (
                view=False),
     KeyBinding("Menus", ("Ctrl+Q",), "close", "File ▸ Quit", view=False),
     KeyBinding("Menus", ("F1",), "show_keys", "Help ▸ Keys (this list)", view=False),
+    KeyBinding("Time", ("P",), "toggle_playing", "play / pause the time steps"),
+    KeyBinding("Sources", ("Ctrl+D",), "detect", "Sources ▸ Detect", view=False),
+    KeyBinding("Sources", ("Ctrl+Shift+D",), "describe", "Sources ▸ Describe in words",
+               view=False),
+    KeyBinding("Listener", ("Ctrl+R",), "start_recording", "Listener ▸ Record", view=False),
+    KeyBinding("Listener", ("Ctrl+Shift+R",), "stop_recording", "Listener ▸ Stop recording",
+               view=False),
+    KeyBinding("Audio", ("Ctrl+E",), "_ask_render", "Audio ▸ Render to file…", view=False),
+    KeyBinding("Audio", ("Ctrl+P",), "play_audio", "Audio ▸ Play the last render", view=False),
+    KeyBinding("Audio", ("Ctrl+Shift+P",), "stop_audio", "Audio ▸ Stop playing", view=False),
+    KeyBinding("Audio", ("Ctrl+L",), "listen_live", "Audio ▸ Listen live", view=False),
+    KeyBinding("Audio", ("Ctrl+Shift+L",), "stop_live", "Audio ▸ Stop live listening",
+               view=False),
+    KeyBinding("Go to (keyboard focus)", ("Alt+0",), "focus_view", "View ▸ Go to ▸ 3-D view",
+               view=False),
+    *(KeyBinding("Go to (keyboard focus)", (f"Alt+{i}",), "focus_panel",
+                 f"View ▸ Go to ▸ {title} panel", (title,), view=False)
+      for i, title in enumerate(("Data", "Sources", "Listener", "Describe", "Audio",
+                                 "Live listening", "Overlays"), start=1)),
 )  # fmt: skip
+#: the panels in the order Tab visits them (the left column, the one under the 3-D view,
+#: the right column; each top down)
+PANEL_ORDER = ("Data", "Sources", "Listener", "Describe", "Audio", "Live listening", "Overlays")
 #: the six standard views (ParaView's camera toolbar): name -> (view direction, view up)
 STANDARD_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
     "+X": ((1, 0, 0), (0, 0, 1)), "-X": ((-1, 0, 0), (0, 0, 1)),
@@ -273,6 +315,16 @@ class Task(QtCore.QThread):
             self.failed.emit(exc)
 
 
+def _readable(label: QtWidgets.QLabel, name: str) -> None:
+    """Let the keyboard reach a status text (Tab stops on it, a screen reader reads it)."""
+    label.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByKeyboard
+                                  | QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)  # fmt: skip
+    label.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+    label.setAccessibleName(name)
+    if not label.toolTip():
+        label.setToolTip(name)
+
+
 def _form(parent: QtWidgets.QWidget) -> QtWidgets.QFormLayout:
     lay = QtWidgets.QFormLayout(parent)
     lay.setFieldGrowthPolicy(QtWidgets.QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
@@ -290,6 +342,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.resize(1400, 900)
         self.plotter = QtInteractor(self)
         self.setCentralWidget(self.plotter.interactor)
+        # the side columns run the window's height; a bottom panel sits under the view only
+        for corner, area in ((QtCore.Qt.Corner.BottomLeftCorner,
+                              QtCore.Qt.DockWidgetArea.LeftDockWidgetArea),
+                             (QtCore.Qt.Corner.BottomRightCorner,
+                              QtCore.Qt.DockWidgetArea.RightDockWidgetArea)):  # fmt: skip
+            self.setCorner(corner, area)
         self.scene = Scene(self.plotter)
         self.volume: Any = None
         self.data: dict[str, Any] = {}
@@ -350,8 +408,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_toolbar()
         self._build_panels()
         self._build_view_menu()
+        self._build_task_menus()
         self._build_status()
         self._qt_button_tips()
+        self._build_access()
         self.fly_keys = ViewKeys(self)
         app = QtWidgets.QApplication.instance()
         if app is not None:
@@ -468,6 +528,125 @@ class MainWindow(QtWidgets.QMainWindow):
             a.setToolTip(f"Show or hide the {tb.windowTitle()} toolbar")
             v.addAction(a)
 
+    def _build_task_menus(self) -> None:
+        """Sources, Listener, Audio and Time menus (every panel's action, with its keys
+        from :data:`KEYS`) and View ▸ Go to (the keyboard focus to a panel or the view)."""
+        bar = self.menuBar()
+        before = self.help_menu.menuAction()
+
+        def menu(title: str, entries: list[Any]) -> QtWidgets.QMenu:
+            m = QtWidgets.QMenu(title, self)
+            m.setToolTipsVisible(True)
+            for e in entries:
+                if e is None:
+                    m.addSeparator()
+                else:
+                    m.addAction(e)
+            bar.insertMenu(before, m)
+            return m
+
+        act = self._act
+        self.sources_menu = menu("&Sources", [
+            act("&Detect", "detect", tip="Detect the sources at every time step"),
+            act("Describe in &words", "describe",
+                tip="Put the sources into words (the Describe panel)"),
+            act("&Save description…", "_ask_save_description",
+                tip="Save the description as text, CSV or JSON")])  # fmt: skip
+        self.listener_menu = menu("&Listener", [
+            act("&Record", "start_recording", tip="Record the camera as the listener path"),
+            act("&Stop recording", "stop_recording"),
+            act("&Clear path", "clear_path", tip="Forget the listener path"),
+            None,
+            act("Save path &CSV…", "_ask_save_path", tip="Save the listener path as CSV"),
+            act("&Load path CSV…", "_ask_load_path", tip="Load a listener path from CSV")])  # fmt: skip
+        self.audio_menu = menu("&Audio", [
+            act("&Render to file…", "_ask_render",
+                tip="Render the sound heard along the listener path to a file"),
+            act("&Play the last render", "play_audio"),
+            act("S&top playing", "stop_audio"),
+            None,
+            act("Listen &live", "listen_live", tip="Hear the data live: the camera listens"),
+            act("Stop live &listening", "stop_live"),
+            act("Save &heard…", "_ask_save_heard",
+                tip="Save what live listening played (path CSV and WAV)")])  # fmt: skip
+        play = act("&Play / pause", "toggle_playing", tip="Step through time at the time scale")
+        self.time_menu = menu("&Time", [self.time_actions["first_step"],
+                                        self.time_actions["previous_step"], play,
+                                        self.time_actions["next_step"],
+                                        self.time_actions["last_step"]])  # fmt: skip
+        go = self.view_menu.addMenu("&Go to")
+        go.setToolTipsVisible(True)
+        go.addAction(act("&3-D view", "focus_view", tip="Keyboard focus to the 3-D view"))
+        for title in PANEL_ORDER:
+            go.addAction(act(f"{title} panel", "focus_panel", title,
+                             tip=f"Keyboard focus to the {title} panel"))  # fmt: skip
+        self.go_menu = go
+
+    def _build_access(self) -> None:
+        """Accessible names on every control and the Tab order: the 3-D view, the
+        panels of :data:`PANEL_ORDER` (each top down), the toolbars, the Cancel button
+        (:mod:`auralize.viewer.access`)."""
+        view = self.plotter.interactor
+        view.setAccessibleName("3-D view (the camera is the listener)")
+        view.setAccessibleDescription(KEY_MAP_TEXT)
+        view.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+        for name, a in self.view_actions.items():
+            w = self.camera_toolbar.widgetForAction(a)
+            if w is not None:
+                w.setAccessibleName(f"View direction {name.replace('-', '−')}")
+        from auralize.viewer.access import actionable
+
+        chain: list[QtWidgets.QWidget] = [view]
+        for title in PANEL_ORDER:
+            chain += actionable(self.docks[title].widget())
+        for tb in (self.camera_toolbar, self.time_toolbar):
+            chain += actionable(tb)
+        chain.append(self.cancel_btn)
+        set_focus_chain(chain)
+        name_widgets(self)
+
+    def focus_view(self) -> None:
+        """View ▸ Go to ▸ 3-D view: the keyboard to the view (its keys fly, look and step)."""
+        self.plotter.interactor.setFocus(QtCore.Qt.FocusReason.ShortcutFocusReason)
+
+    def focus_panel(self, title: str) -> QtWidgets.QWidget | None:
+        """View ▸ Go to ▸ a panel: show it and give the keyboard to its first control."""
+        from auralize.viewer.access import actionable, takes_focus
+
+        if title not in self.docks:
+            raise ParameterError(f"no panel {title!r}; the panels are {', '.join(self.docks)}")
+        dock = self.docks[title]
+        dock.show()
+        dock.raise_()
+        for w in actionable(dock.widget()):
+            if takes_focus(w) and w.isEnabled() and w.isVisible():
+                w.setFocus(QtCore.Qt.FocusReason.ShortcutFocusReason)
+                return w
+        return None
+
+    def toggle_playing(self) -> None:
+        """Time ▸ Play / pause (the toolbar's Play button)."""
+        self.set_playing(not self._anim_timer.isActive())
+
+    def listen_live(self) -> Any:
+        """Audio ▸ Listen live (the Live listening panel's button)."""
+        return self.start_live(wait=False)
+
+    def _ask_render(self) -> None:
+        self._ask_file("save", "Audio (*.wav *.flac)", self.render_audio)
+
+    def _ask_save_path(self) -> None:
+        self._ask_file("save", "CSV (*.csv)", self.save_path)
+
+    def _ask_load_path(self) -> None:
+        self._ask_file("open", "CSV (*.csv)", self.load_path)
+
+    def _ask_save_heard(self) -> None:
+        self._ask_file("save", "CSV (*.csv)", self.save_heard)
+
+    def _ask_save_description(self) -> None:
+        self._ask_file("save", "Text (*.txt);;CSV (*.csv);;JSON (*.json)", self.save_description)
+
     def _ask_save_session(self) -> None:
         self._ask_file("save", "Sessions (*.json)", self.save_session)
 
@@ -502,7 +681,11 @@ class MainWindow(QtWidgets.QMainWindow):
             tb.addAction(a)
         self.play_btn = QtWidgets.QPushButton("Play")
         self.play_btn.setCheckable(True)
-        self.play_btn.setToolTip("Play / pause: step through time at the time scale")
+        self.play_btn.setToolTip(
+            f"Play / pause: step through time at the time scale "
+            f"({key_text(binding('toggle_playing'))})"
+        )
+        self.play_btn.setAccessibleName("Play or pause the time steps")
         self.play_btn.toggled.connect(self.set_playing)
         tb.addWidget(self.play_btn)
         for action, icon, text in (("next_step", sp.SP_MediaSeekForward, "Next frame"),
@@ -514,6 +697,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.slider.setToolTip(
             f"Time step (first / previous / next / last frame: "
             f"{', '.join(key_text(binding(a)) for a in self.time_actions)})")  # fmt: skip
+        self.slider.setAccessibleName("Time step")
         self.slider.valueChanged.connect(self._on_slider)
         tb.addWidget(self.slider)
         self.step_label = QtWidgets.QLabel("no data")
@@ -550,6 +734,7 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow(self.open_btn)
         self.info = QtWidgets.QLabel("no data")
         self.info.setWordWrap(True)
+        _readable(self.info, "Data information")
         f.addRow(self.info)
         self.field_box = QtWidgets.QComboBox()
         self.field_box.setToolTip("the field shown (vector fields: their magnitude)")
@@ -615,13 +800,17 @@ class MainWindow(QtWidgets.QMainWindow):
             r, g, bl = TYPE_COLORS[kind]
             cb.setStyleSheet(f"color: rgb({r},{g},{bl}); font-weight: bold")
             cb.setToolTip(f"draw the {kind}s")
+            cb.setAccessibleName(f"Draw the {kind}s")
             cb.toggled.connect(lambda on, k=kind: self._guard(self.scene.set_type_visible, k, on))
             self.type_checks[kind] = cb
             lab = QtWidgets.QLabel("–")
+            lab.setToolTip(f"{kind} source points at this step")
+            lab.setAccessibleName(f"{kind} source points at this step")
             self.count_labels[kind] = lab
             hear = QtWidgets.QCheckBox("heard")
             hear.setChecked(True)
             hear.setToolTip(f"hear the {kind} term (mute it by unticking)")
+            hear.setAccessibleName(f"Hear the {kind}s")
             hear.toggled.connect(lambda _on: self._guard(self._heard_changed))
             self.hear_checks[kind] = hear
             row.addWidget(cb)
@@ -632,10 +821,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.detect_btn = QtWidgets.QPushButton("Detect")
         self.detect_btn.setToolTip("detect the sound sources at every time step (in the "
                                    "background, the current step first)")  # fmt: skip
+        self.detect_btn.setAccessibleName("Detect the sources")
         self.detect_btn.clicked.connect(lambda: (self._guard(self.detect), self._focus_view()))
         f.addRow(self.detect_btn)
         self.detect_note = QtWidgets.QLabel("sources are detected when you ask (Detect)")
         self.detect_note.setWordWrap(True)
+        _readable(self.detect_note, "Detection status")
         f.addRow(self.detect_note)
         self._dock("Sources", w)
         # ---- Listener
@@ -660,28 +851,38 @@ class MainWindow(QtWidgets.QMainWindow):
                                 "or the mouse); autosaved as it goes")  # fmt: skip
         self.stop_btn.setToolTip("stop recording")
         self.clear_btn.setToolTip("forget the listener path")
+        self.rec_btn.setAccessibleName("Record the listener path")
+        self.stop_btn.setAccessibleName("Stop recording")
+        self.clear_btn.setAccessibleName("Clear the listener path")
         for b in (self.rec_btn, self.stop_btn, self.clear_btn):
             row.addWidget(b)
         f.addRow(row)
         row = QtWidgets.QHBoxLayout()
         b = QtWidgets.QPushButton("Save CSV…")
         b.setToolTip("save the listener path as CSV (t,x,y,z,fx,fy,fz,ux,uy,uz)")
-        b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_path))
+        b.setAccessibleName("Save the listener path as CSV")
+        b.clicked.connect(self._ask_save_path)
         row.addWidget(b)
         b = QtWidgets.QPushButton("Load CSV…")
         b.setToolTip("load a listener path from CSV")
-        b.clicked.connect(lambda: self._ask_file("open", "CSV (*.csv)", self.load_path))
+        b.setAccessibleName("Load a listener path from CSV")
+        b.clicked.connect(self._ask_load_path)
         row.addWidget(b)
         f.addRow(row)
         self.path_label = QtWidgets.QLabel("no path")
         self.path_label.setWordWrap(True)
-        self.path_label.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
+        _readable(self.path_label, "Listener path status")
         f.addRow(self.path_label)
         self.key_map = QtWidgets.QLabel(KEY_MAP_TEXT)
         self.key_map.setToolTip("Help ▸ Keys lists every key")
         self.key_map.setWordWrap(True)
         f.addRow(self.key_map)
         self._dock("Listener", w)
+        # ---- Describe
+        self.describe_panel = DescribePanel()
+        self.describe_panel.describe_btn.clicked.connect(lambda: self._guard(self.describe))
+        self.describe_panel.save_btn.clicked.connect(self._ask_save_description)
+        self._dock("Describe", self.describe_panel, QtCore.Qt.DockWidgetArea.BottomDockWidgetArea)
         # ---- Audio
         w = QtWidgets.QWidget()
         f = _form(w)
@@ -722,14 +923,17 @@ class MainWindow(QtWidgets.QMainWindow):
         row = QtWidgets.QHBoxLayout()
         b = QtWidgets.QPushButton("Render to file…")
         b.setToolTip("render the sound heard along the listener path to a WAV/FLAC file")
-        b.clicked.connect(lambda: self._ask_file("save", "Audio (*.wav *.flac)", self.render_audio))
+        b.setAccessibleName("Render to a file")
+        b.clicked.connect(self._ask_render)
         row.addWidget(b)
         b = QtWidgets.QPushButton("Play")
         b.setToolTip("play the last render on the sound device")
+        b.setAccessibleName("Play the last render")
         b.clicked.connect(lambda: self._guard(self.play_audio))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Stop")
         b.setToolTip("stop playing")
+        b.setAccessibleName("Stop playing")
         b.clicked.connect(lambda: self._guard(self.stop_audio))
         row.addWidget(b)
         f.addRow(row)
@@ -753,6 +957,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.figure = Figure(figsize=(4, 3), layout="constrained")
         self.canvas = FigureCanvasQTAgg(self.figure)
         self.canvas.setMinimumHeight(220)
+        # a picture with no keys of its own: Tab passes it by; its name says what it shows
+        self.canvas.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+        self.canvas.setAccessibleName("Waveform and spectrogram of the last render")
         f.addRow(self.canvas)
         self._cursors: list[Any] = []
         self._dock("Audio", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
@@ -776,15 +983,18 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(self.live_btn)
         b = QtWidgets.QPushButton("Stop")
         b.setToolTip("stop live listening")
+        b.setAccessibleName("Stop live listening")
         b.clicked.connect(lambda: self._guard(self.stop_live))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Save heard…")
         b.setToolTip("save what live listening played: the path CSV and a WAV beside it")
-        b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_heard))
+        b.setAccessibleName("Save what live listening played")
+        b.clicked.connect(self._ask_save_heard)
         row.addWidget(b)
         f.addRow(row)
         self.live_label = QtWidgets.QLabel("off")
         self.live_label.setWordWrap(True)
+        _readable(self.live_label, "Live listening status")
         f.addRow(self.live_label)
         self._dock("Live listening", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
         # ---- Overlays
@@ -799,6 +1009,7 @@ class MainWindow(QtWidgets.QMainWindow):
             cb = QtWidgets.QCheckBox(f"{name}: {_short(cls.description)}")
             cb.setToolTip(f"show the {name} model's overlay (and hear its sound): "
                           f"{cls.description}")  # fmt: skip
+            cb.setAccessibleName(f"Show the {name} overlay")
             cb.toggled.connect(lambda on, n=name: self._toggle_overlay(n, on))
             self.overlay_checks[name] = cb
             v.addWidget(cb)
@@ -811,6 +1022,8 @@ class MainWindow(QtWidgets.QMainWindow):
         scroll = QtWidgets.QScrollArea()  # a long note scrolls rather than being cut off
         scroll.setWidgetResizable(True)
         scroll.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
+        scroll.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)  # Tab goes to its boxes
+        scroll.setAccessibleName("Overlays")
         scroll.setWidget(w)
         self._dock("Overlays", scroll, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
 
@@ -821,6 +1034,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.progress.hide()
         self.cancel_btn = QtWidgets.QPushButton("Cancel")
         self.cancel_btn.setToolTip("cancel the work in progress")
+        self.cancel_btn.setAccessibleName("Cancel the work in progress")
         self.cancel_btn.hide()
         self.cancel_btn.clicked.connect(self.cancel_task)
         self.camera_label = QtWidgets.QLabel("")
@@ -1037,6 +1251,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.rendered = None
         self.plot_audio()
         self.detect_note.setText("sources are detected when you ask (Detect)")
+        self.describe_panel.clear()
         self.overlay_note.setText("")
         self.live_label.setText("off")
         self.statusBar().clearMessage()
@@ -1236,6 +1451,9 @@ class MainWindow(QtWidgets.QMainWindow):
         def done(res: Any) -> None:
             self.detection, self.series = res
             self.thresholds = th
+            if self.describe_panel.description is not None:
+                self.describe_panel.clear("the sources were detected again: Describe "
+                                          "(Ctrl+Shift+D) to put them into words")  # fmt: skip
             self.scene.set_sources(self.detection.get)
             self.detect_note.setText(
                 f"detected (mapping {self.mapping}), thresholds "
@@ -1247,6 +1465,48 @@ class MainWindow(QtWidgets.QMainWindow):
                 then()
 
         return self.run_task("detect", work, done)
+
+    def describe(self, then: Callable[[], None] | None = None) -> Task:
+        """Sources ▸ Describe in words: the detected sources (detected first if needed) and
+        when the listener hears them, in the Describe panel (:mod:`auralize.describe`),
+        on the clock of a render along the listener path (:meth:`playback_plan`)."""
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        if self.series is None:
+            return self.detect(then=lambda: self._guard(self.describe, then))
+        from auralize.describe import describe
+
+        vol, series, plan, heard = self.volume, self.series, self.playback_plan(), self.heard_spec()
+        name = str(self.data.get("spec") or vol.source)
+
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            if not progress(0, 1):
+                raise Cancelled("description cancelled")
+            return describe(vol, series=series, plan=plan, heard=heard, name=name)
+
+        def done(d: Any) -> None:
+            self.describe_panel.show_description(d, self.scene.step)
+            dock = self.docks["Describe"]
+            dock.show()
+            dock.raise_()
+            self.statusBar().showMessage(
+                f"described: {len(d.events)} event(s) (the Describe panel)", 5000)  # fmt: skip
+            if then is not None:
+                then()
+
+        return self.run_task("describe", work, done)
+
+    def save_description(self, filename: str | Path) -> Path:
+        """Save the Describe panel's description (text, or CSV / JSON by the suffix)."""
+        d = self.describe_panel.description
+        if d is None:
+            raise ParameterError("nothing to save yet: Describe first (Ctrl+Shift+D)")
+        from auralize.runtime.files import check_output_path
+
+        check_output_path(filename)
+        out = d.save(filename)
+        self.statusBar().showMessage(f"description saved: {out}", 5000)
+        return out
 
     # ================================================================ time
     def _on_slider(self, step: int) -> None:
@@ -1262,6 +1522,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.slider.blockSignals(False)
         self._update_step_label()
         self._update_cursor()
+        self.describe_panel.show_step(int(step))
         return el
 
     def _update_step_label(self) -> None:
