@@ -33,8 +33,16 @@ def test_fwh_overlay_draws_the_surface_and_is_heard(qtbot, open_viewer, stored_s
     win, shown = open_viewer()
     assert "fwh" in win.overlay_checks
     assert win.overlay_checks["fwh"].toolTip().startswith("show the fwh model's overlay")
-    win.open_data(str(stored_sound))
+    win.open_data("dataset:monopole", size=12)  # sources, not sound waves: no advice
     qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
+    assert win.sound_wave_hint is None and win.overlay_note.text() == ""
+    win.open_data(str(stored_sound))
+    qtbot.waitUntil(lambda: not win.busy and win.volume.source.endswith("pulse.h5"),
+                    timeout=60_000)  # fmt: skip
+    # the data hold sound waves: the viewer says how to hear them as `render` does
+    hint = win.sound_wave_hint
+    assert hint is not None and "obeys the wave equation" in hint and "Tick fwh" in hint
+    assert win.overlay_note.text() == hint and win.statusBar().currentMessage() == hint
     win.set_step(30)
     qtbot.waitUntil(lambda: not win.busy, timeout=60_000)
     result: list[bool] = []
@@ -54,4 +62,5 @@ def test_fwh_overlay_draws_the_surface_and_is_heard(qtbot, open_viewer, stored_s
     assert vol is win.volume and sound.meta["panels"] == surface.n_panels
     win.set_overlay("fwh", False)
     assert "overlay:fwh:0" not in win.scene._actors and "fwh" not in win._overlay_sounds
+    assert win.overlay_note.text() == ""
     assert not shown

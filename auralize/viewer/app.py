@@ -331,6 +331,26 @@ def _form(parent: QtWidgets.QWidget) -> QtWidgets.QFormLayout:
     return lay
 
 
+def _sound_wave_hint(vol: Any) -> str | None:
+    """The advice for data that hold sound waves (the render's ``auto`` would hear them
+    through the FW-H integral, :func:`auralize.fwh.classify.choose_method`), else None.
+
+    The viewer hears the field's sources; such data are mis-heard that way, so the
+    Overlays panel and the status bar say how to hear them as ``auralize render``
+    does.  Data the test cannot judge give None.
+    """
+    from auralize.fwh.classify import choose_method
+
+    try:
+        how = choose_method(vol, "auto")
+    except AuralizeError:
+        return None
+    if how.name != "fwh":
+        return None
+    return (f"{how.why}: summed as sources they are mis-heard. Tick fwh in Overlays to hear "
+            f"them through the FW-H surface ({how.surface}), as auralize render does")  # fmt: skip
+
+
 class MainWindow(QtWidgets.QMainWindow):
     """The viewer window. Its methods are the actions of the panels (tests drive them)."""
 
@@ -359,6 +379,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.head_tracking_port: int | None = None
         self._head: Any = None
         self.load_notes: list[str] = []
+        #: what to do when the data on screen hold sound waves (:func:`_sound_wave_hint`)
+        self.sound_wave_hint: str | None = None
         self.thresholds = Thresholds(*DEFAULTS.thresholds)
         self.autosave_dir = autosave_dir or default_autosave_dir()
         self.recorder = PathRecorder(rate_hz=DEFAULT_RATE_HZ)
@@ -1226,11 +1248,12 @@ class MainWindow(QtWidgets.QMainWindow):
                 frames.append(np.linalg.norm(a, axis=-1) if a.ndim == 4 else a)
                 if not progress(n + 1, vol.n_steps):
                     raise Cancelled(f"opening {spec} cancelled")
-            return vol, name, frames, notes
+            return vol, name, frames, notes, _sound_wave_hint(vol)
 
         def done(res: Any) -> None:
-            vol, name, frames, notes = res
+            vol, name, frames, notes, hint = res
             self.load_notes = notes
+            self.sound_wave_hint = hint
             if not keep_path:
                 self._drop_path()
             self._set_volume(vol, d, name, frames)
@@ -1252,9 +1275,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plot_audio()
         self.detect_note.setText("sources are detected when you ask (Detect)")
         self.describe_panel.clear()
-        self.overlay_note.setText("")
+        self.overlay_note.setText(self.sound_wave_hint or "")
         self.live_label.setText("off")
         self.statusBar().clearMessage()
+        if self.sound_wave_hint:
+            self.statusBar().showMessage(self.sound_wave_hint)
         if self.scene.overlays:  # the overlays switched on are heard for the new data
             from auralize.plugins import get_model
 
