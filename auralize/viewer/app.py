@@ -747,7 +747,16 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _build_panels(self) -> None:
         self.docks: dict[str, QtWidgets.QDockWidget] = {}
-        # ---- Data
+        self._build_data_panel()
+        self._build_sources_panel()
+        self._build_listener_panel()
+        self._build_describe_panel()
+        self._build_audio_panel()
+        self._build_live_panel()
+        self._build_overlays_panel()
+
+    def _build_data_panel(self) -> None:
+        """The Data panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.open_btn = QtWidgets.QPushButton("Open…")
@@ -795,7 +804,9 @@ class MainWindow(QtWidgets.QMainWindow):
         )
         f.addRow("mapping", self.mapping_box)
         self._dock("Data", w)
-        # ---- Sources
+
+    def _build_sources_panel(self) -> None:
+        """The Sources panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.th_edits: dict[str, QtWidgets.QLineEdit] = {}
@@ -851,7 +862,9 @@ class MainWindow(QtWidgets.QMainWindow):
         _readable(self.detect_note, "Detection status")
         f.addRow(self.detect_note)
         self._dock("Sources", w)
-        # ---- Listener
+
+    def _build_listener_panel(self) -> None:
+        """The Listener panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.rate_spin = QtWidgets.QDoubleSpinBox()
@@ -900,12 +913,16 @@ class MainWindow(QtWidgets.QMainWindow):
         self.key_map.setWordWrap(True)
         f.addRow(self.key_map)
         self._dock("Listener", w)
-        # ---- Describe
+
+    def _build_describe_panel(self) -> None:
+        """The Describe panel."""
         self.describe_panel = DescribePanel()
         self.describe_panel.describe_btn.clicked.connect(lambda: self._guard(self.describe))
         self.describe_panel.save_btn.clicked.connect(self._ask_save_description)
         self._dock("Describe", self.describe_panel, QtCore.Qt.DockWidgetArea.BottomDockWidgetArea)
-        # ---- Audio
+
+    def _build_audio_panel(self) -> None:
+        """The Audio panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.layout_box = QtWidgets.QComboBox()
@@ -985,7 +1002,9 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow(self.canvas)
         self._cursors: list[Any] = []
         self._dock("Audio", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
-        # ---- Live listening
+
+    def _build_live_panel(self) -> None:
+        """The Live listening panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.block_spin = QtWidgets.QSpinBox()
@@ -1019,7 +1038,9 @@ class MainWindow(QtWidgets.QMainWindow):
         _readable(self.live_label, "Live listening status")
         f.addRow(self.live_label)
         self._dock("Live listening", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
-        # ---- Overlays
+
+    def _build_overlays_panel(self) -> None:
+        """The Overlays panel."""
         w = QtWidgets.QWidget()
         v = QtWidgets.QVBoxLayout(w)
         self.overlay_checks: dict[str, QtWidgets.QCheckBox] = {}
