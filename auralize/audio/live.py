@@ -470,6 +470,31 @@ class PlaybackReport:
         return asdict(self)
 
 
+def _check_play_options(block_s: float, gain: float | str, highpass_hz: float, rate: int) -> None:
+    """Raise :class:`ParameterError` for a block length, gain or high-pass ``play`` refuses."""
+    if not (math.isfinite(block_s) and block_s > 0):
+        raise ParameterError(f"block_s must be > 0 seconds, got {block_s!r}")
+    if gain != "auto" and not (isinstance(gain, int | float) and math.isfinite(gain) and gain > 0):
+        raise ParameterError(f"gain must be 'auto' or a positive number, got {gain!r}")
+    if not (math.isfinite(highpass_hz) and 0 <= highpass_hz < rate / 2):
+        raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz, "
+                             f"got {highpass_hz!r}")  # fmt: skip
+
+
+def _output_layout(lay: Layout, dev: dict[str, Any], downmix: bool | str | Layout) -> Layout:
+    """The layout sent to device ``dev``: ``lay`` itself, the layout ``downmix`` names, or
+    (``downmix=True``) the largest built-in one the device's channels hold."""
+    if isinstance(downmix, str | Layout) and not isinstance(downmix, bool):
+        out_lay = get_layout(downmix)
+        if out_lay.n_channels > dev["max_output_channels"]:
+            raise DeviceError(f"device {dev['name']!r} has {dev['max_output_channels']} channels; "
+                              f"layout {out_lay.name!r} needs {out_lay.n_channels}")  # fmt: skip
+        return out_lay
+    if downmix and dev["max_output_channels"] < lay.n_channels:
+        return downmix_target(lay, dev["max_output_channels"])
+    return lay
+
+
 def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
          layout: str | Layout = "ring8", device: int | str | None = None,
          time_scale: float = 1.0, interp: str = "cubic", c0: float = C0,
@@ -526,19 +551,9 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     from auralize.audio.output import choose_output_device
 
     lay = get_layout(layout)
-    if not (math.isfinite(block_s) and block_s > 0):
-        raise ParameterError(f"block_s must be > 0 seconds, got {block_s!r}")
-    if gain != "auto" and not (isinstance(gain, int | float) and math.isfinite(gain) and gain > 0):
-        raise ParameterError(f"gain must be 'auto' or a positive number, got {gain!r}")
+    _check_play_options(block_s, gain, highpass_hz, rate)
     dev = choose_output_device(device, lay.n_channels, downmix=bool(downmix))
-    out_lay = lay
-    if isinstance(downmix, str | Layout) and not isinstance(downmix, bool):
-        out_lay = get_layout(downmix)
-        if out_lay.n_channels > dev["max_output_channels"]:
-            raise DeviceError(f"device {dev['name']!r} has {dev['max_output_channels']} channels; "
-                              f"layout {out_lay.name!r} needs {out_lay.n_channels}")  # fmt: skip
-    elif downmix and dev["max_output_channels"] < lay.n_channels:
-        out_lay = downmix_target(lay, dev["max_output_channels"])
+    out_lay = _output_layout(lay, dev, downmix)
     mix = None if out_lay is lay else downmix_matrix(lay, out_lay)
     block = max(round(block_s * rate), 1)
     synth: Any
@@ -552,9 +567,6 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
             raise ParameterError(f"the block renderer makes {synth.layout.name} at {synth.rate} "
                                  f"Hz; play was asked for {lay.name} at {rate} Hz")  # fmt: skip
         block = synth.block_size
-    if not (math.isfinite(highpass_hz) and 0 <= highpass_hz < rate / 2):
-        raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz, "
-                             f"got {highpass_hz!r}")  # fmt: skip
     hp: list[Any] = []
     if highpass_hz > 0:
         from auralize.emitters.timbre import butter_sos
