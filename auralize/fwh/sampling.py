@@ -174,19 +174,33 @@ def _mapping(roles: dict[str, str | None], rho0: float, c0: float) -> AcousticMa
                                  rho0=rho0, c0=c0)  # fmt: skip
 
 
-def _sample_step(volume: TimeVolume, n: int, mapping: AcousticMapping, idx: NDArray[np.int64],
-                 w: NDArray[np.float64], pname: str | None, p0: float | None, rho0: float,
-                 c0: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
-    """ρ, u and p' interpolated to the panel centres (``idx``, ``w``) at step ``n``."""
-    r, u = mapping.map(volume, n)
-    rho = np.einsum("pc,pc->p", r.reshape(-1)[idx], w)
-    vel = np.einsum("pcj,pc->pj", u.reshape(-1, 3)[idx], w)
-    if pname is not None:
-        assert p0 is not None
-        pp = np.einsum("pc,pc->p", volume.frame(pname, n).reshape(-1)[idx], w) - p0
-    else:  # the linear acoustic relation p' = c0² ρ'
-        pp = c0**2 * (rho - rho0)
-    return rho, vel, pp
+@dataclass(frozen=True)
+class _Sampler:
+    """How the surface samples the volume: the mapping of ρ and u, the trilinear
+    indices ``idx`` and weights ``w`` of the panel centres, the pressure field (None:
+    p' from ρ) with its ambient value ``p0``, and ρ0, c0."""
+
+    mapping: AcousticMapping
+    idx: NDArray[np.int64]
+    w: NDArray[np.float64]
+    pname: str | None
+    p0: float | None
+    rho0: float
+    c0: float
+
+    def step(self, volume: TimeVolume, n: int
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+        """ρ, u and p' at the panel centres at step ``n``."""
+        idx, w = self.idx, self.w
+        r, u = self.mapping.map(volume, n)
+        rho = np.einsum("pc,pc->p", r.reshape(-1)[idx], w)
+        vel = np.einsum("pcj,pc->pj", u.reshape(-1, 3)[idx], w)
+        if self.pname is not None:
+            assert self.p0 is not None
+            pp = np.einsum("pc,pc->p", volume.frame(self.pname, n).reshape(-1)[idx], w) - self.p0
+        else:  # the linear acoustic relation p' = c0² ρ'
+            pp = self.c0**2 * (rho - self.rho0)
+        return rho, vel, pp
 
 
 def panel_pressure(volume: TimeVolume, surface: Surface, step: int, *, rho0: float = RHO0,
@@ -234,7 +248,7 @@ def panel_pressure(volume: TimeVolume, surface: Surface, step: int, *, rho0: flo
         first = volume.frame(pname, 0)
         finite = np.isfinite(first)
         p0 = float(first[finite].mean()) if finite.any() else 0.0
-    return _sample_step(volume, int(step), mapping, idx, w, pname, p0, rho0, c0)[2]
+    return _Sampler(mapping, idx, w, pname, p0, rho0, c0).step(volume, int(step))[2]
 
 
 def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, c0: float = C0,
@@ -294,8 +308,9 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
     rho = np.empty((T, P))
     vel = np.empty((T, P, 3))
     pp = np.empty((T, P))
+    sampler = _Sampler(mapping, idx, w, pname, p0, rho0, c0)
     for n in range(T):
-        rho[n], vel[n], pp[n] = _sample_step(volume, n, mapping, idx, w, pname, p0, rho0, c0)
+        rho[n], vel[n], pp[n] = sampler.step(volume, n)
         bad = ~(np.isfinite(rho[n]) & np.isfinite(vel[n]).all(axis=1) & np.isfinite(pp[n]))
         if bad.any():
             raise DataError(
