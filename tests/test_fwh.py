@@ -277,6 +277,13 @@ def test_sound_model_makes_the_same_emitters(mono) -> None:
     assert plain.meta["panels"] == boxed.meta["panels"] == 6 * 6 * 6
     for a, b in zip(plain.parts, boxed.parts, strict=True):
         np.testing.assert_allclose(a.signals, b.signals)
+    # solid=1: the surface is a body's wall, no thickness noise (Curle's loading only)
+    wall = FWHSound().synthesize(small, solid=1)
+    walled = fwh_emitters(small, box_surface([-0.6, 0.6] * 3, panel_size=4 * H), solid=True)
+    assert wall.parts[0].name == "fwh-thickness" and not np.any(wall.parts[0].signals)
+    assert np.any(wall.parts[1].signals)
+    for a, b in zip(wall.parts, walled.parts, strict=True):
+        np.testing.assert_allclose(a.signals, b.signals)
 
 
 def test_overlay_is_the_surface_coloured_by_the_pressure(mono) -> None:

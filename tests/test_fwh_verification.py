@@ -378,3 +378,40 @@ def test_fwh_equals_the_volume_sum_outside_the_sources(spinning_sound) -> None: 
     x = R * dirs[:1]
     t = _window([cut], x)
     assert _rms_err(fwh_pressure(cut, None, x, t), snd.field(t, x)[0].T)[0] > 0.05
+
+
+def test_solid_surface_gives_curles_loading_noise_of_a_compact_body() -> None:
+    """A rigid sphere of radius a loaded by p'(θ, t) = f(t) cos θ (a no-slip wall: the
+    flow velocity on it is zero).  Curle (1955): the body pushes on the fluid with
+    F_z = ∮ p' n_z dS = (4π a²/3) f(t), and a compact body is heard as that force's
+    dipole, p(r, θ, t) = cos θ (a²/3) [f'(τ)/(c0 r) + f(τ)/r²], τ = t − r/c0.
+    ``solid=True`` on samples that carry a (non-zero) flow velocity gives it within
+    1 %; the same samples heard as a permeable surface add that flow's thickness and
+    momentum terms and are far off."""
+    from auralize.fwh.formulation import fwh_pressure
+    from auralize.fwh.sampling import SurfaceSamples
+    from auralize.fwh.surface import sphere_surface
+
+    c0, rho0, a = 343.0, 1.2, 0.05
+    sig, tc, amp = 2e-3, 12e-3, 10.0  # c0·σ = 0.69 m: the sphere is compact
+    times = np.arange(0.0, 0.04, 1e-4)
+    f = amp * np.exp(-0.5 * ((times - tc) / sig) ** 2)
+    surface = sphere_surface((0.0, 0.0, 0.0), a, resolution=4)
+    cos_t = surface.centres[:, 2] / np.linalg.norm(surface.centres, axis=1)
+    p_prime = f[:, None] * cos_t[None, :]
+    rng = np.random.default_rng(3)
+    flow = 0.5 * rng.standard_normal((times.size, surface.n_panels, 3))  # not at a wall
+    smp = SurfaceSamples(times=times, rho=rho0 + p_prime / c0**2, velocity=flow,
+                         p_prime=p_prime, surface=surface, rho0=rho0, c0=c0, p0=0.0)  # fmt: skip
+    r, theta = 3.0, np.radians([0.0, 40.0, 75.0])
+    obs = r * np.stack([np.sin(theta), 0 * theta, np.cos(theta)], axis=1)
+    t = np.linspace(r / c0 + tc - 5 * sig, r / c0 + tc + 5 * sig, 200)
+    tau = t - r / c0
+    g = amp * np.exp(-0.5 * ((tau - tc) / sig) ** 2)
+    dg = -(tau - tc) / sig**2 * g
+    exact = np.cos(theta)[:, None] * a**2 / 3 * (dg[None, :] / (c0 * r) + g[None, :] / r**2)
+    curle = fwh_pressure(smp, None, obs, t, solid=True)
+    scale = np.abs(exact[0]).max()
+    assert np.max(np.abs(curle - exact)) < 0.01 * scale
+    permeable = fwh_pressure(smp, None, obs, t)
+    assert np.max(np.abs(permeable - exact)) > 0.5 * scale

@@ -40,6 +40,7 @@ time (a gather, no loop over panels).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -219,7 +220,7 @@ def fwh_pressure_from_sources(times: NDArray[np.float64], Q: NDArray[np.float64]
 
 def fwh_pressure(volume: TimeVolume | SurfaceSamples, surface: Surface | None, observers: Any,
                  times: Any, *, rho0: float = RHO0, c0: float = C0, p0: float | None = None,
-                 **fields: str) -> NDArray[np.float64]:  # fmt: skip
+                 solid: bool = False, **fields: str) -> NDArray[np.float64]:  # fmt: skip
     """Acoustic pressure at fixed observers by the permeable FW-H integral (formulation 1A).
 
     Parameters
@@ -240,6 +241,11 @@ def fwh_pressure(volume: TimeVolume | SurfaceSamples, surface: Surface | None, o
         Ambient density (kg/m³, default 1.2) and speed of sound (m/s, 343).
     p0 : float, optional
         Ambient pressure (Pa); default the mean of the first step's pressure.
+    solid : bool
+        The surface is an impermeable, no-slip body (the flow velocity on it
+        zero): the thickness source Q vanishes and the loading is L_i = p' n_i,
+        Curle's loading noise of the body (Curle 1955; Farassat 2007 §3).
+        Default False: a permeable surface in the flow.
     **fields : str
         ``density=``, ``velocity=``, ``momentum=``, ``pressure=`` field names
         (default: found by role, :func:`auralize.sources.mapping.match_field`).
@@ -263,20 +269,34 @@ def fwh_pressure(volume: TimeVolume | SurfaceSamples, surface: Surface | None, o
     >>> p.shape, bool(np.abs(p).max() < 1e-12)
     ((1, 2), True)
     """
-    if isinstance(volume, SurfaceSamples):
-        smp = volume
-    else:
-        if surface is None:
-            raise ParameterError("fwh_pressure needs a surface")
-        smp = sample_surface(volume, surface, rho0=rho0, c0=c0, p0=p0, **fields)
+    smp = _samples(volume, surface, "fwh_pressure", solid=solid, rho0=rho0, c0=c0, p0=p0,
+                   fields=fields)  # fmt: skip
     Q, L = fwh_sources(smp.rho, smp.velocity, smp.p_prime, smp.surface.normals, rho0=smp.rho0,
                        surface_velocity=None if smp.surface.stationary else smp.surface.velocity)  # fmt: skip
     return fwh_pressure_from_sources(smp.times, Q, L, smp.surface, observers, times, c0=smp.c0)
 
 
+def _samples(volume: TimeVolume | SurfaceSamples, surface: Surface | None, what: str, *,
+             solid: bool, rho0: float, c0: float, p0: float | None,
+             fields: dict[str, str]) -> SurfaceSamples:  # fmt: skip
+    """The surface samples of ``volume`` (sampled on ``surface`` unless given as samples);
+    ``solid``: the surface is an impermeable, no-slip wall, the flow velocity on it zero."""
+    if isinstance(volume, SurfaceSamples):
+        smp = volume
+    else:
+        if surface is None:
+            raise ParameterError(f"{what} needs a surface")
+        smp = sample_surface(volume, surface, rho0=rho0, c0=c0, p0=p0, **fields)
+    if solid:
+        if not smp.surface.stationary:
+            raise ParameterError("a solid (impermeable) FW-H surface must be stationary here")
+        smp = replace(smp, velocity=np.zeros_like(smp.velocity))
+    return smp
+
+
 def fwh_emitters(volume: TimeVolume | SurfaceSamples, surface: Surface | None = None, *,
                  rho0: float = RHO0, c0: float = C0, p0: float | None = None,
-                 oversample: int = 4, time_origin: float | None = None,
+                 oversample: int = 4, time_origin: float | None = None, solid: bool = False,
                  **fields: str) -> Sound:  # fmt: skip
     """The FW-H surface as engine emitters: a monopole and two dipoles per panel.
 
@@ -292,7 +312,7 @@ def fwh_emitters(volume: TimeVolume | SurfaceSamples, surface: Surface | None = 
 
     Parameters
     ----------
-    volume, surface, rho0, c0, p0, **fields
+    volume, surface, rho0, c0, p0, solid, **fields
         As :func:`fwh_pressure`.
     oversample : int
         Emission samples per data step (the splines are evaluated at this
@@ -308,12 +328,8 @@ def fwh_emitters(volume: TimeVolume | SurfaceSamples, surface: Surface | None = 
         ``fwh-loading-far``, ``fwh-loading-near``), signals over the data's
         times (zero outside them); ``meta`` holds the surface and fields.
     """
-    if isinstance(volume, SurfaceSamples):
-        smp = volume
-    else:
-        if surface is None:
-            raise ParameterError("fwh_emitters needs a surface")
-        smp = sample_surface(volume, surface, rho0=rho0, c0=c0, p0=p0, **fields)
+    smp = _samples(volume, surface, "fwh_emitters", solid=solid, rho0=rho0, c0=c0, p0=p0,
+                   fields=fields)  # fmt: skip
     if not smp.surface.stationary:
         raise ParameterError("fwh_emitters handles a stationary surface only")
     if isinstance(oversample, bool) or not (

@@ -56,6 +56,12 @@ class FWHSound(SoundModel):
         Parameter("c0", 343.0, range=(1e-9, None), unit="m/s"),
         Parameter("p0", "auto", doc="ambient pressure in Pa, or auto (first step's mean)"),
         Parameter("oversample", 4, range=(1, 64), doc="emission samples per data step"),
+        Parameter(
+            "solid",
+            0,
+            range=(0, 1),
+            doc="1: the surface is a body's wall (impermeable, no slip): Curle's loading noise",
+        ),
         Parameter("time_origin", "auto", doc="data second at playback 0 (auto: first step)"),
     )
 
@@ -128,4 +134,5 @@ class FWHSound(SoundModel):
 
         return fwh_emitters(inputs, surface, rho0=float(p["rho0"]), c0=float(p["c0"]),
                             p0=number("p0"), oversample=int(p["oversample"]),
-                            time_origin=number("time_origin"))  # fmt: skip
+                            time_origin=number("time_origin"),
+                            solid=bool(int(p["solid"])))  # fmt: skip
