@@ -105,8 +105,16 @@ FORMATS = ("text", "csv", "json")
 #: playback-time samples of the listener path per second used to find arrival times
 _ARRIVAL_GRID = 4096
 _AXES = (("left", "", "right"), ("front", "", "back"), ("lower", "", "upper"))
-_SECTORS = ("ahead", "ahead-left", "left", "behind-left", "behind", "behind-right", "right",
-            "ahead-right")  # fmt: skip
+_SECTORS = (
+    "ahead",
+    "ahead-left",
+    "left",
+    "behind-left",
+    "behind",
+    "behind-right",
+    "right",
+    "ahead-right",
+)
 
 
 @dataclass
@@ -186,8 +194,10 @@ class Description:
         return self.text()
 
     def __repr__(self) -> str:
-        return (f"<Description of {self.source}: {len(self.events)} event(s), "
-                f"{len(self.rows)} step rows>")  # fmt: skip
+        return (
+            f"<Description of {self.source}: {len(self.events)} event(s), "
+            f"{len(self.rows)} step rows>"
+        )
 
     def _t(self, seconds: float) -> str:
         return format_data_time(seconds, physical=self.physical_times)
@@ -198,17 +208,22 @@ class Description:
         t = self.times
         b = self.bounds
         p = self.plan
-        lines = [f"Sources in {self.source} ({nx} × {ny} × {nz} points, {t.size} steps, "
-                 f"{t[0]:.4g} .. {t[-1]:.4g} s)",
-                 f"Box: x {b[0]:.4g} .. {b[1]:.4g} m (left to right), y {b[2]:.4g} .. {b[3]:.4g} m "
-                 f"(front to back), z {b[4]:.4g} .. {b[5]:.4g} m (lower to upper).",
-                 f"Listener: {p['listener']}; {p['time_mapping']}; the render lasts "
-                 f"{p['duration_s']:.3g} s of playback and starts "
-                 + (f"{self._t(p['lead_data_s'])} of data after the first step (the sound's "
-                    f"travel to the listener)." if p["lead_data_s"] > 0
-                    else "at the first step."),
-                 f"Heard: {self.heard}. Levels are those of each type's detected sources at "
-                 f"the listener, in dB relative to the loudest."]  # fmt: skip
+        lines = [
+            f"Sources in {self.source} ({nx} × {ny} × {nz} points, {t.size} steps, "
+            f"{t[0]:.4g} .. {t[-1]:.4g} s)",
+            f"Box: x {b[0]:.4g} .. {b[1]:.4g} m (left to right), y {b[2]:.4g} .. {b[3]:.4g} m "
+            f"(front to back), z {b[4]:.4g} .. {b[5]:.4g} m (lower to upper).",
+            f"Listener: {p['listener']}; {p['time_mapping']}; the render lasts "
+            f"{p['duration_s']:.3g} s of playback and starts "
+            + (
+                f"{self._t(p['lead_data_s'])} of data after the first step (the sound's "
+                f"travel to the listener)."
+                if p["lead_data_s"] > 0
+                else "at the first step."
+            ),
+            f"Heard: {self.heard}. Levels are those of each type's detected sources at "
+            f"the listener, in dB relative to the loudest.",
+        ]
         lines += [n[:1].upper() + n[1:] for n in self.notes]
         if not self.events:
             lines.append("No sources were detected at any step.")
@@ -236,31 +251,47 @@ class Description:
                 m += 1
             rows = [r for k in range(n, m + 1) for r in by_step.get(k, [])]
             steps = f"step {n}" if m == n else f"steps {n}–{m}"
-            when = (f"data {self._t(self.times[n])}" if m == n
-                    else f"data {self._t(self.times[n])} .. {self._t(self.times[m])}")  # fmt: skip
+            when = (
+                f"data {self._t(self.times[n])}"
+                if m == n
+                else f"data {self._t(self.times[n])} .. {self._t(self.times[m])}"
+            )
             heard = [r.audio_time for r in rows if r.audio_time is not None]
             if heard:
                 a0, a1 = min(heard), max(heard)
-                when += (f", heard at {a0:.2f} s" if a1 - a0 < 0.005
-                         else f", heard {a0:.2f} .. {a1:.2f} s")  # fmt: skip
+                when += (
+                    f", heard at {a0:.2f} s"
+                    if a1 - a0 < 0.005
+                    else f", heard {a0:.2f} .. {a1:.2f} s"
+                )
             elif rows:
                 when += ", not heard within the render"
             if not rows:
                 out.append(f"{steps} ({when}): no sources.")
             else:
-                parts = [_range_phrase([r for r in rows if r.type == k]) for k in TYPES
-                         if any(r.type == k for r in rows)]  # fmt: skip
+                parts = [
+                    _range_phrase([r for r in rows if r.type == k])
+                    for k in TYPES
+                    if any(r.type == k for r in rows)
+                ]
                 out.append(f"{steps} ({when}): " + "; ".join(parts) + ".")
             n = m + 1
         return out
 
     def as_dict(self) -> dict[str, Any]:
         """Everything as JSON-ready data (None for levels and times that do not exist)."""
-        return {"source": self.source, "dims": list(self.dims), "times": self.times.tolist(),
-                "bounds": list(self.bounds), "physical_times": self.physical_times,
-                "plan": self.plan, "heard": self.heard, "notes": list(self.notes),
-                "events": [asdict(e) for e in self.events],
-                "steps": [asdict(r) for r in self.rows]}  # fmt: skip
+        return {
+            "source": self.source,
+            "dims": list(self.dims),
+            "times": self.times.tolist(),
+            "bounds": list(self.bounds),
+            "physical_times": self.physical_times,
+            "plan": self.plan,
+            "heard": self.heard,
+            "notes": list(self.notes),
+            "events": [asdict(e) for e in self.events],
+            "steps": [asdict(r) for r in self.rows],
+        }
 
     def csv_text(self) -> str:
         """The per-step rows as CSV (one row per step and type present)."""
@@ -301,8 +332,7 @@ class Description:
             return f"Step {step} (data {t}): no sources."
         heard = [r.audio_time for r in rows if r.audio_time is not None]
         when = f", heard at {min(heard):.2f} s" if heard else ", not heard within the render"
-        return f"Step {step} (data {t}{when}): " + "; ".join(
-            _range_phrase([r]) for r in rows) + "."  # fmt: skip
+        return f"Step {step} (data {t}{when}): " + "; ".join(_range_phrase([r]) for r in rows) + "."
 
 
 def _cell(v: Any) -> Any:
@@ -335,14 +365,20 @@ def _range_phrase(rows: list[StepRow]) -> str:
     most = max(r.count for r in rows)
     levels = [r.level_db for r in rows if r.level_db is not None]
     dist = [r.distance_m for r in rows]
-    d = (f"{min(dist):.3g} m away" if max(dist) - min(dist) < 0.05 * max(dist)
-         else f"{min(dist):.3g} .. {max(dist):.3g} m away")  # fmt: skip
+    d = (
+        f"{min(dist):.3g} m away"
+        if max(dist) - min(dist) < 0.05 * max(dist)
+        else f"{min(dist):.3g} .. {max(dist):.3g} m away"
+    )
     count = _points(most) if len(rows) == 1 else f"up to {_points(most)}"
     size = 2 * max(r.spread_m for r in rows)
-    over = ("" if r0.region.startswith("spread") or size <= 0
-            else f", spread over about {size:.2g} m")  # fmt: skip
-    return (f"{_plural(r0.type, most)} ({count}) {r0.region}{over}, {d}, {r0.direction}, "
-            f"{_db(max(levels) if levels else None)}")  # fmt: skip
+    over = (
+        "" if r0.region.startswith("spread") or size <= 0 else f", spread over about {size:.2g} m"
+    )
+    return (
+        f"{_plural(r0.type, most)} ({count}) {r0.region}{over}, {d}, {r0.direction}, "
+        f"{_db(max(levels) if levels else None)}"
+    )
 
 
 def _event_sentence(e: Event, d: Description) -> str:
@@ -351,23 +387,36 @@ def _event_sentence(e: Event, d: Description) -> str:
         when = "After the render ends (not heard)"
     else:
         when = f"At {e.audio_start:.2f} s"
-    steps = f"step {e.first_step}" if e.first_step == e.last_step else (
-        f"steps {e.first_step}–{e.last_step}")  # fmt: skip
-    ends = ("" if e.audio_start is None or e.audio_end is None
-            else f"; they end at {e.audio_end:.2f} s" if e.last_step > e.first_step
-            else "; for one step")  # fmt: skip
+    steps = (
+        f"step {e.first_step}"
+        if e.first_step == e.last_step
+        else (f"steps {e.first_step}–{e.last_step}")
+    )
+    ends = (
+        ""
+        if e.audio_start is None or e.audio_end is None
+        else f"; they end at {e.audio_end:.2f} s"
+        if e.last_step > e.first_step
+        else "; for one step"
+    )
     if e.audio_start is not None and e.audio_end is None:
         ends = "; they last beyond the render's end"
-    data = (f"data {d._t(e.start)}" if e.last_step == e.first_step
-            else f"data {d._t(e.start)} .. {d._t(e.end)}")  # fmt: skip
-    return (f"{when}: {kind} ({steps}, {data}), up to {_points(e.peak_count)}, loudest "
-            f"{e.region}, {e.distance_m:.3g} m away, {e.direction}, level {_db(e.level_db)}"
-            f"{ends}.")  # fmt: skip
+    data = (
+        f"data {d._t(e.start)}"
+        if e.last_step == e.first_step
+        else f"data {d._t(e.start)} .. {d._t(e.end)}"
+    )
+    return (
+        f"{when}: {kind} ({steps}, {data}), up to {_points(e.peak_count)}, loudest "
+        f"{e.region}, {e.distance_m:.3g} m away, {e.direction}, level {_db(e.level_db)}"
+        f"{ends}."
+    )
 
 
 # ------------------------------------------------------------------ geometry in words
-def box_region(points: NDArray[np.floating], bounds: Any,
-               spread: NDArray[np.floating] | None = None) -> list[str]:  # fmt: skip
+def box_region(
+    points: NDArray[np.floating], bounds: Any, spread: NDArray[np.floating] | None = None
+) -> list[str]:
     """Where each of ``points (N, 3)`` lies in the box ``bounds`` (6,), in words.
 
     Thirds of the box along each axis: x *left* / *right*, y *front* / *back*,
@@ -387,8 +436,11 @@ def box_region(points: NDArray[np.floating], bounds: Any,
     ext = b[:, 1] - b[:, 0]
     u = np.where(ext > 0, (p - b[:, 0]) / np.where(ext > 0, ext, 1.0), 0.5)
     third = np.clip(np.floor(u * 3), 0, 2).astype(int)  # 0, 1, 2 per axis
-    wide = (np.zeros(p.shape[0], bool) if spread is None
-            else np.asarray(spread) > SPREAD_FRACTION * float(np.linalg.norm(ext)))  # fmt: skip
+    wide = (
+        np.zeros(p.shape[0], bool)
+        if spread is None
+        else np.asarray(spread) > SPREAD_FRACTION * float(np.linalg.norm(ext))
+    )
     out = []
     for t, w in zip(third, wide, strict=True):
         words = " ".join(_AXES[a][t[a]] for a in (2, 0, 1) if _AXES[a][t[a]])
@@ -404,8 +456,9 @@ def box_region(points: NDArray[np.floating], bounds: Any,
     return out
 
 
-def direction_words(azimuth_deg: NDArray[np.floating],
-                    elevation_deg: NDArray[np.floating]) -> list[str]:  # fmt: skip
+def direction_words(
+    azimuth_deg: NDArray[np.floating], elevation_deg: NDArray[np.floating]
+) -> list[str]:
     """Directions in words: eight sectors of azimuth (counter-clockwise from ahead,
     90° is left), plus ``above`` / ``below`` beyond 30° of elevation.
 
@@ -428,8 +481,14 @@ def direction_words(azimuth_deg: NDArray[np.floating],
     return out
 
 
-def arrival_times(plan: RenderPlan, points: NDArray[np.floating], times: NDArray[np.floating],
-                  t0: float, *, c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def arrival_times(
+    plan: RenderPlan,
+    points: NDArray[np.floating],
+    times: NDArray[np.floating],
+    t0: float,
+    *,
+    c0: float = C0,
+) -> NDArray[np.float64]:
     """Playback seconds at which sound emitted at ``points (N, 3)`` at data ``times (N,)``
     reaches the listener of ``plan`` (see the module docstring).
 
@@ -471,8 +530,11 @@ def arrival_times(plan: RenderPlan, points: NDArray[np.floating], times: NDArray
         # outside the grid the listener stands at the path's first or last place
         before = (t - t0 - lead + d[:, 0] / c0) * ts
         after = (t - t0 - lead + d[:, -1] / c0) * ts
-        out[a:a + chunk] = np.where(k == 0, np.minimum(before, 0.0),
-                                    np.where(k >= m, np.maximum(after, plan.duration), inside))  # fmt: skip
+        out[a : a + chunk] = np.where(
+            k == 0,
+            np.minimum(before, 0.0),
+            np.where(k >= m, np.maximum(after, plan.duration), inside),
+        )
     return out
 
 
@@ -485,8 +547,11 @@ def _type_stats(series: SourceSeries) -> dict[str, NDArray[np.float64]]:
     kind = np.concatenate([f.kind for f in series.frames]) if idx else np.zeros(0, np.int8)
     step = np.repeat(np.arange(T), [i.size for i in idx])
     flat = np.concatenate(idx) if idx else np.zeros(0, np.int64)
-    w = (np.abs(np.concatenate([f.strength * f.volume for f in series.frames]))
-         if idx else np.zeros(0))  # fmt: skip
+    w = (
+        np.abs(np.concatenate([f.strength * f.volume for f in series.frames]))
+        if idx
+        else np.zeros(0)
+    )
     pos = series.positions(flat) if flat.size else np.zeros((0, 3))
     g = step * 3 + (kind.astype(np.int64) - 1)
     n = T * 3
@@ -499,12 +564,17 @@ def _type_stats(series: SourceSeries) -> dict[str, NDArray[np.float64]]:
     c = sums / np.where(wzs > 0, wzs, 1.0)[:, None]
     r2 = np.bincount(g, weights=wz * np.sum((pos - c[g]) ** 2, axis=1), minlength=n)
     spread = np.sqrt(r2 / np.where(wzs > 0, wzs, 1.0))
-    return {"count": count, "strength": wsum.reshape(T, 3), "centre": c.reshape(T, 3, 3),
-            "spread": spread.reshape(T, 3)}  # fmt: skip
+    return {
+        "count": count,
+        "strength": wsum.reshape(T, 3),
+        "centre": c.reshape(T, 3, 3),
+        "spread": spread.reshape(T, 3),
+    }
 
 
-def _type_sound(series: SourceSeries, plan: RenderPlan, volume: TimeVolume, kind: str, *,
-                interp: str, c0: float) -> NDArray[np.float64] | None:  # fmt: skip
+def _type_sound(
+    series: SourceSeries, plan: RenderPlan, volume: TimeVolume, kind: str, *, interp: str, c0: float
+) -> NDArray[np.float64] | None:
     """The mono pressure (Pa) of ``kind``'s detected sources along the plan's path, at
     :data:`LEVEL_RATE` (None: no source of that type)."""
     from auralize.emitters import FieldSources, Sound
@@ -512,15 +582,34 @@ def _type_sound(series: SourceSeries, plan: RenderPlan, volume: TimeVolume, kind
     tracks = heard_tracks(series, kind)
     if tracks.n_sources == 0:
         return None
-    sound = Sound([FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead, interp=interp,
-                                timbre="physical", bounds=volume.bounds)], name=kind)  # fmt: skip
-    out = render(sound, plan.path, rate=LEVEL_RATE, layout="mono", duration=plan.duration,
-                 c0=c0, highpass_hz=0.0)  # fmt: skip
+    sound = Sound(
+        [
+            FieldSources(
+                tracks,
+                time_scale=plan.time_scale,
+                lead=plan.lead,
+                interp=interp,
+                timbre="physical",
+                bounds=volume.bounds,
+            )
+        ],
+        name=kind,
+    )
+    out = render(
+        sound,
+        plan.path,
+        rate=LEVEL_RATE,
+        layout="mono",
+        duration=plan.duration,
+        c0=c0,
+        highpass_hz=0.0,
+    )
     return np.asarray(out.audio[0], dtype=np.float64)
 
 
-def _mean_square(cs: NDArray[np.float64], a: NDArray[np.floating],
-                 b: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+def _mean_square(
+    cs: NDArray[np.float64], a: NDArray[np.floating], b: NDArray[np.floating]
+) -> NDArray[np.float64]:
     """Mean square of a signal between playback seconds ``a`` and ``b`` (arrays), from the
     cumulative sum ``cs`` of its squares (NaN where the span lies outside it)."""
     n = cs.size - 1
@@ -543,14 +632,25 @@ def _runs(present: NDArray[np.bool_], gap: int) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), ends.tolist(), strict=True))
 
 
-def describe(volume: TimeVolume | str, *, series: SourceSeries | None = None,
-             path: Any = None, listener: Any = None, duration: float | None = None,
-             time_scale: float | str = DEFAULTS.time_scale, heard: str = DEFAULTS.heard,
-             orbit_face: str = DEFAULTS.orbit_face, c0: float = C0,
-             mapping: str | None = None, thresholds: Thresholds | None = None,
-             interp: str = DEFAULTS.interp, plan: RenderPlan | None = None,
-             name: str | None = None, progress_bar: bool = False,
-             **mapping_fields: str) -> Description:  # fmt: skip
+def describe(
+    volume: TimeVolume | str,
+    *,
+    series: SourceSeries | None = None,
+    path: Any = None,
+    listener: Any = None,
+    duration: float | None = None,
+    time_scale: float | str = DEFAULTS.time_scale,
+    heard: str = DEFAULTS.heard,
+    orbit_face: str = DEFAULTS.orbit_face,
+    c0: float = C0,
+    mapping: str | None = None,
+    thresholds: Thresholds | None = None,
+    interp: str = DEFAULTS.interp,
+    plan: RenderPlan | None = None,
+    name: str | None = None,
+    progress_bar: bool = False,
+    **mapping_fields: str,
+) -> Description:
     """Describe the sources of ``volume`` and what a render of it lets the listener hear.
 
     Parameters
@@ -583,19 +683,35 @@ def describe(volume: TimeVolume | str, *, series: SourceSeries | None = None,
         name = volume
     volume = volume_arg(volume, "describe")
     if series is None:
-        series = detect_sources(volume, mapping=mapping, thresholds=thresholds,
-                                progress_bar=progress_bar, **mapping_fields)  # fmt: skip
+        series = detect_sources(
+            volume,
+            mapping=mapping,
+            thresholds=thresholds,
+            progress_bar=progress_bar,
+            **mapping_fields,
+        )
     elif not isinstance(series, SourceSeries):
-        raise ParameterError(f"series must be a SourceSeries (detect_sources makes one), got "
-                             f"{type(series).__name__}")  # fmt: skip
+        raise ParameterError(
+            f"series must be a SourceSeries (detect_sources makes one), got {type(series).__name__}"
+        )
     if series.n_steps != volume.n_steps:
-        raise ParameterError(f"the sources have {series.n_steps} steps, the data {volume.n_steps}; "
-                             f"give the sources detected in this volume")  # fmt: skip
+        raise ParameterError(
+            f"the sources have {series.n_steps} steps, the data {volume.n_steps}; "
+            f"give the sources detected in this volume"
+        )
     hd = parse_heard(heard)
     if plan is None:
         planned = heard_tracks(series, hd) if hd.mode == "detected" else None
-        plan = plan_render(volume, planned, path=path, listener=listener, duration=duration,
-                           time_scale=time_scale, c0=c0, face=orbit_face)  # fmt: skip
+        plan = plan_render(
+            volume,
+            planned,
+            path=path,
+            listener=listener,
+            duration=duration,
+            time_scale=time_scale,
+            c0=c0,
+            face=orbit_face,
+        )
     times = np.asarray(series.times, dtype=np.float64)
     t0 = float(times[0])
     T = times.size
@@ -616,32 +732,64 @@ def describe(volume: TimeVolume | str, *, series: SourceSeries | None = None,
     spread = st["spread"][steps, kinds]
     region = box_region(centres, volume.bounds, spread)
     inside = dist < spread
-    direction = [("around the listener" if i else w)
-                 for w, i in zip(direction_words(az, el), inside, strict=True)]  # fmt: skip
+    direction = [
+        ("around the listener" if i else w)
+        for w, i in zip(direction_words(az, el), inside, strict=True)
+    ]
     # the sound of each type at the listener: its mean square over each step's playback span
     half = np.gradient(times) * plan.time_scale / 2 if T > 1 else np.array([0.5])
-    sounds = {k: _type_sound(series, plan, volume, k, interp=interp, c0=c0)
-              for i, k in enumerate(TYPES) if present[:, i].any()}  # fmt: skip
+    sounds = {
+        k: _type_sound(series, plan, volume, k, interp=interp, c0=c0)
+        for i, k in enumerate(TYPES)
+        if present[:, i].any()
+    }
     cums = {k: np.r_[0.0, np.cumsum(p**2)] for k, p in sounds.items() if p is not None}
     heard_ok = audio <= plan.duration
     ms = np.full(steps.size, np.nan)
     for i, k in enumerate(TYPES):
         sel = kinds == i
         if k in cums and sel.any():
-            ms[sel] = _mean_square(cums[k], audio[sel] - half[steps[sel]],
-                                   audio[sel] + half[steps[sel]])  # fmt: skip
+            ms[sel] = _mean_square(
+                cums[k], audio[sel] - half[steps[sel]], audio[sel] + half[steps[sel]]
+            )
     ms = np.where(heard_ok, ms, np.nan)
     loud = np.nanmax(ms) if np.any(ms > 0) else np.nan
     with np.errstate(divide="ignore", invalid="ignore"):
         level = 10 * np.log10(ms / loud)
-    rows = [StepRow(step=int(n), time=float(times[n]), type=TYPES[k], count=int(st["count"][n, k]),
-                    x=float(c[0]), y=float(c[1]), z=float(c[2]), spread_m=float(s),
-                    region=rg, distance_m=float(d), azimuth_deg=float(a), elevation_deg=float(e),
-                    direction=dw, audio_time=float(au) if ok else None,
-                    level_db=float(lv) if np.isfinite(lv) else None)
-            for n, k, c, s, rg, d, a, e, dw, au, ok, lv in zip(
-                steps, kinds, centres, spread, region, dist, az, el, direction, audio, heard_ok,
-                level, strict=True)]  # fmt: skip
+    rows = [
+        StepRow(
+            step=int(n),
+            time=float(times[n]),
+            type=TYPES[k],
+            count=int(st["count"][n, k]),
+            x=float(c[0]),
+            y=float(c[1]),
+            z=float(c[2]),
+            spread_m=float(s),
+            region=rg,
+            distance_m=float(d),
+            azimuth_deg=float(a),
+            elevation_deg=float(e),
+            direction=dw,
+            audio_time=float(au) if ok else None,
+            level_db=float(lv) if np.isfinite(lv) else None,
+        )
+        for n, k, c, s, rg, d, a, e, dw, au, ok, lv in zip(
+            steps,
+            kinds,
+            centres,
+            spread,
+            region,
+            dist,
+            az,
+            el,
+            direction,
+            audio,
+            heard_ok,
+            level,
+            strict=True,
+        )
+    ]
     events = _events(rows, st, times, cums, half)
     notes = list(plan.notes)
     unavailable = series.meta.get("unavailable")
@@ -650,16 +798,27 @@ def describe(volume: TimeVolume | str, *, series: SourceSeries | None = None,
         for kind, why in unavailable.items():
             by_reason.setdefault(str(why), []).append(kind)
         notes += [f"No {' or '.join(k)} sources: {why}." for why, k in by_reason.items()]
-    return Description(source=name or str(volume.attrs.get("dataset") or volume.source),
-                       dims=tuple(int(x) for x in volume.dims),  # type: ignore[arg-type]
-                       times=times, bounds=tuple(float(x) for x in volume.bounds),
-                       physical_times=bool(volume.physical_times), plan=plan.as_dict(),
-                       heard=hd.describe() + f" (render --heard {hd.label})",
-                       rows=rows, events=events, notes=notes)  # fmt: skip
+    return Description(
+        source=name or str(volume.attrs.get("dataset") or volume.source),
+        dims=tuple(int(x) for x in volume.dims),  # type: ignore[arg-type]
+        times=times,
+        bounds=tuple(float(x) for x in volume.bounds),
+        physical_times=bool(volume.physical_times),
+        plan=plan.as_dict(),
+        heard=hd.describe() + f" (render --heard {hd.label})",
+        rows=rows,
+        events=events,
+        notes=notes,
+    )
 
 
-def _events(rows: list[StepRow], st: dict[str, NDArray[np.float64]], times: NDArray[np.float64],
-            cums: dict[str, NDArray[np.float64]], half: NDArray[np.float64]) -> list[Event]:  # fmt: skip
+def _events(
+    rows: list[StepRow],
+    st: dict[str, NDArray[np.float64]],
+    times: NDArray[np.float64],
+    cums: dict[str, NDArray[np.float64]],
+    half: NDArray[np.float64],
+) -> list[Event]:
     """The events of the rows (see the module docstring), sorted by playback onset."""
     at = {(r.step, r.type): r for r in rows}
     events: list[Event] = []
@@ -668,25 +827,51 @@ def _events(rows: list[StepRow], st: dict[str, NDArray[np.float64]], times: NDAr
         for a, b in _runs(st["count"][:, i] > 0, MERGE_GAP):
             mine = [at[(n, k)] for n in range(a, b + 1) if (n, k) in at]
             lv = [r.level_db if r.level_db is not None else -np.inf for r in mine]
-            peak = mine[int(np.argmax(lv))] if np.isfinite(max(lv)) else max(
-                mine, key=lambda r: st["strength"][r.step, i])  # fmt: skip
+            peak = (
+                mine[int(np.argmax(lv))]
+                if np.isfinite(max(lv))
+                else max(mine, key=lambda r: st["strength"][r.step, i])
+            )
             heard = [r.audio_time for r in mine if r.audio_time is not None]
             first, last = mine[0], mine[-1]
-            events.append(Event(
-                type=k, first_step=a, last_step=b, start=float(times[a]), end=float(times[b]),
-                audio_start=first.audio_time if heard else None,
-                audio_end=last.audio_time, peak_step=peak.step,
-                peak_count=max(r.count for r in mine), region=peak.region,
-                distance_m=peak.distance_m, direction=peak.direction, level_db=None))  # fmt: skip
-            spans.append((k, (min(heard) - half[a]) if heard else math.nan,
-                          (max(heard) + half[b]) if heard else math.nan))  # fmt: skip
-    ms = np.array([_mean_square(cums[k], np.array([s0]), np.array([s1]))[0]
-                   if k in cums and np.isfinite(s0) else np.nan for k, s0, s1 in spans])  # fmt: skip
+            events.append(
+                Event(
+                    type=k,
+                    first_step=a,
+                    last_step=b,
+                    start=float(times[a]),
+                    end=float(times[b]),
+                    audio_start=first.audio_time if heard else None,
+                    audio_end=last.audio_time,
+                    peak_step=peak.step,
+                    peak_count=max(r.count for r in mine),
+                    region=peak.region,
+                    distance_m=peak.distance_m,
+                    direction=peak.direction,
+                    level_db=None,
+                )
+            )
+            spans.append(
+                (
+                    k,
+                    (min(heard) - half[a]) if heard else math.nan,
+                    (max(heard) + half[b]) if heard else math.nan,
+                )
+            )
+    ms = np.array(
+        [
+            _mean_square(cums[k], np.array([s0]), np.array([s1]))[0]
+            if k in cums and np.isfinite(s0)
+            else np.nan
+            for k, s0, s1 in spans
+        ]
+    )
     if np.any(ms > 0):
         with np.errstate(divide="ignore", invalid="ignore"):
             lv = 10 * np.log10(ms / np.nanmax(ms))
         for e, v in zip(events, lv, strict=True):
             e.level_db = float(v) if np.isfinite(v) else None
-    events.sort(key=lambda e: (math.inf if e.audio_start is None else e.audio_start,
-                               TYPES.index(e.type)))  # fmt: skip
+    events.sort(
+        key=lambda e: (math.inf if e.audio_start is None else e.audio_start, TYPES.index(e.type))
+    )
     return events

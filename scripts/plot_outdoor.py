@@ -51,8 +51,9 @@ def iso_figure(out: Path) -> None:
     worst = 0.0
     colours = {}
     for t, rh in ((20, 70), (20, 10), (-20, 70), (50, 70), (0, 15)):
-        (line,) = ax.loglog(f, 1e3 * air_alpha(f, temperature=t, humidity=rh), lw=1,
-                            label=f"{t} °C, {rh} %")  # fmt: skip
+        (line,) = ax.loglog(
+            f, 1e3 * air_alpha(f, temperature=t, humidity=rh), lw=1, label=f"{t} °C, {rh} %"
+        )
         colours[(t, rh)] = line.get_color()
     res = []
     for t, rh, fn, table in T.ISO_TABLE_1:
@@ -68,23 +69,32 @@ def iso_figure(out: Path) -> None:
         got = 1e3 * air_alpha(fo, temperature=t, humidity=rh)
         unit = np.where(np.array(vals) >= 100, 1.0, 0.1)
         oct_res += list(zip(fo, (got - np.array(vals)) / unit, strict=True))
-    ax.set(xlabel="frequency, Hz", ylabel="α, dB/km",
-           title="ISO 9613-1 Eqs. (3)–(5) (lines), Table 1 (circles)")  # fmt: skip
+    ax.set(
+        xlabel="frequency, Hz",
+        ylabel="α, dB/km",
+        title="ISO 9613-1 Eqs. (3)–(5) (lines), Table 1 (circles)",
+    )
     ax.legend(fontsize=8)
     r = np.array(res)
     o = np.array(oct_res)
     ar.semilogx(r[:, 0], r[:, 1], "o", mfc="none", label=f"9613-1 Table 1 ({len(r)} entries)")
     ar.semilogx(o[:, 0], o[:, 1], "x", label=f"9613-2 Table 2 ({len(o)} entries)")
     ar.axhspan(-0.5, 0.5, color="0.9", zorder=0, label="± half the last digit")
-    ar.set(xlabel="frequency, Hz", ylabel="computed − table, units of the last digit",
-           ylim=(-1, 1), title="against the tables' rounding")  # fmt: skip
+    ar.set(
+        xlabel="frequency, Hz",
+        ylabel="computed − table, units of the last digit",
+        ylim=(-1, 1),
+        title="against the tables' rounding",
+    )
     ar.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out / "outdoor_iso.png", dpi=110)
     plt.close(fig)
-    print(f"ISO 9613-1 Table 1: {len(r)} entries, largest |computed − table| "
-          f"{worst:.2f} of the last digit; ISO 9613-2 Table 2: {len(o)} entries, largest "
-          f"{np.max(np.abs(o[:, 1])):.2f}")  # fmt: skip
+    print(
+        f"ISO 9613-1 Table 1: {len(r)} entries, largest |computed − table| "
+        f"{worst:.2f} of the last digit; ISO 9613-2 Table 2: {len(o)} entries, largest "
+        f"{np.max(np.abs(o[:, 1])):.2f}"
+    )
 
 
 def air_figure(out: Path) -> None:
@@ -100,8 +110,10 @@ def air_figure(out: Path) -> None:
     ok = want < 60
     ax.plot(fs / 1e3, want, "k-", lw=1, label="α(f) · 300 m")
     ax.plot(fs[ok] / 1e3, got[ok], "o", ms=3, mfc="none", label="rendered, static source")
-    print(f"air, static source at 300 m (15 °C, 50 %): largest error "
-          f"{np.max(np.abs(got[ok] - want[ok])):.3f} dB up to {want[ok].max():.0f} dB")  # fmt: skip
+    print(
+        f"air, static source at 300 m (15 °C, 50 %): largest error "
+        f"{np.max(np.abs(got[ok] - want[ok])):.3f} dB up to {want[ok].max():.0f} dB"
+    )
     # a source approaching at Mach 0.1: the air takes α at the frequency in the air
     v = 0.1 * C0
     t = np.arange(RATE) / RATE
@@ -121,14 +133,19 @@ def air_figure(out: Path) -> None:
         moving.append(20 * np.log10(np.std(d0) / np.std(d1)))
         emitted.append(float(air2.alpha(f)) * D)
     fh = tones / 0.9
-    ax.plot(fh / 1e3, air2.alpha(fh) * D, "C1-", lw=1,
-            label=f"α(f/(1 − M)) · {D:.0f} m, 20 °C 70 %")  # fmt: skip
+    ax.plot(
+        fh / 1e3, air2.alpha(fh) * D, "C1-", lw=1, label=f"α(f/(1 − M)) · {D:.0f} m, 20 °C 70 %"
+    )
     ax.plot(fh / 1e3, moving, "s", color="C1", mfc="none", label="rendered, approaching at M 0.1")
     ax.plot(fh / 1e3, emitted, "C1:", lw=1, label="α at the emitted frequency (not used)")
     err = np.max(np.abs(np.array(moving) - air2.alpha(fh) * D))
     print(f"air, source approaching at Mach 0.1 ({D:.1f} m): largest error {err:.3f} dB")
-    ax.set(xlabel="frequency heard, kHz", ylabel="loss to the air, dB", ylim=(0, 65),
-           title="emitters: filtered along each path")  # fmt: skip
+    ax.set(
+        xlabel="frequency heard, kHz",
+        ylabel="loss to the air, dB",
+        ylim=(0, 65),
+        title="emitters: filtered along each path",
+    )
     ax.legend(fontsize=8)
     # the volume's sources: one track, the physical timbre, at 60 m
     dr = 24000
@@ -136,8 +153,12 @@ def air_figure(out: Path) -> None:
     tones = np.array([1000.0, 2000.0, 3000.0, 4000.0, 5000.0, 6000.0])
     got_f = []
     for f in tones:
-        tr = SourceTracks(positions=np.array([[0.0, 0.0, 2.0]]),
-                          q=np.sin(2 * np.pi * f * tt)[None], radius=np.full(1, 0.1), times=tt)  # fmt: skip
+        tr = SourceTracks(
+            positions=np.array([[0.0, 0.0, 2.0]]),
+            q=np.sin(2 * np.pi * f * tt)[None],
+            radius=np.full(1, 0.1),
+            times=tt,
+        )
         fsrc = FieldSources(tr, timbre="physical")
         lp = ListenerPath.point((60.0, 0, 0.0), duration=0.3)
         kw = dict(rate=48000, highpass_hz=0.0, duration=0.3)
@@ -149,10 +170,15 @@ def air_figure(out: Path) -> None:
     ff = np.linspace(500, 6500, 100)
     af.plot(ff / 1e3, air2.alpha(ff) * Dv, "k-", lw=1, label=f"α(f) · {Dv:.1f} m")
     af.plot(tones / 1e3, got_f, "o", mfc="none", label="rendered (physical timbre)")
-    print(f"air, the volume's sources at {Dv:.1f} m: largest error "
-          f"{np.max(np.abs(np.array(got_f) - air2.alpha(tones) * Dv)):.3f} dB")  # fmt: skip
-    af.set(xlabel="frequency, kHz", ylabel="loss to the air, dB",
-           title="the volume's sources: their output at D̄(t)")  # fmt: skip
+    print(
+        f"air, the volume's sources at {Dv:.1f} m: largest error "
+        f"{np.max(np.abs(np.array(got_f) - air2.alpha(tones) * Dv)):.3f} dB"
+    )
+    af.set(
+        xlabel="frequency, kHz",
+        ylabel="loss to the air, dB",
+        title="the volume's sources: their output at D̄(t)",
+    )
     af.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out / "outdoor_air.png", dpi=110)
@@ -169,21 +195,33 @@ def two_ray_figure(out: Path) -> None:
     r1, r2 = math.hypot(d, hr - hs), math.hypot(d, hr + hs)
     ff = np.linspace(10, 4000, 2000)
     for i, Q in enumerate((1.0, 0.6, -0.8)):
-        wet = T._amplitudes(render(em, path, rate=RATE, ground=Ground(0.0, Q)).audio[0], fs,
-                            0.2, 0.4)  # fmt: skip
+        wet = T._amplitudes(
+            render(em, path, rate=RATE, ground=Ground(0.0, Q)).audio[0], fs, 0.2, 0.4
+        )
         want = T._two_ray(Q, hs, hr, d, fs)
-        ax.plot(ff, 20 * np.log10(T._two_ray(Q, hs, hr, d, ff)), f"C{i}-", lw=1,
-                label=f"|1 + Q r1/r2 e^(−ikΔ)|, Q = {Q:g}")  # fmt: skip
+        ax.plot(
+            ff,
+            20 * np.log10(T._two_ray(Q, hs, hr, d, ff)),
+            f"C{i}-",
+            lw=1,
+            label=f"|1 + Q r1/r2 e^(−ikΔ)|, Q = {Q:g}",
+        )
         ax.plot(fs, 20 * np.log10(wet / dry), f"C{i}o", ms=3, mfc="none")
         ok = want > 0.3
-        print(f"two-ray, Q = {Q:g}: largest |rendered − predicted| {np.max(np.abs(wet / dry - want)):.4f} "
-              f"of the direct sound; {np.max(np.abs(20 * np.log10(wet[ok] / dry[ok] / want[ok]))):.3f} dB "
-              f"where within 10 dB of it")  # fmt: skip
+        print(
+            f"two-ray, Q = {Q:g}: largest |rendered − predicted| {np.max(np.abs(wet / dry - want)):.4f} "
+            f"of the direct sound; {np.max(np.abs(20 * np.log10(wet[ok] / dry[ok] / want[ok]))):.3f} dB "
+            f"where within 10 dB of it"
+        )
     for k in range(4):
         ax.axvline((2 * k + 1) * C0 / (2 * (r2 - r1)), color="0.7", lw=0.6, ls=":")
-    ax.set(xlabel="frequency, Hz", ylabel="level re the direct sound, dB", ylim=(-30, 8),
-           title=f"source 2 m, listener 1.5 m high, 20 m apart; dips (dotted) at "
-                 f"(2k + 1) c0 / 2(r2 − r1) = {C0 / (2 * (r2 - r1)):.0f} Hz, …")  # fmt: skip
+    ax.set(
+        xlabel="frequency, Hz",
+        ylabel="level re the direct sound, dB",
+        ylim=(-30, 8),
+        title=f"source 2 m, listener 1.5 m high, 20 m apart; dips (dotted) at "
+        f"(2k + 1) c0 / 2(r2 − r1) = {C0 / (2 * (r2 - r1)):.0f} Hz, …",
+    )
     ax.legend(fontsize=8, loc="lower left")
     fig.tight_layout()
     fig.savefig(out / "outdoor_two_ray.png", dpi=110)
@@ -209,11 +247,16 @@ def height_figure(out: Path) -> None:
     ax.plot(hr, 20 * np.log10(want), "k-", lw=1, label="|1 + Q r1/r2 e^(−ikΔ)| at the height heard")
     ax.plot(hr[::3], 20 * np.log10(got[::3]), "o", ms=3, mfc="none", label="rendered (10 ms RMS)")
     ok = want > 0.3
-    print(f"two-ray over height (moving listener): largest error "
-          f"{np.max(np.abs(20 * np.log10(got[ok] / want[ok]))):.3f} dB where within 10 dB "
-          f"of the direct sound")  # fmt: skip
-    ax.set(xlabel="listener height, m", ylabel="level re the direct sound, dB",
-           title="1 kHz, source 1 m high, 10 m away, ground Q = 0.9; listener rising at 1.9 m/s")  # fmt: skip
+    print(
+        f"two-ray over height (moving listener): largest error "
+        f"{np.max(np.abs(20 * np.log10(got[ok] / want[ok]))):.3f} dB where within 10 dB "
+        f"of the direct sound"
+    )
+    ax.set(
+        xlabel="listener height, m",
+        ylabel="level re the direct sound, dB",
+        title="1 kHz, source 1 m high, 10 m away, ground Q = 0.9; listener rising at 1.9 m/s",
+    )
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out / "outdoor_height.png", dpi=110)

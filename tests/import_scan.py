@@ -46,8 +46,9 @@ def imports(module: str, path: Path, *, top_only: bool) -> list[tuple[int, str, 
         if isinstance(node, ast.Import):
             out += [(node.lineno, a.name, []) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            out.append((node.lineno, absolute(node, module, is_package),
-                        [a.name for a in node.names]))  # fmt: skip
+            out.append(
+                (node.lineno, absolute(node, module, is_package), [a.name for a in node.names])
+            )
     return out
 
 

@@ -42,8 +42,9 @@ def test_verbosity_flags_before_or_after_the_command() -> None:
     assert a.quiet is True and a.verbose == 0
     assert ap.parse_args(["-vv", "plugins"]).verbose == 2
     assert ap.parse_args(["plugins", "-vv"]).verbose == 2
-    a = ap.parse_args(["spark", "render", "-o", "x.wav", "--listener", "0,0,1", "--duration",
-                       "0.1", "-q"])  # fmt: skip
+    a = ap.parse_args(
+        ["spark", "render", "-o", "x.wav", "--listener", "0,0,1", "--duration", "0.1", "-q"]
+    )
     assert a.quiet is True
     assert ap.parse_args(["plugins"]).quiet is False
 
@@ -114,8 +115,10 @@ def test_compile_notice_names_an_estimate_once(caplog, monkeypatch) -> None:  # 
 def test_progress_callback_drives_a_bar_or_logs(monkeypatch, caplog) -> None:  # type: ignore[no-untyped-def]
     out = io.StringIO()
     monkeypatch.setattr(progress.sys, "stderr", out)
-    with caplog.at_level(logging.INFO, logger="auralize"), \
-            progress.progress_callback("texture", total=2) as cb:  # fmt: skip
+    with (
+        caplog.at_level(logging.INFO, logger="auralize"),
+        progress.progress_callback("texture", total=2) as cb,
+    ):
         cb("u = 1 m/s")
     assert [r.getMessage() for r in caplog.records] == ["texture: u = 1 m/s"]
     monkeypatch.setattr(out, "isatty", lambda: True, raising=False)

@@ -52,13 +52,22 @@ def test_box_thirds_in_words() -> None:
 def test_directions_count_counter_clockwise_from_ahead() -> None:
     az = np.array([0, 44, 46, 90, 180, -90, -135, 170])
     el = np.array([0, 0, 0, 0, 0, 0, -45, 0])
-    assert direction_words(az, el) == ["ahead", "ahead-left", "ahead-left", "left", "behind",
-                                       "right", "behind-right, below", "behind"]  # fmt: skip
+    assert direction_words(az, el) == [
+        "ahead",
+        "ahead-left",
+        "ahead-left",
+        "left",
+        "behind",
+        "right",
+        "behind-right, below",
+        "behind",
+    ]
 
 
 def _plan(path: ListenerPath, ts: float, lead: float, duration: float) -> RenderPlan:
-    return RenderPlan(path=path, time_scale=ts, duration=duration, lead=lead, auto=False,
-                      default_listener=False)  # fmt: skip
+    return RenderPlan(
+        path=path, time_scale=ts, duration=duration, lead=lead, auto=False, default_listener=False
+    )
 
 
 def test_arrival_time_of_a_static_listener_is_the_closed_form() -> None:
@@ -99,8 +108,9 @@ def _check_against_render(vol, series, listener, *, ts: float) -> Description:  
     render each type's detected sources through the pipeline and check the onsets, ends
     and levels the description states."""
     rate = 16000
-    d = describe(vol, series=series, listener=listener, heard="detected", time_scale=ts,
-                 interp="linear")  # fmt: skip
+    d = describe(
+        vol, series=series, listener=listener, heard="detected", time_scale=ts, interp="linear"
+    )
     assert d.events
     dt = float(np.max(np.diff(vol.times)))
     h = dt * ts  # playback seconds of one step
@@ -109,10 +119,21 @@ def _check_against_render(vol, series, listener, *, ts: float) -> Description:  
     renders = {}
     for e in d.events:
         if e.type not in renders:
-            out, _ = auralize(vol, None, listener=listener, series=series, heard=e.type,
-                              time_scale=ts, duration=d.plan["duration_s"] + 2 * h,
-                              timbre="physical", highpass_hz=0.0, interp="linear", rate=rate,
-                              method="volume", clip=False)  # fmt: skip
+            out, _ = auralize(
+                vol,
+                None,
+                listener=listener,
+                series=series,
+                heard=e.type,
+                time_scale=ts,
+                duration=d.plan["duration_s"] + 2 * h,
+                timbre="physical",
+                highpass_hz=0.0,
+                interp="linear",
+                rate=rate,
+                method="volume",
+                clip=False,
+            )
             # each render plans its own travel skip (the box of what it hears): put its
             # clock on the description's
             shift = (lead - out.meta["lead_data_s"]) * ts
@@ -122,8 +143,9 @@ def _check_against_render(vol, series, listener, *, ts: float) -> Description:  
         # the step before its first (the linear ramp from silence starts there), and from
         # its farthest point at the step after its last
         code = 1 + ("monopole", "dipole", "quadrupole").index(e.type)
-        idx = np.concatenate([f.index[f.kind == code]
-                              for f in series.frames[e.first_step:e.last_step + 1]])  # fmt: skip
+        idx = np.concatenate(
+            [f.index[f.kind == code] for f in series.frames[e.first_step : e.last_step + 1]]
+        )
         dist = np.linalg.norm(series.positions(idx) - np.asarray(listener), axis=1)
         t0 = float(vol.times[0])
         earliest = (float(vol.times[e.first_step]) - dt + dist.min() / 343.0 - t0 - lead) * ts
@@ -188,7 +210,8 @@ def test_levels_are_relative_to_the_loudest_and_silence_is_said() -> None:
     # a listener that hears nothing within the render: said, not a number
     late = describe(vol, listener=(0.9, 0.5, 0.5), duration=1.0, time_scale=1e-3)
     assert "not heard within the render" in late.text() or all(
-        r.audio_time is None for r in late.rows)  # fmt: skip
+        r.audio_time is None for r in late.rows
+    )
 
 
 def test_describe_refuses_sources_of_other_data() -> None:
@@ -200,8 +223,18 @@ def test_describe_refuses_sources_of_other_data() -> None:
 
 # ------------------------------------------------------------------ the command
 def test_command_text_csv_and_json(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
-    args = ["describe", "dataset:monopole", "--size", "12", "--steps", "16", "--listener",
-            "0.9,0.5,0.5", "--duration", "1"]  # fmt: skip
+    args = [
+        "describe",
+        "dataset:monopole",
+        "--size",
+        "12",
+        "--steps",
+        "16",
+        "--listener",
+        "0.9,0.5,0.5",
+        "--duration",
+        "1",
+    ]
     assert main(args) == 0
     text = capsys.readouterr().out
     assert text.startswith("Sources in dataset:monopole")

@@ -71,8 +71,11 @@ def test_tab_visits_every_control_in_the_panels_order(qtbot, window, errors) -> 
     _open(qtbot, win)
     view = win.plotter.interactor
     chain = tab_chain(view)
-    reachable = [w for w in _controls(win) if w.isEnabled() and w.focusPolicy()
-                 & QtCore.Qt.FocusPolicy.TabFocus]  # fmt: skip
+    reachable = [
+        w
+        for w in _controls(win)
+        if w.isEnabled() and w.focusPolicy() & QtCore.Qt.FocusPolicy.TabFocus
+    ]
     missing = [w.accessibleName() for w in reachable if w not in chain and w is not view]
     assert not missing, missing
     # the panels come in their order, each one whole
@@ -114,10 +117,22 @@ def test_panels_and_view_are_a_key_away_and_buttons_are_on_menus(qtbot, window, 
     # each push button of a panel does what a menu entry does: the menus hold an action
     # for every method a panel's button calls (Detect, Record, Render …)
     entries = {a.text().replace("&", "") for a in _menu_actions(win)}
-    for want in ("Detect", "Describe in words", "Record", "Stop recording", "Clear path",
-                 "Render to file…", "Play the last render", "Stop playing", "Listen live",
-                 "Stop live listening", "Save heard…", "Save path CSV…", "Load path CSV…",
-                 "Play / pause"):  # fmt: skip
+    for want in (
+        "Detect",
+        "Describe in words",
+        "Record",
+        "Stop recording",
+        "Clear path",
+        "Render to file…",
+        "Play the last render",
+        "Stop playing",
+        "Listen live",
+        "Stop live listening",
+        "Save heard…",
+        "Save path CSV…",
+        "Load path CSV…",
+        "Play / pause",
+    ):
         assert want in entries, want
     assert not errors
 

@@ -126,12 +126,19 @@ def test_no_cycle_among_the_packages() -> None:
 def _lint(pyproject: Path, *paths: Path) -> subprocess.CompletedProcess[str]:
     """``lint-imports`` on ``pyproject``'s ``[tool.importlinter]`` contracts (in a fresh
     interpreter, the packages found on ``paths`` first)."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([*map(str, paths),
-                                                        os.environ.get("PYTHONPATH", "")])}  # fmt: skip
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([*map(str, paths), os.environ.get("PYTHONPATH", "")]),
+    }
     code = "from importlinter.cli import lint_imports_command; lint_imports_command()"
-    return subprocess.run([sys.executable, "-c", code, "--config", str(pyproject), "--no-cache"],
-                          capture_output=True, text=True, env=env, cwd=pyproject.parent,
-                          timeout=300)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-c", code, "--config", str(pyproject), "--no-cache"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=pyproject.parent,
+        timeout=300,
+    )
 
 
 def test_the_import_contracts_hold() -> None:

@@ -73,8 +73,10 @@ def _privateimports(known: dict[str, Path], root: Path = ROOT) -> list[str]:
                 continue
             private = [n for n in names if n.startswith("_") and not n.startswith("__")]
             if private or private_module:
-                bad.append(f"{path.relative_to(root)}:{line}: from {target} import "
-                           f"{', '.join(private) or ', '.join(names)}")  # fmt: skip
+                bad.append(
+                    f"{path.relative_to(root)}:{line}: from {target} import "
+                    f"{', '.join(private) or ', '.join(names)}"
+                )
     return bad
 
 
@@ -144,8 +146,14 @@ def test_import_without_qt(module: str) -> None:
         "print(sorted(m for m in sys.modules if m.split('.')[0] in "
         "('PySide6', 'PyQt5', 'PyQt6', 'PySide2', 'qtpy', 'pyvistaqt')))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, env=env, timeout=120)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=env,
+        timeout=120,
+    )
     assert out.stdout.split() == ["[]"]
 
 

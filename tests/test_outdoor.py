@@ -33,17 +33,48 @@ RATE = 48000
 #: computed at the exact one-third-octave midband frequencies 1000·10^(k/10) Hz
 #: (the standard's note to the table): (°C, % RH, nominal Hz, dB/km)
 ISO_TABLE_1 = [
-    (-20, 10, 50, 0.589), (-20, 70, 1000, 11.5), (-10, 10, 8000, 14.2), (0, 15, 1000, 18.3),
-    (10, 10, 125, 0.788), (10, 70, 4000, 32.8), (15, 70, 4000, 26.4),
-    (20, 10, 50, 0.270), (20, 100, 50, 0.0403), (20, 80, 50, 0.0501), (20, 10, 100, 0.622),
-    (20, 50, 100, 0.294), (20, 100, 100, 0.158), (20, 70, 125, 0.339), (20, 10, 160, 0.965),
-    (20, 70, 160, 0.518), (20, 70, 200, 0.776), (20, 100, 200, 0.591), (20, 10, 1000, 14.1),
-    (20, 70, 1000, 4.98), (20, 80, 1000, 5.15), (20, 100, 1000, 5.42), (20, 10, 4000, 109.0),
-    (20, 100, 4000, 19.4), (20, 15, 6300, 175.0), (20, 80, 10000, 105.0),
-    (30, 70, 1000, 7.41), (30, 10, 4000, 96.0), (50, 70, 8000, 80.3),
-]  # fmt: skip
-_NOMINAL_K = {50: -13, 100: -10, 125: -9, 160: -8, 200: -7, 1000: 0, 4000: 6, 6300: 8,
-              8000: 9, 10000: 10}  # fmt: skip
+    (-20, 10, 50, 0.589),
+    (-20, 70, 1000, 11.5),
+    (-10, 10, 8000, 14.2),
+    (0, 15, 1000, 18.3),
+    (10, 10, 125, 0.788),
+    (10, 70, 4000, 32.8),
+    (15, 70, 4000, 26.4),
+    (20, 10, 50, 0.270),
+    (20, 100, 50, 0.0403),
+    (20, 80, 50, 0.0501),
+    (20, 10, 100, 0.622),
+    (20, 50, 100, 0.294),
+    (20, 100, 100, 0.158),
+    (20, 70, 125, 0.339),
+    (20, 10, 160, 0.965),
+    (20, 70, 160, 0.518),
+    (20, 70, 200, 0.776),
+    (20, 100, 200, 0.591),
+    (20, 10, 1000, 14.1),
+    (20, 70, 1000, 4.98),
+    (20, 80, 1000, 5.15),
+    (20, 100, 1000, 5.42),
+    (20, 10, 4000, 109.0),
+    (20, 100, 4000, 19.4),
+    (20, 15, 6300, 175.0),
+    (20, 80, 10000, 105.0),
+    (30, 70, 1000, 7.41),
+    (30, 10, 4000, 96.0),
+    (50, 70, 8000, 80.3),
+]
+_NOMINAL_K = {
+    50: -13,
+    100: -10,
+    125: -9,
+    160: -8,
+    200: -7,
+    1000: 0,
+    4000: 6,
+    6300: 8,
+    8000: 9,
+    10000: 10,
+}
 
 #: ISO 9613-2:1996 Table 2 (from ISO 9613-1), α in dB/km at the octave bands
 #: 63 … 8000 Hz, rounded to 0.1 dB/km (three figures above 100)
@@ -95,8 +126,13 @@ def test_options_are_checked() -> None:
     assert Air.parse("10") == Air(10.0, 70.0, 101.325)
     assert Air.parse(" 25 , 40 , 90 ") == Air(25.0, 40.0, 90.0)
     assert Ground.parse("2,-0.5") == Ground(2.0, -0.5)
-    for bad, match in (("x", "not a number"), ("1,2,3,4", "T\\[,RH"), ("20,120", "humidity"),
-                       ("20,50,500", "pressure"), ("", "T\\[,RH")):  # fmt: skip
+    for bad, match in (
+        ("x", "not a number"),
+        ("1,2,3,4", "T\\[,RH"),
+        ("20,120", "humidity"),
+        ("20,50,500", "pressure"),
+        ("", "T\\[,RH"),
+    ):
         with pytest.raises(ParameterError, match=match):
             Air.parse(bad)
     with pytest.raises(ParameterError, match="reflection factor"):
@@ -104,8 +140,11 @@ def test_options_are_checked() -> None:
     with pytest.raises(ParameterError, match="H\\[,Q\\]"):
         Ground.parse("1,2,3")
     with pytest.raises(ParameterError, match="Ground or None"):
-        render(Emitters(np.zeros((1, 10)), RATE, [[0.0, 1, 1]]),
-               ListenerPath.point((0, 0, 1), duration=0.01), ground="0")  # fmt: skip
+        render(
+            Emitters(np.zeros((1, 10)), RATE, [[0.0, 1, 1]]),
+            ListenerPath.point((0, 0, 1), duration=0.01),
+            ground="0",
+        )
 
 
 def _multisine(fs: np.ndarray, dur: float, seed: int = 1) -> np.ndarray:
@@ -129,8 +168,9 @@ def test_air_absorbs_a_static_path_by_alpha_times_distance() -> None:
     air = Air(15.0, 50.0)
     dry = render(em, path, rate=RATE)
     wet = render(em, path, rate=RATE, air=air)
-    got = 20 * np.log10(_amplitudes(dry.audio[0], fs, 0.9, 0.08)
-                        / _amplitudes(wet.audio[0], fs, 0.9, 0.08))  # fmt: skip
+    got = 20 * np.log10(
+        _amplitudes(dry.audio[0], fs, 0.9, 0.08) / _amplitudes(wet.audio[0], fs, 0.9, 0.08)
+    )
     want = air.alpha(fs) * 300.0
     assert np.max(want) > 100  # up to 16 kHz the air takes > 100 dB over 300 m
     ok = want < 60  # (deeper, the dry tones' leakage is what the wet ones are measured against)
@@ -242,8 +282,12 @@ def test_field_sources_get_images_and_air() -> None:
     dr = 16000
     T = np.arange(int(0.5 * dr)) / dr
     f = 3000.0
-    tr = SourceTracks(positions=np.array([[0.0, 0.0, 2.0]]), q=np.sin(2 * np.pi * f * T)[None],
-                      radius=np.full(1, 0.1), times=T)  # fmt: skip
+    tr = SourceTracks(
+        positions=np.array([[0.0, 0.0, 2.0]]),
+        q=np.sin(2 * np.pi * f * T)[None],
+        radius=np.full(1, 0.1),
+        times=T,
+    )
     fs = FieldSources(tr, timbre="physical")
     rate = 32000
     kw: dict[str, Any] = dict(rate=rate, highpass_hz=0.0, duration=0.3)
@@ -278,8 +322,12 @@ def test_received_filter_joins_ranges_exactly() -> None:
     kw = dict(rate=rate, start=0.0, duration=1.0)
     whole = received(run, kw, path, Air(), dist).audio
     edges = [0, 777, 1000, 5003, 9000, 16000]
-    parts = [received(run, {**kw, "start": a / rate, "duration": (b - a) / rate}, path, Air(),
-                      dist).audio for a, b in itertools.pairwise(edges)]  # fmt: skip
+    parts = [
+        received(
+            run, {**kw, "start": a / rate, "duration": (b - a) / rate}, path, Air(), dist
+        ).audio
+        for a, b in itertools.pairwise(edges)
+    ]
     assert np.allclose(np.concatenate(parts, axis=1), whole, atol=1e-12)
     # the gain is 1 where the air absorbs nothing: distance 0 gives the signal back
     same = received(run, kw, path, Air(), lambda t: np.zeros_like(t)).audio
@@ -304,8 +352,11 @@ def test_blocks_of_emitters_outdoors_join_into_the_render() -> None:
 
 def test_off_is_the_render_as_it_was() -> None:
     n = int(0.1 * RATE)
-    em = Emitters(np.random.default_rng(6).normal(size=(2, 3, n)), RATE,
-                  np.array([[1.0, 4.0, 2.0], [-3.0, 2.0, 1.0]]))  # fmt: skip
+    em = Emitters(
+        np.random.default_rng(6).normal(size=(2, 3, n)),
+        RATE,
+        np.array([[1.0, 4.0, 2.0], [-3.0, 2.0, 1.0]]),
+    )
     path = ListenerPath.line((0, 0, 1), (1, 0, 1), duration=0.1)
     for lay in ("mono", "ring8", "ambix1"):
         a = render(em, path, rate=RATE, layout=lay)
@@ -333,8 +384,17 @@ class Clicks:
     name: str = "clicks"
     meta: dict[str, Any] = field(default_factory=dict)
 
-    def render_part(self, path: ListenerPath, *, rate: int, layout: Any, duration: float,
-                    start: float, c0: float, backend: str) -> Rendered:  # fmt: skip
+    def render_part(
+        self,
+        path: ListenerPath,
+        *,
+        rate: int,
+        layout: Any,
+        duration: float,
+        start: float,
+        c0: float,
+        backend: str,
+    ) -> Rendered:
         from auralize.emitters.events import arrivals
 
         lay = get_layout(layout)
@@ -430,8 +490,12 @@ def test_mirror_matrices() -> None:
 # ------------------------------------------------------------------ front ends
 def _track(f: float = 2000.0, dur: float = 0.4, dr: int = 16000) -> SourceTracks:
     T = np.arange(int(dur * dr)) / dr
-    return SourceTracks(positions=np.array([[0.0, 0.0, 2.0]]), q=np.sin(2 * np.pi * f * T)[None],
-                        radius=np.full(1, 0.1), times=T)  # fmt: skip
+    return SourceTracks(
+        positions=np.array([[0.0, 0.0, 2.0]]),
+        q=np.sin(2 * np.pi * f * T)[None],
+        radius=np.full(1, 0.1),
+        times=T,
+    )
 
 
 def test_the_dask_render_hears_the_same_outdoors() -> None:
@@ -440,8 +504,14 @@ def test_the_dask_render_hears_the_same_outdoors() -> None:
 
     fs = FieldSources(_track(), timbre="physical")
     path = ListenerPath.line((40.0, 0, 1.0), (40.0, 5.0, 1.0), duration=0.3)
-    kw: dict[str, Any] = dict(rate=16000, layout="stereo", highpass_hz=0.0, duration=0.3,
-                              air=Air(20, 50), ground=Ground(0.0, 0.7))  # fmt: skip
+    kw: dict[str, Any] = dict(
+        rate=16000,
+        layout="stereo",
+        highpass_hz=0.0,
+        duration=0.3,
+        air=Air(20, 50),
+        ground=Ground(0.0, 0.7),
+    )
     here = render(fs, path, **kw)
     with Runner("threads", workers=2, log=None) as run:
         there = render(fs, path, runner=run, **kw)
@@ -457,12 +527,27 @@ def test_cli_render_takes_air_and_ground(tmp_path: Any, capsys: Any) -> None:
     from auralize.cli import main
 
     out = tmp_path / "o.wav"
-    args = ["render", "dataset:monopole", "--size", "16", "--steps", "40", "--listener",
-            "1.9,1.9,8", "--duration", "0.05", "-o", str(out)]  # fmt: skip
+    args = [
+        "render",
+        "dataset:monopole",
+        "--size",
+        "16",
+        "--steps",
+        "40",
+        "--listener",
+        "1.9,1.9,8",
+        "--duration",
+        "0.05",
+        "-o",
+        str(out),
+    ]
     assert main([*args, "--air", "10,80", "--ground", "0.2,0.5", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
-    assert rep["outdoor"]["air"] == {"temperature_c": 10.0, "humidity_pct": 80.0,
-                                     "pressure_kpa": 101.325}  # fmt: skip
+    assert rep["outdoor"]["air"] == {
+        "temperature_c": 10.0,
+        "humidity_pct": 80.0,
+        "pressure_kpa": 101.325,
+    }
     assert rep["outdoor"]["ground"] == {"height_m": 0.2, "reflection": 0.5}
     assert main([*args, "--ground=-1"]) == 0
     assert "outdoors: ground at z = -1 m, reflection factor 1" in capsys.readouterr().out
@@ -491,13 +576,18 @@ def test_continued_renders_outdoors_join_into_the_render() -> None:
     from auralize.rendering import Carry
 
     n = int(0.3 * RATE)
-    em = Emitters(np.random.default_rng(8).normal(size=(2, n)), RATE,
-                  np.array([[3.0, 40.0, 2.0], [-5.0, 20.0, 6.0]]))  # fmt: skip
+    em = Emitters(
+        np.random.default_rng(8).normal(size=(2, n)),
+        RATE,
+        np.array([[3.0, 40.0, 2.0], [-5.0, 20.0, 6.0]]),
+    )
     path = ListenerPath.line((0, 0, 1.5), (1, 0, 1.5), duration=0.3)
     kw: dict[str, Any] = dict(rate=RATE, layout="ring8", air=Air(20, 40), ground=Ground(0, 0.8))
     whole = render(em, path, **kw).audio
     carry = Carry()
     cut = [0, 4000, 9001, n]
-    parts = [render(em, path, start=a / RATE, duration=(b - a) / RATE, carry=carry, **kw).audio
-             for a, b in itertools.pairwise(cut)]  # fmt: skip
+    parts = [
+        render(em, path, start=a / RATE, duration=(b - a) / RATE, carry=carry, **kw).audio
+        for a, b in itertools.pairwise(cut)
+    ]
     assert np.allclose(np.concatenate(parts, axis=1), whole, atol=1e-9 * np.max(np.abs(whole)))

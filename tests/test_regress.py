@@ -27,14 +27,33 @@ from auralize.regression.user import DEFAULT_TOLERANCES, check, record
 ROOT = Path(__file__).resolve().parents[1]
 #: the render of every check here: a listener beside the data, 1 s at 8 kHz, no high-pass
 #: (the pulse's sound lies below 20 Hz at this time scale)
-RENDER = ["--listener", "2,0.5,0.5", "--duration", "1", "--rate", "8000", "--highpass", "0",
-          "--timbre", "physical", "--screenshot-size", "320x240"]  # fmt: skip
+RENDER = [
+    "--listener",
+    "2,0.5,0.5",
+    "--duration",
+    "1",
+    "--rate",
+    "8000",
+    "--highpass",
+    "0",
+    "--timbre",
+    "physical",
+    "--screenshot-size",
+    "320x240",
+]
 #: the expected level change of a doubled amplitude, dB
 DOUBLED_DB = 20 * np.log10(2.0)
 
 
-def write_series(folder: Path, *, amplitude: float = 1.0, t_event: float = 0.4, n: int = 12,
-                 steps: int = 16, dt: float = 0.05) -> Path:  # fmt: skip
+def write_series(
+    folder: Path,
+    *,
+    amplitude: float = 1.0,
+    t_event: float = 0.4,
+    n: int = 12,
+    steps: int = 16,
+    dt: float = 0.05,
+) -> Path:
     """A density pulse as ``folder/run.pvd`` + one ``.vti`` per step, written by VTK."""
     import vtk
     from vtk.util.numpy_support import numpy_to_vtk
@@ -60,8 +79,10 @@ def write_series(folder: Path, *, amplitude: float = 1.0, t_event: float = 0.4, 
         assert w.Write() == 1
         items.append(f'<DataSet timestep="{t:.6g}" part="0" file="step_{k:03d}.vti"/>')
     pvd = folder / "run.pvd"
-    pvd.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
-                   "<Collection>\n" + "\n".join(items) + "\n</Collection>\n</VTKFile>\n")  # fmt: skip
+    pvd.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+        "<Collection>\n" + "\n".join(items) + "\n</Collection>\n</VTKFile>\n"
+    )
     return pvd
 
 
@@ -87,8 +108,12 @@ def test_record_stores_settings_path_and_picture(recorded) -> None:  # type: ign
     doc = json.loads(expect.read_text())
     assert doc["format"] == "auralize-regression" and doc["data"] == str(data)
     st = doc["settings"]
-    assert (st["rate"], st["layout"], st["listener"], st["highpass_hz"]) == (8000, "mono",
-                                                                           [2.0, 0.5, 0.5], 0.0)  # fmt: skip
+    assert (st["rate"], st["layout"], st["listener"], st["highpass_hz"]) == (
+        8000,
+        "mono",
+        [2.0, 0.5, 0.5],
+        0.0,
+    )
     rows = np.asarray(doc["path"]["rows"])
     assert rows.shape[1] == 10 and np.allclose(rows[:, 1:4], [2.0, 0.5, 0.5])
     assert doc["tolerances"] == DEFAULT_TOLERANCES
@@ -118,8 +143,9 @@ def test_a_doubled_amplitude_fails_naming_the_level(recorded, capsys) -> None:  
     for m in levels:
         assert m["got"] - m["expected"] == pytest.approx(DOUBLED_DB, abs=0.01), m
     # with a wider level tolerance (and bands') it passes: only those figures moved
-    code, out = _check_json(capsys, doubled, expect, "--tolerance", "level=7",
-                            "--tolerance", "bands=7")  # fmt: skip
+    code, out = _check_json(
+        capsys, doubled, expect, "--tolerance", "level=7", "--tolerance", "bands=7"
+    )
     assert code == 0, out["moved"]
 
 
@@ -144,8 +170,14 @@ def test_report_has_the_table_plots_and_pictures(recorded, tmp_path, capsys) -> 
     assert "FAILED" in md and "| onset monopole |" in md
     html = (rep / "report.html").read_text()
     assert "<table>" in html and 'src="level.png"' in html
-    for name in ("level.png", "counts.png", "bands.png", "expected.png", "got.png",
-                 "difference.png"):  # fmt: skip
+    for name in (
+        "level.png",
+        "counts.png",
+        "bands.png",
+        "expected.png",
+        "got.png",
+        "difference.png",
+    ):
         assert (rep / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
     # the pulse drawn at another step: the pictures differ, and the difference shows it
     assert image_rms(rep / "got.png", rep / "expected.png") > DEFAULT_TOLERANCES["image"]
@@ -154,8 +186,9 @@ def test_report_has_the_table_plots_and_pictures(recorded, tmp_path, capsys) -> 
     diff = np.asarray(Image.open(rep / "difference.png"))
     assert diff.max() > 0
     # a folder whose parent is missing is refused, as every output
-    code = main(["regress", "check", str(shifted), str(expect), "--report",
-                 str(tmp_path / "no" / "report")])  # fmt: skip
+    code = main(
+        ["regress", "check", str(shifted), str(expect), "--report", str(tmp_path / "no" / "report")]
+    )
     assert code == 4 and "does not exist" in capsys.readouterr().err
 
 
@@ -218,7 +251,8 @@ def test_the_fixture_records_checks_and_names_what_moved(pytester, recorded, mon
     data, doubled, _, _ = recorded
     # the plugin as pytest loads it from the entry point, without the others installed here
     monkeypatch.setenv("PYTEST_DISABLE_PLUGIN_AUTOLOAD", "1")
-    pytester.makepyfile(test_sim=f"""
+    pytester.makepyfile(
+        test_sim=f"""
         import os
 
         def test_simulation(auralize_regression):
@@ -226,7 +260,8 @@ def test_the_fixture_records_checks_and_names_what_moved(pytester, recorded, mon
             auralize_regression.check(data, listener=(2, 0.5, 0.5), duration=1.0, rate=8000,
                                       highpass_hz=0.0, timbre="physical",
                                       screenshot_size=[320, 240])
-    """)  # fmt: skip
+    """
+    )
     args = ["-p", "auralize.regression.pytest_plugin", "-p", "no:cacheprovider"]
     first = pytester.runpytest(*args)
     first.assert_outcomes(failed=1)
@@ -251,8 +286,9 @@ def test_the_project_regression_names_moved_figures_the_same_way() -> None:
     got["counts"] = [dict(c) for c in stored["counts"]]
     got["counts"][3]["monopole"] = int(1.1 * got["counts"][3]["monopole"]) + 10
     problems = synthetic.compare("explosion", got)
-    assert any(p.startswith("rms: ") and "moved by" in p and "tolerance ±1 %" in p
-               for p in problems)  # fmt: skip
+    assert any(
+        p.startswith("rms: ") and "moved by" in p and "tolerance ±1 %" in p for p in problems
+    )
     assert any(p.startswith("counts step 3 monopole: ") for p in problems)
     assert synthetic.compare("explosion", stored) == []
     name = next(iter(json.loads(real.STORE.read_text())))

@@ -128,10 +128,15 @@ def test_a_damaged_enzo_hierarchy_is_an_error_not_a_crash(tmp_path: Path) -> Non
         (("GridEndIndex = 7 7 7\n", ""), "grid 1's entry has GridEndIndex missing"),
         (("NumberOfParticles = 0\n", ""), "NumberOfParticles missing"),
         (("GridLeftEdge", "GridRightEdgeX"), "GridLeftEdge missing"),
-        (("GridStartIndex = 0 0 0\nGridEndIndex = 7 7 7",
-          "GridEndIndex = 7 7 7\nGridStartIndex = 0 0 0"), "GridEndIndex out of order"),
+        (
+            (
+                "GridStartIndex = 0 0 0\nGridEndIndex = 7 7 7",
+                "GridEndIndex = 7 7 7\nGridStartIndex = 0 0 0",
+            ),
+            "GridEndIndex out of order",
+        ),
     ],
-)  # fmt: skip
+)
 def test_an_enzo_hierarchy_vtk_would_scan_forever_is_refused_at_once(
     tmp_path: Path, change: tuple[str, str], message: str
 ) -> None:

@@ -22,8 +22,9 @@ XS = np.array([0.013, -0.007, 0.011])
 def stored_sound(tmp_path):  # type: ignore[no-untyped-def]
     """The exact linear field of a monopole pulse (density, velocity, pressure) on 21³
     points, 0.1 m apart, saved as a file the viewer opens."""
-    vol = pulse_volume("monopole", XS, n=21, spacing=0.1, origin=-1.0, steps=40, dt=4e-4,
-                       pulse=PULSE)  # fmt: skip
+    vol = pulse_volume(
+        "monopole", XS, n=21, spacing=0.1, origin=-1.0, steps=40, dt=4e-4, pulse=PULSE
+    )
     out = tmp_path / "pulse.h5"
     save_volume(vol, out)
     return out
@@ -37,8 +38,7 @@ def test_fwh_overlay_draws_the_surface_and_is_heard(qtbot, open_viewer, stored_s
     qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
     assert win.sound_wave_hint is None and win.overlay_note.text() == ""
     win.open_data(str(stored_sound))
-    qtbot.waitUntil(lambda: not win.busy and win.volume.source.endswith("pulse.h5"),
-                    timeout=60_000)  # fmt: skip
+    qtbot.waitUntil(lambda: not win.busy and win.volume.source.endswith("pulse.h5"), timeout=60_000)
     # the data hold sound waves: the viewer says how to hear them as `render` does
     hint = win.sound_wave_hint
     assert hint is not None and "obeys the wave equation" in hint and "Tick fwh" in hint

@@ -32,15 +32,29 @@ def cmd_describe(args: argparse.Namespace) -> int:
 
         series = load_sources_for(args.sources, vol)
     path = ListenerPath.from_csv(args.path) if args.path else None
-    d = describe(vol, series=series, path=path, listener=args.listener, duration=args.duration,
-                 time_scale=args.time_scale, heard=heard_arg(args), orbit_face=args.orbit_face,
-                 mapping=args.mapping, thresholds=thresholds_from_args(args),
-                 interp=args.interp, progress_bar=progress_wanted(), name=args.volume,
-                 **mapping_fields(args))  # fmt: skip
+    d = describe(
+        vol,
+        series=series,
+        path=path,
+        listener=args.listener,
+        duration=args.duration,
+        time_scale=args.time_scale,
+        heard=heard_arg(args),
+        orbit_face=args.orbit_face,
+        mapping=args.mapping,
+        thresholds=thresholds_from_args(args),
+        interp=args.interp,
+        progress_bar=progress_wanted(),
+        name=args.volume,
+        **mapping_fields(args),
+    )
     if args.output:
         d.save(args.output, args.format)
-        print(f"wrote {args.output}: {len(d.events)} event(s), {len(d.rows)} step rows "
-              f"({args.format or 'from the suffix'})", file=sys.stderr)  # fmt: skip
+        print(
+            f"wrote {args.output}: {len(d.events)} event(s), {len(d.rows)} step rows "
+            f"({args.format or 'from the suffix'})",
+            file=sys.stderr,
+        )
         return 0
     sys.stdout.write(d.render_as(args.format or "text"))
     return 0
@@ -68,20 +82,41 @@ def add_commands(sub: Any) -> None:
     src = g.add_mutually_exclusive_group()
     src.add_argument("--path", metavar="CSV", help="listener path CSV (t,x,y,z[,fx,...])")
     src.add_argument("--listener", type=vec3, metavar="X,Y,Z", help="static listener position")
-    g.add_argument("--duration", type=positive_float,
-                   help="playback seconds (default: the path's length, else 10)")  # fmt: skip
-    g.add_argument("--time-scale", type=time_scale_arg, default=DEFAULTS.time_scale,
-                   help="playback seconds per data second, or auto (default)")  # fmt: skip
-    g.add_argument("--interp", choices=["linear", "cubic"], default=DEFAULTS.interp,
-                   help="strength interpolation of the renders that give the levels")  # fmt: skip
-    g.add_argument("--sources", metavar="SOURCES.h5",
-                   help="describe these sources (from 'auralize detect') instead of detecting")  # fmt: skip
+    g.add_argument(
+        "--duration",
+        type=positive_float,
+        help="playback seconds (default: the path's length, else 10)",
+    )
+    g.add_argument(
+        "--time-scale",
+        type=time_scale_arg,
+        default=DEFAULTS.time_scale,
+        help="playback seconds per data second, or auto (default)",
+    )
+    g.add_argument(
+        "--interp",
+        choices=["linear", "cubic"],
+        default=DEFAULTS.interp,
+        help="strength interpolation of the renders that give the levels",
+    )
+    g.add_argument(
+        "--sources",
+        metavar="SOURCES.h5",
+        help="describe these sources (from 'auralize detect') instead of detecting",
+    )
     add_heard_options(g)
     g = p.add_argument_group("output")
-    g.add_argument("--format", choices=["text", "csv", "json"],
-                   help="text (default; one sentence per line), csv (one row per step and "
-                        "type) or json (everything)")  # fmt: skip
-    g.add_argument("-o", "--output", metavar="FILE",
-                   help="write to FILE (atomically) instead of the terminal; the format from "
-                        "--format or the suffix (.csv, .json, else text)")  # fmt: skip
+    g.add_argument(
+        "--format",
+        choices=["text", "csv", "json"],
+        help="text (default; one sentence per line), csv (one row per step and "
+        "type) or json (everything)",
+    )
+    g.add_argument(
+        "-o",
+        "--output",
+        metavar="FILE",
+        help="write to FILE (atomically) instead of the terminal; the format from "
+        "--format or the suffix (.csv, .json, else text)",
+    )
     p.set_defaults(func=cmd_describe)

@@ -44,14 +44,14 @@ class FWHSound(SoundModel):
             doc="box=x0;x1;y0;y1;z0;z1, sphere=cx;cy;cz;r[;nsub] or "
             "file=PATH (a closed surface inside the grid, around the sources; "
             "default: a box 10 % of the extent, at least 3 cells, inside each face)",
-        ),  # fmt: skip
+        ),
         Parameter(
             "panel_size",
             0.0,
             range=(0.0, None),
             unit="m",
             doc="box panel edge (0: the grid's smallest spacing)",
-        ),  # fmt: skip
+        ),
         Parameter("rho0", 1.2, range=(1e-9, None), unit="kg/m³"),
         Parameter("c0", 343.0, range=(1e-9, None), unit="m/s"),
         Parameter("p0", "auto", doc="ambient pressure in Pa, or auto (first step's mean)"),
@@ -106,8 +106,9 @@ class FWHSound(SoundModel):
         P, k = corners.shape[:2]
         faces = np.hstack([np.full((P, 1), k), np.arange(P * k).reshape(P, k)]).ravel()
         mesh = pv.PolyData(corners.reshape(-1, 3).copy(), faces=faces)
-        mesh.cell_data["p' (Pa)"] = panel_pressure(volume, surface, step, rho0=float(p["rho0"]),
-                                                   c0=float(p["c0"]))  # fmt: skip
+        mesh.cell_data["p' (Pa)"] = panel_pressure(
+            volume, surface, step, rho0=float(p["rho0"]), c0=float(p["c0"])
+        )
         return mesh
 
     def synthesize(self, inputs: Any, **params: Any) -> Sound:
@@ -117,8 +118,9 @@ class FWHSound(SoundModel):
         from auralize.volume import TimeVolume
 
         if not isinstance(inputs, TimeVolume):
-            raise ParameterError(f"fwh model inputs must be a TimeVolume, got "
-                                 f"{type(inputs).__name__}")  # fmt: skip
+            raise ParameterError(
+                f"fwh model inputs must be a TimeVolume, got {type(inputs).__name__}"
+            )
         p = self.resolve(**params)
         surface = self.surface_of(inputs, p)
 
@@ -129,10 +131,17 @@ class FWHSound(SoundModel):
             try:
                 return float(v)
             except (TypeError, ValueError):
-                raise ParameterError(f"fwh model: {key} must be a number or auto, "
-                                     f"got {v!r}") from None  # fmt: skip
+                raise ParameterError(
+                    f"fwh model: {key} must be a number or auto, got {v!r}"
+                ) from None
 
-        return fwh_emitters(inputs, surface, rho0=float(p["rho0"]), c0=float(p["c0"]),
-                            p0=number("p0"), oversample=int(p["oversample"]),
-                            time_origin=number("time_origin"),
-                            solid=bool(int(p["solid"])))  # fmt: skip
+        return fwh_emitters(
+            inputs,
+            surface,
+            rho0=float(p["rho0"]),
+            c0=float(p["c0"]),
+            p0=number("p0"),
+            oversample=int(p["oversample"]),
+            time_origin=number("time_origin"),
+            solid=bool(int(p["solid"])),
+        )

@@ -69,8 +69,9 @@ class SurfaceSamples:
     fields: dict[str, Any] = field(default_factory=dict)
 
 
-def trilinear_weights(volume: TimeVolume, points: NDArray[np.floating]
-                      ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:  # fmt: skip
+def trilinear_weights(
+    volume: TimeVolume, points: NDArray[np.floating]
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Flat C-order indices ``(N, 8)`` and weights ``(N, 8)`` of trilinear interpolation.
 
     ``points (N, 3)`` must lie inside the grid (every axis of at least two
@@ -110,9 +111,11 @@ def trilinear_weights(volume: TimeVolume, points: NDArray[np.floating]
             for di in (0, 1):
                 i, j, k = base[:, 0] + di, base[:, 1] + dj, base[:, 2] + dk
                 idx[:, c] = (k * ny + j) * nx + i
-                w[:, c] = ((frac[:, 0] if di else 1 - frac[:, 0])
-                           * (frac[:, 1] if dj else 1 - frac[:, 1])
-                           * (frac[:, 2] if dk else 1 - frac[:, 2]))  # fmt: skip
+                w[:, c] = (
+                    (frac[:, 0] if di else 1 - frac[:, 0])
+                    * (frac[:, 1] if dj else 1 - frac[:, 1])
+                    * (frac[:, 2] if dk else 1 - frac[:, 2])
+                )
                 c += 1
     return idx, w
 
@@ -133,17 +136,23 @@ def check_inside(volume: TimeVolume, surface: Surface) -> None:
         )
 
 
-def resolve_fields(volume: TimeVolume, *, density: str | None = None,
-                   velocity: str | None = None, momentum: str | None = None,
-                   pressure: str | None = None) -> dict[str, str | None]:  # fmt: skip
+def resolve_fields(
+    volume: TimeVolume,
+    *,
+    density: str | None = None,
+    velocity: str | None = None,
+    momentum: str | None = None,
+    pressure: str | None = None,
+) -> dict[str, str | None]:
     """The fields playing density, velocity, momentum and pressure (given or matched)."""
-    roles = {"density": density, "velocity": velocity, "momentum": momentum,
-             "pressure": pressure}  # fmt: skip
+    roles = {"density": density, "velocity": velocity, "momentum": momentum, "pressure": pressure}
     out: dict[str, str | None] = {}
     for role, name in roles.items():
         if name is not None and name not in volume.fields:
-            raise FieldError(f"{volume.source}: no field {name!r} for the {role}; the volume has "
-                             f"{volume.field_names}")  # fmt: skip
+            raise FieldError(
+                f"{volume.source}: no field {name!r} for the {role}; the volume has "
+                f"{volume.field_names}"
+            )
         out[role] = name if name is not None else match_field(volume, role)
     if out["velocity"] is None and out["momentum"] is None:
         raise FieldError(
@@ -167,11 +176,15 @@ def resolve_fields(volume: TimeVolume, *, density: str | None = None,
 def _mapping(roles: dict[str, str | None], rho0: float, c0: float) -> AcousticMapping:
     if roles["density"] is not None:
         # names not in the volume make CFDMapping take the other one
-        return CFDMapping(density=roles["density"], momentum=roles["momentum"] or "\0",
-                          velocity=roles["velocity"] or "\0")  # fmt: skip
+        return CFDMapping(
+            density=roles["density"],
+            momentum=roles["momentum"] or "\0",
+            velocity=roles["velocity"] or "\0",
+        )
     assert roles["pressure"] is not None and roles["velocity"] is not None
-    return IncompressibleMapping(pressure=roles["pressure"], velocity=roles["velocity"],
-                                 rho0=rho0, c0=c0)  # fmt: skip
+    return IncompressibleMapping(
+        pressure=roles["pressure"], velocity=roles["velocity"], rho0=rho0, c0=c0
+    )
 
 
 @dataclass(frozen=True)
@@ -188,8 +201,9 @@ class _Sampler:
     rho0: float
     c0: float
 
-    def step(self, volume: TimeVolume, n: int
-             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    def step(
+        self, volume: TimeVolume, n: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """ρ, u and p' at the panel centres at step ``n``."""
         idx, w = self.idx, self.w
         r, u = self.mapping.map(volume, n)
@@ -203,8 +217,9 @@ class _Sampler:
         return rho, vel, pp
 
 
-def panel_pressure(volume: TimeVolume, surface: Surface, step: int, *, rho0: float = RHO0,
-                   c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def panel_pressure(
+    volume: TimeVolume, surface: Surface, step: int, *, rho0: float = RHO0, c0: float = C0
+) -> NDArray[np.float64]:
     """The pressure fluctuation p' (Pa) on the panel centres of ``surface`` at one step.
 
     The same interpolation and field rules as :func:`sample_surface` (p' from the
@@ -251,10 +266,18 @@ def panel_pressure(volume: TimeVolume, surface: Surface, step: int, *, rho0: flo
     return _Sampler(mapping, idx, w, pname, p0, rho0, c0).step(volume, int(step))[2]
 
 
-def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, c0: float = C0,
-                   p0: float | None = None, density: str | None = None,
-                   velocity: str | None = None, momentum: str | None = None,
-                   pressure: str | None = None) -> SurfaceSamples:  # fmt: skip
+def sample_surface(
+    volume: TimeVolume,
+    surface: Surface,
+    *,
+    rho0: float = RHO0,
+    c0: float = C0,
+    p0: float | None = None,
+    density: str | None = None,
+    velocity: str | None = None,
+    momentum: str | None = None,
+    pressure: str | None = None,
+) -> SurfaceSamples:
     """Sample ρ, u and p' on the panel centres of ``surface`` at every step of ``volume``.
 
     Parameters
@@ -283,11 +306,14 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
         if not (np.isfinite(val) and val > 0):
             raise ParameterError(f"{name} must be a positive number, got {val!r}")
     if volume.n_steps < 4:
-        raise DataError(f"{volume.source}: the FW-H integral needs at least 4 time steps (time "
-                        f"derivatives, cubic retarded-time interpolation), got {volume.n_steps}")  # fmt: skip
+        raise DataError(
+            f"{volume.source}: the FW-H integral needs at least 4 time steps (time "
+            f"derivatives, cubic retarded-time interpolation), got {volume.n_steps}"
+        )
     check_inside(volume, surface)
-    roles = resolve_fields(volume, density=density, velocity=velocity, momentum=momentum,
-                           pressure=pressure)  # fmt: skip
+    roles = resolve_fields(
+        volume, density=density, velocity=velocity, momentum=momentum, pressure=pressure
+    )
     if roles["density"] is None and p0 is not None:
         raise ParameterError(
             f"{volume.source}: p0 applies to a volume with density and pressure; with pressure "
@@ -318,7 +344,14 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
                 f"{int(bad.sum())} of the {P} FW-H panels; place the surface where the data are "
                 f"valid"
             )
-    return SurfaceSamples(times=volume.times.copy(), rho=rho, velocity=vel, p_prime=pp,
-                          surface=surface, rho0=float(rho0), c0=float(c0),
-                          p0=float("nan") if p0 is None else float(p0),
-                          fields={**roles, "mapping": mapping.name})  # fmt: skip
+    return SurfaceSamples(
+        times=volume.times.copy(),
+        rho=rho,
+        velocity=vel,
+        p_prime=pp,
+        surface=surface,
+        rho0=float(rho0),
+        c0=float(c0),
+        p0=float("nan") if p0 is None else float(p0),
+        fields={**roles, "mapping": mapping.name},
+    )

@@ -274,8 +274,11 @@ def all_backends() -> tuple[Backend, ...]:
         except Exception as exc:  # a broken plugin must not stop files from opening
             log.warning(
                 "reader plugin %r (%s, entry-point group %s) skipped: %s",
-                ep.name, ep.value, ENTRY_POINT_GROUP, exc,
-            )  # fmt: skip
+                ep.name,
+                ep.value,
+                ENTRY_POINT_GROUP,
+                exc,
+            )
             continue
         taken.add(backend.name)
         plugins.append(backend)
@@ -969,8 +972,9 @@ def _open_vtk_file(path: Path, **opts: Any) -> TimeVolume:
     def load(step: int) -> Any:
         return import_pyvista().read(str(path), force_ext=suffix)
 
-    return open_mesh_series(source=str(path), loader=load, labels=[str(path)], times=[0.0],
-                            physical_times=False, **opts)  # fmt: skip
+    return open_mesh_series(
+        source=str(path), loader=load, labels=[str(path)], times=[0.0], physical_times=False, **opts
+    )
 
 
 def _open_exodus(path: Path, **opts: Any) -> TimeVolume:
@@ -1125,48 +1129,127 @@ def _builtin_backends() -> tuple[Backend, ...]:
         return lambda path: vtk_file_type(path) in types
 
     return (
-        Backend("openfoam", (".foam",), _opener("openfoam", "read_openfoam"),
-                guess_can_open=is_openfoam, specificity=30, name_pattern=r"^controlDict$",
-                description="OpenFOAM case folder, .foam file or system/controlDict"),
-        Backend("pvd", (".pvd",), _opener("paraview", "read_pvd"),
-                guess_can_open=vtk_type("Collection"), specificity=30,
-                description='ParaView collection (<VTKFile type="Collection">)'),
-        Backend("series", (".series",), _opener("paraview", "read_series"),
-                guess_can_open=is_series, specificity=30,
-                description="ParaView JSON file series"),
-        Backend("vtk", MESH_SUFFIXES, _open_vtk_file,
-                guess_can_open=vtk_type(*VTK_TYPE_SUFFIXES), specificity=30,
-                description="VTK XML or legacy data file (one step)"),
-        Backend("xdmf", XDMF_SUFFIXES, _opener("vtk_readers", "read_xdmf"),
-                guess_can_open=is_xdmf, specificity=30, description="XDMF 2/3 (<Xdmf> root)"),
-        Backend("ensight", (".case",), _opener("vtk_readers", "read_ensight"),
-                guess_can_open=is_ensight, specificity=30, description="EnSight Gold case"),
-        Backend("vtk-amr", AMR_SUFFIXES, _opener("vtk_readers", "read_amr"),
-                guess_can_open=vtk_type(*_AMR_TYPES), specificity=30,
-                description="VTK XML AMR (overlapping or hierarchical boxes)"),
-        Backend("enzo", (".hierarchy",), _opener("vtk_readers", "read_enzo"),
-                guess_can_open=is_enzo, specificity=35, name_pattern=r"[.]cpu[0-9]{4,}$",
-                description="Enzo AMR output (.hierarchy, parameter or .cpuNNNN grid file)"),
-        Backend("exodus", _EXODUS_SUFFIXES, _open_exodus,
-                guess_can_open=is_exodus, specificity=40,
-                description="Exodus II (netCDF with num_dim, coordx, connect1, api_version)"),
-        Backend("netcdf", NETCDF_SUFFIXES, _open_netcdf,
-                guess_can_open=is_netcdf, specificity=20,
-                description="netCDF classic (CDF-1/2) or netCDF4 with CF conventions"),
-        Backend("plot3d", (*PLOT3D_GRID_SUFFIXES, ".q"), _opener("vtk_readers", "read_plot3d"),
-                guess_can_open=is_plot3d_grid, specificity=10,
-                name_pattern=r"(xyz.*|q[_.-]?\d*)\.bin$",
-                description="PLOT3D grid + .q solutions (binary grid told by its size)"),
-        Backend("fluent-cff", (".cas.h5",), _open_fluent,
-                guess_can_open=is_fluent_cff, specificity=30,
-                description="FLUENT CFF case (HDF5 /meshes + /settings)"),
-        Backend("vtkhdf", (".vtkhdf",), _opener("paraview", "read_vtkhdf"),
-                guess_can_open=_hdf5_has(group="VTKHDF"), specificity=32,
-                description="VTKHDF (HDF5 with a /VTKHDF group)"),
-        Backend("auralize-hdf5", (".h5", ".hdf5"), _open_hdf5,
-                guess_can_open=_hdf5_has(attr="auralize_format"), specificity=31,
-                description="auralize HDF5 volume file (root attribute auralize_format)"),
-        Backend("hdf5", HDF5_SUFFIXES, _open_hdf5,
-                guess_can_open=has_hdf5_signature, specificity=0,
-                description="any other HDF5 file, read with fields={name: '/dataset/path'}"),
-    )  # fmt: skip
+        Backend(
+            "openfoam",
+            (".foam",),
+            _opener("openfoam", "read_openfoam"),
+            guess_can_open=is_openfoam,
+            specificity=30,
+            name_pattern=r"^controlDict$",
+            description="OpenFOAM case folder, .foam file or system/controlDict",
+        ),
+        Backend(
+            "pvd",
+            (".pvd",),
+            _opener("paraview", "read_pvd"),
+            guess_can_open=vtk_type("Collection"),
+            specificity=30,
+            description='ParaView collection (<VTKFile type="Collection">)',
+        ),
+        Backend(
+            "series",
+            (".series",),
+            _opener("paraview", "read_series"),
+            guess_can_open=is_series,
+            specificity=30,
+            description="ParaView JSON file series",
+        ),
+        Backend(
+            "vtk",
+            MESH_SUFFIXES,
+            _open_vtk_file,
+            guess_can_open=vtk_type(*VTK_TYPE_SUFFIXES),
+            specificity=30,
+            description="VTK XML or legacy data file (one step)",
+        ),
+        Backend(
+            "xdmf",
+            XDMF_SUFFIXES,
+            _opener("vtk_readers", "read_xdmf"),
+            guess_can_open=is_xdmf,
+            specificity=30,
+            description="XDMF 2/3 (<Xdmf> root)",
+        ),
+        Backend(
+            "ensight",
+            (".case",),
+            _opener("vtk_readers", "read_ensight"),
+            guess_can_open=is_ensight,
+            specificity=30,
+            description="EnSight Gold case",
+        ),
+        Backend(
+            "vtk-amr",
+            AMR_SUFFIXES,
+            _opener("vtk_readers", "read_amr"),
+            guess_can_open=vtk_type(*_AMR_TYPES),
+            specificity=30,
+            description="VTK XML AMR (overlapping or hierarchical boxes)",
+        ),
+        Backend(
+            "enzo",
+            (".hierarchy",),
+            _opener("vtk_readers", "read_enzo"),
+            guess_can_open=is_enzo,
+            specificity=35,
+            name_pattern=r"[.]cpu[0-9]{4,}$",
+            description="Enzo AMR output (.hierarchy, parameter or .cpuNNNN grid file)",
+        ),
+        Backend(
+            "exodus",
+            _EXODUS_SUFFIXES,
+            _open_exodus,
+            guess_can_open=is_exodus,
+            specificity=40,
+            description="Exodus II (netCDF with num_dim, coordx, connect1, api_version)",
+        ),
+        Backend(
+            "netcdf",
+            NETCDF_SUFFIXES,
+            _open_netcdf,
+            guess_can_open=is_netcdf,
+            specificity=20,
+            description="netCDF classic (CDF-1/2) or netCDF4 with CF conventions",
+        ),
+        Backend(
+            "plot3d",
+            (*PLOT3D_GRID_SUFFIXES, ".q"),
+            _opener("vtk_readers", "read_plot3d"),
+            guess_can_open=is_plot3d_grid,
+            specificity=10,
+            name_pattern=r"(xyz.*|q[_.-]?\d*)\.bin$",
+            description="PLOT3D grid + .q solutions (binary grid told by its size)",
+        ),
+        Backend(
+            "fluent-cff",
+            (".cas.h5",),
+            _open_fluent,
+            guess_can_open=is_fluent_cff,
+            specificity=30,
+            description="FLUENT CFF case (HDF5 /meshes + /settings)",
+        ),
+        Backend(
+            "vtkhdf",
+            (".vtkhdf",),
+            _opener("paraview", "read_vtkhdf"),
+            guess_can_open=_hdf5_has(group="VTKHDF"),
+            specificity=32,
+            description="VTKHDF (HDF5 with a /VTKHDF group)",
+        ),
+        Backend(
+            "auralize-hdf5",
+            (".h5", ".hdf5"),
+            _open_hdf5,
+            guess_can_open=_hdf5_has(attr="auralize_format"),
+            specificity=31,
+            description="auralize HDF5 volume file (root attribute auralize_format)",
+        ),
+        Backend(
+            "hdf5",
+            HDF5_SUFFIXES,
+            _open_hdf5,
+            guess_can_open=has_hdf5_signature,
+            specificity=0,
+            description="any other HDF5 file, read with fields={name: '/dataset/path'}",
+        ),
+    )

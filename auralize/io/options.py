@@ -435,8 +435,15 @@ def _cropped_curvilinear(volume: TimeVolume, box: Box) -> TimeVolume:
     assert volume.coords is not None
     i0, i1, j0, j1, k0, k1 = index_block(volume.coords, box, source=volume.source)
     nx, ny, nz = volume.dims
-    said = {"box": list(box), "index_block": {"i": [i0, i1 - 1], "j": [j0, j1 - 1],
-                                              "k": [k0, k1 - 1], "of": [nx, ny, nz]}}  # fmt: skip
+    said = {
+        "box": list(box),
+        "index_block": {
+            "i": [i0, i1 - 1],
+            "j": [j0, j1 - 1],
+            "k": [k0, k1 - 1],
+            "of": [nx, ny, nz],
+        },
+    }
     if (i0, i1, j0, j1, k0, k1) == (0, nx, 0, ny, 0, nz):
         return dataclasses.replace(volume, attrs={**volume.attrs, **said})
     coords = volume.coords[k0:k1, j0:j1, i0:i1].copy()

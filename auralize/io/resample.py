@@ -171,8 +171,9 @@ def grid_for_bounds(
     return lo, _spacing_of(ext, dims), (int(dims[0]), int(dims[1]), int(dims[2]))
 
 
-def _dims_for(ext: NDArray[np.float64], flat: NDArray[np.bool_], h: float,
-              cap: int) -> NDArray[np.int64]:  # fmt: skip
+def _dims_for(
+    ext: NDArray[np.float64], flat: NDArray[np.bool_], h: float, cap: int
+) -> NDArray[np.int64]:
     """Points per axis at spacing about ``h`` (at least 2, at most ``cap``; 1 if flat)."""
     d = np.clip(np.round(ext / h).astype(np.int64) + 1, 2, cap)
     return np.where(flat, 1, d)

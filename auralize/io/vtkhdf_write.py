@@ -93,8 +93,10 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
     p = _checked_target(path)
     for name in volume.field_names:
         if not name or "/" in name or name in (".", ".."):
-            raise DataError(f"{p}: field name {name!r} cannot be a VTKHDF array name; use a "
-                            "non-empty name without '/'")  # fmt: skip
+            raise DataError(
+                f"{p}: field name {name!r} cannot be a VTKHDF array name; use a "
+                "non-empty name without '/'"
+            )
     nx, ny, nz = (int(d) for d in volume.dims)
     n = int(volume.n_steps)
     shapes = {name: tuple(volume.fields[name].frame_shape) for name in volume.field_names}
@@ -115,8 +117,7 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
         steps.create_dataset("Values", data=np.asarray(volume.times, dtype=np.float64))
         offsets = steps.create_group("PointDataOffsets")
         for name, shape in shapes.items():
-            ds = pdata.create_dataset(name, shape=(n, *shape), dtype=np.float64,
-                                      chunks=(1, *shape))  # fmt: skip
+            ds = pdata.create_dataset(name, shape=(n, *shape), dtype=np.float64, chunks=(1, *shape))
             for step in range(n):
                 ds[step] = volume.frame(name, step)
                 stop_if_failed(f)  # a full disk ends the writer here, not after every step
@@ -172,8 +173,9 @@ def sources_polydata(series: Any, step: int) -> Any:
     pts = series.positions(f.index) if f.index.size else np.zeros((0, 3))
     poly = pv.PolyData(np.asarray(pts, dtype=np.float64))
     if not poly.n_verts and poly.n_points:  # pyvista adds the vertices; keep them explicit
-        poly.verts = np.column_stack([np.ones(poly.n_points, np.int64),
-                                      np.arange(poly.n_points)]).ravel()  # fmt: skip
+        poly.verts = np.column_stack(
+            [np.ones(poly.n_points, np.int64), np.arange(poly.n_points)]
+        ).ravel()
     poly.point_data["kind"] = f.kind.astype(np.int8)
     poly.point_data["strength"] = np.asarray(f.strength, dtype=np.float64)
     poly.point_data["radius"] = np.asarray(f.radius, dtype=np.float64)
@@ -238,8 +240,12 @@ def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
 
     index = cat("index", np.int64)
     points = np.asarray(series.positions(index), np.float64) if total else np.zeros((0, 3))
-    point_data = {"kind": cat("kind", np.int8), "strength": cat("strength", np.float64),
-                  "radius": cat("radius", np.float64), "volume": cat("volume", np.float64)}  # fmt: skip
+    point_data = {
+        "kind": cat("kind", np.int8),
+        "strength": cat("strength", np.float64),
+        "radius": cat("radius", np.float64),
+        "volume": cat("volume", np.float64),
+    }
     codes = np.asarray(list(KIND_LEGEND), dtype=np.int32)
     names = [name.encode("ascii") for name in KIND_LEGEND.values()]
     nbytes = 73.0 * total + 400.0 * n + _OVERHEAD  # points, data, connectivity; per step

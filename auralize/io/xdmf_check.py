@@ -66,8 +66,13 @@ MAX_XML_BYTES = 64 * 1024**2
 #: Namespaces of XInclude elements (meshio writes the 2003 draft's).
 XINCLUDE_NAMESPACES = ("http://www.w3.org/2001/XInclude", "http://www.w3.org/2003/XInclude")
 #: Bytes per value of XDMF number types (``NumberType``/``DataType``) by ``Precision``.
-_PRECISIONS = {"float": (4, 8), "int": (1, 2, 4, 8), "uint": (1, 2, 4, 8), "char": (1,),
-               "uchar": (1,)}  # fmt: skip
+_PRECISIONS = {
+    "float": (4, 8),
+    "int": (1, 2, 4, 8),
+    "uint": (1, 2, 4, 8),
+    "char": (1,),
+    "uchar": (1,),
+}
 _BLOCK_BYTES = 64 * 1024**2
 _MAX_DEPTH = 8
 

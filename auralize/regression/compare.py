@@ -58,8 +58,10 @@ class Moved:
     tolerance: str
 
     def __str__(self) -> str:
-        return (f"{self.figure}: {_show(self.got)} vs expected {_show(self.expected)} "
-                f"(moved by {self.by}; tolerance {self.tolerance})")  # fmt: skip
+        return (
+            f"{self.figure}: {_show(self.got)} vs expected {_show(self.expected)} "
+            f"(moved by {self.by}; tolerance {self.tolerance})"
+        )
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -87,42 +89,77 @@ def spectral_centroid(x: NDArray[np.floating], rate: int) -> float:
     return float(np.sum(f * spec) / np.sum(spec))
 
 
-def count_changes(got: Sequence[dict[str, int]], expected: Sequence[dict[str, int]], *,
-                  rel: float, at_least: int = 2, types: Sequence[str] = TYPES,
-                  what: str = "counts") -> list[Moved]:  # fmt: skip
+def count_changes(
+    got: Sequence[dict[str, int]],
+    expected: Sequence[dict[str, int]],
+    *,
+    rel: float,
+    at_least: int = 2,
+    types: Sequence[str] = TYPES,
+    what: str = "counts",
+) -> list[Moved]:
     """Per-step source counts beyond ``max(at_least, rel × expected)`` points; a
     different number of steps is one moved figure (``counts steps``)."""
     if len(got) != len(expected):
-        return [Moved(what, f"{what} steps", len(got), len(expected),
-                      f"{len(got) - len(expected):+d} steps", "the same number of steps")]  # fmt: skip
+        return [
+            Moved(
+                what,
+                f"{what} steps",
+                len(got),
+                len(expected),
+                f"{len(got) - len(expected):+d} steps",
+                "the same number of steps",
+            )
+        ]
     out = []
     for n, (a, b) in enumerate(zip(got, expected, strict=True)):
         for k in types:
             ga, eb = int(a.get(k, 0)), int(b.get(k, 0))
             allowed = max(at_least, rel * eb)
             if abs(ga - eb) > allowed:
-                out.append(Moved(what, f"{what} step {n} {k}", ga, eb, f"{ga - eb:+d}",
-                                 f"±{allowed:.3g}"))  # fmt: skip
+                out.append(
+                    Moved(what, f"{what} step {n} {k}", ga, eb, f"{ga - eb:+d}", f"±{allowed:.3g}")
+                )
     return out
 
 
-def step_change(figure: str, got: int | None, expected: int | None, *, tol: int,
-                group: str = "onset") -> Moved | None:  # fmt: skip
+def step_change(
+    figure: str, got: int | None, expected: int | None, *, tol: int, group: str = "onset"
+) -> Moved | None:
     """A step index (an onset, an end) that moved more than ``tol`` steps (None: never)."""
     if got is None and expected is None:
         return None
     if got is None or expected is None:
-        return Moved(group, figure, "never" if got is None else f"step {got}",
-                     "never" if expected is None else f"step {expected}", "appeared or vanished",
-                     f"±{tol} steps")  # fmt: skip
+        return Moved(
+            group,
+            figure,
+            "never" if got is None else f"step {got}",
+            "never" if expected is None else f"step {expected}",
+            "appeared or vanished",
+            f"±{tol} steps",
+        )
     if abs(got - expected) > tol:
-        return Moved(group, figure, f"step {got}", f"step {expected}",
-                     f"{got - expected:+d} steps", f"±{tol} steps")  # fmt: skip
+        return Moved(
+            group,
+            figure,
+            f"step {got}",
+            f"step {expected}",
+            f"{got - expected:+d} steps",
+            f"±{tol} steps",
+        )
     return None
 
 
-def relative_change(group: str, figure: str, got: float, expected: float, *, rtol: float,
-                    atol: float = 0.0, unit: str = "") -> Moved | None:  # fmt: skip
+def relative_change(
+    group: str,
+    figure: str,
+    got: float,
+    expected: float,
+    *,
+    rtol: float,
+    atol: float = 0.0,
+    unit: str = "",
+) -> Moved | None:
     """``got`` beyond ``rtol × |expected| + atol`` of ``expected`` (NaN equals NaN only)."""
     g, e = float(got), float(expected)
     if math.isnan(g) and math.isnan(e):
@@ -142,8 +179,9 @@ def relative_change(group: str, figure: str, got: float, expected: float, *, rto
     )
 
 
-def db_change(figure: str, got: float, expected: float, *, tol_db: float,
-              group: str = "level") -> Moved | None:  # fmt: skip
+def db_change(
+    figure: str, got: float, expected: float, *, tol_db: float, group: str = "level"
+) -> Moved | None:
     """A level (dB) that moved more than ``tol_db`` (−inf, silence, equals −inf only).
 
     Examples

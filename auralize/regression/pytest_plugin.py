@@ -36,12 +36,19 @@ FOLDER = "auralize_regression"
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("auralize", "auralize: regression of a dataset's sources and sound")
-    group.addoption(RECORD_OPTION, action="store_true", default=False,
-                    help="record the auralize_regression expectations again instead of "
-                         "checking them (the tests pass)")  # fmt: skip
-    group.addoption(REPORT_OPTION, metavar="DIR", default=None,
-                    help="write the report of each auralize_regression check into "
-                         "DIR/<test name>/")  # fmt: skip
+    group.addoption(
+        RECORD_OPTION,
+        action="store_true",
+        default=False,
+        help="record the auralize_regression expectations again instead of "
+        "checking them (the tests pass)",
+    )
+    group.addoption(
+        REPORT_OPTION,
+        metavar="DIR",
+        default=None,
+        help="write the report of each auralize_regression check into DIR/<test name>/",
+    )
 
 
 class AuralizeRegression:
@@ -63,8 +70,14 @@ class AuralizeRegression:
         base = re.sub(r"[^\w.-]+", "_", self.request.node.name).strip("_")
         return self.folder / f"{base}{'-' + name if name else ''}.json"
 
-    def check(self, data: str | Path, *, name: str | None = None,
-              tolerances: dict[str, float] | None = None, **settings: Any) -> Any:  # fmt: skip
+    def check(
+        self,
+        data: str | Path,
+        *,
+        name: str | None = None,
+        tolerances: dict[str, float] | None = None,
+        **settings: Any,
+    ) -> Any:
         """Check ``data`` against this test's expectation (record it if there is none,
         or with ``--auralize-regression-record``).
 
@@ -82,9 +95,11 @@ class AuralizeRegression:
             self.folder.mkdir(exist_ok=True)
             record(data, expect, tolerances=tolerances, **settings)
             if not self.record_mode:
-                pytest.fail(f"auralize_regression: no expectation yet; recorded {expect} (and "
-                            f"its picture): review it, commit it and run again",
-                            pytrace=False)  # fmt: skip
+                pytest.fail(
+                    f"auralize_regression: no expectation yet; recorded {expect} (and "
+                    f"its picture): review it, commit it and run again",
+                    pytrace=False,
+                )
             return None
         report = None
         if self.report_root is not None:
@@ -93,8 +108,11 @@ class AuralizeRegression:
         result = check(data, expect, tolerances=tolerances, report=report)
         if not result.passed:
             where = f"\nreport: {report}" if report is not None else ""
-            pytest.fail(f"auralize_regression: {result.summary()}{where}\n(if the change was "
-                        f"meant, record again with {RECORD_OPTION})", pytrace=False)  # fmt: skip
+            pytest.fail(
+                f"auralize_regression: {result.summary()}{where}\n(if the change was "
+                f"meant, record again with {RECORD_OPTION})",
+                pytrace=False,
+            )
         return result
 
 

@@ -48,10 +48,14 @@ def compute(name: str) -> dict[str, Any]:
         warnings.simplefilter("ignore", ResampledWarning)
         vol = open_volume(path)
         out.update(
-            dims=list(vol.dims), origin=vol.origin.tolist(), spacing=vol.spacing.tolist(),
-            times=vol.times.tolist(), physical_times=vol.physical_times,
-            fields=vol.field_names, valid_ratio=vol.valid_ratio,
-        )  # fmt: skip
+            dims=list(vol.dims),
+            origin=vol.origin.tolist(),
+            spacing=vol.spacing.tolist(),
+            times=vol.times.tolist(),
+            physical_times=vol.physical_times,
+            fields=vol.field_names,
+            valid_ratio=vol.valid_ratio,
+        )
         if vol.n_steps < 2:
             return out
         vol = vol.load()
@@ -66,9 +70,15 @@ def compute(name: str) -> dict[str, Any]:
         r = case["render"]
         if r is not None:
             listener = ListenerPath.point(r["listener"], duration=r["duration"])
-            rendered, _ = auralize(vol, listener, series=series, rate=8000,
-                                   time_scale=r["time_scale"], duration=r["duration"],
-                                   timbre=r.get("timbre", "physical"))  # fmt: skip
+            rendered, _ = auralize(
+                vol,
+                listener,
+                series=series,
+                rate=8000,
+                time_scale=r["time_scale"],
+                duration=r["duration"],
+                timbre=r.get("timbre", "physical"),
+            )
             x = rendered.audio[0]
             out["rms"] = float(np.sqrt(np.mean(x**2)))
             out["centroid"] = spectral_centroid(x, rendered.rate) if np.any(x) else 0.0
@@ -76,8 +86,9 @@ def compute(name: str) -> dict[str, Any]:
 
 
 def _close(a: object, b: object, rtol: float) -> bool:
-    return bool(np.allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float),
-                            rtol=rtol, atol=1e-12))  # fmt: skip
+    return bool(
+        np.allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float), rtol=rtol, atol=1e-12)
+    )
 
 
 def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
@@ -100,12 +111,14 @@ def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
     if ("counts" in got) != ("counts" in stored):
         problems.append("counts: present in only one of recomputed and stored")
     elif "counts" in got:
-        problems += [str(m) for m in count_changes(got["counts"], stored["counts"],
-                                                   rel=TOLERANCES["counts"])]  # fmt: skip
+        problems += [
+            str(m) for m in count_changes(got["counts"], stored["counts"], rel=TOLERANCES["counts"])
+        ]
     for key in ("rms", "centroid"):
         if key in stored:
-            m = relative_change(key, key, got.get(key, np.nan), stored[key],
-                                rtol=TOLERANCES[key], atol=1e-15)  # fmt: skip
+            m = relative_change(
+                key, key, got.get(key, np.nan), stored[key], rtol=TOLERANCES[key], atol=1e-15
+            )
             if m is not None:
                 problems.append(str(m))
     return problems

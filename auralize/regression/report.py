@@ -33,8 +33,16 @@ from auralize.runtime.files import atomic_path, atomic_write, check_output_path
 __all__ = ["REPORT_FILES", "report_folder", "write_report"]
 
 #: the files a report is made of
-REPORT_FILES = ("report.md", "report.html", "level.png", "counts.png", "bands.png",
-                "expected.png", "got.png", "difference.png")  # fmt: skip
+REPORT_FILES = (
+    "report.md",
+    "report.html",
+    "level.png",
+    "counts.png",
+    "bands.png",
+    "expected.png",
+    "got.png",
+    "difference.png",
+)
 
 
 def report_folder(folder: str | Path) -> Path:
@@ -79,8 +87,12 @@ def _counts_plot(r: Any, out: Path) -> None:
     ax = fig.subplots()
     for i, k in enumerate(TYPES):
         for fig_of, style in ((r.expected, "-"), (r.got, ":")):
-            ax.plot([c.get(k, 0) for c in fig_of["counts"]], style, color=f"C{i}",
-                    label=f"{k} ({'expected' if fig_of is r.expected else 'got'})")  # fmt: skip
+            ax.plot(
+                [c.get(k, 0) for c in fig_of["counts"]],
+                style,
+                color=f"C{i}",
+                label=f"{k} ({'expected' if fig_of is r.expected else 'got'})",
+            )
     ax.set_xlabel("time step")
     ax.set_ylabel("source points")
     ax.legend(fontsize=7, ncol=3)
@@ -130,9 +142,16 @@ def _pictures(r: Any, folder: Path) -> bool:
 
 
 def _rows(r: Any) -> list[list[str]]:
-    return [[m.figure, f"{m.got:.6g}" if isinstance(m.got, float) else str(m.got),
-             f"{m.expected:.6g}" if isinstance(m.expected, float) else str(m.expected),
-             m.by, m.tolerance] for m in r.moved]  # fmt: skip
+    return [
+        [
+            m.figure,
+            f"{m.got:.6g}" if isinstance(m.got, float) else str(m.got),
+            f"{m.expected:.6g}" if isinstance(m.expected, float) else str(m.expected),
+            m.by,
+            m.tolerance,
+        ]
+        for m in r.moved
+    ]
 
 
 def write_report(result: Any, folder: str | Path) -> Path:
@@ -146,20 +165,35 @@ def write_report(result: Any, folder: str | Path) -> Path:
         pictures = _pictures(result, folder)
     except OSError as exc:
         raise OutputError(f"cannot write the report into {folder}: {exc}") from exc
-    verdict = ("passed: every figure is within its tolerance" if result.passed
-               else f"FAILED: {len(result.moved)} figure(s) moved beyond their tolerance")  # fmt: skip
+    verdict = (
+        "passed: every figure is within its tolerance"
+        if result.passed
+        else f"FAILED: {len(result.moved)} figure(s) moved beyond their tolerance"
+    )
     head = ["figure", "got", "expected", "moved by", "tolerance"]
     rows = _rows(result)
     tol = ", ".join(f"{k} {v:g}" for k, v in result.tolerances.items())
-    plots = [("level.png", "level and spectral centroid along the path"),
-             ("counts.png", "source points per step and type"),
-             ("bands.png", "change of the ⅓-octave band levels per window")]  # fmt: skip
+    plots = [
+        ("level.png", "level and spectral centroid along the path"),
+        ("counts.png", "source points per step and type"),
+        ("bands.png", "change of the ⅓-octave band levels per window"),
+    ]
     if pictures:
-        plots += [("expected.png", "expected picture"), ("got.png", "picture now"),
-                  ("difference.png", "difference (×4)")]  # fmt: skip
-    md = [f"# auralize regression check: {result.data}", "",
-          f"Expectation: `{result.expect_file}`", "", f"**{verdict}**", "",
-          f"Tolerances: {tol}", ""]  # fmt: skip
+        plots += [
+            ("expected.png", "expected picture"),
+            ("got.png", "picture now"),
+            ("difference.png", "difference (×4)"),
+        ]
+    md = [
+        f"# auralize regression check: {result.data}",
+        "",
+        f"Expectation: `{result.expect_file}`",
+        "",
+        f"**{verdict}**",
+        "",
+        f"Tolerances: {tol}",
+        "",
+    ]
     if rows:
         md += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         md += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in rows]
@@ -169,16 +203,24 @@ def write_report(result: Any, folder: str | Path) -> Path:
     e = html.escape
     table = ""
     if rows:
-        table = ("<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in head) + "</tr>"
-                 + "".join("<tr>" + "".join(f"<td>{e(c)}</td>" for c in row) + "</tr>"
-                           for row in rows) + "</table>")  # fmt: skip
-    imgs = "".join(f'<figure><img src="{e(n)}" alt="{e(a)}"><figcaption>{e(a)}</figcaption>'
-                   f"</figure>" for n, a in plots)  # fmt: skip
-    page = (f"<!doctype html><html lang=en><meta charset=utf-8><title>auralize regression "
-            f"check: {e(result.data)}</title><style>body{{font-family:sans-serif;margin:2em}}"
-            f"td,th{{border:1px solid #ccc;padding:.2em .5em}}table{{border-collapse:collapse}}"
-            f"img{{max-width:100%}}</style><h1>auralize regression check: {e(result.data)}</h1>"
-            f"<p>Expectation: <code>{e(str(result.expect_file))}</code></p><p><strong>"
-            f"{e(verdict)}</strong></p><p>Tolerances: {e(tol)}</p>{table}{imgs}</html>\n")  # fmt: skip
+        table = (
+            "<table><tr>"
+            + "".join(f"<th>{e(h)}</th>" for h in head)
+            + "</tr>"
+            + "".join("<tr>" + "".join(f"<td>{e(c)}</td>" for c in row) + "</tr>" for row in rows)
+            + "</table>"
+        )
+    imgs = "".join(
+        f'<figure><img src="{e(n)}" alt="{e(a)}"><figcaption>{e(a)}</figcaption></figure>'
+        for n, a in plots
+    )
+    page = (
+        f"<!doctype html><html lang=en><meta charset=utf-8><title>auralize regression "
+        f"check: {e(result.data)}</title><style>body{{font-family:sans-serif;margin:2em}}"
+        f"td,th{{border:1px solid #ccc;padding:.2em .5em}}table{{border-collapse:collapse}}"
+        f"img{{max-width:100%}}</style><h1>auralize regression check: {e(result.data)}</h1>"
+        f"<p>Expectation: <code>{e(str(result.expect_file))}</code></p><p><strong>"
+        f"{e(verdict)}</strong></p><p>Tolerances: {e(tol)}</p>{table}{imgs}</html>\n"
+    )
     atomic_write(folder / "report.html", page.encode("utf-8"))
     return folder / "report.md"

@@ -29,12 +29,18 @@ TOLERANCES = {"counts": 0.01, "rms": 0.01, "centroid": 0.02}
 
 CASES: dict[str, dict[str, Any]] = {
     "explosion": {
-        "dataset": "explosion", "size": 64, "steps": 30, "seed": 0, "mapping": "paper-density",
-        "thresholds": ["auto", "auto", "auto"], "rate": 44100, "interp": "cubic",
+        "dataset": "explosion",
+        "size": 64,
+        "steps": 30,
+        "seed": 0,
+        "mapping": "paper-density",
+        "thresholds": ["auto", "auto", "auto"],
+        "rate": 44100,
+        "interp": "cubic",
         "highpass_hz": 0.0,
         "path": {"start": [12.0, 20.0, 30.0], "end": [50.0, 40.0, 34.0], "duration": 1.0},
     },
-}  # fmt: skip
+}
 
 
 def compute(name: str) -> dict[str, Any]:
@@ -52,9 +58,17 @@ def compute(name: str) -> dict[str, Any]:
     th = Thresholds(*case["thresholds"])
     # what is drawn (the detected sources) and what is heard (the whole field)
     series = detect_sources(vol, mapping=case["mapping"], thresholds=th)
-    out, _ = auralize(vol, path, mapping=case["mapping"], thresholds=th, rate=case["rate"],
-                      interp=case["interp"], timbre="physical", time_scale=1.0,
-                      highpass_hz=case.get("highpass_hz", 0.0))  # fmt: skip
+    out, _ = auralize(
+        vol,
+        path,
+        mapping=case["mapping"],
+        thresholds=th,
+        rate=case["rate"],
+        interp=case["interp"],
+        timbre="physical",
+        time_scale=1.0,
+        highpass_hz=case.get("highpass_hz", 0.0),
+    )
     x = out.audio[0]
     return {
         "case": case,

@@ -98,16 +98,39 @@ DEFAULT_TOLERANCES: dict[str, float] = {
 #: what is read, detected and rendered, and how (the options of ``auralize render``)
 DEFAULT_SETTINGS: dict[str, Any] = {
     "read": {},  # size, steps, seed, fields, resolution, nan, time_dim, axis_scale, box, resample
-    "mapping": None, "mapping_fields": {}, "thresholds": list(DEFAULTS.thresholds),
-    "zero_fraction": 1.0, "floor": 3.0,
-    "listener": None, "duration": None, "time_scale": DEFAULTS.time_scale,
-    "layout": DEFAULTS.layout, "rate": DEFAULTS.rate, "heard": DEFAULTS.heard,
-    "timbre": DEFAULTS.timbre, "highpass_hz": DEFAULTS.highpass_hz, "interp": DEFAULTS.interp,
-    "seed": 0, "method": DEFAULTS.method, "orbit_face": DEFAULTS.orbit_face,
-    "windows": DEFAULT_WINDOWS, "screenshot": True, "screenshot_size": [480, 360],
-}  # fmt: skip
-_READ_KEYS = ("size", "steps", "seed", "fields", "resolution", "nan", "time_dim", "axis_scale",
-              "box", "resample")  # fmt: skip
+    "mapping": None,
+    "mapping_fields": {},
+    "thresholds": list(DEFAULTS.thresholds),
+    "zero_fraction": 1.0,
+    "floor": 3.0,
+    "listener": None,
+    "duration": None,
+    "time_scale": DEFAULTS.time_scale,
+    "layout": DEFAULTS.layout,
+    "rate": DEFAULTS.rate,
+    "heard": DEFAULTS.heard,
+    "timbre": DEFAULTS.timbre,
+    "highpass_hz": DEFAULTS.highpass_hz,
+    "interp": DEFAULTS.interp,
+    "seed": 0,
+    "method": DEFAULTS.method,
+    "orbit_face": DEFAULTS.orbit_face,
+    "windows": DEFAULT_WINDOWS,
+    "screenshot": True,
+    "screenshot_size": [480, 360],
+}
+_READ_KEYS = (
+    "size",
+    "steps",
+    "seed",
+    "fields",
+    "resolution",
+    "nan",
+    "time_dim",
+    "axis_scale",
+    "box",
+    "resample",
+)
 
 
 def settings_from(**given: Any) -> dict[str, Any]:
@@ -121,8 +144,10 @@ def settings_from(**given: Any) -> dict[str, Any]:
         elif k == "read":
             out["read"].update({a: b for a, b in dict(v).items() if b is not None})
         elif k not in DEFAULT_SETTINGS and k != "path":
-            raise ParameterError(f"regression setting {k!r} is not one of "
-                                 f"{sorted([*DEFAULT_SETTINGS, 'path', *_READ_KEYS])}")  # fmt: skip
+            raise ParameterError(
+                f"regression setting {k!r} is not one of "
+                f"{sorted([*DEFAULT_SETTINGS, 'path', *_READ_KEYS])}"
+            )
         else:
             out[k] = v
     bad = [k for k in out["read"] if k not in _READ_KEYS]
@@ -154,8 +179,13 @@ def _path_from(stored: dict[str, Any]) -> Any:
     from auralize.listener import ListenerPath
 
     r = np.asarray(stored["rows"], dtype=np.float64).reshape(-1, 10)
-    return ListenerPath(r[:, 0], r[:, 1:4], forward=r[:, 4:7], up=r[:, 7:10],
-                        source=f"the stored {stored.get('source', '')} path".replace("  ", " "))  # fmt: skip
+    return ListenerPath(
+        r[:, 0],
+        r[:, 1:4],
+        forward=r[:, 4:7],
+        up=r[:, 7:10],
+        source=f"the stored {stored.get('source', '')} path".replace("  ", " "),
+    )
 
 
 def _windows(n: int, rate: int, count: int) -> list[tuple[int, int]]:
@@ -183,10 +213,15 @@ def _figures_of_audio(audio: np.ndarray, rate: int, windows: int) -> dict[str, A
             db = 10 * np.log10(np.where(energy > 0, energy, 1.0))
             bands.append([float(v) if e > 0 else None for v, e in zip(db, energy, strict=True)])
         centres, labels = s.band_centres.tolist(), list(s.band_labels)
-    return {"windows_s": [[a / rate, b / rate] for a, b in spans], "level_db": level,
-            "centroid_hz": centroid, "band_centres_hz": centres, "band_labels": labels,
-            "band_levels_db": bands,
-            "rms_pa": float(np.sqrt(np.mean(audio**2))) if audio.size else 0.0}  # fmt: skip
+    return {
+        "windows_s": [[a / rate, b / rate] for a, b in spans],
+        "level_db": level,
+        "centroid_hz": centroid,
+        "band_centres_hz": centres,
+        "band_labels": labels,
+        "band_levels_db": bands,
+        "rms_pa": float(np.sqrt(np.mean(audio**2))) if audio.size else 0.0,
+    }
 
 
 def _detection_args(st: dict[str, Any]) -> dict[str, Any]:
@@ -197,8 +232,9 @@ def _detection_args(st: dict[str, Any]) -> dict[str, Any]:
     return {"mapping": st["mapping"], "thresholds": th, **dict(st["mapping_fields"])}
 
 
-def compute(data: str | Path, settings: dict[str, Any], *, path: Any = None,
-            image: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:  # fmt: skip
+def compute(
+    data: str | Path, settings: dict[str, Any], *, path: Any = None, image: str | Path | None = None
+) -> tuple[dict[str, Any], dict[str, Any]]:
     """The figures of ``data`` with ``settings`` (:func:`settings_from`), along ``path``
     (a :class:`~auralize.listener.ListenerPath`; default: ``settings["listener"]``,
     else the default orbit of ``auralize render``); the picture is written to
@@ -226,31 +262,57 @@ def compute(data: str | Path, settings: dict[str, Any], *, path: Any = None,
     if path is None:  # the default orbit, as auralize render plans it
         hd = parse_heard(st["heard"])
         tracks = heard_tracks(series, hd) if hd.mode == "detected" else None
-        plan = plan_render(vol, tracks, duration=duration, time_scale=st["time_scale"],
-                           face=st["orbit_face"])  # fmt: skip
+        plan = plan_render(
+            vol, tracks, duration=duration, time_scale=st["time_scale"], face=st["orbit_face"]
+        )
         path, duration = plan.path, plan.duration
     series_arg = series if parse_heard(st["heard"]).mode == "detected" else None
-    out, _ = auralize(vol, path, series=series_arg, rate=st["rate"], time_scale=st["time_scale"],
-                      interp=st["interp"], layout=st["layout"], duration=duration,
-                      timbre=st["timbre"], highpass_hz=st["highpass_hz"], seed=st["seed"],
-                      heard=st["heard"], method=st["method"], orbit_face=st["orbit_face"],
-                      **_detection_args(st))  # fmt: skip
+    out, _ = auralize(
+        vol,
+        path,
+        series=series_arg,
+        rate=st["rate"],
+        time_scale=st["time_scale"],
+        interp=st["interp"],
+        layout=st["layout"],
+        duration=duration,
+        timbre=st["timbre"],
+        highpass_hz=st["highpass_hz"],
+        seed=st["seed"],
+        heard=st["heard"],
+        method=st["method"],
+        orbit_face=st["orbit_face"],
+        **_detection_args(st),
+    )
     figures: dict[str, Any] = {
-        "steps": vol.n_steps, "times": vol.times.tolist(), "counts": counts,
+        "steps": vol.n_steps,
+        "times": vol.times.tolist(),
+        "counts": counts,
         "onset": {k: next((n for n, c in enumerate(counts) if c[k]), None) for k in TYPES},
-        "end": {k: next((n for n in range(len(counts) - 1, -1, -1) if counts[n][k]), None)
-                for k in TYPES},
-        "rate": out.rate, "channels": list(out.layout.channel_names),
-        "duration_s": out.duration, "time_mapping": out.meta.get("time_mapping"),
+        "end": {
+            k: next((n for n in range(len(counts) - 1, -1, -1) if counts[n][k]), None)
+            for k in TYPES
+        },
+        "rate": out.rate,
+        "channels": list(out.layout.channel_names),
+        "duration_s": out.duration,
+        "time_mapping": out.meta.get("time_mapping"),
         **_figures_of_audio(np.asarray(out.audio, dtype=np.float64), out.rate, st["windows"]),
-    }  # fmt: skip
+    }
     if image is not None and st["screenshot"]:
         from auralize.scene.pictures import screenshot
 
         busiest = int(np.argmax([sum(c.values()) for c in counts])) if counts else 0
         w, h = (int(v) for v in st["screenshot_size"])
-        screenshot(vol, image, series=series, step=busiest, path=path, window_size=(w, h),
-                   title=f"step {busiest}")  # fmt: skip
+        screenshot(
+            vol,
+            image,
+            series=series,
+            step=busiest,
+            path=path,
+            window_size=(w, h),
+            title=f"step {busiest}",
+        )
         figures["image_step"] = busiest
     return figures, _path_rows(path)
 
@@ -259,8 +321,14 @@ def _image_file(expect: Path) -> Path:
     return expect.with_suffix(".png")
 
 
-def record(data: str | Path, expect: str | Path, *, path: Any = None,
-           tolerances: dict[str, float] | None = None, **settings: Any) -> dict[str, Any]:  # fmt: skip
+def record(
+    data: str | Path,
+    expect: str | Path,
+    *,
+    path: Any = None,
+    tolerances: dict[str, float] | None = None,
+    **settings: Any,
+) -> dict[str, Any]:
     """Run ``data`` with ``settings`` and store the figures in ``expect`` (JSON), the
     picture beside it (``expect`` with ``.png``), both written atomically.
 
@@ -294,9 +362,17 @@ def record(data: str | Path, expect: str | Path, *, path: Any = None,
     tol = tolerances_from(tolerances)
     image = _image_file(expect) if st["screenshot"] else None
     figures, used = compute(data, st, path=path, image=image)
-    doc = {"format": FORMAT, "version": VERSION, "auralize": __version__,
-           "data": str(data), "settings": st, "path": used, "tolerances": tol,
-           "image": image.name if image is not None else None, "figures": figures}  # fmt: skip
+    doc = {
+        "format": FORMAT,
+        "version": VERSION,
+        "auralize": __version__,
+        "data": str(data),
+        "settings": st,
+        "path": used,
+        "tolerances": tol,
+        "image": image.name if image is not None else None,
+        "figures": figures,
+    }
     atomic_write(expect, (json.dumps(doc, indent=1, allow_nan=False) + "\n").encode())
     return doc
 
@@ -305,18 +381,21 @@ def load_expectation(expect: str | Path) -> dict[str, Any]:
     """Read an expectation file (checked to be one)."""
     p = Path(expect)
     if not p.is_file():
-        raise MissingFileError(f"{p}: no such expectation file (make one with 'auralize regress "
-                               f"record DATA -o {p.name}')")  # fmt: skip
+        raise MissingFileError(
+            f"{p}: no such expectation file (make one with 'auralize regress "
+            f"record DATA -o {p.name}')"
+        )
     try:
         doc = json.loads(p.read_text())
     except (ValueError, UnicodeDecodeError) as exc:
         raise FormatError(f"{p}: not a JSON expectation file ({exc})") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise FormatError(f"{p}: not an auralize regression expectation (no \"format\": "
-                          f"\"{FORMAT}\")")  # fmt: skip
+        raise FormatError(f'{p}: not an auralize regression expectation (no "format": "{FORMAT}")')
     if doc.get("version") != VERSION:
-        raise FormatError(f"{p}: expectation version {doc.get('version')!r}; this auralize "
-                          f"reads version {VERSION}")  # fmt: skip
+        raise FormatError(
+            f"{p}: expectation version {doc.get('version')!r}; this auralize "
+            f"reads version {VERSION}"
+        )
     return doc
 
 
@@ -329,21 +408,40 @@ def _window_name(k: int, span: list[float]) -> str:
     return f"window {k} ({span[0]:.3g}–{span[1]:.3g} s)"
 
 
-def compare(got: dict[str, Any], expected: dict[str, Any], tol: dict[str, float], *,
-            image_got: Path | None = None, image_expected: Path | None = None) -> list[Moved]:  # fmt: skip
+def compare(
+    got: dict[str, Any],
+    expected: dict[str, Any],
+    tol: dict[str, float],
+    *,
+    image_got: Path | None = None,
+    image_expected: Path | None = None,
+) -> list[Moved]:
     """Every figure of ``got`` beyond its tolerance of ``expected`` (see the module docstring)."""
-    moved = count_changes(got["counts"], expected["counts"], rel=tol["counts"],
-                          at_least=int(tol["counts_at_least"]))  # fmt: skip
+    moved = count_changes(
+        got["counts"], expected["counts"], rel=tol["counts"], at_least=int(tol["counts_at_least"])
+    )
     for which in ("onset", "end"):
         for kind in TYPES:
-            m = step_change(f"{which} {kind}", got[which].get(kind), expected[which].get(kind),
-                            tol=int(tol["onset"]), group="onset")  # fmt: skip
+            m = step_change(
+                f"{which} {kind}",
+                got[which].get(kind),
+                expected[which].get(kind),
+                tol=int(tol["onset"]),
+                group="onset",
+            )
             if m is not None:
                 moved.append(m)
     if len(got["level_db"]) != len(expected["level_db"]):
-        moved.append(Moved("level", "level windows", len(got["level_db"]),
-                           len(expected["level_db"]), "a different render length",
-                           "the same windows"))  # fmt: skip
+        moved.append(
+            Moved(
+                "level",
+                "level windows",
+                len(got["level_db"]),
+                len(expected["level_db"]),
+                "a different render length",
+                "the same windows",
+            )
+        )
         return moved
     lv_e = np.array([_f(v) for v in expected["level_db"]])
     loudest = float(np.max(lv_e)) if lv_e.size else -math.inf
@@ -355,32 +453,59 @@ def compare(got: dict[str, Any], expected: dict[str, Any], tol: dict[str, float]
             moved.append(m)
         if not e > loudest - QUIET_DB:
             continue  # a quiet window: its spectrum is noise
-        m = relative_change("centroid", f"centroid {name}", _f(got["centroid_hz"][k], math.nan),
-                            _f(expected["centroid_hz"][k], math.nan), rtol=tol["centroid"],
-                            unit="Hz")  # fmt: skip
+        m = relative_change(
+            "centroid",
+            f"centroid {name}",
+            _f(got["centroid_hz"][k], math.nan),
+            _f(expected["centroid_hz"][k], math.nan),
+            rtol=tol["centroid"],
+            unit="Hz",
+        )
         if m is not None:
             moved.append(m)
         be = np.array([_f(v) for v in expected["band_levels_db"][k]])
         bg = np.array([_f(v) for v in got["band_levels_db"][k]])
         if be.size != bg.size:
-            moved.append(Moved("bands", f"bands {name}", bg.size, be.size, "other bands",
-                               "the same bands"))  # fmt: skip
+            moved.append(
+                Moved("bands", f"bands {name}", bg.size, be.size, "other bands", "the same bands")
+            )
             continue
         top = float(np.max(be)) if be.size else -math.inf
         for i in np.flatnonzero(be > top - QUIET_DB):
-            m = db_change(f"band {expected['band_labels'][i]} Hz {name}", bg[i], be[i],
-                          tol_db=tol["bands"], group="bands")  # fmt: skip
+            m = db_change(
+                f"band {expected['band_labels'][i]} Hz {name}",
+                bg[i],
+                be[i],
+                tol_db=tol["bands"],
+                group="bands",
+            )
             if m is not None:
                 moved.append(m)
     if image_expected is not None:
         if image_got is None or not image_got.is_file() or not image_expected.is_file():
-            moved.append(Moved("image", "image", "missing" if image_got is None else str(image_got),
-                               str(image_expected), "no picture to compare", "—"))  # fmt: skip
+            moved.append(
+                Moved(
+                    "image",
+                    "image",
+                    "missing" if image_got is None else str(image_got),
+                    str(image_expected),
+                    "no picture to compare",
+                    "—",
+                )
+            )
         else:
             rms = image_rms(image_got, image_expected)
             if not rms <= tol["image"]:
-                moved.append(Moved("image", "image (RMS pixel difference)", rms, 0.0,
-                                   f"{rms:.3g} levels of 255", f"{tol['image']:g}"))  # fmt: skip
+                moved.append(
+                    Moved(
+                        "image",
+                        "image (RMS pixel difference)",
+                        rms,
+                        0.0,
+                        f"{rms:.3g} levels of 255",
+                        f"{tol['image']:g}",
+                    )
+                )
     return moved
 
 
@@ -411,12 +536,16 @@ class CheckResult:
         order = {g: i for i, g in enumerate(GROUPS)}
         moved = sorted(self.moved, key=lambda m: order.get(m.group, len(order)))
         groups = list(dict.fromkeys(m.group for m in moved))
-        lines = [f"{self.data}: {len(moved)} figure(s) moved beyond tolerance of "
-                 f"{self.expect_file.name}: {', '.join(groups)}"]  # fmt: skip
+        lines = [
+            f"{self.data}: {len(moved)} figure(s) moved beyond tolerance of "
+            f"{self.expect_file.name}: {', '.join(groups)}"
+        ]
         for g in groups:
             mine = [m for m in moved if m.group == g]
-            lines.append(f"  {g}: {len(mine)} moved, first {mine[0].figure} by {mine[0].by} "
-                         f"(tolerance {mine[0].tolerance})")  # fmt: skip
+            lines.append(
+                f"  {g}: {len(mine)} moved, first {mine[0].figure} by {mine[0].by} "
+                f"(tolerance {mine[0].tolerance})"
+            )
         lines.append("  the figures:")
         lines += [f"    {m}" for m in moved[:most]]
         if len(moved) > most:
@@ -426,8 +555,13 @@ class CheckResult:
         return "\n".join(lines)
 
 
-def check(data: str | Path, expect: str | Path, *, tolerances: dict[str, float] | None = None,
-          report: str | Path | None = None) -> CheckResult:  # fmt: skip
+def check(
+    data: str | Path,
+    expect: str | Path,
+    *,
+    tolerances: dict[str, float] | None = None,
+    report: str | Path | None = None,
+) -> CheckResult:
     """Run ``data`` again with the settings and path stored in ``expect`` and compare.
 
     Parameters
@@ -457,8 +591,10 @@ def check(data: str | Path, expect: str | Path, *, tolerances: dict[str, float] 
     path = _path_from(doc["path"])
     image_expected = expect.parent / doc["image"] if doc.get("image") else None
     if image_expected is not None and not image_expected.is_file():
-        raise MissingFileError(f"{image_expected}: the picture recorded beside {expect.name} is "
-                               f"missing (record again, or keep the .png with the .json)")  # fmt: skip
+        raise MissingFileError(
+            f"{image_expected}: the picture recorded beside {expect.name} is "
+            f"missing (record again, or keep the .png with the .json)"
+        )
     folder = None
     if report is not None:
         from auralize.regression.report import report_folder
@@ -468,11 +604,19 @@ def check(data: str | Path, expect: str | Path, *, tolerances: dict[str, float] 
         where = folder if folder is not None else Path(tmp)
         image_got = where / "got.png" if image_expected is not None else None
         got, _ = compute(data, st, path=path, image=image_got)
-        moved = compare(got, doc["figures"], tol, image_got=image_got,
-                        image_expected=image_expected)  # fmt: skip
-        result = CheckResult(moved=moved, got=got, expected=doc["figures"], tolerances=tol,
-                             data=str(data), expect_file=expect, image_got=image_got,
-                             image_expected=image_expected)  # fmt: skip
+        moved = compare(
+            got, doc["figures"], tol, image_got=image_got, image_expected=image_expected
+        )
+        result = CheckResult(
+            moved=moved,
+            got=got,
+            expected=doc["figures"],
+            tolerances=tol,
+            data=str(data),
+            expect_file=expect,
+            image_got=image_got,
+            image_expected=image_expected,
+        )
         if folder is not None:
             from auralize.regression.report import write_report
 

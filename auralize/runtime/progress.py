@@ -69,8 +69,9 @@ def _bar(**kw: Any) -> Any:
     return tqdm(leave=False, file=sys.stderr, dynamic_ncols=True, **kw)
 
 
-def progress(it: Iterable[T], *, desc: str, enabled: bool = True, total: int | None = None,
-             unit: str = "it") -> Iterator[T]:  # fmt: skip
+def progress(
+    it: Iterable[T], *, desc: str, enabled: bool = True, total: int | None = None, unit: str = "it"
+) -> Iterator[T]:
     """Wrap ``it`` in a bar when ``enabled`` and :func:`visible`."""
     if not enabled or not visible():
         yield from it
@@ -113,8 +114,9 @@ def progress_step(desc: str, *, enabled: bool = True, interval_s: float = 0.5) -
 
 
 @contextlib.contextmanager
-def progress_callback(desc: str, *, total: int | None = None, enabled: bool = True,
-                      unit: str = "it") -> Iterator[Callable[..., None]]:  # fmt: skip
+def progress_callback(
+    desc: str, *, total: int | None = None, enabled: bool = True, unit: str = "it"
+) -> Iterator[Callable[..., None]]:
     """A bar driven by a work function's own progress callback.
 
     Yields ``cb``: ``cb(done, total)`` sets the bar's position, ``cb(message)``

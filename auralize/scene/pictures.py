@@ -84,22 +84,39 @@ def add_source_actor(plotter, mesh, *, name: str = "sources"):
     mesh per sphere.
     """
     if mesh.n_points <= SPRITE_LIMIT:
-        actor = plotter.add_mesh(mesh, scalars="rgb", rgb=True, style="points_gaussian",
-                                 emissive=False, render_points_as_spheres=True, name=name,
-                                 reset_camera=False, render=False)  # fmt: skip
+        actor = plotter.add_mesh(
+            mesh,
+            scalars="rgb",
+            rgb=True,
+            style="points_gaussian",
+            emissive=False,
+            render_points_as_spheres=True,
+            name=name,
+            reset_camera=False,
+            render=False,
+        )
         actor.mapper.scale_array = "radius"
     else:
-        actor = plotter.add_mesh(mesh, scalars="rgb", rgb=True, style="points", point_size=3,
-                                 render_points_as_spheres=False, name=name, reset_camera=False,
-                                 render=False)  # fmt: skip
+        actor = plotter.add_mesh(
+            mesh,
+            scalars="rgb",
+            rgb=True,
+            style="points",
+            point_size=3,
+            render_points_as_spheres=False,
+            name=name,
+            reset_camera=False,
+            render=False,
+        )
     return actor
 
 
 def source_glyphs(series: SourceSeries, step: int):
     """The sources of ``step`` as a :func:`source_points` set (``kind`` array too)."""
     f = series.frames[step]
-    pts = source_points(series.positions(f.index) if f.index.size else np.zeros((0, 3)),
-                        f.radius, f.kind)  # fmt: skip
+    pts = source_points(
+        series.positions(f.index) if f.index.size else np.zeros((0, 3)), f.radius, f.kind
+    )
     if pts.n_points:
         pts.point_data["kind"] = f.kind.astype(np.int32)
     return pts
@@ -113,9 +130,17 @@ def path_tube(path: ListenerPath, radius: float):
     return line.tube(radius=radius)
 
 
-def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | None = None,
-               step: int | None = None, path: ListenerPath | None = None, field: str | None = None,
-               window_size: tuple[int, int] = (1280, 960), title: str | None = None) -> Path:  # fmt: skip
+def screenshot(
+    volume: TimeVolume,
+    out: str | Path,
+    *,
+    series: SourceSeries | None = None,
+    step: int | None = None,
+    path: ListenerPath | None = None,
+    field: str | None = None,
+    window_size: tuple[int, int] = (1280, 960),
+    title: str | None = None,
+) -> Path:
     """Render volume (translucent contours of ``field``), ΔV spheres and path to a PNG.
 
     ``title``: the caption (default the data's source, the step and its time)."""
@@ -140,8 +165,13 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
     pl.add_mesh(pv.Box(bounds=volume.bounds).outline(), color="#888888")
     lo, hi = float(arr.min()), float(arr.max())
     if min(volume.dims) == 1:  # a one-layer grid is drawn as its coloured surface
-        pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), scalars=field, cmap="viridis",
-                    clim=(lo, hi) if hi > lo else None, show_scalar_bar=False)  # fmt: skip
+        pl.add_mesh(
+            grid.extract_surface(algorithm="dataset_surface"),
+            scalars=field,
+            cmap="viridis",
+            clim=(lo, hi) if hi > lo else None,
+            show_scalar_bar=False,
+        )
     elif hi > lo:
         levels = np.linspace(lo, hi, 5)[2:-1]
         cont = grid.contour(levels.tolist(), scalars=field)
@@ -154,9 +184,12 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
         counts = series.frames[step].counts()
         shown = [k for k in TYPE_LABELS if counts[TYPE_LABELS[k]]]
         for i, k in enumerate(shown):  # the legend lists only what is shown
-            pl.add_text(f"{TYPE_LABELS[k]}: {counts[TYPE_LABELS[k]]}", color=TYPE_COLORS[k],
-                        font_size=12,
-                        position=(window_size[0] - 240, window_size[1] - 40 - 28 * i))  # fmt: skip
+            pl.add_text(
+                f"{TYPE_LABELS[k]}: {counts[TYPE_LABELS[k]]}",
+                color=TYPE_COLORS[k],
+                font_size=12,
+                position=(window_size[0] - 240, window_size[1] - 40 - 28 * i),
+            )
     if path is not None:
         r = 0.004 * float(np.linalg.norm(volume.spacing * volume.dims))
         if np.ptp(path.positions, axis=0).max() > 0:

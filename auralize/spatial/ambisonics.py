@@ -265,8 +265,9 @@ def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64
                 q_prev, q = q, z * (2 * m + 1) * q
             elif n > m + 1:
                 q_prev, q = q, ((2 * n - 1) * z * q - (n + m - 1) * q_prev) / (n - m)
-            norm = math.sqrt((1.0 if m == 0 else 2.0) * math.factorial(n - m)
-                             / math.factorial(n + m))  # fmt: skip
+            norm = math.sqrt(
+                (1.0 if m == 0 else 2.0) * math.factorial(n - m) / math.factorial(n + m)
+            )
             out[acn(n, m)] = norm * q * xy_m.real
             if m > 0:
                 out[acn(n, -m)] = norm * q * xy_m.imag
@@ -275,8 +276,9 @@ def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64
     return out
 
 
-def encode(signal: NDArray[np.floating], order: int,
-           directions: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+def encode(
+    signal: NDArray[np.floating], order: int, directions: NDArray[np.floating]
+) -> NDArray[np.float64]:
     """Encode a mono signal arriving from a direction as AmbiX (a plane wave).
 
     Parameters
@@ -412,8 +414,10 @@ def sphere_quadrature(
     zs, wz = np.polynomial.legendre.leggauss(n_el)
     az = 2 * np.pi * (np.arange(n_az) + 0.5) / n_az
     r = np.sqrt(1 - zs**2)
-    dirs = np.stack([np.outer(r, np.cos(az)), np.outer(r, np.sin(az)),
-                     np.repeat(zs[:, None], n_az, axis=1)], axis=-1).reshape(-1, 3)  # fmt: skip
+    dirs = np.stack(
+        [np.outer(r, np.cos(az)), np.outer(r, np.sin(az)), np.repeat(zs[:, None], n_az, axis=1)],
+        axis=-1,
+    ).reshape(-1, 3)
     w = np.repeat(wz * (2 * np.pi / n_az), n_az)
     return dirs, w
 
@@ -487,8 +491,13 @@ def _decoder_cached(
     return dec
 
 
-def decoder_matrix(order: int, layout: str | Layout, *, method: DecoderMethod = "allrad",
-                   weights: OrderWeights = "maxre") -> NDArray[np.float64]:  # fmt: skip
+def decoder_matrix(
+    order: int,
+    layout: str | Layout,
+    *,
+    method: DecoderMethod = "allrad",
+    weights: OrderWeights = "maxre",
+) -> NDArray[np.float64]:
     """Decoding matrix ``(layout.n_channels, (N+1)²)`` from AmbiX to a speaker layout.
 
     Parameters
@@ -529,9 +538,14 @@ def decoder_matrix(order: int, layout: str | Layout, *, method: DecoderMethod = 
     return _decoder_cached(check_order(order), get_layout(layout), method, weights)
 
 
-def decode_ambisonics(audio: NDArray[np.floating], order: int, layout: str | Layout, *,
-                      method: DecoderMethod = "allrad",
-                      weights: OrderWeights = "maxre") -> NDArray[np.float64]:  # fmt: skip
+def decode_ambisonics(
+    audio: NDArray[np.floating],
+    order: int,
+    layout: str | Layout,
+    *,
+    method: DecoderMethod = "allrad",
+    weights: OrderWeights = "maxre",
+) -> NDArray[np.float64]:
     """Decode an AmbiX signal to speaker feeds (:func:`decoder_matrix`).
 
     Parameters

@@ -23,9 +23,15 @@ from collections.abc import Iterable
 from qtpy import QtCore, QtWidgets
 
 #: widget classes a user acts on
-ACTIONABLE = (QtWidgets.QAbstractButton, QtWidgets.QComboBox, QtWidgets.QAbstractSpinBox,
-              QtWidgets.QLineEdit, QtWidgets.QAbstractSlider, QtWidgets.QPlainTextEdit,
-              QtWidgets.QTextEdit)  # fmt: skip
+ACTIONABLE = (
+    QtWidgets.QAbstractButton,
+    QtWidgets.QComboBox,
+    QtWidgets.QAbstractSpinBox,
+    QtWidgets.QLineEdit,
+    QtWidgets.QAbstractSlider,
+    QtWidgets.QPlainTextEdit,
+    QtWidgets.QTextEdit,
+)
 #: parts of these are named and reached through them
 _COMPOSITES = (QtWidgets.QAbstractSpinBox, QtWidgets.QComboBox)
 #: Qt's own buttons: object name -> accessible name (``{}`` the dock's or toolbar's title)

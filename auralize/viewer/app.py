@@ -125,12 +125,12 @@ KEYS: tuple[KeyBinding, ...] = (
     KeyBinding("Fly (the camera is the listener)", ("Up", "W"), "fly", "forward", (1, 0, 0)),
     KeyBinding("Fly (the camera is the listener)", ("Down", "S"), "fly", "back", (-1, 0, 0)),
     KeyBinding("Fly (the camera is the listener)", ("Left", "A"), "fly", "turn left", (0, 1, 0)),
-    KeyBinding("Fly (the camera is the listener)", ("Right", "D"), "fly", "turn right",
-               (0, -1, 0)),
+    KeyBinding("Fly (the camera is the listener)", ("Right", "D"), "fly", "turn right", (0, -1, 0)),
     KeyBinding("Fly (the camera is the listener)", ("PgUp", "R"), "fly", "rise", (0, 0, 1)),
     KeyBinding("Fly (the camera is the listener)", ("PgDown", "F"), "fly", "sink", (0, 0, -1)),
-    KeyBinding("Camera", ("C",), "reset_camera",
-               "Reset Camera: frame the data, keeping the view direction"),
+    KeyBinding(
+        "Camera", ("C",), "reset_camera", "Reset Camera: frame the data, keeping the view direction"
+    ),
     KeyBinding("Camera", ("X",), "look", "view direction +X (look along +X)", ("+X",)),
     KeyBinding("Camera", ("Shift+X",), "look", "view direction −X", ("-X",)),
     KeyBinding("Camera", ("Y",), "look", "view direction +Y", ("+Y",)),
@@ -143,41 +143,59 @@ KEYS: tuple[KeyBinding, ...] = (
     KeyBinding("Time", ("End",), "last_step", "last frame"),
     KeyBinding("Menus", ("Ctrl+O",), "_ask_open", "File ▸ Open…", view=False),
     KeyBinding("Menus", ("Ctrl+S",), "save_session_current", "File ▸ Save session", view=False),
-    KeyBinding("Menus", ("Ctrl+Shift+S",), "save_screenshot", "File ▸ Save Screenshot…",
-               view=False),
+    KeyBinding(
+        "Menus", ("Ctrl+Shift+S",), "save_screenshot", "File ▸ Save Screenshot…", view=False
+    ),
     KeyBinding("Menus", ("Ctrl+Q",), "close", "File ▸ Quit", view=False),
     KeyBinding("Menus", ("F1",), "show_keys", "Help ▸ Keys (this list)", view=False),
     KeyBinding("Time", ("P",), "toggle_playing", "play / pause the time steps"),
     KeyBinding("Sources", ("Ctrl+D",), "detect", "Sources ▸ Detect", view=False),
-    KeyBinding("Sources", ("Ctrl+Shift+D",), "describe", "Sources ▸ Describe in words",
-               view=False),
+    KeyBinding("Sources", ("Ctrl+Shift+D",), "describe", "Sources ▸ Describe in words", view=False),
     KeyBinding("Listener", ("Ctrl+R",), "start_recording", "Listener ▸ Record", view=False),
-    KeyBinding("Listener", ("Ctrl+Shift+R",), "stop_recording", "Listener ▸ Stop recording",
-               view=False),
+    KeyBinding(
+        "Listener", ("Ctrl+Shift+R",), "stop_recording", "Listener ▸ Stop recording", view=False
+    ),
     KeyBinding("Audio", ("Ctrl+E",), "_ask_render", "Audio ▸ Render to file…", view=False),
     KeyBinding("Audio", ("Ctrl+P",), "play_audio", "Audio ▸ Play the last render", view=False),
     KeyBinding("Audio", ("Ctrl+Shift+P",), "stop_audio", "Audio ▸ Stop playing", view=False),
     KeyBinding("Audio", ("Ctrl+L",), "listen_live", "Audio ▸ Listen live", view=False),
-    KeyBinding("Audio", ("Ctrl+Shift+L",), "stop_live", "Audio ▸ Stop live listening",
-               view=False),
-    KeyBinding("Go to (keyboard focus)", ("Alt+0",), "focus_view", "View ▸ Go to ▸ 3-D view",
-               view=False),
-    *(KeyBinding("Go to (keyboard focus)", (f"Alt+{i}",), "focus_panel",
-                 f"View ▸ Go to ▸ {title} panel", (title,), view=False)
-      for i, title in enumerate(("Data", "Sources", "Listener", "Describe", "Audio",
-                                 "Live listening", "Overlays"), start=1)),
-)  # fmt: skip
+    KeyBinding("Audio", ("Ctrl+Shift+L",), "stop_live", "Audio ▸ Stop live listening", view=False),
+    KeyBinding(
+        "Go to (keyboard focus)", ("Alt+0",), "focus_view", "View ▸ Go to ▸ 3-D view", view=False
+    ),
+    *(
+        KeyBinding(
+            "Go to (keyboard focus)",
+            (f"Alt+{i}",),
+            "focus_panel",
+            f"View ▸ Go to ▸ {title} panel",
+            (title,),
+            view=False,
+        )
+        for i, title in enumerate(
+            ("Data", "Sources", "Listener", "Describe", "Audio", "Live listening", "Overlays"),
+            start=1,
+        )
+    ),
+)
 #: the panels in the order Tab visits them (the left column, the one under the 3-D view,
 #: the right column; each top down)
 PANEL_ORDER = ("Data", "Sources", "Listener", "Describe", "Audio", "Live listening", "Overlays")
 #: the six standard views (ParaView's camera toolbar): name -> (view direction, view up)
 STANDARD_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
-    "+X": ((1, 0, 0), (0, 0, 1)), "-X": ((-1, 0, 0), (0, 0, 1)),
-    "+Y": ((0, 1, 0), (0, 0, 1)), "-Y": ((0, -1, 0), (0, 0, 1)),
-    "+Z": ((0, 0, 1), (0, 1, 0)), "-Z": ((0, 0, -1), (0, 1, 0)),
-}  # fmt: skip
-_MODS = (QtCore.Qt.KeyboardModifier.ShiftModifier | QtCore.Qt.KeyboardModifier.ControlModifier
-         | QtCore.Qt.KeyboardModifier.AltModifier | QtCore.Qt.KeyboardModifier.MetaModifier)  # fmt: skip
+    "+X": ((1, 0, 0), (0, 0, 1)),
+    "-X": ((-1, 0, 0), (0, 0, 1)),
+    "+Y": ((0, 1, 0), (0, 0, 1)),
+    "-Y": ((0, -1, 0), (0, 0, 1)),
+    "+Z": ((0, 0, 1), (0, 1, 0)),
+    "-Z": ((0, 0, -1), (0, 1, 0)),
+}
+_MODS = (
+    QtCore.Qt.KeyboardModifier.ShiftModifier
+    | QtCore.Qt.KeyboardModifier.ControlModifier
+    | QtCore.Qt.KeyboardModifier.AltModifier
+    | QtCore.Qt.KeyboardModifier.MetaModifier
+)
 
 
 def binding(action: str, *args: Any) -> KeyBinding:
@@ -190,8 +208,9 @@ def binding(action: str, *args: Any) -> KeyBinding:
 
 def key_text(b: KeyBinding) -> str:
     """The keys of a binding as the menus show them (``"Up / W"``)."""
-    return " / ".join(QtGui.QKeySequence(k).toString(QtGui.QKeySequence.SequenceFormat.NativeText)
-                      for k in b.keys)  # fmt: skip
+    return " / ".join(
+        QtGui.QKeySequence(k).toString(QtGui.QKeySequence.SequenceFormat.NativeText) for k in b.keys
+    )
 
 
 def keys_html() -> str:
@@ -202,13 +221,18 @@ def keys_html() -> str:
             group = b.group
             rows.append(f"<tr><th colspan=2 align=left><br>{group}</th></tr>")
         rows.append(f"<tr><td><b>{key_text(b)}</b></td><td>{b.what}</td></tr>")
-    return ("<p>View keys work whenever no text or number box is being edited "
-            "(click the 3-D view first).</p><table cellspacing=4>" + "".join(rows) + "</table>")  # fmt: skip
+    return (
+        "<p>View keys work whenever no text or number box is being edited "
+        "(click the 3-D view first).</p><table cellspacing=4>" + "".join(rows) + "</table>"
+    )
 
 
 def _combo(key: int, mods: Any) -> int:
-    return int(QtCore.QKeyCombination(QtCore.Qt.KeyboardModifier(mods & _MODS),
-                                      QtCore.Qt.Key(key)).toCombined())  # fmt: skip
+    return int(
+        QtCore.QKeyCombination(
+            QtCore.Qt.KeyboardModifier(mods & _MODS), QtCore.Qt.Key(key)
+        ).toCombined()
+    )
 
 
 #: view keys: key combination -> binding
@@ -273,8 +297,13 @@ FlyKeys = ViewKeys
 
 def _edits_text(w: QtWidgets.QWidget) -> bool:
     """Whether ``w`` takes typed keys itself (line edits, spin boxes, editable combos)."""
-    if isinstance(w, QtWidgets.QLineEdit | QtWidgets.QAbstractSpinBox | QtWidgets.QTextEdit
-                  | QtWidgets.QPlainTextEdit):  # fmt: skip
+    if isinstance(
+        w,
+        QtWidgets.QLineEdit
+        | QtWidgets.QAbstractSpinBox
+        | QtWidgets.QTextEdit
+        | QtWidgets.QPlainTextEdit,
+    ):
         return True
     return isinstance(w, QtWidgets.QComboBox) and w.isEditable()
 
@@ -293,8 +322,12 @@ class Task(QtCore.QThread):
     succeeded = QtCore.Signal(object)
     failed = QtCore.Signal(object)
 
-    def __init__(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
-                 parent: QtCore.QObject | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        name: str,
+        fn: Callable[[Callable[[int, int], bool]], Any],
+        parent: QtCore.QObject | None = None,
+    ) -> None:
         super().__init__(parent)
         self.name, self.fn = name, fn
         self._cancel = False
@@ -317,8 +350,10 @@ class Task(QtCore.QThread):
 
 def _readable(label: QtWidgets.QLabel, name: str) -> None:
     """Let the keyboard reach a status text (Tab stops on it, a screen reader reads it)."""
-    label.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByKeyboard
-                                  | QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)  # fmt: skip
+    label.setTextInteractionFlags(
+        QtCore.Qt.TextInteractionFlag.TextSelectableByKeyboard
+        | QtCore.Qt.TextInteractionFlag.TextSelectableByMouse
+    )
     label.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
     label.setAccessibleName(name)
     if not label.toolTip():
@@ -347,8 +382,10 @@ def _sound_wave_hint(vol: Any) -> str | None:
         return None
     if how.name != "fwh":
         return None
-    return (f"{how.why}: summed as sources they are mis-heard. Tick fwh in Overlays to hear "
-            f"them through the FW-H surface ({how.surface}), as auralize render does")  # fmt: skip
+    return (
+        f"{how.why}: summed as sources they are mis-heard. Tick fwh in Overlays to hear "
+        f"them through the FW-H surface ({how.surface}), as auralize render does"
+    )
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -363,10 +400,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plotter = QtInteractor(self)
         self.setCentralWidget(self.plotter.interactor)
         # the side columns run the window's height; a bottom panel sits under the view only
-        for corner, area in ((QtCore.Qt.Corner.BottomLeftCorner,
-                              QtCore.Qt.DockWidgetArea.LeftDockWidgetArea),
-                             (QtCore.Qt.Corner.BottomRightCorner,
-                              QtCore.Qt.DockWidgetArea.RightDockWidgetArea)):  # fmt: skip
+        for corner, area in (
+            (QtCore.Qt.Corner.BottomLeftCorner, QtCore.Qt.DockWidgetArea.LeftDockWidgetArea),
+            (QtCore.Qt.Corner.BottomRightCorner, QtCore.Qt.DockWidgetArea.RightDockWidgetArea),
+        ):
             self.setCorner(corner, area)
         self.scene = Scene(self.plotter)
         self.volume: Any = None
@@ -414,8 +451,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self._threads: set[Task] = set()
         # the command line's plan (auralize.defaults), but stereo on the desktop's device
         self.audio: dict[str, Any] = {
-            "layout": "stereo", "rate": DEFAULTS.rate, "time_scale": DEFAULTS.time_scale,
-            "timbre": DEFAULTS.timbre, "device": None, "heard": DEFAULTS.heard}  # fmt: skip
+            "layout": "stereo",
+            "rate": DEFAULTS.rate,
+            "time_scale": DEFAULTS.time_scale,
+            "timbre": DEFAULTS.timbre,
+            "device": None,
+            "heard": DEFAULTS.heard,
+        }
         self._plan_cache: tuple[Any, Any] | None = None
         self._heard: Any = None
         self._rec_timer = QtCore.QTimer(self)
@@ -466,8 +508,9 @@ class MainWindow(QtWidgets.QMainWindow):
         timer.timeout.connect(auto_render)
 
     # ============================================================ building
-    def _act(self, text: str, action: str, *args: Any, tip: str = "",
-             icon: Any = None) -> QtGui.QAction:  # fmt: skip
+    def _act(
+        self, text: str, action: str, *args: Any, tip: str = "", icon: Any = None
+    ) -> QtGui.QAction:
         """A menu / toolbar action calling ``self.<action>(*args)``; its shortcut (and
         the key in its tooltip) comes from :data:`KEYS`."""
         a = QtGui.QAction(text, self)
@@ -503,8 +546,13 @@ class MainWindow(QtWidgets.QMainWindow):
                 )
             )
         m.addSeparator()
-        m.addAction(self._act("&Save session", "save_session_current",
-                              tip="Save the session (to its file, or ask for one)"))  # fmt: skip
+        m.addAction(
+            self._act(
+                "&Save session",
+                "save_session_current",
+                tip="Save the session (to its file, or ask for one)",
+            )
+        )
         act = m.addAction("Save session &as…")
         act.triggered.connect(self._ask_save_session)
         act = m.addAction("Open &session…")
@@ -513,8 +561,10 @@ class MainWindow(QtWidgets.QMainWindow):
         )
         m.addSeparator()
         self.screenshot_action = self._act(
-            "Save Screens&hot…", "save_screenshot",
-            tip="Save the 3-D view as a PNG image (asks for a file name)")  # fmt: skip
+            "Save Screens&hot…",
+            "save_screenshot",
+            tip="Save the 3-D view as a PNG image (asks for a file name)",
+        )
         m.addAction(self.screenshot_action)
         m.addSeparator()
         m.addAction(self._act("&Quit", "close", tip="Close the window"))
@@ -526,8 +576,13 @@ class MainWindow(QtWidgets.QMainWindow):
         h = self.help_menu = self.menuBar().addMenu("&Help")
         h.setToolTipsVisible(True)
         h.addAction(self._act("&Keys…", "show_keys", tip="Every key binding"))
-        h.addAction(self._act("&Documentation", "open_docs",
-                              tip="Open the README (the docs/ folder has the design notes)"))  # fmt: skip
+        h.addAction(
+            self._act(
+                "&Documentation",
+                "open_docs",
+                tip="Open the README (the docs/ folder has the design notes)",
+            )
+        )
         h.addAction(self._act("&About auralize", "show_about", tip="Version and links"))
 
     def _build_view_menu(self) -> None:
@@ -568,40 +623,76 @@ class MainWindow(QtWidgets.QMainWindow):
             return m
 
         act = self._act
-        self.sources_menu = menu("&Sources", [
-            act("&Detect", "detect", tip="Detect the sources at every time step"),
-            act("Describe in &words", "describe",
-                tip="Put the sources into words (the Describe panel)"),
-            act("&Save description…", "_ask_save_description",
-                tip="Save the description as text, CSV or JSON")])  # fmt: skip
-        self.listener_menu = menu("&Listener", [
-            act("&Record", "start_recording", tip="Record the camera as the listener path"),
-            act("&Stop recording", "stop_recording"),
-            act("&Clear path", "clear_path", tip="Forget the listener path"),
-            None,
-            act("Save path &CSV…", "_ask_save_path", tip="Save the listener path as CSV"),
-            act("&Load path CSV…", "_ask_load_path", tip="Load a listener path from CSV")])  # fmt: skip
-        self.audio_menu = menu("&Audio", [
-            act("&Render to file…", "_ask_render",
-                tip="Render the sound heard along the listener path to a file"),
-            act("&Play the last render", "play_audio"),
-            act("S&top playing", "stop_audio"),
-            None,
-            act("Listen &live", "listen_live", tip="Hear the data live: the camera listens"),
-            act("Stop live &listening", "stop_live"),
-            act("Save &heard…", "_ask_save_heard",
-                tip="Save what live listening played (path CSV and WAV)")])  # fmt: skip
+        self.sources_menu = menu(
+            "&Sources",
+            [
+                act("&Detect", "detect", tip="Detect the sources at every time step"),
+                act(
+                    "Describe in &words",
+                    "describe",
+                    tip="Put the sources into words (the Describe panel)",
+                ),
+                act(
+                    "&Save description…",
+                    "_ask_save_description",
+                    tip="Save the description as text, CSV or JSON",
+                ),
+            ],
+        )
+        self.listener_menu = menu(
+            "&Listener",
+            [
+                act("&Record", "start_recording", tip="Record the camera as the listener path"),
+                act("&Stop recording", "stop_recording"),
+                act("&Clear path", "clear_path", tip="Forget the listener path"),
+                None,
+                act("Save path &CSV…", "_ask_save_path", tip="Save the listener path as CSV"),
+                act("&Load path CSV…", "_ask_load_path", tip="Load a listener path from CSV"),
+            ],
+        )
+        self.audio_menu = menu(
+            "&Audio",
+            [
+                act(
+                    "&Render to file…",
+                    "_ask_render",
+                    tip="Render the sound heard along the listener path to a file",
+                ),
+                act("&Play the last render", "play_audio"),
+                act("S&top playing", "stop_audio"),
+                None,
+                act("Listen &live", "listen_live", tip="Hear the data live: the camera listens"),
+                act("Stop live &listening", "stop_live"),
+                act(
+                    "Save &heard…",
+                    "_ask_save_heard",
+                    tip="Save what live listening played (path CSV and WAV)",
+                ),
+            ],
+        )
         play = act("&Play / pause", "toggle_playing", tip="Step through time at the time scale")
-        self.time_menu = menu("&Time", [self.time_actions["first_step"],
-                                        self.time_actions["previous_step"], play,
-                                        self.time_actions["next_step"],
-                                        self.time_actions["last_step"]])  # fmt: skip
+        self.time_menu = menu(
+            "&Time",
+            [
+                self.time_actions["first_step"],
+                self.time_actions["previous_step"],
+                play,
+                self.time_actions["next_step"],
+                self.time_actions["last_step"],
+            ],
+        )
         go = self.view_menu.addMenu("&Go to")
         go.setToolTipsVisible(True)
         go.addAction(act("&3-D view", "focus_view", tip="Keyboard focus to the 3-D view"))
         for title in PANEL_ORDER:
-            go.addAction(act(f"{title} panel", "focus_panel", title,
-                             tip=f"Keyboard focus to the {title} panel"))  # fmt: skip
+            go.addAction(
+                act(
+                    f"{title} panel",
+                    "focus_panel",
+                    title,
+                    tip=f"Keyboard focus to the {title} panel",
+                )
+            )
         self.go_menu = go
 
     def _build_access(self) -> None:
@@ -685,8 +776,11 @@ class MainWindow(QtWidgets.QMainWindow):
         cam = self.camera_toolbar = self.addToolBar("Camera")
         cam.setObjectName("camera")
         self.reset_camera_action = self._act(
-            "Reset Camera", "reset_camera", icon=sp.SP_BrowserReload,
-            tip="Reset Camera: frame the data, keeping the view direction")  # fmt: skip
+            "Reset Camera",
+            "reset_camera",
+            icon=sp.SP_BrowserReload,
+            tip="Reset Camera: frame the data, keeping the view direction",
+        )
         cam.addAction(self.reset_camera_action)
         self.view_actions: dict[str, QtGui.QAction] = {}
         for name in STANDARD_VIEWS:
@@ -697,8 +791,10 @@ class MainWindow(QtWidgets.QMainWindow):
         tb = self.time_toolbar = self.addToolBar("Time")
         tb.setObjectName("time")
         self.time_actions: dict[str, QtGui.QAction] = {}
-        for action, icon, text in (("first_step", sp.SP_MediaSkipBackward, "First frame"),
-                                   ("previous_step", sp.SP_MediaSeekBackward, "Previous frame")):  # fmt: skip
+        for action, icon, text in (
+            ("first_step", sp.SP_MediaSkipBackward, "First frame"),
+            ("previous_step", sp.SP_MediaSeekBackward, "Previous frame"),
+        ):
             self.time_actions[action] = a = self._act(text, action, icon=icon)
             tb.addAction(a)
         self.play_btn = QtWidgets.QPushButton("Play")
@@ -710,15 +806,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self.play_btn.setAccessibleName("Play or pause the time steps")
         self.play_btn.toggled.connect(self.set_playing)
         tb.addWidget(self.play_btn)
-        for action, icon, text in (("next_step", sp.SP_MediaSeekForward, "Next frame"),
-                                   ("last_step", sp.SP_MediaSkipForward, "Last frame")):  # fmt: skip
+        for action, icon, text in (
+            ("next_step", sp.SP_MediaSeekForward, "Next frame"),
+            ("last_step", sp.SP_MediaSkipForward, "Last frame"),
+        ):
             self.time_actions[action] = a = self._act(text, action, icon=icon)
             tb.addAction(a)
         self.slider = QtWidgets.QSlider(QtCore.Qt.Orientation.Horizontal)
         self.slider.setMinimumWidth(300)
         self.slider.setToolTip(
             f"Time step (first / previous / next / last frame: "
-            f"{', '.join(key_text(binding(a)) for a in self.time_actions)})")  # fmt: skip
+            f"{', '.join(key_text(binding(a)) for a in self.time_actions)})"
+        )
         self.slider.setAccessibleName("Time step")
         self.slider.valueChanged.connect(self._on_slider)
         tb.addWidget(self.slider)
@@ -727,17 +826,22 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _qt_button_tips(self) -> None:
         """Tooltips for the buttons Qt makes itself (dock title bars, overflow arrows)."""
-        tips = {"qt_dockwidget_closebutton": "hide this panel (View menu shows it again)",
-                "qt_dockwidget_floatbutton": "float this panel in its own window, or dock it again",
-                "qt_toolbar_ext_button": "more of this toolbar",
-                "qt_menubar_ext_button": "more menus"}  # fmt: skip
+        tips = {
+            "qt_dockwidget_closebutton": "hide this panel (View menu shows it again)",
+            "qt_dockwidget_floatbutton": "float this panel in its own window, or dock it again",
+            "qt_toolbar_ext_button": "more of this toolbar",
+            "qt_menubar_ext_button": "more menus",
+        }
         for b in self.findChildren(QtWidgets.QAbstractButton):
             if not b.toolTip() and b.objectName() in tips:
                 b.setToolTip(tips[b.objectName()])
 
-    def _dock(self, title: str, widget: QtWidgets.QWidget,
-              area: QtCore.Qt.DockWidgetArea = QtCore.Qt.DockWidgetArea.LeftDockWidgetArea,
-              ) -> QtWidgets.QDockWidget:  # fmt: skip
+    def _dock(
+        self,
+        title: str,
+        widget: QtWidgets.QWidget,
+        area: QtCore.Qt.DockWidgetArea = QtCore.Qt.DockWidgetArea.LeftDockWidgetArea,
+    ) -> QtWidgets.QDockWidget:
         d = QtWidgets.QDockWidget(title, self)
         d.setObjectName(title)
         d.setWidget(widget)
@@ -775,8 +879,10 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow("field", self.field_box)
         self.rep_box = QtWidgets.QComboBox()
         self.rep_box.addItems(list(REPRESENTATIONS))
-        self.rep_box.setToolTip("how the field is drawn: volume rendering, three orthogonal "
-                                "slices, a contour, arrows of a vector field, or nothing")  # fmt: skip
+        self.rep_box.setToolTip(
+            "how the field is drawn: volume rendering, three orthogonal "
+            "slices, a contour, arrows of a vector field, or nothing"
+        )
         self.rep_box.activated.connect(
             lambda _i: self._guard(self.scene.set_representation, self.rep_box.currentText())
         )
@@ -797,8 +903,10 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow("opacity", self.opacity)
         self.mapping_box = QtWidgets.QComboBox()
         self.mapping_box.addItems(list(MAPPINGS))
-        self.mapping_box.setToolTip("acoustic mapping: how field values become density and "
-                                    "particle velocity (auto chooses from the fields)")  # fmt: skip
+        self.mapping_box.setToolTip(
+            "acoustic mapping: how field values become density and "
+            "particle velocity (auto chooses from the fields)"
+        )
         self.mapping_box.activated.connect(
             lambda _i: self._guard(self.set_mapping, self.mapping_box.currentText())
         )
@@ -814,15 +922,17 @@ class MainWindow(QtWidgets.QMainWindow):
         self.count_labels: dict[str, QtWidgets.QLabel] = {}
         for kind, d in zip(TYPES, DEFAULTS.thresholds, strict=True):
             e = QtWidgets.QLineEdit(d)
-            e.setToolTip(f"{kind} detection threshold: an absolute strength, N% of the peak, "
-                         f"or auto")  # fmt: skip
+            e.setToolTip(
+                f"{kind} detection threshold: an absolute strength, N% of the peak, or auto"
+            )
             self.th_edits[kind] = e
             f.addRow(f"{kind} threshold", e)
         self.heard_box = QtWidgets.QComboBox()
         self.heard_box.addItems(["whole field", "detected"])
         self.heard_box.setToolTip(
             "what is heard: the whole field (every point, no threshold: Lighthill's stress and "
-            "the continuity residual) or the detected sources drawn here (paper 003)")  # fmt: skip
+            "the continuity residual) or the detected sources drawn here (paper 003)"
+        )
         self.heard_box.activated.connect(lambda _i: self._guard(self._heard_changed))
         f.addRow("heard", self.heard_box)
         self.hear_checks: dict[str, QtWidgets.QCheckBox] = {}
@@ -852,8 +962,10 @@ class MainWindow(QtWidgets.QMainWindow):
             f.addRow(row)
         self._sync_hear_checks()
         self.detect_btn = QtWidgets.QPushButton("Detect")
-        self.detect_btn.setToolTip("detect the sound sources at every time step (in the "
-                                   "background, the current step first)")  # fmt: skip
+        self.detect_btn.setToolTip(
+            "detect the sound sources at every time step (in the "
+            "background, the current step first)"
+        )
         self.detect_btn.setAccessibleName("Detect the sources")
         self.detect_btn.clicked.connect(lambda: (self._guard(self.detect), self._focus_view()))
         f.addRow(self.detect_btn)
@@ -882,8 +994,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stop_btn.clicked.connect(lambda: self._guard(self.stop_recording))
         self.clear_btn = QtWidgets.QPushButton("Clear")
         self.clear_btn.clicked.connect(lambda: self._guard(self.clear_path))
-        self.rec_btn.setToolTip("record the camera as the listener path (fly with the keys "
-                                "or the mouse); autosaved as it goes")  # fmt: skip
+        self.rec_btn.setToolTip(
+            "record the camera as the listener path (fly with the keys "
+            "or the mouse); autosaved as it goes"
+        )
         self.stop_btn.setToolTip("stop recording")
         self.clear_btn.setToolTip("forget the listener path")
         self.rec_btn.setAccessibleName("Record the listener path")
@@ -927,9 +1041,11 @@ class MainWindow(QtWidgets.QMainWindow):
         f = _form(w)
         self.layout_box = QtWidgets.QComboBox()
         self.layout_box.addItems([*LAYOUT_NAMES, CUSTOM_LAYOUT])
-        self.layout_box.setToolTip("loudspeaker layout (or binaural / Ambisonics) of renders "
-                                   "and live listening: the layouts of auralize render "
-                                   "--layout, or a custom layout JSON file")  # fmt: skip
+        self.layout_box.setToolTip(
+            "loudspeaker layout (or binaural / Ambisonics) of renders "
+            "and live listening: the layouts of auralize render "
+            "--layout, or a custom layout JSON file"
+        )
         self.layout_box.setCurrentText(self.audio["layout"])
         self.layout_box.textActivated.connect(lambda t: self._guard(self._on_layout, t))
         f.addRow("layout", self.layout_box)
@@ -946,17 +1062,21 @@ class MainWindow(QtWidgets.QMainWindow):
         self.ts_spin.setDecimals(3)
         self.ts_spin.setSpecialValueText("auto")  # shown at the minimum, 0
         self.ts_spin.setValue(0.0 if DEFAULTS.time_scale == "auto" else float(DEFAULTS.time_scale))
-        self.ts_spin.setToolTip("time scale: playback seconds per data second; auto (as "
-                                "auralize render): the data's sound plays in the listener "
-                                "path's duration (10 s without a path)")  # fmt: skip
+        self.ts_spin.setToolTip(
+            "time scale: playback seconds per data second; auto (as "
+            "auralize render): the data's sound plays in the listener "
+            "path's duration (10 s without a path)"
+        )
         self.ts_spin.valueChanged.connect(self._on_time_scale)
         f.addRow("time scale", self.ts_spin)
         self.timbre_box = QtWidgets.QComboBox()
         self.timbre_box.addItems(list(TIMBRE_CHOICES))
         self.timbre_box.setCurrentText(DEFAULTS.timbre)
-        self.timbre_box.setToolTip("how the sources sound in rendered files (as auralize render "
-                                   "--timbre; auto: physical when most of the sound is "
-                                   "audible, else extended); live listening is physical")  # fmt: skip
+        self.timbre_box.setToolTip(
+            "how the sources sound in rendered files (as auralize render "
+            "--timbre; auto: physical when most of the sound is "
+            "audible, else extended); live listening is physical"
+        )
         self.timbre_box.currentTextChanged.connect(lambda t: self.audio.__setitem__("timbre", t))
         f.addRow("timbre", self.timbre_box)
         row = QtWidgets.QHBoxLayout()
@@ -980,8 +1100,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.gain_spin.setRange(-60, 40)
         self.gain_spin.setSingleStep(1)
         self.gain_spin.setSuffix(" dB")
-        self.gain_spin.setToolTip("gain of Play and live listening; a limiter keeps every "
-                                  "sample within full scale")  # fmt: skip
+        self.gain_spin.setToolTip(
+            "gain of Play and live listening; a limiter keeps every sample within full scale"
+        )
         self.gain_spin.valueChanged.connect(lambda v: self._guard(self.set_gain_db, v))
         f.addRow("gain", self.gain_spin)
         self.meter = QtWidgets.QProgressBar()
@@ -1010,8 +1131,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.block_spin = QtWidgets.QSpinBox()
         self.block_spin.setRange(256, 16384)
         self.block_spin.setValue(2048)
-        self.block_spin.setToolTip("samples synthesized per block in live listening (larger: "
-                                   "steadier, more latency)")  # fmt: skip
+        self.block_spin.setToolTip(
+            "samples synthesized per block in live listening (larger: steadier, more latency)"
+        )
         f.addRow("block (samples)", self.block_spin)
         self.live_file = QtWidgets.QLineEdit()
         self.live_file.setPlaceholderText("device (or a WAV file to write instead)")
@@ -1050,8 +1172,9 @@ class MainWindow(QtWidgets.QMainWindow):
             if cls.overlay is SoundModel.overlay:  # the plugin offers no overlay
                 continue
             cb = QtWidgets.QCheckBox(f"{name}: {_short(cls.description)}")
-            cb.setToolTip(f"show the {name} model's overlay (and hear its sound): "
-                          f"{cls.description}")  # fmt: skip
+            cb.setToolTip(
+                f"show the {name} model's overlay (and hear its sound): {cls.description}"
+            )
             cb.setAccessibleName(f"Show the {name} overlay")
             cb.toggled.connect(lambda on, n=name: self._toggle_overlay(n, on))
             self.overlay_checks[name] = cb
@@ -1125,8 +1248,13 @@ class MainWindow(QtWidgets.QMainWindow):
         if isinstance(exc, Cancelled):
             self.statusBar().showMessage(str(exc), 5000)
             return
-        msg = str(exc) if isinstance(exc, AuralizeError | OSError) else (
-            f"{type(exc).__name__}: {exc}\n\n{''.join(traceback.format_exception(exc))[-1500:]}")  # fmt: skip
+        msg = (
+            str(exc)
+            if isinstance(exc, AuralizeError | OSError)
+            else (
+                f"{type(exc).__name__}: {exc}\n\n{''.join(traceback.format_exception(exc))[-1500:]}"
+            )
+        )
         QtWidgets.QMessageBox.critical(self, "auralize", msg)
 
     def _guard(self, fn: Callable[..., Any], *args: Any) -> Any:
@@ -1153,8 +1281,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self._ask_file("open", f"Volumes ({kinds});;All files (*)", self.open_data)
 
     # =============================================================== tasks
-    def run_task(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
-                 done: Callable[[Any], None]) -> Task:  # fmt: skip
+    def run_task(
+        self,
+        name: str,
+        fn: Callable[[Callable[[int, int], bool]], Any],
+        done: Callable[[Any], None],
+    ) -> Task:
         """Run ``fn`` in a :class:`Task` with the progress bar; ``done(result)`` on success."""
         self._check_idle()
         if self.task is not None and self.task.isRunning():
@@ -1227,12 +1359,23 @@ class MainWindow(QtWidgets.QMainWindow):
             self.detect_note.setText("sources are detected when you ask (Detect)")
 
     # ================================================================ data
-    def open_data(self, spec: str | Path, *, size: int | None = None, steps: int | None = None,
-                  seed: int = 0, fields: dict[str, str] | None = None,
-                  resolution: int | None = None, field: str | None = None,
-                  then: Callable[[], None] | None = None, time_dim: str | None = None,
-                  axis_scale: Any = None, box: Any = None, curvilinear: str | None = None,
-                  keep_path: bool | None = None) -> Task:  # fmt: skip
+    def open_data(
+        self,
+        spec: str | Path,
+        *,
+        size: int | None = None,
+        steps: int | None = None,
+        seed: int = 0,
+        fields: dict[str, str] | None = None,
+        resolution: int | None = None,
+        field: str | None = None,
+        then: Callable[[], None] | None = None,
+        time_dim: str | None = None,
+        axis_scale: Any = None,
+        box: Any = None,
+        curvilinear: str | None = None,
+        keep_path: bool | None = None,
+    ) -> Task:
         """Open a file or ``dataset:NAME`` in the background (frames are read ahead) and show
         it; no detection runs (see :meth:`detect`).  ``fields``, ``resolution``,
         ``time_dim``, ``axis_scale``, ``box`` and ``curvilinear`` are the readers'
@@ -1249,9 +1392,18 @@ class MainWindow(QtWidgets.QMainWindow):
         if keep_path is None:
             keep_path = self.path is not None and self.ask_keep_path()
 
-        d = data_spec(str(spec), size=size, steps=steps, seed=seed, fields=fields,
-                      resolution=resolution, time_dim=time_dim, axis_scale=axis_scale, box=box,
-                      curvilinear=curvilinear)  # fmt: skip
+        d = data_spec(
+            str(spec),
+            size=size,
+            steps=steps,
+            seed=seed,
+            fields=fields,
+            resolution=resolution,
+            time_dim=time_dim,
+            axis_scale=axis_scale,
+            box=box,
+            curvilinear=curvilinear,
+        )
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             with warnings.catch_warnings(record=True) as caught:
@@ -1322,7 +1474,7 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{vol.times[0]:g}–{vol.times[-1]:g} s"
             f"{'' if vol.physical_times else ' (no times in the file: frames at 30 Hz)'}\n"
             f"fields: {', '.join(vol.field_names)}"
-        )  # fmt: skip
+        )
         # the panel shows the file's name and short notes; the tooltip has everything
         notes = [n.replace(f"{vol.source}: ", "") for n in self.load_notes]
         short = text.replace(str(vol.source), str(name), 1) + "".join(
@@ -1345,17 +1497,27 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.keep_path_answer is not None:
             return bool(self.keep_path_answer)
         mb = QtWidgets.QMessageBox
-        box = mb(mb.Icon.Question, "auralize", "Keep the listener path for the new data?",
-                 mb.StandardButton.Discard | mb.StandardButton.Yes, self)  # fmt: skip
+        box = mb(
+            mb.Icon.Question,
+            "auralize",
+            "Keep the listener path for the new data?",
+            mb.StandardButton.Discard | mb.StandardButton.Yes,
+            self,
+        )
         keep = box.button(mb.StandardButton.Yes)
         keep.setText("Keep")
         box.setDefaultButton(mb.StandardButton.Discard)
         p = self.path
         box.setInformativeText(
-            (f"The path ({p.n_captures} captures, {p.duration:.2f} s) was recorded for "
-             f"{self.data.get('spec', 'the data on screen')}; its positions are in that "
-             "data's coordinates." if p is not None else "")
-            + " Discard it (the default) or keep it for the new data.")  # fmt: skip
+            (
+                f"The path ({p.n_captures} captures, {p.duration:.2f} s) was recorded for "
+                f"{self.data.get('spec', 'the data on screen')}; its positions are in that "
+                "data's coordinates."
+                if p is not None
+                else ""
+            )
+            + " Discard it (the default) or keep it for the new data."
+        )
         box.exec()
         return box.clickedButton() is keep
 
@@ -1416,8 +1578,11 @@ class MainWindow(QtWidgets.QMainWindow):
         field_mode = self.heard_box.currentText() != "detected"
         box = self.hear_checks["dipole"]
         box.setEnabled(not field_mode)
-        box.setToolTip("the whole field has no dipole term (forces would need the pressure)"
-                       if field_mode else "hear the dipole term (mute it by unticking)")  # fmt: skip
+        box.setToolTip(
+            "the whole field has no dipole term (forces would need the pressure)"
+            if field_mode
+            else "hear the dipole term (mute it by unticking)"
+        )
 
     def _heard_changed(self) -> None:
         self._sync_hear_checks()
@@ -1450,11 +1615,18 @@ class MainWindow(QtWidgets.QMainWindow):
         spec = self.heard_spec()
         hd = parse_heard(spec)
         if hd.mode == "detected" and self.series is None:
-            raise ParameterError("detect the sources first (Sources panel), or hear the whole "
-                                 "field")  # fmt: skip
+            raise ParameterError(
+                "detect the sources first (Sources panel), or hear the whole field"
+            )
         th = self.read_thresholds()
-        key = (spec, id(self.volume), self.mapping, tuple(sorted(self.mapping_fields.items())),
-               repr(th.describe()), id(self.series) if hd.mode == "detected" else None)  # fmt: skip
+        key = (
+            spec,
+            id(self.volume),
+            self.mapping,
+            tuple(sorted(self.mapping_fields.items())),
+            repr(th.describe()),
+            id(self.series) if hd.mode == "detected" else None,
+        )
         hit = getattr(self, "_heard", None)
         if hit is not None and hit[0] == key and hit[1] is path:  # (the path held: its own)
             return key, hit[2], lambda: hit[2]
@@ -1466,8 +1638,15 @@ class MainWindow(QtWidgets.QMainWindow):
         )
 
         def compute() -> Any:
-            return heard_sound(vol, heard=hd, series=series, thresholds=th, path=path,
-                               mapping=None if mapping == "auto" else mapping, **fields)  # fmt: skip
+            return heard_sound(
+                vol,
+                heard=hd,
+                series=series,
+                thresholds=th,
+                path=path,
+                mapping=None if mapping == "auto" else mapping,
+                **fields,
+            )
 
         return key, None, compute
 
@@ -1489,8 +1668,9 @@ class MainWindow(QtWidgets.QMainWindow):
         def work(progress: Callable[[int, int], bool]) -> Any:
             if not progress(0, vol.n_steps):
                 raise Cancelled("detection cancelled")
-            det = Detection(vol, mapping=None if mapping == "auto" else mapping, thresholds=th,
-                            **mfields)  # fmt: skip
+            det = Detection(
+                vol, mapping=None if mapping == "auto" else mapping, thresholds=th, **mfields
+            )
             det.frame(step)
             return det, det.run(progress)
 
@@ -1498,8 +1678,10 @@ class MainWindow(QtWidgets.QMainWindow):
             self.detection, self.series = res
             self.thresholds = th
             if self.describe_panel.description is not None:
-                self.describe_panel.clear("the sources were detected again: Describe "
-                                          "(Ctrl+Shift+D) to put them into words")  # fmt: skip
+                self.describe_panel.clear(
+                    "the sources were detected again: Describe "
+                    "(Ctrl+Shift+D) to put them into words"
+                )
             self.scene.set_sources(self.detection.get)
             self.detect_note.setText(
                 f"detected (mapping {self.mapping}), thresholds "
@@ -1536,7 +1718,8 @@ class MainWindow(QtWidgets.QMainWindow):
             dock.show()
             dock.raise_()
             self.statusBar().showMessage(
-                f"described: {len(d.events)} event(s) (the Describe panel)", 5000)  # fmt: skip
+                f"described: {len(d.events)} event(s) (the Describe panel)", 5000
+            )
             if then is not None:
                 then()
 
@@ -1601,8 +1784,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_layout(self, text: str) -> None:
         """A layout chosen in the Audio panel; "custom layout file…" asks for a JSON file."""
         if text == CUSTOM_LAYOUT:
-            name, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Custom layout", "",
-                                                            "Layout (*.json)")  # fmt: skip
+            name, _ = QtWidgets.QFileDialog.getOpenFileName(
+                self, "Custom layout", "", "Layout (*.json)"
+            )
             if not name:
                 self.layout_box.setCurrentText(str(self.audio["layout"]))
                 return
@@ -1643,8 +1827,9 @@ class MainWindow(QtWidgets.QMainWindow):
         key = (id(self.volume), id(self.path), self.audio["time_scale"])
         if self._plan_cache is not None and self._plan_cache[0] == key:
             return self._plan_cache[1]
-        plan = plan_render(self.volume, None, path=self.path, clip=False,
-                           time_scale=self.audio["time_scale"])  # fmt: skip
+        plan = plan_render(
+            self.volume, None, path=self.path, clip=False, time_scale=self.audio["time_scale"]
+        )
         self._plan_cache = (key, plan)
         return plan
 
@@ -1692,8 +1877,9 @@ class MainWindow(QtWidgets.QMainWindow):
         """One of the six standard views (ParaView's camera toolbar): ``"+X"`` looks along
         +X (from the −X side), ... ``"-Z"`` looks up; the data is framed."""
         if direction not in STANDARD_VIEWS:
-            raise ParameterError(f"view direction must be one of {', '.join(STANDARD_VIEWS)}, "
-                                 f"got {direction!r}")  # fmt: skip
+            raise ParameterError(
+                f"view direction must be one of {', '.join(STANDARD_VIEWS)}, got {direction!r}"
+            )
         if self.volume is None:
             return
         self.scene.reset_camera(*STANDARD_VIEWS[direction])
@@ -1706,7 +1892,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
         if filename is None:
             name, _ = QtWidgets.QFileDialog.getSaveFileName(
-                self, "Save Screenshot", "", "PNG image (*.png);;JPEG image (*.jpg *.jpeg)")  # fmt: skip
+                self, "Save Screenshot", "", "PNG image (*.png);;JPEG image (*.jpg *.jpeg)"
+            )
             if not name:
                 return None
             filename = name
@@ -1714,8 +1901,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if not out.suffix:
             out = out.with_suffix(".png")
         if out.suffix.lower() not in (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"):
-            raise ParameterError(f"cannot save a screenshot as {out.suffix!r} ({out}); "
-                                 f"give a .png or .jpg file")  # fmt: skip
+            raise ParameterError(
+                f"cannot save a screenshot as {out.suffix!r} ({out}); give a .png or .jpg file"
+            )
         check_output_path(out)
         self.plotter.render()
         self.plotter.screenshot(str(out))
@@ -1751,13 +1939,18 @@ class MainWindow(QtWidgets.QMainWindow):
         import auralize
 
         doc = self.docs_path()
-        where = (f'<a href="{doc.as_uri()}">{doc}</a> and <a href="{(doc.parent / "docs").as_uri()}">'
-                 f'{doc.parent / "docs"}</a>' if doc is not None
-                 else "README.md and docs/ in the source distribution")  # fmt: skip
-        return (f"<h3>auralize {auralize.__version__}</h3><p>Hear time-varying 3-D data: "
-                f"sound sources found in a volume time series, heard along the path the "
-                f"camera flies.</p><p>Documentation: {where}</p>"
-                f"<p>Help ▸ Keys lists every key.</p>")  # fmt: skip
+        where = (
+            f'<a href="{doc.as_uri()}">{doc}</a> and <a href="{(doc.parent / "docs").as_uri()}">'
+            f"{doc.parent / 'docs'}</a>"
+            if doc is not None
+            else "README.md and docs/ in the source distribution"
+        )
+        return (
+            f"<h3>auralize {auralize.__version__}</h3><p>Hear time-varying 3-D data: "
+            f"sound sources found in a volume time series, heard along the path the "
+            f"camera flies.</p><p>Documentation: {where}</p>"
+            f"<p>Help ▸ Keys lists every key.</p>"
+        )
 
     def show_about(self) -> QtWidgets.QMessageBox:
         """Help ▸ About: version and where the documentation is (a window that stays open)."""
@@ -1774,8 +1967,10 @@ class MainWindow(QtWidgets.QMainWindow):
         """Help ▸ Documentation: the README in the desktop's viewer."""
         doc = self.docs_path()
         if doc is None:
-            raise ParameterError("no README here (an installed package): see the project's "
-                                 "README.md and docs/ in its source")  # fmt: skip
+            raise ParameterError(
+                "no README here (an installed package): see the project's "
+                "README.md and docs/ in its source"
+            )
         QtGui.QDesktopServices.openUrl(QtCore.QUrl.fromLocalFile(str(doc)))
 
     # ============================================================ listener
@@ -1814,8 +2009,9 @@ class MainWindow(QtWidgets.QMainWindow):
             self.recorder = PathRecorder(rate_hz=rate)
             out = None
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-        self.recorder.autosave = Path(autosave) if autosave else (
-            out or self.autosave_dir / f"recording-{stamp}.csv")  # fmt: skip
+        self.recorder.autosave = (
+            Path(autosave) if autosave else (out or self.autosave_dir / f"recording-{stamp}.csv")
+        )
         if not autosave and self.recorder.autosave.parent == self.autosave_dir:
             # the autosave folder is the viewer's own state folder (not an output
             # the user named), so the viewer creates it
@@ -1923,12 +2119,14 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _path_info(self) -> None:
         p = self.path
-        self.path_label.setText("no path" if p is None else
-                                f"{p.n_captures} captures, {p.duration:.2f} s ({p.source})")  # fmt: skip
+        self.path_label.setText(
+            "no path" if p is None else f"{p.n_captures} captures, {p.duration:.2f} s ({p.source})"
+        )
 
     # =============================================================== audio
-    def render_audio(self, filename: str | Path | None = None, *,
-                     then: Callable[[], None] | None = None) -> Task:  # fmt: skip
+    def render_audio(
+        self, filename: str | Path | None = None, *, then: Callable[[], None] | None = None
+    ) -> Task:
         """Render the sound heard along the listener path in the background and write it
         to ``filename`` (WAV/FLAC) if given.
 
@@ -1959,8 +2157,11 @@ class MainWindow(QtWidgets.QMainWindow):
         unheard = {n: why for n, why in self._overlay_unheard.items() if n in self.scene.overlays}
         key = str(input_key(self.data))
         loaded = {key: self.volume}
-        ready = {(n, key): (self._overlay_params.get(n, {}), snd)
-                 for n, (vol, snd) in self._overlay_sounds.items() if vol is self.volume}  # fmt: skip
+        ready = {
+            (n, key): (self._overlay_params.get(n, {}), snd)
+            for n, (vol, snd) in self._overlay_sounds.items()
+            if vol is self.volume
+        }
         out = None if filename is None else Path(filename).expanduser().resolve()
         session_file = None if out is None else out.with_name(out.name + ".session.json")
 
@@ -1970,10 +2171,18 @@ class MainWindow(QtWidgets.QMainWindow):
             r = render_scene_file(scene, loaded=loaded, progress=progress, sounds=ready)
             if out is not None and session_file is not None:
                 SessionState.from_dict(doc, source=str(session_file)).save(session_file)
-                cmd = shlex.join(["auralize", "render", "--scene", str(session_file),
-                                  "-o", str(out)])  # fmt: skip
-                save_rendered(r, out, extra={"command": cmd, "session": str(session_file),
-                                             "overlays_not_heard": unheard})  # fmt: skip
+                cmd = shlex.join(
+                    ["auralize", "render", "--scene", str(session_file), "-o", str(out)]
+                )
+                save_rendered(
+                    r,
+                    out,
+                    extra={
+                        "command": cmd,
+                        "session": str(session_file),
+                        "overlays_not_heard": unheard,
+                    },
+                )
             return r
 
         def done(r: Any) -> None:
@@ -2033,8 +2242,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.rendered is None:
             raise ParameterError("render the audio first")
         self.stop_audio()
-        self.playback = play(self.rendered, device=self.audio["device"], gain_db=self.gain_db,
-                             blocking=False)  # fmt: skip
+        self.playback = play(
+            self.rendered, device=self.audio["device"], gain_db=self.gain_db, blocking=False
+        )
         return self.playback
 
     def stop_audio(self) -> None:
@@ -2096,26 +2306,42 @@ class MainWindow(QtWidgets.QMainWindow):
         a = self.audio
         hs = self.heard_sound()
         box = source_box(self.volume, hs.tracks if hs.heard.mode == "detected" else None)
-        eng = LiveEngine(hs.tracks, layout=a["layout"], rate=a["rate"],
-                         time_scale=self.time_scale_value(), block=int(self.block_spin.value()),
-                         extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ, box=box,
-                         head=self.head_tracker())  # fmt: skip
+        eng = LiveEngine(
+            hs.tracks,
+            layout=a["layout"],
+            rate=a["rate"],
+            time_scale=self.time_scale_value(),
+            block=int(self.block_spin.value()),
+            extra=self.overlay_sound(),
+            highpass_hz=HIGHPASS_HZ,
+            box=box,
+            head=self.head_tracker(),
+        )
         target = output or self.live_file.text().strip() or None
         n_ch = eng.layout.n_channels
-        sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
-                else DeviceSink(rate=a["rate"], channels=n_ch, device=a["device"]))  # fmt: skip
+        sink = (
+            WavSink(target, rate=a["rate"], channels=n_ch)
+            if target
+            else DeviceSink(rate=a["rate"], channels=n_ch, device=a["device"])
+        )
         self._tick_pending = False
         self.player = LivePlayer(eng, sink, on_block=self._on_live_block, gain_db=self.gain_db)
         self._watch_camera()
         self.player.set_pose(*self._cam_pose)
         self.player.start()
         why = eng.why_silent()
-        head = ("" if self._head is None else
-                f"; head tracking on UDP port {self._head.port} (SPARTA/IEM messages)")  # fmt: skip
-        self.live_label.setText(why or f"live: {eng.layout.name}, block {eng.block} samples "
-                                       f"({1000 * eng.block_s:.0f} ms), physical, "
-                                       f"{eng.highpass_hz:g} Hz high-pass; "
-                                       f"{eng.describe_distance()}{head}")  # fmt: skip
+        head = (
+            ""
+            if self._head is None
+            else f"; head tracking on UDP port {self._head.port} (SPARTA/IEM messages)"
+        )
+        self.live_label.setText(
+            why
+            or f"live: {eng.layout.name}, block {eng.block} samples "
+            f"({1000 * eng.block_s:.0f} ms), physical, "
+            f"{eng.highpass_hz:g} Hz high-pass; "
+            f"{eng.describe_distance()}{head}"
+        )
         return self.player
 
     def head_tracker(self) -> Any:
@@ -2169,8 +2395,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if why:
             self.live_label.setText(why)
         elif lat:
-            self.live_label.setText(f"live: last move heard after {1000 * lat[-1]:.0f} ms; "
-                                    f"{eng.describe_distance()}")  # fmt: skip
+            self.live_label.setText(
+                f"live: last move heard after {1000 * lat[-1]:.0f} ms; {eng.describe_distance()}"
+            )
 
     def _live_redraw(self, data_time: float | None = None) -> None:
         """Show the time step live listening is playing, if it changed: at most one redraw
@@ -2180,8 +2407,11 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.volume is None or self.player is None or not self.player.running:
             return
         t = self._live_time if data_time is None else data_time
-        step = int(np.clip(np.searchsorted(self.volume.times, t, side="right") - 1,
-                           0, self.volume.n_steps - 1))  # fmt: skip
+        step = int(
+            np.clip(
+                np.searchsorted(self.volume.times, t, side="right") - 1, 0, self.volume.n_steps - 1
+            )
+        )
         if step == self.scene.step:
             return
         now = time.perf_counter()
@@ -2220,8 +2450,9 @@ class MainWindow(QtWidgets.QMainWindow):
             cb.setChecked(False)
             cb.blockSignals(False)
 
-    def set_overlay(self, name: str, on: bool, *,
-                    then: Callable[[bool], None] | None = None) -> Task | None:  # fmt: skip
+    def set_overlay(
+        self, name: str, on: bool, *, then: Callable[[bool], None] | None = None
+    ) -> Task | None:
         """Switch a plugin's overlay on or off.
 
         An overlay whose model makes sound from the volume on screen is also
@@ -2434,8 +2665,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self._threads.discard(t)
         t.deleteLater()
 
-    def _overlay_step_done(self, name: str, t: Task, vol: Any, path: Any, n: int,
-                           result: Any) -> None:  # fmt: skip
+    def _overlay_step_done(
+        self, name: str, t: Task, vol: Any, path: Any, n: int, result: Any
+    ) -> None:
         """A computed overlay step arrived on the UI thread: draw it if it is still the
         current step of the same data, drop it otherwise; then start the step wanted now."""
         if self._overlay_tasks.get(name) is t:
@@ -2490,17 +2722,27 @@ class MainWindow(QtWidgets.QMainWindow):
     # ============================================================= session
     def session_state(self) -> SessionState:
         st = SessionState(data=dict(self.data), audio=dict(self.audio))
-        st.view = {"field": self.scene.field, "representation": self.scene.representation,
-                   "cmap": self.scene.cmap, "opacity": self.scene.opacity, "step": self.scene.step,
-                   "types": dict(self.scene.visible_types)}  # fmt: skip
-        st.detection = {"mapping": self.mapping, "thresholds": self.read_thresholds().describe(),
-                        "mapping_fields": dict(self.mapping_fields),
-                        "detected": self.series is not None}  # fmt: skip
+        st.view = {
+            "field": self.scene.field,
+            "representation": self.scene.representation,
+            "cmap": self.scene.cmap,
+            "opacity": self.scene.opacity,
+            "step": self.scene.step,
+            "types": dict(self.scene.visible_types),
+        }
+        st.detection = {
+            "mapping": self.mapping,
+            "thresholds": self.read_thresholds().describe(),
+            "mapping_fields": dict(self.mapping_fields),
+            "detected": self.series is not None,
+        }
         # the overlays switched on, and those heard as sound models mixed with the data
         st.view["overlays"] = sorted(self.scene.overlays)
-        st.models = [{"model": n, "input": dict(self.data), "params": {}}
-                     for n in sorted(self.scene.overlays)
-                     if n in self._overlay_sounds or n in self._sound_tasks]  # fmt: skip
+        st.models = [
+            {"model": n, "input": dict(self.data), "params": {}}
+            for n in sorted(self.scene.overlays)
+            if n in self._overlay_sounds or n in self._sound_tasks
+        ]
         st.set_listener_path(self.path)
         st.recording = {"rate_hz": float(self.rate_spin.value())}
         st.camera = self.scene.camera() if self.volume is not None else None
@@ -2586,10 +2828,17 @@ class MainWindow(QtWidgets.QMainWindow):
         if not d:
             apply()
             return None
-        return self.open_data(d["spec"], size=d.get("size"), steps=d.get("steps"),
-                              seed=d.get("seed") or 0, fields=d.get("fields"),
-                              resolution=d.get("resolution"), then=apply,
-                              keep_path=False, **reader_options(d))  # fmt: skip
+        return self.open_data(
+            d["spec"],
+            size=d.get("size"),
+            steps=d.get("steps"),
+            seed=d.get("seed") or 0,
+            fields=d.get("fields"),
+            resolution=d.get("resolution"),
+            then=apply,
+            keep_path=False,
+            **reader_options(d),
+        )
 
     # ============================================================== window
     def closeEvent(self, event: Any) -> None:
@@ -2699,8 +2948,17 @@ def run_app(args: Any, opts: dict[str, Any]) -> int:
             if args.detect:
                 win._guard(win.detect)
 
-        win._guard(lambda: win.open_data(d["spec"], size=d["size"], steps=d["steps"],
-                                         seed=d["seed"], fields=d.get("fields"),
-                                         resolution=d.get("resolution"), field=opts["field"],
-                                         then=after, **reader_options(d)))  # fmt: skip
+        win._guard(
+            lambda: win.open_data(
+                d["spec"],
+                size=d["size"],
+                steps=d["steps"],
+                seed=d["seed"],
+                fields=d.get("fields"),
+                resolution=d.get("resolution"),
+                field=opts["field"],
+                then=after,
+                **reader_options(d),
+            )
+        )
     return int(app.exec())

@@ -28,13 +28,17 @@ class DescribePanel(QtWidgets.QWidget):
         left = QtWidgets.QVBoxLayout()
         row = QtWidgets.QHBoxLayout()
         self.describe_btn = QtWidgets.QPushButton("Describe")
-        self.describe_btn.setToolTip("put the sources into words: per step their types, where "
-                                     "they are, how loud and when the listener hears them "
-                                     "(detects them first if needed)")  # fmt: skip
+        self.describe_btn.setToolTip(
+            "put the sources into words: per step their types, where "
+            "they are, how loud and when the listener hears them "
+            "(detects them first if needed)"
+        )
         self.describe_btn.setAccessibleName("Describe the sources in words")
         self.save_btn = QtWidgets.QPushButton("Save description…")
-        self.save_btn.setToolTip("save the description as text, CSV (one row per step and "
-                                 "type) or JSON, by the file's suffix")  # fmt: skip
+        self.save_btn.setToolTip(
+            "save the description as text, CSV (one row per step and "
+            "type) or JSON, by the file's suffix"
+        )
         self.save_btn.setAccessibleName("Save the description")
         row.addWidget(self.describe_btn)
         row.addWidget(self.save_btn)
@@ -42,8 +46,10 @@ class DescribePanel(QtWidgets.QWidget):
         self.now = QtWidgets.QLabel(EMPTY)
         self.now.setWordWrap(True)
         self.now.setAlignment(QtCore.Qt.AlignmentFlag.AlignTop | QtCore.Qt.AlignmentFlag.AlignLeft)
-        self.now.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByKeyboard
-                                         | QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)  # fmt: skip
+        self.now.setTextInteractionFlags(
+            QtCore.Qt.TextInteractionFlag.TextSelectableByKeyboard
+            | QtCore.Qt.TextInteractionFlag.TextSelectableByMouse
+        )
         self.now.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
         self.now.setToolTip("the sources at the time step on screen")
         self.now.setAccessibleName("Sources at this step")
@@ -53,8 +59,10 @@ class DescribePanel(QtWidgets.QWidget):
         self.text.setReadOnly(True)
         self.text.setTabChangesFocus(True)  # Tab leaves the box; the arrows read it
         self.text.setPlaceholderText(EMPTY)
-        self.text.setToolTip("the whole description: what you will hear when, then step by "
-                             "step (arrow keys move through it)")  # fmt: skip
+        self.text.setToolTip(
+            "the whole description: what you will hear when, then step by "
+            "step (arrow keys move through it)"
+        )
         self.text.setAccessibleName("Description of the sources")
         self.text.setMinimumHeight(90)
         lay.addWidget(self.text, 3)

@@ -35,8 +35,9 @@ class AudioDirective(SphinxDirective):
         rel, abs_ = self.env.relfn2path(self.arguments[0], self.env.docname)
         suffix = Path(abs_).suffix.lower()
         if suffix not in _TYPES:
-            raise self.error(f"audio: {self.arguments[0]!r} is not a sound file "
-                             f"({', '.join(sorted(_TYPES))})")  # fmt: skip
+            raise self.error(
+                f"audio: {self.arguments[0]!r} is not a sound file ({', '.join(sorted(_TYPES))})"
+            )
         if not Path(abs_).is_file():
             raise self.error(f"audio: no file {abs_}")
         self.env.note_dependency(rel)

@@ -40,8 +40,9 @@ def _subcommands(parser: argparse.ArgumentParser) -> Iterator[tuple[str, str, An
                 yield name, helps.get(name, ""), sub
 
 
-def _walk(parser: argparse.ArgumentParser, words: tuple[str, ...] = ()
-          ) -> Iterator[tuple[tuple[str, ...], str, argparse.ArgumentParser]]:  # fmt: skip
+def _walk(
+    parser: argparse.ArgumentParser, words: tuple[str, ...] = ()
+) -> Iterator[tuple[tuple[str, ...], str, argparse.ArgumentParser]]:
     for name, summary, sub in _subcommands(parser):
         yield (*words, name), summary, sub
         yield from _walk(sub, (*words, name))

@@ -86,8 +86,9 @@ def escape_bars(lines: list[str]) -> list[str]:
     return out
 
 
-def process_docstring(app: Any, what: str, name: str, obj: Any, options: Any,
-                      lines: list[str]) -> None:  # fmt: skip
+def process_docstring(
+    app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]
+) -> None:
     """``autodoc-process-docstring``: verbatim docstrings, then the bars escaped."""
     if name in AS_LITERAL:
         lines[:] = ["::", ""] + [f"    {line}" if line.strip() else "" for line in lines] + [""]

@@ -48,8 +48,9 @@ def reset_files(gallery_conf: dict[str, Any], fname: str | None, when: str) -> N
 
 def files_scraper(block: Any, block_vars: dict[str, Any], gallery_conf: dict[str, Any]) -> str:
     """Move the pictures and sounds a block wrote; return the reST that shows them."""
-    new = sorted(p for p in _listing() - _before - _taken
-                 if p.suffix.lower() in _PICTURES + _SOUNDS)  # fmt: skip
+    new = sorted(
+        p for p in _listing() - _before - _taken if p.suffix.lower() in _PICTURES + _SOUNDS
+    )
     _taken.update(new)
     example = Path(block_vars["src_file"]).stem
     pictures: list[str] = []
