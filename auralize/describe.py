@@ -63,7 +63,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.constants import C0
-from auralize.defaults import DEFAULTS
+from auralize.defaults import DEFAULTS, Interp, OrbitFace
 from auralize.errors import ParameterError
 from auralize.pipeline import (
     RenderPlan,
@@ -504,7 +504,7 @@ def _type_stats(series: SourceSeries) -> dict[str, NDArray[np.float64]]:
 
 
 def _type_sound(series: SourceSeries, plan: RenderPlan, volume: TimeVolume, kind: str, *,
-                interp: str, c0: float) -> NDArray[np.float64] | None:  # fmt: skip
+                interp: Interp, c0: float) -> NDArray[np.float64] | None:  # fmt: skip
     """The mono pressure (Pa) of ``kind``'s detected sources along the plan's path, at
     :data:`LEVEL_RATE` (None: no source of that type)."""
     from auralize.emitters import FieldSources, Sound
@@ -546,9 +546,9 @@ def _runs(present: NDArray[np.bool_], gap: int) -> list[tuple[int, int]]:
 def describe(volume: TimeVolume | str, *, series: SourceSeries | None = None,
              path: Any = None, listener: Any = None, duration: float | None = None,
              time_scale: float | str = DEFAULTS.time_scale, heard: str = DEFAULTS.heard,
-             orbit_face: str = DEFAULTS.orbit_face, c0: float = C0,
+             orbit_face: OrbitFace = DEFAULTS.orbit_face, c0: float = C0,
              mapping: str | None = None, thresholds: Thresholds | None = None,
-             interp: str = DEFAULTS.interp, plan: RenderPlan | None = None,
+             interp: Interp = DEFAULTS.interp, plan: RenderPlan | None = None,
              name: str | None = None, progress_bar: bool = False,
              **mapping_fields: str) -> Description:  # fmt: skip
     """Describe the sources of ``volume`` and what a render of it lets the listener hear.

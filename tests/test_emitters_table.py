@@ -45,8 +45,9 @@ def _emitters(C: int = 3, P: int = 2, rows: int = 2, B: int = 300, S: int = 2,
     pos = np.stack([0.8 * np.cos(3 * tp + s) for s in range(S)])[..., None] * [1, 0, 0]
     pos = pos + np.stack([0.8 * np.sin(3 * tp + s) for s in range(S)])[..., None] * [0, 1, 0]
     pos = pos + [0, 0, 0.2]
-    return TableEmitters(tab, lengths, qa, qb, phase, r0, r1, w, K, rate, pos, pos_rate=rate / K,
-                         radius=0.05, law=1.0, name="test")  # fmt: skip
+    return TableEmitters(tab, lengths, qa=qa, qb=qb, phase=phase, r0=r0, r1=r1, w=w, block=K,
+                         rate=rate, positions=pos, pos_rate=rate / K, radius=0.05, law=1.0,
+                         name="test")  # fmt: skip
 
 
 def _definition(em: TableEmitters) -> np.ndarray:
@@ -97,9 +98,9 @@ def test_render_evaluates_the_signal_at_the_emission_index(layout: str) -> None:
     table = render_emitters(em, path, rate=RATE, layout=layout).audio
     stored = render_emitters(_stored(em), path, rate=RATE, layout=layout).audio
     # the same continuous signal sampled 4x finer: a linear read of it is ~16x more exact
-    fine = TableEmitters(em.table, em.lengths, em.qa, em.qb, em.phase, em.r0, em.r1, em.w,
-                         4 * K, 4 * RATE, em.positions, pos_rate=em.pos_rate, radius=em.radius,
-                         law=1.0)  # fmt: skip
+    fine = TableEmitters(em.table, em.lengths, qa=em.qa, qb=em.qb, phase=em.phase, r0=em.r0,
+                         r1=em.r1, w=em.w, block=4 * K, rate=4 * RATE, positions=em.positions,
+                         pos_rate=em.pos_rate, radius=em.radius, law=1.0)  # fmt: skip
     truth = render_emitters(_stored(fine), path, rate=RATE, layout=layout, oversample=1).audio
     peak = np.abs(truth).max()
     assert peak > 0
@@ -116,9 +117,9 @@ def test_wide_control_points_read_across_several_table_blocks() -> None:
     the continuous signal as 32-sample control points, and windows still join."""
     em = _emitters(mix=False, rows=1)
     path = ListenerPath.line((0.0, 0.0, 0.0), (0.3, 0.1, 0.0), duration=0.2)
-    fine = TableEmitters(em.table, em.lengths, em.qa, em.qb, em.phase, em.r0, em.r1, em.w,
-                         4 * K, 4 * RATE, em.positions, pos_rate=em.pos_rate, radius=em.radius,
-                         law=1.0)  # fmt: skip
+    fine = TableEmitters(em.table, em.lengths, qa=em.qa, qb=em.qb, phase=em.phase, r0=em.r0,
+                         r1=em.r1, w=em.w, block=4 * K, rate=4 * RATE, positions=em.positions,
+                         pos_rate=em.pos_rate, radius=em.radius, law=1.0)  # fmt: skip
     truth = render_emitters(_stored(fine), path, rate=RATE, layout="mono", oversample=1).audio
     peak = np.abs(truth).max()
     wide = render_emitters(em, path, rate=RATE, layout="mono", block=128)

@@ -21,6 +21,16 @@ def run_pieces(fn: Callable[[int], None], n: int, threads: int | None = None) ->
     with one, so a thread slowed down by other processes on its core takes
     fewer pieces.  ``fn`` should release the GIL (a ``nogil`` numba kernel).
 
+    Parameters
+    ----------
+    fn : callable
+        ``fn(i)`` does piece ``i`` (its result is not kept; an exception is
+        raised here once every thread is done).
+    n : int
+        Number of pieces.
+    threads : int, optional
+        Most threads to use (default and at most :data:`N_THREADS`).
+
     Examples
     --------
     >>> out = [0] * 5

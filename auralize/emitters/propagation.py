@@ -19,7 +19,33 @@ from auralize.spatial.layouts import Layout
 
 
 def distance_gain(D: NDArray[np.float64], law: str | float) -> NDArray[np.float64]:
-    """Amplitude factor for distance D: ``"physical"`` 1/D, ``"paper"`` 1/D³, or 1/D**law."""
+    """Amplitude factor for distance D: ``"physical"`` 1/D, ``"paper"`` 1/D³, or 1/D**law.
+
+    Parameters
+    ----------
+    D : array_like of float
+        Distances (m), > 0.
+    law : str or float
+        ``"physical"``, ``"paper"`` or an exponent in [0, 6]
+        (:func:`auralize.emitters.law_exponent`).
+
+    Returns
+    -------
+    ndarray
+        ``1 / D**e``, the shape of ``D``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown law (the message names ``attenuation``, :func:`propagate`'s option).
+
+    Examples
+    --------
+    >>> distance_gain(np.array([1.0, 2.0]), "physical").tolist()
+    [1.0, 0.5]
+    >>> distance_gain(np.array([2.0]), "paper").tolist()
+    [0.125]
+    """
     try:
         e = law_exponent(law)
     except ParameterError:
@@ -37,20 +63,50 @@ def propagate(signals: NDArray[np.floating], emit_rate: float, positions: NDArra
 
     Parameters
     ----------
-    signals : (S, n_emit)
+    signals : (S, n_emit) float
         Emitted signal of each source (Pa at 1 m), sampled at ``emit_rate``
         from ``emit_t0`` (values outside are zero).
-    positions : (S, 3) static positions, or (S, n_emit, 3) trajectories sampled
-        like the signals (moving sources: Doppler from the retarded time).
+    emit_rate : float
+        Samples per second of ``signals`` (Hz).
+    positions : (S, 3) or (S, n_emit, 3) float
+        Static positions (m), or trajectories sampled like the signals
+        (moving sources: Doppler from the retarded time).
     path : ListenerPath
         Playback-time listener; output sample n is at time ``n / rate``.
-    attenuation : "physical" (1/D), "paper" (1/D³) or an exponent.
-    min_distance : distances are clamped here (the emitters' clamp radius).
-    layout : output layout (panned with its own law).
+    rate : int
+        Output sample rate (Hz).
+    duration : float, optional
+        Playback seconds (default: the path's duration).
+    emit_t0 : float
+        Playback seconds of the signals' sample 0.
+    c0 : float
+        Speed of sound (m/s).
+    attenuation : str or float
+        ``"physical"`` (1/D), ``"paper"`` (1/D³) or an exponent.
+    min_distance : float
+        Distances are clamped here (m; the emitters' clamp radius).
+    layout : str or Layout
+        Output layout (panned with its own law).
 
     Returns
     -------
-    (n_channels, n_samples) pressure.
+    (n_channels, n_samples) float
+        The pressure heard, Pa.
+
+    Raises
+    ------
+    ParameterError
+        Positions that do not fit the signals, an unknown attenuation, and
+        what :class:`auralize.emitters.Emitters` and
+        :func:`auralize.emitters.engine.render_emitters` refuse.
+
+    Examples
+    --------
+    >>> from auralize.listener import ListenerPath
+    >>> out = propagate(np.ones((1, 400)), 8000, np.array([[0.0, 2.0, 0.0]]),
+    ...                 ListenerPath.point((0, 0, 0), duration=0.05), rate=8000)
+    >>> out.shape, round(float(out.max()), 6)
+    ((1, 400), 0.5)
     """
     sig = np.atleast_2d(np.asarray(signals, dtype=np.float64))
     pos = np.asarray(positions, dtype=np.float64)

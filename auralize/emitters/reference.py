@@ -23,6 +23,46 @@ def render_reference(em: Emitters, path: ListenerPath, *, rate: int = 44100,
     path's first capture.  The retarded time of a moving emitter is found
     by fixed-point iteration (contraction = the emitter's Mach number);
     signals are interpolated linearly in emission time.
+
+    Parameters
+    ----------
+    em : Emitters
+        The emitters (see :mod:`auralize.emitters`).
+    path : ListenerPath
+        Playback-time listener captures.
+    rate : int
+        Output sample rate (Hz).
+    layout : str or Layout
+        A speaker, Ambisonics or receiver layout
+        (:func:`auralize.spatial.layouts.get_layout`; for ``binaural``, its
+        AmbiX intermediate: the output stage is
+        :func:`auralize.emitters.engine.render_emitters`'s).
+    duration : float, optional
+        Playback seconds (default: the path's duration after ``start``).
+    start : float
+        Playback seconds after the path's first capture of output sample 0.
+    c0 : float
+        Speed of sound (m/s).
+
+    Returns
+    -------
+    (n_channels, n_samples) float
+        The pressure heard, Pa.
+
+    Raises
+    ------
+    ParameterError
+        An unknown layout, or a law :func:`auralize.emitters.law_exponent` refuses.
+
+    Examples
+    --------
+    A 1 Pa (at 1 m) monopole 2 m away is heard at 0.5 Pa once its sound arrives:
+
+    >>> from auralize.listener import ListenerPath
+    >>> em = Emitters(np.ones((1, 80)), 8000, [[2.0, 0, 0]])
+    >>> out = render_reference(em, ListenerPath.point((0, 0, 0), duration=0.01), rate=8000)
+    >>> out.shape, float(out[0, -1])
+    ((1, 80), 0.5)
     """
     lay = get_layout(layout)
     ears = receiver_paths(lay, path)

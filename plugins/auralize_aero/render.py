@@ -498,9 +498,10 @@ class AeroEmission:
         args = (kin.e1, kin.e2, kin.speed, scale, kin.c1, kin.c2, kin.s, M, iso, ja,
                 kin.dt / self.fade, float(self.exponent), float(tex.rate), qa, qb, ph)  # fmt: skip
         _in_parts(lambda k0, k1: _q_kernel(*args, k0, k1), S)
-        return TableEmitters(tex.g, tex.lengths, qa, qb, ph, j0, j1, w, K, self.rate, pos,
-                             t0=ja * kin.dt, pos_rate=self.rate / K, radius=self.radius, law=1.0,
-                             name=self.name, check=False)  # fmt: skip
+        return TableEmitters(tex.g, tex.lengths, qa=qa, qb=qb, phase=ph, r0=j0, r1=j1, w=w,
+                             block=K, rate=self.rate, positions=pos, t0=ja * kin.dt,
+                             pos_rate=self.rate / K, radius=self.radius, law=1.0, name=self.name,
+                             check=False)  # fmt: skip
 
     def emitters(self, tau0: float = 0.0, tau1: float | None = None) -> Emitters:
         """The dipole emitters of emission times ``[tau0, tau1]`` (s; default: all), in whole blocks."""
