@@ -42,7 +42,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -61,6 +61,9 @@ from auralize.runtime.json_check import (
     vec3,
 )
 from auralize.scene.session import DATA_SCHEMA
+
+if TYPE_CHECKING:
+    from auralize.emitters import Backend
 
 __all__ = [
     "SceneFile",
@@ -480,7 +483,7 @@ def scene_length(sound: Any, path: ListenerPath, *, c0: float | None = None,
 
 def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44100,
                  layout: str = "mono", duration: float | None = None, start: float = 0.0,
-                 backend: str = "auto", highpass_hz: float = 0.0) -> Any:  # fmt: skip
+                 backend: Backend = "auto", highpass_hz: float = 0.0) -> Any:  # fmt: skip
     """Render a scene along ``path``: the sum of every model's sound (a ``Rendered``).
 
     ``highpass_hz`` applies to the field sources only (:func:`auralize.pipeline.render`).
