@@ -63,7 +63,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.constants import C0
-from auralize.defaults import DEFAULTS
+from auralize.defaults import DEFAULTS, Interp, OrbitFace
 from auralize.errors import ParameterError
 from auralize.pipeline import (
     RenderPlan,
@@ -573,7 +573,13 @@ def _type_stats(series: SourceSeries) -> dict[str, NDArray[np.float64]]:
 
 
 def _type_sound(
-    series: SourceSeries, plan: RenderPlan, volume: TimeVolume, kind: str, *, interp: str, c0: float
+    series: SourceSeries,
+    plan: RenderPlan,
+    volume: TimeVolume,
+    kind: str,
+    *,
+    interp: Interp,
+    c0: float,
 ) -> NDArray[np.float64] | None:
     """The mono pressure (Pa) of ``kind``'s detected sources along the plan's path, at
     :data:`LEVEL_RATE` (None: no source of that type)."""
@@ -641,11 +647,11 @@ def describe(
     duration: float | None = None,
     time_scale: float | str = DEFAULTS.time_scale,
     heard: str = DEFAULTS.heard,
-    orbit_face: str = DEFAULTS.orbit_face,
+    orbit_face: OrbitFace = DEFAULTS.orbit_face,
     c0: float = C0,
     mapping: str | None = None,
     thresholds: Thresholds | None = None,
-    interp: str = DEFAULTS.interp,
+    interp: Interp = DEFAULTS.interp,
     plan: RenderPlan | None = None,
     name: str | None = None,
     progress_bar: bool = False,

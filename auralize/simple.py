@@ -35,18 +35,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from auralize.defaults import DEFAULTS, TIMBRE_CHOICES
+from auralize.defaults import DEFAULTS, TIMBRE_CHOICES, Interp
 from auralize.emitters.synthesis import Rendered
 from auralize.errors import ArgumentError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.scene.soundscene import SceneModel
 from auralize.sources.detection import SourceSeries, Thresholds
 from auralize.volume import TimeVolume
+
+if TYPE_CHECKING:
+    from auralize.audio.output import Normalize
 
 __all__ = [
     "AddSoundModel",
@@ -632,7 +635,7 @@ def RenderAudio(
     layout: str | None = None,
     rate: int | None = None,
     time_scale: float | str | None = None,
-    interp: str = DEFAULTS.interp,
+    interp: Interp = DEFAULTS.interp,
     timbre: str | None = None,
     heard: str | None = None,
     air: Any = None,
@@ -837,7 +840,7 @@ def RemoveSoundModel(entry: SceneModel | str) -> None:
 
 
 def SaveAudio(
-    filename: str | Path, rendered: Rendered | None = None, *, normalize: str = "peak"
+    filename: str | Path, rendered: Rendered | None = None, *, normalize: Normalize = "peak"
 ) -> float:
     """Write ``rendered`` (default: the last render) as WAV/FLAC + sidecar JSON, as
     ParaView's ``SaveData(filename, proxy)``; returns the gain applied.

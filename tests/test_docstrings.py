@@ -27,8 +27,17 @@ import pytest
 
 #: modules whose public callables meet the docstring rule
 DOCUMENTED_MODULES: tuple[str, ...] = (
+    "auralize.pipeline",
+    "auralize.rendering",
     "auralize.listener",
     "auralize.volume",
+    "auralize.emitters",
+    "auralize.emitters.engine",
+    "auralize.emitters.events",
+    "auralize.emitters.outdoor",
+    "auralize.emitters.parallel",
+    "auralize.emitters.propagation",
+    "auralize.emitters.reference",
     "auralize.audio.output",
     "auralize.spatial.ambisonics",
     "auralize.spatial.hrtf",

@@ -42,7 +42,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -61,6 +61,9 @@ from auralize.runtime.json_check import (
     vec3,
 )
 from auralize.scene.session import DATA_SCHEMA
+
+if TYPE_CHECKING:
+    from auralize.emitters import Backend
 
 __all__ = [
     "SceneFile",
@@ -515,7 +518,7 @@ def render_scene(
     layout: str = "mono",
     duration: float | None = None,
     start: float = 0.0,
-    backend: str = "auto",
+    backend: Backend = "auto",
     highpass_hz: float = 0.0,
 ) -> Any:
     """Render a scene along ``path``: the sum of every model's sound (a ``Rendered``).
