@@ -16,6 +16,7 @@ from auralize.listener import ListenerPath
 from auralize.palette import PALETTE as PALETTE
 from auralize.palette import type_rgb as type_rgb
 from auralize.runtime.files import atomic_path
+from auralize.runtime.vtkcompat import dataset_surface
 from auralize.sources.detection import SourceSeries
 from auralize.volume import TimeVolume
 
@@ -138,7 +139,7 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
     pl.add_mesh(pv.Box(bounds=volume.bounds).outline(), color="#888888")
     lo, hi = float(arr.min()), float(arr.max())
     if min(volume.dims) == 1:  # a one-layer grid is drawn as its coloured surface
-        pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), scalars=field, cmap="viridis",
+        pl.add_mesh(dataset_surface(grid), scalars=field, cmap="viridis",
                     clim=(lo, hi) if hi > lo else None, show_scalar_bar=False)  # fmt: skip
     elif hi > lo:
         levels = np.linspace(lo, hi, 5)[2:-1]
