@@ -69,8 +69,8 @@ def source_points(centers: np.ndarray, radii: np.ndarray, kinds: np.ndarray):
     if not len(c):
         return pv.PolyData()
     mesh = pv.PolyData(c)
+    mesh.point_data["rgb"] = type_rgb(kinds)  # the active scalars (the colours)
     mesh.point_data["radius"] = np.asarray(radii, dtype=np.float64).reshape(-1)
-    mesh.point_data["rgb"] = type_rgb(kinds)
     return mesh
 
 
