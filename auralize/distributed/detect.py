@@ -1100,9 +1100,14 @@ def detect_distributed(
     return series
 
 
-def _chunk_done(store: StateStore | None, slabs: list[Slab],
-                parts: dict[Slab, list[SourceFrame]], a: int, b: int,
-                frames: list[SourceFrame | None]) -> None:  # fmt: skip
+def _chunk_done(
+    store: StateStore | None,
+    slabs: list[Slab],
+    parts: dict[Slab, list[SourceFrame]],
+    a: int,
+    b: int,
+    frames: list[SourceFrame | None],
+) -> None:
     """Steps ``a``..``b`` have every slab's sources (``parts``, or the pieces the tasks saved
     in ``store``): merged across slabs, into the store's chunk or into ``frames``."""
     if store is not None and len(slabs) == 1:
