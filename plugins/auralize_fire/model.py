@@ -23,7 +23,7 @@ SHARED = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "fire-low
 MONOPOLE_1M = 1.2 / (4.0 * np.pi)
 
 
-def render_chain(
+def render_chain(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     *,
     extend: str = "bandwidth",
@@ -60,7 +60,7 @@ def render_chain(
     return texture_synthesize(low, clip, levels=levels, eps=eps), fs
 
 
-def fire_sound(
+def fire_sound(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     *,
     extend: str = "bandwidth",
