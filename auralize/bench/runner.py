@@ -552,6 +552,7 @@ def run_bench(args: argparse.Namespace) -> int:
     more = immersive_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
+    from auralize.bench.efficiency import efficiency_rows
     from auralize.bench.fwh import fwh_rows
     from auralize.bench.outdoor import outdoor_rows
     from auralize.bench.output import bench_output
@@ -562,7 +563,7 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
 
-    for fn in (fwh_rows, outdoor_rows, bench_output, bench_viewer):
+    for fn in (efficiency_rows, fwh_rows, outdoor_rows, bench_output, bench_viewer):
         more = fn(args.quick)
         print(format_rows(more), flush=True)
         rows += more
