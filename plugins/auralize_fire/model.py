@@ -137,7 +137,7 @@ def fire_sound(  # noqa: PLR0913 (keyword-only options)
         "front_area": fs.area,
         "extend": extend,
         "moving": moving,
-        "units": "Pa at 1 m",
+        "emitter_units": "Pa at 1 m",
     }
     return Sound([em], meta=meta, name="fire")
 
