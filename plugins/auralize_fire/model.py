@@ -208,8 +208,14 @@ class FireSound(SoundModel):
         )
 
     def warm_up(self) -> None:
-        """Compile the fire kernels on a small fire (``auralize warmup --plugins``)."""
+        """Compile the fire kernels on a small fire (``auralize warmup --plugins``): the
+        flame front and flux, and the texture synthesis's kd-tree and search."""
+        from auralize_fire.clips import fire_training_clip
+        from auralize_fire.texture import texture_synthesize
+
         self.synthesize(make_fire(size=12, steps=12), extend="none")
+        rng = np.random.default_rng(0)
+        texture_synthesize(rng.normal(size=256), fire_training_clip(0.05, 8000, seed=0), levels=2)
 
     def overlay(self, inputs: Any, step: int) -> Any:
         """The flame front at ``step`` as pyvista PolyData, cell scalars ``u_dot_n`` (m/s)."""

@@ -583,3 +583,15 @@ def test_sidecar_units_say_what_the_samples_hold(tmp_path: Path) -> None:
     assert main(["fire", "render", *data, *argv]) == 0
     side = json.loads(Path(str(ren) + ".json").read_text())
     assert side["units"] == "Pa" and side["emitter_units"] == "Pa at 1 m"
+
+
+def test_warm_up_compiles_what_the_texture_commands_use() -> None:
+    """``auralize warmup --plugins`` leaves nothing for ``fire texture`` to compile: after
+    ``FireSound.warm_up`` the kd-tree kernels have their signatures (from the cache
+    or compiled)."""
+    from auralize_fire import _kernels
+    from auralize_fire.model import FireSound
+
+    FireSound().warm_up()
+    for kernel in (_kernels.kd_build, _kernels.synth_level):
+        assert kernel.signatures, kernel.__name__
