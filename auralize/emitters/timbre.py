@@ -572,7 +572,7 @@ def mean_distance(
     rows = max(1, _MEAN_BLOCK // max(C, 1))
     for j in range(0, J, rows):
         sl = slice(j, min(j + rows, J))
-        num[sl], den[sl], d_min[sl] = _mean_terms(L[sl], t_data[sl], cen, W, tn, c0)
+        num[sl], den[sl], d_min[sl] = _mean_terms(L[sl], t_data[sl], cen, W, tn=tn, c0=c0)
     ok = den > 0
     if not np.any(ok):
         return d_min
@@ -591,6 +591,7 @@ def _mean_terms(
     t_data: NDArray[np.float64],
     cen: NDArray[np.float64],
     W: NDArray[np.float64],
+    *,
     tn: NDArray[np.float64],
     c0: float,
 ) -> tuple[NDArray[np.float64], ...]:
@@ -956,7 +957,7 @@ def _sample_index(n: int) -> NDArray[np.float64]:
     return j
 
 
-def render_timbre(
+def render_timbre(  # noqa: PLR0913 (keyword-only options)
     tracks: SourceTracks,
     path: ListenerPath,
     *,
@@ -1161,10 +1162,31 @@ def render_timbre(
         assert phys is not None
         out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse, highpass_hz)
+        out = _extended(
+            tracks,
+            path,
+            kw,
+            bounds=bounds,
+            seed=seed,
+            alpha=alpha,
+            c0=c0,
+            start=start,
+            meta=meta,
+            coarse=coarse,
+            highpass_hz=highpass_hz,
+        )
     else:
         out = _tonal(
-            tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta, by_type
+            tracks,
+            path,
+            kw,
+            bounds=bounds,
+            seed=seed,
+            carriers=carriers or TONAL_CARRIERS,
+            c0=c0,
+            start=start,
+            meta=meta,
+            by_type=by_type,
         )
     if meta.get("beta_rule") == "rms":
         notes.append(
@@ -1278,13 +1300,14 @@ def _envelope_render(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     f_cut: float,
     bounds: tuple[float, ...] | None,
     c0: float,
 ) -> Rendered:
     """:func:`change_envelope` in every channel, taken at the envelope rate (sources
     merged as :func:`_joined`) and interpolated to the audio rate."""
-    coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
     return _upsampled(coarse, coarse.audio, n, k)
 
 
@@ -1292,6 +1315,7 @@ def _envelope_coarse(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     f_cut: float,
     bounds: tuple[float, ...] | None,
     c0: float,
@@ -1405,6 +1429,7 @@ def _extended(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     bounds: tuple[float, ...] | None,
     seed: int,
     alpha: float,
@@ -1434,7 +1459,7 @@ def _extended(
     if n < 4:
         meta["beta"] = 0.0
         return render_tracks(tracks, path, bounds=bounds, **kw)
-    env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
     env = _upsampled(env_c, env_c.audio, n, k)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -1623,6 +1648,7 @@ def _tonal(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     bounds: tuple[float, ...] | None,
     seed: int,
     carriers: dict[str, tuple[Any, ...]],
@@ -1661,7 +1687,7 @@ def _tonal(
         sub = by_type.get(name)
         if sub is None or sub.n_sources == 0 or name not in carriers or not peak.get(name):
             continue
-        env = _envelope_render(sub, path, kw, f_cut, bounds, c0)
+        env = _envelope_render(sub, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
         if float(np.max(np.abs(env.audio), initial=0.0)) > 0:
             env.audio *= top / peak[name]
             envs[name] = env
@@ -1687,6 +1713,7 @@ def _tonal(
 
             def carrier(
                 clock: _Clock,
+                *,
                 band: Any = band,
                 code: int = code,
                 f_lo: float = f_lo,
