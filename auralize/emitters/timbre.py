@@ -880,18 +880,32 @@ class _Clock:
         self.rate, self.ts = rate, ts
         t_start = float(out.meta["t_start_data"])
         dur = n / rate
+        # controls every 1/CONTROL_HZ s of playback from the render's start, the last
+        # at or past its end
         J = max(int(np.ceil(dur * CONTROL_HZ)) + 1, 2)
-        u = np.linspace(0.0, dur, J)
+        u = np.arange(J) / CONTROL_HZ
         # the same controls serve every clock of a render (the audio rate's and the
-        # envelope rate's) and of its repeats: kept on the tracks for this path (the
-        # path's arrays are held, so their identity stays theirs)
-        key = (t_start, dur, ts, start, c0, J)
-        hit = tracks.cache.get("timbre:dbar")
-        if hit is not None and hit[0] is path.positions and hit[1] is path.times and hit[2] == key:
-            dbar = hit[3]
-        else:
-            dbar = mean_distance(tracks, path, t_start + u / ts, path.times[0] + start + u, c0=c0)
-            tracks.cache["timbre:dbar"] = (path.positions, path.times, key, dbar)
+        # envelope rate's, whose durations differ by a fraction of an envelope
+        # sample) and of its repeats: kept on the tracks for each path (its arrays
+        # are held, so their identity stays theirs); a clock with fewer controls
+        # takes the first of them
+        key = (id(path.positions), id(path.times), t_start, ts, start, c0)
+        held = tracks.cache.setdefault("timbre:dbar", {})
+        hit = held.get(key)
+        if (
+            hit is not None
+            and hit[0] is path.positions
+            and hit[1] is path.times
+            and hit[2].size >= J
+        ):
+            dbar = hit[2][:J]
+        else:  # (two controls more than this clock needs, for the next clock's)
+            w = np.arange(J + 2) / CONTROL_HZ
+            dbar = mean_distance(tracks, path, t_start + w / ts, path.times[0] + start + w, c0=c0)
+            if len(held) >= 8:  # the paths of a few renders (binaural: one per ear)
+                held.pop(next(iter(held)))
+            held[key] = (path.positions, path.times, dbar)
+            dbar = dbar[:J]
         # the mean emission time at the controls; between them the data time
         # and D̄ are linear in the sample index, and so is the emission time
         tau = t_start + u / ts - dbar / c0
