@@ -441,7 +441,7 @@ def curvilinear_errors(
     inv_dt2: float,
 ) -> Array:
     """Discretisation-error estimates ``(3, nz, ny, nx)`` of the strengths ``s``: the
-    Richardson estimates of :func:`auralize.sources._kernels._error_plane` (``|S_h −
+    Richardson estimates of :func:`auralize.sources._kernels._error_point` (``|S_h −
     S_2h| / 3``, the 2h stencil of :func:`index_derivative` with its own metric;
     2Δt in time), 0 at no-data points."""
     err = np.zeros_like(s)

@@ -346,9 +346,9 @@ def _inner2(i: int, n: int) -> int:
     return i
 
 
-@numba.njit(**_NJIT)
-def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, err):  # type: ignore[no-untyped-def]
-    """Discretisation-error estimates ``err (3, ny, nx)`` of the strengths ``s`` in plane ``k``.
+@numba.njit(inline="always", **_NJIT)
+def _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, i, err):  # type: ignore[no-untyped-def]
+    """Discretisation-error estimates ``err[:, j, i]`` of the strengths ``s[:, k, j, i]``.
 
     Each strength is a second-order finite difference (paper 003 §3.2.3:
     ``S_m = ∂ρ/∂t``, ``S_d`` of Eq. 13, ``S_q`` of Eq. 14); the same difference
@@ -366,113 +366,303 @@ def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, err
     stencils; ``tt (6, nz, ny, nx)`` the stress the quadrupole strength was
     taken of (steady state removed); ``inv_dt``, ``inv_dt2`` the inverse
     time spans (``inv_dt2`` 0: no 2Δt stencil); ``h (3,)`` the spacing.
-    Only ``s[:, k]`` of the strengths is read.
     """
     nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
     hx, hy, hz = h[0], h[1], h[2]
     wide_t = inv_dt2 > 0.0
+    k2, j2, i2 = _inner2(k, nz), _inner2(j, ny), _inner2(i, nx)
+    if bad[k, j, i]:
+        err[0, j, i] = 0.0
+        err[1, j, i] = 0.0
+        err[2, j, i] = 0.0
+        return
+    # monopole: time stencil over 2Δt
+    em = 0.0
+    if wide_t:
+        em = abs(s[0, k, j, i] - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
+    # dipole: divergence over 2h (space), and over 2Δt (time)
+    ed = 0.0
+    ok_x = i2 >= 0 and not (bad[k, j, i2 - 2] or bad[k, j, i2 + 2])
+    ok_y = j2 >= 0 and not (bad[k, j2 - 2, i] or bad[k, j2 + 2, i])
+    ok_z = k2 >= 0 and not (bad[k2 - 2, j, i] or bad[k2 + 2, j, i])
+    div2 = 0.0
+    div1 = 0.0
+    if ok_x:
+        div2 += (dm[0, k, j, i2 + 2] - dm[0, k, j, i2 - 2]) / (4.0 * hx)
+        div1 += (dm[0, k, j, i2 + 1] - dm[0, k, j, i2 - 1]) / (2.0 * hx)
+    if ok_y:
+        div2 += (dm[1, k, j2 + 2, i] - dm[1, k, j2 - 2, i]) / (4.0 * hy)
+        div1 += (dm[1, k, j2 + 1, i] - dm[1, k, j2 - 1, i]) / (2.0 * hy)
+    if ok_z:
+        div2 += (dm[2, k2 + 2, j, i] - dm[2, k2 - 2, j, i]) / (4.0 * hz)
+        div1 += (dm[2, k2 + 1, j, i] - dm[2, k2 - 1, j, i]) / (2.0 * hz)
+    ed = abs(div1 - div2) * inv_dt / 3.0
+    if wide_t:
+        d2 = 0.0
+        i0, i1 = _lohi(i, nx)
+        j0, j1 = _lohi(j, ny)
+        k0, k1 = _lohi(k, nz)
+        if i1 > i0:
+            d2 += (dm2[0, k, j, i1] - dm2[0, k, j, i0]) / ((i1 - i0) * hx)
+        if j1 > j0:
+            d2 += (dm2[1, k, j1, i] - dm2[1, k, j0, i]) / ((j1 - j0) * hy)
+        if k1 > k0:
+            d2 += (dm2[2, k1, j, i] - dm2[2, k0, j, i]) / ((k1 - k0) * hz)
+        ed += abs(s[1, k, j, i] - d2 * inv_dt2) / 3.0
+    # quadrupole: second differences over 2h, mixed ones as products of 2h differences
+    eq = 0.0
+    if ok_x:
+        a = tt[0, k, j, i2 + 1] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 1]
+        b = 0.25 * (tt[0, k, j, i2 + 2] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 2])
+        eq += (a - b) / (hx * hx)
+    if ok_y:
+        a = tt[1, k, j2 + 1, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 1, i]
+        b = 0.25 * (tt[1, k, j2 + 2, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 2, i])
+        eq += (a - b) / (hy * hy)
+    if ok_z:
+        a = tt[2, k2 + 1, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 1, j, i]
+        b = 0.25 * (tt[2, k2 + 2, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 2, j, i])
+        eq += (a - b) / (hz * hz)
+    if ok_x and ok_y:
+        a = (
+            tt[3, k, j2 + 1, i2 + 1]
+            - tt[3, k, j2 + 1, i2 - 1]
+            - tt[3, k, j2 - 1, i2 + 1]
+            + tt[3, k, j2 - 1, i2 - 1]
+        ) / 4.0
+        b = (
+            tt[3, k, j2 + 2, i2 + 2]
+            - tt[3, k, j2 + 2, i2 - 2]
+            - tt[3, k, j2 - 2, i2 + 2]
+            + tt[3, k, j2 - 2, i2 - 2]
+        ) / 16.0
+        eq += 2.0 * (a - b) / (hx * hy)
+    if ok_x and ok_z:
+        a = (
+            tt[4, k2 + 1, j, i2 + 1]
+            - tt[4, k2 + 1, j, i2 - 1]
+            - tt[4, k2 - 1, j, i2 + 1]
+            + tt[4, k2 - 1, j, i2 - 1]
+        ) / 4.0
+        b = (
+            tt[4, k2 + 2, j, i2 + 2]
+            - tt[4, k2 + 2, j, i2 - 2]
+            - tt[4, k2 - 2, j, i2 + 2]
+            + tt[4, k2 - 2, j, i2 - 2]
+        ) / 16.0
+        eq += 2.0 * (a - b) / (hx * hz)
+    if ok_y and ok_z:
+        a = (
+            tt[5, k2 + 1, j2 + 1, i]
+            - tt[5, k2 + 1, j2 - 1, i]
+            - tt[5, k2 - 1, j2 + 1, i]
+            + tt[5, k2 - 1, j2 - 1, i]
+        ) / 4.0
+        b = (
+            tt[5, k2 + 2, j2 + 2, i]
+            - tt[5, k2 + 2, j2 - 2, i]
+            - tt[5, k2 - 2, j2 + 2, i]
+            + tt[5, k2 - 2, j2 - 2, i]
+        ) / 16.0
+        eq += 2.0 * (a - b) / (hy * hz)
+    err[0, j, i] = em
+    err[1, j, i] = ed
+    err[2, j, i] = abs(eq) / 3.0
+
+
+@numba.njit(inline="always", **_NJIT)
+def _ends_from_inner(row, r, nx):  # type: ignore[no-untyped-def]
+    """In each of the ``r`` rows of ``nx`` points of the flat ``row``, set the first two
+    points to the third and the last two to the third last (an x stencil centred
+    at :func:`_inner2`)."""
+    for q in range(r):
+        o = q * nx
+        row[o] = row[o + 1] = row[o + 2]
+        row[o + nx - 1] = row[o + nx - 2] = row[o + nx - 3]
+
+
+@numba.njit(**_NJIT)
+def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err):  # type: ignore[no-untyped-def]
+    """:func:`_error_point` at every point of the ``r`` rows from ``j`` on of plane ``k``,
+    where every 2h stencil fits (no axis of fewer than 5 points) and reads no
+    no-data point; ``r`` is 1 or the rows are all inner (2 .. ny-3).
+
+    The same operations in the same order, point by point, as
+    :func:`_error_point`, grouped differently: loops over the rows as one
+    flat run, each reading at most eight runs of the inputs, which the
+    compiler turns into vector instructions (more in one loop, or an index
+    that may be negative, keep it scalar).  Each loop adds one term to the
+    run of ``err (3, ny, nx)`` it writes.  A term with an x difference is
+    taken along the run at x = 2 .. nx-3 (wrong at the two points at each end
+    of a row, which read the next row), then copied to those points from the
+    third (third last), where the stencil is centred (:func:`_inner2`); the
+    one-sided x difference of the 2Δt dipole is taken at x = 0 and nx-1 apart.
+    The y and z stencils are those of row ``j`` (centred at :func:`_inner2`),
+    the same along the rows.
+    """
+    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    hx, hy, hz = h[0], h[1], h[2]
+    k2, j2 = _inner2(k, nz), _inner2(j, ny)
+    k0, k1 = _lohi(k, nz)
+    j0, j1 = _lohi(j, ny)
+    m = ny * nx
+    o = j * nx  # flat index of the first point
+    n = r * nx
+    dy = (j2 - j) * nx  # offset of the y stencil's centre row
+
+    def run(a, kk, d):  # type: ignore[no-untyped-def]
+        """The run of plane ``kk`` of ``a``, offset by ``d`` points."""
+        return a[kk].reshape(m)[o + d : o + d + n]
+
+    flat = err.reshape(3, m)
+    em, ed, eq = flat[0, o : o + n], flat[1, o : o + n], flat[2, o : o + n]
+    ex, fx = em[2 : n - 2], eq[2 : n - 2]  # where x stencils are taken
+    # dipole: divergence over 2h (in eq) and over h (in ed), x first
+    xd = run(dm[0], k, 0)
+    for i in range(n - 4):
+        div2 = 0.0
+        div2 += (xd[i + 4] - xd[i]) / (4.0 * hx)
+        fx[i] = div2
+    _ends_from_inner(eq, r, nx)
+    for i in range(n - 4):
+        div1 = 0.0
+        div1 += (xd[i + 3] - xd[i + 1]) / (2.0 * hx)
+        ex[i] = div1
+    _ends_from_inner(em, r, nx)
+    ym, yp = run(dm[1], k, dy - 2 * nx), run(dm[1], k, dy + 2 * nx)
+    zm, zp = run(dm[2], k2 - 2, 0), run(dm[2], k2 + 2, 0)
+    for i in range(n):
+        div2 = eq[i]
+        div2 += (yp[i] - ym[i]) / (4.0 * hy)
+        div2 += (zp[i] - zm[i]) / (4.0 * hz)
+        eq[i] = div2
+    ym, yp = run(dm[1], k, dy - nx), run(dm[1], k, dy + nx)
+    zm, zp = run(dm[2], k2 - 1, 0), run(dm[2], k2 + 1, 0)
+    for i in range(n):
+        div1 = em[i]
+        div1 += (yp[i] - ym[i]) / (2.0 * hy)
+        div1 += (zp[i] - zm[i]) / (2.0 * hz)
+        ed[i] = abs(div1 - eq[i]) * inv_dt / 3.0
+    # dipole: time stencil over 2Δt (its divergence in em), x first
+    if inv_dt2 > 0.0:
+        xd = run(dm2[0], k, 0)
+        for i in range(n - 4):
+            d2 = 0.0
+            d2 += (xd[i + 3] - xd[i + 1]) / (2 * hx)
+            ex[i] = d2
+        xd = run(dm2[0], k, 0)
+        for q in range(r):  # central at x = 1 and nx-2, one-sided at the faces
+            p = q * nx
+            em[p] = 0.0 + (xd[p + 1] - xd[p]) / (1 * hx)
+            em[p + 1] = 0.0 + (xd[p + 2] - xd[p]) / (2 * hx)
+            em[p + nx - 2] = 0.0 + (xd[p + nx - 1] - xd[p + nx - 3]) / (2 * hx)
+            em[p + nx - 1] = 0.0 + (xd[p + nx - 1] - xd[p + nx - 2]) / (1 * hx)
+        ym, yp = run(dm2[1], k, (j0 - j) * nx), run(dm2[1], k, (j1 - j) * nx)
+        zm, zp = run(dm2[2], k0, 0), run(dm2[2], k1, 0)
+        s1 = run(s[1], k, 0)
+        fy, fz = (j1 - j0) * hy, (k1 - k0) * hz
+        for i in range(n):
+            d2 = em[i]
+            d2 += (yp[i] - ym[i]) / fy
+            d2 += (zp[i] - zm[i]) / fz
+            ed[i] += abs(s1[i] - d2 * inv_dt2) / 3.0
+    # quadrupole: second differences along x, y and z (in eq)
+    xt = run(tt[0], k, 0)
+    for i in range(n - 4):
+        q = 0.0
+        a = xt[i + 3] - 2.0 * xt[i + 2] + xt[i + 1]
+        b = 0.25 * (xt[i + 4] - 2.0 * xt[i + 2] + xt[i])
+        q += (a - b) / (hx * hx)
+        fx[i] = q
+    _ends_from_inner(eq, r, nx)
+    ym2, ym1 = run(tt[1], k, dy - 2 * nx), run(tt[1], k, dy - nx)
+    yc, yp1, yp2 = run(tt[1], k, dy), run(tt[1], k, dy + nx), run(tt[1], k, dy + 2 * nx)
+    for i in range(n):
+        a = yp1[i] - 2.0 * yc[i] + ym1[i]
+        b = 0.25 * (yp2[i] - 2.0 * yc[i] + ym2[i])
+        eq[i] += (a - b) / (hy * hy)
+    zm2, zm1 = run(tt[2], k2 - 2, 0), run(tt[2], k2 - 1, 0)
+    zc, zp1, zp2 = run(tt[2], k2, 0), run(tt[2], k2 + 1, 0), run(tt[2], k2 + 2, 0)
+    for i in range(n):
+        a = zp1[i] - 2.0 * zc[i] + zm1[i]
+        b = 0.25 * (zp2[i] - 2.0 * zc[i] + zm2[i])
+        eq[i] += (a - b) / (hz * hz)
+    # mixed xy, then xz (each in em first)
+    for c in range(2):
+        if c == 0:
+            xp1, xm1 = run(tt[3], k, dy + nx), run(tt[3], k, dy - nx)
+            xp2, xm2 = run(tt[3], k, dy + 2 * nx), run(tt[3], k, dy - 2 * nx)
+            f = hx * hy
+        else:
+            xp1, xm1 = run(tt[4], k2 + 1, 0), run(tt[4], k2 - 1, 0)
+            xp2, xm2 = run(tt[4], k2 + 2, 0), run(tt[4], k2 - 2, 0)
+            f = hx * hz
+        for i in range(n - 4):
+            a = (xp1[i + 3] - xp1[i + 1] - xm1[i + 3] + xm1[i + 1]) / 4.0
+            b = (xp2[i + 4] - xp2[i] - xm2[i + 4] + xm2[i]) / 16.0
+            ex[i] = 2.0 * (a - b) / f
+        _ends_from_inner(em, r, nx)
+        for i in range(n):
+            eq[i] += em[i]
+    # mixed yz (its h difference in em first), and the estimate
+    pp, pm = run(tt[5], k2 + 1, dy + nx), run(tt[5], k2 + 1, dy - nx)
+    mp, mm = run(tt[5], k2 - 1, dy + nx), run(tt[5], k2 - 1, dy - nx)
+    for i in range(n):
+        em[i] = (pp[i] - pm[i] - mp[i] + mm[i]) / 4.0
+    pp, pm = run(tt[5], k2 + 2, dy + 2 * nx), run(tt[5], k2 + 2, dy - 2 * nx)
+    mp, mm = run(tt[5], k2 - 2, dy + 2 * nx), run(tt[5], k2 - 2, dy - 2 * nx)
+    for i in range(n):
+        b = (pp[i] - pm[i] - mp[i] + mm[i]) / 16.0
+        eq[i] = abs(eq[i] + 2.0 * (em[i] - b) / (hy * hz)) / 3.0
+    # monopole: time stencil over 2Δt
+    if inv_dt2 > 0.0:
+        s0, ra, rb = run(s[0], k, 0), run(rho_a2, k, 0), run(rho_b2, k, 0)
+        for i in range(n):
+            em[i] = abs(s0[i] - (rb[i] - ra[i]) * inv_dt2) / 3.0
+    else:
+        em[:] = 0.0
+
+
+@numba.njit(**_NJIT)
+def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, err):  # type: ignore[no-untyped-def]
+    """Discretisation-error estimates ``err (3, ny, nx)`` of the strengths ``s`` in plane ``k``:
+    :func:`_error_rows` over the rows whose stencils all fit and read no no-data point
+    (``rowbad (nz, ny)`` tells the rows with one; the inner rows at once when they all
+    do), :func:`_error_point` at the points of the other rows.  Only ``s[:, k]`` of the
+    strengths is read."""
+    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    rows = nx >= 5 and ny >= 5 and nz >= 5
     k2 = _inner2(k, nz)
-    for j in range(ny):
+    block = rows and not (rowbad[k].any() or rowbad[k2 - 2].any() or rowbad[k2 + 2].any())
+    j = 0
+    while j < ny:
         j2 = _inner2(j, ny)
-        for i in range(nx):
-            i2 = _inner2(i, nx)
-            if bad[k, j, i]:
-                err[0, j, i] = 0.0
-                err[1, j, i] = 0.0
-                err[2, j, i] = 0.0
-                continue
-            # monopole: time stencil over 2Δt
-            em = 0.0
-            if wide_t:
-                em = abs(s[0, k, j, i] - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
-            # dipole: divergence over 2h (space), and over 2Δt (time)
-            ed = 0.0
-            ok_x = i2 >= 0 and not (bad[k, j, i2 - 2] or bad[k, j, i2 + 2])
-            ok_y = j2 >= 0 and not (bad[k, j2 - 2, i] or bad[k, j2 + 2, i])
-            ok_z = k2 >= 0 and not (bad[k2 - 2, j, i] or bad[k2 + 2, j, i])
-            div2 = 0.0
-            div1 = 0.0
-            if ok_x:
-                div2 += (dm[0, k, j, i2 + 2] - dm[0, k, j, i2 - 2]) / (4.0 * hx)
-                div1 += (dm[0, k, j, i2 + 1] - dm[0, k, j, i2 - 1]) / (2.0 * hx)
-            if ok_y:
-                div2 += (dm[1, k, j2 + 2, i] - dm[1, k, j2 - 2, i]) / (4.0 * hy)
-                div1 += (dm[1, k, j2 + 1, i] - dm[1, k, j2 - 1, i]) / (2.0 * hy)
-            if ok_z:
-                div2 += (dm[2, k2 + 2, j, i] - dm[2, k2 - 2, j, i]) / (4.0 * hz)
-                div1 += (dm[2, k2 + 1, j, i] - dm[2, k2 - 1, j, i]) / (2.0 * hz)
-            ed = abs(div1 - div2) * inv_dt / 3.0
-            if wide_t:
-                d2 = 0.0
-                i0, i1 = _lohi(i, nx)
-                j0, j1 = _lohi(j, ny)
-                k0, k1 = _lohi(k, nz)
-                if i1 > i0:
-                    d2 += (dm2[0, k, j, i1] - dm2[0, k, j, i0]) / ((i1 - i0) * hx)
-                if j1 > j0:
-                    d2 += (dm2[1, k, j1, i] - dm2[1, k, j0, i]) / ((j1 - j0) * hy)
-                if k1 > k0:
-                    d2 += (dm2[2, k1, j, i] - dm2[2, k0, j, i]) / ((k1 - k0) * hz)
-                ed += abs(s[1, k, j, i] - d2 * inv_dt2) / 3.0
-            # quadrupole: second differences over 2h, mixed ones as products of 2h differences
-            eq = 0.0
-            if ok_x:
-                a = tt[0, k, j, i2 + 1] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 1]
-                b = 0.25 * (tt[0, k, j, i2 + 2] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 2])
-                eq += (a - b) / (hx * hx)
-            if ok_y:
-                a = tt[1, k, j2 + 1, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 1, i]
-                b = 0.25 * (tt[1, k, j2 + 2, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 2, i])
-                eq += (a - b) / (hy * hy)
-            if ok_z:
-                a = tt[2, k2 + 1, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 1, j, i]
-                b = 0.25 * (tt[2, k2 + 2, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 2, j, i])
-                eq += (a - b) / (hz * hz)
-            if ok_x and ok_y:
-                a = (
-                    tt[3, k, j2 + 1, i2 + 1]
-                    - tt[3, k, j2 + 1, i2 - 1]
-                    - tt[3, k, j2 - 1, i2 + 1]
-                    + tt[3, k, j2 - 1, i2 - 1]
-                ) / 4.0
-                b = (
-                    tt[3, k, j2 + 2, i2 + 2]
-                    - tt[3, k, j2 + 2, i2 - 2]
-                    - tt[3, k, j2 - 2, i2 + 2]
-                    + tt[3, k, j2 - 2, i2 - 2]
-                ) / 16.0
-                eq += 2.0 * (a - b) / (hx * hy)
-            if ok_x and ok_z:
-                a = (
-                    tt[4, k2 + 1, j, i2 + 1]
-                    - tt[4, k2 + 1, j, i2 - 1]
-                    - tt[4, k2 - 1, j, i2 + 1]
-                    + tt[4, k2 - 1, j, i2 - 1]
-                ) / 4.0
-                b = (
-                    tt[4, k2 + 2, j, i2 + 2]
-                    - tt[4, k2 + 2, j, i2 - 2]
-                    - tt[4, k2 - 2, j, i2 + 2]
-                    + tt[4, k2 - 2, j, i2 - 2]
-                ) / 16.0
-                eq += 2.0 * (a - b) / (hx * hz)
-            if ok_y and ok_z:
-                a = (
-                    tt[5, k2 + 1, j2 + 1, i]
-                    - tt[5, k2 + 1, j2 - 1, i]
-                    - tt[5, k2 - 1, j2 + 1, i]
-                    + tt[5, k2 - 1, j2 - 1, i]
-                ) / 4.0
-                b = (
-                    tt[5, k2 + 2, j2 + 2, i]
-                    - tt[5, k2 + 2, j2 - 2, i]
-                    - tt[5, k2 - 2, j2 + 2, i]
-                    + tt[5, k2 - 2, j2 - 2, i]
-                ) / 16.0
-                eq += 2.0 * (a - b) / (hy * hz)
-            err[0, j, i] = em
-            err[1, j, i] = ed
-            err[2, j, i] = abs(eq) / 3.0
+        if block and j == 2:
+            _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, ny - 4, err)
+            j = ny - 2
+            continue
+        if rows and not (rowbad[k, j] or rowbad[k, j2 - 2] or rowbad[k, j2 + 2]
+                         or rowbad[k2 - 2, j] or rowbad[k2 + 2, j]):  # fmt: skip
+            _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, 1, err)
+        else:
+            for i in range(nx):
+                _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, i,
+                             err)  # fmt: skip
+        j += 1
+
+
+@numba.njit(**_NJIT)
+def _rows_with_nodata(bad):  # type: ignore[no-untyped-def]
+    """``(nz, ny)``: whether row ``bad[k, j]`` holds a no-data point."""
+    nz, ny, nx = bad.shape
+    out = np.zeros((nz, ny), dtype=np.bool_)
+    for k in range(nz):
+        for j in range(ny):
+            for i in range(nx):
+                if bad[k, j, i]:
+                    out[k, j] = True
+                    break
+    return out
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -480,9 +670,12 @@ def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err)
     """Discretisation-error estimates ``err (3, nz, ny, nx)`` of the strengths ``s``,
     plane by plane (see :func:`_error_plane`); :func:`floor_strengths` uses the
     same planes without this array."""
+    rowbad = _rows_with_nodata(bad)
     for kp in numba.prange(s.shape[1]):
         k = np.int64(kp)
-        _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, err[:, k])
+        plane = np.empty(err.shape[:1] + err.shape[2:])
+        _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, plane)
+        err[:, k] = plane
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -590,37 +783,38 @@ def apply_floor(s, err, factor, roundoff, work=None):  # type: ignore[no-untyped
     return work
 
 
+@numba.njit(inline="always", **_NJIT)
+def _up(e: float, x: float) -> float:
+    """``x`` if it is larger than ``e``, else ``e`` (a NaN ``x`` never is)."""
+    return x if x > e else e
+
+
 @numba.njit(**_NJIT)
 def _max_x(plane, out):  # type: ignore[no-untyped-def]
     """``out[c, j, i]`` = the largest of ``plane[c, j, i-1..i+1]`` (clipped at the faces), 0 at
-    least (NaN ignored, as ``max(e, x)`` from 0)."""
+    least (NaN ignored, as ``max(e, x)`` from 0).  The inner points in one loop along a
+    row (vector instructions), the two end points apart."""
     nc, ny, nx = plane.shape
     for c in range(nc):
         for j in range(ny):
-            for i in range(nx):
+            row, o = plane[c, j], out[c, j, 1:]
+            for i in range(nx - 2):
+                o[i] = _up(_up(_up(0.0, row[i]), row[i + 1]), row[i + 2])
+            for i in (0, nx - 1):
                 i0, i1 = _lohi(i, nx)
-                e = 0.0
-                for ii in range(i0, i1 + 1):
-                    x = plane[c, j, ii]
-                    if x > e:
-                        e = x
-                out[c, j, i] = e
+                out[c, j, i] = _up(_up(0.0, row[i0]), row[i1])
 
 
 @numba.njit(**_NJIT)
 def _max_y(plane, out):  # type: ignore[no-untyped-def]
-    """As :func:`_max_x`, along y (the middle axis)."""
+    """As :func:`_max_x`, along y (the middle axis), a row at a time."""
     nc, ny, nx = plane.shape
     for c in range(nc):
         for j in range(ny):
             j0, j1 = _lohi(j, ny)
+            ra, rb, rc, o = plane[c, j0], plane[c, j], plane[c, j1], out[c, j]
             for i in range(nx):
-                e = 0.0
-                for jj in range(j0, j1 + 1):
-                    x = plane[c, jj, i]
-                    if x > e:
-                        e = x
-                out[c, j, i] = e
+                o[i] = _up(_up(_up(0.0, ra[i]), rb[i]), rc[i])
 
 
 @numba.njit(**_NJIT)
@@ -628,37 +822,29 @@ def _floor_plane(s, near, k, factor, roundoff):  # type: ignore[no-untyped-def]
     """Zero the strengths ``s[:, k]`` not above ``roundoff (3,)`` or ``factor`` times the largest
     error estimate around them; ``near (3, 3, ny, nx)`` holds the estimates of planes
     k-1, k, k+1 (slot ``plane % 3``), each already the largest over the 3 × 3 points
-    around in x and y (see :func:`apply_floor`)."""
-    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    around in x and y (see :func:`apply_floor`).  A row at a time; a strength that
+    stays is written back as it was."""
+    nz, ny = s.shape[1], s.shape[2]
     k0, k1 = _lohi(k, nz)
     for c in range(3):
         lim = roundoff[c]
         for j in range(ny):
-            for i in range(nx):
-                a = abs(s[c, k, j, i])
-                if a == 0.0:
-                    continue
-                if a <= lim:
-                    s[c, k, j, i] = 0.0
-                    continue
-                e = 0.0
-                for kk in range(k0, k1 + 1):
-                    x = near[kk % 3, c, j, i]
-                    if x > e:
-                        e = x
-                if a <= factor * e:
-                    s[c, k, j, i] = 0.0
+            row = s[c, k, j]
+            ea, eb, ec = near[k0 % 3, c, j], near[k % 3, c, j], near[k1 % 3, c, j]
+            for i in range(row.size):
+                x = row[i]
+                a = abs(x)
+                e = _up(_up(_up(0.0, ea[i]), eb[i]), ec[i])
+                row[i] = 0.0 if a != 0.0 and (a <= lim or a <= factor * e) else x
 
 
 @numba.njit(**_NJIT)
-def _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, out):  # type: ignore[no-untyped-def]
+def _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, out, work):  # type: ignore[no-untyped-def]
     """Error estimates of plane ``k`` (:func:`_error_plane`), each the largest over the
-    3 × 3 points around it in x and y, into ``out (3, ny, nx)``."""
-    err = np.empty_like(out)
-    _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, err)
-    _max_x(err, out)
-    _max_y(out, err)
-    out[...] = err
+    3 × 3 points around it in x and y, into ``out (3, ny, nx)`` (``work``: scratch like it)."""
+    _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, out)
+    _max_x(out, work)
+    _max_y(work, out)
 
 
 def floor_strengths(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h, factor, roundoff):  # type: ignore[no-untyped-def]
@@ -667,7 +853,7 @@ def floor_strengths(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h, fac
 
     A strength (paper 003 §3.2.3, Eqs. 13, 14) is zeroed when it is not above
     ``roundoff[c]`` or not above ``factor`` times the largest Richardson error
-    estimate (:func:`_error_plane`) of the 27 points around it.  Arguments as
+    estimate (:func:`_error_point`) of the 27 points around it.  Arguments as
     :func:`_error_stencil`.  The planes are split into one block per thread;
     a block sweeps its planes keeping the estimates of three (maximised over
     x and y) and floors plane k once plane k+1's are known.  The estimates of
@@ -688,32 +874,33 @@ def _floor_sweep(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h, floor,
     factor, roundoff = floor
     nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
     n_blocks = edges.size - 1
+    rowbad = _rows_with_nodata(bad)
     # estimates of the plane below (0) and above (1) each block
     outside = np.zeros((n_blocks, 2, 3, ny, nx))
     for bp in numba.prange(n_blocks):
         b = np.int64(bp)
-        lo, hi = edges[b], edges[b + 1]
-        if lo > 0:
-            _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, lo - 1,
-                        outside[b, 0])  # fmt: skip
-        if hi < nz:
-            _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, hi,
-                        outside[b, 1])  # fmt: skip
+        work = np.empty((3, ny, nx))
+        for side in range(2):
+            k = edges[b] - 1 if side == 0 else edges[b + 1]
+            if 0 <= k < nz:
+                _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k,
+                            outside[b, side], work)  # fmt: skip
     for bp in numba.prange(n_blocks):
         b = np.int64(bp)
         lo, hi = edges[b], edges[b + 1]
         near = np.empty((3, 3, ny, nx))  # planes k-1, k, k+1 at slots plane % 3
+        work = np.empty((3, ny, nx))
         if lo > 0:
             near[(lo - 1) % 3] = outside[b, 0]
-        _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, lo,
-                    near[lo % 3])  # fmt: skip
-        for k in range(lo, hi):
-            if k + 1 < hi:
-                _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k + 1,
-                            near[(k + 1) % 3])  # fmt: skip
-            elif k + 1 < nz:
-                near[(k + 1) % 3] = outside[b, 1]
-            _floor_plane(s, near, k, factor, roundoff)
+        # the estimates of plane k, then the floor of plane k - 1
+        for k in range(lo, hi + 1):
+            if k < hi:
+                _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k,
+                            near[k % 3], work)  # fmt: skip
+            elif k < nz:
+                near[k % 3] = outside[b, 1]
+            if k > lo:
+                _floor_plane(s, near, k - 1, factor, roundoff)
 
 
 @numba.njit(parallel=True, **_NJIT)
