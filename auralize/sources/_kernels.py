@@ -54,30 +54,257 @@ def _inner(i: int, n: int) -> int:
     return i
 
 
-@numba.njit(parallel=True, **_NJIT)
-def prepare_render(rho_a, rho_b, m_a, m_b, rho_c, v_c, dm, tt):  # type: ignore[no-untyped-def]
-    """Planar momentum change dm (3, ...) and Lighthill stress tt (6, ...) = ρ v_i v_j.
+@numba.njit(**_NJIT)
+def _momentum_plane(rho_a, v_a, rho_b, v_b, dm, o):  # type: ignore[no-untyped-def]
+    """``dm[:, o]`` = ``ρ_b v_b − ρ_a v_a`` of one plane's densities ``(ny, nx)`` and
+    velocities ``(ny, nx, 3)``."""
+    m = rho_a.size
+    ra, rb = rho_a.reshape(m), rho_b.reshape(m)
+    fa, fb = v_a.reshape(3 * m), v_b.reshape(3 * m)
+    dx, dy, dz = dm[0, o].reshape(m), dm[1, o].reshape(m), dm[2, o].reshape(m)
+    for p in range(m):
+        dx[p] = rb[p] * fb[3 * p] - ra[p] * fa[3 * p]
+        dy[p] = rb[p] * fb[3 * p + 1] - ra[p] * fa[3 * p + 1]
+        dz[p] = rb[p] * fb[3 * p + 2] - ra[p] * fa[3 * p + 2]
 
-    Order of tt: xx, yy, zz, xy, xz, yz (paper 003 Eq. 11).
-    """
-    nz, ny, nx = rho_c.shape
-    for kp in numba.prange(nz):
+
+@numba.njit(parallel=True, **_NJIT)
+def momentum_change(rho_a, v_a, rho_b, v_b, dm):  # type: ignore[no-untyped-def]
+    """Planar momentum change ``dm (3, nz, ny, nx)`` = ``ρ_b v_b − ρ_a v_a`` of densities
+    ``(nz, ny, nx)`` and velocities ``(nz, ny, nx, 3)`` (the time difference of the mass
+    flux in the dipole strength, paper 003 Eq. 13), the momenta not made: the same
+    numbers as ``m_b - m_a`` of ``m = rho[..., None] * v``."""
+    for kp in numba.prange(dm.shape[1]):
         k = np.int64(kp)
+        _momentum_plane(rho_a[k], v_a[k], rho_b[k], v_b[k], dm, k)
+
+
+@numba.njit(**_NJIT)
+def _stress_plane(rho, v, tt, o):  # type: ignore[no-untyped-def]
+    """``tt[:, o]`` = ρ v_i v_j (xx, yy, zz, xy, xz, yz) of one plane ``(ny, nx)``."""
+    m = rho.size
+    r, f = rho.reshape(m), v.reshape(3 * m)
+    txx, tyy, tzz = tt[0, o].reshape(m), tt[1, o].reshape(m), tt[2, o].reshape(m)
+    txy, txz, tyz = tt[3, o].reshape(m), tt[4, o].reshape(m), tt[5, o].reshape(m)
+    for p in range(m):
+        rr = r[p]
+        vx, vy, vz = f[3 * p], f[3 * p + 1], f[3 * p + 2]
+        txx[p] = rr * vx * vx
+        tyy[p] = rr * vy * vy
+        tzz[p] = rr * vz * vz
+        txy[p] = rr * vx * vy
+        txz[p] = rr * vx * vz
+        tyz[p] = rr * vy * vz
+
+
+@numba.njit(parallel=True, **_NJIT)
+def stress(rho, v, tt):  # type: ignore[no-untyped-def]
+    """Lighthill stress ``tt (6, nz, ny, nx)`` = ρ v_i v_j (order xx, yy, zz, xy, xz, yz;
+    paper 003 Eq. 11) of ``rho (nz, ny, nx)`` and ``v (nz, ny, nx, 3)``."""
+    for kp in numba.prange(tt.shape[1]):
+        k = np.int64(kp)
+        _stress_plane(rho[k], v[k], tt, k)
+
+
+@numba.njit(**_NJIT)
+def _input_maxima_plane(r, f, out):  # type: ignore[no-untyped-def]
+    """``out (3,)`` = ``(max|ρ|, max|ρv|, max|ρv ∘ v|)`` over a plane's flat ``r (m,)`` and
+    ``f (3 m,)`` (velocities), each at least 0 and NaN if any value is."""
+    a = 0.0
+    b = 0.0
+    c = 0.0
+    for p in range(r.size):
+        x = abs(r[p])
+        if x > a or x != x:
+            a = x
+        for q in range(3):
+            mq = r[p] * f[3 * p + q]
+            y = abs(mq)
+            if y > b or y != y:
+                b = y
+            z = abs(mq * f[3 * p + q])
+            if z > c or z != z:
+                c = z
+    out[0] = a
+    out[1] = b
+    out[2] = c
+
+
+@numba.njit(inline="always", **_NJIT)
+def _strength_point(rho_a, rho_b, dm, tt, inv_dt, h, k, j, i, out, o):  # type: ignore[no-untyped-def]
+    """The strengths of point ``(k, j, i)`` into ``out[:, o, j, i]`` (see :func:`strengths`;
+    planes as :func:`_strength_plane`)."""
+    nz, ny, nx = rho_a.shape
+    R = dm.shape[1]
+    hx, hy, hz = h[0], h[1], h[2]
+    gx = 1.0 / (hx * hx) if nx >= 3 else 0.0
+    gy = 1.0 / (hy * hy) if ny >= 3 else 0.0
+    gz = 1.0 / (hz * hz) if nz >= 3 else 0.0
+    k0, k1 = _lohi(k, nz)
+    kc = _inner(k, nz)
+    fz = 1.0 / ((k1 - k0) * hz) if k1 > k0 else 0.0
+    q, q0, q1 = k % R, k0 % R, k1 % R
+    qm, qc, qp = (kc - 1) % R, kc % R, (kc + 1) % R
+    j0, j1 = _lohi(j, ny)
+    jc = _inner(j, ny)
+    fy = 1.0 / ((j1 - j0) * hy) if j1 > j0 else 0.0
+    i0, i1 = _lohi(i, nx)
+    ic = _inner(i, nx)
+    fx = 1.0 / ((i1 - i0) * hx) if i1 > i0 else 0.0
+    out[0, o, j, i] = (rho_b[k, j, i] - rho_a[k, j, i]) * inv_dt
+    div = (
+        (dm[0, q, j, i1] - dm[0, q, j, i0]) * fx
+        + (dm[1, q, j1, i] - dm[1, q, j0, i]) * fy
+        + (dm[2, q1, j, i] - dm[2, q0, j, i]) * fz
+    )
+    out[1, o, j, i] = div * inv_dt
+    # diagonal terms: 3-point second differences (stencil kept inside)
+    s = 0.0
+    if nx >= 3:
+        s += (tt[0, q, j, ic + 1] - 2.0 * tt[0, q, j, ic] + tt[0, q, j, ic - 1]) * gx
+    if ny >= 3:
+        s += (tt[1, q, jc + 1, i] - 2.0 * tt[1, q, jc, i] + tt[1, q, jc - 1, i]) * gy
+    if nz >= 3:
+        s += (tt[2, qp, j, i] - 2.0 * tt[2, qc, j, i] + tt[2, qm, j, i]) * gz
+    # off-diagonal terms, each twice (T_ij = T_ji); zero factors on flat axes
+    s += (2.0 * fx * fy) * (
+        tt[3, q, j1, i1] - tt[3, q, j1, i0] - tt[3, q, j0, i1] + tt[3, q, j0, i0]
+    )
+    s += (2.0 * fx * fz) * (
+        tt[4, q1, j, i1] - tt[4, q1, j, i0] - tt[4, q0, j, i1] + tt[4, q0, j, i0]
+    )
+    s += (2.0 * fy * fz) * (
+        tt[5, q1, j1, i] - tt[5, q1, j0, i] - tt[5, q0, j1, i] + tt[5, q0, j0, i]
+    )
+    out[2, o, j, i] = s
+
+
+@numba.njit(**_NJIT)
+def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: ignore[no-untyped-def]
+    """:func:`_strength_point` at every point of the ``r`` rows from ``j`` on of plane ``k``
+    (``nx`` >= 3; ``r`` is 1 or the rows are all inner, 1 .. ny-2).
+
+    The same operations in the same order, point by point, grouped as in
+    :func:`_error_rows`: loops over the rows as one flat run, which the
+    compiler turns into vector instructions.  A term with an x difference is
+    taken along the run at x = 1 .. nx-2 (wrong at each end of a row, which
+    reads the next row), then at x = 0 and nx-1: copied from the next point
+    in for the second difference (its stencil is kept inside, :func:`_inner`),
+    one-sided for the first differences.  The monopole strength's row holds
+    the mixed x terms until it is written last.
+    """
+    nz, ny, nx = rho_a.shape
+    hx, hy, hz = h[0], h[1], h[2]
+    gx = 1.0 / (hx * hx)
+    gy = 1.0 / (hy * hy) if ny >= 3 else 0.0
+    gz = 1.0 / (hz * hz) if nz >= 3 else 0.0
+    k0, k1 = _lohi(k, nz)
+    kc = _inner(k, nz)
+    fz = 1.0 / ((k1 - k0) * hz) if k1 > k0 else 0.0
+    j0, j1 = _lohi(j, ny)
+    jc = _inner(j, ny)
+    fy = 1.0 / ((j1 - j0) * hy) if j1 > j0 else 0.0
+    fx, fx1 = 1.0 / (2 * hx), 1.0 / (1 * hx)  # inside, at the faces
+    m = ny * nx
+    p0 = j * nx  # flat index of the first point
+    n = r * nx
+
+    def run(a, kk, d):  # type: ignore[no-untyped-def]
+        """The run of plane ``kk`` (at slot ``kk % R``) of ``a (R, ny, nx)``, offset by ``d``
+        points."""
+        return a[kk % a.shape[0]].reshape(m)[p0 + d : p0 + d + n]
+
+    sm, sd, sq = run(out[0], o, 0), run(out[1], o, 0), run(out[2], o, 0)
+    # dipole: x first (in sd), one-sided at the faces
+    xd = run(dm[0], k, 0)
+    for i in range(1, n - 1):
+        sd[i] = (xd[i + 1] - xd[i - 1]) * fx
+    for q in range(r):
+        e = q * nx
+        sd[e] = (xd[e + 1] - xd[e]) * fx1
+        sd[e + nx - 1] = (xd[e + nx - 1] - xd[e + nx - 2]) * fx1
+    ym, yp = run(dm[1], k, (j0 - j) * nx), run(dm[1], k, (j1 - j) * nx)
+    zm, zp = run(dm[2], k0, 0), run(dm[2], k1, 0)
+    for i in range(n):
+        sd[i] = (sd[i] + (yp[i] - ym[i]) * fy + (zp[i] - zm[i]) * fz) * inv_dt
+    # quadrupole: second differences, x first (kept inside: the face copies the next in)
+    xt = run(tt[0], k, 0)
+    for i in range(1, n - 1):
+        s = 0.0
+        s += (xt[i + 1] - 2.0 * xt[i] + xt[i - 1]) * gx
+        sq[i] = s
+    for q in range(r):
+        e = q * nx
+        sq[e] = sq[e + 1]
+        sq[e + nx - 1] = sq[e + nx - 2]
+    if ny >= 3:
+        dy = (jc - j) * nx
+        ym, yc, yp = run(tt[1], k, dy - nx), run(tt[1], k, dy), run(tt[1], k, dy + nx)
+        for i in range(n):
+            sq[i] += (yp[i] - 2.0 * yc[i] + ym[i]) * gy
+    if nz >= 3:
+        zm, zc, zp = run(tt[2], kc - 1, 0), run(tt[2], kc, 0), run(tt[2], kc + 1, 0)
+        for i in range(n):
+            sq[i] += (zp[i] - 2.0 * zc[i] + zm[i]) * gz
+    # mixed xy and xz (each in sm first), one-sided at the faces
+    for c in range(2):
+        if c == 0:
+            xp, xm = run(tt[3], k, (j1 - j) * nx), run(tt[3], k, (j0 - j) * nx)
+            f2 = fy
+        else:
+            xp, xm = run(tt[4], k1, 0), run(tt[4], k0, 0)
+            f2 = fz
+        for i in range(1, n - 1):
+            sm[i] = (2.0 * fx * f2) * (xp[i + 1] - xp[i - 1] - xm[i + 1] + xm[i - 1])
+        for q in range(r):
+            e = q * nx
+            sm[e] = (2.0 * fx1 * f2) * (xp[e + 1] - xp[e] - xm[e + 1] + xm[e])
+            g = e + nx - 1
+            sm[g] = (2.0 * fx1 * f2) * (xp[g] - xp[g - 1] - xm[g] + xm[g - 1])
+        for i in range(n):
+            sq[i] += sm[i]
+    # mixed yz
+    pp, pm = run(tt[5], k1, (j1 - j) * nx), run(tt[5], k1, (j0 - j) * nx)
+    mp, mm = run(tt[5], k0, (j1 - j) * nx), run(tt[5], k0, (j0 - j) * nx)
+    for i in range(n):
+        sq[i] += (2.0 * fy * fz) * (pp[i] - pm[i] - mp[i] + mm[i])
+    # monopole
+    ra, rb = run(rho_a, k, 0), run(rho_b, k, 0)
+    for i in range(n):
+        sm[i] = (rb[i] - ra[i]) * inv_dt
+
+
+@numba.njit(**_NJIT)
+def _strength_plane(rho_a, rho_b, dm, tt, inv_dt, h, k, out, o):  # type: ignore[no-untyped-def]
+    """The strengths of plane ``k`` into ``out[:, o]`` (see :func:`strengths`):
+    :func:`_strength_rows` (its inner rows at once), or :func:`_strength_point` at each
+    point of a grid of fewer than 3 points along x.
+
+    ``rho_a, rho_b (nz, ny, nx)``; ``dm (3, R, ny, nx)`` and ``tt (6, R, ny, nx)`` hold
+    planes at slots ``plane % R``: every plane (R = nz) or the last R of a sweep.
+    """
+    ny, nx = rho_a.shape[1], rho_a.shape[2]
+    if nx < 3:
         for j in range(ny):
             for i in range(nx):
-                for c in range(3):
-                    dm[c, k, j, i] = m_b[k, j, i, c] - m_a[k, j, i, c]
-                r = rho_c[k, j, i]
-                vx, vy, vz = v_c[k, j, i, 0], v_c[k, j, i, 1], v_c[k, j, i, 2]
-                tt[0, k, j, i] = r * vx * vx
-                tt[1, k, j, i] = r * vy * vy
-                tt[2, k, j, i] = r * vz * vz
-                tt[3, k, j, i] = r * vx * vy
-                tt[4, k, j, i] = r * vx * vz
-                tt[5, k, j, i] = r * vy * vz
+                _strength_point(rho_a, rho_b, dm, tt, inv_dt, h, k, j, i, out, o)
+        return
+    _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, 0, 1, out, o)
+    if ny > 2:
+        _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, 1, ny - 2, out, o)
+    if ny > 1:
+        _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, ny - 1, 1, out, o)
 
 
-def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None):  # type: ignore[no-untyped-def]
+@numba.njit(parallel=True, **_NJIT)
+def _stencil(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-def]
+    """Finite-difference stencils on planar arrays (see :func:`strengths`)."""
+    for kp in numba.prange(rho_a.shape[0]):
+        k = np.int64(kp)
+        _strength_plane(rho_a, rho_b, dm, tt, inv_dt, h, k, out, k)
+
+
+def strengths(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-def]
     """Monopole, dipole and quadrupole strengths at every vertex of one step.
 
     Paper 003 §3.2.3: ``S_m = ∂ρ/∂t``, ``S_d = ∂/∂x_i (∂(ρ v_i)/∂t)`` (Eq. 13),
@@ -86,83 +313,13 @@ def strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, h, out, work=None):  #
     Parameters
     ----------
     rho_a, rho_b : (nz, ny, nx) densities at the earlier and later step.
-    m_a, m_b : (nz, ny, nx, 3) momenta ρv at the earlier and later step.
+    dm : (3, nz, ny, nx) their momentum change (:func:`momentum_change`).
+    tt : (6, nz, ny, nx) the stress at the step itself (:func:`stress`).
     inv_dt : 1 / (t_b - t_a).
-    rho_c, v_c : density and velocity at the step itself (for S_q).
     h : (3,) spacing (x, y, z).
     out : (3, nz, ny, nx) result, written in place.
-    work : optional (9, nz, ny, nx) scratch array, reused between calls.
-
-    Returns the scratch array.
     """
-    shape = rho_c.shape
-    if work is None or work.shape != (9, *shape):
-        work = np.empty((9, *shape))
-    prepare_render(rho_a, rho_b, m_a, m_b, rho_c, v_c, work[:3], work[3:])
-    _stencil(rho_a, rho_b, work[:3], work[3:], inv_dt, np.asarray(h, dtype=np.float64), out)
-    return work
-
-
-@numba.njit(parallel=True, **_NJIT)
-def momentum_change(m_a, m_b, dm):  # type: ignore[no-untyped-def]
-    """Planar momentum change ``dm (3, nz, ny, nx)`` = ``m_b - m_a`` of two ``(nz, ny, nx, 3)``
-    momenta (as :func:`prepare_render`'s; the 2Δt one of the floor, paper 003 Eq. 13)."""
-    nz, ny, nx = dm.shape[1], dm.shape[2], dm.shape[3]
-    for kp in numba.prange(nz):
-        k = np.int64(kp)
-        for j in range(ny):
-            for i in range(nx):
-                for c in range(3):
-                    dm[c, k, j, i] = m_b[k, j, i, c] - m_a[k, j, i, c]
-
-
-@numba.njit(parallel=True, **_NJIT)
-def _stencil(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-def]
-    """Finite-difference stencils on planar arrays (see :func:`strengths`)."""
-    nz, ny, nx = rho_a.shape
-    hx, hy, hz = h[0], h[1], h[2]
-    gx = 1.0 / (hx * hx) if nx >= 3 else 0.0
-    gy = 1.0 / (hy * hy) if ny >= 3 else 0.0
-    gz = 1.0 / (hz * hz) if nz >= 3 else 0.0
-    for kp in numba.prange(nz):
-        k = np.int64(kp)
-        k0, k1 = _lohi(k, nz)
-        kc = _inner(k, nz)
-        fz = 1.0 / ((k1 - k0) * hz) if k1 > k0 else 0.0
-        for j in range(ny):
-            j0, j1 = _lohi(j, ny)
-            jc = _inner(j, ny)
-            fy = 1.0 / ((j1 - j0) * hy) if j1 > j0 else 0.0
-            for i in range(nx):
-                i0, i1 = _lohi(i, nx)
-                ic = _inner(i, nx)
-                fx = 1.0 / ((i1 - i0) * hx) if i1 > i0 else 0.0
-                out[0, k, j, i] = (rho_b[k, j, i] - rho_a[k, j, i]) * inv_dt
-                div = (
-                    (dm[0, k, j, i1] - dm[0, k, j, i0]) * fx
-                    + (dm[1, k, j1, i] - dm[1, k, j0, i]) * fy
-                    + (dm[2, k1, j, i] - dm[2, k0, j, i]) * fz
-                )
-                out[1, k, j, i] = div * inv_dt
-                # diagonal terms: 3-point second differences (stencil kept inside)
-                q = 0.0
-                if nx >= 3:
-                    q += (tt[0, k, j, ic + 1] - 2.0 * tt[0, k, j, ic] + tt[0, k, j, ic - 1]) * gx
-                if ny >= 3:
-                    q += (tt[1, k, jc + 1, i] - 2.0 * tt[1, k, jc, i] + tt[1, k, jc - 1, i]) * gy
-                if nz >= 3:
-                    q += (tt[2, kc + 1, j, i] - 2.0 * tt[2, kc, j, i] + tt[2, kc - 1, j, i]) * gz
-                # off-diagonal terms, each twice (T_ij = T_ji); zero factors on flat axes
-                q += (2.0 * fx * fy) * (
-                    tt[3, k, j1, i1] - tt[3, k, j1, i0] - tt[3, k, j0, i1] + tt[3, k, j0, i0]
-                )
-                q += (2.0 * fx * fz) * (
-                    tt[4, k1, j, i1] - tt[4, k1, j, i0] - tt[4, k0, j, i1] + tt[4, k0, j, i0]
-                )
-                q += (2.0 * fy * fz) * (
-                    tt[5, k1, j1, i] - tt[5, k1, j0, i] - tt[5, k0, j1, i] + tt[5, k0, j0, i]
-                )
-                out[2, k, j, i] = q
+    _stencil(rho_a, rho_b, dm, tt, inv_dt, np.asarray(h, dtype=np.float64), out)
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -272,6 +429,42 @@ def _any_bad_cross(bad, k, j, i, k0, k1, j0, j1, i0, i1):  # type: ignore[no-unt
             or bad[k0, j, i] or bad[k1, j, i])  # fmt: skip
 
 
+@numba.njit(**_NJIT)
+def _mask_plane(bad, k, out, o):  # type: ignore[no-untyped-def]
+    """:func:`mask_nodata` of plane ``k``, whose strengths are ``out[:, o]``."""
+    nz, ny, nx = bad.shape
+    k0, k1 = _lohi(k, nz)
+    kc = _inner(k, nz)
+    for j in range(ny):
+        j0, j1 = _lohi(j, ny)
+        jc = _inner(j, ny)
+        for i in range(nx):
+            i0, i1 = _lohi(i, nx)
+            ic = _inner(i, nx)
+            if bad[k, j, i]:
+                out[0, o, j, i] = 0.0
+                out[1, o, j, i] = 0.0
+                out[2, o, j, i] = 0.0
+                continue
+            if _any_bad_cross(bad, k, j, i, k0, k1, j0, j1, i0, i1):
+                out[1, o, j, i] = 0.0
+                out[2, o, j, i] = 0.0
+                continue
+            q_bad = False
+            if nx >= 3:
+                q_bad = q_bad or bad[k, j, ic - 1] or bad[k, j, ic] or bad[k, j, ic + 1]
+            if ny >= 3:
+                q_bad = q_bad or bad[k, jc - 1, i] or bad[k, jc, i] or bad[k, jc + 1, i]
+            if nz >= 3:
+                q_bad = q_bad or bad[kc - 1, j, i] or bad[kc, j, i] or bad[kc + 1, j, i]
+            q_bad = (q_bad or bad[k, j0, i0] or bad[k, j0, i1] or bad[k, j1, i0]
+                     or bad[k, j1, i1] or bad[k0, j, i0] or bad[k0, j, i1]
+                     or bad[k1, j, i0] or bad[k1, j, i1] or bad[k0, j0, i]
+                     or bad[k0, j1, i] or bad[k1, j0, i] or bad[k1, j1, i])  # fmt: skip
+            if q_bad:
+                out[2, o, j, i] = 0.0
+
+
 @numba.njit(parallel=True, **_NJIT)
 def mask_nodata(bad, out):  # type: ignore[no-untyped-def]
     """Zero the strengths ``out (3, nz, ny, nx)`` whose stencil reads a no-data point.
@@ -281,39 +474,9 @@ def mask_nodata(bad, out):  # type: ignore[no-untyped-def]
     neighbours (one-sided at grid faces: itself), the quadrupole strength
     every point its second and mixed differences read (see :func:`_stencil`).
     """
-    nz, ny, nx = bad.shape
-    for kp in numba.prange(nz):
+    for kp in numba.prange(bad.shape[0]):
         k = np.int64(kp)
-        k0, k1 = _lohi(k, nz)
-        kc = _inner(k, nz)
-        for j in range(ny):
-            j0, j1 = _lohi(j, ny)
-            jc = _inner(j, ny)
-            for i in range(nx):
-                i0, i1 = _lohi(i, nx)
-                ic = _inner(i, nx)
-                if bad[k, j, i]:
-                    out[0, k, j, i] = 0.0
-                    out[1, k, j, i] = 0.0
-                    out[2, k, j, i] = 0.0
-                    continue
-                if _any_bad_cross(bad, k, j, i, k0, k1, j0, j1, i0, i1):
-                    out[1, k, j, i] = 0.0
-                    out[2, k, j, i] = 0.0
-                    continue
-                q_bad = False
-                if nx >= 3:
-                    q_bad = q_bad or bad[k, j, ic - 1] or bad[k, j, ic] or bad[k, j, ic + 1]
-                if ny >= 3:
-                    q_bad = q_bad or bad[k, jc - 1, i] or bad[k, jc, i] or bad[k, jc + 1, i]
-                if nz >= 3:
-                    q_bad = q_bad or bad[kc - 1, j, i] or bad[kc, j, i] or bad[kc + 1, j, i]
-                q_bad = (q_bad or bad[k, j0, i0] or bad[k, j0, i1] or bad[k, j1, i0]
-                         or bad[k, j1, i1] or bad[k0, j, i0] or bad[k0, j, i1]
-                         or bad[k1, j, i0] or bad[k1, j, i1] or bad[k0, j0, i]
-                         or bad[k0, j1, i] or bad[k1, j0, i] or bad[k1, j1, i])  # fmt: skip
-                if q_bad:
-                    out[2, k, j, i] = 0.0
+        _mask_plane(bad, k, out, k)
 
 
 def quadrupole_of_stress(tt, h):  # type: ignore[no-untyped-def]
@@ -365,9 +528,13 @@ def _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, 
     ``dm2`` the momentum changes ``(3, nz, ny, nx)`` over the Δt and 2Δt
     stencils; ``tt (6, nz, ny, nx)`` the stress the quadrupole strength was
     taken of (steady state removed); ``inv_dt``, ``inv_dt2`` the inverse
-    time spans (``inv_dt2`` 0: no 2Δt stencil); ``h (3,)`` the spacing.
+    time spans (``inv_dt2`` 0: no 2Δt stencil); ``h (3,)`` the spacing.  ``dm``,
+    ``dm2``, ``tt`` and ``s`` hold planes at slots ``plane % R`` (R their second
+    axis: every plane, or the last R of a sweep); ``rho_a2``, ``rho_b2`` and
+    ``bad (nz, ny, nx)`` every plane.
     """
-    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    nz, ny, nx = bad.shape
+    R = dm.shape[1]
     hx, hy, hz = h[0], h[1], h[2]
     wide_t = inv_dt2 > 0.0
     k2, j2, i2 = _inner2(k, nz), _inner2(j, ny), _inner2(i, nx)
@@ -376,10 +543,13 @@ def _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, 
         err[1, j, i] = 0.0
         err[2, j, i] = 0.0
         return
+    q = k % R  # slots of the planes read
+    qm2, qm1, qc = (k2 - 2) % R, (k2 - 1) % R, k2 % R
+    qp1, qp2 = (k2 + 1) % R, (k2 + 2) % R
     # monopole: time stencil over 2Δt
     em = 0.0
     if wide_t:
-        em = abs(s[0, k, j, i] - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
+        em = abs(s[0, q, j, i] - (rho_b2[k, j, i] - rho_a2[k, j, i]) * inv_dt2) / 3.0
     # dipole: divergence over 2h (space), and over 2Δt (time)
     ed = 0.0
     ok_x = i2 >= 0 and not (bad[k, j, i2 - 2] or bad[k, j, i2 + 2])
@@ -388,14 +558,14 @@ def _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, 
     div2 = 0.0
     div1 = 0.0
     if ok_x:
-        div2 += (dm[0, k, j, i2 + 2] - dm[0, k, j, i2 - 2]) / (4.0 * hx)
-        div1 += (dm[0, k, j, i2 + 1] - dm[0, k, j, i2 - 1]) / (2.0 * hx)
+        div2 += (dm[0, q, j, i2 + 2] - dm[0, q, j, i2 - 2]) / (4.0 * hx)
+        div1 += (dm[0, q, j, i2 + 1] - dm[0, q, j, i2 - 1]) / (2.0 * hx)
     if ok_y:
-        div2 += (dm[1, k, j2 + 2, i] - dm[1, k, j2 - 2, i]) / (4.0 * hy)
-        div1 += (dm[1, k, j2 + 1, i] - dm[1, k, j2 - 1, i]) / (2.0 * hy)
+        div2 += (dm[1, q, j2 + 2, i] - dm[1, q, j2 - 2, i]) / (4.0 * hy)
+        div1 += (dm[1, q, j2 + 1, i] - dm[1, q, j2 - 1, i]) / (2.0 * hy)
     if ok_z:
-        div2 += (dm[2, k2 + 2, j, i] - dm[2, k2 - 2, j, i]) / (4.0 * hz)
-        div1 += (dm[2, k2 + 1, j, i] - dm[2, k2 - 1, j, i]) / (2.0 * hz)
+        div2 += (dm[2, qp2, j, i] - dm[2, qm2, j, i]) / (4.0 * hz)
+        div1 += (dm[2, qp1, j, i] - dm[2, qm1, j, i]) / (2.0 * hz)
     ed = abs(div1 - div2) * inv_dt / 3.0
     if wide_t:
         d2 = 0.0
@@ -403,66 +573,66 @@ def _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, 
         j0, j1 = _lohi(j, ny)
         k0, k1 = _lohi(k, nz)
         if i1 > i0:
-            d2 += (dm2[0, k, j, i1] - dm2[0, k, j, i0]) / ((i1 - i0) * hx)
+            d2 += (dm2[0, q, j, i1] - dm2[0, q, j, i0]) / ((i1 - i0) * hx)
         if j1 > j0:
-            d2 += (dm2[1, k, j1, i] - dm2[1, k, j0, i]) / ((j1 - j0) * hy)
+            d2 += (dm2[1, q, j1, i] - dm2[1, q, j0, i]) / ((j1 - j0) * hy)
         if k1 > k0:
-            d2 += (dm2[2, k1, j, i] - dm2[2, k0, j, i]) / ((k1 - k0) * hz)
-        ed += abs(s[1, k, j, i] - d2 * inv_dt2) / 3.0
+            d2 += (dm2[2, k1 % R, j, i] - dm2[2, k0 % R, j, i]) / ((k1 - k0) * hz)
+        ed += abs(s[1, q, j, i] - d2 * inv_dt2) / 3.0
     # quadrupole: second differences over 2h, mixed ones as products of 2h differences
     eq = 0.0
     if ok_x:
-        a = tt[0, k, j, i2 + 1] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 1]
-        b = 0.25 * (tt[0, k, j, i2 + 2] - 2.0 * tt[0, k, j, i2] + tt[0, k, j, i2 - 2])
+        a = tt[0, q, j, i2 + 1] - 2.0 * tt[0, q, j, i2] + tt[0, q, j, i2 - 1]
+        b = 0.25 * (tt[0, q, j, i2 + 2] - 2.0 * tt[0, q, j, i2] + tt[0, q, j, i2 - 2])
         eq += (a - b) / (hx * hx)
     if ok_y:
-        a = tt[1, k, j2 + 1, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 1, i]
-        b = 0.25 * (tt[1, k, j2 + 2, i] - 2.0 * tt[1, k, j2, i] + tt[1, k, j2 - 2, i])
+        a = tt[1, q, j2 + 1, i] - 2.0 * tt[1, q, j2, i] + tt[1, q, j2 - 1, i]
+        b = 0.25 * (tt[1, q, j2 + 2, i] - 2.0 * tt[1, q, j2, i] + tt[1, q, j2 - 2, i])
         eq += (a - b) / (hy * hy)
     if ok_z:
-        a = tt[2, k2 + 1, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 1, j, i]
-        b = 0.25 * (tt[2, k2 + 2, j, i] - 2.0 * tt[2, k2, j, i] + tt[2, k2 - 2, j, i])
+        a = tt[2, qp1, j, i] - 2.0 * tt[2, qc, j, i] + tt[2, qm1, j, i]
+        b = 0.25 * (tt[2, qp2, j, i] - 2.0 * tt[2, qc, j, i] + tt[2, qm2, j, i])
         eq += (a - b) / (hz * hz)
     if ok_x and ok_y:
         a = (
-            tt[3, k, j2 + 1, i2 + 1]
-            - tt[3, k, j2 + 1, i2 - 1]
-            - tt[3, k, j2 - 1, i2 + 1]
-            + tt[3, k, j2 - 1, i2 - 1]
+            tt[3, q, j2 + 1, i2 + 1]
+            - tt[3, q, j2 + 1, i2 - 1]
+            - tt[3, q, j2 - 1, i2 + 1]
+            + tt[3, q, j2 - 1, i2 - 1]
         ) / 4.0
         b = (
-            tt[3, k, j2 + 2, i2 + 2]
-            - tt[3, k, j2 + 2, i2 - 2]
-            - tt[3, k, j2 - 2, i2 + 2]
-            + tt[3, k, j2 - 2, i2 - 2]
+            tt[3, q, j2 + 2, i2 + 2]
+            - tt[3, q, j2 + 2, i2 - 2]
+            - tt[3, q, j2 - 2, i2 + 2]
+            + tt[3, q, j2 - 2, i2 - 2]
         ) / 16.0
         eq += 2.0 * (a - b) / (hx * hy)
     if ok_x and ok_z:
         a = (
-            tt[4, k2 + 1, j, i2 + 1]
-            - tt[4, k2 + 1, j, i2 - 1]
-            - tt[4, k2 - 1, j, i2 + 1]
-            + tt[4, k2 - 1, j, i2 - 1]
+            tt[4, qp1, j, i2 + 1]
+            - tt[4, qp1, j, i2 - 1]
+            - tt[4, qm1, j, i2 + 1]
+            + tt[4, qm1, j, i2 - 1]
         ) / 4.0
         b = (
-            tt[4, k2 + 2, j, i2 + 2]
-            - tt[4, k2 + 2, j, i2 - 2]
-            - tt[4, k2 - 2, j, i2 + 2]
-            + tt[4, k2 - 2, j, i2 - 2]
+            tt[4, qp2, j, i2 + 2]
+            - tt[4, qp2, j, i2 - 2]
+            - tt[4, qm2, j, i2 + 2]
+            + tt[4, qm2, j, i2 - 2]
         ) / 16.0
         eq += 2.0 * (a - b) / (hx * hz)
     if ok_y and ok_z:
         a = (
-            tt[5, k2 + 1, j2 + 1, i]
-            - tt[5, k2 + 1, j2 - 1, i]
-            - tt[5, k2 - 1, j2 + 1, i]
-            + tt[5, k2 - 1, j2 - 1, i]
+            tt[5, qp1, j2 + 1, i]
+            - tt[5, qp1, j2 - 1, i]
+            - tt[5, qm1, j2 + 1, i]
+            + tt[5, qm1, j2 - 1, i]
         ) / 4.0
         b = (
-            tt[5, k2 + 2, j2 + 2, i]
-            - tt[5, k2 + 2, j2 - 2, i]
-            - tt[5, k2 - 2, j2 + 2, i]
-            + tt[5, k2 - 2, j2 - 2, i]
+            tt[5, qp2, j2 + 2, i]
+            - tt[5, qp2, j2 - 2, i]
+            - tt[5, qm2, j2 + 2, i]
+            + tt[5, qm2, j2 - 2, i]
         ) / 16.0
         eq += 2.0 * (a - b) / (hy * hz)
     err[0, j, i] = em
@@ -498,9 +668,9 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
     third (third last), where the stencil is centred (:func:`_inner2`); the
     one-sided x difference of the 2Δt dipole is taken at x = 0 and nx-1 apart.
     The y and z stencils are those of row ``j`` (centred at :func:`_inner2`),
-    the same along the rows.
+    the same along the rows.  Planes as :func:`_error_point`.
     """
-    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    nz, ny, nx = rho_a2.shape
     hx, hy, hz = h[0], h[1], h[2]
     k2, j2 = _inner2(k, nz), _inner2(j, ny)
     k0, k1 = _lohi(k, nz)
@@ -511,8 +681,9 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
     dy = (j2 - j) * nx  # offset of the y stencil's centre row
 
     def run(a, kk, d):  # type: ignore[no-untyped-def]
-        """The run of plane ``kk`` of ``a``, offset by ``d`` points."""
-        return a[kk].reshape(m)[o + d : o + d + n]
+        """The run of plane ``kk`` (at slot ``kk % R``) of ``a (R, ny, nx)``, offset by ``d``
+        points."""
+        return a[kk % a.shape[0]].reshape(m)[o + d : o + d + n]
 
     flat = err.reshape(3, m)
     em, ed, eq = flat[0, o : o + n], flat[1, o : o + n], flat[2, o : o + n]
@@ -629,8 +800,8 @@ def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h
     :func:`_error_rows` over the rows whose stencils all fit and read no no-data point
     (``rowbad (nz, ny)`` tells the rows with one; the inner rows at once when they all
     do), :func:`_error_point` at the points of the other rows.  Only ``s[:, k]`` of the
-    strengths is read."""
-    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
+    strengths is read (planes as :func:`_error_point`)."""
+    nz, ny, nx = bad.shape
     rows = nx >= 5 and ny >= 5 and nz >= 5
     k2 = _inner2(k, nz)
     block = rows and not (rowbad[k].any() or rowbad[k2 - 2].any() or rowbad[k2 + 2].any())
@@ -668,8 +839,8 @@ def _rows_with_nodata(bad):  # type: ignore[no-untyped-def]
 @numba.njit(parallel=True, **_NJIT)
 def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err):  # type: ignore[no-untyped-def]
     """Discretisation-error estimates ``err (3, nz, ny, nx)`` of the strengths ``s``,
-    plane by plane (see :func:`_error_plane`); :func:`floor_strengths` uses the
-    same planes without this array."""
+    plane by plane (see :func:`_error_plane`); :func:`detect_step` takes the same
+    planes as it sweeps, without this array."""
     rowbad = _rows_with_nodata(bad)
     for kp in numba.prange(s.shape[1]):
         k = np.int64(kp)
@@ -726,41 +897,42 @@ def _floor_with(s, mx, factor, roundoff):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _absmax_pair_planes(a, b, out):  # type: ignore[no-untyped-def]
-    n0 = a.shape[0]
-    m = a.size // max(n0, 1)
-    fa = a.reshape(n0, m)
-    fb = b.reshape(n0, m)
-    for kp in numba.prange(n0):
+def _change_planes(r0, v0, r1, v1, out):  # type: ignore[no-untyped-def]
+    nz = r0.shape[0]
+    m = r0.size // max(nz, 1)
+    for kp in numba.prange(nz):
         k = np.int64(kp)
-        ma = 0.0
-        mb = 0.0
-        md = 0.0
-        for q in range(m):
-            x = fa[k, q]
-            y = fb[k, q]
-            if abs(x) > ma:
-                ma = abs(x)
-            if abs(y) > mb:
-                mb = abs(y)
-            if abs(y - x) > md:
-                md = abs(y - x)
-        out[k, 0] = ma
-        out[k, 1] = mb
-        out[k, 2] = md
+        a, b = r0[k].reshape(m), r1[k].reshape(m)
+        fa, fb = v0[k].reshape(3 * m), v1[k].reshape(3 * m)
+        top = np.zeros(6)
+        for p in range(m):
+            x, y = a[p], b[p]
+            if abs(x) > top[0]:
+                top[0] = abs(x)
+            if abs(y) > top[1]:
+                top[1] = abs(y)
+            if abs(y - x) > top[2]:
+                top[2] = abs(y - x)
+            for c in range(3):
+                x, y = a[p] * fa[3 * p + c], b[p] * fb[3 * p + c]
+                if abs(x) > top[3]:
+                    top[3] = abs(x)
+                if abs(y) > top[4]:
+                    top[4] = abs(y)
+                if abs(y - x) > top[5]:
+                    top[5] = abs(y - x)
+        out[k] = top
 
 
-def absmax_pair(a, b):  # type: ignore[no-untyped-def]
-    """``(max|a|, max|b|, max|b - a|)`` of two arrays of one shape (each at least 0;
-    NaN ignored), without temporaries."""
-    a = np.ascontiguousarray(a, dtype=np.float64)
-    b = np.ascontiguousarray(b, dtype=np.float64)
-    if a.size == 0:
-        return 0.0, 0.0, 0.0
-    planes = np.zeros((a.shape[0], 3))
-    _absmax_pair_planes(a, b, planes)
-    top = planes.max(axis=0)
-    return float(top[0]), float(top[1]), float(top[2])
+def steady_change(r0, v0, r1, v1):  # type: ignore[no-untyped-def]
+    """``(max|ρ0|, max|ρ1|, max|ρ1 − ρ0|, max|m0|, max|m1|, max|m1 − m0|)`` of two steps'
+    densities ``(nz, ny, nx)`` and velocities ``(nz, ny, nx, 3)``, ``m = ρ v`` (each at least
+    0, NaN ignored), without temporaries."""
+    if r0.size == 0:
+        return (0.0,) * 6
+    planes = np.zeros((r0.shape[0], 6))
+    _change_planes(r0, v0, r1, v1, planes)
+    return tuple(float(x) for x in planes.max(axis=0))
 
 
 def apply_floor(s, err, factor, roundoff, work=None):  # type: ignore[no-untyped-def]
@@ -818,18 +990,18 @@ def _max_y(plane, out):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(**_NJIT)
-def _floor_plane(s, near, k, factor, roundoff):  # type: ignore[no-untyped-def]
-    """Zero the strengths ``s[:, k]`` not above ``roundoff (3,)`` or ``factor`` times the largest
-    error estimate around them; ``near (3, 3, ny, nx)`` holds the estimates of planes
-    k-1, k, k+1 (slot ``plane % 3``), each already the largest over the 3 × 3 points
-    around in x and y (see :func:`apply_floor`).  A row at a time; a strength that
-    stays is written back as it was."""
-    nz, ny = s.shape[1], s.shape[2]
+def _floor_plane(s, o, near, k, nz, factor, roundoff):  # type: ignore[no-untyped-def]
+    """Zero the strengths ``s[:, o]`` of plane ``k`` (of ``nz``) not above ``roundoff (3,)`` or
+    ``factor`` times the largest error estimate around them; ``near (3, 3, ny, nx)``
+    holds the estimates of planes k-1, k, k+1 (slot ``plane % 3``), each already the
+    largest over the 3 × 3 points around in x and y (see :func:`apply_floor`).  A row
+    at a time; a strength that stays is written back as it was."""
+    ny = s.shape[2]
     k0, k1 = _lohi(k, nz)
     for c in range(3):
         lim = roundoff[c]
         for j in range(ny):
-            row = s[c, k, j]
+            row = s[c, o, j]
             ea, eb, ec = near[k0 % 3, c, j], near[k % 3, c, j], near[k1 % 3, c, j]
             for i in range(row.size):
                 x = row[i]
@@ -847,96 +1019,186 @@ def _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h,
     _max_y(work, out)
 
 
-def floor_strengths(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h, factor, roundoff):  # type: ignore[no-untyped-def]
-    """:func:`_error_stencil` then :func:`apply_floor`, in place on ``s (3, nz, ny, nx)``, in one
-    sweep along z without the error array: the same numbers.
+#: steady-state modes of :func:`detect_step`: none, interpolated between two anchors,
+#: an anchor (no fluctuation), a given quadrupole strength subtracted
+STEADY_NONE, STEADY_BETWEEN, STEADY_ANCHOR, STEADY_GIVEN = 0, 1, 2, 3
+#: planes of its inputs and strengths each sweep of :func:`detect_step` keeps (the
+#: widest stencil, the 2h one of the floor's error estimate, spans five)
+SWEEP_PLANES = 5
 
-    A strength (paper 003 §3.2.3, Eqs. 13, 14) is zeroed when it is not above
-    ``roundoff[c]`` or not above ``factor`` times the largest Richardson error
-    estimate (:func:`_error_point`) of the 27 points around it.  Arguments as
-    :func:`_error_stencil`.  The planes are split into one block per thread;
-    a block sweeps its planes keeping the estimates of three (maximised over
-    x and y) and floors plane k once plane k+1's are known.  The estimates of
-    the planes just outside each block are taken first, before any block
-    floors its strengths (an estimate reads the strengths of its own point).
+
+def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundoff, out,  # type: ignore[no-untyped-def]
+                blocks=None):  # fmt: skip
+    """The strengths of one step on a uniform grid, each plane's once its inputs are in,
+    steady state removed, no-data masked and floored: ``out (3, nz, ny, nx)``.
+
+    The same numbers as the passes one after the other over whole arrays
+    (:func:`momentum_change`, :func:`stress`, :func:`strengths`, the steady
+    state subtracted as :func:`subtract_steady`, :func:`mask_nodata`, and
+    :func:`_error_stencil` then :func:`apply_floor`), in one sweep along z:
+    the planes are split into one block per thread, and a block keeps the
+    last :data:`SWEEP_PLANES` planes of the momentum changes (Δt and 2Δt), the
+    stress (and the stress less its steady state) and the strengths, and the
+    error estimates of three planes (maximised over x and y).  For each new
+    plane it takes the strengths of the planes whose stencils are in, their
+    error estimates (paper 003 §3.2.3, the Richardson estimate of
+    :func:`_error_point`), and floors a plane once the estimates of the
+    planes on both sides are known.  A block also takes the planes just
+    outside it that its own need (their strengths unfloored): no block waits
+    for another, and the arrays of a step are never made.
+
+    Parameters
+    ----------
+    frames : tuple
+        ``(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2)``:
+        densities ``(nz, ny, nx)`` and velocities ``(nz, ny, nx, 3)`` at steps
+        n-1, n+1, n, n-2 and n+2 (clipped at the ends of the series).
+    steady : tuple
+        ``(mode, f, sa, sb, ta, tb)``: :data:`STEADY_BETWEEN` subtracts
+        ``(1 - f) sa + f sb`` from the quadrupole strength and, when flooring,
+        ``(1 - f) ta + f tb`` from the stress the estimates read;
+        :data:`STEADY_ANCHOR` sets the quadrupole strength to 0;
+        :data:`STEADY_GIVEN` subtracts ``sa``; :data:`STEADY_NONE` nothing.
+    nodata, bad : (nz, ny, nx) bool
+        No-data points of the strengths (:func:`mask_nodata`) and of the error
+        estimates (those and the points without data at n-2 or n+2).
+    inv_dt, inv_dt2 : float
+        Inverse time spans of the Δt and 2Δt stencils (``inv_dt2`` 0: none).
+    h : (3,) spacing; ``factor`` of the floor (0: no floor); ``roundoff (3,)``.
+    blocks : int, optional
+        Blocks of planes (default: one per thread); the result does not depend on it.
     """
-    nz = s.shape[1]
-    n_blocks = max(1, min(nz, numba.get_num_threads()))
+    nz = out.shape[1]
+    n_blocks = max(1, min(nz, numba.get_num_threads() if blocks is None else int(blocks)))
     edges = np.linspace(0, nz, n_blocks + 1).astype(np.int64)
-    _floor_sweep(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h,
-                 (float(factor), np.asarray(roundoff, dtype=np.float64)), edges)  # fmt: skip
+    mode, f, sa, sb, ta, tb = steady
+    _step_sweep(*frames, (int(mode), float(f), sa, sb, ta, tb), nodata, bad,
+                bool(nodata.any()), float(inv_dt), float(inv_dt2),
+                np.asarray(h, dtype=np.float64),
+                (float(factor), np.asarray(roundoff, dtype=np.float64)), edges, out)  # fmt: skip
+
+
+@numba.njit(inline="always", **_NJIT)
+def _planes_read(k, nz, error):  # type: ignore[no-untyped-def]
+    """The first and the last plane the strengths (``error``: the error estimates) of
+    plane ``k`` of ``nz`` read."""
+    k0, k1 = _lohi(k, nz)
+    if error:
+        if nz < 5:
+            return k0, k1
+        k2 = _inner2(k, nz)
+        return min(k0, k2 - 2), max(k1, k2 + 2)
+    if nz < 3:
+        return k0, k1
+    kc = _inner(k, nz)
+    return min(k0, kc - 1), max(k1, kc + 1)
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _floor_sweep(s, rho_a2, rho_b2, dm, dm2, tt, bad, inv_dt, inv_dt2, h, floor, edges):  # type: ignore[no-untyped-def]
-    """:func:`floor_strengths` over the blocks of planes ``[edges[b], edges[b + 1])``;
-    ``floor`` is ``(factor, roundoff)``."""
+def _step_sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, steady,  # type: ignore[no-untyped-def]
+                nodata, bad, masked, inv_dt, inv_dt2, h, floor, edges, out):  # fmt: skip
+    """:func:`detect_step` over the blocks of planes ``[edges[b], edges[b + 1])``."""
+    mode, f, sa, sb, ta, tb = steady
     factor, roundoff = floor
-    nz, ny, nx = s.shape[1], s.shape[2], s.shape[3]
-    n_blocks = edges.size - 1
+    nz, ny, nx = rho_c.shape
+    R = SWEEP_PLANES
+    flooring = factor > 0.0
+    # the estimates read the stress less its steady state
+    remove = mode == STEADY_BETWEEN and flooring
+    w = 1.0 - f
     rowbad = _rows_with_nodata(bad)
-    # estimates of the plane below (0) and above (1) each block
-    outside = np.zeros((n_blocks, 2, 3, ny, nx))
-    for bp in numba.prange(n_blocks):
-        b = np.int64(bp)
-        work = np.empty((3, ny, nx))
-        for side in range(2):
-            k = edges[b] - 1 if side == 0 else edges[b + 1]
-            if 0 <= k < nz:
-                _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k,
-                            outside[b, side], work)  # fmt: skip
+    n_blocks = edges.size - 1
     for bp in numba.prange(n_blocks):
         b = np.int64(bp)
         lo, hi = edges[b], edges[b + 1]
-        near = np.empty((3, 3, ny, nx))  # planes k-1, k, k+1 at slots plane % 3
+        dm = np.empty((3, R, ny, nx))
+        dm2 = np.empty((3, R, ny, nx))
+        raw = np.empty((6, R, ny, nx))
+        tt = np.empty((6, R, ny, nx)) if remove else raw
+        s = np.empty((3, R, ny, nx))
+        near = np.empty((3, 3, ny, nx))  # error estimates of planes k-1, k, k+1
         work = np.empty((3, ny, nx))
-        if lo > 0:
-            near[(lo - 1) % 3] = outside[b, 0]
-        # the estimates of plane k, then the floor of plane k - 1
-        for k in range(lo, hi + 1):
-            if k < hi:
-                _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k,
-                            near[k % 3], work)  # fmt: skip
-            elif k < nz:
-                near[k % 3] = outside[b, 1]
-            if k > lo:
-                _floor_plane(s, near, k - 1, factor, roundoff)
+        # the strengths of planes [ks, last] and (flooring) their estimates are needed
+        ks = max(lo - 1, 0) if flooring else lo
+        last = min(hi, nz - 1) if flooring else hi - 1
+        first_plane = _planes_read(ks, nz, flooring)[0]
+        last_plane = _planes_read(last, nz, flooring)[1]
+        ke = ks  # the next estimates
+        kf = lo  # the next plane to floor
+        for e in range(first_plane, last_plane + 1):
+            # the new plane's inputs
+            o = e % R
+            _momentum_plane(rho_a[e], v_a[e], rho_b[e], v_b[e], dm, o)
+            _stress_plane(rho_c[e], v_c[e], raw, o)
+            if flooring:
+                _momentum_plane(rho_a2[e], v_a2[e], rho_b2[e], v_b2[e], dm2, o)
+            if remove:
+                for c in range(6):
+                    _subtract_plane(raw[c, o], ta[c, e], tb[c, e], w, f, tt[c, o])
+            # then whatever they let be done
+            progress = True
+            while progress:
+                progress = False
+                if ks <= last and ks < kf + R and _planes_read(ks, nz, False)[1] <= e:
+                    o = ks % R
+                    _strength_plane(rho_a, rho_b, dm, raw, inv_dt, h, ks, s, o)
+                    if mode == STEADY_BETWEEN:
+                        _subtract_plane(s[2, o], sa[ks], sb[ks], w, f, s[2, o])
+                    elif mode == STEADY_ANCHOR:
+                        s[2, o] = 0.0
+                    elif mode == STEADY_GIVEN:
+                        s[2, o] -= sa[ks]
+                    if masked:
+                        _mask_plane(nodata, ks, s, o)
+                    ks += 1
+                    progress = True
+                if flooring and ke < ks and ke <= kf + 1 and _planes_read(ke, nz, True)[1] <= e:
+                    _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h,
+                                ke, near[ke % 3], work)  # fmt: skip
+                    ke += 1
+                    progress = True
+                if kf < hi and (ke > min(kf + 1, nz - 1) if flooring else kf < ks):
+                    if flooring:
+                        _floor_plane(s, kf % R, near, kf, nz, factor, roundoff)
+                    out[:, kf] = s[:, kf % R]
+                    kf += 1
+                    progress = True
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _scale_planes(rho, m, v, out):  # type: ignore[no-untyped-def]
+def _input_maxima_planes(rho, v, out):  # type: ignore[no-untyped-def]
     nz = rho.shape[0]
+    m = rho.shape[1] * rho.shape[2]
     for kp in numba.prange(nz):
         k = np.int64(kp)
-        r = 0.0
-        mm = 0.0
-        t = 0.0
-        for j in range(rho.shape[1]):
-            for i in range(rho.shape[2]):
-                x = abs(rho[k, j, i])
-                if x > r or x != x:
-                    r = x
-                for c in range(3):
-                    y = abs(m[k, j, i, c])
-                    if y > mm or y != y:
-                        mm = y
-                    z = abs(m[k, j, i, c] * v[k, j, i, c])
-                    if z > t or z != z:
-                        t = z
-        out[k, 0] = r
-        out[k, 1] = mm
-        out[k, 2] = t
+        _input_maxima_plane(rho[k].reshape(m), v[k].reshape(3 * m), out[k])
 
 
-def input_maxima(rho, m, v):  # type: ignore[no-untyped-def]
-    """``(max|ρ|, max|ρv|, max|ρv ∘ v|)`` over ``rho (nz, ny, nx)``, ``m, v (nz, ny, nx, 3)``,
-    each at least 0 and NaN if any value is (as ``np.max(np.abs(x), initial=0.0)``),
-    without temporaries."""
+def input_maxima_planes(rho, v):  # type: ignore[no-untyped-def]
+    """Per plane ``(nz, 3)``: :func:`input_maxima` of each plane."""
+    rho = np.ascontiguousarray(rho, dtype=np.float64)
+    v = np.ascontiguousarray(v, dtype=np.float64)
     planes = np.zeros((rho.shape[0], 3))
     if rho.size:
-        _scale_planes(rho, m, v, planes)
-    top = np.max(planes, axis=0, initial=0.0)
+        _input_maxima_planes(rho, v, planes)
+    return planes
+
+
+def input_maxima(rho, v):  # type: ignore[no-untyped-def]
+    """``(max|ρ|, max|ρv|, max|ρv ∘ v|)`` over ``rho (nz, ny, nx)`` and ``v (nz, ny, nx, 3)``,
+    each at least 0 and NaN if any value is (as ``np.max(np.abs(x), initial=0.0)`` of
+    ``x = rho``, ``m = rho[..., None] * v`` and ``m * v``), without temporaries."""
+    top = np.max(input_maxima_planes(rho, v), axis=0, initial=0.0)
     return float(top[0]), float(top[1]), float(top[2])
+
+
+@numba.njit(**_NJIT)
+def _subtract_plane(x, a, b, w, f, out):  # type: ignore[no-untyped-def]
+    """``out = x - (w a + f b)`` over one plane ``(ny, nx)`` (``out`` may be ``x``)."""
+    m = x.size
+    xf, af, bf, of = x.reshape(m), a.reshape(m), b.reshape(m), out.reshape(m)
+    for p in range(m):
+        of[p] = xf[p] - (w * af[p] + f * bf[p])
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -944,16 +1206,13 @@ def subtract_steady(sq, sa, sb, tt, ta, tb, f, with_stress):  # type: ignore[no-
     """Subtract the steady state interpolated between two anchors, in place:
     ``sq -= (1 - f) sa + f sb`` and, when ``with_stress``, ``tt -= (1 - f) ta + f tb``
     (the same operations, in the same order, as the numpy expressions)."""
-    nz, ny, nx = sq.shape
     w = 1.0 - f
-    for kp in numba.prange(nz):
+    for kp in numba.prange(sq.shape[0]):
         k = np.int64(kp)
-        for j in range(ny):
-            for i in range(nx):
-                sq[k, j, i] = sq[k, j, i] - (w * sa[k, j, i] + f * sb[k, j, i])
-                if with_stress:
-                    for c in range(6):
-                        tt[c, k, j, i] = tt[c, k, j, i] - (w * ta[c, k, j, i] + f * tb[c, k, j, i])
+        _subtract_plane(sq[k], sa[k], sb[k], w, f, sq[k])
+        if with_stress:
+            for c in range(6):
+                _subtract_plane(tt[c, k], ta[c, k], tb[c, k], w, f, tt[c, k])
 
 
 @numba.njit(inline="always", **_NJIT)

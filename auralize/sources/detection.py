@@ -543,14 +543,15 @@ def series_bytes() -> int:
 
 
 class StepCache:
-    """Mapped (ρ, v, ρv, ok) frames, kept for the three steps the stencil needs.
+    """Mapped (ρ, v, ok) frames, kept for the steps the stencils need.
 
     ``ok`` is None when every point of the step is valid and finite, else a
     bool mask; no-data values are replaced by 0 (they are masked out of the
     strengths by :func:`auralize.sources._kernels.mask_nodata`, never used).
     ``qmean`` is the quadrupole strength of the time-mean stress, subtracted
     from every step's (or None: the literal strengths).  With ``store``
-    (:class:`MappedSeries`) the mapped frames come from it.
+    (:class:`MappedSeries`) the mapped frames come from it.  The kernels take
+    the mass flux ρv from ρ and v; :meth:`get` makes it for other callers.
     """
 
     def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
@@ -562,28 +563,42 @@ class StepCache:
         self.store = store
         #: strengths not above ``floor`` times their error estimate are zeroed (0: off)
         self.floor = check_floor(floor)
-        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = {}
+        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
+        self._flux: dict[int, np.ndarray] = {}
+        #: per-plane (max|ρ|, max|ρv|, max|ρv ∘ v|) ``(nz, 3)`` of steps (:func:`input_scale`)
+        self.maxima: dict[int, np.ndarray] = {}
         self.work: np.ndarray | None = None  # kernel scratch, reused between steps
         self.floor_work: np.ndarray | None = None  # scratch of the floor (2Δt momentum change)
         #: no-data points ``(nz, ny, nx)`` of the last step computed (None: none)
         self.nodata: np.ndarray | None = None
 
-    def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-        if n not in self._cache:
+    def frame(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step ``n``'s ``(rho, v, ok)``."""
+        hit = self._cache.get(n)
+        if hit is None:
             if self.store is not None:
-                rho, v, ok = self.store.get(n)
+                hit = self.store.get(n)
             else:
-                rho, v, ok = map_step(self.volume, self.mapping, n, self.valid)
-            self._cache[n] = (rho, v, rho[..., None] * v, ok)
-        return self._cache[n]
+                hit = map_step(self.volume, self.mapping, n, self.valid)
+            self._cache[n] = hit
+        return hit
+
+    def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step ``n``'s ``(rho, v, rho v, ok)``."""
+        rho, v, ok = self.frame(n)
+        m = self._flux.get(n)
+        if m is None:
+            m = self._flux[n] = rho[..., None] * v
+        return rho, v, m, ok
 
     def keep(self, lo: int, hi: int) -> None:
         """Drop the frames outside steps ``[lo, hi]`` (one more on each side when the
         floor's 2Δt stencil reads them)."""
         if self.floor > 0:
             lo, hi = lo - 1, hi + 1
-        for k in [k for k in self._cache if k < lo or k > hi]:
-            del self._cache[k]
+        for store in (self._cache, self._flux, self.maxima):
+            for k in [k for k in store if k < lo or k > hi]:
+                del store[k]
 
 
 def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
@@ -600,77 +615,104 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
     > 0, a strength not above that many times its discretisation-error
     estimate (:func:`auralize.sources._kernels._error_stencil`: the h and 2h
     stencils compared) or above round-off (:data:`ROUNDOFF` of
-    :func:`input_scale`) is 0: it is not a source.
+    :func:`input_scale`) is 0: it is not a source.  On a uniform grid all of
+    it is one sweep along z (:func:`auralize.sources._kernels.detect_step`).
     """
     T = volume.n_steps
     a, b = max(n - 1, 0), min(n + 1, T - 1)
-    rho_a, _, m_a, ok_a = cache.get(a)
-    rho_b, _, m_b, ok_b = cache.get(b)
-    rho_c, v_c, _, ok_c = cache.get(n)
+    rho_a, v_a, ok_a = cache.frame(a)
+    rho_b, v_b, ok_b = cache.frame(b)
+    rho_c, v_c, ok_c = cache.frame(n)
     if out is None:
         out = K.empty_like_strengths(volume.shape)
     inv_dt = 1.0 / (volume.times[b] - volume.times[a])
+    oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
+    cache.nodata = ~(oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)) if oks else None
+    if volume.metric is None:
+        _uniform_strengths(volume, cache, n, a, b, inv_dt, out)
+        return out
     metric = volume.metric
-    if metric is None:
-        cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing,
-                                 out, cache.work)  # fmt: skip
-    else:
-        if cache.work is None or cache.work.shape != (9, *volume.shape):
-            cache.work = np.empty((9, *volume.shape))
-        K.prepare_render(rho_a, rho_b, m_a, m_b, rho_c, v_c, cache.work[:3], cache.work[3:])
-        curvilinear_strengths(metric, rho_a, rho_b, cache.work[:3], cache.work[3:], inv_dt, out)
-    tt = cache.work[3:]
+    if cache.work is None or cache.work.shape != (9, *volume.shape):
+        cache.work = np.empty((9, *volume.shape))
+    dm, tt = cache.work[:3], cache.work[3:]
+    K.momentum_change(rho_a, v_a, rho_b, v_b, dm)
+    K.stress(rho_c, v_c, tt)
+    curvilinear_strengths(metric, rho_a, rho_b, dm, tt, inv_dt, out)
     base = cache.qmean
     if isinstance(base, SteadyBase):
         base.subtract(n, out[2], tt, with_stress=cache.floor > 0)
     elif base is not None:
         np.subtract(out[2], base, out=out[2])
-    oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
-    if oks:
-        ok = oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)
-        cache.nodata = ~ok
-        if metric is None:
-            K.mask_nodata(cache.nodata, out)
-        else:
-            metric.mask_nodata(cache.nodata, out)
-    else:
-        cache.nodata = None
+    if cache.nodata is not None:
+        metric.mask_nodata(cache.nodata, out)
     if cache.floor > 0:
         _apply_floor(volume, cache, n, a, b, inv_dt, out)
     return out
 
 
-def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, inv_dt: float,
-                 out: NDArray[np.float64]) -> None:  # fmt: skip
-    """Zero the strengths of step ``n`` within their discretisation error (see :func:`step_strengths`)."""
+def _wide_steps(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int) -> tuple[Any, ...]:
+    """The frames of steps n-2 and n+2 (clipped) the floor's 2Δt stencil reads, its inverse
+    time span (0 when the series is too short for it), and the no-data points of the
+    error estimates: the step's and those without data at n-2 or n+2."""
     T = volume.n_steps
     a2, b2 = max(n - 2, 0), min(n + 2, T - 1)
     wide = (a2, b2) != (a, b)
-    rho_a2, _, m_a2, ok_a2 = cache.get(a2)
-    rho_b2, _, m_b2, ok_b2 = cache.get(b2)
+    rho_a2, v_a2, ok_a2 = cache.frame(a2)
+    rho_b2, v_b2, ok_b2 = cache.frame(b2)
     inv_dt2 = 1.0 / (volume.times[b2] - volume.times[a2]) if wide else 0.0
-    if cache.floor_work is None or cache.floor_work.shape != out.shape:
-        cache.floor_work = np.empty_like(out)
-    dm2 = cache.floor_work  # the momentum change over 2Δt, planar
-    K.momentum_change(m_a2, m_b2, dm2)
     bad = cache.nodata
     extra = [o for o in (ok_a2, ok_b2) if o is not None]
     if extra:
         wider = ~np.logical_and.reduce(extra)
         bad = wider if bad is None else bad | wider
-    if bad is None:
-        bad = _no_bad(volume.shape)
-    work = cache.work
-    assert work is not None
+    return rho_a2, v_a2, rho_b2, v_b2, inv_dt2, (_no_bad(volume.shape) if bad is None else bad)
+
+
+def _uniform_strengths(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int,
+                       inv_dt: float, out: NDArray[np.float64]) -> None:  # fmt: skip
+    """:func:`step_strengths` on a uniform grid: :func:`auralize.sources._kernels.detect_step`."""
+    rho_a, v_a, _ = cache.frame(a)
+    rho_b, v_b, _ = cache.frame(b)
+    rho_c, v_c, _ = cache.frame(n)
+    nodata = _no_bad(volume.shape) if cache.nodata is None else cache.nodata
+    if cache.floor > 0:
+        rho_a2, v_a2, rho_b2, v_b2, inv_dt2, bad = _wide_steps(volume, cache, n, a, b)
+        roundoff = ROUNDOFF * input_scale(volume, cache, n)
+    else:
+        rho_a2, v_a2, rho_b2, v_b2, inv_dt2, bad = rho_a, v_a, rho_b, v_b, 0.0, nodata
+        roundoff = np.zeros(3)
+    base = cache.qmean
+    if isinstance(base, SteadyBase):
+        steady = base.parts(n)
+    elif base is not None:
+        given = np.ascontiguousarray(base, dtype=np.float64)
+        steady = (K.STEADY_GIVEN, 0.0, given, *_NO_STEADY[1:])
+    else:
+        steady = (K.STEADY_NONE, 0.0, *_NO_STEADY)
+    K.detect_step((rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2), steady,
+                  nodata, bad, inv_dt, inv_dt2, volume.spacing, cache.floor, roundoff, out)  # fmt: skip
+
+
+#: the steady state's arrays when there is none (:func:`auralize.sources._kernels.detect_step`)
+_NO_STEADY = (np.empty((0, 0, 0)), np.empty((0, 0, 0)),
+              np.empty((0, 0, 0, 0)), np.empty((0, 0, 0, 0)))  # fmt: skip
+
+
+def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, inv_dt: float,
+                 out: NDArray[np.float64]) -> None:  # fmt: skip
+    """Zero the strengths of step ``n`` on a curvilinear grid within their discretisation
+    error (see :func:`step_strengths`)."""
+    assert volume.metric is not None and cache.work is not None
+    rho_a2, v_a2, rho_b2, v_b2, inv_dt2, bad = _wide_steps(volume, cache, n, a, b)
+    if cache.floor_work is None or cache.floor_work.shape != out.shape:
+        cache.floor_work = np.empty_like(out)
+    dm2 = cache.floor_work  # the momentum change over 2Δt, planar
+    K.momentum_change(rho_a2, v_a2, rho_b2, v_b2, dm2)
     roundoff = ROUNDOFF * input_scale(volume, cache, n)
-    if volume.metric is not None:
-        err = curvilinear_errors(volume.metric, out, rho_a2, rho_b2, work[:3], dm2, work[3:],
-                                 bad, inv_dt, inv_dt2)  # fmt: skip
-        K.apply_floor(out, err, float(cache.floor), roundoff)
-        return
-    K.floor_strengths(out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad, inv_dt, inv_dt2,
-                      np.asarray(volume.spacing, dtype=np.float64), float(cache.floor),
-                      roundoff)  # fmt: skip
+    work = cache.work
+    err = curvilinear_errors(volume.metric, out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad,
+                             inv_dt, inv_dt2)  # fmt: skip
+    K.apply_floor(out, err, float(cache.floor), roundoff)
 
 
 _NO_BAD: dict[tuple[int, ...], NDArray[np.bool_]] = {}
@@ -720,11 +762,10 @@ def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
         return np.array(sorted(anchors), dtype=np.int64)
     cache = StepCache(volume, mapping, store=store)
     for n in range(1, T):
-        r0, _, m0, _ = cache.get(n - 1)
-        r1, _, m1, _ = cache.get(n)
-        # max|r0|, max|r1|, max|r1 - r0| (and of m) in one compiled pass each
-        a0, a1, dr = K.absmax_pair(r0, r1)
-        b0, b1, dm = K.absmax_pair(m0, m1)
+        r0, v0, _ = cache.frame(n - 1)
+        r1, v1, _ = cache.frame(n)
+        # max|r0|, max|r1|, max|r1 - r0| and those of m = ρv in one compiled pass
+        a0, a1, dr, b0, b1, dm = K.steady_change(r0, v0, r1, v1)
         scale_r = max(a0, a1)
         scale_m = max(b0, b1)
         if dr <= rtol * scale_r and dm <= rtol * scale_m:
@@ -770,7 +811,7 @@ class SteadyBase:
     def _state(self, a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         hit = self._held.get(a)
         if hit is None:
-            rho, v, _, _ = StepCache(self.volume, self.mapping, store=self.store).get(a)
+            rho, v, _ = StepCache(self.volume, self.mapping, store=self.store).frame(a)
             tt = np.ascontiguousarray(_stress(rho, v))
             metric = self.volume.metric
             sq = (K.quadrupole_of_stress(tt, self.volume.spacing) if metric is None
@@ -793,6 +834,19 @@ class SteadyBase:
         sa, ta = self._state(a)
         sb, tb = self._state(b)
         return (1.0 - f) * sa + f * sb, (1.0 - f) * ta + f * tb
+
+    def parts(self, n: int) -> tuple[Any, ...]:
+        """The steady state at step ``n`` as :func:`auralize.sources._kernels.detect_step`
+        takes it: ``(mode, f, sa, sb, ta, tb)``, :meth:`subtract`'s operands."""
+        i = int(np.searchsorted(self.anchors, n))
+        if i < self.anchors.size and self.anchors[i] == n:
+            return (K.STEADY_ANCHOR, 0.0, *_NO_STEADY)
+        a, b = int(self.anchors[i - 1]), int(self.anchors[i])
+        t = self.volume.times
+        f = float((t[n] - t[a]) / (t[b] - t[a]))
+        sa, ta = self._state(a)
+        sb, tb = self._state(b)
+        return (K.STEADY_BETWEEN, f, sa, sb, ta, tb)
 
     def subtract(self, n: int, sq: NDArray[np.float64], tt: NDArray[np.float64], *,
                  with_stress: bool) -> None:  # fmt: skip
@@ -930,12 +984,15 @@ def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
     a strength far below it is round-off (e.g. the dipole strength of a
     divergence-free flow), not a source.
     """
-    rho, v, m, _ = cache.get(n)
     sl = slice(lo, hi)
     dt = float(np.min(np.diff(volume.times)))
     live = [volume.spacing[a] for a in range(3) if volume.dims[a] > 1]
     h = float(min(live)) if live else 1.0
-    r, mm, t = K.input_maxima(rho[sl], m[sl], v[sl])
+    planes = cache.maxima.get(n)
+    if planes is None:
+        rho, v, _ = cache.frame(n)
+        planes = cache.maxima[n] = K.input_maxima_planes(rho, v)
+    r, mm, t = np.max(planes[sl], axis=0, initial=0.0)
     return np.array([r / dt, mm / (h * dt), t / (h * h)])
 
 
