@@ -370,3 +370,27 @@ def test_steady_change_is_the_numpy_maxima() -> None:
     m0, m1 = r0[..., None] * v0, r1[..., None] * v1
     want = tuple(float(np.max(np.abs(x))) for x in (r0, r1, r1 - r0, m0, m1, m1 - m0))
     assert K.steady_change(r0, v0, r1, v1) == want
+
+
+@pytest.mark.parametrize("delta_v", ["cell", "sphere"])
+@pytest.mark.parametrize("shape", [(7, 8, 9), (1, 5, 6), (4, 1, 1)])
+@pytest.mark.parametrize("curvilinear", [False, True])
+def test_sources_in_one_kernel_equal_classify_then_extract(delta_v: str, shape: tuple[int, int, int],
+                                                          curvilinear: bool) -> None:  # fmt: skip
+    """The source points gathered with their radii alone (classes first, then each
+    source's radius) are those of classifying every point and gathering them."""
+    from auralize.sources.detection import classify, classify_sources, extract
+
+    rng = np.random.default_rng(17)
+    s = rng.normal(size=(3, *shape)) * np.array([1.0, 3.0, 9.0])[:, None, None, None]
+    thr = np.array([1.5, 2.0, 12.0])
+    h = np.array([0.3, 0.5, 0.7])
+    cell = rng.uniform(0.5, 2.0, size=shape) if curvilinear else None
+    kind, radius = classify(s, thr, h, zero_fraction=0.8, delta_v=delta_v, cell=cell)
+    want = extract(kind, radius, s)
+    got = classify_sources(s, thr, h, zero_fraction=0.8, delta_v=delta_v, cell=cell)
+    assert want.index.size > 0
+    for name in ("index", "kind", "strength", "radius"):
+        a, b = getattr(got, name), getattr(want, name)
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)

@@ -364,43 +364,98 @@ def _classify_all(s, thr, zero, kind_out):  # type: ignore[no-untyped-def]
                 )
 
 
+@numba.njit(inline="always", **_NJIT)
+def _radius_at(s, kinds, thr, h, rule, k, j, i):  # type: ignore[no-untyped-def]
+    """The ΔV radius of the source point ``(k, j, i)`` (see :func:`classify_and_radius`)."""
+    _, nz, ny, nx = s.shape
+    hx, hy, hz = 0.5 * h[0], 0.5 * h[1], 0.5 * h[2]
+    kind = kinds[k, j, i]
+    own = abs(s[kind - 1, k, j, i])
+    # cut distances along -x, +x, -y, +y, -z, +z (-1: no edge)
+    cxm = _cut(s, kinds, kind, thr, own, k, j, i - 1, hx) if i > 0 else -1.0
+    cxp = _cut(s, kinds, kind, thr, own, k, j, i + 1, hx) if i < nx - 1 else -1.0
+    cym = _cut(s, kinds, kind, thr, own, k, j - 1, i, hy) if j > 0 else -1.0
+    cyp = _cut(s, kinds, kind, thr, own, k, j + 1, i, hy) if j < ny - 1 else -1.0
+    czm = _cut(s, kinds, kind, thr, own, k - 1, j, i, hz) if k > 0 else -1.0
+    czp = _cut(s, kinds, kind, thr, own, k + 1, j, i, hz) if k < nz - 1 else -1.0
+    if rule == DV_SPHERE:
+        acc = 0.0
+        n = 0
+        for c in (cxm, cxp, cym, cyp, czm, czp):
+            if c >= 0.0:
+                acc += c
+                n += 1
+        return acc / n if n > 0 else (hx + hy + hz) / 3.0
+    # the vertex's share of the source region: a box reaching the cut on each side;
+    # no edge = grid border (half a cell), a single-point axis counts its whole spacing
+    ex = 2.0 * hx if nx == 1 else max(cxm, 0.0) + max(cxp, 0.0)
+    ey = 2.0 * hy if ny == 1 else max(cym, 0.0) + max(cyp, 0.0)
+    ez = 2.0 * hz if nz == 1 else max(czm, 0.0) + max(czp, 0.0)
+    return (ex * ey * ez / (4.0 * np.pi / 3.0)) ** (1.0 / 3.0)
+
+
 @numba.njit(parallel=True, **_NJIT)
 def _radii(s, kinds, thr, h, rule, radius_out):  # type: ignore[no-untyped-def]
     _, nz, ny, nx = s.shape
-    hx, hy, hz = 0.5 * h[0], 0.5 * h[1], 0.5 * h[2]
-    four_pi_3 = 4.0 * np.pi / 3.0
     for kp in numba.prange(nz):
         k = np.int64(kp)
         for j in range(ny):
             for i in range(nx):
+                if kinds[k, j, i] == NONE:
+                    radius_out[k, j, i] = 0.0
+                else:
+                    radius_out[k, j, i] = _radius_at(s, kinds, thr, h, rule, k, j, i)
+
+
+@numba.njit(parallel=True, **_NJIT)
+def _sources(s, thr, zero, h, rule, kinds):  # type: ignore[no-untyped-def]
+    """:func:`sources` (``kinds (nz, ny, nx)``: scratch, the classes of every point)."""
+    _, nz, ny, nx = s.shape
+    count = np.zeros(nz, dtype=np.int64)
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        c = 0
+        for j in range(ny):
+            for i in range(nx):
+                kind = _classify(s[0, k, j, i], s[1, k, j, i], s[2, k, j, i], thr, zero)
+                kinds[k, j, i] = kind
+                c += kind != NONE
+        count[k] = c
+    start = np.zeros(nz + 1, dtype=np.int64)
+    for k in range(nz):
+        start[k + 1] = start[k] + count[k]
+    n = start[nz]
+    index = np.empty(n, dtype=np.int64)
+    kind_of = np.empty(n, dtype=np.int8)
+    strength = np.empty(n)
+    radius = np.empty(n)
+    for kp in numba.prange(nz):
+        k = np.int64(kp)
+        p = start[k]
+        for j in range(ny):
+            for i in range(nx):
                 kind = kinds[k, j, i]
                 if kind == NONE:
-                    radius_out[k, j, i] = 0.0
                     continue
-                own = abs(s[kind - 1, k, j, i])
-                # cut distances along -x, +x, -y, +y, -z, +z (-1: no edge)
-                cxm = _cut(s, kinds, kind, thr, own, k, j, i - 1, hx) if i > 0 else -1.0
-                cxp = _cut(s, kinds, kind, thr, own, k, j, i + 1, hx) if i < nx - 1 else -1.0
-                cym = _cut(s, kinds, kind, thr, own, k, j - 1, i, hy) if j > 0 else -1.0
-                cyp = _cut(s, kinds, kind, thr, own, k, j + 1, i, hy) if j < ny - 1 else -1.0
-                czm = _cut(s, kinds, kind, thr, own, k - 1, j, i, hz) if k > 0 else -1.0
-                czp = _cut(s, kinds, kind, thr, own, k + 1, j, i, hz) if k < nz - 1 else -1.0
-                if rule == DV_SPHERE:
-                    acc = 0.0
-                    n = 0
-                    for c in (cxm, cxp, cym, cyp, czm, czp):
-                        if c >= 0.0:
-                            acc += c
-                            n += 1
-                    radius_out[k, j, i] = acc / n if n > 0 else (hx + hy + hz) / 3.0
-                else:
-                    # the vertex's share of the source region: a box reaching the cut
-                    # on each side; no edge = grid border (half a cell), a single-point
-                    # axis counts its whole spacing
-                    ex = 2.0 * hx if nx == 1 else max(cxm, 0.0) + max(cxp, 0.0)
-                    ey = 2.0 * hy if ny == 1 else max(cym, 0.0) + max(cyp, 0.0)
-                    ez = 2.0 * hz if nz == 1 else max(czm, 0.0) + max(czp, 0.0)
-                    radius_out[k, j, i] = (ex * ey * ez / four_pi_3) ** (1.0 / 3.0)
+                index[p] = (k * ny + j) * nx + i
+                kind_of[p] = kind
+                strength[p] = s[kind - 1, k, j, i]
+                radius[p] = _radius_at(s, kinds, thr, h, rule, k, j, i)
+                p += 1
+    return index, kind_of, strength, radius
+
+
+def sources(s, thr, zero, h, rule=DV_CELL, kinds=None):  # type: ignore[no-untyped-def]
+    """The source points of strengths ``s (3, nz, ny, nx)``: their flat C-order indices,
+    classes (int8), signed strengths and ΔV radii, in index order.
+
+    :func:`classify_and_radius` then the points gathered, in two passes over the planes
+    (the classes, then the radii of the source points alone; a radius reads the
+    classes of the neighbours); ``kinds``: optional int8 scratch ``(nz, ny, nx)``.
+    """
+    if kinds is None or kinds.shape != s.shape[1:]:
+        kinds = np.empty(s.shape[1:], dtype=np.int8)
+    return _sources(s, thr, zero, h, rule, kinds)
 
 
 def classify_and_radius(s, thr, zero, h, kind_out, radius_out, rule=DV_CELL):  # type: ignore[no-untyped-def]

@@ -939,6 +939,25 @@ def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], sp
     return kind, radius
 
 
+def classify_sources(strengths: NDArray[np.float64], thresholds: NDArray[np.float64],
+                     spacing: NDArray[np.float64], *, zero_fraction: float = 1.0,
+                     delta_v: str = "cell", cell: NDArray[np.float64] | None = None,
+                     kinds: NDArray[np.int8] | None = None) -> SourceFrame:  # fmt: skip
+    """:func:`classify` then :func:`extract`, the same :class:`SourceFrame`, without the
+    arrays of every point's radius (:func:`auralize.sources._kernels.sources`).
+
+    ``kinds``: optional int8 scratch of the grid's shape, reused between steps.
+    """
+    s = np.ascontiguousarray(strengths, dtype=np.float64)
+    thr = np.asarray(thresholds, dtype=np.float64)
+    h = np.ones(3) if cell is not None else np.asarray(spacing, dtype=np.float64)
+    idx, kind, strength, radius = K.sources(s, thr, thr * zero_fraction, h,
+                                            delta_v_rule(delta_v), kinds)  # fmt: skip
+    if cell is not None:
+        radius *= np.cbrt(cell.reshape(-1)[idx])
+    return SourceFrame(index=idx, kind=kind, strength=strength, radius=radius)
+
+
 def extract(kind: NDArray[np.int8], radius: NDArray[np.float64],
             strengths: NDArray[np.float64]) -> SourceFrame:  # fmt: skip
     """Gather the source points of one step into a :class:`SourceFrame`."""
@@ -1074,6 +1093,7 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
     buf = K.empty_like_strengths(volume.shape)
     cell = None if volume.metric is None else volume.metric.jac
+    kinds = np.empty(volume.shape, dtype=np.int8)  # scratch of classify_sources
     steps = steps if steps is not None else range(volume.n_steps)
     known = {} if known is None else known
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
@@ -1083,9 +1103,8 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
             nodata = cache.nodata
         else:
             s, nodata = hit
-        kind, radius = classify(s, thr, volume.spacing, zero_fraction=zero_fraction,
-                                delta_v=delta_v, cell=cell)  # fmt: skip
-        f = extract(kind, radius, s)
+        f = classify_sources(s, thr, volume.spacing, zero_fraction=zero_fraction,
+                             delta_v=delta_v, cell=cell, kinds=kinds)  # fmt: skip
         f.n_valid = volume.n_points - (0 if nodata is None else int(nodata.sum()))
         yield n, f
         cache.keep(n, n + 1)
