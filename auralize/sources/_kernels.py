@@ -54,6 +54,33 @@ def _inner(i: int, n: int) -> int:
     return i
 
 
+#: the bits of a float64 but its sign, and those of +inf: the bit patterns of values >= 0
+#: order as int64 as the values do, every NaN's above +inf's
+_ABS_BITS = np.int64(0x7FFFFFFFFFFFFFFF)
+_INF_BITS = np.int64(0x7FF0000000000000)
+#: points of the buffers of the compiled maxima (a few kB: in the first-level cache)
+CHUNK = 512
+
+
+@numba.njit(inline="always", **_NJIT)
+def _top_bits(x, nan_ignored):  # type: ignore[no-untyped-def]
+    """The largest |value| of the contiguous float64 run ``x`` as its bit pattern (0 at
+    least): a NaN's when one is there, or (``nan_ignored``) NaN counted as 0.
+
+    An integer maximum over the bit patterns is the float one and vectorizes (a
+    float maximum, for its NaN rule, does not); ``.view(np.float64)`` turns the
+    patterns back into values.
+    """
+    b = x.view(np.int64)
+    top = np.int64(0)
+    for p in range(b.size):
+        v = b[p] & _ABS_BITS
+        if nan_ignored:
+            v = v if v <= _INF_BITS else 0
+        top = v if v > top else top
+    return top
+
+
 @numba.njit(**_NJIT)
 def _momentum_plane(rho_a, v_a, rho_b, v_b, dm, o):  # type: ignore[no-untyped-def]
     """``dm[:, o]`` = ``ρ_b v_b − ρ_a v_a`` of one plane's densities ``(ny, nx)`` and
@@ -108,26 +135,25 @@ def stress(rho, v, tt):  # type: ignore[no-untyped-def]
 
 @numba.njit(**_NJIT)
 def _input_maxima_plane(r, f, out):  # type: ignore[no-untyped-def]
-    """``out (3,)`` = ``(max|ρ|, max|ρv|, max|ρv ∘ v|)`` over a plane's flat ``r (m,)`` and
-    ``f (3 m,)`` (velocities), each at least 0 and NaN if any value is."""
-    a = 0.0
-    b = 0.0
-    c = 0.0
-    for p in range(r.size):
-        x = abs(r[p])
-        if x > a or x != x:
-            a = x
-        for q in range(3):
-            mq = r[p] * f[3 * p + q]
-            y = abs(mq)
-            if y > b or y != y:
-                b = y
-            z = abs(mq * f[3 * p + q])
-            if z > c or z != z:
-                c = z
-    out[0] = a
-    out[1] = b
-    out[2] = c
+    """``out (3,)`` int64 = the bit patterns (:func:`_top_bits`) of ``(max|ρ|, max|ρv|,
+    max|ρv ∘ v|)`` over a plane's flat ``r (m,)`` and ``f (3 m,)`` (velocities): each at
+    least 0, NaN if any value is.  The products go through small buffers a chunk at
+    a time."""
+    m = r.size
+    bm, bt = np.empty(3 * CHUNK), np.empty(3 * CHUNK)
+    out[0] = _top_bits(r, False)
+    out[1] = 0
+    out[2] = 0
+    for p0 in range(0, m, CHUNK):
+        n = min(CHUNK, m - p0)
+        for p in range(n):
+            rr = r[p0 + p]
+            for q in range(3):
+                mq = rr * f[3 * (p0 + p) + q]
+                bm[3 * p + q] = mq
+                bt[3 * p + q] = mq * f[3 * (p0 + p) + q]
+        out[1] = max(out[1], _top_bits(bm[: 3 * n], False))
+        out[2] = max(out[2], _top_bits(bt[: 3 * n], False))
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -959,23 +985,25 @@ def _change_planes(r0, v0, r1, v1, out):  # type: ignore[no-untyped-def]
         k = np.int64(kp)
         a, b = r0[k].reshape(m), r1[k].reshape(m)
         fa, fb = v0[k].reshape(3 * m), v1[k].reshape(3 * m)
-        top = np.zeros(6)
-        for p in range(m):
-            x, y = a[p], b[p]
-            if abs(x) > top[0]:
-                top[0] = abs(x)
-            if abs(y) > top[1]:
-                top[1] = abs(y)
-            if abs(y - x) > top[2]:
-                top[2] = abs(y - x)
-            for c in range(3):
-                x, y = a[p] * fa[3 * p + c], b[p] * fb[3 * p + c]
-                if abs(x) > top[3]:
-                    top[3] = abs(x)
-                if abs(y) > top[4]:
-                    top[4] = abs(y)
-                if abs(y - x) > top[5]:
-                    top[5] = abs(y - x)
+        d = np.empty(CHUNK)
+        ma, mb, md = np.empty(3 * CHUNK), np.empty(3 * CHUNK), np.empty(3 * CHUNK)
+        top = np.zeros(6, dtype=np.int64)
+        top[0] = _top_bits(a, True)
+        top[1] = _top_bits(b, True)
+        for p0 in range(0, m, CHUNK):
+            n = min(CHUNK, m - p0)
+            for p in range(n):
+                d[p] = b[p0 + p] - a[p0 + p]
+                for c in range(3):
+                    x = a[p0 + p] * fa[3 * (p0 + p) + c]
+                    y = b[p0 + p] * fb[3 * (p0 + p) + c]
+                    ma[3 * p + c] = x
+                    mb[3 * p + c] = y
+                    md[3 * p + c] = y - x
+            top[2] = max(top[2], _top_bits(d[:n], True))
+            top[3] = max(top[3], _top_bits(ma[: 3 * n], True))
+            top[4] = max(top[4], _top_bits(mb[: 3 * n], True))
+            top[5] = max(top[5], _top_bits(md[: 3 * n], True))
         out[k] = top
 
 
@@ -985,9 +1013,9 @@ def steady_change(r0, v0, r1, v1):  # type: ignore[no-untyped-def]
     0, NaN ignored), without temporaries."""
     if r0.size == 0:
         return (0.0,) * 6
-    planes = np.zeros((r0.shape[0], 6))
-    _change_planes(r0, v0, r1, v1, planes)
-    return tuple(float(x) for x in planes.max(axis=0))
+    bits = np.zeros((r0.shape[0], 6), dtype=np.int64)
+    _change_planes(r0, v0, r1, v1, bits)
+    return tuple(float(x) for x in bits.max(axis=0).view(np.float64))
 
 
 def apply_floor(s, err, factor, roundoff, work=None):  # type: ignore[no-untyped-def]
@@ -1233,10 +1261,10 @@ def input_maxima_planes(rho, v):  # type: ignore[no-untyped-def]
     """Per plane ``(nz, 3)``: :func:`input_maxima` of each plane."""
     rho = np.ascontiguousarray(rho, dtype=np.float64)
     v = np.ascontiguousarray(v, dtype=np.float64)
-    planes = np.zeros((rho.shape[0], 3))
+    bits = np.zeros((rho.shape[0], 3), dtype=np.int64)
     if rho.size:
-        _input_maxima_planes(rho, v, planes)
-    return planes
+        _input_maxima_planes(rho, v, bits)
+    return bits.view(np.float64)
 
 
 def input_maxima(rho, v):  # type: ignore[no-untyped-def]
@@ -1270,9 +1298,35 @@ def subtract_steady(sq, sa, sb, tt, ta, tb, f, with_stress):  # type: ignore[no-
                 _subtract_plane(tt[c, k], ta[c, k], tb[c, k], w, f, tt[c, k])
 
 
-@numba.njit(inline="always", **_NJIT)
-def _d1(a: float, b: float, two_h: float, h: float, interior: bool) -> float:
-    return (a - b) / two_h if interior else (a - b) / h
+@numba.njit(**_NJIT)
+def _gradient_plane(f, h, scale, k, out):  # type: ignore[no-untyped-def]
+    """``out[k] (ny, nx, 3)`` = ∇f · ``scale`` of plane ``k`` (see :func:`gradient`): the
+    same operations, x along the flat plane (central, each row's ends redone one-sided),
+    y a row at a time, z along the plane."""
+    nz, ny, nx = f.shape
+    hx, hy, hz = h[0], h[1], h[2]
+    m = ny * nx
+    c, o = f[k].reshape(m), out[k].reshape(3 * m)
+    for p in range(1, m - 1):
+        o[3 * p] = (c[p + 1] - c[p - 1]) / (2.0 * hx) * scale
+    for j in range(ny):
+        p, e = j * nx, j * nx + nx - 1
+        if nx < 2:
+            o[3 * p] = 0.0
+        else:
+            o[3 * p] = (c[p + 1] - c[p]) / hx * scale
+            o[3 * e] = (c[e] - c[e - 1]) / hx * scale
+    for j in range(ny):
+        j0, j1 = _lohi(j, ny)
+        ty = 2.0 * hy if j1 - j0 == 2 else hy
+        p, a, b = j * nx, j0 * nx, j1 * nx
+        for i in range(nx):
+            o[3 * (p + i) + 1] = 0.0 if ny < 2 else (c[b + i] - c[a + i]) / ty * scale
+    k0, k1 = _lohi(k, nz)
+    za, zb = f[k0].reshape(m), f[k1].reshape(m)
+    tz = 2.0 * hz if k1 - k0 == 2 else hz
+    for p in range(m):
+        o[3 * p + 2] = 0.0 if nz < 2 else (zb[p] - za[p]) / tz * scale
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -1284,63 +1338,31 @@ def gradient(f, h, scale, out):  # type: ignore[no-untyped-def]
     faces, the same operations), then times ``scale``; a component along an
     axis of fewer than 2 points is 0.
     """
-    nz, ny, nx = f.shape
-    hx, hy, hz = h[0], h[1], h[2]
-    for kp in numba.prange(nz):
-        k = np.int64(kp)
-        k0, k1 = _lohi(k, nz)
-        for j in range(ny):
-            j0, j1 = _lohi(j, ny)
-            for i in range(nx):
-                i0, i1 = _lohi(i, nx)
-                gx = 0.0
-                gy = 0.0
-                gz = 0.0
-                if nx >= 2:
-                    gx = _d1(f[k, j, i1], f[k, j, i0], 2.0 * hx, hx, i1 - i0 == 2) * scale
-                if ny >= 2:
-                    gy = _d1(f[k, j1, i], f[k, j0, i], 2.0 * hy, hy, j1 - j0 == 2) * scale
-                if nz >= 2:
-                    gz = _d1(f[k1, j, i], f[k0, j, i], 2.0 * hz, hz, k1 - k0 == 2) * scale
-                out[k, j, i, 0] = gx
-                out[k, j, i, 1] = gy
-                out[k, j, i, 2] = gz
+    for kp in numba.prange(f.shape[0]):
+        _gradient_plane(f, h, scale, np.int64(kp), out)
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _gradient_absmax_planes(f, h, out):  # type: ignore[no-untyped-def]
-    nz, ny, nx = f.shape
-    hx, hy, hz = h[0], h[1], h[2]
-    for kp in numba.prange(nz):
+def _gradient_top(f, h, out, top):  # type: ignore[no-untyped-def]
+    for kp in numba.prange(f.shape[0]):
         k = np.int64(kp)
-        k0, k1 = _lohi(k, nz)
-        m = 0.0
-        for j in range(ny):
-            j0, j1 = _lohi(j, ny)
-            for i in range(nx):
-                i0, i1 = _lohi(i, nx)
-                if nx >= 2:
-                    g = abs(_d1(f[k, j, i1], f[k, j, i0], 2.0 * hx, hx, i1 - i0 == 2))
-                    if g > m:
-                        m = g
-                if ny >= 2:
-                    g = abs(_d1(f[k, j1, i], f[k, j0, i], 2.0 * hy, hy, j1 - j0 == 2))
-                    if g > m:
-                        m = g
-                if nz >= 2:
-                    g = abs(_d1(f[k1, j, i], f[k0, j, i], 2.0 * hz, hz, k1 - k0 == 2))
-                    if g > m:
-                        m = g
-        out[k] = m
+        _gradient_plane(f, h, 1.0, k, out)
+        top[k] = _top_bits(out[k].reshape(out[k].size), True)
+
+
+def gradient_max(f, h, out):  # type: ignore[no-untyped-def]
+    """:func:`gradient` (scale 1) into ``out (nz, ny, nx, 3)``, and its largest |component|,
+    NaN ignored, at least 0 (as ``np.nanmax(np.abs(out), initial=0.0)``)."""
+    top = np.zeros(np.shape(f)[0], dtype=np.int64)
+    _gradient_top(np.ascontiguousarray(f, dtype=np.float64), np.asarray(h, dtype=np.float64),
+                  out, top)  # fmt: skip
+    return float(top.max(initial=0).view(np.float64))
 
 
 def gradient_absmax(f, h):  # type: ignore[no-untyped-def]
-    """The largest |component| of :func:`gradient` (scale 1) over the finite ones, at least 0
-    (as ``np.nanmax(np.abs(g), initial=0.0)``), without the gradient array."""
-    planes = np.zeros(f.shape[0])
-    _gradient_absmax_planes(np.ascontiguousarray(f, dtype=np.float64),
-                            np.asarray(h, dtype=np.float64), planes)  # fmt: skip
-    return float(planes.max(initial=0.0))
+    """The largest |component| of :func:`gradient` (scale 1), NaN ignored, at least 0 (as
+    ``np.nanmax(np.abs(g), initial=0.0)``)."""
+    return gradient_max(f, h, np.empty((*np.shape(f), 3)))
 
 
 @numba.njit(parallel=True, **_NJIT)

@@ -980,6 +980,13 @@ def gradient(f: NDArray[np.float64], spacing: NDArray[np.float64],
     return out
 
 
+def gradient_max(f: NDArray[np.float64], spacing: NDArray[np.float64],
+                 out: NDArray[np.float64]) -> float:  # fmt: skip
+    """:func:`gradient` (scale 1) into ``out (nz, ny, nx, 3)``, and :func:`gradient_absmax`
+    of it, in one pass."""
+    return float(K.gradient_max(f, np.asarray(spacing, dtype=np.float64), out))
+
+
 def gradient_absmax(f: NDArray[np.float64], spacing: NDArray[np.float64]) -> float:
     """The largest |component| of :func:`gradient` over the finite ones (0 if none),
     without making the gradient."""
@@ -1204,7 +1211,7 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     store = MappedSeries(volume, m)
     # the mapping's series statistics read each frame once; what they read is
     # kept for the first map() of each step (paper-density), as much as the store holds
-    m.prepare_series(volume, hold_bytes=min(store.max_steps, volume.n_steps) * 8 * volume.n_points)
+    m.prepare_series(volume, hold_bytes=min(store.max_steps, volume.n_steps) * step_bytes(volume))
     try:
         # pass 1 (each step read and mapped once, kept in the store): the steady anchors
         qmean = steady_strength(volume, m, steady, store=store)

@@ -278,8 +278,11 @@ class PaperDensityMapping(AcousticMapping):
     _hi: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _gscale: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _prepared_for: int = dataclasses.field(default=0, init=False, repr=False)
-    #: 10**x frames read by :meth:`prepare_series`, each handed to :meth:`map` once
-    _held: dict[int, Frame] = dataclasses.field(default_factory=dict, init=False, repr=False)
+    #: what :meth:`prepare_series` read, each handed to :meth:`map` once: per step ρ̃ and
+    #: its gradient (not yet scaled), or the 10**x frame
+    _held: dict[int, Frame | tuple[Frame, Frame]] = dataclasses.field(
+        default_factory=dict, init=False, repr=False
+    )
 
     def required_fields(self) -> list[str]:
         return [self.field]
@@ -287,7 +290,9 @@ class PaperDensityMapping(AcousticMapping):
     def _rho(self, volume: TimeVolume, step: int) -> Frame:
         x = volume.frame(self.field, step)
         _check_scalar(volume, self.field, x)
-        if np.nanmax(np.abs(x), initial=0.0) > 300:
+        # max |x| > 300 (NaN ignored), without |x| made
+        if np.fmax.reduce(x, axis=None, initial=-np.inf) > 300 or np.fmin.reduce(
+                x, axis=None, initial=np.inf) < -300:  # fmt: skip
             raise DataError(
                 f"{volume.source}: field {self.field!r} is read as log10 density by the "
                 f"'paper-density' mapping, but holds values up to {np.nanmax(np.abs(x)):g}; "
@@ -300,8 +305,10 @@ class PaperDensityMapping(AcousticMapping):
 
     def prepare_series(self, volume: TimeVolume, *, hold_bytes: int = 0) -> None:
         """:meth:`prepare` reading each frame once: the 10**x frames of its first
-        pass (lo, hi) are kept, up to ``hold_bytes``, for its gradient pass and
-        then for the next :meth:`map` of each step (frames beyond it are read again)."""
+        pass (lo, hi) are kept, up to ``hold_bytes``, for its gradient pass, which
+        keeps (on a uniform grid, as the bytes allow: 32 a point) each step's ρ̃ and
+        gradient for the next :meth:`map` of the step, else the 10**x frame (frames
+        beyond it are read again)."""
         self._prepare(volume, hold_bytes)
 
     def release(self) -> None:
@@ -320,13 +327,28 @@ class PaperDensityMapping(AcousticMapping):
             if len(kept) < room:
                 kept[n] = r
         self._lo, self._hi = lo, hi
+        # ρ̃ and its gradient (scale 1: the same differences the mapped velocity scales)
+        uniform = volume.metric is None
+        spare = int(hold_bytes) - 8 * volume.n_points * len(kept)
+        held: dict[int, Frame | tuple[Frame, Frame]] = {}
         gmax = 0.0
         for n in range(volume.n_steps):
-            r = kept[n] if n in kept else self._rho(volume, n)
-            gmax = max(gmax, _gradient_absmax(self._scaled(r), volume))
+            r = kept.pop(n, None)
+            rho = self._scaled(self._rho(volume, n) if r is None else r)
+            if not uniform:
+                gmax = max(gmax, _gradient_absmax(rho, volume))
+            else:
+                g = np.empty((*rho.shape, 3))
+                gmax = max(gmax, _gradient_max(rho, volume, g))
+                if r is not None and spare >= 24 * volume.n_points:
+                    held[n] = (rho, g)
+                    spare -= 24 * volume.n_points
+                    continue
+            if r is not None:
+                held[n] = r
         self._gscale = self.velocity_max / gmax if gmax > 0 else 0.0
         self._prepared_for = id(volume)
-        self._held = kept
+        self._held = held
 
     def _scaled(self, r: Frame) -> Frame:
         a, b = self.rho_range
@@ -349,8 +371,11 @@ class PaperDensityMapping(AcousticMapping):
     def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
         if self._prepared_for != id(volume):
             self.prepare(volume)
-        r = self._held.pop(step, None)
-        rho = self._scaled(self._rho(volume, step) if r is None else r)
+        hit = self._held.pop(step, None)
+        if isinstance(hit, tuple):  # ρ̃ and its gradient: scaled as _grad would (g · scale)
+            rho, g = hit
+            return rho, np.multiply(g, self._gscale, out=g)
+        rho = self._scaled(self._rho(volume, step) if hit is None else hit)
         return rho, self._grad(volume, rho, self._gscale)
 
     def describe(self) -> dict[str, object]:
@@ -439,6 +464,14 @@ def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]]
         return cls(**{k: v for k, v in field_names.items() if v is not None})
     except TypeError as exc:
         raise ParameterError(f"mapping {spec!r}: {exc}") from None
+
+
+def _gradient_max(f: Frame, volume: TimeVolume, out: Frame) -> float:
+    """The gradient of ``f`` on the uniform grid of ``volume`` (scale 1) into ``out
+    (nz, ny, nx, 3)``, and its :func:`_gradient_absmax`."""
+    from auralize.sources.detection import gradient_max
+
+    return gradient_max(f, volume.spacing, out)
 
 
 def _gradient_absmax(f: Frame, volume: TimeVolume) -> float:
