@@ -240,8 +240,11 @@ def the_passes(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundoff
     K.momentum_change(rho_a, v_a, rho_b, v_b, dm)
     K.stress(rho_c, v_c, tt)
     K.strengths(rho_a, rho_b, dm, tt, inv_dt, h, s)
-    mode, f, sa, sb, ta, tb = steady
+    mode, f, sa, sb, ra, va, rb, vb = steady
     if mode == K.STEADY_BETWEEN:
+        ta, tb = np.empty((6, *shape)), np.empty((6, *shape))
+        K.stress(ra, va, ta)
+        K.stress(rb, vb, tb)
         K.subtract_steady(s[2], sa, sb, tt, ta, tb, f, factor > 0)
     elif mode == K.STEADY_ANCHOR:
         s[2] = 0.0
@@ -259,9 +262,9 @@ def the_passes(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundoff
 
 def steady_of(mode: int, shape: tuple[int, int, int], seed: int) -> tuple:  # type: ignore[type-arg]
     rng = np.random.default_rng(seed)
-    sa, sb = rng.normal(size=(2, *shape))
-    ta, tb = rng.normal(size=(2, 6, *shape))
-    return (mode, 0.3, sa, sb, ta, tb)
+    sa, sb, ra, rb = rng.normal(size=(4, *shape))
+    va, vb = rng.normal(size=(2, *shape, 3))
+    return (mode, 0.3, sa, sb, ra, va, rb, vb)
 
 
 DETECT_SHAPES = [(9, 12, 17), (6, 5, 7), (5, 5, 5), (3, 4, 2), (1, 6, 7), (6, 1, 2), (2, 2, 1),

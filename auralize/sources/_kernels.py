@@ -243,8 +243,8 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
     sm, sd, sq = run(out[0], o, 0), run(out[1], o, 0), run(out[2], o, 0)
     # dipole: x first (in sd), one-sided at the faces
     xd = run(dm[0], k, 0)
-    for i in range(1, n - 1):
-        sd[i] = (xd[i + 1] - xd[i - 1]) * fx
+    for i in range(n - 2):  # (indices from 0: an index that may be negative keeps it scalar)
+        sd[i + 1] = (xd[i + 2] - xd[i]) * fx
     for q in range(r):
         e = q * nx
         sd[e] = (xd[e + 1] - xd[e]) * fx1
@@ -255,10 +255,10 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
         sd[i] = (sd[i] + (yp[i] - ym[i]) * fy + (zp[i] - zm[i]) * fz) * inv_dt
     # quadrupole: second differences, x first (kept inside: the face copies the next in)
     xt = run(tt[0], k, 0)
-    for i in range(1, n - 1):
+    for i in range(n - 2):
         s = 0.0
-        s += (xt[i + 1] - 2.0 * xt[i] + xt[i - 1]) * gx
-        sq[i] = s
+        s += (xt[i + 2] - 2.0 * xt[i + 1] + xt[i]) * gx
+        sq[i + 1] = s
     for q in range(r):
         e = q * nx
         sq[e] = sq[e + 1]
@@ -280,8 +280,8 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
         else:
             xp, xm = run(tt[4], k1, 0), run(tt[4], k0, 0)
             f2 = fz
-        for i in range(1, n - 1):
-            sm[i] = (2.0 * fx * f2) * (xp[i + 1] - xp[i - 1] - xm[i + 1] + xm[i - 1])
+        for i in range(n - 2):
+            sm[i + 1] = (2.0 * fx * f2) * (xp[i + 2] - xp[i] - xm[i + 2] + xm[i])
         for q in range(r):
             e = q * nx
             sm[e] = (2.0 * fx1 * f2) * (xp[e + 1] - xp[e] - xm[e + 1] + xm[e])
@@ -1137,9 +1137,11 @@ def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundof
         densities ``(nz, ny, nx)`` and velocities ``(nz, ny, nx, 3)`` at steps
         n-1, n+1, n, n-2 and n+2 (clipped at the ends of the series).
     steady : tuple
-        ``(mode, f, sa, sb, ta, tb)``: :data:`STEADY_BETWEEN` subtracts
-        ``(1 - f) sa + f sb`` from the quadrupole strength and, when flooring,
-        ``(1 - f) ta + f tb`` from the stress the estimates read;
+        ``(mode, f, sa, sb, rho_a, v_a, rho_b, v_b)``: :data:`STEADY_BETWEEN`
+        subtracts ``(1 - f) sa + f sb`` from the quadrupole strength and, when
+        flooring, ``(1 - f) ta + f tb`` from the stress the estimates read, ``ta``
+        and ``tb`` the stresses of the anchor frames (``rho_a, v_a``, ``rho_b, v_b``;
+        :func:`_steady_stress_plane`);
         :data:`STEADY_ANCHOR` sets the quadrupole strength to 0;
         :data:`STEADY_GIVEN` subtracts ``sa``; :data:`STEADY_NONE` nothing.
     nodata, bad : (nz, ny, nx) bool
@@ -1154,8 +1156,8 @@ def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundof
     nz = out.shape[1]
     n_blocks = max(1, min(nz, numba.get_num_threads() if blocks is None else int(blocks)))
     edges = np.linspace(0, nz, n_blocks + 1).astype(np.int64)
-    mode, f, sa, sb, ta, tb = steady
-    _step_sweep(*frames, (int(mode), float(f), sa, sb, ta, tb), nodata, bad,
+    mode, f, sa, sb, ra, va, rb, vb = steady
+    _step_sweep(*frames, (int(mode), float(f), sa, sb, ra, va, rb, vb), nodata, bad,
                 bool(nodata.any()), float(inv_dt), float(inv_dt2),
                 np.asarray(h, dtype=np.float64),
                 (float(factor), np.asarray(roundoff, dtype=np.float64)), edges, out)  # fmt: skip
@@ -1181,7 +1183,7 @@ def _planes_read(k, nz, error):  # type: ignore[no-untyped-def]
 def _step_sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, steady,  # type: ignore[no-untyped-def]
                 nodata, bad, masked, inv_dt, inv_dt2, h, floor, edges, out):  # fmt: skip
     """:func:`detect_step` over the blocks of planes ``[edges[b], edges[b + 1])``."""
-    mode, f, sa, sb, ta, tb = steady
+    mode, f, sa, sb, ra, va, rb, vb = steady
     factor, roundoff = floor
     nz, ny, nx = rho_c.shape
     R = SWEEP_PLANES
@@ -1199,6 +1201,7 @@ def _step_sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, 
         raw = np.empty((6, R, ny, nx))
         tt = np.empty((6, R, ny, nx)) if remove else raw
         s = np.empty((3, R, ny, nx))
+        anchor = np.empty((6, 2, ny, nx))  # the anchors' stress of a plane
         near = np.empty((3, 3, ny, nx))  # error estimates of planes k-1, k, k+1
         work = np.empty((3, ny, nx))
         # the strengths of planes [ks, last] and (flooring) their estimates are needed
@@ -1216,8 +1219,7 @@ def _step_sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, 
             if flooring:
                 _momentum_plane(rho_a2[e], v_a2[e], rho_b2[e], v_b2[e], dm2, o)
             if remove:
-                for c in range(6):
-                    _subtract_plane(raw[c, o], ta[c, e], tb[c, e], w, f, tt[c, o])
+                _steady_stress_plane(raw, ra[e], va[e], rb[e], vb[e], w, f, tt, o, anchor)
             # then whatever they let be done
             progress = True
             while progress:
@@ -1284,6 +1286,17 @@ def _subtract_plane(x, a, b, w, f, out):  # type: ignore[no-untyped-def]
         of[p] = xf[p] - (w * af[p] + f * bf[p])
 
 
+@numba.njit(**_NJIT)
+def _steady_stress_plane(raw, ra, va, rb, vb, w, f, out, o, work):  # type: ignore[no-untyped-def]
+    """``out[:, o]`` = ``raw[:, o] - (w ta + f tb)`` over one plane, ``ta`` and ``tb`` the
+    stresses (:func:`_stress_plane`) of the densities ``ra, rb (ny, nx)`` and the
+    velocities ``va, vb (ny, nx, 3)`` (``work (6, 2, ny, nx)``: scratch)."""
+    _stress_plane(ra, va, work, 0)
+    _stress_plane(rb, vb, work, 1)
+    for c in range(6):
+        _subtract_plane(raw[c, o], work[c, 0], work[c, 1], w, f, out[c, o])
+
+
 @numba.njit(parallel=True, **_NJIT)
 def subtract_steady(sq, sa, sb, tt, ta, tb, f, with_stress):  # type: ignore[no-untyped-def]
     """Subtract the steady state interpolated between two anchors, in place:
@@ -1307,8 +1320,8 @@ def _gradient_plane(f, h, scale, k, out):  # type: ignore[no-untyped-def]
     hx, hy, hz = h[0], h[1], h[2]
     m = ny * nx
     c, o = f[k].reshape(m), out[k].reshape(3 * m)
-    for p in range(1, m - 1):
-        o[3 * p] = (c[p + 1] - c[p - 1]) / (2.0 * hx) * scale
+    for p in range(m - 2):
+        o[3 * p + 3] = (c[p + 2] - c[p]) / (2.0 * hx) * scale
     for j in range(ny):
         p, e = j * nx, j * nx + nx - 1
         if nx < 2:

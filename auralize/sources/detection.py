@@ -694,8 +694,8 @@ def _uniform_strengths(volume: TimeVolume, cache: StepCache, n: int, a: int, b: 
 
 
 #: the steady state's arrays when there is none (:func:`auralize.sources._kernels.detect_step`)
-_NO_STEADY = (np.empty((0, 0, 0)), np.empty((0, 0, 0)),
-              np.empty((0, 0, 0, 0)), np.empty((0, 0, 0, 0)))  # fmt: skip
+_NO_STEADY = (np.empty((0, 0, 0)), np.empty((0, 0, 0)), np.empty((0, 0, 0)),
+              np.empty((0, 0, 0, 0)), np.empty((0, 0, 0)), np.empty((0, 0, 0, 0)))  # fmt: skip
 
 
 def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, inv_dt: float,
@@ -802,13 +802,20 @@ class SteadyBase:
         self.volume, self.mapping = volume, mapping
         self.anchors = np.unique(np.asarray(anchors, dtype=np.int64))
         self.store = store
-        self._held: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        #: per anchor step: the quadrupole strength of its stress, its density and velocity
+        self._held: dict[
+            int, tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+        ] = {}
+        self._tt: dict[int, NDArray[np.float64]] = {}
 
     def for_volume(self, volume: TimeVolume, mapping: AcousticMapping | None = None) -> SteadyBase:
         """The same anchors on another volume (a slab of this one)."""
         return SteadyBase(volume, self.mapping if mapping is None else mapping, self.anchors)
 
-    def _state(self, a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def _anchor(
+        self, a: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Anchor step ``a``'s ``(S_q of its stress, rho, v)`` (the last two anchors kept)."""
         hit = self._held.get(a)
         if hit is None:
             rho, v, _ = StepCache(self.volume, self.mapping, store=self.store).frame(a)
@@ -816,11 +823,21 @@ class SteadyBase:
             metric = self.volume.metric
             sq = (K.quadrupole_of_stress(tt, self.volume.spacing) if metric is None
                   else metric.quadrupole(tt))  # fmt: skip
-            hit = (sq, tt)
+            hit = (sq, rho, v)
             if len(self._held) >= 2:
-                self._held.pop(next(iter(self._held)))
+                gone = next(iter(self._held))
+                self._held.pop(gone)
+                self._tt.pop(gone, None)
             self._held[a] = hit
         return hit
+
+    def _state(self, a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Anchor step ``a``'s ``(S_q, stress)``."""
+        sq, rho, v = self._anchor(a)
+        tt = self._tt.get(a)
+        if tt is None:
+            tt = self._tt[a] = np.ascontiguousarray(_stress(rho, v))
+        return sq, tt
 
     def at(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         """``(S_q, stress)`` of the steady state at step ``n``, or None at an anchor
@@ -837,16 +854,17 @@ class SteadyBase:
 
     def parts(self, n: int) -> tuple[Any, ...]:
         """The steady state at step ``n`` as :func:`auralize.sources._kernels.detect_step`
-        takes it: ``(mode, f, sa, sb, ta, tb)``, :meth:`subtract`'s operands."""
+        takes it: ``(mode, f, sa, sb, rho_a, v_a, rho_b, v_b)``, the anchors' quadrupole
+        strengths and their frames (whose stress :meth:`subtract` subtracts)."""
         i = int(np.searchsorted(self.anchors, n))
         if i < self.anchors.size and self.anchors[i] == n:
             return (K.STEADY_ANCHOR, 0.0, *_NO_STEADY)
         a, b = int(self.anchors[i - 1]), int(self.anchors[i])
         t = self.volume.times
         f = float((t[n] - t[a]) / (t[b] - t[a]))
-        sa, ta = self._state(a)
-        sb, tb = self._state(b)
-        return (K.STEADY_BETWEEN, f, sa, sb, ta, tb)
+        sa, ra, va = self._anchor(a)
+        sb, rb, vb = self._anchor(b)
+        return (K.STEADY_BETWEEN, f, sa, sb, ra, va, rb, vb)
 
     def subtract(self, n: int, sq: NDArray[np.float64], tt: NDArray[np.float64], *,
                  with_stress: bool) -> None:  # fmt: skip
