@@ -366,13 +366,15 @@ def test_input_maxima_are_the_numpy_maxima(nan: bool) -> None:
     assert K.input_maxima(rho[:0], v[:0]) == (0.0, 0.0, 0.0)
 
 
-def test_steady_change_is_the_numpy_maxima() -> None:
+def test_step_change_is_the_numpy_maxima() -> None:
     rng = np.random.default_rng(8)
     r0, r1 = rng.normal(size=(2, 3, 4, 5))
     v0, v1 = rng.normal(size=(2, 3, 4, 5, 3))
     m0, m1 = r0[..., None] * v0, r1[..., None] * v1
-    want = tuple(float(np.max(np.abs(x))) for x in (r0, r1, r1 - r0, m0, m1, m1 - m0))
-    assert K.steady_change(r0, v0, r1, v1) == want
+    dr, dm, planes = K.step_change(r0, v0, r1, v1)
+    assert (dr, dm) == (float(np.max(np.abs(r1 - r0))), float(np.max(np.abs(m1 - m0))))
+    np.testing.assert_array_equal(planes, K.input_maxima_planes(r1, v1))
+    np.testing.assert_array_equal(planes.max(axis=0), K.input_maxima(r1, v1))
 
 
 @pytest.mark.parametrize("delta_v", ["cell", "sphere"])

@@ -978,44 +978,39 @@ def _floor_with(s, mx, factor, roundoff):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(parallel=True, **_NJIT)
-def _change_planes(r0, v0, r1, v1, out):  # type: ignore[no-untyped-def]
+def _step_change_planes(r0, v0, r1, v1, out):  # type: ignore[no-untyped-def]
     nz = r0.shape[0]
     m = r0.size // max(nz, 1)
     for kp in numba.prange(nz):
         k = np.int64(kp)
         a, b = r0[k].reshape(m), r1[k].reshape(m)
         fa, fb = v0[k].reshape(3 * m), v1[k].reshape(3 * m)
-        d = np.empty(CHUNK)
-        ma, mb, md = np.empty(3 * CHUNK), np.empty(3 * CHUNK), np.empty(3 * CHUNK)
-        top = np.zeros(6, dtype=np.int64)
-        top[0] = _top_bits(a, True)
-        top[1] = _top_bits(b, True)
+        d, md = np.empty(CHUNK), np.empty(3 * CHUNK)
+        top = out[k]
+        top[0] = 0
+        top[1] = 0
         for p0 in range(0, m, CHUNK):
             n = min(CHUNK, m - p0)
             for p in range(n):
                 d[p] = b[p0 + p] - a[p0 + p]
                 for c in range(3):
                     x = a[p0 + p] * fa[3 * (p0 + p) + c]
-                    y = b[p0 + p] * fb[3 * (p0 + p) + c]
-                    ma[3 * p + c] = x
-                    mb[3 * p + c] = y
-                    md[3 * p + c] = y - x
-            top[2] = max(top[2], _top_bits(d[:n], True))
-            top[3] = max(top[3], _top_bits(ma[: 3 * n], True))
-            top[4] = max(top[4], _top_bits(mb[: 3 * n], True))
-            top[5] = max(top[5], _top_bits(md[: 3 * n], True))
-        out[k] = top
+                    md[3 * p + c] = b[p0 + p] * fb[3 * (p0 + p) + c] - x
+            top[0] = max(top[0], _top_bits(d[:n], True))
+            top[1] = max(top[1], _top_bits(md[: 3 * n], True))
+        _input_maxima_plane(b, fb, top[2:])
 
 
-def steady_change(r0, v0, r1, v1):  # type: ignore[no-untyped-def]
-    """``(max|ρ0|, max|ρ1|, max|ρ1 − ρ0|, max|m0|, max|m1|, max|m1 − m0|)`` of two steps'
-    densities ``(nz, ny, nx)`` and velocities ``(nz, ny, nx, 3)``, ``m = ρ v`` (each at least
-    0, NaN ignored), without temporaries."""
-    if r0.size == 0:
-        return (0.0,) * 6
-    bits = np.zeros((r0.shape[0], 6), dtype=np.int64)
-    _change_planes(r0, v0, r1, v1, bits)
-    return tuple(float(x) for x in bits.max(axis=0).view(np.float64))
+def step_change(r0, v0, r1, v1):  # type: ignore[no-untyped-def]
+    """How much a step changed from the one before: ``(max|ρ1 − ρ0|, max|m1 − m0|)`` of their
+    densities ``(nz, ny, nx)`` and velocities ``(nz, ny, nx, 3)``, ``m = ρ v`` (NaN ignored,
+    at least 0), and the second step's :func:`input_maxima_planes` ``(nz, 3)``, in one pass."""
+    bits = np.zeros((r0.shape[0], 5), dtype=np.int64)
+    if r0.size:
+        _step_change_planes(r0, v0, r1, v1, bits)
+    values = bits.view(np.float64)
+    top = values[:, :2].max(axis=0, initial=0.0)
+    return float(top[0]), float(top[1]), np.ascontiguousarray(values[:, 2:])
 
 
 def apply_floor(s, err, factor, roundoff, work=None):  # type: ignore[no-untyped-def]

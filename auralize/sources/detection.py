@@ -517,6 +517,9 @@ class MappedSeries:
         budget = series_bytes() if max_bytes is None else int(max_bytes)
         self.max_steps = budget // step_bytes(volume)
         self.frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
+        #: per step, each plane's (max|ρ|, max|ρv|, max|ρv ∘ v|) ``(nz, 3)``, gathered by
+        #: :func:`steady_anchors` as it compares the steps (:func:`input_scale`)
+        self.maxima: dict[int, np.ndarray] = {}
         self.maps = 0
 
     def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -761,11 +764,20 @@ def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
     if T < 3 or mapping.unavailable(volume).get("quadrupole"):
         return np.array(sorted(anchors), dtype=np.int64)
     cache = StepCache(volume, mapping, store=store)
+    r0, v0, _ = cache.frame(0)
+    before = K.input_maxima_planes(r0, v0)
+    if store is not None:
+        store.maxima[0] = before
     for n in range(1, T):
         r0, v0, _ = cache.frame(n - 1)
         r1, v1, _ = cache.frame(n)
-        # max|r0|, max|r1|, max|r1 - r0| and those of m = ρv in one compiled pass
-        a0, a1, dr, b0, b1, dm = K.steady_change(r0, v0, r1, v1)
+        # max|r1 - r0| and max|m1 - m0|, m = ρv, with step n's input maxima, in one
+        # compiled pass; the frames are finite, so the maxima are the NaN-free ones
+        dr, dm, now = K.step_change(r0, v0, r1, v1)
+        if store is not None:
+            store.maxima[n] = now
+        (a0, b0, _), (a1, b1, _) = before.max(axis=0, initial=0.0), now.max(axis=0, initial=0.0)
+        before = now
         scale_r = max(a0, a1)
         scale_m = max(b0, b1)
         if dr <= rtol * scale_r and dm <= rtol * scale_m:
@@ -1033,6 +1045,8 @@ def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
     live = [volume.spacing[a] for a in range(3) if volume.dims[a] > 1]
     h = float(min(live)) if live else 1.0
     planes = cache.maxima.get(n)
+    if planes is None and cache.store is not None:
+        planes = cache.store.maxima.get(n)
     if planes is None:
         rho, v, _ = cache.frame(n)
         planes = cache.maxima[n] = K.input_maxima_planes(rho, v)
