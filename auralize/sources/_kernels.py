@@ -21,6 +21,10 @@ so no value is ever extrapolated from the points that remain.
 
 from __future__ import annotations
 
+import itertools
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
 import numba
 import numpy as np
 
@@ -29,20 +33,22 @@ from auralize.runtime.jit import configure as _configure_numba
 _configure_numba()  # cache folder, OMP wait policy, compile notice
 
 _NJIT = {"cache": True, "fastmath": False, "nogil": True}
+#: functions only compiled code calls: no wrappers for calls from Python
+_INNER = {**_NJIT, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 
 NONE, MONOPOLE, DIPOLE, QUADRUPOLE = 0, 1, 2, 3
 #: ΔV rules of :func:`classify_and_radius`
 DV_CELL, DV_SPHERE = 0, 1
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _lohi(i: int, n: int) -> tuple[int, int]:
     lo = i - 1 if i > 0 else 0
     hi = i + 1 if i < n - 1 else n - 1
     return lo, hi
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _inner(i: int, n: int) -> int:
     """Centre of a 3-point stencil kept inside [0, n) (i itself if n < 3)."""
     if n < 3:
@@ -62,7 +68,7 @@ _INF_BITS = np.int64(0x7FF0000000000000)
 CHUNK = 512
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(**_INNER)
 def _top_bits(x, nan_ignored):  # type: ignore[no-untyped-def]
     """The largest |value| of the contiguous float64 run ``x`` as its bit pattern (0 at
     least): a NaN's when one is there, or (``nan_ignored``) NaN counted as 0.
@@ -81,7 +87,7 @@ def _top_bits(x, nan_ignored):  # type: ignore[no-untyped-def]
     return top
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _momentum_plane(rho_a, v_a, rho_b, v_b, dm, o):  # type: ignore[no-untyped-def]
     """``dm[:, o]`` = ``ρ_b v_b − ρ_a v_a`` of one plane's densities ``(ny, nx)`` and
     velocities ``(ny, nx, 3)``."""
@@ -106,7 +112,7 @@ def momentum_change(rho_a, v_a, rho_b, v_b, dm):  # type: ignore[no-untyped-def]
         _momentum_plane(rho_a[k], v_a[k], rho_b[k], v_b[k], dm, k)
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _stress_plane(rho, v, tt, o):  # type: ignore[no-untyped-def]
     """``tt[:, o]`` = ρ v_i v_j (xx, yy, zz, xy, xz, yz) of one plane ``(ny, nx)``."""
     m = rho.size
@@ -133,7 +139,7 @@ def stress(rho, v, tt):  # type: ignore[no-untyped-def]
         _stress_plane(rho[k], v[k], tt, k)
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _input_maxima_plane(r, f, out):  # type: ignore[no-untyped-def]
     """``out (3,)`` int64 = the bit patterns (:func:`_top_bits`) of ``(max|ρ|, max|ρv|,
     max|ρv ∘ v|)`` over a plane's flat ``r (m,)`` and ``f (3 m,)`` (velocities): each at
@@ -156,7 +162,7 @@ def _input_maxima_plane(r, f, out):  # type: ignore[no-untyped-def]
         out[2] = max(out[2], _top_bits(bt[: 3 * n], False))
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(**_INNER)
 def _strength_point(rho_a, rho_b, dm, tt, inv_dt, h, k, j, i, out, o):  # type: ignore[no-untyped-def]
     """The strengths of point ``(k, j, i)`` into ``out[:, o, j, i]`` (see :func:`strengths`;
     planes as :func:`_strength_plane`)."""
@@ -205,21 +211,134 @@ def _strength_point(rho_a, rho_b, dm, tt, inv_dt, h, k, j, i, out, o):  # type: 
     out[2, o, j, i] = s
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
+def _run(a, start, n, c, kk, d):  # type: ignore[no-untyped-def]
+    """The ``n`` points from ``start + d`` of plane ``kk`` (at slot ``kk % R``, R the planes
+    of ``a``) of component ``c`` of the flat stacks ``a (C, R, ny nx)``."""
+    return a[c, kk % a.shape[1], start + d : start + d + n]
+
+
+#: how a run loop (:func:`_diff_over` and the like) stores its term t: ``out = t``,
+#: ``out = 0.0 + t`` (the first term of a sum started at 0) or ``out = out + t``
+SET, FIRST, ADD = 0, 1, 2
+
+
+@numba.njit(**_INNER)
+def _diff_over(out, a, b, d, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = (a - b) / d, stored by ``mode``.
+
+    The run loops are small functions, one operation each, that the stencils
+    call on one-dimensional runs of the planes (:func:`_error_rows`,
+    :func:`_strength_rows`): each compiles once, reads a few runs, and the
+    compiler turns it into vector instructions.
+    """
+    for i in range(out.size):
+        t = (a[i] - b[i]) / d
+        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+
+
+@numba.njit(**_INNER)
+def _diff_times(out, a, b, f, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = (a - b) * f, stored by ``mode``."""
+    for i in range(out.size):
+        t = (a[i] - b[i]) * f
+        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+
+
+@numba.njit(**_INNER)
+def _second_times(out, p, c, m, g, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = (p - 2 c + m) g (a second difference), stored by ``mode``."""
+    for i in range(out.size):
+        t = (p[i] - 2.0 * c[i] + m[i]) * g
+        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+
+
+@numba.njit(**_INNER)
+def _second_over(out, p, c, m, p2, m2, d, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = ((p - 2 c + m) - (p2 - 2 c + m2) / 4) / d, the second difference
+    over h less the one over 2h (:func:`_error_point`), stored by ``mode``."""
+    for i in range(out.size):
+        a = p[i] - 2.0 * c[i] + m[i]
+        b = 0.25 * (p2[i] - 2.0 * c[i] + m2[i])
+        t = (a - b) / d
+        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+
+
+@numba.njit(**_INNER)
+def _cross_over(out, pp, pm, mp, mm, d):  # type: ignore[no-untyped-def]
+    """Along a run: out = (pp - pm - mp + mm) / d (a mixed difference)."""
+    for i in range(out.size):
+        out[i] = (pp[i] - pm[i] - mp[i] + mm[i]) / d
+
+
+@numba.njit(**_INNER)
+def _cross_times(out, pp, pm, mp, mm, f, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = f (pp - pm - mp + mm), stored by ``mode``."""
+    for i in range(out.size):
+        t = f * (pp[i] - pm[i] - mp[i] + mm[i])
+        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+
+
+@numba.njit(**_INNER)
+def _mixed_over(out, a, b, d, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = 2 (a - b) / d (a mixed difference over h less the one over 2h,
+    each term twice), stored by ``mode``."""
+    for i in range(out.size):
+        t = 2.0 * (a[i] - b[i]) / d
+        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+
+
+@numba.njit(**_INNER)
+def _add_run(out, a):  # type: ignore[no-untyped-def]
+    """Along a run: out = out + a."""
+    for i in range(out.size):
+        out[i] = out[i] + a[i]
+
+
+@numba.njit(**_INNER)
+def _times_run(out, f):  # type: ignore[no-untyped-def]
+    """Along a run: out = out f."""
+    for i in range(out.size):
+        out[i] = out[i] * f
+
+
+@numba.njit(**_INNER)
+def _third_of_gap(out, a, b, f):  # type: ignore[no-untyped-def]
+    """Along a run: out = |a - b| f / 3 (a Richardson estimate, :func:`_error_point`)."""
+    for i in range(out.size):
+        out[i] = abs(a[i] - b[i]) * f / 3.0
+
+
+@numba.njit(**_INNER)
+def _third_of_rest(out, s, d, f, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = |s - d f| / 3 (a strength less its 2Δt stencil), stored by ``mode``."""
+    for i in range(out.size):
+        t = abs(s[i] - d[i] * f) / 3.0
+        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+
+
+@numba.njit(**_INNER)
+def _third_of_abs(out):  # type: ignore[no-untyped-def]
+    """Along a run: out = |out| / 3."""
+    for i in range(out.size):
+        out[i] = abs(out[i]) / 3.0
+
+
+@numba.njit(**_INNER)
 def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: ignore[no-untyped-def]
     """:func:`_strength_point` at every point of the ``r`` rows from ``j`` on of plane ``k``
     (``nx`` >= 3; ``r`` is 1 or the rows are all inner, 1 .. ny-2).
 
     The same operations in the same order, point by point, grouped as in
-    :func:`_error_rows`: loops over the rows as one flat run, which the
-    compiler turns into vector instructions.  A term with an x difference is
-    taken along the run at x = 1 .. nx-2 (wrong at each end of a row, which
-    reads the next row), then at x = 0 and nx-1: copied from the next point
-    in for the second difference (its stencil is kept inside, :func:`_inner`),
-    one-sided for the first differences.  The monopole strength's row holds
-    the mixed x terms until it is written last.
+    :func:`_error_rows`: run loops along the rows as one flat run.  A term
+    with an x difference is taken along the run at x = 1 .. nx-2 (wrong at
+    each end of a row, which reads the next row), then at x = 0 and nx-1:
+    copied from the next point in for the second difference (its stencil is
+    kept inside, :func:`_inner`), one-sided for the first differences.  The
+    monopole strength's run holds the mixed x terms until it is written last.
     """
     nz, ny, nx = rho_a.shape
+    R = dm.shape[1]
     hx, hy, hz = h[0], h[1], h[2]
     gx = 1.0 / (hx * hx)
     gy = 1.0 / (hy * hy) if ny >= 3 else 0.0
@@ -232,75 +351,65 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
     fy = 1.0 / ((j1 - j0) * hy) if j1 > j0 else 0.0
     fx, fx1 = 1.0 / (2 * hx), 1.0 / (1 * hx)  # inside, at the faces
     m = ny * nx
-    p0 = j * nx  # flat index of the first point
-    n = r * nx
+    p0, n = j * nx, r * nx  # the run: its first point (flat) and length
+    dm_, tt_ = dm.reshape(3, R, m), tt.reshape(6, R, m)
+    ra, rb = rho_a.reshape(nz, m)[k, p0 : p0 + n], rho_b.reshape(nz, m)[k, p0 : p0 + n]
+    flat = out.reshape(3, out.shape[1], m)
+    sm, sd, sq = flat[0, o, p0 : p0 + n], flat[1, o, p0 : p0 + n], flat[2, o, p0 : p0 + n]
+    ym, yp, yc = (j0 - j) * nx, (j1 - j) * nx, (jc - j) * nx  # row offsets
 
-    def run(a, kk, d):  # type: ignore[no-untyped-def]
-        """The run of plane ``kk`` (at slot ``kk % R``) of ``a (R, ny, nx)``, offset by ``d``
-        points."""
-        return a[kk % a.shape[0]].reshape(m)[p0 + d : p0 + d + n]
-
-    sm, sd, sq = run(out[0], o, 0), run(out[1], o, 0), run(out[2], o, 0)
     # dipole: x first (in sd), one-sided at the faces
-    xd = run(dm[0], k, 0)
-    for i in range(n - 2):  # (indices from 0: an index that may be negative keeps it scalar)
-        sd[i + 1] = (xd[i + 2] - xd[i]) * fx
+    _diff_times(
+        sd[1 : n - 1],
+        _run(dm_, p0 + 1, n - 2, 0, k, 1),
+        _run(dm_, p0 + 1, n - 2, 0, k, -1),
+        fx,
+        SET,
+    )
+    xd = _run(dm_, p0, n, 0, k, 0)
     for q in range(r):
-        e = q * nx
+        e, g = q * nx, q * nx + nx - 1
         sd[e] = (xd[e + 1] - xd[e]) * fx1
-        sd[e + nx - 1] = (xd[e + nx - 1] - xd[e + nx - 2]) * fx1
-    ym, yp = run(dm[1], k, (j0 - j) * nx), run(dm[1], k, (j1 - j) * nx)
-    zm, zp = run(dm[2], k0, 0), run(dm[2], k1, 0)
-    for i in range(n):
-        sd[i] = (sd[i] + (yp[i] - ym[i]) * fy + (zp[i] - zm[i]) * fz) * inv_dt
+        sd[g] = (xd[g] - xd[g - 1]) * fx1
+    _diff_times(sd, _run(dm_, p0, n, 1, k, yp), _run(dm_, p0, n, 1, k, ym), fy, ADD)
+    _diff_times(sd, _run(dm_, p0, n, 2, k1, 0), _run(dm_, p0, n, 2, k0, 0), fz, ADD)
+    _times_run(sd, inv_dt)
     # quadrupole: second differences, x first (kept inside: the face copies the next in)
-    xt = run(tt[0], k, 0)
-    for i in range(n - 2):
-        s = 0.0
-        s += (xt[i + 2] - 2.0 * xt[i + 1] + xt[i]) * gx
-        sq[i + 1] = s
+    _second_times(sq[1 : n - 1], _run(tt_, p0 + 1, n - 2, 0, k, 1), _run(tt_, p0 + 1, n - 2, 0, k, 0), _run(tt_, p0 + 1, n - 2, 0, k, -1),
+                  gx, FIRST)  # fmt: skip
     for q in range(r):
-        e = q * nx
+        e, g = q * nx, q * nx + nx - 1
         sq[e] = sq[e + 1]
-        sq[e + nx - 1] = sq[e + nx - 2]
+        sq[g] = sq[g - 1]
     if ny >= 3:
-        dy = (jc - j) * nx
-        ym, yc, yp = run(tt[1], k, dy - nx), run(tt[1], k, dy), run(tt[1], k, dy + nx)
-        for i in range(n):
-            sq[i] += (yp[i] - 2.0 * yc[i] + ym[i]) * gy
+        _second_times(sq, _run(tt_, p0, n, 1, k, yc + nx), _run(tt_, p0, n, 1, k, yc), _run(tt_, p0, n, 1, k, yc - nx),
+                      gy, ADD)  # fmt: skip
     if nz >= 3:
-        zm, zc, zp = run(tt[2], kc - 1, 0), run(tt[2], kc, 0), run(tt[2], kc + 1, 0)
-        for i in range(n):
-            sq[i] += (zp[i] - 2.0 * zc[i] + zm[i]) * gz
+        _second_times(sq, _run(tt_, p0, n, 2, kc + 1, 0), _run(tt_, p0, n, 2, kc, 0), _run(tt_, p0, n, 2, kc - 1, 0),
+                      gz, ADD)  # fmt: skip
     # mixed xy and xz (each in sm first), one-sided at the faces
     for c in range(2):
         if c == 0:
-            xp, xm = run(tt[3], k, (j1 - j) * nx), run(tt[3], k, (j0 - j) * nx)
-            f2 = fy
+            cc, kp, km, dp, dn, f2 = 3, k, k, yp, ym, fy
         else:
-            xp, xm = run(tt[4], k1, 0), run(tt[4], k0, 0)
-            f2 = fz
-        for i in range(n - 2):
-            sm[i + 1] = (2.0 * fx * f2) * (xp[i + 2] - xp[i] - xm[i + 2] + xm[i])
+            cc, kp, km, dp, dn, f2 = 4, k1, k0, 0, 0, fz
+        _cross_times(sm[1 : n - 1], _run(tt_, p0 + 1, n - 2, cc, kp, dp + 1), _run(tt_, p0 + 1, n - 2, cc, kp, dp - 1),
+                     _run(tt_, p0 + 1, n - 2, cc, km, dn + 1), _run(tt_, p0 + 1, n - 2, cc, km, dn - 1), 2.0 * fx * f2,
+                     SET)  # fmt: skip
+        xp, xm = _run(tt_, p0, n, cc, kp, dp), _run(tt_, p0, n, cc, km, dn)
         for q in range(r):
-            e = q * nx
+            e, g = q * nx, q * nx + nx - 1
             sm[e] = (2.0 * fx1 * f2) * (xp[e + 1] - xp[e] - xm[e + 1] + xm[e])
-            g = e + nx - 1
             sm[g] = (2.0 * fx1 * f2) * (xp[g] - xp[g - 1] - xm[g] + xm[g - 1])
-        for i in range(n):
-            sq[i] += sm[i]
+        _add_run(sq, sm)
     # mixed yz
-    pp, pm = run(tt[5], k1, (j1 - j) * nx), run(tt[5], k1, (j0 - j) * nx)
-    mp, mm = run(tt[5], k0, (j1 - j) * nx), run(tt[5], k0, (j0 - j) * nx)
-    for i in range(n):
-        sq[i] += (2.0 * fy * fz) * (pp[i] - pm[i] - mp[i] + mm[i])
+    _cross_times(sq, _run(tt_, p0, n, 5, k1, yp), _run(tt_, p0, n, 5, k1, ym), _run(tt_, p0, n, 5, k0, yp),
+                 _run(tt_, p0, n, 5, k0, ym), 2.0 * fy * fz, ADD)  # fmt: skip
     # monopole
-    ra, rb = run(rho_a, k, 0), run(rho_b, k, 0)
-    for i in range(n):
-        sm[i] = (rb[i] - ra[i]) * inv_dt
+    _diff_times(sm, rb, ra, inv_dt, SET)
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _strength_plane(rho_a, rho_b, dm, tt, inv_dt, h, k, out, o):  # type: ignore[no-untyped-def]
     """The strengths of plane ``k`` into ``out[:, o]`` (see :func:`strengths`):
     :func:`_strength_rows` (its inner rows at once), or :func:`_strength_point` at each
@@ -315,19 +424,11 @@ def _strength_plane(rho_a, rho_b, dm, tt, inv_dt, h, k, out, o):  # type: ignore
             for i in range(nx):
                 _strength_point(rho_a, rho_b, dm, tt, inv_dt, h, k, j, i, out, o)
         return
-    _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, 0, 1, out, o)
-    if ny > 2:
-        _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, 1, ny - 2, out, o)
-    if ny > 1:
-        _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, ny - 1, 1, out, o)
-
-
-@numba.njit(parallel=True, **_NJIT)
-def _stencil(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-def]
-    """Finite-difference stencils on planar arrays (see :func:`strengths`)."""
-    for kp in numba.prange(rho_a.shape[0]):
-        k = np.int64(kp)
-        _strength_plane(rho_a, rho_b, dm, tt, inv_dt, h, k, out, k)
+    j = 0
+    while j < ny:  # the first row, the inner ones at once, the last
+        r = ny - 2 if j == 1 and ny > 2 else 1
+        _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o)
+        j += r
 
 
 def strengths(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-def]
@@ -345,10 +446,12 @@ def strengths(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-
     h : (3,) spacing (x, y, z).
     out : (3, nz, ny, nx) result, written in place.
     """
-    _stencil(rho_a, rho_b, dm, tt, inv_dt, np.asarray(h, dtype=np.float64), out)
+    h = np.asarray(h, dtype=np.float64)
+    over_planes(lambda lo, hi: _strength_planes(rho_a, rho_b, dm, tt, float(inv_dt), h, out, lo, hi),
+                rho_a.shape[0])  # fmt: skip
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _classify(sm: float, sd: float, sq: float, thr, zero) -> int:  # type: ignore[no-untyped-def]
     """Exclusive classification of paper 003 §3.2.3 (thresholds on magnitudes)."""
     am, ad, aq = abs(sm), abs(sd), abs(sq)
@@ -361,7 +464,7 @@ def _classify(sm: float, sd: float, sq: float, thr, zero) -> int:  # type: ignor
     return NONE
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _cut(s, kinds, kind, thr, own, k, j, i, half):  # type: ignore[no-untyped-def]
     """Cut distance from a source point towards neighbour (k, j, i) (§3.2.4.1).
 
@@ -390,7 +493,7 @@ def _classify_all(s, thr, zero, kind_out):  # type: ignore[no-untyped-def]
                 )
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _radius_at(s, kinds, thr, h, rule, k, j, i):  # type: ignore[no-untyped-def]
     """The ΔV radius of the source point ``(k, j, i)`` (see :func:`classify_and_radius`)."""
     _, nz, ny, nx = s.shape
@@ -433,30 +536,38 @@ def _radii(s, kinds, thr, h, rule, radius_out):  # type: ignore[no-untyped-def]
                     radius_out[k, j, i] = _radius_at(s, kinds, thr, h, rule, k, j, i)
 
 
-@numba.njit(parallel=True, **_NJIT)
-def _sources(s, thr, zero, h, rule, kinds):  # type: ignore[no-untyped-def]
-    """:func:`sources` (``kinds (nz, ny, nx)``: scratch, the classes of every point)."""
+@numba.njit(**_INNER)
+def _classify_run(kinds, sm, sd, sq, thr, zero):  # type: ignore[no-untyped-def]
+    """:func:`_classify` along a run (the same classes, as selects, which vectorize), and
+    the number of sources in it."""
+    t0, t1, t2, z0, z1 = thr[0], thr[1], thr[2], zero[0], zero[1]
+    c = 0
+    for i in range(kinds.size):
+        am, ad, aq = abs(sm[i]), abs(sd[i]), abs(sq[i])
+        kind = QUADRUPOLE if aq > t2 and am <= z0 and ad <= z1 else NONE
+        kind = DIPOLE if ad > t1 and am <= z0 else kind
+        kind = MONOPOLE if am > t0 else kind
+        kinds[i] = kind
+        c += kind != NONE
+    return c
+
+
+@numba.njit(**_NJIT)
+def _classify_planes(s, thr, zero, kinds, count, lo, hi):  # type: ignore[no-untyped-def]
+    """Classes of the points of planes ``[lo, hi)`` into ``kinds``, their sources counted
+    per plane into ``count``."""
     _, nz, ny, nx = s.shape
-    count = np.zeros(nz, dtype=np.int64)
-    for kp in numba.prange(nz):
-        k = np.int64(kp)
-        c = 0
-        for j in range(ny):
-            for i in range(nx):
-                kind = _classify(s[0, k, j, i], s[1, k, j, i], s[2, k, j, i], thr, zero)
-                kinds[k, j, i] = kind
-                c += kind != NONE
-        count[k] = c
-    start = np.zeros(nz + 1, dtype=np.int64)
-    for k in range(nz):
-        start[k + 1] = start[k] + count[k]
-    n = start[nz]
-    index = np.empty(n, dtype=np.int64)
-    kind_of = np.empty(n, dtype=np.int8)
-    strength = np.empty(n)
-    radius = np.empty(n)
-    for kp in numba.prange(nz):
-        k = np.int64(kp)
+    m = ny * nx
+    flat, kf = s.reshape(3, nz, m), kinds.reshape(nz, m)
+    for k in range(lo, hi):
+        count[k] = _classify_run(kf[k], flat[0, k], flat[1, k], flat[2, k], thr, zero)
+
+
+@numba.njit(**_NJIT)
+def _gather_planes(s, thr, h, rule, kinds, start, index, kind_of, strength, radius, lo, hi):  # type: ignore[no-untyped-def]
+    """The source points of planes ``[lo, hi)``, from ``start[k]`` on for plane ``k``."""
+    _, _, ny, nx = s.shape
+    for k in range(lo, hi):
         p = start[k]
         for j in range(ny):
             for i in range(nx):
@@ -468,7 +579,6 @@ def _sources(s, thr, zero, h, rule, kinds):  # type: ignore[no-untyped-def]
                 strength[p] = s[kind - 1, k, j, i]
                 radius[p] = _radius_at(s, kinds, thr, h, rule, k, j, i)
                 p += 1
-    return index, kind_of, strength, radius
 
 
 def sources(s, thr, zero, h, rule=DV_CELL, kinds=None):  # type: ignore[no-untyped-def]
@@ -481,7 +591,14 @@ def sources(s, thr, zero, h, rule=DV_CELL, kinds=None):  # type: ignore[no-untyp
     """
     if kinds is None or kinds.shape != s.shape[1:]:
         kinds = np.empty(s.shape[1:], dtype=np.int8)
-    return _sources(s, thr, zero, h, rule, kinds)
+    nz = s.shape[1]
+    count = np.zeros(nz, dtype=np.int64)
+    over_planes(lambda lo, hi: _classify_planes(s, thr, zero, kinds, count, lo, hi), nz)
+    start = np.concatenate([[0], np.cumsum(count)])
+    n = int(start[-1])
+    out = (np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int8), np.empty(n), np.empty(n))
+    over_planes(lambda lo, hi: _gather_planes(s, thr, h, rule, kinds, start, *out, lo, hi), nz)
+    return out
 
 
 def classify_and_radius(s, thr, zero, h, kind_out, radius_out, rule=DV_CELL):  # type: ignore[no-untyped-def]
@@ -504,13 +621,13 @@ def classify_and_radius(s, thr, zero, h, kind_out, radius_out, rule=DV_CELL):  #
     _radii(s, kind_out, thr, h, rule, radius_out)
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _any_bad_cross(bad, k, j, i, k0, k1, j0, j1, i0, i1):  # type: ignore[no-untyped-def]
     return (bad[k, j, i0] or bad[k, j, i1] or bad[k, j0, i] or bad[k, j1, i]
             or bad[k0, j, i] or bad[k1, j, i])  # fmt: skip
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _mask_plane(bad, k, out, o):  # type: ignore[no-untyped-def]
     """:func:`mask_nodata` of plane ``k``, whose strengths are ``out[:, o]``."""
     nz, ny, nx = bad.shape
@@ -553,7 +670,7 @@ def mask_nodata(bad, out):  # type: ignore[no-untyped-def]
     ``bad (nz, ny, nx)`` is True at no-data points.  A no-data point has no
     strength of any type; the dipole strength of a point needs its six edge
     neighbours (one-sided at grid faces: itself), the quadrupole strength
-    every point its second and mixed differences read (see :func:`_stencil`).
+    every point its second and mixed differences read (see :func:`strengths`).
     """
     for kp in numba.prange(bad.shape[0]):
         k = np.int64(kp)
@@ -569,16 +686,22 @@ def quadrupole_of_stress(tt, h):  # type: ignore[no-untyped-def]
     shape = tt.shape[1:]
     out = np.empty((3, *shape))
     zero = np.zeros(shape)
-    _stencil(zero, zero, np.zeros((3, *shape)), np.ascontiguousarray(tt), 0.0,
-             np.asarray(h, dtype=np.float64), out)  # fmt: skip
+    strengths(zero, zero, np.zeros((3, *shape)), np.ascontiguousarray(tt), 0.0, h, out)
     return out[2].copy()
+
+
+@numba.njit(**_NJIT)
+def _strength_planes(rho_a, rho_b, dm, tt, inv_dt, h, out, lo, hi):  # type: ignore[no-untyped-def]
+    """:func:`strengths` of planes ``[lo, hi)``."""
+    for k in range(lo, hi):
+        _strength_plane(rho_a, rho_b, dm, tt, inv_dt, h, k, out, k)
 
 
 def empty_like_strengths(shape: tuple[int, int, int]) -> np.ndarray:
     return np.empty((3, *shape), dtype=np.float64)
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _inner2(i: int, n: int) -> int:
     """Centre of a 5-point (2h) stencil kept inside [0, n) (-1 if n < 5: no 2h stencil)."""
     if n < 5:
@@ -590,7 +713,7 @@ def _inner2(i: int, n: int) -> int:
     return i
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(**_INNER)
 def _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, i, err):  # type: ignore[no-untyped-def]
     """Discretisation-error estimates ``err[:, j, i]`` of the strengths ``s[:, k, j, i]``.
 
@@ -721,7 +844,7 @@ def _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, 
     err[2, j, i] = abs(eq) / 3.0
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(**_INNER)
 def _ends_from_inner(row, r, nx):  # type: ignore[no-untyped-def]
     """In each of the ``r`` rows of ``nx`` points of the flat ``row``, set the first two
     points to the third and the last two to the third last (an x stencil centred
@@ -732,151 +855,126 @@ def _ends_from_inner(row, r, nx):  # type: ignore[no-untyped-def]
         row[o + nx - 1] = row[o + nx - 2] = row[o + nx - 3]
 
 
-@numba.njit(**_NJIT)
-def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err):  # type: ignore[no-untyped-def]
+@numba.njit(**_INNER)
+def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err, work):  # type: ignore[no-untyped-def]
     """:func:`_error_point` at every point of the ``r`` rows from ``j`` on of plane ``k``,
     where every 2h stencil fits (no axis of fewer than 5 points) and reads no
     no-data point; ``r`` is 1 or the rows are all inner (2 .. ny-3).
 
     The same operations in the same order, point by point, as
-    :func:`_error_point`, grouped differently: loops over the rows as one
-    flat run, each reading at most eight runs of the inputs, which the
-    compiler turns into vector instructions (more in one loop, or an index
-    that may be negative, keep it scalar).  Each loop adds one term to the
-    run of ``err (3, ny, nx)`` it writes.  A term with an x difference is
-    taken along the run at x = 2 .. nx-3 (wrong at the two points at each end
-    of a row, which read the next row), then copied to those points from the
-    third (third last), where the stencil is centred (:func:`_inner2`); the
-    one-sided x difference of the 2Δt dipole is taken at x = 0 and nx-1 apart.
-    The y and z stencils are those of row ``j`` (centred at :func:`_inner2`),
-    the same along the rows.  Planes as :func:`_error_point`.
+    :func:`_error_point`, grouped differently: run loops (:func:`_diff_over`
+    and the like) over the rows as one flat run, each adding one term to the
+    run of ``err (3, ny, nx)`` it writes (``work``: scratch like it).  A term
+    with an x difference is taken along the run at x = 2 .. nx-3 (wrong at
+    the two points at each end of a row, which read the next row), then
+    copied to those points from the third (third last), where the stencil is
+    centred (:func:`_inner2`); the one-sided x difference of the 2Δt dipole
+    is taken at x = 0 and nx-1 apart.  The y and z stencils are those of row
+    ``j`` (centred at :func:`_inner2`), the same along the rows.  Planes as
+    :func:`_error_point`.
     """
     nz, ny, nx = rho_a2.shape
+    R = dm.shape[1]
     hx, hy, hz = h[0], h[1], h[2]
     k2, j2 = _inner2(k, nz), _inner2(j, ny)
     k0, k1 = _lohi(k, nz)
     j0, j1 = _lohi(j, ny)
     m = ny * nx
-    o = j * nx  # flat index of the first point
-    n = r * nx
+    p0, n = j * nx, r * nx  # the run: its first point (flat) and length
     dy = (j2 - j) * nx  # offset of the y stencil's centre row
+    dm_, dm2_ = dm.reshape(3, R, m), dm2.reshape(3, R, m)
+    tt_, s_ = tt.reshape(6, R, m), s.reshape(3, R, m)
+    e_, w_ = err.reshape(3, m), work.reshape(3, m)
+    em, ed, eq = e_[0, p0 : p0 + n], e_[1, p0 : p0 + n], e_[2, p0 : p0 + n]
+    w0, w1 = w_[0, p0 : p0 + n], w_[1, p0 : p0 + n]
 
-    def run(a, kk, d):  # type: ignore[no-untyped-def]
-        """The run of plane ``kk`` (at slot ``kk % R``) of ``a (R, ny, nx)``, offset by ``d``
-        points."""
-        return a[kk % a.shape[0]].reshape(m)[o + d : o + d + n]
-
-    flat = err.reshape(3, m)
-    em, ed, eq = flat[0, o : o + n], flat[1, o : o + n], flat[2, o : o + n]
-    ex, fx = em[2 : n - 2], eq[2 : n - 2]  # where x stencils are taken
-    # dipole: divergence over 2h (in eq) and over h (in ed), x first
-    xd = run(dm[0], k, 0)
-    for i in range(n - 4):
-        div2 = 0.0
-        div2 += (xd[i + 4] - xd[i]) / (4.0 * hx)
-        fx[i] = div2
+    # dipole: divergence over 2h (in eq) and over h (in em, then ed), x first
+    _diff_over(
+        eq[2 : n - 2],
+        _run(dm_, p0 + 2, n - 4, 0, k, 2),
+        _run(dm_, p0 + 2, n - 4, 0, k, -2),
+        4.0 * hx,
+        FIRST,
+    )
     _ends_from_inner(eq, r, nx)
-    for i in range(n - 4):
-        div1 = 0.0
-        div1 += (xd[i + 3] - xd[i + 1]) / (2.0 * hx)
-        ex[i] = div1
+    _diff_over(
+        em[2 : n - 2],
+        _run(dm_, p0 + 2, n - 4, 0, k, 1),
+        _run(dm_, p0 + 2, n - 4, 0, k, -1),
+        2.0 * hx,
+        FIRST,
+    )
     _ends_from_inner(em, r, nx)
-    ym, yp = run(dm[1], k, dy - 2 * nx), run(dm[1], k, dy + 2 * nx)
-    zm, zp = run(dm[2], k2 - 2, 0), run(dm[2], k2 + 2, 0)
-    for i in range(n):
-        div2 = eq[i]
-        div2 += (yp[i] - ym[i]) / (4.0 * hy)
-        div2 += (zp[i] - zm[i]) / (4.0 * hz)
-        eq[i] = div2
-    ym, yp = run(dm[1], k, dy - nx), run(dm[1], k, dy + nx)
-    zm, zp = run(dm[2], k2 - 1, 0), run(dm[2], k2 + 1, 0)
-    for i in range(n):
-        div1 = em[i]
-        div1 += (yp[i] - ym[i]) / (2.0 * hy)
-        div1 += (zp[i] - zm[i]) / (2.0 * hz)
-        ed[i] = abs(div1 - eq[i]) * inv_dt / 3.0
+    _diff_over(
+        eq, _run(dm_, p0, n, 1, k, dy + 2 * nx), _run(dm_, p0, n, 1, k, dy - 2 * nx), 4.0 * hy, ADD
+    )
+    _diff_over(eq, _run(dm_, p0, n, 2, k2 + 2, 0), _run(dm_, p0, n, 2, k2 - 2, 0), 4.0 * hz, ADD)
+    _diff_over(em, _run(dm_, p0, n, 1, k, dy + nx), _run(dm_, p0, n, 1, k, dy - nx), 2.0 * hy, ADD)
+    _diff_over(em, _run(dm_, p0, n, 2, k2 + 1, 0), _run(dm_, p0, n, 2, k2 - 1, 0), 2.0 * hz, ADD)
+    _third_of_gap(ed, em, eq, inv_dt)
     # dipole: time stencil over 2Δt (its divergence in em), x first
     if inv_dt2 > 0.0:
-        xd = run(dm2[0], k, 0)
-        for i in range(n - 4):
-            d2 = 0.0
-            d2 += (xd[i + 3] - xd[i + 1]) / (2 * hx)
-            ex[i] = d2
-        xd = run(dm2[0], k, 0)
+        _diff_over(
+            em[2 : n - 2],
+            _run(dm2_, p0 + 2, n - 4, 0, k, 1),
+            _run(dm2_, p0 + 2, n - 4, 0, k, -1),
+            2 * hx,
+            FIRST,
+        )
+        xd = _run(dm2_, p0, n, 0, k, 0)
         for q in range(r):  # central at x = 1 and nx-2, one-sided at the faces
-            p = q * nx
-            em[p] = 0.0 + (xd[p + 1] - xd[p]) / (1 * hx)
-            em[p + 1] = 0.0 + (xd[p + 2] - xd[p]) / (2 * hx)
-            em[p + nx - 2] = 0.0 + (xd[p + nx - 1] - xd[p + nx - 3]) / (2 * hx)
-            em[p + nx - 1] = 0.0 + (xd[p + nx - 1] - xd[p + nx - 2]) / (1 * hx)
-        ym, yp = run(dm2[1], k, (j0 - j) * nx), run(dm2[1], k, (j1 - j) * nx)
-        zm, zp = run(dm2[2], k0, 0), run(dm2[2], k1, 0)
-        s1 = run(s[1], k, 0)
-        fy, fz = (j1 - j0) * hy, (k1 - k0) * hz
-        for i in range(n):
-            d2 = em[i]
-            d2 += (yp[i] - ym[i]) / fy
-            d2 += (zp[i] - zm[i]) / fz
-            ed[i] += abs(s1[i] - d2 * inv_dt2) / 3.0
+            e = q * nx
+            em[e] = 0.0 + (xd[e + 1] - xd[e]) / (1 * hx)
+            em[e + 1] = 0.0 + (xd[e + 2] - xd[e]) / (2 * hx)
+            em[e + nx - 2] = 0.0 + (xd[e + nx - 1] - xd[e + nx - 3]) / (2 * hx)
+            em[e + nx - 1] = 0.0 + (xd[e + nx - 1] - xd[e + nx - 2]) / (1 * hx)
+        _diff_over(em, _run(dm2_, p0, n, 1, k, (j1 - j) * nx), _run(dm2_, p0, n, 1, k, (j0 - j) * nx),
+                   (j1 - j0) * hy, ADD)  # fmt: skip
+        _diff_over(
+            em, _run(dm2_, p0, n, 2, k1, 0), _run(dm2_, p0, n, 2, k0, 0), (k1 - k0) * hz, ADD
+        )
+        _third_of_rest(ed, _run(s_, p0, n, 1, k, 0), em, inv_dt2, ADD)
     # quadrupole: second differences along x, y and z (in eq)
-    xt = run(tt[0], k, 0)
-    for i in range(n - 4):
-        q = 0.0
-        a = xt[i + 3] - 2.0 * xt[i + 2] + xt[i + 1]
-        b = 0.25 * (xt[i + 4] - 2.0 * xt[i + 2] + xt[i])
-        q += (a - b) / (hx * hx)
-        fx[i] = q
+    _second_over(eq[2 : n - 2], _run(tt_, p0 + 2, n - 4, 0, k, 1), _run(tt_, p0 + 2, n - 4, 0, k, 0), _run(tt_, p0 + 2, n - 4, 0, k, -1),
+                 _run(tt_, p0 + 2, n - 4, 0, k, 2), _run(tt_, p0 + 2, n - 4, 0, k, -2), hx * hx, FIRST)  # fmt: skip
     _ends_from_inner(eq, r, nx)
-    ym2, ym1 = run(tt[1], k, dy - 2 * nx), run(tt[1], k, dy - nx)
-    yc, yp1, yp2 = run(tt[1], k, dy), run(tt[1], k, dy + nx), run(tt[1], k, dy + 2 * nx)
-    for i in range(n):
-        a = yp1[i] - 2.0 * yc[i] + ym1[i]
-        b = 0.25 * (yp2[i] - 2.0 * yc[i] + ym2[i])
-        eq[i] += (a - b) / (hy * hy)
-    zm2, zm1 = run(tt[2], k2 - 2, 0), run(tt[2], k2 - 1, 0)
-    zc, zp1, zp2 = run(tt[2], k2, 0), run(tt[2], k2 + 1, 0), run(tt[2], k2 + 2, 0)
-    for i in range(n):
-        a = zp1[i] - 2.0 * zc[i] + zm1[i]
-        b = 0.25 * (zp2[i] - 2.0 * zc[i] + zm2[i])
-        eq[i] += (a - b) / (hz * hz)
-    # mixed xy, then xz (each in em first)
+    _second_over(eq, _run(tt_, p0, n, 1, k, dy + nx), _run(tt_, p0, n, 1, k, dy), _run(tt_, p0, n, 1, k, dy - nx),
+                 _run(tt_, p0, n, 1, k, dy + 2 * nx), _run(tt_, p0, n, 1, k, dy - 2 * nx), hy * hy, ADD)  # fmt: skip
+    _second_over(eq, _run(tt_, p0, n, 2, k2 + 1, 0), _run(tt_, p0, n, 2, k2, 0), _run(tt_, p0, n, 2, k2 - 1, 0),
+                 _run(tt_, p0, n, 2, k2 + 2, 0), _run(tt_, p0, n, 2, k2 - 2, 0), hz * hz, ADD)  # fmt: skip
+    # mixed xy, then xz: the h and 2h differences (in work), their term in em, added
     for c in range(2):
         if c == 0:
-            xp1, xm1 = run(tt[3], k, dy + nx), run(tt[3], k, dy - nx)
-            xp2, xm2 = run(tt[3], k, dy + 2 * nx), run(tt[3], k, dy - 2 * nx)
-            f = hx * hy
+            cc, kp, km, kp2, km2, dp, dn, dp2, dn2, f = 3, k, k, k, k, dy + nx, dy - nx, \
+                dy + 2 * nx, dy - 2 * nx, hx * hy  # fmt: skip
         else:
-            xp1, xm1 = run(tt[4], k2 + 1, 0), run(tt[4], k2 - 1, 0)
-            xp2, xm2 = run(tt[4], k2 + 2, 0), run(tt[4], k2 - 2, 0)
-            f = hx * hz
-        for i in range(n - 4):
-            a = (xp1[i + 3] - xp1[i + 1] - xm1[i + 3] + xm1[i + 1]) / 4.0
-            b = (xp2[i + 4] - xp2[i] - xm2[i + 4] + xm2[i]) / 16.0
-            ex[i] = 2.0 * (a - b) / f
+            cc, kp, km, kp2, km2, dp, dn, dp2, dn2, f = 4, k2 + 1, k2 - 1, k2 + 2, k2 - 2, 0, 0, \
+                0, 0, hx * hz  # fmt: skip
+        _cross_over(w0[2 : n - 2], _run(tt_, p0 + 2, n - 4, cc, kp, dp + 1), _run(tt_, p0 + 2, n - 4, cc, kp, dp - 1),
+                    _run(tt_, p0 + 2, n - 4, cc, km, dn + 1), _run(tt_, p0 + 2, n - 4, cc, km, dn - 1), 4.0)  # fmt: skip
+        _cross_over(w1[2 : n - 2], _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 + 2), _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 - 2),
+                    _run(tt_, p0 + 2, n - 4, cc, km2, dn2 + 2), _run(tt_, p0 + 2, n - 4, cc, km2, dn2 - 2), 16.0)  # fmt: skip
+        _mixed_over(em[2 : n - 2], w0[2 : n - 2], w1[2 : n - 2], f, SET)
         _ends_from_inner(em, r, nx)
-        for i in range(n):
-            eq[i] += em[i]
-    # mixed yz (its h difference in em first), and the estimate
-    pp, pm = run(tt[5], k2 + 1, dy + nx), run(tt[5], k2 + 1, dy - nx)
-    mp, mm = run(tt[5], k2 - 1, dy + nx), run(tt[5], k2 - 1, dy - nx)
-    for i in range(n):
-        em[i] = (pp[i] - pm[i] - mp[i] + mm[i]) / 4.0
-    pp, pm = run(tt[5], k2 + 2, dy + 2 * nx), run(tt[5], k2 + 2, dy - 2 * nx)
-    mp, mm = run(tt[5], k2 - 2, dy + 2 * nx), run(tt[5], k2 - 2, dy - 2 * nx)
-    for i in range(n):
-        b = (pp[i] - pm[i] - mp[i] + mm[i]) / 16.0
-        eq[i] = abs(eq[i] + 2.0 * (em[i] - b) / (hy * hz)) / 3.0
+        _add_run(eq, em)
+    # mixed yz, and the estimate
+    _cross_over(w0, _run(tt_, p0, n, 5, k2 + 1, dy + nx), _run(tt_, p0, n, 5, k2 + 1, dy - nx),
+                _run(tt_, p0, n, 5, k2 - 1, dy + nx), _run(tt_, p0, n, 5, k2 - 1, dy - nx), 4.0)  # fmt: skip
+    _cross_over(w1, _run(tt_, p0, n, 5, k2 + 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 + 2, dy - 2 * nx),
+                _run(tt_, p0, n, 5, k2 - 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 - 2, dy - 2 * nx), 16.0)  # fmt: skip
+    _mixed_over(eq, w0, w1, hy * hz, ADD)
+    _third_of_abs(eq)
     # monopole: time stencil over 2Δt
     if inv_dt2 > 0.0:
-        s0, ra, rb = run(s[0], k, 0), run(rho_a2, k, 0), run(rho_b2, k, 0)
-        for i in range(n):
-            em[i] = abs(s0[i] - (rb[i] - ra[i]) * inv_dt2) / 3.0
+        rb, ra = rho_b2.reshape(nz, m)[k, p0 : p0 + n], rho_a2.reshape(nz, m)[k, p0 : p0 + n]
+        _diff_times(w0, rb, ra, 1.0, SET)  # ρ(n+2) - ρ(n-2) (times 1: exactly)
+        _third_of_rest(em, _run(s_, p0, n, 0, k, 0), w0, inv_dt2, SET)
     else:
         em[:] = 0.0
 
 
-@numba.njit(**_NJIT)
-def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, err):  # type: ignore[no-untyped-def]
+@numba.njit(**_INNER)
+def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, err, work):  # type: ignore[no-untyped-def]
     """Discretisation-error estimates ``err (3, ny, nx)`` of the strengths ``s`` in plane ``k``:
     :func:`_error_rows` over the rows whose stencils all fit and read no no-data point
     (``rowbad (nz, ny)`` tells the rows with one; the inner rows at once when they all
@@ -889,18 +987,15 @@ def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h
     j = 0
     while j < ny:
         j2 = _inner2(j, ny)
-        if block and j == 2:
-            _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, ny - 4, err)
-            j = ny - 2
-            continue
-        if rows and not (rowbad[k, j] or rowbad[k, j2 - 2] or rowbad[k, j2 + 2]
-                         or rowbad[k2 - 2, j] or rowbad[k2 + 2, j]):  # fmt: skip
-            _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, 1, err)
+        r = ny - 4 if block and j == 2 else 1  # rows done at once
+        if r > 1 or (rows and not (rowbad[k, j] or rowbad[k, j2 - 2] or rowbad[k, j2 + 2]
+                                   or rowbad[k2 - 2, j] or rowbad[k2 + 2, j])):  # fmt: skip
+            _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err, work)
         else:
             for i in range(nx):
                 _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, i,
                              err)  # fmt: skip
-        j += 1
+        j += r
 
 
 @numba.njit(**_NJIT)
@@ -926,7 +1021,9 @@ def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err)
     for kp in numba.prange(s.shape[1]):
         k = np.int64(kp)
         plane = np.empty(err.shape[:1] + err.shape[2:])
-        _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, plane)
+        work = np.empty_like(plane)
+        _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, plane,
+                     work)  # fmt: skip
         err[:, k] = plane
 
 
@@ -977,12 +1074,11 @@ def _floor_with(s, mx, factor, roundoff):  # type: ignore[no-untyped-def]
                         s[c, k, j, i] = 0.0
 
 
-@numba.njit(parallel=True, **_NJIT)
-def _step_change_planes(r0, v0, r1, v1, out):  # type: ignore[no-untyped-def]
+@numba.njit(**_NJIT)
+def _step_change_planes(r0, v0, r1, v1, out, lo, hi):  # type: ignore[no-untyped-def]
     nz = r0.shape[0]
     m = r0.size // max(nz, 1)
-    for kp in numba.prange(nz):
-        k = np.int64(kp)
+    for k in range(lo, hi):
         a, b = r0[k].reshape(m), r1[k].reshape(m)
         fa, fb = v0[k].reshape(3 * m), v1[k].reshape(3 * m)
         d, md = np.empty(CHUNK), np.empty(3 * CHUNK)
@@ -1007,7 +1103,7 @@ def step_change(r0, v0, r1, v1):  # type: ignore[no-untyped-def]
     at least 0), and the second step's :func:`input_maxima_planes` ``(nz, 3)``, in one pass."""
     bits = np.zeros((r0.shape[0], 5), dtype=np.int64)
     if r0.size:
-        _step_change_planes(r0, v0, r1, v1, bits)
+        over_planes(lambda lo, hi: _step_change_planes(r0, v0, r1, v1, bits, lo, hi), r0.shape[0])
     values = bits.view(np.float64)
     top = values[:, :2].max(axis=0, initial=0.0)
     return float(top[0]), float(top[1]), np.ascontiguousarray(values[:, 2:])
@@ -1033,13 +1129,13 @@ def apply_floor(s, err, factor, roundoff, work=None):  # type: ignore[no-untyped
     return work
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(inline="always", **_INNER)
 def _up(e: float, x: float) -> float:
     """``x`` if it is larger than ``e``, else ``e`` (a NaN ``x`` never is)."""
     return x if x > e else e
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _max_x(plane, out):  # type: ignore[no-untyped-def]
     """``out[c, j, i]`` = the largest of ``plane[c, j, i-1..i+1]`` (clipped at the faces), 0 at
     least (NaN ignored, as ``max(e, x)`` from 0).  The inner points in one loop along a
@@ -1055,7 +1151,7 @@ def _max_x(plane, out):  # type: ignore[no-untyped-def]
                 out[c, j, i] = _up(_up(0.0, row[i0]), row[i1])
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _max_y(plane, out):  # type: ignore[no-untyped-def]
     """As :func:`_max_x`, along y (the middle axis), a row at a time."""
     nc, ny, nx = plane.shape
@@ -1067,7 +1163,7 @@ def _max_y(plane, out):  # type: ignore[no-untyped-def]
                 o[i] = _up(_up(_up(0.0, ra[i]), rb[i]), rc[i])
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _floor_plane(s, o, near, k, nz, factor, roundoff):  # type: ignore[no-untyped-def]
     """Zero the strengths ``s[:, o]`` of plane ``k`` (of ``nz``) not above ``roundoff (3,)`` or
     ``factor`` times the largest error estimate around them; ``near (3, 3, ny, nx)``
@@ -1088,13 +1184,42 @@ def _floor_plane(s, o, near, k, nz, factor, roundoff):  # type: ignore[no-untype
                 row[i] = 0.0 if a != 0.0 and (a <= lim or a <= factor * e) else x
 
 
-@numba.njit(**_NJIT)
-def _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, out, work):  # type: ignore[no-untyped-def]
-    """Error estimates of plane ``k`` (:func:`_error_plane`), each the largest over the
-    3 × 3 points around it in x and y, into ``out (3, ny, nx)`` (``work``: scratch like it)."""
-    _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, out)
-    _max_x(out, work)
-    _max_y(work, out)
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def in_threads(fn, n):  # type: ignore[no-untyped-def]
+    """Call ``fn(i)`` for ``0 <= i < n``, this thread and a small pool of others (up to
+    numba's thread count) taking the next ``i`` in turn; ``fn`` runs a ``nogil``
+    kernel.  A sweep is plain compiled code run by threads of its own, not a
+    ``parallel=True`` kernel, whose compilation takes several times as long."""
+    global _POOL
+    nt = max(1, min(n, numba.get_num_threads()))
+    if nt > 1 and _POOL is None:
+        with _POOL_LOCK:
+            if _POOL is None:
+                _POOL = ThreadPoolExecutor(max_workers=max(1, numba.config.NUMBA_NUM_THREADS - 1),
+                                           thread_name_prefix="auralize-sweep")  # fmt: skip
+    pieces = itertools.count()  # next() is atomic under the GIL
+
+    def work() -> None:
+        for i in pieces:
+            if i >= n:
+                return
+            fn(i)
+
+    futures = [_POOL.submit(work) for _ in range(nt - 1)] if nt > 1 and _POOL is not None else []
+    work()
+    for fu in futures:
+        fu.result()
+
+
+def over_planes(fn, nz):  # type: ignore[no-untyped-def]
+    """Call ``fn(lo, hi)`` over ``[0, nz)`` in a few ranges of planes, on the threads of
+    :func:`in_threads`."""
+    pieces = max(1, min(nz, 4 * numba.get_num_threads()))
+    edges = np.linspace(0, nz, pieces + 1).astype(np.int64)
+    in_threads(lambda b: fn(int(edges[b]), int(edges[b + 1])), pieces)
 
 
 #: steady-state modes of :func:`detect_step`: none, interpolated between two anchors,
@@ -1152,13 +1277,14 @@ def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundof
     n_blocks = max(1, min(nz, numba.get_num_threads() if blocks is None else int(blocks)))
     edges = np.linspace(0, nz, n_blocks + 1).astype(np.int64)
     mode, f, sa, sb, ra, va, rb, vb = steady
-    _step_sweep(*frames, (int(mode), float(f), sa, sb, ra, va, rb, vb), nodata, bad,
-                bool(nodata.any()), float(inv_dt), float(inv_dt2),
-                np.asarray(h, dtype=np.float64),
-                (float(factor), np.asarray(roundoff, dtype=np.float64)), edges, out)  # fmt: skip
+    args = (*frames, (int(mode), float(f), sa, sb, ra, va, rb, vb), nodata, bad,
+            _rows_with_nodata(bad), bool(nodata.any()), float(inv_dt), float(inv_dt2),
+            np.asarray(h, dtype=np.float64),
+            (float(factor), np.asarray(roundoff, dtype=np.float64)))  # fmt: skip
+    in_threads(lambda b: _sweep(*args, int(edges[b]), int(edges[b + 1]), out), n_blocks)
 
 
-@numba.njit(inline="always", **_NJIT)
+@numba.njit(**_INNER)
 def _planes_read(k, nz, error):  # type: ignore[no-untyped-def]
     """The first and the last plane the strengths (``error``: the error estimates) of
     plane ``k`` of ``nz`` read."""
@@ -1174,10 +1300,10 @@ def _planes_read(k, nz, error):  # type: ignore[no-untyped-def]
     return min(k0, kc - 1), max(k1, kc + 1)
 
 
-@numba.njit(parallel=True, **_NJIT)
-def _step_sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, steady,  # type: ignore[no-untyped-def]
-                nodata, bad, masked, inv_dt, inv_dt2, h, floor, edges, out):  # fmt: skip
-    """:func:`detect_step` over the blocks of planes ``[edges[b], edges[b + 1])``."""
+@numba.njit(**_NJIT)
+def _sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, steady,  # type: ignore[no-untyped-def]
+           nodata, bad, rowbad, masked, inv_dt, inv_dt2, h, floor, lo, hi, out):  # fmt: skip
+    """:func:`detect_step` for the planes ``[lo, hi)`` (one block)."""
     mode, f, sa, sb, ra, va, rb, vb = steady
     factor, roundoff = floor
     nz, ny, nx = rho_c.shape
@@ -1186,71 +1312,68 @@ def _step_sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, 
     # the estimates read the stress less its steady state
     remove = mode == STEADY_BETWEEN and flooring
     w = 1.0 - f
-    rowbad = _rows_with_nodata(bad)
-    n_blocks = edges.size - 1
-    for bp in numba.prange(n_blocks):
-        b = np.int64(bp)
-        lo, hi = edges[b], edges[b + 1]
-        dm = np.empty((3, R, ny, nx))
-        dm2 = np.empty((3, R, ny, nx))
-        raw = np.empty((6, R, ny, nx))
-        tt = np.empty((6, R, ny, nx)) if remove else raw
-        s = np.empty((3, R, ny, nx))
-        anchor = np.empty((6, 2, ny, nx))  # the anchors' stress of a plane
-        near = np.empty((3, 3, ny, nx))  # error estimates of planes k-1, k, k+1
-        work = np.empty((3, ny, nx))
-        # the strengths of planes [ks, last] and (flooring) their estimates are needed
-        ks = max(lo - 1, 0) if flooring else lo
-        last = min(hi, nz - 1) if flooring else hi - 1
-        first_plane = _planes_read(ks, nz, flooring)[0]
-        last_plane = _planes_read(last, nz, flooring)[1]
-        ke = ks  # the next estimates
-        kf = lo  # the next plane to floor
-        for e in range(first_plane, last_plane + 1):
-            # the new plane's inputs
-            o = e % R
-            _momentum_plane(rho_a[e], v_a[e], rho_b[e], v_b[e], dm, o)
-            _stress_plane(rho_c[e], v_c[e], raw, o)
-            if flooring:
-                _momentum_plane(rho_a2[e], v_a2[e], rho_b2[e], v_b2[e], dm2, o)
-            if remove:
-                _steady_stress_plane(raw, ra[e], va[e], rb[e], vb[e], w, f, tt, o, anchor)
-            # then whatever they let be done
-            progress = True
-            while progress:
-                progress = False
-                if ks <= last and ks < kf + R and _planes_read(ks, nz, False)[1] <= e:
-                    o = ks % R
-                    _strength_plane(rho_a, rho_b, dm, raw, inv_dt, h, ks, s, o)
-                    if mode == STEADY_BETWEEN:
-                        _subtract_plane(s[2, o], sa[ks], sb[ks], w, f, s[2, o])
-                    elif mode == STEADY_ANCHOR:
-                        s[2, o] = 0.0
-                    elif mode == STEADY_GIVEN:
-                        s[2, o] -= sa[ks]
-                    if masked:
-                        _mask_plane(nodata, ks, s, o)
-                    ks += 1
-                    progress = True
-                if flooring and ke < ks and ke <= kf + 1 and _planes_read(ke, nz, True)[1] <= e:
-                    _near_error(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h,
-                                ke, near[ke % 3], work)  # fmt: skip
-                    ke += 1
-                    progress = True
-                if kf < hi and (ke > min(kf + 1, nz - 1) if flooring else kf < ks):
-                    if flooring:
-                        _floor_plane(s, kf % R, near, kf, nz, factor, roundoff)
-                    out[:, kf] = s[:, kf % R]
-                    kf += 1
-                    progress = True
+    dm = np.empty((3, R, ny, nx))
+    dm2 = np.empty((3, R, ny, nx))
+    raw = np.empty((6, R, ny, nx))
+    tt = np.empty((6, R, ny, nx)) if remove else raw
+    s = np.empty((3, R, ny, nx))
+    anchor = np.empty((6, 2, ny, nx))  # the anchors' stress of a plane
+    near = np.empty((3, 3, ny, nx))  # error estimates of planes k-1, k, k+1
+    work = np.empty((3, ny, nx))
+    # the strengths of planes [ks, last] and (flooring) their estimates are needed
+    ks = max(lo - 1, 0) if flooring else lo
+    last = min(hi, nz - 1) if flooring else hi - 1
+    first_plane = _planes_read(ks, nz, flooring)[0]
+    last_plane = _planes_read(last, nz, flooring)[1]
+    ke = ks  # the next estimates
+    kf = lo  # the next plane to floor
+    for e in range(first_plane, last_plane + 1):
+        # the new plane's inputs
+        o = e % R
+        _momentum_plane(rho_a[e], v_a[e], rho_b[e], v_b[e], dm, o)
+        _stress_plane(rho_c[e], v_c[e], raw, o)
+        if flooring:
+            _momentum_plane(rho_a2[e], v_a2[e], rho_b2[e], v_b2[e], dm2, o)
+        if remove:
+            _steady_stress_plane(raw, ra[e], va[e], rb[e], vb[e], w, f, tt, o, anchor)
+        # then whatever they let be done
+        progress = True
+        while progress:
+            progress = False
+            if ks <= last and ks < kf + R and _planes_read(ks, nz, False)[1] <= e:
+                o = ks % R
+                _strength_plane(rho_a, rho_b, dm, raw, inv_dt, h, ks, s, o)
+                if mode == STEADY_BETWEEN:
+                    _subtract_plane(s[2, o], sa[ks], sb[ks], w, f, s[2, o])
+                elif mode == STEADY_ANCHOR:
+                    s[2, o] = 0.0
+                elif mode == STEADY_GIVEN:
+                    _less_plane(s[2, o], sa[ks])
+                if masked:
+                    _mask_plane(nodata, ks, s, o)
+                ks += 1
+                progress = True
+            if flooring and ke < ks and ke <= kf + 1 and _planes_read(ke, nz, True)[1] <= e:
+                # its estimates, each the largest over the 3 × 3 points around in x and y
+                est = near[ke % 3]
+                _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, ke,
+                             est, work)  # fmt: skip
+                _max_x(est, work)
+                _max_y(work, est)
+                ke += 1
+                progress = True
+            if kf < hi and (ke > min(kf + 1, nz - 1) if flooring else kf < ks):
+                if flooring:
+                    _floor_plane(s, kf % R, near, kf, nz, factor, roundoff)
+                _copy_planes(s, kf % R, out, kf)
+                kf += 1
+                progress = True
 
 
-@numba.njit(parallel=True, **_NJIT)
-def _input_maxima_planes(rho, v, out):  # type: ignore[no-untyped-def]
-    nz = rho.shape[0]
+@numba.njit(**_NJIT)
+def _input_maxima_planes(rho, v, out, lo, hi):  # type: ignore[no-untyped-def]
     m = rho.shape[1] * rho.shape[2]
-    for kp in numba.prange(nz):
-        k = np.int64(kp)
+    for k in range(lo, hi):
         _input_maxima_plane(rho[k].reshape(m), v[k].reshape(3 * m), out[k])
 
 
@@ -1260,7 +1383,7 @@ def input_maxima_planes(rho, v):  # type: ignore[no-untyped-def]
     v = np.ascontiguousarray(v, dtype=np.float64)
     bits = np.zeros((rho.shape[0], 3), dtype=np.int64)
     if rho.size:
-        _input_maxima_planes(rho, v, bits)
+        over_planes(lambda lo, hi: _input_maxima_planes(rho, v, bits, lo, hi), rho.shape[0])
     return bits.view(np.float64)
 
 
@@ -1272,7 +1395,7 @@ def input_maxima(rho, v):  # type: ignore[no-untyped-def]
     return float(top[0]), float(top[1]), float(top[2])
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _subtract_plane(x, a, b, w, f, out):  # type: ignore[no-untyped-def]
     """``out = x - (w a + f b)`` over one plane ``(ny, nx)`` (``out`` may be ``x``)."""
     m = x.size
@@ -1281,7 +1404,7 @@ def _subtract_plane(x, a, b, w, f, out):  # type: ignore[no-untyped-def]
         of[p] = xf[p] - (w * af[p] + f * bf[p])
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _steady_stress_plane(raw, ra, va, rb, vb, w, f, out, o, work):  # type: ignore[no-untyped-def]
     """``out[:, o]`` = ``raw[:, o] - (w ta + f tb)`` over one plane, ``ta`` and ``tb`` the
     stresses (:func:`_stress_plane`) of the densities ``ra, rb (ny, nx)`` and the
@@ -1290,6 +1413,24 @@ def _steady_stress_plane(raw, ra, va, rb, vb, w, f, out, o, work):  # type: igno
     _stress_plane(rb, vb, work, 1)
     for c in range(6):
         _subtract_plane(raw[c, o], work[c, 0], work[c, 1], w, f, out[c, o])
+
+
+@numba.njit(**_INNER)
+def _less_plane(x, a):  # type: ignore[no-untyped-def]
+    """``x = x - a`` over one plane ``(ny, nx)``."""
+    xf, af = x.reshape(x.size), a.reshape(a.size)
+    for p in range(xf.size):
+        xf[p] = xf[p] - af[p]
+
+
+@numba.njit(**_INNER)
+def _copy_planes(src, a, dst, b):  # type: ignore[no-untyped-def]
+    """``dst[c, b] = src[c, a]`` for each component ``c`` (planes ``(ny, nx)``; a loop: a
+    slice assignment would compile numpy's shape-mismatch error with it)."""
+    for c in range(src.shape[0]):
+        sf, df = src[c, a].reshape(src[c, a].size), dst[c, b].reshape(dst[c, b].size)
+        for p in range(sf.size):
+            df[p] = sf[p]
 
 
 @numba.njit(parallel=True, **_NJIT)
@@ -1306,7 +1447,7 @@ def subtract_steady(sq, sa, sb, tt, ta, tb, f, with_stress):  # type: ignore[no-
                 _subtract_plane(tt[c, k], ta[c, k], tb[c, k], w, f, tt[c, k])
 
 
-@numba.njit(**_NJIT)
+@numba.njit(**_INNER)
 def _gradient_plane(f, h, scale, k, out):  # type: ignore[no-untyped-def]
     """``out[k] (ny, nx, 3)`` = ∇f · ``scale`` of plane ``k`` (see :func:`gradient`): the
     same operations, x along the flat plane (central, each row's ends redone one-sided),
@@ -1337,7 +1478,16 @@ def _gradient_plane(f, h, scale, k, out):  # type: ignore[no-untyped-def]
         o[3 * p + 2] = 0.0 if nz < 2 else (zb[p] - za[p]) / tz * scale
 
 
-@numba.njit(parallel=True, **_NJIT)
+@numba.njit(**_NJIT)
+def _gradient_planes(f, h, scale, out, top, lo, hi):  # type: ignore[no-untyped-def]
+    """:func:`gradient` of planes ``[lo, hi)``; with ``top`` (nz,) the bit patterns of each
+    plane's largest |component| (:func:`_top_bits`, NaN ignored), else ``top`` empty."""
+    for k in range(lo, hi):
+        _gradient_plane(f, h, scale, k, out)
+        if top.size:
+            top[k] = _top_bits(out[k].reshape(out[k].size), True)
+
+
 def gradient(f, h, scale, out):  # type: ignore[no-untyped-def]
     """``out (nz, ny, nx, 3)`` = ∇f · ``scale`` (components x, y, z) of ``f (nz, ny, nx)``.
 
@@ -1346,24 +1496,20 @@ def gradient(f, h, scale, out):  # type: ignore[no-untyped-def]
     faces, the same operations), then times ``scale``; a component along an
     axis of fewer than 2 points is 0.
     """
-    for kp in numba.prange(f.shape[0]):
-        _gradient_plane(f, h, scale, np.int64(kp), out)
-
-
-@numba.njit(parallel=True, **_NJIT)
-def _gradient_top(f, h, out, top):  # type: ignore[no-untyped-def]
-    for kp in numba.prange(f.shape[0]):
-        k = np.int64(kp)
-        _gradient_plane(f, h, 1.0, k, out)
-        top[k] = _top_bits(out[k].reshape(out[k].size), True)
+    f = np.ascontiguousarray(f, dtype=np.float64)
+    h = np.asarray(h, dtype=np.float64)
+    none = np.zeros(0, dtype=np.int64)
+    over_planes(lambda lo, hi: _gradient_planes(f, h, float(scale), out, none, lo, hi),
+                f.shape[0])  # fmt: skip
 
 
 def gradient_max(f, h, out):  # type: ignore[no-untyped-def]
     """:func:`gradient` (scale 1) into ``out (nz, ny, nx, 3)``, and its largest |component|,
     NaN ignored, at least 0 (as ``np.nanmax(np.abs(out), initial=0.0)``)."""
-    top = np.zeros(np.shape(f)[0], dtype=np.int64)
-    _gradient_top(np.ascontiguousarray(f, dtype=np.float64), np.asarray(h, dtype=np.float64),
-                  out, top)  # fmt: skip
+    f = np.ascontiguousarray(f, dtype=np.float64)
+    h = np.asarray(h, dtype=np.float64)
+    top = np.zeros(f.shape[0], dtype=np.int64)
+    over_planes(lambda lo, hi: _gradient_planes(f, h, 1.0, out, top, lo, hi), f.shape[0])
     return float(top.max(initial=0).view(np.float64))
 
 
