@@ -1010,6 +1010,12 @@ def gradient(f: NDArray[np.float64], spacing: NDArray[np.float64],
     return out
 
 
+def in_threads(fn: Any, n: int) -> None:
+    """Call ``fn(i)`` for ``0 <= i < n`` on the detection's threads
+    (:func:`auralize.sources._kernels.in_threads`); ``fn`` releases the GIL."""
+    K.in_threads(fn, n)
+
+
 def gradient_max(f: NDArray[np.float64], spacing: NDArray[np.float64],
                  out: NDArray[np.float64]) -> float:  # fmt: skip
     """:func:`gradient` (scale 1) into ``out (nz, ny, nx, 3)``, and :func:`gradient_absmax`

@@ -298,7 +298,7 @@ class PaperDensityMapping(AcousticMapping):
                 f"'paper-density' mapping, but holds values up to {np.nanmax(np.abs(x)):g}; "
                 f"use the 'identity' mapping for linear densities"
             )
-        return np.power(10.0, x)
+        return _pow10(x)
 
     def prepare(self, volume: TimeVolume) -> None:
         self._prepare(volume, 0)
@@ -464,6 +464,28 @@ def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]]
         return cls(**{k: v for k, v in field_names.items() if v is not None})
     except TypeError as exc:
         raise ParameterError(f"mapping {spec!r}: {exc}") from None
+
+
+#: frames of at least this many values have their 10**x taken on several threads
+POW_SPLIT = 1 << 16
+
+
+def _pow10(x: Frame) -> Frame:
+    """``np.power(10.0, x)``, for a large frame in pieces along its first axis on the
+    detection's threads (numpy releases the GIL; each value is computed alone, so the
+    pieces give the same numbers)."""
+    if x.size < POW_SPLIT or x.ndim == 0 or x.shape[0] < 2:
+        return np.power(10.0, x)
+    from auralize.sources.detection import in_threads
+
+    out = np.empty_like(np.power(10.0, x[:1]), shape=x.shape)
+    edges = np.linspace(0, x.shape[0], 3).astype(int)
+
+    def piece(i: int) -> None:
+        np.power(10.0, x[edges[i] : edges[i + 1]], out=out[edges[i] : edges[i + 1]])
+
+    in_threads(piece, 2)
+    return out
 
 
 def _gradient_max(f: Frame, volume: TimeVolume, out: Frame) -> float:
