@@ -1188,13 +1188,13 @@ _POOL: ThreadPoolExecutor | None = None
 _POOL_LOCK = threading.Lock()
 
 
-def in_threads(fn, n):  # type: ignore[no-untyped-def]
+def in_threads(fn, n, threads=None):  # type: ignore[no-untyped-def]
     """Call ``fn(i)`` for ``0 <= i < n``, this thread and a small pool of others (up to
-    numba's thread count) taking the next ``i`` in turn; ``fn`` runs a ``nogil``
-    kernel.  A sweep is plain compiled code run by threads of its own, not a
+    numba's thread count, or ``threads``) taking the next ``i`` in turn; ``fn`` runs a
+    ``nogil`` kernel.  A sweep is plain compiled code run by threads of its own, not a
     ``parallel=True`` kernel, whose compilation takes several times as long."""
     global _POOL
-    nt = max(1, min(n, numba.get_num_threads()))
+    nt = max(1, min(n, numba.get_num_threads() if threads is None else threads))
     if nt > 1 and _POOL is None:
         with _POOL_LOCK:
             if _POOL is None:
@@ -1214,12 +1214,23 @@ def in_threads(fn, n):  # type: ignore[no-untyped-def]
         fu.result()
 
 
+def thread_count() -> int:
+    """The threads the detection's kernels run on (numba's thread count)."""
+    return int(numba.get_num_threads())
+
+
+def split(n, pieces):  # type: ignore[no-untyped-def]
+    """The edges ``(pieces + 1,)`` of ``pieces`` nearly equal ranges of ``[0, n)`` (ints)."""
+    return [n * b // pieces for b in range(pieces + 1)]
+
+
 def over_planes(fn, nz):  # type: ignore[no-untyped-def]
     """Call ``fn(lo, hi)`` over ``[0, nz)`` in a few ranges of planes, on the threads of
     :func:`in_threads`."""
-    pieces = max(1, min(nz, 4 * numba.get_num_threads()))
-    edges = np.linspace(0, nz, pieces + 1).astype(np.int64)
-    in_threads(lambda b: fn(int(edges[b]), int(edges[b + 1])), pieces)
+    threads = thread_count()
+    pieces = max(1, min(nz, 4 * threads))
+    edges = split(nz, pieces)
+    in_threads(lambda b: fn(edges[b], edges[b + 1]), pieces, threads)
 
 
 #: steady-state modes of :func:`detect_step`: none, interpolated between two anchors,
@@ -1231,7 +1242,7 @@ SWEEP_PLANES = 5
 
 
 def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundoff, out,  # type: ignore[no-untyped-def]
-                blocks=None):  # fmt: skip
+                blocks=None, rowbad=None):  # fmt: skip
     """The strengths of one step on a uniform grid, each plane's once its inputs are in,
     steady state removed, no-data masked and floored: ``out (3, nz, ny, nx)``.
 
@@ -1272,16 +1283,20 @@ def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundof
     h : (3,) spacing; ``factor`` of the floor (0: no floor); ``roundoff (3,)``.
     blocks : int, optional
         Blocks of planes (default: one per thread); the result does not depend on it.
+    rowbad : (nz, ny) bool, optional
+        :func:`_rows_with_nodata` of ``bad``, when the caller has it.
     """
     nz = out.shape[1]
-    n_blocks = max(1, min(nz, numba.get_num_threads() if blocks is None else int(blocks)))
-    edges = np.linspace(0, nz, n_blocks + 1).astype(np.int64)
+    threads = thread_count()
+    n_blocks = max(1, min(nz, threads if blocks is None else int(blocks)))
+    edges = split(nz, n_blocks)
     mode, f, sa, sb, ra, va, rb, vb = steady
-    args = (*frames, (int(mode), float(f), sa, sb, ra, va, rb, vb), nodata, bad,
-            _rows_with_nodata(bad), bool(nodata.any()), float(inv_dt), float(inv_dt2),
-            np.asarray(h, dtype=np.float64),
+    if rowbad is None:
+        rowbad = _rows_with_nodata(bad)
+    args = (*frames, (int(mode), float(f), sa, sb, ra, va, rb, vb), nodata, bad, rowbad,
+            bool(nodata.any()), float(inv_dt), float(inv_dt2), np.asarray(h, dtype=np.float64),
             (float(factor), np.asarray(roundoff, dtype=np.float64)))  # fmt: skip
-    in_threads(lambda b: _sweep(*args, int(edges[b]), int(edges[b + 1]), out), n_blocks)
+    in_threads(lambda b: _sweep(*args, edges[b], edges[b + 1], out), n_blocks, threads)
 
 
 @numba.njit(**_INNER)

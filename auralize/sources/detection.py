@@ -692,8 +692,10 @@ def _uniform_strengths(volume: TimeVolume, cache: StepCache, n: int, a: int, b: 
         steady = (K.STEADY_GIVEN, 0.0, given, *_NO_STEADY[1:])
     else:
         steady = (K.STEADY_NONE, 0.0, *_NO_STEADY)
+    rowbad = _NO_ROWS.get(volume.shape) if bad is _NO_BAD.get(volume.shape) else None
     K.detect_step((rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2), steady,
-                  nodata, bad, inv_dt, inv_dt2, volume.spacing, cache.floor, roundoff, out)  # fmt: skip
+                  nodata, bad, inv_dt, inv_dt2, volume.spacing, cache.floor, roundoff, out,
+                  rowbad=rowbad)  # fmt: skip
 
 
 #: the steady state's arrays when there is none (:func:`auralize.sources._kernels.detect_step`)
@@ -728,8 +730,14 @@ def _no_bad(shape: tuple[int, ...]) -> NDArray[np.bool_]:
     if m is None:
         if len(_NO_BAD) > 4:
             _NO_BAD.clear()
+            _NO_ROWS.clear()
         m = _NO_BAD[shape] = np.zeros(shape, dtype=bool)
+        _NO_ROWS[shape] = np.zeros(shape[:2], dtype=bool)
     return m
+
+
+#: the rows with a no-data point of each :func:`_no_bad` mask (none)
+_NO_ROWS: dict[tuple[int, ...], NDArray[np.bool_]] = {}
 
 
 def check_floor(floor: float) -> float:
