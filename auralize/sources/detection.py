@@ -484,16 +484,27 @@ def map_step(volume: TimeVolume, mapping: AcousticMapping, n: int,
     rho = np.ascontiguousarray(rho, dtype=np.float64)
     v = np.ascontiguousarray(v, dtype=np.float64)
     ok = valid
-    # (sums first: cheap, and finite whenever every value is, barring overflow)
-    if not (np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v))) and not (
-        np.isfinite(rho).all() and np.isfinite(v).all()
-    ):
+    if not _all_finite(rho, v):
         fin = np.isfinite(rho) & np.isfinite(v).all(axis=-1)
         ok = fin if ok is None else ok & fin
     if ok is not None:
         rho = np.where(ok, rho, 0.0)
         v = np.where(ok[..., None], v, 0.0)
     return rho, v, ok
+
+
+def _all_finite(rho: NDArray[np.float64], v: NDArray[np.float64]) -> bool:
+    """Whether every value of ``rho (nz, ny, nx)`` and ``v (nz, ny, nx, 3)`` is finite: sums
+    first (cheap, and finite whenever every value is, barring overflow), per slab on the
+    detection's threads when large (:func:`in_slabs`), then the values themselves."""
+    sums = [True] * max(1, rho.shape[0] if rho.ndim else 1)
+
+    def piece(sl: slice) -> None:
+        sums[sl.start] = bool(np.isfinite(np.sum(rho[sl])) and np.isfinite(np.sum(v[sl])))
+
+    if not in_slabs(piece, rho):
+        sums[0] = bool(np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v)))
+    return all(sums) or bool(np.isfinite(rho).all() and np.isfinite(v).all())
 
 
 class MappedSeries:
@@ -1022,6 +1033,23 @@ def in_threads(fn: Any, n: int) -> None:
     """Call ``fn(i)`` for ``0 <= i < n`` on the detection's threads
     (:func:`auralize.sources._kernels.in_threads`); ``fn`` releases the GIL."""
     K.in_threads(fn, n)
+
+
+#: arrays of at least this many values are worked on in slabs on the detection's threads
+SLAB_SPLIT = 1 << 16
+
+
+def in_slabs(fn: Any, x: NDArray[Any]) -> bool:
+    """Call ``fn(sl)`` for slices ``sl`` that split the first axis of ``x`` into one slab
+    per thread, on the detection's threads (``fn`` runs numpy, which releases the GIL);
+    False (nothing called) when ``x`` is too small to be worth it (:data:`SLAB_SPLIT`)."""
+    if x.size < SLAB_SPLIT or x.ndim == 0 or x.shape[0] < 2:
+        return False
+    threads = K.thread_count()
+    n = min(x.shape[0], threads)
+    edges = K.split(x.shape[0], n)
+    K.in_threads(lambda i: fn(slice(edges[i], edges[i + 1])), n, threads)
+    return True
 
 
 def gradient_max(f: NDArray[np.float64], spacing: NDArray[np.float64],
