@@ -1104,17 +1104,38 @@ def sample_stats(s: NDArray[np.float64], nodata: NDArray[np.bool_] | None, offse
     ``n_points`` the number of points of the whole grid: the sampled points
     depend on the global index only.
     """
-    a = np.abs(s).reshape(3, -1)
-    keep = None if nodata is None else ~nodata.reshape(-1)
+    flat = s.reshape(3, -1)
+    a = np.abs(flat)
     if n_points > SAMPLE_POINTS:
-        idx = np.arange(offset, offset + a.shape[1], dtype=np.uint64)
-        h = (idx * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
-        pick = h < np.uint64(int(SAMPLE_POINTS / n_points * 2**32))
-        keep = pick if keep is None else keep & pick
-    sample = a if keep is None else a[:, keep]
+        # the sampled points (:func:`_sampled_points`), less those without data
+        idx = _sampled_points(offset, flat.shape[1], n_points)
+        if nodata is not None:
+            idx = idx[~nodata.reshape(-1)[idx]]
+        sample = a[:, idx]
+    else:
+        sample = a if nodata is None else a[:, ~nodata.reshape(-1)]
     peak = a.max(axis=1) if a.size else np.zeros(3)
     return StrengthStats(peak=peak, sample=sample.copy(),
                          scale=np.zeros(3) if scale is None else np.asarray(scale, dtype=np.float64))  # fmt: skip
+
+
+_SAMPLED: dict[tuple[int, int, int], NDArray[np.intp]] = {}
+
+
+def _sampled_points(offset: int, size: int, n_points: int) -> NDArray[np.intp]:
+    """Where in a run of ``size`` points from global flat index ``offset`` (of ``n_points``) the
+    points sampled for the statistics are: those whose index hashes below
+    :data:`SAMPLE_POINTS` / ``n_points`` of the hash range, the same at every step (cached)."""
+    key = (offset, size, n_points)
+    hit = _SAMPLED.get(key)
+    if hit is None:
+        g = np.arange(offset, offset + size, dtype=np.uint64)
+        h = (g * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
+        hit = np.flatnonzero(h < np.uint64(int(SAMPLE_POINTS / n_points * 2**32)))
+        if len(_SAMPLED) > 64:
+            _SAMPLED.clear()
+        _SAMPLED[key] = hit
+    return hit
 
 
 def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.int64]:
@@ -1141,11 +1162,13 @@ def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
     parts = []
     steps = sample_steps(volume.n_steps, max_steps)
     for n in progress(steps, desc="peak pass", enabled=progress_bar, unit="step"):
+        if keep is not None:  # each kept step's strengths in their own array
+            buf = K.empty_like_strengths(volume.shape)
         s = step_strengths(volume, cache, int(n), buf)
         parts.append(sample_stats(s, cache.nodata, 0, volume.n_points,
                                   input_scale(volume, cache, int(n))))  # fmt: skip
         if keep is not None:
-            keep[int(n)] = (s.copy(), cache.nodata)
+            keep[int(n)] = (s, cache.nodata)
         cache.keep(int(n), int(n))
     return StrengthStats.merge(parts)
 
