@@ -265,10 +265,76 @@ def _second_over(out, p, c, m, p2, m2, d, mode):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(**_INNER)
-def _cross_over(out, pp, pm, mp, mm, d):  # type: ignore[no-untyped-def]
-    """Along a run: out = (pp - pm - mp + mm) / d (a mixed difference)."""
+def _pair_over(oa, a1, a2, da, ob, b1, b2, db):  # type: ignore[no-untyped-def]
+    """Along a run: oa = 0.0 + (a1 - a2) / da and ob = 0.0 + (b1 - b2) / db (two first terms
+    of sums, :data:`FIRST`, in one loop)."""
+    for i in range(oa.size):
+        oa[i] = 0.0 + (a1[i] - a2[i]) / da
+        ob[i] = 0.0 + (b1[i] - b2[i]) / db
+
+
+@numba.njit(**_INNER)
+def _gap_of_divergences(ed, eq, em, q1, q2, dq1, q3, q4, dq2, m1, m2, dm1, m3, m4, dm2, f):  # type: ignore[no-untyped-def]
+    """Along a run: the y and z terms ``(q1 - q2) / dq1``, ``(q3 - q4) / dq2`` added to the 2h
+    divergence ``eq``, ``(m1 - m2) / dm1``, ``(m3 - m4) / dm2`` to the h one ``em`` (each sum
+    in its order), and ed = |em - eq| f / 3 (a Richardson estimate, :func:`_error_point`)."""
+    for i in range(ed.size):
+        q = eq[i] + (q1[i] - q2[i]) / dq1
+        q = q + (q3[i] - q4[i]) / dq2
+        e = em[i] + (m1[i] - m2[i]) / dm1
+        e = e + (m3[i] - m4[i]) / dm2
+        ed[i] = abs(e - q) * f / 3.0
+
+
+@numba.njit(**_INNER)
+def _rest_of_divergence(ed, em, s, y1, y2, dy, z1, z2, dz, f):  # type: ignore[no-untyped-def]
+    """Along a run: the y and z terms ``(y1 - y2) / dy``, ``(z1 - z2) / dz`` added to the
+    divergence ``em``, and ed = ed + |s - em f| / 3 (a strength less its 2Δt stencil)."""
+    for i in range(ed.size):
+        e = em[i] + (y1[i] - y2[i]) / dy
+        e = e + (z1[i] - z2[i]) / dz
+        ed[i] = ed[i] + abs(s[i] - e * f) / 3.0
+
+
+@numba.njit(**_INNER)
+def _second_pair_over(out, yp, yc, ym, yp2, ym2, dy, zp, zc, zm, zp2, zm2, dz):  # type: ignore[no-untyped-def]
+    """Along a run: two terms of :func:`_second_over` (over ``dy``, then ``dz``) added to
+    ``out``, in that order."""
     for i in range(out.size):
-        out[i] = (pp[i] - pm[i] - mp[i] + mm[i]) / d
+        a = yp[i] - 2.0 * yc[i] + ym[i]
+        b = 0.25 * (yp2[i] - 2.0 * yc[i] + ym2[i])
+        q = out[i] + (a - b) / dy
+        a = zp[i] - 2.0 * zc[i] + zm[i]
+        b = 0.25 * (zp2[i] - 2.0 * zc[i] + zm2[i])
+        out[i] = q + (a - b) / dz
+
+
+#: :func:`_mixed_pair` stores ``|out + t| / 3``: the last term of a sum, and its estimate
+LAST = 3
+
+
+@numba.njit(**_INNER)
+def _mixed_pair(out, pp, pm, mp, mm, pp2, pm2, mp2, mm2, d, mode):  # type: ignore[no-untyped-def]
+    """Along a run: t = 2 (w - w2) / d, ``w = (pp - pm - mp + mm) / 4`` and ``w2 = (pp2 - pm2 -
+    mp2 + mm2) / 16``, the mixed differences over h and 2h (each term twice), stored by
+    ``mode`` (:data:`SET`, :data:`ADD` or :data:`LAST`)."""
+    for i in range(out.size):
+        w = (pp[i] - pm[i] - mp[i] + mm[i]) / 4.0
+        w2 = (pp2[i] - pm2[i] - mp2[i] + mm2[i]) / 16.0
+        t = 2.0 * (w - w2) / d
+        if mode == SET:
+            out[i] = t
+        elif mode == ADD:
+            out[i] = out[i] + t
+        else:
+            out[i] = abs(out[i] + t) / 3.0
+
+
+@numba.njit(**_INNER)
+def _third_of_change(out, s, b, a, f):  # type: ignore[no-untyped-def]
+    """Along a run: out = |s - ((b - a) 1) f| / 3 (a strength less its 2Δt time stencil)."""
+    for i in range(out.size):
+        out[i] = abs(s[i] - ((b[i] - a[i]) * 1.0) * f) / 3.0
 
 
 @numba.njit(**_INNER)
@@ -280,12 +346,30 @@ def _cross_times(out, pp, pm, mp, mm, f, mode):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(**_INNER)
-def _mixed_over(out, a, b, d, mode):  # type: ignore[no-untyped-def]
-    """Along a run: t = 2 (a - b) / d (a mixed difference over h less the one over 2h,
-    each term twice), stored by ``mode``."""
+def _diff_pair_times(out, y1, y2, fy, z1, z2, fz, g):  # type: ignore[no-untyped-def]
+    """Along a run: out = ((out + (y1 - y2) fy) + (z1 - z2) fz) g (two terms of
+    :func:`_diff_times` added, then the sum scaled, in one loop)."""
     for i in range(out.size):
-        t = 2.0 * (a[i] - b[i]) / d
-        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
+        t = out[i] + (y1[i] - y2[i]) * fy
+        out[i] = (t + (z1[i] - z2[i]) * fz) * g
+
+
+@numba.njit(**_INNER)
+def _second_pair_times(out, yp, yc, ym, gy, zp, zc, zm, gz):  # type: ignore[no-untyped-def]
+    """Along a run: two terms of :func:`_second_times` (times ``gy``, then ``gz``) added to
+    ``out``, in that order."""
+    for i in range(out.size):
+        t = out[i] + (yp[i] - 2.0 * yc[i] + ym[i]) * gy
+        out[i] = t + (zp[i] - 2.0 * zc[i] + zm[i]) * gz
+
+
+@numba.njit(**_INNER)
+def _add_cross(out, a, pp, pm, mp, mm, f):  # type: ignore[no-untyped-def]
+    """Along a run: out = (out + a) + f (pp - pm - mp + mm) (:func:`_add_run`, then a term of
+    :func:`_cross_times`, in one loop)."""
+    for i in range(out.size):
+        t = out[i] + a[i]
+        out[i] = t + f * (pp[i] - pm[i] - mp[i] + mm[i])
 
 
 @numba.njit(**_INNER)
@@ -293,35 +377,6 @@ def _add_run(out, a):  # type: ignore[no-untyped-def]
     """Along a run: out = out + a."""
     for i in range(out.size):
         out[i] = out[i] + a[i]
-
-
-@numba.njit(**_INNER)
-def _times_run(out, f):  # type: ignore[no-untyped-def]
-    """Along a run: out = out f."""
-    for i in range(out.size):
-        out[i] = out[i] * f
-
-
-@numba.njit(**_INNER)
-def _third_of_gap(out, a, b, f):  # type: ignore[no-untyped-def]
-    """Along a run: out = |a - b| f / 3 (a Richardson estimate, :func:`_error_point`)."""
-    for i in range(out.size):
-        out[i] = abs(a[i] - b[i]) * f / 3.0
-
-
-@numba.njit(**_INNER)
-def _third_of_rest(out, s, d, f, mode):  # type: ignore[no-untyped-def]
-    """Along a run: t = |s - d f| / 3 (a strength less its 2Δt stencil), stored by ``mode``."""
-    for i in range(out.size):
-        t = abs(s[i] - d[i] * f) / 3.0
-        out[i] = t if mode == SET else (0.0 + t if mode == FIRST else out[i] + t)
-
-
-@numba.njit(**_INNER)
-def _third_of_abs(out):  # type: ignore[no-untyped-def]
-    """Along a run: out = |out| / 3."""
-    for i in range(out.size):
-        out[i] = abs(out[i]) / 3.0
 
 
 @numba.njit(**_INNER)
@@ -371,9 +426,8 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
         e, g = q * nx, q * nx + nx - 1
         sd[e] = (xd[e + 1] - xd[e]) * fx1
         sd[g] = (xd[g] - xd[g - 1]) * fx1
-    _diff_times(sd, _run(dm_, p0, n, 1, k, yp), _run(dm_, p0, n, 1, k, ym), fy, ADD)
-    _diff_times(sd, _run(dm_, p0, n, 2, k1, 0), _run(dm_, p0, n, 2, k0, 0), fz, ADD)
-    _times_run(sd, inv_dt)
+    _diff_pair_times(sd, _run(dm_, p0, n, 1, k, yp), _run(dm_, p0, n, 1, k, ym), fy,
+                     _run(dm_, p0, n, 2, k1, 0), _run(dm_, p0, n, 2, k0, 0), fz, inv_dt)  # fmt: skip
     # quadrupole: second differences, x first (kept inside: the face copies the next in)
     _second_times(sq[1 : n - 1], _run(tt_, p0 + 1, n - 2, 0, k, 1), _run(tt_, p0 + 1, n - 2, 0, k, 0), _run(tt_, p0 + 1, n - 2, 0, k, -1),
                   gx, FIRST)  # fmt: skip
@@ -381,13 +435,16 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
         e, g = q * nx, q * nx + nx - 1
         sq[e] = sq[e + 1]
         sq[g] = sq[g - 1]
-    if ny >= 3:
+    if ny >= 3 and nz >= 3:
+        _second_pair_times(sq, _run(tt_, p0, n, 1, k, yc + nx), _run(tt_, p0, n, 1, k, yc), _run(tt_, p0, n, 1, k, yc - nx), gy,
+                           _run(tt_, p0, n, 2, kc + 1, 0), _run(tt_, p0, n, 2, kc, 0), _run(tt_, p0, n, 2, kc - 1, 0), gz)  # fmt: skip
+    elif ny >= 3:
         _second_times(sq, _run(tt_, p0, n, 1, k, yc + nx), _run(tt_, p0, n, 1, k, yc), _run(tt_, p0, n, 1, k, yc - nx),
                       gy, ADD)  # fmt: skip
-    if nz >= 3:
+    elif nz >= 3:
         _second_times(sq, _run(tt_, p0, n, 2, kc + 1, 0), _run(tt_, p0, n, 2, kc, 0), _run(tt_, p0, n, 2, kc - 1, 0),
                       gz, ADD)  # fmt: skip
-    # mixed xy and xz (each in sm first), one-sided at the faces
+    # mixed xy and xz (each in sm first, one-sided at the faces) added, and yz with xz
     for c in range(2):
         if c == 0:
             cc, kp, km, dp, dn, f2 = 3, k, k, yp, ym, fy
@@ -401,10 +458,10 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
             e, g = q * nx, q * nx + nx - 1
             sm[e] = (2.0 * fx1 * f2) * (xp[e + 1] - xp[e] - xm[e + 1] + xm[e])
             sm[g] = (2.0 * fx1 * f2) * (xp[g] - xp[g - 1] - xm[g] + xm[g - 1])
-        _add_run(sq, sm)
-    # mixed yz
-    _cross_times(sq, _run(tt_, p0, n, 5, k1, yp), _run(tt_, p0, n, 5, k1, ym), _run(tt_, p0, n, 5, k0, yp),
-                 _run(tt_, p0, n, 5, k0, ym), 2.0 * fy * fz, ADD)  # fmt: skip
+        if c == 0:
+            _add_run(sq, sm)
+    _add_cross(sq, sm, _run(tt_, p0, n, 5, k1, yp), _run(tt_, p0, n, 5, k1, ym), _run(tt_, p0, n, 5, k0, yp),
+               _run(tt_, p0, n, 5, k0, ym), 2.0 * fy * fz)  # fmt: skip
     # monopole
     _diff_times(sm, rb, ra, inv_dt, SET)
 
@@ -862,9 +919,10 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
     no-data point; ``r`` is 1 or the rows are all inner (2 .. ny-3).
 
     The same operations in the same order, point by point, as
-    :func:`_error_point`, grouped differently: run loops (:func:`_diff_over`
-    and the like) over the rows as one flat run, each adding one term to the
-    run of ``err (3, ny, nx)`` it writes (``work``: scratch like it).  A term
+    :func:`_error_point`, grouped differently: run loops (:func:`_diff_over`,
+    :func:`_gap_of_divergences` and the like) over the rows as one flat run,
+    each adding a term or two (in their order) to the run of ``err (3, ny, nx)``
+    it writes, or finishing its estimate (``work``: scratch like it).  A term
     with an x difference is taken along the run at x = 2 .. nx-3 (wrong at
     the two points at each end of a row, which read the next row), then
     copied to those points from the third (third last), where the stencil is
@@ -886,32 +944,20 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
     tt_, s_ = tt.reshape(6, R, m), s.reshape(3, R, m)
     e_, w_ = err.reshape(3, m), work.reshape(3, m)
     em, ed, eq = e_[0, p0 : p0 + n], e_[1, p0 : p0 + n], e_[2, p0 : p0 + n]
-    w0, w1 = w_[0, p0 : p0 + n], w_[1, p0 : p0 + n]
+    w0 = w_[0, p0 : p0 + n]
 
-    # dipole: divergence over 2h (in eq) and over h (in em, then ed), x first
-    _diff_over(
-        eq[2 : n - 2],
-        _run(dm_, p0 + 2, n - 4, 0, k, 2),
-        _run(dm_, p0 + 2, n - 4, 0, k, -2),
-        4.0 * hx,
-        FIRST,
-    )
+    # dipole: divergence over 2h (in eq) and over h (in em), x first, then y and z
+    # added and the estimate taken (in ed)
+    _pair_over(eq[2 : n - 2], _run(dm_, p0 + 2, n - 4, 0, k, 2), _run(dm_, p0 + 2, n - 4, 0, k, -2), 4.0 * hx,
+               em[2 : n - 2], _run(dm_, p0 + 2, n - 4, 0, k, 1), _run(dm_, p0 + 2, n - 4, 0, k, -1), 2.0 * hx)  # fmt: skip
     _ends_from_inner(eq, r, nx)
-    _diff_over(
-        em[2 : n - 2],
-        _run(dm_, p0 + 2, n - 4, 0, k, 1),
-        _run(dm_, p0 + 2, n - 4, 0, k, -1),
-        2.0 * hx,
-        FIRST,
-    )
     _ends_from_inner(em, r, nx)
-    _diff_over(
-        eq, _run(dm_, p0, n, 1, k, dy + 2 * nx), _run(dm_, p0, n, 1, k, dy - 2 * nx), 4.0 * hy, ADD
-    )
-    _diff_over(eq, _run(dm_, p0, n, 2, k2 + 2, 0), _run(dm_, p0, n, 2, k2 - 2, 0), 4.0 * hz, ADD)
-    _diff_over(em, _run(dm_, p0, n, 1, k, dy + nx), _run(dm_, p0, n, 1, k, dy - nx), 2.0 * hy, ADD)
-    _diff_over(em, _run(dm_, p0, n, 2, k2 + 1, 0), _run(dm_, p0, n, 2, k2 - 1, 0), 2.0 * hz, ADD)
-    _third_of_gap(ed, em, eq, inv_dt)
+    _gap_of_divergences(ed, eq, em,
+                        _run(dm_, p0, n, 1, k, dy + 2 * nx), _run(dm_, p0, n, 1, k, dy - 2 * nx), 4.0 * hy,
+                        _run(dm_, p0, n, 2, k2 + 2, 0), _run(dm_, p0, n, 2, k2 - 2, 0), 4.0 * hz,
+                        _run(dm_, p0, n, 1, k, dy + nx), _run(dm_, p0, n, 1, k, dy - nx), 2.0 * hy,
+                        _run(dm_, p0, n, 2, k2 + 1, 0), _run(dm_, p0, n, 2, k2 - 1, 0), 2.0 * hz,
+                        inv_dt)  # fmt: skip
     # dipole: time stencil over 2Δt (its divergence in em), x first
     if inv_dt2 > 0.0:
         _diff_over(
@@ -928,21 +974,19 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
             em[e + 1] = 0.0 + (xd[e + 2] - xd[e]) / (2 * hx)
             em[e + nx - 2] = 0.0 + (xd[e + nx - 1] - xd[e + nx - 3]) / (2 * hx)
             em[e + nx - 1] = 0.0 + (xd[e + nx - 1] - xd[e + nx - 2]) / (1 * hx)
-        _diff_over(em, _run(dm2_, p0, n, 1, k, (j1 - j) * nx), _run(dm2_, p0, n, 1, k, (j0 - j) * nx),
-                   (j1 - j0) * hy, ADD)  # fmt: skip
-        _diff_over(
-            em, _run(dm2_, p0, n, 2, k1, 0), _run(dm2_, p0, n, 2, k0, 0), (k1 - k0) * hz, ADD
-        )
-        _third_of_rest(ed, _run(s_, p0, n, 1, k, 0), em, inv_dt2, ADD)
-    # quadrupole: second differences along x, y and z (in eq)
+        _rest_of_divergence(ed, em, _run(s_, p0, n, 1, k, 0),
+                            _run(dm2_, p0, n, 1, k, (j1 - j) * nx), _run(dm2_, p0, n, 1, k, (j0 - j) * nx), (j1 - j0) * hy,
+                            _run(dm2_, p0, n, 2, k1, 0), _run(dm2_, p0, n, 2, k0, 0), (k1 - k0) * hz,
+                            inv_dt2)  # fmt: skip
+    # quadrupole: second differences along x, then y and z (in eq)
     _second_over(eq[2 : n - 2], _run(tt_, p0 + 2, n - 4, 0, k, 1), _run(tt_, p0 + 2, n - 4, 0, k, 0), _run(tt_, p0 + 2, n - 4, 0, k, -1),
                  _run(tt_, p0 + 2, n - 4, 0, k, 2), _run(tt_, p0 + 2, n - 4, 0, k, -2), hx * hx, FIRST)  # fmt: skip
     _ends_from_inner(eq, r, nx)
-    _second_over(eq, _run(tt_, p0, n, 1, k, dy + nx), _run(tt_, p0, n, 1, k, dy), _run(tt_, p0, n, 1, k, dy - nx),
-                 _run(tt_, p0, n, 1, k, dy + 2 * nx), _run(tt_, p0, n, 1, k, dy - 2 * nx), hy * hy, ADD)  # fmt: skip
-    _second_over(eq, _run(tt_, p0, n, 2, k2 + 1, 0), _run(tt_, p0, n, 2, k2, 0), _run(tt_, p0, n, 2, k2 - 1, 0),
-                 _run(tt_, p0, n, 2, k2 + 2, 0), _run(tt_, p0, n, 2, k2 - 2, 0), hz * hz, ADD)  # fmt: skip
-    # mixed xy, then xz: the h and 2h differences (in work), their term in em, added
+    _second_pair_over(eq, _run(tt_, p0, n, 1, k, dy + nx), _run(tt_, p0, n, 1, k, dy), _run(tt_, p0, n, 1, k, dy - nx),
+                      _run(tt_, p0, n, 1, k, dy + 2 * nx), _run(tt_, p0, n, 1, k, dy - 2 * nx), hy * hy,
+                      _run(tt_, p0, n, 2, k2 + 1, 0), _run(tt_, p0, n, 2, k2, 0), _run(tt_, p0, n, 2, k2 - 1, 0),
+                      _run(tt_, p0, n, 2, k2 + 2, 0), _run(tt_, p0, n, 2, k2 - 2, 0), hz * hz)  # fmt: skip
+    # mixed xy, then xz: their term (the h and 2h differences, in w0), added
     for c in range(2):
         if c == 0:
             cc, kp, km, kp2, km2, dp, dn, dp2, dn2, f = 3, k, k, k, k, dy + nx, dy - nx, \
@@ -950,25 +994,22 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
         else:
             cc, kp, km, kp2, km2, dp, dn, dp2, dn2, f = 4, k2 + 1, k2 - 1, k2 + 2, k2 - 2, 0, 0, \
                 0, 0, hx * hz  # fmt: skip
-        _cross_over(w0[2 : n - 2], _run(tt_, p0 + 2, n - 4, cc, kp, dp + 1), _run(tt_, p0 + 2, n - 4, cc, kp, dp - 1),
-                    _run(tt_, p0 + 2, n - 4, cc, km, dn + 1), _run(tt_, p0 + 2, n - 4, cc, km, dn - 1), 4.0)  # fmt: skip
-        _cross_over(w1[2 : n - 2], _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 + 2), _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 - 2),
-                    _run(tt_, p0 + 2, n - 4, cc, km2, dn2 + 2), _run(tt_, p0 + 2, n - 4, cc, km2, dn2 - 2), 16.0)  # fmt: skip
-        _mixed_over(em[2 : n - 2], w0[2 : n - 2], w1[2 : n - 2], f, SET)
-        _ends_from_inner(em, r, nx)
-        _add_run(eq, em)
+        _mixed_pair(w0[2 : n - 2], _run(tt_, p0 + 2, n - 4, cc, kp, dp + 1), _run(tt_, p0 + 2, n - 4, cc, kp, dp - 1),
+                    _run(tt_, p0 + 2, n - 4, cc, km, dn + 1), _run(tt_, p0 + 2, n - 4, cc, km, dn - 1),
+                    _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 + 2), _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 - 2),
+                    _run(tt_, p0 + 2, n - 4, cc, km2, dn2 + 2), _run(tt_, p0 + 2, n - 4, cc, km2, dn2 - 2), f, SET)  # fmt: skip
+        _ends_from_inner(w0, r, nx)
+        _add_run(eq, w0)
     # mixed yz, and the estimate
-    _cross_over(w0, _run(tt_, p0, n, 5, k2 + 1, dy + nx), _run(tt_, p0, n, 5, k2 + 1, dy - nx),
-                _run(tt_, p0, n, 5, k2 - 1, dy + nx), _run(tt_, p0, n, 5, k2 - 1, dy - nx), 4.0)  # fmt: skip
-    _cross_over(w1, _run(tt_, p0, n, 5, k2 + 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 + 2, dy - 2 * nx),
-                _run(tt_, p0, n, 5, k2 - 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 - 2, dy - 2 * nx), 16.0)  # fmt: skip
-    _mixed_over(eq, w0, w1, hy * hz, ADD)
-    _third_of_abs(eq)
+    _mixed_pair(eq, _run(tt_, p0, n, 5, k2 + 1, dy + nx), _run(tt_, p0, n, 5, k2 + 1, dy - nx),
+                _run(tt_, p0, n, 5, k2 - 1, dy + nx), _run(tt_, p0, n, 5, k2 - 1, dy - nx),
+                _run(tt_, p0, n, 5, k2 + 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 + 2, dy - 2 * nx),
+                _run(tt_, p0, n, 5, k2 - 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 - 2, dy - 2 * nx), hy * hz,
+                LAST)  # fmt: skip
     # monopole: time stencil over 2Δt
     if inv_dt2 > 0.0:
         rb, ra = rho_b2.reshape(nz, m)[k, p0 : p0 + n], rho_a2.reshape(nz, m)[k, p0 : p0 + n]
-        _diff_times(w0, rb, ra, 1.0, SET)  # ρ(n+2) - ρ(n-2) (times 1: exactly)
-        _third_of_rest(em, _run(s_, p0, n, 0, k, 0), w0, inv_dt2, SET)
+        _third_of_change(em, _run(s_, p0, n, 0, k, 0), rb, ra, inv_dt2)
     else:
         em[:] = 0.0
 
@@ -1164,24 +1205,24 @@ def _max_y(plane, out):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(**_INNER)
-def _floor_plane(s, o, near, k, nz, factor, roundoff):  # type: ignore[no-untyped-def]
-    """Zero the strengths ``s[:, o]`` of plane ``k`` (of ``nz``) not above ``roundoff (3,)`` or
-    ``factor`` times the largest error estimate around them; ``near (3, 3, ny, nx)``
-    holds the estimates of planes k-1, k, k+1 (slot ``plane % 3``), each already the
-    largest over the 3 × 3 points around in x and y (see :func:`apply_floor`).  A row
-    at a time; a strength that stays is written back as it was."""
+def _floor_plane(s, o, near, k, nz, factor, roundoff, out):  # type: ignore[no-untyped-def]
+    """The strengths ``s[:, o]`` of plane ``k`` (of ``nz``) into ``out[:, k]``, those not above
+    ``roundoff (3,)`` or ``factor`` times the largest error estimate around them zeroed;
+    ``near (3, 3, ny, nx)`` holds the estimates of planes k-1, k, k+1 (slot ``plane %
+    3``), each already the largest over the 3 × 3 points around in x and y (see
+    :func:`apply_floor`).  A row at a time; a strength that stays is written as it was."""
     ny = s.shape[2]
     k0, k1 = _lohi(k, nz)
     for c in range(3):
         lim = roundoff[c]
         for j in range(ny):
-            row = s[c, o, j]
+            row, dst = s[c, o, j], out[c, k, j]
             ea, eb, ec = near[k0 % 3, c, j], near[k % 3, c, j], near[k1 % 3, c, j]
             for i in range(row.size):
                 x = row[i]
                 a = abs(x)
                 e = _up(_up(_up(0.0, ea[i]), eb[i]), ec[i])
-                row[i] = 0.0 if a != 0.0 and (a <= lim or a <= factor * e) else x
+                dst[i] = 0.0 if a != 0.0 and (a <= lim or a <= factor * e) else x
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -1379,8 +1420,9 @@ def _sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, stead
                 progress = True
             if kf < hi and (ke > min(kf + 1, nz - 1) if flooring else kf < ks):
                 if flooring:
-                    _floor_plane(s, kf % R, near, kf, nz, factor, roundoff)
-                _copy_planes(s, kf % R, out, kf)
+                    _floor_plane(s, kf % R, near, kf, nz, factor, roundoff, out)
+                else:
+                    _copy_planes(s, kf % R, out, kf)
                 kf += 1
                 progress = True
 
