@@ -157,7 +157,11 @@ class StrengthStats:
             np.maximum(peak, p.peak, out=peak)
             np.maximum(scale, p.scale, out=scale)
         samples = [p.sample for p in parts if p.sample.size]
-        sample = np.sort(np.concatenate(samples, axis=1), axis=1) if samples else np.zeros((3, 0))
+        if not samples:
+            return cls(peak=peak, sample=np.zeros((3, 0)), scale=scale)
+        sample = np.concatenate(samples, axis=1)
+        # each type's samples sorted (as np.sort along axis 1) on the detection's threads
+        K.in_threads(lambda i: sample[i].sort(), sample.shape[0])
         return cls(peak=peak, sample=sample, scale=scale)
 
 
