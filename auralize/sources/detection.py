@@ -44,8 +44,10 @@ the linear-interpolated crossing of ``|S|`` with the threshold): by default
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
+import threading
 import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -809,6 +811,11 @@ def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
     return np.array(sorted(anchors), dtype=np.int64)
 
 
+#: anchors whose quadrupole strength :class:`SteadyBase` keeps: the two around a step, and
+#: a third for the steps detected at the same time on either side of an anchor
+ANCHORS_KEPT = 3
+
+
 class SteadyBase:
     """The field's local steady state, whose sound is removed (``steady="remove"``).
 
@@ -842,6 +849,7 @@ class SteadyBase:
             int, tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
         ] = {}
         self._tt: dict[int, NDArray[np.float64]] = {}
+        self._lock = threading.Lock()  # detection's threads share the anchors
 
     def for_volume(self, volume: TimeVolume, mapping: AcousticMapping | None = None) -> SteadyBase:
         """The same anchors on another volume (a slab of this one)."""
@@ -850,21 +858,23 @@ class SteadyBase:
     def _anchor(
         self, a: int
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Anchor step ``a``'s ``(S_q of its stress, rho, v)`` (the last two anchors kept)."""
-        hit = self._held.get(a)
-        if hit is None:
-            rho, v, _ = StepCache(self.volume, self.mapping, store=self.store).frame(a)
-            tt = np.ascontiguousarray(_stress(rho, v))
-            metric = self.volume.metric
-            sq = (K.quadrupole_of_stress(tt, self.volume.spacing) if metric is None
-                  else metric.quadrupole(tt))  # fmt: skip
-            hit = (sq, rho, v)
-            if len(self._held) >= 2:
-                gone = next(iter(self._held))
-                self._held.pop(gone)
-                self._tt.pop(gone, None)
-            self._held[a] = hit
-        return hit
+        """Anchor step ``a``'s ``(S_q of its stress, rho, v)`` (the last :data:`ANCHORS_KEPT`
+        anchors kept)."""
+        with self._lock:
+            hit = self._held.get(a)
+            if hit is None:
+                rho, v, _ = StepCache(self.volume, self.mapping, store=self.store).frame(a)
+                tt = np.ascontiguousarray(_stress(rho, v))
+                metric = self.volume.metric
+                sq = (K.quadrupole_of_stress(tt, self.volume.spacing) if metric is None
+                      else metric.quadrupole(tt))  # fmt: skip
+                hit = (sq, rho, v)
+                if len(self._held) >= ANCHORS_KEPT:
+                    gone = next(iter(self._held))
+                    self._held.pop(gone)
+                    self._tt.pop(gone, None)
+                self._held[a] = hit
+            return hit
 
     def _state(self, a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Anchor step ``a``'s ``(S_q, stress)``."""
@@ -1198,24 +1208,98 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     same ``qmean`` and ``floor`` (:func:`strength_stats`'s ``keep``), used
     (and dropped) instead of computing them again.
     """
-    cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
-    buf = K.empty_like_strengths(volume.shape)
-    cell = None if volume.metric is None else volume.metric.jac
-    kinds = np.empty(volume.shape, dtype=np.int8)  # scratch of classify_sources
     steps = steps if steps is not None else range(volume.n_steps)
     known = {} if known is None else known
+    threads = K.thread_count()
+    # a step at a time on each thread when every frame is mapped once and for all (a
+    # uniform grid: its kernels run on the calling thread), else the threads share each step
+    if (threads > 1 and len(steps) > 1 and volume.metric is None and store is not None
+            and store.max_steps >= volume.n_steps):  # fmt: skip
+        yield from _detect_side_by_side(volume, mapping, thr, steps, threads, progress_bar,
+                                        zero_fraction=zero_fraction, qmean=qmean,
+                                        delta_v=delta_v, floor=floor, store=store,
+                                        known=known)  # fmt: skip
+        return
+    work = _StepWork(volume, mapping, qmean, floor, store)
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
+        yield n, work.detect(n, thr, known, zero_fraction, delta_v)
+        work.cache.keep(n, n + 1)
+
+
+class _StepWork:
+    """What detecting one step at a time needs: a :class:`StepCache` and scratch arrays."""
+
+    def __init__(self, volume: TimeVolume, mapping: AcousticMapping,
+                 qmean: SteadyBase | NDArray[np.float64] | None, floor: float,
+                 store: MappedSeries | None) -> None:  # fmt: skip
+        self.volume = volume
+        self.cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
+        self.buf = K.empty_like_strengths(volume.shape)
+        self.kinds = np.empty(volume.shape, dtype=np.int8)  # scratch of classify_sources
+        self.cell = None if volume.metric is None else volume.metric.jac
+
+    def detect(self, n: int, thr: NDArray[np.float64],
+               known: dict[int, tuple[np.ndarray, np.ndarray | None]], zero_fraction: float,
+               delta_v: str) -> SourceFrame:  # fmt: skip
+        """The sources of step ``n`` (its strengths from ``known`` when there)."""
+        volume = self.volume
         hit = known.pop(n, None)
         if hit is None:
-            s = step_strengths(volume, cache, n, buf)
-            nodata = cache.nodata
+            s = step_strengths(volume, self.cache, n, self.buf)
+            nodata = self.cache.nodata
         else:
             s, nodata = hit
         f = classify_sources(s, thr, volume.spacing, zero_fraction=zero_fraction,
-                             delta_v=delta_v, cell=cell, kinds=kinds)  # fmt: skip
+                             delta_v=delta_v, cell=self.cell, kinds=self.kinds)  # fmt: skip
         f.n_valid = volume.n_points - (0 if nodata is None else int(nodata.sum()))
-        yield n, f
-        cache.keep(n, n + 1)
+        return f
+
+
+def _detect_side_by_side(volume: TimeVolume, mapping: AcousticMapping,
+                         thr: NDArray[np.float64], steps: range, threads: int,
+                         progress_bar: bool, *, zero_fraction: float,
+                         qmean: SteadyBase | NDArray[np.float64] | None, delta_v: str,
+                         floor: float, store: MappedSeries,
+                         known: dict[int, tuple[np.ndarray, np.ndarray | None]],
+                         ) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
+    """:func:`iter_detect` with ``threads`` steps detected at a time, each whole on one thread
+    (its kernels on that thread alone: no block of planes waits for another, and no
+    plane is computed twice at the blocks' edges), yielded in order.
+
+    The steps go in batches of :data:`SIDE_BY_SIDE` per thread, each thread taking the
+    next step of the batch when it is free; each thread keeps its own
+    :class:`StepCache` and scratch, whose frames come from ``store``, which holds
+    them all.
+    """
+    import numba
+
+    works: dict[int, _StepWork] = {}
+    todo = iter(progress(steps, desc="detect", enabled=progress_bar, unit="step"))
+    while batch := list(itertools.islice(todo, SIDE_BY_SIDE * threads)):
+        out: list[SourceFrame | None] = [None] * len(batch)
+
+        def one(i: int, batch: list[int] = batch, out: list[SourceFrame | None] = out) -> None:
+            work = works.get(threading.get_ident())
+            if work is None:
+                work = works[threading.get_ident()] = _StepWork(volume, mapping, qmean, floor,
+                                                                store)  # fmt: skip
+            own = numba.get_num_threads()
+            numba.set_num_threads(1)  # this thread's kernels on this thread alone
+            try:
+                out[i] = work.detect(batch[i], thr, known, zero_fraction, delta_v)
+            finally:
+                numba.set_num_threads(own)
+
+        K.in_threads(one, len(batch), threads)
+        for work in works.values():  # the next batch's frames (and their neighbours)
+            work.cache.keep(batch[-1] + steps.step, batch[-1] + len(batch) * steps.step)
+        for n, f in zip(batch, out, strict=True):
+            assert f is not None
+            yield n, f
+
+
+#: steps per thread in a batch of :func:`_detect_side_by_side`
+SIDE_BY_SIDE = 4
 
 
 def classified_fraction(frames: Sequence[SourceFrame], n_points: int) -> dict[str, float]:
