@@ -83,22 +83,46 @@ def reference_errors(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad):  
                     b = 0.25 * (t[2, k2 + 2, j, i] - 2.0 * t[2, k2, j, i] + t[2, k2 - 2, j, i])
                     eq += (a - b) / (hz * hz)
                 if ok_x and ok_y:
-                    a = (t[3, k, j2 + 1, i2 + 1] - t[3, k, j2 + 1, i2 - 1]
-                         - t[3, k, j2 - 1, i2 + 1] + t[3, k, j2 - 1, i2 - 1]) / 4.0  # fmt: skip
-                    b = (t[3, k, j2 + 2, i2 + 2] - t[3, k, j2 + 2, i2 - 2]
-                         - t[3, k, j2 - 2, i2 + 2] + t[3, k, j2 - 2, i2 - 2]) / 16.0  # fmt: skip
+                    a = (
+                        t[3, k, j2 + 1, i2 + 1]
+                        - t[3, k, j2 + 1, i2 - 1]
+                        - t[3, k, j2 - 1, i2 + 1]
+                        + t[3, k, j2 - 1, i2 - 1]
+                    ) / 4.0
+                    b = (
+                        t[3, k, j2 + 2, i2 + 2]
+                        - t[3, k, j2 + 2, i2 - 2]
+                        - t[3, k, j2 - 2, i2 + 2]
+                        + t[3, k, j2 - 2, i2 - 2]
+                    ) / 16.0
                     eq += 2.0 * (a - b) / (hx * hy)
                 if ok_x and ok_z:
-                    a = (t[4, k2 + 1, j, i2 + 1] - t[4, k2 + 1, j, i2 - 1]
-                         - t[4, k2 - 1, j, i2 + 1] + t[4, k2 - 1, j, i2 - 1]) / 4.0  # fmt: skip
-                    b = (t[4, k2 + 2, j, i2 + 2] - t[4, k2 + 2, j, i2 - 2]
-                         - t[4, k2 - 2, j, i2 + 2] + t[4, k2 - 2, j, i2 - 2]) / 16.0  # fmt: skip
+                    a = (
+                        t[4, k2 + 1, j, i2 + 1]
+                        - t[4, k2 + 1, j, i2 - 1]
+                        - t[4, k2 - 1, j, i2 + 1]
+                        + t[4, k2 - 1, j, i2 - 1]
+                    ) / 4.0
+                    b = (
+                        t[4, k2 + 2, j, i2 + 2]
+                        - t[4, k2 + 2, j, i2 - 2]
+                        - t[4, k2 - 2, j, i2 + 2]
+                        + t[4, k2 - 2, j, i2 - 2]
+                    ) / 16.0
                     eq += 2.0 * (a - b) / (hx * hz)
                 if ok_y and ok_z:
-                    a = (t[5, k2 + 1, j2 + 1, i] - t[5, k2 + 1, j2 - 1, i]
-                         - t[5, k2 - 1, j2 + 1, i] + t[5, k2 - 1, j2 - 1, i]) / 4.0  # fmt: skip
-                    b = (t[5, k2 + 2, j2 + 2, i] - t[5, k2 + 2, j2 - 2, i]
-                         - t[5, k2 - 2, j2 + 2, i] + t[5, k2 - 2, j2 - 2, i]) / 16.0  # fmt: skip
+                    a = (
+                        t[5, k2 + 1, j2 + 1, i]
+                        - t[5, k2 + 1, j2 - 1, i]
+                        - t[5, k2 - 1, j2 + 1, i]
+                        + t[5, k2 - 1, j2 - 1, i]
+                    ) / 4.0
+                    b = (
+                        t[5, k2 + 2, j2 + 2, i]
+                        - t[5, k2 + 2, j2 - 2, i]
+                        - t[5, k2 - 2, j2 + 2, i]
+                        + t[5, k2 - 2, j2 - 2, i]
+                    ) / 16.0
                     eq += 2.0 * (a - b) / (hy * hz)
                 err[2, k, j, i] = abs(eq) / 3.0
     return err
@@ -147,7 +171,8 @@ SHAPES = [(6, 5, 7), (7, 9, 8), (1, 6, 7), (2, 5, 6), (6, 1, 2), (2, 2, 1), (1, 
 @pytest.mark.parametrize("bad_share", [0.0, 0.08, -1.0])
 @pytest.mark.parametrize("inv_dt2", [0.0, 0.45])
 def test_error_estimates_and_floor_equal_the_python_reference(
-        shape: tuple[int, int, int], bad_share: float, inv_dt2: float) -> None:  # fmt: skip
+    shape: tuple[int, int, int], bad_share: float, inv_dt2: float
+) -> None:
     """The plane-by-plane estimates (runs along the rows where no no-data point is near,
     point by point elsewhere) and the 27-point floor, exactly the per-point reference."""
     s, rho_a2, rho_b2, dm, dm2, tt, bad = random_step(shape, 7, max(bad_share, 0.0))
@@ -185,9 +210,11 @@ def reference_strengths(rho_a, rho_b, dm, tt, inv_dt, h):  # type: ignore[no-unt
                 (i0, i1), ic = _lohi(i, nx), _inner(i, nx)
                 fx = 1.0 / ((i1 - i0) * hx) if i1 > i0 else 0.0
                 out[0, k, j, i] = (rho_b[k, j, i] - rho_a[k, j, i]) * inv_dt
-                div = ((dm[0, k, j, i1] - dm[0, k, j, i0]) * fx
-                       + (dm[1, k, j1, i] - dm[1, k, j0, i]) * fy
-                       + (dm[2, k1, j, i] - dm[2, k0, j, i]) * fz)  # fmt: skip
+                div = (
+                    (dm[0, k, j, i1] - dm[0, k, j, i0]) * fx
+                    + (dm[1, k, j1, i] - dm[1, k, j0, i]) * fy
+                    + (dm[2, k1, j, i] - dm[2, k0, j, i]) * fz
+                )
                 out[1, k, j, i] = div * inv_dt
                 t = tt
                 q = 0.0
@@ -197,12 +224,15 @@ def reference_strengths(rho_a, rho_b, dm, tt, inv_dt, h):  # type: ignore[no-unt
                     q += (t[1, k, jc + 1, i] - 2.0 * t[1, k, jc, i] + t[1, k, jc - 1, i]) * g[1]
                 if nz >= 3:
                     q += (t[2, kc + 1, j, i] - 2.0 * t[2, kc, j, i] + t[2, kc - 1, j, i]) * g[2]
-                q += (2.0 * fx * fy) * (t[3, k, j1, i1] - t[3, k, j1, i0] - t[3, k, j0, i1]
-                                        + t[3, k, j0, i0])  # fmt: skip
-                q += (2.0 * fx * fz) * (t[4, k1, j, i1] - t[4, k1, j, i0] - t[4, k0, j, i1]
-                                        + t[4, k0, j, i0])  # fmt: skip
-                q += (2.0 * fy * fz) * (t[5, k1, j1, i] - t[5, k1, j0, i] - t[5, k0, j1, i]
-                                        + t[5, k0, j0, i])  # fmt: skip
+                q += (2.0 * fx * fy) * (
+                    t[3, k, j1, i1] - t[3, k, j1, i0] - t[3, k, j0, i1] + t[3, k, j0, i0]
+                )
+                q += (2.0 * fx * fz) * (
+                    t[4, k1, j, i1] - t[4, k1, j, i0] - t[4, k0, j, i1] + t[4, k0, j, i0]
+                )
+                q += (2.0 * fy * fz) * (
+                    t[5, k1, j1, i] - t[5, k1, j0, i] - t[5, k0, j1, i] + t[5, k0, j0, i]
+                )
                 out[2, k, j, i] = q
     return out
 
@@ -267,8 +297,17 @@ def steady_of(mode: int, shape: tuple[int, int, int], seed: int) -> tuple:  # ty
     return (mode, 0.3, sa, sb, ra, va, rb, vb)
 
 
-DETECT_SHAPES = [(9, 12, 17), (6, 5, 7), (5, 5, 5), (3, 4, 2), (1, 6, 7), (6, 1, 2), (2, 2, 1),
-                 (1, 1, 1), (12, 3, 6)]  # fmt: skip
+DETECT_SHAPES = [
+    (9, 12, 17),
+    (6, 5, 7),
+    (5, 5, 5),
+    (3, 4, 2),
+    (1, 6, 7),
+    (6, 1, 2),
+    (2, 2, 1),
+    (1, 1, 1),
+    (12, 3, 6),
+]
 
 
 @pytest.mark.parametrize("shape", DETECT_SHAPES)
@@ -292,8 +331,9 @@ def test_one_sweep_equals_the_passes(shape: tuple[int, int, int], mode: int, fac
         want = the_passes(frames, steady, nodata, bad, 1.3, 0.6, h, factor, roundoff)
         for blocks in (1, 2, 3, shape[0]):
             got = np.full((3, *shape), np.nan)
-            K.detect_step(frames, steady, nodata, bad, 1.3, 0.6, h, factor, roundoff, got,
-                          blocks=blocks)  # fmt: skip
+            K.detect_step(
+                frames, steady, nodata, bad, 1.3, 0.6, h, factor, roundoff, got, blocks=blocks
+            )
             np.testing.assert_array_equal(got, want)
 
 
@@ -380,8 +420,9 @@ def test_step_change_is_the_numpy_maxima() -> None:
 @pytest.mark.parametrize("delta_v", ["cell", "sphere"])
 @pytest.mark.parametrize("shape", [(7, 8, 9), (1, 5, 6), (4, 1, 1)])
 @pytest.mark.parametrize("curvilinear", [False, True])
-def test_sources_in_one_kernel_equal_classify_then_extract(delta_v: str, shape: tuple[int, int, int],
-                                                          curvilinear: bool) -> None:  # fmt: skip
+def test_sources_in_one_kernel_equal_classify_then_extract(
+    delta_v: str, shape: tuple[int, int, int], curvilinear: bool
+) -> None:
     """The source points gathered with their radii alone (classes first, then each
     source's radius) are those of classifying every point and gathering them."""
     from auralize.sources.detection import classify, classify_sources, extract
