@@ -294,10 +294,12 @@ def test_amr_vthb(tmp_path: Path) -> None:
     np.testing.assert_allclose(vol.bounds, bounds, atol=1e-9)
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
+    from auralize.runtime.vtkcompat import amr_block, amr_block_count
+
     raw = [
-        vtk_to_numpy(amr.GetDataSetAsImageData(level, i).GetCellData().GetArray("Gaussian-Pulse"))
+        vtk_to_numpy(amr_block(amr, level, i).GetCellData().GetArray("Gaussian-Pulse"))
         for level in range(amr.GetNumberOfLevels())
-        for i in range(amr.GetNumberOfBlocks(level))
+        for i in range(amr_block_count(amr, level))
     ]
     pulse = vol.frame("Gaussian-Pulse", 0)
     # cell values interpolated to points: within the range of the file's values
@@ -306,9 +308,14 @@ def test_amr_vthb(tmp_path: Path) -> None:
 
 
 def test_generic_pyvista_reader(tmp_path: Path) -> None:
+    from vtkmodules.vtkIOImage import vtkNIFTIImageWriter
+
     img = pv.ImageData(dimensions=(4, 3, 2), spacing=(0.5, 0.5, 0.5))
     img.point_data["density"] = np.arange(24.0)
-    img.save(tmp_path / "img.nii")
+    writer = vtkNIFTIImageWriter()  # VTK's own: older pyvista cannot save .nii
+    writer.SetFileName(str(tmp_path / "img.nii"))
+    writer.SetInputData(img)
+    writer.Write()
     vol = open_volume(tmp_path / "img.nii")
     assert vol.dims == (4, 3, 2) and vol.n_steps == 1
     assert np.nanmax(vol.frame(vol.field_names[0], 0)) == 23.0

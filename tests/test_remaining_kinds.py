@@ -22,8 +22,10 @@ def _amr_file(folder: Path) -> Path:
     from vtkmodules.vtkCommonDataModel import vtkAMRBox, vtkOverlappingAMR, vtkUniformGrid
     from vtkmodules.vtkIOXML import vtkXMLUniformGridAMRWriter
 
+    from auralize.runtime.vtkcompat import amr_initialize
+
     amr = vtkOverlappingAMR()
-    amr.Initialize([1, 1])
+    amr_initialize(amr, [1, 1])
     amr.SetOrigin([0.0, 0.0, 0.0])
     for level, h in enumerate((1.0, 0.5)):
         grid = vtkUniformGrid()

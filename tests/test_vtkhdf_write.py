@@ -145,7 +145,8 @@ def test_detect_writes_vtkhdf_matching_the_h5_output(tmp_path: Path, capsys) -> 
     for f, poly in zip(series.frames, polys, strict=True):
         assert poly.n_points == f.index.size
         assert np.allclose(poly.points, series.positions(f.index))
-        assert np.array_equal(poly.point_data["kind"], f.kind)
+        if f.index.size:  # VTK 9.4 reads a step without points with no arrays
+            assert np.array_equal(poly.point_data["kind"], f.kind)
     assert not list(tmp_path.glob(".*"))  # no temporary file left
     assert main(["detect", *spec, "-o", str(tmp_path / "s.vtu")]) == 2
     assert ".vtkhdf" in capsys.readouterr().err

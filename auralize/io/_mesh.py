@@ -183,8 +183,9 @@ def check_mesh(mesh: Any, *, label: str) -> None:
         )
     n = int(mesh.n_points)
     if isinstance(mesh, pv.UnstructuredGrid):
-        from vtkmodules.vtkCommonDataModel import vtkCellTypeUtilities
+        from auralize.runtime.vtkcompat import cell_type_utilities
 
+        cell_types = cell_type_utilities()
         _check_cell_array(mesh.GetCells(), n, label=label, what="cell")
         types = np.asarray(mesh.celltypes, dtype=np.int64)
         if types.size != mesh.n_cells:
@@ -192,7 +193,7 @@ def check_mesh(mesh: Any, *, label: str) -> None:
                 f"{label}: the mesh is corrupt: {types.size} cell types for {mesh.n_cells} cells"
             )
         for t in np.unique(types).tolist():
-            if not 0 <= t < 256 or vtkCellTypeUtilities.GetClassNameFromTypeId(t) == "UnknownClass":
+            if not 0 <= t < 256 or cell_types.GetClassNameFromTypeId(t) == "UnknownClass":
                 raise DataError(
                     f"{label}: the mesh is corrupt: cell type {t} is not a VTK cell type; "
                     f"the file is damaged"
@@ -234,12 +235,12 @@ def _leaves(obj: Any, *, label: str) -> list[Any]:
 
 def cell_dimension(mesh: Any) -> int:
     """Largest topological dimension of ``mesh``'s cells (0 points ... 3 volumes)."""
-    from vtkmodules.vtkCommonDataModel import vtkCellTypeUtilities
+    from auralize.runtime.vtkcompat import cell_type_utilities, distinct_cell_types
 
     if mesh.n_cells == 0:
         return 0
-    types = {int(t) for t in mesh.distinct_cell_types}
-    return max(int(vtkCellTypeUtilities.GetDimension(int(t))) for t in types)
+    types = distinct_cell_types(mesh)
+    return max(int(cell_type_utilities().GetDimension(t)) for t in types)
 
 
 def array_components(mesh: pyvista.DataSet) -> dict[str, int]:

@@ -12,6 +12,7 @@ volume opens in ParaView with its time steps.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -637,7 +638,9 @@ def write_pvd(
     if compression not in (None, "gzip"):
         raise ParameterError(f"{path}: compression={compression!r}; valid are None and 'gzip'")
     pv = import_pyvista()
-    vtk_compression = "zlib" if compression == "gzip" else None
+    from vtkmodules.vtkCommonMisc import vtkErrorCode
+    from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+
     stem = path.stem
     width = max(4, len(str(volume.n_steps - 1)))
     names = [f"{stem}_{n:0{width}d}.vti" for n in range(volume.n_steps)]
@@ -654,7 +657,19 @@ def write_pvd(
                 frame = volume.frame(field_name, step)
                 flat = frame.reshape(nx * ny * nz, 3) if frame.ndim == 4 else frame.reshape(-1)
                 image.point_data[field_name] = np.ascontiguousarray(flat)
-            image.save(folder / name, compression=vtk_compression)
+            # VTK's writer, set as pyvista's ``save`` sets it (whose ``compression`` is recent)
+            writer = vtkXMLImageDataWriter()
+            writer.SetFileName(str(folder / name))
+            writer.SetInputData(image)
+            writer.SetDataModeToBinary()
+            if compression == "gzip":
+                writer.SetCompressorTypeToZLib()
+            else:
+                writer.SetCompressorTypeToNone()
+            if not writer.Write():
+                full = writer.GetErrorCode() == vtkErrorCode.OutOfDiskSpaceError
+                code = errno.ENOSPC if full else errno.EIO
+                raise OSError(code, os.strerror(code), str(folder / name))
         return [(float(t), name) for t, name in zip(volume.times, names, strict=True)]
 
     if compression is None:

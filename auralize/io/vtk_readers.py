@@ -41,6 +41,7 @@ from auralize.io._common import FieldsArg, require_exists
 from auralize.io._mesh import as_dataset, import_pyvista, open_mesh_series
 from auralize.io.resample import ResolutionArg
 from auralize.io.xdmf_check import check_xdmf
+from auralize.runtime.vtkcompat import amr_block, amr_block_count, c_locale_kept
 from auralize.runtime.vtklog import c_stderr_logged, error_mark, first_error, one_line
 from auralize.volume import TimeVolume
 
@@ -507,7 +508,9 @@ def marshal_mesh(mesh: Any) -> bytes:
         matrix = mesh.GetDirectionMatrix()
         head["direction"] = [matrix.GetElement(i, j) for i in range(3) for j in range(3)]
     buffer = vtkCharArray()
-    if not vtkCommunicator.MarshalDataObject(mesh, buffer):
+    with c_locale_kept():
+        marshalled = vtkCommunicator.MarshalDataObject(mesh, buffer)
+    if not marshalled:
         raise FormatError(f"VTK cannot marshal the {name} the reader returned")
     return json.dumps(head).encode() + b"\n" + vtk_to_numpy(buffer).tobytes()
 
@@ -558,7 +561,9 @@ def unmarshal_mesh(data: bytes) -> Any:
     view = vtk_to_numpy(buffer)
     view[:] = np.frombuffer(body, dtype=view.dtype)
     mesh = getattr(vtkCommonDataModel, name)()
-    if not vtkCommunicator.UnMarshalDataObject(buffer, mesh):
+    with c_locale_kept():
+        unmarshalled = vtkCommunicator.UnMarshalDataObject(buffer, mesh)
+    if not unmarshalled:
         raise FormatError(f"the {name} the reading process sent cannot be read back")
     for key, data in (("point", mesh.GetPointData()), ("cell", mesh.GetCellData())):
         _restore_order(data, head[key])
@@ -1188,8 +1193,8 @@ def amr_leaves(amr: Any, *, label: str) -> Any:
     hidden = 8  # vtkDataSetAttributes::HIDDENCELL
     blocks = pv.MultiBlock()
     for level in range(amr.GetNumberOfLevels()):
-        for index in range(amr.GetNumberOfBlocks(level)):
-            box = amr.GetDataSetAsImageData(level, index)
+        for index in range(amr_block_count(amr, level)):
+            box = amr_block(amr, level, index)
             if box is None:
                 continue
             image = pv.ImageData()

@@ -16,6 +16,7 @@ from auralize.listener import ListenerPath
 from auralize.palette import PALETTE as PALETTE
 from auralize.palette import type_rgb as type_rgb
 from auralize.runtime.files import atomic_path
+from auralize.runtime.vtkcompat import dataset_surface
 from auralize.sources.detection import SourceSeries
 from auralize.volume import TimeVolume
 
@@ -68,8 +69,8 @@ def source_points(centers: np.ndarray, radii: np.ndarray, kinds: np.ndarray):
     if not len(c):
         return pv.PolyData()
     mesh = pv.PolyData(c)
+    mesh.point_data["rgb"] = type_rgb(kinds)  # the active scalars (the colours)
     mesh.point_data["radius"] = np.asarray(radii, dtype=np.float64).reshape(-1)
-    mesh.point_data["rgb"] = type_rgb(kinds)
     return mesh
 
 
@@ -166,7 +167,7 @@ def screenshot(
     lo, hi = float(arr.min()), float(arr.max())
     if min(volume.dims) == 1:  # a one-layer grid is drawn as its coloured surface
         pl.add_mesh(
-            grid.extract_surface(algorithm="dataset_surface"),
+            dataset_surface(grid),
             scalars=field,
             cmap="viridis",
             clim=(lo, hi) if hi > lo else None,

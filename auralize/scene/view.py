@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 
 from auralize.errors import AuralizeError, ParameterError
 from auralize.listener import ListenerPath
+from auralize.runtime.vtkcompat import dataset_surface
 from auralize.scene.pictures import (
     PALETTE,
     PATH_RGB,
@@ -302,7 +303,7 @@ class Scene:
         elif rep in ("slices", "contour", "glyphs", "surface"):
             kw: dict[str, Any]
             if rep == "surface":
-                mesh = grid.extract_surface(algorithm="dataset_surface")
+                mesh = dataset_surface(grid)
                 kw = {"opacity": 1.0}
             elif rep == "glyphs":
                 mesh = self._glyphs()
