@@ -426,33 +426,74 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
         e, g = q * nx, q * nx + nx - 1
         sd[e] = (xd[e + 1] - xd[e]) * fx1
         sd[g] = (xd[g] - xd[g - 1]) * fx1
-    _diff_pair_times(sd, _run(dm_, p0, n, 1, k, yp), _run(dm_, p0, n, 1, k, ym), fy,
-                     _run(dm_, p0, n, 2, k1, 0), _run(dm_, p0, n, 2, k0, 0), fz, inv_dt)  # fmt: skip
+    _diff_pair_times(
+        sd,
+        _run(dm_, p0, n, 1, k, yp),
+        _run(dm_, p0, n, 1, k, ym),
+        fy,
+        _run(dm_, p0, n, 2, k1, 0),
+        _run(dm_, p0, n, 2, k0, 0),
+        fz,
+        inv_dt,
+    )
     # quadrupole: second differences, x first (kept inside: the face copies the next in)
-    _second_times(sq[1 : n - 1], _run(tt_, p0 + 1, n - 2, 0, k, 1), _run(tt_, p0 + 1, n - 2, 0, k, 0), _run(tt_, p0 + 1, n - 2, 0, k, -1),
-                  gx, FIRST)  # fmt: skip
+    _second_times(
+        sq[1 : n - 1],
+        _run(tt_, p0 + 1, n - 2, 0, k, 1),
+        _run(tt_, p0 + 1, n - 2, 0, k, 0),
+        _run(tt_, p0 + 1, n - 2, 0, k, -1),
+        gx,
+        FIRST,
+    )
     for q in range(r):
         e, g = q * nx, q * nx + nx - 1
         sq[e] = sq[e + 1]
         sq[g] = sq[g - 1]
     if ny >= 3 and nz >= 3:
-        _second_pair_times(sq, _run(tt_, p0, n, 1, k, yc + nx), _run(tt_, p0, n, 1, k, yc), _run(tt_, p0, n, 1, k, yc - nx), gy,
-                           _run(tt_, p0, n, 2, kc + 1, 0), _run(tt_, p0, n, 2, kc, 0), _run(tt_, p0, n, 2, kc - 1, 0), gz)  # fmt: skip
+        _second_pair_times(
+            sq,
+            _run(tt_, p0, n, 1, k, yc + nx),
+            _run(tt_, p0, n, 1, k, yc),
+            _run(tt_, p0, n, 1, k, yc - nx),
+            gy,
+            _run(tt_, p0, n, 2, kc + 1, 0),
+            _run(tt_, p0, n, 2, kc, 0),
+            _run(tt_, p0, n, 2, kc - 1, 0),
+            gz,
+        )
     elif ny >= 3:
-        _second_times(sq, _run(tt_, p0, n, 1, k, yc + nx), _run(tt_, p0, n, 1, k, yc), _run(tt_, p0, n, 1, k, yc - nx),
-                      gy, ADD)  # fmt: skip
+        _second_times(
+            sq,
+            _run(tt_, p0, n, 1, k, yc + nx),
+            _run(tt_, p0, n, 1, k, yc),
+            _run(tt_, p0, n, 1, k, yc - nx),
+            gy,
+            ADD,
+        )
     elif nz >= 3:
-        _second_times(sq, _run(tt_, p0, n, 2, kc + 1, 0), _run(tt_, p0, n, 2, kc, 0), _run(tt_, p0, n, 2, kc - 1, 0),
-                      gz, ADD)  # fmt: skip
+        _second_times(
+            sq,
+            _run(tt_, p0, n, 2, kc + 1, 0),
+            _run(tt_, p0, n, 2, kc, 0),
+            _run(tt_, p0, n, 2, kc - 1, 0),
+            gz,
+            ADD,
+        )
     # mixed xy and xz (each in sm first, one-sided at the faces) added, and yz with xz
     for c in range(2):
         if c == 0:
             cc, kp, km, dp, dn, f2 = 3, k, k, yp, ym, fy
         else:
             cc, kp, km, dp, dn, f2 = 4, k1, k0, 0, 0, fz
-        _cross_times(sm[1 : n - 1], _run(tt_, p0 + 1, n - 2, cc, kp, dp + 1), _run(tt_, p0 + 1, n - 2, cc, kp, dp - 1),
-                     _run(tt_, p0 + 1, n - 2, cc, km, dn + 1), _run(tt_, p0 + 1, n - 2, cc, km, dn - 1), 2.0 * fx * f2,
-                     SET)  # fmt: skip
+        _cross_times(
+            sm[1 : n - 1],
+            _run(tt_, p0 + 1, n - 2, cc, kp, dp + 1),
+            _run(tt_, p0 + 1, n - 2, cc, kp, dp - 1),
+            _run(tt_, p0 + 1, n - 2, cc, km, dn + 1),
+            _run(tt_, p0 + 1, n - 2, cc, km, dn - 1),
+            2.0 * fx * f2,
+            SET,
+        )
         xp, xm = _run(tt_, p0, n, cc, kp, dp), _run(tt_, p0, n, cc, km, dn)
         for q in range(r):
             e, g = q * nx, q * nx + nx - 1
@@ -460,8 +501,15 @@ def _strength_rows(rho_a, rho_b, dm, tt, inv_dt, h, k, j, r, out, o):  # type: i
             sm[g] = (2.0 * fx1 * f2) * (xp[g] - xp[g - 1] - xm[g] + xm[g - 1])
         if c == 0:
             _add_run(sq, sm)
-    _add_cross(sq, sm, _run(tt_, p0, n, 5, k1, yp), _run(tt_, p0, n, 5, k1, ym), _run(tt_, p0, n, 5, k0, yp),
-               _run(tt_, p0, n, 5, k0, ym), 2.0 * fy * fz)  # fmt: skip
+    _add_cross(
+        sq,
+        sm,
+        _run(tt_, p0, n, 5, k1, yp),
+        _run(tt_, p0, n, 5, k1, ym),
+        _run(tt_, p0, n, 5, k0, yp),
+        _run(tt_, p0, n, 5, k0, ym),
+        2.0 * fy * fz,
+    )
     # monopole
     _diff_times(sm, rb, ra, inv_dt, SET)
 
@@ -504,8 +552,10 @@ def strengths(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-
     out : (3, nz, ny, nx) result, written in place.
     """
     h = np.asarray(h, dtype=np.float64)
-    over_planes(lambda lo, hi: _strength_planes(rho_a, rho_b, dm, tt, float(inv_dt), h, out, lo, hi),
-                rho_a.shape[0])  # fmt: skip
+    over_planes(
+        lambda lo, hi: _strength_planes(rho_a, rho_b, dm, tt, float(inv_dt), h, out, lo, hi),
+        rho_a.shape[0],
+    )
 
 
 @numba.njit(inline="always", **_INNER)
@@ -680,8 +730,14 @@ def classify_and_radius(s, thr, zero, h, kind_out, radius_out, rule=DV_CELL):  #
 
 @numba.njit(inline="always", **_INNER)
 def _any_bad_cross(bad, k, j, i, k0, k1, j0, j1, i0, i1):  # type: ignore[no-untyped-def]
-    return (bad[k, j, i0] or bad[k, j, i1] or bad[k, j0, i] or bad[k, j1, i]
-            or bad[k0, j, i] or bad[k1, j, i])  # fmt: skip
+    return (
+        bad[k, j, i0]
+        or bad[k, j, i1]
+        or bad[k, j0, i]
+        or bad[k, j1, i]
+        or bad[k0, j, i]
+        or bad[k1, j, i]
+    )
 
 
 @numba.njit(**_INNER)
@@ -712,10 +768,21 @@ def _mask_plane(bad, k, out, o):  # type: ignore[no-untyped-def]
                 q_bad = q_bad or bad[k, jc - 1, i] or bad[k, jc, i] or bad[k, jc + 1, i]
             if nz >= 3:
                 q_bad = q_bad or bad[kc - 1, j, i] or bad[kc, j, i] or bad[kc + 1, j, i]
-            q_bad = (q_bad or bad[k, j0, i0] or bad[k, j0, i1] or bad[k, j1, i0]
-                     or bad[k, j1, i1] or bad[k0, j, i0] or bad[k0, j, i1]
-                     or bad[k1, j, i0] or bad[k1, j, i1] or bad[k0, j0, i]
-                     or bad[k0, j1, i] or bad[k1, j0, i] or bad[k1, j1, i])  # fmt: skip
+            q_bad = (
+                q_bad
+                or bad[k, j0, i0]
+                or bad[k, j0, i1]
+                or bad[k, j1, i0]
+                or bad[k, j1, i1]
+                or bad[k0, j, i0]
+                or bad[k0, j, i1]
+                or bad[k1, j, i0]
+                or bad[k1, j, i1]
+                or bad[k0, j0, i]
+                or bad[k0, j1, i]
+                or bad[k1, j0, i]
+                or bad[k1, j1, i]
+            )
             if q_bad:
                 out[2, o, j, i] = 0.0
 
@@ -948,16 +1015,36 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
 
     # dipole: divergence over 2h (in eq) and over h (in em), x first, then y and z
     # added and the estimate taken (in ed)
-    _pair_over(eq[2 : n - 2], _run(dm_, p0 + 2, n - 4, 0, k, 2), _run(dm_, p0 + 2, n - 4, 0, k, -2), 4.0 * hx,
-               em[2 : n - 2], _run(dm_, p0 + 2, n - 4, 0, k, 1), _run(dm_, p0 + 2, n - 4, 0, k, -1), 2.0 * hx)  # fmt: skip
+    _pair_over(
+        eq[2 : n - 2],
+        _run(dm_, p0 + 2, n - 4, 0, k, 2),
+        _run(dm_, p0 + 2, n - 4, 0, k, -2),
+        4.0 * hx,
+        em[2 : n - 2],
+        _run(dm_, p0 + 2, n - 4, 0, k, 1),
+        _run(dm_, p0 + 2, n - 4, 0, k, -1),
+        2.0 * hx,
+    )
     _ends_from_inner(eq, r, nx)
     _ends_from_inner(em, r, nx)
-    _gap_of_divergences(ed, eq, em,
-                        _run(dm_, p0, n, 1, k, dy + 2 * nx), _run(dm_, p0, n, 1, k, dy - 2 * nx), 4.0 * hy,
-                        _run(dm_, p0, n, 2, k2 + 2, 0), _run(dm_, p0, n, 2, k2 - 2, 0), 4.0 * hz,
-                        _run(dm_, p0, n, 1, k, dy + nx), _run(dm_, p0, n, 1, k, dy - nx), 2.0 * hy,
-                        _run(dm_, p0, n, 2, k2 + 1, 0), _run(dm_, p0, n, 2, k2 - 1, 0), 2.0 * hz,
-                        inv_dt)  # fmt: skip
+    _gap_of_divergences(
+        ed,
+        eq,
+        em,
+        _run(dm_, p0, n, 1, k, dy + 2 * nx),
+        _run(dm_, p0, n, 1, k, dy - 2 * nx),
+        4.0 * hy,
+        _run(dm_, p0, n, 2, k2 + 2, 0),
+        _run(dm_, p0, n, 2, k2 - 2, 0),
+        4.0 * hz,
+        _run(dm_, p0, n, 1, k, dy + nx),
+        _run(dm_, p0, n, 1, k, dy - nx),
+        2.0 * hy,
+        _run(dm_, p0, n, 2, k2 + 1, 0),
+        _run(dm_, p0, n, 2, k2 - 1, 0),
+        2.0 * hz,
+        inv_dt,
+    )
     # dipole: time stencil over 2Δt (its divergence in em), x first
     if inv_dt2 > 0.0:
         _diff_over(
@@ -974,38 +1061,82 @@ def _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err
             em[e + 1] = 0.0 + (xd[e + 2] - xd[e]) / (2 * hx)
             em[e + nx - 2] = 0.0 + (xd[e + nx - 1] - xd[e + nx - 3]) / (2 * hx)
             em[e + nx - 1] = 0.0 + (xd[e + nx - 1] - xd[e + nx - 2]) / (1 * hx)
-        _rest_of_divergence(ed, em, _run(s_, p0, n, 1, k, 0),
-                            _run(dm2_, p0, n, 1, k, (j1 - j) * nx), _run(dm2_, p0, n, 1, k, (j0 - j) * nx), (j1 - j0) * hy,
-                            _run(dm2_, p0, n, 2, k1, 0), _run(dm2_, p0, n, 2, k0, 0), (k1 - k0) * hz,
-                            inv_dt2)  # fmt: skip
+        _rest_of_divergence(
+            ed,
+            em,
+            _run(s_, p0, n, 1, k, 0),
+            _run(dm2_, p0, n, 1, k, (j1 - j) * nx),
+            _run(dm2_, p0, n, 1, k, (j0 - j) * nx),
+            (j1 - j0) * hy,
+            _run(dm2_, p0, n, 2, k1, 0),
+            _run(dm2_, p0, n, 2, k0, 0),
+            (k1 - k0) * hz,
+            inv_dt2,
+        )
     # quadrupole: second differences along x, then y and z (in eq)
-    _second_over(eq[2 : n - 2], _run(tt_, p0 + 2, n - 4, 0, k, 1), _run(tt_, p0 + 2, n - 4, 0, k, 0), _run(tt_, p0 + 2, n - 4, 0, k, -1),
-                 _run(tt_, p0 + 2, n - 4, 0, k, 2), _run(tt_, p0 + 2, n - 4, 0, k, -2), hx * hx, FIRST)  # fmt: skip
+    _second_over(
+        eq[2 : n - 2],
+        _run(tt_, p0 + 2, n - 4, 0, k, 1),
+        _run(tt_, p0 + 2, n - 4, 0, k, 0),
+        _run(tt_, p0 + 2, n - 4, 0, k, -1),
+        _run(tt_, p0 + 2, n - 4, 0, k, 2),
+        _run(tt_, p0 + 2, n - 4, 0, k, -2),
+        hx * hx,
+        FIRST,
+    )
     _ends_from_inner(eq, r, nx)
-    _second_pair_over(eq, _run(tt_, p0, n, 1, k, dy + nx), _run(tt_, p0, n, 1, k, dy), _run(tt_, p0, n, 1, k, dy - nx),
-                      _run(tt_, p0, n, 1, k, dy + 2 * nx), _run(tt_, p0, n, 1, k, dy - 2 * nx), hy * hy,
-                      _run(tt_, p0, n, 2, k2 + 1, 0), _run(tt_, p0, n, 2, k2, 0), _run(tt_, p0, n, 2, k2 - 1, 0),
-                      _run(tt_, p0, n, 2, k2 + 2, 0), _run(tt_, p0, n, 2, k2 - 2, 0), hz * hz)  # fmt: skip
+    _second_pair_over(
+        eq,
+        _run(tt_, p0, n, 1, k, dy + nx),
+        _run(tt_, p0, n, 1, k, dy),
+        _run(tt_, p0, n, 1, k, dy - nx),
+        _run(tt_, p0, n, 1, k, dy + 2 * nx),
+        _run(tt_, p0, n, 1, k, dy - 2 * nx),
+        hy * hy,
+        _run(tt_, p0, n, 2, k2 + 1, 0),
+        _run(tt_, p0, n, 2, k2, 0),
+        _run(tt_, p0, n, 2, k2 - 1, 0),
+        _run(tt_, p0, n, 2, k2 + 2, 0),
+        _run(tt_, p0, n, 2, k2 - 2, 0),
+        hz * hz,
+    )
     # mixed xy, then xz: their term (the h and 2h differences, in w0), added
     for c in range(2):
         if c == 0:
-            cc, kp, km, kp2, km2, dp, dn, dp2, dn2, f = 3, k, k, k, k, dy + nx, dy - nx, \
-                dy + 2 * nx, dy - 2 * nx, hx * hy  # fmt: skip
+            cc, kp, km, kp2, km2, f = 3, k, k, k, k, hx * hy
+            dp, dn, dp2, dn2 = dy + nx, dy - nx, dy + 2 * nx, dy - 2 * nx
         else:
-            cc, kp, km, kp2, km2, dp, dn, dp2, dn2, f = 4, k2 + 1, k2 - 1, k2 + 2, k2 - 2, 0, 0, \
-                0, 0, hx * hz  # fmt: skip
-        _mixed_pair(w0[2 : n - 2], _run(tt_, p0 + 2, n - 4, cc, kp, dp + 1), _run(tt_, p0 + 2, n - 4, cc, kp, dp - 1),
-                    _run(tt_, p0 + 2, n - 4, cc, km, dn + 1), _run(tt_, p0 + 2, n - 4, cc, km, dn - 1),
-                    _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 + 2), _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 - 2),
-                    _run(tt_, p0 + 2, n - 4, cc, km2, dn2 + 2), _run(tt_, p0 + 2, n - 4, cc, km2, dn2 - 2), f, SET)  # fmt: skip
+            cc, kp, km, kp2, km2, f = 4, k2 + 1, k2 - 1, k2 + 2, k2 - 2, hx * hz
+            dp, dn, dp2, dn2 = 0, 0, 0, 0
+        _mixed_pair(
+            w0[2 : n - 2],
+            _run(tt_, p0 + 2, n - 4, cc, kp, dp + 1),
+            _run(tt_, p0 + 2, n - 4, cc, kp, dp - 1),
+            _run(tt_, p0 + 2, n - 4, cc, km, dn + 1),
+            _run(tt_, p0 + 2, n - 4, cc, km, dn - 1),
+            _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 + 2),
+            _run(tt_, p0 + 2, n - 4, cc, kp2, dp2 - 2),
+            _run(tt_, p0 + 2, n - 4, cc, km2, dn2 + 2),
+            _run(tt_, p0 + 2, n - 4, cc, km2, dn2 - 2),
+            f,
+            SET,
+        )
         _ends_from_inner(w0, r, nx)
         _add_run(eq, w0)
     # mixed yz, and the estimate
-    _mixed_pair(eq, _run(tt_, p0, n, 5, k2 + 1, dy + nx), _run(tt_, p0, n, 5, k2 + 1, dy - nx),
-                _run(tt_, p0, n, 5, k2 - 1, dy + nx), _run(tt_, p0, n, 5, k2 - 1, dy - nx),
-                _run(tt_, p0, n, 5, k2 + 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 + 2, dy - 2 * nx),
-                _run(tt_, p0, n, 5, k2 - 2, dy + 2 * nx), _run(tt_, p0, n, 5, k2 - 2, dy - 2 * nx), hy * hz,
-                LAST)  # fmt: skip
+    _mixed_pair(
+        eq,
+        _run(tt_, p0, n, 5, k2 + 1, dy + nx),
+        _run(tt_, p0, n, 5, k2 + 1, dy - nx),
+        _run(tt_, p0, n, 5, k2 - 1, dy + nx),
+        _run(tt_, p0, n, 5, k2 - 1, dy - nx),
+        _run(tt_, p0, n, 5, k2 + 2, dy + 2 * nx),
+        _run(tt_, p0, n, 5, k2 + 2, dy - 2 * nx),
+        _run(tt_, p0, n, 5, k2 - 2, dy + 2 * nx),
+        _run(tt_, p0, n, 5, k2 - 2, dy - 2 * nx),
+        hy * hz,
+        LAST,
+    )
     # monopole: time stencil over 2Δt
     if inv_dt2 > 0.0:
         rb, ra = rho_b2.reshape(nz, m)[k, p0 : p0 + n], rho_a2.reshape(nz, m)[k, p0 : p0 + n]
@@ -1029,13 +1160,20 @@ def _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h
     while j < ny:
         j2 = _inner2(j, ny)
         r = ny - 4 if block and j == 2 else 1  # rows done at once
-        if r > 1 or (rows and not (rowbad[k, j] or rowbad[k, j2 - 2] or rowbad[k, j2 + 2]
-                                   or rowbad[k2 - 2, j] or rowbad[k2 + 2, j])):  # fmt: skip
+        if r > 1 or (
+            rows
+            and not (
+                rowbad[k, j]
+                or rowbad[k, j2 - 2]
+                or rowbad[k, j2 + 2]
+                or rowbad[k2 - 2, j]
+                or rowbad[k2 + 2, j]
+            )
+        ):
             _error_rows(rho_a2, rho_b2, dm, dm2, tt, s, inv_dt, inv_dt2, h, k, j, r, err, work)
         else:
             for i in range(nx):
-                _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, i,
-                             err)  # fmt: skip
+                _error_point(rho_a2, rho_b2, dm, dm2, tt, s, bad, inv_dt, inv_dt2, h, k, j, i, err)
         j += r
 
 
@@ -1063,8 +1201,9 @@ def _error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err)
         k = np.int64(kp)
         plane = np.empty(err.shape[:1] + err.shape[2:])
         work = np.empty_like(plane)
-        _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, plane,
-                     work)  # fmt: skip
+        _error_plane(
+            rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, k, plane, work
+        )
         err[:, k] = plane
 
 
@@ -1239,8 +1378,10 @@ def in_threads(fn, n, threads=None):  # type: ignore[no-untyped-def]
     if nt > 1 and _POOL is None:
         with _POOL_LOCK:
             if _POOL is None:
-                _POOL = ThreadPoolExecutor(max_workers=max(1, numba.config.NUMBA_NUM_THREADS - 1),
-                                           thread_name_prefix="auralize-sweep")  # fmt: skip
+                _POOL = ThreadPoolExecutor(
+                    max_workers=max(1, numba.config.NUMBA_NUM_THREADS - 1),
+                    thread_name_prefix="auralize-sweep",
+                )
     pieces = itertools.count()  # next() is atomic under the GIL
 
     def work() -> None:
@@ -1282,8 +1423,20 @@ STEADY_NONE, STEADY_BETWEEN, STEADY_ANCHOR, STEADY_GIVEN = 0, 1, 2, 3
 SWEEP_PLANES = 5
 
 
-def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundoff, out,  # type: ignore[no-untyped-def]
-                blocks=None, rowbad=None):  # fmt: skip
+def detect_step(  # type: ignore[no-untyped-def]
+    frames,
+    steady,
+    nodata,
+    bad,
+    inv_dt,
+    inv_dt2,
+    h,
+    factor,
+    roundoff,
+    out,
+    blocks=None,
+    rowbad=None,
+):
     """The strengths of one step on a uniform grid, each plane's once its inputs are in,
     steady state removed, no-data masked and floored: ``out (3, nz, ny, nx)``.
 
@@ -1334,9 +1487,18 @@ def detect_step(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundof
     mode, f, sa, sb, ra, va, rb, vb = steady
     if rowbad is None:
         rowbad = _rows_with_nodata(bad)
-    args = (*frames, (int(mode), float(f), sa, sb, ra, va, rb, vb), nodata, bad, rowbad,
-            bool(nodata.any()), float(inv_dt), float(inv_dt2), np.asarray(h, dtype=np.float64),
-            (float(factor), np.asarray(roundoff, dtype=np.float64)))  # fmt: skip
+    args = (
+        *frames,
+        (int(mode), float(f), sa, sb, ra, va, rb, vb),
+        nodata,
+        bad,
+        rowbad,
+        bool(nodata.any()),
+        float(inv_dt),
+        float(inv_dt2),
+        np.asarray(h, dtype=np.float64),
+        (float(factor), np.asarray(roundoff, dtype=np.float64)),
+    )
     in_threads(lambda b: _sweep(*args, edges[b], edges[b + 1], out), n_blocks, threads)
 
 
@@ -1357,8 +1519,30 @@ def _planes_read(k, nz, error):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(**_NJIT)
-def _sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, steady,  # type: ignore[no-untyped-def]
-           nodata, bad, rowbad, masked, inv_dt, inv_dt2, h, floor, lo, hi, out):  # fmt: skip
+def _sweep(  # type: ignore[no-untyped-def]
+    rho_a,
+    v_a,
+    rho_b,
+    v_b,
+    rho_c,
+    v_c,
+    rho_a2,
+    v_a2,
+    rho_b2,
+    v_b2,
+    steady,
+    nodata,
+    bad,
+    rowbad,
+    masked,
+    inv_dt,
+    inv_dt2,
+    h,
+    floor,
+    lo,
+    hi,
+    out,
+):
     """:func:`detect_step` for the planes ``[lo, hi)`` (one block)."""
     mode, f, sa, sb, ra, va, rb, vb = steady
     factor, roundoff = floor
@@ -1412,8 +1596,9 @@ def _sweep(rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2, stead
             if flooring and ke < ks and ke <= kf + 1 and _planes_read(ke, nz, True)[1] <= e:
                 # its estimates, each the largest over the 3 × 3 points around in x and y
                 est = near[ke % 3]
-                _error_plane(rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, ke,
-                             est, work)  # fmt: skip
+                _error_plane(
+                    rho_a2, rho_b2, dm, dm2, tt, s, bad, rowbad, inv_dt, inv_dt2, h, ke, est, work
+                )
                 _max_x(est, work)
                 _max_y(work, est)
                 ke += 1
@@ -1556,8 +1741,7 @@ def gradient(f, h, scale, out):  # type: ignore[no-untyped-def]
     f = np.ascontiguousarray(f, dtype=np.float64)
     h = np.asarray(h, dtype=np.float64)
     none = np.zeros(0, dtype=np.int64)
-    over_planes(lambda lo, hi: _gradient_planes(f, h, float(scale), out, none, lo, hi),
-                f.shape[0])  # fmt: skip
+    over_planes(lambda lo, hi: _gradient_planes(f, h, float(scale), out, none, lo, hi), f.shape[0])
 
 
 def gradient_max(f, h, out):  # type: ignore[no-untyped-def]
@@ -1603,9 +1787,11 @@ def residual(rho_a, rho_b, rho_a2, rho_b2, m_c, inv_dt, inv_dt2, h, bad, out, er
                 i2 = _inner2(i, nx)
                 fx = 1.0 / ((i1 - i0) * hx) if i1 > i0 else 0.0
                 dt1 = (rho_b[k, j, i] - rho_a[k, j, i]) * inv_dt
-                div = ((m_c[k, j, i1, 0] - m_c[k, j, i0, 0]) * fx
-                       + (m_c[k, j1, i, 1] - m_c[k, j0, i, 1]) * fy
-                       + (m_c[k1, j, i, 2] - m_c[k0, j, i, 2]) * fz)  # fmt: skip
+                div = (
+                    (m_c[k, j, i1, 0] - m_c[k, j, i0, 0]) * fx
+                    + (m_c[k, j1, i, 1] - m_c[k, j0, i, 1]) * fy
+                    + (m_c[k1, j, i, 2] - m_c[k0, j, i, 2]) * fz
+                )
                 out[k, j, i] = dt1 + div
                 if bad[k, j, i]:
                     err[k, j, i] = 0.0

@@ -391,18 +391,25 @@ class SourceSeries:
         th = ", ".join(
             f"{k} {number(float(v))}" for k, v in zip(TYPES, self.thresholds, strict=False)
         )
-        return summary("SourceSeries", [
-            ("steps", f"{self.n_steps} on a {nx} × {ny} × {nz} grid, {span(self.times)}"),
-            ("sources", f"{counts_text(total)} over all steps; at most {busiest:,} in a step"),
-            ("thresholds", th), ("mapping", _mapping_name(self.meta.get("mapping")))])  # fmt: skip
+        return summary(
+            "SourceSeries",
+            [
+                ("steps", f"{self.n_steps} on a {nx} × {ny} × {nz} grid, {span(self.times)}"),
+                ("sources", f"{counts_text(total)} over all steps; at most {busiest:,} in a step"),
+                ("thresholds", th),
+                ("mapping", _mapping_name(self.meta.get("mapping"))),
+            ],
+        )
 
     def tracks(self) -> SourceTracks:
         """Per-vertex strength·ΔV over time for every vertex that is ever a source."""
         if not self.frames or all(f.index.size == 0 for f in self.frames):
             return SourceTracks(
-                positions=np.zeros((0, 3)), q=np.zeros((0, self.n_steps)),
-                radius=np.zeros(0), times=self.times.copy(),
-            )  # fmt: skip
+                positions=np.zeros((0, 3)),
+                q=np.zeros((0, self.n_steps)),
+                radius=np.zeros(0),
+                times=self.times.copy(),
+            )
         all_idx = np.concatenate([f.index for f in self.frames])
         uniq = np.unique(all_idx)
         q = np.zeros((uniq.size, self.n_steps))
@@ -413,8 +420,14 @@ class SourceSeries:
             q[pos, n] = f.strength * f.volume
             kind[pos, n] = f.kind
             np.maximum.at(rmax, pos, f.radius)
-        return SourceTracks(positions=self.positions(uniq), q=q, radius=rmax,
-                            times=self.times.copy(), index=uniq, kind=kind)  # fmt: skip
+        return SourceTracks(
+            positions=self.positions(uniq),
+            q=q,
+            radius=rmax,
+            times=self.times.copy(),
+            index=uniq,
+            kind=kind,
+        )
 
 
 @dataclass
@@ -450,9 +463,13 @@ class SourceTracks:
         if not self.n_sources:
             return f"<SourceTracks: no sources, {self.times.size} knots>"
         lo, hi = self.positions.min(axis=0), self.positions.max(axis=0)
-        box = " ".join(f"{a}[{number(a0)}, {number(a1)}]" for a, a0, a1 in zip("xyz", lo, hi, strict=True))  # fmt: skip
-        return (f"<SourceTracks: {self.n_sources:,} sources × {self.times.size} knots, "
-                f"{span([self.t_first, self.t_last])}, {box} m>")  # fmt: skip
+        box = " ".join(
+            f"{a}[{number(a0)}, {number(a1)}]" for a, a0, a1 in zip("xyz", lo, hi, strict=True)
+        )
+        return (
+            f"<SourceTracks: {self.n_sources:,} sources × {self.times.size} knots, "
+            f"{span([self.t_first, self.t_last])}, {box} m>"
+        )
 
     @property
     def t_first(self) -> float:
@@ -483,8 +500,9 @@ def valid_mask(volume: TimeVolume) -> NDArray[np.bool_] | None:
 SERIES_BYTES = 2 << 30
 
 
-def map_step(volume: TimeVolume, mapping: AcousticMapping, n: int,
-             valid: NDArray[np.bool_] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:  # fmt: skip
+def map_step(
+    volume: TimeVolume, mapping: AcousticMapping, n: int, valid: NDArray[np.bool_] | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Step ``n`` mapped: ``(rho, v, ok)``, no-data values replaced by 0 (see :class:`StepCache`)."""
     rho, v = mapping.map(volume, n)
     rho = np.ascontiguousarray(rho, dtype=np.float64)
@@ -527,8 +545,9 @@ class MappedSeries:
     ``maps`` counts the mapping evaluations.
     """
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
-                 max_bytes: int | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, volume: TimeVolume, mapping: AcousticMapping, *, max_bytes: int | None = None
+    ) -> None:
         self.volume, self.mapping = volume, mapping
         self.valid = valid_mask(volume)
         budget = series_bytes() if max_bytes is None else int(max_bytes)
@@ -574,9 +593,15 @@ class StepCache:
     the mass flux ρv from ρ and v; :meth:`get` makes it for other callers.
     """
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
-                 qmean: SteadyBase | NDArray[np.float64] | None = None,
-                 floor: float = 0.0, store: MappedSeries | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        volume: TimeVolume,
+        mapping: AcousticMapping,
+        *,
+        qmean: SteadyBase | NDArray[np.float64] | None = None,
+        floor: float = 0.0,
+        store: MappedSeries | None = None,
+    ) -> None:
         self.volume, self.mapping = volume, mapping
         self.valid = valid_mask(volume)
         self.qmean = qmean
@@ -621,8 +646,9 @@ class StepCache:
                 del store[k]
 
 
-def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
-                   out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
+def step_strengths(
+    volume: TimeVolume, cache: StepCache, n: int, out: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
     """Strengths ``(3, nz, ny, nx)`` (monopole, dipole, quadrupole) at step ``n``.
 
     A point is no-data at step n when it is invalid or non-finite at any of
@@ -688,8 +714,15 @@ def _wide_steps(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int) ->
     return rho_a2, v_a2, rho_b2, v_b2, inv_dt2, (_no_bad(volume.shape) if bad is None else bad)
 
 
-def _uniform_strengths(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int,
-                       inv_dt: float, out: NDArray[np.float64]) -> None:  # fmt: skip
+def _uniform_strengths(
+    volume: TimeVolume,
+    cache: StepCache,
+    n: int,
+    a: int,
+    b: int,
+    inv_dt: float,
+    out: NDArray[np.float64],
+) -> None:
     """:func:`step_strengths` on a uniform grid: :func:`auralize.sources._kernels.detect_step`."""
     rho_a, v_a, _ = cache.frame(a)
     rho_b, v_b, _ = cache.frame(b)
@@ -710,18 +743,41 @@ def _uniform_strengths(volume: TimeVolume, cache: StepCache, n: int, a: int, b: 
     else:
         steady = (K.STEADY_NONE, 0.0, *_NO_STEADY)
     rowbad = _NO_ROWS.get(volume.shape) if bad is _NO_BAD.get(volume.shape) else None
-    K.detect_step((rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2), steady,
-                  nodata, bad, inv_dt, inv_dt2, volume.spacing, cache.floor, roundoff, out,
-                  rowbad=rowbad)  # fmt: skip
+    K.detect_step(
+        (rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2),
+        steady,
+        nodata,
+        bad,
+        inv_dt,
+        inv_dt2,
+        volume.spacing,
+        cache.floor,
+        roundoff,
+        out,
+        rowbad=rowbad,
+    )
 
 
 #: the steady state's arrays when there is none (:func:`auralize.sources._kernels.detect_step`)
-_NO_STEADY = (np.empty((0, 0, 0)), np.empty((0, 0, 0)), np.empty((0, 0, 0)),
-              np.empty((0, 0, 0, 0)), np.empty((0, 0, 0)), np.empty((0, 0, 0, 0)))  # fmt: skip
+_NO_STEADY = (
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0, 0)),
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0, 0)),
+)
 
 
-def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, inv_dt: float,
-                 out: NDArray[np.float64]) -> None:  # fmt: skip
+def _apply_floor(
+    volume: TimeVolume,
+    cache: StepCache,
+    n: int,
+    a: int,
+    b: int,
+    inv_dt: float,
+    out: NDArray[np.float64],
+) -> None:
     """Zero the strengths of step ``n`` on a curvilinear grid within their discretisation
     error (see :func:`step_strengths`)."""
     assert volume.metric is not None and cache.work is not None
@@ -732,8 +788,9 @@ def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, i
     K.momentum_change(rho_a2, v_a2, rho_b2, v_b2, dm2)
     roundoff = ROUNDOFF * input_scale(volume, cache, n)
     work = cache.work
-    err = curvilinear_errors(volume.metric, out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad,
-                             inv_dt, inv_dt2)  # fmt: skip
+    err = curvilinear_errors(
+        volume.metric, out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad, inv_dt, inv_dt2
+    )
     K.apply_floor(out, err, float(cache.floor), roundoff)
 
 
@@ -773,9 +830,13 @@ def check_floor(floor: float) -> float:
 STEADY_RTOL = 1e-6
 
 
-def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
-                   rtol: float = STEADY_RTOL,
-                   store: MappedSeries | None = None) -> NDArray[np.int64]:  # fmt: skip
+def steady_anchors(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    *,
+    rtol: float = STEADY_RTOL,
+    store: MappedSeries | None = None,
+) -> NDArray[np.int64]:
     """The steps where the field is in its own steady state: the first and the
     last step, and both ends of every step over which nothing changed (the mapped
     density and mass flux within ``rtol`` of their largest magnitude).
@@ -839,8 +900,14 @@ class SteadyBase:
         Sorted anchor steps (:func:`steady_anchors`).
     """
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping,
-                 anchors: NDArray[np.integer], *, store: MappedSeries | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        volume: TimeVolume,
+        mapping: AcousticMapping,
+        anchors: NDArray[np.integer],
+        *,
+        store: MappedSeries | None = None,
+    ) -> None:
         self.volume, self.mapping = volume, mapping
         self.anchors = np.unique(np.asarray(anchors, dtype=np.int64))
         self.store = store
@@ -866,8 +933,11 @@ class SteadyBase:
                 rho, v, _ = StepCache(self.volume, self.mapping, store=self.store).frame(a)
                 tt = np.ascontiguousarray(_stress(rho, v))
                 metric = self.volume.metric
-                sq = (K.quadrupole_of_stress(tt, self.volume.spacing) if metric is None
-                      else metric.quadrupole(tt))  # fmt: skip
+                sq = (
+                    K.quadrupole_of_stress(tt, self.volume.spacing)
+                    if metric is None
+                    else metric.quadrupole(tt)
+                )
                 hit = (sq, rho, v)
                 if len(self._held) >= ANCHORS_KEPT:
                     gone = next(iter(self._held))
@@ -911,8 +981,9 @@ class SteadyBase:
         sb, rb, vb = self._anchor(b)
         return (K.STEADY_BETWEEN, f, sa, sb, ra, va, rb, vb)
 
-    def subtract(self, n: int, sq: NDArray[np.float64], tt: NDArray[np.float64], *,
-                 with_stress: bool) -> None:  # fmt: skip
+    def subtract(
+        self, n: int, sq: NDArray[np.float64], tt: NDArray[np.float64], *, with_stress: bool
+    ) -> None:
         """Subtract the steady state at step ``n`` from the quadrupole strength ``sq``
         (and, ``with_stress``, from the stress ``tt``) in place: ``sq - at(n)[0]``
         (0 at an anchor) in one compiled pass, without :meth:`at`'s arrays."""
@@ -936,8 +1007,13 @@ def _stress(rho: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.floa
 STRESS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
-def steady_strength(volume: TimeVolume, m: AcousticMapping, steady: str = "remove", *,
-                    store: MappedSeries | None = None) -> SteadyBase | None:  # fmt: skip
+def steady_strength(
+    volume: TimeVolume,
+    m: AcousticMapping,
+    steady: str = "remove",
+    *,
+    store: MappedSeries | None = None,
+) -> SteadyBase | None:
     """The field's local steady state to subtract (``steady="remove"``,
     :class:`SteadyBase`), or None (``"keep"``); ``store`` as :func:`steady_anchors`."""
     if check_steady(steady) == "keep":
@@ -945,8 +1021,13 @@ def steady_strength(volume: TimeVolume, m: AcousticMapping, steady: str = "remov
     return SteadyBase(volume, m, steady_anchors(volume, m, store=store), store=store)
 
 
-def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
-                      step: int = 0, *, steady: str = "remove") -> NDArray[np.float64]:  # fmt: skip
+def compute_strengths(
+    volume: TimeVolume,
+    mapping: str | AcousticMapping | None = None,
+    step: int = 0,
+    *,
+    steady: str = "remove",
+) -> NDArray[np.float64]:
     """Strengths ``(3, nz, ny, nx)`` at one step (convenience for inspection).
 
     ``steady="remove"`` (default, as :func:`detect`): those of the time-varying
@@ -955,8 +1036,9 @@ def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None 
     require_steps(volume)
     m = get_mapping(mapping)
     m.prepare(volume)
-    return step_strengths(volume, StepCache(volume, m, qmean=steady_strength(volume, m, steady)),
-                          step)  # fmt: skip
+    return step_strengths(
+        volume, StepCache(volume, m, qmean=steady_strength(volume, m, steady)), step
+    )
 
 
 def check_steady(steady: str) -> str:
@@ -974,9 +1056,15 @@ def delta_v_rule(delta_v: str) -> int:
         ) from None
 
 
-def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], spacing: NDArray[np.float64],
-             *, zero_fraction: float = 1.0, delta_v: str = "cell",
-             cell: NDArray[np.float64] | None = None) -> tuple[NDArray[np.int8], NDArray[np.float64]]:  # fmt: skip
+def classify(
+    strengths: NDArray[np.float64],
+    thresholds: NDArray[np.float64],
+    spacing: NDArray[np.float64],
+    *,
+    zero_fraction: float = 1.0,
+    delta_v: str = "cell",
+    cell: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
     """Classify vertices and compute ΔV radii from strengths ``(3, nz, ny, nx)``.
 
     Returns ``kind (nz, ny, nx)`` int8 (0 none, 1 monopole, 2 dipole,
@@ -1002,10 +1090,16 @@ def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], sp
     return kind, radius
 
 
-def classify_sources(strengths: NDArray[np.float64], thresholds: NDArray[np.float64],
-                     spacing: NDArray[np.float64], *, zero_fraction: float = 1.0,
-                     delta_v: str = "cell", cell: NDArray[np.float64] | None = None,
-                     kinds: NDArray[np.int8] | None = None) -> SourceFrame:  # fmt: skip
+def classify_sources(
+    strengths: NDArray[np.float64],
+    thresholds: NDArray[np.float64],
+    spacing: NDArray[np.float64],
+    *,
+    zero_fraction: float = 1.0,
+    delta_v: str = "cell",
+    cell: NDArray[np.float64] | None = None,
+    kinds: NDArray[np.int8] | None = None,
+) -> SourceFrame:
     """:func:`classify` then :func:`extract`, the same :class:`SourceFrame`, without the
     arrays of every point's radius (:func:`auralize.sources._kernels.sources`).
 
@@ -1014,26 +1108,30 @@ def classify_sources(strengths: NDArray[np.float64], thresholds: NDArray[np.floa
     s = np.ascontiguousarray(strengths, dtype=np.float64)
     thr = np.asarray(thresholds, dtype=np.float64)
     h = np.ones(3) if cell is not None else np.asarray(spacing, dtype=np.float64)
-    idx, kind, strength, radius = K.sources(s, thr, thr * zero_fraction, h,
-                                            delta_v_rule(delta_v), kinds)  # fmt: skip
+    idx, kind, strength, radius = K.sources(
+        s, thr, thr * zero_fraction, h, delta_v_rule(delta_v), kinds
+    )
     if cell is not None:
         radius *= np.cbrt(cell.reshape(-1)[idx])
     return SourceFrame(index=idx, kind=kind, strength=strength, radius=radius)
 
 
-def extract(kind: NDArray[np.int8], radius: NDArray[np.float64],
-            strengths: NDArray[np.float64]) -> SourceFrame:  # fmt: skip
+def extract(
+    kind: NDArray[np.int8], radius: NDArray[np.float64], strengths: NDArray[np.float64]
+) -> SourceFrame:
     """Gather the source points of one step into a :class:`SourceFrame`."""
     flat_kind = kind.reshape(-1)
     idx = np.flatnonzero(flat_kind)
     k = flat_kind[idx]
     s = strengths.reshape(3, -1)[k.astype(np.intp) - 1, idx]
-    return SourceFrame(index=idx.astype(np.int64), kind=k, strength=s,
-                       radius=radius.reshape(-1)[idx])  # fmt: skip
+    return SourceFrame(
+        index=idx.astype(np.int64), kind=k, strength=s, radius=radius.reshape(-1)[idx]
+    )
 
 
-def gradient(f: NDArray[np.float64], spacing: NDArray[np.float64],
-             scale: float = 1.0) -> NDArray[np.float64]:  # fmt: skip
+def gradient(
+    f: NDArray[np.float64], spacing: NDArray[np.float64], scale: float = 1.0
+) -> NDArray[np.float64]:
     """∇f · ``scale`` ``(nz, ny, nx, 3)`` (components x, y, z) of ``f (nz, ny, nx)``:
     :func:`numpy.gradient`'s differences (central inside, one-sided at the faces;
     0 along an axis of one point) in the compiled stencil, the same numbers."""
@@ -1066,8 +1164,9 @@ def in_slabs(fn: Any, x: NDArray[Any]) -> bool:
     return True
 
 
-def gradient_max(f: NDArray[np.float64], spacing: NDArray[np.float64],
-                 out: NDArray[np.float64]) -> float:  # fmt: skip
+def gradient_max(
+    f: NDArray[np.float64], spacing: NDArray[np.float64], out: NDArray[np.float64]
+) -> float:
     """:func:`gradient` (scale 1) into ``out (nz, ny, nx, 3)``, and :func:`gradient_absmax`
     of it, in one pass."""
     return float(K.gradient_max(f, np.asarray(spacing, dtype=np.float64), out))
@@ -1087,8 +1186,9 @@ def require_steps(volume: TimeVolume) -> None:
         )
 
 
-def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
-                hi: int | None = None) -> NDArray[np.float64]:  # fmt: skip
+def input_scale(
+    volume: TimeVolume, cache: StepCache, n: int, lo: int = 0, hi: int | None = None
+) -> NDArray[np.float64]:
     """Size of the terms each strength of step ``n`` is a difference of (planes ``[lo, hi)``).
 
     ``max|ρ|/Δt`` (monopole), ``max|ρv|/(h Δt)`` (dipole) and
@@ -1110,8 +1210,13 @@ def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
     return np.array([r / dt, mm / (h * dt), t / (h * h)])
 
 
-def sample_stats(s: NDArray[np.float64], nodata: NDArray[np.bool_] | None, offset: int,
-                 n_points: int, scale: NDArray[np.float64] | None = None) -> StrengthStats:  # fmt: skip
+def sample_stats(
+    s: NDArray[np.float64],
+    nodata: NDArray[np.bool_] | None,
+    offset: int,
+    n_points: int,
+    scale: NDArray[np.float64] | None = None,
+) -> StrengthStats:
     """:class:`StrengthStats` of one step's strengths ``(3, ...)`` (or a slab's planes).
 
     ``offset`` is the global flat index of the first point of ``s``,
@@ -1129,8 +1234,11 @@ def sample_stats(s: NDArray[np.float64], nodata: NDArray[np.bool_] | None, offse
     else:
         sample = a if nodata is None else a[:, ~nodata.reshape(-1)]
     peak = a.max(axis=1) if a.size else np.zeros(3)
-    return StrengthStats(peak=peak, sample=sample.copy(),
-                         scale=np.zeros(3) if scale is None else np.asarray(scale, dtype=np.float64))  # fmt: skip
+    return StrengthStats(
+        peak=peak,
+        sample=sample.copy(),
+        scale=np.zeros(3) if scale is None else np.asarray(scale, dtype=np.float64),
+    )
 
 
 _SAMPLED: dict[tuple[int, int, int], NDArray[np.intp]] = {}
@@ -1157,12 +1265,17 @@ def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np
     return np.unique(np.linspace(0, n_steps - 1, min(max_steps, n_steps)).round()).astype(np.int64)
 
 
-def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
-                   qmean: SteadyBase | NDArray[np.float64] | None = None,
-                   max_steps: int = AUTO_SAMPLE_STEPS, floor: float = 0.0,
-                   progress_bar: bool = False, store: MappedSeries | None = None,
-                   keep: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
-                   ) -> StrengthStats:  # fmt: skip
+def strength_stats(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    *,
+    qmean: SteadyBase | NDArray[np.float64] | None = None,
+    max_steps: int = AUTO_SAMPLE_STEPS,
+    floor: float = 0.0,
+    progress_bar: bool = False,
+    store: MappedSeries | None = None,
+    keep: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
+) -> StrengthStats:
     """|S| statistics of each type over evenly spaced sample steps (valid points only;
     strengths within their discretisation error are 0 with ``floor`` > 0, see
     :func:`step_strengths`).
@@ -1179,27 +1292,40 @@ def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
         if keep is not None:  # each kept step's strengths in their own array
             buf = K.empty_like_strengths(volume.shape)
         s = step_strengths(volume, cache, int(n), buf)
-        parts.append(sample_stats(s, cache.nodata, 0, volume.n_points,
-                                  input_scale(volume, cache, int(n))))  # fmt: skip
+        parts.append(
+            sample_stats(s, cache.nodata, 0, volume.n_points, input_scale(volume, cache, int(n)))
+        )
         if keep is not None:
             keep[int(n)] = (s, cache.nodata)
         cache.keep(int(n), int(n))
     return StrengthStats.merge(parts)
 
 
-def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
-                   max_steps: int = AUTO_SAMPLE_STEPS,
-                   progress_bar: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def peak_strengths(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    *,
+    max_steps: int = AUTO_SAMPLE_STEPS,
+    progress_bar: bool = False,
+) -> NDArray[np.float64]:
     """Largest |S| of each type over evenly spaced sample steps (3,) (literal strengths)."""
     return strength_stats(volume, mapping, max_steps=max_steps, progress_bar=progress_bar).peak
 
 
-def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64], *,
-                zero_fraction: float = 1.0, steps: range | None = None,
-                progress_bar: bool = False, qmean: SteadyBase | NDArray[np.float64] | None = None,
-                delta_v: str = "cell", floor: float = 0.0, store: MappedSeries | None = None,
-                known: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
-                ) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
+def iter_detect(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    thr: NDArray[np.float64],
+    *,
+    zero_fraction: float = 1.0,
+    steps: range | None = None,
+    progress_bar: bool = False,
+    qmean: SteadyBase | NDArray[np.float64] | None = None,
+    delta_v: str = "cell",
+    floor: float = 0.0,
+    store: MappedSeries | None = None,
+    known: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
+) -> Iterator[tuple[int, SourceFrame]]:
     """Yield ``(step, SourceFrame)`` for each step, reading frames one at a time.
 
     Each frame's ``n_valid`` is the number of points with data at that step;
@@ -1213,12 +1339,27 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     threads = K.thread_count()
     # a step at a time on each thread when every frame is mapped once and for all (a
     # uniform grid: its kernels run on the calling thread), else the threads share each step
-    if (threads > 1 and len(steps) > 1 and volume.metric is None and store is not None
-            and store.max_steps >= volume.n_steps):  # fmt: skip
-        yield from _detect_side_by_side(volume, mapping, thr, steps, threads, progress_bar,
-                                        zero_fraction=zero_fraction, qmean=qmean,
-                                        delta_v=delta_v, floor=floor, store=store,
-                                        known=known)  # fmt: skip
+    if (
+        threads > 1
+        and len(steps) > 1
+        and volume.metric is None
+        and store is not None
+        and store.max_steps >= volume.n_steps
+    ):
+        yield from _detect_side_by_side(
+            volume,
+            mapping,
+            thr,
+            steps,
+            threads,
+            progress_bar,
+            zero_fraction=zero_fraction,
+            qmean=qmean,
+            delta_v=delta_v,
+            floor=floor,
+            store=store,
+            known=known,
+        )
         return
     work = _StepWork(volume, mapping, qmean, floor, store)
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
@@ -1229,18 +1370,28 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
 class _StepWork:
     """What detecting one step at a time needs: a :class:`StepCache` and scratch arrays."""
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping,
-                 qmean: SteadyBase | NDArray[np.float64] | None, floor: float,
-                 store: MappedSeries | None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        volume: TimeVolume,
+        mapping: AcousticMapping,
+        qmean: SteadyBase | NDArray[np.float64] | None,
+        floor: float,
+        store: MappedSeries | None,
+    ) -> None:
         self.volume = volume
         self.cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
         self.buf = K.empty_like_strengths(volume.shape)
         self.kinds = np.empty(volume.shape, dtype=np.int8)  # scratch of classify_sources
         self.cell = None if volume.metric is None else volume.metric.jac
 
-    def detect(self, n: int, thr: NDArray[np.float64],
-               known: dict[int, tuple[np.ndarray, np.ndarray | None]], zero_fraction: float,
-               delta_v: str) -> SourceFrame:  # fmt: skip
+    def detect(
+        self,
+        n: int,
+        thr: NDArray[np.float64],
+        known: dict[int, tuple[np.ndarray, np.ndarray | None]],
+        zero_fraction: float,
+        delta_v: str,
+    ) -> SourceFrame:
         """The sources of step ``n`` (its strengths from ``known`` when there)."""
         volume = self.volume
         hit = known.pop(n, None)
@@ -1249,19 +1400,34 @@ class _StepWork:
             nodata = self.cache.nodata
         else:
             s, nodata = hit
-        f = classify_sources(s, thr, volume.spacing, zero_fraction=zero_fraction,
-                             delta_v=delta_v, cell=self.cell, kinds=self.kinds)  # fmt: skip
+        f = classify_sources(
+            s,
+            thr,
+            volume.spacing,
+            zero_fraction=zero_fraction,
+            delta_v=delta_v,
+            cell=self.cell,
+            kinds=self.kinds,
+        )
         f.n_valid = volume.n_points - (0 if nodata is None else int(nodata.sum()))
         return f
 
 
-def _detect_side_by_side(volume: TimeVolume, mapping: AcousticMapping,
-                         thr: NDArray[np.float64], steps: range, threads: int,
-                         progress_bar: bool, *, zero_fraction: float,
-                         qmean: SteadyBase | NDArray[np.float64] | None, delta_v: str,
-                         floor: float, store: MappedSeries,
-                         known: dict[int, tuple[np.ndarray, np.ndarray | None]],
-                         ) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
+def _detect_side_by_side(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    thr: NDArray[np.float64],
+    steps: range,
+    threads: int,
+    progress_bar: bool,
+    *,
+    zero_fraction: float,
+    qmean: SteadyBase | NDArray[np.float64] | None,
+    delta_v: str,
+    floor: float,
+    store: MappedSeries,
+    known: dict[int, tuple[np.ndarray, np.ndarray | None]],
+) -> Iterator[tuple[int, SourceFrame]]:
     """:func:`iter_detect` with ``threads`` steps detected at a time, each whole on one thread
     (its kernels on that thread alone: no block of planes waits for another, and no
     plane is computed twice at the blocks' edges), yielded in order.
@@ -1281,8 +1447,9 @@ def _detect_side_by_side(volume: TimeVolume, mapping: AcousticMapping,
         def one(i: int, batch: list[int] = batch, out: list[SourceFrame | None] = out) -> None:
             work = works.get(threading.get_ident())
             if work is None:
-                work = works[threading.get_ident()] = _StepWork(volume, mapping, qmean, floor,
-                                                                store)  # fmt: skip
+                work = works[threading.get_ident()] = _StepWork(
+                    volume, mapping, qmean, floor, store
+                )
             own = numba.get_num_threads()
             numba.set_num_threads(1)  # this thread's kernels on this thread alone
             try:
@@ -1335,10 +1502,16 @@ def warn_fraction(fraction: dict[str, float], source: str, *, uniform: bool = Fa
         )
 
 
-def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "identity",
-           thresholds: Thresholds | None = None, progress_bar: bool = False,
-           steady: str = "remove", delta_v: str = "cell",
-           **mapping_fields: str) -> SourceSeries:  # fmt: skip
+def detect(
+    volume: TimeVolume,
+    *,
+    mapping: str | AcousticMapping | None = "identity",
+    thresholds: Thresholds | None = None,
+    progress_bar: bool = False,
+    steady: str = "remove",
+    delta_v: str = "cell",
+    **mapping_fields: str,
+) -> SourceSeries:
     """Detect monopole, dipole and quadrupole sources at every step.
 
     Parameters
@@ -1402,17 +1575,34 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
         qmean = steady_strength(volume, m, steady, store=store)
         known: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
         stats = (
-            strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar,
-                           floor=thresholds.floor, store=store,
-                           keep=known if store.max_steps >= volume.n_steps else None)
+            strength_stats(
+                volume,
+                m,
+                qmean=qmean,
+                progress_bar=progress_bar,
+                floor=thresholds.floor,
+                store=store,
+                keep=known if store.max_steps >= volume.n_steps else None,
+            )
             if thresholds.needs_scale
             else None
-        )  # fmt: skip
+        )
         thr = thresholds.resolve(stats)
-        frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
-                                            progress_bar=progress_bar, qmean=qmean,
-                                            delta_v=delta_v, floor=thresholds.floor,
-                                            store=store, known=known)]  # fmt: skip
+        frames = [
+            f
+            for _, f in iter_detect(
+                volume,
+                m,
+                thr,
+                zero_fraction=thresholds.zero_fraction,
+                progress_bar=progress_bar,
+                qmean=qmean,
+                delta_v=delta_v,
+                floor=thresholds.floor,
+                store=store,
+                known=known,
+            )
+        ]
     finally:
         m.release()
     fraction = classified_fraction(frames, volume.n_points)
@@ -1421,15 +1611,25 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     )
     warn_fraction(fraction, volume.source, uniform=uniform)
     return SourceSeries(
-        frames=frames, times=volume.times.copy(), origin=volume.origin.copy(),
-        spacing=volume.spacing.copy(), dims=volume.dims, thresholds=thr,
-        meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
-              "peak": None if stats is None else stats.peak.tolist(), "source": volume.source,
-              "steady": steady, "delta_v": delta_v, "fraction": fraction,
-              "valid_points": _valid_share(frames, volume.n_points),
-              **({"grid": "curvilinear"} if volume.coords is not None else {})},
+        frames=frames,
+        times=volume.times.copy(),
+        origin=volume.origin.copy(),
+        spacing=volume.spacing.copy(),
+        dims=volume.dims,
+        thresholds=thr,
+        meta={
+            "mapping": m.describe(),
+            "thresholds": thresholds.describe(),
+            "peak": None if stats is None else stats.peak.tolist(),
+            "source": volume.source,
+            "steady": steady,
+            "delta_v": delta_v,
+            "fraction": fraction,
+            "valid_points": _valid_share(frames, volume.n_points),
+            **({"grid": "curvilinear"} if volume.coords is not None else {}),
+        },
         coords=volume.coords,
-    )  # fmt: skip
+    )
 
 
 def _valid_share(frames: Sequence[SourceFrame], n_points: int) -> float:

@@ -58,8 +58,7 @@ from auralize.volume import TimeVolume
 Frame = NDArray[np.float64]
 
 
-def _velocity_or_zero(volume: TimeVolume, name: str, step: int,
-                      shape: tuple[int, ...]) -> Frame:  # fmt: skip
+def _velocity_or_zero(volume: TimeVolume, name: str, step: int, shape: tuple[int, ...]) -> Frame:
     """The velocity frame ``name`` at ``step``, or zeros ``(*shape, 3)`` when it is missing."""
     if name not in volume.fields:
         return np.zeros((*shape, 3))
@@ -215,8 +214,14 @@ class IncompressibleMapping(AcousticMapping):
         return _without_velocity(volume, self.velocity)
 
     def describe(self) -> dict[str, object]:
-        return {"name": self.name, "pressure": self.pressure, "velocity": self.velocity,
-                "rho0": self.rho0, "c0": self.c0, "kinematic_scale": self._scale}  # fmt: skip
+        return {
+            "name": self.name,
+            "pressure": self.pressure,
+            "velocity": self.velocity,
+            "rho0": self.rho0,
+            "c0": self.c0,
+            "kinematic_scale": self._scale,
+        }
 
 
 @dataclass
@@ -256,8 +261,12 @@ class CFDMapping(AcousticMapping):
         return rho, v
 
     def describe(self) -> dict[str, object]:
-        return {"name": self.name, "density": self.density, "momentum": self.momentum,
-                "velocity": self.velocity}  # fmt: skip
+        return {
+            "name": self.name,
+            "density": self.density,
+            "momentum": self.momentum,
+            "velocity": self.velocity,
+        }
 
 
 @dataclass
@@ -287,8 +296,9 @@ class PaperDensityMapping(AcousticMapping):
     def required_fields(self) -> list[str]:
         return [self.field]
 
-    def _rho(self, volume: TimeVolume, step: int, extremes: Frame | None = None,
-             out: Frame | None = None) -> Frame:  # fmt: skip
+    def _rho(
+        self, volume: TimeVolume, step: int, extremes: Frame | None = None, out: Frame | None = None
+    ) -> Frame:
         """10**x of step ``step`` (into ``out`` when it fits); with ``extremes (2,)``, its
         smallest and largest values (NaN ignored) there."""
         x = volume.frame(self.field, step)
@@ -413,8 +423,12 @@ class PaperDensityMapping(AcousticMapping):
         return hit, self._grad(volume, hit, self._gscale)
 
     def describe(self) -> dict[str, object]:
-        return {"name": self.name, "field": self.field, "rho_range": list(self.rho_range),
-                "velocity_max": self.velocity_max}  # fmt: skip
+        return {
+            "name": self.name,
+            "field": self.field,
+            "rho_range": list(self.rho_range),
+            "velocity_max": self.velocity_max,
+        }
 
 
 @dataclass
@@ -465,8 +479,10 @@ PRESETS: dict[str, type[AcousticMapping]] = {
 }
 
 
-def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]] | None = None,
-                **field_names: str) -> AcousticMapping:  # fmt: skip
+def get_mapping(
+    spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]] | None = None,
+    **field_names: str,
+) -> AcousticMapping:
     """Return a mapping from a preset name, an instance or a function.
 
     Parameters
@@ -544,14 +560,18 @@ def _pow10(x: Frame, extremes: Frame | None = None, out: Frame | None = None) ->
     def piece(sl: slice) -> None:
         xs, rs = (x[sl], out[sl]) if x.ndim else (x, out)
         # max |x| > 300, without |x| made
-        if (np.fmax.reduce(xs, axis=None, initial=-np.inf) > 300
-                or np.fmin.reduce(xs, axis=None, initial=np.inf) < -300):  # fmt: skip
+        if (
+            np.fmax.reduce(xs, axis=None, initial=-np.inf) > 300
+            or np.fmin.reduce(xs, axis=None, initial=np.inf) < -300
+        ):
             too_big[sl.start] = True
             return
         np.power(10.0, xs, out=rs)
         if extremes is not None:
-            tops[sl.start] = (np.fmin.reduce(rs, axis=None, initial=np.inf),
-                              np.fmax.reduce(rs, axis=None, initial=-np.inf))  # fmt: skip
+            tops[sl.start] = (
+                np.fmin.reduce(rs, axis=None, initial=np.inf),
+                np.fmax.reduce(rs, axis=None, initial=-np.inf),
+            )
 
     if not _in_slabs(piece, x):
         piece(slice(0, rows))
