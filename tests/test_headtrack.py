@@ -30,7 +30,7 @@ FWD, LEFT, UP = np.eye(3)
         ((0, 90, 0), FWD, UP),  # pitch: the nose goes up
         ((0, 0, 90), UP, -LEFT),  # roll: the top of the head goes right (right ear down)
         ((90, 0, 0), LEFT, -FWD),
-    ],  # fmt: skip
+    ],
 )
 def test_angle_conventions(ypr, axis, goes_to) -> None:  # type: ignore[no-untyped-def]
     assert np.allclose(ypr_matrix(*ypr) @ axis, goes_to, atol=1e-12)
@@ -49,8 +49,14 @@ def test_quaternions_are_the_same_rotations() -> None:
     def mul(a, b):  # type: ignore[no-untyped-def]
         w1, x1, y1, z1 = a
         w2, x2, y2, z2 = b
-        return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])  # fmt: skip
+        return np.array(
+            [
+                w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+                w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+            ]
+        )
 
     q = mul(mul(qz, qy), qx)
     assert np.allclose(quaternion_matrix(*q), ypr_matrix(30, 20, 10), atol=1e-12)
@@ -181,8 +187,13 @@ def test_live_binaural_turns_with_the_head_on_a_file_backed_device(tmp_path: Pat
     out = tmp_path / "head.raw"
     (cfg / "alsa" / "asoundrc").write_text(ASOUNDRC.format(out=out))
     env = {**os.environ, "XDG_CONFIG_HOME": str(cfg), "PYTHONPATH": str(ROOT)}
-    res = subprocess.run([sys.executable, "-c", textwrap.dedent(LIVE)], capture_output=True,
-                         text=True, env=env, timeout=180)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(LIVE)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=180,
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     rep = json.loads(res.stdout.strip().splitlines()[-1])
     assert rep["error"] == "None"

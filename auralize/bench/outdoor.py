@@ -67,19 +67,29 @@ def outdoor_rows(quick: bool) -> list[Any]:
 
         t_air = _cpu(filtered, repeat)
         t_dry = _cpu(rendered, repeat)
-        rows.append(BenchRow(
-            "outdoor", f"air filter, {S} {what} emitters", S * n / t_air / 1e6,
-            "M emitter-samples/CPU-s",
-            note=f"{S} x {dur:g} s at {rate} Hz filtered in {t_air:.2f} CPU-s: "
-                 f"{(t_air + t_dry) / t_dry:.2f} x the ring8 render without air",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "outdoor",
+                f"air filter, {S} {what} emitters",
+                S * n / t_air / 1e6,
+                "M emitter-samples/CPU-s",
+                note=f"{S} x {dur:g} s at {rate} Hz filtered in {t_air:.2f} CPU-s: "
+                f"{(t_air + t_dry) / t_dry:.2f} x the ring8 render without air",
+            )
+        )
     t_dry = _cpu(lambda: render(still, path, rate=rate, layout="ring8"), repeat)
-    t_wet = _cpu(lambda: render(still, path, rate=rate, layout="ring8",
-                                ground=Ground(0.0, 0.8)), repeat)  # fmt: skip
-    rows.append(BenchRow(
-        "outdoor", f"ground image, {S} static emitters", t_wet / t_dry, "× the render",
-        note=f"ring8, {dur:g} s: {t_wet:.2f} against {t_dry:.2f} CPU-s (every source twice)",
-    ))  # fmt: skip
+    t_wet = _cpu(
+        lambda: render(still, path, rate=rate, layout="ring8", ground=Ground(0.0, 0.8)), repeat
+    )
+    rows.append(
+        BenchRow(
+            "outdoor",
+            f"ground image, {S} static emitters",
+            t_wet / t_dry,
+            "× the render",
+            note=f"ring8, {dur:g} s: {t_wet:.2f} against {t_dry:.2f} CPU-s (every source twice)",
+        )
+    )
     C = 8
     audio = rng.normal(size=(C, n))
     lay = get_layout("ring8")
@@ -94,17 +104,28 @@ def outdoor_rows(quick: bool) -> list[Any]:
 
     kw = {"rate": rate, "start": 0.0, "duration": dur}
     t_rec = _cpu(lambda: received(run, kw, path, air, lambda tt: 200.0 + 0.0 * tt), repeat)
-    rows.append(BenchRow(
-        "outdoor", "air filter on a render's output (the volume's sources)", C * n / t_rec / 1e6,
-        "M channel-samples/CPU-s",
-        note=f"ring8, {dur:g} s at {rate} Hz in {t_rec:.2f} CPU-s (frames of "
-             f"{frame_length(rate)} samples, a gain per frame and frequency)",
-    ))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "outdoor",
+            "air filter on a render's output (the volume's sources)",
+            C * n / t_rec / 1e6,
+            "M channel-samples/CPU-s",
+            note=f"ring8, {dur:g} s at {rate} Hz in {t_rec:.2f} CPU-s (frames of "
+            f"{frame_length(rate)} samples, a gain per frame and frequency)",
+        )
+    )
     both = Sound([still])
-    t_both = _cpu(lambda: render(both, path, rate=rate, layout="ring8", air=air,
-                                 ground=Ground(0.0, 0.8)), repeat)  # fmt: skip
-    rows.append(BenchRow(
-        "outdoor", f"air + ground, {S} static emitters", t_both / t_dry, "× the render",
-        note=f"ring8, {dur:g} s: {t_both:.2f} against {t_dry:.2f} CPU-s",
-    ))  # fmt: skip
+    t_both = _cpu(
+        lambda: render(both, path, rate=rate, layout="ring8", air=air, ground=Ground(0.0, 0.8)),
+        repeat,
+    )
+    rows.append(
+        BenchRow(
+            "outdoor",
+            f"air + ground, {S} static emitters",
+            t_both / t_dry,
+            "× the render",
+            note=f"ring8, {dur:g} s: {t_both:.2f} against {t_dry:.2f} CPU-s",
+        )
+    )
     return rows

@@ -416,7 +416,40 @@ def timbre_cost_rows(quick: bool) -> list[BenchRow]:
             note=f"auto ({used}) {t['auto'] * 1e3:.0f} ms, physical {t['physical'] * 1e3:.0f} ms "
                  f"CPU for {plan.duration:g} s of audio (median of 5)",
         ))  # fmt: skip
+    rows.append(_timbre_whole_call_row(size))
     return rows
+
+
+def _timbre_whole_call_row(size: int) -> BenchRow:
+    """The same comparison for the call a user makes: :func:`auralize.render` of the
+    explosion with its defaults (the field's rows built, the default orbit, 10 s,
+    mono) against ``timbre="physical"``, each on a freshly loaded volume (nothing
+    cached from the run before), CPU time, median of 3."""
+    import auralize
+    from auralize.datasets.synthetic import make_explosion
+
+    def call(timbre: str) -> float:
+        vol = make_explosion(size=size).load()
+        t0 = time.process_time()
+        auralize.render(vol, timbre=timbre)
+        return time.process_time() - t0
+
+    call("auto")  # kernels loaded, textures cached
+    t: dict[str, list[float]] = {"physical": [], "auto": []}
+    for _ in range(3):
+        for timbre in t:
+            t[timbre].append(call(timbre))
+    auto, phys = float(np.median(t["auto"])), float(np.median(t["physical"]))
+    r = auto / phys
+    return BenchRow(
+        "timbre",
+        f"auralize.render(explosion {size}³): default timbre / physical",
+        r,
+        "× CPU time",
+        target="≤ 1.25×",
+        met=r <= 1.25,
+        note=f"the whole call: auto {auto:.2f} CPU-s, physical {phys:.2f} CPU-s (median of 3)",
+    )
 
 
 def hs_mapping(vol: Any) -> Any:
@@ -571,6 +604,7 @@ def run_bench(args: argparse.Namespace) -> int:
     more = immersive_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
+    from auralize.bench.efficiency import efficiency_rows
     from auralize.bench.fwh import fwh_rows
     from auralize.bench.outdoor import outdoor_rows
     from auralize.bench.output import bench_output
@@ -581,7 +615,7 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
 
-    for fn in (fwh_rows, outdoor_rows, bench_output, bench_viewer):
+    for fn in (efficiency_rows, fwh_rows, outdoor_rows, bench_output, bench_viewer):
         more = fn(args.quick)
         print(format_rows(more), flush=True)
         rows += more

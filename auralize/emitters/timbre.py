@@ -128,21 +128,62 @@ CLUSTERS = 8
 MAX_TABLE = 1 << 24
 
 
-def highpass(audio: NDArray[np.float64], rate: float, hz: float, *,
-             single: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def highpass(
+    audio: NDArray[np.float64], rate: float, hz: float, *, single: bool = False
+) -> NDArray[np.float64]:
     """Causal 4th-order Butterworth high-pass of ``audio (n_channels, n_samples)``.
 
-    ``hz`` 0 returns the audio unchanged.  Causal, so nothing arrives before
-    its time (a zero-phase filter would ring ahead of onsets).  The filter
-    starts in its steady state for the first sample (:func:`highpass_start`),
-    so that a sound already going on when the output starts begins without
-    a click.  ``single``: filter in single precision (for the added timbres'
-    noise and tones, never for a physical pressure, whose offsets can dwarf
-    its sound).
+    Causal, so nothing arrives before its time (a zero-phase filter would
+    ring ahead of onsets).  The filter starts in its steady state for the
+    first sample (:func:`highpass_start`), so that a sound already going on
+    when the output starts begins without a click.  The output high-pass of
+    every timbre (paper 001 §6 high-passes its sounds at 30 Hz).
+
+    Parameters
+    ----------
+    audio : ndarray, shape (n_channels, n_samples)
+        The signal (any unit, pascals for a pressure), time last.
+    rate : float
+        Sample rate of ``audio`` in Hz.
+    hz : float
+        Cut-off in Hz, ``0 <= hz < rate / 2``; 0 returns ``audio`` itself,
+        unfiltered.
+    single : bool
+        Filter in single precision (for the added timbres' noise and tones,
+        never for a physical pressure, whose offsets can dwarf its sound).
+
+    Returns
+    -------
+    ndarray, shape (n_channels, n_samples)
+        The filtered signal, float64 (``audio`` itself when ``hz`` is 0 or
+        it holds no samples).
+
+    Raises
+    ------
+    ParameterError
+        ``hz`` not finite, negative, or at or above half the sample rate.
+
+    Examples
+    --------
+    A constant, already going on at the start, gives nothing; a 1 kHz tone
+    passes a 30 Hz high-pass whole:
+
+    >>> import numpy as np
+    >>> float(np.max(np.abs(highpass(np.ones((1, 100)), 8000, 30.0)))) < 1e-12
+    True
+    >>> tone = np.sin(2 * np.pi * 1000 * np.arange(800) / 8000)[None]
+    >>> round(float(np.max(np.abs(highpass(tone, 8000, 30.0)[:, 400:]))), 3)
+    0.998
+    >>> highpass(tone, 8000, 4000.0)
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ParameterError: highpass must be 0 (off) or between 0 and 4000 Hz ...
     """
     if not (np.isfinite(hz) and 0 <= hz < rate / 2):
-        raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz (half "
-                             f"the sample rate), got {hz!r}")  # fmt: skip
+        raise ParameterError(
+            f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz (half "
+            f"the sample rate), got {hz!r}"
+        )
     if hz == 0 or audio.shape[-1] == 0:
         return audio
     from scipy.signal import sosfilt
@@ -168,8 +209,32 @@ def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDAr
     can be louder than everything after it (on a slowly varying field,
     whose sound lies mostly under the cut-off, the whole file is then
     normalised to the click).  From this state the high-pass of a constant
-    is exactly 0.  Live playback starts its filter the same way, so live
-    blocks equal the rendered file.
+    is exactly 0 (to round-off).  Live playback starts its filter the same
+    way, so live blocks equal the rendered file.
+
+    Parameters
+    ----------
+    sos : ndarray, shape (n_sections, 6)
+        Second-order sections of the filter (:func:`butter_sos`).
+    first : ndarray, shape (n_channels,), or float
+        The first sample of each signal (of one signal: a scalar).
+
+    Returns
+    -------
+    ndarray, shape (n_sections, n_channels, 2), or (n_sections, 2)
+        The filter state, ``first`` times the state after a unit step.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import sosfilt
+    >>> sos = butter_sos(4, 30.0, "highpass", 8000.0)
+    >>> zi = highpass_start(sos, np.array([1.0, 2.0]))
+    >>> zi.shape
+    (2, 2, 2)
+    >>> out, _ = sosfilt(sos, np.array([[1.0] * 50, [2.0] * 50]), axis=-1, zi=zi)
+    >>> float(np.max(np.abs(out))) < 1e-12
+    True
     """
     from scipy.signal import sosfilt_zi
 
@@ -181,17 +246,73 @@ def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDAr
 @functools.lru_cache(maxsize=64)
 def butter_sos(order: int, hz: float, kind: str, rate: float) -> NDArray[np.float64]:
     """Second-order sections of a Butterworth filter (cached: designing one costs
-    more than filtering a second of audio; callers must not modify them)."""
+    more than filtering a second of audio; callers must not modify them).
+
+    Parameters
+    ----------
+    order : int
+        Filter order (the sections: ``ceil(order / 2)``).
+    hz : float
+        Cut-off in Hz, below ``rate / 2``.
+    kind : {"highpass", "lowpass"}
+        The filter's type (scipy's ``btype``).
+    rate : float
+        Sample rate in Hz.
+
+    Returns
+    -------
+    ndarray, shape (n_sections, 6)
+        The sections, as :func:`scipy.signal.butter` gives them with
+        ``output="sos"``; shared between callers: read-only by contract.
+
+    Examples
+    --------
+    >>> butter_sos(4, 30.0, "highpass", 8000.0).shape
+    (2, 6)
+    >>> butter_sos(4, 30.0, "highpass", 8000.0) is butter_sos(4, 30.0, "highpass", 8000.0)
+    True
+    """
     from scipy.signal import butter
 
     return np.asarray(butter(order, hz, btype=kind, fs=rate, output="sos"))
 
 
-def loudness(audio: NDArray[np.float64], rate: float, *,
-             split_hz: float = 20.0) -> dict[str, float]:  # fmt: skip
+def loudness(
+    audio: NDArray[np.float64], rate: float, *, split_hz: float = 20.0
+) -> dict[str, float]:
     """Peak and RMS (over all channels) and the share of the energy above
     ``split_hz`` (from the power spectrum, the signal zero-padded to a fast
-    FFT length)."""
+    FFT length).
+
+    ``auto`` timbre decides with it (:data:`AUDIBLE_SHARE` of the energy
+    above 20 Hz).
+
+    Parameters
+    ----------
+    audio : ndarray, shape (n_channels, n_samples) or (n_samples,)
+        The signal (pascals for a pressure).
+    rate : float
+        Sample rate in Hz.
+    split_hz : float
+        Frequency (Hz) above which the energy share is taken.
+
+    Returns
+    -------
+    dict
+        ``peak`` (largest |sample|), ``rms`` (over all channels and samples),
+        both in the unit of ``audio``; ``above_hz`` (``split_hz``);
+        ``share_above`` (0–1; 0 for silence or no samples).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tone = np.sin(2 * np.pi * 1000 * np.arange(800) / 8000)[None]
+    >>> d = loudness(tone, 8000)
+    >>> d["peak"], round(d["rms"], 4), d["share_above"]
+    (1.0, 0.7071, 1.0)
+    >>> loudness(np.ones((2, 100)), 8000)["share_above"]  # a constant: all at 0 Hz
+    0.0
+    """
     from scipy.fft import next_fast_len, rfft
 
     a = np.atleast_2d(audio)
@@ -202,16 +323,25 @@ def loudness(audio: NDArray[np.float64], rate: float, *,
     f = np.fft.rfftfreq(n_fft, 1.0 / rate)
     total = float(spec.sum())
     share = float(spec[f > split_hz].sum() / total) if total > 0 else 0.0
-    return {"peak": float(np.max(np.abs(a))), "rms": float(np.sqrt(np.mean(a * a))),
-            "above_hz": split_hz, "share_above": share}  # fmt: skip
+    return {
+        "peak": float(np.max(np.abs(a))),
+        "rms": float(np.sqrt(np.mean(a * a))),
+        "above_hz": split_hz,
+        "share_above": share,
+    }
 
 
 def _subset(tracks: SourceTracks, q: NDArray[np.float64]) -> SourceTracks:
     """The tracks with strengths ``q``, rows that never sound dropped."""
     keep = np.any(q != 0, axis=1)
-    return SourceTracks(positions=np.asarray(tracks.positions).reshape(-1, 3)[keep],
-                        q=np.ascontiguousarray(q[keep]), radius=np.asarray(tracks.radius)[keep],
-                        times=tracks.times, origin=tracks.origin, end=tracks.end)  # fmt: skip
+    return SourceTracks(
+        positions=np.asarray(tracks.positions).reshape(-1, 3)[keep],
+        q=np.ascontiguousarray(q[keep]),
+        radius=np.asarray(tracks.radius)[keep],
+        times=tracks.times,
+        origin=tracks.origin,
+        end=tracks.end,
+    )
 
 
 #: the envelope renders merge the sources inside cubes whose side is this
@@ -221,19 +351,47 @@ MERGE = 1.0 / 32.0
 
 def merge_size(tracks: SourceTracks, c0: float = C0) -> float:
     """Side (m) of the cubes inside which :func:`merged` joins sources:
-    :data:`MERGE` × c0 × the data's (median) time step."""
+    :data:`MERGE` × c0 × the data's (median) time step.
+
+    Arrivals from within such a cube differ by at most √3/32 of a data step.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources; their ``times (T,)`` set the data step (s).
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    float
+        The cube side in metres (0 for tracks of a single step).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)),
+    ...                   radius=np.full(1, 0.05), times=np.arange(4) * 0.1)
+    >>> round(merge_size(tr), 6)  # 343 m/s * 0.1 s / 32
+    1.071875
+    """
     return MERGE * c0 * (_data_step(tracks) if tracks.times.size >= 2 else 0.0)
 
 
 def _data_step(tracks: SourceTracks) -> float:
     """The median time step of the data (s; 1 for a single step), cached on the tracks."""
     t = np.asarray(tracks.times, dtype=np.float64)
-    return float(cached_on_tracks(tracks, "timbre:step", "",
-                         lambda: np.median(np.diff(t)) if t.size >= 2 else 1.0))  # fmt: skip
+    return float(
+        cached_on_tracks(
+            tracks, "timbre:step", "", lambda: np.median(np.diff(t)) if t.size >= 2 else 1.0
+        )
+    )
 
 
-def merged(tracks: SourceTracks, size: float,
-           keep: NDArray[np.bool_] | None = None) -> SourceTracks:  # fmt: skip
+def merged(
+    tracks: SourceTracks, size: float, keep: NDArray[np.bool_] | None = None
+) -> SourceTracks:
     """The tracks with the sources inside each cube of side ``size`` (m; cubes
     aligned with the sources' box) joined into one: strengths summed, at the
     centroid weighted by Σ_t |q|, clamp radius the largest.  Sources where
@@ -246,6 +404,38 @@ def merged(tracks: SourceTracks, size: float,
     changes by about (size/D)² / 3 and its direction by about size/D, which
     :func:`_joined` keeps small by keeping the sources near the listener.
     The tracks themselves are returned when no two sources share a cube.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        ``K`` sources: ``positions (K, 3)`` in m, ``q (K, T)``, ``radius (K,)``.
+    size : float
+        Cube side in metres; not finite or <= 0: nothing is merged.
+    keep : ndarray of bool, shape (K,), optional
+        Sources left unmerged (default none).
+
+    Returns
+    -------
+    SourceTracks
+        The kept sources first, then one per occupied cube (``times``,
+        ``origin`` and ``end`` those of ``tracks``; no ``kind``); ``tracks``
+        itself when nothing is joined.
+
+    Examples
+    --------
+    Two sources 0.1 m apart join in a 1 m cube, at their |q|-weighted
+    centroid; the third stays:
+
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.array([[0.0, 0, 0], [0.1, 0, 0], [5.0, 0, 0]]),
+    ...                   q=np.array([[1.0, 1, 1, 1], [3.0, 3, 3, 3], [1.0, 2, 3, 4]]),
+    ...                   radius=np.full(3, 0.05), times=np.arange(4) * 0.1)
+    >>> m = merged(tr, 1.0)
+    >>> m.n_sources, m.positions[:, 0].round(9).tolist(), m.q[0].tolist()
+    (2, [0.075, 5.0], [4.0, 4.0, 4.0, 4.0])
+    >>> merged(tr, 1.0, keep=np.array([True, False, False])) is tr  # one left to join
+    True
     """
     pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
     if pos.shape[0] < 2 or not (np.isfinite(size) and size > 0):
@@ -270,14 +460,19 @@ def merged(tracks: SourceTracks, size: float,
     ps = pj[order]
     cen = np.stack([np.bincount(inv, weights=w * ps[:, a]) for a in range(3)], 1)
     plain = np.stack([np.bincount(inv, weights=ps[:, a]) for a in range(3)], 1)
-    cen = np.where(wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1.0)[:, None],
-                   plain / cnt[:, None])  # fmt: skip
+    cen = np.where(
+        wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1.0)[:, None], plain / cnt[:, None]
+    )
     radius = np.asarray(tracks.radius, dtype=np.float64)
     rj = np.maximum.reduceat(radius[join][order], starts)
-    return SourceTracks(positions=np.concatenate([pos[~join], cen]),
-                        q=np.concatenate([q[~join], np.add.reduceat(qs, starts, axis=0)]),
-                        radius=np.concatenate([radius[~join], rj]),
-                        times=tracks.times, origin=tracks.origin, end=tracks.end)  # fmt: skip
+    return SourceTracks(
+        positions=np.concatenate([pos[~join], cen]),
+        q=np.concatenate([q[~join], np.add.reduceat(qs, starts, axis=0)]),
+        radius=np.concatenate([radius[~join], rj]),
+        times=tracks.times,
+        origin=tracks.origin,
+        end=tracks.end,
+    )
 
 
 #: sources nearer to the listener's path than this many merging cubes are not merged
@@ -292,8 +487,7 @@ def _shared(points: NDArray[np.float64], size: float) -> NDArray[np.bool_]:
     return np.asarray(cnt[inv.ravel()] > 1)
 
 
-def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any,
-            c0: float) -> Any:  # fmt: skip
+def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any, c0: float) -> Any:
     """``build(join)`` with ``join(t)`` the tracks ``t`` merged for the envelope
     renders (:func:`merged`, cubes of :func:`merge_size`, the sources nearer to
     ``path`` than :data:`NEAR` cubes kept), cached on ``tracks`` for this path."""
@@ -318,8 +512,14 @@ def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any,
     return out
 
 
-def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.float64],
-                  t_play: NDArray[np.float64], *, c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def mean_distance(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    t_data: NDArray[np.float64],
+    t_play: NDArray[np.float64],
+    *,
+    c0: float = C0,
+) -> NDArray[np.float64]:
     """Envelope-weighted mean source distance D̄ (m) heard at data times ``t_data`` (J,)
     when the listener is at its playback times ``t_play`` (J,) on ``path``.
 
@@ -327,7 +527,38 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
     8×8×8 partition of their box; position the |q|-weighted centroid), with
     ``w_c = Σ_{k in c} |q_k|(t − D_c/c0)`` linearly interpolated between steps:
     the distance whose delay the loudest arrivals share.  Where nothing is
-    heard, the nearest control's value is held.
+    heard, the nearest control's value is held; where nothing is heard at
+    all, the nearest cluster's distance.  The carriers of the ``extended``
+    and ``tonal`` timbres are read at the emission time t − D̄/c0.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources: ``positions (K, 3)`` in m, ``q (K, T)`` at ``times (T,)``.
+    path : ListenerPath
+        The listener's path (positions in m, playback times in s).
+    t_data : ndarray, shape (J,)
+        Data times (s) of the controls.
+    t_play : ndarray, shape (J,)
+        Playback times (s) on ``path`` of the same controls.
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    ndarray, shape (J,)
+        D̄ in metres (zeros when there are no sources).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.array([[0.0, 1, 2, 3]]),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1)
+    >>> path = ListenerPath.point([17.0, 0, 0], duration=0.4)
+    >>> mean_distance(tr, path, np.array([0.1, 0.2]), np.array([0.1, 0.2])).tolist()
+    [17.0, 17.0]
     """
     L = path.position_at(t_play)
     if tracks.n_sources == 0:
@@ -355,9 +586,14 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
 _MEAN_BLOCK = 16384
 
 
-def _mean_terms(L: NDArray[np.float64], t_data: NDArray[np.float64], cen: NDArray[np.float64],
-                W: NDArray[np.float64], tn: NDArray[np.float64],
-                c0: float) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+def _mean_terms(
+    L: NDArray[np.float64],
+    t_data: NDArray[np.float64],
+    cen: NDArray[np.float64],
+    W: NDArray[np.float64],
+    tn: NDArray[np.float64],
+    c0: float,
+) -> tuple[NDArray[np.float64], ...]:
     """For controls at listener positions ``L (J, 3)`` and data times ``t_data (J,)``:
     Σ_c w_c, Σ_c w_c / D_c and min_c D_c over the clusters ``cen (C, 3)`` whose
     summed |q| per padded knot ``tn`` is ``W (C, T + 2)`` (see :func:`mean_distance`)."""
@@ -404,8 +640,9 @@ def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.flo
     pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
     w = np.abs(np.asarray(tracks.q, dtype=np.float64))
     lo, hi = pos.min(axis=0), pos.max(axis=0)
-    cell3 = np.minimum((CLUSTERS * (pos - lo) / np.maximum(hi - lo, 1e-300)).astype(np.int64),
-                       CLUSTERS - 1)  # fmt: skip
+    cell3 = np.minimum(
+        (CLUSTERS * (pos - lo) / np.maximum(hi - lo, 1e-300)).astype(np.int64), CLUSTERS - 1
+    )
     cell = (cell3[:, 0] * CLUSTERS + cell3[:, 1]) * CLUSTERS + cell3[:, 2]
     order = np.argsort(cell, kind="stable")
     cs = cell[order]
@@ -419,8 +656,9 @@ def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.flo
     cen = np.stack([np.bincount(inv, weights=wk * ps[:, a], minlength=C) for a in range(3)], 1)
     plain = np.stack([np.bincount(inv, weights=ps[:, a], minlength=C) for a in range(3)], 1)
     cnt = np.bincount(inv, minlength=C)
-    cen = np.where(wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1)[:, None],
-                   plain / cnt[:, None])  # fmt: skip
+    cen = np.where(
+        wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1)[:, None], plain / cnt[:, None]
+    )
     W = np.zeros((C, w.shape[1] + 2))  # padded with silent steps like the synthesis knots
     W[:, 1:-1] = np.add.reduceat(ws, starts, axis=0)
     return np.asarray(cen, dtype=np.float64), W
@@ -439,6 +677,34 @@ def change_tracks(tracks: SourceTracks) -> SourceTracks:
     Rendered, they give the pressure of what changes in the data
     (:func:`change_envelope`), the drive of the ``extended`` and ``tonal``
     timbres: a listener moving through a steady field hears no change.
+    Beyond the first and last knots the strengths are taken as 0 (the data
+    start and end there), or held at their edge values for tracks whose
+    knots are held before and after the data
+    (:meth:`auralize.sources.field.FieldTracks.tracks`).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        ``q (K, T)`` at ``times (T,)``.
+
+    Returns
+    -------
+    SourceTracks
+        ``q`` the change per step ``(K', T)``, rows that never change
+        dropped; positions, radii, times, origin and end those of ``tracks``.
+
+    Examples
+    --------
+    A ramp changes by 1 per step; a constant only where the data start
+    and end:
+
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((2, 3)),
+    ...                   q=np.array([[0.0, 1, 2, 3], [1.0, 1, 1, 1]]),
+    ...                   radius=np.full(2, 0.1), times=np.arange(4) * 0.1)
+    >>> change_tracks(tr).q.tolist()
+    [[0.5, 1.0, 1.0, -1.0], [0.5, 0.0, 0.0, -0.5]]
     """
 
     def build() -> SourceTracks:
@@ -453,8 +719,9 @@ def change_tracks(tracks: SourceTracks) -> SourceTracks:
     return out
 
 
-def change_envelope(audio: NDArray[np.float64], rate: float, step_s: float, *,
-                    ambisonic: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def change_envelope(
+    audio: NDArray[np.float64], rate: float, step_s: float, *, ambisonic: bool = False
+) -> NDArray[np.float64]:
     """The envelope of the change pressure ``audio (n_channels, n)`` (the render of
     :func:`change_tracks`): its standard deviation over a centred window of
     :data:`ENVELOPE_STEPS` data steps (``step_s`` playback seconds each; at
@@ -470,6 +737,34 @@ def change_envelope(audio: NDArray[np.float64], rate: float, step_s: float, *,
     channel's envelope is its covariance with channel 0 over the window,
     divided by channel 0's standard deviation (for sound from one direction,
     channel 0's envelope times that channel's encoding gain).
+
+    Parameters
+    ----------
+    audio : ndarray, shape (n_channels, n)
+        The change pressure (Pa) per channel.
+    rate : float
+        Sample rate of ``audio`` in Hz.
+    step_s : float
+        The data's time step in playback seconds.
+    ambisonic : bool
+        The channels are AmbiX components (see above).
+
+    Returns
+    -------
+    ndarray, shape (n_channels, n)
+        The envelope per channel (Pa): >= 0, or signed for ``ambisonic``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.tile([1.0, -1.0], 50)[None]  # changes of ±1 Pa
+    >>> change_envelope(x, 100, 0.02)[0, 40:44].tolist()
+    [1.0, 1.0, 1.0, 1.0]
+    >>> float(change_envelope(np.ones((1, 50)), 100, 0.02).max())  # no change
+    0.0
+    >>> amb = np.vstack([x, 0.5 * x, -0.5 * x])  # AmbiX W and two encoding gains
+    >>> change_envelope(amb, 100, 0.02, ambisonic=True)[:, 50].tolist()
+    [1.0, 0.5, -0.5]
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -497,7 +792,32 @@ ROUNDOFF_LEVEL = 1e-10
 def term_level(tracks: SourceTracks, path: ListenerPath) -> float:
     """The pressure (Pa) the tracks' rows would make if none cancelled another:
     Σ_k max_t |q_k| / (4π D_k), D_k the row's nearest distance to the path's
-    captures (at least its clamp radius).  A render far below it is round-off."""
+    captures (at least its clamp radius).  A render far below it is round-off
+    (:data:`ROUNDOFF_LEVEL`).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        ``positions (K, 3)`` in m, ``q (K, T)``, clamp ``radius (K,)`` in m.
+    path : ListenerPath
+        The listener's captures (positions in m).
+
+    Returns
+    -------
+    float
+        The level in pascals (0 without sources).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.array([[0.0, 1, 2, 3]]),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1)
+    >>> level = term_level(tr, ListenerPath.point([17.0, 0, 0], duration=0.4))
+    >>> bool(np.isclose(level, 3 / (4 * np.pi * 17)))
+    True
+    """
     if tracks.n_sources == 0:
         return 0.0
     # the same for every render of these tracks along this path: kept on the
@@ -521,8 +841,9 @@ _TABLES: dict[tuple[Any, ...], NDArray[np.float64]] = {}
 _TABLES_MAX = 8
 
 
-def _noise_table(n: int, rate: float, seed: tuple[int, ...], shape: Any,
-                 key: tuple[Any, ...]) -> NDArray[np.float64]:  # fmt: skip
+def _noise_table(
+    n: int, rate: float, seed: tuple[int, ...], shape: Any, key: tuple[Any, ...]
+) -> NDArray[np.float64]:
     """``n`` samples of unit-RMS noise whose amplitude spectrum is ``shape(f)``, with
     uniformly random phases from ``seed`` (paper 001 §4, spectral noise synthesis).
 
@@ -550,8 +871,9 @@ def _noise_table(n: int, rate: float, seed: tuple[int, ...], shape: Any,
 class _Clock:
     """Sample times of a render and the emission-time axis of its carriers."""
 
-    def __init__(self, tracks: SourceTracks, path: ListenerPath, out: Rendered, *,
-                 start: float, c0: float) -> None:  # fmt: skip
+    def __init__(
+        self, tracks: SourceTracks, path: ListenerPath, out: Rendered, *, start: float, c0: float
+    ) -> None:
         rate, ts = out.rate, out.time_scale
         n = out.audio.shape[1]
         self.rate, self.ts = rate, ts
@@ -596,8 +918,15 @@ class _Clock:
         return np.interp(x, _sample_index(table.size), table, left=0.0, right=0.0)
 
 
-def _carriers(tracks: SourceTracks, path: ListenerPath, out: Rendered, carrier: Any, *,
-              start: float, c0: float) -> NDArray[np.float64]:  # fmt: skip
+def _carriers(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    out: Rendered,
+    carrier: Any,
+    *,
+    start: float,
+    c0: float,
+) -> NDArray[np.float64]:
     """The carrier of each channel of ``out``, ``(1 or n_channels, n)``.
 
     ``carrier(clock)`` gives a carrier ``(n,)`` read on a :class:`_Clock`.  One
@@ -627,44 +956,91 @@ def _sample_index(n: int) -> NDArray[np.float64]:
     return j
 
 
-def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "physical",
-                  rate: int = 44100, time_scale: float = 1.0, interp: str = "cubic",
-                  layout: str | Layout = "mono", c0: float = C0, duration: float | None = None,
-                  bounds: tuple[float, ...] | None = None, start: float = 0.0, lead: float = 0.0,
-                  highpass_hz: float = HIGHPASS_HZ, seed: int = 0, alpha: float = ALPHA,
-                  carriers: dict[str, tuple[Any, ...]] | None = None,
-                  hrtf: object = None,
-                  by_type: dict[str, SourceTracks] | None = None) -> Rendered:  # fmt: skip
+def render_timbre(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    *,
+    timbre: str = "physical",
+    rate: int = 44100,
+    time_scale: float = 1.0,
+    interp: str = "cubic",
+    layout: str | Layout = "mono",
+    c0: float = C0,
+    duration: float | None = None,
+    bounds: tuple[float, ...] | None = None,
+    start: float = 0.0,
+    lead: float = 0.0,
+    highpass_hz: float = HIGHPASS_HZ,
+    seed: int = 0,
+    alpha: float = ALPHA,
+    carriers: dict[str, tuple[Any, ...]] | None = None,
+    hrtf: object = None,
+    by_type: dict[str, SourceTracks] | None = None,
+) -> Rendered:
     """Render ``tracks`` along ``path`` in one of :data:`TIMBRES`, then high-pass.
 
     Every layout the synthesis pans to is rendered directly; ``binaural`` is
     rendered to its AmbiX intermediate and filtered once at the end by
     :func:`auralize.spatial.layouts.output_stage` (``hrtf``: its HRIRs).
 
+    ``physical`` is the retarded-time pressure of paper 003 §3.2.4.4
+    (Eqs. 15–17); ``extended`` its bandwidth extension after paper 001 §4
+    (Alg. 1, Eqs. 12–13, Table 1: f_cut the data's Nyquist frequency
+    (:func:`cutoff_hz`), β the positive root of Eq. 13); ``tonal`` a
+    carrier per source type.  A render whose pressure is round-off (below
+    :data:`ROUNDOFF_LEVEL` of :func:`term_level`) is silence: its samples
+    are 0 and ``meta["silent_why"]`` says why, so that nothing amplifies
+    round-off to full scale.
+
     Parameters
     ----------
-    tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, start, lead
-        As :func:`auralize.emitters.synthesis.render_tracks`.
+    tracks : SourceTracks
+        The sources: ``positions (K, 3)`` in m, ``q (K, T)`` (S·ΔV) at data
+        ``times (T,)`` in s (:meth:`auralize.sources.detection.SourceSeries.tracks`,
+        :meth:`auralize.sources.field.FieldTracks.tracks`).
+    path : ListenerPath
+        Playback-time captures of the listener (m, s); held at the ends.
     timbre : {"physical", "extended", "tonal", "auto"}
         See the module docstring; ``auto`` is ``physical`` when at least
         :data:`AUDIBLE_SHARE` of its energy lies above 20 Hz, else ``extended``.
+    rate : int
+        Audio sample rate, Hz.
+    time_scale : float
+        Playback seconds per data second.
+    interp : {"linear", "cubic"}
+        Time interpolation of the strengths (paper 003 §3.2.4.3).
+    layout : str or Layout
+        Any layout of :func:`auralize.spatial.layouts.get_layout`, ``binaural``
+        included.
+    c0 : float
+        Speed of sound, m/s.
+    duration : float, optional
+        Playback seconds (default: the path's duration after ``start``).
+    bounds : tuple of 6 float, optional
+        Grid bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` in m; a listener
+        absurdly far from them is refused
+        (:func:`auralize.emitters.synthesis.check_distance`).
+    start : float
+        Playback seconds into the path of the first output sample (blocks
+        rendered with increasing ``start`` join without seams).
+    lead : float
+        Data seconds between the data's first step and the first output sample.
     highpass_hz : float
-        Cut-off of the causal output high-pass (Hz); 0 keeps everything.
+        Cut-off of the causal output high-pass (Hz, :func:`highpass`); 0 keeps
+        everything.
     seed : int
         Seed of the noise carriers (same seed, same output).
     alpha : float
-        Power-law exponent of the ``extended`` noise (power spectrum f^−α).
+        Power-law exponent α of the ``extended`` noise (power spectrum f^−α,
+        paper 001 §4; Table 1: 2.5–3.5), > 0.
     carriers : dict, optional
-        ``tonal`` carriers per type name (default :data:`TONAL_CARRIERS`).
+        ``tonal`` carriers per type name, ``("tone", Hz)`` or
+        ``("noise", low Hz, high Hz)`` (default :data:`TONAL_CARRIERS`).
     hrtf : HRIRSet, str or Path, optional
         ``binaural`` only: HRIRs or a SOFA file (default the spherical head).
     by_type : dict, optional
         ``tonal``: the tracks of each type (``{name: SourceTracks}``, the
         whole field's terms); default from ``tracks.kind``.
-
-    A render whose pressure is round-off (below :data:`ROUNDOFF_LEVEL` of
-    :func:`term_level`) is silence: its samples are 0 and ``meta["silent_why"]``
-    says why, so that nothing amplifies round-off to full scale.
 
     Returns
     -------
@@ -673,15 +1049,61 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         holds the timbre used, seed, high-pass, ``share_above_20hz_unfiltered``
         (the energy share above 20 Hz before the high-pass) and
         ``timbre_notes`` (what to tell the user: an infrasonic physical render).
+
+    Raises
+    ------
+    ParameterError
+        An unknown ``timbre``; ``alpha`` not > 0; ``highpass_hz`` outside
+        [0, rate / 2); ``tonal`` on tracks without ``kind`` and no
+        ``by_type``, or ``carriers`` for unknown types or of another form;
+        the options :func:`auralize.emitters.synthesis.render_tracks` refuses.
+    ListenerPathError
+        A listener absurdly far from ``bounds``
+        (:func:`auralize.emitters.synthesis.check_distance`).
+
+    Examples
+    --------
+    One monopole whose strength ramps up, heard from 17 m: the pressure
+    is q(t − D/c0) / (4π D), silent until the sound has come 17 m (49.6 ms,
+    sample 396.5 at 8 kHz):
+
+    >>> import numpy as np
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.array([[0.0, 1, 2, 3]]),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1,
+    ...                   kind=np.ones((1, 4), dtype=np.int8))
+    >>> path = ListenerPath.point([17.0, 0, 0], duration=0.4)
+    >>> out = render_timbre(tr, path, rate=8000, interp="linear", highpass_hz=0.0)
+    >>> out.audio.shape, out.meta["timbre"], int(np.flatnonzero(out.audio[0])[0])
+    ((1, 3200), 'physical', 397)
+    >>> q = np.interp(0.15 - 17.0 / 343.0, tr.times, tr.q[0])  # emitted for t = 0.15 s
+    >>> bool(np.isclose(out.audio[0, 1200], q / (4 * np.pi * 17.0)))
+    True
+
+    Data this slow sound below 20 Hz: ``auto`` extends them; ``tonal``
+    gives monopoles their noise band:
+
+    >>> render_timbre(tr, path, timbre="auto", rate=8000).meta["timbre"]
+    'extended'
+    >>> render_timbre(tr, path, timbre="tonal", rate=8000).meta["carriers"]
+    {'monopole': ['noise', 177.0, 354.0]}
     """
     if timbre not in (*TIMBRES, "auto"):
         raise ParameterError(f"timbre must be one of {', '.join(TIMBRES)} or auto, got {timbre!r}")
     if not (np.isfinite(alpha) and alpha > 0):
         raise ParameterError(f"alpha (power-law exponent) must be > 0, got {alpha!r}")
     stage = output_stage(layout, int(rate), hrtf=hrtf)
-    kw: dict[str, Any] = dict(rate=rate, time_scale=time_scale, interp=interp,
-                              layout=stage.synthesis_layout, c0=c0, duration=duration,
-                              start=start, lead=lead)  # fmt: skip
+    kw: dict[str, Any] = dict(
+        rate=rate,
+        time_scale=time_scale,
+        interp=interp,
+        layout=stage.synthesis_layout,
+        c0=c0,
+        duration=duration,
+        start=start,
+        lead=lead,
+    )
     highpass(np.zeros((1, 0)), rate, highpass_hz)  # validate before rendering
     meta: dict[str, Any] = {"timbre": timbre, "seed": int(seed), "highpass_hz": highpass_hz}
     notes: list[str] = []
@@ -715,15 +1137,21 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
             if timbre == "auto":
                 timbre = "extended"
                 f_cut = cutoff_hz(tracks, time_scale)
-                how = (f"physical below {f_cut:.3g} Hz, power-law noise above"
-                       if f_cut > 0.5 * highpass_hz
-                       else f"power-law noise above {f_cut:.3g} Hz; the physical part below "
-                            f"it is under the {highpass_hz:g} Hz high-pass, left out")  # fmt: skip
-                notes.append(f"timbre auto: {below} (inaudible); rendered 'extended' ({how}); "
-                             f"--timbre physical keeps the pressure alone")  # fmt: skip
+                how = (
+                    f"physical below {f_cut:.3g} Hz, power-law noise above"
+                    if f_cut > 0.5 * highpass_hz
+                    else f"power-law noise above {f_cut:.3g} Hz; the physical part below "
+                    f"it is under the {highpass_hz:g} Hz high-pass, left out"
+                )
+                notes.append(
+                    f"timbre auto: {below} (inaudible); rendered 'extended' ({how}); "
+                    f"--timbre physical keeps the pressure alone"
+                )
             else:
-                notes.append(f"note: {below} (inaudible); try --timbre extended, or a smaller "
-                             f"--time-scale (the data played faster)")  # fmt: skip
+                notes.append(
+                    f"note: {below} (inaudible); try --timbre extended, or a smaller "
+                    f"--time-scale (the data played faster)"
+                )
         elif timbre == "auto":
             timbre = "physical"
         if phys is None and timbre == "physical":
@@ -733,15 +1161,17 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         assert phys is not None
         out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse,
-                        highpass_hz)  # fmt: skip
+        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse, highpass_hz)
     else:
-        out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta,
-                     by_type)  # fmt: skip
+        out = _tonal(
+            tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta, by_type
+        )
     if meta.get("beta_rule") == "rms":
-        notes.append("the field changes slowly against the data's time step (no physical "
-                     "sound at the cut-off to extend): the noise is scaled to the RMS of the "
-                     "physical pressure's changes")  # fmt: skip
+        notes.append(
+            "the field changes slowly against the data's time step (no physical "
+            "sound at the cut-off to extend): the noise is scaled to the RMS of the "
+            "physical pressure's changes"
+        )
     meta["timbre_notes"] = notes
     if not finished:
         out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
@@ -756,10 +1186,12 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     level = ROUNDOFF_LEVEL * term_level(tracks, path)
     peak = float(np.max(np.abs(out.audio), initial=0.0))
     if peak <= level:
-        meta["silent_why"] = (f"nothing in the data changes in a way that sounds: the "
-                          f"{'pressure' if timbre == 'physical' else 'sound'} peaks at {peak:.3g} "
-                          f"Pa, round-off against the {level / ROUNDOFF_LEVEL:.3g} Pa its terms "
-                          f"would make without cancelling; written as silence, not amplified")  # fmt: skip
+        meta["silent_why"] = (
+            f"nothing in the data changes in a way that sounds: the "
+            f"{'pressure' if timbre == 'physical' else 'sound'} peaks at {peak:.3g} "
+            f"Pa, round-off against the {level / ROUNDOFF_LEVEL:.3g} Pa its terms "
+            f"would make without cancelling; written as silence, not amplified"
+        )
         meta["timbre_notes"] = [*meta.get("timbre_notes", []), f"silent: {meta['silent_why']}"]
         out.audio = np.zeros_like(out.audio)
     out.meta.update(meta)
@@ -777,15 +1209,38 @@ MIN_ENVELOPE_HZ = 250.0
 def envelope_rate(rate: int, f_cut: float) -> int:
     """Sample rate (Hz, dividing ``rate``) of the envelope renders: ``rate`` / k with k
     the largest divisor of ``rate`` not above ``rate / max(8 f_cut, MIN_ENVELOPE_HZ)`` and
-    :data:`MAX_DECIMATION`."""
+    :data:`MAX_DECIMATION`.
+
+    Parameters
+    ----------
+    rate : int
+        The audio sample rate, Hz.
+    f_cut : float
+        The highest frequency (Hz) the envelopes hold (:func:`cutoff_hz`).
+
+    Returns
+    -------
+    int
+        The envelope rate in Hz (``rate`` itself when no decimation fits).
+
+    Examples
+    --------
+    >>> envelope_rate(48000, 5.0), envelope_rate(44100, 5.0), envelope_rate(8000, 2000.0)
+    (250, 252, 8000)
+    """
     k = int(min(MAX_DECIMATION, max(1.0, rate // max(8.0 * f_cut, MIN_ENVELOPE_HZ))))
     while rate % k:
         k -= 1
     return rate // k
 
 
-def _smooth_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                   bounds: tuple[float, ...] | None = None) -> Rendered:  # fmt: skip
+def _smooth_render(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None = None,
+) -> Rendered:
     """:func:`render` of a signal band-limited to about ``f_cut`` (an envelope |q|,
     or the pressure under the data's Nyquist frequency) at :func:`envelope_rate`,
     linearly interpolated to the audio rate: the retarded-time sum is evaluated
@@ -794,8 +1249,13 @@ def _smooth_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     return _upsampled(coarse, coarse.audio, n, k)
 
 
-def _coarse_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                   bounds: tuple[float, ...] | None = None) -> tuple[Rendered, int, int]:  # fmt: skip
+def _coarse_render(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None = None,
+) -> tuple[Rendered, int, int]:
     """The envelope-rate render of :func:`_smooth_render` before interpolation:
     ``(coarse, n, k)``, ``n`` samples at the audio rate, ``k`` audio samples per
     envelope sample (``coarse`` has ``n // k + 2`` samples; ``k`` 1: ``coarse``
@@ -808,21 +1268,34 @@ def _coarse_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     dur = kw["duration"] if kw["duration"] is not None else path.duration - kw["start"]
     n = round(dur * rate)
     k = rate // er
-    coarse = render_tracks(tracks, path, bounds=bounds,
-                    **{**kw, "rate": er, "duration": (n // k + 2) / er})  # fmt: skip
+    coarse = render_tracks(
+        tracks, path, bounds=bounds, **{**kw, "rate": er, "duration": (n // k + 2) / er}
+    )
     return coarse, n, k
 
 
-def _envelope_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                     bounds: tuple[float, ...] | None, c0: float) -> Rendered:  # fmt: skip
+def _envelope_render(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None,
+    c0: float,
+) -> Rendered:
     """:func:`change_envelope` in every channel, taken at the envelope rate (sources
     merged as :func:`_joined`) and interpolated to the audio rate."""
     coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
     return _upsampled(coarse, coarse.audio, n, k)
 
 
-def _envelope_coarse(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                     bounds: tuple[float, ...] | None, c0: float) -> tuple[Rendered, int, int]:  # fmt: skip
+def _envelope_coarse(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None,
+    c0: float,
+) -> tuple[Rendered, int, int]:
     """:func:`_envelope_render` before its interpolation to the audio rate: the
     envelopes at the envelope rate (a :class:`Rendered`), ``n`` and ``k`` as
     :func:`_coarse_render`."""
@@ -835,19 +1308,34 @@ def _envelope_coarse(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any
     for r in parts:  # each receiver's channels (the ears of binaural: AmbiX each)
         lay = coarse.layout if r is None else r.layout
         m = lay.n_channels
-        env[c : c + m] = change_envelope(coarse.audio[c : c + m], coarse.rate, step_s,
-                                         ambisonic=is_ambisonic(lay))  # fmt: skip
+        env[c : c + m] = change_envelope(
+            coarse.audio[c : c + m], coarse.rate, step_s, ambisonic=is_ambisonic(lay)
+        )
         c += m
-    return Rendered(audio=env, rate=coarse.rate, layout=coarse.layout,
-                    time_scale=coarse.time_scale, meta=coarse.meta), n, k  # fmt: skip
+    return (
+        Rendered(
+            audio=env,
+            rate=coarse.rate,
+            layout=coarse.layout,
+            time_scale=coarse.time_scale,
+            meta=coarse.meta,
+        ),
+        n,
+        k,
+    )
 
 
 def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rendered:
     """Envelope-rate samples ``e (n_channels, ≥ n // k + 2)`` of ``coarse``
     linearly interpolated to ``n`` samples at ``k`` times the rate."""
     if k == 1:
-        return Rendered(audio=e, rate=coarse.rate, layout=coarse.layout,
-                        time_scale=coarse.time_scale, meta=coarse.meta)  # fmt: skip
+        return Rendered(
+            audio=e,
+            rate=coarse.rate,
+            layout=coarse.layout,
+            time_scale=coarse.time_scale,
+            meta=coarse.meta,
+        )
     w = _lerp_weights(n, k)
     audio = np.empty((e.shape[0], n))
     m = n // k  # whole envelope steps; then the n - m k samples of a last one
@@ -861,9 +1349,13 @@ def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rend
         tail = audio[c, m * k :]
         np.multiply(pair[w[0][m * k :]], w[2][m * k :], out=tail)
         tail += pair[w[1][m * k :]] * w[3][m * k :]
-    return Rendered(audio=audio, rate=coarse.rate * k, layout=coarse.layout,
-                    time_scale=coarse.time_scale,
-                    meta={**coarse.meta, "envelope_rate_hz": coarse.rate})  # fmt: skip
+    return Rendered(
+        audio=audio,
+        rate=coarse.rate * k,
+        layout=coarse.layout,
+        time_scale=coarse.time_scale,
+        meta={**coarse.meta, "envelope_rate_hz": coarse.rate},
+    )
 
 
 @functools.lru_cache(maxsize=8)
@@ -881,14 +1373,47 @@ def _lerp_weights(n: int, k: int) -> tuple[NDArray[Any], ...]:
 
 def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
     """Nyquist frequency of the data's time stepping in playback time (Hz): the
-    ``extended`` cut-off (paper 001 §4 uses the simulation's Nyquist, 180 Hz)."""
+    ``extended`` cut-off f_cut (paper 001 §4 and Table 1 use the simulation's
+    Nyquist, 180 Hz).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources; the median step of their ``times (T,)`` (s) is the
+        data's step (1 s for a single step).
+    time_scale : float
+        Playback seconds per data second.
+
+    Returns
+    -------
+    float
+        ``0.5 / (step * time_scale)`` in Hz.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)),
+    ...                   radius=np.full(1, 0.05), times=np.arange(4) * 0.1)
+    >>> round(cutoff_hz(tr, 1.0), 9), round(cutoff_hz(tr, 0.1), 9)  # data played 10x faster
+    (5.0, 50.0)
+    """
     return 0.5 / (_data_step(tracks) * time_scale)
 
 
-def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
-              bounds: tuple[float, ...] | None, seed: int, alpha: float, c0: float, start: float,
-              meta: dict[str, Any], coarse: tuple[Rendered, int, int] | None = None,
-              highpass_hz: float = 0.0) -> Rendered:  # fmt: skip
+def _extended(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    bounds: tuple[float, ...] | None,
+    seed: int,
+    alpha: float,
+    c0: float,
+    start: float,
+    meta: dict[str, Any],
+    coarse: tuple[Rendered, int, int] | None = None,
+    highpass_hz: float = 0.0,
+) -> Rendered:
     from scipy.fft import rfft
 
     f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
@@ -902,8 +1427,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     if coarse is None:
         joined = _joined(tracks, path, "timbre:joined", lambda join: join(tracks), c0)
         # without the low band in the output, its mono sum is all β needs
-        coarse = _coarse_render(joined, path, kw if keep_low else {**kw, "layout": "mono"},
-                                f_cut, bounds)  # fmt: skip
+        coarse = _coarse_render(
+            joined, path, kw if keep_low else {**kw, "layout": "mono"}, f_cut, bounds
+        )
     low_r, n, k = coarse
     if n < 4:
         meta["beta"] = 0.0
@@ -916,8 +1442,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
 
     def carrier_at(r: int) -> Any:
         def carrier(clock: _Clock) -> NDArray[np.float64]:
-            return clock.noise(_noise_table(clock.size, r, (int(seed), 1), shape,
-                                            ("power", alpha, f_cut)))  # fmt: skip
+            return clock.noise(
+                _noise_table(clock.size, r, (int(seed), 1), shape, ("power", alpha, f_cut))
+            )
 
         return carrier
 
@@ -954,8 +1481,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         # the envelope rate (which holds the cut-off and 20 Hz many times over):
         # the audio-rate transform is not needed
         m_c = env_c.audio.shape[1]
-        noise_c = env_c.audio * _carriers(tracks, path, env_c, carrier_at(env_c.rate),
-                                          start=start, c0=c0)  # fmt: skip
+        noise_c = env_c.audio * _carriers(
+            tracks, path, env_c, carrier_at(env_c.rate), start=start, c0=c0
+        )
         Hc = rfft(_crossover(noise_c, env_c.rate, f_cut, "highpass"), axis=-1) / m_c
         _, hb, hg2 = weights(m_c, env_c.rate)
         a = float(np.sum(np.abs(Hc[:, hb]) ** 2 * hg2))
@@ -1019,8 +1547,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         total = float(np.sum(high**2)) / n
         share = min(max(1.0 - below / total, 0.0), 1.0) if total > 0 else 0.0
     meta["share_above_20hz_unfiltered"] = share
-    return Rendered(audio=high, rate=rate, layout=env.layout, time_scale=env.time_scale,
-                    meta=env.meta)  # fmt: skip
+    return Rendered(
+        audio=high, rate=rate, layout=env.layout, time_scale=env.time_scale, meta=env.meta
+    )
 
 
 def _lowpass_response(f: NDArray[np.float64], rate: float, f_cut: float) -> NDArray[np.complex128]:
@@ -1090,13 +1619,23 @@ def _type_tracks(tracks: SourceTracks) -> dict[str, SourceTracks]:
     return out
 
 
-def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
-           bounds: tuple[float, ...] | None, seed: int, carriers: dict[str, tuple[Any, ...]],
-           c0: float, start: float, meta: dict[str, Any],
-           by_type: dict[str, SourceTracks] | None = None) -> Rendered:  # fmt: skip
+def _tonal(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    bounds: tuple[float, ...] | None,
+    seed: int,
+    carriers: dict[str, tuple[Any, ...]],
+    c0: float,
+    start: float,
+    meta: dict[str, Any],
+    by_type: dict[str, SourceTracks] | None = None,
+) -> Rendered:
     if by_type is None and tracks.kind is None and tracks.n_sources > 0:  # (no sources: silence)
-        raise ParameterError("the tonal timbre needs the source types of the tracks (kind); "
-                             "build them with SourceSeries.tracks(), or give by_type")  # fmt: skip
+        raise ParameterError(
+            "the tonal timbre needs the source types of the tracks (kind); "
+            "build them with SourceSeries.tracks(), or give by_type"
+        )
     bad = set(carriers) - set(TYPES)
     if bad:
         raise ParameterError(f"tonal carriers are given per type {TYPES}, got {sorted(bad)}")
@@ -1112,8 +1651,11 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     # each type's changes scaled so that its largest equals the largest of all types
     # (a property of the data, not of this render: distance and direction keep
     # their effect; loudness across types is not physical)
-    peak = {name: float(np.max(np.abs(change_tracks(t).q), initial=0.0))
-            for name, t in by_type.items() if t is not None and t.n_sources}  # fmt: skip
+    peak = {
+        name: float(np.max(np.abs(change_tracks(t).q), initial=0.0))
+        for name, t in by_type.items()
+        if t is not None and t.n_sources
+    }
     top = max(peak.values(), default=0.0)
     for name in TYPES:
         sub = by_type.get(name)
@@ -1143,27 +1685,42 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
             def band(f: NDArray[np.float64], f_lo: float = f_lo, f_hi: float = f_hi) -> Any:
                 return ((f >= f_lo) & (f <= f_hi)).astype(np.float64)
 
-            def carrier(clock: _Clock, band: Any = band, code: int = code, f_lo: float = f_lo,
-                        f_hi: float = f_hi, rate: int = rate) -> NDArray[np.float64]:  # fmt: skip
-                return clock.noise(_noise_table(clock.size, rate, (int(seed), 2, code), band,
-                                                ("band", f_lo, f_hi)))  # fmt: skip
+            def carrier(
+                clock: _Clock,
+                band: Any = band,
+                code: int = code,
+                f_lo: float = f_lo,
+                f_hi: float = f_hi,
+                rate: int = rate,
+            ) -> NDArray[np.float64]:
+                return clock.noise(
+                    _noise_table(clock.size, rate, (int(seed), 2, code), band, ("band", f_lo, f_hi))
+                )
 
         else:
-            raise ParameterError(f"tonal carrier for {name} must be ('tone', Hz) or "
-                                 f"('noise', low Hz, high Hz), got {spec!r}")  # fmt: skip
+            raise ParameterError(
+                f"tonal carrier for {name} must be ('tone', Hz) or "
+                f"('noise', low Hz, high Hz), got {spec!r}"
+            )
         audio += env.audio * _carriers(_abs_tracks(sub), path, env, carrier, start=start, c0=c0)
         used[name] = list(spec)
     meta["carriers"] = used
     if audio is not None:
         meta["share_above_20hz_unfiltered"] = _share_above(audio, float(kw["rate"]), 20.0)
     if base is None or audio is None:  # nothing changes: silence of the right shape
-        empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, tracks.times.size)),
-                             radius=np.zeros(0), times=tracks.times, origin=tracks.origin,
-                             end=tracks.end)  # fmt: skip
+        empty = SourceTracks(
+            positions=np.zeros((0, 3)),
+            q=np.zeros((0, tracks.times.size)),
+            radius=np.zeros(0),
+            times=tracks.times,
+            origin=tracks.origin,
+            end=tracks.end,
+        )
         base = render_tracks(empty, path, **kw)
         audio = base.audio
-    return Rendered(audio=audio, rate=base.rate, layout=base.layout,
-                    time_scale=base.time_scale, meta=base.meta)  # fmt: skip
+    return Rendered(
+        audio=audio, rate=base.rate, layout=base.layout, time_scale=base.time_scale, meta=base.meta
+    )
 
 
 def _abs_tracks(tracks: SourceTracks) -> SourceTracks:

@@ -676,6 +676,9 @@ def write_pvd(
         from auralize.runtime.resources import require_disk
 
         comps = sum(3 if volume.is_vector(n) else 1 for n in volume.field_names)
-        require_disk(path, volume.n_steps * float(volume.n_points) * comps * 8 + 65536,
-                     f"{volume.n_steps} steps of {len(volume.field_names)} field(s)")  # fmt: skip
+        require_disk(
+            path,
+            volume.n_steps * float(volume.n_points) * comps * 8 + 65536,
+            f"{volume.n_steps} steps of {len(volume.field_names)} field(s)",
+        )
     write_collection(path, f"{stem}_data", write_steps)

@@ -114,12 +114,20 @@ def _open_reader_series(
     except Exception as exc:  # VTK raises many kinds; name the file, the kind and VTK's reason
         why = first_error(mark) or f"{type(exc).__name__}: {one_line(str(exc))}"
         raise FormatError(f"{path}: cannot read as {kind} ({why})") from exc
-    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
-                        name_map=name_map)  # fmt: skip
+    return _mesh_series(
+        path, loader, times, fields=fields, resolution=resolution, name_map=name_map
+    )
 
 
-def _mesh_series(path: Path, loader: Any, times: list[float], *, fields: FieldsArg,
-                 resolution: ResolutionArg, name_map: Mapping[str, str] | None) -> TimeVolume:  # fmt: skip
+def _mesh_series(
+    path: Path,
+    loader: Any,
+    times: list[float],
+    *,
+    fields: FieldsArg,
+    resolution: ResolutionArg,
+    name_map: Mapping[str, str] | None,
+) -> TimeVolume:
     """The lazy volume of a reader's steps; no times means one step at frame 0."""
     physical = len(times) > 0
     times = times or [0.0]
@@ -324,20 +332,28 @@ def read_ensight(
             f"may be truncated"
         )
 
-    return _child_series(path, ChildEnSightSteps(path), fields=fields, resolution=resolution,
-                         name_map=name_map)  # fmt: skip
+    return _child_series(
+        path, ChildEnSightSteps(path), fields=fields, resolution=resolution, name_map=name_map
+    )
 
 
-def _child_series(path: Path, loader: ChildEnSightSteps, *, fields: FieldsArg,
-                  resolution: ResolutionArg, name_map: Mapping[str, str] | None) -> TimeVolume:  # fmt: skip
+def _child_series(
+    path: Path,
+    loader: ChildEnSightSteps,
+    *,
+    fields: FieldsArg,
+    resolution: ResolutionArg,
+    name_map: Mapping[str, str] | None,
+) -> TimeVolume:
     """The lazy volume of the steps a child process reads (the child ends if opening fails)."""
     try:
         times = loader.times()
     except BaseException:
         loader.close()
         raise
-    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
-                        name_map=name_map)  # fmt: skip
+    return _mesh_series(
+        path, loader, times, fields=fields, resolution=resolution, name_map=name_map
+    )
 
 
 #: The child process of :class:`ChildEnSightSteps`: ``<program> KIND PATH``.
@@ -455,8 +471,13 @@ def serve_child(kind: Literal["ensight", "enzo"], path: str) -> None:
 
 
 #: The data set classes a child process may send back.
-_MESH_CLASSES = ("vtkUnstructuredGrid", "vtkPolyData", "vtkStructuredGrid",
-                 "vtkRectilinearGrid", "vtkImageData")  # fmt: skip
+_MESH_CLASSES = (
+    "vtkUnstructuredGrid",
+    "vtkPolyData",
+    "vtkStructuredGrid",
+    "vtkRectilinearGrid",
+    "vtkImageData",
+)
 
 
 def marshal_mesh(mesh: Any) -> bytes:
@@ -696,8 +717,10 @@ class ChildEnSightSteps:
             why = f"exit status {status}" if status else f"{type(exc).__name__}: {exc}"
             if status is not None and status < 0:
                 why = f"the reading process crashed with signal {-status}"
-            raise FormatError(f"{self.path}: VTK's {CHILD_KINDS[self.kind]} reader failed "
-                              f"({why}); {self._damaged}") from None  # fmt: skip
+            raise FormatError(
+                f"{self.path}: VTK's {CHILD_KINDS[self.kind]} reader failed "
+                f"({why}); {self._damaged}"
+            ) from None
         if head[:1] == b"+":
             return body
         kind, _, message = body.decode("utf-8", "replace").partition("\n")
@@ -1345,8 +1368,14 @@ def enzo_hierarchy(path: Path) -> Path | None:
 #: keys VTK's Enzo reader looks for in each grid's entry of a hierarchy, in this order:
 #: it scans forward for each one in turn, and one missing (or out of order) makes it
 #: scan past the end of the file without stopping
-ENZO_GRID_KEYS = ("GridStartIndex", "GridEndIndex", "GridLeftEdge", "GridRightEdge",
-                  "BaryonFileName", "NumberOfParticles")  # fmt: skip
+ENZO_GRID_KEYS = (
+    "GridStartIndex",
+    "GridEndIndex",
+    "GridLeftEdge",
+    "GridRightEdge",
+    "BaryonFileName",
+    "NumberOfParticles",
+)
 
 
 def _check_enzo_grid_keys(hierarchy: Path, text: str) -> None:
@@ -1360,8 +1389,11 @@ def _check_enzo_grid_keys(hierarchy: Path, text: str) -> None:
         for key in ENZO_GRID_KEYS:
             m = re.compile(rf"^\s*{key}\s*=", flags=re.M).search(entry, at)
             if m is None:
-                where = "missing" if re.search(rf"^\s*{key}\s*=", entry, re.M) is None else (
-                    "out of order")  # fmt: skip
+                where = (
+                    "missing"
+                    if re.search(rf"^\s*{key}\s*=", entry, re.M) is None
+                    else ("out of order")
+                )
                 raise FormatError(
                     f"{hierarchy}: grid {grid}'s entry has {key} {where} (an Enzo hierarchy "
                     f"gives each grid {', '.join(ENZO_GRID_KEYS)} in this order); the file is "
@@ -1474,5 +1506,10 @@ def read_enzo(
             raise FormatError(
                 f"{hierarchy}: the grid file {grid.name} it names is missing or not HDF5"
             )
-    return _child_series(path, ChildEnSightSteps(hierarchy, kind="enzo"), fields=fields,
-                         resolution=resolution, name_map=name_map)  # fmt: skip
+    return _child_series(
+        path,
+        ChildEnSightSteps(hierarchy, kind="enzo"),
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )

@@ -42,7 +42,39 @@ VERSION = 1
 
 
 def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
-    """Write a :class:`SourceSeries` to HDF5 atomically."""
+    """Write a :class:`SourceSeries` to HDF5 atomically.
+
+    The layout is the module docstring's (``auralize_format="sources"``,
+    version 1): the grid, the thresholds and ``meta`` (as JSON) in root
+    attributes, the sources of every step as rows.  The file is written to
+    a temporary beside ``path`` and renamed onto it, so a failed write
+    leaves ``path`` as it was.
+
+    Parameters
+    ----------
+    series : SourceSeries
+        The sources of every step (:func:`auralize.sources.detection.detect`).
+    path : str or Path
+        The ``.h5`` file to write (replaced if it exists); its folder must exist.
+
+    Raises
+    ------
+    OutputError
+        The folder cannot be written, the disk has too little space for the
+        file, or a write failed; ``path`` is untouched.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> frame = SourceFrame(index=np.array([0, 7]), kind=np.array([1, 3], dtype=np.int8),
+    ...                     strength=np.array([2.0, -0.5]), radius=np.array([0.1, 0.2]))
+    >>> series = SourceSeries(frames=[frame], times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(2, 2, 2), thresholds=np.zeros(3))
+    >>> save_sources_h5(series, "sources.h5")
+    >>> load_sources_h5("sources.h5").frames[0].strength.tolist()
+    [2.0, -0.5]
+    """
     frames = series.frames
     offsets = np.zeros(len(frames) + 1, dtype=np.int64)
     offsets[1:] = np.cumsum([f.index.size for f in frames])
@@ -82,6 +114,19 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
 def load_sources_h5(path: str | Path) -> SourceSeries:
     """Read a sources file written by :func:`save_sources_h5`, checking every field.
 
+    Parameters
+    ----------
+    path : str or Path
+        The ``.h5`` sources file.
+
+    Returns
+    -------
+    SourceSeries
+        One frame per step; positions from the grid (``origin``, ``spacing``,
+        ``dims``), or from ``/position`` for sources detected on a curvilinear
+        grid (``coords``, NaN at the points that are no source: see
+        :func:`load_sources_for`).
+
     Raises
     ------
     FormatError
@@ -98,6 +143,25 @@ def load_sources_h5(path: str | Path) -> SourceSeries:
         ``position``) of other lengths; an index outside the grid or listed
         twice in a step; a kind code other than 1, 2, 3; a strength not finite;
         a radius not finite and > 0; a position not where its index lies.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> frame = SourceFrame(index=np.array([0, 7]), kind=np.array([1, 3], dtype=np.int8),
+    ...                     strength=np.array([2.0, -0.5]), radius=np.array([0.1, 0.2]))
+    >>> series = SourceSeries(frames=[frame], times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(2, 2, 2), thresholds=np.zeros(3))
+    >>> save_sources_h5(series, "sources.h5")
+    >>> back = load_sources_h5("sources.h5")
+    >>> back.dims, back.frames[0].kind.tolist(), back.frames[0].radius.tolist()
+    ((2, 2, 2), [1, 3], [0.1, 0.2])
+    >>> back.positions(back.frames[0].index).tolist()  # vertex 7: (x, y, z) = (1, 1, 1) · 0.5 m
+    [[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]
+    >>> load_sources_h5("missing.h5")
+    Traceback (most recent call last):
+    ...
+    auralize.errors.FormatError: sources file 'missing.h5' does not exist
     """
     p = Path(path)
     if not p.exists():
@@ -385,7 +449,37 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
     The folder is written under a fresh name (``NAME_data``, or ``NAME_data.1``
     ... while the previous version holds that name) and the ``.pvd`` replaced
     in one rename (:func:`auralize.runtime.files.write_collection`); an existing
-    ``NAME_data`` that auralize did not write is never replaced.
+    ``NAME_data`` that auralize did not write is never replaced.  Each point
+    set holds the point data ``kind``, ``strength``, ``radius`` (m),
+    ``volume`` (ΔV, m³) and ``rgb`` (the type's colour), and the field data
+    ``kind_code``/``kind_name`` (the legend of the codes).
+
+    Parameters
+    ----------
+    series : SourceSeries
+        The sources of every step.
+    path : str or Path
+        The ``.pvd`` file to write; the data folder goes beside it.
+
+    Raises
+    ------
+    OutputError
+        The data folder's name is taken by a folder auralize did not write
+        for this ``.pvd``, or the files cannot be written.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> frame = SourceFrame(index=np.array([0, 7]), kind=np.array([1, 3], dtype=np.int8),
+    ...                     strength=np.array([2.0, -0.5]), radius=np.array([0.1, 0.2]))
+    >>> series = SourceSeries(frames=[frame], times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(2, 2, 2), thresholds=np.zeros(3))
+    >>> save_sources_pvd(series, "sources.pvd")
+    >>> import pyvista as pv
+    >>> step = pv.read("sources_data/step_0000.vtp")
+    >>> step.n_points, step.point_data["kind"].tolist(), step.point_data["strength"].tolist()
+    (2, [1, 3], [2.0, -0.5])
     """
     import pyvista as pv
 
@@ -426,13 +520,38 @@ def load_sources_for(path: str | Path, volume: Any) -> SourceSeries:
     volume : TimeVolume
         The volume about to be rendered.
 
+    Returns
+    -------
+    SourceSeries
+        The sources; for a curvilinear grid with ``coords`` the volume's own
+        point positions.
+
     Raises
     ------
     FormatError
         ``path`` is a ``.pvd`` or not a sources file.
     DataError
-        The sources belong to another grid (dims, origin, spacing) or other
-        times; the message names both.
+        The sources belong to another grid (dims, origin, spacing, uniform or
+        curvilinear, the curvilinear grid's points) or other times; the
+        message names both.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.datasets.synthetic import make_monopole
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> vol = make_monopole(size=4, steps=2)
+    >>> frames = [SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+    ...                       strength=np.array([1.0]), radius=np.array([0.1]))] * 2
+    >>> series = SourceSeries(frames=frames, times=vol.times, origin=vol.origin,
+    ...                       spacing=vol.spacing, dims=vol.dims, thresholds=np.zeros(3))
+    >>> save_sources_h5(series, "sources.h5")
+    >>> load_sources_for("sources.h5", vol).n_steps
+    2
+    >>> load_sources_for("sources.h5", make_monopole(size=5, steps=2))
+    Traceback (most recent call last):
+    ...
+    auralize.errors.DataError: sources.h5: these sources (...) do not belong to the grid of dataset:monopole: dims (4, 4, 4) vs (5, 5, 5) (sources vs volume); ...
     """
     p = Path(path)
     if p.suffix.lower() == ".pvd":
