@@ -675,7 +675,7 @@ def step_strengths(
     oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
     cache.nodata = ~(oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)) if oks else None
     if volume.metric is None:
-        _uniform_strengths(volume, cache, n, a, b, inv_dt, out)
+        _uniform_strengths(volume, cache, n, a=a, b=b, inv_dt=inv_dt, out=out)
         return out
     metric = volume.metric
     if cache.work is None or cache.work.shape != (9, *volume.shape):
@@ -692,7 +692,7 @@ def step_strengths(
     if cache.nodata is not None:
         metric.mask_nodata(cache.nodata, out)
     if cache.floor > 0:
-        _apply_floor(volume, cache, n, a, b, inv_dt, out)
+        _apply_floor(volume, cache, n, a=a, b=b, inv_dt=inv_dt, out=out)
     return out
 
 
@@ -718,6 +718,7 @@ def _uniform_strengths(
     volume: TimeVolume,
     cache: StepCache,
     n: int,
+    *,
     a: int,
     b: int,
     inv_dt: float,
@@ -773,6 +774,7 @@ def _apply_floor(
     volume: TimeVolume,
     cache: StepCache,
     n: int,
+    *,
     a: int,
     b: int,
     inv_dt: float,
@@ -1352,7 +1354,7 @@ def iter_detect(
             thr,
             steps,
             threads,
-            progress_bar,
+            progress_bar=progress_bar,
             zero_fraction=zero_fraction,
             qmean=qmean,
             delta_v=delta_v,
@@ -1419,8 +1421,8 @@ def _detect_side_by_side(
     thr: NDArray[np.float64],
     steps: range,
     threads: int,
-    progress_bar: bool,
     *,
+    progress_bar: bool,
     zero_fraction: float,
     qmean: SteadyBase | NDArray[np.float64] | None,
     delta_v: str,
