@@ -158,6 +158,44 @@ def test_detect_sources_reads_each_frame_once(make: Any) -> None:
     assert steps == set(range(vol.n_steps))
 
 
+def counting_map(m: Any) -> Counter[int]:
+    """Count the mapping's evaluations of each step (``m.map`` wrapped on the instance)."""
+    calls: Counter[int] = Counter()
+    plain = m.map
+
+    def counted_map(volume: TimeVolume, n: int) -> Any:
+        calls[int(n)] += 1
+        return plain(volume, n)
+
+    m.map = counted_map
+    return calls
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
+@pytest.mark.parametrize(
+    ("make", "mapping", "kw", "thresholds"),
+    [
+        (make_explosion, "paper-density", {}, Thresholds()),
+        (make_explosion, "paper-density", {"steady": "keep"}, Thresholds(floor=0.0)),
+        (make_spinning, "identity", {}, Thresholds("top:2%", "1%", "auto")),
+        (make_spinning, "identity", {}, Thresholds(1e-3, 1e-3, 1e-3)),
+    ],
+    ids=["paper-auto", "paper-keep-nofloor", "identity-mixed", "identity-fixed"],
+)
+def test_detect_maps_each_step_once(
+    make: Any, mapping: str, kw: dict[str, str], thresholds: Thresholds
+) -> None:
+    """The whole of :func:`detect` (steady anchors, threshold statistics, detection, with
+    and without the floor's 2Δt steps) evaluates the mapping once per step."""
+    vol = make(size=14, steps=9).load()
+    m = get_mapping(mapping)
+    calls = counting_map(m)
+    series = detect(vol, mapping=m, thresholds=thresholds, **kw)  # type: ignore[arg-type]
+    assert sorted(calls) == list(range(vol.n_steps))
+    assert set(calls.values()) == {1}
+    assert sum(f.index.size for f in series.frames) > 0
+
+
 def test_each_step_is_mapped_once() -> None:
     vol = make_spinning(size=12, steps=10).load()
     m = get_mapping("identity")
