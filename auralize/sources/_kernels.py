@@ -554,7 +554,7 @@ def strengths(rho_a, rho_b, dm, tt, inv_dt, h, out):  # type: ignore[no-untyped-
     h = np.asarray(h, dtype=np.float64)
     over_planes(
         lambda lo, hi: _strength_planes(rho_a, rho_b, dm, tt, float(inv_dt), h, out, lo, hi),
-        rho_a.shape[0],
+        rho_a.shape,
     )
 
 
@@ -700,11 +700,13 @@ def sources(s, thr, zero, h, rule=DV_CELL, kinds=None):  # type: ignore[no-untyp
         kinds = np.empty(s.shape[1:], dtype=np.int8)
     nz = s.shape[1]
     count = np.zeros(nz, dtype=np.int64)
-    over_planes(lambda lo, hi: _classify_planes(s, thr, zero, kinds, count, lo, hi), nz)
+    over_planes(lambda lo, hi: _classify_planes(s, thr, zero, kinds, count, lo, hi), kinds.shape)
     start = np.concatenate([[0], np.cumsum(count)])
     n = int(start[-1])
     out = (np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int8), np.empty(n), np.empty(n))
-    over_planes(lambda lo, hi: _gather_planes(s, thr, h, rule, kinds, start, *out, lo, hi), nz)
+    over_planes(
+        lambda lo, hi: _gather_planes(s, thr, h, rule, kinds, start, *out, lo, hi), kinds.shape
+    )
     return out
 
 
@@ -1283,7 +1285,7 @@ def step_change(r0, v0, r1, v1):  # type: ignore[no-untyped-def]
     at least 0), and the second step's :func:`input_maxima_planes` ``(nz, 3)``, in one pass."""
     bits = np.zeros((r0.shape[0], 5), dtype=np.int64)
     if r0.size:
-        over_planes(lambda lo, hi: _step_change_planes(r0, v0, r1, v1, bits, lo, hi), r0.shape[0])
+        over_planes(lambda lo, hi: _step_change_planes(r0, v0, r1, v1, bits, lo, hi), r0.shape)
     values = bits.view(np.float64)
     top = values[:, :2].max(axis=0, initial=0.0)
     return float(top[0]), float(top[1]), np.ascontiguousarray(values[:, 2:])
@@ -1396,8 +1398,16 @@ def in_threads(fn, n, threads=None):  # type: ignore[no-untyped-def]
         fu.result()
 
 
-def thread_count() -> int:
-    """The threads the detection's kernels run on (numba's thread count)."""
+#: a pass over fewer points than this runs on the calling thread alone: on a small grid,
+#: handing pieces of it to other threads costs more than they take off
+THREAD_POINTS = 1 << 15
+
+
+def thread_count(points=None) -> int:  # type: ignore[no-untyped-def]
+    """The threads the detection's kernels run on: numba's thread count, or 1 for a pass
+    over fewer than :data:`THREAD_POINTS` ``points``."""
+    if points is not None and points < THREAD_POINTS:
+        return 1
     return int(numba.get_num_threads())
 
 
@@ -1406,10 +1416,12 @@ def split(n, pieces):  # type: ignore[no-untyped-def]
     return [n * b // pieces for b in range(pieces + 1)]
 
 
-def over_planes(fn, nz):  # type: ignore[no-untyped-def]
-    """Call ``fn(lo, hi)`` over ``[0, nz)`` in a few ranges of planes, on the threads of
-    :func:`in_threads`."""
-    threads = thread_count()
+def over_planes(fn, shape):  # type: ignore[no-untyped-def]
+    """Call ``fn(lo, hi)`` over the planes ``[0, nz)`` of a grid of ``shape (nz, ny, nx)`` in
+    a few ranges of planes, on the threads of :func:`in_threads` (one on a small grid,
+    :func:`thread_count`)."""
+    nz = shape[0]
+    threads = thread_count(int(np.prod(shape)))
     pieces = max(1, min(nz, 4 * threads))
     edges = split(nz, pieces)
     in_threads(lambda b: fn(edges[b], edges[b + 1]), pieces, threads)
@@ -1481,7 +1493,7 @@ def detect_step(  # type: ignore[no-untyped-def]
         :func:`_rows_with_nodata` of ``bad``, when the caller has it.
     """
     nz = out.shape[1]
-    threads = thread_count()
+    threads = thread_count(out[0].size)
     n_blocks = max(1, min(nz, threads if blocks is None else int(blocks)))
     edges = split(nz, n_blocks)
     mode, f, sa, sb, ra, va, rb, vb = steady
@@ -1625,7 +1637,7 @@ def input_maxima_planes(rho, v):  # type: ignore[no-untyped-def]
     v = np.ascontiguousarray(v, dtype=np.float64)
     bits = np.zeros((rho.shape[0], 3), dtype=np.int64)
     if rho.size:
-        over_planes(lambda lo, hi: _input_maxima_planes(rho, v, bits, lo, hi), rho.shape[0])
+        over_planes(lambda lo, hi: _input_maxima_planes(rho, v, bits, lo, hi), rho.shape)
     return bits.view(np.float64)
 
 
@@ -1741,7 +1753,7 @@ def gradient(f, h, scale, out):  # type: ignore[no-untyped-def]
     f = np.ascontiguousarray(f, dtype=np.float64)
     h = np.asarray(h, dtype=np.float64)
     none = np.zeros(0, dtype=np.int64)
-    over_planes(lambda lo, hi: _gradient_planes(f, h, float(scale), out, none, lo, hi), f.shape[0])
+    over_planes(lambda lo, hi: _gradient_planes(f, h, float(scale), out, none, lo, hi), f.shape)
 
 
 def gradient_max(f, h, out):  # type: ignore[no-untyped-def]
@@ -1750,7 +1762,7 @@ def gradient_max(f, h, out):  # type: ignore[no-untyped-def]
     f = np.ascontiguousarray(f, dtype=np.float64)
     h = np.asarray(h, dtype=np.float64)
     top = np.zeros(f.shape[0], dtype=np.int64)
-    over_planes(lambda lo, hi: _gradient_planes(f, h, 1.0, out, top, lo, hi), f.shape[0])
+    over_planes(lambda lo, hi: _gradient_planes(f, h, 1.0, out, top, lo, hi), f.shape)
     return float(top.max(initial=0).view(np.float64))
 
 
