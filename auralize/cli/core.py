@@ -142,6 +142,13 @@ def _captures(text: str) -> int:
     return v
 
 
+def _bench_groups(text: str) -> list[str]:
+    """argparse type of ``bench --only`` (the bench module is imported when it is used)."""
+    from auralize.bench.runner import bench_groups
+
+    return bench_groups(text)
+
+
 def _sizes(text: str) -> str:
     """argparse type of ``bench --sizes``: comma-separated whole numbers >= 2 (kept as text)."""
     for part in text.split(","):
@@ -1217,6 +1224,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--sizes", type=_sizes, help="comma-separated grid sizes for detection (default 10..256)"
     )
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.add_argument(
+        "--only",
+        metavar="GROUPS",
+        type=_bench_groups,
+        help="run only these comma-separated groups: detection, synthesis, timbre, scaling, "
+        "emitters, immersive, readers, efficiency, fwh, outdoor, output, viewer, dask, plugins",
+    )
     p.add_argument(
         "--dask-full",
         action="store_true",

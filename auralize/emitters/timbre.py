@@ -572,7 +572,7 @@ def mean_distance(
     rows = max(1, _MEAN_BLOCK // max(C, 1))
     for j in range(0, J, rows):
         sl = slice(j, min(j + rows, J))
-        num[sl], den[sl], d_min[sl] = _mean_terms(L[sl], t_data[sl], cen, W, tn, c0)
+        num[sl], den[sl], d_min[sl] = _mean_terms(L[sl], t_data[sl], cen, W, tn=tn, c0=c0)
     ok = den > 0
     if not np.any(ok):
         return d_min
@@ -591,6 +591,7 @@ def _mean_terms(
     t_data: NDArray[np.float64],
     cen: NDArray[np.float64],
     W: NDArray[np.float64],
+    *,
     tn: NDArray[np.float64],
     c0: float,
 ) -> tuple[NDArray[np.float64], ...]:
@@ -879,18 +880,32 @@ class _Clock:
         self.rate, self.ts = rate, ts
         t_start = float(out.meta["t_start_data"])
         dur = n / rate
+        # controls every 1/CONTROL_HZ s of playback from the render's start, the last
+        # at or past its end
         J = max(int(np.ceil(dur * CONTROL_HZ)) + 1, 2)
-        u = np.linspace(0.0, dur, J)
+        u = np.arange(J) / CONTROL_HZ
         # the same controls serve every clock of a render (the audio rate's and the
-        # envelope rate's) and of its repeats: kept on the tracks for this path (the
-        # path's arrays are held, so their identity stays theirs)
-        key = (t_start, dur, ts, start, c0, J)
-        hit = tracks.cache.get("timbre:dbar")
-        if hit is not None and hit[0] is path.positions and hit[1] is path.times and hit[2] == key:
-            dbar = hit[3]
-        else:
-            dbar = mean_distance(tracks, path, t_start + u / ts, path.times[0] + start + u, c0=c0)
-            tracks.cache["timbre:dbar"] = (path.positions, path.times, key, dbar)
+        # envelope rate's, whose durations differ by a fraction of an envelope
+        # sample) and of its repeats: kept on the tracks for each path (its arrays
+        # are held, so their identity stays theirs); a clock with fewer controls
+        # takes the first of them
+        key = (id(path.positions), id(path.times), t_start, ts, start, c0)
+        held = tracks.cache.setdefault("timbre:dbar", {})
+        hit = held.get(key)
+        if (
+            hit is not None
+            and hit[0] is path.positions
+            and hit[1] is path.times
+            and hit[2].size >= J
+        ):
+            dbar = hit[2][:J]
+        else:  # (two controls more than this clock needs, for the next clock's)
+            w = np.arange(J + 2) / CONTROL_HZ
+            dbar = mean_distance(tracks, path, t_start + w / ts, path.times[0] + start + w, c0=c0)
+            if len(held) >= 8:  # the paths of a few renders (binaural: one per ear)
+                held.pop(next(iter(held)))
+            held[key] = (path.positions, path.times, dbar)
+            dbar = dbar[:J]
         # the mean emission time at the controls; between them the data time
         # and D̄ are linear in the sample index, and so is the emission time
         tau = t_start + u / ts - dbar / c0
@@ -956,7 +971,7 @@ def _sample_index(n: int) -> NDArray[np.float64]:
     return j
 
 
-def render_timbre(
+def render_timbre(  # noqa: PLR0913 (keyword-only options)
     tracks: SourceTracks,
     path: ListenerPath,
     *,
@@ -1161,10 +1176,31 @@ def render_timbre(
         assert phys is not None
         out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse, highpass_hz)
+        out = _extended(
+            tracks,
+            path,
+            kw,
+            bounds=bounds,
+            seed=seed,
+            alpha=alpha,
+            c0=c0,
+            start=start,
+            meta=meta,
+            coarse=coarse,
+            highpass_hz=highpass_hz,
+        )
     else:
         out = _tonal(
-            tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta, by_type
+            tracks,
+            path,
+            kw,
+            bounds=bounds,
+            seed=seed,
+            carriers=carriers or TONAL_CARRIERS,
+            c0=c0,
+            start=start,
+            meta=meta,
+            by_type=by_type,
         )
     if meta.get("beta_rule") == "rms":
         notes.append(
@@ -1278,13 +1314,14 @@ def _envelope_render(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     f_cut: float,
     bounds: tuple[float, ...] | None,
     c0: float,
 ) -> Rendered:
     """:func:`change_envelope` in every channel, taken at the envelope rate (sources
     merged as :func:`_joined`) and interpolated to the audio rate."""
-    coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
     return _upsampled(coarse, coarse.audio, n, k)
 
 
@@ -1292,6 +1329,7 @@ def _envelope_coarse(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     f_cut: float,
     bounds: tuple[float, ...] | None,
     c0: float,
@@ -1405,6 +1443,7 @@ def _extended(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     bounds: tuple[float, ...] | None,
     seed: int,
     alpha: float,
@@ -1434,7 +1473,7 @@ def _extended(
     if n < 4:
         meta["beta"] = 0.0
         return render_tracks(tracks, path, bounds=bounds, **kw)
-    env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
     env = _upsampled(env_c, env_c.audio, n, k)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -1623,6 +1662,7 @@ def _tonal(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     bounds: tuple[float, ...] | None,
     seed: int,
     carriers: dict[str, tuple[Any, ...]],
@@ -1661,7 +1701,7 @@ def _tonal(
         sub = by_type.get(name)
         if sub is None or sub.n_sources == 0 or name not in carriers or not peak.get(name):
             continue
-        env = _envelope_render(sub, path, kw, f_cut, bounds, c0)
+        env = _envelope_render(sub, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
         if float(np.max(np.abs(env.audio), initial=0.0)) > 0:
             env.audio *= top / peak[name]
             envs[name] = env
@@ -1687,6 +1727,7 @@ def _tonal(
 
             def carrier(
                 clock: _Clock,
+                *,
                 band: Any = band,
                 code: int = code,
                 f_lo: float = f_lo,

@@ -763,7 +763,9 @@ def field_tracks(
             s = step_strengths(volume, cache, n, buf)
             per["quadrupole"] = s[2]
         if "monopole" in terms:
-            per["monopole"] = _residual(volume, cache, n, flux, floor, res, err, stats)
+            per["monopole"] = _residual(
+                volume, cache, n, flux=flux, floor=floor, out=res, err=err, stats=stats
+            )
         for t, S in per.items():
             w = S * dV
             g = np.pad(w, ((0, pad[0]), (0, pad[1]), (0, pad[2]))) if any(pad) else w
@@ -831,6 +833,7 @@ def _residual(
     volume: TimeVolume,
     cache: StepCache,
     n: int,
+    *,
     flux: str,
     floor: float,
     out: NDArray[np.float64],

@@ -210,7 +210,7 @@ def _attr(h: h5py.File, p: Path, name: str, *, kinds: str = "iuf") -> np.ndarray
 
 
 def _dataset(
-    h: h5py.File, p: Path, name: str, shape: tuple[int, ...], kinds: str, what: str
+    h: h5py.File, p: Path, name: str, shape: tuple[int, ...], *, kinds: str, what: str
 ) -> np.ndarray:
     """Dataset ``/name`` read after its shape and type are checked."""
     ds = h[name]
@@ -284,7 +284,9 @@ def _read_times(h: h5py.File, p: Path) -> NDArray[np.float64]:
     if not isinstance(t_ds, h5py.Dataset) or t_ds.ndim != 1 or t_ds.shape[0] < 1:
         raise _fault(p, "/time", "must be a 1-D dataset of at least one step time in seconds")
     n_steps = int(t_ds.shape[0])
-    times = _dataset(h, p, "time", (n_steps,), "iuf", "step times (s)").astype(np.float64)
+    times = _dataset(h, p, "time", (n_steps,), kinds="iuf", what="step times (s)").astype(
+        np.float64
+    )
     if not np.all(np.isfinite(times)):
         k = _first(~np.isfinite(times))
         raise _fault(p, f"/time[{k}]", f"= {times[k]} is not finite; step times are finite seconds")
@@ -345,8 +347,8 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
         p,
         "offsets",
         (n_steps + 1,),
-        "iu",
-        f"integer row offsets (one more than the {n_steps} steps)",
+        kinds="iu",
+        what=f"integer row offsets (one more than the {n_steps} steps)",
     ).astype(np.int64)
     if off[0] != 0 or off[-1] != n or np.any(np.diff(off) < 0):
         raise _fault(
@@ -356,7 +358,7 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
             f"decreasing, got {off[:8].tolist()}"
             f"{'...' if off.size > 8 else ''} ending {int(off[-1])}",
         )
-    idx = _dataset(h, p, "index", (n,), "iu", "flat grid indices").astype(np.int64)
+    idx = _dataset(h, p, "index", (n,), kinds="iu", what="flat grid indices").astype(np.int64)
     bad = (idx < 0) | (idx >= n_points)
     if bad.any():
         k = _first(bad)
@@ -365,7 +367,7 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
             f"/index[{k}]",
             f"= {idx[k]} is outside the grid {dims}: valid flat indices are 0..{n_points - 1}",
         )
-    kind = _dataset(h, p, "kind", (n,), "iu", "kind codes")
+    kind = _dataset(h, p, "kind", (n,), kinds="iu", what="kind codes")
     bad = ~np.isin(kind, KIND_CODES)
     if bad.any():
         k = _first(bad)
@@ -375,14 +377,14 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
             f"= {kind[k]} is not a kind code; valid: "
             f"{', '.join(f'{c} {m}' for c, m in KIND_LEGEND.items())}",
         )
-    strength = _dataset(h, p, "strength", (n,), "iuf", "strengths").astype(np.float64)
+    strength = _dataset(h, p, "strength", (n,), kinds="iuf", what="strengths").astype(np.float64)
     bad = ~np.isfinite(strength)
     if bad.any():
         k = _first(bad)
         raise _fault(
             p, f"/strength[{k}]", f"= {strength[k]} is not finite; strengths are finite numbers"
         )
-    radius = _dataset(h, p, "radius", (n,), "iuf", "radii (m)").astype(np.float64)
+    radius = _dataset(h, p, "radius", (n,), kinds="iuf", what="radii (m)").astype(np.float64)
     bad = ~(np.isfinite(radius) & (radius > 0))
     if bad.any():
         k = _first(bad)
@@ -417,13 +419,17 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
                 "/position",
                 "is missing; sources detected on a curvilinear grid need their positions",
             )
-        pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
+        pos = _dataset(h, p, "position", (n, 3), kinds="iuf", what="positions (m)").astype(
+            np.float64
+        )
         nx, ny, nz = (int(d) for d in dims)
         coords = np.full((nz * ny * nx, 3), np.nan)
         coords[idx] = pos
         series.coords = coords.reshape(nz, ny, nx, 3)
     elif "position" in h:
-        pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
+        pos = _dataset(h, p, "position", (n, 3), kinds="iuf", what="positions (m)").astype(
+            np.float64
+        )
         tol = 1e-6 * float(spacing.min())
         far = ~(np.abs(pos - series.positions(idx)) <= tol + 1e-9 * np.abs(pos)).all(axis=1)
         if far.any():

@@ -561,10 +561,11 @@ def test_sidecar_units_say_what_the_samples_hold(tmp_path: Path) -> None:
     pressure at the listener; each sidecar says so, in pascals without normalisation."""
     import json
 
-    from auralize.audio import read_wav
-    from auralize.cli import main
     from auralize_fire.lowfreq import flux_series, lowfreq_pressure
     from auralize_fire.model import MONOPOLE_1M, load_volume
+
+    from auralize.audio import read_wav
+    from auralize.cli import main
 
     data = ["dataset:fire", "--size", "12", "--steps", "8"]
     low = tmp_path / "low.wav"
