@@ -416,6 +416,7 @@ def curvilinear_strengths(
     rho_b: Array,
     dm: Array,
     tt: Array,
+    *,
     inv_dt: float,
     out: Array,
 ) -> None:
@@ -431,6 +432,7 @@ def curvilinear_strengths(
 def curvilinear_errors(
     metric: CurvilinearMetric,
     s: Array,
+    *,
     rho_a2: Array,
     rho_b2: Array,
     dm: Array,
@@ -463,6 +465,7 @@ def curvilinear_residual(
     rho_b: Array,
     rho_a2: Array,
     rho_b2: Array,
+    *,
     m_c: Array,
     inv_dt: float,
     inv_dt2: float,

@@ -683,7 +683,7 @@ def step_strengths(
     dm, tt = cache.work[:3], cache.work[3:]
     K.momentum_change(rho_a, v_a, rho_b, v_b, dm)
     K.stress(rho_c, v_c, tt)
-    curvilinear_strengths(metric, rho_a, rho_b, dm, tt, inv_dt, out)
+    curvilinear_strengths(metric, rho_a, rho_b, dm, tt, inv_dt=inv_dt, out=out)
     base = cache.qmean
     if isinstance(base, SteadyBase):
         base.subtract(n, out[2], tt, with_stress=cache.floor > 0)
@@ -791,7 +791,16 @@ def _apply_floor(
     roundoff = ROUNDOFF * input_scale(volume, cache, n)
     work = cache.work
     err = curvilinear_errors(
-        volume.metric, out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad, inv_dt, inv_dt2
+        volume.metric,
+        out,
+        rho_a2=rho_a2,
+        rho_b2=rho_b2,
+        dm=work[:3],
+        dm2=dm2,
+        tt=work[3:],
+        bad=bad,
+        inv_dt=inv_dt,
+        inv_dt2=inv_dt2,
     )
     K.apply_floor(out, err, float(cache.floor), roundoff)
 
