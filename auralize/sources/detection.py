@@ -44,8 +44,10 @@ the linear-interpolated crossing of ``|S|`` with the threshold): by default
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
+import threading
 import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -157,7 +159,11 @@ class StrengthStats:
             np.maximum(peak, p.peak, out=peak)
             np.maximum(scale, p.scale, out=scale)
         samples = [p.sample for p in parts if p.sample.size]
-        sample = np.sort(np.concatenate(samples, axis=1), axis=1) if samples else np.zeros((3, 0))
+        if not samples:
+            return cls(peak=peak, sample=np.zeros((3, 0)), scale=scale)
+        sample = np.concatenate(samples, axis=1)
+        # each type's samples sorted (as np.sort along axis 1) on the detection's threads
+        K.in_threads(lambda i: sample[i].sort(), sample.shape[0])
         return cls(peak=peak, sample=sample, scale=scale)
 
 
@@ -385,18 +391,25 @@ class SourceSeries:
         th = ", ".join(
             f"{k} {number(float(v))}" for k, v in zip(TYPES, self.thresholds, strict=False)
         )
-        return summary("SourceSeries", [
-            ("steps", f"{self.n_steps} on a {nx} × {ny} × {nz} grid, {span(self.times)}"),
-            ("sources", f"{counts_text(total)} over all steps; at most {busiest:,} in a step"),
-            ("thresholds", th), ("mapping", _mapping_name(self.meta.get("mapping")))])  # fmt: skip
+        return summary(
+            "SourceSeries",
+            [
+                ("steps", f"{self.n_steps} on a {nx} × {ny} × {nz} grid, {span(self.times)}"),
+                ("sources", f"{counts_text(total)} over all steps; at most {busiest:,} in a step"),
+                ("thresholds", th),
+                ("mapping", _mapping_name(self.meta.get("mapping"))),
+            ],
+        )
 
     def tracks(self) -> SourceTracks:
         """Per-vertex strength·ΔV over time for every vertex that is ever a source."""
         if not self.frames or all(f.index.size == 0 for f in self.frames):
             return SourceTracks(
-                positions=np.zeros((0, 3)), q=np.zeros((0, self.n_steps)),
-                radius=np.zeros(0), times=self.times.copy(),
-            )  # fmt: skip
+                positions=np.zeros((0, 3)),
+                q=np.zeros((0, self.n_steps)),
+                radius=np.zeros(0),
+                times=self.times.copy(),
+            )
         all_idx = np.concatenate([f.index for f in self.frames])
         uniq = np.unique(all_idx)
         q = np.zeros((uniq.size, self.n_steps))
@@ -407,8 +420,14 @@ class SourceSeries:
             q[pos, n] = f.strength * f.volume
             kind[pos, n] = f.kind
             np.maximum.at(rmax, pos, f.radius)
-        return SourceTracks(positions=self.positions(uniq), q=q, radius=rmax,
-                            times=self.times.copy(), index=uniq, kind=kind)  # fmt: skip
+        return SourceTracks(
+            positions=self.positions(uniq),
+            q=q,
+            radius=rmax,
+            times=self.times.copy(),
+            index=uniq,
+            kind=kind,
+        )
 
 
 @dataclass
@@ -444,9 +463,13 @@ class SourceTracks:
         if not self.n_sources:
             return f"<SourceTracks: no sources, {self.times.size} knots>"
         lo, hi = self.positions.min(axis=0), self.positions.max(axis=0)
-        box = " ".join(f"{a}[{number(a0)}, {number(a1)}]" for a, a0, a1 in zip("xyz", lo, hi, strict=True))  # fmt: skip
-        return (f"<SourceTracks: {self.n_sources:,} sources × {self.times.size} knots, "
-                f"{span([self.t_first, self.t_last])}, {box} m>")  # fmt: skip
+        box = " ".join(
+            f"{a}[{number(a0)}, {number(a1)}]" for a, a0, a1 in zip("xyz", lo, hi, strict=True)
+        )
+        return (
+            f"<SourceTracks: {self.n_sources:,} sources × {self.times.size} knots, "
+            f"{span([self.t_first, self.t_last])}, {box} m>"
+        )
 
     @property
     def t_first(self) -> float:
@@ -477,23 +500,35 @@ def valid_mask(volume: TimeVolume) -> NDArray[np.bool_] | None:
 SERIES_BYTES = 2 << 30
 
 
-def map_step(volume: TimeVolume, mapping: AcousticMapping, n: int,
-             valid: NDArray[np.bool_] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:  # fmt: skip
+def map_step(
+    volume: TimeVolume, mapping: AcousticMapping, n: int, valid: NDArray[np.bool_] | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Step ``n`` mapped: ``(rho, v, ok)``, no-data values replaced by 0 (see :class:`StepCache`)."""
     rho, v = mapping.map(volume, n)
     rho = np.ascontiguousarray(rho, dtype=np.float64)
     v = np.ascontiguousarray(v, dtype=np.float64)
     ok = valid
-    # (sums first: cheap, and finite whenever every value is, barring overflow)
-    if not (np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v))) and not (
-        np.isfinite(rho).all() and np.isfinite(v).all()
-    ):
+    if not _all_finite(rho, v):
         fin = np.isfinite(rho) & np.isfinite(v).all(axis=-1)
         ok = fin if ok is None else ok & fin
     if ok is not None:
         rho = np.where(ok, rho, 0.0)
         v = np.where(ok[..., None], v, 0.0)
     return rho, v, ok
+
+
+def _all_finite(rho: NDArray[np.float64], v: NDArray[np.float64]) -> bool:
+    """Whether every value of ``rho (nz, ny, nx)`` and ``v (nz, ny, nx, 3)`` is finite: sums
+    first (cheap, and finite whenever every value is, barring overflow), per slab on the
+    detection's threads when large (:func:`in_slabs`), then the values themselves."""
+    sums = [True] * max(1, rho.shape[0] if rho.ndim else 1)
+
+    def piece(sl: slice) -> None:
+        sums[sl.start] = bool(np.isfinite(np.sum(rho[sl])) and np.isfinite(np.sum(v[sl])))
+
+    if not in_slabs(piece, rho):
+        sums[0] = bool(np.isfinite(np.sum(rho)) and np.isfinite(np.sum(v)))
+    return all(sums) or bool(np.isfinite(rho).all() and np.isfinite(v).all())
 
 
 class MappedSeries:
@@ -510,13 +545,17 @@ class MappedSeries:
     ``maps`` counts the mapping evaluations.
     """
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
-                 max_bytes: int | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, volume: TimeVolume, mapping: AcousticMapping, *, max_bytes: int | None = None
+    ) -> None:
         self.volume, self.mapping = volume, mapping
         self.valid = valid_mask(volume)
         budget = series_bytes() if max_bytes is None else int(max_bytes)
         self.max_steps = budget // step_bytes(volume)
         self.frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
+        #: per step, each plane's (max|ρ|, max|ρv|, max|ρv ∘ v|) ``(nz, 3)``, gathered by
+        #: :func:`steady_anchors` as it compares the steps (:func:`input_scale`)
+        self.maxima: dict[int, np.ndarray] = {}
         self.maps = 0
 
     def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -543,51 +582,73 @@ def series_bytes() -> int:
 
 
 class StepCache:
-    """Mapped (ρ, v, ρv, ok) frames, kept for the three steps the stencil needs.
+    """Mapped (ρ, v, ok) frames, kept for the steps the stencils need.
 
     ``ok`` is None when every point of the step is valid and finite, else a
     bool mask; no-data values are replaced by 0 (they are masked out of the
     strengths by :func:`auralize.sources._kernels.mask_nodata`, never used).
     ``qmean`` is the quadrupole strength of the time-mean stress, subtracted
     from every step's (or None: the literal strengths).  With ``store``
-    (:class:`MappedSeries`) the mapped frames come from it.
+    (:class:`MappedSeries`) the mapped frames come from it.  The kernels take
+    the mass flux ρv from ρ and v; :meth:`get` makes it for other callers.
     """
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping, *,
-                 qmean: SteadyBase | NDArray[np.float64] | None = None,
-                 floor: float = 0.0, store: MappedSeries | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        volume: TimeVolume,
+        mapping: AcousticMapping,
+        *,
+        qmean: SteadyBase | NDArray[np.float64] | None = None,
+        floor: float = 0.0,
+        store: MappedSeries | None = None,
+    ) -> None:
         self.volume, self.mapping = volume, mapping
         self.valid = valid_mask(volume)
         self.qmean = qmean
         self.store = store
         #: strengths not above ``floor`` times their error estimate are zeroed (0: off)
         self.floor = check_floor(floor)
-        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = {}
+        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
+        self._flux: dict[int, np.ndarray] = {}
+        #: per-plane (max|ρ|, max|ρv|, max|ρv ∘ v|) ``(nz, 3)`` of steps (:func:`input_scale`)
+        self.maxima: dict[int, np.ndarray] = {}
         self.work: np.ndarray | None = None  # kernel scratch, reused between steps
         self.floor_work: np.ndarray | None = None  # scratch of the floor (2Δt momentum change)
         #: no-data points ``(nz, ny, nx)`` of the last step computed (None: none)
         self.nodata: np.ndarray | None = None
 
-    def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-        if n not in self._cache:
+    def frame(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step ``n``'s ``(rho, v, ok)``."""
+        hit = self._cache.get(n)
+        if hit is None:
             if self.store is not None:
-                rho, v, ok = self.store.get(n)
+                hit = self.store.get(n)
             else:
-                rho, v, ok = map_step(self.volume, self.mapping, n, self.valid)
-            self._cache[n] = (rho, v, rho[..., None] * v, ok)
-        return self._cache[n]
+                hit = map_step(self.volume, self.mapping, n, self.valid)
+            self._cache[n] = hit
+        return hit
+
+    def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step ``n``'s ``(rho, v, rho v, ok)``."""
+        rho, v, ok = self.frame(n)
+        m = self._flux.get(n)
+        if m is None:
+            m = self._flux[n] = rho[..., None] * v
+        return rho, v, m, ok
 
     def keep(self, lo: int, hi: int) -> None:
         """Drop the frames outside steps ``[lo, hi]`` (one more on each side when the
         floor's 2Δt stencil reads them)."""
         if self.floor > 0:
             lo, hi = lo - 1, hi + 1
-        for k in [k for k in self._cache if k < lo or k > hi]:
-            del self._cache[k]
+        for store in (self._cache, self._flux, self.maxima):
+            for k in [k for k in store if k < lo or k > hi]:
+                del store[k]
 
 
-def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
-                   out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
+def step_strengths(
+    volume: TimeVolume, cache: StepCache, n: int, out: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
     """Strengths ``(3, nz, ny, nx)`` (monopole, dipole, quadrupole) at step ``n``.
 
     A point is no-data at step n when it is invalid or non-finite at any of
@@ -600,77 +661,148 @@ def step_strengths(volume: TimeVolume, cache: StepCache, n: int,
     > 0, a strength not above that many times its discretisation-error
     estimate (:func:`auralize.sources._kernels._error_stencil`: the h and 2h
     stencils compared) or above round-off (:data:`ROUNDOFF` of
-    :func:`input_scale`) is 0: it is not a source.
+    :func:`input_scale`) is 0: it is not a source.  On a uniform grid all of
+    it is one sweep along z (:func:`auralize.sources._kernels.detect_step`).
     """
     T = volume.n_steps
     a, b = max(n - 1, 0), min(n + 1, T - 1)
-    rho_a, _, m_a, ok_a = cache.get(a)
-    rho_b, _, m_b, ok_b = cache.get(b)
-    rho_c, v_c, _, ok_c = cache.get(n)
+    rho_a, v_a, ok_a = cache.frame(a)
+    rho_b, v_b, ok_b = cache.frame(b)
+    rho_c, v_c, ok_c = cache.frame(n)
     if out is None:
         out = K.empty_like_strengths(volume.shape)
     inv_dt = 1.0 / (volume.times[b] - volume.times[a])
+    oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
+    cache.nodata = ~(oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)) if oks else None
+    if volume.metric is None:
+        _uniform_strengths(volume, cache, n, a=a, b=b, inv_dt=inv_dt, out=out)
+        return out
     metric = volume.metric
-    if metric is None:
-        cache.work = K.strengths(rho_a, rho_b, m_a, m_b, inv_dt, rho_c, v_c, volume.spacing,
-                                 out, cache.work)  # fmt: skip
-    else:
-        if cache.work is None or cache.work.shape != (9, *volume.shape):
-            cache.work = np.empty((9, *volume.shape))
-        K.prepare_render(rho_a, rho_b, m_a, m_b, rho_c, v_c, cache.work[:3], cache.work[3:])
-        curvilinear_strengths(metric, rho_a, rho_b, cache.work[:3], cache.work[3:], inv_dt, out)
-    tt = cache.work[3:]
+    if cache.work is None or cache.work.shape != (9, *volume.shape):
+        cache.work = np.empty((9, *volume.shape))
+    dm, tt = cache.work[:3], cache.work[3:]
+    K.momentum_change(rho_a, v_a, rho_b, v_b, dm)
+    K.stress(rho_c, v_c, tt)
+    curvilinear_strengths(metric, rho_a, rho_b, dm, tt, inv_dt=inv_dt, out=out)
     base = cache.qmean
     if isinstance(base, SteadyBase):
         base.subtract(n, out[2], tt, with_stress=cache.floor > 0)
     elif base is not None:
         np.subtract(out[2], base, out=out[2])
-    oks = [o for o in (ok_a, ok_b, ok_c) if o is not None]
-    if oks:
-        ok = oks[0] if len(oks) == 1 else np.logical_and.reduce(oks)
-        cache.nodata = ~ok
-        if metric is None:
-            K.mask_nodata(cache.nodata, out)
-        else:
-            metric.mask_nodata(cache.nodata, out)
-    else:
-        cache.nodata = None
+    if cache.nodata is not None:
+        metric.mask_nodata(cache.nodata, out)
     if cache.floor > 0:
-        _apply_floor(volume, cache, n, a, b, inv_dt, out)
+        _apply_floor(volume, cache, n, a=a, b=b, inv_dt=inv_dt, out=out)
     return out
 
 
-def _apply_floor(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int, inv_dt: float,
-                 out: NDArray[np.float64]) -> None:  # fmt: skip
-    """Zero the strengths of step ``n`` within their discretisation error (see :func:`step_strengths`)."""
+def _wide_steps(volume: TimeVolume, cache: StepCache, n: int, a: int, b: int) -> tuple[Any, ...]:
+    """The frames of steps n-2 and n+2 (clipped) the floor's 2Δt stencil reads, its inverse
+    time span (0 when the series is too short for it), and the no-data points of the
+    error estimates: the step's and those without data at n-2 or n+2."""
     T = volume.n_steps
     a2, b2 = max(n - 2, 0), min(n + 2, T - 1)
     wide = (a2, b2) != (a, b)
-    rho_a2, _, m_a2, ok_a2 = cache.get(a2)
-    rho_b2, _, m_b2, ok_b2 = cache.get(b2)
+    rho_a2, v_a2, ok_a2 = cache.frame(a2)
+    rho_b2, v_b2, ok_b2 = cache.frame(b2)
     inv_dt2 = 1.0 / (volume.times[b2] - volume.times[a2]) if wide else 0.0
-    if cache.floor_work is None or cache.floor_work.shape != out.shape:
-        cache.floor_work = np.empty_like(out)
-    dm2 = cache.floor_work  # the momentum change over 2Δt, planar
-    K.momentum_change(m_a2, m_b2, dm2)
     bad = cache.nodata
     extra = [o for o in (ok_a2, ok_b2) if o is not None]
     if extra:
         wider = ~np.logical_and.reduce(extra)
         bad = wider if bad is None else bad | wider
-    if bad is None:
-        bad = _no_bad(volume.shape)
-    work = cache.work
-    assert work is not None
+    return rho_a2, v_a2, rho_b2, v_b2, inv_dt2, (_no_bad(volume.shape) if bad is None else bad)
+
+
+def _uniform_strengths(
+    volume: TimeVolume,
+    cache: StepCache,
+    n: int,
+    *,
+    a: int,
+    b: int,
+    inv_dt: float,
+    out: NDArray[np.float64],
+) -> None:
+    """:func:`step_strengths` on a uniform grid: :func:`auralize.sources._kernels.detect_step`."""
+    rho_a, v_a, _ = cache.frame(a)
+    rho_b, v_b, _ = cache.frame(b)
+    rho_c, v_c, _ = cache.frame(n)
+    nodata = _no_bad(volume.shape) if cache.nodata is None else cache.nodata
+    if cache.floor > 0:
+        rho_a2, v_a2, rho_b2, v_b2, inv_dt2, bad = _wide_steps(volume, cache, n, a, b)
+        roundoff = ROUNDOFF * input_scale(volume, cache, n)
+    else:
+        rho_a2, v_a2, rho_b2, v_b2, inv_dt2, bad = rho_a, v_a, rho_b, v_b, 0.0, nodata
+        roundoff = np.zeros(3)
+    base = cache.qmean
+    if isinstance(base, SteadyBase):
+        steady = base.parts(n)
+    elif base is not None:
+        given = np.ascontiguousarray(base, dtype=np.float64)
+        steady = (K.STEADY_GIVEN, 0.0, given, *_NO_STEADY[1:])
+    else:
+        steady = (K.STEADY_NONE, 0.0, *_NO_STEADY)
+    rowbad = _NO_ROWS.get(volume.shape) if bad is _NO_BAD.get(volume.shape) else None
+    K.detect_step(
+        (rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2),
+        steady,
+        nodata,
+        bad,
+        inv_dt,
+        inv_dt2,
+        volume.spacing,
+        cache.floor,
+        roundoff,
+        out,
+        rowbad=rowbad,
+    )
+
+
+#: the steady state's arrays when there is none (:func:`auralize.sources._kernels.detect_step`)
+_NO_STEADY = (
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0, 0)),
+    np.empty((0, 0, 0)),
+    np.empty((0, 0, 0, 0)),
+)
+
+
+def _apply_floor(
+    volume: TimeVolume,
+    cache: StepCache,
+    n: int,
+    *,
+    a: int,
+    b: int,
+    inv_dt: float,
+    out: NDArray[np.float64],
+) -> None:
+    """Zero the strengths of step ``n`` on a curvilinear grid within their discretisation
+    error (see :func:`step_strengths`)."""
+    assert volume.metric is not None and cache.work is not None
+    rho_a2, v_a2, rho_b2, v_b2, inv_dt2, bad = _wide_steps(volume, cache, n, a, b)
+    if cache.floor_work is None or cache.floor_work.shape != out.shape:
+        cache.floor_work = np.empty_like(out)
+    dm2 = cache.floor_work  # the momentum change over 2Δt, planar
+    K.momentum_change(rho_a2, v_a2, rho_b2, v_b2, dm2)
     roundoff = ROUNDOFF * input_scale(volume, cache, n)
-    if volume.metric is not None:
-        err = curvilinear_errors(volume.metric, out, rho_a2, rho_b2, work[:3], dm2, work[3:],
-                                 bad, inv_dt, inv_dt2)  # fmt: skip
-        K.apply_floor(out, err, float(cache.floor), roundoff)
-        return
-    K.floor_strengths(out, rho_a2, rho_b2, work[:3], dm2, work[3:], bad, inv_dt, inv_dt2,
-                      np.asarray(volume.spacing, dtype=np.float64), float(cache.floor),
-                      roundoff)  # fmt: skip
+    work = cache.work
+    err = curvilinear_errors(
+        volume.metric,
+        out,
+        rho_a2=rho_a2,
+        rho_b2=rho_b2,
+        dm=work[:3],
+        dm2=dm2,
+        tt=work[3:],
+        bad=bad,
+        inv_dt=inv_dt,
+        inv_dt2=inv_dt2,
+    )
+    K.apply_floor(out, err, float(cache.floor), roundoff)
 
 
 _NO_BAD: dict[tuple[int, ...], NDArray[np.bool_]] = {}
@@ -683,8 +815,14 @@ def _no_bad(shape: tuple[int, ...]) -> NDArray[np.bool_]:
     if m is None:
         if len(_NO_BAD) > 4:
             _NO_BAD.clear()
+            _NO_ROWS.clear()
         m = _NO_BAD[shape] = np.zeros(shape, dtype=bool)
+        _NO_ROWS[shape] = np.zeros(shape[:2], dtype=bool)
     return m
+
+
+#: the rows with a no-data point of each :func:`_no_bad` mask (none)
+_NO_ROWS: dict[tuple[int, ...], NDArray[np.bool_]] = {}
 
 
 def check_floor(floor: float) -> float:
@@ -703,9 +841,13 @@ def check_floor(floor: float) -> float:
 STEADY_RTOL = 1e-6
 
 
-def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
-                   rtol: float = STEADY_RTOL,
-                   store: MappedSeries | None = None) -> NDArray[np.int64]:  # fmt: skip
+def steady_anchors(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    *,
+    rtol: float = STEADY_RTOL,
+    store: MappedSeries | None = None,
+) -> NDArray[np.int64]:
     """The steps where the field is in its own steady state: the first and the
     last step, and both ends of every step over which nothing changed (the mapped
     density and mass flux within ``rtol`` of their largest magnitude).
@@ -719,18 +861,31 @@ def steady_anchors(volume: TimeVolume, mapping: AcousticMapping, *,
     if T < 3 or mapping.unavailable(volume).get("quadrupole"):
         return np.array(sorted(anchors), dtype=np.int64)
     cache = StepCache(volume, mapping, store=store)
+    r0, v0, _ = cache.frame(0)
+    before = K.input_maxima_planes(r0, v0)
+    if store is not None:
+        store.maxima[0] = before
     for n in range(1, T):
-        r0, _, m0, _ = cache.get(n - 1)
-        r1, _, m1, _ = cache.get(n)
-        # max|r0|, max|r1|, max|r1 - r0| (and of m) in one compiled pass each
-        a0, a1, dr = K.absmax_pair(r0, r1)
-        b0, b1, dm = K.absmax_pair(m0, m1)
+        r0, v0, _ = cache.frame(n - 1)
+        r1, v1, _ = cache.frame(n)
+        # max|r1 - r0| and max|m1 - m0|, m = ρv, with step n's input maxima, in one
+        # compiled pass; the frames are finite, so the maxima are the NaN-free ones
+        dr, dm, now = K.step_change(r0, v0, r1, v1)
+        if store is not None:
+            store.maxima[n] = now
+        (a0, b0, _), (a1, b1, _) = before.max(axis=0, initial=0.0), now.max(axis=0, initial=0.0)
+        before = now
         scale_r = max(a0, a1)
         scale_m = max(b0, b1)
         if dr <= rtol * scale_r and dm <= rtol * scale_m:
             anchors.update((n - 1, n))
         cache.keep(n, n)
     return np.array(sorted(anchors), dtype=np.int64)
+
+
+#: anchors whose quadrupole strength :class:`SteadyBase` keeps: the two around a step, and
+#: a third for the steps detected at the same time on either side of an anchor
+ANCHORS_KEPT = 3
 
 
 class SteadyBase:
@@ -756,30 +911,59 @@ class SteadyBase:
         Sorted anchor steps (:func:`steady_anchors`).
     """
 
-    def __init__(self, volume: TimeVolume, mapping: AcousticMapping,
-                 anchors: NDArray[np.integer], *, store: MappedSeries | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        volume: TimeVolume,
+        mapping: AcousticMapping,
+        anchors: NDArray[np.integer],
+        *,
+        store: MappedSeries | None = None,
+    ) -> None:
         self.volume, self.mapping = volume, mapping
         self.anchors = np.unique(np.asarray(anchors, dtype=np.int64))
         self.store = store
-        self._held: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        #: per anchor step: the quadrupole strength of its stress, its density and velocity
+        self._held: dict[
+            int, tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+        ] = {}
+        self._tt: dict[int, NDArray[np.float64]] = {}
+        self._lock = threading.Lock()  # detection's threads share the anchors
 
     def for_volume(self, volume: TimeVolume, mapping: AcousticMapping | None = None) -> SteadyBase:
         """The same anchors on another volume (a slab of this one)."""
         return SteadyBase(volume, self.mapping if mapping is None else mapping, self.anchors)
 
+    def _anchor(
+        self, a: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Anchor step ``a``'s ``(S_q of its stress, rho, v)`` (the last :data:`ANCHORS_KEPT`
+        anchors kept)."""
+        with self._lock:
+            hit = self._held.get(a)
+            if hit is None:
+                rho, v, _ = StepCache(self.volume, self.mapping, store=self.store).frame(a)
+                tt = np.ascontiguousarray(_stress(rho, v))
+                metric = self.volume.metric
+                sq = (
+                    K.quadrupole_of_stress(tt, self.volume.spacing)
+                    if metric is None
+                    else metric.quadrupole(tt)
+                )
+                hit = (sq, rho, v)
+                if len(self._held) >= ANCHORS_KEPT:
+                    gone = next(iter(self._held))
+                    self._held.pop(gone)
+                    self._tt.pop(gone, None)
+                self._held[a] = hit
+            return hit
+
     def _state(self, a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        hit = self._held.get(a)
-        if hit is None:
-            rho, v, _, _ = StepCache(self.volume, self.mapping, store=self.store).get(a)
-            tt = np.ascontiguousarray(_stress(rho, v))
-            metric = self.volume.metric
-            sq = (K.quadrupole_of_stress(tt, self.volume.spacing) if metric is None
-                  else metric.quadrupole(tt))  # fmt: skip
-            hit = (sq, tt)
-            if len(self._held) >= 2:
-                self._held.pop(next(iter(self._held)))
-            self._held[a] = hit
-        return hit
+        """Anchor step ``a``'s ``(S_q, stress)``."""
+        sq, rho, v = self._anchor(a)
+        tt = self._tt.get(a)
+        if tt is None:
+            tt = self._tt[a] = np.ascontiguousarray(_stress(rho, v))
+        return sq, tt
 
     def at(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         """``(S_q, stress)`` of the steady state at step ``n``, or None at an anchor
@@ -794,8 +978,23 @@ class SteadyBase:
         sb, tb = self._state(b)
         return (1.0 - f) * sa + f * sb, (1.0 - f) * ta + f * tb
 
-    def subtract(self, n: int, sq: NDArray[np.float64], tt: NDArray[np.float64], *,
-                 with_stress: bool) -> None:  # fmt: skip
+    def parts(self, n: int) -> tuple[Any, ...]:
+        """The steady state at step ``n`` as :func:`auralize.sources._kernels.detect_step`
+        takes it: ``(mode, f, sa, sb, rho_a, v_a, rho_b, v_b)``, the anchors' quadrupole
+        strengths and their frames (whose stress :meth:`subtract` subtracts)."""
+        i = int(np.searchsorted(self.anchors, n))
+        if i < self.anchors.size and self.anchors[i] == n:
+            return (K.STEADY_ANCHOR, 0.0, *_NO_STEADY)
+        a, b = int(self.anchors[i - 1]), int(self.anchors[i])
+        t = self.volume.times
+        f = float((t[n] - t[a]) / (t[b] - t[a]))
+        sa, ra, va = self._anchor(a)
+        sb, rb, vb = self._anchor(b)
+        return (K.STEADY_BETWEEN, f, sa, sb, ra, va, rb, vb)
+
+    def subtract(
+        self, n: int, sq: NDArray[np.float64], tt: NDArray[np.float64], *, with_stress: bool
+    ) -> None:
         """Subtract the steady state at step ``n`` from the quadrupole strength ``sq``
         (and, ``with_stress``, from the stress ``tt``) in place: ``sq - at(n)[0]``
         (0 at an anchor) in one compiled pass, without :meth:`at`'s arrays."""
@@ -819,8 +1018,13 @@ def _stress(rho: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.floa
 STRESS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
-def steady_strength(volume: TimeVolume, m: AcousticMapping, steady: str = "remove", *,
-                    store: MappedSeries | None = None) -> SteadyBase | None:  # fmt: skip
+def steady_strength(
+    volume: TimeVolume,
+    m: AcousticMapping,
+    steady: str = "remove",
+    *,
+    store: MappedSeries | None = None,
+) -> SteadyBase | None:
     """The field's local steady state to subtract (``steady="remove"``,
     :class:`SteadyBase`), or None (``"keep"``); ``store`` as :func:`steady_anchors`."""
     if check_steady(steady) == "keep":
@@ -828,8 +1032,13 @@ def steady_strength(volume: TimeVolume, m: AcousticMapping, steady: str = "remov
     return SteadyBase(volume, m, steady_anchors(volume, m, store=store), store=store)
 
 
-def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None = None,
-                      step: int = 0, *, steady: str = "remove") -> NDArray[np.float64]:  # fmt: skip
+def compute_strengths(
+    volume: TimeVolume,
+    mapping: str | AcousticMapping | None = None,
+    step: int = 0,
+    *,
+    steady: str = "remove",
+) -> NDArray[np.float64]:
     """Strengths ``(3, nz, ny, nx)`` at one step (convenience for inspection).
 
     ``steady="remove"`` (default, as :func:`detect`): those of the time-varying
@@ -838,8 +1047,9 @@ def compute_strengths(volume: TimeVolume, mapping: str | AcousticMapping | None 
     require_steps(volume)
     m = get_mapping(mapping)
     m.prepare(volume)
-    return step_strengths(volume, StepCache(volume, m, qmean=steady_strength(volume, m, steady)),
-                          step)  # fmt: skip
+    return step_strengths(
+        volume, StepCache(volume, m, qmean=steady_strength(volume, m, steady)), step
+    )
 
 
 def check_steady(steady: str) -> str:
@@ -857,9 +1067,15 @@ def delta_v_rule(delta_v: str) -> int:
         ) from None
 
 
-def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], spacing: NDArray[np.float64],
-             *, zero_fraction: float = 1.0, delta_v: str = "cell",
-             cell: NDArray[np.float64] | None = None) -> tuple[NDArray[np.int8], NDArray[np.float64]]:  # fmt: skip
+def classify(
+    strengths: NDArray[np.float64],
+    thresholds: NDArray[np.float64],
+    spacing: NDArray[np.float64],
+    *,
+    zero_fraction: float = 1.0,
+    delta_v: str = "cell",
+    cell: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
     """Classify vertices and compute ΔV radii from strengths ``(3, nz, ny, nx)``.
 
     Returns ``kind (nz, ny, nx)`` int8 (0 none, 1 monopole, 2 dipole,
@@ -885,19 +1101,48 @@ def classify(strengths: NDArray[np.float64], thresholds: NDArray[np.float64], sp
     return kind, radius
 
 
-def extract(kind: NDArray[np.int8], radius: NDArray[np.float64],
-            strengths: NDArray[np.float64]) -> SourceFrame:  # fmt: skip
+def classify_sources(
+    strengths: NDArray[np.float64],
+    thresholds: NDArray[np.float64],
+    spacing: NDArray[np.float64],
+    *,
+    zero_fraction: float = 1.0,
+    delta_v: str = "cell",
+    cell: NDArray[np.float64] | None = None,
+    kinds: NDArray[np.int8] | None = None,
+) -> SourceFrame:
+    """:func:`classify` then :func:`extract`, the same :class:`SourceFrame`, without the
+    arrays of every point's radius (:func:`auralize.sources._kernels.sources`).
+
+    ``kinds``: optional int8 scratch of the grid's shape, reused between steps.
+    """
+    s = np.ascontiguousarray(strengths, dtype=np.float64)
+    thr = np.asarray(thresholds, dtype=np.float64)
+    h = np.ones(3) if cell is not None else np.asarray(spacing, dtype=np.float64)
+    idx, kind, strength, radius = K.sources(
+        s, thr, thr * zero_fraction, h, delta_v_rule(delta_v), kinds
+    )
+    if cell is not None:
+        radius *= np.cbrt(cell.reshape(-1)[idx])
+    return SourceFrame(index=idx, kind=kind, strength=strength, radius=radius)
+
+
+def extract(
+    kind: NDArray[np.int8], radius: NDArray[np.float64], strengths: NDArray[np.float64]
+) -> SourceFrame:
     """Gather the source points of one step into a :class:`SourceFrame`."""
     flat_kind = kind.reshape(-1)
     idx = np.flatnonzero(flat_kind)
     k = flat_kind[idx]
     s = strengths.reshape(3, -1)[k.astype(np.intp) - 1, idx]
-    return SourceFrame(index=idx.astype(np.int64), kind=k, strength=s,
-                       radius=radius.reshape(-1)[idx])  # fmt: skip
+    return SourceFrame(
+        index=idx.astype(np.int64), kind=k, strength=s, radius=radius.reshape(-1)[idx]
+    )
 
 
-def gradient(f: NDArray[np.float64], spacing: NDArray[np.float64],
-             scale: float = 1.0) -> NDArray[np.float64]:  # fmt: skip
+def gradient(
+    f: NDArray[np.float64], spacing: NDArray[np.float64], scale: float = 1.0
+) -> NDArray[np.float64]:
     """∇f · ``scale`` ``(nz, ny, nx, 3)`` (components x, y, z) of ``f (nz, ny, nx)``:
     :func:`numpy.gradient`'s differences (central inside, one-sided at the faces;
     0 along an axis of one point) in the compiled stencil, the same numbers."""
@@ -905,6 +1150,37 @@ def gradient(f: NDArray[np.float64], spacing: NDArray[np.float64],
     out = np.empty((*f.shape, 3))
     K.gradient(f, np.asarray(spacing, dtype=np.float64), float(scale), out)
     return out
+
+
+def in_threads(fn: Any, n: int) -> None:
+    """Call ``fn(i)`` for ``0 <= i < n`` on the detection's threads
+    (:func:`auralize.sources._kernels.in_threads`); ``fn`` releases the GIL."""
+    K.in_threads(fn, n)
+
+
+#: arrays of at least this many values are worked on in slabs on the detection's threads
+SLAB_SPLIT = 1 << 16
+
+
+def in_slabs(fn: Any, x: NDArray[Any]) -> bool:
+    """Call ``fn(sl)`` for slices ``sl`` that split the first axis of ``x`` into one slab
+    per thread, on the detection's threads (``fn`` runs numpy, which releases the GIL);
+    False (nothing called) when ``x`` is too small to be worth it (:data:`SLAB_SPLIT`)."""
+    if x.size < SLAB_SPLIT or x.ndim == 0 or x.shape[0] < 2:
+        return False
+    threads = K.thread_count()
+    n = min(x.shape[0], threads)
+    edges = K.split(x.shape[0], n)
+    K.in_threads(lambda i: fn(slice(edges[i], edges[i + 1])), n, threads)
+    return True
+
+
+def gradient_max(
+    f: NDArray[np.float64], spacing: NDArray[np.float64], out: NDArray[np.float64]
+) -> float:
+    """:func:`gradient` (scale 1) into ``out (nz, ny, nx, 3)``, and :func:`gradient_absmax`
+    of it, in one pass."""
+    return float(K.gradient_max(f, np.asarray(spacing, dtype=np.float64), out))
 
 
 def gradient_absmax(f: NDArray[np.float64], spacing: NDArray[np.float64]) -> float:
@@ -921,8 +1197,9 @@ def require_steps(volume: TimeVolume) -> None:
         )
 
 
-def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
-                hi: int | None = None) -> NDArray[np.float64]:  # fmt: skip
+def input_scale(
+    volume: TimeVolume, cache: StepCache, n: int, lo: int = 0, hi: int | None = None
+) -> NDArray[np.float64]:
     """Size of the terms each strength of step ``n`` is a difference of (planes ``[lo, hi)``).
 
     ``max|ρ|/Δt`` (monopole), ``max|ρv|/(h Δt)`` (dipole) and
@@ -930,34 +1207,68 @@ def input_scale(volume: TimeVolume, cache: StepCache, n: int, lo: int = 0,
     a strength far below it is round-off (e.g. the dipole strength of a
     divergence-free flow), not a source.
     """
-    rho, v, m, _ = cache.get(n)
     sl = slice(lo, hi)
     dt = float(np.min(np.diff(volume.times)))
     live = [volume.spacing[a] for a in range(3) if volume.dims[a] > 1]
     h = float(min(live)) if live else 1.0
-    r, mm, t = K.input_maxima(rho[sl], m[sl], v[sl])
+    planes = cache.maxima.get(n)
+    if planes is None and cache.store is not None:
+        planes = cache.store.maxima.get(n)
+    if planes is None:
+        rho, v, _ = cache.frame(n)
+        planes = cache.maxima[n] = K.input_maxima_planes(rho, v)
+    r, mm, t = np.max(planes[sl], axis=0, initial=0.0)
     return np.array([r / dt, mm / (h * dt), t / (h * h)])
 
 
-def sample_stats(s: NDArray[np.float64], nodata: NDArray[np.bool_] | None, offset: int,
-                 n_points: int, scale: NDArray[np.float64] | None = None) -> StrengthStats:  # fmt: skip
+def sample_stats(
+    s: NDArray[np.float64],
+    nodata: NDArray[np.bool_] | None,
+    offset: int,
+    n_points: int,
+    scale: NDArray[np.float64] | None = None,
+) -> StrengthStats:
     """:class:`StrengthStats` of one step's strengths ``(3, ...)`` (or a slab's planes).
 
     ``offset`` is the global flat index of the first point of ``s``,
     ``n_points`` the number of points of the whole grid: the sampled points
     depend on the global index only.
     """
-    a = np.abs(s).reshape(3, -1)
-    keep = None if nodata is None else ~nodata.reshape(-1)
+    flat = s.reshape(3, -1)
+    a = np.abs(flat)
     if n_points > SAMPLE_POINTS:
-        idx = np.arange(offset, offset + a.shape[1], dtype=np.uint64)
-        h = (idx * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
-        pick = h < np.uint64(int(SAMPLE_POINTS / n_points * 2**32))
-        keep = pick if keep is None else keep & pick
-    sample = a if keep is None else a[:, keep]
+        # the sampled points (:func:`_sampled_points`), less those without data
+        idx = _sampled_points(offset, flat.shape[1], n_points)
+        if nodata is not None:
+            idx = idx[~nodata.reshape(-1)[idx]]
+        sample = a[:, idx]
+    else:
+        sample = a if nodata is None else a[:, ~nodata.reshape(-1)]
     peak = a.max(axis=1) if a.size else np.zeros(3)
-    return StrengthStats(peak=peak, sample=sample.copy(),
-                         scale=np.zeros(3) if scale is None else np.asarray(scale, dtype=np.float64))  # fmt: skip
+    return StrengthStats(
+        peak=peak,
+        sample=sample.copy(),
+        scale=np.zeros(3) if scale is None else np.asarray(scale, dtype=np.float64),
+    )
+
+
+_SAMPLED: dict[tuple[int, int, int], NDArray[np.intp]] = {}
+
+
+def _sampled_points(offset: int, size: int, n_points: int) -> NDArray[np.intp]:
+    """Where in a run of ``size`` points from global flat index ``offset`` (of ``n_points``) the
+    points sampled for the statistics are: those whose index hashes below
+    :data:`SAMPLE_POINTS` / ``n_points`` of the hash range, the same at every step (cached)."""
+    key = (offset, size, n_points)
+    hit = _SAMPLED.get(key)
+    if hit is None:
+        g = np.arange(offset, offset + size, dtype=np.uint64)
+        h = (g * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
+        hit = np.flatnonzero(h < np.uint64(int(SAMPLE_POINTS / n_points * 2**32)))
+        if len(_SAMPLED) > 64:
+            _SAMPLED.clear()
+        _SAMPLED[key] = hit
+    return hit
 
 
 def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.int64]:
@@ -965,12 +1276,17 @@ def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np
     return np.unique(np.linspace(0, n_steps - 1, min(max_steps, n_steps)).round()).astype(np.int64)
 
 
-def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
-                   qmean: SteadyBase | NDArray[np.float64] | None = None,
-                   max_steps: int = AUTO_SAMPLE_STEPS, floor: float = 0.0,
-                   progress_bar: bool = False, store: MappedSeries | None = None,
-                   keep: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
-                   ) -> StrengthStats:  # fmt: skip
+def strength_stats(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    *,
+    qmean: SteadyBase | NDArray[np.float64] | None = None,
+    max_steps: int = AUTO_SAMPLE_STEPS,
+    floor: float = 0.0,
+    progress_bar: bool = False,
+    store: MappedSeries | None = None,
+    keep: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
+) -> StrengthStats:
     """|S| statistics of each type over evenly spaced sample steps (valid points only;
     strengths within their discretisation error are 0 with ``floor`` > 0, see
     :func:`step_strengths`).
@@ -984,28 +1300,43 @@ def strength_stats(volume: TimeVolume, mapping: AcousticMapping, *,
     parts = []
     steps = sample_steps(volume.n_steps, max_steps)
     for n in progress(steps, desc="peak pass", enabled=progress_bar, unit="step"):
+        if keep is not None:  # each kept step's strengths in their own array
+            buf = K.empty_like_strengths(volume.shape)
         s = step_strengths(volume, cache, int(n), buf)
-        parts.append(sample_stats(s, cache.nodata, 0, volume.n_points,
-                                  input_scale(volume, cache, int(n))))  # fmt: skip
+        parts.append(
+            sample_stats(s, cache.nodata, 0, volume.n_points, input_scale(volume, cache, int(n)))
+        )
         if keep is not None:
-            keep[int(n)] = (s.copy(), cache.nodata)
+            keep[int(n)] = (s, cache.nodata)
         cache.keep(int(n), int(n))
     return StrengthStats.merge(parts)
 
 
-def peak_strengths(volume: TimeVolume, mapping: AcousticMapping, *,
-                   max_steps: int = AUTO_SAMPLE_STEPS,
-                   progress_bar: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def peak_strengths(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    *,
+    max_steps: int = AUTO_SAMPLE_STEPS,
+    progress_bar: bool = False,
+) -> NDArray[np.float64]:
     """Largest |S| of each type over evenly spaced sample steps (3,) (literal strengths)."""
     return strength_stats(volume, mapping, max_steps=max_steps, progress_bar=progress_bar).peak
 
 
-def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64], *,
-                zero_fraction: float = 1.0, steps: range | None = None,
-                progress_bar: bool = False, qmean: SteadyBase | NDArray[np.float64] | None = None,
-                delta_v: str = "cell", floor: float = 0.0, store: MappedSeries | None = None,
-                known: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
-                ) -> Iterator[tuple[int, SourceFrame]]:  # fmt: skip
+def iter_detect(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    thr: NDArray[np.float64],
+    *,
+    zero_fraction: float = 1.0,
+    steps: range | None = None,
+    progress_bar: bool = False,
+    qmean: SteadyBase | NDArray[np.float64] | None = None,
+    delta_v: str = "cell",
+    floor: float = 0.0,
+    store: MappedSeries | None = None,
+    known: dict[int, tuple[np.ndarray, np.ndarray | None]] | None = None,
+) -> Iterator[tuple[int, SourceFrame]]:
     """Yield ``(step, SourceFrame)`` for each step, reading frames one at a time.
 
     Each frame's ``n_valid`` is the number of points with data at that step;
@@ -1014,24 +1345,139 @@ def iter_detect(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     same ``qmean`` and ``floor`` (:func:`strength_stats`'s ``keep``), used
     (and dropped) instead of computing them again.
     """
-    cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
-    buf = K.empty_like_strengths(volume.shape)
-    cell = None if volume.metric is None else volume.metric.jac
     steps = steps if steps is not None else range(volume.n_steps)
     known = {} if known is None else known
+    threads = K.thread_count()
+    # a step at a time on each thread when every frame is mapped once and for all (a
+    # uniform grid: its kernels run on the calling thread), else the threads share each step
+    if (
+        threads > 1
+        and len(steps) > 1
+        and volume.metric is None
+        and store is not None
+        and store.max_steps >= volume.n_steps
+    ):
+        yield from _detect_side_by_side(
+            volume,
+            mapping,
+            thr,
+            steps,
+            threads,
+            progress_bar=progress_bar,
+            zero_fraction=zero_fraction,
+            qmean=qmean,
+            delta_v=delta_v,
+            floor=floor,
+            store=store,
+            known=known,
+        )
+        return
+    work = _StepWork(volume, mapping, qmean, floor, store)
     for n in progress(steps, desc="detect", enabled=progress_bar, unit="step"):
+        yield n, work.detect(n, thr, known, zero_fraction, delta_v)
+        work.cache.keep(n, n + 1)
+
+
+class _StepWork:
+    """What detecting one step at a time needs: a :class:`StepCache` and scratch arrays."""
+
+    def __init__(
+        self,
+        volume: TimeVolume,
+        mapping: AcousticMapping,
+        qmean: SteadyBase | NDArray[np.float64] | None,
+        floor: float,
+        store: MappedSeries | None,
+    ) -> None:
+        self.volume = volume
+        self.cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
+        self.buf = K.empty_like_strengths(volume.shape)
+        self.kinds = np.empty(volume.shape, dtype=np.int8)  # scratch of classify_sources
+        self.cell = None if volume.metric is None else volume.metric.jac
+
+    def detect(
+        self,
+        n: int,
+        thr: NDArray[np.float64],
+        known: dict[int, tuple[np.ndarray, np.ndarray | None]],
+        zero_fraction: float,
+        delta_v: str,
+    ) -> SourceFrame:
+        """The sources of step ``n`` (its strengths from ``known`` when there)."""
+        volume = self.volume
         hit = known.pop(n, None)
         if hit is None:
-            s = step_strengths(volume, cache, n, buf)
-            nodata = cache.nodata
+            s = step_strengths(volume, self.cache, n, self.buf)
+            nodata = self.cache.nodata
         else:
             s, nodata = hit
-        kind, radius = classify(s, thr, volume.spacing, zero_fraction=zero_fraction,
-                                delta_v=delta_v, cell=cell)  # fmt: skip
-        f = extract(kind, radius, s)
+        f = classify_sources(
+            s,
+            thr,
+            volume.spacing,
+            zero_fraction=zero_fraction,
+            delta_v=delta_v,
+            cell=self.cell,
+            kinds=self.kinds,
+        )
         f.n_valid = volume.n_points - (0 if nodata is None else int(nodata.sum()))
-        yield n, f
-        cache.keep(n, n + 1)
+        return f
+
+
+def _detect_side_by_side(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    thr: NDArray[np.float64],
+    steps: range,
+    threads: int,
+    *,
+    progress_bar: bool,
+    zero_fraction: float,
+    qmean: SteadyBase | NDArray[np.float64] | None,
+    delta_v: str,
+    floor: float,
+    store: MappedSeries,
+    known: dict[int, tuple[np.ndarray, np.ndarray | None]],
+) -> Iterator[tuple[int, SourceFrame]]:
+    """:func:`iter_detect` with ``threads`` steps detected at a time, each whole on one thread
+    (its kernels on that thread alone: no block of planes waits for another, and no
+    plane is computed twice at the blocks' edges), yielded in order.
+
+    The steps go in batches of :data:`SIDE_BY_SIDE` per thread, each thread taking the
+    next step of the batch when it is free; each thread keeps its own
+    :class:`StepCache` and scratch, whose frames come from ``store``, which holds
+    them all.
+    """
+    import numba
+
+    works: dict[int, _StepWork] = {}
+    todo = iter(progress(steps, desc="detect", enabled=progress_bar, unit="step"))
+    while batch := list(itertools.islice(todo, SIDE_BY_SIDE * threads)):
+        out: list[SourceFrame | None] = [None] * len(batch)
+
+        def one(i: int, batch: list[int] = batch, out: list[SourceFrame | None] = out) -> None:
+            work = works.get(threading.get_ident())
+            if work is None:
+                work = works[threading.get_ident()] = _StepWork(
+                    volume, mapping, qmean, floor, store
+                )
+            own = numba.get_num_threads()
+            numba.set_num_threads(1)  # this thread's kernels on this thread alone
+            try:
+                out[i] = work.detect(batch[i], thr, known, zero_fraction, delta_v)
+            finally:
+                numba.set_num_threads(own)
+
+        K.in_threads(one, len(batch), threads)
+        for work in works.values():  # the next batch's frames (and their neighbours)
+            work.cache.keep(batch[-1] + steps.step, batch[-1] + len(batch) * steps.step)
+        for n, f in zip(batch, out, strict=True):
+            assert f is not None
+            yield n, f
+
+
+#: steps per thread in a batch of :func:`_detect_side_by_side`
+SIDE_BY_SIDE = 4
 
 
 def classified_fraction(frames: Sequence[SourceFrame], n_points: int) -> dict[str, float]:
@@ -1067,10 +1513,16 @@ def warn_fraction(fraction: dict[str, float], source: str, *, uniform: bool = Fa
         )
 
 
-def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "identity",
-           thresholds: Thresholds | None = None, progress_bar: bool = False,
-           steady: str = "remove", delta_v: str = "cell",
-           **mapping_fields: str) -> SourceSeries:  # fmt: skip
+def detect(
+    volume: TimeVolume,
+    *,
+    mapping: str | AcousticMapping | None = "identity",
+    thresholds: Thresholds | None = None,
+    progress_bar: bool = False,
+    steady: str = "remove",
+    delta_v: str = "cell",
+    **mapping_fields: str,
+) -> SourceSeries:
     """Detect monopole, dipole and quadrupole sources at every step.
 
     Parameters
@@ -1128,23 +1580,40 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     store = MappedSeries(volume, m)
     # the mapping's series statistics read each frame once; what they read is
     # kept for the first map() of each step (paper-density), as much as the store holds
-    m.prepare_series(volume, hold_bytes=min(store.max_steps, volume.n_steps) * 8 * volume.n_points)
+    m.prepare_series(volume, hold_bytes=min(store.max_steps, volume.n_steps) * step_bytes(volume))
     try:
         # pass 1 (each step read and mapped once, kept in the store): the steady anchors
         qmean = steady_strength(volume, m, steady, store=store)
         known: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
         stats = (
-            strength_stats(volume, m, qmean=qmean, progress_bar=progress_bar,
-                           floor=thresholds.floor, store=store,
-                           keep=known if store.max_steps >= volume.n_steps else None)
+            strength_stats(
+                volume,
+                m,
+                qmean=qmean,
+                progress_bar=progress_bar,
+                floor=thresholds.floor,
+                store=store,
+                keep=known if store.max_steps >= volume.n_steps else None,
+            )
             if thresholds.needs_scale
             else None
-        )  # fmt: skip
+        )
         thr = thresholds.resolve(stats)
-        frames = [f for _, f in iter_detect(volume, m, thr, zero_fraction=thresholds.zero_fraction,
-                                            progress_bar=progress_bar, qmean=qmean,
-                                            delta_v=delta_v, floor=thresholds.floor,
-                                            store=store, known=known)]  # fmt: skip
+        frames = [
+            f
+            for _, f in iter_detect(
+                volume,
+                m,
+                thr,
+                zero_fraction=thresholds.zero_fraction,
+                progress_bar=progress_bar,
+                qmean=qmean,
+                delta_v=delta_v,
+                floor=thresholds.floor,
+                store=store,
+                known=known,
+            )
+        ]
     finally:
         m.release()
     fraction = classified_fraction(frames, volume.n_points)
@@ -1153,15 +1622,25 @@ def detect(volume: TimeVolume, *, mapping: str | AcousticMapping | None = "ident
     )
     warn_fraction(fraction, volume.source, uniform=uniform)
     return SourceSeries(
-        frames=frames, times=volume.times.copy(), origin=volume.origin.copy(),
-        spacing=volume.spacing.copy(), dims=volume.dims, thresholds=thr,
-        meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
-              "peak": None if stats is None else stats.peak.tolist(), "source": volume.source,
-              "steady": steady, "delta_v": delta_v, "fraction": fraction,
-              "valid_points": _valid_share(frames, volume.n_points),
-              **({"grid": "curvilinear"} if volume.coords is not None else {})},
+        frames=frames,
+        times=volume.times.copy(),
+        origin=volume.origin.copy(),
+        spacing=volume.spacing.copy(),
+        dims=volume.dims,
+        thresholds=thr,
+        meta={
+            "mapping": m.describe(),
+            "thresholds": thresholds.describe(),
+            "peak": None if stats is None else stats.peak.tolist(),
+            "source": volume.source,
+            "steady": steady,
+            "delta_v": delta_v,
+            "fraction": fraction,
+            "valid_points": _valid_share(frames, volume.n_points),
+            **({"grid": "curvilinear"} if volume.coords is not None else {}),
+        },
         coords=volume.coords,
-    )  # fmt: skip
+    )
 
 
 def _valid_share(frames: Sequence[SourceFrame], n_points: int) -> float:

@@ -58,8 +58,7 @@ from auralize.volume import TimeVolume
 Frame = NDArray[np.float64]
 
 
-def _velocity_or_zero(volume: TimeVolume, name: str, step: int,
-                      shape: tuple[int, ...]) -> Frame:  # fmt: skip
+def _velocity_or_zero(volume: TimeVolume, name: str, step: int, shape: tuple[int, ...]) -> Frame:
     """The velocity frame ``name`` at ``step``, or zeros ``(*shape, 3)`` when it is missing."""
     if name not in volume.fields:
         return np.zeros((*shape, 3))
@@ -215,8 +214,14 @@ class IncompressibleMapping(AcousticMapping):
         return _without_velocity(volume, self.velocity)
 
     def describe(self) -> dict[str, object]:
-        return {"name": self.name, "pressure": self.pressure, "velocity": self.velocity,
-                "rho0": self.rho0, "c0": self.c0, "kinematic_scale": self._scale}  # fmt: skip
+        return {
+            "name": self.name,
+            "pressure": self.pressure,
+            "velocity": self.velocity,
+            "rho0": self.rho0,
+            "c0": self.c0,
+            "kinematic_scale": self._scale,
+        }
 
 
 @dataclass
@@ -256,8 +261,12 @@ class CFDMapping(AcousticMapping):
         return rho, v
 
     def describe(self) -> dict[str, object]:
-        return {"name": self.name, "density": self.density, "momentum": self.momentum,
-                "velocity": self.velocity}  # fmt: skip
+        return {
+            "name": self.name,
+            "density": self.density,
+            "momentum": self.momentum,
+            "velocity": self.velocity,
+        }
 
 
 @dataclass
@@ -278,30 +287,40 @@ class PaperDensityMapping(AcousticMapping):
     _hi: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _gscale: float = dataclasses.field(default=np.nan, init=False, repr=False)
     _prepared_for: int = dataclasses.field(default=0, init=False, repr=False)
-    #: 10**x frames read by :meth:`prepare_series`, each handed to :meth:`map` once
-    _held: dict[int, Frame] = dataclasses.field(default_factory=dict, init=False, repr=False)
+    #: what :meth:`prepare_series` read, each handed to :meth:`map` once: per step ρ̃ and
+    #: its gradient (not yet scaled), or ρ̃
+    _held: dict[int, Frame | tuple[Frame, Frame]] = dataclasses.field(
+        default_factory=dict, init=False, repr=False
+    )
 
     def required_fields(self) -> list[str]:
         return [self.field]
 
-    def _rho(self, volume: TimeVolume, step: int) -> Frame:
+    def _rho(
+        self, volume: TimeVolume, step: int, extremes: Frame | None = None, out: Frame | None = None
+    ) -> Frame:
+        """10**x of step ``step`` (into ``out`` when it fits); with ``extremes (2,)``, its
+        smallest and largest values (NaN ignored) there."""
         x = volume.frame(self.field, step)
         _check_scalar(volume, self.field, x)
-        if np.nanmax(np.abs(x), initial=0.0) > 300:
+        r = _pow10(x, extremes, out)
+        if r is None:
             raise DataError(
                 f"{volume.source}: field {self.field!r} is read as log10 density by the "
                 f"'paper-density' mapping, but holds values up to {np.nanmax(np.abs(x)):g}; "
                 f"use the 'identity' mapping for linear densities"
             )
-        return np.power(10.0, x)
+        return r
 
     def prepare(self, volume: TimeVolume) -> None:
         self._prepare(volume, 0)
 
     def prepare_series(self, volume: TimeVolume, *, hold_bytes: int = 0) -> None:
         """:meth:`prepare` reading each frame once: the 10**x frames of its first
-        pass (lo, hi) are kept, up to ``hold_bytes``, for its gradient pass and
-        then for the next :meth:`map` of each step (frames beyond it are read again)."""
+        pass (lo, hi) are kept, up to ``hold_bytes``, for its gradient pass, which
+        keeps (on a uniform grid, as the bytes allow: 32 a point) each step's ρ̃ and
+        gradient for the next :meth:`map` of the step, else the 10**x frame (frames
+        beyond it are read again)."""
         self._prepare(volume, hold_bytes)
 
     def release(self) -> None:
@@ -310,30 +329,68 @@ class PaperDensityMapping(AcousticMapping):
     def _prepare(self, volume: TimeVolume, hold_bytes: int) -> None:
         super().prepare(volume)
         self._held = {}
-        room = int(hold_bytes) // max(8 * volume.n_points, 1)
+        room = min(int(hold_bytes) // max(8 * volume.n_points, 1), volume.n_steps)
+        # the kept frames, and the gradients held below, each in one block: a large
+        # allocation is mapped in huge pages (numpy asks for them), so the frames' first
+        # touch costs a few page faults, not one per 4 kB page
+        block: Frame | None = None
         kept: dict[int, Frame] = {}
         lo, hi = np.inf, -np.inf
+        extremes = np.empty(2)
         for n in range(volume.n_steps):
-            r = self._rho(volume, n)  # no-data (NaN) points do not count
-            lo = min(lo, float(np.nanmin(r, initial=np.inf)))
-            hi = max(hi, float(np.nanmax(r, initial=-np.inf)))
-            if len(kept) < room:
+            keep = len(kept) < room
+            r = self._rho(volume, n, extremes, None if block is None or not keep else block[n])
+            lo = min(lo, float(extremes[0]))  # no-data (NaN) points do not count
+            hi = max(hi, float(extremes[1]))
+            if keep:
+                if block is None:
+                    block = np.empty((room, *r.shape), dtype=r.dtype)
+                    block[n] = r
+                    r = block[n]
                 kept[n] = r
         self._lo, self._hi = lo, hi
+        # ρ̃ (scaled in place) and its gradient (scale 1: the same differences the mapped
+        # velocity scales)
+        uniform = volume.metric is None
+        spare = int(hold_bytes) - 8 * volume.n_points * len(kept)
+        n_grad = min(len(kept), max(spare, 0) // max(24 * volume.n_points, 1)) if uniform else 0
+        grads = np.empty((n_grad, *volume.shape, 3)) if n_grad else None
+        scratch: Frame | None = None
+        held: dict[int, Frame | tuple[Frame, Frame]] = {}
         gmax = 0.0
         for n in range(volume.n_steps):
-            r = kept[n] if n in kept else self._rho(volume, n)
-            gmax = max(gmax, _gradient_absmax(self._scaled(r), volume))
+            was = kept.pop(n) if n in kept else None
+            rho = self._scaled(self._rho(volume, n) if was is None else was, in_place=True)
+            if not uniform:
+                gmax = max(gmax, _gradient_absmax(rho, volume))
+            else:
+                hold = was is not None and grads is not None and n < n_grad
+                if hold and grads is not None:
+                    g = grads[n]
+                else:
+                    if scratch is None:
+                        scratch = np.empty((*rho.shape, 3))
+                    g = scratch
+                gmax = max(gmax, _gradient_max(rho, volume, g))
+                if hold:
+                    held[n] = (rho, g)
+                    continue
+            if was is not None:
+                held[n] = rho
         self._gscale = self.velocity_max / gmax if gmax > 0 else 0.0
         self._prepared_for = id(volume)
-        self._held = kept
+        self._held = held
 
-    def _scaled(self, r: Frame) -> Frame:
+    def _scaled(self, r: Frame, *, in_place: bool = False) -> Frame:
+        """ρ̃ of the 10**x frame ``r`` (``in_place``: into ``r``)."""
         a, b = self.rho_range
-        span = self._hi - self._lo
+        lo, span = self._lo, self._hi - self._lo
         if span <= 0:
+            if in_place:
+                r[...] = a
+                return r
             return np.full_like(r, a)
-        return a + (b - a) * (r - self._lo) / span
+        return _slabwise(lambda y: a + (b - a) * (y - lo) / span, r, r if in_place else None)
 
     @staticmethod
     def _grad(volume: TimeVolume, rho: Frame, scale: float = 1.0) -> Frame:
@@ -349,13 +406,29 @@ class PaperDensityMapping(AcousticMapping):
     def map(self, volume: TimeVolume, step: int) -> tuple[Frame, Frame]:
         if self._prepared_for != id(volume):
             self.prepare(volume)
-        r = self._held.pop(step, None)
-        rho = self._scaled(self._rho(volume, step) if r is None else r)
-        return rho, self._grad(volume, rho, self._gscale)
+        hit = self._held.pop(step, None)
+        if hit is None:
+            rho = self._scaled(self._rho(volume, step), in_place=True)
+            return rho, self._grad(volume, rho, self._gscale)
+        if isinstance(hit, tuple):  # ρ̃ and its gradient: scaled as _grad would (g · scale)
+            rho, g = hit
+            scale = self._gscale
+
+            def times(sl: slice) -> None:
+                np.multiply(g[sl], scale, out=g[sl])
+
+            if not _in_slabs(times, g):
+                np.multiply(g, scale, out=g)
+            return rho, g
+        return hit, self._grad(volume, hit, self._gscale)
 
     def describe(self) -> dict[str, object]:
-        return {"name": self.name, "field": self.field, "rho_range": list(self.rho_range),
-                "velocity_max": self.velocity_max}  # fmt: skip
+        return {
+            "name": self.name,
+            "field": self.field,
+            "rho_range": list(self.rho_range),
+            "velocity_max": self.velocity_max,
+        }
 
 
 @dataclass
@@ -406,8 +479,10 @@ PRESETS: dict[str, type[AcousticMapping]] = {
 }
 
 
-def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]] | None = None,
-                **field_names: str) -> AcousticMapping:  # fmt: skip
+def get_mapping(
+    spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]] | None = None,
+    **field_names: str,
+) -> AcousticMapping:
     """Return a mapping from a preset name, an instance or a function.
 
     Parameters
@@ -439,6 +514,80 @@ def get_mapping(spec: str | AcousticMapping | Callable[..., tuple[Frame, Frame]]
         return cls(**{k: v for k, v in field_names.items() if v is not None})
     except TypeError as exc:
         raise ParameterError(f"mapping {spec!r}: {exc}") from None
+
+
+def _in_slabs(fn: Callable[[slice], None], x: Frame) -> bool:
+    """:func:`auralize.sources.detection.in_slabs`: ``fn`` over slabs of ``x`` on the
+    detection's threads, or False when ``x`` is small (nothing called)."""
+    from auralize.sources.detection import in_slabs
+
+    return in_slabs(fn, x)
+
+
+def _slabwise(fn: Callable[[Frame], Frame], x: Frame, out: Frame | None = None) -> Frame:
+    """``fn(x)`` of an elementwise ``fn`` (into ``out``, which may be ``x``, when given), for
+    a large ``x`` in slabs along its first axis on the detection's threads (each value
+    is computed alone, so the same numbers)."""
+    if x.ndim == 0 or x.shape[0] < 2:
+        if out is None:
+            return fn(x)
+        out[...] = fn(x)
+        return out
+    dest = np.empty_like(fn(x[:1]), shape=x.shape) if out is None else out
+
+    def piece(sl: slice) -> None:
+        dest[sl] = fn(x[sl])
+
+    if not _in_slabs(piece, x):
+        dest[...] = fn(x)
+    return dest
+
+
+def _pow10(x: Frame, extremes: Frame | None = None, out: Frame | None = None) -> Frame | None:
+    """``np.power(10.0, x)`` (into ``out`` when its shape and dtype are the result's), None if
+    some ``|x|`` is above 300 (NaN ignored: no log10 density), and with ``extremes (2,)``
+    its smallest and largest values, NaN ignored (``np.nanmin``, ``np.nanmax``, from
+    ±inf).  A large frame in slabs along its first axis on the detection's threads
+    (numpy releases the GIL; each value is computed alone, so the slabs give the same
+    numbers)."""
+    like = np.power(10.0, x.reshape(-1)[:1])
+    if out is None or out.shape != x.shape or out.dtype != like.dtype:
+        out = np.empty_like(like, shape=x.shape)
+    rows = max(1, x.shape[0]) if x.ndim else 1
+    too_big = [False] * rows
+    tops = np.full((rows, 2), [np.inf, -np.inf])
+
+    def piece(sl: slice) -> None:
+        xs, rs = (x[sl], out[sl]) if x.ndim else (x, out)
+        # max |x| > 300, without |x| made
+        if (
+            np.fmax.reduce(xs, axis=None, initial=-np.inf) > 300
+            or np.fmin.reduce(xs, axis=None, initial=np.inf) < -300
+        ):
+            too_big[sl.start] = True
+            return
+        np.power(10.0, xs, out=rs)
+        if extremes is not None:
+            tops[sl.start] = (
+                np.fmin.reduce(rs, axis=None, initial=np.inf),
+                np.fmax.reduce(rs, axis=None, initial=-np.inf),
+            )
+
+    if not _in_slabs(piece, x):
+        piece(slice(0, rows))
+    if any(too_big):
+        return None
+    if extremes is not None:
+        extremes[0], extremes[1] = tops[:, 0].min(), tops[:, 1].max()
+    return out
+
+
+def _gradient_max(f: Frame, volume: TimeVolume, out: Frame) -> float:
+    """The gradient of ``f`` on the uniform grid of ``volume`` (scale 1) into ``out
+    (nz, ny, nx, 3)``, and its :func:`_gradient_absmax`."""
+    from auralize.sources.detection import gradient_max
+
+    return gradient_max(f, volume.spacing, out)
 
 
 def _gradient_absmax(f: Frame, volume: TimeVolume) -> float:
