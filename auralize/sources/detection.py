@@ -12,11 +12,13 @@ Time derivatives are central differences between the neighbouring steps
 finite differences (see :mod:`auralize.sources._kernels`).
 
 **Steady part.**  A steady flow makes no sound: by default (``steady="remove"``)
-the quadrupole strength is that of the fluctuating stress
-ρ̃ v_i v_j − ⟨ρ̃ v_i v_j⟩, the time mean taken per point over the whole series
+the quadrupole strength is that of the stress ρ̃ v_i v_j minus the field's
+local steady state (:class:`SteadyBase`): the stress itself at the anchor
+steps (the first and the last step and both ends of every step over which
+nothing changed, :func:`steady_anchors`), linearly interpolated between them
 (Lighthill's far field depends on ∂²T_ij/∂t² only); by linearity this is the
-literal S_q minus the S_q of the mean stress, and exactly 0 for a steady
-field.  S_m and S_d are time derivatives and vanish for steady fields anyway.
+literal S_q minus the S_q of the interpolated stress, and exactly 0 for a
+steady field.  S_m and S_d are time derivatives and vanish for steady fields anyway.
 ``steady="keep"`` gives the literal strengths of the paper.
 
 **No-data points.**  Points where ``volume.valid`` is False (outside the
@@ -97,7 +99,13 @@ DELTA_V_RULES = {"cell": K.DV_CELL, "sphere": K.DV_SPHERE}
 
 
 class SourceFractionWarning(UserWarning):
-    """More than :data:`WARN_FRACTION` of the valid points were classified as sources."""
+    """More than :data:`WARN_FRACTION` of the valid points were classified as sources.
+
+    Examples
+    --------
+    >>> issubclass(SourceFractionWarning, UserWarning)
+    True
+    """
 
 
 ThresholdSpec = float | str
@@ -144,6 +152,24 @@ class StrengthStats:
     valid point-steps (all of them on grids up to :data:`SAMPLE_POINTS`
     points; otherwise a fixed pseudo-random subset chosen by global point
     index, so slabbed and whole-frame detection sample the same points).
+
+    Parameters
+    ----------
+    peak : ndarray, shape (3,)
+        Largest |S| of the monopole, dipole and quadrupole strengths, in their
+        units (kg/(m³·s), kg/(m⁴·s), kg/(m³·s²)).
+    sample : ndarray, shape (3, M)
+        |S| of each type at the M sampled valid point-steps (sorted along axis 1
+        once :meth:`merge` has made them).
+    scale : ndarray, shape (3,)
+        Size of the terms each strength is a difference of (:func:`input_scale`):
+        relative, top and auto thresholds stay above :data:`ROUNDOFF` times it.
+
+    Examples
+    --------
+    >>> st = StrengthStats(peak=np.array([2.0, 0.0, 1.0]), sample=np.ones((3, 5)))
+    >>> st.sample.shape, st.scale.tolist()
+    ((3, 5), [0.0, 0.0, 0.0])
     """
 
     peak: NDArray[np.float64]
@@ -153,6 +179,28 @@ class StrengthStats:
 
     @classmethod
     def merge(cls, parts: list[StrengthStats]) -> StrengthStats:
+        """The statistics of several steps (or slabs) as one.
+
+        Peaks and scales are the largest of the parts'; the samples are joined and
+        each type's sorted ascending (on the detection's threads).
+
+        Parameters
+        ----------
+        parts : list of StrengthStats
+            The parts, e.g. one per sample step.
+
+        Returns
+        -------
+        StrengthStats
+
+        Examples
+        --------
+        >>> a = StrengthStats(peak=np.array([1.0, 5.0, 0.0]), sample=np.array([[1.0], [5.0], [0.0]]))
+        >>> b = StrengthStats(peak=np.array([3.0, 2.0, 0.0]), sample=np.array([[3.0], [2.0], [0.0]]))
+        >>> m = StrengthStats.merge([a, b])
+        >>> m.peak.tolist(), m.sample[1].tolist()
+        ([3.0, 5.0, 0.0], [2.0, 5.0])
+        """
         peak = np.zeros(3)
         scale = np.zeros(3)
         for p in parts:
@@ -188,6 +236,27 @@ def top_level(x: NDArray[np.float64], top: float) -> float:
     (``|S| > T``), so without it a quantile that falls on a sample value
     would hide that value, and a uniform |S| (median = quantile = maximum)
     would classify no point at all.
+
+    Parameters
+    ----------
+    x : ndarray, shape (M,)
+        |S| samples of one type.
+    top : float
+        Fraction of the points to exceed the level, in (0, 1].
+
+    Returns
+    -------
+    float
+        The level (+inf when ``x`` is empty).
+
+    Examples
+    --------
+    >>> x = np.arange(1.0, 101.0)
+    >>> level = top_level(x, 0.1)
+    >>> int((x > level).sum()), bool(level < 90.1)
+    (10, True)
+    >>> int((np.ones(7) > top_level(np.ones(7), 0.1)).sum())  # ties all exceed it
+    7
     """
     if x.size == 0:
         return np.inf
@@ -195,7 +264,35 @@ def top_level(x: NDArray[np.float64], top: float) -> float:
 
 
 def auto_threshold(x: NDArray[np.float64]) -> float:
-    """The "auto" threshold of one type from sorted |S| samples ``x`` (see :data:`AUTO_COVER`)."""
+    """The "auto" threshold of one type from sorted |S| samples ``x`` (see :data:`AUTO_COVER`).
+
+    The larger of a robust noise floor, median + :data:`AUTO_NOISE_K` ·
+    1.4826 · MAD (at most :func:`top_level` of :data:`AUTO_TOP`), and the
+    level above which the strongest samples carry :data:`AUTO_COVER` of Σ|S|.
+
+    Parameters
+    ----------
+    x : ndarray, shape (M,)
+        |S| samples of one type, sorted ascending.
+
+    Returns
+    -------
+    float
+        The threshold, in the strength's units (+inf when ``x`` is empty or
+        all 0: the type never occurs).
+
+    Examples
+    --------
+    A few strong points over a floor of weak ones: the threshold lies between
+    them.
+
+    >>> x = np.sort(np.r_[np.full(95, 1.0), np.full(5, 1000.0)])
+    >>> t = auto_threshold(x)
+    >>> bool(1.0 < t < 1000.0), int((x > t).sum())
+    (True, 5)
+    >>> auto_threshold(np.zeros(4))
+    inf
+    """
     if x.size == 0 or x[-1] <= 0:
         return np.inf
     med = float(np.median(x))
@@ -206,7 +303,7 @@ def auto_threshold(x: NDArray[np.float64]) -> float:
 
 @dataclass
 class Thresholds:
-    """Detection thresholds per source type.
+    """Detection thresholds per source type (paper 003 §3.2.3).
 
     Each of ``monopole``, ``dipole``, ``quadrupole`` is
 
@@ -229,6 +326,24 @@ class Thresholds:
     has no monopoles, a divergence-free flow at constant density no dipoles
     (its ∇·(ρv) is truncation error), however the rest of the data are
     distributed.  ``floor=0`` is paper 003's literal detection.
+
+    Parameters
+    ----------
+    monopole, dipole, quadrupole : float or str
+        The threshold of each type, as above.
+    zero_fraction : float
+        "Almost zero" for the exclusive classification: a dipole needs
+        ``|S_m|`` at most this times the monopole threshold, a quadrupole both
+        others at most this times theirs (default 1: below detection; >= 0).
+    floor : float
+        A strength not above this many times its discretisation-error estimate
+        is not a source (default 3; 0: no floor).
+
+    Raises
+    ------
+    ParameterError
+        A threshold that is not understood or out of range, a negative
+        ``zero_fraction`` or ``floor``.
 
     Examples
     --------
@@ -256,14 +371,48 @@ class Thresholds:
 
     @property
     def needs_scale(self) -> bool:
-        """Whether :meth:`resolve` needs the series' statistics."""
+        """Whether :meth:`resolve` needs the series' statistics (any threshold not absolute).
+
+        Examples
+        --------
+        >>> Thresholds(1.0, 2.0, 3.0).needs_scale, Thresholds().needs_scale
+        (False, True)
+        """
         return any(mode != "abs" for mode, _ in self._parsed)
 
     def resolve(self, stats: StrengthStats | NDArray[np.float64] | None) -> NDArray[np.float64]:
         """Absolute thresholds (3,) from the series' :class:`StrengthStats`.
 
         Relative thresholds alone may be resolved from the peak magnitudes (3,).
-        A type that never occurs (peak 0) gets an infinite threshold.
+        A type that never occurs (peak 0, or not above :data:`ROUNDOFF` times its
+        input scale) gets an infinite threshold; relative, top and auto thresholds
+        never go below that round-off level.
+
+        Parameters
+        ----------
+        stats : StrengthStats or ndarray, shape (3,), or None
+            The series' statistics, or its peak |S| per type (relative thresholds
+            only), or None (absolute thresholds only).
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            Monopole, dipole and quadrupole thresholds, in the strengths' units.
+
+        Raises
+        ------
+        ParameterError
+            A relative, top or auto threshold without what it needs.
+
+        Examples
+        --------
+        >>> st = StrengthStats(peak=np.array([100.0, 0.0, 4.0]), sample=np.ones((3, 1)))
+        >>> Thresholds(monopole="10%", dipole="auto", quadrupole=2.0).resolve(st)
+        array([10., inf,  2.])
+        >>> Thresholds().resolve(None)
+        Traceback (most recent call last):
+        ...
+        auralize.errors.ParameterError: monopole threshold 'auto' needs the series' strength statistics
         """
         out = np.empty(3)
         if isinstance(stats, StrengthStats):
@@ -296,6 +445,18 @@ class Thresholds:
         return out
 
     def describe(self) -> dict[str, object]:
+        """The thresholds as given, with ``zero_fraction`` and ``floor`` (saved with a series).
+
+        Returns
+        -------
+        dict
+            ``{"monopole", "dipole", "quadrupole", "zero_fraction", "floor"}``.
+
+        Examples
+        --------
+        >>> Thresholds(dipole="top:1%").describe()
+        {'monopole': 'auto', 'dipole': 'top:1%', 'quadrupole': 'auto', 'zero_fraction': 1.0, 'floor': 3.0}
+        """
         return {k: getattr(self, k) for k in (*TYPES, "zero_fraction", "floor")}
 
 
@@ -303,13 +464,26 @@ class Thresholds:
 class SourceFrame:
     """The sources of one time step.
 
-    Attributes
+    Parameters
     ----------
-    index : (N,) int64 flat C-order vertex indices into the ``(nz, ny, nx)`` grid.
-    kind : (N,) int8, 1 monopole, 2 dipole, 3 quadrupole.
-    strength : (N,) float64 signed strength S of the vertex's type.
-    radius : (N,) float64 ΔV-sphere radius in metres.
-    n_valid : int or None, points with data at this step (None: all).
+    index : ndarray of int64, shape (N,)
+        Flat C-order vertex indices into the ``(nz, ny, nx)`` grid.
+    kind : ndarray of int8, shape (N,)
+        Source type: 1 monopole, 2 dipole, 3 quadrupole.
+    strength : ndarray of float64, shape (N,)
+        Signed strength S of the vertex's type, in that type's units
+        (kg/(m³·s), kg/(m⁴·s), kg/(m³·s²)).
+    radius : ndarray of float64, shape (N,)
+        Radius of the sphere of volume ΔV (paper 003 §3.2.4.1), m.
+    n_valid : int or None
+        Points with data at this step (None: all of the grid's).
+
+    Examples
+    --------
+    >>> f = SourceFrame(index=np.array([0, 5]), kind=np.array([1, 3], dtype=np.int8),
+    ...                 strength=np.array([2.0, -1.0]), radius=np.array([0.5, 0.5]))
+    >>> f
+    <SourceFrame: 2 sources (monopole 1, dipole 0, quadrupole 1)>
     """
 
     index: NDArray[np.int64]
@@ -321,10 +495,32 @@ class SourceFrame:
 
     @property
     def volume(self) -> NDArray[np.float64]:
-        """ΔV = 4/3 π r³ in m³."""
+        """ΔV = 4/3 π r³ of each source ``(N,)``, m³.
+
+        Examples
+        --------
+        >>> f = SourceFrame(index=np.array([0]), kind=np.array([1], dtype=np.int8),
+        ...                 strength=np.array([1.0]), radius=np.array([1.0]))
+        >>> f.volume
+        array([4.18879...])
+        """
         return (4.0 / 3.0) * np.pi * self.radius**3
 
     def counts(self) -> dict[str, int]:
+        """Number of sources of each type.
+
+        Returns
+        -------
+        dict of str to int
+            ``{"monopole": n1, "dipole": n2, "quadrupole": n3}``.
+
+        Examples
+        --------
+        >>> f = SourceFrame(index=np.arange(3), kind=np.array([2, 2, 1], dtype=np.int8),
+        ...                 strength=np.ones(3), radius=np.ones(3))
+        >>> f.counts()
+        {'monopole': 1, 'dipole': 2, 'quadrupole': 0}
+        """
         c = np.bincount(self.kind, minlength=4)
         return {name: int(c[k]) for k, name in KIND_NAMES.items()}
 
@@ -343,7 +539,35 @@ def _mapping_name(meta: Any) -> str:
 
 @dataclass
 class SourceSeries:
-    """Sources at every step of a volume, plus what is needed to reproduce them."""
+    """Sources at every step of a volume, plus what is needed to reproduce them.
+
+    Parameters
+    ----------
+    frames : list of SourceFrame
+        The sources of each step, ``T`` of them.
+    times : ndarray, shape (T,)
+        Data time of each step, s.
+    origin, spacing : ndarray, shape (3,)
+        Position of point (0, 0, 0) and the point spacing (x, y, z), m.
+    dims : (3,) tuple of int
+        Grid points ``(nx, ny, nz)``.
+    thresholds : ndarray, shape (3,)
+        The absolute thresholds used (monopole, dipole, quadrupole).
+    meta : dict
+        How the sources were found: mapping, thresholds as given, peak |S|,
+        ``steady``, ``delta_v``, classified fraction (see :func:`detect`).
+    coords : ndarray, shape (nz, ny, nx, 3), optional
+        Point positions of a curvilinear grid, m (None: uniform).
+
+    Examples
+    --------
+    >>> f = SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+    ...                 strength=np.array([2.0]), radius=np.array([0.5]))
+    >>> series = SourceSeries(frames=[f, f], times=np.array([0.0, 0.1]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2), thresholds=np.ones(3))
+    >>> series.n_steps, series.shape, series.counts()[1]["monopole"]
+    (2, (2, 3, 4), 1)
+    """
 
     def _repr_html_(self) -> str:
         """Notebook display (:mod:`auralize.runtime.notebook`)."""
@@ -363,21 +587,80 @@ class SourceSeries:
 
     @property
     def n_steps(self) -> int:
+        """Number of steps (frames).
+
+        Examples
+        --------
+        >>> f = SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+        ...                 strength=np.array([2.0]), radius=np.array([0.5]))
+        >>> series = SourceSeries(frames=[f, f], times=np.array([0.0, 0.1]), origin=np.zeros(3),
+        ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2), thresholds=np.ones(3))
+        >>> series.n_steps
+        2
+        """
         return len(self.frames)
 
     @property
     def shape(self) -> tuple[int, int, int]:
+        """Grid shape ``(nz, ny, nx)`` (``dims`` reversed).
+
+        Examples
+        --------
+        >>> f = SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+        ...                 strength=np.array([2.0]), radius=np.array([0.5]))
+        >>> series = SourceSeries(frames=[f, f], times=np.array([0.0, 0.1]), origin=np.zeros(3),
+        ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2), thresholds=np.ones(3))
+        >>> series.dims, series.shape
+        ((4, 3, 2), (2, 3, 4))
+        """
         nx, ny, nz = self.dims
         return (nz, ny, nx)
 
     def positions(self, index: NDArray[np.integer]) -> NDArray[np.float64]:
+        """Positions of the vertices with flat indices ``index``.
+
+        Parameters
+        ----------
+        index : ndarray of int, shape (N,)
+            Flat C-order indices into the ``(nz, ny, nx)`` grid.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            x, y, z of each vertex, m (on a curvilinear grid, its ``coords``).
+
+        Examples
+        --------
+        >>> f = SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+        ...                 strength=np.array([2.0]), radius=np.array([0.5]))
+        >>> series = SourceSeries(frames=[f, f], times=np.array([0.0, 0.1]), origin=np.zeros(3),
+        ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2), thresholds=np.ones(3))
+        >>> series.positions(np.array([0, 5]))
+        array([[0. , 0. , 0. ],
+               [0.5, 0.5, 0. ]])
+        """
         if self.coords is not None:
             return self.coords.reshape(-1, 3)[np.asarray(index)]
         k, j, i = np.unravel_index(np.asarray(index), self.shape)
         return self.origin + np.stack([i, j, k], axis=-1) * self.spacing
 
     def counts(self) -> list[dict[str, int]]:
-        """Per-step counts by type."""
+        """Per-step counts by type.
+
+        Returns
+        -------
+        list of dict of str to int
+            :meth:`SourceFrame.counts` of each step.
+
+        Examples
+        --------
+        >>> f = SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+        ...                 strength=np.array([2.0]), radius=np.array([0.5]))
+        >>> series = SourceSeries(frames=[f, f], times=np.array([0.0, 0.1]), origin=np.zeros(3),
+        ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2), thresholds=np.ones(3))
+        >>> series.counts()[0]
+        {'monopole': 1, 'dipole': 0, 'quadrupole': 0}
+        """
         return [f.counts() for f in self.frames]
 
     def __repr__(self) -> str:
@@ -402,7 +685,29 @@ class SourceSeries:
         )
 
     def tracks(self) -> SourceTracks:
-        """Per-vertex strength·ΔV over time for every vertex that is ever a source."""
+        """Per-vertex strength·ΔV over time for every vertex that is ever a source.
+
+        The input of the synthesis (paper 003 §3.2.4.4): q_k(t_n) = S ΔV of vertex
+        k at step n, 0 at the steps where it is not a source.
+
+        Returns
+        -------
+        SourceTracks
+            One track per vertex that is a source at some step, its largest ΔV
+            radius and its type at each step.
+
+        Examples
+        --------
+        >>> f = SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+        ...                 strength=np.array([2.0]), radius=np.array([0.5]))
+        >>> series = SourceSeries(frames=[f, f], times=np.array([0.0, 0.1]), origin=np.zeros(3),
+        ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2), thresholds=np.ones(3))
+        >>> tr = series.tracks()
+        >>> tr.n_sources, tr.q.shape, tr.positions.tolist(), tr.kind.tolist()
+        (1, (1, 2), [[0.5, 0.5, 0.0]], [[1, 1]])
+        >>> bool(np.allclose(tr.q, 2.0 * 4 / 3 * np.pi * 0.5**3))
+        True
+        """
         if not self.frames or all(f.index.size == 0 for f in self.frames):
             return SourceTracks(
                 positions=np.zeros((0, 3)),
@@ -432,12 +737,36 @@ class SourceSeries:
 
 @dataclass
 class SourceTracks:
-    """Input of the synthesis: per-source q_k(t_n) = S·ΔV at each step.
+    """Input of the synthesis: per-source q_k(t_n) = S·ΔV at each step (paper 003 §3.2.4.4).
 
-    ``positions (K, 3)``, ``q (K, T)``, ``radius (K,)`` (largest ΔV radius,
-    used to clamp distances), ``times (T,)``; optionally ``kind (K, T)`` int8,
-    the source type at each step (0 where silent, 1 monopole, 2 dipole,
-    3 quadrupole; used by the ``tonal`` timbre).
+    Parameters
+    ----------
+    positions : ndarray, shape (K, 3)
+        Source positions x, y, z, m.
+    q : ndarray, shape (K, T)
+        Strength times ΔV of each source at each step (0 where silent).
+    radius : ndarray, shape (K,)
+        Largest ΔV-sphere radius of each source, m (used to clamp distances).
+    times : ndarray, shape (T,)
+        Time of each step (knot), s.
+    index : ndarray of int64, shape (K,), optional
+        Flat grid index of each source's vertex.
+    kind : ndarray of int8, shape (K, T), optional
+        Source type at each step: 0 where silent, 1 monopole, 2 dipole,
+        3 quadrupole (used by the ``tonal`` timbre).
+    cache : dict
+        Per-tracks memo of derived arrays (not compared).
+    origin, end : float, optional
+        Data time of the first and the last data step (default ``times[0]``
+        and ``times[-1]``); tracks with knots held before and after the data
+        (:meth:`auralize.sources.field.FieldTracks.tracks`) set them.
+
+    Examples
+    --------
+    >>> tr = SourceTracks(positions=np.zeros((2, 3)), q=np.ones((2, 4)), radius=np.full(2, 0.1),
+    ...                   times=np.arange(4) / 30)
+    >>> tr.n_sources, tr.t_first, tr.t_last
+    (2, 0.0, 0.1)
     """
 
     positions: NDArray[np.float64]
@@ -455,6 +784,13 @@ class SourceTracks:
 
     @property
     def n_sources(self) -> int:
+        """Number of sources K.
+
+        Examples
+        --------
+        >>> SourceTracks(np.zeros((3, 3)), np.zeros((3, 2)), np.zeros(3), np.arange(2.0)).n_sources
+        3
+        """
         return int(self.q.shape[0])
 
     def __repr__(self) -> str:
@@ -473,17 +809,56 @@ class SourceTracks:
 
     @property
     def t_first(self) -> float:
-        """Data time of the first data step: the time origin of a render."""
+        """Data time of the first data step: the time origin of a render.
+
+        Examples
+        --------
+        >>> tr = SourceTracks(np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1), np.array([-1.0, 0.0, 1.0]))
+        >>> tr.t_first, SourceTracks(tr.positions, tr.q, tr.radius, tr.times, origin=0.0).t_first
+        (-1.0, 0.0)
+        """
         return float(self.times[0]) if self.origin is None else float(self.origin)
 
     @property
     def t_last(self) -> float:
-        """Data time of the last data step."""
+        """Data time of the last data step.
+
+        Examples
+        --------
+        >>> tr = SourceTracks(np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1), np.array([-1.0, 0.0, 1.0]))
+        >>> tr.t_last, SourceTracks(tr.positions, tr.q, tr.radius, tr.times, end=0.0).t_last
+        (1.0, 0.0)
+        """
         return float(self.times[-1]) if self.end is None else float(self.end)
 
 
 def valid_mask(volume: TimeVolume) -> NDArray[np.bool_] | None:
-    """The volume's validity mask ``(nz, ny, nx)`` (True inside the input mesh), or None."""
+    """The volume's validity mask ``(nz, ny, nx)`` (True inside the input mesh), or None.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+
+    Returns
+    -------
+    ndarray of bool, shape (nz, ny, nx), or None
+        None when the volume has no mask or every point is valid.
+
+    Raises
+    ------
+    DataError
+        The mask's shape is not the grid's.
+
+    Examples
+    --------
+    >>> vol = TimeVolume.from_arrays({"density": np.ones((2, 2, 2, 3))})
+    >>> valid_mask(vol) is None
+    True
+    >>> vol.valid = np.arange(12).reshape(2, 2, 3) > 0
+    >>> int(valid_mask(vol).sum())
+    11
+    """
     valid = getattr(volume, "valid", None)
     if valid is None:
         return None
@@ -503,7 +878,37 @@ SERIES_BYTES = 2 << 30
 def map_step(
     volume: TimeVolume, mapping: AcousticMapping, n: int, valid: NDArray[np.bool_] | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Step ``n`` mapped: ``(rho, v, ok)``, no-data values replaced by 0 (see :class:`StepCache`)."""
+    """Step ``n`` mapped: ``(rho, v, ok)``, no-data values replaced by 0 (see :class:`StepCache`).
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    n : int
+        Time step.
+    valid : ndarray of bool, shape (nz, ny, nx), or None
+        The volume's :func:`valid_mask`.
+
+    Returns
+    -------
+    rho : ndarray, shape (nz, ny, nx)
+        Mapped density, kg/m³, C-contiguous float64; 0 at no-data points.
+    v : ndarray, shape (nz, ny, nx, 3)
+        Mapped velocity, m/s; 0 at no-data points.
+    ok : ndarray of bool, shape (nz, ny, nx), or None
+        Points valid with finite ρ and v (None: all).
+
+    Examples
+    --------
+    >>> vol = TimeVolume.from_arrays({"density": np.ones((2, 2, 2, 2))})
+    >>> valid = np.ones((2, 2, 2), dtype=bool)
+    >>> valid[0, 0, 0] = False
+    >>> rho, v, ok = map_step(vol, get_mapping("identity"), 1, valid)
+    >>> float(rho[0, 0, 0]), int(ok.sum()), map_step(vol, get_mapping("identity"), 0, None)[2]
+    (0.0, 7, None)
+    """
     rho, v = mapping.map(volume, n)
     rho = np.ascontiguousarray(rho, dtype=np.float64)
     v = np.ascontiguousarray(v, dtype=np.float64)
@@ -540,9 +945,27 @@ class MappedSeries:
     The mapped frames are kept after their first use, up to ``max_bytes``
     (default the smaller of :data:`SERIES_BYTES` and a quarter of the memory
     available: 64³ × 70 steps is 0.6 GB); steps beyond it are mapped again
-    (read again) each time they are needed, as before this store existed.
-    Bigger data are for :mod:`auralize.distributed` (chunked, out of core).
-    ``maps`` counts the mapping evaluations.
+    (read again) each time they are needed.  Bigger data are for
+    :mod:`auralize.distributed` (chunked, out of core).  ``maps`` counts the
+    mapping evaluations.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    max_bytes : int, optional
+        Most bytes of mapped frames kept (:func:`step_bytes` a step); None:
+        :func:`series_bytes`.
+
+    Examples
+    --------
+    >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+    >>> store = MappedSeries(vol, get_mapping("identity"), max_bytes=4 * step_bytes(vol))
+    >>> store.get(1) is store.get(1), store.maps, store.max_steps
+    (True, 1, 4)
     """
 
     def __init__(
@@ -559,6 +982,29 @@ class MappedSeries:
         self.maps = 0
 
     def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step ``n``'s ``(rho, v, ok)`` (:func:`map_step`), mapped on first use and kept
+        while the budget allows.
+
+        Parameters
+        ----------
+        n : int
+            Time step.
+
+        Returns
+        -------
+        tuple of (ndarray, ndarray, ndarray or None)
+            ``rho (nz, ny, nx)`` kg/m³, ``v (nz, ny, nx, 3)`` m/s and the no-data
+            mask ``ok`` (None: every point has data).
+
+        Examples
+        --------
+        >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+        >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+        >>> store = MappedSeries(vol, get_mapping("identity"), max_bytes=0)
+        >>> rho1, v1, ok = store.get(1)
+        >>> round(float(rho1.mean()), 12), v1.shape, ok, store.get(1) is store.get(1), store.maps
+        (1.1, (4, 4, 4, 3), None, False, 3)
+        """
         hit = self.frames.get(n)
         if hit is None:
             hit = map_step(self.volume, self.mapping, n, self.valid)
@@ -569,13 +1015,40 @@ class MappedSeries:
 
 
 def step_bytes(volume: TimeVolume) -> int:
-    """Bytes of one mapped step in :class:`MappedSeries` (rho and v, float64)."""
+    """Bytes of one mapped step in :class:`MappedSeries` (rho and v, float64).
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+
+    Returns
+    -------
+    int
+        32 bytes a point (at least 1).
+
+    Examples
+    --------
+    >>> step_bytes(TimeVolume.from_arrays({"density": np.ones((2, 4, 4, 4))}))
+    2048
+    """
     return max(32 * volume.n_points, 1)
 
 
 def series_bytes() -> int:
     """The default memory for :class:`MappedSeries`: :data:`SERIES_BYTES`, at most a quarter
-    of the memory available."""
+    of the memory available.
+
+    Returns
+    -------
+    int
+        Bytes.
+
+    Examples
+    --------
+    >>> 0 < series_bytes() <= SERIES_BYTES
+    True
+    """
     from auralize.runtime.resources import available_bytes
 
     return int(min(SERIES_BYTES, available_bytes() // 4))
@@ -587,10 +1060,38 @@ class StepCache:
     ``ok`` is None when every point of the step is valid and finite, else a
     bool mask; no-data values are replaced by 0 (they are masked out of the
     strengths by :func:`auralize.sources._kernels.mask_nodata`, never used).
-    ``qmean`` is the quadrupole strength of the time-mean stress, subtracted
-    from every step's (or None: the literal strengths).  With ``store``
-    (:class:`MappedSeries`) the mapped frames come from it.  The kernels take
-    the mass flux ρv from ρ and v; :meth:`get` makes it for other callers.
+    The kernels take the mass flux ρv from ρ and v; :meth:`get` makes it for
+    other callers.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    qmean : SteadyBase or ndarray, shape (nz, ny, nx), optional
+        The steady state subtracted from every step's quadrupole strength: a
+        :class:`SteadyBase`, or a fixed quadrupole strength of a mean stress
+        (kg/(m³·s²)); None: the literal strengths.
+    floor : float
+        Strengths not above ``floor`` times their discretisation-error estimate
+        are zeroed (0: off; see :func:`step_strengths`).
+    store : MappedSeries, optional
+        Where the mapped frames come from (None: mapped here).
+
+    Raises
+    ------
+    ParameterError
+        A negative or non-numeric ``floor``.
+
+    Examples
+    --------
+    >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+    >>> cache = StepCache(vol, get_mapping("identity"))
+    >>> rho, v, m, ok = cache.get(2)
+    >>> float(rho.max()), m.shape, ok
+    (1.2, (4, 4, 4, 3), None)
     """
 
     def __init__(
@@ -618,7 +1119,28 @@ class StepCache:
         self.nodata: np.ndarray | None = None
 
     def frame(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Step ``n``'s ``(rho, v, ok)``."""
+        """Step ``n``'s ``(rho, v, ok)``.
+
+        Parameters
+        ----------
+        n : int
+            Time step.
+
+        Returns
+        -------
+        tuple of (ndarray, ndarray, ndarray or None)
+            ``rho (nz, ny, nx)`` kg/m³, ``v (nz, ny, nx, 3)`` m/s and the no-data
+            mask ``ok`` (None: every point has data); kept until :meth:`keep`
+            drops it.
+
+        Examples
+        --------
+        >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+        >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+        >>> cache = StepCache(vol, get_mapping("identity"))
+        >>> cache.frame(1) is cache.frame(1), round(float(cache.frame(1)[0].mean()), 12)
+        (True, 1.1)
+        """
         hit = self._cache.get(n)
         if hit is None:
             if self.store is not None:
@@ -629,7 +1151,27 @@ class StepCache:
         return hit
 
     def get(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-        """Step ``n``'s ``(rho, v, rho v, ok)``."""
+        """Step ``n``'s ``(rho, v, rho v, ok)``.
+
+        Parameters
+        ----------
+        n : int
+            Time step.
+
+        Returns
+        -------
+        tuple of (ndarray, ndarray, ndarray, ndarray or None)
+            As :meth:`frame`, with the mass flux ρv ``(nz, ny, nx, 3)``, kg/(m²·s),
+            third.
+
+        Examples
+        --------
+        >>> vol = TimeVolume.from_arrays({"density": np.full((2, 2, 2, 2), 2.0),
+        ...                               "velocity": np.full((2, 2, 2, 2, 3), 3.0)})
+        >>> rho, v, m, ok = StepCache(vol, get_mapping("identity")).get(0)
+        >>> float(m.max())
+        6.0
+        """
         rho, v, ok = self.frame(n)
         m = self._flux.get(n)
         if m is None:
@@ -638,7 +1180,23 @@ class StepCache:
 
     def keep(self, lo: int, hi: int) -> None:
         """Drop the frames outside steps ``[lo, hi]`` (one more on each side when the
-        floor's 2Δt stencil reads them)."""
+        floor's 2Δt stencil reads them).
+
+        Parameters
+        ----------
+        lo, hi : int
+            First and last step to keep.
+
+        Examples
+        --------
+        >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+        >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+        >>> cache = StepCache(vol, get_mapping("identity"))
+        >>> first = cache.frame(0)
+        >>> cache.keep(1, 2)
+        >>> cache.frame(0) is first  # mapped again
+        False
+        """
         if self.floor > 0:
             lo, hi = lo - 1, hi + 1
         for store in (self._cache, self._flux, self.maxima):
@@ -650,6 +1208,10 @@ def step_strengths(
     volume: TimeVolume, cache: StepCache, n: int, out: NDArray[np.float64] | None = None
 ) -> NDArray[np.float64]:
     """Strengths ``(3, nz, ny, nx)`` (monopole, dipole, quadrupole) at step ``n``.
+
+    Paper 003 §3.2.3: S_m = ∂ρ̃/∂t, S_d = ∂/∂x_i (∂(ρ̃ v_i)/∂t) (Eq. 13) and
+    S_q = ∂²(ρ̃ v_i v_j)/∂x_i∂x_j (Eq. 14), the time derivatives central
+    differences between steps n-1 and n+1 (one-sided at the ends).
 
     A point is no-data at step n when it is invalid or non-finite at any of
     the steps its time differences use (n-1, n, n+1); a strength whose
@@ -663,6 +1225,33 @@ def step_strengths(
     stencils compared) or above round-off (:data:`ROUNDOFF` of
     :func:`input_scale`) is 0: it is not a source.  On a uniform grid all of
     it is one sweep along z (:func:`auralize.sources._kernels.detect_step`).
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume (at least 2 steps).
+    cache : StepCache
+        Its mapped frames, steady state and floor.
+    n : int
+        Time step.
+    out : ndarray, shape (3, nz, ny, nx), optional
+        Where to write the strengths (a new array when None).
+
+    Returns
+    -------
+    ndarray, shape (3, nz, ny, nx)
+        S_m in kg/(m³·s), S_d in kg/(m⁴·s), S_q in kg/(m³·s²).
+
+    Examples
+    --------
+    A density rising by 0.1 kg/m³ every 0.5 s: S_m = 0.2 kg/(m³·s) everywhere,
+    no flow, so no dipoles or quadrupoles:
+
+    >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+    >>> s = step_strengths(vol, StepCache(vol, get_mapping("identity")), 1)
+    >>> s.shape, round(float(s[0].min()), 12), round(float(s[0].max()), 12), float(np.abs(s[1:]).max())
+    ((3, 4, 4, 4), 0.2, 0.2, 0.0)
     """
     T = volume.n_steps
     a, b = max(n - 1, 0), min(n + 1, T - 1)
@@ -826,7 +1415,31 @@ _NO_ROWS: dict[tuple[int, ...], NDArray[np.bool_]] = {}
 
 
 def check_floor(floor: float) -> float:
-    """A valid floor factor (>= 0; 0 turns the floor off)."""
+    """A valid floor factor (>= 0; 0 turns the floor off).
+
+    Parameters
+    ----------
+    floor : float
+        The factor (see :class:`Thresholds`).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ParameterError
+        Not a finite number >= 0.
+
+    Examples
+    --------
+    >>> check_floor("3")
+    3.0
+    >>> check_floor(-1)
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ParameterError: floor must be a number >= 0 (0: off), got -1
+    """
     try:
         f = float(floor)
     except (TypeError, ValueError):
@@ -854,7 +1467,35 @@ def steady_anchors(
 
     Between two anchors the field's local steady state is the linear
     interpolation of the stress at them (:class:`SteadyBase`).  With ``store``
-    the mapped frames come from (and stay in) it.
+    the mapped frames come from (and stay in) it, as do each step's input
+    maxima (:func:`input_scale`).  Fewer than 3 steps, or a mapping without
+    quadrupoles: the first and the last step only.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    rtol : float
+        Relative change below which a step is unchanged (:data:`STEADY_RTOL`).
+    store : MappedSeries, optional
+        Mapped frames to use and keep.
+
+    Returns
+    -------
+    ndarray of int64, shape (A,)
+        Sorted anchor steps.
+
+    Examples
+    --------
+    Steps 1 and 2 are the same:
+
+    >>> rho = np.array([1.0, 2.0, 2.0, 3.0, 4.0]).reshape(5, 1, 1, 1) * np.ones((5, 3, 3, 3))
+    >>> vol = TimeVolume.from_arrays({"density": rho, "velocity": np.ones((5, 3, 3, 3, 3))})
+    >>> m = get_mapping("identity")
+    >>> steady_anchors(vol, m).tolist()
+    [0, 1, 2, 4]
     """
     T = volume.n_steps
     anchors = {0, T - 1}
@@ -905,10 +1546,26 @@ class SteadyBase:
 
     Parameters
     ----------
-    volume, mapping
-        The volume (or one slab of it) and its mapping.
-    anchors : (A,) int
-        Sorted anchor steps (:func:`steady_anchors`).
+    volume : TimeVolume
+        The volume (or one slab of it).
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    anchors : ndarray of int, shape (A,)
+        Anchor steps (:func:`steady_anchors`; sorted and made unique here).
+    store : MappedSeries, optional
+        Where the anchors' mapped frames come from (None: mapped here).
+
+    Examples
+    --------
+    >>> rho = np.array([1.0, 2.0, 2.0, 3.0, 4.0]).reshape(5, 1, 1, 1) * np.ones((5, 3, 3, 3))
+    >>> vol = TimeVolume.from_arrays({"density": rho, "velocity": np.ones((5, 3, 3, 3, 3))})
+    >>> m = get_mapping("identity")
+    >>> base = SteadyBase(vol, m, [0, 4])
+    >>> base.at(4) is None
+    True
+    >>> sq, tt = base.at(2)  # halfway: the mean of the stress ρ v_i v_j at steps 0 and 4
+    >>> tt.shape, round(float(tt[0, 1, 1, 1]), 12), float(np.abs(sq).max())
+    ((6, 3, 3, 3), 2.5, 0.0)
     """
 
     def __init__(
@@ -930,7 +1587,28 @@ class SteadyBase:
         self._lock = threading.Lock()  # detection's threads share the anchors
 
     def for_volume(self, volume: TimeVolume, mapping: AcousticMapping | None = None) -> SteadyBase:
-        """The same anchors on another volume (a slab of this one)."""
+        """The same anchors on another volume (a slab of this one).
+
+        Parameters
+        ----------
+        volume : TimeVolume
+            The other volume.
+        mapping : AcousticMapping, optional
+            Its mapping (None: this one's).
+
+        Returns
+        -------
+        SteadyBase
+            Without a store.
+
+        Examples
+        --------
+        >>> rho = np.array([1.0, 2.0, 2.0, 3.0, 4.0]).reshape(5, 1, 1, 1) * np.ones((5, 3, 3, 3))
+        >>> vol = TimeVolume.from_arrays({"density": rho, "velocity": np.ones((5, 3, 3, 3, 3))})
+        >>> m = get_mapping("identity")
+        >>> SteadyBase(vol, m, [4, 0, 0]).for_volume(vol).anchors.tolist()
+        [0, 4]
+        """
         return SteadyBase(volume, self.mapping if mapping is None else mapping, self.anchors)
 
     def _anchor(
@@ -967,7 +1645,29 @@ class SteadyBase:
 
     def at(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         """``(S_q, stress)`` of the steady state at step ``n``, or None at an anchor
-        (the field is its own steady state there)."""
+        (the field is its own steady state there).
+
+        Parameters
+        ----------
+        n : int
+            Time step.
+
+        Returns
+        -------
+        tuple of ndarray, or None
+            The quadrupole strength ``(nz, ny, nx)`` of the interpolated stress,
+            kg/(m³·s²), and that stress ``(6, nz, ny, nx)`` (xx, yy, zz, xy, xz,
+            yz: :data:`STRESS_PAIRS`), kg/(m·s²); None at an anchor.
+
+        Examples
+        --------
+        >>> rho = np.array([1.0, 2.0, 2.0, 3.0, 4.0]).reshape(5, 1, 1, 1) * np.ones((5, 3, 3, 3))
+        >>> vol = TimeVolume.from_arrays({"density": rho, "velocity": np.ones((5, 3, 3, 3, 3))})
+        >>> m = get_mapping("identity")
+        >>> base = SteadyBase(vol, m, [0, 4])
+        >>> base.at(0) is None, round(float(base.at(1)[1][3].mean()), 12)
+        (True, 1.75)
+        """
         i = int(np.searchsorted(self.anchors, n))
         if i < self.anchors.size and self.anchors[i] == n:
             return None
@@ -981,7 +1681,31 @@ class SteadyBase:
     def parts(self, n: int) -> tuple[Any, ...]:
         """The steady state at step ``n`` as :func:`auralize.sources._kernels.detect_step`
         takes it: ``(mode, f, sa, sb, rho_a, v_a, rho_b, v_b)``, the anchors' quadrupole
-        strengths and their frames (whose stress :meth:`subtract` subtracts)."""
+        strengths and their frames (whose stress :meth:`subtract` subtracts).
+
+        Parameters
+        ----------
+        n : int
+            Time step.
+
+        Returns
+        -------
+        tuple
+            ``mode`` (``K.STEADY_ANCHOR`` at an anchor, then with empty arrays, else
+            ``K.STEADY_BETWEEN``), the interpolation weight ``f`` of the later
+            anchor, and the anchors' S_q ``(nz, ny, nx)``, ρ and v.
+
+        Examples
+        --------
+        >>> rho = np.array([1.0, 2.0, 2.0, 3.0, 4.0]).reshape(5, 1, 1, 1) * np.ones((5, 3, 3, 3))
+        >>> vol = TimeVolume.from_arrays({"density": rho, "velocity": np.ones((5, 3, 3, 3, 3))})
+        >>> m = get_mapping("identity")
+        >>> base = SteadyBase(vol, m, [0, 4])
+        >>> base.parts(0)[0] == K.STEADY_ANCHOR, base.parts(1)[0] == K.STEADY_BETWEEN
+        (True, True)
+        >>> round(base.parts(1)[1], 12), base.parts(1)[4].shape
+        (0.25, (3, 3, 3))
+        """
         i = int(np.searchsorted(self.anchors, n))
         if i < self.anchors.size and self.anchors[i] == n:
             return (K.STEADY_ANCHOR, 0.0, *_NO_STEADY)
@@ -997,7 +1721,33 @@ class SteadyBase:
     ) -> None:
         """Subtract the steady state at step ``n`` from the quadrupole strength ``sq``
         (and, ``with_stress``, from the stress ``tt``) in place: ``sq - at(n)[0]``
-        (0 at an anchor) in one compiled pass, without :meth:`at`'s arrays."""
+        (0 at an anchor) in one compiled pass, without :meth:`at`'s arrays.
+
+        Parameters
+        ----------
+        n : int
+            Time step.
+        sq : ndarray, shape (nz, ny, nx)
+            Quadrupole strength of step ``n``, kg/(m³·s²); changed in place.
+        tt : ndarray, shape (6, nz, ny, nx)
+            Stress of step ``n``; changed in place with ``with_stress``.
+        with_stress : bool
+            Subtract the interpolated stress from ``tt`` too.
+
+        Examples
+        --------
+        >>> rho = np.array([1.0, 2.0, 2.0, 3.0, 4.0]).reshape(5, 1, 1, 1) * np.ones((5, 3, 3, 3))
+        >>> vol = TimeVolume.from_arrays({"density": rho, "velocity": np.ones((5, 3, 3, 3, 3))})
+        >>> m = get_mapping("identity")
+        >>> base = SteadyBase(vol, m, [0, 4])
+        >>> sq, tt = np.ones((3, 3, 3)), np.full((6, 3, 3, 3), 3.0)
+        >>> base.subtract(2, sq, tt, with_stress=True)
+        >>> float(sq.max()), round(float(tt[0, 0, 0, 0]), 12)
+        (1.0, 0.5)
+        >>> base.subtract(4, sq, tt, with_stress=False)
+        >>> float(sq.max())
+        0.0
+        """
         i = int(np.searchsorted(self.anchors, n))
         if i < self.anchors.size and self.anchors[i] == n:
             sq[...] = 0.0  # the field's own steady state: no fluctuation
@@ -1026,7 +1776,36 @@ def steady_strength(
     store: MappedSeries | None = None,
 ) -> SteadyBase | None:
     """The field's local steady state to subtract (``steady="remove"``,
-    :class:`SteadyBase`), or None (``"keep"``); ``store`` as :func:`steady_anchors`."""
+    :class:`SteadyBase`), or None (``"keep"``); ``store`` as :func:`steady_anchors`.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+    m : AcousticMapping
+        Its (prepared) mapping.
+    steady : {"remove", "keep"}
+        Whether the steady part is removed.
+    store : MappedSeries, optional
+        Mapped frames to use and keep.
+
+    Returns
+    -------
+    SteadyBase or None
+
+    Raises
+    ------
+    ParameterError
+        ``steady`` is not one of :data:`STEADY_MODES`.
+
+    Examples
+    --------
+    >>> rho = np.array([1.0, 2.0, 2.0, 3.0, 4.0]).reshape(5, 1, 1, 1) * np.ones((5, 3, 3, 3))
+    >>> vol = TimeVolume.from_arrays({"density": rho, "velocity": np.ones((5, 3, 3, 3, 3))})
+    >>> m = get_mapping("identity")
+    >>> steady_strength(vol, m).anchors.tolist(), steady_strength(vol, m, "keep")
+    ([0, 1, 2, 4], None)
+    """
     if check_steady(steady) == "keep":
         return None
     return SteadyBase(volume, m, steady_anchors(volume, m, store=store), store=store)
@@ -1042,7 +1821,41 @@ def compute_strengths(
     """Strengths ``(3, nz, ny, nx)`` at one step (convenience for inspection).
 
     ``steady="remove"`` (default, as :func:`detect`): those of the time-varying
-    part; ``"keep"``: the paper's literal strengths.
+    part; ``"keep"``: the paper's literal strengths (paper 003 §3.2.3,
+    Eqs. 13–14).  No discretisation-error floor is applied (all strengths as
+    computed, see :func:`step_strengths`).
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        At least two time steps.
+    mapping : str or AcousticMapping, optional
+        Mapping preset or instance (:func:`~auralize.sources.mapping.get_mapping`;
+        default ``identity``); it is prepared here.
+    step : int
+        Time step.
+    steady : {"remove", "keep"}
+        Whether the quadrupole strength of the steady state is removed.
+
+    Returns
+    -------
+    ndarray, shape (3, nz, ny, nx)
+        S_m in kg/(m³·s), S_d in kg/(m⁴·s), S_q in kg/(m³·s²).
+
+    Raises
+    ------
+    DataError
+        Fewer than 2 time steps.
+    ParameterError
+        An unknown mapping or ``steady``.
+
+    Examples
+    --------
+    >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+    >>> s = compute_strengths(vol, "identity", step=2)
+    >>> s.shape, round(float(s[0].mean()), 12)
+    ((3, 4, 4, 4), 0.2)
     """
     require_steps(volume)
     m = get_mapping(mapping)
@@ -1053,12 +1866,64 @@ def compute_strengths(
 
 
 def check_steady(steady: str) -> str:
+    """``steady`` if it is one of :data:`STEADY_MODES`.
+
+    Parameters
+    ----------
+    steady : str
+        ``"remove"`` or ``"keep"``.
+
+    Returns
+    -------
+    str
+        ``steady``.
+
+    Raises
+    ------
+    ParameterError
+        Any other value.
+
+    Examples
+    --------
+    >>> check_steady("keep")
+    'keep'
+    >>> check_steady("mean")
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ParameterError: steady must be one of ('remove', 'keep'), got 'mean'
+    """
     if steady not in STEADY_MODES:
         raise ParameterError(f"steady must be one of {STEADY_MODES}, got {steady!r}")
     return steady
 
 
 def delta_v_rule(delta_v: str) -> int:
+    """The kernels' code of a ΔV rule name (:data:`DELTA_V_RULES`).
+
+    Parameters
+    ----------
+    delta_v : str
+        ``"cell"`` or ``"sphere"``.
+
+    Returns
+    -------
+    int
+        ``K.DV_CELL`` or ``K.DV_SPHERE``.
+
+    Raises
+    ------
+    ParameterError
+        Any other name.
+
+    Examples
+    --------
+    >>> delta_v_rule("sphere") == K.DV_SPHERE
+    True
+    >>> delta_v_rule("ball")
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ParameterError: delta_v must be one of ['cell', 'sphere'], got 'ball'
+    """
     try:
         return DELTA_V_RULES[delta_v]
     except KeyError:
@@ -1078,16 +1943,60 @@ def classify(
 ) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
     """Classify vertices and compute ΔV radii from strengths ``(3, nz, ny, nx)``.
 
-    Returns ``kind (nz, ny, nx)`` int8 (0 none, 1 monopole, 2 dipole,
-    3 quadrupole) and ``radius (nz, ny, nx)`` in metres (0 where no source).
-    ``delta_v`` is ``"cell"`` (ΔV = the vertex's share of the source region,
-    so Σ S ΔV converges to ∫ S dV) or ``"sphere"`` (paper 003 §3.2.4.1
+    Exclusive classification of paper 003 §3.2.3 on magnitudes: a monopole if
+    ``|S_m| > T_m``; a dipole if ``|S_d| > T_d`` and ``|S_m|`` is almost zero;
+    a quadrupole if ``|S_q| > T_q`` and both others are almost zero ("almost
+    zero": at most ``zero_fraction`` times that type's threshold).  ``delta_v``
+    is ``"cell"`` (ΔV = the box the cut distances of §3.2.4.1 bound, the
+    vertex's share of the source region, so Σ S ΔV converges to ∫ S dV) or
+    ``"sphere"`` (the sphere of the mean cut distance, §3.2.4.1, Fig. 3,
     literally); see :func:`auralize.sources._kernels.classify_and_radius`.
 
     ``cell (nz, ny, nx)``: on a curvilinear grid, each point's cell volume
     |det ∂x/∂ξ| (:class:`~auralize.curvilinear.CurvilinearMetric`); the cuts
     are then taken in index units (``spacing`` ignored) and ΔV is their box
     times the cell volume (a radius times its cube root).
+
+    Parameters
+    ----------
+    strengths : ndarray, shape (3, nz, ny, nx)
+        S_m, S_d, S_q (:func:`step_strengths`).
+    thresholds : ndarray, shape (3,)
+        Absolute thresholds (:meth:`Thresholds.resolve`).
+    spacing : ndarray, shape (3,)
+        Grid spacing (x, y, z), m.
+    zero_fraction : float
+        "Almost zero", as a fraction of each type's threshold.
+    delta_v : {"cell", "sphere"}
+        ΔV rule.
+    cell : ndarray, shape (nz, ny, nx), optional
+        Cell volumes of a curvilinear grid, m³.
+
+    Returns
+    -------
+    kind : ndarray of int8, shape (nz, ny, nx)
+        0 none, 1 monopole, 2 dipole, 3 quadrupole.
+    radius : ndarray, shape (nz, ny, nx)
+        Radius of the sphere of volume ΔV, m (0 where no source).
+
+    Raises
+    ------
+    ParameterError
+        An unknown ``delta_v``.
+
+    Examples
+    --------
+    The threshold is crossed 0.9 of the way to each neighbour: the sphere's
+    radius is the mean cut 0.9, the cell's box is 1.8³:
+
+    >>> s = np.zeros((3, 3, 3, 3))
+    >>> s[0, 1, 1, 1] = 10.0  # one monopole of 10 in a 3³ grid, thresholds 1
+    >>> kind, r_cell = classify(s, np.ones(3), np.ones(3))
+    >>> _, r_sphere = classify(s, np.ones(3), np.ones(3), delta_v="sphere")
+    >>> int(kind[1, 1, 1]), int((kind > 0).sum()), round(float(r_sphere[1, 1, 1]), 12)
+    (1, 1, 0.9)
+    >>> round(4 / 3 * np.pi * float(r_cell[1, 1, 1]) ** 3, 12)
+    5.832
     """
     s = np.ascontiguousarray(strengths, dtype=np.float64)
     thr = np.asarray(thresholds, dtype=np.float64)
@@ -1114,7 +2023,41 @@ def classify_sources(
     """:func:`classify` then :func:`extract`, the same :class:`SourceFrame`, without the
     arrays of every point's radius (:func:`auralize.sources._kernels.sources`).
 
-    ``kinds``: optional int8 scratch of the grid's shape, reused between steps.
+    Parameters
+    ----------
+    strengths : ndarray, shape (3, nz, ny, nx)
+        S_m, S_d, S_q (:func:`step_strengths`).
+    thresholds : ndarray, shape (3,)
+        Absolute thresholds.
+    spacing : ndarray, shape (3,)
+        Grid spacing (x, y, z), m.
+    zero_fraction : float
+        "Almost zero", as a fraction of each type's threshold.
+    delta_v : {"cell", "sphere"}
+        ΔV rule.
+    cell : ndarray, shape (nz, ny, nx), optional
+        Cell volumes of a curvilinear grid, m³.
+    kinds : ndarray of int8, shape (nz, ny, nx), optional
+        Scratch of the grid's shape, reused between steps.
+
+    Returns
+    -------
+    SourceFrame
+        Without ``n_valid``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown ``delta_v``.
+
+    Examples
+    --------
+    >>> s = np.zeros((3, 3, 3, 3))
+    >>> s[0, 1, 1, 1] = 10.0  # one monopole of 10 in a 3³ grid, thresholds 1
+    >>> f = classify_sources(s, np.ones(3), np.ones(3))
+    >>> g = extract(*classify(s, np.ones(3), np.ones(3)), s)
+    >>> f.index.tolist(), bool(np.array_equal(f.radius, g.radius))
+    ([13], True)
     """
     s = np.ascontiguousarray(strengths, dtype=np.float64)
     thr = np.asarray(thresholds, dtype=np.float64)
@@ -1130,7 +2073,31 @@ def classify_sources(
 def extract(
     kind: NDArray[np.int8], radius: NDArray[np.float64], strengths: NDArray[np.float64]
 ) -> SourceFrame:
-    """Gather the source points of one step into a :class:`SourceFrame`."""
+    """Gather the source points of one step into a :class:`SourceFrame`.
+
+    Parameters
+    ----------
+    kind : ndarray of int8, shape (nz, ny, nx)
+        Source type of each vertex (0: none), as :func:`classify` gives it.
+    radius : ndarray, shape (nz, ny, nx)
+        ΔV radius of each vertex, m.
+    strengths : ndarray, shape (3, nz, ny, nx)
+        S_m, S_d, S_q.
+
+    Returns
+    -------
+    SourceFrame
+        The vertices with ``kind > 0`` in flat C order, each with the strength
+        of its type.
+
+    Examples
+    --------
+    >>> s = np.zeros((3, 3, 3, 3))
+    >>> s[0, 1, 1, 1] = 10.0  # one monopole of 10 in a 3³ grid, thresholds 1
+    >>> f = extract(*classify(s, np.ones(3), np.ones(3)), s)
+    >>> f.index.tolist(), f.kind.tolist(), f.strength.tolist()
+    ([13], [1], [10.0])
+    """
     flat_kind = kind.reshape(-1)
     idx = np.flatnonzero(flat_kind)
     k = flat_kind[idx]
@@ -1145,7 +2112,30 @@ def gradient(
 ) -> NDArray[np.float64]:
     """∇f · ``scale`` ``(nz, ny, nx, 3)`` (components x, y, z) of ``f (nz, ny, nx)``:
     :func:`numpy.gradient`'s differences (central inside, one-sided at the faces;
-    0 along an axis of one point) in the compiled stencil, the same numbers."""
+    0 along an axis of one point) in the compiled stencil, the same numbers.
+
+    Parameters
+    ----------
+    f : ndarray, shape (nz, ny, nx)
+        Values on a uniform grid.
+    spacing : ndarray, shape (3,)
+        Spacing (x, y, z), m.
+    scale : float
+        Factor applied to the gradient.
+
+    Returns
+    -------
+    ndarray, shape (nz, ny, nx, 3)
+        The gradient (units of ``f`` per m, times ``scale``).
+
+    Examples
+    --------
+    >>> f = np.broadcast_to(np.arange(4.0) ** 2, (2, 2, 4))
+    >>> gradient(f, np.array([0.5, 1.0, 1.0]))[0, 0, :, 0].tolist()
+    [2.0, 4.0, 8.0, 10.0]
+    >>> bool(np.array_equal(gradient(f, np.ones(3))[..., 0], np.gradient(f, axis=2)))
+    True
+    """
     f = np.ascontiguousarray(f, dtype=np.float64)
     out = np.empty((*f.shape, 3))
     K.gradient(f, np.asarray(spacing, dtype=np.float64), float(scale), out)
@@ -1154,7 +2144,22 @@ def gradient(
 
 def in_threads(fn: Any, n: int) -> None:
     """Call ``fn(i)`` for ``0 <= i < n`` on the detection's threads
-    (:func:`auralize.sources._kernels.in_threads`); ``fn`` releases the GIL."""
+    (:func:`auralize.sources._kernels.in_threads`); ``fn`` releases the GIL.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(i)``, its result ignored.
+    n : int
+        Number of calls.
+
+    Examples
+    --------
+    >>> rows = np.zeros((4, 3))
+    >>> in_threads(lambda i: rows[i].fill(i), 4)
+    >>> rows[:, 0].tolist()
+    [0.0, 1.0, 2.0, 3.0]
+    """
     K.in_threads(fn, n)
 
 
@@ -1165,7 +2170,28 @@ SLAB_SPLIT = 1 << 16
 def in_slabs(fn: Any, x: NDArray[Any]) -> bool:
     """Call ``fn(sl)`` for slices ``sl`` that split the first axis of ``x`` into one slab
     per thread, on the detection's threads (``fn`` runs numpy, which releases the GIL);
-    False (nothing called) when ``x`` is too small to be worth it (:data:`SLAB_SPLIT`)."""
+    False (nothing called) when ``x`` is too small to be worth it (:data:`SLAB_SPLIT`).
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(sl)`` for a slice of the first axis, its result ignored.
+    x : ndarray
+        The array whose first axis is split.
+
+    Returns
+    -------
+    bool
+        Whether ``fn`` was called (then the slices cover the axis once).
+
+    Examples
+    --------
+    >>> x = np.ones((8, 128, 128))
+    >>> in_slabs(lambda sl: np.multiply(x[sl], 2.0, out=x[sl]), x), float(x.min())
+    (True, 2.0)
+    >>> in_slabs(lambda sl: None, np.ones((2, 2)))
+    False
+    """
     if x.size < SLAB_SPLIT or x.ndim == 0 or x.shape[0] < 2:
         return False
     threads = K.thread_count()
@@ -1179,17 +2205,76 @@ def gradient_max(
     f: NDArray[np.float64], spacing: NDArray[np.float64], out: NDArray[np.float64]
 ) -> float:
     """:func:`gradient` (scale 1) into ``out (nz, ny, nx, 3)``, and :func:`gradient_absmax`
-    of it, in one pass."""
+    of it, in one pass.
+
+    Parameters
+    ----------
+    f : ndarray, shape (nz, ny, nx)
+        Values on a uniform grid.
+    spacing : ndarray, shape (3,)
+        Spacing (x, y, z), m.
+    out : ndarray, shape (nz, ny, nx, 3)
+        Receives the gradient.
+
+    Returns
+    -------
+    float
+        The largest finite |component| (0 if none).
+
+    Examples
+    --------
+    >>> f = np.broadcast_to(np.arange(4.0) ** 2, (2, 2, 4)).copy()
+    >>> out = np.empty((2, 2, 4, 3))
+    >>> gradient_max(f, np.ones(3), out), out[0, 0, :, 0].tolist()
+    (5.0, [1.0, 2.0, 4.0, 5.0])
+    """
     return float(K.gradient_max(f, np.asarray(spacing, dtype=np.float64), out))
 
 
 def gradient_absmax(f: NDArray[np.float64], spacing: NDArray[np.float64]) -> float:
     """The largest |component| of :func:`gradient` over the finite ones (0 if none),
-    without making the gradient."""
+    without making the gradient.
+
+    Parameters
+    ----------
+    f : ndarray, shape (nz, ny, nx)
+        Values on a uniform grid.
+    spacing : ndarray, shape (3,)
+        Spacing (x, y, z), m.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> f = np.broadcast_to(np.arange(4.0) ** 2, (2, 2, 4)).copy()
+    >>> gradient_absmax(f, np.array([0.5, 1.0, 1.0]))
+    10.0
+    """
     return float(K.gradient_absmax(f, spacing))
 
 
 def require_steps(volume: TimeVolume) -> None:
+    """Check the volume has the 2 steps or more that detection needs.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+
+    Raises
+    ------
+    DataError
+        Fewer than 2 time steps (strengths are time derivatives).
+
+    Examples
+    --------
+    >>> require_steps(TimeVolume.from_arrays({"density": np.ones((1, 2, 2, 2))}))
+    Traceback (most recent call last):
+    ...
+    auralize.errors.DataError: <memory>: source detection needs at least 2 time steps ...
+    """
     if volume.n_steps < 2:
         raise DataError(
             f"{volume.source}: source detection needs at least 2 time steps (strengths are "
@@ -1203,9 +2288,33 @@ def input_scale(
     """Size of the terms each strength of step ``n`` is a difference of (planes ``[lo, hi)``).
 
     ``max|ρ|/Δt`` (monopole), ``max|ρv|/(h Δt)`` (dipole) and
-    ``max|ρ| |v|²/h²`` (quadrupole), with the smallest step Δt and spacing h:
-    a strength far below it is round-off (e.g. the dipole strength of a
-    divergence-free flow), not a source.
+    ``max|ρ| |v|²/h²`` (quadrupole; the largest |ρ v_i v_j|), with the
+    smallest step Δt and spacing h: a strength far below it is round-off
+    (e.g. the dipole strength of a divergence-free flow), not a source.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume.
+    cache : StepCache
+        Its mapped frames (each step's per-plane maxima are kept in it).
+    n : int
+        Time step.
+    lo, hi : int
+        Planes (z indices) of a slab (default all).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        kg/(m³·s), kg/(m⁴·s), kg/(m³·s²).
+
+    Examples
+    --------
+    >>> vol = TimeVolume.from_arrays({"density": np.full((3, 2, 2, 2), 2.0),
+    ...                               "velocity": np.full((3, 2, 2, 2, 3), 3.0)},
+    ...                              times=[0.0, 0.5, 1.0], spacing=0.5)
+    >>> input_scale(vol, StepCache(vol, get_mapping("identity")), 1).tolist()
+    [4.0, 24.0, 72.0]
     """
     sl = slice(lo, hi)
     dt = float(np.min(np.diff(volume.times)))
@@ -1233,6 +2342,34 @@ def sample_stats(
     ``offset`` is the global flat index of the first point of ``s``,
     ``n_points`` the number of points of the whole grid: the sampled points
     depend on the global index only.
+
+    Parameters
+    ----------
+    s : ndarray, shape (3, ...)
+        S_m, S_d, S_q of the step (or slab).
+    nodata : ndarray of bool, or None
+        No-data points of ``s`` (left out of the sample; None: none).
+    offset : int
+        Global flat index of the first point of ``s``.
+    n_points : int
+        Points of the whole grid; above :data:`SAMPLE_POINTS` a fixed subset
+        is sampled.
+    scale : ndarray, shape (3,), optional
+        :func:`input_scale` of the step (None: zeros).
+
+    Returns
+    -------
+    StrengthStats
+        The peak over all points of ``s``, the sample unsorted.
+
+    Examples
+    --------
+    >>> s = np.arange(24.0).reshape(3, 2, 2, 2) - 12.0
+    >>> nodata = np.zeros((2, 2, 2), dtype=bool)
+    >>> nodata[0, 0, 0] = True
+    >>> st = sample_stats(s, nodata, 0, 8)
+    >>> st.peak.tolist(), st.sample.shape
+    ([12.0, 4.0, 11.0], (3, 7))
     """
     flat = s.reshape(3, -1)
     a = np.abs(flat)
@@ -1272,7 +2409,25 @@ def _sampled_points(offset: int, size: int, n_points: int) -> NDArray[np.intp]:
 
 
 def sample_steps(n_steps: int, max_steps: int = AUTO_SAMPLE_STEPS) -> NDArray[np.int64]:
-    """The evenly spaced steps whose strengths set relative, top and auto thresholds."""
+    """The evenly spaced steps whose strengths set relative, top and auto thresholds.
+
+    Parameters
+    ----------
+    n_steps : int
+        Steps of the series.
+    max_steps : int
+        Most steps sampled (:data:`AUTO_SAMPLE_STEPS`).
+
+    Returns
+    -------
+    ndarray of int64
+        Sorted steps, the first and the last included.
+
+    Examples
+    --------
+    >>> sample_steps(30).tolist(), sample_steps(3).tolist()
+    ([0, 4, 8, 12, 17, 21, 25, 29], [0, 1, 2])
+    """
     return np.unique(np.linspace(0, n_steps - 1, min(max_steps, n_steps)).round()).astype(np.int64)
 
 
@@ -1291,9 +2446,38 @@ def strength_stats(
     strengths within their discretisation error are 0 with ``floor`` > 0, see
     :func:`step_strengths`).
 
-    ``store`` (:class:`MappedSeries`): the mapped frames come from it.
-    ``keep``: a dict that receives each sample step's strengths and no-data
-    mask (``{step: (strengths, nodata)}``), for :func:`iter_detect` to reuse.
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume (at least 2 steps).
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    qmean : SteadyBase or ndarray, optional
+        Steady state removed from the quadrupole strength (:class:`StepCache`).
+    max_steps : int
+        Most steps sampled (:func:`sample_steps`).
+    floor : float
+        Discretisation-error floor (0: off).
+    progress_bar : bool
+        Show a progress bar on stderr.
+    store : MappedSeries, optional
+        Where the mapped frames come from.
+    keep : dict, optional
+        Receives each sample step's strengths and no-data mask
+        (``{step: (strengths, nodata)}``), for :func:`iter_detect` to reuse.
+
+    Returns
+    -------
+    StrengthStats
+        Merged over the sample steps (samples sorted).
+
+    Examples
+    --------
+    >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+    >>> st = strength_stats(vol, get_mapping("identity"))
+    >>> st.peak.round(12).tolist(), st.sample.shape, st.scale.tolist()
+    ([0.2, 0.0, 0.0], (3, 192), [2.4, 0.0, 0.0])
     """
     cache = StepCache(volume, mapping, qmean=qmean, floor=floor, store=store)
     buf = K.empty_like_strengths(volume.shape)
@@ -1319,7 +2503,31 @@ def peak_strengths(
     max_steps: int = AUTO_SAMPLE_STEPS,
     progress_bar: bool = False,
 ) -> NDArray[np.float64]:
-    """Largest |S| of each type over evenly spaced sample steps (3,) (literal strengths)."""
+    """Largest |S| of each type over evenly spaced sample steps (3,) (literal strengths).
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume (at least 2 steps).
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    max_steps : int
+        Most steps sampled (:func:`sample_steps`).
+    progress_bar : bool
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        kg/(m³·s), kg/(m⁴·s), kg/(m³·s²); steady part kept, no floor.
+
+    Examples
+    --------
+    >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+    >>> peak_strengths(vol, get_mapping("identity")).round(12).tolist()
+    [0.2, 0.0, 0.0]
+    """
     return strength_stats(volume, mapping, max_steps=max_steps, progress_bar=progress_bar).peak
 
 
@@ -1343,7 +2551,47 @@ def iter_detect(
     ``floor`` as :class:`StepCache`.  ``store`` (:class:`MappedSeries`): the
     mapped frames come from it; ``known``: strengths already computed with the
     same ``qmean`` and ``floor`` (:func:`strength_stats`'s ``keep``), used
-    (and dropped) instead of computing them again.
+    (and dropped) instead of computing them again.  With several threads, a
+    uniform grid and a store that holds every step, several steps are
+    detected at a time, each on one thread (yielded in order).
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        The volume (at least 2 steps).
+    mapping : AcousticMapping
+        Its (prepared) mapping.
+    thr : ndarray, shape (3,)
+        Absolute thresholds.
+    zero_fraction : float
+        "Almost zero", as a fraction of each type's threshold (:func:`classify`).
+    steps : range, optional
+        The steps (default all).
+    progress_bar : bool
+        Show a progress bar on stderr.
+    qmean : SteadyBase or ndarray, optional
+        Steady state removed from the quadrupole strength.
+    delta_v : {"cell", "sphere"}
+        ΔV rule.
+    floor : float
+        Discretisation-error floor (0: off).
+    store : MappedSeries, optional
+        Where the mapped frames come from.
+    known : dict, optional
+        ``{step: (strengths, nodata)}`` already computed.
+
+    Yields
+    ------
+    step : int
+    frame : SourceFrame
+
+    Examples
+    --------
+    >>> rho = 1.0 + 0.1 * np.arange(3.0).reshape(3, 1, 1, 1) * np.ones((3, 4, 4, 4))
+    >>> vol = TimeVolume.from_arrays({"density": rho}, times=[0.0, 0.5, 1.0])
+    >>> thr = np.array([0.1, 1.0, 1.0])
+    >>> [(n, f.index.size, f.n_valid) for n, f in iter_detect(vol, get_mapping("identity"), thr)]
+    [(0, 64, 64), (1, 64, 64), (2, 64, 64)]
     """
     steps = steps if steps is not None else range(volume.n_steps)
     known = {} if known is None else known
@@ -1481,7 +2729,27 @@ SIDE_BY_SIDE = 4
 
 
 def classified_fraction(frames: Sequence[SourceFrame], n_points: int) -> dict[str, float]:
-    """Share of the valid point-steps classified as each type (and ``"any"``)."""
+    """Share of the valid point-steps classified as each type (and ``"any"``).
+
+    Parameters
+    ----------
+    frames : sequence of SourceFrame
+        The sources of each step.
+    n_points : int
+        Points of the grid (the valid points of a frame whose ``n_valid`` is None).
+
+    Returns
+    -------
+    dict of str to float
+        ``{"monopole", "dipole", "quadrupole", "any"}``, each in [0, 1].
+
+    Examples
+    --------
+    >>> f = SourceFrame(index=np.arange(3), kind=np.array([1, 1, 2], dtype=np.int8),
+    ...                 strength=np.ones(3), radius=np.ones(3), n_valid=10)
+    >>> classified_fraction([f, f], 64)
+    {'monopole': 0.2, 'dipole': 0.1, 'quadrupole': 0.0, 'any': 0.30000000000000004}
+    """
     valid = sum(n_points if f.n_valid is None else f.n_valid for f in frames)
     tot = dict.fromkeys(TYPES, 0)
     for f in frames:
@@ -1495,8 +2763,29 @@ def classified_fraction(frames: Sequence[SourceFrame], n_points: int) -> dict[st
 def warn_fraction(fraction: dict[str, float], source: str, *, uniform: bool = False) -> None:
     """Warn (once per call site) when more than :data:`WARN_FRACTION` of the points are sources.
 
-    ``uniform``: every sampled point of a classified type has the same |S| (a
-    uniform volume source, which no threshold splits).
+    Parameters
+    ----------
+    fraction : dict of str to float
+        :func:`classified_fraction`.
+    source : str
+        The volume's name, for the message.
+    uniform : bool
+        Every sampled point of a classified type has the same |S| (a uniform
+        volume source, which no threshold splits): the advice says so.
+
+    Warns
+    -----
+    SourceFractionWarning
+        ``fraction["any"]`` above :data:`WARN_FRACTION`.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warn_fraction({"monopole": 0.5, "dipole": 0.0, "quadrupole": 0.0, "any": 0.5}, "x")
+    >>> caught[0].category.__name__, str(caught[0].message)[:42]
+    ('SourceFractionWarning', 'x: 50% of the valid points are sources (50')
     """
     if fraction["any"] > WARN_FRACTION:
         parts = ", ".join(f"{fraction[k]:.0%} {k}" for k in TYPES)
@@ -1523,7 +2812,11 @@ def detect(
     delta_v: str = "cell",
     **mapping_fields: str,
 ) -> SourceSeries:
-    """Detect monopole, dipole and quadrupole sources at every step.
+    """Detect monopole, dipole and quadrupole sources at every step (paper 003 §3.2.3).
+
+    The mapped fields (§3.2.2) give the strengths of Eqs. 13–14 at every
+    point, the :class:`Thresholds` classify them exclusively, and each
+    source point gets its ΔV (§3.2.4.1).
 
     Parameters
     ----------
@@ -1540,22 +2833,27 @@ def detect(
         Show a progress bar on stderr.
     steady : {"remove", "keep"}
         ``"remove"`` (default): a steady flow makes no sound, so the
-        quadrupole strength is taken from the fluctuating stress
-        ρ v_i v_j − ⟨ρ v_i v_j⟩, the time mean over the whole series per
-        point (Lighthill's far field depends on ∂²T_ij/∂t² only).  The
+        quadrupole strength is taken from the stress ρ v_i v_j minus the
+        field's local steady state (:class:`SteadyBase`: the stress at the
+        anchor steps of :func:`steady_anchors`, linearly interpolated
+        between them; Lighthill's far field depends on ∂²T_ij/∂t² only).  The
         monopole and dipole strengths are time derivatives already and vanish
         for a steady field.  ``"keep"``: the literal strengths of paper 003
         Eq. 14, steady part included.
     delta_v : {"cell", "sphere"}
         ΔV rule (see :func:`classify`); ``"cell"`` converges under refinement.
+    **mapping_fields
+        Field-name overrides for a mapping preset (:func:`get_mapping`), e.g.
+        ``density="rho"``.
 
     Each step is read and mapped once: the mapping's series statistics keep
     what they read for the first mapping of each step, and the mapped frames
     are kept (:class:`MappedSeries`, up to :data:`SERIES_BYTES` and a quarter
     of the memory available) for the steady anchors, the threshold statistics
-    (the same :data:`AUTO_SAMPLE_STEPS` sample steps as before, whose
-    strengths detection then reuses) and detection.  The results are those of
-    separate passes, bit for bit; beyond the budget steps are read again.
+    (the :data:`AUTO_SAMPLE_STEPS` sample steps, whose strengths detection
+    then reuses when the store holds every step) and detection.  The results
+    are those of separate passes, bit for bit; beyond the budget steps are
+    read again.
 
     Returns
     -------
@@ -1563,6 +2861,16 @@ def detect(
         ``meta["fraction"]`` is the share of the valid point-steps classified
         as each type; a :class:`SourceFractionWarning` says when more than a
         quarter of them are sources.
+
+    Raises
+    ------
+    DataError
+        Fewer than 2 time steps, or mapped fields of a bad shape.
+    FieldError
+        A field the mapping needs is not in the volume.
+    ParameterError
+        An unknown mapping, ``steady`` or ``delta_v``, or a field override
+        the mapping does not take.
 
     Examples
     --------
