@@ -448,7 +448,7 @@ def _timbre_whole_call_row(size: int) -> BenchRow:
         "× CPU time",
         target="≤ 1.25×",
         met=r <= 1.25,
-        note=f"the whole call: auto {auto:.2f} CPU-s, physical {phys:.2f} CPU-s (median of 3)",
+        note=f"the whole call: auto {auto:.3f} CPU-s, physical {phys:.3f} CPU-s (median of 3)",
     )
 
 
