@@ -31,6 +31,7 @@ process; the first use of a kernel does:
 
 from __future__ import annotations
 
+import copy as _copy
 import hashlib
 import logging
 import os
@@ -40,7 +41,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba.core import event
+from numba.core import event, ir
 
 log = logging.getLogger("auralize")
 
@@ -150,6 +151,80 @@ def configure() -> None:
         if not config.CACHE_DIR:
             config.CACHE_DIR = str(cache_dir())
         event.register("numba:compile", _NOTICE)
+        if os.environ.get("AURALIZE_FAST_INLINE", "1") != "0":
+            fast_inlining()
+
+
+_INLINE_TLS = threading.local()
+
+
+class _InlinerCopy:
+    """The ``copy`` module as :mod:`numba.core.inline_closurecall` sees it once
+    :func:`fast_inlining` is applied: ``deepcopy`` of an IR block returns the block
+    itself while a callee's freshly built IR is spliced in, and is the standard
+    deep copy otherwise."""
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(_copy, name)
+
+    @staticmethod
+    def deepcopy(x: Any, memo: Any = None) -> Any:
+        if getattr(_INLINE_TLS, "fresh", False) and isinstance(x, ir.Block):
+            return x
+        return _copy.deepcopy(x, memo)
+
+
+def _inline_function(self: Any, caller_ir: Any, block: Any, i: int, function: Any,
+                     arg_typs: Any = None) -> tuple[Any, ...]:  # fmt: skip
+    """numba's ``InlineWorker.inline_function`` (the ``inline="always"`` inliner) without
+    copying the callee's IR, which it has just built for this call site alone.  The first
+    item, the callee's IR before the splice, is ``None`` (numba's caller ignores it)."""
+    callee_ir = self.run_untyped_passes(function)
+    _INLINE_TLS.fresh = True
+    try:
+        out = self.inline_ir(caller_ir, block, i, callee_ir, function.__code__.co_freevars,
+                             arg_typs=arg_typs)  # fmt: skip
+    finally:
+        _INLINE_TLS.fresh = False
+    return (None, *out[1:])
+
+
+def fast_inlining() -> bool:
+    """Splice ``inline="always"`` callees into their callers in linear time; returns
+    whether the change applies to the installed numba.
+
+    numba's inliner builds the callee's IR afresh for every call site (its untyped
+    passes), then deep-copies it twice before splicing it in, one block at a time; the
+    copy of every block drags a copy of the callee's whole variable scope along, so an
+    inlined function costs its blocks × its variables, and nested inlined helpers
+    (the synthesis kernels' SIMD loops are built of them) most of a kernel's cold
+    compile.  The copies guard IR that is used again; the IR of this call site is not
+    (the inliner of ``@overload`` functions, whose IR is cached, still copies).  The
+    compiled code is the same, instruction for instruction (tested).
+
+    Applied by :func:`configure` unless ``AURALIZE_FAST_INLINE=0``, and only when numba's
+    inliner is the one described (its source is checked): a numba that changes it keeps
+    its own.
+    """
+    import inspect
+
+    import numba.core.inline_closurecall as icc
+
+    worker = icc.InlineWorker
+    if worker.inline_function is _inline_function:
+        return True
+    try:
+        fn_src = inspect.getsource(worker.inline_function)
+        ir_src = inspect.getsource(worker.inline_ir)
+    except (OSError, TypeError):
+        return False
+    fresh = "callee_ir = self.run_untyped_passes(function)" in fn_src
+    copies = "copy.deepcopy(the_ir.blocks[block_label])" in ir_src
+    if not (fresh and copies and getattr(icc, "copy", None) is _copy):
+        return False
+    icc.copy = _InlinerCopy()  # type: ignore[assignment]
+    worker.inline_function = _inline_function
+    return True
 
 
 def _kernel_name(event_data: Any) -> str | None:
