@@ -34,7 +34,9 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 def _check_forms(args: tuple) -> None:  # type: ignore[type-arg]
     for a in args:
-        if isinstance(a, np.ndarray):
+        if isinstance(a, tuple):  # a named bundle of arguments: each of its fields
+            _check_forms(a)
+        elif isinstance(a, np.ndarray):
             assert a.flags.c_contiguous and a.flags.writeable and a.flags.aligned
             assert a.dtype in (np.float64, np.int64, np.bool_), a.dtype
         else:
@@ -104,8 +106,8 @@ def test_sampled_kernel_gets_one_signature_for_any_input(monkeypatch) -> None:  
 
 def test_synthesis_kernels_get_one_signature_each(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     runs, pieces = _Recorder(0), _Recorder(0)
-    monkeypatch.setattr(render_runs, "render", runs)
-    monkeypatch.setattr(render_pieces, "render", pieces)
+    monkeypatch.setattr(render_runs, "render_task", runs)
+    monkeypatch.setattr(render_pieces, "render_task", pieces)
     t = np.linspace(0.0, 0.2, 9)
     q = np.sin(40.0 * t)[None].repeat(3, axis=0) * np.array([[1.0], [0.5], [0.2]])
     pos = np.array([[2.0, 0.0, 0.0], [0.0, 3.0, 0.0], [1.0, 1.0, 1.0]])

@@ -38,6 +38,8 @@ from __future__ import annotations
 import math
 import os
 import threading
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,8 +49,22 @@ from numpy.typing import NDArray
 from auralize.constants import RHO0 as RHO0  # (re-exported)
 from auralize.emitters import C0
 from auralize.emitters._kernels import render_pieces, render_runs, tables
-from auralize.emitters._kernels.arrivals import _LINE
-from auralize.emitters._kernels.common import _CHUNK, KNOT_ROW
+from auralize.emitters._kernels.accumulate import _integrate_tasks
+from auralize.emitters._kernels.arrivals import _LINE, _row_lines
+from auralize.emitters._kernels.common import (
+    _CHUNK,
+    KNOT_ROW,
+    ROW,
+    RUN_ROW,
+    Accumulator,
+    KnotRows,
+    Lanes,
+    Listener,
+    Panning,
+    PieceTable,
+    RunTable,
+    Scratch,
+)
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
 from auralize.runtime.jit import kernel_args
@@ -557,6 +573,38 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
         )
 
 
+def _task_scratch(n_ch: int, gain: float = 1.0) -> Scratch:
+    """A task's :class:`~auralize.emitters._kernels.common.Scratch`: four gain vectors of
+    ``n_ch`` filled with ``gain``, the listener's frame, the parts' counts."""
+    return Scratch(np.full(n_ch, gain), np.full(n_ch, gain), np.full(n_ch, gain),
+                   np.full(n_ch, gain), np.zeros(6), np.empty(2 * _CHUNK))  # fmt: skip
+
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+#: the most tasks (and threads) a render is split into
+_MAX_TASKS = 8
+
+
+def _each_task(fn: Callable[[int], int], n_tasks: int) -> list[int]:
+    """``fn(j)`` of every task ``0 <= j < n_tasks``, one thread each (this one included):
+    the task kernels release the GIL and write disjoint windows of the accumulator."""
+    global _POOL
+    if n_tasks <= 1:
+        return [fn(j) for j in range(n_tasks)]
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(max_workers=_MAX_TASKS - 1,
+                                       thread_name_prefix="auralize-synthesis")  # fmt: skip
+        pool = _POOL
+    others = [pool.submit(fn, j) for j in range(1, n_tasks)]
+    try:
+        first = fn(0)
+    finally:
+        wait(others)
+    return [first, *(f.result() for f in others)]
+
+
 #: rows whose arrivals may cross more listener captures than this are summed
 #: piece by piece (:func:`auralize.emitters._kernels.pieces._piece_general`), not in parts
 _MAX_PART_CAPTURES = 48
@@ -633,7 +681,7 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
     spk_az, spk_ch = panning_arrays(lay)
     pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
                   bounds=bounds, start=start, orientation=spk_az.size > 0, lead=lead)  # fmt: skip
-    n_threads = max(1, min(threads or os.cpu_count() or 1, 8))
+    n_threads = max(1, min(threads or os.cpu_count() or 1, _MAX_TASKS))
     # accumulation blocks keep the running sums short (numerical safety); no
     # longer than the output (their memory is cleared at every call)
     shift = int(min(15, max(6, np.ceil(np.log2(max(pr.n_samples, 1))))))
@@ -707,21 +755,55 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
             KR[:-1, 0] = k_lo
             KR[:-1, 1] = np.where(parts, k_hi, k_lo)
             LT = _line_table(pr, c0)
+        n_ch = lay.n_channels
+        n_tasks = task_blk.shape[0]
+        _row_lines(*kernel_args(pr.tn, pr.tc, pr.lc, pr.vc, float(c0), d_max, n_lo, n_hi, rc))
+        lis = Listener(*kernel_args(pr.tc, pr.lc, pr.vc, pr.qc, pr.ot))
+        const_orient = bool(np.all(pr.qc == pr.qc[0]))
+        sums = Accumulator(*kernel_args(acc, task_blk, ct, k_ct, shift, pr.n_samples, pr.t_start,
+                                        pr.fs, n_ch))  # fmt: skip
         if by_runs:
-            tab = pan_table(lay, spk_az) if ambix else np.zeros((0, 2))
-            bad = render_runs.render(*kernel_args(
-                gr0, glen, gcnt, goff, KD, pr.tn, cubic, pr.tc, pr.lc, pr.vc, pr.qc, pr.ot,
-                float(c0), pr.t_start, pr.fs, pr.n_samples, shift, lay.n_channels, tab, n_lo, n_hi,
-                d_max, task_chunks, task_blk, rc, acc, audio, ct, k_ct,
-            ))  # fmt: skip
+            # unpanned, or AmbiX: every channel gained from the harmonic table
+            # (placeholder speakers for the scalar code)
+            ch = np.arange(n_ch, dtype=np.int64)
+            pan = Panning(*kernel_args(np.zeros(n_ch if ambix else 0), ch, ch,
+                                       pan_table(lay, spk_az) if ambix else np.zeros((0, 4)),
+                                       False, ambix, False, ambix, const_orient))  # fmt: skip
+            runs = RunTable(*kernel_args(gr0, glen, gcnt, goff, KD, task_chunks))
+            rows = KnotRows(*kernel_args(pr.tn, n_lo, n_hi, rc, np.zeros((0, 2), dtype=np.int64),
+                                         np.zeros((0, 9))))  # fmt: skip
+            n_rows = RUN_ROW.END if ambix else RUN_ROW.PLAIN_END
+
+            def task(j: int) -> int:
+                return int(render_runs.render_task(
+                    j, runs, rows, cubic, float(c0), lis, pan, sums, _task_scratch(n_ch),
+                    np.zeros(n_rows * _CHUNK), np.zeros((3, n_ch if ambix else 0, _CHUNK)),
+                    np.empty((5, _CHUNK))))  # fmt: skip
         else:
-            bad = render_pieces.render(*kernel_args(
-                cptr, ccnt, PD, pr.tn, cubic,
-                pr.tc, pr.lc, pr.vc, pr.qc, pr.ot, float(c0), pr.t_start, pr.fs, pr.n_samples,
-                shift, spk_az, spk_ch, pan_table(lay, spk_az), lay.n_channels,
-                bool(lay.fold_front), n_lo, n_hi, d_max, task_chunks, task_blk, rc, acc, audio,
-                ct, k_ct, KR, LT,
-            ))  # fmt: skip
+            pinv = pan_table(lay, spk_az)
+            panned = spk_az.size > 0
+            fold = bool(lay.fold_front)
+            # speaker pairs (every arc < 180°): gains in SIMD loops; AmbiX: every
+            # channel gained (spherical harmonics)
+            pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4 and not fold
+            dense = panned and pinv.shape[1] == 2
+            nxt = np.roll(spk_ch, -1) if spk_ch.size else np.zeros(1, dtype=np.int64)
+            pan = Panning(*kernel_args(spk_az, spk_ch, nxt, pinv, fold, panned, pairs, dense,
+                                       const_orient))  # fmt: skip
+            table = PieceTable(*kernel_args(PD, cptr, ccnt, task_chunks))
+            rows = KnotRows(*kernel_args(pr.tn, n_lo, n_hi, rc, KR, LT))
+            ng = n_ch if panned else 1
+
+            def task(j: int) -> int:
+                lanes = Lanes(np.empty(ROW.PIECE_END * _CHUNK), np.empty(ROW.END * _CHUNK),
+                              np.zeros((_CHUNK, ng)), np.zeros((_CHUNK, ng)),
+                              np.zeros((ng if dense else 0, _CHUNK)),
+                              np.zeros((ng if dense else 0, _CHUNK)), np.empty((5, _CHUNK)))  # fmt: skip
+                return int(render_pieces.render_task(j, table, rows, cubic, float(c0), lis, pan,
+                                                     sums, _task_scratch(n_ch, 0.0), lanes))  # fmt: skip
+
+        bad = sum(_each_task(task, n_tasks))
+        _integrate_tasks(*kernel_args(acc, task_blk, n_tasks, n_ch, block, pr.n_samples, audio))
         if bad:
             raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "
                                f"output windows")  # fmt: skip

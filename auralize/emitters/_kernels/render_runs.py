@@ -48,7 +48,6 @@ from auralize.emitters._kernels.accumulate import (
     _clear_window,
     _emit1,
     _flush_captures,
-    _integrate_tasks,
     _prefetch,
 )
 from auralize.emitters._kernels.arrivals import (
@@ -56,25 +55,22 @@ from auralize.emitters._kernels.arrivals import (
     _knot_arrival,
     _line_tuple,
     _listener_at,
-    _row_lines,
 )
 from auralize.emitters._kernels.common import (
     _CHUNK,
     _NJIT,
+    _NJIT_NORC,
     KIND_ACROSS,
     KIND_GENERAL,
     KIND_SILENT,
     KIND_SIMPLE,
     KNOT_ROW,
     RUN_ROW,
-    Listener,
-    Panning,
-    Scratch,
     Window,
     _inverses,
     lane_grid,
 )
-from auralize.emitters._kernels.gains import _constant_rows, _pan_far
+from auralize.emitters._kernels.gains import _pan_far
 from auralize.emitters._kernels.hermite import _cut_at_end, _shifted, _take_cut
 from auralize.emitters._kernels.lane_gains import _orient_rows, _sh_lanes
 from auralize.emitters._kernels.pieces import _piece_across, _piece_general
@@ -398,188 +394,174 @@ def _copy_rows(work, r, knot_data, off, n_rows, cnt):
             work[dst + np.uint64(i)] = knot_data[src + np.uint64(i)]
 
 
-@numba.njit(parallel=True, **_NJIT)
-def render(gr0, glen, gcnt, goff, knot_data, tn, cubic, listener_times, listener_pos, listener_vel,
-           orient_table, orient_clock, c0, t_start, fs, n_samples, shift, n_ch, tab, n_lo, n_hi,
-           d_max, task_rows, task_blk, row_lines, acc, out, capture_sums, first_capture):  # fmt: skip
-    """Sum every run of sounding pieces into ``out (n_ch, n_samples)``.
+@numba.njit(**_NJIT_NORC)
+def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh_scratch):
+    """Sum the runs of task ``task`` into its accumulator window and capture table;
+    returns the number of emissions outside the window (an internal error).
 
-    Chunk g holds gcnt[g] runs whose first piece is in row gr0[g], the
-    longest glen[g] pieces, at offset goff[g] of the knot data knot_data (rows of
-    _CHUNK, see _K_*), sorted by gr0.  Task j sums the pieces of rows
-    task_rows[j, 0]..task_rows[j, 1]-1 (the runs cut at its first and last
-    knot rows) into its accumulator window (task_blk[j] = first block,
-    number of blocks, offset in ``acc``, first sample, as in
-    :func:`auralize.emitters._synth_kernel.render`): tasks split time, so their
-    windows barely overlap.  ``tab`` is the spherical-harmonic table of an
-    AmbiX layout of n_ch channels (:func:`_synth_kernel._gains_sh`; with orient_table,
-    orient_clock the listener's orientation) or has no rows (unpanned, n_ch = 1).  The
-    other arguments are those of that function.  Returns the number of
-    emissions outside the windows (an internal error).
+    Task j sums the pieces of knot rows ``runs.task_rows[j, 0]`` ..
+    ``runs.task_rows[j, 1] - 1`` (the runs cut at its first and last knot rows;
+    tasks split time, so their windows barely overlap) into its window
+    ``out.task_blk[j]`` (:class:`~auralize.emitters._kernels.common.Accumulator`).
+    ``runs``: the runs in chunks (:class:`~auralize.emitters._kernels.common.RunTable`);
+    ``rows``, ``cubic``, ``c0``, ``lis`` as for
+    :func:`auralize.emitters._kernels.render_pieces.render_task`.  ``pan``: unpanned
+    (one channel), or an AmbiX layout of ``out.n_ch`` channels whose spherical-harmonic
+    table (:func:`~auralize.emitters._kernels.gains._gains_sh`) is ``pan.pinv``, with
+    ``pan.dense`` set (placeholder speakers for the scalar code's
+    :func:`~auralize.emitters._kernels.gains._pan_far`).  The task's work arrays:
+    ``scr`` (:class:`~auralize.emitters._kernels.common.Scratch`), ``work`` (rows
+    :data:`~auralize.emitters._kernels.common.RUN_ROW`, up to ``PLAIN_END`` when
+    unpanned), ``gains (3, n_ch, _CHUNK)`` (the gains of the last three knots, slot
+    k % 3 for knot k; no channels when unpanned) and ``sh_scratch (5, _CHUNK)``.
     """
-    n_tasks = task_rows.shape[0]
+    gr0, glen, gcnt, goff, knot_data = (runs.first_row, runs.length, runs.count, runs.offset,
+                                        runs.knot_data)  # fmt: skip
+    tn, n_lo, n_hi, row_lines = rows.knot_times, rows.n_lo, rows.n_hi, rows.row_lines
+    orient_table, orient_clock = lis.orient_table, lis.orient_clock
+    acc, n_ch, shift, t_start, fs = out.acc, out.n_ch, out.shift, out.t_start, out.fs
+    tab, gained, const_orient = pan.pinv, pan.dense, pan.const_orient
+    ga, gb, o6 = scr.ga, scr.gb, scr.frame
     block = 1 << shift
     fblock = float(block)
-    gained = tab.shape[0] > 0
     rs = 4.0 * n_ch
-    const_orient = _constant_rows(orient_table)
-    _row_lines(tn, listener_times, listener_pos, listener_vel, c0, d_max, n_lo, n_hi, row_lines)
-    bad = np.zeros(n_tasks, dtype=np.int64)
-    for jt in numba.prange(n_tasks):
-        blo, nb, base = task_blk[jt, 0], task_blk[jt, 1], task_blk[jt, 2]
-        _clear_window(acc, task_blk[jt], n_ch, block, n_samples)
-        n_rows = RUN_ROW.END if gained else RUN_ROW.PLAIN_END
-        work = np.zeros(n_rows * _CHUNK)
-        # the scalar code's panning: AmbiX gains from the table (placeholder
-        # speakers), none when unpanned
-        spk_az = np.zeros(n_ch if gained else 0)
-        spk_ch = np.arange(n_ch)
-        pinv = tab if gained else np.zeros((0, 4))
-        ga = np.ones(n_ch)
-        gb = np.ones(n_ch)
-        gx = np.ones(n_ch)
-        gy = np.ones(n_ch)
-        o6 = np.zeros(6)
-        # gains of the last three knots (slot k % 3 for knot k), scratch
-        gains = np.zeros((3, n_ch if gained else 0, _CHUNK))
-        scratch = np.empty((5, _CHUNK))
-        task_captures = capture_sums[jt]
-        task_captures[:] = 0.0
-        lis = Listener(listener_times, listener_pos, listener_vel, orient_table, orient_clock)
-        pan = Panning(spk_az, spk_ch, spk_ch, pinv, False, gained, False, gained, const_orient)
-        win = Window(acc, base, blo, nb, n_ch, shift, n_samples, t_start, fs, task_captures,
-                     first_capture)  # fmt: skip
-        scr = Scratch(ga, gb, gx, gy, o6, np.empty(2 * _CHUNK))
-        grid = lane_grid(c0, win)
-        nbad = 0
-        ra = max(task_rows[jt, 0], n_lo)
-        rb = min(task_rows[jt, 1], n_hi)
-        for g in range(gr0.size):
-            r0 = gr0[g]
-            if r0 >= rb:
-                break
-            cnt = gcnt[g]
-            off = goff[g]
-            ka = max(r0, ra)
-            kb = min(r0 + glen[g], rb)
-            if kb <= ka:
-                continue
-            _copy_rows(work, 0, knot_data, off, 5, cnt)
-            for r in range(RUN_ROW.U, n_rows):
-                for i in range(cnt):
-                    work[r * _CHUNK + i] = 0.0
-            if gained:
-                gains[:] = 0.0
-                if const_orient:
-                    for c in range(6):
-                        for i in range(cnt):
-                            work[(RUN_ROW.OR + c) * _CHUNK + i] = orient_table[0, c]
-            for n in range(ka, kb + 1):
-                jk = n - r0
-                kq = off + (KNOT_ROW.KNOT + 2 * jk) * _CHUNK
-                _copy_rows(work, RUN_ROW.Q, knot_data, kq, 2, cnt)
-                if jk >= 1:
-                    _copy_rows(work, RUN_ROW.QP, knot_data, kq - 2 * _CHUNK, 2, cnt)
-                first = n == ka
-                two = row_lines[n, 2 * _LINE] != 0.0 or (
-                    not first and row_lines[n - 1, 2 * _LINE] != 0.0
-                )
-                rp = n if first else n - 1
-                _chunk_step(work, cnt, jk, row_lines[rp], row_lines[n], two, cubic, first, grid,
-                            gained)  # fmt: skip
-                g0 = gains[jk % 3]  # knot n
-                g1 = gains[(jk + 2) % 3]  # knot n - 1
-                g2 = gains[(jk + 1) % 3]  # knot n - 2
-                if gained:
-                    _knot_gains(work, cnt, row_lines[n], orient_table, orient_clock, tab,
-                                const_orient, g0, scratch)  # fmt: skip
-                if first:
-                    continue
-                for i in range(cnt):
-                    if gained and i + _AHEAD_G < cnt:
-                        # the emission rows of AmbiX layouts span several cache
-                        # lines: fetched a few lanes ahead
-                        ea = work[RUN_ROW.EROW * _CHUNK + i + _AHEAD_G]
-                        if ea >= 0.0:
-                            for k in range(0, 4 * n_ch, 8):
-                                _prefetch(acc, np.uint64(ea) + np.uint64(k))
-                    er = work[RUN_ROW.EROW * _CHUNK + i]
-                    if er >= 0.0:
-                        if gained:
-                            _add_split(acc, er, work, i, g2, g1, g0, n_ch)
-                        else:
-                            _add_plain(acc, er, work, RUN_ROW.E, i)
-                    mr0 = work[RUN_ROW.RROW * _CHUNK + i]
-                    if mr0 >= 0.0:
-                        row = int(base + (mr0 - blo * fblock) * rs)
-                        x = mr0 - (work[RUN_ROW.A0 * _CHUNK + i] - t_start) * fs
-                        f0, w0 = work[RUN_ROW.F0 * _CHUNK + i], work[RUN_ROW.WF0 * _CHUNK + i]
-                        c2, c3 = work[RUN_ROW.C2 * _CHUNK + i], work[(RUN_ROW.C2 + 1) * _CHUNK + i]
-                        if gained:
-                            c2a, c3a = (work[RUN_ROW.CA * _CHUNK + i], work[(RUN_ROW.CA + 1) *
-                                        _CHUNK + i])  # fmt: skip
-                            fl = work[(RUN_ROW.CA + 2) * _CHUNK + i]
-                            for c in range(n_ch):
-                                ha = g1[c, i]
-                                hb = g0[c, i]
-                                _emit1(acc, row + 4 * c, x, ha * f0, ha * (w0 - fl) + hb * fl, ha *
-                                       c2a + hb * (c2 - c2a), ha * c3a + hb * (c3 - c3a), 1.0)  # fmt: skip
-                        else:
-                            _emit1(acc, row, x, f0, w0, c2, c3, 1.0)
-                    kd = work[RUN_ROW.KIND * _CHUNK + i]
-                    if kd < KIND_GENERAL:
-                        continue
-                    x, y, z = (work[RUN_ROW.X * _CHUNK + i], work[RUN_ROW.Y * _CHUNK + i],
-                               work[RUN_ROW.Z * _CHUNK + i])  # fmt: skip
-                    rm = work[RUN_ROW.RM * _CHUNK + i]
-                    q0, m0 = work[RUN_ROW.QP * _CHUNK + i], work[RUN_ROW.MP * _CHUNK + i]
-                    q1 = work[RUN_ROW.Q * _CHUNK + i]
-                    m1 = work[RUN_ROW.M * _CHUNK + i] if cubic else m0
-                    piece = (x, y, z, rm, q0, m0, q1, m1)
-                    if kd == KIND_ACROSS:
-                        a0, a1 = work[RUN_ROW.A0 * _CHUNK + i], work[RUN_ROW.A1 * _CHUNK + i]
-                        s0 = int(work[RUN_ROW.S0 * _CHUNK + i])
-                        s1 = int(work[RUN_ROW.S1 * _CHUNK + i])
-                        if gained:
-                            _pan_far(x, y, z, a0, s0, lis, pan, ga, o6)
-                            _pan_far(x, y, z, a1, s1, lis, pan, gb, o6)
-                        ends = (a0, a1, s0, s1, work[RUN_ROW.F0 * _CHUNK + i],
-                                work[RUN_ROW.WF0 * _CHUNK + i] * fs, work[RUN_ROW.F1 * _CHUNK + i],
-                                work[RUN_ROW.WF1 * _CHUNK + i] * fs)  # fmt: skip
-                        nbad += _piece_across(win, lis, pan, scr, piece, tn, n - 1, cubic, c0, ends)
-                    else:
-                        nbad += _piece_general(win, lis, pan, scr, piece, tn, n - 1,
-                                               int(row_lines[n - 1, 11]), cubic, c0)  # fmt: skip
-            # the end of the last piece (its knot has no piece after it here):
-            # slots as after the last knot, kb
-            g0 = gains[(kb - r0) % 3]
-            g1 = gains[(kb - r0 + 2) % 3]
+    n_rows = RUN_ROW.END if gained else RUN_ROW.PLAIN_END
+    blk = out.task_blk[task]
+    blo, nb, base = blk[0], blk[1], blk[2]
+    _clear_window(acc, blk, n_ch, block, out.n_samples)
+    task_captures = out.capture_sums[task]
+    task_captures[:] = 0.0
+    win = Window(acc, base, blo, nb, n_ch, shift, out.n_samples, t_start, fs, task_captures,
+                 out.first_capture)  # fmt: skip
+    grid = lane_grid(c0, win)
+    scratch = sh_scratch
+    nbad = 0
+    ra = max(runs.task_rows[task, 0], n_lo)
+    rb = min(runs.task_rows[task, 1], n_hi)
+    for g in range(gr0.size):
+        r0 = gr0[g]
+        if r0 >= rb:
+            break
+        cnt = gcnt[g]
+        off = goff[g]
+        ka = max(r0, ra)
+        kb = min(r0 + glen[g], rb)
+        if kb <= ka:
+            continue
+        _copy_rows(work, 0, knot_data, off, 5, cnt)
+        for r in range(RUN_ROW.U, n_rows):
             for i in range(cnt):
-                if work[RUN_ROW.PF * _CHUNK + i] != 0.0:
-                    sm = work[RUN_ROW.SM * _CHUNK + i]
-                    row = int(base + (sm - blo * fblock) * rs)
-                    x = sm - work[RUN_ROW.U * _CHUNK + i]
-                    p0, p1 = work[RUN_ROW.P * _CHUNK + i], work[(RUN_ROW.P + 1) * _CHUNK + i]
-                    p2, p3 = work[(RUN_ROW.P + 2) * _CHUNK + i], work[(RUN_ROW.P + 3) * _CHUNK + i]
+                work[r * _CHUNK + i] = 0.0
+        if gained:
+            gains[:] = 0.0
+            if const_orient:
+                for c in range(6):
+                    for i in range(cnt):
+                        work[(RUN_ROW.OR + c) * _CHUNK + i] = orient_table[0, c]
+        for n in range(ka, kb + 1):
+            jk = n - r0
+            kq = off + (KNOT_ROW.KNOT + 2 * jk) * _CHUNK
+            _copy_rows(work, RUN_ROW.Q, knot_data, kq, 2, cnt)
+            if jk >= 1:
+                _copy_rows(work, RUN_ROW.QP, knot_data, kq - 2 * _CHUNK, 2, cnt)
+            first = n == ka
+            two = row_lines[n, 2 * _LINE] != 0.0 or (
+                not first and row_lines[n - 1, 2 * _LINE] != 0.0
+            )
+            rp = n if first else n - 1
+            _chunk_step(work, cnt, jk, row_lines[rp], row_lines[n], two, cubic, first, grid,
+                        gained)  # fmt: skip
+            g0 = gains[jk % 3]  # knot n
+            g1 = gains[(jk + 2) % 3]  # knot n - 1
+            g2 = gains[(jk + 1) % 3]  # knot n - 2
+            if gained:
+                _knot_gains(work, cnt, row_lines[n], orient_table, orient_clock, tab,
+                            const_orient, g0, scratch)  # fmt: skip
+            if first:
+                continue
+            for i in range(cnt):
+                if gained and i + _AHEAD_G < cnt:
+                    # the emission rows of AmbiX layouts span several cache
+                    # lines: fetched a few lanes ahead
+                    ea = work[RUN_ROW.EROW * _CHUNK + i + _AHEAD_G]
+                    if ea >= 0.0:
+                        for k in range(0, 4 * n_ch, 8):
+                            _prefetch(acc, np.uint64(ea) + np.uint64(k))
+                er = work[RUN_ROW.EROW * _CHUNK + i]
+                if er >= 0.0:
                     if gained:
-                        pa1, pa2 = (work[RUN_ROW.PA * _CHUNK + i], work[(RUN_ROW.PA + 1) * _CHUNK +
-                                    i])  # fmt: skip
-                        pa3 = work[(RUN_ROW.PA + 2) * _CHUNK + i]
+                        _add_split(acc, er, work, i, g2, g1, g0, n_ch)
+                    else:
+                        _add_plain(acc, er, work, RUN_ROW.E, i)
+                mr0 = work[RUN_ROW.RROW * _CHUNK + i]
+                if mr0 >= 0.0:
+                    row = int(base + (mr0 - blo * fblock) * rs)
+                    x = mr0 - (work[RUN_ROW.A0 * _CHUNK + i] - t_start) * fs
+                    f0, w0 = work[RUN_ROW.F0 * _CHUNK + i], work[RUN_ROW.WF0 * _CHUNK + i]
+                    c2, c3 = work[RUN_ROW.C2 * _CHUNK + i], work[(RUN_ROW.C2 + 1) * _CHUNK + i]
+                    if gained:
+                        c2a, c3a = (work[RUN_ROW.CA * _CHUNK + i], work[(RUN_ROW.CA + 1) *
+                                    _CHUNK + i])  # fmt: skip
+                        fl = work[(RUN_ROW.CA + 2) * _CHUNK + i]
                         for c in range(n_ch):
                             ha = g1[c, i]
                             hb = g0[c, i]
-                            _emit1(
-                                acc,
-                                row + 4 * c,
-                                x,
-                                hb * p0,
-                                ha * pa1 + hb * (p1 - pa1),
-                                ha * pa2 + hb * (p2 - pa2),
-                                ha * pa3 + hb * (p3 - pa3),
-                                -1.0,
-                            )
+                            _emit1(acc, row + 4 * c, x, ha * f0, ha * (w0 - fl) + hb * fl, ha *
+                                   c2a + hb * (c2 - c2a), ha * c3a + hb * (c3 - c3a), 1.0)  # fmt: skip
                     else:
-                        _emit1(acc, row, x, p0, p1, p2, p3, -1.0)
-        bad[jt] = nbad + _flush_captures(win, listener_times, task_blk[jt, 3])
-    _integrate_tasks(acc, task_blk, n_tasks, n_ch, block, n_samples, out)
-    return int(bad.sum())
+                        _emit1(acc, row, x, f0, w0, c2, c3, 1.0)
+                kd = work[RUN_ROW.KIND * _CHUNK + i]
+                if kd < KIND_GENERAL:
+                    continue
+                x, y, z = (work[RUN_ROW.X * _CHUNK + i], work[RUN_ROW.Y * _CHUNK + i],
+                           work[RUN_ROW.Z * _CHUNK + i])  # fmt: skip
+                rm = work[RUN_ROW.RM * _CHUNK + i]
+                q0, m0 = work[RUN_ROW.QP * _CHUNK + i], work[RUN_ROW.MP * _CHUNK + i]
+                q1 = work[RUN_ROW.Q * _CHUNK + i]
+                m1 = work[RUN_ROW.M * _CHUNK + i] if cubic else m0
+                piece = (x, y, z, rm, q0, m0, q1, m1)
+                if kd == KIND_ACROSS:
+                    a0, a1 = work[RUN_ROW.A0 * _CHUNK + i], work[RUN_ROW.A1 * _CHUNK + i]
+                    s0 = int(work[RUN_ROW.S0 * _CHUNK + i])
+                    s1 = int(work[RUN_ROW.S1 * _CHUNK + i])
+                    if gained:
+                        _pan_far(x, y, z, a0, s0, lis, pan, ga, o6)
+                        _pan_far(x, y, z, a1, s1, lis, pan, gb, o6)
+                    ends = (a0, a1, s0, s1, work[RUN_ROW.F0 * _CHUNK + i],
+                            work[RUN_ROW.WF0 * _CHUNK + i] * fs, work[RUN_ROW.F1 * _CHUNK + i],
+                            work[RUN_ROW.WF1 * _CHUNK + i] * fs)  # fmt: skip
+                    nbad += _piece_across(win, lis, pan, scr, piece, tn, n - 1, cubic, c0, ends)
+                else:
+                    nbad += _piece_general(win, lis, pan, scr, piece, tn, n - 1,
+                                           int(row_lines[n - 1, 11]), cubic, c0)  # fmt: skip
+        # the end of the last piece (its knot has no piece after it here):
+        # slots as after the last knot, kb
+        g0 = gains[(kb - r0) % 3]
+        g1 = gains[(kb - r0 + 2) % 3]
+        for i in range(cnt):
+            if work[RUN_ROW.PF * _CHUNK + i] != 0.0:
+                sm = work[RUN_ROW.SM * _CHUNK + i]
+                row = int(base + (sm - blo * fblock) * rs)
+                x = sm - work[RUN_ROW.U * _CHUNK + i]
+                p0, p1 = work[RUN_ROW.P * _CHUNK + i], work[(RUN_ROW.P + 1) * _CHUNK + i]
+                p2, p3 = work[(RUN_ROW.P + 2) * _CHUNK + i], work[(RUN_ROW.P + 3) * _CHUNK + i]
+                if gained:
+                    pa1, pa2 = (work[RUN_ROW.PA * _CHUNK + i], work[(RUN_ROW.PA + 1) * _CHUNK +
+                                i])  # fmt: skip
+                    pa3 = work[(RUN_ROW.PA + 2) * _CHUNK + i]
+                    for c in range(n_ch):
+                        ha = g1[c, i]
+                        hb = g0[c, i]
+                        _emit1(
+                            acc,
+                            row + 4 * c,
+                            x,
+                            hb * p0,
+                            ha * pa1 + hb * (p1 - pa1),
+                            ha * pa2 + hb * (p2 - pa2),
+                            ha * pa3 + hb * (p3 - pa3),
+                            -1.0,
+                        )
+                else:
+                    _emit1(acc, row, x, p0, p1, p2, p3, -1.0)
+    return nbad + _flush_captures(win, lis.times, blk[3])
