@@ -21,6 +21,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numba
+from numba.core import types
+from numba.extending import intrinsic
 
 from auralize.runtime.jit import configure as _configure_numba
 
@@ -208,6 +210,24 @@ Accumulator = namedtuple("Accumulator", ["acc", "task_blk", "capture_sums", "fir
                                          "shift", "n_samples", "t_start", "fs", "n_ch"])  # fmt: skip
 
 
+@intrinsic
+def where(typingctx, cond, a, b):
+    """``a if cond else b`` for scalars, both evaluated, no branch: one instruction
+    (LLVM's ``select``) where the conditional expression is three blocks of numba IR and
+    a variable assigned twice, which numba's compiler passes pay for in every inlined
+    copy (the compiled loops are the same: LLVM turns those blocks into the select)."""
+    res = typingctx.unify_pairs(a, b)
+    if res is None or not isinstance(res, types.Number | types.Boolean):
+        return None
+
+    def codegen(context, builder, signature, args):
+        c, x, y = args
+        c = context.cast(builder, c, signature.args[0], types.boolean)
+        x = context.cast(builder, x, signature.args[1], res)
+        y = context.cast(builder, y, signature.args[2], res)
+        return builder.select(c, x, y)
+
+    return res(cond, a, b), codegen
 
 
 @numba.njit(inline="always", **_NJIT)

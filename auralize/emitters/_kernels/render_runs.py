@@ -1,6 +1,6 @@
 """Compiled unpanned (and AmbiX) synthesis by runs of pieces: one emission per knot.
 
-Same sum as :func:`auralize.emitters._kernels.render_pieces.render` (see
+Same sum as :func:`auralize.emitters._kernels.render_pieces.render_task` (see
 :mod:`auralize.emitters._kernels` for the pieces, the Hermite cubic of
 f = q(τ)/D on each piece and the skewed accumulator), organised so that
 consecutive pieces of a source share their common knot:
@@ -69,6 +69,7 @@ from auralize.emitters._kernels.common import (
     Window,
     _inverses,
     lane_grid,
+    where,
 )
 from auralize.emitters._kernels.gains import _pan_far
 from auralize.emitters._kernels.hermite import _cut_at_end, _shifted, _take_cut
@@ -111,7 +112,7 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     mr = work[RUN_ROW.M * o + i]
     qp = work[RUN_ROW.QP * o + i]
     mp = work[RUN_ROW.MP * o + i]
-    m1 = mr if cubic else mp  # dq/dτ at the piece's end (linear: its slope)
+    m1 = where(cubic, mr, mp)  # dq/dτ at the piece's end (linear: its slope)
     a, d, e, sg, ok = _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0, two)
     up = work[RUN_ROW.U * o + i]
     sp = work[RUN_ROW.SM * o + i]
@@ -133,7 +134,7 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     u = (a - t_start) * fs
     u1 = (a1 - t_start) * fs
     L = u1 - up
-    L = L if L > 0.0 else 1.0
+    L = where(L > 0.0, L, 1.0)
     # one division for 1/D (knot), 1/D1 (the piece's end) and 1/L
     inv_d, inv_d1, inv_l = _inverses(d, d1, L)
     dd = e * inv_d
@@ -145,8 +146,8 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     s = np.ceil(u)
     # the piece from knot j - 1: samples ceil(up) .. ceil(u1) - 1 of the output
     s1 = np.ceil(u1)
-    s0c = sp if sp > 0.0 else 0.0
-    s1c = s1 if s1 < fn else fn
+    s0c = where(sp > 0.0, sp, 0.0)
+    s1c = where(s1 < fn, s1, fn)
     live = ~first & (j - 1.0 < work[RUN_ROW.LEN * o + i])
     found = okp & ok1
     valid = live & found & (s1c > s0c) & (u1 > up)
@@ -163,23 +164,23 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     )
     if gained:
         simple = simple & ~cut
-    work[RUN_ROW.KIND * o + i] = (
-        ((KIND_SIMPLE if simple else KIND_ACROSS) if valid else KIND_SILENT)
-        if found
-        else (KIND_GENERAL if live else KIND_SILENT)
+    work[RUN_ROW.KIND * o + i] = where(
+        found,
+        where(valid, where(simple, KIND_SIMPLE, KIND_ACROSS), KIND_SILENT),
+        where(live, KIND_GENERAL, KIND_SILENT),
     )
     dlt = (f1 - fp) * inv_l
     c2 = (3.0 * dlt - 2.0 * wp - w1) * inv_l
     c3 = (wp + w1 - 2.0 * dlt) * inv_l * inv_l
     # the emission at knot j - 1: this piece's start minus the previous one's end
     pf = work[RUN_ROW.PF * o + i] != 0.0
-    e0 = (fp if simple else 0.0) - work[RUN_ROW.P * o + i]
-    e1_ = (wp if simple else 0.0) - work[(RUN_ROW.P + 1) * o + i]
-    e2 = (c2 if simple else 0.0) - work[(RUN_ROW.P + 2) * o + i]
-    e3 = (c3 if simple else 0.0) - work[(RUN_ROW.P + 3) * o + i]
+    e0 = where(simple, fp, 0.0) - work[RUN_ROW.P * o + i]
+    e1_ = where(simple, wp, 0.0) - work[(RUN_ROW.P + 1) * o + i]
+    e2 = where(simple, c2, 0.0) - work[(RUN_ROW.P + 2) * o + i]
+    e3 = where(simple, c3, 0.0) - work[(RUN_ROW.P + 3) * o + i]
     v0, v1, v2, v3 = _shifted(e0, e1_, e2, e3, sp - up)
     use = pf | (simple & ~clip0)
-    work[RUN_ROW.EROW * o + i] = base + (sp - blo * fblock) * rs if use else -1.0
+    work[RUN_ROW.EROW * o + i] = where(use, base + (sp - blo * fblock) * rs, -1.0)
     work[RUN_ROW.E * o + i] = v0
     work[(RUN_ROW.E + 1) * o + i] = v1
     work[(RUN_ROW.E + 2) * o + i] = v2
@@ -197,17 +198,17 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
         pa3 = work[(RUN_ROW.PA + 2) * o + i]
         x0, x1, x2, x3 = _shifted(0.0, -pa1, -pa2, -pa3, sp - up)
         y0, y1, y2, y3 = _shifted(
-            (fp if simple else 0.0) - work[RUN_ROW.P * o + i],
-            ((wp - fl) if simple else 0.0) - (work[(RUN_ROW.P + 1) * o + i] - pa1),
-            (c2a if simple else 0.0) - (work[(RUN_ROW.P + 2) * o + i] - pa2),
-            (c3a if simple else 0.0) - (work[(RUN_ROW.P + 3) * o + i] - pa3),
+            where(simple, fp, 0.0) - work[RUN_ROW.P * o + i],
+            where(simple, wp - fl, 0.0) - (work[(RUN_ROW.P + 1) * o + i] - pa1),
+            where(simple, c2a, 0.0) - (work[(RUN_ROW.P + 2) * o + i] - pa2),
+            where(simple, c3a, 0.0) - (work[(RUN_ROW.P + 3) * o + i] - pa3),
             sp - up,
         )
         z0, z1, z2, z3 = _shifted(
             0.0,
-            fl if simple else 0.0,
-            (c2 - c2a) if simple else 0.0,
-            (c3 - c3a) if simple else 0.0,
+            where(simple, fl, 0.0),
+            where(simple, c2 - c2a, 0.0),
+            where(simple, c3 - c3a, 0.0),
             sp - up,
         )
         work[RUN_ROW.GX * o + i] = x0
@@ -227,8 +228,8 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
         work[(RUN_ROW.CA + 2) * o + i] = fl
     # restart (rare: emitted by the scalar code from the cubic's c2, c3): at
     # the output's first sample, or at the next accumulation block's
-    mr0 = 0.0 if clip0 else b1 * fblock
-    work[RUN_ROW.RROW * o + i] = mr0 if simple & (clip0 | (b1 > b0)) else -1.0
+    mr0 = where(clip0, 0.0, b1 * fblock)
+    work[RUN_ROW.RROW * o + i] = where(simple & (clip0 | (b1 > b0)), mr0, -1.0)
     work[RUN_ROW.C2 * o + i] = c2
     work[(RUN_ROW.C2 + 1) * o + i] = c3
     # for the scalar code
@@ -244,22 +245,22 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     # the arrival (not when the end falls on a new accumulation block: the
     # piece was not continued there)
     end = simple & ~cut & (s1 < fn) & (s1 < (b1 + 1.0) * fblock)
-    work[RUN_ROW.P * o + i] = f1 if end else 0.0
-    work[(RUN_ROW.P + 1) * o + i] = w1 if end else 0.0
-    work[(RUN_ROW.P + 2) * o + i] = c2 + 3.0 * c3 * L if end else 0.0
-    work[(RUN_ROW.P + 3) * o + i] = c3 if end else 0.0
-    work[RUN_ROW.PF * o + i] = 1.0 if end else 0.0
+    work[RUN_ROW.P * o + i] = where(end, f1, 0.0)
+    work[(RUN_ROW.P + 1) * o + i] = where(end, w1, 0.0)
+    work[(RUN_ROW.P + 2) * o + i] = where(end, c2 + 3.0 * c3 * L, 0.0)
+    work[(RUN_ROW.P + 3) * o + i] = where(end, c3, 0.0)
+    work[RUN_ROW.PF * o + i] = where(end, 1.0, 0.0)
     if gained:
-        work[RUN_ROW.PA * o + i] = -f1 * inv_l if end else 0.0
-        work[(RUN_ROW.PA + 1) * o + i] = c2a + 3.0 * c3a * L if end else 0.0
-        work[(RUN_ROW.PA + 2) * o + i] = c3a if end else 0.0
+        work[RUN_ROW.PA * o + i] = where(end, -f1 * inv_l, 0.0)
+        work[(RUN_ROW.PA + 1) * o + i] = where(end, c2a + 3.0 * c3a * L, 0.0)
+        work[(RUN_ROW.PA + 2) * o + i] = where(end, c3a, 0.0)
     work[RUN_ROW.U * o + i] = u
     work[RUN_ROW.SM * o + i] = s
     work[RUN_ROW.F * o + i] = f
     work[RUN_ROW.W * o + i] = wr
     work[RUN_ROW.A * o + i] = a
     work[RUN_ROW.SG * o + i] = sg
-    work[RUN_ROW.OK * o + i] = 1.0 if ok else 0.0
+    work[RUN_ROW.OK * o + i] = where(ok, 1.0, 0.0)
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -283,7 +284,7 @@ def _run_first(work, i, la, lb, two, grid, gained):
     )
     work[RUN_ROW.A * o + i] = a
     work[RUN_ROW.SG * o + i] = sg
-    work[RUN_ROW.OK * o + i] = 1.0 if ok else 0.0
+    work[RUN_ROW.OK * o + i] = where(ok, 1.0, 0.0)
     for r in range(RUN_ROW.P, RUN_ROW.PF + 1):
         work[r * o + i] = 0.0
     if gained:
@@ -354,9 +355,9 @@ def _knot_gains(
                       work[(RUN_ROW.OR + 5) * o + i])  # fmt: skip
         lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
         ok = work[RUN_ROW.OK * o + i] != 0.0
-        work[RUN_ROW.DIR * o + i] = (dx * fx + dy * fy + dz * fz) if ok else 1.0
-        work[(RUN_ROW.DIR + 1) * o + i] = (dx * lx + dy * ly + dz * lz) if ok else 0.0
-        work[(RUN_ROW.DIR + 2) * o + i] = (dx * ux + dy * uy + dz * uz) if ok else 0.0
+        work[RUN_ROW.DIR * o + i] = where(ok, dx * fx + dy * fy + dz * fz, 1.0)
+        work[(RUN_ROW.DIR + 1) * o + i] = where(ok, dx * lx + dy * ly + dz * lz, 0.0)
+        work[(RUN_ROW.DIR + 2) * o + i] = where(ok, dx * ux + dy * uy + dz * uz, 0.0)
     _sh_lanes(work, cnt, RUN_ROW.DIR, RUN_ROW.DIR + 1, RUN_ROW.DIR + 2, tab, gains, scratch)
 
 
