@@ -80,7 +80,7 @@ def test_kernel_arg_makes_one_form_and_keeps_conforming_arrays() -> None:
 
 def test_sampled_kernel_gets_one_signature_for_any_input(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     rec = _Recorder()
-    monkeypatch.setattr(_sampled, "_render", rec)
+    monkeypatch.setattr(_sampled, "render", rec)
     rng = np.random.default_rng(0)
     sig = rng.standard_normal((2, 800))
     pos = np.array([[3.0, 0.0, 0.0], [0.0, 4.0, 1.0]])
