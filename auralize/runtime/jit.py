@@ -23,7 +23,7 @@ process; the first use of a kernel does:
   (``compiling kernels, once: ~N s (kernel; cache: ...)``), logged as a
   warning on the ``auralize`` logger, so ``-q`` silences it: at the first
   compile, and again as each of the large synthesis kernels starts, with N
-  from :data:`COMPILE_SECONDS` for what is compiling.  ``auralize warmup``
+  measured for what is compiling (:func:`compile_seconds`).  ``auralize warmup``
   compiles them ahead (``scripts/install.sh`` runs it).
 * One specialization per kernel: :func:`kernel_args` at each kernel's Python
   boundary gives every call the same argument types.
@@ -32,7 +32,9 @@ process; the first use of a kernel does:
 from __future__ import annotations
 
 import copy as _copy
+import functools
 import hashlib
+import json
 import logging
 import os
 import threading
@@ -45,44 +47,33 @@ from numba.core import event, ir
 
 log = logging.getLogger("auralize")
 
-COMPILE_SECONDS: dict[str, float] = {
-    # the synthesis kernels, each announced on its own
-    "auralize.emitters._kernels.render_pieces.render": 170.0,
-    "auralize.emitters._kernels.render_runs.render": 65.0,
-    "auralize.emitters._sampled._render": 45.0,
-    # detection and field sources
-    **{f"auralize.sources._kernels.{k}": v for k, v in (
-        ("_error_stencil", 3.5), ("residual", 2.3), ("_stencil", 2.0), ("_radii", 1.9),
-        ("_floor_with", 1.6), ("gradient", 1.4), ("_gradient_absmax_planes", 1.3),
-        ("subtract_steady", 0.9), ("prepare_render", 0.9), ("_classify_all", 0.8),
-        ("_absmax_pair_planes", 1.1), ("_max_along_x", 0.5))},
-    # run and piece tables
-    "auralize.emitters._sampled._box": 0.8,
-    "auralize.emitters._kernels.tables.find_runs": 0.6,
-    "auralize.emitters._kernels.tables.fill_runs": 0.4,
-    "auralize.emitters._kernels.tables.build_pieces": 0.5,
-    # helpers compiled as part of a kernel above
-    **dict.fromkeys(
-        [f"auralize.emitters._kernels.{k}" for k in (
-            "accumulate._flush_captures", "accumulate._integrate", "accumulate._integrate_tasks",
-            "pieces._chunk_pieces", "pieces._piece_general", "pieces._piece_across",
-            "lane_gains._chunk_pair_gains", "lane_gains._chunk_sh_gains",
-            "lane_gains._part_pair_gains", "parts._chunk_parts", "parts._part_batch",
-            "gains._pan_far", "gains._constant_rows", "arrivals._row_lines",
-            "render_pieces._task_sum", "render_runs._chunk_step", "render_runs._knot_gains")],
-        0.0,
-    ),
-}  # fmt: skip
-"""Seconds to compile each kernel (``module.name``) from an empty cache, one core.
+#: measured compile times, shipped with the package (:func:`compile_seconds`)
+COMPILE_SECONDS_FILE = Path(__file__).resolve().parent.parent / "data" / "compile_seconds.json"
 
-Measured, not guessed: ``NUMBA_CACHE_DIR=$(mktemp -d) auralize warmup --json``
-lists the seconds of every kernel it compiled (``compiled``); refresh these
-from it on the 2-core development machine (quiet, load below 1) whenever a
-kernel grows or shrinks by more than a third.  Helpers compiled as part of a
-listed kernel count 0; kernels not listed (the plugins') count
-:data:`DEFAULT_SECONDS`.  Only :func:`estimate_seconds` (the compile
-notice) reads them.
-"""
+
+@functools.cache
+def compile_seconds() -> dict[str, float]:
+    """Seconds to compile each kernel (``module.name``) from an empty cache, on one core.
+
+    Measured, not written down by hand: :func:`auralize.warmup.measure_compile_seconds`
+    compiles every kernel group of ``auralize warmup`` from an empty cache, each in
+    a process of its own, and writes the CPU seconds of every kernel compiled at top
+    level (helpers compiled as part of one count 0) to :data:`COMPILE_SECONDS_FILE`
+    (``auralize/data/compile_seconds.json``, with the machine and versions it was
+    measured on).  Refresh it on the 2-core development machine when a kernel
+    changes (``python -c "from auralize.warmup import measure_compile_seconds;
+    measure_compile_seconds()"``); ``auralize bench`` compares the compile notice's
+    estimates with a cold compile (row ``compile``).  Kernels it does not list (the
+    plugins') count :data:`DEFAULT_SECONDS`.  Only :func:`estimate_seconds` (the compile
+    notice) reads it.
+    """
+    try:
+        data = json.loads(COMPILE_SECONDS_FILE.read_text())
+        return {str(k): float(v) for k, v in data["seconds"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+
+
 DEFAULT_SECONDS = 2.0
 #: a kernel at least this dear (seconds) is announced on its own when it starts compiling
 NOTICE_AGAIN_SECONDS = 10.0
@@ -93,15 +84,14 @@ _lock = threading.Lock()
 
 #: the core kernel modules, relative to the package: their functions are inlined into
 #: kernels of other modules (the synthesis kernels are split by stage over
-#: ``emitters/_kernels/``; ``_sampled`` and the plugins use its gains), and numba's
-#: cache of a module does not notice a change in a module it inlines from
+#: ``emitters/_kernels/``, with the emitters engine's; the plugins use its gains), and
+#: numba's cache of a module does not notice a change in a module it inlines from
 KERNEL_SOURCES: tuple[str, ...] = (
     "sources/_kernels.py",
     *sorted(
         f"emitters/_kernels/{f.name}"
         for f in (Path(__file__).resolve().parent.parent / "emitters" / "_kernels").glob("*.py")
     ),
-    "emitters/_sampled.py",
 )
 
 
@@ -153,6 +143,7 @@ def configure() -> None:
         event.register("numba:compile", _NOTICE)
         if os.environ.get("AURALIZE_FAST_INLINE", "1") != "0":
             fast_inlining()
+            fast_ssa()
 
 
 _INLINE_TLS = threading.local()
@@ -223,7 +214,110 @@ def fast_inlining() -> bool:
     if not (fresh and copies and getattr(icc, "copy", None) is _copy):
         return False
     icc.copy = _InlinerCopy()  # type: ignore[assignment]
-    worker.inline_function = _inline_function
+    worker.inline_function = _inline_function  # type: ignore[method-assign]
+    return True
+
+
+def _rewrite_blocks(blocks: Any, states: Any, handler: Any, labels: Any) -> Any:
+    """numba's ``ssa._run_block_rewrite`` over the blocks ``labels`` only; the other
+    blocks, which do not mention the variable being renamed, keep their statements
+    (as its handlers leave them)."""
+    from numba.core import ssa
+
+    newblocks = {}
+    for label, blk in blocks.items():
+        newblk = ir.Block(scope=blk.scope, loc=blk.loc)
+        if label in labels:
+            states["label"] = label
+            states["block"] = blk
+            newblk.body = list(ssa._run_ssa_block_pass(states, blk, handler))
+        else:
+            newblk.body = list(blk.body)
+        newblocks[label] = newblk
+    return newblocks
+
+
+def _run_ssa(blocks: Any) -> Any:
+    """numba's ``ssa._run_ssa`` (SSA reconstruction, one variable assigned more than once
+    at a time) with each variable's two passes over the blocks that mention it, not
+    over the whole function: the same renamed variables and phi nodes, in time
+    linear in the function instead of in its size times its reassigned variables."""
+    from collections import defaultdict
+
+    from numba.core import errors, ssa
+
+    if not blocks:
+        return {}
+    cfg = ssa.compute_cfg_from_blocks(blocks)
+    df_plus = ssa._iterated_domfronts(cfg)
+    violators = ssa._find_defs_violators(blocks, cfg)
+    cache_list_vars = ssa._CacheListVars()
+    mentioned: dict[str, set[Any]] = {name: set() for name in violators}
+    for label, blk in blocks.items():
+        for stmt in blk.body:
+            for var in cache_list_vars.get(stmt):
+                where = mentioned.get(var.name)
+                if where is not None:
+                    where.add(label)
+    for varname in violators:
+        labels = mentioned[varname]
+        # fresh variables for every assignment to it ...
+        states = ssa._make_states(blocks)
+        states["varname"] = varname
+        states["defmap"] = defmap = defaultdict(list)
+        blocks = _rewrite_blocks(blocks, states, ssa._FreshVarHandler(), labels)
+        # ... and every use taken to its reaching definition (phi nodes where needed)
+        states = ssa._make_states(blocks)
+        states["varname"] = varname
+        states["defmap"] = defmap
+        states["phimap"] = phimap = defaultdict(list)
+        states["cfg"] = cfg
+        states["phi_locations"] = ssa._compute_phi_locations(df_plus, defmap)
+        blocks = _rewrite_blocks(blocks, states, ssa._FixSSAVars(cache_list_vars), labels)
+        for label, philist in phimap.items():
+            blocks[label].body = philist + blocks[label].body
+    if ssa.compute_cfg_from_blocks(blocks) != cfg:
+        raise errors.CompilerError("CFG mutated in SSA pass")
+    return blocks
+
+
+def fast_ssa() -> bool:
+    """Rebuild SSA form in time linear in a function's size; returns whether the change
+    applies to the installed numba.
+
+    numba turns every variable assigned more than once (a loop's accumulator, a
+    value clamped in place, every such variable of every inlined copy of a helper)
+    into single assignments one variable at a time, each time rewriting every
+    statement of the function: its size times its reassigned variables, a sixth
+    to a third of the frontend's time on the synthesis kernels.  Here each
+    variable's rewrite visits the blocks that mention it (those numba's own
+    rewrite changes: it acts on the variables a statement lists, nothing else).
+    The compiled code is the same, instruction for instruction (tested).
+
+    Applied by :func:`configure` with :func:`fast_inlining` (``AURALIZE_FAST_INLINE=0``
+    leaves both off), and only when numba's SSA pass is the one described.
+    """
+    import inspect
+
+    from numba.core import ssa
+
+    if ssa._run_ssa is _run_ssa:
+        return True
+    try:
+        src = inspect.getsource(ssa._run_ssa)
+        fix_src = inspect.getsource(ssa._fix_ssa_vars)
+    except (OSError, TypeError):
+        return False
+    expected = ("blocks, defmap = _fresh_vars(blocks, varname)" in src
+                and "_fix_ssa_vars(blocks, varname, defmap, cfg, df_plus" in src
+                and "_run_block_rewrite(blocks, states, _FixSSAVars(cache_list_vars))" in fix_src
+                and all(hasattr(ssa, n) for n in (
+                    "_iterated_domfronts", "_find_defs_violators", "_CacheListVars",
+                    "_make_states", "_FreshVarHandler", "_FixSSAVars",
+                    "_compute_phi_locations", "_run_ssa_block_pass")))  # fmt: skip
+    if not expected:
+        return False
+    ssa._run_ssa = _run_ssa
     return True
 
 
@@ -245,7 +339,10 @@ class _CompileNotice(event.Listener):
     it starts (once per kernel, not per specialization).
 
     ``compiled`` lists ``(kernel, seconds)`` of every top-level compilation of
-    an auralize kernel in this process (``auralize warmup`` reports them).
+    an auralize kernel in this process (``auralize warmup`` reports them; the
+    CPU seconds of the compiling thread, which a loaded machine does not
+    inflate), ``helpers`` the auralize functions compiled as part of one,
+    ``notices`` the ``(kernel, estimated seconds)`` announced.
     """
 
     def __init__(self) -> None:
@@ -253,36 +350,78 @@ class _CompileNotice(event.Listener):
         self.announced = False
         self.named: set[str] = set()
         self.compiled: list[tuple[str, float]] = []
+        self.helpers: set[str] = set()
+        self.notices: list[tuple[str, float]] = []
 
     def on_start(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])
+        if stack:
+            helper = _kernel_name(ev.data)
+            if helper is not None:
+                self.helpers.add(helper)
         name = _kernel_name(ev.data) if not stack else None
-        stack.append((name, time.perf_counter()))
+        stack.append((name, time.thread_time()))
         if name is None or name in self.named:
             return
-        if self.announced and COMPILE_SECONDS.get(name, DEFAULT_SECONDS) < NOTICE_AGAIN_SECONDS:
+        if self.announced and compile_seconds().get(name, DEFAULT_SECONDS) < NOTICE_AGAIN_SECONDS:
             return
         self.announced = True
         self.named.add(name)
         short = ".".join(name.split(".")[-2:])  # module.kernel
-        log.warning("compiling kernels, once: ~%d s (%s; cache: %s)", round(estimate_seconds(name)),
-                    short, cache_dir())  # fmt: skip
+        estimate = estimate_seconds(name)
+        self.notices.append((name, estimate))
+        log.warning("compiling kernels, once: ~%d s (%s; cache: %s)", round(estimate), short,
+                    cache_dir())  # fmt: skip
 
     def on_end(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])
         if stack:
             name, t0 = stack.pop()
             if name is not None:
-                self.compiled.append((name, time.perf_counter() - t0))
+                self.compiled.append((name, time.thread_time() - t0))
 
 
 def compiled_kernels() -> list[tuple[str, float]]:
-    """``(kernel, seconds)`` of the auralize kernels compiled in this process so far."""
+    """``(kernel, CPU seconds)`` of the auralize kernels compiled in this process so far."""
     return list(_NOTICE.compiled)
 
 
+#: kernels being compiled into the cache by background processes: (kernel names, process)
+_BACKGROUND: list[tuple[frozenset[str], Any]] = []
+
+
+def compiling_elsewhere(kernels: Any, process: Any) -> None:
+    """Note that ``process`` (with ``join()`` and ``is_alive()``) compiles ``kernels``
+    (``module.name``) into the cache (:func:`auralize.warmup.compile_ahead`)."""
+    _BACKGROUND.append((frozenset(kernels), process))
+
+
+def await_kernel(kernel: Any) -> None:
+    """Before the first call of ``kernel`` (a numba dispatcher) in this process: if a
+    background process is compiling it, wait for that process, so that the kernel
+    loads from the cache instead of compiling a second time (the other core is
+    already on it)."""
+    func = getattr(kernel, "py_func", None)
+    if func is None or getattr(kernel, "overloads", None):
+        return
+    name = f"{func.__module__}.{func.__qualname__}"
+    for names, process in list(_BACKGROUND):
+        if name in names and process.is_alive():
+            process.join()
+
+
+def compile_notices() -> list[tuple[str, float]]:
+    """``(kernel, estimated seconds)`` of the compile notices given in this process so far."""
+    return list(_NOTICE.notices)
+
+
+def compiled_helpers() -> list[str]:
+    """The auralize functions compiled in this process as part of a kernel."""
+    return sorted(_NOTICE.helpers)
+
+
 def estimate_seconds(kernel: str) -> float:
-    """Seconds to compile ``kernel`` (``module.name``), from :data:`COMPILE_SECONDS`.
+    """Seconds to compile ``kernel`` (``module.name``), from :func:`compile_seconds`.
 
     A kernel of at least :data:`NOTICE_AGAIN_SECONDS` counts alone (it is
     announced alone); a cheaper one with the other cheap kernels of its module
@@ -293,7 +432,8 @@ def estimate_seconds(kernel: str) -> float:
 
     from numba.core.registry import CPUDispatcher
 
-    own = COMPILE_SECONDS.get(kernel, DEFAULT_SECONDS)
+    table = compile_seconds()
+    own = table.get(kernel, DEFAULT_SECONDS)
     if own >= NOTICE_AGAIN_SECONDS:
         return own
     modname = kernel.rsplit(".", 1)[0]
@@ -305,7 +445,7 @@ def estimate_seconds(kernel: str) -> float:
         full = f"{modname}.{name}"
         if full == kernel or obj.targetoptions.get("inline", "never") == "always":
             continue
-        sec = COMPILE_SECONDS.get(full, DEFAULT_SECONDS)
+        sec = table.get(full, DEFAULT_SECONDS)
         if sec >= NOTICE_AGAIN_SECONDS:
             continue
         cache_file = getattr(getattr(obj, "_cache", None), "_cache_file", None)
