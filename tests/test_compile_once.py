@@ -186,7 +186,7 @@ def test_cheap_kernels_of_a_module_are_announced_once_together(caplog, monkeypat
         body.__module__, body.__qualname__ = mod.__name__, name
         kernels[name] = numba.njit(body)
         setattr(mod, name, kernels[name])
-        monkeypatch.setitem(jit.COMPILE_SECONDS, f"{mod.__name__}.{name}", 7.0)
+        monkeypatch.setitem(jit.compile_seconds(), f"{mod.__name__}.{name}", 7.0)
     monkeypatch.setitem(sys.modules, mod.__name__, mod)
     monkeypatch.setattr(jit._NOTICE, "announced", True)
     monkeypatch.setattr(jit._NOTICE, "named", {f"{mod.__name__}.one", f"{mod.__name__}.two"})
@@ -208,7 +208,7 @@ def test_compile_notice_estimates_the_kernel_that_compiles(caplog, monkeypatch) 
     monkeypatch.setattr(
         jit._NOTICE, "named", {"auralize._test_small.small", "auralize._test_big.big"}
     )
-    monkeypatch.setitem(jit.COMPILE_SECONDS, "auralize._test_big.big", 120.0)
+    monkeypatch.setitem(jit.compile_seconds(), "auralize._test_big.big", 120.0)
     notice = jit._CompileNotice()
     event.register("numba:compile", notice)
 
@@ -251,3 +251,122 @@ def test_plugins_are_warmed_through_their_hook(monkeypatch) -> None:  # type: ig
     warmup._warm_plugins()
     assert warmed == ["probe"]
     assert SoundModel().warm_up() is None  # the default: nothing to compile
+
+
+#: compiles two kernels with inlined helpers and variables assigned more than once
+#: (``_cut_at_end`` inlines ``_hermite_at``; ``_gains_called`` every panning law) and
+#: prints their LLVM IR: run with numba's own inliner and SSA pass, and with
+#: :func:`jit.fast_inlining` and :func:`jit.fast_ssa`
+_IR_CHILD = """
+import numpy as np
+from auralize.emitters._kernels import gains, hermite
+from auralize.emitters._kernels.common import LaneGrid
+from auralize.runtime import jit
+line = tuple(float(v) for v in range(12))
+grid = LaneGrid(343.0, 1 / 343.0, 0.0, 8000.0, 1 / 8000.0, 100.0, 64.0, 1 / 64.0, 0, 4, 0, 4.0)
+hermite._cut_at_end((1.0, 2.0, 3.0, 0.1, 0.5, 0.2, 0.4, 0.1), 11.0, True, line, line, 1.0, grid)
+gains._gains_called((1.0, 0.5, 0.2), (1.0, 0.0, 0.0, 0.0, 0.0, 1.0), np.zeros(2),
+                    np.arange(2), False, np.zeros((1, 4)), np.zeros(2))
+import numba.core.inline_closurecall as icc
+import numba.core.ssa as ssa
+fast = icc.InlineWorker.inline_function is jit._inline_function and ssa._run_ssa is jit._run_ssa
+print("FAST" if fast else "NUMBA")
+for k in (hermite._cut_at_end, gains._gains_called):
+    print(k.inspect_llvm(k.signatures[0]))
+"""
+
+
+def test_fast_inlining_compiles_the_same_code(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The inliner without its deep copies and the SSA pass by blocks give numba's LLVM
+    IR, line for line."""
+    import os
+    import subprocess
+    import sys
+
+    out = {}
+    for flag in ("1", "0"):
+        env = {**os.environ, "AURALIZE_FAST_INLINE": flag,
+               "NUMBA_CACHE_DIR": str(tmp_path / f"cache{flag}")}  # fmt: skip
+        res = subprocess.run([sys.executable, "-c", _IR_CHILD], env=env, capture_output=True,
+                             text=True, check=True)  # fmt: skip
+        out[flag] = res.stdout
+    assert out["1"].startswith("FAST") and out["0"].startswith("NUMBA")
+    fast, numba_ir = out["1"].split("\n", 1)[1], out["0"].split("\n", 1)[1]
+    assert "_cut_at_end" in fast and "_gains_called" in fast and len(fast) > 1000
+    assert fast == numba_ir
+
+
+def test_fast_inlining_applies_to_this_numba() -> None:
+    """The installed numba (the pinned version) is the one the changes are written for."""
+    import numba.core.inline_closurecall as icc
+    import numba.core.ssa as ssa
+
+    assert jit.fast_inlining() is True and jit.fast_ssa() is True
+    assert icc.InlineWorker.inline_function is jit._inline_function
+    assert ssa._run_ssa is jit._run_ssa
+
+
+def test_where_selects_without_a_branch() -> None:
+    from auralize.emitters._kernels.common import where
+
+    @numba.njit
+    def pick(c, a, b):  # type: ignore[no-untyped-def]
+        return where(c, a, b), where(a > b, 1, 2.5), where(c, 3, 4)
+
+    assert pick(True, 1.0, 2.0) == (1.0, 2.5, 3)
+    assert pick(False, 3.0, 2.0) == (2.0, 1.0, 4)
+    assert numba.typeof(pick(True, 1.0, 2.0)[2]) == numba.int64
+
+
+def test_compile_seconds_are_measured_data(monkeypatch, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The notice's estimates come from the shipped measurements, not from code text;
+    a missing or broken file gives the default."""
+    import json
+
+    seconds = jit.compile_seconds()
+    assert seconds, "auralize/data/compile_seconds.json lists no kernel"
+    data = json.loads(jit.COMPILE_SECONDS_FILE.read_text())
+    assert data["seconds"] == seconds and data["measured_on"]
+    for kernel in ("auralize.emitters._kernels.render_pieces.render_task",
+                   "auralize.emitters._kernels.render_runs.render_task",
+                   "auralize.emitters._kernels.sampled.render"):  # fmt: skip
+        assert seconds[kernel] > 0.0
+    assert (
+        jit.estimate_seconds("auralize.emitters._kernels.render_pieces.render_task")
+        == (seconds["auralize.emitters._kernels.render_pieces.render_task"])
+    )
+    bad = tmp_path / "broken.json"
+    bad.write_text("{not json")
+    monkeypatch.setattr(jit, "COMPILE_SECONDS_FILE", bad)
+    jit.compile_seconds.cache_clear()
+    try:
+        assert jit.compile_seconds() == {}
+        assert jit.estimate_seconds("auralize.emitters._kernels.tables.fill_runs") >= (
+            jit.DEFAULT_SECONDS
+        )
+    finally:
+        monkeypatch.undo()
+        jit.compile_seconds.cache_clear()
+
+
+def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    started: list[list[str]] = []
+
+    class Proc:
+        def __init__(self, target, args, **kw) -> None:  # type: ignore[no-untyped-def]
+            started.append(list(args[0]))
+
+        def start(self) -> None:
+            pass
+
+    import multiprocessing
+
+    class Ctx:
+        Process = Proc
+
+    monkeypatch.setattr(multiprocessing, "get_context", lambda method: Ctx)
+    monkeypatch.setattr(warmup, "group_cached", lambda g: g == "runs")
+    assert warmup.compile_ahead(["pieces", "runs"]) is not None
+    assert started == [["pieces"]]
+    monkeypatch.setattr(warmup, "group_cached", lambda g: True)
+    assert warmup.compile_ahead(["pieces", "runs"]) is None and len(started) == 1

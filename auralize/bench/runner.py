@@ -547,6 +547,12 @@ def run_bench(args: argparse.Namespace) -> int:
     more = emitters_rows(args.quick)
     print(format_rows(more), flush=True)
     rows += more
+    from auralize.bench.compile import compile_rows
+
+    more = compile_rows(args.quick)
+    if more:
+        print(format_rows(more), flush=True)
+    rows += more
     from auralize.bench.immersive import immersive_rows
 
     more = immersive_rows(args.quick)

@@ -1,0 +1,42 @@
+"""``auralize bench``'s compile rows: how the compile notice is held against the compile
+it announced, and the cold runs' measurement (the rows themselves take minutes: the
+full bench only)."""
+
+from __future__ import annotations
+
+import pytest
+
+from auralize.bench.compile import _estimate_error, _run_cold, compile_rows
+from auralize.runtime.jit import NOTICE_AGAIN_SECONDS
+
+PIECES = "auralize.emitters._kernels.render_pieces.render_task"
+DETECT = "auralize.sources._kernels.residual"
+
+
+def test_a_kernel_announced_alone_is_held_against_its_own_compile() -> None:
+    big = 4.0 * NOTICE_AGAIN_SECONDS
+    compiled = [[PIECES, 0.5 * big], ["auralize.emitters._kernels.tables.fill_runs", 5.0]]
+    err, what = _estimate_error([[PIECES, big]], compiled)
+    assert err == pytest.approx(1.0)  # announced twice what it took
+    assert "render_task" in what
+
+
+def test_the_first_notice_is_held_against_its_module() -> None:
+    """The first notice estimates the cheap kernels of its module together."""
+    compiled = [[DETECT, 3.0], ["auralize.sources._kernels.gradient", 1.0],
+                [PIECES, 50.0]]  # fmt: skip
+    err, _ = _estimate_error([[DETECT, 3.0]], compiled)
+    assert err == pytest.approx(3.0 / 4.0 - 1.0)
+    assert _estimate_error([], compiled) == (0.0, "")
+
+
+def test_cold_runs_measure_wall_and_cpu_with_their_own_cache(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    code = "import os, time; t = time.process_time()\nwhile time.process_time() - t < 0.2: pass\n"
+    code += "print(os.environ['NUMBA_CACHE_DIR'])"
+    wall, cpu, out = _run_cold(["-c", code], str(tmp_path))
+    assert out.strip() == str(tmp_path)
+    assert cpu >= 0.2 and wall >= 0.2
+
+
+def test_quick_bench_skips_the_cold_compiles() -> None:
+    assert compile_rows(True) == []
