@@ -794,7 +794,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from auralize.pipeline import auralize, detect_sources, save_rendered
     from auralize.scene.pictures import screenshot
     from auralize.scene.plots import save_spectrogram
+    from auralize.warmup import compile_ahead
 
+    # with a cold kernel cache, the synthesis kernel compiles on another core while this
+    # one compiles and runs the detection (the render waits for it, then loads it)
+    compile_ahead(["pieces"])
     out_dir = Path(args.output)
     out_dir.mkdir(exist_ok=True)  # the output folder itself; its parent must exist
     t = time.perf_counter()

@@ -67,7 +67,7 @@ from auralize.emitters._kernels.common import (
 )
 from auralize.errors import ListenerPathError, ParameterError
 from auralize.listener import ListenerPath
-from auralize.runtime.jit import kernel_args
+from auralize.runtime.jit import await_kernel, kernel_args
 from auralize.sources.detection import SourceTracks
 from auralize.spatial.layouts import (
     Layout,
@@ -328,7 +328,7 @@ def _build_pieces(tracks: SourceTracks, tn: NDArray[np.float64],
 def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
     """The runs of sounding pieces in chunks, for unpanned layouts:
     ``(gr0, glen, gcnt, goff, KD)`` (cached on the tracks; see
-    :func:`auralize.emitters._kernels.render_runs.render`).
+    :func:`auralize.emitters._kernels.render_runs.render_task`).
 
     A run is a maximal stretch of consecutive sounding pieces of a source
     (the same pieces as :func:`_pieces`).  Runs that start in the same row,
@@ -802,6 +802,8 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
                 return int(render_pieces.render_task(j, table, rows, cubic, float(c0), lis, pan,
                                                      sums, _task_scratch(n_ch, 0.0), lanes))  # fmt: skip
 
+        # (a kernel compiling in the background is waited for, then loaded from the cache)
+        await_kernel(render_runs.render_task if by_runs else render_pieces.render_task)
         bad = sum(_each_task(task, n_tasks))
         _integrate_tasks(*kernel_args(acc, task_blk, n_tasks, n_ch, block, pr.n_samples, audio))
         if bad:
