@@ -120,12 +120,17 @@ class Rendered:
 
 @dataclass
 class _Prepared:
-    tn: NDArray[np.float64]
-    tc: NDArray[np.float64]
-    lc: NDArray[np.float64]
-    vc: NDArray[np.float64]
-    qc: NDArray[np.float64]  # (N, 6) forward/up table
-    ot: NDArray[np.float64]  # (t0, samples per second) of the table
+    """A render's times and listener, in data seconds (:func:`prepare_render`): the
+    padded knot times, the listener's captures (times, positions, velocity on each
+    interval), its forward and up ``(N, 6)`` sampled from ``orient_clock[0]`` at rate
+    ``orient_clock[1]``, the output's first time, samples per data second and length."""
+
+    knot_times: NDArray[np.float64]
+    capture_times: NDArray[np.float64]
+    capture_pos: NDArray[np.float64]
+    capture_vel: NDArray[np.float64]
+    orient_table: NDArray[np.float64]
+    orient_clock: NDArray[np.float64]
     t_start: float
     fs: float
     n_samples: int
@@ -277,14 +282,14 @@ def _wide_arc(spk_az: NDArray[np.float64], span: NDArray[np.float64]) -> NDArray
 
 def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
             interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
-    """The sounding pieces in chunks, sorted by knot row: ``(cptr, ccnt, PD)``
+    """The sounding pieces in chunks, sorted by knot row: ``(chunk_start, chunk_count, piece_data)``
     (cached on the tracks; built in two compiled passes over q).
 
     Piece n of a source (padded knots n and n + 1) sounds when q or its
     tangent is non-zero at either knot; a typical volume has a fraction of
     its vertices sounding at any step, and the kernel reads only these.  Row
-    n's pieces fill chunks ``cptr[n]:cptr[n+1]`` of ``_CHUNK`` (chunk c holds
-    ``ccnt[c]``); per piece ``PD (C, 8, _CHUNK)``: the source's position,
+    n's pieces fill chunks ``chunk_start[n]:chunk_start[n+1]`` of ``_CHUNK`` (chunk c holds
+    ``chunk_count[c]``); per piece ``piece_data (C, 8, _CHUNK)``: the source's position,
     clamp radius, q/(4π) and dq/dτ at both knots (for linear interpolation
     dq/dτ is the piece's slope), contiguous per chunk so that the kernel
     streams it.
@@ -318,23 +323,25 @@ def _build_pieces(tracks: SourceTracks, tn: NDArray[np.float64],
     none = np.zeros(1, dtype=np.int64)
     counts = tables.build_pieces(*kernel_args(q, tn, pos, radius, cubic, True, none, none,
                                                      np.zeros((1, 8, W))))  # fmt: skip
-    cptr = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
-    ccnt = np.zeros(int(cptr[-1]), dtype=np.int64)
-    PD = np.empty((int(cptr[-1]), 8, W))  # lanes past ccnt are never read
-    tables.build_pieces(*kernel_args(q, tn, pos, radius, cubic, False, cptr, ccnt, PD))
-    return cptr, ccnt, PD
+    chunk_start = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
+    chunk_count = np.zeros(int(chunk_start[-1]), dtype=np.int64)
+    piece_data = np.empty((int(chunk_start[-1]), 8, W))  # lanes past chunk_count are never read
+    tables.build_pieces(
+        *kernel_args(q, tn, pos, radius, cubic, False, chunk_start, chunk_count, piece_data)
+    )
+    return chunk_start, chunk_count, piece_data
 
 
 def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
     """The runs of sounding pieces in chunks, for unpanned layouts:
-    ``(gr0, glen, gcnt, goff, KD)`` (cached on the tracks; see
+    ``(run_row, run_len, run_count, run_offset, knot_data)`` (cached on the tracks; see
     :func:`auralize.emitters._kernels.render_runs.render_task`).
 
     A run is a maximal stretch of consecutive sounding pieces of a source
     (the same pieces as :func:`_pieces`).  Runs that start in the same row,
     longest first, fill chunks of ``_CHUNK`` lanes: chunk g starts in row
-    ``gr0[g]``, holds ``gcnt[g]`` runs of at most ``glen[g]`` pieces and its
-    knot data at ``KD[goff[g]:]``.
+    ``run_row[g]``, holds ``run_count[g]`` runs of at most ``run_len[g]`` pieces and its
+    knot data at ``knot_data[run_offset[g]:]``.
     """
     return cached_on_tracks(tracks, "runs", interp, lambda: _build_runs(tracks, tn, interp))
 
@@ -356,14 +363,14 @@ def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
     lane = in_row % W
     starts = np.flatnonzero(lane == 0)
     chunk = np.cumsum(lane == 0) - 1
-    gr0, glen = r0[starts], length[starts]
-    gcnt = np.diff(np.append(starts, n)).astype(np.int64)
-    size = (KNOT_ROW.KNOT + 2 * (glen + 1)) * W
-    goff = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
-    KD = np.zeros(int(size.sum()))
+    run_row, run_len = r0[starts], length[starts]
+    run_count = np.diff(np.append(starts, n)).astype(np.int64)
+    size = (KNOT_ROW.KNOT + 2 * (run_len + 1)) * W
+    run_offset = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
+    knot_data = np.zeros(int(size.sum()))
     tables.fill_runs(*kernel_args(q, tn, pos, radius, cubic, src, r0, length, chunk, lane,
-                                        goff, KD))  # fmt: skip
-    return gr0, glen, gcnt, goff, KD
+                                        run_offset, knot_data))  # fmt: skip
+    return run_row, run_len, run_count, run_offset, knot_data
 
 
 def _split(weight: NDArray[np.float64], n_threads: int) -> NDArray[np.int64]:
@@ -374,25 +381,25 @@ def _split(weight: NDArray[np.float64], n_threads: int) -> NDArray[np.int64]:
     return edges.astype(np.int64) if edges.size >= 2 else np.array([0, weight.size])
 
 
-def _tasks(cptr: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
+def _tasks(chunk_start: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
            cost: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
     """Split the chunks of rows n_lo..n_hi-1 in ``n_threads`` contiguous ranges
     of about equal cost (a chunk of row n costs ``cost[n]``); returns
     ``task_chunks (T, 2)`` and each task's first and last knot rows (T, 2)."""
-    c_a = int(cptr[n_lo])
+    c_a = int(chunk_start[n_lo])
     rows = np.arange(n_lo, n_hi)
-    edges = c_a + _split(np.repeat(cost[rows], np.diff(cptr)[rows]), n_threads)
+    edges = c_a + _split(np.repeat(cost[rows], np.diff(chunk_start)[rows]), n_threads)
     task = np.stack([edges[:-1], edges[1:]], axis=1)
-    first = np.searchsorted(cptr, task[:, 0], side="right") - 1
-    last = np.searchsorted(cptr, np.maximum(task[:, 1] - 1, task[:, 0]), side="right") - 1
+    first = np.searchsorted(chunk_start, task[:, 0], side="right") - 1
+    last = np.searchsorted(chunk_start, np.maximum(task[:, 1] - 1, task[:, 0]), side="right") - 1
     return task, np.stack([np.clip(first, n_lo, n_hi - 1), np.clip(last, n_lo, n_hi - 1) + 1],
                           axis=1)  # fmt: skip
 
 
 def _run_tasks(
-    gr0: NDArray[np.int64],
-    glen: NDArray[np.int64],
-    gcnt: NDArray[np.int64],
+    run_row: NDArray[np.int64],
+    run_len: NDArray[np.int64],
+    run_count: NDArray[np.int64],
     n_lo: int,
     n_hi: int,
     n_threads: int,
@@ -402,8 +409,9 @@ def _run_tasks(
     cost (per row: the runs' lanes swept there, times ``cost[n]``); returns
     each task's first and last knot rows (T, 2) (the runs are cut there)."""
     n = cost.size + 1
-    live = (np.bincount(gr0, weights=gcnt, minlength=n)
-            - np.bincount(np.minimum(gr0 + glen, cost.size), weights=gcnt, minlength=n))  # fmt: skip
+    ends = np.minimum(run_row + run_len, cost.size)
+    live = (np.bincount(run_row, weights=run_count, minlength=n)
+            - np.bincount(ends, weights=run_count, minlength=n))  # fmt: skip
     rows = np.arange(n_lo, n_hi)
     edges = n_lo + _split((np.cumsum(live)[:-1] * cost)[rows], n_threads)
     return np.stack([edges[:-1], edges[1:]], axis=1)
@@ -471,9 +479,9 @@ def prepare_render(tracks: SourceTracks, path: ListenerPath, *, rate: float, tim
     else:  # unpanned: the listener's orientation is not needed
         otab, ot = np.zeros((1, 6)), np.array([tc[0], 0.0])
     return _Prepared(
-        tn=tn, tc=tc, lc=np.ascontiguousarray(ppos),
-        vc=np.ascontiguousarray(vc), qc=otab, ot=ot, t_start=t0 + start / time_scale,
-        fs=float(rate) * time_scale, n_samples=int(n_samples),
+        knot_times=tn, capture_times=tc, capture_pos=np.ascontiguousarray(ppos),
+        capture_vel=np.ascontiguousarray(vc), orient_table=otab, orient_clock=ot,
+        t_start=t0 + start / time_scale, fs=float(rate) * time_scale, n_samples=int(n_samples),
     )  # fmt: skip
 
 
@@ -503,10 +511,10 @@ def _audible_pieces(pr: _Prepared, tracks: SourceTracks, c0: float) -> tuple[int
     if tracks.n_sources == 0:
         return 0, 0, 0.0
     lo_b, hi_b, r_max = source_extent(tracks)
-    far = np.maximum(np.abs(pr.lc - lo_b), np.abs(pr.lc - hi_b))
+    far = np.maximum(np.abs(pr.capture_pos - lo_b), np.abs(pr.capture_pos - hi_b))
     d_max = float(np.max(np.linalg.norm(far, axis=1))) + r_max
     t_end = pr.t_start + pr.n_samples / pr.fs
-    tn = pr.tn
+    tn = pr.knot_times
     n_lo = int(np.searchsorted(tn, pr.t_start - d_max / c0, side="left")) - 1
     n_hi = int(np.searchsorted(tn, t_end, side="right"))
     return max(n_lo, 0), min(n_hi, tn.size - 1), d_max
@@ -560,7 +568,7 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
     if tracks.n_sources == 0 or pr.n_samples == 0:
         return
     lo_b, hi_b, _ = source_extent(tracks)
-    near, far = box_distances(pr.lc, lo_b, hi_b)
+    near, far = box_distances(pr.capture_pos, lo_b, hi_b)
     t_end = pr.t_start + pr.n_samples / pr.fs
     first = tracks.t_first + float(np.min(near)) / c0
     last = tracks.t_last + float(np.max(far)) / c0
@@ -614,15 +622,19 @@ def _line_table(pr: _Prepared, c0: float) -> NDArray[np.float64]:
     """The listener's line on each capture interval j, at row j + 1 (M + 1, 9):
     its position at time tr, velocity, tr, c0² - V² and 1/(c0² - V²); held
     (V = 0) before the first capture and after the last."""
-    m = pr.tc.size
-    LT = np.zeros((m + 1, 9))
-    LT[0, :3], LT[0, 6] = pr.lc[0], pr.tc[0]
-    LT[m, :3], LT[m, 6] = pr.lc[-1], pr.tc[-1]
+    m = pr.capture_times.size
+    interval_lines = np.zeros((m + 1, 9))
+    interval_lines[0, :3], interval_lines[0, 6] = pr.capture_pos[0], pr.capture_times[0]
+    interval_lines[m, :3], interval_lines[m, 6] = pr.capture_pos[-1], pr.capture_times[-1]
     if m >= 2:
-        LT[1:m, :3], LT[1:m, 3:6], LT[1:m, 6] = pr.lc[:-1], pr.vc, pr.tc[:-1]
-    LT[:, 7] = c0 * c0 - np.sum(LT[:, 3:6] ** 2, axis=1)
-    LT[:, 8] = 1.0 / LT[:, 7]
-    return LT
+        interval_lines[1:m, :3], interval_lines[1:m, 3:6], interval_lines[1:m, 6] = (
+            pr.capture_pos[:-1],
+            pr.capture_vel,
+            pr.capture_times[:-1],
+        )
+    interval_lines[:, 7] = c0 * c0 - np.sum(interval_lines[:, 3:6] ** 2, axis=1)
+    interval_lines[:, 8] = 1.0 / interval_lines[:, 7]
+    return interval_lines
 
 
 def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
@@ -690,10 +702,10 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
     n_lo, n_hi, d_max = _audible_pieces(pr, tracks, c0)
     # rows whose arrivals can straddle a listener capture (one at or past
     # the output's end only cuts the pieces: no extra cost)
-    t_end = min(pr.tn[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
-    t_caps = pr.tc[(pr.tc > pr.tn[0]) & (pr.tc < t_end)]
-    hi = np.searchsorted(t_caps, pr.tn[1:] + d_max / c0, side="right")
-    costly = np.append(hi > np.searchsorted(t_caps, pr.tn[:-1], side="right"), False)
+    t_end = min(pr.knot_times[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
+    t_caps = pr.capture_times[(pr.capture_times > pr.knot_times[0]) & (pr.capture_times < t_end)]
+    hi = np.searchsorted(t_caps, pr.knot_times[1:] + d_max / c0, side="right")
+    costly = np.append(hi > np.searchsorted(t_caps, pr.knot_times[:-1], side="right"), False)
     # unpanned or AmbiX (gains at the knots): runs of pieces, one emission per
     # knot; else piece by piece.  The runs split pieces at captures in scalar
     # code, the piece-wise kernel in SIMD loops (parts): a recorded path, whose
@@ -705,29 +717,31 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
     else:
         by_runs = _BY_RUNS and runs_ok
     if by_runs:
-        gr0, glen, gcnt, goff, KD = _runs(tracks, pr.tn, interp)
-        some = bool(np.any((gr0 < n_hi) & (gr0 + glen > n_lo)))
+        run_row, run_len, run_count, run_offset, knot_data = _runs(tracks, pr.knot_times, interp)
+        some = bool(np.any((run_row < n_hi) & (run_row + run_len > n_lo)))
     else:
-        cptr, ccnt, PD = _pieces(tracks, pr.tn, interp)
-        some = bool(cptr[n_hi] > cptr[n_lo])
+        chunk_start, chunk_count, piece_data = _pieces(tracks, pr.knot_times, interp)
+        some = bool(chunk_start[n_hi] > chunk_start[n_lo])
     audio = np.zeros((lay.n_channels, pr.n_samples))
     if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and some:
         # rows whose arrivals can pass the next capture (at or after the
         # output's end too) solve two candidate lines: half as dear again
-        nxt = np.searchsorted(pr.tc, pr.tn, side="right")
-        ahead = pr.tc[np.minimum(nxt, pr.tc.size - 1)]
-        two = (nxt < pr.tc.size) & (pr.tn + d_max / c0 >= ahead)
+        nxt = np.searchsorted(pr.capture_times, pr.knot_times, side="right")
+        ahead = pr.capture_times[np.minimum(nxt, pr.capture_times.size - 1)]
+        two = (nxt < pr.capture_times.size) & (pr.knot_times + d_max / c0 >= ahead)
         two |= np.append(two[1:], False)  # (either knot of a row's pieces)
         cost = np.where(costly, 2.0, np.where(two, 1.5, 1.0))
         if by_runs:
-            task_rows = task_chunks = _run_tasks(gr0, glen, gcnt, n_lo, n_hi, n_threads, cost)
+            task_rows = task_chunks = _run_tasks(
+                run_row, run_len, run_count, n_lo, n_hi, n_threads, cost
+            )
         else:
-            task_chunks, task_rows = _tasks(cptr, n_lo, n_hi, n_threads, cost)
+            task_chunks, task_rows = _tasks(chunk_start, n_lo, n_hi, n_threads, cost)
         n_blocks = (pr.n_samples + block - 1) // block
         # each task's output window: arrivals of the pieces between knot rows
         # ra and rb lie in [t_ra, t_rb + D_max/c0]
-        first = (pr.tn[task_rows[:, 0]] - pr.t_start) * pr.fs
-        last = (pr.tn[task_rows[:, 1]] + d_max / c0 - pr.t_start) * pr.fs + 2.0
+        first = (pr.knot_times[task_rows[:, 0]] - pr.t_start) * pr.fs
+        last = (pr.knot_times[task_rows[:, 1]] + d_max / c0 - pr.t_start) * pr.fs + 2.0
         blo = np.clip(np.floor(first / block), 0, n_blocks - 1).astype(np.int64)
         bhi = np.clip(np.floor(last / block) + 1, 1, n_blocks).astype(np.int64)
         nb = np.maximum(bhi - blo, 1)
@@ -739,29 +753,49 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
             np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]]), m_lo], axis=1),
             dtype=np.int64)  # fmt: skip
         acc = _workspace("acc", (int(size.sum()),))
-        rc = _workspace("lines", (pr.tn.size, 2 * _LINE + 1))
+        row_lines = _workspace("lines", (pr.knot_times.size, 2 * _LINE + 1))
         # per task, a row for each listener capture heard inside the output:
         # the emissions of pieces split there are summed in it (in cache)
-        k_ct = int(np.searchsorted(pr.tc, pr.t_start - 1.0 / pr.fs, side="right"))
-        k_end = int(np.searchsorted(pr.tc, pr.t_start + pr.n_samples / pr.fs, side="left"))
-        ct = _workspace("captures", (task_blk.shape[0], max(k_end - k_ct, 0) * lay.n_channels * 4))
+        k_ct = int(np.searchsorted(pr.capture_times, pr.t_start - 1.0 / pr.fs, side="right"))
+        k_end = int(
+            np.searchsorted(pr.capture_times, pr.t_start + pr.n_samples / pr.fs, side="left")
+        )
+        capture_sums = _workspace(
+            "captures", (task_blk.shape[0], max(k_end - k_ct, 0) * lay.n_channels * 4)
+        )
         if not by_runs:
             # rows whose arrivals may cross captures: pieces split into parts
             # at them (the captures k with t_n < t_k <= t_{n+1} + D_max/c0)
-            k_lo = np.searchsorted(pr.tc, pr.tn[:-1], side="right")
-            k_hi = np.searchsorted(pr.tc, pr.tn[1:] + d_max / c0, side="right")
+            k_lo = np.searchsorted(pr.capture_times, pr.knot_times[:-1], side="right")
+            k_hi = np.searchsorted(pr.capture_times, pr.knot_times[1:] + d_max / c0, side="right")
             parts = (k_hi > k_lo) & (k_hi - k_lo <= _MAX_PART_CAPTURES)
-            KR = np.zeros((pr.tn.size, 2), dtype=np.int64)
-            KR[:-1, 0] = k_lo
-            KR[:-1, 1] = np.where(parts, k_hi, k_lo)
-            LT = _line_table(pr, c0)
+            row_captures = np.zeros((pr.knot_times.size, 2), dtype=np.int64)
+            row_captures[:-1, 0] = k_lo
+            row_captures[:-1, 1] = np.where(parts, k_hi, k_lo)
+            interval_lines = _line_table(pr, c0)
         n_ch = lay.n_channels
         n_tasks = task_blk.shape[0]
-        _row_lines(*kernel_args(pr.tn, pr.tc, pr.lc, pr.vc, float(c0), d_max, n_lo, n_hi, rc))
-        lis = Listener(*kernel_args(pr.tc, pr.lc, pr.vc, pr.qc, pr.ot))
-        const_orient = bool(np.all(pr.qc == pr.qc[0]))
-        sums = Accumulator(*kernel_args(acc, task_blk, ct, k_ct, shift, pr.n_samples, pr.t_start,
-                                        pr.fs, n_ch))  # fmt: skip
+        _row_lines(
+            *kernel_args(
+                pr.knot_times,
+                pr.capture_times,
+                pr.capture_pos,
+                pr.capture_vel,
+                float(c0),
+                d_max,
+                n_lo,
+                n_hi,
+                row_lines,
+            )
+        )
+        lis = Listener(
+            *kernel_args(
+                pr.capture_times, pr.capture_pos, pr.capture_vel, pr.orient_table, pr.orient_clock
+            )
+        )
+        const_orient = bool(np.all(pr.orient_table == pr.orient_table[0]))
+        sums = Accumulator(*kernel_args(acc, task_blk, capture_sums, k_ct, shift, pr.n_samples,
+                                        pr.t_start, pr.fs, n_ch))  # fmt: skip
         if by_runs:
             # unpanned, or AmbiX: every channel gained from the harmonic table
             # (placeholder speakers for the scalar code)
@@ -769,9 +803,11 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
             pan = Panning(*kernel_args(np.zeros(n_ch if ambix else 0), ch, ch,
                                        pan_table(lay, spk_az) if ambix else np.zeros((0, 4)),
                                        False, ambix, False, ambix, const_orient))  # fmt: skip
-            runs = RunTable(*kernel_args(gr0, glen, gcnt, goff, KD, task_chunks))
-            rows = KnotRows(*kernel_args(pr.tn, n_lo, n_hi, rc, np.zeros((0, 2), dtype=np.int64),
-                                         np.zeros((0, 9))))  # fmt: skip
+            runs = RunTable(
+                *kernel_args(run_row, run_len, run_count, run_offset, knot_data, task_chunks)
+            )
+            rows = KnotRows(*kernel_args(pr.knot_times, n_lo, n_hi, row_lines,
+                                         np.zeros((0, 2), dtype=np.int64), np.zeros((0, 9))))  # fmt: skip
             n_rows = RUN_ROW.END if ambix else RUN_ROW.PLAIN_END
 
             def task(j: int) -> int:
@@ -790,8 +826,10 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
             nxt = np.roll(spk_ch, -1) if spk_ch.size else np.zeros(1, dtype=np.int64)
             pan = Panning(*kernel_args(spk_az, spk_ch, nxt, pinv, fold, panned, pairs, dense,
                                        const_orient))  # fmt: skip
-            table = PieceTable(*kernel_args(PD, cptr, ccnt, task_chunks))
-            rows = KnotRows(*kernel_args(pr.tn, n_lo, n_hi, rc, KR, LT))
+            table = PieceTable(*kernel_args(piece_data, chunk_start, chunk_count, task_chunks))
+            rows = KnotRows(
+                *kernel_args(pr.knot_times, n_lo, n_hi, row_lines, row_captures, interval_lines)
+            )
             ng = n_ch if panned else 1
 
             def task(j: int) -> int:

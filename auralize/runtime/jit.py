@@ -27,6 +27,11 @@ process; the first use of a kernel does:
   compiles them ahead (``scripts/install.sh`` runs it).
 * One specialization per kernel: :func:`kernel_args` at each kernel's Python
   boundary gives every call the same argument types.
+* Two of numba's compiler passes in time linear in a kernel's size, not
+  quadratic: the inliner of ``inline="always"`` helpers (:func:`fast_inlining`)
+  and the SSA reconstruction (:func:`fast_ssa`).  The compiled code is the same
+  (``AURALIZE_FAST_INLINE=0`` leaves numba's own passes); the cold compile of
+  the synthesis kernels takes a third of the time.
 """
 
 from __future__ import annotations
