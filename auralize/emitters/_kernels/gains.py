@@ -134,10 +134,10 @@ def _gains_plane(xf, yl, spk_az, spk_ch, fold, pinv, out):
         out[spk_ch[0]] = 1.0
         return
     # relative angles on the arc
-    span = (a1 - a0) % two_pi
+    span = _python_mod(a1 - a0, two_pi)
     if span == 0.0:
         span = two_pi
-    rel = (phi - a0) % two_pi
+    rel = _python_mod(phi - a0, two_pi)
     if span > math.pi:
         # an arc wider than 180° cannot be panned (negative gains): the source
         # goes to the nearer end speaker
@@ -160,6 +160,23 @@ def _gains_plane(xf, yl, spk_az, spk_ch, fold, pinv, out):
     if norm > 0.0:
         out[spk_ch[i0]] += g0 / norm
         out[spk_ch[i1]] += g1 / norm
+
+
+@numba.njit(inline="always", **_NJIT)
+def _python_mod(x, y):
+    """``x % y`` for floats, as Python (and numba) define it: the remainder with the
+    sign of y (of a zero remainder too), from ``np.fmod``.  numba compiles ``%`` as a
+    call of its divmod helper, whose division and floor the caller throws away
+    (inlined, LLVM removes them; called, they cost more than the remainder)."""
+    mod = np.fmod(x, y)
+    if mod != 0.0:
+        if (y < 0.0) != (mod < 0.0):
+            mod += y
+    else:
+        mod *= mod  # +0.0, as numba's divmod does it
+        if y < 0.0:
+            mod = -mod
+    return mod
 
 
 @numba.njit(inline="always", **_NJIT)
