@@ -98,12 +98,12 @@ def detect(volume: TimeVolume | str | Path, **options: Any) -> SourceSeries:
     """
     from auralize.pipeline import detect_sources, load
 
-    return detect_sources(load(volume) if not isinstance(volume, TimeVolume) else volume,
-                          **options)  # fmt: skip
+    return detect_sources(load(volume) if not isinstance(volume, TimeVolume) else volume, **options)
 
 
-def render(volume: TimeVolume | str | Path, path: ListenerPath | None = None,
-           **options: Any) -> Rendered:  # fmt: skip
+def render(
+    volume: TimeVolume | str | Path, path: ListenerPath | None = None, **options: Any
+) -> Rendered:
     """The sound heard along ``path`` from ``volume``, as ``auralize render`` makes it.
 
     :func:`auralize.pipeline.auralize` with the defaults of every front end
@@ -137,8 +137,20 @@ def render(volume: TimeVolume | str | Path, path: ListenerPath | None = None,
     from auralize.pipeline import auralize, load
 
     if not isinstance(volume, TimeVolume):
-        opening = {k: options.pop(k) for k in ("size", "steps", "seed", "fields", "resolution",
-                                               "nan", "time_dim", "axis_scale", "box")
-                   if k in options}  # fmt: skip
+        opening = {
+            k: options.pop(k)
+            for k in (
+                "size",
+                "steps",
+                "seed",
+                "fields",
+                "resolution",
+                "nan",
+                "time_dim",
+                "axis_scale",
+                "box",
+            )
+            if k in options
+        }
         volume = load(volume, **opening)
     return auralize(volume, path, **options)[0]

@@ -185,8 +185,13 @@ class CurvilinearMetric:
         d = np.stack([index_derivative(f, _axis(a, 3), wide=wide) for a in range(3)], axis=-1)
         return np.einsum("...a,...ai->...i", d, self._inv(wide))
 
-    def divergence(self, comps: tuple[Array, Array, Array] | Array, *,
-                   wide: bool = False, compiled: bool = True) -> Array:  # fmt: skip
+    def divergence(
+        self,
+        comps: tuple[Array, Array, Array] | Array,
+        *,
+        wide: bool = False,
+        compiled: bool = True,
+    ) -> Array:
         """∇·F ``(nz, ny, nx)`` of the components ``(F_x, F_y, F_z)`` (each ``(nz, ny, nx)``).
 
         ``compiled``: the numba kernel (:func:`_divergence_planes`); False: the
@@ -211,8 +216,12 @@ class CurvilinearMetric:
     def quadrupole(self, tt: Array, *, wide: bool = False, compiled: bool = True) -> Array:
         """Σ_ij ∂²T_ij/∂x_i∂x_j ``(nz, ny, nx)`` of the symmetric stress ``tt (6, nz, ny, nx)``
         (order xx, yy, zz, xy, xz, yz): ∂_j (∂_i T_ij)."""
-        w = np.stack([self.divergence(tt[list(_STRESS_INDEX[j])], wide=wide, compiled=compiled)
-                      for j in range(3)])  # fmt: skip
+        w = np.stack(
+            [
+                self.divergence(tt[list(_STRESS_INDEX[j])], wide=wide, compiled=compiled)
+                for j in range(3)
+            ]
+        )
         return self.divergence(w, wide=wide, compiled=compiled)
 
     # --------------------------------------------------------------- volumes
@@ -338,10 +347,15 @@ def _kernel() -> Any:
 
         configure()  # cache folder, OMP wait policy, compile notice
         globals()["prange"] = numba.prange
-        _COMPILED.append(numba.njit(
-            "void(float64[:, :, :, :, ::1], float64[:, :, :, ::1], int64, float64[:, :, ::1])",
-            parallel=True, cache=True, nogil=True, fastmath=False,
-        )(_divergence_planes))  # fmt: skip
+        _COMPILED.append(
+            numba.njit(
+                "void(float64[:, :, :, :, ::1], float64[:, :, :, ::1], int64, float64[:, :, ::1])",
+                parallel=True,
+                cache=True,
+                nogil=True,
+                fastmath=False,
+            )(_divergence_planes)
+        )
     return _COMPILED[0]
 
 
@@ -360,8 +374,11 @@ def interp_coords(coords: Array, ijk: NDArray[np.floating]) -> Array:
     for dk in (0, 1):
         for dj in (0, 1):
             for di in (0, 1):
-                w = ((fr[0] if di else 1 - fr[0]) * (fr[1] if dj else 1 - fr[1])
-                     * (fr[2] if dk else 1 - fr[2]))  # fmt: skip
+                w = (
+                    (fr[0] if di else 1 - fr[0])
+                    * (fr[1] if dj else 1 - fr[1])
+                    * (fr[2] if dk else 1 - fr[2])
+                )
                 i = np.minimum(lo[0] + di, nx - 1)
                 j = np.minimum(lo[1] + dj, ny - 1)
                 k = np.minimum(lo[2] + dk, nz - 1)
@@ -393,8 +410,15 @@ def max_edge(coords: Array, thickness: Array) -> Array:
     return h
 
 
-def curvilinear_strengths(metric: CurvilinearMetric, rho_a: Array, rho_b: Array, dm: Array,
-                          tt: Array, inv_dt: float, out: Array) -> None:  # fmt: skip
+def curvilinear_strengths(
+    metric: CurvilinearMetric,
+    rho_a: Array,
+    rho_b: Array,
+    dm: Array,
+    tt: Array,
+    inv_dt: float,
+    out: Array,
+) -> None:
     """Monopole, dipole and quadrupole strengths (paper 003 §3.2.3) on a curvilinear grid
     into ``out (3, nz, ny, nx)``: ∂ρ/∂t, ∇·(Δm)/Δt and ∂_j ∂_i T_ij, from the planar
     momentum change ``dm (3, ...)`` and stress ``tt (6, ...)`` (as
@@ -404,9 +428,18 @@ def curvilinear_strengths(metric: CurvilinearMetric, rho_a: Array, rho_b: Array,
     out[2] = metric.quadrupole(tt)
 
 
-def curvilinear_errors(metric: CurvilinearMetric, s: Array, rho_a2: Array, rho_b2: Array,
-                       dm: Array, dm2: Array, tt: Array, bad: NDArray[np.bool_],
-                       inv_dt: float, inv_dt2: float) -> Array:  # fmt: skip
+def curvilinear_errors(
+    metric: CurvilinearMetric,
+    s: Array,
+    rho_a2: Array,
+    rho_b2: Array,
+    dm: Array,
+    dm2: Array,
+    tt: Array,
+    bad: NDArray[np.bool_],
+    inv_dt: float,
+    inv_dt2: float,
+) -> Array:
     """Discretisation-error estimates ``(3, nz, ny, nx)`` of the strengths ``s``: the
     Richardson estimates of :func:`auralize.sources._kernels._error_plane` (``|S_h −
     S_2h| / 3``, the 2h stencil of :func:`index_derivative` with its own metric;
@@ -424,10 +457,19 @@ def curvilinear_errors(metric: CurvilinearMetric, s: Array, rho_a2: Array, rho_b
     return err
 
 
-def curvilinear_residual(metric: CurvilinearMetric, rho_a: Array, rho_b: Array,
-                         rho_a2: Array, rho_b2: Array, m_c: Array, inv_dt: float,
-                         inv_dt2: float, bad: NDArray[np.bool_], out: Array,
-                         err: Array) -> None:  # fmt: skip
+def curvilinear_residual(
+    metric: CurvilinearMetric,
+    rho_a: Array,
+    rho_b: Array,
+    rho_a2: Array,
+    rho_b2: Array,
+    m_c: Array,
+    inv_dt: float,
+    inv_dt2: float,
+    bad: NDArray[np.bool_],
+    out: Array,
+    err: Array,
+) -> None:
     """Continuity residual ∂ρ/∂t + ∇·m and its error estimate (as
     :func:`auralize.sources._kernels.residual`) on a curvilinear grid."""
     comps = (m_c[..., 0], m_c[..., 1], m_c[..., 2])

@@ -31,17 +31,35 @@ Examples
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
-__all__ = ["DEFAULTS", "LAYOUT_NAMES", "ORBIT_FACES", "TIMBRE_CHOICES", "RenderDefaults"]
+__all__ = [
+    "DEFAULTS",
+    "LAYOUT_NAMES",
+    "ORBIT_FACES",
+    "TIMBRE_CHOICES",
+    "Interp",
+    "Method",
+    "OrbitFace",
+    "RenderDefaults",
+    "Timbre",
+]
 
 #: the named output layouts (``--layout``; a layout JSON file is also accepted)
 LAYOUT_NAMES = ("mono", "stereo", "ring8", "5.1", "7.1", "binaural", "ambix1", "ambix2", "ambix3")
 
-#: the ``--timbre`` choices (``auto`` picks one of the others)
-TIMBRE_CHOICES = ("auto", "physical", "extended", "tonal")
+#: a ``--timbre`` choice (``auto`` picks one of the others)
+Timbre = Literal["auto", "physical", "extended", "tonal"]
+#: the ``--timbre`` choices
+TIMBRE_CHOICES: tuple[Timbre, ...] = get_args(Timbre)
 #: how the default orbit's listener faces (:meth:`auralize.listener.ListenerPath.orbit`)
-ORBIT_FACES = ("sweep", "center", "forward", "fixed")
+OrbitFace = Literal["sweep", "center", "forward", "fixed"]
+#: the orbit's facing choices
+ORBIT_FACES: tuple[OrbitFace, ...] = get_args(OrbitFace)
+#: time interpolation of the sources' strengths between data steps (paper 003 §3.2.4.3)
+Interp = Literal["linear", "cubic"]
+#: how a volume is heard (:func:`auralize.fwh.classify.choose_method`)
+Method = Literal["auto", "volume", "fwh"]
 
 
 @dataclass(frozen=True)
@@ -80,16 +98,16 @@ class RenderDefaults:
 
     time_scale: str | float = "auto"
     thresholds: tuple[str, str, str] = ("auto", "auto", "auto")
-    timbre: str = "auto"
+    timbre: Timbre = "auto"
     highpass_hz: float = 20.0
     heard: str = "field"
-    orbit_face: str = "sweep"
+    orbit_face: OrbitFace = "sweep"
     duration: float = 10.0
     rate: int = 44100
     layout: str = "mono"
-    interp: str = "cubic"
+    interp: Interp = "cubic"
     mapping: str = "auto"
-    method: str = "auto"
+    method: Method = "auto"
 
     def as_dict(self) -> dict[str, Any]:
         """The settings as a plain dict (for sidecars and comparisons)."""

@@ -35,7 +35,7 @@ class FieldAuralization(SoundModel):
             "auto",
             choices=("auto", "paper-density", "identity", "cfd", "incompressible"),
             doc="acoustic mapping preset (§3.2.2)",
-        ),  # fmt: skip
+        ),
         Parameter(
             "threshold_monopole", DEFAULTS.thresholds[0], doc="absolute, 'N%' of peak, or auto"
         ),
@@ -67,7 +67,7 @@ class FieldAuralization(SoundModel):
             unit="data s",
             doc="data seconds skipped at the start of playback, or auto: the travel time "
             "from the nearest source to the listener",
-        ),  # fmt: skip
+        ),
         Parameter(
             "timbre",
             DEFAULTS.timbre,
@@ -87,8 +87,7 @@ class FieldAuralization(SoundModel):
         ),
     )
 
-    def synthesize(self, inputs: TimeVolume | tuple[TimeVolume, Any],
-                   **params: Any) -> Sound:  # fmt: skip
+    def synthesize(self, inputs: TimeVolume | tuple[TimeVolume, Any], **params: Any) -> Sound:
         """The sources of a volume, for the engine to render.
 
         Parameters
@@ -127,20 +126,38 @@ class FieldAuralization(SoundModel):
             hs = heard_sound(volume, **_heard_args(p, params, series))
         ts, lead = p["time_scale"], p["lead"]
         if "auto" in (ts, lead):  # planned for the default render: an orbit of the default length
-            plan = plan_render(volume, hs.tracks if hs.heard.mode == "detected" else None,
-                               duration=DEFAULTS.duration, time_scale=ts, clip=False)  # fmt: skip
+            plan = plan_render(
+                volume,
+                hs.tracks if hs.heard.mode == "detected" else None,
+                duration=DEFAULTS.duration,
+                time_scale=ts,
+                clip=False,
+            )
             ts = plan.time_scale if ts == "auto" else ts
             lead = plan.lead if lead == "auto" else lead
         tracks = hs.tracks
-        part = FieldSources(tracks=tracks, time_scale=float(ts), lead=float(lead),
-                            interp=p["interp"], timbre=p["timbre"], bounds=tuple(volume.bounds),
-                            name="field", by_type=hs.by_type)  # fmt: skip
-        meta = {"n_sources": tracks.n_sources, "volume": volume.source,
-                "time_scale": part.time_scale, "lead_data_s": part.lead, **hs.meta}  # fmt: skip
+        part = FieldSources(
+            tracks=tracks,
+            time_scale=float(ts),
+            lead=float(lead),
+            interp=p["interp"],
+            timbre=p["timbre"],
+            bounds=tuple(volume.bounds),
+            name="field",
+            by_type=hs.by_type,
+        )
+        meta = {
+            "n_sources": tracks.n_sources,
+            "volume": volume.source,
+            "time_scale": part.time_scale,
+            "lead_data_s": part.lead,
+            **hs.meta,
+        }
         return Sound(parts=[part], meta={"field": meta}, name="field")
 
-    def plan(self, inputs: Any, params: dict[str, Any], path: ListenerPath,
-             duration: float) -> tuple[Any, dict[str, Any]]:  # fmt: skip
+    def plan(
+        self, inputs: Any, params: dict[str, Any], path: ListenerPath, duration: float
+    ) -> tuple[Any, dict[str, Any]]:
         """What the volume's render along ``path`` hears, and its time scale and lead.
 
         :func:`auralize.pipeline.plan_heard`, as ``auralize render`` plans:
@@ -156,8 +173,14 @@ class FieldAuralization(SoundModel):
         if given is not None:
             return inputs, params
         p = self.resolve(**params)
-        hs, plan = plan_heard(volume, path=path, duration=duration, time_scale=p["time_scale"],
-                              clip=False, **_heard_args(p, params, series))  # fmt: skip
+        hs, plan = plan_heard(
+            volume,
+            path=path,
+            duration=duration,
+            time_scale=p["time_scale"],
+            clip=False,
+            **_heard_args(p, params, series),
+        )
         out = {**params, "time_scale": plan.time_scale}
         if p["lead"] == "auto":
             out["lead"] = plan.lead
@@ -182,14 +205,18 @@ def _split_inputs(inputs: Any) -> tuple[TimeVolume, Any, HeardSound | None, List
         elif isinstance(second, ListenerPath):
             near = second
         else:
-            raise ParameterError(f"field model: the second input must be a SourceSeries, a "
-                                 f"HeardSound or a ListenerPath, got "
-                                 f"{type(second).__name__}")  # fmt: skip
+            raise ParameterError(
+                f"field model: the second input must be a SourceSeries, a "
+                f"HeardSound or a ListenerPath, got "
+                f"{type(second).__name__}"
+            )
     else:
         volume = inputs
     if not isinstance(volume, TimeVolume):
-        raise ParameterError(f"field model inputs must be a TimeVolume or (TimeVolume, "
-                             f"SourceSeries), got {type(volume).__name__}")  # fmt: skip
+        raise ParameterError(
+            f"field model inputs must be a TimeVolume or (TimeVolume, "
+            f"SourceSeries), got {type(volume).__name__}"
+        )
     return volume, series, given, near
 
 
@@ -207,7 +234,14 @@ def _heard_args(p: dict[str, Any], params: dict[str, Any], series: Any) -> dict[
     if not isinstance(fields, dict) or not all(isinstance(v, str) for v in fields.values()):
         from auralize.errors import ParameterError
 
-        raise ParameterError(f"field model: 'fields' maps roles to field names, e.g. "
-                             f"{{'density': 'rho'}}, got {fields!r}")  # fmt: skip
-    return {"heard": heard, "series": series, "thresholds": th,
-            "mapping": None if p["mapping"] == "auto" else p["mapping"], **fields}  # fmt: skip
+        raise ParameterError(
+            f"field model: 'fields' maps roles to field names, e.g. "
+            f"{{'density': 'rho'}}, got {fields!r}"
+        )
+    return {
+        "heard": heard,
+        "series": series,
+        "thresholds": th,
+        "mapping": None if p["mapping"] == "auto" else p["mapping"],
+        **fields,
+    }

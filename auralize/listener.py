@@ -81,9 +81,11 @@ class ListenerPath:
                 f"{self.source}: {n} times but {self.positions.shape[0]} positions"
             )
         self.forward = _unit_rows(
-            np.broadcast_to(FORWARD, (n, 3)) if self.forward is None else self.forward, n,
-            "forward", self.source,
-        )  # fmt: skip
+            np.broadcast_to(FORWARD, (n, 3)) if self.forward is None else self.forward,
+            n,
+            "forward",
+            self.source,
+        )
         self.up = _unit_rows(
             np.broadcast_to(UP, (n, 3)) if self.up is None else self.up, n, "up", self.source
         )
@@ -116,9 +118,14 @@ class ListenerPath:
 
     # ------------------------------------------------------------- builders
     @classmethod
-    def point(cls, position: tuple[float, float, float] | NDArray[np.floating], *,
-              duration: float, forward: tuple[float, float, float] = (0, 1, 0),
-              up: tuple[float, float, float] = (0, 0, 1)) -> ListenerPath:  # fmt: skip
+    def point(
+        cls,
+        position: tuple[float, float, float] | NDArray[np.floating],
+        *,
+        duration: float,
+        forward: tuple[float, float, float] = (0, 1, 0),
+        up: tuple[float, float, float] = (0, 0, 1),
+    ) -> ListenerPath:
         """A static listener for ``duration`` seconds.
 
         Parameters
@@ -148,13 +155,24 @@ class ListenerPath:
         """
         _check_duration(duration)
         p = np.asarray(position, dtype=np.float64).reshape(3)
-        return cls(np.array([0.0, duration]), np.stack([p, p]),
-                   np.stack([forward, forward]), np.stack([up, up]), source="point")  # fmt: skip
+        return cls(
+            np.array([0.0, duration]),
+            np.stack([p, p]),
+            np.stack([forward, forward]),
+            np.stack([up, up]),
+            source="point",
+        )
 
     @classmethod
-    def line(cls, start: tuple[float, float, float] | NDArray[np.floating],
-             end: tuple[float, float, float] | NDArray[np.floating], *, duration: float,
-             n: int = 2, face: Literal["forward", "fixed"] = "forward") -> ListenerPath:  # fmt: skip
+    def line(
+        cls,
+        start: tuple[float, float, float] | NDArray[np.floating],
+        end: tuple[float, float, float] | NDArray[np.floating],
+        *,
+        duration: float,
+        n: int = 2,
+        face: Literal["forward", "fixed"] = "forward",
+    ) -> ListenerPath:
         """Straight line from ``start`` to ``end`` at constant speed.
 
         Parameters
@@ -201,9 +219,17 @@ class ListenerPath:
         return cls(w[:, 0] * duration, pos, source="line")
 
     @classmethod
-    def orbit(cls, center: tuple[float, float, float] | NDArray[np.floating], *, radius: float,
-              duration: float, turns: float = 1.0, height: float = 0.0,
-              rate_hz: float | None = 20.0, face: str = "center") -> ListenerPath:  # fmt: skip
+    def orbit(
+        cls,
+        center: tuple[float, float, float] | NDArray[np.floating],
+        *,
+        radius: float,
+        duration: float,
+        turns: float = 1.0,
+        height: float = 0.0,
+        rate_hz: float | None = 20.0,
+        face: str = "center",
+    ) -> ListenerPath:
         """Horizontal circle around ``center`` (counter-clockwise seen from +z).
 
         Parameters
@@ -251,8 +277,9 @@ class ListenerPath:
         _check_duration(duration)
         if not radius > 0:
             raise ListenerPathError(f"orbit radius must be > 0, got {radius!r}")
-        if rate_hz is not None and not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz)
-                                        and rate_hz > 0):  # fmt: skip
+        if rate_hz is not None and not (
+            isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0
+        ):
             raise ListenerPathError(f"orbit rate_hz must be a positive number, got {rate_hz!r}")
         for name, v in (("radius", radius), ("turns", turns), ("height", height)):
             if not math.isfinite(v):
@@ -515,15 +542,23 @@ ORBIT_RADIUS_FACTOR = 2.0
 def _box(bounds: tuple[float, ...] | NDArray[np.floating]) -> tuple[NDArray[np.float64], float]:
     b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
     if not np.all(np.isfinite(b)) or np.any(b[:, 1] < b[:, 0]):
-        raise ListenerPathError(f"bounds must be finite (xmin, xmax, ymin, ymax, zmin, zmax), "
-                                f"got {np.asarray(bounds).tolist()}")  # fmt: skip
+        raise ListenerPathError(
+            f"bounds must be finite (xmin, xmax, ymin, ymax, zmin, zmax), "
+            f"got {np.asarray(bounds).tolist()}"
+        )
     half = 0.5 * float(np.linalg.norm(b[:, 1] - b[:, 0]))
     return b.mean(axis=1), half if half > 0 else 1.0
 
 
-def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
-                 turns: float = 1.0, radius: float | None = None,
-                 rate_hz: float | None = None, face: str = "sweep") -> ListenerPath:  # fmt: skip
+def orbit_around(
+    bounds: tuple[float, ...] | NDArray[np.floating],
+    *,
+    duration: float,
+    turns: float = 1.0,
+    radius: float | None = None,
+    rate_hz: float | None = None,
+    face: str = "sweep",
+) -> ListenerPath:
     """A horizontal orbit around the centre of ``bounds`` (the data's box).
 
     Parameters
@@ -567,8 +602,12 @@ def orbit_around(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: 
     return p
 
 
-def line_past(bounds: tuple[float, ...] | NDArray[np.floating], *, duration: float,
-              length: float | None = None) -> ListenerPath:  # fmt: skip
+def line_past(
+    bounds: tuple[float, ...] | NDArray[np.floating],
+    *,
+    duration: float,
+    length: float | None = None,
+) -> ListenerPath:
     """A straight fly-by along +x past the data's box, facing along the motion.
 
     The line runs :data:`ORBIT_RADIUS_FACTOR` half-diagonals in front of the
@@ -674,8 +713,10 @@ def describe_path(path: ListenerPath) -> str:
     if np.allclose(p, p[0]):
         return f"at ({', '.join(f'{v:.4g}' for v in p[0])}) m"
     lo, hi = p.min(axis=0), p.max(axis=0)
-    return (f"{path.source} path of {path.n_captures} captures over {path.duration:.3g} s within "
-            f"x[{lo[0]:.4g}, {hi[0]:.4g}] y[{lo[1]:.4g}, {hi[1]:.4g}] z[{lo[2]:.4g}, {hi[2]:.4g}] m")  # fmt: skip
+    return (
+        f"{path.source} path of {path.n_captures} captures over {path.duration:.3g} s within "
+        f"x[{lo[0]:.4g}, {hi[0]:.4g}] y[{lo[1]:.4g}, {hi[1]:.4g}] z[{lo[2]:.4g}, {hi[2]:.4g}] m"
+    )
 
 
 def csv_header() -> str:

@@ -140,8 +140,9 @@ class SoundModel:
         """
         raise NotImplementedError(f"sound model {self.name!r} does not implement synthesize")
 
-    def plan(self, inputs: Any, params: dict[str, Any], path: ListenerPath,
-             duration: float) -> tuple[Any, dict[str, Any]]:  # fmt: skip
+    def plan(
+        self, inputs: Any, params: dict[str, Any], path: ListenerPath, duration: float
+    ) -> tuple[Any, dict[str, Any]]:
         """Inputs and parameters for a render along ``path`` of ``duration`` playback seconds.
 
         A scene (:func:`auralize.scene.soundscene.scene_sound`) calls it before
@@ -236,7 +237,7 @@ class SoundModel:
                     "choices": p.choices,
                     "unit": p.unit,
                     "doc": p.doc,
-                }  # fmt: skip
+                }
                 for p in self.parameters
             ],
         }
@@ -268,8 +269,9 @@ def registry() -> dict[str, type[SoundModel]]:
             warnings.warn(
                 f"sound-model plugin {name!r} ({value}) could not be loaded: {value} is not a "
                 f"SoundModel subclass",
-                PluginWarning, stacklevel=2,
-            )  # fmt: skip
+                PluginWarning,
+                stacklevel=2,
+            )
             continue
         found[name] = obj
     return found

@@ -35,7 +35,7 @@ ROLE_NAMES: dict[str, tuple[str, ...]] = {
         "static_pressure",
         "air_pressure",
         "sea_water_pressure",
-    ),  # fmt: skip
+    ),
     "log10_density": ("log10_density", "log_density", "log10_rho", "logrho"),
 }
 #: Roles whose field is a 3-vector.
@@ -57,7 +57,7 @@ COMPONENT_NAMES: dict[str, tuple[tuple[str, str, str], ...]] = {
             "eastward_sea_water_velocity",
             "northward_sea_water_velocity",
             "upward_sea_water_velocity",
-        ),  # fmt: skip
+        ),
     ),
     "momentum": (
         ("momentumx", "momentumy", "momentumz"),  # CGNS
@@ -110,8 +110,9 @@ def assemble_vector(volume: TimeVolume, role: str) -> str | None:
         name = "(" + ", ".join(f if f is not None else "0" for f in found) + ")"
         if name not in volume.fields:
             shape = tuple(volume._get(found[0]).frame_shape)
-            volume.fields[name] = CallableFrames(_stacked(volume, found), volume.n_steps,
-                                                 (*shape, 3))  # fmt: skip
+            volume.fields[name] = CallableFrames(
+                _stacked(volume, found), volume.n_steps, (*shape, 3)
+            )
         return name
     return None
 
@@ -147,13 +148,21 @@ def match_field(volume: TimeVolume, role: str) -> str | None:
 
 #: Which tool or convention writes a role's name (lower case).
 _NAME_ORIGINS = {
-    "sv_density": "FLUENT", "sv_velocity": "FLUENT", "sv_p": "FLUENT", "sv_u": "FLUENT",
-    "velocityx": "CGNS", "momentumx": "CGNS",
-    "air_density": "a CF standard name", "sea_water_density": "a CF standard name",
-    "air_pressure": "a CF standard name", "sea_water_pressure": "a CF standard name",
-    "eastward_wind": "CF standard names", "eastward_sea_water_velocity": "CF standard names",
-    "p": "OpenFOAM", "u": "OpenFOAM",
-}  # fmt: skip
+    "sv_density": "FLUENT",
+    "sv_velocity": "FLUENT",
+    "sv_p": "FLUENT",
+    "sv_u": "FLUENT",
+    "velocityx": "CGNS",
+    "momentumx": "CGNS",
+    "air_density": "a CF standard name",
+    "sea_water_density": "a CF standard name",
+    "air_pressure": "a CF standard name",
+    "sea_water_pressure": "a CF standard name",
+    "eastward_wind": "CF standard names",
+    "eastward_sea_water_velocity": "CF standard names",
+    "p": "OpenFOAM",
+    "u": "OpenFOAM",
+}
 
 
 def role_reason(volume: TimeVolume, role: str, field: str | None) -> str:
@@ -183,8 +192,11 @@ def role_reason(volume: TimeVolume, role: str, field: str | None) -> str:
         comps = [c for c in parts if c != "0"]
         flat = " (z = 0: a 2-D flow)" if len(comps) < len(parts) else ""
         origin = _NAME_ORIGINS.get(comps[0].lower())
-        return (f"assembled from the components {', '.join(comps)}{flat}"
-                + (f" ({origin})" if origin else "") + tail)  # fmt: skip
+        return (
+            f"assembled from the components {', '.join(comps)}{flat}"
+            + (f" ({origin})" if origin else "")
+            + tail
+        )
     origin = _NAME_ORIGINS.get(field.lower())
     if field.lower() == role:
         return f"named {field!r}{tail}"

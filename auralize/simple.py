@@ -35,12 +35,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from auralize.defaults import DEFAULTS, TIMBRE_CHOICES
+from auralize.defaults import DEFAULTS, TIMBRE_CHOICES, Interp
 from auralize.emitters.synthesis import Rendered
 from auralize.errors import ArgumentError, ParameterError
 from auralize.listener import ListenerPath
@@ -48,11 +48,15 @@ from auralize.scene.soundscene import SceneModel
 from auralize.sources.detection import SourceSeries, Thresholds
 from auralize.volume import TimeVolume
 
+if TYPE_CHECKING:
+    from auralize.audio.output import Normalize
+
 __all__ = [
     "AddSoundModel",
     "ApplyMapping",
     "CreateListenerPath",
     "CreateView",
+    "Describe",
     "DetectSources",
     "GetActiveSource",
     "GetActiveView",
@@ -101,8 +105,9 @@ class DataSource:
         if getattr(self, "_detection", None) is None:
             from auralize.scene.detection import Detection
 
-            self._detection = Detection(self.Volume, mapping=self.Mapping,
-                                        thresholds=self.Thresholds, **self.MappingFields)  # fmt: skip
+            self._detection = Detection(
+                self.Volume, mapping=self.Mapping, thresholds=self.Thresholds, **self.MappingFields
+            )
             if self.Sources is not None:
                 self._detection.frames.update(enumerate(self.Sources.frames))
         return self._detection
@@ -113,10 +118,15 @@ class DataSource:
 
     def __repr__(self) -> str:
         v = self.Volume
-        det = ("not detected" if self.Sources is None
-               else f"{sum(sum(c.values()) for c in self.Sources.counts())} detected")  # fmt: skip
-        return (f"<DataSource {self.FileName!r}: {v.dims[0]}×{v.dims[1]}×{v.dims[2]} points, "
-                f"{v.n_steps} steps, fields {', '.join(v.field_names)}; sources {det}>")  # fmt: skip
+        det = (
+            "not detected"
+            if self.Sources is None
+            else f"{sum(sum(c.values()) for c in self.Sources.counts())} detected"
+        )
+        return (
+            f"<DataSource {self.FileName!r}: {v.dims[0]}×{v.dims[1]}×{v.dims[2]} points, "
+            f"{v.n_steps} steps, fields {', '.join(v.field_names)}; sources {det}>"
+        )
 
     def _repr_html_(self) -> str:
         return self.Volume._repr_html_() if hasattr(self.Volume, "_repr_html_") else repr(self)
@@ -151,8 +161,9 @@ class View:
         Image.fromarray(np.asarray(img)).save(buf, format="PNG")
         return buf.getvalue()
 
-    def __init__(self, session: Session, *, size: tuple[int, int] = (800, 600),
-                 plotter: Any = None) -> None:  # fmt: skip
+    def __init__(
+        self, session: Session, *, size: tuple[int, int] = (800, 600), plotter: Any = None
+    ) -> None:
         from auralize.scene.pictures import prefer_egl
         from auralize.scene.view import Scene
 
@@ -240,9 +251,14 @@ class Session:
         self.active_view: View | None = None
         self.path: ListenerPath | None = None
         self.rendered: Rendered | None = None
-        self.audio: dict[str, Any] = {"layout": DEFAULTS.layout, "rate": DEFAULTS.rate,
-                                      "time_scale": DEFAULTS.time_scale, "device": None,
-                                      "heard": DEFAULTS.heard, "timbre": DEFAULTS.timbre}  # fmt: skip
+        self.audio: dict[str, Any] = {
+            "layout": DEFAULTS.layout,
+            "rate": DEFAULTS.rate,
+            "time_scale": DEFAULTS.time_scale,
+            "device": None,
+            "heard": DEFAULTS.heard,
+            "timbre": DEFAULTS.timbre,
+        }
         self.models: list[SceneModel] = []
 
     def source(self, src: DataSource | None) -> DataSource:
@@ -251,14 +267,18 @@ class Session:
             raise ParameterError("no active source; call OpenDataFile(...) first")
         return s
 
-    def view(self, view: View | None = None, *, create: bool = True,
-             caller: str = "") -> View:  # fmt: skip
+    def view(self, view: View | None = None, *, create: bool = True, caller: str = "") -> View:
         if view is not None and not isinstance(view, View):
-            hint = (f"; to show a listener path, give it as the first argument: {caller}(path)"
-                    if isinstance(view, ListenerPath) and caller == "Show" else "")  # fmt: skip
-            raise ArgumentError(f"{caller or 'the'} view argument must be a View (from "
-                                f"CreateView() or GetActiveView()) or None for the active "
-                                f"view, got a {type(view).__name__}{hint}")  # fmt: skip
+            hint = (
+                f"; to show a listener path, give it as the first argument: {caller}(path)"
+                if isinstance(view, ListenerPath) and caller == "Show"
+                else ""
+            )
+            raise ArgumentError(
+                f"{caller or 'the'} view argument must be a View (from "
+                f"CreateView() or GetActiveView()) or None for the active "
+                f"view, got a {type(view).__name__}{hint}"
+            )
         v = view or self.active_view
         if v is None:
             if not create:
@@ -304,8 +324,14 @@ def ResetSession() -> Session:
 
 
 # ------------------------------------------------------------------ sources
-def OpenDataFile(filename: str | Path, *, size: int | None = None, steps: int | None = None,
-                 seed: int = 0, fields: dict[str, str] | None = None) -> DataSource:  # fmt: skip
+def OpenDataFile(
+    filename: str | Path,
+    *,
+    size: int | None = None,
+    steps: int | None = None,
+    seed: int = 0,
+    fields: dict[str, str] | None = None,
+) -> DataSource:
     """Open a volume file or ``"dataset:NAME"`` and make it the active source.
 
     Raises the reader's errors (e.g. :class:`~auralize.errors.FormatError`) for
@@ -320,9 +346,12 @@ def OpenDataFile(filename: str | Path, *, size: int | None = None, steps: int | 
     from auralize.pipeline import auto_mapping, load
 
     vol = load(filename, size=size, steps=steps, seed=seed, fields=fields)
-    src = DataSource(FileName=str(filename), Volume=vol,
-                     LoadOptions={"size": size, "steps": steps, "seed": seed},
-                     Mapping=auto_mapping(vol))  # fmt: skip
+    src = DataSource(
+        FileName=str(filename),
+        Volume=vol,
+        LoadOptions={"size": size, "steps": steps, "seed": seed},
+        Mapping=auto_mapping(vol),
+    )
     s = GetSession()
     s.sources.append(src)
     s.active_source = src
@@ -357,8 +386,13 @@ def SetActiveSource(source: DataSource) -> None:
     s.active_source = source
 
 
-def ApplyMapping(Input: DataSource | str | None = None, mapping: str | None = None, *,
-                 source: DataSource | None = None, **fields: str) -> DataSource:  # fmt: skip
+def ApplyMapping(
+    Input: DataSource | str | None = None,
+    mapping: str | None = None,
+    *,
+    source: DataSource | None = None,
+    **fields: str,
+) -> DataSource:
     """Choose the acoustic mapping (``paper-density``, ``identity``, ``cfd``) and its fields.
 
     ``ApplyMapping(src, "identity", density="rho")`` or, on the active source,
@@ -386,10 +420,15 @@ def ApplyMapping(Input: DataSource | str | None = None, mapping: str | None = No
     return src
 
 
-def DetectSources(Input: DataSource | None = None, *, source: DataSource | None = None,
-                  monopole: float | str | None = None, dipole: float | str | None = None,
-                  quadrupole: float | str | None = None,
-                  zero_fraction: float = 1.0) -> SourceSeries:  # fmt: skip
+def DetectSources(
+    Input: DataSource | None = None,
+    *,
+    source: DataSource | None = None,
+    monopole: float | str | None = None,
+    dipole: float | str | None = None,
+    quadrupole: float | str | None = None,
+    zero_fraction: float = 1.0,
+) -> SourceSeries:
     """Detect sources at every step of ``Input`` (default: the active source).
 
     Thresholds are absolute, ``"N%"`` of the peak, or ``"auto"``; unset ones are
@@ -405,8 +444,10 @@ def DetectSources(Input: DataSource | None = None, *, source: DataSource | None 
     """
     src = GetSession().source(_input(Input, source))
     given = (monopole, dipole, quadrupole)
-    th = Thresholds(*(g if g is not None else d for g, d in zip(given, DEFAULTS.thresholds, strict=True)),
-                    zero_fraction=zero_fraction)  # fmt: skip
+    th = Thresholds(
+        *(g if g is not None else d for g, d in zip(given, DEFAULTS.thresholds, strict=True)),
+        zero_fraction=zero_fraction,
+    )
     det = getattr(src, "_detection", None)
     if det is None or det.thresholds.describe() != th.describe():
         src.Thresholds = th
@@ -419,9 +460,14 @@ def DetectSources(Input: DataSource | None = None, *, source: DataSource | None 
 
 
 # ------------------------------------------------------------------ listener
-def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
-                       source: DataSource | None = None, duration: float | None = None,
-                       **kw: Any) -> ListenerPath:  # fmt: skip
+def CreateListenerPath(
+    kind: str = "orbit",
+    *,
+    Input: DataSource | None = None,
+    source: DataSource | None = None,
+    duration: float | None = None,
+    **kw: Any,
+) -> ListenerPath:
     """Make the active listener path.
 
     ``kind`` is ``"line"`` (``start``, ``end``, optional ``n``, ``face``),
@@ -442,8 +488,9 @@ def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
     source = _input(Input, source)
     if kind not in ("line", "orbit", "point"):
         if not Path(kind).suffix.lower() == ".csv" and not Path(kind).exists():
-            raise ParameterError(f"kind must be 'line', 'orbit', 'point' or a CSV file, "
-                                 f"got {kind!r}")  # fmt: skip
+            raise ParameterError(
+                f"kind must be 'line', 'orbit', 'point' or a CSV file, got {kind!r}"
+            )
         path = ListenerPath.from_csv(kind)
     else:
         src = s.active_source if source is None else source
@@ -472,8 +519,9 @@ def CreateListenerPath(kind: str = "orbit", *, Input: DataSource | None = None,
             path = ListenerPath.point(at, duration=duration, **kw)
     s.path = path
     for v in s.views:
-        v.scene.set_path(path if v.show_path else None, time_scale=_time_scale(s, v, path),
-                         render=False)  # fmt: skip
+        v.scene.set_path(
+            path if v.show_path else None, time_scale=_time_scale(s, v, path), render=False
+        )
     return path
 
 
@@ -506,10 +554,15 @@ def SaveListenerPath(filename: str | Path, path: ListenerPath | None = None) -> 
     p.to_csv(filename)
 
 
-def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
-                       duration: float | None = None, rate_hz: float = 10.0,
-                       view: View | None = None, autosave: str | Path | None = None,
-                       render: bool = False) -> ListenerPath:  # fmt: skip
+def RecordListenerPath(
+    keyframes: list[dict[str, ArrayLike]] | None = None,
+    *,
+    duration: float | None = None,
+    rate_hz: float = 10.0,
+    view: View | None = None,
+    autosave: str | Path | None = None,
+    render: bool = False,
+) -> ListenerPath:
     """Fly the view's camera through ``keyframes`` and record the listener path.
 
     Each keyframe is a dict with ``position`` and ``focal_point`` (and
@@ -544,8 +597,13 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
         duration = float(src.Volume.times[-1] - src.Volume.times[0]) * _fixed_scale(s)
     rec = PathRecorder(rate_hz=rate_hz, autosave=autosave)
     n = max(int(math.floor(duration * rec.rate_hz + 1e-9)) + 1, 2)
-    kf = [{k: np.asarray(f.get(k, (0, 0, 1) if k == "up" else None), dtype=float)
-           for k in ("position", "focal_point", "up")} for f in keyframes]  # fmt: skip
+    kf = [
+        {
+            k: np.asarray(f.get(k, (0, 0, 1) if k == "up" else None), dtype=float)
+            for k in ("position", "focal_point", "up")
+        }
+        for f in keyframes
+    ]
     rec.start()
     for i in range(n):
         t = i / rec.rate_hz if i < n - 1 else duration
@@ -562,17 +620,27 @@ def RecordListenerPath(keyframes: list[dict[str, ArrayLike]] | None = None, *,
     path = rec.stop()
     assert path is not None
     s.path = path
-    v.scene.set_path(path if v.show_path else None, time_scale=_time_scale(s, v, path),
-                     render=False)  # fmt: skip
+    v.scene.set_path(
+        path if v.show_path else None, time_scale=_time_scale(s, v, path), render=False
+    )
     return path
 
 
 # --------------------------------------------------------------------- audio
-def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = None,
-                path: ListenerPath | None = None, layout: str | None = None,
-                rate: int | None = None, time_scale: float | str | None = None,
-                interp: str = DEFAULTS.interp, timbre: str | None = None,
-                heard: str | None = None) -> Rendered:  # fmt: skip
+def RenderAudio(
+    Input: DataSource | None = None,
+    *,
+    source: DataSource | None = None,
+    path: ListenerPath | None = None,
+    layout: str | None = None,
+    rate: int | None = None,
+    time_scale: float | str | None = None,
+    interp: Interp = DEFAULTS.interp,
+    timbre: str | None = None,
+    heard: str | None = None,
+    air: Any = None,
+    ground: Any = None,
+) -> Rendered:
     """Render the sound heard along ``path`` (default: the active path) from ``Input``
     (default: the active source), plus every sound model added with :func:`AddSoundModel`.
 
@@ -599,6 +667,11 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
     ``"auto"`` (the data's sound fits the path's duration) and ``auto``
     detection thresholds (:func:`DetectSources`).  The listener path is the
     session's (no default orbit).
+
+    ``air`` and ``ground`` hear it outdoors (off by default): air absorption
+    after ISO 9613-1 and a flat reflecting ground, for the data's sources and
+    every model (:class:`auralize.emitters.outdoor.Air`,
+    :class:`auralize.emitters.outdoor.Ground`; :func:`auralize.pipeline.render`).
 
     Examples
     --------
@@ -632,6 +705,7 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
         if val is not None:
             s.audio[k] = val
     rate = int(s.audio["rate"])
+    outdoor = {} if air is None and ground is None else {"air": air, "ground": ground}
     models = scene_sound(s.models, p, p.duration, rate=rate) if s.models else None
     out: Rendered
     if src is not None:
@@ -640,20 +714,85 @@ def RenderAudio(Input: DataSource | None = None, *, source: DataSource | None = 
         hd = parse_heard(s.audio.get("heard") or "field")
         if src.Sources is None and hd.mode == "detected":
             src.Sources = src.Detection.run()
-        out, _ = auralize(src.Volume, p, series=src.Sources, rate=rate,
-                          time_scale=_check_time_scale(s.audio["time_scale"]),
-                          layout=s.audio["layout"],
-                          interp=interp, timbre=s.audio.get("timbre", DEFAULTS.timbre),
-                          clip=not s.models, heard=hd, extra=models,
-                          thresholds=src.Thresholds, mapping=src.Mapping,
-                          **dict[str, Any](src.MappingFields))  # fmt: skip
+        out, _ = auralize(
+            src.Volume,
+            p,
+            series=src.Sources,
+            rate=rate,
+            time_scale=_check_time_scale(s.audio["time_scale"]),
+            layout=s.audio["layout"],
+            interp=interp,
+            timbre=s.audio.get("timbre", DEFAULTS.timbre),
+            clip=not s.models,
+            heard=hd,
+            extra=models,
+            thresholds=src.Thresholds,
+            mapping=src.Mapping,
+            **outdoor,
+            **dict[str, Any](src.MappingFields),
+        )
     else:
         assert models is not None
-        out = render(models, p, rate=rate, layout=s.audio["layout"], duration=p.duration,
-                     highpass_hz=HIGHPASS_HZ)  # fmt: skip
+        out = render(
+            models,
+            p,
+            rate=rate,
+            layout=s.audio["layout"],
+            duration=p.duration,
+            highpass_hz=HIGHPASS_HZ,
+            **outdoor,
+        )
     assert out is not None
     s.rendered = out
     return out
+
+
+def Describe(
+    Input: DataSource | None = None,
+    *,
+    source: DataSource | None = None,
+    path: ListenerPath | None = None,
+    time_scale: float | str | None = None,
+    heard: str | None = None,
+) -> Any:
+    """Describe the sources of ``Input`` (default: the active source) in words, and when
+    the listener hears them: an :class:`auralize.describe.Description` (``print`` it for
+    the text; ``.rows`` and ``.events`` hold the figures, ``.save("d.csv")`` writes them).
+
+    The sources are the source's detected ones (detected first, as
+    :func:`DetectSources` does, if needed); the render described is
+    :func:`RenderAudio`'s: the session's listener path (``path`` overrides it;
+    with none, the default orbit of ``auralize render``), its time scale and
+    what it hears.  Levels are those of each type's detected sources at the
+    listener, in dB relative to the loudest (:mod:`auralize.describe`).
+
+    Examples
+    --------
+    >>> src = OpenDataFile("dataset:monopole", size=12, steps=16)
+    >>> p = CreateListenerPath("point", at=(0.9, 0.5, 0.5), duration=1.0)
+    >>> d = Describe(src)
+    >>> [e.type for e in d.events], d.plan["duration_s"]
+    (['monopole'], 1.0)
+    >>> str(d).splitlines()[0]
+    'Sources in dataset:monopole (12 × 12 × 12 points, 16 steps, 0 .. 0.005 s)'
+    """
+    from auralize.describe import describe
+    from auralize.sources.field import parse_heard
+
+    s = GetSession()
+    src = s.source(_input(Input, source))
+    if src.Sources is None:
+        src.Sources = src.Detection.run()
+    ts = _check_time_scale(time_scale if time_scale is not None else s.audio["time_scale"])
+    hd = parse_heard(heard if heard is not None else s.audio.get("heard") or DEFAULTS.heard)
+    return describe(
+        src.Volume,
+        series=src.Sources,
+        path=path or s.path,
+        time_scale=ts,
+        heard=hd.label,
+        name=src.FileName,
+    )
 
 
 def AddSoundModel(name: str, input: Any, **params: Any) -> SceneModel:
@@ -700,8 +839,9 @@ def RemoveSoundModel(entry: SceneModel | str) -> None:
         raise ParameterError(f"no sound model {entry!r} in the session's scene")
 
 
-def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
-              normalize: str = "peak") -> float:  # fmt: skip
+def SaveAudio(
+    filename: str | Path, rendered: Rendered | None = None, *, normalize: Normalize = "peak"
+) -> float:
     """Write ``rendered`` (default: the last render) as WAV/FLAC + sidecar JSON, as
     ParaView's ``SaveData(filename, proxy)``; returns the gain applied.
 
@@ -724,8 +864,13 @@ def SaveAudio(filename: str | Path, rendered: Rendered | None = None, *,
     return save_rendered(r, filename, normalize=normalize)
 
 
-def PlayAudio(rendered: Rendered | None = None, *, device: Any = None, gain_db: float = 0.0,
-              blocking: bool = True) -> Any:  # fmt: skip
+def PlayAudio(
+    rendered: Rendered | None = None,
+    *,
+    device: Any = None,
+    gain_db: float = 0.0,
+    blocking: bool = True,
+) -> Any:
     """Play the last render on a sound device through a gain control and a limiter.
 
     The loudest sample is put at full scale (``gain_db`` adds to that; what would
@@ -793,9 +938,14 @@ def SetActiveView(view: View) -> None:
     GetSession().active_view = view
 
 
-def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None, *,
-         field: str | None = None, representation: str | None = None,
-         step: int | None = None) -> View:  # fmt: skip
+def Show(
+    obj: DataSource | ListenerPath | None = None,
+    view: View | None = None,
+    *,
+    field: str | None = None,
+    representation: str | None = None,
+    step: int | None = None,
+) -> View:
     """Show a data source (its volume, and its sources once detected) or a listener path
     in a view.  In a Jupyter notebook the returned view displays as a picture.
 
@@ -809,9 +959,11 @@ def Show(obj: DataSource | ListenerPath | None = None, view: View | None = None,
     s = GetSession()
     v = s.view(view, caller="Show")
     if obj is not None and not isinstance(obj, DataSource | ListenerPath):
-        raise ArgumentError(f"Show's first argument must be a data source (OpenDataFile), a "
-                            f"ListenerPath or None for the active source, got a "
-                            f"{type(obj).__name__}")  # fmt: skip
+        raise ArgumentError(
+            f"Show's first argument must be a data source (OpenDataFile), a "
+            f"ListenerPath or None for the active source, got a "
+            f"{type(obj).__name__}"
+        )
     if isinstance(obj, ListenerPath):
         s.path = obj
         obj = None
@@ -878,8 +1030,9 @@ def Render(view: View | None = None) -> View:
     return v
 
 
-def SaveScreenshot(filename: str | Path, view: View | None = None, *,
-                   resolution: tuple[int, int] | None = None) -> Path:  # fmt: skip
+def SaveScreenshot(
+    filename: str | Path, view: View | None = None, *, resolution: tuple[int, int] | None = None
+) -> Path:
     """Render the view off screen to a PNG.
 
     As ParaView's ``SaveScreenshot``, the view is rendered with what is shown in
@@ -905,9 +1058,11 @@ def SaveScreenshot(filename: str | Path, view: View | None = None, *,
             Show(s.path, v)
             v.plotter.reset_camera()
         else:
-            raise ParameterError(f"nothing to show in the screenshot {str(filename)!r}: open "
-                                 f"data first (OpenDataFile) and Show it, or Show a listener "
-                                 f"path")  # fmt: skip
+            raise ParameterError(
+                f"nothing to show in the screenshot {str(filename)!r}: open "
+                f"data first (OpenDataFile) and Show it, or Show a listener "
+                f"path"
+            )
     if resolution is not None:
         v.ViewSize = resolution
     out = Path(filename)
@@ -940,15 +1095,20 @@ def SaveSession(filename: str | Path) -> Path:
     src = s.active_source
     if src is not None:
         st.data = data_spec(src.FileName, **src.LoadOptions)
-        st.detection = {"mapping": src.Mapping, "mapping_fields": src.MappingFields,
-                        "thresholds": (src.Thresholds or Thresholds(*DEFAULTS.thresholds)).describe()}  # fmt: skip
+        st.detection = {
+            "mapping": src.Mapping,
+            "mapping_fields": src.MappingFields,
+            "thresholds": (src.Thresholds or Thresholds(*DEFAULTS.thresholds)).describe(),
+        }
         st.view = {"field": src.Field}
     st.set_listener_path(s.path)
     for m in s.models:
         if not isinstance(m.input, str):
-            raise ParameterError(f"cannot save sound model {m.model!r}: its input is a "
-                                 f"{type(m.input).__name__} in memory; add it with a file name "
-                                 f"or dataset:NAME to save the session")  # fmt: skip
+            raise ParameterError(
+                f"cannot save sound model {m.model!r}: its input is a "
+                f"{type(m.input).__name__} in memory; add it with a file name "
+                f"or dataset:NAME to save the session"
+            )
         spec = m.input
         if not spec.startswith("dataset:") and Path(spec).expanduser().exists():
             spec = str(Path(spec).expanduser().resolve())
@@ -956,8 +1116,15 @@ def SaveSession(filename: str | Path) -> Path:
     if s.active_view is not None:
         sc = s.active_view.scene
         st.camera = sc.camera()
-        st.view.update({"representation": sc.representation, "step": sc.step, "cmap": sc.cmap,
-                        "opacity": sc.opacity, "types": dict(sc.visible_types)})  # fmt: skip
+        st.view.update(
+            {
+                "representation": sc.representation,
+                "step": sc.step,
+                "cmap": sc.cmap,
+                "opacity": sc.opacity,
+                "types": dict(sc.visible_types),
+            }
+        )
     st.save(filename)
     return Path(filename)
 
@@ -986,15 +1153,20 @@ def LoadSession(filename: str | Path) -> Session:
     s.audio.update(st.audio or {})
     if st.data:
         d = st.data
-        src = OpenDataFile(d["spec"], size=d.get("size"), steps=d.get("steps"),
-                           seed=d.get("seed") or 0)  # fmt: skip
+        src = OpenDataFile(
+            d["spec"], size=d.get("size"), steps=d.get("steps"), seed=d.get("seed") or 0
+        )
         det = st.detection or {}
         if det.get("mapping"):
             ApplyMapping(det["mapping"], **(det.get("mapping_fields") or {}))
         if det.get("thresholds"):
             t = det["thresholds"]
-            src.Thresholds = Thresholds(t["monopole"], t["dipole"], t["quadrupole"],
-                                        zero_fraction=t.get("zero_fraction", 1.0))  # fmt: skip
+            src.Thresholds = Thresholds(
+                t["monopole"],
+                t["dipole"],
+                t["quadrupole"],
+                zero_fraction=t.get("zero_fraction", 1.0),
+            )
         src.Field = (st.view or {}).get("field")
     s.path = st.listener_path()
     for m in st.models:
@@ -1021,8 +1193,10 @@ def _check_time_scale(time_scale: Any) -> float | str:
     except (TypeError, ValueError):
         ts = math.nan
     if not (math.isfinite(ts) and ts > 0):
-        raise ParameterError(f"time_scale must be 'auto' or a number > 0 of playback seconds "
-                             f"per data second, got {time_scale!r}")  # fmt: skip
+        raise ParameterError(
+            f"time_scale must be 'auto' or a number > 0 of playback seconds "
+            f"per data second, got {time_scale!r}"
+        )
     return ts
 
 
@@ -1052,6 +1226,7 @@ def _input(Input: DataSource | None, source: DataSource | None) -> DataSource | 
     if Input is not None and source is not None and Input is not source:
         raise ParameterError("give the input once: positionally, as Input= or as source=")
     if Input is not None and not isinstance(Input, DataSource):
-        raise ParameterError(f"the input must be a data source from OpenDataFile, got "
-                             f"{type(Input).__name__}")  # fmt: skip
+        raise ParameterError(
+            f"the input must be a data source from OpenDataFile, got {type(Input).__name__}"
+        )
     return Input if Input is not None else source

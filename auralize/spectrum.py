@@ -50,10 +50,42 @@ __all__ = [
 #: reference pressure of sound pressure levels in air, Pa
 P_REF = 20e-6
 #: nominal labels of the base-10 ⅓-octave centres (IEC 61260-1, Annex E), n = 10 .. 43
-_NOMINAL = ("10", "12.5", "16", "20", "25", "31.5", "40", "50", "63", "80", "100", "125",
-            "160", "200", "250", "315", "400", "500", "630", "800", "1000", "1250", "1600",
-            "2000", "2500", "3150", "4000", "5000", "6300", "8000", "10000", "12500",
-            "16000", "20000")  # fmt: skip
+_NOMINAL = (
+    "10",
+    "12.5",
+    "16",
+    "20",
+    "25",
+    "31.5",
+    "40",
+    "50",
+    "63",
+    "80",
+    "100",
+    "125",
+    "160",
+    "200",
+    "250",
+    "315",
+    "400",
+    "500",
+    "630",
+    "800",
+    "1000",
+    "1250",
+    "1600",
+    "2000",
+    "2500",
+    "3150",
+    "4000",
+    "5000",
+    "6300",
+    "8000",
+    "10000",
+    "12500",
+    "16000",
+    "20000",
+)
 
 
 def third_octaves(
@@ -82,8 +114,9 @@ def a_weighting_db(f: NDArray[np.floating]) -> NDArray[np.float64]:
     [-19.1, 0.0, -2.5]
     """
     f2 = np.asarray(f, dtype=np.float64) ** 2
-    ra = (12194.0**2 * f2**2) / ((f2 + 20.6**2) * np.sqrt((f2 + 107.7**2) * (f2 + 737.9**2))
-                                 * (f2 + 12194.0**2))  # fmt: skip
+    ra = (12194.0**2 * f2**2) / (
+        (f2 + 20.6**2) * np.sqrt((f2 + 107.7**2) * (f2 + 737.9**2)) * (f2 + 12194.0**2)
+    )
     with np.errstate(divide="ignore"):
         return 20.0 * np.log10(ra) + 2.00
 
@@ -130,13 +163,24 @@ class Spectrum:
     def __repr__(self) -> str:
         from auralize.runtime.reprs import summary
 
-        levels = ", ".join(f"{c} {v:.1f} dB ({a:.1f} dBA)"
-                           for c, v, a in zip(self.channels, self.oaspl, self.oaspl_a, strict=True))  # fmt: skip
-        return summary(f"Spectrum {self.source}".strip(), [
-            ("signal", f"{self.duration:.4g} s at {self.rate} Hz, {len(self.channels)} ch"),
-            ("OASPL", levels),
-            ("bands", f"{len(self.band_centres)} third octaves, {self.band_labels[0]} – "
-                      f"{self.band_labels[-1]} Hz" if self.band_labels else "none")])  # fmt: skip
+        levels = ", ".join(
+            f"{c} {v:.1f} dB ({a:.1f} dBA)"
+            for c, v, a in zip(self.channels, self.oaspl, self.oaspl_a, strict=True)
+        )
+        return summary(
+            f"Spectrum {self.source}".strip(),
+            [
+                ("signal", f"{self.duration:.4g} s at {self.rate} Hz, {len(self.channels)} ch"),
+                ("OASPL", levels),
+                (
+                    "bands",
+                    f"{len(self.band_centres)} third octaves, {self.band_labels[0]} – "
+                    f"{self.band_labels[-1]} Hz"
+                    if self.band_labels
+                    else "none",
+                ),
+            ],
+        )
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-able: levels in dB re 20 µPa (``null`` for silence), per channel."""
@@ -145,15 +189,23 @@ class Spectrum:
             return round(float(v), 3) if math.isfinite(v) else None
 
         return {
-            "source": self.source, "rate": self.rate, "duration_s": self.duration,
-            "reference_pa": P_REF, "weighting": "Z (and A for oaspl_dba)",
+            "source": self.source,
+            "rate": self.rate,
+            "duration_s": self.duration,
+            "reference_pa": P_REF,
+            "weighting": "Z (and A for oaspl_dba)",
             "band_centres_hz": [round(float(f), 3) for f in self.band_centres],
             "band_labels_hz": list(self.band_labels),
-            "channels": {c: {"oaspl_db": db(self.oaspl[i]), "oaspl_dba": db(self.oaspl_a[i]),
-                             "bands_db": [db(v) for v in self.band_levels[i]]}
-                         for i, c in enumerate(self.channels)},
+            "channels": {
+                c: {
+                    "oaspl_db": db(self.oaspl[i]),
+                    "oaspl_dba": db(self.oaspl_a[i]),
+                    "bands_db": [db(v) for v in self.band_levels[i]],
+                }
+                for i, c in enumerate(self.channels)
+            },
             **self.meta,
-        }  # fmt: skip
+        }
 
     def csv_text(self) -> str:
         """One row per ⅓-octave band (nominal and exact centre), one column per channel,
@@ -198,8 +250,12 @@ class Spectrum:
         x = np.arange(len(self.band_centres))
         for i, c in enumerate(self.channels):
             lv = np.where(np.isfinite(self.band_levels[i]), self.band_levels[i], np.nan)
-            ax1.bar(x + (i - (n - 1) / 2) * width, lv, width=width,
-                    label=f"{c}: {self.oaspl[i]:.1f} dB, {self.oaspl_a[i]:.1f} dBA")  # fmt: skip
+            ax1.bar(
+                x + (i - (n - 1) / 2) * width,
+                lv,
+                width=width,
+                label=f"{c}: {self.oaspl[i]:.1f} dB, {self.oaspl_a[i]:.1f} dBA",
+            )
         ax1.set_xticks(x[::3], [self.band_labels[k] for k in x[::3]])
         ax1.set_xlabel("⅓-octave band (Hz)")
         ax1.set_ylabel("SPL (dB re 20 µPa)")
@@ -207,8 +263,9 @@ class Spectrum:
         ax1.set_title(f"{self.source}: OASPL and ⅓-octave bands".strip(": "))
         for i, c in enumerate(self.channels):
             with np.errstate(divide="ignore"):
-                ax2.semilogx(self.freqs[1:], 10 * np.log10(self.psd[i, 1:] / P_REF**2), lw=0.8,
-                             label=c)  # fmt: skip
+                ax2.semilogx(
+                    self.freqs[1:], 10 * np.log10(self.psd[i, 1:] / P_REF**2), lw=0.8, label=c
+                )
         ax2.set_xlabel("frequency (Hz)")
         ax2.set_ylabel("PSD (dB re 20 µPa²/Hz)")
         ax2.grid(True, which="both", lw=0.3)
@@ -218,8 +275,15 @@ class Spectrum:
         return out
 
 
-def spectrum(audio: NDArray[np.floating], rate: int, *, channels: list[str] | None = None,
-             fmin: float = 10.0, fmax: float | None = None, source: str = "") -> Spectrum:  # fmt: skip
+def spectrum(
+    audio: NDArray[np.floating],
+    rate: int,
+    *,
+    channels: list[str] | None = None,
+    fmin: float = 10.0,
+    fmax: float | None = None,
+    source: str = "",
+) -> Spectrum:
     """Levels of ``audio (n_channels, n_samples)`` in pascals at ``rate`` Hz.
 
     Parameters
@@ -247,8 +311,10 @@ def spectrum(audio: NDArray[np.floating], rate: int, *, channels: list[str] | No
     if p.ndim == 1:
         p = p[None]
     if p.ndim != 2 or p.shape[1] < 2:
-        raise ParameterError(f"spectrum: a signal (n_channels, n_samples) of at least 2 samples "
-                             f"is needed, got shape {p.shape}")  # fmt: skip
+        raise ParameterError(
+            f"spectrum: a signal (n_channels, n_samples) of at least 2 samples "
+            f"is needed, got shape {p.shape}"
+        )
     if not np.all(np.isfinite(p)):
         raise ParameterError("spectrum: the signal holds NaN or Inf samples")
     if not (isinstance(rate, int | np.integer) and rate > 0):
@@ -281,11 +347,19 @@ def spectrum(audio: NDArray[np.floating], rate: int, *, channels: list[str] | No
     names = list(channels) if channels else [f"ch{i}" for i in range(p.shape[0])]
     if len(names) != p.shape[0]:
         raise ParameterError(f"spectrum: {len(names)} channel names for {p.shape[0]} channels")
-    return Spectrum(rate=rate, duration=n / rate, channels=names, oaspl=_level(mean_square),
-                    oaspl_a=_level((power * weight).sum(axis=1)), band_centres=fm,
-                    band_labels=labels, band_levels=_level(ms_bands),
-                    freqs=np.asarray(freqs, dtype=np.float64),
-                    psd=np.asarray(psd, dtype=np.float64), source=source)  # fmt: skip
+    return Spectrum(
+        rate=rate,
+        duration=n / rate,
+        channels=names,
+        oaspl=_level(mean_square),
+        oaspl_a=_level((power * weight).sum(axis=1)),
+        band_centres=fm,
+        band_labels=labels,
+        band_levels=_level(ms_bands),
+        freqs=np.asarray(freqs, dtype=np.float64),
+        psd=np.asarray(psd, dtype=np.float64),
+        source=source,
+    )
 
 
 def read_pascals(path: str | Path) -> tuple[NDArray[np.float64], int, list[str], str]:
@@ -305,16 +379,22 @@ def read_pascals(path: str | Path) -> tuple[NDArray[np.float64], int, list[str],
         raise MissingFileError(f"{p}: audio file not found")
     side_path = Path(f"{p}.json")
     if not side_path.is_file():
-        raise FormatError(f"{p}: no sidecar {side_path.name}, so the samples' unit is unknown; "
-                          f"analyse a file written by auralize (render, play --output, ...)")  # fmt: skip
+        raise FormatError(
+            f"{p}: no sidecar {side_path.name}, so the samples' unit is unknown; "
+            f"analyse a file written by auralize (render, play --output, ...)"
+        )
     from auralize.runtime.json_check import read_json
 
     side = read_json(side_path)
     if not isinstance(side, dict) or side.get("auralize_format") != "audio-sidecar":
         raise FormatError(f"{side_path}: not an auralize audio sidecar")
     gain = side.get("gain")
-    if not (isinstance(gain, int | float) and not isinstance(gain, bool) and gain > 0
-            and math.isfinite(gain)):  # fmt: skip
+    if not (
+        isinstance(gain, int | float)
+        and not isinstance(gain, bool)
+        and gain > 0
+        and math.isfinite(gain)
+    ):
         raise FormatError(f"{side_path}: no usable 'gain' (output units per pascal): {gain!r}")
     if p.suffix.lower() == ".wav":
         from auralize.audio.output import read_wav
@@ -332,14 +412,17 @@ def read_pascals(path: str | Path) -> tuple[NDArray[np.float64], int, list[str],
         raise FormatError(f"{p}: spectrum reads .wav and .flac files, got {p.suffix!r}")
     layout = side.get("layout") if isinstance(side.get("layout"), dict) else {}
     speakers = layout.get("speakers") if isinstance(layout, dict) else None
-    names = ([str(s.get("name", f"ch{i}")) for i, s in enumerate(speakers)]
-             if isinstance(speakers, list) and len(speakers) == audio.shape[0]
-             else [f"ch{i}" for i in range(audio.shape[0])])  # fmt: skip
+    names = (
+        [str(s.get("name", f"ch{i}")) for i, s in enumerate(speakers)]
+        if isinstance(speakers, list) and len(speakers) == audio.shape[0]
+        else [f"ch{i}" for i in range(audio.shape[0])]
+    )
     return audio / float(gain), int(rate), names, str(side.get("units", ""))
 
 
-def observer_pressure(volume: Any, listener: Any, *, method: str = "volume",
-                      surface: Any = None, rate: int = 44100) -> tuple[NDArray[np.float64], str]:  # fmt: skip
+def observer_pressure(
+    volume: Any, listener: Any, *, method: str = "volume", surface: Any = None, rate: int = 44100
+) -> tuple[NDArray[np.float64], str]:
     """The acoustic pressure (Pa) at ``listener`` from ``volume``, in physical time.
 
     Parameters
@@ -370,21 +453,33 @@ def observer_pressure(volume: Any, listener: Any, *, method: str = "volume",
         from auralize.fwh import fwh_pressure, fwh_time_window, sample_surface, surface_from_spec
 
         if surface is None or surface == "":
-            raise ParameterError("--method fwh needs --surface box=x0;x1;y0;y1;z0;z1, "
-                                 "sphere=cx;cy;cz;r or file=PATH (a closed surface around the "
-                                 "sources, inside the grid)")  # fmt: skip
+            raise ParameterError(
+                "--method fwh needs --surface box=x0;x1;y0;y1;z0;z1, "
+                "sphere=cx;cy;cz;r or file=PATH (a closed surface around the "
+                "sources, inside the grid)"
+            )
         smp = sample_surface(volume, surface_from_spec(surface))
         t0, t1 = (float(v) for v in fwh_time_window(smp.times, smp.surface, at)[0])
         n = int(np.floor((t1 - t0) * rate))
         if n < 2:
-            raise ParameterError(f"{volume.source}: the data last too short to hear the FW-H "
-                                 f"surface at {tuple(at[0])}")  # fmt: skip
+            raise ParameterError(
+                f"{volume.source}: the data last too short to hear the FW-H "
+                f"surface at {tuple(at[0])}"
+            )
         p = fwh_pressure(smp, None, at, t0 + np.arange(n) / rate)
         return np.asarray(p, dtype=np.float64), f"FW-H on {surface}"
     if method != "volume":
         raise ParameterError(f"method must be 'volume' or 'fwh', got {method!r}")
     from auralize.pipeline import auralize
 
-    out, _ = auralize(volume, listener=at[0], rate=int(rate), time_scale=1.0,
-                      timbre="physical", highpass_hz=0.0, layout="mono")  # fmt: skip
+    out, _ = auralize(
+        volume,
+        listener=at[0],
+        rate=int(rate),
+        time_scale=1.0,
+        method="volume",
+        timbre="physical",
+        highpass_hz=0.0,
+        layout="mono",
+    )
     return out.audio, "volume sum (whole field)"

@@ -521,10 +521,13 @@ class TimeVolume:
             return tuple(float(v) for a in range(3) for v in (lo_c[a], hi_c[a]))  # type: ignore[return-value]
         hi = self.origin + self.spacing * (np.asarray(self.dims) - 1)
         return (
-            float(self.origin[0]), float(hi[0]),
-            float(self.origin[1]), float(hi[1]),
-            float(self.origin[2]), float(hi[2]),
-        )  # fmt: skip
+            float(self.origin[0]),
+            float(hi[0]),
+            float(self.origin[1]),
+            float(hi[1]),
+            float(self.origin[2]),
+            float(hi[2]),
+        )
 
     @property
     def center(self) -> NDArray[np.float64]:
@@ -676,12 +679,18 @@ class TimeVolume:
         """
         loaded = {k: ArrayFrames(np.stack(list(self.iter_frames(k)))) for k in self.fields}
         return TimeVolume(
-            origin=self.origin.copy(), spacing=self.spacing.copy(), dims=self.dims,
-            times=self.times.copy(), fields=dict(loaded),
-            physical_times=self.physical_times, source=self.source,
-            check_finite=self.check_finite, attrs=dict(self.attrs), valid=self.valid,
+            origin=self.origin.copy(),
+            spacing=self.spacing.copy(),
+            dims=self.dims,
+            times=self.times.copy(),
+            fields=dict(loaded),
+            physical_times=self.physical_times,
+            source=self.source,
+            check_finite=self.check_finite,
+            attrs=dict(self.attrs),
+            valid=self.valid,
             coords=self.coords,
-        )  # fmt: skip
+        )
 
     def axis_coords(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Coordinates along x, y, z of a uniform grid.
@@ -800,20 +809,30 @@ class TimeVolume:
 
         nx, ny, nz = self.dims
         b = self.bounds
-        box = f"x[{number(b[0])}, {number(b[1])}] y[{number(b[2])}, {number(b[3])}] z[{number(b[4])}, {number(b[5])}] m"  # fmt: skip
+        box = f"x[{number(b[0])}, {number(b[1])}] y[{number(b[2])}, {number(b[3])}] z[{number(b[4])}, {number(b[5])}] m"
         if self.coords is not None:
             grid = f"curvilinear {nx} × {ny} × {nz} points, {box}"
         else:
-            grid = (f"{nx} × {ny} × {nz} points, spacing "
-                    f"{', '.join(number(v) for v in self.spacing)} m, {box}")  # fmt: skip
+            grid = (
+                f"{nx} × {ny} × {nz} points, spacing "
+                f"{', '.join(number(v) for v in self.spacing)} m, {box}"
+            )
         valid = self.valid_ratio
         times = f"{self.n_steps} steps, {span(self.times)}" + (
-            "" if self.physical_times else " (frame numbers: no times in the file)")  # fmt: skip
-        fields = ", ".join(f"{k} ({'vector' if self.is_vector(k) else 'scalar'})"
-                           for k in self.field_names)  # fmt: skip
-        return summary(f"TimeVolume {self.source}", [
-            ("grid", grid), ("valid", "" if valid >= 1 else f"{100 * valid:.3g} % of the points"),
-            ("times", times), ("fields", fields or "none")])  # fmt: skip
+            "" if self.physical_times else " (frame numbers: no times in the file)"
+        )
+        fields = ", ".join(
+            f"{k} ({'vector' if self.is_vector(k) else 'scalar'})" for k in self.field_names
+        )
+        return summary(
+            f"TimeVolume {self.source}",
+            [
+                ("grid", grid),
+                ("valid", "" if valid >= 1 else f"{100 * valid:.3g} % of the points"),
+                ("times", times),
+                ("fields", fields or "none"),
+            ],
+        )
 
     def describe(self) -> dict[str, object]:
         """A JSON-able summary (used by ``auralize info``).
@@ -835,8 +854,11 @@ class TimeVolume:
         """
         extra: dict[str, object] = {}
         if self.coords is not None:
-            lengths = [np.linalg.norm(np.diff(self.coords, axis=ax), axis=-1).reshape(-1)
-                       for ax in range(3) if self.coords.shape[ax] > 1]  # fmt: skip
+            lengths = [
+                np.linalg.norm(np.diff(self.coords, axis=ax), axis=-1).reshape(-1)
+                for ax in range(3)
+                if self.coords.shape[ax] > 1
+            ]
             flat = np.concatenate(lengths) if lengths else np.zeros(1)
             extra["edge_lengths"] = [float(flat.min()), float(flat.max())]
         return extra | {

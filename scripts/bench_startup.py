@@ -49,8 +49,11 @@ def timed(args: list[str], env: dict[str, str], cwd: str) -> tuple[float, float,
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--startup-only", action="store_true")
-    ap.add_argument("--cold-demo", action="store_true",
-                    help="also run the demo from an empty cache without the warm-up")  # fmt: skip
+    ap.add_argument(
+        "--cold-demo",
+        action="store_true",
+        help="also run the demo from an empty cache without the warm-up",
+    )
     ap.add_argument("--size", type=int, default=64, help="demo grid size (default 64)")
     ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     args = ap.parse_args()
@@ -60,30 +63,56 @@ def main() -> int:
     try:
         for cmd in (["--version"], ["--help"], ["vortex", "render", "--help"]):
             runs = [timed(cmd, env, work)[:2] for _ in range(5)]
-            rows.append({"what": f"auralize {' '.join(cmd)}", "wall_s": min(r[0] for r in runs),
-                         "cpu_s": min(r[1] for r in runs), "target": "< 0.5 s"})  # fmt: skip
+            rows.append(
+                {
+                    "what": f"auralize {' '.join(cmd)}",
+                    "wall_s": min(r[0] for r in runs),
+                    "cpu_s": min(r[1] for r in runs),
+                    "target": "< 0.5 s",
+                }
+            )
         if not args.startup_only:
             env["NUMBA_CACHE_DIR"] = str(Path(work) / "numba-cache")  # empty: a cold cache
             wall, cpu, out = timed(["warmup"], env, work)
-            rows.append({"what": "install step: auralize warmup (cold cache)", "wall_s": wall,
-                         "cpu_s": cpu, "target": "", "note": out.strip().splitlines()[-1]})  # fmt: skip
+            rows.append(
+                {
+                    "what": "install step: auralize warmup (cold cache)",
+                    "wall_s": wall,
+                    "cpu_s": cpu,
+                    "target": "",
+                    "note": out.strip().splitlines()[-1],
+                }
+            )
             wall, cpu, out = timed(["demo", "-o", "demo", "--size", str(args.size)], env, work)
-            rows.append({"what": f"first auralize demo after install ({args.size}³)",
-                         "wall_s": wall, "cpu_s": cpu, "target": "< 30 s",
-                         "note": "compiled kernels" if "compiling kernels" in out
-                         else "no compiling"})  # fmt: skip
+            rows.append(
+                {
+                    "what": f"first auralize demo after install ({args.size}³)",
+                    "wall_s": wall,
+                    "cpu_s": cpu,
+                    "target": "< 30 s",
+                    "note": "compiled kernels" if "compiling kernels" in out else "no compiling",
+                }
+            )
             if args.cold_demo:
                 env["NUMBA_CACHE_DIR"] = str(Path(work) / "numba-cache-2")
                 wall, cpu, out = timed(["demo", "-o", "demo2", "--size", str(args.size)], env, work)
-                rows.append({"what": f"auralize demo from a cold cache, no warm-up ({args.size}³)",
-                             "wall_s": wall, "cpu_s": cpu, "target": "",
-                             "note": "compiled kernels" if "compiling kernels" in out else ""})  # fmt: skip
+                rows.append(
+                    {
+                        "what": f"auralize demo from a cold cache, no warm-up ({args.size}³)",
+                        "wall_s": wall,
+                        "cpu_s": cpu,
+                        "target": "",
+                        "note": "compiled kernels" if "compiling kernels" in out else "",
+                    }
+                )
     finally:
         shutil.rmtree(work, ignore_errors=True)
     print(f"{'what':58s} {'wall s':>8s} {'CPU s':>8s}  target")
     for r in rows:
-        print(f"{r['what']:58s} {r['wall_s']:8.2f} {r['cpu_s']:8.2f}  {r['target']}  "
-              f"{r.get('note', '')}")  # fmt: skip
+        print(
+            f"{r['what']:58s} {r['wall_s']:8.2f} {r['cpu_s']:8.2f}  {r['target']}  "
+            f"{r.get('note', '')}"
+        )
     print(f"({os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f})")
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2))

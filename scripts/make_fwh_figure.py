@@ -50,8 +50,11 @@ def main(out: Path) -> None:
     ax = axes[0]
     ax.plot(1e3 * t, exact[0], "k-", lw=2.5, label="closed form")
     ax.plot(1e3 * t, p[0], "C1--", lw=1.5, label=f"FW-H box ({box.surface.n_panels} panels)")
-    ax.set(xlabel="observer time (ms)", ylabel="p' (Pa)",
-           title=f"monopole at 40 m: RMS error {100 * err:.2f} %")  # fmt: skip
+    ax.set(
+        xlabel="observer time (ms)",
+        ylabel="p' (Pa)",
+        title=f"monopole at 40 m: RMS error {100 * err:.2f} %",
+    )
     ax.legend(loc="lower left", fontsize=8)
 
     dip = sample_surface(F._volume("dipole"), box_surface(F.BOX, panel_size=F.H))
@@ -62,20 +65,26 @@ def main(out: Path) -> None:
     th = np.linspace(0, 180, 200)
     ax.plot(th, np.abs(np.cos(np.radians(th))), "k-", lw=2.5, label="|cos θ|")
     ax.plot(deg, np.abs(p).max(axis=1) / np.abs(p).max(), "C1o", label="FW-H peak / on-axis")
-    ax.set(xlabel="angle from the dipole axis θ (°)", ylabel="relative peak pressure",
-           title="dipole directivity at 40 m")  # fmt: skip
+    ax.set(
+        xlabel="angle from the dipole axis θ (°)",
+        ylabel="relative peak pressure",
+        title="dipole directivity at 40 m",
+    )
     ax.legend(fontsize=8)
 
     obs = F._observers(40.0, [60])
     others = {
         "box 1.2 m": box,
         "box 0.75 m (off-centre)": sample_surface(
-            mono, box_surface((-0.35, 0.4, -0.4, 0.35, -0.3, 0.45), panel_size=F.H)),
-        "sphere r = 0.75 m": sample_surface(mono, sphere_surface((0.02, 0, -0.01), 0.75,
-                                                                 resolution=3)),
+            mono, box_surface((-0.35, 0.4, -0.4, 0.35, -0.3, 0.45), panel_size=F.H)
+        ),
+        "sphere r = 0.75 m": sample_surface(
+            mono, sphere_surface((0.02, 0, -0.01), 0.75, resolution=3)
+        ),
         "box beside the source": sample_surface(
-            mono, box_surface((-0.9, -0.2, -0.5, 0.5, -0.5, 0.5), panel_size=F.H)),
-    }  # fmt: skip
+            mono, box_surface((-0.9, -0.2, -0.5, 0.5, -0.5, 0.5), panel_size=F.H)
+        ),
+    }
     w = np.concatenate([fwh_time_window(s.times, s.surface, obs) for s in others.values()])
     t = np.linspace(w[:, 0].max(), w[:, 1].min(), 600)
     exact = F._field("monopole", F.XS, t, obs[0])[0]

@@ -47,8 +47,9 @@ def compact_panel(ax: plt.Axes) -> None:
         span = float(vol.times[-1])
         out = {}
         for heard in ("field", "detected"):
-            o, _ = ap.auralize(vol, listener=where, duration=span, time_scale=1.0, heard=heard,
-                               timbre="physical")  # fmt: skip
+            o, _ = ap.auralize(
+                vol, listener=where, duration=span, time_scale=1.0, heard=heard, timbre="physical"
+            )
             x = o.audio[0]
             out[heard] = _rms(x[x.size // 4 :])
         _, ref = lighthill_far_field(vol, np.array([1.0, 0.0, 0.0]), r)
@@ -71,10 +72,14 @@ def freeze_panel(ax: plt.Axes) -> None:
     vol = make_spinning(kL=0.4, size=24, steps=16 * 12 + 1, freeze_after=3.0).load()
     r = 30 * C0 / p.frequency
     span = float(vol.times[-1])
-    for timbre, colour in (("physical", "tab:blue"), ("extended", "tab:orange"),
-                           ("tonal", "tab:green")):  # fmt: skip
-        o, _ = ap.auralize(vol, listener=vol.center + [r, 0.0, 0.0], duration=span,
-                           time_scale=1.0, timbre=timbre)  # fmt: skip
+    for timbre, colour in (
+        ("physical", "tab:blue"),
+        ("extended", "tab:orange"),
+        ("tonal", "tab:green"),
+    ):
+        o, _ = ap.auralize(
+            vol, listener=vol.center + [r, 0.0, 0.0], duration=span, time_scale=1.0, timbre=timbre
+        )
         x = o.audio[0]
         w = int(0.002 * o.rate)
         n = x.size // w

@@ -52,13 +52,17 @@ def ears_at(az_deg: float, sig: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     a = np.radians(az_deg)
     world = dist * np.array([-np.sin(a), np.cos(a), 0.0])  # the listener faces +y, left is -x
     n = 2 * sig.size
-    out = render_emitters(Emitters(sig[None], RATE // 2, world[None]),
-                          ListenerPath.point((0, 0, 0), duration=n / RATE), rate=RATE,
-                          layout="binaural").audio  # fmt: skip
+    out = render_emitters(
+        Emitters(sig[None], RATE // 2, world[None]),
+        ListenerPath.point((0, 0, 0), duration=n / RATE),
+        rate=RATE,
+        layout="binaural",
+    ).audio
     d = np.array([np.cos(a), np.sin(a), 0.0])
     up = resample_poly(sig, 2, 1)
-    ref = H.binaural_direct(np.r_[np.zeros(k), up[: n - k]] / dist,
-                            H.spherical_head_hrirs(d[None], RATE).ir[0])  # fmt: skip
+    ref = H.binaural_direct(
+        np.r_[np.zeros(k), up[: n - k]] / dist, H.spherical_head_hrirs(d[None], RATE).ir[0]
+    )
     return out[:, k + 500 :], ref[:, k + 500 :]
 
 
@@ -68,8 +72,10 @@ def main(out: Path) -> None:
     rows = []
     for a in az:
         e, r = ears_at(float(a), sig)
-        rows.append([itd(x, b) for x in (e, r) for b in (1500.0, (2000.0, 10000.0))]
-                    + [ild(x, f) for x in (e, r) for f in (1000.0, 4000.0)])  # fmt: skip
+        rows.append(
+            [itd(x, b) for x in (e, r) for b in (1500.0, (2000.0, 10000.0))]
+            + [ild(x, f) for x in (e, r) for f in (1000.0, 4000.0)]
+        )
     v = np.array(rows)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
     ax1.plot(az, v[:, 0], "C0-", label="rendered, < 1.5 kHz")
@@ -77,24 +83,36 @@ def main(out: Path) -> None:
     ax1.plot(az, v[:, 1], "C1-", label="rendered, 2–10 kHz")
     ax1.plot(az, v[:, 3], "C1:", label="model, 2–10 kHz")
     w = 0.0875 / C0 * (np.radians(np.abs(az)) + np.sin(np.radians(np.abs(az)))) * 1e3
-    w = np.where(np.abs(az) <= 90, w, 0.0875 / C0 * 1e3
-                 * (np.pi - np.radians(np.abs(az)) + np.sin(np.radians(np.abs(az)))))  # fmt: skip
+    w = np.where(
+        np.abs(az) <= 90,
+        w,
+        0.0875 / C0 * 1e3 * (np.pi - np.radians(np.abs(az)) + np.sin(np.radians(np.abs(az)))),
+    )
     ax1.plot(az, -np.sign(az) * w, "k--", lw=0.8, label="Woodworth (ears at ±90°)")
-    ax1.set(xlabel="source azimuth (°, + left)", ylabel="ITD (ms, + right ear first)",
-            title="Interaural time difference")  # fmt: skip
+    ax1.set(
+        xlabel="source azimuth (°, + left)",
+        ylabel="ITD (ms, + right ear first)",
+        title="Interaural time difference",
+    )
     ax1.legend(fontsize=7)
     ax2.plot(az, v[:, 4], "C0-", label="rendered, 1 kHz")
     ax2.plot(az, v[:, 6], "C0:", label="model, 1 kHz")
     ax2.plot(az, v[:, 5], "C1-", label="rendered, 4 kHz")
     ax2.plot(az, v[:, 7], "C1:", label="model, 4 kHz")
-    ax2.set(xlabel="source azimuth (°, + left)", ylabel="ILD (dB, right − left)",
-            title="Interaural level difference")  # fmt: skip
+    ax2.set(
+        xlabel="source azimuth (°, + left)",
+        ylabel="ILD (dB, right − left)",
+        title="Interaural level difference",
+    )
     ax2.legend(fontsize=7)
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
         ax.set_xticks(np.arange(-180, 181, 45))
-    fig.suptitle("auralize --layout binaural (ears as receivers, spherical head a = 8.75 cm) "
-                 "against the Brown & Duda model", fontsize=10)  # fmt: skip
+    fig.suptitle(
+        "auralize --layout binaural (ears as receivers, spherical head a = 8.75 cm) "
+        "against the Brown & Duda model",
+        fontsize=10,
+    )
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     print(f"wrote {out}")

@@ -119,8 +119,9 @@ def render_in_viewer(qtbot):  # type: ignore[no-untyped-def]
     def run(win, shown: list[str], out: Path) -> np.ndarray:  # type: ignore[no-untyped-def]
         win.rendered = None
         win.render_audio(out)
-        qtbot.waitUntil(lambda: (win.rendered is not None and not win.busy) or bool(shown),
-                        timeout=600_000)  # fmt: skip
+        qtbot.waitUntil(
+            lambda: (win.rendered is not None and not win.busy) or bool(shown), timeout=600_000
+        )
         assert not shown
         return np.array(win.rendered.audio)
 

@@ -29,8 +29,12 @@ def unit(az_deg: float, el_deg: float = 0.0) -> np.ndarray:
 def dense() -> object:
     """60 speakers spread evenly over the sphere (a dense layout)."""
     p = fibonacci(60)
-    sp = [Speaker(f"S{i}", float(np.degrees(np.arctan2(v[1], v[0]))),
-                  float(np.degrees(np.arcsin(v[2])))) for i, v in enumerate(p)]  # fmt: skip
+    sp = [
+        Speaker(
+            f"S{i}", float(np.degrees(np.arctan2(v[1], v[0]))), float(np.degrees(np.arcsin(v[2])))
+        )
+        for i, v in enumerate(p)
+    ]
     return make_layout("fib60", sp)
 
 

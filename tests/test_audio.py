@@ -179,8 +179,11 @@ def test_device_index_out_of_range(alsa_files) -> None:  # type: ignore[no-untyp
 
 
 def test_device_without_enough_channels(alsa_files) -> None:  # type: ignore[no-untyped-def]
-    with pytest.raises(DeviceError, match=r"\(auralize_two\) has 2 output channels but the layout "
-                                          r"needs 8; add --downmix to fold it to stereo"):  # fmt: skip
+    with pytest.raises(
+        DeviceError,
+        match=r"\(auralize_two\) has 2 output channels but the layout "
+        r"needs 8; add --downmix to fold it to stereo",
+    ):
         choose_output_device("auralize_two", BUILTIN_LAYOUTS["ring8"].n_channels)
 
 
@@ -215,6 +218,11 @@ def test_import_opens_no_device() -> None:
     import sys
 
     code = "import sys, auralize, auralize.audio, auralize.audio.live, auralize.cli.audio; print('sounddevice' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])})  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])},
+    )
     assert out.stdout.strip() == "False"

@@ -25,8 +25,9 @@ DATA = Path(__file__).resolve().parents[1] / "auralize" / "data"
 
 def small_volume(n_steps: int = 2) -> TimeVolume:
     rho = np.arange(n_steps * 4 * 3 * 2, dtype=float).reshape(n_steps, 4, 3, 2)
-    return TimeVolume.from_arrays({"rho": rho}, spacing=(0.5, 0.5, 0.5),
-                                  times=np.arange(n_steps) * 0.1)  # fmt: skip
+    return TimeVolume.from_arrays(
+        {"rho": rho}, spacing=(0.5, 0.5, 0.5), times=np.arange(n_steps) * 0.1
+    )
 
 
 # --------------------------------------------------------------------------- Exodus II
@@ -44,10 +45,19 @@ def write_exodus(path: Path, *, n_steps: int = 3) -> None:
     for c in range(2):
         for b in range(2):
             for a in range(2):
-                corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0),
-                           (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]  # fmt: skip
-                conn.append([(a + da) + n * (b + db) + n * n * (c + dc) + 1
-                             for da, db, dc in corners])  # fmt: skip
+                corners = [
+                    (0, 0, 0),
+                    (1, 0, 0),
+                    (1, 1, 0),
+                    (0, 1, 0),
+                    (0, 0, 1),
+                    (1, 0, 1),
+                    (1, 1, 1),
+                    (0, 1, 1),
+                ]
+                conn.append(
+                    [(a + da) + n * (b + db) + n * n * (c + dc) + 1 for da, db, dc in corners]
+                )
 
     def names(*words: str) -> np.ndarray:
         out = np.zeros((len(words), 33), dtype="S1")
@@ -63,9 +73,19 @@ def write_exodus(path: Path, *, n_steps: int = 3) -> None:
         f.file_size = np.int32(1)
         f.title = b"auralize test block"
         f.createDimension("time_step", None)  # unlimited: scipy wants it first
-        for dim, size in (("len_string", 33), ("len_line", 81), ("four", 4), ("len_name", 33),
-                          ("num_dim", 3), ("num_nodes", 27), ("num_elem", 8), ("num_el_blk", 1),
-                          ("num_el_in_blk1", 8), ("num_nod_per_el1", 8), ("num_nod_var", 1)):  # fmt: skip
+        for dim, size in (
+            ("len_string", 33),
+            ("len_line", 81),
+            ("four", 4),
+            ("len_name", 33),
+            ("num_dim", 3),
+            ("num_nodes", 27),
+            ("num_elem", 8),
+            ("num_el_blk", 1),
+            ("num_el_in_blk1", 8),
+            ("num_nod_per_el1", 8),
+            ("num_nod_var", 1),
+        ):
             f.createDimension(dim, size)
         f.createVariable("eb_status", "i", ("num_el_blk",))[:] = [1]
         prop = f.createVariable("eb_prop1", "i", ("num_el_blk",))
@@ -185,15 +205,25 @@ def test_hdf5_layouts_beat_the_plain_hdf5_signature(tmp_path: Path) -> None:
     with h5py.File(tmp_path / "e.vtkhdf", "w") as f:
         f["Grid00000001/Density"] = np.ones((4, 4, 4))
     got = {p.name: B.choose(p).name for p in sorted(tmp_path.iterdir())}  # type: ignore[union-attr]
-    assert got == {"a.vtkhdf": "vtkhdf", "b.h5": "auralize-hdf5", "c.h5": "netcdf",
-                   "d.h5": "fluent-cff", "e.vtkhdf": "hdf5"}  # fmt: skip
+    assert got == {
+        "a.vtkhdf": "vtkhdf",
+        "b.h5": "auralize-hdf5",
+        "c.h5": "netcdf",
+        "d.h5": "fluent-cff",
+        "e.vtkhdf": "hdf5",
+    }
     with pytest.raises(FormatError, match=r"d\.h5: a FLUENT CFF case file.*\.cas\.h5"):
         open_volume(tmp_path / "d.h5")
 
 
 def _fake(name: str, suffixes: tuple[str, ...], *, claims: bool, specificity: int) -> B.Backend:
-    return B.Backend(name, suffixes, lambda path, **opts: small_volume(),
-                     guess_can_open=lambda path: claims, specificity=specificity)  # fmt: skip
+    return B.Backend(
+        name,
+        suffixes,
+        lambda path, **opts: small_volume(),
+        guess_can_open=lambda path: claims,
+        specificity=specificity,
+    )
 
 
 def test_content_then_suffix_then_order_decide(tmp_path: Path) -> None:
@@ -233,16 +263,18 @@ def _read_fake(path: Path, **opts: object) -> TimeVolume:
     return TimeVolume.from_arrays({"level": np.full((2, 2, 2, 2), value)}, times=[0.0, 1.0])
 
 
-FAKE_BACKEND = B.Backend("fake", (".fake",), _read_fake,
-                         guess_can_open=lambda p: Path(p).read_bytes()[:4] == b"FAKE")  # fmt: skip
+FAKE_BACKEND = B.Backend(
+    "fake", (".fake",), _read_fake, guess_can_open=lambda p: Path(p).read_bytes()[:4] == b"FAKE"
+)
 NOT_A_BACKEND = object()
 
 
 @pytest.fixture
 def plugins(monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable[..., None]]:
     def install(*specs: tuple[str, str]) -> None:
-        eps = [importlib.metadata.EntryPoint(name, value, B.ENTRY_POINT_GROUP)
-               for name, value in specs]  # fmt: skip
+        eps = [
+            importlib.metadata.EntryPoint(name, value, B.ENTRY_POINT_GROUP) for name, value in specs
+        ]
 
         def entry_points(**kw: object) -> list[importlib.metadata.EntryPoint]:
             return eps if kw.get("group") == B.ENTRY_POINT_GROUP else []
@@ -257,8 +289,12 @@ def plugins(monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable[..., None]]:
 def test_plugin_backend_is_used_and_broken_ones_are_skipped(
     plugins, tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
-    plugins(("fake", f"{__name__}:FAKE_BACKEND"), ("broken", "auralize_no_such_module:READER"),
-            ("wrong", f"{__name__}:NOT_A_BACKEND"), ("again", f"{__name__}:FAKE_BACKEND"))  # fmt: skip
+    plugins(
+        ("fake", f"{__name__}:FAKE_BACKEND"),
+        ("broken", "auralize_no_such_module:READER"),
+        ("wrong", f"{__name__}:NOT_A_BACKEND"),
+        ("again", f"{__name__}:FAKE_BACKEND"),
+    )
     with caplog.at_level(logging.WARNING, logger="auralize.io.backends"):
         names = [b.name for b in B.all_backends()]
     assert names.count("fake") == 1 and names[-1] == "pyvista"
@@ -289,8 +325,11 @@ def _fake_factory() -> B.Backend:
 # --------------------------------------------------------------------------- unknown kinds
 def test_unknown_file_gets_the_helpful_error(tmp_path: Path) -> None:
     (tmp_path / "v.zzz").write_bytes(b"\x00\x01 nothing known")
-    with pytest.raises(FormatError, match=r"v\.zzz: unknown file kind '\.zzz' \(no reader "
-                       r"recognises its content\).*\.nc.*auralize\.readers.*meshio convert"):  # fmt: skip
+    with pytest.raises(
+        FormatError,
+        match=r"v\.zzz: unknown file kind '\.zzz' \(no reader "
+        r"recognises its content\).*\.nc.*auralize\.readers.*meshio convert",
+    ):
         open_volume(tmp_path / "v.zzz")
     (tmp_path / "noext").write_text("just text")
     with pytest.raises(FormatError, match=r"unknown file kind '\(no suffix\)'"):
@@ -320,12 +359,27 @@ def test_exodus_named_nc_through_info_detect_and_render(tmp_path: Path, capsys) 
     assert "  reader   exodus" in out and "field    temp (scalar" in out
     assert "4 steps, 0 .. 1.5 s" in out
     sources = tmp_path / "s.h5"
-    assert main(["detect", str(path), "--density-field", "temp", "-o", str(sources),
-                 "--json"]) == 0  # fmt: skip
+    assert main(["detect", str(path), "--density-field", "temp", "-o", str(sources), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert len(d["steps"]) == 4 and d["mapping"]["density"] == "temp"
     wav = tmp_path / "a.wav"
-    assert main(["render", str(path), "--density-field", "temp", "--duration", "0.05",
-                 "--rate", "8000", "-o", str(wav), "--json"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                str(path),
+                "--density-field",
+                "temp",
+                "--duration",
+                "0.05",
+                "--rate",
+                "8000",
+                "-o",
+                str(wav),
+                "--json",
+            ]
+        )
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     assert wav.exists() and report["duration_s"] == pytest.approx(0.05)

@@ -124,70 +124,549 @@ CASES: list[tuple[str, list[str], str | None, str]] = [
     ("dataset-isdir", ["dataset", "monopole", "-o", "{in}/adir"], "system", "is a folder"),
     ("dataset-parent-file", ["dataset", "monopole", "-o", "{in}/afile/x.h5"], "system", "afile"),
     ("dataset-steps", ["dataset", "monopole", "-o", "{out}/x.h5", "--steps", "0"], "usage", "'0'"),
-    ("detect-threshold-e", ["detect", "{in}/m.h5", "-o", "{out}/s.h5", "--threshold-monopole", "e%"], None, "e"),
+    (
+        "detect-threshold-e",
+        ["detect", "{in}/m.h5", "-o", "{out}/s.h5", "--threshold-monopole", "e%"],
+        None,
+        "e",
+    ),
     ("detect-suffix", ["detect", "{in}/m.h5", "-o", "{out}/s.txt"], "usage", "s.txt"),
     ("detect-nodir", ["detect", "{in}/m.h5", "-o", "{out}/no/s.pvd"], "system", "does not exist"),
     # core: render and its common output options
-    ("render-rate-1", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--rate", "1"], "usage", "'1'"),
-    ("render-rate-8", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--rate", "8"], "usage", "'8'"),
-    ("render-tiny-duration", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "1e-9", "-o", "{out}/a.wav"], "usage", "1e-09"),
-    ("render-nan-duration", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "nan", "-o", "{out}/a.wav"], "usage", "'nan'"),
-    ("render-huge-duration", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "1e5", "-o", "{out}/a.wav"], "system", "GiB"),
-    ("render-far-listener", ["render", "{in}/m.h5", "--listener", "1e30,0,0", "--duration", "1", "-o", "{out}/a.wav"], "data", "1e+30"),
-    ("render-csv-t-1e30", ["render", "{in}/m.h5", "--path", "{in}/big_t.csv", "-o", "{out}/a.wav"], "system", "1e+30 s"),
-    ("render-csv-nan", ["render", "{in}/m.h5", "--path", "{in}/nan.csv", "-o", "{out}/a.wav"], "data", "'nan'"),
-    ("render-csv-far", ["render", "{in}/m.h5", "--path", "{in}/far.csv", "-o", "{out}/a.wav"], "data", "1e+30"),
-    ("render-csv-missing", ["render", "{in}/m.h5", "--path", "{out}/none.csv", "-o", "{out}/a.wav"], "data", "none.csv"),
-    ("render-mp3", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.mp3"], "usage", "a.mp3"),
-    ("render-out-dir", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{in}/adir"], "system", "adir"),
-    ("render-time-scale", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--time-scale", "0"], "usage", "'0'"),
-    ("render-limit", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--limit", "-1"], "usage", "'-1'"),
-    ("render-workers-0", ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--scheduler", "threads", "--workers", "0"], "usage", "'0'"),
-    ("scale-detect-workers", ["scale-detect", "{in}/m.h5", "-o", "{out}/s.h5", "--workers", "-2"], "usage", "'-2'"),
-    ("play-gain", ["play", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "--gain", "loud"], "usage", "'loud'"),
-    ("play-rate", ["play", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "--rate", "8"], "usage", "'8'"),
+    (
+        "render-rate-1",
+        [
+            "render",
+            "{in}/m.h5",
+            "--listener",
+            "0,0,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+            "--rate",
+            "1",
+        ],
+        "usage",
+        "'1'",
+    ),
+    (
+        "render-rate-8",
+        [
+            "render",
+            "{in}/m.h5",
+            "--listener",
+            "0,0,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+            "--rate",
+            "8",
+        ],
+        "usage",
+        "'8'",
+    ),
+    (
+        "render-tiny-duration",
+        ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "1e-9", "-o", "{out}/a.wav"],
+        "usage",
+        "1e-09",
+    ),
+    (
+        "render-nan-duration",
+        ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "nan", "-o", "{out}/a.wav"],
+        "usage",
+        "'nan'",
+    ),
+    (
+        "render-huge-duration",
+        ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "1e5", "-o", "{out}/a.wav"],
+        "system",
+        "GiB",
+    ),
+    (
+        "render-far-listener",
+        ["render", "{in}/m.h5", "--listener", "1e30,0,0", "--duration", "1", "-o", "{out}/a.wav"],
+        "data",
+        "1e+30",
+    ),
+    (
+        "render-csv-t-1e30",
+        ["render", "{in}/m.h5", "--path", "{in}/big_t.csv", "-o", "{out}/a.wav"],
+        "system",
+        "1e+30 s",
+    ),
+    (
+        "render-csv-nan",
+        ["render", "{in}/m.h5", "--path", "{in}/nan.csv", "-o", "{out}/a.wav"],
+        "data",
+        "'nan'",
+    ),
+    (
+        "render-csv-far",
+        ["render", "{in}/m.h5", "--path", "{in}/far.csv", "-o", "{out}/a.wav"],
+        "data",
+        "1e+30",
+    ),
+    (
+        "render-csv-missing",
+        ["render", "{in}/m.h5", "--path", "{out}/none.csv", "-o", "{out}/a.wav"],
+        "data",
+        "none.csv",
+    ),
+    (
+        "render-mp3",
+        ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.mp3"],
+        "usage",
+        "a.mp3",
+    ),
+    (
+        "render-out-dir",
+        ["render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{in}/adir"],
+        "system",
+        "adir",
+    ),
+    (
+        "render-time-scale",
+        [
+            "render",
+            "{in}/m.h5",
+            "--listener",
+            "0,0,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+            "--time-scale",
+            "0",
+        ],
+        "usage",
+        "'0'",
+    ),
+    (
+        "render-limit",
+        [
+            "render",
+            "{in}/m.h5",
+            "--listener",
+            "0,0,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+            "--limit",
+            "-1",
+        ],
+        "usage",
+        "'-1'",
+    ),
+    (
+        "render-workers-0",
+        [
+            "render",
+            "{in}/m.h5",
+            "--listener",
+            "0,0,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+            "--scheduler",
+            "threads",
+            "--workers",
+            "0",
+        ],
+        "usage",
+        "'0'",
+    ),
+    (
+        "scale-detect-workers",
+        ["scale-detect", "{in}/m.h5", "-o", "{out}/s.h5", "--workers", "-2"],
+        "usage",
+        "'-2'",
+    ),
+    (
+        "play-gain",
+        ["play", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "--gain", "loud"],
+        "usage",
+        "'loud'",
+    ),
+    (
+        "play-rate",
+        ["play", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "--rate", "8"],
+        "usage",
+        "'8'",
+    ),
     # core: paths, bench, demo, view
-    ("path-orbit-nan", ["path", "orbit", "--center", "0,0,0", "--radius", "1", "--duration", "1", "--rate-hz", "nan", "-o", "{out}/p.csv"], "usage", "'nan'"),
-    ("path-orbit-zero", ["path", "orbit", "--center", "0,0,0", "--radius", "1", "--duration", "1", "--rate-hz", "0", "-o", "{out}/p.csv"], "usage", "'0'"),
-    ("path-orbit-huge", ["path", "orbit", "--center", "0,0,0", "--radius", "1", "--duration", "1", "--rate-hz", "1e12", "-o", "{out}/p.csv"], "system", "1e+12 Hz"),
-    ("path-line-negative", ["path", "line", "--start", "0,0,0", "--end", "1,0,0", "--duration", "1", "--captures", "-5", "-o", "{out}/p.csv"], "usage", "'-5'"),
-    ("path-line-1e8", ["path", "line", "--start", "0,0,0", "--end", "1,0,0", "--duration", "1", "--captures", "1e8", "-o", "{out}/p.csv"], "usage", "'1e8'"),
-    ("path-line-many", ["path", "line", "--start", "0,0,0", "--end", "1,0,0", "--duration", "1", "--captures", "100000000000", "-o", "{out}/p.csv"], "system", "100000000000 captures"),
-    ("path-point-far", ["path", "point", "--at", "1e30,0,0", "--duration", "1", "-o", "{out}/p.csv"], "data", "1e+30"),
-    ("path-nodir", ["path", "point", "--at", "0,0,0", "--duration", "1", "-o", "{out}/no/p.csv"], "system", "does not exist"),
+    (
+        "path-orbit-nan",
+        [
+            "path",
+            "orbit",
+            "--center",
+            "0,0,0",
+            "--radius",
+            "1",
+            "--duration",
+            "1",
+            "--rate-hz",
+            "nan",
+            "-o",
+            "{out}/p.csv",
+        ],
+        "usage",
+        "'nan'",
+    ),
+    (
+        "path-orbit-zero",
+        [
+            "path",
+            "orbit",
+            "--center",
+            "0,0,0",
+            "--radius",
+            "1",
+            "--duration",
+            "1",
+            "--rate-hz",
+            "0",
+            "-o",
+            "{out}/p.csv",
+        ],
+        "usage",
+        "'0'",
+    ),
+    (
+        "path-orbit-huge",
+        [
+            "path",
+            "orbit",
+            "--center",
+            "0,0,0",
+            "--radius",
+            "1",
+            "--duration",
+            "1",
+            "--rate-hz",
+            "1e12",
+            "-o",
+            "{out}/p.csv",
+        ],
+        "system",
+        "1e+12 Hz",
+    ),
+    (
+        "path-line-negative",
+        [
+            "path",
+            "line",
+            "--start",
+            "0,0,0",
+            "--end",
+            "1,0,0",
+            "--duration",
+            "1",
+            "--captures",
+            "-5",
+            "-o",
+            "{out}/p.csv",
+        ],
+        "usage",
+        "'-5'",
+    ),
+    (
+        "path-line-1e8",
+        [
+            "path",
+            "line",
+            "--start",
+            "0,0,0",
+            "--end",
+            "1,0,0",
+            "--duration",
+            "1",
+            "--captures",
+            "1e8",
+            "-o",
+            "{out}/p.csv",
+        ],
+        "usage",
+        "'1e8'",
+    ),
+    (
+        "path-line-many",
+        [
+            "path",
+            "line",
+            "--start",
+            "0,0,0",
+            "--end",
+            "1,0,0",
+            "--duration",
+            "1",
+            "--captures",
+            "100000000000",
+            "-o",
+            "{out}/p.csv",
+        ],
+        "system",
+        "100000000000 captures",
+    ),
+    (
+        "path-point-far",
+        ["path", "point", "--at", "1e30,0,0", "--duration", "1", "-o", "{out}/p.csv"],
+        "data",
+        "1e+30",
+    ),
+    (
+        "path-nodir",
+        ["path", "point", "--at", "0,0,0", "--duration", "1", "-o", "{out}/no/p.csv"],
+        "system",
+        "does not exist",
+    ),
     ("bench-sizes", ["bench", "--sizes", "abc"], "usage", "'abc'"),
     ("demo-size", ["demo", "-o", "{out}/demo", "--size", "-3"], "usage", "'-3'"),
     ("demo-parent-file", ["demo", "-o", "{in}/afile/demo"], "system", "afile"),
-    ("view-window", ["view", "dataset:monopole", "--size", "8", "--steps", "4", "--screenshot", "{out}/v.png", "--window-size", "100000x100000"], "system", "100000x100000"),
-    ("scale-render-block", ["scale-render", "{in}/m.h5", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav", "--block-seconds", "-1"], "usage", "'-1'"),
+    (
+        "view-window",
+        [
+            "view",
+            "dataset:monopole",
+            "--size",
+            "8",
+            "--steps",
+            "4",
+            "--screenshot",
+            "{out}/v.png",
+            "--window-size",
+            "100000x100000",
+        ],
+        "system",
+        "100000x100000",
+    ),
+    (
+        "scale-render-block",
+        [
+            "scale-render",
+            "{in}/m.h5",
+            "--listener",
+            "0,0,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+            "--block-seconds",
+            "-1",
+        ],
+        "usage",
+        "'-1'",
+    ),
     ("script-missing", ["script", "{out}/nope.py"], None, "nope.py"),
     ("devices-option", ["devices", "--bogus"], "usage", "--bogus"),
     ("plugins-option", ["plugins", "--bogus"], "usage", "--bogus"),
     # plugins
-    ("fire-texture-missing", ["fire", "texture", "{out}/none.wav", "-o", "{out}/f.wav"], "data", "none.wav"),
-    ("vortex-speeds", ["vortex", "texture", "--speeds", "abc", "-o", "{out}/t.h5"], "usage", "'abc'"),
-    ("vortex-duration", ["vortex", "texture", "--speeds", "1,2", "--texture-duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
-    ("vortex-seed", ["vortex", "texture", "--speeds", "1,2", "--seed", "-1", "-o", "{out}/t.h5"], "usage", "'-1'"),
-    ("vortex-block", ["vortex", "render", "{in}/m.h5", "--block", "0", "--listener", "0,0,0", "--duration", "0.1", "-o", "{out}/a.wav"], "usage", "'0'"),
-    ("fire-rate", ["fire", "lowfreq", "dataset:fire", "--rate", "8", "-o", "{out}/f.wav"], "usage", "'8'"),
-    ("fire-refine", ["fire", "render", "dataset:fire", "--size", "16", "--steps", "4", "--refine", "1000", "--listener", "0,0,1", "--duration", "0.1", "-o", "{out}/f.wav"], "system", "refinement 1000"),
-    ("fire-extend-missing", ["fire", "extend", "{out}/none.wav", "-o", "{out}/f.wav"], None, "none.wav"),
-    ("spark-seed", ["spark", "render", "--seed", "-1", "--listener", "0,0,1", "--duration", "0.1", "-o", "{out}/s.wav"], "usage", "'-1'"),
-    ("spark-T0", ["spark", "render", "--T0", "nan", "--listener", "0,0,1", "--duration", "0.1", "-o", "{out}/s.wav"], "usage", "'nan'"),
-    ("spark-strokes", ["spark", "render", "--strokes", "0", "--listener", "0,0,1", "--duration", "0.1", "-o", "{out}/s.wav"], "usage", "'0'"),
-    ("aero-directions", ["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "--directions", "0", "-o", "{out}/t.h5"], "usage", "'0'"),
-    ("aero-duration", ["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "--texture-duration", "1e9", "-o", "{out}/t.h5"], "system", "1e+09 s"),
-    ("aero-diameter", ["aero", "texture", "--shape", "cylinder", "--diameter", "-1", "-o", "{out}/t.h5"], "usage", "got -1"),
-    ("aero-texture-missing", ["aero", "render", "--texture", "{out}/none.h5", "--wind", "5", "--listener", "0,1,0", "--duration", "0.1", "-o", "{out}/a.wav"], None, "none.h5"),
-]  # fmt: skip
+    (
+        "fire-texture-missing",
+        ["fire", "texture", "{out}/none.wav", "-o", "{out}/f.wav"],
+        "data",
+        "none.wav",
+    ),
+    (
+        "vortex-speeds",
+        ["vortex", "texture", "--speeds", "abc", "-o", "{out}/t.h5"],
+        "usage",
+        "'abc'",
+    ),
+    (
+        "vortex-duration",
+        ["vortex", "texture", "--speeds", "1,2", "--texture-duration", "1e9", "-o", "{out}/t.h5"],
+        "system",
+        "1e+09 s",
+    ),
+    (
+        "vortex-seed",
+        ["vortex", "texture", "--speeds", "1,2", "--seed", "-1", "-o", "{out}/t.h5"],
+        "usage",
+        "'-1'",
+    ),
+    (
+        "vortex-block",
+        [
+            "vortex",
+            "render",
+            "{in}/m.h5",
+            "--block",
+            "0",
+            "--listener",
+            "0,0,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+        ],
+        "usage",
+        "'0'",
+    ),
+    (
+        "fire-rate",
+        ["fire", "lowfreq", "dataset:fire", "--rate", "8", "-o", "{out}/f.wav"],
+        "usage",
+        "'8'",
+    ),
+    (
+        "fire-refine",
+        [
+            "fire",
+            "render",
+            "dataset:fire",
+            "--size",
+            "16",
+            "--steps",
+            "4",
+            "--refine",
+            "1000",
+            "--listener",
+            "0,0,1",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/f.wav",
+        ],
+        "system",
+        "refinement 1000",
+    ),
+    (
+        "fire-extend-missing",
+        ["fire", "extend", "{out}/none.wav", "-o", "{out}/f.wav"],
+        None,
+        "none.wav",
+    ),
+    (
+        "spark-seed",
+        [
+            "spark",
+            "render",
+            "--seed",
+            "-1",
+            "--listener",
+            "0,0,1",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/s.wav",
+        ],
+        "usage",
+        "'-1'",
+    ),
+    (
+        "spark-T0",
+        [
+            "spark",
+            "render",
+            "--T0",
+            "nan",
+            "--listener",
+            "0,0,1",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/s.wav",
+        ],
+        "usage",
+        "'nan'",
+    ),
+    (
+        "spark-strokes",
+        [
+            "spark",
+            "render",
+            "--strokes",
+            "0",
+            "--listener",
+            "0,0,1",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/s.wav",
+        ],
+        "usage",
+        "'0'",
+    ),
+    (
+        "aero-directions",
+        [
+            "aero",
+            "texture",
+            "--shape",
+            "cylinder",
+            "--diameter",
+            "0.01",
+            "--directions",
+            "0",
+            "-o",
+            "{out}/t.h5",
+        ],
+        "usage",
+        "'0'",
+    ),
+    (
+        "aero-duration",
+        [
+            "aero",
+            "texture",
+            "--shape",
+            "cylinder",
+            "--diameter",
+            "0.01",
+            "--texture-duration",
+            "1e9",
+            "-o",
+            "{out}/t.h5",
+        ],
+        "system",
+        "1e+09 s",
+    ),
+    (
+        "aero-diameter",
+        ["aero", "texture", "--shape", "cylinder", "--diameter", "-1", "-o", "{out}/t.h5"],
+        "usage",
+        "got -1",
+    ),
+    (
+        "aero-texture-missing",
+        [
+            "aero",
+            "render",
+            "--texture",
+            "{out}/none.h5",
+            "--wind",
+            "5",
+            "--listener",
+            "0,1,0",
+            "--duration",
+            "0.1",
+            "-o",
+            "{out}/a.wav",
+        ],
+        None,
+        "none.h5",
+    ),
+]
 
 
 @pytest.mark.parametrize(
     ("argv", "kind", "names"), [c[1:] for c in CASES], ids=[c[0] for c in CASES]
 )
-def test_bad_input_gives_one_line(argv: list[str], kind: str | None, names: str, inputs: dict[str, Path],
-                                  tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                  monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_bad_input_gives_one_line(
+    argv: list[str],
+    kind: str | None,
+    names: str,
+    inputs: dict[str, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     monkeypatch.setenv("AURALIZE_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("AURALIZE_CACHE_DIR", str(tmp_path / "cache"))
     args = [a.replace("{in}", str(inputs["dir"])).replace("{out}", str(tmp_path)) for a in argv]
@@ -212,8 +691,9 @@ def test_exit_codes_are_documented() -> None:
 
 
 # --------------------------------------------------------------------------- OS faults
-def test_disk_full_is_one_line_and_leaves_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                  monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_disk_full_is_one_line_and_leaves_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     import auralize.io.hdf5 as hdf5
 
     real = os.replace
@@ -231,8 +711,9 @@ def test_disk_full_is_one_line_and_leaves_nothing(tmp_path: Path, capsys: pytest
     monkeypatch.setattr(hdf5.os, "replace", real)
 
 
-def test_no_permission_is_refused_up_front(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                           monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_no_permission_is_refused_up_front(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(os, "access", lambda *a, **k: False)
     code, err = run(
         ["path", "point", "--at", "0,0,0", "--duration", "1", "-o", tmp_path / "p.csv"], capsys
@@ -241,7 +722,9 @@ def test_no_permission_is_refused_up_front(tmp_path: Path, capsys: pytest.Captur
     assert list(tmp_path.iterdir()) == []
 
 
-def test_internal_errors_are_one_line(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_internal_errors_are_one_line(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     def boom(args: Any) -> int:
         raise ZeroDivisionError("float division by zero")
 
@@ -267,16 +750,32 @@ def test_float32_overflow_and_underflow_are_refused(tmp_path: Path) -> None:
         assert write_audio(tmp_path / "a.wav", np.full((1, 100), 1e-320), 44100) == 1.0
 
 
-def test_silent_render_says_so(tmp_path: Path, inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_silent_render_says_so(
+    tmp_path: Path, inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     from auralize.audio import SilentAudioWarning, write_audio
 
     with pytest.warns(SilentAudioWarning, match="silent"):
         write_audio(tmp_path / "z.wav", np.zeros((2, 100)), 44100)
     assert json.loads((tmp_path / "z.wav.json").read_text())["silent"] is True
     # nothing arrives within 1 ms at 10 m from the data: written, flagged, exit 1
-    code, err = run(["render", inputs["m.h5"], "--listener", "0.5,0.5,0.5", "--duration", "0.001",
-                     "--heard", "detected", "--threshold-monopole", "1e300", "-o", tmp_path / "s.wav"],
-                    capsys)  # fmt: skip
+    code, err = run(
+        [
+            "render",
+            inputs["m.h5"],
+            "--listener",
+            "0.5,0.5,0.5",
+            "--duration",
+            "0.001",
+            "--heard",
+            "detected",
+            "--threshold-monopole",
+            "1e300",
+            "-o",
+            tmp_path / "s.wav",
+        ],
+        capsys,
+    )
     # one warning line (a note that no velocity means no dipoles may come with it)
     lines = [ln for ln in err.splitlines() if ": note: " not in ln]
     assert code == cli.EXIT_SILENT and "silent" in err and len(lines) == 1
@@ -296,11 +795,24 @@ def test_pair_records_the_audio_hash(tmp_path: Path) -> None:
 def small_series(n_steps: int = 2) -> Any:
     from auralize.sources import SourceFrame, SourceSeries
 
-    frames = [SourceFrame(index=np.array([0, 5]), kind=np.array([1, 2], np.int8),
-                          strength=np.array([1.0, -2.0]), radius=np.array([0.1, 0.1]))
-              for _ in range(n_steps)]  # fmt: skip
-    return SourceSeries(frames=frames, times=np.arange(n_steps) * 0.1, origin=np.zeros(3),
-                        spacing=np.ones(3), dims=(3, 3, 3), thresholds=np.ones(3), meta={})  # fmt: skip
+    frames = [
+        SourceFrame(
+            index=np.array([0, 5]),
+            kind=np.array([1, 2], np.int8),
+            strength=np.array([1.0, -2.0]),
+            radius=np.array([0.1, 0.1]),
+        )
+        for _ in range(n_steps)
+    ]
+    return SourceSeries(
+        frames=frames,
+        times=np.arange(n_steps) * 0.1,
+        origin=np.zeros(3),
+        spacing=np.ones(3),
+        dims=(3, 3, 3),
+        thresholds=np.ones(3),
+        meta={},
+    )
 
 
 def test_pvd_never_replaces_a_foreign_folder(tmp_path: Path) -> None:
@@ -314,8 +826,10 @@ def test_pvd_never_replaces_a_foreign_folder(tmp_path: Path) -> None:
     assert (mine / "thesis.tex").read_text() == "years of work"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s_data"]
     # a folder listed by an old .pvd but holding other files is not ours either
-    (tmp_path / "s.pvd").write_text('<VTKFile type="Collection"><Collection><DataSet file="s_data/a.vtp"/>'
-                                    "</Collection></VTKFile>")  # fmt: skip
+    (tmp_path / "s.pvd").write_text(
+        '<VTKFile type="Collection"><Collection><DataSet file="s_data/a.vtp"/>'
+        "</Collection></VTKFile>"
+    )
     with pytest.raises(OutputExistsError):
         save_sources_pvd(small_series(), tmp_path / "s.pvd")
     assert (mine / "thesis.tex").exists()
@@ -341,7 +855,9 @@ def test_pvd_swap_uses_a_fresh_marked_folder_with_usual_permissions(tmp_path: Pa
 
 
 # --------------------------------------------------------------------------- HDF5 security
-def test_external_data_needs_permission(inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_external_data_needs_permission(
+    inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     from auralize.io import open_volume
     from auralize.io.hdf5 import allow_external_data
 
@@ -384,14 +900,38 @@ def test_bench_folder_is_private(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 
 
 # --------------------------------------------------------------------------- hypothesis
-FUZZ = settings(max_examples=150, derandomize=True, deadline=None, database=None,
-                suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])  # fmt: skip
+FUZZ = settings(
+    max_examples=150,
+    derandomize=True,
+    deadline=None,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 _cell = st.one_of(
-    st.sampled_from(["0", "1", "-1", "0.5", "1e30", "-1e308", "nan", "inf", "", " ", "x", "1,2",
-                     "1e999", "0x10", "٣", '"1"', "\x00"]),
+    st.sampled_from(
+        [
+            "0",
+            "1",
+            "-1",
+            "0.5",
+            "1e30",
+            "-1e308",
+            "nan",
+            "inf",
+            "",
+            " ",
+            "x",
+            "1,2",
+            "1e999",
+            "0x10",
+            "٣",
+            '"1"',
+            "\x00",
+        ]
+    ),
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.text(max_size=4),
-)  # fmt: skip
+)
 
 
 @FUZZ
@@ -405,8 +945,11 @@ def test_fuzz_path_csv(tmp_path: Path, header: str, rows: list[list[str]]) -> No
     from auralize.listener import ListenerPath
 
     p = tmp_path / "fuzz.csv"
-    p.write_text(header + "\n" + "\n".join(",".join(r) for r in rows) + "\n", encoding="utf-8",
-                 errors="surrogatepass")  # fmt: skip
+    p.write_text(
+        header + "\n" + "\n".join(",".join(r) for r in rows) + "\n",
+        encoding="utf-8",
+        errors="surrogatepass",
+    )
     try:
         path = ListenerPath.from_csv(p)
     except AuralizeError as exc:
@@ -458,8 +1001,16 @@ def _put(f: h5py.File, name: str, value: object, *, attr_of: str | None = None) 
     ),
     axes=st.sampled_from([None, "tzyx", "txyz", "xyz", 3]),
 )
-def test_fuzz_hdf5_metadata(tmp_path: Path, version: Any, time: Any, origin: Any, spacing: Any,
-                            shape: list[int], field: str, axes: Any) -> None:  # fmt: skip
+def test_fuzz_hdf5_metadata(
+    tmp_path: Path,
+    version: Any,
+    time: Any,
+    origin: Any,
+    spacing: Any,
+    shape: list[int],
+    field: str,
+    axes: Any,
+) -> None:
     from auralize.io import open_volume
 
     p = tmp_path / "fuzz.h5"
@@ -564,8 +1115,13 @@ def test_kill_during_writes_keeps_old_or_new(tmp_path: Path) -> None:
         assert a.shape[0] == meta["channels"] and a.shape[1] == meta["samples"] == 200_000
         return f"wav{a.shape[0]}"
 
-    seen = _kill_trials(lambda k: write_audio(wav, audio[1 + 2 * (k % 2)], 44100), check_wav,
-                        trials=12, max_delay_s=0.15, seed=1)  # fmt: skip
+    seen = _kill_trials(
+        lambda k: write_audio(wav, audio[1 + 2 * (k % 2)], 44100),
+        check_wav,
+        trials=12,
+        max_delay_s=0.15,
+        seed=1,
+    )
     assert set(seen) <= {"wav1", "wav3"}
 
     # a detect to .pvd: versions of 2 and 5 steps
@@ -580,12 +1136,22 @@ def test_kill_during_writes_keeps_old_or_new(tmp_path: Path) -> None:
         assert (tmp_path / folder / DATA_MARKER).is_file()
         return f"pvd{len(files)}"
 
-    seen = _kill_trials(lambda k: save_sources_pvd(small_series(2 + 3 * (k % 2)), pvd), check_pvd,
-                        trials=12, max_delay_s=0.15, seed=2)  # fmt: skip
+    seen = _kill_trials(
+        lambda k: save_sources_pvd(small_series(2 + 3 * (k % 2)), pvd),
+        check_pvd,
+        trials=12,
+        max_delay_s=0.15,
+        seed=2,
+    )
     assert set(seen) <= {"pvd2", "pvd5"}
     save_sources_pvd(small_series(2), pvd)  # the next run removes what the killed ones left
-    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("s")) == ["s.pvd", "s_data"] or \
-        sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("s")) == ["s.pvd", "s_data.1"]  # fmt: skip
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("s")) == [
+        "s.pvd",
+        "s_data",
+    ] or sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("s")) == [
+        "s.pvd",
+        "s_data.1",
+    ]
     assert not [p for p in tmp_path.iterdir() if p.name.startswith((".s.pvd", ".s_data"))]
 
     # a dataset write: versions of 2 and 6 steps
@@ -602,8 +1168,13 @@ def test_kill_during_writes_keeps_old_or_new(tmp_path: Path) -> None:
             assert np.all(vol.frame("p", step) == 1.0)
         return f"h5{vol.n_steps}"
 
-    seen = _kill_trials(lambda k: save_volume(vols[2 + 4 * (k % 2)], h5), check_h5, trials=12,
-                        max_delay_s=0.15, seed=3)  # fmt: skip
+    seen = _kill_trials(
+        lambda k: save_volume(vols[2 + 4 * (k % 2)], h5),
+        check_h5,
+        trials=12,
+        max_delay_s=0.15,
+        seed=3,
+    )
     assert set(seen) <= {"h52", "h56"}
     save_volume(vols[2], h5)  # stale temporaries of the killed writers are removed
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".v.h5")]
@@ -621,8 +1192,12 @@ def test_dask_cluster_listens_on_loopback_only(processes: bool) -> None:
 
     def listening() -> set[tuple[int, Any]]:
         procs = [me, *me.children(recursive=True)]
-        return {(p.pid, c.laddr) for p in procs for c in p.net_connections("inet")
-                if c.status == psutil.CONN_LISTEN}  # fmt: skip
+        return {
+            (p.pid, c.laddr)
+            for p in procs
+            for c in p.net_connections("inet")
+            if c.status == psutil.CONN_LISTEN
+        }
 
     before = listening()
     with Runner("distributed", workers=1, processes=processes, log=None, setup_workers=False) as r:
@@ -649,16 +1224,29 @@ def test_stale_temporaries_are_recognised(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("out", ["x.h5", "x.pvd", "x.wav"])
-def test_too_little_disk_space_is_refused_before_writing(out: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                         monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_too_little_disk_space_is_refused_before_writing(
+    out: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     import shutil
     from collections import namedtuple
 
     usage = namedtuple("usage", "total used free")
     monkeypatch.setattr(shutil, "disk_usage", lambda _p: usage(10**6, 10**6 - 1000, 1000))
     if out == "x.wav":
-        argv = ["render", "dataset:monopole", "--size", "8", "--steps", "4", "--listener", "0.5,0.5,0.5",
-                "--duration", "0.1", "-o", tmp_path / out]  # fmt: skip
+        argv = [
+            "render",
+            "dataset:monopole",
+            "--size",
+            "8",
+            "--steps",
+            "4",
+            "--listener",
+            "0.5,0.5,0.5",
+            "--duration",
+            "0.1",
+            "-o",
+            tmp_path / out,
+        ]
     else:
         argv = ["dataset", "monopole", "--size", "8", "--steps", "4", "-o", tmp_path / out]
     code, err = run(argv, capsys)
@@ -681,8 +1269,9 @@ while True:
 """
 
 
-def test_kill_during_render_command_keeps_old_or_new(tmp_path: Path, inputs: dict[str, Path],
-                                                     capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_kill_during_render_command_keeps_old_or_new(
+    tmp_path: Path, inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     """``auralize render`` itself (a separate process: numba's OpenMP forbids forking),
     killed at random moments of its loop of detection, synthesis and writing."""
     import subprocess
@@ -692,14 +1281,31 @@ def test_kill_during_render_command_keeps_old_or_new(tmp_path: Path, inputs: dic
     from auralize.runtime.files import file_sha256, recover_pair
 
     wav, side = tmp_path / "r.wav", tmp_path / "r.wav.json"
-    assert cli.main(["render", str(inputs["m.h5"]), "--listener", "0.5,0.5,0.5", "--duration", "0.5",
-                     "-o", str(wav)]) == 0  # fmt: skip
+    assert (
+        cli.main(
+            [
+                "render",
+                str(inputs["m.h5"]),
+                "--listener",
+                "0.5,0.5,0.5",
+                "--duration",
+                "0.5",
+                "-o",
+                str(wav),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     rnd = random.Random(4)
     seen = set()
     for _ in range(2):  # each trial starts (and compiles) a process: a few seconds
-        proc = subprocess.Popen([sys.executable, "-c", _RENDER_LOOP, str(inputs["m.h5"]), str(wav)],
-                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)  # fmt: skip
+        proc = subprocess.Popen(
+            [sys.executable, "-c", _RENDER_LOOP, str(inputs["m.h5"]), str(wav)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
         assert proc.stdout is not None
         for line in proc.stdout:  # both versions written once: kernels compiled, warm
             if line.strip() == "ready":

@@ -47,8 +47,24 @@ def test_detect_json_and_outputs(mono_h5, tmp_path, capsys) -> None:  # type: ig
 
 def test_render_stereo_wav_with_sidecar(mono_h5, tmp_path) -> None:  # type: ignore[no-untyped-def]
     out = tmp_path / "a.wav"
-    rc = main(["render", mono_h5, "--listener", "2.5,1.875,1.875", "--duration", "0.05", "-o",
-               str(out), "--layout", "stereo", "--threshold-monopole", "1%", "--normalize", "none"])  # fmt: skip
+    rc = main(
+        [
+            "render",
+            mono_h5,
+            "--listener",
+            "2.5,1.875,1.875",
+            "--duration",
+            "0.05",
+            "-o",
+            str(out),
+            "--layout",
+            "stereo",
+            "--threshold-monopole",
+            "1%",
+            "--normalize",
+            "none",
+        ]
+    )
     assert rc == 0
     audio, rate, _ = read_wav(out)
     assert rate == 44100 and audio.shape == (2, 2205)
@@ -62,8 +78,23 @@ def test_render_stereo_wav_with_sidecar(mono_h5, tmp_path) -> None:  # type: ign
 
 def test_path_command_and_render_with_path(mono_h5, tmp_path) -> None:  # type: ignore[no-untyped-def]
     csv = tmp_path / "p.csv"
-    assert main(["path", "line", "--start", "0.5,1,1", "--end", "3,2,2", "--duration", "0.04",
-                 "-o", str(csv)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "path",
+                "line",
+                "--start",
+                "0.5,1,1",
+                "--end",
+                "3,2,2",
+                "--duration",
+                "0.04",
+                "-o",
+                str(csv),
+            ]
+        )
+        == 0
+    )
     out = tmp_path / "b.wav"
     assert main(["render", mono_h5, "--path", str(csv), "-o", str(out), "--interp", "linear"]) == 0
     audio, _, _ = read_wav(out)
@@ -74,22 +105,101 @@ def test_path_command_and_render_with_path(mono_h5, tmp_path) -> None:  # type: 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["render", "dataset:monopole", "--size", "16", "--steps", "20", "--listener", "1e9,0,0",
-          "--duration", "0.1", "-o", "{out}"], "listeners must be within"),
-        (["render", "dataset:monopole", "--size", "16", "--steps", "20", "--listener", "1,1,1",
-          "--highpass", "30000", "-o", "{out}"], "highpass must be 0 (off) or between"),
-        (["render", "dataset:nothing", "--listener", "1,1,1", "--duration", "1", "-o", "{out}"],
-         "unknown dataset 'nothing'"),
-        (["render", "dataset:monopole", "--size", "16", "--steps", "20", "--listener", "1,1,1",
-          "--duration", "0.1", "--layout", "9.2", "-o", "{out}"], "unknown layout '9.2'"),
-        (["render", "{missing}", "--listener", "1,1,1", "--duration", "0.1", "-o", "{out}"],
-         "missing.h5"),
-        (["render", "dataset:monopole", "--size", "16", "--steps", "1", "--listener", "1,1,1",
-          "--duration", "0.1", "-o", "{out}"], "--steps must be an integer >= 2"),
-        (["detect", "dataset:monopole", "--size", "16", "--steps", "20", "--mapping", "cfd",
-          "-o", "{out}.h5"], "mapping 'cfd' needs a momentum field"),
+        (
+            [
+                "render",
+                "dataset:monopole",
+                "--size",
+                "16",
+                "--steps",
+                "20",
+                "--listener",
+                "1e9,0,0",
+                "--duration",
+                "0.1",
+                "-o",
+                "{out}",
+            ],
+            "listeners must be within",
+        ),
+        (
+            [
+                "render",
+                "dataset:monopole",
+                "--size",
+                "16",
+                "--steps",
+                "20",
+                "--listener",
+                "1,1,1",
+                "--highpass",
+                "30000",
+                "-o",
+                "{out}",
+            ],
+            "highpass must be 0 (off) or between",
+        ),
+        (
+            ["render", "dataset:nothing", "--listener", "1,1,1", "--duration", "1", "-o", "{out}"],
+            "unknown dataset 'nothing'",
+        ),
+        (
+            [
+                "render",
+                "dataset:monopole",
+                "--size",
+                "16",
+                "--steps",
+                "20",
+                "--listener",
+                "1,1,1",
+                "--duration",
+                "0.1",
+                "--layout",
+                "9.2",
+                "-o",
+                "{out}",
+            ],
+            "unknown layout '9.2'",
+        ),
+        (
+            ["render", "{missing}", "--listener", "1,1,1", "--duration", "0.1", "-o", "{out}"],
+            "missing.h5",
+        ),
+        (
+            [
+                "render",
+                "dataset:monopole",
+                "--size",
+                "16",
+                "--steps",
+                "1",
+                "--listener",
+                "1,1,1",
+                "--duration",
+                "0.1",
+                "-o",
+                "{out}",
+            ],
+            "--steps must be an integer >= 2",
+        ),
+        (
+            [
+                "detect",
+                "dataset:monopole",
+                "--size",
+                "16",
+                "--steps",
+                "20",
+                "--mapping",
+                "cfd",
+                "-o",
+                "{out}.h5",
+            ],
+            "mapping 'cfd' needs a momentum field",
+        ),
     ],
-)  # fmt: skip
+)
 def test_cli_errors_are_one_line_and_leave_no_output(argv, message, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     out = tmp_path / "x.wav"
     argv = [a.format(out=out, missing=tmp_path / "missing.h5") for a in argv]
@@ -102,14 +212,20 @@ def test_cli_errors_are_one_line_and_leave_no_output(argv, message, tmp_path, ca
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["aero", "render", "-o", "x.wav"],
-         "required: --texture; and one of --motion --wind --preset; and one of --path --listener"),
-        (["aero", "render", "--texture=t.h5", "--preset", "sword", "-o", "x.wav"],
-         "one of the arguments --path --listener is required"),
-        (["aero", "render", "--texture", "t.h5", "--wind=3", "--path", "p.csv"],
-         "required: -o/--output (see"),
+        (
+            ["aero", "render", "-o", "x.wav"],
+            "required: --texture; and one of --motion --wind --preset; and one of --path --listener",
+        ),
+        (
+            ["aero", "render", "--texture=t.h5", "--preset", "sword", "-o", "x.wav"],
+            "one of the arguments --path --listener is required",
+        ),
+        (
+            ["aero", "render", "--texture", "t.h5", "--wind=3", "--path", "p.csv"],
+            "required: -o/--output (see",
+        ),
     ],
-)  # fmt: skip
+)
 def test_usage_error_names_every_missing_option_at_once(argv, message, capsys) -> None:  # type: ignore[no-untyped-def]
     with pytest.raises(SystemExit) as e:
         main(argv)

@@ -32,7 +32,9 @@ LIVE_COMMANDS = {"play"}
 EMITTED_COMMANDS = {"fire lowfreq", "fire extend", "fire texture"}
 
 
-def _walk(p: argparse.ArgumentParser, name: tuple[str, ...] = ()) -> Iterator[tuple[str, argparse.ArgumentParser]]:  # fmt: skip
+def _walk(
+    p: argparse.ArgumentParser, name: tuple[str, ...] = ()
+) -> Iterator[tuple[str, argparse.ArgumentParser]]:
     for a in p._actions:
         if isinstance(a, argparse._SubParsersAction):
             for n, sp in dict(a.choices).items():
@@ -128,8 +130,16 @@ def test_old_import_path_still_works() -> None:
     import auralize.cli as cli
     import auralize.cli.options as opts
 
-    for name in ("add_output_options", "listener_from_args", "rate_int", "positive_float",
-                 "finite_float", "positive_int", "seed_int", "RATE_RANGE_HZ",
-                 "add_volume_options"):  # fmt: skip
+    for name in (
+        "add_output_options",
+        "listener_from_args",
+        "rate_int",
+        "positive_float",
+        "finite_float",
+        "positive_int",
+        "seed_int",
+        "RATE_RANGE_HZ",
+        "add_volume_options",
+    ):
         assert getattr(cli, name) is getattr(opts, name)
     assert cli.field_map is opts.field_map

@@ -60,8 +60,13 @@ class _Recorder:
 
 def test_kernel_arg_makes_one_form_and_keeps_conforming_arrays() -> None:
     base = np.arange(24.0).reshape(4, 6)
-    cases = [base.astype(np.float32), base[:, ::2], base.T, _read_only(base),
-             np.asfortranarray(base)]  # fmt: skip
+    cases = [
+        base.astype(np.float32),
+        base[:, ::2],
+        base.T,
+        _read_only(base),
+        np.asfortranarray(base),
+    ]
     for x in cases:
         a = kernel_arg(x)
         assert a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable
@@ -123,7 +128,7 @@ def test_synthesis_kernels_get_one_signature_each(monkeypatch) -> None:  # type:
             q.astype(np.float32),
             rad.astype(np.float32),
             t.astype(np.float32),
-        ),  # fmt: skip
+        ),
         SourceTracks(pos.T.copy().T, wide[:, ::2], rad, t),  # non-contiguous
         SourceTracks(_read_only(pos), _read_only(q), _read_only(rad), _read_only(t)),
     ]

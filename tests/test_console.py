@@ -42,8 +42,9 @@ def test_verbosity_flags_before_or_after_the_command() -> None:
     assert a.quiet is True and a.verbose == 0
     assert ap.parse_args(["-vv", "plugins"]).verbose == 2
     assert ap.parse_args(["plugins", "-vv"]).verbose == 2
-    a = ap.parse_args(["spark", "render", "-o", "x.wav", "--listener", "0,0,1", "--duration",
-                       "0.1", "-q"])  # fmt: skip
+    a = ap.parse_args(
+        ["spark", "render", "-o", "x.wav", "--listener", "0,0,1", "--duration", "0.1", "-q"]
+    )
     assert a.quiet is True
     assert ap.parse_args(["plugins"]).quiet is False
 
@@ -114,8 +115,10 @@ def test_compile_notice_names_an_estimate_once(caplog, monkeypatch) -> None:  # 
 def test_progress_callback_drives_a_bar_or_logs(monkeypatch, caplog) -> None:  # type: ignore[no-untyped-def]
     out = io.StringIO()
     monkeypatch.setattr(progress.sys, "stderr", out)
-    with caplog.at_level(logging.INFO, logger="auralize"), \
-            progress.progress_callback("texture", total=2) as cb:  # fmt: skip
+    with (
+        caplog.at_level(logging.INFO, logger="auralize"),
+        progress.progress_callback("texture", total=2) as cb,
+    ):
         cb("u = 1 m/s")
     assert [r.getMessage() for r in caplog.records] == ["texture: u = 1 m/s"]
     monkeypatch.setattr(out, "isatty", lambda: True, raising=False)
@@ -123,3 +126,33 @@ def test_progress_callback_drives_a_bar_or_logs(monkeypatch, caplog) -> None:  #
         cb(1, 4)
         cb(4, 4)
     assert "texture" in out.getvalue() and "4/4" in out.getvalue()
+
+
+def test_jupyter_without_ipywidgets_gets_the_text_bar_and_no_warning(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import sys
+    import types
+
+    import tqdm.notebook
+    import tqdm.std
+
+    class ZMQInteractiveShell:  # the name Jupyter's kernel shell has
+        pass
+
+    fake = types.ModuleType("IPython")
+    fake.get_ipython = ZMQInteractiveShell  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "IPython", fake)
+    real_find_spec = progress.importlib.util.find_spec
+
+    def no_widgets(name: str, *a: object) -> object:
+        return None if name == "ipywidgets" else real_find_spec(name, *a)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(progress.importlib.util, "find_spec", no_widgets)
+    out = io.StringIO()
+    monkeypatch.setattr(progress.sys, "stderr", out)
+    assert progress.visible() and progress._bar_class() is tqdm.std.tqdm
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # tqdm.auto's TqdmWarning would raise here
+        assert list(progress.progress(range(3), desc="detect", total=3)) == [0, 1, 2]
+    assert "detect" in out.getvalue()
+    monkeypatch.setattr(progress.importlib.util, "find_spec", lambda name, *a: object())
+    assert progress._bar_class() is tqdm.notebook.tqdm

@@ -27,16 +27,23 @@ def warped(n: tuple[int, int, int], a: float = 0.1) -> np.ndarray:
     """x = ξ + a sin(2πη), y = η + a sin(2πζ), z = ζ + a ξ² on [0, 1]³: coords (nz, ny, nx, 3)."""
     nx, ny, nz = n
     zz, yy, xx = np.meshgrid(*(np.linspace(0.0, 1.0, m) for m in (nz, ny, nx)), indexing="ij")
-    return np.stack([xx + a * np.sin(2 * np.pi * yy), yy + a * np.sin(2 * np.pi * zz),
-                     zz + a * xx**2], axis=-1)  # fmt: skip
+    return np.stack(
+        [xx + a * np.sin(2 * np.pi * yy), yy + a * np.sin(2 * np.pi * zz), zz + a * xx**2], axis=-1
+    )
 
 
-def shell(n: tuple[int, int, int], r0: float = 1.0, r1: float = 2.0,
-          span: float = 0.5 * np.pi, height: float = 1.0) -> np.ndarray:  # fmt: skip
+def shell(
+    n: tuple[int, int, int],
+    r0: float = 1.0,
+    r1: float = 2.0,
+    span: float = 0.5 * np.pi,
+    height: float = 1.0,
+) -> np.ndarray:
     """A cylindrical shell sector: i along r in [r0, r1], j along θ in [0, span], k along z."""
     nr, nt, nz = n
-    z, t, r = np.meshgrid(np.linspace(0, height, nz), np.linspace(0, span, nt),
-                          np.linspace(r0, r1, nr), indexing="ij")  # fmt: skip
+    z, t, r = np.meshgrid(
+        np.linspace(0, height, nz), np.linspace(0, span, nt), np.linspace(r0, r1, nr), indexing="ij"
+    )
     return np.stack([r * np.cos(t), r * np.sin(t), z], axis=-1)
 
 
@@ -51,8 +58,11 @@ def test_index_derivative_is_numpy_gradient_second_order_at_faces() -> None:
     np.testing.assert_allclose(g, 2 * np.arange(10.0), atol=1e-12)
 
 
-@pytest.mark.parametrize("make", [lambda: warped((9, 11, 7)), lambda: shell((8, 13, 5)),
-                                  lambda: shell((8, 13, 1))], ids=["warped", "shell", "one-layer"])  # fmt: skip
+@pytest.mark.parametrize(
+    "make",
+    [lambda: warped((9, 11, 7)), lambda: shell((8, 13, 5)), lambda: shell((8, 13, 1))],
+    ids=["warped", "shell", "one-layer"],
+)
 def test_gradient_of_a_linear_field_is_exact(make) -> None:  # type: ignore[no-untyped-def]
     c = make()
     m = CurvilinearMetric(c, thickness=np.full(3, 0.1))
@@ -70,8 +80,9 @@ def test_gradient_of_a_linear_field_is_exact(make) -> None:  # type: ignore[no-u
     assert np.abs(m.quadrupole(tt)).max() < 1e-10
 
 
-@pytest.mark.parametrize("n", [(9, 11, 7), (2, 5, 7), (6, 1, 8), (5, 6, 3), (1, 7, 7),
-                               (13, 2, 6), (7, 7, 1), (3, 3, 3)])  # fmt: skip
+@pytest.mark.parametrize(
+    "n", [(9, 11, 7), (2, 5, 7), (6, 1, 8), (5, 6, 3), (1, 7, 7), (13, 2, 6), (7, 7, 1), (3, 3, 3)]
+)
 def test_compiled_divergence_is_the_numpy_one(n: tuple[int, int, int]) -> None:
     """The compiled divergence (every strength and error estimate is made of it) gives
     the numpy reference's numbers (to 1e-12; the same arithmetic in the same order):
@@ -92,9 +103,12 @@ def test_compiled_divergence_is_the_numpy_one(n: tuple[int, int, int]) -> None:
         assert np.abs(m.quadrupole(tt, wide=wide) - q_ref).max() <= 1e-12 * np.abs(q_ref).max()
     # float32 components, a strided view: the same one specialization
     f32 = np.ascontiguousarray(f.transpose(0, 3, 2, 1)).transpose(0, 3, 2, 1).astype(np.float32)
-    np.testing.assert_allclose(m.divergence(f32),
-                               m.divergence(f32.astype(np.float64), compiled=False), rtol=1e-12,
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        m.divergence(f32),
+        m.divergence(f32.astype(np.float64), compiled=False),
+        rtol=1e-12,
+        atol=1e-12,
+    )
     assert len(_kernel().signatures) == 1
 
 
@@ -105,8 +119,10 @@ def test_gradient_of_a_smooth_field_converges_at_second_order() -> None:
         m = CurvilinearMetric(c, thickness=np.ones(3))
         x, y, z = c[..., 0], c[..., 1], c[..., 2]
         f = np.sin(2 * x) * np.cos(y) * np.exp(z)
-        exact = np.stack([2 * np.cos(2 * x) * np.cos(y) * np.exp(z),
-                          -np.sin(2 * x) * np.sin(y) * np.exp(z), f], axis=-1)  # fmt: skip
+        exact = np.stack(
+            [2 * np.cos(2 * x) * np.cos(y) * np.exp(z), -np.sin(2 * x) * np.sin(y) * np.exp(z), f],
+            axis=-1,
+        )
         errs.append(float(np.abs(m.gradient(f) - exact).max()))
         # Σ ∂²T_ij/∂x_i∂x_j of T_xx = x², T_xy = xy, T_zz = z³: 2 + 2 + 6z (∂x∂y counted twice)
         tt = np.zeros((6, *c.shape[:3]))
@@ -135,8 +151,9 @@ def test_cell_volumes_sum_to_the_domain_volume() -> None:
     m1 = CurvilinearMetric(shell((40, 40, 1)), thickness=np.array([1.0, 1.0, 0.25]))
     assert m1.cell_volume().sum() == pytest.approx(0.25 * 0.75 * np.pi, rel=3e-4)
     # warped unit cube (x = ξ + a sin 2πη ...): volume 1 + O(h²)
-    assert CurvilinearMetric(warped((40, 40, 40)), thickness=np.ones(3)).cell_volume().sum() \
-        == pytest.approx(1.0, rel=1e-5)  # fmt: skip
+    assert CurvilinearMetric(
+        warped((40, 40, 40)), thickness=np.ones(3)
+    ).cell_volume().sum() == pytest.approx(1.0, rel=1e-5)
 
 
 def test_degenerate_grid_is_refused_with_the_point() -> None:
@@ -157,8 +174,12 @@ def test_interp_coords_is_multilinear() -> None:
 # ----------------------------------------------------------------- detection
 def _blob(c: np.ndarray, times: np.ndarray, sigma: float = 0.08) -> np.ndarray:
     r2 = ((c - 0.5) ** 2).sum(axis=-1)
-    return 1.2 + 0.01 * np.sin(2 * np.pi * 5 * times)[:, None, None, None] * np.exp(
-        -r2 / (2 * sigma**2))[None]  # fmt: skip
+    return (
+        1.2
+        + 0.01
+        * np.sin(2 * np.pi * 5 * times)[:, None, None, None]
+        * np.exp(-r2 / (2 * sigma**2))[None]
+    )
 
 
 def test_monopole_detected_natively_matches_the_uniform_grid() -> None:
@@ -172,8 +193,14 @@ def test_monopole_detected_natively_matches_the_uniform_grid() -> None:
     uniform = np.stack([xx, yy, zz], axis=-1)
     # a warp that keeps the unit cube: x = ξ + a sin(πξ) sin(πη), y = η + a sin(πη) sin(πζ)
     a = 0.04
-    c = np.stack([xx + a * np.sin(np.pi * xx) * np.sin(np.pi * yy),
-                  yy + a * np.sin(np.pi * yy) * np.sin(np.pi * zz), zz], axis=-1)  # fmt: skip
+    c = np.stack(
+        [
+            xx + a * np.sin(np.pi * xx) * np.sin(np.pi * yy),
+            yy + a * np.sin(np.pi * yy) * np.sin(np.pi * zz),
+            zz,
+        ],
+        axis=-1,
+    )
     uni = TimeVolume.from_arrays({"density": _blob(uniform, times)}, spacing=s[1], times=times)
     cur = TimeVolume.from_arrays({"density": _blob(c, times)}, times=times, coords=c)
     assert cur.curvilinear and not uni.curvilinear
@@ -221,9 +248,15 @@ def test_uniform_volumes_have_no_coords() -> None:
 
 
 # ------------------------------------------------------------------ readers
-def write_vts_series(folder: Path, n: tuple[int, int, int] = (10, 24, 5), steps: int = 8, *,
-                     swirl: float = 0.0, width: float = 0.02,
-                     block: tuple[int, ...] | None = None) -> tuple[Path, np.ndarray, np.ndarray]:  # fmt: skip
+def write_vts_series(
+    folder: Path,
+    n: tuple[int, int, int] = (10, 24, 5),
+    steps: int = 8,
+    *,
+    swirl: float = 0.0,
+    width: float = 0.02,
+    block: tuple[int, ...] | None = None,
+) -> tuple[Path, np.ndarray, np.ndarray]:
     """A ``.pvd`` of ``.vts`` files (VTK's vtkXMLStructuredGridWriter, via pyvista) of a
     pulsating blob on a cylindrical shell; returns the path, the points and the times.
 
@@ -244,13 +277,16 @@ def write_vts_series(folder: Path, n: tuple[int, int, int] = (10, 24, 5), steps:
         blob = np.exp(-((p[:, 0]) ** 2 + (p[:, 1] - 1.0) ** 2 + (p[:, 2] - 0.25) ** 2) / width)
         g.point_data["density"] = 1.2 + 0.01 * np.sin(2 * np.pi * 10 * t) * blob
         turn = swirl * np.sin(2 * np.pi * 10 * t) * blob
-        g.point_data["velocity"] = np.stack([-(p[:, 1] - 1.0) * turn, p[:, 0] * turn,
-                                             np.zeros(g.n_points)], axis=-1)  # fmt: skip
+        g.point_data["velocity"] = np.stack(
+            [-(p[:, 1] - 1.0) * turn, p[:, 0] * turn, np.zeros(g.n_points)], axis=-1
+        )
         g.save(folder / f"step_{k}.vts")
         entries.append(f'<DataSet timestep="{float(t)!r}" file="step_{k}.vts"/>')
     path = folder / "series.pvd"
-    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">'
-                    f"<Collection>{''.join(entries)}</Collection></VTKFile>\n")  # fmt: skip
+    path.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">'
+        f"<Collection>{''.join(entries)}</Collection></VTKFile>\n"
+    )
     return path, c, times
 
 
@@ -272,8 +308,11 @@ def test_vts_series_is_read_natively(vts_series) -> None:  # type: ignore[no-unt
     assert vol.field_names == ["density", "velocity"] and vol.is_vector("velocity")
     p = vol.points()
     blob = np.exp(-((p[:, 0]) ** 2 + (p[:, 1] - 1.0) ** 2 + (p[:, 2] - 0.25) ** 2) / 0.02)
-    np.testing.assert_allclose(vol.frame("density", 3).reshape(-1),
-                               1.2 + 0.01 * np.sin(2 * np.pi * 10 * times[3]) * blob, rtol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        vol.frame("density", 3).reshape(-1),
+        1.2 + 0.01 * np.sin(2 * np.pi * 10 * times[3]) * blob,
+        rtol=1e-12,
+    )
     ymax = 1.5 * np.sin(np.linspace(0, np.pi, 24)).max()  # no point at θ = π/2
     assert vol.bounds == pytest.approx((-1.5, 1.5, 0.0, ymax, 0.0, 0.5), abs=1e-12)
     # resampling stays reachable
@@ -311,8 +350,10 @@ def test_cli_info_detect_render_natively(vts_series, tmp_path, capsys) -> None: 
     assert main(["info", str(path), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["grid"] == "curvilinear, native" and d["dims"] == [10, 24, 5]
-    assert d["times"] == pytest.approx(times.tolist()) and set(d["fields"]) == {"density",
-                                                                                "velocity"}  # fmt: skip
+    assert d["times"] == pytest.approx(times.tolist()) and set(d["fields"]) == {
+        "density",
+        "velocity",
+    }
     chord = 2 * np.sin(0.5 * np.pi / 23)  # the angular edges, from r = 0.5 to 1.5 m
     assert d["edge_lengths"] == pytest.approx([0.5 * chord, 1.5 * chord], rel=1e-9)
     assert main(["info", str(path)]) == 0
@@ -337,20 +378,75 @@ def test_cli_info_detect_render_natively(vts_series, tmp_path, capsys) -> None: 
     assert again.coords is not None and np.isnan(again.coords).any()
     np.testing.assert_allclose(again.positions(index), pos)
     wav_s = tmp_path / "s.wav"
-    assert main(["render", str(path), "--sources", str(out), "--heard", "detected", "--listener",
-                 "0,-1,0.25", "--duration", "0.05", "--rate", "8000", "-o", str(wav_s)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                str(path),
+                "--sources",
+                str(out),
+                "--heard",
+                "detected",
+                "--listener",
+                "0,-1,0.25",
+                "--duration",
+                "0.05",
+                "--rate",
+                "8000",
+                "-o",
+                str(wav_s),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     # the sources file's points put back on the grid: the same sound as detecting here
     wav_d = tmp_path / "d.wav"
-    assert main(["render", str(path), "--heard", "detected", "--threshold-monopole", "10%",
-                 "--listener", "0,-1,0.25", "--duration", "0.05", "--rate", "8000", "-o",
-                 str(wav_d)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                str(path),
+                "--heard",
+                "detected",
+                "--threshold-monopole",
+                "10%",
+                "--listener",
+                "0,-1,0.25",
+                "--duration",
+                "0.05",
+                "--rate",
+                "8000",
+                "-o",
+                str(wav_d),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     from_file, here = read_wav(wav_s)[0], read_wav(wav_d)[0]
     assert np.abs(here).max() > 0.5 and np.array_equal(from_file, here)
     wav = tmp_path / "a.wav"
-    assert main(["render", str(path), "--listener", "0,-1,0.25", "--duration", "0.05", "--rate",
-                 "8000", "-o", str(wav), "--normalize", "none", "--json"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                str(path),
+                "--listener",
+                "0,-1,0.25",
+                "--duration",
+                "0.05",
+                "--rate",
+                "8000",
+                "-o",
+                str(wav),
+                "--normalize",
+                "none",
+                "--json",
+            ]
+        )
+        == 0
+    )
     meta = json.loads(capsys.readouterr().out)
     audio, rate, _ = read_wav(wav)
     assert rate == 8000 and audio.shape[1] == 400 and np.isfinite(audio).all()
@@ -391,8 +487,22 @@ def test_view_and_pictures_draw_the_grid_natively(vts_series, tmp_path) -> None:
     assert type(grid).__name__ == "StructuredGrid" and grid.n_points == vol.n_points
     np.testing.assert_allclose(np.asarray(grid.points), c.reshape(-1, 3))
     shots = [tmp_path / "view.png", tmp_path / "picture.png"]
-    assert main(["view", str(path), "--detect", "--time", "3", "--window-size", "400x300",
-                 "--screenshot", str(shots[0])]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "view",
+                str(path),
+                "--detect",
+                "--time",
+                "3",
+                "--window-size",
+                "400x300",
+                "--screenshot",
+                str(shots[0]),
+            ]
+        )
+        == 0
+    )
     screenshot(vol, shots[1], step=3, window_size=(400, 300))
     for shot in shots:
         grey = (mpimg.imread(shot)[:250, :, :3] * 255).mean(axis=2)
@@ -413,15 +523,24 @@ def test_sound_models_resample_and_fwh_refuses_in_one_line(vts_series, tmp_path,
         assert not load_volume_input(str(path)).curvilinear
     with pytest.raises(DataError, match="FW-H integral .* add --resample"):
         trilinear_weights(open_volume(path), np.zeros((1, 3)))
-    fwh = [str(path), "--method", "fwh", "--surface", "box=-0.3;0.3;0.7;1.2;0.1;0.4",
-           "--listener", "0,-2,0.25"]  # fmt: skip
+    fwh = [
+        str(path),
+        "--method",
+        "fwh",
+        "--surface",
+        "box=-0.3;0.3;0.7;1.2;0.1;0.4",
+        "--listener",
+        "0,-2,0.25",
+    ]
     assert main(["spectrum", *fwh]) == 3
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "Traceback" not in err, err
-    assert err == (f"auralize spectrum: error: {path}: the FW-H integral samples its surface on "
-                   f"a uniform grid, and this curvilinear grid is read on its own points: add "
-                   f"--resample (curvilinear='resample' in Python) to read it resampled onto a "
-                   f"uniform grid")  # fmt: skip
+    assert err == (
+        f"auralize spectrum: error: {path}: the FW-H integral samples its surface on "
+        f"a uniform grid, and this curvilinear grid is read on its own points: add "
+        f"--resample (curvilinear='resample' in Python) to read it resampled onto a "
+        f"uniform grid"
+    )
     assert main(["spectrum", *fwh, "--resample", "--json"]) == 0
     got = capsys.readouterr()
     assert "FW-H on box" in json.loads(got.out)["source"] and "resampled by linear" in got.err
@@ -435,8 +554,9 @@ def _warped_series(n: tuple[int, int, int] = (14, 12, 22), steps: int = 7) -> Ti
     rho = 1.2 + 0.01 * np.sin(2 * np.pi * 7 * t)[:, None, None, None] * blob[None]
     vel = np.stack([np.sin(3 * c[..., 1]), np.cos(2 * c[..., 2]), np.sin(2 * c[..., 0])], -1)
     amp = 1 + 0.3 * np.sin(2 * np.pi * 5 * t)
-    return TimeVolume.from_arrays({"density": rho, "velocity": amp[:, None, None, None, None]
-                                   * vel[None]}, times=t, coords=c)  # fmt: skip
+    return TimeVolume.from_arrays(
+        {"density": rho, "velocity": amp[:, None, None, None, None] * vel[None]}, times=t, coords=c
+    )
 
 
 @pytest.mark.parametrize("mapping", ["identity", "paper-density"])
@@ -453,8 +573,15 @@ def test_distributed_detection_on_a_curvilinear_grid_is_the_serial_one(mapping: 
     kw = {"field": "density"} if mapping == "paper-density" else {}
     for thr in (Thresholds(), Thresholds(1e-3, 1e-3, 1e-3, floor=0.0)):
         serial = detect(vol, mapping=mapping, thresholds=thr, **kw)
-        dask = detect_distributed(chunked_volume(vol), mapping=mapping, thresholds=thr,
-                                  slab_planes=4, chunk_steps=3, log=None, **kw)  # fmt: skip
+        dask = detect_distributed(
+            chunked_volume(vol),
+            mapping=mapping,
+            thresholds=thr,
+            slab_planes=4,
+            chunk_steps=3,
+            log=None,
+            **kw,
+        )
         assert len(dask.meta["scale"]["slabs"]) == 6 and dask.meta["grid"] == "curvilinear"
         np.testing.assert_array_equal(dask.thresholds, serial.thresholds)
         n = 0
@@ -463,8 +590,9 @@ def test_distributed_detection_on_a_curvilinear_grid_is_the_serial_one(mapping: 
                 np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
             n += a.index.size
         assert n > 500
-        np.testing.assert_array_equal(dask.positions(serial.frames[3].index),
-                                      vol.points(serial.frames[3].index))  # fmt: skip
+        np.testing.assert_array_equal(
+            dask.positions(serial.frames[3].index), vol.points(serial.frames[3].index)
+        )
 
 
 @pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")
@@ -481,8 +609,10 @@ def test_one_ghost_plane_fewer_changes_the_sources(monkeypatch: pytest.MonkeyPat
     for thr in (Thresholds(1e-3, 1e-3, 1e-3), Thresholds(1e-3, 1e-3, 1e-3, floor=0.0)):
         serial = detect(vol, mapping="identity", thresholds=thr)
         short = dd.detect_distributed(vol, thresholds=thr, slab_planes=4, chunk_steps=3, log=None)
-        assert not all(np.array_equal(a.strength, b.strength) and np.array_equal(a.radius, b.radius)
-                       for a, b in zip(serial.frames, short.frames, strict=True))  # fmt: skip
+        assert not all(
+            np.array_equal(a.strength, b.strength) and np.array_equal(a.radius, b.radius)
+            for a, b in zip(serial.frames, short.frames, strict=True)
+        )
 
 
 @pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")
@@ -497,8 +627,23 @@ def test_cli_detect_and_render_on_dask_natively(tmp_path: Path, capsys) -> None:
     path, c, _ = write_vts_series(tmp_path / "s", n=(8, 16, 12), swirl=0.5)
     dask = ["--scheduler", "threads", "--workers", "2"]
     assert main(["detect", str(path), *THRESHOLDS, "-o", str(tmp_path / "serial.h5")]) == 0
-    assert main(["detect", str(path), *THRESHOLDS, "-o", str(tmp_path / "dask.h5"), *dask,
-                 "--chunk-steps", "3", "--slab-planes", "4"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "detect",
+                str(path),
+                *THRESHOLDS,
+                "-o",
+                str(tmp_path / "dask.h5"),
+                *dask,
+                "--chunk-steps",
+                "3",
+                "--slab-planes",
+                "4",
+            ]
+        )
+        == 0
+    )
     assert "3 slabs" in capsys.readouterr().out
     serial, on_dask = _sources(tmp_path / "serial.h5"), _sources(tmp_path / "dask.h5")
     assert serial["index"].size > 50
@@ -508,9 +653,30 @@ def test_cli_detect_and_render_on_dask_natively(tmp_path: Path, capsys) -> None:
     wavs = []
     for extra in ([], ["--sources", str(tmp_path / "serial.h5")]):
         wav = tmp_path / f"{len(wavs)}.wav"
-        assert main(["render", str(path), "--heard", "detected", *THRESHOLDS, *dask,
-                     "--listener", "0,-1,0.25", "--duration", "0.05", "--rate", "8000",
-                     "--normalize", "none", "-o", str(wav), *extra]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "render",
+                    str(path),
+                    "--heard",
+                    "detected",
+                    *THRESHOLDS,
+                    *dask,
+                    "--listener",
+                    "0,-1,0.25",
+                    "--duration",
+                    "0.05",
+                    "--rate",
+                    "8000",
+                    "--normalize",
+                    "none",
+                    "-o",
+                    str(wav),
+                    *extra,
+                ]
+            )
+            == 0
+        )
         wavs.append(read_wav(wav)[0])
     capsys.readouterr()
     assert np.abs(wavs[0]).max() > 0 and np.array_equal(wavs[0], wavs[1])
@@ -581,8 +747,11 @@ def test_netcdf_2d_lat_lon_is_read_natively(tmp_path: Path) -> None:
 
 
 # ------------------------------------------------- netCDF: 3-D vertical coordinates
-def write_nc4(path: Path, dims: dict[str, np.ndarray | int],
-              variables: dict[str, tuple[tuple[str, ...], np.ndarray, dict[str, str]]]) -> None:  # fmt: skip
+def write_nc4(
+    path: Path,
+    dims: dict[str, np.ndarray | int],
+    variables: dict[str, tuple[tuple[str, ...], np.ndarray, dict[str, str]]],
+) -> None:
     """A netCDF4 file (HDF5 with dimension scales, as the netCDF library writes it):
     ``dims`` name -> coordinate values (or a length: a dimension without a variable),
     ``variables`` name -> (dimensions, values, attributes)."""
@@ -605,7 +774,9 @@ def write_nc4(path: Path, dims: dict[str, np.ndarray | int],
                     ds.dims[axis].attach_scale(f[d])
 
 
-def roms_like(path: Path, *, nt: int = 6, nk: int = 6, ny: int = 7, nx: int = 9) -> dict[str, np.ndarray]:  # fmt: skip
+def roms_like(
+    path: Path, *, nt: int = 6, nk: int = 6, ny: int = 7, nx: int = 9
+) -> dict[str, np.ndarray]:
     """A ROMS-like file: 2-D ``lon_rho``/``lat_rho`` named by ``coordinates``, s-levels
     ``ocean_s_coordinate_g2`` (``formula_terms``: s_rho, Cs_r, zeta, h, hc) under a free
     surface ``zeta`` that moves, ``rho`` a pulsating blob, ``temp`` linear in height.
@@ -627,22 +798,38 @@ def roms_like(path: Path, *, nt: int = 6, nk: int = 6, ny: int = 7, nx: int = 9)
     blob = np.exp(-0.5 * (r2[None] + ((z + 20.0) / 8.0) ** 2))
     rho = 1025.0 + 0.01 * np.sin(2 * np.pi * 10 * t)[:, None, None, None] * blob[None]
     hor = ("eta_rho", "xi_rho")
-    write_nc4(path, {"ocean_time": t, "s_rho": s_rho, "eta_rho": ny, "xi_rho": nx}, {
-        "ocean_time": (("ocean_time",), t, {"units": "seconds since 2001-01-01"}),
-        "s_rho": (("s_rho",), s_rho, {
-            "standard_name": "ocean_s_coordinate_g2", "positive": "up",
-            "formula_terms": "s: s_rho C: Cs_r eta: zeta depth: h depth_c: hc"}),
-        "Cs_r": (("s_rho",), cs, {}),
-        "hc": ((), np.asarray(hc), {"units": "m"}),
-        "h": (hor, h, {"units": "m"}),
-        "zeta": (("ocean_time", *hor), zeta, {"units": "m"}),
-        "lon_rho": (hor, lon, {"units": "degree_east"}),
-        "lat_rho": (hor, lat, {"units": "degree_north"}),
-        "rho": (("ocean_time", "s_rho", *hor), rho, {"units": "kg m-3",
-                                                     "coordinates": "lon_rho lat_rho"}),
-        "temp": (("ocean_time", "s_rho", *hor), np.broadcast_to(20.0 + 0.1 * z, rho.shape),
-                 {"units": "degC", "coordinates": "lon_rho lat_rho"}),
-    })  # fmt: skip
+    write_nc4(
+        path,
+        {"ocean_time": t, "s_rho": s_rho, "eta_rho": ny, "xi_rho": nx},
+        {
+            "ocean_time": (("ocean_time",), t, {"units": "seconds since 2001-01-01"}),
+            "s_rho": (
+                ("s_rho",),
+                s_rho,
+                {
+                    "standard_name": "ocean_s_coordinate_g2",
+                    "positive": "up",
+                    "formula_terms": "s: s_rho C: Cs_r eta: zeta depth: h depth_c: hc",
+                },
+            ),
+            "Cs_r": (("s_rho",), cs, {}),
+            "hc": ((), np.asarray(hc), {"units": "m"}),
+            "h": (hor, h, {"units": "m"}),
+            "zeta": (("ocean_time", *hor), zeta, {"units": "m"}),
+            "lon_rho": (hor, lon, {"units": "degree_east"}),
+            "lat_rho": (hor, lat, {"units": "degree_north"}),
+            "rho": (
+                ("ocean_time", "s_rho", *hor),
+                rho,
+                {"units": "kg m-3", "coordinates": "lon_rho lat_rho"},
+            ),
+            "temp": (
+                ("ocean_time", "s_rho", *hor),
+                np.broadcast_to(20.0 + 0.1 * z, rho.shape),
+                {"units": "degC", "coordinates": "lon_rho lat_rho"},
+            ),
+        },
+    )
     return {"z": z, "x": x, "y": y, "zeta": zeta}
 
 
@@ -664,8 +851,10 @@ def test_netcdf_s_levels_are_read_natively(tmp_path: Path, capsys) -> None:  # t
     np.testing.assert_allclose(vol.coords[..., 0], np.broadcast_to(want["x"], want["z"].shape))
     np.testing.assert_allclose(vol.coords[..., 1], np.broadcast_to(want["y"], want["z"].shape))
     note = vol.attrs["axis_units"]["z"]
-    assert note.startswith("ocean_s_coordinate_g2 -> m per point (formula_terms s: s_rho, C: "
-                           "Cs_r, eta: zeta, depth: h, depth_c: hc)")  # fmt: skip
+    assert note.startswith(
+        "ocean_s_coordinate_g2 -> m per point (formula_terms s: s_rho, C: "
+        "Cs_r, eta: zeta, depth: h, depth_c: hc)"
+    )
     moved = float(np.ptp(want["zeta"], axis=0).max())
     assert f"at the time mean of what moves (zeta by up to {moved:.3g} m): a fixed grid" in note
     g = vol.metric.gradient(vol.frame("temp", 2))
@@ -677,8 +866,21 @@ def test_netcdf_s_levels_are_read_natively(tmp_path: Path, capsys) -> None:  # t
     assert "z: ocean_s_coordinate_g2 -> m per point" in text
     assert "a 3-D vertical coordinate (ocean_s_coordinate_g2): read on its own points" in text
     out = tmp_path / "s.h5"
-    assert main(["detect", str(path), "--density-field", "rho", "--threshold-monopole", "10%",
-                 "-o", str(out)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "detect",
+                str(path),
+                "--density-field",
+                "rho",
+                "--threshold-monopole",
+                "10%",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     got = _sources(out)
     assert (got["kind"] == 1).sum() > 20
     np.testing.assert_allclose(got["position"], vol.points(got["index"]))
@@ -686,9 +888,27 @@ def test_netcdf_s_levels_are_read_natively(tmp_path: Path, capsys) -> None:  # t
     assert abs(centre[2] + 20.0) < 4.0  # the blob's height
     wav = tmp_path / "a.wav"
     listener = ",".join(f"{v:.6f}" for v in (want["x"].mean(), want["y"].mean() - 500, -20.0))
-    assert main(["render", str(path), "--density-field", "rho", "--listener", listener,
-                 "--duration", "0.05", "--rate", "8000", "-o", str(wav), "--normalize",
-                 "none"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                str(path),
+                "--density-field",
+                "rho",
+                "--listener",
+                listener,
+                "--duration",
+                "0.05",
+                "--rate",
+                "8000",
+                "-o",
+                str(wav),
+                "--normalize",
+                "none",
+            ]
+        )
+        == 0
+    )
     audio = read_wav(wav)[0]
     assert np.isfinite(audio).all() and np.abs(audio).max() > 0
     capsys.readouterr()
@@ -706,17 +926,20 @@ def test_netcdf_3d_height_named_by_coordinates(tmp_path: Path, kind: str) -> Non
     from auralize.io import open_volume
 
     nt, nk, ny, nx = 3, 4, 5, 6
-    k, j, i = np.meshgrid(np.arange(nk, dtype=float), np.arange(ny, dtype=float),
-                          np.arange(nx, dtype=float), indexing="ij")  # fmt: skip
+    k, j, i = np.meshgrid(
+        np.arange(nk, dtype=float),
+        np.arange(ny, dtype=float),
+        np.arange(nx, dtype=float),
+        indexing="ij",
+    )
     height = (0.1 + 0.02 * i) * (k + 1) + 0.01 * j  # km, increasing with k
     t = np.arange(nt) * 0.5
     variables = {
         "time": (("time",), t, {"units": "s"}),
         "x": (("x",), np.arange(nx) * 100.0, {"units": "m"}),
         "y": (("y",), np.arange(ny) * 100.0, {"units": "m"}),
-        "rho": (("time", "lev", "y", "x"), np.ones((nt, nk, ny, nx)),
-                {"coordinates": "zz"}),
-    }  # fmt: skip
+        "rho": (("time", "lev", "y", "x"), np.ones((nt, nk, ny, nx)), {"coordinates": "zz"}),
+    }
     if kind == "height in km":
         variables["zz"] = (("lev", "y", "x"), height, {"units": "km", "axis": "Z"})
         want = 1000.0 * height
@@ -728,8 +951,11 @@ def test_netcdf_3d_height_named_by_coordinates(tmp_path: Path, kind: str) -> Non
             {"units": "m", "standard_name": "depth", "positive": "down"},
         )
         want = -depth.mean(axis=0)
-    write_nc4(tmp_path / "z.nc", {"time": t, "lev": nk, "y": np.arange(ny) * 100.0,
-                                  "x": np.arange(nx) * 100.0}, variables)  # fmt: skip
+    write_nc4(
+        tmp_path / "z.nc",
+        {"time": t, "lev": nk, "y": np.arange(ny) * 100.0, "x": np.arange(nx) * 100.0},
+        variables,
+    )
     vol = open_volume(tmp_path / "z.nc")
     assert vol.curvilinear and vol.dims == (nx, ny, nk)
     np.testing.assert_allclose(vol.coords[..., 2], want, rtol=1e-12)
@@ -738,29 +964,47 @@ def test_netcdf_3d_height_named_by_coordinates(tmp_path: Path, kind: str) -> Non
     if kind == "height in km":
         assert note == "zz (3-D, km) -> m per point"
     else:
-        assert note == ("zz (3-D, m) -> m per point (positive down -> height: negated); at "
-                        "the time mean of what moves (zz by up to 0.9 m): a fixed grid")  # fmt: skip
+        assert note == (
+            "zz (3-D, m) -> m per point (positive down -> height: negated); at "
+            "the time mean of what moves (zz by up to 0.9 m): a fixed grid"
+        )
 
 
 #: CF Appendix D, written out: formula_terms -> height (m) of the terms below
 _CF = {
-    "ocean_sigma_coordinate": ("sigma: lev eta: eta depth: depth",
-                               lambda v: v["eta"] + v["lev"] * (v["depth"] + v["eta"])),
+    "ocean_sigma_coordinate": (
+        "sigma: lev eta: eta depth: depth",
+        lambda v: v["eta"] + v["lev"] * (v["depth"] + v["eta"]),
+    ),
     "ocean_s_coordinate": (
         "s: lev eta: eta depth: depth a: a b: b depth_c: hc",
-        lambda v: v["eta"] * (1 + v["lev"]) + v["hc"] * v["lev"] + (v["depth"] - v["hc"]) * (
-            (1 - v["b"]) * np.sinh(v["a"] * v["lev"]) / np.sinh(v["a"]) + v["b"] * (
-                np.tanh(v["a"] * (v["lev"] + 0.5)) / (2 * np.tanh(0.5 * v["a"])) - 0.5))),
+        lambda v: (
+            v["eta"] * (1 + v["lev"])
+            + v["hc"] * v["lev"]
+            + (v["depth"] - v["hc"])
+            * (
+                (1 - v["b"]) * np.sinh(v["a"] * v["lev"]) / np.sinh(v["a"])
+                + v["b"] * (np.tanh(v["a"] * (v["lev"] + 0.5)) / (2 * np.tanh(0.5 * v["a"])) - 0.5)
+            )
+        ),
+    ),
     "ocean_s_coordinate_g1": (
         "s: lev C: cs eta: eta depth: depth depth_c: hc",
-        lambda v: (v["hc"] * v["lev"] + (v["depth"] - v["hc"]) * v["cs"]) * (1 + v["eta"]
-                   / v["depth"]) + v["eta"]),
-    "atmosphere_hybrid_height_coordinate": ("a: ah b: cs orog: orog",
-                                            lambda v: v["ah"] + v["cs"] * v["orog"]),
-    "atmosphere_sigma_coordinate": ("sigma: sig ps: ps ptop: ptop",
-                                    lambda v: v["ptop"] + v["sig"] * (v["ps"] - v["ptop"])),
+        lambda v: (
+            (v["hc"] * v["lev"] + (v["depth"] - v["hc"]) * v["cs"]) * (1 + v["eta"] / v["depth"])
+            + v["eta"]
+        ),
+    ),
+    "atmosphere_hybrid_height_coordinate": (
+        "a: ah b: cs orog: orog",
+        lambda v: v["ah"] + v["cs"] * v["orog"],
+    ),
+    "atmosphere_sigma_coordinate": (
+        "sigma: sig ps: ps ptop: ptop",
+        lambda v: v["ptop"] + v["sig"] * (v["ps"] - v["ptop"]),
+    ),
     "atmosphere_ln_pressure_coordinate": ("p0: p0 lev: lnp", lambda v: v["p0"] * np.exp(-v["lnp"])),
-}  # fmt: skip
+}
 
 
 @pytest.mark.parametrize("std", sorted(_CF))
@@ -773,27 +1017,40 @@ def test_netcdf_parametric_formulas(tmp_path: Path, std: str) -> None:
     nt, nk, ny, nx = 3, 4, 3, 5
     rng = np.random.default_rng(len(std))
     lev = np.linspace(-0.9, -0.1, nk)
-    v = {"lev": lev[:, None, None], "cs": (lev**3)[:, None, None], "hc": np.array(8.0),
-         "a": np.array(3.0), "b": np.array(0.4), "ah": np.linspace(10, 900, nk)[:, None, None],
-         "depth": 30.0 + rng.uniform(0, 20, (ny, nx)), "orog": rng.uniform(0, 500, (ny, nx)),
-         "sig": np.linspace(0.95, 0.2, nk)[:, None, None], "ptop": np.array(1000.0),
-         "ps": 1e5 + rng.uniform(-500, 500, (ny, nx)), "p0": np.array(1e5),
-         "lnp": np.linspace(0.05, 1.5, nk)[:, None, None]}  # fmt: skip
+    v = {
+        "lev": lev[:, None, None],
+        "cs": (lev**3)[:, None, None],
+        "hc": np.array(8.0),
+        "a": np.array(3.0),
+        "b": np.array(0.4),
+        "ah": np.linspace(10, 900, nk)[:, None, None],
+        "depth": 30.0 + rng.uniform(0, 20, (ny, nx)),
+        "orog": rng.uniform(0, 500, (ny, nx)),
+        "sig": np.linspace(0.95, 0.2, nk)[:, None, None],
+        "ptop": np.array(1000.0),
+        "ps": 1e5 + rng.uniform(-500, 500, (ny, nx)),
+        "p0": np.array(1e5),
+        "lnp": np.linspace(0.05, 1.5, nk)[:, None, None],
+    }
     eta_t = rng.uniform(-0.2, 0.2, (nt, ny, nx))
     v["eta"] = eta_t.mean(axis=0)
     terms, height = _CF[std]
     want = np.broadcast_to(height(v), (nk, ny, nx))
     if not std.startswith("ocean") and std != "atmosphere_hybrid_height_coordinate":
         want = standard_height(np.ascontiguousarray(want))
-    dims = {"time": np.arange(nt) * 1.0, "lev": lev, "y": np.arange(ny) * 10.0,
-            "x": np.arange(nx) * 10.0}  # fmt: skip
+    dims = {
+        "time": np.arange(nt) * 1.0,
+        "lev": lev,
+        "y": np.arange(ny) * 10.0,
+        "x": np.arange(nx) * 10.0,
+    }
     shapes = {3: ("lev", "y", "x"), 2: ("y", "x"), 0: ()}
     variables = {
         "time": (("time",), dims["time"], {"units": "s"}),
         "lev": (("lev",), lev, {"standard_name": std, "formula_terms": terms}),
         "eta": (("time", "y", "x"), eta_t, {"units": "m"}),
         "f": (("time", "lev", "y", "x"), np.zeros((nt, nk, ny, nx)), {}),
-    }  # fmt: skip
+    }
     for name, value in v.items():
         if name in ("lev", "eta") or f": {name}" not in terms:
             continue
@@ -821,26 +1078,37 @@ def test_netcdf_pressure_formula_and_what_is_not_evaluated(tmp_path: Path) -> No
     dims = {"time": np.arange(nt) * 1.0, "lev": np.arange(nk) * 1.0, "y": ny, "x": nx}
     variables = {
         "time": (("time",), dims["time"], {"units": "s"}),
-        "lev": (("lev",), dims["lev"], {"standard_name":
-                                         "atmosphere_hybrid_sigma_pressure_coordinate",
-                                         "formula_terms": "ap: hyam b: hybm ps: PS"}),
+        "lev": (
+            ("lev",),
+            dims["lev"],
+            {
+                "standard_name": "atmosphere_hybrid_sigma_pressure_coordinate",
+                "formula_terms": "ap: hyam b: hybm ps: PS",
+            },
+        ),
         "hyam": (("lev",), ap, {"units": "Pa"}),
         "hybm": (("lev",), b, {}),
         "PS": (("y", "x"), ps / 100.0, {"units": "hPa"}),
         "ua": (("time", "lev", "y", "x"), np.ones((nt, nk, ny, nx)), {}),
-    }  # fmt: skip
+    }
     write_nc4(tmp_path / "p.nc", dims, variables)
     vol = open_volume(tmp_path / "p.nc")
     p = ap[:, None, None] + b[:, None, None] * ps[None]
     np.testing.assert_allclose(vol.coords[..., 2], standard_height(p), rtol=1e-12)
     assert vol.attrs["axis_units"]["z"].endswith("pressure -> height in the standard atmosphere)")
     # ocean_sigma_z_coordinate: not evaluated
-    variables["lev"] = (("lev",), dims["lev"], {"standard_name": "ocean_sigma_z_coordinate",
-                                                "formula_terms": "sigma: lev"})  # fmt: skip
+    variables["lev"] = (
+        ("lev",),
+        dims["lev"],
+        {"standard_name": "ocean_sigma_z_coordinate", "formula_terms": "sigma: lev"},
+    )
     write_nc4(tmp_path / "q.nc", dims, variables)
-    with pytest.raises(FormatError, match=r"'lev' is a parametric vertical coordinate .* "
-                       r"evaluates atmosphere_hybrid_height_coordinate, .*ocean_s_coordinate_g2, "
-                       r"ocean_sigma_coordinate from their formula_terms\); give --axis-scale "):  # fmt: skip
+    with pytest.raises(
+        FormatError,
+        match=r"'lev' is a parametric vertical coordinate .* "
+        r"evaluates atmosphere_hybrid_height_coordinate, .*ocean_s_coordinate_g2, "
+        r"ocean_sigma_coordinate from their formula_terms\); give --axis-scale ",
+    ):
         open_volume(tmp_path / "q.nc")
     levels = open_volume(tmp_path / "q.nc", axis_scale=(1.0, 1.0, 100.0))
     assert not levels.curvilinear and levels.spacing[2] == pytest.approx(100.0)
@@ -873,8 +1141,14 @@ def test_convert_saves_a_curvilinear_series_resampled_correctly(tmp_path: Path, 
 
     path, c, times = write_vts_series(tmp_path / "s", swirl=0.5)
     box = "--box=" + ",".join(f"{v:g}" for v in BOX)
-    runs = {"native.h5": [], "resampled.h5": ["--resample"], "native.pvd": [],
-            "native.vtkhdf": [], "box.h5": [box], "resampled-box.h5": ["--resample", box]}  # fmt: skip
+    runs = {
+        "native.h5": [],
+        "resampled.h5": ["--resample"],
+        "native.pvd": [],
+        "native.vtkhdf": [],
+        "box.h5": [box],
+        "resampled-box.h5": ["--resample", box],
+    }
     vols = {}
     for name, extra in runs.items():
         assert main(["convert", str(path), str(tmp_path / name), *extra]) == 0
@@ -884,11 +1158,18 @@ def test_convert_saves_a_curvilinear_series_resampled_correctly(tmp_path: Path, 
     assert not ref.curvilinear and ref.dims == (29, 15, 6) and ref.n_steps == times.size
     assert ref.bounds == pytest.approx(open_volume(path).bounds, abs=1e-9)
     assert 0.6 < ref.valid_ratio < 0.7  # the half-annulus in its bounding box
-    for a, b in (("native.h5", "resampled.h5"), ("native.h5", "native.pvd"),
-                 ("native.h5", "native.vtkhdf"), ("box.h5", "resampled-box.h5")):  # fmt: skip
+    for a, b in (
+        ("native.h5", "resampled.h5"),
+        ("native.h5", "native.pvd"),
+        ("native.h5", "native.vtkhdf"),
+        ("box.h5", "resampled-box.h5"),
+    ):
         va, vb = vols[a], vols[b]
         assert (va.dims, va.origin.tolist(), va.spacing.tolist()) == (
-            vb.dims, vb.origin.tolist(), vb.spacing.tolist()), (a, b)  # fmt: skip
+            vb.dims,
+            vb.origin.tolist(),
+            vb.spacing.tolist(),
+        ), (a, b)
         for n in range(times.size):
             for f in ("density", "velocity"):
                 np.testing.assert_array_equal(va.frame(f, n), vb.frame(f, n), err_msg=f"{b} {f}")
@@ -917,25 +1198,37 @@ def test_divergence_free_flow_has_no_dipoles_on_a_warped_grid() -> None:
     s = np.linspace(0.0, 1.0, n)
     zz, yy, xx = np.meshgrid(s, s, s, indexing="ij")
     a = 0.04
-    c = np.stack([xx + a * np.sin(np.pi * xx) * np.sin(np.pi * yy),
-                  yy + a * np.sin(np.pi * yy) * np.sin(np.pi * zz), zz], axis=-1)  # fmt: skip
+    c = np.stack(
+        [
+            xx + a * np.sin(np.pi * xx) * np.sin(np.pi * yy),
+            yy + a * np.sin(np.pi * yy) * np.sin(np.pi * zz),
+            zz,
+        ],
+        axis=-1,
+    )
     amp = (1 + 0.5 * np.sin(2 * np.pi * 5 * times))[:, None, None, None, None]
     rho = np.full((times.size, n, n, n), 1.2)
 
     def flow(p: np.ndarray) -> np.ndarray:
-        return amp * np.stack([np.sin(3 * p[..., 1]), np.sin(3 * p[..., 0]),
-                               np.zeros(p.shape[:3])], axis=-1)[None]  # fmt: skip
+        return (
+            amp
+            * np.stack(
+                [np.sin(3 * p[..., 1]), np.sin(3 * p[..., 0]), np.zeros(p.shape[:3])], axis=-1
+            )[None]
+        )
 
     cur = TimeVolume.from_arrays({"density": rho, "velocity": flow(c)}, times=times, coords=c)
     uniform = np.stack([xx, yy, zz], axis=-1)
-    uni = TimeVolume.from_arrays({"density": rho, "velocity": flow(uniform)}, times=times,
-                                 spacing=s[1])  # fmt: skip
+    uni = TimeVolume.from_arrays(
+        {"density": rho, "velocity": flow(uniform)}, times=times, spacing=s[1]
+    )
     assert np.abs(compute_strengths(cur, "identity", 4)[1]).max() > 1e-3  # truncation error
     counts = {}
     for name, vol in (("uniform", uni), ("curvilinear", cur)):
         series = detect(vol, mapping="identity")
-        counts[name] = [sum(c[k] for c in series.counts()) for k in
-                        ("monopole", "dipole", "quadrupole")]  # fmt: skip
+        counts[name] = [
+            sum(c[k] for c in series.counts()) for k in ("monopole", "dipole", "quadrupole")
+        ]
     assert counts["curvilinear"][:2] == [0, 0] and counts["uniform"][:2] == [0, 0]
     assert counts["curvilinear"][2] == pytest.approx(counts["uniform"][2], rel=0.1)
 
@@ -943,16 +1236,23 @@ def test_divergence_free_flow_has_no_dipoles_on_a_warped_grid() -> None:
 # ---------------------------------------------------------- box: index space
 BOX = (-0.6, 0.6, 0.6, 1.6, 0.0, 0.5)
 #: absolute thresholds (the same in every run, whatever region it sees)
-THRESHOLDS = ["--threshold-monopole", "0.05", "--threshold-dipole", "0.5",
-              "--threshold-quadrupole", "0.01"]  # fmt: skip
+THRESHOLDS = [
+    "--threshold-monopole",
+    "0.05",
+    "--threshold-dipole",
+    "0.5",
+    "--threshold-quadrupole",
+    "0.01",
+]
 
 
 def _sources(path: Path) -> dict[str, np.ndarray]:
     import h5py
 
     with h5py.File(path) as h:
-        return {k: h[k][...] for k in ("offsets", "index", "position", "kind", "strength",
-                                       "radius")}  # fmt: skip
+        return {
+            k: h[k][...] for k in ("offsets", "index", "position", "kind", "strength", "radius")
+        }
 
 
 def test_a_box_around_or_beside_a_curvilinear_grid(vts_series) -> None:  # type: ignore[no-untyped-def]
@@ -963,11 +1263,18 @@ def test_a_box_around_or_beside_a_curvilinear_grid(vts_series) -> None:  # type:
     path, c, _ = vts_series
     whole = open_volume(path, box=(-2, 2, -1, 2, -1, 1))
     assert whole.dims == (10, 24, 5) and whole.attrs["index_block"] == {
-        "i": [0, 9], "j": [0, 23], "k": [0, 4], "of": [10, 24, 5]}  # fmt: skip
+        "i": [0, 9],
+        "j": [0, 23],
+        "k": [0, 4],
+        "of": [10, 24, 5],
+    }
     np.testing.assert_array_equal(whole.coords, c)
-    with pytest.raises(DataError, match=r"the box 2, 3, 0, 1, 0, 1 m overlaps no cell of the "
-                       r"curvilinear grid \(it spans x\[-1.5, 1.5\] y\[0, 1.4965\] "
-                       r"z\[0, 0.5\] m\)"):  # fmt: skip
+    with pytest.raises(
+        DataError,
+        match=r"the box 2, 3, 0, 1, 0, 1 m overlaps no cell of the "
+        r"curvilinear grid \(it spans x\[-1.5, 1.5\] y\[0, 1.4965\] "
+        r"z\[0, 0.5\] m\)",
+    ):
         open_volume(path, box=(2, 3, 0, 1, 0, 1))
 
 
@@ -998,7 +1305,13 @@ def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> 
     assert (cell >= 0).mean() > 0.8
     ck, cj, ci = np.unravel_index(cell[cell >= 0], (4, 23, 9))
     assert (ci.min(), ci.max() + 1, cj.min(), cj.max() + 1, ck.min(), ck.max() + 1) == (
-        i0, i1, j0, j1, k0, k1)  # fmt: skip
+        i0,
+        i1,
+        j0,
+        j1,
+        k0,
+        k1,
+    )
     tol = 1e-9 * 3.0
     inside = np.ones(c.shape[:3], dtype=bool)
     for a in range(3):
@@ -1008,11 +1321,13 @@ def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> 
     assert inside.sum() == 340 and not (inside & ~in_block).any()
     b = vol.bounds
     flat = c[in_block]
-    assert b == pytest.approx(tuple(v for a in range(3) for v in (flat[:, a].min(),
-                                                                flat[:, a].max())))  # fmt: skip
-    np.testing.assert_array_equal(vol.frame("density", 3),
-                                  open_volume(full).frame("density", 3)[k0:k1 + 1, j0:j1 + 1,
-                                                                        i0:i1 + 1])  # fmt: skip
+    assert b == pytest.approx(
+        tuple(v for a in range(3) for v in (flat[:, a].min(), flat[:, a].max()))
+    )
+    np.testing.assert_array_equal(
+        vol.frame("density", 3),
+        open_volume(full).frame("density", 3)[k0 : k1 + 1, j0 : j1 + 1, i0 : i1 + 1],
+    )
 
     assert main(["info", str(full), box, "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
@@ -1024,11 +1339,11 @@ def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> 
     assert "box      index block i 0..9, j 5..18, k 0..4 of 10 x 24 x 5 points" in text
 
     # the same block written alone: the same sources and sound, bit for bit
-    part, _, _ = write_vts_series(tmp_path / "part", swirl=0.5, width=0.5,
-                                  block=(i0, i1 + 1, j0, j1 + 1, k0, k1 + 1))  # fmt: skip
+    part, _, _ = write_vts_series(
+        tmp_path / "part", swirl=0.5, width=0.5, block=(i0, i1 + 1, j0, j1 + 1, k0, k1 + 1)
+    )
     got = {}
-    for name, args in (("box", [str(full), box]), ("part", [str(part)]),
-                       ("full", [str(full)])):  # fmt: skip
+    for name, args in (("box", [str(full), box]), ("part", [str(part)]), ("full", [str(full)])):
         out = tmp_path / f"{name}.h5"
         assert main(["detect", *args, *THRESHOLDS, "-o", str(out)]) == 0
         got[name] = _sources(out)
@@ -1038,8 +1353,25 @@ def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> 
     wavs = {}
     for name, args in (("box", [str(full), box]), ("part", [str(part)])):
         wav = tmp_path / f"{name}.wav"
-        assert main(["render", *args, "--listener", "0,-1,0.25", "--duration", "0.05", "--rate",
-                     "8000", "-o", str(wav), "--normalize", "none"]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "render",
+                    *args,
+                    "--listener",
+                    "0,-1,0.25",
+                    "--duration",
+                    "0.05",
+                    "--rate",
+                    "8000",
+                    "-o",
+                    str(wav),
+                    "--normalize",
+                    "none",
+                ]
+            )
+            == 0
+        )
         wavs[name] = read_wav(wav)[0]
     capsys.readouterr()
     assert np.abs(wavs["box"]).max() > 0 and np.array_equal(wavs["box"], wavs["part"])
@@ -1052,8 +1384,14 @@ def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> 
     inner = np.zeros(shape, dtype=bool).reshape(-1)
     inner.reshape(shape)[:, 3:-3, :] = True
     to_full = np.ravel_multi_index(
-        tuple(g + o for g, o in zip(np.unravel_index(np.arange(inner.size), shape), (k0, j0, i0),
-                                    strict=True)), c.shape[:3])  # fmt: skip
+        tuple(
+            g + o
+            for g, o in zip(
+                np.unravel_index(np.arange(inner.size), shape), (k0, j0, i0), strict=True
+            )
+        ),
+        c.shape[:3],
+    )
     box_s, full_s = got["box"], got["full"]
     compared, sums = 0, np.zeros(2)
     for n in range(times.size):
@@ -1066,17 +1404,20 @@ def test_box_crops_a_curvilinear_grid_in_index_space(tmp_path: Path, capsys) -> 
         wanted = set(to_full[inner].tolist())
         assert sum(int(x) in wanted for x in full_s["index"][f_rows]) == here.size, n
         for key in ("kind", "strength", "radius", "position"):
-            np.testing.assert_allclose(box_s[key][here], full_s[key][there], rtol=1e-12,
-                                       err_msg=f"step {n}: {key}")  # fmt: skip
+            np.testing.assert_allclose(
+                box_s[key][here], full_s[key][there], rtol=1e-12, err_msg=f"step {n}: {key}"
+            )
         compared += here.size
         # monopoles at the points inside the box, whole block (cut faces included)
         pts = box_s["position"][b_rows]
-        sel = (box_s["kind"][b_rows] == 1) & np.all((pts >= np.array(BOX[::2]) - tol)
-                                                    & (pts <= np.array(BOX[1::2]) + tol), axis=1)  # fmt: skip
+        sel = (box_s["kind"][b_rows] == 1) & np.all(
+            (pts >= np.array(BOX[::2]) - tol) & (pts <= np.array(BOX[1::2]) + tol), axis=1
+        )
         sums[0] += np.abs(box_s["strength"][b_rows][sel] * box_s["radius"][b_rows][sel] ** 3).sum()
         pts = full_s["position"][f_rows]
-        sel = (full_s["kind"][f_rows] == 1) & np.all((pts >= np.array(BOX[::2]) - tol)
-                                                     & (pts <= np.array(BOX[1::2]) + tol), axis=1)  # fmt: skip
+        sel = (full_s["kind"][f_rows] == 1) & np.all(
+            (pts >= np.array(BOX[::2]) - tol) & (pts <= np.array(BOX[1::2]) + tol), axis=1
+        )
         sums[1] += np.abs(
             full_s["strength"][f_rows][sel] * full_s["radius"][f_rows][sel] ** 3
         ).sum()

@@ -104,16 +104,21 @@ class CountingFrames:
 def counting_volume(vol: TimeVolume, reads: list[int], bad_step: int | None = None) -> TimeVolume:
     arrays = {k: np.stack(list(vol.iter_frames(k))) for k in vol.field_names}
     return TimeVolume(
-        origin=vol.origin, spacing=vol.spacing, dims=vol.dims, times=vol.times,
+        origin=vol.origin,
+        spacing=vol.spacing,
+        dims=vol.dims,
+        times=vol.times,
         fields={k: CountingFrames(a, reads, bad_step) for k, a in arrays.items()},
         source="counting",
-    )  # fmt: skip
+    )
 
 
 # ------------------------------------------------------------------ imports
 def test_import_auralize_does_not_import_dask() -> None:
-    code = ("import sys, auralize, auralize.distributed, auralize.cli.distributed, auralize.bench.distributed; "
-            "print('dask' in sys.modules, 'distributed' in sys.modules)")  # fmt: skip
+    code = (
+        "import sys, auralize, auralize.distributed, auralize.cli.distributed, auralize.bench.distributed; "
+        "print('dask' in sys.modules, 'distributed' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
 
@@ -136,11 +141,14 @@ def test_to_dask_reads_one_step_per_chunk(explosion: TimeVolume) -> None:
 def test_chunked_file_matches_in_memory_detection_across_chunk_borders(
     tmp_path: Path, explosion_ref: SourceSeries
 ) -> None:
-    f = write_chunked_explosion(tmp_path / "big.h5", 20, 7, 3, generator="particles",
-                                dtype="float64")  # fmt: skip
+    f = write_chunked_explosion(
+        tmp_path / "big.h5", 20, 7, 3, generator="particles", dtype="float64"
+    )
     vol = open_volume(f)
-    assert np.array_equal(vol.frame("log10_density", 4),
-                          make_explosion(size=20, steps=7, seed=3).frame("log10_density", 4))  # fmt: skip
+    assert np.array_equal(
+        vol.frame("log10_density", 4),
+        make_explosion(size=20, steps=7, seed=3).frame("log10_density", 4),
+    )
     # relative thresholds: peaks and the paper mapping's statistics come from tasks too
     got = detect_distributed(vol, mapping="paper-density", chunk_steps=3, slab_planes=4, log=None)
     assert scale(got)["chunks"] == 3  # time borders at steps 3 and 6
@@ -148,8 +156,14 @@ def test_chunked_file_matches_in_memory_detection_across_chunk_borders(
     assert_same_sources(got, explosion_ref)
     # the same with absolute thresholds, on Dask-array-backed frames
     thr = Thresholds(*explosion_ref.thresholds)
-    got = detect_distributed(chunked_volume(vol), mapping="paper-density", thresholds=thr,
-                             chunk_steps=2, slab_planes=6, log=None)  # fmt: skip
+    got = detect_distributed(
+        chunked_volume(vol),
+        mapping="paper-density",
+        thresholds=thr,
+        chunk_steps=2,
+        slab_planes=6,
+        log=None,
+    )
     assert_same_sources(got, explosion_ref)
 
 
@@ -160,8 +174,14 @@ def test_all_local_schedulers_and_a_local_cluster_match_sync(
     for sched in ("threads", "distributed"):
         with Runner(sched, workers=2, processes=False, log=None) as run:
             assert run.n_workers == 2
-            got = detect_distributed(explosion, mapping="paper-density", thresholds=thr,
-                                     runner=run, chunk_steps=2, slab_planes=5)  # fmt: skip
+            got = detect_distributed(
+                explosion,
+                mapping="paper-density",
+                thresholds=thr,
+                runner=run,
+                chunk_steps=2,
+                slab_planes=5,
+            )
         assert scale(got)["workers"] == 2
         assert_same_sources(got, explosion_ref)
 
@@ -196,8 +216,13 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
 
         return task
 
-    for name in ("paper_range_task", "paper_gradient_task", "peak_task", "steady_task",
-                 "detect_task"):  # fmt: skip
+    for name in (
+        "paper_range_task",
+        "paper_gradient_task",
+        "peak_task",
+        "steady_task",
+        "detect_task",
+    ):
         monkeypatch.setattr(D, name, counted(getattr(D, name)))
     real = Runner.compute
 
@@ -206,14 +231,20 @@ def test_preparation_passes_run_one_task_per_chunk_and_slab(
         real(self, outputs, on_result)
 
     monkeypatch.setattr(Runner, "compute", compute)
-    got = D.detect_distributed(explosion, mapping="paper-density", chunk_steps=4, slab_planes=10,
-                               log=None)  # fmt: skip
+    got = D.detect_distributed(
+        explosion, mapping="paper-density", chunk_steps=4, slab_planes=10, log=None
+    )
     assert len(scale(got)["slabs"]) == 2 and scale(got)["chunks"] == 2  # steps [0, 4), [4, 7)
     # range and gradient: every step; peaks: the sample steps; one task per chunk × slab;
     # the steady state's anchor steps: one task per block of steps (one block of 8
     # here) × slab
-    assert calls == {"paper_range_task": 4, "paper_gradient_task": 4, "peak_task": 4,
-                     "steady_task": 2, "detect_task": 4}  # fmt: skip
+    assert calls == {
+        "paper_range_task": 4,
+        "paper_gradient_task": 4,
+        "peak_task": 4,
+        "steady_task": 2,
+        "detect_task": 4,
+    }
     # all passes are one graph: the mapping, the peaks, the thresholds, the steady
     # strength and 4 detections
     assert graphs == [4 + 4]
@@ -258,8 +289,9 @@ def test_cluster_workers_are_set_up_before_their_first_task() -> None:
         # the statistical profiler is off in the worker process (~9 % of a busy task's CPU)
         (prof,) = run.client.run(_profiler_enabled).values()
         assert prof is False
-    with Runner("distributed", workers=1, processes=False, log=None,
-                setup_workers=False, profile=True) as run:  # fmt: skip
+    with Runner(
+        "distributed", workers=1, processes=False, log=None, setup_workers=False, profile=True
+    ) as run:
         assert run.worker_setup == []
         (prof,) = run.client.run(_profiler_enabled).values()
         assert prof is True
@@ -277,10 +309,12 @@ def test_interrupted_run_resumes_without_redoing_finished_steps(
     tmp_path: Path, explosion: TimeVolume
 ) -> None:
     vol = TimeVolume.from_arrays(
-        {"density": np.stack([10 ** explosion.frame("log10_density", n) for n in range(7)]),
-         "velocity": np.stack(list(explosion.iter_frames("velocity")))},
+        {
+            "density": np.stack([10 ** explosion.frame("log10_density", n) for n in range(7)]),
+            "velocity": np.stack(list(explosion.iter_frames("velocity"))),
+        },
         times=explosion.times,
-    )  # fmt: skip
+    )
     thr = Thresholds(0.5, 5.0, 50.0)
     ref = detect(vol, mapping="identity", thresholds=thr)
     out = tmp_path / "sources.h5"
@@ -293,15 +327,22 @@ def test_interrupted_run_resumes_without_redoing_finished_steps(
 
     reads: list[int] = []
     with pytest.raises(KeyboardInterrupt):
-        detect_distributed(counting_volume(vol, reads), thresholds=thr, output=out,
-                           chunk_steps=2, on_chunk=stop_after_two, log=None)  # fmt: skip
+        detect_distributed(
+            counting_volume(vol, reads),
+            thresholds=thr,
+            output=out,
+            chunk_steps=2,
+            on_chunk=stop_after_two,
+            log=None,
+        )
     assert not out.exists()
     done = StateStore(out).done_steps()
     assert len(saved) == 2 and done == set(saved[0]) | set(saved[1]) and 3 <= len(done) <= 4
     todo = sorted(set(range(7)) - done)
     reads.clear()
-    got = detect_distributed(counting_volume(vol, reads), thresholds=thr, output=out,
-                             chunk_steps=2, log=None)  # fmt: skip
+    got = detect_distributed(
+        counting_volume(vol, reads), thresholds=thr, output=out, chunk_steps=2, log=None
+    )
     sc = scale(got)
     assert sc["computed_steps"] == todo and sc["resumed_steps"] == len(done)
     # only the missing steps and their neighbours were read (two on each side for the
@@ -325,20 +366,37 @@ def test_resume_refuses_state_of_other_settings(tmp_path: Path, explosion: TimeV
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        detect_distributed(explosion, mapping="paper-density", thresholds=Thresholds(1, 1, 1),
-                           output=out, chunk_steps=3, on_chunk=stop, log=None)  # fmt: skip
+        detect_distributed(
+            explosion,
+            mapping="paper-density",
+            thresholds=Thresholds(1, 1, 1),
+            output=out,
+            chunk_steps=3,
+            on_chunk=stop,
+            log=None,
+        )
     with pytest.raises(ParameterError, match="other settings.*restart"):
-        detect_distributed(explosion, mapping="paper-density", thresholds=Thresholds(2, 1, 1),
-                           output=out, log=None)  # fmt: skip
-    got = detect_distributed(explosion, mapping="paper-density", thresholds=Thresholds(2, 1, 1),
-                             output=out, restart=True, log=None)  # fmt: skip
+        detect_distributed(
+            explosion, mapping="paper-density", thresholds=Thresholds(2, 1, 1), output=out, log=None
+        )
+    got = detect_distributed(
+        explosion,
+        mapping="paper-density",
+        thresholds=Thresholds(2, 1, 1),
+        output=out,
+        restart=True,
+        log=None,
+    )
     assert scale(got)["resumed_steps"] == 0 and out.exists()
 
 
 # --------------------------------------------------------------- bad input
 def test_unreachable_scheduler_is_a_clear_error() -> None:
-    with pytest.raises(SchedulerError, match=r"no Dask scheduler answered at tcp://127.0.0.1:9 "
-                                             r"within 2 s"):  # fmt: skip
+    with pytest.raises(
+        SchedulerError,
+        match=r"no Dask scheduler answered at tcp://127.0.0.1:9 "
+        r"within 2 s",
+    ):
         Runner("distributed", address="tcp://127.0.0.1:9", timeout=2, log=None).__enter__()
     with pytest.raises(ParameterError, match="unknown scheduler 'gpu'"):
         Runner("gpu")
@@ -358,8 +416,9 @@ def test_chunks_of_mismatched_shapes_are_refused(explosion: TimeVolume) -> None:
     with pytest.raises(DataError, match=r"step 4.*shape \(2, 2, 2\)"):
         to_dask(vol, "velocity").compute(scheduler="sync")
     with pytest.raises(DataError, match=r"step 4: the frame source returned shape \(2, 2, 2\)"):
-        detect_distributed(vol, mapping="paper-density", thresholds=Thresholds(1, 1, 1),
-                           slab_planes=8, log=None)  # fmt: skip
+        detect_distributed(
+            vol, mapping="paper-density", thresholds=Thresholds(1, 1, 1), slab_planes=8, log=None
+        )
 
 
 # ------------------------------------------------------------- dying workers
@@ -409,24 +468,38 @@ def test_worker_dying_mid_run_fails_over_or_stops_resumably(
         fields: dict[str, Any] = {
             k: DyingFrames(v, 5, str(marker), once) for k, v in base.fields.items()
         }
-        return TimeVolume(origin=base.origin, spacing=base.spacing, dims=base.dims,
-                          times=base.times, fields=fields, source=base.source)  # fmt: skip
+        return TimeVolume(
+            origin=base.origin,
+            spacing=base.spacing,
+            dims=base.dims,
+            times=base.times,
+            fields=fields,
+            source=base.source,
+        )
 
     out = tmp_path / "s.h5"
-    with dask.config.set({"distributed.scheduler.allowed-failures": 1}), \
-            Runner("distributed", workers=2, processes=True, log=None) as run:  # fmt: skip
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 1}),
+        Runner("distributed", workers=2, processes=True, log=None) as run,
+    ):
         # a worker dies once: its task is re-run on a live worker; same sources
         marker.touch()
-        got = detect_distributed(dying(True), mapping="paper-density", thresholds=thr,
-                                 runner=run, chunk_steps=2)  # fmt: skip
+        got = detect_distributed(
+            dying(True), mapping="paper-density", thresholds=thr, runner=run, chunk_steps=2
+        )
         assert not marker.exists()  # it did die
         assert_same_sources(got, explosion_ref)
         # a task that kills every worker it runs on: the run stops, finished chunks saved
         # (identity mapping, steady part kept: no statistics pass, so the deaths happen
         # in detection tasks)
         marker.touch()
-        ident = {"mapping": "identity", "density": "log10_density", "thresholds": thr,
-                 "chunk_steps": 2, "steady": "keep"}  # fmt: skip
+        ident = {
+            "mapping": "identity",
+            "density": "log10_density",
+            "thresholds": thr,
+            "chunk_steps": 2,
+            "steady": "keep",
+        }
         with pytest.raises(RunError, match="killed the workers.*run again to resume"):
             detect_distributed(dying(False), runner=run, output=out, **ident)  # type: ignore[arg-type]
     done = StateStore(out).done_steps()
@@ -434,8 +507,10 @@ def test_worker_dying_mid_run_fails_over_or_stops_resumably(
     marker.unlink()
     got = detect_distributed(base, output=out, log=None, **ident)  # type: ignore[arg-type]
     assert scale(got)["resumed_steps"] == len(done)
-    assert_same_sources(got, detect(base, mapping="identity", density="log10_density",
-                                    thresholds=thr, steady="keep"))  # fmt: skip
+    assert_same_sources(
+        got,
+        detect(base, mapping="identity", density="log10_density", thresholds=thr, steady="keep"),
+    )
 
 
 # --------------------------------------------------------------- synthesis
@@ -446,8 +521,9 @@ def test_distributed_synthesis_blocks_join_without_seams(
     path = ListenerPath.orbit(explosion.center, radius=6.0, duration=0.4, turns=0.3)
     whole = render_tracks(tracks, path, rate=16000, layout="ring8").audio
     with Runner("threads", workers=2, log=None) as run:
-        got = render_distributed(tracks, path, rate=16000, layout="ring8", block_seconds=0.037,
-                                 groups=4, runner=run)  # fmt: skip
+        got = render_distributed(
+            tracks, path, rate=16000, layout="ring8", block_seconds=0.037, groups=4, runner=run
+        )
     assert got.meta["blocks"] == 11 and got.meta["groups"] == 4 and got.meta["tasks"] == 44
     assert got.audio.shape == whole.shape == (8, 6400)
     assert np.max(np.abs(got.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
@@ -457,8 +533,9 @@ def test_distributed_synthesis_blocks_join_without_seams(
     assert np.max(np.abs(one.audio - whole)) <= 1e-9 * np.max(np.abs(whole))
     # on a local cluster the groups travel packed (scattered, one worker each)
     with Runner("distributed", workers=2, processes=False, log=None) as run:
-        dist = render_distributed(tracks, path, rate=16000, layout="ring8", groups=3,
-                                  block_seconds=0.15, runner=run)  # fmt: skip
+        dist = render_distributed(
+            tracks, path, rate=16000, layout="ring8", groups=3, block_seconds=0.15, runner=run
+        )
         # inputs placed one at a time go to the workers in turn, and a
         # generator of calls is submitted as it is produced
         placed = list(run.place_each(np.full(3, k) for k in range(4)))
@@ -498,8 +575,9 @@ def test_packed_tracks_travel_as_their_nonzero_strengths(explosion_ref: SourceSe
     part = PackedTracks(tr, [(k3, 2 * k3), (0, 5)]).tracks()
     want = np.concatenate([tr.q[k3 : 2 * k3], tr.q[:5]])
     assert np.array_equal(part.q, want) and part.n_sources == k3 + 5
-    assert np.array_equal(part.positions, np.concatenate([tr.positions[k3 : 2 * k3],
-                                                           tr.positions[:5]]))  # fmt: skip
+    assert np.array_equal(
+        part.positions, np.concatenate([tr.positions[k3 : 2 * k3], tr.positions[:5]])
+    )
 
 
 def test_task_plan_groups_many_pieces_and_blocks_long_outputs() -> None:
@@ -508,8 +586,9 @@ def test_task_plan_groups_many_pieces_and_blocks_long_outputs() -> None:
     def tracks(k: int, t: int, dense: bool) -> SourceTracks:
         q = np.ones((k, t)) if dense else np.zeros((k, t))
         q[:, 0] = 1.0
-        return SourceTracks(positions=np.zeros((k, 3)), q=q, radius=np.ones(k),
-                            times=np.arange(float(t)))  # fmt: skip
+        return SourceTracks(
+            positions=np.zeros((k, 3)), q=q, radius=np.ones(k), times=np.arange(float(t))
+        )
 
     # few pieces: one group, the parallelism from blocks (two tasks per worker)
     block, groups = plan_tasks(tracks(100, 10, True), 44100, 8, 2)
@@ -530,18 +609,22 @@ def test_source_groups_are_contiguous_balanced_and_cover_every_source() -> None:
     q = np.zeros((100, 32))
     q[:50, :] = 1.0  # the first half sounds at every knot, the second once
     q[50:, 0] = 1.0
-    tr = SourceTracks(positions=np.zeros((100, 3)), q=q, radius=np.ones(100),
-                      times=np.arange(32.0))  # fmt: skip
+    tr = SourceTracks(positions=np.zeros((100, 3)), q=q, radius=np.ones(100), times=np.arange(32.0))
     g = [r for (r,) in source_groups(tr, 4)]  # one range per group
     assert g[0][0] == 0 and g[-1][1] == 100
     assert all(a < b for a, b in g) and all(g[i][1] == g[i + 1][0] for i in range(len(g) - 1))
     # by work, not by count: three of four groups go to the busy first half
     assert sum(b <= 50 for a, b in g) == 3
-    even = SourceTracks(positions=np.zeros((5, 3)), q=np.ones((5, 8)), radius=np.ones(5),
-                        times=np.arange(8.0))  # fmt: skip
+    even = SourceTracks(
+        positions=np.zeros((5, 3)), q=np.ones((5, 8)), radius=np.ones(5), times=np.arange(8.0)
+    )
     assert source_groups(even, 1000) == [[(k, k + 1)] for k in range(5)]  # ≤ one per source
-    assert source_groups(SourceTracks(np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0),
-                                      np.arange(4.0)), 3) == []  # fmt: skip
+    assert (
+        source_groups(
+            SourceTracks(np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0), np.arange(4.0)), 3
+        )
+        == []
+    )
 
 
 def test_striped_source_groups_interleave_and_balance() -> None:
@@ -552,8 +635,9 @@ def test_striped_source_groups_interleave_and_balance() -> None:
 
     rng = np.random.default_rng(3)
     q = (rng.random((4000, 20)) < np.linspace(0.05, 0.6, 4000)[:, None]).astype(float)
-    tr = SourceTracks(positions=np.zeros((4000, 3)), q=q, radius=np.ones(4000),
-                      times=np.arange(20.0))  # fmt: skip
+    tr = SourceTracks(
+        positions=np.zeros((4000, 3)), q=q, radius=np.ones(4000), times=np.arange(20.0)
+    )
     groups = source_groups(tr, 4, stripes=8)
     assert len(groups) == 4 and all(len(r) == 8 for r in groups)
     flat = sorted(r for g in groups for r in g)
@@ -584,8 +668,9 @@ def test_distributed_synthesis_renders_every_block_in_a_task(
 
     monkeypatch.setattr(synth, "render_tracks", spy)
     path = ListenerPath.orbit(explosion.center, radius=6.0, duration=0.4, turns=0.3)
-    got = render_distributed(explosion_ref.tracks(), path, rate=16000, layout="ring8",
-                             block_seconds=0.1, log=None)  # fmt: skip
+    got = render_distributed(
+        explosion_ref.tracks(), path, rate=16000, layout="ring8", block_seconds=0.1, log=None
+    )
     # the caller only validates (renders nothing); every (block, group) is a task
     # (few sounding pieces: one group, see plan_tasks)
     assert got.meta["blocks"] == 4 and got.meta["groups"] == 1
@@ -605,30 +690,101 @@ def test_chunked_recipe_bad_input_leaves_no_file(tmp_path: Path) -> None:
 
 # --------------------------------------------------------------------- CLI
 @pytest.mark.filterwarnings("ignore::auralize.sources.SourceFractionWarning")  # low thresholds
-def test_cli_dataset_chunked_and_detect_on_dask(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                                capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_cli_dataset_chunked_and_detect_on_dask(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert "auralize.cli.distributed" in cli.CORE_COMMAND_MODULES
     vol = tmp_path / "big.h5"
-    assert cli.main(["dataset", "explosion", "--chunked", "--size", "16", "--steps", "5",
-                     "--generator", "analytic", "-o", str(vol)]) == 0  # fmt: skip
+    assert (
+        cli.main(
+            [
+                "dataset",
+                "explosion",
+                "--chunked",
+                "--size",
+                "16",
+                "--steps",
+                "5",
+                "--generator",
+                "analytic",
+                "-o",
+                str(vol),
+            ]
+        )
+        == 0
+    )
     assert open_volume(vol).dims == (16, 16, 16)
-    thr = ["--threshold-monopole", "0.5", "--threshold-dipole", "20", "--threshold-quadrupole",
-           "500"]  # fmt: skip
+    thr = [
+        "--threshold-monopole",
+        "0.5",
+        "--threshold-dipole",
+        "20",
+        "--threshold-quadrupole",
+        "500",
+    ]
     assert cli.main(["detect", str(vol), "-o", str(tmp_path / "serial.h5"), *thr]) == 0
-    assert cli.main(["detect", str(vol), "-o", str(tmp_path / "dask.h5"), *thr,
-                     "--scheduler", "threads", "--workers", "2", "--chunk-steps", "2",
-                     "--slab-planes", "5"]) == 0  # fmt: skip
+    assert (
+        cli.main(
+            [
+                "detect",
+                str(vol),
+                "-o",
+                str(tmp_path / "dask.h5"),
+                *thr,
+                "--scheduler",
+                "threads",
+                "--workers",
+                "2",
+                "--chunk-steps",
+                "2",
+                "--slab-planes",
+                "5",
+            ]
+        )
+        == 0
+    )
     assert "2 workers (threads)" in capsys.readouterr().out
     assert_same_sources(
         load_sources_h5(tmp_path / "dask.h5"), load_sources_h5(tmp_path / "serial.h5")
     )
     wav = tmp_path / "a.wav"
-    assert cli.main(["render", str(vol), "--sources", str(tmp_path / "dask.h5"), "-o", str(wav),
-                     "--listener", "7,7,7", "--duration", "0.2", "--layout", "ring8",
-                     "--scheduler", "threads", "--workers", "2"]) == 0  # fmt: skip
+    assert (
+        cli.main(
+            [
+                "render",
+                str(vol),
+                "--sources",
+                str(tmp_path / "dask.h5"),
+                "-o",
+                str(wav),
+                "--listener",
+                "7,7,7",
+                "--duration",
+                "0.2",
+                "--layout",
+                "ring8",
+                "--scheduler",
+                "threads",
+                "--workers",
+                "2",
+            ]
+        )
+        == 0
+    )
     assert wav.exists() and "source groups) on 2 workers" in capsys.readouterr().out
-    code = cli.main(["scale-detect", str(vol), "-o", str(tmp_path / "x.h5"), *thr,
-                     "--address", "tcp://127.0.0.1:9", "--timeout", "1"])  # fmt: skip
+    code = cli.main(
+        [
+            "scale-detect",
+            str(vol),
+            "-o",
+            str(tmp_path / "x.h5"),
+            *thr,
+            "--address",
+            "tcp://127.0.0.1:9",
+            "--timeout",
+            "1",
+        ]
+    )
     assert code == 4  # a system error
     assert "no Dask scheduler answered at tcp://127.0.0.1:9" in capsys.readouterr().err
     assert not (tmp_path / "x.h5").exists()
@@ -663,10 +819,16 @@ def test_client_streams_chunks_to_the_output_file_without_holding_all_sources(
     base = alive()
     held: list[int] = []
     out = tmp_path / "s.h5"
-    got = detect_distributed(explosion, mapping="paper-density",
-                             thresholds=Thresholds(*explosion_ref.thresholds), output=out,
-                             chunk_steps=1, slab_planes=5, on_chunk=lambda _r: held.append(alive()),
-                             log=None)  # fmt: skip
+    got = detect_distributed(
+        explosion,
+        mapping="paper-density",
+        thresholds=Thresholds(*explosion_ref.thresholds),
+        output=out,
+        chunk_steps=1,
+        slab_planes=5,
+        on_chunk=lambda _r: held.append(alive()),
+        log=None,
+    )
     slabs, chunks = len(scale(got)["slabs"]), scale(got)["chunks"]
     assert slabs >= 2 and chunks == 7 and len(held) == chunks
     # slab pieces wait on disk: at most one chunk's frames (7 steps × 5 pieces in all)
@@ -702,8 +864,14 @@ def test_resume_with_slab_pieces_of_an_unfinished_chunk_left_over(
 ) -> None:
     out = tmp_path / "s.h5"
     thr = Thresholds(*explosion_ref.thresholds)
-    kw: dict[str, Any] = {"mapping": "paper-density", "thresholds": thr, "output": out,
-                          "chunk_steps": 2, "slab_planes": 5, "log": None}  # fmt: skip
+    kw: dict[str, Any] = {
+        "mapping": "paper-density",
+        "thresholds": thr,
+        "output": out,
+        "chunk_steps": 2,
+        "slab_planes": 5,
+        "log": None,
+    }
 
     def stop(_steps: range) -> None:
         raise KeyboardInterrupt

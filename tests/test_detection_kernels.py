@@ -81,22 +81,46 @@ def reference_errors(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad):  
                     b = 0.25 * (t[2, k2 + 2, j, i] - 2.0 * t[2, k2, j, i] + t[2, k2 - 2, j, i])
                     eq += (a - b) / (hz * hz)
                 if ok_x and ok_y:
-                    a = (t[3, k, j2 + 1, i2 + 1] - t[3, k, j2 + 1, i2 - 1]
-                         - t[3, k, j2 - 1, i2 + 1] + t[3, k, j2 - 1, i2 - 1]) / 4.0  # fmt: skip
-                    b = (t[3, k, j2 + 2, i2 + 2] - t[3, k, j2 + 2, i2 - 2]
-                         - t[3, k, j2 - 2, i2 + 2] + t[3, k, j2 - 2, i2 - 2]) / 16.0  # fmt: skip
+                    a = (
+                        t[3, k, j2 + 1, i2 + 1]
+                        - t[3, k, j2 + 1, i2 - 1]
+                        - t[3, k, j2 - 1, i2 + 1]
+                        + t[3, k, j2 - 1, i2 - 1]
+                    ) / 4.0
+                    b = (
+                        t[3, k, j2 + 2, i2 + 2]
+                        - t[3, k, j2 + 2, i2 - 2]
+                        - t[3, k, j2 - 2, i2 + 2]
+                        + t[3, k, j2 - 2, i2 - 2]
+                    ) / 16.0
                     eq += 2.0 * (a - b) / (hx * hy)
                 if ok_x and ok_z:
-                    a = (t[4, k2 + 1, j, i2 + 1] - t[4, k2 + 1, j, i2 - 1]
-                         - t[4, k2 - 1, j, i2 + 1] + t[4, k2 - 1, j, i2 - 1]) / 4.0  # fmt: skip
-                    b = (t[4, k2 + 2, j, i2 + 2] - t[4, k2 + 2, j, i2 - 2]
-                         - t[4, k2 - 2, j, i2 + 2] + t[4, k2 - 2, j, i2 - 2]) / 16.0  # fmt: skip
+                    a = (
+                        t[4, k2 + 1, j, i2 + 1]
+                        - t[4, k2 + 1, j, i2 - 1]
+                        - t[4, k2 - 1, j, i2 + 1]
+                        + t[4, k2 - 1, j, i2 - 1]
+                    ) / 4.0
+                    b = (
+                        t[4, k2 + 2, j, i2 + 2]
+                        - t[4, k2 + 2, j, i2 - 2]
+                        - t[4, k2 - 2, j, i2 + 2]
+                        + t[4, k2 - 2, j, i2 - 2]
+                    ) / 16.0
                     eq += 2.0 * (a - b) / (hx * hz)
                 if ok_y and ok_z:
-                    a = (t[5, k2 + 1, j2 + 1, i] - t[5, k2 + 1, j2 - 1, i]
-                         - t[5, k2 - 1, j2 + 1, i] + t[5, k2 - 1, j2 - 1, i]) / 4.0  # fmt: skip
-                    b = (t[5, k2 + 2, j2 + 2, i] - t[5, k2 + 2, j2 - 2, i]
-                         - t[5, k2 - 2, j2 + 2, i] + t[5, k2 - 2, j2 - 2, i]) / 16.0  # fmt: skip
+                    a = (
+                        t[5, k2 + 1, j2 + 1, i]
+                        - t[5, k2 + 1, j2 - 1, i]
+                        - t[5, k2 - 1, j2 + 1, i]
+                        + t[5, k2 - 1, j2 - 1, i]
+                    ) / 4.0
+                    b = (
+                        t[5, k2 + 2, j2 + 2, i]
+                        - t[5, k2 + 2, j2 - 2, i]
+                        - t[5, k2 - 2, j2 + 2, i]
+                        + t[5, k2 - 2, j2 - 2, i]
+                    ) / 16.0
                     eq += 2.0 * (a - b) / (hy * hz)
                 err[2, k, j, i] = abs(eq) / 3.0
     return err
@@ -144,8 +168,9 @@ SHAPES = [(6, 5, 7), (7, 9, 8), (1, 6, 7), (2, 5, 6), (6, 1, 2), (2, 2, 1), (1, 
 @pytest.mark.parametrize("shape", SHAPES)
 @pytest.mark.parametrize("bad_share", [0.0, 0.08])
 @pytest.mark.parametrize("inv_dt2", [0.0, 0.45])
-def test_fused_floor_equals_unfused_reference(shape: tuple[int, int, int], bad_share: float,
-                                              inv_dt2: float) -> None:  # fmt: skip
+def test_fused_floor_equals_unfused_reference(
+    shape: tuple[int, int, int], bad_share: float, inv_dt2: float
+) -> None:
     s, rho_a2, rho_b2, dm, dm2, tt, bad = random_step(shape, 7, bad_share)
     h = np.array([0.3, 0.5, 0.7])
     roundoff = np.array([0.5, 0.0, 1.0])
@@ -172,8 +197,9 @@ def test_fused_floor_does_not_depend_on_the_blocks(threads: int) -> None:
     s, rho_a2, rho_b2, dm, dm2, tt, bad = random_step((11, 6, 7), 3, 0.05)
     h = np.array([0.2, 0.2, 0.4])
     roundoff = np.zeros(3)
-    want = reference_floor(s, reference_errors(rho_a2, rho_b2, dm, dm2, tt, 1.3, 0.6, h, s, bad),
-                           3.0, roundoff)  # fmt: skip
+    want = reference_floor(
+        s, reference_errors(rho_a2, rho_b2, dm, dm2, tt, 1.3, 0.6, h, s, bad), 3.0, roundoff
+    )
     old = numba.get_num_threads()
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     try:

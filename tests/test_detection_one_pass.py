@@ -65,11 +65,18 @@ def reference(vol: TimeVolume, mapping: str, thresholds: Thresholds) -> tuple[An
     m = get_mapping(mapping)
     m.prepare(vol)
     qmean = steady_strength(vol, m)
-    stats = (strength_stats(vol, m, qmean=qmean, floor=thresholds.floor)
-             if thresholds.needs_scale else None)  # fmt: skip
+    stats = (
+        strength_stats(vol, m, qmean=qmean, floor=thresholds.floor)
+        if thresholds.needs_scale
+        else None
+    )
     thr = thresholds.resolve(stats)
-    frames = [f for _, f in iter_detect(vol, m, thr, zero_fraction=thresholds.zero_fraction,
-                                        qmean=qmean, floor=thresholds.floor)]  # fmt: skip
+    frames = [
+        f
+        for _, f in iter_detect(
+            vol, m, thr, zero_fraction=thresholds.zero_fraction, qmean=qmean, floor=thresholds.floor
+        )
+    ]
     return thr, frames
 
 
@@ -94,13 +101,21 @@ def masked_spinning() -> TimeVolume:
 
 CASES = [
     ("explosion", lambda: make_explosion(size=14, steps=9).load(), "paper-density", Thresholds()),
-    ("explosion-mixed", lambda: make_explosion(size=14, steps=9).load(), "paper-density",
-     Thresholds("top:2%", "1%", "auto")),
+    (
+        "explosion-mixed",
+        lambda: make_explosion(size=14, steps=9).load(),
+        "paper-density",
+        Thresholds("top:2%", "1%", "auto"),
+    ),
     ("spinning", lambda: make_spinning(size=14, steps=12).load(), "identity", Thresholds()),
-    ("spinning-abs", lambda: make_spinning(size=14, steps=12).load(), "identity",
-     Thresholds(1e-3, 1e-3, 1e-3, floor=0.0)),
+    (
+        "spinning-abs",
+        lambda: make_spinning(size=14, steps=12).load(),
+        "identity",
+        Thresholds(1e-3, 1e-3, 1e-3, floor=0.0),
+    ),
     ("masked", masked_spinning, "identity", Thresholds()),
-]  # fmt: skip
+]
 
 
 @pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
@@ -128,9 +143,10 @@ def test_a_store_that_holds_nothing_gives_the_same_sources(monkeypatch: pytest.M
 
 @pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
 @pytest.mark.parametrize(
-    "make", [lambda: make_explosion(size=14, steps=9), lambda: make_spinning(size=14, steps=12)],
+    "make",
+    [lambda: make_explosion(size=14, steps=9), lambda: make_spinning(size=14, steps=12)],
     ids=["explosion-paper-density", "spinning-identity"],
-)  # fmt: skip
+)
 def test_detect_sources_reads_each_frame_once(make: Any) -> None:
     """auto thresholds (statistics, steady anchors, detection): one read per field and step."""
     vol = make().load()

@@ -90,8 +90,12 @@ def test_sampled_equals_reference(layout: str, kind: str) -> None:
 @pytest.mark.parametrize("kind", ["moving monopole", "static dipole"])
 def test_sampled_equals_reference_other_kinds(kind: str) -> None:
     em, path = _emitters(kind), _path()
-    for layout, tol in (("mono", TOL["mono"]), ("ring8", TOL["panned"]), ("stereo", TOL["panned"]),
-                        ("7.1", TOL["panned"])):  # fmt: skip
+    for layout, tol in (
+        ("mono", TOL["mono"]),
+        ("ring8", TOL["panned"]),
+        ("stereo", TOL["panned"]),
+        ("7.1", TOL["panned"]),
+    ):
         fast = render_emitters(em, path, rate=RATE, layout=layout).audio
         ref = render_emitters(em, path, rate=RATE, layout=layout, backend="reference").audio
         assert _rel(fast, ref) < tol, (kind, layout)
@@ -123,8 +127,14 @@ def test_low_rate_emitters_are_read_band_limited(factor: int) -> None:
     # rate (the reference reads any rate linearly, which leaves images)
     fe = RATE / factor
     em = _emitters("moving monopole", rate=fe)
-    up = Emitters(resample_poly(em.signals, factor, 1, axis=-1), RATE, em.positions, t0=em.t0,
-                  pos_rate=em.pos_rate, radius=em.radius)  # fmt: skip
+    up = Emitters(
+        resample_poly(em.signals, factor, 1, axis=-1),
+        RATE,
+        em.positions,
+        t0=em.t0,
+        pos_rate=em.pos_rate,
+        radius=em.radius,
+    )
     path = _path()
     for layout in ("mono", "ring8"):
         fast = render_emitters(em, path, rate=RATE, layout=layout)
@@ -139,13 +149,18 @@ def test_low_rate_emitters_are_read_band_limited(factor: int) -> None:
 
 def test_consecutive_blocks_join_without_seams() -> None:
     path = _path()
-    for em, layout in ((_emitters("moving dipole"), _dome()),
-                       (_emitters("moving monopole", rate=RATE / 10), "ring8")):  # fmt: skip
+    for em, layout in (
+        (_emitters("moving dipole"), _dome()),
+        (_emitters("moving monopole", rate=RATE / 10), "ring8"),
+    ):
         whole = render_emitters(em, path, rate=RATE, layout=layout).audio
         n = whole.shape[1]
-        parts = [render_emitters(em, path, rate=RATE, layout=layout, start=a / RATE,
-                                 duration=min(700, n - a) / RATE).audio
-                 for a in range(0, n, 700)]  # fmt: skip
+        parts = [
+            render_emitters(
+                em, path, rate=RATE, layout=layout, start=a / RATE, duration=min(700, n - a) / RATE
+            ).audio
+            for a in range(0, n, 700)
+        ]
         joined = np.concatenate(parts, axis=1)
         assert joined.shape == whole.shape
         assert np.max(np.abs(joined - whole)) <= 1e-9 * np.max(np.abs(whole))
@@ -153,8 +168,9 @@ def test_consecutive_blocks_join_without_seams() -> None:
 
 def test_block_renderer_equals_one_render() -> None:
     path = _path()
-    sound = Sound([_emitters("static monopole"), _emitters("moving dipole", rate=RATE / 4)],
-                  name="two")  # fmt: skip
+    sound = Sound(
+        [_emitters("static monopole"), _emitters("moving dipole", rate=RATE / 4)], name="two"
+    )
     whole = render_sound(sound, path, rate=RATE, layout="5.1").audio
     br = BlockRenderer(sound, path, rate=RATE, layout="5.1", block=1000)
     blocks = list(br)
@@ -285,8 +301,9 @@ def test_silent_window_and_zero_duration() -> None:
     em = Emitters(np.ones((1, 100)), RATE, [[100.0, 0, 0]])  # arrives after 0.29 s
     out = render_emitters(em, ListenerPath.point((0, 0, 0), duration=0.1), rate=RATE).audio
     assert out.shape == (1, 4410) and not np.any(out)
-    empty = render_emitters(em, ListenerPath.point((0, 0, 0), duration=0.1), rate=RATE,
-                            duration=0.0).audio  # fmt: skip
+    empty = render_emitters(
+        em, ListenerPath.point((0, 0, 0), duration=0.1), rate=RATE, duration=0.0
+    ).audio
     assert empty.shape == (1, 0)
 
 

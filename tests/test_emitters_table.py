@@ -27,8 +27,16 @@ def _table(seed: int = 0, rows: int = 2, P: int = 2) -> tuple[np.ndarray, np.nda
     return tab, lengths
 
 
-def _emitters(C: int = 3, P: int = 2, rows: int = 2, B: int = 300, S: int = 2,
-              rate: float = RATE, mix: bool = True, seed: int = 1) -> TableEmitters:  # fmt: skip
+def _emitters(
+    C: int = 3,
+    P: int = 2,
+    rows: int = 2,
+    B: int = 300,
+    S: int = 2,
+    rate: float = RATE,
+    mix: bool = True,
+    seed: int = 1,
+) -> TableEmitters:
     """S moving emitters (a few m/s, about 1 m from the origin) of B table blocks."""
     tab, lengths = _table(seed, rows, P)
     rng = np.random.default_rng(seed)
@@ -45,8 +53,23 @@ def _emitters(C: int = 3, P: int = 2, rows: int = 2, B: int = 300, S: int = 2,
     pos = np.stack([0.8 * np.cos(3 * tp + s) for s in range(S)])[..., None] * [1, 0, 0]
     pos = pos + np.stack([0.8 * np.sin(3 * tp + s) for s in range(S)])[..., None] * [0, 1, 0]
     pos = pos + [0, 0, 0.2]
-    return TableEmitters(tab, lengths, qa, qb, phase, r0, r1, w, K, rate, pos, pos_rate=rate / K,
-                         radius=0.05, law=1.0, name="test")  # fmt: skip
+    return TableEmitters(
+        tab,
+        lengths,
+        qa=qa,
+        qb=qb,
+        phase=phase,
+        r0=r0,
+        r1=r1,
+        w=w,
+        block=K,
+        rate=rate,
+        positions=pos,
+        pos_rate=rate / K,
+        radius=0.05,
+        law=1.0,
+        name="test",
+    )
 
 
 def _definition(em: TableEmitters) -> np.ndarray:
@@ -73,11 +96,19 @@ def _definition(em: TableEmitters) -> np.ndarray:
     return out
 
 
-def _stored(em: TableEmitters, signals: np.ndarray | None = None,
-            rate: float | None = None) -> Emitters:  # fmt: skip
+def _stored(
+    em: TableEmitters, signals: np.ndarray | None = None, rate: float | None = None
+) -> Emitters:
     sig = em.signals if signals is None else signals
-    return Emitters(sig, em.rate if rate is None else rate, em.positions, t0=em.t0,
-                    pos_rate=em.pos_rate, radius=em.radius, law=em.law)  # fmt: skip
+    return Emitters(
+        sig,
+        em.rate if rate is None else rate,
+        em.positions,
+        t0=em.t0,
+        pos_rate=em.pos_rate,
+        radius=em.radius,
+        law=em.law,
+    )
 
 
 @pytest.mark.parametrize("C,P", [(3, 2), (1, 1), (1, 2)])
@@ -97,9 +128,22 @@ def test_render_evaluates_the_signal_at_the_emission_index(layout: str) -> None:
     table = render_emitters(em, path, rate=RATE, layout=layout).audio
     stored = render_emitters(_stored(em), path, rate=RATE, layout=layout).audio
     # the same continuous signal sampled 4x finer: a linear read of it is ~16x more exact
-    fine = TableEmitters(em.table, em.lengths, em.qa, em.qb, em.phase, em.r0, em.r1, em.w,
-                         4 * K, 4 * RATE, em.positions, pos_rate=em.pos_rate, radius=em.radius,
-                         law=1.0)  # fmt: skip
+    fine = TableEmitters(
+        em.table,
+        em.lengths,
+        qa=em.qa,
+        qb=em.qb,
+        phase=em.phase,
+        r0=em.r0,
+        r1=em.r1,
+        w=em.w,
+        block=4 * K,
+        rate=4 * RATE,
+        positions=em.positions,
+        pos_rate=em.pos_rate,
+        radius=em.radius,
+        law=1.0,
+    )
     truth = render_emitters(_stored(fine), path, rate=RATE, layout=layout, oversample=1).audio
     peak = np.abs(truth).max()
     assert peak > 0
@@ -116,9 +160,22 @@ def test_wide_control_points_read_across_several_table_blocks() -> None:
     the continuous signal as 32-sample control points, and windows still join."""
     em = _emitters(mix=False, rows=1)
     path = ListenerPath.line((0.0, 0.0, 0.0), (0.3, 0.1, 0.0), duration=0.2)
-    fine = TableEmitters(em.table, em.lengths, em.qa, em.qb, em.phase, em.r0, em.r1, em.w,
-                         4 * K, 4 * RATE, em.positions, pos_rate=em.pos_rate, radius=em.radius,
-                         law=1.0)  # fmt: skip
+    fine = TableEmitters(
+        em.table,
+        em.lengths,
+        qa=em.qa,
+        qb=em.qb,
+        phase=em.phase,
+        r0=em.r0,
+        r1=em.r1,
+        w=em.w,
+        block=4 * K,
+        rate=4 * RATE,
+        positions=em.positions,
+        pos_rate=em.pos_rate,
+        radius=em.radius,
+        law=1.0,
+    )
     truth = render_emitters(_stored(fine), path, rate=RATE, layout="mono", oversample=1).audio
     peak = np.abs(truth).max()
     wide = render_emitters(em, path, rate=RATE, layout="mono", block=128)
@@ -126,8 +183,9 @@ def test_wide_control_points_read_across_several_table_blocks() -> None:
     err = np.abs(wide.audio - truth) / peak
     assert err.max() < 5e-4 and np.sqrt(np.mean(err**2)) < 5e-5
     a = render_emitters(em, path, rate=RATE, layout="mono", block=128, duration=0.07).audio
-    b = render_emitters(em, path, rate=RATE, layout="mono", block=128, start=0.07,
-                        duration=0.13).audio  # fmt: skip
+    b = render_emitters(
+        em, path, rate=RATE, layout="mono", block=128, start=0.07, duration=0.13
+    ).audio
     np.testing.assert_allclose(np.concatenate([a, b], 1), wide.audio, rtol=0, atol=1e-9 * peak)
 
 
@@ -137,8 +195,9 @@ def test_windows_join_and_reference_backend() -> None:
     whole = render_emitters(em, path, rate=RATE, layout="ring8").audio
     a = render_emitters(em, path, rate=RATE, layout="ring8", duration=0.07).audio
     b = render_emitters(em, path, rate=RATE, layout="ring8", start=0.07, duration=0.13).audio
-    np.testing.assert_allclose(np.concatenate([a, b], 1), whole, rtol=0,
-                               atol=1e-9 * np.abs(whole).max())  # fmt: skip
+    np.testing.assert_allclose(
+        np.concatenate([a, b], 1), whole, rtol=0, atol=1e-9 * np.abs(whole).max()
+    )
     ref = render_emitters(em, path, rate=RATE, layout="ring8", backend="reference").audio
     np.testing.assert_allclose(whole, ref, rtol=0, atol=3e-3 * np.abs(ref).max())
 
@@ -155,8 +214,19 @@ def test_low_rate_tables_are_upsampled_as_their_samples() -> None:
 
 def test_bad_tables() -> None:
     em = _emitters(B=4)
-    args = dict(table=em.table, lengths=em.lengths, qa=em.qa, qb=em.qb, phase=em.phase,
-                r0=em.r0, r1=em.r1, w=em.w, block=K, rate=RATE, positions=em.positions)  # fmt: skip
+    args = dict(
+        table=em.table,
+        lengths=em.lengths,
+        qa=em.qa,
+        qb=em.qb,
+        phase=em.phase,
+        r0=em.r0,
+        r1=em.r1,
+        w=em.w,
+        block=K,
+        rate=RATE,
+        positions=em.positions,
+    )
     with pytest.raises(ParameterError, match="table must be"):
         TableEmitters(**{**args, "table": em.table[..., None]})
     with pytest.raises(ParameterError, match="lengths must be in 2..400"):

@@ -84,15 +84,22 @@ class FullDisk:
             env["LIMIT"] = str(self.limit)
         if late:
             env["LATE"] = "1"
-        return subprocess.run([sys.executable, "-c", _DRIVER, *map(str, argv)], env=env,
-                              capture_output=True, text=True, timeout=60)  # fmt: skip
+        return subprocess.run(
+            [sys.executable, "-c", _DRIVER, *map(str, argv)],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
 
 
 def _mount_tmpfs(folder: Path) -> bool:
     if not hasattr(os, "geteuid") or os.geteuid() != 0 or shutil.which("mount") is None:
         return False
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_BYTES}", "tmpfs", str(folder)],
-                       capture_output=True)  # fmt: skip
+    r = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={TMPFS_BYTES}", "tmpfs", str(folder)],
+        capture_output=True,
+    )
     return r.returncode == 0
 
 
@@ -123,8 +130,9 @@ def test_detect_to_vtkhdf_on_a_full_disk_ends_with_one_line(
 ) -> None:
     full_disk.leave(16 * 1024)
     out = full_disk.folder / "o.vtkhdf"
-    r = full_disk.run("detect", "dataset:monopole", "--size", "16", "--steps", "10", "-o", out,
-                      late=late)  # fmt: skip
+    r = full_disk.run(
+        "detect", "dataset:monopole", "--size", "16", "--steps", "10", "-o", out, late=late
+    )
     line = _one_error_line(r, out)
     assert "needs about" in line or ("about" in line and "needed" in line), line
     assert full_disk.user_files() == set()
@@ -154,9 +162,19 @@ def test_a_write_that_fits_still_works_there(full_disk: FullDisk) -> None:
 _HDF5_OUTPUTS = {
     "sources": ("detect", "dataset:monopole", "--size", "16", "--steps", "10", "o.h5"),
     "volume": ("dataset", "monopole", "--size", "16", "--steps", "12", "v.h5"),
-    "chunked": ("dataset", "explosion", "--chunked", "--size", "16", "--steps", "4",
-                "--generator", "analytic", "c.h5"),
-}  # fmt: skip
+    "chunked": (
+        "dataset",
+        "explosion",
+        "--chunked",
+        "--size",
+        "16",
+        "--steps",
+        "4",
+        "--generator",
+        "analytic",
+        "c.h5",
+    ),
+}
 
 
 @pytest.mark.parametrize("late", [False, True], ids=["checked", "fills-during-write"])
@@ -197,19 +215,19 @@ except OutputError as exc:
 
 _API_WRITERS = {
     "sofa": "from auralize.spatial.hrtf import spherical_head_hrirs\n"
-            "from auralize.spatial.sofa import write_sofa\n"
-            "d = np.random.default_rng(0).normal(size=(40, 3))\n"
-            "write_sofa(out, spherical_head_hrirs(d / np.linalg.norm(d, axis=1)[:, None], 32000))",
+    "from auralize.spatial.sofa import write_sofa\n"
+    "d = np.random.default_rng(0).normal(size=(40, 3))\n"
+    "write_sofa(out, spherical_head_hrirs(d / np.linalg.norm(d, axis=1)[:, None], 32000))",
     "chunked": "from auralize.distributed import write_chunked_explosion\n"
-               "write_chunked_explosion(out, 16, 4, 0, generator='analytic')",
+    "write_chunked_explosion(out, 16, 4, 0, generator='analytic')",
     "vortex-texture": "from auralize_vortex.texture import Texture\n"
-                      "Texture(np.array([10.0]), np.ones((1, 8000)), 48000.0, 1.0).save(out)",
+    "Texture(np.array([10.0]), np.ones((1, 8000)), 48000.0, 1.0).save(out)",
     "aero-texture": "from auralize_aero.shapes import get_section\n"
-                    "from auralize_aero.texture import SoundTexture\n"
-                    "g = np.random.default_rng(1).standard_normal((3, 2000, 2))\n"
-                    "SoundTexture(get_section('circle', 0.01), 10.0, 20000.0, np.linspace(0, 45, 3),"
-                    " g, g.copy(), np.full(3, 2000), np.full(3, 0.2), {}).save(out)",
-}  # fmt: skip
+    "from auralize_aero.texture import SoundTexture\n"
+    "g = np.random.default_rng(1).standard_normal((3, 2000, 2))\n"
+    "SoundTexture(get_section('circle', 0.01), 10.0, 20000.0, np.linspace(0, 45, 3),"
+    " g, g.copy(), np.full(3, 2000), np.full(3, 0.2), {}).save(out)",
+}
 
 
 @pytest.mark.parametrize("writer", list(_API_WRITERS))
@@ -217,10 +235,16 @@ def test_other_hdf5_writers_on_a_full_disk_raise_one_output_error(
     writer: str, tmp_path: Path
 ) -> None:
     out = tmp_path / "o.h5"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "plugins")]),
-               ROOM="4096")  # fmt: skip
-    r = subprocess.run([sys.executable, "-c", _API_DRIVER, _API_WRITERS[writer], str(out)],
-                       env=env, capture_output=True, text=True, timeout=60)  # fmt: skip
+    env = dict(
+        os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "plugins")]), ROOM="4096"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", _API_DRIVER, _API_WRITERS[writer], str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode == cli.EXIT_SYSTEM, (r.returncode, r.stderr[-2000:])
     assert "HDF5-DIAG" not in r.stderr and "Traceback" not in r.stderr, r.stderr[-2000:]
     assert r.stderr.count("\n") == 1 and r.stderr.startswith(f"cannot write {str(out)!r}: ")
@@ -230,16 +254,18 @@ def test_other_hdf5_writers_on_a_full_disk_raise_one_output_error(
 # --------------------------------------------------------------------------- the API, in process
 def _volume(steps: int = 6) -> TimeVolume:
     rng = np.random.default_rng(1)
-    return TimeVolume.from_arrays({"p": rng.normal(size=(steps, 5, 6, 7))},
-                                  times=np.arange(steps) * 0.1)  # fmt: skip
+    return TimeVolume.from_arrays(
+        {"p": rng.normal(size=(steps, 5, 6, 7))}, times=np.arange(steps) * 0.1
+    )
 
 
 def _enospc(*_a: Any, **_k: Any) -> None:
     raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
 
-def test_a_full_disk_stops_the_volume_writer_at_its_first_write(tmp_path: Path,
-                                                                monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_a_full_disk_stops_the_volume_writer_at_its_first_write(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     calls = []
 
     def full(self: Any, key: Any, value: Any) -> None:
@@ -256,13 +282,15 @@ def test_a_full_disk_stops_the_volume_writer_at_its_first_write(tmp_path: Path,
     assert list(tmp_path.iterdir()) == []
 
 
-def test_the_api_and_the_cli_say_the_same_about_a_full_disk(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                            monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_the_api_and_the_cli_say_the_same_about_a_full_disk(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(h5py.Dataset, "__setitem__", lambda *a: _enospc())
     out = tmp_path / "v.vtkhdf"
     with pytest.raises(OSError) as api:  # still an OSError for callers that catch those
-        write_volume_vtkhdf(TimeVolume.from_arrays({"density": np.ones((2, 4, 4, 4))},
-                                                   times=[0.0, 0.1]), out)  # fmt: skip
+        write_volume_vtkhdf(
+            TimeVolume.from_arrays({"density": np.ones((2, 4, 4, 4))}, times=[0.0, 0.1]), out
+        )
     code = cli.main(["dataset", "monopole", "--size", "4", "--steps", "2", "-o", str(out)])
     err = capsys.readouterr().err
     assert code == cli.EXIT_SYSTEM and err.count("\n") == 1
@@ -294,8 +322,9 @@ def test_sources_writer_stops_and_leaves_nothing(
 
 
 @pytest.mark.parametrize("writer", ["atomic_write", "write_pair", "write_collection"])
-def test_plain_writers_name_the_output_not_their_temporary(writer: str, tmp_path: Path,
-                                                           monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_plain_writers_name_the_output_not_their_temporary(
+    writer: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(Path, "write_bytes", lambda *a: _enospc())
     monkeypatch.setattr(Path, "write_text", lambda *a, **k: _enospc())
     target = tmp_path / "o.csv"
@@ -314,8 +343,10 @@ def test_plain_writers_name_the_output_not_their_temporary(writer: str, tmp_path
 
 
 def test_hdf5_errors_of_a_failed_write_are_recognised() -> None:
-    exc = RuntimeError("Can't decrement id ref count (file write failed: time = now\n, filename = "
-                       "'/x/.o.h5.1-abc.part.h5', errno = 28, error message = 'No space left')")  # fmt: skip
+    exc = RuntimeError(
+        "Can't decrement id ref count (file write failed: time = now\n, filename = "
+        "'/x/.o.h5.1-abc.part.h5', errno = 28, error message = 'No space left')"
+    )
     assert files.is_disk_full(exc)
     text, code = cli.error_message(exc, "o.h5")
     assert code == cli.EXIT_SYSTEM and text.startswith(
@@ -327,8 +358,11 @@ def test_hdf5_errors_of_a_failed_write_are_recognised() -> None:
 
 
 def test_a_failed_allocation_is_a_resource_error_with_the_figures() -> None:
-    with pytest.raises(ResourceError, match=r"^rendering x: not enough memory \(an allocation of "
-                                            r"728 TiB failed; .* is available\)"):  # fmt: skip
+    with pytest.raises(
+        ResourceError,
+        match=r"^rendering x: not enough memory \(an allocation of "
+        r"728 TiB failed; .* is available\)",
+    ):
         with resources.memory_guard("rendering x"):
             np.empty((10**7, 10**7))
     with pytest.raises(MemoryError):  # still a MemoryError for callers that catch those
@@ -351,8 +385,9 @@ def _declared(path: Path, steps: int, n: int) -> Path:
         f["time"] = np.arange(steps) * 0.01
         g = f.create_group("grid")
         g.attrs["origin"], g.attrs["spacing"] = np.zeros(3), np.ones(3)
-        ds = f.create_dataset("fields/density", shape=(steps, n, n, n), dtype="f8",
-                              chunks=(1, n, n, n), fillvalue=1.0)  # fmt: skip
+        ds = f.create_dataset(
+            "fields/density", shape=(steps, n, n, n), dtype="f8", chunks=(1, n, n, n), fillvalue=1.0
+        )
         ds[: min(steps, 4)] = 1.0 + 0.01 * np.random.default_rng(0).normal(
             size=(min(steps, 4), n, n, n)
         )
@@ -373,8 +408,9 @@ def test_a_million_steps_beyond_the_data_bound_are_refused_with_the_figure(
     assert not out.exists()
 
 
-def test_a_step_count_beyond_the_memory_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                   monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_a_step_count_beyond_the_memory_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     vol = _declared(tmp_path / "long.h5", 1_000_000, 8)
     monkeypatch.setenv("AURALIZE_MEMORY_LIMIT", "256M")
     assert cli.main(["info", str(vol)]) == cli.EXIT_SYSTEM
@@ -411,8 +447,9 @@ def test_a_long_but_small_volume_still_works(
     assert resources.require_volume((8, 8, 8), 10_000, 4, "long.h5") < resources.data_limit()
 
 
-def test_the_data_bound_is_documented_and_adjustable(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                     monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_the_data_bound_is_documented_and_adjustable(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     vol = _declared(tmp_path / "v.h5", 20, 8)
     monkeypatch.setenv("AURALIZE_DATA_LIMIT", "64K")
     assert cli.main(["detect", str(vol), "-o", str(tmp_path / "s.h5")]) == cli.EXIT_SYSTEM
@@ -424,8 +461,9 @@ def test_the_data_bound_is_documented_and_adjustable(tmp_path: Path, capsys: pyt
     assert "AURALIZE_DATA_LIMIT" in resources.__doc__  # type: ignore[operator]
 
 
-def test_long_work_says_how_long_before_it_starts(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                  monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_long_work_says_how_long_before_it_starts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     assert resources.estimate_note(1e6) is None
     note = resources.estimate_note(30 * 2.0**30)
     assert note is not None and "30 GiB of data to read: about 13 min" in note

@@ -25,19 +25,44 @@ def _volume(names: dict[str, str], rng: np.random.Generator) -> tuple[TimeVolume
 
 CASES = {
     # FLUENT: SV_D (a decoy: the density is SV_DENSITY), SV_U/V/W, SV_P
-    "fluent": ({"decoy": "SV_D", "density": "SV_DENSITY", "x": "SV_U", "y": "SV_V",
-                "z": "SV_W", "pressure": "SV_P"}, "(SV_U, SV_V, SV_W)"),
-    "cgns": ({"density": "Density", "x": "VelocityX", "y": "VelocityY", "z": "VelocityZ",
-              "pressure": "Pressure"}, "(VelocityX, VelocityY, VelocityZ)"),
+    "fluent": (
+        {
+            "decoy": "SV_D",
+            "density": "SV_DENSITY",
+            "x": "SV_U",
+            "y": "SV_V",
+            "z": "SV_W",
+            "pressure": "SV_P",
+        },
+        "(SV_U, SV_V, SV_W)",
+    ),
+    "cgns": (
+        {
+            "density": "Density",
+            "x": "VelocityX",
+            "y": "VelocityY",
+            "z": "VelocityZ",
+            "pressure": "Pressure",
+        },
+        "(VelocityX, VelocityY, VelocityZ)",
+    ),
     # CF standard names; 2-D winds (no upward component): z is zero
-    "cf": ({"density": "air_density", "x": "eastward_wind", "y": "northward_wind",
-            "pressure": "air_pressure"}, "(eastward_wind, northward_wind, 0)"),
-}  # fmt: skip
+    "cf": (
+        {
+            "density": "air_density",
+            "x": "eastward_wind",
+            "y": "northward_wind",
+            "pressure": "air_pressure",
+        },
+        "(eastward_wind, northward_wind, 0)",
+    ),
+}
 
 
 @pytest.mark.parametrize("tool", CASES)
-def test_roles_under_the_tools_names(tool: str, tmp_path: Path,
-                                     capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_roles_under_the_tools_names(
+    tool: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     names, velocity = CASES[tool]
     vol, arrays = _volume(names, np.random.default_rng(1))
     assert match_field(vol, "density") == names["density"]
@@ -55,8 +80,11 @@ def test_roles_under_the_tools_names(tool: str, tmp_path: Path,
     capsys.readouterr()
     assert main(["info", str(f), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert d["roles"] == {"density": names["density"], "velocity": velocity,
-                          "pressure": names["pressure"]}  # fmt: skip
+    assert d["roles"] == {
+        "density": names["density"],
+        "velocity": velocity,
+        "pressure": names["pressure"],
+    }
     # ... and why: the name it matched, or the components it assembled
     assert d["role_reasons"]["density"].startswith(f"named {names['density']!r}")
     assert d["role_reasons"]["velocity"].startswith("assembled from the components " + names["x"])
@@ -69,7 +97,11 @@ def test_roles_under_the_tools_names(tool: str, tmp_path: Path,
 
 def test_a_vector_field_wins_over_components() -> None:
     rng = np.random.default_rng(2)
-    vol = TimeVolume.from_arrays({"U": rng.random((STEPS, N, N, N, 3)),
-                                  "u": rng.random((STEPS, N, N, N)),
-                                  "v": rng.random((STEPS, N, N, N))})  # fmt: skip
+    vol = TimeVolume.from_arrays(
+        {
+            "U": rng.random((STEPS, N, N, N, 3)),
+            "u": rng.random((STEPS, N, N, N)),
+            "v": rng.random((STEPS, N, N, N)),
+        }
+    )
     assert match_field(vol, "velocity") == "U" and vol.field_names == ["U", "u", "v"]

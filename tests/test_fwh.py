@@ -53,11 +53,13 @@ def _field(kind: str, xs: np.ndarray, t: float | np.ndarray, pts: np.ndarray):
     return pulse_field(kind, xs, t, pts, PULSE)
 
 
-def _volume(kind: str = "monopole", xs: np.ndarray = XS, *, names=("density", "velocity",
-            "pressure")) -> TimeVolume:  # fmt: skip
+def _volume(
+    kind: str = "monopole", xs: np.ndarray = XS, *, names=("density", "velocity", "pressure")
+) -> TimeVolume:
     """The exact field on the grid, computed lazily step by step."""
-    return pulse_volume(kind, xs, n=N, spacing=H, origin=ORIGIN, steps=T, dt=DT, names=names,
-                        pulse=PULSE)  # fmt: skip
+    return pulse_volume(
+        kind, xs, n=N, spacing=H, origin=ORIGIN, steps=T, dt=DT, names=names, pulse=PULSE
+    )
 
 
 def _observers(R: float, degrees) -> np.ndarray:
@@ -136,8 +138,10 @@ def test_surface_independence(mono, mono_box) -> None:
     """(c) Two boxes and a sphere give the same far field within 5 % (measured < 0.5 %)."""
     obs = _observers(40.0, [0, 60, 135])
     ref, exact, t = _compare("monopole", mono_box, obs)
-    others = [box_surface((-0.35, 0.4, -0.4, 0.35, -0.3, 0.45), panel_size=H),
-              sphere_surface((0.02, 0.0, -0.01), 0.75, resolution=3)]  # fmt: skip
+    others = [
+        box_surface((-0.35, 0.4, -0.4, 0.35, -0.3, 0.45), panel_size=H),
+        sphere_surface((0.02, 0.0, -0.01), 0.75, resolution=3),
+    ]
     for s in others:
         p = fwh_pressure(sample_surface(mono, s), None, obs, t)
         assert np.all(_rms_err(p, ref) < 0.05), s
@@ -147,8 +151,9 @@ def test_surface_independence(mono, mono_box) -> None:
 def test_no_source_inside_is_silent(mono_box) -> None:
     """(d) A box beside the source, and still air, give ≈ 0 (< 2 % of the enclosing case)."""
     obs = _observers(40.0, [0, 90, 180])
-    beside = sample_surface(_volume("monopole"), box_surface((-0.9, -0.2, -0.5, 0.5, -0.5, 0.5),
-                                                             panel_size=H))  # fmt: skip
+    beside = sample_surface(
+        _volume("monopole"), box_surface((-0.9, -0.2, -0.5, 0.5, -0.5, 0.5), panel_size=H)
+    )
     w = np.concatenate([fwh_time_window(m.times, m.surface, obs) for m in (mono_box, beside)])
     t = np.linspace(w[:, 0].max(), w[:, 1].min(), 300)
     ref = fwh_pressure(mono_box, None, obs, t)
@@ -156,9 +161,14 @@ def test_no_source_inside_is_silent(mono_box) -> None:
     assert np.isfinite(p).all() and np.isfinite(ref).all()
     assert np.all(np.abs(p).max(axis=1) < 0.02 * np.abs(ref).max(axis=1))
     still = TimeVolume.from_arrays(
-        {"density": np.full((6, 9, 9, 9), RHO0), "velocity": np.zeros((6, 9, 9, 9, 3)),
-         "pressure": np.full((6, 9, 9, 9), P0)}, spacing=0.1, times=np.arange(6) * 1e-3,
-    )  # fmt: skip
+        {
+            "density": np.full((6, 9, 9, 9), RHO0),
+            "velocity": np.zeros((6, 9, 9, 9, 3)),
+            "pressure": np.full((6, 9, 9, 9), P0),
+        },
+        spacing=0.1,
+        times=np.arange(6) * 1e-3,
+    )
     box = box_surface((0.2, 0.6, 0.2, 0.6, 0.2, 0.6), n=4)
     w = fwh_time_window(still.times, box, [[0.4, 0.4, 30.0]])[0]
     q = fwh_pressure(still, box, [[0.4, 0.4, 30.0]], np.linspace(w[0], w[1], 5))
@@ -176,12 +186,12 @@ def test_emitters_render_like_fwh_pressure(mono) -> None:
     x = _observers(40.0, [45])
     w = fwh_time_window(smp.times, smp.surface, x, c0=C0)[0]
     sound = fwh_emitters(smp, time_origin=w[0])
-    assert [e.name for e in sound.parts] == ["fwh-thickness", "fwh-loading-far",
-                                             "fwh-loading-near"]  # fmt: skip
+    assert [e.name for e in sound.parts] == ["fwh-thickness", "fwh-loading-far", "fwh-loading-near"]
     rate = 48000
     dur = w[1] - w[0]
-    out = render_sound(sound, ListenerPath.point(x[0], duration=dur), rate=rate, duration=dur,
-                 backend="reference").audio[0]  # fmt: skip
+    out = render_sound(
+        sound, ListenerPath.point(x[0], duration=dur), rate=rate, duration=dur, backend="reference"
+    ).audio[0]
     t = w[0] + np.arange(out.size) / rate
     p = fwh_pressure(smp, None, x, t)[0]
     ok = np.isfinite(p)
@@ -249,8 +259,9 @@ def test_bad_parameters() -> None:
         sphere_surface((0, 0, 0), -1.0)
     with pytest.raises(ParameterError, match="unknown surface 'cube=1'"):
         surface_from_spec("cube=1")
-    few = TimeVolume.from_arrays({"density": np.ones((3, 4, 4, 4)),
-                                  "velocity": np.zeros((3, 4, 4, 4, 3))}, times=[0, 1, 2])  # fmt: skip
+    few = TimeVolume.from_arrays(
+        {"density": np.ones((3, 4, 4, 4)), "velocity": np.zeros((3, 4, 4, 4, 3))}, times=[0, 1, 2]
+    )
     with pytest.raises(DataError, match="at least 4 time steps"):
         sample_surface(few, box_surface((0.5, 2.5, 0.5, 2.5, 0.5, 2.5), n=2))
 
@@ -265,8 +276,45 @@ def test_sound_model_makes_the_same_emitters(mono) -> None:
     assert len(sound.parts) == 3 and sound.meta["panels"] == 384
     for a, b in zip(sound.parts, direct.parts, strict=True):
         np.testing.assert_allclose(a.signals, b.signals)
-    with pytest.raises(ParameterError, match="needs surface="):
-        FWHSound().synthesize(mono)
+    # no surface: the default box inside the data, the one `auralize render` uses
+    from auralize.fwh.classify import default_surface
+
+    small = pulse_volume(
+        "monopole", XS, n=13, spacing=4 * H, origin=-0.3 * 4, steps=8, dt=4 * DT, pulse=PULSE
+    )
+    plain = FWHSound().synthesize(small)
+    spec = default_surface(small)
+    assert spec == "box=-0.6;0.6;-0.6;0.6;-0.6;0.6"  # 3 cells in: more than 10 % here
+    boxed = fwh_emitters(small, box_surface([-0.6, 0.6] * 3, panel_size=4 * H))
+    assert plain.meta["panels"] == boxed.meta["panels"] == 6 * 6 * 6
+    for a, b in zip(plain.parts, boxed.parts, strict=True):
+        np.testing.assert_allclose(a.signals, b.signals)
+    # solid=1: the surface is a body's wall, no thickness noise (Curle's loading only)
+    wall = FWHSound().synthesize(small, solid=1)
+    walled = fwh_emitters(small, box_surface([-0.6, 0.6] * 3, panel_size=4 * H), solid=True)
+    assert wall.parts[0].name == "fwh-thickness" and not np.any(wall.parts[0].signals)
+    assert np.any(wall.parts[1].signals)
+    for a, b in zip(wall.parts, walled.parts, strict=True):
+        np.testing.assert_allclose(a.signals, b.signals)
+
+
+def test_overlay_is_the_surface_coloured_by_the_pressure(mono) -> None:
+    """The viewer's overlay: the panels ``synthesize`` integrates over, each coloured by
+    the exact p' at its centre for the step shown (the grid's trilinear error aside)."""
+    from auralize.fwh.model import FWHSound
+
+    surface = box_surface([-0.8, 0.8] * 3, panel_size=H)  # the default: 10 % inside
+    step = 63  # the pulse is crossing the box faces
+    mesh = FWHSound().overlay((mono, None), step)
+    assert mesh.n_cells == surface.n_panels == 6 * 32 * 32
+    np.testing.assert_allclose(mesh.cell_centers().points, surface.centres, atol=1e-12)
+    got = mesh.cell_data["p' (Pa)"]
+    exact = _field("monopole", XS, mono.times[step], surface.centres)[0]
+    assert np.max(np.abs(exact)) > 0.3  # a step where the faces carry the wave
+    assert np.max(np.abs(got - exact)) < 0.05 * np.max(np.abs(exact))
+    flat = TimeVolume.from_arrays({"pressure": np.ones((4, 9, 9, 9))}, spacing=1.0)
+    with pytest.raises(FieldError, match="needs the flow velocity"):
+        FWHSound().overlay(flat, 0)
 
 
 def test_spectrum_at_an_observer_by_fwh_is_the_exact_fields(mono) -> None:
@@ -276,8 +324,9 @@ def test_spectrum_at_an_observer_by_fwh_is_the_exact_fields(mono) -> None:
 
     obs = XS + np.array([0.0, 0.0, 40.0])
     rate = 200_000  # the pulse lasts a few σ = 0.5 ms
-    p, what = observer_pressure(mono, obs, method="fwh", surface="box=-0.6;0.6;-0.6;0.6;-0.6;0.6",
-                                rate=rate)  # fmt: skip
+    p, what = observer_pressure(
+        mono, obs, method="fwh", surface="box=-0.6;0.6;-0.6;0.6;-0.6;0.6", rate=rate
+    )
     assert what.startswith("FW-H on box=") and p.shape[0] == 1 and p.shape[1] > 1000
     w = fwh_time_window(mono.times, box_surface(BOX, panel_size=H), obs[None], c0=C0)[0]
     t = w[0] + np.arange(p.shape[1]) / rate
@@ -286,3 +335,28 @@ def test_spectrum_at_an_observer_by_fwh_is_the_exact_fields(mono) -> None:
     assert got.oaspl[0] == pytest.approx(ref.oaspl[0], abs=0.1)
     loud = ref.band_levels[0] > ref.band_levels[0].max() - 30
     assert np.max(np.abs(got.band_levels[0][loud] - ref.band_levels[0][loud])) < 0.5
+
+
+def test_spectrum_by_the_volume_sum_is_the_volume_sum_on_data_that_hold_sound(mono) -> None:
+    """``observer_pressure(method="volume")`` hears the volume sum even where the render's
+    ``auto`` would choose the FW-H integral (the data hold sound waves)."""
+    from auralize.fwh.classify import choose_method
+    from auralize.pipeline import auralize
+    from auralize.spectrum import observer_pressure
+
+    assert choose_method(mono, "auto").name == "fwh"
+    obs = XS + [0.0, 0.0, 40.0]
+    p, what = observer_pressure(mono, obs, method="volume")
+    assert what == "volume sum (whole field)"
+    vol, _ = auralize(
+        mono,
+        listener=obs,
+        rate=44100,
+        time_scale=1.0,
+        method="volume",
+        timbre="physical",
+        highpass_hz=0.0,
+        layout="mono",
+    )
+    assert vol.meta["method"] == "volume"
+    np.testing.assert_array_equal(p, vol.audio)

@@ -78,8 +78,9 @@ def test_default_render_hears_stored_sound_through_fwh_40_m_away(mono) -> None: 
     assert abs(np.max(np.abs(got)) / np.max(np.abs(exact)) - 1) < 0.02
     assert np.sqrt(np.sum((got - exact) ** 2) / np.sum(exact**2)) < 0.02
     # asked for the volume sum, the same data are heard otherwise (and say so)
-    vol_out, _ = auralize(mono, path, rate=RATE, duration=0.03, clip=False, method="volume",
-                          time_scale=1.0)  # fmt: skip
+    vol_out, _ = auralize(
+        mono, path, rate=RATE, duration=0.03, clip=False, method="volume", time_scale=1.0
+    )
     assert vol_out.meta["method"] == "volume" and "as asked" in vol_out.meta["method_text"]
 
 
@@ -129,16 +130,28 @@ def _write_pvd(folder: Path, n: int = 21, h: float = 0.1, steps: int = 70) -> Pa
         grid.save(folder / name)
         rows.append(f'<DataSet timestep="{t!r}" file="{name}"/>')
     pvd = folder / "pulse.pvd"
-    pvd.write_text('<VTKFile type="Collection"><Collection>' + "".join(rows)
-                   + "</Collection></VTKFile>")  # fmt: skip
+    pvd.write_text(
+        '<VTKFile type="Collection"><Collection>' + "".join(rows) + "</Collection></VTKFile>"
+    )
     return pvd
 
 
 def test_command_on_a_vtk_series_says_which_method(tmp_path: Path) -> None:
     pvd = _write_pvd(tmp_path)
     out = tmp_path / "fwh.wav"
-    args = [sys.executable, "-m", "auralize", "render", str(pvd), "--listener", "0.013,20,0.011",
-            "--duration", "0.08", "-o", str(out)]  # fmt: skip
+    args = [
+        sys.executable,
+        "-m",
+        "auralize",
+        "render",
+        str(pvd),
+        "--listener",
+        "0.013,20,0.011",
+        "--duration",
+        "0.08",
+        "-o",
+        str(out),
+    ]
     run = subprocess.run([*args, "--json"], capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr
     rep = json.loads(run.stdout)
@@ -150,13 +163,21 @@ def test_command_on_a_vtk_series_says_which_method(tmp_path: Path) -> None:
     assert text.returncode == 0, text.stderr
     assert "method: the FW-H surface integral" in text.stdout
     # --method volume overrides; --method fwh with Dask options is refused clearly
-    vol = subprocess.run([*args[:-2], "-o", str(tmp_path / "v.wav"), "--method", "volume"],
-                         capture_output=True, text=True, timeout=600)  # fmt: skip
+    vol = subprocess.run(
+        [*args[:-2], "-o", str(tmp_path / "v.wav"), "--method", "volume"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert vol.returncode == 0, vol.stderr
     assert "method: the volume sum of its sources (paper 003); as asked" in vol.stdout
     # info says which method a render would use, and why
-    info = subprocess.run([sys.executable, "-m", "auralize", "info", str(pvd)],
-                          capture_output=True, text=True, timeout=600)  # fmt: skip
+    info = subprocess.run(
+        [sys.executable, "-m", "auralize", "info", str(pvd)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert info.returncode == 0, info.stderr
     assert "method   fwh: the data hold sound waves" in info.stdout
 

@@ -70,15 +70,15 @@ TOL_ROTATING, TOL_SURFACES, TOL_SPHERE = 0.03, 0.02, 0.025
 
 
 def _box(half: float, centre: np.ndarray = XS, panel: float = H):  # type: ignore[no-untyped-def]
-    return box_surface(tuple(np.array([-half, half] * 3) + np.repeat(centre, 2)),
-                       panel_size=panel)  # fmt: skip
+    return box_surface(tuple(np.array([-half, half] * 3) + np.repeat(centre, 2)), panel_size=panel)
 
 
 def _observers(R: float, angles, centre: np.ndarray = XS) -> np.ndarray:  # type: ignore[no-untyped-def]
     """Observers at distance R from ``centre``: (elevation, azimuth) pairs in degrees."""
     el, az = np.radians(np.asarray(angles, dtype=float)).T
-    return centre + R * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az),
-                                  np.sin(el)], axis=1)  # fmt: skip
+    return centre + R * np.stack(
+        [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=1
+    )
 
 
 def _rms_err(p: np.ndarray, exact: np.ndarray) -> np.ndarray:
@@ -131,14 +131,24 @@ def test_moving_source_fields_are_the_derivatives_of_a_wave_equation_solution() 
         ht2, hx2 = 2e-6, 2e-3
         f = lambda tt, xx: phi(tt, xx)  # noqa: E731
         c = f(t, x0)
-        d2t = (-f(t + 2 * ht2, x0) + 16 * f(t + ht2, x0) - 30 * c + 16 * f(t - ht2, x0)
-               - f(t - 2 * ht2, x0)) / (12 * ht2**2)  # fmt: skip
+        d2t = (
+            -f(t + 2 * ht2, x0)
+            + 16 * f(t + ht2, x0)
+            - 30 * c
+            + 16 * f(t - ht2, x0)
+            - f(t - 2 * ht2, x0)
+        ) / (12 * ht2**2)
         lap = 0.0
         for k in range(3):
             e = np.zeros(3)
             e[k] = hx2
-            lap = lap + (-f(t, x0 + 2 * e) + 16 * f(t, x0 + e) - 30 * c + 16 * f(t, x0 - e)
-                         - f(t, x0 - 2 * e)) / (12 * hx2**2)  # fmt: skip
+            lap = lap + (
+                -f(t, x0 + 2 * e)
+                + 16 * f(t, x0 + e)
+                - 30 * c
+                + 16 * f(t, x0 - e)
+                - f(t, x0 - 2 * e)
+            ) / (12 * hx2**2)
         return lap, d2t / C0**2
 
     x0 = XS + np.array([[0.5, 0.3, 0.2], [-0.4, 0.1, -0.3]])
@@ -250,12 +260,15 @@ def test_rotating_dipole() -> None:
     assert np.abs(p[:2]).max() < 0.01 * np.abs(p).max()
 
 
-def test_rotating_source_independent_of_surface_size_and_panels(rotating_mono,
-                                                                rotating_box) -> None:  # type: ignore[no-untyped-def]  # fmt: skip
+def test_rotating_source_independent_of_surface_size_and_panels(
+    rotating_mono, rotating_box
+) -> None:  # type: ignore[no-untyped-def]
     """Boxes ±0.45 and ±0.55 m, panels of h, h/2 and 2h: within 2 % of each other."""
     obs = _observers(40.0, [(0, 0), (30, 60), (-45, 300)])
-    others = [sample_surface(rotating_mono, s, rho0=RHO0, c0=C0)
-              for s in (_box(0.55), _box(0.45, panel=H / 2), _box(0.45, panel=2 * H))]  # fmt: skip
+    others = [
+        sample_surface(rotating_mono, s, rho0=RHO0, c0=C0)
+        for s in (_box(0.55), _box(0.45, panel=H / 2), _box(0.45, panel=2 * H))
+    ]
     t = _window([rotating_box, *others], obs)
     ref = fwh_pressure(rotating_box, None, obs, t)
     exact, _ = rotating_field("monopole", ORBIT, t[None, :], _at(obs, t), TONE)
@@ -319,8 +332,9 @@ def test_spinning_sound_is_lighthills_retarded_integral(spinning_sound) -> None:
     for i, ti in enumerate(t):  # the source at its retarded angle, point by point
         ang = -snd.omega * (ti - D / C0)
         c, s = np.cos(ang), np.sin(ang)
-        yr = np.stack([c * Y[..., 0] - s * Y[..., 1], s * Y[..., 0] + c * Y[..., 1], Y[..., 2]],
-                      axis=-1)  # fmt: skip
+        yr = np.stack(
+            [c * Y[..., 0] - s * Y[..., 1], s * Y[..., 0] + c * Y[..., 1], Y[..., 2]], axis=-1
+        )
         direct[i] = np.sum(snd.source(yr) / (4 * np.pi * D)) * dV
     direct -= direct.mean()
     p, _ = snd.field(t, x[None])
@@ -330,8 +344,14 @@ def test_spinning_sound_is_lighthills_retarded_integral(spinning_sound) -> None:
 def _harmonics(t: np.ndarray, p: np.ndarray, f0: float, fmax: float) -> np.ndarray:
     """p's least-squares projection on the harmonics of f0 up to fmax."""
     k = np.arange(1, int(fmax // f0) + 1)
-    B = np.concatenate([np.cos(2 * np.pi * f0 * k * t[:, None]),
-                        np.sin(2 * np.pi * f0 * k * t[:, None]), np.ones((t.size, 1))], axis=1)  # fmt: skip
+    B = np.concatenate(
+        [
+            np.cos(2 * np.pi * f0 * k * t[:, None]),
+            np.sin(2 * np.pi * f0 * k * t[:, None]),
+            np.ones((t.size, 1)),
+        ],
+        axis=1,
+    )
     coef, *_ = np.linalg.lstsq(B, p, rcond=None)
     return np.asarray(B[:, :-1] @ coef[:-1])
 
@@ -346,8 +366,9 @@ def test_fwh_equals_the_volume_sum_outside_the_sources(spinning_sound) -> None: 
     snd = spinning_sound
     sg = SPIN.sigma
     vol = spinning_volume(sound=snd)
-    smp = sample_surface(vol, box_surface((-6 * sg, 6 * sg) * 3, panel_size=vol.spacing[0]),
-                         rho0=RHO0, c0=C0)  # fmt: skip
+    smp = sample_surface(
+        vol, box_surface((-6 * sg, 6 * sg) * 3, panel_size=vol.spacing[0]), rho0=RHO0, c0=C0
+    )
     flow = make_spinning(size=SPIN.size, kL=SPIN.kL).load()
     R = 30 * C0 / SPIN.frequency
     dirs = np.array([[1.0, 0, 0], [np.cos(0.6), np.sin(0.6), 0.3]])
@@ -356,8 +377,15 @@ def test_fwh_equals_the_volume_sum_outside_the_sources(spinning_sound) -> None: 
     nyquist = 0.5 / float(flow.times[1] - flow.times[0])
     for d in dirs:
         x = R * d
-        out, _ = ap.auralize(flow, listener=x, rate=rate, time_scale=1.0, timbre="physical",
-                             highpass_hz=0.0, layout="mono")  # fmt: skip
+        out, _ = ap.auralize(
+            flow,
+            listener=x,
+            rate=rate,
+            time_scale=1.0,
+            timbre="physical",
+            highpass_hz=0.0,
+            layout="mono",
+        )
         tv = out.meta["lead_data_s"] + np.arange(out.audio.shape[1]) / rate
         w = fwh_time_window(smp.times, smp.surface, x[None], c0=C0)[0]
         sel = (tv >= w[0]) & (tv <= w[1])
@@ -373,8 +401,54 @@ def test_fwh_equals_the_volume_sum_outside_the_sources(spinning_sound) -> None: 
     t = _window([smp], x)
     assert np.abs(fwh_pressure(smp, None, x, t)).max() < 1e-3 * np.abs(exact).max()
     # the surface must enclose the flow: at 4.45 σ its velocity tail crosses the box
-    cut = sample_surface(vol, box_surface((-4.45 * sg, 4.45 * sg) * 3,
-                                          panel_size=vol.spacing[0]), rho0=RHO0, c0=C0)  # fmt: skip
+    cut = sample_surface(
+        vol, box_surface((-4.45 * sg, 4.45 * sg) * 3, panel_size=vol.spacing[0]), rho0=RHO0, c0=C0
+    )
     x = R * dirs[:1]
     t = _window([cut], x)
     assert _rms_err(fwh_pressure(cut, None, x, t), snd.field(t, x)[0].T)[0] > 0.05
+
+
+def test_solid_surface_gives_curles_loading_noise_of_a_compact_body() -> None:
+    """A rigid sphere of radius a loaded by p'(θ, t) = f(t) cos θ (a no-slip wall: the
+    flow velocity on it is zero).  Curle (1955): the body pushes on the fluid with
+    F_z = ∮ p' n_z dS = (4π a²/3) f(t), and a compact body is heard as that force's
+    dipole, p(r, θ, t) = cos θ (a²/3) [f'(τ)/(c0 r) + f(τ)/r²], τ = t − r/c0.
+    ``solid=True`` on samples that carry a (non-zero) flow velocity gives it within
+    1 %; the same samples heard as a permeable surface add that flow's thickness and
+    momentum terms and are far off."""
+    from auralize.fwh.formulation import fwh_pressure
+    from auralize.fwh.sampling import SurfaceSamples
+    from auralize.fwh.surface import sphere_surface
+
+    c0, rho0, a = 343.0, 1.2, 0.05
+    sig, tc, amp = 2e-3, 12e-3, 10.0  # c0·σ = 0.69 m: the sphere is compact
+    times = np.arange(0.0, 0.04, 1e-4)
+    f = amp * np.exp(-0.5 * ((times - tc) / sig) ** 2)
+    surface = sphere_surface((0.0, 0.0, 0.0), a, resolution=4)
+    cos_t = surface.centres[:, 2] / np.linalg.norm(surface.centres, axis=1)
+    p_prime = f[:, None] * cos_t[None, :]
+    rng = np.random.default_rng(3)
+    flow = 0.5 * rng.standard_normal((times.size, surface.n_panels, 3))  # not at a wall
+    smp = SurfaceSamples(
+        times=times,
+        rho=rho0 + p_prime / c0**2,
+        velocity=flow,
+        p_prime=p_prime,
+        surface=surface,
+        rho0=rho0,
+        c0=c0,
+        p0=0.0,
+    )
+    r, theta = 3.0, np.radians([0.0, 40.0, 75.0])
+    obs = r * np.stack([np.sin(theta), 0 * theta, np.cos(theta)], axis=1)
+    t = np.linspace(r / c0 + tc - 5 * sig, r / c0 + tc + 5 * sig, 200)
+    tau = t - r / c0
+    g = amp * np.exp(-0.5 * ((tau - tc) / sig) ** 2)
+    dg = -(tau - tc) / sig**2 * g
+    exact = np.cos(theta)[:, None] * a**2 / 3 * (dg[None, :] / (c0 * r) + g[None, :] / r**2)
+    curle = fwh_pressure(smp, None, obs, t, solid=True)
+    scale = np.abs(exact[0]).max()
+    assert np.max(np.abs(curle - exact)) < 0.01 * scale
+    permeable = fwh_pressure(smp, None, obs, t)
+    assert np.max(np.abs(permeable - exact)) > 0.5 * scale

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import sys
 import textwrap
@@ -29,7 +30,7 @@ FWD, LEFT, UP = np.eye(3)
         ((0, 90, 0), FWD, UP),  # pitch: the nose goes up
         ((0, 0, 90), UP, -LEFT),  # roll: the top of the head goes right (right ear down)
         ((90, 0, 0), LEFT, -FWD),
-    ],  # fmt: skip
+    ],
 )
 def test_angle_conventions(ypr, axis, goes_to) -> None:  # type: ignore[no-untyped-def]
     assert np.allclose(ypr_matrix(*ypr) @ axis, goes_to, atol=1e-12)
@@ -48,8 +49,14 @@ def test_quaternions_are_the_same_rotations() -> None:
     def mul(a, b):  # type: ignore[no-untyped-def]
         w1, x1, y1, z1 = a
         w2, x2, y2, z2 = b
-        return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])  # fmt: skip
+        return np.array(
+            [
+                w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+                w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+            ]
+        )
 
     q = mul(mul(qz, qy), qx)
     assert np.allclose(quaternion_matrix(*q), ypr_matrix(30, 20, 10), atol=1e-12)
@@ -79,12 +86,24 @@ def _wait(cond, seconds: float = 5.0) -> bool:  # type: ignore[no-untyped-def]
     return False
 
 
-def test_osc_messages_of_sparta_and_iem_set_the_head() -> None:
-    from pythonosc.udp_client import SimpleUDPClient
+def send_osc(port: int, address: str, values: list[float]) -> None:
+    """Send one OSC message to ``port`` on this machine, as a head tracker does (the
+    socket closed after it: python-osc's client has ``close`` only from 1.10 on)."""
+    from pythonosc.osc_message_builder import OscMessageBuilder
 
+    message = OscMessageBuilder(address=address)
+    for value in values:
+        message.add_arg(value)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.sendto(message.build().dgram, ("127.0.0.1", port))
+
+
+def test_osc_messages_of_sparta_and_iem_set_the_head() -> None:
     with OSCHeadTracker(port=0) as tracker:
-        client = SimpleUDPClient("127.0.0.1", tracker.port)
-        send = client.send_message
+
+        def send(address: str, values: list[float]) -> None:
+            send_osc(tracker.port, address, values)
+
         send("/SceneRotator/ypr", [90.0, 0.0, 0.0])
         assert _wait(lambda: tracker.received == 1)
         assert np.allclose(tracker.matrix, ypr_matrix(90, 0, 0))
@@ -99,7 +118,6 @@ def test_osc_messages_of_sparta_and_iem_set_the_head() -> None:
         send("/ypr", [1.0, 2.0])  # wrong count: ignored
         assert _wait(lambda: tracker.ignored == 2)
         assert tracker.received == 4
-        client.close()
 
 
 def test_a_port_in_use_is_a_clear_error() -> None:
@@ -119,9 +137,9 @@ pcm.auralize_head2 {{
 """
 
 LIVE = """
-import json, time
+import json, socket, time
 import numpy as np
-from pythonosc.udp_client import SimpleUDPClient
+from pythonosc.osc_message_builder import OscMessageBuilder
 from auralize.audio.headtrack import OSCHeadTracker
 from auralize.scene.listening import DeviceSink, LiveEngine, LivePlayer
 from auralize.sources import SourceTracks
@@ -144,9 +162,11 @@ def play_until(n):
     while len(eng.heard_rows) < n and player.running:
         time.sleep(0.01)
 play_until(10)
-client = SimpleUDPClient("127.0.0.1", tracker.port)
-client.send_message("/SceneRotator/ypr", [90.0, 0.0, 0.0])
-client.close()
+message = OscMessageBuilder(address="/SceneRotator/ypr")
+for value in (90.0, 0.0, 0.0):
+    message.add_arg(value)
+with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+    sock.sendto(message.build().dgram, ("127.0.0.1", tracker.port))
 while tracker.received < 1:
     time.sleep(0.005)
 n_turn = len(eng.heard_rows)
@@ -167,8 +187,13 @@ def test_live_binaural_turns_with_the_head_on_a_file_backed_device(tmp_path: Pat
     out = tmp_path / "head.raw"
     (cfg / "alsa" / "asoundrc").write_text(ASOUNDRC.format(out=out))
     env = {**os.environ, "XDG_CONFIG_HOME": str(cfg), "PYTHONPATH": str(ROOT)}
-    res = subprocess.run([sys.executable, "-c", textwrap.dedent(LIVE)], capture_output=True,
-                         text=True, env=env, timeout=180)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(LIVE)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=180,
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     rep = json.loads(res.stdout.strip().splitlines()[-1])
     assert rep["error"] == "None"
@@ -191,7 +216,6 @@ def test_viewer_live_listening_follows_a_head_tracker(open_viewer, qtbot, tmp_pa
     """``auralize view --head-tracking PORT``: live listening opens the port, names it in
     the Live panel, and turns the listener's head by the messages it receives."""
     pytest.importorskip("pytestqt")
-    from pythonosc.udp_client import SimpleUDPClient
 
     win, _ = open_viewer()
     win.head_tracking_port = 0  # any free port
@@ -206,9 +230,7 @@ def test_viewer_live_listening_follows_a_head_tracker(open_viewer, qtbot, tmp_pa
         tracker = win.head_tracker()
         assert player.engine.head is tracker and tracker.port > 0
         assert f"head tracking on UDP port {tracker.port}" in win.live_label.text()
-        client = SimpleUDPClient("127.0.0.1", tracker.port)
-        client.send_message("/SceneRotator/ypr", [90.0, 0.0, 0.0])
-        client.close()
+        send_osc(tracker.port, "/SceneRotator/ypr", [90.0, 0.0, 0.0])
         qtbot.waitUntil(lambda: tracker.received == 1, timeout=5_000)
         n = len(player.engine.heard_rows)
         qtbot.waitUntil(lambda: len(player.engine.heard_rows) > n + 1, timeout=30_000)

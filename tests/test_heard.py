@@ -39,8 +39,9 @@ def _far_render(vol: TimeVolume, direction: np.ndarray, r: float, **kw) -> tuple
     ``direction`` from the grid's centre: its samples (Pa) from the first arrival on."""
     d = np.asarray(direction, dtype=np.float64) / np.linalg.norm(direction)
     span = float(vol.times[-1] - vol.times[0])
-    out, _ = ap.auralize(vol, listener=vol.center + r * d, duration=span, time_scale=1.0,
-                         layout="mono", **kw)  # fmt: skip
+    out, _ = ap.auralize(
+        vol, listener=vol.center + r * d, duration=span, time_scale=1.0, layout="mono", **kw
+    )
     return out.audio[0], out.meta
 
 
@@ -52,8 +53,11 @@ def test_compact_spinning_quadrupole_matches_lighthill(kL: float) -> None:
     p = SpinningParams(kL=kL)
     r = 30 * C0 / p.frequency  # thirty wavelengths: the far field
     levels = {}
-    for name, d in (("x", [1.0, 0.0, 0.0]), ("oblique", [np.cos(0.6), np.sin(0.6), 0.3]),
-                    ("axis", [0.0, 0.0, 1.0])):  # fmt: skip
+    for name, d in (
+        ("x", [1.0, 0.0, 0.0]),
+        ("oblique", [np.cos(0.6), np.sin(0.6), 0.3]),
+        ("axis", [0.0, 0.0, 1.0]),
+    ):
         x, meta = _far_render(vol, np.array(d), r)
         # (on the axis, where the render is nearly silent, auto may pick another timbre)
         assert meta["heard"] == "field" and (meta["timbre"] == "physical" or name == "axis")
@@ -97,8 +101,14 @@ def test_source_moving_through_the_grid_is_heard_with_its_doppler_shift() -> Non
     centre = np.array([3.0, 0.0, 0.0])
     for sign, want in ((1.0, f0 / (1 - M)), (-1.0, f0 / (1 + M))):
         listener = centre + sign * np.array([300.0, 0.0, 0.0])
-        out, _ = ap.auralize(vol, listener=listener, duration=float(vol.times[-1]) / (1 + sign * M),
-                             time_scale=1.0, timbre="physical", highpass_hz=0.0)  # fmt: skip
+        out, _ = ap.auralize(
+            vol,
+            listener=listener,
+            duration=float(vol.times[-1]) / (1 + sign * M),
+            time_scale=1.0,
+            timbre="physical",
+            highpass_hz=0.0,
+        )
         x = out.audio[0]
         on = np.flatnonzero(np.abs(x) > 0.05 * np.max(np.abs(x)))
         seg = x[on[0] + x.size // 10 : on[-1] - x.size // 10]  # the steady middle
@@ -116,11 +126,19 @@ def _pulsating_swirl() -> TimeVolume:
     frozen = SpinningParams(kL=0.4, steps=33)
     turn0 = make_spinning(kL=0.4, steps=33, freeze_after=0.0)  # the vortex held still
     shape = base.shape
-    return TimeVolume(origin=base.origin, spacing=base.spacing, dims=base.dims, times=base.times,
-                      fields={"density": CallableFrames(lambda k: np.full(shape, frozen.rho0), 33, shape),
-                              "velocity": CallableFrames(lambda k: amp[k] * turn0.frame("velocity", k),
-                                                         33, (*shape, 3))},
-                      source="pulsating-swirl")  # fmt: skip
+    return TimeVolume(
+        origin=base.origin,
+        spacing=base.spacing,
+        dims=base.dims,
+        times=base.times,
+        fields={
+            "density": CallableFrames(lambda k: np.full(shape, frozen.rho0), 33, shape),
+            "velocity": CallableFrames(
+                lambda k: amp[k] * turn0.frame("velocity", k), 33, (*shape, 3)
+            ),
+        },
+        source="pulsating-swirl",
+    )
 
 
 def test_no_invented_source_types() -> None:
@@ -137,8 +155,13 @@ def test_no_invented_source_types() -> None:
     # the paper's literal detection (no floor) invents dipoles in the same flow
     from auralize.sources.detection import Thresholds
 
-    literal = _count(detect(make_spinning(kL=0.4, steps=33).load(), mapping="identity",
-                            thresholds=Thresholds(floor=0.0)))  # fmt: skip
+    literal = _count(
+        detect(
+            make_spinning(kL=0.4, steps=33).load(),
+            mapping="identity",
+            thresholds=Thresholds(floor=0.0),
+        )
+    )
     assert literal["dipole"] > 0.05 * sum(literal.values())
 
 
@@ -155,12 +178,22 @@ def test_a_field_that_freezes_falls_silent(timbre: str, moving: bool) -> None:
     r = 30 * C0 / p.frequency
     c = vol.center
     if moving:  # 20 m/s past the source, captured at 20 Hz
-        path = ListenerPath.line(c + [r, -0.5 * 20 * span, 0.0], c + [r, 0.5 * 20 * span, 0.0],
-                                 duration=span, n=max(int(span * 20), 2) + 1)  # fmt: skip
+        path = ListenerPath.line(
+            c + [r, -0.5 * 20 * span, 0.0],
+            c + [r, 0.5 * 20 * span, 0.0],
+            duration=span,
+            n=max(int(span * 20), 2) + 1,
+        )
         out, _ = ap.auralize(vol, path, time_scale=1.0, timbre=timbre, layout="stereo")
     else:
-        out, _ = ap.auralize(vol, listener=c + [r, 0.0, 0.0], duration=span, time_scale=1.0,
-                             timbre=timbre, layout="stereo")  # fmt: skip
+        out, _ = ap.auralize(
+            vol,
+            listener=c + [r, 0.0, 0.0],
+            duration=span,
+            time_scale=1.0,
+            timbre=timbre,
+            layout="stereo",
+        )
     x = out.audio
     rate = out.rate
     t_freeze = 3.0 / p.frequency  # data time of the last change
@@ -217,8 +250,9 @@ def test_round_off_is_written_as_silence() -> None:
     """A steady vortex: its pressure is round-off; nothing amplifies it."""
     vol = make_spinning(kL=0.4, steps=17, freeze_after=0.0).load()
     p = SpinningParams(kL=0.4)
-    out, _ = ap.auralize(vol, listener=vol.center + [30 * C0 / p.frequency, 0, 0],
-                         duration=0.05, time_scale=1.0)  # fmt: skip
+    out, _ = ap.auralize(
+        vol, listener=vol.center + [30 * C0 / p.frequency, 0, 0], duration=0.05, time_scale=1.0
+    )
     assert not np.any(out.audio) and "nothing in the data changes" in out.meta["silent_why"]
 
 
@@ -228,8 +262,9 @@ def test_the_silence_warning_gives_the_renders_reason(tmp_path, capsys) -> None:
     from auralize.cli import main
 
     out = tmp_path / "m.wav"
-    code = main(["render", "dataset:meshio", "--density-field", "phi", "--duration", "1",
-                 "-o", str(out)])  # fmt: skip
+    code = main(
+        ["render", "dataset:meshio", "--density-field", "phi", "--duration", "1", "-o", str(out)]
+    )
     err = capsys.readouterr().err
     assert code == 1 and "nothing in the data changes in a way that sounds" in err, err
     assert "listener too far away" not in err and out.exists()

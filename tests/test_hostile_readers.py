@@ -67,8 +67,15 @@ def _cli_error(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
 
 def _cli_child(*argv: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if k != "AURALIZE_HDF5_EXTERNAL"}
-    return subprocess.run([sys.executable, "-c", CLI, *argv], capture_output=True, text=True,
-                          cwd=cwd, env=env, timeout=300, check=False)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-c", CLI, *argv],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        env=env,
+        timeout=300,
+        check=False,
+    )
 
 
 # --------------------------------------------------------------------------- netCDF4
@@ -90,8 +97,9 @@ def _external_storage(tmp_path: Path, data: np.ndarray) -> Callable[[h5py.File],
     raw = tmp_path / "elsewhere" / "raw.bin"
     raw.parent.mkdir(exist_ok=True)
     data.astype("<f8").tofile(raw)
-    return lambda f: f.create_dataset("rho", shape=data.shape, dtype="<f8",
-                                      external=[(str(raw), 0, data.size * 8)])  # fmt: skip
+    return lambda f: f.create_dataset(
+        "rho", shape=data.shape, dtype="<f8", external=[(str(raw), 0, data.size * 8)]
+    )
 
 
 def _virtual(tmp_path: Path, data: np.ndarray) -> Callable[[h5py.File], h5py.Dataset]:
@@ -108,8 +116,9 @@ def _virtual(tmp_path: Path, data: np.ndarray) -> Callable[[h5py.File], h5py.Dat
     return make
 
 
-@pytest.mark.parametrize(("make", "what"), [(_external_storage, "stored in external files"),
-                                            (_virtual, "virtual")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("make", "what"), [(_external_storage, "stored in external files"), (_virtual, "virtual")]
+)
 def test_netcdf4_reading_other_files_is_refused_unless_allowed(
     make: Callable[..., Callable[[h5py.File], h5py.Dataset]],
     what: str,
@@ -155,8 +164,9 @@ def _sofa_with_external_ir(tmp_path: Path) -> tuple[Path, np.ndarray]:
         ir = np.asarray(h["Data.IR"][()], dtype="<f8")
         ir.tofile(raw)
         del h["Data.IR"]
-        ds = h.create_dataset("Data.IR", shape=ir.shape, dtype="<f8",
-                              external=[(str(raw), 0, ir.nbytes)])  # fmt: skip
+        ds = h.create_dataset(
+            "Data.IR", shape=ir.shape, dtype="<f8", external=[(str(raw), 0, ir.nbytes)]
+        )
         for axis, dim in enumerate(("M", "R", "N")):
             ds.dims[axis].attach_scale(h[dim])
     return sofa, ir
@@ -176,8 +186,20 @@ def test_cli_hrtf_follows_allow_external(
 ) -> None:
     sofa, _ = _sofa_with_external_ir(tmp_path)
     missing = tmp_path / "missing.h5"
-    argv = ["render", str(missing), "--listener", "0,0,0", "--duration", "0.1", "--layout",
-            "binaural", "--hrtf", str(sofa), "-o", str(tmp_path / "out.wav")]  # fmt: skip
+    argv = [
+        "render",
+        str(missing),
+        "--listener",
+        "0,0,0",
+        "--duration",
+        "0.1",
+        "--layout",
+        "binaural",
+        "--hrtf",
+        str(sofa),
+        "-o",
+        str(tmp_path / "out.wav"),
+    ]
     line = _cli_error(argv, capsys)
     assert "ext.sofa" in line and "refused" in line and "--allow-external" in line
     # allowed, the SOFA file is read and the command goes on to the (missing) volume
@@ -206,8 +228,10 @@ def _hdf(ref: str, dims: str = "2 3 4") -> str:
 
 
 def _binary(ref: str) -> str:
-    return (f'<DataItem Dimensions="2 3 4" NumberType="Float" Precision="8" Format="Binary" '
-            f'Endian="Little">{ref}</DataItem>')  # fmt: skip
+    return (
+        f'<DataItem Dimensions="2 3 4" NumberType="Float" Precision="8" Format="Binary" '
+        f'Endian="Little">{ref}</DataItem>'
+    )
 
 
 def _h5(path: Path, data: np.ndarray = RHO) -> Path:
@@ -251,8 +275,9 @@ def _case_external_storage(case: Path, out: Path) -> str:
     out.mkdir(exist_ok=True)
     RHO.astype("<f8").tofile(out / "raw.bin")
     with h5py.File(case / "data.h5", "w") as f:
-        f.create_dataset("rho", shape=RHO.shape, dtype="<f8",
-                         external=[(str(out / "raw.bin"), 0, RHO.nbytes)])  # fmt: skip
+        f.create_dataset(
+            "rho", shape=RHO.shape, dtype="<f8", external=[(str(out / "raw.bin"), 0, RHO.nbytes)]
+        )
     return _xdmf(_hdf("data.h5:/rho"))
 
 
@@ -312,8 +337,11 @@ def test_xdmf_companion_with_an_external_link_is_refused(tmp_path: Path) -> None
     case.mkdir()
     xdmf = case / "x.xmf"
     xdmf.write_text(_case_external_link(case, out))
-    with pytest.raises(FormatError, match=r"x\.xmf: its heavy-data file .*data\.h5: /rho is an "
-                                          r"external link .*refused"):  # fmt: skip
+    with pytest.raises(
+        FormatError,
+        match=r"x\.xmf: its heavy-data file .*data\.h5: /rho is an "
+        r"external link .*refused",
+    ):
         open_volume(xdmf)
     allow_external_data(True)
     try:
@@ -332,22 +360,39 @@ def test_xdmf_inside_its_folder_reads(tmp_path: Path) -> None:
         np.testing.assert_array_equal(open_volume(xdmf).frame("rho", 0), RHO)
 
 
-@pytest.mark.parametrize(("head", "item", "message"), [
-    ('<!DOCTYPE Xdmf [<!ENTITY e "1 2 3">]>', _hdf("data.h5:/rho"), "declares or uses an XML entity"),
-    ('<!DOCTYPE Xdmf [<!ENTITY e SYSTEM "/etc/passwd">]>',
-     '<DataItem Dimensions="3" Format="XML">&e;</DataItem>', "declares or uses an XML entity"),
-    ('<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd">', '<DataItem Dimensions="3" Format="XML">&e;</DataItem>',
-     "declares or uses an XML entity"),
-    ("", _hdf("data.h5:/rho", "2 3 5"), r"holds 24 values .* declare 30"),
-    ("", _hdf("data.h5:/nope"), "/nope does not exist"),
-    ("", _hdf("gone.h5:/rho"), r"gone\.h5 does not exist"),
-    ("", _hdf("data.h5"), "must read 'file.h5:/path/to/dataset'"),
-    ("", _binary("short.bin"), r"holds 95 bytes .* need 192; the file is truncated"),
-    ("", '<DataItem Dimensions="24" Format="XML">1 2 3</DataItem>', "holds 3 values"),
-    ("", '<DataItem Dimensions="24" Format="TIFF">x.tif</DataItem>', "Format='TIFF' is not supported"),
-    ("", '<xi:include href="/dev/zero"/>', "not a regular file"),
-    ("", '<xi:include href="/etc/passwd"/>', r"/etc/passwd: not a valid XIncluded XML file"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("head", "item", "message"),
+    [
+        (
+            '<!DOCTYPE Xdmf [<!ENTITY e "1 2 3">]>',
+            _hdf("data.h5:/rho"),
+            "declares or uses an XML entity",
+        ),
+        (
+            '<!DOCTYPE Xdmf [<!ENTITY e SYSTEM "/etc/passwd">]>',
+            '<DataItem Dimensions="3" Format="XML">&e;</DataItem>',
+            "declares or uses an XML entity",
+        ),
+        (
+            '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd">',
+            '<DataItem Dimensions="3" Format="XML">&e;</DataItem>',
+            "declares or uses an XML entity",
+        ),
+        ("", _hdf("data.h5:/rho", "2 3 5"), r"holds 24 values .* declare 30"),
+        ("", _hdf("data.h5:/nope"), "/nope does not exist"),
+        ("", _hdf("gone.h5:/rho"), r"gone\.h5 does not exist"),
+        ("", _hdf("data.h5"), "must read 'file.h5:/path/to/dataset'"),
+        ("", _binary("short.bin"), r"holds 95 bytes .* need 192; the file is truncated"),
+        ("", '<DataItem Dimensions="24" Format="XML">1 2 3</DataItem>', "holds 3 values"),
+        (
+            "",
+            '<DataItem Dimensions="24" Format="TIFF">x.tif</DataItem>',
+            "Format='TIFF' is not supported",
+        ),
+        ("", '<xi:include href="/dev/zero"/>', "not a regular file"),
+        ("", '<xi:include href="/etc/passwd"/>', r"/etc/passwd: not a valid XIncluded XML file"),
+    ],
+)
 def test_xdmf_malformed_or_hostile_is_refused_even_when_allowed(
     head: str, item: str, message: str, tmp_path: Path, allowed: None
 ) -> None:
@@ -426,8 +471,9 @@ def test_xdmf_reads_the_same_arrays_as_vtk(tmp_path: Path) -> None:
         mesh = reader.read()
         mesh = mesh if isinstance(mesh, pv.DataSet) else mesh[0]
         order = np.lexsort((mesh.points[:, 0], mesh.points[:, 1]))  # grid order: x fastest
-        np.testing.assert_array_equal(vol.frame("phi", step).reshape(-1),
-                                      np.asarray(mesh.point_data["phi"])[order])  # fmt: skip
+        np.testing.assert_array_equal(
+            vol.frame("phi", step).reshape(-1), np.asarray(mesh.point_data["phi"])[order]
+        )
     vol = open_volume(DOLFINX)
     reader = pv.XdmfReader(str(DOLFINX))
     reader.set_active_time_value(4.0)
@@ -485,8 +531,11 @@ def test_ensight_with_flipped_connectivity_bits_is_a_data_error(
     data[at + 3] ^= 1 << 6  # the high byte of the first point id: a point far past the end
     data[at + 7] ^= 1 << 4
     geo.write_bytes(bytes(data))
-    with pytest.raises(DataError, match=r"cylinder_Re35\.case: the mesh is corrupt: a cell "
-                                        r"refers to point \d+, but the mesh has 14831 points"):  # fmt: skip
+    with pytest.raises(
+        DataError,
+        match=r"cylinder_Re35\.case: the mesh is corrupt: a cell "
+        r"refers to point \d+, but the mesh has 14831 points",
+    ):
         open_volume(case)
     line = _cli_error(["info", str(case)], capsys)
     assert "cylinder_Re35.case" in line and "corrupt" in line
@@ -523,8 +572,14 @@ def test_ensight_with_random_flipped_bits_never_crashes(tmp_path: Path) -> None:
         geo.write_bytes(bytes(data))
         cases.append(str(case))
     env = {k: v for k, v in os.environ.items() if k != "AURALIZE_HDF5_EXTERNAL"}
-    done = subprocess.run([sys.executable, "-c", RANDOM_FLIPS, *cases], capture_output=True,
-                          text=True, env=env, timeout=600, check=False)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-c", RANDOM_FLIPS, *cases],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+        check=False,
+    )
     assert done.returncode == 0, (done.returncode, done.stderr[-2000:])
     codes = json.loads(done.stdout.strip().splitlines()[-1])
     for case, (code, last) in zip(cases, codes, strict=True):
@@ -569,10 +624,12 @@ def test_ensight_reads_the_same_arrays_as_vtk(tmp_path: Path) -> None:
     ref, vol = open_volume(paths["hdf5"]), open_volume(paths["ensight"])
     np.testing.assert_allclose(vol.times, ref.times, rtol=1e-6)
     for step in range(3):
-        np.testing.assert_allclose(vol.frame("density", step), ref.frame("density", step),
-                                   rtol=1e-6)  # fmt: skip
-        np.testing.assert_allclose(vol.frame("velocity", step), ref.frame("velocity", step),
-                                   rtol=1e-6, atol=1e-9)  # fmt: skip
+        np.testing.assert_allclose(
+            vol.frame("density", step), ref.frame("density", step), rtol=1e-6
+        )
+        np.testing.assert_allclose(
+            vol.frame("velocity", step), ref.frame("velocity", step), rtol=1e-6, atol=1e-9
+        )
 
 
 def test_a_mesh_with_bad_cells_never_reaches_vtk_filters() -> None:

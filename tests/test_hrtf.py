@@ -57,8 +57,9 @@ def direct(sig: np.ndarray, d: np.ndarray) -> np.ndarray:
     return H.binaural_direct(sig, H.spherical_head_hrirs(d[None], RATE).ir[0])
 
 
-def itd_s(ears: np.ndarray, rate: int = RATE, band: float | tuple[float, float] = ITD_BAND_HZ
-          ) -> float:  # fmt: skip
+def itd_s(
+    ears: np.ndarray, rate: int = RATE, band: float | tuple[float, float] = ITD_BAND_HZ
+) -> float:
     """Lag (s) of the left ear behind the right (> 0: right ear first), by
     cross-correlation of the band (below a frequency, or between two; zero-phase
     Butterworth), to 1/16 sample, within ±1 ms."""
@@ -233,8 +234,9 @@ def fibonacci(k: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
 
 
-def write_synthetic_sofa(path: Path, *, drop: str = "", receivers: int = 2,
-                         conventions: str = "SOFA") -> H.HRIRSet:  # fmt: skip
+def write_synthetic_sofa(
+    path: Path, *, drop: str = "", receivers: int = 2, conventions: str = "SOFA"
+) -> H.HRIRSet:
     """An AES69 SimpleFreeFieldHRIR file (h5py, the standard's variable names and
     attributes) of the spherical-head model at 300 directions, 44.1 kHz."""
     d = fibonacci(300)
@@ -242,20 +244,30 @@ def write_synthetic_sofa(path: Path, *, drop: str = "", receivers: int = 2,
     az = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
     el = np.degrees(np.arcsin(d[:, 2]))
     with h5py.File(path, "w") as h:
-        h.attrs.update({"Conventions": conventions, "Version": "2.1",
-                        "SOFAConventions": "SimpleFreeFieldHRIR", "SOFAConventionsVersion": "1.0",
-                        "DataType": "FIR", "RoomType": "free field", "Title": "synthetic",
-                        "License": "CC0-1.0"})  # fmt: skip
+        h.attrs.update(
+            {
+                "Conventions": conventions,
+                "Version": "2.1",
+                "SOFAConventions": "SimpleFreeFieldHRIR",
+                "SOFAConventionsVersion": "1.0",
+                "DataType": "FIR",
+                "RoomType": "free field",
+                "Title": "synthetic",
+                "License": "CC0-1.0",
+            }
+        )
         v = {
             "Data.IR": (hr.ir[:, :receivers], {}),
             "Data.SamplingRate": (np.array([44100.0]), {"Units": "hertz"}),
             "Data.Delay": (np.zeros((1, 2)), {}),
-            "SourcePosition": (np.stack([az, el, 1.5 * np.ones(300)], 1),
-                               {"Type": "spherical", "Units": "degree, degree, metre"}),
+            "SourcePosition": (
+                np.stack([az, el, 1.5 * np.ones(300)], 1),
+                {"Type": "spherical", "Units": "degree, degree, metre"},
+            ),
             "ListenerPosition": (np.zeros((1, 3)), {"Type": "cartesian", "Units": "metre"}),
             "ListenerView": (np.array([[1.0, 0, 0]]), {"Type": "cartesian", "Units": "metre"}),
             "ListenerUp": (np.array([[0, 0, 1.0]]), {"Type": "cartesian", "Units": "metre"}),
-        }  # fmt: skip
+        }
         for name, (data, attrs) in v.items():
             if name == drop:
                 continue
@@ -292,8 +304,9 @@ def test_sofa_listener_view_and_delay(tmp_path: Path) -> None:
     d_file = fibonacci(300)[k]
     assert d_file[1] > 0.99
     plain = H.spherical_head_hrirs(fibonacci(300), 44100)
-    np.testing.assert_allclose(s.ir[k, :, 3 : plain.n_taps], plain.ir[k, :, : plain.n_taps - 3],
-                               atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        s.ir[k, :, 3 : plain.n_taps], plain.ir[k, :, : plain.n_taps - 3], atol=1e-9
+    )
 
 
 def test_write_sofa_roundtrip(tmp_path: Path) -> None:
@@ -307,13 +320,16 @@ def test_write_sofa_roundtrip(tmp_path: Path) -> None:
     assert [q.name for q in tmp_path.iterdir()] == ["model.sofa"]
 
 
-@pytest.mark.parametrize(("kw", "match"), [
-    ({"drop": "Data.IR"}, "'Data.IR' is missing"),
-    ({"drop": "SourcePosition"}, "'SourcePosition' is missing"),
-    ({"drop": "Data.SamplingRate"}, "'Data.SamplingRate' is missing"),
-    ({"receivers": 1}, r"Data.IR must be \(M, R=2, N\).*\(300, 1,"),
-    ({"conventions": "CF-1.6"}, "'Conventions' is 'CF-1.6', expected 'SOFA'"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("kw", "match"),
+    [
+        ({"drop": "Data.IR"}, "'Data.IR' is missing"),
+        ({"drop": "SourcePosition"}, "'SourcePosition' is missing"),
+        ({"drop": "Data.SamplingRate"}, "'Data.SamplingRate' is missing"),
+        ({"receivers": 1}, r"Data.IR must be \(M, R=2, N\).*\(300, 1,"),
+        ({"conventions": "CF-1.6"}, "'Conventions' is 'CF-1.6', expected 'SOFA'"),
+    ],
+)
 def test_malformed_sofa(tmp_path: Path, kw: dict, match: str) -> None:  # type: ignore[type-arg]
     p = tmp_path / "bad.sofa"
     write_synthetic_sofa(p, **kw)
@@ -343,8 +359,9 @@ def test_emitters_rendered_binaurally_end_to_end() -> None:
     sig = np.random.default_rng(5).normal(size=(1, rate // 4))
     path = ListenerPath.point((0, 0, 0), duration=0.25)  # forward +y, up +z: right is +x
     em = Emitters(sig, rate, np.array([[4.0, 0.0, 0.0]]))
-    amb = render_emitters(em, path, rate=rate, layout=synthesis_layout("binaural"),
-                          backend="reference").audio  # fmt: skip
+    amb = render_emitters(
+        em, path, rate=rate, layout=synthesis_layout("binaural"), backend="reference"
+    ).audio
     ears = output_stage("binaural", rate).process(amb)
     assert ears.shape == (2, amb.shape[1])
     assert np.sum(ears[1] ** 2) > 2 * np.sum(ears[0] ** 2)
@@ -360,8 +377,12 @@ def test_immersive_layouts_in_the_speaker_kernels() -> None:
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
 
-    tr = SourceTracks(np.array([[0, 1.0, 0]]), np.sin(np.arange(8.0))[None, :], np.array([0.05]),
-                      np.arange(8) / 100.0)  # fmt: skip
+    tr = SourceTracks(
+        np.array([[0, 1.0, 0]]),
+        np.sin(np.arange(8.0))[None, :],
+        np.array([0.05]),
+        np.arange(8) / 100.0,
+    )
     a = render_tracks(tr, ListenerPath.point((0, 0, 0), duration=0.05), layout="ambix3").audio
     assert a.shape[0] == 16 and np.max(np.abs(a[0])) > 0
     np.testing.assert_allclose(a[3], a[0], atol=1e-12 * np.max(np.abs(a[0])))
@@ -390,8 +411,9 @@ def test_sofa_cartesian_positions(tmp_path: Path) -> None:
 
 
 # ------------------------------------------------------------------ ears as receivers
-def ears_of(az_deg: float, el_deg: float = 0.0, *, n: int = RATE // 2,
-            backend: str = "auto") -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def ears_of(
+    az_deg: float, el_deg: float = 0.0, *, n: int = RATE // 2, backend: str = "auto"
+) -> tuple[np.ndarray, np.ndarray]:
     """The default binaural render (two ear receivers) of white noise from a static
     emitter 30 m away at (az, el) of a listener facing +y, and the direct model's
     ears of that direction (the same delay D/c and 1/D applied to the signal).
@@ -410,8 +432,13 @@ def ears_of(az_deg: float, el_deg: float = 0.0, *, n: int = RATE // 2,
     d = unit(az_deg, el_deg)  # listener frame (forward, left, up) -> world (-left, forward, up)
     world = dist * np.array([-d[1], d[0], d[2]])
     em = Emitters(sig[None], RATE // 2, world[None])
-    out = render_emitters(em, ListenerPath.point((0, 0, 0), duration=n / RATE), rate=RATE,
-                          layout="binaural", backend=backend).audio  # fmt: skip
+    out = render_emitters(
+        em,
+        ListenerPath.point((0, 0, 0), duration=n / RATE),
+        rate=RATE,
+        layout="binaural",
+        backend=backend,
+    ).audio
     up = resample_poly(sig, 2, 1)
     ref = direct(np.r_[np.zeros(k), up[: n - k]] / dist, d)
     return out[:, k + 500 :], ref[:, k + 500 :]
@@ -434,8 +461,10 @@ def test_ear_receivers_right_source_itd_ild() -> None:
     assert abs(ild[2] - ild_db(ref, 4000.0)) < 1.0
 
 
-@pytest.mark.parametrize(("az", "el"), [(0.0, 0.0), (30.0, 0.0), (-60.0, 20.0), (135.0, 0.0),
-                                        (180.0, -30.0), (-120.0, 45.0)])  # fmt: skip
+@pytest.mark.parametrize(
+    ("az", "el"),
+    [(0.0, 0.0), (30.0, 0.0), (-60.0, 20.0), (135.0, 0.0), (180.0, -30.0), (-120.0, 45.0)],
+)
 def test_ear_receivers_follow_the_model(az: float, el: float) -> None:
     """Against the model's own HRIR pair of the direction (the same bulk delay):
     third-octave ear levels within 2 dB from 200 Hz to 10 kHz (the largest
@@ -491,15 +520,18 @@ def test_ear_receivers_circling_source_and_turning_head() -> None:
     # the circling source's direction is that of its emission, the turning head's
     # that of the arrival (one travel time r/c later); the ITDs below 1.5 kHz and
     # of the ray regime (2–10 kHz)
-    for e, late, band in ((circling, 0, ITD_BAND_HZ), (turned, lag, ITD_BAND_HZ),
-                          (circling, 0, HF_BAND_HZ), (turned, lag, HF_BAND_HZ)):  # fmt: skip
+    for e, late, band in (
+        (circling, 0, ITD_BAND_HZ),
+        (turned, lag, ITD_BAND_HZ),
+        (circling, 0, HF_BAND_HZ),
+        (turned, lag, HF_BAND_HZ),
+    ):
         itds, ref = [], []
         for w in range(1, n // win - 1):
             seg = slice(w * win + lag, (w + 1) * win + lag)
             itds.append(itd_s(e[:, seg], band=band))
             mid = 360.0 * (w * win + win / 2 + late) / n
-            ref.append(itd_s(direct(sig[w * win : (w + 1) * win], unit(mid)),
-                             band=band))  # fmt: skip
+            ref.append(itd_s(direct(sig[w * win : (w + 1) * win], unit(mid)), band=band))
         itds_a, ref_a = np.array(itds), np.array(ref)
         assert np.max(np.abs(np.diff(itds_a) - np.diff(ref_a))) < 60e-6
         assert np.max(np.abs(itds_a - ref_a)) < 50e-6
@@ -516,8 +548,13 @@ def test_ear_receivers_delay_and_distance() -> None:
     sig = np.zeros(RATE // 10)
     sig[100] = 1.0  # at 100 / RATE s
     em = Emitters(sig[None], RATE, np.array([[10.0, 0.0, 0.0]]))
-    out = render_emitters(em, ListenerPath.point((0, 0, 0), duration=0.1), rate=RATE,
-                          layout="binaural", backend="reference").audio  # fmt: skip
+    out = render_emitters(
+        em,
+        ListenerPath.point((0, 0, 0), duration=0.1),
+        rate=RATE,
+        layout="binaural",
+        backend="reference",
+    ).audio
     _, bulk = H.ear_filters(RATE)
     a = H.HEAD_RADIUS
     d_right = math.hypot(10.0 - a * math.sin(math.radians(100)), a * math.cos(math.radians(100)))
@@ -541,14 +578,20 @@ def test_ear_receivers_keep_the_doppler_shift() -> None:
     tk = np.arange(101) / 100.0
     pos = np.stack([np.full_like(tk, y0), -20.0 + v * tk, np.zeros_like(tk)], 1)  # x right, y ahead
     em = Emitters(np.sin(2 * np.pi * f0 * t_e)[None], RATE, pos[None], pos_rate=100.0)
-    out = render_emitters(em, ListenerPath.point((0, 0, 0), duration=dur), rate=RATE,
-                          layout="binaural").audio  # fmt: skip
+    out = render_emitters(
+        em, ListenerPath.point((0, 0, 0), duration=dur), rate=RATE, layout="binaural"
+    ).audio
     win = int(0.04 * RATE)
     for t_emit in (0.2, 0.8):  # approaching, receding
         src = np.array([y0, -20.0 + v * t_emit, 0.0])
         for ear, side in ((0, +1.0), (1, -1.0)):  # left ear at -x (listener faces +y)
-            e = np.array([-side * H.HEAD_RADIUS * math.sin(math.radians(100)),
-                          H.HEAD_RADIUS * math.cos(math.radians(100)), 0.0])  # fmt: skip
+            e = np.array(
+                [
+                    -side * H.HEAD_RADIUS * math.sin(math.radians(100)),
+                    H.HEAD_RADIUS * math.cos(math.radians(100)),
+                    0.0,
+                ]
+            )
             d = src - e
             u = d / np.linalg.norm(d)  # from the ear to the emitter
             f_exp = f0 * C0 / (C0 + v * u[1])  # emitter velocity (0, v, 0) away along u

@@ -21,15 +21,29 @@ from auralize.spatial import (
 
 
 def iem(path: Path, speakers: list[dict], name: str = "Studio") -> Path:  # type: ignore[type-arg]
-    path.write_text(json.dumps({"Name": "export", "Description": "IEM AllRADecoder export",
-                                "LoudspeakerLayout": {"Name": name, "Loudspeakers": speakers}}))  # fmt: skip
+    path.write_text(
+        json.dumps(
+            {
+                "Name": "export",
+                "Description": "IEM AllRADecoder export",
+                "LoudspeakerLayout": {"Name": name, "Loudspeakers": speakers},
+            }
+        )
+    )
     return path
 
 
-def spk(az: float, el: float, ch: int, *, imag: bool = False, gain: float = 1.0,
-        r: float = 1.5) -> dict:  # type: ignore[type-arg]  # fmt: skip
-    return {"Azimuth": az, "Elevation": el, "Radius": r, "IsImaginary": imag, "Channel": ch,
-            "Gain": gain}  # fmt: skip
+def spk(
+    az: float, el: float, ch: int, *, imag: bool = False, gain: float = 1.0, r: float = 1.5
+) -> dict:  # type: ignore[type-arg]
+    return {
+        "Azimuth": az,
+        "Elevation": el,
+        "Radius": r,
+        "IsImaginary": imag,
+        "Channel": ch,
+        "Gain": gain,
+    }
 
 
 def test_read_iem_layout(tmp_path: Path) -> None:
@@ -111,8 +125,12 @@ def test_iem_gains_applied(tmp_path: Path) -> None:
     rate = 48000
     # a triangle at 2 m, 2 m and 1 m; channel 2 at half gain, channel 3 inverted at 0.8;
     # an imaginary speaker's gain is not an output's
-    sp = [spk(0, 0, 1, r=2.0), spk(120, 0, 2, gain=0.5, r=2.0), spk(-120, 0, 3, gain=-0.8, r=1.0),
-          spk(0, 90, 4, imag=True, gain=0.3)]  # fmt: skip
+    sp = [
+        spk(0, 0, 1, r=2.0),
+        spk(120, 0, 2, gain=0.5, r=2.0),
+        spk(-120, 0, 3, gain=-0.8, r=1.0),
+        spk(0, 90, 4, imag=True, gain=0.3),
+    ]
     lay = load_layout_json(iem(tmp_path / "g.json", sp))
     assert lay.needs_alignment and lay.channel_gains is not None
     np.testing.assert_array_equal(lay.channel_gains, [1.0, 0.5, -0.8])

@@ -36,8 +36,7 @@ ROOT = Path(__file__).parents[1]
 RATE = 44100
 
 
-def itd_s(ears: np.ndarray, rate: int = RATE,
-          band: float | tuple[float, float] = 1500.0) -> float:  # fmt: skip
+def itd_s(ears: np.ndarray, rate: int = RATE, band: float | tuple[float, float] = 1500.0) -> float:
     """Lag (s) of the left ear behind the right (> 0: right ear first), by
     cross-correlation below 1.5 kHz (or in ``band``), to 1/16 sample, within
     ±1 ms (as test_hrtf)."""
@@ -71,8 +70,7 @@ def test_kernel_sh_gains_equal_ambisonics() -> None:
         for v in d:
             _gains((v[0], v[1], v[2]), (*f, *u), az, ch, False, tab, out)
             got.append(out.copy())
-        np.testing.assert_allclose(np.array(got).T, sh_gains(lay.meta["order"], local),
-                                   atol=1e-13)  # fmt: skip
+        np.testing.assert_allclose(np.array(got).T, sh_gains(lay.meta["order"], local), atol=1e-13)
 
 
 @pytest.mark.parametrize("layout", ["ambix1", "ambix3"])
@@ -82,8 +80,12 @@ def test_field_render_to_ambix_equals_reference(mono_tracks, mono_params, layout
     the synthesis tests' tolerance for panned layouts (gains linear within a piece)."""
     c = mono_params.center
     path = ListenerPath.orbit(c, radius=2.2, duration=0.05, turns=0.15, rate_hz=500.0)
-    sub = type(mono_tracks)(positions=mono_tracks.positions[::5], q=mono_tracks.q[::5],
-                            radius=mono_tracks.radius[::5], times=mono_tracks.times)  # fmt: skip
+    sub = type(mono_tracks)(
+        positions=mono_tracks.positions[::5],
+        q=mono_tracks.q[::5],
+        radius=mono_tracks.radius[::5],
+        times=mono_tracks.times,
+    )
     fast = synth_render(sub, path, rate=RATE, layout=layout)
     ref = render_reference(sub, path, rate=RATE, layout=layout)
     assert fast.audio.shape == ref.shape == (get_layout(layout).n_channels, round(0.05 * RATE))
@@ -91,8 +93,12 @@ def test_field_render_to_ambix_equals_reference(mono_tracks, mono_params, layout
     assert _rel(fast.audio, ref) < 5e-3
     # consecutive short windows join without seams
     n = fast.audio.shape[1]
-    parts = [synth_render(sub, path, rate=RATE, layout=layout, start=a / RATE,
-                          duration=min(700, n - a) / RATE).audio for a in range(0, n, 700)]  # fmt: skip
+    parts = [
+        synth_render(
+            sub, path, rate=RATE, layout=layout, start=a / RATE, duration=min(700, n - a) / RATE
+        ).audio
+        for a in range(0, n, 700)
+    ]
     assert np.max(np.abs(np.concatenate(parts, axis=1) - fast.audio)) <= 1e-9 * np.max(
         np.abs(fast.audio)
     )
@@ -199,18 +205,21 @@ def test_live_binaural_on_file_backed_alsa_device(tmp_path) -> None:  # type: ig
     cfg = tmp_path / "cfg"
     (cfg / "alsa").mkdir(parents=True)
     out2 = tmp_path / "dev2.raw"
-    (cfg / "alsa" / "asoundrc").write_text(textwrap.dedent(f"""
+    (cfg / "alsa" / "asoundrc").write_text(
+        textwrap.dedent(f"""
         pcm.auralize_file2 {{
             type file
             slave.pcm "null"
             file "{out2}"
             format "raw"
         }}
-        """))  # fmt: skip
+        """)
+    )
     env = {**os.environ, "XDG_CONFIG_HOME": str(cfg), "PYTHONPATH": str(ROOT)}
     code = textwrap.dedent(SCENE) + textwrap.dedent(PLAYER)
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                         timeout=180)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=180
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     r = json.loads(res.stdout.strip().splitlines()[-1])
     assert r["channels"] == 2 and r["layout"] == "binaural" and r["blocks"] == 40
@@ -263,10 +272,25 @@ def _cli_render(tmp_path: Path, out: Path, *extra: str) -> int:
     """The 16³ explosion (centre (7.5, 7.5, 7.5), 15 m wide) heard from 60 m along +x,
     facing -y: a compact source at 90° to the right; ``extended`` timbre (broadband)."""
     p = tmp_path / "right.csv"
-    p.write_text("t,x,y,z,fx,fy,fz,ux,uy,uz\n"
-                 + "".join(f"{t},67.5,7.5,7.5,0,-1,0,0,0,1\n" for t in (0.0, 1.0)))  # fmt: skip
-    return main(["render", "dataset:explosion", "--size", "16", "--path", str(p), "--timbre",
-                 "extended", "-o", str(out), *extra])  # fmt: skip
+    p.write_text(
+        "t,x,y,z,fx,fy,fz,ux,uy,uz\n"
+        + "".join(f"{t},67.5,7.5,7.5,0,-1,0,0,0,1\n" for t in (0.0, 1.0))
+    )
+    return main(
+        [
+            "render",
+            "dataset:explosion",
+            "--size",
+            "16",
+            "--path",
+            str(p),
+            "--timbre",
+            "extended",
+            "-o",
+            str(out),
+            *extra,
+        ]
+    )
 
 
 def test_cli_binaural_right_source_and_sofa(tmp_path: Path) -> None:
@@ -321,8 +345,10 @@ def test_cli_bad_sofa_exits_3_and_writes_nothing(tmp_path: Path, capsys) -> None
     err = capsys.readouterr().err.strip()
     assert code == 3 and len(err.splitlines()) == 1 and "bad.sofa" in err and "SOFA" in err
     assert not out.exists() and not Path(str(out) + ".json").exists()
-    assert _cli_render(tmp_path, out, "--layout", "binaural", "--hrtf",
-                       str(tmp_path / "missing.sofa")) == 3  # fmt: skip
+    assert (
+        _cli_render(tmp_path, out, "--layout", "binaural", "--hrtf", str(tmp_path / "missing.sofa"))
+        == 3
+    )
     assert _cli_render(tmp_path, out, "--layout", "ring8", "--hrtf", str(bad)) == 2
     assert "binaural only" in capsys.readouterr().err
     assert not out.exists()
@@ -333,8 +359,9 @@ def test_flac_of_ambix_warns(tmp_path: Path) -> None:
 
     a = np.random.default_rng(0).normal(size=(16, 4410)) * 0.1
     with pytest.warns(UserWarning, match="ambix1.*FLAC"):
-        write_audio(tmp_path / "a.flac", a[:4], RATE, sidecar={"layout": get_layout("ambix1")
-                                                               .describe()})  # fmt: skip
+        write_audio(
+            tmp_path / "a.flac", a[:4], RATE, sidecar={"layout": get_layout("ambix1").describe()}
+        )
     with pytest.raises(ParameterError, match="at most 8 channels"):
         write_audio(tmp_path / "a3.flac", a, RATE, layout="ambix3")
     assert not (tmp_path / "a3.flac").exists()
@@ -351,16 +378,22 @@ def test_viewer_live_engine_binaural_equals_offline() -> None:
 
     fk = 4000.0
     t = np.arange(int(0.6 * fk)) / fk
-    tr = SourceTracks(np.array([[3.0, 0.0, 0.0]]), np.sin(2 * np.pi * 300 * t)[None, :],
-                      np.array([0.1]), t)  # fmt: skip
+    tr = SourceTracks(
+        np.array([[3.0, 0.0, 0.0]]), np.sin(2 * np.pi * 300 * t)[None, :], np.array([0.1]), t
+    )
     eng = LiveEngine(tr, layout="binaural", block=2205, loop=False, highpass_hz=0.0)
     assert eng.layout.name == "binaural"
     eng.set_pose([0, 0, 0], [0, 1, 0], [0, 0, 1])  # the source at +x: to the right
     on = np.concatenate([eng.next_block() for _ in range(10)], axis=1)
     # (the live clock skips the travel time to the source, as a render's plan does)
     assert eng.lead == pytest.approx(3.0 / 343.0)
-    off = render_timbre(tr, ListenerPath.point((0, 0, 0), duration=0.5), layout="binaural",
-                        highpass_hz=0.0, lead=eng.lead).audio  # fmt: skip
+    off = render_timbre(
+        tr,
+        ListenerPath.point((0, 0, 0), duration=0.5),
+        layout="binaural",
+        highpass_hz=0.0,
+        lead=eng.lead,
+    ).audio
     assert on.shape == off.shape == (2, 22050) and _rel(on, off) < 1e-5
     assert np.sqrt(np.mean(on[1] ** 2)) > np.sqrt(np.mean(on[0] ** 2))
 
@@ -375,8 +408,9 @@ def test_distributed_render_binaural_equals_one_render() -> None:
     q = np.stack([np.sin(2 * np.pi * 300 * t), np.cos(2 * np.pi * 200 * t)])
     tr = SourceTracks(np.array([[3.0, 0, 0], [0, 4.0, 1]]), q, np.array([0.1, 0.1]), t)
     p = ListenerPath.orbit((0, 0, 0), radius=1.0, duration=0.5, turns=0.3)
-    d = render_distributed(tr, p, layout="binaural", scheduler="sync", groups=2,
-                           block_seconds=0.1, log=None)  # fmt: skip
+    d = render_distributed(
+        tr, p, layout="binaural", scheduler="sync", groups=2, block_seconds=0.1, log=None
+    )
     one = render_timbre(tr, p, layout="binaural", highpass_hz=0.0)
     assert d.layout.name == "binaural" and "binaural" in d.meta
     assert d.audio.shape == one.audio.shape and _rel(d.audio, one.audio) < 1e-5

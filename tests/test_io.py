@@ -352,8 +352,11 @@ def test_vts_curvilinear_is_resampled(tmp_path: Path) -> None:
 
     native = open_volume(path)
     assert native.curvilinear and native.dims == (9, 11, 7)
-    np.testing.assert_allclose(native.frame("f", 1).reshape(-1),
-                               2.0 * (grid.points @ np.array([1.0, 2.0, 3.0])), rtol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        native.frame("f", 1).reshape(-1),
+        2.0 * (grid.points @ np.array([1.0, 2.0, 3.0])),
+        rtol=1e-12,
+    )
     with pytest.warns(ResampledWarning, match=r"StructuredGrid with 693 points resampled") as rec:
         vol = open_volume(path, curvilinear="resample")
     assert rec[0].filename == __file__  # attributed to the caller of open_volume
@@ -564,18 +567,39 @@ def _truncate(path: Path) -> None:
 @pytest.mark.parametrize(
     ("folder", "opened", "cut", "message"),
     [
-        ("xdmf-timeseries", "dolfinx/no_checkpoint.xdmf", "dolfinx/no_checkpoint.h5",
-         r"no_checkpoint\.xdmf: its heavy-data file .*no_checkpoint\.h5 cannot be read as HDF5 "
-         r".*truncated"),
-        ("xdmf-timeseries", "dolfinx/no_checkpoint.xdmf", "dolfinx/no_checkpoint.xdmf",
-         r"no_checkpoint\.xdmf: not a valid XDMF file .*truncated"),
-        ("netcdf-pulse", "pulse.nc", "pulse.nc", r"pulse\.nc: cannot read as netCDF classic .*truncated"),
-        ("ensight-cylinder", "cylinder_Re35.case", "cylinder_Re35.geo",
-         r"cylinder_Re35\.case: VTK's EnSight reader failed .*truncated or corrupt"),
-        ("plot3d-combustor", "combxyz.bin", "combq.bin",
-         r"combq\.bin: VTK's PLOT3D reader returned no data .* truncated"),
+        (
+            "xdmf-timeseries",
+            "dolfinx/no_checkpoint.xdmf",
+            "dolfinx/no_checkpoint.h5",
+            r"no_checkpoint\.xdmf: its heavy-data file .*no_checkpoint\.h5 cannot be read as HDF5 "
+            r".*truncated",
+        ),
+        (
+            "xdmf-timeseries",
+            "dolfinx/no_checkpoint.xdmf",
+            "dolfinx/no_checkpoint.xdmf",
+            r"no_checkpoint\.xdmf: not a valid XDMF file .*truncated",
+        ),
+        (
+            "netcdf-pulse",
+            "pulse.nc",
+            "pulse.nc",
+            r"pulse\.nc: cannot read as netCDF classic .*truncated",
+        ),
+        (
+            "ensight-cylinder",
+            "cylinder_Re35.case",
+            "cylinder_Re35.geo",
+            r"cylinder_Re35\.case: VTK's EnSight reader failed .*truncated or corrupt",
+        ),
+        (
+            "plot3d-combustor",
+            "combxyz.bin",
+            "combq.bin",
+            r"combq\.bin: VTK's PLOT3D reader returned no data .* truncated",
+        ),
     ],
-)  # fmt: skip
+)
 def test_new_readers_truncated_files(
     folder: str, opened: str, cut: str, message: str, tmp_path: Path
 ) -> None:

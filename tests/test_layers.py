@@ -20,27 +20,16 @@ Each check is shown to fail on a small fabricated package with a cycle.
 
 from __future__ import annotations
 
-import ast
 import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from import_scan import cycles, imports, lazy_exports, modules
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGINS = ROOT / "plugins"
-
-
-def _modules(base: Path, top: str) -> dict[str, Path]:
-    """``{module name: file}`` of the package ``top`` under ``base``."""
-    out = {}
-    for path in sorted((base / top).rglob("*.py")):
-        parts = list(path.relative_to(base).with_suffix("").parts)
-        if parts[-1] == "__init__":
-            parts = parts[:-1]
-        out[".".join(parts)] = path
-    return out
 
 
 def _node(module: str) -> str:
@@ -49,36 +38,11 @@ def _node(module: str) -> str:
     return ".".join(module.split(".")[:2])
 
 
-def _absolute(node: ast.ImportFrom, module: str, is_package: bool) -> str:
-    """The module an ``ImportFrom`` names, relative imports resolved."""
-    if not node.level:
-        return node.module or ""
-    base = module.split(".") if is_package else module.split(".")[:-1]
-    base = base[: len(base) - (node.level - 1)]
-    return ".".join(base + ([node.module] if node.module else []))
-
-
 def _imported(module: str, path: Path, known: dict[str, Path]) -> set[str]:
     """The known modules that ``module`` imports anywhere, or names in its lazy exports."""
-    tree = ast.parse(path.read_text(), str(path))
-    is_package = path.name == "__init__.py"
-    out: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            out |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            target = _absolute(node, module, is_package)
-            out |= {target} | {f"{target}.{a.name}" for a in node.names}
-        elif (
-            isinstance(node, ast.Assign)
-            and any(isinstance(t, ast.Name) and t.id == "_EXPORTS" for t in node.targets)
-            and isinstance(node.value, ast.Dict)
-        ):
-            out |= {
-                v.value
-                for v in node.value.values
-                if isinstance(v, ast.Constant) and isinstance(v.value, str)
-            }
+    out: set[str] = set(lazy_exports(path))
+    for _, target, names in imports(module, path, top_only=False):
+        out |= {target} | {f"{target}.{n}" for n in names}
     return {m for m in out if m in known}
 
 
@@ -97,40 +61,7 @@ def package_graph(known: dict[str, Path]) -> dict[str, dict[str, list[str]]]:
     return graph
 
 
-def package_cycles(graph: dict[str, dict[str, list[str]]] | dict[str, set[str]]) -> list[list[str]]:
-    """Strongly connected components of more than one node, each sorted (Tarjan)."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on: set[str] = set()
-    found: list[list[str]] = []
-    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10 * len(graph) + 100))
-
-    def visit(v: str) -> None:
-        index[v] = low[v] = len(index)
-        stack.append(v)
-        on.add(v)
-        for w in sorted(graph.get(v, ())):
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                found.append(sorted(comp))
-
-    for v in sorted(graph):
-        if v not in index:
-            visit(v)
-    return sorted(found)
+package_cycles = cycles
 
 
 def _explain(graph: dict[str, dict[str, list[str]]], cycles: list[list[str]]) -> str:
@@ -164,7 +95,7 @@ def test_imports_inside_functions_and_lazy_exports_are_arrows(tmp_path: Path) ->
     (pkg / "low" / "__init__.py").write_text('_EXPORTS = {"h": "demo.other"}\n')
     (pkg / "low" / "base.py").write_text("def g():\n    from demo import high\n    return high\n")
     (pkg / "other.py").write_text("from .low import base\n")
-    graph = package_graph(_modules(tmp_path, "demo"))
+    graph = package_graph(modules(tmp_path, "demo"))
     assert set(graph["demo.high"]) == {"demo.low"}
     assert set(graph["demo.low"]) == {"demo.high", "demo.other"}  # in a function; lazy export
     assert set(graph["demo.other"]) == {"demo.low"}  # a relative import
@@ -175,7 +106,7 @@ def test_imports_inside_functions_and_lazy_exports_are_arrows(tmp_path: Path) ->
 
 
 def test_the_graph_sees_the_packages_and_their_lazy_imports() -> None:
-    graph = package_graph(_modules(ROOT, "auralize"))
+    graph = package_graph(modules(ROOT, "auralize"))
     assert {"auralize.sources", "auralize.emitters", "auralize.cli", "auralize.volume"} <= set(
         graph
     )
@@ -184,7 +115,7 @@ def test_the_graph_sees_the_packages_and_their_lazy_imports() -> None:
 
 
 def test_no_cycle_among_the_packages() -> None:
-    graph = package_graph(_modules(ROOT, "auralize"))
+    graph = package_graph(modules(ROOT, "auralize"))
     cycles = package_cycles(graph)
     assert cycles == [], _explain(graph, cycles)
 
@@ -195,12 +126,19 @@ def test_no_cycle_among_the_packages() -> None:
 def _lint(pyproject: Path, *paths: Path) -> subprocess.CompletedProcess[str]:
     """``lint-imports`` on ``pyproject``'s ``[tool.importlinter]`` contracts (in a fresh
     interpreter, the packages found on ``paths`` first)."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([*map(str, paths),
-                                                        os.environ.get("PYTHONPATH", "")])}  # fmt: skip
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([*map(str, paths), os.environ.get("PYTHONPATH", "")]),
+    }
     code = "from importlinter.cli import lint_imports_command; lint_imports_command()"
-    return subprocess.run([sys.executable, "-c", code, "--config", str(pyproject), "--no-cache"],
-                          capture_output=True, text=True, env=env, cwd=pyproject.parent,
-                          timeout=300)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-c", code, "--config", str(pyproject), "--no-cache"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=pyproject.parent,
+        timeout=300,
+    )
 
 
 def test_the_import_contracts_hold() -> None:

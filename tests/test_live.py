@@ -122,8 +122,9 @@ def test_live_playback_on_file_backed_alsa_device(tmp_path) -> None:  # type: ig
     (cfg / "alsa" / "asoundrc").write_text(ASOUNDRC.format(out8=out8, out2=out2))
     env = {**os.environ, "XDG_CONFIG_HOME": str(cfg), "PYTHONPATH": str(ROOT)}
     code = textwrap.dedent(SCENE) + textwrap.dedent(PLAYER)
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                         timeout=120)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     r8, r2 = json.loads(res.stdout.strip().splitlines()[-1])
     for r in (r8, r2):
@@ -233,8 +234,13 @@ def test_viewer_live_listening_on_file_backed_alsa_device(tmp_path) -> None:  # 
     out8 = tmp_path / "dev8.raw"
     (cfg / "alsa" / "asoundrc").write_text(ASOUNDRC.format(out8=out8, out2=tmp_path / "x.raw"))
     env = {**os.environ, "XDG_CONFIG_HOME": str(cfg), "PYTHONPATH": str(ROOT)}
-    res = subprocess.run([sys.executable, "-c", textwrap.dedent(VIEWER_LIVE)], capture_output=True,
-                         text=True, env=env, timeout=120)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(VIEWER_LIVE)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     rep = json.loads(res.stdout.strip().splitlines()[-1])
     assert rep["error"] == "None"
@@ -257,8 +263,25 @@ def test_play_command_defaults(alsa_device, capsys) -> None:  # type: ignore[no-
     """`auralize play` without a listener: default orbit, automatic time scale, high-pass."""
     from auralize.cli import main
 
-    assert main(["play", "dataset:monopole", "--size", "12", "--steps", "60", "--layout",
-                 "stereo", "--device", "auralize_file2", "--duration", "0.5"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "play",
+                "dataset:monopole",
+                "--size",
+                "12",
+                "--steps",
+                "60",
+                "--layout",
+                "stereo",
+                "--device",
+                "auralize_file2",
+                "--duration",
+                "0.5",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "listener: orbit of radius" in out
     assert "1 s of playback = " in out and "(auto)" in out

@@ -22,8 +22,12 @@ def _tracks(span: float = 0.6) -> SourceTracks:
     """Two sources in a 2 m box, a 150 Hz tone swelling over ``span`` data seconds."""
     fk = 4000.0
     t = np.arange(int(span * fk)) / fk
-    q = np.stack([np.sin(2 * np.pi * 150 * t) * np.sin(np.pi * t / span),
-                  0.5 * np.sin(2 * np.pi * 150 * t + 1.0)])  # fmt: skip
+    q = np.stack(
+        [
+            np.sin(2 * np.pi * 150 * t) * np.sin(np.pi * t / span),
+            0.5 * np.sin(2 * np.pi * 150 * t + 1.0),
+        ]
+    )
     return SourceTracks(np.array([[1.0, 0.5, 0.0], [-1.0, -0.5, 0.5]]), q, np.full(2, 0.1), t)
 
 
@@ -69,8 +73,9 @@ def test_a_fixed_lead_is_kept_and_a_bad_one_refused() -> None:
 
 def test_silence_is_explained() -> None:
     tracks = _tracks()
-    none = SourceTracks(np.zeros((0, 3)), np.zeros((0, tracks.times.size)), np.zeros(0),
-                        tracks.times)  # fmt: skip
+    none = SourceTracks(
+        np.zeros((0, 3)), np.zeros((0, tracks.times.size)), np.zeros(0), tracks.times
+    )
     assert "no sources" in (LiveEngine(none).why_silent() or "")
     held = SourceTracks(tracks.positions, np.ones_like(tracks.q), tracks.radius, tracks.times)
     assert "field is steady" in (LiveEngine(held).why_silent() or "")

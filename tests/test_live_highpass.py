@@ -23,8 +23,12 @@ def _tracks() -> SourceTracks:
     220 Hz tone on top: the 20 Hz high-pass changes what is heard."""
     fk = 4000.0
     t = np.arange(int(1.2 * fk)) / fk
-    q = np.stack([np.sin(2 * np.pi * 3 * t) + 0.02 * np.sin(2 * np.pi * 220 * t),
-                  0.5 * np.cos(2 * np.pi * 3 * t)])  # fmt: skip
+    q = np.stack(
+        [
+            np.sin(2 * np.pi * 3 * t) + 0.02 * np.sin(2 * np.pi * 220 * t),
+            0.5 * np.cos(2 * np.pi * 3 * t),
+        ]
+    )
     return SourceTracks(np.array([[3.0, 0.5, 0.0], [-2.0, 2.0, 0.5]]), q, np.full(2, 0.1), t)
 
 
@@ -56,16 +60,18 @@ def test_live_blocks_equal_the_offline_render_with_the_highpass() -> None:
     from auralize.emitters import FieldSources
     from auralize.pipeline import render as render_heard
 
-    file = render_heard(FieldSources(tracks, lead=lead), path, layout="stereo",
-                        highpass_hz=HIGHPASS_HZ)  # fmt: skip
+    file = render_heard(
+        FieldSources(tracks, lead=lead), path, layout="stereo", highpass_hz=HIGHPASS_HZ
+    )
     assert file.meta["highpass_hz"] == 20.0 and _rel(on, file.audio) < 1e-5
     # without the lead the first sound would come later: a different signal
     late = render_timbre(tracks, path, timbre="physical", layout="stereo").audio
     assert _rel(on, late) > 0.1
     # --highpass 0: the live blocks keep the swell and equal the unfiltered render
     raw = _live(tracks, n_blocks, highpass_hz=0.0)
-    plain = render_timbre(tracks, path, timbre="physical", layout="stereo", highpass_hz=0,
-                          lead=lead).audio  # fmt: skip
+    plain = render_timbre(
+        tracks, path, timbre="physical", layout="stereo", highpass_hz=0, lead=lead
+    ).audio
     assert _rel(raw, plain) < 1e-5
     # ... which is a different sound: mostly the 3 Hz swell the high-pass removes
     assert _rel(raw, off) > 1.0
@@ -76,20 +82,32 @@ def test_the_highpass_filters_the_sources_not_the_overlays() -> None:
     """An overlay's sound is added unfiltered (as in the viewer's file): with a 5 Hz
     emitter the difference of the blocks with and without it is its own render."""
     tracks = _tracks()
-    em = Emitters(np.sin(2 * np.pi * 5 * np.arange(44100) / 44100.0)[None], 44100.0,
-                  np.array([[0.0, 3.0, 0.0]]), name="slow")  # fmt: skip
+    em = Emitters(
+        np.sin(2 * np.pi * 5 * np.arange(44100) / 44100.0)[None],
+        44100.0,
+        np.array([[0.0, 3.0, 0.0]]),
+        name="slow",
+    )
     a = _live(tracks, 10)
     b = _live(tracks, 10, extra=Sound([em]))
-    ref = render_sound(Sound([em]), ListenerPath.point(POSE[0], duration=1.0), rate=44100,
-                       layout="stereo", duration=0.5).audio  # fmt: skip
+    ref = render_sound(
+        Sound([em]),
+        ListenerPath.point(POSE[0], duration=1.0),
+        rate=44100,
+        layout="stereo",
+        duration=0.5,
+    ).audio
     assert _rel(b - a, ref) < 1e-9
 
 
 def test_live_engine_defaults_and_bad_cutoff() -> None:
     tracks = _tracks()
     assert LiveEngine(tracks).highpass_hz == HIGHPASS_HZ == 20.0
-    with pytest.raises(ParameterError, match=r"highpass must be 0 \(off\) or between 0 and "
-                                             r"22050 Hz.*got -1"):  # fmt: skip
+    with pytest.raises(
+        ParameterError,
+        match=r"highpass must be 0 \(off\) or between 0 and "
+        r"22050 Hz.*got -1",
+    ):
         LiveEngine(tracks, highpass_hz=-1.0)
 
 

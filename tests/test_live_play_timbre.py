@@ -106,11 +106,26 @@ def test_play_a_scene_follows_the_fields_timbre(devices, tmp_path, capsys) -> No
     assert main(["dataset", "monopole", "--size", "12", "--steps", "60", "-o", str(vol)]) == 0
     for name, timbre in (("scene", "auto"), ("scene_phys", "physical")):
         scene = tmp_path / f"{name}.json"
-        scene.write_text(json.dumps({
-            "listener": {"position": [5.0, 1.4, 1.4]}, "duration": 0.5, "layout": "stereo",
-            "models": [{"model": "field", "input": str(vol),
-                        "params": {"time_scale": 20, "timbre": timbre,
-                                   "threshold_monopole": "1%"}}]}))  # fmt: skip
+        scene.write_text(
+            json.dumps(
+                {
+                    "listener": {"position": [5.0, 1.4, 1.4]},
+                    "duration": 0.5,
+                    "layout": "stereo",
+                    "models": [
+                        {
+                            "model": "field",
+                            "input": str(vol),
+                            "params": {
+                                "time_scale": 20,
+                                "timbre": timbre,
+                                "threshold_monopole": "1%",
+                            },
+                        }
+                    ],
+                }
+            )
+        )
         ref = _render(devices, name, "--scene", str(scene))
         got, out = _play(devices, name, ref, capsys, "--scene", str(scene))
         assert ("timbre auto: rendered ahead in" in out) == (timbre == "auto")

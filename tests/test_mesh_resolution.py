@@ -23,8 +23,11 @@ CHORD, THICKNESS, R_OUT = 1.0, 0.12, 60.0
 
 def naca_half_thickness(x: np.ndarray) -> np.ndarray:
     """Half-thickness of a NACA 00xx section of chord 1 at ``x`` in [0, 1]."""
-    return 5 * THICKNESS * (0.2969 * np.sqrt(x) - 0.1260 * x - 0.3516 * x**2
-                            + 0.2843 * x**3 - 0.1036 * x**4)  # fmt: skip
+    return (
+        5
+        * THICKNESS
+        * (0.2969 * np.sqrt(x) - 0.1260 * x - 0.3516 * x**2 + 0.2843 * x**3 - 0.1036 * x**4)
+    )
 
 
 def airfoil_mesh(n_around: int = 120, n_layers: int = 40, unit: float = 1.0) -> pv.UnstructuredGrid:
@@ -151,8 +154,11 @@ def test_a_grid_bigger_than_memory_is_refused_before_it_is_made(
     naca: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("AURALIZE_MEMORY_LIMIT", "1M")
-    with pytest.raises(ResourceError, match=r"400 x 400 x 1 points needs about .* refusing"
-                                            r" to start; pass a coarser --resolution"):  # fmt: skip
+    with pytest.raises(
+        ResourceError,
+        match=r"400 x 400 x 1 points needs about .* refusing"
+        r" to start; pass a coarser --resolution",
+    ):
         open_volume(naca, resolution=(400, 400, 1))
     # the automatic grid shrinks to half of what is available, and says why
     with pytest.warns(ResampledWarning, match=r"half the 1 MiB of memory available"):
@@ -172,8 +178,10 @@ def _sphere_series(folder: Path, n_steps: int = 3) -> tuple[Path, np.ndarray, fl
         s.save(folder / f"s{n}.vtp")
         entries.append(f'<DataSet timestep="{0.1 * n}" part="0" file="s{n}.vtp"/>')
     pvd = folder / "shell.pvd"
-    pvd.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
-                   "<Collection>\n" + "\n".join(entries) + "\n</Collection>\n</VTKFile>\n")  # fmt: skip
+    pvd.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+        "<Collection>\n" + "\n".join(entries) + "\n</Collection>\n</VTKFile>\n"
+    )
     return pvd, centre, radius
 
 
@@ -220,13 +228,16 @@ def test_an_unstructured_shell_of_quads_with_cell_data(tmp_path: Path) -> None:
 
 def test_grid_for_cells_caps_at_the_budget() -> None:
     sizes = np.full(100, 0.01)
-    free = grid_for_cells((0, 1, 0, 1, 0, 1), sizes, n_points=1000, resolution=None,
-                          budget=10**7, source="x")  # fmt: skip
+    free = grid_for_cells(
+        (0, 1, 0, 1, 0, 1), sizes, n_points=1000, resolution=None, budget=10**7, source="x"
+    )
     assert free.dims == (101, 101, 101) and not free.capped
-    capped = grid_for_cells((0, 1, 0, 1, 0, 1), sizes, n_points=1000, resolution=None,
-                            budget=1000, source="x")  # fmt: skip
+    capped = grid_for_cells(
+        (0, 1, 0, 1, 0, 1), sizes, n_points=1000, resolution=None, budget=1000, source="x"
+    )
     assert capped.capped and np.prod(capped.dims) <= 1000 and capped.cell == pytest.approx(0.01)
     # no sizes: about as many grid points as the mesh has
-    few = grid_for_cells((0, 1, 0, 1, 0, 1), np.zeros(0), n_points=1000, resolution=None,
-                         budget=10**7, source="x")  # fmt: skip
+    few = grid_for_cells(
+        (0, 1, 0, 1, 0, 1), np.zeros(0), n_points=1000, resolution=None, budget=10**7, source="x"
+    )
     assert 500 <= np.prod(few.dims) <= 1000 and "as many grid points" in few.why

@@ -32,10 +32,18 @@ def isa_height(p_hpa: float) -> float:
     return t0 / lapse * (1.0 - (p_hpa * 100.0 / p0) ** (r * lapse / g))
 
 
-def write_era(path: Path, *, time_name: str = "month", time_units: str | None = None,
-              time_coord: bool = True, level_units: str = "millibars",
-              level_attrs: dict[str, str] | None = None, nt: int = 2,
-              lat: np.ndarray = LAT, levels: list[float] = LEVELS) -> Path:  # fmt: skip
+def write_era(
+    path: Path,
+    *,
+    time_name: str = "month",
+    time_units: str | None = None,
+    time_coord: bool = True,
+    level_units: str = "millibars",
+    level_attrs: dict[str, str] | None = None,
+    nt: int = 2,
+    lat: np.ndarray = LAT,
+    levels: list[float] = LEVELS,
+) -> Path:
     """u, v, z on (month, level, latitude, longitude) as an ERA monthly-means file:
     u holds the standard-atmosphere height of its level, v its latitude in degrees."""
     heights = np.array([isa_height(p) for p in LEVELS])
@@ -48,8 +56,11 @@ def write_era(path: Path, *, time_name: str = "month", time_units: str | None = 
             if time_units is not None:
                 t.units = time_units
             t[:] = np.arange(1, nt + 1)
-        for name, vals, units in (("level", levels, level_units), ("latitude", lat, "degrees_north"),
-                                  ("longitude", LON, "degrees_east")):  # fmt: skip
+        for name, vals, units in (
+            ("level", levels, level_units),
+            ("latitude", lat, "degrees_north"),
+            ("longitude", LON, "degrees_east"),
+        ):
             v = f.createVariable(name, "f4", (name,))
             v.units = units
             v[:] = vals
@@ -67,9 +78,10 @@ def write_era(path: Path, *, time_name: str = "month", time_units: str | None = 
         z.units = "m**2 s**-2"
         z.standard_name = "geopotential"
         t = np.arange(nt)[:, None, None, None]
-        wave = np.sin(np.arange(LON.size))[None, None, None, :] * np.cos(np.arange(lat.size))[
-            None, None, :, None
-        ]  # fmt: skip
+        wave = (
+            np.sin(np.arange(LON.size))[None, None, None, :]
+            * np.cos(np.arange(lat.size))[None, None, :, None]
+        )
         z[:] = 9.80665 * heights[None, :, None, None] + 50.0 * t * wave
     return path
 
@@ -81,9 +93,11 @@ def era(tmp_path: Path) -> Path:
 
 # --------------------------------------------------------------------------- axes in metres
 def test_standard_atmosphere_heights() -> None:
-    np.testing.assert_allclose(standard_height(np.array([100000.0, 85000.0, 50000.0])),
-                               [isa_height(1000.0), isa_height(850.0), isa_height(500.0)],
-                               rtol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        standard_height(np.array([100000.0, 85000.0, 50000.0])),
+        [isa_height(1000.0), isa_height(850.0), isa_height(500.0)],
+        rtol=1e-12,
+    )
     assert abs(isa_height(1000.0) - 111.0) < 1.0 and abs(isa_height(500.0) - 5574.4) < 0.1
     # above 11 km (22632 hPa) the layer is isothermal at 216.65 K
     p11 = 101325.0 * (216.65 / 288.15) ** (9.80665 / (287.05287 * 0.0065))
@@ -92,12 +106,16 @@ def test_standard_atmosphere_heights() -> None:
     assert standard_height(p11) == pytest.approx(11000.0, abs=1e-6)
 
 
-@pytest.mark.parametrize(("units", "physical", "times"), [
-    ("months", True, [MONTH_S, 2 * MONTH_S]),
-    (None, False, [0.0, 1 / 30]),
-])  # fmt: skip
-def test_era_like_file_in_metres(tmp_path: Path, units: str | None, physical: bool,
-                                 times: list[float]) -> None:  # fmt: skip
+@pytest.mark.parametrize(
+    ("units", "physical", "times"),
+    [
+        ("months", True, [MONTH_S, 2 * MONTH_S]),
+        (None, False, [0.0, 1 / 30]),
+    ],
+)
+def test_era_like_file_in_metres(
+    tmp_path: Path, units: str | None, physical: bool, times: list[float]
+) -> None:
     path = write_era(tmp_path / "era.nc", time_units=units)
     native = open_volume(path)  # the pressure levels on their own points (a rectilinear grid)
     assert native.curvilinear and native.dims == (14, 13, 3)
@@ -105,8 +123,11 @@ def test_era_like_file_in_metres(tmp_path: Path, units: str | None, physical: bo
     np.testing.assert_allclose(native.coords[:, 0, 0, 2], zs, rtol=1e-6)
     np.testing.assert_allclose(native.frame("u", 1)[:, 0, 0], zs, rtol=1e-6)  # u: the height
     assert "unevenly spaced: 3 points" in str(native.attrs["mesh"])
-    with pytest.warns(ResampledWarning, match=r"z coordinate \(millibars -> m \(standard "
-                      r"atmosphere\)\) is unevenly spaced: 3 points"):  # fmt: skip
+    with pytest.warns(
+        ResampledWarning,
+        match=r"z coordinate \(millibars -> m \(standard "
+        r"atmosphere\)\) is unevenly spaced: 3 points",
+    ):
         vol = open_volume(path, curvilinear="resample")
     assert vol.attrs["time_dim"] == "month"
     assert vol.physical_times is physical
@@ -145,8 +166,11 @@ def test_latitude_span_over_30_degrees_warns(tmp_path: Path) -> None:
     path = write_era(tmp_path / "wide.nc", time_units="months", lat=np.array([0.0, 20.0, 40.0]))
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", ".*resampled by linear", ResampledWarning)
-        with pytest.warns(ResampledWarning, match=r"latitude spans 40° \(0° \.\. 40°\).*about "
-                          r"20\.0°.*off by up to 1\.23"):  # fmt: skip
+        with pytest.warns(
+            ResampledWarning,
+            match=r"latitude spans 40° \(0° \.\. 40°\).*about "
+            r"20\.0°.*off by up to 1\.23",
+        ):
             vol = open_volume(path)
     step = math.radians(0.75)
     assert vol.spacing[0] == pytest.approx(R * math.cos(math.radians(20.0)) * step, rel=1e-9)
@@ -163,16 +187,30 @@ def test_axis_scale_overrides_the_conversions(era: Path) -> None:
     assert "projection" not in vol.attrs
 
 
-@pytest.mark.parametrize(("units", "attrs", "levels", "expected", "note"), [
-    ("km", {}, [0.0, 1.0, 2.0], [0.0, 1000.0, 2000.0], "km -> m"),
-    ("cm", {}, [0.0, 50.0, 100.0], [0.0, 0.5, 1.0], "cm -> m"),
-    ("metres", {}, [0.0, 5.0, 10.0], [0.0, 5.0, 10.0], "metres"),
-    ("", {}, [0.0, 1.0, 2.0], [0.0, 1.0, 2.0], "no units: taken as m"),
-    ("m", {"positive": "down"}, [0.0, 10.0, 20.0], [-20.0, -10.0, 0.0],
-     "m (positive down -> height: negated)"),
-])  # fmt: skip
-def test_vertical_length_units(tmp_path: Path, units: str, attrs: dict[str, str],
-                               levels: list[float], expected: list[float], note: str) -> None:  # fmt: skip
+@pytest.mark.parametrize(
+    ("units", "attrs", "levels", "expected", "note"),
+    [
+        ("km", {}, [0.0, 1.0, 2.0], [0.0, 1000.0, 2000.0], "km -> m"),
+        ("cm", {}, [0.0, 50.0, 100.0], [0.0, 0.5, 1.0], "cm -> m"),
+        ("metres", {}, [0.0, 5.0, 10.0], [0.0, 5.0, 10.0], "metres"),
+        ("", {}, [0.0, 1.0, 2.0], [0.0, 1.0, 2.0], "no units: taken as m"),
+        (
+            "m",
+            {"positive": "down"},
+            [0.0, 10.0, 20.0],
+            [-20.0, -10.0, 0.0],
+            "m (positive down -> height: negated)",
+        ),
+    ],
+)
+def test_vertical_length_units(
+    tmp_path: Path,
+    units: str,
+    attrs: dict[str, str],
+    levels: list[float],
+    expected: list[float],
+    note: str,
+) -> None:
     path = tmp_path / "len.nc"
     with netcdf_file(path, "w") as f:
         for name, n in (("time", 2), ("depth", 3), ("y", 1), ("x", 2)):
@@ -199,11 +237,18 @@ def test_vertical_length_units(tmp_path: Path, units: str, attrs: dict[str, str]
 
 
 def test_sigma_levels_are_refused_unless_scaled(tmp_path: Path) -> None:
-    path = write_era(tmp_path / "sigma.nc", time_units="months", level_units="1",
-                     level_attrs={"standard_name": "atmosphere_sigma_coordinate"})  # fmt: skip
-    with pytest.raises(FormatError, match=r"'level' is a parametric vertical coordinate "
-                       r"\(atmosphere_sigma_coordinate, CF Appendix D\) whose formula_terms '' "
-                       r"leave out .*sigma, ps, ptop\); give them, or --axis-scale"):  # fmt: skip
+    path = write_era(
+        tmp_path / "sigma.nc",
+        time_units="months",
+        level_units="1",
+        level_attrs={"standard_name": "atmosphere_sigma_coordinate"},
+    )
+    with pytest.raises(
+        FormatError,
+        match=r"'level' is a parametric vertical coordinate "
+        r"\(atmosphere_sigma_coordinate, CF Appendix D\) whose formula_terms '' "
+        r"leave out .*sigma, ps, ptop\); give them, or --axis-scale",
+    ):
         open_volume(path)
     vol = open_volume(path, axis_scale=(1.0, 1.0, 0.01))
     assert vol.bounds[4:] == pytest.approx((5.0, 10.0))
@@ -211,12 +256,21 @@ def test_sigma_levels_are_refused_unless_scaled(tmp_path: Path) -> None:
 
 # --------------------------------------------------------------------------- time by any name
 def test_time_dimension_with_an_unguessable_name(tmp_path: Path) -> None:
-    path = write_era(tmp_path / "m2.nc", time_name="month2", time_coord=False,
-                     level_units="km", levels=[0.0, 1.0, 2.0], nt=3)  # fmt: skip
-    with pytest.raises(FormatError, match=re.escape(
-        "no time dimension found among (month2, level, latitude, longitude): name it with "
-        "--time-dim NAME (CF: a coordinate with axis='T' or units '<unit> since <date>')"
-    )):  # fmt: skip
+    path = write_era(
+        tmp_path / "m2.nc",
+        time_name="month2",
+        time_coord=False,
+        level_units="km",
+        levels=[0.0, 1.0, 2.0],
+        nt=3,
+    )
+    with pytest.raises(
+        FormatError,
+        match=re.escape(
+            "no time dimension found among (month2, level, latitude, longitude): name it with "
+            "--time-dim NAME (CF: a coordinate with axis='T' or units '<unit> since <date>')"
+        ),
+    ):
         open_volume(path)
     vol = open_volume(path, time_dim="month2")
     assert vol.attrs["time_dim"] == "month2" and vol.n_steps == 3 and not vol.physical_times
@@ -225,9 +279,12 @@ def test_time_dimension_with_an_unguessable_name(tmp_path: Path) -> None:
     )
     assert vol.dims == (14, 13, 3) and vol.spacing[2] == pytest.approx(1000.0)
     assert vol.attrs["axis_units"]["z"] == "km -> m"
-    with pytest.raises(FormatError, match=r"--time-dim 'nope': the file has no such dimension; "
-                       r"its dimensions are month2 \(3\), level \(3\), latitude \(13\), "
-                       r"longitude \(14\)"):  # fmt: skip
+    with pytest.raises(
+        FormatError,
+        match=r"--time-dim 'nope': the file has no such dimension; "
+        r"its dimensions are month2 \(3\), level \(3\), latitude \(13\), "
+        r"longitude \(14\)",
+    ):
         open_volume(path, time_dim="nope")
 
 
@@ -274,9 +331,11 @@ def test_netcdf4_standard_name_components(tmp_path: Path) -> None:
     """Wind components known by their CF standard names form the velocity (netCDF4)."""
     path = tmp_path / "w.nc"
     with h5py.File(path, "w") as f:
-        for name, vals, units in (("time", [0.0, 1.0], "hours since 2001-01-01"),
-                                  ("lat", [10.0, 11.0], "degrees_north"),
-                                  ("lon", [0.0, 1.0, 2.0], "degrees_east")):  # fmt: skip
+        for name, vals, units in (
+            ("time", [0.0, 1.0], "hours since 2001-01-01"),
+            ("lat", [10.0, 11.0], "degrees_north"),
+            ("lon", [0.0, 1.0, 2.0], "degrees_east"),
+        ):
             ds = f.create_dataset(name, data=np.asarray(vals))
             ds.make_scale(name)
             ds.attrs["units"] = units
@@ -302,8 +361,10 @@ def test_cli_info_shows_the_axes(era: Path, capsys) -> None:  # type: ignore[no-
         out = capsys.readouterr().out
         assert main(["info", str(era), "--json"]) == 0
         info = json.loads(capsys.readouterr().out)
-    assert ("  axes     x: degrees_east -> m (R cos 44.5°), y: degrees_north -> m, "
-            "z: millibars -> m (standard atmosphere)") in out  # fmt: skip
+    assert (
+        "  axes     x: degrees_east -> m (R cos 44.5°), y: degrees_north -> m, "
+        "z: millibars -> m (standard atmosphere)"
+    ) in out
     assert "(the file's time units: months (no reference date; one unit = 2.62974e+06 s))" in out
     assert info["axis_units"]["z"] == "millibars -> m (standard atmosphere)"
     assert info["time_dim"] == "month"
@@ -317,9 +378,24 @@ def test_cli_detect_and_render_era_like(era: Path, tmp_path: Path, capsys) -> No
         assert rc == 0
         det = json.loads(capsys.readouterr().out)
         x, y = R * math.cos(math.radians(44.5)) * math.radians(5.0), R * math.radians(44.5)
-        rc = main(["render", str(era), "--density-field", "z", "--sources", str(src),
-                   "--listener", f"{x:.0f},{y:.0f},3000", "--duration", "0.01", "--rate",
-                   "8000", "-o", str(wav)])  # fmt: skip
+        rc = main(
+            [
+                "render",
+                str(era),
+                "--density-field",
+                "z",
+                "--sources",
+                str(src),
+                "--listener",
+                f"{x:.0f},{y:.0f},3000",
+                "--duration",
+                "0.01",
+                "--rate",
+                "8000",
+                "-o",
+                str(wav),
+            ]
+        )
     assert rc == 0 and wav.stat().st_size > 44
     assert len(det["steps"]) == 2 and det["valid_ratio"] == 1.0
     assert json.loads((tmp_path / "a.wav.json").read_text())["volume"] == str(era)

@@ -73,8 +73,14 @@ def test_a_sidecar_auralize_did_not_write_is_never_replaced(
 def test_a_closed_pipe_ends_quietly() -> None:
     """``auralize plugins | head -1``: the line, exit 0, nothing on stderr."""
     exe = Path(sys.executable).parent / "auralize"
-    p = subprocess.run(f"'{exe}' plugins | head -1; exit ${{PIPESTATUS[0]}}", shell=True,
-                       executable="/bin/bash", capture_output=True, text=True, timeout=120)  # fmt: skip
+    p = subprocess.run(
+        f"'{exe}' plugins | head -1; exit ${{PIPESTATUS[0]}}",
+        shell=True,
+        executable="/bin/bash",
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert p.returncode == 0, p.stderr
     assert p.stdout.count("\n") == 1 and p.stderr == ""
 

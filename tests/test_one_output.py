@@ -42,9 +42,27 @@ def discharge(tmp_path_factory) -> Path:  # type: ignore[no-untyped-def]
     """A spark discharge tree saved by ``spark render --save-discharge``."""
     d = tmp_path_factory.mktemp("spark")
     tree = d / "tree.csv"
-    assert main(["spark", "render", "--seed", "3", "-o", str(d / "a.wav"), "--listener",
-                 "0.5,0.3,0.2", "--duration", "0.05", "--rate", str(RATE),
-                 "--save-discharge", str(tree)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "spark",
+                "render",
+                "--seed",
+                "3",
+                "-o",
+                str(d / "a.wav"),
+                "--listener",
+                "0.5,0.3,0.2",
+                "--duration",
+                "0.05",
+                "--rate",
+                str(RATE),
+                "--save-discharge",
+                str(tree),
+            ]
+        )
+        == 0
+    )
     return tree
 
 
@@ -68,10 +86,24 @@ def test_spark_alone_and_in_a_render_write_the_same_samples(discharge, tmp_path)
     high-pass is the field's, and a spark has no field sources."""
     a, b = tmp_path / "alone.wav", tmp_path / "scene.wav"
     lis = ["--listener", "0.5,0.3,0.2", "--duration", "0.1"]
-    assert main(["spark", "render", "--discharge", str(discharge), "--seed", "3", "-o", str(a),
-                 *lis, *OUT]) == 0  # fmt: skip
-    assert main(["render", "--model", f"spark:{discharge}:seed=3", "-o", str(b), *lis,
-                 *OUT]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "spark",
+                "render",
+                "--discharge",
+                str(discharge),
+                "--seed",
+                "3",
+                "-o",
+                str(a),
+                *lis,
+                *OUT,
+            ]
+        )
+        == 0
+    )
+    assert main(["render", "--model", f"spark:{discharge}:seed=3", "-o", str(b), *lis, *OUT]) == 0
     x, y = _wav(a), _wav(b)
     assert x.shape == y.shape == (2, round(0.1 * RATE))
     assert np.max(np.abs(x)) > 1.0  # an N-wave of pascals at half a metre
@@ -87,19 +119,35 @@ def test_fire_alone_and_in_a_render_write_the_same_samples(fire_file, tmp_path) 
     """``fire render`` (its own §6 high-pass, 30 Hz) = ``render --model fire``."""
     a, b = tmp_path / "alone.wav", tmp_path / "scene.wav"
     lis = ["--listener", "0.5,0.5,3", "--duration", "0.4"]
-    assert main(["fire", "render", str(fire_file), "--extend", "none", "-o", str(a), *lis,
-                 *OUT]) == 0  # fmt: skip
-    assert main(["render", "--model", f"fire:{fire_file}:extend=none", "-o", str(b), *lis,
-                 *OUT]) == 0  # fmt: skip
+    assert (
+        main(["fire", "render", str(fire_file), "--extend", "none", "-o", str(a), *lis, *OUT]) == 0
+    )
+    assert (
+        main(["render", "--model", f"fire:{fire_file}:extend=none", "-o", str(b), *lis, *OUT]) == 0
+    )
     x, y = _wav(a), _wav(b)
     assert x.shape == y.shape and np.max(np.abs(x)) > 0
     assert np.max(np.abs(x - y)) <= 1e-6 * np.max(np.abs(x))
 
 
 def _field_args(tmp_path: Path) -> list[str]:
-    return ["dataset:monopole", "--size", "12", "--steps", "60", "--threshold-monopole", "1%",
-            "--timbre", "physical", "--listener", "1.5,0.5,0.5", "--duration", "0.3",
-            "--time-scale", "1"]  # fmt: skip
+    return [
+        "dataset:monopole",
+        "--size",
+        "12",
+        "--steps",
+        "60",
+        "--threshold-monopole",
+        "1%",
+        "--timbre",
+        "physical",
+        "--listener",
+        "1.5,0.5,0.5",
+        "--duration",
+        "0.3",
+        "--time-scale",
+        "1",
+    ]
 
 
 def test_field_plus_model_is_the_filtered_field_plus_the_model(discharge, tmp_path) -> None:  # type: ignore[no-untyped-def]
@@ -107,8 +155,23 @@ def test_field_plus_model_is_the_filtered_field_plus_the_model(discharge, tmp_pa
     fa = _field_args(tmp_path)
     spark = f"spark:{discharge}:seed=3"
     assert main(["render", *fa, "-o", str(field), *OUT]) == 0  # default --highpass 20
-    assert main(["render", "--model", spark, "--listener", "1.5,0.5,0.5", "--duration", "0.3",
-                 "-o", str(model), *OUT]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "--model",
+                spark,
+                "--listener",
+                "1.5,0.5,0.5",
+                "--duration",
+                "0.3",
+                "-o",
+                str(model),
+                *OUT,
+            ]
+        )
+        == 0
+    )
     assert main(["render", *fa, "--model", spark, "-o", str(mix), *OUT]) == 0
     f, m, x = _wav(field), _wav(model), _wav(mix)
     assert np.max(np.abs(f)) > 0 and np.max(np.abs(m)) > 0
@@ -133,8 +196,23 @@ def test_a_scene_without_duration_lasts_until_every_part_is_heard(discharge, tmp
     fa = [a for a in _field_args(tmp_path) if a not in ("--duration", "0.3")]
     spark = f"spark:{discharge}:seed=3,t0=0.05"
     assert main(["render", *fa, "-o", str(field), *OUT]) == 0
-    assert main(["render", "--model", spark, "--listener", "1.5,0.5,0.5", "--duration", "0.3",
-                 "-o", str(model), *OUT]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "--model",
+                spark,
+                "--listener",
+                "1.5,0.5,0.5",
+                "--duration",
+                "0.3",
+                "-o",
+                str(model),
+                *OUT,
+            ]
+        )
+        == 0
+    )
     assert main(["render", *fa, "--model", spark, "-o", str(mix), *OUT]) == 0
     f, m, x = _wav(field), _wav(model), _wav(mix)
     heard = np.flatnonzero(np.any(m != 0, axis=0))
@@ -145,16 +223,22 @@ def test_a_scene_without_duration_lasts_until_every_part_is_heard(discharge, tmp
     assert np.max(np.abs(x[:, first:] - m[:, first : x.shape[1]])) <= 1e-3 * np.max(np.abs(m))
     # without a volume the spark alone gets the same length
     alone = tmp_path / "alone.wav"
-    assert main(["render", "--model", spark, "--listener", "1.5,0.5,0.5", "-o", str(alone),
-                 *OUT]) == 0  # fmt: skip
+    assert (
+        main(["render", "--model", spark, "--listener", "1.5,0.5,0.5", "-o", str(alone), *OUT]) == 0
+    )
     assert _wav(alone).shape == x.shape
 
 
 # ------------------------------------------------------------------------ Dask
 @pytest.mark.filterwarnings("ignore:.*unclosed.*:ResourceWarning")
 @pytest.mark.parametrize(("scheduler", "length"), [("sync", "--duration"), ("threads", "natural")])
-def test_dask_render_of_a_scene_equals_the_render_without_dask(discharge, tmp_path, capsys,  # type: ignore[no-untyped-def]
-                                                               scheduler, length) -> None:  # fmt: skip
+def test_dask_render_of_a_scene_equals_the_render_without_dask(
+    discharge,
+    tmp_path,
+    capsys,  # type: ignore[no-untyped-def]
+    scheduler,
+    length,
+) -> None:
     """Also the scene's length: ``--duration`` 0.3 s, or (no duration) until the spark
     flashing after the volume's sound has been heard."""
     pytest.importorskip("dask")
@@ -166,8 +250,24 @@ def test_dask_render_of_a_scene_equals_the_render_without_dask(discharge, tmp_pa
     plain, dask = tmp_path / "plain.wav", tmp_path / "dask.wav"
     assert main(["render", *fa, "--model", spark, "-o", str(plain), *OUT]) == 0
     capsys.readouterr()
-    assert main(["render", *fa, "--model", spark, "-o", str(dask), *OUT,
-                 "--scheduler", scheduler, "--workers", "2"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                *fa,
+                "--model",
+                spark,
+                "-o",
+                str(dask),
+                *OUT,
+                "--scheduler",
+                scheduler,
+                "--workers",
+                "2",
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert f"({scheduler})" in text and "1 model part(s) on this machine" in text
     x, y = _wav(plain), _wav(dask)
@@ -186,16 +286,35 @@ def test_dask_render_of_a_scene_equals_the_render_without_dask(discharge, tmp_pa
 def test_dask_render_of_a_scene_file(discharge, tmp_path) -> None:  # type: ignore[no-untyped-def]
     pytest.importorskip("dask")
     scene = tmp_path / "scene.json"
-    scene.write_text(json.dumps({"layout": "stereo", "rate": RATE, "listener":
-                                 {"position": [1.5, 0.5, 0.5]}, "duration": 0.3,
-                                 "models": [{"model": "spark", "input": str(discharge),
-                                             "params": {"seed": 3}}]}))  # fmt: skip
-    fa = ["dataset:monopole", "--size", "12", "--steps", "60", "--threshold-monopole", "1%",
-          "--timbre", "physical", "--time-scale", "1", "--normalize", "none"]  # fmt: skip
+    scene.write_text(
+        json.dumps(
+            {
+                "layout": "stereo",
+                "rate": RATE,
+                "listener": {"position": [1.5, 0.5, 0.5]},
+                "duration": 0.3,
+                "models": [{"model": "spark", "input": str(discharge), "params": {"seed": 3}}],
+            }
+        )
+    )
+    fa = [
+        "dataset:monopole",
+        "--size",
+        "12",
+        "--steps",
+        "60",
+        "--threshold-monopole",
+        "1%",
+        "--timbre",
+        "physical",
+        "--time-scale",
+        "1",
+        "--normalize",
+        "none",
+    ]
     plain, dask = tmp_path / "plain.wav", tmp_path / "dask.wav"
     assert main(["render", *fa, "--scene", str(scene), "-o", str(plain)]) == 0
-    assert main(["render", *fa, "--scene", str(scene), "-o", str(dask),
-                 "--scheduler", "sync"]) == 0  # fmt: skip
+    assert main(["render", *fa, "--scene", str(scene), "-o", str(dask), "--scheduler", "sync"]) == 0
     x, y = _wav(plain), _wav(dask)
     assert x.shape[0] == 2 and x.shape == y.shape and np.max(np.abs(x)) > 0
     assert np.max(np.abs(x - y)) <= 1e-6 * np.max(np.abs(x))
@@ -212,8 +331,12 @@ pcm.auralize_file3 {{
 """
 
 
-def test_play_field_and_model_on_a_file_backed_device(discharge, tmp_path, monkeypatch,  # type: ignore[no-untyped-def]
-                                                      capsys) -> None:  # fmt: skip
+def test_play_field_and_model_on_a_file_backed_device(
+    discharge,
+    tmp_path,
+    monkeypatch,  # type: ignore[no-untyped-def]
+    capsys,
+) -> None:
     """``auralize play PATH --model ...``: no underruns, and the device gets the render."""
     from auralize.audio import refresh_devices
 
@@ -231,8 +354,26 @@ def test_play_field_and_model_on_a_file_backed_device(discharge, tmp_path, monke
     gain = 0.9 / float(np.max(np.abs(r)))
     capsys.readouterr()
     try:
-        assert main(["play", *fa, "--model", spark, "--layout", "stereo", "--rate", str(RATE),
-                     "--device", "auralize_file3", "--gain", repr(gain), "--json"]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "play",
+                    *fa,
+                    "--model",
+                    spark,
+                    "--layout",
+                    "stereo",
+                    "--rate",
+                    str(RATE),
+                    "--device",
+                    "auralize_file3",
+                    "--gain",
+                    repr(gain),
+                    "--json",
+                ]
+            )
+            == 0
+        )
     finally:
         monkeypatch.delenv("XDG_CONFIG_HOME")
         refresh_devices()
@@ -255,14 +396,44 @@ def test_sidecars_record_the_command_as_typed(discharge, fire_file, tmp_path) ->
     d.mkdir()
     cases = [
         ["render", *_field_args(tmp_path), "-o", str(d / "field.wav")],
-        ["render", "--model", f"spark:{discharge}", "--listener", "1,0,0", "--duration", "0.05",
-         "-o", str(d / "spark scene.wav")],
-        ["spark", "render", "--discharge", str(discharge), "--listener", "1,0,0",
-         "--duration", "0.05", "-o", str(d / "spark.wav")],
-        ["fire", "render", str(fire_file), "--extend", "none", "--listener", "0.5,0.5,3",
-         "--duration", "0.1", "-o", str(d / "fire.wav")],
+        [
+            "render",
+            "--model",
+            f"spark:{discharge}",
+            "--listener",
+            "1,0,0",
+            "--duration",
+            "0.05",
+            "-o",
+            str(d / "spark scene.wav"),
+        ],
+        [
+            "spark",
+            "render",
+            "--discharge",
+            str(discharge),
+            "--listener",
+            "1,0,0",
+            "--duration",
+            "0.05",
+            "-o",
+            str(d / "spark.wav"),
+        ],
+        [
+            "fire",
+            "render",
+            str(fire_file),
+            "--extend",
+            "none",
+            "--listener",
+            "0.5,0.5,3",
+            "--duration",
+            "0.1",
+            "-o",
+            str(d / "fire.wav"),
+        ],
         ["fire", "lowfreq", str(fire_file), "-o", str(d / "low.wav")],
-    ]  # fmt: skip
+    ]
     for argv in cases:
         assert main(argv) == 0, argv
         cmd = _sidecar(Path(argv[-1]))["command"]

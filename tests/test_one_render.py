@@ -46,8 +46,9 @@ def _low_level_imports(path: Path) -> list[str]:
     found = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom) and node.module:
-            found += [f"{node.module}.{a.name}" for a in node.names
-                      if (node.module, a.name) in LOW_LEVEL]  # fmt: skip
+            found += [
+                f"{node.module}.{a.name}" for a in node.names if (node.module, a.name) in LOW_LEVEL
+            ]
     return found
 
 
@@ -92,8 +93,19 @@ def test_blocks_and_continued_stretches_equal_the_offline_render(mixed) -> None:
     assert np.max(np.abs(on - off.audio)) <= 1e-9 * scale
     carry = Carry()
     n = 640  # 80 ms stretches, as live listening renders them
-    parts = [render(sound, path, rate=RATE, layout="stereo", highpass_hz=20.0, start=k * n / RATE,
-                    duration=n / RATE, carry=carry).audio for k in range(10)]  # fmt: skip
+    parts = [
+        render(
+            sound,
+            path,
+            rate=RATE,
+            layout="stereo",
+            highpass_hz=20.0,
+            start=k * n / RATE,
+            duration=n / RATE,
+            carry=carry,
+        ).audio
+        for k in range(10)
+    ]
     assert np.max(np.abs(np.concatenate(parts, axis=1) - off.audio)) <= 1e-9 * scale
 
 

@@ -105,23 +105,32 @@ def test_fast_synthesis_equals_sample_by_sample(mono_tracks, mono_params, interp
 
 
 @pytest.mark.parametrize("layout", ["mono", "stereo", "ring8", "5.1"])
-def test_fast_synthesis_with_dense_captures_and_short_blocks(mono_tracks, mono_params,
-                                                             layout) -> None:  # type: ignore[no-untyped-def]  # fmt: skip
+def test_fast_synthesis_with_dense_captures_and_short_blocks(
+    mono_tracks, mono_params, layout
+) -> None:  # type: ignore[no-untyped-def]
     # captures every 2 ms (many inside one data step: arrivals beyond the two
     # candidate lines, pieces split at several captures), a turning listener,
     # and output of a few accumulation blocks: every path of the kernel
     c = mono_params.center
     path = ListenerPath.orbit(c, radius=2.2, duration=0.05, turns=0.15, rate_hz=500.0)
-    sub = type(mono_tracks)(positions=mono_tracks.positions[::5], q=mono_tracks.q[::5],
-                            radius=mono_tracks.radius[::5], times=mono_tracks.times)  # fmt: skip
+    sub = type(mono_tracks)(
+        positions=mono_tracks.positions[::5],
+        q=mono_tracks.q[::5],
+        radius=mono_tracks.radius[::5],
+        times=mono_tracks.times,
+    )
     fast = render_tracks(sub, path, rate=RATE, layout=layout).audio
     ref = render_reference(sub, path, rate=RATE, layout=layout)
     err = np.max(np.abs(fast - ref)) / np.max(np.abs(ref))
     assert err < (2e-4 if layout == "mono" else 5e-3), (layout, err)
     # the same samples rendered in short pieces join without seams
     n = fast.shape[1]
-    parts = [render_tracks(sub, path, rate=RATE, layout=layout, start=a / RATE,
-                    duration=min(700, n - a) / RATE).audio for a in range(0, n, 700)]  # fmt: skip
+    parts = [
+        render_tracks(
+            sub, path, rate=RATE, layout=layout, start=a / RATE, duration=min(700, n - a) / RATE
+        ).audio
+        for a in range(0, n, 700)
+    ]
     joined = np.concatenate(parts, axis=1)
     assert np.max(np.abs(joined - fast)) <= 1e-9 * np.max(np.abs(fast))
 
@@ -161,10 +170,16 @@ def test_blockwise_rendering_has_no_seams(mono_tracks, mono_params) -> None:  # 
     whole = render_tracks(mono_tracks, path, rate=RATE, layout="ring8").audio
     block = 1000
     parts = [
-        render_tracks(mono_tracks, path, rate=RATE, layout="ring8", start=a / RATE,
-               duration=min(block, whole.shape[1] - a) / RATE).audio
+        render_tracks(
+            mono_tracks,
+            path,
+            rate=RATE,
+            layout="ring8",
+            start=a / RATE,
+            duration=min(block, whole.shape[1] - a) / RATE,
+        ).audio
         for a in range(0, whole.shape[1], block)
-    ]  # fmt: skip
+    ]
     joined = np.concatenate(parts, axis=1)
     assert joined.shape == whole.shape
     assert np.max(np.abs(joined - whole)) <= 1e-9 * np.max(np.abs(whole))
@@ -181,8 +196,17 @@ def test_blocks_ending_inside_pieces_that_cross_captures_join_without_seams(
     path = ListenerPath.orbit(c, radius=2.5, duration=0.4, turns=0.3)
     whole = render_tracks(mono_tracks, path, rate=16000, layout=layout).audio
     n, block = whole.shape[1], 592
-    parts = [render_tracks(mono_tracks, path, rate=16000, layout=layout, start=a / 16000,
-                    duration=min(block, n - a) / 16000).audio for a in range(0, n, block)]  # fmt: skip
+    parts = [
+        render_tracks(
+            mono_tracks,
+            path,
+            rate=16000,
+            layout=layout,
+            start=a / 16000,
+            duration=min(block, n - a) / 16000,
+        ).audio
+        for a in range(0, n, block)
+    ]
     joined = np.concatenate(parts, axis=1)
     # (-140 dB: the whole render's running sums carry their rounding over 6400
     # samples, the blocks' over 592; a wrongly cut piece is off by 1e-3)
@@ -199,14 +223,28 @@ def test_blocks_longer_than_the_accumulation_block_with_time_scale(
     whole = render_tracks(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8").audio
     peak = np.max(np.abs(whole))
     for start in (5948, 8422, 13370, 17081):  # starts at which the boundary fell between samples
-        part = render_tracks(mono_tracks, path, rate=RATE, time_scale=16.0, layout="ring8",
-                      start=start / RATE, duration=40000 / RATE).audio  # fmt: skip
+        part = render_tracks(
+            mono_tracks,
+            path,
+            rate=RATE,
+            time_scale=16.0,
+            layout="ring8",
+            start=start / RATE,
+            duration=40000 / RATE,
+        ).audio
         assert np.max(np.abs(part - whole[:, start : start + 40000])) <= 1e-5 * peak, start
 
 
-@pytest.mark.parametrize(("interp", "layout"), [("cubic", "mono"), ("linear", "mono"),
-                                               ("cubic", "ambix3"), ("linear", "ambix1"),
-                                               ("cubic", "ears")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("interp", "layout"),
+    [
+        ("cubic", "mono"),
+        ("linear", "mono"),
+        ("cubic", "ambix3"),
+        ("linear", "ambix1"),
+        ("cubic", "ears"),
+    ],
+)
 def test_runs_of_pieces_sum_to_the_piecewise_kernel(
     mono_tracks, mono_params, interp, layout, monkeypatch
 ) -> None:  # type: ignore[no-untyped-def]
@@ -223,11 +261,15 @@ def test_runs_of_pieces_sum_to_the_piecewise_kernel(
     c = mono_params.center
     cases = [
         (ListenerPath.orbit(c, radius=2.5, duration=0.4, turns=0.3), {}),
-        (ListenerPath.line(c + [3.0, 0.5, 0], c + [-1.0, 2.0, 0.5], duration=0.09),
-         {"start": 0.0301, "duration": 0.04}),
-        (ListenerPath.orbit(c, radius=2.5, duration=1.6, turns=0.3),
-         {"time_scale": 16.0, "start": 0.11, "duration": 1.0}),
-    ]  # fmt: skip
+        (
+            ListenerPath.line(c + [3.0, 0.5, 0], c + [-1.0, 2.0, 0.5], duration=0.09),
+            {"start": 0.0301, "duration": 0.04},
+        ),
+        (
+            ListenerPath.orbit(c, radius=2.5, duration=1.6, turns=0.3),
+            {"time_scale": 16.0, "start": 0.11, "duration": 1.0},
+        ),
+    ]
     for path, kw in cases:
         monkeypatch.setattr(synthesis, "_BY_RUNS", False)
         pieces = render_tracks(mono_tracks, path, rate=RATE, interp=interp, layout=lay, **kw).audio

@@ -115,10 +115,19 @@ def test_play_paths_on_file_backed_alsa_device(tmp_path) -> None:  # type: ignor
     (cfg / "alsa").mkdir(parents=True)
     a, b, c = tmp_path / "simple.raw", tmp_path / "view.raw", tmp_path / "live.raw"
     (cfg / "alsa" / "asoundrc").write_text(ASOUNDRC.format(a=a, b=b, c=c))
-    env = {**os.environ, "XDG_CONFIG_HOME": str(cfg), "PYTHONPATH": str(ROOT),
-           "XDG_STATE_HOME": str(tmp_path / "state")}  # fmt: skip
-    res = subprocess.run([sys.executable, "-c", textwrap.dedent(SCRIPT)], capture_output=True,
-                         text=True, env=env, timeout=300)  # fmt: skip
+    env = {
+        **os.environ,
+        "XDG_CONFIG_HOME": str(cfg),
+        "PYTHONPATH": str(ROOT),
+        "XDG_STATE_HOME": str(tmp_path / "state"),
+    }
+    res = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(SCRIPT)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     out = json.loads(res.stdout.strip().splitlines()[-1])
     assert out["simple"]["frames"] == out["simple"]["n"] and out["simple"]["limited"] > 0

@@ -28,8 +28,14 @@ def test_delay_and_inverse_distance() -> None:
         assert onset == pytest.approx(0.01 + D / 343.0, abs=2 / RATE)
     win = slice(int(0.1 * RATE), int(0.25 * RATE))
     assert np.std(outs[10.0][win]) / np.std(outs[20.0][win]) == pytest.approx(2.0, rel=0.01)
-    paper = propagate(sig, RATE, np.zeros((1, 3)), ListenerPath.point((10, 0, 0), duration=0.3),
-                      rate=RATE, attenuation="paper")[0]  # fmt: skip
+    paper = propagate(
+        sig,
+        RATE,
+        np.zeros((1, 3)),
+        ListenerPath.point((10, 0, 0), duration=0.3),
+        rate=RATE,
+        attenuation="paper",
+    )[0]
     assert np.std(paper[win]) == pytest.approx(np.std(outs[10.0][win]) / 100, rel=0.01)
 
 
@@ -51,8 +57,14 @@ def test_moving_source_doppler() -> None:
 def test_panning_to_ring8_follows_direction() -> None:
     sig = _tone(300.0, 0.2)[None]
     # listener at origin facing +y; source on the left (-x) -> ring8 channel 2
-    out = propagate(sig, RATE, np.array([[-5.0, 0, 0]]), ListenerPath.point((0, 0, 0), duration=0.2),
-                    rate=RATE, layout="ring8")  # fmt: skip
+    out = propagate(
+        sig,
+        RATE,
+        np.array([[-5.0, 0, 0]]),
+        ListenerPath.point((0, 0, 0), duration=0.2),
+        rate=RATE,
+        layout="ring8",
+    )
     e = np.sum(out**2, axis=1)
     assert np.argmax(e) == 2 and e[2] / e.sum() > 0.99
 
@@ -63,5 +75,10 @@ def test_bad_positions() -> None:
             np.zeros((2, 10)), RATE, np.zeros((3, 3)), ListenerPath.point((0, 0, 0), duration=0.1)
         )
     with pytest.raises(ParameterError, match="attenuation must be"):
-        propagate(np.zeros((1, 10)), RATE, np.zeros((1, 3)), ListenerPath.point((1, 0, 0), duration=0.1),
-                  attenuation="loud")  # fmt: skip
+        propagate(
+            np.zeros((1, 10)),
+            RATE,
+            np.zeros((1, 3)),
+            ListenerPath.point((1, 0, 0), duration=0.1),
+            attenuation="loud",
+        )

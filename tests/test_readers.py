@@ -40,8 +40,13 @@ def _quiet_resampling():  # type: ignore[no-untyped-def]
 
 
 # --------------------------------------------------------------------------- CF writers
-def write_cf_classic(path: Path, *, time_units: str | None = "days since 2001-01-01",
-                     with_time: bool = True, fill: bool = True) -> np.ndarray:  # fmt: skip
+def write_cf_classic(
+    path: Path,
+    *,
+    time_units: str | None = "days since 2001-01-01",
+    with_time: bool = True,
+    fill: bool = True,
+) -> np.ndarray:
     """A small CF file (classic): temperature (T, z, y, x) with fill values; returns it."""
     nt, nz, ny, nx = 3, 2, 3, 4
     rng = np.random.default_rng(3)
@@ -209,8 +214,21 @@ def test_plot3d_series_of_q_files(tmp_path: Path) -> None:
 def test_plot3d_cfd_from_the_cli(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     grid = make_plot3d_series(tmp_path)
     out = tmp_path / "s.h5"
-    rc = main(["detect", str(grid), "--mapping", "cfd", "--density-field", "Density",
-               "--momentum-field", "Momentum", "-o", str(out), "--json"])  # fmt: skip
+    rc = main(
+        [
+            "detect",
+            str(grid),
+            "--mapping",
+            "cfd",
+            "--density-field",
+            "Density",
+            "--momentum-field",
+            "Momentum",
+            "-o",
+            str(out),
+            "--json",
+        ]
+    )
     assert rc == 0
     d = json.loads(capsys.readouterr().out)
     assert d["mapping"]["name"] == "cfd" and d["mapping"]["momentum"] == "Momentum"
@@ -221,8 +239,22 @@ def test_plot3d_cfd_from_the_cli(tmp_path: Path, capsys) -> None:  # type: ignor
     assert "role     momentum = Momentum: named 'Momentum'" in text
     assert "mapping  cfd (default" in text
     wav = tmp_path / "p.wav"
-    rc = main(["render", str(grid), "--sources", str(out), "--listener", "8,0,30", "--duration",
-               "0.01", "--rate", "8000", "-o", str(wav)])  # fmt: skip
+    rc = main(
+        [
+            "render",
+            str(grid),
+            "--sources",
+            str(out),
+            "--listener",
+            "8,0,30",
+            "--duration",
+            "0.01",
+            "--rate",
+            "8000",
+            "-o",
+            str(wav),
+        ]
+    )
     assert rc == 0 and wav.exists()
 
 
@@ -258,8 +290,22 @@ def test_ensight_transient(tmp_path: Path) -> None:
     from auralize.sources.sources_file import load_sources_h5
 
     assert all(c["monopole"] == 0 for c in load_sources_h5(out).counts())
-    rc = main(["render", str(tmp_path / "t.case"), "--sources", str(out), "--listener",
-               "5,0,0", "--duration", "0.01", "--rate", "8000", "-o", str(tmp_path / "e.wav")])  # fmt: skip
+    rc = main(
+        [
+            "render",
+            str(tmp_path / "t.case"),
+            "--sources",
+            str(out),
+            "--listener",
+            "5,0,0",
+            "--duration",
+            "0.01",
+            "--rate",
+            "8000",
+            "-o",
+            str(tmp_path / "e.wav"),
+        ]
+    )
     assert rc == 1  # written, and said to be silent: a steady flow makes no sound
 
 
@@ -294,10 +340,12 @@ def test_amr_vthb(tmp_path: Path) -> None:
     np.testing.assert_allclose(vol.bounds, bounds, atol=1e-9)
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
+    from auralize.runtime.vtkcompat import amr_block, amr_block_count
+
     raw = [
-        vtk_to_numpy(amr.GetDataSetAsImageData(level, i).GetCellData().GetArray("Gaussian-Pulse"))
+        vtk_to_numpy(amr_block(amr, level, i).GetCellData().GetArray("Gaussian-Pulse"))
         for level in range(amr.GetNumberOfLevels())
-        for i in range(amr.GetNumberOfBlocks(level))
+        for i in range(amr_block_count(amr, level))
     ]
     pulse = vol.frame("Gaussian-Pulse", 0)
     # cell values interpolated to points: within the range of the file's values
@@ -306,9 +354,14 @@ def test_amr_vthb(tmp_path: Path) -> None:
 
 
 def test_generic_pyvista_reader(tmp_path: Path) -> None:
+    from vtkmodules.vtkIOImage import vtkNIFTIImageWriter
+
     img = pv.ImageData(dimensions=(4, 3, 2), spacing=(0.5, 0.5, 0.5))
     img.point_data["density"] = np.arange(24.0)
-    img.save(tmp_path / "img.nii")
+    writer = vtkNIFTIImageWriter()  # VTK's own: older pyvista cannot save .nii
+    writer.SetFileName(str(tmp_path / "img.nii"))
+    writer.SetInputData(img)
+    writer.Write()
     vol = open_volume(tmp_path / "img.nii")
     assert vol.dims == (4, 3, 2) and vol.n_steps == 1
     assert np.nanmax(vol.frame(vol.field_names[0], 0)) == 23.0
@@ -374,8 +427,23 @@ def test_cli_info_detect_render(path: Path, extra: list[str], tmp_path: Path, ca
     assert (det["masked_fraction"] > 0) == (path == PULSE)
     centre = ",".join(f"{c:g}" for c in np.asarray(info["bounds"]).reshape(3, 2).mean(axis=1))
     wav = tmp_path / "a.wav"
-    rc = main(["render", str(path), "--sources", str(src), "--listener", centre, "--duration",
-               "0.01", "--rate", "8000", "-o", str(wav), *extra])  # fmt: skip
+    rc = main(
+        [
+            "render",
+            str(path),
+            "--sources",
+            str(src),
+            "--listener",
+            centre,
+            "--duration",
+            "0.01",
+            "--rate",
+            "8000",
+            "-o",
+            str(wav),
+            *extra,
+        ]
+    )
     assert rc == 0 and wav.exists()
     side = json.loads((tmp_path / "a.wav.json").read_text())
     assert side["volume"] == str(path)
@@ -407,8 +475,16 @@ def test_cli_ensight_info_and_single_step_detect(tmp_path: Path, capsys) -> None
 def test_render_refuses_sources_of_another_grid(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     src = tmp_path / "s.h5"
     assert main(["detect", str(PULSE), "-o", str(src)]) == 0
-    args = ["render", str(PULSE), "--listener", "0.05,0.04,0.03", "--duration", "0.01",
-            "-o", str(tmp_path / "a.wav")]  # fmt: skip
+    args = [
+        "render",
+        str(PULSE),
+        "--listener",
+        "0.05,0.04,0.03",
+        "--duration",
+        "0.01",
+        "-o",
+        str(tmp_path / "a.wav"),
+    ]
     assert main([*args, "--sources", str(src), "--resolution", "10"]) == 3  # a data error
     err = capsys.readouterr().err
     assert "do not belong to the grid" in err and "dims (20, 16, 12) vs (10, 8, 6)" in err
@@ -498,15 +574,23 @@ def test_netcdf_climate_layout(tmp_path: Path) -> None:
     lat = np.arange(90.0, -91.0, -30.0)
     lon = np.arange(0.0, 360.0, 60.0)
     with netcdf_file(tmp_path / "air.nc", "w") as f:
-        for name, size in (("time", None), ("level", 1), ("lat", lat.size), ("lon", lon.size),
-                           ("nbnds", 2)):  # fmt: skip
+        for name, size in (
+            ("time", None),
+            ("level", 1),
+            ("lat", lat.size),
+            ("lon", lon.size),
+            ("nbnds", 2),
+        ):
             f.createDimension(name, size)
         t = f.createVariable("time", "f8", ("time",))
         t.units = "hours since 1800-1-1 00:00:0.0"
         t[:] = [1753152.0, 1753158.0, 1753164.0]
         f.createVariable("time_bnds", "f8", ("time", "nbnds"))[:] = np.zeros((3, 2))
-        for name, vals, units in (("level", [1000.0], "millibar"), ("lat", lat, "degrees_north"),
-                                  ("lon", lon, "degrees_east")):  # fmt: skip
+        for name, vals, units in (
+            ("level", [1000.0], "millibar"),
+            ("lat", lat, "degrees_north"),
+            ("lon", lon, "degrees_east"),
+        ):
             v = f.createVariable(name, "f4", (name,))
             v.units = units
             v[:] = vals

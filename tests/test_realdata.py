@@ -83,8 +83,11 @@ def test_netcdf_pulse_times_and_tone(figures: dict) -> None:  # type: ignore[typ
 def test_wavy_surface_is_read_on_its_own_lattice() -> None:
     """A 2-D height field z(x, y, t) on an 80x80 lattice: its own points, nothing invented."""
     with dataset_path("paraview-wavy") as path:
-        with pytest.warns(ResampledWarning, match=r"a surface .* no interpolation: the lattice "
-                          r"80x80x1 points, spacing \(0.25, 0.25, 0.25\) m"):  # fmt: skip
+        with pytest.warns(
+            ResampledWarning,
+            match=r"a surface .* no interpolation: the lattice "
+            r"80x80x1 points, spacing \(0.25, 0.25, 0.25\) m",
+        ):
             vol = open_volume(path)
         surface = pv.read(path.parent / "wavy" / "wavy00.vts")
         z = vol.frame("z", 0)[0]
@@ -132,8 +135,13 @@ def test_datasets_have_licences_and_provenance() -> None:
     text = (DATASETS / "PROVENANCE.md").read_text()
     import hashlib
 
-    for folder in ("paraview-wavy", "xdmf-timeseries", "ensight-cylinder", "plot3d-combustor",
-                   "openfoam-cavity"):  # fmt: skip
+    for folder in (
+        "paraview-wavy",
+        "xdmf-timeseries",
+        "ensight-cylinder",
+        "plot3d-combustor",
+        "openfoam-cavity",
+    ):
         assert list((DATASETS / folder).glob("LICENSE*")), folder
         for f in (DATASETS / folder).rglob("*"):
             if f.is_file():
@@ -145,8 +153,9 @@ def test_datasets_have_licences_and_provenance() -> None:
     assert Path(DATASETS / "netcdf-pulse" / "pulse.nc").stat().st_size < 1_000_000
 
 
-def test_every_dataset_opens_by_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                     capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_every_dataset_opens_by_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     """``dataset:NAME`` opens each shipped file as its own path does (archives unpacked
     once into the cache), and the command's help lists every name."""
     from auralize.cli import main
@@ -156,8 +165,15 @@ def test_every_dataset_opens_by_name(tmp_path: Path, monkeypatch: pytest.MonkeyP
     from auralize.pipeline import load
 
     assert tuple(GENERATORS) == GENERATED
-    assert set(SHIPPED) == {"cavity", "pulse", "dolfinx", "meshio", "wavy", "cylinder",
-                            "combustor"} and {c for c, _ in SHIPPED.values()} == set(CASES)  # fmt: skip
+    assert set(SHIPPED) == {
+        "cavity",
+        "pulse",
+        "dolfinx",
+        "meshio",
+        "wavy",
+        "cylinder",
+        "combustor",
+    } and {c for c, _ in SHIPPED.values()} == set(CASES)
     monkeypatch.setenv("AURALIZE_CACHE_DIR", str(tmp_path / "cache"))
     warnings.simplefilter("ignore", ResampledWarning)
     for name, (case, _) in SHIPPED.items():

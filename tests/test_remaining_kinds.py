@@ -22,8 +22,10 @@ def _amr_file(folder: Path) -> Path:
     from vtkmodules.vtkCommonDataModel import vtkAMRBox, vtkOverlappingAMR, vtkUniformGrid
     from vtkmodules.vtkIOXML import vtkXMLUniformGridAMRWriter
 
+    from auralize.runtime.vtkcompat import amr_initialize
+
     amr = vtkOverlappingAMR()
-    amr.Initialize([1, 1])
+    amr_initialize(amr, [1, 1])
     amr.SetOrigin([0.0, 0.0, 0.0])
     for level, h in enumerate((1.0, 0.5)):
         grid = vtkUniformGrid()
@@ -119,6 +121,37 @@ def test_a_damaged_enzo_hierarchy_is_an_error_not_a_crash(tmp_path: Path) -> Non
     hier = out / "data0001.hierarchy"
     hier.write_text(hier.read_text().replace("GridDimension = 8 8 8", "GridDimension = -5 x"))
     with pytest.raises(AuralizeError, match=str(out)):  # the child may crash, not this process
+        read_enzo(hier)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (("GridEndIndex = 7 7 7\n", ""), "grid 1's entry has GridEndIndex missing"),
+        (("NumberOfParticles = 0\n", ""), "NumberOfParticles missing"),
+        (("GridLeftEdge", "GridRightEdgeX"), "GridLeftEdge missing"),
+        (
+            (
+                "GridStartIndex = 0 0 0\nGridEndIndex = 7 7 7",
+                "GridEndIndex = 7 7 7\nGridStartIndex = 0 0 0",
+            ),
+            "GridEndIndex out of order",
+        ),
+    ],
+)
+def test_an_enzo_hierarchy_vtk_would_scan_forever_is_refused_at_once(
+    tmp_path: Path, change: tuple[str, str], message: str
+) -> None:
+    """VTK's Enzo reader scans forward for each grid key in turn: a key missing or out of
+    order makes it spin past the end of the file (until the child's time limit)."""
+    from auralize.io.vtk_readers import read_enzo
+
+    out = _enzo_output(tmp_path)
+    hier = out / "data0001.hierarchy"
+    text = hier.read_text()
+    assert change[0] in text
+    hier.write_text(text.replace(*change))
+    with pytest.raises(FormatError, match=message):
         read_enzo(hier)
 
 

@@ -167,8 +167,25 @@ def test_report_line_and_json(tmp_path, capsys) -> None:  # type: ignore[no-unty
 
 def test_duration_beyond_the_data_is_clipped(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     wav = tmp_path / "c.wav"
-    assert main(["render", *MONO, "--time-scale", "1", "--duration", "5", "--listener",
-                 "1.4,1.4,1.4", "--timbre", "physical", "-o", str(wav)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                *MONO,
+                "--time-scale",
+                "1",
+                "--duration",
+                "5",
+                "--listener",
+                "1.4,1.4,1.4",
+                "--timbre",
+                "physical",
+                "-o",
+                str(wav),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "5 s requested" in out and "clipped to" in out
     audio, rate, _ = read_wav(wav)

@@ -18,8 +18,9 @@ def objects():  # type: ignore[no-untyped-def]
 
 def test_reprs_are_short_summaries(objects) -> None:  # type: ignore[no-untyped-def]
     vol, series, rendered = objects
-    texts = [repr(o) for o in (vol, series, series.frames[3], series.tracks(), rendered,
-                               rendered.layout)]  # fmt: skip
+    texts = [
+        repr(o) for o in (vol, series, series.frames[3], series.tracks(), rendered, rendered.layout)
+    ]
     for t in texts:
         assert len(t) < 600 and len(t.splitlines()) <= 6, t
         assert "array(" not in t and "<function" not in t and "lambda" not in t, t

@@ -35,9 +35,7 @@ class ToneModel(SoundModel):
 
     name: ClassVar[str] = "tone"
     description: ClassVar[str] = "a sine emitter at a position (tests)"
-    parameters: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("gain", 1.0, range=(0.0, None)),
-    )  # fmt: skip
+    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("gain", 1.0, range=(0.0, None)),)
 
     def load_input(self, spec: str) -> dict[str, Any]:
         return dict(json.loads(Path(spec).read_text()))
@@ -166,8 +164,9 @@ def test_scene_plays_live_with_no_underruns(scene, tmp_path, monkeypatch) -> Non
         ref = render_sound(sound, path, rate=RATE, layout="stereo").audio
         gain = 0.9 / float(np.max(np.abs(ref)))
         sb = render_heard(sound, path, rate=RATE, layout="stereo", block=2205, highpass_hz=0)
-        rep = play(sb, path, rate=RATE, layout="stereo", device="auralize_file2", gain=gain,
-                   wait_s=1.0)  # fmt: skip
+        rep = play(
+            sb, path, rate=RATE, layout="stereo", device="auralize_file2", gain=gain, wait_s=1.0
+        )
     finally:
         monkeypatch.undo()
         refresh_devices()
@@ -185,22 +184,35 @@ def test_scene_plays_live_with_no_underruns(scene, tmp_path, monkeypatch) -> Non
 def test_model_specs_parse() -> None:
     assert parse_model_spec("vortex:plume.h5") == SceneModel("vortex", "plume.h5", {})
     m = parse_model_spec("fire:dataset:fire:extend=none,seed=3,iso=0.5,flag=true")
-    assert m == SceneModel("fire", "dataset:fire", {"extend": "none", "seed": 3, "iso": 0.5,
-                                                     "flag": True})  # fmt: skip
+    assert m == SceneModel(
+        "fire", "dataset:fire", {"extend": "none", "seed": 3, "iso": 0.5, "flag": True}
+    )
     assert parse_model_spec("field:C:/data/x.h5").input == "C:/data/x.h5"
-    for bad, why in (("fire", "NAME:FILE"), ("fire:", "NAME:FILE"),
-                     ("fire:x.h5:extend=none,oops", "key=value pairs")):  # fmt: skip
+    for bad, why in (
+        ("fire", "NAME:FILE"),
+        ("fire:", "NAME:FILE"),
+        ("fire:x.h5:extend=none,oops", "key=value pairs"),
+    ):
         with pytest.raises(ParameterError, match=why):
             parse_model_spec(bad)
 
 
 def test_scene_file_reads_relative_inputs(tmp_path) -> None:  # type: ignore[no-untyped-def]
     ListenerPath.point([0, 0, 0], duration=1.0).to_csv(tmp_path / "p.csv")
-    (tmp_path / "s.json").write_text(json.dumps({
-        "listener": {"path": "p.csv"}, "layout": "stereo", "rate": 22050, "duration": 0.5,
-        "models": [{"model": "fire", "input": "dataset:fire"},
-                   {"model": "tone", "input": "a.json", "params": {"gain": 2}}],
-    }))  # fmt: skip
+    (tmp_path / "s.json").write_text(
+        json.dumps(
+            {
+                "listener": {"path": "p.csv"},
+                "layout": "stereo",
+                "rate": 22050,
+                "duration": 0.5,
+                "models": [
+                    {"model": "fire", "input": "dataset:fire"},
+                    {"model": "tone", "input": "a.json", "params": {"gain": 2}},
+                ],
+            }
+        )
+    )
     sc = load_scene(tmp_path / "s.json")
     assert sc.layout == "stereo" and sc.rate == 22050 and sc.duration == 0.5
     assert sc.path is not None and sc.path.duration == 1.0
@@ -208,17 +220,25 @@ def test_scene_file_reads_relative_inputs(tmp_path) -> None:  # type: ignore[no-
     assert sc.models[1] == SceneModel("tone", str(tmp_path / "a.json"), {"gain": 2})
 
 
-@pytest.mark.parametrize(("doc", "why"), [
-    ("[1, 2]", "holds a JSON object"),
-    ("{not json", "not a JSON scene file"),
-    ('{"models": []}', "'models' must be a non-empty list"),
-    ('{"models": [{"model": "fire"}]}', r"models\[0\] must be an object with 'model' and 'input'"),
-    ('{"models": [{"model": "a", "input": "b", "gain": 1}]}', r"models\[0\] has unknown key"),
-    ('{"models": [{"model": "a", "input": "b"}], "speed": 1}', "unknown scene key"),
-    ('{"models": [{"model": "a", "input": "b"}], "listener": {"position": [1, 2]}}',
-     r"listener.position must be \[x, y, z\]"),
-    ('{"models": [{"model": "a", "input": "b"}], "rate": "fast"}', "'rate' must be a int"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("doc", "why"),
+    [
+        ("[1, 2]", "holds a JSON object"),
+        ("{not json", "not a JSON scene file"),
+        ('{"models": []}', "'models' must be a non-empty list"),
+        (
+            '{"models": [{"model": "fire"}]}',
+            r"models\[0\] must be an object with 'model' and 'input'",
+        ),
+        ('{"models": [{"model": "a", "input": "b", "gain": 1}]}', r"models\[0\] has unknown key"),
+        ('{"models": [{"model": "a", "input": "b"}], "speed": 1}', "unknown scene key"),
+        (
+            '{"models": [{"model": "a", "input": "b"}], "listener": {"position": [1, 2]}}',
+            r"listener.position must be \[x, y, z\]",
+        ),
+        ('{"models": [{"model": "a", "input": "b"}], "rate": "fast"}', "'rate' must be a int"),
+    ],
+)
 def test_bad_scene_files_are_refused_in_one_line(tmp_path, doc: str, why: str) -> None:  # type: ignore[no-untyped-def]
     f = tmp_path / "s.json"
     f.write_text(doc)
@@ -230,14 +250,20 @@ def test_bad_scene_files_are_refused_in_one_line(tmp_path, doc: str, why: str) -
 
 
 def test_a_model_that_returns_something_else_is_named(tone_models) -> None:  # type: ignore[no-untyped-def]
-    with pytest.raises(PluginError, match=r"plugin 'old' returned dict; SoundModel.synthesize "
-                                          r"must return auralize.emitters.Sound"):  # fmt: skip
+    with pytest.raises(
+        PluginError,
+        match=r"plugin 'old' returned dict; SoundModel.synthesize "
+        r"must return auralize.emitters.Sound",
+    ):
         scene_sound([SceneModel("old", {"x": 1})])
     with pytest.raises(PluginError, match=r"plugin 'vortex' returned ndarray"):
         check_sound("vortex", np.zeros(3))
-    with pytest.raises(PluginError, match=r"'base' cannot read its inputs from 'x.h5': it does "
-                                          r"not implement SoundModel.load_input and 'x.h5' is "
-                                          r"not a volume \(.*x.h5"):  # fmt: skip
+    with pytest.raises(
+        PluginError,
+        match=r"'base' cannot read its inputs from 'x.h5': it does "
+        r"not implement SoundModel.load_input and 'x.h5' is "
+        r"not a volume \(.*x.h5",
+    ):
         SoundModel().load_input("x.h5")
 
     class TextureModel(SoundModel):
@@ -263,10 +289,33 @@ def test_render_models_equals_their_sum(tone_models, tmp_path, capsys) -> None: 
 
     a, b = tone_models
     out = tmp_path / "mix.wav"
-    common = ["--listener", "0,0,0", "--duration", "0.4", "--layout", "stereo", "--highpass",
-              "0", "--normalize", "none"]  # fmt: skip
-    assert main(["render", "--model", f"tone:{a}", "--model", f"tone:{b}:gain=2", *common,
-                 "-o", str(out)]) == 0  # fmt: skip
+    common = [
+        "--listener",
+        "0,0,0",
+        "--duration",
+        "0.4",
+        "--layout",
+        "stereo",
+        "--highpass",
+        "0",
+        "--normalize",
+        "none",
+    ]
+    assert (
+        main(
+            [
+                "render",
+                "--model",
+                f"tone:{a}",
+                "--model",
+                f"tone:{b}:gain=2",
+                *common,
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert "scene of 2 part(s): tone (Emitters), tone (Emitters)" in capsys.readouterr().out
     got, rate, mask = read_wav(out)
     path = ListenerPath.point([0, 0, 0], duration=0.4)
@@ -277,13 +326,36 @@ def test_render_models_equals_their_sum(tone_models, tmp_path, capsys) -> None: 
     assert [m["model"] for m in side["scene"]] == ["tone", "tone"]
     assert side["scene"][1]["params"] == {"gain": 2}
     # the same scene from a file gives the same samples
-    (tmp_path / "s.json").write_text(json.dumps({
-        "listener": {"position": [0, 0, 0]}, "duration": 0.4, "layout": "stereo",
-        "models": [{"model": "tone", "input": str(a)},
-                   {"model": "tone", "input": "b.json", "params": {"gain": 2}}]}))  # fmt: skip
+    (tmp_path / "s.json").write_text(
+        json.dumps(
+            {
+                "listener": {"position": [0, 0, 0]},
+                "duration": 0.4,
+                "layout": "stereo",
+                "models": [
+                    {"model": "tone", "input": str(a)},
+                    {"model": "tone", "input": "b.json", "params": {"gain": 2}},
+                ],
+            }
+        )
+    )
     out2 = tmp_path / "scene.wav"
-    assert main(["render", "--scene", str(tmp_path / "s.json"), "--highpass", "0",
-                 "--normalize", "none", "-o", str(out2)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "--scene",
+                str(tmp_path / "s.json"),
+                "--highpass",
+                "0",
+                "--normalize",
+                "none",
+                "-o",
+                str(out2),
+            ]
+        )
+        == 0
+    )
     assert np.array_equal(read_wav(out2)[0], got)
 
 
@@ -292,28 +364,51 @@ def test_render_field_plus_model_equals_field_render_plus_model(tone_models, tmp
     from auralize.cli import main
 
     a, _ = tone_models
-    field = ["dataset:monopole", "--size", "12", "--steps", "60", "--threshold-monopole", "1%",
-             "--listener", "1.5,0.5,0.5", "--duration", "0.3", "--highpass", "0",
-             "--normalize", "none", "--layout", "stereo"]  # fmt: skip
+    field = [
+        "dataset:monopole",
+        "--size",
+        "12",
+        "--steps",
+        "60",
+        "--threshold-monopole",
+        "1%",
+        "--listener",
+        "1.5,0.5,0.5",
+        "--duration",
+        "0.3",
+        "--highpass",
+        "0",
+        "--normalize",
+        "none",
+        "--layout",
+        "stereo",
+    ]
     assert main(["render", *field, "-o", str(tmp_path / "f.wav")]) == 0
     assert main(["render", *field, "--model", f"tone:{a}", "-o", str(tmp_path / "m.wav")]) == 0
     f, m = read_wav(tmp_path / "f.wav")[0], read_wav(tmp_path / "m.wav")[0]
     t = ToneModel()
-    tone = render_sound(t.synthesize(t.load_input(str(a))), ListenerPath.point([1.5, 0.5, 0.5], duration=0.3),
-                  rate=RATE, layout="stereo").audio  # fmt: skip
+    tone = render_sound(
+        t.synthesize(t.load_input(str(a))),
+        ListenerPath.point([1.5, 0.5, 0.5], duration=0.3),
+        rate=RATE,
+        layout="stereo",
+    ).audio
     assert f.shape == m.shape == tone.shape
     assert np.max(np.abs(f)) > 0.01 * np.max(np.abs(tone))
     assert np.max(np.abs(m - (f + tone))) <= 1e-5 * np.max(np.abs(m))
 
 
-@pytest.mark.parametrize(("args", "why", "code"), [
-    (["--model", "tone"], "--model takes NAME:FILE", 2),
-    (["--model", "nosuch:x.h5"], "no sound model 'nosuch'", 4),
-    (["--model", "tone:a.json:loud=1"], "model 'tone' has no parameter", 2),
-    (["--model", "old:x.h5"], "does not implement SoundModel.load_input", 4),
-    (["--model", "tone:a.json"], "needs a listener", 2),
-    ([], "give a volume PATH, or sound models with --model", 2),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("args", "why", "code"),
+    [
+        (["--model", "tone"], "--model takes NAME:FILE", 2),
+        (["--model", "nosuch:x.h5"], "no sound model 'nosuch'", 4),
+        (["--model", "tone:a.json:loud=1"], "model 'tone' has no parameter", 2),
+        (["--model", "old:x.h5"], "does not implement SoundModel.load_input", 4),
+        (["--model", "tone:a.json"], "needs a listener", 2),
+        ([], "give a volume PATH, or sound models with --model", 2),
+    ],
+)
 def test_render_scene_errors(tone_models, tmp_path, capsys, args, why, code) -> None:  # type: ignore[no-untyped-def]
     from auralize.cli import main
 
@@ -357,8 +452,24 @@ def test_render_duration_and_rate_mean_the_same_with_a_path(tone_models, tmp_pat
     a, _ = tone_models
     ListenerPath.line([0, 0, 0], [1, 0, 0], duration=1.0).to_csv(tmp_path / "p.csv")
     out = tmp_path / "x.wav"
-    assert main(["render", "--model", f"tone:{a}", "--path", str(tmp_path / "p.csv"),
-                 "--duration", "0.25", "--rate", "22050", "-o", str(out)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "--model",
+                f"tone:{a}",
+                "--path",
+                str(tmp_path / "p.csv"),
+                "--duration",
+                "0.25",
+                "--rate",
+                "22050",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     audio, rate, _ = read_wav(out)
     assert rate == 22050 and audio.shape == (1, round(0.25 * 22050))
 
@@ -376,17 +487,45 @@ def test_play_command_plays_a_scene(tone_models, tmp_path, monkeypatch, capsys) 
     monkeypatch.setenv("XDG_CONFIG_HOME", str(cfg))
     refresh_devices()
     try:
-        assert main(["play", "--model", f"tone:{a}", "--model", f"tone:{b}:gain=2",
-                     "--listener", "0,0,0", "--duration", "0.3", "--layout", "stereo",
-                     "--device", "auralize_file2", "--gain", "2", "--highpass", "0",
-                     "--json"]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "play",
+                    "--model",
+                    f"tone:{a}",
+                    "--model",
+                    f"tone:{b}:gain=2",
+                    "--listener",
+                    "0,0,0",
+                    "--duration",
+                    "0.3",
+                    "--layout",
+                    "stereo",
+                    "--device",
+                    "auralize_file2",
+                    "--gain",
+                    "2",
+                    "--highpass",
+                    "0",
+                    "--json",
+                ]
+            )
+            == 0
+        )
     finally:
         monkeypatch.delenv("XDG_CONFIG_HOME")
         refresh_devices()
     rep = json.loads(capsys.readouterr().out)
     assert rep["layout"] == "stereo" and rep["blocks"] == 6 and rep["duration_s"] == 0.3
-    ref = 2.0 * render_sound(_tone_sound(a, b), ListenerPath.point([0, 0, 0], duration=0.3),
-                       rate=RATE, layout="stereo").audio  # fmt: skip
+    ref = (
+        2.0
+        * render_sound(
+            _tone_sound(a, b),
+            ListenerPath.point([0, 0, 0], duration=0.3),
+            rate=RATE,
+            layout="stereo",
+        ).audio
+    )
     dev = np.fromfile(out2, dtype="<f4").reshape(-1, 2).T.astype(np.float64)
     lag = int(np.argmax(np.any(dev != 0, axis=0))) - int(np.argmax(np.any(ref != 0, axis=0)))
     d = dev[:, lag : lag + ref.shape[1]]
@@ -399,9 +538,25 @@ def test_field_model_in_a_scene_fits_the_data_in_the_duration(tmp_path, capsys) 
     from auralize.cli import main
 
     out = tmp_path / "f.wav"
-    assert main(["render", "--model", "field:dataset:monopole:time_scale=auto,"
-                 "threshold_monopole=1%", "--listener", "1.5,0.5,0.5", "--duration", "0.3",
-                 "--highpass", "0", "-o", str(out), "--json"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "--model",
+                "field:dataset:monopole:time_scale=auto,threshold_monopole=1%",
+                "--listener",
+                "1.5,0.5,0.5",
+                "--duration",
+                "0.3",
+                "--highpass",
+                "0",
+                "-o",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     rep = json.loads(capsys.readouterr().out)
     assert [p["model"] for p in rep["parts"]] == ["field"] and rep["parts"][0]["peak_pa"] > 0
     assert rep["scene"][0]["params"] == {"time_scale": "auto", "threshold_monopole": "1%"}
@@ -455,9 +610,26 @@ def test_a_scene_lasts_until_its_last_emission_is_heard(tone_models, tmp_path) -
     assert ends == pytest.approx([0.5 + np.sqrt(10.0) / C0, 0.5 + np.sqrt(8.25) / C0], abs=1e-12)
     assert scene_length(sound, p) == max(ends)
     out = tmp_path / "x.wav"
-    assert main(["render", "--model", f"tone:{a}", "--model", f"tone:{b}:gain=2",
-                 "--listener", "0,0,0", "--highpass", "0", "--normalize", "none",
-                 "-o", str(out)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "--model",
+                f"tone:{a}",
+                "--model",
+                f"tone:{b}:gain=2",
+                "--listener",
+                "0,0,0",
+                "--highpass",
+                "0",
+                "--normalize",
+                "none",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     audio, rate, _ = read_wav(out)
     n = round(max(ends) * rate)
     assert audio.shape == (1, n)
@@ -518,8 +690,9 @@ def test_add_sound_model_is_heard_after_the_data_sound_ends(tone_models) -> None
         r = simple.RenderAudio(src, path=p)
         assert r.audio.shape == (1, round(0.2 * RATE))
         field, _ = auralize(src.Volume, p, series=src.Sources, time_scale=1.0, clip=False)
-        tone = render_sound(ToneModel().synthesize(ToneModel().load_input(str(a))), p,
-                      rate=RATE).audio  # fmt: skip
+        tone = render_sound(
+            ToneModel().synthesize(ToneModel().load_input(str(a))), p, rate=RATE
+        ).audio
         assert np.max(np.abs(tone[:, alone.audio.shape[1] :])) > 0.1 * np.max(np.abs(tone))
         assert np.max(np.abs(r.audio - (field.audio + tone))) <= 1e-9 * np.max(np.abs(r.audio))
     finally:
@@ -544,11 +717,32 @@ def test_a_scene_of_the_field_is_auralize_render_whatever_the_timbre(tmp_path, t
     csv = tmp_path / "p.csv"
     ListenerPath.line(c + [0, -w, 0], c + [0, w, 0], duration=1.0).to_csv(csv)
     data = {"spec": "dataset:cavity"}
-    (tmp_path / "s.json").write_text(json.dumps({
-        "listener": {"path": str(csv)}, "layout": "stereo",
-        "models": [{"model": "field", "input": data, "params": {"timbre": timbre}}]}))  # fmt: skip
+    (tmp_path / "s.json").write_text(
+        json.dumps(
+            {
+                "listener": {"path": str(csv)},
+                "layout": "stereo",
+                "models": [{"model": "field", "input": data, "params": {"timbre": timbre}}],
+            }
+        )
+    )
     assert main(["render", "--scene", str(tmp_path / "s.json"), "-o", str(tmp_path / "a.wav")]) == 0
-    assert main(["render", "dataset:cavity", "--path", str(csv), "--layout", "stereo",
-                 "--timbre", timbre, "-o", str(tmp_path / "b.wav")]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "dataset:cavity",
+                "--path",
+                str(csv),
+                "--layout",
+                "stereo",
+                "--timbre",
+                timbre,
+                "-o",
+                str(tmp_path / "b.wav"),
+            ]
+        )
+        == 0
+    )
     a, b = read_wav(tmp_path / "a.wav")[0], read_wav(tmp_path / "b.wav")[0]
     assert np.max(np.abs(b)) > 0.5 and np.array_equal(a, b)

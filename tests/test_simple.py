@@ -54,9 +54,25 @@ def test_screenshot_command_shows_sources_and_path(tmp_path, capsys):
     # a path above the blast (not hidden behind the spheres)
     csv.write_text("t,x,y,z\n0,3,3,20\n1,20,3,20\n2,20,20,20\n3,3,20,20\n")
     out = tmp_path / "shot.png"
-    rc = main(["view", "dataset:explosion", "--size", "24", "--steps", "6", "--time", "3",
-               "--detect", "--path", str(csv), "--screenshot", str(out),
-               "--window-size", "640x480"])  # fmt: skip
+    rc = main(
+        [
+            "view",
+            "dataset:explosion",
+            "--size",
+            "24",
+            "--steps",
+            "6",
+            "--time",
+            "3",
+            "--detect",
+            "--path",
+            str(csv),
+            "--screenshot",
+            str(out),
+            "--window-size",
+            "640x480",
+        ]
+    )
     assert rc == 0 and f"wrote {out}" in capsys.readouterr().out
     with Image.open(out) as im:
         img = np.asarray(im)
@@ -68,8 +84,22 @@ def test_screenshot_command_shows_sources_and_path(tmp_path, capsys):
     assert _hue_pixels(scene, PATH_COLOR) > 20
     # without the path: no path colour in the scene
     out2 = tmp_path / "nopath.png"
-    main(["view", "dataset:explosion", "--size", "24", "--steps", "6", "--time", "3",
-          "--screenshot", str(out2), "--window-size", "640x480"])  # fmt: skip
+    main(
+        [
+            "view",
+            "dataset:explosion",
+            "--size",
+            "24",
+            "--steps",
+            "6",
+            "--time",
+            "3",
+            "--screenshot",
+            str(out2),
+            "--window-size",
+            "640x480",
+        ]
+    )
     with Image.open(out2) as im:
         scene2 = np.asarray(im)[:, : int(0.7 * 640)]
     assert _hue_pixels(scene2, PATH_COLOR) < 5
@@ -81,9 +111,15 @@ def test_scripting_session(tmp_path):
     view = Show(src, step=2)
     assert GetActiveView() is view and view.ViewTime == 2
     c = src.Volume.center
-    path = RecordListenerPath([{"position": c + [6, 0, 1], "focal_point": c},
-                               {"position": c + [0, 6, 1], "focal_point": c}],
-                              duration=1.0, rate_hz=10, autosave=tmp_path / "rec.csv")  # fmt: skip
+    path = RecordListenerPath(
+        [
+            {"position": c + [6, 0, 1], "focal_point": c},
+            {"position": c + [0, 6, 1], "focal_point": c},
+        ],
+        duration=1.0,
+        rate_hz=10,
+        autosave=tmp_path / "rec.csv",
+    )
     assert path.n_captures == 11
     assert np.allclose(path.positions[0], c + [6, 0, 1]) and np.allclose(
         path.positions[-1], c + [0, 6, 1]

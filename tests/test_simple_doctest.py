@@ -16,14 +16,24 @@ import auralize.simple as simple
 
 
 def test_every_public_name_has_an_example() -> None:
-    missing = [name for name in simple.__all__
-               if ">>>" not in (getattr(simple, name).__doc__ or "")]  # fmt: skip
+    missing = [
+        name for name in simple.__all__ if ">>>" not in (getattr(simple, name).__doc__ or "")
+    ]
     assert missing == []
 
 
-@pytest.mark.parametrize("name", ["auralize.audio.output", "auralize.runtime.notebook", "auralize.scene.plots",
-                                  "auralize.scene.pictures", "auralize.scene.view", "auralize.scene.soundscene",
-                                  "auralize.scene.recorder"])  # fmt: skip
+@pytest.mark.parametrize(
+    "name",
+    [
+        "auralize.audio.output",
+        "auralize.runtime.notebook",
+        "auralize.scene.plots",
+        "auralize.scene.pictures",
+        "auralize.scene.view",
+        "auralize.scene.soundscene",
+        "auralize.scene.recorder",
+    ],
+)
 def test_the_viewer_modules_have_examples(name: str) -> None:
     tests = doctest.DocTestFinder().find(importlib.import_module(name))
     assert sum(len(t.examples) for t in tests) > 0

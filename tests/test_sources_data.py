@@ -65,8 +65,7 @@ def test_invalid_and_nan_points_are_never_sources_and_never_read() -> None:
     vol = TimeVolume.from_arrays({"density": rho, "velocity": vel}, spacing=h, times=t)
     vol.check_finite = False
     vol.valid = valid  # type: ignore[attr-defined]
-    series = detect(vol, mapping="identity", thresholds=Thresholds("top:5%", "top:5%",
-                                                                   "top:5%"))  # fmt: skip
+    series = detect(vol, mapping="identity", thresholds=Thresholds("top:5%", "top:5%", "top:5%"))
     flat_valid = valid.reshape(-1)
     total = 0
     for n_, f in enumerate(series.frames):
@@ -96,8 +95,11 @@ def _wavy_series(tmp: Path, steps: int = 6) -> TimeVolume:
         zf.extractall(tmp)
     files = sorted((tmp / "wavy").glob("wavy*.vts"))[:steps]
     nx, nz = 24, 9
-    img = pv.ImageData(dimensions=(nx, nx, nz), spacing=(19.75 / (nx - 1), 19.75 / (nx - 1),
-                       2.0 / (nz - 1)), origin=(-10.0, -10.0, -1.0))  # fmt: skip
+    img = pv.ImageData(
+        dimensions=(nx, nx, nz),
+        spacing=(19.75 / (nx - 1), 19.75 / (nx - 1), 2.0 / (nz - 1)),
+        origin=(-10.0, -10.0, -1.0),
+    )
     rho, valid = [], np.zeros((nz, nx, nx), dtype=bool)
     for f in files:
         probed = img.sample(pv.read(f), tolerance=0.5 * img.spacing[2])
@@ -105,8 +107,12 @@ def _wavy_series(tmp: Path, steps: int = 6) -> TimeVolume:
         zval = np.asarray(probed["z"]).reshape(nz, nx, nx)
         rho.append(np.where(ok, 1.2 + 0.01 * zval, np.nan))
         valid |= ok
-    vol = TimeVolume.from_arrays({"density": np.stack(rho)}, origin=img.origin,
-                                 spacing=img.spacing, times=np.arange(len(files)) * 0.1)  # fmt: skip
+    vol = TimeVolume.from_arrays(
+        {"density": np.stack(rho)},
+        origin=img.origin,
+        spacing=img.spacing,
+        times=np.arange(len(files)) * 0.1,
+    )
     vol.check_finite = False
     vol.valid = valid  # type: ignore[attr-defined]
     return vol
@@ -132,8 +138,9 @@ def _vortex(n: int, omega_t: np.ndarray) -> TimeVolume:
     −∂ψ/∂x, 0) by the same differences the detection uses, so ∇·v is 0 to round-off."""
     x, y, z, h = _grid(n)
     psi = -(1.2**2) * np.exp(-(x**2 + y**2) / (2 * 1.2**2)) * np.exp(-(z**2) / 2.0)
-    vel = np.stack([np.gradient(psi, h, axis=1), -np.gradient(psi, h, axis=2),
-                    np.zeros_like(x)], -1)  # fmt: skip
+    vel = np.stack(
+        [np.gradient(psi, h, axis=1), -np.gradient(psi, h, axis=2), np.zeros_like(x)], -1
+    )
     v = omega_t[:, None, None, None, None] * vel
     t = np.arange(omega_t.size) / 400.0
     rho = np.full(v.shape[:4], 1.2)
@@ -189,19 +196,25 @@ def _quadrupole(n: int) -> TimeVolume:
     return _vortex(n, 30.0 * (1.0 + 0.5 * np.sin(2 * np.pi * 50 * t)))
 
 
-@pytest.mark.parametrize(("make", "kind", "sizes"), [
-    (_monopole, "monopole", (17, 33)), (_dipole, "dipole", (17, 33)),
-    # the stress of the vortex varies faster than the blobs: h = σ/3.6 and σ/7.2
-    (_quadrupole, "quadrupole", (25, 49)),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("make", "kind", "sizes"),
+    [
+        (_monopole, "monopole", (17, 33)),
+        (_dipole, "dipole", (17, 33)),
+        # the stress of the vortex varies faster than the blobs: h = σ/3.6 and σ/7.2
+        (_quadrupole, "quadrupole", (25, 49)),
+    ],
+)
 def test_rendered_pressure_converges_under_refinement(make, kind, sizes) -> None:  # type: ignore[no-untyped-def]
     rms = []
     for n in sizes:  # h and h/2 on the same extent
         # (the ΔV rule is what converges; the discretisation floor, which keeps less of
         # a blob resolved by 1.6 points per σ than by 3.2, is off)
         series = detect(make(n), mapping="identity", thresholds=Thresholds(floor=0.0))
-        c = {k: sum(f.counts()[k] for f in series.frames) for k in ("monopole", "dipole",
-                                                                    "quadrupole")}  # fmt: skip
+        c = {
+            k: sum(f.counts()[k] for f in series.frames)
+            for k in ("monopole", "dipole", "quadrupole")
+        }
         assert c[kind] > 0 and all(v < c[kind] for k, v in c.items() if k != kind), c
         rms.append(_rms(series))
     assert rms[1] == pytest.approx(rms[0], rel=0.10)
@@ -220,8 +233,12 @@ def _cavity(tmp: Path, resolution: int) -> TimeVolume:
         v = open_volume(case, resolution=resolution)
     p = np.stack(list(v.iter_frames("p")))
     u = np.stack(list(v.iter_frames("U")))
-    return TimeVolume.from_arrays({"density": 1.2 + p / 343.0**2, "velocity": u},
-                                  origin=v.origin, spacing=v.spacing, times=v.times)  # fmt: skip
+    return TimeVolume.from_arrays(
+        {"density": 1.2 + p / 343.0**2, "velocity": u},
+        origin=v.origin,
+        spacing=v.spacing,
+        times=v.times,
+    )
 
 
 def test_cavity_pressure_does_not_depend_on_the_resampling(tmp_path: Path) -> None:
@@ -242,8 +259,9 @@ def test_auto_thresholds_find_sources_not_everything_and_warn_when_they_do() -> 
     # absolute thresholds at zero, without the discretisation floor, classify every
     # point that has any strength
     with pytest.warns(SourceFractionWarning, match=r"of the valid points are sources"):
-        loose = detect(_monopole(17), mapping="identity",
-                       thresholds=Thresholds(0.0, 0.0, 0.0, floor=0.0))  # fmt: skip
+        loose = detect(
+            _monopole(17), mapping="identity", thresholds=Thresholds(0.0, 0.0, 0.0, floor=0.0)
+        )
     assert loose.meta["fraction"]["any"] > 0.25
     top = detect(_monopole(17), mapping="identity", thresholds=Thresholds("top:1%", "auto", "auto"))
     # the top 1 % of the valid point-steps at the sample steps, about 1 % overall
@@ -259,8 +277,22 @@ def test_cli_detect_reports_the_classified_fractions(tmp_path: Path, capsys) -> 
     src = tmp_path / "mono.h5"
     save_volume(_monopole(13), src)
     out = tmp_path / "s.h5"
-    assert main(["detect", str(src), "-o", str(out), "--mapping", "identity",
-                 "--threshold-monopole", "top:2%", "--json"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "detect",
+                str(src),
+                "-o",
+                str(out),
+                "--mapping",
+                "identity",
+                "--threshold-monopole",
+                "top:2%",
+                "--json",
+            ]
+        )
+        == 0
+    )
     frac = json.loads(capsys.readouterr().out)["fraction"]
     assert frac["monopole"] == pytest.approx(0.02, abs=0.01) and frac["dipole"] == 0
     assert main(["detect", str(src), "-o", str(out), "--mapping", "identity"]) == 0

@@ -156,13 +156,16 @@ def test_unknown_layout_name() -> None:
         ('[{"azimuth": 0}, {"elevation": 10}]', "needs an 'azimuth'"),
         ('[{"azimuth": 0}, {"azimuth": 90, "elevation": 95}]', r"elevation must be in \[-90, 90\]"),
         ('[{"azimuth": 0}, {"azimuth": 360}]', "point the same way"),
-        ('[{"azimuth": 0, "channel": 0}, {"azimuth": 90, "channel": 0}]', r"duplicate channel\(s\) \[0\]"),
+        (
+            '[{"azimuth": 0, "channel": 0}, {"azimuth": 90, "channel": 0}]',
+            r"duplicate channel\(s\) \[0\]",
+        ),
         ('[{"azimuth": 0, "channel": 0}, {"azimuth": 90, "channel": 2}]', r"missing \[1\]"),
         ('[{"azimuth": 0, "channel": 0}, {"azimuth": 90}]', "every speaker or none"),
         ('[{"azimuth": 0, "name": "A"}, {"azimuth": 90, "name": "A"}]', "duplicate speaker names"),
         ('[{"azimuth": 0, "distance": -1}, {"azimuth": 90}]', "distance must be > 0"),
     ],
-)  # fmt: skip
+)
 def test_malformed_layout_json(tmp_path, content: str, match: str) -> None:  # type: ignore[no-untyped-def]
     f = tmp_path / "bad.json"
     f.write_text(content)
@@ -177,10 +180,19 @@ def test_missing_layout_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
 
 def test_custom_layout_channel_order_and_roundtrip(tmp_path) -> None:  # type: ignore[no-untyped-def]
     f = tmp_path / "quad.json"
-    f.write_text(json.dumps({"name": "quad", "speakers": [
-        {"name": "RR", "azimuth": -135, "channel": 3}, {"name": "FL", "azimuth": 45, "channel": 0},
-        {"name": "FR", "azimuth": -45, "channel": 1}, {"name": "RL", "azimuth": 135, "channel": 2},
-    ]}))  # fmt: skip
+    f.write_text(
+        json.dumps(
+            {
+                "name": "quad",
+                "speakers": [
+                    {"name": "RR", "azimuth": -135, "channel": 3},
+                    {"name": "FL", "azimuth": 45, "channel": 0},
+                    {"name": "FR", "azimuth": -45, "channel": 1},
+                    {"name": "RL", "azimuth": 135, "channel": 2},
+                ],
+            }
+        )
+    )
     lay = get_layout(str(f))
     assert lay.channel_names == ["FL", "FR", "RL", "RR"]
     e = energies(str(f), 135.0)
@@ -194,8 +206,9 @@ def test_custom_layout_channel_order_and_roundtrip(tmp_path) -> None:  # type: i
 
 
 def test_speaker_alignment_delay_gain_and_blocks() -> None:
-    lay = make_layout("near", [Speaker("A", 0.0, 0.0, 3.43), Speaker("B", 90.0, 0.0, 1.715),
-                               Speaker("C", 180.0)])  # fmt: skip
+    lay = make_layout(
+        "near", [Speaker("A", 0.0, 0.0, 3.43), Speaker("B", 90.0, 0.0, 1.715), Speaker("C", 180.0)]
+    )
     al = SpeakerAlignment(lay, 1000)
     assert al.delays.tolist() == [0, 5, 0] and al.gains.tolist() == [1.0, 0.5, 1.0]
     x = np.random.default_rng(1).normal(size=(3, 100))
@@ -225,20 +238,32 @@ def test_synthesis_pans_in_3d_for_layouts_with_elevation(mono_tracks, mono_param
     c = mono_params.center
     # the source 3.5 m above-front-left of a listener facing +x with +z up: the
     # direction of height speaker H0 (azimuth 45°, elevation 45°)
-    d = np.array([np.cos(np.pi / 4) * np.cos(np.pi / 4), np.sin(np.pi / 4) * np.cos(np.pi / 4),
-                  np.sin(np.pi / 4)])  # fmt: skip
+    d = np.array(
+        [
+            np.cos(np.pi / 4) * np.cos(np.pi / 4),
+            np.sin(np.pi / 4) * np.cos(np.pi / 4),
+            np.sin(np.pi / 4),
+        ]
+    )
     listener = c - 3.5 * d
-    path = ListenerPath(np.array([0.0, 0.04]), np.array([listener, listener]),
-                        np.array([[1.0, 0, 0], [1.0, 0, 0]]))  # fmt: skip
+    path = ListenerPath(
+        np.array([0.0, 0.04]), np.array([listener, listener]), np.array([[1.0, 0, 0], [1.0, 0, 0]])
+    )
     out = render_tracks(mono_tracks, path, rate=44100, layout=lay).audio
     energy = np.sum(out**2, axis=1)
     assert energy[8] / energy.sum() >= 0.99  # H0 is channel 8
     # a moving, turning listener: the kernel's 3-D law equals the per-sample one
-    path = ListenerPath(np.array([0.0, 0.02, 0.04]),
-                        np.array([c + [2.0, 0.5, -1.0], c + [1.0, 1.5, -1.5], c + [-0.5, 1.8, -1.2]]),
-                        np.array([[0.0, 1, 0], [-1, 1, 0.3], [-1, 0, 0.5]]))  # fmt: skip
-    sub = type(mono_tracks)(positions=mono_tracks.positions[::5], q=mono_tracks.q[::5],
-                            radius=mono_tracks.radius[::5], times=mono_tracks.times)  # fmt: skip
+    path = ListenerPath(
+        np.array([0.0, 0.02, 0.04]),
+        np.array([c + [2.0, 0.5, -1.0], c + [1.0, 1.5, -1.5], c + [-0.5, 1.8, -1.2]]),
+        np.array([[0.0, 1, 0], [-1, 1, 0.3], [-1, 0, 0.5]]),
+    )
+    sub = type(mono_tracks)(
+        positions=mono_tracks.positions[::5],
+        q=mono_tracks.q[::5],
+        radius=mono_tracks.radius[::5],
+        times=mono_tracks.times,
+    )
     fast = render_tracks(sub, path, rate=44100, layout=lay).audio
     ref = render_reference(sub, path, rate=44100, layout=lay)
     assert np.max(np.abs(fast - ref)) / np.max(np.abs(ref)) < 5e-3

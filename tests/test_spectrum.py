@@ -66,15 +66,36 @@ def test_bad_signals_are_refused() -> None:
 
 
 def test_a_render_normalised_or_in_pascals_has_the_same_levels(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
-    common = ["render", "dataset:monopole", "--size", "12", "--steps", "30", "--duration", "0.5",
-              "--layout", "stereo"]  # fmt: skip
+    common = [
+        "render",
+        "dataset:monopole",
+        "--size",
+        "12",
+        "--steps",
+        "30",
+        "--duration",
+        "0.5",
+        "--layout",
+        "stereo",
+    ]
     assert main([*common, "--normalize", "none", "-o", str(tmp_path / "pa.wav")]) == 0
     assert main([*common, "-o", str(tmp_path / "peak.wav")]) == 0
     capsys.readouterr()
     levels = []
     for name in ("pa", "peak"):
-        assert main(["spectrum", str(tmp_path / f"{name}.wav"), "-o",
-                     str(tmp_path / f"{name}.json"), "--plot", str(tmp_path / f"{name}.png")]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "spectrum",
+                    str(tmp_path / f"{name}.wav"),
+                    "-o",
+                    str(tmp_path / f"{name}.json"),
+                    "--plot",
+                    str(tmp_path / f"{name}.png"),
+                ]
+            )
+            == 0
+        )
         doc = json.loads((tmp_path / f"{name}.json").read_text())
         levels.append([doc["channels"][c]["oaspl_db"] for c in ("L", "R")])
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000
@@ -93,8 +114,23 @@ def test_twice_as_far_is_6_db_quieter(tmp_path) -> None:  # type: ignore[no-unty
     got = []
     for d in (60.0, 120.0):
         out = tmp_path / f"{d:g}.json"
-        assert main(["spectrum", "dataset:monopole", "--size", "12", "--steps", "30",
-                     "--listener", f"{1.375 + d},1.375,1.375", "-o", str(out)]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "spectrum",
+                    "dataset:monopole",
+                    "--size",
+                    "12",
+                    "--steps",
+                    "30",
+                    "--listener",
+                    f"{1.375 + d},1.375,1.375",
+                    "-o",
+                    str(out),
+                ]
+            )
+            == 0
+        )
         got.append(json.loads(out.read_text())["channels"]["observer"]["oaspl_db"])
     assert got[0] - got[1] == pytest.approx(20 * np.log10(2), abs=0.02)
 
@@ -109,6 +145,21 @@ def test_clear_errors(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
         read_pascals(bare)
     assert main(["spectrum", "dataset:monopole", "--size", "12", "--steps", "8"]) == 2
     assert "give --listener X,Y,Z" in capsys.readouterr().err
-    assert main(["spectrum", "dataset:monopole", "--size", "12", "--steps", "8", "--listener",
-                 "5,0,0", "--method", "fwh"]) == 2  # fmt: skip
+    assert (
+        main(
+            [
+                "spectrum",
+                "dataset:monopole",
+                "--size",
+                "12",
+                "--steps",
+                "8",
+                "--listener",
+                "5,0,0",
+                "--method",
+                "fwh",
+            ]
+        )
+        == 2
+    )
     assert "--method fwh needs --surface" in capsys.readouterr().err

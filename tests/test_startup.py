@@ -24,11 +24,15 @@ PLUGINS = ("auralize_vortex", "auralize_fire", "auralize_aero", "auralize_spark"
 
 def _run(code: str, **env: str) -> dict:  # type: ignore[type-arg]
     # a process as a user starts it (Dask's tests leave MALLOC_TRIM_THRESHOLD_ in this one)
-    e = {k: v for k, v in os.environ.items()
-         if k not in ("OMP_WAIT_POLICY", "GLIBC_TUNABLES") and not k.startswith("MALLOC_")}  # fmt: skip
+    e = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("OMP_WAIT_POLICY", "GLIBC_TUNABLES") and not k.startswith("MALLOC_")
+    }
     e.update(env)
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=e,
-                         check=True, timeout=120)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=e, check=True, timeout=120
+    )
     return json.loads(out.stdout.strip().splitlines()[-1])  # type: ignore[no-any-return]
 
 
@@ -69,8 +73,10 @@ _RENDERS = (
 
 
 def test_import_auralize_leaves_the_allocator_alone() -> None:
-    got = _run("import json, auralize, auralize.cli; from auralize.runtime.allocator import status; "
-               "print(json.dumps(status()))")  # fmt: skip
+    got = _run(
+        "import json, auralize, auralize.cli; from auralize.runtime.allocator import status; "
+        "print(json.dumps(status()))"
+    )
     assert got is None
 
 
@@ -88,17 +94,21 @@ def test_renders_reuse_their_memory_once_kernels_are_loaded() -> None:
 
 @pytest.mark.skipif(not GLIBC, reason="the allocator tuning is glibc's mallopt")
 def test_the_users_allocator_settings_are_kept() -> None:
-    code = ("import json, auralize.sources._kernels; from auralize.runtime.allocator import status; "
-            "print(json.dumps(status()))")  # fmt: skip
+    code = (
+        "import json, auralize.sources._kernels; from auralize.runtime.allocator import status; "
+        "print(json.dumps(status()))"
+    )
     assert _run(code, GLIBC_TUNABLES="glibc.malloc.trim_threshold=65536") == (
         "the allocator is tuned by the environment"
     )
     assert _run(code, MALLOC_MMAP_THRESHOLD_="65536") == "the allocator is tuned by the environment"
     assert _run(code) == "tuned"
     # a Dask worker overrides its nanny's setting
-    forced = code.replace("print(json.dumps(status()))",
-                          "from auralize.distributed.worker_setup import tune_allocator; "
-                          "print(json.dumps([status(), tune_allocator(), status()]))")  # fmt: skip
+    forced = code.replace(
+        "print(json.dumps(status()))",
+        "from auralize.distributed.worker_setup import tune_allocator; "
+        "print(json.dumps([status(), tune_allocator(), status()]))",
+    )
     assert _run(forced, MALLOC_TRIM_THRESHOLD_="65536") == [
         "the allocator is tuned by the environment",
         True,
@@ -108,14 +118,25 @@ def test_the_users_allocator_settings_are_kept() -> None:
 
 @pytest.mark.parametrize("var", ["XDG_CACHE_HOME", "AURALIZE_CACHE_DIR"])
 def test_one_cache_folder_for_kernels_and_textures(tmp_path: Path, var: str) -> None:
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("NUMBA_CACHE_DIR", "AURALIZE_CACHE_DIR", "AURALIZE_CACHE")}  # fmt: skip
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("NUMBA_CACHE_DIR", "AURALIZE_CACHE_DIR", "AURALIZE_CACHE")
+    }
     env[var] = str(tmp_path)
-    code = ("import numba, auralize.sources._kernels; from auralize_vortex.texture import cache_dir as v; "
-            "from auralize_aero.texture import cache_dir as a; print(numba.config.CACHE_DIR); "
-            "print(v()); print(a())")  # fmt: skip
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                         check=True, timeout=120).stdout.split()  # fmt: skip
+    code = (
+        "import numba, auralize.sources._kernels; from auralize_vortex.texture import cache_dir as v; "
+        "from auralize_aero.texture import cache_dir as a; print(numba.config.CACHE_DIR); "
+        "print(v()); print(a())"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+        timeout=120,
+    ).stdout.split()
     root = tmp_path / "auralize" if var == "XDG_CACHE_HOME" else tmp_path
     assert out == [str(root / "numba" / kernel_digest()), str(root), str(root / "aero")]
 
@@ -147,8 +168,7 @@ def test_plugin_commands_declared_without_physics(plugin: str) -> None:
         "print(json.dumps({'heavy': heavy, 'numba': 'numba' in sys.modules, "
         "'scipy': 'scipy' in sys.modules, 'commands': sorted(sub.choices)}))"
     )
-    assert got == {"heavy": [], "numba": False, "scipy": False,
-                   "commands": [plugin.split("_")[1]]}  # fmt: skip
+    assert got == {"heavy": [], "numba": False, "scipy": False, "commands": [plugin.split("_")[1]]}
 
 
 def test_every_plugin_declares_its_commands_by_entry_point() -> None:
@@ -196,8 +216,9 @@ def test_parser_serves_plugin_commands() -> None:
     from auralize.cli import build_parser
 
     ap = build_parser()
-    args = ap.parse_args(["spark", "render", "-o", "x.wav", "--listener", "0,0,1",
-                          "--duration", "0.1"])  # fmt: skip
+    args = ap.parse_args(
+        ["spark", "render", "-o", "x.wav", "--listener", "0,0,1", "--duration", "0.1"]
+    )
     assert isinstance(args.func, LazyCommand)
     assert args.func.target == "auralize_spark.model:cmd_spark_render"
     sub = next(a for a in ap._actions if isinstance(a, argparse._SubParsersAction))

@@ -46,8 +46,10 @@ def _write_series(folder: Path, n_steps: int = 3) -> Path:
         grid.save(folder / name)
         entries.append(f'<DataSet timestep="{0.5 * n}" part="0" file="{name}"/>')
     pvd = folder / "surf.pvd"
-    pvd.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
-                   "<Collection>\n" + "\n".join(entries) + "\n</Collection>\n</VTKFile>\n")  # fmt: skip
+    pvd.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+        "<Collection>\n" + "\n".join(entries) + "\n</Collection>\n</VTKFile>\n"
+    )
     return pvd
 
 
@@ -71,8 +73,9 @@ def test_height_field_is_read_on_its_lattice_with_its_own_values(tmp_path: Path)
     y = Y0 + H * np.arange(NY)
     for n in range(3):
         np.testing.assert_array_equal(vol.frame("h", n)[0], _height(n))
-        np.testing.assert_array_equal(vol.frame("c", n)[0],
-                                      1000.0 * n + 10 * x[None, :] + y[:, None])  # fmt: skip
+        np.testing.assert_array_equal(
+            vol.frame("c", n)[0], 1000.0 * n + 10 * x[None, :] + y[:, None]
+        )
 
 
 def test_surface_that_moves_across_its_plane_is_refused(tmp_path: Path) -> None:

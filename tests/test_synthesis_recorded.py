@@ -14,14 +14,19 @@ RATE = 44100
 
 
 def _sub(tracks, step):  # type: ignore[no-untyped-def]
-    return type(tracks)(positions=tracks.positions[::step], q=tracks.q[::step],
-                        radius=tracks.radius[::step], times=tracks.times)  # fmt: skip
+    return type(tracks)(
+        positions=tracks.positions[::step],
+        q=tracks.q[::step],
+        radius=tracks.radius[::step],
+        times=tracks.times,
+    )
 
 
 @pytest.mark.parametrize("layout", ["mono", "ring8", "stereo"])
 @pytest.mark.parametrize("rate_hz", [10.0, 20.0])
-def test_recorded_path_equals_sample_by_sample(mono_tracks, mono_params, layout, rate_hz,
-                                               monkeypatch) -> None:  # type: ignore[no-untyped-def]  # fmt: skip
+def test_recorded_path_equals_sample_by_sample(
+    mono_tracks, mono_params, layout, rate_hz, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
     # an orbit recorded at 10 or 20 Hz, played 4x slower than the data: most
     # pieces' arrivals cross a capture (the listener's velocity jumps there)
     c = mono_params.center
@@ -53,7 +58,17 @@ def test_recorded_path_blocks_join_without_seams(mono_tracks, mono_params) -> No
     sub = _sub(mono_tracks, 3)
     whole = render_tracks(sub, path, rate=16000, layout="ring8", time_scale=4.0).audio
     n, block = whole.shape[1], 1111
-    parts = [render_tracks(sub, path, rate=16000, layout="ring8", time_scale=4.0, start=a / 16000,
-                    duration=min(block, n - a) / 16000).audio for a in range(0, n, block)]  # fmt: skip
+    parts = [
+        render_tracks(
+            sub,
+            path,
+            rate=16000,
+            layout="ring8",
+            time_scale=4.0,
+            start=a / 16000,
+            duration=min(block, n - a) / 16000,
+        ).audio
+        for a in range(0, n, block)
+    ]
     joined = np.concatenate(parts, axis=1)
     assert np.max(np.abs(joined - whole)) <= 1e-7 * np.max(np.abs(whole))

@@ -20,14 +20,25 @@ def _scene(n: int = 300, steps: int = 24, seed: int = 0) -> SourceTracks:
     """``n`` sources in a 4 m cube sounding at random steps (random strengths)."""
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(n, steps)) * (rng.uniform(size=(n, steps)) < 0.6)
-    return SourceTracks(positions=rng.uniform(-2.0, 2.0, size=(n, 3)), q=q,
-                        radius=np.full(n, 0.05), times=np.arange(steps) / 30.0)  # fmt: skip
+    return SourceTracks(
+        positions=rng.uniform(-2.0, 2.0, size=(n, 3)),
+        q=q,
+        radius=np.full(n, 0.05),
+        times=np.arange(steps) / 30.0,
+    )
 
 
 def _orbit(rate_hz: float | None) -> ListenerPath:
     # head sweeping: the sources pass in front, to the side and behind (the folded rear)
-    return ListenerPath.orbit((0.0, 0.0, 0.0), radius=9.0, duration=2.0, turns=0.5,
-                              height=0.5, rate_hz=rate_hz, face="sweep")  # fmt: skip
+    return ListenerPath.orbit(
+        (0.0, 0.0, 0.0),
+        radius=9.0,
+        duration=2.0,
+        turns=0.5,
+        height=0.5,
+        rate_hz=rate_hz,
+        face="sweep",
+    )
 
 
 def _directions() -> np.ndarray:
@@ -80,8 +91,12 @@ def test_stereo_rear_source_is_heard_from_the_nearer_speaker() -> None:
     # one source behind and to the left of a listener facing +y: the folded
     # direction is left of the left speaker (30°), on the wide arc, whose nearer
     # end takes everything; the right channel stays exactly silent
-    tr = SourceTracks(positions=np.array([[-3.0, -4.0, 0.0]]), q=np.sin(np.arange(12))[None, :],
-                      radius=np.full(1, 0.05), times=np.arange(12) / 30.0)  # fmt: skip
+    tr = SourceTracks(
+        positions=np.array([[-3.0, -4.0, 0.0]]),
+        q=np.sin(np.arange(12))[None, :],
+        radius=np.full(1, 0.05),
+        times=np.arange(12) / 30.0,
+    )
     path = ListenerPath.point([0.0, 0.0, 0.0], duration=0.5)
     out = render_tracks(tr, path, rate=RATE, layout="stereo").audio
     mono = render_tracks(tr, path, rate=RATE, layout="mono").audio[0]

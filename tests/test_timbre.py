@@ -75,8 +75,10 @@ def test_listener_flying_at_60_m_per_s_hears_doppler(mono_tracks, mono_params) -
     still = render_timbre(mono_tracks, _at(mono_params, x0, dur), rate=RATE).audio[0]
     # steady emission (after the fade-in ramp, before the fade-out): tau in [15, 85] ms
     # arrives at t = (tau + x0/c0) / (1 + v/c0) moving, tau + x0/c0 still
-    moving = slice(int((0.015 + x0 / C0) / (1 + v / C0) * RATE) + 20,
-                   int((0.085 + x0 / C0) / (1 + v / C0) * RATE))  # fmt: skip
+    moving = slice(
+        int((0.015 + x0 / C0) / (1 + v / C0) * RATE) + 20,
+        int((0.085 + x0 / C0) / (1 + v / C0) * RATE),
+    )
     fixed = slice(int((0.015 + x0 / C0) * RATE) + 20, int((0.085 + x0 / C0) * RATE))
     f_move, f_still = _zero_crossing_frequency(p[moving]), _zero_crossing_frequency(still[fixed])
     assert f_still == pytest.approx(mono_params.frequency, rel=0.01)
@@ -94,8 +96,13 @@ def test_timbres_keep_arrival_time_and_distance_law(mono_tracks, mono_params, ti
         assert np.max(np.abs(p[early])) < 1e-6 * np.max(np.abs(p))
         # the sound sits where the physical one does: energy-weighted times agree
         # (with a tone for the monopoles' noise band, whose local power fluctuates)
-        tone = render_timbre(mono_tracks, _at(mono_params, D, 0.25), rate=RATE, timbre=timbre,
-                             carriers={"monopole": ("tone", 300.0)}).audio[0]  # fmt: skip
+        tone = render_timbre(
+            mono_tracks,
+            _at(mono_params, D, 0.25),
+            rate=RATE,
+            timbre=timbre,
+            carriers={"monopole": ("tone", 300.0)},
+        ).audio[0]
         phys = render_tracks(mono_tracks, _at(mono_params, D, 0.25), rate=RATE).audio[0]
         t_mean = np.sum(t * tone**2) / np.sum(tone**2)
         t_phys = np.sum(t * phys**2) / np.sum(phys**2)
@@ -128,8 +135,9 @@ def _typed_tracks(steps: int = 40, dt: float = 0.05) -> SourceTracks:
     kind = np.zeros((3, steps), dtype=np.int8)
     kind[:, 2:-2] = np.array([[1], [2], [3]])
     pos = np.array([[5.0, 0, 0], [0, 5.0, 0], [-5.0, 0, 0]])
-    return SourceTracks(positions=pos, q=q, radius=np.full(3, 0.1), times=np.arange(steps) * dt,
-                        kind=kind)  # fmt: skip
+    return SourceTracks(
+        positions=pos, q=q, radius=np.full(3, 0.1), times=np.arange(steps) * dt, kind=kind
+    )
 
 
 def test_tonal_carriers_per_type_appear_in_the_spectrum() -> None:
@@ -148,8 +156,11 @@ def test_tonal_carriers_per_type_appear_in_the_spectrum() -> None:
     f_d, f_q = TONAL_CARRIERS["dipole"][1], TONAL_CARRIERS["quadrupole"][1]
     # each type is heard: its carrier holds a fair share of the energy
     # (the carriers follow the strengths' 2 Hz wobble: sidebands within ±15 Hz)
-    shares = [band(lo_m - 15, hi_m + 15) / total, band(f_d - 15, f_d + 15) / total,
-              band(f_q - 15, f_q + 15) / total]  # fmt: skip
+    shares = [
+        band(lo_m - 15, hi_m + 15) / total,
+        band(f_d - 15, f_d + 15) / total,
+        band(f_q - 15, f_q + 15) / total,
+    ]
     assert min(shares) > 0.15 and sum(shares) > 0.97
     # the tones are spectral peaks at their frequencies
     for fc in (f_d, f_q):
@@ -194,10 +205,20 @@ def test_timbres_keep_panning(timbre) -> None:  # type: ignore[no-untyped-def]
     """A source on the listener's left (ring8 channel 2) stays there."""
     tr = _typed_tracks()
     keep = np.array([False, True, False])  # the dipole at +y ...
-    tr = SourceTracks(positions=np.array([[-5.0, 0.0, 0.0]]), q=tr.q[keep], radius=tr.radius[keep],
-                      times=tr.times, kind=tr.kind[keep])  # ... moved to the left  # fmt: skip
-    out = render_timbre(tr, ListenerPath.point([0.0, 0.0, 0.0], duration=2.0), rate=8000,
-                        timbre=timbre, layout="ring8")  # fmt: skip
+    tr = SourceTracks(
+        positions=np.array([[-5.0, 0.0, 0.0]]),
+        q=tr.q[keep],
+        radius=tr.radius[keep],
+        times=tr.times,
+        kind=tr.kind[keep],
+    )  # ... moved to the left
+    out = render_timbre(
+        tr,
+        ListenerPath.point([0.0, 0.0, 0.0], duration=2.0),
+        rate=8000,
+        timbre=timbre,
+        layout="ring8",
+    )
     e = np.sum(out.audio**2, axis=1)
     assert np.argmax(e) == 2 and e[2] / e.sum() > 0.99
 
@@ -211,8 +232,13 @@ def _cloud(n: int = 600, steps: int = 24, dt: float = 0.05) -> SourceTracks:
     pos = np.unique(pos, axis=0)
     q = rng.normal(size=(pos.shape[0], steps)) * (rng.random((pos.shape[0], steps)) < 0.4)
     kind = np.where(q != 0, rng.integers(1, 4, size=q.shape), 0).astype(np.int8)
-    return SourceTracks(positions=pos, q=q, radius=np.full(pos.shape[0], 0.1),
-                        times=np.arange(steps) * dt, kind=kind)  # fmt: skip
+    return SourceTracks(
+        positions=pos,
+        q=q,
+        radius=np.full(pos.shape[0], 0.1),
+        times=np.arange(steps) * dt,
+        kind=kind,
+    )
 
 
 def test_merged_sources_keep_the_sum_and_the_centroid() -> None:
@@ -257,8 +283,16 @@ def test_merging_changes_the_timbres_little(timbre_name, monkeypatch) -> None:  
 def test_near_path_finds_the_points_near_the_listeners_polyline() -> None:
     path = ListenerPath.line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], duration=1.0)
     # beside the middle of the path, beyond its end, and off its corner
-    pts = np.array([[5.0, 0.9, 0.0], [5.0, 0.0, 1.2], [10.9, 0.0, 0.0], [11.5, 0.0, 0.0],
-                    [-0.6, 0.6, 0.0], [-0.8, 0.8, 0.0]])  # fmt: skip
+    pts = np.array(
+        [
+            [5.0, 0.9, 0.0],
+            [5.0, 0.0, 1.2],
+            [10.9, 0.0, 0.0],
+            [11.5, 0.0, 0.0],
+            [-0.6, 0.6, 0.0],
+            [-0.8, 0.8, 0.0],
+        ]
+    )
     assert near_path(pts, path, 1.0).tolist() == [True, False, True, False, True, False]
     point = ListenerPath.point([0.0, 0.0, 0.0], duration=1.0)
     assert near_path(pts[4:], point, 1.0).tolist() == [True, False]
@@ -284,9 +318,18 @@ def test_tonal_without_sources_is_silence_not_a_type_error() -> None:
     from auralize.listener import ListenerPath
     from auralize.sources import SourceTracks
 
-    empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, 5)), radius=np.zeros(0),
-                         times=np.linspace(0.0, 0.4, 5))  # fmt: skip
-    out = render_timbre(empty, ListenerPath.point((1.0, 0.0, 0.0), duration=0.5),
-                        timbre="tonal", rate=8000, layout="ring8")  # fmt: skip
+    empty = SourceTracks(
+        positions=np.zeros((0, 3)),
+        q=np.zeros((0, 5)),
+        radius=np.zeros(0),
+        times=np.linspace(0.0, 0.4, 5),
+    )
+    out = render_timbre(
+        empty,
+        ListenerPath.point((1.0, 0.0, 0.0), duration=0.5),
+        timbre="tonal",
+        rate=8000,
+        layout="ring8",
+    )
     assert out.audio.shape == (8, 4000)
     assert not np.any(out.audio)

@@ -30,8 +30,12 @@ def test_upsampled_is_the_linear_interpolation(n: int, k: int) -> None:
 def test_mean_distance_in_blocks_equals_one_pass(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     rng = np.random.default_rng(2)
     K, steps = 5000, 20
-    tracks = SourceTracks(positions=rng.uniform(-20, 20, (K, 3)), q=rng.normal(size=(K, steps)),
-                          radius=np.full(K, 0.1), times=np.arange(steps) * 0.04)  # fmt: skip
+    tracks = SourceTracks(
+        positions=rng.uniform(-20, 20, (K, 3)),
+        q=rng.normal(size=(K, steps)),
+        radius=np.full(K, 0.1),
+        times=np.arange(steps) * 0.04,
+    )
     path = ListenerPath.orbit((0, 0, 0), radius=60.0, duration=10.0, turns=0.5, rate_hz=3.3)
     u = np.linspace(0.0, 10.0, 1001)
     blocks = timbre.mean_distance(tracks, path, 0.05 + u / 10.0, u)

@@ -19,8 +19,14 @@ from auralize.viewer.app import KEYS, STANDARD_VIEWS, key_text
 
 Key = QtCore.Qt.Key
 SHIFT = QtCore.Qt.KeyboardModifier.ShiftModifier
-AXES = {"+X": (1, 0, 0), "-X": (-1, 0, 0), "+Y": (0, 1, 0), "-Y": (0, -1, 0),
-        "+Z": (0, 0, 1), "-Z": (0, 0, -1)}  # fmt: skip
+AXES = {
+    "+X": (1, 0, 0),
+    "-X": (-1, 0, 0),
+    "+Y": (0, 1, 0),
+    "-Y": (0, -1, 0),
+    "+Z": (0, 0, 1),
+    "-Z": (0, 0, -1),
+}
 
 
 @pytest.fixture
@@ -63,8 +69,7 @@ def _shows_the_data(win) -> bool:
 
 def _far_path(vol) -> ListenerPath:
     """A path recorded for other data, far from ``vol``."""
-    return ListenerPath.orbit(np.asarray(vol.center) + 500.0, radius=20.0, duration=1.0,
-                              rate_hz=5)  # fmt: skip
+    return ListenerPath.orbit(np.asarray(vol.center) + 500.0, radius=20.0, duration=1.0, rate_hz=5)
 
 
 def _set_path(win, path):
@@ -73,8 +78,9 @@ def _set_path(win, path):
     win.scene.set_path(path)
 
 
-def test_new_data_is_framed_and_the_path_question_does_what_it_says(qtbot, window, errors,
-                                                                    monkeypatch):  # fmt: skip
+def test_new_data_is_framed_and_the_path_question_does_what_it_says(
+    qtbot, window, errors, monkeypatch
+):
     win = window
     _open(qtbot, win)
     assert _shows_the_data(win)
@@ -109,8 +115,9 @@ def test_new_data_is_framed_and_the_path_question_does_what_it_says(qtbot, windo
     assert asked and "listener path" in asked[-1]
     assert win.path is None
     _set_path(win, old)
-    monkeypatch.setattr(QtWidgets.QMessageBox, "exec",
-                        answer(QtWidgets.QMessageBox.StandardButton.Yes))  # fmt: skip
+    monkeypatch.setattr(
+        QtWidgets.QMessageBox, "exec", answer(QtWidgets.QMessageBox.StandardButton.Yes)
+    )
     _open(qtbot, win)
     assert len(asked) == 2 and win.path is old
     # no path, no question
@@ -144,8 +151,14 @@ def test_reset_camera_button_and_key_frame_the_data(qtbot, window, errors):
 def test_standard_views_look_along_the_axes(qtbot, window, errors, how):
     win = window
     _open(qtbot, win)
-    keys = {"+X": (Key.Key_X, None), "-X": (Key.Key_X, SHIFT), "+Y": (Key.Key_Y, None),
-            "-Y": (Key.Key_Y, SHIFT), "+Z": (Key.Key_Z, None), "-Z": (Key.Key_Z, SHIFT)}  # fmt: skip
+    keys = {
+        "+X": (Key.Key_X, None),
+        "-X": (Key.Key_X, SHIFT),
+        "+Y": (Key.Key_Y, None),
+        "-Y": (Key.Key_Y, SHIFT),
+        "+Z": (Key.Key_Z, None),
+        "-Z": (Key.Key_Z, SHIFT),
+    }
     assert set(STANDARD_VIEWS) == set(AXES) == set(win.view_actions)
     for name, axis in AXES.items():
         win.fly(forward=3, turn=2)  # from somewhere else
@@ -212,7 +225,7 @@ def test_frame_buttons_and_keys_step_through_time(qtbot, window, errors):
 def test_menus_have_their_actions_and_shortcuts(qtbot, window, errors):
     win = window
     bar = [a.text() for a in win.menuBar().actions()]
-    assert bar == ["&File", "&View", "&Help"]
+    assert bar == ["&File", "&View", "&Sources", "&Listener", "&Audio", "&Time", "&Help"]
 
     def by_text(menu):
         return {a.text(): a for a in menu.actions() if a.text()}
@@ -243,8 +256,7 @@ def test_menus_have_their_actions_and_shortcuts(qtbot, window, errors):
         assert key_text(b) in text and b.what in text
     assert win.keys_dialog.isVisible()
     # the frame keys are on the toolbar buttons
-    assert {a.shortcut().toString() for a in win.time_actions.values()} == {
-        "Home", ",", ".", "End"}  # fmt: skip
+    assert {a.shortcut().toString() for a in win.time_actions.values()} == {"Home", ",", ".", "End"}
     # About: the version and the docs
     help_["&About auralize"].trigger()
     assert auralize.__version__ in win.about_box.text()
@@ -264,8 +276,9 @@ def test_save_screenshot_writes_what_is_shown(qtbot, window, tmp_path, errors, m
     off = np.abs(img - np.asarray(BACKGROUND)).sum(axis=2) > 30
     assert off.mean() > 0.05  # the data, not a dark picture
     # File ▸ Save Screenshot asks for the name (a name without suffix gets .png)
-    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName",
-                        lambda *a, **k: (str(tmp_path / "asked"), ""))  # fmt: skip
+    monkeypatch.setattr(
+        QtWidgets.QFileDialog, "getSaveFileName", lambda *a, **k: (str(tmp_path / "asked"), "")
+    )
     win.screenshot_action.trigger()
     assert (tmp_path / "asked.png").exists()
     # a missing folder is an error box, not a crash
@@ -275,8 +288,14 @@ def test_save_screenshot_writes_what_is_shown(qtbot, window, tmp_path, errors, m
 
 def test_every_control_has_a_tooltip(qtbot, window):
     win = window
-    kinds = (QtWidgets.QAbstractButton, QtWidgets.QComboBox, QtWidgets.QSlider,
-             QtWidgets.QAbstractSpinBox, QtWidgets.QCheckBox, QtWidgets.QLineEdit)  # fmt: skip
+    kinds = (
+        QtWidgets.QAbstractButton,
+        QtWidgets.QComboBox,
+        QtWidgets.QSlider,
+        QtWidgets.QAbstractSpinBox,
+        QtWidgets.QCheckBox,
+        QtWidgets.QLineEdit,
+    )
     seen = 0
     missing = []
     for w in win.findChildren(QtWidgets.QWidget):

@@ -32,8 +32,13 @@ def unpaced(monkeypatch):  # type: ignore[no-untyped-def]
     return listening
 
 
-def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbot, tmp_path,  # type: ignore[no-untyped-def]
-                                             unpaced) -> None:  # fmt: skip
+def test_live_listening_is_the_rendered_file(
+    open_viewer,
+    render_in_viewer,
+    qtbot,
+    tmp_path,  # type: ignore[no-untyped-def]
+    unpaced,
+) -> None:
     listening = unpaced
     win, shown = open_viewer()
     win.open_data("dataset:monopole", size=12, steps=60)
@@ -47,8 +52,9 @@ def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbo
     c = np.asarray(win.volume.center)
     pos = c + [4.0, 1.0, 0.5]
     fwd = (c - pos) / np.linalg.norm(c - pos)
-    ListenerPath.point(pos, duration=DURATION, forward=tuple(fwd),
-                       up=(0.0, 0.0, 1.0)).to_csv(tmp_path / "still.csv")  # fmt: skip
+    ListenerPath.point(pos, duration=DURATION, forward=tuple(fwd), up=(0.0, 0.0, 1.0)).to_csv(
+        tmp_path / "still.csv"
+    )
     p = win.load_path(tmp_path / "still.csv")
     cam = win.plotter.camera
     cam.position, cam.focal_point, cam.up = tuple(pos), tuple(c), (0.0, 0.0, 1.0)
@@ -78,16 +84,25 @@ def test_live_listening_is_the_rendered_file(open_viewer, render_in_viewer, qtbo
     assert rate == 44100 and n <= m <= expect.shape[1] <= m + eng.block
     assert np.max(np.abs(sunk)) <= 1.0 and np.max(np.abs(sunk - expect[:, :m])) <= 1e-5
     # the same camera without the high-pass: another sound, mostly below 20 Hz
-    raw = listening.LiveEngine(win.series.tracks(), layout=win.audio["layout"],
-                               time_scale=40.0, block=eng.block, highpass_hz=0.0)  # fmt: skip
+    raw = listening.LiveEngine(
+        win.series.tracks(),
+        layout=win.audio["layout"],
+        time_scale=40.0,
+        block=eng.block,
+        highpass_hz=0.0,
+    )
     raw.set_pose(*pose)
     unfiltered = np.concatenate([raw.next_block() for _ in range(-(-n // raw.block))], 1)[:, :n]
     assert loudness(unfiltered, 44100)["share_above"] < 0.5
     assert np.max(np.abs(unfiltered - file)) > 10 * peak  # 28x here
 
 
-def test_live_listening_a_kilometre_away_is_heard_in_the_first_block(open_viewer, qtbot,  # type: ignore[no-untyped-def]
-                                                                     tmp_path, unpaced) -> None:  # fmt: skip
+def test_live_listening_a_kilometre_away_is_heard_in_the_first_block(
+    open_viewer,
+    qtbot,  # type: ignore[no-untyped-def]
+    tmp_path,
+    unpaced,
+) -> None:
     """The camera 1 km from the data: sound takes 2.9 s to come, three times the
     data's span; live listening skips that travel (as a render does), so the first
     block already holds the data's sound, and the panel says how far away they are."""
@@ -113,14 +128,24 @@ def test_live_listening_a_kilometre_away_is_heard_in_the_first_block(open_viewer
     assert f"the data are {near:.3g} m away: sound takes {near / 343:.3g} s" in text, text
     # the clock without the lead: the same first block is exact silence
     tracks = win.heard_sound().tracks
-    late = listening.LiveEngine(tracks, layout=win.audio["layout"], block=player.engine.block,
-                                time_scale=player.engine.time_scale, lead=0.0)  # fmt: skip
+    late = listening.LiveEngine(
+        tracks,
+        layout=win.audio["layout"],
+        block=player.engine.block,
+        time_scale=player.engine.time_scale,
+        lead=0.0,
+    )
     late.set_pose(*camera_pose(cam))
     assert not np.any(late.next_block())
 
 
-def test_listen_live_makes_its_sound_off_the_qt_thread(open_viewer, qtbot, tmp_path, unpaced,  # type: ignore[no-untyped-def]
-                                                       monkeypatch) -> None:  # fmt: skip
+def test_listen_live_makes_its_sound_off_the_qt_thread(
+    open_viewer,
+    qtbot,
+    tmp_path,
+    unpaced,  # type: ignore[no-untyped-def]
+    monkeypatch,
+) -> None:
     """The Listen live button returns at once: the sound heard is made in a task (progress
     bar, Cancel) on a worker thread, and listening starts when it is in."""
     import threading
@@ -141,8 +166,9 @@ def test_listen_live_makes_its_sound_off_the_qt_thread(open_viewer, qtbot, tmp_p
     win.live_file.setText(str(tmp_path / "button.wav"))
     win.live_btn.click()
     assert win.player is None and win.task is not None and win.task.name == "live sound"
-    qtbot.waitUntil(lambda: win.player is not None and len(win.player.engine.heard_blocks) >= 2,
-                    timeout=60_000)  # fmt: skip
+    qtbot.waitUntil(
+        lambda: win.player is not None and len(win.player.engine.heard_blocks) >= 2, timeout=60_000
+    )
     win.stop_live()
     assert made_on and threading.main_thread().name not in made_on
     assert not shown

@@ -30,8 +30,12 @@ class BeaconModel(SoundModel):
 
     def synthesize(self, inputs: Any, **params: Any) -> Sound:
         t = np.arange(8000) / 8000.0
-        em = Emitters(0.3 * np.sin(2 * np.pi * 500.0 * t)[None], 8000.0,
-                      (np.asarray(inputs.center) + [0.3, 0.0, 0.0])[None], name="beacon")  # fmt: skip
+        em = Emitters(
+            0.3 * np.sin(2 * np.pi * 500.0 * t)[None],
+            8000.0,
+            (np.asarray(inputs.center) + [0.3, 0.0, 0.0])[None],
+            name="beacon",
+        )
         return Sound(parts=[em], name="beacon")
 
     def overlay(self, inputs: Any, step: int) -> Any:
@@ -71,9 +75,16 @@ class SlowBeaconModel(BeaconModel):
 @pytest.fixture
 def window(open_viewer, monkeypatch):  # type: ignore[no-untyped-def]
     real = plugins.registry()
-    monkeypatch.setattr(plugins, "registry",
-                        lambda: {**real, "beacon": BeaconModel, "sketch": SilentModel,
-                                 "slowbeacon": SlowBeaconModel})  # fmt: skip
+    monkeypatch.setattr(
+        plugins,
+        "registry",
+        lambda: {
+            **real,
+            "beacon": BeaconModel,
+            "sketch": SilentModel,
+            "slowbeacon": SlowBeaconModel,
+        },
+    )
     return open_viewer()
 
 
@@ -95,8 +106,9 @@ def test_a_render_never_leaves_out_an_overlay(qtbot, window, tmp_path, render_in
         win.set_overlay("slowbeacon", True, then=result.append)
         qtbot.waitUntil(lambda: len(result) == 1 and not win.busy, timeout=60_000)
         win.set_overlay("sketch", True, then=result.append)
-        qtbot.waitUntil(lambda: len(result) == 2 and "sketch" in win._overlay_unheard,
-                        timeout=60_000)  # fmt: skip
+        qtbot.waitUntil(
+            lambda: len(result) == 2 and "sketch" in win._overlay_unheard, timeout=60_000
+        )
         assert "slowbeacon" in win._sound_tasks and "slowbeacon" not in win._overlay_sounds
         out = tmp_path / "r.wav"
         render_in_viewer(win, shown, out)
@@ -105,7 +117,8 @@ def test_a_render_never_leaves_out_an_overlay(qtbot, window, tmp_path, render_in
     side = json.loads(Path(f"{out}.json").read_text())
     assert [p["model"] for p in side["parts"]] == ["field", "beacon"]  # (its sound's name)
     assert side["overlays_not_heard"] == {
-        "sketch": "sound model 'sketch' does not implement synthesize"}  # fmt: skip
+        "sketch": "sound model 'sketch' does not implement synthesize"
+    }
     msg = win.statusBar().currentMessage()
     assert "field + beacon" in msg and "sketch overlay not heard" in msg
     assert len(SlowBeaconModel.calls) == 2  # the waiting task's, and the render's own
@@ -123,8 +136,9 @@ def test_switching_an_overlay_on_adds_its_sound_to_the_render(
     win.detect()
     qtbot.waitUntil(lambda: win.series is not None and not win.busy, timeout=60_000)
     csv = tmp_path / "p.csv"
-    ListenerPath.line(win.volume.center + [0.6, -0.4, 0], win.volume.center + [0.6, 0.4, 0],
-                      duration=0.6).to_csv(csv)  # fmt: skip
+    ListenerPath.line(
+        win.volume.center + [0.6, -0.4, 0], win.volume.center + [0.6, 0.4, 0], duration=0.6
+    ).to_csv(csv)
     path = win.load_path(csv)
     plain = render_in_viewer(win, shown, tmp_path / "plain.wav")
 
@@ -133,8 +147,13 @@ def test_switching_an_overlay_on_adds_its_sound_to_the_render(
     qtbot.waitUntil(lambda: bool(result) and "beacon" in win._overlay_sounds, timeout=60_000)
     assert result == [True]
     with_beacon = render_in_viewer(win, shown, tmp_path / "beacon.wav")
-    alone = render_sound(BeaconModel().synthesize(win.volume), path, rate=win.audio["rate"],
-                   layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
+    alone = render_sound(
+        BeaconModel().synthesize(win.volume),
+        path,
+        rate=win.audio["rate"],
+        layout=win.audio["layout"],
+        duration=plain.shape[1] / win.audio["rate"],
+    ).audio
     assert with_beacon.shape == plain.shape == alone.shape
     assert np.max(np.abs(alone)) > 0.1 * np.max(np.abs(with_beacon))
     assert np.max(np.abs(with_beacon - (plain + alone))) <= 1e-9 * np.max(np.abs(with_beacon))
@@ -144,8 +163,9 @@ def test_switching_an_overlay_on_adds_its_sound_to_the_render(
     # an overlay without sound is drawn, says so, and changes nothing heard
     win.set_overlay("sketch", True, then=result.append)
     qtbot.waitUntil(lambda: len(result) == 2 and not win._sound_tasks, timeout=60_000)
-    assert win.overlay_note.text() == ("sketch overlay is shown but not heard: sound model "
-                                       "'sketch' does not implement synthesize")  # fmt: skip
+    assert win.overlay_note.text() == (
+        "sketch overlay is shown but not heard: sound model 'sketch' does not implement synthesize"
+    )
     assert list(win._overlay_sounds) == ["beacon"]
 
     # live listening hears it too, and stops hearing it when switched off
@@ -170,10 +190,15 @@ def test_live_block_with_an_overlay_sound_is_the_sum() -> None:
 
     fk = 4000.0
     t = np.arange(int(0.5 * fk)) / fk
-    tracks = SourceTracks(np.array([[2.0, 0.0, 0.0]]), np.sin(2 * np.pi * 220 * t)[None],
-                          np.array([0.1]), t)  # fmt: skip
-    em = Emitters(np.cos(2 * np.pi * 330 * np.arange(4000) / 8000.0)[None], 8000.0,
-                  np.array([[0.0, 3.0, 0.5]]), name="beacon")  # fmt: skip
+    tracks = SourceTracks(
+        np.array([[2.0, 0.0, 0.0]]), np.sin(2 * np.pi * 220 * t)[None], np.array([0.1]), t
+    )
+    em = Emitters(
+        np.cos(2 * np.pi * 330 * np.arange(4000) / 8000.0)[None],
+        8000.0,
+        np.array([[0.0, 3.0, 0.5]]),
+        name="beacon",
+    )
     pose = ((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     a = LiveEngine(tracks, layout="stereo", block=1024)
     b = LiveEngine(tracks, layout="stereo", block=1024, extra=Sound([em]))
@@ -206,8 +231,13 @@ def test_the_fire_front_overlay_is_heard(qtbot, window, tmp_path, render_in_view
     win.set_overlay("fire", True, then=result.append)
     qtbot.waitUntil(lambda: bool(result) and "fire" in win._overlay_sounds, timeout=60_000)
     heard = render_in_viewer(win, shown, tmp_path / "fire.wav")
-    fire = render_sound(synthesize("fire", win.volume), path, rate=win.audio["rate"],
-                  layout=win.audio["layout"], duration=plain.shape[1] / win.audio["rate"]).audio  # fmt: skip
+    fire = render_sound(
+        synthesize("fire", win.volume),
+        path,
+        rate=win.audio["rate"],
+        layout=win.audio["layout"],
+        duration=plain.shape[1] / win.audio["rate"],
+    ).audio
     assert np.max(np.abs(fire)) > 0
     assert np.max(np.abs(heard - (plain + fire))) <= 1e-9 * np.max(np.abs(heard))
     assert not shown
@@ -223,8 +253,9 @@ def test_an_overlay_switched_on_is_heard_for_newly_opened_data(qtbot, window) ->
     first = win.volume
     win.open_data("dataset:explosion", size=12, steps=4)
     qtbot.waitUntil(lambda: win.volume is not first and not win.busy, timeout=60_000)
-    qtbot.waitUntil(lambda: win._overlay_sounds.get("beacon", (None,))[0] is win.volume,
-                    timeout=60_000)  # fmt: skip
+    qtbot.waitUntil(
+        lambda: win._overlay_sounds.get("beacon", (None,))[0] is win.volume, timeout=60_000
+    )
     em = win.overlay_sound().parts[0]
     assert np.allclose(em.positions[0], np.asarray(win.volume.center) + [0.3, 0.0, 0.0])
     assert not shown
@@ -238,8 +269,7 @@ def test_the_aero_overlay_says_why_it_is_not_heard(qtbot, window) -> None:  # ty
     qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
     result: list[bool] = []
     win.set_overlay("aero", True, then=result.append)
-    qtbot.waitUntil(lambda: bool(result) and not win.busy and not win._sound_tasks,
-                    timeout=60_000)  # fmt: skip
+    qtbot.waitUntil(lambda: bool(result) and not win.busy and not win._sound_tasks, timeout=60_000)
     assert result == [True] and "aero" not in win._overlay_sounds
     assert win.overlay_note.text() == (
         "aero overlay is shown but not heard: its model makes sound from a sound texture "

@@ -47,8 +47,11 @@ def test_each_coloured_overlay_has_its_own_bar_clear_of_the_fields(qtbot, open_v
     assert list(win.plotter.scalar_bars.keys()) == ["log10_density"]
 
 
-def test_the_layouts_are_the_command_lines_and_a_custom_file_is_checked(window, tmp_path,  # type: ignore[no-untyped-def]
-                                                                        errors) -> None:  # fmt: skip
+def test_the_layouts_are_the_command_lines_and_a_custom_file_is_checked(
+    window,
+    tmp_path,  # type: ignore[no-untyped-def]
+    errors,
+) -> None:
     from auralize.cli.options import add_output_options
 
     items = [window.layout_box.itemText(i) for i in range(window.layout_box.count())]
@@ -72,8 +75,11 @@ def test_the_layouts_are_the_command_lines_and_a_custom_file_is_checked(window, 
     assert window.audio["layout"] == str(f) and window.layout_box.currentText() == str(f)
 
 
-def test_opening_new_data_clears_what_the_panels_said_of_the_old(qtbot, open_viewer,  # type: ignore[no-untyped-def]
-                                                                 tmp_path) -> None:  # fmt: skip
+def test_opening_new_data_clears_what_the_panels_said_of_the_old(
+    qtbot,
+    open_viewer,  # type: ignore[no-untyped-def]
+    tmp_path,
+) -> None:
     from auralize.listener import ListenerPath
 
     win, shown = open_viewer()
@@ -88,8 +94,9 @@ def test_opening_new_data_clears_what_the_panels_said_of_the_old(qtbot, open_vie
     qtbot.waitUntil(lambda: win.rendered is not None and not win.busy, timeout=60_000)
     assert win.detect_note.text().startswith("detected") and win.figure.axes
     win.open_data("dataset:explosion", size=12, steps=6, keep_path=False)
-    qtbot.waitUntil(lambda: not win.busy and win.volume.source == "dataset:explosion",
-                    timeout=60_000)  # fmt: skip
+    qtbot.waitUntil(
+        lambda: not win.busy and win.volume.source == "dataset:explosion", timeout=60_000
+    )
     assert win.rendered is None and not win.figure.axes
     assert win.detect_note.text() == "sources are detected when you ask (Detect)"
     assert win.live_label.text() == "off" and win.count_labels["monopole"].text() == "–"

@@ -26,8 +26,13 @@ def _open(qtbot, win, spec="dataset:monopole", **kw):  # type: ignore[no-untyped
     qtbot.waitUntil(lambda: win.volume is not None and not win.busy, timeout=60_000)
 
 
-def test_listening_and_recording_leave_the_window_thread_free(qtbot, window, tmp_path, errors,  # type: ignore[no-untyped-def]
-                                                              monkeypatch):  # fmt: skip
+def test_listening_and_recording_leave_the_window_thread_free(
+    qtbot,
+    window,
+    tmp_path,
+    errors,  # type: ignore[no-untyped-def]
+    monkeypatch,
+):
     import auralize.scene.listening as listening
 
     win = window
@@ -49,8 +54,7 @@ def test_listening_and_recording_leave_the_window_thread_free(qtbot, window, tmp
     monkeypatch.setattr(listening.LiveEngine, "next_block", spy_block)
     monkeypatch.setattr(listening.WavSink, "write", spy_write)
     player = win.start_live(tmp_path / "live.wav")
-    qtbot.waitUntil(lambda: player.engine.elapsed > 0.3 or player.error is not None,
-                    timeout=60_000)  # fmt: skip
+    qtbot.waitUntil(lambda: player.engine.elapsed > 0.3 or player.error is not None, timeout=60_000)
     assert player.error is None, player.error
     win.rate_spin.setValue(10.0)
     win.start_recording(tmp_path / "path.csv")
@@ -69,8 +73,9 @@ def test_listening_and_recording_leave_the_window_thread_free(qtbot, window, tmp
     pos = camera_pose(win.plotter.camera)[0]
     assert player.engine._pose_version > v0  # live listening heard the move too
     qtbot.waitUntil(lambda: np.allclose(rec.rows[-1][1:4], pos), timeout=30_000)
-    qtbot.waitUntil(lambda: win.path is not None and win.path.n_captures >= rec.n_captures - 1,
-                    timeout=30_000)  # fmt: skip
+    qtbot.waitUntil(
+        lambda: win.path is not None and win.path.n_captures >= rec.n_captures - 1, timeout=30_000
+    )
     assert "Hz achieved (asked 10)" in win.path_label.text()
     path = win.stop_recording()
     assert not rec.driving
@@ -91,8 +96,13 @@ def test_listening_and_recording_leave_the_window_thread_free(qtbot, window, tmp
 
 # (stopped before the sound has reached the camera: the file written is silent)
 @pytest.mark.filterwarnings("ignore::auralize.audio.output.SilentAudioWarning")
-def test_live_time_steps_redraw_at_a_bounded_duty(qtbot, window, tmp_path, errors,  # type: ignore[no-untyped-def]
-                                                  monkeypatch):  # fmt: skip
+def test_live_time_steps_redraw_at_a_bounded_duty(
+    qtbot,
+    window,
+    tmp_path,
+    errors,  # type: ignore[no-untyped-def]
+    monkeypatch,
+):
     """Live listening moves the time slider at most once per LIVE_REDRAW_GAP_S and leaves
     the window at least LIVE_REDRAW_DUTY times each redraw's time free after it, however
     fast the blocks come (an unpaced sink); a step put off is still shown later, and

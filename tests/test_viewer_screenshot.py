@@ -11,8 +11,19 @@ from auralize.cli import main
 from auralize.scene import PALETTE
 
 REFERENCE = Path(__file__).parent / "data" / "viewer_reference.png"
-ARGS = ["view", "dataset:explosion", "--size", "24", "--steps", "6", "--detect", "--time", "3",
-        "--window-size", "400x300"]  # fmt: skip
+ARGS = [
+    "view",
+    "dataset:explosion",
+    "--size",
+    "24",
+    "--steps",
+    "6",
+    "--detect",
+    "--time",
+    "3",
+    "--window-size",
+    "400x300",
+]
 
 
 def _read(path: Path) -> np.ndarray:
@@ -145,8 +156,21 @@ def test_a_one_layer_grid_is_drawn_as_a_coloured_surface(tmp_path) -> None:
     f = tmp_path / "flat.h5"
     save_volume(vol, f)
     shots = [tmp_path / "view.png", tmp_path / "picture.png"]
-    assert main(["view", str(f), "--time", "4", "--window-size", "400x300",
-                 "--screenshot", str(shots[0])]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "view",
+                str(f),
+                "--time",
+                "4",
+                "--window-size",
+                "400x300",
+                "--screenshot",
+                str(shots[0]),
+            ]
+        )
+        == 0
+    )
     screenshot(vol, shots[1], step=4, window_size=(400, 300))
     for shot in shots:
         img = _read(shot)[:250]  # above the colour bar

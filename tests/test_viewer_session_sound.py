@@ -62,8 +62,22 @@ def test_a_saved_session_keeps_the_fire_overlay_heard(
     assert side["highpass_hz"] == 20.0
     # without the high-pass the file differs: the comparison above can fail
     raw = tmp_path / "raw.wav"
-    assert main(["render", "--scene", str(session), "--highpass", "0", "--normalize", "none",
-                 "-o", str(raw)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "--scene",
+                str(session),
+                "--highpass",
+                "0",
+                "--normalize",
+                "none",
+                "-o",
+                str(raw),
+            ]
+        )
+        == 0
+    )
     unfiltered, _, _ = read_wav(raw)
     assert np.max(np.abs(unfiltered - heard)) > 1e-3 * np.max(np.abs(heard))
 
@@ -73,8 +87,9 @@ def test_a_saved_session_keeps_the_fire_overlay_heard(
     assert win.overlay_sound() is None
     loaded: list[bool] = []
     win.load_session(session, then=lambda: loaded.append(True))
-    qtbot.waitUntil(lambda: bool(loaded) and "fire" in win._overlay_sounds and not win.busy,
-                    timeout=600_000)  # fmt: skip
+    qtbot.waitUntil(
+        lambda: bool(loaded) and "fire" in win._overlay_sounds and not win.busy, timeout=600_000
+    )
     assert win.overlay_checks["fire"].isChecked() and "fire" in win.scene.overlays
     again = render_in_viewer(win, shown, tmp_path / "again.wav")
     assert np.max(np.abs(again - heard)) <= 1e-9 * np.max(np.abs(heard))

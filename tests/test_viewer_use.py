@@ -68,8 +68,13 @@ def test_keys_fly_after_clicking_record_and_readouts(qtbot, window, errors, tmp_
     assert win.recorder.recording
     target = QtWidgets.QApplication.focusWidget() or win.rec_btn
     moves = {}
-    for key in (QtCore.Qt.Key.Key_Up, QtCore.Qt.Key.Key_PageUp, QtCore.Qt.Key.Key_W,
-                QtCore.Qt.Key.Key_PageDown, QtCore.Qt.Key.Key_D):  # fmt: skip
+    for key in (
+        QtCore.Qt.Key.Key_Up,
+        QtCore.Qt.Key.Key_PageUp,
+        QtCore.Qt.Key.Key_W,
+        QtCore.Qt.Key.Key_PageDown,
+        QtCore.Qt.Key.Key_D,
+    ):
         before = camera_pose(win.plotter.camera)
         qtbot.keyClick(target, key)
         after = camera_pose(win.plotter.camera)
@@ -278,8 +283,7 @@ def test_each_plugin_overlay_on_each_builtin_dataset(qtbot, window, errors, spec
 
 
 @pytest.mark.parametrize("heard", ["field", "detected"])
-def test_render_to_file_is_auralize_render_and_records_how(qtbot, window, tmp_path, errors,
-                                                          heard):  # fmt: skip
+def test_render_to_file_is_auralize_render_and_records_how(qtbot, window, tmp_path, errors, heard):
     """One plan: the viewer's Render to file, with its default settings, writes the
     samples of ``auralize render DATA --path P --layout stereo`` (the command's own
     defaults: auto time scale and thresholds, auto timbre, 20 Hz high-pass), and its
@@ -301,8 +305,9 @@ def test_render_to_file_is_auralize_render_and_records_how(qtbot, window, tmp_pa
     assert win.audio["timbre"] == DEFAULTS.timbre
     assert tuple(win.read_thresholds().describe().values())[:3] == DEFAULTS.thresholds
     csv = tmp_path / "p.csv"
-    ListenerPath.line(win.volume.center + [3.0, -2, 0], win.volume.center + [3.0, 2, 0],
-                      duration=0.6).to_csv(csv)  # fmt: skip
+    ListenerPath.line(
+        win.volume.center + [3.0, -2, 0], win.volume.center + [3.0, 2, 0], duration=0.6
+    ).to_csv(csv)
     win.load_path(csv)
     out = tmp_path / "r.wav"
     win.render_audio(out)
@@ -313,8 +318,22 @@ def test_render_to_file_is_auralize_render_and_records_how(qtbot, window, tmp_pa
     assert np.max(np.abs(viewer)) > 0.5  # peak-normalised, as the command writes
 
     cli = tmp_path / "cli.wav"
-    args = ["render", "dataset:monopole", "--size", "12", "--steps", "40", "--path", str(csv),
-            "--layout", "stereo", "--heard", heard, "-o", str(cli)]  # fmt: skip
+    args = [
+        "render",
+        "dataset:monopole",
+        "--size",
+        "12",
+        "--steps",
+        "40",
+        "--path",
+        str(csv),
+        "--layout",
+        "stereo",
+        "--heard",
+        heard,
+        "-o",
+        str(cli),
+    ]
     assert main(args) == 0
     assert np.array_equal(read_wav(cli)[0], viewer)
 
@@ -329,8 +348,9 @@ def test_render_to_file_is_auralize_render_and_records_how(qtbot, window, tmp_pa
     assert json.loads(session.read_text())["audio"]["heard"] == heard
 
 
-def test_file_menu_open_builtin_save_and_restore_session(qtbot, window, tmp_path, errors,
-                                                         monkeypatch):  # fmt: skip
+def test_file_menu_open_builtin_save_and_restore_session(
+    qtbot, window, tmp_path, errors, monkeypatch
+):
     win = window
     titles = [a.text() for a in win.file_menu.actions() if a.text()]
     assert titles[:1] == ["&Open…"] and "&Save session" in titles and "&Quit" in titles
@@ -344,8 +364,9 @@ def test_file_menu_open_builtin_save_and_restore_session(qtbot, window, tmp_path
     _detect(qtbot, win)
     n_src = win.detection.counts(win.scene.step)["monopole"]
     f = tmp_path / "s.json"
-    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName",
-                        lambda *a, **k: (str(f), "Sessions (*.json)"))  # fmt: skip
+    monkeypatch.setattr(
+        QtWidgets.QFileDialog, "getSaveFileName", lambda *a, **k: (str(f), "Sessions (*.json)")
+    )
     next(a for a in win.file_menu.actions() if a.text() == "Save session &as…").trigger()
     assert f.exists() and win.session_file == f
     f.unlink()

@@ -18,8 +18,9 @@ MORE_KINDS = [".vti", ".vtp", ".vthb", ".xdmf", ".case", ".xyz", ".cas", ".vtkhd
 
 def _run(*args: str) -> subprocess.CompletedProcess[str]:
     code = "import sys; from auralize.cli import main; sys.exit(main(sys.argv[1:]))"
-    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
-                          timeout=300)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.mark.parametrize("suffix", KINDS + MORE_KINDS)
@@ -28,9 +29,11 @@ def test_a_corrupt_file_leaves_one_line(suffix: str, tmp_path: Path) -> None:
     rng = np.random.default_rng(len(suffix))
     if suffix == ".pvd":  # a valid collection whose piece is corrupt
         (tmp_path / "piece.vtu").write_bytes(rng.bytes(400))
-        bad.write_text('<?xml version="1.0"?><VTKFile type="Collection" version="0.1">'
-                       '<Collection><DataSet timestep="0" file="piece.vtu"/>'
-                       '<DataSet timestep="1" file="piece.vtu"/></Collection></VTKFile>')  # fmt: skip
+        bad.write_text(
+            '<?xml version="1.0"?><VTKFile type="Collection" version="0.1">'
+            '<Collection><DataSet timestep="0" file="piece.vtu"/>'
+            '<DataSet timestep="1" file="piece.vtu"/></Collection></VTKFile>'
+        )
     else:
         bad.write_bytes(rng.bytes(400))
     r = _run("info", str(bad))
@@ -48,11 +51,15 @@ def test_a_corrupt_file_leaves_one_line(suffix: str, tmp_path: Path) -> None:
 
 
 def test_import_auralize_leaves_vtk_as_it_is() -> None:
-    code = ("import auralize, auralize.io, pyvista; "
-            "from vtkmodules.vtkCommonCore import vtkLogger; "
-            "import logging; print(vtkLogger.GetStderrVerbosity(), len(logging.getLogger().handlers))")  # fmt: skip
-    base = ("import pyvista; from vtkmodules.vtkCommonCore import vtkLogger; import logging; "
-            "print(vtkLogger.GetStderrVerbosity(), len(logging.getLogger().handlers))")  # fmt: skip
+    code = (
+        "import auralize, auralize.io, pyvista; "
+        "from vtkmodules.vtkCommonCore import vtkLogger; "
+        "import logging; print(vtkLogger.GetStderrVerbosity(), len(logging.getLogger().handlers))"
+    )
+    base = (
+        "import pyvista; from vtkmodules.vtkCommonCore import vtkLogger; import logging; "
+        "print(vtkLogger.GetStderrVerbosity(), len(logging.getLogger().handlers))"
+    )
     got = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout
     want = subprocess.run([sys.executable, "-c", base], capture_output=True, text=True).stdout
     assert got == want

@@ -40,8 +40,9 @@ def test_volume_round_trip_through_vtk(tmp_path: Path) -> None:
     rng = np.random.default_rng(3)
     p, v = rng.normal(size=(3, 4, 5, 6)), rng.normal(size=(3, 4, 5, 6, 3))
     times = [0.0, 0.1, 0.35]
-    vol = TimeVolume.from_arrays({"p": p, "vel": v}, times=times, origin=(1.0, -2.0, 0.5),
-                                 spacing=(0.5, 0.25, 2.0))  # fmt: skip
+    vol = TimeVolume.from_arrays(
+        {"p": p, "vel": v}, times=times, origin=(1.0, -2.0, 0.5), spacing=(0.5, 0.25, 2.0)
+    )
     out = tmp_path / "v.vtkhdf"
     save_volume(vol, out)
     got_t, grids = _vtk_steps(out)
@@ -62,12 +63,23 @@ def _series() -> SourceSeries:
     frames = []
     for n in range(3):
         idx = np.sort(rng.choice(4 * 5 * 6, size=7 + n, replace=False)).astype(np.int64)
-        frames.append(SourceFrame(index=idx, kind=rng.integers(1, 4, idx.size).astype(np.int8),
-                                  strength=rng.normal(size=idx.size),
-                                  radius=rng.uniform(0.1, 0.5, idx.size)))  # fmt: skip
-    return SourceSeries(frames=frames, times=np.array([0.0, 1 / 30, 2 / 30]),
-                        origin=np.zeros(3), spacing=np.array([0.5, 0.5, 0.5]), dims=(6, 5, 4),
-                        thresholds=np.array([1.0, 2.0, 3.0]), meta={})  # fmt: skip
+        frames.append(
+            SourceFrame(
+                index=idx,
+                kind=rng.integers(1, 4, idx.size).astype(np.int8),
+                strength=rng.normal(size=idx.size),
+                radius=rng.uniform(0.1, 0.5, idx.size),
+            )
+        )
+    return SourceSeries(
+        frames=frames,
+        times=np.array([0.0, 1 / 30, 2 / 30]),
+        origin=np.zeros(3),
+        spacing=np.array([0.5, 0.5, 0.5]),
+        dims=(6, 5, 4),
+        thresholds=np.array([1.0, 2.0, 3.0]),
+        meta={},
+    )
 
 
 def test_sources_round_trip_through_vtk_with_kind_legend(tmp_path: Path) -> None:
@@ -82,8 +94,13 @@ def test_sources_round_trip_through_vtk_with_kind_legend(tmp_path: Path) -> None
         assert np.array_equal(poly.point_data["kind"], f.kind)
         assert np.array_equal(poly.point_data["strength"], f.strength)
         assert np.array_equal(poly.point_data["radius"], f.radius)
-        legend = dict(zip(poly.field_data["kind_code"].tolist(),
-                          [str(x) for x in poly.field_data["kind_name"]], strict=True))  # fmt: skip
+        legend = dict(
+            zip(
+                poly.field_data["kind_code"].tolist(),
+                [str(x) for x in poly.field_data["kind_name"]],
+                strict=True,
+            )
+        )
         assert legend == KIND_LEGEND == {1: "monopole", 2: "dipole", 3: "quadrupole"}
 
 
@@ -128,7 +145,8 @@ def test_detect_writes_vtkhdf_matching_the_h5_output(tmp_path: Path, capsys) -> 
     for f, poly in zip(series.frames, polys, strict=True):
         assert poly.n_points == f.index.size
         assert np.allclose(poly.points, series.positions(f.index))
-        assert np.array_equal(poly.point_data["kind"], f.kind)
+        if f.index.size:  # VTK 9.4 reads a step without points with no arrays
+            assert np.array_equal(poly.point_data["kind"], f.kind)
     assert not list(tmp_path.glob(".*"))  # no temporary file left
     assert main(["detect", *spec, "-o", str(tmp_path / "s.vtu")]) == 2
     assert ".vtkhdf" in capsys.readouterr().err

@@ -32,9 +32,10 @@ def test_float_wavs_carry_a_fact_chunk_with_the_frame_count(n_ch: int) -> None:
     assert b"fact" not in _chunks(wav_bytes(a / 2, 8000, subtype="pcm16"))
 
 
-@pytest.mark.parametrize(("fmt", "sub", "tol"), [("float32", "FLOAT", 1e-7),
-                                                  ("pcm24", "PCM_24", 2 / 2**23),
-                                                  ("pcm16", "PCM_16", 2 / 2**15)])  # fmt: skip
+@pytest.mark.parametrize(
+    ("fmt", "sub", "tol"),
+    [("float32", "FLOAT", 1e-7), ("pcm24", "PCM_24", 2 / 2**23), ("pcm16", "PCM_16", 2 / 2**15)],
+)
 def test_formats_round_trip_and_libsndfile_agrees(
     tmp_path: Path, fmt: str, sub: str, tol: float
 ) -> None:
@@ -76,12 +77,43 @@ def test_render_command_writes_the_requested_format(tmp_path: Path, capsys) -> N
     from auralize.cli import build_parser, main
 
     out = tmp_path / "x.wav"
-    assert main(["render", "dataset:monopole", "--size", "12", "--steps", "30", "--listener",
-                 "1,1,1", "--duration", "0.1", "-o", str(out), "--format", "pcm24"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "render",
+                "dataset:monopole",
+                "--size",
+                "12",
+                "--steps",
+                "30",
+                "--listener",
+                "1,1,1",
+                "--duration",
+                "0.1",
+                "-o",
+                str(out),
+                "--format",
+                "pcm24",
+            ]
+        )
+        == 0
+    )
     info = sf.info(str(out))
     assert info.subtype == "PCM_24" and info.frames == 4410
     with pytest.raises(SystemExit) as e:
-        build_parser().parse_args(["render", "dataset:monopole", "--listener", "1,1,1",
-                                   "--duration", "0.1", "-o", "x.wav", "--format", "pcm8"])  # fmt: skip
+        build_parser().parse_args(
+            [
+                "render",
+                "dataset:monopole",
+                "--listener",
+                "1,1,1",
+                "--duration",
+                "0.1",
+                "-o",
+                "x.wav",
+                "--format",
+                "pcm8",
+            ]
+        )
     assert e.value.code == 2
     assert "--format: invalid choice: 'pcm8'" in capsys.readouterr().err

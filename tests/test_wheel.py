@@ -29,8 +29,9 @@ pytestmark = pytest.mark.packaging
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _sh(cmd: list[str], *, cwd: Path, env: dict[str, str] | None = None,
-        timeout: float = 1800) -> str:  # fmt: skip
+def _sh(
+    cmd: list[str], *, cwd: Path, env: dict[str, str] | None = None, timeout: float = 1800
+) -> str:
     out = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
     assert out.returncode == 0, f"{' '.join(cmd)} failed:\n{out.stdout}\n{out.stderr}"
     return out.stdout + out.stderr
@@ -41,8 +42,12 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("wheel")
     # the sources as git knows them (committed and new, not ignored), copied so
     # that building leaves nothing in the checkout
-    files = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
-                           cwd=ROOT, capture_output=True, check=True).stdout.split(b"\0")  # fmt: skip
+    files = subprocess.run(
+        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+        cwd=ROOT,
+        capture_output=True,
+        check=True,
+    ).stdout.split(b"\0")
     src = tmp / "src"
     for f in filter(None, (x.decode() for x in files)):
         if (ROOT / f).is_file():
@@ -51,8 +56,11 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     venv = tmp / "venv"
     _sh([sys.executable, "-m", "venv", "--without-pip", str(venv)], cwd=tmp)
     py = venv / "bin" / "python"
-    purelib = Path(_sh([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
-                       cwd=tmp).strip())  # fmt: skip
+    purelib = Path(
+        _sh(
+            [str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"], cwd=tmp
+        ).strip()
+    )
     (purelib / "_auralize_test_deps.pth").write_text("\n".join(site.getsitepackages()) + "\n")
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
     # build with setuptools >= 77 (SPDX licence expression); CI has it (constraints.txt)
@@ -67,8 +75,11 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out = _sh([str(py), "-c", code], cwd=src, env=env)
     built = [ln.split()[1] for ln in out.splitlines() if ln.startswith("BUILT ")]
     wheel, sdist = dist / built[-2], dist / built[-1]
-    _sh([str(py), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)],
-        cwd=tmp, env=env)  # fmt: skip
+    _sh(
+        [str(py), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)],
+        cwd=tmp,
+        env=env,
+    )
     run = tmp / "run"
     run.mkdir()
     env["NUMBA_CACHE_DIR"] = str(tmp / "numba")
@@ -77,22 +88,45 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 def test_wheel_and_sdist_carry_data_licences_and_examples(installed: dict) -> None:  # type: ignore[type-arg]
     names = set(zipfile.ZipFile(installed["wheel"]).namelist())
-    for f in ("auralize/data/regression/explosion.json", "auralize/data/PROVENANCE.md",
-              "auralize/data/openfoam-cavity/OpenFOAM.zip", "auralize_fire/data/candle_2s.f32",
-              "auralize_fire/data/LICENSE-BSD-2-Clause", "auralize/py.typed",
-              "auralize-0.1.0.dist-info/licenses/LICENSE"):  # fmt: skip
+    for f in (
+        "auralize/data/regression/explosion.json",
+        "auralize/data/PROVENANCE.md",
+        "auralize/data/openfoam-cavity/OpenFOAM.zip",
+        "auralize_fire/data/candle_2s.f32",
+        "auralize_fire/data/LICENSE-BSD-2-Clause",
+        "auralize/py.typed",
+        "auralize-0.1.0.dist-info/licenses/LICENSE",
+    ):
         assert f in names, f
     meta = zipfile.ZipFile(installed["wheel"]).read("auralize-0.1.0.dist-info/METADATA").decode()
     assert "License-Expression: BSD-3-Clause" in meta
+    # every licence file shipped beside a dataset is named in the metadata too
+    shipped = sorted(
+        n.split("/", 1)[1]
+        for n in names
+        if "/data/" in n and ".dist-info/" not in n and n.rsplit("/", 1)[-1].startswith("LICENSE")
+    )
+    assert len(shipped) >= 7, shipped
+    declared = {ln.split(": ", 1)[1] for ln in meta.splitlines() if ln.startswith("License-File:")}
+    for lic in shipped:
+        assert any(d.endswith(lic) for d in declared), (lic, declared)
+    assert "Provides-Extra: notebook" in meta
     requires = [ln for ln in meta.splitlines() if ln.startswith("Requires-Dist:")]
-    assert "Requires-Dist: numpy>=2.4.6" in requires
+    assert "Requires-Dist: numpy>=2.0.2" in requires
     assert not [r for r in requires if "==" in r.split(";")[0]], requires
     import tarfile
 
     members = {m.split("/", 1)[1] for m in tarfile.open(installed["sdist"]).getnames() if "/" in m}
-    for f in ("LICENSE", "constraints.txt", "examples/explosion_tour.py",
-              "examples/regression_check.py", "examples/batch_render.py",
-              "auralize/data/regression/explosion.json", "tests/test_wheel.py"):  # fmt: skip
+    for f in (
+        "LICENSE",
+        "constraints.txt",
+        "examples/explosion_tour.py",
+        "examples/regression_check.py",
+        "examples/batch_render.py",
+        "examples/notebook_tour.ipynb",
+        "auralize/data/regression/explosion.json",
+        "tests/test_wheel.py",
+    ):
         assert f in members, f
 
 
@@ -102,8 +136,16 @@ def test_wheel_and_sdist_carry_data_licences_and_examples(installed: dict) -> No
 def test_installed_wheel_starts_fast_and_runs_the_demo_and_regression(installed: dict) -> None:  # type: ignore[type-arg]
     venv, run, env = installed["venv"], installed["run"], installed["env"]
     py, exe = str(venv / "bin" / "python"), str(venv / "bin" / "auralize")
-    where = _sh([py, "-c", "import auralize, auralize_fire, sys; print(auralize.__file__); "
-                 "print(auralize_fire.__file__); print(sys.path)"], cwd=run, env=env)  # fmt: skip
+    where = _sh(
+        [
+            py,
+            "-c",
+            "import auralize, auralize_fire, sys; print(auralize.__file__); "
+            "print(auralize_fire.__file__); print(sys.path)",
+        ],
+        cwd=run,
+        env=env,
+    )
     lines = where.splitlines()
     assert lines[0].startswith(str(venv)) and lines[1].startswith(str(venv)), where
     # the checkout (and its plugins folder) is not importable; the venv it was
@@ -125,8 +167,16 @@ def test_installed_wheel_starts_fast_and_runs_the_demo_and_regression(installed:
     for f in ("explosion_ring8.wav", "explosion.png", "explosion_spectrogram.png"):
         assert (run / "demo" / f).stat().st_size > 1000
     _sh([py, "-m", "auralize.regression.synthetic"], cwd=run, env=env)
-    clip = _sh([py, "-c", "import numpy as np; from auralize_fire.benchmark import DATA; "
-                "print(np.fromfile(DATA / 'candle_2s.f32', dtype='<f4').size)"], cwd=run, env=env)  # fmt: skip
+    clip = _sh(
+        [
+            py,
+            "-c",
+            "import numpy as np; from auralize_fire.benchmark import DATA; "
+            "print(np.fromfile(DATA / 'candle_2s.f32', dtype='<f4').size)",
+        ],
+        cwd=run,
+        env=env,
+    )
     assert int(clip.split()[-1]) == 88200
 
 

@@ -55,13 +55,16 @@ def ypr_matrix(yaw: float, pitch: float, roll: float) -> NDArray[np.float64]:
     turned ``yaw`` degrees to the left, then ``pitch`` degrees nose up, then
     ``roll`` degrees right ear down (module docstring)."""
     a, b, c = (math.radians(float(v)) for v in (yaw, pitch, roll))
-    rz = np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0],
-                   [0.0, 0.0, 1.0]])  # fmt: skip
+    rz = np.array(
+        [[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]]
+    )
     # nose up: a rotation about −y
-    ry = np.array([[math.cos(b), 0.0, -math.sin(b)], [0.0, 1.0, 0.0],
-                   [math.sin(b), 0.0, math.cos(b)]])  # fmt: skip
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(c), -math.sin(c)],
-                   [0.0, math.sin(c), math.cos(c)]])  # fmt: skip
+    ry = np.array(
+        [[math.cos(b), 0.0, -math.sin(b)], [0.0, 1.0, 0.0], [math.sin(b), 0.0, math.cos(b)]]
+    )
+    rx = np.array(
+        [[1.0, 0.0, 0.0], [0.0, math.cos(c), -math.sin(c)], [0.0, math.sin(c), math.cos(c)]]
+    )
     return rz @ ry @ rx
 
 
@@ -76,14 +79,17 @@ def quaternion_matrix(w: float, x: float, y: float, z: float) -> NDArray[np.floa
     q = np.array([w, x, y, z], dtype=np.float64)
     n = float(np.linalg.norm(q))
     if not (math.isfinite(n) and n > 0):
-        raise ParameterError(f"a head orientation quaternion must be finite and non-zero, "
-                             f"got {tuple(q)}")  # fmt: skip
+        raise ParameterError(
+            f"a head orientation quaternion must be finite and non-zero, got {tuple(q)}"
+        )
     w, x, y, z = q / n
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 class HeadOrientation:
@@ -180,11 +186,13 @@ class OSCHeadTracker(HeadOrientation):
         try:
             self._server = ThreadingOSCUDPServer((host, port), dispatcher)
         except OSError as exc:
-            raise DeviceError(f"cannot listen for head tracking on {host}:{port}: "
-                              f"{exc.strerror or exc}") from None  # fmt: skip
+            raise DeviceError(
+                f"cannot listen for head tracking on {host}:{port}: {exc.strerror or exc}"
+            ) from None
         self.host, self.port = host, int(self._server.server_address[1])
-        self._thread = threading.Thread(target=self._server.serve_forever, name="auralize-osc",
-                                        daemon=True)  # fmt: skip
+        self._thread = threading.Thread(
+            target=self._server.serve_forever, name="auralize-osc", daemon=True
+        )
         self._thread.start()
 
     def _message(self, address: str, *args: Any) -> None:

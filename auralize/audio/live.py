@@ -103,11 +103,22 @@ class BlockSynth:
         from block to block, so consecutive blocks equal one offline render.
     """
 
-    def __init__(self, tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
-                 layout: str | Layout = "ring8", time_scale: float = 1.0, interp: str = "cubic",
-                 c0: float = C0, block: int | None = None, duration: float | None = None,
-                 threads: int | None = None, lead: float = 0.0,
-                 hrtf: object = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        tracks: SourceTracks,
+        path: ListenerPath,
+        *,
+        rate: int = 44100,
+        layout: str | Layout = "ring8",
+        time_scale: float = 1.0,
+        interp: str = "cubic",
+        c0: float = C0,
+        block: int | None = None,
+        duration: float | None = None,
+        threads: int | None = None,
+        lead: float = 0.0,
+        hrtf: object = None,
+    ) -> None:
         if not (isinstance(rate, int | np.integer) and rate > 0):
             raise ParameterError(f"rate must be a positive integer number of Hz, got {rate!r}")
         if not (math.isfinite(time_scale) and time_scale > 0):
@@ -127,8 +138,9 @@ class BlockSynth:
             raise ParameterError(f"block must be >= 1 sample, got {block!r}")
         dur = path.duration if duration is None else float(duration)
         if not (math.isfinite(dur) and dur > 0):
-            raise ParameterError(f"nothing to play: duration {dur!r} s (path of one capture? "
-                                 f"give a duration)")  # fmt: skip
+            raise ParameterError(
+                f"nothing to play: duration {dur!r} s (path of one capture? give a duration)"
+            )
         self.duration = dur
         self.n_samples = round(dur * rate)
         self.n_blocks = -(-self.n_samples // self.block_size)
@@ -200,10 +212,19 @@ class BlockSynth:
 
     def _synthesize(self, start: int, n: int) -> NDArray[np.float64]:
         """Samples ``[start, start + n)`` of the :attr:`synthesis_layout`."""
-        out = render_tracks(self.tracks, self.path, rate=self.rate, time_scale=self.time_scale,
-                     interp=self.interp, layout=self.synthesis_layout, c0=self.c0,
-                     start=start / self.rate,
-                     duration=n / self.rate, threads=self.threads, lead=self.lead)  # fmt: skip
+        out = render_tracks(
+            self.tracks,
+            self.path,
+            rate=self.rate,
+            time_scale=self.time_scale,
+            interp=self.interp,
+            layout=self.synthesis_layout,
+            c0=self.c0,
+            start=start / self.rate,
+            duration=n / self.rate,
+            threads=self.threads,
+            lead=self.lead,
+        )
         a = out.audio
         if a.shape[1] != n:  # rounding of duration·rate; never more than a sample
             a = np.pad(a, ((0, 0), (0, max(n - a.shape[1], 0))))[:, :n]
@@ -260,10 +281,19 @@ class LiveStream:
         called back for this long while the queue is full.
     """
 
-    def __init__(self, *, rate: int, channels: int, device: int | str | None = None,
-                 block: int = 0, buffer_s: float = 0.5, prefill_s: float = 0.2,
-                 wait_s: float | None = None, latency: str | float = "high",
-                 stall_s: float = 5.0) -> None:  # fmt: skip
+    def __init__(
+        self,
+        *,
+        rate: int,
+        channels: int,
+        device: int | str | None = None,
+        block: int = 0,
+        buffer_s: float = 0.5,
+        prefill_s: float = 0.2,
+        wait_s: float | None = None,
+        latency: str | float = "high",
+        stall_s: float = 5.0,
+    ) -> None:
         from auralize.audio.output import choose_output_device, import_sounddevice
 
         if channels < 1:
@@ -288,10 +318,15 @@ class LiveStream:
         self.stats = StreamStats()
         try:
             self._stream = self._sd.OutputStream(
-                samplerate=self.rate, channels=self.channels, device=self.device["index"],
-                dtype="float32", blocksize=int(block), latency=latency,
-                callback=self._callback, finished_callback=self._done.set,
-            )  # fmt: skip
+                samplerate=self.rate,
+                channels=self.channels,
+                device=self.device["index"],
+                dtype="float32",
+                blocksize=int(block),
+                latency=latency,
+                callback=self._callback,
+                finished_callback=self._done.set,
+            )
         except self._sd.PortAudioError as exc:
             raise DeviceError(
                 f"cannot open device {self.device['index']} ({self.device['name']}) with "
@@ -416,8 +451,9 @@ def _env_seconds(name: str) -> float:
     return v
 
 
-def open_stream(*, rate: int, channels: int, device: int | str | None = None,
-                **kw: Any) -> LiveStream:  # fmt: skip
+def open_stream(
+    *, rate: int, channels: int, device: int | str | None = None, **kw: Any
+) -> LiveStream:
     """A :class:`LiveStream` (``write(block)``, ``close()``) on ``device``."""
     return LiveStream(rate=rate, channels=channels, device=device, **kw)
 
@@ -458,27 +494,73 @@ class PlaybackReport:
             f"synthesis per block: mean {self.synth_ms_mean:.1f} ms, 95% {self.synth_ms_p95:.1f} "
             f"ms, max {self.synth_ms_max:.1f} ms (budget {1e3 * self.block_s:.0f} ms)",
             f"underruns: {self.underruns}"
-            + (f" at {', '.join(f'{t:.2f}' for t in self.underrun_times[:8])} s"
-               if self.underruns else "")
+            + (
+                f" at {', '.join(f'{t:.2f}' for t in self.underrun_times[:8])} s"
+                if self.underruns
+                else ""
+            )
             + f"; device underflows: {self.device_underflows}",
             f"gain {self.gain:.4g} full scale per Pa"
             + (f" (lowered {self.gain_changes}× to avoid clipping)" if self.gain_changes else ""),
-        ]  # fmt: skip
+        ]
         return "\n".join(lines)
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 
-def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
-         layout: str | Layout = "ring8", device: int | str | None = None,
-         time_scale: float = 1.0, interp: str = "cubic", c0: float = C0,
-         downmix: bool | str | Layout = False, gain: float | str = "auto",
-         limit_pa: float | None = None, block_s: float = DEFAULT_BLOCK_S,
-         lookahead_s: float = 0.5, buffer_s: float = 0.5, duration: float | None = None,
-         threads: int | None = None, wait_s: float | None = None,
-         on_block: Callable[[int, int], None] | None = None, lead: float = 0.0,
-         highpass_hz: float = 0.0, hrtf: object = None) -> PlaybackReport:  # fmt: skip
+def _check_play_options(block_s: float, gain: float | str, highpass_hz: float, rate: int) -> None:
+    """Raise :class:`ParameterError` for a block length, gain or high-pass ``play`` refuses."""
+    if not (math.isfinite(block_s) and block_s > 0):
+        raise ParameterError(f"block_s must be > 0 seconds, got {block_s!r}")
+    if gain != "auto" and not (isinstance(gain, int | float) and math.isfinite(gain) and gain > 0):
+        raise ParameterError(f"gain must be 'auto' or a positive number, got {gain!r}")
+    if not (math.isfinite(highpass_hz) and 0 <= highpass_hz < rate / 2):
+        raise ParameterError(
+            f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz, got {highpass_hz!r}"
+        )
+
+
+def _output_layout(lay: Layout, dev: dict[str, Any], downmix: bool | str | Layout) -> Layout:
+    """The layout sent to device ``dev``: ``lay`` itself, the layout ``downmix`` names, or
+    (``downmix=True``) the largest built-in one the device's channels hold."""
+    if isinstance(downmix, str | Layout) and not isinstance(downmix, bool):
+        out_lay = get_layout(downmix)
+        if out_lay.n_channels > dev["max_output_channels"]:
+            raise DeviceError(
+                f"device {dev['name']!r} has {dev['max_output_channels']} channels; "
+                f"layout {out_lay.name!r} needs {out_lay.n_channels}"
+            )
+        return out_lay
+    if downmix and dev["max_output_channels"] < lay.n_channels:
+        return downmix_target(lay, dev["max_output_channels"])
+    return lay
+
+
+def play(
+    tracks: SourceTracks | Any,
+    path: ListenerPath,
+    *,
+    rate: int = 44100,
+    layout: str | Layout = "ring8",
+    device: int | str | None = None,
+    time_scale: float = 1.0,
+    interp: str = "cubic",
+    c0: float = C0,
+    downmix: bool | str | Layout = False,
+    gain: float | str = "auto",
+    limit_pa: float | None = None,
+    block_s: float = DEFAULT_BLOCK_S,
+    lookahead_s: float = 0.5,
+    buffer_s: float = 0.5,
+    duration: float | None = None,
+    threads: int | None = None,
+    wait_s: float | None = None,
+    on_block: Callable[[int, int], None] | None = None,
+    lead: float = 0.0,
+    highpass_hz: float = 0.0,
+    hrtf: object = None,
+) -> PlaybackReport:
     """Play the sound along ``path`` live, synthesizing block by block.
 
     Parameters
@@ -526,35 +608,35 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     from auralize.audio.output import choose_output_device
 
     lay = get_layout(layout)
-    if not (math.isfinite(block_s) and block_s > 0):
-        raise ParameterError(f"block_s must be > 0 seconds, got {block_s!r}")
-    if gain != "auto" and not (isinstance(gain, int | float) and math.isfinite(gain) and gain > 0):
-        raise ParameterError(f"gain must be 'auto' or a positive number, got {gain!r}")
+    _check_play_options(block_s, gain, highpass_hz, rate)
     dev = choose_output_device(device, lay.n_channels, downmix=bool(downmix))
-    out_lay = lay
-    if isinstance(downmix, str | Layout) and not isinstance(downmix, bool):
-        out_lay = get_layout(downmix)
-        if out_lay.n_channels > dev["max_output_channels"]:
-            raise DeviceError(f"device {dev['name']!r} has {dev['max_output_channels']} channels; "
-                              f"layout {out_lay.name!r} needs {out_lay.n_channels}")  # fmt: skip
-    elif downmix and dev["max_output_channels"] < lay.n_channels:
-        out_lay = downmix_target(lay, dev["max_output_channels"])
+    out_lay = _output_layout(lay, dev, downmix)
     mix = None if out_lay is lay else downmix_matrix(lay, out_lay)
     block = max(round(block_s * rate), 1)
     synth: Any
     if isinstance(tracks, SourceTracks):
-        synth = BlockSynth(tracks, path, rate=rate, layout=lay, time_scale=time_scale,
-                           interp=interp, c0=c0, block=block, duration=duration, threads=threads,
-                           lead=lead, hrtf=hrtf)  # fmt: skip
+        synth = BlockSynth(
+            tracks,
+            path,
+            rate=rate,
+            layout=lay,
+            time_scale=time_scale,
+            interp=interp,
+            c0=c0,
+            block=block,
+            duration=duration,
+            threads=threads,
+            lead=lead,
+            hrtf=hrtf,
+        )
     else:  # a block renderer of a scene (auralize.emitters.engine.BlockRenderer)
         synth = tracks
         if synth.rate != rate or synth.layout.n_channels != lay.n_channels:
-            raise ParameterError(f"the block renderer makes {synth.layout.name} at {synth.rate} "
-                                 f"Hz; play was asked for {lay.name} at {rate} Hz")  # fmt: skip
+            raise ParameterError(
+                f"the block renderer makes {synth.layout.name} at {synth.rate} "
+                f"Hz; play was asked for {lay.name} at {rate} Hz"
+            )
         block = synth.block_size
-    if not (math.isfinite(highpass_hz) and 0 <= highpass_hz < rate / 2):
-        raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz, "
-                             f"got {highpass_hz!r}")  # fmt: skip
     hp: list[Any] = []
     if highpass_hz > 0:
         from auralize.emitters.timbre import butter_sos
@@ -596,9 +678,15 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
         return a * g
 
     n_look = min(synth.n_blocks, max(1, math.ceil(lookahead_s / block_s))) if gain == "auto" else 0
-    stream = LiveStream(rate=rate, channels=out_lay.n_channels, device=dev["index"], block=block,
-                        buffer_s=max(buffer_s, 2 * block_s), prefill_s=min(0.2, buffer_s),
-                        wait_s=wait_s)  # fmt: skip
+    stream = LiveStream(
+        rate=rate,
+        channels=out_lay.n_channels,
+        device=dev["index"],
+        block=block,
+        buffer_s=max(buffer_s, 2 * block_s),
+        prefill_s=min(0.2, buffer_s),
+        wait_s=wait_s,
+    )
     synth.render_range(0, min(64, synth.n_samples))  # load the compiled kernel before timing
     t_wall = time.perf_counter()
 
@@ -635,11 +723,21 @@ def play(tracks: SourceTracks | Any, path: ListenerPath, *, rate: int = 44100,
     st = stream.close(drain=True)
     ms = 1e3 * np.asarray(synth_times) if synth_times else np.zeros(1)
     return PlaybackReport(
-        device=str(dev["name"]), layout=lay.name, output_layout=out_lay.name,
-        channels=out_lay.n_channels, rate=int(rate), duration_s=synth.n_samples / rate,
-        blocks=synth.n_blocks, block_s=block / rate, synth_ms_mean=float(ms.mean()),
-        synth_ms_p95=float(np.percentile(ms, 95)), synth_ms_max=float(ms.max()),
-        underruns=st.underruns, underrun_times=list(st.underrun_times),
-        device_underflows=st.device_underflows, gain=float(state["gain"] or 1.0),
-        gain_changes=int(state["changes"]), wall_s=time.perf_counter() - t_wall,
-    )  # fmt: skip
+        device=str(dev["name"]),
+        layout=lay.name,
+        output_layout=out_lay.name,
+        channels=out_lay.n_channels,
+        rate=int(rate),
+        duration_s=synth.n_samples / rate,
+        blocks=synth.n_blocks,
+        block_s=block / rate,
+        synth_ms_mean=float(ms.mean()),
+        synth_ms_p95=float(np.percentile(ms, 95)),
+        synth_ms_max=float(ms.max()),
+        underruns=st.underruns,
+        underrun_times=list(st.underrun_times),
+        device_underflows=st.device_underflows,
+        gain=float(state["gain"] or 1.0),
+        gain_changes=int(state["changes"]),
+        wall_s=time.perf_counter() - t_wall,
+    )

@@ -107,8 +107,9 @@ def running_command(argv: Sequence[str]) -> Iterator[str]:
         _COMMAND[0] = old
 
 
-def normalize_audio(audio: NDArray[np.floating], mode: Normalize = "peak", *,
-                    limit_pa: float | None = None) -> tuple[NDArray[np.float64], float]:  # fmt: skip
+def normalize_audio(
+    audio: NDArray[np.floating], mode: Normalize = "peak", *, limit_pa: float | None = None
+) -> tuple[NDArray[np.float64], float]:
     """Apply the optional pressure limiter, then the normalisation.
 
     Parameters
@@ -160,8 +161,13 @@ def normalize_audio(audio: NDArray[np.floating], mode: Normalize = "peak", *,
     return a, gain
 
 
-def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | None = None,
-              subtype: SampleFormat = "float32") -> bytes:  # fmt: skip
+def wav_bytes(
+    audio: NDArray[np.floating],
+    rate: int,
+    *,
+    channel_mask: int | None = None,
+    subtype: SampleFormat = "float32",
+) -> bytes:
     """Encode audio as the bytes of a WAV file.
 
     The header is WAVE_FORMAT_EXTENSIBLE when there are more than 2 channels or
@@ -200,8 +206,10 @@ def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | Non
         bits, fmt_guid, fmt_tag = 32, _KSDATAFORMAT_FLOAT, 3
     elif subtype in ("pcm16", "pcm24"):
         if np.max(np.abs(a), initial=0) > 1.0:
-            raise ParameterError(f"{subtype} output needs samples in [-1, 1]; use --normalize "
-                                 "peak, or --format float32 to keep pascals")  # fmt: skip
+            raise ParameterError(
+                f"{subtype} output needs samples in [-1, 1]; use --normalize "
+                "peak, or --format float32 to keep pascals"
+            )
         bits = 16 if subtype == "pcm16" else 24
         ints = np.round(a.T * (2 ** (bits - 1) - 1))
         if bits == 16:
@@ -220,8 +228,19 @@ def wav_bytes(audio: NDArray[np.floating], rate: int, *, channel_mask: int | Non
     extensible = n_ch > 2 or channel_mask is not None
     if extensible:
         mask = channel_mask if channel_mask is not None else 0
-        fmt = struct.pack("<HHIIHHHHI16s", 0xFFFE, n_ch, rate, rate * block_align, block_align,
-                          bits, 22, bits, mask, fmt_guid)  # fmt: skip
+        fmt = struct.pack(
+            "<HHIIHHHHI16s",
+            0xFFFE,
+            n_ch,
+            rate,
+            rate * block_align,
+            block_align,
+            bits,
+            22,
+            bits,
+            mask,
+            fmt_guid,
+        )
     else:
         fmt = struct.pack("<HHIIHH", fmt_tag, n_ch, rate, rate * block_align, block_align, bits)
         if fmt_tag == 3:
@@ -311,18 +330,28 @@ def _flac_mask_note(lay: Layout | None, sidecar: dict[str, Any] | None, n_ch: in
             lay = None
         if lay is None or lay.n_channels != n_ch:
             if desc.get("channel_mask") is None or n_ch > 8:
-                return (f"layout {desc['name']!r} has no standard channel mask: FLAC cannot record "
-                        f"its channel positions, so players may route its {n_ch} channels as the "
-                        f"standard {n_ch}-channel layout; write WAV (with the sidecar) to keep "
-                        f"them")  # fmt: skip
+                return (
+                    f"layout {desc['name']!r} has no standard channel mask: FLAC cannot record "
+                    f"its channel positions, so players may route its {n_ch} channels as the "
+                    f"standard {n_ch}-channel layout; write WAV (with the sidecar) to keep "
+                    f"them"
+                )
             return None
     return flac_mask_warning(lay)
 
 
-def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
-                channel_mask: int | None = None, normalize: str = "peak",
-                limit_pa: float | None = None, sidecar: dict[str, Any] | None = None,
-                subtype: str | None = None, layout: Layout | str | None = None) -> float:  # fmt: skip
+def write_audio(
+    path: str | Path,
+    audio: NDArray[np.floating],
+    rate: int,
+    *,
+    channel_mask: int | None = None,
+    normalize: str = "peak",
+    limit_pa: float | None = None,
+    sidecar: dict[str, Any] | None = None,
+    subtype: str | None = None,
+    layout: Layout | str | None = None,
+) -> float:
     """Write audio to ``path`` (``.wav`` or ``.flac``) and ``path.json``, both or neither.
 
     The samples are checked as they will be stored: float32 overflow and a
@@ -398,8 +427,9 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
 
         lay = get_layout(layout)
         if a.ndim != 2 or a.shape[0] != lay.n_channels:
-            raise ParameterError(f"layout {lay.name!r} has {lay.n_channels} channels, audio has "
-                                 f"shape {a.shape}")  # fmt: skip
+            raise ParameterError(
+                f"layout {lay.name!r} has {lay.n_channels} channels, audio has shape {a.shape}"
+            )
         if lay.needs_alignment:
             a = align_speakers(a, lay, rate)
         if channel_mask is None:
@@ -418,21 +448,30 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     if normalize == "peak" and 0.0 < peak_in < NOTHING_PA:
         # no pressure this small is sound (10⁹ below the thermal noise of air): it is
         # round-off, or a field that does nothing; full scale would make it sound
-        nothing = (f"the pressure peaks at {peak_in:.3g} Pa, below {NOTHING_PA:g} Pa: round-off "
-                   f"or nothing, written as silence rather than amplified to full scale")  # fmt: skip
+        nothing = (
+            f"the pressure peaks at {peak_in:.3g} Pa, below {NOTHING_PA:g} Pa: round-off "
+            f"or nothing, written as silence rather than amplified to full scale"
+        )
         a = np.zeros_like(a)
     out, gain = normalize_audio(a, cast(Normalize, normalize), limit_pa=limit_pa)  # checked there
     if suffix == ".flac" and subtype == "float32":
         raise ParameterError("FLAC holds integer samples; use --format pcm16|pcm24 or a WAV file")
     if suffix == ".flac" and out.shape[0] > 8:
-        raise ParameterError(f"{p}: FLAC holds at most 8 channels, the audio has {out.shape[0]} "
-                             f"(e.g. ambix2/ambix3): write a WAV file")  # fmt: skip
+        raise ParameterError(
+            f"{p}: FLAC holds at most 8 channels, the audio has {out.shape[0]} "
+            f"(e.g. ambix2/ambix3): write a WAV file"
+        )
     silent = _check_stored(out, gain, p, subtype)
     if silent:
         # the render's own reason when it has one (a field that does nothing that sounds)
-        why = nothing or str((sidecar or {}).get("silent_why") or "") or (
-            "no sound reached the listener within the duration (no sources, thresholds too "
-            "high, or the listener too far away)")  # fmt: skip
+        why = (
+            nothing
+            or str((sidecar or {}).get("silent_why") or "")
+            or (
+                "no sound reached the listener within the duration (no sources, thresholds too "
+                "high, or the listener too far away)"
+            )
+        )
         warnings.warn(
             f"{p}: the audio is silent (every sample is 0): {why}; the file is written and "
             f"marked silent in its sidecar",
@@ -479,8 +518,13 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
         else:
             import soundfile as sf
 
-            sf.write(str(tmp), out.T, int(rate), format="FLAC",
-                     subtype=subtype.upper().replace("PCM", "PCM_"))  # fmt: skip
+            sf.write(
+                str(tmp),
+                out.T,
+                int(rate),
+                format="FLAC",
+                subtype=subtype.upper().replace("PCM", "PCM_"),
+            )
 
     def sidecar_bytes(sha256: str) -> bytes:
         return json.dumps({**meta, "sha256": sha256}, indent=2, default=_json_default).encode()
@@ -491,8 +535,13 @@ def write_audio(path: str | Path, audio: NDArray[np.floating], rate: int, *,
     require_disk(
         p, out.size * bytes_per_sample + 65536, f"{out.shape[1]} samples x {out.shape[0]} channels"
     )
-    write_pair(p, write_main, Path(str(p) + ".json"), sidecar_bytes,
-               suffix=".part.flac" if suffix == ".flac" else ".part")  # fmt: skip
+    write_pair(
+        p,
+        write_main,
+        Path(str(p) + ".json"),
+        sidecar_bytes,
+        suffix=".part.flac" if suffix == ".flac" else ".part",
+    )
     return gain
 
 
@@ -531,8 +580,9 @@ def check_sidecar_target(path: str | Path) -> None:
     try:
         if p.is_file() and p.stat().st_size < (16 << 20):
             d = json.loads(p.read_text())
-            ours = isinstance(d, dict) and (d.get("auralize_format") == SIDECAR_FORMAT
-                                            or {"file", "rate", "command"} <= set(d))  # fmt: skip
+            ours = isinstance(d, dict) and (
+                d.get("auralize_format") == SIDECAR_FORMAT or {"file", "rate", "command"} <= set(d)
+            )
     except (OSError, ValueError, UnicodeDecodeError):
         ours = False
     if not ours:
@@ -694,13 +744,17 @@ def list_devices(*, outputs_only: bool = True) -> list[dict[str, Any]]:
     for i, d in enumerate(devs):
         if outputs_only and d["max_output_channels"] < 1:
             continue
-        out.append({
-            "index": i, "name": d["name"], "hostapi": apis[d["hostapi"]]["name"],
-            "max_output_channels": int(d["max_output_channels"]),
-            "max_input_channels": int(d["max_input_channels"]),
-            "default_samplerate": float(d["default_samplerate"]),
-            "default": i == default_out,
-        })  # fmt: skip
+        out.append(
+            {
+                "index": i,
+                "name": d["name"],
+                "hostapi": apis[d["hostapi"]]["name"],
+                "max_output_channels": int(d["max_output_channels"]),
+                "max_input_channels": int(d["max_input_channels"]),
+                "default_samplerate": float(d["default_samplerate"]),
+                "default": i == default_out,
+            }
+        )
     return out
 
 
@@ -712,8 +766,9 @@ def _no_device_error() -> DeviceError:
     )
 
 
-def choose_output_device(device: int | str | None, channels: int, *,
-                         downmix: bool = False) -> dict[str, Any]:  # fmt: skip
+def choose_output_device(
+    device: int | str | None, channels: int, *, downmix: bool = False
+) -> dict[str, Any]:
     """Resolve ``device`` (index, name substring, or None for the default output).
 
     Parameters
@@ -760,8 +815,9 @@ def choose_output_device(device: int | str | None, channels: int, *,
             )
         dev = all_devs[idx]
         if dev["max_output_channels"] < 1:
-            raise DeviceError(f"device {idx} ({dev['name']}) has no output channels; "
-                              f"output devices: {names}")  # fmt: skip
+            raise DeviceError(
+                f"device {idx} ({dev['name']}) has no output channels; output devices: {names}"
+            )
     else:
         key = str(device).strip().lower()
         hits = [d for d in outs if key == d["name"].lower()] or [
@@ -862,8 +918,14 @@ class Limiter:
     (True, -18.1)
     """
 
-    def __init__(self, gain: float | None = None, *, gain_db: float = 0.0, rate: int = 44100,
-                 release_s: float = 0.5) -> None:  # fmt: skip
+    def __init__(
+        self,
+        gain: float | None = None,
+        *,
+        gain_db: float = 0.0,
+        rate: int = 44100,
+        release_s: float = 0.5,
+    ) -> None:
         if gain is not None and not (np.isfinite(gain) and gain > 0):
             raise ParameterError(
                 f"gain must be a positive number (full scale per Pa), got {gain!r}"
@@ -1012,8 +1074,9 @@ class Playback:
     (1.0, False, 0)
     """
 
-    def __init__(self, audio: NDArray[np.float64], rate: int, *, stream: Any, limiter: Limiter,
-                 block: int) -> None:  # fmt: skip
+    def __init__(
+        self, audio: NDArray[np.float64], rate: int, *, stream: Any, limiter: Limiter, block: int
+    ) -> None:
         self.audio, self.rate, self.stream, self.limiter = audio, int(rate), stream, limiter
         self.block = int(block)
         self.frames_sent = 0
@@ -1123,9 +1186,16 @@ _PLAYING: list[Playback] = []
 _PLAYING_LOCK = threading.Lock()
 
 
-def play(audio: Any, rate: int | None = None, *, device: int | str | None = None,
-         gain: float | Literal["auto"] = "auto", gain_db: float = 0.0, blocking: bool = True,
-         block: int = 2048) -> Playback:  # fmt: skip
+def play(
+    audio: Any,
+    rate: int | None = None,
+    *,
+    device: int | str | None = None,
+    gain: float | Literal["auto"] = "auto",
+    gain_db: float = 0.0,
+    blocking: bool = True,
+    block: int = 2048,
+) -> Playback:
     """Play audio (pascals) on a sound device through a gain control and a limiter.
 
     Parameters

@@ -181,8 +181,13 @@ class CpuShare:
         import psutil
 
         t = psutil.cpu_times()
-        return float(sum(t) - t.idle - getattr(t, "iowait", 0.0) - getattr(t, "guest", 0.0)
-                     - getattr(t, "guest_nice", 0.0))  # fmt: skip
+        return float(
+            sum(t)
+            - t.idle
+            - getattr(t, "iowait", 0.0)
+            - getattr(t, "guest", 0.0)
+            - getattr(t, "guest_nice", 0.0)
+        )
 
     def _ours(self) -> float:
         import psutil
@@ -245,16 +250,22 @@ def _detect(path: Path, workers: int, size: int) -> Timed:
         pids = [os.getpid(), *worker_pids]
         with PeakRSS(pids) as mem, CpuShare(pids) as cpu:
             t = time.perf_counter()
-            series = detect_distributed(vol, mapping="paper-density",
-                                        thresholds=Thresholds(*BENCH_THRESHOLDS), runner=run,
-                                        output=out, restart=True,
-                                        chunk_steps=DETECT_CHUNK_STEPS)  # fmt: skip
+            series = detect_distributed(
+                vol,
+                mapping="paper-density",
+                thresholds=Thresholds(*BENCH_THRESHOLDS),
+                runner=run,
+                output=out,
+                restart=True,
+                chunk_steps=DETECT_CHUNK_STEPS,
+            )
             elapsed = time.perf_counter() - t
         return Timed(series, elapsed, run.setup_seconds, cpu, mem, worker_pids)
 
 
-def _synth(tracks: Any, path: Any, workers: int, time_scale: float, block: int,
-           groups: int) -> Timed:  # fmt: skip
+def _synth(
+    tracks: Any, path: Any, workers: int, time_scale: float, block: int, groups: int
+) -> Timed:
     """60 s of ring8 on a fresh local cluster, in blocks of ``block`` samples × ``groups``."""
     from auralize.distributed import Runner, render_distributed
 
@@ -262,9 +273,16 @@ def _synth(tracks: Any, path: Any, workers: int, time_scale: float, block: int,
         pids = [os.getpid(), *sorted(set(run.client.run(os.getpid).values()))]
         with CpuShare(pids) as cpu:
             t = time.perf_counter()
-            out = render_distributed(tracks, path, rate=SYNTH_RATE, layout=SYNTH_LAYOUT,
-                                     time_scale=time_scale, runner=run,
-                                     block_seconds=block / SYNTH_RATE, groups=groups)  # fmt: skip
+            out = render_distributed(
+                tracks,
+                path,
+                rate=SYNTH_RATE,
+                layout=SYNTH_LAYOUT,
+                time_scale=time_scale,
+                runner=run,
+                block_seconds=block / SYNTH_RATE,
+                groups=groups,
+            )
             elapsed = time.perf_counter() - t
         return Timed(out, elapsed, run.setup_seconds, cpu)
 
@@ -285,8 +303,9 @@ def wait_quiet(max_wait: float, limit: float = QUIET_CORES) -> float:
             return level
 
 
-def _alternate(fn: Callable[[int], Timed], repeats: int,
-               quiet_wait: float = 0.0) -> dict[int, list[Timed]]:  # fmt: skip
+def _alternate(
+    fn: Callable[[int], Timed], repeats: int, quiet_wait: float = 0.0
+) -> dict[int, list[Timed]]:
     """``fn(1)``, ``fn(2)``, ``fn(1)``, … ``repeats`` times each (slow drifts hit both).
 
     With ``quiet_wait`` > 0, each run first waits up to that many seconds for
@@ -317,8 +336,9 @@ def _runs_note(runs: list[Timed]) -> str:
     )
 
 
-def bench_dask(quick: bool, repeats: int | None = None,
-               quiet_wait: float | None = None) -> list[BenchRow]:  # fmt: skip
+def bench_dask(
+    quick: bool, repeats: int | None = None, quiet_wait: float | None = None
+) -> list[BenchRow]:
     """Detection and synthesis on Dask, 1 vs 2 workers; memory; a 512³ × 1000 projection.
 
     Each measurement alternates 1- and 2-worker runs ``repeats`` times
@@ -339,14 +359,23 @@ def bench_dask(quick: bool, repeats: int | None = None,
     rows: list[BenchRow] = []
     t = time.perf_counter()
     path = big_file(size, steps)
-    rows.append(BenchRow("dask", f"chunked explosion file {label}", path.stat().st_size / GIB,
-                         "GiB", note=f"{path} (reused if present; {time.perf_counter() - t:.0f} s)"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "dask",
+            f"chunked explosion file {label}",
+            path.stat().st_size / GIB,
+            "GiB",
+            note=f"{path} (reused if present; {time.perf_counter() - t:.0f} s)",
+        )
+    )
     warm_client()
     det = _alternate(lambda w: _detect(path, w, size), repeats, quiet_wait)
     d1, d2 = _median(det[1]), _median(det[2])
     s1, t1, s2, t2 = d1.result, d1.seconds, d2.result, d2.seconds
-    same = all(np.array_equal(a.strength, b.strength) and np.array_equal(a.index, b.index)
-               for a, b in zip(s1.frames, s2.frames, strict=True))  # fmt: skip
+    same = all(
+        np.array_equal(a.strength, b.strength) and np.array_equal(a.index, b.index)
+        for a, b in zip(s1.frames, s2.frames, strict=True)
+    )
     sc1, sc2 = s1.meta["scale"], s2.meta["scale"]
     mem = max((r.mem for r in det[2] if r.mem is not None), key=lambda m: m.total)
     worker_pids = next(r.worker_pids for r in det[2] if r.mem is mem)
@@ -354,41 +383,92 @@ def bench_dask(quick: bool, repeats: int | None = None,
     worker_peak = max(mem.peak[p] for p in worker_pids)
     in_task = max(sc2["peak_rss_per_process"], default=0)
     n_src = int(s2.frames.offsets[-1]) if hasattr(s2.frames, "offsets") else -1
-    how = (f"psutil rss sampled every {SAMPLE_S * 1000:.0f} ms by a client thread "
-           f"({mem.samples} samples; largest of {len(det[2])} runs)")  # fmt: skip
-    rows.append(BenchRow("dask", f"detection {label}, 1 worker", t1, "s",
-                         note=f"{sc1['tasks']} tasks of ≤ {sc1['chunk_steps']} steps × "
-                              f"{len(sc1['slabs'])} slabs, plus the preparation passes; "
-                              f"{_runs_note(det[1])}"))  # fmt: skip
-    rows.append(BenchRow("dask", f"detection {label}, 2 workers", t2, "s",
-                         note=("sources identical to 1 worker; " if same else "SOURCES DIFFER; ")
-                         + _runs_note(det[2])))  # fmt: skip
+    how = (
+        f"psutil rss sampled every {SAMPLE_S * 1000:.0f} ms by a client thread "
+        f"({mem.samples} samples; largest of {len(det[2])} runs)"
+    )
+    rows.append(
+        BenchRow(
+            "dask",
+            f"detection {label}, 1 worker",
+            t1,
+            "s",
+            note=f"{sc1['tasks']} tasks of ≤ {sc1['chunk_steps']} steps × "
+            f"{len(sc1['slabs'])} slabs, plus the preparation passes; "
+            f"{_runs_note(det[1])}",
+        )
+    )
+    rows.append(
+        BenchRow(
+            "dask",
+            f"detection {label}, 2 workers",
+            t2,
+            "s",
+            note=("sources identical to 1 worker; " if same else "SOURCES DIFFER; ")
+            + _runs_note(det[2]),
+        )
+    )
     ratio = t1 / t2
-    rows.append(BenchRow("dask", "detection throughput 2 vs 1 workers", ratio, "×",
-                         target="≥ 1.7×", met=ratio >= 1.7,
-                         note=f"{os.cpu_count()} cores, shared machine; ratio of the medians; "
-                              f"same tasks in both runs, timed from submission to the sources "
-                              f"file on disk"))  # fmt: skip
-    rows.append(BenchRow("dask", f"detection {label} peak memory, client", client / GIB, "GiB",
-                         note=f"{how}; sources written by the workers, the client assembles "
-                              f"the output file ({n_src} source points)"))  # fmt: skip
-    rows.append(BenchRow("dask", f"detection {label} peak memory, largest of 2 workers",
-                         worker_peak / GIB, "GiB",
-                         note=f"{how}; the tasks' own ru_maxrss (RUSAGE_SELF): "
-                              f"{in_task / GIB:.2f} GiB"))  # fmt: skip
-    rows.append(BenchRow("dask", f"detection {label} peak memory, client + 2 workers",
-                         mem.total / GIB, "GiB", target="≤ 4 GiB", met=mem.total <= 4 * GIB,
-                         note="largest sum of the samples taken at the same instant (shared "
-                              "pages counted in each process)"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "dask",
+            "detection throughput 2 vs 1 workers",
+            ratio,
+            "×",
+            target="≥ 1.7×",
+            met=ratio >= 1.7,
+            note=f"{os.cpu_count()} cores, shared machine; ratio of the medians; "
+            f"same tasks in both runs, timed from submission to the sources "
+            f"file on disk",
+        )
+    )
+    rows.append(
+        BenchRow(
+            "dask",
+            f"detection {label} peak memory, client",
+            client / GIB,
+            "GiB",
+            note=f"{how}; sources written by the workers, the client assembles "
+            f"the output file ({n_src} source points)",
+        )
+    )
+    rows.append(
+        BenchRow(
+            "dask",
+            f"detection {label} peak memory, largest of 2 workers",
+            worker_peak / GIB,
+            "GiB",
+            note=f"{how}; the tasks' own ru_maxrss (RUSAGE_SELF): {in_task / GIB:.2f} GiB",
+        )
+    )
+    rows.append(
+        BenchRow(
+            "dask",
+            f"detection {label} peak memory, client + 2 workers",
+            mem.total / GIB,
+            "GiB",
+            target="≤ 4 GiB",
+            met=mem.total <= 4 * GIB,
+            note="largest sum of the samples taken at the same instant (shared "
+            "pages counted in each process)",
+        )
+    )
     # projection: cost per voxel-step measured on one worker (includes the
     # mapping's two statistics passes, reading and the ghost overhead)
     per_voxel_step = t1 / (size**3 * steps)
     big = 512**3 * 1000 * per_voxel_step
-    rows.append(BenchRow("dask", "projection 512³ × 1000, 1 worker", big / 3600, "h",
-                         note=f"{per_voxel_step * 1e9:.1f} ns per voxel-step measured; "
-                              f"64 workers ≈ {big / 64 / 60:.0f} min, 256 ≈ {big / 256 / 60:.0f} "
-                              f"min (+ I/O: {512**3 * 4 * 1000 / 1e12:.1f} TB float32 read "
-                              f"once per pass, 3 passes); per-task memory stays ~1 GiB"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "dask",
+            "projection 512³ × 1000, 1 worker",
+            big / 3600,
+            "h",
+            note=f"{per_voxel_step * 1e9:.1f} ns per voxel-step measured; "
+            f"64 workers ≈ {big / 64 / 60:.0f} min, 256 ≈ {big / 256 / 60:.0f} "
+            f"min (+ I/O: {512**3 * 4 * 1000 / 1e12:.1f} TB float32 read "
+            f"once per pass, 3 passes); per-task memory stays ~1 GiB",
+        )
+    )
     # synthesis: 60 s of ring8 from these sources
     tracks = s2.tracks()
     vol_t = float(s2.times[-1] - s2.times[0])
@@ -403,16 +483,37 @@ def bench_dask(quick: bool, repeats: int | None = None,
     y1, y2 = _median(syn[1]), _median(syn[2])
     a1, u1, a2, u2 = y1.result, y1.seconds, y2.result, y2.seconds
     err = float(np.max(np.abs(a1.audio - a2.audio)) / max(np.max(np.abs(a1.audio)), 1e-300))
-    rows.append(BenchRow("dask", "synthesis 60 s ring8, 1 worker", u1, "s",
-                         note=f"{tracks.n_sources} source points, {a1.meta['tasks']} tasks "
-                              f"({a1.meta['blocks']} blocks × {a1.meta['groups']} source groups, "
-                              f"the same in both runs); {_runs_note(syn[1])}"))  # fmt: skip
-    rows.append(BenchRow("dask", "synthesis 60 s ring8, 2 workers", u2, "s",
-                         note=f"max diff to 1 worker {err:.1e} of peak; {_runs_note(syn[2])}"))  # fmt: skip
-    rows.append(BenchRow("dask", "synthesis throughput 2 vs 1 workers", u1 / u2, "×",
-                         target="≥ 1.7×", met=u1 / u2 >= 1.7,
-                         note="ratio of the medians; timed from submission to the audio in "
-                              "the client"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "dask",
+            "synthesis 60 s ring8, 1 worker",
+            u1,
+            "s",
+            note=f"{tracks.n_sources} source points, {a1.meta['tasks']} tasks "
+            f"({a1.meta['blocks']} blocks × {a1.meta['groups']} source groups, "
+            f"the same in both runs); {_runs_note(syn[1])}",
+        )
+    )
+    rows.append(
+        BenchRow(
+            "dask",
+            "synthesis 60 s ring8, 2 workers",
+            u2,
+            "s",
+            note=f"max diff to 1 worker {err:.1e} of peak; {_runs_note(syn[2])}",
+        )
+    )
+    rows.append(
+        BenchRow(
+            "dask",
+            "synthesis throughput 2 vs 1 workers",
+            u1 / u2,
+            "×",
+            target="≥ 1.7×",
+            met=u1 / u2 >= 1.7,
+            note="ratio of the medians; timed from submission to the audio in the client",
+        )
+    )
     return rows
 
 

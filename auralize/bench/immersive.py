@@ -149,8 +149,9 @@ def live_binaural_row(quick: bool) -> BenchRow:
     vol = make_explosion(size=32, steps=steps).load()
     tracks = detect(vol, mapping="paper-density", thresholds=Thresholds(*BENCH_THRESHOLDS)).tracks()
     c = vol.center
-    path = ListenerPath.line(c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2],
-                             duration=steps / 30.0)  # fmt: skip
+    path = ListenerPath.line(
+        c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2], duration=steps / 30.0
+    )
     bs = BlockSynth(tracks, path, layout="binaural", rate=44100, block=2205)
     bs.block(0)  # the tracks' pieces and the decoder's spectra are built once
     wall, cpu = [], []
@@ -163,13 +164,17 @@ def live_binaural_row(quick: bool) -> BenchRow:
     w, cp = 1e3 * np.asarray(wall), 1e3 * np.asarray(cpu)
     p95 = float(np.percentile(w, 95))
     return BenchRow(
-        "immersive", "live binaural, 32³ explosion, 50 ms blocks at 44.1 kHz: p95", p95, "ms",
-        target="< 25 ms (half a block)", met=p95 < 25.0,
+        "immersive",
+        "live binaural, 32³ explosion, 50 ms blocks at 44.1 kHz: p95",
+        p95,
+        "ms",
+        target="< 25 ms (half a block)",
+        met=p95 < 25.0,
         note=f"wall mean {w.mean():.1f} ms, max {w.max():.1f}; CPU per block p95 "
-             f"{np.percentile(cp, 95):.1f} ms, mean {cp.mean():.1f} (all threads); "
-             f"{bs.n_blocks} blocks × {len(w) // bs.n_blocks}; synthesis to "
-             f"{bs.synthesis_layout.name}; load average {os.getloadavg()[0]:.1f}",
-    )  # fmt: skip
+        f"{np.percentile(cp, 95):.1f} ms, mean {cp.mean():.1f} (all threads); "
+        f"{bs.n_blocks} blocks × {len(w) // bs.n_blocks}; synthesis to "
+        f"{bs.synthesis_layout.name}; load average {os.getloadavg()[0]:.1f}",
+    )
 
 
 def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
@@ -189,15 +194,19 @@ def binaural_render_row(tracks: Any, path: Any, size: int) -> BenchRow:
     times = batch_times(fn, repeat=5)
     t = float(np.median(times))
     lay = output_stage("binaural", 44100).synthesis_layout
-    t_amb = float(np.median(batch_times(functools.partial(render_tracks, tracks, path, layout=lay),
-                                        repeat=3)))  # fmt: skip
+    t_amb = float(
+        np.median(batch_times(functools.partial(render_tracks, tracks, path, layout=lay), repeat=3))
+    )
     speed = path.duration / t
     return BenchRow(
-        "synthesis", f"explosion {size}³ → binaural, {path.duration:.2f} s of audio", speed,
-        "× real time", target="≥ 20×" if size == 64 else "",
+        "synthesis",
+        f"explosion {size}³ → binaural, {path.duration:.2f} s of audio",
+        speed,
+        "× real time",
+        target="≥ 20×" if size == 64 else "",
         met=speed >= 20 if size == 64 else None,
         note=f"median of 5 batches (fastest {path.duration / times.min():.1f}×); the synthesis "
-             f"to {lay.name} alone {path.duration / t_amb:.1f}× ({lay.n_channels} channels"
-             + (f", {len(lay.meta['receivers'])} receivers" if lay.meta.get("receivers") else "")
-             + ")",
-    )  # fmt: skip
+        f"to {lay.name} alone {path.duration / t_amb:.1f}× ({lay.n_channels} channels"
+        + (f", {len(lay.meta['receivers'])} receivers" if lay.meta.get("receivers") else "")
+        + ")",
+    )

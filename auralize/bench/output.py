@@ -38,8 +38,9 @@ def _scene(quick: bool):  # type: ignore[no-untyped-def]
     tracks = series.tracks()
     c = vol.center
     dur = steps / 30.0
-    path = ListenerPath.line(c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2],
-                             duration=dur)  # fmt: skip
+    path = ListenerPath.line(
+        c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2], duration=dur
+    )
     return size, tracks, path
 
 
@@ -66,11 +67,15 @@ def _live_on_file_device(tracks, path, seconds: float) -> BenchRow:  # type: ign
                 os.environ["XDG_CONFIG_HOME"] = old
             refresh_devices()
     return BenchRow(
-        "output", f"live play, file-backed ALSA device, {seconds:.1f} s ring8", rep.underruns,
-        "underruns", target="0", met=rep.underruns == 0,
+        "output",
+        f"live play, file-backed ALSA device, {seconds:.1f} s ring8",
+        rep.underruns,
+        "underruns",
+        target="0",
+        met=rep.underruns == 0,
         note=f"synthesis {rep.synth_ms_mean:.1f} ms/block mean, {rep.synth_ms_max:.1f} max; "
-             f"wall {rep.wall_s:.2f} s",
-    )  # fmt: skip
+        f"wall {rep.wall_s:.2f} s",
+    )
 
 
 def bench_output(quick: bool) -> list[BenchRow]:
@@ -83,14 +88,23 @@ def bench_output(quick: bool) -> list[BenchRow]:
     t_scene = time.perf_counter() - t0
     dur = path.duration
     rows = []
-    t = best_of(lambda: render_tracks(tracks, path, layout="ring8"), repeat=1 if not quick else 3,
-                min_time=0.0)  # fmt: skip
-    rows.append(BenchRow(
-        "output", f"explosion {size}³ → ring8 file, {dur:.0f} s path", dur / t, "× real time",
-        target="≥ 50×", met=dur / t >= 50,
-        note=f"{t:.2f} s for {dur:.0f} s; {tracks.n_sources} source points, "
-             f"{int(np.count_nonzero(tracks.q))} (source, step) pairs; data made in {t_scene:.0f} s",
-    ))  # fmt: skip
+    t = best_of(
+        lambda: render_tracks(tracks, path, layout="ring8"),
+        repeat=1 if not quick else 3,
+        min_time=0.0,
+    )
+    rows.append(
+        BenchRow(
+            "output",
+            f"explosion {size}³ → ring8 file, {dur:.0f} s path",
+            dur / t,
+            "× real time",
+            target="≥ 50×",
+            met=dur / t >= 50,
+            note=f"{t:.2f} s for {dur:.0f} s; {tracks.n_sources} source points, "
+            f"{int(np.count_nonzero(tracks.q))} (source, step) pairs; data made in {t_scene:.0f} s",
+        )
+    )
     bs = BlockSynth(tracks, path, layout="ring8", rate=44100, block=2205)
     bs.block(0)
     times = []
@@ -100,15 +114,28 @@ def bench_output(quick: bool) -> list[BenchRow]:
         times.append(time.perf_counter() - t1)
     ms = 1e3 * np.asarray(times)
     p95 = float(np.percentile(ms, 95))
-    rows.append(BenchRow(
-        "output", "live: synthesis per 50 ms block, 44.1 kHz × 8 ch", p95, "ms (95th pct)",
-        target="≤ 50 ms", met=float(ms.max()) <= 50.0,
-        note=f"mean {ms.mean():.1f} ms, max {ms.max():.1f} ms over {bs.n_blocks} blocks; "
-             f"{int(np.sum(ms > 50))} over budget",
-    ))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "output",
+            "live: synthesis per 50 ms block, 44.1 kHz × 8 ch",
+            p95,
+            "ms (95th pct)",
+            target="≤ 50 ms",
+            met=float(ms.max()) <= 50.0,
+            note=f"mean {ms.mean():.1f} ms, max {ms.max():.1f} ms over {bs.n_blocks} blocks; "
+            f"{int(np.sum(ms > 50))} over budget",
+        )
+    )
     try:
         rows.append(_live_on_file_device(tracks, path, min(dur, 2.0)))
     except Exception as exc:  # a benchmark reports, it does not crash
-        rows.append(BenchRow("output", "live play on a file-backed ALSA device", float("nan"), "",
-                             note=f"not run: {exc}"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "output",
+                "live play on a file-backed ALSA device",
+                float("nan"),
+                "",
+                note=f"not run: {exc}",
+            )
+        )
     return rows

@@ -84,7 +84,10 @@ def write_series(folder: Path, n: int, steps: int) -> dict[str, Path]:
         t = f.createVariable("time", "f8", ("time",))
         t.units = "milliseconds since 2001-01-01"
         t[:] = np.arange(steps, dtype=np.float64)
-        vs = {k: f.createVariable(k, "f4", ("time", "z", "y", "x")) for k in ("density", "u", "v", "w")}  # fmt: skip
+        vs = {
+            k: f.createVariable(k, "f4", ("time", "z", "y", "x"))
+            for k in ("density", "u", "v", "w")
+        }
         for s in range(steps):
             rho, vel = _fields(n, s)
             vs["density"][s] = rho
@@ -94,7 +97,12 @@ def write_series(folder: Path, n: int, steps: int) -> dict[str, Path]:
     nc4 = folder / "series4.nc"
     with h5py.File(nc4, "w") as f:
         f.attrs["_NCProperties"] = "version=2"
-        for name, vals in (("time", np.arange(steps) * 1.0), ("z", coords), ("y", coords), ("x", coords)):  # fmt: skip
+        for name, vals in (
+            ("time", np.arange(steps) * 1.0),
+            ("z", coords),
+            ("y", coords),
+            ("x", coords),
+        ):
             ds = f.create_dataset(name, data=vals)
             ds.make_scale(name)
         f["time"].attrs["units"] = "milliseconds since 2001-01-01"
@@ -160,8 +168,14 @@ def write_series(folder: Path, n: int, steps: int) -> dict[str, Path]:
         return text.encode().ljust(80, b"\0")
 
     with (folder / "series.geo").open("wb") as fh:
-        for line in ("C Binary", "auralize bench", "uniform block", "node id off",
-                     "element id off", "part"):  # fmt: skip
+        for line in (
+            "C Binary",
+            "auralize bench",
+            "uniform block",
+            "node id off",
+            "element id off",
+            "part",
+        ):
             fh.write(s80(line))
         fh.write(np.array([1], "<i4").tobytes() + s80("volume") + s80("block uniform"))
         fh.write(np.array([n, n, n], "<i4").tobytes())
@@ -275,15 +289,23 @@ def bench_curvilinear_strengths(full: bool = False) -> list[BenchRow]:
         fast, ref = strengths(True), strengths(False)
     finally:
         numba.set_num_threads(threads)
-    return [BenchRow(
-        "readers", f"curvilinear strengths O-grid {na}×{nc}×{nz}: compiled", fast * 1e9,
-        "ns/point", target="< numpy", met=fast < ref,
-        note=f"numpy reference {ref * 1e9:.0f} ns per point and step ({ref / fast:.1f}×), "
-             f"one thread, CPU time; dipole + quadrupole: 5 metric divergences")]  # fmt: skip
+    return [
+        BenchRow(
+            "readers",
+            f"curvilinear strengths O-grid {na}×{nc}×{nz}: compiled",
+            fast * 1e9,
+            "ns/point",
+            target="< numpy",
+            met=fast < ref,
+            note=f"numpy reference {ref * 1e9:.0f} ns per point and step ({ref / fast:.1f}×), "
+            f"one thread, CPU time; dipole + quadrupole: 5 metric divergences",
+        )
+    ]
 
 
-def write_curvilinear_series(folder: Path, n_around: int, n_across: int, n_z: int,
-                             steps: int) -> Path:  # fmt: skip
+def write_curvilinear_series(
+    folder: Path, n_around: int, n_across: int, n_z: int, steps: int
+) -> Path:
     """An O-grid around a cylinder of radius 0.5 m out to 3 m, ``.vts`` per step (VTK's
     XML structured-grid writer) in a ``.pvd``: its cells grow geometrically from 2 mm at
     the wall (a boundary layer) to ~0.25 m; a density layer 1 cm thick pulses in the
@@ -310,8 +332,10 @@ def write_curvilinear_series(folder: Path, n_around: int, n_across: int, n_z: in
         step.save(folder / f"ogrid_{s:04d}.vts")
         entries.append(f'<DataSet timestep="{s * 1e-3!r}" file="ogrid_{s:04d}.vts"/>')
     path = folder / "ogrid.pvd"
-    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">'
-                    f"<Collection>{''.join(entries)}</Collection></VTKFile>\n")  # fmt: skip
+    path.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">'
+        f"<Collection>{''.join(entries)}</Collection></VTKFile>\n"
+    )
     return path
 
 
@@ -340,25 +364,40 @@ def bench_curvilinear(full: bool = False) -> list[BenchRow]:
         try:
             got[mode] = _measure(path, "curvilinear", mode)
         except RuntimeError as exc:
-            rows.append(BenchRow("readers", f"curvilinear {size}: {mode}", float("nan"), "",
-                                 note=str(exc)))  # fmt: skip
+            rows.append(
+                BenchRow("readers", f"curvilinear {size}: {mode}", float("nan"), "", note=str(exc))
+            )
     if len(got) < 2:
         return rows
     nat, res = got["native"], got["resample"]
     t_nat, t_res = nat["open"] + nat["detect"], res["open"] + res["detect"]
-    rows.append(BenchRow(
-        "readers", f"curvilinear {size}: open + detect natively", t_nat, "s",
-        target="≤ resampled", met=t_nat <= t_res,
-        note=f"open {nat['open']:.2f} s + detect {nat['detect']:.2f} s on its "
-             f"{int(nat['points'])} points; resampled: open {res['open']:.2f} s + detect "
-             f"{res['detect']:.2f} s = {t_res:.2f} s on {int(res['points'])} grid points "
-             f"({100 * res['valid']:.0f} % inside the mesh, {100 * res['below']:.0f} % of the "
-             f"cells smaller than a voxel)"))  # fmt: skip
-    rows.append(BenchRow(
-        "readers", f"curvilinear {size}: peak memory natively", nat["peak"] / 2**20, "MiB",
-        target="≤ resampled", met=nat["peak"] <= res["peak"],
-        note=f"resampled: {res['peak'] / 2**20:.0f} MiB (child's peak resident size above "
-             f"imports); {nat['sources']} vs {res['sources']} source points"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "readers",
+            f"curvilinear {size}: open + detect natively",
+            t_nat,
+            "s",
+            target="≤ resampled",
+            met=t_nat <= t_res,
+            note=f"open {nat['open']:.2f} s + detect {nat['detect']:.2f} s on its "
+            f"{int(nat['points'])} points; resampled: open {res['open']:.2f} s + detect "
+            f"{res['detect']:.2f} s = {t_res:.2f} s on {int(res['points'])} grid points "
+            f"({100 * res['valid']:.0f} % inside the mesh, {100 * res['below']:.0f} % of the "
+            f"cells smaller than a voxel)",
+        )
+    )
+    rows.append(
+        BenchRow(
+            "readers",
+            f"curvilinear {size}: peak memory natively",
+            nat["peak"] / 2**20,
+            "MiB",
+            target="≤ resampled",
+            met=nat["peak"] <= res["peak"],
+            note=f"resampled: {res['peak'] / 2**20:.0f} MiB (child's peak resident size above "
+            f"imports); {nat['sources']} vs {res['sources']} source points",
+        )
+    )
     return rows
 
 
@@ -398,18 +437,42 @@ def bench_readers(full: bool = False) -> list[BenchRow]:
             continue
         if fmt == "hdf5":
             ref = got
-        rows.append(BenchRow("readers", f"{fmt} {size}: open", got["open"], "s",
-                             target="< 2 s", met=got["open"] < 2.0))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "readers",
+                f"{fmt} {size}: open",
+                got["open"],
+                "s",
+                target="< 2 s",
+                met=got["open"] < 2.0,
+            )
+        )
         ratio = got["detect"] / ref["detect"] if ref else float("nan")
-        rows.append(BenchRow("readers", f"{fmt} {size}: detect", got["detect"], "s",
-                             target="≤ 2× HDF5", met=bool(ratio <= 2.0) if ref else None,
-                             note=f"{ratio:.2f}× HDF5; {got['sources']} source points"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "readers",
+                f"{fmt} {size}: detect",
+                got["detect"],
+                "s",
+                target="≤ 2× HDF5",
+                met=bool(ratio <= 2.0) if ref else None,
+                note=f"{ratio:.2f}× HDF5; {got['sources']} source points",
+            )
+        )
         # Detection itself holds a few steps of mapped frames and strengths; the reader's
         # share is the peak above the same detection on the HDF5 file.
         extra = (got["peak"] - ref["peak"]) / got["step_bytes"] if ref else 0.0
-        rows.append(BenchRow("readers", f"{fmt} {size}: peak memory over HDF5", extra, "steps",
-                             target="≤ 2 steps", met=extra <= 2.0,
-                             note=f"peak {got['peak'] / 2**20:.0f} MiB above imports "
-                                  f"(HDF5: {ref['peak'] / 2**20 if ref else float('nan'):.0f} MiB); "
-                                  f"a step (float64 frames) is {got['step_bytes'] / 2**20:.1f} MiB"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "readers",
+                f"{fmt} {size}: peak memory over HDF5",
+                extra,
+                "steps",
+                target="≤ 2 steps",
+                met=extra <= 2.0,
+                note=f"peak {got['peak'] / 2**20:.0f} MiB above imports "
+                f"(HDF5: {ref['peak'] / 2**20 if ref else float('nan'):.0f} MiB); "
+                f"a step (float64 frames) is {got['step_bytes'] / 2**20:.1f} MiB",
+            )
+        )
     return rows + bench_curvilinear(full) + bench_curvilinear_strengths(full)

@@ -559,6 +559,7 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
     from auralize.bench.fwh import fwh_rows
+    from auralize.bench.outdoor import outdoor_rows
     from auralize.bench.output import bench_output
     from auralize.bench.readers import bench_readers
     from auralize.bench.viewer import bench_viewer
@@ -567,7 +568,7 @@ def run_bench(args: argparse.Namespace) -> int:
     print(format_rows(more), flush=True)
     rows += more
 
-    for fn in (fwh_rows, bench_output, bench_viewer):
+    for fn in (fwh_rows, outdoor_rows, bench_output, bench_viewer):
         more = fn(args.quick)
         print(format_rows(more), flush=True)
         rows += more

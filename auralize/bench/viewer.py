@@ -55,11 +55,17 @@ def bench_viewer(quick: bool) -> list[BenchRow]:
             scene.set_step(0)
             times = [scene.set_step(n) for n in list(range(1, steps)) * (1 if quick else 2)]
             t = float(np.median(times))
-            rows.append(BenchRow(
-                "viewer", f"time step redraw, {rep} ({size}³, sources shown)", t * 1e3, "ms",
-                target="≤ 100 ms", met=t <= 0.100,
-                note=f"max {max(times) * 1e3:.0f} ms; up to {n_src} ΔV spheres; 1024×768 off screen",
-            ))  # fmt: skip
+            rows.append(
+                BenchRow(
+                    "viewer",
+                    f"time step redraw, {rep} ({size}³, sources shown)",
+                    t * 1e3,
+                    "ms",
+                    target="≤ 100 ms",
+                    met=t <= 0.100,
+                    note=f"max {max(times) * 1e3:.0f} ms; up to {n_src} ΔV spheres; 1024×768 off screen",
+                )
+            )
         scene.set_representation("volume")
         rec = PathRecorder(rate_hz=10)
         rec.start()
@@ -72,9 +78,17 @@ def bench_viewer(quick: bool) -> list[BenchRow]:
             cost.append(time.perf_counter() - t0)
         rec.stop()
         c = float(np.median(cost))
-        rows.append(BenchRow("viewer", "recording: capture + path update", c * 1e3, "ms",
-                             target="≤ 16 ms (< one 60 Hz frame)", met=c <= 0.016,
-                             note="paper 003 §4.1 captures at 6–10 Hz"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "viewer",
+                "recording: capture + path update",
+                c * 1e3,
+                "ms",
+                target="≤ 16 ms (< one 60 Hz frame)",
+                met=c <= 0.016,
+                note="paper 003 §4.1 captures at 6–10 Hz",
+            )
+        )
     finally:
         plotter.close()
     rows += bench_many_sources(quick)
@@ -93,8 +107,14 @@ def measure_window(*, size: int, steps: int, keys: int) -> list[dict[str, Any]] 
     import subprocess
     import sys
 
-    cmd = [sys.executable, "-m", "auralize.viewer.measure", f"--size={size}",
-           f"--steps={steps}", f"--keys={keys}"]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "auralize.viewer.measure",
+        f"--size={size}",
+        f"--steps={steps}",
+        f"--keys={keys}",
+    ]
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         if shutil.which("xvfb-run") is None:
             return "no display and no xvfb-run"
@@ -116,25 +136,51 @@ def bench_responsive(quick: bool) -> list[BenchRow]:
     size, steps, keys = (32, 8, 20) if quick else (64, 30, 40)
     runs = measure_window(size=size, steps=steps, keys=keys)
     if isinstance(runs, str):
-        return [BenchRow("viewer", f"key → redraw p95 ({size}³)", float("nan"), "ms",
-                         target="≤ 100 ms", met=None, note=f"not measured: {runs}")]  # fmt: skip
+        return [
+            BenchRow(
+                "viewer",
+                f"key → redraw p95 ({size}³)",
+                float("nan"),
+                "ms",
+                target="≤ 100 ms",
+                met=None,
+                note=f"not measured: {runs}",
+            )
+        ]
     rows: list[BenchRow] = []
     for r in runs:
         what = "live listening + recording" if r["live"] else "recording"
-        note = (f"p50 {r['p50_ms']:.0f} ms over {len(r['latency_s'])} flying keys, 1024×768 "
-                "window")  # fmt: skip
+        note = f"p50 {r['p50_ms']:.0f} ms over {len(r['latency_s'])} flying keys, 1024×768 window"
         if r["live"]:
-            note += (f"; {r['audio_s']:.1f} s of audio synthesized in {r['seconds']:.1f} s, "
-                     f"camera move heard after {r['move_heard_ms']:.0f} ms (median)")  # fmt: skip
-        rows.append(BenchRow("viewer", f"key → redraw p95, {what} ({size}³)", r["p95_ms"], "ms",
-                             target="≤ 100 ms", met=bool(r["p95_ms"] <= 100),
-                             note=note))  # fmt: skip
+            note += (
+                f"; {r['audio_s']:.1f} s of audio synthesized in {r['seconds']:.1f} s, "
+                f"camera move heard after {r['move_heard_ms']:.0f} ms (median)"
+            )
+        rows.append(
+            BenchRow(
+                "viewer",
+                f"key → redraw p95, {what} ({size}³)",
+                r["p95_ms"],
+                "ms",
+                target="≤ 100 ms",
+                met=bool(r["p95_ms"] <= 100),
+                note=note,
+            )
+        )
         if r["live"]:
             hz = float(r["capture_hz"])
-            rows.append(BenchRow("viewer", f"capture rate while listening live ({size}³)", hz,
-                                 "Hz", target="≥ 9.5 Hz (asked 10)", met=hz >= 9.5,
-                                 note=f"{r['captures']} captures in {r['seconds']:.1f} s while "
-                                      "flying with the keys"))  # fmt: skip
+            rows.append(
+                BenchRow(
+                    "viewer",
+                    f"capture rate while listening live ({size}³)",
+                    hz,
+                    "Hz",
+                    target="≥ 9.5 Hz (asked 10)",
+                    met=hz >= 9.5,
+                    note=f"{r['captures']} captures in {r['seconds']:.1f} s while "
+                    "flying with the keys",
+                )
+            )
     return rows
 
 
@@ -175,10 +221,18 @@ def bench_many_sources(quick: bool) -> list[BenchRow]:
             plotter.render()
             times.append(time.perf_counter() - t0)
         fps = 1.0 / float(np.median(times))
-        rows.append(BenchRow("viewer", "100,000 sources: frame rate", fps, "fps",
-                             target="≥ 10 fps", met=fps >= 10,
-                             note="1024×768 off screen, camera orbiting; 3-pixel point sprites "
-                                  "(> 25,000 sources), one draw call"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "viewer",
+                "100,000 sources: frame rate",
+                fps,
+                "fps",
+                target="≥ 10 fps",
+                met=fps >= 10,
+                note="1024×768 off screen, camera orbiting; 3-pixel point sprites "
+                "(> 25,000 sources), one draw call",
+            )
+        )
     finally:
         plotter.close()
     frame16 = _fake_frame(vol, 16_000, seed=1)
@@ -193,10 +247,18 @@ def bench_many_sources(quick: bool) -> list[BenchRow]:
     finally:
         plotter.close()
     el = time.perf_counter() - t0
-    rows.append(BenchRow("viewer", "screenshot with 16,000 sources", el, "s", target="< 5 s",
-                         met=el < 5.0,
-                         note="1280×960 off screen, volume + ΔV sphere impostors, from a new "
-                              "plotter to the picture"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "viewer",
+            "screenshot with 16,000 sources",
+            el,
+            "s",
+            target="< 5 s",
+            met=el < 5.0,
+            note="1280×960 off screen, volume + ΔV sphere impostors, from a new "
+            "plotter to the picture",
+        )
+    )
     return rows
 
 
@@ -228,12 +290,24 @@ def bench_live_latency(quick: bool) -> list[BenchRow]:
     lat = np.asarray(player.latencies[1:] or [np.nan])
     med = float(np.median(lat)) * 1e3
     return [
-        BenchRow("viewer", "live listening: camera move to sound", med, "ms",
-                 target="≤ 100 ms", met=bool(med <= 100),
-                 note=f"median of {lat.size} moves, max {np.nanmax(lat) * 1e3:.0f} ms; "
-                      f"block {1e3 * eng.block_s:.0f} ms + render, sink paced in real time"),
-        BenchRow("viewer", "live listening: Stop", stop_ms, "ms", target="≤ 1000 ms",
-                 met=bool(stop_ms <= 1000),
-                 note="from Stop until the worker has ended and the sink is closed "
-                      "(the block in progress is rendered, not played)"),
-    ]  # fmt: skip
+        BenchRow(
+            "viewer",
+            "live listening: camera move to sound",
+            med,
+            "ms",
+            target="≤ 100 ms",
+            met=bool(med <= 100),
+            note=f"median of {lat.size} moves, max {np.nanmax(lat) * 1e3:.0f} ms; "
+            f"block {1e3 * eng.block_s:.0f} ms + render, sink paced in real time",
+        ),
+        BenchRow(
+            "viewer",
+            "live listening: Stop",
+            stop_ms,
+            "ms",
+            target="≤ 1000 ms",
+            met=bool(stop_ms <= 1000),
+            note="from Stop until the worker has ended and the sink is closed "
+            "(the block in progress is rendered, not played)",
+        ),
+    ]

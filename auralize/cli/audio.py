@@ -47,8 +47,10 @@ def cmd_devices(args: argparse.Namespace) -> int:
         return 0
     for d in devs:
         mark = "*" if d["default"] else " "
-        print(f"{mark} {d['index']:3d}  {d['name']:40s} {d['max_output_channels']:4d} out ch  "
-              f"{d['default_samplerate']:.0f} Hz  ({d['hostapi']})")  # fmt: skip
+        print(
+            f"{mark} {d['index']:3d}  {d['name']:40s} {d['max_output_channels']:4d} out ch  "
+            f"{d['default_samplerate']:.0f} Hz  ({d['hostapi']})"
+        )
     return 0
 
 
@@ -93,15 +95,19 @@ class _RenderedBlocks:
         return self.render_range(i * self.block_size, self.block_size)
 
 
-def _ahead_note(timbre: str, resolved: str, seconds: float, duration: float, *,
-                scene: bool = False) -> str:  # fmt: skip
+def _ahead_note(
+    timbre: str, resolved: str, seconds: float, duration: float, *, scene: bool = False
+) -> str:
     """What ``play`` says when it renders the sound ahead (see the module docstring)."""
-    why = ("chosen from the whole physical render" if timbre == "auto"
-           else "it needs the whole render")  # fmt: skip
+    why = (
+        "chosen from the whole physical render" if timbre == "auto" else "it needs the whole render"
+    )
     name = resolved if resolved == timbre else f"{resolved} ({timbre})"
     how = "a field whose timbre is physical" if scene else "--timbre physical"
-    return (f"timbre {name}: rendered ahead in {seconds:.2f} s ({why}), then played block by "
-            f"block; {how} is synthesized as it plays ({duration:.3g} s)")  # fmt: skip
+    return (
+        f"timbre {name}: rendered ahead in {seconds:.2f} s ({why}), then played block by "
+        f"block; {how} is synthesized as it plays ({duration:.3g} s)"
+    )
 
 
 def cmd_play(args: argparse.Namespace) -> int:
@@ -123,8 +129,9 @@ def cmd_play(args: argparse.Namespace) -> int:
     if args.model or args.scene:
         return _play_scene(args)
     if args.volume is None:
-        raise ParameterError("give a volume PATH, or sound models with --model NAME:FILE or "
-                             "--scene SCENE.json")  # fmt: skip
+        raise ParameterError(
+            "give a volume PATH, or sound models with --model NAME:FILE or --scene SCENE.json"
+        )
     vol = load_volume(args)
     path = ListenerPath.from_csv(args.path) if args.path else None
     series = None
@@ -134,15 +141,29 @@ def cmd_play(args: argparse.Namespace) -> int:
         series = load_sources_for(args.sources, vol)
     from auralize.emitters.synthesis import check_arrival
 
-    planner = Planner(vol, path=path, listener=args.listener, duration=args.duration,
-                      time_scale=args.time_scale, face=args.orbit_face)  # fmt: skip
-    hs = heard_sound(vol, heard=heard_arg(args), series=series, mapping=args.mapping,
-                     thresholds=thresholds_from_args(args), path=planner,
-                     progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
+    planner = Planner(
+        vol,
+        path=path,
+        listener=args.listener,
+        duration=args.duration,
+        time_scale=args.time_scale,
+        face=args.orbit_face,
+    )
+    hs = heard_sound(
+        vol,
+        heard=heard_arg(args),
+        series=series,
+        mapping=args.mapping,
+        thresholds=thresholds_from_args(args),
+        path=planner,
+        progress_bar=progress_wanted(),
+        **mapping_fields(args),
+    )
     tracks = hs.tracks
     plan = planner.plan
-    check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
-                  lead=plan.lead)  # fmt: skip
+    check_arrival(
+        tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead
+    )
     # with --json, standard output carries the report alone: what the plan says goes to stderr
     say = sys.stderr if args.json else sys.stdout
     for note in plan.notes:
@@ -151,9 +172,16 @@ def cmd_play(args: argparse.Namespace) -> int:
     from auralize.emitters import FieldSources
     from auralize.rendering import render
 
-    sound = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
-                         timbre=args.timbre, bounds=vol.bounds, by_type=hs.by_type,
-                         seed=args.seed)  # fmt: skip
+    sound = FieldSources(
+        tracks,
+        time_scale=plan.time_scale,
+        lead=plan.lead,
+        interp=args.interp,
+        timbre=args.timbre,
+        bounds=vol.bounds,
+        by_type=hs.by_type,
+        seed=args.seed,
+    )
     block = max(round(args.block_ms / 1e3 * args.rate), 1)
     source: Any
     if args.timbre != "physical":  # rendered ahead as `render` renders it (module docstring)
@@ -164,8 +192,15 @@ def cmd_play(args: argparse.Namespace) -> int:
 
         check_render_memory(args, plan.duration, synthesis_layout(lay).n_channels)
         t = time.perf_counter()
-        out = render(sound, plan.path, rate=args.rate, layout=lay, duration=plan.duration,
-                     highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
+        out = render(
+            sound,
+            plan.path,
+            rate=args.rate,
+            layout=lay,
+            duration=plan.duration,
+            highpass_hz=args.highpass,
+            hrtf=args.hrtf,
+        )
         seconds = time.perf_counter() - t
         for note in [] if args.json else out.meta.get("timbre_notes", []):
             print(note)
@@ -173,10 +208,26 @@ def cmd_play(args: argparse.Namespace) -> int:
             print(_ahead_note(args.timbre, out.meta["timbre"], seconds, plan.duration))
         source = _RenderedBlocks(out, block)
     else:
-        source = render(sound, plan.path, rate=args.rate, layout=lay, duration=plan.duration,
-                        block=block, highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
-    rep = play(source, plan.path, rate=args.rate, layout=lay, device=args.device,
-               downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit)  # fmt: skip
+        source = render(
+            sound,
+            plan.path,
+            rate=args.rate,
+            layout=lay,
+            duration=plan.duration,
+            block=block,
+            highpass_hz=args.highpass,
+            hrtf=args.hrtf,
+        )
+    rep = play(
+        source,
+        plan.path,
+        rate=args.rate,
+        layout=lay,
+        device=args.device,
+        downmix=_downmix_arg(args),
+        gain=args.gain,
+        limit_pa=args.limit,
+    )
     _report(args, rep)
     return 0
 
@@ -193,9 +244,12 @@ def _report(args: argparse.Namespace, rep: Any) -> None:
     else:
         print(rep.summary())
     if rep.underruns:
-        print(f"auralize play: warning: {rep.underruns} underrun(s): synthesis fell behind the "
-              f"device; try a larger --block-ms, higher thresholds, or write a file with "
-              f"'auralize render -o out.wav'", file=sys.stderr)  # fmt: skip
+        print(
+            f"auralize play: warning: {rep.underruns} underrun(s): synthesis fell behind the "
+            f"device; try a larger --block-ms, higher thresholds, or write a file with "
+            f"'auralize render -o out.wav'",
+            file=sys.stderr,
+        )
 
 
 def _play_scene(args: argparse.Namespace) -> int:
@@ -205,8 +259,9 @@ def _play_scene(args: argparse.Namespace) -> int:
     from auralize.cli.options import DEFAULT_RATE
     from auralize.rendering import render
 
-    sound, path, duration, notes = scene_from_args(args, {"layout": "ring8",
-                                                          "rate": DEFAULT_RATE}, "play")  # fmt: skip
+    sound, path, duration, notes = scene_from_args(
+        args, {"layout": "ring8", "rate": DEFAULT_RATE}, "play"
+    )
     for note in [] if args.json else notes:
         print(note)
     block = max(round(args.block_ms / 1e3 * args.rate), 1)
@@ -222,17 +277,40 @@ def _play_scene(args: argparse.Namespace) -> int:
 
         check_render_memory(args, duration, synthesis_layout(args.layout).n_channels)
         t = time.perf_counter()
-        out = render(sound, path, rate=args.rate, layout=args.layout, duration=duration,
-                     highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
+        out = render(
+            sound,
+            path,
+            rate=args.rate,
+            layout=args.layout,
+            duration=duration,
+            highpass_hz=args.highpass,
+            hrtf=args.hrtf,
+        )
         if not args.json:
             timbre = "/".join(sorted(timbres - {"physical"}))
             print(_ahead_note(timbre, timbre, time.perf_counter() - t, duration, scene=True))
         blocks = _RenderedBlocks(out, block)
     else:
-        blocks = render(sound, path, rate=args.rate, layout=args.layout, block=block,
-                        duration=duration, highpass_hz=args.highpass, hrtf=args.hrtf)  # fmt: skip
-    rep = play(blocks, path, rate=args.rate, layout=args.layout, device=args.device,
-               downmix=_downmix_arg(args), gain=args.gain, limit_pa=args.limit)  # fmt: skip
+        blocks = render(
+            sound,
+            path,
+            rate=args.rate,
+            layout=args.layout,
+            block=block,
+            duration=duration,
+            highpass_hz=args.highpass,
+            hrtf=args.hrtf,
+        )
+    rep = play(
+        blocks,
+        path,
+        rate=args.rate,
+        layout=args.layout,
+        device=args.device,
+        downmix=_downmix_arg(args),
+        gain=args.gain,
+        limit_pa=args.limit,
+    )
     _report(args, rep)
     return 0
 
@@ -258,32 +336,61 @@ def add_commands(sub: Any) -> None:
     add_volume_options(p, optional=True)
     add_detect_options(p)
     add_scene_options(p)
-    g = add_output_options(p, file=False, layout="ring8", listener_required=False,
-                           title="live output")  # fmt: skip
-    g.add_argument("--device", type=_device_arg, metavar="N|NAME",
-                   help="output device index or name part (see 'auralize devices')")  # fmt: skip
-    g.add_argument("--downmix", nargs="?", const="auto", metavar="LAYOUT",
-                   help="fold the layout to fit a device with fewer channels (default: the "
-                        "largest of 7.1/5.1/stereo/mono that fits)")  # fmt: skip
-    g.add_argument("--time-scale", type=time_scale_arg, default=DEFAULTS.time_scale,
-                   help="playback seconds per data second, or auto (default): the data's span "
-                        "plays in --duration")  # fmt: skip
+    g = add_output_options(
+        p, file=False, layout="ring8", listener_required=False, title="live output"
+    )
+    g.add_argument(
+        "--device",
+        type=_device_arg,
+        metavar="N|NAME",
+        help="output device index or name part (see 'auralize devices')",
+    )
+    g.add_argument(
+        "--downmix",
+        nargs="?",
+        const="auto",
+        metavar="LAYOUT",
+        help="fold the layout to fit a device with fewer channels (default: the "
+        "largest of 7.1/5.1/stereo/mono that fits)",
+    )
+    g.add_argument(
+        "--time-scale",
+        type=time_scale_arg,
+        default=DEFAULTS.time_scale,
+        help="playback seconds per data second, or auto (default): the data's span "
+        "plays in --duration",
+    )
     g.add_argument(
         "--highpass", type=float, default=DEFAULTS.highpass_hz, metavar="HZ", help=HIGHPASS_HELP
     )
-    g.add_argument("--timbre", choices=TIMBRE_CHOICES, default=DEFAULTS.timbre,
-                   help=TIMBRE_HELP + "; all but physical are rendered ahead, then played")  # fmt: skip
+    g.add_argument(
+        "--timbre",
+        choices=TIMBRE_CHOICES,
+        default=DEFAULTS.timbre,
+        help=TIMBRE_HELP + "; all but physical are rendered ahead, then played",
+    )
     g.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
-    g.add_argument("--gain", default="auto", type=_gain_arg,
-                   help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "
-                        "later blocks would clip)")  # fmt: skip
-    g.add_argument("--block-ms", type=positive_float, default=50.0,
-                   help="synthesis block (default 50 ms)")  # fmt: skip
-    g.add_argument("--sources", metavar="SOURCES.h5",
-                   help="reuse sources from 'auralize detect' (heard with --heard detected, "
-                        "which this implies)")  # fmt: skip
+    g.add_argument(
+        "--gain",
+        default="auto",
+        type=_gain_arg,
+        help="full scale per pascal, or auto (peak of the first 0.5 s, lowered if "
+        "later blocks would clip)",
+    )
+    g.add_argument(
+        "--block-ms", type=positive_float, default=50.0, help="synthesis block (default 50 ms)"
+    )
+    g.add_argument(
+        "--sources",
+        metavar="SOURCES.h5",
+        help="reuse sources from 'auralize detect' (heard with --heard detected, "
+        "which this implies)",
+    )
     add_heard_options(g)
-    g.add_argument("--json", action="store_true",
-                   help="print the playback report as JSON (alone on standard output; notes "
-                   "go to standard error)")  # fmt: skip
+    g.add_argument(
+        "--json",
+        action="store_true",
+        help="print the playback report as JSON (alone on standard output; notes "
+        "go to standard error)",
+    )
     p.set_defaults(func=cmd_play)

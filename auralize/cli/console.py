@@ -36,8 +36,14 @@ class _Handler(logging.StreamHandler):
         pass
 
 
-def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
-                  file: Any = None, line: str | None = None) -> None:  # fmt: skip
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: Any = None,
+    line: str | None = None,
+) -> None:
     logging.getLogger(LOGGER).warning("warning: %s: %s", category.__name__, message)
 
 
@@ -61,8 +67,13 @@ def setup_console(*, quiet: bool = False, verbose: int = 0) -> Callable[[], None
     from auralize.runtime import progress, vtklog
 
     log = logging.getLogger(LOGGER)
-    before = (list(log.handlers), log.level, log.propagate, warnings.showwarning,
-              progress.is_enabled())  # fmt: skip
+    before = (
+        list(log.handlers),
+        log.level,
+        log.propagate,
+        warnings.showwarning,
+        progress.is_enabled(),
+    )
 
     def restore() -> None:
         vtklog.disable()

@@ -38,8 +38,10 @@ def convert_sources(src: Path, out: Path) -> str:
 
     suffix = out.suffix.lower()
     if suffix not in SOURCES_SUFFIXES:
-        raise FormatError(f"{out}: sources convert to {', '.join(SOURCES_SUFFIXES)}, "
-                          f"not {suffix or '(no suffix)'!r}")  # fmt: skip
+        raise FormatError(
+            f"{out}: sources convert to {', '.join(SOURCES_SUFFIXES)}, "
+            f"not {suffix or '(no suffix)'!r}"
+        )
     series = load_sources_h5(src)
     if suffix == ".pvd":
         save_sources_pvd(series, out)
@@ -64,18 +66,27 @@ def cmd_convert(args: argparse.Namespace) -> int:
         what = convert_sources(Path(src).expanduser(), out)
     else:
         if out.suffix.lower() not in WRITE_SUFFIXES:
-            raise ParameterError(f"{out}: cannot write {out.suffix or '(no suffix)'!r}; volumes "
-                              f"convert to {', '.join(WRITE_SUFFIXES)}")  # fmt: skip
+            raise ParameterError(
+                f"{out}: cannot write {out.suffix or '(no suffix)'!r}; volumes "
+                f"convert to {', '.join(WRITE_SUFFIXES)}"
+            )
         from auralize.io.options import curvilinear_mode
 
         with curvilinear_mode("resample" if getattr(args, "resample", False) else "native"):
-            vol = load(src, size=args.size, steps=args.steps, seed=args.seed,
-                       fields=field_map(args.field), resolution=args.resolution,
-                       time_dim=args.time_dim, axis_scale=args.axis_scale, box=args.box)  # fmt: skip
+            vol = load(
+                src,
+                size=args.size,
+                steps=args.steps,
+                seed=args.seed,
+                fields=field_map(args.field),
+                resolution=args.resolution,
+                time_dim=args.time_dim,
+                axis_scale=args.axis_scale,
+                box=args.box,
+            )
         save_volume(vol, out, compression=args.compression)
         nx, ny, nz = vol.dims
-        what = (f"volume {nx}x{ny}x{nz} x {vol.n_steps} steps, fields "
-                f"{', '.join(vol.field_names)}")  # fmt: skip
+        what = f"volume {nx}x{ny}x{nz} x {vol.n_steps} steps, fields {', '.join(vol.field_names)}"
     print(f"wrote {out}: {what} ({time.perf_counter() - t:.1f} s)")
     return 0
 
@@ -90,8 +101,12 @@ def add_commands(sub: Any) -> None:
     )
     p.add_argument("input", metavar="IN", help="volume file, dataset:NAME, or sources .h5")
     p.add_argument("output", metavar="OUT", help="output: .h5/.hdf5, .pvd or .vtkhdf")
-    p.add_argument("--field", action="append", metavar="NAME=/DATASET",
-                   help="read a generic HDF5 file by naming datasets (repeatable)")  # fmt: skip
+    p.add_argument(
+        "--field",
+        action="append",
+        metavar="NAME=/DATASET",
+        help="read a generic HDF5 file by naming datasets (repeatable)",
+    )
     p.add_argument(
         "--resolution", type=int, help="points per axis when resampling non-uniform grids"
     )

@@ -11,8 +11,8 @@ in the README): 2 usage (a bad option or value), 3 data (an input file is
 missing, unreadable or malformed), 4 system (the output cannot be written,
 not enough memory, no device), 1 when the output was written but is silent,
 70 an internal error (a bug: ``AURALIZE_DEBUG=1`` shows the traceback), 130
-interrupted.  Output folders are never created: the folder of ``-o`` must
-exist.
+interrupted; ``auralize regress check`` exits 6 when a figure moved.  Output
+folders are never created: the folder of ``-o`` must exist.
 """
 
 from __future__ import annotations
@@ -68,6 +68,7 @@ EXIT_USAGE = 2
 EXIT_DATA = 3
 EXIT_SYSTEM = 4
 EXIT_SCRIPT = 5
+EXIT_REGRESSION = 6
 EXIT_INTERNAL = 70
 EXIT_INTERRUPTED = 130
 #: exit status -> meaning (the README's table)
@@ -78,6 +79,7 @@ EXIT_CODES = {
     EXIT_DATA: "data error: an input file is missing, unreadable or malformed",
     EXIT_SYSTEM: "system error: the output cannot be written, not enough memory, no device",
     EXIT_SCRIPT: "the script run by 'auralize script' raised an error (its traceback is shown)",
+    EXIT_REGRESSION: "'auralize regress check': a figure moved beyond its tolerance (each is named)",
     EXIT_INTERNAL: "internal error (a bug; AURALIZE_DEBUG=1 shows the traceback)",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
 }
@@ -192,34 +194,44 @@ def time_scale_arg(text: str) -> float | str:
 
 
 #: what ``--highpass`` means in ``render``, ``play`` and their Dask variant
-HIGHPASS_HELP = ("causal high-pass of the volume's sources, Hz (default 20; 0 keeps everything); "
-                 "--model/--scene sound models are heard as their model makes them (no "
-                 "high-pass: the same samples as the model's own command)")  # fmt: skip
+HIGHPASS_HELP = (
+    "causal high-pass of the volume's sources, Hz (default 20; 0 keeps everything); "
+    "--model/--scene sound models are heard as their model makes them (no "
+    "high-pass: the same samples as the model's own command)"
+)
 
 
 #: what ``--timbre`` means in ``render`` and ``play``
-TIMBRE_HELP = ("physical: the retarded-time pressure; extended: plus power-law noise above the "
-               "data's Nyquist (paper 001 §4); tonal: a carrier per source type; auto "
-               "(default): physical if most of it is above 20 Hz, else extended")  # fmt: skip
+TIMBRE_HELP = (
+    "physical: the retarded-time pressure; extended: plus power-law noise above the "
+    "data's Nyquist (paper 001 §4); tonal: a carrier per source type; auto "
+    "(default): physical if most of it is above 20 Hz, else extended"
+)
 
 
 #: what ``--heard`` means in ``render`` and ``play``
-HEARD_HELP = ("what is heard: field (default: the physical sound of the whole field, every valid "
-              "point, no threshold: Lighthill's stress and the continuity residual); detected "
-              "(paper 003: the detected sources); a list of types such as dipole,quadrupole "
-              "(the detected sources of those types, the others muted); field:quadrupole or "
-              "field:monopole (one term of the whole field)")  # fmt: skip
+HEARD_HELP = (
+    "what is heard: field (default: the physical sound of the whole field, every valid "
+    "point, no threshold: Lighthill's stress and the continuity residual); detected "
+    "(paper 003: the detected sources); a list of types such as dipole,quadrupole "
+    "(the detected sources of those types, the others muted); field:quadrupole or "
+    "field:monopole (one term of the whole field)"
+)
 
 
 def add_heard_options(p: Any) -> None:
     """``--heard`` and ``--orbit-face``: what a render of a volume hears, and how the
     default orbit's listener faces."""
     p.add_argument("--heard", default=None, metavar="WHAT", help=HEARD_HELP)
-    p.add_argument("--orbit-face", choices=ORBIT_FACES, default=DEFAULTS.orbit_face,
-                   help="the default orbit's listener (no --listener or --path): sweep "
-                        "(default: the head turns so the data pass around the listener, every "
-                        "speaker carries them), center (faces the data), forward (along the "
-                        "motion), fixed (faces +y)")  # fmt: skip
+    p.add_argument(
+        "--orbit-face",
+        choices=ORBIT_FACES,
+        default=DEFAULTS.orbit_face,
+        help="the default orbit's listener (no --listener or --path): sweep "
+        "(default: the head turns so the data pass around the listener, every "
+        "speaker carries them), center (faces the data), forward (along the "
+        "motion), fixed (faces +y)",
+    )
 
 
 def heard_arg(args: argparse.Namespace) -> str:
@@ -232,28 +244,99 @@ def heard_arg(args: argparse.Namespace) -> str:
 
 def add_render_options(p: argparse.ArgumentParser) -> None:
     """Synthesis options shared by ``render`` and its Dask variant."""
-    p.add_argument("--time-scale", type=time_scale_arg, default=DEFAULTS.time_scale,
-                   help="playback seconds per data second, or auto (default): the data's span "
-                        "plays in --duration")  # fmt: skip
+    p.add_argument(
+        "--time-scale",
+        type=time_scale_arg,
+        default=DEFAULTS.time_scale,
+        help="playback seconds per data second, or auto (default): the data's span "
+        "plays in --duration",
+    )
     p.add_argument("--interp", choices=["linear", "cubic"], default="cubic")
-    p.add_argument("--sources", metavar="SOURCES.h5",
-                   help="reuse sources from 'auralize detect' (heard with --heard detected, "
-                        "which this implies)")  # fmt: skip
+    p.add_argument(
+        "--sources",
+        metavar="SOURCES.h5",
+        help="reuse sources from 'auralize detect' (heard with --heard detected, "
+        "which this implies)",
+    )
     add_heard_options(p)
-    p.add_argument("--timbre", choices=TIMBRE_CHOICES, default=DEFAULTS.timbre,
-                   help=TIMBRE_HELP)  # fmt: skip
-    p.add_argument("--highpass", type=float, default=DEFAULTS.highpass_hz, metavar="HZ",
-                   help=HIGHPASS_HELP)  # fmt: skip
-    p.add_argument("--method", choices=("auto", "volume", "fwh"), default=DEFAULTS.method,
-                   help="how the volume is heard: volume (the sum of its sources, paper 003), "
-                        "fwh (the Ffowcs Williams-Hawkings integral on --surface: the sound "
-                        "waves a compressible simulation holds, in data time), auto (default: "
-                        "fwh when the data's pressure or density obeys the wave equation, else "
-                        "volume)")  # fmt: skip
-    p.add_argument("--surface", metavar="SPEC", default=None,
-                   help="the FW-H surface: box=x0;x1;y0;y1;z0;z1, sphere=cx;cy;cz;r or "
-                        "file=PATH (default: a box 10%% of the extent inside the data)")  # fmt: skip
+    p.add_argument("--timbre", choices=TIMBRE_CHOICES, default=DEFAULTS.timbre, help=TIMBRE_HELP)
+    p.add_argument(
+        "--highpass", type=float, default=DEFAULTS.highpass_hz, metavar="HZ", help=HIGHPASS_HELP
+    )
+    p.add_argument(
+        "--method",
+        choices=("auto", "volume", "fwh"),
+        default=DEFAULTS.method,
+        help="how the volume is heard: volume (the sum of its sources, paper 003), "
+        "fwh (the Ffowcs Williams-Hawkings integral on --surface: the sound "
+        "waves a compressible simulation holds, in data time), auto (default: "
+        "fwh when the data's pressure or density obeys the wave equation, else "
+        "volume)",
+    )
+    p.add_argument(
+        "--surface",
+        metavar="SPEC",
+        default=None,
+        help="the FW-H surface: box=x0;x1;y0;y1;z0;z1, sphere=cx;cy;cz;r or "
+        "file=PATH (default: a box 10%% of the extent inside the data)",
+    )
     p.add_argument("--json", action="store_true", help="print the render report as JSON")
+
+
+def _air_arg(text: str) -> Any:
+    from auralize.emitters.outdoor import Air
+
+    try:
+        return Air.parse(text)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _ground_arg(text: str) -> Any:
+    from auralize.emitters.outdoor import Ground
+
+    try:
+        return Ground.parse(text)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_outdoor_options(p: argparse.ArgumentParser) -> None:
+    """``--air T[,RH[,P]]`` and ``--ground H[,Q]``: outdoor propagation of every part."""
+    g = p.add_argument_group("outdoors (off by default)")
+    g.add_argument(
+        "--air",
+        type=_air_arg,
+        default=None,
+        metavar="T[,RH[,P]]",
+        help="air absorption after ISO 9613-1 along every source-listener path: "
+        "temperature °C, relative humidity %% (default 70), pressure kPa "
+        "(default 101.325), e.g. --air 20,70",
+    )
+    g.add_argument(
+        "--ground",
+        type=_ground_arg,
+        default=None,
+        metavar="H[,Q]",
+        help="a flat ground at z = H m with reflection factor Q (-1..1, default 1: "
+        "rigid): every source heard with its image, e.g. --ground 0,0.8 "
+        "(a negative height: --ground=-2,0.9)",
+    )
+
+
+def _print_outdoor(meta: dict[str, Any]) -> None:
+    """The outdoor line of a render report (nothing when outdoor propagation is off)."""
+    od = meta.get("outdoor")
+    if od:
+        print(od["text"])
+        for note in od.get("notes", []):
+            print(f"note: {note}")
+
+
+def outdoor_args(args: argparse.Namespace) -> dict[str, Any]:
+    """``air``/``ground`` keywords of the render from ``--air``/``--ground`` (none when off)."""
+    air, ground = getattr(args, "air", None), getattr(args, "ground", None)
+    return {} if air is None and ground is None else {"air": air, "ground": ground}
 
 
 def load_volume(args: argparse.Namespace) -> Any:
@@ -261,10 +344,18 @@ def load_volume(args: argparse.Namespace) -> Any:
     from auralize.pipeline import load
 
     with curvilinear_mode("resample" if getattr(args, "resample", False) else "native"):
-        vol = load(args.volume, size=args.size, steps=args.steps, seed=args.seed,
-                   fields=_field_map(args.field), resolution=args.resolution,
-                   nan=getattr(args, "nan", "mask"), time_dim=getattr(args, "time_dim", None),
-                   axis_scale=getattr(args, "axis_scale", None), box=getattr(args, "box", None))  # fmt: skip
+        vol = load(
+            args.volume,
+            size=args.size,
+            steps=args.steps,
+            seed=args.seed,
+            fields=_field_map(args.field),
+            resolution=args.resolution,
+            nan=getattr(args, "nan", "mask"),
+            time_dim=getattr(args, "time_dim", None),
+            axis_scale=getattr(args, "axis_scale", None),
+            box=getattr(args, "box", None),
+        )
     command = str(getattr(args, "command", "") or "")
     # Dask spreads the steps over workers: only one step must fit in this process
     nbytes = check_volume_memory(vol, data=not command.startswith("scale-"))
@@ -287,11 +378,14 @@ def check_volume_memory(vol: Any, *, data: bool = True) -> float:
 
     comps = sum(3 if vol.is_vector(n) else 1 for n in vol.field_names)
     return require_volume(
-        vol.dims, vol.n_steps, comps, str(vol.source),
+        vol.dims,
+        vol.n_steps,
+        comps,
+        str(vol.source),
         hint="resample it smaller (--resolution N), read fewer fields or steps, or use "
-             "'auralize scale-detect'",
+        "'auralize scale-detect'",
         data=data,
-    )  # fmt: skip
+    )
 
 
 def check_render_memory(args: argparse.Namespace, duration_s: float, channels: int) -> None:
@@ -314,8 +408,13 @@ def check_render_memory(args: argparse.Namespace, duration_s: float, channels: i
 def thresholds_from_args(args: argparse.Namespace) -> Any:
     from auralize.sources.detection import Thresholds
 
-    return Thresholds(args.threshold_monopole, args.threshold_dipole, args.threshold_quadrupole,
-                      zero_fraction=args.zero_fraction, floor=getattr(args, "floor", 3.0))  # fmt: skip
+    return Thresholds(
+        args.threshold_monopole,
+        args.threshold_dipole,
+        args.threshold_quadrupole,
+        zero_fraction=args.zero_fraction,
+        floor=getattr(args, "floor", 3.0),
+    )
 
 
 def mapping_fields(args: argparse.Namespace) -> dict[str, Any]:
@@ -368,8 +467,17 @@ def cmd_info(args: argparse.Namespace) -> int:
     d["role_reasons"] = {r: role_reason(vol, r, f) for r, f in d["roles"].items()}
     d["mapping"] = auto_mapping(vol)
     d["method"] = _render_method(vol)
-    for key in ("reader", "time_units", "time_dim", "grid_units", "axis_units", "projection",
-                "mesh", "resampling", "index_block"):  # fmt: skip
+    for key in (
+        "reader",
+        "time_units",
+        "time_dim",
+        "grid_units",
+        "axis_units",
+        "projection",
+        "mesh",
+        "resampling",
+        "index_block",
+    ):
         if key in vol.attrs:
             d[key] = vol.attrs[key]
     if args.json:
@@ -383,19 +491,25 @@ def cmd_info(args: argparse.Namespace) -> int:
     b = vol.bounds
     if vol.coords is not None:
         edges = d["edge_lengths"]
-        print(f"  grid     curvilinear, native: {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} "
-              f"points (i, j, k), edges {edges[0]:.3g} .. {edges[1]:.3g} m, extent "
-              f"x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m "
-              f"(--resample: onto a uniform grid)")  # fmt: skip
+        print(
+            f"  grid     curvilinear, native: {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} "
+            f"points (i, j, k), edges {edges[0]:.3g} .. {edges[1]:.3g} m, extent "
+            f"x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m "
+            f"(--resample: onto a uniform grid)"
+        )
         blk = vol.attrs.get("index_block")
         if isinstance(blk, dict):
             n = blk["of"]
-            print(f"  box      index block i {blk['i'][0]}..{blk['i'][1]}, j {blk['j'][0]}.."
-                  f"{blk['j'][1]}, k {blk['k'][0]}..{blk['k'][1]} of {n[0]} x {n[1]} x {n[2]} "
-                  f"points: the smallest whose cells cover --box")  # fmt: skip
+            print(
+                f"  box      index block i {blk['i'][0]}..{blk['i'][1]}, j {blk['j'][0]}.."
+                f"{blk['j'][1]}, k {blk['k'][0]}..{blk['k'][1]} of {n[0]} x {n[1]} x {n[2]} "
+                f"points: the smallest whose cells cover --box"
+            )
     else:
-        print(f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "
-              f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m")  # fmt: skip
+        print(
+            f"  grid     {vol.dims[0]} x {vol.dims[1]} x {vol.dims[2]} points, spacing "
+            f"{', '.join(f'{s:g}' for s in vol.spacing)} m, origin {', '.join(f'{o:g}' for o in vol.origin)} m"
+        )
     print(f"  bounds   x[{b[0]:g}, {b[1]:g}] y[{b[2]:g}, {b[3]:g}] z[{b[4]:g}, {b[5]:g}] m")
     axis_units = vol.attrs.get("axis_units")
     if isinstance(axis_units, dict) and axis_units:
@@ -404,8 +518,14 @@ def cmd_info(args: argparse.Namespace) -> int:
     tnote = "" if vol.physical_times else " (no physical times: frames at 30 Hz)"
     print(f"  times    {vol.n_steps} steps, {vol.times[0]:g} .. {vol.times[-1]:g} s{tnote}")
     shown = ", ".join(f"{t:g}" for t in vol.times[:8]) + (" ..." if vol.n_steps > 8 else "")
-    print(f"           t = {shown} s"
-          + (f" (the file's time units: {vol.attrs['time_units']})" if "time_units" in vol.attrs else ""))  # fmt: skip
+    print(
+        f"           t = {shown} s"
+        + (
+            f" (the file's time units: {vol.attrs['time_units']})"
+            if "time_units" in vol.attrs
+            else ""
+        )
+    )
     for name, info in d["field_info"].items():
         unit = f", {info['units']}" if info["units"] else ""
         print(f"  field    {name} ({info['kind']}, {info['centring']} data{unit})")
@@ -445,9 +565,11 @@ def cmd_dataset(args: argparse.Namespace) -> int:
     vol = load(f"dataset:{args.name}", size=args.size, steps=args.steps, seed=args.seed)
     t = time.perf_counter()
     save_volume(vol, args.output)
-    print(f"wrote {args.output}: {args.name}, {vol.dims[0]}x{vol.dims[1]}x{vol.dims[2]} x "
-          f"{vol.n_steps} steps, fields {', '.join(vol.field_names)} "
-          f"({time.perf_counter() - t:.1f} s)")  # fmt: skip
+    print(
+        f"wrote {args.output}: {args.name}, {vol.dims[0]}x{vol.dims[1]}x{vol.dims[2]} x "
+        f"{vol.n_steps} steps, fields {', '.join(vol.field_names)} "
+        f"({time.perf_counter() - t:.1f} s)"
+    )
     return 0
 
 
@@ -461,8 +583,13 @@ def cmd_detect(args: argparse.Namespace) -> int:
         raise ParameterError(f"{out}: sources output must end in .h5/.hdf5, .pvd or .vtkhdf")
     vol, tally = tally_nonfinite(load_volume(args))
     t = time.perf_counter()
-    series = detect_sources(vol, mapping=args.mapping, thresholds=thresholds_from_args(args),
-                            progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
+    series = detect_sources(
+        vol,
+        mapping=args.mapping,
+        thresholds=thresholds_from_args(args),
+        progress_bar=progress_wanted(),
+        **mapping_fields(args),
+    )
     elapsed = time.perf_counter() - t
     series.meta["masked_fraction"] = tally.fraction
     _report_unavailable("detect", series)
@@ -476,40 +603,61 @@ def cmd_detect(args: argparse.Namespace) -> int:
         save_sources_h5(series, out)
     counts = series.counts()
     if args.json:
-        print(json.dumps({
-            "output": str(out), "thresholds": series.thresholds.tolist(),
-            "mapping": series.meta.get("mapping"), "fraction": series.meta.get("fraction"),
-            "valid_ratio": series.meta.get("valid_ratio"),
-            "masked_fraction": series.meta.get("masked_fraction"),
-            "unavailable": series.meta.get("unavailable", {}),
-            "steps": [{"step": n, "time": float(series.times[n]), **c} for n, c in enumerate(counts)],
-            "seconds": elapsed,
-        }, indent=2))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "output": str(out),
+                    "thresholds": series.thresholds.tolist(),
+                    "mapping": series.meta.get("mapping"),
+                    "fraction": series.meta.get("fraction"),
+                    "valid_ratio": series.meta.get("valid_ratio"),
+                    "masked_fraction": series.meta.get("masked_fraction"),
+                    "unavailable": series.meta.get("unavailable", {}),
+                    "steps": [
+                        {"step": n, "time": float(series.times[n]), **c}
+                        for n, c in enumerate(counts)
+                    ],
+                    "seconds": elapsed,
+                },
+                indent=2,
+            )
+        )
     else:
         tot = {k: sum(c[k] for c in counts) for k in ("monopole", "dipole", "quadrupole")}
-        print(f"wrote {out}: {series.n_steps} steps in {elapsed:.2f} s; source points over all "
-              f"steps: {tot['monopole']} monopole, {tot['dipole']} dipole, {tot['quadrupole']} "
-              f"quadrupole (thresholds {', '.join(f'{x:.4g}' for x in series.thresholds)}); "
-              f"valid points {100.0 * vol.valid_ratio:.1f} %, masked (NaN/Inf) "
-              f"{100.0 * tally.fraction:.2f} %")  # fmt: skip
+        print(
+            f"wrote {out}: {series.n_steps} steps in {elapsed:.2f} s; source points over all "
+            f"steps: {tot['monopole']} monopole, {tot['dipole']} dipole, {tot['quadrupole']} "
+            f"quadrupole (thresholds {', '.join(f'{x:.4g}' for x in series.thresholds)}); "
+            f"valid points {100.0 * vol.valid_ratio:.1f} %, masked (NaN/Inf) "
+            f"{100.0 * tally.fraction:.2f} %"
+        )
         frac = series.meta.get("fraction") or {}
         if frac:
-            print("share of the valid points classified: " + ", ".join(
-                f"{frac[k]:.2%} {k}" for k in ("monopole", "dipole", "quadrupole")))  # fmt: skip
+            print(
+                "share of the valid points classified: "
+                + ", ".join(f"{frac[k]:.2%} {k}" for k in ("monopole", "dipole", "quadrupole"))
+            )
     return 0
 
 
 def add_scene_options(p: argparse.ArgumentParser) -> None:
     """``--model NAME:FILE[:key=value,...]`` (repeatable) and ``--scene JSON``."""
     g = p.add_argument_group("scene (several sound models along one listener path)")
-    g.add_argument("--model", action="append", metavar="NAME:FILE[:key=value,...]",
-                   help="add a sound model's sound (repeatable): NAME a registered model "
-                        "('auralize plugins'), FILE its input (file or dataset:NAME), then "
-                        "optional parameters, e.g. fire:dataset:fire:extend=none")  # fmt: skip
-    g.add_argument("--scene", metavar="SCENE.json",
-                   help="a scene file: listener, layout and a list of {model, input, params} "
-                        "(options given on the command line win), or a saved session (its "
-                        "data, audible overlays and models along its path)")  # fmt: skip
+    g.add_argument(
+        "--model",
+        action="append",
+        metavar="NAME:FILE[:key=value,...]",
+        help="add a sound model's sound (repeatable): NAME a registered model "
+        "('auralize plugins'), FILE its input (file or dataset:NAME), then "
+        "optional parameters, e.g. fire:dataset:fire:extend=none",
+    )
+    g.add_argument(
+        "--scene",
+        metavar="SCENE.json",
+        help="a scene file: listener, layout and a list of {model, input, params} "
+        "(options given on the command line win), or a saved session (its "
+        "data, audible overlays and models along its path)",
+    )
 
 
 def scene_setup(args: argparse.Namespace, parser_defaults: dict[str, Any]) -> tuple[Any, Any, Any]:
@@ -552,8 +700,9 @@ def scene_duration(args: argparse.Namespace, sound: Any, path: Any, own_path: bo
     return scene_length(sound, path)
 
 
-def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
-                    command: str = "render") -> tuple[Any, Any, float, list[str]]:  # fmt: skip
+def scene_from_args(
+    args: argparse.Namespace, parser_defaults: dict[str, Any], command: str = "render"
+) -> tuple[Any, Any, float, list[str]]:
     """The scene of ``--model``/``--scene`` (plus the field of a positional volume).
 
     Returns ``(sound, path, duration, notes)``: every model's
@@ -584,24 +733,39 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
             from auralize.sources.sources_file import load_sources_for
 
             series = load_sources_for(args.sources, vol)
-        hs, plan = plan_heard(vol, path=path, listener=listener, duration=args.duration,
-                              time_scale=args.time_scale, clip=False,
-                              orbit_face=getattr(args, "orbit_face", DEFAULTS.orbit_face),
-                              heard=heard_arg(args), series=series, mapping=args.mapping,
-                              thresholds=thresholds_from_args(args),
-                              progress_bar=progress_wanted(), **mapping_fields(args))  # fmt: skip
+        hs, plan = plan_heard(
+            vol,
+            path=path,
+            listener=listener,
+            duration=args.duration,
+            time_scale=args.time_scale,
+            clip=False,
+            orbit_face=getattr(args, "orbit_face", DEFAULTS.orbit_face),
+            heard=heard_arg(args),
+            series=series,
+            mapping=args.mapping,
+            thresholds=thresholds_from_args(args),
+            progress_bar=progress_wanted(),
+            **mapping_fields(args),
+        )
         path = plan.path
         notes += plan.notes + [plan.mapping_text + (" (auto)" if plan.auto else "")]
         sound = sound + FieldAuralization().synthesize(
-            (vol, hs), time_scale=plan.time_scale, lead=plan.lead, interp=args.interp,
-            timbre=getattr(args, "timbre", DEFAULTS.timbre))  # fmt: skip
+            (vol, hs),
+            time_scale=plan.time_scale,
+            lead=plan.lead,
+            interp=args.interp,
+            timbre=getattr(args, "timbre", DEFAULTS.timbre),
+        )
         _report_unavailable(command, hs.meta)
     elif args.sources:
         raise ParameterError("--sources needs the volume they were detected in (PATH)")
     else:
         if path is None and listener is None:
-            raise ParameterError("a scene without a volume needs a listener: --path CSV, "
-                                 "--listener X,Y,Z or 'listener' in the scene file")  # fmt: skip
+            raise ParameterError(
+                "a scene without a volume needs a listener: --path CSV, "
+                "--listener X,Y,Z or 'listener' in the scene file"
+            )
         if path is None:
             from auralize.listener import ListenerPath
 
@@ -610,8 +774,10 @@ def scene_from_args(args: argparse.Namespace, parser_defaults: dict[str, Any],
     duration = scene_duration(args, sound, path, own_path)
     if args.duration is None and not own_path:
         check_render_memory(args, duration, n_channels)
-        notes.append(f"scene length {duration:.4g} s: until every part has been heard "
-                     f"(give --duration to choose)")  # fmt: skip
+        notes.append(
+            f"scene length {duration:.4g} s: until every part has been heard "
+            f"(give --duration to choose)"
+        )
     return sound, path, duration, notes
 
 
@@ -625,25 +791,46 @@ def cmd_render_scene(args: argparse.Namespace, parser_defaults: dict[str, Any]) 
     t = time.perf_counter()
     sound, path, duration, notes = scene_from_args(args, parser_defaults)
     lay = get_layout(args.layout)
-    out = render(sound, path, rate=args.rate, layout=lay, duration=duration,
-                 highpass_hz=args.highpass)  # fmt: skip
-    out.meta.update({"seconds": time.perf_counter() - t, "duration_s": duration,
-                     "notes": notes})  # fmt: skip
-    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format)  # fmt: skip
+    out = render(
+        sound,
+        path,
+        rate=args.rate,
+        layout=lay,
+        duration=duration,
+        highpass_hz=args.highpass,
+        **outdoor_args(args),
+    )
+    out.meta.update({"seconds": time.perf_counter() - t, "duration_s": duration, "notes": notes})
+    gain = save_rendered(
+        out, args.output, normalize=args.normalize, limit_pa=args.limit, subtype=args.format
+    )
     ld = loudness(out.audio, out.rate)
     kinds = ", ".join(f"{p['model']} ({p['kind']})" for p in out.meta["parts"])
-    report = (f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
-              f"{out.rate} Hz; scene of {len(out.meta['parts'])} part(s): {kinds}; peak "
-              f"{ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa (gain {gain:.4g})")  # fmt: skip
+    report = (
+        f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
+        f"{out.rate} Hz; scene of {len(out.meta['parts'])} part(s): {kinds}; peak "
+        f"{ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa (gain {gain:.4g})"
+    )
     if args.json:
-        print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
-                          "loudness": ld, "report": report}, indent=2, default=str))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "output": str(args.output),
+                    **out.meta,
+                    "gain": gain,
+                    "loudness": ld,
+                    "report": report,
+                },
+                indent=2,
+                default=str,
+            )
+        )
         return 0
     for note in notes:
         print(note)
     for part in out.meta["parts"]:
         print(f"  {part['model']:10s} {part['kind']:14s} peak {part['peak_pa']:.4g} Pa")
+    _print_outdoor(out.meta)
     print(report)
     return 0
 
@@ -655,8 +842,9 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.model or args.scene:
         return cmd_render_scene(args, {"layout": "mono", "rate": DEFAULT_RATE})
     if args.volume is None:
-        raise ParameterError("give a volume PATH, or sound models with --model NAME:FILE or "
-                             "--scene SCENE.json")  # fmt: skip
+        raise ParameterError(
+            "give a volume PATH, or sound models with --model NAME:FILE or --scene SCENE.json"
+        )
 
     path = None
     if args.path:
@@ -672,26 +860,52 @@ def cmd_render(args: argparse.Namespace) -> int:
 
         series = load_sources_for(args.sources, vol)
     t = time.perf_counter()
-    out, series = auralize(vol, path, mapping=args.mapping, thresholds=thresholds_from_args(args),
-                           rate=args.rate, time_scale=args.time_scale, interp=args.interp,
-                           layout=args.layout, duration=args.duration, series=series,
-                           progress_bar=progress_wanted(), timbre=args.timbre,
-                           highpass_hz=args.highpass, seed=args.seed, listener=args.listener,
-                           heard=heard_arg(args), orbit_face=args.orbit_face,
-                           method=args.method, surface=args.surface,
-                           **mapping_fields(args))  # fmt: skip
+    out, series = auralize(
+        vol,
+        path,
+        mapping=args.mapping,
+        thresholds=thresholds_from_args(args),
+        rate=args.rate,
+        time_scale=args.time_scale,
+        interp=args.interp,
+        layout=args.layout,
+        duration=args.duration,
+        series=series,
+        progress_bar=progress_wanted(),
+        timbre=args.timbre,
+        highpass_hz=args.highpass,
+        seed=args.seed,
+        listener=args.listener,
+        heard=heard_arg(args),
+        orbit_face=args.orbit_face,
+        method=args.method,
+        surface=args.surface,
+        **outdoor_args(args),
+        **mapping_fields(args),
+    )
     elapsed = time.perf_counter() - t
     out.meta["seconds"] = elapsed
-    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format)  # fmt: skip
+    gain = save_rendered(
+        out, args.output, normalize=args.normalize, limit_pa=args.limit, subtype=args.format
+    )
     _report_unavailable("render", out.meta)
     report = report_line(out, args.output, gain=gain)
     if args.json:
         from auralize.emitters.timbre import loudness
 
-        print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
-                          "loudness": loudness(out.audio, out.rate), "report": report},
-                         indent=2, default=str))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "output": str(args.output),
+                    **out.meta,
+                    "gain": gain,
+                    "loudness": loudness(out.audio, out.rate),
+                    "report": report,
+                },
+                indent=2,
+                default=str,
+            )
+        )
         return 0
     for note in out.meta.get("notes", []):
         print(note)
@@ -699,6 +913,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     print(out.meta["time_mapping"] + (" (auto)" if out.meta.get("time_scale_auto") else ""))
     for note in out.meta.get("timbre_notes", []):
         print(note)
+    _print_outdoor(out.meta)
     print(report)
     return 0
 
@@ -723,8 +938,10 @@ def cmd_path(args: argparse.Namespace) -> int:
 
     def need(name: str, value: Any) -> Any:
         if value is None and bounds is None:
-            raise ParameterError(f"path {args.kind}: give --{name}, or a volume (--volume FILE) "
-                                 f"to place the path around the data")  # fmt: skip
+            raise ParameterError(
+                f"path {args.kind}: give --{name}, or a volume (--volume FILE) "
+                f"to place the path around the data"
+            )
         return value
 
     # a path around the data moves at most MAX_ORBIT_MACH × c0 in data time when
@@ -739,34 +956,60 @@ def cmd_path(args: argparse.Namespace) -> int:
         if need("start", args.start) is None or need("end", args.end) is None:
             p = line_past(bounds, duration=duration, length=reach)  # type: ignore[arg-type]
         else:
-            p = ListenerPath.line(args.start, args.end, duration=duration, n=args.captures,
-                                  face=args.face)  # fmt: skip
+            p = ListenerPath.line(
+                args.start, args.end, duration=duration, n=args.captures, face=args.face
+            )
     else:
         if need("center", args.center) is None or need("radius", args.radius) is None:
-            p = orbit_around(bounds, duration=duration, turns=args.turns or 1.0,  # type: ignore[arg-type]
-                             radius=args.radius, rate_hz=args.rate_hz)  # fmt: skip
+            p = orbit_around(
+                bounds,  # type: ignore[arg-type]
+                duration=duration,
+                turns=args.turns or 1.0,
+                radius=args.radius,
+                rate_hz=args.rate_hz,
+            )
             travel = args.turns or 1.0
             length = float(np.sum(np.linalg.norm(np.diff(p.positions, axis=0), axis=1)))
             if args.turns is None and length > reach:
                 travel = reach / length
-                p = orbit_around(bounds, duration=duration, turns=travel,  # type: ignore[arg-type]
-                                 radius=args.radius, rate_hz=args.rate_hz)  # fmt: skip
+                p = orbit_around(
+                    bounds,  # type: ignore[arg-type]
+                    duration=duration,
+                    turns=travel,
+                    radius=args.radius,
+                    rate_hz=args.rate_hz,
+                )
             if args.center is not None:
-                p = ListenerPath.orbit(args.center, radius=float(np.linalg.norm(
-                    p.positions[0] - np.asarray(bounds).reshape(3, 2).mean(axis=1))),
-                    duration=duration, turns=travel, height=args.height,
-                    rate_hz=args.rate_hz)  # fmt: skip
+                p = ListenerPath.orbit(
+                    args.center,
+                    radius=float(
+                        np.linalg.norm(
+                            p.positions[0] - np.asarray(bounds).reshape(3, 2).mean(axis=1)
+                        )
+                    ),
+                    duration=duration,
+                    turns=travel,
+                    height=args.height,
+                    rate_hz=args.rate_hz,
+                )
             elif args.height:
                 p.positions[:, 2] += args.height
         else:
-            p = ListenerPath.orbit(args.center, radius=args.radius, duration=duration,
-                                   turns=args.turns or 1.0, height=args.height,
-                                   rate_hz=args.rate_hz)  # fmt: skip
+            p = ListenerPath.orbit(
+                args.center,
+                radius=args.radius,
+                duration=duration,
+                turns=args.turns or 1.0,
+                height=args.height,
+                rate_hz=args.rate_hz,
+            )
     p.to_csv(args.output)
     from auralize.listener import describe_path
 
-    print(f"wrote {args.output}: {args.kind}, {p.n_captures} captures over {p.duration:g} s, "
-          f"{describe_path(p)}")  # fmt: skip
+    print(
+        f"wrote {args.output}: {args.kind}, {p.n_captures} captures over {p.duration:g} s, "
+        f"{describe_path(p)}"
+    )
     return 0
 
 
@@ -815,23 +1058,38 @@ def cmd_demo(args: argparse.Namespace) -> int:
     path.to_csv(out_dir / "explosion_path.csv")
     print("detecting sources (drawn) and rendering the whole field (heard) ...", flush=True)
     series = detect_sources(vol, progress_bar=progress_wanted())
-    rendered, _ = auralize(vol, path, layout=args.layout, time_scale=args.time_scale,
-                           progress_bar=progress_wanted(), timbre="auto")  # fmt: skip
+    rendered, _ = auralize(
+        vol,
+        path,
+        layout=args.layout,
+        time_scale=args.time_scale,
+        progress_bar=progress_wanted(),
+        timbre="auto",
+    )
     for note in rendered.meta.get("timbre_notes", []):
         print(note)
     wav = out_dir / f"explosion_{args.layout}.wav"
     save_rendered(rendered, wav)
-    png = screenshot(vol, out_dir / "explosion.png", series=series, path=path,
-                     step=vol.n_steps // 3)  # fmt: skip
-    spec = save_spectrogram(rendered.audio, rendered.rate, out_dir / "explosion_spectrogram.png",
-                            channel_names=rendered.layout.channel_names)  # fmt: skip
+    png = screenshot(
+        vol, out_dir / "explosion.png", series=series, path=path, step=vol.n_steps // 3
+    )
+    spec = save_spectrogram(
+        rendered.audio,
+        rendered.rate,
+        out_dir / "explosion_spectrogram.png",
+        channel_names=rendered.layout.channel_names,
+    )
     counts = series.counts()
     tot = {k: sum(c[k] for c in counts) for k in ("monopole", "dipole", "quadrupole")}
-    print(f"wrote {wav} ({rendered.layout.n_channels} channels, {rendered.duration:.2f} s), "
-          f"{png}, {spec}")  # fmt: skip
-    print(f"drawn: sources over {vol.n_steps} steps: {tot['monopole']} monopole, {tot['dipole']} "
-          f"dipole, {tot['quadrupole']} quadrupole; heard: {rendered.meta['heard_text']}; "
-          f"{time.perf_counter() - t:.1f} s in all")  # fmt: skip
+    print(
+        f"wrote {wav} ({rendered.layout.n_channels} channels, {rendered.duration:.2f} s), "
+        f"{png}, {spec}"
+    )
+    print(
+        f"drawn: sources over {vol.n_steps} steps: {tot['monopole']} monopole, {tot['dipole']} "
+        f"dipole, {tot['quadrupole']} quadrupole; heard: {rendered.meta['heard_text']}; "
+        f"{time.perf_counter() - t:.1f} s in all"
+    )
     return 0
 
 
@@ -854,12 +1112,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     from auralize.datasets.shipped import describe as describe_datasets
 
-    p = sub.add_parser("dataset", help="write a dataset that comes with auralize to a file "
-                       "(.h5, .pvd, ...)",
-                       description="Write a generated dataset, or a shipped real one, to a "
-                       "file. Every command also opens them as dataset:NAME.")  # fmt: skip
-    p.add_argument("name", help=f"{describe_datasets()}; plugins add generated ones "
-                   "(auralize plugins)")  # fmt: skip
+    p = sub.add_parser(
+        "dataset",
+        help="write a dataset that comes with auralize to a file (.h5, .pvd, ...)",
+        description="Write a generated dataset, or a shipped real one, to a "
+        "file. Every command also opens them as dataset:NAME.",
+    )
+    p.add_argument(
+        "name", help=f"{describe_datasets()}; plugins add generated ones (auralize plugins)"
+    )
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--size", type=positive_int)
     p.add_argument("--steps", type=positive_int)
@@ -869,8 +1130,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("detect", help="detect sources; write them to .h5, ParaView .pvd or .vtkhdf")
     add_volume_options(p)
     add_detect_options(p)
-    p.add_argument("-o", "--output", required=True,
-                   help="sources file: .h5/.hdf5, .pvd (ParaView) or .vtkhdf (ParaView, VTK)")  # fmt: skip
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="sources file: .h5/.hdf5, .pvd (ParaView) or .vtkhdf (ParaView, VTK)",
+    )
     p.add_argument("--json", action="store_true", help="print per-step counts by type as JSON")
     p.set_defaults(func=cmd_detect)
 
@@ -880,30 +1145,42 @@ def build_parser() -> argparse.ArgumentParser:
     add_output_options(p, listener_required=False)
     add_render_options(p)
     add_scene_options(p)
+    add_outdoor_options(p)
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("path", help="build a listener path CSV")
     psub = p.add_subparsers(dest="kind", required=True)
     q = psub.add_parser("point", help="static listener")
     q.add_argument("--at", type=_vec3, required=True, metavar="X,Y,Z")
-    q = psub.add_parser("line", help="straight line at constant speed (default: a fly-by past "
-                                     "the data)")  # fmt: skip
+    q = psub.add_parser(
+        "line", help="straight line at constant speed (default: a fly-by past the data)"
+    )
     q.add_argument("--start", type=_vec3, metavar="X,Y,Z")
     q.add_argument("--end", type=_vec3, metavar="X,Y,Z")
     q.add_argument("--captures", type=_captures, default=2, help="captures (>= 2)")
     q.add_argument("--face", choices=["forward", "fixed"], default="forward")
-    q = psub.add_parser("orbit", help="horizontal circle around a centre, facing it (default: "
-                                      "around the data, two half-diagonals out)")  # fmt: skip
+    q = psub.add_parser(
+        "orbit",
+        help="horizontal circle around a centre, facing it (default: "
+        "around the data, two half-diagonals out)",
+    )
     q.add_argument("--center", type=_vec3, metavar="X,Y,Z")
     q.add_argument("--radius", type=positive_float)
-    q.add_argument("--turns", type=finite_float,
-                   help="default 1, or around a volume: at most what keeps the listener below "
-                        "0.1 c0 in data time at the automatic time scale")  # fmt: skip
+    q.add_argument(
+        "--turns",
+        type=finite_float,
+        help="default 1, or around a volume: at most what keeps the listener below "
+        "0.1 c0 in data time at the automatic time scale",
+    )
     q.add_argument("--height", type=finite_float, default=0.0)
     q.add_argument("--rate-hz", type=positive_float, default=10.0, help="captures per second")
     for q in psub.choices.values():
-        q.add_argument("volume_pos", nargs="?", metavar="VOLUME",
-                       help="place the path around this volume's bounds (file or dataset:NAME)")  # fmt: skip
+        q.add_argument(
+            "volume_pos",
+            nargs="?",
+            metavar="VOLUME",
+            help="place the path around this volume's bounds (file or dataset:NAME)",
+        )
         q.add_argument("--volume", metavar="FILE", help="same as the positional VOLUME")
         q.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
         q.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
@@ -921,14 +1198,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=positive_int, default=64)
     p.add_argument("--seed", type=seed_int, default=0)
     p.add_argument("--layout", default="ring8")
-    p.add_argument("--time-scale", type=positive_float, default=3.0,
-                   help="playback seconds per data second")  # fmt: skip
+    p.add_argument(
+        "--time-scale", type=positive_float, default=3.0, help="playback seconds per data second"
+    )
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("bench", help="timings side by side with the papers' tables")
     p.add_argument("--quick", action="store_true", help="small sizes only (seconds)")
-    p.add_argument("--sizes", type=_sizes,
-                   help="comma-separated grid sizes for detection (default 10..256)")  # fmt: skip
+    p.add_argument(
+        "--sizes", type=_sizes, help="comma-separated grid sizes for detection (default 10..256)"
+    )
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     p.add_argument(
         "--dask-full",
@@ -953,10 +1232,20 @@ def _add_verbosity_flags(parser: argparse.ArgumentParser, *, top: bool = True) -
     # below the top level the flags do not reset what an earlier position set
     kw: dict[str, Any] = {} if top else {"default": argparse.SUPPRESS}
     g = parser.add_argument_group("output") if top else parser
-    g.add_argument("-q", "--quiet", action="store_true",
-                   help="errors only: no warnings, notices or progress bars", **kw)  # fmt: skip
-    g.add_argument("-v", "--verbose", action="count",
-                   help="also debug messages", **({"default": 0} if top else kw))  # fmt: skip
+    g.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="errors only: no warnings, notices or progress bars",
+        **kw,
+    )
+    g.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        help="also debug messages",
+        **({"default": 0} if top else kw),
+    )
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for p in dict.fromkeys(action.choices.values()):
@@ -971,6 +1260,8 @@ CORE_COMMAND_MODULES = (
     "auralize.cli.warmup",
     "auralize.cli.convert",
     "auralize.cli.spectrum",
+    "auralize.cli.describe",
+    "auralize.cli.regress",
 )
 
 
@@ -1002,8 +1293,16 @@ def exit_code(exc: BaseException) -> int:
         return EXIT_USAGE
     if isinstance(exc, DataError | FormatError | FieldError | ListenerPathError | MissingFileError):
         return EXIT_DATA
-    if isinstance(exc, OutputError | ResourceError | DeviceError | MissingDependencyError
-                  | PluginError | OSError | MemoryError):  # fmt: skip
+    if isinstance(
+        exc,
+        OutputError
+        | ResourceError
+        | DeviceError
+        | MissingDependencyError
+        | PluginError
+        | OSError
+        | MemoryError,
+    ):
         return EXIT_SYSTEM
     if isinstance(exc, AuralizeError):
         return EXIT_USAGE
@@ -1052,8 +1351,19 @@ def error_message(
 
 
 #: the options whose values may name a command's input files
-INPUT_OPTIONS = ("volume", "volume_pos", "input", "sources", "path", "scene", "texture",
-                 "discharge", "layout", "hrtf", "file")  # fmt: skip
+INPUT_OPTIONS = (
+    "volume",
+    "volume_pos",
+    "input",
+    "sources",
+    "path",
+    "scene",
+    "texture",
+    "discharge",
+    "layout",
+    "hrtf",
+    "file",
+)
 
 
 def _inputs(args: argparse.Namespace) -> list[Path]:
@@ -1127,8 +1437,10 @@ def _check_outputs(args: argparse.Namespace) -> None:
         from auralize.spatial.sofa import read_sofa
 
         if not is_binaural(get_layout(getattr(args, "layout", "mono"))):
-            raise ParameterError(f"--hrtf {args.hrtf}: HRTFs apply to --layout binaural only, "
-                                 f"not {getattr(args, 'layout', 'mono')!r}")  # fmt: skip
+            raise ParameterError(
+                f"--hrtf {args.hrtf}: HRTFs apply to --layout binaural only, "
+                f"not {getattr(args, 'layout', 'mono')!r}"
+            )
         args.hrtf = read_sofa(args.hrtf)  # a bad file fails before any slow work
 
 

@@ -36,14 +36,20 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
     from auralize.cli.core import positive_float, positive_int
 
     g = p.add_argument_group("dask (out-of-core and distributed runs)")
-    g.add_argument("--scheduler", choices=["sync", "threads", "processes", "distributed"],
-                   help="run on Dask with this scheduler (distributed: a local cluster, or "
-                        "--address)")  # fmt: skip
-    g.add_argument("--address", metavar="tcp://HOST:PORT",
-                   help="an existing dask.distributed scheduler")  # fmt: skip
-    g.add_argument("--dashboard-address", metavar="HOST:PORT",
-                   help="where a local cluster's dashboard listens (default 127.0.0.1, a free "
-                        "port; give 0.0.0.0:8787 to reach it from other machines)")  # fmt: skip
+    g.add_argument(
+        "--scheduler",
+        choices=["sync", "threads", "processes", "distributed"],
+        help="run on Dask with this scheduler (distributed: a local cluster, or --address)",
+    )
+    g.add_argument(
+        "--address", metavar="tcp://HOST:PORT", help="an existing dask.distributed scheduler"
+    )
+    g.add_argument(
+        "--dashboard-address",
+        metavar="HOST:PORT",
+        help="where a local cluster's dashboard listens (default 127.0.0.1, a free "
+        "port; give 0.0.0.0:8787 to reach it from other machines)",
+    )
     g.add_argument(
         "--workers",
         type=positive_int,
@@ -85,17 +91,25 @@ def add_scheduler_options(p: argparse.ArgumentParser) -> None:
 
 
 def wants_dask(args: argparse.Namespace) -> bool:
-    return bool(getattr(args, "scheduler", None) or getattr(args, "address", None)
-                or getattr(args, "workers", None))  # fmt: skip
+    return bool(
+        getattr(args, "scheduler", None)
+        or getattr(args, "address", None)
+        or getattr(args, "workers", None)
+    )
 
 
 def _runner(args: argparse.Namespace) -> Any:
     from auralize.distributed import Runner
 
     sched = args.scheduler or ("distributed" if args.address or args.workers else "sync")
-    return Runner(sched, address=args.address, workers=args.workers, timeout=args.timeout,
-                  log=lambda msg: print(msg, flush=True),
-                  dashboard_address=args.dashboard_address)  # fmt: skip
+    return Runner(
+        sched,
+        address=args.address,
+        workers=args.workers,
+        timeout=args.timeout,
+        log=lambda msg: print(msg, flush=True),
+        dashboard_address=args.dashboard_address,
+    )
 
 
 def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any:
@@ -104,11 +118,16 @@ def _detect(args: argparse.Namespace, vol: Any, runner: Any, output: Any) -> Any
     from auralize.pipeline import resolve_mapping
 
     return detect_distributed(
-        vol, mapping=resolve_mapping(vol, args.mapping, **mapping_fields(args)),
-        thresholds=thresholds_from_args(args), output=output, runner=runner,
-        chunk_steps=args.chunk_steps, slab_planes=args.slab_planes,
-        task_memory=int(args.task_memory * (1 << 30)), restart=args.restart,
-    )  # fmt: skip
+        vol,
+        mapping=resolve_mapping(vol, args.mapping, **mapping_fields(args)),
+        thresholds=thresholds_from_args(args),
+        output=output,
+        runner=runner,
+        chunk_steps=args.chunk_steps,
+        slab_planes=args.slab_planes,
+        task_memory=int(args.task_memory * (1 << 30)),
+        restart=args.restart,
+    )
 
 
 def cmd_detect_dask(args: argparse.Namespace) -> int:
@@ -123,20 +142,33 @@ def cmd_detect_dask(args: argparse.Namespace) -> int:
     counts = series.counts()
     sc = series.meta["scale"]
     if args.json:
-        print(json.dumps({
-            "output": str(args.output), "thresholds": series.thresholds.tolist(),
-            "mapping": series.meta.get("mapping"), "scale": sc,
-            "steps": [{"step": n, "time": float(series.times[n]), **c} for n, c in enumerate(counts)],
-            "seconds": elapsed,
-        }, indent=2, default=str))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "output": str(args.output),
+                    "thresholds": series.thresholds.tolist(),
+                    "mapping": series.meta.get("mapping"),
+                    "scale": sc,
+                    "steps": [
+                        {"step": n, "time": float(series.times[n]), **c}
+                        for n, c in enumerate(counts)
+                    ],
+                    "seconds": elapsed,
+                },
+                indent=2,
+                default=str,
+            )
+        )
         return 0
     tot = {k: sum(c[k] for c in counts) for k in ("monopole", "dipole", "quadrupole")}
     peak = max(sc["peak_rss_per_process"], default=0) / 2**30
-    print(f"wrote {args.output}: {series.n_steps} steps ({len(sc['computed_steps'])} computed, "
-          f"{sc['resumed_steps']} resumed) in {elapsed:.2f} s on {sc['workers']} workers "
-          f"({sc['scheduler']}), {sc['tasks']} tasks, {len(sc['slabs'])} slabs; peak RSS of a "
-          f"worker {peak:.2f} GiB; source points: {tot['monopole']} monopole, {tot['dipole']} "
-          f"dipole, {tot['quadrupole']} quadrupole")  # fmt: skip
+    print(
+        f"wrote {args.output}: {series.n_steps} steps ({len(sc['computed_steps'])} computed, "
+        f"{sc['resumed_steps']} resumed) in {elapsed:.2f} s on {sc['workers']} workers "
+        f"({sc['scheduler']}), {sc['tasks']} tasks, {len(sc['slabs'])} slabs; peak RSS of a "
+        f"worker {peak:.2f} GiB; source points: {tot['monopole']} monopole, {tot['dipole']} "
+        f"dipole, {tot['quadrupole']} quadrupole"
+    )
     return 0
 
 
@@ -172,7 +204,7 @@ def _heard(args: argparse.Namespace, vol: Any, runner: Any, planner: Any) -> Any
 
 def cmd_render_dask(args: argparse.Namespace) -> int:
     """``auralize render`` with synthesis (and detection) spread over Dask workers."""
-    from auralize.cli.core import check_render_memory, load_volume
+    from auralize.cli.core import check_render_memory, load_volume, outdoor_args
     from auralize.emitters import FieldSources
     from auralize.emitters.synthesis import check_arrival
     from auralize.emitters.timbre import highpass
@@ -181,16 +213,20 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     from auralize.rendering import render
 
     if getattr(args, "method", "auto") == "fwh":
-        raise ParameterError("--method fwh runs on this machine: render without the Dask "
-                             "options (the Dask render sums the volume's sources)")  # fmt: skip
+        raise ParameterError(
+            "--method fwh runs on this machine: render without the Dask "
+            "options (the Dask render sums the volume's sources)"
+        )
     if getattr(args, "model", None) or getattr(args, "scene", None):
         return _render_scene_dask(args)
     if getattr(args, "volume", None) is None:
         raise ParameterError("the Dask render needs a volume PATH")
     timbre = getattr(args, "timbre", "physical")
     if timbre not in ("physical", "auto"):
-        raise ParameterError(f"--timbre {timbre}: the Dask render renders the physical pressure "
-                             f"only; render {timbre} without the Dask options")  # fmt: skip
+        raise ParameterError(
+            f"--timbre {timbre}: the Dask render renders the physical pressure "
+            f"only; render {timbre} without the Dask options"
+        )
     highpass(np.zeros((1, 0)), args.rate, getattr(args, "highpass", 0.0))  # validate early
     path = ListenerPath.from_csv(args.path) if args.path else None
     from auralize.pipeline import DEFAULT_DURATION
@@ -201,39 +237,63 @@ def cmd_render_dask(args: argparse.Namespace) -> int:
     vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
-        planner = Planner(vol, path=path, listener=args.listener, duration=args.duration,
-                          time_scale=args.time_scale,
-                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
+        planner = Planner(
+            vol,
+            path=path,
+            listener=args.listener,
+            duration=args.duration,
+            time_scale=args.time_scale,
+            face=getattr(args, "orbit_face", "sweep"),
+        )
         hs = _heard(args, vol, runner, planner)
         tracks = hs.tracks
         plan = planner.plan
-        check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration,
-                      lead=plan.lead)  # fmt: skip
+        check_arrival(
+            tracks, plan.path, time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead
+        )
         for note in plan.notes:
             print(note)
-        field = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead,
-                             interp=args.interp, bounds=vol.bounds)  # fmt: skip
-        out = render(field, plan.path, rate=args.rate, layout=args.layout, duration=plan.duration,
-                     highpass_hz=getattr(args, "highpass", 0.0), runner=runner,
-                     block_seconds=args.block_seconds)  # fmt: skip
+        field = FieldSources(
+            tracks,
+            time_scale=plan.time_scale,
+            lead=plan.lead,
+            interp=args.interp,
+            bounds=vol.bounds,
+        )
+        out = render(
+            field,
+            plan.path,
+            rate=args.rate,
+            layout=args.layout,
+            duration=plan.duration,
+            highpass_hz=getattr(args, "highpass", 0.0),
+            runner=runner,
+            block_seconds=args.block_seconds,
+            **outdoor_args(args),
+        )
     from auralize.emitters.timbre import AUDIBLE_SHARE
 
     share = out.meta["share_above_20hz_unfiltered"]
     print(plan.mapping_text + (" (auto)" if plan.auto else ""))
     if share < AUDIBLE_SHARE:
-        print(f"note: {100 * (1 - share):.0f} % of the physical sound lies below 20 Hz "
-              f"(inaudible); try a smaller --time-scale, or --timbre extended without the Dask "
-              f"options")  # fmt: skip
+        print(
+            f"note: {100 * (1 - share):.0f} % of the physical sound lies below 20 Hz "
+            f"(inaudible); try a smaller --time-scale, or --timbre extended without the Dask "
+            f"options"
+        )
     out.meta.update(plan.as_dict())
     elapsed = time.perf_counter() - t
     out.meta.update({"volume": vol.source, **hs.meta})
-    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format)  # fmt: skip
+    gain = save_rendered(
+        out, args.output, normalize=args.normalize, limit_pa=args.limit, subtype=args.format
+    )
     peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
-    print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
-          f"at {out.rate} Hz in {out.meta['tasks']} tasks ({out.meta['blocks']} blocks × "
-          f"{out.meta['groups']} source groups) on {out.meta['workers']} workers, "
-          f"peak {peak:.4g} Pa, gain {gain:.4g}; {elapsed:.2f} s")  # fmt: skip
+    print(
+        f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s "
+        f"at {out.rate} Hz in {out.meta['tasks']} tasks ({out.meta['blocks']} blocks × "
+        f"{out.meta['groups']} source groups) on {out.meta['workers']} workers, "
+        f"peak {peak:.4g} Pa, gain {gain:.4g}; {elapsed:.2f} s"
+    )
     return 0
 
 
@@ -251,6 +311,7 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
         check_render_memory,
         cmd_render_scene,
         load_volume,
+        outdoor_args,
         scene_duration,
         scene_setup,
     )
@@ -266,12 +327,16 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
 
     defaults = {"layout": "mono", "rate": DEFAULT_RATE}
     if getattr(args, "volume", None) is None:
-        print("note: the scene has no volume PATH, so nothing runs on Dask: its models render "
-              "on this machine")  # fmt: skip
+        print(
+            "note: the scene has no volume PATH, so nothing runs on Dask: its models render "
+            "on this machine"
+        )
         return cmd_render_scene(args, defaults)
     if args.timbre not in ("physical", "auto"):
-        raise ParameterError(f"--timbre {args.timbre}: the Dask render renders the physical "
-                             f"pressure only; render {args.timbre} without the Dask options")  # fmt: skip
+        raise ParameterError(
+            f"--timbre {args.timbre}: the Dask render renders the physical "
+            f"pressure only; render {args.timbre} without the Dask options"
+        )
     highpass(np.zeros((1, 0)), args.rate, args.highpass)  # validate early
     models, path, listener = scene_setup(args, defaults)
     own_path = path is not None
@@ -279,42 +344,86 @@ def _render_scene_dask(args: argparse.Namespace) -> int:
     vol = load_volume(args)
     t = time.perf_counter()
     with _runner(args) as runner:
-        planner = Planner(vol, path=path, listener=listener, duration=args.duration,
-                          time_scale=args.time_scale, clip=False,
-                          face=getattr(args, "orbit_face", "sweep"))  # fmt: skip
+        planner = Planner(
+            vol,
+            path=path,
+            listener=listener,
+            duration=args.duration,
+            time_scale=args.time_scale,
+            clip=False,
+            face=getattr(args, "orbit_face", "sweep"),
+        )
         hs = _heard(args, vol, runner, planner)
         tracks = hs.tracks
         plan = planner.plan
         sound = scene_sound(models, plan.path, args.duration, rate=args.rate)
-        mine = FieldSources(tracks, time_scale=plan.time_scale, lead=plan.lead,
-                            interp=args.interp, bounds=vol.bounds)  # fmt: skip
+        mine = FieldSources(
+            tracks,
+            time_scale=plan.time_scale,
+            lead=plan.lead,
+            interp=args.interp,
+            bounds=vol.bounds,
+        )
         duration = scene_duration(args, [mine, *parts_of(sound)], plan.path, own_path)
         check_render_memory(args, duration, lay.n_channels)
-        check_arrival(tracks, plan.path, time_scale=plan.time_scale, duration=duration,
-                      lead=plan.lead)  # fmt: skip
-        out = render(Sound([mine]) + sound, plan.path, rate=args.rate, layout=lay,
-                     duration=duration, highpass_hz=args.highpass, runner=runner,
-                     block_seconds=args.block_seconds)  # fmt: skip
+        check_arrival(
+            tracks, plan.path, time_scale=plan.time_scale, duration=duration, lead=plan.lead
+        )
+        out = render(
+            Sound([mine]) + sound,
+            plan.path,
+            rate=args.rate,
+            layout=lay,
+            duration=duration,
+            highpass_hz=args.highpass,
+            runner=runner,
+            block_seconds=args.block_seconds,
+            **outdoor_args(args),
+        )
     from auralize.emitters.timbre import AUDIBLE_SHARE
 
     if not args.json and out.meta["share_above_20hz_unfiltered"] < AUDIBLE_SHARE:
-        print("note: most of the volume's physical sound lies below 20 Hz (inaudible); try a "
-              "smaller --time-scale, or --timbre extended without the Dask options")  # fmt: skip
+        print(
+            "note: most of the volume's physical sound lies below 20 Hz (inaudible); try a "
+            "smaller --time-scale, or --timbre extended without the Dask options"
+        )
     dask_meta = {k: out.meta[k] for k in ("blocks", "groups", "tasks", "workers", "scheduler")}
-    out.meta.update({**plan.as_dict(), "timbre": "physical", "volume": vol.source, **hs.meta,
-                     "dask": dask_meta, "duration_s": duration,
-                     "seconds": time.perf_counter() - t})  # fmt: skip
-    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format)  # fmt: skip
+    out.meta.update(
+        {
+            **plan.as_dict(),
+            "timbre": "physical",
+            "volume": vol.source,
+            **hs.meta,
+            "dask": dask_meta,
+            "duration_s": duration,
+            "seconds": time.perf_counter() - t,
+        }
+    )
+    gain = save_rendered(
+        out, args.output, normalize=args.normalize, limit_pa=args.limit, subtype=args.format
+    )
     ld = loudness(out.audio, out.rate)
-    report = (f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
-              f"{out.rate} Hz; the volume's sources in {dask_meta['tasks']} tasks on "
-              f"{dask_meta['workers']} workers ({dask_meta['scheduler']}) and "
-              f"{len(out.meta['parts']) - 1} model part(s) on this machine; peak "
-              f"{ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa (gain {gain:.4g})")  # fmt: skip
+    report = (
+        f"wrote {args.output}: {out.duration:.2f} s, {lay.name} ({lay.n_channels} ch) at "
+        f"{out.rate} Hz; the volume's sources in {dask_meta['tasks']} tasks on "
+        f"{dask_meta['workers']} workers ({dask_meta['scheduler']}) and "
+        f"{len(out.meta['parts']) - 1} model part(s) on this machine; peak "
+        f"{ld['peak']:.4g}, RMS {ld['rms']:.4g} Pa (gain {gain:.4g})"
+    )
     if args.json:
-        print(json.dumps({"output": str(args.output), **out.meta, "gain": gain,
-                          "loudness": ld, "report": report}, indent=2, default=str))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "output": str(args.output),
+                    **out.meta,
+                    "gain": gain,
+                    "loudness": ld,
+                    "report": report,
+                },
+                indent=2,
+                default=str,
+            )
+        )
         return 0
     for note in plan.notes:
         print(note)
@@ -334,10 +443,19 @@ def cmd_dataset_chunked(args: argparse.Namespace) -> int:
     t = time.perf_counter()
     size = args.size or 256
     steps = args.steps or 100
-    write_chunked_explosion(args.output, size, steps, args.seed, generator=args.generator,
-                            dtype=args.dtype, progress=sys.stdout.isatty())  # fmt: skip
-    print(f"wrote {args.output}: explosion ({args.generator}), {size}x{size}x{size} x {steps} "
-          f"steps, one step per chunk, {args.dtype} ({time.perf_counter() - t:.1f} s)")  # fmt: skip
+    write_chunked_explosion(
+        args.output,
+        size,
+        steps,
+        args.seed,
+        generator=args.generator,
+        dtype=args.dtype,
+        progress=sys.stdout.isatty(),
+    )
+    print(
+        f"wrote {args.output}: explosion ({args.generator}), {size}x{size}x{size} x {steps} "
+        f"steps, one step per chunk, {args.dtype} ({time.perf_counter() - t:.1f} s)"
+    )
     return 0
 
 
@@ -377,9 +495,13 @@ def add_commands(sub: Any) -> None:
             action="store_true",
             help="write step by step in bounded memory (explosion; default 256³ x 100)",
         )
-        g.add_argument("--generator", choices=["auto", "particles", "analytic"], default="auto",
-                       help="with --chunked: particles (the core model) or analytic (fast, "
-                            "default above 128³)")  # fmt: skip
+        g.add_argument(
+            "--generator",
+            choices=["auto", "particles", "analytic"],
+            default="auto",
+            help="with --chunked: particles (the core model) or analytic (fast, "
+            "default above 128³)",
+        )
         g.add_argument(
             "--dtype",
             choices=["float32", "float64"],

@@ -153,27 +153,45 @@ def vec3(text: str) -> np.ndarray:
 
 def add_reader_options(g: Any) -> None:
     """``--time-dim``, ``--axis-scale`` and ``--box``: the options every reader takes."""
-    g.add_argument("--time-dim", metavar="NAME",
-                   help="name of a netCDF file's time dimension, when it is not found by CF's "
-                        "axis='T', 'units: ... since ...' or a common name (time, month, ...)")  # fmt: skip
-    g.add_argument("--axis-scale", type=axis_scale_arg, metavar="S|SX,SY,SZ",
-                   help="metres per file unit along x, y, z (e.g. 1000 for a grid in km); "
-                        "overrides a netCDF file's own conversion of degrees and pressure levels")  # fmt: skip
-    g.add_argument("--box", type=box_arg, metavar="XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
-                   help="region of interest in metres: keep the grid inside it (of a "
-                        "curvilinear grid, the smallest index block whose cells cover it); a "
-                        "mesh's resolution is chosen from its cells inside it")  # fmt: skip
-    g.add_argument("--resample", action="store_true",
-                   help="read a structured curvilinear grid (PLOT3D, .vts) resampled onto a "
-                        "uniform grid instead of on its own points (the default: derivatives "
-                        "by its metric terms); --resolution resamples it too")  # fmt: skip
+    g.add_argument(
+        "--time-dim",
+        metavar="NAME",
+        help="name of a netCDF file's time dimension, when it is not found by CF's "
+        "axis='T', 'units: ... since ...' or a common name (time, month, ...)",
+    )
+    g.add_argument(
+        "--axis-scale",
+        type=axis_scale_arg,
+        metavar="S|SX,SY,SZ",
+        help="metres per file unit along x, y, z (e.g. 1000 for a grid in km); "
+        "overrides a netCDF file's own conversion of degrees and pressure levels",
+    )
+    g.add_argument(
+        "--box",
+        type=box_arg,
+        metavar="XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
+        help="region of interest in metres: keep the grid inside it (of a "
+        "curvilinear grid, the smallest index block whose cells cover it); a "
+        "mesh's resolution is chosen from its cells inside it",
+    )
+    g.add_argument(
+        "--resample",
+        action="store_true",
+        help="read a structured curvilinear grid (PLOT3D, .vts) resampled onto a "
+        "uniform grid instead of on its own points (the default: derivatives "
+        "by its metric terms); --resolution resamples it too",
+    )
 
 
 def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
     """The volume positional and the options that read it (``optional``: may be left out)."""
-    p.add_argument("volume", metavar="PATH", nargs="?" if optional else None,
-                   help="volume file, or dataset:NAME for a built-in one"
-                        + (" (optional with --model/--scene)" if optional else ""))  # fmt: skip
+    p.add_argument(
+        "volume",
+        metavar="PATH",
+        nargs="?" if optional else None,
+        help="volume file, or dataset:NAME for a built-in one"
+        + (" (optional with --model/--scene)" if optional else ""),
+    )
     g = p.add_argument_group("volume")
     g.add_argument(
         "--field",
@@ -188,9 +206,12 @@ def add_volume_options(p: argparse.ArgumentParser, *, optional: bool = False) ->
     g.add_argument("--size", type=positive_int, help="grid size of a built-in dataset")
     g.add_argument("--steps", type=positive_int, help="time steps of a built-in dataset")
     g.add_argument("--seed", type=seed_int, default=0, help="seed of a built-in dataset")
-    g.add_argument("--allow-external", action="store_true",
-                   help="let HDF5 files read data from other files (external storage and "
-                        "links; refused by default)")  # fmt: skip
+    g.add_argument(
+        "--allow-external",
+        action="store_true",
+        help="let HDF5 files read data from other files (external storage and "
+        "links; refused by default)",
+    )
     g.add_argument(
         "--nan",
         choices=["mask", "error"],
@@ -266,16 +287,27 @@ def add_output_options(
         file = True
         p.set_defaults(**{EMITTED_SIGNAL: True})
     if file:
-        g.add_argument("-o", "--output", required=True,
-                       help="output .wav or .flac" + (" (mono, the signal at 1 m)" if emitted else ""))  # fmt: skip
+        g.add_argument(
+            "-o",
+            "--output",
+            required=True,
+            help="output .wav or .flac" + (" (mono, the signal at 1 m)" if emitted else ""),
+        )
     if not emitted:
         g.add_argument("--layout", default=layout, help=f"{layouts} (default {layout})")
-        g.add_argument("--hrtf", metavar="FILE.sofa",
-                       help="HRIRs for --layout binaural (AES69 SOFA, decoded from AmbiX order 3); "
-                            "default: a spherical head whose ears are receivers of their own")  # fmt: skip
-    g.add_argument("--rate", type=rate_int, default=DEFAULT_RATE,
-                   help=f"output sample rate in Hz (default {DEFAULT_RATE})"
-                   + ("; an input at another rate is resampled to it" if emitted else ""))  # fmt: skip
+        g.add_argument(
+            "--hrtf",
+            metavar="FILE.sofa",
+            help="HRIRs for --layout binaural (AES69 SOFA, decoded from AmbiX order 3); "
+            "default: a spherical head whose ears are receivers of their own",
+        )
+    g.add_argument(
+        "--rate",
+        type=rate_int,
+        default=DEFAULT_RATE,
+        help=f"output sample rate in Hz (default {DEFAULT_RATE})"
+        + ("; an input at another rate is resampled to it" if emitted else ""),
+    )
     if file:
         g.add_argument(
             "--normalize",
@@ -296,9 +328,12 @@ def add_output_options(
         help="truncate pressures beyond this many pascals (paper 000 §7)",
     )
     if emitted:
-        g.add_argument("--duration", type=positive_float,
-                       help="seconds written (default: the whole signal; a longer signal is cut, "
-                       "a shorter one padded with silence)")  # fmt: skip
+        g.add_argument(
+            "--duration",
+            type=positive_float,
+            help="seconds written (default: the whole signal; a longer signal is cut, "
+            "a shorter one padded with silence)",
+        )
         return g
     src = g.add_mutually_exclusive_group(required=listener_required)
     src.add_argument(
@@ -326,10 +361,17 @@ class _RenamedOption(argparse.Action):
         self.new = new
         super().__init__(option_strings, dest, **kw)
 
-    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
-                 values: Any, option_string: str | None = None) -> None:  # fmt: skip
-        print(f"note: {parser.prog} {option_string} is deprecated; it is now {self.new}",
-              file=sys.stderr)  # fmt: skip
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        print(
+            f"note: {parser.prog} {option_string} is deprecated; it is now {self.new}",
+            file=sys.stderr,
+        )
         setattr(namespace, self.dest, values)
 
 
@@ -346,5 +388,12 @@ def add_renamed_alias(p: argparse.ArgumentParser, old: str, new: argparse.Action
     new : the action :meth:`argparse.ArgumentParser.add_argument` returned.
     """
     kind: dict[str, Any] = {} if new.type is None else {"type": new.type}
-    p.add_argument(old, dest=new.dest, action=_RenamedOption, new=new.option_strings[-1],
-                   default=argparse.SUPPRESS, help=argparse.SUPPRESS, **kind)  # fmt: skip
+    p.add_argument(
+        old,
+        dest=new.dest,
+        action=_RenamedOption,
+        new=new.option_strings[-1],
+        default=argparse.SUPPRESS,
+        help=argparse.SUPPRESS,
+        **kind,
+    )

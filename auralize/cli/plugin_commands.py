@@ -86,8 +86,9 @@ def add_plugin_commands(subparsers: Any) -> list[str]:
         except Exception as exc:  # a broken plugin must not take the command down
             warnings.warn(
                 f"sub-commands of plugin {ep.name!r} ({ep.value}) could not be declared: {exc}",
-                PluginWarning, stacklevel=2,
-            )  # fmt: skip
+                PluginWarning,
+                stacklevel=2,
+            )
             continue
         served.append(ep.name)
     for ep in entry_points(group=ENTRY_POINT_GROUP):
@@ -98,8 +99,9 @@ def add_plugin_commands(subparsers: Any) -> list[str]:
         except Exception as exc:
             warnings.warn(
                 f"sound-model plugin {ep.name!r} ({ep.value}) could not be loaded: {exc}",
-                PluginWarning, stacklevel=2,
-            )  # fmt: skip
+                PluginWarning,
+                stacklevel=2,
+            )
             continue
         if not (isinstance(cls, type) and issubclass(cls, SoundModel)):
             continue  # registry() reports it

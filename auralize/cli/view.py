@@ -41,21 +41,32 @@ def add_commands(sub: Any) -> None:
     g.add_argument("--screenshot", metavar="OUT.png", help="render off screen to OUT.png and exit")
     g.add_argument("--time", type=int, metavar="STEP", help="time step to show (default: middle)")
     g.add_argument("--path", metavar="CSV", help="listener path to draw")
-    g.add_argument("--color-by", metavar="FIELD",
-                   help="field to display (default: first scalar field; a plain --field NAME "
-                        "without '=' means the same)")  # fmt: skip
-    g.add_argument("--representation", choices=["volume", "slices", "contour", "glyphs", "none"],
-                   default="volume")  # fmt: skip
+    g.add_argument(
+        "--color-by",
+        metavar="FIELD",
+        help="field to display (default: first scalar field; a plain --field NAME "
+        "without '=' means the same)",
+    )
+    g.add_argument(
+        "--representation",
+        choices=["volume", "slices", "contour", "glyphs", "none"],
+        default="volume",
+    )
     g.add_argument(
         "--detect",
         action="store_true",
         help="detect sources (with --screenshot; the window detects on request)",
     )
     g.add_argument("--window-size", default="1200x900", metavar="WxH")
-    g.add_argument("--head-tracking", type=int, metavar="PORT", default=None,
-                   help="turn the live listener's head by a head tracker's OSC messages on this "
-                        "UDP port (SPARTA's /ypr, /quaternion; IEM SceneRotator's "
-                        "/SceneRotator/ypr, /SceneRotator/quaternions)")  # fmt: skip
+    g.add_argument(
+        "--head-tracking",
+        type=int,
+        metavar="PORT",
+        default=None,
+        help="turn the live listener's head by a head tracker's OSC messages on this "
+        "UDP port (SPARTA's /ypr, /quaternion; IEM SceneRotator's "
+        "/SceneRotator/ypr, /SceneRotator/quaternions)",
+    )
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser(
@@ -112,14 +123,30 @@ def view_options(args: argparse.Namespace) -> dict[str, Any]:
         raise ParameterError(f"--field NAME chooses one field to display, got {plain}")
     color_by = getattr(args, "color_by", None) or (plain[0] if plain else None)
     fields = field_map([f for f in items if "=" in f])
-    data = (data_spec(args.volume, size=args.size, steps=args.steps, seed=args.seed,
-                      fields=fields, resolution=args.resolution, time_dim=args.time_dim,
-                      axis_scale=args.axis_scale, box=args.box,
-                      curvilinear="resample" if getattr(args, "resample", False) else None)
-            if args.volume is not None else None)  # fmt: skip
-    return {"data": data, "field": color_by, "mapping": args.mapping,
-            "mapping_fields": mapping_fields(args), "thresholds": thresholds_from_args(args),
-            "head_tracking": getattr(args, "head_tracking", None)}  # fmt: skip
+    data = (
+        data_spec(
+            args.volume,
+            size=args.size,
+            steps=args.steps,
+            seed=args.seed,
+            fields=fields,
+            resolution=args.resolution,
+            time_dim=args.time_dim,
+            axis_scale=args.axis_scale,
+            box=args.box,
+            curvilinear="resample" if getattr(args, "resample", False) else None,
+        )
+        if args.volume is not None
+        else None
+    )
+    return {
+        "data": data,
+        "field": color_by,
+        "mapping": args.mapping,
+        "mapping_fields": mapping_fields(args),
+        "thresholds": thresholds_from_args(args),
+        "head_tracking": getattr(args, "head_tracking", None),
+    }
 
 
 def screenshot(args: argparse.Namespace) -> Path:
@@ -153,15 +180,22 @@ def screenshot(args: argparse.Namespace) -> Path:
     try:
         scene = Scene(plotter)
         view = (st.view if st else {}) or {}
-        scene.set_volume(vol, field=opts["field"] or view.get("field"),
-                         representation=view.get("representation", args.representation))  # fmt: skip
+        scene.set_volume(
+            vol,
+            field=opts["field"] or view.get("field"),
+            representation=view.get("representation", args.representation),
+        )
         th, mapping, mfields = opts["thresholds"], opts["mapping"], opts["mapping_fields"]
         detect = bool(args.detect)
         if st is not None and st.detection:
             t = st.detection.get("thresholds") or {}
             if t:
-                th = Thresholds(t["monopole"], t["dipole"], t["quadrupole"],
-                                zero_fraction=t.get("zero_fraction", 1.0))  # fmt: skip
+                th = Thresholds(
+                    t["monopole"],
+                    t["dipole"],
+                    t["quadrupole"],
+                    zero_fraction=t.get("zero_fraction", 1.0),
+                )
             m = st.detection.get("mapping")
             mapping = mapping or (None if m == "auto" else m)
             mfields = mfields or dict(st.detection.get("mapping_fields") or {})

@@ -22,41 +22,65 @@ DATASETS = Path(__file__).resolve().parents[1] / "data"
 #: fields that do not change at the data's time step are heard ``extended``).
 CASES: dict[str, dict[str, Any]] = {
     "openfoam-cavity": {
-        "zip": "openfoam-cavity/OpenFOAM.zip", "member": "OpenFOAM/cavity/case.foam",
-        "mapping": None, "fields": {},
+        "zip": "openfoam-cavity/OpenFOAM.zip",
+        "member": "OpenFOAM/cavity/case.foam",
+        "mapping": None,
+        "fields": {},
         "render": {"listener": [0.05, 0.05, 0.005], "duration": 0.05, "time_scale": 0.02},
     },
     "netcdf-pulse": {
-        "path": "netcdf-pulse/pulse.nc", "mapping": None, "fields": {},
+        "path": "netcdf-pulse/pulse.nc",
+        "mapping": None,
+        "fields": {},
         "render": {"listener": [0.05, 0.04, 0.03], "duration": 0.008, "time_scale": 1.0},
     },
     "xdmf-dolfinx": {
-        "path": "xdmf-timeseries/dolfinx/no_checkpoint.xdmf", "mapping": "identity",
+        "path": "xdmf-timeseries/dolfinx/no_checkpoint.xdmf",
+        "mapping": "identity",
         "fields": {"density": "f_5"},
-        "render": {"listener": [0.5, 0.5, 0.5], "duration": 0.05, "time_scale": 0.0125,
-                   "timbre": "extended"},
+        "render": {
+            "listener": [0.5, 0.5, 0.5],
+            "duration": 0.05,
+            "time_scale": 0.0125,
+            "timbre": "extended",
+        },
     },
     "xdmf-meshio": {
-        "path": "xdmf-timeseries/meshio/out.xdmf", "mapping": "identity",
+        "path": "xdmf-timeseries/meshio/out.xdmf",
+        "mapping": "identity",
         "fields": {"density": "phi"},
-        "render": {"listener": [0.5, 0.5, 1.0], "duration": 0.05, "time_scale": 0.05,
-                   "timbre": "extended"},
+        "render": {
+            "listener": [0.5, 0.5, 1.0],
+            "duration": 0.05,
+            "time_scale": 0.05,
+            "timbre": "extended",
+        },
     },
     "paraview-wavy": {
-        "zip": "paraview-wavy/wavy.zip", "member": "wavy/wavy.pvd", "mapping": "identity",
+        "zip": "paraview-wavy/wavy.zip",
+        "member": "wavy/wavy.pvd",
+        "mapping": "identity",
         "fields": {"density": "z"},
-        "render": {"listener": [0.0, 0.0, 3.0], "duration": 0.1, "time_scale": 0.1 / 14,
-                   "timbre": "extended"},
+        "render": {
+            "listener": [0.0, 0.0, 3.0],
+            "duration": 0.1,
+            "time_scale": 0.1 / 14,
+            "timbre": "extended",
+        },
     },
     "ensight-cylinder": {
-        "path": "ensight-cylinder/cylinder_Re35.case", "mapping": None, "fields": {},
+        "path": "ensight-cylinder/cylinder_Re35.case",
+        "mapping": None,
+        "fields": {},
         "render": None,
     },
     "plot3d-combustor": {
-        "path": "plot3d-combustor/combxyz.bin", "mapping": "cfd",
-        "fields": {"density": "Density", "momentum": "Momentum"}, "render": None,
+        "path": "plot3d-combustor/combxyz.bin",
+        "mapping": "cfd",
+        "fields": {"density": "Density", "momentum": "Momentum"},
+        "render": None,
     },
-}  # fmt: skip
+}
 
 
 @contextmanager

@@ -92,16 +92,25 @@ def make_monopole(*, size: int = 32, steps: int = 300, seed: int = 0, **kw: floa
         return p.rho0 + amp[n] * g
 
     vol = TimeVolume(
-        origin=np.zeros(3), spacing=np.full(3, p.spacing), dims=(p.size,) * 3, times=times,
+        origin=np.zeros(3),
+        spacing=np.full(3, p.spacing),
+        dims=(p.size,) * 3,
+        times=times,
         fields={"density": CallableFrames(density, p.steps, (p.size,) * 3)},
         source="dataset:monopole",
-    )  # fmt: skip
+    )
     vol.attrs = {"dataset": "monopole", **asdict(p), "seed": seed}
     return vol
 
 
-def monopole_pressure(p: MonopoleParams, point: NDArray[np.floating], t: NDArray[np.floating],
-                      *, c0: float = C0, n_quad: int = 4000) -> NDArray[np.float64]:  # fmt: skip
+def monopole_pressure(
+    p: MonopoleParams,
+    point: NDArray[np.floating],
+    t: NDArray[np.floating],
+    *,
+    c0: float = C0,
+    n_quad: int = 4000,
+) -> NDArray[np.float64]:
     """Exact pressure of the continuous blob at a point, for times ``t`` (paper 003 Eq. 6).
 
     The source Ψ = ∂ρ/∂t = A'(t) g(|y|) is spherically symmetric, so with
@@ -226,8 +235,12 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: Any)
         for corner in range(8):
             o = ((corner >> 0) & 1, (corner >> 1) & 1, (corner >> 2) & 1)
             ix, iy, iz = base[:, 0] + o[0], base[:, 1] + o[1], base[:, 2] + o[2]
-            w = ((frac[:, 0] if o[0] else 1 - frac[:, 0]) * (frac[:, 1] if o[1] else 1 - frac[:, 1])
-                 * (frac[:, 2] if o[2] else 1 - frac[:, 2]) * mass)  # fmt: skip
+            w = (
+                (frac[:, 0] if o[0] else 1 - frac[:, 0])
+                * (frac[:, 1] if o[1] else 1 - frac[:, 1])
+                * (frac[:, 2] if o[2] else 1 - frac[:, 2])
+                * mass
+            )
             ok = (ix >= 0) & (ix < n) & (iy >= 0) & (iy < n) & (iz >= 0) & (iz < n)
             flat = (iz[ok] * n + iy[ok]) * n + ix[ok]
             wk = w[ok]
@@ -235,8 +248,13 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: Any)
             for c in range(3):
                 mom[c] += np.bincount(flat, wk * vel[ok, c], minlength=n**3)
         rho3 = ndimage.gaussian_filter(rho.reshape(n, n, n), p.smoothing, mode="constant")
-        mom3 = np.stack([ndimage.gaussian_filter(mom[c].reshape(n, n, n), p.smoothing,
-                                                 mode="constant") for c in range(3)], -1)  # fmt: skip
+        mom3 = np.stack(
+            [
+                ndimage.gaussian_filter(mom[c].reshape(n, n, n), p.smoothing, mode="constant")
+                for c in range(3)
+            ],
+            -1,
+        )
         norm = n**3 / npart  # mean particle density -> 1
         rho3 = rho3 * norm + p.background
         return rho3, mom3 * norm / rho3[..., None]
@@ -251,13 +269,16 @@ def make_explosion(*, size: int = 64, steps: int = 30, seed: int = 0, **kw: Any)
 
     shape = (n, n, n)
     vol = TimeVolume(
-        origin=np.zeros(3), spacing=np.full(3, p.spacing), dims=(n, n, n), times=times,
+        origin=np.zeros(3),
+        spacing=np.full(3, p.spacing),
+        dims=(n, n, n),
+        times=times,
         fields={
             "log10_density": CallableFrames(lambda k: np.log10(frame(k)[0]), p.steps, shape),
             "velocity": CallableFrames(lambda k: frame(k)[1], p.steps, (*shape, 3)),
         },
         source="dataset:explosion",
-    )  # fmt: skip
+    )
     vol.attrs = {"dataset": "explosion", **asdict(p)}
     return vol
 
@@ -336,17 +357,23 @@ def make_spinning(*, size: int = 32, steps: int = 97, seed: int = 0, **kw: Any) 
 
     shape = (n, n, n)
     vol = TimeVolume(
-        origin=np.full(3, x[0]), spacing=np.full(3, h), dims=shape, times=times,
-        fields={"density": CallableFrames(lambda k: np.full(shape, p.rho0), p.steps, shape),
-                "velocity": CallableFrames(velocity, p.steps, (*shape, 3))},
+        origin=np.full(3, x[0]),
+        spacing=np.full(3, h),
+        dims=shape,
+        times=times,
+        fields={
+            "density": CallableFrames(lambda k: np.full(shape, p.rho0), p.steps, shape),
+            "velocity": CallableFrames(velocity, p.steps, (*shape, 3)),
+        },
         source="dataset:spinning",
-    )  # fmt: skip
+    )
     vol.attrs = {"dataset": "spinning", **asdict(p), "seed": seed}
     return vol
 
 
-def lighthill_far_field(volume: TimeVolume, direction: NDArray[np.floating], distance: float, *,
-                        c0: float = C0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def lighthill_far_field(
+    volume: TimeVolume, direction: NDArray[np.floating], distance: float, *, c0: float = C0
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Lighthill's compact far field of a volume's stress, from its own arrays.
 
     p(r, t) = x̂_i x̂_j / (4π c0² r) ∂²/∂t² ∫ T_ij(y, t − r/c0) dV with T_ij =
@@ -419,10 +446,14 @@ def make_moving_pulse(**kw: Any) -> TimeVolume:
         return p.rho0 + p.amplitude * np.sin(2 * np.pi * p.frequency * t) * g
 
     shape = (p.nyz, p.nyz, p.nx)
-    vol = TimeVolume(origin=np.array([0.0, yz[0], yz[0]]), spacing=np.full(3, p.spacing),
-                     dims=(p.nx, p.nyz, p.nyz), times=times,
-                     fields={"density": CallableFrames(density, p.steps, shape)},
-                     source="moving-pulse")  # fmt: skip
+    vol = TimeVolume(
+        origin=np.array([0.0, yz[0], yz[0]]),
+        spacing=np.full(3, p.spacing),
+        dims=(p.nx, p.nyz, p.nyz),
+        times=times,
+        fields={"density": CallableFrames(density, p.steps, shape)},
+        source="moving-pulse",
+    )
     vol.attrs = {"dataset": "moving-pulse", **asdict(p)}
     return vol
 
@@ -468,8 +499,9 @@ def all_datasets() -> dict[str, Callable[..., TimeVolume]]:
     return out
 
 
-def make_dataset(name: str, *, size: int | None = None, steps: int | None = None,
-                 seed: int = 0) -> TimeVolume:  # fmt: skip
+def make_dataset(
+    name: str, *, size: int | None = None, steps: int | None = None, seed: int = 0
+) -> TimeVolume:
     """Generate a built-in dataset by name (sizes default per dataset).
 
     Sound-model plugins contribute datasets through a ``datasets`` class

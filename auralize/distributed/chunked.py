@@ -191,18 +191,25 @@ def volume_from_dask(
     return TimeVolume(
         origin=np.broadcast_to(np.asarray(origin, dtype=np.float64), (3,)).copy(),
         spacing=np.broadcast_to(np.asarray(spacing, dtype=np.float64), (3,)).copy(),
-        dims=(nx, ny, nz), times=t, fields=dict(frames), physical_times=physical, source=source,
+        dims=(nx, ny, nz),
+        times=t,
+        fields=dict(frames),
+        physical_times=physical,
+        source=source,
         coords=None if coords is None else np.asarray(coords, dtype=np.float64),
-    )  # fmt: skip
+    )
 
 
 def chunked_volume(volume: TimeVolume) -> TimeVolume:
     """The same volume with every field backed by a Dask array (one step per chunk)."""
     vol = volume_from_dask(
         {name: to_dask(volume, name) for name in volume.field_names},
-        times=volume.times, origin=tuple(volume.origin), spacing=tuple(volume.spacing),
-        source=volume.source, coords=volume.coords,
-    )  # fmt: skip
+        times=volume.times,
+        origin=tuple(volume.origin),
+        spacing=tuple(volume.spacing),
+        source=volume.source,
+        coords=volume.coords,
+    )
     vol.physical_times = volume.physical_times
     vol.attrs = dict(volume.attrs)
     vol.valid = volume.valid
@@ -289,12 +296,17 @@ def slab_volume(volume: TimeVolume, z0: int, z1: int) -> TimeVolume:
     else:
         origin[2] += z0 * volume.spacing[2]
     sub = TimeVolume(
-        origin=origin, spacing=volume.spacing.copy(), dims=(nx, ny, z1 - z0),
-        times=volume.times, fields={k: SlabFrames(v, z0, z1) for k, v in volume.fields.items()},
-        physical_times=volume.physical_times, source=f"{volume.source}[z {z0}:{z1}]",
+        origin=origin,
+        spacing=volume.spacing.copy(),
+        dims=(nx, ny, z1 - z0),
+        times=volume.times,
+        fields={k: SlabFrames(v, z0, z1) for k, v in volume.fields.items()},
+        physical_times=volume.physical_times,
+        source=f"{volume.source}[z {z0}:{z1}]",
         check_finite=volume.check_finite,
-        valid=None if volume.valid is None else volume.valid[z0:z1], coords=coords,
-    )  # fmt: skip
+        valid=None if volume.valid is None else volume.valid[z0:z1],
+        coords=coords,
+    )
     valid = getattr(volume, "valid", None)  # the validity mask (nz, ny, nx), if any
     if valid is not None:
         sub.valid = np.asarray(valid)[z0:z1]  # type: ignore[attr-defined]

@@ -154,8 +154,13 @@ class Slab:
     r1: int
 
 
-def plan_slabs(shape: tuple[int, int, int], *, ghost: int | None, planes: int | None = None,
-               memory: int = TASK_MEMORY) -> list[Slab]:  # fmt: skip
+def plan_slabs(
+    shape: tuple[int, int, int],
+    *,
+    ghost: int | None,
+    planes: int | None = None,
+    memory: int = TASK_MEMORY,
+) -> list[Slab]:
     """Cut ``nz`` planes into slabs of about ``planes`` kept planes (auto: fit ``memory``).
 
     ``ghost=None`` means the whole frame in one slab.
@@ -173,8 +178,10 @@ def plan_slabs(shape: tuple[int, int, int], *, ghost: int | None, planes: int | 
         return [Slab(0, nz, 0, nz)]
     n_slabs = -(-nz // planes)
     edges = np.linspace(0, nz, n_slabs + 1).round().astype(int)
-    return [Slab(int(a), int(b), max(int(a) - ghost, 0), min(int(b) + ghost, nz))
-            for a, b in itertools.pairwise(edges)]  # fmt: skip
+    return [
+        Slab(int(a), int(b), max(int(a) - ghost, 0), min(int(b) + ghost, nz))
+        for a, b in itertools.pairwise(edges)
+    ]
 
 
 def plan_chunks(steps: Iterable[int], chunk_steps: int) -> list[tuple[int, int]]:
@@ -206,8 +213,9 @@ def plan_chunks(steps: Iterable[int], chunk_steps: int) -> list[tuple[int, int]]
 
 
 # ------------------------------------------------------------------- tasks
-def _local(volume: TimeVolume, mapping: AcousticMapping,
-           slab: Slab) -> tuple[TimeVolume, AcousticMapping]:  # fmt: skip
+def _local(
+    volume: TimeVolume, mapping: AcousticMapping, slab: Slab
+) -> tuple[TimeVolume, AcousticMapping]:
     """The slab's volume and a private copy of the mapping bound to it (tasks may share objects)."""
     nz = volume.shape[0]
     sub = volume if (slab.r0, slab.r1) == (0, nz) else slab_volume(volume, slab.r0, slab.r1)
@@ -222,11 +230,20 @@ def _rss() -> tuple[int, int]:
     return os.getpid(), int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
 
 
-def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.float64],
-                zero_fraction: float, a: int, b: int, slab: Slab,
-                threads: int | None, store_dir: str | None = None,
-                qmean: NDArray[np.int64] | None = None,
-                delta_v: str = "cell", floor: float = 0.0) -> dict[str, Any]:  # fmt: skip
+def detect_task(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    thr: NDArray[np.float64],
+    zero_fraction: float,
+    a: int,
+    b: int,
+    slab: Slab,
+    threads: int | None,
+    store_dir: str | None = None,
+    qmean: NDArray[np.int64] | None = None,
+    delta_v: str = "cell",
+    floor: float = 0.0,
+) -> dict[str, Any]:
     """Sources of steps ``[a, b)`` in planes ``[slab.z0, slab.z1)`` (global flat indices).
 
     ``qmean`` are the anchor steps of the field's local steady state
@@ -252,8 +269,9 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
         buf = np.empty((3, *sub.shape))
         for n in range(a, b):
             s = step_strengths(sub, cache, n, buf)
-            kind, radius = classify(s, thr, sub.spacing, zero_fraction=zero_fraction,
-                                    delta_v=delta_v, cell=cell)  # fmt: skip
+            kind, radius = classify(
+                s, thr, sub.spacing, zero_fraction=zero_fraction, delta_v=delta_v, cell=cell
+            )
             f = extract(kind[lo:hi], radius[lo:hi], s[:, lo:hi])
             f.index += slab.z0 * plane
             frames.append(f)
@@ -262,8 +280,14 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
                 [*np.bincount(f.kind, minlength=4)[1:].tolist(), (hi - lo) * plane - bad]
             )
             cache.keep(n, n + 1)
-    out: dict[str, Any] = {"a": a, "b": b, "slab": slab, "frames": frames, "tallies": tallies,
-                           "count": sum(f.index.size for f in frames)}  # fmt: skip
+    out: dict[str, Any] = {
+        "a": a,
+        "b": b,
+        "slab": slab,
+        "frames": frames,
+        "tallies": tallies,
+        "count": sum(f.index.size for f in frames),
+    }
     if store_dir is not None:
         StateStore.in_dir(store_dir).write_piece(a, slab.z0, frames, sync=True)
         out["frames"] = None
@@ -271,9 +295,15 @@ def detect_task(volume: TimeVolume, mapping: AcousticMapping, thr: NDArray[np.fl
     return out
 
 
-def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int], slab: Slab,
-              threads: int | None, qmean: NDArray[np.int64] | None = None,
-              floor: float = 0.0) -> StrengthStats:  # fmt: skip
+def peak_task(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    steps: Sequence[int],
+    slab: Slab,
+    threads: int | None,
+    qmean: NDArray[np.int64] | None = None,
+    floor: float = 0.0,
+) -> StrengthStats:
     """|S| statistics of each type over ``steps`` in the slab's kept planes.
 
     Like :func:`~auralize.sources.detection.strength_stats` (the same sampled points,
@@ -291,14 +321,22 @@ def peak_task(volume: TimeVolume, mapping: AcousticMapping, steps: Sequence[int]
         for n in steps:
             s = step_strengths(sub, cache, int(n), buf)
             nodata = None if cache.nodata is None else cache.nodata[lo:hi]
-            parts.append(sample_stats(s[:, lo:hi], nodata, slab.z0 * plane, volume.n_points,
-                                      input_scale(sub, cache, int(n), lo, hi)))  # fmt: skip
+            parts.append(
+                sample_stats(
+                    s[:, lo:hi],
+                    nodata,
+                    slab.z0 * plane,
+                    volume.n_points,
+                    input_scale(sub, cache, int(n), lo, hi),
+                )
+            )
             cache.keep(int(n), int(n))
     return StrengthStats.merge(parts)
 
 
-def steady_task(volume: TimeVolume, mapping: AcousticMapping, a: int, b: int,
-                slab: Slab) -> NDArray[np.float64]:  # fmt: skip
+def steady_task(
+    volume: TimeVolume, mapping: AcousticMapping, a: int, b: int, slab: Slab
+) -> NDArray[np.float64]:
     """For each step n of ``[a, b)`` with n >= 1, in the slab's kept planes: the largest
     change of the mapped density and mass flux from step n - 1 and their largest
     magnitudes, ``(b - a, 4)`` (rows of step 0: zero), for
@@ -313,16 +351,19 @@ def steady_task(volume: TimeVolume, mapping: AcousticMapping, a: int, b: int,
         r0, _, m0, _ = cache.get(n - 1)
         r1, _, m1, _ = cache.get(n)
         r0, r1, m0, m1 = r0[lo:hi], r1[lo:hi], m0[lo:hi], m1[lo:hi]
-        out[n - a] = [float(np.max(np.abs(r1 - r0), initial=0.0)),
-                      float(np.max(np.abs(m1 - m0), initial=0.0)),
-                      max(float(np.max(np.abs(r0), initial=0.0)), float(np.max(np.abs(r1), initial=0.0))),
-                      max(float(np.max(np.abs(m0), initial=0.0)), float(np.max(np.abs(m1), initial=0.0)))]  # fmt: skip
+        out[n - a] = [
+            float(np.max(np.abs(r1 - r0), initial=0.0)),
+            float(np.max(np.abs(m1 - m0), initial=0.0)),
+            max(float(np.max(np.abs(r0), initial=0.0)), float(np.max(np.abs(r1), initial=0.0))),
+            max(float(np.max(np.abs(m0), initial=0.0)), float(np.max(np.abs(m1), initial=0.0))),
+        ]
         cache.keep(n, n)
     return out
 
 
-def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int],
-                     slab: Slab) -> tuple[float, float]:  # fmt: skip
+def paper_range_task(
+    volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int], slab: Slab
+) -> tuple[float, float]:
     """min and max of 10**x over ``steps`` in the slab (no ghost planes needed)."""
     sub = (
         slab_volume(volume, slab.z0, slab.z1)
@@ -337,8 +378,9 @@ def paper_range_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence
     return lo, hi
 
 
-def paper_gradient_task(volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int],
-                        slab: Slab) -> float:  # fmt: skip
+def paper_gradient_task(
+    volume: TimeVolume, m: PaperDensityMapping, steps: Sequence[int], slab: Slab
+) -> float:
     """Largest |∂ρ̃/∂x_i| over ``steps`` in the slab's kept planes."""
     sub, m = _local(volume, m, slab)  # type: ignore[assignment]
     lo, hi = slab.z0 - slab.r0, slab.z1 - slab.r0
@@ -411,8 +453,9 @@ class StateStore:
     def _piece_path(self, a: int, b: int, z0: int) -> Path:
         return self.dir / f"piece_{a:07d}-{b:07d}_{z0:07d}.npz"
 
-    def write_piece(self, a: int, z0: int, frames: list[SourceFrame], *,
-                    sync: bool = False) -> None:  # fmt: skip
+    def write_piece(
+        self, a: int, z0: int, frames: list[SourceFrame], *, sync: bool = False
+    ) -> None:
         """Park one slab's sources of steps ``a …`` until the chunk's other slabs are in.
 
         Pieces are not a "done" record: a chunk missing a slab is recomputed.
@@ -449,8 +492,10 @@ class StateStore:
             f, "offsets", "index", "kind", "strength", "radius"
         )
         f.unlink()
-        return [SourceFrame(index=idx[i:j], kind=kind[i:j], strength=strength[i:j],
-                            radius=radius[i:j]) for i, j in itertools.pairwise(off)]  # fmt: skip
+        return [
+            SourceFrame(index=idx[i:j], kind=kind[i:j], strength=strength[i:j], radius=radius[i:j])
+            for i, j in itertools.pairwise(off)
+        ]
 
     def clear_pieces(self) -> None:
         """Remove slab pieces of chunks an interrupted run did not finish."""
@@ -465,8 +510,9 @@ class StateStore:
             with np.load(f, allow_pickle=False) as z:
                 return [z[name] for name in names]
         except (OSError, ValueError, KeyError) as exc:
-            raise FormatError(f"{f}: unreadable saved chunk ({exc}); delete it to recompute "
-                              f"those steps") from None  # fmt: skip
+            raise FormatError(
+                f"{f}: unreadable saved chunk ({exc}); delete it to recompute those steps"
+            ) from None
 
     def step_offsets(self, n_steps: int) -> NDArray[np.int64]:
         """``(T+1,)`` row offsets of every step in the concatenated sources (reads counts only)."""
@@ -522,8 +568,10 @@ class StateStore:
                 )
                 r0, r1 = int(offsets[a]), int(offsets[a + off.size - 1])
                 if r1 - r0 != idx.size:
-                    raise FormatError(f"{f}: saved chunk holds {idx.size} sources, its offsets "
-                                      f"say {r1 - r0}; delete it to recompute those steps")  # fmt: skip
+                    raise FormatError(
+                        f"{f}: saved chunk holds {idx.size} sources, its offsets "
+                        f"say {r1 - r0}; delete it to recompute those steps"
+                    )
                 held = max(held, idx.size)
                 if r1 == r0:
                     continue
@@ -545,12 +593,14 @@ class StateStore:
                     off, idx, kind = z["offsets"], z["index"], z["kind"]
                     strength, radius = z["strength"], z["radius"]
             except (OSError, ValueError, KeyError) as exc:
-                raise FormatError(f"{f}: unreadable saved chunk ({exc}); delete it to recompute "
-                                  f"those steps") from None  # fmt: skip
+                raise FormatError(
+                    f"{f}: unreadable saved chunk ({exc}); delete it to recompute those steps"
+                ) from None
             for k in range(off.size - 1):
                 s = slice(off[k], off[k + 1])
-                frames[a + k] = SourceFrame(index=idx[s], kind=kind[s], strength=strength[s],
-                                            radius=radius[s])  # fmt: skip
+                frames[a + k] = SourceFrame(
+                    index=idx[s], kind=kind[s], strength=strength[s], radius=radius[s]
+                )
         missing = [n for n, f in enumerate(frames) if f is None]
         if missing:
             raise FormatError(f"{self.dir}: steps {missing[:10]} are not saved")
@@ -576,8 +626,9 @@ class H5Frames(Sequence[SourceFrame]):
 
     def _read(self, h: Any, n: int) -> SourceFrame:
         s = slice(int(self.offsets[n]), int(self.offsets[n + 1]))
-        return SourceFrame(index=h["index"][s], kind=h["kind"][s], strength=h["strength"][s],
-                           radius=h["radius"][s])  # fmt: skip
+        return SourceFrame(
+            index=h["index"][s], kind=h["kind"][s], strength=h["strength"][s], radius=h["radius"][s]
+        )
 
     def __getitem__(self, n: Any) -> Any:
         import h5py
@@ -604,12 +655,13 @@ def _save_frames(path: Path, frames: list[SourceFrame], *, sync: bool) -> None:
     off[1:] = np.cumsum([f.index.size for f in frames])
     with atomic_path(path, suffix=".part") as tmp, open(tmp, "wb") as fh:
         np.savez(
-            fh, offsets=off,
+            fh,
+            offsets=off,
             index=np.concatenate([f.index for f in frames]).astype(np.int64),
             kind=np.concatenate([f.kind for f in frames]).astype(np.int8),
             strength=np.concatenate([f.strength for f in frames]).astype(np.float64),
             radius=np.concatenate([f.radius for f in frames]).astype(np.float64),
-        )  # fmt: skip
+        )
         if sync:
             fh.flush()
             os.fsync(fh.fileno())
@@ -623,15 +675,27 @@ def _jsonable(obj: Any) -> Any:
     return str(obj)
 
 
-def fingerprint(volume: TimeVolume, mapping: AcousticMapping, thresholds: Thresholds,
-                **options: str) -> str:  # fmt: skip
+def fingerprint(
+    volume: TimeVolume, mapping: AcousticMapping, thresholds: Thresholds, **options: str
+) -> str:
     """What makes two runs the same (grid, times, source, mapping, threshold settings, options)."""
     h = hashlib.sha256()
-    h.update(json.dumps({
-        "source": volume.source, "dims": list(volume.dims), "fields": volume.field_names,
-        "origin": volume.origin.tolist(), "spacing": volume.spacing.tolist(),
-        "mapping": mapping.describe(), "thresholds": thresholds.describe(), **options,
-    }, sort_keys=True, default=_jsonable).encode())  # fmt: skip
+    h.update(
+        json.dumps(
+            {
+                "source": volume.source,
+                "dims": list(volume.dims),
+                "fields": volume.field_names,
+                "origin": volume.origin.tolist(),
+                "spacing": volume.spacing.tolist(),
+                "mapping": mapping.describe(),
+                "thresholds": thresholds.describe(),
+                **options,
+            },
+            sort_keys=True,
+            default=_jsonable,
+        ).encode()
+    )
     h.update(np.ascontiguousarray(volume.times).tobytes())
     if volume.coords is not None:
         h.update(np.ascontiguousarray(volume.coords).tobytes())
@@ -650,8 +714,9 @@ class _Run:
     #: runs of steps one preparation task covers
     groups: list[tuple[int, int]]
 
-    def tasks(self, fn: Callable[..., Any], steps: Iterable[int], *extra: Any,
-              mapping: Any = None) -> list[Any]:  # fmt: skip
+    def tasks(
+        self, fn: Callable[..., Any], steps: Iterable[int], *extra: Any, mapping: Any = None
+    ) -> list[Any]:
         """Lazy ``fn(volume, mapping, steps, slab, *extra)``, one per step group and slab.
 
         ``mapping`` (default: the run's) may be a lazy call's result.
@@ -719,12 +784,14 @@ def _prepare_paper(run: _Run) -> Any:
     return call(_with_gscale, ranged, run.tasks(paper_gradient_task, range(T), mapping=ranged))
 
 
-def _peaks(run: _Run, mapping: Any, qmean: Any, max_steps: int = AUTO_SAMPLE_STEPS,
-           floor: float = 0.0) -> Any:  # fmt: skip
+def _peaks(
+    run: _Run, mapping: Any, qmean: Any, max_steps: int = AUTO_SAMPLE_STEPS, floor: float = 0.0
+) -> Any:
     """The |S| statistics of each type over the sample steps: a lazy call."""
     steps = sample_steps(run.volume.n_steps, max_steps)
-    peaks = run.tasks(peak_task, steps.tolist(), run.runner.threads_per_task, qmean, floor,
-                      mapping=mapping)  # fmt: skip
+    peaks = run.tasks(
+        peak_task, steps.tolist(), run.runner.threads_per_task, qmean, floor, mapping=mapping
+    )
     return run.runner.call(_merge_stats, peaks)
 
 
@@ -740,9 +807,16 @@ def _steady_node(run: _Run, mapping: Any) -> Any:
     # (``mapping`` may be a lazy call's result; which fields exist is the run's mapping's)
     if T < 3 or run.mapping.unavailable(run.volume).get("quadrupole"):
         return np.array(sorted({0, T - 1}), dtype=np.int64)
-    blocks = [call(_stack, *[call(steady_task, run.shared, mapping, a, min(a + STEADY_BLOCK, T), s)
-                             for s in run.slabs])
-              for a in range(0, T, STEADY_BLOCK)]  # fmt: skip
+    blocks = [
+        call(
+            _stack,
+            *[
+                call(steady_task, run.shared, mapping, a, min(a + STEADY_BLOCK, T), s)
+                for s in run.slabs
+            ],
+        )
+        for a in range(0, T, STEADY_BLOCK)
+    ]
     return call(_anchors, blocks, T)
 
 
@@ -830,30 +904,18 @@ def detect_distributed(
     check_steady(steady)
     delta_v_rule(delta_v)
     thresholds = thresholds or Thresholds()
-    if not isinstance(task_memory, int | np.integer) or task_memory < (1 << 20):
-        raise ParameterError(f"task_memory must be at least 1 MiB (bytes), got {task_memory!r}")
-    out = Path(output).expanduser() if output is not None else None
-    if out is not None and out.suffix.lower() not in (".h5", ".hdf5", ".pvd"):
-        raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
+    out = _checked_output(task_memory, output)
     reach = mapping_reach(m)
-    slabs = plan_slabs(volume.shape, ghost=None if reach is None else reach + ghost_planes(
-                           volume, floor=thresholds.floor > 0),
-                       planes=slab_planes, memory=int(task_memory))  # fmt: skip
+    slabs = plan_slabs(
+        volume.shape,
+        ghost=None if reach is None else reach + ghost_planes(volume, floor=thresholds.floor > 0),
+        planes=slab_planes,
+        memory=int(task_memory),
+    )
     plan_chunks([], chunk_steps)  # validates chunk_steps
     store = StateStore(out) if out is not None else None
     key = fingerprint(volume, m, thresholds, steady=steady, delta_v=delta_v)
-    state: dict[str, Any] = {}
-    if store is not None and store.exists():
-        if restart:
-            store.clear()
-        else:
-            state = store.read_manifest()
-            if state.get("fingerprint") != key or state.get("version") != STATE_VERSION:
-                raise ParameterError(
-                    f"{store.dir} holds a detection run with other settings (another volume, "
-                    f"mapping or thresholds); pass restart=True (--restart) to discard it, or "
-                    f"choose another output"
-                )
+    state = _stored_state(store, key, restart=restart)
     own = runner is None
     run_ = runner or Runner(scheduler, address=address, workers=workers, log=log)
     t0 = time.perf_counter()
@@ -866,36 +928,12 @@ def detect_distributed(
         # the preparation (statistics, peaks, thresholds) and the detection form one
         # graph: m_node, peak_node and thr_node are values, or lazy calls whose results
         # arrive with the detection tasks' (and are saved before any chunk is)
-        if "mapping_state" in state:
-            if isinstance(m, PaperDensityMapping):
-                st = state["mapping_state"]
-                m._lo, m._hi, m._gscale = float(st["lo"]), float(st["hi"]), float(st["gscale"])
-            else:
-                m.prepare(volume)
-            thr: Any = np.asarray(state["thresholds"], dtype=np.float64)
-            peak: Any = None if state.get("peak") is None else np.asarray(state["peak"])
-            m_node: Any = m
-            q_node: Any = store.load_qmean() if store is not None and steady == "remove" else None
-            state_known = True
-        else:
-            if store is not None:
-                store.clear()  # no manifest: whatever is there belongs to no run
-            if isinstance(m, PaperDensityMapping):
-                m_node = _prepare_paper(run)
-            else:
-                m.prepare(volume)
-                m_node = m
-            q_node = _steady_node(run, m_node) if steady == "remove" else None
-            peak = (
-                _peaks(run, m_node, q_node, floor=thresholds.floor)
-                if thresholds.needs_scale
-                else None
-            )
-            thr = run_.call(thresholds.resolve, peak) if peak is not None else \
-                thresholds.resolve(None)  # fmt: skip
-            state_known = False
-        lazy = {name: node for name, node in (("mapping", m_node), ("peak", peak), ("thr", thr),
-                                              ("qmean", q_node)) if _is_lazy(node)}  # fmt: skip
+        m_node, q_node, peak, thr, state_known = _prepare(run, m, state, store, steady, thresholds)
+        lazy = {
+            name: node
+            for name, node in (("mapping", m_node), ("peak", peak), ("thr", thr), ("qmean", q_node))
+            if _is_lazy(node)
+        }
         if store is not None:
             store.clear_pieces()
         done = store.done_steps() if store is not None else set()
@@ -908,9 +946,27 @@ def detect_distributed(
         n_sources = [0]
         parts_dir = None if store is None else str(store.dir)
         nthr = run_.threads_per_task
-        calls = [(detect_task, (vol, m_node, thr, thresholds.zero_fraction, a, b, s, nthr,
-                                parts_dir, q_node, delta_v, thresholds.floor))
-                 for a, b in chunks for s in slabs]  # fmt: skip
+        calls = [
+            (
+                detect_task,
+                (
+                    vol,
+                    m_node,
+                    thr,
+                    thresholds.zero_fraction,
+                    a,
+                    b,
+                    s,
+                    nthr,
+                    parts_dir,
+                    q_node,
+                    delta_v,
+                    thresholds.floor,
+                ),
+            )
+            for a, b in chunks
+            for s in slabs
+        ]
         # per (chunk, slab): monopole, dipole, quadrupole and valid point-steps (a task
         # that ran twice, after a worker died, counts once)
         tallies: dict[tuple[int, int], NDArray[np.int64]] = {}
@@ -929,11 +985,15 @@ def detect_distributed(
                 thr = known["thr"]
             if "qmean" in known and store is not None:
                 store.save_qmean(known["qmean"])
-            mstate = ({"lo": m._lo, "hi": m._hi, "gscale": m._gscale}
-                      if isinstance(m, PaperDensityMapping) else {})  # fmt: skip
-            state = {"version": STATE_VERSION, "fingerprint": key, "mapping_state": mstate,
-                     "thresholds": thr, "peak": peak, "n_steps": volume.n_steps,
-                     "source": volume.source}  # fmt: skip
+            state = {
+                "version": STATE_VERSION,
+                "fingerprint": key,
+                "mapping_state": _mapping_state(m),
+                "thresholds": thr,
+                "peak": peak,
+                "n_steps": volume.n_steps,
+                "source": volume.source,
+            }
             if store is not None:
                 store.write_manifest(state)
 
@@ -959,18 +1019,8 @@ def detect_distributed(
             if len(parts) < len(slabs):
                 return
             del pending[a]
-            if store is not None and len(slabs) == 1:
-                store.promote_piece(a, b, slabs[0].z0)  # synced by the task
-            else:
-                if store is not None:
-                    parts = {s: store.take_piece(a, b, s.z0) for s in slabs}
-                merged = [_merge([parts[s][k] for s in slabs]) for k in range(b - a)]  # type: ignore[index]
-                del parts
-                if store is not None:
-                    store.write_chunk(a, merged)
-                else:
-                    frames[a:b] = merged
-                del merged
+            _chunk_done(store, slabs, parts, a, b, frames)
+            del parts
             if on_chunk is not None:
                 on_chunk(range(a, b))
 
@@ -1000,32 +1050,43 @@ def detect_distributed(
     streamed = out is not None and store is not None and out.suffix.lower() != ".pvd"
     if store is not None and not streamed:
         frames = store.load_frames(volume.n_steps)  # type: ignore[assignment]
-    tally = np.sum(list(tallies.values()), axis=0) if tallies else np.zeros(4, dtype=np.int64)
-    valid = int(tally[3])
-    fraction = {k: (int(tally[i]) / valid if valid else 0.0)
-                for i, k in enumerate(("monopole", "dipole", "quadrupole"))}  # fmt: skip
-    fraction["any"] = sum(fraction.values())
-    if not todo and frames and all(f is not None for f in frames):
-        fraction = classified_fraction(frames, volume.n_points)  # type: ignore[arg-type]
+    fraction = _fractions(tallies, frames if not todo else None, volume.n_points)
     warn_fraction(fraction, volume.source)
     if isinstance(peak, StrengthStats):
         peak = peak.peak
     series = SourceSeries(
-        frames=[] if streamed else frames, times=volume.times.copy(), origin=volume.origin.copy(),  # type: ignore[arg-type]
-        spacing=volume.spacing.copy(), dims=volume.dims, thresholds=np.asarray(thr),
-        meta={"mapping": m.describe(), "thresholds": thresholds.describe(),
-              "peak": None if peak is None else np.asarray(peak).tolist(),
-              "source": volume.source, "steady": steady, "delta_v": delta_v,
-              "fraction": fraction,
-              **({"grid": "curvilinear"} if volume.coords is not None else {}),
-              "scale": {"scheduler": run_.scheduler, "workers": n_workers,
-                        "computed_steps": todo, "resumed_steps": len(done),
-                        "tasks": len(calls), "chunks": len(chunks), "chunk_steps": chunk_steps,
-                        "slabs": [(s.z0, s.z1) for s in slabs], "seconds": elapsed,
-                        "task_seconds": task_seconds[0], "computed_sources": n_sources[0],
-                        "peak_rss_per_process": sorted(rss.values(), reverse=True)}},
+        frames=[] if streamed else frames,  # type: ignore[arg-type]
+        times=volume.times.copy(),
+        origin=volume.origin.copy(),
+        spacing=volume.spacing.copy(),
+        dims=volume.dims,
+        thresholds=np.asarray(thr),
+        meta={
+            "mapping": m.describe(),
+            "thresholds": thresholds.describe(),
+            "peak": None if peak is None else np.asarray(peak).tolist(),
+            "source": volume.source,
+            "steady": steady,
+            "delta_v": delta_v,
+            "fraction": fraction,
+            **({"grid": "curvilinear"} if volume.coords is not None else {}),
+            "scale": {
+                "scheduler": run_.scheduler,
+                "workers": n_workers,
+                "computed_steps": todo,
+                "resumed_steps": len(done),
+                "tasks": len(calls),
+                "chunks": len(chunks),
+                "chunk_steps": chunk_steps,
+                "slabs": [(s.z0, s.z1) for s in slabs],
+                "seconds": elapsed,
+                "task_seconds": task_seconds[0],
+                "computed_sources": n_sources[0],
+                "peak_rss_per_process": sorted(rss.values(), reverse=True),
+            },
+        },
         coords=volume.coords,
-    )  # fmt: skip
+    )
     if streamed:
         assert out is not None and store is not None
         store.write_h5(series, out)
@@ -1039,6 +1100,127 @@ def detect_distributed(
     return series
 
 
+def _chunk_done(
+    store: StateStore | None,
+    slabs: list[Slab],
+    parts: dict[Slab, list[SourceFrame]],
+    a: int,
+    b: int,
+    frames: list[SourceFrame | None],
+) -> None:
+    """Steps ``a``..``b`` have every slab's sources (``parts``, or the pieces the tasks saved
+    in ``store``): merged across slabs, into the store's chunk or into ``frames``."""
+    if store is not None and len(slabs) == 1:
+        store.promote_piece(a, b, slabs[0].z0)  # synced by the task
+        return
+    if store is not None:
+        parts = {s: store.take_piece(a, b, s.z0) for s in slabs}
+    merged = [_merge([parts[s][k] for s in slabs]) for k in range(b - a)]
+    if store is not None:
+        store.write_chunk(a, merged)
+    else:
+        frames[a:b] = merged
+
+
+def _checked_output(task_memory: Any, output: str | os.PathLike[str] | None) -> Path | None:
+    """The sources output (``.h5``/``.hdf5``/``.pvd``, or None) once ``task_memory`` is a
+    whole number of bytes of at least 1 MiB."""
+    if not isinstance(task_memory, int | np.integer) or task_memory < (1 << 20):
+        raise ParameterError(f"task_memory must be at least 1 MiB (bytes), got {task_memory!r}")
+    out = Path(output).expanduser() if output is not None else None
+    if out is not None and out.suffix.lower() not in (".h5", ".hdf5", ".pvd"):
+        raise ParameterError(f"{out}: sources output must end in .h5/.hdf5 or .pvd")
+    return out
+
+
+def _mapping_state(m: AcousticMapping) -> dict[str, float]:
+    """What a resumed run needs of the mapping's preparation (the paper density's range)."""
+    if isinstance(m, PaperDensityMapping):
+        return {"lo": m._lo, "hi": m._hi, "gscale": m._gscale}
+    return {}
+
+
+def _stored_state(store: StateStore | None, key: str, *, restart: bool) -> dict[str, Any]:
+    """The saved manifest of an earlier run with the same settings (``{}``: none, or
+    discarded with ``restart``); another run's state is refused."""
+    if store is None or not store.exists():
+        return {}
+    if restart:
+        store.clear()
+        return {}
+    state = store.read_manifest()
+    if state.get("fingerprint") != key or state.get("version") != STATE_VERSION:
+        raise ParameterError(
+            f"{store.dir} holds a detection run with other settings (another volume, "
+            f"mapping or thresholds); pass restart=True (--restart) to discard it, or "
+            f"choose another output"
+        )
+    return state
+
+
+def _prepare(
+    run: _Run,
+    m: AcousticMapping,
+    state: dict[str, Any],
+    store: StateStore | None,
+    steady: str,
+    thresholds: Thresholds,
+) -> tuple[Any, Any, Any, Any, bool]:
+    """The mapping, steady stress, peaks and thresholds the detection tasks take: from the
+    saved state of a resumed run (then known: the last value True), or as nodes of the
+    run's graph (values, or lazy calls computed with the detection)."""
+    volume = run.volume
+    if "mapping_state" in state:
+        if isinstance(m, PaperDensityMapping):
+            st = state["mapping_state"]
+            m._lo, m._hi, m._gscale = float(st["lo"]), float(st["hi"]), float(st["gscale"])
+        else:
+            m.prepare(volume)
+        thr: Any = np.asarray(state["thresholds"], dtype=np.float64)
+        peak: Any = None if state.get("peak") is None else np.asarray(state["peak"])
+        m_node: Any = m
+        q_node: Any = store.load_qmean() if store is not None and steady == "remove" else None
+        state_known = True
+    else:
+        if store is not None:
+            store.clear()  # no manifest: whatever is there belongs to no run
+        if isinstance(m, PaperDensityMapping):
+            m_node = _prepare_paper(run)
+        else:
+            m.prepare(volume)
+            m_node = m
+        q_node = _steady_node(run, m_node) if steady == "remove" else None
+        peak = (
+            _peaks(run, m_node, q_node, floor=thresholds.floor) if thresholds.needs_scale else None
+        )
+        thr = (
+            run.runner.call(thresholds.resolve, peak)
+            if peak is not None
+            else thresholds.resolve(None)
+        )
+        state_known = False
+    return m_node, q_node, peak, thr, state_known
+
+
+def _fractions(
+    tallies: dict[tuple[int, int], NDArray[np.int64]],
+    frames: list[SourceFrame | None] | None,
+    n_points: int,
+) -> dict[str, float]:
+    """The share of the valid point-steps classified per type (and ``any``): counted from
+    every step's frames when this run has them all, else from the tasks' tallies."""
+    if frames and all(f is not None for f in frames):
+        return classified_fraction(frames, n_points)  # type: ignore[arg-type]
+    tally = np.sum(list(tallies.values()), axis=0) if tallies else np.zeros(4, dtype=np.int64)
+    valid = int(tally[3])
+    fraction = {
+        k: (int(tally[i]) / valid if valid else 0.0)
+        for i, k in enumerate(("monopole", "dipole", "quadrupole"))
+    }
+    fraction["any"] = sum(fraction.values())
+    return fraction
+
+
 def _is_lazy(obj: Any) -> bool:
     return hasattr(obj, "dask") and hasattr(obj, "key")
 
@@ -1047,7 +1229,8 @@ def _merge(parts: list[SourceFrame]) -> SourceFrame:
     if len(parts) == 1:
         return parts[0]
     return SourceFrame(
-        index=np.concatenate([p.index for p in parts]), kind=np.concatenate([p.kind for p in parts]),
+        index=np.concatenate([p.index for p in parts]),
+        kind=np.concatenate([p.kind for p in parts]),
         strength=np.concatenate([p.strength for p in parts]),
         radius=np.concatenate([p.radius for p in parts]),
-    )  # fmt: skip
+    )

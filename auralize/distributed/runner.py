@@ -114,12 +114,19 @@ class Runner:
     [1, 2, 4, 8]
     """
 
-    def __init__(self, scheduler: str = "sync", *, address: str | None = None,
-                 workers: int | None = None, processes: bool = True,
-                 timeout: float = CONNECT_TIMEOUT_S,
-                 log: Callable[[str], None] | None = print,
-                 setup_workers: bool = True, profile: bool = False,
-                 dashboard_address: str | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        scheduler: str = "sync",
+        *,
+        address: str | None = None,
+        workers: int | None = None,
+        processes: bool = True,
+        timeout: float = CONNECT_TIMEOUT_S,
+        log: Callable[[str], None] | None = print,
+        setup_workers: bool = True,
+        profile: bool = False,
+        dashboard_address: str | None = None,
+    ) -> None:
         if address:
             if scheduler not in ("distributed", "sync"):
                 raise ParameterError(
@@ -195,17 +202,21 @@ class Runner:
                 # (the nannies hand this configuration to the worker processes)
                 with dask.config.set({"distributed.worker.profile.enabled": self.profile}):
                     self._cluster = distributed.LocalCluster(
-                        n_workers=n, threads_per_worker=1, processes=self.processes,
+                        n_workers=n,
+                        threads_per_worker=1,
+                        processes=self.processes,
                         dashboard_address=self.dashboard_address,
                         worker_dashboard_address=f"{LOOPBACK}:0",
                         silence_logs=logging.ERROR,
                         **({"host": LOOPBACK} if self.processes else {}),
-                    )  # fmt: skip
+                    )
                 self.client = distributed.Client(self._cluster)
             except Exception as exc:  # pragma: no cover - depends on the machine
                 self.close()
-                raise SchedulerError(f"could not start a local Dask cluster of {n} workers "
-                                     f"({type(exc).__name__}: {exc})") from None  # fmt: skip
+                raise SchedulerError(
+                    f"could not start a local Dask cluster of {n} workers "
+                    f"({type(exc).__name__}: {exc})"
+                ) from None
         if self.setup_workers:
             self._setup_workers()
         self.setup_seconds = time.perf_counter() - t0
@@ -224,12 +235,15 @@ class Runner:
         from auralize.distributed.worker_setup import WorkerSetup, setup_report
 
         self.client.register_plugin(WorkerSetup())
-        self.worker_setup = sorted(self.client.run(setup_report).values(),
-                                   key=lambda r: r.get("pid", 0))  # fmt: skip
+        self.worker_setup = sorted(
+            self.client.run(setup_report).values(), key=lambda r: r.get("pid", 0)
+        )
         for rep in self.worker_setup:
             if rep.get("error"):
-                self.log(f"dask: worker {rep.get('pid')} could not load the kernels ahead "
-                         f"({rep['error']}); it will load them in its first task")  # fmt: skip
+                self.log(
+                    f"dask: worker {rep.get('pid')} could not load the kernels ahead "
+                    f"({rep['error']}); it will load them in its first task"
+                )
 
     @property
     def n_workers(self) -> int:
@@ -270,8 +284,9 @@ class Runner:
             return
         workers = sorted(self.client.scheduler_info(n_workers=-1).get("workers", {}))
         for i, obj in enumerate(objs):
-            yield self.client.scatter(obj, hash=False,
-                                      workers=[workers[i % len(workers)]] if workers else None)  # fmt: skip
+            yield self.client.scatter(
+                obj, hash=False, workers=[workers[i % len(workers)]] if workers else None
+            )
 
     def call(self, fn: Callable[..., Any], *args: Any) -> Any:
         """A lazy ``fn(*args)`` (a ``dask.delayed``); ``args`` may hold other calls' results.
@@ -283,8 +298,11 @@ class Runner:
         dask = require("dask")
         return dask.delayed(fn, pure=False)(*args)
 
-    def run(self, calls: Iterable[tuple[Callable[..., Any], tuple[Any, ...]]],
-            on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+    def run(
+        self,
+        calls: Iterable[tuple[Callable[..., Any], tuple[Any, ...]]],
+        on_result: Callable[[int, Any], None],
+    ) -> None:
         """Run ``fn(*args)`` for every call; ``on_result(i, result)`` as each completes.
 
         ``on_result`` runs on the calling thread.  If it raises, the remaining
@@ -318,8 +336,7 @@ class Runner:
         else:
             self._compute_local(outputs, on_result)
 
-    def _compute_local(self, outputs: Sequence[Any],
-                       on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+    def _compute_local(self, outputs: Sequence[Any], on_result: Callable[[int, Any], None]) -> None:
         dask = require("dask")
         from dask.callbacks import Callback
 
@@ -361,8 +378,9 @@ class Runner:
                 ) from exc
             raise
 
-    def _compute_distributed(self, outputs: Iterable[Any],
-                             on_result: Callable[[int, Any], None]) -> None:  # fmt: skip
+    def _compute_distributed(
+        self, outputs: Iterable[Any], on_result: Callable[[int, Any], None]
+    ) -> None:
         distributed = require("distributed")
         futures: list[Any] = []
         index: dict[Any, int] = {}
@@ -377,8 +395,10 @@ class Runner:
             for fut in done:
                 try:
                     result = fut.result()
-                except (distributed.scheduler.KilledWorker,
-                        distributed.client.FutureCancelledError) as exc:  # fmt: skip
+                except (
+                    distributed.scheduler.KilledWorker,
+                    distributed.client.FutureCancelledError,
+                ) as exc:
                     raise RunError(
                         f"task {index[fut.key]} of {len(futures)} killed the workers it ran on "
                         f"or was lost with them ({type(exc).__name__}: {exc}); what finished "

@@ -52,16 +52,30 @@ PIECES_PER_GROUP = 2_000_000
 STRIPES = 8
 
 
-def render_block(tracks: SourceTracks | PackedTracks, path: ListenerPath, a: int, b: int,
-                 rate: int, kw: dict[str, Any], threads: int | None) -> np.ndarray:  # fmt: skip
+def render_block(
+    tracks: SourceTracks | PackedTracks,
+    path: ListenerPath,
+    a: int,
+    b: int,
+    rate: int,
+    kw: dict[str, Any],
+    threads: int | None,
+) -> np.ndarray:
     """Samples ``[a, b)`` of the rendering of ``tracks`` (one task)."""
     if isinstance(tracks, PackedTracks):
         tracks = tracks.tracks()
     # (all the kernel's parallel loops on the task's threads: a worker's other
     # cores belong to other workers)
     with numba_threads(threads):
-        out = render_tracks(tracks, path, rate=rate, start=a / rate, duration=(b - a) / rate,
-                     threads=threads or None, **kw)  # fmt: skip
+        out = render_tracks(
+            tracks,
+            path,
+            rate=rate,
+            start=a / rate,
+            duration=(b - a) / rate,
+            threads=threads or None,
+            **kw,
+        )
     if out.audio.shape[1] != b - a:  # pragma: no cover - guards sample rounding
         raise ParameterError(f"block {a}:{b} rendered {out.audio.shape[1]} samples")
     return out.audio
@@ -84,8 +98,9 @@ def _sounding(tracks: SourceTracks) -> NDArray[np.float64]:
     return out
 
 
-def source_groups(tracks: SourceTracks, n_groups: int,
-                  stripes: int = 1) -> list[list[tuple[int, int]]]:  # fmt: skip
+def source_groups(
+    tracks: SourceTracks, n_groups: int, stripes: int = 1
+) -> list[list[tuple[int, int]]]:
     """Split the sources in ≤ ``n_groups`` groups of about equal work, each
     ``stripes`` contiguous ranges ``(a, b)``: weighted by the non-zero
     strengths in :data:`WEIGHT_COLUMNS` sampled knot columns (the kernel's
@@ -108,8 +123,9 @@ def source_groups(tracks: SourceTracks, n_groups: int,
     return [ranges[g::n_groups] for g in range(n_groups)]
 
 
-def plan_tasks(tracks: SourceTracks, n_samples: int, n_channels: int, n_workers: int,
-               groups: int | None = None) -> tuple[int, int]:  # fmt: skip
+def plan_tasks(
+    tracks: SourceTracks, n_samples: int, n_channels: int, n_workers: int, groups: int | None = None
+) -> tuple[int, int]:
     """Default split of a rendering: ``(block_samples, groups)``.
 
     A source group's task costs its sounding pieces plus the whole block's
@@ -135,10 +151,15 @@ def plan_tasks(tracks: SourceTracks, n_samples: int, n_channels: int, n_workers:
 
 def _subset(tracks: SourceTracks, a: int, b: int) -> SourceTracks:
     """Sources ``a … b-1`` (views of the arrays: no copy, nothing cached)."""
-    return SourceTracks(positions=tracks.positions[a:b], q=tracks.q[a:b],
-                        radius=tracks.radius[a:b], times=tracks.times,
-                        index=None if tracks.index is None else tracks.index[a:b],
-                        origin=tracks.origin, end=tracks.end)  # fmt: skip
+    return SourceTracks(
+        positions=tracks.positions[a:b],
+        q=tracks.q[a:b],
+        radius=tracks.radius[a:b],
+        times=tracks.times,
+        index=None if tracks.index is None else tracks.index[a:b],
+        origin=tracks.origin,
+        end=tracks.end,
+    )
 
 
 class PackedTracks:
@@ -192,9 +213,15 @@ class PackedTracks:
         if self._tracks is None:
             q = np.zeros(self.shape)
             q.ravel()[self.flat] = self.values
-            self._tracks = SourceTracks(positions=self.positions, q=q, radius=self.radius,
-                                        times=self.times, index=self.index,
-                                        origin=self.origin, end=self.end)  # fmt: skip
+            self._tracks = SourceTracks(
+                positions=self.positions,
+                q=q,
+                radius=self.radius,
+                times=self.times,
+                index=self.index,
+                origin=self.origin,
+                end=self.end,
+            )
         return self._tracks
 
 
@@ -266,8 +293,17 @@ def render_distributed(
     lay = stage.synthesis_layout
     # validate here (a bad path or setting fails on the caller, not in a
     # worker), without rendering: the workers build the piece lists
-    pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=bounds, orientation=False, lead=lead)  # fmt: skip
+    pr = prepare_render(
+        tracks,
+        path,
+        rate=rate,
+        time_scale=time_scale,
+        c0=c0,
+        duration=duration,
+        bounds=bounds,
+        orientation=False,
+        lead=lead,
+    )
     n = pr.n_samples
     audio = np.zeros((lay.n_channels, n))
     own = runner is None
@@ -284,8 +320,14 @@ def render_distributed(
         # range, passed as views: no copy.)
         local = run.scheduler in ("sync", "threads")
         ranges = source_groups(tracks, groups, 1 if local else STRIPES)
-        kw: dict[str, Any] = {"time_scale": time_scale, "interp": interp, "layout": lay,
-                              "c0": c0, "bounds": bounds, "lead": lead}  # fmt: skip
+        kw: dict[str, Any] = {
+            "time_scale": time_scale,
+            "interp": interp,
+            "layout": lay,
+            "c0": c0,
+            "bounds": bounds,
+            "lead": lead,
+        }
         pa = run.share(path)
         n_blocks = len(edges) - 1
 
@@ -295,8 +337,10 @@ def render_distributed(
             packed = (_subset(tracks, *r[0]) if local else PackedTracks(tracks, r) for r in ranges)
             for part in run.place_each(packed):
                 for i in range(n_blocks):
-                    yield render_block, (part, pa, edges[i], edges[i + 1], rate, kw,
-                                         run.threads_per_task)  # fmt: skip
+                    yield (
+                        render_block,
+                        (part, pa, edges[i], edges[i + 1], rate, kw, run.threads_per_task),
+                    )
 
         # a block's groups are added in group order as they come in (the sum
         # does not depend on which task finishes first), then dropped
@@ -318,10 +362,21 @@ def render_distributed(
     finally:
         if own:
             run.close()
-    out = Rendered(audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
-                   meta={"interp": interp, "c0": c0, "n_sources": tracks.n_sources,
-                         "t_start_data": pr.t_start, "blocks": len(edges) - 1,
-                         "groups": len(ranges), "tasks": n_blocks * len(ranges),
-                         "workers": n_workers,
-                         "scheduler": run.scheduler})  # fmt: skip
+    out = Rendered(
+        audio=audio,
+        rate=int(rate),
+        layout=lay,
+        time_scale=float(time_scale),
+        meta={
+            "interp": interp,
+            "c0": c0,
+            "n_sources": tracks.n_sources,
+            "t_start_data": pr.t_start,
+            "blocks": len(edges) - 1,
+            "groups": len(ranges),
+            "tasks": n_blocks * len(ranges),
+            "workers": n_workers,
+            "scheduler": run.scheduler,
+        },
+    )
     return stage.finish(out)

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auralize.emitters import C0
+from auralize.emitters.outdoor import note_arrivals
 from auralize.errors import ParameterError
 from auralize.listener import FORWARD, UP, ListenerPath
 from auralize.spatial.layouts import Layout, get_layout, listener_frame, pan_gains
@@ -50,9 +51,9 @@ from auralize.spatial.layouts import Layout, get_layout, listener_frame, pan_gai
 
 @dataclass
 class Arrivals:
-    """Where and when impulsive emissions reach the listener.
+    """Where and when impulsive emissions reach the listener (made by :func:`arrivals`).
 
-    Attributes
+    Parameters
     ----------
     time : (E,) float
         Arrival time, playback seconds since the path's first capture.
@@ -73,6 +74,16 @@ class Arrivals:
     gains : (n_channels, E) float or None
         Panning gains of the layout for the direction the sound comes from
         (None when no layout was given).
+
+    Examples
+    --------
+    An emission 343 m ahead of a listener who moves toward it at 34.3 m/s
+    (a tenth of c0) is heard compressed in time by 1/1.1:
+
+    >>> path = ListenerPath.line((0, 0, 0), (0, 34.3, 0), duration=1.0)
+    >>> a = arrivals(np.array([[0.0, 343.0, 0.0]]), np.array([0.0]), path, c0=343.0)
+    >>> round(float(a.time[0]), 6), round(float(a.doppler[0]), 6), a.gains is None
+    (0.909091, 0.909091, True)
     """
 
     time: NDArray[np.float64]
@@ -87,7 +98,29 @@ class Arrivals:
 def as_path(
     listener: ListenerPath | NDArray[np.floating] | tuple[float, float, float],
 ) -> ListenerPath:
-    """A ListenerPath from a path or a static (3,) position (one capture, forward +y, up +z)."""
+    """A ListenerPath from a path or a static (3,) position (one capture, forward +y, up +z).
+
+    Parameters
+    ----------
+    listener : ListenerPath or (3,) float
+        A path (returned as it is) or a fixed position (m).
+
+    Returns
+    -------
+    ListenerPath
+        ``listener``, or one capture at time 0 at the position.
+
+    Raises
+    ------
+    ParameterError
+        A position that is not three finite numbers.
+
+    Examples
+    --------
+    >>> p = as_path((1.0, 2.0, 0.0))
+    >>> p.n_captures, p.positions.tolist()
+    (1, [[1.0, 2.0, 0.0]])
+    """
     if isinstance(listener, ListenerPath):
         return listener
     return ListenerPath(np.zeros(1), _position(listener)[None], source="static listener")
@@ -102,8 +135,9 @@ def _position(listener: object) -> NDArray[np.float64]:
     return p
 
 
-def _check(positions: NDArray[np.floating], times: NDArray[np.floating],
-           c0: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def _check(
+    positions: NDArray[np.floating], times: NDArray[np.floating], c0: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     tau = np.asarray(times, dtype=np.float64).reshape(-1)
     if tau.shape[0] != x.shape[0]:
@@ -117,26 +151,50 @@ def _check(positions: NDArray[np.floating], times: NDArray[np.floating],
     return x, tau
 
 
-def arrival_times(positions: NDArray[np.floating], times: NDArray[np.floating],
-                  path: ListenerPath, *, c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def arrival_times(
+    positions: NDArray[np.floating],
+    times: NDArray[np.floating],
+    path: ListenerPath,
+    *,
+    c0: float = C0,
+) -> NDArray[np.float64]:
     """Arrival times (E,) solving ``t − τ = |L(t) − x| / c0`` exactly (see the module notes).
 
     Parameters
     ----------
-    positions : (E, 3) m, emission positions.
-    times : (E,) s, emission times τ (playback seconds since the path's first capture).
-    path : ListenerPath.
-    c0 : m/s, speed of sound.
+    positions : (E, 3) float
+        Emission positions x (m).
+    times : (E,) float
+        Emission times τ (playback seconds since the path's first capture).
+    path : ListenerPath
+        The listener (held at its end positions before and after its captures).
+    c0 : float
+        Speed of sound (m/s).
 
     Returns
     -------
-    (E,) arrival times in playback seconds since the path's first capture.
+    (E,) float
+        Arrival times in playback seconds since the path's first capture.
+
+    Raises
+    ------
+    ParameterError
+        Positions and times of different lengths, values not finite, or a
+        ``c0`` not > 0.
+
+    Examples
+    --------
+    >>> path = ListenerPath.point((0, 0, 0), duration=1.0)
+    >>> arrival_times(np.array([[343.0, 0, 0], [0, 0, 34.3]]), np.array([0.0, 0.5]), path,
+    ...               c0=343.0).tolist()
+    [1.0, 0.6]
     """
     return _solve(positions, times, path, c0)[0]
 
 
-def _solve(positions: NDArray[np.floating], times: NDArray[np.floating], path: ListenerPath,
-           c0: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def _solve(
+    positions: NDArray[np.floating], times: NDArray[np.floating], path: ListenerPath, c0: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Arrival times (E,) and the listener's velocity (E, 3) (m/s) at them."""
     x, tau = _check(positions, times, c0)
     T = path.times - path.times[0]
@@ -196,30 +254,55 @@ def _solve(positions: NDArray[np.floating], times: NDArray[np.floating], path: L
     return t, vel
 
 
-def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
-             listener: ListenerPath | NDArray[np.floating], *, c0: float = C0,
-             layout: str | Layout | None = None) -> Arrivals:  # fmt: skip
+def arrivals(
+    positions: NDArray[np.floating],
+    times: NDArray[np.floating],
+    listener: ListenerPath | NDArray[np.floating],
+    *,
+    c0: float = C0,
+    layout: str | Layout | None = None,
+) -> Arrivals:
     """Arrival time, distance, direction and panning gains of impulsive emissions.
 
     Parameters
     ----------
-    positions : (E, 3) m, emission positions x.
-    times : (E,) s, emission times τ, playback seconds since the path's first capture.
-    listener : ListenerPath, or a static (3,) position (forward +y, up +z).
-    c0 : m/s, speed of sound.
-    layout : output layout; with it the gains ``(n_channels, E)`` of
+    positions : (E, 3) float
+        Emission positions x (m).
+    times : (E,) float
+        Emission times τ, playback seconds since the path's first capture.
+    listener : ListenerPath or (3,) float
+        The listener's path, or a static position (m; forward +y, up +z).
+    c0 : float
+        Speed of sound (m/s).
+    layout : str or Layout, optional
+        Output layout; with it the gains ``(n_channels, E)`` of
         :func:`auralize.spatial.layouts.pan_gains` for each emission's direction in the
         listener's frame at its arrival.
 
     Returns
     -------
     Arrivals
+        Time, distance, listener position, directions, Doppler factor and gains.
+
+    Raises
+    ------
+    ParameterError
+        Positions and times of different lengths or not finite, a ``c0``
+        not > 0, a listener position that is not three finite numbers, or an
+        unknown layout.
 
     Examples
     --------
     >>> a = arrivals(np.array([[0.0, 343.0, 0.0]]), np.array([0.5]), np.zeros(3))
     >>> float(a.time[0]), float(a.distance[0])
     (1.5, 343.0)
+
+    With a layout, the gains of the direction the sound comes from (the
+    listener's left, channel 0 of ``stereo``):
+
+    >>> a = arrivals(np.array([[-2.0, 0, 0]]), np.array([0.0]), np.zeros(3), layout="stereo")
+    >>> a.gains.round(6).tolist(), a.direction_local.round(6).tolist()
+    ([[1.0], [0.0]], [[0.0, -1.0, 0.0]])
     """
     if isinstance(listener, ListenerPath) and listener.n_captures > 1:
         path = listener
@@ -257,6 +340,7 @@ def arrivals(positions: NDArray[np.floating], times: NDArray[np.floating],
     gains = None
     if layout is not None:
         gains = pan_gains(get_layout(layout), -local)
+    note_arrivals(t, D)  # a part heard outdoors filters its output along these distances
     return Arrivals(t, D, np.array(L), u, local, doppler, gains)
 
 
@@ -265,6 +349,24 @@ def sparse_gains(gains: NDArray[np.floating]) -> tuple[NDArray[np.int64], NDArra
 
     K is the largest number of non-zero gains of any emission (1 for mono, 2
     for pairwise VBAP, up to 3 for 3-D VBAP); unused entries have channel −1.
+
+    Parameters
+    ----------
+    gains : (n_channels, E) float
+        Panning gains of each emission (:attr:`Arrivals.gains`).
+
+    Returns
+    -------
+    chans : (E, K) int64
+        The channels of each emission's non-zero gains, in channel order (−1: unused).
+    gains : (E, K) float
+        Their gains (0 where unused).
+
+    Examples
+    --------
+    >>> chans, g = sparse_gains(np.array([[1.0, 0.0], [0.0, 0.6], [0.0, 0.8]]))
+    >>> chans.tolist(), g.tolist()
+    ([[0, -1], [1, 2]], [[1.0, 0.0], [0.6, 0.8]])
     """
     g = np.asarray(gains, dtype=np.float64)
     if g.shape[0] == 1:  # mono

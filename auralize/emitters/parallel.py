@@ -21,6 +21,16 @@ def run_pieces(fn: Callable[[int], None], n: int, threads: int | None = None) ->
     with one, so a thread slowed down by other processes on its core takes
     fewer pieces.  ``fn`` should release the GIL (a ``nogil`` numba kernel).
 
+    Parameters
+    ----------
+    fn : callable
+        ``fn(i)`` does piece ``i`` (its result is not kept; an exception is
+        raised here once every thread is done).
+    n : int
+        Number of pieces.
+    threads : int, optional
+        Most threads to use (default and at most :data:`N_THREADS`).
+
     Examples
     --------
     >>> out = [0] * 5
@@ -33,8 +43,9 @@ def run_pieces(fn: Callable[[int], None], n: int, threads: int | None = None) ->
     if nt > 1 and _POOL is None:
         with _LOCK:
             if _POOL is None:
-                _POOL = ThreadPoolExecutor(max_workers=N_THREADS - 1,
-                                           thread_name_prefix="auralize-pieces")  # fmt: skip
+                _POOL = ThreadPoolExecutor(
+                    max_workers=N_THREADS - 1, thread_name_prefix="auralize-pieces"
+                )
     pieces = itertools.count()  # next() is atomic under the GIL
 
     def work() -> None:

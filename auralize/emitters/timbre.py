@@ -128,8 +128,9 @@ CLUSTERS = 8
 MAX_TABLE = 1 << 24
 
 
-def highpass(audio: NDArray[np.float64], rate: float, hz: float, *,
-             single: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def highpass(
+    audio: NDArray[np.float64], rate: float, hz: float, *, single: bool = False
+) -> NDArray[np.float64]:
     """Causal 4th-order Butterworth high-pass of ``audio (n_channels, n_samples)``.
 
     ``hz`` 0 returns the audio unchanged.  Causal, so nothing arrives before
@@ -141,8 +142,10 @@ def highpass(audio: NDArray[np.float64], rate: float, hz: float, *,
     its sound).
     """
     if not (np.isfinite(hz) and 0 <= hz < rate / 2):
-        raise ParameterError(f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz (half "
-                             f"the sample rate), got {hz!r}")  # fmt: skip
+        raise ParameterError(
+            f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz (half "
+            f"the sample rate), got {hz!r}"
+        )
     if hz == 0 or audio.shape[-1] == 0:
         return audio
     from scipy.signal import sosfilt
@@ -187,8 +190,9 @@ def butter_sos(order: int, hz: float, kind: str, rate: float) -> NDArray[np.floa
     return np.asarray(butter(order, hz, btype=kind, fs=rate, output="sos"))
 
 
-def loudness(audio: NDArray[np.float64], rate: float, *,
-             split_hz: float = 20.0) -> dict[str, float]:  # fmt: skip
+def loudness(
+    audio: NDArray[np.float64], rate: float, *, split_hz: float = 20.0
+) -> dict[str, float]:
     """Peak and RMS (over all channels) and the share of the energy above
     ``split_hz`` (from the power spectrum, the signal zero-padded to a fast
     FFT length)."""
@@ -202,16 +206,25 @@ def loudness(audio: NDArray[np.float64], rate: float, *,
     f = np.fft.rfftfreq(n_fft, 1.0 / rate)
     total = float(spec.sum())
     share = float(spec[f > split_hz].sum() / total) if total > 0 else 0.0
-    return {"peak": float(np.max(np.abs(a))), "rms": float(np.sqrt(np.mean(a * a))),
-            "above_hz": split_hz, "share_above": share}  # fmt: skip
+    return {
+        "peak": float(np.max(np.abs(a))),
+        "rms": float(np.sqrt(np.mean(a * a))),
+        "above_hz": split_hz,
+        "share_above": share,
+    }
 
 
 def _subset(tracks: SourceTracks, q: NDArray[np.float64]) -> SourceTracks:
     """The tracks with strengths ``q``, rows that never sound dropped."""
     keep = np.any(q != 0, axis=1)
-    return SourceTracks(positions=np.asarray(tracks.positions).reshape(-1, 3)[keep],
-                        q=np.ascontiguousarray(q[keep]), radius=np.asarray(tracks.radius)[keep],
-                        times=tracks.times, origin=tracks.origin, end=tracks.end)  # fmt: skip
+    return SourceTracks(
+        positions=np.asarray(tracks.positions).reshape(-1, 3)[keep],
+        q=np.ascontiguousarray(q[keep]),
+        radius=np.asarray(tracks.radius)[keep],
+        times=tracks.times,
+        origin=tracks.origin,
+        end=tracks.end,
+    )
 
 
 #: the envelope renders merge the sources inside cubes whose side is this
@@ -228,12 +241,16 @@ def merge_size(tracks: SourceTracks, c0: float = C0) -> float:
 def _data_step(tracks: SourceTracks) -> float:
     """The median time step of the data (s; 1 for a single step), cached on the tracks."""
     t = np.asarray(tracks.times, dtype=np.float64)
-    return float(cached_on_tracks(tracks, "timbre:step", "",
-                         lambda: np.median(np.diff(t)) if t.size >= 2 else 1.0))  # fmt: skip
+    return float(
+        cached_on_tracks(
+            tracks, "timbre:step", "", lambda: np.median(np.diff(t)) if t.size >= 2 else 1.0
+        )
+    )
 
 
-def merged(tracks: SourceTracks, size: float,
-           keep: NDArray[np.bool_] | None = None) -> SourceTracks:  # fmt: skip
+def merged(
+    tracks: SourceTracks, size: float, keep: NDArray[np.bool_] | None = None
+) -> SourceTracks:
     """The tracks with the sources inside each cube of side ``size`` (m; cubes
     aligned with the sources' box) joined into one: strengths summed, at the
     centroid weighted by Σ_t |q|, clamp radius the largest.  Sources where
@@ -270,14 +287,19 @@ def merged(tracks: SourceTracks, size: float,
     ps = pj[order]
     cen = np.stack([np.bincount(inv, weights=w * ps[:, a]) for a in range(3)], 1)
     plain = np.stack([np.bincount(inv, weights=ps[:, a]) for a in range(3)], 1)
-    cen = np.where(wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1.0)[:, None],
-                   plain / cnt[:, None])  # fmt: skip
+    cen = np.where(
+        wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1.0)[:, None], plain / cnt[:, None]
+    )
     radius = np.asarray(tracks.radius, dtype=np.float64)
     rj = np.maximum.reduceat(radius[join][order], starts)
-    return SourceTracks(positions=np.concatenate([pos[~join], cen]),
-                        q=np.concatenate([q[~join], np.add.reduceat(qs, starts, axis=0)]),
-                        radius=np.concatenate([radius[~join], rj]),
-                        times=tracks.times, origin=tracks.origin, end=tracks.end)  # fmt: skip
+    return SourceTracks(
+        positions=np.concatenate([pos[~join], cen]),
+        q=np.concatenate([q[~join], np.add.reduceat(qs, starts, axis=0)]),
+        radius=np.concatenate([radius[~join], rj]),
+        times=tracks.times,
+        origin=tracks.origin,
+        end=tracks.end,
+    )
 
 
 #: sources nearer to the listener's path than this many merging cubes are not merged
@@ -292,8 +314,7 @@ def _shared(points: NDArray[np.float64], size: float) -> NDArray[np.bool_]:
     return np.asarray(cnt[inv.ravel()] > 1)
 
 
-def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any,
-            c0: float) -> Any:  # fmt: skip
+def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any, c0: float) -> Any:
     """``build(join)`` with ``join(t)`` the tracks ``t`` merged for the envelope
     renders (:func:`merged`, cubes of :func:`merge_size`, the sources nearer to
     ``path`` than :data:`NEAR` cubes kept), cached on ``tracks`` for this path."""
@@ -318,8 +339,14 @@ def _joined(tracks: SourceTracks, path: ListenerPath, name: str, build: Any,
     return out
 
 
-def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.float64],
-                  t_play: NDArray[np.float64], *, c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def mean_distance(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    t_data: NDArray[np.float64],
+    t_play: NDArray[np.float64],
+    *,
+    c0: float = C0,
+) -> NDArray[np.float64]:
     """Envelope-weighted mean source distance D̄ (m) heard at data times ``t_data`` (J,)
     when the listener is at its playback times ``t_play`` (J,) on ``path``.
 
@@ -355,9 +382,14 @@ def mean_distance(tracks: SourceTracks, path: ListenerPath, t_data: NDArray[np.f
 _MEAN_BLOCK = 16384
 
 
-def _mean_terms(L: NDArray[np.float64], t_data: NDArray[np.float64], cen: NDArray[np.float64],
-                W: NDArray[np.float64], tn: NDArray[np.float64],
-                c0: float) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+def _mean_terms(
+    L: NDArray[np.float64],
+    t_data: NDArray[np.float64],
+    cen: NDArray[np.float64],
+    W: NDArray[np.float64],
+    tn: NDArray[np.float64],
+    c0: float,
+) -> tuple[NDArray[np.float64], ...]:
     """For controls at listener positions ``L (J, 3)`` and data times ``t_data (J,)``:
     Σ_c w_c, Σ_c w_c / D_c and min_c D_c over the clusters ``cen (C, 3)`` whose
     summed |q| per padded knot ``tn`` is ``W (C, T + 2)`` (see :func:`mean_distance`)."""
@@ -404,8 +436,9 @@ def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.flo
     pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
     w = np.abs(np.asarray(tracks.q, dtype=np.float64))
     lo, hi = pos.min(axis=0), pos.max(axis=0)
-    cell3 = np.minimum((CLUSTERS * (pos - lo) / np.maximum(hi - lo, 1e-300)).astype(np.int64),
-                       CLUSTERS - 1)  # fmt: skip
+    cell3 = np.minimum(
+        (CLUSTERS * (pos - lo) / np.maximum(hi - lo, 1e-300)).astype(np.int64), CLUSTERS - 1
+    )
     cell = (cell3[:, 0] * CLUSTERS + cell3[:, 1]) * CLUSTERS + cell3[:, 2]
     order = np.argsort(cell, kind="stable")
     cs = cell[order]
@@ -419,8 +452,9 @@ def _clusters(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.flo
     cen = np.stack([np.bincount(inv, weights=wk * ps[:, a], minlength=C) for a in range(3)], 1)
     plain = np.stack([np.bincount(inv, weights=ps[:, a], minlength=C) for a in range(3)], 1)
     cnt = np.bincount(inv, minlength=C)
-    cen = np.where(wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1)[:, None],
-                   plain / cnt[:, None])  # fmt: skip
+    cen = np.where(
+        wsum[:, None] > 0, cen / np.where(wsum > 0, wsum, 1)[:, None], plain / cnt[:, None]
+    )
     W = np.zeros((C, w.shape[1] + 2))  # padded with silent steps like the synthesis knots
     W[:, 1:-1] = np.add.reduceat(ws, starts, axis=0)
     return np.asarray(cen, dtype=np.float64), W
@@ -453,8 +487,9 @@ def change_tracks(tracks: SourceTracks) -> SourceTracks:
     return out
 
 
-def change_envelope(audio: NDArray[np.float64], rate: float, step_s: float, *,
-                    ambisonic: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def change_envelope(
+    audio: NDArray[np.float64], rate: float, step_s: float, *, ambisonic: bool = False
+) -> NDArray[np.float64]:
     """The envelope of the change pressure ``audio (n_channels, n)`` (the render of
     :func:`change_tracks`): its standard deviation over a centred window of
     :data:`ENVELOPE_STEPS` data steps (``step_s`` playback seconds each; at
@@ -521,8 +556,9 @@ _TABLES: dict[tuple[Any, ...], NDArray[np.float64]] = {}
 _TABLES_MAX = 8
 
 
-def _noise_table(n: int, rate: float, seed: tuple[int, ...], shape: Any,
-                 key: tuple[Any, ...]) -> NDArray[np.float64]:  # fmt: skip
+def _noise_table(
+    n: int, rate: float, seed: tuple[int, ...], shape: Any, key: tuple[Any, ...]
+) -> NDArray[np.float64]:
     """``n`` samples of unit-RMS noise whose amplitude spectrum is ``shape(f)``, with
     uniformly random phases from ``seed`` (paper 001 §4, spectral noise synthesis).
 
@@ -550,8 +586,9 @@ def _noise_table(n: int, rate: float, seed: tuple[int, ...], shape: Any,
 class _Clock:
     """Sample times of a render and the emission-time axis of its carriers."""
 
-    def __init__(self, tracks: SourceTracks, path: ListenerPath, out: Rendered, *,
-                 start: float, c0: float) -> None:  # fmt: skip
+    def __init__(
+        self, tracks: SourceTracks, path: ListenerPath, out: Rendered, *, start: float, c0: float
+    ) -> None:
         rate, ts = out.rate, out.time_scale
         n = out.audio.shape[1]
         self.rate, self.ts = rate, ts
@@ -596,8 +633,15 @@ class _Clock:
         return np.interp(x, _sample_index(table.size), table, left=0.0, right=0.0)
 
 
-def _carriers(tracks: SourceTracks, path: ListenerPath, out: Rendered, carrier: Any, *,
-              start: float, c0: float) -> NDArray[np.float64]:  # fmt: skip
+def _carriers(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    out: Rendered,
+    carrier: Any,
+    *,
+    start: float,
+    c0: float,
+) -> NDArray[np.float64]:
     """The carrier of each channel of ``out``, ``(1 or n_channels, n)``.
 
     ``carrier(clock)`` gives a carrier ``(n,)`` read on a :class:`_Clock`.  One
@@ -627,14 +671,27 @@ def _sample_index(n: int) -> NDArray[np.float64]:
     return j
 
 
-def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "physical",
-                  rate: int = 44100, time_scale: float = 1.0, interp: str = "cubic",
-                  layout: str | Layout = "mono", c0: float = C0, duration: float | None = None,
-                  bounds: tuple[float, ...] | None = None, start: float = 0.0, lead: float = 0.0,
-                  highpass_hz: float = HIGHPASS_HZ, seed: int = 0, alpha: float = ALPHA,
-                  carriers: dict[str, tuple[Any, ...]] | None = None,
-                  hrtf: object = None,
-                  by_type: dict[str, SourceTracks] | None = None) -> Rendered:  # fmt: skip
+def render_timbre(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    *,
+    timbre: str = "physical",
+    rate: int = 44100,
+    time_scale: float = 1.0,
+    interp: str = "cubic",
+    layout: str | Layout = "mono",
+    c0: float = C0,
+    duration: float | None = None,
+    bounds: tuple[float, ...] | None = None,
+    start: float = 0.0,
+    lead: float = 0.0,
+    highpass_hz: float = HIGHPASS_HZ,
+    seed: int = 0,
+    alpha: float = ALPHA,
+    carriers: dict[str, tuple[Any, ...]] | None = None,
+    hrtf: object = None,
+    by_type: dict[str, SourceTracks] | None = None,
+) -> Rendered:
     """Render ``tracks`` along ``path`` in one of :data:`TIMBRES`, then high-pass.
 
     Every layout the synthesis pans to is rendered directly; ``binaural`` is
@@ -679,9 +736,16 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     if not (np.isfinite(alpha) and alpha > 0):
         raise ParameterError(f"alpha (power-law exponent) must be > 0, got {alpha!r}")
     stage = output_stage(layout, int(rate), hrtf=hrtf)
-    kw: dict[str, Any] = dict(rate=rate, time_scale=time_scale, interp=interp,
-                              layout=stage.synthesis_layout, c0=c0, duration=duration,
-                              start=start, lead=lead)  # fmt: skip
+    kw: dict[str, Any] = dict(
+        rate=rate,
+        time_scale=time_scale,
+        interp=interp,
+        layout=stage.synthesis_layout,
+        c0=c0,
+        duration=duration,
+        start=start,
+        lead=lead,
+    )
     highpass(np.zeros((1, 0)), rate, highpass_hz)  # validate before rendering
     meta: dict[str, Any] = {"timbre": timbre, "seed": int(seed), "highpass_hz": highpass_hz}
     notes: list[str] = []
@@ -715,15 +779,21 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
             if timbre == "auto":
                 timbre = "extended"
                 f_cut = cutoff_hz(tracks, time_scale)
-                how = (f"physical below {f_cut:.3g} Hz, power-law noise above"
-                       if f_cut > 0.5 * highpass_hz
-                       else f"power-law noise above {f_cut:.3g} Hz; the physical part below "
-                            f"it is under the {highpass_hz:g} Hz high-pass, left out")  # fmt: skip
-                notes.append(f"timbre auto: {below} (inaudible); rendered 'extended' ({how}); "
-                             f"--timbre physical keeps the pressure alone")  # fmt: skip
+                how = (
+                    f"physical below {f_cut:.3g} Hz, power-law noise above"
+                    if f_cut > 0.5 * highpass_hz
+                    else f"power-law noise above {f_cut:.3g} Hz; the physical part below "
+                    f"it is under the {highpass_hz:g} Hz high-pass, left out"
+                )
+                notes.append(
+                    f"timbre auto: {below} (inaudible); rendered 'extended' ({how}); "
+                    f"--timbre physical keeps the pressure alone"
+                )
             else:
-                notes.append(f"note: {below} (inaudible); try --timbre extended, or a smaller "
-                             f"--time-scale (the data played faster)")  # fmt: skip
+                notes.append(
+                    f"note: {below} (inaudible); try --timbre extended, or a smaller "
+                    f"--time-scale (the data played faster)"
+                )
         elif timbre == "auto":
             timbre = "physical"
         if phys is None and timbre == "physical":
@@ -733,15 +803,17 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
         assert phys is not None
         out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse,
-                        highpass_hz)  # fmt: skip
+        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse, highpass_hz)
     else:
-        out = _tonal(tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta,
-                     by_type)  # fmt: skip
+        out = _tonal(
+            tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta, by_type
+        )
     if meta.get("beta_rule") == "rms":
-        notes.append("the field changes slowly against the data's time step (no physical "
-                     "sound at the cut-off to extend): the noise is scaled to the RMS of the "
-                     "physical pressure's changes")  # fmt: skip
+        notes.append(
+            "the field changes slowly against the data's time step (no physical "
+            "sound at the cut-off to extend): the noise is scaled to the RMS of the "
+            "physical pressure's changes"
+        )
     meta["timbre_notes"] = notes
     if not finished:
         out = stage.finish(out)  # the output channels (binaural: two ears) before the high-pass
@@ -756,10 +828,12 @@ def render_timbre(tracks: SourceTracks, path: ListenerPath, *, timbre: str = "ph
     level = ROUNDOFF_LEVEL * term_level(tracks, path)
     peak = float(np.max(np.abs(out.audio), initial=0.0))
     if peak <= level:
-        meta["silent_why"] = (f"nothing in the data changes in a way that sounds: the "
-                          f"{'pressure' if timbre == 'physical' else 'sound'} peaks at {peak:.3g} "
-                          f"Pa, round-off against the {level / ROUNDOFF_LEVEL:.3g} Pa its terms "
-                          f"would make without cancelling; written as silence, not amplified")  # fmt: skip
+        meta["silent_why"] = (
+            f"nothing in the data changes in a way that sounds: the "
+            f"{'pressure' if timbre == 'physical' else 'sound'} peaks at {peak:.3g} "
+            f"Pa, round-off against the {level / ROUNDOFF_LEVEL:.3g} Pa its terms "
+            f"would make without cancelling; written as silence, not amplified"
+        )
         meta["timbre_notes"] = [*meta.get("timbre_notes", []), f"silent: {meta['silent_why']}"]
         out.audio = np.zeros_like(out.audio)
     out.meta.update(meta)
@@ -784,8 +858,13 @@ def envelope_rate(rate: int, f_cut: float) -> int:
     return rate // k
 
 
-def _smooth_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                   bounds: tuple[float, ...] | None = None) -> Rendered:  # fmt: skip
+def _smooth_render(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None = None,
+) -> Rendered:
     """:func:`render` of a signal band-limited to about ``f_cut`` (an envelope |q|,
     or the pressure under the data's Nyquist frequency) at :func:`envelope_rate`,
     linearly interpolated to the audio rate: the retarded-time sum is evaluated
@@ -794,8 +873,13 @@ def _smooth_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     return _upsampled(coarse, coarse.audio, n, k)
 
 
-def _coarse_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                   bounds: tuple[float, ...] | None = None) -> tuple[Rendered, int, int]:  # fmt: skip
+def _coarse_render(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None = None,
+) -> tuple[Rendered, int, int]:
     """The envelope-rate render of :func:`_smooth_render` before interpolation:
     ``(coarse, n, k)``, ``n`` samples at the audio rate, ``k`` audio samples per
     envelope sample (``coarse`` has ``n // k + 2`` samples; ``k`` 1: ``coarse``
@@ -808,21 +892,34 @@ def _coarse_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     dur = kw["duration"] if kw["duration"] is not None else path.duration - kw["start"]
     n = round(dur * rate)
     k = rate // er
-    coarse = render_tracks(tracks, path, bounds=bounds,
-                    **{**kw, "rate": er, "duration": (n // k + 2) / er})  # fmt: skip
+    coarse = render_tracks(
+        tracks, path, bounds=bounds, **{**kw, "rate": er, "duration": (n // k + 2) / er}
+    )
     return coarse, n, k
 
 
-def _envelope_render(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                     bounds: tuple[float, ...] | None, c0: float) -> Rendered:  # fmt: skip
+def _envelope_render(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None,
+    c0: float,
+) -> Rendered:
     """:func:`change_envelope` in every channel, taken at the envelope rate (sources
     merged as :func:`_joined`) and interpolated to the audio rate."""
     coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
     return _upsampled(coarse, coarse.audio, n, k)
 
 
-def _envelope_coarse(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any], f_cut: float,
-                     bounds: tuple[float, ...] | None, c0: float) -> tuple[Rendered, int, int]:  # fmt: skip
+def _envelope_coarse(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    f_cut: float,
+    bounds: tuple[float, ...] | None,
+    c0: float,
+) -> tuple[Rendered, int, int]:
     """:func:`_envelope_render` before its interpolation to the audio rate: the
     envelopes at the envelope rate (a :class:`Rendered`), ``n`` and ``k`` as
     :func:`_coarse_render`."""
@@ -835,19 +932,34 @@ def _envelope_coarse(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any
     for r in parts:  # each receiver's channels (the ears of binaural: AmbiX each)
         lay = coarse.layout if r is None else r.layout
         m = lay.n_channels
-        env[c : c + m] = change_envelope(coarse.audio[c : c + m], coarse.rate, step_s,
-                                         ambisonic=is_ambisonic(lay))  # fmt: skip
+        env[c : c + m] = change_envelope(
+            coarse.audio[c : c + m], coarse.rate, step_s, ambisonic=is_ambisonic(lay)
+        )
         c += m
-    return Rendered(audio=env, rate=coarse.rate, layout=coarse.layout,
-                    time_scale=coarse.time_scale, meta=coarse.meta), n, k  # fmt: skip
+    return (
+        Rendered(
+            audio=env,
+            rate=coarse.rate,
+            layout=coarse.layout,
+            time_scale=coarse.time_scale,
+            meta=coarse.meta,
+        ),
+        n,
+        k,
+    )
 
 
 def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rendered:
     """Envelope-rate samples ``e (n_channels, ≥ n // k + 2)`` of ``coarse``
     linearly interpolated to ``n`` samples at ``k`` times the rate."""
     if k == 1:
-        return Rendered(audio=e, rate=coarse.rate, layout=coarse.layout,
-                        time_scale=coarse.time_scale, meta=coarse.meta)  # fmt: skip
+        return Rendered(
+            audio=e,
+            rate=coarse.rate,
+            layout=coarse.layout,
+            time_scale=coarse.time_scale,
+            meta=coarse.meta,
+        )
     w = _lerp_weights(n, k)
     audio = np.empty((e.shape[0], n))
     m = n // k  # whole envelope steps; then the n - m k samples of a last one
@@ -861,9 +973,13 @@ def _upsampled(coarse: Rendered, e: NDArray[np.float64], n: int, k: int) -> Rend
         tail = audio[c, m * k :]
         np.multiply(pair[w[0][m * k :]], w[2][m * k :], out=tail)
         tail += pair[w[1][m * k :]] * w[3][m * k :]
-    return Rendered(audio=audio, rate=coarse.rate * k, layout=coarse.layout,
-                    time_scale=coarse.time_scale,
-                    meta={**coarse.meta, "envelope_rate_hz": coarse.rate})  # fmt: skip
+    return Rendered(
+        audio=audio,
+        rate=coarse.rate * k,
+        layout=coarse.layout,
+        time_scale=coarse.time_scale,
+        meta={**coarse.meta, "envelope_rate_hz": coarse.rate},
+    )
 
 
 @functools.lru_cache(maxsize=8)
@@ -885,10 +1001,19 @@ def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
     return 0.5 / (_data_step(tracks) * time_scale)
 
 
-def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
-              bounds: tuple[float, ...] | None, seed: int, alpha: float, c0: float, start: float,
-              meta: dict[str, Any], coarse: tuple[Rendered, int, int] | None = None,
-              highpass_hz: float = 0.0) -> Rendered:  # fmt: skip
+def _extended(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    bounds: tuple[float, ...] | None,
+    seed: int,
+    alpha: float,
+    c0: float,
+    start: float,
+    meta: dict[str, Any],
+    coarse: tuple[Rendered, int, int] | None = None,
+    highpass_hz: float = 0.0,
+) -> Rendered:
     from scipy.fft import rfft
 
     f_cut = cutoff_hz(tracks, float(kw["time_scale"]))
@@ -902,8 +1027,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     if coarse is None:
         joined = _joined(tracks, path, "timbre:joined", lambda join: join(tracks), c0)
         # without the low band in the output, its mono sum is all β needs
-        coarse = _coarse_render(joined, path, kw if keep_low else {**kw, "layout": "mono"},
-                                f_cut, bounds)  # fmt: skip
+        coarse = _coarse_render(
+            joined, path, kw if keep_low else {**kw, "layout": "mono"}, f_cut, bounds
+        )
     low_r, n, k = coarse
     if n < 4:
         meta["beta"] = 0.0
@@ -916,8 +1042,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
 
     def carrier_at(r: int) -> Any:
         def carrier(clock: _Clock) -> NDArray[np.float64]:
-            return clock.noise(_noise_table(clock.size, r, (int(seed), 1), shape,
-                                            ("power", alpha, f_cut)))  # fmt: skip
+            return clock.noise(
+                _noise_table(clock.size, r, (int(seed), 1), shape, ("power", alpha, f_cut))
+            )
 
         return carrier
 
@@ -954,8 +1081,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         # the envelope rate (which holds the cut-off and 20 Hz many times over):
         # the audio-rate transform is not needed
         m_c = env_c.audio.shape[1]
-        noise_c = env_c.audio * _carriers(tracks, path, env_c, carrier_at(env_c.rate),
-                                          start=start, c0=c0)  # fmt: skip
+        noise_c = env_c.audio * _carriers(
+            tracks, path, env_c, carrier_at(env_c.rate), start=start, c0=c0
+        )
         Hc = rfft(_crossover(noise_c, env_c.rate, f_cut, "highpass"), axis=-1) / m_c
         _, hb, hg2 = weights(m_c, env_c.rate)
         a = float(np.sum(np.abs(Hc[:, hb]) ** 2 * hg2))
@@ -1019,8 +1147,9 @@ def _extended(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
         total = float(np.sum(high**2)) / n
         share = min(max(1.0 - below / total, 0.0), 1.0) if total > 0 else 0.0
     meta["share_above_20hz_unfiltered"] = share
-    return Rendered(audio=high, rate=rate, layout=env.layout, time_scale=env.time_scale,
-                    meta=env.meta)  # fmt: skip
+    return Rendered(
+        audio=high, rate=rate, layout=env.layout, time_scale=env.time_scale, meta=env.meta
+    )
 
 
 def _lowpass_response(f: NDArray[np.float64], rate: float, f_cut: float) -> NDArray[np.complex128]:
@@ -1090,13 +1219,23 @@ def _type_tracks(tracks: SourceTracks) -> dict[str, SourceTracks]:
     return out
 
 
-def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
-           bounds: tuple[float, ...] | None, seed: int, carriers: dict[str, tuple[Any, ...]],
-           c0: float, start: float, meta: dict[str, Any],
-           by_type: dict[str, SourceTracks] | None = None) -> Rendered:  # fmt: skip
+def _tonal(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    bounds: tuple[float, ...] | None,
+    seed: int,
+    carriers: dict[str, tuple[Any, ...]],
+    c0: float,
+    start: float,
+    meta: dict[str, Any],
+    by_type: dict[str, SourceTracks] | None = None,
+) -> Rendered:
     if by_type is None and tracks.kind is None and tracks.n_sources > 0:  # (no sources: silence)
-        raise ParameterError("the tonal timbre needs the source types of the tracks (kind); "
-                             "build them with SourceSeries.tracks(), or give by_type")  # fmt: skip
+        raise ParameterError(
+            "the tonal timbre needs the source types of the tracks (kind); "
+            "build them with SourceSeries.tracks(), or give by_type"
+        )
     bad = set(carriers) - set(TYPES)
     if bad:
         raise ParameterError(f"tonal carriers are given per type {TYPES}, got {sorted(bad)}")
@@ -1112,8 +1251,11 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
     # each type's changes scaled so that its largest equals the largest of all types
     # (a property of the data, not of this render: distance and direction keep
     # their effect; loudness across types is not physical)
-    peak = {name: float(np.max(np.abs(change_tracks(t).q), initial=0.0))
-            for name, t in by_type.items() if t is not None and t.n_sources}  # fmt: skip
+    peak = {
+        name: float(np.max(np.abs(change_tracks(t).q), initial=0.0))
+        for name, t in by_type.items()
+        if t is not None and t.n_sources
+    }
     top = max(peak.values(), default=0.0)
     for name in TYPES:
         sub = by_type.get(name)
@@ -1143,27 +1285,42 @@ def _tonal(tracks: SourceTracks, path: ListenerPath, kw: dict[str, Any],
             def band(f: NDArray[np.float64], f_lo: float = f_lo, f_hi: float = f_hi) -> Any:
                 return ((f >= f_lo) & (f <= f_hi)).astype(np.float64)
 
-            def carrier(clock: _Clock, band: Any = band, code: int = code, f_lo: float = f_lo,
-                        f_hi: float = f_hi, rate: int = rate) -> NDArray[np.float64]:  # fmt: skip
-                return clock.noise(_noise_table(clock.size, rate, (int(seed), 2, code), band,
-                                                ("band", f_lo, f_hi)))  # fmt: skip
+            def carrier(
+                clock: _Clock,
+                band: Any = band,
+                code: int = code,
+                f_lo: float = f_lo,
+                f_hi: float = f_hi,
+                rate: int = rate,
+            ) -> NDArray[np.float64]:
+                return clock.noise(
+                    _noise_table(clock.size, rate, (int(seed), 2, code), band, ("band", f_lo, f_hi))
+                )
 
         else:
-            raise ParameterError(f"tonal carrier for {name} must be ('tone', Hz) or "
-                                 f"('noise', low Hz, high Hz), got {spec!r}")  # fmt: skip
+            raise ParameterError(
+                f"tonal carrier for {name} must be ('tone', Hz) or "
+                f"('noise', low Hz, high Hz), got {spec!r}"
+            )
         audio += env.audio * _carriers(_abs_tracks(sub), path, env, carrier, start=start, c0=c0)
         used[name] = list(spec)
     meta["carriers"] = used
     if audio is not None:
         meta["share_above_20hz_unfiltered"] = _share_above(audio, float(kw["rate"]), 20.0)
     if base is None or audio is None:  # nothing changes: silence of the right shape
-        empty = SourceTracks(positions=np.zeros((0, 3)), q=np.zeros((0, tracks.times.size)),
-                             radius=np.zeros(0), times=tracks.times, origin=tracks.origin,
-                             end=tracks.end)  # fmt: skip
+        empty = SourceTracks(
+            positions=np.zeros((0, 3)),
+            q=np.zeros((0, tracks.times.size)),
+            radius=np.zeros(0),
+            times=tracks.times,
+            origin=tracks.origin,
+            end=tracks.end,
+        )
         base = render_tracks(empty, path, **kw)
         audio = base.audio
-    return Rendered(audio=audio, rate=base.rate, layout=base.layout,
-                    time_scale=base.time_scale, meta=base.meta)  # fmt: skip
+    return Rendered(
+        audio=audio, rate=base.rate, layout=base.layout, time_scale=base.time_scale, meta=base.meta
+    )
 
 
 def _abs_tracks(tracks: SourceTracks) -> SourceTracks:

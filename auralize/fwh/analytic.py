@@ -125,7 +125,7 @@ NAMES = ("density", "velocity", "pressure", "momentum")
 STEP = 1e-20
 
 Array = NDArray[np.float64]
-#: real or complex (the complex step) arrays
+# real or complex (the complex step) arrays
 Num = NDArray[Any]
 Field = Callable[[float, NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
 
@@ -272,8 +272,9 @@ def _kind(kind: str) -> None:
         raise ParameterError(f"kind must be one of {KINDS}, got {kind!r}")
 
 
-def pulse_field(kind: str, xs: ArrayLike, t: ArrayLike, points: ArrayLike,
-                pulse: Pulse | None = None) -> tuple[Array, Array]:  # fmt: skip
+def pulse_field(
+    kind: str, xs: ArrayLike, t: ArrayLike, points: ArrayLike, pulse: Pulse | None = None
+) -> tuple[Array, Array]:
     """The exact ``(p', u)`` of a monopole or z-dipole pulse at ``xs`` (module docstring).
 
     Parameters
@@ -324,8 +325,9 @@ def pulse_field(kind: str, xs: ArrayLike, t: ArrayLike, points: ArrayLike,
 # ------------------------------------------------------------------ moving sources
 
 
-def retarded_time(orbit: Orbit, t: ArrayLike, points: ArrayLike, *, c0: float = 343.0,
-                  max_iter: int = 50) -> Array:  # fmt: skip
+def retarded_time(
+    orbit: Orbit, t: ArrayLike, points: ArrayLike, *, c0: float = 343.0, max_iter: int = 50
+) -> Array:
     """The emission time τ with t − τ − |x − y(τ)|/c0 = 0, per point (Newton's method).
 
     Parameters
@@ -356,8 +358,10 @@ def retarded_time(orbit: Orbit, t: ArrayLike, points: ArrayLike, *, c0: float = 
     True
     """
     if not orbit.mach(c0) < 1:
-        raise ParameterError(f"the source moves at Mach {orbit.mach(c0):.3g}: the retarded time "
-                             f"is unique only below Mach 1 (Ω R < c0)")  # fmt: skip
+        raise ParameterError(
+            f"the source moves at Mach {orbit.mach(c0):.3g}: the retarded time "
+            f"is unique only below Mach 1 (Ω R < c0)"
+        )
     x = np.asarray(points, dtype=np.float64)
     tt = np.asarray(t, dtype=np.float64)
     centre = np.asarray(orbit.centre, dtype=np.float64)
@@ -379,8 +383,7 @@ def retarded_time(orbit: Orbit, t: ArrayLike, points: ArrayLike, *, c0: float = 
     return np.asarray(tau, dtype=np.float64)
 
 
-def _monopole_tau_x(tau: Num, x: Num, orbit: Orbit,
-                    em: Emission) -> tuple[Num, ...]:  # fmt: skip
+def _monopole_tau_x(tau: Num, x: Num, orbit: Orbit, em: Emission) -> tuple[Num, ...]:
     """∂φ/∂τ|x, ∇φ|τ, ∂τ/∂t and ∇τ of the moving monopole at (τ, x) (real or complex)."""
     c0 = em.c0
     y, v, a = orbit.kinematics(tau)
@@ -395,15 +398,20 @@ def _monopole_tau_x(tau: Num, x: Num, orbit: Orbit,
     return phi_tau, phi_x, r / Rs, -rv / (c0 * Rs)[..., None]
 
 
-def _monopole_u(tau: Num, x: Num, orbit: Orbit,
-                em: Emission) -> Num:  # fmt: skip
+def _monopole_u(tau: Num, x: Num, orbit: Orbit, em: Emission) -> Num:
     phi_tau, phi_x, _, grad_tau = _monopole_tau_x(tau, x, orbit, em)
     return phi_x + phi_tau[..., None] * grad_tau
 
 
-def rotating_potential(kind: str, orbit: Orbit, t: ArrayLike, points: ArrayLike,
-                       emission: Emission | None = None, *,
-                       axis: ArrayLike = (0.0, 0.0, 1.0)) -> Array:  # fmt: skip
+def rotating_potential(
+    kind: str,
+    orbit: Orbit,
+    t: ArrayLike,
+    points: ArrayLike,
+    emission: Emission | None = None,
+    *,
+    axis: ArrayLike = (0.0, 0.0, 1.0),
+) -> Array:
     """The velocity potential φ (monopole) or φ_d = d·∇φ (dipole) of a source on a circle.
 
     :func:`rotating_field` is ``p' = −ρ0 ∂φ/∂t`` and ``u = ∇φ`` of it.
@@ -441,9 +449,15 @@ def rotating_potential(kind: str, orbit: Orbit, t: ArrayLike, points: ArrayLike,
     return np.asarray(-q / (4 * np.pi * (r - np.sum(rv * v, axis=-1) / em.c0)))
 
 
-def rotating_field(kind: str, orbit: Orbit, t: ArrayLike, points: ArrayLike,
-                   emission: Emission | None = None, *,
-                   axis: ArrayLike = (0.0, 0.0, 1.0)) -> tuple[Array, Array]:  # fmt: skip
+def rotating_field(
+    kind: str,
+    orbit: Orbit,
+    t: ArrayLike,
+    points: ArrayLike,
+    emission: Emission | None = None,
+    *,
+    axis: ArrayLike = (0.0, 0.0, 1.0),
+) -> tuple[Array, Array]:
     """The exact ``(p', u)`` of a monopole or dipole moving on a circle (module docstring).
 
     Parameters
@@ -552,9 +566,12 @@ class PulsatingSphere:
         z = (beta * sg**2 - T) / (sg * np.sqrt(2.0))
         # exp(−βT + β²σ²/2) erfc(z) = exp(−T²/2σ²) erfcx(z): the scaled form while z ≥ 0
         with np.errstate(over="ignore"):
-            F = np.where(z >= 0, np.exp(-(T**2) / (2 * sg**2)) * erfcx(np.maximum(z, 0.0)),
-                         np.exp(np.minimum(-beta * T + 0.5 * (beta * sg) ** 2, 0.0))
-                         * erfc(np.minimum(z, 0.0)))  # fmt: skip
+            F = np.where(
+                z >= 0,
+                np.exp(-(T**2) / (2 * sg**2)) * erfcx(np.maximum(z, 0.0)),
+                np.exp(np.minimum(-beta * T + 0.5 * (beta * sg) ** 2, 0.0))
+                * erfc(np.minimum(z, 0.0)),
+            )
         f = self.c0 * a * self.velocity * sg * np.sqrt(np.pi / 2) * F
         f1 = self.c0 * a * self.surface_velocity(tau) - beta * f
         return np.asarray(f), np.asarray(f1)
@@ -598,15 +615,27 @@ class PulsatingSphere:
 # ------------------------------------------------------------------ volumes
 
 
-def _grid_volume(fn: Field, *, n: int, spacing: float, origin: ArrayLike, steps: int,
-                 dt: float, names: tuple[str, ...], c0: float, rho0: float, p0: float,
-                 source: str, valid: Callable[[Array], NDArray[np.bool_]] | None = None
-                 ) -> TimeVolume:  # fmt: skip
+def _grid_volume(
+    fn: Field,
+    *,
+    n: int,
+    spacing: float,
+    origin: ArrayLike,
+    steps: int,
+    dt: float,
+    names: tuple[str, ...],
+    c0: float,
+    rho0: float,
+    p0: float,
+    source: str,
+    valid: Callable[[Array], NDArray[np.bool_]] | None = None,
+) -> TimeVolume:
     """A TimeVolume of ``fn(t, points) -> (p', u)`` on an ``n³`` grid, step by step."""
     unknown = sorted(set(names) - set(NAMES))
     if unknown:
-        raise ParameterError(f"unknown field(s) {unknown}: choose density, velocity, pressure, "
-                             f"momentum")  # fmt: skip
+        raise ParameterError(
+            f"unknown field(s) {unknown}: choose density, velocity, pressure, momentum"
+        )
     org = np.broadcast_to(np.asarray(origin, dtype=np.float64), (3,)).copy()
     axes = [org[i] + spacing * np.arange(n) for i in range(3)]
     z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
@@ -629,15 +658,30 @@ def _grid_volume(fn: Field, *, n: int, spacing: float, origin: ArrayLike, steps:
     }
     fields = {k: CallableFrames(makers[k][0], steps, makers[k][1]) for k in names}
     mask = None if valid is None else valid(pts)
-    return TimeVolume(origin=org, spacing=np.full(3, spacing), dims=shape, times=times,
-                      fields=dict(fields), source=source, valid=mask,
-                      check_finite=mask is None)  # fmt: skip
+    return TimeVolume(
+        origin=org,
+        spacing=np.full(3, spacing),
+        dims=shape,
+        times=times,
+        fields=dict(fields),
+        source=source,
+        valid=mask,
+        check_finite=mask is None,
+    )
 
 
-def pulse_volume(kind: str = "monopole", xs: ArrayLike = (0.013, -0.007, 0.011), *,
-                 n: int = 41, spacing: float = 0.05, origin: float = -1.0, steps: int = 85,
-                 dt: float = 1.5e-4, names: tuple[str, ...] = ("density", "velocity", "pressure"),
-                 pulse: Pulse | None = None) -> TimeVolume:  # fmt: skip
+def pulse_volume(
+    kind: str = "monopole",
+    xs: ArrayLike = (0.013, -0.007, 0.011),
+    *,
+    n: int = 41,
+    spacing: float = 0.05,
+    origin: float = -1.0,
+    steps: int = 85,
+    dt: float = 1.5e-4,
+    names: tuple[str, ...] = ("density", "velocity", "pressure"),
+    pulse: Pulse | None = None,
+) -> TimeVolume:
     """The exact field of :func:`pulse_field` stored on an ``n³`` grid at ``steps`` steps,
     computed step by step when read.
 
@@ -667,17 +711,34 @@ def pulse_volume(kind: str = "monopole", xs: ArrayLike = (0.013, -0.007, 0.011),
     """
     _kind(kind)
     pu = pulse or Pulse()
-    return _grid_volume(lambda t, pts: pulse_field(kind, xs, t, pts, pu), n=n, spacing=spacing,
-                        origin=origin, steps=steps, dt=dt, names=names, c0=pu.c0, rho0=pu.rho0,
-                        p0=pu.p0, source=f"<analytic {kind} pulse>")  # fmt: skip
+    return _grid_volume(
+        lambda t, pts: pulse_field(kind, xs, t, pts, pu),
+        n=n,
+        spacing=spacing,
+        origin=origin,
+        steps=steps,
+        dt=dt,
+        names=names,
+        c0=pu.c0,
+        rho0=pu.rho0,
+        p0=pu.p0,
+        source=f"<analytic {kind} pulse>",
+    )
 
 
-def rotating_volume(kind: str = "monopole", orbit: Orbit | None = None,
-                    emission: Emission | None = None, *, axis: ArrayLike = (0.0, 0.0, 1.0),
-                    n: int = 25, spacing: float = 0.05, origin: ArrayLike = -0.6,
-                    steps: int = 100, dt: float = 1.5e-4,
-                    names: tuple[str, ...] = ("density", "velocity", "pressure")
-                    ) -> TimeVolume:  # fmt: skip
+def rotating_volume(
+    kind: str = "monopole",
+    orbit: Orbit | None = None,
+    emission: Emission | None = None,
+    *,
+    axis: ArrayLike = (0.0, 0.0, 1.0),
+    n: int = 25,
+    spacing: float = 0.05,
+    origin: ArrayLike = -0.6,
+    steps: int = 100,
+    dt: float = 1.5e-4,
+    names: tuple[str, ...] = ("density", "velocity", "pressure"),
+) -> TimeVolume:
     """The exact field of :func:`rotating_field` on an ``n³`` grid, step by step.
 
     Parameters
@@ -709,15 +770,31 @@ def rotating_volume(kind: str = "monopole", orbit: Orbit | None = None,
     _kind(kind)
     ob = orbit or Orbit()
     em = _medium(emission, Tone())
-    return _grid_volume(lambda t, pts: rotating_field(kind, ob, t, pts, em, axis=axis), n=n,
-                        spacing=spacing, origin=origin, steps=steps, dt=dt, names=names,
-                        c0=em.c0, rho0=em.rho0, p0=em.p0,
-                        source=f"<analytic rotating {kind}>")  # fmt: skip
+    return _grid_volume(
+        lambda t, pts: rotating_field(kind, ob, t, pts, em, axis=axis),
+        n=n,
+        spacing=spacing,
+        origin=origin,
+        steps=steps,
+        dt=dt,
+        names=names,
+        c0=em.c0,
+        rho0=em.rho0,
+        p0=em.p0,
+        source=f"<analytic rotating {kind}>",
+    )
 
 
-def sphere_volume(sphere: PulsatingSphere | None = None, *, n: int = 25, spacing: float = 0.05,
-                  origin: ArrayLike = -0.6, steps: int = 60, dt: float = 1.5e-4,
-                  names: tuple[str, ...] = ("density", "velocity", "pressure")) -> TimeVolume:  # fmt: skip
+def sphere_volume(
+    sphere: PulsatingSphere | None = None,
+    *,
+    n: int = 25,
+    spacing: float = 0.05,
+    origin: ArrayLike = -0.6,
+    steps: int = 60,
+    dt: float = 1.5e-4,
+    names: tuple[str, ...] = ("density", "velocity", "pressure"),
+) -> TimeVolume:
     """The exact field of a :class:`PulsatingSphere` on an ``n³`` grid, step by step;
     the points inside the sphere are no-data (the volume's valid mask, NaN).
 
@@ -747,9 +824,20 @@ def sphere_volume(sphere: PulsatingSphere | None = None, *, n: int = 25, spacing
     def outside(pts: Array) -> NDArray[np.bool_]:
         return np.asarray(np.linalg.norm(pts - centre, axis=-1) >= sp.radius)
 
-    return _grid_volume(sp.field, n=n, spacing=spacing, origin=origin, steps=steps, dt=dt,
-                        names=names, c0=sp.c0, rho0=sp.rho0, p0=sp.p0,
-                        source="<analytic pulsating sphere>", valid=outside)  # fmt: skip
+    return _grid_volume(
+        sp.field,
+        n=n,
+        spacing=spacing,
+        origin=origin,
+        steps=steps,
+        dt=dt,
+        names=names,
+        c0=sp.c0,
+        rho0=sp.rho0,
+        p0=sp.p0,
+        source="<analytic pulsating sphere>",
+        valid=outside,
+    )
 
 
 # ------------------------------------------------------------------ the sound of a flow
@@ -792,8 +880,15 @@ class SpinningSound:
     ((2, 1), (2, 1, 3), True)
     """
 
-    def __init__(self, params: SpinningParams | None = None, *, c0: float = C0,
-                 l_max: int = 8, m_max: int = 6, nodes: int = 48) -> None:  # fmt: skip
+    def __init__(
+        self,
+        params: SpinningParams | None = None,
+        *,
+        c0: float = C0,
+        l_max: int = 8,
+        m_max: int = 6,
+        nodes: int = 48,
+    ) -> None:
         self.params = params or SpinningParams()
         self.c0 = float(c0)
         self.rho0 = float(self.params.rho0)
@@ -847,8 +942,10 @@ class SpinningSound:
             fp, fm = self.modes(x + step * e), self.modes(x - step * e)
             for m in base:
                 grads[m].append((fp[m] - fm[m]) / (2 * step[..., 0]))
-        return {m: (base[m], np.stack(grads[m], axis=-1) / (1j * m * self.omega * self.rho0))
-                for m in base}  # fmt: skip
+        return {
+            m: (base[m], np.stack(grads[m], axis=-1) / (1j * m * self.omega * self.rho0))
+            for m in base
+        }
 
     def field(self, t: ArrayLike, points: ArrayLike) -> tuple[Array, Array]:
         """The exact ``(p', u)`` of the sound outside the flow.
@@ -879,8 +976,14 @@ class SpinningSound:
         return p, u
 
 
-def spinning_volume(params: SpinningParams | None = None, *, sound: SpinningSound | None = None,
-                    inner: float = 4.0, flow: bool = True, p0: float = 101325.0) -> TimeVolume:  # fmt: skip
+def spinning_volume(
+    params: SpinningParams | None = None,
+    *,
+    sound: SpinningSound | None = None,
+    inner: float = 4.0,
+    flow: bool = True,
+    p0: float = 101325.0,
+) -> TimeVolume:
     """The ``spinning`` dataset's flow with its sound: what FW-H needs, on the dataset's grid.
 
     Velocity = the dataset's flow + the acoustic velocity, density ρ0 + p'/c0²,
@@ -914,11 +1017,25 @@ def spinning_volume(params: SpinningParams | None = None, *, sound: SpinningSoun
     snd = sound or SpinningSound(params)
     pr = snd.params
     if pr.freeze_after is not None:
-        raise ParameterError("spinning_volume holds a vortex that keeps turning: freeze_after "
-                             f"must be None, got {pr.freeze_after!r}")  # fmt: skip
-    data = make_spinning(**{k: getattr(pr, k) for k in ("size", "steps", "kL", "frequency",
-                                                         "speed", "rho0", "per_period",
-                                                         "freeze_after")})  # fmt: skip
+        raise ParameterError(
+            "spinning_volume holds a vortex that keeps turning: freeze_after "
+            f"must be None, got {pr.freeze_after!r}"
+        )
+    data = make_spinning(
+        **{
+            k: getattr(pr, k)
+            for k in (
+                "size",
+                "steps",
+                "kL",
+                "frequency",
+                "speed",
+                "rho0",
+                "per_period",
+                "freeze_after",
+            )
+        }
+    )
     n = data.dims[0]
     ax = data.origin[0] + data.spacing[0] * np.arange(n)
     Z, Y, X = np.meshgrid(ax, ax, ax, indexing="ij")
@@ -952,6 +1069,13 @@ def spinning_volume(params: SpinningParams | None = None, *, sound: SpinningSoun
         "velocity": CallableFrames(lambda k: get(k)[1], T, (*shape, 3)),
         "pressure": CallableFrames(lambda k: p0 + get(k)[0], T, shape),
     }
-    return TimeVolume(origin=data.origin, spacing=data.spacing, dims=shape, times=times,
-                      fields=dict(fields), source="<analytic spinning vortex and its sound>",
-                      valid=valid, check_finite=False)  # fmt: skip
+    return TimeVolume(
+        origin=data.origin,
+        spacing=data.spacing,
+        dims=shape,
+        times=times,
+        fields=dict(fields),
+        source="<analytic spinning vortex and its sound>",
+        valid=valid,
+        check_finite=False,
+    )

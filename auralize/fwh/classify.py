@@ -68,8 +68,10 @@ class WaveTest:
 
     def describe(self) -> str:
         """One line: what the data hold and why."""
-        how = (f"{self.field!r} obeys the wave equation at c0 = {self.c0:g} m/s to "
-               f"{100 * self.residual:.0f} %")  # fmt: skip
+        how = (
+            f"{self.field!r} obeys the wave equation at c0 = {self.c0:g} m/s to "
+            f"{100 * self.residual:.0f} %"
+        )
         if self.holds_sound:
             return f"the data hold sound waves: {how}"
         return f"the data hold sources of sound: {how} (waves would leave < {100 * WAVE_RESIDUAL:.0f} %)"
@@ -150,8 +152,9 @@ def wave_test(volume: TimeVolume, field: str | None = None, *, c0: float = C0) -
     # the median point: a source region inside the data (and the singular points of a
     # point source) are a minority of the points, the waves fill the rest
     residual = float(np.median(np.concatenate(shares)))
-    return WaveTest(residual=residual, field=str(name),
-                    steps=tuple(int(n) for n in at), c0=float(c0))  # fmt: skip
+    return WaveTest(
+        residual=residual, field=str(name), steps=tuple(int(n) for n in at), c0=float(c0)
+    )
 
 
 #: the ``--method`` choices: ``auto`` picks ``fwh`` for data that hold sound
@@ -178,8 +181,11 @@ class Method:
 
     def describe(self) -> str:
         """One line for the user: the method and why."""
-        what = ("the FW-H surface integral (Farassat 1A) on " + str(self.surface)
-                if self.name == "fwh" else "the volume sum of its sources (paper 003)")  # fmt: skip
+        what = (
+            "the FW-H surface integral (Farassat 1A) on " + str(self.surface)
+            if self.name == "fwh"
+            else "the volume sum of its sources (paper 003)"
+        )
         return f"method: {what}; {self.why}"
 
 
@@ -201,8 +207,10 @@ def fwh_unavailable(volume: TimeVolume) -> str | None:
     if volume.coords is not None:
         return "it runs on uniform grids (this one is curvilinear: add --resample)"
     if min(volume.dims) < 2 * INSET_CELLS + 2:
-        return (f"the grid ({' x '.join(map(str, volume.dims))} points) is too thin for a closed "
-                f"surface inside it")  # fmt: skip
+        return (
+            f"the grid ({' x '.join(map(str, volume.dims))} points) is too thin for a closed "
+            f"surface inside it"
+        )
     try:
         resolve_fields(volume)
     except FieldError as exc:
@@ -210,8 +218,9 @@ def fwh_unavailable(volume: TimeVolume) -> str | None:
     return None
 
 
-def choose_method(volume: TimeVolume, method: str = "auto", *, surface: str | None = None,
-                  c0: float = C0) -> Method:  # fmt: skip
+def choose_method(
+    volume: TimeVolume, method: str = "auto", *, surface: str | None = None, c0: float = C0
+) -> Method:
     """How to hear ``volume``: ``"volume"``, ``"fwh"``, or ``"auto"``: the FW-H integral on
     ``surface`` (default :func:`default_surface`) when the data hold sound
     (:func:`wave_test`) and the integral can run (:func:`fwh_unavailable`), else
@@ -242,11 +251,18 @@ def choose_method(volume: TimeVolume, method: str = "auto", *, surface: str | No
         return Method("fwh", "as asked (--method fwh)", surface or default_surface(volume))
     test = wave_test(volume, c0=c0)
     if test is None:
-        return Method("volume", "whether the data hold sound waves could not be told (it needs "
-                      "a changing pressure or density over 5 steps or more)")  # fmt: skip
+        return Method(
+            "volume",
+            "whether the data hold sound waves could not be told (it needs "
+            "a changing pressure or density over 5 steps or more)",
+        )
     if not test.holds_sound:
         return Method("volume", test.describe(), test=test)
     if cannot is not None:
-        return Method("volume", f"{test.describe()}, but the FW-H integral cannot run: {cannot}; "
-                      f"the volume sum mis-hears sound waves", test=test)  # fmt: skip
+        return Method(
+            "volume",
+            f"{test.describe()}, but the FW-H integral cannot run: {cannot}; "
+            f"the volume sum mis-hears sound waves",
+            test=test,
+        )
     return Method("fwh", test.describe(), surface or default_surface(volume), test=test)

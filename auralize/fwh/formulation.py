@@ -40,6 +40,7 @@ time (a gather, no loop over panels).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -57,10 +58,15 @@ from auralize.volume import TimeVolume
 CHUNK = 1 << 20
 
 
-def fwh_sources(rho: NDArray[np.float64], velocity: NDArray[np.float64],
-                p_prime: NDArray[np.float64], normals: NDArray[np.float64], *,
-                rho0: float = RHO0, surface_velocity: NDArray[np.float64] | None = None
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def fwh_sources(
+    rho: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    p_prime: NDArray[np.float64],
+    normals: NDArray[np.float64],
+    *,
+    rho0: float = RHO0,
+    surface_velocity: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The permeable FW-H sources Q = ρ0 U_n and L_i on panels.
 
     Parameters
@@ -104,8 +110,9 @@ def fwh_sources(rho: NDArray[np.float64], velocity: NDArray[np.float64],
     return Q, L
 
 
-def _splines(times: NDArray[np.float64], Q: NDArray[np.float64], L: NDArray[np.float64]
-             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def _splines(
+    times: NDArray[np.float64], Q: NDArray[np.float64], L: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Cubic-spline coefficients (4, T−1, P) of Q and (4, T−1, P, 3) of L (PPoly order)."""
     cq = CubicSpline(times, Q, axis=0).c
     cl = CubicSpline(times, L, axis=0).c
@@ -117,13 +124,15 @@ def _check_observers(observers: Any) -> NDArray[np.float64]:
     if x.ndim == 1:
         x = x[None]
     if x.ndim != 2 or x.shape[1] != 3 or not np.isfinite(x).all():
-        raise ParameterError(f"observers must be finite (n_obs, 3) positions, got shape "
-                             f"{np.shape(observers)}")  # fmt: skip
+        raise ParameterError(
+            f"observers must be finite (n_obs, 3) positions, got shape {np.shape(observers)}"
+        )
     return x
 
 
-def _geometry(surface: Surface, x: NDArray[np.float64]
-              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def _geometry(
+    surface: Surface, x: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Distances r (P,) and unit vectors r̂ (P, 3) from the panels to observer x."""
     rv = x - surface.centres
     r = np.linalg.norm(rv, axis=1)
@@ -132,8 +141,9 @@ def _geometry(surface: Surface, x: NDArray[np.float64]
     return r, rv / r[:, None]
 
 
-def fwh_time_window(times: NDArray[np.float64], surface: Surface, observers: Any, *,
-                    c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def fwh_time_window(
+    times: NDArray[np.float64], surface: Surface, observers: Any, *, c0: float = C0
+) -> NDArray[np.float64]:
     """Observer times ``(n_obs, 2)`` whose retarded times all lie inside the data.
 
     For observer x, every panel's τ = t − r/c0 is in ``[times[0], times[-1]]``
@@ -148,9 +158,16 @@ def fwh_time_window(times: NDArray[np.float64], surface: Surface, observers: Any
     return out
 
 
-def fwh_pressure_from_sources(times: NDArray[np.float64], Q: NDArray[np.float64],
-                              L: NDArray[np.float64], surface: Surface, observers: Any,
-                              t: Any, *, c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def fwh_pressure_from_sources(
+    times: NDArray[np.float64],
+    Q: NDArray[np.float64],
+    L: NDArray[np.float64],
+    surface: Surface,
+    observers: Any,
+    t: Any,
+    *,
+    c0: float = C0,
+) -> NDArray[np.float64]:
     """Formulation 1A (stationary surface) from sampled sources.
 
     Parameters
@@ -176,8 +193,10 @@ def fwh_pressure_from_sources(times: NDArray[np.float64], Q: NDArray[np.float64]
         data (see :func:`fwh_time_window`).
     """
     if not surface.stationary:
-        raise ParameterError("fwh_pressure handles a stationary surface only (surface velocity "
-                             "is not zero); the moving-surface terms are not implemented yet")  # fmt: skip
+        raise ParameterError(
+            "fwh_pressure handles a stationary surface only (surface velocity "
+            "is not zero); the moving-surface terms are not implemented yet"
+        )
     times = np.asarray(times, dtype=np.float64)
     x = _check_observers(observers)
     tt = np.asarray(t, dtype=np.float64).reshape(-1)
@@ -217,9 +236,18 @@ def fwh_pressure_from_sources(times: NDArray[np.float64], Q: NDArray[np.float64]
     return out
 
 
-def fwh_pressure(volume: TimeVolume | SurfaceSamples, surface: Surface | None, observers: Any,
-                 times: Any, *, rho0: float = RHO0, c0: float = C0, p0: float | None = None,
-                 **fields: str) -> NDArray[np.float64]:  # fmt: skip
+def fwh_pressure(
+    volume: TimeVolume | SurfaceSamples,
+    surface: Surface | None,
+    observers: Any,
+    times: Any,
+    *,
+    rho0: float = RHO0,
+    c0: float = C0,
+    p0: float | None = None,
+    solid: bool = False,
+    **fields: str,
+) -> NDArray[np.float64]:
     """Acoustic pressure at fixed observers by the permeable FW-H integral (formulation 1A).
 
     Parameters
@@ -240,6 +268,11 @@ def fwh_pressure(volume: TimeVolume | SurfaceSamples, surface: Surface | None, o
         Ambient density (kg/m³, default 1.2) and speed of sound (m/s, 343).
     p0 : float, optional
         Ambient pressure (Pa); default the mean of the first step's pressure.
+    solid : bool
+        The surface is an impermeable, no-slip body (the flow velocity on it
+        zero): the thickness source Q vanishes and the loading is L_i = p' n_i,
+        Curle's loading noise of the body (Curle 1955; Farassat 2007 §3).
+        Default False: a permeable surface in the flow.
     **fields : str
         ``density=``, ``velocity=``, ``momentum=``, ``pressure=`` field names
         (default: found by role, :func:`auralize.sources.mapping.match_field`).
@@ -263,21 +296,58 @@ def fwh_pressure(volume: TimeVolume | SurfaceSamples, surface: Surface | None, o
     >>> p.shape, bool(np.abs(p).max() < 1e-12)
     ((1, 2), True)
     """
+    smp = _samples(
+        volume, surface, "fwh_pressure", solid=solid, rho0=rho0, c0=c0, p0=p0, fields=fields
+    )
+    Q, L = fwh_sources(
+        smp.rho,
+        smp.velocity,
+        smp.p_prime,
+        smp.surface.normals,
+        rho0=smp.rho0,
+        surface_velocity=None if smp.surface.stationary else smp.surface.velocity,
+    )
+    return fwh_pressure_from_sources(smp.times, Q, L, smp.surface, observers, times, c0=smp.c0)
+
+
+def _samples(
+    volume: TimeVolume | SurfaceSamples,
+    surface: Surface | None,
+    what: str,
+    *,
+    solid: bool,
+    rho0: float,
+    c0: float,
+    p0: float | None,
+    fields: dict[str, str],
+) -> SurfaceSamples:
+    """The surface samples of ``volume`` (sampled on ``surface`` unless given as samples);
+    ``solid``: the surface is an impermeable, no-slip wall, the flow velocity on it zero."""
     if isinstance(volume, SurfaceSamples):
         smp = volume
     else:
         if surface is None:
-            raise ParameterError("fwh_pressure needs a surface")
+            raise ParameterError(f"{what} needs a surface")
         smp = sample_surface(volume, surface, rho0=rho0, c0=c0, p0=p0, **fields)
-    Q, L = fwh_sources(smp.rho, smp.velocity, smp.p_prime, smp.surface.normals, rho0=smp.rho0,
-                       surface_velocity=None if smp.surface.stationary else smp.surface.velocity)  # fmt: skip
-    return fwh_pressure_from_sources(smp.times, Q, L, smp.surface, observers, times, c0=smp.c0)
+    if solid:
+        if not smp.surface.stationary:
+            raise ParameterError("a solid (impermeable) FW-H surface must be stationary here")
+        smp = replace(smp, velocity=np.zeros_like(smp.velocity))
+    return smp
 
 
-def fwh_emitters(volume: TimeVolume | SurfaceSamples, surface: Surface | None = None, *,
-                 rho0: float = RHO0, c0: float = C0, p0: float | None = None,
-                 oversample: int = 4, time_origin: float | None = None,
-                 **fields: str) -> Sound:  # fmt: skip
+def fwh_emitters(
+    volume: TimeVolume | SurfaceSamples,
+    surface: Surface | None = None,
+    *,
+    rho0: float = RHO0,
+    c0: float = C0,
+    p0: float | None = None,
+    oversample: int = 4,
+    time_origin: float | None = None,
+    solid: bool = False,
+    **fields: str,
+) -> Sound:
     """The FW-H surface as engine emitters: a monopole and two dipoles per panel.
 
     Formulation 1A for a stationary surface is, panel by panel, what the
@@ -292,7 +362,7 @@ def fwh_emitters(volume: TimeVolume | SurfaceSamples, surface: Surface | None = 
 
     Parameters
     ----------
-    volume, surface, rho0, c0, p0, **fields
+    volume, surface, rho0, c0, p0, solid, **fields
         As :func:`fwh_pressure`.
     oversample : int
         Emission samples per data step (the splines are evaluated at this
@@ -308,12 +378,9 @@ def fwh_emitters(volume: TimeVolume | SurfaceSamples, surface: Surface | None = 
         ``fwh-loading-far``, ``fwh-loading-near``), signals over the data's
         times (zero outside them); ``meta`` holds the surface and fields.
     """
-    if isinstance(volume, SurfaceSamples):
-        smp = volume
-    else:
-        if surface is None:
-            raise ParameterError("fwh_emitters needs a surface")
-        smp = sample_surface(volume, surface, rho0=rho0, c0=c0, p0=p0, **fields)
+    smp = _samples(
+        volume, surface, "fwh_emitters", solid=solid, rho0=rho0, c0=c0, p0=p0, fields=fields
+    )
     if not smp.surface.stationary:
         raise ParameterError("fwh_emitters handles a stationary surface only")
     if isinstance(oversample, bool) or not (
@@ -336,14 +403,22 @@ def fwh_emitters(volume: TimeVolume | SurfaceSamples, surface: Surface | None = 
     origin = float(times[0]) if time_origin is None else float(time_origin)
     radius = 0.5 * np.sqrt(dS)
     pos = smp.surface.centres
-    common: dict[str, Any] = dict(rate=rate, positions=pos, t0=float(times[0]) - origin,
-                                  radius=radius)  # fmt: skip
+    common: dict[str, Any] = dict(
+        rate=rate, positions=pos, t0=float(times[0]) - origin, radius=radius
+    )
     parts = [
         Emitters(mono, law="physical", name="fwh-thickness", **common),
         Emitters(far, law="physical", name="fwh-loading-far", **common),
         Emitters(near, law=2.0, name="fwh-loading-near", **common),
     ]
-    meta = {"model": "fwh", "surface": smp.surface.description, "panels": smp.surface.n_panels,
-            "fields": smp.fields, "rho0": smp.rho0, "c0": smp.c0, "p0": smp.p0,
-            "time_origin": origin}  # fmt: skip
+    meta = {
+        "model": "fwh",
+        "surface": smp.surface.description,
+        "panels": smp.surface.n_panels,
+        "fields": smp.fields,
+        "rho0": smp.rho0,
+        "c0": smp.c0,
+        "p0": smp.p0,
+        "time_origin": origin,
+    }
     return Sound(parts=list(parts), meta=meta, name="fwh")

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, ClassVar
 
+import numpy as np
+
 from auralize.plugins import Parameter, SoundModel
 
 if TYPE_CHECKING:
@@ -40,38 +42,87 @@ class FWHSound(SoundModel):
             "surface",
             "",
             doc="box=x0;x1;y0;y1;z0;z1, sphere=cx;cy;cz;r[;nsub] or "
-            "file=PATH (a closed surface inside the grid, around the sources)",
-        ),  # fmt: skip
+            "file=PATH (a closed surface inside the grid, around the sources; "
+            "default: a box 10 % of the extent, at least 3 cells, inside each face)",
+        ),
         Parameter(
             "panel_size",
             0.0,
             range=(0.0, None),
             unit="m",
             doc="box panel edge (0: the grid's smallest spacing)",
-        ),  # fmt: skip
+        ),
         Parameter("rho0", 1.2, range=(1e-9, None), unit="kg/m³"),
         Parameter("c0", 343.0, range=(1e-9, None), unit="m/s"),
         Parameter("p0", "auto", doc="ambient pressure in Pa, or auto (first step's mean)"),
         Parameter("oversample", 4, range=(1, 64), doc="emission samples per data step"),
+        Parameter(
+            "solid",
+            0,
+            range=(0, 1),
+            doc="1: the surface is a body's wall (impermeable, no slip): Curle's loading noise",
+        ),
         Parameter("time_origin", "auto", doc="data second at playback 0 (auto: first step)"),
     )
+
+    def surface_of(self, volume: Any, params: dict[str, Any]) -> Any:
+        """The :class:`~auralize.fwh.surface.Surface` the resolved ``params`` place in
+        ``volume``: the ``surface`` given, or the default box
+        (:func:`auralize.fwh.classify.default_surface`, as ``auralize render`` uses)."""
+        from auralize.fwh.classify import default_surface
+        from auralize.fwh.surface import surface_from_spec
+
+        spec = str(params["surface"]) or default_surface(volume)
+        panel = float(params["panel_size"]) or float(volume.spacing.min())
+        return surface_from_spec(spec, panel_size=panel)
+
+    def overlay(self, inputs: Any, step: int) -> Any:
+        """The FW-H surface for the viewer, its panels coloured by p' (Pa) at ``step``.
+
+        ``inputs`` is a TimeVolume or ``(TimeVolume, path)``; the surface is the
+        one :meth:`synthesize` integrates over with the model's parameters
+        (default: the box inside the data that ``auralize render`` uses).
+
+        Raises
+        ------
+        FieldError, DataError
+            The data cannot be heard through the surface (no velocity, no density
+            or pressure, a curvilinear grid, the surface outside the grid): the
+            viewer says so in its Overlays panel.
+        """
+        import pyvista as pv
+
+        from auralize.errors import ParameterError
+        from auralize.fwh.sampling import panel_pressure, trilinear_weights
+        from auralize.volume import TimeVolume
+
+        volume = inputs[0] if isinstance(inputs, tuple) else inputs
+        if not isinstance(volume, TimeVolume):
+            raise ParameterError(f"fwh overlay needs a TimeVolume, got {type(volume).__name__}")
+        p = self.resolve()
+        surface = self.surface_of(volume, p)
+        trilinear_weights(volume, surface.centres[:1])  # a curvilinear grid says why it cannot
+        corners = surface.corners
+        P, k = corners.shape[:2]
+        faces = np.hstack([np.full((P, 1), k), np.arange(P * k).reshape(P, k)]).ravel()
+        mesh = pv.PolyData(corners.reshape(-1, 3).copy(), faces=faces)
+        mesh.cell_data["p' (Pa)"] = panel_pressure(
+            volume, surface, step, rho0=float(p["rho0"]), c0=float(p["c0"])
+        )
+        return mesh
 
     def synthesize(self, inputs: Any, **params: Any) -> Sound:
         """The FW-H emitters of a volume (see :func:`auralize.fwh.formulation.fwh_emitters`)."""
         from auralize.errors import ParameterError
         from auralize.fwh.formulation import fwh_emitters
-        from auralize.fwh.surface import surface_from_spec
         from auralize.volume import TimeVolume
 
         if not isinstance(inputs, TimeVolume):
-            raise ParameterError(f"fwh model inputs must be a TimeVolume, got "
-                                 f"{type(inputs).__name__}")  # fmt: skip
+            raise ParameterError(
+                f"fwh model inputs must be a TimeVolume, got {type(inputs).__name__}"
+            )
         p = self.resolve(**params)
-        if not p["surface"]:
-            raise ParameterError("fwh model needs surface=box=x0;x1;y0;y1;z0;z1, "
-                                 "sphere=cx;cy;cz;r or file=PATH")  # fmt: skip
-        panel = float(p["panel_size"]) or float(inputs.spacing.min())
-        surface = surface_from_spec(str(p["surface"]), panel_size=panel)
+        surface = self.surface_of(inputs, p)
 
         def number(key: str) -> float | None:
             v = p[key]
@@ -80,9 +131,17 @@ class FWHSound(SoundModel):
             try:
                 return float(v)
             except (TypeError, ValueError):
-                raise ParameterError(f"fwh model: {key} must be a number or auto, "
-                                     f"got {v!r}") from None  # fmt: skip
+                raise ParameterError(
+                    f"fwh model: {key} must be a number or auto, got {v!r}"
+                ) from None
 
-        return fwh_emitters(inputs, surface, rho0=float(p["rho0"]), c0=float(p["c0"]),
-                            p0=number("p0"), oversample=int(p["oversample"]),
-                            time_origin=number("time_origin"))  # fmt: skip
+        return fwh_emitters(
+            inputs,
+            surface,
+            rho0=float(p["rho0"]),
+            c0=float(p["c0"]),
+            p0=number("p0"),
+            oversample=int(p["oversample"]),
+            time_origin=number("time_origin"),
+            solid=bool(int(p["solid"])),
+        )

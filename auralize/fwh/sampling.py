@@ -69,8 +69,9 @@ class SurfaceSamples:
     fields: dict[str, Any] = field(default_factory=dict)
 
 
-def trilinear_weights(volume: TimeVolume, points: NDArray[np.floating]
-                      ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:  # fmt: skip
+def trilinear_weights(
+    volume: TimeVolume, points: NDArray[np.floating]
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Flat C-order indices ``(N, 8)`` and weights ``(N, 8)`` of trilinear interpolation.
 
     ``points (N, 3)`` must lie inside the grid (every axis of at least two
@@ -110,9 +111,11 @@ def trilinear_weights(volume: TimeVolume, points: NDArray[np.floating]
             for di in (0, 1):
                 i, j, k = base[:, 0] + di, base[:, 1] + dj, base[:, 2] + dk
                 idx[:, c] = (k * ny + j) * nx + i
-                w[:, c] = ((frac[:, 0] if di else 1 - frac[:, 0])
-                           * (frac[:, 1] if dj else 1 - frac[:, 1])
-                           * (frac[:, 2] if dk else 1 - frac[:, 2]))  # fmt: skip
+                w[:, c] = (
+                    (frac[:, 0] if di else 1 - frac[:, 0])
+                    * (frac[:, 1] if dj else 1 - frac[:, 1])
+                    * (frac[:, 2] if dk else 1 - frac[:, 2])
+                )
                 c += 1
     return idx, w
 
@@ -133,17 +136,23 @@ def check_inside(volume: TimeVolume, surface: Surface) -> None:
         )
 
 
-def resolve_fields(volume: TimeVolume, *, density: str | None = None,
-                   velocity: str | None = None, momentum: str | None = None,
-                   pressure: str | None = None) -> dict[str, str | None]:  # fmt: skip
+def resolve_fields(
+    volume: TimeVolume,
+    *,
+    density: str | None = None,
+    velocity: str | None = None,
+    momentum: str | None = None,
+    pressure: str | None = None,
+) -> dict[str, str | None]:
     """The fields playing density, velocity, momentum and pressure (given or matched)."""
-    roles = {"density": density, "velocity": velocity, "momentum": momentum,
-             "pressure": pressure}  # fmt: skip
+    roles = {"density": density, "velocity": velocity, "momentum": momentum, "pressure": pressure}
     out: dict[str, str | None] = {}
     for role, name in roles.items():
         if name is not None and name not in volume.fields:
-            raise FieldError(f"{volume.source}: no field {name!r} for the {role}; the volume has "
-                             f"{volume.field_names}")  # fmt: skip
+            raise FieldError(
+                f"{volume.source}: no field {name!r} for the {role}; the volume has "
+                f"{volume.field_names}"
+            )
         out[role] = name if name is not None else match_field(volume, role)
     if out["velocity"] is None and out["momentum"] is None:
         raise FieldError(
@@ -167,17 +176,108 @@ def resolve_fields(volume: TimeVolume, *, density: str | None = None,
 def _mapping(roles: dict[str, str | None], rho0: float, c0: float) -> AcousticMapping:
     if roles["density"] is not None:
         # names not in the volume make CFDMapping take the other one
-        return CFDMapping(density=roles["density"], momentum=roles["momentum"] or "\0",
-                          velocity=roles["velocity"] or "\0")  # fmt: skip
+        return CFDMapping(
+            density=roles["density"],
+            momentum=roles["momentum"] or "\0",
+            velocity=roles["velocity"] or "\0",
+        )
     assert roles["pressure"] is not None and roles["velocity"] is not None
-    return IncompressibleMapping(pressure=roles["pressure"], velocity=roles["velocity"],
-                                 rho0=rho0, c0=c0)  # fmt: skip
+    return IncompressibleMapping(
+        pressure=roles["pressure"], velocity=roles["velocity"], rho0=rho0, c0=c0
+    )
 
 
-def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, c0: float = C0,
-                   p0: float | None = None, density: str | None = None,
-                   velocity: str | None = None, momentum: str | None = None,
-                   pressure: str | None = None) -> SurfaceSamples:  # fmt: skip
+@dataclass(frozen=True)
+class _Sampler:
+    """How the surface samples the volume: the mapping of ρ and u, the trilinear
+    indices ``idx`` and weights ``w`` of the panel centres, the pressure field (None:
+    p' from ρ) with its ambient value ``p0``, and ρ0, c0."""
+
+    mapping: AcousticMapping
+    idx: NDArray[np.int64]
+    w: NDArray[np.float64]
+    pname: str | None
+    p0: float | None
+    rho0: float
+    c0: float
+
+    def step(
+        self, volume: TimeVolume, n: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """ρ, u and p' at the panel centres at step ``n``."""
+        idx, w = self.idx, self.w
+        r, u = self.mapping.map(volume, n)
+        rho = np.einsum("pc,pc->p", r.reshape(-1)[idx], w)
+        vel = np.einsum("pcj,pc->pj", u.reshape(-1, 3)[idx], w)
+        if self.pname is not None:
+            assert self.p0 is not None
+            pp = np.einsum("pc,pc->p", volume.frame(self.pname, n).reshape(-1)[idx], w) - self.p0
+        else:  # the linear acoustic relation p' = c0² ρ'
+            pp = self.c0**2 * (rho - self.rho0)
+        return rho, vel, pp
+
+
+def panel_pressure(
+    volume: TimeVolume, surface: Surface, step: int, *, rho0: float = RHO0, c0: float = C0
+) -> NDArray[np.float64]:
+    """The pressure fluctuation p' (Pa) on the panel centres of ``surface`` at one step.
+
+    The same interpolation and field rules as :func:`sample_surface` (p' from the
+    pressure less its first step's mean, or c0² (ρ − ρ0) without a pressure
+    field), for one step only: what the viewer colours the FW-H surface by.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        Uniform grid with the FW-H fields (see :func:`resolve_fields`).
+    surface : Surface
+        Inside the grid.
+    step : int
+        Time step index.
+    rho0, c0 : float
+        Ambient density (kg/m³) and speed of sound (m/s).
+
+    Returns
+    -------
+    (P,) float
+        p' in Pa per panel (NaN where the data have none).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.fwh.surface import box_surface
+    >>> p = 1e5 + np.arange(2.0)[:, None, None, None] * np.ones((2, 5, 5, 5))  # +1 Pa at step 1
+    >>> vol = TimeVolume.from_arrays({"pressure": p, "velocity": np.zeros((2, 5, 5, 5, 3))},
+    ...                              spacing=1.0)
+    >>> panel_pressure(vol, box_surface((1, 3, 1, 3, 1, 3), n=2), 1).round(9)[:3].tolist()
+    [1.0, 1.0, 1.0]
+    """
+    check_inside(volume, surface)
+    roles = resolve_fields(volume)
+    mapping = _mapping(roles, rho0, c0)
+    mapping.prepare(volume)
+    idx, w = trilinear_weights(volume, surface.centres)
+    pname = roles["pressure"] if roles["density"] is not None else None
+    p0 = None
+    if pname is not None:
+        first = volume.frame(pname, 0)
+        finite = np.isfinite(first)
+        p0 = float(first[finite].mean()) if finite.any() else 0.0
+    return _Sampler(mapping, idx, w, pname, p0, rho0, c0).step(volume, int(step))[2]
+
+
+def sample_surface(
+    volume: TimeVolume,
+    surface: Surface,
+    *,
+    rho0: float = RHO0,
+    c0: float = C0,
+    p0: float | None = None,
+    density: str | None = None,
+    velocity: str | None = None,
+    momentum: str | None = None,
+    pressure: str | None = None,
+) -> SurfaceSamples:
     """Sample ρ, u and p' on the panel centres of ``surface`` at every step of ``volume``.
 
     Parameters
@@ -206,11 +306,14 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
         if not (np.isfinite(val) and val > 0):
             raise ParameterError(f"{name} must be a positive number, got {val!r}")
     if volume.n_steps < 4:
-        raise DataError(f"{volume.source}: the FW-H integral needs at least 4 time steps (time "
-                        f"derivatives, cubic retarded-time interpolation), got {volume.n_steps}")  # fmt: skip
+        raise DataError(
+            f"{volume.source}: the FW-H integral needs at least 4 time steps (time "
+            f"derivatives, cubic retarded-time interpolation), got {volume.n_steps}"
+        )
     check_inside(volume, surface)
-    roles = resolve_fields(volume, density=density, velocity=velocity, momentum=momentum,
-                           pressure=pressure)  # fmt: skip
+    roles = resolve_fields(
+        volume, density=density, velocity=velocity, momentum=momentum, pressure=pressure
+    )
     if roles["density"] is None and p0 is not None:
         raise ParameterError(
             f"{volume.source}: p0 applies to a volume with density and pressure; with pressure "
@@ -231,15 +334,9 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
     rho = np.empty((T, P))
     vel = np.empty((T, P, 3))
     pp = np.empty((T, P))
+    sampler = _Sampler(mapping, idx, w, pname, p0, rho0, c0)
     for n in range(T):
-        r, u = mapping.map(volume, n)
-        rho[n] = np.einsum("pc,pc->p", r.reshape(-1)[idx], w)
-        vel[n] = np.einsum("pcj,pc->pj", u.reshape(-1, 3)[idx], w)
-        if pname is not None:
-            assert p0 is not None
-            pp[n] = np.einsum("pc,pc->p", volume.frame(pname, n).reshape(-1)[idx], w) - p0
-        else:  # the linear acoustic relation p' = c0² ρ'
-            pp[n] = c0**2 * (rho[n] - rho0)
+        rho[n], vel[n], pp[n] = sampler.step(volume, n)
         bad = ~(np.isfinite(rho[n]) & np.isfinite(vel[n]).all(axis=1) & np.isfinite(pp[n]))
         if bad.any():
             raise DataError(
@@ -247,7 +344,14 @@ def sample_surface(volume: TimeVolume, surface: Surface, *, rho0: float = RHO0, 
                 f"{int(bad.sum())} of the {P} FW-H panels; place the surface where the data are "
                 f"valid"
             )
-    return SurfaceSamples(times=volume.times.copy(), rho=rho, velocity=vel, p_prime=pp,
-                          surface=surface, rho0=float(rho0), c0=float(c0),
-                          p0=float("nan") if p0 is None else float(p0),
-                          fields={**roles, "mapping": mapping.name})  # fmt: skip
+    return SurfaceSamples(
+        times=volume.times.copy(),
+        rho=rho,
+        velocity=vel,
+        p_prime=pp,
+        surface=surface,
+        rho0=float(rho0),
+        c0=float(c0),
+        p0=float("nan") if p0 is None else float(p0),
+        fields={**roles, "mapping": mapping.name},
+    )

@@ -91,18 +91,25 @@ class Surface:
         if P == 0:
             raise ParameterError(f"surface {self.description!r} has no panels")
         if self.corners.ndim != 3 or self.corners.shape[0] != P or self.corners.shape[2] != 3:
-            raise ParameterError(f"surface corners must be (P, k, 3) for P={P}, got "
-                                 f"{self.corners.shape}")  # fmt: skip
+            raise ParameterError(
+                f"surface corners must be (P, k, 3) for P={P}, got {self.corners.shape}"
+            )
         if self.velocity is None:
             self.velocity = np.zeros((P, 3))
         self.velocity = np.ascontiguousarray(self.velocity, dtype=np.float64).reshape(P, 3)
-        for name, a in (("corners", self.corners), ("normals", self.normals),
-                        ("areas", self.areas), ("velocity", self.velocity)):  # fmt: skip
+        for name, a in (
+            ("corners", self.corners),
+            ("normals", self.normals),
+            ("areas", self.areas),
+            ("velocity", self.velocity),
+        ):
             if not np.isfinite(a).all():
                 raise ParameterError(f"surface {self.description!r}: {name} contain NaN or Inf")
         if np.any(self.areas <= 0):
-            raise ParameterError(f"surface {self.description!r} has {int(np.sum(self.areas <= 0))} "
-                                 "panels of zero area")  # fmt: skip
+            raise ParameterError(
+                f"surface {self.description!r} has {int(np.sum(self.areas <= 0))} "
+                "panels of zero area"
+            )
 
     @property
     def n_panels(self) -> int:
@@ -122,8 +129,7 @@ class Surface:
         """``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the corners (pyvista order)."""
         c = self.corners.reshape(-1, 3)
         lo, hi = c.min(axis=0), c.max(axis=0)
-        return (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1]),
-                float(lo[2]), float(hi[2]))  # fmt: skip
+        return (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1]), float(lo[2]), float(hi[2]))
 
     @property
     def enclosed_volume(self) -> float:
@@ -147,8 +153,10 @@ class Surface:
         return mesh
 
     def __repr__(self) -> str:
-        return (f"Surface({self.kind}, {self.n_panels} panels, area {self.total_area:.4g} m², "
-                f"volume {self.enclosed_volume:.4g} m³)")  # fmt: skip
+        return (
+            f"Surface({self.kind}, {self.n_panels} panels, area {self.total_area:.4g} m², "
+            f"volume {self.enclosed_volume:.4g} m³)"
+        )
 
 
 def _panels(corners: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
@@ -170,8 +178,9 @@ def _panels(corners: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
 def _check_box(box: Any) -> NDArray[np.float64]:
     b = np.asarray(box, dtype=np.float64).reshape(-1)
     if b.size != 6 or not np.isfinite(b).all():
-        raise ParameterError(f"box must be six numbers (xmin, xmax, ymin, ymax, zmin, zmax), "
-                             f"got {box!r}")  # fmt: skip
+        raise ParameterError(
+            f"box must be six numbers (xmin, xmax, ymin, ymax, zmin, zmax), got {box!r}"
+        )
     if np.any(b[1::2] <= b[0::2]):
         raise ParameterError(f"box {b.tolist()} must have xmin < xmax, ymin < ymax, zmin < zmax")
     return b
@@ -213,8 +222,10 @@ def box_surface(box: Any, *, panel_size: float | None = None, n: int | None = No
         raise ParameterError(f"panel_size must be > 0 m, got {panel_size!r}")
     counts = np.maximum(1, np.ceil(ext / panel_size - 1e-9).astype(int))
     if int(2 * (counts[0] * counts[1] + counts[1] * counts[2] + counts[0] * counts[2])) > 5_000_000:
-        raise ParameterError(f"box {b.tolist()} with panel_size {panel_size:g} m needs more than "
-                             "5 million panels; choose a larger panel_size")  # fmt: skip
+        raise ParameterError(
+            f"box {b.tolist()} with panel_size {panel_size:g} m needs more than "
+            "5 million panels; choose a larger panel_size"
+        )
     faces = []
     for axis in range(3):
         a1, a2 = (axis + 1) % 3, (axis + 2) % 3  # (a1, a2, axis) is right-handed
@@ -224,8 +235,9 @@ def box_surface(box: Any, *, panel_size: float | None = None, n: int | None = No
         for side, value in ((+1, hi[axis]), (-1, lo[axis])):
             quad = np.zeros((counts[a1], counts[a2], 4, 3))
             # counter-clockwise seen from +axis: (0,0) (1,0) (1,1) (0,1) in (a1, a2)
-            order = [(0, 0), (1, 0), (1, 1), (0, 1)] if side > 0 else [(0, 0), (0, 1), (1, 1),
-                                                                        (1, 0)]  # fmt: skip
+            order = (
+                [(0, 0), (1, 0), (1, 1), (0, 1)] if side > 0 else [(0, 0), (0, 1), (1, 1), (1, 0)]
+            )
             for c, (d1, d2) in enumerate(order):
                 quad[:, :, c, a1] = g1[d1 : d1 + counts[a1], d2 : d2 + counts[a2]]
                 quad[:, :, c, a2] = g2[d1 : d1 + counts[a1], d2 : d2 + counts[a2]]
@@ -233,9 +245,15 @@ def box_surface(box: Any, *, panel_size: float | None = None, n: int | None = No
             faces.append(quad.reshape(-1, 4, 3))
     corners = np.concatenate(faces)
     centres, normals, areas = _panels(corners)
-    return Surface(corners, centres, normals, areas, kind="box",
-                   description=f"box={','.join(f'{v:g}' for v in b)}",
-                   meta={"box": b.tolist(), "panel_size": float(panel_size)})  # fmt: skip
+    return Surface(
+        corners,
+        centres,
+        normals,
+        areas,
+        kind="box",
+        description=f"box={','.join(f'{v:g}' for v in b)}",
+        meta={"box": b.tolist(), "panel_size": float(panel_size)},
+    )
 
 
 def sphere_surface(center: Any, radius: float, *, resolution: int = SPHERE_NSUB) -> Surface:
@@ -269,8 +287,12 @@ def sphere_surface(center: Any, radius: float, *, resolution: int = SPHERE_NSUB)
     import pyvista as pv
 
     mesh = pv.Icosphere(radius=float(radius), center=tuple(c), nsub=int(resolution))
-    s = _from_triangles(np.asarray(mesh.points), _triangles(mesh), "sphere",
-                        f"sphere={','.join(f'{v:g}' for v in c)},{radius:g},{resolution}")  # fmt: skip
+    s = _from_triangles(
+        np.asarray(mesh.points),
+        _triangles(mesh),
+        "sphere",
+        f"sphere={','.join(f'{v:g}' for v in c)},{radius:g},{resolution}",
+    )
     s.meta.update(center=c.tolist(), radius=float(radius), resolution=int(resolution))
     return s
 
@@ -281,8 +303,9 @@ def _triangles(mesh: Any) -> NDArray[np.int64]:
     return faces.reshape(-1, 4)[:, 1:]
 
 
-def _from_triangles(points: NDArray[np.float64], tris: NDArray[np.int64], kind: str,
-                    description: str) -> Surface:  # fmt: skip
+def _from_triangles(
+    points: NDArray[np.float64], tris: NDArray[np.int64], kind: str, description: str
+) -> Surface:
     """A Surface of triangles, checked closed and oriented outward."""
     if tris.shape[0] == 0:
         raise DataError(f"surface {description!r} has no triangles")
@@ -292,8 +315,11 @@ def _from_triangles(points: NDArray[np.float64], tris: NDArray[np.int64], kind: 
     _, counts = np.unique(undirected, axis=0, return_counts=True)
     open_edges = int(np.sum(counts == 1))
     if open_edges or np.any(counts > 2):
-        what = (f"{open_edges} open (boundary) edges" if open_edges
-                else f"{int(np.sum(counts > 2))} edges shared by more than two triangles")  # fmt: skip
+        what = (
+            f"{open_edges} open (boundary) edges"
+            if open_edges
+            else f"{int(np.sum(counts > 2))} edges shared by more than two triangles"
+        )
         raise DataError(
             f"surface {description!r} is not closed: {what}. The FW-H integral needs a closed "
             f"surface around the sources (close the holes, e.g. pyvista's fill_holes, or use "
@@ -310,8 +336,10 @@ def _from_triangles(points: NDArray[np.float64], tris: NDArray[np.int64], kind: 
     corners = np.ascontiguousarray(points[tris], dtype=np.float64)
     centres, normals, areas = _panels(corners)
     if np.any(areas <= 0):
-        raise DataError(f"surface {description!r} has {int(np.sum(areas <= 0))} degenerate "
-                        "(zero-area) triangles; clean the mesh")  # fmt: skip
+        raise DataError(
+            f"surface {description!r} has {int(np.sum(areas <= 0))} degenerate "
+            "(zero-area) triangles; clean the mesh"
+        )
     s = Surface(corners, centres, normals, areas, kind=kind, description=description)
     if s.enclosed_volume < 0:  # inward: flip every triangle
         corners = corners[:, ::-1].copy()
@@ -358,8 +386,9 @@ def mesh_surface(mesh: Any) -> Surface:
     mesh = mesh.triangulate().clean()
     if mesh.n_cells == 0 or not mesh.is_all_triangles:
         raise DataError(f"{description}: holds no surface triangles (lines or points only?)")
-    return _from_triangles(np.asarray(mesh.points, dtype=np.float64), _triangles(mesh), "mesh",
-                           description)  # fmt: skip
+    return _from_triangles(
+        np.asarray(mesh.points, dtype=np.float64), _triangles(mesh), "mesh", description
+    )
 
 
 def surface_from_spec(spec: str | Surface | Any, *, panel_size: float | None = None) -> Surface:
@@ -394,8 +423,10 @@ def surface_from_spec(spec: str | Surface | Any, *, panel_size: float | None = N
         if key == "box":
             return box_surface(nums, panel_size=panel_size)
         if len(nums) not in (4, 5):
-            raise ParameterError(f"surface {text!r}: sphere=cx,cy,cz,r[,resolution] needs 4 or 5 "
-                                 f"numbers, got {len(nums)}")  # fmt: skip
+            raise ParameterError(
+                f"surface {text!r}: sphere=cx,cy,cz,r[,resolution] needs 4 or 5 "
+                f"numbers, got {len(nums)}"
+            )
         res = SPHERE_NSUB if len(nums) == 4 else nums[4]
         if res != math.floor(res):
             raise ParameterError(f"surface {text!r}: resolution must be an integer, got {res:g}")
@@ -404,5 +435,7 @@ def surface_from_spec(spec: str | Surface | Any, *, panel_size: float | None = N
         return mesh_surface(value.strip())
     if "=" not in text:
         return mesh_surface(text)
-    raise ParameterError(f"unknown surface {text!r}; use box=xmin,xmax,ymin,ymax,zmin,zmax, "
-                         "sphere=cx,cy,cz,r[,resolution] or file=PATH")  # fmt: skip
+    raise ParameterError(
+        f"unknown surface {text!r}; use box=xmin,xmax,ymin,ymax,zmin,zmax, "
+        "sphere=cx,cy,cz,r[,resolution] or file=PATH"
+    )

@@ -65,6 +65,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Literal
 
 from auralize.errors import FormatError, ParameterError
 from auralize.io._common import FieldsArg, ResampledWarning, require_exists
@@ -127,11 +128,11 @@ def open_volume(
     fields: FieldsArg | Mapping[str, object] = None,
     resolution: ResolutionArg = None,
     name_map: Mapping[str, str] | None = None,
-    nan: str = "mask",
+    nan: Literal["mask", "error"] = "mask",
     time_dim: str | None = None,
     axis_scale: float | tuple[float, float, float] | None = None,
     box: tuple[float, float, float, float, float, float] | None = None,
-    curvilinear: str | None = None,
+    curvilinear: Literal["native", "resample"] | None = None,
 ) -> TimeVolume:
     """Open a volume time series, reading frames lazily.
 
@@ -196,17 +197,23 @@ def open_volume(
 
     Raises
     ------
-    FileNotFoundError
-        ``path`` does not exist.
+    MissingFileError
+        ``path`` does not exist (a :class:`FileNotFoundError`).
     FormatError
         Unknown kind, corrupt or truncated file, unsupported version, missing
         metadata.
     FieldError
         A requested field is not in the file.
     DataError
-        Bad shapes, times not strictly increasing, fields that disagree.
+        Bad shapes, times not strictly increasing, fields that disagree, a
+        ``box`` that holds no grid point.
     ParameterError
-        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+        Bad ``fields=``, ``resolution=``, ``name_map=``, ``nan=``,
+        ``time_dim=``, ``axis_scale=``, ``box=`` or ``curvilinear=``.
+    ResourceError
+        The grid a mesh would be resampled onto does not fit in memory.
+    MissingDependencyError
+        A mesh file needs pyvista, which is not installed.
 
     Warns
     -----
@@ -303,7 +310,7 @@ def save_volume(
     volume: TimeVolume,
     path: str | os.PathLike[str],
     *,
-    compression: str | None = None,
+    compression: Literal["gzip"] | None = None,
 ) -> None:
     """Write a volume, atomically, in the format its suffix names.
 
@@ -328,16 +335,26 @@ def save_volume(
     ------
     FormatError
         Unknown suffix.
+    ParameterError
+        ``compression`` is neither None nor ``"gzip"``.
     DataError
-        A frame holds NaN/Inf at a valid point and the volume checks (``check_finite``);
-        nothing is written.
+        A frame holds NaN/Inf at a valid point and the volume checks (``check_finite``),
+        or a field's name cannot name an HDF5 dataset; nothing is written.
+    OutputError
+        The folder cannot be written, the disk has too little free space
+        (refused before writing) or a write failed; nothing is left behind.
+        :class:`~auralize.errors.OutputExistsError` when a ``.pvd``'s data
+        folder exists and auralize did not write it.
 
     Examples
     --------
     >>> import numpy as np, tempfile, pathlib
     >>> from auralize.volume import TimeVolume
     >>> vol = TimeVolume.from_arrays({"rho": np.ones((2, 2, 2, 2))}, times=[0, 1])
-    >>> save_volume(vol, pathlib.Path(tempfile.mkdtemp()) / "rho.pvd")
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "rho.pvd"
+    >>> save_volume(vol, out)
+    >>> sorted(p.name for p in out.parent.rglob("*.vt*"))
+    ['rho_0000.vti', 'rho_0001.vti']
     """
     from auralize.io import hdf5, paraview
 
@@ -364,7 +381,33 @@ def save_volume(
 
 
 def field_map(items: list[str] | None) -> dict[str, str] | None:
-    """``--field NAME=/DATASET`` items -> ``{NAME: /DATASET}`` (None if none are given)."""
+    """``--field NAME=/DATASET`` items of the command line as a ``fields=`` mapping.
+
+    Parameters
+    ----------
+    items : list of str or None
+        ``NAME=/hdf5/dataset/path`` items (also ``time=``, ``origin=``,
+        ``spacing=``: see :func:`auralize.io.hdf5.read_generic_hdf5`); spaces
+        around the names are dropped.
+
+    Returns
+    -------
+    dict of str to str or None
+        ``{NAME: /DATASET}`` for :func:`open_volume`'s ``fields=``; None when
+        no item is given.
+
+    Raises
+    ------
+    ParameterError
+        An item without ``=``.
+
+    Examples
+    --------
+    >>> field_map(["rho=/run/density", "time = /run/t"])
+    {'rho': '/run/density', 'time': '/run/t'}
+    >>> field_map([]) is None
+    True
+    """
     if not items:
         return None
     out = {}

@@ -21,6 +21,18 @@ class ResampledWarning(UserWarning):
     rectilinear, unstructured and OpenFOAM meshes, and whenever ``resolution=``
     changes a uniform grid.  Filter it with
     ``warnings.simplefilter("ignore", ResampledWarning)``.
+
+    Examples
+    --------
+    >>> import warnings, numpy as np
+    >>> from auralize.io.resample import resample_uniform
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.zeros((1, 5, 5, 5))}, times=[0.0])
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     small = resample_uniform(vol, 3)
+    >>> small.dims, caught[0].category is ResampledWarning
+    ((3, 3, 3), True)
     """
 
 

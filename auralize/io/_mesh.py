@@ -100,8 +100,9 @@ def as_dataset(obj: object, *, label: str) -> pyvista.DataSet:
         if cell_dimension(b) != top:
             continue
         pts = np.asarray(b.points)
-        if any(o.n_points == b.n_points and np.array_equal(np.asarray(o.points), pts)
-               for o in blocks):  # fmt: skip
+        if any(
+            o.n_points == b.n_points and np.array_equal(np.asarray(o.points), pts) for o in blocks
+        ):
             continue  # the same mesh listed twice (meshio's XDMF series, for one)
         blocks.append(b)
     if len(blocks) == 1:
@@ -183,8 +184,9 @@ def check_mesh(mesh: Any, *, label: str) -> None:
         )
     n = int(mesh.n_points)
     if isinstance(mesh, pv.UnstructuredGrid):
-        from vtkmodules.vtkCommonDataModel import vtkCellTypeUtilities
+        from auralize.runtime.vtkcompat import cell_type_utilities
 
+        cell_types = cell_type_utilities()
         _check_cell_array(mesh.GetCells(), n, label=label, what="cell")
         types = np.asarray(mesh.celltypes, dtype=np.int64)
         if types.size != mesh.n_cells:
@@ -192,7 +194,7 @@ def check_mesh(mesh: Any, *, label: str) -> None:
                 f"{label}: the mesh is corrupt: {types.size} cell types for {mesh.n_cells} cells"
             )
         for t in np.unique(types).tolist():
-            if not 0 <= t < 256 or vtkCellTypeUtilities.GetClassNameFromTypeId(t) == "UnknownClass":
+            if not 0 <= t < 256 or cell_types.GetClassNameFromTypeId(t) == "UnknownClass":
                 raise DataError(
                     f"{label}: the mesh is corrupt: cell type {t} is not a VTK cell type; "
                     f"the file is damaged"
@@ -210,8 +212,12 @@ def check_mesh(mesh: Any, *, label: str) -> None:
         if 42 in types and hasattr(mesh, "GetPolyhedronFaces"):
             _check_cell_array(mesh.GetPolyhedronFaces(), n, label=label, what="polyhedron face")
     elif isinstance(mesh, pv.PolyData):
-        for cells, what in ((mesh.GetVerts(), "vertex"), (mesh.GetLines(), "line"),
-                            (mesh.GetPolys(), "polygon"), (mesh.GetStrips(), "strip")):  # fmt: skip
+        for cells, what in (
+            (mesh.GetVerts(), "vertex"),
+            (mesh.GetLines(), "line"),
+            (mesh.GetPolys(), "polygon"),
+            (mesh.GetStrips(), "strip"),
+        ):
             _check_cell_array(cells, n, label=label, what=what)
 
 
@@ -234,12 +240,12 @@ def _leaves(obj: Any, *, label: str) -> list[Any]:
 
 def cell_dimension(mesh: Any) -> int:
     """Largest topological dimension of ``mesh``'s cells (0 points ... 3 volumes)."""
-    from vtkmodules.vtkCommonDataModel import vtkCellTypeUtilities
+    from auralize.runtime.vtkcompat import cell_type_utilities, distinct_cell_types
 
     if mesh.n_cells == 0:
         return 0
-    types = {int(t) for t in mesh.distinct_cell_types}
-    return max(int(vtkCellTypeUtilities.GetDimension(int(t))) for t in types)
+    types = distinct_cell_types(mesh)
+    return max(int(cell_type_utilities().GetDimension(t)) for t in types)
 
 
 def array_components(mesh: pyvista.DataSet) -> dict[str, int]:
@@ -319,8 +325,9 @@ def _structured_uniform(mesh: Any) -> Grid | None:
     for a in range(3):
         if dims[a] == 1:
             spacing[a] = min(active) if active else 1.0
-    grid_z, grid_y, grid_x = (origin[a] + spacing[a] * np.arange(d) for a, d in
-                              ((2, nk), (1, nj), (0, ni)))  # fmt: skip
+    grid_z, grid_y, grid_x = (
+        origin[a] + spacing[a] * np.arange(d) for a, d in ((2, nk), (1, nj), (0, ni))
+    )
     if (
         np.abs(pts[..., 0] - grid_x[None, None, :]).max() > tol
         or np.abs(pts[..., 1] - grid_y[None, :, None]).max() > tol
@@ -440,8 +447,11 @@ class _Structured:
         pts = curvilinear_points(mesh)
         if pts is None or pts.shape != self.coords.shape:
             nz, ny, nx = self.coords.shape[:3]
-            got = (f"a {type(mesh).__name__}" if pts is None
-                   else f"a structured grid of {pts.shape[2]}x{pts.shape[1]}x{pts.shape[0]} points")  # fmt: skip
+            got = (
+                f"a {type(mesh).__name__}"
+                if pts is None
+                else f"a structured grid of {pts.shape[2]}x{pts.shape[1]}x{pts.shape[0]} points"
+            )
             raise DataError(
                 f"{label}: has {got}, but the first time step has a curvilinear grid of "
                 f"{nx}x{ny}x{nz} points; every step of a series must share one grid"
@@ -567,8 +577,13 @@ def surface_lattice(mesh: Any) -> SurfaceLattice | None:
     grid, order = found
     if sum(d > 1 for d in grid[2]) != 2:
         return None
-    return SurfaceLattice(grid=grid, order=order, axis=axis, level=level,
-                          deviation=float(np.max(np.abs(pts[:, axis] - level))))  # fmt: skip
+    return SurfaceLattice(
+        grid=grid,
+        order=order,
+        axis=axis,
+        level=level,
+        deviation=float(np.max(np.abs(pts[:, axis] - level))),
+    )
 
 
 class _Lattice:
@@ -579,8 +594,14 @@ class _Lattice:
     so a surface moving along that axis stays on the same lattice.
     """
 
-    def __init__(self, grid: Grid, order: NDArray[np.intp], points: NDArray[np.floating],
-                 axis: int | None = None, level: float = 0.0) -> None:  # fmt: skip
+    def __init__(
+        self,
+        grid: Grid,
+        order: NDArray[np.intp],
+        points: NDArray[np.floating],
+        axis: int | None = None,
+        level: float = 0.0,
+    ) -> None:
         self.origin, self.spacing, self.dims = grid
         self.order = order
         self.axis, self.level = axis, level
@@ -631,8 +652,9 @@ def scale_mesh(mesh: Any, scale: NDArray[np.float64] | None) -> Any:
         mesh = mesh.cast_to_structured_grid()  # a rotated image: scale its points
     if isinstance(mesh, pv.RectilinearGrid):
         out = mesh.copy(deep=False)
-        out.x, out.y, out.z = (np.asarray(c, dtype=np.float64) * s[a]
-                               for a, c in enumerate((mesh.x, mesh.y, mesh.z)))  # fmt: skip
+        out.x, out.y, out.z = (
+            np.asarray(c, dtype=np.float64) * s[a] for a, c in enumerate((mesh.x, mesh.y, mesh.z))
+        )
         return out
     out = mesh.copy(deep=False)
     out.points = np.asarray(mesh.points, dtype=np.float64) * s
@@ -675,8 +697,9 @@ def cell_sizes(mesh: Any, box: Sequence[float] | None = None) -> CellSizes:
     dim = cell_dimension(mesh)
     if dim == 0:
         return CellSizes(np.zeros(0), np.zeros(0, dtype=bool), 0)
-    sized = mesh.compute_cell_sizes(length=dim == 1, area=dim == 2, volume=dim == 3,
-                                    vertex_count=False)  # fmt: skip
+    sized = mesh.compute_cell_sizes(
+        length=dim == 1, area=dim == 2, volume=dim == 3, vertex_count=False
+    )
     measure = np.abs(np.asarray(sized.cell_data[_MEASURE[dim]], dtype=np.float64))
     if isinstance(mesh, pv.UnstructuredGrid):
         per_point = _CELLS_PER_POINT[np.asarray(mesh.celltypes, dtype=np.intp)]
@@ -703,8 +726,9 @@ def cell_sizes(mesh: Any, box: Sequence[float] | None = None) -> CellSizes:
     return CellSizes(size, inside, dim)
 
 
-def in_box(points: NDArray[np.floating], box: Sequence[float],
-           bounds: Sequence[float]) -> NDArray[np.bool_]:  # fmt: skip
+def in_box(
+    points: NDArray[np.floating], box: Sequence[float], bounds: Sequence[float]
+) -> NDArray[np.bool_]:
     """Which ``points`` lie in ``box`` along the axes on which the mesh (``bounds``) is not flat."""
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
@@ -717,8 +741,9 @@ def in_box(points: NDArray[np.floating], box: Sequence[float],
     return inside
 
 
-def region_bounds(bounds: Sequence[float], box: Sequence[float] | None, *,
-                  source: str) -> tuple[float, ...]:  # fmt: skip
+def region_bounds(
+    bounds: Sequence[float], box: Sequence[float] | None, *, source: str
+) -> tuple[float, ...]:
     """The mesh ``bounds`` cut to ``box`` (along the axes on which the mesh is not flat)."""
     b = [float(v) for v in bounds]
     if box is None:
@@ -905,8 +930,11 @@ class _Shell:
 
     def convert(self, mesh: Any, names: Sequence[str], *, label: str) -> dict[str, NDArray]:
         pts = np.asarray(mesh.points, dtype=np.float64)
-        if (pts.shape != self._points.shape or int(mesh.n_cells) != self._n_cells
-                or not np.array_equal(pts, self._points)):  # fmt: skip
+        if (
+            pts.shape != self._points.shape
+            or int(mesh.n_cells) != self._n_cells
+            or not np.array_equal(pts, self._points)
+        ):
             grid = (self.origin, self.spacing, self.dims)
             vox, ids, w = shell_voxels(pts, surface_triangles(mesh), grid)
             keep = self.valid.reshape(-1)[vox]
@@ -930,8 +958,9 @@ class _Shell:
         return out
 
 
-def _load(loader: Loader, step: int, label: str,
-          scale: NDArray[np.float64] | None = None) -> pyvista.DataSet:  # fmt: skip
+def _load(
+    loader: Loader, step: int, label: str, scale: NDArray[np.float64] | None = None
+) -> pyvista.DataSet:
     """Step ``step`` as one checked DataSet, its coordinates times ``scale`` (axis_scale)."""
     return scale_mesh(_load_raw(loader, step, label), scale)
 
@@ -1122,8 +1151,9 @@ def open_mesh_series(
     resampling: dict[str, Any] | None = None
 
     def new_steps() -> MeshSteps:
-        return MeshSteps(loader=loader, labels=labels, converter=converter, names=names,
-                         scale=scale)  # fmt: skip
+        return MeshSteps(
+            loader=loader, labels=labels, converter=converter, names=names, scale=scale
+        )
 
     if geom is not None:
         origin, spacing, dims = geom
@@ -1146,8 +1176,7 @@ def open_mesh_series(
         steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
     elif surface is not None:
         origin, spacing, dims = surface.grid
-        converter = _Lattice(surface.grid, surface.order, mesh0.points, surface.axis,
-                             surface.level)  # fmt: skip
+        converter = _Lattice(surface.grid, surface.order, mesh0.points, surface.axis, surface.level)
         steps = new_steps()
         steps.seed(0, converter.convert(mesh0, names, label=labels[0]))
         warn_resampled(
@@ -1161,9 +1190,13 @@ def open_mesh_series(
         shell = cell_dimension(mesh0) == 2 and not _is_flat(mesh0.bounds)
         n_comps = sum(comps[n] for n in names)
         choice, sizes, points_out = _choose_grid(
-            mesh0, box=options.box, resolution=resolution, components=n_comps,
-            n_steps=len(times), source=source,
-        )  # fmt: skip
+            mesh0,
+            box=options.box,
+            resolution=resolution,
+            components=n_comps,
+            n_steps=len(times),
+            source=source,
+        )
         origin, spacing, dims = choice.origin, choice.spacing, choice.dims
         converter = (
             _Shell((origin, spacing, dims), mesh0) if shell else _Sampler((origin, spacing, dims))
@@ -1288,11 +1321,16 @@ def resample_curvilinear(volume: TimeVolume, *, resolution: ResolutionArg = None
     region = check_box(volume.attrs.get("box"), source=volume.source)
     with reading(ReadOptions(curvilinear="resample", box=region)):
         out = open_mesh_series(
-            source=volume.source, loader=loader,
+            source=volume.source,
+            loader=loader,
             labels=[f"{volume.source} step {n}" for n in range(volume.n_steps)],
-            times=volume.times, physical_times=volume.physical_times, fields=None,
-            resolution=resolution, name_map=None, apply_axis_scale=False,
-        )  # fmt: skip
+            times=volume.times,
+            physical_times=volume.physical_times,
+            fields=None,
+            resolution=resolution,
+            name_map=None,
+            apply_axis_scale=False,
+        )
     out.attrs = {**volume.attrs, **out.attrs}
     out.check_finite = volume.check_finite
     return out
@@ -1336,13 +1374,20 @@ def _choose_grid(
     fits = int(0.5 * available_bytes() / per_point)
     memory_bound = fits < budget
     budget = max(min(budget, fits), 8)
-    choice = grid_for_cells(region, sizes, n_points=max(n_in, 8), resolution=resolution,
-                            budget=budget, source=source)  # fmt: skip
+    choice = grid_for_cells(
+        region, sizes, n_points=max(n_in, 8), resolution=resolution, budget=budget, source=source
+    )
     if choice.capped and memory_bound:
-        choice = replace(choice, why=f"{choice.why} (half the {format_bytes(2 * fits * per_point)} "
-                                     f"of memory available)")  # fmt: skip
+        choice = replace(
+            choice,
+            why=f"{choice.why} (half the {format_bytes(2 * fits * per_point)} of memory available)",
+        )
     require_volume(
-        choice.dims, n_steps, components, f"{source}: resampled onto a uniform grid",
-        hint="pass a coarser --resolution (resolution=) or a smaller --box (box=)", data=False,
-    )  # fmt: skip
+        choice.dims,
+        n_steps,
+        components,
+        f"{source}: resampled onto a uniform grid",
+        hint="pass a coarser --resolution (resolution=) or a smaller --box (box=)",
+        data=False,
+    )
     return choice, sizes, points_out

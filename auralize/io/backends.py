@@ -37,7 +37,7 @@ import logging
 import re
 import struct
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -92,6 +92,9 @@ class Backend:
         OpenFOAM's ``controlDict``).
     description : str
         What it reads, for messages and docs.
+    catch_all : bool
+        Consulted only when no other backend takes the file, by content or by
+        name (the pyvista catch-all).
 
     Examples
     --------
@@ -106,6 +109,7 @@ class Backend:
     name: str
     suffixes: tuple[str, ...]
     open: Opener
+    _: KW_ONLY
     guess_can_open: Callable[[Path], bool] | None = None
     specificity: int = 20
     name_pattern: str | None = None
@@ -114,7 +118,27 @@ class Backend:
     catch_all: bool = False
 
     def name_match(self, path: Path) -> int:
-        """How well the file name fits: the length of the matching ending, 0 if none."""
+        """How well the file name fits: the length of the matching ending, 0 if none.
+
+        Parameters
+        ----------
+        path : Path
+            The file; only its name is looked at.
+
+        Returns
+        -------
+        int
+            The length of the longest of ``suffixes`` the name ends with
+            (case-insensitive); 1 when only ``name_pattern`` matches; 0 when
+            neither does.
+
+        Examples
+        --------
+        >>> from pathlib import Path
+        >>> b = Backend("mine", (".mine", ".mine.gz"), lambda path, **opts: None)
+        >>> b.name_match(Path("run.MINE.gz")), b.name_match(Path("run.txt"))
+        (8, 0)
+        """
         low = path.name.lower()
         best = max((len(s) for s in self.suffixes if low.endswith(s.lower())), default=0)
         if not best and self.name_pattern and re.search(self.name_pattern, path.name, re.I):
@@ -122,11 +146,50 @@ class Backend:
         return best
 
     def takes_name(self, path: Path) -> bool:
-        """Whether the file name is one this backend takes."""
+        """Whether the file name is one this backend takes.
+
+        Parameters
+        ----------
+        path : Path
+            The file; only its name is looked at.
+
+        Returns
+        -------
+        bool
+            ``name_match(path) > 0``.
+
+        Examples
+        --------
+        >>> from pathlib import Path
+        >>> b = Backend("mine", (".mine",), lambda path, **opts: None)
+        >>> b.takes_name(Path("a.mine")), b.takes_name(Path("a.h5"))
+        (True, False)
+        """
         return self.name_match(path) > 0
 
     def claims(self, path: Path) -> bool:
-        """``guess_can_open(path)``, with any exception counted as no."""
+        """``guess_can_open(path)``, with any exception counted as no.
+
+        Parameters
+        ----------
+        path : Path
+            The file or folder whose content is checked.
+
+        Returns
+        -------
+        bool
+            False as well when the backend has no content check.
+
+        Examples
+        --------
+        >>> from pathlib import Path
+        >>> def unreadable(path):
+        ...     raise OSError("permission denied")
+        >>> b = Backend("mine", (".mine",), lambda path, **opts: None,
+        ...             guess_can_open=unreadable)
+        >>> b.claims(Path("run.mine"))
+        False
+        """
         if self.guess_can_open is None:
             return False
         try:
@@ -139,6 +202,19 @@ class Backend:
 # --------------------------------------------------------------------------- choosing
 def choose(path: Path, backends: tuple[Backend, ...] | None = None) -> Backend | None:
     """The backend that reads ``path`` (see the module docstring), or None.
+
+    Parameters
+    ----------
+    path : Path
+        The file or folder to read.
+    backends : tuple of Backend, optional
+        The candidates, in order of preference among equals; default
+        :func:`all_backends`.
+
+    Returns
+    -------
+    Backend or None
+        None when no backend takes the file, by content or by name.
 
     Examples
     --------
@@ -171,6 +247,18 @@ def all_backends() -> tuple[Backend, ...]:
 
     Loaded once and cached; ``all_backends.cache_clear()`` reads the entry
     points again.
+
+    Returns
+    -------
+    tuple of Backend
+        A plugin that fails to load, gives no :class:`Backend` or takes a
+        name already taken is logged and left out.
+
+    Examples
+    --------
+    >>> names = [b.name for b in all_backends()]
+    >>> names[0], names[-1], "netcdf" in names
+    ('openfoam', 'pyvista', True)
     """
     builtins = _builtin_backends()
     taken = {b.name for b in builtins}
@@ -186,8 +274,11 @@ def all_backends() -> tuple[Backend, ...]:
         except Exception as exc:  # a broken plugin must not stop files from opening
             log.warning(
                 "reader plugin %r (%s, entry-point group %s) skipped: %s",
-                ep.name, ep.value, ENTRY_POINT_GROUP, exc,
-            )  # fmt: skip
+                ep.name,
+                ep.value,
+                ENTRY_POINT_GROUP,
+                exc,
+            )
             continue
         taken.add(backend.name)
         plugins.append(backend)
@@ -210,7 +301,26 @@ def _head(path: Path, n: int = 4096) -> bytes:
 
 
 def has_hdf5_signature(path: Path) -> bool:
-    """Whether the HDF5 signature is at offset 0, 512, 1024, 2048 ... (after a user block)."""
+    """Whether the HDF5 signature is at offset 0, 512, 1024, 2048 ... (after a user block).
+
+    Parameters
+    ----------
+    path : Path
+        Any path; folders and unreadable files have no signature.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import h5py, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "any.dat"
+    >>> with h5py.File(f, "w") as h:
+    ...     h["x"] = [1.0]
+    >>> has_hdf5_signature(f), has_hdf5_signature(f.parent)
+    (True, False)
+    """
     if not path.is_file():
         return False
     try:
@@ -229,9 +339,34 @@ def has_hdf5_signature(path: Path) -> bool:
 
 @dataclass(frozen=True)
 class HDF5Root:
-    """What the root of an HDF5 file holds (links are listed, never followed)."""
+    """What the root of an HDF5 file holds (links are listed, never followed).
+
+    Parameters
+    ----------
+    damaged : bool
+        The file has the HDF5 signature but its root cannot be read.
+    groups, datasets : frozenset of str
+        Names of the groups and datasets at the root (hard links only).
+    attrs : frozenset of str
+        Names of the root group's attributes.
+    scales : bool
+        Some root dataset is a dimension scale or attached to one (netCDF4's
+        dimensions).
+
+    Examples
+    --------
+    >>> import h5py, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "case.h5"
+    >>> with h5py.File(f, "w") as h:
+    ...     _ = h.create_group("VTKHDF")
+    ...     h.attrs["auralize_format"] = "volume"
+    >>> root = hdf5_root(f)
+    >>> root.damaged, sorted(root.groups), sorted(root.attrs)
+    (False, ['VTKHDF'], ['auralize_format'])
+    """
 
     damaged: bool
+    _: KW_ONLY
     groups: frozenset[str] = frozenset()
     datasets: frozenset[str] = frozenset()
     attrs: frozenset[str] = frozenset()
@@ -244,7 +379,32 @@ _KEY_NAMES = ("VTKHDF", "meshes", "settings", "coordx", "coord", "connect1", "nu
 
 
 def hdf5_root(path: Path, *, limit: int = 512) -> HDF5Root | None:
-    """The root of an HDF5 file; None without the HDF5 signature, ``damaged`` if unreadable."""
+    """The root of an HDF5 file; None without the HDF5 signature, ``damaged`` if unreadable.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+    limit : int
+        Most root objects listed (besides the names that tell kinds apart,
+        such as ``VTKHDF``, ``meshes`` or ``coordx``, which are always looked up).
+
+    Returns
+    -------
+    HDF5Root or None
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> bad = folder / "bad.h5"
+    >>> _ = bad.write_bytes(HDF5_SIGNATURE + bytes(100))  # a signature, no file
+    >>> hdf5_root(bad).damaged
+    True
+    >>> _ = (folder / "notes.txt").write_text("not HDF5")
+    >>> hdf5_root(folder / "notes.txt") is None
+    True
+    """
     if not has_hdf5_signature(path):
         return None
     import itertools
@@ -273,7 +433,9 @@ def hdf5_root(path: Path, *, limit: int = 512) -> HDF5Root | None:
     except Exception as exc:  # h5py raises many kinds on damaged files
         log.debug("%s: HDF5 root unreadable: %s", path, exc)
         return HDF5Root(damaged=True)
-    return HDF5Root(False, frozenset(groups), frozenset(datasets), attrs, scales)
+    return HDF5Root(
+        False, groups=frozenset(groups), datasets=frozenset(datasets), attrs=attrs, scales=scales
+    )
 
 
 _NC_TYPE_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4, 10: 8, 11: 8}
@@ -281,9 +443,26 @@ _NC_TYPE_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4, 10: 8, 1
 
 @dataclass(frozen=True)
 class ClassicHeader:
-    """Names in a classic netCDF (CDF-1, CDF-2 or CDF-5) header."""
+    """Names in a classic netCDF (CDF-1, CDF-2 or CDF-5) header.
+
+    Parameters
+    ----------
+    version : int
+        1, 2 or 5 (the fourth byte of the file).
+    dimensions, attributes, variables : frozenset of str
+        Names of the dimensions, the global attributes and the variables.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> h = netcdf_classic_header(Path(auralize.__file__).parent / "data/netcdf-pulse/pulse.nc")
+    >>> h.version, sorted(h.dimensions), "density" in h.variables
+    (2, ['time', 'x', 'y', 'z'], True)
+    """
 
     version: int
+    _: KW_ONLY
     dimensions: frozenset[str]
     attributes: frozenset[str]
     variables: frozenset[str]
@@ -295,6 +474,27 @@ def netcdf_classic_header(path: Path, *, limit: int = 1 << 20) -> ClassicHeader 
     Parses the header only (at most ``limit`` bytes); None if the file does
     not start with ``CDF\\x01``, ``CDF\\x02`` or ``CDF\\x05`` or the header
     cannot be parsed.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+    limit : int
+        Most bytes read; a longer header gives None.
+
+    Returns
+    -------
+    ClassicHeader or None
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> data = Path(auralize.__file__).parent / "data"
+    >>> sorted(netcdf_classic_header(data / "netcdf-pulse/pulse.nc").variables)
+    ['density', 'time', 'u', 'v', 'w', 'x', 'y', 'z']
+    >>> netcdf_classic_header(data / "plot3d-combustor/combxyz.bin") is None
+    True
     """
     data = _head(path, limit)
     if data[:3] != b"CDF" or len(data) < 4 or data[3] not in (1, 2, 5):
@@ -352,7 +552,12 @@ def netcdf_classic_header(path: Path, *, limit: int = 1 << 20) -> ClassicHeader 
             uint(4 if version == 1 else 8)  # begin
     except (struct.error, ValueError, KeyError):
         return None
-    return ClassicHeader(version, frozenset(dims), frozenset(gatts), frozenset(variables))
+    return ClassicHeader(
+        version,
+        dimensions=frozenset(dims),
+        attributes=frozenset(gatts),
+        variables=frozenset(variables),
+    )
 
 
 def _exodus_names(dims: frozenset[str], attrs: frozenset[str], variables: frozenset[str]) -> bool:
@@ -366,7 +571,33 @@ def _exodus_names(dims: frozenset[str], attrs: frozenset[str], variables: frozen
 
 
 def is_exodus(path: Path) -> bool:
-    """Exodus II: netCDF (classic or netCDF4/HDF5) with Exodus' dimensions and variables."""
+    """Exodus II: netCDF (classic or netCDF4/HDF5) with Exodus' dimensions and variables.
+
+    ``num_dim`` and ``num_nodes`` (or a ``coordx``/``coord`` variable), and
+    an ``api_version``/``version`` attribute or a ``connect1`` ... variable.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np
+    >>> from scipy.io import netcdf_file
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "mesh.nc"
+    >>> with netcdf_file(f, "w") as nc:
+    ...     nc.api_version = 8.0
+    ...     nc.createDimension("num_dim", 3)
+    ...     nc.createDimension("num_nodes", 4)
+    ...     nc.createVariable("coordx", "d", ("num_nodes",))[:] = np.arange(4.0)
+    >>> is_exodus(f), is_netcdf(f)
+    (True, True)
+    """
     header = netcdf_classic_header(path)
     if header is not None:
         return _exodus_names(header.dimensions, header.attributes, header.variables)
@@ -377,7 +608,30 @@ def is_exodus(path: Path) -> bool:
 
 
 def is_netcdf(path: Path) -> bool:
-    """netCDF classic (``CDF`` magic, any version) or netCDF4 (``_NCProperties``, dimension scales)."""
+    """netCDF classic (``CDF`` magic, any version) or netCDF4 (``_NCProperties``, dimension scales).
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import h5py, tempfile, pathlib
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> is_netcdf(Path(auralize.__file__).parent / "data/netcdf-pulse/pulse.nc")
+    True
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "plain.h5"
+    >>> with h5py.File(f, "w") as h:
+    ...     h["rho"] = [1.0, 2.0]
+    >>> is_netcdf(f)
+    False
+    """
     head = _head(path, 4)
     if head[:3] == b"CDF":
         return True
@@ -396,13 +650,54 @@ def _hdf5_has(*, group: str | None = None, attr: str | None = None) -> Callable[
 
 
 def is_fluent_cff(path: Path) -> bool:
-    """A FLUENT CFF case (HDF5 with ``/meshes`` and ``/settings``, as VTK checks)."""
+    """A FLUENT CFF case (HDF5 with ``/meshes`` and ``/settings``, as VTK checks).
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import h5py, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "wing.cas.h5"
+    >>> with h5py.File(f, "w") as h:
+    ...     _ = h.create_group("meshes"), h.create_group("settings")
+    >>> is_fluent_cff(f)
+    True
+    """
     root = hdf5_root(path)
     return root is not None and not root.damaged and {"meshes", "settings"} <= root.groups
 
 
 def xml_root(path: Path) -> tuple[str, str] | None:
-    """``(element name, its attribute text)`` of an XML file's root element, or None."""
+    """``(element name, its attribute text)`` of an XML file's root element, or None.
+
+    Reads the first 8 KiB; the XML declaration, comments and a DOCTYPE before
+    the root are skipped.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    (str, str) or None
+        None when the file does not start like XML.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "run.xmf"
+    >>> _ = f.write_text('<?xml version="1.0"?>\\n<!-- a run -->\\n<Xdmf Version="3.0">')
+    >>> xml_root(f)
+    ('Xdmf', ' Version="3.0"')
+    """
     head = _head(path, 8192)
     text = head.decode("utf-8", "replace").lstrip("\ufeff \t\r\n")
     if not text.startswith("<"):
@@ -413,7 +708,28 @@ def xml_root(path: Path) -> tuple[str, str] | None:
 
 
 def vtk_file_type(path: Path) -> str | None:
-    """``type`` of a VTK XML file's ``<VTKFile>`` root, ``"legacy"`` for a legacy ``.vtk``."""
+    """``type`` of a VTK XML file's ``<VTKFile>`` root, ``"legacy"`` for a legacy ``.vtk``.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"ImageData"``, ``"Collection"``, ``"vtkOverlappingAMR"``; None
+        when the file is not a VTK data file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "a.dat").write_text('<VTKFile type="ImageData" version="1.0">')
+    >>> _ = (folder / "b.dat").write_text("# vtk DataFile Version 3.0\\nb\\nASCII\\n")
+    >>> vtk_file_type(folder / "a.dat"), vtk_file_type(folder / "b.dat")
+    ('ImageData', 'legacy')
+    """
     if _head(path, 22).startswith(b"# vtk DataFile Version"):
         return "legacy"
     root = xml_root(path)
@@ -441,19 +757,73 @@ _AMR_TYPES = ("vtkOverlappingAMR", "vtkHierarchicalBoxDataSet", "vtkNonOverlappi
 
 
 def is_xdmf(path: Path) -> bool:
-    """XML whose root element is ``<Xdmf>``."""
+    """XML whose root element is ``<Xdmf>``.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "run.xml"
+    >>> _ = f.write_text('<Xdmf Version="3.0"><Domain/></Xdmf>')
+    >>> is_xdmf(f)
+    True
+    """
     root = xml_root(path)
     return root is not None and root[0] == "Xdmf"
 
 
 def is_series(path: Path) -> bool:
-    """ParaView's JSON ``.series``: ``{"file-series-version": ...}``."""
+    """ParaView's JSON ``.series``: ``{"file-series-version": ...}``.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import json, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "run.json"
+    >>> _ = f.write_text(json.dumps({"file-series-version": "1.0", "files": []}))
+    >>> is_series(f)
+    True
+    """
     text = _head(path, 1024).decode("utf-8", "replace").lstrip("\ufeff \t\r\n")
     return text.startswith("{") and '"file-series-version"' in text
 
 
 def is_ensight(path: Path) -> bool:
-    """EnSight case text: a ``FORMAT`` section saying ``type: ensight``."""
+    """EnSight case text: a ``FORMAT`` section saying ``type: ensight``.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> case = Path(auralize.__file__).parent / "data/ensight-cylinder/cylinder_Re35.case"
+    >>> is_ensight(case), is_ensight(case.with_suffix(".geo"))
+    (True, False)
+    """
     head = _head(path, 4096)
     if b"\0" in head:
         return False
@@ -465,7 +835,26 @@ def is_ensight(path: Path) -> bool:
 
 
 def is_openfoam(path: Path) -> bool:
-    """An OpenFOAM case folder (any folder: the reader says what is missing) or a controlDict."""
+    """An OpenFOAM case folder (any folder: the reader says what is missing) or a controlDict.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> case = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (case / "controlDict").write_text("FoamFile { object controlDict; }")
+    >>> _ = (case / "notes.txt").write_text("FoamFile")
+    >>> is_openfoam(case), is_openfoam(case / "controlDict"), is_openfoam(case / "notes.txt")
+    (True, True, False)
+    """
     if path.is_dir():
         return True
     text = _head(path, 2048).decode("utf-8", "replace")
@@ -477,6 +866,23 @@ def is_plot3d_grid(path: Path) -> bool:
 
     Tries both byte orders, single and double precision, with and without
     Fortran record markers and IBLANK; the file's size must match exactly.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> data = Path(auralize.__file__).parent / "data/plot3d-combustor"
+    >>> is_plot3d_grid(data / "combxyz.bin"), is_plot3d_grid(data / "combq.bin")
+    (True, False)
     """
     head = _head(path, 4 + 4 * (3 * 64 + 8))
     if len(head) < 12:
@@ -509,7 +915,26 @@ def is_plot3d_grid(path: Path) -> bool:
 # --------------------------------------------------------------------------- openers
 def is_enzo(path: Path) -> bool:
     """An Enzo output: its ``.hierarchy`` (``Grid = 1`` in its first lines), or its parameter
-    or ``.cpuNNNN`` grid file with the hierarchy beside it."""
+    or ``.cpuNNNN`` grid file with the hierarchy beside it.
+
+    Parameters
+    ----------
+    path : Path
+        Any path.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (out / "data0001.hierarchy").write_text("\\nGrid = 1\\nTask = 0\\n")
+    >>> _ = (out / "data0001").write_text("InitialTime = 0.5\\n")
+    >>> is_enzo(out / "data0001"), is_enzo(out / "data0001.cpu0000")
+    (True, True)
+    """
     from auralize.io.vtk_readers import enzo_hierarchy
 
     hierarchy = enzo_hierarchy(path)
@@ -547,8 +972,9 @@ def _open_vtk_file(path: Path, **opts: Any) -> TimeVolume:
     def load(step: int) -> Any:
         return import_pyvista().read(str(path), force_ext=suffix)
 
-    return open_mesh_series(source=str(path), loader=load, labels=[str(path)], times=[0.0],
-                            physical_times=False, **opts)  # fmt: skip
+    return open_mesh_series(
+        source=str(path), loader=load, labels=[str(path)], times=[0.0], physical_times=False, **opts
+    )
 
 
 def _open_exodus(path: Path, **opts: Any) -> TimeVolume:
@@ -621,7 +1047,29 @@ def _open_hdf5(
 
 
 def not_a_volume_message(path: Path) -> str:
-    """Why an HDF5 file of no known layout (Chombo, a simulation's own) is not read, and how to."""
+    """Why an HDF5 file of no known layout (Chombo, a simulation's own) is not read, and how to.
+
+    Parameters
+    ----------
+    path : Path
+        An HDF5 file none of the HDF5 backends reads.
+
+    Returns
+    -------
+    str
+        One message naming the file, what it is when :func:`auralize.io.foreign.explain`
+        knows, and how to name its datasets (``--field``, ``fields=``), with the
+        datasets shaped like fields as examples.
+
+    Examples
+    --------
+    >>> import h5py, numpy as np, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "sim.h5"
+    >>> with h5py.File(f, "w") as h:
+    ...     h["run/rho"] = np.zeros((2, 3, 3, 3))
+    >>> "--field rho=/run/rho" in not_a_volume_message(f)
+    True
+    """
     import h5py
 
     from auralize.io.foreign import explain
@@ -681,48 +1129,127 @@ def _builtin_backends() -> tuple[Backend, ...]:
         return lambda path: vtk_file_type(path) in types
 
     return (
-        Backend("openfoam", (".foam",), _opener("openfoam", "read_openfoam"),
-                guess_can_open=is_openfoam, specificity=30, name_pattern=r"^controlDict$",
-                description="OpenFOAM case folder, .foam file or system/controlDict"),
-        Backend("pvd", (".pvd",), _opener("paraview", "read_pvd"),
-                guess_can_open=vtk_type("Collection"), specificity=30,
-                description='ParaView collection (<VTKFile type="Collection">)'),
-        Backend("series", (".series",), _opener("paraview", "read_series"),
-                guess_can_open=is_series, specificity=30,
-                description="ParaView JSON file series"),
-        Backend("vtk", MESH_SUFFIXES, _open_vtk_file,
-                guess_can_open=vtk_type(*VTK_TYPE_SUFFIXES), specificity=30,
-                description="VTK XML or legacy data file (one step)"),
-        Backend("xdmf", XDMF_SUFFIXES, _opener("vtk_readers", "read_xdmf"),
-                guess_can_open=is_xdmf, specificity=30, description="XDMF 2/3 (<Xdmf> root)"),
-        Backend("ensight", (".case",), _opener("vtk_readers", "read_ensight"),
-                guess_can_open=is_ensight, specificity=30, description="EnSight Gold case"),
-        Backend("vtk-amr", AMR_SUFFIXES, _opener("vtk_readers", "read_amr"),
-                guess_can_open=vtk_type(*_AMR_TYPES), specificity=30,
-                description="VTK XML AMR (overlapping or hierarchical boxes)"),
-        Backend("enzo", (".hierarchy",), _opener("vtk_readers", "read_enzo"),
-                guess_can_open=is_enzo, specificity=35, name_pattern=r"[.]cpu[0-9]{4,}$",
-                description="Enzo AMR output (.hierarchy, parameter or .cpuNNNN grid file)"),
-        Backend("exodus", _EXODUS_SUFFIXES, _open_exodus,
-                guess_can_open=is_exodus, specificity=40,
-                description="Exodus II (netCDF with num_dim, coordx, connect1, api_version)"),
-        Backend("netcdf", NETCDF_SUFFIXES, _open_netcdf,
-                guess_can_open=is_netcdf, specificity=20,
-                description="netCDF classic (CDF-1/2) or netCDF4 with CF conventions"),
-        Backend("plot3d", (*PLOT3D_GRID_SUFFIXES, ".q"), _opener("vtk_readers", "read_plot3d"),
-                guess_can_open=is_plot3d_grid, specificity=10,
-                name_pattern=r"(xyz.*|q[_.-]?\d*)\.bin$",
-                description="PLOT3D grid + .q solutions (binary grid told by its size)"),
-        Backend("fluent-cff", (".cas.h5",), _open_fluent,
-                guess_can_open=is_fluent_cff, specificity=30,
-                description="FLUENT CFF case (HDF5 /meshes + /settings)"),
-        Backend("vtkhdf", (".vtkhdf",), _opener("paraview", "read_vtkhdf"),
-                guess_can_open=_hdf5_has(group="VTKHDF"), specificity=32,
-                description="VTKHDF (HDF5 with a /VTKHDF group)"),
-        Backend("auralize-hdf5", (".h5", ".hdf5"), _open_hdf5,
-                guess_can_open=_hdf5_has(attr="auralize_format"), specificity=31,
-                description="auralize HDF5 volume file (root attribute auralize_format)"),
-        Backend("hdf5", HDF5_SUFFIXES, _open_hdf5,
-                guess_can_open=has_hdf5_signature, specificity=0,
-                description="any other HDF5 file, read with fields={name: '/dataset/path'}"),
-    )  # fmt: skip
+        Backend(
+            "openfoam",
+            (".foam",),
+            _opener("openfoam", "read_openfoam"),
+            guess_can_open=is_openfoam,
+            specificity=30,
+            name_pattern=r"^controlDict$",
+            description="OpenFOAM case folder, .foam file or system/controlDict",
+        ),
+        Backend(
+            "pvd",
+            (".pvd",),
+            _opener("paraview", "read_pvd"),
+            guess_can_open=vtk_type("Collection"),
+            specificity=30,
+            description='ParaView collection (<VTKFile type="Collection">)',
+        ),
+        Backend(
+            "series",
+            (".series",),
+            _opener("paraview", "read_series"),
+            guess_can_open=is_series,
+            specificity=30,
+            description="ParaView JSON file series",
+        ),
+        Backend(
+            "vtk",
+            MESH_SUFFIXES,
+            _open_vtk_file,
+            guess_can_open=vtk_type(*VTK_TYPE_SUFFIXES),
+            specificity=30,
+            description="VTK XML or legacy data file (one step)",
+        ),
+        Backend(
+            "xdmf",
+            XDMF_SUFFIXES,
+            _opener("vtk_readers", "read_xdmf"),
+            guess_can_open=is_xdmf,
+            specificity=30,
+            description="XDMF 2/3 (<Xdmf> root)",
+        ),
+        Backend(
+            "ensight",
+            (".case",),
+            _opener("vtk_readers", "read_ensight"),
+            guess_can_open=is_ensight,
+            specificity=30,
+            description="EnSight Gold case",
+        ),
+        Backend(
+            "vtk-amr",
+            AMR_SUFFIXES,
+            _opener("vtk_readers", "read_amr"),
+            guess_can_open=vtk_type(*_AMR_TYPES),
+            specificity=30,
+            description="VTK XML AMR (overlapping or hierarchical boxes)",
+        ),
+        Backend(
+            "enzo",
+            (".hierarchy",),
+            _opener("vtk_readers", "read_enzo"),
+            guess_can_open=is_enzo,
+            specificity=35,
+            name_pattern=r"[.]cpu[0-9]{4,}$",
+            description="Enzo AMR output (.hierarchy, parameter or .cpuNNNN grid file)",
+        ),
+        Backend(
+            "exodus",
+            _EXODUS_SUFFIXES,
+            _open_exodus,
+            guess_can_open=is_exodus,
+            specificity=40,
+            description="Exodus II (netCDF with num_dim, coordx, connect1, api_version)",
+        ),
+        Backend(
+            "netcdf",
+            NETCDF_SUFFIXES,
+            _open_netcdf,
+            guess_can_open=is_netcdf,
+            specificity=20,
+            description="netCDF classic (CDF-1/2) or netCDF4 with CF conventions",
+        ),
+        Backend(
+            "plot3d",
+            (*PLOT3D_GRID_SUFFIXES, ".q"),
+            _opener("vtk_readers", "read_plot3d"),
+            guess_can_open=is_plot3d_grid,
+            specificity=10,
+            name_pattern=r"(xyz.*|q[_.-]?\d*)\.bin$",
+            description="PLOT3D grid + .q solutions (binary grid told by its size)",
+        ),
+        Backend(
+            "fluent-cff",
+            (".cas.h5",),
+            _open_fluent,
+            guess_can_open=is_fluent_cff,
+            specificity=30,
+            description="FLUENT CFF case (HDF5 /meshes + /settings)",
+        ),
+        Backend(
+            "vtkhdf",
+            (".vtkhdf",),
+            _opener("paraview", "read_vtkhdf"),
+            guess_can_open=_hdf5_has(group="VTKHDF"),
+            specificity=32,
+            description="VTKHDF (HDF5 with a /VTKHDF group)",
+        ),
+        Backend(
+            "auralize-hdf5",
+            (".h5", ".hdf5"),
+            _open_hdf5,
+            guess_can_open=_hdf5_has(attr="auralize_format"),
+            specificity=31,
+            description="auralize HDF5 volume file (root attribute auralize_format)",
+        ),
+        Backend(
+            "hdf5",
+            HDF5_SUFFIXES,
+            _open_hdf5,
+            guess_can_open=has_hdf5_signature,
+            specificity=0,
+            description="any other HDF5 file, read with fields={name: '/dataset/path'}",
+        ),
+    )

@@ -66,6 +66,22 @@ def _hdf5_layout(path: Path) -> str | None:
 def explain(path: str | Path) -> str | None:
     """One line naming the kind of ``path`` and what to do, or ``None`` if unknown.
 
+    Knows Spectral CTH (SpyPlot) files, Chombo AMR files and the grid files
+    of an Enzo output without its ``.hierarchy``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Any path; folders and files that cannot be read are unknown.
+
+    Returns
+    -------
+    str or None
+        The message: the file, its kind, and which tool converts it into a
+        kind auralize reads (in command-line terms).
+
+    Examples
+    --------
     >>> import tempfile, pathlib
     >>> f = pathlib.Path(tempfile.mkdtemp()) / "blast.spcth.0"
     >>> _ = f.write_bytes(b"spydata 1")

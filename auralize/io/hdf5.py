@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import h5py
 import numpy as np
@@ -57,6 +57,8 @@ GENERIC_META_KEYS = ("time", "origin", "spacing")
 _AXES_ORDERS = ("tzyx", "txyz")
 
 HDF5Kind = Literal["auralize", "vtkhdf", "netcdf4", "generic"]
+#: Storage order of a field dataset (attribute ``axes``).
+AxesOrder = Literal["tzyx", "txyz"]
 
 
 def _h5_error(path: Path, exc: BaseException) -> FormatError:
@@ -83,16 +85,60 @@ class HDF5Frames:
         ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)``, the shape :meth:`read` returns.
     axes : {"tzyx", "txyz"}
         Storage order: ``"txyz"`` datasets are transposed on read.
+
+    Examples
+    --------
+    >>> import h5py, numpy as np, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "p.h5"
+    >>> with h5py.File(f, "w") as h:
+    ...     h["run/p"] = np.zeros((3, 4, 5, 6))  # (T, nz, ny, nx)
+    >>> frames = HDF5Frames(str(f), "/run/p", n_steps=3, frame_shape=(4, 5, 6))
+    >>> frames.read(2).shape
+    (4, 5, 6)
     """
 
     filename: str
     dataset: str
+    _: KW_ONLY
     n_steps: int
     frame_shape: tuple[int, ...]
-    axes: str = "tzyx"
+    axes: AxesOrder = "tzyx"
 
     def read(self, step: int) -> NDArray[np.float64]:
-        """Read time step ``step`` as a new float64 array of shape ``frame_shape``."""
+        """Read time step ``step`` as a new float64 array of shape ``frame_shape``.
+
+        The file is opened for this read only.
+
+        Parameters
+        ----------
+        step : int
+            Time step, 0 to ``n_steps - 1``.
+
+        Returns
+        -------
+        ndarray, shape frame_shape
+            ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)`` float64, whatever the
+            dataset's storage order and type.
+
+        Raises
+        ------
+        FormatError
+            The dataset reads other files (external or virtual data, unless
+            allowed: :func:`allow_external_data`), the file cannot be read, or
+            the step's shape changed since the file was opened.
+
+        Examples
+        --------
+        >>> import h5py, numpy as np, tempfile, pathlib
+        >>> f = pathlib.Path(tempfile.mkdtemp()) / "p.h5"
+        >>> raw = np.arange(2 * 4 * 3 * 2.0).reshape(2, 4, 3, 2)  # (T, nx, ny, nz)
+        >>> with h5py.File(f, "w") as h:
+        ...     h["p"] = raw
+        >>> frames = HDF5Frames(str(f), "/p", n_steps=2, frame_shape=(2, 3, 4), axes="txyz")
+        >>> frame = frames.read(1)  # (nz, ny, nx)
+        >>> frame.shape, bool(frame[1, 2, 3] == raw[1, 3, 2, 1])
+        ((2, 3, 4), True)
+        """
         try:
             with h5py.File(self.filename, "r") as f:
                 ds = f[self.dataset]
@@ -124,10 +170,31 @@ class HDF5Frames:
 def sniff(path: Path) -> HDF5Kind:
     """Tell an auralize volume file from a VTKHDF file and other HDF5 files.
 
+    Parameters
+    ----------
+    path : Path
+        An HDF5 file.
+
+    Returns
+    -------
+    {"auralize", "vtkhdf", "netcdf4", "generic"}
+        ``"vtkhdf"`` with a ``/VTKHDF`` group, ``"auralize"`` with the root
+        attribute ``auralize_format``, ``"netcdf4"`` with ``_NCProperties`` or
+        dimension scales at the root, else ``"generic"``.
+
     Raises
     ------
     FormatError
         If ``path`` is not a readable HDF5 file (corrupt, truncated, other kind).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.volume import TimeVolume
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "v.h5"
+    >>> write_hdf5(TimeVolume.from_arrays({"p": np.zeros((1, 2, 2, 2))}, times=[0.0]), f)
+    >>> sniff(f)
+    'auralize'
     """
     try:
         is_hdf5 = h5py.is_hdf5(str(path))
@@ -159,7 +226,29 @@ def sniff(path: Path) -> HDF5Kind:
 
 
 def wants_generic(kind: HDF5Kind, fields: FieldsArg) -> bool:
-    """Whether ``fields=`` asks for datasets by path rather than v1 field names."""
+    """Whether ``fields=`` asks for datasets by path rather than v1 field names.
+
+    Parameters
+    ----------
+    kind : {"auralize", "vtkhdf", "netcdf4", "generic"}
+        What :func:`sniff` says of the file.
+    fields : None, str, sequence of str or mapping
+        The ``fields=`` of :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    bool
+        True for a mapping, unless the file is an auralize volume file and the
+        mapping names no dataset path (``"/..."``) and none of the keys
+        ``"time"``, ``"origin"``, ``"spacing"``.
+
+    Examples
+    --------
+    >>> wants_generic("auralize", {"density": "rho"}), wants_generic("auralize", {"rho": "/f/rho"})
+    (False, True)
+    >>> wants_generic("generic", ["rho"])
+    False
+    """
     if not isinstance(fields, Mapping):
         return False
     if kind != "auralize":
@@ -221,7 +310,7 @@ def _field_frames(path: Path, ds: object, label: str, *, n_times: int | None) ->
         dataset=str(ds.name),
         n_steps=shape[0],
         frame_shape=frame_shape,
-        axes=axes,
+        axes=cast(AxesOrder, axes),
     )
 
 
@@ -251,8 +340,14 @@ def read_hdf5(
 
     Raises
     ------
+    MissingFileError
+        ``path`` does not exist.
     FormatError
         Not a volume file, wrong version, missing ``/time`` or ``/grid`` data.
+    ParameterError
+        Bad ``fields=`` or ``name_map=``.
+    ResourceError
+        ``/time`` is larger than the memory available.
     FieldError
         A requested field is not in ``/fields``.
     DataError
@@ -394,6 +489,27 @@ def read_generic_hdf5(
     name_map : mapping, optional
         ``{field name: new name}`` renames.
 
+    Returns
+    -------
+    TimeVolume
+        Fields are :class:`HDF5Frames`; no frame is read yet.  Grid and times
+        as the Notes say.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not a readable HDF5 file, a field path that names a group, a dataset
+        with bad ``axes``, data in other files (unless allowed).
+    FieldError
+        A dataset or attribute that ``spec`` names is not in the file.
+    DataError
+        A dataset that is not shaped like a field or holds no numbers, fields
+        with different step counts, as many times as steps missing.
+    ParameterError
+        ``spec`` names no field dataset, or an entry is not ``{name: path}``.
+
     Notes
     -----
     Without the optional keys, ``time``/``times``, ``origin`` and ``spacing``
@@ -426,7 +542,31 @@ def read_generic_hdf5(
 
 
 def field_candidates(f: h5py.File, *, limit: int = 12) -> list[str]:
-    """Paths of datasets in ``f`` shaped like fields (4-D, or 5-D with 3 components)."""
+    """Paths of datasets in ``f`` shaped like fields (4-D, or 5-D with 3 components).
+
+    Parameters
+    ----------
+    f : h5py.File
+        An open HDF5 file (or group); every object in it is visited.
+    limit : int
+        Most paths returned.
+
+    Returns
+    -------
+    list of str
+        Absolute dataset paths, in HDF5's visiting order (by name).
+
+    Examples
+    --------
+    >>> import h5py, numpy as np, tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "sim.h5"
+    >>> with h5py.File(f, "w") as h:
+    ...     h["run/rho"] = np.zeros((2, 3, 3, 3))
+    ...     h["run/u"] = np.zeros((2, 3, 3, 3, 3))
+    ...     h["run/t"] = np.zeros(2)
+    ...     field_candidates(h)
+    ['/run/rho', '/run/u']
+    """
     found: list[str] = []
 
     def visit(name: str, obj: object) -> None:
@@ -538,7 +678,7 @@ def write_hdf5(
     volume: TimeVolume,
     path: str | os.PathLike[str],
     *,
-    compression: str | None = None,
+    compression: Literal["gzip"] | None = None,
     compression_level: int = 4,
 ) -> None:
     """Write ``volume`` as an auralize HDF5 volume file (format v1), atomically.
@@ -561,6 +701,12 @@ def write_hdf5(
 
     Raises
     ------
+    ParameterError
+        ``compression`` or ``compression_level`` is not valid.
+    DataError
+        A field name cannot name an HDF5 dataset (empty, ``/``), or a frame
+        holds NaN/Inf at a valid point of a volume that checks
+        (``check_finite``); nothing is left behind.
     OutputError
         The folder cannot be written, the disk has less free space than the
         uncompressed file needs (refused before writing), or a write failed:
@@ -572,7 +718,10 @@ def write_hdf5(
     >>> import numpy as np, tempfile, pathlib
     >>> from auralize.volume import TimeVolume
     >>> vol = TimeVolume.from_arrays({"p": np.zeros((2, 3, 4, 5))}, times=[0.0, 0.1])
-    >>> write_hdf5(vol, pathlib.Path(tempfile.mkdtemp()) / "v.h5", compression="gzip")
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "v.h5"
+    >>> write_hdf5(vol, out, compression="gzip")
+    >>> read_hdf5(out).times.tolist()
+    [0.0, 0.1]
     """
     path = Path(path).expanduser()
     if compression not in (None, "gzip"):

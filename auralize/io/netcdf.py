@@ -128,20 +128,61 @@ NETCDF_SUFFIXES = (".nc", ".nc4", ".cdf", ".netcdf")
 
 #: Seconds per CF/UDUNITS time unit.
 _TIME_UNITS = {
-    "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
-    "ms": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
-    "us": 1e-6, "microsecond": 1e-6, "microseconds": 1e-6,
-    "min": 60.0, "mins": 60.0, "minute": 60.0, "minutes": 60.0,
-    "h": 3600.0, "hr": 3600.0, "hrs": 3600.0, "hour": 3600.0, "hours": 3600.0,
-    "d": 86400.0, "day": 86400.0, "days": 86400.0,
-    "week": 604800.0, "weeks": 604800.0,
-    "year": 365.242198781 * 86400.0, "years": 365.242198781 * 86400.0,
-    "month": 365.242198781 * 86400.0 / 12, "months": 365.242198781 * 86400.0 / 12,
-}  # fmt: skip
+    "s": 1.0,
+    "sec": 1.0,
+    "secs": 1.0,
+    "second": 1.0,
+    "seconds": 1.0,
+    "ms": 1e-3,
+    "millisecond": 1e-3,
+    "milliseconds": 1e-3,
+    "us": 1e-6,
+    "microsecond": 1e-6,
+    "microseconds": 1e-6,
+    "min": 60.0,
+    "mins": 60.0,
+    "minute": 60.0,
+    "minutes": 60.0,
+    "h": 3600.0,
+    "hr": 3600.0,
+    "hrs": 3600.0,
+    "hour": 3600.0,
+    "hours": 3600.0,
+    "d": 86400.0,
+    "day": 86400.0,
+    "days": 86400.0,
+    "week": 604800.0,
+    "weeks": 604800.0,
+    "year": 365.242198781 * 86400.0,
+    "years": 365.242198781 * 86400.0,
+    "month": 365.242198781 * 86400.0 / 12,
+    "months": 365.242198781 * 86400.0 / 12,
+}
 
 
 def time_unit_seconds(units: str, *, source: str) -> tuple[float, str | None]:
     """Seconds per unit of a CF time ``units`` string, and its reference date.
+
+    Parameters
+    ----------
+    units : str
+        ``"<unit>"`` or ``"<unit> since <date>"`` (CF): seconds, milliseconds,
+        microseconds, minutes, hours, days, weeks, months, years and their
+        abbreviations (``s``, ``ms``, ``min``, ``h``, ``d`` ...).
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    factor : float
+        Seconds per unit (a year is 365.242198781 days, a month a twelfth of it).
+    reference : str or None
+        The text after ``since``, None without one.
+
+    Raises
+    ------
+    FormatError
+        Units that are not a CF time unit.
 
     Examples
     --------
@@ -255,10 +296,16 @@ class _Backend:
 
     def _classic_vars(self, f: Any) -> dict[str, _Var]:
         return {
-            name: _Var(name, tuple(v.dimensions), dict(v._attributes), tuple(v.shape),
-                       np.dtype(v.data.dtype), self._classic_reader(name))
+            name: _Var(
+                name,
+                tuple(v.dimensions),
+                dict(v._attributes),
+                tuple(v.shape),
+                np.dtype(v.data.dtype),
+                self._classic_reader(name),
+            )
             for name, v in f.variables.items()
-        }  # fmt: skip
+        }
 
     def _classic_reader(self, name: str) -> Any:
         def read(index: tuple[Any, ...]) -> NDArray[Any]:
@@ -283,7 +330,20 @@ class _Backend:
         for name, ds in f.items():
             if not isinstance(ds, h5py.Dataset):
                 continue
-            attrs = {k: v for k, v in ds.attrs.items() if k not in ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "_Netcdf4Dimid", "_Netcdf4Coordinates", "_NCProperties")}  # fmt: skip
+            attrs = {
+                k: v
+                for k, v in ds.attrs.items()
+                if k
+                not in (
+                    "DIMENSION_LIST",
+                    "REFERENCE_LIST",
+                    "CLASS",
+                    "NAME",
+                    "_Netcdf4Dimid",
+                    "_Netcdf4Coordinates",
+                    "_NCProperties",
+                )
+            }
             is_bare_dim = _text(ds.attrs.get("NAME", "")).startswith(
                 "This is a netCDF dimension but not a netCDF variable"
             )
@@ -297,8 +357,9 @@ class _Backend:
                     dims.append(name)
                 else:
                     dims.append(f"{name}_dim{axis}")
-            out[name] = _Var(name, tuple(dims), attrs, tuple(ds.shape), np.dtype(ds.dtype),
-                             _h5_reader(ds))  # fmt: skip
+            out[name] = _Var(
+                name, tuple(dims), attrs, tuple(ds.shape), np.dtype(ds.dtype), _h5_reader(ds)
+            )
         return out
 
     def dim_size(self, dim: str) -> int | None:
@@ -373,8 +434,18 @@ def _decode(var: _Var, raw: NDArray[Any], *, source: str) -> NDArray[np.float64]
 # --------------------------------------------------------------------------- time
 #: Dimension names taken as time when no coordinate says so (compared case-insensitively,
 #: in this order of preference).
-TIME_NAMES = ("time", "t", "month", "months", "ocean_time", "valid_time", "date", "year",
-              "day", "step")  # fmt: skip
+TIME_NAMES = (
+    "time",
+    "t",
+    "month",
+    "months",
+    "ocean_time",
+    "valid_time",
+    "date",
+    "year",
+    "day",
+    "step",
+)
 
 
 def _is_time(var: _Var) -> bool:
@@ -390,8 +461,9 @@ def _dims_text(b: _Backend, dims: list[str]) -> str:
     return ", ".join(f"{d} ({b.dim_size(d)})" for d in dims) or "(none)"
 
 
-def _find_time(b: _Backend, coord_vars: dict[str, _Var], wanted: str | None,
-               *, source: str) -> str | None:  # fmt: skip
+def _find_time(
+    b: _Backend, coord_vars: dict[str, _Var], wanted: str | None, *, source: str
+) -> str | None:
     """The time dimension: the user's ``wanted``, a CF time coordinate, or a common name."""
     by_rank = sorted(b.vars.values(), key=lambda v: -len(v.dims))  # data variables' order
     all_dims = list(dict.fromkeys(d for v in by_rank for d in v.dims))
@@ -402,9 +474,17 @@ def _find_time(b: _Backend, coord_vars: dict[str, _Var], wanted: str | None,
                 f"dimensions are {_dims_text(b, all_dims)}"
             )
         return wanted
-    used = list(dict.fromkeys(
-        d for n, v in b.vars.items() if n not in coord_vars and len(v.dims) >= 2 for d in v.dims
-    )) or all_dims  # fmt: skip
+    used = (
+        list(
+            dict.fromkeys(
+                d
+                for n, v in b.vars.items()
+                if n not in coord_vars and len(v.dims) >= 2
+                for d in v.dims
+            )
+        )
+        or all_dims
+    )
     for n, v in coord_vars.items():
         if n in used and _is_time(v):
             return n
@@ -415,8 +495,9 @@ def _find_time(b: _Backend, coord_vars: dict[str, _Var], wanted: str | None,
     return None
 
 
-def _time_axis(b: _Backend, coord_vars: dict[str, _Var], time_dim: str, *, named: bool,
-               source: str) -> tuple[NDArray[np.float64], bool, str | None]:  # fmt: skip
+def _time_axis(
+    b: _Backend, coord_vars: dict[str, _Var], time_dim: str, *, named: bool, source: str
+) -> tuple[NDArray[np.float64], bool, str | None]:
     """``(times in s, physical, time_units)`` of the time dimension ``time_dim``."""
     n_t = b.dim_size(time_dim) or 0
     if n_t == 0:
@@ -460,28 +541,63 @@ _LAT_UNITS = {"degrees_north", "degree_north", "degrees_n", "degree_n", "degrees
 _DEG_UNITS = {"degrees", "degree", "deg", "arc_degree", "angular_degree"}
 #: Metres per length unit.
 _LENGTH_UNITS = {
-    "m": 1.0, "metre": 1.0, "metres": 1.0, "meter": 1.0, "meters": 1.0,
-    "km": 1e3, "kilometre": 1e3, "kilometres": 1e3, "kilometer": 1e3, "kilometers": 1e3,
-    "cm": 1e-2, "centimetre": 1e-2, "centimetres": 1e-2, "centimeter": 1e-2,
-    "centimeters": 1e-2, "mm": 1e-3, "ft": 0.3048, "feet": 0.3048,
-}  # fmt: skip
+    "m": 1.0,
+    "metre": 1.0,
+    "metres": 1.0,
+    "meter": 1.0,
+    "meters": 1.0,
+    "km": 1e3,
+    "kilometre": 1e3,
+    "kilometres": 1e3,
+    "kilometer": 1e3,
+    "kilometers": 1e3,
+    "cm": 1e-2,
+    "centimetre": 1e-2,
+    "centimetres": 1e-2,
+    "centimeter": 1e-2,
+    "centimeters": 1e-2,
+    "mm": 1e-3,
+    "ft": 0.3048,
+    "feet": 0.3048,
+}
 #: Pascals per pressure unit.
 _PRESSURE_UNITS = {
-    "pa": 1.0, "hpa": 100.0, "mbar": 100.0, "millibar": 100.0, "millibars": 100.0,
-    "mb": 100.0, "kpa": 1e3, "bar": 1e5, "bars": 1e5, "atm": 101325.0,
-}  # fmt: skip
+    "pa": 1.0,
+    "hpa": 100.0,
+    "mbar": 100.0,
+    "millibar": 100.0,
+    "millibars": 100.0,
+    "mb": 100.0,
+    "kpa": 1e3,
+    "bar": 1e5,
+    "bars": 1e5,
+    "atm": 101325.0,
+}
 #: CF parametric vertical coordinates (CF Appendix D): heights vary from point to point.
 _PARAMETRIC = {
-    "atmosphere_ln_pressure_coordinate", "atmosphere_sigma_coordinate",
-    "atmosphere_hybrid_sigma_pressure_coordinate", "atmosphere_hybrid_height_coordinate",
-    "atmosphere_sleve_coordinate", "ocean_sigma_coordinate", "ocean_s_coordinate",
-    "ocean_s_coordinate_g1", "ocean_s_coordinate_g2", "ocean_sigma_z_coordinate",
+    "atmosphere_ln_pressure_coordinate",
+    "atmosphere_sigma_coordinate",
+    "atmosphere_hybrid_sigma_pressure_coordinate",
+    "atmosphere_hybrid_height_coordinate",
+    "atmosphere_sleve_coordinate",
+    "ocean_sigma_coordinate",
+    "ocean_s_coordinate",
+    "ocean_s_coordinate_g1",
+    "ocean_s_coordinate_g2",
+    "ocean_sigma_z_coordinate",
     "ocean_double_sigma_coordinate",
-}  # fmt: skip
+}
 #: ICAO standard atmosphere (ISO 2533): layer base geopotential height (m) and
 #: temperature gradient (K/m), from sea level (288.15 K, 101325 Pa).
-_ICAO = ((0.0, -0.0065), (11000.0, 0.0), (20000.0, 0.001), (32000.0, 0.0028),
-         (47000.0, 0.0), (51000.0, -0.0028), (71000.0, -0.002))  # fmt: skip
+_ICAO = (
+    (0.0, -0.0065),
+    (11000.0, 0.0),
+    (20000.0, 0.001),
+    (32000.0, 0.0028),
+    (47000.0, 0.0),
+    (51000.0, -0.0028),
+    (71000.0, -0.002),
+)
 _T0, _P0, _G0, _R_AIR = 288.15, 101325.0, 9.80665, 287.05287
 
 
@@ -508,6 +624,16 @@ def standard_height(p: NDArray[np.float64] | float) -> NDArray[np.float64]:
     ISO 2533 up to 71 km (the top layer extends beyond).  Pressures above
     ``p0`` give heights below 0.
 
+    Parameters
+    ----------
+    p : float or array_like
+        Pressure in Pa, any shape.
+
+    Returns
+    -------
+    ndarray
+        Height in m, the shape of ``p`` (float64).
+
     Examples
     --------
     >>> standard_height([101325.0, 50000.0, 22632.06]).round(1).tolist()
@@ -519,8 +645,11 @@ def standard_height(p: NDArray[np.float64] | float) -> NDArray[np.float64]:
     for k, (h, t, pb, a) in enumerate(bases):
         top = bases[k + 1][2] if k + 1 < len(bases) else 0.0
         sel = (p <= pb) & (p > top) if k else p > top
-        z[sel] = (h + t / a * ((p[sel] / pb) ** (-a * _R_AIR / _G0) - 1.0) if a
-                  else h + _R_AIR * t / _G0 * np.log(pb / p[sel]))  # fmt: skip
+        z[sel] = (
+            h + t / a * ((p[sel] / pb) ** (-a * _R_AIR / _G0) - 1.0)
+            if a
+            else h + _R_AIR * t / _G0 * np.log(pb / p[sel])
+        )
     return z
 
 
@@ -573,8 +702,9 @@ def _unwrap_longitude(c: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.rad2deg(np.unwrap(np.deg2rad(c)))
 
 
-def _to_metres(axes: list[_Axis], scale: tuple[float, float, float] | None, *,
-               source: str) -> tuple[list[NDArray[np.float64]], dict[str, str], str | None]:  # fmt: skip
+def _to_metres(
+    axes: list[_Axis], scale: tuple[float, float, float] | None, *, source: str
+) -> tuple[list[NDArray[np.float64]], dict[str, str], str | None]:
     """Each axis' coordinates in metres (upward for z), how each was converted, and the
     map projection used (None if no longitude/latitude)."""
     out: list[NDArray[np.float64]] = []
@@ -693,8 +823,9 @@ def _velocity_parts(variables: dict[str, _Var]) -> tuple[str | None, ...] | None
     first by variable name, then by ``standard_name`` (CF standard names).
     """
     names = {n.lower(): n for n in reversed(variables)}
-    stds = {_text(v.attrs.get("standard_name", "")).lower(): n
-            for n, v in reversed(variables.items())}  # fmt: skip
+    stds = {
+        _text(v.attrs.get("standard_name", "")).lower(): n for n, v in reversed(variables.items())
+    }
     for table in (names, stds):
         for triple in COMPONENT_NAMES["velocity"]:
             found = tuple(table.get(c) for c in triple)
@@ -792,8 +923,9 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
         points = np.empty((nz, ny, nx, 3))
         if aux is not None:
             lon, lat = aux
-            xs, ys, note_x, note_y, projection = _lonlat_metres(lon, lat, opts.axis_scale,
-                                                                source=source)  # fmt: skip
+            xs, ys, note_x, note_y, projection = _lonlat_metres(
+                lon, lat, opts.axis_scale, source=source
+            )
             axis_units["x"], axis_units["y"] = note_x, note_y
             points[..., 0] = xs[None]
             points[..., 1] = ys[None]
@@ -811,14 +943,28 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
             why.append(f"a 3-D vertical coordinate ({note.split(' ->')[0]})")
         else:
             points[..., 2] = xyz[2][:, None, None]
-    return _Layout(time_dim, np.asarray(times, dtype=np.float64), physical, spatial, xyz,
-                   flip, variables, vectors, units, coord_units, time_units,
-                   dict(sorted(axis_units.items())), projection, points,
-                   " and ".join(why))  # fmt: skip
+    return _Layout(
+        time_dim,
+        np.asarray(times, dtype=np.float64),
+        physical,
+        spatial,
+        xyz,
+        flip,
+        variables,
+        vectors,
+        units,
+        coord_units,
+        time_units,
+        dict(sorted(axis_units.items())),
+        projection,
+        points,
+        " and ".join(why),
+    )
 
 
-def _aux_lonlat(b: _Backend, var: _Var, spatial: tuple[str, ...], *,
-                source: str) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:  # fmt: skip
+def _aux_lonlat(
+    b: _Backend, var: _Var, spatial: tuple[str, ...], *, source: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """2-D longitude and latitude ``(ny, nx)`` that CF's ``coordinates`` attribute of
     ``var`` names over its last two spatial dimensions (a curvilinear lat/lon grid:
     ocean and regional models), or None."""
@@ -845,8 +991,9 @@ def _aux_lonlat(b: _Backend, var: _Var, spatial: tuple[str, ...], *,
 
 
 def _monotonic(c: NDArray[np.float64]) -> bool:
-    return bool(np.all(np.isfinite(c)) and (c.size < 2 or np.all(np.diff(c) > 0)
-                                             or np.all(np.diff(c) < 0)))  # fmt: skip
+    return bool(
+        np.all(np.isfinite(c)) and (c.size < 2 or np.all(np.diff(c) > 0) or np.all(np.diff(c) < 0))
+    )
 
 
 #: CF Appendix D formulas evaluated into a height per point: standard name -> the
@@ -865,17 +1012,26 @@ VERTICAL_FORMULAS: dict[str, tuple[str, ...]] = {
 _LENGTH_TERMS = ("eta", "depth", "depth_c", "orog")
 _PRESSURE_TERMS = ("ps", "ptop", "p0", "ap")
 #: standard names of a height (or a depth: positive down) given per point
-_HEIGHT_NAMES = {"height", "altitude", "height_above_mean_sea_level",
-                 "height_above_reference_ellipsoid", "height_above_geopotential_datum",
-                 "geopotential_height", "depth", "depth_below_geoid", "sea_floor_depth"}  # fmt: skip
+_HEIGHT_NAMES = {
+    "height",
+    "altitude",
+    "height_above_mean_sea_level",
+    "height_above_reference_ellipsoid",
+    "height_above_geopotential_datum",
+    "geopotential_height",
+    "depth",
+    "depth_below_geoid",
+    "sea_floor_depth",
+}
 
 
 class _Terms:
     """The variables a vertical coordinate's formula reads, each broadcast onto the
     spatial dimensions (time-varying ones averaged over the steps)."""
 
-    def __init__(self, b: _Backend, spatial: tuple[str, ...], time_dim: str | None,
-                 source: str) -> None:  # fmt: skip
+    def __init__(
+        self, b: _Backend, spatial: tuple[str, ...], time_dim: str | None, source: str
+    ) -> None:
         self.b, self.spatial, self.time_dim, self.source = b, spatial, time_dim, source
         #: the largest change over the steps of a time-varying term (with its unit), by name
         self.moves: dict[str, str] = {}
@@ -886,8 +1042,10 @@ class _Terms:
         dims = list(var.dims)
         if self.time_dim is not None and self.time_dim in dims:
             if dims.index(self.time_dim) != 0:
-                raise FormatError(f"{self.source}: {var.name!r} has dimensions {var.dims}; the "
-                                  f"time dimension {self.time_dim!r} must come first")  # fmt: skip
+                raise FormatError(
+                    f"{self.source}: {var.name!r} has dimensions {var.dims}; the "
+                    f"time dimension {self.time_dim!r} must come first"
+                )
             n_t = int(var.shape[0])
             lo = hi = total = None
             for n in range(n_t):  # a step at a time: a 4-D height need not fit twice
@@ -911,26 +1069,31 @@ class _Terms:
         factor = 1.0
         if kind == "length" and units:
             if units not in _LENGTH_UNITS:
-                raise FormatError(f"{self.source}: {var.name!r} has units {units!r}, not a "
-                                  f"length (m, km, ...)")  # fmt: skip
+                raise FormatError(
+                    f"{self.source}: {var.name!r} has units {units!r}, not a length (m, km, ...)"
+                )
             factor = _LENGTH_UNITS[units]
         elif kind == "pressure" and units:
             if units not in _PRESSURE_UNITS:
-                raise FormatError(f"{self.source}: {var.name!r} has units {units!r}, not a "
-                                  f"pressure (Pa, hPa, ...)")  # fmt: skip
+                raise FormatError(
+                    f"{self.source}: {var.name!r} has units {units!r}, not a "
+                    f"pressure (Pa, hPa, ...)"
+                )
             factor = _PRESSURE_UNITS[units]
         if move > 0.0:
             unit = {"length": " m", "pressure": " Pa"}.get(kind, "")
             self.moves[var.name] = f"{move * factor:.3g}{unit}"
         present = sorted(dims, key=self.spatial.index)
-        values = np.transpose(np.asarray(values, dtype=np.float64) * factor,
-                              [dims.index(d) for d in present])  # fmt: skip
+        values = np.transpose(
+            np.asarray(values, dtype=np.float64) * factor, [dims.index(d) for d in present]
+        )
         shape = [values.shape[present.index(d)] if d in present else 1 for d in self.spatial]
         return values.reshape(shape)
 
 
-def _formula_height(b: _Backend, coord: _Var, terms: _Terms, *,
-                    source: str) -> tuple[NDArray[np.float64], str] | None:  # fmt: skip
+def _formula_height(
+    b: _Backend, coord: _Var, terms: _Terms, *, source: str
+) -> tuple[NDArray[np.float64], str] | None:
     """Height (m, up) per point of a parametric vertical coordinate by its CF Appendix D
     formula (:data:`VERTICAL_FORMULAS`), and how it was made; None for a formula not
     evaluated here."""
@@ -965,8 +1128,9 @@ def _formula_height(b: _Backend, coord: _Var, terms: _Terms, *,
         z = eta + term("sigma") * (depth + eta)
     elif std == "ocean_s_coordinate":
         sv, a, bb, eta, depth, hc = (term(t) for t in ("s", "a", "b", "eta", "depth", "depth_c"))
-        c = ((1 - bb) * np.sinh(a * sv) / np.sinh(a)
-             + bb * (np.tanh(a * (sv + 0.5)) / (2 * np.tanh(0.5 * a)) - 0.5))  # fmt: skip
+        c = (1 - bb) * np.sinh(a * sv) / np.sinh(a) + bb * (
+            np.tanh(a * (sv + 0.5)) / (2 * np.tanh(0.5 * a)) - 0.5
+        )
         z = eta * (1 + sv) + hc * sv + (depth - hc) * c
     elif std == "ocean_s_coordinate_g1":
         sv, c, eta, depth, hc = (term(t) for t in ("s", "C", "eta", "depth", "depth_c"))
@@ -989,8 +1153,10 @@ def _formula_height(b: _Backend, coord: _Var, terms: _Terms, *,
         else:
             p = term("a") * term("p0") + term("b") * term("ps")
         if np.any(~(p > 0)):
-            raise DataError(f"{source}: the vertical coordinate {coord.name!r} ({std}) gives "
-                            f"pressures <= 0 or missing")  # fmt: skip
+            raise DataError(
+                f"{source}: the vertical coordinate {coord.name!r} ({std}) gives "
+                f"pressures <= 0 or missing"
+            )
         z = standard_height(np.asarray(p, dtype=np.float64))
     shape = tuple(int(terms.b.dim_size(d) or 1) for d in terms.spatial)
     z = np.broadcast_to(np.asarray(z, dtype=np.float64), shape).copy()
@@ -1001,8 +1167,9 @@ def _formula_height(b: _Backend, coord: _Var, terms: _Terms, *,
     return z, note + ")"
 
 
-def _height_variable(b: _Backend, var: _Var, spatial: tuple[str, ...],
-                     time_dim: str | None) -> _Var | None:  # fmt: skip
+def _height_variable(
+    b: _Backend, var: _Var, spatial: tuple[str, ...], time_dim: str | None
+) -> _Var | None:
     """The variable that CF's ``coordinates`` attribute of ``var`` names as its height (or
     depth) per point: over the spatial dimensions (after time), a length."""
     for name in _text(var.attrs.get("coordinates", "")).split():
@@ -1020,9 +1187,16 @@ def _height_variable(b: _Backend, var: _Var, spatial: tuple[str, ...],
     return None
 
 
-def _vertical_3d(b: _Backend, var: _Var, spatial: tuple[str, ...], axes: list[_Axis],
-                 time_dim: str | None, scale: tuple[float, float, float] | None, *,
-                 source: str) -> tuple[NDArray[np.float64], str] | None:  # fmt: skip
+def _vertical_3d(
+    b: _Backend,
+    var: _Var,
+    spatial: tuple[str, ...],
+    axes: list[_Axis],
+    time_dim: str | None,
+    scale: tuple[float, float, float] | None,
+    *,
+    source: str,
+) -> tuple[NDArray[np.float64], str] | None:
     """A height per point ``(nz, ny, nx)`` in metres (CF order, as the file holds it) and
     how it was made, for a data variable ``var`` over three spatial dimensions whose
     vertical position varies from point to point: a 3-D (or 4-D with time) height
@@ -1058,22 +1232,33 @@ def _vertical_3d(b: _Backend, var: _Var, spatial: tuple[str, ...], axes: list[_A
             return None
         z, note = made
     if not np.all(np.isfinite(z)):
-        raise DataError(f"{source}: the 3-D vertical coordinate holds NaN or fill values "
-                        f"({int(np.count_nonzero(~np.isfinite(z)))} points)")  # fmt: skip
+        raise DataError(
+            f"{source}: the 3-D vertical coordinate holds NaN or fill values "
+            f"({int(np.count_nonzero(~np.isfinite(z)))} points)"
+        )
     if terms.moves:
         moved = ", ".join(f"{k} by up to {v}" for k, v in terms.moves.items())
         note += f"; at the time mean of what moves ({moved}): a fixed grid"
     return z, note
 
 
-def _lonlat_metres(lon: NDArray[np.float64], lat: NDArray[np.float64],
-                   scale: tuple[float, float, float] | None, *,
-                   source: str) -> tuple[NDArray[np.float64], NDArray[np.float64], str, str, str | None]:  # fmt: skip
+def _lonlat_metres(
+    lon: NDArray[np.float64],
+    lat: NDArray[np.float64],
+    scale: tuple[float, float, float] | None,
+    *,
+    source: str,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], str, str, str | None]:
     """2-D longitude/latitude in metres: the local equirectangular projection of
     :func:`_to_metres` (or ``--axis-scale``), with the notes of ``axis_units``."""
     if scale is not None:
-        return (lon * scale[0], lat * scale[1], f"longitude (2-D) x {scale[0]:g} (--axis-scale)",
-                f"latitude (2-D) x {scale[1]:g} (--axis-scale)", None)  # fmt: skip
+        return (
+            lon * scale[0],
+            lat * scale[1],
+            f"longitude (2-D) x {scale[0]:g} (--axis-scale)",
+            f"latitude (2-D) x {scale[1]:g} (--axis-scale)",
+            None,
+        )
     mid = 0.5 * float(lat.min() + lat.max())
     if float(lat.max() - lat.min()) > 30.0:
         warn_resampled(
@@ -1088,15 +1273,13 @@ def _lonlat_metres(lon: NDArray[np.float64], lat: NDArray[np.float64],
         f"local equirectangular about latitude {mid:.4g}°: x = R cos({mid:.4g}°) λ, "
         f"y = R φ, R = {EARTH_RADIUS:.0f} m, of the 2-D longitude/latitude of each point"
     )
-    return (x, y, f"longitude (2-D) -> m (R cos {mid:.1f}°)", "latitude (2-D) -> m",
-            projection)  # fmt: skip
+    return (x, y, f"longitude (2-D) -> m (R cos {mid:.1f}°)", "latitude (2-D) -> m", projection)
 
 
 class _NetCDFSteps:
     """Loader: one time step of the variables ``names`` as a pyvista RectilinearGrid."""
 
-    def __init__(self, backend: _Backend, layout: _Layout, source: str,
-                 names: list[str]) -> None:  # fmt: skip
+    def __init__(self, backend: _Backend, layout: _Layout, source: str, names: list[str]) -> None:
         self.b, self.lay, self.source, self.names = backend, layout, source, names
 
     def slab(self, var: _Var, step: int) -> NDArray[np.float64]:
@@ -1190,8 +1373,9 @@ def _rectilinear_volume(loader: _NetCDFSteps, lay: _Layout, source: str) -> Time
         coords=coords,
     )
     why = lay.aux_why if lay.aux is not None else _uneven_reason(lay, None)
-    volume.attrs["mesh"] = (f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points, "
-                            f"{why}: read on its own points")  # fmt: skip
+    volume.attrs["mesh"] = (
+        f"netCDF {loader.b.kind} grid of {nx}x{ny}x{nz} points, {why}: read on its own points"
+    )
     return volume
 
 
@@ -1248,10 +1432,13 @@ def _uneven_reason(lay: _Layout, dims: tuple[int, int, int] | None) -> str:
                 f"the {letter} coordinate ({lay.axis_units.get(letter, '')}) is unevenly "
                 f"spaced: {c.size} points, {c[0]:.6g} .. {c[-1]:.6g} m in steps of "
                 f"{d.min():.4g} .. {d.max():.4g} m"
-                + (f", taken as {dims[k]} points (its finest step, at most twice its "
-                   f"{c.size} points)"
-                   if dims is not None else "")
-            )  # fmt: skip
+                + (
+                    f", taken as {dims[k]} points (its finest step, at most twice its "
+                    f"{c.size} points)"
+                    if dims is not None
+                    else ""
+                )
+            )
     return "; ".join(out)
 
 
@@ -1288,6 +1475,21 @@ def read_netcdf(
         ``projection`` (for longitude/latitude) and ``axis_scale_applied``
         (when ``axis_scale=`` replaced the conversions).
 
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not a readable netCDF file, time units or coordinates it cannot
+        understand, no time or spatial dimensions it can use.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Missing time or coordinate values, coordinates that are not finite and
+        monotonic, pressure levels <= 0, times not strictly increasing.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+
     Examples
     --------
     The small pulse file shipped with auralize (time in milliseconds since a
@@ -1307,9 +1509,9 @@ def read_netcdf(
     backend = _Backend(path)
     lay = _layout(backend, source=src)
     chosen = select_fields([*lay.variables, *lay.vectors], fields, name_map, source=src)
-    needed = list(dict.fromkeys(
-        p for f in chosen.values() for p in lay.vectors.get(f, (f,)) if p is not None
-    ))  # fmt: skip
+    needed = list(
+        dict.fromkeys(p for f in chosen.values() for p in lay.vectors.get(f, (f,)) if p is not None)
+    )
     loader = _NetCDFSteps(backend, lay, src, needed)
     options = read_options()
     on_points = options.curvilinear == "native" and resolution is None
@@ -1320,10 +1522,16 @@ def read_netcdf(
         base = _rectilinear_volume(loader, lay, src)
     elif lay.aux is not None:  # resampled as any curvilinear mesh
         base = open_mesh_series(
-            source=src, loader=loader, labels=[f"{path} step {n}" for n in range(lay.times.size)],
-            times=lay.times, physical_times=lay.physical, fields=needed, resolution=resolution,
-            name_map=None, apply_axis_scale=False,
-        )  # fmt: skip
+            source=src,
+            loader=loader,
+            labels=[f"{path} step {n}" for n in range(lay.times.size)],
+            times=lay.times,
+            physical_times=lay.physical,
+            fields=needed,
+            resolution=resolution,
+            name_map=None,
+            apply_axis_scale=False,
+        )
     else:
         native = _native_resolution(lay, read_options().box) if resolution is None else None
         with warnings.catch_warnings(record=True) as caught:

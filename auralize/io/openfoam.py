@@ -76,6 +76,29 @@ def field_units(case: Path, names: list[str]) -> dict[str, str]:
     Reads only the header (first 4 kB) of each field's file in the first time
     directory holding it; ``[0 2 -2 0 0 0 0]`` becomes ``"m2 s-2"`` (the
     kinematic pressure of incompressible solvers).
+
+    Parameters
+    ----------
+    case : Path
+        The case folder (its time directories are ``0``, ``0.5`` ...).
+    names : list of str
+        Field file names (``U``, ``p`` ...).
+
+    Returns
+    -------
+    dict of str to str
+        ``{name: units}`` in SI base units (``"1"`` for a dimensionless
+        field); names without a readable ``dimensions`` entry are left out.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> case = pathlib.Path(tempfile.mkdtemp())
+    >>> (case / "0").mkdir()
+    >>> _ = (case / "0" / "p").write_text("FoamFile {}\\ndimensions [0 2 -2 0 0 0 0];\\n")
+    >>> _ = (case / "0" / "U").write_text("dimensions [0 1 -1 0 0 0 0];\\n")
+    >>> field_units(case, ["p", "U", "T"])
+    {'p': 'm2 s-2', 'U': 'm s-1'}
     """
     import re
 
@@ -132,7 +155,29 @@ def read_openfoam(
     Returns
     -------
     TimeVolume
-        One step per time directory, times in seconds.
+        One step per time directory, times in seconds; ``attrs["units"]``
+        the fields' units (:func:`field_units`).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        A folder that is not a case, a case VTK cannot read or one without
+        time directories.
+    FieldError
+        A requested field is not in the case.
+    DataError
+        Steps whose meshes or arrays disagree.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
 
     Examples
     --------

@@ -22,6 +22,7 @@ import math
 from collections.abc import Iterator, Sequence
 from contextvars import ContextVar
 from dataclasses import dataclass
+from typing import Literal, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,15 +47,17 @@ __all__ = [
 #: ``"native"`` on its own points (derivatives by its metric terms,
 #: :mod:`auralize.curvilinear`), ``"resample"`` onto a uniform grid.
 CURVILINEAR_MODES = ("native", "resample")
+#: One of :data:`CURVILINEAR_MODES`.
+CurvilinearMode = Literal["native", "resample"]
 
 Box = tuple[float, float, float, float, float, float]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ReadOptions:
     """What the user asked of every reader.
 
-    Attributes
+    Parameters
     ----------
     time_dim : str or None
         Name of the time dimension (netCDF); ``None`` finds it (CF ``axis="T"``,
@@ -68,6 +71,18 @@ class ReadOptions:
         the grid points inside it (a curvilinear grid the smallest index block
         whose cells cover it), and a mesh's resolution is chosen from the cells
         inside it.
+    curvilinear : {"native", "resample"}
+        How a structured curvilinear grid is read (:data:`CURVILINEAR_MODES`);
+        a ``resolution`` resamples it too, a ``box`` crops it natively.
+
+    Examples
+    --------
+    >>> opts = ReadOptions(axis_scale=(1.0, 1.0, 1000.0))
+    >>> with reading(opts):
+    ...     current().axis_scale
+    (1.0, 1.0, 1000.0)
+    >>> current() == ReadOptions()
+    True
     """
 
     time_dim: str | None = None
@@ -75,17 +90,35 @@ class ReadOptions:
     box: Box | None = None
     #: ``"native"`` (default) or ``"resample"`` (:data:`CURVILINEAR_MODES`); a
     #: ``resolution`` resamples a curvilinear grid too, a ``box`` crops it natively
-    curvilinear: str = "native"
+    curvilinear: CurvilinearMode = "native"
 
 
 _CURRENT: ContextVar[ReadOptions | None] = ContextVar("auralize_read_options", default=None)
-_CURVILINEAR: ContextVar[str] = ContextVar("auralize_curvilinear", default="native")
+_CURVILINEAR: ContextVar[CurvilinearMode] = ContextVar("auralize_curvilinear", default="native")
 
 
-def check_curvilinear(value: object, *, source: str) -> str:
+def check_curvilinear(value: object, *, source: str) -> CurvilinearMode:
     """Validate ``curvilinear=``: ``None`` (the :func:`curvilinear_mode` in force, by
     default ``"native"``) or one of :data:`CURVILINEAR_MODES`.
 
+    Parameters
+    ----------
+    value : object
+        What the user gave.
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    {"native", "resample"}
+
+    Raises
+    ------
+    ParameterError
+        Anything else.
+
+    Examples
+    --------
     >>> check_curvilinear(None, source="f.vts"), check_curvilinear("resample", source="f.vts")
     ('native', 'resample')
     """
@@ -96,13 +129,39 @@ def check_curvilinear(value: object, *, source: str) -> str:
             f"{source}: curvilinear={value!r}; give one of {', '.join(CURVILINEAR_MODES)} "
             f"(--resample reads a curvilinear grid resampled onto a uniform one)"
         )
-    return str(value)
+    return cast(CurvilinearMode, str(value))
 
 
 @contextlib.contextmanager
-def curvilinear_mode(mode: str) -> Iterator[str]:
+def curvilinear_mode(mode: CurvilinearMode) -> Iterator[CurvilinearMode]:
     """Make ``mode`` the default ``curvilinear=`` of every file opened inside (the
-    command line's ``--resample``)."""
+    command line's ``--resample``).
+
+    A context manager; the mode in force before is restored on leaving it.
+
+    Parameters
+    ----------
+    mode : {"native", "resample"}
+        The default of ``curvilinear=`` inside.
+
+    Yields
+    ------
+    {"native", "resample"}
+        ``mode``.
+
+    Raises
+    ------
+    ParameterError
+        ``mode`` is not one of :data:`CURVILINEAR_MODES`.
+
+    Examples
+    --------
+    >>> with curvilinear_mode("resample"):
+    ...     check_curvilinear(None, source="f.vts")
+    'resample'
+    >>> check_curvilinear(None, source="f.vts")
+    'native'
+    """
     token = _CURVILINEAR.set(check_curvilinear(mode, source="curvilinear_mode"))
     try:
         yield mode
@@ -111,13 +170,46 @@ def curvilinear_mode(mode: str) -> Iterator[str]:
 
 
 def current() -> ReadOptions:
-    """The options of the file being opened (defaults outside :func:`reading`)."""
+    """The options of the file being opened (defaults outside :func:`reading`).
+
+    Returns
+    -------
+    ReadOptions
+
+    Examples
+    --------
+    >>> with reading(ReadOptions(time_dim="t")):
+    ...     current().time_dim
+    't'
+    >>> current().time_dim is None
+    True
+    """
     return _CURRENT.get() or ReadOptions()
 
 
 @contextlib.contextmanager
 def reading(options: ReadOptions) -> Iterator[ReadOptions]:
-    """Make ``options`` the :func:`current` ones while a file is opened."""
+    """Make ``options`` the :func:`current` ones while a file is opened.
+
+    A context manager (a context variable: each thread and task sees its
+    own); the options in force before are restored on leaving it.
+
+    Parameters
+    ----------
+    options : ReadOptions
+        The options of the file being opened.
+
+    Yields
+    ------
+    ReadOptions
+        ``options``.
+
+    Examples
+    --------
+    >>> with reading(ReadOptions(box=(0, 1, 0, 1, 0, 1))) as opts:
+    ...     current() is opts
+    True
+    """
     token = _CURRENT.set(options)
     try:
         yield options
@@ -128,6 +220,25 @@ def reading(options: ReadOptions) -> Iterator[ReadOptions]:
 def check_axis_scale(value: object, *, source: str) -> tuple[float, float, float] | None:
     """Validate ``axis_scale=``: ``None``, one positive number, or three.
 
+    Parameters
+    ----------
+    value : object
+        What the user gave: None, a number or three (metres per file unit
+        along x, y, z).
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    (float, float, float) or None
+
+    Raises
+    ------
+    ParameterError
+        Anything but one or three finite positive numbers (or None).
+
+    Examples
+    --------
     >>> check_axis_scale(2, source="f.nc"), check_axis_scale([1, 1, 1e3], source="f.nc")
     ((2.0, 2.0, 2.0), (1.0, 1.0, 1000.0))
     """
@@ -153,8 +264,28 @@ def check_axis_scale(value: object, *, source: str) -> tuple[float, float, float
 
 
 def check_box(value: object, *, source: str) -> Box | None:
-    """Validate ``box=``: ``None`` or six finite numbers with min < max on each axis.
+    """Validate ``box=``: ``None`` or six finite numbers with min <= max on each axis.
 
+    Parameters
+    ----------
+    value : object
+        What the user gave: None or ``(xmin, xmax, ymin, ymax, zmin, zmax)``
+        in metres.
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    (xmin, xmax, ymin, ymax, zmin, zmax) or None
+        Floats.
+
+    Raises
+    ------
+    ParameterError
+        Not six finite numbers, or a minimum above its maximum.
+
+    Examples
+    --------
     >>> check_box((0, 1, 0, 1, -1, 1), source="f.vtu")
     (0.0, 1.0, 0.0, 1.0, -1.0, 1.0)
     """
@@ -235,6 +366,25 @@ def index_block(
     may overlap the box by its bounding box only: the block is then a little
     larger than it needs be.  A box that overlaps no cell is an error.
 
+    Parameters
+    ----------
+    coords : ndarray, shape (nz, ny, nx, 3)
+        The grid's point positions in metres.
+    box : (xmin, xmax, ymin, ymax, zmin, zmax)
+        Region of interest in metres.
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    (i0, i1, j0, j1, k0, k1) : tuple of int
+        Half-open index ranges along x (the last array axis), y and z.
+
+    Raises
+    ------
+    DataError
+        The box overlaps no cell of the grid.
+
     Examples
     --------
     >>> zz, yy, xx = np.meshgrid(np.arange(3.0), np.arange(4.0), np.arange(5.0), indexing="ij")
@@ -285,8 +435,15 @@ def _cropped_curvilinear(volume: TimeVolume, box: Box) -> TimeVolume:
     assert volume.coords is not None
     i0, i1, j0, j1, k0, k1 = index_block(volume.coords, box, source=volume.source)
     nx, ny, nz = volume.dims
-    said = {"box": list(box), "index_block": {"i": [i0, i1 - 1], "j": [j0, j1 - 1],
-                                              "k": [k0, k1 - 1], "of": [nx, ny, nz]}}  # fmt: skip
+    said = {
+        "box": list(box),
+        "index_block": {
+            "i": [i0, i1 - 1],
+            "j": [j0, j1 - 1],
+            "k": [k0, k1 - 1],
+            "of": [nx, ny, nz],
+        },
+    }
     if (i0, i1, j0, j1, k0, k1) == (0, nx, 0, ny, 0, nz):
         return dataclasses.replace(volume, attrs={**volume.attrs, **said})
     coords = volume.coords[k0:k1, j0:j1, i0:i1].copy()
@@ -361,6 +518,36 @@ def finish(volume: TimeVolume, options: ReadOptions) -> TimeVolume:
     it, lazily (frames are cut as they are read): on a curvilinear grid the
     smallest index block whose cells cover the box (:func:`index_block`;
     ``attrs["index_block"]`` gives its inclusive index ranges).
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        What the reader returned.
+    options : ReadOptions
+        The options the file was opened with.
+
+    Returns
+    -------
+    TimeVolume
+        ``volume`` itself when nothing is left to do; otherwise a new volume
+        over the same frame sources (``attrs["axis_scale_applied"]``,
+        ``attrs["box"]`` say what was done).
+
+    Raises
+    ------
+    DataError
+        The box holds no grid point (or overlaps no cell of a curvilinear grid).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.zeros((1, 3, 4, 5))}, times=[0.0])
+    >>> out = finish(vol, ReadOptions(axis_scale=(2.0, 2.0, 2.0), box=(0, 4, 0, 2, 0, 8)))
+    >>> vol.dims, out.dims, out.spacing.tolist()
+    ((5, 4, 3), (3, 2, 3), [2.0, 2.0, 2.0])
+    >>> finish(vol, ReadOptions()) is vol
+    True
     """
     if options.axis_scale is not None and "axis_scale_applied" not in volume.attrs:
         volume = _scaled(volume, options.axis_scale)

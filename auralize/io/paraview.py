@@ -12,6 +12,7 @@ volume opens in ParaView with its time steps.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -19,7 +20,7 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -99,6 +100,36 @@ def read_pvd(
         ``<DataSet timestep=... file=.../>`` entries, files relative to it.
     fields, resolution, name_map
         As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step per timestep of the collection; step 0 has been read to
+        learn the grid.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not a ``<VTKFile type="Collection">`` with ``DataSet`` entries,
+        entries without a file or with a timestep that is no number, step
+        files that do not exist or are not VTK data files, a damaged step file.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Timesteps that are not finite or occur twice (same part); steps whose
+        grids or arrays disagree, a damaged mesh, a ``box`` that holds none of
+        the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
 
     Notes
     -----
@@ -201,9 +232,52 @@ def read_series(
     fields, resolution, name_map
         As in :func:`auralize.io.open_volume`.
 
+    Returns
+    -------
+    TimeVolume
+        One step per file, at its ``time`` (s).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not valid JSON, no ``files`` list, an unknown
+        ``file-series-version``, an entry without a name or a numeric time,
+        step files that do not exist or are not VTK data files.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Times that are not finite or occur twice; steps whose grids or arrays
+        disagree, a damaged mesh, a ``box`` that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
     Notes
     -----
     Files are taken in increasing time order; two files at one time are an error.
+
+    Examples
+    --------
+    >>> import json, tempfile, pathlib, numpy as np, pyvista as pv
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> for n in range(2):
+    ...     img = pv.ImageData(dimensions=(4, 3, 2))
+    ...     img.point_data["rho"] = np.full(24, float(n))
+    ...     img.save(folder / f"a_{n}.vti")
+    >>> files = [{"name": "a_0.vti", "time": 0.0}, {"name": "a_1.vti", "time": 0.25}]
+    >>> _ = (folder / "a.series").write_text(
+    ...     json.dumps({"file-series-version": "1.0", "files": files}))
+    >>> vol = read_series(folder / "a.series")
+    >>> vol.times.tolist(), vol.dims, float(vol.frame("rho", 1).max())
+    ([0.0, 0.25], (4, 3, 2), 1.0)
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -263,6 +337,24 @@ def xml_root_type(path: Path) -> str | None:
     """The ``type`` of a VTK XML file's ``<VTKFile>`` element (``None`` if it has none).
 
     Reads the first 4 KiB only: the element opens every VTK XML file.
+
+    Parameters
+    ----------
+    path : Path
+        Any path; an unreadable one has no type.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"ImageData"``, ``"Collection"``, ``"vtkOverlappingAMR"``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "old.vtm"
+    >>> _ = f.write_text('<?xml version="1.0"?><VTKFile type="vtkHierarchicalBoxDataSet">')
+    >>> xml_root_type(f), xml_root_type(f.parent / "missing.vtm")
+    ('vtkHierarchicalBoxDataSet', None)
     """
     try:
         with open(path, "rb") as f:
@@ -282,7 +374,53 @@ def read_mesh_file(
 ) -> TimeVolume:
     """Open one VTK data file (``.vti``, ``.vts``, ``.vtu`` ...) as a one-step volume.
 
-    The single time is 0 with ``physical_times=False``.
+    The single time is 0 with ``physical_times=False``.  An AMR file by another
+    name (VTK 5 wrote hierarchical box data sets as ``.vtm``) is read by
+    :func:`auralize.io.vtk_readers.read_amr`.
+
+    Parameters
+    ----------
+    path : path-like
+        A file of one of :data:`MESH_SUFFIXES`; a ``.vtm``'s blocks are merged.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step; its frame has been read to learn the grid.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not a VTK data file, a damaged file, a file that holds no points.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np, pyvista as pv
+    >>> img = pv.ImageData(dimensions=(4, 3, 2), spacing=(0.5, 0.5, 0.5))
+    >>> img.point_data["rho"] = np.arange(24.0)
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "rho.vti"
+    >>> img.save(f)
+    >>> vol = read_mesh_file(f)
+    >>> vol.dims, vol.spacing.tolist(), vol.n_steps, vol.physical_times
+    ((4, 3, 2), [0.5, 0.5, 0.5], 1, False)
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -369,6 +507,53 @@ def read_vtkhdf(
     Temporal files (a ``/VTKHDF/Steps`` group) give one time step per step,
     read with VTK's ``vtkHDFReader.SetStep``; others give one step at time 0
     with ``physical_times=False``.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.vtkhdf`` (or other HDF5) file.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        Times from ``/VTKHDF/Steps/Values`` (s).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not readable as VTKHDF, data in other files (external
+        links or datasets, unless allowed:
+        :func:`auralize.io.hdf5.allow_external_data`).
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from auralize.io.vtkhdf_write import write_volume_vtkhdf
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.zeros((3, 2, 3, 4))}, times=[0.0, 0.1, 0.2])
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "p.vtkhdf"
+    >>> write_volume_vtkhdf(vol, f)
+    >>> again = read_vtkhdf(f)
+    >>> again.times.tolist(), again.dims
+    ([0.0, 0.1, 0.2], (4, 3, 2))
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -398,7 +583,7 @@ def write_pvd(
     volume: TimeVolume,
     path: str | os.PathLike[str],
     *,
-    compression: str | None = None,
+    compression: Literal["gzip"] | None = None,
 ) -> None:
     """Write ``volume`` as ``<stem>.pvd`` plus ``<stem>_data/<stem>_NNNN.vti``, atomically.
 
@@ -420,6 +605,19 @@ def write_pvd(
     compression : {None, "gzip"}
         Compress the ``.vti`` arrays with zlib (gzip's deflate).
 
+    Raises
+    ------
+    ParameterError
+        ``compression`` is neither None nor ``"gzip"``.
+    DataError
+        A frame holds NaN/Inf at a valid point of a volume that checks
+        (``check_finite``); the old collection is kept.
+    OutputError
+        The folder cannot be written or the disk has too little free space
+        (uncompressed: refused before writing);
+        :class:`~auralize.errors.OutputExistsError` when ``<stem>_data/``
+        exists and auralize did not write it.
+
     Notes
     -----
     ``physical_times`` is not stored: the times are written as they are.
@@ -440,7 +638,9 @@ def write_pvd(
     if compression not in (None, "gzip"):
         raise ParameterError(f"{path}: compression={compression!r}; valid are None and 'gzip'")
     pv = import_pyvista()
-    vtk_compression = "zlib" if compression == "gzip" else None
+    from vtkmodules.vtkCommonMisc import vtkErrorCode
+    from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+
     stem = path.stem
     width = max(4, len(str(volume.n_steps - 1)))
     names = [f"{stem}_{n:0{width}d}.vti" for n in range(volume.n_steps)]
@@ -457,13 +657,28 @@ def write_pvd(
                 frame = volume.frame(field_name, step)
                 flat = frame.reshape(nx * ny * nz, 3) if frame.ndim == 4 else frame.reshape(-1)
                 image.point_data[field_name] = np.ascontiguousarray(flat)
-            image.save(folder / name, compression=vtk_compression)
+            # VTK's writer, set as pyvista's ``save`` sets it (whose ``compression`` is recent)
+            writer = vtkXMLImageDataWriter()
+            writer.SetFileName(str(folder / name))
+            writer.SetInputData(image)
+            writer.SetDataModeToBinary()
+            if compression == "gzip":
+                writer.SetCompressorTypeToZLib()
+            else:
+                writer.SetCompressorTypeToNone()
+            if not writer.Write():
+                full = writer.GetErrorCode() == vtkErrorCode.OutOfDiskSpaceError
+                code = errno.ENOSPC if full else errno.EIO
+                raise OSError(code, os.strerror(code), str(folder / name))
         return [(float(t), name) for t, name in zip(volume.times, names, strict=True)]
 
     if compression is None:
         from auralize.runtime.resources import require_disk
 
         comps = sum(3 if volume.is_vector(n) else 1 for n in volume.field_names)
-        require_disk(path, volume.n_steps * float(volume.n_points) * comps * 8 + 65536,
-                     f"{volume.n_steps} steps of {len(volume.field_names)} field(s)")  # fmt: skip
+        require_disk(
+            path,
+            volume.n_steps * float(volume.n_points) * comps * 8 + 65536,
+            f"{volume.n_steps} steps of {len(volume.field_names)} field(s)",
+        )
     write_collection(path, f"{stem}_data", write_steps)

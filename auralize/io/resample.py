@@ -11,7 +11,7 @@ another uniform grid.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,6 +48,25 @@ ResolutionArg = int | tuple[int, int, int] | None
 
 def check_resolution(resolution: object, *, source: str) -> ResolutionArg:
     """Validate ``resolution=``: ``None``, an int >= 2, or three ints >= 1.
+
+    Parameters
+    ----------
+    resolution : object
+        What the user gave: None (automatic), the most points per axis, or
+        ``(nx, ny, nz)``.
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    None, int or (int, int, int)
+        Python ints (numpy integers and lists are converted).
+
+    Raises
+    ------
+    ParameterError
+        Anything else (booleans, an int below 2, a tuple of other than three
+        positive ints).
 
     Examples
     --------
@@ -105,6 +124,15 @@ def grid_for_bounds(
     dims : tuple of int
         ``(nx, ny, nz)``.
 
+    Raises
+    ------
+    DataError
+        Bounds that are not finite, a minimum above its maximum, or a mesh
+        that is a single point.
+    ParameterError
+        A tuple ``resolution`` with more than one point along an axis of zero
+        extent.
+
     Examples
     --------
     >>> o, s, d = grid_for_bounds((0, 1, 0, 2, 0, 0), n_points=10, resolution=5, source="x")
@@ -143,8 +171,9 @@ def grid_for_bounds(
     return lo, _spacing_of(ext, dims), (int(dims[0]), int(dims[1]), int(dims[2]))
 
 
-def _dims_for(ext: NDArray[np.float64], flat: NDArray[np.bool_], h: float,
-              cap: int) -> NDArray[np.int64]:  # fmt: skip
+def _dims_for(
+    ext: NDArray[np.float64], flat: NDArray[np.bool_], h: float, cap: int
+) -> NDArray[np.int64]:
     """Points per axis at spacing about ``h`` (at least 2, at most ``cap``; 1 if flat)."""
     d = np.clip(np.round(ext / h).astype(np.int64) + 1, 2, cap)
     return np.where(flat, 1, d)
@@ -180,15 +209,35 @@ def _spacing_of(ext: NDArray[np.float64], dims: NDArray[np.int64]) -> NDArray[np
 class GridChoice:
     """The uniform grid a mesh is resampled onto, and why.
 
-    ``voxel`` is the grid's edge in metres (the geometric mean of the spacing
-    along its non-flat axes), ``capped`` whether the point budget made it
-    coarser than the mesh's cells asked, ``cell`` the percentile cell size the
-    automatic choice aimed at (NaN when ``resolution=`` was given or no cell
-    has a size), ``why`` the choice in words.
+    Parameters
+    ----------
+    origin, spacing : ndarray, shape (3,)
+        The grid's first point and its spacing along x, y, z in metres.
+    dims : (int, int, int)
+        Points along x, y, z.
+    voxel : float
+        The grid's edge in metres (the geometric mean of the spacing along its
+        non-flat axes, :func:`voxel_edge`).
+    capped : bool
+        Whether the point budget made the grid coarser than the mesh's cells
+        asked.
+    cell : float
+        The percentile cell size (m) the automatic choice aimed at; NaN when
+        ``resolution=`` was given or no cell has a size.
+    why : str
+        The choice in words.
+
+    Examples
+    --------
+    >>> g = grid_for_cells((0, 1, 0, 1, 0, 1), np.full(10, 0.25), n_points=27,
+    ...                    resolution=None, budget=10**6, source="x")
+    >>> g.dims, g.voxel, g.cell, g.why
+    ((5, 5, 5), 0.25, 0.25, 'automatic: the 20th-percentile cell size 0.25 m')
     """
 
     origin: NDArray[np.float64]
     spacing: NDArray[np.float64]
+    _: KW_ONLY
     dims: tuple[int, int, int]
     voxel: float
     capped: bool
@@ -197,7 +246,25 @@ class GridChoice:
 
 
 def voxel_edge(spacing: NDArray[np.float64], dims: tuple[int, int, int]) -> float:
-    """Geometric mean of ``spacing`` along the axes with more than one point."""
+    """Geometric mean of ``spacing`` along the axes with more than one point.
+
+    Parameters
+    ----------
+    spacing : ndarray, shape (3,)
+        Grid spacing along x, y, z in metres.
+    dims : (int, int, int)
+        Points along x, y, z.
+
+    Returns
+    -------
+    float
+        In metres; the smallest spacing when every axis has one point.
+
+    Examples
+    --------
+    >>> voxel_edge(np.array([0.5, 2.0, 7.0]), (10, 10, 1))
+    1.0
+    """
     active = [float(spacing[a]) for a in range(3) if dims[a] > 1]
     return float(np.exp(np.mean(np.log(active)))) if active else float(np.min(spacing))
 
@@ -221,6 +288,33 @@ def grid_for_cells(
     ``budget`` points (``capped``).  An explicit ``resolution`` means what it
     means in :func:`grid_for_bounds`, over ``bounds``.
 
+    Parameters
+    ----------
+    bounds : sequence of 6 float
+        ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the region in metres.
+    cell_sizes : ndarray
+        Equivalent edge lengths (m) of the mesh's cells in the region; values
+        that are not finite and positive are ignored.
+    n_points : int
+        Point count of the mesh (in the region).
+    resolution : None, int or (int, int, int)
+        As in :func:`grid_for_bounds`; None chooses from ``cell_sizes``.
+    budget : int
+        Most grid points of an automatic grid.
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    GridChoice
+
+    Raises
+    ------
+    DataError
+        Bounds that are not valid or a region that is a single point.
+    ParameterError
+        A ``resolution`` that does not fit the region (see :func:`grid_for_bounds`).
+
     Examples
     --------
     >>> g = grid_for_cells((0, 10, 0, 10, 0, 0), np.full(50, 0.5), n_points=100,
@@ -235,8 +329,15 @@ def grid_for_cells(
         origin, spacing, dims = grid_for_bounds(
             bounds, n_points=n_points, resolution=resolution, source=source
         )
-        return GridChoice(origin, spacing, dims, voxel_edge(spacing, dims), False, float("nan"),
-                          f"resolution={resolution!r}")  # fmt: skip
+        return GridChoice(
+            origin,
+            spacing,
+            dims=dims,
+            voxel=voxel_edge(spacing, dims),
+            capped=False,
+            cell=float("nan"),
+            why=f"resolution={resolution!r}",
+        )
     b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
     origin, _, _ = grid_for_bounds(bounds, n_points=8, resolution=2, source=source)  # checks
     ext = b[:, 1] - b[:, 0]
@@ -258,13 +359,33 @@ def grid_for_cells(
     counts = _dims_for(ext, flat, h, 2**31)
     spacing = _spacing_of(ext, counts)
     d = (int(counts[0]), int(counts[1]), int(counts[2]))
-    return GridChoice(origin, spacing, d, voxel_edge(spacing, d), capped, cell, why)
+    return GridChoice(
+        origin, spacing, dims=d, voxel=voxel_edge(spacing, d), capped=capped, cell=cell, why=why
+    )
 
 
 def describe_grid(
     origin: NDArray[np.float64], spacing: NDArray[np.float64], dims: tuple[int, int, int]
 ) -> str:
-    """``'20x20x2 points, spacing (0.005, 0.005, 0.01) m, origin (0, 0, 0) m'``."""
+    """A uniform grid in words, for messages.
+
+    Parameters
+    ----------
+    origin, spacing : ndarray, shape (3,)
+        The grid's first point and its spacing along x, y, z in metres.
+    dims : (int, int, int)
+        Points along x, y, z.
+
+    Returns
+    -------
+    str
+        Numbers to 6 significant digits.
+
+    Examples
+    --------
+    >>> describe_grid(np.zeros(3), np.array([0.005, 0.005, 0.01]), (20, 20, 2))
+    '20x20x2 points, spacing (0.005, 0.005, 0.01) m, origin (0, 0, 0) m'
+    """
     sp = ", ".join(f"{s:.6g}" for s in spacing)
     org = ", ".join(f"{o:.6g}" for o in origin)
     return f"{dims[0]}x{dims[1]}x{dims[2]} points, spacing ({sp}) m, origin ({org}) m"
@@ -274,11 +395,27 @@ def describe_grid(
 class UniformResampledFrames:
     """Trilinear resampling of a uniform-grid :class:`FrameSource`, one frame per read.
 
-    ``index_x``, ``index_y``, ``index_z`` are the new points' fractional
-    indices into the source grid along each axis.
+    Parameters
+    ----------
+    source : FrameSource
+        Frames of shape ``(nz, ny, nx)`` or ``(nz, ny, nx, 3)``.
+    index_x, index_y, index_z : ndarray
+        The new points' fractional indices into the source grid along x, y
+        and z; values outside the grid are clamped to its edge.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.arange(3.0).reshape(1, 1, 1, 3)}, times=[0.0])
+    >>> half = UniformResampledFrames(vol.fields["p"], index_x=np.array([0.5, 1.5]),
+    ...                               index_y=np.zeros(1), index_z=np.zeros(1))
+    >>> half.frame_shape, half.read(0).tolist()
+    ((1, 1, 2), [[[0.5, 1.5]]])
     """
 
     source: FrameSource
+    _: KW_ONLY
     index_x: NDArray[np.float64]
     index_y: NDArray[np.float64]
     index_z: NDArray[np.float64]
@@ -291,6 +428,28 @@ class UniformResampledFrames:
         self.frame_shape = (self.index_z.size, self.index_y.size, self.index_x.size, *tail)
 
     def read(self, step: int) -> NDArray[np.float64]:
+        """The source's frame ``step`` at the new points (float64).
+
+        Parameters
+        ----------
+        step : int
+            Time step, 0 to ``n_steps - 1``.
+
+        Returns
+        -------
+        ndarray, shape frame_shape
+            ``(len(index_z), len(index_y), len(index_x)[, 3])``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from auralize.volume import TimeVolume
+        >>> vol = TimeVolume.from_arrays({"p": np.arange(4.0).reshape(1, 1, 2, 2)}, times=[0.0])
+        >>> mid = UniformResampledFrames(vol.fields["p"], index_x=np.array([0.5]),
+        ...                              index_y=np.array([0.5]), index_z=np.zeros(1))
+        >>> mid.read(0).tolist()  # the mean of the four corners
+        [[[1.5]]]
+        """
         arr = np.asarray(self.source.read(step), dtype=np.float64)
         # Array axes are (z, y, x[, c]); linear interpolation is separable.
         arr = _interp_axis(arr, 2, self.index_x)
@@ -317,6 +476,44 @@ def resample_uniform(volume: TimeVolume, resolution: ResolutionArg) -> TimeVolum
     is ``None``, an int no smaller than the largest dimension, or equal to
     ``volume.dims``); otherwise warns with
     :class:`~auralize.io.ResampledWarning`.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        A volume on a uniform grid.
+    resolution : None, int or (int, int, int)
+        As in :func:`grid_for_bounds`, over the volume's bounds.
+
+    Returns
+    -------
+    TimeVolume
+        Frames interpolated trilinearly as they are read
+        (:class:`UniformResampledFrames`); a point is valid only when every
+        source point its weights touch is.
+
+    Raises
+    ------
+    ParameterError
+        A ``resolution`` that is not valid (:func:`check_resolution`) or does
+        not fit the volume (:func:`grid_for_bounds`).
+
+    Warns
+    -----
+    ResampledWarning
+        When the grid changes.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from auralize.volume import TimeVolume
+    >>> vol = TimeVolume.from_arrays({"p": np.zeros((2, 9, 9, 9))}, times=[0.0, 0.1])
+    >>> resample_uniform(vol, None) is vol
+    True
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     coarse = resample_uniform(vol, 5)
+    >>> coarse.dims, coarse.spacing.tolist()
+    ((5, 5, 5), [2.0, 2.0, 2.0])
     """
     resolution = check_resolution(resolution, source=volume.source)
     if resolution is None:
@@ -333,7 +530,7 @@ def resample_uniform(volume: TimeVolume, resolution: ResolutionArg) -> TimeVolum
         for a in range(3)
     ]
     fields: dict[str, FrameSource] = {
-        name: UniformResampledFrames(src, idx[0], idx[1], idx[2])
+        name: UniformResampledFrames(src, index_x=idx[0], index_y=idx[1], index_z=idx[2])
         for name, src in volume.fields.items()
     }
     valid = None

@@ -32,7 +32,7 @@ import sys
 import threading
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from auralize.io._common import FieldsArg, require_exists
 from auralize.io._mesh import as_dataset, import_pyvista, open_mesh_series
 from auralize.io.resample import ResolutionArg
 from auralize.io.xdmf_check import check_xdmf
+from auralize.runtime.vtkcompat import amr_block, amr_block_count, c_locale_kept
 from auralize.runtime.vtklog import c_stderr_logged, error_mark, first_error, one_line
 from auralize.volume import TimeVolume
 
@@ -113,12 +114,20 @@ def _open_reader_series(
     except Exception as exc:  # VTK raises many kinds; name the file, the kind and VTK's reason
         why = first_error(mark) or f"{type(exc).__name__}: {one_line(str(exc))}"
         raise FormatError(f"{path}: cannot read as {kind} ({why})") from exc
-    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
-                        name_map=name_map)  # fmt: skip
+    return _mesh_series(
+        path, loader, times, fields=fields, resolution=resolution, name_map=name_map
+    )
 
 
-def _mesh_series(path: Path, loader: Any, times: list[float], *, fields: FieldsArg,
-                 resolution: ResolutionArg, name_map: Mapping[str, str] | None) -> TimeVolume:  # fmt: skip
+def _mesh_series(
+    path: Path,
+    loader: Any,
+    times: list[float],
+    *,
+    fields: FieldsArg,
+    resolution: ResolutionArg,
+    name_map: Mapping[str, str] | None,
+) -> TimeVolume:
     """The lazy volume of a reader's steps; no times means one step at frame 0."""
     physical = len(times) > 0
     times = times or [0.0]
@@ -162,6 +171,46 @@ def read_xdmf(
         The ``.xdmf``/``.xmf`` file.
     fields, resolution, name_map
         As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step per time of the temporal collection (s); a file without
+        times is one step at 0 (``physical_times=False``).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not XDMF, XML entities, heavy data outside the folder or
+        XIncludes of other files (unless allowed), damaged or missing heavy
+        data, a file VTK cannot read.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    The meshio time series shipped with auralize (a 2 x 2 square, five steps):
+
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> data = Path(auralize.__file__).parent / "data"
+    >>> vol = read_xdmf(data / "xdmf-timeseries/meshio/out.xdmf")
+    >>> vol.times.tolist(), vol.dims, vol.field_names
+    ([0.0, 0.25, 0.5, 0.75, 1.0], (2, 2, 1), ['phi', 'u', 'a'])
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -221,6 +270,55 @@ def read_ensight(
     (:func:`~auralize.io._mesh.check_mesh`), so a damaged geometry or
     variable file raises :class:`FormatError` or :class:`DataError` naming the
     case instead of ending the process.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.case`` file; the files it names lie beside it.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step per time value (s), or one step at 0 without a ``TIME``
+        section.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        Not an EnSight case, a geometry or variable file VTK cannot
+        read or that is damaged (the reading process failed or crashed).
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    The cylinder wake shipped with auralize (one step, a flat mesh):
+
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> data = Path(auralize.__file__).parent / "data"
+    >>> import warnings
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")  # a ResampledWarning: the mesh is unstructured
+    ...     vol = read_ensight(data / "ensight-cylinder/cylinder_Re35.case", resolution=40)
+    >>> vol.field_names, vol.n_steps, vol.physical_times, vol.dims[2]
+    (['pressure', 'vorticity_mag', 'velocity'], 1, False, 1)
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -234,20 +332,28 @@ def read_ensight(
             f"may be truncated"
         )
 
-    return _child_series(path, ChildEnSightSteps(path), fields=fields, resolution=resolution,
-                         name_map=name_map)  # fmt: skip
+    return _child_series(
+        path, ChildEnSightSteps(path), fields=fields, resolution=resolution, name_map=name_map
+    )
 
 
-def _child_series(path: Path, loader: ChildEnSightSteps, *, fields: FieldsArg,
-                  resolution: ResolutionArg, name_map: Mapping[str, str] | None) -> TimeVolume:  # fmt: skip
+def _child_series(
+    path: Path,
+    loader: ChildEnSightSteps,
+    *,
+    fields: FieldsArg,
+    resolution: ResolutionArg,
+    name_map: Mapping[str, str] | None,
+) -> TimeVolume:
     """The lazy volume of the steps a child process reads (the child ends if opening fails)."""
     try:
         times = loader.times()
     except BaseException:
         loader.close()
         raise
-    return _mesh_series(path, loader, times, fields=fields, resolution=resolution,
-                        name_map=name_map)  # fmt: skip
+    return _mesh_series(
+        path, loader, times, fields=fields, resolution=resolution, name_map=name_map
+    )
 
 
 #: The child process of :class:`ChildEnSightSteps`: ``<program> KIND PATH``.
@@ -286,7 +392,7 @@ class _EnzoAMR:
         return amr_leaves(reader.GetOutputDataObject(0), label=self.path)
 
 
-def serve_child(kind: str, path: str) -> None:
+def serve_child(kind: Literal["ensight", "enzo"], path: str) -> None:
     """Child side of :class:`ChildEnSightSteps`: read steps of ``path`` on request.
 
     ``kind`` is a key of :data:`CHILD_KINDS`: ``ensight`` (an EnSight case) or
@@ -298,6 +404,28 @@ def serve_child(kind: str, path: str) -> None:
     :func:`~auralize.io._mesh.as_dataset`) as :func:`marshal_mesh` gives it, or
     ``<error class>\\n<message>``.  VTK's error messages are collected, not
     printed: a read that logs one is refused with it.
+
+    Parameters
+    ----------
+    kind : {"ensight", "enzo"}
+        What ``path`` is.
+    path : str
+        The EnSight ``.case`` file or the Enzo ``.hierarchy`` file.
+
+    Examples
+    --------
+    A child process asked for the times of the cylinder case (which has none):
+
+    >>> import json, subprocess, sys
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> case = Path(auralize.__file__).parent / "data/ensight-cylinder/cylinder_Re35.case"
+    >>> child = ("import sys; from auralize.io.vtk_readers import serve_child; "
+    ...          "serve_child('ensight', sys.argv[1])")
+    >>> out = subprocess.run([sys.executable, "-c", child, str(case)], input=b"times\\n",
+    ...                      capture_output=True, check=True).stdout
+    >>> out[:1], int.from_bytes(out[1:9], "big"), json.loads(out[9:])
+    (b'+', 2, [])
     """
     import json
     import struct
@@ -343,8 +471,13 @@ def serve_child(kind: str, path: str) -> None:
 
 
 #: The data set classes a child process may send back.
-_MESH_CLASSES = ("vtkUnstructuredGrid", "vtkPolyData", "vtkStructuredGrid",
-                 "vtkRectilinearGrid", "vtkImageData")  # fmt: skip
+_MESH_CLASSES = (
+    "vtkUnstructuredGrid",
+    "vtkPolyData",
+    "vtkStructuredGrid",
+    "vtkRectilinearGrid",
+    "vtkImageData",
+)
 
 
 def marshal_mesh(mesh: Any) -> bytes:
@@ -353,6 +486,30 @@ def marshal_mesh(mesh: Any) -> bytes:
     VTK's marshalling (its legacy binary format) keeps every array exactly but
     writes an image's origin, spacing and direction as text of 6 digits, so
     the header carries them in full.  No pickle crosses processes.
+
+    Parameters
+    ----------
+    mesh : pyvista.DataSet
+        An unstructured grid, poly data, structured, rectilinear or image data.
+
+    Returns
+    -------
+    bytes
+        What :func:`unmarshal_mesh` turns back into the mesh.
+
+    Raises
+    ------
+    FormatError
+        Another kind of data object, or one VTK cannot marshal.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> img = pv.ImageData(dimensions=(3, 2, 2), spacing=(0.1, 0.2, 0.3))
+    >>> img.point_data["rho"] = np.arange(12.0)
+    >>> data = marshal_mesh(img)
+    >>> data.split(b"\\n", 1)[0][:40]
+    b'{"class": "vtkImageData", "point": ["rho'
     """
     import json
 
@@ -372,13 +529,41 @@ def marshal_mesh(mesh: Any) -> bytes:
         matrix = mesh.GetDirectionMatrix()
         head["direction"] = [matrix.GetElement(i, j) for i in range(3) for j in range(3)]
     buffer = vtkCharArray()
-    if not vtkCommunicator.MarshalDataObject(mesh, buffer):
+    with c_locale_kept():
+        marshalled = vtkCommunicator.MarshalDataObject(mesh, buffer)
+    if not marshalled:
         raise FormatError(f"VTK cannot marshal the {name} the reader returned")
     return json.dumps(head).encode() + b"\n" + vtk_to_numpy(buffer).tobytes()
 
 
 def unmarshal_mesh(data: bytes) -> Any:
-    """The mesh :func:`marshal_mesh` turned into ``data``."""
+    """The mesh :func:`marshal_mesh` turned into ``data``.
+
+    Parameters
+    ----------
+    data : bytes
+        :func:`marshal_mesh`'s output (from another process).
+
+    Returns
+    -------
+    pyvista.DataSet
+        The mesh, its arrays in their original order; an image keeps its
+        origin, spacing and direction exactly.
+
+    Raises
+    ------
+    FormatError
+        ``data`` does not hold a mesh of a known class, or VTK cannot read it.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> img = pv.ImageData(dimensions=(3, 2, 2), spacing=(0.1, 0.2, 1 / 3))
+    >>> img.point_data["rho"] = np.arange(12.0)
+    >>> back = unmarshal_mesh(marshal_mesh(img))
+    >>> back.spacing == img.spacing, back.point_data["rho"].tolist() == list(range(12))
+    (True, True)
+    """
     import json
 
     from vtkmodules import vtkCommonDataModel
@@ -397,7 +582,9 @@ def unmarshal_mesh(data: bytes) -> Any:
     view = vtk_to_numpy(buffer)
     view[:] = np.frombuffer(body, dtype=view.dtype)
     mesh = getattr(vtkCommonDataModel, name)()
-    if not vtkCommunicator.UnMarshalDataObject(buffer, mesh):
+    with c_locale_kept():
+        unmarshalled = vtkCommunicator.UnMarshalDataObject(buffer, mesh)
+    if not unmarshalled:
         raise FormatError(f"the {name} the reading process sent cannot be read back")
     for key, data in (("point", mesh.GetPointData()), ("cell", mesh.GetCellData())):
         _restore_order(data, head[key])
@@ -445,9 +632,31 @@ class ChildEnSightSteps:
     error becomes a :class:`FormatError` naming the case, and the next read
     starts a new child.  Opening a valid case costs one process start, about
     what the import of VTK costs.
+
+    ``loader(step)`` returns the merged mesh of time step ``step`` (a
+    pyvista data set), raising :class:`FormatError` or :class:`DataError`
+    naming the case when it cannot be read.
+
+    Parameters
+    ----------
+    path : Path
+        The EnSight ``.case`` file, or an Enzo output's ``.hierarchy``.
+    kind : {"ensight", "enzo"}
+        What ``path`` is (:data:`CHILD_KINDS`).
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> case = Path(auralize.__file__).parent / "data/ensight-cylinder/cylinder_Re35.case"
+    >>> loader = ChildEnSightSteps(case)
+    >>> mesh = loader(0)  # the case has no TIME section: one step
+    >>> type(mesh).__name__, sorted(mesh.point_data)
+    ('UnstructuredGrid', ['pressure', 'velocity', 'vorticity_mag'])
+    >>> loader.close()
     """
 
-    def __init__(self, path: Path, kind: str = "ensight") -> None:
+    def __init__(self, path: Path, kind: Literal["ensight", "enzo"] = "ensight") -> None:
         self.path = path
         self.kind = kind
         self.label = str(path)
@@ -478,7 +687,16 @@ class ChildEnSightSteps:
         return self._proc
 
     def close(self) -> None:
-        """End the child process (a later read starts a new one)."""
+        """End the child process (a later read starts a new one).
+
+        Examples
+        --------
+        >>> from pathlib import Path
+        >>> import auralize
+        >>> case = Path(auralize.__file__).parent / "data/ensight-cylinder/cylinder_Re35.case"
+        >>> loader = ChildEnSightSteps(case)
+        >>> loader.close()  # no child started yet: nothing to end
+        """
         with self._lock:
             if self._finalizer is not None:
                 self._finalizer()
@@ -499,8 +717,10 @@ class ChildEnSightSteps:
             why = f"exit status {status}" if status else f"{type(exc).__name__}: {exc}"
             if status is not None and status < 0:
                 why = f"the reading process crashed with signal {-status}"
-            raise FormatError(f"{self.path}: VTK's {CHILD_KINDS[self.kind]} reader failed "
-                              f"({why}); {self._damaged}") from None  # fmt: skip
+            raise FormatError(
+                f"{self.path}: VTK's {CHILD_KINDS[self.kind]} reader failed "
+                f"({why}); {self._damaged}"
+            ) from None
         if head[:1] == b"+":
             return body
         kind, _, message = body.decode("utf-8", "replace").partition("\n")
@@ -518,7 +738,29 @@ class ChildEnSightSteps:
         return "a geometry or variable file of the case is truncated or corrupt"
 
     def times(self) -> list[float]:
-        """The case's time values in seconds (empty for a case without a TIME section)."""
+        """The case's time values in seconds (empty for a case without a TIME section).
+
+        Asked of the child process once, then remembered.
+
+        Returns
+        -------
+        list of float
+
+        Raises
+        ------
+        FormatError
+            The child process cannot read the case (or crashed reading it).
+
+        Examples
+        --------
+        >>> from pathlib import Path
+        >>> import auralize
+        >>> case = Path(auralize.__file__).parent / "data/ensight-cylinder/cylinder_Re35.case"
+        >>> loader = ChildEnSightSteps(case)
+        >>> loader.times()
+        []
+        >>> loader.close()
+        """
         import json
 
         with self._lock:
@@ -581,6 +823,31 @@ def plot3d_files(path: Path) -> tuple[Path, list[Path]]:
     holds ``xyz``) takes the ``.q`` files beside it that share its name's
     stem (``flow.xyz`` -> ``flow*.q``; ``combxyz.bin`` -> ``combq.bin``), in
     natural order; a ``.q`` file takes the grid beside it.
+
+    Parameters
+    ----------
+    path : Path
+        A grid file or a solution file.
+
+    Returns
+    -------
+    grid : Path
+    solutions : list of Path
+        ``[path]`` when ``path`` is a solution.
+
+    Raises
+    ------
+    FormatError
+        A solution without its grid beside it, or a grid without solutions.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> data = Path(auralize.__file__).parent / "data"
+    >>> grid, solutions = plot3d_files(data / "plot3d-combustor/combq.bin")
+    >>> grid.name, [q.name for q in solutions]
+    ('combxyz.bin', ['combq.bin'])
     """
     folder = path.parent
     suffix = path.suffix.lower()
@@ -620,6 +887,31 @@ def q_layout(q: Path, dims: tuple[int, int, int]) -> tuple[int, np.dtype[Any]] |
     precision, with or without Fortran record markers — and accepts the one
     whose size and header dimensions match the grid's.  ``None`` when none
     does (multi-grid, 2-D or otherwise unusual files are left to VTK).
+
+    Parameters
+    ----------
+    q : Path
+        The solution file.
+    dims : (int, int, int)
+        The grid's points along its i, j, k index directions.
+
+    Returns
+    -------
+    (offset, dtype) or None
+        Byte offset of the first value (density at the first point) and the
+        values' dtype; the file holds 5 values per point after it (density,
+        3 momentum components, stagnation energy), one variable after another.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> data = Path(auralize.__file__).parent / "data"
+    >>> q = data / "plot3d-combustor/combq.bin"
+    >>> q_layout(q, (57, 33, 25))
+    (28, dtype('>f4'))
+    >>> q_layout(q, (57, 33, 24)) is None
+    True
     """
     size = q.stat().st_size
     n = int(np.prod(dims))
@@ -721,8 +1013,55 @@ def read_plot3d(
     The q file's fields are named as VTK names them: ``Density``,
     ``Momentum`` (vector), ``StagnationEnergy``.  PLOT3D holds no physical
     times: steps are the ``.q`` files in natural order at 30 Hz
-    (``physical_times=False``).  The curvilinear grid is resampled onto a
-    uniform grid; points outside it are no-data.
+    (``physical_times=False``).  A single curvilinear grid keeps its points
+    (``TimeVolume.coords``) unless ``curvilinear="resample"`` (or a
+    ``resolution``) asks for a uniform grid (:func:`auralize.io.open_volume`);
+    other grids are resampled, points outside them no-data.
+
+    Parameters
+    ----------
+    path : path-like
+        A grid file or a ``.q`` solution beside its grid (:func:`plot3d_files`).
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step per ``.q`` file.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        A solution without its grid, a grid without solutions, a
+        truncated or corrupt grid or solution, a solution of another grid.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    The combustor shipped with auralize (one solution on a curvilinear grid):
+
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> data = Path(auralize.__file__).parent / "data"
+    >>> vol = read_plot3d(data / "plot3d-combustor/combxyz.bin")
+    >>> vol.field_names, vol.dims, vol.curvilinear
+    (['Density', 'Momentum', 'StagnationEnergy'], (57, 33, 25), True)
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -754,6 +1093,62 @@ def read_amr(
 
     Every level's boxes are read; coarse cells covered by finer boxes are
     blanked by VTK, so the merged mesh samples the finest data available.
+
+    Parameters
+    ----------
+    path : path-like
+        The AMR file (VTK XML ``vtkOverlappingAMR`` or
+        ``vtkHierarchicalBoxDataSet``), its blocks beside it.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step at time 0 (``physical_times=False``); cell data are
+        interpolated to points (``attrs["centring"]``).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        A file VTK cannot read, one that holds no boxes.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, warnings
+    >>> from vtkmodules.vtkFiltersAMR import vtkAMRGaussianPulseSource
+    >>> from vtkmodules.vtkIOXML import vtkXMLUniformGridAMRWriter
+    >>> pulse = vtkAMRGaussianPulseSource()
+    >>> pulse.SetDimension(3)
+    >>> pulse.SetRootSpacing(0.5)
+    >>> _ = pulse.Update()
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "pulse.vthb"
+    >>> writer = vtkXMLUniformGridAMRWriter()
+    >>> writer.SetFileName(str(f))
+    >>> writer.SetInputData(pulse.GetOutput())
+    >>> writer.Write()
+    1
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")  # a ResampledWarning: the boxes are merged
+    ...     vol = read_amr(f)
+    >>> vol.field_names, vol.attrs["centring"]["Gaussian-Pulse"]
+    (['Centroid', 'Gaussian-Pulse'], 'cell')
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -785,6 +1180,35 @@ def amr_leaves(amr: Any, *, label: str) -> Any:
 
     Cells a finer level covers carry the ``HIDDENCELL`` bit in
     ``vtkGhostType``; dropping them leaves every region once, at its finest level.
+
+    Parameters
+    ----------
+    amr : vtkOverlappingAMR or vtkNonOverlappingAMR
+        What VTK's AMR readers return.
+    label : str
+        The file, for messages.
+
+    Returns
+    -------
+    pyvista.MultiBlock
+        One block per box with cells left: the box itself, or an unstructured
+        grid of its visible cells.
+
+    Raises
+    ------
+    FormatError
+        ``amr`` is not an AMR data set, or holds no boxes.
+
+    Examples
+    --------
+    >>> from vtkmodules.vtkFiltersAMR import vtkAMRGaussianPulseSource
+    >>> pulse = vtkAMRGaussianPulseSource()
+    >>> pulse.SetDimension(3)
+    >>> pulse.SetRootSpacing(0.5)
+    >>> _ = pulse.Update()
+    >>> amr = pulse.GetOutput()
+    >>> amr.GetNumberOfLevels(), amr_leaves(amr, label="pulse").n_blocks
+    (2, 3)
     """
     pv = import_pyvista()
     if amr is None or not hasattr(amr, "GetNumberOfLevels"):
@@ -792,8 +1216,8 @@ def amr_leaves(amr: Any, *, label: str) -> Any:
     hidden = 8  # vtkDataSetAttributes::HIDDENCELL
     blocks = pv.MultiBlock()
     for level in range(amr.GetNumberOfLevels()):
-        for index in range(amr.GetNumberOfBlocks(level)):
-            box = amr.GetDataSetAsImageData(level, index)
+        for index in range(amr_block_count(amr, level)):
+            box = amr_block(amr, level, index)
             if box is None:
                 continue
             image = pv.ImageData()
@@ -823,6 +1247,51 @@ def read_with_pyvista(
 
     Time values come from the reader when it has them; meshes are merged and
     resampled like every other mesh.
+
+    Parameters
+    ----------
+    path : path-like
+        A file with one of :func:`pyvista_suffixes`.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step per time value of the reader (s), or one step at 0
+        (``physical_times=False``).
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        No reader for the ending, a file the reader cannot read.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np, pyvista as pv
+    >>> img = pv.ImageData(dimensions=(4, 3, 2), spacing=(0.5, 0.5, 0.5))
+    >>> img.point_data["density"] = np.arange(24.0)
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "scan.nii"
+    >>> img.save(f)
+    >>> vol = read_with_pyvista(f)
+    >>> vol.dims, vol.n_steps, float(np.nanmax(vol.frame(vol.field_names[0], 0)))
+    ((4, 3, 2), 1, 23.0)
     """
     path = Path(path).expanduser()
     require_exists(path)
@@ -842,7 +1311,19 @@ def read_with_pyvista(
 
 
 def pyvista_suffixes() -> tuple[str, ...]:
-    """File endings ``pyvista.get_reader`` has a reader for."""
+    """File endings ``pyvista.get_reader`` has a reader for.
+
+    Returns
+    -------
+    tuple of str
+        Lower-case endings with their dot, sorted; empty with a pyvista that
+        does not list its readers.
+
+    Examples
+    --------
+    >>> ".cgns" in pyvista_suffixes(), ".vtu" in pyvista_suffixes()
+    (True, True)
+    """
     try:
         from pyvista.core.utilities.reader import CLASS_READERS
     except ImportError:  # pragma: no cover - layout of older pyvista
@@ -857,6 +1338,24 @@ def enzo_hierarchy(path: Path) -> Path | None:
     ``path`` may be the hierarchy itself, the output's parameter file
     (``data0010`` beside ``data0010.hierarchy``) or one of its HDF5 grid files
     (``data0010.cpu0000``).
+
+    Parameters
+    ----------
+    path : Path
+        Any path; only names are looked at (and whether the hierarchy exists).
+
+    Returns
+    -------
+    Path or None
+        ``path`` itself when it ends in ``.hierarchy``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (out / "data0010.hierarchy").write_text("Grid = 1")
+    >>> enzo_hierarchy(out / "data0010.cpu0003").name, enzo_hierarchy(out / "data0011")
+    ('data0010.hierarchy', None)
     """
     name = path.name
     if name.endswith(".hierarchy"):
@@ -864,6 +1363,43 @@ def enzo_hierarchy(path: Path) -> Path | None:
     base = re.sub(r"\.cpu\d{4,}$", "", name)
     candidate = path.with_name(base + ".hierarchy")
     return candidate if candidate.is_file() else None
+
+
+#: keys VTK's Enzo reader looks for in each grid's entry of a hierarchy, in this order:
+#: it scans forward for each one in turn, and one missing (or out of order) makes it
+#: scan past the end of the file without stopping
+ENZO_GRID_KEYS = (
+    "GridStartIndex",
+    "GridEndIndex",
+    "GridLeftEdge",
+    "GridRightEdge",
+    "BaryonFileName",
+    "NumberOfParticles",
+)
+
+
+def _check_enzo_grid_keys(hierarchy: Path, text: str) -> None:
+    """Raise :class:`FormatError` unless every grid entry of the hierarchy ``text`` holds
+    :data:`ENZO_GRID_KEYS` in order (VTK's reader would never return on it)."""
+    starts = [m.start() for m in re.finditer(r"^\s*Grid\s*=\s*\d+", text, flags=re.M)]
+    for a, b in zip(starts, [*starts[1:], len(text)], strict=True):
+        entry = text[a:b]
+        grid = entry.split("=", 1)[1].split()[0]
+        at = 0
+        for key in ENZO_GRID_KEYS:
+            m = re.compile(rf"^\s*{key}\s*=", flags=re.M).search(entry, at)
+            if m is None:
+                where = (
+                    "missing"
+                    if re.search(rf"^\s*{key}\s*=", entry, re.M) is None
+                    else ("out of order")
+                )
+                raise FormatError(
+                    f"{hierarchy}: grid {grid}'s entry has {key} {where} (an Enzo hierarchy "
+                    f"gives each grid {', '.join(ENZO_GRID_KEYS)} in this order); the file is "
+                    f"damaged or not written by Enzo"
+                )
+            at = m.end()
 
 
 def read_enzo(
@@ -880,6 +1416,65 @@ def read_enzo(
     its folder (nothing outside it is read) and be HDF5 files.  VTK reads in a
     child process (:class:`ChildEnSightSteps`), since its Enzo reader ends the
     process on some malformed hierarchies.
+
+    Parameters
+    ----------
+    path : path-like
+        The output's ``.hierarchy``, parameter file or a grid file.
+    fields, resolution, name_map
+        As in :func:`auralize.io.open_volume`.
+
+    Returns
+    -------
+    TimeVolume
+        One step at time 0 (``physical_times=False``); cell data are
+        interpolated to points.
+
+    Raises
+    ------
+    MissingFileError
+        ``path`` does not exist.
+    FormatError
+        No hierarchy beside ``path``, a hierarchy without ``Grid = 1``
+        and a ``BaryonFileName``, a missing parameter file, grid files that are
+        missing, not HDF5 or outside the folder, a reader that fails or crashes.
+    FieldError
+        A requested field is not in the file.
+    DataError
+        Steps whose grids or arrays disagree, a damaged mesh, a ``box``
+        that holds none of the mesh.
+    ParameterError
+        Bad ``fields=``, ``resolution=`` or ``name_map=``.
+    ResourceError
+        The uniform grid a mesh is resampled onto does not fit in memory.
+
+    Warns
+    -----
+    ResampledWarning
+        The mesh is put on a uniform grid (unless its points form one).
+
+    Examples
+    --------
+    An output of one 8³ grid on the unit cube:
+
+    >>> import tempfile, pathlib, h5py, numpy as np
+    >>> out = pathlib.Path(tempfile.mkdtemp())
+    >>> with h5py.File(out / "data0001.cpu0000", "w") as f:
+    ...     f["Grid00000001/Density"] = np.arange(512.0, dtype=np.float32).reshape(8, 8, 8)
+    >>> _ = (out / "data0001").write_text(
+    ...     "InitialTime = 0.5\\nTopGridRank = 3\\nTopGridDimensions = 8 8 8\\n"
+    ...     "DomainLeftEdge = 0 0 0\\nDomainRightEdge = 1 1 1\\nDataLabel[0] = Density\\n")
+    >>> _ = (out / "data0001.hierarchy").write_text(
+    ...     "\\nGrid = 1\\nTask = 0\\nGridRank = 3\\nGridDimension = 8 8 8\\n"
+    ...     "GridStartIndex = 0 0 0\\nGridEndIndex = 7 7 7\\nGridLeftEdge = 0 0 0\\n"
+    ...     "GridRightEdge = 1 1 1\\nTime = 0.5\\nSubgridsAreStatic = 0\\n"
+    ...     "NumberOfBaryonFields = 1\\nFieldType = 0\\nBaryonFileName = data0001.cpu0000\\n"
+    ...     "CourantSafetyNumber = 0.3\\nPPMFlatteningParameter = 0\\nPPMDiffusionParameter = 0\\n"
+    ...     "PPMSteepeningParameter = 0\\nNumberOfParticles = 0\\nGravityBoundaryType = 0\\n"
+    ...     "Pointer: Grid[1]->NextGridThisLevel = 0\\nPointer: Grid[1]->NextGridNextLevel = 0\\n")
+    >>> vol = read_enzo(out / "data0001.hierarchy")
+    >>> vol.field_names, vol.n_steps, float(np.nanmax(vol.frame("Density", 0)))
+    (['Density'], 1, 511.0)
     """
     import h5py
 
@@ -900,6 +1495,7 @@ def read_enzo(
         raise FormatError(
             f"{hierarchy}: not an Enzo hierarchy (no 'Grid = 1' with a BaryonFileName)"
         )
+    _check_enzo_grid_keys(hierarchy, text)
     parameters = hierarchy.with_name(hierarchy.name.removesuffix(".hierarchy"))
     if not parameters.is_file():
         raise FormatError(f"{hierarchy}: the Enzo parameter file {parameters.name} is missing")
@@ -910,5 +1506,10 @@ def read_enzo(
             raise FormatError(
                 f"{hierarchy}: the grid file {grid.name} it names is missing or not HDF5"
             )
-    return _child_series(path, ChildEnSightSteps(hierarchy, kind="enzo"), fields=fields,
-                         resolution=resolution, name_map=name_map)  # fmt: skip
+    return _child_series(
+        path,
+        ChildEnSightSteps(hierarchy, kind="enzo"),
+        fields=fields,
+        resolution=resolution,
+        name_map=name_map,
+    )

@@ -69,6 +69,12 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
 
     Raises
     ------
+    MissingFileError
+        The folder of ``path`` does not exist.
+    DataError
+        A field name cannot name a VTKHDF array (empty, ``/``), or a frame
+        holds NaN/Inf at a valid point of a volume that checks
+        (``check_finite``); nothing is left behind.
     OutputError
         The disk has less free space than the file needs (refused before
         writing), or a write failed: the first failed write ends it, and
@@ -76,15 +82,21 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
 
     Examples
     --------
-    >>> import numpy as np, tempfile, pathlib
+    >>> import h5py, numpy as np, tempfile, pathlib
     >>> vol = TimeVolume.from_arrays({"p": np.zeros((2, 3, 4, 5))}, times=[0.0, 0.1])
-    >>> write_volume_vtkhdf(vol, pathlib.Path(tempfile.mkdtemp()) / "p.vtkhdf")
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "p.vtkhdf"
+    >>> write_volume_vtkhdf(vol, f)
+    >>> with h5py.File(f, "r") as h:
+    ...     h["VTKHDF/PointData/p"].shape, h["VTKHDF/Steps/Values"][()].tolist()
+    ((2, 3, 4, 5), [0.0, 0.1])
     """
     p = _checked_target(path)
     for name in volume.field_names:
         if not name or "/" in name or name in (".", ".."):
-            raise DataError(f"{p}: field name {name!r} cannot be a VTKHDF array name; use a "
-                            "non-empty name without '/'")  # fmt: skip
+            raise DataError(
+                f"{p}: field name {name!r} cannot be a VTKHDF array name; use a "
+                "non-empty name without '/'"
+            )
     nx, ny, nz = (int(d) for d in volume.dims)
     n = int(volume.n_steps)
     shapes = {name: tuple(volume.fields[name].frame_shape) for name in volume.field_names}
@@ -105,8 +117,7 @@ def write_volume_vtkhdf(volume: TimeVolume, path: str | os.PathLike[str]) -> Non
         steps.create_dataset("Values", data=np.asarray(volume.times, dtype=np.float64))
         offsets = steps.create_group("PointDataOffsets")
         for name, shape in shapes.items():
-            ds = pdata.create_dataset(name, shape=(n, *shape), dtype=np.float64,
-                                      chunks=(1, *shape))  # fmt: skip
+            ds = pdata.create_dataset(name, shape=(n, *shape), dtype=np.float64, chunks=(1, *shape))
             for step in range(n):
                 ds[step] = volume.frame(name, step)
                 stop_if_failed(f)  # a full disk ends the writer here, not after every step
@@ -130,6 +141,31 @@ def sources_polydata(series: Any, step: int) -> Any:
 
     Point data ``kind``, ``strength``, ``radius`` (m), ``volume`` (m³); field
     data ``kind_code`` / ``kind_name``, the legend of the ``kind`` codes.
+
+    Parameters
+    ----------
+    series : SourceSeries
+        Detected sources (:class:`~auralize.sources.detection.SourceSeries`).
+    step : int
+        Time step, 0 to ``series.n_steps - 1``.
+
+    Returns
+    -------
+    pyvista.PolyData
+        Points at the sources' grid positions (m).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources import SourceFrame, SourceSeries
+    >>> frames = [SourceFrame(index=np.array([0, 5]), kind=np.array([1, 2], np.int8),
+    ...                       strength=np.array([0.5, -1.0]), radius=np.array([0.1, 0.2]))]
+    >>> series = SourceSeries(frames=frames, times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2),
+    ...                       thresholds=np.ones(3))
+    >>> poly = sources_polydata(series, 0)
+    >>> poly.points.tolist(), poly.point_data["kind"].tolist()
+    ([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0]], [1, 2])
     """
     import pyvista as pv
 
@@ -137,8 +173,9 @@ def sources_polydata(series: Any, step: int) -> Any:
     pts = series.positions(f.index) if f.index.size else np.zeros((0, 3))
     poly = pv.PolyData(np.asarray(pts, dtype=np.float64))
     if not poly.n_verts and poly.n_points:  # pyvista adds the vertices; keep them explicit
-        poly.verts = np.column_stack([np.ones(poly.n_points, np.int64),
-                                      np.arange(poly.n_points)]).ravel()  # fmt: skip
+        poly.verts = np.column_stack(
+            [np.ones(poly.n_points, np.int64), np.arange(poly.n_points)]
+        ).ravel()
     poly.point_data["kind"] = f.kind.astype(np.int8)
     poly.point_data["strength"] = np.asarray(f.strength, dtype=np.float64)
     poly.point_data["radius"] = np.asarray(f.radius, dtype=np.float64)
@@ -166,10 +203,28 @@ def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
 
     Raises
     ------
+    MissingFileError
+        The folder of ``path`` does not exist.
     OutputError
         The disk has less free space than the file needs (refused before
         writing), or a write failed: the first failed write ends it, and
         nothing is left behind (:func:`~auralize.runtime.files.atomic_hdf5`).
+
+    Examples
+    --------
+    >>> import h5py, tempfile, pathlib
+    >>> import numpy as np
+    >>> from auralize.sources import SourceFrame, SourceSeries
+    >>> frames = [SourceFrame(index=np.array([0, 5]), kind=np.array([1, 2], np.int8),
+    ...                       strength=np.array([0.5, -1.0]), radius=np.array([0.1, 0.2]))]
+    >>> series = SourceSeries(frames=frames, times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(4, 3, 2),
+    ...                       thresholds=np.ones(3))
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "sources.vtkhdf"
+    >>> write_sources_vtkhdf(series, f)
+    >>> with h5py.File(f, "r") as h:
+    ...     h["VTKHDF/NumberOfPoints"][()].tolist(), h["VTKHDF/PointData/strength"][()].tolist()
+    ([2], [0.5, -1.0])
     """
     p = _checked_target(path)
     frames = list(series.frames)
@@ -185,8 +240,12 @@ def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
 
     index = cat("index", np.int64)
     points = np.asarray(series.positions(index), np.float64) if total else np.zeros((0, 3))
-    point_data = {"kind": cat("kind", np.int8), "strength": cat("strength", np.float64),
-                  "radius": cat("radius", np.float64), "volume": cat("volume", np.float64)}  # fmt: skip
+    point_data = {
+        "kind": cat("kind", np.int8),
+        "strength": cat("strength", np.float64),
+        "radius": cat("radius", np.float64),
+        "volume": cat("volume", np.float64),
+    }
     codes = np.asarray(list(KIND_LEGEND), dtype=np.int32)
     names = [name.encode("ascii") for name in KIND_LEGEND.values()]
     nbytes = 73.0 * total + 400.0 * n + _OVERHEAD  # points, data, connectivity; per step
@@ -239,7 +298,19 @@ def write_sources_vtkhdf(series: Any, path: str | os.PathLike[str]) -> None:
 
 
 def h5py_string() -> Any:
-    """The HDF5 type of VTKHDF string arrays: variable-length ASCII."""
+    """The HDF5 type of VTKHDF string arrays: variable-length ASCII.
+
+    Returns
+    -------
+    numpy.dtype
+        ``h5py.string_dtype("ascii")``.
+
+    Examples
+    --------
+    >>> import h5py
+    >>> h5py.check_string_dtype(h5py_string()).encoding
+    'ascii'
+    """
     import h5py
 
     return h5py.string_dtype("ascii")

@@ -52,7 +52,7 @@ import threading
 import xml.parsers.expat
 import zlib
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 from xml.etree import ElementTree as ET
@@ -66,13 +66,18 @@ MAX_XML_BYTES = 64 * 1024**2
 #: Namespaces of XInclude elements (meshio writes the 2003 draft's).
 XINCLUDE_NAMESPACES = ("http://www.w3.org/2001/XInclude", "http://www.w3.org/2003/XInclude")
 #: Bytes per value of XDMF number types (``NumberType``/``DataType``) by ``Precision``.
-_PRECISIONS = {"float": (4, 8), "int": (1, 2, 4, 8), "uint": (1, 2, 4, 8), "char": (1,),
-               "uchar": (1,)}  # fmt: skip
+_PRECISIONS = {
+    "float": (4, 8),
+    "int": (1, 2, 4, 8),
+    "uint": (1, 2, 4, 8),
+    "char": (1,),
+    "uchar": (1,),
+}
 _BLOCK_BYTES = 64 * 1024**2
 _MAX_DEPTH = 8
 
 
-def parse_xml(data: bytes, path: Path, kind: str = "XDMF") -> ET.Element:
+def parse_xml(data: bytes, path: Path, *, kind: str = "XDMF") -> ET.Element:
     """Parse XML bytes into an element tree, refusing entities.
 
     Expat is driven directly so that any entity declaration (``<!ENTITY``,
@@ -80,6 +85,36 @@ def parse_xml(data: bytes, path: Path, kind: str = "XDMF") -> ET.Element:
     entity the document does not define (one an external DTD would supply)
     raise :class:`FormatError` before anything is expanded: no entity
     expansion (billion laughs) and no file read through an entity.
+
+    Parameters
+    ----------
+    data : bytes
+        The whole document.
+    path : Path
+        Where it comes from, for messages.
+    kind : str
+        What the document is, for messages (``"XDMF"``, ``"XIncluded XML"``).
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        The root element; namespaced tags as ``{namespace}name``.
+
+    Raises
+    ------
+    FormatError
+        An entity declared or used, malformed XML, no root element.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> parse_xml(b'<Xdmf Version="3.0"><Domain/></Xdmf>', Path("run.xdmf")).get("Version")
+    '3.0'
+    >>> bomb = b'<!DOCTYPE x [<!ENTITY a "aaaa">]><Xdmf>&a;</Xdmf>'
+    >>> parse_xml(bomb, Path("bomb.xdmf"))
+    Traceback (most recent call last):
+      ...
+    auralize.errors.FormatError: bomb.xdmf: the XDMF file declares or uses an XML entity ('a'); ...
     """
     builder = ET.TreeBuilder()
     parser = xml.parsers.expat.ParserCreate(namespace_separator="}")
@@ -116,7 +151,34 @@ def parse_xml(data: bytes, path: Path, kind: str = "XDMF") -> ET.Element:
 
 
 def read_xml_file(path: Path, kind: str = "XDMF") -> ET.Element:
-    """Parse the XML file ``path`` (a regular file of at most :data:`MAX_XML_BYTES`)."""
+    """Parse the XML file ``path`` (a regular file of at most :data:`MAX_XML_BYTES`).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    kind : str
+        What the file is, for messages (``"XDMF"``, ``"XIncluded XML"``).
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        The root element (:func:`parse_xml`).
+
+    Raises
+    ------
+    FormatError
+        Not a regular file, larger than :data:`MAX_XML_BYTES`, unreadable, or
+        XML that :func:`parse_xml` refuses.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> xdmf = Path(auralize.__file__).parent / "data/xdmf-timeseries/meshio/out.xdmf"
+    >>> read_xml_file(xdmf).tag
+    'Xdmf'
+    """
     try:
         info = path.stat()
         if not stat.S_ISREG(info.st_mode):
@@ -130,7 +192,7 @@ def read_xml_file(path: Path, kind: str = "XDMF") -> ET.Element:
             data = fh.read(MAX_XML_BYTES + 1)
     except OSError as exc:
         raise FormatError(f"{path}: cannot read ({exc})") from exc
-    return parse_xml(data, path, kind)
+    return parse_xml(data, path, kind=kind)
 
 
 def _local(tag: str) -> tuple[str, str]:
@@ -145,13 +207,35 @@ def _local(tag: str) -> tuple[str, str]:
 class HeavyData:
     """One HDF5 dataset a ``DataItem`` names.
 
-    ``time`` is the time value of the temporal-collection step whose grid
-    holds it, or None when it belongs to no single step (a shared mesh, a
-    time list, a file without time steps).
+    Parameters
+    ----------
+    file : Path
+        The HDF5 file (resolved).
+    dataset : str
+        The dataset's path in it.
+    n_values : int or None
+        How many values the ``DataItem``'s ``Dimensions`` declare (None: not
+        declared).
+    time : float or None
+        The time value of the temporal-collection step whose grid holds it,
+        or None when it belongs to no single step (a shared mesh, a time
+        list, a file without time steps).
+    text : str
+        The ``DataItem``'s text (``file.h5:/path``), for messages.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> xdmf = Path(auralize.__file__).parent / "data/xdmf-timeseries/meshio/out.xdmf"
+    >>> item = check_xdmf(xdmf).items[0]
+    >>> item.file.name, item.dataset, item.n_values, item.time
+    ('out.h5', '/data2', 4, 0.0)
     """
 
     file: Path
     dataset: str
+    _: KW_ONLY
     n_values: int | None
     time: float | None
     text: str
@@ -159,18 +243,63 @@ class HeavyData:
 
 @dataclass
 class XdmfCheck:
-    """The checked heavy data of one XDMF file; reads each dataset once, on demand."""
+    """The checked heavy data of one XDMF file; reads each dataset once, on demand.
+
+    Made by :func:`check_xdmf`.
+
+    Parameters
+    ----------
+    path : Path
+        The XDMF file.
+    items : list of HeavyData
+        Every HDF5 dataset the file names.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> xdmf = Path(auralize.__file__).parent / "data/xdmf-timeseries/meshio/out.xdmf"
+    >>> plan = check_xdmf(xdmf)
+    >>> len(plan.items), sorted({it.time for it in plan.items if it.time is not None})
+    (17, [0.0, 0.25, 0.5, 0.75, 1.0])
+    """
 
     path: Path
     items: list[HeavyData] = field(default_factory=list)
-    _done: set[tuple[Path, str]] = field(default_factory=set)
-    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    _done: set[tuple[Path, str]] = field(default_factory=set, init=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, init=False)
 
     def check_step(self, time: float | None) -> None:
         """Read with h5py every dataset the step at ``time`` needs, once each.
 
-        ``time`` None (a file without time steps) reads every dataset.
-        Raises :class:`FormatError` naming the XDMF file and the dataset.
+        Parameters
+        ----------
+        time : float or None
+            The step's time value; None (a file without time steps) reads
+            every dataset.
+
+        Raises
+        ------
+        FormatError
+            A dataset that cannot be read, or that changed since the file was
+            checked; the message names the XDMF file and the dataset.
+
+        Examples
+        --------
+        >>> from pathlib import Path
+        >>> import auralize
+        >>> xdmf = Path(auralize.__file__).parent / "data/xdmf-timeseries/meshio/out.xdmf"
+        >>> import shutil, tempfile, pathlib
+        >>> folder = pathlib.Path(tempfile.mkdtemp())
+        >>> for name in ("out.xdmf", "out.h5"):
+        ...     _ = shutil.copy(xdmf.with_name(name), folder)
+        >>> plan = check_xdmf(folder / "out.xdmf")
+        >>> plan.check_step(0.0)  # the datasets of the step at t = 0 s, read whole
+        >>> _ = (folder / "out.h5").write_bytes(b"")  # the heavy data lost since
+        >>> plan.check_step(0.25)
+        Traceback (most recent call last):
+          ...
+        auralize.errors.FormatError: .../out.xdmf: its heavy-data file .../out.h5 cannot be read ...
         """
         with self._lock:
             todo = [
@@ -232,15 +361,31 @@ def _h5_errors(xdmf: Path, file: Path, item: HeavyData | None = None) -> Iterato
 def check_xdmf(path: Path) -> XdmfCheck:
     """Check the XDMF file ``path`` and its heavy data (see the module notes).
 
-    Returns the :class:`XdmfCheck` whose :meth:`~XdmfCheck.check_step` the
-    reader calls before VTK reads a step; the datasets that belong to no
-    step are read here already.
+    Parameters
+    ----------
+    path : Path
+        The ``.xdmf``/``.xmf`` file.
+
+    Returns
+    -------
+    XdmfCheck
+        Its :meth:`~XdmfCheck.check_step` the reader calls before VTK reads a
+        step; the datasets that belong to no step are read here already.
 
     Raises
     ------
     FormatError
         Not XDMF, entities, a reference outside the folder or an XInclude of
         another file (unless allowed), damaged or missing heavy data.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import auralize
+    >>> xdmf = Path(auralize.__file__).parent / "data/xdmf-timeseries/meshio/out.xdmf"
+    >>> plan = check_xdmf(xdmf)
+    >>> plan.path.name, {it.file.name for it in plan.items}
+    ('out.xdmf', {'out.h5'})
     """
     from auralize.io.hdf5 import external_data_allowed
 
@@ -367,7 +512,7 @@ class _Walker:
                     f"{self.xdmf}: HDF DataItem {text[:80]!r} must read 'file.h5:/path/to/dataset'"
                 )
             where = self.inside(self.xdmf.parent / file_name, f"DataItem {text!r}")
-            self.items.append(HeavyData(where, dataset, n_values, time, text))
+            self.items.append(HeavyData(where, dataset, n_values=n_values, time=time, text=text))
         elif fmt == "binary":
             self.binary(elem, text, n_values)
         elif fmt == "xml":

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from auralize.datasets.real import CASES, DATASETS, dataset_path
+from auralize.regression.compare import count_changes, relative_change
 from auralize.runtime.files import atomic_write
 
 STORE = DATASETS / "regression" / "realdata.json"
@@ -39,7 +40,7 @@ def compute(name: str) -> dict[str, Any]:
     from auralize.io import ResampledWarning, open_volume
     from auralize.listener import ListenerPath
     from auralize.pipeline import auralize, detect_sources
-    from auralize.regression.synthetic import spectral_centroid
+    from auralize.regression.compare import spectral_centroid
 
     case = CASES[name]
     out: dict[str, Any] = {}
@@ -47,10 +48,14 @@ def compute(name: str) -> dict[str, Any]:
         warnings.simplefilter("ignore", ResampledWarning)
         vol = open_volume(path)
         out.update(
-            dims=list(vol.dims), origin=vol.origin.tolist(), spacing=vol.spacing.tolist(),
-            times=vol.times.tolist(), physical_times=vol.physical_times,
-            fields=vol.field_names, valid_ratio=vol.valid_ratio,
-        )  # fmt: skip
+            dims=list(vol.dims),
+            origin=vol.origin.tolist(),
+            spacing=vol.spacing.tolist(),
+            times=vol.times.tolist(),
+            physical_times=vol.physical_times,
+            fields=vol.field_names,
+            valid_ratio=vol.valid_ratio,
+        )
         if vol.n_steps < 2:
             return out
         vol = vol.load()
@@ -65,9 +70,15 @@ def compute(name: str) -> dict[str, Any]:
         r = case["render"]
         if r is not None:
             listener = ListenerPath.point(r["listener"], duration=r["duration"])
-            rendered, _ = auralize(vol, listener, series=series, rate=8000,
-                                   time_scale=r["time_scale"], duration=r["duration"],
-                                   timbre=r.get("timbre", "physical"))  # fmt: skip
+            rendered, _ = auralize(
+                vol,
+                listener,
+                series=series,
+                rate=8000,
+                time_scale=r["time_scale"],
+                duration=r["duration"],
+                timbre=r.get("timbre", "physical"),
+            )
             x = rendered.audio[0]
             out["rms"] = float(np.sqrt(np.mean(x**2)))
             out["centroid"] = spectral_centroid(x, rendered.rate) if np.any(x) else 0.0
@@ -75,8 +86,9 @@ def compute(name: str) -> dict[str, Any]:
 
 
 def _close(a: object, b: object, rtol: float) -> bool:
-    return bool(np.allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float),
-                            rtol=rtol, atol=1e-12))  # fmt: skip
+    return bool(
+        np.allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float), rtol=rtol, atol=1e-12)
+    )
 
 
 def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
@@ -99,14 +111,16 @@ def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
     if ("counts" in got) != ("counts" in stored):
         problems.append("counts: present in only one of recomputed and stored")
     elif "counts" in got:
-        for n, (a, b) in enumerate(zip(got["counts"], stored["counts"], strict=True)):
-            for k in ("monopole", "dipole", "quadrupole"):
-                if abs(a[k] - b[k]) > max(2, TOLERANCES["counts"] * b[k]):
-                    problems.append(f"step {n} {k}: {a[k]} vs stored {b[k]}")
+        problems += [
+            str(m) for m in count_changes(got["counts"], stored["counts"], rel=TOLERANCES["counts"])
+        ]
     for key in ("rms", "centroid"):
-        if key in stored and not np.isclose(got.get(key, np.nan), stored[key],
-                                            rtol=TOLERANCES[key], atol=1e-15):  # fmt: skip
-            problems.append(f"{key}: {got.get(key)} vs stored {stored[key]:.6g}")
+        if key in stored:
+            m = relative_change(
+                key, key, got.get(key, np.nan), stored[key], rtol=TOLERANCES[key], atol=1e-15
+            )
+            if m is not None:
+                problems.append(str(m))
     return problems
 
 

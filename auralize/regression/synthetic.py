@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from auralize.regression.compare import count_changes, relative_change
+from auralize.regression.compare import spectral_centroid as spectral_centroid
 from auralize.runtime.files import atomic_write
 
 #: shipped with the package (wheel and checkout alike)
@@ -27,19 +29,18 @@ TOLERANCES = {"counts": 0.01, "rms": 0.01, "centroid": 0.02}
 
 CASES: dict[str, dict[str, Any]] = {
     "explosion": {
-        "dataset": "explosion", "size": 64, "steps": 30, "seed": 0, "mapping": "paper-density",
-        "thresholds": ["auto", "auto", "auto"], "rate": 44100, "interp": "cubic",
+        "dataset": "explosion",
+        "size": 64,
+        "steps": 30,
+        "seed": 0,
+        "mapping": "paper-density",
+        "thresholds": ["auto", "auto", "auto"],
+        "rate": 44100,
+        "interp": "cubic",
         "highpass_hz": 0.0,
         "path": {"start": [12.0, 20.0, 30.0], "end": [50.0, 40.0, 34.0], "duration": 1.0},
     },
-}  # fmt: skip
-
-
-def spectral_centroid(x: np.ndarray, rate: int) -> float:
-    """Power-weighted mean frequency (Hz) of a signal."""
-    spec = np.abs(np.fft.rfft(x * np.hanning(x.size))) ** 2
-    f = np.fft.rfftfreq(x.size, 1 / rate)
-    return float(np.sum(f * spec) / np.sum(spec))
+}
 
 
 def compute(name: str) -> dict[str, Any]:
@@ -57,9 +58,17 @@ def compute(name: str) -> dict[str, Any]:
     th = Thresholds(*case["thresholds"])
     # what is drawn (the detected sources) and what is heard (the whole field)
     series = detect_sources(vol, mapping=case["mapping"], thresholds=th)
-    out, _ = auralize(vol, path, mapping=case["mapping"], thresholds=th, rate=case["rate"],
-                      interp=case["interp"], timbre="physical", time_scale=1.0,
-                      highpass_hz=case.get("highpass_hz", 0.0))  # fmt: skip
+    out, _ = auralize(
+        vol,
+        path,
+        mapping=case["mapping"],
+        thresholds=th,
+        rate=case["rate"],
+        interp=case["interp"],
+        timbre="physical",
+        time_scale=1.0,
+        highpass_hz=case.get("highpass_hz", 0.0),
+    )
     x = out.audio[0]
     return {
         "case": case,
@@ -71,19 +80,16 @@ def compute(name: str) -> dict[str, Any]:
 
 
 def compare(name: str, got: dict[str, Any] | None = None) -> list[str]:
-    """Differences between recomputed and stored figures beyond the tolerances."""
+    """Differences between recomputed and stored figures beyond the tolerances, one line
+    per moved figure (:mod:`auralize.regression.compare`)."""
     stored = json.loads((STORE / f"{name}.json").read_text())
     got = got or compute(name)
-    problems = []
-    tol = TOLERANCES["counts"]
-    for n, (a, b) in enumerate(zip(got["counts"], stored["counts"], strict=True)):
-        for k in ("monopole", "dipole", "quadrupole"):
-            if abs(a[k] - b[k]) > max(2, tol * b[k]):
-                problems.append(f"step {n} {k}: {a[k]} vs stored {b[k]}")
+    moved = count_changes(got["counts"], stored["counts"], rel=TOLERANCES["counts"])
     for key in ("rms", "centroid"):
-        if not np.isclose(got[key], stored[key], rtol=TOLERANCES[key], atol=0):
-            problems.append(f"{key}: {got[key]:.6g} vs stored {stored[key]:.6g}")
-    return problems
+        m = relative_change(key, key, got[key], stored[key], rtol=TOLERANCES[key])
+        if m is not None:
+            moved.append(m)
+    return [str(m) for m in moved]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,6 +10,7 @@ progress, lazy exports, safe file output and the notebook displays.
 * :mod:`auralize.runtime.files` — atomic writes, paired files, ParaView collections;
 * :mod:`auralize.runtime.json_check` — bounded JSON reading and schema checks;
 * :mod:`auralize.runtime.hdf5safe` — HDF5 files that read other files, refused;
+* :mod:`auralize.runtime.vtkcompat` — VTK names that moved between supported releases;
 * :mod:`auralize.runtime.timing` — wall-time helpers of benchmark rows;
 * :mod:`auralize.runtime.entrypoints` — entry-point groups loaded once;
 * :mod:`auralize.runtime.notebook` — rich notebook displays of the core objects.

@@ -35,8 +35,11 @@ def loaded(group: str, what: str) -> tuple[tuple[str, str, object], ...]:
         try:
             obj = ep.load()
         except Exception as exc:  # a broken plugin must not take the app down
-            warnings.warn(f"{what} {ep.name!r} ({ep.value}) could not be loaded: {exc}",
-                          PluginWarning, stacklevel=3)  # fmt: skip
+            warnings.warn(
+                f"{what} {ep.name!r} ({ep.value}) could not be loaded: {exc}",
+                PluginWarning,
+                stacklevel=3,
+            )
             continue
         found.append((ep.name, ep.value, obj))
     return tuple(found)

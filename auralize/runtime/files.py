@@ -86,8 +86,9 @@ def is_disk_full(exc: BaseException) -> bool:
     return write_errno(exc) in DISK_ERRNOS
 
 
-def output_error(exc: BaseException, target: str | os.PathLike[str], *,
-                 nbytes: float | None = None) -> OutputError:  # fmt: skip
+def output_error(
+    exc: BaseException, target: str | os.PathLike[str], *, nbytes: float | None = None
+) -> OutputError:
     """The one-line :class:`~auralize.errors.OutputError` of a failed write of ``target``.
 
     Parameters
@@ -124,8 +125,9 @@ def output_error(exc: BaseException, target: str | os.PathLike[str], *,
     return OutputError(f"cannot write {str(target)!r}: {why}{tail}")
 
 
-def _as_output_error(exc: BaseException, target: Path, tmp: Path | None,
-                     nbytes: float | None) -> BaseException:  # fmt: skip
+def _as_output_error(
+    exc: BaseException, target: Path, tmp: Path | None, nbytes: float | None
+) -> BaseException:
     """``exc`` as :func:`output_error` when it is a failure to write ``target`` (a full
     disk, or an OS error about the temporary ``tmp``), else ``exc`` itself."""
     if isinstance(exc, OutputError) or not isinstance(exc, OSError | RuntimeError):
@@ -411,8 +413,14 @@ def stop_if_failed(f: Any) -> None:
 
 
 @contextlib.contextmanager
-def atomic_hdf5(path: str | os.PathLike[str], *, suffix: str = ".part.h5", nbytes: float | None = None,
-                what: str = "the file", **file_options: Any) -> Iterator[Any]:  # fmt: skip
+def atomic_hdf5(
+    path: str | os.PathLike[str],
+    *,
+    suffix: str = ".part.h5",
+    nbytes: float | None = None,
+    what: str = "the file",
+    **file_options: Any,
+) -> Iterator[Any]:
     """Yield an :class:`h5py.File` open for writing on a temporary beside ``path``; rename
     it onto ``path`` when the block ends without error.
 
@@ -556,8 +564,14 @@ def recover_pair(main: str | Path, sidecar: str | Path) -> None:
                 pending.unlink()
 
 
-def write_pair(main: str | Path, write_main: Callable[[Path], None], sidecar: str | Path,
-               sidecar_bytes: Callable[[str], bytes], *, suffix: str = ".part") -> None:  # fmt: skip
+def write_pair(
+    main: str | Path,
+    write_main: Callable[[Path], None],
+    sidecar: str | Path,
+    sidecar_bytes: Callable[[str], bytes],
+    *,
+    suffix: str = ".part",
+) -> None:
     """Write ``main`` and its ``sidecar`` so that both change or neither does.
 
     Parameters
@@ -653,8 +667,9 @@ def _owned(folder: Path, pvd: Path, referenced: set[str]) -> bool:
         return False
 
 
-def write_collection(pvd: str | Path, data_name: str,
-                     write_steps: Callable[[Path], list[tuple[float, str]]]) -> Path:  # fmt: skip
+def write_collection(
+    pvd: str | Path, data_name: str, write_steps: Callable[[Path], list[tuple[float, str]]]
+) -> Path:
     """Write a ParaView ``.pvd`` collection and its data folder, atomically.
 
     Parameters
@@ -704,14 +719,17 @@ def write_collection(pvd: str | Path, data_name: str,
         raise OutputExistsError(
             f"cannot write {str(path)!r}: {str(base)!r} exists and {what}{held}; auralize does not "
             f"replace it (move it away or choose another output name)"
-        )  # fmt: skip
+        )
     siblings = [base] + sorted(path.parent.glob(f"{_glob_escape(data_name)}.[0-9]*"))
     for folder in siblings:  # folders of writers killed before or after the swap
         mark = _marker(folder) if folder.is_dir() and not folder.is_symlink() else None
         pid = _marker_pid(mark)
-        if (mark is not None and mark.get("collection") == path.name
-                and folder.name not in referenced
-                and (pid == os.getpid() or not pid_alive(pid))):  # fmt: skip
+        if (
+            mark is not None
+            and mark.get("collection") == path.name
+            and folder.name not in referenced
+            and (pid == os.getpid() or not pid_alive(pid))
+        ):
             _discard(folder, base)
     n = 0
     new = base
@@ -724,8 +742,9 @@ def write_collection(pvd: str | Path, data_name: str,
         # the folder appears under its name already marked, so a kill never leaves
         # an unmarked folder that would look like the user's
         os.mkdir(tmp_dir)  # the usual permissions (umask), not mkdtemp's 0700
-        (tmp_dir / DATA_MARKER).write_text(json.dumps(
-            {"written_by": "auralize", "collection": path.name, "pid": os.getpid()}))  # fmt: skip
+        (tmp_dir / DATA_MARKER).write_text(
+            json.dumps({"written_by": "auralize", "collection": path.name, "pid": os.getpid()})
+        )
         os.rename(tmp_dir, new)
         with _vtk_quiet():
             entries = write_steps(new)
@@ -733,12 +752,15 @@ def write_collection(pvd: str | Path, data_name: str,
             '<?xml version="1.0"?>',
             '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
             "  <Collection>",
-            *(f'    <DataSet timestep={quoteattr(repr(float(t)))} group="" part="0" '
-              f"file={quoteattr(f'{new.name}/{name}')}/>" for t, name in entries),
+            *(
+                f'    <DataSet timestep={quoteattr(repr(float(t)))} group="" part="0" '
+                f"file={quoteattr(f'{new.name}/{name}')}/>"
+                for t, name in entries
+            ),
             "  </Collection>",
             "</VTKFile>",
             "",
-        ]  # fmt: skip
+        ]
         for f in new.iterdir():
             _finish_file(f)
         tmp_pvd.write_text("\n".join(lines), encoding="utf-8")
@@ -806,8 +828,9 @@ def _glob_escape(name: str) -> str:
     return glob.escape(name)
 
 
-def read_timed_csv(path: str | Path, *, what: str, optional: list[str],
-                   rows_name: str = "captures") -> tuple[NDArray[np.float64], bool, str]:  # fmt: skip
+def read_timed_csv(
+    path: str | Path, *, what: str, optional: list[str], rows_name: str = "captures"
+) -> tuple[NDArray[np.float64], bool, str]:
     """Read a numeric CSV whose header starts ``t,x,y,z`` and may go on with ``optional``.
 
     Returns ``(rows as a flat table (n, 4 or 4 + len(optional)), has_optional,

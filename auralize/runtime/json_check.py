@@ -84,8 +84,9 @@ def _refuse_constant(source: str, error: ErrorType) -> Callable[[str], Any]:
     return refuse
 
 
-def parse_json(text: str, source: str, *, error: ErrorType = FormatError,
-               nonfinite: bool = False) -> Any:  # fmt: skip
+def parse_json(
+    text: str, source: str, *, error: ErrorType = FormatError, nonfinite: bool = False
+) -> Any:
     """Parse a JSON document within the bounds of the module docstring.
 
     Parameters
@@ -129,8 +130,10 @@ def parse_json(text: str, source: str, *, error: ErrorType = FormatError,
         except ValueError:  # not a number: the parser says where
             continue
         if not finite:
-            raise error(f"{source}: number {m.group()} at {_where(text, m.start())} overflows to "
-                        f"infinity; numbers must be finite")  # fmt: skip
+            raise error(
+                f"{source}: number {m.group()} at {_where(text, m.start())} overflows to "
+                f"infinity; numbers must be finite"
+            )
     try:
         if nonfinite:
             return json.loads(text)
@@ -150,8 +153,10 @@ def read_json(path: str | Path, *, error: ErrorType = FormatError) -> Any:
     p = Path(path)
     size = p.stat().st_size
     if size > MAX_BYTES:
-        raise error(f"{p}: {size / 2**20:.1f} MiB is too large for a JSON file auralize reads "
-                    f"(at most {MAX_BYTES // 2**20} MiB)")  # fmt: skip
+        raise error(
+            f"{p}: {size / 2**20:.1f} MiB is too large for a JSON file auralize reads "
+            f"(at most {MAX_BYTES // 2**20} MiB)"
+        )
     try:
         text = p.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
@@ -190,8 +195,15 @@ class Schema(abc.ABC):
 class Num(Schema):
     """A finite number (not a boolean), optionally an integer, within bounds."""
 
-    def __init__(self, *, lo: float | None = None, hi: float | None = None,
-                 lo_open: bool = False, integer: bool = False, what: str | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        *,
+        lo: float | None = None,
+        hi: float | None = None,
+        lo_open: bool = False,
+        integer: bool = False,
+        what: str | None = None,
+    ) -> None:
         self.lo, self.hi, self.lo_open, self.integer = lo, hi, lo_open, integer
         if what is None:
             parts = ["an integer" if integer else "a number"]
@@ -222,13 +234,23 @@ class Num(Schema):
 class Text(Schema):
     """A string, optionally non-empty or one of ``choices``."""
 
-    def __init__(self, *, choices: Sequence[str] | None = None, nonempty: bool = False,
-                 what: str | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        *,
+        choices: Sequence[str] | None = None,
+        nonempty: bool = False,
+        what: str | None = None,
+    ) -> None:
         self.choices = tuple(choices) if choices is not None else None
         self.nonempty = nonempty
         if what is None:
-            what = (f"one of {list(self.choices)}" if self.choices is not None
-                    else "a non-empty string" if nonempty else "a string")  # fmt: skip
+            what = (
+                f"one of {list(self.choices)}"
+                if self.choices is not None
+                else "a non-empty string"
+                if nonempty
+                else "a string"
+            )
         self.what = what
 
     def problem(self, value: Any, where: str) -> tuple[str, str, Any] | None:
@@ -281,14 +303,20 @@ def optional(schema: Schema) -> Schema:
 class ListOf(Schema):
     """A list of items of one schema, with bounds on its length."""
 
-    def __init__(self, item: Schema, *, min_len: int = 0, max_len: int | None = None,
-                 what: str | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, item: Schema, *, min_len: int = 0, max_len: int | None = None, what: str | None = None
+    ) -> None:
         self.item, self.min_len, self.max_len = item, min_len, max_len
         if what is None:
-            n = ("" if min_len == 0 and max_len is None
-                 else f"{min_len} " if min_len == max_len
-                 else f"at least {min_len} " if max_len is None
-                 else f"{min_len} to {max_len} ")  # fmt: skip
+            n = (
+                ""
+                if min_len == 0 and max_len is None
+                else f"{min_len} "
+                if min_len == max_len
+                else f"at least {min_len} "
+                if max_len is None
+                else f"{min_len} to {max_len} "
+            )
             what = f"a list of {n}items, each {item.what}"
         self.what = what
 
@@ -320,8 +348,11 @@ class Table(Schema):
         if not isinstance(value, list | tuple) or len(value) < self.min_rows:
             return where, self.what, value
         for k, row in enumerate(value):
-            if (not isinstance(row, list | tuple) or len(row) != self.columns
-                    or not all(map(_is_number, row))):  # fmt: skip
+            if (
+                not isinstance(row, list | tuple)
+                or len(row) != self.columns
+                or not all(map(_is_number, row))
+            ):
                 return f"{where}[{k}]", f"a row of {self.columns} finite numbers", row
         if value:
             bad = ~np.isfinite(np.asarray(value, dtype=np.float64)).all(axis=1)
@@ -339,14 +370,23 @@ class Obj(Schema):
     ``empty_ok``: ``{}`` passes even when keys are required (an unset section).
     """
 
-    def __init__(self, fields: Mapping[str, Schema], *, required: Sequence[str] = (),
-                 other: Schema | None = None, empty_ok: bool = False,
-                 what: str | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        fields: Mapping[str, Schema],
+        *,
+        required: Sequence[str] = (),
+        other: Schema | None = None,
+        empty_ok: bool = False,
+        what: str | None = None,
+    ) -> None:
         self.fields, self.required, self.other = dict(fields), tuple(required), other
         self.empty_ok = empty_ok
         if what is None:
-            what = (f"an object with {', '.join(repr(k) for k in self.required)}"
-                    if self.required else "an object")  # fmt: skip
+            what = (
+                f"an object with {', '.join(repr(k) for k in self.required)}"
+                if self.required
+                else "an object"
+            )
         self.what = what
 
     def problem(self, value: Any, where: str) -> tuple[str, str, Any] | None:
@@ -371,8 +411,9 @@ class Obj(Schema):
 class DictOf(Schema):
     """An object whose keys are free (or one of ``keys``) and whose values share a schema."""
 
-    def __init__(self, value: Schema, *, keys: Sequence[str] | None = None,
-                 what: str | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, value: Schema, *, keys: Sequence[str] | None = None, what: str | None = None
+    ) -> None:
         self.value, self.keys = value, tuple(keys) if keys is not None else None
         self.what = what or f"an object of {value.what}"
 
@@ -420,8 +461,9 @@ class AnyJSON(Schema):
         return None
 
 
-def check(value: Any, schema: Schema, source: str, *, where: str = "",
-          error: ErrorType = FormatError) -> None:  # fmt: skip
+def check(
+    value: Any, schema: Schema, source: str, *, where: str = "", error: ErrorType = FormatError
+) -> None:
     """Raise ``error`` (``SOURCE: WHERE must be WHAT, got VALUE``) if ``value`` does not fit."""
     found = schema.problem(value, where)
     if found is not None:

@@ -38,16 +38,18 @@ MAX_PLAYER_S = 60.0
 
 
 def _table(rows: list[tuple[str, str]], title: str) -> str:
-    body = "".join(f"<tr><th style='text-align:left'>{html.escape(k)}</th>"
-                   f"<td style='text-align:left'>{v}</td></tr>" for k, v in rows)  # fmt: skip
+    body = "".join(
+        f"<tr><th style='text-align:left'>{html.escape(k)}</th>"
+        f"<td style='text-align:left'>{v}</td></tr>"
+        for k, v in rows
+    )
     return f"<div><b>{html.escape(title)}</b><table>{body}</table></div>"
 
 
 def _png(fig: Any) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80)
-    return ("<img src='data:image/png;base64,"
-            f"{base64.b64encode(buf.getvalue()).decode('ascii')}'/>")  # fmt: skip
+    return f"<img src='data:image/png;base64,{base64.b64encode(buf.getvalue()).decode('ascii')}'/>"
 
 
 def _figure(w: float, h: float, ncols: int = 1) -> Any:
@@ -62,10 +64,12 @@ def _figure(w: float, h: float, ncols: int = 1) -> Any:
 def volume_html(vol: Any) -> str:
     """Grid, spacing, bounds, times and fields of a :class:`TimeVolume`."""
     b = vol.bounds
-    t = (f"{vol.n_steps} steps, {vol.times[0]:g} … {vol.times[-1]:g} s"
-         + ("" if vol.physical_times else " (no times in the source: frames at 30 Hz)"))  # fmt: skip
-    fields = ", ".join(f"{html.escape(n)} ({'vector' if vol.is_vector(n) else 'scalar'})"
-                       for n in vol.field_names)  # fmt: skip
+    t = f"{vol.n_steps} steps, {vol.times[0]:g} … {vol.times[-1]:g} s" + (
+        "" if vol.physical_times else " (no times in the source: frames at 30 Hz)"
+    )
+    fields = ", ".join(
+        f"{html.escape(n)} ({'vector' if vol.is_vector(n) else 'scalar'})" for n in vol.field_names
+    )
     rows = [
         ("source", html.escape(str(vol.source))),
         ("grid", f"{vol.dims[0]} × {vol.dims[1]} × {vol.dims[2]} points"),
@@ -84,8 +88,13 @@ def series_html(series: Any) -> str:
     for kind, rgb in PALETTE.items():
         per = np.array([c[kind] for c in counts])
         name = f"<span style='color:rgb{rgb};font-weight:bold'>{kind}</span>"
-        rows.append((kind, f"{name}: {int(per.sum())} over {series.n_steps} steps, "
-                           f"at most {int(per.max(initial=0))} in a step"))  # fmt: skip
+        rows.append(
+            (
+                kind,
+                f"{name}: {int(per.sum())} over {series.n_steps} steps, "
+                f"at most {int(per.max(initial=0))} in a step",
+            )
+        )
     out = _table(rows, f"SourceSeries ({series.n_steps} steps)")
     if series.n_steps > 1:
         fig, ax = _figure(5, 1.8)
@@ -143,8 +152,11 @@ def path_html(path: Any) -> str:
     a2.plot(path.times, p[:, 2], color="#ffaa00")
     a2.set_xlabel("t (s)")
     a2.set_ylabel("z (m)")
-    rows = [("captures", str(path.n_captures)), ("duration", f"{path.duration:g} s"),
-            ("source", html.escape(str(getattr(path, "source", ""))))]  # fmt: skip
+    rows = [
+        ("captures", str(path.n_captures)),
+        ("duration", f"{path.duration:g} s"),
+        ("source", html.escape(str(getattr(path, "source", "")))),
+    ]
     return _table(rows, "ListenerPath") + _png(fig)
 
 
@@ -189,8 +201,12 @@ def rendered_html(r: Any) -> str:
             ax.specgram(mono, NFFT=512, Fs=r.rate, noverlap=256, cmap="magma")
         ax.set_ylabel("f (Hz)")
         ax.set_xlabel("playback time (s)")
-    rows = [("layout", html.escape(str(r.layout.name))), ("rate", f"{r.rate} Hz"),
-            ("duration", f"{r.duration:.3g} s"), ("time scale", f"{r.time_scale:g}"),
-            ("peak", f"{float(np.max(np.abs(r.audio), initial=0.0)):.3g} Pa")]  # fmt: skip
+    rows = [
+        ("layout", html.escape(str(r.layout.name))),
+        ("rate", f"{r.rate} Hz"),
+        ("duration", f"{r.duration:.3g} s"),
+        ("time scale", f"{r.time_scale:g}"),
+        ("peak", f"{float(np.max(np.abs(r.audio), initial=0.0)):.3g} Pa"),
+    ]
     player = f"<audio controls src='{wav_data_uri(a, r.rate)}'></audio>{html.escape(note)}"
     return _table(rows, "Rendered") + player + "<br/>" + _png(fig)

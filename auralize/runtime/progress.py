@@ -7,6 +7,7 @@ Jupyter kernel.  ``auralize -q`` turns them off (:func:`set_enabled`).
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import logging
 import sys
 import threading
@@ -48,14 +49,29 @@ def visible() -> bool:
     return bool(err is not None and hasattr(err, "isatty") and err.isatty())
 
 
-def _bar(**kw: Any) -> Any:
-    from tqdm.auto import tqdm
+def _bar_class() -> Any:
+    """tqdm's widget bar inside Jupyter when ipywidgets is installed, else its text bar.
 
+    ``tqdm.auto`` alone warns in red (``IProgress not found``) in a notebook
+    without ipywidgets; the text bar prints cleanly into the cell instead.
+    """
+    if _in_jupyter_kernel() and importlib.util.find_spec("ipywidgets") is not None:
+        from tqdm.notebook import tqdm as widget_bar
+
+        return widget_bar
+    from tqdm.std import tqdm as text_bar
+
+    return text_bar
+
+
+def _bar(**kw: Any) -> Any:
+    tqdm = _bar_class()
     return tqdm(leave=False, file=sys.stderr, dynamic_ncols=True, **kw)
 
 
-def progress(it: Iterable[T], *, desc: str, enabled: bool = True, total: int | None = None,
-             unit: str = "it") -> Iterator[T]:  # fmt: skip
+def progress(
+    it: Iterable[T], *, desc: str, enabled: bool = True, total: int | None = None, unit: str = "it"
+) -> Iterator[T]:
     """Wrap ``it`` in a bar when ``enabled`` and :func:`visible`."""
     if not enabled or not visible():
         yield from it
@@ -98,8 +114,9 @@ def progress_step(desc: str, *, enabled: bool = True, interval_s: float = 0.5) -
 
 
 @contextlib.contextmanager
-def progress_callback(desc: str, *, total: int | None = None, enabled: bool = True,
-                      unit: str = "it") -> Iterator[Callable[..., None]]:  # fmt: skip
+def progress_callback(
+    desc: str, *, total: int | None = None, enabled: bool = True, unit: str = "it"
+) -> Iterator[Callable[..., None]]:
     """A bar driven by a work function's own progress callback.
 
     Yields ``cb``: ``cb(done, total)`` sets the bar's position, ``cb(message)``

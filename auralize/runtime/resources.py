@@ -234,8 +234,15 @@ def work_estimate(data_bytes: float) -> float:
     return data_bytes / 8.0 / NOMINAL_VALUES_PER_S
 
 
-def require_volume(dims: Sequence[int], n_steps: int, components: int, what: str, *,
-                   hint: str = "", data: bool = True) -> float:  # fmt: skip
+def require_volume(
+    dims: Sequence[int],
+    n_steps: int,
+    components: int,
+    what: str,
+    *,
+    hint: str = "",
+    data: bool = True,
+) -> float:
     """Refuse work on a volume that is larger than the machine, before it starts.
 
     Parameters

@@ -25,8 +25,9 @@ def best_of(fn: Callable[[], object], *, repeat: int = 5, min_time: float = 0.2)
     return float(np.median(batch_times(fn, repeat=repeat, min_time=min_time)))
 
 
-def batch_times(fn: Callable[[], object], *, repeat: int = 5,
-                min_time: float = 0.2) -> NDArray[np.float64]:  # fmt: skip
+def batch_times(
+    fn: Callable[[], object], *, repeat: int = 5, min_time: float = 0.2
+) -> NDArray[np.float64]:
     """Mean wall time of ``fn`` in each of ``repeat`` batches of about
     ``min_time / repeat`` seconds (after one warm-up)."""
     fn()

@@ -29,8 +29,11 @@ from typing import Any
 LOGGER = "auralize.vtk"
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 #: VTK's "ERROR: In <file>, line <n>\n<class> (<address>): " prefix of output-window text
-_PREFIX = re.compile(r"^\s*(?:(?:ERROR|Warning|WARNING|Generic Warning):\s*In\s.+?,\s*line\s*\d+"
-                     r"\s*)?(?:\w*\s*\((?:0x[0-9a-fA-F]+|nullptr)\):\s*)?", re.DOTALL)  # fmt: skip
+_PREFIX = re.compile(
+    r"^\s*(?:(?:ERROR|Warning|WARNING|Generic Warning):\s*In\s.+?,\s*line\s*\d+"
+    r"\s*)?(?:\w*\s*\((?:0x[0-9a-fA-F]+|nullptr)\):\s*)?",
+    re.DOTALL,
+)
 
 _state: dict[str, Any] = {"enabled": False, "routed": False, "errors": [], "root": None}
 
@@ -112,8 +115,11 @@ def route_if_enabled() -> None:
 
         return on_event
 
-    for event, kind in ((vtkCommand.ErrorEvent, "error"), (vtkCommand.WarningEvent, "warning"),
-                        (vtkCommand.MessageEvent, "message")):  # fmt: skip
+    for event, kind in (
+        (vtkCommand.ErrorEvent, "error"),
+        (vtkCommand.WarningEvent, "warning"),
+        (vtkCommand.MessageEvent, "message"),
+    ):
         window.AddObserver(event, observer(kind))
     _state["window"] = window
     _state["routed"] = True

@@ -53,8 +53,14 @@ class Detection:
     True
     """
 
-    def __init__(self, volume: TimeVolume, *, mapping: str | AcousticMapping | None = None,
-                 thresholds: Thresholds | None = None, **mapping_fields: str) -> None:  # fmt: skip
+    def __init__(
+        self,
+        volume: TimeVolume,
+        *,
+        mapping: str | AcousticMapping | None = None,
+        thresholds: Thresholds | None = None,
+        **mapping_fields: str,
+    ) -> None:
         from auralize.pipeline import resolve_mapping
 
         require_steps(volume)
@@ -64,8 +70,11 @@ class Detection:
         self.thresholds = thresholds or Thresholds(*VIEWER_THRESHOLDS)
         # strengths of the time-varying part, as auralize.sources.detection.detect takes them
         self.qmean = steady_strength(volume, self.mapping)
-        stats = (strength_stats(volume, self.mapping, qmean=self.qmean)
-                 if self.thresholds.needs_scale else None)  # fmt: skip
+        stats = (
+            strength_stats(volume, self.mapping, qmean=self.qmean)
+            if self.thresholds.needs_scale
+            else None
+        )
         self.peak = None if stats is None else stats.peak
         self.thr = self.thresholds.resolve(stats)
         self.frames: dict[int, SourceFrame] = {}
@@ -75,9 +84,14 @@ class Detection:
         """Sources of one step (detected now if not yet)."""
         with self._lock:
             if step not in self.frames:
-                for n, f in iter_detect(self.volume, self.mapping, self.thr,
-                                        zero_fraction=self.thresholds.zero_fraction,
-                                        steps=range(step, step + 1), qmean=self.qmean):  # fmt: skip
+                for n, f in iter_detect(
+                    self.volume,
+                    self.mapping,
+                    self.thr,
+                    zero_fraction=self.thresholds.zero_fraction,
+                    steps=range(step, step + 1),
+                    qmean=self.qmean,
+                ):
                     self.frames[n] = f
             return self.frames[step]
 
@@ -99,9 +113,14 @@ class Detection:
             else:
                 runs.append(range(n, n + 1))
         for r in runs:
-            for n, f in iter_detect(self.volume, self.mapping, self.thr,
-                                    zero_fraction=self.thresholds.zero_fraction, steps=r,
-                                    qmean=self.qmean):  # fmt: skip
+            for n, f in iter_detect(
+                self.volume,
+                self.mapping,
+                self.thr,
+                zero_fraction=self.thresholds.zero_fraction,
+                steps=r,
+                qmean=self.qmean,
+            ):
                 with self._lock:
                     self.frames[n] = f
                 done += 1
@@ -120,14 +139,20 @@ class Detection:
             raise AuralizeError(f"{missing} time steps are not detected yet; run detection first")
         vol = self.volume
         return SourceSeries(
-            frames=[self.frames[n] for n in range(vol.n_steps)], times=vol.times.copy(),
-            origin=vol.origin.copy(), spacing=vol.spacing.copy(), dims=vol.dims,
+            frames=[self.frames[n] for n in range(vol.n_steps)],
+            times=vol.times.copy(),
+            origin=vol.origin.copy(),
+            spacing=vol.spacing.copy(),
+            dims=vol.dims,
             thresholds=np.asarray(self.thr, dtype=np.float64).copy(),
-            meta={"mapping": self.mapping.describe(), "thresholds": self.thresholds.describe(),
-                  "peak": None if self.peak is None else self.peak.tolist(),
-                  "source": vol.source},
+            meta={
+                "mapping": self.mapping.describe(),
+                "thresholds": self.thresholds.describe(),
+                "peak": None if self.peak is None else self.peak.tolist(),
+                "source": vol.source,
+            },
             coords=vol.coords,
-        )  # fmt: skip
+        )
 
     def counts(self, step: int) -> dict[str, int] | None:
         f = self.frames.get(step)

@@ -132,10 +132,22 @@ class LiveEngine:
         output follow the head (:meth:`set_head` changes it).
     """
 
-    def __init__(self, tracks: SourceTracks, *, layout: str = "stereo", rate: int = 44100,
-                 time_scale: float = 1.0, block: int = DEFAULT_BLOCK, c0: float = C0,
-                 loop: bool = True, extra: Any = None, highpass_hz: float = HIGHPASS_HZ,
-                 lead: float | str = "auto", box: Any = None, head: Any = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        tracks: SourceTracks,
+        *,
+        layout: str = "stereo",
+        rate: int = 44100,
+        time_scale: float = 1.0,
+        block: int = DEFAULT_BLOCK,
+        c0: float = C0,
+        loop: bool = True,
+        extra: Any = None,
+        highpass_hz: float = HIGHPASS_HZ,
+        lead: float | str = "auto",
+        box: Any = None,
+        head: Any = None,
+    ) -> None:
         if not (isinstance(block, int) and 16 <= block <= 1 << 16):
             raise ParameterError(f"block must be 16..65536 samples, got {block!r}")
         highpass(np.zeros((1, 0)), int(rate), highpass_hz)  # a bad cut-off fails here
@@ -147,14 +159,20 @@ class LiveEngine:
         self.block = block
         self.c0 = float(c0)
         self.loop = loop
-        if not (lead == "auto" or (isinstance(lead, int | float) and math.isfinite(lead)
-                                   and lead >= 0)):  # fmt: skip
+        if not (
+            lead == "auto" or (isinstance(lead, int | float) and math.isfinite(lead) and lead >= 0)
+        ):
             raise ParameterError(f"lead must be 'auto' or data seconds >= 0, got {lead!r}")
         self.auto_lead = lead == "auto"
         #: data seconds of travel skipped in the current loop
         self.lead = 0.0 if self.auto_lead else float(lead)
-        self.box = (None if not tracks.n_sources else source_extent(tracks)[:2] if box is None
-                    else tuple(np.asarray(b, dtype=np.float64).reshape(3) for b in box))  # fmt: skip
+        self.box = (
+            None
+            if not tracks.n_sources
+            else source_extent(tracks)[:2]
+            if box is None
+            else tuple(np.asarray(b, dtype=np.float64).reshape(3) for b in box)
+        )
         span = tracks.t_last - tracks.t_first if tracks.times.size > 1 else 0.0
         self.data_span = float(span)
         self.span_s = span * self.time_scale  # playback seconds of one loop
@@ -207,8 +225,10 @@ class LiveEngine:
     def why_silent(self) -> str | None:
         """Why nothing can be heard now, in words (None when something can)."""
         if self.tracks.n_sources == 0:
-            return ("nothing is heard: no sources (detect with lower thresholds, unmute a "
-                    "type, or hear the whole field)")  # fmt: skip
+            return (
+                "nothing is heard: no sources (detect with lower thresholds, unmute a "
+                "type, or hear the whole field)"
+            )
         if self.data_span <= 0:
             return "nothing is heard: the data have one time step, so nothing changes"
         q = np.asarray(self.tracks.q, dtype=np.float64)
@@ -224,9 +244,12 @@ class LiveEngine:
             return ""
         near, _ = self.distances(pose[0])
         where = f"{near / 1000:.3g} km" if near >= 1000 else f"{near:.3g} m"
-        return (f"the data are {where} away: sound takes {near / self.c0:.3g} s "
-                f"(skipped: the first arrival plays at once)" if self.auto_lead
-                else f"the data are {where} away: sound takes {near / self.c0:.3g} s")  # fmt: skip
+        return (
+            f"the data are {where} away: sound takes {near / self.c0:.3g} s "
+            f"(skipped: the first arrival plays at once)"
+            if self.auto_lead
+            else f"the data are {where} away: sound takes {near / self.c0:.3g} s"
+        )
 
     def set_pose(self, position: ArrayLike, forward: ArrayLike, up: ArrayLike) -> int:
         """Set the listener pose used from the next block on; returns a version number."""
@@ -274,13 +297,22 @@ class LiveEngine:
         fwd = [prev[1], prev[1], pose[1]] if self.t > 0 else [prev[1], pose[1]]
         up = [prev[2], prev[2], pose[2]] if self.t > 0 else [prev[2], pose[2]]
         path = ListenerPath(times, np.array(pos), np.array(fwd), np.array(up), source="live")
-        sound = Sound([FieldSources(self.tracks, time_scale=self.time_scale, lead=self.lead)],
-                      name="field")  # fmt: skip
+        sound = Sound(
+            [FieldSources(self.tracks, time_scale=self.time_scale, lead=self.lead)], name="field"
+        )
         if extra is not None and extra.parts:
             sound = sound + extra
-        out = render(sound, path, rate=self.rate, layout=self.stage.synthesis_layout, c0=self.c0,
-                     start=self.t, duration=dur, highpass_hz=self.highpass_hz,
-                     carry=self._carry)  # fmt: skip
+        out = render(
+            sound,
+            path,
+            rate=self.rate,
+            layout=self.stage.synthesis_layout,
+            c0=self.c0,
+            start=self.t,
+            duration=dur,
+            highpass_hz=self.highpass_hz,
+            carry=self._carry,
+        )
         audio = out.audio
         if audio.shape[1] != self.block:  # rounding of duration * rate
             audio = np.pad(audio, ((0, 0), (0, max(self.block - audio.shape[1], 0))))[
@@ -308,10 +340,18 @@ class LiveEngine:
 
     def heard_audio(self) -> Rendered:
         """All blocks heard so far as one :class:`Rendered`."""
-        audio = (np.concatenate(self.heard_blocks, axis=1).astype(np.float64) if self.heard_blocks
-                 else np.zeros((self.layout.n_channels, 0)))  # fmt: skip
-        return Rendered(audio=audio, rate=self.rate, layout=self.layout,
-                        time_scale=self.time_scale, meta={"live": True})  # fmt: skip
+        audio = (
+            np.concatenate(self.heard_blocks, axis=1).astype(np.float64)
+            if self.heard_blocks
+            else np.zeros((self.layout.n_channels, 0))
+        )
+        return Rendered(
+            audio=audio,
+            rate=self.rate,
+            layout=self.layout,
+            time_scale=self.time_scale,
+            meta={"live": True},
+        )
 
     def save_heard(self, csv_path: str | Path, audio_path: str | Path) -> None:
         """Write what was heard: the listener path CSV and its audio (peak-normalised)."""
@@ -331,8 +371,15 @@ class WavSink:
     position, as in a device buffer; ``pace=False`` accepts blocks at once.
     """
 
-    def __init__(self, path: str | Path, *, rate: int, channels: int, pace: bool = True,
-                 buffer_blocks: int = 1) -> None:  # fmt: skip
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        rate: int,
+        channels: int,
+        pace: bool = True,
+        buffer_blocks: int = 1,
+    ) -> None:
         self.path, self.rate, self.channels = Path(path), int(rate), int(channels)
         self.pace, self.buffer_blocks = pace, max(int(buffer_blocks), 0)
         self.blocks: list[NDArray[np.float64]] = []
@@ -342,8 +389,9 @@ class WavSink:
 
     def write(self, block: NDArray[np.float64]) -> None:
         if block.shape[0] != self.channels:
-            raise DeviceError(f"{self.path}: sink has {self.channels} channels, block has "
-                              f"{block.shape[0]}")  # fmt: skip
+            raise DeviceError(
+                f"{self.path}: sink has {self.channels} channels, block has {block.shape[0]}"
+            )
         now = time.perf_counter()
         if self._play_start is None:
             self._play_start = now
@@ -378,8 +426,10 @@ class DeviceSink:
         except ModuleNotFoundError as exc:
             if exc.name != "auralize.audio.live":
                 raise
-            raise DeviceError("live playback is not available: the output layer "
-                              "(auralize.audio.live) is not installed") from None  # fmt: skip
+            raise DeviceError(
+                "live playback is not available: the output layer "
+                "(auralize.audio.live) is not installed"
+            ) from None
         factory = getattr(live, "open_stream", None) or getattr(live, "LiveStream", None)
         if factory is None:
             raise DeviceError(
@@ -407,9 +457,14 @@ class LivePlayer:
     of the block in progress).
     """
 
-    def __init__(self, engine: LiveEngine, sink: AudioSink, *,
-                 on_block: Callable[[float], None] | None = None,
-                 gain_db: float = 0.0) -> None:  # fmt: skip
+    def __init__(
+        self,
+        engine: LiveEngine,
+        sink: AudioSink,
+        *,
+        on_block: Callable[[float], None] | None = None,
+        gain_db: float = 0.0,
+    ) -> None:
         from auralize.audio.output import Limiter
 
         self.engine, self.sink, self.on_block = engine, sink, on_block

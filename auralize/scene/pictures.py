@@ -16,6 +16,7 @@ from auralize.listener import ListenerPath
 from auralize.palette import PALETTE as PALETTE
 from auralize.palette import type_rgb as type_rgb
 from auralize.runtime.files import atomic_path
+from auralize.runtime.vtkcompat import dataset_surface
 from auralize.sources.detection import SourceSeries
 from auralize.volume import TimeVolume
 
@@ -68,8 +69,8 @@ def source_points(centers: np.ndarray, radii: np.ndarray, kinds: np.ndarray):
     if not len(c):
         return pv.PolyData()
     mesh = pv.PolyData(c)
+    mesh.point_data["rgb"] = type_rgb(kinds)  # the active scalars (the colours)
     mesh.point_data["radius"] = np.asarray(radii, dtype=np.float64).reshape(-1)
-    mesh.point_data["rgb"] = type_rgb(kinds)
     return mesh
 
 
@@ -84,22 +85,39 @@ def add_source_actor(plotter, mesh, *, name: str = "sources"):
     mesh per sphere.
     """
     if mesh.n_points <= SPRITE_LIMIT:
-        actor = plotter.add_mesh(mesh, scalars="rgb", rgb=True, style="points_gaussian",
-                                 emissive=False, render_points_as_spheres=True, name=name,
-                                 reset_camera=False, render=False)  # fmt: skip
+        actor = plotter.add_mesh(
+            mesh,
+            scalars="rgb",
+            rgb=True,
+            style="points_gaussian",
+            emissive=False,
+            render_points_as_spheres=True,
+            name=name,
+            reset_camera=False,
+            render=False,
+        )
         actor.mapper.scale_array = "radius"
     else:
-        actor = plotter.add_mesh(mesh, scalars="rgb", rgb=True, style="points", point_size=3,
-                                 render_points_as_spheres=False, name=name, reset_camera=False,
-                                 render=False)  # fmt: skip
+        actor = plotter.add_mesh(
+            mesh,
+            scalars="rgb",
+            rgb=True,
+            style="points",
+            point_size=3,
+            render_points_as_spheres=False,
+            name=name,
+            reset_camera=False,
+            render=False,
+        )
     return actor
 
 
 def source_glyphs(series: SourceSeries, step: int):
     """The sources of ``step`` as a :func:`source_points` set (``kind`` array too)."""
     f = series.frames[step]
-    pts = source_points(series.positions(f.index) if f.index.size else np.zeros((0, 3)),
-                        f.radius, f.kind)  # fmt: skip
+    pts = source_points(
+        series.positions(f.index) if f.index.size else np.zeros((0, 3)), f.radius, f.kind
+    )
     if pts.n_points:
         pts.point_data["kind"] = f.kind.astype(np.int32)
     return pts
@@ -113,10 +131,20 @@ def path_tube(path: ListenerPath, radius: float):
     return line.tube(radius=radius)
 
 
-def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | None = None,
-               step: int | None = None, path: ListenerPath | None = None, field: str | None = None,
-               window_size: tuple[int, int] = (1280, 960)) -> Path:  # fmt: skip
-    """Render volume (translucent contours of ``field``), ΔV spheres and path to a PNG."""
+def screenshot(
+    volume: TimeVolume,
+    out: str | Path,
+    *,
+    series: SourceSeries | None = None,
+    step: int | None = None,
+    path: ListenerPath | None = None,
+    field: str | None = None,
+    window_size: tuple[int, int] = (1280, 960),
+    title: str | None = None,
+) -> Path:
+    """Render volume (translucent contours of ``field``), ΔV spheres and path to a PNG.
+
+    ``title``: the caption (default the data's source, the step and its time)."""
     import pyvista as pv
 
     if not os.environ.get("DISPLAY"):
@@ -138,8 +166,13 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
     pl.add_mesh(pv.Box(bounds=volume.bounds).outline(), color="#888888")
     lo, hi = float(arr.min()), float(arr.max())
     if min(volume.dims) == 1:  # a one-layer grid is drawn as its coloured surface
-        pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), scalars=field, cmap="viridis",
-                    clim=(lo, hi) if hi > lo else None, show_scalar_bar=False)  # fmt: skip
+        pl.add_mesh(
+            dataset_surface(grid),
+            scalars=field,
+            cmap="viridis",
+            clim=(lo, hi) if hi > lo else None,
+            show_scalar_bar=False,
+        )
     elif hi > lo:
         levels = np.linspace(lo, hi, 5)[2:-1]
         cont = grid.contour(levels.tolist(), scalars=field)
@@ -152,20 +185,27 @@ def screenshot(volume: TimeVolume, out: str | Path, *, series: SourceSeries | No
         counts = series.frames[step].counts()
         shown = [k for k in TYPE_LABELS if counts[TYPE_LABELS[k]]]
         for i, k in enumerate(shown):  # the legend lists only what is shown
-            pl.add_text(f"{TYPE_LABELS[k]}: {counts[TYPE_LABELS[k]]}", color=TYPE_COLORS[k],
-                        font_size=12,
-                        position=(window_size[0] - 240, window_size[1] - 40 - 28 * i))  # fmt: skip
+            pl.add_text(
+                f"{TYPE_LABELS[k]}: {counts[TYPE_LABELS[k]]}",
+                color=TYPE_COLORS[k],
+                font_size=12,
+                position=(window_size[0] - 240, window_size[1] - 40 - 28 * i),
+            )
     if path is not None:
-        pl.add_mesh(path_tube(path, 0.004 * float(np.linalg.norm(volume.spacing * volume.dims))),
-                    color=PATH_COLOR)  # fmt: skip
+        r = 0.004 * float(np.linalg.norm(volume.spacing * volume.dims))
+        if np.ptp(path.positions, axis=0).max() > 0:
+            pl.add_mesh(path_tube(path, r), color=PATH_COLOR)
+        else:  # a listener standing still: a dot where it stands (a tube of it is empty)
+            pl.add_mesh(pv.Sphere(radius=3 * r, center=path.positions[0]), color=PATH_COLOR)
         f, _ = path.orientation_at(path.times[-1])
         tip = path.positions[-1]
         size = 0.03 * float(np.max(volume.spacing * volume.dims))
         pl.add_mesh(
             pv.Cone(center=tip, direction=f[0], height=size, radius=0.4 * size), color=PATH_COLOR
         )
-    pl.add_text(f"{volume.source}  step {step}  t = {volume.times[step]:.3f} s", font_size=10,
-                color="white")  # fmt: skip
+    if title is None:
+        title = f"{volume.source}  step {step}  t = {volume.times[step]:.3f} s"
+    pl.add_text(title, font_size=10, color="white")
     pl.view_isometric()  # type: ignore[call-arg]
     pl.camera.zoom(1.2)
     out = Path(out)

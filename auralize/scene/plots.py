@@ -11,8 +11,14 @@ from auralize.runtime.files import atomic_path
 from auralize.runtime.notebook import plot_counts as plot_counts
 
 
-def save_spectrogram(audio: NDArray[np.floating], rate: int, out: str | Path, *,
-                     channel_names: list[str] | None = None, max_channels: int = 8) -> Path:  # fmt: skip
+def save_spectrogram(
+    audio: NDArray[np.floating],
+    rate: int,
+    out: str | Path,
+    *,
+    channel_names: list[str] | None = None,
+    max_channels: int = 8,
+) -> Path:
     """Waveform and spectrogram of each channel (up to ``max_channels``) to a PNG.
 
     Examples
@@ -30,8 +36,9 @@ def save_spectrogram(audio: NDArray[np.floating], rate: int, out: str | Path, *,
 
     a = np.atleast_2d(np.asarray(audio, dtype=np.float64))[:max_channels]
     n_ch = a.shape[0]
-    fig, axes = plt.subplots(n_ch, 2, figsize=(12, 1.6 * n_ch + 0.8), squeeze=False,
-                             gridspec_kw={"width_ratios": [1, 2]})  # fmt: skip
+    fig, axes = plt.subplots(
+        n_ch, 2, figsize=(12, 1.6 * n_ch + 0.8), squeeze=False, gridspec_kw={"width_ratios": [1, 2]}
+    )
     t = np.arange(a.shape[1]) / rate
     peak = float(np.max(np.abs(a))) or 1.0
     for c in range(n_ch):

@@ -63,8 +63,13 @@ class PathRecorder:
         to :meth:`start`.
     """
 
-    def __init__(self, *, rate_hz: float = DEFAULT_RATE_HZ, autosave: str | Path | None = None,
-                 clock: Callable[[], float] = time.perf_counter) -> None:  # fmt: skip
+    def __init__(
+        self,
+        *,
+        rate_hz: float = DEFAULT_RATE_HZ,
+        autosave: str | Path | None = None,
+        clock: Callable[[], float] = time.perf_counter,
+    ) -> None:
         self.rate_hz = check_rate(rate_hz)
         self.autosave = Path(autosave) if autosave is not None else None
         self.clock = clock
@@ -118,12 +123,17 @@ class PathRecorder:
             self._file = open(self.autosave, "a", encoding="utf-8")
             self._file.flush()
             self._stop_sync = threading.Event()
-            self._syncer = threading.Thread(target=self._sync_loop, args=(self._file, self._stop_sync),
-                                            name="auralize-autosave", daemon=True)  # fmt: skip
+            self._syncer = threading.Thread(
+                target=self._sync_loop,
+                args=(self._file, self._stop_sync),
+                name="auralize-autosave",
+                daemon=True,
+            )
             self._syncer.start()
 
-    def capture(self, position: ArrayLike, forward: ArrayLike, up: ArrayLike, *,
-                t: float | None = None) -> None:  # fmt: skip
+    def capture(
+        self, position: ArrayLike, forward: ArrayLike, up: ArrayLike, *, t: float | None = None
+    ) -> None:
         """Append one capture (``t`` defaults to the clock since :meth:`start`)."""
         if not self.recording:
             raise ParameterError("not recording; call start() first")

@@ -67,73 +67,127 @@ VERSION = 1
 _TYPES = ("monopole", "dipole", "quadrupole")
 _COUNT = Num(lo=1, integer=True)
 #: what a session's ``data`` (and a model's input given as data) holds
-DATA_SCHEMA = Obj({
-    "spec": Text(nonempty=True),
-    "size": optional(_COUNT),
-    "steps": optional(_COUNT),
-    "seed": optional(Num(lo=0, integer=True)),
-    "fields": optional(DictOf(Text(nonempty=True))),
-    "resolution": optional(Either(_COUNT, ListOf(_COUNT, min_len=3, max_len=3))),
-    "time_dim": optional(Text(nonempty=True)),
-    "axis_scale": optional(ListOf(Num(lo=0), min_len=3, max_len=3)),
-    "box": optional(ListOf(Num(), min_len=6, max_len=6)),
-    "curvilinear": optional(Text(nonempty=True)),
-}, required=("spec",), other=AnyJSON())  # fmt: skip
-_THRESHOLD = optional(Either(Num(lo=0), Text(nonempty=True),
-                             what="a number >= 0 or a text such as 'auto', 'top:1%', '5%'"))  # fmt: skip
+DATA_SCHEMA = Obj(
+    {
+        "spec": Text(nonempty=True),
+        "size": optional(_COUNT),
+        "steps": optional(_COUNT),
+        "seed": optional(Num(lo=0, integer=True)),
+        "fields": optional(DictOf(Text(nonempty=True))),
+        "resolution": optional(Either(_COUNT, ListOf(_COUNT, min_len=3, max_len=3))),
+        "time_dim": optional(Text(nonempty=True)),
+        "axis_scale": optional(ListOf(Num(lo=0), min_len=3, max_len=3)),
+        "box": optional(ListOf(Num(), min_len=6, max_len=6)),
+        "curvilinear": optional(Text(nonempty=True)),
+    },
+    required=("spec",),
+    other=AnyJSON(),
+)
+_THRESHOLD = optional(
+    Either(
+        Num(lo=0),
+        Text(nonempty=True),
+        what="a number >= 0 or a text such as 'auto', 'top:1%', '5%'",
+    )
+)
 #: the types and ranges of a session file's keys (unknown keys pass as any JSON)
-SCHEMA = Obj({
-    "auralize_format": Text(),
-    "version": Num(integer=True),
-    "data": Obj(DATA_SCHEMA.fields, required=DATA_SCHEMA.required, other=AnyJSON(),
-                empty_ok=True),
-    "view": Obj({
-        "field": optional(Text()),
-        "representation": optional(Text()),
-        "cmap": optional(Text()),
-        "opacity": optional(Num(lo=0, hi=1)),
-        "step": Num(lo=0, integer=True),
-        "types": DictOf(Bool(), keys=_TYPES),
-        "overlays": ListOf(Text(nonempty=True)),
-    }, other=AnyJSON()),
-    "detection": Obj({
-        "mapping": optional(Text(nonempty=True)),
-        "mapping_fields": optional(DictOf(Text(nonempty=True))),
-        "thresholds": optional(Obj({
-            **dict.fromkeys(_TYPES, _THRESHOLD),
-            "zero_fraction": Num(lo=0),
-            "floor": Num(lo=0),
-        }, required=_TYPES, other=AnyJSON())),
-        "detected": Bool(),
-    }, other=AnyJSON()),
-    "path": optional(Obj({
-        "rows": Table(10, what="a list of rows [t, x, y, z, fx, fy, fz, ux, uy, uz] of finite "
-                               "numbers"),
-        "csv": Text(nonempty=True),
-    }, other=AnyJSON())),
-    "audio": Obj({
-        "layout": Text(nonempty=True),
-        "rate": Num(lo=1),
-        "time_scale": Either(Num(lo=0, lo_open=True), Text(choices=("auto",)),
-                             what="a number > 0 (playback seconds per data second) or 'auto'"),
-        "device": optional(Either(Text(), Num(lo=0, integer=True))),
-        "heard": Text(nonempty=True),
-        "timbre": Text(choices=TIMBRE_CHOICES),
-    }, other=AnyJSON()),
-    "camera": optional(Obj({
-        "position": vec3(),
-        "focal_point": vec3(),
-        "up": vec3(),
-        "view_angle": Num(lo=0, lo_open=True, hi=180),
-    }, required=("position", "focal_point", "up"), other=AnyJSON())),
-    "recording": Obj({"rate_hz": Num(lo=0, lo_open=True)}, other=AnyJSON()),
-    "models": ListOf(Obj({
-        "model": Text(nonempty=True),
-        "input": Either(Text(nonempty=True), DATA_SCHEMA,
-                        what="a file name, dataset:NAME or a data object with 'spec'"),
-        "params": optional(DictOf(AnyJSON())),
-    }, required=("model", "input"), other=AnyJSON())),
-}, other=AnyJSON())  # fmt: skip
+SCHEMA = Obj(
+    {
+        "auralize_format": Text(),
+        "version": Num(integer=True),
+        "data": Obj(
+            DATA_SCHEMA.fields, required=DATA_SCHEMA.required, other=AnyJSON(), empty_ok=True
+        ),
+        "view": Obj(
+            {
+                "field": optional(Text()),
+                "representation": optional(Text()),
+                "cmap": optional(Text()),
+                "opacity": optional(Num(lo=0, hi=1)),
+                "step": Num(lo=0, integer=True),
+                "types": DictOf(Bool(), keys=_TYPES),
+                "overlays": ListOf(Text(nonempty=True)),
+            },
+            other=AnyJSON(),
+        ),
+        "detection": Obj(
+            {
+                "mapping": optional(Text(nonempty=True)),
+                "mapping_fields": optional(DictOf(Text(nonempty=True))),
+                "thresholds": optional(
+                    Obj(
+                        {
+                            **dict.fromkeys(_TYPES, _THRESHOLD),
+                            "zero_fraction": Num(lo=0),
+                            "floor": Num(lo=0),
+                        },
+                        required=_TYPES,
+                        other=AnyJSON(),
+                    )
+                ),
+                "detected": Bool(),
+            },
+            other=AnyJSON(),
+        ),
+        "path": optional(
+            Obj(
+                {
+                    "rows": Table(
+                        10,
+                        what="a list of rows [t, x, y, z, fx, fy, fz, ux, uy, uz] of finite "
+                        "numbers",
+                    ),
+                    "csv": Text(nonempty=True),
+                },
+                other=AnyJSON(),
+            )
+        ),
+        "audio": Obj(
+            {
+                "layout": Text(nonempty=True),
+                "rate": Num(lo=1),
+                "time_scale": Either(
+                    Num(lo=0, lo_open=True),
+                    Text(choices=("auto",)),
+                    what="a number > 0 (playback seconds per data second) or 'auto'",
+                ),
+                "device": optional(Either(Text(), Num(lo=0, integer=True))),
+                "heard": Text(nonempty=True),
+                "timbre": Text(choices=TIMBRE_CHOICES),
+            },
+            other=AnyJSON(),
+        ),
+        "camera": optional(
+            Obj(
+                {
+                    "position": vec3(),
+                    "focal_point": vec3(),
+                    "up": vec3(),
+                    "view_angle": Num(lo=0, lo_open=True, hi=180),
+                },
+                required=("position", "focal_point", "up"),
+                other=AnyJSON(),
+            )
+        ),
+        "recording": Obj({"rate_hz": Num(lo=0, lo_open=True)}, other=AnyJSON()),
+        "models": ListOf(
+            Obj(
+                {
+                    "model": Text(nonempty=True),
+                    "input": Either(
+                        Text(nonempty=True),
+                        DATA_SCHEMA,
+                        what="a file name, dataset:NAME or a data object with 'spec'",
+                    ),
+                    "params": optional(DictOf(AnyJSON())),
+                },
+                required=("model", "input"),
+                other=AnyJSON(),
+            )
+        ),
+    },
+    other=AnyJSON(),
+)
 
 
 @dataclass
@@ -167,12 +221,15 @@ class SessionState:
             range (the message names ``source`` and the key).
         """
         if not isinstance(d, dict) or d.get("auralize_format") != FORMAT:
-            raise FormatError(f"{source}: not an auralize session file "
-                              f"(expected \"auralize_format\": \"session\")")  # fmt: skip
+            raise FormatError(
+                f'{source}: not an auralize session file (expected "auralize_format": "session")'
+            )
         version = d.get("version")
         if isinstance(version, bool) or version != VERSION:
-            raise FormatError(f"{source}: session version {d.get('version')!r} is not "
-                              f"supported (this auralize reads version {VERSION})")  # fmt: skip
+            raise FormatError(
+                f"{source}: session version {d.get('version')!r} is not "
+                f"supported (this auralize reads version {VERSION})"
+            )
         check(d, SCHEMA, source)
         known = {f.name: d[f.name] for f in fields(cls) if f.name != "source" and f.name in d}
         return cls(**known, source=source)
@@ -197,8 +254,9 @@ class SessionState:
             return None
         if self.path.get("rows"):
             a = np.asarray(self.path["rows"], dtype=np.float64)
-            return ListenerPath(a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10],
-                                source=f"{self.source}: path.rows")  # fmt: skip
+            return ListenerPath(
+                a[:, 0], a[:, 1:4], a[:, 4:7], a[:, 7:10], source=f"{self.source}: path.rows"
+            )
         if self.path.get("csv"):
             return ListenerPath.from_csv(self.path["csv"])
         return None
@@ -207,11 +265,19 @@ class SessionState:
         self.path = None if path is None else {"rows": path.rows().tolist()}
 
 
-def data_spec(spec: str, *, size: int | None = None, steps: int | None = None,
-              seed: int = 0, fields: dict[str, str] | None = None,
-              resolution: int | None = None, time_dim: str | None = None,
-              axis_scale: Any = None, box: Any = None,
-              curvilinear: str | None = None) -> dict[str, Any]:  # fmt: skip
+def data_spec(
+    spec: str,
+    *,
+    size: int | None = None,
+    steps: int | None = None,
+    seed: int = 0,
+    fields: dict[str, str] | None = None,
+    resolution: int | None = None,
+    time_dim: str | None = None,
+    axis_scale: Any = None,
+    box: Any = None,
+    curvilinear: str | None = None,
+) -> dict[str, Any]:
     """The ``data`` entry of a session (relative file paths are made absolute); ``fields``
     (NAME -> HDF5 dataset), ``resolution``, ``time_dim``, ``axis_scale``, ``box`` and
     ``curvilinear`` are the reader options of ``--field``, ``--resolution``,
@@ -249,7 +315,14 @@ def load_data(d: dict[str, Any]) -> Any:
     if not d or "spec" not in d:
         raise FormatError("session has no data to open (missing data.spec)")
     with curvilinear_mode(d.get("curvilinear") or "native"):
-        return load(d["spec"], size=d.get("size"), steps=d.get("steps"),
-                    seed=d.get("seed") or 0, fields=d.get("fields"),
-                    resolution=d.get("resolution"), time_dim=d.get("time_dim"),
-                    axis_scale=d.get("axis_scale"), box=d.get("box"))  # fmt: skip
+        return load(
+            d["spec"],
+            size=d.get("size"),
+            steps=d.get("steps"),
+            seed=d.get("seed") or 0,
+            fields=d.get("fields"),
+            resolution=d.get("resolution"),
+            time_dim=d.get("time_dim"),
+            axis_scale=d.get("axis_scale"),
+            box=d.get("box"),
+        )

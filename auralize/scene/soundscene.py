@@ -42,7 +42,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -61,6 +61,9 @@ from auralize.runtime.json_check import (
     vec3,
 )
 from auralize.scene.session import DATA_SCHEMA
+
+if TYPE_CHECKING:
+    from auralize.emitters import Backend
 
 __all__ = [
     "SceneFile",
@@ -184,12 +187,20 @@ def _resolve(spec: Any, folder: Path) -> Any:
 
 
 #: a scene file's listener: a path CSV or a fixed position
-_LISTENER = Either(Obj({"path": Text(nonempty=True)}, required=("path",)),
-                   Obj({"position": vec3("[x, y, z]")}, required=("position",)),
-                   what='{"path": CSV} or {"position": [x, y, z]}')  # fmt: skip
+_LISTENER = Either(
+    Obj({"path": Text(nonempty=True)}, required=("path",)),
+    Obj({"position": vec3("[x, y, z]")}, required=("position",)),
+    what='{"path": CSV} or {"position": [x, y, z]}',
+)
 #: the ranges of a scene file's settings (their types are checked with the messages above)
-_SCENE_RANGES = Obj({"duration": Num(lo=0, lo_open=True), "rate": Num(lo=1, integer=True),
-                     "layout": Text(nonempty=True)}, other=AnyJSON())  # fmt: skip
+_SCENE_RANGES = Obj(
+    {
+        "duration": Num(lo=0, lo_open=True),
+        "rate": Num(lo=1, integer=True),
+        "layout": Text(nonempty=True),
+    },
+    other=AnyJSON(),
+)
 
 
 def load_scene(path: str | Path) -> SceneFile:
@@ -226,21 +237,27 @@ def load_scene(path: str | Path) -> SceneFile:
         raise FormatError(f"{p}: unknown scene key(s) {extra}; valid: {sorted(known)}")
     items = doc.get("models")
     if not isinstance(items, list) or not items:
-        raise FormatError(f"{p}: 'models' must be a non-empty list of "
-                          f"{{\"model\", \"input\", \"params\"}} objects")  # fmt: skip
+        raise FormatError(
+            f'{p}: \'models\' must be a non-empty list of {{"model", "input", "params"}} objects'
+        )
     models = []
     for k, it in enumerate(items):
         if not isinstance(it, dict) or "model" not in it or "input" not in it:
-            raise FormatError(f"{p}: models[{k}] must be an object with 'model' and 'input', "
-                              f"got {it!r}")  # fmt: skip
+            raise FormatError(
+                f"{p}: models[{k}] must be an object with 'model' and 'input', got {it!r}"
+            )
         prm = it.get("params", {})
         if not isinstance(prm, dict):
             raise FormatError(f"{p}: models[{k}].params must be an object, got {prm!r}")
         check(it["model"], Text(nonempty=True), str(p), where=f"models[{k}].model")
         inp = it["input"]
         if isinstance(inp, str) or (isinstance(inp, dict) and "spec" in inp):  # else the inputs
-            check(inp, Text(nonempty=True) if isinstance(inp, str) else DATA_SCHEMA, str(p),
-                  where=f"models[{k}].input")  # fmt: skip
+            check(
+                inp,
+                Text(nonempty=True) if isinstance(inp, str) else DATA_SCHEMA,
+                str(p),
+                where=f"models[{k}].input",
+            )
         bad = sorted(set(it) - {"model", "input", "params"})
         if bad:
             raise FormatError(f"{p}: models[{k}] has unknown key(s) {bad}")
@@ -249,8 +266,10 @@ def load_scene(path: str | Path) -> SceneFile:
     lis = doc.get("listener")
     if lis is not None:
         if not isinstance(lis, dict) or len(set(lis) & {"path", "position"}) != 1:
-            raise FormatError(f"{p}: 'listener' must be {{\"path\": CSV}} or "
-                              f"{{\"position\": [x, y, z]}}, got {lis!r}")  # fmt: skip
+            raise FormatError(
+                f"{p}: 'listener' must be {{\"path\": CSV}} or "
+                f'{{"position": [x, y, z]}}, got {lis!r}'
+            )
         check(lis, _LISTENER, str(p), where="listener")
         if "path" in lis:
             out.path = ListenerPath.from_csv(_resolve(lis["path"], p.parent))
@@ -298,14 +317,20 @@ def session_scene(doc: dict[str, Any], *, source: str = "<memory>") -> SceneFile
         models.append(SceneModel("field", dict(st.data), params))
     for k, it in enumerate(st.models):
         if not isinstance(it, dict) or "model" not in it or "input" not in it:
-            raise FormatError(f"{source}: models[{k}] must be an object with 'model' and "
-                              f"'input', got {it!r}")  # fmt: skip
+            raise FormatError(
+                f"{source}: models[{k}] must be an object with 'model' and 'input', got {it!r}"
+            )
         models.append(SceneModel(str(it["model"]), it["input"], dict(it.get("params") or {})))
     if not models:
         raise FormatError(f"{source}: the session has no data and no sound models to render")
     a = st.audio or {}
-    return SceneFile(models=models, path=st.listener_path(), layout=a.get("layout"),
-                     rate=int(a["rate"]) if a.get("rate") else None, source=source)  # fmt: skip
+    return SceneFile(
+        models=models,
+        path=st.listener_path(),
+        layout=a.get("layout"),
+        rate=int(a["rate"]) if a.get("rate") else None,
+        source=source,
+    )
 
 
 def input_key(spec: Any) -> str | None:
@@ -348,12 +373,16 @@ def model_params(model: Any, params: dict[str, Any], rate: int | None) -> dict[s
     return out
 
 
-def scene_sound(models: list[SceneModel], path: ListenerPath | None = None,
-                duration: float | None = None, rate: int | None = None, *,
-                loaded: dict[str, Any] | None = None,
-                progress: Callable[[int, int], bool] | None = None,
-                sounds: dict[tuple[str, str | None], tuple[dict[str, Any], Any]] | None = None,
-                ) -> Any:  # fmt: skip
+def scene_sound(
+    models: list[SceneModel],
+    path: ListenerPath | None = None,
+    duration: float | None = None,
+    rate: int | None = None,
+    *,
+    loaded: dict[str, Any] | None = None,
+    progress: Callable[[int, int], bool] | None = None,
+    sounds: dict[tuple[str, str | None], tuple[dict[str, Any], Any]] | None = None,
+) -> Any:
     """Synthesize every model of a scene and join their sounds (one :class:`Sound`).
 
     ``path`` and ``duration`` go to each model's :meth:`~auralize.plugins.SoundModel.plan`
@@ -451,8 +480,9 @@ def part_end(part: Any, path: ListenerPath, *, c0: float | None = None) -> float
     return None
 
 
-def scene_length(sound: Any, path: ListenerPath, *, c0: float | None = None,
-                 default: float | None = None) -> float:  # fmt: skip
+def scene_length(
+    sound: Any, path: ListenerPath, *, c0: float | None = None, default: float | None = None
+) -> float:
     """Playback seconds long enough for every part of ``sound`` along ``path``.
 
     The latest :func:`part_end` of the parts; a part that cannot tell its end
@@ -473,14 +503,24 @@ def scene_length(sound: Any, path: ListenerPath, *, c0: float | None = None,
     ends = [part_end(p, path, c0=c0) for p in parts_of(sound)]
     length = max((fallback if e is None else e for e in ends), default=0.0)
     if not length > 0:
-        raise ParameterError("the scene is silent along the listener path: none of its parts "
-                             "sounds after the path's start; give --duration")  # fmt: skip
+        raise ParameterError(
+            "the scene is silent along the listener path: none of its parts "
+            "sounds after the path's start; give --duration"
+        )
     return float(length)
 
 
-def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44100,
-                 layout: str = "mono", duration: float | None = None, start: float = 0.0,
-                 backend: str = "auto", highpass_hz: float = 0.0) -> Any:  # fmt: skip
+def render_scene(
+    models: list[SceneModel],
+    path: ListenerPath,
+    *,
+    rate: int = 44100,
+    layout: str = "mono",
+    duration: float | None = None,
+    start: float = 0.0,
+    backend: Backend = "auto",
+    highpass_hz: float = 0.0,
+) -> Any:
     """Render a scene along ``path``: the sum of every model's sound (a ``Rendered``).
 
     ``highpass_hz`` applies to the field sources only (:func:`auralize.pipeline.render`).
@@ -489,15 +529,26 @@ def render_scene(models: list[SceneModel], path: ListenerPath, *, rate: int = 44
 
     dur = path.duration - start if duration is None else float(duration)
     sound = scene_sound(models, path, dur + start, rate=rate)
-    return render(sound, path, rate=rate, layout=layout, duration=dur, start=start,
-                  backend=backend, highpass_hz=highpass_hz)  # fmt: skip
+    return render(
+        sound,
+        path,
+        rate=rate,
+        layout=layout,
+        duration=dur,
+        start=start,
+        backend=backend,
+        highpass_hz=highpass_hz,
+    )
 
 
-def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpass_hz,
-                      loaded: dict[str, Any] | None = None,
-                      progress: Callable[[int, int], bool] | None = None,
-                      sounds: dict[tuple[str, str | None], tuple[dict[str, Any], Any]] | None = None,
-                      ) -> Any:  # fmt: skip
+def render_scene_file(
+    scene: SceneFile,
+    *,
+    highpass_hz: float = DEFAULTS.highpass_hz,
+    loaded: dict[str, Any] | None = None,
+    progress: Callable[[int, int], bool] | None = None,
+    sounds: dict[tuple[str, str | None], tuple[dict[str, Any], Any]] | None = None,
+) -> Any:
     """Render a scene file (or a session's scene) as ``auralize render --scene FILE``
     with no other option does: its layout, rate and duration (else the
     defaults: mono at 44.1 kHz, as long as its listener path or until every part
@@ -536,21 +587,28 @@ def render_scene_file(scene: SceneFile, *, highpass_hz: float = DEFAULTS.highpas
     path = scene.path
     if path is None:
         if scene.listener is None:
-            raise ParameterError(f"{scene.source}: the scene has no listener (a path or a "
-                                 f"position) to render for")  # fmt: skip
+            raise ParameterError(
+                f"{scene.source}: the scene has no listener (a path or a position) to render for"
+            )
         path = ListenerPath.point(scene.listener, duration=scene.duration or DEFAULTS.duration)
     rate = int(scene.rate or DEFAULTS.rate)
     layout = get_layout(scene.layout or DEFAULTS.layout)
-    sound = scene_sound(scene.models, path, scene.duration, rate=rate, loaded=loaded,
-                        progress=progress, sounds=sounds)  # fmt: skip
+    sound = scene_sound(
+        scene.models,
+        path,
+        scene.duration,
+        rate=rate,
+        loaded=loaded,
+        progress=progress,
+        sounds=sounds,
+    )
     if scene.duration is not None:
         duration = float(scene.duration)
     elif scene.path is not None:
         duration = float(path.duration)
     else:
         duration = scene_length(sound, path)
-    out = render(sound, path, rate=rate, layout=layout, duration=duration,
-                 highpass_hz=highpass_hz)  # fmt: skip
+    out = render(sound, path, rate=rate, layout=layout, duration=duration, highpass_hz=highpass_hz)
     n = len(scene.models) + 1
     if progress is not None and not progress(n, n):
         raise Cancelled("scene cancelled")

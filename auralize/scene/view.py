@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 
 from auralize.errors import AuralizeError, ParameterError
 from auralize.listener import ListenerPath
+from auralize.runtime.vtkcompat import dataset_surface
 from auralize.scene.pictures import (
     PALETTE,
     PATH_RGB,
@@ -86,19 +87,29 @@ def camera_pose(
     return pos, fwd, up
 
 
-def listener_glyph(position: NDArray[np.floating], forward: NDArray[np.floating],
-                   up: NDArray[np.floating], size: float) -> Any:  # fmt: skip
+def listener_glyph(
+    position: NDArray[np.floating],
+    forward: NDArray[np.floating],
+    up: NDArray[np.floating],
+    size: float,
+) -> Any:
     """A camera-like glyph: a cone looking along ``forward`` plus a short up marker."""
     import pyvista as pv
 
     p = np.asarray(position, dtype=np.float64)
     f = np.asarray(forward, dtype=np.float64)
     u = np.asarray(up, dtype=np.float64)
-    body = pv.Cube(center=p - 0.35 * size * f, x_length=0.5 * size, y_length=0.5 * size,
-                   z_length=0.5 * size)  # fmt: skip
+    body = pv.Cube(
+        center=p - 0.35 * size * f, x_length=0.5 * size, y_length=0.5 * size, z_length=0.5 * size
+    )
     # align the cube roughly: it is small, the cone carries the direction
-    cone = pv.Cone(center=p + 0.25 * size * f, direction=-f, height=0.6 * size,
-                   radius=0.35 * size, resolution=16)  # fmt: skip
+    cone = pv.Cone(
+        center=p + 0.25 * size * f,
+        direction=-f,
+        height=0.6 * size,
+        radius=0.35 * size,
+        resolution=16,
+    )
     mast = pv.Line(p, p + 0.6 * size * u)
     return body.triangulate().append_polydata(cone.triangulate(), mast)
 
@@ -145,9 +156,14 @@ class Scene:
         self._legend_key: tuple[str, ...] | None = None
 
     # ---------------------------------------------------------------- volume
-    def set_volume(self, volume: TimeVolume, *, field: str | None = None,
-                   representation: str | None = None,
-                   frames: list[NDArray[np.floating]] | None = None) -> None:  # fmt: skip
+    def set_volume(
+        self,
+        volume: TimeVolume,
+        *,
+        field: str | None = None,
+        representation: str | None = None,
+        frames: list[NDArray[np.floating]] | None = None,
+    ) -> None:
         """Show ``volume``; ``field`` defaults to the first scalar field (else a vector
         magnitude).  ``frames`` are that field's display frames already read (one per step)."""
         self.volume = volume
@@ -167,9 +183,14 @@ class Scene:
         import pyvista as pv
 
         self._actors["outline"] = self.plotter.add_mesh(
-            pv.Box(bounds=volume.bounds).outline(), color=(0.6, 0.6, 0.6), line_width=1, lighting=False, name="outline",
-            reset_camera=False, render=False,
-        )  # fmt: skip
+            pv.Box(bounds=volume.bounds).outline(),
+            color=(0.6, 0.6, 0.6),
+            line_width=1,
+            lighting=False,
+            name="outline",
+            reset_camera=False,
+            render=False,
+        )
         self._shown_frame: SourceFrame | None = None
         self._legend(None)
         self.set_step(0, render=False)
@@ -258,10 +279,17 @@ class Scene:
         if rep == "volume":
             if "volume" not in self._actors:
                 self._actors["volume"] = self.plotter.add_volume(
-                    grid, scalars="value", cmap=self.cmap, clim=self.clim,
-                    opacity=_opacity_tf(self.opacity), show_scalar_bar=False, name="volume",
-                    reset_camera=False, render=False, mapper="gpu",
-                )  # fmt: skip
+                    grid,
+                    scalars="value",
+                    cmap=self.cmap,
+                    clim=self.clim,
+                    opacity=_opacity_tf(self.opacity),
+                    show_scalar_bar=False,
+                    name="volume",
+                    reset_camera=False,
+                    render=False,
+                    mapper="gpu",
+                )
                 # fixed sampling: one ray per IMAGE_SAMPLE_DISTANCE² pixels (the smart
                 # mapper's automatic sampling cost ~5× more per frame on software GL)
                 m = self._actors["volume"].mapper
@@ -275,7 +303,7 @@ class Scene:
         elif rep in ("slices", "contour", "glyphs", "surface"):
             kw: dict[str, Any]
             if rep == "surface":
-                mesh = grid.extract_surface(algorithm="dataset_surface")
+                mesh = dataset_surface(grid)
                 kw = {"opacity": 1.0}
             elif rep == "glyphs":
                 mesh = self._glyphs()
@@ -295,9 +323,16 @@ class Scene:
                 self._remove("volume")
                 self._vol_mesh = mesh
                 self._actors["volume"] = self.plotter.add_mesh(
-                    mesh, scalars="value", cmap=self.cmap, clim=self.clim,
-                    show_scalar_bar=False, name="volume", reset_camera=False, render=False, **kw,
-                )  # fmt: skip
+                    mesh,
+                    scalars="value",
+                    cmap=self.cmap,
+                    clim=self.clim,
+                    show_scalar_bar=False,
+                    name="volume",
+                    reset_camera=False,
+                    render=False,
+                    **kw,
+                )
                 self._scalar_bar()
         else:
             self._remove("volume")
@@ -311,8 +346,10 @@ class Scene:
         for name in vol.field_names:
             if vol.is_vector(name):
                 return name
-        raise ParameterError(f"{vol.source}: no vector field to draw as glyphs (fields: "
-                             f"{', '.join(vol.field_names)})")  # fmt: skip
+        raise ParameterError(
+            f"{vol.source}: no vector field to draw as glyphs (fields: "
+            f"{', '.join(vol.field_names)})"
+        )
 
     def _glyphs(self) -> Any:
         """Arrows of the vector field at the current step on an evenly subsampled grid."""
@@ -333,8 +370,12 @@ class Scene:
         top = float(np.percentile(mag, 99)) if mag.size else 0.0
         pts.point_data["length"] = np.minimum(mag / top, 1.0) if top > 0 else mag * 0
         length = float(k * vol.spacing.min())
-        return pts.glyph(orient="vectors", scale="length", factor=length,
-                         geom=pv.Arrow(tip_length=0.35, tip_radius=0.12, shaft_radius=0.04))  # fmt: skip
+        return pts.glyph(
+            orient="vectors",
+            scale="length",
+            factor=length,
+            geom=pv.Arrow(tip_length=0.35, tip_radius=0.12, shaft_radius=0.04),
+        )
 
     def _scalar_bar(self) -> None:
         """The colour bar of the displayed field (its robust range, with units if known)."""
@@ -346,11 +387,19 @@ class Scene:
         if self.field and vol is not None and vol.is_vector(self.field):
             title = f"|{title}|"
         self._bar_title = title
-        bar = self.plotter.add_scalar_bar(title=title, mapper=self._actors["volume"].mapper,
-                                          n_labels=3, fmt=label_format(self.clim),
-                                          vertical=False, position_x=0.55, position_y=0.03,
-                                          height=0.1, width=0.4, title_font_size=12,
-                                          label_font_size=11)  # fmt: skip
+        bar = self.plotter.add_scalar_bar(
+            title=title,
+            mapper=self._actors["volume"].mapper,
+            n_labels=3,
+            fmt=label_format(self.clim),
+            vertical=False,
+            position_x=0.55,
+            position_y=0.03,
+            height=0.1,
+            width=0.4,
+            title_font_size=12,
+            label_font_size=11,
+        )
         bar.SetTextPositionToPrecedeScalarBar()  # labels below the bar, the title above
 
     def _remove_scalar_bar(self) -> None:
@@ -390,9 +439,11 @@ class Scene:
             self._legend(None)
             return
         vol = self._need_volume()
-        mesh = source_points(vol.points(frame.index[keep]),
-                             np.maximum(frame.radius[keep], 1e-3 * vol.spacing.min()),
-                             frame.kind[keep])  # fmt: skip
+        mesh = source_points(
+            vol.points(frame.index[keep]),
+            np.maximum(frame.radius[keep], 1e-3 * vol.spacing.min()),
+            frame.kind[keep],
+        )
         mode = "sprite" if mesh.n_points <= SPRITE_LIMIT else "point"
         if "sources" in self._actors and self._src_mode == mode:
             self._src_mesh.copy_from(mesh)
@@ -425,15 +476,21 @@ class Scene:
         quiet = self.plotter.suppress_rendering
         self.plotter.suppress_rendering = True
         try:
-            self.plotter.add_legend(labels, bcolor=np.asarray(BACKGROUND) / 255,
-                                    size=(0.22, 0.035 * len(items) + 0.01), face="circle",
-                                    name="legend", loc="upper left")  # fmt: skip
+            self.plotter.add_legend(
+                labels,
+                bcolor=np.asarray(BACKGROUND) / 255,
+                size=(0.22, 0.035 * len(items) + 0.01),
+                face="circle",
+                name="legend",
+                loc="upper left",
+            )
         finally:
             self.plotter.suppress_rendering = quiet
 
     # -------------------------------------------------------------- listener
-    def set_path(self, path: ListenerPath | None, *, time_scale: float | None = None,
-                 render: bool = True) -> None:  # fmt: skip
+    def set_path(
+        self, path: ListenerPath | None, *, time_scale: float | None = None, render: bool = True
+    ) -> None:
         """Draw ``path`` as a polyline (None removes it); the glyph follows the time slider."""
         self.path = path
         if time_scale is not None:
@@ -470,9 +527,14 @@ class Scene:
             else:
                 self._path_mesh = line
                 self._actors["path"] = self.plotter.add_mesh(
-                    line, color=np.asarray(PATH_COLOR) / 255, line_width=5, lighting=False,
-                    name="path", reset_camera=False, render=False,
-                )  # fmt: skip
+                    line,
+                    color=np.asarray(PATH_COLOR) / 255,
+                    line_width=5,
+                    lighting=False,
+                    name="path",
+                    reset_camera=False,
+                    render=False,
+                )
         self._legend(getattr(self, "_shown_frame", None))
         if p is not None and self.listener is None:
             self._update_glyph()
@@ -499,13 +561,19 @@ class Scene:
         else:
             self._glyph_mesh = g
             self._actors["glyph"] = self.plotter.add_mesh(
-                g, color=np.asarray(PATH_COLOR) / 255, lighting=False, name="glyph",
-                reset_camera=False, render=False, line_width=3,
-            )  # fmt: skip
+                g,
+                color=np.asarray(PATH_COLOR) / 255,
+                lighting=False,
+                name="glyph",
+                reset_camera=False,
+                render=False,
+                line_width=3,
+            )
 
     # -------------------------------------------------------------- overlays
-    def set_overlay(self, name: str, fn: Callable[[int], Any] | None, *,
-                    visible: bool = True) -> None:  # fmt: skip
+    def set_overlay(
+        self, name: str, fn: Callable[[int], Any] | None, *, visible: bool = True
+    ) -> None:
         """Register ``fn(step) -> mesh | list of meshes | None`` as overlay ``name`` (None removes).
 
         ``fn`` may return :data:`PENDING` when the step's meshes are still being
@@ -559,9 +627,9 @@ class Scene:
             meshes = [meshes]
         for i, m in enumerate(meshes):
             key = f"overlay:{name}:{i}"
-            self._actors[key] = self.plotter.add_mesh(m, name=key, reset_camera=False,
-                                                      render=False, opacity=0.6,
-                                                      show_scalar_bar=False)  # fmt: skip
+            self._actors[key] = self.plotter.add_mesh(
+                m, name=key, reset_camera=False, render=False, opacity=0.6, show_scalar_bar=False
+            )
         self._overlay_bars()
 
     def _overlay_bars(self) -> None:
@@ -580,12 +648,19 @@ class Scene:
                 continue
             name = key.split(":")[1]
             lo, hi = mapper.scalar_range
-            bar = self.plotter.add_scalar_bar(title=f"{name} overlay: {scalars}", mapper=mapper,
-                                              n_labels=3, fmt=label_format((lo, hi)),
-                                              vertical=False, position_x=0.05,
-                                              position_y=0.03 + 0.14 * k, height=0.1,
-                                              width=0.4, title_font_size=12,
-                                              label_font_size=11)  # fmt: skip
+            bar = self.plotter.add_scalar_bar(
+                title=f"{name} overlay: {scalars}",
+                mapper=mapper,
+                n_labels=3,
+                fmt=label_format((lo, hi)),
+                vertical=False,
+                position_x=0.05,
+                position_y=0.03 + 0.14 * k,
+                height=0.1,
+                width=0.4,
+                title_font_size=12,
+                label_font_size=11,
+            )
             bar.SetTextPositionToPrecedeScalarBar()
             k += 1
 
@@ -611,9 +686,12 @@ class Scene:
     # ---------------------------------------------------------------- camera
     def camera(self) -> dict[str, list[float]]:
         c = self.plotter.camera
-        return {"position": list(map(float, c.position)),
-                "focal_point": list(map(float, c.focal_point)),
-                "up": list(map(float, c.up)), "view_angle": float(c.view_angle)}  # fmt: skip
+        return {
+            "position": list(map(float, c.position)),
+            "focal_point": list(map(float, c.focal_point)),
+            "up": list(map(float, c.up)),
+            "view_angle": float(c.view_angle),
+        }
 
     def set_camera(self, cam: dict[str, Any]) -> None:
         c = self.plotter.camera

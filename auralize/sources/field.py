@@ -127,8 +127,10 @@ class Heard:
     def describe(self) -> str:
         """One phrase for reports: what was heard."""
         if self.mode == "field":
-            parts = {"monopole": "mass sources (continuity residual)",
-                     "quadrupole": "Lighthill stress"}  # fmt: skip
+            parts = {
+                "monopole": "mass sources (continuity residual)",
+                "quadrupole": "Lighthill stress",
+            }
             return "whole field: " + " + ".join(parts[t] for t in self.types)
         return "detected " + ", ".join(self.types)
 
@@ -204,8 +206,9 @@ class BlockPlan:
         return any(p < b for p, b in zip(self.proxies, self.block, strict=True))
 
 
-def block_plan(volume: TimeVolume, *, block: int | None = None,
-               proxies: int = PROXIES, c0: float = 343.0) -> BlockPlan:  # fmt: skip
+def block_plan(
+    volume: TimeVolume, *, block: int | None = None, proxies: int = PROXIES, c0: float = 343.0
+) -> BlockPlan:
     """The blocks of :func:`field_tracks` (``block`` points per axis, default by the rule).
 
     The rule (docs/design.md, "Hearing the whole field"): a block of extent B
@@ -235,8 +238,10 @@ def block_plan(volume: TimeVolume, *, block: int | None = None,
         b_max = 4.0 / k * (TARGET_ERROR * math.factorial(p) / 6.0) ** (1.0 / p)
         hmax = float(np.max(h))
         nb = int(min(MAX_BLOCK, max(1, math.floor(b_max / hmax) + 1)))
-        rule = (f"block of {b_max:.3g} m or less keeps the compression within "
-                f"{TARGET_ERROR:.0%} at the data's Nyquist frequency ({0.5 / dt:.4g} Hz)")  # fmt: skip
+        rule = (
+            f"block of {b_max:.3g} m or less keeps the compression within "
+            f"{TARGET_ERROR:.0%} at the data's Nyquist frequency ({0.5 / dt:.4g} Hz)"
+        )
     else:
         if not isinstance(block, int | np.integer) or block < 1:
             raise ParameterError(f"block must be a positive number of points, got {block!r}")
@@ -333,11 +338,18 @@ class FieldTracks:
         # two held knots on each side: the tangent at the inner one is 0, so the
         # field is exactly constant from it to the data
         h = self.hold_steps
-        times = np.concatenate([[t[0] - 2 * h * d0, t[0] - h * d0], t,
-                                [t[-1] + h * d1, t[-1] + 2 * h * d1]])  # fmt: skip
-        out = SourceTracks(positions=self.positions[keep], q=np.ascontiguousarray(q[keep]),
-                           radius=self.radius[keep], times=times, kind=kind,
-                           origin=float(t[0]), end=float(t[-1]))  # fmt: skip
+        times = np.concatenate(
+            [[t[0] - 2 * h * d0, t[0] - h * d0], t, [t[-1] + h * d1, t[-1] + 2 * h * d1]]
+        )
+        out = SourceTracks(
+            positions=self.positions[keep],
+            q=np.ascontiguousarray(q[keep]),
+            radius=self.radius[keep],
+            times=times,
+            kind=kind,
+            origin=float(t[0]),
+            end=float(t[-1]),
+        )
         self._made[names] = out
         return out
 
@@ -362,11 +374,19 @@ def _near_blocks(centres: NDArray[np.float64], path: Any, dist: float) -> NDArra
     return near_path(centres, path, dist)
 
 
-def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
-                 heard: Heard | str | None = None, steady: str = "remove",
-                 floor: float = FLOOR, path: Any = None, block: int | None = None,
-                 proxies: int = PROXIES, c0: float = 343.0,
-                 progress_bar: bool = False) -> FieldTracks:  # fmt: skip
+def field_tracks(
+    volume: TimeVolume,
+    mapping: AcousticMapping,
+    *,
+    heard: Heard | str | None = None,
+    steady: str = "remove",
+    floor: float = FLOOR,
+    path: Any = None,
+    block: int | None = None,
+    proxies: int = PROXIES,
+    c0: float = 343.0,
+    progress_bar: bool = False,
+) -> FieldTracks:
     """The whole field's sound as engine rows (see the module docstring).
 
     Parameters
@@ -408,8 +428,10 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     require_steps(volume)
     hd = parse_heard(heard)
     if hd.mode != "field":
-        raise ParameterError(f"field_tracks renders the whole field; heard {hd.label!r} is "
-                             f"the detected sources (SourceSeries.tracks())")  # fmt: skip
+        raise ParameterError(
+            f"field_tracks renders the whole field; heard {hd.label!r} is "
+            f"the detected sources (SourceSeries.tracks())"
+        )
     check_steady(steady)
     mapping.prepare(volume)
     flux = mass_flux_rule(mapping, volume)
@@ -465,8 +487,13 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     pad = (Bz * bz - nz, By * by - ny, Bx * bx - nx)
     mask_far = np.zeros(Bz * By * Bx, dtype=bool)
     mask_far[far_blocks] = True
-    cache = StepCache(volume, mapping, qmean=SteadyBase(volume, mapping, steady_anchors(volume, mapping))
-                      if steady == "remove" and "quadrupole" in terms else None)  # fmt: skip
+    cache = StepCache(
+        volume,
+        mapping,
+        qmean=SteadyBase(volume, mapping, steady_anchors(volume, mapping))
+        if steady == "remove" and "quadrupole" in terms
+        else None,
+    )
     buf = K.empty_like_strengths(volume.shape)
     res = np.empty(volume.shape)
     err = np.empty(volume.shape)
@@ -494,20 +521,42 @@ def field_tracks(volume: TimeVolume, mapping: AcousticMapping, *,
     # alternating weights over tiny distances (the interpolation holds only outside)
     cell = 0.5 * float(np.min(h))
     # a point's own half cell (on a curvilinear grid, of its cell volume |det ∂x/∂ξ|)
-    pts_r = (np.full(R_pts, cell) if volume.metric is None
-             else 0.5 * np.cbrt(volume.metric.jac.reshape(-1)[point_index]))  # fmt: skip
-    radius = np.concatenate([np.full(R_prox, max(0.5 * plan.size, cell) if plan.compresses else cell),
-                             pts_r])  # fmt: skip
-    meta = {"heard": hd.label, "heard_text": hd.describe(), "terms": terms, "mass_flux": flux,
-            "points": int(volume.n_points), "valid_points": int(round(volume.n_points * volume.valid_ratio)),
-            "blocks": int(Bz * By * Bx), "blocks_as_points": int(near_blocks.size),
-            "block": list(plan.block), "proxies_per_block": int(P), "rows": int(R_prox + R_pts),
-            "block_size_m": plan.size, "block_rule": plan.rule, "floor": floor, "steady": steady,
-            "diagonal_m": _diagonal(volume), "c0": c0,
-            "residual_share_above_floor": (stats["residual_points"] - stats["residual_floored"])
-            / max(stats["residual_points"], 1)}  # fmt: skip
-    return FieldTracks(positions=np.ascontiguousarray(positions), q=qs, radius=radius,
-                       times=np.asarray(volume.times, dtype=np.float64).copy(), meta=meta)  # fmt: skip
+    pts_r = (
+        np.full(R_pts, cell)
+        if volume.metric is None
+        else 0.5 * np.cbrt(volume.metric.jac.reshape(-1)[point_index])
+    )
+    radius = np.concatenate(
+        [np.full(R_prox, max(0.5 * plan.size, cell) if plan.compresses else cell), pts_r]
+    )
+    meta = {
+        "heard": hd.label,
+        "heard_text": hd.describe(),
+        "terms": terms,
+        "mass_flux": flux,
+        "points": int(volume.n_points),
+        "valid_points": int(round(volume.n_points * volume.valid_ratio)),
+        "blocks": int(Bz * By * Bx),
+        "blocks_as_points": int(near_blocks.size),
+        "block": list(plan.block),
+        "proxies_per_block": int(P),
+        "rows": int(R_prox + R_pts),
+        "block_size_m": plan.size,
+        "block_rule": plan.rule,
+        "floor": floor,
+        "steady": steady,
+        "diagonal_m": _diagonal(volume),
+        "c0": c0,
+        "residual_share_above_floor": (stats["residual_points"] - stats["residual_floored"])
+        / max(stats["residual_points"], 1),
+    }
+    return FieldTracks(
+        positions=np.ascontiguousarray(positions),
+        q=qs,
+        radius=radius,
+        times=np.asarray(volume.times, dtype=np.float64).copy(),
+        meta=meta,
+    )
 
 
 def _diagonal(volume: TimeVolume) -> float:
@@ -519,9 +568,16 @@ def _diagonal(volume: TimeVolume) -> float:
     return float(np.linalg.norm(b[:, 1] - b[:, 0]))
 
 
-def _residual(volume: TimeVolume, cache: StepCache, n: int, flux: str, floor: float,
-              out: NDArray[np.float64], err: NDArray[np.float64],
-              stats: dict[str, int]) -> NDArray[np.float64]:  # fmt: skip
+def _residual(
+    volume: TimeVolume,
+    cache: StepCache,
+    n: int,
+    flux: str,
+    floor: float,
+    out: NDArray[np.float64],
+    err: NDArray[np.float64],
+    stats: dict[str, int],
+) -> NDArray[np.float64]:
     """The continuity residual of step ``n`` (``flux`` as :func:`mass_flux_rule`),
     zero where it is not above ``floor`` times its error estimate or round-off."""
     T = volume.n_steps
@@ -547,11 +603,23 @@ def _residual(volume: TimeVolume, cache: StepCache, n: int, flux: str, floor: fl
     bad = ~np.logical_and.reduce(oks) if oks else np.zeros(volume.shape, dtype=bool)
     metric = volume.metric
     if metric is None:
-        K.residual(rho_a, rho_b, rho_a2, rho_b2, np.ascontiguousarray(m), inv_dt, inv_dt2,
-                   np.asarray(volume.spacing, dtype=np.float64), bad, out, err)  # fmt: skip
+        K.residual(
+            rho_a,
+            rho_b,
+            rho_a2,
+            rho_b2,
+            np.ascontiguousarray(m),
+            inv_dt,
+            inv_dt2,
+            np.asarray(volume.spacing, dtype=np.float64),
+            bad,
+            out,
+            err,
+        )
     else:
-        curvilinear_residual(metric, rho_a, rho_b, rho_a2, rho_b2, np.asarray(m), inv_dt,
-                             inv_dt2, bad, out, err)  # fmt: skip
+        curvilinear_residual(
+            metric, rho_a, rho_b, rho_a2, rho_b2, np.asarray(m), inv_dt, inv_dt2, bad, out, err
+        )
     if oks:
         # a residual whose stencil reads a no-data point is no-data too (as the dipole's)
         s3 = np.zeros((3, *volume.shape))

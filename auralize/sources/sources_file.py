@@ -29,6 +29,7 @@ from typing import Any
 
 import h5py
 import numpy as np
+from numpy.typing import NDArray
 
 from auralize.errors import AuralizeError, DataError, FormatError
 from auralize.io.vtkhdf_write import KIND_LEGEND
@@ -47,8 +48,11 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
     offsets[1:] = np.cumsum([f.index.size for f in frames])
 
     def cat(name, dt):
-        return (np.concatenate([getattr(f, name) for f in frames]).astype(dt)
-               if frames else np.zeros(0, dt))  # fmt: skip
+        return (
+            np.concatenate([getattr(f, name) for f in frames]).astype(dt)
+            if frames
+            else np.zeros(0, dt)
+        )
 
     index = cat("index", np.int64)
     n, steps = int(index.size), len(frames)
@@ -141,16 +145,93 @@ def _attr(h: h5py.File, p: Path, name: str, *, kinds: str = "iuf") -> np.ndarray
     return a
 
 
-def _dataset(h: h5py.File, p: Path, name: str, shape: tuple[int, ...], kinds: str,
-             what: str) -> np.ndarray:  # fmt: skip
+def _dataset(
+    h: h5py.File, p: Path, name: str, shape: tuple[int, ...], kinds: str, what: str
+) -> np.ndarray:
     """Dataset ``/name`` read after its shape and type are checked."""
     ds = h[name]
     if not isinstance(ds, h5py.Dataset):
         raise _fault(p, f"/{name}", f"must be a dataset of {what}, not a group")
     if ds.dtype.kind not in kinds or ds.shape != shape:
-        raise _fault(p, f"/{name}", f"must be {what} of shape {shape}, got {ds.dtype} of shape "
-                                    f"{ds.shape}")  # fmt: skip
+        raise _fault(
+            p, f"/{name}", f"must be {what} of shape {shape}, got {ds.dtype} of shape {ds.shape}"
+        )
     return np.asarray(ds[()])
+
+
+def _read_grid(
+    h: h5py.File, p: Path
+) -> tuple[
+    tuple[int, ...],
+    int,
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    dict[str, Any],
+]:
+    """The grid's attributes of a sources file, checked: dims, their product, origin,
+    spacing, the detection thresholds and the metadata."""
+    dims_a = _attr(h, p, "dims")
+    if not (
+        np.all(np.isfinite(dims_a)) and np.all(dims_a == np.round(dims_a)) and np.all(dims_a >= 1)
+    ):
+        raise _fault(
+            p,
+            "attribute 'dims'",
+            f"must be 3 whole numbers >= 1 (nx, ny, nz), got {dims_a.tolist()}",
+        )
+    dims = tuple(int(d) for d in dims_a)
+    n_points = math.prod(dims)
+    if n_points > MAX_POINTS:
+        raise _fault(
+            p,
+            "attribute 'dims'",
+            f"{dims} make {n_points:.3g} grid points; at most {MAX_POINTS:.3g} are read",
+        )
+    origin = _attr(h, p, "origin").astype(np.float64)
+    spacing = _attr(h, p, "spacing").astype(np.float64)
+    if not np.all(np.isfinite(origin)):
+        raise _fault(p, "attribute 'origin'", f"must be 3 finite numbers, got {origin.tolist()}")
+    if not (np.all(np.isfinite(spacing)) and np.all(spacing > 0)):
+        raise _fault(
+            p, "attribute 'spacing'", f"must be 3 finite numbers > 0 m, got {spacing.tolist()}"
+        )
+    thresholds = _attr(h, p, "thresholds", kinds="iuf").astype(np.float64)
+    if np.any(np.isnan(thresholds)) or np.any(thresholds < 0):
+        raise _fault(
+            p,
+            "attribute 'thresholds'",
+            f"must be 3 numbers >= 0 (inf: none), got {thresholds.tolist()}",
+        )
+    meta_raw = h.attrs["meta"]
+    if isinstance(meta_raw, bytes):
+        meta_raw = meta_raw.decode("utf-8", "replace")
+    if not isinstance(meta_raw, str):
+        raise _fault(p, "attribute 'meta'", f"must be JSON text, got {type(meta_raw).__name__}")
+    meta = parse_json(meta_raw, f"{p}: attribute 'meta'", error=DataError, nonfinite=True)
+    if not isinstance(meta, dict):
+        raise _fault(p, "attribute 'meta'", f"must be a JSON object, got {type(meta).__name__}")
+    return dims, n_points, origin, spacing, thresholds, meta
+
+
+def _read_times(h: h5py.File, p: Path) -> NDArray[np.float64]:
+    """The step times of a sources file, checked: finite and strictly increasing."""
+    t_ds = h["time"]
+    if not isinstance(t_ds, h5py.Dataset) or t_ds.ndim != 1 or t_ds.shape[0] < 1:
+        raise _fault(p, "/time", "must be a 1-D dataset of at least one step time in seconds")
+    n_steps = int(t_ds.shape[0])
+    times = _dataset(h, p, "time", (n_steps,), "iuf", "step times (s)").astype(np.float64)
+    if not np.all(np.isfinite(times)):
+        k = _first(~np.isfinite(times))
+        raise _fault(p, f"/time[{k}]", f"= {times[k]} is not finite; step times are finite seconds")
+    if np.any(np.diff(times) <= 0):
+        k = _first(np.diff(times) <= 0)
+        raise _fault(
+            p,
+            "/time",
+            f"must be strictly increasing; t[{k}]={times[k]:g} >= t[{k + 1}]={times[k + 1]:g} s",
+        )
+    return times
 
 
 def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
@@ -167,54 +248,15 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
         f"attribute {n!r}" for n in ATTRS if n not in h.attrs
     ]
     if missing:
-        raise DataError(f"{p}: missing {', '.join(missing)}; a sources file holds "
-                        f"{', '.join('/' + n for n in DATASETS)} and the attributes "
-                        f"{', '.join(ATTRS)} ('auralize detect -o SOURCES.h5' writes them)")  # fmt: skip
+        raise DataError(
+            f"{p}: missing {', '.join(missing)}; a sources file holds "
+            f"{', '.join('/' + n for n in DATASETS)} and the attributes "
+            f"{', '.join(ATTRS)} ('auralize detect -o SOURCES.h5' writes them)"
+        )
 
-    # the grid
-    dims_a = _attr(h, p, "dims")
-    if not (np.all(np.isfinite(dims_a)) and np.all(dims_a == np.round(dims_a))
-            and np.all(dims_a >= 1)):  # fmt: skip
-        raise _fault(p, "attribute 'dims'", f"must be 3 whole numbers >= 1 (nx, ny, nz), got "
-                                            f"{dims_a.tolist()}")  # fmt: skip
-    dims = tuple(int(d) for d in dims_a)
-    n_points = math.prod(dims)
-    if n_points > MAX_POINTS:
-        raise _fault(p, "attribute 'dims'", f"{dims} make {n_points:.3g} grid points; at most "
-                                            f"{MAX_POINTS:.3g} are read")  # fmt: skip
-    origin = _attr(h, p, "origin").astype(np.float64)
-    spacing = _attr(h, p, "spacing").astype(np.float64)
-    if not np.all(np.isfinite(origin)):
-        raise _fault(p, "attribute 'origin'", f"must be 3 finite numbers, got {origin.tolist()}")
-    if not (np.all(np.isfinite(spacing)) and np.all(spacing > 0)):
-        raise _fault(p, "attribute 'spacing'", f"must be 3 finite numbers > 0 m, got "
-                                               f"{spacing.tolist()}")  # fmt: skip
-    thresholds = _attr(h, p, "thresholds", kinds="iuf").astype(np.float64)
-    if np.any(np.isnan(thresholds)) or np.any(thresholds < 0):
-        raise _fault(p, "attribute 'thresholds'", f"must be 3 numbers >= 0 (inf: none), got "
-                                                  f"{thresholds.tolist()}")  # fmt: skip
-    meta_raw = h.attrs["meta"]
-    if isinstance(meta_raw, bytes):
-        meta_raw = meta_raw.decode("utf-8", "replace")
-    if not isinstance(meta_raw, str):
-        raise _fault(p, "attribute 'meta'", f"must be JSON text, got {type(meta_raw).__name__}")
-    meta = parse_json(meta_raw, f"{p}: attribute 'meta'", error=DataError, nonfinite=True)
-    if not isinstance(meta, dict):
-        raise _fault(p, "attribute 'meta'", f"must be a JSON object, got {type(meta).__name__}")
-
-    # the steps
-    t_ds = h["time"]
-    if not isinstance(t_ds, h5py.Dataset) or t_ds.ndim != 1 or t_ds.shape[0] < 1:
-        raise _fault(p, "/time", "must be a 1-D dataset of at least one step time in seconds")
-    n_steps = int(t_ds.shape[0])
-    times = _dataset(h, p, "time", (n_steps,), "iuf", "step times (s)").astype(np.float64)
-    if not np.all(np.isfinite(times)):
-        k = _first(~np.isfinite(times))
-        raise _fault(p, f"/time[{k}]", f"= {times[k]} is not finite; step times are finite seconds")
-    if np.any(np.diff(times) <= 0):
-        k = _first(np.diff(times) <= 0)
-        raise _fault(p, "/time", f"must be strictly increasing; t[{k}]={times[k]:g} >= "
-                                 f"t[{k + 1}]={times[k + 1]:g} s")  # fmt: skip
+    dims, n_points, origin, spacing, thresholds, meta = _read_grid(h, p)
+    times = _read_times(h, p)
+    n_steps = times.size
 
     # the sources: sizes before contents (nothing larger than the grid is read)
     i_ds = h["index"]
@@ -222,38 +264,60 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
         raise _fault(p, "/index", "must be a 1-D dataset of flat grid indices")
     n = int(i_ds.shape[0])
     if n > n_steps * n_points:
-        raise _fault(p, "/index", f"holds {n} sources, more than {n_steps} steps x {n_points} "
-                                  f"grid points")  # fmt: skip
+        raise _fault(
+            p, "/index", f"holds {n} sources, more than {n_steps} steps x {n_points} grid points"
+        )
     for name in ("kind", "strength", "radius"):
         ds = h[name]
         if not isinstance(ds, h5py.Dataset) or ds.shape != (n,):
             got = ds.shape if isinstance(ds, h5py.Dataset) else "a group"
-            raise _fault(p, f"/{name}", f"must hold one value per source, shape ({n},) like "
-                                        f"/index, got {got}")  # fmt: skip
-    off = _dataset(h, p, "offsets", (n_steps + 1,), "iu",
-                   f"integer row offsets (one more than the {n_steps} steps)").astype(np.int64)  # fmt: skip
+            raise _fault(
+                p,
+                f"/{name}",
+                f"must hold one value per source, shape ({n},) like /index, got {got}",
+            )
+    off = _dataset(
+        h,
+        p,
+        "offsets",
+        (n_steps + 1,),
+        "iu",
+        f"integer row offsets (one more than the {n_steps} steps)",
+    ).astype(np.int64)
     if off[0] != 0 or off[-1] != n or np.any(np.diff(off) < 0):
-        raise _fault(p, "/offsets", f"must rise from 0 to {n} (the number of sources) without "
-                                    f"decreasing, got {off[:8].tolist()}"
-                                    f"{'...' if off.size > 8 else ''} ending {int(off[-1])}")  # fmt: skip
+        raise _fault(
+            p,
+            "/offsets",
+            f"must rise from 0 to {n} (the number of sources) without "
+            f"decreasing, got {off[:8].tolist()}"
+            f"{'...' if off.size > 8 else ''} ending {int(off[-1])}",
+        )
     idx = _dataset(h, p, "index", (n,), "iu", "flat grid indices").astype(np.int64)
     bad = (idx < 0) | (idx >= n_points)
     if bad.any():
         k = _first(bad)
-        raise _fault(p, f"/index[{k}]", f"= {idx[k]} is outside the grid {dims}: valid flat "
-                                        f"indices are 0..{n_points - 1}")  # fmt: skip
+        raise _fault(
+            p,
+            f"/index[{k}]",
+            f"= {idx[k]} is outside the grid {dims}: valid flat indices are 0..{n_points - 1}",
+        )
     kind = _dataset(h, p, "kind", (n,), "iu", "kind codes")
     bad = ~np.isin(kind, KIND_CODES)
     if bad.any():
         k = _first(bad)
-        raise _fault(p, f"/kind[{k}]", f"= {kind[k]} is not a kind code; valid: "
-                                       f"{', '.join(f'{c} {m}' for c, m in KIND_LEGEND.items())}")  # fmt: skip
+        raise _fault(
+            p,
+            f"/kind[{k}]",
+            f"= {kind[k]} is not a kind code; valid: "
+            f"{', '.join(f'{c} {m}' for c, m in KIND_LEGEND.items())}",
+        )
     strength = _dataset(h, p, "strength", (n,), "iuf", "strengths").astype(np.float64)
     bad = ~np.isfinite(strength)
     if bad.any():
         k = _first(bad)
-        raise _fault(p, f"/strength[{k}]", f"= {strength[k]} is not finite; strengths are "
-                                           f"finite numbers")  # fmt: skip
+        raise _fault(
+            p, f"/strength[{k}]", f"= {strength[k]} is not finite; strengths are finite numbers"
+        )
     radius = _dataset(h, p, "radius", (n,), "iuf", "radii (m)").astype(np.float64)
     bad = ~(np.isfinite(radius) & (radius > 0))
     if bad.any():
@@ -264,19 +328,31 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
     dup = (np.diff(step[order]) == 0) & (np.diff(idx[order]) == 0)
     if dup.any():
         r = int(order[_first(dup)])
-        raise _fault(p, "/index", f"lists vertex {idx[r]} twice at step {step[r]}; each vertex "
-                                  f"is at most one source per step")  # fmt: skip
+        raise _fault(
+            p,
+            "/index",
+            f"lists vertex {idx[r]} twice at step {step[r]}; each vertex "
+            f"is at most one source per step",
+        )
     series = SourceSeries(
-        frames=[], times=times, origin=origin, spacing=spacing, dims=dims,  # type: ignore[arg-type]
-        thresholds=thresholds, meta=meta,
-    )  # fmt: skip
+        frames=[],
+        times=times,
+        origin=origin,
+        spacing=spacing,
+        dims=dims,  # type: ignore[arg-type]
+        thresholds=thresholds,
+        meta=meta,
+    )
     if meta.get("grid") == "curvilinear":
         # detected on a curvilinear grid: the positions are its points (no formula gives
         # them); the points of the sources are known, the others NaN until
         # load_sources_for() puts the volume's own points in
         if "position" not in h:
-            raise _fault(p, "/position", "is missing; sources detected on a curvilinear grid "
-                                         "need their positions")  # fmt: skip
+            raise _fault(
+                p,
+                "/position",
+                "is missing; sources detected on a curvilinear grid need their positions",
+            )
         pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
         nx, ny, nz = (int(d) for d in dims)
         coords = np.full((nz * ny * nx, 3), np.nan)
@@ -288,9 +364,13 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
         far = ~(np.abs(pos - series.positions(idx)) <= tol + 1e-9 * np.abs(pos)).all(axis=1)
         if far.any():
             k = _first(far)
-            raise _fault(p, f"/position[{k}]", f"= {pos[k].tolist()} is not where /index[{k}] "
-                                               f"= {idx[k]} lies on the grid "
-                                               f"({series.positions(idx[k]).tolist()})")  # fmt: skip
+            raise _fault(
+                p,
+                f"/position[{k}]",
+                f"= {pos[k].tolist()} is not where /index[{k}] "
+                f"= {idx[k]} lies on the grid "
+                f"({series.positions(idx[k]).tolist()})",
+            )
     kind8 = kind.astype(np.int8)
     series.frames = [
         SourceFrame(index=idx[a:b], kind=kind8[a:b], strength=strength[a:b], radius=radius[a:b])
@@ -377,8 +457,11 @@ def load_sources_for(path: str | Path, volume: Any) -> SourceSeries:
         )
     curvilinear = getattr(volume, "coords", None)
     if (series.coords is None) != (curvilinear is None):
-        mismatches.append("a curvilinear grid vs a uniform one" if series.coords is not None
-                          else "a uniform grid vs a curvilinear one")  # fmt: skip
+        mismatches.append(
+            "a curvilinear grid vs a uniform one"
+            if series.coords is not None
+            else "a uniform grid vs a curvilinear one"
+        )
     elif series.coords is not None and curvilinear is not None and not mismatches:
         known = np.isfinite(series.coords[..., 0])
         scale = float(np.max(np.abs(curvilinear))) if curvilinear.size else 1.0

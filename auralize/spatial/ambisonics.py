@@ -5,7 +5,7 @@ Conventions
 *AmbiX* (Nachbar, Zotter, Deleflie & Sontacchi 2011; Zotter & Frank,
 *Ambisonics*, Springer 2019, §4.8): real spherical harmonics of order
 n ≤ N and degree −n ≤ m ≤ n in **ACN** channel order ``acn = n² + n + m``,
-with **SN3D** normalisation and no Condon–Shortley phase:
+with **SN3D** normalisation and no Condon–Shortley phase::
 
     Y_n^m(φ, ϑ) = N_n^|m| · P_n^|m|(sin ϑ) · { cos(m φ)   m ≥ 0
                                               { sin(|m| φ) m < 0
@@ -24,7 +24,7 @@ SN3D obeys the addition theorem in the form Σ_m Y_n^m(θ) Y_n^m(θ') =
 P_n(cos γ) (γ the angle between θ and θ'), which the decoders below use.
 
 Decoders (:func:`decoder_matrix`)
---------------------------------
+---------------------------------
 * **AllRAD** (Zotter & Frank 2012; book §4.9.6): the Ambisonic signal is
   decoded to a dense virtual layout by the sampling decoder
   g(θ) = Σ_n (2n+1)/(4π) a_n Σ_m Y_n^m(θ) b_nm, then every virtual speaker
@@ -265,8 +265,9 @@ def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64
                 q_prev, q = q, z * (2 * m + 1) * q
             elif n > m + 1:
                 q_prev, q = q, ((2 * n - 1) * z * q - (n + m - 1) * q_prev) / (n - m)
-            norm = math.sqrt((1.0 if m == 0 else 2.0) * math.factorial(n - m)
-                             / math.factorial(n + m))  # fmt: skip
+            norm = math.sqrt(
+                (1.0 if m == 0 else 2.0) * math.factorial(n - m) / math.factorial(n + m)
+            )
             out[acn(n, m)] = norm * q * xy_m.real
             if m > 0:
                 out[acn(n, -m)] = norm * q * xy_m.imag
@@ -275,8 +276,9 @@ def sh_gains(order: int, directions: NDArray[np.floating]) -> NDArray[np.float64
     return out
 
 
-def encode(signal: NDArray[np.floating], order: int,
-           directions: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+def encode(
+    signal: NDArray[np.floating], order: int, directions: NDArray[np.floating]
+) -> NDArray[np.float64]:
     """Encode a mono signal arriving from a direction as AmbiX (a plane wave).
 
     Parameters
@@ -412,8 +414,10 @@ def sphere_quadrature(
     zs, wz = np.polynomial.legendre.leggauss(n_el)
     az = 2 * np.pi * (np.arange(n_az) + 0.5) / n_az
     r = np.sqrt(1 - zs**2)
-    dirs = np.stack([np.outer(r, np.cos(az)), np.outer(r, np.sin(az)),
-                     np.repeat(zs[:, None], n_az, axis=1)], axis=-1).reshape(-1, 3)  # fmt: skip
+    dirs = np.stack(
+        [np.outer(r, np.cos(az)), np.outer(r, np.sin(az)), np.repeat(zs[:, None], n_az, axis=1)],
+        axis=-1,
+    ).reshape(-1, 3)
     w = np.repeat(wz * (2 * np.pi / n_az), n_az)
     return dirs, w
 
@@ -487,8 +491,13 @@ def _decoder_cached(
     return dec
 
 
-def decoder_matrix(order: int, layout: str | Layout, *, method: DecoderMethod = "allrad",
-                   weights: OrderWeights = "maxre") -> NDArray[np.float64]:  # fmt: skip
+def decoder_matrix(
+    order: int,
+    layout: str | Layout,
+    *,
+    method: DecoderMethod = "allrad",
+    weights: OrderWeights = "maxre",
+) -> NDArray[np.float64]:
     """Decoding matrix ``(layout.n_channels, (N+1)²)`` from AmbiX to a speaker layout.
 
     Parameters
@@ -529,9 +538,14 @@ def decoder_matrix(order: int, layout: str | Layout, *, method: DecoderMethod = 
     return _decoder_cached(check_order(order), get_layout(layout), method, weights)
 
 
-def decode_ambisonics(audio: NDArray[np.floating], order: int, layout: str | Layout, *,
-                      method: DecoderMethod = "allrad",
-                      weights: OrderWeights = "maxre") -> NDArray[np.float64]:  # fmt: skip
+def decode_ambisonics(
+    audio: NDArray[np.floating],
+    order: int,
+    layout: str | Layout,
+    *,
+    method: DecoderMethod = "allrad",
+    weights: OrderWeights = "maxre",
+) -> NDArray[np.float64]:
     """Decode an AmbiX signal to speaker feeds (:func:`decoder_matrix`).
 
     Parameters

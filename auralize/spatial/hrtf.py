@@ -217,8 +217,14 @@ class HRIRSet:
             return self
         fr = Fraction(rate, self.rate).limit_denominator(1000)
         ir = resample_poly(self.ir, fr.numerator, fr.denominator, axis=-1)
-        return HRIRSet(ir, self.directions, rate, self.weights, self.source,
-                       {**self.meta, "resampled_from_hz": self.rate})  # fmt: skip
+        return HRIRSet(
+            ir,
+            self.directions,
+            rate,
+            self.weights,
+            self.source,
+            {**self.meta, "resampled_from_hz": self.rate},
+        )
 
     def nearest(self, direction: NDArray[np.floating]) -> NDArray[np.float64]:
         """The measured pair nearest to a listener-frame direction.
@@ -267,8 +273,9 @@ def ear_directions(ear_azimuth_deg: float = EAR_AZIMUTH_DEG) -> NDArray[np.float
     return np.array([[math.cos(a), math.sin(a), 0.0], [math.cos(a), -math.sin(a), 0.0]])
 
 
-def woodworth_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS, *,
-                    c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def woodworth_delay(
+    theta: NDArray[np.floating], radius: float = HEAD_RADIUS, *, c0: float = C0
+) -> NDArray[np.float64]:
     """Arrival time at an ear relative to the head's centre, Brown & Duda Eq. 5.
 
     −(a/c) cos θ in front of the ear's tangent plane, (a/c)(θ − π/2) around
@@ -323,10 +330,15 @@ def head_shadow_alpha(theta: NDArray[np.floating]) -> NDArray[np.float64]:
     )
 
 
-def spherical_head_response(directions: NDArray[np.floating], freqs_hz: NDArray[np.floating], *,
-                            radius: float = HEAD_RADIUS, c0: float = C0,
-                            ear_azimuth_deg: float = EAR_AZIMUTH_DEG,
-                            bulk_delay_s: float = 0.0) -> NDArray[np.complex128]:  # fmt: skip
+def spherical_head_response(
+    directions: NDArray[np.floating],
+    freqs_hz: NDArray[np.floating],
+    *,
+    radius: float = HEAD_RADIUS,
+    c0: float = C0,
+    ear_azimuth_deg: float = EAR_AZIMUTH_DEG,
+    bulk_delay_s: float = 0.0,
+) -> NDArray[np.complex128]:
     """Model HRTFs of the spherical head: head shadow times the Woodworth delay.
 
     See the module docstring (Brown & Duda 1998, Eqs. 3–5).
@@ -369,10 +381,15 @@ def spherical_head_response(directions: NDArray[np.floating], freqs_hz: NDArray[
     return shadow * np.exp(-1j * w * delay)
 
 
-def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: int = 48000, *,
-                         radius: float = HEAD_RADIUS, c0: float = C0,
-                         ear_azimuth_deg: float = EAR_AZIMUTH_DEG,
-                         n_taps: int | None = None) -> HRIRSet:  # fmt: skip
+def spherical_head_hrirs(
+    directions: NDArray[np.floating] | None = None,
+    rate: int = 48000,
+    *,
+    radius: float = HEAD_RADIUS,
+    c0: float = C0,
+    ear_azimuth_deg: float = EAR_AZIMUTH_DEG,
+    n_taps: int | None = None,
+) -> HRIRSet:
     """HRIRs of the Brown & Duda spherical-head model.
 
     Parameters
@@ -427,15 +444,23 @@ def spherical_head_hrirs(directions: NDArray[np.floating] | None = None, rate: i
     bulk = radius / c0 + max(0.25e-3, 12 / rate)
     n_fft = 2 * n_taps
     f = np.fft.rfftfreq(n_fft, 1 / rate)
-    h = np.fft.irfft(spherical_head_response(directions, f, radius=radius, c0=c0,
-                                             ear_azimuth_deg=ear_azimuth_deg, bulk_delay_s=bulk),
-                     n_fft, axis=-1)[..., :n_taps]  # fmt: skip
+    h = np.fft.irfft(
+        spherical_head_response(
+            directions, f, radius=radius, c0=c0, ear_azimuth_deg=ear_azimuth_deg, bulk_delay_s=bulk
+        ),
+        n_fft,
+        axis=-1,
+    )[..., :n_taps]
     fade = max(n_taps // 8, 1)
     h[..., -fade:] *= 0.5 * (1 + np.cos(np.pi * np.arange(1, fade + 1) / fade))
-    return HRIRSet(h, np.asarray(directions, dtype=np.float64).reshape(-1, 3), int(rate), weights,
-                   "spherical-head model (Brown & Duda 1998)",
-                   {"radius_m": radius, "c0": c0, "ear_azimuth_deg": ear_azimuth_deg,
-                    "bulk_delay_s": bulk})  # fmt: skip
+    return HRIRSet(
+        h,
+        np.asarray(directions, dtype=np.float64).reshape(-1, 3),
+        int(rate),
+        weights,
+        "spherical-head model (Brown & Duda 1998)",
+        {"radius_m": radius, "c0": c0, "ear_azimuth_deg": ear_azimuth_deg, "bulk_delay_s": bulk},
+    )
 
 
 # ------------------------------------------------------------ SH-domain filters
@@ -470,15 +495,24 @@ def _fit_matrix(hrirs: HRIRSet, order: int, reg: float) -> NDArray[np.float64]:
     from auralize.spatial.ambisonics import sh_gains
 
     y = sh_gains(order, hrirs.directions).T  # (M, K)
-    w = hrirs.weights if hrirs.weights is not None else np.full(
-        hrirs.n_directions, 4 * np.pi / hrirs.n_directions)  # fmt: skip
+    w = (
+        hrirs.weights
+        if hrirs.weights is not None
+        else np.full(hrirs.n_directions, 4 * np.pi / hrirs.n_directions)
+    )
     a = y.T @ (w[:, None] * y)
     lam = reg * np.trace(a) / a.shape[0]
     return np.linalg.solve(a + lam * np.eye(a.shape[0]), y.T * w[None, :])
 
 
-def sh_hrtf_filters(hrirs: HRIRSet, order: int = 3, *, method: HrtfFit = "magls",
-                    f_cut_hz: float | None = None, reg: float = 1e-4) -> NDArray[np.float64]:  # fmt: skip
+def sh_hrtf_filters(
+    hrirs: HRIRSet,
+    order: int = 3,
+    *,
+    method: HrtfFit = "magls",
+    f_cut_hz: float | None = None,
+    reg: float = 1e-4,
+) -> NDArray[np.float64]:
     """Spherical-harmonic-domain binaural filters ``((N+1)², 2, N_taps)``.
 
     Parameters
@@ -617,8 +651,15 @@ class BinauralDecoder:
     (True, [0, 1, 3])
     """
 
-    def __init__(self, hrirs: HRIRSet | None = None, order: int = 3, *, rate: int | None = None,
-                 method: HrtfFit = "magls", block: int | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        hrirs: HRIRSet | None = None,
+        order: int = 3,
+        *,
+        rate: int | None = None,
+        method: HrtfFit = "magls",
+        block: int | None = None,
+    ) -> None:
         from auralize.spatial.ambisonics import check_order, n_channels
 
         self.order = check_order(order)
@@ -671,11 +712,15 @@ class BinauralDecoder:
         >>> BinauralDecoder(order=1, rate=8000).describe()["intermediate"]
         'ambix1'
         """
-        return {"hrtf": self.hrirs.source, "hrtf_rate_hz": self.rate,
-                "intermediate": f"ambix{self.order}",
-                "decoder": "SH-domain filters, magnitude least squares",
-                "filter_taps": int(self.filters.shape[2]),
-                "harmonics_rendered": self.channels.tolist(), "mirrored_ears": self.mirrored}  # fmt: skip
+        return {
+            "hrtf": self.hrirs.source,
+            "hrtf_rate_hz": self.rate,
+            "intermediate": f"ambix{self.order}",
+            "decoder": "SH-domain filters, magnitude least squares",
+            "filter_taps": int(self.filters.shape[2]),
+            "harmonics_rendered": self.channels.tolist(),
+            "mirrored_ears": self.mirrored,
+        }
 
     def _spectrum(self, n_fft: int) -> tuple[NDArray[np.complex64], ...]:
         """Filter spectra at ``n_fft`` (computed once per size): for mirrored
@@ -808,9 +853,14 @@ def default_hrirs(rate: int) -> HRIRSet:
     return spherical_head_hrirs(rate=int(rate))
 
 
-def binaural_from_ambisonics(audio: NDArray[np.floating], order: int,
-                             hrirs: HRIRSet | None = None, *, rate: int | None = None,
-                             method: HrtfFit = "magls") -> NDArray[np.float64]:  # fmt: skip
+def binaural_from_ambisonics(
+    audio: NDArray[np.floating],
+    order: int,
+    hrirs: HRIRSet | None = None,
+    *,
+    rate: int | None = None,
+    method: HrtfFit = "magls",
+) -> NDArray[np.float64]:
     """Ear signals of a whole AmbiX signal (:class:`BinauralDecoder`).
 
     Parameters
@@ -895,8 +945,9 @@ EAR_ORDER = 3
 EAR_MAGLS_HZ = 1500.0
 
 
-def ear_residual_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS, *,
-                       c0: float = C0) -> NDArray[np.float64]:  # fmt: skip
+def ear_residual_delay(
+    theta: NDArray[np.floating], radius: float = HEAD_RADIUS, *, c0: float = C0
+) -> NDArray[np.float64]:
     """Woodworth's delay minus the straight-line delay to a point on the ear.
 
     :func:`woodworth_delay` minus −(a/c) cos θ: 0 where the ear sees the
@@ -926,9 +977,14 @@ def ear_residual_delay(theta: NDArray[np.floating], radius: float = HEAD_RADIUS,
     return woodworth_delay(th, radius, c0=c0) + np.cos(th) * (radius / c0)
 
 
-def ear_response(theta: NDArray[np.floating], freqs_hz: NDArray[np.floating], *,
-                 radius: float = HEAD_RADIUS, c0: float = C0,
-                 bulk_delay_s: float = 0.0) -> NDArray[np.complex128]:  # fmt: skip
+def ear_response(
+    theta: NDArray[np.floating],
+    freqs_hz: NDArray[np.floating],
+    *,
+    radius: float = HEAD_RADIUS,
+    c0: float = C0,
+    bulk_delay_s: float = 0.0,
+) -> NDArray[np.complex128]:
     """What an ear adds to the sound arriving at its own position.
 
     The spherical-head model (Brown & Duda 1998, Eqs. 3–5) with the
@@ -967,8 +1023,9 @@ def ear_response(theta: NDArray[np.floating], freqs_hz: NDArray[np.floating], *,
 
 
 @functools.lru_cache(maxsize=8)
-def ear_filters(rate: int, order: int = EAR_ORDER, *, radius: float = HEAD_RADIUS,
-                c0: float = C0) -> tuple[NDArray[np.float64], float]:  # fmt: skip
+def ear_filters(
+    rate: int, order: int = EAR_ORDER, *, radius: float = HEAD_RADIUS, c0: float = C0
+) -> tuple[NDArray[np.float64], float]:
     """Zonal filters ``(order + 1, n_taps)`` of one ear, and their bulk delay (s).
 
     The ear's response depends on the angle θ between the source and the ear
@@ -1026,8 +1083,9 @@ def ear_filters(rate: int, order: int = EAR_ORDER, *, radius: float = HEAD_RADIU
     n_fft = 2 * n_taps
     theta = np.linspace(0.0, np.pi, 1441)
     P = legendre.legvander(np.cos(theta), order)  # (T, order + 1)
-    target = ear_response(theta, np.fft.rfftfreq(n_fft, 1 / rate), radius=radius, c0=c0,
-                          bulk_delay_s=bulk)  # fmt: skip
+    target = ear_response(
+        theta, np.fft.rfftfreq(n_fft, 1 / rate), radius=radius, c0=c0, bulk_delay_s=bulk
+    )
     pinv = np.linalg.pinv(P)  # (order + 1, T)
     F = pinv @ target  # (order + 1, F)
     # above EAR_MAGLS_HZ: magnitude least squares, the phase starting from the
@@ -1092,8 +1150,13 @@ def ear_layout(
     for name, (x, y, z) in zip("LR", ear_directions(ear_azimuth_deg), strict=True):
         axis = (float(x), float(y), float(z))
         ears.append(Receiver(name, tuple(radius * v for v in axis), (0.0, 0.0, 1.0), axis, zonal))  # type: ignore[arg-type]
-    return receivers_layout("binaural-ears", tuple(ears), ears_order=order, head_radius_m=radius,
-                            ear_azimuth_deg=ear_azimuth_deg)  # fmt: skip
+    return receivers_layout(
+        "binaural-ears",
+        tuple(ears),
+        ears_order=order,
+        head_radius_m=radius,
+        ear_azimuth_deg=ear_azimuth_deg,
+    )
 
 
 class EarDecoder(BinauralDecoder):
@@ -1152,11 +1215,15 @@ class EarDecoder(BinauralDecoder):
         >>> EarDecoder(8000).describe()["intermediate"]
         'zonal harmonics of order 3 per ear (8 channels)'
         """
-        return {"hrtf": "spherical-head model (Brown & Duda 1998)", "hrtf_rate_hz": self.rate,
-                "receivers": "two ears, each with its own retarded time, distance and Doppler",
-                "head_radius_m": HEAD_RADIUS, "ear_azimuth_deg": EAR_AZIMUTH_DEG,
-                "intermediate": f"zonal harmonics of order {self.order} per ear "
-                                f"({self.layout.n_channels} channels)",
-                "decoder": "zonal head-shadow and wrap-around-delay filters, least squares",
-                "filter_taps": int(self.filters.shape[2]),
-                "bulk_delay_s": self.bulk_delay_s}  # fmt: skip
+        return {
+            "hrtf": "spherical-head model (Brown & Duda 1998)",
+            "hrtf_rate_hz": self.rate,
+            "receivers": "two ears, each with its own retarded time, distance and Doppler",
+            "head_radius_m": HEAD_RADIUS,
+            "ear_azimuth_deg": EAR_AZIMUTH_DEG,
+            "intermediate": f"zonal harmonics of order {self.order} per ear "
+            f"({self.layout.n_channels} channels)",
+            "decoder": "zonal head-shadow and wrap-around-delay filters, least squares",
+            "filter_taps": int(self.filters.shape[2]),
+            "bulk_delay_s": self.bulk_delay_s,
+        }

@@ -213,8 +213,9 @@ class Layout:
         """
         a = np.asarray(audio, dtype=np.float64)
         if a.ndim != 2 or a.shape[0] != self.n_channels:
-            raise ParameterError(f"layout {self.name!r} has {self.n_channels} channels, audio "
-                                 f"has shape {a.shape}")  # fmt: skip
+            raise ParameterError(
+                f"layout {self.name!r} has {self.n_channels} channels, audio has shape {a.shape}"
+            )
         return downmix_matrix(self, dst) @ a
 
     @property
@@ -378,17 +379,26 @@ class Layout:
         ['L', 'R']
         """
         if self.meta.get("ambisonic"):
-            return {"name": self.name, "channel_mask": None, "meta": dict(self.meta),
-                    "channels": self.channel_names}  # fmt: skip
+            return {
+                "name": self.name,
+                "channel_mask": None,
+                "meta": dict(self.meta),
+                "channels": self.channel_names,
+            }
         out: dict[str, object] = {
             "name": self.name,
             "channel_mask": self.channel_mask,
             "speakers": [
-                {"name": s.name, "azimuth": s.azimuth_deg, "elevation": s.elevation_deg,
-                 "distance": s.distance_m, **({"lfe": True} if s.azimuth_deg is None else {})}
+                {
+                    "name": s.name,
+                    "azimuth": s.azimuth_deg,
+                    "elevation": s.elevation_deg,
+                    "distance": s.distance_m,
+                    **({"lfe": True} if s.azimuth_deg is None else {}),
+                }
                 for s in self.speakers
             ],
-        }  # fmt: skip
+        }
         if self.meta:
             out["meta"] = dict(self.meta)
         return out
@@ -416,7 +426,7 @@ BUILTIN_LAYOUTS: dict[str, Layout] = {
             _sp("BR", -110.0),
         ),
         channel_mask=0x3F,
-    ),  # fmt: skip
+    ),
     # WAVE order: FL FR FC LFE BL BR SL SR
     "7.1": Layout(
         "7.1",
@@ -431,7 +441,7 @@ BUILTIN_LAYOUTS: dict[str, Layout] = {
             _sp("SR", -90.0),
         ),
         channel_mask=0x63F,
-    ),  # fmt: skip
+    ),
 }
 
 
@@ -476,8 +486,13 @@ def ambix_layout(order: int, channels: NDArray[np.integer] | None = None) -> Lay
     n = check_order(order)
     if n < 1:
         raise ParameterError(f"an Ambisonic layout needs order ≥ 1, got {order!r}")
-    meta: dict[str, object] = {"ambisonic": True, "order": n, "normalisation": "SN3D",
-                               "channel_order": "ACN", "convention": "AmbiX"}  # fmt: skip
+    meta: dict[str, object] = {
+        "ambisonic": True,
+        "order": n,
+        "normalisation": "SN3D",
+        "channel_order": "ACN",
+        "convention": "AmbiX",
+    }
     acn = np.arange(n_channels(n))
     name = f"ambix{n}"
     if channels is not None:
@@ -534,8 +549,12 @@ def binaural_layout() -> Layout:
     >>> lay.channel_names, is_binaural(lay)
     (['L', 'R'], True)
     """
-    return Layout("binaural", (Speaker("L", 90.0), Speaker("R", -90.0)), channel_mask=0x3,
-                  meta={"binaural": True, "intermediate": f"ambix{BINAURAL_ORDER}"})  # fmt: skip
+    return Layout(
+        "binaural",
+        (Speaker("L", 90.0), Speaker("R", -90.0)),
+        channel_mask=0x3,
+        meta={"binaural": True, "intermediate": f"ambix{BINAURAL_ORDER}"},
+    )
 
 
 @dataclass(frozen=True)
@@ -601,8 +620,11 @@ def receivers_layout(name: str, receivers: tuple[Receiver, ...], **meta: object)
     >>> lay.n_channels, [r.name for r in receivers_of(lay)], lay.meta["head_radius_m"]
     (8, ['L', 'R'], 0.09)
     """
-    speakers = tuple(replace(sp, name=f"{r.name}.{sp.name}", azimuth_deg=None)
-                     for r in receivers for sp in r.layout.speakers)  # fmt: skip
+    speakers = tuple(
+        replace(sp, name=f"{r.name}.{sp.name}", azimuth_deg=None)
+        for r in receivers
+        for sp in r.layout.speakers
+    )
     return Layout(name, speakers, meta={"receivers": tuple(receivers), **meta})
 
 
@@ -666,10 +688,16 @@ def receiver_path(path: Any, receiver: Receiver) -> Any:
     if hit is not None and all(a is b for a, b in zip(hit[0], key, strict=True)):
         return hit[1]
     rot = np.stack([f, np.cross(u, f), u], axis=2)  # (N, 3, 3): world = rot @ local
-    off, fw, up = (np.asarray(v, dtype=np.float64) for v in (receiver.offset, receiver.forward,
-                                                               receiver.up))  # fmt: skip
-    out = ListenerPath(path.times, path.positions + rot @ off, rot @ fw, rot @ up,
-                       source=f"{path.source} ({receiver.name})")  # fmt: skip
+    off, fw, up = (
+        np.asarray(v, dtype=np.float64) for v in (receiver.offset, receiver.forward, receiver.up)
+    )
+    out = ListenerPath(
+        path.times,
+        path.positions + rot @ off,
+        rot @ fw,
+        rot @ up,
+        source=f"{path.source} ({receiver.name})",
+    )
     cache[receiver] = (key, out)
     return out
 
@@ -943,8 +971,9 @@ def _load_iem_layout(p: Path, data: dict[str, Any]) -> Layout:
             f"'Elevation', 'Radius', 'IsImaginary', 'Channel', 'Gain'}}, ...]}}"
         )
     if len(lay["Loudspeakers"]) > MAX_SPEAKERS:
-        raise FormatError(f"{p}: {len(lay['Loudspeakers'])} loudspeakers; a layout has at most "
-                          f"{MAX_SPEAKERS}")  # fmt: skip
+        raise FormatError(
+            f"{p}: {len(lay['Loudspeakers'])} loudspeakers; a layout has at most {MAX_SPEAKERS}"
+        )
     name = lay.get("Name") or data.get("Name") or p.stem
     check(name, _NAME, str(p), where="Name")
     real: dict[int, Speaker] = {}
@@ -994,8 +1023,13 @@ def _load_iem_layout(p: Path, data: dict[str, Any]) -> Layout:
     return dataclasses.replace(out, meta=meta)
 
 
-def make_layout(name: str, speakers: list[Speaker] | tuple[Speaker, ...], *,
-                channel_mask: int | None = None, source: str = "<layout>") -> Layout:  # fmt: skip
+def make_layout(
+    name: str,
+    speakers: list[Speaker] | tuple[Speaker, ...],
+    *,
+    channel_mask: int | None = None,
+    source: str = "<layout>",
+) -> Layout:
     """Validate and build a custom :class:`Layout`.
 
     Parameters
@@ -1041,8 +1075,9 @@ def make_layout(name: str, speakers: list[Speaker] | tuple[Speaker, ...], *,
             f"{source}: speakers {panned[i].name!r} and {panned[j].name!r} point the same way "
             f"(azimuth {panned[i].azimuth_deg}°, elevation {panned[i].elevation_deg}°)"
         )
-    return Layout(str(name), tuple(speakers), fold_front=len(panned) == 2,
-                  channel_mask=channel_mask)  # fmt: skip
+    return Layout(
+        str(name), tuple(speakers), fold_front=len(panned) == 2, channel_mask=channel_mask
+    )
 
 
 # ------------------------------------------------------------------ 2-D VBAP
@@ -1198,13 +1233,17 @@ def triangulate(layout: Layout) -> Triangulation:
         for v in lab:
             if v < 0:
                 neigh[-1 - v].update(int(x) for x in lab if x >= 0)
-    return Triangulation(np.array(inv), np.array(tri_ch, dtype=np.int64),
-                         tuple(tuple(sorted(s)) for s in neigh),
-                         np.array(imag).reshape(-1, 3))  # fmt: skip
+    return Triangulation(
+        np.array(inv),
+        np.array(tri_ch, dtype=np.int64),
+        tuple(tuple(sorted(s)) for s in neigh),
+        np.array(imag).reshape(-1, 3),
+    )
 
 
-def vbap3d_gains(layout: Layout, directions: NDArray[np.floating], *,
-                 triangulation: Triangulation | None = None) -> NDArray[np.float64]:  # fmt: skip
+def vbap3d_gains(
+    layout: Layout, directions: NDArray[np.floating], *, triangulation: Triangulation | None = None
+) -> NDArray[np.float64]:
     """3-D VBAP gains (Pulkki 1997) for directions in the listener frame.
 
     For each direction the triangle whose gains have the largest minimum is
@@ -1316,8 +1355,9 @@ def pan_gains(layout: Layout, directions: NDArray[np.floating]) -> NDArray[np.fl
     return vbap3d_gains(layout, d)
 
 
-def listener_frame_azimuth(direction: NDArray[np.floating], *, forward: NDArray[np.floating],
-                           up: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+def listener_frame_azimuth(
+    direction: NDArray[np.floating], *, forward: NDArray[np.floating], up: NDArray[np.floating]
+) -> NDArray[np.float64]:
     """Azimuth of world directions in a listener's frame.
 
     Parameters
@@ -1345,8 +1385,9 @@ def listener_frame_azimuth(direction: NDArray[np.floating], *, forward: NDArray[
     return np.arctan2(np.sum(d * left, axis=1), np.sum(d * f, axis=1))
 
 
-def listener_frame(direction: NDArray[np.floating], forward: NDArray[np.floating],
-                   up: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+def listener_frame(
+    direction: NDArray[np.floating], forward: NDArray[np.floating], up: NDArray[np.floating]
+) -> NDArray[np.float64]:
     """World directions expressed in the listener frame (forward, left, up).
 
     Parameters
@@ -1555,8 +1596,9 @@ class SpeakerAlignment:
         return out
 
 
-def align_speakers(audio: NDArray[np.floating], layout: Layout, rate: float, *,
-                   c0: float = C0_ALIGN) -> NDArray[np.float64]:  # fmt: skip
+def align_speakers(
+    audio: NDArray[np.floating], layout: Layout, rate: float, *, c0: float = C0_ALIGN
+) -> NDArray[np.float64]:
     """Apply :class:`SpeakerAlignment` to a whole signal.
 
     Parameters
@@ -1737,8 +1779,9 @@ class OutputStage:
         """
         return 0 if self.decoder is None else int(self.decoder.filters.shape[2]) - 1
 
-    def process_at(self, start: int, n: int,
-                   render: Callable[[int, int], NDArray[np.float64]]) -> NDArray[np.float64]:  # fmt: skip
+    def process_at(
+        self, start: int, n: int, render: Callable[[int, int], NDArray[np.float64]]
+    ) -> NDArray[np.float64]:
         """Output samples ``[start, start + n)`` of a stream rendered on demand.
 
         ``render(s, m)`` gives the :attr:`synthesis_layout` samples ``[s, s + m)``.
@@ -1913,8 +1956,11 @@ def flac_mask_warning(layout: Layout | str) -> str | None:
     lay = get_layout(layout)
     if lay.channel_mask is not None and lay.n_channels <= 8:
         return None
-    what = (f"AmbiX order {lay.meta.get('order')} (ACN/SN3D)" if is_ambisonic(lay)
-            else f"a non-standard {lay.n_channels}-channel layout")  # fmt: skip
+    what = (
+        f"AmbiX order {lay.meta.get('order')} (ACN/SN3D)"
+        if is_ambisonic(lay)
+        else f"a non-standard {lay.n_channels}-channel layout"
+    )
     guess = {6: "5.1", 8: "7.1"}.get(lay.n_channels)
     return (
         f"layout {lay.name!r} is {what}: FLAC cannot record its channel positions, so "

@@ -58,8 +58,9 @@ def _var(h: Any, path: Path, name: str, *, required: bool = True) -> NDArray[np.
     return a
 
 
-def _to_cartesian(pos: NDArray[np.float64], kind: str, units: str, path: Path,
-                  name: str) -> NDArray[np.float64]:  # fmt: skip
+def _to_cartesian(
+    pos: NDArray[np.float64], kind: str, units: str, path: Path, name: str
+) -> NDArray[np.float64]:
     if kind == "cartesian":
         return pos
     if kind != "spherical":
@@ -165,12 +166,14 @@ def read_sofa(path: str | Path) -> HRIRSet:
             raise FormatError(
                 f"{p}: SourcePosition must be (M={m}, C=3) or (1, 3), got shape {pos.shape}"
             )
-        pos = _to_cartesian(np.broadcast_to(pos, (m, 3)).copy(), *_attrs(h["SourcePosition"]), p,
-                            "SourcePosition")  # fmt: skip
+        pos = _to_cartesian(
+            np.broadcast_to(pos, (m, 3)).copy(), *_attrs(h["SourcePosition"]), p, "SourcePosition"
+        )
         lpos = _var(h, p, "ListenerPosition", required=False)
         if lpos is not None and lpos.size >= 3:
-            lp = _to_cartesian(lpos.reshape(-1, 3), *_attrs(h["ListenerPosition"]), p,
-                               "ListenerPosition")  # fmt: skip
+            lp = _to_cartesian(
+                lpos.reshape(-1, 3), *_attrs(h["ListenerPosition"]), p, "ListenerPosition"
+            )
             if lp.shape[0] in (1, m):
                 pos = pos - lp
         view = _var(h, p, "ListenerView", required=False)
@@ -181,8 +184,11 @@ def read_sofa(path: str | Path) -> HRIRSet:
             f = _to_cartesian(
                 view.reshape(-1, 3)[:1], *_attrs(h["ListenerView"]), p, "ListenerView"
             )
-            u = (np.array([[0.0, 0.0, 1.0]]) if up is None or up.size < 3 else
-                 _to_cartesian(up.reshape(-1, 3)[:1], *_attrs(h["ListenerUp"]), p, "ListenerUp"))  # fmt: skip
+            u = (
+                np.array([[0.0, 0.0, 1.0]])
+                if up is None or up.size < 3
+                else _to_cartesian(up.reshape(-1, 3)[:1], *_attrs(h["ListenerUp"]), p, "ListenerUp")
+            )
             f = f / np.linalg.norm(f)
             u = u - np.sum(u * f) * f
             if not np.linalg.norm(u) > 1e-9:
@@ -213,8 +219,9 @@ def _apply_delay(ir: NDArray[np.float64], delay: NDArray[np.float64]) -> NDArray
     return np.fft.irfft(spec, n_fft, axis=-1)[..., :n]
 
 
-def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs",
-               license_: str = "CC0-1.0") -> Path:  # fmt: skip
+def write_sofa(
+    path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs", license_: str = "CC0-1.0"
+) -> Path:
     """Write an :class:`~auralize.spatial.hrtf.HRIRSet` as AES69 SimpleFreeFieldHRIR.
 
     netCDF-4 dimensions (M, R, N, I, C, E) are HDF5 dimension scales, so
@@ -263,20 +270,30 @@ def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs
     nbytes = 8.0 * hrirs.ir.size + 24.0 * m + 65536.0  # responses, directions, overhead
     what = f"{m} HRIR pairs of {n} samples"
     with atomic_hdf5(p, suffix=".sofa.part", nbytes=nbytes, what=what) as h:
-        for k, v in {"Conventions": "SOFA", "Version": "2.1",
-                     "SOFAConventions": "SimpleFreeFieldHRIR", "SOFAConventionsVersion": "1.0",
-                     "DataType": "FIR", "RoomType": "free field", "Title": title,
-                     "License": license_, "APIName": "auralize", "APIVersion": "1",
-                     "AuthorContact": "", "Organization": "", "DateCreated": "",
-                     "DateModified": "", "ListenerShortName": hrirs.source}.items():  # fmt: skip
+        for k, v in {
+            "Conventions": "SOFA",
+            "Version": "2.1",
+            "SOFAConventions": "SimpleFreeFieldHRIR",
+            "SOFAConventionsVersion": "1.0",
+            "DataType": "FIR",
+            "RoomType": "free field",
+            "Title": title,
+            "License": license_,
+            "APIName": "auralize",
+            "APIVersion": "1",
+            "AuthorContact": "",
+            "Organization": "",
+            "DateCreated": "",
+            "DateModified": "",
+            "ListenerShortName": hrirs.source,
+        }.items():
             h.attrs[k] = v
         dims = {"M": m, "R": 2, "N": n, "I": 1, "C": 3, "E": 1}
         for name, size in dims.items():  # netCDF-4 dimensions without coordinate variables
             ds = h.create_dataset(name, data=np.zeros(size, dtype="f4"))
             ds.make_scale(f"This is a netCDF dimension but not a netCDF variable.{size:10d}")
 
-        def var(name: str, data: NDArray[np.float64], dim: tuple[str, ...],
-                **attrs: str) -> None:  # fmt: skip
+        def var(name: str, data: NDArray[np.float64], dim: tuple[str, ...], **attrs: str) -> None:
             ds = h.create_dataset(name, data=data)
             for i, dn in enumerate(dim):
                 ds.dims[i].attach_scale(h[dn])
@@ -284,16 +301,27 @@ def write_sofa(path: str | Path, hrirs: HRIRSet, *, title: str = "auralize HRIRs
                 ds.attrs[k] = v
 
         var("ListenerPosition", np.zeros((1, 3)), ("I", "C"), Type="cartesian", Units="metre")
-        var("ListenerView", np.array([[1.0, 0.0, 0.0]]), ("I", "C"), Type="cartesian",
-            Units="metre")  # fmt: skip
-        var("ListenerUp", np.array([[0.0, 0.0, 1.0]]), ("I", "C"), Type="cartesian",
-            Units="metre")  # fmt: skip
-        var("ReceiverPosition", np.array([[[0.0], [0.0875], [0.0]], [[0.0], [-0.0875], [0.0]]]),
-            ("R", "C", "I"), Type="cartesian", Units="metre")  # fmt: skip
-        var("SourcePosition", np.stack([az, el, np.ones(m)], 1), ("M", "C"), Type="spherical",
-            Units="degree, degree, metre")  # fmt: skip
-        var("EmitterPosition", np.zeros((1, 3, 1)), ("E", "C", "I"), Type="cartesian",
-            Units="metre")  # fmt: skip
+        var(
+            "ListenerView", np.array([[1.0, 0.0, 0.0]]), ("I", "C"), Type="cartesian", Units="metre"
+        )
+        var("ListenerUp", np.array([[0.0, 0.0, 1.0]]), ("I", "C"), Type="cartesian", Units="metre")
+        var(
+            "ReceiverPosition",
+            np.array([[[0.0], [0.0875], [0.0]], [[0.0], [-0.0875], [0.0]]]),
+            ("R", "C", "I"),
+            Type="cartesian",
+            Units="metre",
+        )
+        var(
+            "SourcePosition",
+            np.stack([az, el, np.ones(m)], 1),
+            ("M", "C"),
+            Type="spherical",
+            Units="degree, degree, metre",
+        )
+        var(
+            "EmitterPosition", np.zeros((1, 3, 1)), ("E", "C", "I"), Type="cartesian", Units="metre"
+        )
         var("Data.IR", hrirs.ir, ("M", "R", "N"))
         stop_if_failed(h)
         var("Data.SamplingRate", np.array([float(hrirs.rate)]), ("I",), Units="hertz")

@@ -12,8 +12,23 @@ thread with a progress bar and a Cancel button.  Errors show a message box; the 
 
 Menus: **File** (Open…, Open built-in dataset, Save session, Save session
 as…, Open session…, Save Screenshot…, Quit), **View** (Reset Camera, the six
-standard views, show / hide each panel and toolbar) and **Help** (Keys, Documentation,
-About).  Opening shows the data at once (volume, slices or contour, the
+standard views, show / hide each panel and toolbar, Go to: the keyboard focus to
+the 3-D view or a panel), **Sources** (Detect, Describe in words, Save
+description…), **Listener** (Record, Stop, Clear, save / load the path),
+**Audio** (Render to file…, Play, Stop, Listen live, Stop live, Save heard…),
+**Time** (first, previous, play / pause, next, last frame) and **Help** (Keys,
+Documentation, About): every button of the panels and toolbars is also a menu
+entry, most with a key.
+
+**Describe** (:mod:`auralize.viewer.describe_panel`, under the 3-D view): the sources in words
+(:mod:`auralize.describe`): what the listener hears when, step by step, in a
+read-only text box, and a line about the step on screen that follows the time
+slider.
+
+Keyboard and screen readers (:mod:`auralize.viewer.access`): Tab visits the
+3-D view, then the panels (left column, the Describe panel, the right column,
+each top down; status texts too), then the toolbars; every control has an accessible name (what a screen
+reader says) and a description (its tooltip).  Opening shows the data at once (volume, slices or contour, the
 data's outline and a colour bar) with the camera framing it; a listener path
 recorded for the previous data is discarded unless the user keeps it (a
 question, Discard by default; ``open_data(keep_path=...)`` or
@@ -31,7 +46,10 @@ Up/W forward, Down/S back, Left/A and Right/D turn, PageUp/R rise, PageDown/F
 sink; camera — C Reset Camera, X / Y / Z look along +X / +Y / +Z, Shift+X / Y / Z
 along −X / −Y / −Z; time — Home first, ``,`` previous, ``.`` next, End last
 frame.  Menus: Ctrl+O open, Ctrl+S save session, Ctrl+Shift+S save screenshot,
-Ctrl+Q quit, F1 keys.  The camera position is in the status bar.
+Ctrl+Q quit, F1 keys; Ctrl+D detect, Ctrl+Shift+D describe, Ctrl+R / Ctrl+Shift+R
+record / stop, Ctrl+E render to file, Ctrl+P / Ctrl+Shift+P play / stop, Ctrl+L /
+Ctrl+Shift+L live listening on / off, P play / pause the time steps, Alt+0 the
+3-D view, Alt+1 … Alt+7 the panels.  The camera position is in the status bar.
 """
 
 from __future__ import annotations
@@ -62,6 +80,8 @@ from auralize.scene.session import SessionState, data_spec, reader_options
 from auralize.scene.soundscene import input_key
 from auralize.scene.view import PENDING, REPRESENTATIONS, TYPE_COLORS, Scene, camera_pose
 from auralize.sources.detection import TYPES, Thresholds
+from auralize.viewer.access import name_widgets, set_focus_chain
+from auralize.viewer.describe_panel import DescribePanel
 
 #: the Audio panel's entry that asks for a custom layout JSON file
 CUSTOM_LAYOUT = "custom layout file…"
@@ -105,12 +125,12 @@ KEYS: tuple[KeyBinding, ...] = (
     KeyBinding("Fly (the camera is the listener)", ("Up", "W"), "fly", "forward", (1, 0, 0)),
     KeyBinding("Fly (the camera is the listener)", ("Down", "S"), "fly", "back", (-1, 0, 0)),
     KeyBinding("Fly (the camera is the listener)", ("Left", "A"), "fly", "turn left", (0, 1, 0)),
-    KeyBinding("Fly (the camera is the listener)", ("Right", "D"), "fly", "turn right",
-               (0, -1, 0)),
+    KeyBinding("Fly (the camera is the listener)", ("Right", "D"), "fly", "turn right", (0, -1, 0)),
     KeyBinding("Fly (the camera is the listener)", ("PgUp", "R"), "fly", "rise", (0, 0, 1)),
     KeyBinding("Fly (the camera is the listener)", ("PgDown", "F"), "fly", "sink", (0, 0, -1)),
-    KeyBinding("Camera", ("C",), "reset_camera",
-               "Reset Camera: frame the data, keeping the view direction"),
+    KeyBinding(
+        "Camera", ("C",), "reset_camera", "Reset Camera: frame the data, keeping the view direction"
+    ),
     KeyBinding("Camera", ("X",), "look", "view direction +X (look along +X)", ("+X",)),
     KeyBinding("Camera", ("Shift+X",), "look", "view direction −X", ("-X",)),
     KeyBinding("Camera", ("Y",), "look", "view direction +Y", ("+Y",)),
@@ -123,19 +143,59 @@ KEYS: tuple[KeyBinding, ...] = (
     KeyBinding("Time", ("End",), "last_step", "last frame"),
     KeyBinding("Menus", ("Ctrl+O",), "_ask_open", "File ▸ Open…", view=False),
     KeyBinding("Menus", ("Ctrl+S",), "save_session_current", "File ▸ Save session", view=False),
-    KeyBinding("Menus", ("Ctrl+Shift+S",), "save_screenshot", "File ▸ Save Screenshot…",
-               view=False),
+    KeyBinding(
+        "Menus", ("Ctrl+Shift+S",), "save_screenshot", "File ▸ Save Screenshot…", view=False
+    ),
     KeyBinding("Menus", ("Ctrl+Q",), "close", "File ▸ Quit", view=False),
     KeyBinding("Menus", ("F1",), "show_keys", "Help ▸ Keys (this list)", view=False),
-)  # fmt: skip
+    KeyBinding("Time", ("P",), "toggle_playing", "play / pause the time steps"),
+    KeyBinding("Sources", ("Ctrl+D",), "detect", "Sources ▸ Detect", view=False),
+    KeyBinding("Sources", ("Ctrl+Shift+D",), "describe", "Sources ▸ Describe in words", view=False),
+    KeyBinding("Listener", ("Ctrl+R",), "start_recording", "Listener ▸ Record", view=False),
+    KeyBinding(
+        "Listener", ("Ctrl+Shift+R",), "stop_recording", "Listener ▸ Stop recording", view=False
+    ),
+    KeyBinding("Audio", ("Ctrl+E",), "_ask_render", "Audio ▸ Render to file…", view=False),
+    KeyBinding("Audio", ("Ctrl+P",), "play_audio", "Audio ▸ Play the last render", view=False),
+    KeyBinding("Audio", ("Ctrl+Shift+P",), "stop_audio", "Audio ▸ Stop playing", view=False),
+    KeyBinding("Audio", ("Ctrl+L",), "listen_live", "Audio ▸ Listen live", view=False),
+    KeyBinding("Audio", ("Ctrl+Shift+L",), "stop_live", "Audio ▸ Stop live listening", view=False),
+    KeyBinding(
+        "Go to (keyboard focus)", ("Alt+0",), "focus_view", "View ▸ Go to ▸ 3-D view", view=False
+    ),
+    *(
+        KeyBinding(
+            "Go to (keyboard focus)",
+            (f"Alt+{i}",),
+            "focus_panel",
+            f"View ▸ Go to ▸ {title} panel",
+            (title,),
+            view=False,
+        )
+        for i, title in enumerate(
+            ("Data", "Sources", "Listener", "Describe", "Audio", "Live listening", "Overlays"),
+            start=1,
+        )
+    ),
+)
+#: the panels in the order Tab visits them (the left column, the one under the 3-D view,
+#: the right column; each top down)
+PANEL_ORDER = ("Data", "Sources", "Listener", "Describe", "Audio", "Live listening", "Overlays")
 #: the six standard views (ParaView's camera toolbar): name -> (view direction, view up)
 STANDARD_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
-    "+X": ((1, 0, 0), (0, 0, 1)), "-X": ((-1, 0, 0), (0, 0, 1)),
-    "+Y": ((0, 1, 0), (0, 0, 1)), "-Y": ((0, -1, 0), (0, 0, 1)),
-    "+Z": ((0, 0, 1), (0, 1, 0)), "-Z": ((0, 0, -1), (0, 1, 0)),
-}  # fmt: skip
-_MODS = (QtCore.Qt.KeyboardModifier.ShiftModifier | QtCore.Qt.KeyboardModifier.ControlModifier
-         | QtCore.Qt.KeyboardModifier.AltModifier | QtCore.Qt.KeyboardModifier.MetaModifier)  # fmt: skip
+    "+X": ((1, 0, 0), (0, 0, 1)),
+    "-X": ((-1, 0, 0), (0, 0, 1)),
+    "+Y": ((0, 1, 0), (0, 0, 1)),
+    "-Y": ((0, -1, 0), (0, 0, 1)),
+    "+Z": ((0, 0, 1), (0, 1, 0)),
+    "-Z": ((0, 0, -1), (0, 1, 0)),
+}
+_MODS = (
+    QtCore.Qt.KeyboardModifier.ShiftModifier
+    | QtCore.Qt.KeyboardModifier.ControlModifier
+    | QtCore.Qt.KeyboardModifier.AltModifier
+    | QtCore.Qt.KeyboardModifier.MetaModifier
+)
 
 
 def binding(action: str, *args: Any) -> KeyBinding:
@@ -148,8 +208,9 @@ def binding(action: str, *args: Any) -> KeyBinding:
 
 def key_text(b: KeyBinding) -> str:
     """The keys of a binding as the menus show them (``"Up / W"``)."""
-    return " / ".join(QtGui.QKeySequence(k).toString(QtGui.QKeySequence.SequenceFormat.NativeText)
-                      for k in b.keys)  # fmt: skip
+    return " / ".join(
+        QtGui.QKeySequence(k).toString(QtGui.QKeySequence.SequenceFormat.NativeText) for k in b.keys
+    )
 
 
 def keys_html() -> str:
@@ -160,13 +221,18 @@ def keys_html() -> str:
             group = b.group
             rows.append(f"<tr><th colspan=2 align=left><br>{group}</th></tr>")
         rows.append(f"<tr><td><b>{key_text(b)}</b></td><td>{b.what}</td></tr>")
-    return ("<p>View keys work whenever no text or number box is being edited "
-            "(click the 3-D view first).</p><table cellspacing=4>" + "".join(rows) + "</table>")  # fmt: skip
+    return (
+        "<p>View keys work whenever no text or number box is being edited "
+        "(click the 3-D view first).</p><table cellspacing=4>" + "".join(rows) + "</table>"
+    )
 
 
 def _combo(key: int, mods: Any) -> int:
-    return int(QtCore.QKeyCombination(QtCore.Qt.KeyboardModifier(mods & _MODS),
-                                      QtCore.Qt.Key(key)).toCombined())  # fmt: skip
+    return int(
+        QtCore.QKeyCombination(
+            QtCore.Qt.KeyboardModifier(mods & _MODS), QtCore.Qt.Key(key)
+        ).toCombined()
+    )
 
 
 #: view keys: key combination -> binding
@@ -231,8 +297,13 @@ FlyKeys = ViewKeys
 
 def _edits_text(w: QtWidgets.QWidget) -> bool:
     """Whether ``w`` takes typed keys itself (line edits, spin boxes, editable combos)."""
-    if isinstance(w, QtWidgets.QLineEdit | QtWidgets.QAbstractSpinBox | QtWidgets.QTextEdit
-                  | QtWidgets.QPlainTextEdit):  # fmt: skip
+    if isinstance(
+        w,
+        QtWidgets.QLineEdit
+        | QtWidgets.QAbstractSpinBox
+        | QtWidgets.QTextEdit
+        | QtWidgets.QPlainTextEdit,
+    ):
         return True
     return isinstance(w, QtWidgets.QComboBox) and w.isEditable()
 
@@ -251,8 +322,12 @@ class Task(QtCore.QThread):
     succeeded = QtCore.Signal(object)
     failed = QtCore.Signal(object)
 
-    def __init__(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
-                 parent: QtCore.QObject | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        name: str,
+        fn: Callable[[Callable[[int, int], bool]], Any],
+        parent: QtCore.QObject | None = None,
+    ) -> None:
         super().__init__(parent)
         self.name, self.fn = name, fn
         self._cancel = False
@@ -273,10 +348,44 @@ class Task(QtCore.QThread):
             self.failed.emit(exc)
 
 
+def _readable(label: QtWidgets.QLabel, name: str) -> None:
+    """Let the keyboard reach a status text (Tab stops on it, a screen reader reads it)."""
+    label.setTextInteractionFlags(
+        QtCore.Qt.TextInteractionFlag.TextSelectableByKeyboard
+        | QtCore.Qt.TextInteractionFlag.TextSelectableByMouse
+    )
+    label.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+    label.setAccessibleName(name)
+    if not label.toolTip():
+        label.setToolTip(name)
+
+
 def _form(parent: QtWidgets.QWidget) -> QtWidgets.QFormLayout:
     lay = QtWidgets.QFormLayout(parent)
     lay.setFieldGrowthPolicy(QtWidgets.QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
     return lay
+
+
+def _sound_wave_hint(vol: Any) -> str | None:
+    """The advice for data that hold sound waves (the render's ``auto`` would hear them
+    through the FW-H integral, :func:`auralize.fwh.classify.choose_method`), else None.
+
+    The viewer hears the field's sources; such data are mis-heard that way, so the
+    Overlays panel and the status bar say how to hear them as ``auralize render``
+    does.  Data the test cannot judge give None.
+    """
+    from auralize.fwh.classify import choose_method
+
+    try:
+        how = choose_method(vol, "auto")
+    except AuralizeError:
+        return None
+    if how.name != "fwh":
+        return None
+    return (
+        f"{how.why}: summed as sources they are mis-heard. Tick fwh in Overlays to hear "
+        f"them through the FW-H surface ({how.surface}), as auralize render does"
+    )
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -290,6 +399,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.resize(1400, 900)
         self.plotter = QtInteractor(self)
         self.setCentralWidget(self.plotter.interactor)
+        # the side columns run the window's height; a bottom panel sits under the view only
+        for corner, area in (
+            (QtCore.Qt.Corner.BottomLeftCorner, QtCore.Qt.DockWidgetArea.LeftDockWidgetArea),
+            (QtCore.Qt.Corner.BottomRightCorner, QtCore.Qt.DockWidgetArea.RightDockWidgetArea),
+        ):
+            self.setCorner(corner, area)
         self.scene = Scene(self.plotter)
         self.volume: Any = None
         self.data: dict[str, Any] = {}
@@ -301,6 +416,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.head_tracking_port: int | None = None
         self._head: Any = None
         self.load_notes: list[str] = []
+        #: what to do when the data on screen hold sound waves (:func:`_sound_wave_hint`)
+        self.sound_wave_hint: str | None = None
         self.thresholds = Thresholds(*DEFAULTS.thresholds)
         self.autosave_dir = autosave_dir or default_autosave_dir()
         self.recorder = PathRecorder(rate_hz=DEFAULT_RATE_HZ)
@@ -334,8 +451,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self._threads: set[Task] = set()
         # the command line's plan (auralize.defaults), but stereo on the desktop's device
         self.audio: dict[str, Any] = {
-            "layout": "stereo", "rate": DEFAULTS.rate, "time_scale": DEFAULTS.time_scale,
-            "timbre": DEFAULTS.timbre, "device": None, "heard": DEFAULTS.heard}  # fmt: skip
+            "layout": "stereo",
+            "rate": DEFAULTS.rate,
+            "time_scale": DEFAULTS.time_scale,
+            "timbre": DEFAULTS.timbre,
+            "device": None,
+            "heard": DEFAULTS.heard,
+        }
         self._plan_cache: tuple[Any, Any] | None = None
         self._heard: Any = None
         self._rec_timer = QtCore.QTimer(self)
@@ -350,8 +472,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_toolbar()
         self._build_panels()
         self._build_view_menu()
+        self._build_task_menus()
         self._build_status()
         self._qt_button_tips()
+        self._build_access()
         self.fly_keys = ViewKeys(self)
         app = QtWidgets.QApplication.instance()
         if app is not None:
@@ -384,8 +508,9 @@ class MainWindow(QtWidgets.QMainWindow):
         timer.timeout.connect(auto_render)
 
     # ============================================================ building
-    def _act(self, text: str, action: str, *args: Any, tip: str = "",
-             icon: Any = None) -> QtGui.QAction:  # fmt: skip
+    def _act(
+        self, text: str, action: str, *args: Any, tip: str = "", icon: Any = None
+    ) -> QtGui.QAction:
         """A menu / toolbar action calling ``self.<action>(*args)``; its shortcut (and
         the key in its tooltip) comes from :data:`KEYS`."""
         a = QtGui.QAction(text, self)
@@ -421,8 +546,13 @@ class MainWindow(QtWidgets.QMainWindow):
                 )
             )
         m.addSeparator()
-        m.addAction(self._act("&Save session", "save_session_current",
-                              tip="Save the session (to its file, or ask for one)"))  # fmt: skip
+        m.addAction(
+            self._act(
+                "&Save session",
+                "save_session_current",
+                tip="Save the session (to its file, or ask for one)",
+            )
+        )
         act = m.addAction("Save session &as…")
         act.triggered.connect(self._ask_save_session)
         act = m.addAction("Open &session…")
@@ -431,8 +561,10 @@ class MainWindow(QtWidgets.QMainWindow):
         )
         m.addSeparator()
         self.screenshot_action = self._act(
-            "Save Screens&hot…", "save_screenshot",
-            tip="Save the 3-D view as a PNG image (asks for a file name)")  # fmt: skip
+            "Save Screens&hot…",
+            "save_screenshot",
+            tip="Save the 3-D view as a PNG image (asks for a file name)",
+        )
         m.addAction(self.screenshot_action)
         m.addSeparator()
         m.addAction(self._act("&Quit", "close", tip="Close the window"))
@@ -444,8 +576,13 @@ class MainWindow(QtWidgets.QMainWindow):
         h = self.help_menu = self.menuBar().addMenu("&Help")
         h.setToolTipsVisible(True)
         h.addAction(self._act("&Keys…", "show_keys", tip="Every key binding"))
-        h.addAction(self._act("&Documentation", "open_docs",
-                              tip="Open the README (the docs/ folder has the design notes)"))  # fmt: skip
+        h.addAction(
+            self._act(
+                "&Documentation",
+                "open_docs",
+                tip="Open the README (the docs/ folder has the design notes)",
+            )
+        )
         h.addAction(self._act("&About auralize", "show_about", tip="Version and links"))
 
     def _build_view_menu(self) -> None:
@@ -468,6 +605,161 @@ class MainWindow(QtWidgets.QMainWindow):
             a.setToolTip(f"Show or hide the {tb.windowTitle()} toolbar")
             v.addAction(a)
 
+    def _build_task_menus(self) -> None:
+        """Sources, Listener, Audio and Time menus (every panel's action, with its keys
+        from :data:`KEYS`) and View ▸ Go to (the keyboard focus to a panel or the view)."""
+        bar = self.menuBar()
+        before = self.help_menu.menuAction()
+
+        def menu(title: str, entries: list[Any]) -> QtWidgets.QMenu:
+            m = QtWidgets.QMenu(title, self)
+            m.setToolTipsVisible(True)
+            for e in entries:
+                if e is None:
+                    m.addSeparator()
+                else:
+                    m.addAction(e)
+            bar.insertMenu(before, m)
+            return m
+
+        act = self._act
+        self.sources_menu = menu(
+            "&Sources",
+            [
+                act("&Detect", "detect", tip="Detect the sources at every time step"),
+                act(
+                    "Describe in &words",
+                    "describe",
+                    tip="Put the sources into words (the Describe panel)",
+                ),
+                act(
+                    "&Save description…",
+                    "_ask_save_description",
+                    tip="Save the description as text, CSV or JSON",
+                ),
+            ],
+        )
+        self.listener_menu = menu(
+            "&Listener",
+            [
+                act("&Record", "start_recording", tip="Record the camera as the listener path"),
+                act("&Stop recording", "stop_recording"),
+                act("&Clear path", "clear_path", tip="Forget the listener path"),
+                None,
+                act("Save path &CSV…", "_ask_save_path", tip="Save the listener path as CSV"),
+                act("&Load path CSV…", "_ask_load_path", tip="Load a listener path from CSV"),
+            ],
+        )
+        self.audio_menu = menu(
+            "&Audio",
+            [
+                act(
+                    "&Render to file…",
+                    "_ask_render",
+                    tip="Render the sound heard along the listener path to a file",
+                ),
+                act("&Play the last render", "play_audio"),
+                act("S&top playing", "stop_audio"),
+                None,
+                act("Listen &live", "listen_live", tip="Hear the data live: the camera listens"),
+                act("Stop live &listening", "stop_live"),
+                act(
+                    "Save &heard…",
+                    "_ask_save_heard",
+                    tip="Save what live listening played (path CSV and WAV)",
+                ),
+            ],
+        )
+        play = act("&Play / pause", "toggle_playing", tip="Step through time at the time scale")
+        self.time_menu = menu(
+            "&Time",
+            [
+                self.time_actions["first_step"],
+                self.time_actions["previous_step"],
+                play,
+                self.time_actions["next_step"],
+                self.time_actions["last_step"],
+            ],
+        )
+        go = self.view_menu.addMenu("&Go to")
+        go.setToolTipsVisible(True)
+        go.addAction(act("&3-D view", "focus_view", tip="Keyboard focus to the 3-D view"))
+        for title in PANEL_ORDER:
+            go.addAction(
+                act(
+                    f"{title} panel",
+                    "focus_panel",
+                    title,
+                    tip=f"Keyboard focus to the {title} panel",
+                )
+            )
+        self.go_menu = go
+
+    def _build_access(self) -> None:
+        """Accessible names on every control and the Tab order: the 3-D view, the
+        panels of :data:`PANEL_ORDER` (each top down), the toolbars, the Cancel button
+        (:mod:`auralize.viewer.access`)."""
+        view = self.plotter.interactor
+        view.setAccessibleName("3-D view (the camera is the listener)")
+        view.setAccessibleDescription(KEY_MAP_TEXT)
+        view.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+        for name, a in self.view_actions.items():
+            w = self.camera_toolbar.widgetForAction(a)
+            if w is not None:
+                w.setAccessibleName(f"View direction {name.replace('-', '−')}")
+        from auralize.viewer.access import actionable
+
+        chain: list[QtWidgets.QWidget] = [view]
+        for title in PANEL_ORDER:
+            chain += actionable(self.docks[title].widget())
+        for tb in (self.camera_toolbar, self.time_toolbar):
+            chain += actionable(tb)
+        chain.append(self.cancel_btn)
+        set_focus_chain(chain)
+        name_widgets(self)
+
+    def focus_view(self) -> None:
+        """View ▸ Go to ▸ 3-D view: the keyboard to the view (its keys fly, look and step)."""
+        self.plotter.interactor.setFocus(QtCore.Qt.FocusReason.ShortcutFocusReason)
+
+    def focus_panel(self, title: str) -> QtWidgets.QWidget | None:
+        """View ▸ Go to ▸ a panel: show it and give the keyboard to its first control."""
+        from auralize.viewer.access import actionable, takes_focus
+
+        if title not in self.docks:
+            raise ParameterError(f"no panel {title!r}; the panels are {', '.join(self.docks)}")
+        dock = self.docks[title]
+        dock.show()
+        dock.raise_()
+        for w in actionable(dock.widget()):
+            if takes_focus(w) and w.isEnabled() and w.isVisible():
+                w.setFocus(QtCore.Qt.FocusReason.ShortcutFocusReason)
+                return w
+        return None
+
+    def toggle_playing(self) -> None:
+        """Time ▸ Play / pause (the toolbar's Play button)."""
+        self.set_playing(not self._anim_timer.isActive())
+
+    def listen_live(self) -> Any:
+        """Audio ▸ Listen live (the Live listening panel's button)."""
+        return self.start_live(wait=False)
+
+    def _ask_render(self) -> None:
+        self._ask_file("save", "Audio (*.wav *.flac)", self.render_audio)
+
+    def _ask_save_path(self) -> None:
+        self._ask_file("save", "CSV (*.csv)", self.save_path)
+
+    def _ask_load_path(self) -> None:
+        self._ask_file("open", "CSV (*.csv)", self.load_path)
+
+    def _ask_save_heard(self) -> None:
+        self._ask_file("save", "CSV (*.csv)", self.save_heard)
+
+    def _ask_save_description(self) -> None:
+        self._ask_file("save", "Text (*.txt);;CSV (*.csv);;JSON (*.json)", self.save_description)
+
     def _ask_save_session(self) -> None:
         self._ask_file("save", "Sessions (*.json)", self.save_session)
 
@@ -484,8 +776,11 @@ class MainWindow(QtWidgets.QMainWindow):
         cam = self.camera_toolbar = self.addToolBar("Camera")
         cam.setObjectName("camera")
         self.reset_camera_action = self._act(
-            "Reset Camera", "reset_camera", icon=sp.SP_BrowserReload,
-            tip="Reset Camera: frame the data, keeping the view direction")  # fmt: skip
+            "Reset Camera",
+            "reset_camera",
+            icon=sp.SP_BrowserReload,
+            tip="Reset Camera: frame the data, keeping the view direction",
+        )
         cam.addAction(self.reset_camera_action)
         self.view_actions: dict[str, QtGui.QAction] = {}
         for name in STANDARD_VIEWS:
@@ -496,24 +791,34 @@ class MainWindow(QtWidgets.QMainWindow):
         tb = self.time_toolbar = self.addToolBar("Time")
         tb.setObjectName("time")
         self.time_actions: dict[str, QtGui.QAction] = {}
-        for action, icon, text in (("first_step", sp.SP_MediaSkipBackward, "First frame"),
-                                   ("previous_step", sp.SP_MediaSeekBackward, "Previous frame")):  # fmt: skip
+        for action, icon, text in (
+            ("first_step", sp.SP_MediaSkipBackward, "First frame"),
+            ("previous_step", sp.SP_MediaSeekBackward, "Previous frame"),
+        ):
             self.time_actions[action] = a = self._act(text, action, icon=icon)
             tb.addAction(a)
         self.play_btn = QtWidgets.QPushButton("Play")
         self.play_btn.setCheckable(True)
-        self.play_btn.setToolTip("Play / pause: step through time at the time scale")
+        self.play_btn.setToolTip(
+            f"Play / pause: step through time at the time scale "
+            f"({key_text(binding('toggle_playing'))})"
+        )
+        self.play_btn.setAccessibleName("Play or pause the time steps")
         self.play_btn.toggled.connect(self.set_playing)
         tb.addWidget(self.play_btn)
-        for action, icon, text in (("next_step", sp.SP_MediaSeekForward, "Next frame"),
-                                   ("last_step", sp.SP_MediaSkipForward, "Last frame")):  # fmt: skip
+        for action, icon, text in (
+            ("next_step", sp.SP_MediaSeekForward, "Next frame"),
+            ("last_step", sp.SP_MediaSkipForward, "Last frame"),
+        ):
             self.time_actions[action] = a = self._act(text, action, icon=icon)
             tb.addAction(a)
         self.slider = QtWidgets.QSlider(QtCore.Qt.Orientation.Horizontal)
         self.slider.setMinimumWidth(300)
         self.slider.setToolTip(
             f"Time step (first / previous / next / last frame: "
-            f"{', '.join(key_text(binding(a)) for a in self.time_actions)})")  # fmt: skip
+            f"{', '.join(key_text(binding(a)) for a in self.time_actions)})"
+        )
+        self.slider.setAccessibleName("Time step")
         self.slider.valueChanged.connect(self._on_slider)
         tb.addWidget(self.slider)
         self.step_label = QtWidgets.QLabel("no data")
@@ -521,17 +826,22 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _qt_button_tips(self) -> None:
         """Tooltips for the buttons Qt makes itself (dock title bars, overflow arrows)."""
-        tips = {"qt_dockwidget_closebutton": "hide this panel (View menu shows it again)",
-                "qt_dockwidget_floatbutton": "float this panel in its own window, or dock it again",
-                "qt_toolbar_ext_button": "more of this toolbar",
-                "qt_menubar_ext_button": "more menus"}  # fmt: skip
+        tips = {
+            "qt_dockwidget_closebutton": "hide this panel (View menu shows it again)",
+            "qt_dockwidget_floatbutton": "float this panel in its own window, or dock it again",
+            "qt_toolbar_ext_button": "more of this toolbar",
+            "qt_menubar_ext_button": "more menus",
+        }
         for b in self.findChildren(QtWidgets.QAbstractButton):
             if not b.toolTip() and b.objectName() in tips:
                 b.setToolTip(tips[b.objectName()])
 
-    def _dock(self, title: str, widget: QtWidgets.QWidget,
-              area: QtCore.Qt.DockWidgetArea = QtCore.Qt.DockWidgetArea.LeftDockWidgetArea,
-              ) -> QtWidgets.QDockWidget:  # fmt: skip
+    def _dock(
+        self,
+        title: str,
+        widget: QtWidgets.QWidget,
+        area: QtCore.Qt.DockWidgetArea = QtCore.Qt.DockWidgetArea.LeftDockWidgetArea,
+    ) -> QtWidgets.QDockWidget:
         d = QtWidgets.QDockWidget(title, self)
         d.setObjectName(title)
         d.setWidget(widget)
@@ -541,7 +851,16 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _build_panels(self) -> None:
         self.docks: dict[str, QtWidgets.QDockWidget] = {}
-        # ---- Data
+        self._build_data_panel()
+        self._build_sources_panel()
+        self._build_listener_panel()
+        self._build_describe_panel()
+        self._build_audio_panel()
+        self._build_live_panel()
+        self._build_overlays_panel()
+
+    def _build_data_panel(self) -> None:
+        """The Data panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.open_btn = QtWidgets.QPushButton("Open…")
@@ -550,6 +869,7 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow(self.open_btn)
         self.info = QtWidgets.QLabel("no data")
         self.info.setWordWrap(True)
+        _readable(self.info, "Data information")
         f.addRow(self.info)
         self.field_box = QtWidgets.QComboBox()
         self.field_box.setToolTip("the field shown (vector fields: their magnitude)")
@@ -559,8 +879,10 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow("field", self.field_box)
         self.rep_box = QtWidgets.QComboBox()
         self.rep_box.addItems(list(REPRESENTATIONS))
-        self.rep_box.setToolTip("how the field is drawn: volume rendering, three orthogonal "
-                                "slices, a contour, arrows of a vector field, or nothing")  # fmt: skip
+        self.rep_box.setToolTip(
+            "how the field is drawn: volume rendering, three orthogonal "
+            "slices, a contour, arrows of a vector field, or nothing"
+        )
         self.rep_box.activated.connect(
             lambda _i: self._guard(self.scene.set_representation, self.rep_box.currentText())
         )
@@ -581,14 +903,18 @@ class MainWindow(QtWidgets.QMainWindow):
         f.addRow("opacity", self.opacity)
         self.mapping_box = QtWidgets.QComboBox()
         self.mapping_box.addItems(list(MAPPINGS))
-        self.mapping_box.setToolTip("acoustic mapping: how field values become density and "
-                                    "particle velocity (auto chooses from the fields)")  # fmt: skip
+        self.mapping_box.setToolTip(
+            "acoustic mapping: how field values become density and "
+            "particle velocity (auto chooses from the fields)"
+        )
         self.mapping_box.activated.connect(
             lambda _i: self._guard(self.set_mapping, self.mapping_box.currentText())
         )
         f.addRow("mapping", self.mapping_box)
         self._dock("Data", w)
-        # ---- Sources
+
+    def _build_sources_panel(self) -> None:
+        """The Sources panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.th_edits: dict[str, QtWidgets.QLineEdit] = {}
@@ -596,15 +922,17 @@ class MainWindow(QtWidgets.QMainWindow):
         self.count_labels: dict[str, QtWidgets.QLabel] = {}
         for kind, d in zip(TYPES, DEFAULTS.thresholds, strict=True):
             e = QtWidgets.QLineEdit(d)
-            e.setToolTip(f"{kind} detection threshold: an absolute strength, N% of the peak, "
-                         f"or auto")  # fmt: skip
+            e.setToolTip(
+                f"{kind} detection threshold: an absolute strength, N% of the peak, or auto"
+            )
             self.th_edits[kind] = e
             f.addRow(f"{kind} threshold", e)
         self.heard_box = QtWidgets.QComboBox()
         self.heard_box.addItems(["whole field", "detected"])
         self.heard_box.setToolTip(
             "what is heard: the whole field (every point, no threshold: Lighthill's stress and "
-            "the continuity residual) or the detected sources drawn here (paper 003)")  # fmt: skip
+            "the continuity residual) or the detected sources drawn here (paper 003)"
+        )
         self.heard_box.activated.connect(lambda _i: self._guard(self._heard_changed))
         f.addRow("heard", self.heard_box)
         self.hear_checks: dict[str, QtWidgets.QCheckBox] = {}
@@ -615,13 +943,17 @@ class MainWindow(QtWidgets.QMainWindow):
             r, g, bl = TYPE_COLORS[kind]
             cb.setStyleSheet(f"color: rgb({r},{g},{bl}); font-weight: bold")
             cb.setToolTip(f"draw the {kind}s")
+            cb.setAccessibleName(f"Draw the {kind}s")
             cb.toggled.connect(lambda on, k=kind: self._guard(self.scene.set_type_visible, k, on))
             self.type_checks[kind] = cb
             lab = QtWidgets.QLabel("–")
+            lab.setToolTip(f"{kind} source points at this step")
+            lab.setAccessibleName(f"{kind} source points at this step")
             self.count_labels[kind] = lab
             hear = QtWidgets.QCheckBox("heard")
             hear.setChecked(True)
             hear.setToolTip(f"hear the {kind} term (mute it by unticking)")
+            hear.setAccessibleName(f"Hear the {kind}s")
             hear.toggled.connect(lambda _on: self._guard(self._heard_changed))
             self.hear_checks[kind] = hear
             row.addWidget(cb)
@@ -630,15 +962,21 @@ class MainWindow(QtWidgets.QMainWindow):
             f.addRow(row)
         self._sync_hear_checks()
         self.detect_btn = QtWidgets.QPushButton("Detect")
-        self.detect_btn.setToolTip("detect the sound sources at every time step (in the "
-                                   "background, the current step first)")  # fmt: skip
+        self.detect_btn.setToolTip(
+            "detect the sound sources at every time step (in the "
+            "background, the current step first)"
+        )
+        self.detect_btn.setAccessibleName("Detect the sources")
         self.detect_btn.clicked.connect(lambda: (self._guard(self.detect), self._focus_view()))
         f.addRow(self.detect_btn)
         self.detect_note = QtWidgets.QLabel("sources are detected when you ask (Detect)")
         self.detect_note.setWordWrap(True)
+        _readable(self.detect_note, "Detection status")
         f.addRow(self.detect_note)
         self._dock("Sources", w)
-        # ---- Listener
+
+    def _build_listener_panel(self) -> None:
+        """The Listener panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.rate_spin = QtWidgets.QDoubleSpinBox()
@@ -656,40 +994,58 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stop_btn.clicked.connect(lambda: self._guard(self.stop_recording))
         self.clear_btn = QtWidgets.QPushButton("Clear")
         self.clear_btn.clicked.connect(lambda: self._guard(self.clear_path))
-        self.rec_btn.setToolTip("record the camera as the listener path (fly with the keys "
-                                "or the mouse); autosaved as it goes")  # fmt: skip
+        self.rec_btn.setToolTip(
+            "record the camera as the listener path (fly with the keys "
+            "or the mouse); autosaved as it goes"
+        )
         self.stop_btn.setToolTip("stop recording")
         self.clear_btn.setToolTip("forget the listener path")
+        self.rec_btn.setAccessibleName("Record the listener path")
+        self.stop_btn.setAccessibleName("Stop recording")
+        self.clear_btn.setAccessibleName("Clear the listener path")
         for b in (self.rec_btn, self.stop_btn, self.clear_btn):
             row.addWidget(b)
         f.addRow(row)
         row = QtWidgets.QHBoxLayout()
         b = QtWidgets.QPushButton("Save CSV…")
         b.setToolTip("save the listener path as CSV (t,x,y,z,fx,fy,fz,ux,uy,uz)")
-        b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_path))
+        b.setAccessibleName("Save the listener path as CSV")
+        b.clicked.connect(self._ask_save_path)
         row.addWidget(b)
         b = QtWidgets.QPushButton("Load CSV…")
         b.setToolTip("load a listener path from CSV")
-        b.clicked.connect(lambda: self._ask_file("open", "CSV (*.csv)", self.load_path))
+        b.setAccessibleName("Load a listener path from CSV")
+        b.clicked.connect(self._ask_load_path)
         row.addWidget(b)
         f.addRow(row)
         self.path_label = QtWidgets.QLabel("no path")
         self.path_label.setWordWrap(True)
-        self.path_label.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
+        _readable(self.path_label, "Listener path status")
         f.addRow(self.path_label)
         self.key_map = QtWidgets.QLabel(KEY_MAP_TEXT)
         self.key_map.setToolTip("Help ▸ Keys lists every key")
         self.key_map.setWordWrap(True)
         f.addRow(self.key_map)
         self._dock("Listener", w)
-        # ---- Audio
+
+    def _build_describe_panel(self) -> None:
+        """The Describe panel."""
+        self.describe_panel = DescribePanel()
+        self.describe_panel.describe_btn.clicked.connect(lambda: self._guard(self.describe))
+        self.describe_panel.save_btn.clicked.connect(self._ask_save_description)
+        self._dock("Describe", self.describe_panel, QtCore.Qt.DockWidgetArea.BottomDockWidgetArea)
+
+    def _build_audio_panel(self) -> None:
+        """The Audio panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.layout_box = QtWidgets.QComboBox()
         self.layout_box.addItems([*LAYOUT_NAMES, CUSTOM_LAYOUT])
-        self.layout_box.setToolTip("loudspeaker layout (or binaural / Ambisonics) of renders "
-                                   "and live listening: the layouts of auralize render "
-                                   "--layout, or a custom layout JSON file")  # fmt: skip
+        self.layout_box.setToolTip(
+            "loudspeaker layout (or binaural / Ambisonics) of renders "
+            "and live listening: the layouts of auralize render "
+            "--layout, or a custom layout JSON file"
+        )
         self.layout_box.setCurrentText(self.audio["layout"])
         self.layout_box.textActivated.connect(lambda t: self._guard(self._on_layout, t))
         f.addRow("layout", self.layout_box)
@@ -706,30 +1062,37 @@ class MainWindow(QtWidgets.QMainWindow):
         self.ts_spin.setDecimals(3)
         self.ts_spin.setSpecialValueText("auto")  # shown at the minimum, 0
         self.ts_spin.setValue(0.0 if DEFAULTS.time_scale == "auto" else float(DEFAULTS.time_scale))
-        self.ts_spin.setToolTip("time scale: playback seconds per data second; auto (as "
-                                "auralize render): the data's sound plays in the listener "
-                                "path's duration (10 s without a path)")  # fmt: skip
+        self.ts_spin.setToolTip(
+            "time scale: playback seconds per data second; auto (as "
+            "auralize render): the data's sound plays in the listener "
+            "path's duration (10 s without a path)"
+        )
         self.ts_spin.valueChanged.connect(self._on_time_scale)
         f.addRow("time scale", self.ts_spin)
         self.timbre_box = QtWidgets.QComboBox()
         self.timbre_box.addItems(list(TIMBRE_CHOICES))
         self.timbre_box.setCurrentText(DEFAULTS.timbre)
-        self.timbre_box.setToolTip("how the sources sound in rendered files (as auralize render "
-                                   "--timbre; auto: physical when most of the sound is "
-                                   "audible, else extended); live listening is physical")  # fmt: skip
+        self.timbre_box.setToolTip(
+            "how the sources sound in rendered files (as auralize render "
+            "--timbre; auto: physical when most of the sound is "
+            "audible, else extended); live listening is physical"
+        )
         self.timbre_box.currentTextChanged.connect(lambda t: self.audio.__setitem__("timbre", t))
         f.addRow("timbre", self.timbre_box)
         row = QtWidgets.QHBoxLayout()
         b = QtWidgets.QPushButton("Render to file…")
         b.setToolTip("render the sound heard along the listener path to a WAV/FLAC file")
-        b.clicked.connect(lambda: self._ask_file("save", "Audio (*.wav *.flac)", self.render_audio))
+        b.setAccessibleName("Render to a file")
+        b.clicked.connect(self._ask_render)
         row.addWidget(b)
         b = QtWidgets.QPushButton("Play")
         b.setToolTip("play the last render on the sound device")
+        b.setAccessibleName("Play the last render")
         b.clicked.connect(lambda: self._guard(self.play_audio))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Stop")
         b.setToolTip("stop playing")
+        b.setAccessibleName("Stop playing")
         b.clicked.connect(lambda: self._guard(self.stop_audio))
         row.addWidget(b)
         f.addRow(row)
@@ -737,8 +1100,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.gain_spin.setRange(-60, 40)
         self.gain_spin.setSingleStep(1)
         self.gain_spin.setSuffix(" dB")
-        self.gain_spin.setToolTip("gain of Play and live listening; a limiter keeps every "
-                                  "sample within full scale")  # fmt: skip
+        self.gain_spin.setToolTip(
+            "gain of Play and live listening; a limiter keeps every sample within full scale"
+        )
         self.gain_spin.valueChanged.connect(lambda v: self._guard(self.set_gain_db, v))
         f.addRow("gain", self.gain_spin)
         self.meter = QtWidgets.QProgressBar()
@@ -753,17 +1117,23 @@ class MainWindow(QtWidgets.QMainWindow):
         self.figure = Figure(figsize=(4, 3), layout="constrained")
         self.canvas = FigureCanvasQTAgg(self.figure)
         self.canvas.setMinimumHeight(220)
+        # a picture with no keys of its own: Tab passes it by; its name says what it shows
+        self.canvas.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+        self.canvas.setAccessibleName("Waveform and spectrogram of the last render")
         f.addRow(self.canvas)
         self._cursors: list[Any] = []
         self._dock("Audio", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
-        # ---- Live listening
+
+    def _build_live_panel(self) -> None:
+        """The Live listening panel."""
         w = QtWidgets.QWidget()
         f = _form(w)
         self.block_spin = QtWidgets.QSpinBox()
         self.block_spin.setRange(256, 16384)
         self.block_spin.setValue(2048)
-        self.block_spin.setToolTip("samples synthesized per block in live listening (larger: "
-                                   "steadier, more latency)")  # fmt: skip
+        self.block_spin.setToolTip(
+            "samples synthesized per block in live listening (larger: steadier, more latency)"
+        )
         f.addRow("block (samples)", self.block_spin)
         self.live_file = QtWidgets.QLineEdit()
         self.live_file.setPlaceholderText("device (or a WAV file to write instead)")
@@ -776,18 +1146,23 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(self.live_btn)
         b = QtWidgets.QPushButton("Stop")
         b.setToolTip("stop live listening")
+        b.setAccessibleName("Stop live listening")
         b.clicked.connect(lambda: self._guard(self.stop_live))
         row.addWidget(b)
         b = QtWidgets.QPushButton("Save heard…")
         b.setToolTip("save what live listening played: the path CSV and a WAV beside it")
-        b.clicked.connect(lambda: self._ask_file("save", "CSV (*.csv)", self.save_heard))
+        b.setAccessibleName("Save what live listening played")
+        b.clicked.connect(self._ask_save_heard)
         row.addWidget(b)
         f.addRow(row)
         self.live_label = QtWidgets.QLabel("off")
         self.live_label.setWordWrap(True)
+        _readable(self.live_label, "Live listening status")
         f.addRow(self.live_label)
         self._dock("Live listening", w, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
-        # ---- Overlays
+
+    def _build_overlays_panel(self) -> None:
+        """The Overlays panel."""
         w = QtWidgets.QWidget()
         v = QtWidgets.QVBoxLayout(w)
         self.overlay_checks: dict[str, QtWidgets.QCheckBox] = {}
@@ -797,8 +1172,10 @@ class MainWindow(QtWidgets.QMainWindow):
             if cls.overlay is SoundModel.overlay:  # the plugin offers no overlay
                 continue
             cb = QtWidgets.QCheckBox(f"{name}: {_short(cls.description)}")
-            cb.setToolTip(f"show the {name} model's overlay (and hear its sound): "
-                          f"{cls.description}")  # fmt: skip
+            cb.setToolTip(
+                f"show the {name} model's overlay (and hear its sound): {cls.description}"
+            )
+            cb.setAccessibleName(f"Show the {name} overlay")
             cb.toggled.connect(lambda on, n=name: self._toggle_overlay(n, on))
             self.overlay_checks[name] = cb
             v.addWidget(cb)
@@ -811,6 +1188,8 @@ class MainWindow(QtWidgets.QMainWindow):
         scroll = QtWidgets.QScrollArea()  # a long note scrolls rather than being cut off
         scroll.setWidgetResizable(True)
         scroll.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
+        scroll.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)  # Tab goes to its boxes
+        scroll.setAccessibleName("Overlays")
         scroll.setWidget(w)
         self._dock("Overlays", scroll, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
 
@@ -821,6 +1200,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.progress.hide()
         self.cancel_btn = QtWidgets.QPushButton("Cancel")
         self.cancel_btn.setToolTip("cancel the work in progress")
+        self.cancel_btn.setAccessibleName("Cancel the work in progress")
         self.cancel_btn.hide()
         self.cancel_btn.clicked.connect(self.cancel_task)
         self.camera_label = QtWidgets.QLabel("")
@@ -868,8 +1248,13 @@ class MainWindow(QtWidgets.QMainWindow):
         if isinstance(exc, Cancelled):
             self.statusBar().showMessage(str(exc), 5000)
             return
-        msg = str(exc) if isinstance(exc, AuralizeError | OSError) else (
-            f"{type(exc).__name__}: {exc}\n\n{''.join(traceback.format_exception(exc))[-1500:]}")  # fmt: skip
+        msg = (
+            str(exc)
+            if isinstance(exc, AuralizeError | OSError)
+            else (
+                f"{type(exc).__name__}: {exc}\n\n{''.join(traceback.format_exception(exc))[-1500:]}"
+            )
+        )
         QtWidgets.QMessageBox.critical(self, "auralize", msg)
 
     def _guard(self, fn: Callable[..., Any], *args: Any) -> Any:
@@ -896,8 +1281,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self._ask_file("open", f"Volumes ({kinds});;All files (*)", self.open_data)
 
     # =============================================================== tasks
-    def run_task(self, name: str, fn: Callable[[Callable[[int, int], bool]], Any],
-                 done: Callable[[Any], None]) -> Task:  # fmt: skip
+    def run_task(
+        self,
+        name: str,
+        fn: Callable[[Callable[[int, int], bool]], Any],
+        done: Callable[[Any], None],
+    ) -> Task:
         """Run ``fn`` in a :class:`Task` with the progress bar; ``done(result)`` on success."""
         self._check_idle()
         if self.task is not None and self.task.isRunning():
@@ -970,12 +1359,23 @@ class MainWindow(QtWidgets.QMainWindow):
             self.detect_note.setText("sources are detected when you ask (Detect)")
 
     # ================================================================ data
-    def open_data(self, spec: str | Path, *, size: int | None = None, steps: int | None = None,
-                  seed: int = 0, fields: dict[str, str] | None = None,
-                  resolution: int | None = None, field: str | None = None,
-                  then: Callable[[], None] | None = None, time_dim: str | None = None,
-                  axis_scale: Any = None, box: Any = None, curvilinear: str | None = None,
-                  keep_path: bool | None = None) -> Task:  # fmt: skip
+    def open_data(
+        self,
+        spec: str | Path,
+        *,
+        size: int | None = None,
+        steps: int | None = None,
+        seed: int = 0,
+        fields: dict[str, str] | None = None,
+        resolution: int | None = None,
+        field: str | None = None,
+        then: Callable[[], None] | None = None,
+        time_dim: str | None = None,
+        axis_scale: Any = None,
+        box: Any = None,
+        curvilinear: str | None = None,
+        keep_path: bool | None = None,
+    ) -> Task:
         """Open a file or ``dataset:NAME`` in the background (frames are read ahead) and show
         it; no detection runs (see :meth:`detect`).  ``fields``, ``resolution``,
         ``time_dim``, ``axis_scale``, ``box`` and ``curvilinear`` are the readers'
@@ -992,9 +1392,18 @@ class MainWindow(QtWidgets.QMainWindow):
         if keep_path is None:
             keep_path = self.path is not None and self.ask_keep_path()
 
-        d = data_spec(str(spec), size=size, steps=steps, seed=seed, fields=fields,
-                      resolution=resolution, time_dim=time_dim, axis_scale=axis_scale, box=box,
-                      curvilinear=curvilinear)  # fmt: skip
+        d = data_spec(
+            str(spec),
+            size=size,
+            steps=steps,
+            seed=seed,
+            fields=fields,
+            resolution=resolution,
+            time_dim=time_dim,
+            axis_scale=axis_scale,
+            box=box,
+            curvilinear=curvilinear,
+        )
 
         def work(progress: Callable[[int, int], bool]) -> Any:
             with warnings.catch_warnings(record=True) as caught:
@@ -1012,11 +1421,12 @@ class MainWindow(QtWidgets.QMainWindow):
                 frames.append(np.linalg.norm(a, axis=-1) if a.ndim == 4 else a)
                 if not progress(n + 1, vol.n_steps):
                     raise Cancelled(f"opening {spec} cancelled")
-            return vol, name, frames, notes
+            return vol, name, frames, notes, _sound_wave_hint(vol)
 
         def done(res: Any) -> None:
-            vol, name, frames, notes = res
+            vol, name, frames, notes, hint = res
             self.load_notes = notes
+            self.sound_wave_hint = hint
             if not keep_path:
                 self._drop_path()
             self._set_volume(vol, d, name, frames)
@@ -1037,9 +1447,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.rendered = None
         self.plot_audio()
         self.detect_note.setText("sources are detected when you ask (Detect)")
-        self.overlay_note.setText("")
+        self.describe_panel.clear()
+        self.overlay_note.setText(self.sound_wave_hint or "")
         self.live_label.setText("off")
         self.statusBar().clearMessage()
+        if self.sound_wave_hint:
+            self.statusBar().showMessage(self.sound_wave_hint)
         if self.scene.overlays:  # the overlays switched on are heard for the new data
             from auralize.plugins import get_model
 
@@ -1061,7 +1474,7 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{vol.times[0]:g}–{vol.times[-1]:g} s"
             f"{'' if vol.physical_times else ' (no times in the file: frames at 30 Hz)'}\n"
             f"fields: {', '.join(vol.field_names)}"
-        )  # fmt: skip
+        )
         # the panel shows the file's name and short notes; the tooltip has everything
         notes = [n.replace(f"{vol.source}: ", "") for n in self.load_notes]
         short = text.replace(str(vol.source), str(name), 1) + "".join(
@@ -1084,17 +1497,27 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.keep_path_answer is not None:
             return bool(self.keep_path_answer)
         mb = QtWidgets.QMessageBox
-        box = mb(mb.Icon.Question, "auralize", "Keep the listener path for the new data?",
-                 mb.StandardButton.Discard | mb.StandardButton.Yes, self)  # fmt: skip
+        box = mb(
+            mb.Icon.Question,
+            "auralize",
+            "Keep the listener path for the new data?",
+            mb.StandardButton.Discard | mb.StandardButton.Yes,
+            self,
+        )
         keep = box.button(mb.StandardButton.Yes)
         keep.setText("Keep")
         box.setDefaultButton(mb.StandardButton.Discard)
         p = self.path
         box.setInformativeText(
-            (f"The path ({p.n_captures} captures, {p.duration:.2f} s) was recorded for "
-             f"{self.data.get('spec', 'the data on screen')}; its positions are in that "
-             "data's coordinates." if p is not None else "")
-            + " Discard it (the default) or keep it for the new data.")  # fmt: skip
+            (
+                f"The path ({p.n_captures} captures, {p.duration:.2f} s) was recorded for "
+                f"{self.data.get('spec', 'the data on screen')}; its positions are in that "
+                "data's coordinates."
+                if p is not None
+                else ""
+            )
+            + " Discard it (the default) or keep it for the new data."
+        )
         box.exec()
         return box.clickedButton() is keep
 
@@ -1155,8 +1578,11 @@ class MainWindow(QtWidgets.QMainWindow):
         field_mode = self.heard_box.currentText() != "detected"
         box = self.hear_checks["dipole"]
         box.setEnabled(not field_mode)
-        box.setToolTip("the whole field has no dipole term (forces would need the pressure)"
-                       if field_mode else "hear the dipole term (mute it by unticking)")  # fmt: skip
+        box.setToolTip(
+            "the whole field has no dipole term (forces would need the pressure)"
+            if field_mode
+            else "hear the dipole term (mute it by unticking)"
+        )
 
     def _heard_changed(self) -> None:
         self._sync_hear_checks()
@@ -1189,11 +1615,18 @@ class MainWindow(QtWidgets.QMainWindow):
         spec = self.heard_spec()
         hd = parse_heard(spec)
         if hd.mode == "detected" and self.series is None:
-            raise ParameterError("detect the sources first (Sources panel), or hear the whole "
-                                 "field")  # fmt: skip
+            raise ParameterError(
+                "detect the sources first (Sources panel), or hear the whole field"
+            )
         th = self.read_thresholds()
-        key = (spec, id(self.volume), self.mapping, tuple(sorted(self.mapping_fields.items())),
-               repr(th.describe()), id(self.series) if hd.mode == "detected" else None)  # fmt: skip
+        key = (
+            spec,
+            id(self.volume),
+            self.mapping,
+            tuple(sorted(self.mapping_fields.items())),
+            repr(th.describe()),
+            id(self.series) if hd.mode == "detected" else None,
+        )
         hit = getattr(self, "_heard", None)
         if hit is not None and hit[0] == key and hit[1] is path:  # (the path held: its own)
             return key, hit[2], lambda: hit[2]
@@ -1205,8 +1638,15 @@ class MainWindow(QtWidgets.QMainWindow):
         )
 
         def compute() -> Any:
-            return heard_sound(vol, heard=hd, series=series, thresholds=th, path=path,
-                               mapping=None if mapping == "auto" else mapping, **fields)  # fmt: skip
+            return heard_sound(
+                vol,
+                heard=hd,
+                series=series,
+                thresholds=th,
+                path=path,
+                mapping=None if mapping == "auto" else mapping,
+                **fields,
+            )
 
         return key, None, compute
 
@@ -1228,14 +1668,20 @@ class MainWindow(QtWidgets.QMainWindow):
         def work(progress: Callable[[int, int], bool]) -> Any:
             if not progress(0, vol.n_steps):
                 raise Cancelled("detection cancelled")
-            det = Detection(vol, mapping=None if mapping == "auto" else mapping, thresholds=th,
-                            **mfields)  # fmt: skip
+            det = Detection(
+                vol, mapping=None if mapping == "auto" else mapping, thresholds=th, **mfields
+            )
             det.frame(step)
             return det, det.run(progress)
 
         def done(res: Any) -> None:
             self.detection, self.series = res
             self.thresholds = th
+            if self.describe_panel.description is not None:
+                self.describe_panel.clear(
+                    "the sources were detected again: Describe "
+                    "(Ctrl+Shift+D) to put them into words"
+                )
             self.scene.set_sources(self.detection.get)
             self.detect_note.setText(
                 f"detected (mapping {self.mapping}), thresholds "
@@ -1247,6 +1693,49 @@ class MainWindow(QtWidgets.QMainWindow):
                 then()
 
         return self.run_task("detect", work, done)
+
+    def describe(self, then: Callable[[], None] | None = None) -> Task:
+        """Sources ▸ Describe in words: the detected sources (detected first if needed) and
+        when the listener hears them, in the Describe panel (:mod:`auralize.describe`),
+        on the clock of a render along the listener path (:meth:`playback_plan`)."""
+        if self.volume is None:
+            raise ParameterError("open a data file first")
+        if self.series is None:
+            return self.detect(then=lambda: self._guard(self.describe, then))
+        from auralize.describe import describe
+
+        vol, series, plan, heard = self.volume, self.series, self.playback_plan(), self.heard_spec()
+        name = str(self.data.get("spec") or vol.source)
+
+        def work(progress: Callable[[int, int], bool]) -> Any:
+            if not progress(0, 1):
+                raise Cancelled("description cancelled")
+            return describe(vol, series=series, plan=plan, heard=heard, name=name)
+
+        def done(d: Any) -> None:
+            self.describe_panel.show_description(d, self.scene.step)
+            dock = self.docks["Describe"]
+            dock.show()
+            dock.raise_()
+            self.statusBar().showMessage(
+                f"described: {len(d.events)} event(s) (the Describe panel)", 5000
+            )
+            if then is not None:
+                then()
+
+        return self.run_task("describe", work, done)
+
+    def save_description(self, filename: str | Path) -> Path:
+        """Save the Describe panel's description (text, or CSV / JSON by the suffix)."""
+        d = self.describe_panel.description
+        if d is None:
+            raise ParameterError("nothing to save yet: Describe first (Ctrl+Shift+D)")
+        from auralize.runtime.files import check_output_path
+
+        check_output_path(filename)
+        out = d.save(filename)
+        self.statusBar().showMessage(f"description saved: {out}", 5000)
+        return out
 
     # ================================================================ time
     def _on_slider(self, step: int) -> None:
@@ -1262,6 +1751,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.slider.blockSignals(False)
         self._update_step_label()
         self._update_cursor()
+        self.describe_panel.show_step(int(step))
         return el
 
     def _update_step_label(self) -> None:
@@ -1294,8 +1784,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_layout(self, text: str) -> None:
         """A layout chosen in the Audio panel; "custom layout file…" asks for a JSON file."""
         if text == CUSTOM_LAYOUT:
-            name, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Custom layout", "",
-                                                            "Layout (*.json)")  # fmt: skip
+            name, _ = QtWidgets.QFileDialog.getOpenFileName(
+                self, "Custom layout", "", "Layout (*.json)"
+            )
             if not name:
                 self.layout_box.setCurrentText(str(self.audio["layout"]))
                 return
@@ -1336,8 +1827,9 @@ class MainWindow(QtWidgets.QMainWindow):
         key = (id(self.volume), id(self.path), self.audio["time_scale"])
         if self._plan_cache is not None and self._plan_cache[0] == key:
             return self._plan_cache[1]
-        plan = plan_render(self.volume, None, path=self.path, clip=False,
-                           time_scale=self.audio["time_scale"])  # fmt: skip
+        plan = plan_render(
+            self.volume, None, path=self.path, clip=False, time_scale=self.audio["time_scale"]
+        )
         self._plan_cache = (key, plan)
         return plan
 
@@ -1385,8 +1877,9 @@ class MainWindow(QtWidgets.QMainWindow):
         """One of the six standard views (ParaView's camera toolbar): ``"+X"`` looks along
         +X (from the −X side), ... ``"-Z"`` looks up; the data is framed."""
         if direction not in STANDARD_VIEWS:
-            raise ParameterError(f"view direction must be one of {', '.join(STANDARD_VIEWS)}, "
-                                 f"got {direction!r}")  # fmt: skip
+            raise ParameterError(
+                f"view direction must be one of {', '.join(STANDARD_VIEWS)}, got {direction!r}"
+            )
         if self.volume is None:
             return
         self.scene.reset_camera(*STANDARD_VIEWS[direction])
@@ -1399,7 +1892,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
         if filename is None:
             name, _ = QtWidgets.QFileDialog.getSaveFileName(
-                self, "Save Screenshot", "", "PNG image (*.png);;JPEG image (*.jpg *.jpeg)")  # fmt: skip
+                self, "Save Screenshot", "", "PNG image (*.png);;JPEG image (*.jpg *.jpeg)"
+            )
             if not name:
                 return None
             filename = name
@@ -1407,8 +1901,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if not out.suffix:
             out = out.with_suffix(".png")
         if out.suffix.lower() not in (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"):
-            raise ParameterError(f"cannot save a screenshot as {out.suffix!r} ({out}); "
-                                 f"give a .png or .jpg file")  # fmt: skip
+            raise ParameterError(
+                f"cannot save a screenshot as {out.suffix!r} ({out}); give a .png or .jpg file"
+            )
         check_output_path(out)
         self.plotter.render()
         self.plotter.screenshot(str(out))
@@ -1444,13 +1939,18 @@ class MainWindow(QtWidgets.QMainWindow):
         import auralize
 
         doc = self.docs_path()
-        where = (f'<a href="{doc.as_uri()}">{doc}</a> and <a href="{(doc.parent / "docs").as_uri()}">'
-                 f'{doc.parent / "docs"}</a>' if doc is not None
-                 else "README.md and docs/ in the source distribution")  # fmt: skip
-        return (f"<h3>auralize {auralize.__version__}</h3><p>Hear time-varying 3-D data: "
-                f"sound sources found in a volume time series, heard along the path the "
-                f"camera flies.</p><p>Documentation: {where}</p>"
-                f"<p>Help ▸ Keys lists every key.</p>")  # fmt: skip
+        where = (
+            f'<a href="{doc.as_uri()}">{doc}</a> and <a href="{(doc.parent / "docs").as_uri()}">'
+            f"{doc.parent / 'docs'}</a>"
+            if doc is not None
+            else "README.md and docs/ in the source distribution"
+        )
+        return (
+            f"<h3>auralize {auralize.__version__}</h3><p>Hear time-varying 3-D data: "
+            f"sound sources found in a volume time series, heard along the path the "
+            f"camera flies.</p><p>Documentation: {where}</p>"
+            f"<p>Help ▸ Keys lists every key.</p>"
+        )
 
     def show_about(self) -> QtWidgets.QMessageBox:
         """Help ▸ About: version and where the documentation is (a window that stays open)."""
@@ -1467,8 +1967,10 @@ class MainWindow(QtWidgets.QMainWindow):
         """Help ▸ Documentation: the README in the desktop's viewer."""
         doc = self.docs_path()
         if doc is None:
-            raise ParameterError("no README here (an installed package): see the project's "
-                                 "README.md and docs/ in its source")  # fmt: skip
+            raise ParameterError(
+                "no README here (an installed package): see the project's "
+                "README.md and docs/ in its source"
+            )
         QtGui.QDesktopServices.openUrl(QtCore.QUrl.fromLocalFile(str(doc)))
 
     # ============================================================ listener
@@ -1507,8 +2009,9 @@ class MainWindow(QtWidgets.QMainWindow):
             self.recorder = PathRecorder(rate_hz=rate)
             out = None
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-        self.recorder.autosave = Path(autosave) if autosave else (
-            out or self.autosave_dir / f"recording-{stamp}.csv")  # fmt: skip
+        self.recorder.autosave = (
+            Path(autosave) if autosave else (out or self.autosave_dir / f"recording-{stamp}.csv")
+        )
         if not autosave and self.recorder.autosave.parent == self.autosave_dir:
             # the autosave folder is the viewer's own state folder (not an output
             # the user named), so the viewer creates it
@@ -1616,12 +2119,14 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _path_info(self) -> None:
         p = self.path
-        self.path_label.setText("no path" if p is None else
-                                f"{p.n_captures} captures, {p.duration:.2f} s ({p.source})")  # fmt: skip
+        self.path_label.setText(
+            "no path" if p is None else f"{p.n_captures} captures, {p.duration:.2f} s ({p.source})"
+        )
 
     # =============================================================== audio
-    def render_audio(self, filename: str | Path | None = None, *,
-                     then: Callable[[], None] | None = None) -> Task:  # fmt: skip
+    def render_audio(
+        self, filename: str | Path | None = None, *, then: Callable[[], None] | None = None
+    ) -> Task:
         """Render the sound heard along the listener path in the background and write it
         to ``filename`` (WAV/FLAC) if given.
 
@@ -1652,8 +2157,11 @@ class MainWindow(QtWidgets.QMainWindow):
         unheard = {n: why for n, why in self._overlay_unheard.items() if n in self.scene.overlays}
         key = str(input_key(self.data))
         loaded = {key: self.volume}
-        ready = {(n, key): (self._overlay_params.get(n, {}), snd)
-                 for n, (vol, snd) in self._overlay_sounds.items() if vol is self.volume}  # fmt: skip
+        ready = {
+            (n, key): (self._overlay_params.get(n, {}), snd)
+            for n, (vol, snd) in self._overlay_sounds.items()
+            if vol is self.volume
+        }
         out = None if filename is None else Path(filename).expanduser().resolve()
         session_file = None if out is None else out.with_name(out.name + ".session.json")
 
@@ -1663,10 +2171,18 @@ class MainWindow(QtWidgets.QMainWindow):
             r = render_scene_file(scene, loaded=loaded, progress=progress, sounds=ready)
             if out is not None and session_file is not None:
                 SessionState.from_dict(doc, source=str(session_file)).save(session_file)
-                cmd = shlex.join(["auralize", "render", "--scene", str(session_file),
-                                  "-o", str(out)])  # fmt: skip
-                save_rendered(r, out, extra={"command": cmd, "session": str(session_file),
-                                             "overlays_not_heard": unheard})  # fmt: skip
+                cmd = shlex.join(
+                    ["auralize", "render", "--scene", str(session_file), "-o", str(out)]
+                )
+                save_rendered(
+                    r,
+                    out,
+                    extra={
+                        "command": cmd,
+                        "session": str(session_file),
+                        "overlays_not_heard": unheard,
+                    },
+                )
             return r
 
         def done(r: Any) -> None:
@@ -1726,8 +2242,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.rendered is None:
             raise ParameterError("render the audio first")
         self.stop_audio()
-        self.playback = play(self.rendered, device=self.audio["device"], gain_db=self.gain_db,
-                             blocking=False)  # fmt: skip
+        self.playback = play(
+            self.rendered, device=self.audio["device"], gain_db=self.gain_db, blocking=False
+        )
         return self.playback
 
     def stop_audio(self) -> None:
@@ -1789,26 +2306,42 @@ class MainWindow(QtWidgets.QMainWindow):
         a = self.audio
         hs = self.heard_sound()
         box = source_box(self.volume, hs.tracks if hs.heard.mode == "detected" else None)
-        eng = LiveEngine(hs.tracks, layout=a["layout"], rate=a["rate"],
-                         time_scale=self.time_scale_value(), block=int(self.block_spin.value()),
-                         extra=self.overlay_sound(), highpass_hz=HIGHPASS_HZ, box=box,
-                         head=self.head_tracker())  # fmt: skip
+        eng = LiveEngine(
+            hs.tracks,
+            layout=a["layout"],
+            rate=a["rate"],
+            time_scale=self.time_scale_value(),
+            block=int(self.block_spin.value()),
+            extra=self.overlay_sound(),
+            highpass_hz=HIGHPASS_HZ,
+            box=box,
+            head=self.head_tracker(),
+        )
         target = output or self.live_file.text().strip() or None
         n_ch = eng.layout.n_channels
-        sink = (WavSink(target, rate=a["rate"], channels=n_ch) if target
-                else DeviceSink(rate=a["rate"], channels=n_ch, device=a["device"]))  # fmt: skip
+        sink = (
+            WavSink(target, rate=a["rate"], channels=n_ch)
+            if target
+            else DeviceSink(rate=a["rate"], channels=n_ch, device=a["device"])
+        )
         self._tick_pending = False
         self.player = LivePlayer(eng, sink, on_block=self._on_live_block, gain_db=self.gain_db)
         self._watch_camera()
         self.player.set_pose(*self._cam_pose)
         self.player.start()
         why = eng.why_silent()
-        head = ("" if self._head is None else
-                f"; head tracking on UDP port {self._head.port} (SPARTA/IEM messages)")  # fmt: skip
-        self.live_label.setText(why or f"live: {eng.layout.name}, block {eng.block} samples "
-                                       f"({1000 * eng.block_s:.0f} ms), physical, "
-                                       f"{eng.highpass_hz:g} Hz high-pass; "
-                                       f"{eng.describe_distance()}{head}")  # fmt: skip
+        head = (
+            ""
+            if self._head is None
+            else f"; head tracking on UDP port {self._head.port} (SPARTA/IEM messages)"
+        )
+        self.live_label.setText(
+            why
+            or f"live: {eng.layout.name}, block {eng.block} samples "
+            f"({1000 * eng.block_s:.0f} ms), physical, "
+            f"{eng.highpass_hz:g} Hz high-pass; "
+            f"{eng.describe_distance()}{head}"
+        )
         return self.player
 
     def head_tracker(self) -> Any:
@@ -1862,8 +2395,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if why:
             self.live_label.setText(why)
         elif lat:
-            self.live_label.setText(f"live: last move heard after {1000 * lat[-1]:.0f} ms; "
-                                    f"{eng.describe_distance()}")  # fmt: skip
+            self.live_label.setText(
+                f"live: last move heard after {1000 * lat[-1]:.0f} ms; {eng.describe_distance()}"
+            )
 
     def _live_redraw(self, data_time: float | None = None) -> None:
         """Show the time step live listening is playing, if it changed: at most one redraw
@@ -1873,8 +2407,11 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.volume is None or self.player is None or not self.player.running:
             return
         t = self._live_time if data_time is None else data_time
-        step = int(np.clip(np.searchsorted(self.volume.times, t, side="right") - 1,
-                           0, self.volume.n_steps - 1))  # fmt: skip
+        step = int(
+            np.clip(
+                np.searchsorted(self.volume.times, t, side="right") - 1, 0, self.volume.n_steps - 1
+            )
+        )
         if step == self.scene.step:
             return
         now = time.perf_counter()
@@ -1913,8 +2450,9 @@ class MainWindow(QtWidgets.QMainWindow):
             cb.setChecked(False)
             cb.blockSignals(False)
 
-    def set_overlay(self, name: str, on: bool, *,
-                    then: Callable[[bool], None] | None = None) -> Task | None:  # fmt: skip
+    def set_overlay(
+        self, name: str, on: bool, *, then: Callable[[bool], None] | None = None
+    ) -> Task | None:
         """Switch a plugin's overlay on or off.
 
         An overlay whose model makes sound from the volume on screen is also
@@ -2127,8 +2665,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self._threads.discard(t)
         t.deleteLater()
 
-    def _overlay_step_done(self, name: str, t: Task, vol: Any, path: Any, n: int,
-                           result: Any) -> None:  # fmt: skip
+    def _overlay_step_done(
+        self, name: str, t: Task, vol: Any, path: Any, n: int, result: Any
+    ) -> None:
         """A computed overlay step arrived on the UI thread: draw it if it is still the
         current step of the same data, drop it otherwise; then start the step wanted now."""
         if self._overlay_tasks.get(name) is t:
@@ -2183,17 +2722,27 @@ class MainWindow(QtWidgets.QMainWindow):
     # ============================================================= session
     def session_state(self) -> SessionState:
         st = SessionState(data=dict(self.data), audio=dict(self.audio))
-        st.view = {"field": self.scene.field, "representation": self.scene.representation,
-                   "cmap": self.scene.cmap, "opacity": self.scene.opacity, "step": self.scene.step,
-                   "types": dict(self.scene.visible_types)}  # fmt: skip
-        st.detection = {"mapping": self.mapping, "thresholds": self.read_thresholds().describe(),
-                        "mapping_fields": dict(self.mapping_fields),
-                        "detected": self.series is not None}  # fmt: skip
+        st.view = {
+            "field": self.scene.field,
+            "representation": self.scene.representation,
+            "cmap": self.scene.cmap,
+            "opacity": self.scene.opacity,
+            "step": self.scene.step,
+            "types": dict(self.scene.visible_types),
+        }
+        st.detection = {
+            "mapping": self.mapping,
+            "thresholds": self.read_thresholds().describe(),
+            "mapping_fields": dict(self.mapping_fields),
+            "detected": self.series is not None,
+        }
         # the overlays switched on, and those heard as sound models mixed with the data
         st.view["overlays"] = sorted(self.scene.overlays)
-        st.models = [{"model": n, "input": dict(self.data), "params": {}}
-                     for n in sorted(self.scene.overlays)
-                     if n in self._overlay_sounds or n in self._sound_tasks]  # fmt: skip
+        st.models = [
+            {"model": n, "input": dict(self.data), "params": {}}
+            for n in sorted(self.scene.overlays)
+            if n in self._overlay_sounds or n in self._sound_tasks
+        ]
         st.set_listener_path(self.path)
         st.recording = {"rate_hz": float(self.rate_spin.value())}
         st.camera = self.scene.camera() if self.volume is not None else None
@@ -2279,10 +2828,17 @@ class MainWindow(QtWidgets.QMainWindow):
         if not d:
             apply()
             return None
-        return self.open_data(d["spec"], size=d.get("size"), steps=d.get("steps"),
-                              seed=d.get("seed") or 0, fields=d.get("fields"),
-                              resolution=d.get("resolution"), then=apply,
-                              keep_path=False, **reader_options(d))  # fmt: skip
+        return self.open_data(
+            d["spec"],
+            size=d.get("size"),
+            steps=d.get("steps"),
+            seed=d.get("seed") or 0,
+            fields=d.get("fields"),
+            resolution=d.get("resolution"),
+            then=apply,
+            keep_path=False,
+            **reader_options(d),
+        )
 
     # ============================================================== window
     def closeEvent(self, event: Any) -> None:
@@ -2392,8 +2948,17 @@ def run_app(args: Any, opts: dict[str, Any]) -> int:
             if args.detect:
                 win._guard(win.detect)
 
-        win._guard(lambda: win.open_data(d["spec"], size=d["size"], steps=d["steps"],
-                                         seed=d["seed"], fields=d.get("fields"),
-                                         resolution=d.get("resolution"), field=opts["field"],
-                                         then=after, **reader_options(d)))  # fmt: skip
+        win._guard(
+            lambda: win.open_data(
+                d["spec"],
+                size=d["size"],
+                steps=d["steps"],
+                seed=d["seed"],
+                fields=d.get("fields"),
+                resolution=d.get("resolution"),
+                field=opts["field"],
+                then=after,
+                **reader_options(d),
+            )
+        )
     return int(app.exec())

@@ -27,8 +27,15 @@ from typing import Any
 import numpy as np
 
 
-def responsiveness(*, size: int = 64, steps: int = 30, keys: int = 40, gap_s: float = 0.25,
-                   rate_hz: float = 10.0, live: tuple[bool, ...] = (False, True)) -> list[dict[str, Any]]:  # fmt: skip
+def responsiveness(
+    *,
+    size: int = 64,
+    steps: int = 30,
+    keys: int = 40,
+    gap_s: float = 0.25,
+    rate_hz: float = 10.0,
+    live: tuple[bool, ...] = (False, True),
+) -> list[dict[str, Any]]:
     """Key→redraw latencies (s) and the capture rate (Hz) of the viewer window.
 
     Parameters
@@ -133,21 +140,22 @@ def responsiveness(*, size: int = 64, steps: int = 30, keys: int = 40, gap_s: fl
     return runs
 
 
-def _press_keys(win: Any, app: Any, ends: list[float], wait: Any, *, keys: int,
-                gap_s: float) -> dict[str, Any]:  # fmt: skip
+def _press_keys(
+    win: Any, app: Any, ends: list[float], wait: Any, *, keys: int, gap_s: float
+) -> dict[str, Any]:
     """Press the flying keys; the latencies and the captures taken meanwhile."""
     from qtpy import QtCore, QtGui, QtWidgets
 
     n0, t0 = win.recorder.n_captures, time.perf_counter()
-    codes = [QtCore.Qt.Key.Key_W, QtCore.Qt.Key.Key_A, QtCore.Qt.Key.Key_S,
-             QtCore.Qt.Key.Key_D]  # fmt: skip
+    codes = [QtCore.Qt.Key.Key_W, QtCore.Qt.Key.Key_A, QtCore.Qt.Key.Key_S, QtCore.Qt.Key.Key_D]
     lat = []
     for k in range(keys):
         t1 = time.perf_counter()
         wait(lambda t1=t1: time.perf_counter() - t1 >= gap_s, 60)
         n = len(ends)
-        ev = QtGui.QKeyEvent(QtCore.QEvent.Type.KeyPress, codes[k % 4],
-                             QtCore.Qt.KeyboardModifier.NoModifier)  # fmt: skip
+        ev = QtGui.QKeyEvent(
+            QtCore.QEvent.Type.KeyPress, codes[k % 4], QtCore.Qt.KeyboardModifier.NoModifier
+        )
         ts = time.perf_counter()
         QtWidgets.QApplication.postEvent(win.plotter.interactor, ev)
         handled = wait(lambda n=n: len(ends) > n, 60)
@@ -155,20 +163,30 @@ def _press_keys(win: Any, app: Any, ends: list[float], wait: Any, *, keys: int,
     el = time.perf_counter() - t0
     caps = win.recorder.n_captures - n0
     a = np.asarray(lat)
-    return {"latency_s": lat, "p50_ms": float(np.median(a) * 1e3),
-            "p95_ms": float(np.percentile(a, 95) * 1e3), "captures": caps, "seconds": el,
-            "capture_hz": caps / el}  # fmt: skip
+    return {
+        "latency_s": lat,
+        "p50_ms": float(np.median(a) * 1e3),
+        "p95_ms": float(np.percentile(a, 95) * 1e3),
+        "captures": caps,
+        "seconds": el,
+        "capture_hz": caps / el,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m auralize.viewer.measure",
-                                description="the viewer's key→redraw latency and capture "
-                                            "rate, as JSON")  # fmt: skip
+    p = argparse.ArgumentParser(
+        prog="python -m auralize.viewer.measure",
+        description="the viewer's key→redraw latency and capture rate, as JSON",
+    )
     p.add_argument("--size", type=int, default=64)
     p.add_argument("--steps", type=int, default=30)
     p.add_argument("--keys", type=int, default=40)
-    p.add_argument("--live", choices=("both", "on", "off"), default="both",
-                   help="runs with live listening on, off or both (default)")  # fmt: skip
+    p.add_argument(
+        "--live",
+        choices=("both", "on", "off"),
+        default="both",
+        help="runs with live listening on, off or both (default)",
+    )
     a = p.parse_args(argv)
     live = {"both": (False, True), "on": (True,), "off": (False,)}[a.live]
     print(json.dumps(responsiveness(size=a.size, steps=a.steps, keys=a.keys, live=live)))

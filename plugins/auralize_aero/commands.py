@@ -40,15 +40,25 @@ def add_commands(subparsers: Any, options: Any) -> None:
     t.add_argument(
         "--directions", type=positive_int, help="sampled flow directions (default: 5° spacing)"
     )
-    td = t.add_argument("--texture-duration", type=positive_float, default=0.05, metavar="S",
-                        help="seconds of texture recorded (default 0.05)")  # fmt: skip
+    td = t.add_argument(
+        "--texture-duration",
+        type=positive_float,
+        default=0.05,
+        metavar="S",
+        help="seconds of texture recorded (default 0.05)",
+    )
     add_renamed_alias(t, "--duration", td)
     t.add_argument("--resolution", type=positive_int, default=16, help="lattice cells across D")
     t.add_argument(
         "--reynolds", type=positive_float, default=200.0, help="Reynolds number simulated"
     )
-    tr = t.add_argument("--texture-rate", type=positive_float, default=16000.0, metavar="HZ",
-                        help="texture sample rate in Hz (default 16000; render resamples it)")  # fmt: skip
+    tr = t.add_argument(
+        "--texture-rate",
+        type=positive_float,
+        default=16000.0,
+        metavar="HZ",
+        help="texture sample rate in Hz (default 16000; render resamples it)",
+    )
     add_renamed_alias(t, "--rate", tr)
     t.add_argument("--seed", type=seed_int, default=0)
     t.add_argument("--no-cache", action="store_true", help="recompute even if cached")
@@ -69,9 +79,11 @@ def add_commands(subparsers: Any, options: Any) -> None:
         help="wind speed on a static object (m/s)",
     )
     mv.add_argument("--preset", choices=PRESET_NAMES, help="a §8 example's object and motion")
-    r.add_argument("--wind-direction", default="0,1,0",
-                   help="x,y,z (with --wind; default +y, across the stick, which lies along "
-                        "+x)")  # fmt: skip
+    r.add_argument(
+        "--wind-direction",
+        default="0,1,0",
+        help="x,y,z (with --wind; default +y, across the stick, which lies along +x)",
+    )
     r.add_argument(
         "--gust",
         type=finite_float,
@@ -82,8 +94,12 @@ def add_commands(subparsers: Any, options: Any) -> None:
         "--object", default="stick", help="stick | fence | sphere | sword (default stick)"
     )
     r.add_argument("--length", type=positive_float, default=0.5, help="stick length in metres")
-    r.add_argument("--exponent", choices=["physical", "paper"], default="physical",
-                   help="amplitude ∝ v³ (physical) or v⁶ (paper Eq. 3)")  # fmt: skip
+    r.add_argument(
+        "--exponent",
+        choices=["physical", "paper"],
+        default="physical",
+        help="amplitude ∝ v³ (physical) or v⁶ (paper Eq. 3)",
+    )
     # "--stereo ears" (two ear receivers) is refused with an explanation; stereo is a VBAP layout
     r.add_argument("--stereo", help=argparse.SUPPRESS)
     r.add_argument("--seed", type=seed_int, default=0)

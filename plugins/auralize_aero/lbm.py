@@ -34,15 +34,30 @@ CS2 = 1.0 / 3.0
 
 
 @numba.njit(cache=True, inline="always")
-def _feq(i: int, rho: float, ux: float, uy: float, ex: NDArray[np.int64], ey: NDArray[np.int64],
-         wt: NDArray[np.float64]) -> float:  # fmt: skip
+def _feq(
+    i: int,
+    rho: float,
+    ux: float,
+    uy: float,
+    ex: NDArray[np.int64],
+    ey: NDArray[np.int64],
+    wt: NDArray[np.float64],
+) -> float:
     eu = ex[i] * ux + ey[i] * uy
     return wt[i] * rho * (1.0 + 3.0 * eu + 4.5 * eu * eu - 1.5 * (ux * ux + uy * uy))
 
 
 @numba.njit(cache=True, inline="always")
-def _pull(f: NDArray[np.float64], solid: NDArray[np.bool_], i: int, j: int, y: int, x: int,
-          dy: int, dx: int) -> float:  # fmt: skip
+def _pull(
+    f: NDArray[np.float64],
+    solid: NDArray[np.bool_],
+    i: int,
+    j: int,
+    y: int,
+    x: int,
+    dy: int,
+    dx: int,
+) -> float:
     """Population i arriving at (y, x) from (y-dy, x-dx); half-way bounce-back off the body."""
     if solid[y - dy, x - dx]:
         return f[j, y, x]
@@ -50,8 +65,14 @@ def _pull(f: NDArray[np.float64], solid: NDArray[np.bool_], i: int, j: int, y: i
 
 
 @numba.njit(cache=True)
-def _sweep(f: NDArray[np.float64], g: NDArray[np.float64], solid: NDArray[np.bool_],
-           om: float, sponge: NDArray[np.float64], u0: float) -> None:  # fmt: skip
+def _sweep(
+    f: NDArray[np.float64],
+    g: NDArray[np.float64],
+    solid: NDArray[np.bool_],
+    om: float,
+    sponge: NDArray[np.float64],
+    u0: float,
+) -> None:
     """One pull-stream + BGK-collide sweep of the interior nodes, f -> g (post-collision).
 
     ``sponge (ny, nx)`` in [0, 1) relaxes the populations further towards the
@@ -108,8 +129,14 @@ def _sweep(f: NDArray[np.float64], g: NDArray[np.float64], solid: NDArray[np.boo
 
 
 @numba.njit(cache=True)
-def _boundaries(g: NDArray[np.float64], u_in: float, v_in: float, ex: NDArray[np.int64],
-                ey: NDArray[np.int64], wt: NDArray[np.float64]) -> None:  # fmt: skip
+def _boundaries(
+    g: NDArray[np.float64],
+    u_in: float,
+    v_in: float,
+    ex: NDArray[np.int64],
+    ey: NDArray[np.int64],
+    wt: NDArray[np.float64],
+) -> None:
     """Inlet (x=0): velocity u_in, v_in; outlet (x=nx-1): ρ = 1; lateral sides: zero gradient.
 
     Inlet and outlet use the equilibrium plus the non-equilibrium part of the
@@ -145,8 +172,9 @@ def _boundaries(g: NDArray[np.float64], u_in: float, v_in: float, ex: NDArray[np
 
 
 @numba.njit(cache=True)
-def _pressure_force(f: NDArray[np.float64], fy_: NDArray[np.int64], fx_: NDArray[np.int64],
-                    nrm: NDArray[np.float64]) -> tuple[float, float]:  # fmt: skip
+def _pressure_force(
+    f: NDArray[np.float64], fy_: NDArray[np.int64], fx_: NDArray[np.int64], nrm: NDArray[np.float64]
+) -> tuple[float, float]:
     """∮ n (ρ - 1) c_s² dl over the staircase faces, in lattice units (Eq. 2 without d/dt)."""
     sx = 0.0
     sy = 0.0
@@ -161,11 +189,22 @@ def _pressure_force(f: NDArray[np.float64], fy_: NDArray[np.int64], fx_: NDArray
 
 
 @numba.njit(cache=True)
-def _run(f: NDArray[np.float64], g: NDArray[np.float64], solid: NDArray[np.bool_],
-         om: float, sponge: NDArray[np.float64], u_in: NDArray[np.float64], v_in: NDArray[np.float64],
-         fy_: NDArray[np.int64], fx_: NDArray[np.int64], nrm: NDArray[np.float64],
-         force: NDArray[np.float64], ex: NDArray[np.int64], ey: NDArray[np.int64],
-         wt: NDArray[np.float64]) -> int:  # fmt: skip
+def _run(
+    f: NDArray[np.float64],
+    g: NDArray[np.float64],
+    solid: NDArray[np.bool_],
+    om: float,
+    sponge: NDArray[np.float64],
+    u_in: NDArray[np.float64],
+    v_in: NDArray[np.float64],
+    fy_: NDArray[np.int64],
+    fx_: NDArray[np.int64],
+    nrm: NDArray[np.float64],
+    force: NDArray[np.float64],
+    ex: NDArray[np.int64],
+    ey: NDArray[np.int64],
+    wt: NDArray[np.float64],
+) -> int:
     """Advance ``u_in.size`` steps; returns 0 if the result is in f, 1 if in g."""
     a, b = f, g
     flip = 0
@@ -178,8 +217,9 @@ def _run(f: NDArray[np.float64], g: NDArray[np.float64], solid: NDArray[np.bool_
     return flip
 
 
-def equilibrium(rho: NDArray[np.float64], ux: NDArray[np.float64],
-                uy: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+def equilibrium(
+    rho: NDArray[np.float64], ux: NDArray[np.float64], uy: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """D2Q9 equilibrium ``(9, ny, nx)`` of density and velocity fields ``(ny, nx)``."""
     eu = EX[:, None, None] * ux + EY[:, None, None] * uy
     return WT[:, None, None] * rho * (1 + 3 * eu + 4.5 * eu**2 - 1.5 * (ux**2 + uy**2))
@@ -251,9 +291,18 @@ def _crossing_periods(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDAr
     return frac, amps
 
 
-def simulate(solid: NDArray[np.bool_], *, u_lat: float, nu_lat: float, record_steps: int,
-             d_cells: float, seed: int = 0, min_warmup_steps: int | None = None,
-             max_warmup_steps: int | None = None, chunk_steps: int | None = None) -> FlowRecord:  # fmt: skip
+def simulate(
+    solid: NDArray[np.bool_],
+    *,
+    u_lat: float,
+    nu_lat: float,
+    record_steps: int,
+    d_cells: float,
+    seed: int = 0,
+    min_warmup_steps: int | None = None,
+    max_warmup_steps: int | None = None,
+    chunk_steps: int | None = None,
+) -> FlowRecord:
     """Run the LBM from rest until the shedding is periodic, then record ``record_steps`` steps.
 
     Parameters

@@ -36,8 +36,11 @@ def _unpack(inputs: Any) -> dict[str, Any]:
             )
         d = dict(zip(("texture", "object", "motion", "wind"), inputs, strict=False))
     else:
-        got = (f"a {type(inputs).__name__} of {len(inputs)} items"
-               if isinstance(inputs, tuple | list) else type(inputs).__name__)  # fmt: skip
+        got = (
+            f"a {type(inputs).__name__} of {len(inputs)} items"
+            if isinstance(inputs, tuple | list)
+            else type(inputs).__name__
+        )
         raise ParameterError(
             "aero inputs must be a dict with keys texture, object and motion and/or wind, "
             f"or a tuple of 2 to 4 items (texture, object[, motion, wind]); got {got}"
@@ -71,7 +74,7 @@ class AeroSound(SoundModel):
             "physical",
             choices=("physical", "paper"),
             doc="amplitude ∝ v³ (pressure law, docs/design.md) or the paper's v⁶ (Eq. 3)",
-        ),  # fmt: skip
+        ),
         Parameter("rate", 44100, range=(1000, 384000), unit="Hz", doc="emission sample rate"),
         Parameter("c0", C0, range=(1.0, None), unit="m/s"),
         Parameter("min_distance", 0.05, range=(1e-6, None), unit="m"),
@@ -112,9 +115,17 @@ class AeroSound(SoundModel):
                 "aero: give duration= (seconds of emission) for wind on a static object"
             )
         texture: Any = d.get("texture")  # checked by emission()
-        part = emission(texture, d["object"], motion=motion, wind=d.get("wind"),
-                        rate=p["rate"], duration=dur, exponent=p["exponent"], c0=p["c0"],
-                        min_distance=p["min_distance"])  # fmt: skip
+        part = emission(
+            texture,
+            d["object"],
+            motion=motion,
+            wind=d.get("wind"),
+            rate=p["rate"],
+            duration=dur,
+            exponent=p["exponent"],
+            c0=p["c0"],
+            min_distance=p["min_distance"],
+        )
         return Sound([part], meta=dict(part.meta), name=self.name)
 
     def overlay(self, inputs: Any, step: int) -> Any:
@@ -167,15 +178,24 @@ class AeroSound(SoundModel):
         sec = get_section(args.shape, args.diameter)
         t0 = time.perf_counter()
         with progress_callback("texture", unit="direction") as cb:
-            tex = compute_texture(sec, speed=args.speed, duration=args.texture_duration,
-                                  rate=args.texture_rate, resolution=args.resolution,
-                                  reynolds=args.reynolds,
-                                  directions=args.directions, seed=args.seed,
-                                  cache=not args.no_cache, progress=cb)  # fmt: skip
+            tex = compute_texture(
+                sec,
+                speed=args.speed,
+                duration=args.texture_duration,
+                rate=args.texture_rate,
+                resolution=args.resolution,
+                reynolds=args.reynolds,
+                directions=args.directions,
+                seed=args.seed,
+                cache=not args.no_cache,
+                progress=cb,
+            )
         tex.save(args.output)
-        print(f"wrote {args.output}: {sec.name}, D = {sec.diameter:g} m, v0 = {tex.speed:g} m/s, "
-              f"{tex.directions_deg.size} direction(s), St = {', '.join(f'{s:.3f}' for s in tex.strouhal)}, "
-              f"{time.perf_counter() - t0:.1f} s")  # fmt: skip
+        print(
+            f"wrote {args.output}: {sec.name}, D = {sec.diameter:g} m, v0 = {tex.speed:g} m/s, "
+            f"{tex.directions_deg.size} direction(s), St = {', '.join(f'{s:.3f}' for s in tex.strouhal)}, "
+            f"{time.perf_counter() - t0:.1f} s"
+        )
         return 0
 
     @staticmethod
@@ -201,19 +221,39 @@ class AeroSound(SoundModel):
                 _check_crosswind(obj, _floats(args.wind_direction), args.wind_direction)
         if getattr(args, "stereo", None) is not None:
             no_ears(args.stereo)
-            print("note: --stereo is no longer needed: stereo is panned (VBAP) like every layout",
-                  file=sys.stderr)  # fmt: skip
+            print(
+                "note: --stereo is no longer needed: stereo is panned (VBAP) like every layout",
+                file=sys.stderr,
+            )
         t0 = time.perf_counter()
-        out = render(tex, obj, path, motion=motion, wind=wind, rate=args.rate, layout=args.layout,
-                     exponent=args.exponent, duration=duration)  # fmt: skip
+        out = render(
+            tex,
+            obj,
+            path,
+            motion=motion,
+            wind=wind,
+            rate=args.rate,
+            layout=args.layout,
+            exponent=args.exponent,
+            duration=duration,
+        )
         el = time.perf_counter() - t0
-        gain = write_audio(args.output, out.audio, out.rate, channel_mask=out.layout.channel_mask,
-                           normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
-                           sidecar={"model": "aero", "texture": str(args.texture), **out.meta})  # fmt: skip
+        gain = write_audio(
+            args.output,
+            out.audio,
+            out.rate,
+            channel_mask=out.layout.channel_mask,
+            normalize=args.normalize,
+            limit_pa=args.limit,
+            subtype=args.format,
+            sidecar={"model": "aero", "texture": str(args.texture), **out.meta},
+        )
         peak = float(np.max(np.abs(out.audio))) if out.audio.size else 0.0
-        print(f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s at "
-              f"{out.rate} Hz, {out.meta['n_sources']} point sources, peak {peak:.4g} Pa, gain {gain:.4g}; "
-              f"{el:.2f} s")  # fmt: skip
+        print(
+            f"wrote {args.output}: {out.layout.name}, {out.audio.shape[0]} ch, {out.duration:.2f} s at "
+            f"{out.rate} Hz, {out.meta['n_sources']} point sources, peak {peak:.4g} Pa, gain {gain:.4g}; "
+            f"{el:.2f} s"
+        )
         return 0
 
     # ---------------------------------------------------------------- bench
@@ -228,12 +268,18 @@ class AeroSound(SoundModel):
         t0 = time.perf_counter()
         tex = compute_texture(circle(0.01), resolution=res, duration=dur, cache=False)
         t_tex = time.perf_counter() - t0
-        rows.append(BenchRow(
-            "aero", f"cylinder texture ({res} cells/D, {dur:g} s)", t_tex, "s",
-            target="" if quick else "≤ 120 s", met=None if quick else t_tex <= 120,
-            paper="45 min (FEM, 4 CPUs), ~1 h (FDM, PIII)",
-            note=f"St = {tex.strouhal[0]:.3f}; {tex.meta['directions'][0]['lattice']} lattice",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "aero",
+                f"cylinder texture ({res} cells/D, {dur:g} s)",
+                t_tex,
+                "s",
+                target="" if quick else "≤ 120 s",
+                met=None if quick else t_tex <= 120,
+                paper="45 min (FEM, 4 CPUs), ~1 h (FDM, PIII)",
+                note=f"St = {tex.strouhal[0]:.3f}; {tex.meta['directions'][0]['lattice']} lattice",
+            )
+        )
         obj = stick(0.5, 0.01)
         seconds = 2.0 if quick else 4.0
         motion = Motion.swing(
@@ -244,11 +290,18 @@ class AeroSound(SoundModel):
             t = best_of(
                 lambda layout=layout: render(tex, obj, path, motion=motion, layout=layout), repeat=3
             )
-            rows.append(BenchRow(
-                "aero", f"swinging stick, {obj.n_sources} sources → {layout}", seconds / t, "× real time",
-                target="≥ 100×" if layout == "mono" else "", met=(seconds / t >= 100) if layout == "mono" else None,
-                paper="real time at 60 fps (PIII 1.3 GHz)", note=f"{seconds:g} s of audio in {t * 1e3:.1f} ms",
-            ))  # fmt: skip
+            rows.append(
+                BenchRow(
+                    "aero",
+                    f"swinging stick, {obj.n_sources} sources → {layout}",
+                    seconds / t,
+                    "× real time",
+                    target="≥ 100×" if layout == "mono" else "",
+                    met=(seconds / t >= 100) if layout == "mono" else None,
+                    paper="real time at 60 fps (PIII 1.3 GHz)",
+                    note=f"{seconds:g} s of audio in {t * 1e3:.1f} ms",
+                )
+            )
         return rows
 
 

@@ -125,11 +125,14 @@ def quat_to_matrix(q: NDArray[np.floating]) -> NDArray[np.float64]:
     q = np.asarray(q, dtype=np.float64)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)  # fmt: skip
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
 
 
 def axis_angle_quat(axis: NDArray[np.floating], angle: NDArray[np.floating]) -> NDArray[np.float64]:
@@ -207,8 +210,9 @@ class Motion:
     @classmethod
     def from_csv(cls, path: str | Path) -> Motion:
         """Read ``t,x,y,z[,qw,qx,qy,qz]`` (no orientation: identity)."""
-        a, has_q, src = read_timed_csv(path, what="motion", optional=["qw", "qx", "qy", "qz"],
-                                       rows_name="poses")  # fmt: skip
+        a, has_q, src = read_timed_csv(
+            path, what="motion", optional=["qw", "qx", "qy", "qz"], rows_name="poses"
+        )
         q = a[:, 4:8] if has_q else np.tile([1.0, 0, 0, 0], (a.shape[0], 1))
         return cls(a[:, 0], a[:, 1:4], q, source=src)
 
@@ -227,8 +231,14 @@ class Motion:
         )
 
     @classmethod
-    def linear(cls, start: NDArray[np.floating], velocity: NDArray[np.floating], *, duration: float,
-               rate_hz: float = 200.0) -> Motion:  # fmt: skip
+    def linear(
+        cls,
+        start: NDArray[np.floating],
+        velocity: NDArray[np.floating],
+        *,
+        duration: float,
+        rate_hz: float = 200.0,
+    ) -> Motion:
         """Constant velocity (a thrown object, Fig. 12, without its spin)."""
         t = np.linspace(0, duration, max(int(duration * rate_hz), 1) + 1)
         pos = np.asarray(start, dtype=np.float64) + t[:, None] * np.asarray(
@@ -237,9 +247,16 @@ class Motion:
         return cls(t, pos, np.tile([1.0, 0, 0, 0], (t.size, 1)), source="linear")
 
     @classmethod
-    def swing(cls, *, duration: float = 1.0, swings: float = 2.0, amplitude_deg: float = 80.0,
-              axis: tuple[float, float, float] = (0, 0, 1), pivot: tuple[float, float, float] = (0, 0, 0),
-              rate_hz: float = 500.0) -> Motion:  # fmt: skip
+    def swing(
+        cls,
+        *,
+        duration: float = 1.0,
+        swings: float = 2.0,
+        amplitude_deg: float = 80.0,
+        axis: tuple[float, float, float] = (0, 0, 1),
+        pivot: tuple[float, float, float] = (0, 0, 0),
+        rate_hz: float = 500.0,
+    ) -> Motion:
         """A stick swung back and forth about ``axis`` through its grip (Figs. 1, 9):
         angle(t) = A sin(2π swings t / duration)."""
         t = np.linspace(0, duration, max(int(duration * rate_hz), 2) + 1)
@@ -252,8 +269,15 @@ class Motion:
         )
 
     @classmethod
-    def circle(cls, *, radius: float = 1.0, turns: float = 4.0, duration: float = 2.0,
-               center: tuple[float, float, float] = (0, 0, 0), rate_hz: float = 500.0) -> Motion:  # fmt: skip
+    def circle(
+        cls,
+        *,
+        radius: float = 1.0,
+        turns: float = 4.0,
+        duration: float = 2.0,
+        center: tuple[float, float, float] = (0, 0, 0),
+        rate_hz: float = 500.0,
+    ) -> Motion:
         """Uniform horizontal circle (a sphere whirled on a string, Fig. 11)."""
         t = np.linspace(0, duration, max(int(duration * rate_hz), 2) + 1)
         a = 2 * np.pi * turns * t / duration

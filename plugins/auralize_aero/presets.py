@@ -33,8 +33,13 @@ def stick(length: float = 0.5, diameter: float = 0.01, *, name: str = "stick") -
 
 def sword_object(length: float = 0.7, thickness: float = 0.005) -> AeroObject:
     """A 70 cm sword along +x with its blade chord along the object's z axis, 10 sources (Fig. 9)."""
-    return AeroObject([np.array([[0.0, 0, 0], [length, 0, 0]])], thickness,
-                      reference=np.array([0.0, 1.0, 0.0]), spacing=length / 10, name="sword")  # fmt: skip
+    return AeroObject(
+        [np.array([[0.0, 0, 0], [length, 0, 0]])],
+        thickness,
+        reference=np.array([0.0, 1.0, 0.0]),
+        spacing=length / 10,
+        name="sword",
+    )
 
 
 def fence(
@@ -74,27 +79,62 @@ def get_preset(name: str, *, duration: float | None = None, seed: int = 0) -> Pr
     d = 2.0 if duration is None else float(duration)
     if name in ("cylinder", "square"):
         sec = circle(0.01) if name == "cylinder" else square(0.01)
-        return Preset(name, sec, stick(0.5, 0.01, name=name),
-                      Motion.swing(duration=d, swings=d, amplitude_deg=70.0), None,
-                      (0.3, 1.0, 0.2), d, "§8.1: 50 cm stick of 1 cm section swung by hand")  # fmt: skip
+        return Preset(
+            name,
+            sec,
+            stick(0.5, 0.01, name=name),
+            Motion.swing(duration=d, swings=d, amplitude_deg=70.0),
+            None,
+            (0.3, 1.0, 0.2),
+            d,
+            "§8.1: 50 cm stick of 1 cm section swung by hand",
+        )
     if name == "sword":
-        return Preset(name, sword(0.005), sword_object(), Motion.swing(duration=d, swings=d / 1.5,
-                      amplitude_deg=80.0, axis=(0, 0, 1)), None, (0.4, 1.2, 0.0), d,
-                      "Fig. 9: 70 cm sword, 10 sources")  # fmt: skip
+        return Preset(
+            name,
+            sword(0.005),
+            sword_object(),
+            Motion.swing(duration=d, swings=d / 1.5, amplitude_deg=80.0, axis=(0, 0, 1)),
+            None,
+            (0.4, 1.2, 0.0),
+            d,
+            "Fig. 9: 70 cm sword, 10 sources",
+        )
     if name == "sphere":
-        return Preset(name, circle(0.1), sphere_object(0.05),
-                      Motion.circle(radius=1.0, turns=4, duration=d), None, (3.0, 0.0, 0.0), d,
-                      "Fig. 11: sphere (r = 5 cm) whirled 4 times on a 1 m string")  # fmt: skip
+        return Preset(
+            name,
+            circle(0.1),
+            sphere_object(0.05),
+            Motion.circle(radius=1.0, turns=4, duration=d),
+            None,
+            (3.0, 0.0, 0.0),
+            d,
+            "Fig. 11: sphere (r = 5 cm) whirled 4 times on a 1 m string",
+        )
     if name == "fence":
-        return Preset(name, circle(0.01), fence(), None,
-                      Wind(12.0, (1.0, 0.0, 0.0), gust=0.08, seed=seed), (2.0, 3.0, 1.0), d,
-                      "Fig. 14: cold wintry wind through a fence of cylinders")  # fmt: skip
+        return Preset(
+            name,
+            circle(0.01),
+            fence(),
+            None,
+            Wind(12.0, (1.0, 0.0, 0.0), gust=0.08, seed=seed),
+            (2.0, 3.0, 1.0),
+            d,
+            "Fig. 14: cold wintry wind through a fence of cylinders",
+        )
     if name == "throw":
         # the stick flies across its own axis (vertical): a flow along the axis sheds nothing
         thrown = AeroObject([np.array([[0.0, 0, -0.25], [0.0, 0, 0.25]])], 0.01, name=name)
-        return Preset(name, circle(0.01), thrown,
-                      Motion.linear((-15.0, 0.0, 0.0), (15.0, 0.0, 0.0), duration=d), None,
-                      (15.0, 0.5, 0.0), d, "Fig. 12: a cylinder thrown at the receiver")  # fmt: skip
+        return Preset(
+            name,
+            circle(0.01),
+            thrown,
+            Motion.linear((-15.0, 0.0, 0.0), (15.0, 0.0, 0.0), duration=d),
+            None,
+            (15.0, 0.5, 0.0),
+            d,
+            "Fig. 12: a cylinder thrown at the receiver",
+        )
     raise ParameterError(f"unknown preset {name!r}; choose one of {PRESETS}")
 
 

@@ -127,8 +127,15 @@ def _apply(R: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64
     return np.ascontiguousarray(np.matmul(R, v.T).transpose(2, 0, 1))
 
 
-def kinematics_reference(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind | None,
-                         dt: float, duration: float) -> Kinematics:  # fmt: skip
+def kinematics_reference(
+    obj: AeroObject,
+    v0: float,
+    *,
+    motion: Motion | None,
+    wind: Wind | None,
+    dt: float,
+    duration: float,
+) -> Kinematics:
     """Source kinematics and the texture-coordinate recurrence of Eq. 3 (§6), in numpy.
 
     The reference for :func:`kinematics` (same quantities, one numba pass).
@@ -177,12 +184,28 @@ def kinematics_reference(obj: AeroObject, v0: float, *, motion: Motion | None, w
 
 
 @numba.njit(**_NJIT)
-def _kin_kernel(p: NDArray[np.float64], dp: NDArray[np.float64], R: NDArray[np.float64],
-                dR: NDArray[np.float64], centres: NDArray[np.float64], axes: NDArray[np.float64],
-                refs: NDArray[np.float64], wind: NDArray[np.float64], has_wind: bool, v0: float,
-                dt: float, pos: NDArray[np.float64], e1o: NDArray[np.float64], e2o: NDArray[np.float64],
-                c1o: NDArray[np.float64], c2o: NDArray[np.float64], ao: NDArray[np.float64],
-                so: NDArray[np.float64], k0: int, k1: int) -> None:  # fmt: skip
+def _kin_kernel(
+    p: NDArray[np.float64],
+    dp: NDArray[np.float64],
+    R: NDArray[np.float64],
+    dR: NDArray[np.float64],
+    centres: NDArray[np.float64],
+    axes: NDArray[np.float64],
+    refs: NDArray[np.float64],
+    wind: NDArray[np.float64],
+    has_wind: bool,
+    v0: float,
+    dt: float,
+    pos: NDArray[np.float64],
+    e1o: NDArray[np.float64],
+    e2o: NDArray[np.float64],
+    c1o: NDArray[np.float64],
+    c2o: NDArray[np.float64],
+    ao: NDArray[np.float64],
+    so: NDArray[np.float64],
+    k0: int,
+    k1: int,
+) -> None:
     """Fused :func:`kinematics_reference` after the pose spline: poses ``p (J, 3)``,
     ``R (J, 3, 3)`` and their time derivatives -> per-source arrays (written in place)."""
     J = p.shape[0]
@@ -248,8 +271,15 @@ def _kin_kernel(p: NDArray[np.float64], dp: NDArray[np.float64], R: NDArray[np.f
             so[k, j] = acc
 
 
-def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind | None,
-               dt: float, duration: float) -> Kinematics:  # fmt: skip
+def kinematics(
+    obj: AeroObject,
+    v0: float,
+    *,
+    motion: Motion | None,
+    wind: Wind | None,
+    dt: float,
+    duration: float,
+) -> Kinematics:
     """Source kinematics and the texture-coordinate recurrence of Eq. 3 (§6).
 
     The pose spline is evaluated in scipy; everything per source and step
@@ -288,9 +318,26 @@ def kinematics(obj: AeroObject, v0: float, *, motion: Motion | None, wind: Wind 
     a = np.empty((S, J))
     s = np.empty((S, J))
     f = np.ascontiguousarray
-    args = (p, dp, Rt, dRt, f(centres, dtype=np.float64), f(axes, dtype=np.float64),
-            f(refs, dtype=np.float64), uw, wind is not None, float(v0), float(dt),
-            pos, e1, e2, c1, c2, a, s)  # fmt: skip
+    args = (
+        p,
+        dp,
+        Rt,
+        dRt,
+        f(centres, dtype=np.float64),
+        f(axes, dtype=np.float64),
+        f(refs, dtype=np.float64),
+        uw,
+        wind is not None,
+        float(v0),
+        float(dt),
+        pos,
+        e1,
+        e2,
+        c1,
+        c2,
+        a,
+        s,
+    )
     _in_parts(lambda k0, k1: _kin_kernel(*args, k0, k1), S)
     return Kinematics(dt, pos, e1, e2, c1, c2, a, s, span)
 
@@ -313,11 +360,26 @@ _BLOCK_BYTES = 176
 
 
 @numba.njit(**_NJIT)
-def _q_kernel(e1: NDArray[np.float64], e2: NDArray[np.float64], speed: NDArray[np.float64],
-              scale: NDArray[np.float64], c1: NDArray[np.float64], c2: NDArray[np.float64],
-              s: NDArray[np.float64], M: NDArray[np.float64], iso: bool, ja: int, dt_fade: float,
-              exponent: float, tex_rate: float, qa: NDArray[np.float64], qb: NDArray[np.float64],
-              ph: NDArray[np.float64], k0: int, k1: int) -> None:  # fmt: skip
+def _q_kernel(
+    e1: NDArray[np.float64],
+    e2: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    scale: NDArray[np.float64],
+    c1: NDArray[np.float64],
+    c2: NDArray[np.float64],
+    s: NDArray[np.float64],
+    M: NDArray[np.float64],
+    iso: bool,
+    ja: int,
+    dt_fade: float,
+    exponent: float,
+    tex_rate: float,
+    qa: NDArray[np.float64],
+    qb: NDArray[np.float64],
+    ph: NDArray[np.float64],
+    k0: int,
+    k1: int,
+) -> None:
     """The table-emitter arrays of sources ``k0 <= k < k1`` for the n blocks from grid point
     ``ja`` (what :meth:`AeroEmission._table_of` and the products ``[e1a e2a] M`` give, in one
     pass): ``qa, qb (S, n, 3, 2)`` the matrices ``Q = amp [e1 e2] M`` at each block's start
@@ -357,9 +419,17 @@ def _q_kernel(e1: NDArray[np.float64], e2: NDArray[np.float64], speed: NDArray[n
             qa[k, b, 2, 1] = x2 * p01 + y2 * p11
 
 
-def emission_reference(e1a: NDArray[np.float64], e2a: NDArray[np.float64], M: NDArray[np.float64],
-                       j0: NDArray[np.int64], j1: NDArray[np.int64], w: NDArray[np.float64],
-                       s: NDArray[np.float64], tex: SoundTexture, K: int) -> NDArray[np.float64]:  # fmt: skip
+def emission_reference(
+    e1a: NDArray[np.float64],
+    e2a: NDArray[np.float64],
+    M: NDArray[np.float64],
+    j0: NDArray[np.int64],
+    j1: NDArray[np.int64],
+    w: NDArray[np.float64],
+    s: NDArray[np.float64],
+    tex: SoundTexture,
+    K: int,
+) -> NDArray[np.float64]:
     """The samples of the table emitters of :meth:`AeroEmission._emitters`, in numpy (every
     sample at once): ``G (S, 3, B K)``."""
     S, B = j0.shape
@@ -443,9 +513,15 @@ class AeroEmission:
         n = jb - ja + 1
         f = np.ascontiguousarray
         e1a, e2a, M, j0, j1, w, st = self._tab
-        return (f(e1a[:, o : o + n + 1]), f(e2a[:, o : o + n + 1]), f(M[:, o : o + n]),
-                f(j0[:, o : o + n]), f(j1[:, o : o + n]), f(w[:, o : o + n]),
-                f(st[:, o : o + n + 1]))  # fmt: skip
+        return (
+            f(e1a[:, o : o + n + 1]),
+            f(e2a[:, o : o + n + 1]),
+            f(M[:, o : o + n]),
+            f(j0[:, o : o + n]),
+            f(j1[:, o : o + n]),
+            f(w[:, o : o + n]),
+            f(st[:, o : o + n + 1]),
+        )
 
     def _table_of(self, ja: int, jb: int) -> tuple[NDArray[Any], ...]:
         """:meth:`_table` of blocks ``ja..jb`` computed directly."""
@@ -468,8 +544,15 @@ class AeroEmission:
             j0, j1, w, M = tex.lookup(np.arctan2(c2, c1))
             M = M.reshape(*c1.shape, 4)
         f = np.ascontiguousarray
-        return (f(amp[..., None] * kin.e1[:, g]), f(amp[..., None] * kin.e2[:, g]), f(M), f(j0),
-                f(j1), f(w), f(kin.s[:, g]))  # fmt: skip
+        return (
+            f(amp[..., None] * kin.e1[:, g]),
+            f(amp[..., None] * kin.e2[:, g]),
+            f(M),
+            f(j0),
+            f(j1),
+            f(w),
+            f(kin.s[:, g]),
+        )
 
     def _emitters(self, ja: int, jb: int) -> Emitters:
         """Emitters of blocks ``ja..jb``: :class:`auralize.emitters.TableEmitters` reading the
@@ -482,8 +565,16 @@ class AeroEmission:
         if self.engine == "numpy":
             e1a, e2a, Mt, j0t, j1t, wt, st = self._table(ja, jb)
             G = emission_reference(e1a, e2a, Mt, j0t, j1t, wt, st, tex, K)
-            return Emitters(G, self.rate, pos, t0=ja * kin.dt, pos_rate=self.rate / K,
-                            radius=self.radius, law=1.0, name=self.name)  # fmt: skip
+            return Emitters(
+                G,
+                self.rate,
+                pos,
+                t0=ja * kin.dt,
+                pos_rate=self.rate / K,
+                radius=self.radius,
+                law=1.0,
+                name=self.name,
+            )
         # G = Q g with Q = amp [e1 e2] M (3x2) at both ends of each block, M the block's map
         S, n = self.n_sources, jb - ja + 1
         iso = tex.section.symmetry[0] == 0 and tex.directions_deg.size == 1
@@ -495,12 +586,44 @@ class AeroEmission:
             M = np.ascontiguousarray(M.reshape(S, n, 4))
         qa, qb, ph = np.empty((S, n, 3, 2)), np.empty((S, n, 3, 2)), np.empty((S, n + 1))
         scale = np.ascontiguousarray(kin.span, dtype=np.float64) / (4 * np.pi * self.c0)
-        args = (kin.e1, kin.e2, kin.speed, scale, kin.c1, kin.c2, kin.s, M, iso, ja,
-                kin.dt / self.fade, float(self.exponent), float(tex.rate), qa, qb, ph)  # fmt: skip
+        args = (
+            kin.e1,
+            kin.e2,
+            kin.speed,
+            scale,
+            kin.c1,
+            kin.c2,
+            kin.s,
+            M,
+            iso,
+            ja,
+            kin.dt / self.fade,
+            float(self.exponent),
+            float(tex.rate),
+            qa,
+            qb,
+            ph,
+        )
         _in_parts(lambda k0, k1: _q_kernel(*args, k0, k1), S)
-        return TableEmitters(tex.g, tex.lengths, qa, qb, ph, j0, j1, w, K, self.rate, pos,
-                             t0=ja * kin.dt, pos_rate=self.rate / K, radius=self.radius, law=1.0,
-                             name=self.name, check=False)  # fmt: skip
+        return TableEmitters(
+            tex.g,
+            tex.lengths,
+            qa=qa,
+            qb=qb,
+            phase=ph,
+            r0=j0,
+            r1=j1,
+            w=w,
+            block=K,
+            rate=self.rate,
+            positions=pos,
+            t0=ja * kin.dt,
+            pos_rate=self.rate / K,
+            radius=self.radius,
+            law=1.0,
+            name=self.name,
+            check=False,
+        )
 
     def emitters(self, tau0: float = 0.0, tau1: float | None = None) -> Emitters:
         """The dipole emitters of emission times ``[tau0, tau1]`` (s; default: all), in whole blocks."""
@@ -542,9 +665,17 @@ class AeroEmission:
             ja, jb = a, b
         return ja, jb
 
-    def render_part(self, path: ListenerPath, *, rate: int = 44100, layout: str | Layout = "mono",
-                    duration: float | None = None, start: float = 0.0, c0: float = C0,
-                    backend: str = "auto") -> Rendered:  # fmt: skip
+    def render_part(
+        self,
+        path: ListenerPath,
+        *,
+        rate: int = 44100,
+        layout: str | Layout = "mono",
+        duration: float | None = None,
+        start: float = 0.0,
+        c0: float = C0,
+        backend: str = "auto",
+    ) -> Rendered:
         """Render along ``path`` with the engine, one output window at a time.
 
         Each window's emitters cover every emission time that window can hear
@@ -570,9 +701,17 @@ class AeroEmission:
             win = self._window(path, t_a - pad, start + nb / rate + pad, c0)
             if win is None:
                 continue
-            r = render_emitters(self._emitters(*win), path, rate=rate, layout=lay,
-                                duration=(nb - na) / rate, start=t_a, c0=c0, backend=backend,
-                                block=CONTROL_BLOCK)  # fmt: skip
+            r = render_emitters(
+                self._emitters(*win),
+                path,
+                rate=rate,
+                layout=lay,
+                duration=(nb - na) / rate,
+                start=t_a,
+                c0=c0,
+                backend=backend,
+                block=CONTROL_BLOCK,
+            )
             if na == 0 and nb == n_out and r.audio.shape == (lay.n_channels, n_out):
                 out = r.audio  # one window: its audio is the result
                 break
@@ -582,9 +721,9 @@ class AeroEmission:
             out[:, na : na + m] = r.audio[:, :m]
         if out is None:  # nothing audible
             out = np.zeros((lay.n_channels, n_out))
-        return stage.finish(Rendered(
-            audio=out, rate=int(rate), layout=lay, meta={**self.meta, "model": self.name}
-        ))  # fmt: skip
+        return stage.finish(
+            Rendered(audio=out, rate=int(rate), layout=lay, meta={**self.meta, "model": self.name})
+        )
 
 
 def no_ears(stereo: object) -> None:
@@ -596,10 +735,21 @@ def no_ears(stereo: object) -> None:
         )
 
 
-def emission(texture: SoundTexture, obj: AeroObject, *, motion: Motion | None = None,
-             wind: Wind | None = None, rate: float = 44100, duration: float,
-             exponent: str | float = "physical", c0: float = C0, min_distance: float = 0.05,
-             fade: float = 0.01, block: int = 32, engine: str = "numba") -> AeroEmission:  # fmt: skip
+def emission(
+    texture: SoundTexture,
+    obj: AeroObject,
+    *,
+    motion: Motion | None = None,
+    wind: Wind | None = None,
+    rate: float = 44100,
+    duration: float,
+    exponent: str | float = "physical",
+    c0: float = C0,
+    min_distance: float = 0.05,
+    fade: float = 0.01,
+    block: int = 32,
+    engine: str = "numba",
+) -> AeroEmission:
     """The emitted aerodynamic sound of ``obj`` (§6, Eqs. 3–4) as point dipoles.
 
     Parameters
@@ -647,18 +797,46 @@ def emission(texture: SoundTexture, obj: AeroObject, *, motion: Motion | None = 
     K = int(block)
     kin_fn = kinematics if engine == "numba" else kinematics_reference
     kin = kin_fn(obj, texture.speed, motion=motion, wind=wind, dt=K / rate, duration=duration)
-    meta = {"n_sources": int(kin.pos.shape[0]), "exponent": e, "texture_speed": texture.speed,
-            "max_speed_mps": float(kin.speed.max() * texture.speed)}  # fmt: skip
-    return AeroEmission(texture, kin, float(rate), K, e, c0=float(c0), fade=float(fade),
-                        radius=float(min_distance), static=motion is None, engine=engine,
-                        meta=meta)  # fmt: skip
+    meta = {
+        "n_sources": int(kin.pos.shape[0]),
+        "exponent": e,
+        "texture_speed": texture.speed,
+        "max_speed_mps": float(kin.speed.max() * texture.speed),
+    }
+    return AeroEmission(
+        texture,
+        kin,
+        float(rate),
+        K,
+        e,
+        c0=float(c0),
+        fade=float(fade),
+        radius=float(min_distance),
+        static=motion is None,
+        engine=engine,
+        meta=meta,
+    )
 
 
-def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion: Motion | None = None,
-           wind: Wind | None = None, rate: int = 44100, layout: str | Layout = "mono",
-           exponent: str | float = "physical", duration: float | None = None, c0: float = C0,
-           min_distance: float = 0.05, fade: float = 0.01, block: int = 32, engine: str = "numba",
-           backend: str = "auto", stereo: str | None = None) -> Rendered:  # fmt: skip
+def render(
+    texture: SoundTexture,
+    obj: AeroObject,
+    path: ListenerPath,
+    *,
+    motion: Motion | None = None,
+    wind: Wind | None = None,
+    rate: int = 44100,
+    layout: str | Layout = "mono",
+    exponent: str | float = "physical",
+    duration: float | None = None,
+    c0: float = C0,
+    min_distance: float = 0.05,
+    fade: float = 0.01,
+    block: int = 32,
+    engine: str = "numba",
+    backend: str = "auto",
+    stereo: str | None = None,
+) -> Rendered:
     """Render the aerodynamic sound of ``obj`` heard along ``path`` (§6, Eqs. 3–4).
 
     :func:`emission` at the output rate for the path's duration, rendered by
@@ -700,8 +878,19 @@ def render(texture: SoundTexture, obj: AeroObject, path: ListenerPath, *, motion
     """
     no_ears(stereo)
     dur = path.duration if duration is None else float(duration)
-    part = emission(texture, obj, motion=motion, wind=wind, rate=rate, duration=dur,
-                    exponent=exponent, c0=c0, min_distance=min_distance, fade=fade, block=block,
-                    engine=engine)  # fmt: skip
+    part = emission(
+        texture,
+        obj,
+        motion=motion,
+        wind=wind,
+        rate=rate,
+        duration=dur,
+        exponent=exponent,
+        c0=c0,
+        min_distance=min_distance,
+        fade=fade,
+        block=block,
+        engine=engine,
+    )
     # the one part rendered directly: auralize.emitters.render_sound would sum it into a second buffer
     return part.render_part(path, rate=rate, layout=layout, duration=dur, c0=c0, backend=backend)

@@ -136,8 +136,13 @@ def _segments_intersect(P: NDArray[np.float64]) -> tuple[int, int] | None:
     return None
 
 
-def make_polygon(vertices: NDArray[np.floating], *, diameter: float | None = None,
-                 name: str = "polygon", source: str = "<memory>") -> Section:  # fmt: skip
+def make_polygon(
+    vertices: NDArray[np.floating],
+    *,
+    diameter: float | None = None,
+    name: str = "polygon",
+    source: str = "<memory>",
+) -> Section:
     """A validated polygonal section.
 
     Parameters
@@ -261,8 +266,17 @@ def sword(diameter: float) -> Section:
     """
     t = check_diameter(diameter)
     c = 2.5 * t
-    V = np.array([[-c, 0], [-c + t, -t / 2], [c - t, -t / 2], [c, 0], [c - t, t / 2],
-                  [-c + t, t / 2], [-c, 0]])  # fmt: skip
+    V = np.array(
+        [
+            [-c, 0],
+            [-c + t, -t / 2],
+            [c - t, -t / 2],
+            [c, 0],
+            [c - t, t / 2],
+            [-c + t, t / 2],
+            [-c, 0],
+        ]
+    )
     return make_polygon(V, name="sword")
 
 
@@ -315,8 +329,9 @@ def get_section(shape: str, diameter: float) -> Section:
 
 
 # ------------------------------------------------------- direction folding
-def fold_directions(section: Section, theta: NDArray[np.floating]) -> tuple[
-        NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def fold_directions(
+    section: Section, theta: NDArray[np.floating]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Map flow directions into the fundamental domain.
 
     Parameters

@@ -96,8 +96,9 @@ class SoundTexture:
     def domain(self) -> tuple[float, float, bool]:
         return self.section.direction_domain()
 
-    def lookup(self, theta: NDArray[np.floating]) -> tuple[NDArray[np.int64], NDArray[np.int64],
-                                                           NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    def lookup(
+        self, theta: NDArray[np.floating]
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """Directions to texture rows: (j0, j1, weight of j1, M (…, 2, 2)).
 
         ``g(θ, s) = M · ((1 - w) g[j0](s) + w g[j1](s))`` — linear interpolation
@@ -171,13 +172,16 @@ class SoundTexture:
             d = float(h.attrs["diameter_m"])
             poly = np.asarray(h["polygon"], dtype=np.float64) if "polygon" in h else None
             return cls(
-                section=Section(name, d, poly), speed=float(h.attrs["speed_mps"]),
-                rate=float(h.attrs["rate_hz"]), directions_deg=np.asarray(h["directions_deg"], dtype=np.float64),
-                g=np.asarray(h["g"], dtype=np.float64), force=np.asarray(h["force"], dtype=np.float64),
+                section=Section(name, d, poly),
+                speed=float(h.attrs["speed_mps"]),
+                rate=float(h.attrs["rate_hz"]),
+                directions_deg=np.asarray(h["directions_deg"], dtype=np.float64),
+                g=np.asarray(h["g"], dtype=np.float64),
+                force=np.asarray(h["force"], dtype=np.float64),
                 lengths=np.asarray(h["lengths"], dtype=np.int64),
                 strouhal=np.asarray(h["strouhal"], dtype=np.float64),
                 meta=json.loads(str(h.attrs["meta_json"])),
-            )  # fmt: skip
+            )
 
 
 def sample_directions(
@@ -219,11 +223,22 @@ def _loop(
     return out, N
 
 
-def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 0.05,
-                    rate: float = 16000.0, resolution: int = 16, reynolds: float = 200.0,
-                    u_lattice: float = 0.1, directions: int | None = None,
-                    harmonics: float = 8.0, rho0: float = RHO0, seed: int = 0,
-                    cache: bool | str | Path = True, progress: Any = None) -> SoundTexture:  # fmt: skip
+def compute_texture(
+    section: Section,
+    *,
+    speed: float = 10.0,
+    duration: float = 0.05,
+    rate: float = 16000.0,
+    resolution: int = 16,
+    reynolds: float = 200.0,
+    u_lattice: float = 0.1,
+    directions: int | None = None,
+    harmonics: float = 8.0,
+    rho0: float = RHO0,
+    seed: int = 0,
+    cache: bool | str | Path = True,
+    progress: Any = None,
+) -> SoundTexture:
     """Pre-process a sound texture by 2-D flow simulation (§5).
 
     Parameters
@@ -262,8 +277,13 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
     SoundTexture
     """
     check_diameter(section.diameter)
-    for nm, v, lo in (("speed", speed, 0.0), ("duration", duration, 0.0), ("rate", rate, 1000.0),
-                      ("reynolds", reynolds, 1.0), ("harmonics", harmonics, 1.0)):  # fmt: skip
+    for nm, v, lo in (
+        ("speed", speed, 0.0),
+        ("duration", duration, 0.0),
+        ("rate", rate, 1000.0),
+        ("reynolds", reynolds, 1.0),
+        ("harmonics", harmonics, 1.0),
+    ):
         if not (math.isfinite(float(v)) and float(v) > lo):
             raise ParameterError(f"{nm} must be > {lo:g}, got {v!r}")
     if int(resolution) < 6:
@@ -272,13 +292,21 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
         raise ParameterError(f"u_lattice must be in [0.01, 0.15] (low Mach), got {u_lattice!r}")
     dirs = sample_directions(section, n=directions)
     params = {
-        "shape": section.name, "diameter_m": section.diameter,
+        "shape": section.name,
+        "diameter_m": section.diameter,
         "polygon": None if section.polygon is None else np.round(section.polygon, 12).tolist(),
-        "speed_mps": float(speed), "duration_s": float(duration), "rate_hz": float(rate),
-        "resolution": int(resolution), "reynolds": float(reynolds), "u_lattice": float(u_lattice),
-        "directions_deg": dirs.tolist(), "harmonics": float(harmonics), "rho0": float(rho0),
-        "seed": int(seed), "solver": "lbm-d2q9-bgk-v1",
-    }  # fmt: skip
+        "speed_mps": float(speed),
+        "duration_s": float(duration),
+        "rate_hz": float(rate),
+        "resolution": int(resolution),
+        "reynolds": float(reynolds),
+        "u_lattice": float(u_lattice),
+        "directions_deg": dirs.tolist(),
+        "harmonics": float(harmonics),
+        "rho0": float(rho0),
+        "seed": int(seed),
+        "solver": "lbm-d2q9-bgk-v1",
+    }
     cpath = _cache_path(cache, params)
     if cpath is not None and cpath.exists():
         try:
@@ -302,10 +330,12 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
     from auralize.runtime.resources import require_memory
 
     # D2Q9 populations (two copies) and fields on the lattice, plus the recorded forces
-    require_memory(nx * ny * 9 * 8 * 4.0 + n_rec * 8 * 8.0,
-                   f"a {nx} x {ny} lattice recording {n_rec} steps ({duration:g} s at "
-                   f"resolution {resolution})",
-                   hint="lower --resolution or --duration")  # fmt: skip
+    require_memory(
+        nx * ny * 9 * 8 * 4.0 + n_rec * 8 * 8.0,
+        f"a {nx} x {ny} lattice recording {n_rec} steps ({duration:g} s at "
+        f"resolution {resolution})",
+        hint="lower --resolution or --duration",
+    )
     gs, fs, lens, sts, info = [], [], [], [], []
     for j, th_deg in enumerate(dirs):
         th = np.deg2rad(th_deg)
@@ -313,8 +343,14 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
         solid = section.contains(c * X - s * Y, s * X + c * Y)  # lattice point in body frame
         solid[:, :2] = solid[:, -2:] = False
         solid[:2, :] = solid[-2:, :] = False
-        rec = simulate(solid, u_lat=u_lattice, nu_lat=nu, record_steps=n_rec,
-                       d_cells=float(resolution), seed=seed + j)  # fmt: skip
+        rec = simulate(
+            solid,
+            u_lat=u_lattice,
+            nu_lat=nu,
+            record_steps=n_rec,
+            d_cells=float(resolution),
+            seed=seed + j,
+        )
         F_lat = rec.force * f_scale  # (n, 2) lattice frame, N/m
         # spectrum of the lift -> shedding frequency
         lift = F_lat[:, 1] - F_lat[:, 1].mean()
@@ -339,8 +375,14 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
         fs.append(both[:, 2:] @ R.T)
         lens.append(N)
         sts.append(f_shed * D / speed)
-        info.append({"periodic": rec.periodic, "warmup_steps": rec.warmup_steps,
-                     "lattice": [ny, nx], "period_steps": rec.period_steps})  # fmt: skip
+        info.append(
+            {
+                "periodic": rec.periodic,
+                "warmup_steps": rec.warmup_steps,
+                "lattice": [ny, nx],
+                "period_steps": rec.period_steps,
+            }
+        )
         if progress is not None:
             progress(j + 1, dirs.size)
     Nmax = max(lens)
@@ -349,10 +391,26 @@ def compute_texture(section: Section, *, speed: float = 10.0, duration: float = 
     for j, (a, b) in enumerate(zip(gs, fs, strict=True)):
         g[j, : a.shape[0]] = a
         F[j, : b.shape[0]] = b
-    meta = {**params, "polygon": None, "dt_lattice_s": dt, "dx_m": dx, "nu_lattice": nu,
-            "directions": info, "seconds": time.perf_counter() - t_start}  # fmt: skip
-    tex = SoundTexture(section, float(speed), float(rate), dirs, g, F, np.asarray(lens, dtype=np.int64),
-                       np.asarray(sts), meta)  # fmt: skip
+    meta = {
+        **params,
+        "polygon": None,
+        "dt_lattice_s": dt,
+        "dx_m": dx,
+        "nu_lattice": nu,
+        "directions": info,
+        "seconds": time.perf_counter() - t_start,
+    }
+    tex = SoundTexture(
+        section,
+        float(speed),
+        float(rate),
+        dirs,
+        g,
+        F,
+        np.asarray(lens, dtype=np.int64),
+        np.asarray(sts),
+        meta,
+    )
     if cpath is not None:
         cpath.parent.mkdir(parents=True, exist_ok=True)  # the cache folder is auralize's own
         tex.save(cpath)

@@ -81,8 +81,9 @@ def refine_axis(a: np.ndarray, axis: int, r: int, pad: int) -> np.ndarray:  # pr
 
 
 @numba.njit(cache=True)
-def eval_points(f: np.ndarray, pts: np.ndarray, n3: np.ndarray, pad: int,
-                gradient: bool) -> np.ndarray:  # fmt: skip  # pragma: no cover
+def eval_points(
+    f: np.ndarray, pts: np.ndarray, n3: np.ndarray, pad: int, gradient: bool
+) -> np.ndarray:  # pragma: no cover
     """B̃ or ∇B̃ (per index unit) at index points (x, y, z); ``f`` padded by ``pad`` per side."""
     npt = pts.shape[0]
     out = np.zeros((npt, 3 if gradient else 1))
@@ -196,13 +197,22 @@ def kd_build(data: np.ndarray, leafsize: int):  # type: ignore[no-untyped-def]  
     pts = np.empty((n, d))
     for t in range(n):
         pts[t] = data[perm[t]]
-    return (pts, perm, lo[:n_nodes].copy(), hi[:n_nodes].copy(), dim[:n_nodes].copy(),
-            split[:n_nodes].copy(), left[:n_nodes].copy(), right[:n_nodes].copy())  # fmt: skip
+    return (
+        pts,
+        perm,
+        lo[:n_nodes].copy(),
+        hi[:n_nodes].copy(),
+        dim[:n_nodes].copy(),
+        split[:n_nodes].copy(),
+        left[:n_nodes].copy(),
+        right[:n_nodes].copy(),
+    )
 
 
 @numba.njit(cache=True, nogil=True)
-def kd_query(pts, lo, hi, dim, split, left, right, q, eps2, stack_node, stack_bound,
-             stack_off, cur_off):  # type: ignore[no-untyped-def]  # fmt: skip  # pragma: no cover
+def kd_query(
+    pts, lo, hi, dim, split, left, right, q, eps2, stack_node, stack_bound, stack_off, cur_off
+):  # type: ignore[no-untyped-def]  # pragma: no cover
     """Index (tree order) of a point within (1+ε) of q's nearest neighbour.
 
     Arya–Mount incremental search: each pending subtree carries the squared
@@ -258,8 +268,7 @@ def kd_query(pts, lo, hi, dim, split, left, right, q, eps2, stack_node, stack_bo
 
 
 @numba.njit(cache=True, nogil=True)
-def synth_level(pts, perm, lo, hi, dim, split, left, right, values, rot_f, base, h, hf, n,
-                eps):  # type: ignore[no-untyped-def]  # fmt: skip  # pragma: no cover
+def synth_level(pts, perm, lo, hi, dim, split, left, right, values, rot_f, base, h, hf, n, eps):  # type: ignore[no-untyped-def]  # pragma: no cover
     """Windowed hierarchical synthesis of one level (paper 001 §5.2, Fig. 6).
 
     Window i: feature = rot_f @ out[c_i - 2 h h_f … c_i - h] + base[i] (the

@@ -68,8 +68,9 @@ class ExtensionParams:
             )
 
 
-def blend_filters(freqs: NDArray[np.floating], params: ExtensionParams) -> tuple[
-        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def blend_filters(
+    freqs: NDArray[np.floating], params: ExtensionParams
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """F_low, F_high (linear ramps over the blend range, F_low + F_high = 1) and g(f) (Eq. 13)."""
     f = np.asarray(freqs, dtype=np.float64)
     width = max(params.blend_hi - params.blend_lo, 1e-12)
@@ -80,9 +81,13 @@ def blend_filters(freqs: NDArray[np.floating], params: ExtensionParams) -> tuple
     return f_low, 1.0 - f_low, g
 
 
-def choose_beta(P: NDArray[np.complexfloating], N: NDArray[np.complexfloating],
-                f_low: NDArray[np.floating], f_high: NDArray[np.floating],
-                g: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+def choose_beta(
+    P: NDArray[np.complexfloating],
+    N: NDArray[np.complexfloating],
+    f_low: NDArray[np.floating],
+    f_high: NDArray[np.floating],
+    g: NDArray[np.floating],
+) -> NDArray[np.float64]:
     """β > 0 solving Eq. 13 for each window (rows of P, N).
 
     ∫|(F_low P + β F_high N) g|² df = ∫|P g|² df is a β² + b β + c = 0 with
@@ -109,8 +114,9 @@ def choose_beta(P: NDArray[np.complexfloating], N: NDArray[np.complexfloating],
     return np.maximum(beta, 0.0)
 
 
-def expected_band_kernel(mag: NDArray[np.floating], weight: NDArray[np.floating],
-                         L: int, *, ratio: int = 1) -> NDArray[np.float64]:  # fmt: skip
+def expected_band_kernel(
+    mag: NDArray[np.floating], weight: NDArray[np.floating], L: int, *, ratio: int = 1
+) -> NDArray[np.float64]:
     """Vector v with E[Σ_k |weight_k Ñ_W[k]|²] = |Ỹ|² · v over random phases.
 
     Ñ_W = DFT_L(N · y) with N = IDFT_Ln(mag · e^{-iθ}) (uniform independent
@@ -153,18 +159,29 @@ def check_signal(p: NDArray[np.floating], what: str = "input") -> NDArray[np.flo
         raise DataError(f"{what} signal is empty")
     bad = int(np.count_nonzero(~np.isfinite(x)))
     if bad:
-        raise DataError(f"{what} signal has {bad} NaN/Inf samples (first at index "
-                        f"{int(np.argmax(~np.isfinite(x)))})")  # fmt: skip
+        raise DataError(
+            f"{what} signal has {bad} NaN/Inf samples (first at index "
+            f"{int(np.argmax(~np.isfinite(x)))})"
+        )
     if not np.any(x):
         raise DataError(f"{what} signal is silent (all samples are zero)")
     return x
 
 
-def bandwidth_extend(p: NDArray[np.floating], rate: float, *, alpha: float = 3.0,
-                     f_cut: float = 180.0, sigma_cut: float = 10.0, w_h: int = 500,
-                     blend: tuple[float, float] = (165.0, 195.0), pad: int = 8,
-                     beta: str = "expected", seed: int | None = 0, return_beta: bool = False
-                     ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def bandwidth_extend(
+    p: NDArray[np.floating],
+    rate: float,
+    *,
+    alpha: float = 3.0,
+    f_cut: float = 180.0,
+    sigma_cut: float = 10.0,
+    w_h: int = 500,
+    blend: tuple[float, float] = (165.0, 195.0),
+    pad: int = 8,
+    beta: str = "expected",
+    seed: int | None = 0,
+    return_beta: bool = False,
+) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Extend a low-frequency fire sound with power-law noise (Algorithm 1).
 
     Parameters
@@ -202,8 +219,16 @@ def bandwidth_extend(p: NDArray[np.floating], rate: float, *, alpha: float = 3.0
     >>> out.shape
     (44100,)
     """
-    prm = ExtensionParams(float(alpha), float(f_cut), float(sigma_cut), w_h,
-                          float(blend[0]), float(blend[1]), pad, beta)  # fmt: skip
+    prm = ExtensionParams(
+        float(alpha),
+        float(f_cut),
+        float(sigma_cut),
+        w_h,
+        float(blend[0]),
+        float(blend[1]),
+        pad,
+        beta,
+    )
     prm.check(rate)
     x = check_signal(p)
     wh, m = int(prm.w_h), int(prm.pad)
@@ -242,8 +267,7 @@ def bandwidth_extend(p: NDArray[np.floating], rate: float, *, alpha: float = 3.0
     band = np.flatnonzero(g > 1e-6)  # g² > 1e-12: the rest of Eq. 13's integrals is nil
     Pb = P[:, band].astype(np.complex128)
     if prm.beta == "realised":
-        beta = choose_beta(Pb, N[:, band].astype(np.complex128), f_low[band], f_high[band],
-                           g[band])  # fmt: skip
+        beta = choose_beta(Pb, N[:, band].astype(np.complex128), f_low[band], f_high[band], g[band])
     else:
         env2 = np.abs(sfft.rfft(env, n=L, axis=1)) ** 2
         v = expected_band_kernel(mag, (f_high * g), L, ratio=m // 2).astype(np.float32)

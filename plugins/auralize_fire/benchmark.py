@@ -58,8 +58,16 @@ def fire_bench(quick: bool) -> list[BenchRow]:
     g = "fire (paper 001)"
     inputs = shared_inputs()
     if not inputs:
-        rows.append(BenchRow(g, "real inputs", float("nan"), "", note="skipped: "
-                             "../shared/datasets/fire-lowfreq not found; using the shipped 2 s excerpt"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                g,
+                "real inputs",
+                float("nan"),
+                "",
+                note="skipped: "
+                "../shared/datasets/fire-lowfreq not found; using the shipped 2 s excerpt",
+            )
+        )
         inputs = {
             "candle (2 s excerpt)": np.fromfile(DATA / "candle_2s.f32", dtype="<f4").astype(float)
         }
@@ -68,9 +76,17 @@ def fire_bench(quick: bool) -> list[BenchRow]:
         t = best_of(lambda xh=xh: bandwidth_extend(xh, rate, seed=0), repeat=3)
         key = name.split(" ")[0]
         is_target = name == "flame_jet"
-        rows.append(BenchRow(g, f"bandwidth extension {name} ({x.size / rate:.1f} s)", t, "s",
-                             target="≤ 0.2 s" if is_target else "", met=(t <= 0.2) if is_target else None,
-                             paper=f"{PAPER_BE_S[key]} s (Matlab)" if key in PAPER_BE_S else ""))  # fmt: skip
+        rows.append(
+            BenchRow(
+                g,
+                f"bandwidth extension {name} ({x.size / rate:.1f} s)",
+                t,
+                "s",
+                target="≤ 0.2 s" if is_target else "",
+                met=(t <= 0.2) if is_target else None,
+                paper=f"{PAPER_BE_S[key]} s (Matlab)" if key in PAPER_BE_S else "",
+            )
+        )
     # texture synthesis
     names = ["flame_jet"] if "flame_jet" in inputs else list(inputs)[:1]
     if not quick and "flame_jet" in inputs:
@@ -87,11 +103,18 @@ def fire_bench(quick: bool) -> list[BenchRow]:
         texture_synthesize(xh, clip)
         t = time.perf_counter() - t0
         is_target = name == "flame_jet" and not quick
-        rows.append(BenchRow(g, f"texture synthesis {name} ({x.size / rate:.1f} s, train {train_s} s)",
-                             t, "s", target="≤ 20 s" if is_target else "",
-                             met=(t <= 20) if is_target else None,
-                             paper=f"{PAPER_STS_S[name]} s" if name in PAPER_STS_S and not quick else "",
-                             note="procedural training clip"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                g,
+                f"texture synthesis {name} ({x.size / rate:.1f} s, train {train_s} s)",
+                t,
+                "s",
+                target="≤ 20 s" if is_target else "",
+                met=(t <= 20) if is_target else None,
+                paper=f"{PAPER_STS_S[name]} s" if name in PAPER_STS_S and not quick else "",
+                note="procedural training clip",
+            )
+        )
     # flame front + flux on a 64³ step
     from scipy import ndimage
 
@@ -109,9 +132,18 @@ def fire_bench(quick: bool) -> list[BenchRow]:
 
     t = best_of(step, repeat=3)
     n_tri = extract_front(burn, 0.3, origin=org, spacing=sp).areas.size
-    rows.append(BenchRow(g, "flame front + flux, 64³ step", t, "s", target="≤ 0.2 s",
-                         met=t <= 0.2, paper="5–20 s per step (Houdini SOP)",
-                         note=f"{n_tri} triangles, B-spline refine 2"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            g,
+            "flame front + flux, 64³ step",
+            t,
+            "s",
+            target="≤ 0.2 s",
+            met=t <= 0.2,
+            paper="5–20 s per step (Houdini SOP)",
+            note=f"{n_tri} triangles, B-spline refine 2",
+        )
+    )
     rows.extend(_render_rows())
     return rows
 
@@ -129,6 +161,13 @@ def _render_rows() -> list[BenchRow]:
     rows = []
     for lay in ("mono", "ring8"):
         t = best_of(lambda lay=lay: render_emitters(em, path, rate=rate, layout=lay), repeat=3)
-        rows.append(BenchRow("fire (paper 001)", f"render 1 s moving fire → {lay}, 10 Hz orbit",
-                             t * 1e3, "ms", note=f"{1 / t:.0f}× real time (emitters engine)"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "fire (paper 001)",
+                f"render 1 s moving fire → {lay}, 10 Hz orbit",
+                t * 1e3,
+                "ms",
+                note=f"{1 / t:.0f}× real time (emitters engine)",
+            )
+        )
     return rows

@@ -43,8 +43,12 @@ def _emitted_out(p: argparse.ArgumentParser, o: Any) -> None:
 
 def _signal_in(p: argparse.ArgumentParser, o: Any) -> None:
     p.add_argument("input", metavar="IN", help="low-frequency sound (.wav, .flac or raw .f32)")
-    p.add_argument("--input-rate", type=o.rate_int, metavar="HZ",
-                   help="sample rate of a raw .f32 input (default: its manifest.json)")  # fmt: skip
+    p.add_argument(
+        "--input-rate",
+        type=o.rate_int,
+        metavar="HZ",
+        help="sample rate of a raw .f32 input (default: its manifest.json)",
+    )
 
 
 def _read_input(args: argparse.Namespace) -> np.ndarray:
@@ -65,8 +69,9 @@ def _volume_in(p: argparse.ArgumentParser, o: Any) -> None:
     p.add_argument(
         "--refine", type=o.positive_int, default=2, help="B-spline refinement (default 2)"
     )
-    p.add_argument("--highpass", type=o.finite_float, default=30.0,
-                   help="high-pass cutoff Hz (§6; 0 = off)")  # fmt: skip
+    p.add_argument(
+        "--highpass", type=o.finite_float, default=30.0, help="high-pass cutoff Hz (§6; 0 = off)"
+    )
     p.add_argument("--size", type=o.positive_int, help="grid size of dataset:fire")
     p.add_argument("--steps", type=o.positive_int, help="steps of dataset:fire")
 
@@ -84,8 +89,12 @@ def _extend_opts(p: argparse.ArgumentParser, o: Any) -> None:
 def _texture_opts(p: argparse.ArgumentParser, o: Any) -> None:
     p.add_argument("--levels", type=o.positive_int, default=6, help="pyramid levels (default 6)")
     p.add_argument("--eps", type=float, default=1.0, help="approximate-NN ε (default 1; 0 exact)")
-    p.add_argument("--coarse-weight", type=float, default=3.0,
-                   help="weight of the coarser-level (Eq. 16) feature samples (default 3; 1 = unweighted)")  # fmt: skip
+    p.add_argument(
+        "--coarse-weight",
+        type=float,
+        default=3.0,
+        help="weight of the coarser-level (Eq. 16) feature samples (default 3; 1 = unweighted)",
+    )
     p.add_argument("--training-rate", type=o.rate_int, help="rate of a raw .f32 training clip")
 
 
@@ -95,11 +104,19 @@ def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any]) -> Non
 
     rate = args.rate
     x = fit_duration(x, rate, args.duration)
-    gain = write_audio(args.output, x[None], rate, normalize=args.normalize,
-                       limit_pa=args.limit, subtype=args.format,
-                       sidecar={"model": "fire", "signal": "emitted (source, mono)", **info})  # fmt: skip
-    print(f"wrote {args.output}: emitted signal, mono, {x.shape[-1] / rate:.2f} s at "
-          f"{rate} Hz, gain {gain:.4g}")  # fmt: skip
+    gain = write_audio(
+        args.output,
+        x[None],
+        rate,
+        normalize=args.normalize,
+        limit_pa=args.limit,
+        subtype=args.format,
+        sidecar={"model": "fire", "signal": "emitted (source, mono)", **info},
+    )
+    print(
+        f"wrote {args.output}: emitted signal, mono, {x.shape[-1] / rate:.2f} s at "
+        f"{rate} Hz, gain {gain:.4g}"
+    )
 
 
 def cmd_lowfreq(args: argparse.Namespace) -> int:
@@ -108,11 +125,24 @@ def cmd_lowfreq(args: argparse.Namespace) -> int:
 
     vol = load_volume(args.volume, size=args.size, steps=args.steps)
     t = time.perf_counter()
-    fs = flux_series(vol, burn_field=args.burn_field, velocity_field=args.velocity_field,
-                     iso=args.iso, refine=args.refine)  # fmt: skip
+    fs = flux_series(
+        vol,
+        burn_field=args.burn_field,
+        velocity_field=args.velocity_field,
+        iso=args.iso,
+        refine=args.refine,
+    )
     p = lowfreq_pressure(fs, rate=args.rate, highpass_hz=args.highpass)
-    _write(args, p, {"stage": "lowfreq (§3)", "iso": fs.iso, "steps": vol.n_steps,
-                                "seconds": time.perf_counter() - t})  # fmt: skip
+    _write(
+        args,
+        p,
+        {
+            "stage": "lowfreq (§3)",
+            "iso": fs.iso,
+            "steps": vol.n_steps,
+            "seconds": time.perf_counter() - t,
+        },
+    )
     return 0
 
 
@@ -122,9 +152,17 @@ def cmd_extend(args: argparse.Namespace) -> int:
     x = _read_input(args)
     t = time.perf_counter()
     y = bandwidth_extend(x, args.rate, alpha=args.alpha, f_cut=args.fcut, seed=args.seed)
-    _write(args, cast(np.ndarray, y), {"stage": "bandwidth extension (§4)", "alpha": args.alpha,
-                                       "f_cut": args.fcut, "seed": args.seed,
-                                       "seconds": time.perf_counter() - t})  # fmt: skip
+    _write(
+        args,
+        cast(np.ndarray, y),
+        {
+            "stage": "bandwidth extension (§4)",
+            "alpha": args.alpha,
+            "f_cut": args.fcut,
+            "seed": args.seed,
+            "seconds": time.perf_counter() - t,
+        },
+    )
     return 0
 
 
@@ -137,12 +175,26 @@ def cmd_texture(args: argparse.Namespace) -> int:
     train = training_at(args.training, args.rate, training_rate=args.training_rate)
     t = time.perf_counter()
     with progress_callback("texture", total=args.levels - 1, unit="level") as cb:
-        y = texture_synthesize(x, train, levels=args.levels, eps=args.eps,
-                               coarse_weight=args.coarse_weight, progress=cb)  # fmt: skip
-    _write(args, y, {"stage": "texture synthesis (§5)", "training": args.training,
-                           "levels": args.levels, "eps": args.eps,
-                           "coarse_weight": args.coarse_weight,
-                           "seconds": time.perf_counter() - t})  # fmt: skip
+        y = texture_synthesize(
+            x,
+            train,
+            levels=args.levels,
+            eps=args.eps,
+            coarse_weight=args.coarse_weight,
+            progress=cb,
+        )
+    _write(
+        args,
+        y,
+        {
+            "stage": "texture synthesis (§5)",
+            "training": args.training,
+            "levels": args.levels,
+            "eps": args.eps,
+            "coarse_weight": args.coarse_weight,
+            "seconds": time.perf_counter() - t,
+        },
+    )
     return 0
 
 
@@ -158,22 +210,43 @@ def cmd_render(args: argparse.Namespace) -> int:
     path = listener_from_args(args)
     train = None
     if args.extend == "texture":
-        train = training_at(args.training, args.rate, seed=args.seed,
-                            training_rate=args.training_rate)  # fmt: skip
+        train = training_at(
+            args.training, args.rate, seed=args.seed, training_rate=args.training_rate
+        )
     t = time.perf_counter()
-    snd = fire_sound(vol, extend=args.extend, rate=args.rate, burn_field=args.burn_field,
-                     velocity_field=args.velocity_field, iso=args.iso, refine=args.refine,
-                     highpass_hz=args.highpass, alpha=args.alpha, f_cut=args.fcut,
-                     levels=args.levels, eps=args.eps, training=train, seed=args.seed)  # fmt: skip
+    snd = fire_sound(
+        vol,
+        extend=args.extend,
+        rate=args.rate,
+        burn_field=args.burn_field,
+        velocity_field=args.velocity_field,
+        iso=args.iso,
+        refine=args.refine,
+        highpass_hz=args.highpass,
+        alpha=args.alpha,
+        f_cut=args.fcut,
+        levels=args.levels,
+        eps=args.eps,
+        training=train,
+        seed=args.seed,
+    )
     out = render(snd, path, rate=args.rate, layout=lay, duration=args.duration)
     for per_step in ("flux", "front_area"):  # the sidecar keeps the summary, not the series
         out.meta.pop(per_step, None)
     out.meta["seconds"] = time.perf_counter() - t
-    gain = save_rendered(out, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format, extra={"model": "fire"})  # fmt: skip
+    gain = save_rendered(
+        out,
+        args.output,
+        normalize=args.normalize,
+        limit_pa=args.limit,
+        subtype=args.format,
+        extra={"model": "fire"},
+    )
     a = out.audio
-    print(f"wrote {args.output}: {lay.name}, {a.shape[0]} ch, {a.shape[1] / args.rate:.2f} s "
-          f"at {args.rate} Hz, gain {gain:.4g}")  # fmt: skip
+    print(
+        f"wrote {args.output}: {lay.name}, {a.shape[0]} ch, {a.shape[1] / args.rate:.2f} s "
+        f"at {args.rate} Hz, gain {gain:.4g}"
+    )
     return 0
 
 
@@ -189,27 +262,37 @@ def add_fire_cli(subparsers: Any, options: Any) -> None:
     )
     sub = fire.add_subparsers(dest="fire_command", required=True, metavar="STAGE")
 
-    emitted = ("writes the fire's emitted signal (mono, as at 1 m from the source), not what a "
-               "listener hears: no --layout, --path or --listener; `auralize fire render` places "
-               "the fire along a listener path")  # fmt: skip
-    p = sub.add_parser("lowfreq", help="§3: p = dI/dt of the flame-front flux, at audio rate",
-                       description="§3: p = dI/dt of the flame-front flux, at audio rate; "
-                       + emitted)  # fmt: skip
+    emitted = (
+        "writes the fire's emitted signal (mono, as at 1 m from the source), not what a "
+        "listener hears: no --layout, --path or --listener; `auralize fire render` places "
+        "the fire along a listener path"
+    )
+    p = sub.add_parser(
+        "lowfreq",
+        help="§3: p = dI/dt of the flame-front flux, at audio rate",
+        description="§3: p = dI/dt of the flame-front flux, at audio rate; " + emitted,
+    )
     _volume_in(p, o)
     _emitted_out(p, o)
     p.set_defaults(func=cmd_lowfreq)
 
-    p = sub.add_parser("extend", help="§4: spectral bandwidth extension with power-law noise",
-                       description="§4: spectral bandwidth extension with power-law noise, at "
-                       "the output rate --rate; " + emitted)  # fmt: skip
+    p = sub.add_parser(
+        "extend",
+        help="§4: spectral bandwidth extension with power-law noise",
+        description="§4: spectral bandwidth extension with power-law noise, at "
+        "the output rate --rate; " + emitted,
+    )
     _signal_in(p, o)
     _emitted_out(p, o)
     _extend_opts(p, o)
     p.set_defaults(func=cmd_extend)
 
-    p = sub.add_parser("texture", help="§5: sound texture synthesis from a training clip",
-                       description="§5: sound texture synthesis from a training clip, at the "
-                       "output rate --rate; " + emitted)  # fmt: skip
+    p = sub.add_parser(
+        "texture",
+        help="§5: sound texture synthesis from a training clip",
+        description="§5: sound texture synthesis from a training clip, at the "
+        "output rate --rate; " + emitted,
+    )
     _signal_in(p, o)
     p.add_argument("--training", help="training clip (.wav/.flac/.f32; default: procedural)")
     _emitted_out(p, o)

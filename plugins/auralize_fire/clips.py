@@ -26,9 +26,15 @@ from auralize.errors import DataError, FormatError, ParameterError
 RAW_SUFFIXES = (".f32", ".bin", ".raw")
 
 
-def fire_training_clip(duration: float, rate: int = 44100, *, seed: int = 0,
-                       crackle_rate: float = 25.0, roar_alpha: float = 2.0,
-                       crackle_gain: float = 1.0) -> NDArray[np.float64]:  # fmt: skip
+def fire_training_clip(
+    duration: float,
+    rate: int = 44100,
+    *,
+    seed: int = 0,
+    crackle_rate: float = 25.0,
+    roar_alpha: float = 2.0,
+    crackle_gain: float = 1.0,
+) -> NDArray[np.float64]:
     """A procedurally synthesised fire clip (roar + crackle), peak 0.5.
 
     Parameters
@@ -80,8 +86,9 @@ def fire_training_clip(duration: float, rate: int = 44100, *, seed: int = 0,
     return 0.5 * out / np.max(np.abs(out))
 
 
-def read_audio(path: str | Path, *, rate: int | None = None,
-               option: str = "--input-rate") -> tuple[NDArray[np.float64], int]:  # fmt: skip
+def read_audio(
+    path: str | Path, *, rate: int | None = None, option: str = "--input-rate"
+) -> tuple[NDArray[np.float64], int]:
     """Read a mono signal from WAV/FLAC or raw float32 (``.f32``/``.bin``).
 
     Parameters
@@ -121,8 +128,10 @@ def read_audio(path: str | Path, *, rate: int | None = None,
     except Exception as exc:  # soundfile raises its own error types
         raise FormatError(f"{p}: cannot read audio ({exc}); use WAV, FLAC or raw .f32") from None
     if rate is not None and int(rate) != int(file_rate):
-        raise ParameterError(f"{p}: file is at {file_rate} Hz but {option} {rate} Hz was given; "
-                             f"rates must match (omit {option} for WAV/FLAC)")  # fmt: skip
+        raise ParameterError(
+            f"{p}: file is at {file_rate} Hz but {option} {rate} Hz was given; "
+            f"rates must match (omit {option} for WAV/FLAC)"
+        )
     return data.mean(axis=1), int(file_rate)
 
 

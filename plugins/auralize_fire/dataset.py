@@ -57,8 +57,9 @@ def _check(size: int, steps: int) -> None:
         raise ParameterError(f"fire dataset steps must be an integer >= 2, got {steps!r}")
 
 
-def simulate_fire(p: FireParams) -> tuple[NDArray[np.float32], NDArray[np.float32],
-                                          NDArray[np.float32]]:  # fmt: skip
+def simulate_fire(
+    p: FireParams,
+) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]:
     """Run the simulation; returns burn (T, n, n, n), temperature, velocity (T, n, n, n, 3)."""
     n = p.size
     h = p.width / (n - 1)
@@ -155,8 +156,12 @@ def make_fire(*, size: int = 32, steps: int = 90, seed: int = 0, **kw: float) ->
     p = FireParams(size=int(size), steps=int(steps), seed=int(seed), **kw)
     burn, temp, vel = simulate_fire(p)
     h = p.width / (p.size - 1)
-    vol = TimeVolume.from_arrays({"burn": burn, "temperature": temp, "velocity": vel},
-                                 origin=(-0.5 * p.width, -0.5 * p.width, 0.0), spacing=h,
-                                 times=np.arange(p.steps) / p.rate_hz, source="dataset:fire")  # fmt: skip
+    vol = TimeVolume.from_arrays(
+        {"burn": burn, "temperature": temp, "velocity": vel},
+        origin=(-0.5 * p.width, -0.5 * p.width, 0.0),
+        spacing=h,
+        times=np.arange(p.steps) / p.rate_hz,
+        source="dataset:fire",
+    )
     vol.attrs = {"dataset": "fire", **asdict(p)}
     return vol

@@ -107,8 +107,9 @@ def _refine_axis(a: NDArray[np.float64], axis: int, r: int) -> NDArray[np.float6
     return np.moveaxis(out, 0, axis)
 
 
-def refine_bspline(field: NDArray[np.floating], refine: int = 2, *,
-                   engine: str = "numba") -> NDArray[np.float64]:  # fmt: skip
+def refine_bspline(
+    field: NDArray[np.floating], refine: int = 2, *, engine: str = "numba"
+) -> NDArray[np.float64]:
     """Sample B̃ (Eq. 7) on a grid ``refine`` times finer than the voxel grid.
 
     Parameters
@@ -128,9 +129,11 @@ def refine_bspline(field: NDArray[np.floating], refine: int = 2, *,
 
     fine_points = float(np.prod([float(n) * refine for n in np.shape(field)[:3]]))
     # the refined grid in float64, its per-axis intermediates and the contour's working copies
-    require_memory(fine_points * 8 * 4, f"B-spline refinement {refine} of a "
-                   f"{'x'.join(str(n) for n in np.shape(field)[:3])} grid",
-                   hint="use a smaller --refine (2 is the paper's)")  # fmt: skip
+    require_memory(
+        fine_points * 8 * 4,
+        f"B-spline refinement {refine} of a {'x'.join(str(n) for n in np.shape(field)[:3])} grid",
+        hint="use a smaller --refine (2 is the paper's)",
+    )
     if engine not in ("numba", "numpy"):
         raise ParameterError(f"engine must be 'numba' or 'numpy', got {engine!r}")
     a = _pad_linear(np.asarray(field, dtype=np.float64), (0, 1, 2))
@@ -150,8 +153,13 @@ def _taps(u: NDArray[np.float64], n: int) -> tuple[NDArray[np.int64], NDArray[np
     return i0[:, None] + k + _PAD, frac[:, None] - k
 
 
-def bspline_eval(field: NDArray[np.floating], ijk: NDArray[np.floating], *,
-                 gradient: bool = False, engine: str = "numba") -> NDArray[np.float64]:  # fmt: skip
+def bspline_eval(
+    field: NDArray[np.floating],
+    ijk: NDArray[np.floating],
+    *,
+    gradient: bool = False,
+    engine: str = "numba",
+) -> NDArray[np.float64]:
     """Evaluate B̃ (Eq. 7) or its gradient at arbitrary index coordinates.
 
     Parameters
@@ -181,11 +189,14 @@ def bspline_eval(field: NDArray[np.floating], ijk: NDArray[np.floating], *,
     if not gradient:
         return np.einsum("nabc,na,nb,nc->n", vals, wz, wy, wx)
     dx, dy, dz = bspline_deriv(tx), bspline_deriv(ty), bspline_deriv(tz)
-    return np.stack([
-        np.einsum("nabc,na,nb,nc->n", vals, wz, wy, dx),
-        np.einsum("nabc,na,nb,nc->n", vals, wz, dy, wx),
-        np.einsum("nabc,na,nb,nc->n", vals, dz, wy, wx),
-    ], axis=1)  # fmt: skip
+    return np.stack(
+        [
+            np.einsum("nabc,na,nb,nc->n", vals, wz, wy, dx),
+            np.einsum("nabc,na,nb,nc->n", vals, wz, dy, wx),
+            np.einsum("nabc,na,nb,nc->n", vals, dz, wy, wx),
+        ],
+        axis=1,
+    )
 
 
 def trilinear(field: NDArray[np.floating], ijk: NDArray[np.floating]) -> NDArray[np.float64]:
@@ -239,8 +250,12 @@ class FlameFront:
         """Total surface area (m²)."""
         return float(self.areas.sum())
 
-    def flux(self, velocity: NDArray[np.floating], origin: NDArray[np.floating],
-             spacing: NDArray[np.floating]) -> float:  # fmt: skip
+    def flux(
+        self,
+        velocity: NDArray[np.floating],
+        origin: NDArray[np.floating],
+        spacing: NDArray[np.floating],
+    ) -> float:
         """I = Σ_tri (u·n) A (paper 001 Eq. 5, one-point quadrature per triangle).
 
         Parameters
@@ -254,8 +269,12 @@ class FlameFront:
         """
         return float(np.sum(self.u_dot_n(velocity, origin, spacing) * self.areas))
 
-    def u_dot_n(self, velocity: NDArray[np.floating], origin: NDArray[np.floating],
-                spacing: NDArray[np.floating]) -> NDArray[np.float64]:  # fmt: skip
+    def u_dot_n(
+        self,
+        velocity: NDArray[np.floating],
+        origin: NDArray[np.floating],
+        spacing: NDArray[np.floating],
+    ) -> NDArray[np.float64]:
         """Normal velocity u·n at each triangle centroid (m/s), shape (T,)."""
         if len(self.areas) == 0:
             return np.zeros(0)
@@ -274,9 +293,15 @@ class FlameFront:
         return mesh
 
 
-def extract_front(field: NDArray[np.floating], iso: float, *, origin: NDArray[np.floating],
-                  spacing: NDArray[np.floating], refine: int = 2,
-                  inside: str = "high") -> FlameFront:  # fmt: skip
+def extract_front(
+    field: NDArray[np.floating],
+    iso: float,
+    *,
+    origin: NDArray[np.floating],
+    spacing: NDArray[np.floating],
+    refine: int = 2,
+    inside: str = "high",
+) -> FlameFront:
     """Flame front S = {B̃ = iso} (paper 001 §3.2, Eqs. 7–8).
 
     Parameters
@@ -319,8 +344,14 @@ def extract_front(field: NDArray[np.floating], iso: float, *, origin: NDArray[np
     fine = refine_bspline(b, refine)
     grid = pv.ImageData(dimensions=fine.shape[::-1], spacing=tuple(sp / refine), origin=tuple(org))
     grid.point_data["B"] = fine.ravel()
-    surf = grid.contour([float(iso)], scalars="B", method="flying_edges", compute_normals=False,
-                        compute_gradients=False, compute_scalars=False)  # fmt: skip
+    surf = grid.contour(
+        [float(iso)],
+        scalars="B",
+        method="flying_edges",
+        compute_normals=False,
+        compute_gradients=False,
+        compute_scalars=False,
+    )
     pts = np.asarray(surf.points, dtype=np.float64)
     if surf.n_cells == 0:
         e = np.zeros((0, 3))

@@ -25,8 +25,9 @@ MN_B = 1.0 / 3.0
 MN_C = 1.0 / 3.0
 
 
-def mitchell_netravali(x: NDArray[np.floating] | float, *, B: float = MN_B, C: float = MN_C,
-                       derivative: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def mitchell_netravali(
+    x: NDArray[np.floating] | float, *, B: float = MN_B, C: float = MN_C, derivative: bool = False
+) -> NDArray[np.float64]:
     """Mitchell–Netravali cubic ψ(x) (or dψ/dx) in sample units (paper 001 Eq. 10).
 
     Parameters
@@ -59,9 +60,15 @@ def mitchell_netravali(x: NDArray[np.floating] | float, *, B: float = MN_B, C: f
     return np.sign(t) * np.where(a < 1, inner, np.where(a < 2, outer, 0.0))
 
 
-def interpolate_series(values: NDArray[np.floating], dt: float, t: NDArray[np.floating], *,
-                       derivative: bool = False, B: float = MN_B,
-                       C: float = MN_C) -> NDArray[np.float64]:  # fmt: skip
+def interpolate_series(
+    values: NDArray[np.floating],
+    dt: float,
+    t: NDArray[np.floating],
+    *,
+    derivative: bool = False,
+    B: float = MN_B,
+    C: float = MN_C,
+) -> NDArray[np.float64]:
     """Ĩ(t) = Σ ψ_i(t) I_i or p(t) = Σ ψ_i'(t) I_i for uniformly sampled I (Eqs. 10–11).
 
     Parameters
@@ -80,8 +87,9 @@ def interpolate_series(values: NDArray[np.floating], dt: float, t: NDArray[np.fl
     v = np.asarray(values, dtype=np.float64)
     if v.ndim != 1 or v.size < 2:
         raise DataError(f"need at least 2 simulation steps to interpolate, got {v.size}")
-    pad = np.concatenate([v[0] - (v[1] - v[0]) * np.arange(2, 0, -1), v,
-                          v[-1] + (v[-1] - v[-2]) * np.arange(1, 3)])  # fmt: skip
+    pad = np.concatenate(
+        [v[0] - (v[1] - v[0]) * np.arange(2, 0, -1), v, v[-1] + (v[-1] - v[-2]) * np.arange(1, 3)]
+    )
     u = np.asarray(t, dtype=np.float64) / dt
     i0 = np.clip(np.floor(u).astype(np.int64), 0, v.size - 2)
     out = np.zeros(u.shape)
@@ -91,8 +99,9 @@ def interpolate_series(values: NDArray[np.floating], dt: float, t: NDArray[np.fl
     return out / dt if derivative else out
 
 
-def highpass(p: NDArray[np.floating], rate: float, cutoff_hz: float = 30.0, *,
-             order: int = 2) -> NDArray[np.float64]:  # fmt: skip
+def highpass(
+    p: NDArray[np.floating], rate: float, cutoff_hz: float = 30.0, *, order: int = 2
+) -> NDArray[np.float64]:
     """The 30 Hz high-pass of paper 001 §6 (Butterworth, run forwards and backwards).
 
     Zero phase, so the filtered sound stays synchronised with the flames;
@@ -129,8 +138,10 @@ def default_iso(volume: TimeVolume, burn_field: str, fraction: float = 0.1) -> f
     """``fraction`` of the largest |B| over all steps (the front encloses the burning region)."""
     peak = max(float(np.max(np.abs(volume.frame(burn_field, n)))) for n in range(volume.n_steps))
     if peak == 0:
-        raise DataError(f"{volume.source}: field {burn_field!r} is zero at every step; "
-                        "nothing burns, so there is no flame front")  # fmt: skip
+        raise DataError(
+            f"{volume.source}: field {burn_field!r} is zero at every step; "
+            "nothing burns, so there is no flame front"
+        )
     return fraction * peak
 
 
@@ -139,8 +150,10 @@ def check_fields(volume: TimeVolume, burn_field: str, velocity_field: str) -> No
     volume._get(burn_field)
     volume._get(velocity_field)
     if volume.is_vector(burn_field):
-        raise DataError(f"{volume.source}: flame-front field {burn_field!r} must be a scalar "
-                        "field (burn rate, fuel, temperature or level set)")  # fmt: skip
+        raise DataError(
+            f"{volume.source}: flame-front field {burn_field!r} must be a scalar "
+            "field (burn rate, fuel, temperature or level set)"
+        )
     if not volume.is_vector(velocity_field):
         raise DataError(
             f"{volume.source}: velocity field {velocity_field!r} must be a vector field"
@@ -151,15 +164,35 @@ def check_fields(volume: TimeVolume, burn_field: str, velocity_field: str) -> No
         )
 
 
-def front_at(volume: TimeVolume, step: int, *, burn_field: str = "burn", iso: float,
-             refine: int = 2, inside: str = "high") -> FlameFront:  # fmt: skip
+def front_at(
+    volume: TimeVolume,
+    step: int,
+    *,
+    burn_field: str = "burn",
+    iso: float,
+    refine: int = 2,
+    inside: str = "high",
+) -> FlameFront:
     """The flame front of one step of a volume (paper 001 §3.2)."""
-    return extract_front(volume.frame(burn_field, step), iso, origin=volume.origin,
-                         spacing=volume.spacing, refine=refine, inside=inside)  # fmt: skip
+    return extract_front(
+        volume.frame(burn_field, step),
+        iso,
+        origin=volume.origin,
+        spacing=volume.spacing,
+        refine=refine,
+        inside=inside,
+    )
 
 
-def flux_series(volume: TimeVolume, *, burn_field: str = "burn", velocity_field: str = "velocity",
-                iso: float | None = None, refine: int = 2, inside: str = "high") -> FluxSeries:  # fmt: skip
+def flux_series(
+    volume: TimeVolume,
+    *,
+    burn_field: str = "burn",
+    velocity_field: str = "velocity",
+    iso: float | None = None,
+    refine: int = 2,
+    inside: str = "high",
+) -> FluxSeries:
     """I(t) = ∫ u·n dS over the flame front at each simulation step (Eq. 5).
 
     Parameters
@@ -185,15 +218,33 @@ def flux_series(volume: TimeVolume, *, burn_field: str = "burn", velocity_field:
         else:
             cen[n] = volume.center
     if not np.any(area > 0):
-        raise DataError(f"{volume.source}: field {burn_field!r} never crosses iso = {level:g}; "
-                        "choose an iso-value between its minimum and maximum")  # fmt: skip
-    return FluxSeries(volume.times.copy(), flux, area, cen, level,
-                      meta={"burn_field": burn_field, "velocity_field": velocity_field,
-                            "refine": refine, "inside": inside})  # fmt: skip
+        raise DataError(
+            f"{volume.source}: field {burn_field!r} never crosses iso = {level:g}; "
+            "choose an iso-value between its minimum and maximum"
+        )
+    return FluxSeries(
+        volume.times.copy(),
+        flux,
+        area,
+        cen,
+        level,
+        meta={
+            "burn_field": burn_field,
+            "velocity_field": velocity_field,
+            "refine": refine,
+            "inside": inside,
+        },
+    )
 
 
-def lowfreq_pressure(series: FluxSeries, *, rate: int = 44100, highpass_hz: float = 30.0,
-                     B: float = MN_B, C: float = MN_C) -> NDArray[np.float64]:  # fmt: skip
+def lowfreq_pressure(
+    series: FluxSeries,
+    *,
+    rate: int = 44100,
+    highpass_hz: float = 30.0,
+    B: float = MN_B,
+    C: float = MN_C,
+) -> NDArray[np.float64]:
     """p(t) = dĨ/dt at audio rate (Eqs. 9–11), then the 30 Hz high-pass of §6.
 
     Parameters

@@ -23,12 +23,23 @@ SHARED = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "fire-low
 MONOPOLE_1M = 1.2 / (4.0 * np.pi)
 
 
-def render_chain(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 44100,
-                 burn_field: str = "burn", velocity_field: str = "velocity",
-                 iso: float | None = None, refine: int = 2, highpass_hz: float = 30.0,
-                 alpha: float = 3.0, f_cut: float = 180.0, levels: int = 6, eps: float = 1.0,
-                 training: NDArray[np.floating] | None = None, seed: int = 0,
-                 ) -> tuple[NDArray[np.float64], Any]:  # fmt: skip
+def render_chain(
+    volume: TimeVolume,
+    *,
+    extend: str = "bandwidth",
+    rate: int = 44100,
+    burn_field: str = "burn",
+    velocity_field: str = "velocity",
+    iso: float | None = None,
+    refine: int = 2,
+    highpass_hz: float = 30.0,
+    alpha: float = 3.0,
+    f_cut: float = 180.0,
+    levels: int = 6,
+    eps: float = 1.0,
+    training: NDArray[np.floating] | None = None,
+    seed: int = 0,
+) -> tuple[NDArray[np.float64], Any]:
     """§3 → §6 high-pass → §4 or §5: the emitted fire sound of a volume.
 
     Returns ``(signal (n,), FluxSeries)``; ``extend`` is ``"none"``,
@@ -37,8 +48,9 @@ def render_chain(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 4
     """
     if extend not in ("none", "bandwidth", "texture"):
         raise ParameterError(f"extend must be 'none', 'bandwidth' or 'texture', got {extend!r}")
-    fs = flux_series(volume, burn_field=burn_field, velocity_field=velocity_field, iso=iso,
-                     refine=refine)  # fmt: skip
+    fs = flux_series(
+        volume, burn_field=burn_field, velocity_field=velocity_field, iso=iso, refine=refine
+    )
     low = lowfreq_pressure(fs, rate=rate, highpass_hz=highpass_hz)
     if extend == "none":
         return low, fs
@@ -48,12 +60,24 @@ def render_chain(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 4
     return texture_synthesize(low, clip, levels=levels, eps=eps), fs
 
 
-def fire_sound(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 44100,
-               burn_field: str = "burn", velocity_field: str = "velocity",
-               iso: float | None = None, refine: int = 2, highpass_hz: float = 30.0,
-               alpha: float = 3.0, f_cut: float = 180.0, levels: int = 6, eps: float = 1.0,
-               training: NDArray[np.floating] | None = None, seed: int = 0,
-               t0: float = 0.0) -> Sound:  # fmt: skip
+def fire_sound(
+    volume: TimeVolume,
+    *,
+    extend: str = "bandwidth",
+    rate: int = 44100,
+    burn_field: str = "burn",
+    velocity_field: str = "velocity",
+    iso: float | None = None,
+    refine: int = 2,
+    highpass_hz: float = 30.0,
+    alpha: float = 3.0,
+    f_cut: float = 180.0,
+    levels: int = 6,
+    eps: float = 1.0,
+    training: NDArray[np.floating] | None = None,
+    seed: int = 0,
+    t0: float = 0.0,
+) -> Sound:
     """The fire of ``volume`` as one point emitter at its flame front (paper 001 §3–§5).
 
     The emitted signal is the chain of :func:`render_chain` scaled to the
@@ -79,17 +103,42 @@ def fire_sound(volume: TimeVolume, *, extend: str = "bandwidth", rate: int = 441
     """
     if not isinstance(volume, TimeVolume):
         raise ParameterError(f"fire model inputs must be a TimeVolume, got {type(volume).__name__}")
-    sig, fs = render_chain(volume, extend=extend, rate=rate, burn_field=burn_field,
-                           velocity_field=velocity_field, iso=iso, refine=refine,
-                           highpass_hz=highpass_hz, alpha=alpha, f_cut=f_cut, levels=levels,
-                           eps=eps, training=training, seed=seed)  # fmt: skip
+    sig, fs = render_chain(
+        volume,
+        extend=extend,
+        rate=rate,
+        burn_field=burn_field,
+        velocity_field=velocity_field,
+        iso=iso,
+        refine=refine,
+        highpass_hz=highpass_hz,
+        alpha=alpha,
+        f_cut=f_cut,
+        levels=levels,
+        eps=eps,
+        training=training,
+        seed=seed,
+    )
     ok = fs.area > 0
     moving = bool(np.ptp(fs.centroid[ok], axis=0).max() > 0)
     pos = trajectory(fs, sig.size, rate)[None] if moving else fs.centroid[ok][:1]
-    em = Emitters(sig[None] * MONOPOLE_1M, rate, pos, t0=t0, name="fire",
-                  meta={"source": "flame-front centre"})  # fmt: skip
-    meta = {"model": "fire", "iso": fs.iso, "flux": fs.flux, "front_area": fs.area,
-            "extend": extend, "moving": moving, "units": "Pa at 1 m"}  # fmt: skip
+    em = Emitters(
+        sig[None] * MONOPOLE_1M,
+        rate,
+        pos,
+        t0=t0,
+        name="fire",
+        meta={"source": "flame-front centre"},
+    )
+    meta = {
+        "model": "fire",
+        "iso": fs.iso,
+        "flux": fs.flux,
+        "front_area": fs.area,
+        "extend": extend,
+        "moving": moving,
+        "units": "Pa at 1 m",
+    }
     return Sound([em], meta=meta, name="fire")
 
 
@@ -141,11 +190,22 @@ class FireSound(SoundModel):
                 "fire inputs are the TimeVolume only, without a listener: render the returned "
                 "Sound along a path with auralize.pipeline.render"
             )
-        return fire_sound(inputs, extend=p["extend"], rate=int(p["rate"]),
-                          burn_field=p["burn_field"], velocity_field=p["velocity_field"],
-                          iso=p["iso"], refine=int(p["refine"]), highpass_hz=p["highpass_hz"],
-                          alpha=p["alpha"], f_cut=p["f_cut"], levels=int(p["levels"]),
-                          eps=p["eps"], seed=int(p["seed"]), t0=float(p["t0"]))  # fmt: skip
+        return fire_sound(
+            inputs,
+            extend=p["extend"],
+            rate=int(p["rate"]),
+            burn_field=p["burn_field"],
+            velocity_field=p["velocity_field"],
+            iso=p["iso"],
+            refine=int(p["refine"]),
+            highpass_hz=p["highpass_hz"],
+            alpha=p["alpha"],
+            f_cut=p["f_cut"],
+            levels=int(p["levels"]),
+            eps=p["eps"],
+            seed=int(p["seed"]),
+            t0=float(p["t0"]),
+        )
 
     def warm_up(self) -> None:
         """Compile the fire kernels on a small fire (``auralize warmup --plugins``)."""
@@ -160,8 +220,9 @@ class FireSound(SoundModel):
         check_fields(volume, burn, vel)
         front = front_at(volume, step, burn_field=burn, iso=default_iso(volume, burn))
         mesh = front.to_pyvista()
-        mesh.cell_data["u_dot_n"] = front.u_dot_n(volume.frame(vel, step), volume.origin,
-                                                  volume.spacing)  # fmt: skip
+        mesh.cell_data["u_dot_n"] = front.u_dot_n(
+            volume.frame(vel, step), volume.origin, volume.spacing
+        )
         mesh.set_active_scalars("u_dot_n", preference="cell")
         return mesh
 
@@ -185,8 +246,9 @@ def trajectory(fs: Any, n: int, rate: int) -> NDArray[np.float64]:
     return np.stack([np.interp(t, fs.times[ok], fs.centroid[ok, k]) for k in range(3)], axis=1)
 
 
-def load_volume(spec: str, *, size: int | None = None, steps: int | None = None,
-                seed: int = 0) -> TimeVolume:  # fmt: skip
+def load_volume(
+    spec: str, *, size: int | None = None, steps: int | None = None, seed: int = 0
+) -> TimeVolume:
     """A volume file, ``dataset:fire`` or another core dataset."""
     if spec == "dataset:fire":
         kw: dict[str, int] = {"seed": seed}
@@ -202,8 +264,9 @@ def load_volume(spec: str, *, size: int | None = None, steps: int | None = None,
         return load(spec, size=size, steps=steps, seed=seed)
 
 
-def training_at(path: str | None, rate: int, *, seed: int = 0,
-                training_rate: int | None = None) -> NDArray[np.float64]:  # fmt: skip
+def training_at(
+    path: str | None, rate: int, *, seed: int = 0, training_rate: int | None = None
+) -> NDArray[np.float64]:
     """Training clip resampled to ``rate`` (default: procedural, 15 s)."""
     if path is None:
         return fire_training_clip(15.0, rate, seed=seed)

@@ -153,8 +153,9 @@ class TextureParams:
         return need * 2 ** (self.levels - 2) + 2 ** (self.levels - 1)
 
 
-def _coarse_part(coarse: NDArray[np.float64], centres: NDArray[np.float64],
-                 half: int) -> NDArray[np.float64]:  # fmt: skip
+def _coarse_part(
+    coarse: NDArray[np.float64], centres: NDArray[np.float64], half: int
+) -> NDArray[np.float64]:
     """Linearly interpolated coarse samples at centres/2 + k, k = -half … half (clamped)."""
     pos = centres[:, None] / 2.0 + np.arange(-half, half + 1)
     pos = np.clip(pos, 0, coarse.size - 1)
@@ -183,8 +184,12 @@ class _Dictionary:
         return int(self.values.shape[0])
 
 
-def build_dictionary(fine: NDArray[np.float64], coarse: NDArray[np.float64],
-                     prm: TextureParams, engine: str = "numba") -> _Dictionary:  # fmt: skip
+def build_dictionary(
+    fine: NDArray[np.float64],
+    coarse: NDArray[np.float64],
+    prm: TextureParams,
+    engine: str = "numba",
+) -> _Dictionary:
     """D_ℓ: features and windows of one training level (§5.2)."""
     h, hf = prm.h, prm.h_f
     i_lo = -(-2 * h * hf // h)
@@ -220,8 +225,9 @@ def _range_matcher(gs_top: NDArray[np.float64], gt_top: NDArray[np.float64]):  #
     return ratio
 
 
-def _window_ratios(gs: list[NDArray[np.float64]], gt: list[NDArray[np.float64]],
-                   prm: TextureParams) -> NDArray[np.float64]:  # fmt: skip
+def _window_ratios(
+    gs: list[NDArray[np.float64]], gt: list[NDArray[np.float64]], prm: TextureParams
+) -> NDArray[np.float64]:
     """r of Eq. 17 for every window of level L-1 (p_abs,avg over its Eq. 16 samples of G_S(L))."""
     L = prm.levels
     n_win = -(-(gs[L - 2].size - 1) // prm.h) + 1
@@ -230,8 +236,14 @@ def _window_ratios(gs: list[NDArray[np.float64]], gt: list[NDArray[np.float64]],
     return _range_matcher(gs[L - 1], gt[L - 1])(p_avg)
 
 
-def range_matching_gain(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, levels: int = 6,
-                        h: int = 4, h_f: int = 3) -> NDArray[np.float64]:  # fmt: skip
+def range_matching_gain(
+    p_s: NDArray[np.floating],
+    p_t: NDArray[np.floating],
+    *,
+    levels: int = 6,
+    h: int = 4,
+    h_f: int = 3,
+) -> NDArray[np.float64]:
     """The §5.3 gain r (Eq. 17) per input sample, linearly interpolated between windows.
 
     r scales G_S(L) where it enters the level-(L-1) features, so r(t) · p_S is
@@ -255,8 +267,14 @@ def range_matching_gain(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *,
     return np.interp(np.arange(xs.size), centres, r)
 
 
-def synthesize_level(dic: _Dictionary, coarse: NDArray[np.float64], n: int, prm: TextureParams,
-                     *, scale: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
+def synthesize_level(
+    dic: _Dictionary,
+    coarse: NDArray[np.float64],
+    n: int,
+    prm: TextureParams,
+    *,
+    scale: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
     """Synthesise one signal level of ``n`` samples window by window (Fig. 6).
 
     ``scale`` (per window) multiplies the coarse feature part (Eq. 17 at level L-1).
@@ -287,11 +305,19 @@ def synthesize_level(dic: _Dictionary, coarse: NDArray[np.float64], n: int, prm:
     return out[off : off + n]
 
 
-def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, levels: int = 6,
-                       h: int = 4, h_f: int = 3, eps: float = 1.0, range_matching: bool = True,
-                       coarse_weight: float = 3.0, engine: str = "numba",
-                       progress: Callable[[str], None] | None = None,
-                       ) -> NDArray[np.float64]:  # fmt: skip
+def texture_synthesize(
+    p_s: NDArray[np.floating],
+    p_t: NDArray[np.floating],
+    *,
+    levels: int = 6,
+    h: int = 4,
+    h_f: int = 3,
+    eps: float = 1.0,
+    range_matching: bool = True,
+    coarse_weight: float = 3.0,
+    engine: str = "numba",
+    progress: Callable[[str], None] | None = None,
+) -> NDArray[np.float64]:
     """Fire-sound details from a training clip, synchronised with p_S (paper 001 §5).
 
     Parameters
@@ -335,8 +361,10 @@ def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, 
     xt = check_signal(p_t, "training")
     need = prm.min_training()
     if xt.size < need:
-        raise DataError(f"training clip has {xt.size} samples; a {prm.levels}-level pyramid with "
-                        f"h={prm.h}, h_f={prm.h_f} needs at least {need}")  # fmt: skip
+        raise DataError(
+            f"training clip has {xt.size} samples; a {prm.levels}-level pyramid with "
+            f"h={prm.h}, h_f={prm.h_f} needs at least {need}"
+        )
     gs = gaussian_pyramid(xs, prm.levels)
     gt = gaussian_pyramid(xt, prm.levels)
     L = prm.levels
@@ -346,8 +374,10 @@ def texture_synthesize(p_s: NDArray[np.floating], p_t: NDArray[np.floating], *, 
     # levels (the numba kernels release the GIL).  Same result as building
     # each one just before it is used.
     with ThreadPoolExecutor(max_workers=1) as pool:
-        dics = [pool.submit(build_dictionary, gt[lev], gt[lev + 1], prm, engine)
-                for lev in range(L - 2, -1, -1)]  # fmt: skip
+        dics = [
+            pool.submit(build_dictionary, gt[lev], gt[lev + 1], prm, engine)
+            for lev in range(L - 2, -1, -1)
+        ]
         for k, lev in enumerate(range(L - 2, -1, -1)):  # 0-based: level lev+1 of the paper
             scale = _window_ratios(gs, gt, prm) if lev == L - 2 and range_matching else None
             current = synthesize_level(dics[k].result(), current, gs[lev].size, prm, scale=scale)

@@ -34,8 +34,13 @@ def _pattern(name: str, seed: int = 0) -> tuple[Discharge, float]:
     pre = PRESETS[name]
     fld = pre.field()
     t = time.perf_counter()
-    d = grow_leader(fld, half_length=pre.half_length, seed=seed,
-                    branch_probability=pre.branch_probability, branch_length=pre.branch_length)  # fmt: skip
+    d = grow_leader(
+        fld,
+        half_length=pre.half_length,
+        seed=seed,
+        branch_probability=pre.branch_probability,
+        branch_length=pre.branch_length,
+    )
     return d, time.perf_counter() - t
 
 
@@ -46,38 +51,87 @@ def bench_rows(quick: bool) -> list[Any]:
     solve_field(scene)  # compile the kernel
     t = best_of(lambda: solve_field(scene), repeat=1 if quick else 3, min_time=0.0)
     info = solve_field(scene).info
-    rows.append(BenchRow("spark", "Laplace solve 64³ (Eq. 1)", t * 1e3, "ms", target="≤ 1000 ms",
-                         met=t <= 1.0, paper="GPU solver (not timed)",
-                         note=f"SOR sweeps per level {info['sweeps']}, residual {info['residual']:.1e}"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "spark",
+            "Laplace solve 64³ (Eq. 1)",
+            t * 1e3,
+            "ms",
+            target="≤ 1000 ms",
+            met=t <= 1.0,
+            paper="GPU solver (not timed)",
+            note=f"SOR sweeps per level {info['sweeps']}, residual {info['residual']:.1e}",
+        )
+    )
     for name, target in (("spark-balls", 0.002), ("plasma-ball", 0.002), ("lightning", 0.020)):
         pre = PRESETS[name]
         d, t_grow = _pattern(name)
         params = WaveParams(r0=pre.r0, T0=pre.T0, ps0=pre.ps0)
         lis = np.asarray(pre.listener)
         ren = render_discharge(d, lis, params=params)
-        t = best_of(lambda d=d, params=params, lis=lis: render_discharge(d, lis, params=params),
-                    repeat=3 if quick else 5, min_time=0.1 if quick else 0.3)  # fmt: skip
+        t = best_of(
+            lambda d=d, params=params, lis=lis: render_discharge(d, lis, params=params),
+            repeat=3 if quick else 5,
+            min_time=0.1 if quick else 0.3,
+        )
         dur = ren.meta["wave_duration_s"]
-        rows.append(BenchRow(
-            "spark", f"{name}: waveform of {d.n_segments} segments (mono)", t * 1e3, "ms",
-            target=f"≤ {target * 1e3:g} ms", met=t <= target,
-            paper=f"{pre.paper_time} for {pre.paper_segments} segments",
-            note=f"{dur * 1e3:.3g} ms of sound; leader growth {t_grow * 1e3:.0f} ms",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "spark",
+                f"{name}: waveform of {d.n_segments} segments (mono)",
+                t * 1e3,
+                "ms",
+                target=f"≤ {target * 1e3:g} ms",
+                met=t <= target,
+                paper=f"{pre.paper_time} for {pre.paper_segments} segments",
+                note=f"{dur * 1e3:.3g} ms of sound; leader growth {t_grow * 1e3:.0f} ms",
+            )
+        )
         if name == "lightning":
-            t8 = best_of(lambda d=d, params=params, lis=lis: render_discharge(d, lis, params=params, layout="ring8"),
-                         repeat=3, min_time=0.1)  # fmt: skip
-            rows.append(BenchRow("spark", f"lightning: waveform → ring8 ({dur:.1f} s)", t8 * 1e3, "ms",
-                                 note="per-segment VBAP from each segment's direction"))  # fmt: skip
+            t8 = best_of(
+                lambda d=d, params=params, lis=lis: render_discharge(
+                    d, lis, params=params, layout="ring8"
+                ),
+                repeat=3,
+                min_time=0.1,
+            )
+            rows.append(
+                BenchRow(
+                    "spark",
+                    f"lightning: waveform → ring8 ({dur:.1f} s)",
+                    t8 * 1e3,
+                    "ms",
+                    note="per-segment VBAP from each segment's direction",
+                )
+            )
             orbit = ListenerPath.orbit(lis, radius=200.0, duration=20.0, rate_hz=10.0)
-            to = best_of(lambda d=d, params=params, orbit=orbit: render_discharge(d, orbit, params=params, layout="ring8"),
-                         repeat=3, min_time=0.1)  # fmt: skip
-            rows.append(BenchRow("spark", "lightning: waveform → ring8 along a 10 Hz orbit", to * 1e3, "ms",
-                                 note="exact retarded arrivals, Doppler and gains per segment "
-                                      "(auralize.emitters.events)"))  # fmt: skip
+            to = best_of(
+                lambda d=d, params=params, orbit=orbit: render_discharge(
+                    d, orbit, params=params, layout="ring8"
+                ),
+                repeat=3,
+                min_time=0.1,
+            )
+            rows.append(
+                BenchRow(
+                    "spark",
+                    "lightning: waveform → ring8 along a 10 Hz orbit",
+                    to * 1e3,
+                    "ms",
+                    note="exact retarded arrivals, Doppler and gains per segment "
+                    "(auralize.emitters.events)",
+                )
+            )
     from .model import simulate
 
     t = best_of(lambda: simulate(preset="lightning", seed=0, strokes=1), repeat=1, min_time=0.0)
-    rows.append(BenchRow("spark", "lightning: simulate, end to end (mono)", t, "s",
-                         note="preset field, leader growth, strokes and waveform at 44.1 kHz"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "spark",
+            "lightning: simulate, end to end (mono)",
+            t,
+            "s",
+            note="preset field, leader growth, strokes and waveform at 44.1 kHz",
+        )
+    )
     return rows

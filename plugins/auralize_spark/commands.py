@@ -26,9 +26,13 @@ def add_commands(subparsers: Any, options: Any) -> None:
     p = subparsers.add_parser("spark", help="spark discharges and thunder (paper 002)")
     sub = p.add_subparsers(dest="spark_command", required=True, metavar="ACTION")
     r = sub.add_parser("render", help="grow (or read) a discharge and render its sound")
-    r.add_argument("--preset", choices=PRESET_NAMES, default=None,
-                   help="Table 1 scale and its built-in scene (default spark-balls); "
-                        "with --scene/--discharge only the Table 1 values are used")  # fmt: skip
+    r.add_argument(
+        "--preset",
+        choices=PRESET_NAMES,
+        default=None,
+        help="Table 1 scale and its built-in scene (default spark-balls); "
+        "with --scene/--discharge only the Table 1 values are used",
+    )
     r.add_argument("--scene", metavar="FILE", help="charge scene .json/.toml")
     r.add_argument(
         "--discharge", metavar="CSV", help="discharge tree/polyline CSV instead of growing one"

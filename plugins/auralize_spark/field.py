@@ -142,8 +142,14 @@ class ChargeScene:
             raise FormatError(
                 f"{source}: grid dims must be integers, got {grid['dims']!r}"
             ) from None
-        return cls(dims=dims, origin=grid.get("origin", 0.0), spacing=grid["spacing"],  # type: ignore[arg-type]
-                   charges=charges, boundary=data.get("boundary", "neumann"), source=source)  # fmt: skip
+        return cls(
+            dims=dims,
+            origin=grid.get("origin", 0.0),
+            spacing=grid["spacing"],  # type: ignore[arg-type]
+            charges=charges,
+            boundary=data.get("boundary", "neumann"),
+            source=source,
+        )
 
     @classmethod
     def from_file(cls, path: str | Path) -> ChargeScene:
@@ -254,8 +260,12 @@ def _parse_charge(it: Any, i: int, src: str) -> Charge:
         raise FormatError(
             f"{src}: charge {i} sign must be 'negative' or 'positive' (or -1/+1), got {raw_sign!r}"
         )
-    need = {"sphere": ("center", "radius"), "box": ("min", "max"), "plane": ("axis", "position"),
-            "point": ("position",)}[shape]  # fmt: skip
+    need = {
+        "sphere": ("center", "radius"),
+        "box": ("min", "max"),
+        "plane": ("axis", "position"),
+        "point": ("position",),
+    }[shape]
     missing = [k for k in need if k not in it]
     if missing:
         raise FormatError(f"{src}: charge {i} ({shape}) needs {list(need)}; missing {missing}")
@@ -372,8 +382,9 @@ class ElectricField:
         return self.origin + np.stack([i, j, k], 1) * self.spacing
 
 
-def _normalise(sign: NDArray[np.int8], value: NDArray[np.float64], src: str,
-               boundary: str | float) -> tuple[NDArray[np.float64], float | None]:  # fmt: skip
+def _normalise(
+    sign: NDArray[np.int8], value: NDArray[np.float64], src: str, boundary: str | float
+) -> tuple[NDArray[np.float64], float | None]:
     neg, pos = sign < 0, sign > 0
     if not neg.any():
         raise DataError(
@@ -406,9 +417,15 @@ def _coarsen(
     return cnt > 0, np.where(cnt > 0, tot / np.maximum(cnt, 1), 0.0)
 
 
-def solve_laplace(fixed: NDArray[np.bool_], value: NDArray[np.float64], *,
-                  spacing: NDArray[np.floating] | float = 1.0, boundary: float | None = None,
-                  tol: float = 1e-5, max_sweeps: int = 20000) -> tuple[NDArray[np.float64], dict[str, Any]]:  # fmt: skip
+def solve_laplace(
+    fixed: NDArray[np.bool_],
+    value: NDArray[np.float64],
+    *,
+    spacing: NDArray[np.floating] | float = 1.0,
+    boundary: float | None = None,
+    tol: float = 1e-5,
+    max_sweeps: int = 20000,
+) -> tuple[NDArray[np.float64], dict[str, Any]]:
     """Solve ∇²φ = 0 (paper 002 Eq. 1) with imposed potentials on ``fixed`` cells.
 
     Parameters
@@ -466,12 +483,21 @@ def solve_laplace(fixed: NDArray[np.bool_], value: NDArray[np.float64], *,
         n, change = sor_sweeps(phi, f, w, bval, neumann, omega, max_sweeps, tol)
         sweeps.append(int(n))
     res = _residual(phi, fixed, h, bval, neumann)
-    return phi, {"sweeps": sweeps[::-1], "last_change": float(change), "residual": res,
-                 "converged": bool(change < tol)}  # fmt: skip
+    return phi, {
+        "sweeps": sweeps[::-1],
+        "last_change": float(change),
+        "residual": res,
+        "converged": bool(change < tol),
+    }
 
 
-def _residual(phi: NDArray[np.float64], fixed: NDArray[np.bool_], h: NDArray[np.float64],
-              bval: float, neumann: bool) -> float:  # fmt: skip
+def _residual(
+    phi: NDArray[np.float64],
+    fixed: NDArray[np.bool_],
+    h: NDArray[np.float64],
+    bval: float,
+    neumann: bool,
+) -> float:
     """Max |mean of neighbours − φ| over free cells (the Laplacian scaled by its diagonal)."""
     w = 1.0 / h**2
     s = np.zeros_like(phi)
@@ -508,16 +534,24 @@ def solve_field(scene: ChargeScene, *, tol: float = 1e-5) -> ElectricField:
     return ElectricField(phi, sign, scene.origin.copy(), scene.spacing.copy(), info, scene)
 
 
-def field_from_volume(volume: Any, *, name: str = "charge", step: int = 0,
-                      boundary: str | float = "neumann", tol: float = 1e-5) -> ElectricField:  # fmt: skip
+def field_from_volume(
+    volume: Any,
+    *,
+    name: str = "charge",
+    step: int = 0,
+    boundary: str | float = "neumann",
+    tol: float = 1e-5,
+) -> ElectricField:
     """Solve Eq. 1 for a charge field of a :class:`~auralize.volume.TimeVolume`.
 
     Points with ``charge < 0`` form the negative charge (φ = 0), points with
     ``charge > 0`` the positive charge (φ = 1); zero points are free.
     """
     if name not in volume.field_names:
-        raise FieldError(f"{volume.source}: no field {name!r} for the charge distribution; "
-                         f"available fields: {', '.join(volume.field_names)}")  # fmt: skip
+        raise FieldError(
+            f"{volume.source}: no field {name!r} for the charge distribution; "
+            f"available fields: {', '.join(volume.field_names)}"
+        )
     if volume.is_vector(name):
         raise FieldError(
             f"{volume.source}: charge field {name!r} must be scalar, it is a vector field"
@@ -527,5 +561,10 @@ def field_from_volume(volume: Any, *, name: str = "charge", step: int = 0,
     src = f"{volume.source} field {name!r} step {step}"
     norm, bnd = _normalise(sign, (sign > 0).astype(np.float64), src, boundary)
     phi, info = solve_laplace(sign != 0, norm, spacing=volume.spacing, boundary=bnd, tol=tol)
-    return ElectricField(phi, sign, np.asarray(volume.origin, dtype=np.float64).copy(),
-                         np.asarray(volume.spacing, dtype=np.float64).copy(), info)  # fmt: skip
+    return ElectricField(
+        phi,
+        sign,
+        np.asarray(volume.origin, dtype=np.float64).copy(),
+        np.asarray(volume.spacing, dtype=np.float64).copy(),
+        info,
+    )

@@ -91,8 +91,10 @@ class Discharge:
             or np.any(self.parent[1:] < 0)
             or np.any(self.parent[1:] >= np.arange(1, n))
         ):
-            raise DataError("discharge tree: node 0 must be the root (parent -1) and every other "
-                            "node's parent must come before it")  # fmt: skip
+            raise DataError(
+                "discharge tree: node 0 must be the root (parent -1) and every other "
+                "node's parent must come before it"
+            )
 
     # --------------------------------------------------------------- segments
     @property
@@ -202,11 +204,17 @@ class Discharge:
             n = data.shape[0]
             if n < 2:
                 raise FormatError(f"{p}: a polyline needs at least 2 points, got {n}")
-            return cls(data[:, :3], np.arange(n) - 1, np.ones(n, dtype=bool),
-                       {"source": str(p), "kind": "polyline"})  # fmt: skip
+            return cls(
+                data[:, :3],
+                np.arange(n) - 1,
+                np.ones(n, dtype=bool),
+                {"source": str(p), "kind": "polyline"},
+            )
         if header[:5] != ["id", "parent", "x", "y", "z"]:
-            raise FormatError(f"{p}: header must be 'x,y,z' (polyline) or 'id,parent,x,y,z[,main]' "
-                              f"(tree); got {','.join(header)!r}")  # fmt: skip
+            raise FormatError(
+                f"{p}: header must be 'x,y,z' (polyline) or 'id,parent,x,y,z[,main]' "
+                f"(tree); got {','.join(header)!r}"
+            )
         ids = data[:, 0].astype(np.int64)
         par = data[:, 1].astype(np.int64)
         if np.any(data[:, 0] != ids) or len(set(ids.tolist())) != ids.size:
@@ -252,8 +260,9 @@ def _longest_path(nodes: NDArray[np.float64], parent: NDArray[np.int64]) -> NDAr
 
 
 # ------------------------------------------------------------------ growth
-def _cone_directions(axis: NDArray[np.float64], n: int, rho: float,
-                     rng: np.random.Generator) -> NDArray[np.float64]:  # fmt: skip
+def _cone_directions(
+    axis: NDArray[np.float64], n: int, rho: float, rng: np.random.Generator
+) -> NDArray[np.float64]:
     """``(T, n, 3)`` unit vectors uniform on the cap of half-angle ρ/2 around each axis (T, 3)."""
     t = axis.shape[0]
     cos_lo = math.cos(0.5 * rho)
@@ -267,8 +276,11 @@ def _cone_directions(axis: NDArray[np.float64], n: int, rho: float,
     e1 = np.cross(axis, helper)
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
     e2 = np.cross(axis, e1)
-    return ((sz * np.cos(az))[..., None] * e1[:, None] + (sz * np.sin(az))[..., None] * e2[:, None]
-            + cz[..., None] * axis[:, None])  # fmt: skip
+    return (
+        (sz * np.cos(az))[..., None] * e1[:, None]
+        + (sz * np.sin(az))[..., None] * e2[:, None]
+        + cz[..., None] * axis[:, None]
+    )
 
 
 def _start_point(fld: ElectricField) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -292,11 +304,20 @@ def _start_point(fld: ElectricField) -> tuple[NDArray[np.float64], NDArray[np.fl
     return root, g / np.linalg.norm(g)
 
 
-def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8,
-                rho: float = math.pi / 2, gamma: float = 2.5, seed: int = 0,
-                branch_probability: float = 0.05, branch_length: float = 20.0,
-                max_tips: int = 64, max_segments: int | None = None,
-                reference: str = "tip") -> Discharge:  # fmt: skip
+def grow_leader(
+    fld: ElectricField,
+    *,
+    half_length: float,
+    n_candidates: int = 8,
+    rho: float = math.pi / 2,
+    gamma: float = 2.5,
+    seed: int = 0,
+    branch_probability: float = 0.05,
+    branch_length: float = 20.0,
+    max_tips: int = 64,
+    max_segments: int | None = None,
+    reference: str = "tip",
+) -> Discharge:
     """Grow a discharge tree through ``fld`` from the negative to the positive charge (§4.1, Eq. 2).
 
     Parameters
@@ -414,8 +435,11 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
                 new_dir.append(dirs[t, pick[t]])
                 new_life.append(life)
                 new_gen.append(tip_gen[t])
-            if (pick2[t] != pick[t] and r3[t] < branch_probability * 0.5 ** tip_gen[t]
-                    and len(new_node) + 1 < max_tips):  # fmt: skip
+            if (
+                pick2[t] != pick[t]
+                and r3[t] < branch_probability * 0.5 ** tip_gen[t]
+                and len(new_node) + 1 < max_tips
+            ):
                 nodes.append(cand[t, pick2[t]])
                 parent.append(int(tip_node[t]))
                 new_node.append(len(nodes) - 1)
@@ -436,15 +460,29 @@ def grow_leader(fld: ElectricField, *, half_length: float, n_candidates: int = 8
     while k >= 0:
         main[k] = True
         k = int(parent_a[k])
-    meta = {"reached": True, "seed": seed, "gamma": gamma, "n_candidates": int(n_candidates),
-            "rho": rho, "reference": reference, "half_length": half_length,
-            "branches_started": n_branch, "straight_distance": straight}  # fmt: skip
+    meta = {
+        "reached": True,
+        "seed": seed,
+        "gamma": gamma,
+        "n_candidates": int(n_candidates),
+        "rho": rho,
+        "reference": reference,
+        "half_length": half_length,
+        "branches_started": n_branch,
+        "straight_distance": straight,
+    }
     # the final connection can be longer than 2l: keep every segment at most 2l long
     return Discharge(nodes_a, parent_a, main, meta).subdivided(half_length)
 
 
-def _weights(fld: ElectricField, tips: NDArray[np.float64], dirs: NDArray[np.float64], step: float,
-             gamma: float, reference: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def _weights(
+    fld: ElectricField,
+    tips: NDArray[np.float64],
+    dirs: NDArray[np.float64],
+    step: float,
+    gamma: float,
+    reference: str,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Candidate points ``(T, n, 3)`` and their Eq. 2 weights φ_i^γ ``(T, n)``."""
     cand = tips[:, None, :] + step * dirs
     phi = fld.potential_at(cand.reshape(-1, 3)).reshape(dirs.shape[:2])

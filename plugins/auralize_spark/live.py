@@ -90,9 +90,16 @@ class LiveDischarges:
     False
     """
 
-    def __init__(self, listener: ListenerPath | NDArray[np.floating], *, params: WaveParams, rate: int = 44100,
-                 layout: str | Layout = "mono", capacity_s: float = 60.0,
-                 clock: Callable[[], float] | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        listener: ListenerPath | NDArray[np.floating],
+        *,
+        params: WaveParams,
+        rate: int = 44100,
+        layout: str | Layout = "mono",
+        capacity_s: float = 60.0,
+        clock: Callable[[], float] | None = None,
+    ) -> None:
         self.listener: ListenerPath | NDArray[np.float64] = (
             listener
             if isinstance(listener, ListenerPath)
@@ -106,8 +113,11 @@ class LiveDischarges:
         self.layout = self.stage.layout
         syn = self.stage.synthesis_layout
         if syn.meta.get("receivers"):
-            path = (self.listener if isinstance(self.listener, ListenerPath)
-                    else ListenerPath(np.zeros(1), self.listener.reshape(1, 3)))  # fmt: skip
+            path = (
+                self.listener
+                if isinstance(self.listener, ListenerPath)
+                else ListenerPath(np.zeros(1), self.listener.reshape(1, 3))
+            )
             self._receivers: list[tuple[Layout, Any]] = receiver_paths(syn, path)
         else:
             self._receivers = [(syn, self.listener)]
@@ -128,8 +138,13 @@ class LiveDischarges:
         return self._clock() - self._t0
 
     # ------------------------------------------------------------ producers
-    def submit(self, discharge: Discharge, *, at: float | None = None,
-               strokes: NDArray[np.floating] | None = None) -> Future[Delivery]:  # fmt: skip
+    def submit(
+        self,
+        discharge: Discharge,
+        *,
+        at: float | None = None,
+        strokes: NDArray[np.floating] | None = None,
+    ) -> Future[Delivery]:
         """Generate ``discharge``'s sound on the worker thread; returns a Future of its Delivery.
 
         ``at`` is the stream time of the discharge (default: now).
@@ -145,8 +160,18 @@ class LiveDischarges:
     ) -> Delivery:
         t_start = self._clock()
         # one set of emissions per receiver (the same seed: the same discharge)
-        ems = [emissions(discharge, lis, params=self.params, strokes=strokes, layout=lay, t0=t_d,
-                         rng=np.random.default_rng(seed)) for lay, lis in self._receivers]  # fmt: skip
+        ems = [
+            emissions(
+                discharge,
+                lis,
+                params=self.params,
+                strokes=strokes,
+                layout=lay,
+                t0=t_d,
+                rng=np.random.default_rng(seed),
+            )
+            for lay, lis in self._receivers
+        ]
         # stream time at which the first wave arrives
         due = max(min(em.start_time for em in ems), t_d)
         first = due - t_d
@@ -217,10 +242,16 @@ class ContinuousResult:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
-def continuous_discharges(make_waveform: Callable[[int], NDArray[np.float64]],
-                          state: Callable[[float], NDArray[np.floating]], *, duration: float,
-                          rate: int = 44100, interval_s: tuple[float, float] = (0.010, 0.050),
-                          threshold: float = 0.05, seed: int = 0) -> ContinuousResult:  # fmt: skip
+def continuous_discharges(
+    make_waveform: Callable[[int], NDArray[np.float64]],
+    state: Callable[[float], NDArray[np.floating]],
+    *,
+    duration: float,
+    rate: int = 44100,
+    interval_s: tuple[float, float] = (0.010, 0.050),
+    threshold: float = 0.05,
+    seed: int = 0,
+) -> ContinuousResult:
     """Repeat a discharge waveform while the field changes little (paper 002 §4.2.4).
 
     Parameters
@@ -273,5 +304,10 @@ def continuous_discharges(make_waveform: Callable[[int], NDArray[np.float64]],
         a = int(round(t * rate))
         b = min(n_out, a + wave.shape[1])
         out[:, a:b] += wave[:, : b - a]
-    return ContinuousResult(out, int(rate), np.asarray(times), np.asarray(regen),
-                            {"discharges": len(times), "regenerated": int(np.sum(regen))})  # fmt: skip
+    return ContinuousResult(
+        out,
+        int(rate),
+        np.asarray(times),
+        np.asarray(regen),
+        {"discharges": len(times), "regenerated": int(np.sum(regen))},
+    )

@@ -56,8 +56,13 @@ class SparkResult:
         """The same discharge, strokes and T0 jitter rendered again to another layout."""
         ren = self.rendered
         n = ren.audio.shape[1]
-        out = self.part.render_part(as_path(self.listener), rate=ren.rate, layout=layout,
-                                    duration=n / ren.rate, c0=self.params.c)  # fmt: skip
+        out = self.part.render_part(
+            as_path(self.listener),
+            rate=ren.rate,
+            layout=layout,
+            duration=n / ren.rate,
+            c0=self.params.c,
+        )
         out.audio = out.audio[:, :n]
         return out
 
@@ -81,8 +86,9 @@ class SparkResult:
         return out
 
 
-def resolve_source(source: Any, preset: Preset, *, step: int = 0,
-                   charge_field: str = "charge") -> tuple[ElectricField | None, Discharge | None]:  # fmt: skip
+def resolve_source(
+    source: Any, preset: Preset, *, step: int = 0, charge_field: str = "charge"
+) -> tuple[ElectricField | None, Discharge | None]:
     """Field and/or discharge from any accepted source.
 
     ``None`` (the preset's scene), a :class:`ChargeScene`, an
@@ -113,14 +119,30 @@ def resolve_source(source: Any, preset: Preset, *, step: int = 0,
     )
 
 
-def make_part(source: Any = None, *, preset: str = "spark-balls", half_length: float | None = None,
-              r0: float | None = None, T0: float | None = None, ps0: float | None = None,
-              sigma0: float = SIGMA0, c0: float = C0, jitter: float = 0.05,
-              amplitude: str = "eq3", n_candidates: int = 8, rho: float = math.pi / 2,
-              gamma: float = 2.5, reference: str = "tip", branch_probability: float | None = None,
-              branch_length: float | None = None, strokes: int | None = None, seed: int = 0,
-              t0: float = 0.0, step: int = 0, charge_field: str = "charge",
-              ) -> tuple[DischargePart, ElectricField | None, dict[str, float]]:  # fmt: skip
+def make_part(
+    source: Any = None,
+    *,
+    preset: str = "spark-balls",
+    half_length: float | None = None,
+    r0: float | None = None,
+    T0: float | None = None,
+    ps0: float | None = None,
+    sigma0: float = SIGMA0,
+    c0: float = C0,
+    jitter: float = 0.05,
+    amplitude: str = "eq3",
+    n_candidates: int = 8,
+    rho: float = math.pi / 2,
+    gamma: float = 2.5,
+    reference: str = "tip",
+    branch_probability: float | None = None,
+    branch_length: float | None = None,
+    strokes: int | None = None,
+    seed: int = 0,
+    t0: float = 0.0,
+    step: int = 0,
+    charge_field: str = "charge",
+) -> tuple[DischargePart, ElectricField | None, dict[str, float]]:
     """Scene (or discharge) to the discharge's sound part (paper 002 Fig. 4–5, before propagation).
 
     Parameters are those of :func:`simulate` without the listener and the
@@ -139,10 +161,19 @@ def make_part(source: Any = None, *, preset: str = "spark-balls", half_length: f
     if dis is None:
         assert fld is not None
         t = time.perf_counter()
-        dis = grow_leader(fld, half_length=hl, n_candidates=n_candidates, rho=rho, gamma=gamma,
-                          seed=seed, reference=reference,
-                          branch_probability=pre.branch_probability if branch_probability is None else branch_probability,
-                          branch_length=pre.branch_length if branch_length is None else branch_length)  # fmt: skip
+        dis = grow_leader(
+            fld,
+            half_length=hl,
+            n_candidates=n_candidates,
+            rho=rho,
+            gamma=gamma,
+            seed=seed,
+            reference=reference,
+            branch_probability=pre.branch_probability
+            if branch_probability is None
+            else branch_probability,
+            branch_length=pre.branch_length if branch_length is None else branch_length,
+        )
         timings["leader"] = time.perf_counter() - t
     else:
         dis = dis.subdivided(hl)
@@ -151,21 +182,45 @@ def make_part(source: Any = None, *, preset: str = "spark-balls", half_length: f
         st = stroke_times(rng) if pre.multi_stroke else np.zeros(1)
     else:
         st = stroke_times(rng, n=int(strokes))
-    params = WaveParams(r0=pre.r0 if r0 is None else float(r0), T0=pre.T0 if T0 is None else float(T0),
-                        ps0=pre.ps0 if ps0 is None else float(ps0), sigma0=sigma0, c=c0,
-                        jitter=jitter, amplitude=amplitude)  # fmt: skip
+    params = WaveParams(
+        r0=pre.r0 if r0 is None else float(r0),
+        T0=pre.T0 if T0 is None else float(T0),
+        ps0=pre.ps0 if ps0 is None else float(ps0),
+        sigma0=sigma0,
+        c=c0,
+        jitter=jitter,
+        amplitude=amplitude,
+    )
     return DischargePart(dis, params, st, t0=t0, seed=seed), fld, timings
 
 
-def simulate(source: Any = None, listener: ListenerPath | NDArray[np.floating] | None = None, *,
-             preset: str = "spark-balls", half_length: float | None = None,
-             r0: float | None = None, T0: float | None = None, ps0: float | None = None,
-             sigma0: float = SIGMA0, c0: float = C0, jitter: float = 0.05,
-             amplitude: str = "eq3", n_candidates: int = 8, rho: float = math.pi / 2,
-             gamma: float = 2.5, reference: str = "tip", branch_probability: float | None = None,
-             branch_length: float | None = None, strokes: int | None = None, seed: int = 0,
-             rate: int = 44100, layout: str | Layout = "mono", duration: float | None = None,
-             step: int = 0, charge_field: str = "charge") -> SparkResult:  # fmt: skip
+def simulate(
+    source: Any = None,
+    listener: ListenerPath | NDArray[np.floating] | None = None,
+    *,
+    preset: str = "spark-balls",
+    half_length: float | None = None,
+    r0: float | None = None,
+    T0: float | None = None,
+    ps0: float | None = None,
+    sigma0: float = SIGMA0,
+    c0: float = C0,
+    jitter: float = 0.05,
+    amplitude: str = "eq3",
+    n_candidates: int = 8,
+    rho: float = math.pi / 2,
+    gamma: float = 2.5,
+    reference: str = "tip",
+    branch_probability: float | None = None,
+    branch_length: float | None = None,
+    strokes: int | None = None,
+    seed: int = 0,
+    rate: int = 44100,
+    layout: str | Layout = "mono",
+    duration: float | None = None,
+    step: int = 0,
+    charge_field: str = "charge",
+) -> SparkResult:
     """Scene (or discharge) to sound at the listener, end to end (paper 002 Fig. 4–5).
 
     Parameters
@@ -191,11 +246,27 @@ def simulate(source: Any = None, listener: ListenerPath | NDArray[np.floating] |
     (1, 1)
     """
     part, fld, timings = make_part(
-        source, preset=preset, half_length=half_length, r0=r0, T0=T0, ps0=ps0, sigma0=sigma0,
-        c0=c0, jitter=jitter, amplitude=amplitude, n_candidates=n_candidates, rho=rho,
-        gamma=gamma, reference=reference, branch_probability=branch_probability,
-        branch_length=branch_length, strokes=strokes, seed=seed, step=step,
-        charge_field=charge_field)  # fmt: skip
+        source,
+        preset=preset,
+        half_length=half_length,
+        r0=r0,
+        T0=T0,
+        ps0=ps0,
+        sigma0=sigma0,
+        c0=c0,
+        jitter=jitter,
+        amplitude=amplitude,
+        n_candidates=n_candidates,
+        rho=rho,
+        gamma=gamma,
+        reference=reference,
+        branch_probability=branch_probability,
+        branch_length=branch_length,
+        strokes=strokes,
+        seed=seed,
+        step=step,
+        charge_field=charge_field,
+    )
     lis = (
         np.asarray(get_preset(preset).listener, dtype=np.float64) if listener is None else listener
     )
@@ -237,11 +308,16 @@ def fitted_scene(volume: Any, *, points: int = 32) -> ChargeScene:
     h = float(size.max()) / (points - 1)
     dims = [max(int(round(s / h)) + 1, 4) for s in size]
     center = [0.5 * (b[0, 0] + b[0, 1]), 0.5 * (b[1, 0] + b[1, 1]), b[2, 0] + size[2] * 5 / 6]
-    return ChargeScene.from_dict({
-        "grid": {"dims": dims, "origin": b[:, 0].tolist(), "spacing": h},
-        "charges": [{"shape": "sphere", "center": center, "radius": size[2] / 6, "sign": "negative"},
-                    {"shape": "plane", "axis": "z", "position": float(b[2, 0]), "sign": "positive"}],
-    }, source=f"overlay scene for {getattr(volume, 'source', 'volume')}")  # fmt: skip
+    return ChargeScene.from_dict(
+        {
+            "grid": {"dims": dims, "origin": b[:, 0].tolist(), "spacing": h},
+            "charges": [
+                {"shape": "sphere", "center": center, "radius": size[2] / 6, "sign": "negative"},
+                {"shape": "plane", "axis": "z", "position": float(b[2, 0]), "sign": "positive"},
+            ],
+        },
+        source=f"overlay scene for {getattr(volume, 'source', 'volume')}",
+    )
 
 
 def charge_glyphs(fld: ElectricField | None) -> Any:
@@ -383,14 +459,26 @@ class SparkSound(SoundModel):
     def _part(self, source: Any, step: int = 0, **params: Any) -> tuple[DischargePart, Any]:
         p = self.resolve(**params)
         part, fld, _ = make_part(
-            source, preset=p["preset"], half_length=p["half_length"] or None,
-            r0=p["r0"] or None, T0=p["T0"] or None, ps0=p["ps0"] or None, sigma0=p["sigma0"],
-            jitter=p["jitter"], amplitude=p["amplitude"],
-            n_candidates=int(p["n_candidates"]), rho=p["rho"], gamma=p["gamma"],
-            reference=p["reference"], strokes=int(p["strokes"]) or None, seed=int(p["seed"]),
+            source,
+            preset=p["preset"],
+            half_length=p["half_length"] or None,
+            r0=p["r0"] or None,
+            T0=p["T0"] or None,
+            ps0=p["ps0"] or None,
+            sigma0=p["sigma0"],
+            jitter=p["jitter"],
+            amplitude=p["amplitude"],
+            n_candidates=int(p["n_candidates"]),
+            rho=p["rho"],
+            gamma=p["gamma"],
+            reference=p["reference"],
+            strokes=int(p["strokes"]) or None,
+            seed=int(p["seed"]),
             branch_probability=None if p["branch_probability"] < 0 else p["branch_probability"],
-            branch_length=p["branch_length"] or None, t0=float(p["t0"]), step=step,
-        )  # fmt: skip
+            branch_length=p["branch_length"] or None,
+            t0=float(p["t0"]),
+            step=step,
+        )
         return part, fld
 
     def synthesize(self, inputs: Any, **params: Any) -> Sound:
@@ -417,10 +505,13 @@ class SparkSound(SoundModel):
         part, fld = self._part(source, step=step, **params)
         dis = part.discharge
         meta: dict[str, Any] = {
-            "model": "spark", "segments": int(dis.n_segments),
-            "main_segments": int(dis.seg_main.sum()), "branches": dis.n_branches(),
-            "strokes": int(part.strokes.size), "stroke_times_s": part.strokes.tolist(),
-        }  # fmt: skip
+            "model": "spark",
+            "segments": int(dis.n_segments),
+            "main_segments": int(dis.seg_main.sum()),
+            "branches": dis.n_branches(),
+            "strokes": int(part.strokes.size),
+            "stroke_times_s": part.strokes.tolist(),
+        }
         if fld is not None:
             meta["laplace"] = {"dims": list(fld.dims), **fld.info}
         return Sound([part], meta=meta, name="spark")
@@ -487,9 +578,18 @@ def cmd_spark_render(args: argparse.Namespace) -> int:
         listener = args.listener
         duration = args.duration
     t = time.perf_counter()
-    res = simulate(source, listener, preset=preset, seed=args.seed, strokes=args.strokes,
-                   gamma=args.gamma, T0=args.T0, rate=args.rate, layout=args.layout,
-                   duration=duration)  # fmt: skip
+    res = simulate(
+        source,
+        listener,
+        preset=preset,
+        seed=args.seed,
+        strokes=args.strokes,
+        gamma=args.gamma,
+        T0=args.T0,
+        rate=args.rate,
+        layout=args.layout,
+        duration=duration,
+    )
     total = time.perf_counter() - t
     if args.save_discharge:
         res.discharge.to_csv(args.save_discharge)
@@ -497,16 +597,23 @@ def cmd_spark_render(args: argparse.Namespace) -> int:
     summary["timing_s"]["total"] = total
     summary["output"] = args.output
     lay = res.rendered.layout
-    gain = save_rendered(res.rendered, args.output, normalize=args.normalize, limit_pa=args.limit,
-                         subtype=args.format,
-                         extra={"model": "spark", "preset": preset, "seed": args.seed})  # fmt: skip
+    gain = save_rendered(
+        res.rendered,
+        args.output,
+        normalize=args.normalize,
+        limit_pa=args.limit,
+        subtype=args.format,
+        extra={"model": "spark", "preset": preset, "seed": args.seed},
+    )
     summary["gain"] = gain
     summary["peak_pa"] = float(np.max(np.abs(res.rendered.audio)))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
         a = res.rendered.audio
-        print(f"wrote {args.output}: {lay.name}, {a.shape[0]} ch, {a.shape[1] / res.rendered.rate:.3f} s "
-              f"at {res.rendered.rate} Hz; {summary['segments']} segments, {summary['strokes']} "
-              f"stroke(s), peak {summary['peak_pa']:.4g} Pa; {total:.2f} s")  # fmt: skip
+        print(
+            f"wrote {args.output}: {lay.name}, {a.shape[0]} ch, {a.shape[1] / res.rendered.rate:.3f} s "
+            f"at {res.rendered.rate} Hz; {summary['segments']} segments, {summary['strokes']} "
+            f"stroke(s), peak {summary['peak_pa']:.4g} Pa; {total:.2f} s"
+        )
     return 0

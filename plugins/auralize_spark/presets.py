@@ -58,27 +58,38 @@ class Preset:
 
 def _balls() -> dict[str, Any]:
     # two 1 cm balls, surfaces 2 cm apart along x
-    return {"grid": {"dims": [65, 41, 41], "origin": [-0.04, -0.025, -0.025], "spacing": 0.00125},
-            "boundary": "neumann",
-            "charges": [{"shape": "sphere", "center": [-0.02, 0, 0], "radius": 0.01, "sign": "negative"},
-                        {"shape": "sphere", "center": [0.02, 0, 0], "radius": 0.01, "sign": "positive"}]}  # fmt: skip
+    return {
+        "grid": {"dims": [65, 41, 41], "origin": [-0.04, -0.025, -0.025], "spacing": 0.00125},
+        "boundary": "neumann",
+        "charges": [
+            {"shape": "sphere", "center": [-0.02, 0, 0], "radius": 0.01, "sign": "negative"},
+            {"shape": "sphere", "center": [0.02, 0, 0], "radius": 0.01, "sign": "positive"},
+        ],
+    }
 
 
 def _plasma() -> dict[str, Any]:
     # 3 cm central electrode, a fingertip (1 cm) on the globe 20 cm from it
-    return {"grid": {"dims": [65, 49, 49], "origin": [-0.1, -0.15, -0.15], "spacing": 0.00625},
-            "boundary": "neumann",
-            "charges": [{"shape": "sphere", "center": [0, 0, 0], "radius": 0.03, "sign": "negative"},
-                        {"shape": "sphere", "center": [0.24, 0, 0], "radius": 0.01, "sign": "positive"}]}  # fmt: skip
+    return {
+        "grid": {"dims": [65, 49, 49], "origin": [-0.1, -0.15, -0.15], "spacing": 0.00625},
+        "boundary": "neumann",
+        "charges": [
+            {"shape": "sphere", "center": [0, 0, 0], "radius": 0.03, "sign": "negative"},
+            {"shape": "sphere", "center": [0.24, 0, 0], "radius": 0.01, "sign": "positive"},
+        ],
+    }
 
 
 def _lightning() -> dict[str, Any]:
     # negative cloud charge (1 km sphere, base 5 km up), positive induced charge on the ground
-    return {"grid": {"dims": [31, 31, 34], "origin": [-3000, -3000, 0], "spacing": 200.0},
-            "boundary": "neumann",
-            "charges": [{"shape": "sphere", "center": [0, 0, 6000], "radius": 1000,
-                         "sign": "negative"},
-                        {"shape": "plane", "axis": "z", "position": 0.0, "sign": "positive"}]}  # fmt: skip
+    return {
+        "grid": {"dims": [31, 31, 34], "origin": [-3000, -3000, 0], "spacing": 200.0},
+        "boundary": "neumann",
+        "charges": [
+            {"shape": "sphere", "center": [0, 0, 6000], "radius": 1000, "sign": "negative"},
+            {"shape": "plane", "axis": "z", "position": 0.0, "sign": "positive"},
+        ],
+    }
 
 
 PRESETS: dict[str, Preset] = {
@@ -95,7 +106,7 @@ PRESETS: dict[str, Preset] = {
         branch_length=14.0,
         paper_segments=72,
         paper_time="< 16 ms",
-    ),  # fmt: skip
+    ),
     "plasma-ball": Preset(
         "plasma-ball",
         0.20,
@@ -109,7 +120,7 @@ PRESETS: dict[str, Preset] = {
         branch_length=11.0,
         paper_segments=78,
         paper_time="< 16 ms",
-    ),  # fmt: skip
+    ),
     "lightning": Preset(
         "lightning",
         5000.0,
@@ -124,7 +135,7 @@ PRESETS: dict[str, Preset] = {
         branch_length=350.0,
         paper_segments=9438,
         paper_time="812 ms",
-    ),  # fmt: skip
+    ),
 }
 
 

@@ -70,8 +70,9 @@ INTERVAL_RANGE_S = (0.010, 0.240)
 
 
 # ------------------------------------------------------------------ Eq. 3–4
-def nwave_params(r: NDArray[np.floating] | float, *, r0: float, ps0: float, T0: float,
-                 sigma0: float = SIGMA0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def nwave_params(
+    r: NDArray[np.floating] | float, *, r0: float, ps0: float, T0: float, sigma0: float = SIGMA0
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Peak pressure and half-duration of a point-source N-wave (Eqs. 3–4).
 
     Parameters
@@ -129,9 +130,15 @@ def wm_wave(tau: NDArray[np.floating], s: float, psi: float, B: float) -> NDArra
     return p
 
 
-def wm_coefficients(r: NDArray[np.float64], hl: NDArray[np.float64], T: NDArray[np.float64],
-                    ps: NDArray[np.float64], *, c: float = C0,
-                    amplitude: str = "eq3") -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def wm_coefficients(
+    r: NDArray[np.float64],
+    hl: NDArray[np.float64],
+    T: NDArray[np.float64],
+    ps: NDArray[np.float64],
+    *,
+    c: float = C0,
+    amplitude: str = "eq3",
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """ψ and B of Eq. 5 for segments at (clamped) distance r with half-length l and duration T.
 
     ``amplitude="eq3"``: A = p_s r/(2l), so B = p_s l/(4cT) and the broadside
@@ -236,10 +243,16 @@ class Emissions:
         return float(np.max(self.t_center + (self.psi + self.s) * self.time_length / self.c * 1.01))
 
 
-def emissions(discharge: Discharge, listener: ListenerPath | NDArray[np.floating], *,
-              params: WaveParams, strokes: NDArray[np.floating] | None = None,
-              layout: str | Layout = "mono", t0: float = 0.0,
-              rng: np.random.Generator | None = None) -> Emissions:  # fmt: skip
+def emissions(
+    discharge: Discharge,
+    listener: ListenerPath | NDArray[np.floating],
+    *,
+    params: WaveParams,
+    strokes: NDArray[np.floating] | None = None,
+    layout: str | Layout = "mono",
+    t0: float = 0.0,
+    rng: np.random.Generator | None = None,
+) -> Emissions:
     """Eq. 3–5 coefficients of every segment of every stroke at its arrival (§4.2.2 (a)–(b)).
 
     Parameters
@@ -283,12 +296,32 @@ def emissions(discharge: Discharge, listener: ListenerPath | NDArray[np.floating
     psi, B = wm_coefficients(r_eff, hl, T, ps, c=params.c, amplitude=params.amplitude)
     assert arr.gains is not None
     chans, gains = sparse_gains(arr.gains)
-    return Emissions(arr.time, hl, s, psi, B, r, seg, stroke, chans, gains,
-                     int(np.count_nonzero(r < params.r0)), float(params.c), arr.doppler)  # fmt: skip
+    return Emissions(
+        arr.time,
+        hl,
+        s,
+        psi,
+        B,
+        r,
+        seg,
+        stroke,
+        chans,
+        gains,
+        int(np.count_nonzero(r < params.r0)),
+        float(params.c),
+        arr.doppler,
+    )
 
 
-def accumulate(em: Emissions, n_channels: int, n_samples: int, *, rate: int, c: float = C0,
-               out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
+def accumulate(
+    em: Emissions,
+    n_channels: int,
+    n_samples: int,
+    *,
+    rate: int,
+    c: float = C0,
+    out: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
     """Sum the box-filtered WM-waves of ``em`` into a ``(n_channels, n_samples)`` buffer (§4.2.2 (c)).
 
     Sample n covers playback time ``[(n − ½)/rate, (n + ½)/rate)``; each wave's
@@ -297,8 +330,18 @@ def accumulate(em: Emissions, n_channels: int, n_samples: int, *, rate: int, c: 
     """
     if out is None:
         out = np.zeros((n_channels, n_samples))
-    accumulate_wm(out, em.t_center, np.ascontiguousarray(em.time_length), em.s, em.psi, em.B,
-                  em.chans, em.gains, float(rate), float(c))  # fmt: skip
+    accumulate_wm(
+        out,
+        em.t_center,
+        np.ascontiguousarray(em.time_length),
+        em.s,
+        em.psi,
+        em.B,
+        em.chans,
+        em.gains,
+        float(rate),
+        float(c),
+    )
     return out
 
 
@@ -340,21 +383,41 @@ class DischargePart:
             raise ParameterError(f"t0 must be a finite time in s, got {self.t0!r}")
         self.strokes = st
 
-    def emissions(self, listener: ListenerPath | NDArray[np.floating], *,
-                  layout: str | Layout = "mono", c0: float | None = None) -> Emissions:  # fmt: skip
+    def emissions(
+        self,
+        listener: ListenerPath | NDArray[np.floating],
+        *,
+        layout: str | Layout = "mono",
+        c0: float | None = None,
+    ) -> Emissions:
         """The emissions heard along ``listener`` (speed of sound ``c0``, default ``params.c``)."""
         params = self.params if c0 is None else replace(self.params, c=float(c0))
-        return emissions(self.discharge, listener, params=params, strokes=self.strokes,
-                         layout=layout, t0=self.t0, rng=np.random.default_rng(self.seed))  # fmt: skip
+        return emissions(
+            self.discharge,
+            listener,
+            params=params,
+            strokes=self.strokes,
+            layout=layout,
+            t0=self.t0,
+            rng=np.random.default_rng(self.seed),
+        )
 
     def end_time(self, path: ListenerPath | NDArray[np.floating], *, c0: float = C0) -> float:
         """Playback second (s) when the last wave has passed the listener, +10 ms: the
         length :meth:`render_part` renders without a duration (scenes take it)."""
         return self.emissions(path, c0=c0).end_time + 0.01
 
-    def render_part(self, path: ListenerPath | NDArray[np.floating], *, rate: int = 44100,
-                    layout: str | Layout = "mono", duration: float | None = None,
-                    start: float = 0.0, c0: float = C0, backend: str = "auto") -> Rendered:  # fmt: skip
+    def render_part(
+        self,
+        path: ListenerPath | NDArray[np.floating],
+        *,
+        rate: int = 44100,
+        layout: str | Layout = "mono",
+        duration: float | None = None,
+        start: float = 0.0,
+        c0: float = C0,
+        backend: str = "auto",
+    ) -> Rendered:
         """Pressure ``(n_channels, n_samples)`` in Pa heard along ``path``.
 
         Output sample n is at playback time ``start + n / rate``; ``duration``
@@ -367,18 +430,33 @@ class DischargePart:
         lay = get_layout(layout)
         stage = output_stage(lay, int(rate))
         if stage.synthesis_layout is not lay:  # binaural: its intermediate, then the ears' filters
-            out = self.render_part(path, rate=rate, layout=stage.synthesis_layout,
-                                   duration=duration, start=start, c0=c0, backend=backend)  # fmt: skip
+            out = self.render_part(
+                path,
+                rate=rate,
+                layout=stage.synthesis_layout,
+                duration=duration,
+                start=start,
+                c0=c0,
+                backend=backend,
+            )
             return stage.finish(out)
         if lay.meta.get("receivers"):  # the ears: each along its own path, channels stacked
             if not isinstance(path, ListenerPath):
                 path = ListenerPath(np.zeros(1), np.asarray(path, dtype=np.float64).reshape(1, 3))
             if duration is None:  # until the last wave has passed the head's centre, +10 ms
                 duration = self.emissions(path, c0=c0).end_time + 0.01 - start
-            outs = [self.render_part(p, rate=rate, layout=rl, duration=duration, start=start,
-                                     c0=c0, backend=backend) for rl, p in receiver_paths(lay, path)]  # fmt: skip
-            return Rendered(audio=np.concatenate([o.audio for o in outs]), rate=int(rate),
-                            layout=lay, meta={**outs[0].meta, "layout": lay.name})  # fmt: skip
+            outs = [
+                self.render_part(
+                    p, rate=rate, layout=rl, duration=duration, start=start, c0=c0, backend=backend
+                )
+                for rl, p in receiver_paths(lay, path)
+            ]
+            return Rendered(
+                audio=np.concatenate([o.audio for o in outs]),
+                rate=int(rate),
+                layout=lay,
+                meta={**outs[0].meta, "layout": lay.name},
+            )
 
         if backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
@@ -420,10 +498,18 @@ class DischargePart:
         return Rendered(audio=audio, rate=int(rate), layout=lay, meta=meta)
 
 
-def render_discharge(discharge: Discharge, listener: ListenerPath | NDArray[np.floating], *,
-                     params: WaveParams, rate: int = 44100, layout: str | Layout = "mono",
-                     strokes: NDArray[np.floating] | None = None, duration: float | None = None,
-                     t0: float = 0.0, seed: int = 0) -> Rendered:  # fmt: skip
+def render_discharge(
+    discharge: Discharge,
+    listener: ListenerPath | NDArray[np.floating],
+    *,
+    params: WaveParams,
+    rate: int = 44100,
+    layout: str | Layout = "mono",
+    strokes: NDArray[np.floating] | None = None,
+    duration: float | None = None,
+    t0: float = 0.0,
+    seed: int = 0,
+) -> Rendered:
     """The sound of ``discharge`` heard by ``listener`` (paper 002 §4.2.2–4.2.3).
 
     Renders a :class:`DischargePart` with the speed of sound ``params.c``.

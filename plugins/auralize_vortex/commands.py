@@ -32,8 +32,13 @@ def add_commands(subparsers: Any, options: Any) -> None:
     t.add_argument(
         "--size", type=positive_int, default=16, help="cells per axis of the analysis box"
     )
-    td = t.add_argument("--texture-duration", type=positive_float, default=1.0, metavar="S",
-                        help="seconds of texture recorded per speed (default 1)")  # fmt: skip
+    td = t.add_argument(
+        "--texture-duration",
+        type=positive_float,
+        default=1.0,
+        metavar="S",
+        help="seconds of texture recorded per speed (default 1)",
+    )
     add_renamed_alias(t, "--duration", td)
     t.add_argument("--seed", type=seed_int, default=0)
     t.add_argument("--box", type=positive_float, default=0.2, help="analysis box edge in m")

@@ -31,9 +31,17 @@ G = 9.81
 T_AMBIENT = 293.0
 
 
-def make_fire_plume(*, size: int = 15, steps: int = 60, seed: int = 0, spacing: float = 0.04,
-                    source_temperature: float = 400.0, burner_speed: float = 0.5,
-                    frame_rate: float = 30.0, substeps: int = 4) -> TimeVolume:  # fmt: skip
+def make_fire_plume(
+    *,
+    size: int = 15,
+    steps: int = 60,
+    seed: int = 0,
+    spacing: float = 0.04,
+    source_temperature: float = 400.0,
+    burner_speed: float = 0.5,
+    frame_rate: float = 30.0,
+    substeps: int = 4,
+) -> TimeVolume:
     """Simulate the buoyant plume; ``size`` cells across (n_z = round(4/3 size)), ``steps`` frames.
 
     Parameters
@@ -91,12 +99,23 @@ def make_fire_plume(*, size: int = 15, steps: int = 60, seed: int = 0, spacing: 
             vel[k // substeps] = fl.cell_velocity()
             tem[k // substeps] = temp
     times = np.arange(int(steps)) / frame_rate
-    vol = TimeVolume.from_arrays({"velocity": vel, "temperature": tem}, origin=0.5 * h,
-                                 spacing=h, times=times, source="dataset:fire-plume")  # fmt: skip
+    vol = TimeVolume.from_arrays(
+        {"velocity": vel, "temperature": tem},
+        origin=0.5 * h,
+        spacing=h,
+        times=times,
+        source="dataset:fire-plume",
+    )
     attrs: dict[str, Any] = {
-        "dataset": "fire-plume", "size": int(size), "steps": int(steps), "seed": seed,
-        "spacing": h, "source_temperature": source_temperature, "burner_speed": burner_speed,
-        "frame_rate": frame_rate, "paper": "000 §7 (fire, 15×15×20 voxels)",
-    }  # fmt: skip
+        "dataset": "fire-plume",
+        "size": int(size),
+        "steps": int(steps),
+        "seed": seed,
+        "spacing": h,
+        "source_temperature": source_temperature,
+        "burner_speed": burner_speed,
+        "frame_rate": frame_rate,
+        "paper": "000 §7 (fire, 15×15×20 voxels)",
+    }
     vol.attrs = attrs
     return vol

@@ -327,8 +327,9 @@ def _confinement(om, mag, h):  # type: ignore[no-untyped-def]  # pragma: no cove
     return out
 
 
-def curl(vel: NDArray[np.floating], h: float | NDArray[np.floating], *,
-         periodic_xy: bool = False) -> NDArray[np.float64]:  # fmt: skip
+def curl(
+    vel: NDArray[np.floating], h: float | NDArray[np.floating], *, periodic_xy: bool = False
+) -> NDArray[np.float64]:
     """Vorticity ω = ∇ × v of a point/cell field ``(nz, ny, nx, 3)`` (1/s).
 
     Central differences (one-sided at non-periodic ends); ``h`` is a scalar or

@@ -74,20 +74,20 @@ class VortexSound(SoundModel):
             "physical",
             choices=("physical", "paper"),
             doc="1/r (Howe, docs/design.md) or the paper's 1/r³ (Eq. 5)",
-        ),  # fmt: skip
+        ),
         Parameter("velocity_field", "velocity", doc="vector field holding the velocity (m/s)"),
         Parameter(
             "low_speed",
             "u4",
             choices=("u4", "clamp"),
             doc="below the smallest texture speed: scale by (u/u_min)^4 or clamp",
-        ),  # fmt: skip
+        ),
         Parameter(
             "offsets",
             "random",
             choices=("random", "zero"),
             doc="per-source start offsets into the looped texture",
-        ),  # fmt: skip
+        ),
         Parameter("seed", 0, range=(0, None)),
         Parameter(
             "blend", 0.05, range=(0.0, None), unit="s", doc="cross-fade of the loop ends (§6)"
@@ -99,28 +99,28 @@ class VortexSound(SoundModel):
             range=(0.0, None),
             unit="Pa",
             doc="maximum received pressure, truncated beyond (§7); 0 = off",
-        ),  # fmt: skip
+        ),
         Parameter(
             "oversample",
             0,
             range=(0, 64),
             doc="emission rate = oversample × texture rate (0: 1 for sub-volumes as large as "
             "the texture box, else 4)",
-        ),  # fmt: skip
+        ),
         Parameter(
             "duration",
             0.0,
             range=(0.0, None),
             unit="s",
             doc="playback seconds of emission (0 = the frames' duration × time_scale)",
-        ),  # fmt: skip
+        ),
         Parameter(
             "lead",
             0.5,
             range=(0.0, None),
             unit="s",
             doc="emission before playback 0 (first step's speeds), heard up to lead × c0 away",
-        ),  # fmt: skip
+        ),
         Parameter("radius", 0.05, range=(1e-6, None), unit="m", doc="distance clamp"),
     )
     #: built-in datasets (auralize.datasets.synthetic hook)
@@ -158,17 +158,30 @@ class VortexSound(SoundModel):
         p = self.resolve(**params)
         tex = _texture_from(p["texture"])
         return vortex_sound(
-            inputs, tex, block=int(p["block"]), attenuation=p["attenuation"],
-            velocity_field=p["velocity_field"], low_speed=p["low_speed"], offsets=p["offsets"],
-            seed=int(p["seed"]), blend=p["blend"], time_scale=p["time_scale"],
-            oversample=int(p["oversample"]), duration=p["duration"] or None, lead=p["lead"],
-            radius=p["radius"], limit_pa=p["limit_pa"] or None,
-        )  # fmt: skip
+            inputs,
+            tex,
+            block=int(p["block"]),
+            attenuation=p["attenuation"],
+            velocity_field=p["velocity_field"],
+            low_speed=p["low_speed"],
+            offsets=p["offsets"],
+            seed=int(p["seed"]),
+            blend=p["blend"],
+            time_scale=p["time_scale"],
+            oversample=int(p["oversample"]),
+            duration=p["duration"] or None,
+            lead=p["lead"],
+            radius=p["radius"],
+            limit_pa=p["limit_pa"] or None,
+        )
 
     def load_input(self, spec: str) -> TimeVolume:
         """The velocity volume of ``spec``: a file, a core dataset or ``dataset:fire-plume``."""
-        return load_volume(argparse.Namespace(volume=spec, seed=0, size=None, steps=None,
-                                              field=None, resolution=None))  # fmt: skip
+        return load_volume(
+            argparse.Namespace(
+                volume=spec, seed=0, size=None, steps=None, field=None, resolution=None
+            )
+        )
 
     # -------------------------------------------------------------- overlay
     def warm_up(self) -> None:
@@ -200,8 +213,16 @@ class VortexSound(SoundModel):
         half = sub.extent_m / 2
         boxes = []
         for c, hh in zip(sub.centres, half, strict=True):
-            b = pv.Box(bounds=(c[0] - hh[0], c[0] + hh[0], c[1] - hh[1], c[1] + hh[1],
-                               c[2] - hh[2], c[2] + hh[2]))  # fmt: skip
+            b = pv.Box(
+                bounds=(
+                    c[0] - hh[0],
+                    c[0] + hh[0],
+                    c[1] - hh[1],
+                    c[1] + hh[1],
+                    c[2] - hh[2],
+                    c[2] + hh[2],
+                )
+            )
             boxes.append(b)
         merged = pv.merge(boxes) if len(boxes) > 1 else boxes[0]
         merged.cell_data["speed"] = np.repeat(speed, boxes[0].n_cells)
@@ -210,11 +231,15 @@ class VortexSound(SoundModel):
         out: list[Any] = [merged, centres]
         if self.overlay_isosurface is not None:
             om = np.linalg.norm(curl(v, volume.spacing), axis=-1)
-            grid = pv.ImageData(dimensions=volume.dims, spacing=tuple(volume.spacing),
-                                origin=tuple(volume.origin))  # fmt: skip
+            grid = pv.ImageData(
+                dimensions=volume.dims, spacing=tuple(volume.spacing), origin=tuple(volume.origin)
+            )
             grid.point_data["vorticity"] = om.ravel()
-            level = (0.5 * float(om.max()) if self.overlay_isosurface == "auto"
-                     else float(self.overlay_isosurface))  # fmt: skip
+            level = (
+                0.5 * float(om.max())
+                if self.overlay_isosurface == "auto"
+                else float(self.overlay_isosurface)
+            )
             out.append(grid.contour([level], scalars="vorticity"))
         return out
 
@@ -234,9 +259,15 @@ class VortexSound(SoundModel):
             raise ParameterError(
                 f"--speeds takes comma-separated numbers in m/s, got {args.speeds!r}"
             ) from None
-        cfg = TextureConfig(speeds=check_speeds(speeds), size=args.size, duration=args.texture_duration,
-                            seed=args.seed, box_m=args.box, dt=args.dt,
-                            coefficient=args.coefficient)  # fmt: skip
+        cfg = TextureConfig(
+            speeds=check_speeds(speeds),
+            size=args.size,
+            duration=args.texture_duration,
+            seed=args.seed,
+            box_m=args.box,
+            dt=args.dt,
+            coefficient=args.coefficient,
+        )
         from auralize.runtime.progress import progress_callback
 
         t0 = time.perf_counter()
@@ -248,8 +279,10 @@ class VortexSound(SoundModel):
             if cached
             else f"computed in {time.perf_counter() - t0:.1f} s"
         )
-        print(f"wrote {args.output}: {tex.speeds.size} speeds x {tex.n_samples} samples at "
-              f"{tex.rate:g} Hz, {how}; rms Pa at 1 m by speed {{{rms}}}")  # fmt: skip
+        print(
+            f"wrote {args.output}: {tex.speeds.size} speeds x {tex.n_samples} samples at "
+            f"{tex.rate:g} Hz, {how}; rms Pa at 1 m by speed {{{rms}}}"
+        )
         return 0
 
     @staticmethod
@@ -261,18 +294,36 @@ class VortexSound(SoundModel):
         path = listener_from_args(args)
         tex = _texture_from(args.texture, quiet=False)
         t0 = time.perf_counter()
-        r = render_vortex(volume, path, tex, block=args.block, rate=args.rate, layout=args.layout,
-                          duration=args.duration,
-                          attenuation=args.attenuation, velocity_field=args.velocity_field,
-                          time_scale=args.time_scale, seed=args.seed)  # fmt: skip
+        r = render_vortex(
+            volume,
+            path,
+            tex,
+            block=args.block,
+            rate=args.rate,
+            layout=args.layout,
+            duration=args.duration,
+            attenuation=args.attenuation,
+            velocity_field=args.velocity_field,
+            time_scale=args.time_scale,
+            seed=args.seed,
+        )
         el = time.perf_counter() - t0
-        gain = write_audio(args.output, r.audio, r.rate, channel_mask=r.layout.channel_mask,
-                           normalize=args.normalize, limit_pa=args.limit, subtype=args.format,
-                           sidecar={"layout": r.layout.describe(), **r.meta})  # fmt: skip
+        gain = write_audio(
+            args.output,
+            r.audio,
+            r.rate,
+            channel_mask=r.layout.channel_mask,
+            normalize=args.normalize,
+            limit_pa=args.limit,
+            subtype=args.format,
+            sidecar={"layout": r.layout.describe(), **r.meta},
+        )
         peak = float(np.max(np.abs(r.audio))) if r.audio.size else 0.0
-        print(f"wrote {args.output}: {r.layout.name}, {r.audio.shape[0]} ch, {r.duration:.2f} s at "
-              f"{r.rate} Hz, {r.meta['n_sources']} sub-volumes, peak {peak:.3g} Pa, gain {gain:.3g}; "
-              f"{el:.2f} s ({r.duration / max(el, 1e-9):.0f}x real time)")  # fmt: skip
+        print(
+            f"wrote {args.output}: {r.layout.name}, {r.audio.shape[0]} ch, {r.duration:.2f} s at "
+            f"{r.rate} Hz, {r.meta['n_sources']} sub-volumes, peak {peak:.3g} Pa, gain {gain:.3g}; "
+            f"{el:.2f} s ({r.duration / max(el, 1e-9):.0f}x real time)"
+        )
         return 0
 
     # ---------------------------------------------------------------- bench
@@ -290,12 +341,18 @@ class VortexSound(SoundModel):
         tex = compute_texture(cfg)
         el = time.perf_counter() - t0
         slope = float(np.polyfit(np.log(tex.speeds), np.log(tex.rms()), 1)[0])
-        rows.append(BenchRow(
-            "vortex", f"texture: 8 speeds, {cfg.size}³ box, {dur:g} s each", el, "s",
-            target="≤ 60 s" if not quick else "", met=(el <= 60) if not quick else None,
-            paper="several minutes (§7)",
-            note=f"rms ∝ u^{slope:.2f} (compact vortex sound: 4)",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "vortex",
+                f"texture: 8 speeds, {cfg.size}³ box, {dur:g} s each",
+                el,
+                "s",
+                target="≤ 60 s" if not quick else "",
+                met=(el <= 60) if not quick else None,
+                paper="several minutes (§7)",
+                note=f"rms ∝ u^{slope:.2f} (compact vortex sound: 4)",
+            )
+        )
         vol = make_fire_plume()
         c = vol.center
         for layout in ("mono", "ring8"):
@@ -306,12 +363,18 @@ class VortexSound(SoundModel):
                 render_vortex(vol, path, tex, layout=layout)
 
             t = best_of(run, repeat=3)
-            rows.append(BenchRow(
-                "vortex", f"render 15×15×20 plume → {layout}, {length:g} s", length / t,
-                "× real time", target="≥ 50×", met=length / t >= 50,
-                paper="10–20 fps interactive (§7)",
-                note=f"{t * 1e3:.1f} ms; 36 sub-volumes of 5³ through the sound engine",
-            ))  # fmt: skip
+            rows.append(
+                BenchRow(
+                    "vortex",
+                    f"render 15×15×20 plume → {layout}, {length:g} s",
+                    length / t,
+                    "× real time",
+                    target="≥ 50×",
+                    met=length / t >= 50,
+                    paper="10–20 fps interactive (§7)",
+                    note=f"{t * 1e3:.1f} ms; 36 sub-volumes of 5³ through the sound engine",
+                )
+            )
         return rows
 
 
@@ -334,8 +397,14 @@ def load_volume(args: argparse.Namespace) -> TimeVolume:
     from auralize.pipeline import load
 
     with curvilinear_mode("resample"):  # the vorticity takes uniform spacing
-        vol = load(spec, size=args.size, steps=args.steps, seed=args.seed,
-                   fields=field_map(args.field), resolution=args.resolution)  # fmt: skip
+        vol = load(
+            spec,
+            size=args.size,
+            steps=args.steps,
+            seed=args.seed,
+            fields=field_map(args.field),
+            resolution=args.resolution,
+        )
     if not isinstance(vol, TimeVolume):  # pragma: no cover - load always returns one
         raise DataError(f"{spec}: not a volume")
     return vol

@@ -207,8 +207,9 @@ class LoopedTexture:
     def period(self) -> int:
         return int(self.rows.shape[1])
 
-    def lookup(self, u: NDArray[np.floating], pos: NDArray[np.floating], *,
-               low_speed: str = "u4") -> NDArray[np.float64]:  # fmt: skip
+    def lookup(
+        self, u: NDArray[np.floating], pos: NDArray[np.floating], *, low_speed: str = "u4"
+    ) -> NDArray[np.float64]:
         """Q(u, t) at speeds ``u`` and fractional sample positions ``pos`` (same shape)."""
         if low_speed not in ("u4", "clamp"):
             raise ParameterError(f"low_speed must be 'u4' or 'clamp', got {low_speed!r}")
@@ -262,12 +263,23 @@ def _law(attenuation: str | float) -> str | float:
     return attenuation
 
 
-def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[int, int, int] = 5,
-                    attenuation: str | float = "physical", velocity_field: str = "velocity",
-                    low_speed: str = "u4", offsets: str = "random", seed: int = 0,
-                    blend: float = 0.05, time_scale: float = 1.0, oversample: int = 0,
-                    duration: float | None = None, lead: float = 0.5,
-                    radius: float = 0.05) -> Emitters:  # fmt: skip
+def vortex_emitters(
+    volume: TimeVolume,
+    texture: Texture,
+    *,
+    block: int | tuple[int, int, int] = 5,
+    attenuation: str | float = "physical",
+    velocity_field: str = "velocity",
+    low_speed: str = "u4",
+    offsets: str = "random",
+    seed: int = 0,
+    blend: float = 0.05,
+    time_scale: float = 1.0,
+    oversample: int = 0,
+    duration: float | None = None,
+    lead: float = 0.5,
+    radius: float = 0.05,
+) -> Emitters:
     """The sub-volumes of a velocity time series as static emitters (§4, §6, Eq. 5).
 
     Parameters
@@ -362,10 +374,16 @@ def vortex_emitters(volume: TimeVolume, texture: Texture, *, block: int | tuple[
         ramp = 0.5 - 0.5 * np.cos(np.pi * (np.arange(nf) + 0.5) / nf)
         emitted[:, :nf] *= ramp
         emitted[:, n_e - nf :] *= ramp[::-1]
-    meta = {"speeds": speeds, "subvolumes": list(sub.shape), "size_m": sub.size_m,
-            "texture_rate_hz": texture.rate, "band_hz": 0.5 * texture.rate * float(ratio.max())}  # fmt: skip
-    return Emitters(emitted, R, sub.centres, t0=-n_lead / R, radius=radius, law=law, name="vortex",
-                    meta=meta)  # fmt: skip
+    meta = {
+        "speeds": speeds,
+        "subvolumes": list(sub.shape),
+        "size_m": sub.size_m,
+        "texture_rate_hz": texture.rate,
+        "band_hz": 0.5 * texture.rate * float(ratio.max()),
+    }
+    return Emitters(
+        emitted, R, sub.centres, t0=-n_lead / R, radius=radius, law=law, name="vortex", meta=meta
+    )
 
 
 @dataclass
@@ -389,21 +407,38 @@ class TruncatedEmitters:
         assert end is not None
         return end
 
-    def render_part(self, path: ListenerPath, *, rate: int, layout: str | Layout,
-                    duration: float | None, start: float, c0: float,
-                    backend: str) -> Rendered:  # fmt: skip
+    def render_part(
+        self,
+        path: ListenerPath,
+        *,
+        rate: int,
+        layout: str | Layout,
+        duration: float | None,
+        start: float,
+        c0: float,
+        backend: str,
+    ) -> Rendered:
         """Render with :func:`auralize.emitters.render_emitters`, then truncate."""
         from auralize.emitters import render_emitters
 
-        r = render_emitters(self.emitters, path, rate=rate, layout=layout, duration=duration,
-                            start=start, c0=c0, backend=backend)  # fmt: skip
+        r = render_emitters(
+            self.emitters,
+            path,
+            rate=rate,
+            layout=layout,
+            duration=duration,
+            start=start,
+            c0=c0,
+            backend=backend,
+        )
         np.clip(r.audio, -self.limit_pa, self.limit_pa, out=r.audio)
         r.meta["limit_pa"] = self.limit_pa
         return r
 
 
-def vortex_sound(volume: TimeVolume, texture: Texture, *, limit_pa: float | None = None,
-                 **kw: Any) -> Sound:  # fmt: skip
+def vortex_sound(
+    volume: TimeVolume, texture: Texture, *, limit_pa: float | None = None, **kw: Any
+) -> Sound:
     """What the vortex model emits: :func:`vortex_emitters` as an engine :class:`Sound`.
 
     ``limit_pa`` (Pa, §7) wraps the emitters in :class:`TruncatedEmitters`;
@@ -415,27 +450,48 @@ def vortex_sound(volume: TimeVolume, texture: Texture, *, limit_pa: float | None
     em = vortex_emitters(volume, texture, **kw)
     speeds = em.meta["speeds"]
     meta = {
-        "model": "vortex", "paper": "000 §6, Eq. 5", "n_sources": em.n_emitters,
-        "subvolumes": em.meta["subvolumes"], "block": kw.get("block", 5),
-        "attenuation": em.law, "texture_speeds": texture.speeds.tolist(),
-        "texture_rate_hz": texture.rate, "emit_rate_hz": em.rate,
+        "model": "vortex",
+        "paper": "000 §6, Eq. 5",
+        "n_sources": em.n_emitters,
+        "subvolumes": em.meta["subvolumes"],
+        "block": kw.get("block", 5),
+        "attenuation": em.law,
+        "texture_speeds": texture.speeds.tolist(),
+        "texture_rate_hz": texture.rate,
+        "emit_rate_hz": em.rate,
         "speed_range_m_s": [float(speeds.min()), float(speeds.max())],
-        "low_speed": kw.get("low_speed", "u4"), "offsets": kw.get("offsets", "random"),
-        "seed": kw.get("seed", 0), "limit_pa": limit_pa,
-    }  # fmt: skip
+        "low_speed": kw.get("low_speed", "u4"),
+        "offsets": kw.get("offsets", "random"),
+        "seed": kw.get("seed", 0),
+        "limit_pa": limit_pa,
+    }
     part = em if limit_pa is None else TruncatedEmitters(em, float(limit_pa))
     return Sound(parts=[part], meta=meta, name="vortex")
 
 
 # -------------------------------------------------------------------- render
-def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
-                  block: int = 5, rate: int = 44100, layout: str | Layout = "mono",
-                  duration: float | None = None, attenuation: str | float = "physical",
-                  c0: float = C0, velocity_field: str = "velocity", low_speed: str = "u4",
-                  offsets: str = "random", seed: int = 0, blend: float = 0.05,
-                  time_scale: float = 1.0, limit_pa: float | None = None,
-                  min_distance: float = 0.05, oversample: int = 0,
-                  backend: str = "auto") -> Rendered:  # fmt: skip
+def render_vortex(
+    volume: TimeVolume,
+    path: ListenerPath,
+    texture: Texture,
+    *,
+    block: int = 5,
+    rate: int = 44100,
+    layout: str | Layout = "mono",
+    duration: float | None = None,
+    attenuation: str | float = "physical",
+    c0: float = C0,
+    velocity_field: str = "velocity",
+    low_speed: str = "u4",
+    offsets: str = "random",
+    seed: int = 0,
+    blend: float = 0.05,
+    time_scale: float = 1.0,
+    limit_pa: float | None = None,
+    min_distance: float = 0.05,
+    oversample: int = 0,
+    backend: str = "auto",
+) -> Rendered:
     """Render the vortex sound of a velocity time series along a listener path (§6, Eq. 5).
 
     :func:`vortex_sound` rendered by :func:`auralize.emitters.render_sound`, with
@@ -492,10 +548,21 @@ def render_vortex(volume: TimeVolume, path: ListenerPath, texture: Texture, *,
     c_lo, c_hi = sub.centres.min(0), sub.centres.max(0)
     p_lo, p_hi = path.positions.min(0), path.positions.max(0)
     dmax = float(np.linalg.norm(np.maximum(c_hi - p_lo, p_hi - c_lo)))
-    sound = vortex_sound(volume, texture, block=block, attenuation=attenuation,
-                         velocity_field=velocity_field, low_speed=low_speed, offsets=offsets,
-                         seed=seed, blend=blend, time_scale=time_scale, oversample=oversample,
-                         duration=dur + EDGE_FADE_S + 0.01, lead=dmax / c0 + EDGE_FADE_S + 0.01,
-                         radius=min_distance, limit_pa=limit_pa)  # fmt: skip
-    return render(sound, path, rate=int(rate), layout=layout, duration=dur, c0=c0,
-                  backend=backend)  # fmt: skip
+    sound = vortex_sound(
+        volume,
+        texture,
+        block=block,
+        attenuation=attenuation,
+        velocity_field=velocity_field,
+        low_speed=low_speed,
+        offsets=offsets,
+        seed=seed,
+        blend=blend,
+        time_scale=time_scale,
+        oversample=oversample,
+        duration=dur + EDGE_FADE_S + 0.01,
+        lead=dmax / c0 + EDGE_FADE_S + 0.01,
+        radius=min_distance,
+        limit_pa=limit_pa,
+    )
+    return render(sound, path, rate=int(rate), layout=layout, duration=dur, c0=c0, backend=backend)

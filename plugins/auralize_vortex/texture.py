@@ -124,11 +124,20 @@ class TextureConfig:
             ("c0", self.c0 > 0),
         ]
         valid = {
-            "size": "an integer in 4..128", "box_m": "> 0 m", "duration": "> 0 s",
-            "dt": "in (0, 0.1] s", "alpha": ">= 0", "n_receivers": "an integer >= 1",
-            "perturbation": "in [0, 2]", "corr_cells": "> 0", "confinement": ">= 0",
-            "warmup_transits": ">= 0", "div_tol": "> 0", "rho0": "> 0", "c0": "> 0",
-        }  # fmt: skip
+            "size": "an integer in 4..128",
+            "box_m": "> 0 m",
+            "duration": "> 0 s",
+            "dt": "in (0, 0.1] s",
+            "alpha": ">= 0",
+            "n_receivers": "an integer >= 1",
+            "perturbation": "in [0, 2]",
+            "corr_cells": "> 0",
+            "confinement": ">= 0",
+            "warmup_transits": ">= 0",
+            "div_tol": "> 0",
+            "rho0": "> 0",
+            "c0": "> 0",
+        }
         for name, ok in checks:
             if not ok:
                 raise ParameterError(
@@ -182,8 +191,16 @@ def check_speeds(speeds: Sequence[float] | NDArray[np.floating]) -> tuple[float,
 # ------------------------------------------------------------ integral cells
 def neighbour_offsets() -> NDArray[np.int64]:
     """The 27 offsets ``(ox, oy, oz)`` of an integral cell (§5.2, Fig. 3b), self first."""
-    g = np.array([(0, 0, 0)] + [(x, y, z) for z in (-1, 0, 1) for y in (-1, 0, 1)
-                                for x in (-1, 0, 1) if (x, y, z) != (0, 0, 0)])  # fmt: skip
+    g = np.array(
+        [(0, 0, 0)]
+        + [
+            (x, y, z)
+            for z in (-1, 0, 1)
+            for y in (-1, 0, 1)
+            for x in (-1, 0, 1)
+            if (x, y, z) != (0, 0, 0)
+        ]
+    )
     return g.astype(np.int64)
 
 
@@ -201,8 +218,9 @@ def _shifted(a: NDArray[Any], o: NDArray[np.int64]) -> tuple[tuple[slice, ...], 
     return tuple(dst), tuple(src)
 
 
-def integral_cell_weights(shape: tuple[int, int, int], alpha: float = 3.0) -> tuple[
-        NDArray[np.int64], NDArray[np.float64]]:  # fmt: skip
+def integral_cell_weights(
+    shape: tuple[int, int, int], alpha: float = 3.0
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Weights of Eq. 4 for every voxel in every integral cell that contains it.
 
     Parameters
@@ -240,8 +258,9 @@ def receiver_ring(n: int, radius: float = 1.0) -> NDArray[np.float64]:
     return np.stack([radius * np.cos(ang), radius * np.sin(ang), np.zeros(n)], axis=1)
 
 
-def howe_kernel(shape: tuple[int, int, int], h: float, receivers: NDArray[np.floating], *,
-                alpha: float = 3.0) -> NDArray[np.float64]:  # fmt: skip
+def howe_kernel(
+    shape: tuple[int, int, int], h: float, receivers: NDArray[np.floating], *, alpha: float = 3.0
+) -> NDArray[np.float64]:
     """Integral-cell kernel G with ``Σ_k G_k · ω_k`` = receiver-mean of Eq. 3's sum (no C, no ∂³).
 
     Parameters
@@ -420,8 +439,16 @@ class InflowForcing:
     self-similar: time scales are ``h/u``.
     """
 
-    def __init__(self, shape: tuple[int, int], *, u: float, h: float, corr_cells: float,
-                 seed: int | tuple[int, ...] = 0, n_modes: int = 6) -> None:  # fmt: skip
+    def __init__(
+        self,
+        shape: tuple[int, int],
+        *,
+        u: float,
+        h: float,
+        corr_cells: float,
+        seed: int | tuple[int, ...] = 0,
+        n_modes: int = 6,
+    ) -> None:
         rng = np.random.default_rng(seed)
         self.omega = rng.uniform(0.5, 2.0, n_modes) * u / (corr_cells * h)
         self.a = np.stack([smooth_noise(rng, shape, corr_cells) for _ in range(n_modes)])
@@ -441,8 +468,7 @@ def simulate_speed(cfg: TextureConfig, index: int) -> tuple[NDArray[np.float64],
     h = cfg.box_m / n
     fl = StableFluids((n, n, n), h=h, dt=cfg.dt, eps0=cfg.confinement, speed_ref=u)
     fl.w[:] = u
-    forcing = InflowForcing((n, n), u=u, h=h, corr_cells=cfg.corr_cells,
-                            seed=(cfg.seed, index))  # fmt: skip
+    forcing = InflowForcing((n, n), u=u, h=h, corr_cells=cfg.corr_cells, seed=(cfg.seed, index))
     G = howe_kernel((n, n, n), h, receiver_ring(cfg.n_receivers), alpha=cfg.alpha)
     n_warm = math.ceil(cfg.warmup_transits * cfg.box_m / u / cfg.dt)
     n_rec = round(cfg.duration / cfg.dt) + 4
@@ -473,8 +499,12 @@ def simulate_speed(cfg: TextureConfig, index: int) -> tuple[NDArray[np.float64],
         advance()
         s[m] = np.einsum("zyxc,zyxc->", G, fl.vorticity())
     p = cfg.prefactor * third_derivative(s, cfg.dt)
-    return p, {"speed": u, "warmup_steps": steps, "recorded_steps": n_rec,
-               "max_div_h_over_u": float(np.max(np.abs(fl.divergence()))) * h / u}  # fmt: skip
+    return p, {
+        "speed": u,
+        "warmup_steps": steps,
+        "recorded_steps": n_rec,
+        "max_div_h_over_u": float(np.max(np.abs(fl.divergence()))) * h / u,
+    }
 
 
 def compute_texture(
@@ -485,9 +515,11 @@ def compute_texture(
 
     n_rec = float(cfg.duration) / float(cfg.dt)
     # recorded pressure and its derivatives per receiver, plus the fluid fields of the box
-    require_memory(n_rec * 8.0 * 8 * max(int(cfg.n_receivers), 1) + float(cfg.size) ** 3 * 8 * 40,
-                   f"a {cfg.duration:g} s texture at dt = {cfg.dt:g} s ({n_rec:.3g} steps)",
-                   hint="lower --duration or raise --dt")  # fmt: skip
+    require_memory(
+        n_rec * 8.0 * 8 * max(int(cfg.n_receivers), 1) + float(cfg.size) ** 3 * 8 * 40,
+        f"a {cfg.duration:g} s texture at dt = {cfg.dt:g} s ({n_rec:.3g} steps)",
+        hint="lower --duration or raise --dt",
+    )
     t0 = time.perf_counter()
     rows, infos = [], []
     for i, u in enumerate(cfg.speeds):
@@ -495,11 +527,14 @@ def compute_texture(
         rows.append(p)
         infos.append(info)
         if progress is not None:
-            progress(f"u = {u:g} m/s: rms {np.sqrt(np.mean(p**2)):.3g} Pa at 1 m "
-                     f"({time.perf_counter() - t0:.1f} s)")  # fmt: skip
+            progress(
+                f"u = {u:g} m/s: rms {np.sqrt(np.mean(p**2)):.3g} Pa at 1 m "
+                f"({time.perf_counter() - t0:.1f} s)"
+            )
     meta = {"runs": infos, "seconds": time.perf_counter() - t0, "digest": cfg.digest()}
-    return Texture(np.asarray(cfg.speeds), np.stack(rows), 1.0 / cfg.dt, cfg.box_m,
-                   config=cfg, meta=meta)  # fmt: skip
+    return Texture(
+        np.asarray(cfg.speeds), np.stack(rows), 1.0 / cfg.dt, cfg.box_m, config=cfg, meta=meta
+    )
 
 
 def cache_dir() -> Path:
@@ -509,8 +544,12 @@ def cache_dir() -> Path:
     return cache_root()
 
 
-def texture(cfg: TextureConfig | None = None, path: str | Path | None = None, *,
-            progress: Callable[[str], None] | None = None) -> tuple[Texture, bool]:  # fmt: skip
+def texture(
+    cfg: TextureConfig | None = None,
+    path: str | Path | None = None,
+    *,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[Texture, bool]:
     """Cached texture: same parameters, same file.
 
     ``path=None`` uses ``cache_dir()/vortex-texture-<digest>.h5``.  An existing

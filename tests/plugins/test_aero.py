@@ -326,21 +326,69 @@ def test_cli_texture_and_render(tex, cache, tmp_path, monkeypatch, capsys) -> No
         if not target.exists():
             target.write_bytes(p.read_bytes())
     texf = tmp_path / "cyl.h5"
-    rc = main(["aero", "texture", "--shape", "cylinder", "--diameter", "0.01", "-o", str(texf),
-               "--resolution", "10", "--texture-duration", "0.03"])  # fmt: skip
+    rc = main(
+        [
+            "aero",
+            "texture",
+            "--shape",
+            "cylinder",
+            "--diameter",
+            "0.01",
+            "-o",
+            str(texf),
+            "--resolution",
+            "10",
+            "--texture-duration",
+            "0.03",
+        ]
+    )
     assert rc == 0 and texf.exists()
     # --duration with --path: the output lasts --duration, not the path's 0.2 s
     csv = tmp_path / "path.csv"
     ListenerPath.line((0.25, 0, 2), (0.35, 0, 2), duration=0.2).to_csv(csv)
     for seconds in (0.1, 0.3):
         wav = tmp_path / f"path{seconds}.wav"
-        rc = main(["aero", "render", "--texture", str(texf), "--wind", "10", "--path", str(csv),
-                   "--duration", str(seconds), "--rate", "16000", "-o", str(wav)])  # fmt: skip
+        rc = main(
+            [
+                "aero",
+                "render",
+                "--texture",
+                str(texf),
+                "--wind",
+                "10",
+                "--path",
+                str(csv),
+                "--duration",
+                str(seconds),
+                "--rate",
+                "16000",
+                "-o",
+                str(wav),
+            ]
+        )
         assert rc == 0 and read_wav(wav)[0].shape == (1, round(seconds * 16000))
     capsys.readouterr()
     out = tmp_path / "wind.wav"
-    rc = main(["aero", "render", "--texture", str(texf), "--wind", "10", "--wind-direction", "0,1,0",
-               "--listener", "0.25,0,2", "--duration", "0.3", "-o", str(out), "--layout", "ring8"])  # fmt: skip
+    rc = main(
+        [
+            "aero",
+            "render",
+            "--texture",
+            str(texf),
+            "--wind",
+            "10",
+            "--wind-direction",
+            "0,1,0",
+            "--listener",
+            "0.25,0,2",
+            "--duration",
+            "0.3",
+            "-o",
+            str(out),
+            "--layout",
+            "ring8",
+        ]
+    )
     assert rc == 0
     audio, rate, _ = read_wav(out)
     assert audio.shape == (8, int(0.3 * rate))
@@ -349,13 +397,49 @@ def test_cli_texture_and_render(tex, cache, tmp_path, monkeypatch, capsys) -> No
     mf = tmp_path / "swing.csv"
     Motion.swing(duration=0.3, swings=1, rate_hz=100).to_csv(mf)
     out2 = tmp_path / "swing.wav"
-    rc = main(["aero", "render", "--texture", str(texf), "--motion", str(mf), "--listener", "0.3,1,0.2",
-               "--duration", "0.3", "-o", str(out2), "--layout", "stereo", "--exponent", "paper"])  # fmt: skip
+    rc = main(
+        [
+            "aero",
+            "render",
+            "--texture",
+            str(texf),
+            "--motion",
+            str(mf),
+            "--listener",
+            "0.3,1,0.2",
+            "--duration",
+            "0.3",
+            "-o",
+            str(out2),
+            "--layout",
+            "stereo",
+            "--exponent",
+            "paper",
+        ]
+    )
     assert rc == 0 and read_wav(out2)[0].shape[0] == 2
     capsys.readouterr()
     out3 = tmp_path / "ears.wav"
-    rc = main(["aero", "render", "--texture", str(texf), "--motion", str(mf), "--listener", "0.3,1,0.2",
-               "--duration", "0.3", "-o", str(out3), "--layout", "stereo", "--stereo", "ears"])  # fmt: skip
+    rc = main(
+        [
+            "aero",
+            "render",
+            "--texture",
+            str(texf),
+            "--motion",
+            str(mf),
+            "--listener",
+            "0.3,1,0.2",
+            "--duration",
+            "0.3",
+            "-o",
+            str(out3),
+            "--layout",
+            "stereo",
+            "--stereo",
+            "ears",
+        ]
+    )
     assert rc == 2 and "no longer renders two ear receivers" in capsys.readouterr().err
     assert not out3.exists()
     rc = main(
@@ -382,8 +466,9 @@ def _synthetic_texture(section, m: int, rate: float = 20000.0) -> SoundTexture: 
     g = np.zeros((m, int(lengths.max()), 2))
     for j, n in enumerate(lengths):
         g[j, :n] = rng.standard_normal((n, 2))
-    return SoundTexture(section, 10.0, rate, np.linspace(0, 45, m), g, g.copy(), lengths,
-                        np.full(m, 0.2), {})  # fmt: skip
+    return SoundTexture(
+        section, 10.0, rate, np.linspace(0, 45, m), g, g.copy(), lengths, np.full(m, 0.2), {}
+    )
 
 
 def test_emission_kernel_equals_numpy_reference(tex: SoundTexture) -> None:
@@ -392,21 +477,36 @@ def test_emission_kernel_equals_numpy_reference(tex: SoundTexture) -> None:
     cases = [
         (tex, stick(0.5, 0.01), {"motion": Motion.swing(duration=0.2, swings=1.0, rate_hz=200.0)}),
         (tex, stick(0.5, 0.01), {"wind": Wind(12.0, (0, 1, 0.2), gust=0.1, seed=2)}),
-        (_synthetic_texture(square(0.01), 10), stick(0.4, 0.01),
-         {"motion": Motion.swing(duration=0.2, swings=1.5, rate_hz=200.0), "wind": Wind(5.0, (1, 1, 0))}),
-        (_synthetic_texture(chiral, 6), stick(0.4, 0.01),
-         {"motion": Motion.circle(radius=0.6, turns=1.0, duration=0.2), "exponent": "paper"}),
-    ]  # fmt: skip
+        (
+            _synthetic_texture(square(0.01), 10),
+            stick(0.4, 0.01),
+            {
+                "motion": Motion.swing(duration=0.2, swings=1.5, rate_hz=200.0),
+                "wind": Wind(5.0, (1, 1, 0)),
+            },
+        ),
+        (
+            _synthetic_texture(chiral, 6),
+            stick(0.4, 0.01),
+            {"motion": Motion.circle(radius=0.6, turns=1.0, duration=0.2), "exponent": "paper"},
+        ),
+    ]
     for t, obj, kw in cases:
         fast = emission(t, obj, duration=0.2, **kw).emitters()
         ref = emission(t, obj, duration=0.2, engine="numpy", **kw).emitters()
         assert np.abs(ref.signals).max() > 0 and fast.signals.shape == ref.signals.shape
-        np.testing.assert_allclose(fast.signals, ref.signals, rtol=0,
-                                   atol=1e-9 * np.abs(ref.signals).max())  # fmt: skip
+        np.testing.assert_allclose(
+            fast.signals, ref.signals, rtol=0, atol=1e-9 * np.abs(ref.signals).max()
+        )
         np.testing.assert_allclose(fast.positions, ref.positions, rtol=0, atol=1e-12)
     with pytest.raises(ParameterError, match="engine"):
-        render(tex, stick(), ListenerPath.point((0, 1, 0), duration=0.1), wind=Wind(10.0),
-               engine="fortran")  # fmt: skip
+        render(
+            tex,
+            stick(),
+            ListenerPath.point((0, 1, 0), duration=0.1),
+            wind=Wind(10.0),
+            engine="fortran",
+        )
 
 
 def _one_source() -> AeroObject:
@@ -497,8 +597,9 @@ def test_inputs_are_declared_not_a_volume() -> None:
 
 
 @pytest.mark.parametrize(("layout", "bound"), [("mono", 5e-4), ("ring8", 2.5e-3)])
-def test_render_error_against_a_finer_reference(tex: SoundTexture, layout: str,
-                                                bound: float) -> None:  # fmt: skip
+def test_render_error_against_a_finer_reference(
+    tex: SoundTexture, layout: str, bound: float
+) -> None:
     """The engine's render (control points every CONTROL_BLOCK samples) against every output
     sample's retarded time solved (numpy reference) on the emission sampled 4x finer."""
     import importlib
@@ -510,8 +611,9 @@ def test_render_error_against_a_finer_reference(tex: SoundTexture, layout: str,
     motion = Motion.swing(duration=0.3, swings=1.0, amplitude_deg=80.0, rate_hz=200.0)
     path = ListenerPath.point((0.3, 1.0, 0.2), duration=0.3)
     out = emission(tex, obj, motion=motion, duration=0.3).render_part(path, layout=layout).audio
-    fine = emission(tex, obj, motion=motion, duration=0.3, rate=4 * RATE, block=4 * 32,
-                    engine="numpy")  # the same kinematics grid, 4x the samples  # fmt: skip
+    fine = emission(
+        tex, obj, motion=motion, duration=0.3, rate=4 * RATE, block=4 * 32, engine="numpy"
+    )  # the same kinematics grid, 4x the samples
     truth = render_reference(fine.emitters(), path, rate=RATE, layout=layout)
     peak = np.abs(truth).max()
     err = np.abs(out - truth) / peak

@@ -100,8 +100,9 @@ def test_mitchell_netravali_partition_of_unity_and_exact_slope() -> None:
     u = np.random.default_rng(2).uniform(0, 1, 100)
     k = np.arange(-2, 4)
     assert np.allclose(mitchell_netravali(u[:, None] - k).sum(axis=1), 1.0, atol=1e-14)
-    assert np.allclose(mitchell_netravali(u[:, None] - k, derivative=True).sum(axis=1), 0.0,
-                       atol=1e-13)  # fmt: skip
+    assert np.allclose(
+        mitchell_netravali(u[:, None] - k, derivative=True).sum(axis=1), 0.0, atol=1e-13
+    )
     dt = 1 / 360
     flux = 0.7 + 2.5 * np.arange(40) * dt  # m³/s rising at 2.5 m³/s²
     t = np.linspace(0, 39 * dt, 1000)
@@ -309,8 +310,9 @@ def test_missing_fields_are_clear_errors() -> None:
     vol = TimeVolume.from_arrays({"density": np.ones((3, 4, 4, 4))}, times=[0, 0.1, 0.2])
     with pytest.raises(FieldError, match="no field 'burn'"):
         flux_series(vol)
-    vol2 = TimeVolume.from_arrays({"burn": np.zeros((3, 4, 4, 4)), "velocity": np.zeros((3, 4, 4, 4, 3))},
-                                  times=[0, 0.1, 0.2])  # fmt: skip
+    vol2 = TimeVolume.from_arrays(
+        {"burn": np.zeros((3, 4, 4, 4)), "velocity": np.zeros((3, 4, 4, 4, 3))}, times=[0, 0.1, 0.2]
+    )
     with pytest.raises(DataError, match="nothing burns"):
         flux_series(vol2)
 
@@ -329,8 +331,9 @@ def test_overlay_off_screen(fire_volume: TimeVolume) -> None:
 
 
 # ------------------------------------------------------------------ CLI
-def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray,
-                                           capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_cli_extend_texture_lowfreq_render(
+    tmp_path: Path, candle: np.ndarray, capsys: pytest.CaptureFixture[str]
+) -> None:
     from auralize.audio import read_wav, write_audio
     from auralize.cli import main
 
@@ -346,12 +349,30 @@ def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray,
     train = tmp_path / "train.wav"
     write_audio(train, fire_training_clip(1.0, 22050, seed=0)[None], 22050)  # resampled to 44.1 kHz
     tex = tmp_path / "tex.wav"
-    assert main(["fire", "texture", str(raw), "--input-rate", "44100", "--training", str(train),
-                 "-o", str(tex), "--levels", "4"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "fire",
+                "texture",
+                str(raw),
+                "--input-rate",
+                "44100",
+                "--training",
+                str(train),
+                "-o",
+                str(tex),
+                "--levels",
+                "4",
+            ]
+        )
+        == 0
+    )
     assert read_wav(tex)[0].shape == (1, 22050)
     logged = [ln for ln in capsys.readouterr().err.splitlines() if "texture: level" in ln]
-    assert logged == [f"auralize: texture: level {lev}: {-(-22050 // 2 ** (lev - 1))} samples"
-                      for lev in (3, 2, 1)]  # fmt: skip  # no terminal: one log line per level
+    assert logged == [
+        f"auralize: texture: level {lev}: {-(-22050 // 2 ** (lev - 1))} samples"
+        for lev in (3, 2, 1)
+    ]  # no terminal: one log line per level
     low = tmp_path / "lowfreq.wav"
     assert (
         main(["fire", "lowfreq", "dataset:fire", "--size", "12", "--steps", "8", "-o", str(low)])
@@ -359,13 +380,53 @@ def test_cli_extend_texture_lowfreq_render(tmp_path: Path, candle: np.ndarray,
     )
     assert read_wav(low)[0].shape[1] == int(np.floor(7 / 360 * RATE)) + 1
     ren = tmp_path / "render.wav"
-    assert main(["fire", "render", "dataset:fire", "--size", "12", "--steps", "8", "-o", str(ren),
-                 "--listener", "0,1,0.2", "--duration", "0.02", "--layout", "stereo"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "fire",
+                "render",
+                "dataset:fire",
+                "--size",
+                "12",
+                "--steps",
+                "8",
+                "-o",
+                str(ren),
+                "--listener",
+                "0,1,0.2",
+                "--duration",
+                "0.02",
+                "--layout",
+                "stereo",
+            ]
+        )
+        == 0
+    )
     assert read_wav(ren)[0].shape == (2, round(0.02 * RATE))
     # multichannel files carry the layout's speaker positions (5.1: FL FR FC LFE BL BR)
     ren51 = tmp_path / "render51.wav"
-    assert main(["fire", "render", "dataset:fire", "--size", "12", "--steps", "8", "-o", str(ren51),
-                 "--listener", "0,1,0.2", "--duration", "0.02", "--layout", "5.1"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "fire",
+                "render",
+                "dataset:fire",
+                "--size",
+                "12",
+                "--steps",
+                "8",
+                "-o",
+                str(ren51),
+                "--listener",
+                "0,1,0.2",
+                "--duration",
+                "0.02",
+                "--layout",
+                "5.1",
+            ]
+        )
+        == 0
+    )
     a51, _, mask = read_wav(ren51)
     assert a51.shape == (6, round(0.02 * RATE)) and mask == 0x3F
     # the fire is behind the listener (who faces +y from y = 1): the back pair, nothing on the LFE
@@ -427,19 +488,69 @@ def test_cli_emitted_signal_output_options(tmp_path: Path, candle: np.ndarray) -
     assert np.all(a[0, RATE // 4 :] == 0) and np.any(a[0, : RATE // 4] != 0)
     # --duration shorter: cut (texture synthesises only what is written); --format pcm16
     tex = tmp_path / "tex.wav"
-    assert main(["fire", "texture", str(wav), "--duration", "0.1", "--levels", "3",
-                 "--format", "pcm16", "-o", str(tex)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "fire",
+                "texture",
+                str(wav),
+                "--duration",
+                "0.1",
+                "--levels",
+                "3",
+                "--format",
+                "pcm16",
+                "-o",
+                str(tex),
+            ]
+        )
+        == 0
+    )
     a, r, _ = read_wav(tex)
     assert a.shape == (1, round(0.1 * RATE)) and np.max(np.abs(a)) <= 1.0
     # --limit truncates the physical signal (--normalize none keeps its units)
     lim = tmp_path / "lim.wav"
     limit = float(f"{np.max(np.abs(candle[: RATE // 4])) / 4:.4g}")
-    assert main(["fire", "extend", str(wav), "--alpha", "3", "--normalize", "none",
-                 "--limit", str(limit), "-o", str(lim)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "fire",
+                "extend",
+                str(wav),
+                "--alpha",
+                "3",
+                "--normalize",
+                "none",
+                "--limit",
+                str(limit),
+                "-o",
+                str(lim),
+            ]
+        )
+        == 0
+    )
     a, _, _ = read_wav(lim)
     assert limit * (1 - 1e-6) <= np.max(np.abs(a)) <= limit * (1 + 1e-6)
     low = tmp_path / "low.wav"
-    assert main(["fire", "lowfreq", "dataset:fire", "--size", "12", "--steps", "8",
-                 "--rate", "16000", "--duration", "0.01", "-o", str(low)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "fire",
+                "lowfreq",
+                "dataset:fire",
+                "--size",
+                "12",
+                "--steps",
+                "8",
+                "--rate",
+                "16000",
+                "--duration",
+                "0.01",
+                "-o",
+                str(low),
+            ]
+        )
+        == 0
+    )
     a, r, _ = read_wav(low)
     assert r == 16000 and a.shape == (1, 160)

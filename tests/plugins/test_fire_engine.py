@@ -111,8 +111,12 @@ def test_a_moving_flame_is_a_moving_emitter() -> None:
         r2 = (x - cx) ** 2 + y**2 + z**2
         burn[k] = np.exp(-r2 / 0.02) * (1.0 + 0.1 * k)
         vel[k] = np.stack([x - cx, y, z], axis=-1) * (1.0 + 0.3 * np.sin(k))
-    vol = TimeVolume.from_arrays({"burn": burn, "velocity": vel}, spacing=1.0 / (n - 1),
-                                 origin=(-0.5, -0.5, -0.5), times=np.arange(steps) * dt)  # fmt: skip
+    vol = TimeVolume.from_arrays(
+        {"burn": burn, "velocity": vel},
+        spacing=1.0 / (n - 1),
+        origin=(-0.5, -0.5, -0.5),
+        times=np.arange(steps) * dt,
+    )
     snd = FireSound().synthesize(vol, extend="none", highpass_hz=0.0)
     em = snd.parts[0]
     assert em.moving and snd.meta["moving"]

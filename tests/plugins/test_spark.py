@@ -146,13 +146,27 @@ def test_box_filtered_kernel_matches_the_antiderivative() -> None:
         B = 1.7
         out = np.zeros((1, 1000))
         tc = 500 / rate + 0.3 / rate
-        accumulate_wm(out, np.array([tc]), np.array([hl]), np.array([s]), np.array([psi]),
-                      np.array([B]), np.zeros((1, 1), np.int64), np.ones((1, 1)), rate, C)  # fmt: skip
+        accumulate_wm(
+            out,
+            np.array([tc]),
+            np.array([hl]),
+            np.array([s]),
+            np.array([psi]),
+            np.array([B]),
+            np.zeros((1, 1), np.int64),
+            np.ones((1, 1)),
+            rate,
+            C,
+        )
         n = np.arange(1000)
         lo = C * ((n - 0.5) / rate - tc) / hl
         hi = C * ((n + 0.5) / rate - tc) / hl
-        ref = np.array([wm_antiderivative(b, s, psi, B) - wm_antiderivative(a, s, psi, B)
-                        for a, b in zip(lo, hi, strict=True)]) / (hi - lo)  # fmt: skip
+        ref = np.array(
+            [
+                wm_antiderivative(b, s, psi, B) - wm_antiderivative(a, s, psi, B)
+                for a, b in zip(lo, hi, strict=True)
+            ]
+        ) / (hi - lo)
         np.testing.assert_allclose(out[0], ref, atol=1e-9 * 4 * B * psi)
         # F integrates the pointwise wave
         tau = np.linspace(-2, 2, 200_001)
@@ -169,8 +183,9 @@ def test_arrival_time_is_r_over_c() -> None:
     params = WaveParams(r0=0.05, T0=30e-6, ps0=500.0, jitter=0.0)
     rate = 384_000
     for r in (3.43, 6.86):
-        out = render_discharge(one_segment(), np.array([0.0, r, 0.0]), params=params,
-                               rate=rate).audio[0]  # fmt: skip
+        out = render_discharge(
+            one_segment(), np.array([0.0, r, 0.0]), params=params, rate=rate
+        ).audio[0]
         nz = np.flatnonzero(np.abs(out) > 1e-9 * np.abs(out).max())
         # the N-wave is antisymmetric about its centre: the zero crossing is the arrival r/c
         mid = nz[0] + np.flatnonzero(out[nz[0] :] < 0)[0]
@@ -195,10 +210,15 @@ def test_listener_on_a_segment_is_clamped_to_r0() -> None:
 
 # ------------------------------------------------------------ field (Eq. 1)
 def test_laplace_between_plates_is_linear() -> None:
-    sc = ChargeScene.from_dict({
-        "grid": {"dims": [21, 6, 5], "spacing": [0.01, 0.02, 0.03]},
-        "charges": [{"shape": "plane", "axis": "x", "position": 0.0, "sign": "negative"},
-                    {"shape": "plane", "axis": "x", "position": 0.2, "sign": "positive"}]})  # fmt: skip
+    sc = ChargeScene.from_dict(
+        {
+            "grid": {"dims": [21, 6, 5], "spacing": [0.01, 0.02, 0.03]},
+            "charges": [
+                {"shape": "plane", "axis": "x", "position": 0.0, "sign": "negative"},
+                {"shape": "plane", "axis": "x", "position": 0.2, "sign": "positive"},
+            ],
+        }
+    )
     f = solve_field(sc, tol=1e-8)
     np.testing.assert_allclose(f.phi[2, 3, :], np.linspace(0, 1, 21), atol=1e-5)
     assert f.info["converged"] and f.info["residual"] < 1e-6
@@ -209,11 +229,21 @@ def test_laplace_spherical_capacitor_and_custom_potentials() -> None:
     n, h = 49, 1.0 / 48
     c = [0.5, 0.5, 0.5]
     # outer shell: a box held at +1000 V everywhere outside radius b (the solid region)
-    sc = ChargeScene.from_dict({
-        "grid": {"dims": [n, n, n], "spacing": h},
-        "boundary": 1000.0,
-        "charges": [{"shape": "sphere", "center": c, "radius": 0.1, "sign": "negative", "potential": -1000.0}],
-    })  # fmt: skip
+    sc = ChargeScene.from_dict(
+        {
+            "grid": {"dims": [n, n, n], "spacing": h},
+            "boundary": 1000.0,
+            "charges": [
+                {
+                    "shape": "sphere",
+                    "center": c,
+                    "radius": 0.1,
+                    "sign": "negative",
+                    "potential": -1000.0,
+                }
+            ],
+        }
+    )
     sign, value = sc.rasterize()
     X = np.arange(n) * h - 0.5
     R = np.sqrt(X[:, None, None] ** 2 + X[None, :, None] ** 2 + X[None, None, :] ** 2)
@@ -237,19 +267,45 @@ def test_laplace_spherical_capacitor_and_custom_potentials() -> None:
 def test_scene_errors_are_clear(tmp_path) -> None:  # type: ignore[no-untyped-def]
     grid = {"dims": [8, 8, 8], "spacing": 0.01}
     with pytest.raises(DataError, match="no positive charge"):
-        solve_field(ChargeScene.from_dict({"grid": grid, "charges": [
-            {"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "negative"}]}))  # fmt: skip
+        solve_field(
+            ChargeScene.from_dict(
+                {
+                    "grid": grid,
+                    "charges": [
+                        {"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "negative"}
+                    ],
+                }
+            )
+        )
     with pytest.raises(DataError, match="no negative charge"):
-        solve_field(ChargeScene.from_dict({"grid": grid, "charges": [
-            {"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "positive"}]}))  # fmt: skip
+        solve_field(
+            ChargeScene.from_dict(
+                {
+                    "grid": grid,
+                    "charges": [
+                        {"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "positive"}
+                    ],
+                }
+            )
+        )
     with pytest.raises(FormatError, match="valid shapes"):
         ChargeScene.from_dict({"grid": grid, "charges": [{"shape": "cone", "sign": "negative"}]})
     with pytest.raises(FormatError, match="sign must be"):
-        ChargeScene.from_dict({"grid": grid, "charges": [
-            {"shape": "point", "position": [0, 0, 0], "sign": "neutral"}]})  # fmt: skip
+        ChargeScene.from_dict(
+            {
+                "grid": grid,
+                "charges": [{"shape": "point", "position": [0, 0, 0], "sign": "neutral"}],
+            }
+        )
     with pytest.raises(DataError, match="outside the grid"):
-        ChargeScene.from_dict({"grid": grid, "charges": [
-            {"shape": "sphere", "center": [5, 5, 5], "radius": 0.01, "sign": "negative"}]}).rasterize()  # fmt: skip
+        ChargeScene.from_dict(
+            {
+                "grid": grid,
+                "charges": [
+                    {"shape": "sphere", "center": [5, 5, 5], "radius": 0.01, "sign": "negative"}
+                ],
+            }
+        ).rasterize()
     bad = tmp_path / "scene.toml"
     bad.write_text("grid = [")
     with pytest.raises(FormatError, match="cannot parse scene"):
@@ -300,8 +356,14 @@ def test_branching_falls_as_gamma_grows(plasma_field) -> None:  # type: ignore[n
     def stats(gamma: float) -> tuple[float, float]:
         br, tort = [], []
         for seed in range(6):
-            d = grow_leader(plasma_field, half_length=1e-2, gamma=gamma, seed=seed,
-                            branch_probability=0.3, branch_length=3)  # fmt: skip
+            d = grow_leader(
+                plasma_field,
+                half_length=1e-2,
+                gamma=gamma,
+                seed=seed,
+                branch_probability=0.3,
+                branch_length=3,
+            )
             br.append(d.meta["branches_started"] / max(d.seg_main.sum(), 1))
             tort.append(d.main_length() / d.meta["straight_distance"])
         return float(np.mean(br)), float(np.mean(tort))
@@ -377,8 +439,13 @@ def test_stroke_statistics_follow_the_stated_distributions() -> None:
 
 
 def test_later_strokes_sound_along_the_main_channel_only() -> None:
-    d = grow_leader(PRESETS["spark-balls"].field(), half_length=1e-3, seed=3,
-                    branch_probability=0.5, branch_length=10)  # fmt: skip
+    d = grow_leader(
+        PRESETS["spark-balls"].field(),
+        half_length=1e-3,
+        seed=3,
+        branch_probability=0.5,
+        branch_length=10,
+    )
     res = simulate(d, np.array([0, -0.5, 0]), preset="spark-balls", strokes=3, seed=1)
     meta = res.rendered.meta
     assert meta["strokes"] == 3
@@ -392,8 +459,11 @@ def test_same_seed_same_sound_and_presets() -> None:
     c = simulate(preset="plasma-ball", seed=10).rendered.audio
     np.testing.assert_array_equal(a, b)
     assert a.shape != c.shape or not np.array_equal(a, c)
-    for name, (hl, r0, T0) in {"spark-balls": (1e-3, 0.05, 30e-6), "plasma-ball": (1e-2, 0.1, 40e-6),
-                              "lightning": (1.5, 10.0, 500e-6)}.items():  # fmt: skip
+    for name, (hl, r0, T0) in {
+        "spark-balls": (1e-3, 0.05, 30e-6),
+        "plasma-ball": (1e-2, 0.1, 40e-6),
+        "lightning": (1.5, 10.0, 500e-6),
+    }.items():
         pre = PRESETS[name]
         assert (pre.half_length, pre.r0, pre.T0) == (hl, r0, T0)  # Table 1
     assert PRESETS["lightning"].path_m == 5000.0
@@ -502,9 +572,27 @@ def test_cli_render_json_and_errors(tmp_path, capsys) -> None:  # type: ignore[n
     from auralize.cli import main
 
     out = tmp_path / "spark.wav"
-    rc = main(["spark", "render", "--preset", "spark-balls", "--listener", "0,-0.5,0", "-o", str(out),
-               "--seed", "4", "--strokes", "2", "--layout", "ring8", "--json",
-               "--save-discharge", str(tmp_path / "d.csv")])  # fmt: skip
+    rc = main(
+        [
+            "spark",
+            "render",
+            "--preset",
+            "spark-balls",
+            "--listener",
+            "0,-0.5,0",
+            "-o",
+            str(out),
+            "--seed",
+            "4",
+            "--strokes",
+            "2",
+            "--layout",
+            "ring8",
+            "--json",
+            "--save-discharge",
+            str(tmp_path / "d.csv"),
+        ]
+    )
     assert rc == 0
     info = json.loads(capsys.readouterr().out)
     assert info["strokes"] == 2 and info["segments"] > 0 and "waveform" in info["timing_s"]
@@ -513,14 +601,40 @@ def test_cli_render_json_and_errors(tmp_path, capsys) -> None:  # type: ignore[n
     assert (tmp_path / "spark.wav.json").exists()
     # the saved discharge renders the same sound
     out2 = tmp_path / "again.wav"
-    assert main(["spark", "render", "--preset", "spark-balls", "--discharge", str(tmp_path / "d.csv"),
-                 "--listener", "0,-0.5,0", "-o", str(out2), "--seed", "4", "--strokes", "2",
-                 "--layout", "ring8"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "spark",
+                "render",
+                "--preset",
+                "spark-balls",
+                "--discharge",
+                str(tmp_path / "d.csv"),
+                "--listener",
+                "0,-0.5,0",
+                "-o",
+                str(out2),
+                "--seed",
+                "4",
+                "--strokes",
+                "2",
+                "--layout",
+                "ring8",
+            ]
+        )
+        == 0
+    )
     np.testing.assert_allclose(read_wav(out2)[0], audio, atol=1e-6)
     capsys.readouterr()
     scene = tmp_path / "neg.json"
-    scene.write_text(json.dumps({"grid": {"dims": [8, 8, 8], "spacing": 0.01}, "charges": [
-        {"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "negative"}]}))  # fmt: skip
+    scene.write_text(
+        json.dumps(
+            {
+                "grid": {"dims": [8, 8, 8], "spacing": 0.01},
+                "charges": [{"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "negative"}],
+            }
+        )
+    )
     bad = tmp_path / "bad.wav"
     rc = main(["spark", "render", "--scene", str(scene), "--listener", "0,0,1", "-o", str(bad)])
     err = capsys.readouterr().err
@@ -578,8 +692,14 @@ def test_load_input_reads_a_discharge_a_scene_or_a_volume(tmp_path) -> None:  # 
     assert a.discharge.n_segments == b.discharge.n_segments
     np.testing.assert_array_equal(a.strokes, b.strokes)
     scene = tmp_path / "balls.json"
-    scene.write_text(json.dumps({"grid": {"dims": [8, 8, 8], "spacing": 0.01}, "charges": [
-        {"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "negative"}]}))  # fmt: skip
+    scene.write_text(
+        json.dumps(
+            {
+                "grid": {"dims": [8, 8, 8], "spacing": 0.01},
+                "charges": [{"shape": "point", "position": [0.02, 0.02, 0.02], "sign": "negative"}],
+            }
+        )
+    )
     assert isinstance(model.load_input(str(scene)), ChargeScene)
     assert isinstance(model.load_input("dataset:monopole"), TimeVolume)
     with pytest.raises(FormatError, match="missing.csv' does not exist"):

@@ -141,9 +141,31 @@ def test_model_sound_renders_like_the_cli_and_is_listener_free(tmp_path) -> None
     part = snd.parts[0]
     assert snd.meta["strokes"] == 2 and part.strokes.size == 2
     out = tmp_path / "s.wav"
-    assert main(["spark", "render", "--preset", "spark-balls", "--seed", "4", "--strokes", "2",
-                 "--listener", "0,-0.5,0", "--duration", "0.05", "--layout", "5.1",
-                 "-o", str(out), "--normalize", "none"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "spark",
+                "render",
+                "--preset",
+                "spark-balls",
+                "--seed",
+                "4",
+                "--strokes",
+                "2",
+                "--listener",
+                "0,-0.5,0",
+                "--duration",
+                "0.05",
+                "--layout",
+                "5.1",
+                "-o",
+                str(out),
+                "--normalize",
+                "none",
+            ]
+        )
+        == 0
+    )
     audio, rate, mask = read_wav(out)
     ren = render_sound(snd, ListenerPath.point((0.0, -0.5, 0.0), duration=0.05), layout="5.1")
     assert audio.shape == ren.audio.shape == (6, round(0.05 * rate))
@@ -164,12 +186,14 @@ def test_live_discharges_binaural_match_the_offline_ears() -> None:
     d = Discharge(np.array([[0.0, 0, 0], [0.0, 0, 0.01]]), [-1, 0], [True, True])
     path = ListenerPath.point((-3.43, 0.0, 0.005), duration=0.05)  # the spark on its right
     n = int(0.05 * 44100)
-    with LiveDischarges(path, params=PARAMS, rate=44100, layout="binaural",
-                        clock=lambda: 0.0) as live:  # fmt: skip
+    with LiveDischarges(
+        path, params=PARAMS, rate=44100, layout="binaural", clock=lambda: 0.0
+    ) as live:
         live.submit(d, at=0.0).result(timeout=30)
         audio = np.concatenate([live.pull(441) for _ in range(n // 441)], axis=1)
-    off = DischargePart(d, PARAMS, np.zeros(1)).render_part(path, rate=44100, layout="binaural",
-                                                            duration=n / 44100)  # fmt: skip
+    off = DischargePart(d, PARAMS, np.zeros(1)).render_part(
+        path, rate=44100, layout="binaural", duration=n / 44100
+    )
     assert audio.shape == (2, n // 441 * 441)
     ref = off.audio[:, : audio.shape[1]]
     # the stream places the first wave on a whole sample: within one sample of offline

@@ -89,8 +89,12 @@ def test_turning_listener_directions_and_3d_gains() -> None:
     """An emission above the listener goes to the height speakers of a dome (3-D VBAP)."""
     lay = dome()
     # listener at the origin turning from facing +x to facing +y over 1 s
-    path = ListenerPath(np.array([0.0, 1.0]), np.zeros((2, 3)),
-                        np.array([[1.0, 0, 0], [0.0, 1, 0]]), np.array([[0, 0, 1.0]] * 2))  # fmt: skip
+    path = ListenerPath(
+        np.array([0.0, 1.0]),
+        np.zeros((2, 3)),
+        np.array([[1.0, 0, 0], [0.0, 1, 0]]),
+        np.array([[0, 0, 1.0]] * 2),
+    )
     d = np.array([np.cos(np.pi / 4) ** 2, np.cos(np.pi / 4) * np.sin(np.pi / 4), np.sin(np.pi / 4)])
     x = 34.3 * d  # 0.1 s away, azimuth 45°, elevation 45° in the world
     a = arrivals(x[None], np.array([-0.1]), path, layout=lay)

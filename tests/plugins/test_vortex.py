@@ -176,8 +176,9 @@ RATE = 8000
 def _uniform_volume(u: float = 2.0, n: int = 5, steps: int = 3) -> TimeVolume:
     v = np.zeros((steps, n, n, n, 3))
     v[..., 2] = u
-    return TimeVolume.from_arrays({"velocity": v}, spacing=0.04, origin=-0.08,
-                                  times=np.linspace(0, 1, steps))  # fmt: skip
+    return TimeVolume.from_arrays(
+        {"velocity": v}, spacing=0.04, origin=-0.08, times=np.linspace(0, 1, steps)
+    )
 
 
 def _sine_texture(freq: float = 100.0) -> Texture:
@@ -207,8 +208,9 @@ def test_amplitude_and_arrival_delay():
     pulse = np.exp(-(((t - 0.3) / 0.01) ** 2))
     tex = Texture([1.0, 4.0], np.stack([pulse / 256, pulse]), 1000.0, 0.2)
     r = 34.3
-    res = render_vortex(vol, ListenerPath.point((0, -r, 0), duration=0.6), tex, rate=RATE,
-                        offsets="zero", blend=0.0)  # fmt: skip
+    res = render_vortex(
+        vol, ListenerPath.point((0, -r, 0), duration=0.6), tex, rate=RATE, offsets="zero", blend=0.0
+    )
     a = res.audio[0]
     t_peak = np.argmax(a) / RATE
     assert t_peak == pytest.approx(0.3 + r / C0, abs=1.5 / RATE)
@@ -229,8 +231,13 @@ def test_speed_clamped_above_and_u4_below():
 
 
 def test_limit_pa_truncates():
-    res = render_vortex(_uniform_volume(4.0), ListenerPath.point((0, -1, 0), duration=0.3),
-                        _sine_texture(), rate=RATE, limit_pa=1.0)  # fmt: skip
+    res = render_vortex(
+        _uniform_volume(4.0),
+        ListenerPath.point((0, -1, 0), duration=0.3),
+        _sine_texture(),
+        rate=RATE,
+        limit_pa=1.0,
+    )
     assert np.max(np.abs(res.audio)) == pytest.approx(1.0)
 
 
@@ -253,8 +260,9 @@ def _arrival(a: np.ndarray) -> float:
 @pytest.mark.parametrize("law", ["physical", "paper"])
 def test_engine_arrival_is_distance_over_c0_and_amplitude_follows_the_law(law):
     vol = _uniform_volume(u=4.0)  # one sub-volume at the origin, as large as the texture box
-    sound = VortexSound().synthesize(vol, texture=_pulse_texture(), offsets="zero", blend=0.0,
-                                     attenuation=law)  # fmt: skip
+    sound = VortexSound().synthesize(
+        vol, texture=_pulse_texture(), offsets="zero", blend=0.0, attenuation=law
+    )
     e = 1 if law == "physical" else 3
     for x in [(3.0, 4.0, 0.0), (0.0, 0.0, -20.0), (10.0, -24.0, 0.0)]:
         D = float(np.linalg.norm(x))
@@ -269,7 +277,10 @@ def test_engine_doppler_of_an_approaching_listener():
     sound = VortexSound().synthesize(vol, texture=tex, blend=0.0)
     v = C0 / 10
     moving = ListenerPath.line((0.0, -40.0, 0.0), (0.0, -40.0 + v, 0.0), duration=1.0)
-    for path, f_expected in [(moving, 100.0 * (1 + v / C0)), (ListenerPath.point((0, -20, 0), duration=1.0), 100.0)]:  # fmt: skip
+    for path, f_expected in [
+        (moving, 100.0 * (1 + v / C0)),
+        (ListenerPath.point((0, -20, 0), duration=1.0), 100.0),
+    ]:
         a = render_sound(sound, path, rate=RATE).audio[0, int(0.2 * RATE) : int(0.9 * RATE)]
         up = np.flatnonzero((a[:-1] < 0) & (a[1:] >= 0))
         t_up = (up + a[up] / (a[up] - a[up + 1])) / RATE  # upward zero crossings
@@ -303,7 +314,10 @@ def test_engine_pans_a_subvolume_above_the_listener_to_the_height_speakers():
     # listener facing +x, +z up; the sub-volume (at the origin) 3.5 m away above-front-left,
     # in the direction of height speaker H0 (azimuth 45°, elevation 45°), then straight ahead
     c = np.cos(np.pi / 4)
-    for d, ring8_ch, dome_ch in [(np.array([c * c, c * c, c]), 1, 8), (np.array([1.0, 0, 0]), 0, 0)]:  # fmt: skip
+    for d, ring8_ch, dome_ch in [
+        (np.array([c * c, c * c, c]), 1, 8),
+        (np.array([1.0, 0, 0]), 0, 0),
+    ]:
         x = -3.5 * d
         path = ListenerPath(np.array([0.0, 0.3]), np.stack([x, x]), np.array([[1.0, 0, 0]] * 2))
         dome = render_sound(sound, path, rate=RATE, layout=_dome()).audio
@@ -318,9 +332,11 @@ def test_engine_pans_a_subvolume_above_the_listener_to_the_height_speakers():
 def test_engine_backends_agree_on_a_moving_turning_listener(plume):
     tex = _sine_texture()
     c = plume.center
-    path = ListenerPath(np.array([0.0, 0.1, 0.2]),
-                        np.array([c + [2.0, 0.5, -1.0], c + [1.0, 1.5, -0.5], c + [-0.5, 1.8, 0.2]]),
-                        np.array([[0.0, 1, 0], [-1, 1, 0.3], [-1, 0, 0.5]]))  # fmt: skip
+    path = ListenerPath(
+        np.array([0.0, 0.1, 0.2]),
+        np.array([c + [2.0, 0.5, -1.0], c + [1.0, 1.5, -0.5], c + [-0.5, 1.8, 0.2]]),
+        np.array([[0.0, 1, 0], [-1, 1, 0.3], [-1, 0, 0.5]]),
+    )
     # sub-volumes of 8 and 7 points: similarity-scaled, read between the texture's samples
     kw = dict(rate=RATE, layout="ring8", block=8, oversample=8)
     fast = render_vortex(plume, path, tex, **kw).audio
@@ -417,8 +433,14 @@ def test_model_synthesize_and_ring8(plume, tmp_path):
     mono = render_sound(sound, path, rate=RATE)
     assert mono.audio.shape == (1, int(0.3 * RATE)) and mono.meta["model"] == "vortex"
     # the mix is the sum of the sub-volumes rendered alone
-    alone = sum(render_sound(Emitters(em.signals[i : i + 1], em.rate, em.positions[i : i + 1], t0=em.t0),
-                       path, rate=RATE).audio for i in range(0, 36, 7))  # fmt: skip
+    alone = sum(
+        render_sound(
+            Emitters(em.signals[i : i + 1], em.rate, em.positions[i : i + 1], t0=em.t0),
+            path,
+            rate=RATE,
+        ).audio
+        for i in range(0, 36, 7)
+    )
     some = Emitters(em.signals[::7], em.rate, em.positions[::7], t0=em.t0)
     np.testing.assert_allclose(render_sound(some, path, rate=RATE).audio, alone, atol=1e-12)
     r8 = render_vortex(plume, path, tex, rate=RATE, layout="ring8")
@@ -452,18 +474,69 @@ def test_cli_texture_and_render(tmp_path, capsys):
     from auralize.cli import main
 
     tex = tmp_path / "tex.h5"
-    assert main(["vortex", "texture", "--speeds", "1,2", "-o", str(tex), "--size", "8",
-                 "--texture-duration", "0.2"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "vortex",
+                "texture",
+                "--speeds",
+                "1,2",
+                "-o",
+                str(tex),
+                "--size",
+                "8",
+                "--texture-duration",
+                "0.2",
+            ]
+        )
+        == 0
+    )
     assert "computed" in capsys.readouterr().out
     # the old spelling --duration is a hidden, deprecated alias of --texture-duration
-    assert main(["vortex", "texture", "--speeds", "1,2", "-o", str(tex), "--size", "8",
-                 "--duration", "0.2"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "vortex",
+                "texture",
+                "--speeds",
+                "1,2",
+                "-o",
+                str(tex),
+                "--size",
+                "8",
+                "--duration",
+                "0.2",
+            ]
+        )
+        == 0
+    )
     out, err = capsys.readouterr()
     assert "reused" in out and "--duration is deprecated; it is now --texture-duration" in err
     wav = tmp_path / "out.wav"
-    assert main(["vortex", "render", "dataset:fire-plume", "--steps", "4", "--texture", str(tex),
-                 "--listener", "0.3,-2,0.4", "--duration", "0.2", "-o", str(wav),
-                 "--layout", "ring8", "--rate", "8000"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "vortex",
+                "render",
+                "dataset:fire-plume",
+                "--steps",
+                "4",
+                "--texture",
+                str(tex),
+                "--listener",
+                "0.3,-2,0.4",
+                "--duration",
+                "0.2",
+                "-o",
+                str(wav),
+                "--layout",
+                "ring8",
+                "--rate",
+                "8000",
+            ]
+        )
+        == 0
+    )
     audio, rate, _ = read_wav(wav)
     assert audio.shape == (8, 1600) and rate == 8000
     # --duration with --path: that many seconds, shorter or longer than the path
@@ -471,9 +544,28 @@ def test_cli_texture_and_render(tmp_path, capsys):
     ListenerPath.line((0.3, -2, 0.4), (0.5, -2, 0.4), duration=0.2).to_csv(csv)
     for seconds in (0.1, 0.3):
         wav = tmp_path / f"path{seconds}.wav"
-        assert main(["vortex", "render", "dataset:fire-plume", "--steps", "4", "--texture",
-                     str(tex), "--path", str(csv), "--duration", str(seconds), "-o", str(wav),
-                     "--rate", "8000"]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "vortex",
+                    "render",
+                    "dataset:fire-plume",
+                    "--steps",
+                    "4",
+                    "--texture",
+                    str(tex),
+                    "--path",
+                    str(csv),
+                    "--duration",
+                    str(seconds),
+                    "-o",
+                    str(wav),
+                    "--rate",
+                    "8000",
+                ]
+            )
+            == 0
+        )
         assert read_wav(wav)[0].shape == (1, round(seconds * 8000))
     assert main(["vortex", "texture", "--speeds", "2,1", "-o", str(tmp_path / "x.h5")]) == 2
     assert "strictly increasing" in capsys.readouterr().err
