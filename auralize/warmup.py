@@ -48,8 +48,12 @@ GROUPS: dict[str, str] = {
 PLUGIN_GROUPS: dict[str, str] = {"plugins": "the sound-model plugins' kernels (their warm_up)"}
 
 
-def warmup(*, plugins: bool = False, processes: int | None = None,
-           progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+def warmup(
+    *,
+    plugins: bool = False,
+    processes: int | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
     """Compile (or load from the cache) the kernels of the core pipeline.
 
     Parameters
@@ -134,9 +138,13 @@ def compile_group(name: str) -> dict[str, Any]:
     before, helpers = len(compiled_kernels()), set(compiled_helpers())
     t0, c0 = time.perf_counter(), time.process_time()
     _RUNS[name]()
-    return {"group": name, "seconds": time.perf_counter() - t0,
-            "cpu_seconds": time.process_time() - c0, "compiled": compiled_kernels()[before:],
-            "helpers": sorted(set(compiled_helpers()) - helpers)}  # fmt: skip
+    return {
+        "group": name,
+        "seconds": time.perf_counter() - t0,
+        "cpu_seconds": time.process_time() - c0,
+        "compiled": compiled_kernels()[before:],
+        "helpers": sorted(set(compiled_helpers()) - helpers),
+    }
 
 
 def compile_ahead(groups: list[str]) -> Any:

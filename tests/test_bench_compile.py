@@ -23,8 +23,7 @@ def test_a_kernel_announced_alone_is_held_against_its_own_compile() -> None:
 
 def test_the_first_notice_is_held_against_its_module() -> None:
     """The first notice estimates the cheap kernels of its module together."""
-    compiled = [[DETECT, 3.0], ["auralize.sources._kernels.gradient", 1.0],
-                [PIECES, 50.0]]  # fmt: skip
+    compiled = [[DETECT, 3.0], ["auralize.sources._kernels.gradient", 1.0], [PIECES, 50.0]]
     err, _ = _estimate_error([[DETECT, 3.0]], compiled)
     assert err == pytest.approx(3.0 / 4.0 - 1.0)
     assert _estimate_error([], compiled) == (0.0, "")

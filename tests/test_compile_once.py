@@ -290,10 +290,14 @@ def test_fast_inlining_compiles_the_same_code(tmp_path) -> None:  # type: ignore
 
     out = {}
     for flag in ("1", "0"):
-        env = {**os.environ, "AURALIZE_FAST_INLINE": flag,
-               "NUMBA_CACHE_DIR": str(tmp_path / f"cache{flag}")}  # fmt: skip
-        res = subprocess.run([sys.executable, "-c", _IR_CHILD], env=env, capture_output=True,
-                             text=True, check=True)  # fmt: skip
+        env = {
+            **os.environ,
+            "AURALIZE_FAST_INLINE": flag,
+            "NUMBA_CACHE_DIR": str(tmp_path / f"cache{flag}"),
+        }
+        res = subprocess.run(
+            [sys.executable, "-c", _IR_CHILD], env=env, capture_output=True, text=True, check=True
+        )
         out[flag] = res.stdout
     assert out["1"].startswith("FAST") and out["0"].startswith("NUMBA")
     fast, numba_ir = out["1"].split("\n", 1)[1], out["0"].split("\n", 1)[1]
@@ -332,9 +336,11 @@ def test_compile_seconds_are_measured_data(monkeypatch, tmp_path) -> None:  # ty
     assert seconds, "auralize/data/compile_seconds.json lists no kernel"
     data = json.loads(jit.COMPILE_SECONDS_FILE.read_text())
     assert data["seconds"] == seconds and data["measured_on"]
-    for kernel in ("auralize.emitters._kernels.render_pieces.render_task",
-                   "auralize.emitters._kernels.render_runs.render_task",
-                   "auralize.emitters._kernels.sampled.render"):  # fmt: skip
+    for kernel in (
+        "auralize.emitters._kernels.render_pieces.render_task",
+        "auralize.emitters._kernels.render_runs.render_task",
+        "auralize.emitters._kernels.sampled.render",
+    ):
         assert seconds[kernel] > 0.0
     assert (
         jit.estimate_seconds("auralize.emitters._kernels.render_pieces.render_task")

@@ -46,8 +46,9 @@ def _run_cold(args: list[str], cache: str) -> tuple[float, float, str]:
     env.pop("AURALIZE_CACHE_DIR", None)
     c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    res = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True,
-                         check=True)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, *args], env=env, capture_output=True, text=True, check=True
+    )
     wall = time.perf_counter() - t0
     c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
@@ -60,14 +61,21 @@ def _cold_warmup() -> list[BenchRow]:
     res = json.loads(out[out.index("{") :])
     groups = ", ".join(f"{g['group']} {g['cpu_seconds']:.0f}" for g in res["groups"])
     dearest = sorted(res["compiled"], key=lambda c: -c[1])[:3]
-    return [BenchRow(
-        "compile", "cold auralize warmup (empty cache)", wall, "s",
-        target=f"≤ {WARMUP_TARGET_S:g} s", met=wall <= WARMUP_TARGET_S,
-        note=f"{cpu:.0f} CPU-s in {res['processes']} processes (groups, CPU-s: {groups}); "
-             "dearest kernels (CPU-s): "
-             + ", ".join(f"{n.rsplit('.', 2)[-2]}.{n.rsplit('.', 1)[-1]} {s:.0f}"
-                         for n, s in dearest),
-    )]  # fmt: skip
+    return [
+        BenchRow(
+            "compile",
+            "cold auralize warmup (empty cache)",
+            wall,
+            "s",
+            target=f"≤ {WARMUP_TARGET_S:g} s",
+            met=wall <= WARMUP_TARGET_S,
+            note=f"{cpu:.0f} CPU-s in {res['processes']} processes (groups, CPU-s: {groups}); "
+            "dearest kernels (CPU-s): "
+            + ", ".join(
+                f"{n.rsplit('.', 2)[-2]}.{n.rsplit('.', 1)[-1]} {s:.0f}" for n, s in dearest
+            ),
+        )
+    ]
 
 
 def _estimate_error(notices: list[list[Any]], compiled: list[list[Any]]) -> tuple[float, str]:
@@ -88,14 +96,19 @@ def _estimate_error(notices: list[list[Any]], compiled: list[list[Any]]) -> tupl
             continue
         err = est / took - 1.0
         if abs(err) >= abs(worst):
-            worst, what = err, f"{name.rsplit('.', 2)[-2]}.{name.rsplit('.', 1)[-1]}: ~{est:.0f} s " \
-                                f"announced, {took:.0f} CPU-s"  # fmt: skip
+            worst, what = (
+                err,
+                f"{name.rsplit('.', 2)[-2]}.{name.rsplit('.', 1)[-1]}: ~{est:.0f} s "
+                f"announced, {took:.0f} CPU-s",
+            )
     return worst, what
 
 
 def _first_demo() -> list[BenchRow]:
-    with tempfile.TemporaryDirectory(prefix="auralize-bench-numba-") as cache, \
-            tempfile.TemporaryDirectory(prefix="auralize-bench-demo-") as out_dir:  # fmt: skip
+    with (
+        tempfile.TemporaryDirectory(prefix="auralize-bench-numba-") as cache,
+        tempfile.TemporaryDirectory(prefix="auralize-bench-demo-") as out_dir,
+    ):
         wall, cpu, out = _run_cold(["-c", _DEMO_CHILD, out_dir], cache)
     line = next(x for x in out.splitlines() if x.startswith("AURALIZE-COMPILE "))
     res = json.loads(line.split(" ", 1)[1])
@@ -103,15 +116,25 @@ def _first_demo() -> list[BenchRow]:
     err, what = _estimate_error(res["notices"], compiled)
     total = sum(s for _, s in compiled)
     return [
-        BenchRow("compile", "first auralize demo (empty cache, no warm-up)", wall, "s",
-                 target=f"≤ {DEMO_TARGET_S:g} s", met=wall <= DEMO_TARGET_S,
-                 note=f"{cpu:.0f} CPU-s in all, {total:.0f} CPU-s compiling "
-                      f"{len(compiled)} kernels"),
-        BenchRow("compile", "compile notice: estimate vs compile (worst)", 100.0 * err, "%",
-                 target=f"within ±{100 * ESTIMATE_TOLERANCE:.0f} %",
-                 met=abs(err) <= ESTIMATE_TOLERANCE,
-                 note=f"{len(res['notices'])} notices in the demo; worst {what}"),
-    ]  # fmt: skip
+        BenchRow(
+            "compile",
+            "first auralize demo (empty cache, no warm-up)",
+            wall,
+            "s",
+            target=f"≤ {DEMO_TARGET_S:g} s",
+            met=wall <= DEMO_TARGET_S,
+            note=f"{cpu:.0f} CPU-s in all, {total:.0f} CPU-s compiling {len(compiled)} kernels",
+        ),
+        BenchRow(
+            "compile",
+            "compile notice: estimate vs compile (worst)",
+            100.0 * err,
+            "%",
+            target=f"within ±{100 * ESTIMATE_TOLERANCE:.0f} %",
+            met=abs(err) <= ESTIMATE_TOLERANCE,
+            note=f"{len(res['notices'])} notices in the demo; worst {what}",
+        ),
+    ]
 
 
 def compile_rows(quick: bool) -> list[BenchRow]:

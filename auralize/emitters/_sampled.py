@@ -93,11 +93,33 @@ def _tables(em: Any, gen: bool) -> Tables:
     """The :class:`~auralize.emitters._kernels.emission.Tables` of table emitters ``em``
     (``gen``), or placeholders (stored signals)."""
     if gen:
-        return Tables(*kernel_args(True, em.padded_table, _lengths(em), em.qa, em.qb, em.phase,
-                                   em.r0, em.r1, em.w, int(em.block)))  # fmt: skip
+        return Tables(
+            *kernel_args(
+                True,
+                em.padded_table,
+                _lengths(em),
+                em.qa,
+                em.qb,
+                em.phase,
+                em.r0,
+                em.r1,
+                em.w,
+                int(em.block),
+            )
+        )
     zi = np.zeros((1, 1), dtype=np.int64)
-    return Tables(False, np.zeros((1, 2, 1)), np.ones((1, 2)), np.zeros((1, 1, 1, 1)),
-                  np.zeros((1, 1, 1, 1)), np.zeros((1, 2)), zi, zi, np.zeros((1, 1)), 1)  # fmt: skip
+    return Tables(
+        False,
+        np.zeros((1, 2, 1)),
+        np.ones((1, 2)),
+        np.zeros((1, 1, 1, 1)),
+        np.zeros((1, 1, 1, 1)),
+        np.zeros((1, 2)),
+        zi,
+        zi,
+        np.zeros((1, 1)),
+        1,
+    )
 
 
 def _lengths(em: Any) -> NDArray[np.float64]:
@@ -135,8 +157,14 @@ def upsampling(rate_in: float, rate_out: int, oversample: int) -> int:
     return int(max(1, min(int(oversample), math.floor(rate_out / rate_in + 1e-9))))
 
 
-def prepare(signals: NDArray[np.float64], rate: float, t0: float, up: int,
-            i_lo: int = 0, i_hi: int | None = None) -> Prepared:  # fmt: skip
+def prepare(
+    signals: NDArray[np.float64],
+    rate: float,
+    t0: float,
+    up: int,
+    i_lo: int = 0,
+    i_hi: int | None = None,
+) -> Prepared:
     """Samples ``i_lo:i_hi`` of ``signals (S, n)`` or ``(S, 3, n)``, upsampled ``up`` ×."""
     from scipy.signal import resample_poly
 
@@ -151,8 +179,9 @@ def prepare(signals: NDArray[np.float64], rate: float, t0: float, up: int,
     # resample_poly's rows are padded apart: one contiguous copy, so that the kernel has
     # one signature (a strided 'A' array would be a second specialization to compile)
     y = kernel_arg(resample_poly(flat, up, 1, axis=1))
-    return Prepared(y.reshape(S, C, m * up), float(rate) * up, float(t0) + i_lo / float(rate),
-                    int(up))  # fmt: skip
+    return Prepared(
+        y.reshape(S, C, m * up), float(rate) * up, float(t0) + i_lo / float(rate), int(up)
+    )
 
 
 #: half-length (input samples) of :func:`scipy.signal.resample_poly`'s default filter
@@ -205,10 +234,21 @@ def _orientations(path: Any, t: NDArray[np.float64]) -> tuple[NDArray[np.float64
     return tuple(path.orientation_at(t))
 
 
-def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, start: float,
-                   c0: float, block: int = BLOCK, oversample: int = 4,
-                   internal: bool = True, prepared: Prepared | None = None,
-                   threads: int | None = None) -> tuple[NDArray[np.float64], dict[str, Any]]:  # fmt: skip
+def render_sampled(
+    em: Any,
+    path: Any,
+    *,
+    rate: int,
+    layout: Any,
+    n_out: int,
+    start: float,
+    c0: float,
+    block: int = BLOCK,
+    oversample: int = 4,
+    internal: bool = True,
+    prepared: Prepared | None = None,
+    threads: int | None = None,
+) -> tuple[NDArray[np.float64], dict[str, Any]]:
     """Pressure ``(n_channels, n_out)`` of :class:`auralize.emitters.Emitters` ``em``.
 
     Output sample n is heard at playback second ``start + n / rate``.
@@ -239,9 +279,23 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
 
     ears = receiver_paths(layout, path)
     if ears:  # several receivers (the ears): each along its own path, channels stacked
-        outs = [render_sampled(em, p, rate=rate, layout=rl, n_out=n_out, start=start, c0=c0,
-                               block=block, oversample=oversample, internal=internal,
-                               prepared=prepared, threads=threads) for rl, p in ears]  # fmt: skip
+        outs = [
+            render_sampled(
+                em,
+                p,
+                rate=rate,
+                layout=rl,
+                n_out=n_out,
+                start=start,
+                c0=c0,
+                block=block,
+                oversample=oversample,
+                internal=internal,
+                prepared=prepared,
+                threads=threads,
+            )
+            for rl, p in ears
+        ]
         return np.concatenate([o[0] for o in outs]), outs[0][1]
 
     # table emitters are read from their tables, unless they need upsampling
@@ -340,19 +394,34 @@ def render_sampled(em: Any, path: Any, *, rate: int, layout: Any, n_out: int, st
     tables = _tables(em, gen)
     # one compiled signature whatever the arrays' dtype, layout and write flag (the
     # outputs are this function's own C-contiguous float64 arrays, passed as they are)
-    src = Sources(*kernel_args(prepared.sig, prepared.fs, prepared.t0, pos, float(em.pos_rate),
-                               float(em.t0), em.radius, float(e)))  # fmt: skip
+    src = Sources(
+        *kernel_args(
+            prepared.sig,
+            prepared.fs,
+            prepared.t0,
+            pos,
+            float(em.pos_rate),
+            float(em.t0),
+            em.radius,
+            float(e),
+        )
+    )
     lis = ControlPoints(*kernel_args(tb, L, VR, VL, F, U, kf, tk, Lk, Fk, Uk))
-    spk = Speakers(*kernel_args(np.asarray(spk_az, dtype=np.float64),
-                                np.asarray(spk_ch, dtype=np.int64), bool(lay.fold_front), pinv))  # fmt: skip
+    spk = Speakers(
+        *kernel_args(
+            np.asarray(spk_az, dtype=np.float64),
+            np.asarray(spk_ch, dtype=np.int64),
+            bool(lay.fold_front),
+            pinv,
+        )
+    )
     # weights per control point: the signal components, then the table components (one
     # placeholder for stored signals)
     cw = (em.qa.shape[2] if gen else prepared.sig.shape[1]) + tables.qa.shape[3]
     c0, K, off = float(c0), int(K), int(off)
 
     def one(i: int) -> None:
-        render(src, lis, spk, tables, c0, K, off, out, scratch(cw, n_ch, K), edges[i],
-               edges[i + 1])  # fmt: skip
+        render(src, lis, spk, tables, c0, K, off, out, scratch(cw, n_ch, K), edges[i], edges[i + 1])
 
     _run(one, n_pieces, nt)
     if k > 1:

@@ -114,8 +114,10 @@ class Rendered:
         a = self.audio
         peak = float(np.max(np.abs(a), initial=0.0))
         rms = float(np.sqrt(np.mean(np.square(a)))) if a.size else 0.0
-        return (f"<Rendered: {self.duration:.4g} s, {self.layout.name} ({a.shape[0]} ch) at "
-                f"{self.rate} Hz, peak {peak:.4g} Pa, RMS {rms:.4g} Pa>")  # fmt: skip
+        return (
+            f"<Rendered: {self.duration:.4g} s, {self.layout.name} ({a.shape[0]} ch) at "
+            f"{self.rate} Hz, peak {peak:.4g} Pa, RMS {rms:.4g} Pa>"
+        )
 
 
 @dataclass
@@ -230,8 +232,9 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
         for o in range(n + 1):
             for m in range(-o, o + 1):
                 a = abs(m)
-                tab[o * o + o + m, 0] = math.sqrt((1.0 if a == 0 else 2.0) * math.factorial(o - a)
-                                                  / math.factorial(o + a))  # fmt: skip
+                tab[o * o + o + m, 0] = math.sqrt(
+                    (1.0 if a == 0 else 2.0) * math.factorial(o - a) / math.factorial(o + a)
+                )
         from auralize.spatial.layouts import ambix_channels
 
         tab[:, 1] = -1.0  # each harmonic's output channel (a layout may keep a subset)
@@ -240,8 +243,10 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     if lay.n_channels == 1 or lay.is_horizontal or spk_az.size == 0:
         return _pair_inverses(spk_az)
     tri = triangulate(lay)
-    rows = [np.concatenate([inv.reshape(9), ch.astype(np.float64)])
-            for inv, ch in zip(tri.inverse, tri.channels, strict=True)]  # fmt: skip
+    rows = [
+        np.concatenate([inv.reshape(9), ch.astype(np.float64)])
+        for inv, ch in zip(tri.inverse, tri.channels, strict=True)
+    ]
     for d, nb in zip(tri.imaginary_directions, tri.imaginary_neighbours, strict=True):
         mask = float(sum(1 << int(c) for c in nb))
         rows.append(np.concatenate([d, [mask], np.zeros(5), [-2.0, -2.0, -2.0]]))
@@ -260,8 +265,9 @@ def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     span = np.mod(a1 - a0, 2 * np.pi)
     if n < 3 or np.any(span >= np.pi - 1e-9) or np.any(span <= 1e-9):
         return _wide_arc(spk_az, span)
-    base = np.stack([np.stack([np.cos(a0), np.cos(a1)], -1),
-                     np.stack([np.sin(a0), np.sin(a1)], -1)], 1)  # (n, 2, 2)  # fmt: skip
+    base = np.stack(
+        [np.stack([np.cos(a0), np.cos(a1)], -1), np.stack([np.sin(a0), np.sin(a1)], -1)], 1
+    )  # (n, 2, 2)
     return np.ascontiguousarray(np.linalg.inv(base).reshape(n, 4))
 
 
@@ -280,8 +286,7 @@ def _wide_arc(spk_az: NDArray[np.float64], span: NDArray[np.float64]) -> NDArray
     return np.array([[float(i), np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(m), np.sin(m)]])
 
 
-def _pieces(tracks: SourceTracks, tn: NDArray[np.float64],
-            interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
+def _pieces(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
     """The sounding pieces in chunks, sorted by knot row: ``(chunk_start, chunk_count, piece_data)``
     (cached on the tracks; built in two compiled passes over q).
 
@@ -310,19 +315,23 @@ def cached_on_tracks(tracks: SourceTracks, name: str, interp: str, build: Any) -
 
 def _track_arrays(tracks: SourceTracks) -> tuple[NDArray[np.float64], ...]:
     """q, positions (K, 3) and radii of the tracks as contiguous float64 arrays."""
-    return (np.ascontiguousarray(tracks.q, dtype=np.float64),
-            np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)),
-            np.ascontiguousarray(tracks.radius, dtype=np.float64))  # fmt: skip
+    return (
+        np.ascontiguousarray(tracks.q, dtype=np.float64),
+        np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)),
+        np.ascontiguousarray(tracks.radius, dtype=np.float64),
+    )
 
 
-def _build_pieces(tracks: SourceTracks, tn: NDArray[np.float64],
-                  interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
+def _build_pieces(
+    tracks: SourceTracks, tn: NDArray[np.float64], interp: str
+) -> tuple[NDArray[Any], ...]:
     q, pos, radius = _track_arrays(tracks)
     cubic = interp == "cubic"
     W = _CHUNK
     none = np.zeros(1, dtype=np.int64)
-    counts = tables.build_pieces(*kernel_args(q, tn, pos, radius, cubic, True, none, none,
-                                                     np.zeros((1, 8, W))))  # fmt: skip
+    counts = tables.build_pieces(
+        *kernel_args(q, tn, pos, radius, cubic, True, none, none, np.zeros((1, 8, W)))
+    )
     chunk_start = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
     chunk_count = np.zeros(int(chunk_start[-1]), dtype=np.int64)
     piece_data = np.empty((int(chunk_start[-1]), 8, W))  # lanes past chunk_count are never read
@@ -346,8 +355,9 @@ def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[N
     return cached_on_tracks(tracks, "runs", interp, lambda: _build_runs(tracks, tn, interp))
 
 
-def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
-                interp: str) -> tuple[NDArray[Any], ...]:  # fmt: skip
+def _build_runs(
+    tracks: SourceTracks, tn: NDArray[np.float64], interp: str
+) -> tuple[NDArray[Any], ...]:
     q, pos, radius = _track_arrays(tracks)
     cubic = interp == "cubic"
     W = _CHUNK
@@ -368,8 +378,9 @@ def _build_runs(tracks: SourceTracks, tn: NDArray[np.float64],
     size = (KNOT_ROW.KNOT + 2 * (run_len + 1)) * W
     run_offset = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
     knot_data = np.zeros(int(size.sum()))
-    tables.fill_runs(*kernel_args(q, tn, pos, radius, cubic, src, r0, length, chunk, lane,
-                                        run_offset, knot_data))  # fmt: skip
+    tables.fill_runs(
+        *kernel_args(q, tn, pos, radius, cubic, src, r0, length, chunk, lane, run_offset, knot_data)
+    )
     return run_row, run_len, run_count, run_offset, knot_data
 
 
@@ -381,8 +392,9 @@ def _split(weight: NDArray[np.float64], n_threads: int) -> NDArray[np.int64]:
     return edges.astype(np.int64) if edges.size >= 2 else np.array([0, weight.size])
 
 
-def _tasks(chunk_start: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
-           cost: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:  # fmt: skip
+def _tasks(
+    chunk_start: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int, cost: NDArray[np.float64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Split the chunks of rows n_lo..n_hi-1 in ``n_threads`` contiguous ranges
     of about equal cost (a chunk of row n costs ``cost[n]``); returns
     ``task_chunks (T, 2)`` and each task's first and last knot rows (T, 2)."""
@@ -392,8 +404,9 @@ def _tasks(chunk_start: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int,
     task = np.stack([edges[:-1], edges[1:]], axis=1)
     first = np.searchsorted(chunk_start, task[:, 0], side="right") - 1
     last = np.searchsorted(chunk_start, np.maximum(task[:, 1] - 1, task[:, 0]), side="right") - 1
-    return task, np.stack([np.clip(first, n_lo, n_hi - 1), np.clip(last, n_lo, n_hi - 1) + 1],
-                          axis=1)  # fmt: skip
+    return task, np.stack(
+        [np.clip(first, n_lo, n_hi - 1), np.clip(last, n_lo, n_hi - 1) + 1], axis=1
+    )
 
 
 def _run_tasks(
@@ -410,8 +423,9 @@ def _run_tasks(
     each task's first and last knot rows (T, 2) (the runs are cut there)."""
     n = cost.size + 1
     ends = np.minimum(run_row + run_len, cost.size)
-    live = (np.bincount(run_row, weights=run_count, minlength=n)
-            - np.bincount(ends, weights=run_count, minlength=n))  # fmt: skip
+    live = np.bincount(run_row, weights=run_count, minlength=n) - np.bincount(
+        ends, weights=run_count, minlength=n
+    )
     rows = np.arange(n_lo, n_hi)
     edges = n_lo + _split((np.cumsum(live)[:-1] * cost)[rows], n_threads)
     return np.stack([edges[:-1], edges[1:]], axis=1)
@@ -422,8 +436,9 @@ _ORIENT_DT = 1e-3
 _ORIENT_MAX = 200_000
 
 
-def _orientation_table(path: ListenerPath, tc: NDArray[np.float64],
-                       time_scale: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def _orientation_table(
+    path: ListenerPath, tc: NDArray[np.float64], time_scale: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Forward/up (N, 6) sampled by slerp every ~1 ms of data time over the path."""
     span = float(tc[-1] - tc[0])
     n = int(min(max(np.ceil(span / _ORIENT_DT) + 1, 2), _ORIENT_MAX)) if span > 0 else 1
@@ -433,9 +448,19 @@ def _orientation_table(path: ListenerPath, tc: NDArray[np.float64],
     return np.ascontiguousarray(np.hstack([fwd, up])), np.array([tc[0], rate])
 
 
-def prepare_render(tracks: SourceTracks, path: ListenerPath, *, rate: float, time_scale: float,
-             c0: float, duration: float | None, bounds: tuple[float, ...] | None,
-             start: float = 0.0, orientation: bool = True, lead: float = 0.0) -> _Prepared:  # fmt: skip
+def prepare_render(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    *,
+    rate: float,
+    time_scale: float,
+    c0: float,
+    duration: float | None,
+    bounds: tuple[float, ...] | None,
+    start: float = 0.0,
+    orientation: bool = True,
+    lead: float = 0.0,
+) -> _Prepared:
     if not (np.isfinite(rate) and rate > 0):
         raise ParameterError(f"rate must be a positive number of samples per second, got {rate!r}")
     if not (np.isfinite(time_scale) and time_scale > 0):
@@ -479,10 +504,16 @@ def prepare_render(tracks: SourceTracks, path: ListenerPath, *, rate: float, tim
     else:  # unpanned: the listener's orientation is not needed
         otab, ot = np.zeros((1, 6)), np.array([tc[0], 0.0])
     return _Prepared(
-        knot_times=tn, capture_times=tc, capture_pos=np.ascontiguousarray(ppos),
-        capture_vel=np.ascontiguousarray(vc), orient_table=otab, orient_clock=ot,
-        t_start=t0 + start / time_scale, fs=float(rate) * time_scale, n_samples=int(n_samples),
-    )  # fmt: skip
+        knot_times=tn,
+        capture_times=tc,
+        capture_pos=np.ascontiguousarray(ppos),
+        capture_vel=np.ascontiguousarray(vc),
+        orient_table=otab,
+        orient_clock=ot,
+        t_start=t0 + start / time_scale,
+        fs=float(rate) * time_scale,
+        n_samples=int(n_samples),
+    )
 
 
 def source_extent(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
@@ -526,8 +557,9 @@ MAX_DISTANCE_FACTOR = 1e4
 MAX_DISTANCE_M = 1e6
 
 
-def box_distances(points: NDArray[np.float64], lo: NDArray[np.float64],
-                  hi: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def box_distances(
+    points: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Nearest and farthest distance (m) from each of ``points (N, 3)`` to the box [lo, hi]."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     near = np.linalg.norm(np.maximum(np.maximum(lo - p, p - hi), 0.0), axis=1)
@@ -557,13 +589,29 @@ def check_distance(path: ListenerPath, bounds: tuple[float, ...]) -> None:
         )
 
 
-def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float,
-                  duration: float | None = None, c0: float = C0, lead: float = 0.0) -> None:  # fmt: skip
+def check_arrival(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    *,
+    time_scale: float,
+    duration: float | None = None,
+    c0: float = C0,
+    lead: float = 0.0,
+) -> None:
     """Raise :class:`ListenerPathError` when no sound can reach the listener inside the
     output window (the data ends before the window starts, or the nearest sound
     arrives after it ends)."""
-    pr = prepare_render(tracks, path, rate=1000.0, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=None, orientation=False, lead=lead)  # fmt: skip
+    pr = prepare_render(
+        tracks,
+        path,
+        rate=1000.0,
+        time_scale=time_scale,
+        c0=c0,
+        duration=duration,
+        bounds=None,
+        orientation=False,
+        lead=lead,
+    )
     source = path.source
     if tracks.n_sources == 0 or pr.n_samples == 0:
         return
@@ -584,8 +632,14 @@ def check_arrival(tracks: SourceTracks, path: ListenerPath, *, time_scale: float
 def _task_scratch(n_ch: int, gain: float = 1.0) -> Scratch:
     """A task's :class:`~auralize.emitters._kernels.common.Scratch`: four gain vectors of
     ``n_ch`` filled with ``gain``, the listener's frame, the parts' counts."""
-    return Scratch(np.full(n_ch, gain), np.full(n_ch, gain), np.full(n_ch, gain),
-                   np.full(n_ch, gain), np.zeros(6), np.empty(2 * _CHUNK))  # fmt: skip
+    return Scratch(
+        np.full(n_ch, gain),
+        np.full(n_ch, gain),
+        np.full(n_ch, gain),
+        np.full(n_ch, gain),
+        np.zeros(6),
+        np.empty(2 * _CHUNK),
+    )
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -602,8 +656,9 @@ def _each_task(fn: Callable[[int], int], n_tasks: int) -> list[int]:
         return [fn(j) for j in range(n_tasks)]
     with _POOL_LOCK:
         if _POOL is None:
-            _POOL = ThreadPoolExecutor(max_workers=_MAX_TASKS - 1,
-                                       thread_name_prefix="auralize-synthesis")  # fmt: skip
+            _POOL = ThreadPoolExecutor(
+                max_workers=_MAX_TASKS - 1, thread_name_prefix="auralize-synthesis"
+            )
         pool = _POOL
     others = [pool.submit(fn, j) for j in range(1, n_tasks)]
     try:
@@ -637,10 +692,21 @@ def _line_table(pr: _Prepared, c0: float) -> NDArray[np.float64]:
     return interval_lines
 
 
-def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100, time_scale: float = 1.0,
-           interp: str = "cubic", layout: str | Layout = "mono", c0: float = C0,
-           duration: float | None = None, bounds: tuple[float, ...] | None = None,
-           start: float = 0.0, threads: int | None = None, lead: float = 0.0) -> Rendered:  # fmt: skip
+def render_tracks(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    *,
+    rate: int = 44100,
+    time_scale: float = 1.0,
+    interp: str = "cubic",
+    layout: str | Layout = "mono",
+    c0: float = C0,
+    duration: float | None = None,
+    bounds: tuple[float, ...] | None = None,
+    start: float = 0.0,
+    threads: int | None = None,
+    lead: float = 0.0,
+) -> Rendered:
     """Synthesize the pressure heard along ``path`` (fast algorithm).
 
     Parameters
@@ -685,14 +751,43 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
     lay = get_layout(layout)
     ears = receiver_paths(lay, path)
     if ears:  # several receivers (the ears): each along its own path, channels stacked
-        outs = [render_tracks(tracks, p, rate=rate, time_scale=time_scale, interp=interp, layout=rl,
-                       c0=c0, duration=duration, bounds=bounds, start=start, threads=threads,
-                       lead=lead) for rl, p in ears]  # fmt: skip
-        return Rendered(audio=np.concatenate([o.audio for o in outs]), rate=int(rate), layout=lay,
-                        time_scale=float(time_scale), meta=outs[0].meta)  # fmt: skip
+        outs = [
+            render_tracks(
+                tracks,
+                p,
+                rate=rate,
+                time_scale=time_scale,
+                interp=interp,
+                layout=rl,
+                c0=c0,
+                duration=duration,
+                bounds=bounds,
+                start=start,
+                threads=threads,
+                lead=lead,
+            )
+            for rl, p in ears
+        ]
+        return Rendered(
+            audio=np.concatenate([o.audio for o in outs]),
+            rate=int(rate),
+            layout=lay,
+            time_scale=float(time_scale),
+            meta=outs[0].meta,
+        )
     spk_az, spk_ch = panning_arrays(lay)
-    pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=bounds, start=start, orientation=spk_az.size > 0, lead=lead)  # fmt: skip
+    pr = prepare_render(
+        tracks,
+        path,
+        rate=rate,
+        time_scale=time_scale,
+        c0=c0,
+        duration=duration,
+        bounds=bounds,
+        start=start,
+        orientation=spk_az.size > 0,
+        lead=lead,
+    )
     n_threads = max(1, min(threads or os.cpu_count() or 1, _MAX_TASKS))
     # accumulation blocks keep the running sums short (numerical safety); no
     # longer than the output (their memory is cleared at every call)
@@ -751,7 +846,8 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
         m_lo = np.maximum(np.floor(first), blo * block)
         task_blk = np.ascontiguousarray(
             np.stack([blo, nb, np.concatenate([[0], np.cumsum(size)[:-1]]), m_lo], axis=1),
-            dtype=np.int64)  # fmt: skip
+            dtype=np.int64,
+        )
         acc = _workspace("acc", (int(size.sum()),))
         row_lines = _workspace("lines", (pr.knot_times.size, 2 * _LINE + 1))
         # per task, a row for each listener capture heard inside the output:
@@ -794,27 +890,60 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
             )
         )
         const_orient = bool(np.all(pr.orient_table == pr.orient_table[0]))
-        sums = Accumulator(*kernel_args(acc, task_blk, capture_sums, k_ct, shift, pr.n_samples,
-                                        pr.t_start, pr.fs, n_ch))  # fmt: skip
+        sums = Accumulator(
+            *kernel_args(
+                acc, task_blk, capture_sums, k_ct, shift, pr.n_samples, pr.t_start, pr.fs, n_ch
+            )
+        )
         if by_runs:
             # unpanned, or AmbiX: every channel gained from the harmonic table
             # (placeholder speakers for the scalar code)
             ch = np.arange(n_ch, dtype=np.int64)
-            pan = Panning(*kernel_args(np.zeros(n_ch if ambix else 0), ch, ch,
-                                       pan_table(lay, spk_az) if ambix else np.zeros((0, 4)),
-                                       False, ambix, False, ambix, const_orient))  # fmt: skip
+            pan = Panning(
+                *kernel_args(
+                    np.zeros(n_ch if ambix else 0),
+                    ch,
+                    ch,
+                    pan_table(lay, spk_az) if ambix else np.zeros((0, 4)),
+                    False,
+                    ambix,
+                    False,
+                    ambix,
+                    const_orient,
+                )
+            )
             runs = RunTable(
                 *kernel_args(run_row, run_len, run_count, run_offset, knot_data, task_chunks)
             )
-            rows = KnotRows(*kernel_args(pr.knot_times, n_lo, n_hi, row_lines,
-                                         np.zeros((0, 2), dtype=np.int64), np.zeros((0, 9))))  # fmt: skip
+            rows = KnotRows(
+                *kernel_args(
+                    pr.knot_times,
+                    n_lo,
+                    n_hi,
+                    row_lines,
+                    np.zeros((0, 2), dtype=np.int64),
+                    np.zeros((0, 9)),
+                )
+            )
             n_rows = RUN_ROW.END if ambix else RUN_ROW.PLAIN_END
 
             def task(j: int) -> int:
-                return int(render_runs.render_task(
-                    j, runs, rows, cubic, float(c0), lis, pan, sums, _task_scratch(n_ch),
-                    np.zeros(n_rows * _CHUNK), np.zeros((3, n_ch if ambix else 0, _CHUNK)),
-                    np.empty((5, _CHUNK))))  # fmt: skip
+                return int(
+                    render_runs.render_task(
+                        j,
+                        runs,
+                        rows,
+                        cubic,
+                        float(c0),
+                        lis,
+                        pan,
+                        sums,
+                        _task_scratch(n_ch),
+                        np.zeros(n_rows * _CHUNK),
+                        np.zeros((3, n_ch if ambix else 0, _CHUNK)),
+                        np.empty((5, _CHUNK)),
+                    )
+                )
         else:
             pinv = pan_table(lay, spk_az)
             panned = spk_az.size > 0
@@ -824,8 +953,9 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
             pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4 and not fold
             dense = panned and pinv.shape[1] == 2
             nxt = np.roll(spk_ch, -1) if spk_ch.size else np.zeros(1, dtype=np.int64)
-            pan = Panning(*kernel_args(spk_az, spk_ch, nxt, pinv, fold, panned, pairs, dense,
-                                       const_orient))  # fmt: skip
+            pan = Panning(
+                *kernel_args(spk_az, spk_ch, nxt, pinv, fold, panned, pairs, dense, const_orient)
+            )
             table = PieceTable(*kernel_args(piece_data, chunk_start, chunk_count, task_chunks))
             rows = KnotRows(
                 *kernel_args(pr.knot_times, n_lo, n_hi, row_lines, row_captures, interval_lines)
@@ -833,31 +963,66 @@ def render_tracks(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100
             ng = n_ch if panned else 1
 
             def task(j: int) -> int:
-                lanes = Lanes(np.empty(ROW.PIECE_END * _CHUNK), np.empty(ROW.END * _CHUNK),
-                              np.zeros((_CHUNK, ng)), np.zeros((_CHUNK, ng)),
-                              np.zeros((ng if dense else 0, _CHUNK)),
-                              np.zeros((ng if dense else 0, _CHUNK)), np.empty((5, _CHUNK)))  # fmt: skip
-                return int(render_pieces.render_task(j, table, rows, cubic, float(c0), lis, pan,
-                                                     sums, _task_scratch(n_ch, 0.0), lanes))  # fmt: skip
+                lanes = Lanes(
+                    np.empty(ROW.PIECE_END * _CHUNK),
+                    np.empty(ROW.END * _CHUNK),
+                    np.zeros((_CHUNK, ng)),
+                    np.zeros((_CHUNK, ng)),
+                    np.zeros((ng if dense else 0, _CHUNK)),
+                    np.zeros((ng if dense else 0, _CHUNK)),
+                    np.empty((5, _CHUNK)),
+                )
+                return int(
+                    render_pieces.render_task(
+                        j,
+                        table,
+                        rows,
+                        cubic,
+                        float(c0),
+                        lis,
+                        pan,
+                        sums,
+                        _task_scratch(n_ch, 0.0),
+                        lanes,
+                    )
+                )
 
         # (a kernel compiling in the background is waited for, then loaded from the cache)
         await_kernel(render_runs.render_task if by_runs else render_pieces.render_task)
         bad = sum(_each_task(task, n_tasks))
         _integrate_tasks(*kernel_args(acc, task_blk, n_tasks, n_ch, block, pr.n_samples, audio))
         if bad:
-            raise RuntimeError(f"internal error: {bad} synthesis pieces fell outside their "
-                               f"output windows")  # fmt: skip
+            raise RuntimeError(
+                f"internal error: {bad} synthesis pieces fell outside their output windows"
+            )
     return Rendered(
-        audio=audio, rate=int(rate), layout=lay, time_scale=float(time_scale),
-        meta={"interp": interp, "c0": c0, "n_sources": tracks.n_sources,
-              "t_start_data": pr.t_start, "lead_s": lead},
-    )  # fmt: skip
+        audio=audio,
+        rate=int(rate),
+        layout=lay,
+        time_scale=float(time_scale),
+        meta={
+            "interp": interp,
+            "c0": c0,
+            "n_sources": tracks.n_sources,
+            "t_start_data": pr.t_start,
+            "lead_s": lead,
+        },
+    )
 
 
-def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44100,
-                     time_scale: float = 1.0, interp: str = "cubic", layout: str | Layout = "mono",
-                     c0: float = C0, duration: float | None = None,
-                     start: float = 0.0, lead: float = 0.0) -> NDArray[np.float64]:  # fmt: skip
+def render_reference(
+    tracks: SourceTracks,
+    path: ListenerPath,
+    *,
+    rate: int = 44100,
+    time_scale: float = 1.0,
+    interp: str = "cubic",
+    layout: str | Layout = "mono",
+    c0: float = C0,
+    duration: float | None = None,
+    start: float = 0.0,
+    lead: float = 0.0,
+) -> NDArray[np.float64]:
     """Brute-force sample-by-sample evaluation of the same sum (O(sources × samples)).
 
     For tests and validation only: for every sample, every source's distance,
@@ -867,12 +1032,34 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
     lay = get_layout(layout)
     ears = receiver_paths(lay, path)
     if ears:
-        return np.concatenate([render_reference(tracks, p, rate=rate, time_scale=time_scale,
-                                                interp=interp, layout=rl, c0=c0,
-                                                duration=duration, start=start, lead=lead)
-                               for rl, p in ears])  # fmt: skip
-    pr = prepare_render(tracks, path, rate=rate, time_scale=time_scale, c0=c0, duration=duration,
-                  bounds=None, start=start, lead=lead)  # fmt: skip
+        return np.concatenate(
+            [
+                render_reference(
+                    tracks,
+                    p,
+                    rate=rate,
+                    time_scale=time_scale,
+                    interp=interp,
+                    layout=rl,
+                    c0=c0,
+                    duration=duration,
+                    start=start,
+                    lead=lead,
+                )
+                for rl, p in ears
+            ]
+        )
+    pr = prepare_render(
+        tracks,
+        path,
+        rate=rate,
+        time_scale=time_scale,
+        c0=c0,
+        duration=duration,
+        bounds=None,
+        start=start,
+        lead=lead,
+    )
     n = np.arange(pr.n_samples)
     t = pr.t_start + n / pr.fs
     tp = path.times[0] + start + n / rate  # playback time on the path
@@ -893,8 +1080,13 @@ def render_reference(tracks: SourceTracks, path: ListenerPath, *, rate: int = 44
     return out
 
 
-def _interp_knots(tn: NDArray[np.float64], q: NDArray[np.float64], m: NDArray[np.float64],
-                  tau: NDArray[np.float64], interp: str) -> NDArray[np.float64]:  # fmt: skip
+def _interp_knots(
+    tn: NDArray[np.float64],
+    q: NDArray[np.float64],
+    m: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    interp: str,
+) -> NDArray[np.float64]:
     inside = (tau >= tn[0]) & (tau <= tn[-1])
     n = np.clip(np.searchsorted(tn, tau, side="right") - 1, 0, tn.size - 2)
     h = tn[n + 1] - tn[n]
@@ -903,6 +1095,10 @@ def _interp_knots(tn: NDArray[np.float64], q: NDArray[np.float64], m: NDArray[np
         val = q[n] + (q[n + 1] - q[n]) * s
     else:
         s2, s3 = s * s, s * s * s
-        val = ((2 * s3 - 3 * s2 + 1) * q[n] + (s3 - 2 * s2 + s) * m[n] * h
-               + (-2 * s3 + 3 * s2) * q[n + 1] + (s3 - s2) * m[n + 1] * h)  # fmt: skip
+        val = (
+            (2 * s3 - 3 * s2 + 1) * q[n]
+            + (s3 - 2 * s2 + s) * m[n] * h
+            + (-2 * s3 + 3 * s2) * q[n + 1]
+            + (s3 - s2) * m[n + 1] * h
+        )
     return np.where(inside, val, 0.0)

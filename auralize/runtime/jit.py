@@ -170,16 +170,18 @@ class _InlinerCopy:
         return _copy.deepcopy(x, memo)
 
 
-def _inline_function(self: Any, caller_ir: Any, block: Any, i: int, function: Any,
-                     arg_typs: Any = None) -> tuple[Any, ...]:  # fmt: skip
+def _inline_function(
+    self: Any, caller_ir: Any, block: Any, i: int, function: Any, arg_typs: Any = None
+) -> tuple[Any, ...]:
     """numba's ``InlineWorker.inline_function`` (the ``inline="always"`` inliner) without
     copying the callee's IR, which it has just built for this call site alone.  The first
     item, the callee's IR before the splice, is ``None`` (numba's caller ignores it)."""
     callee_ir = self.run_untyped_passes(function)
     _INLINE_TLS.fresh = True
     try:
-        out = self.inline_ir(caller_ir, block, i, callee_ir, function.__code__.co_freevars,
-                             arg_typs=arg_typs)  # fmt: skip
+        out = self.inline_ir(
+            caller_ir, block, i, callee_ir, function.__code__.co_freevars, arg_typs=arg_typs
+        )
     finally:
         _INLINE_TLS.fresh = False
     return (None, *out[1:])
@@ -313,13 +315,24 @@ def fast_ssa() -> bool:
         fix_src = inspect.getsource(ssa._fix_ssa_vars)
     except (OSError, TypeError):
         return False
-    expected = ("blocks, defmap = _fresh_vars(blocks, varname)" in src
-                and "_fix_ssa_vars(blocks, varname, defmap, cfg, df_plus" in src
-                and "_run_block_rewrite(blocks, states, _FixSSAVars(cache_list_vars))" in fix_src
-                and all(hasattr(ssa, n) for n in (
-                    "_iterated_domfronts", "_find_defs_violators", "_CacheListVars",
-                    "_make_states", "_FreshVarHandler", "_FixSSAVars",
-                    "_compute_phi_locations", "_run_ssa_block_pass")))  # fmt: skip
+    expected = (
+        "blocks, defmap = _fresh_vars(blocks, varname)" in src
+        and "_fix_ssa_vars(blocks, varname, defmap, cfg, df_plus" in src
+        and "_run_block_rewrite(blocks, states, _FixSSAVars(cache_list_vars))" in fix_src
+        and all(
+            hasattr(ssa, n)
+            for n in (
+                "_iterated_domfronts",
+                "_find_defs_violators",
+                "_CacheListVars",
+                "_make_states",
+                "_FreshVarHandler",
+                "_FixSSAVars",
+                "_compute_phi_locations",
+                "_run_ssa_block_pass",
+            )
+        )
+    )
     if not expected:
         return False
     ssa._run_ssa = _run_ssa
@@ -375,8 +388,9 @@ class _CompileNotice(event.Listener):
         short = ".".join(name.split(".")[-2:])  # module.kernel
         estimate = estimate_seconds(name)
         self.notices.append((name, estimate))
-        log.warning("compiling kernels, once: ~%d s (%s; cache: %s)", round(estimate), short,
-                    cache_dir())  # fmt: skip
+        log.warning(
+            "compiling kernels, once: ~%d s (%s; cache: %s)", round(estimate), short, cache_dir()
+        )
 
     def on_end(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])

@@ -130,8 +130,13 @@ def _emit_gained(win, u0, u1, fw, ga, gb, panned, r0, r1):
         if g0 == 0.0 and g1 == 0.0:
             continue
         slope = (g1 - g0) * slope_t
-        poly = _hermite_inv(inv_L, g0 * va, (g0 * wa + slope * va) * inv_fs, g1 * vb,
-                            (g1 * wb + slope * vb) * inv_fs)  # fmt: skip
+        poly = _hermite_inv(
+            inv_L,
+            g0 * va,
+            (g0 * wa + slope * va) * inv_fs,
+            g1 * vb,
+            (g1 * wb + slope * vb) * inv_fs,
+        )
         bad += _emit_piece(win, c, win.n_ch, u0, u1, poly, r0, r1)
     return bad
 

@@ -258,13 +258,15 @@ def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0, two):
     candidate lines la, lb (tuples of a _row_lines row; lb only if ``two``)
     and taken from the one whose interval holds it; ``found`` False when
     neither does (branch-free)."""
-    a1, d1, e1 = _line_arrival(x, y, z, rm, (la[0], la[1], la[2]), (la[3], la[4], la[5]), la[6],
-                               la[9], la[10], c0, inv_c0)  # fmt: skip
+    a1, d1, e1 = _line_arrival(
+        x, y, z, rm, (la[0], la[1], la[2]), (la[3], la[4], la[5]), la[6], la[9], la[10], c0, inv_c0
+    )
     ok1 = (a1 >= la[7]) & (a1 < la[8])
     if not two:
         return a1, d1, e1, la[11], ok1
-    a2, d2, e2 = _line_arrival(x, y, z, rm, (lb[0], lb[1], lb[2]), (lb[3], lb[4], lb[5]), lb[6],
-                               lb[9], lb[10], c0, inv_c0)  # fmt: skip
+    a2, d2, e2 = _line_arrival(
+        x, y, z, rm, (lb[0], lb[1], lb[2]), (lb[3], lb[4], lb[5]), lb[6], lb[9], lb[10], c0, inv_c0
+    )
     ok2 = (a2 >= lb[7]) & (a2 < lb[8])
     a = where(ok1, a1, a2)
     d = where(ok1, d1, d2)

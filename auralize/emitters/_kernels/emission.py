@@ -22,8 +22,9 @@ from auralize.emitters._kernels.common import _NJIT, where
 #: the component matrices at the blocks' starts and ends ``qa``, ``qb``, the table
 #: positions at the blocks' ends ``phase (S, B + 1)``, the rows ``r0``, ``r1`` and weight
 #: ``w`` each block reads, and the samples per table block.
-Tables = namedtuple("Tables", ["gen", "table", "lengths", "qa", "qb", "phase", "r0", "r1", "w",
-                               "block"])  # fmt: skip
+Tables = namedtuple(
+    "Tables", ["gen", "table", "lengths", "qa", "qb", "phase", "r0", "r1", "w", "block"]
+)
 #: The weights and gains of a chunk's control points (``w``, ``g``) and of the
 #: listener captures inside its blocks (``wk``, ``gk``).
 PointRows = namedtuple("PointRows", ["w", "wk", "g", "gk"])
@@ -269,7 +270,8 @@ def _read_row(tab, r, out, vbuf, span, start, weights, steps):
             a0 = tab[r, k, 0]
             a1 = tab[r, k, 1]
             out[0, n0 + i] += m0 * (a0 + fr * (tab[r, k + 1, 0] - a0)) + m1 * (
-                a1 + fr * (tab[r, k + 1, 1] - a1))  # fmt: skip
+                a1 + fr * (tab[r, k + 1, 1] - a1)
+            )
             x += d * D1
             m0 += s0 * D1
             m1 += s1 * D1
@@ -370,8 +372,12 @@ def _seg_table(tables, s, vbuf, out, part, index, ends, rows):
             # one row, read inside the padding over the piece's part in the block
             pr = _row_pos(ph[s, b], lf, ra)
             span = ph[s, b + 1] - ph[s, b]
-            fast = (wt[s, b] == 0.0 and r0[s, b] == ra and pr + min(span, 0.0) >= 0.0
-                    and pr + max(span, 0.0) < top)  # fmt: skip
+            fast = (
+                wt[s, b] == 0.0
+                and r0[s, b] == ra
+                and pr + min(span, 0.0) >= 0.0
+                and pr + max(span, 0.0) < top
+            )
     if fast:
         i0 = i_lo
         for b in range(ba, bz + 1):
@@ -403,8 +409,16 @@ def _seg_table(tables, s, vbuf, out, part, index, ends, rows):
             D3 = 6.0 * h3 * e * e * e
             d = (ph[s, b + 1] - ph[s, b]) * ginv
             ps = _row_pos(ph[s, b], lf, ra) + d * (xi - xbeg)
-            _read_row(tab, ra, out, vbuf, (n0, i0, i1), (ps, d),
-                      (ml0 + s0 * (xi - xl), s0, ml1 + s1 * (xi - xl), s1), (D1, D2, D3))  # fmt: skip
+            _read_row(
+                tab,
+                ra,
+                out,
+                vbuf,
+                (n0, i0, i1),
+                (ps, d),
+                (ml0 + s0 * (xi - xl), s0, ml1 + s1 * (xi - xl), s1),
+                (D1, D2, D3),
+            )
             i0 = i1
     else:
         xbeg = 1.0

@@ -347,8 +347,15 @@ def _pan(x, y, z, t, s, lis, pan, g, frame):
     lx, ly, lz, _, _, _ = _listener(lis.times, lis.pos, lis.vel, t, s)
     _orient(lis.orient_table, lis.orient_clock, t, frame)
     o = frame
-    _pan_gains((x - lx, y - ly, z - lz), (o[0], o[1], o[2], o[3], o[4], o[5]), pan.spk_az,
-               pan.spk_ch, pan.fold, pan.pinv, g)  # fmt: skip
+    _pan_gains(
+        (x - lx, y - ly, z - lz),
+        (o[0], o[1], o[2], o[3], o[4], o[5]),
+        pan.spk_az,
+        pan.spk_ch,
+        pan.fold,
+        pan.pinv,
+        g,
+    )
 
 
 @numba.njit(**_NJIT_NORC)

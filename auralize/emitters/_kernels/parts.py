@@ -56,8 +56,19 @@ def _part_end(piece, at_knot, t_k, qk, mk, capture, line, t_n, h, c0, inv_c0):
     cx, cy, cz, ck = capture
     lx, ly, lz, vx, vy, vz, tr, den, inv_den = line
     dt = t_k - tr
-    a1, d1, e1 = _line_arrival(x, y, z, rm, (lx + vx * dt, ly + vy * dt, lz + vz * dt),
-                               (vx, vy, vz), t_k, inv_den, den, c0, inv_c0)  # fmt: skip
+    a1, d1, e1 = _line_arrival(
+        x,
+        y,
+        z,
+        rm,
+        (lx + vx * dt, ly + vy * dt, lz + vz * dt),
+        (vx, vy, vz),
+        t_k,
+        inv_den,
+        den,
+        c0,
+        inv_c0,
+    )
     px = cx - x
     py = cy - y
     pz = cz - z
@@ -104,10 +115,18 @@ def _part_core(work, i, t_n, t_n1, grid):
     tr, den = work[(ROW.LN + 6) * k + i], work[(ROW.LN + 7) * k + i]
     inv_den = work[(ROW.LN + 8) * k + i]
     line = (lx, ly, lz, vx, vy, vz, tr, den, inv_den)
-    cap0 = (work[ROW.C0 * k + i], work[(ROW.C0 + 1) * k + i], work[(ROW.C0 + 2) * k + i],
-            work[(ROW.C0 + 3) * k + i])  # fmt: skip
-    cap1 = (work[ROW.C1 * k + i], work[(ROW.C1 + 1) * k + i], work[(ROW.C1 + 2) * k + i],
-            work[(ROW.C1 + 3) * k + i])  # fmt: skip
+    cap0 = (
+        work[ROW.C0 * k + i],
+        work[(ROW.C0 + 1) * k + i],
+        work[(ROW.C0 + 2) * k + i],
+        work[(ROW.C0 + 3) * k + i],
+    )
+    cap1 = (
+        work[ROW.C1 * k + i],
+        work[(ROW.C1 + 1) * k + i],
+        work[(ROW.C1 + 2) * k + i],
+        work[(ROW.C1 + 3) * k + i],
+    )
     h = t_n1 - t_n
     a0, d0, e0, qa, ma = _part_end(piece, at0, t_n, q0, m0, cap0, line, t_n, h, c0, inv_c0)
     a1, d1, e1, qb, mb = _part_end(piece, at1, t_n1, q1, m1, cap1, line, t_n, h, c0, inv_c0)
@@ -191,16 +210,20 @@ def _part_batch(work, cnt, knots, c0, lis, pan, win, scr):
                 if ga[c] != 0.0 or gb[c] != 0.0:
                     _scatter_group(acc, work, i, si, ei, ci, c * 4, ga[c], gb[c])
             continue
-        fw = (work[ROW.F0 * _CHUNK + i], work[ROW.WF0 * _CHUNK + i] * fs,
-              work[ROW.F1 * _CHUNK + i], work[ROW.WF1 * _CHUNK + i] * fs)  # fmt: skip
-        nbad += _emit_gained(win, (a0 - t_start) * fs, (a1 - t_start) * fs, fw, ga, gb, panned,
-                             NO_ROW, NO_ROW)  # fmt: skip
+        fw = (
+            work[ROW.F0 * _CHUNK + i],
+            work[ROW.WF0 * _CHUNK + i] * fs,
+            work[ROW.F1 * _CHUNK + i],
+            work[ROW.WF1 * _CHUNK + i] * fs,
+        )
+        nbad += _emit_gained(
+            win, (a0 - t_start) * fs, (a1 - t_start) * fs, fw, ga, gb, panned, NO_ROW, NO_ROW
+        )
     return nbad
 
 
 @numba.njit(**_NJIT_NORC)
-def _chunk_parts(piece_data, ck, cc, captures, knots, work, interval_lines, c0, lis, pan, win,
-                 scr):  # fmt: skip
+def _chunk_parts(piece_data, ck, cc, captures, knots, work, interval_lines, c0, lis, pan, win, scr):
     """The cc pieces of chunk ck (knot row n: ``knots`` = (t_n, t_n1)) of a row
     whose arrivals may cross the listener's captures ``captures`` = (k_lo,
     k_hi): k_lo..k_hi-1, split there into parts.

@@ -201,8 +201,9 @@ def _piece_general(win, lis, pan, scr, piece, tn, n, seg, cubic, c0):
     if pan.panned:
         _pan_far(x, y, z, a0, s0, lis, pan, scr.ga, scr.frame)
         _pan_far(x, y, z, a1, s1, lis, pan, scr.gb, scr.frame)
-    return _piece_across(win, lis, pan, scr, piece, tn, n, cubic, c0,
-                         (a0, a1, s0, s1, va, wa, vb, wb))  # fmt: skip
+    return _piece_across(
+        win, lis, pan, scr, piece, tn, n, cubic, c0, (a0, a1, s0, s1, va, wa, vb, wb)
+    )
 
 
 @numba.njit(**_NJIT_NORC)

@@ -89,8 +89,19 @@ def render_task(task, pieces, rows, cubic, c0, lis, pan, out, scr, lanes):
     _clear_window(acc, blk, n_ch, 1 << out.shift, out.n_samples)
     task_captures = out.capture_sums[task]
     task_captures[:] = 0.0
-    win = Window(acc, blk[2], blk[0], blk[1], n_ch, out.shift, out.n_samples, out.t_start, out.fs,
-                 task_captures, out.first_capture)  # fmt: skip
+    win = Window(
+        acc,
+        blk[2],
+        blk[0],
+        blk[1],
+        n_ch,
+        out.shift,
+        out.n_samples,
+        out.t_start,
+        out.fs,
+        task_captures,
+        out.first_capture,
+    )
     piece_data, chunk_start, chunk_count = pieces.piece_data, pieces.chunk_start, pieces.chunk_count
     p_a, p_b = pieces.task_chunks[task, 0], pieces.task_chunks[task, 1]
     tn, n_lo, n_hi = rows.knot_times, rows.n_lo, rows.n_hi
@@ -103,8 +114,20 @@ def render_task(task, pieces, rows, cubic, c0, lis, pan, out, scr, lanes):
         if row_captures[n, 1] > row_captures[n, 0]:
             captures = (row_captures[n, 0], row_captures[n, 1])
             for ck in range(max(chunk_start[n], p_a), min(chunk_start[n + 1], p_b)):
-                nbad += _chunk_parts(piece_data, ck, chunk_count[ck], captures, (tn[n], tn[n + 1]),
-                                     lanes.parts, interval_lines, c0, lis, pan, win, scr)  # fmt: skip
+                nbad += _chunk_parts(
+                    piece_data,
+                    ck,
+                    chunk_count[ck],
+                    captures,
+                    (tn[n], tn[n + 1]),
+                    lanes.parts,
+                    interval_lines,
+                    c0,
+                    lis,
+                    pan,
+                    win,
+                    scr,
+                )
             n += 1
             continue
         for ck in range(max(chunk_start[n], p_a), min(chunk_start[n + 1], p_b)):
@@ -133,12 +156,30 @@ def _sum_chunk(ck, n, pieces, rows, cubic, c0, lis, pan, win, scr, lanes):
     cc = chunk_count[ck]
     _chunk_pieces(piece_data, ck, cc, row_lines[n], row_lines[n + 1], c0, win, panned, work)
     if pairs:
-        _chunk_pair_gains(work, cc, row_lines[n], row_lines[n + 1], orient_table,
-                          orient_clock, pan.pinv, pan.const_orient)  # fmt: skip
+        _chunk_pair_gains(
+            work,
+            cc,
+            row_lines[n],
+            row_lines[n + 1],
+            orient_table,
+            orient_clock,
+            pan.pinv,
+            pan.const_orient,
+        )
     elif dense:
-        _chunk_sh_gains(work, cc, row_lines[n], row_lines[n + 1], orient_table,
-                        orient_clock, pan.pinv, pan.const_orient, sh_gains0, sh_gains1,
-                        sh_scratch)  # fmt: skip
+        _chunk_sh_gains(
+            work,
+            cc,
+            row_lines[n],
+            row_lines[n + 1],
+            orient_table,
+            orient_clock,
+            pan.pinv,
+            pan.const_orient,
+            sh_gains0,
+            sh_gains1,
+            sh_scratch,
+        )
     elif panned:
         for i in range(cc):
             kd = work[ROW.KIND * k + i]
@@ -176,9 +217,16 @@ def _sum_chunk(ck, n, pieces, rows, cubic, c0, lis, pan, win, scr, lanes):
                 if g0 != 0.0 or g1 != 0.0:
                     _scatter_group(acc, work, i, si, ei, ci, c * 4, g0, g1)
             continue
-        piece = (piece_data[ck, 0, i], piece_data[ck, 1, i], piece_data[ck, 2, i],
-                 piece_data[ck, 3, i], piece_data[ck, 4, i], piece_data[ck, 5, i],
-                 piece_data[ck, 6, i], piece_data[ck, 7, i])  # fmt: skip
+        piece = (
+            piece_data[ck, 0, i],
+            piece_data[ck, 1, i],
+            piece_data[ck, 2, i],
+            piece_data[ck, 3, i],
+            piece_data[ck, 4, i],
+            piece_data[ck, 5, i],
+            piece_data[ck, 6, i],
+            piece_data[ck, 7, i],
+        )
         if kd == KIND_ACROSS:
             # across listener captures or several blocks: arrivals,
             # values and gains from the SIMD loops
@@ -200,12 +248,17 @@ def _sum_chunk(ck, n, pieces, rows, cubic, c0, lis, pan, win, scr, lanes):
                 for c in range(n_ch):
                     ga[c] = gains0[i, c]
                     gb[c] = gains1[i, c]
-            ends = (work[ROW.A0 * k + i], work[ROW.A1 * k + i], int(work[ROW.S0 * k + i]),
-                    int(work[ROW.S1 * k + i]), work[ROW.F0 * k + i],
-                    work[ROW.WF0 * k + i] * fs, work[ROW.F1 * k + i],
-                    work[ROW.WF1 * k + i] * fs)  # fmt: skip
+            ends = (
+                work[ROW.A0 * k + i],
+                work[ROW.A1 * k + i],
+                int(work[ROW.S0 * k + i]),
+                int(work[ROW.S1 * k + i]),
+                work[ROW.F0 * k + i],
+                work[ROW.WF0 * k + i] * fs,
+                work[ROW.F1 * k + i],
+                work[ROW.WF1 * k + i] * fs,
+            )
             nbad += _piece_across(win, lis, pan, scr, piece, tn, n, cubic, c0, ends)
             continue
-        nbad += _piece_general(win, lis, pan, scr, piece, tn, n, int(row_lines[n, 11]),
-                               cubic, c0)  # fmt: skip
+        nbad += _piece_general(win, lis, pan, scr, piece, tn, n, int(row_lines[n, 11]), cubic, c0)
     return nbad

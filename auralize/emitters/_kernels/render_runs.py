@@ -99,10 +99,22 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     """
     la_p, lb_p = lines_prev
     la, lb = lines
-    c0, inv_c0, t_start, fs, inv_fs, fn = (grid.c0, grid.inv_c0, grid.t_start, grid.fs,
-                                           grid.inv_fs, grid.fn)  # fmt: skip
-    fblock, inv_block, blo, nb, base, rs = (grid.fblock, grid.inv_block, grid.blo, grid.nb,
-                                            grid.base, grid.rs)  # fmt: skip
+    c0, inv_c0, t_start, fs, inv_fs, fn = (
+        grid.c0,
+        grid.inv_c0,
+        grid.t_start,
+        grid.fs,
+        grid.inv_fs,
+        grid.fn,
+    )
+    fblock, inv_block, blo, nb, base, rs = (
+        grid.fblock,
+        grid.inv_block,
+        grid.blo,
+        grid.nb,
+        grid.base,
+        grid.rs,
+    )
     o = _CHUNK
     x = work[RUN_ROW.X * o + i]
     y = work[RUN_ROW.Y * o + i]
@@ -126,11 +138,13 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     a1, d1, e1, q1, me, sg1, ok1 = a, d, e, q, m1, sg, ok
     cut = False
     if two:
-        cut, ac, dc, ec, q_cut, m_cut = _cut_at_end((x, y, z, rm, qp, mp, q, m1), sgp, okp, la_p,
-                                                    lb_p, t_n, grid)  # fmt: skip
+        cut, ac, dc, ec, q_cut, m_cut = _cut_at_end(
+            (x, y, z, rm, qp, mp, q, m1), sgp, okp, la_p, lb_p, t_n, grid
+        )
         cut = cut & ~first
-        a1, d1, e1, q1, me, sg1, ok1 = _take_cut(cut, (ac, dc, ec, q_cut, m_cut, sgp),
-                                                 (a, d, e, q, m1, sg, ok))  # fmt: skip
+        a1, d1, e1, q1, me, sg1, ok1 = _take_cut(
+            cut, (ac, dc, ec, q_cut, m_cut, sgp), (a, d, e, q, m1, sg, ok)
+        )
     u = (a - t_start) * fs
     u1 = (a1 - t_start) * fs
     L = u1 - up
@@ -269,9 +283,17 @@ def _run_first(work, i, la, lb, two, grid, gained):
     (see :func:`_run_step`; no piece ends there)."""
     c0, inv_c0, t_start, fs, inv_fs = grid.c0, grid.inv_c0, grid.t_start, grid.fs, grid.inv_fs
     o = _CHUNK
-    a, d, e, sg, ok = _knot_arrival(work[RUN_ROW.X * o + i], work[RUN_ROW.Y * o + i],
-                                    work[RUN_ROW.Z * o + i], work[RUN_ROW.RM * o + i], la, lb, c0,
-                                    inv_c0, two)  # fmt: skip
+    a, d, e, sg, ok = _knot_arrival(
+        work[RUN_ROW.X * o + i],
+        work[RUN_ROW.Y * o + i],
+        work[RUN_ROW.Z * o + i],
+        work[RUN_ROW.RM * o + i],
+        la,
+        lb,
+        c0,
+        inv_c0,
+        two,
+    )
     inv_d = 1.0 / d
     dd = e * inv_d
     f = work[RUN_ROW.Q * o + i] * inv_d
@@ -349,10 +371,16 @@ def _knot_gains(
         dx = work[RUN_ROW.X * o + i] - px
         dy = work[RUN_ROW.Y * o + i] - py
         dz = work[RUN_ROW.Z * o + i] - pz
-        fx, fy, fz = (work[RUN_ROW.OR * o + i], work[(RUN_ROW.OR + 1) * o + i], work[(RUN_ROW.OR +
-                      2) * o + i])  # fmt: skip
-        ux, uy, uz = (work[(RUN_ROW.OR + 3) * o + i], work[(RUN_ROW.OR + 4) * o + i],
-                      work[(RUN_ROW.OR + 5) * o + i])  # fmt: skip
+        fx, fy, fz = (
+            work[RUN_ROW.OR * o + i],
+            work[(RUN_ROW.OR + 1) * o + i],
+            work[(RUN_ROW.OR + 2) * o + i],
+        )
+        ux, uy, uz = (
+            work[(RUN_ROW.OR + 3) * o + i],
+            work[(RUN_ROW.OR + 4) * o + i],
+            work[(RUN_ROW.OR + 5) * o + i],
+        )
         lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
         ok = work[RUN_ROW.OK * o + i] != 0.0
         work[RUN_ROW.DIR * o + i] = where(ok, dx * fx + dy * fy + dz * fz, 1.0)
@@ -416,8 +444,13 @@ def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh
     unpanned), ``gains (3, n_ch, _CHUNK)`` (the gains of the last three knots, slot
     k % 3 for knot k; no channels when unpanned) and ``sh_scratch (5, _CHUNK)``.
     """
-    gr0, glen, gcnt, goff, knot_data = (runs.first_row, runs.length, runs.count, runs.offset,
-                                        runs.knot_data)  # fmt: skip
+    gr0, glen, gcnt, goff, knot_data = (
+        runs.first_row,
+        runs.length,
+        runs.count,
+        runs.offset,
+        runs.knot_data,
+    )
     tn, n_lo, n_hi, row_lines = rows.knot_times, rows.n_lo, rows.n_hi, rows.row_lines
     orient_table, orient_clock = lis.orient_table, lis.orient_clock
     acc, n_ch, shift, t_start, fs = out.acc, out.n_ch, out.shift, out.t_start, out.fs
@@ -432,8 +465,19 @@ def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh
     _clear_window(acc, blk, n_ch, block, out.n_samples)
     task_captures = out.capture_sums[task]
     task_captures[:] = 0.0
-    win = Window(acc, base, blo, nb, n_ch, shift, out.n_samples, t_start, fs, task_captures,
-                 out.first_capture)  # fmt: skip
+    win = Window(
+        acc,
+        base,
+        blo,
+        nb,
+        n_ch,
+        shift,
+        out.n_samples,
+        t_start,
+        fs,
+        task_captures,
+        out.first_capture,
+    )
     grid = lane_grid(c0, win)
     scratch = sh_scratch
     nbad = 0
@@ -470,14 +514,22 @@ def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh
                 not first and row_lines[n - 1, 2 * _LINE] != 0.0
             )
             rp = n if first else n - 1
-            _chunk_step(work, cnt, jk, row_lines[rp], row_lines[n], two, cubic, first, grid,
-                        gained)  # fmt: skip
+            _chunk_step(work, cnt, jk, row_lines[rp], row_lines[n], two, cubic, first, grid, gained)
             g0 = gains[jk % 3]  # knot n
             g1 = gains[(jk + 2) % 3]  # knot n - 1
             g2 = gains[(jk + 1) % 3]  # knot n - 2
             if gained:
-                _knot_gains(work, cnt, row_lines[n], orient_table, orient_clock, tab,
-                            const_orient, g0, scratch)  # fmt: skip
+                _knot_gains(
+                    work,
+                    cnt,
+                    row_lines[n],
+                    orient_table,
+                    orient_clock,
+                    tab,
+                    const_orient,
+                    g0,
+                    scratch,
+                )
             if first:
                 continue
             for i in range(cnt):
@@ -501,21 +553,34 @@ def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh
                     f0, w0 = work[RUN_ROW.F0 * _CHUNK + i], work[RUN_ROW.WF0 * _CHUNK + i]
                     c2, c3 = work[RUN_ROW.C2 * _CHUNK + i], work[(RUN_ROW.C2 + 1) * _CHUNK + i]
                     if gained:
-                        c2a, c3a = (work[RUN_ROW.CA * _CHUNK + i], work[(RUN_ROW.CA + 1) *
-                                    _CHUNK + i])  # fmt: skip
+                        c2a, c3a = (
+                            work[RUN_ROW.CA * _CHUNK + i],
+                            work[(RUN_ROW.CA + 1) * _CHUNK + i],
+                        )
                         fl = work[(RUN_ROW.CA + 2) * _CHUNK + i]
                         for c in range(n_ch):
                             ha = g1[c, i]
                             hb = g0[c, i]
-                            _emit1(acc, row + 4 * c, x, ha * f0, ha * (w0 - fl) + hb * fl, ha *
-                                   c2a + hb * (c2 - c2a), ha * c3a + hb * (c3 - c3a), 1.0)  # fmt: skip
+                            _emit1(
+                                acc,
+                                row + 4 * c,
+                                x,
+                                ha * f0,
+                                ha * (w0 - fl) + hb * fl,
+                                ha * c2a + hb * (c2 - c2a),
+                                ha * c3a + hb * (c3 - c3a),
+                                1.0,
+                            )
                     else:
                         _emit1(acc, row, x, f0, w0, c2, c3, 1.0)
                 kd = work[RUN_ROW.KIND * _CHUNK + i]
                 if kd < KIND_GENERAL:
                     continue
-                x, y, z = (work[RUN_ROW.X * _CHUNK + i], work[RUN_ROW.Y * _CHUNK + i],
-                           work[RUN_ROW.Z * _CHUNK + i])  # fmt: skip
+                x, y, z = (
+                    work[RUN_ROW.X * _CHUNK + i],
+                    work[RUN_ROW.Y * _CHUNK + i],
+                    work[RUN_ROW.Z * _CHUNK + i],
+                )
                 rm = work[RUN_ROW.RM * _CHUNK + i]
                 q0, m0 = work[RUN_ROW.QP * _CHUNK + i], work[RUN_ROW.MP * _CHUNK + i]
                 q1 = work[RUN_ROW.Q * _CHUNK + i]
@@ -528,13 +593,21 @@ def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh
                     if gained:
                         _pan_far(x, y, z, a0, s0, lis, pan, ga, o6)
                         _pan_far(x, y, z, a1, s1, lis, pan, gb, o6)
-                    ends = (a0, a1, s0, s1, work[RUN_ROW.F0 * _CHUNK + i],
-                            work[RUN_ROW.WF0 * _CHUNK + i] * fs, work[RUN_ROW.F1 * _CHUNK + i],
-                            work[RUN_ROW.WF1 * _CHUNK + i] * fs)  # fmt: skip
+                    ends = (
+                        a0,
+                        a1,
+                        s0,
+                        s1,
+                        work[RUN_ROW.F0 * _CHUNK + i],
+                        work[RUN_ROW.WF0 * _CHUNK + i] * fs,
+                        work[RUN_ROW.F1 * _CHUNK + i],
+                        work[RUN_ROW.WF1 * _CHUNK + i] * fs,
+                    )
                     nbad += _piece_across(win, lis, pan, scr, piece, tn, n - 1, cubic, c0, ends)
                 else:
-                    nbad += _piece_general(win, lis, pan, scr, piece, tn, n - 1,
-                                           int(row_lines[n - 1, 11]), cubic, c0)  # fmt: skip
+                    nbad += _piece_general(
+                        win, lis, pan, scr, piece, tn, n - 1, int(row_lines[n - 1, 11]), cubic, c0
+                    )
         # the end of the last piece (its knot has no piece after it here):
         # slots as after the last knot, kb
         g0 = gains[(kb - r0) % 3]
@@ -547,8 +620,7 @@ def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh
                 p0, p1 = work[RUN_ROW.P * _CHUNK + i], work[(RUN_ROW.P + 1) * _CHUNK + i]
                 p2, p3 = work[(RUN_ROW.P + 2) * _CHUNK + i], work[(RUN_ROW.P + 3) * _CHUNK + i]
                 if gained:
-                    pa1, pa2 = (work[RUN_ROW.PA * _CHUNK + i], work[(RUN_ROW.PA + 1) * _CHUNK +
-                                i])  # fmt: skip
+                    pa1, pa2 = (work[RUN_ROW.PA * _CHUNK + i], work[(RUN_ROW.PA + 1) * _CHUNK + i])
                     pa3 = work[(RUN_ROW.PA + 2) * _CHUNK + i]
                     for c in range(n_ch):
                         ha = g1[c, i]

@@ -28,15 +28,29 @@ CHUNK_BLOCKS = 64
 #: The emitters: signals ``sig (S, C, n_e)`` at ``fs`` samples per second from playback
 #: second ``t_sig``, positions ``pos (S, m, 3)`` at ``pos_rate`` from ``t_pos`` (m = 1:
 #: static), clamp radii ``(S,)`` and the distance law's exponent.
-Sources = namedtuple("Sources", ["sig", "fs", "t_sig", "pos", "pos_rate", "t_pos", "radius",
-                                 "exponent"])  # fmt: skip
+Sources = namedtuple(
+    "Sources", ["sig", "fs", "t_sig", "pos", "pos_rate", "t_pos", "radius", "exponent"]
+)
 #: The listener at the control points ``times (B+1,)``: position, velocity on the path
 #: segment after and before, forward and up there; per block, the fractional sample of
 #: a listener capture inside it (``kink``, -1 for none) and the listener at that
 #: capture (time, position, forward, up).
-ControlPoints = namedtuple("ControlPoints", ["times", "pos", "vel_after", "vel_before",
-                                             "forward", "up", "kink", "kink_time", "kink_pos",
-                                             "kink_forward", "kink_up"])  # fmt: skip
+ControlPoints = namedtuple(
+    "ControlPoints",
+    [
+        "times",
+        "pos",
+        "vel_after",
+        "vel_before",
+        "forward",
+        "up",
+        "kink",
+        "kink_time",
+        "kink_pos",
+        "kink_forward",
+        "kink_up",
+    ],
+)
 #: The layout's panning: speaker azimuths (sorted) and channels, whether rear
 #: directions fold to the front, and the pair, triangle or harmonic table (see
 #: :func:`auralize.emitters._kernels.gains._gains`); no speakers: unpanned.
@@ -257,19 +271,34 @@ def render(src, lis, spk, tables, c0, K, off, out, scratch, b0, b1):
                     b = cb0 + j
                     t = tb[b]
                     x, y, z = _position(pos, s, (t - t_pos) * pos_rate)
-                    tq[j] = t - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2
-                                          + (L[b, 2] - z) ** 2) * inv_c0  # fmt: skip
+                    tq[j] = (
+                        t
+                        - math.sqrt((L[b, 0] - x) ** 2 + (L[b, 1] - y) ** 2 + (L[b, 2] - z) ** 2)
+                        * inv_c0
+                    )
                 for j in range(nb):
                     b = cb0 + j
-                    tq[j], _ = _newton(pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1], L[b, 2],
-                                       tq[j], inv_c0)  # fmt: skip
+                    tq[j], _ = _newton(
+                        pos, s, pos_rate, t_pos, tb[b], L[b, 0], L[b, 1], L[b, 2], tq[j], inv_c0
+                    )
             for b in range(cb0, cb1 + 1):
                 j = b - cb0
                 t = tb[b]
-                at = (t, L[b, 0], L[b, 1], L[b, 2], F[b, 0], F[b, 1], F[b, 2], U[b, 0], U[b, 1],
-                      U[b, 2])  # fmt: skip
-                xe[j], tau, dx, dy, dz, idt, sx, sy, sz = _point(C, src, s, inv_c0, moving, False,
-                                                                 at, tq[j], spk, w, g, j)  # fmt: skip
+                at = (
+                    t,
+                    L[b, 0],
+                    L[b, 1],
+                    L[b, 2],
+                    F[b, 0],
+                    F[b, 1],
+                    F[b, 2],
+                    U[b, 0],
+                    U[b, 1],
+                    U[b, 2],
+                )
+                xe[j], tau, dx, dy, dz, idt, sx, sy, sz = _point(
+                    C, src, s, inv_c0, moving, False, at, tq[j], spk, w, g, j
+                )
                 if gen:
                     _tab_weights(qa, qb, s, xe[j], w, j, ginv)
                 # dτ/dt on both sides (the listener's velocity may jump at a
@@ -282,10 +311,21 @@ def render(src, lis, spk, tables, c0, K, off, out, scratch, b0, b1):
                         r = _rate(dx, dy, dz, idt, VL[b], sx, sy, sz, inv_c0)
                     mb[j] = (t - tb[b - 1]) * fs * r
                 if b < cb1 and kf[b] >= 0.0:  # a capture inside the block
-                    at = (tk[b], Lk[b, 0], Lk[b, 1], Lk[b, 2], Fk[b, 0], Fk[b, 1], Fk[b, 2],
-                          Uk[b, 0], Uk[b, 1], Uk[b, 2])  # fmt: skip
-                    xk[j], _, _, _, _, _, _, _, _ = _point(C, src, s, inv_c0, moving, True, at,
-                                                           tau + (tk[b] - t), spk, wk, gk, j)  # fmt: skip
+                    at = (
+                        tk[b],
+                        Lk[b, 0],
+                        Lk[b, 1],
+                        Lk[b, 2],
+                        Fk[b, 0],
+                        Fk[b, 1],
+                        Fk[b, 2],
+                        Uk[b, 0],
+                        Uk[b, 1],
+                        Uk[b, 2],
+                    )
+                    xk[j], _, _, _, _, _, _, _, _ = _point(
+                        C, src, s, inv_c0, moving, True, at, tau + (tk[b] - t), spk, wk, gk, j
+                    )
                     if gen:
                         _tab_weights(qa, qb, s, xk[j], wk, j, ginv)
             for b in range(cb0, cb1):
