@@ -21,7 +21,7 @@ from auralize.emitters._kernels import render_pieces, render_runs
 from auralize.emitters.engine import model_emitters, render_emitters
 from auralize.emitters.synthesis import render_tracks as synth_render
 from auralize.listener import ListenerPath
-from auralize.runtime import jit
+from auralize.runtime import jit, numba_passes
 from auralize.runtime.jit import kernel_arg, kernel_args
 from auralize.sources.detection import SourceTracks
 
@@ -258,61 +258,134 @@ def test_plugins_are_warmed_through_their_hook(monkeypatch) -> None:  # type: ig
     assert SoundModel().warm_up() is None  # the default: nothing to compile
 
 
-#: compiles two kernels with inlined helpers and variables assigned more than once
-#: (``_cut_at_end`` inlines ``_hermite_at``; ``_gains_called`` every panning law) and
-#: prints their LLVM IR: run with numba's own inliner and SSA pass, and with
-#: :func:`jit.fast_inlining` and :func:`jit.fast_ssa`
+#: compiles kernels with inlined helpers and variables assigned more than once
+#: (``_cut_at_end`` inlines ``_hermite_at``; ``_gains_called`` every panning law; the
+#: listener's candidate lines; the piece and run tables) and prints which passes ran and
+#: the kernels' LLVM IR
 _IR_CHILD = """
 import numpy as np
-from auralize.emitters._kernels import gains, hermite
+from auralize import warmup
+from auralize.emitters import synthesis
+from auralize.emitters._kernels import arrivals, gains, hermite, tables
 from auralize.emitters._kernels.common import LaneGrid
-from auralize.runtime import jit
+from auralize.runtime import numba_passes
+from auralize.runtime.jit import kernel_args
 line = tuple(float(v) for v in range(12))
 grid = LaneGrid(343.0, 1 / 343.0, 0.0, 8000.0, 1 / 8000.0, 100.0, 64.0, 1 / 64.0, 0, 4, 0, 4.0)
 hermite._cut_at_end((1.0, 2.0, 3.0, 0.1, 0.5, 0.2, 0.4, 0.1), 11.0, True, line, line, 1.0, grid)
 gains._gains_called((1.0, 0.5, 0.2), (1.0, 0.0, 0.0, 0.0, 0.0, 1.0), np.zeros(2),
                     np.arange(2), False, np.zeros((1, 4)), np.zeros(2))
-import numba.core.inline_closurecall as icc
-import numba.core.ssa as ssa
-fast = icc.InlineWorker.inline_function is jit._inline_function and ssa._run_ssa is jit._run_ssa
-print("FAST" if fast else "NUMBA")
-for k in (hermite._cut_at_end, gains._gains_called):
+tn = np.linspace(0.0, 0.2, 5)
+lt = np.array([0.0, 0.1, 0.2])
+arrivals._row_lines(*kernel_args(tn, lt, np.zeros((3, 3)), np.zeros((2, 3)), 343.0, 5.0, 0, 4,
+                                 np.zeros((5, 2 * arrivals._LINE + 1))))
+tracks = warmup._tiny_tracks()
+synthesis._pieces(tracks, synthesis.knot_times(tracks), "cubic")
+synthesis._runs(tracks, synthesis.knot_times(tracks), "cubic")
+state = numba_passes.apply()
+print("FAST" if all(state.values()) else "NUMBA" if not any(state.values()) else state)
+for k in (hermite._cut_at_end, gains._gains_called, arrivals._row_lines, tables.build_pieces,
+          tables.find_runs, tables.fill_runs):
     print(k.inspect_llvm(k.signatures[0]))
 """
 
 
-def test_fast_inlining_compiles_the_same_code(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    """The inliner without its deep copies and the SSA pass by blocks give numba's LLVM
-    IR, line for line."""
+def _child(code: str, tmp_path, **env: str) -> str:  # type: ignore[no-untyped-def]
+    """Standard output of ``code`` run by a fresh interpreter with its own kernel cache."""
     import os
     import subprocess
     import sys
 
-    out = {}
-    for flag in ("1", "0"):
-        env = {
-            **os.environ,
-            "AURALIZE_FAST_INLINE": flag,
-            "NUMBA_CACHE_DIR": str(tmp_path / f"cache{flag}"),
-        }
-        res = subprocess.run(
-            [sys.executable, "-c", _IR_CHILD], env=env, capture_output=True, text=True, check=True
-        )
-        out[flag] = res.stdout
-    assert out["1"].startswith("FAST") and out["0"].startswith("NUMBA")
-    fast, numba_ir = out["1"].split("\n", 1)[1], out["0"].split("\n", 1)[1]
-    assert "_cut_at_end" in fast and "_gains_called" in fast and len(fast) > 1000
-    assert fast == numba_ir
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), **env}
+    res = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    return res.stdout
 
 
-def test_fast_inlining_applies_to_this_numba() -> None:
-    """The installed numba (the pinned version) is the one the changes are written for."""
+def test_fast_passes_compile_numbas_code(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The inliner without its deep copies and the SSA pass by blocks give numba's LLVM
+    IR, line for line."""
+    fast = _child(_IR_CHILD, tmp_path / "fast")
+    own = _child(_IR_CHILD, tmp_path / "numba", AURALIZE_FAST_COMPILE="0")
+    assert fast.startswith("FAST\n") and own.startswith("NUMBA\n")
+    fast, own = fast.split("\n", 1)[1], own.split("\n", 1)[1]
+    for name in ("_cut_at_end", "_gains_called", "_row_lines", "build_pieces", "fill_runs"):
+        assert name in fast
+    assert len(fast) > 10_000
+    assert fast == own
+
+
+def test_fast_passes_apply_to_the_numba_installed() -> None:
+    """The installed numba (0.60 to 0.68.1, the versions checked) gets both passes."""
     import numba.core.inline_closurecall as icc
     import numba.core.ssa as ssa
 
-    assert jit.fast_inlining() is True and jit.fast_ssa() is True
-    assert icc.InlineWorker.inline_function is jit._inline_function
-    assert ssa._run_ssa is jit._run_ssa
+    assert numba_passes.refusal("inlining") is None and numba_passes.refusal("ssa") is None
+    assert numba_passes.apply() == {"inlining": True, "ssa": True}
+    assert icc.InlineWorker.inline_function is numba_passes._inline_function
+    assert ssa._run_ssa is numba_passes._run_ssa
+
+
+def test_numba_versions_outside_those_checked_keep_numbas_passes() -> None:
+    lo, hi = numba_passes.VERIFIED_NUMBA
+    assert lo == (0, 60, 0) and hi >= (0, 68, 1)
+    for version in ("0.60.0", "0.64.0", "0.68.1"):
+        assert numba_passes.refusal("inlining", version) is None
+        assert numba_passes.refusal("ssa", version) is None
+    for version in ("0.59.1", "0.68.2", "0.69.0rc1", "0.70.0", "1.0.0", "unknown"):
+        for name in ("inlining", "ssa"):
+            why = numba_passes.refusal(name, version)
+            assert why is not None and "outside the versions checked" in why, (version, why)
+    assert numba_passes.numba_version("0.69.0rc1") == (0, 69, 0)
+    assert numba_passes.numba_version("0.61.0dev0+12.g1234abc") == (0, 61, 0)
+    assert numba_passes.numba_version("dev") is None
+
+
+def test_changed_numba_internals_keep_numbas_passes(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A numba function the replacements rely on with another source, or a digest the
+    list does not hold, refuses the replacement."""
+    import numba.core.ssa as ssa
+
+    def _fix_ssa_vars(blocks, varname, defmap, cfg, df_plus, cache_list_vars):  # type: ignore[no-untyped-def]
+        return blocks
+
+    monkeypatch.setattr(ssa, "_fix_ssa_vars", _fix_ssa_vars)
+    why = numba_passes.refusal("ssa")
+    assert why is not None and "numba.core.ssa:_fix_ssa_vars is not the source checked" in why
+    assert numba_passes.refusal("inlining") is None
+    monkeypatch.undo()
+    name = "numba.core.inline_closurecall:InlineWorker.inline_ir"
+    monkeypatch.setitem(numba_passes.NUMBA_SOURCES["inlining"], name, frozenset({"0" * 16}))
+    why = numba_passes.refusal("inlining")
+    assert why is not None and name in why
+
+
+#: a numba of another version (or other internals), then the kernel modules' set-up
+_REFUSED_CHILD = """
+import numba
+import numba.core.inline_closurecall as icc
+import numba.core.ssa as ssa
+if CHANGE == "version":
+    numba.__version__ = "0.69.0"
+else:
+    inline_ir = icc.InlineWorker.inline_ir
+    icc.InlineWorker.inline_ir = lambda *a, **k: inline_ir(*a, **k)
+    steps = ssa._run_block_rewrite
+    ssa._run_block_rewrite = lambda *a: steps(*a)
+from auralize.emitters._kernels import gains
+from auralize.runtime import numba_passes
+print(icc.InlineWorker.inline_function is numba_passes._inline_function,
+      ssa._run_ssa is numba_passes._run_ssa, numba_passes.apply())
+"""
+
+
+@pytest.mark.parametrize("change", ["version", "internals"])
+def test_kernel_modules_keep_numbas_passes_where_unchecked(change, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The check runs when a kernel module is imported (the compiler is set up before any
+    kernel compiles)."""
+    out = _child(f"CHANGE = {change!r}\n" + _REFUSED_CHILD, tmp_path)
+    assert out.split() == ["False", "False", "{'inlining':", "False,", "'ssa':", "False}"]
 
 
 def test_where_selects_without_a_branch() -> None:
@@ -325,6 +398,8 @@ def test_where_selects_without_a_branch() -> None:
     assert pick(True, 1.0, 2.0) == (1.0, 2.5, 3)
     assert pick(False, 3.0, 2.0) == (2.0, 1.0, 4)
     assert numba.typeof(pick(True, 1.0, 2.0)[2]) == numba.int64
+    ir = pick.inspect_llvm(pick.signatures[0])
+    assert "select i1" in ir  # LLVM's select, from the intrinsic
 
 
 def test_compile_seconds_are_measured_data(monkeypatch, tmp_path) -> None:  # type: ignore[no-untyped-def]

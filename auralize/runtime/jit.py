@@ -28,15 +28,14 @@ process; the first use of a kernel does:
 * One specialization per kernel: :func:`kernel_args` at each kernel's Python
   boundary gives every call the same argument types.
 * Two of numba's compiler passes in time linear in a kernel's size, not
-  quadratic: the inliner of ``inline="always"`` helpers (:func:`fast_inlining`)
-  and the SSA reconstruction (:func:`fast_ssa`).  The compiled code is the same
-  (``AURALIZE_FAST_INLINE=0`` leaves numba's own passes); the cold compile of
-  the synthesis kernels takes a third of the time.
+  quadratic, where numba's version and sources are those they were checked
+  against (:mod:`auralize.runtime.numba_passes`: the inliner of
+  ``inline="always"`` helpers and the SSA reconstruction; the same compiled
+  code, ``AURALIZE_FAST_COMPILE=0`` keeps numba's own passes).
 """
 
 from __future__ import annotations
 
-import copy as _copy
 import functools
 import hashlib
 import json
@@ -48,7 +47,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba.core import event, ir
+from numba.core import event
 
 log = logging.getLogger("auralize")
 
@@ -146,197 +145,9 @@ def configure() -> None:
         if not config.CACHE_DIR:
             config.CACHE_DIR = str(cache_dir())
         event.register("numba:compile", _NOTICE)
-        if os.environ.get("AURALIZE_FAST_INLINE", "1") != "0":
-            fast_inlining()
-            fast_ssa()
+        from auralize.runtime import numba_passes
 
-
-_INLINE_TLS = threading.local()
-
-
-class _InlinerCopy:
-    """The ``copy`` module as :mod:`numba.core.inline_closurecall` sees it once
-    :func:`fast_inlining` is applied: ``deepcopy`` of an IR block returns the block
-    itself while a callee's freshly built IR is spliced in, and is the standard
-    deep copy otherwise."""
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(_copy, name)
-
-    @staticmethod
-    def deepcopy(x: Any, memo: Any = None) -> Any:
-        if getattr(_INLINE_TLS, "fresh", False) and isinstance(x, ir.Block):
-            return x
-        return _copy.deepcopy(x, memo)
-
-
-def _inline_function(
-    self: Any, caller_ir: Any, block: Any, i: int, function: Any, arg_typs: Any = None
-) -> tuple[Any, ...]:
-    """numba's ``InlineWorker.inline_function`` (the ``inline="always"`` inliner) without
-    copying the callee's IR, which it has just built for this call site alone.  The first
-    item, the callee's IR before the splice, is ``None`` (numba's caller ignores it)."""
-    callee_ir = self.run_untyped_passes(function)
-    _INLINE_TLS.fresh = True
-    try:
-        out = self.inline_ir(
-            caller_ir, block, i, callee_ir, function.__code__.co_freevars, arg_typs=arg_typs
-        )
-    finally:
-        _INLINE_TLS.fresh = False
-    return (None, *out[1:])
-
-
-def fast_inlining() -> bool:
-    """Splice ``inline="always"`` callees into their callers in linear time; returns
-    whether the change applies to the installed numba.
-
-    numba's inliner builds the callee's IR afresh for every call site (its untyped
-    passes), then deep-copies it twice before splicing it in, one block at a time; the
-    copy of every block drags a copy of the callee's whole variable scope along, so an
-    inlined function costs its blocks × its variables, and nested inlined helpers
-    (the synthesis kernels' SIMD loops are built of them) most of a kernel's cold
-    compile.  The copies guard IR that is used again; the IR of this call site is not
-    (the inliner of ``@overload`` functions, whose IR is cached, still copies).  The
-    compiled code is the same, instruction for instruction (tested).
-
-    Applied by :func:`configure` unless ``AURALIZE_FAST_INLINE=0``, and only when numba's
-    inliner is the one described (its source is checked): a numba that changes it keeps
-    its own.
-    """
-    import inspect
-
-    import numba.core.inline_closurecall as icc
-
-    worker = icc.InlineWorker
-    if worker.inline_function is _inline_function:
-        return True
-    try:
-        fn_src = inspect.getsource(worker.inline_function)
-        ir_src = inspect.getsource(worker.inline_ir)
-    except (OSError, TypeError):
-        return False
-    fresh = "callee_ir = self.run_untyped_passes(function)" in fn_src
-    copies = "copy.deepcopy(the_ir.blocks[block_label])" in ir_src
-    if not (fresh and copies and getattr(icc, "copy", None) is _copy):
-        return False
-    icc.copy = _InlinerCopy()  # type: ignore[assignment]
-    worker.inline_function = _inline_function  # type: ignore[method-assign]
-    return True
-
-
-def _rewrite_blocks(blocks: Any, states: Any, handler: Any, labels: Any) -> Any:
-    """numba's ``ssa._run_block_rewrite`` over the blocks ``labels`` only; the other
-    blocks, which do not mention the variable being renamed, keep their statements
-    (as its handlers leave them)."""
-    from numba.core import ssa
-
-    newblocks = {}
-    for label, blk in blocks.items():
-        newblk = ir.Block(scope=blk.scope, loc=blk.loc)
-        if label in labels:
-            states["label"] = label
-            states["block"] = blk
-            newblk.body = list(ssa._run_ssa_block_pass(states, blk, handler))
-        else:
-            newblk.body = list(blk.body)
-        newblocks[label] = newblk
-    return newblocks
-
-
-def _run_ssa(blocks: Any) -> Any:
-    """numba's ``ssa._run_ssa`` (SSA reconstruction, one variable assigned more than once
-    at a time) with each variable's two passes over the blocks that mention it, not
-    over the whole function: the same renamed variables and phi nodes, in time
-    linear in the function instead of in its size times its reassigned variables."""
-    from collections import defaultdict
-
-    from numba.core import errors, ssa
-
-    if not blocks:
-        return {}
-    cfg = ssa.compute_cfg_from_blocks(blocks)
-    df_plus = ssa._iterated_domfronts(cfg)
-    violators = ssa._find_defs_violators(blocks, cfg)
-    cache_list_vars = ssa._CacheListVars()
-    mentioned: dict[str, set[Any]] = {name: set() for name in violators}
-    for label, blk in blocks.items():
-        for stmt in blk.body:
-            for var in cache_list_vars.get(stmt):
-                where = mentioned.get(var.name)
-                if where is not None:
-                    where.add(label)
-    for varname in violators:
-        labels = mentioned[varname]
-        # fresh variables for every assignment to it ...
-        states = ssa._make_states(blocks)
-        states["varname"] = varname
-        states["defmap"] = defmap = defaultdict(list)
-        blocks = _rewrite_blocks(blocks, states, ssa._FreshVarHandler(), labels)
-        # ... and every use taken to its reaching definition (phi nodes where needed)
-        states = ssa._make_states(blocks)
-        states["varname"] = varname
-        states["defmap"] = defmap
-        states["phimap"] = phimap = defaultdict(list)
-        states["cfg"] = cfg
-        states["phi_locations"] = ssa._compute_phi_locations(df_plus, defmap)
-        blocks = _rewrite_blocks(blocks, states, ssa._FixSSAVars(cache_list_vars), labels)
-        for label, philist in phimap.items():
-            blocks[label].body = philist + blocks[label].body
-    if ssa.compute_cfg_from_blocks(blocks) != cfg:
-        raise errors.CompilerError("CFG mutated in SSA pass")
-    return blocks
-
-
-def fast_ssa() -> bool:
-    """Rebuild SSA form in time linear in a function's size; returns whether the change
-    applies to the installed numba.
-
-    numba turns every variable assigned more than once (a loop's accumulator, a
-    value clamped in place, every such variable of every inlined copy of a helper)
-    into single assignments one variable at a time, each time rewriting every
-    statement of the function: its size times its reassigned variables, a sixth
-    to a third of the frontend's time on the synthesis kernels.  Here each
-    variable's rewrite visits the blocks that mention it (those numba's own
-    rewrite changes: it acts on the variables a statement lists, nothing else).
-    The compiled code is the same, instruction for instruction (tested).
-
-    Applied by :func:`configure` with :func:`fast_inlining` (``AURALIZE_FAST_INLINE=0``
-    leaves both off), and only when numba's SSA pass is the one described.
-    """
-    import inspect
-
-    from numba.core import ssa
-
-    if ssa._run_ssa is _run_ssa:
-        return True
-    try:
-        src = inspect.getsource(ssa._run_ssa)
-        fix_src = inspect.getsource(ssa._fix_ssa_vars)
-    except (OSError, TypeError):
-        return False
-    expected = (
-        "blocks, defmap = _fresh_vars(blocks, varname)" in src
-        and "_fix_ssa_vars(blocks, varname, defmap, cfg, df_plus" in src
-        and "_run_block_rewrite(blocks, states, _FixSSAVars(cache_list_vars))" in fix_src
-        and all(
-            hasattr(ssa, n)
-            for n in (
-                "_iterated_domfronts",
-                "_find_defs_violators",
-                "_CacheListVars",
-                "_make_states",
-                "_FreshVarHandler",
-                "_FixSSAVars",
-                "_compute_phi_locations",
-                "_run_ssa_block_pass",
-            )
-        )
-    )
-    if not expected:
-        return False
-    ssa._run_ssa = _run_ssa
-    return True
+        numba_passes.apply()
 
 
 def _kernel_name(event_data: Any) -> str | None:
