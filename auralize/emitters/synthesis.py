@@ -35,7 +35,6 @@ sample-by-sample result (:func:`render_reference`) to ~1e-6 relative.
 
 from __future__ import annotations
 
-import math
 import os
 import threading
 from collections.abc import Callable
@@ -46,14 +45,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.constants import RHO0 as RHO0  # (re-exported)
+from auralize.constants import RHO0
 from auralize.emitters import C0
-from auralize.emitters._kernels import render_pieces, render_runs, tables
+from auralize.emitters._kernels import render_pieces, render_runs
 from auralize.emitters._kernels.accumulate import _integrate_tasks
 from auralize.emitters._kernels.arrivals import _LINE, _row_lines
 from auralize.emitters._kernels.common import (
     _CHUNK,
-    KNOT_ROW,
     ROW,
     RUN_ROW,
     Accumulator,
@@ -65,7 +63,30 @@ from auralize.emitters._kernels.common import (
     RunTable,
     Scratch,
 )
-from auralize.errors import ListenerPathError, ParameterError
+from auralize.emitters.synth_prepare import (
+    MAX_DISTANCE_FACTOR,
+    MAX_DISTANCE_M,
+    audible_rows,
+    box_distances,
+    capture_interval_lines,
+    check_arrival,
+    check_distance,
+    interpolate_knots,
+    knot_times,
+    padded_knots,
+    prepare_render,
+    source_extent,
+)
+from auralize.emitters.synth_tables import (
+    cached_on_tracks,
+    pan_table,
+    panning_arrays,
+    piece_tasks,
+    run_tasks,
+    sounding_pieces,
+    sounding_runs,
+)
+from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.runtime.jit import await_kernel, kernel_args
 from auralize.sources.detection import SourceTracks
@@ -73,11 +94,9 @@ from auralize.spatial.layouts import (
     Layout,
     get_layout,
     is_ambisonic,
-    is_binaural,
     listener_frame,
     pan_gains,
     receiver_paths,
-    triangulate,
 )
 
 #: unpanned and AmbiX layouts (the binaural ears among them) are summed by
@@ -85,6 +104,29 @@ from auralize.spatial.layouts import (
 #: forces the runs, False the piece-wise kernel (for tests)
 _BY_RUNS: bool | None = None
 INTERPOLATIONS = ("linear", "cubic")
+
+#: the public names, those of the steps before the kernels
+#: (:mod:`~auralize.emitters.synth_prepare`, :mod:`~auralize.emitters.synth_tables`)
+#: included: the other packages import them from here
+__all__ = [
+    "C0",
+    "INTERPOLATIONS",
+    "MAX_DISTANCE_FACTOR",
+    "MAX_DISTANCE_M",
+    "RHO0",
+    "Rendered",
+    "box_distances",
+    "cached_on_tracks",
+    "check_arrival",
+    "check_distance",
+    "knot_times",
+    "pan_table",
+    "panning_arrays",
+    "prepare_render",
+    "render_reference",
+    "render_tracks",
+    "source_extent",
+]
 
 
 @dataclass
@@ -120,65 +162,6 @@ class Rendered:
         )
 
 
-@dataclass
-class _Prepared:
-    """A render's times and listener, in data seconds (:func:`prepare_render`): the
-    padded knot times, the listener's captures (times, positions, velocity on each
-    interval), its forward and up ``(N, 6)`` sampled from ``orient_clock[0]`` at rate
-    ``orient_clock[1]``, the output's first time, samples per data second and length."""
-
-    knot_times: NDArray[np.float64]
-    capture_times: NDArray[np.float64]
-    capture_pos: NDArray[np.float64]
-    capture_vel: NDArray[np.float64]
-    orient_table: NDArray[np.float64]
-    orient_clock: NDArray[np.float64]
-    t_start: float
-    fs: float
-    n_samples: int
-
-
-def knot_times(tracks: SourceTracks) -> NDArray[np.float64]:
-    """The data times padded with one silent step before and after."""
-    t = np.asarray(tracks.times, dtype=np.float64)
-    if t.size >= 2:
-        d0, d1 = t[1] - t[0], t[-1] - t[-2]
-    else:
-        d0 = d1 = 1.0
-    return np.concatenate([[t[0] - d0], t, [t[-1] + d1]])
-
-
-def _pad_knots(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    tn = knot_times(tracks)
-    t = tracks.times
-    q = np.zeros((tracks.n_sources, t.size + 2))
-    q[:, 1:-1] = tracks.q / (4.0 * np.pi)
-    return tn, q
-
-
-def _tangents(tn: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Central-difference tangents dq/dτ at each knot (zero at the padded ends)."""
-    m = np.zeros_like(q)
-    if q.shape[1] > 2:
-        m[:, 1:-1] = (q[:, 2:] - q[:, :-2]) / (tn[2:] - tn[:-2])
-    return m
-
-
-def _knots(
-    tracks: SourceTracks,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Padded knot times, q/(4π) and tangents, cached on the tracks (block-wise
-    and live rendering call the synthesis many times with the same tracks)."""
-    key = (id(tracks.q), tracks.q.shape, id(tracks.times))
-    cached = tracks.cache.get("knots")
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    tn, q = _pad_knots(tracks)
-    out = (tn, np.ascontiguousarray(q), np.ascontiguousarray(_tangents(tn, q)))
-    tracks.cache["knots"] = (key, out)
-    return out
-
-
 _WORK = threading.local()
 
 
@@ -196,437 +179,6 @@ def _workspace(name: str, shape: tuple[int, ...], dtype: type = np.float64) -> N
     if buf is None or buf.size < size:
         buf = store[name] = np.empty(max(size, 1), dtype=dtype)
     return buf[:size].reshape(shape)
-
-
-def panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """The kernel's speaker azimuths and channels (:meth:`Layout.panning_arrays`);
-    for an AmbiX layout one placeholder per channel (its gains come from the
-    spherical-harmonic table of :func:`pan_table`).
-
-    Raises
-    ------
-    ParameterError
-        For ``binaural``: render to :func:`auralize.spatial.layouts.synthesis_layout` and
-        filter with :func:`auralize.spatial.layouts.output_stage` (as
-        :func:`auralize.emitters.timbre.render_timbre` does).
-    """
-    if is_ambisonic(lay):
-        return np.zeros(lay.n_channels), np.arange(lay.n_channels, dtype=np.int64)
-    if is_binaural(lay):
-        raise ParameterError(
-            "auralize.emitters.synthesis.render_tracks pans to speaker or AmbiX layouts; for binaural render to "
-            "auralize.spatial.layouts.synthesis_layout('binaural') (the ear receivers) and filter with "
-            "auralize.spatial.layouts.output_stage, or use auralize.emitters.timbre.render_timbre"
-        )
-    return lay.panning_arrays()
-
-
-def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The kernel's panning table: speaker-pair inverse bases (2-D VBAP) for a
-    horizontal layout, the triangle table of 3-D VBAP for one with elevation
-    (see :func:`auralize.emitters._kernels.gains._gains3`), the SN3D factors and order
-    for an AmbiX layout (see :func:`auralize.emitters._kernels.gains._gains_sh`)."""
-    if is_ambisonic(lay):
-        n = int(lay.meta["order"])
-        tab = np.zeros(((n + 1) ** 2, 2))
-        for o in range(n + 1):
-            for m in range(-o, o + 1):
-                a = abs(m)
-                tab[o * o + o + m, 0] = math.sqrt(
-                    (1.0 if a == 0 else 2.0) * math.factorial(o - a) / math.factorial(o + a)
-                )
-        from auralize.spatial.layouts import ambix_channels
-
-        tab[:, 1] = -1.0  # each harmonic's output channel (a layout may keep a subset)
-        tab[ambix_channels(lay), 1] = np.arange(lay.n_channels)
-        return tab
-    if lay.n_channels == 1 or lay.is_horizontal or spk_az.size == 0:
-        return _pair_inverses(spk_az)
-    tri = triangulate(lay)
-    rows = [
-        np.concatenate([inv.reshape(9), ch.astype(np.float64)])
-        for inv, ch in zip(tri.inverse, tri.channels, strict=True)
-    ]
-    for d, nb in zip(tri.imaginary_directions, tri.imaginary_neighbours, strict=True):
-        mask = float(sum(1 << int(c) for c in nb))
-        rows.append(np.concatenate([d, [mask], np.zeros(5), [-2.0, -2.0, -2.0]]))
-    return np.ascontiguousarray(np.array(rows).reshape(-1, 12))
-
-
-def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Inverse bases (n, 4) of adjacent speaker pairs for 2-D VBAP, or when a
-    layout has an arc of 180° or more (then the kernel uses its angular law)
-    the table of its arc wider than 180° (:func:`_wide_arc`)."""
-    n = spk_az.size
-    if n < 2:
-        return np.zeros((0, 4))
-    a0 = spk_az
-    a1 = np.roll(spk_az, -1)
-    span = np.mod(a1 - a0, 2 * np.pi)
-    if n < 3 or np.any(span >= np.pi - 1e-9) or np.any(span <= 1e-9):
-        return _wide_arc(spk_az, span)
-    base = np.stack(
-        [np.stack([np.cos(a0), np.cos(a1)], -1), np.stack([np.sin(a0), np.sin(a1)], -1)], 1
-    )  # (n, 2, 2)
-    return np.ascontiguousarray(np.linalg.inv(base).reshape(n, 4))
-
-
-def _wide_arc(spk_az: NDArray[np.float64], span: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The kernel's table (1, 7) of a horizontal layout's arc wider than 180°
-    (spanning ``span`` from speaker i to i + 1, counter-clockwise): i, the
-    unit vectors (forward, left) of its two ends and of its middle (see
-    :func:`auralize.emitters._kernels.gains._wide_end`); (0, 4) when no arc
-    is clearly wider than 180° (by 1e-6 rad)."""
-    wide = np.flatnonzero(span > np.pi + 1e-6)
-    if spk_az.size < 2 or wide.size != 1:
-        return np.zeros((0, 4))
-    i = int(wide[0])
-    a, b = float(spk_az[i]), float(spk_az[(i + 1) % spk_az.size])
-    m = a + 0.5 * float(span[i])
-    return np.array([[float(i), np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(m), np.sin(m)]])
-
-
-def _pieces(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
-    """The sounding pieces in chunks, sorted by knot row: ``(chunk_start, chunk_count, piece_data)``
-    (cached on the tracks; built in two compiled passes over q).
-
-    Piece n of a source (padded knots n and n + 1) sounds when q or its
-    tangent is non-zero at either knot; a typical volume has a fraction of
-    its vertices sounding at any step, and the kernel reads only these.  Row
-    n's pieces fill chunks ``chunk_start[n]:chunk_start[n+1]`` of ``_CHUNK`` (chunk c holds
-    ``chunk_count[c]``); per piece ``piece_data (C, 8, _CHUNK)``: the source's position,
-    clamp radius, q/(4π) and dq/dτ at both knots (for linear interpolation
-    dq/dτ is the piece's slope), contiguous per chunk so that the kernel
-    streams it.
-    """
-    return cached_on_tracks(tracks, "pieces", interp, lambda: _build_pieces(tracks, tn, interp))
-
-
-def cached_on_tracks(tracks: SourceTracks, name: str, interp: str, build: Any) -> Any:
-    """``build()``, cached on the tracks under ``name`` while their arrays are the same."""
-    key = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), interp)
-    cached = tracks.cache.get(name)
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    out = build()
-    tracks.cache[name] = (key, out)
-    return out
-
-
-def _track_arrays(tracks: SourceTracks) -> tuple[NDArray[np.float64], ...]:
-    """q, positions (K, 3) and radii of the tracks as contiguous float64 arrays."""
-    return (
-        np.ascontiguousarray(tracks.q, dtype=np.float64),
-        np.ascontiguousarray(np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)),
-        np.ascontiguousarray(tracks.radius, dtype=np.float64),
-    )
-
-
-def _build_pieces(
-    tracks: SourceTracks, tn: NDArray[np.float64], interp: str
-) -> tuple[NDArray[Any], ...]:
-    q, pos, radius = _track_arrays(tracks)
-    cubic = interp == "cubic"
-    W = _CHUNK
-    none = np.zeros(1, dtype=np.int64)
-    counts = tables.build_pieces(
-        *kernel_args(q, tn, pos, radius, cubic, True, none, none, np.zeros((1, 8, W)))
-    )
-    chunk_start = np.concatenate([[0], np.cumsum(-(-counts // W))]).astype(np.int64)
-    chunk_count = np.zeros(int(chunk_start[-1]), dtype=np.int64)
-    piece_data = np.empty((int(chunk_start[-1]), 8, W))  # lanes past chunk_count are never read
-    tables.build_pieces(
-        *kernel_args(q, tn, pos, radius, cubic, False, chunk_start, chunk_count, piece_data)
-    )
-    return chunk_start, chunk_count, piece_data
-
-
-def _runs(tracks: SourceTracks, tn: NDArray[np.float64], interp: str) -> tuple[NDArray[Any], ...]:
-    """The runs of sounding pieces in chunks, for unpanned layouts:
-    ``(run_row, run_len, run_count, run_offset, knot_data)`` (cached on the tracks; see
-    :func:`auralize.emitters._kernels.render_runs.render_task`).
-
-    A run is a maximal stretch of consecutive sounding pieces of a source
-    (the same pieces as :func:`_pieces`).  Runs that start in the same row,
-    longest first, fill chunks of ``_CHUNK`` lanes: chunk g starts in row
-    ``run_row[g]``, holds ``run_count[g]`` runs of at most ``run_len[g]`` pieces and its
-    knot data at ``knot_data[run_offset[g]:]``.
-    """
-    return cached_on_tracks(tracks, "runs", interp, lambda: _build_runs(tracks, tn, interp))
-
-
-def _build_runs(
-    tracks: SourceTracks, tn: NDArray[np.float64], interp: str
-) -> tuple[NDArray[Any], ...]:
-    q, pos, radius = _track_arrays(tracks)
-    cubic = interp == "cubic"
-    W = _CHUNK
-    none = np.zeros(0, dtype=np.int64)
-    n = tables.find_runs(*kernel_args(q, tn, cubic, True, none, none, none))
-    src, r0, length = (np.empty(n, dtype=np.int64) for _ in range(3))
-    tables.find_runs(*kernel_args(q, tn, cubic, False, src, r0, length))
-    order = np.lexsort((-length, r0))
-    src, r0, length = src[order], r0[order], length[order]
-    # chunks: _CHUNK runs at a time among those that start in the same row
-    head = np.flatnonzero(np.append(True, r0[1:] != r0[:-1]) if n else np.zeros(0, bool))
-    in_row = np.arange(n) - np.repeat(head, np.diff(np.append(head, n)))
-    lane = in_row % W
-    starts = np.flatnonzero(lane == 0)
-    chunk = np.cumsum(lane == 0) - 1
-    run_row, run_len = r0[starts], length[starts]
-    run_count = np.diff(np.append(starts, n)).astype(np.int64)
-    size = (KNOT_ROW.KNOT + 2 * (run_len + 1)) * W
-    run_offset = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
-    knot_data = np.zeros(int(size.sum()))
-    tables.fill_runs(
-        *kernel_args(q, tn, pos, radius, cubic, src, r0, length, chunk, lane, run_offset, knot_data)
-    )
-    return run_row, run_len, run_count, run_offset, knot_data
-
-
-def _split(weight: NDArray[np.float64], n_threads: int) -> NDArray[np.int64]:
-    """Edges of at most ``n_threads`` contiguous ranges of items of about equal total weight."""
-    cum = np.concatenate([[0.0], np.cumsum(weight)])
-    cuts = np.searchsorted(cum, cum[-1] * np.arange(1, max(n_threads, 1)) / n_threads)
-    edges = np.unique(np.concatenate([[0], np.clip(cuts, 0, weight.size), [weight.size]]))
-    return edges.astype(np.int64) if edges.size >= 2 else np.array([0, weight.size])
-
-
-def _tasks(
-    chunk_start: NDArray[np.int64], n_lo: int, n_hi: int, n_threads: int, cost: NDArray[np.float64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Split the chunks of rows n_lo..n_hi-1 in ``n_threads`` contiguous ranges
-    of about equal cost (a chunk of row n costs ``cost[n]``); returns
-    ``task_chunks (T, 2)`` and each task's first and last knot rows (T, 2)."""
-    c_a = int(chunk_start[n_lo])
-    rows = np.arange(n_lo, n_hi)
-    edges = c_a + _split(np.repeat(cost[rows], np.diff(chunk_start)[rows]), n_threads)
-    task = np.stack([edges[:-1], edges[1:]], axis=1)
-    first = np.searchsorted(chunk_start, task[:, 0], side="right") - 1
-    last = np.searchsorted(chunk_start, np.maximum(task[:, 1] - 1, task[:, 0]), side="right") - 1
-    return task, np.stack(
-        [np.clip(first, n_lo, n_hi - 1), np.clip(last, n_lo, n_hi - 1) + 1], axis=1
-    )
-
-
-def _run_tasks(
-    run_row: NDArray[np.int64],
-    run_len: NDArray[np.int64],
-    run_count: NDArray[np.int64],
-    n_lo: int,
-    n_hi: int,
-    n_threads: int,
-    cost: NDArray[np.float64],
-) -> NDArray[np.int64]:
-    """Split the knot rows n_lo..n_hi in ``n_threads`` ranges of about equal
-    cost (per row: the runs' lanes swept there, times ``cost[n]``); returns
-    each task's first and last knot rows (T, 2) (the runs are cut there)."""
-    n = cost.size + 1
-    ends = np.minimum(run_row + run_len, cost.size)
-    live = np.bincount(run_row, weights=run_count, minlength=n) - np.bincount(
-        ends, weights=run_count, minlength=n
-    )
-    rows = np.arange(n_lo, n_hi)
-    edges = n_lo + _split((np.cumsum(live)[:-1] * cost)[rows], n_threads)
-    return np.stack([edges[:-1], edges[1:]], axis=1)
-
-
-#: orientation table resolution (data seconds) and size cap
-_ORIENT_DT = 1e-3
-_ORIENT_MAX = 200_000
-
-
-def _orientation_table(
-    path: ListenerPath, tc: NDArray[np.float64], time_scale: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Forward/up (N, 6) sampled by slerp every ~1 ms of data time over the path."""
-    span = float(tc[-1] - tc[0])
-    n = int(min(max(np.ceil(span / _ORIENT_DT) + 1, 2), _ORIENT_MAX)) if span > 0 else 1
-    tg = np.linspace(tc[0], tc[-1], n)
-    fwd, up = path.orientation_at(path.times[0] + (tg - tc[0]) * time_scale)
-    rate = (n - 1) / span if span > 0 else 0.0
-    return np.ascontiguousarray(np.hstack([fwd, up])), np.array([tc[0], rate])
-
-
-def prepare_render(
-    tracks: SourceTracks,
-    path: ListenerPath,
-    *,
-    rate: float,
-    time_scale: float,
-    c0: float,
-    duration: float | None,
-    bounds: tuple[float, ...] | None,
-    start: float = 0.0,
-    orientation: bool = True,
-    lead: float = 0.0,
-) -> _Prepared:
-    if not (np.isfinite(rate) and rate > 0):
-        raise ParameterError(f"rate must be a positive number of samples per second, got {rate!r}")
-    if not (np.isfinite(time_scale) and time_scale > 0):
-        raise ParameterError(f"time_scale must be > 0 (playback s per data s), got {time_scale!r}")
-    if not (np.isfinite(c0) and c0 > 0):
-        raise ParameterError(f"speed of sound c0 must be > 0 m/s, got {c0!r}")
-    if not (np.isfinite(lead) and lead >= 0):
-        raise ParameterError(f"lead must be >= 0 data seconds, got {lead!r}")
-    if bounds is not None:
-        check_distance(path, bounds)
-    # collapse captures with equal times (the last one wins)
-    keep = np.append(np.diff(path.times) > 0, True)
-    ptimes, ppos = path.times[keep], path.positions[keep]
-    t0 = tracks.t_first + lead
-    tc = t0 + (ptimes - path.times[0]) / time_scale
-    if tc.size >= 2:
-        vc = np.diff(ppos, axis=0) / np.diff(tc)[:, None]
-        speed = np.linalg.norm(vc, axis=1)
-        if np.any(speed >= c0):
-            i = int(np.argmax(speed))
-            raise ListenerPathError(
-                f"{path.source}: the listener moves at {speed[i]:.1f} m per data second between "
-                f"captures {i} and {i + 1} (time_scale={time_scale:g}); synthesis needs it slower "
-                f"than sound (c0={c0:g} m/s). Slow the path down or raise time_scale."
-            )
-    else:
-        vc = np.zeros((0, 3))
-    if not (np.isfinite(start) and start >= 0):
-        raise ParameterError(f"start must be >= 0 playback seconds, got {start!r}")
-    if duration is None:
-        duration = path.duration - start
-    if not (np.isfinite(duration) and duration > 0):
-        raise ParameterError(
-            f"nothing to render: duration {duration!r} s; give a path longer than one capture "
-            f"or a positive duration"
-        )
-    n_samples = round(duration * rate)
-    tn = knot_times(tracks)
-    if orientation:
-        otab, ot = _orientation_table(path, tc, time_scale)
-    else:  # unpanned: the listener's orientation is not needed
-        otab, ot = np.zeros((1, 6)), np.array([tc[0], 0.0])
-    return _Prepared(
-        knot_times=tn,
-        capture_times=tc,
-        capture_pos=np.ascontiguousarray(ppos),
-        capture_vel=np.ascontiguousarray(vc),
-        orient_table=otab,
-        orient_clock=ot,
-        t_start=t0 + start / time_scale,
-        fs=float(rate) * time_scale,
-        n_samples=int(n_samples),
-    )
-
-
-def source_extent(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Bounding box of the source positions and the largest clamp radius (cached)."""
-    key = (id(tracks.positions), id(tracks.radius))
-    cached = tracks.cache.get("extent")
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
-    if pos.shape[0] == 0:
-        out = (np.zeros(3), np.zeros(3), 0.0)
-    else:
-        out = (pos.min(axis=0), pos.max(axis=0), float(np.max(tracks.radius, initial=1e-9)))
-    tracks.cache["extent"] = (key, out)
-    return out
-
-
-def _audible_pieces(pr: _Prepared, tracks: SourceTracks, c0: float) -> tuple[int, int, float]:
-    """Knot range [n_lo, n_hi] whose pieces can arrive inside the output window,
-    and the largest source-listener distance D_max.
-
-    Arrivals of piece n lie in [t_n, t_{n+1} + D_max/c0], D_max being the
-    largest source-listener distance (the path is piecewise linear, so the
-    farthest point of it is a capture).
-    """
-    if tracks.n_sources == 0:
-        return 0, 0, 0.0
-    lo_b, hi_b, r_max = source_extent(tracks)
-    far = np.maximum(np.abs(pr.capture_pos - lo_b), np.abs(pr.capture_pos - hi_b))
-    d_max = float(np.max(np.linalg.norm(far, axis=1))) + r_max
-    t_end = pr.t_start + pr.n_samples / pr.fs
-    tn = pr.knot_times
-    n_lo = int(np.searchsorted(tn, pr.t_start - d_max / c0, side="left")) - 1
-    n_hi = int(np.searchsorted(tn, t_end, side="right"))
-    return max(n_lo, 0), min(n_hi, tn.size - 1), d_max
-
-
-#: a listener farther from the data than this many times the data's diagonal
-#: (and than :data:`MAX_DISTANCE_M`) is taken for a mistake
-MAX_DISTANCE_FACTOR = 1e4
-MAX_DISTANCE_M = 1e6
-
-
-def box_distances(
-    points: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Nearest and farthest distance (m) from each of ``points (N, 3)`` to the box [lo, hi]."""
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    near = np.linalg.norm(np.maximum(np.maximum(lo - p, p - hi), 0.0), axis=1)
-    far = np.linalg.norm(np.maximum(np.abs(p - lo), np.abs(p - hi)), axis=1)
-    return near, far
-
-
-def check_distance(path: ListenerPath, bounds: tuple[float, ...]) -> None:
-    """Raise :class:`ListenerPathError` if the listener is absurdly far from the data.
-
-    The listener may be anywhere (outside the grid is the usual far-field
-    case); a capture farther from the grid's box than
-    ``MAX_DISTANCE_FACTOR`` times its diagonal and than ``MAX_DISTANCE_M``
-    metres is nonsense (a unit mistake, a stray coordinate).
-    """
-    b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
-    near, _ = box_distances(path.positions, b[:, 0], b[:, 1])
-    diag = float(np.linalg.norm(b[:, 1] - b[:, 0]))
-    limit = max(MAX_DISTANCE_FACTOR * diag, MAX_DISTANCE_M)
-    if np.any(near > limit):
-        i = int(np.argmax(near))
-        raise ListenerPathError(
-            f"{path.source}: capture {i} at t={path.times[i]:g} s, position "
-            f"{np.round(path.positions[i], 4).tolist()} is {near[i]:.4g} m from the grid "
-            f"x[{b[0, 0]:g}, {b[0, 1]:g}] y[{b[1, 0]:g}, {b[1, 1]:g}] z[{b[2, 0]:g}, {b[2, 1]:g}]; "
-            f"listeners must be within {limit:.4g} m of the data"
-        )
-
-
-def check_arrival(
-    tracks: SourceTracks,
-    path: ListenerPath,
-    *,
-    time_scale: float,
-    duration: float | None = None,
-    c0: float = C0,
-    lead: float = 0.0,
-) -> None:
-    """Raise :class:`ListenerPathError` when no sound can reach the listener inside the
-    output window (the data ends before the window starts, or the nearest sound
-    arrives after it ends)."""
-    pr = prepare_render(
-        tracks,
-        path,
-        rate=1000.0,
-        time_scale=time_scale,
-        c0=c0,
-        duration=duration,
-        bounds=None,
-        orientation=False,
-        lead=lead,
-    )
-    source = path.source
-    if tracks.n_sources == 0 or pr.n_samples == 0:
-        return
-    lo_b, hi_b, _ = source_extent(tracks)
-    near, far = box_distances(pr.capture_pos, lo_b, hi_b)
-    t_end = pr.t_start + pr.n_samples / pr.fs
-    first = tracks.t_first + float(np.min(near)) / c0
-    last = tracks.t_last + float(np.max(far)) / c0
-    if first >= t_end or last < pr.t_start:
-        raise ListenerPathError(
-            f"{source}: nothing can be heard: sound from the data reaches the listener between "
-            f"data times {first:.6g} and {last:.6g} s, the output covers {pr.t_start:.6g} .. "
-            f"{t_end:.6g} s (nearest source {float(np.min(near)):.4g} m away at c0={c0:g} m/s); "
-            f"move the listener closer, render longer, or use a smaller time scale"
-        )
 
 
 def _task_scratch(n_ch: int, gain: float = 1.0) -> Scratch:
@@ -671,25 +223,6 @@ def _each_task(fn: Callable[[int], int], n_tasks: int) -> list[int]:
 #: rows whose arrivals may cross more listener captures than this are summed
 #: piece by piece (:func:`auralize.emitters._kernels.pieces._piece_general`), not in parts
 _MAX_PART_CAPTURES = 48
-
-
-def _line_table(pr: _Prepared, c0: float) -> NDArray[np.float64]:
-    """The listener's line on each capture interval j, at row j + 1 (M + 1, 9):
-    its position at time tr, velocity, tr, c0² - V² and 1/(c0² - V²); held
-    (V = 0) before the first capture and after the last."""
-    m = pr.capture_times.size
-    interval_lines = np.zeros((m + 1, 9))
-    interval_lines[0, :3], interval_lines[0, 6] = pr.capture_pos[0], pr.capture_times[0]
-    interval_lines[m, :3], interval_lines[m, 6] = pr.capture_pos[-1], pr.capture_times[-1]
-    if m >= 2:
-        interval_lines[1:m, :3], interval_lines[1:m, 3:6], interval_lines[1:m, 6] = (
-            pr.capture_pos[:-1],
-            pr.capture_vel,
-            pr.capture_times[:-1],
-        )
-    interval_lines[:, 7] = c0 * c0 - np.sum(interval_lines[:, 3:6] ** 2, axis=1)
-    interval_lines[:, 8] = 1.0 / interval_lines[:, 7]
-    return interval_lines
 
 
 def render_tracks(
@@ -794,7 +327,7 @@ def render_tracks(
     shift = int(min(15, max(6, np.ceil(np.log2(max(pr.n_samples, 1))))))
     block = 1 << shift
     cubic = interp == "cubic"
-    n_lo, n_hi, d_max = _audible_pieces(pr, tracks, c0)
+    n_lo, n_hi, d_max = audible_rows(pr, tracks, c0)
     # rows whose arrivals can straddle a listener capture (one at or past
     # the output's end only cuts the pieces: no extra cost)
     t_end = min(pr.knot_times[-1] + d_max / c0, pr.t_start + (pr.n_samples - 1) / pr.fs)
@@ -812,10 +345,12 @@ def render_tracks(
     else:
         by_runs = _BY_RUNS and runs_ok
     if by_runs:
-        run_row, run_len, run_count, run_offset, knot_data = _runs(tracks, pr.knot_times, interp)
+        run_row, run_len, run_count, run_offset, knot_data = sounding_runs(
+            tracks, pr.knot_times, interp
+        )
         some = bool(np.any((run_row < n_hi) & (run_row + run_len > n_lo)))
     else:
-        chunk_start, chunk_count, piece_data = _pieces(tracks, pr.knot_times, interp)
+        chunk_start, chunk_count, piece_data = sounding_pieces(tracks, pr.knot_times, interp)
         some = bool(chunk_start[n_hi] > chunk_start[n_lo])
     audio = np.zeros((lay.n_channels, pr.n_samples))
     if tracks.n_sources and n_hi > n_lo and pr.n_samples > 0 and some:
@@ -827,11 +362,11 @@ def render_tracks(
         two |= np.append(two[1:], False)  # (either knot of a row's pieces)
         cost = np.where(costly, 2.0, np.where(two, 1.5, 1.0))
         if by_runs:
-            task_rows = task_chunks = _run_tasks(
+            task_rows = task_chunks = run_tasks(
                 run_row, run_len, run_count, n_lo, n_hi, n_threads, cost
             )
         else:
-            task_chunks, task_rows = _tasks(chunk_start, n_lo, n_hi, n_threads, cost)
+            task_chunks, task_rows = piece_tasks(chunk_start, n_lo, n_hi, n_threads, cost)
         n_blocks = (pr.n_samples + block - 1) // block
         # each task's output window: arrivals of the pieces between knot rows
         # ra and rb lie in [t_ra, t_rb + D_max/c0]
@@ -868,7 +403,7 @@ def render_tracks(
             row_captures = np.zeros((pr.knot_times.size, 2), dtype=np.int64)
             row_captures[:-1, 0] = k_lo
             row_captures[:-1, 1] = np.where(parts, k_hi, k_lo)
-            interval_lines = _line_table(pr, c0)
+            interval_lines = capture_interval_lines(pr, c0)
         n_ch = lay.n_channels
         n_tasks = task_blk.shape[0]
         _row_lines(
@@ -1066,39 +601,15 @@ def render_reference(
     L = path.position_at(tp)
     fwd, up = path.orientation_at(tp)
     out = np.zeros((lay.n_channels, pr.n_samples))
-    tn, q, mt = _knots(tracks)
+    tn, q, mt = padded_knots(tracks)
     for k in range(tracks.n_sources):
         d_vec = tracks.positions[k] - L
         D = np.maximum(np.linalg.norm(d_vec, axis=1), max(tracks.radius[k], 1e-9))
         tau = t - D / c0
-        qv = _interp_knots(tn, q[k], mt[k], tau, interp)
+        qv = interpolate_knots(tn, q[k], mt[k], tau, interp)
         sig = qv / D
         if lay.n_channels == 1:
             out[0] += sig
         else:
             out += pan_gains(lay, listener_frame(d_vec, fwd, up)) * sig
     return out
-
-
-def _interp_knots(
-    tn: NDArray[np.float64],
-    q: NDArray[np.float64],
-    m: NDArray[np.float64],
-    tau: NDArray[np.float64],
-    interp: str,
-) -> NDArray[np.float64]:
-    inside = (tau >= tn[0]) & (tau <= tn[-1])
-    n = np.clip(np.searchsorted(tn, tau, side="right") - 1, 0, tn.size - 2)
-    h = tn[n + 1] - tn[n]
-    s = np.clip((tau - tn[n]) / h, 0, 1)
-    if interp == "linear":
-        val = q[n] + (q[n + 1] - q[n]) * s
-    else:
-        s2, s3 = s * s, s * s * s
-        val = (
-            (2 * s3 - 3 * s2 + 1) * q[n]
-            + (s3 - 2 * s2 + s) * m[n] * h
-            + (-2 * s3 + 3 * s2) * q[n + 1]
-            + (s3 - s2) * m[n + 1] * h
-        )
-    return np.where(inside, val, 0.0)
