@@ -39,3 +39,11 @@ def test_cold_runs_measure_wall_and_cpu_with_their_own_cache(tmp_path) -> None: 
 
 def test_quick_bench_skips_the_cold_compiles() -> None:
     assert compile_rows(True) == []
+
+
+def test_a_kernel_waited_for_is_held_against_the_wait() -> None:
+    """A kernel compiled by a background process is announced when the command waits for
+    it; the notice is held against the wait, not against a compile in this process."""
+    err, what = _estimate_error([[PIECES, 30.0]], [], [[PIECES, 20.0]])
+    assert err == pytest.approx(0.5)
+    assert "waited" in what

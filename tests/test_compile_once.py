@@ -435,6 +435,45 @@ def test_compile_seconds_are_measured_data(monkeypatch, tmp_path) -> None:  # ty
         jit.compile_seconds.cache_clear()
 
 
+def test_waiting_for_a_background_compile_is_announced(caplog, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A kernel that another process compiles is waited for, with a notice of what is
+    left of its estimate; the wait is recorded."""
+    import time
+
+    @numba.njit
+    def kernel(x):  # type: ignore[no-untyped-def]
+        return x
+
+    name = f"{kernel.py_func.__module__}.{kernel.py_func.__qualname__}"
+    monkeypatch.setitem(jit.compile_seconds(), name, 40.0)
+
+    class Proc:
+        joined = False
+
+        def is_alive(self) -> bool:
+            return not self.joined
+
+        def join(self) -> None:
+            time.sleep(0.05)
+            self.joined = True
+
+    proc = Proc()
+    monkeypatch.setattr(jit, "_BACKGROUND", [])
+    monkeypatch.setattr(jit._NOTICE, "notices", [])
+    monkeypatch.setattr(jit._NOTICE, "waits", [])
+    jit.compiling_elsewhere([name], proc)
+    jit._BACKGROUND[0] = (*jit._BACKGROUND[0][:2], time.monotonic() - 15.0)  # started 15 s ago
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel)
+        jit.await_kernel(kernel)  # done: no second wait
+    assert proc.joined
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~25 s"), msgs
+    assert [n for n, _ in jit.compile_notices()] == [name]
+    waits = jit.compile_waits()
+    assert [n for n, _ in waits] == [name] and waits[0][1] >= 0.05
+
+
 def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     started: list[list[str]] = []
 
@@ -451,8 +490,12 @@ def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # t
         Process = Proc
 
     monkeypatch.setattr(multiprocessing, "get_context", lambda method: Ctx)
+    monkeypatch.setattr(jit, "_BACKGROUND", [])  # (the fake process is forgotten after)
     monkeypatch.setattr(warmup, "group_cached", lambda g: g == "runs")
     assert warmup.compile_ahead(["pieces", "runs"]) is not None
     assert started == [["pieces"]]
+    assert [sorted(names) for names, _, _ in jit._BACKGROUND] == [
+        ["auralize.emitters._kernels.render_pieces.render_task"]
+    ]
     monkeypatch.setattr(warmup, "group_cached", lambda g: True)
     assert warmup.compile_ahead(["pieces", "runs"]) is None and len(started) == 1

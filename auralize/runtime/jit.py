@@ -171,7 +171,8 @@ class _CompileNotice(event.Listener):
     an auralize kernel in this process (``auralize warmup`` reports them; the
     CPU seconds of the compiling thread, which a loaded machine does not
     inflate), ``helpers`` the auralize functions compiled as part of one,
-    ``notices`` the ``(kernel, estimated seconds)`` announced.
+    ``notices`` the ``(kernel, estimated seconds)`` announced (by :func:`await_kernel`
+    too), ``waits`` the ``(kernel, wall seconds)`` waited for a background compile.
     """
 
     def __init__(self) -> None:
@@ -181,6 +182,7 @@ class _CompileNotice(event.Listener):
         self.compiled: list[tuple[str, float]] = []
         self.helpers: set[str] = set()
         self.notices: list[tuple[str, float]] = []
+        self.waits: list[tuple[str, float]] = []
 
     def on_start(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])
@@ -216,28 +218,52 @@ def compiled_kernels() -> list[tuple[str, float]]:
     return list(_NOTICE.compiled)
 
 
-#: kernels being compiled into the cache by background processes: (kernel names, process)
-_BACKGROUND: list[tuple[frozenset[str], Any]] = []
+#: kernels being compiled into the cache by background processes: (kernel names, process,
+#: when it started: ``time.monotonic()``)
+_BACKGROUND: list[tuple[frozenset[str], Any, float]] = []
 
 
 def compiling_elsewhere(kernels: Any, process: Any) -> None:
-    """Note that ``process`` (with ``join()`` and ``is_alive()``) compiles ``kernels``
-    (``module.name``) into the cache (:func:`auralize.warmup.compile_ahead`)."""
-    _BACKGROUND.append((frozenset(kernels), process))
+    """Note that ``process`` (with ``join()`` and ``is_alive()``), started now, compiles
+    ``kernels`` (``module.name``) into the cache (:func:`auralize.warmup.compile_ahead`)."""
+    _BACKGROUND.append((frozenset(kernels), process, time.monotonic()))
 
 
 def await_kernel(kernel: Any) -> None:
     """Before the first call of ``kernel`` (a numba dispatcher) in this process: if a
     background process is compiling it, wait for that process, so that the kernel
     loads from the cache instead of compiling a second time (the other core is
-    already on it)."""
+    already on it).
+
+    The wait is announced as a compile is (``compiling kernels, once: ~N s (kernel,
+    in another process; ...)``), N the kernel's estimate less the time the process
+    has had; :func:`compile_waits` lists the waits."""
     func = getattr(kernel, "py_func", None)
     if func is None or getattr(kernel, "overloads", None):
         return
     name = f"{func.__module__}.{func.__qualname__}"
-    for names, process in list(_BACKGROUND):
-        if name in names and process.is_alive():
-            process.join()
+    for names, process, started in list(_BACKGROUND):
+        if name not in names or not process.is_alive():
+            continue
+        t0 = time.monotonic()
+        left = max(estimate_seconds(name) - (t0 - started), DEFAULT_SECONDS)
+        _NOTICE.notices.append((name, left))
+        _NOTICE.named.add(name)
+        short = ".".join(name.split(".")[-2:])
+        log.warning(
+            "compiling kernels, once: ~%d s (%s, in another process; cache: %s)",
+            round(left),
+            short,
+            cache_dir(),
+        )
+        process.join()
+        _NOTICE.waits.append((name, time.monotonic() - t0))
+
+
+def compile_waits() -> list[tuple[str, float]]:
+    """``(kernel, wall seconds)`` this process waited for kernels compiling in a
+    background process (:func:`await_kernel`)."""
+    return list(_NOTICE.waits)
 
 
 def compile_notices() -> list[tuple[str, float]]:
