@@ -253,7 +253,10 @@ def where(typingctx, cond, a, b):
     """``a if cond else b`` for scalars, both evaluated, no branch: one instruction
     (LLVM's ``select``) where the conditional expression is three blocks of numba IR and
     a variable assigned twice, which numba's compiler passes pay for in every inlined
-    copy (the compiled loops are the same: LLVM turns those blocks into the select)."""
+    copy (the compiled loops are the same: LLVM turns those blocks into the select).
+    Not in code compiled with FMA contraction whose results must stay bit for bit:
+    there a select of a computed operand can change which multiply-adds LLVM fuses
+    (see :mod:`auralize.emitters._kernels.hermite`)."""
     res = typingctx.unify_pairs(a, b)
     if res is None or not isinstance(res, types.Number | types.Boolean):
         return None

@@ -11,6 +11,13 @@ a piece's start, end and continuation into one lane of a work array.
 :func:`_hermite_at` evaluates q and dq/dτ inside a piece (branch-free: the
 SIMD loops); :func:`_qeval` is the scalar code's evaluation (linear or
 cubic, with a branch).
+
+The selects here are conditional expressions, not
+:func:`~auralize.emitters._kernels.common.where`: :func:`_cut_at_end` and
+:func:`_take_cut` are inlined into the runs kernel's steps, which are compiled with
+FMA contraction (:func:`auralize.emitters._kernels.render_runs._chunk_step`), and
+there the form of a select decides which multiply-adds LLVM fuses, hence the last
+bit of the sum.
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ import math
 
 import numba
 
-from auralize.emitters._kernels.common import _CHUNK, _NJIT, where
+from auralize.emitters._kernels.common import _CHUNK, _NJIT
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -58,8 +65,8 @@ def _hermite_at(t_0, h, q0, m0, q1, m1, tau):
     t_0 + h (values q0, q1, tangents m0, m1 per second; a linear piece has
     m0 = m1 = its slope, which the Hermite reproduces); branch-free."""
     s = (tau - t_0) / h
-    s = where(s > 0.0, s, 0.0)
-    s = where(s < 1.0, s, 1.0)
+    s = s if s > 0.0 else 0.0
+    s = s if s < 1.0 else 1.0
     s2 = s * s
     s3 = s2 * s
     hm0 = m0 * h
@@ -139,24 +146,24 @@ def _cut_at_end(piece, sg0, ok0, la, lb, t_1, grid):
     x, y, z, rm, q0, m0, q1, m1 = piece
     inv_c0, t_start, fs, fn = grid.inv_c0, grid.t_start, grid.fs, grid.fn
     sel = sg0 == la[11]
-    lx = where(sel, la[0], lb[0])
-    ly = where(sel, la[1], lb[1])
-    lz = where(sel, la[2], lb[2])
-    vx = where(sel, la[3], lb[3])
-    vy = where(sel, la[4], lb[4])
-    vz = where(sel, la[5], lb[5])
-    th = where(sel, la[8], lb[8])
+    lx = la[0] if sel else lb[0]
+    ly = la[1] if sel else lb[1]
+    lz = la[2] if sel else lb[2]
+    vx = la[3] if sel else lb[3]
+    vy = la[4] if sel else lb[4]
+    vz = la[5] if sel else lb[5]
+    th = la[8] if sel else lb[8]
     t_0 = la[6]
     fin = th < 1e300
-    dt = where(fin, th - t_0, 0.0)
+    dt = th - t_0 if fin else 0.0
     px = lx + vx * dt - x
     py = ly + vy * dt - y
     pz = lz + vz * dt - z
     d = math.sqrt(px * px + py * py + pz * pz)
     clamp = d <= rm
-    dd = where(clamp, 0.0, px * vx + py * vy + pz * vz)
-    d = where(clamp, rm, d)
-    tau = where(fin, th - d * inv_c0, t_0)
+    dd = 0.0 if clamp else px * vx + py * vy + pz * vz
+    d = rm if clamp else d
+    tau = th - d * inv_c0 if fin else t_0
     q, m = _hermite_at(t_0, t_1 - t_0, q0, m0, q1, m1, tau)
     cut = ok0 & fin & ((th - t_start) * fs > fn - 1.0) & (tau < t_1)
     return cut, th, d, dd, q, m
@@ -170,11 +177,11 @@ def _take_cut(cut, cut_end, knot_end):
     ac, dc, ec, q_cut, m_cut, sgc = cut_end
     a, d, e, q, m, sg, ok = knot_end
     return (
-        where(cut, ac, a),
-        where(cut, dc, d),
-        where(cut, ec, e),
-        where(cut, q_cut, q),
-        where(cut, m_cut, m),
-        where(cut, sgc, sg),
+        ac if cut else a,
+        dc if cut else d,
+        ec if cut else e,
+        q_cut if cut else q,
+        m_cut if cut else m,
+        sgc if cut else sg,
         ok | cut,
     )
