@@ -638,7 +638,7 @@ def _runs(present: NDArray[np.bool_], gap: int) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), ends.tolist(), strict=True))
 
 
-def describe(
+def describe(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume | str,
     *,
     series: SourceSeries | None = None,

@@ -719,7 +719,7 @@ def _turns(path: ListenerPath, center: np.ndarray) -> float:
     return float(abs(ang[-1] - ang[0]) / (2 * np.pi))
 
 
-def auralize(
+def auralize(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     path: ListenerPath | None = None,
     *,
@@ -1000,7 +1000,7 @@ def auralize(
     return out, hs.series
 
 
-def _auralize_fwh(
+def _auralize_fwh(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     how: Any,
     *,
@@ -1104,7 +1104,7 @@ def _auralize_fwh(
     return out
 
 
-def plan_heard(
+def plan_heard(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     *,
     path: ListenerPath | None = None,

@@ -218,7 +218,7 @@ class Carry:
         return np.asarray(out)
 
 
-def render(
+def render(  # noqa: PLR0913 (keyword-only options)
     sound: Any,
     path: Any,
     *,
@@ -360,7 +360,9 @@ def render(
         **_outdoor(air, ground),
     )
     if runner is not None:
-        return _on_dask(snd, path, kw, highpass_hz, runner, block_seconds)
+        return _on_dask(
+            snd, path, kw, highpass_hz=highpass_hz, runner=runner, block_seconds=block_seconds
+        )
     if carry is not None:
         return _continued(snd, path, kw, highpass_hz, carry)
     from auralize.emitters.engine import render_sound
@@ -399,6 +401,7 @@ def _on_dask(
     snd: Any,
     path: Any,
     kw: dict[str, Any],
+    *,
     highpass_hz: float,
     runner: Any,
     block_seconds: float | None,

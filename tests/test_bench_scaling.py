@@ -26,6 +26,13 @@ def test_scaling_and_timbre_rows_quick() -> None:
     names = [r.name for r in rows]
     assert "10× sources (1k → 10k), ring8" in names
     ratios = [r for r in rows if r.target]
-    # 3× duration (mono, ring8), stereo / ring8 (twice), default timbre / physical (3 layouts)
-    assert len(ratios) == 7 and all(r.met is not None for r in ratios)
+    # 3× duration (mono, ring8), stereo / ring8 (twice), default timbre / physical (3 layouts
+    # and the whole call)
+    assert len(ratios) == 8 and all(r.met is not None for r in ratios)
+    whole = [r for r in rows if r.name.startswith("auralize.render(")]
+    assert len(whole) == 1 and whole[0].group == "timbre"
+    auto, phys = (
+        float(w.split()[0]) for w in whole[0].note.split("auto ")[1].split("physical ")[:2]
+    )
+    assert math.isclose(whole[0].value, auto / phys, rel_tol=0.02)
     assert {r.group for r in rows} == {"scaling", "timbre"}

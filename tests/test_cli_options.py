@@ -143,3 +143,31 @@ def test_old_import_path_still_works() -> None:
     ):
         assert getattr(cli, name) is getattr(opts, name)
     assert cli.field_map is opts.field_map
+
+
+@pytest.mark.parametrize(
+    ("argv", "dest", "value"),
+    [
+        (["render", "x.h5", "-o", "o.wav", "--listener", "-3,0,1.5"], "listener", (-3, 0, 1.5)),
+        (
+            ["render", "x.h5", "-o", "o.wav", "--listener", "-.5,-2e1,-1"],
+            "listener",
+            (-0.5, -20, -1),
+        ),
+        (["path", "line", "-o", "p.csv", "--start", "-3,-1,0.3"], "start", (-3, -1, 0.3)),
+        (["path", "orbit", "-o", "p.csv", "--center", "-1,-1,-1"], "center", (-1, -1, -1)),
+    ],
+)
+def test_negative_coordinates_are_values_not_options(
+    argv: list[str], dest: str, value: tuple[float, ...]
+) -> None:
+    # argparse alone reads "-3,0,1.5" as an unknown option ("expected one argument")
+    ns = build_parser().parse_args(argv)
+    np.testing.assert_array_equal(np.asarray(getattr(ns, dest), dtype=float), value)
+
+
+def test_an_unknown_option_after_a_value_option_is_still_refused(capsys) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(SystemExit) as info:
+        build_parser().parse_args(["render", "x.h5", "-o", "o.wav", "--listener", "-x"])
+    assert info.value.code != 0
+    assert "--listener: expected one argument" in capsys.readouterr().err

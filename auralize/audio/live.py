@@ -537,7 +537,7 @@ def _output_layout(lay: Layout, dev: dict[str, Any], downmix: bool | str | Layou
     return lay
 
 
-def play(
+def play(  # noqa: PLR0913 (keyword-only options)
     tracks: SourceTracks | Any,
     path: ListenerPath,
     *,

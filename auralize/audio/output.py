@@ -351,6 +351,7 @@ def write_audio(
     sidecar: dict[str, Any] | None = None,
     subtype: str | None = None,
     layout: Layout | str | None = None,
+    units: str = "Pa",
 ) -> float:
     """Write audio to ``path`` (``.wav`` or ``.flac``) and ``path.json``, both or neither.
 
@@ -393,6 +394,9 @@ def write_audio(
         mask used (unless ``channel_mask`` is given), per-speaker distances and
         gains are applied (:class:`~auralize.spatial.SpeakerAlignment`) and it is
         recorded in the sidecar.
+    units : str
+        What the samples hold before normalisation (the sidecar's ``units``:
+        ``"Pa"`` at the listener, or an emitted signal's ``"Pa at 1 m"``).
 
     Returns
     -------
@@ -493,7 +497,7 @@ def write_audio(
         "samples": int(out.shape[1]),
         "normalize": normalize,
         "gain": gain,
-        "units": "Pa" if normalize == "none" else f"full scale = {1 / gain:.6g} Pa",
+        "units": units if normalize == "none" else f"full scale = {1 / gain:.6g} {units}",
         "format": subtype,
         **(
             {

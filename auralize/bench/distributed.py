@@ -264,7 +264,7 @@ def _detect(path: Path, workers: int, size: int) -> Timed:
 
 
 def _synth(
-    tracks: Any, path: Any, workers: int, time_scale: float, block: int, groups: int
+    tracks: Any, path: Any, workers: int, *, time_scale: float, block: int, groups: int
 ) -> Timed:
     """60 s of ring8 on a fresh local cluster, in blocks of ``block`` samples × ``groups``."""
     from auralize.distributed import Runner, render_distributed
@@ -479,7 +479,11 @@ def bench_dask(
     from auralize.distributed.synth import plan_tasks
 
     block, groups = plan_tasks(tracks, round(lp.duration * SYNTH_RATE), 8, 2)
-    syn = _alternate(lambda w: _synth(tracks, lp, w, ts, block, groups), repeats, quiet_wait)
+    syn = _alternate(
+        lambda w: _synth(tracks, lp, w, time_scale=ts, block=block, groups=groups),
+        repeats,
+        quiet_wait,
+    )
     y1, y2 = _median(syn[1]), _median(syn[2])
     a1, u1, a2, u2 = y1.result, y1.seconds, y2.result, y2.seconds
     err = float(np.max(np.abs(a1.audio - a2.audio)) / max(np.max(np.abs(a1.audio)), 1e-300))

@@ -397,7 +397,40 @@ def timbre_cost_rows(quick: bool) -> list[BenchRow]:
             note=f"auto ({used}) {t['auto'] * 1e3:.0f} ms, physical {t['physical'] * 1e3:.0f} ms "
                  f"CPU for {plan.duration:g} s of audio (median of 5)",
         ))  # fmt: skip
+    rows.append(_timbre_whole_call_row(size))
     return rows
+
+
+def _timbre_whole_call_row(size: int) -> BenchRow:
+    """The same comparison for the call a user makes: :func:`auralize.render` of the
+    explosion with its defaults (the field's rows built, the default orbit, 10 s,
+    mono) against ``timbre="physical"``, each on a freshly loaded volume (nothing
+    cached from the run before), CPU time, median of 3."""
+    import auralize
+    from auralize.datasets.synthetic import make_explosion
+
+    def call(timbre: str) -> float:
+        vol = make_explosion(size=size).load()
+        t0 = time.process_time()
+        auralize.render(vol, timbre=timbre)
+        return time.process_time() - t0
+
+    call("auto")  # kernels loaded, textures cached
+    t: dict[str, list[float]] = {"physical": [], "auto": []}
+    for _ in range(3):
+        for timbre in t:
+            t[timbre].append(call(timbre))
+    auto, phys = float(np.median(t["auto"])), float(np.median(t["physical"]))
+    r = auto / phys
+    return BenchRow(
+        "timbre",
+        f"auralize.render(explosion {size}³): default timbre / physical",
+        r,
+        "× CPU time",
+        target="≤ 1.25×",
+        met=r <= 1.25,
+        note=f"the whole call: auto {auto:.2f} CPU-s, physical {phys:.2f} CPU-s (median of 3)",
+    )
 
 
 def hs_mapping(vol: Any) -> Any:
@@ -530,61 +563,101 @@ def format_rows(rows: list[BenchRow]) -> str:
     return "\n".join(out)
 
 
-def run_bench(args: argparse.Namespace) -> int:
+def _detection_rows(args: argparse.Namespace) -> list[BenchRow]:
     sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else (
         [10, 20, 32] if args.quick else [10, 20, 30, 40, 50, 64, 128, 256])  # fmt: skip
+    return bench_detection(sizes) + bench_detection_whole(args.quick)
+
+
+def _lazy(module: str, name: str, **fixed: Any) -> Any:
+    """``args -> rows`` of ``module.name(args.quick)`` (or of ``fixed`` keyword
+    arguments taken from ``args``), imported when the group runs."""
+
+    def rows(args: argparse.Namespace) -> list[BenchRow]:
+        fn = getattr(importlib.import_module(module), name)
+        if fixed:
+            return fn(**{k: bool(getattr(args, v, False)) for k, v in fixed.items()})
+        return fn(args.quick)
+
+    return rows
+
+
+def _dask_rows(args: argparse.Namespace) -> list[BenchRow]:
+    if importlib.util.find_spec("dask") is None:
+        print("\n[dask] skipped: install the 'dask' extra for the scale-out rows")
+        return []
+    from auralize.bench.distributed import bench_dask
+
+    # the full Dask rows write a 27 GB, 256³ x 100-step file: only when asked
+    return bench_dask(not getattr(args, "dask_full", False))
+
+
+#: the bench's groups in the order they run: name -> ``args -> rows``
+#: (``auralize bench --only NAME,...`` runs some of them)
+GROUPS: dict[str, Any] = {
+    "detection": _detection_rows,
+    "synthesis": lambda args: bench_synthesis(args.quick),
+    "timbre": lambda args: timbre_cost_rows(args.quick),
+    "scaling": lambda args: scaling_rows(args.quick),
+    "emitters": lambda args: emitters_rows(args.quick),
+    "compile": _lazy("auralize.bench.compile", "compile_rows"),
+    "immersive": _lazy("auralize.bench.immersive", "immersive_rows"),
+    "readers": _lazy("auralize.bench.readers", "bench_readers", full="readers_full"),
+    "efficiency": _lazy("auralize.bench.efficiency", "efficiency_rows"),
+    "fwh": _lazy("auralize.bench.fwh", "fwh_rows"),
+    "outdoor": _lazy("auralize.bench.outdoor", "outdoor_rows"),
+    "output": _lazy("auralize.bench.output", "bench_output"),
+    "viewer": _lazy("auralize.bench.viewer", "bench_viewer"),
+    "dask": _dask_rows,
+    "plugins": lambda args: plugin_rows(args.quick),
+}
+
+
+def bench_groups(text: str) -> list[str]:
+    """argparse type of ``bench --only``: comma-separated names of :data:`GROUPS`.
+
+    Parameters
+    ----------
+    text : str
+        ``"timbre,scaling"``.
+
+    Returns
+    -------
+    list of str
+        The names, in the order given.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        An empty list or a name that is not a group (the groups are listed).
+
+    Examples
+    --------
+    >>> bench_groups("timbre,efficiency")
+    ['timbre', 'efficiency']
+    """
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    unknown = [n for n in names if n not in GROUPS]
+    if not names or unknown:
+        raise argparse.ArgumentTypeError(
+            f"unknown bench group {', '.join(map(repr, unknown)) or repr(text)}; "
+            f"the groups are {', '.join(GROUPS)}"
+        )
+    return names
+
+
+def run_bench(args: argparse.Namespace) -> int:
     print(f"auralize bench on {platform.machine()} ({os.cpu_count()} cores), "
           f"python {platform.python_version()}")  # fmt: skip
-    rows = bench_detection(sizes) + bench_detection_whole(args.quick)
-    print(format_rows(rows), flush=True)
-    more = bench_synthesis(args.quick)
-    print(format_rows(more), flush=True)
-    rows += more
-    for fn in (timbre_cost_rows, scaling_rows):
-        more = fn(args.quick)
-        print(format_rows(more), flush=True)
+    only = getattr(args, "only", None)
+    rows: list[BenchRow] = []
+    for name, fn in GROUPS.items():
+        if only and name not in only:
+            continue
+        more = fn(args)
+        if more:
+            print(format_rows(more), flush=True)
         rows += more
-    more = emitters_rows(args.quick)
-    print(format_rows(more), flush=True)
-    rows += more
-    from auralize.bench.compile import compile_rows
-
-    more = compile_rows(args.quick)
-    if more:
-        print(format_rows(more), flush=True)
-    rows += more
-    from auralize.bench.immersive import immersive_rows
-
-    more = immersive_rows(args.quick)
-    print(format_rows(more), flush=True)
-    rows += more
-    from auralize.bench.fwh import fwh_rows
-    from auralize.bench.outdoor import outdoor_rows
-    from auralize.bench.output import bench_output
-    from auralize.bench.readers import bench_readers
-    from auralize.bench.viewer import bench_viewer
-
-    more = bench_readers(full=getattr(args, "readers_full", False))
-    print(format_rows(more), flush=True)
-    rows += more
-
-    for fn in (fwh_rows, outdoor_rows, bench_output, bench_viewer):
-        more = fn(args.quick)
-        print(format_rows(more), flush=True)
-        rows += more
-    if importlib.util.find_spec("dask") is not None:
-        from auralize.bench.distributed import bench_dask
-
-        # the full Dask rows write a 27 GB, 256³ x 100-step file: only when asked
-        more = bench_dask(not getattr(args, "dask_full", False))
-        print(format_rows(more), flush=True)
-        rows += more
-    else:
-        print("\n[dask] skipped: install the 'dask' extra for the scale-out rows")
-    prow = plugin_rows(args.quick)
-    if prow:
-        print(format_rows(prow), flush=True)
-    rows += prow
     if args.json:
         from auralize.runtime.files import atomic_write
 

@@ -36,7 +36,7 @@ class _Handler(logging.StreamHandler):
         pass
 
 
-def _show_warning(
+def _show_warning(  # noqa: PLR0917 (the signature of warnings.showwarning)
     message: Warning | str,
     category: type[Warning],
     filename: str,

@@ -21,6 +21,7 @@ import argparse
 import json
 import logging
 import os
+import re
 import sys
 import time
 import traceback
@@ -85,6 +86,11 @@ EXIT_CODES = {
 }
 
 
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+#: a negative number, or a comma-separated list of numbers that starts with one
+_NUMBERS = re.compile(rf"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?:,{_NUMBER})*$")
+
+
 class _Parser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors are one line (the value and a --help pointer).
 
@@ -95,6 +101,12 @@ class _Parser(argparse.ArgumentParser):
     """
 
     _given: list[str] | None = None
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # a value that starts with a minus sign and is a number or a comma-separated
+        # list of numbers (``--listener -3,0,1.5``) is a value, not an option
+        self._negative_number_matcher = _NUMBERS
 
     def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:  # type: ignore[override]
         self._given = list(sys.argv[1:] if args is None else args)
@@ -128,6 +140,13 @@ def _captures(text: str) -> int:
     if v < 2:
         raise argparse.ArgumentTypeError(f"a line needs at least 2 captures, got {text!r}")
     return v
+
+
+def _bench_groups(text: str) -> list[str]:
+    """argparse type of ``bench --only`` (the bench module is imported when it is used)."""
+    from auralize.bench.runner import bench_groups
+
+    return bench_groups(text)
 
 
 def _sizes(text: str) -> str:
@@ -1209,6 +1228,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--sizes", type=_sizes, help="comma-separated grid sizes for detection (default 10..256)"
     )
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.add_argument(
+        "--only",
+        metavar="GROUPS",
+        type=_bench_groups,
+        help="run only these comma-separated groups: detection, synthesis, timbre, scaling, "
+        "emitters, compile, immersive, readers, efficiency, fwh, outdoor, output, viewer, dask, "
+        "plugins",
+    )
     p.add_argument(
         "--dask-full",
         action="store_true",

@@ -230,7 +230,7 @@ def _rss() -> tuple[int, int]:
     return os.getpid(), int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
 
 
-def detect_task(
+def detect_task(  # noqa: PLR0917 (a Dask task: its arguments travel as one tuple)
     volume: TimeVolume,
     mapping: AcousticMapping,
     thr: NDArray[np.float64],
@@ -295,7 +295,7 @@ def detect_task(
     return out
 
 
-def peak_task(
+def peak_task(  # noqa: PLR0917 (a Dask task: its arguments travel as one tuple)
     volume: TimeVolume,
     mapping: AcousticMapping,
     steps: Sequence[int],
@@ -820,7 +820,7 @@ def _steady_node(run: _Run, mapping: Any) -> Any:
     return call(_anchors, blocks, T)
 
 
-def detect_distributed(
+def detect_distributed(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     *,
     mapping: str | AcousticMapping | None = "identity",
@@ -928,7 +928,9 @@ def detect_distributed(
         # the preparation (statistics, peaks, thresholds) and the detection form one
         # graph: m_node, peak_node and thr_node are values, or lazy calls whose results
         # arrive with the detection tasks' (and are saved before any chunk is)
-        m_node, q_node, peak, thr, state_known = _prepare(run, m, state, store, steady, thresholds)
+        m_node, q_node, peak, thr, state_known = _prepare(
+            run, m, state, store=store, steady=steady, thresholds=thresholds
+        )
         lazy = {
             name: node
             for name, node in (("mapping", m_node), ("peak", peak), ("thr", thr), ("qmean", q_node))
@@ -1019,7 +1021,7 @@ def detect_distributed(
             if len(parts) < len(slabs):
                 return
             del pending[a]
-            _chunk_done(store, slabs, parts, a, b, frames)
+            _chunk_done(store, slabs, parts, a=a, b=b, frames=frames)
             del parts
             if on_chunk is not None:
                 on_chunk(range(a, b))
@@ -1104,6 +1106,7 @@ def _chunk_done(
     store: StateStore | None,
     slabs: list[Slab],
     parts: dict[Slab, list[SourceFrame]],
+    *,
     a: int,
     b: int,
     frames: list[SourceFrame | None],
@@ -1162,6 +1165,7 @@ def _prepare(
     run: _Run,
     m: AcousticMapping,
     state: dict[str, Any],
+    *,
     store: StateStore | None,
     steady: str,
     thresholds: Thresholds,

@@ -52,7 +52,7 @@ PIECES_PER_GROUP = 2_000_000
 STRIPES = 8
 
 
-def render_block(
+def render_block(  # noqa: PLR0917 (a Dask task: its arguments travel as one tuple)
     tracks: SourceTracks | PackedTracks,
     path: ListenerPath,
     a: int,
@@ -225,7 +225,7 @@ class PackedTracks:
         return self._tracks
 
 
-def render_distributed(
+def render_distributed(  # noqa: PLR0913 (keyword-only options)
     tracks: SourceTracks,
     path: ListenerPath,
     *,

@@ -363,7 +363,7 @@ class TableEmitters(Emitters):
     (1, 8, [[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]])
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 (keyword-only options)
         self,
         table: NDArray[np.float64],
         lengths: NDArray[np.int64],

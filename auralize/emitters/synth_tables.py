@@ -240,6 +240,7 @@ def run_tasks(
     run_count: NDArray[np.int64],
     n_lo: int,
     n_hi: int,
+    *,
     n_threads: int,
     cost: NDArray[np.float64],
 ) -> NDArray[np.int64]:

@@ -363,7 +363,7 @@ def render_tracks(
         cost = np.where(costly, 2.0, np.where(two, 1.5, 1.0))
         if by_runs:
             task_rows = task_chunks = run_tasks(
-                run_row, run_len, run_count, n_lo, n_hi, n_threads, cost
+                run_row, run_len, run_count, n_lo, n_hi, n_threads=n_threads, cost=cost
             )
         else:
             task_chunks, task_rows = piece_tasks(chunk_start, n_lo, n_hi, n_threads, cost)

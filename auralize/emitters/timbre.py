@@ -133,13 +133,51 @@ def highpass(
 ) -> NDArray[np.float64]:
     """Causal 4th-order Butterworth high-pass of ``audio (n_channels, n_samples)``.
 
-    ``hz`` 0 returns the audio unchanged.  Causal, so nothing arrives before
-    its time (a zero-phase filter would ring ahead of onsets).  The filter
-    starts in its steady state for the first sample (:func:`highpass_start`),
-    so that a sound already going on when the output starts begins without
-    a click.  ``single``: filter in single precision (for the added timbres'
-    noise and tones, never for a physical pressure, whose offsets can dwarf
-    its sound).
+    Causal, so nothing arrives before its time (a zero-phase filter would
+    ring ahead of onsets).  The filter starts in its steady state for the
+    first sample (:func:`highpass_start`), so that a sound already going on
+    when the output starts begins without a click.  The output high-pass of
+    every timbre (paper 001 §6 high-passes its sounds at 30 Hz).
+
+    Parameters
+    ----------
+    audio : ndarray, shape (n_channels, n_samples)
+        The signal (any unit, pascals for a pressure), time last.
+    rate : float
+        Sample rate of ``audio`` in Hz.
+    hz : float
+        Cut-off in Hz, ``0 <= hz < rate / 2``; 0 returns ``audio`` itself,
+        unfiltered.
+    single : bool
+        Filter in single precision (for the added timbres' noise and tones,
+        never for a physical pressure, whose offsets can dwarf its sound).
+
+    Returns
+    -------
+    ndarray, shape (n_channels, n_samples)
+        The filtered signal, float64 (``audio`` itself when ``hz`` is 0 or
+        it holds no samples).
+
+    Raises
+    ------
+    ParameterError
+        ``hz`` not finite, negative, or at or above half the sample rate.
+
+    Examples
+    --------
+    A constant, already going on at the start, gives nothing; a 1 kHz tone
+    passes a 30 Hz high-pass whole:
+
+    >>> import numpy as np
+    >>> float(np.max(np.abs(highpass(np.ones((1, 100)), 8000, 30.0)))) < 1e-12
+    True
+    >>> tone = np.sin(2 * np.pi * 1000 * np.arange(800) / 8000)[None]
+    >>> round(float(np.max(np.abs(highpass(tone, 8000, 30.0)[:, 400:]))), 3)
+    0.998
+    >>> highpass(tone, 8000, 4000.0)
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ParameterError: highpass must be 0 (off) or between 0 and 4000 Hz ...
     """
     if not (np.isfinite(hz) and 0 <= hz < rate / 2):
         raise ParameterError(
@@ -171,8 +209,32 @@ def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDAr
     can be louder than everything after it (on a slowly varying field,
     whose sound lies mostly under the cut-off, the whole file is then
     normalised to the click).  From this state the high-pass of a constant
-    is exactly 0.  Live playback starts its filter the same way, so live
-    blocks equal the rendered file.
+    is exactly 0 (to round-off).  Live playback starts its filter the same
+    way, so live blocks equal the rendered file.
+
+    Parameters
+    ----------
+    sos : ndarray, shape (n_sections, 6)
+        Second-order sections of the filter (:func:`butter_sos`).
+    first : ndarray, shape (n_channels,), or float
+        The first sample of each signal (of one signal: a scalar).
+
+    Returns
+    -------
+    ndarray, shape (n_sections, n_channels, 2), or (n_sections, 2)
+        The filter state, ``first`` times the state after a unit step.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import sosfilt
+    >>> sos = butter_sos(4, 30.0, "highpass", 8000.0)
+    >>> zi = highpass_start(sos, np.array([1.0, 2.0]))
+    >>> zi.shape
+    (2, 2, 2)
+    >>> out, _ = sosfilt(sos, np.array([[1.0] * 50, [2.0] * 50]), axis=-1, zi=zi)
+    >>> float(np.max(np.abs(out))) < 1e-12
+    True
     """
     from scipy.signal import sosfilt_zi
 
@@ -184,7 +246,32 @@ def highpass_start(sos: NDArray[np.float64], first: NDArray[np.float64]) -> NDAr
 @functools.lru_cache(maxsize=64)
 def butter_sos(order: int, hz: float, kind: str, rate: float) -> NDArray[np.float64]:
     """Second-order sections of a Butterworth filter (cached: designing one costs
-    more than filtering a second of audio; callers must not modify them)."""
+    more than filtering a second of audio; callers must not modify them).
+
+    Parameters
+    ----------
+    order : int
+        Filter order (the sections: ``ceil(order / 2)``).
+    hz : float
+        Cut-off in Hz, below ``rate / 2``.
+    kind : {"highpass", "lowpass"}
+        The filter's type (scipy's ``btype``).
+    rate : float
+        Sample rate in Hz.
+
+    Returns
+    -------
+    ndarray, shape (n_sections, 6)
+        The sections, as :func:`scipy.signal.butter` gives them with
+        ``output="sos"``; shared between callers: read-only by contract.
+
+    Examples
+    --------
+    >>> butter_sos(4, 30.0, "highpass", 8000.0).shape
+    (2, 6)
+    >>> butter_sos(4, 30.0, "highpass", 8000.0) is butter_sos(4, 30.0, "highpass", 8000.0)
+    True
+    """
     from scipy.signal import butter
 
     return np.asarray(butter(order, hz, btype=kind, fs=rate, output="sos"))
@@ -195,7 +282,37 @@ def loudness(
 ) -> dict[str, float]:
     """Peak and RMS (over all channels) and the share of the energy above
     ``split_hz`` (from the power spectrum, the signal zero-padded to a fast
-    FFT length)."""
+    FFT length).
+
+    ``auto`` timbre decides with it (:data:`AUDIBLE_SHARE` of the energy
+    above 20 Hz).
+
+    Parameters
+    ----------
+    audio : ndarray, shape (n_channels, n_samples) or (n_samples,)
+        The signal (pascals for a pressure).
+    rate : float
+        Sample rate in Hz.
+    split_hz : float
+        Frequency (Hz) above which the energy share is taken.
+
+    Returns
+    -------
+    dict
+        ``peak`` (largest |sample|), ``rms`` (over all channels and samples),
+        both in the unit of ``audio``; ``above_hz`` (``split_hz``);
+        ``share_above`` (0–1; 0 for silence or no samples).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tone = np.sin(2 * np.pi * 1000 * np.arange(800) / 8000)[None]
+    >>> d = loudness(tone, 8000)
+    >>> d["peak"], round(d["rms"], 4), d["share_above"]
+    (1.0, 0.7071, 1.0)
+    >>> loudness(np.ones((2, 100)), 8000)["share_above"]  # a constant: all at 0 Hz
+    0.0
+    """
     from scipy.fft import next_fast_len, rfft
 
     a = np.atleast_2d(audio)
@@ -234,7 +351,31 @@ MERGE = 1.0 / 32.0
 
 def merge_size(tracks: SourceTracks, c0: float = C0) -> float:
     """Side (m) of the cubes inside which :func:`merged` joins sources:
-    :data:`MERGE` × c0 × the data's (median) time step."""
+    :data:`MERGE` × c0 × the data's (median) time step.
+
+    Arrivals from within such a cube differ by at most √3/32 of a data step.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources; their ``times (T,)`` set the data step (s).
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    float
+        The cube side in metres (0 for tracks of a single step).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)),
+    ...                   radius=np.full(1, 0.05), times=np.arange(4) * 0.1)
+    >>> round(merge_size(tr), 6)  # 343 m/s * 0.1 s / 32
+    1.071875
+    """
     return MERGE * c0 * (_data_step(tracks) if tracks.times.size >= 2 else 0.0)
 
 
@@ -263,6 +404,38 @@ def merged(
     changes by about (size/D)² / 3 and its direction by about size/D, which
     :func:`_joined` keeps small by keeping the sources near the listener.
     The tracks themselves are returned when no two sources share a cube.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        ``K`` sources: ``positions (K, 3)`` in m, ``q (K, T)``, ``radius (K,)``.
+    size : float
+        Cube side in metres; not finite or <= 0: nothing is merged.
+    keep : ndarray of bool, shape (K,), optional
+        Sources left unmerged (default none).
+
+    Returns
+    -------
+    SourceTracks
+        The kept sources first, then one per occupied cube (``times``,
+        ``origin`` and ``end`` those of ``tracks``; no ``kind``); ``tracks``
+        itself when nothing is joined.
+
+    Examples
+    --------
+    Two sources 0.1 m apart join in a 1 m cube, at their |q|-weighted
+    centroid; the third stays:
+
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.array([[0.0, 0, 0], [0.1, 0, 0], [5.0, 0, 0]]),
+    ...                   q=np.array([[1.0, 1, 1, 1], [3.0, 3, 3, 3], [1.0, 2, 3, 4]]),
+    ...                   radius=np.full(3, 0.05), times=np.arange(4) * 0.1)
+    >>> m = merged(tr, 1.0)
+    >>> m.n_sources, m.positions[:, 0].round(9).tolist(), m.q[0].tolist()
+    (2, [0.075, 5.0], [4.0, 4.0, 4.0, 4.0])
+    >>> merged(tr, 1.0, keep=np.array([True, False, False])) is tr  # one left to join
+    True
     """
     pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
     if pos.shape[0] < 2 or not (np.isfinite(size) and size > 0):
@@ -354,7 +527,38 @@ def mean_distance(
     8×8×8 partition of their box; position the |q|-weighted centroid), with
     ``w_c = Σ_{k in c} |q_k|(t − D_c/c0)`` linearly interpolated between steps:
     the distance whose delay the loudest arrivals share.  Where nothing is
-    heard, the nearest control's value is held.
+    heard, the nearest control's value is held; where nothing is heard at
+    all, the nearest cluster's distance.  The carriers of the ``extended``
+    and ``tonal`` timbres are read at the emission time t − D̄/c0.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources: ``positions (K, 3)`` in m, ``q (K, T)`` at ``times (T,)``.
+    path : ListenerPath
+        The listener's path (positions in m, playback times in s).
+    t_data : ndarray, shape (J,)
+        Data times (s) of the controls.
+    t_play : ndarray, shape (J,)
+        Playback times (s) on ``path`` of the same controls.
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    ndarray, shape (J,)
+        D̄ in metres (zeros when there are no sources).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.array([[0.0, 1, 2, 3]]),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1)
+    >>> path = ListenerPath.point([17.0, 0, 0], duration=0.4)
+    >>> mean_distance(tr, path, np.array([0.1, 0.2]), np.array([0.1, 0.2])).tolist()
+    [17.0, 17.0]
     """
     L = path.position_at(t_play)
     if tracks.n_sources == 0:
@@ -368,7 +572,7 @@ def mean_distance(
     rows = max(1, _MEAN_BLOCK // max(C, 1))
     for j in range(0, J, rows):
         sl = slice(j, min(j + rows, J))
-        num[sl], den[sl], d_min[sl] = _mean_terms(L[sl], t_data[sl], cen, W, tn, c0)
+        num[sl], den[sl], d_min[sl] = _mean_terms(L[sl], t_data[sl], cen, W, tn=tn, c0=c0)
     ok = den > 0
     if not np.any(ok):
         return d_min
@@ -387,6 +591,7 @@ def _mean_terms(
     t_data: NDArray[np.float64],
     cen: NDArray[np.float64],
     W: NDArray[np.float64],
+    *,
     tn: NDArray[np.float64],
     c0: float,
 ) -> tuple[NDArray[np.float64], ...]:
@@ -473,6 +678,34 @@ def change_tracks(tracks: SourceTracks) -> SourceTracks:
     Rendered, they give the pressure of what changes in the data
     (:func:`change_envelope`), the drive of the ``extended`` and ``tonal``
     timbres: a listener moving through a steady field hears no change.
+    Beyond the first and last knots the strengths are taken as 0 (the data
+    start and end there), or held at their edge values for tracks whose
+    knots are held before and after the data
+    (:meth:`auralize.sources.field.FieldTracks.tracks`).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        ``q (K, T)`` at ``times (T,)``.
+
+    Returns
+    -------
+    SourceTracks
+        ``q`` the change per step ``(K', T)``, rows that never change
+        dropped; positions, radii, times, origin and end those of ``tracks``.
+
+    Examples
+    --------
+    A ramp changes by 1 per step; a constant only where the data start
+    and end:
+
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((2, 3)),
+    ...                   q=np.array([[0.0, 1, 2, 3], [1.0, 1, 1, 1]]),
+    ...                   radius=np.full(2, 0.1), times=np.arange(4) * 0.1)
+    >>> change_tracks(tr).q.tolist()
+    [[0.5, 1.0, 1.0, -1.0], [0.5, 0.0, 0.0, -0.5]]
     """
 
     def build() -> SourceTracks:
@@ -505,6 +738,34 @@ def change_envelope(
     channel's envelope is its covariance with channel 0 over the window,
     divided by channel 0's standard deviation (for sound from one direction,
     channel 0's envelope times that channel's encoding gain).
+
+    Parameters
+    ----------
+    audio : ndarray, shape (n_channels, n)
+        The change pressure (Pa) per channel.
+    rate : float
+        Sample rate of ``audio`` in Hz.
+    step_s : float
+        The data's time step in playback seconds.
+    ambisonic : bool
+        The channels are AmbiX components (see above).
+
+    Returns
+    -------
+    ndarray, shape (n_channels, n)
+        The envelope per channel (Pa): >= 0, or signed for ``ambisonic``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.tile([1.0, -1.0], 50)[None]  # changes of ±1 Pa
+    >>> change_envelope(x, 100, 0.02)[0, 40:44].tolist()
+    [1.0, 1.0, 1.0, 1.0]
+    >>> float(change_envelope(np.ones((1, 50)), 100, 0.02).max())  # no change
+    0.0
+    >>> amb = np.vstack([x, 0.5 * x, -0.5 * x])  # AmbiX W and two encoding gains
+    >>> change_envelope(amb, 100, 0.02, ambisonic=True)[:, 50].tolist()
+    [1.0, 0.5, -0.5]
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -532,7 +793,32 @@ ROUNDOFF_LEVEL = 1e-10
 def term_level(tracks: SourceTracks, path: ListenerPath) -> float:
     """The pressure (Pa) the tracks' rows would make if none cancelled another:
     Σ_k max_t |q_k| / (4π D_k), D_k the row's nearest distance to the path's
-    captures (at least its clamp radius).  A render far below it is round-off."""
+    captures (at least its clamp radius).  A render far below it is round-off
+    (:data:`ROUNDOFF_LEVEL`).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        ``positions (K, 3)`` in m, ``q (K, T)``, clamp ``radius (K,)`` in m.
+    path : ListenerPath
+        The listener's captures (positions in m).
+
+    Returns
+    -------
+    float
+        The level in pascals (0 without sources).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.array([[0.0, 1, 2, 3]]),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1)
+    >>> level = term_level(tr, ListenerPath.point([17.0, 0, 0], duration=0.4))
+    >>> bool(np.isclose(level, 3 / (4 * np.pi * 17)))
+    True
+    """
     if tracks.n_sources == 0:
         return 0.0
     # the same for every render of these tracks along this path: kept on the
@@ -594,18 +880,32 @@ class _Clock:
         self.rate, self.ts = rate, ts
         t_start = float(out.meta["t_start_data"])
         dur = n / rate
+        # controls every 1/CONTROL_HZ s of playback from the render's start, the last
+        # at or past its end
         J = max(int(np.ceil(dur * CONTROL_HZ)) + 1, 2)
-        u = np.linspace(0.0, dur, J)
+        u = np.arange(J) / CONTROL_HZ
         # the same controls serve every clock of a render (the audio rate's and the
-        # envelope rate's) and of its repeats: kept on the tracks for this path (the
-        # path's arrays are held, so their identity stays theirs)
-        key = (t_start, dur, ts, start, c0, J)
-        hit = tracks.cache.get("timbre:dbar")
-        if hit is not None and hit[0] is path.positions and hit[1] is path.times and hit[2] == key:
-            dbar = hit[3]
-        else:
-            dbar = mean_distance(tracks, path, t_start + u / ts, path.times[0] + start + u, c0=c0)
-            tracks.cache["timbre:dbar"] = (path.positions, path.times, key, dbar)
+        # envelope rate's, whose durations differ by a fraction of an envelope
+        # sample) and of its repeats: kept on the tracks for each path (its arrays
+        # are held, so their identity stays theirs); a clock with fewer controls
+        # takes the first of them
+        key = (id(path.positions), id(path.times), t_start, ts, start, c0)
+        held = tracks.cache.setdefault("timbre:dbar", {})
+        hit = held.get(key)
+        if (
+            hit is not None
+            and hit[0] is path.positions
+            and hit[1] is path.times
+            and hit[2].size >= J
+        ):
+            dbar = hit[2][:J]
+        else:  # (two controls more than this clock needs, for the next clock's)
+            w = np.arange(J + 2) / CONTROL_HZ
+            dbar = mean_distance(tracks, path, t_start + w / ts, path.times[0] + start + w, c0=c0)
+            if len(held) >= 8:  # the paths of a few renders (binaural: one per ear)
+                held.pop(next(iter(held)))
+            held[key] = (path.positions, path.times, dbar)
+            dbar = dbar[:J]
         # the mean emission time at the controls; between them the data time
         # and D̄ are linear in the sample index, and so is the emission time
         tau = t_start + u / ts - dbar / c0
@@ -671,7 +971,7 @@ def _sample_index(n: int) -> NDArray[np.float64]:
     return j
 
 
-def render_timbre(
+def render_timbre(  # noqa: PLR0913 (keyword-only options)
     tracks: SourceTracks,
     path: ListenerPath,
     *,
@@ -698,30 +998,64 @@ def render_timbre(
     rendered to its AmbiX intermediate and filtered once at the end by
     :func:`auralize.spatial.layouts.output_stage` (``hrtf``: its HRIRs).
 
+    ``physical`` is the retarded-time pressure of paper 003 §3.2.4.4
+    (Eqs. 15–17); ``extended`` its bandwidth extension after paper 001 §4
+    (Alg. 1, Eqs. 12–13, Table 1: f_cut the data's Nyquist frequency
+    (:func:`cutoff_hz`), β the positive root of Eq. 13); ``tonal`` a
+    carrier per source type.  A render whose pressure is round-off (below
+    :data:`ROUNDOFF_LEVEL` of :func:`term_level`) is silence: its samples
+    are 0 and ``meta["silent_why"]`` says why, so that nothing amplifies
+    round-off to full scale.
+
     Parameters
     ----------
-    tracks, path, rate, time_scale, interp, layout, c0, duration, bounds, start, lead
-        As :func:`auralize.emitters.synthesis.render_tracks`.
+    tracks : SourceTracks
+        The sources: ``positions (K, 3)`` in m, ``q (K, T)`` (S·ΔV) at data
+        ``times (T,)`` in s (:meth:`auralize.sources.detection.SourceSeries.tracks`,
+        :meth:`auralize.sources.field.FieldTracks.tracks`).
+    path : ListenerPath
+        Playback-time captures of the listener (m, s); held at the ends.
     timbre : {"physical", "extended", "tonal", "auto"}
         See the module docstring; ``auto`` is ``physical`` when at least
         :data:`AUDIBLE_SHARE` of its energy lies above 20 Hz, else ``extended``.
+    rate : int
+        Audio sample rate, Hz.
+    time_scale : float
+        Playback seconds per data second.
+    interp : {"linear", "cubic"}
+        Time interpolation of the strengths (paper 003 §3.2.4.3).
+    layout : str or Layout
+        Any layout of :func:`auralize.spatial.layouts.get_layout`, ``binaural``
+        included.
+    c0 : float
+        Speed of sound, m/s.
+    duration : float, optional
+        Playback seconds (default: the path's duration after ``start``).
+    bounds : tuple of 6 float, optional
+        Grid bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` in m; a listener
+        absurdly far from them is refused
+        (:func:`auralize.emitters.synthesis.check_distance`).
+    start : float
+        Playback seconds into the path of the first output sample (blocks
+        rendered with increasing ``start`` join without seams).
+    lead : float
+        Data seconds between the data's first step and the first output sample.
     highpass_hz : float
-        Cut-off of the causal output high-pass (Hz); 0 keeps everything.
+        Cut-off of the causal output high-pass (Hz, :func:`highpass`); 0 keeps
+        everything.
     seed : int
         Seed of the noise carriers (same seed, same output).
     alpha : float
-        Power-law exponent of the ``extended`` noise (power spectrum f^−α).
+        Power-law exponent α of the ``extended`` noise (power spectrum f^−α,
+        paper 001 §4; Table 1: 2.5–3.5), > 0.
     carriers : dict, optional
-        ``tonal`` carriers per type name (default :data:`TONAL_CARRIERS`).
+        ``tonal`` carriers per type name, ``("tone", Hz)`` or
+        ``("noise", low Hz, high Hz)`` (default :data:`TONAL_CARRIERS`).
     hrtf : HRIRSet, str or Path, optional
         ``binaural`` only: HRIRs or a SOFA file (default the spherical head).
     by_type : dict, optional
         ``tonal``: the tracks of each type (``{name: SourceTracks}``, the
         whole field's terms); default from ``tracks.kind``.
-
-    A render whose pressure is round-off (below :data:`ROUNDOFF_LEVEL` of
-    :func:`term_level`) is silence: its samples are 0 and ``meta["silent_why"]``
-    says why, so that nothing amplifies round-off to full scale.
 
     Returns
     -------
@@ -730,6 +1064,45 @@ def render_timbre(
         holds the timbre used, seed, high-pass, ``share_above_20hz_unfiltered``
         (the energy share above 20 Hz before the high-pass) and
         ``timbre_notes`` (what to tell the user: an infrasonic physical render).
+
+    Raises
+    ------
+    ParameterError
+        An unknown ``timbre``; ``alpha`` not > 0; ``highpass_hz`` outside
+        [0, rate / 2); ``tonal`` on tracks without ``kind`` and no
+        ``by_type``, or ``carriers`` for unknown types or of another form;
+        the options :func:`auralize.emitters.synthesis.render_tracks` refuses.
+    ListenerPathError
+        A listener absurdly far from ``bounds``
+        (:func:`auralize.emitters.synthesis.check_distance`).
+
+    Examples
+    --------
+    One monopole whose strength ramps up, heard from 17 m: the pressure
+    is q(t − D/c0) / (4π D), silent until the sound has come 17 m (49.6 ms,
+    sample 396.5 at 8 kHz):
+
+    >>> import numpy as np
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.array([[0.0, 1, 2, 3]]),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1,
+    ...                   kind=np.ones((1, 4), dtype=np.int8))
+    >>> path = ListenerPath.point([17.0, 0, 0], duration=0.4)
+    >>> out = render_timbre(tr, path, rate=8000, interp="linear", highpass_hz=0.0)
+    >>> out.audio.shape, out.meta["timbre"], int(np.flatnonzero(out.audio[0])[0])
+    ((1, 3200), 'physical', 397)
+    >>> q = np.interp(0.15 - 17.0 / 343.0, tr.times, tr.q[0])  # emitted for t = 0.15 s
+    >>> bool(np.isclose(out.audio[0, 1200], q / (4 * np.pi * 17.0)))
+    True
+
+    Data this slow sound below 20 Hz: ``auto`` extends them; ``tonal``
+    gives monopoles their noise band:
+
+    >>> render_timbre(tr, path, timbre="auto", rate=8000).meta["timbre"]
+    'extended'
+    >>> render_timbre(tr, path, timbre="tonal", rate=8000).meta["carriers"]
+    {'monopole': ['noise', 177.0, 354.0]}
     """
     if timbre not in (*TIMBRES, "auto"):
         raise ParameterError(f"timbre must be one of {', '.join(TIMBRES)} or auto, got {timbre!r}")
@@ -803,10 +1176,31 @@ def render_timbre(
         assert phys is not None
         out = phys
     elif timbre == "extended":
-        out = _extended(tracks, path, kw, bounds, seed, alpha, c0, start, meta, coarse, highpass_hz)
+        out = _extended(
+            tracks,
+            path,
+            kw,
+            bounds=bounds,
+            seed=seed,
+            alpha=alpha,
+            c0=c0,
+            start=start,
+            meta=meta,
+            coarse=coarse,
+            highpass_hz=highpass_hz,
+        )
     else:
         out = _tonal(
-            tracks, path, kw, bounds, seed, carriers or TONAL_CARRIERS, c0, start, meta, by_type
+            tracks,
+            path,
+            kw,
+            bounds=bounds,
+            seed=seed,
+            carriers=carriers or TONAL_CARRIERS,
+            c0=c0,
+            start=start,
+            meta=meta,
+            by_type=by_type,
         )
     if meta.get("beta_rule") == "rms":
         notes.append(
@@ -851,7 +1245,25 @@ MIN_ENVELOPE_HZ = 250.0
 def envelope_rate(rate: int, f_cut: float) -> int:
     """Sample rate (Hz, dividing ``rate``) of the envelope renders: ``rate`` / k with k
     the largest divisor of ``rate`` not above ``rate / max(8 f_cut, MIN_ENVELOPE_HZ)`` and
-    :data:`MAX_DECIMATION`."""
+    :data:`MAX_DECIMATION`.
+
+    Parameters
+    ----------
+    rate : int
+        The audio sample rate, Hz.
+    f_cut : float
+        The highest frequency (Hz) the envelopes hold (:func:`cutoff_hz`).
+
+    Returns
+    -------
+    int
+        The envelope rate in Hz (``rate`` itself when no decimation fits).
+
+    Examples
+    --------
+    >>> envelope_rate(48000, 5.0), envelope_rate(44100, 5.0), envelope_rate(8000, 2000.0)
+    (250, 252, 8000)
+    """
     k = int(min(MAX_DECIMATION, max(1.0, rate // max(8.0 * f_cut, MIN_ENVELOPE_HZ))))
     while rate % k:
         k -= 1
@@ -902,13 +1314,14 @@ def _envelope_render(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     f_cut: float,
     bounds: tuple[float, ...] | None,
     c0: float,
 ) -> Rendered:
     """:func:`change_envelope` in every channel, taken at the envelope rate (sources
     merged as :func:`_joined`) and interpolated to the audio rate."""
-    coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    coarse, n, k = _envelope_coarse(tracks, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
     return _upsampled(coarse, coarse.audio, n, k)
 
 
@@ -916,6 +1329,7 @@ def _envelope_coarse(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     f_cut: float,
     bounds: tuple[float, ...] | None,
     c0: float,
@@ -997,7 +1411,31 @@ def _lerp_weights(n: int, k: int) -> tuple[NDArray[Any], ...]:
 
 def cutoff_hz(tracks: SourceTracks, time_scale: float) -> float:
     """Nyquist frequency of the data's time stepping in playback time (Hz): the
-    ``extended`` cut-off (paper 001 §4 uses the simulation's Nyquist, 180 Hz)."""
+    ``extended`` cut-off f_cut (paper 001 §4 and Table 1 use the simulation's
+    Nyquist, 180 Hz).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources; the median step of their ``times (T,)`` (s) is the
+        data's step (1 s for a single step).
+    time_scale : float
+        Playback seconds per data second.
+
+    Returns
+    -------
+    float
+        ``0.5 / (step * time_scale)`` in Hz.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)),
+    ...                   radius=np.full(1, 0.05), times=np.arange(4) * 0.1)
+    >>> round(cutoff_hz(tr, 1.0), 9), round(cutoff_hz(tr, 0.1), 9)  # data played 10x faster
+    (5.0, 50.0)
+    """
     return 0.5 / (_data_step(tracks) * time_scale)
 
 
@@ -1005,6 +1443,7 @@ def _extended(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     bounds: tuple[float, ...] | None,
     seed: int,
     alpha: float,
@@ -1034,7 +1473,7 @@ def _extended(
     if n < 4:
         meta["beta"] = 0.0
         return render_tracks(tracks, path, bounds=bounds, **kw)
-    env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut, bounds, c0)
+    env_c, _, _ = _envelope_coarse(tracks, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
     env = _upsampled(env_c, env_c.audio, n, k)
 
     def shape(f: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -1223,6 +1662,7 @@ def _tonal(
     tracks: SourceTracks,
     path: ListenerPath,
     kw: dict[str, Any],
+    *,
     bounds: tuple[float, ...] | None,
     seed: int,
     carriers: dict[str, tuple[Any, ...]],
@@ -1261,7 +1701,7 @@ def _tonal(
         sub = by_type.get(name)
         if sub is None or sub.n_sources == 0 or name not in carriers or not peak.get(name):
             continue
-        env = _envelope_render(sub, path, kw, f_cut, bounds, c0)
+        env = _envelope_render(sub, path, kw, f_cut=f_cut, bounds=bounds, c0=c0)
         if float(np.max(np.abs(env.audio), initial=0.0)) > 0:
             env.audio *= top / peak[name]
             envs[name] = env
@@ -1287,6 +1727,7 @@ def _tonal(
 
             def carrier(
                 clock: _Clock,
+                *,
                 band: Any = band,
                 code: int = code,
                 f_lo: float = f_lo,

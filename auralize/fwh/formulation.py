@@ -163,9 +163,9 @@ def fwh_pressure_from_sources(
     Q: NDArray[np.float64],
     L: NDArray[np.float64],
     surface: Surface,
+    *,
     observers: Any,
     t: Any,
-    *,
     c0: float = C0,
 ) -> NDArray[np.float64]:
     """Formulation 1A (stationary surface) from sampled sources.
@@ -307,7 +307,9 @@ def fwh_pressure(
         rho0=smp.rho0,
         surface_velocity=None if smp.surface.stationary else smp.surface.velocity,
     )
-    return fwh_pressure_from_sources(smp.times, Q, L, smp.surface, observers, times, c0=smp.c0)
+    return fwh_pressure_from_sources(
+        smp.times, Q, L, smp.surface, observers=observers, t=times, c0=smp.c0
+    )
 
 
 def _samples(

@@ -890,7 +890,9 @@ def _layout(b: _Backend, *, source: str) -> _Layout:
             c = np.arange(int(first.shape[first.dims.index(d)]), dtype=np.float64)
         c_units = _text(cv.attrs.get("units", "")).strip() if cv is not None else ""
         axes.append(_Axis(d, letter, c, c_units, _axis_kind(d, cv, letter)))
-    vertical = _vertical_3d(b, first, spatial, axes, time_dim, opts.axis_scale, source=source)
+    vertical = _vertical_3d(
+        b, first, spatial, axes, time_dim=time_dim, scale=opts.axis_scale, source=source
+    )
     if vertical is not None:  # the levels' own values stand for the index (a monotonic one)
         raw = axes[0].raw
         raw = raw if _monotonic(raw) else np.arange(raw.size, dtype=np.float64)
@@ -1192,9 +1194,9 @@ def _vertical_3d(
     var: _Var,
     spatial: tuple[str, ...],
     axes: list[_Axis],
+    *,
     time_dim: str | None,
     scale: tuple[float, float, float] | None,
-    *,
     source: str,
 ) -> tuple[NDArray[np.float64], str] | None:
     """A height per point ``(nz, ny, nx)`` in metres (CF order, as the file holds it) and

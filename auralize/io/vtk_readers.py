@@ -1288,7 +1288,9 @@ def read_with_pyvista(
     >>> img = pv.ImageData(dimensions=(4, 3, 2), spacing=(0.5, 0.5, 0.5))
     >>> img.point_data["density"] = np.arange(24.0)
     >>> f = pathlib.Path(tempfile.mkdtemp()) / "scan.nii"
-    >>> img.save(f)
+    >>> from vtkmodules.vtkIOImage import vtkNIFTIImageWriter  # a NIfTI file, as scanners write
+    >>> w = vtkNIFTIImageWriter()
+    >>> w.SetFileName(str(f)); w.SetInputData(img); w.Write()
     >>> vol = read_with_pyvista(f)
     >>> vol.dims, vol.n_steps, float(np.nanmax(vol.frame(vol.field_names[0], 0)))
     ((4, 3, 2), 1, 23.0)

@@ -157,7 +157,7 @@ class _InlinerCopy:
         return _copy.deepcopy(x, memo)
 
 
-def _inline_function(
+def _inline_function(  # noqa: PLR0917 (numba's method, its signature)
     self: Any, caller_ir: Any, block: Any, i: int, function: Any, arg_typs: Any = None
 ) -> tuple[Any, ...]:
     """numba's ``InlineWorker.inline_function`` (the ``inline="always"`` inliner of the

@@ -107,10 +107,26 @@ TARGET_ERROR = 0.02
 class Heard:
     """What a render hears.
 
-    ``mode`` ``"field"`` (the whole field, every valid point) or
-    ``"detected"`` (paper 003's detected sources); ``types`` the source types
-    heard (the others muted).  In ``field`` mode the types are its terms
-    (:data:`FIELD_TERMS`).
+    Built from a user's spec by :func:`parse_heard`, which checks it (the
+    class itself takes its fields as given).
+
+    Parameters
+    ----------
+    mode : {"field", "detected"}
+        ``"field"`` (the whole field, every valid point, no threshold) or
+        ``"detected"`` (paper 003's detected sources, §3.2.3–3.2.4).
+    types : tuple of str
+        The source types heard (the others muted), in the order of
+        :data:`auralize.sources.detection.TYPES`.  In ``field`` mode the types
+        are its terms (:data:`FIELD_TERMS`: ``"monopole"`` the continuity
+        residual, ``"quadrupole"`` Lighthill's stress).
+
+    Examples
+    --------
+    >>> Heard()
+    Heard(mode='field', types=('monopole', 'quadrupole'))
+    >>> Heard("detected", ("dipole",)).label
+    'detected:dipole'
     """
 
     mode: str = "field"
@@ -118,14 +134,38 @@ class Heard:
 
     @property
     def label(self) -> str:
-        """``field``, ``detected``, or the mode and the types heard (``detected:dipole,quadrupole``)."""
+        """``field``, ``detected``, or the mode and the types heard (``detected:dipole,quadrupole``).
+
+        A spec :func:`parse_heard` reads (types in the order of
+        :data:`auralize.sources.detection.TYPES`).
+
+        Examples
+        --------
+        >>> Heard().label, Heard("field", ("quadrupole",)).label
+        ('field', 'field:quadrupole')
+        >>> parse_heard(Heard("detected", ("monopole", "dipole")).label).types
+        ('monopole', 'dipole')
+        """
         every = FIELD_TERMS if self.mode == "field" else TYPES
         if tuple(self.types) == tuple(every):
             return self.mode
         return f"{self.mode}:{','.join(self.types)}"
 
     def describe(self) -> str:
-        """One phrase for reports: what was heard."""
+        """One phrase for reports: what was heard.
+
+        Returns
+        -------
+        str
+            ``"whole field: "`` and its terms, or ``"detected "`` and the types.
+
+        Examples
+        --------
+        >>> Heard().describe()
+        'whole field: mass sources (continuity residual) + Lighthill stress'
+        >>> Heard("detected", ("dipole", "quadrupole")).describe()
+        'detected dipole, quadrupole'
+        """
         if self.mode == "field":
             parts = {
                 "monopole": "mass sources (continuity residual)",
@@ -143,6 +183,27 @@ def parse_heard(spec: str | Heard | None) -> Heard:
     (``"dipole,quadrupole"``: the detected sources of those types) or
     ``"field:quadrupole"`` (one term of the whole field).
 
+    Parameters
+    ----------
+    spec : str, Heard or None
+        ``"field"`` or None (the default: the whole field, both terms),
+        ``"field:TERMS"``, ``"detected"``, ``"detected:TYPES"`` or bare
+        ``TYPES`` (detected sources); TYPES separated by commas, ``+`` or
+        spaces, case-insensitive, plurals accepted.  A :class:`Heard` is
+        returned as it is.
+
+    Returns
+    -------
+    Heard
+        The types in the order of :data:`auralize.sources.detection.TYPES`.
+
+    Raises
+    ------
+    ParameterError
+        A type that is not a source type (``detected``) or not a term of the
+        whole field (``field``), or separators and no type (``"detected:,"``;
+        nothing after the colon means every type).
+
     Examples
     --------
     >>> parse_heard("detected").types
@@ -151,6 +212,12 @@ def parse_heard(spec: str | Heard | None) -> Heard:
     'detected:dipole,quadrupole'
     >>> parse_heard("field:quadrupole").describe()
     'whole field: Lighthill stress'
+    >>> parse_heard("Quadrupoles + monopoles").label
+    'detected:monopole,quadrupole'
+    >>> parse_heard("field:dipole")
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ParameterError: heard 'field:dipole': 'dipole' is not a term of the whole field; ...
     """
     if isinstance(spec, Heard):
         return spec
@@ -178,21 +245,87 @@ def parse_heard(spec: str | Heard | None) -> Heard:
 def mass_flux_rule(mapping: AcousticMapping, volume: TimeVolume) -> str:
     """How the continuity residual of ``mapping`` is made: ``"mapped"`` (∂ρ̃/∂t +
     ∇·(ρ̃v)), ``"constant"`` (ρ0 ∇·v: the incompressible mapping) or ``"none"``
-    (∂ρ̃/∂t: no velocity, or a mapping whose velocity is not a flow)."""
+    (∂ρ̃/∂t, paper 003's monopole: no velocity, or a mapping whose velocity
+    is not a flow).
+
+    Parameters
+    ----------
+    mapping : AcousticMapping
+        The acoustic mapping (its ``mass_flux`` attribute names the rule).
+    volume : TimeVolume
+        The volume it maps.
+
+    Returns
+    -------
+    str
+        ``"mapped"``, ``"constant"`` or ``"none"``.
+
+    Examples
+    --------
+    >>> from auralize.datasets.synthetic import make_monopole, make_spinning
+    >>> from auralize.sources.mapping import get_mapping
+    >>> mass_flux_rule(get_mapping("identity"), make_monopole(size=4, steps=2))  # density only
+    'none'
+    >>> mass_flux_rule(get_mapping("identity"), make_spinning(size=4, steps=2))  # and velocity
+    'mapped'
+    """
     if not has_flow(mapping, volume):
         return "none"
     return str(getattr(mapping, "mass_flux", "mapped"))
 
 
 def has_flow(mapping: AcousticMapping, volume: TimeVolume) -> bool:
-    """Whether ``mapping`` gives ``volume`` a velocity (else no stress term)."""
+    """Whether ``mapping`` gives ``volume`` a velocity (else no stress term).
+
+    Parameters
+    ----------
+    mapping : AcousticMapping
+        The acoustic mapping.
+    volume : TimeVolume
+        The volume it maps.
+
+    Returns
+    -------
+    bool
+        False when the mapping reports the quadrupole strength unavailable
+        for ``volume`` (no velocity field).
+
+    Examples
+    --------
+    >>> from auralize.datasets.synthetic import make_monopole, make_spinning
+    >>> from auralize.sources.mapping import get_mapping
+    >>> m = get_mapping("identity")
+    >>> has_flow(m, make_monopole(size=4, steps=2)), has_flow(m, make_spinning(size=4, steps=2))
+    (False, True)
+    """
     return not mapping.unavailable(volume).get("quadrupole")
 
 
 @dataclass
 class BlockPlan:
     """How the field's points are grouped: blocks of ``block`` points per axis
-    (x, y, z), ``proxies`` Chebyshev nodes per axis in each."""
+    (x, y, z), ``proxies`` Chebyshev nodes per axis in each.
+
+    Made by :func:`block_plan`.
+
+    Parameters
+    ----------
+    block : tuple of 3 int
+        Points per block along x, y, z.
+    proxies : tuple of 3 int
+        Proxy points (Chebyshev nodes) per block along x, y, z; as many as
+        the block's points: the block is heard as its points.
+    size : float
+        The largest block extent, m.
+    rule : str
+        Why this block size (for reports).
+
+    Examples
+    --------
+    >>> plan = BlockPlan(block=(8, 8, 8), proxies=(6, 6, 6), size=0.14)
+    >>> plan.compresses
+    True
+    """
 
     block: tuple[int, int, int]
     proxies: tuple[int, int, int]
@@ -203,6 +336,13 @@ class BlockPlan:
 
     @property
     def compresses(self) -> bool:
+        """Whether any axis has fewer proxies than points (the blocks are compressed).
+
+        Examples
+        --------
+        >>> BlockPlan(block=(4, 4, 4), proxies=(4, 4, 4), size=0.75).compresses
+        False
+        """
         return any(p < b for p, b in zip(self.proxies, self.block, strict=True))
 
 
@@ -220,6 +360,43 @@ def block_plan(
     data sampled faster than sound crosses a few cells are not compressed.
     On a curvilinear grid the cell size is its longest edge along each index
     direction (the blocks are index blocks: the largest one sets the bound).
+    The blocks along each axis are as few as the size allows and of equal
+    size, so a block may be smaller than ``block``.
+
+    Parameters
+    ----------
+    volume : TimeVolume
+        Its grid spacing (m), dims and step times (s; the shortest step sets
+        the Nyquist frequency, 1 s for a single step).
+    block : int, optional
+        Points per block axis (1 hears every point as itself); default by the
+        rule above.
+    proxies : int
+        Chebyshev nodes per block axis, >= 2 (at most the block's points).
+    c0 : float
+        Speed of sound, m/s.
+
+    Returns
+    -------
+    BlockPlan
+
+    Raises
+    ------
+    ParameterError
+        ``proxies`` below 2, or ``block`` not a positive whole number.
+
+    Examples
+    --------
+    Data sampled at 2880 Hz on 2 cm cells: the rule allows blocks of up to
+    17.5 cm with 6 proxies per axis, so this grid of 8 points per axis
+    (14 cm) is one block, compressed:
+
+    >>> from auralize.datasets.synthetic import make_spinning
+    >>> plan = block_plan(make_spinning(size=8, steps=4))
+    >>> plan.block, plan.proxies, plan.compresses
+    ((8, 8, 8), (6, 6, 6), True)
+    >>> block_plan(make_spinning(size=8, steps=4), block=1).compresses
+    False
     """
     h = np.asarray(volume.spacing, dtype=np.float64)
     if volume.coords is not None:
@@ -291,9 +468,32 @@ def _trapezoid(dims: tuple[int, int, int], spacing: NDArray[np.float64]) -> NDAr
 class FieldTracks:
     """The whole field's heard sound as engine rows (proxies and points).
 
-    ``positions (R, 3)``; ``q`` per term ``{name: (R, T)}`` (S ΔV of the rows;
-    the proxies' Lagrange-weighted sums); ``radius (R,)`` clamp radii; ``times (T,)``;
-    ``meta``: points, blocks, rows, plan and what was heard.
+    Made by :func:`field_tracks`; :meth:`tracks` turns them into the
+    engine's :class:`~auralize.sources.detection.SourceTracks`.
+
+    Parameters
+    ----------
+    positions : ndarray, shape (R, 3)
+        Row positions, m.
+    q : dict of str to ndarray, shape (R, T)
+        Per term (``"monopole"``, ``"quadrupole"``), S·ΔV of the rows (the
+        proxies' Lagrange-weighted sums), as paper 003's q_k (Eqs. 15–17).
+    radius : ndarray, shape (R,)
+        Clamp radii, m (a listener nearer than that is heard from that far).
+    times : ndarray, shape (T,)
+        Data times of the steps, s.
+    meta : dict
+        Points, blocks, rows, the block plan, what was heard, ``c0`` and the
+        grid's diagonal (``diagonal_m``, which :attr:`hold_steps` reads).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ft = FieldTracks(positions=np.zeros((1, 3)), q={"monopole": np.array([[0.0, 1, 2, 3]])},
+    ...                  radius=np.full(1, 0.1), times=np.array([0.0, 0.1, 0.2, 0.3]))
+    >>> tr = ft.tracks()
+    >>> tr.q.tolist(), tr.t_first, tr.t_last
+    ([[0.0, 0.0, 0.0, 1.0, 2.0, 3.0, 3.0, 3.0]], 0.0, 0.3)
     """
 
     positions: NDArray[np.float64]
@@ -301,7 +501,8 @@ class FieldTracks:
     radius: NDArray[np.float64]
     times: NDArray[np.float64]
     meta: dict[str, Any] = field(default_factory=dict)
-    _made: dict[tuple[str, ...], Any] = field(default_factory=dict, repr=False)
+    #: the tracks made so far per term tuple (:meth:`tracks`' cache)
+    _made: dict[tuple[str, ...], Any] = field(default_factory=dict, init=False, repr=False)
 
     def tracks(self, terms: tuple[str, ...] | None = None) -> Any:
         """:class:`~auralize.sources.detection.SourceTracks` of the rows, the terms
@@ -314,6 +515,33 @@ class FieldTracks:
         beyond every arrival that can fall inside a render of the data (the
         engine's silent padding lies past them), so no track fades in or out
         where it can be heard.
+
+        Parameters
+        ----------
+        terms : tuple of str, optional
+            The terms summed (names of :attr:`q`; others are ignored); default all.
+
+        Returns
+        -------
+        SourceTracks
+            ``positions (K, 3)``, ``q (K, T + 4)`` at ``times (T + 4,)`` (two held
+            knots on each side), ``radius (K,)``, ``origin``/``end`` the first and
+            last data times; the same object on every call with these terms.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> ft = FieldTracks(positions=np.zeros((2, 3)),
+        ...                  q={"monopole": np.array([[1.0, 2.0], [0.0, 0.0]]),
+        ...                     "quadrupole": np.array([[0.0, 0.0], [3.0, 4.0]])},
+        ...                  radius=np.full(2, 0.1), times=np.array([0.0, 0.5]))
+        >>> mono = ft.tracks(("monopole",))
+        >>> mono.n_sources, mono.q.tolist(), mono.kind.tolist()
+        (1, [[1.0, 1.0, 1.0, 2.0, 2.0, 2.0]], [[1, 1, 1, 1, 1, 1]])
+        >>> ft.tracks().n_sources, ft.tracks() is ft.tracks()
+        (2, True)
+        >>> mono.times.tolist()  # held over 2 steps on each side
+        [-2.0, -1.0, 0.0, 0.5, 1.5, 2.5]
         """
         from auralize.sources.detection import SourceTracks
 
@@ -356,7 +584,19 @@ class FieldTracks:
     @property
     def hold_steps(self) -> float:
         """Steps over which the first and last values are held (see :meth:`tracks`):
-        enough for sound to cross the data's box, plus two."""
+        enough for sound to cross the data's box, plus two.
+
+        ``ceil(meta["diagonal_m"] / (meta["c0"] · Δt)) + 2`` with Δt the
+        shortest step; 2 for a single step.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> ft = FieldTracks(positions=np.zeros((1, 3)), q={}, radius=np.ones(1),
+        ...                  times=np.arange(4) * 0.001, meta={"diagonal_m": 1.0, "c0": 343.0})
+        >>> ft.hold_steps  # 1 m takes 2.9 steps of 1 ms to cross
+        5.0
+        """
         T = self.times.size
         if T < 2:
             return 2.0
@@ -408,13 +648,32 @@ def field_tracks(
     path : ListenerPath, optional
         Blocks it comes within :data:`NEAR_BLOCKS` block sizes of are heard
         as their points; without a path every block is compressed.
-    block, proxies
-        Block points and proxies per axis (:func:`block_plan`; ``block=1``
-        hears every point as itself).
+    block : int, optional
+        Points per block axis (:func:`block_plan`, default by its rule;
+        ``block=1`` hears every point as itself).
+    proxies : int
+        Proxies (Chebyshev nodes) per block axis, >= 2.
+    c0 : float
+        Speed of sound, m/s: sets the block size (:func:`block_plan`) and how
+        long the tracks are held at the data's ends (:attr:`FieldTracks.hold_steps`).
+    progress_bar : bool
+        Show a progress bar over the steps on stderr.
 
     Returns
     -------
     FieldTracks
+        The rows: the proxies of the compressed blocks, then the points of
+        the blocks near the path; ``q`` per term heard.
+
+    Raises
+    ------
+    DataError
+        A volume of fewer than two steps.
+    ParameterError
+        ``heard`` not the whole field (or not a valid spec), ``steady`` not
+        one of ``"remove"``/``"keep"``, or a bad ``block`` or ``proxies``.
+    FieldError
+        ``mapping`` needs a field ``volume`` does not have.
 
     Examples
     --------
@@ -504,7 +763,9 @@ def field_tracks(
             s = step_strengths(volume, cache, n, buf)
             per["quadrupole"] = s[2]
         if "monopole" in terms:
-            per["monopole"] = _residual(volume, cache, n, flux, floor, res, err, stats)
+            per["monopole"] = _residual(
+                volume, cache, n, flux=flux, floor=floor, out=res, err=err, stats=stats
+            )
         for t, S in per.items():
             w = S * dV
             g = np.pad(w, ((0, pad[0]), (0, pad[1]), (0, pad[2]))) if any(pad) else w
@@ -572,6 +833,7 @@ def _residual(
     volume: TimeVolume,
     cache: StepCache,
     n: int,
+    *,
     flux: str,
     floor: float,
     out: NDArray[np.float64],

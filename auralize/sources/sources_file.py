@@ -42,7 +42,39 @@ VERSION = 1
 
 
 def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
-    """Write a :class:`SourceSeries` to HDF5 atomically."""
+    """Write a :class:`SourceSeries` to HDF5 atomically.
+
+    The layout is the module docstring's (``auralize_format="sources"``,
+    version 1): the grid, the thresholds and ``meta`` (as JSON) in root
+    attributes, the sources of every step as rows.  The file is written to
+    a temporary beside ``path`` and renamed onto it, so a failed write
+    leaves ``path`` as it was.
+
+    Parameters
+    ----------
+    series : SourceSeries
+        The sources of every step (:func:`auralize.sources.detection.detect`).
+    path : str or Path
+        The ``.h5`` file to write (replaced if it exists); its folder must exist.
+
+    Raises
+    ------
+    OutputError
+        The folder cannot be written, the disk has too little space for the
+        file, or a write failed; ``path`` is untouched.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> frame = SourceFrame(index=np.array([0, 7]), kind=np.array([1, 3], dtype=np.int8),
+    ...                     strength=np.array([2.0, -0.5]), radius=np.array([0.1, 0.2]))
+    >>> series = SourceSeries(frames=[frame], times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(2, 2, 2), thresholds=np.zeros(3))
+    >>> save_sources_h5(series, "sources.h5")
+    >>> load_sources_h5("sources.h5").frames[0].strength.tolist()
+    [2.0, -0.5]
+    """
     frames = series.frames
     offsets = np.zeros(len(frames) + 1, dtype=np.int64)
     offsets[1:] = np.cumsum([f.index.size for f in frames])
@@ -82,6 +114,19 @@ def save_sources_h5(series: SourceSeries, path: str | Path) -> None:
 def load_sources_h5(path: str | Path) -> SourceSeries:
     """Read a sources file written by :func:`save_sources_h5`, checking every field.
 
+    Parameters
+    ----------
+    path : str or Path
+        The ``.h5`` sources file.
+
+    Returns
+    -------
+    SourceSeries
+        One frame per step; positions from the grid (``origin``, ``spacing``,
+        ``dims``), or from ``/position`` for sources detected on a curvilinear
+        grid (``coords``, NaN at the points that are no source: see
+        :func:`load_sources_for`).
+
     Raises
     ------
     FormatError
@@ -98,6 +143,25 @@ def load_sources_h5(path: str | Path) -> SourceSeries:
         ``position``) of other lengths; an index outside the grid or listed
         twice in a step; a kind code other than 1, 2, 3; a strength not finite;
         a radius not finite and > 0; a position not where its index lies.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> frame = SourceFrame(index=np.array([0, 7]), kind=np.array([1, 3], dtype=np.int8),
+    ...                     strength=np.array([2.0, -0.5]), radius=np.array([0.1, 0.2]))
+    >>> series = SourceSeries(frames=[frame], times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(2, 2, 2), thresholds=np.zeros(3))
+    >>> save_sources_h5(series, "sources.h5")
+    >>> back = load_sources_h5("sources.h5")
+    >>> back.dims, back.frames[0].kind.tolist(), back.frames[0].radius.tolist()
+    ((2, 2, 2), [1, 3], [0.1, 0.2])
+    >>> back.positions(back.frames[0].index).tolist()  # vertex 7: (x, y, z) = (1, 1, 1) · 0.5 m
+    [[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]
+    >>> load_sources_h5("missing.h5")
+    Traceback (most recent call last):
+    ...
+    auralize.errors.FormatError: sources file 'missing.h5' does not exist
     """
     p = Path(path)
     if not p.exists():
@@ -146,7 +210,7 @@ def _attr(h: h5py.File, p: Path, name: str, *, kinds: str = "iuf") -> np.ndarray
 
 
 def _dataset(
-    h: h5py.File, p: Path, name: str, shape: tuple[int, ...], kinds: str, what: str
+    h: h5py.File, p: Path, name: str, shape: tuple[int, ...], *, kinds: str, what: str
 ) -> np.ndarray:
     """Dataset ``/name`` read after its shape and type are checked."""
     ds = h[name]
@@ -220,7 +284,9 @@ def _read_times(h: h5py.File, p: Path) -> NDArray[np.float64]:
     if not isinstance(t_ds, h5py.Dataset) or t_ds.ndim != 1 or t_ds.shape[0] < 1:
         raise _fault(p, "/time", "must be a 1-D dataset of at least one step time in seconds")
     n_steps = int(t_ds.shape[0])
-    times = _dataset(h, p, "time", (n_steps,), "iuf", "step times (s)").astype(np.float64)
+    times = _dataset(h, p, "time", (n_steps,), kinds="iuf", what="step times (s)").astype(
+        np.float64
+    )
     if not np.all(np.isfinite(times)):
         k = _first(~np.isfinite(times))
         raise _fault(p, f"/time[{k}]", f"= {times[k]} is not finite; step times are finite seconds")
@@ -281,8 +347,8 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
         p,
         "offsets",
         (n_steps + 1,),
-        "iu",
-        f"integer row offsets (one more than the {n_steps} steps)",
+        kinds="iu",
+        what=f"integer row offsets (one more than the {n_steps} steps)",
     ).astype(np.int64)
     if off[0] != 0 or off[-1] != n or np.any(np.diff(off) < 0):
         raise _fault(
@@ -292,7 +358,7 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
             f"decreasing, got {off[:8].tolist()}"
             f"{'...' if off.size > 8 else ''} ending {int(off[-1])}",
         )
-    idx = _dataset(h, p, "index", (n,), "iu", "flat grid indices").astype(np.int64)
+    idx = _dataset(h, p, "index", (n,), kinds="iu", what="flat grid indices").astype(np.int64)
     bad = (idx < 0) | (idx >= n_points)
     if bad.any():
         k = _first(bad)
@@ -301,7 +367,7 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
             f"/index[{k}]",
             f"= {idx[k]} is outside the grid {dims}: valid flat indices are 0..{n_points - 1}",
         )
-    kind = _dataset(h, p, "kind", (n,), "iu", "kind codes")
+    kind = _dataset(h, p, "kind", (n,), kinds="iu", what="kind codes")
     bad = ~np.isin(kind, KIND_CODES)
     if bad.any():
         k = _first(bad)
@@ -311,14 +377,14 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
             f"= {kind[k]} is not a kind code; valid: "
             f"{', '.join(f'{c} {m}' for c, m in KIND_LEGEND.items())}",
         )
-    strength = _dataset(h, p, "strength", (n,), "iuf", "strengths").astype(np.float64)
+    strength = _dataset(h, p, "strength", (n,), kinds="iuf", what="strengths").astype(np.float64)
     bad = ~np.isfinite(strength)
     if bad.any():
         k = _first(bad)
         raise _fault(
             p, f"/strength[{k}]", f"= {strength[k]} is not finite; strengths are finite numbers"
         )
-    radius = _dataset(h, p, "radius", (n,), "iuf", "radii (m)").astype(np.float64)
+    radius = _dataset(h, p, "radius", (n,), kinds="iuf", what="radii (m)").astype(np.float64)
     bad = ~(np.isfinite(radius) & (radius > 0))
     if bad.any():
         k = _first(bad)
@@ -353,13 +419,17 @@ def _read_sources(h: h5py.File, p: Path) -> SourceSeries:
                 "/position",
                 "is missing; sources detected on a curvilinear grid need their positions",
             )
-        pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
+        pos = _dataset(h, p, "position", (n, 3), kinds="iuf", what="positions (m)").astype(
+            np.float64
+        )
         nx, ny, nz = (int(d) for d in dims)
         coords = np.full((nz * ny * nx, 3), np.nan)
         coords[idx] = pos
         series.coords = coords.reshape(nz, ny, nx, 3)
     elif "position" in h:
-        pos = _dataset(h, p, "position", (n, 3), "iuf", "positions (m)").astype(np.float64)
+        pos = _dataset(h, p, "position", (n, 3), kinds="iuf", what="positions (m)").astype(
+            np.float64
+        )
         tol = 1e-6 * float(spacing.min())
         far = ~(np.abs(pos - series.positions(idx)) <= tol + 1e-9 * np.abs(pos)).all(axis=1)
         if far.any():
@@ -385,7 +455,37 @@ def save_sources_pvd(series: SourceSeries, path: str | Path) -> None:
     The folder is written under a fresh name (``NAME_data``, or ``NAME_data.1``
     ... while the previous version holds that name) and the ``.pvd`` replaced
     in one rename (:func:`auralize.runtime.files.write_collection`); an existing
-    ``NAME_data`` that auralize did not write is never replaced.
+    ``NAME_data`` that auralize did not write is never replaced.  Each point
+    set holds the point data ``kind``, ``strength``, ``radius`` (m),
+    ``volume`` (ΔV, m³) and ``rgb`` (the type's colour), and the field data
+    ``kind_code``/``kind_name`` (the legend of the codes).
+
+    Parameters
+    ----------
+    series : SourceSeries
+        The sources of every step.
+    path : str or Path
+        The ``.pvd`` file to write; the data folder goes beside it.
+
+    Raises
+    ------
+    OutputError
+        The data folder's name is taken by a folder auralize did not write
+        for this ``.pvd``, or the files cannot be written.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> frame = SourceFrame(index=np.array([0, 7]), kind=np.array([1, 3], dtype=np.int8),
+    ...                     strength=np.array([2.0, -0.5]), radius=np.array([0.1, 0.2]))
+    >>> series = SourceSeries(frames=[frame], times=np.array([0.0]), origin=np.zeros(3),
+    ...                       spacing=np.full(3, 0.5), dims=(2, 2, 2), thresholds=np.zeros(3))
+    >>> save_sources_pvd(series, "sources.pvd")
+    >>> import pyvista as pv
+    >>> step = pv.read("sources_data/step_0000.vtp")
+    >>> step.n_points, step.point_data["kind"].tolist(), step.point_data["strength"].tolist()
+    (2, [1, 3], [2.0, -0.5])
     """
     import pyvista as pv
 
@@ -426,13 +526,38 @@ def load_sources_for(path: str | Path, volume: Any) -> SourceSeries:
     volume : TimeVolume
         The volume about to be rendered.
 
+    Returns
+    -------
+    SourceSeries
+        The sources; for a curvilinear grid with ``coords`` the volume's own
+        point positions.
+
     Raises
     ------
     FormatError
         ``path`` is a ``.pvd`` or not a sources file.
     DataError
-        The sources belong to another grid (dims, origin, spacing) or other
-        times; the message names both.
+        The sources belong to another grid (dims, origin, spacing, uniform or
+        curvilinear, the curvilinear grid's points) or other times; the
+        message names both.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.datasets.synthetic import make_monopole
+    >>> from auralize.sources.detection import SourceFrame, SourceSeries
+    >>> vol = make_monopole(size=4, steps=2)
+    >>> frames = [SourceFrame(index=np.array([5]), kind=np.array([1], dtype=np.int8),
+    ...                       strength=np.array([1.0]), radius=np.array([0.1]))] * 2
+    >>> series = SourceSeries(frames=frames, times=vol.times, origin=vol.origin,
+    ...                       spacing=vol.spacing, dims=vol.dims, thresholds=np.zeros(3))
+    >>> save_sources_h5(series, "sources.h5")
+    >>> load_sources_for("sources.h5", vol).n_steps
+    2
+    >>> load_sources_for("sources.h5", make_monopole(size=5, steps=2))
+    Traceback (most recent call last):
+    ...
+    auralize.errors.DataError: sources.h5: these sources (...) do not belong to the grid of dataset:monopole: dims (4, 4, 4) vs (5, 5, 5) (sources vs volume); ...
     """
     p = Path(path)
     if p.suffix.lower() == ".pvd":

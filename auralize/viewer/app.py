@@ -1359,7 +1359,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.detect_note.setText("sources are detected when you ask (Detect)")
 
     # ================================================================ data
-    def open_data(
+    def open_data(  # noqa: PLR0913 (keyword-only options)
         self,
         spec: str | Path,
         *,
@@ -2652,8 +2652,8 @@ class MainWindow(QtWidgets.QMainWindow):
         t = Task(label, work, self)
         self._overlay_tasks[name] = t
         self._threads.add(t)
-        t.succeeded.connect(lambda r: self._overlay_step_done(name, t, vol, path, n, r))
-        t.failed.connect(lambda e: self._overlay_step_done(name, t, vol, path, n, e))
+        t.succeeded.connect(lambda r: self._overlay_step_done(name, t, vol, path, n=n, result=r))
+        t.failed.connect(lambda e: self._overlay_step_done(name, t, vol, path, n=n, result=e))
         t.finished.connect(lambda: self._forget_thread(t))
         t.start()
         self._overlay_progress()
@@ -2666,7 +2666,7 @@ class MainWindow(QtWidgets.QMainWindow):
         t.deleteLater()
 
     def _overlay_step_done(
-        self, name: str, t: Task, vol: Any, path: Any, n: int, result: Any
+        self, name: str, t: Task, vol: Any, path: Any, *, n: int, result: Any
     ) -> None:
         """A computed overlay step arrived on the UI thread: draw it if it is still the
         current step of the same data, drop it otherwise; then start the step wanted now."""

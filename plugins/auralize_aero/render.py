@@ -184,7 +184,7 @@ def kinematics_reference(
 
 
 @numba.njit(**_NJIT)
-def _kin_kernel(
+def _kin_kernel(  # noqa: PLR0913, PLR0917 (a compiled kernel: its arrays are its arguments)
     p: NDArray[np.float64],
     dp: NDArray[np.float64],
     R: NDArray[np.float64],
@@ -360,7 +360,7 @@ _BLOCK_BYTES = 176
 
 
 @numba.njit(**_NJIT)
-def _q_kernel(
+def _q_kernel(  # noqa: PLR0913, PLR0917 (a compiled kernel: its arrays are its arguments)
     e1: NDArray[np.float64],
     e2: NDArray[np.float64],
     speed: NDArray[np.float64],
@@ -420,18 +420,12 @@ def _q_kernel(
 
 
 def emission_reference(
-    e1a: NDArray[np.float64],
-    e2a: NDArray[np.float64],
-    M: NDArray[np.float64],
-    j0: NDArray[np.int64],
-    j1: NDArray[np.int64],
-    w: NDArray[np.float64],
-    s: NDArray[np.float64],
-    tex: SoundTexture,
-    K: int,
+    table: tuple[NDArray[Any], ...], tex: SoundTexture, K: int
 ) -> NDArray[np.float64]:
     """The samples of the table emitters of :meth:`AeroEmission._emitters`, in numpy (every
-    sample at once): ``G (S, 3, B K)``."""
+    sample at once): ``G (S, 3, B K)``, from the arrays ``(e1a, e2a, M, j0, j1, w, s)`` of
+    :meth:`AeroEmission._table` (``K`` samples a block)."""
+    e1a, e2a, M, j0, j1, w, s = table
     S, B = j0.shape
     frac = np.arange(K) / K
     Mr = M.reshape(S, B, 2, 2)
@@ -563,8 +557,7 @@ class AeroEmission:
         # on: the whole array, no copy; past the emission the signal is zero)
         pos = kin.pos[:, 0] if self.static else kin.pos[:, ja : None if ja == 0 else jb + 2]
         if self.engine == "numpy":
-            e1a, e2a, Mt, j0t, j1t, wt, st = self._table(ja, jb)
-            G = emission_reference(e1a, e2a, Mt, j0t, j1t, wt, st, tex, K)
+            G = emission_reference(self._table(ja, jb), tex, K)
             return Emitters(
                 G,
                 self.rate,
@@ -818,7 +811,7 @@ def emission(
     )
 
 
-def render(
+def render(  # noqa: PLR0913 (keyword-only options)
     texture: SoundTexture,
     obj: AeroObject,
     path: ListenerPath,

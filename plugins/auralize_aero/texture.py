@@ -223,7 +223,7 @@ def _loop(
     return out, N
 
 
-def compute_texture(
+def compute_texture(  # noqa: PLR0913 (keyword-only options)
     section: Section,
     *,
     speed: float = 10.0,

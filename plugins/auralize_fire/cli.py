@@ -98,8 +98,9 @@ def _texture_opts(p: argparse.ArgumentParser, o: Any) -> None:
     p.add_argument("--training-rate", type=o.rate_int, help="rate of a raw .f32 training clip")
 
 
-def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any]) -> None:
-    """Write the emitted signal ``x`` (n,) at ``--rate``, cut or padded to ``--duration``."""
+def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any], *, units: str) -> None:
+    """Write the emitted signal ``x`` (n,) in ``units`` at ``--rate``, cut or padded to
+    ``--duration``."""
     from auralize.audio.output import write_audio
 
     rate = args.rate
@@ -112,6 +113,7 @@ def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any]) -> Non
         limit_pa=args.limit,
         subtype=args.format,
         sidecar={"model": "fire", "signal": "emitted (source, mono)", **info},
+        units=units,
     )
     print(
         f"wrote {args.output}: emitted signal, mono, {x.shape[-1] / rate:.2f} s at "
@@ -121,7 +123,7 @@ def _write(args: argparse.Namespace, x: np.ndarray, info: dict[str, Any]) -> Non
 
 def cmd_lowfreq(args: argparse.Namespace) -> int:
     from auralize_fire.lowfreq import flux_series, lowfreq_pressure
-    from auralize_fire.model import load_volume
+    from auralize_fire.model import MONOPOLE_1M, load_volume
 
     vol = load_volume(args.volume, size=args.size, steps=args.steps)
     t = time.perf_counter()
@@ -132,7 +134,8 @@ def cmd_lowfreq(args: argparse.Namespace) -> int:
         iso=args.iso,
         refine=args.refine,
     )
-    p = lowfreq_pressure(fs, rate=args.rate, highpass_hz=args.highpass)
+    # dI/dt (m³/s²) as the pressure it radiates at 1 m, ρ0/(4π) dI/dt
+    p = MONOPOLE_1M * lowfreq_pressure(fs, rate=args.rate, highpass_hz=args.highpass)
     _write(
         args,
         p,
@@ -142,6 +145,7 @@ def cmd_lowfreq(args: argparse.Namespace) -> int:
             "steps": vol.n_steps,
             "seconds": time.perf_counter() - t,
         },
+        units="Pa at 1 m",
     )
     return 0
 
@@ -162,6 +166,7 @@ def cmd_extend(args: argparse.Namespace) -> int:
             "seed": args.seed,
             "seconds": time.perf_counter() - t,
         },
+        units="the input's units",
     )
     return 0
 
@@ -194,6 +199,7 @@ def cmd_texture(args: argparse.Namespace) -> int:
             "coarse_weight": args.coarse_weight,
             "seconds": time.perf_counter() - t,
         },
+        units="the training clip's units",
     )
     return 0
 

@@ -23,7 +23,7 @@ SHARED = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "fire-low
 MONOPOLE_1M = 1.2 / (4.0 * np.pi)
 
 
-def render_chain(
+def render_chain(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     *,
     extend: str = "bandwidth",
@@ -60,7 +60,7 @@ def render_chain(
     return texture_synthesize(low, clip, levels=levels, eps=eps), fs
 
 
-def fire_sound(
+def fire_sound(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     *,
     extend: str = "bandwidth",
@@ -137,7 +137,7 @@ def fire_sound(
         "front_area": fs.area,
         "extend": extend,
         "moving": moving,
-        "units": "Pa at 1 m",
+        "emitter_units": "Pa at 1 m",
     }
     return Sound([em], meta=meta, name="fire")
 
@@ -208,8 +208,14 @@ class FireSound(SoundModel):
         )
 
     def warm_up(self) -> None:
-        """Compile the fire kernels on a small fire (``auralize warmup --plugins``)."""
+        """Compile the fire kernels on a small fire (``auralize warmup --plugins``): the
+        flame front and flux, and the texture synthesis's kd-tree and search."""
+        from auralize_fire.clips import fire_training_clip
+        from auralize_fire.texture import texture_synthesize
+
         self.synthesize(make_fire(size=12, steps=12), extend="none")
+        rng = np.random.default_rng(0)
+        texture_synthesize(rng.normal(size=256), fire_training_clip(0.05, 8000, seed=0), levels=2)
 
     def overlay(self, inputs: Any, step: int) -> Any:
         """The flame front at ``step`` as pyvista PolyData, cell scalars ``u_dot_n`` (m/s)."""

@@ -407,7 +407,7 @@ def grow_leader(
             hit = len(nodes) - 1
             break
         dirs = _cone_directions(tip_dir, int(n_candidates), rho, rng)  # (T, n, 3)
-        cand, wgt = _weights(fld, tips, dirs, step, gamma, reference)
+        cand, wgt = _weights(fld, tips, dirs, step=step, gamma=gamma, reference=reference)
         tot = wgt.sum(axis=1)
         stuck = np.flatnonzero(tot <= 0)
         if stuck.size:  # re-aim stuck tips along the local field before giving up on them
@@ -415,7 +415,7 @@ def grow_leader(
             gn = np.linalg.norm(g, axis=1, keepdims=True)
             aim = np.where(gn > 0, g / np.where(gn > 0, gn, 1.0), tip_dir[stuck])
             d2 = _cone_directions(aim, int(n_candidates), rho, rng)
-            c2, w2 = _weights(fld, tips[stuck], d2, step, gamma, reference)
+            c2, w2 = _weights(fld, tips[stuck], d2, step=step, gamma=gamma, reference=reference)
             dirs[stuck], cand[stuck], wgt[stuck] = d2, c2, w2
             tot = wgt.sum(axis=1)
         alive = tot > 0
@@ -479,6 +479,7 @@ def _weights(
     fld: ElectricField,
     tips: NDArray[np.float64],
     dirs: NDArray[np.float64],
+    *,
     step: float,
     gamma: float,
     reference: str,

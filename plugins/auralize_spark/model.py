@@ -119,7 +119,7 @@ def resolve_source(
     )
 
 
-def make_part(
+def make_part(  # noqa: PLR0913 (keyword-only options)
     source: Any = None,
     *,
     preset: str = "spark-balls",
@@ -194,7 +194,7 @@ def make_part(
     return DischargePart(dis, params, st, t0=t0, seed=seed), fld, timings
 
 
-def simulate(
+def simulate(  # noqa: PLR0913 (keyword-only options)
     source: Any = None,
     listener: ListenerPath | NDArray[np.floating] | None = None,
     *,

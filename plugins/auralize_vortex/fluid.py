@@ -117,7 +117,7 @@ def _advect_velocity(u, v, w, dt_h):  # type: ignore[no-untyped-def]  # pragma: 
 
 
 @numba.njit(cache=True, fastmath=True, error_model="numpy")
-def _advect(q, ox, oy, oz, u, v, w, dt_h):  # type: ignore[no-untyped-def]  # pragma: no cover
+def _advect(q, ox, oy, oz, u, v, w, dt_h):  # type: ignore[no-untyped-def]  # noqa: PLR0917 (a compiled kernel: its arrays are its arguments)  # pragma: no cover
     """Semi-Lagrangian advection of a field ``q`` sampled at cell offsets ``(ox, oy, oz)``.
 
     Linear back-trace with the velocity sampled trilinearly at the point.

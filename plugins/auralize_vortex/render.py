@@ -221,7 +221,7 @@ class LoopedTexture:
 
 
 @numba.njit(cache=True)
-def _lookup(rows, speeds, u, pos, u4, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+def _lookup(rows, speeds, u, pos, u4, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917 (a compiled kernel: its arrays are its arguments)  # pragma: no cover
     """Bilinear texture read: speed rows blended linearly, time linearly, periodic in time."""
     U, period = rows.shape
     S, n = u.shape
@@ -263,7 +263,7 @@ def _law(attenuation: str | float) -> str | float:
     return attenuation
 
 
-def vortex_emitters(
+def vortex_emitters(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     texture: Texture,
     *,
@@ -470,7 +470,7 @@ def vortex_sound(
 
 
 # -------------------------------------------------------------------- render
-def render_vortex(
+def render_vortex(  # noqa: PLR0913 (keyword-only options)
     volume: TimeVolume,
     path: ListenerPath,
     texture: Texture,

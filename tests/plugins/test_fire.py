@@ -554,3 +554,45 @@ def test_cli_emitted_signal_output_options(tmp_path: Path, candle: np.ndarray) -
     )
     a, r, _ = read_wav(low)
     assert r == 16000 and a.shape == (1, 160)
+
+
+def test_sidecar_units_say_what_the_samples_hold(tmp_path: Path) -> None:
+    """``fire lowfreq`` writes the pressure at 1 m (ρ0/(4π) dI/dt), ``fire render`` the
+    pressure at the listener; each sidecar says so, in pascals without normalisation."""
+    import json
+
+    from auralize_fire.lowfreq import flux_series, lowfreq_pressure
+    from auralize_fire.model import MONOPOLE_1M, load_volume
+
+    from auralize.audio import read_wav
+    from auralize.cli import main
+
+    data = ["dataset:fire", "--size", "12", "--steps", "8"]
+    low = tmp_path / "low.wav"
+    assert main(["fire", "lowfreq", *data, "-o", str(low), "--normalize", "none"]) == 0
+    side = json.loads(Path(str(low) + ".json").read_text())
+    assert side["units"] == "Pa at 1 m" and side["signal"] == "emitted (source, mono)"
+    vol = load_volume("dataset:fire", size=12, steps=8)
+    expect = MONOPOLE_1M * lowfreq_pressure(flux_series(vol), rate=RATE, highpass_hz=30.0)
+    got = read_wav(low)[0][0]
+    np.testing.assert_allclose(got, expect.astype(np.float32), rtol=1e-6, atol=1e-12)
+    peak = tmp_path / "peak.wav"
+    assert main(["fire", "lowfreq", *data, "-o", str(peak)]) == 0
+    assert json.loads(Path(str(peak) + ".json").read_text())["units"].endswith(" Pa at 1 m")
+    ren = tmp_path / "ren.wav"
+    argv = ["-o", str(ren), "--listener", "0,1,0.2", "--duration", "0.02", "--normalize", "none"]
+    assert main(["fire", "render", *data, *argv]) == 0
+    side = json.loads(Path(str(ren) + ".json").read_text())
+    assert side["units"] == "Pa" and side["emitter_units"] == "Pa at 1 m"
+
+
+def test_warm_up_compiles_what_the_texture_commands_use() -> None:
+    """``auralize warmup --plugins`` leaves nothing for ``fire texture`` to compile: after
+    ``FireSound.warm_up`` the kd-tree kernels have their signatures (from the cache
+    or compiled)."""
+    from auralize_fire import _kernels
+    from auralize_fire.model import FireSound
+
+    FireSound().warm_up()
+    for kernel in (_kernels.kd_build, _kernels.synth_level):
+        assert kernel.signatures, kernel.__name__
