@@ -151,16 +151,23 @@ def compile_ahead(groups: list[str]) -> Any:
     """Start compiling kernel ``groups`` (of :data:`GROUPS`) in a background process,
     one after the other, while this process goes on: a command that needs them
     later finds them in the cache (numba loads a kernel from the cache when it is
-    first called).  Returns the process (``join()`` waits for it), or None when the
-    cache already holds the groups' kernels (nothing to do).
+    first called).  Returns the process (:class:`Background`: ``join()`` waits for it),
+    or None when the cache already holds the groups' kernels (nothing to do).
 
     Two cores compile two kernels at once: the synthesis kernels compile there while
     this process compiles and runs the detection.  The synthesis waits for the
     background process before it first calls a kernel that process compiles
     (:func:`auralize.runtime.jit.await_kernel`): the kernel then loads from the
     cache, and the wait is the rest of that compile, not a compile of its own.
+
+    The process is a fresh interpreter (``python -c``) on this one's module path,
+    not a ``multiprocessing`` child, which would import the calling script again
+    (a script without an ``if __name__ == "__main__"`` guard would run again in
+    it); it is stopped if this process exits first.
     """
-    import multiprocessing
+    import atexit
+    import subprocess
+    import sys
 
     from auralize.runtime.jit import compiling_elsewhere, configure
 
@@ -168,11 +175,39 @@ def compile_ahead(groups: list[str]) -> Any:
     todo = [g for g in groups if not group_cached(g)]
     if not todo:
         return None
-    ctx = multiprocessing.get_context("spawn")
-    proc = ctx.Process(target=_compile_quietly, args=(todo,), daemon=True, name="auralize-warmup")
-    proc.start()
+    code = f"from auralize.warmup import _compile_quietly; _compile_quietly({todo!r})"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    proc = Background(
+        subprocess.Popen(
+            [sys.executable, "-c", code],
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    )
+    atexit.register(proc.stop)
     compiling_elsewhere([".".join(_GROUP_KERNELS[g]) for g in todo if g in _GROUP_KERNELS], proc)
     return proc
+
+
+class Background:
+    """A background compile (:func:`compile_ahead`): ``is_alive()``, ``join()`` (wait
+    for it) and ``stop()`` (end it, if it still runs) of its process."""
+
+    def __init__(self, popen: Any) -> None:
+        self.popen = popen
+
+    def is_alive(self) -> bool:
+        return bool(self.popen.poll() is None)
+
+    def join(self) -> None:
+        self.popen.wait()
+
+    def stop(self) -> None:
+        if self.is_alive():
+            self.popen.terminate()
+            self.popen.wait()
 
 
 def _compile_quietly(groups: list[str]) -> None:

@@ -9,6 +9,7 @@ numba specializes on).
 from __future__ import annotations
 
 import logging
+import os
 
 import numba
 import numpy as np
@@ -475,27 +476,47 @@ def test_waiting_for_a_background_compile_is_announced(caplog, monkeypatch) -> N
 
 
 def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    started: list[list[str]] = []
+    """The groups not cached are compiled by a fresh interpreter (``python -c``: the
+    calling script is not imported again), on this process's module path."""
+    import subprocess
+    import sys
 
-    class Proc:
-        def __init__(self, target, args, **kw) -> None:  # type: ignore[no-untyped-def]
-            started.append(list(args[0]))
+    started: list[tuple[list[str], dict[str, str]]] = []
 
-        def start(self) -> None:
-            pass
+    class Popen:
+        def __init__(self, cmd, env, **kw) -> None:  # type: ignore[no-untyped-def]
+            started.append((cmd, env))
 
-    import multiprocessing
+        def poll(self) -> int:
+            return 0
 
-    class Ctx:
-        Process = Proc
-
-    monkeypatch.setattr(multiprocessing, "get_context", lambda method: Ctx)
+    monkeypatch.setattr(subprocess, "Popen", Popen)
     monkeypatch.setattr(jit, "_BACKGROUND", [])  # (the fake process is forgotten after)
     monkeypatch.setattr(warmup, "group_cached", lambda g: g == "runs")
-    assert warmup.compile_ahead(["pieces", "runs"]) is not None
-    assert started == [["pieces"]]
+    proc = warmup.compile_ahead(["pieces", "runs"])
+    assert isinstance(proc, warmup.Background) and not proc.is_alive()
+    [(cmd, env)] = started
+    assert cmd[:2] == [sys.executable, "-c"]
+    assert "_compile_quietly(['pieces'])" in cmd[2]
+    assert (
+        env["PYTHONPATH"].split(os.pathsep)[: len(sys.path[1:])]
+        == [p for p in sys.path if p][: len(sys.path[1:])]
+    )
     assert [sorted(names) for names, _, _ in jit._BACKGROUND] == [
         ["auralize.emitters._kernels.render_pieces.render_task"]
     ]
     monkeypatch.setattr(warmup, "group_cached", lambda g: True)
     assert warmup.compile_ahead(["pieces", "runs"]) is None and len(started) == 1
+
+
+def test_a_background_compile_is_stopped_at_exit() -> None:
+    import subprocess
+    import sys
+
+    proc = warmup.Background(
+        subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    )
+    assert proc.is_alive()
+    proc.stop()  # (what compile_ahead registers with atexit)
+    assert not proc.is_alive() and proc.popen.returncode != 0
+    proc.stop()  # ended: nothing to do
