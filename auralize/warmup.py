@@ -193,7 +193,8 @@ def compile_ahead(groups: list[str]) -> Any:
 
 class Background:
     """A background compile (:func:`compile_ahead`): ``is_alive()``, ``join()`` (wait
-    for it) and ``stop()`` (end it, if it still runs) of its process."""
+    for it), ``cpu_seconds()`` (what it has used) and ``stop()`` (end it, if it still
+    runs) of its process."""
 
     def __init__(self, popen: Any) -> None:
         self.popen = popen
@@ -203,6 +204,15 @@ class Background:
 
     def join(self) -> None:
         self.popen.wait()
+
+    def cpu_seconds(self) -> float | None:
+        """CPU seconds the process has used so far (Linux: from ``/proc``; None
+        elsewhere, or when it has ended)."""
+        try:
+            fields = Path(f"/proc/{self.popen.pid}/stat").read_text().rsplit(")", 1)[1].split()
+            return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        except (OSError, ValueError, IndexError, AttributeError):
+            return None
 
     def stop(self) -> None:
         if self.is_alive():

@@ -27,6 +27,11 @@ def test_the_first_notice_is_held_against_its_module() -> None:
     err, _ = _estimate_error([[DETECT, 3.0]], compiled)
     assert err == pytest.approx(3.0 / 4.0 - 1.0)
     assert _estimate_error([], compiled) == (0.0, "")
+    # a kernel of the module announced on its own is not in the first notice's figure
+    sweep = "auralize.sources._kernels._floor_sweep"
+    big = 2.0 * NOTICE_AGAIN_SECONDS
+    err, _ = _estimate_error([[DETECT, 4.0], [sweep, big]], [*compiled, [sweep, big]])
+    assert err == pytest.approx(0.0)
 
 
 def test_cold_runs_measure_wall_and_cpu_with_their_own_cache(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -459,6 +459,8 @@ def test_waiting_for_a_background_compile_is_announced(caplog, monkeypatch) -> N
             self.joined = True
 
     proc = Proc()
+    proc_cpu = Proc()
+    proc_cpu.cpu_seconds = lambda: 30.0  # type: ignore[attr-defined]
     monkeypatch.setattr(jit, "_BACKGROUND", [])
     monkeypatch.setattr(jit._NOTICE, "notices", [])
     monkeypatch.setattr(jit._NOTICE, "waits", [])
@@ -473,6 +475,16 @@ def test_waiting_for_a_background_compile_is_announced(caplog, monkeypatch) -> N
     assert [n for n, _ in jit.compile_notices()] == [name]
     waits = jit.compile_waits()
     assert [n for n, _ in waits] == [name] and waits[0][1] >= 0.05
+    # a process that tells its CPU time: the estimate less what it has used
+    kernel2 = numba.njit(lambda x: x + 1)
+    name2 = f"{kernel2.py_func.__module__}.{kernel2.py_func.__qualname__}"
+    monkeypatch.setitem(jit.compile_seconds(), name2, 40.0)
+    jit.compiling_elsewhere([name2], proc_cpu)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel2)
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~10 s"), msgs
 
 
 def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # type: ignore[no-untyped-def]
@@ -514,6 +526,8 @@ def test_a_background_compile_is_stopped_at_exit() -> None:
         subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     )
     assert proc.is_alive()
+    used = proc.cpu_seconds()
+    assert used is not None and 0.0 <= used < 60.0  # (Linux: from /proc)
     proc.stop()  # (what compile_ahead registers with atexit)
     assert not proc.is_alive() and proc.popen.returncode != 0
     proc.stop()  # ended: nothing to do

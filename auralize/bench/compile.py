@@ -85,19 +85,21 @@ def _estimate_error(
     announced: a kernel the command waited for while another process compiled it
     against the wait (wall seconds), a kernel announced alone (estimate at least
     :data:`auralize.runtime.jit.NOTICE_AGAIN_SECONDS`) against its own compile, the
-    first notice (a module's cheap kernels) against that module's kernels."""
+    first notice (a module's cheap kernels) against that module's kernels but those
+    announced on their own."""
     from auralize.runtime.jit import NOTICE_AGAIN_SECONDS
 
     waited = {str(n): float(s) for n, s in waits or []}
+    alone = {str(n) for n, e in notices if e >= NOTICE_AGAIN_SECONDS}
     worst, what = 0.0, ""
     for name, est in notices:
         if name in waited:
             took = waited[name]
         elif est >= NOTICE_AGAIN_SECONDS:
             took = sum(s for n, s in compiled if n == name)
-        else:
+        else:  # the module's kernels, but those announced on their own
             module = name.rsplit(".", 1)[0]
-            took = sum(s for n, s in compiled if n.rsplit(".", 1)[0] == module)
+            took = sum(s for n, s in compiled if n.rsplit(".", 1)[0] == module and n not in alone)
         if took <= 0.0:
             continue
         err = est / took - 1.0

@@ -236,8 +236,9 @@ def await_kernel(kernel: Any) -> None:
     already on it).
 
     The wait is announced as a compile is (``compiling kernels, once: ~N s (kernel,
-    in another process; ...)``), N the kernel's estimate less the time the process
-    has had; :func:`compile_waits` lists the waits."""
+    in another process; ...)``), N the kernel's estimate less the CPU time the process
+    has used (its ``cpu_seconds()``; else the time since it started);
+    :func:`compile_waits` lists the waits."""
     func = getattr(kernel, "py_func", None)
     if func is None or getattr(kernel, "overloads", None):
         return
@@ -246,7 +247,9 @@ def await_kernel(kernel: Any) -> None:
         if name not in names or not process.is_alive():
             continue
         t0 = time.monotonic()
-        left = max(estimate_seconds(name) - (t0 - started), DEFAULT_SECONDS)
+        used = getattr(process, "cpu_seconds", lambda: None)()
+        used = t0 - started if used is None else used
+        left = max(estimate_seconds(name) - used, DEFAULT_SECONDS)
         _NOTICE.notices.append((name, left))
         _NOTICE.named.add(name)
         short = ".".join(name.split(".")[-2:])
