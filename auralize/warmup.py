@@ -177,6 +177,9 @@ def compile_ahead(groups: list[str]) -> Any:
         return None
     code = f"from auralize.warmup import _compile_quietly; _compile_quietly({todo!r})"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    from auralize.runtime.jit import group_compile_seconds
+
+    expected = sum(group_compile_seconds().get(g, 0.0) for g in todo)
     proc = Background(
         subprocess.Popen(
             [sys.executable, "-c", code],
@@ -184,7 +187,8 @@ def compile_ahead(groups: list[str]) -> Any:
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
-        )
+        ),
+        expected_cpu=expected or None,
     )
     atexit.register(proc.stop)
     compiling_elsewhere([".".join(_GROUP_KERNELS[g]) for g in todo if g in _GROUP_KERNELS], proc)
@@ -193,11 +197,13 @@ def compile_ahead(groups: list[str]) -> Any:
 
 class Background:
     """A background compile (:func:`compile_ahead`): ``is_alive()``, ``join()`` (wait
-    for it), ``cpu_seconds()`` (what it has used) and ``stop()`` (end it, if it still
-    runs) of its process."""
+    for it), ``cpu_seconds()`` (what it has used, of its ``expected_cpu``) and
+    ``stop()`` (end it, if it still runs) of its process."""
 
-    def __init__(self, popen: Any) -> None:
+    def __init__(self, popen: Any, expected_cpu: float | None = None) -> None:
         self.popen = popen
+        #: the CPU seconds its groups take (measured: ``auralize/data/compile_seconds.json``)
+        self.expected_cpu = expected_cpu
 
     def is_alive(self) -> bool:
         return bool(self.popen.poll() is None)

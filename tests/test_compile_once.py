@@ -412,6 +412,8 @@ def test_compile_seconds_are_measured_data(monkeypatch, tmp_path) -> None:  # ty
     assert seconds, "auralize/data/compile_seconds.json lists no kernel"
     data = json.loads(jit.COMPILE_SECONDS_FILE.read_text())
     assert data["seconds"] == seconds and data["measured_on"]
+    groups = jit.group_compile_seconds()
+    assert set(groups) == set(warmup.GROUPS) and all(v > 0.0 for v in groups.values())
     for kernel in (
         "auralize.emitters._kernels.render_pieces.render_task",
         "auralize.emitters._kernels.render_runs.render_task",
@@ -485,6 +487,18 @@ def test_waiting_for_a_background_compile_is_announced(caplog, monkeypatch) -> N
         jit.await_kernel(kernel2)
     msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
     assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~10 s"), msgs
+    # ... and one that knows what its groups take: that less what it has used
+    kernel3 = numba.njit(lambda x: x + 2)
+    name3 = f"{kernel3.py_func.__module__}.{kernel3.py_func.__qualname__}"
+    proc_group = Proc()
+    proc_group.cpu_seconds = lambda: 30.0  # type: ignore[attr-defined]
+    proc_group.expected_cpu = 50.0  # type: ignore[attr-defined]
+    jit.compiling_elsewhere([name3], proc_group)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel3)
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~20 s"), msgs
 
 
 def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # type: ignore[no-untyped-def]

@@ -83,19 +83,24 @@ def _estimate_error(
 ) -> tuple[float, str]:
     """The largest relative error of the compile notices' estimates against what they
     announced: a kernel the command waited for while another process compiled it
-    against the wait (wall seconds), a kernel announced alone (estimate at least
+    against the wait (wall seconds), a kernel announced alone (its own estimate at least
     :data:`auralize.runtime.jit.NOTICE_AGAIN_SECONDS`) against its own compile, the
     first notice (a module's cheap kernels) against that module's kernels but those
     announced on their own."""
-    from auralize.runtime.jit import NOTICE_AGAIN_SECONDS
+    from auralize.runtime.jit import DEFAULT_SECONDS, NOTICE_AGAIN_SECONDS, compile_seconds
 
     waited = {str(n): float(s) for n, s in waits or []}
-    alone = {str(n) for n, e in notices if e >= NOTICE_AGAIN_SECONDS}
+    # (as the notice decides: a kernel of its own estimate >= NOTICE_AGAIN_SECONDS alone)
+    alone = {
+        str(n)
+        for n, _ in notices
+        if compile_seconds().get(str(n), DEFAULT_SECONDS) >= NOTICE_AGAIN_SECONDS
+    }
     worst, what = 0.0, ""
     for name, est in notices:
         if name in waited:
             took = waited[name]
-        elif est >= NOTICE_AGAIN_SECONDS:
+        elif name in alone:
             took = sum(s for n, s in compiled if n == name)
         else:  # the module's kernels, but those announced on their own
             module = name.rsplit(".", 1)[0]

@@ -78,6 +78,18 @@ def compile_seconds() -> dict[str, float]:
         return {}
 
 
+@functools.cache
+def group_compile_seconds() -> dict[str, float]:
+    """CPU seconds of each kernel group of ``auralize warmup`` compiled from an empty
+    cache in a process of its own (its helpers and the imports it triggers included),
+    from the same measurement as :func:`compile_seconds`."""
+    try:
+        data = json.loads(COMPILE_SECONDS_FILE.read_text())
+        return {str(k): float(v) for k, v in data["groups_cpu_seconds"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+
+
 DEFAULT_SECONDS = 2.0
 #: a kernel at least this dear (seconds) is announced on its own when it starts compiling
 NOTICE_AGAIN_SECONDS = 10.0
@@ -236,9 +248,10 @@ def await_kernel(kernel: Any) -> None:
     already on it).
 
     The wait is announced as a compile is (``compiling kernels, once: ~N s (kernel,
-    in another process; ...)``), N the kernel's estimate less the CPU time the process
-    has used (its ``cpu_seconds()``; else the time since it started);
-    :func:`compile_waits` lists the waits."""
+    in another process; ...)``), N what the process is expected to use (its
+    ``expected_cpu``, else the kernel's estimate) less the CPU time it has used (its
+    ``cpu_seconds()``; else the time since it started); :func:`compile_waits` lists
+    the waits."""
     func = getattr(kernel, "py_func", None)
     if func is None or getattr(kernel, "overloads", None):
         return
@@ -247,9 +260,10 @@ def await_kernel(kernel: Any) -> None:
         if name not in names or not process.is_alive():
             continue
         t0 = time.monotonic()
+        total = getattr(process, "expected_cpu", None) or estimate_seconds(name)
         used = getattr(process, "cpu_seconds", lambda: None)()
         used = t0 - started if used is None else used
-        left = max(estimate_seconds(name) - used, DEFAULT_SECONDS)
+        left = max(total - used, DEFAULT_SECONDS)
         _NOTICE.notices.append((name, left))
         _NOTICE.named.add(name)
         short = ".".join(name.split(".")[-2:])
