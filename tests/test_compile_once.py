@@ -499,6 +499,19 @@ def test_waiting_for_a_background_compile_is_announced(caplog, monkeypatch) -> N
         jit.await_kernel(kernel3)
     msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
     assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~20 s"), msgs
+    # ... on a loaded machine, at the share of a core it has had: 10 CPU-s in 20 s
+    kernel4 = numba.njit(lambda x: x + 3)
+    name4 = f"{kernel4.py_func.__module__}.{kernel4.py_func.__qualname__}"
+    proc_slow = Proc()
+    proc_slow.cpu_seconds = lambda: 10.0  # type: ignore[attr-defined]
+    proc_slow.expected_cpu = 30.0  # type: ignore[attr-defined]
+    jit.compiling_elsewhere([name4], proc_slow)
+    jit._BACKGROUND[-1] = (*jit._BACKGROUND[-1][:2], time.monotonic() - 20.0)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel4)
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~40 s"), msgs
 
 
 def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # type: ignore[no-untyped-def]

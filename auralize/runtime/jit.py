@@ -248,10 +248,10 @@ def await_kernel(kernel: Any) -> None:
     already on it).
 
     The wait is announced as a compile is (``compiling kernels, once: ~N s (kernel,
-    in another process; ...)``), N what the process is expected to use (its
+    in another process; ...)``): what the process is expected to use (its
     ``expected_cpu``, else the kernel's estimate) less the CPU time it has used (its
-    ``cpu_seconds()``; else the time since it started); :func:`compile_waits` lists
-    the waits."""
+    ``cpu_seconds()``), at the share of a core it has had so far (else: less the time
+    since it started, at one core); :func:`compile_waits` lists the waits."""
     func = getattr(kernel, "py_func", None)
     if func is None or getattr(kernel, "overloads", None):
         return
@@ -262,8 +262,11 @@ def await_kernel(kernel: Any) -> None:
         t0 = time.monotonic()
         total = getattr(process, "expected_cpu", None) or estimate_seconds(name)
         used = getattr(process, "cpu_seconds", lambda: None)()
-        used = t0 - started if used is None else used
-        left = max(total - used, DEFAULT_SECONDS)
+        if used is None:  # its wall time, at one core
+            used, rate = t0 - started, 1.0
+        else:  # at the share of a core it has had (less on a loaded machine)
+            rate = min(max(used / max(t0 - started, 1e-3), 0.2), 1.0)
+        left = max(total - used, DEFAULT_SECONDS) / rate
         _NOTICE.notices.append((name, left))
         _NOTICE.named.add(name)
         short = ".".join(name.split(".")[-2:])
