@@ -334,6 +334,8 @@ def estimate_seconds(kernel: str) -> float:
 
 #: the one dtype of a kernel's arrays, by numpy dtype kind
 _KERNEL_DTYPES: dict[str, type] = {"f": np.float64, "i": np.int64, "u": np.int64, "b": np.bool_}
+#: those dtypes (native byte order)
+_KERNEL_FORMS = frozenset(np.dtype(t) for t in (np.float64, np.int64, np.bool_))
 
 
 def kernel_arg(x: Any) -> Any:
@@ -350,6 +352,9 @@ def kernel_arg(x: Any) -> Any:
     float32 array is widened exactly).  Other objects pass unchanged.
     """
     if isinstance(x, np.ndarray):
+        flags = x.flags
+        if x.dtype in _KERNEL_FORMS and flags.c_contiguous and flags.writeable and flags.aligned:
+            return x  # (the usual case, first: every kernel call passes here)
         dt = _KERNEL_DTYPES.get(x.dtype.kind)
         if dt is None:
             raise TypeError(f"kernel arrays are floating, integer or bool, got {x.dtype}")
@@ -369,7 +374,7 @@ def kernel_arg(x: Any) -> Any:
 def kernel_args(*args: Any) -> tuple[Any, ...]:
     """:func:`kernel_arg` of each argument: one compiled signature per kernel, whatever
     the dtype, layout or write flag of the arrays a caller passes."""
-    return tuple(kernel_arg(a) for a in args)
+    return tuple(map(kernel_arg, args))
 
 
 _NOTICE = _CompileNotice()
