@@ -256,7 +256,8 @@ def group_cached(name: str) -> bool:
 
 def measure_compile_seconds(path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """Compile every group of :data:`GROUPS` from an empty cache, each in a process of
-    its own, and write what each kernel took to ``path`` (default
+    its own with a cache of its own (none loads what another compiled; two at a time,
+    on a 2-core machine), and write what each kernel took to ``path`` (default
     :data:`auralize.runtime.jit.COMPILE_SECONDS_FILE`), the data of the compile
     notice's estimates (:func:`auralize.runtime.jit.compile_seconds`).
 
@@ -268,6 +269,7 @@ def measure_compile_seconds(path: str | os.PathLike[str] | None = None) -> dict[
     import json
     import platform
     import tempfile
+    from concurrent.futures import ThreadPoolExecutor
 
     import numba
 
@@ -275,18 +277,13 @@ def measure_compile_seconds(path: str | os.PathLike[str] | None = None) -> dict[
     from auralize.runtime.jit import COMPILE_SECONDS_FILE
 
     path = COMPILE_SECONDS_FILE if path is None else path
-    old = os.environ.get("NUMBA_CACHE_DIR")
     with tempfile.TemporaryDirectory(prefix="auralize-numba-") as tmp:
-        os.environ["NUMBA_CACHE_DIR"] = tmp
-        try:  # one process per group: none finds another's kernels in the cache
-            res = warmup(processes=len(GROUPS))
-        finally:
-            if old is None:
-                os.environ.pop("NUMBA_CACHE_DIR", None)
-            else:
-                os.environ["NUMBA_CACHE_DIR"] = old
-    seconds: dict[str, float] = dict.fromkeys(res["helpers"], 0.0)
-    for name, sec in res["compiled"]:
+        n = max(1, min(2, os.cpu_count() or 1))
+        with ThreadPoolExecutor(n) as pool:  # (threads that wait for the processes)
+            groups = list(pool.map(lambda g: _cold_group(g, Path(tmp) / g), GROUPS))
+    helpers = {h for g in groups for h in g["helpers"]}
+    seconds: dict[str, float] = dict.fromkeys(helpers, 0.0)
+    for name, sec in (c for g in groups for c in g["compiled"]):
         seconds[name] = round(max(seconds.get(name, 0.0), sec), 2)
     data = {
         "about": "CPU seconds to compile each auralize kernel from an empty numba cache "
@@ -295,11 +292,33 @@ def measure_compile_seconds(path: str | os.PathLike[str] | None = None) -> dict[
         "measured_on": f"{platform.machine()}, {os.cpu_count()} cores, python "
         f"{platform.python_version()}, numba {numba.__version__}",
         "date": time.strftime("%Y-%m-%d"),
-        "groups_cpu_seconds": {g["group"]: round(g["cpu_seconds"], 1) for g in res["groups"]},
+        "groups_cpu_seconds": {g["group"]: round(g["cpu_seconds"], 1) for g in groups},
         "seconds": dict(sorted(seconds.items())),
     }
     atomic_write(Path(path), (json.dumps(data, indent=1) + "\n").encode())
     return data
+
+
+def _cold_group(name: str, cache: Path) -> dict[str, Any]:
+    """:func:`compile_group` ``name`` in a fresh interpreter whose kernel cache is the
+    empty folder ``cache``."""
+    import json
+    import subprocess
+    import sys
+
+    code = (
+        "import json, sys; from auralize.warmup import _quiet_worker, compile_group; "
+        "_quiet_worker(); print(json.dumps(compile_group(sys.argv[1])))"
+    )
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(cache),
+        "PYTHONPATH": os.pathsep.join(p for p in sys.path if p),
+    }
+    out = subprocess.run(
+        [sys.executable, "-c", code, name], env=env, capture_output=True, text=True, check=True
+    )
+    return dict(json.loads(out.stdout.strip().splitlines()[-1]))
 
 
 def _tiny_tracks() -> Any:
