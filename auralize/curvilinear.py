@@ -416,6 +416,7 @@ def curvilinear_strengths(
     rho_b: Array,
     dm: Array,
     tt: Array,
+    *,
     inv_dt: float,
     out: Array,
 ) -> None:
@@ -431,6 +432,7 @@ def curvilinear_strengths(
 def curvilinear_errors(
     metric: CurvilinearMetric,
     s: Array,
+    *,
     rho_a2: Array,
     rho_b2: Array,
     dm: Array,
@@ -441,7 +443,7 @@ def curvilinear_errors(
     inv_dt2: float,
 ) -> Array:
     """Discretisation-error estimates ``(3, nz, ny, nx)`` of the strengths ``s``: the
-    Richardson estimates of :func:`auralize.sources._kernels._error_plane` (``|S_h −
+    Richardson estimates of :func:`auralize.sources._kernels._error_point` (``|S_h −
     S_2h| / 3``, the 2h stencil of :func:`index_derivative` with its own metric;
     2Δt in time), 0 at no-data points."""
     err = np.zeros_like(s)
@@ -463,6 +465,7 @@ def curvilinear_residual(
     rho_b: Array,
     rho_a2: Array,
     rho_b2: Array,
+    *,
     m_c: Array,
     inv_dt: float,
     inv_dt2: float,

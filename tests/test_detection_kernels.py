@@ -1,14 +1,16 @@
-"""The fused floor kernel equals the unfused reference (issue "Kernels a newcomer can read", item 4).
+"""The fused detection kernels equal the unfused reference, bit for bit.
 
-:func:`auralize.sources._kernels.floor_strengths` computes the Richardson error
-estimates of the strengths and zeroes those not above ``factor`` times the
-largest estimate of the 27 points around them in one sweep along z, without
-the error array.  Its results must be those of the unfused form, exactly (bit
-for bit, not within a tolerance): the error array of a plain per-point
-reference (written here in Python from the kernel's docstring), then the
-27-point maximum, on random fields with no-data masks and on grids with axes
-of 1 and 2 points (no 2h stencil).  No test here measures time.
-"""
+:func:`auralize.sources._kernels.detect_step` takes the strengths of a step,
+removes the steady state, masks no-data and floors them (the Richardson
+error estimates, zeroing what is not above ``factor`` times the largest
+estimate of the 27 points around) in one sweep along z, without the arrays
+of the step.  Its results must be those of the passes one after the other
+over whole arrays, exactly (not within a tolerance), for any split of the
+planes into blocks; and the estimates (taken along whole rows where no
+no-data point is near) those of a plain per-point reference written here in
+Python from the kernel's docstring, then the 27-point maximum, on random
+fields with no-data masks and on grids with axes of 1 and 2 points (no 2h
+stencil).  No test here measures time."""
 
 from __future__ import annotations
 
@@ -166,69 +168,228 @@ SHAPES = [(6, 5, 7), (7, 9, 8), (1, 6, 7), (2, 5, 6), (6, 1, 2), (2, 2, 1), (1, 
 
 
 @pytest.mark.parametrize("shape", SHAPES)
-@pytest.mark.parametrize("bad_share", [0.0, 0.08])
+@pytest.mark.parametrize("bad_share", [0.0, 0.08, -1.0])
 @pytest.mark.parametrize("inv_dt2", [0.0, 0.45])
-def test_fused_floor_equals_unfused_reference(
+def test_error_estimates_and_floor_equal_the_python_reference(
     shape: tuple[int, int, int], bad_share: float, inv_dt2: float
 ) -> None:
-    s, rho_a2, rho_b2, dm, dm2, tt, bad = random_step(shape, 7, bad_share)
+    """The plane-by-plane estimates (runs along the rows where no no-data point is near,
+    point by point elsewhere) and the 27-point floor, exactly the per-point reference."""
+    s, rho_a2, rho_b2, dm, dm2, tt, bad = random_step(shape, 7, max(bad_share, 0.0))
+    if bad_share < 0:  # one no-data block: clean rows, rows next to it, rows through it
+        bad[:, :2, 2:4] = True
     h = np.array([0.3, 0.5, 0.7])
     roundoff = np.array([0.5, 0.0, 1.0])
     err = reference_errors(rho_a2, rho_b2, dm, dm2, tt, 0.9, inv_dt2, h, s, bad)
-    want = reference_floor(s, err, 3.0, roundoff)
-    got = s.copy()
-    K.floor_strengths(got, rho_a2, rho_b2, dm, dm2, tt, bad, 0.9, inv_dt2, h, 3.0, roundoff)
-    np.testing.assert_array_equal(got, want)  # exactly, not within a tolerance
-    # and the plane-by-plane error array with the unfused floor: the same numbers
     e = np.empty_like(s)
     K._error_stencil(rho_a2, rho_b2, dm, dm2, tt, 0.9, inv_dt2, h, s, bad, e)
-    np.testing.assert_array_equal(e, err)
-    unfused = s.copy()
-    K.apply_floor(unfused, e, 3.0, roundoff)
-    np.testing.assert_array_equal(unfused, want)
-
-
-@pytest.mark.parametrize("threads", [1, 2])
-def test_fused_floor_does_not_depend_on_the_blocks(threads: int) -> None:
-    """The planes are split into one block per thread; the result is the same for any split
-    (a block's first and last planes read estimates of the neighbouring block's)."""
-    import numba
-
-    s, rho_a2, rho_b2, dm, dm2, tt, bad = random_step((11, 6, 7), 3, 0.05)
-    h = np.array([0.2, 0.2, 0.4])
-    roundoff = np.zeros(3)
-    want = reference_floor(
-        s, reference_errors(rho_a2, rho_b2, dm, dm2, tt, 1.3, 0.6, h, s, bad), 3.0, roundoff
-    )
-    old = numba.get_num_threads()
-    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-    try:
-        got = s.copy()
-        K.floor_strengths(got, rho_a2, rho_b2, dm, dm2, tt, bad, 1.3, 0.6, h, 3.0, roundoff)
-    finally:
-        numba.set_num_threads(old)
-    np.testing.assert_array_equal(got, want)
-
-
-def test_floor_keeps_nan_strengths_and_ignores_nan_estimates() -> None:
-    s, rho_a2, rho_b2, dm, dm2, tt, bad = random_step((6, 6, 6), 5, 0.0)
-    s[1, 3, 3, 3] = np.nan
-    tt[2, 2, 2, 2] = np.nan  # NaN estimates around it: ignored by the maximum
-    h = np.ones(3)
-    err = reference_errors(rho_a2, rho_b2, dm, dm2, tt, 1.0, 0.5, h, s, bad)
-    want = reference_floor(s, err, 3.0, np.zeros(3))
+    np.testing.assert_array_equal(e, err)  # exactly, not within a tolerance
     got = s.copy()
-    K.floor_strengths(got, rho_a2, rho_b2, dm, dm2, tt, bad, 1.0, 0.5, h, 3.0, np.zeros(3))
+    K.apply_floor(got, e, 3.0, roundoff)
+    np.testing.assert_array_equal(got, reference_floor(s, err, 3.0, roundoff))
+
+
+def _inner(i: int, n: int) -> int:
+    return i if n < 3 else min(max(i, 1), n - 2)
+
+
+def reference_strengths(rho_a, rho_b, dm, tt, inv_dt, h):  # type: ignore[no-untyped-def]
+    """The strengths ``(3, nz, ny, nx)``, point by point in Python (paper 003 Eqs. 13, 14
+    as :func:`auralize.sources._kernels.strengths` documents them)."""
+    nz, ny, nx = rho_a.shape
+    hx, hy, hz = (float(x) for x in h)
+    g = [1.0 / (hh * hh) if n >= 3 else 0.0 for hh, n in ((hx, nx), (hy, ny), (hz, nz))]
+    out = np.empty((3, nz, ny, nx))
+    for k in range(nz):
+        (k0, k1), kc = _lohi(k, nz), _inner(k, nz)
+        fz = 1.0 / ((k1 - k0) * hz) if k1 > k0 else 0.0
+        for j in range(ny):
+            (j0, j1), jc = _lohi(j, ny), _inner(j, ny)
+            fy = 1.0 / ((j1 - j0) * hy) if j1 > j0 else 0.0
+            for i in range(nx):
+                (i0, i1), ic = _lohi(i, nx), _inner(i, nx)
+                fx = 1.0 / ((i1 - i0) * hx) if i1 > i0 else 0.0
+                out[0, k, j, i] = (rho_b[k, j, i] - rho_a[k, j, i]) * inv_dt
+                div = (
+                    (dm[0, k, j, i1] - dm[0, k, j, i0]) * fx
+                    + (dm[1, k, j1, i] - dm[1, k, j0, i]) * fy
+                    + (dm[2, k1, j, i] - dm[2, k0, j, i]) * fz
+                )
+                out[1, k, j, i] = div * inv_dt
+                t = tt
+                q = 0.0
+                if nx >= 3:
+                    q += (t[0, k, j, ic + 1] - 2.0 * t[0, k, j, ic] + t[0, k, j, ic - 1]) * g[0]
+                if ny >= 3:
+                    q += (t[1, k, jc + 1, i] - 2.0 * t[1, k, jc, i] + t[1, k, jc - 1, i]) * g[1]
+                if nz >= 3:
+                    q += (t[2, kc + 1, j, i] - 2.0 * t[2, kc, j, i] + t[2, kc - 1, j, i]) * g[2]
+                q += (2.0 * fx * fy) * (
+                    t[3, k, j1, i1] - t[3, k, j1, i0] - t[3, k, j0, i1] + t[3, k, j0, i0]
+                )
+                q += (2.0 * fx * fz) * (
+                    t[4, k1, j, i1] - t[4, k1, j, i0] - t[4, k0, j, i1] + t[4, k0, j, i0]
+                )
+                q += (2.0 * fy * fz) * (
+                    t[5, k1, j1, i] - t[5, k1, j0, i] - t[5, k0, j1, i] + t[5, k0, j0, i]
+                )
+                out[2, k, j, i] = q
+    return out
+
+
+STRENGTH_SHAPES = [(6, 7, 9), (3, 1, 4), (1, 5, 3), (4, 4, 2), (2, 3, 1), (5, 2, 6)]
+
+
+@pytest.mark.parametrize("shape", STRENGTH_SHAPES)
+def test_strengths_equal_the_python_reference(shape: tuple[int, int, int]) -> None:
+    """The strengths taken along whole rows (x stencils one-sided or kept inside at the
+    ends) are the per-point ones, bit for bit."""
+    rng = np.random.default_rng(9)
+    rho_a, rho_b = rng.normal(size=(2, *shape))
+    dm, tt = rng.normal(size=(3, *shape)), rng.normal(size=(6, *shape))
+    h = np.array([0.3, 0.5, 0.7])
+    got = np.empty((3, *shape))
+    K.strengths(rho_a, rho_b, dm, tt, 1.7, h, got)
+    np.testing.assert_array_equal(got, reference_strengths(rho_a, rho_b, dm, tt, 1.7, h))
+
+
+def random_frames(shape: tuple[int, int, int], seed: int) -> tuple[np.ndarray, ...]:
+    """Densities and velocities of five steps (n-1, n+1, n, n-2, n+2), as detect_step takes them."""
+    rng = np.random.default_rng(seed)
+    out: list[np.ndarray] = []
+    for _ in range(5):
+        out += [1.0 + 0.1 * rng.normal(size=shape), rng.normal(size=(*shape, 3))]
+    return tuple(out)
+
+
+def the_passes(frames, steady, nodata, bad, inv_dt, inv_dt2, h, factor, roundoff):  # type: ignore[no-untyped-def]
+    """The strengths of one step, pass after pass over whole arrays (what detect_step fuses)."""
+    rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2 = frames
+    shape = rho_c.shape
+    dm, tt, s = np.empty((3, *shape)), np.empty((6, *shape)), np.empty((3, *shape))
+    K.momentum_change(rho_a, v_a, rho_b, v_b, dm)
+    K.stress(rho_c, v_c, tt)
+    K.strengths(rho_a, rho_b, dm, tt, inv_dt, h, s)
+    mode, f, sa, sb, ra, va, rb, vb = steady
+    if mode == K.STEADY_BETWEEN:
+        ta, tb = np.empty((6, *shape)), np.empty((6, *shape))
+        K.stress(ra, va, ta)
+        K.stress(rb, vb, tb)
+        K.subtract_steady(s[2], sa, sb, tt, ta, tb, f, factor > 0)
+    elif mode == K.STEADY_ANCHOR:
+        s[2] = 0.0
+    elif mode == K.STEADY_GIVEN:
+        s[2] -= sa
+    K.mask_nodata(nodata, s)
+    if factor > 0:
+        dm2 = np.empty((3, *shape))
+        K.momentum_change(rho_a2, v_a2, rho_b2, v_b2, dm2)
+        err = np.empty_like(s)
+        K._error_stencil(rho_a2, rho_b2, dm, dm2, tt, inv_dt, inv_dt2, h, s, bad, err)
+        K.apply_floor(s, err, factor, roundoff)
+    return s
+
+
+def steady_of(mode: int, shape: tuple[int, int, int], seed: int) -> tuple:  # type: ignore[type-arg]
+    rng = np.random.default_rng(seed)
+    sa, sb, ra, rb = rng.normal(size=(4, *shape))
+    va, vb = rng.normal(size=(2, *shape, 3))
+    return (mode, 0.3, sa, sb, ra, va, rb, vb)
+
+
+DETECT_SHAPES = [
+    (9, 12, 17),
+    (6, 5, 7),
+    (5, 5, 5),
+    (3, 4, 2),
+    (1, 6, 7),
+    (6, 1, 2),
+    (2, 2, 1),
+    (1, 1, 1),
+    (12, 3, 6),
+]
+
+
+@pytest.mark.parametrize("shape", DETECT_SHAPES)
+@pytest.mark.parametrize("mode", [K.STEADY_NONE, K.STEADY_BETWEEN, K.STEADY_ANCHOR, K.STEADY_GIVEN])
+@pytest.mark.parametrize("factor", [0.0, 3.0])
+def test_one_sweep_equals_the_passes(shape: tuple[int, int, int], mode: int, factor: float) -> None:
+    """detect_step (one sweep along z, its planes kept in rings) gives the strengths of the
+    passes one after the other, bit for bit, for any split of the planes into blocks."""
+    frames = random_frames(shape, 11)
+    steady = steady_of(mode, shape, 12)
+    h = np.array([0.3, 0.5, 0.7])
+    roundoff = np.array([1e-3, 0.0, 0.5])
+    nodata = np.zeros(shape, dtype=bool)
+    for masked in (False, True):
+        if masked:
+            nodata[tuple(np.array(shape) // 2)] = True
+            nodata[0, 0, 0] = True
+        bad = nodata.copy()
+        if masked:
+            bad[-1, -1, -1] = True
+        want = the_passes(frames, steady, nodata, bad, 1.3, 0.6, h, factor, roundoff)
+        for blocks in (1, 2, 3, shape[0]):
+            got = np.full((3, *shape), np.nan)
+            K.detect_step(
+                frames, steady, nodata, bad, 1.3, 0.6, h, factor, roundoff, got, blocks=blocks
+            )
+            np.testing.assert_array_equal(got, want)
+
+
+def test_one_sweep_keeps_nan_strengths_and_ignores_nan_estimates() -> None:
+    frames = random_frames((7, 8, 9), 13)
+    frames[5][3, 4, 4, 1] = np.nan  # v_c: NaN strengths around it, NaN estimates
+    steady = steady_of(K.STEADY_BETWEEN, (7, 8, 9), 14)
+    no = np.zeros((7, 8, 9), dtype=bool)
+    args = (steady, no, no, 1.0, 0.5, np.ones(3), 3.0, np.zeros(3))
+    want = the_passes(frames, *args)
+    got = np.empty((3, 7, 8, 9))
+    K.detect_step(frames, *args, got)
     np.testing.assert_array_equal(got, want)
-    assert np.isnan(got[1, 3, 3, 3])
+    assert np.isnan(got).any() and (got == 0).any()
+
+
+def test_one_sweep_floor_equals_the_python_reference() -> None:
+    """The whole chain once against the per-point Python reference of the estimates."""
+    shape = (8, 7, 9)
+    frames = random_frames(shape, 15)
+    rho_a, v_a, rho_b, v_b, rho_c, v_c, rho_a2, v_a2, rho_b2, v_b2 = frames
+    h = np.array([0.3, 0.5, 0.7])
+    no = np.zeros(shape, dtype=bool)
+    steady = steady_of(K.STEADY_NONE, shape, 16)
+    s = the_passes(frames, steady, no, no, 1.3, 0.6, h, 0.0, np.zeros(3))
+    dm = np.moveaxis(rho_b[..., None] * v_b - rho_a[..., None] * v_a, -1, 0)
+    dm2 = np.moveaxis(rho_b2[..., None] * v_b2 - rho_a2[..., None] * v_a2, -1, 0)
+    pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+    tt = np.stack([rho_c * v_c[..., p] * v_c[..., q] for p, q in pairs])
+    err = reference_errors(rho_a2, rho_b2, dm, dm2, tt, 1.3, 0.6, h, s, no)
+    roundoff = np.array([0.1, 0.0, 0.2])
+    got = np.empty_like(s)
+    K.detect_step(frames, steady, no, no, 1.3, 0.6, h, 3.0, roundoff, got)
+    want = reference_floor(s, err, 3.0, roundoff)
+    np.testing.assert_array_equal(got, want)
+    assert 0 < np.count_nonzero(got) < np.count_nonzero(s)
 
 
 def test_momentum_change_is_the_numpy_expression() -> None:
     rng = np.random.default_rng(4)
-    m_a, m_b = rng.normal(size=(2, 4, 5, 6, 3))
+    rho_a, rho_b = rng.normal(size=(2, 4, 5, 6))
+    v_a, v_b = rng.normal(size=(2, 4, 5, 6, 3))
     got = np.empty((3, 4, 5, 6))
-    K.momentum_change(m_a, m_b, got)
-    np.testing.assert_array_equal(got, np.moveaxis(m_b - m_a, -1, 0))
+    K.momentum_change(rho_a, v_a, rho_b, v_b, got)
+    want = rho_b[..., None] * v_b - rho_a[..., None] * v_a
+    np.testing.assert_array_equal(got, np.moveaxis(want, -1, 0))
+
+
+def test_stress_is_the_numpy_expression() -> None:
+    rng = np.random.default_rng(5)
+    rho = rng.normal(size=(4, 5, 6))
+    v = rng.normal(size=(4, 5, 6, 3))
+    tt = np.empty((6, 4, 5, 6))
+    K.stress(rho, v, tt)
+    pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+    np.testing.assert_array_equal(tt, np.stack([rho * v[..., p] * v[..., q] for p, q in pairs]))
 
 
 @pytest.mark.parametrize("nan", [False, True])
@@ -236,10 +397,46 @@ def test_input_maxima_are_the_numpy_maxima(nan: bool) -> None:
     rng = np.random.default_rng(6)
     rho = rng.normal(size=(4, 5, 6))
     v = rng.normal(size=(4, 5, 6, 3))
-    m = rho[..., None] * v
     if nan:
-        m[2, 1, 1, 2] = np.nan
+        v[2, 1, 1, 2] = np.nan
+    m = rho[..., None] * v
     want = tuple(float(np.max(np.abs(x), initial=0.0)) for x in (rho, m, m * v))
-    got = K.input_maxima(rho, m, v)
+    got = K.input_maxima(rho, v)
     np.testing.assert_array_equal(got, want)
-    assert K.input_maxima(rho[:0], m[:0], v[:0]) == (0.0, 0.0, 0.0)
+    assert K.input_maxima(rho[:0], v[:0]) == (0.0, 0.0, 0.0)
+
+
+def test_step_change_is_the_numpy_maxima() -> None:
+    rng = np.random.default_rng(8)
+    r0, r1 = rng.normal(size=(2, 3, 4, 5))
+    v0, v1 = rng.normal(size=(2, 3, 4, 5, 3))
+    m0, m1 = r0[..., None] * v0, r1[..., None] * v1
+    dr, dm, planes = K.step_change(r0, v0, r1, v1)
+    assert (dr, dm) == (float(np.max(np.abs(r1 - r0))), float(np.max(np.abs(m1 - m0))))
+    np.testing.assert_array_equal(planes, K.input_maxima_planes(r1, v1))
+    np.testing.assert_array_equal(planes.max(axis=0), K.input_maxima(r1, v1))
+
+
+@pytest.mark.parametrize("delta_v", ["cell", "sphere"])
+@pytest.mark.parametrize("shape", [(7, 8, 9), (1, 5, 6), (4, 1, 1)])
+@pytest.mark.parametrize("curvilinear", [False, True])
+def test_sources_in_one_kernel_equal_classify_then_extract(
+    delta_v: str, shape: tuple[int, int, int], curvilinear: bool
+) -> None:
+    """The source points gathered with their radii alone (classes first, then each
+    source's radius) are those of classifying every point and gathering them."""
+    from auralize.sources.detection import classify, classify_sources, extract
+
+    rng = np.random.default_rng(17)
+    s = rng.normal(size=(3, *shape)) * np.array([1.0, 3.0, 9.0])[:, None, None, None]
+    thr = np.array([1.5, 2.0, 12.0])
+    h = np.array([0.3, 0.5, 0.7])
+    cell = rng.uniform(0.5, 2.0, size=shape) if curvilinear else None
+    kind, radius = classify(s, thr, h, zero_fraction=0.8, delta_v=delta_v, cell=cell)
+    want = extract(kind, radius, s)
+    got = classify_sources(s, thr, h, zero_fraction=0.8, delta_v=delta_v, cell=cell)
+    assert want.index.size > 0
+    for name in ("index", "kind", "strength", "radius"):
+        a, b = getattr(got, name), getattr(want, name)
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)

@@ -158,6 +158,44 @@ def test_detect_sources_reads_each_frame_once(make: Any) -> None:
     assert steps == set(range(vol.n_steps))
 
 
+def counting_map(m: Any) -> Counter[int]:
+    """Count the mapping's evaluations of each step (``m.map`` wrapped on the instance)."""
+    calls: Counter[int] = Counter()
+    plain = m.map
+
+    def counted_map(volume: TimeVolume, n: int) -> Any:
+        calls[int(n)] += 1
+        return plain(volume, n)
+
+    m.map = counted_map
+    return calls
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
+@pytest.mark.parametrize(
+    ("make", "mapping", "kw", "thresholds"),
+    [
+        (make_explosion, "paper-density", {}, Thresholds()),
+        (make_explosion, "paper-density", {"steady": "keep"}, Thresholds(floor=0.0)),
+        (make_spinning, "identity", {}, Thresholds("top:2%", "1%", "auto")),
+        (make_spinning, "identity", {}, Thresholds(1e-3, 1e-3, 1e-3)),
+    ],
+    ids=["paper-auto", "paper-keep-nofloor", "identity-mixed", "identity-fixed"],
+)
+def test_detect_maps_each_step_once(
+    make: Any, mapping: str, kw: dict[str, str], thresholds: Thresholds
+) -> None:
+    """The whole of :func:`detect` (steady anchors, threshold statistics, detection, with
+    and without the floor's 2Δt steps) evaluates the mapping once per step."""
+    vol = make(size=14, steps=9).load()
+    m = get_mapping(mapping)
+    calls = counting_map(m)
+    series = detect(vol, mapping=m, thresholds=thresholds, **kw)  # type: ignore[arg-type]
+    assert sorted(calls) == list(range(vol.n_steps))
+    assert set(calls.values()) == {1}
+    assert sum(f.index.size for f in series.frames) > 0
+
+
 def test_each_step_is_mapped_once() -> None:
     vol = make_spinning(size=12, steps=10).load()
     m = get_mapping("identity")
@@ -241,3 +279,63 @@ def test_paper_density_series_mapping_equals_prepare() -> None:
     b.map(vol, 0)
     assert reads[("log10_density", 0)] == 2  # handed out once: then read again
     b.release()
+
+
+def test_paper_density_in_slabs_is_the_numpy_mapping() -> None:
+    """A frame large enough to be mapped in slabs on the detection's threads (10**x, its
+    extremes, ρ̃ scaled in place, the gradients held in one block): numpy's numbers."""
+    from auralize.sources.detection import SLAB_SPLIT
+
+    vol = make_explosion(size=41, steps=4).load()
+    assert vol.n_points >= SLAB_SPLIT
+    x = [vol.frame("log10_density", n) for n in range(vol.n_steps)]
+    x[2][3:6, 4:9, 5] = np.nan  # no-data points do not count in the extremes
+    vol.fields["log10_density"].array[2] = x[2]  # type: ignore[attr-defined]
+    vol.check_finite = False  # NaN is no-data (nan="mask")
+    r = [np.power(10.0, f) for f in x]
+    lo = min(float(np.nanmin(f)) for f in r)
+    hi = max(float(np.nanmax(f)) for f in r)
+    rho = [0.5 + (15.0 - 0.5) * (f - lo) / (hi - lo) for f in r]
+    hx, hy, hz = vol.spacing
+    g = [np.stack(np.gradient(f, hz, hy, hx)[::-1], axis=-1) for f in rho]
+    scale = 150.0 / max(float(np.nanmax(np.abs(a))) for a in g)
+    m = get_mapping("paper-density")
+    m.prepare_series(vol, hold_bytes=1 << 30)
+    for n in range(vol.n_steps):
+        got_rho, got_v = m.map(vol, n)
+        np.testing.assert_array_equal(got_rho, rho[n])
+        np.testing.assert_array_equal(got_v, g[n] * scale)
+    m.release()
+
+
+@pytest.mark.filterwarnings("ignore::auralize.sources.detection.SourceFractionWarning")
+@pytest.mark.parametrize(
+    "mapping", [{"mapping": "paper-density"}, {"mapping": "identity", "density": "log10_density"}]
+)
+def test_detection_on_one_thread_and_on_two_is_the_same(mapping: dict[str, str]) -> None:
+    """On two threads the mapping works in slabs and each thread detects whole steps
+    (their own caches, side by side); on one, step after step: the same sources."""
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread")
+
+    def volume() -> TimeVolume:
+        vol = make_explosion(size=41, steps=11).load()
+        arr = vol.fields["log10_density"].array  # type: ignore[attr-defined]
+        arr[6, 10:14, 3:8, 20:30] = np.nan  # no-data at one step: a mapped frame with NaN
+        vol.check_finite = False  # NaN is no-data (nan="mask")
+        return vol
+
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = detect(volume(), **mapping)  # type: ignore[arg-type]
+        numba.set_num_threads(2)
+        two = detect(volume(), **mapping)  # type: ignore[arg-type]
+    finally:
+        numba.set_num_threads(old)
+    assert_same(two, one.thresholds, one.frames)
+    assert sum(f.index.size for f in one.frames) > 1000
+    n_valid = one.frames[6].n_valid
+    assert n_valid is not None and n_valid < 41**3  # the NaN points are no-data

@@ -61,8 +61,7 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
     from auralize.sources.detection import (
         StepCache,
         Thresholds,
-        classify,
-        extract,
+        classify_sources,
         steady_strength,
         step_strengths,
         strength_stats,
@@ -81,26 +80,40 @@ def bench_detection(sizes: list[int]) -> list[BenchRow]:
         for k in range(3):
             cache.get(k)
         buf = np.empty((3, n, n, n))
+        kinds = np.empty((n, n, n), dtype=np.int8)
 
-        def run(cache=cache, buf=buf, thr=thr, vol=vol) -> None:
+        def run(cache=cache, buf=buf, thr=thr, vol=vol, kinds=kinds) -> None:
             s = step_strengths(vol, cache, 1, buf)
-            kind, rad = classify(s, thr, vol.spacing)
-            extract(kind, rad, s)
+            classify_sources(s, thr, vol.spacing, kinds=kinds)  # as detection classifies
 
         t = best_of(run, repeat=3 if n >= 200 else 5)
         tmap = best_of(functools.partial(m.map, vol, 1), repeat=3)
         per_step[n] = t
         paper = PAPER_DETECT_S.get(n)
-        rows.append(BenchRow(
-            "detection", f"{n}³ per step (3 types + ΔV)", t * 1e3, "ms",
-            target="≤ 10 ms" if n == 64 else "", met=(t <= 0.010) if n == 64 else None,
-            paper=f"{sum(paper):.3f} s (sum of 3 types)" if paper else "",
-            note=f"mapping (paper-density) {tmap * 1e3:.1f} ms more",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "detection",
+                f"{n}³ per step (3 types + ΔV)",
+                t * 1e3,
+                "ms",
+                target="≤ 10 ms" if n == 64 else "",
+                met=(t <= 0.010) if n == 64 else None,
+                paper=f"{sum(paper):.3f} s (sum of 3 types)" if paper else "",
+                note=f"mapping (paper-density) {tmap * 1e3:.1f} ms more",
+            )
+        )
     if 64 in per_step and 128 in per_step:
         ratio = per_step[128] / per_step[64]
-        rows.append(BenchRow("detection", "128³ / 64³ cost (8× voxels)", ratio, "×",
-                             target="≤ 10×", met=ratio <= 10))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "detection",
+                "128³ / 64³ cost (8× voxels)",
+                ratio,
+                "×",
+                target="≤ 10×",
+                met=ratio <= 10,
+            )
+        )
     return rows
 
 
@@ -146,14 +159,20 @@ def bench_detection_whole(quick: bool) -> list[BenchRow]:
         times.append(time.perf_counter() - t0)
     t = min(times) / steps
     meta: dict[str, Any] = dict(series.meta)
-    return [BenchRow(
-        "detection", "detection per step, 64³, whole process", t * 1e3, "ms",
-        target="≤ 10 ms", met=t <= 0.010,
-        note=f"detect_sources on the explosion, {steps} steps in memory, mapping "
-             f"{meta['mapping']['name']}, auto thresholds (floor "
-             f"{meta['thresholds']['floor']}): {reads[0] / steps:.2f} frame reads "
-             f"per step (it reads one field); best of 2",
-    )]  # fmt: skip
+    return [
+        BenchRow(
+            "detection",
+            "detection per step, 64³, whole process",
+            t * 1e3,
+            "ms",
+            target="≤ 10 ms",
+            met=t <= 0.010,
+            note=f"detect_sources on the explosion, {steps} steps in memory, mapping "
+            f"{meta['mapping']['name']}, auto thresholds (floor "
+            f"{meta['thresholds']['floor']}): {reads[0] / steps:.2f} frame reads "
+            f"per step (it reads one field); best of 2",
+        )
+    ]
 
 
 def bench_synthesis(quick: bool) -> list[BenchRow]:

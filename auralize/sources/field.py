@@ -880,7 +880,17 @@ def _residual(
         )
     else:
         curvilinear_residual(
-            metric, rho_a, rho_b, rho_a2, rho_b2, np.asarray(m), inv_dt, inv_dt2, bad, out, err
+            metric,
+            rho_a,
+            rho_b,
+            rho_a2,
+            rho_b2,
+            m_c=np.asarray(m),
+            inv_dt=inv_dt,
+            inv_dt2=inv_dt2,
+            bad=bad,
+            out=out,
+            err=err,
         )
     if oks:
         # a residual whose stencil reads a no-data point is no-data too (as the dipole's)
