@@ -9,6 +9,7 @@ numba specializes on).
 from __future__ import annotations
 
 import logging
+import os
 
 import numba
 import numpy as np
@@ -21,7 +22,7 @@ from auralize.emitters._kernels import render_pieces, render_runs
 from auralize.emitters.engine import model_emitters, render_emitters
 from auralize.emitters.synthesis import render_tracks as synth_render
 from auralize.listener import ListenerPath
-from auralize.runtime import jit
+from auralize.runtime import jit, numba_passes
 from auralize.runtime.jit import kernel_arg, kernel_args
 from auralize.sources.detection import SourceTracks
 
@@ -34,7 +35,9 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 def _check_forms(args: tuple) -> None:  # type: ignore[type-arg]
     for a in args:
-        if isinstance(a, np.ndarray):
+        if isinstance(a, tuple):  # a named bundle of arguments: each of its fields
+            _check_forms(a)
+        elif isinstance(a, np.ndarray):
             assert a.flags.c_contiguous and a.flags.writeable and a.flags.aligned
             assert a.dtype in (np.float64, np.int64, np.bool_), a.dtype
         else:
@@ -83,7 +86,7 @@ def test_kernel_arg_makes_one_form_and_keeps_conforming_arrays() -> None:
 
 def test_sampled_kernel_gets_one_signature_for_any_input(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     rec = _Recorder()
-    monkeypatch.setattr(_sampled, "_render", rec)
+    monkeypatch.setattr(_sampled, "render", rec)
     rng = np.random.default_rng(0)
     sig = rng.standard_normal((2, 800))
     pos = np.array([[3.0, 0.0, 0.0], [0.0, 4.0, 1.0]])
@@ -109,8 +112,8 @@ def test_sampled_kernel_gets_one_signature_for_any_input(monkeypatch) -> None:  
 
 def test_synthesis_kernels_get_one_signature_each(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     runs, pieces = _Recorder(0), _Recorder(0)
-    monkeypatch.setattr(render_runs, "render", runs)
-    monkeypatch.setattr(render_pieces, "render", pieces)
+    monkeypatch.setattr(render_runs, "render_task", runs)
+    monkeypatch.setattr(render_pieces, "render_task", pieces)
     t = np.linspace(0.0, 0.2, 9)
     q = np.sin(40.0 * t)[None].repeat(3, axis=0) * np.array([[1.0], [0.5], [0.2]])
     pos = np.array([[2.0, 0.0, 0.0], [0.0, 3.0, 0.0], [1.0, 1.0, 1.0]])
@@ -189,7 +192,7 @@ def test_cheap_kernels_of_a_module_are_announced_once_together(caplog, monkeypat
         body.__module__, body.__qualname__ = mod.__name__, name
         kernels[name] = numba.njit(body)
         setattr(mod, name, kernels[name])
-        monkeypatch.setitem(jit.COMPILE_SECONDS, f"{mod.__name__}.{name}", 7.0)
+        monkeypatch.setitem(jit.compile_seconds(), f"{mod.__name__}.{name}", 7.0)
     monkeypatch.setitem(sys.modules, mod.__name__, mod)
     monkeypatch.setattr(jit._NOTICE, "announced", True)
     monkeypatch.setattr(jit._NOTICE, "named", {f"{mod.__name__}.one", f"{mod.__name__}.two"})
@@ -211,7 +214,7 @@ def test_compile_notice_estimates_the_kernel_that_compiles(caplog, monkeypatch) 
     monkeypatch.setattr(
         jit._NOTICE, "named", {"auralize._test_small.small", "auralize._test_big.big"}
     )
-    monkeypatch.setitem(jit.COMPILE_SECONDS, "auralize._test_big.big", 120.0)
+    monkeypatch.setitem(jit.compile_seconds(), "auralize._test_big.big", 120.0)
     notice = jit._CompileNotice()
     event.register("numba:compile", notice)
 
@@ -254,3 +257,315 @@ def test_plugins_are_warmed_through_their_hook(monkeypatch) -> None:  # type: ig
     warmup._warm_plugins()
     assert warmed == ["probe"]
     assert SoundModel().warm_up() is None  # the default: nothing to compile
+
+
+#: compiles kernels with inlined helpers and variables assigned more than once
+#: (``_cut_at_end`` inlines ``_hermite_at``; ``_gains_called`` every panning law; the
+#: listener's candidate lines; the piece and run tables) and prints which passes ran and
+#: the kernels' LLVM IR
+_IR_CHILD = """
+import numpy as np
+from auralize import warmup
+from auralize.emitters import synth_prepare, synth_tables
+from auralize.emitters._kernels import arrivals, gains, hermite, tables
+from auralize.emitters._kernels.common import LaneGrid
+from auralize.runtime import numba_passes
+from auralize.runtime.jit import kernel_args
+line = tuple(float(v) for v in range(12))
+grid = LaneGrid(343.0, 1 / 343.0, 0.0, 8000.0, 1 / 8000.0, 100.0, 64.0, 1 / 64.0, 0, 4, 0, 4.0)
+hermite._cut_at_end((1.0, 2.0, 3.0, 0.1, 0.5, 0.2, 0.4, 0.1), 11.0, True, line, line, 1.0, grid)
+gains._gains_called((1.0, 0.5, 0.2), (1.0, 0.0, 0.0, 0.0, 0.0, 1.0), np.zeros(2),
+                    np.arange(2), False, np.zeros((1, 4)), np.zeros(2))
+tn = np.linspace(0.0, 0.2, 5)
+lt = np.array([0.0, 0.1, 0.2])
+arrivals._row_lines(*kernel_args(tn, lt, np.zeros((3, 3)), np.zeros((2, 3)), 343.0, 5.0, 0, 4,
+                                 np.zeros((5, 2 * arrivals._LINE + 1))))
+tracks = warmup._tiny_tracks()
+synth_tables.sounding_pieces(tracks, synth_prepare.knot_times(tracks), "cubic")
+synth_tables.sounding_runs(tracks, synth_prepare.knot_times(tracks), "cubic")
+state = numba_passes.apply()
+print("FAST" if all(state.values()) else "NUMBA" if not any(state.values()) else state)
+for k in (hermite._cut_at_end, gains._gains_called, arrivals._row_lines, tables.build_pieces,
+          tables.find_runs, tables.fill_runs):
+    print(k.inspect_llvm(k.signatures[0]))
+"""
+
+
+def _child(code: str, tmp_path, **env: str) -> str:  # type: ignore[no-untyped-def]
+    """Standard output of ``code`` run by a fresh interpreter with its own kernel cache."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), **env}
+    res = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    return res.stdout
+
+
+def _process_names(ir: str) -> str:
+    """``ir`` with the names that differ from process to process made equal: those of
+    constants named after an object's address (pickled exceptions, parallel regions)."""
+    import re
+
+    # (LLVM adds .1, .2 ... to a name already taken: after the address, or after .sha1)
+    ir = re.sub(r"(pickledata|picklebuf)\.\d+(\.sha1)?(\.\d+)?", r"\1.N\2", ir)
+    return re.sub(r"0x[0-9a-f]{6,}", "0xN", ir)
+
+
+def test_fast_passes_compile_numbas_code(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The inliner without its deep copies and the SSA pass by blocks give numba's LLVM
+    IR, line for line (the same string hashes: PYTHONHASHSEED fixed)."""
+    fast = _child(_IR_CHILD, tmp_path / "fast", PYTHONHASHSEED="0")
+    own = _child(_IR_CHILD, tmp_path / "numba", AURALIZE_FAST_COMPILE="0", PYTHONHASHSEED="0")
+    fast, own = _process_names(fast), _process_names(own)
+    assert fast.startswith("FAST\n") and own.startswith("NUMBA\n")
+    fast, own = fast.split("\n", 1)[1], own.split("\n", 1)[1]
+    for name in ("_cut_at_end", "_gains_called", "_row_lines", "build_pieces", "fill_runs"):
+        assert name in fast
+    assert len(fast) > 10_000
+    assert fast == own
+
+
+def test_fast_passes_apply_to_the_numba_installed() -> None:
+    """The installed numba (0.60 to 0.68.1, the versions checked) gets both passes."""
+    import numba.core.inline_closurecall as icc
+    import numba.core.ssa as ssa
+
+    assert numba_passes.refusal("inlining") is None and numba_passes.refusal("ssa") is None
+    assert numba_passes.apply() == {"inlining": True, "ssa": True}
+    assert icc.InlineWorker.inline_function is numba_passes._inline_function
+    assert ssa._run_ssa is numba_passes._run_ssa
+
+
+def test_numba_versions_outside_those_checked_keep_numbas_passes() -> None:
+    lo, hi = numba_passes.VERIFIED_NUMBA
+    assert lo == (0, 60, 0) and hi >= (0, 68, 1)
+    for version in ("0.60.0", "0.64.0", "0.68.1"):
+        assert numba_passes.refusal("inlining", version) is None
+        assert numba_passes.refusal("ssa", version) is None
+    for version in ("0.59.1", "0.68.2", "0.69.0rc1", "0.70.0", "1.0.0", "unknown"):
+        for name in ("inlining", "ssa"):
+            why = numba_passes.refusal(name, version)
+            assert why is not None and "outside the versions checked" in why, (version, why)
+    assert numba_passes.numba_version("0.69.0rc1") == (0, 69, 0)
+    assert numba_passes.numba_version("0.61.0dev0+12.g1234abc") == (0, 61, 0)
+    assert numba_passes.numba_version("dev") is None
+
+
+def test_changed_numba_internals_keep_numbas_passes(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A numba function the replacements rely on with another source, or a digest the
+    list does not hold, refuses the replacement."""
+    import numba.core.ssa as ssa
+
+    def _fix_ssa_vars(blocks, varname, defmap, cfg, df_plus, cache_list_vars):  # type: ignore[no-untyped-def]
+        return blocks
+
+    monkeypatch.setattr(ssa, "_fix_ssa_vars", _fix_ssa_vars)
+    why = numba_passes.refusal("ssa")
+    assert why is not None and "numba.core.ssa:_fix_ssa_vars is not the source checked" in why
+    assert numba_passes.refusal("inlining") is None
+    monkeypatch.undo()
+    name = "numba.core.inline_closurecall:InlineWorker.inline_ir"
+    monkeypatch.setitem(numba_passes.NUMBA_SOURCES["inlining"], name, frozenset({"0" * 16}))
+    why = numba_passes.refusal("inlining")
+    assert why is not None and name in why
+
+
+#: a numba of another version (or other internals), then the kernel modules' set-up
+_REFUSED_CHILD = """
+import numba
+import numba.core.inline_closurecall as icc
+import numba.core.ssa as ssa
+if CHANGE == "version":
+    numba.__version__ = "0.69.0"
+else:
+    inline_ir = icc.InlineWorker.inline_ir
+    icc.InlineWorker.inline_ir = lambda *a, **k: inline_ir(*a, **k)
+    steps = ssa._run_block_rewrite
+    ssa._run_block_rewrite = lambda *a: steps(*a)
+from auralize.emitters._kernels import gains
+from auralize.runtime import numba_passes
+print(icc.InlineWorker.inline_function is numba_passes._inline_function,
+      ssa._run_ssa is numba_passes._run_ssa, numba_passes.apply())
+"""
+
+
+@pytest.mark.parametrize("change", ["version", "internals"])
+def test_kernel_modules_keep_numbas_passes_where_unchecked(change, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The check runs when a kernel module is imported (the compiler is set up before any
+    kernel compiles)."""
+    out = _child(f"CHANGE = {change!r}\n" + _REFUSED_CHILD, tmp_path)
+    assert out.split() == ["False", "False", "{'inlining':", "False,", "'ssa':", "False}"]
+
+
+def test_where_selects_without_a_branch() -> None:
+    from auralize.emitters._kernels.common import where
+
+    @numba.njit
+    def pick(c, a, b):  # type: ignore[no-untyped-def]
+        return where(c, a, b), where(a > b, 1, 2.5), where(c, 3, 4)
+
+    assert pick(True, 1.0, 2.0) == (1.0, 2.5, 3)
+    assert pick(False, 3.0, 2.0) == (2.0, 1.0, 4)
+    assert numba.typeof(pick(True, 1.0, 2.0)[2]) == numba.int64
+    ir = pick.inspect_llvm(pick.signatures[0])
+    assert "select i1" in ir  # LLVM's select, from the intrinsic
+
+
+def test_compile_seconds_are_measured_data(monkeypatch, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The notice's estimates come from the shipped measurements, not from code text;
+    a missing or broken file gives the default."""
+    import json
+
+    seconds = jit.compile_seconds()
+    assert seconds, "auralize/data/compile_seconds.json lists no kernel"
+    data = json.loads(jit.COMPILE_SECONDS_FILE.read_text())
+    assert data["seconds"] == seconds and data["measured_on"]
+    groups = jit.group_compile_seconds()
+    assert set(groups) == set(warmup.GROUPS) and all(v > 0.0 for v in groups.values())
+    for kernel in (
+        "auralize.emitters._kernels.render_pieces.render_task",
+        "auralize.emitters._kernels.render_runs.render_task",
+        "auralize.emitters._kernels.sampled.render",
+    ):
+        assert seconds[kernel] > 0.0
+    assert (
+        jit.estimate_seconds("auralize.emitters._kernels.render_pieces.render_task")
+        == (seconds["auralize.emitters._kernels.render_pieces.render_task"])
+    )
+    bad = tmp_path / "broken.json"
+    bad.write_text("{not json")
+    monkeypatch.setattr(jit, "COMPILE_SECONDS_FILE", bad)
+    jit.compile_seconds.cache_clear()
+    try:
+        assert jit.compile_seconds() == {}
+        assert jit.estimate_seconds("auralize.emitters._kernels.tables.fill_runs") >= (
+            jit.DEFAULT_SECONDS
+        )
+    finally:
+        monkeypatch.undo()
+        jit.compile_seconds.cache_clear()
+
+
+def test_waiting_for_a_background_compile_is_announced(caplog, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A kernel that another process compiles is waited for, with a notice of what is
+    left of its estimate; the wait is recorded."""
+    import time
+
+    @numba.njit
+    def kernel(x):  # type: ignore[no-untyped-def]
+        return x
+
+    name = f"{kernel.py_func.__module__}.{kernel.py_func.__qualname__}"
+    monkeypatch.setitem(jit.compile_seconds(), name, 40.0)
+
+    class Proc:
+        joined = False
+
+        def is_alive(self) -> bool:
+            return not self.joined
+
+        def join(self) -> None:
+            time.sleep(0.05)
+            self.joined = True
+
+    proc = Proc()
+    proc_cpu = Proc()
+    proc_cpu.cpu_seconds = lambda: 30.0  # type: ignore[attr-defined]
+    monkeypatch.setattr(jit, "_BACKGROUND", [])
+    monkeypatch.setattr(jit._NOTICE, "notices", [])
+    monkeypatch.setattr(jit._NOTICE, "waits", [])
+    jit.compiling_elsewhere([name], proc)
+    jit._BACKGROUND[0] = (*jit._BACKGROUND[0][:2], time.monotonic() - 15.0)  # started 15 s ago
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel)
+        jit.await_kernel(kernel)  # done: no second wait
+    assert proc.joined
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~25 s"), msgs
+    assert [n for n, _ in jit.compile_notices()] == [name]
+    waits = jit.compile_waits()
+    assert [n for n, _ in waits] == [name] and waits[0][1] >= 0.05
+    # a process that tells its CPU time: the estimate less what it has used
+    kernel2 = numba.njit(lambda x: x + 1)
+    name2 = f"{kernel2.py_func.__module__}.{kernel2.py_func.__qualname__}"
+    monkeypatch.setitem(jit.compile_seconds(), name2, 40.0)
+    jit.compiling_elsewhere([name2], proc_cpu)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel2)
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~10 s"), msgs
+    # ... and one that knows what its groups take: that less what it has used
+    kernel3 = numba.njit(lambda x: x + 2)
+    name3 = f"{kernel3.py_func.__module__}.{kernel3.py_func.__qualname__}"
+    proc_group = Proc()
+    proc_group.cpu_seconds = lambda: 30.0  # type: ignore[attr-defined]
+    proc_group.expected_cpu = 50.0  # type: ignore[attr-defined]
+    jit.compiling_elsewhere([name3], proc_group)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel3)
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~20 s"), msgs
+    # ... on a loaded machine, at the share of a core it has had: 10 CPU-s in 20 s
+    kernel4 = numba.njit(lambda x: x + 3)
+    name4 = f"{kernel4.py_func.__module__}.{kernel4.py_func.__qualname__}"
+    proc_slow = Proc()
+    proc_slow.cpu_seconds = lambda: 10.0  # type: ignore[attr-defined]
+    proc_slow.expected_cpu = 30.0  # type: ignore[attr-defined]
+    jit.compiling_elsewhere([name4], proc_slow)
+    jit._BACKGROUND[-1] = (*jit._BACKGROUND[-1][:2], time.monotonic() - 20.0)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="auralize"):
+        jit.await_kernel(kernel4)
+    msgs = [r.getMessage() for r in caplog.records if "in another process" in r.getMessage()]
+    assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~40 s"), msgs
+
+
+def test_compile_ahead_starts_only_what_is_not_cached(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """The groups not cached are compiled by a fresh interpreter (``python -c``: the
+    calling script is not imported again), on this process's module path."""
+    import subprocess
+    import sys
+
+    started: list[tuple[list[str], dict[str, str]]] = []
+
+    class Popen:
+        def __init__(self, cmd, env, **kw) -> None:  # type: ignore[no-untyped-def]
+            started.append((cmd, env))
+
+        def poll(self) -> int:
+            return 0
+
+    monkeypatch.setattr(subprocess, "Popen", Popen)
+    monkeypatch.setattr(jit, "_BACKGROUND", [])  # (the fake process is forgotten after)
+    monkeypatch.setattr(warmup, "group_cached", lambda g: g == "runs")
+    proc = warmup.compile_ahead(["pieces", "runs"])
+    assert isinstance(proc, warmup.Background) and not proc.is_alive()
+    [(cmd, env)] = started
+    assert cmd[:2] == [sys.executable, "-c"]
+    assert "_compile_quietly(['pieces'])" in cmd[2]
+    assert env["PYTHONPATH"].split(os.pathsep) == [p for p in sys.path if p]
+    assert [sorted(names) for names, _, _ in jit._BACKGROUND] == [
+        ["auralize.emitters._kernels.render_pieces.render_task"]
+    ]
+    monkeypatch.setattr(warmup, "group_cached", lambda g: True)
+    assert warmup.compile_ahead(["pieces", "runs"]) is None and len(started) == 1
+
+
+def test_a_background_compile_is_stopped_at_exit() -> None:
+    import subprocess
+    import sys
+
+    proc = warmup.Background(
+        subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    )
+    assert proc.is_alive()
+    used = proc.cpu_seconds()
+    assert used is not None and 0.0 <= used < 60.0  # (Linux: from /proc)
+    proc.stop()  # (what compile_ahead registers with atexit)
+    assert not proc.is_alive() and proc.popen.returncode != 0
+    proc.stop()  # ended: nothing to do

@@ -3,7 +3,8 @@
 * :mod:`auralize.bench.runner` — the core rows and :func:`run_bench`;
 * :mod:`auralize.bench.output`, :mod:`~auralize.bench.readers`,
   :mod:`~auralize.bench.distributed`, :mod:`~auralize.bench.immersive`,
-  :mod:`~auralize.bench.viewer` — one module per group of rows.
+  :mod:`~auralize.bench.viewer`, :mod:`~auralize.bench.compile` — one module per
+  group of rows.
 
 A row is a :class:`auralize.plugins.BenchRow` (the plugins' contract type).
 """

@@ -619,6 +619,7 @@ GROUPS: dict[str, Any] = {
     "timbre": lambda args: timbre_cost_rows(args.quick),
     "scaling": lambda args: scaling_rows(args.quick),
     "emitters": lambda args: emitters_rows(args.quick),
+    "compile": _lazy("auralize.bench.compile", "compile_rows"),
     "immersive": _lazy("auralize.bench.immersive", "immersive_rows"),
     "readers": _lazy("auralize.bench.readers", "bench_readers", full="readers_full"),
     "efficiency": _lazy("auralize.bench.efficiency", "efficiency_rows"),

@@ -1056,7 +1056,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from auralize.pipeline import auralize, detect_sources, save_rendered
     from auralize.scene.pictures import screenshot
     from auralize.scene.plots import save_spectrogram
+    from auralize.warmup import compile_ahead
 
+    # with a cold kernel cache, the synthesis kernel compiles on another core while this
+    # one compiles and runs the detection (the render waits for it, then loads it)
+    compile_ahead(["pieces"])
     out_dir = Path(args.output)
     out_dir.mkdir(exist_ok=True)  # the output folder itself; its parent must exist
     t = time.perf_counter()
@@ -1229,7 +1233,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="GROUPS",
         type=_bench_groups,
         help="run only these comma-separated groups: detection, synthesis, timbre, scaling, "
-        "emitters, immersive, readers, efficiency, fwh, outdoor, output, viewer, dask, plugins",
+        "emitters, compile, immersive, readers, efficiency, fwh, outdoor, output, viewer, dask, "
+        "plugins",
     )
     p.add_argument(
         "--dask-full",

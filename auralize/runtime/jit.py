@@ -23,15 +23,22 @@ process; the first use of a kernel does:
   (``compiling kernels, once: ~N s (kernel; cache: ...)``), logged as a
   warning on the ``auralize`` logger, so ``-q`` silences it: at the first
   compile, and again as each of the large synthesis kernels starts, with N
-  from :data:`COMPILE_SECONDS` for what is compiling.  ``auralize warmup``
+  measured for what is compiling (:func:`compile_seconds`).  ``auralize warmup``
   compiles them ahead (``scripts/install.sh`` runs it).
 * One specialization per kernel: :func:`kernel_args` at each kernel's Python
   boundary gives every call the same argument types.
+* Two of numba's compiler passes in time linear in a kernel's size, not
+  quadratic, where numba's version and sources are those they were checked
+  against (:mod:`auralize.runtime.numba_passes`: the inliner of
+  ``inline="always"`` helpers and the SSA reconstruction; the same compiled
+  code, ``AURALIZE_FAST_COMPILE=0`` keeps numba's own passes).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import json
 import logging
 import os
 import threading
@@ -44,44 +51,45 @@ from numba.core import event
 
 log = logging.getLogger("auralize")
 
-COMPILE_SECONDS: dict[str, float] = {
-    # the synthesis kernels, each announced on its own
-    "auralize.emitters._kernels.render_pieces.render": 170.0,
-    "auralize.emitters._kernels.render_runs.render": 65.0,
-    "auralize.emitters._sampled._render": 45.0,
-    # detection and field sources
-    **{f"auralize.sources._kernels.{k}": v for k, v in (
-        ("_error_stencil", 3.5), ("residual", 2.3), ("_stencil", 2.0), ("_radii", 1.9),
-        ("_floor_with", 1.6), ("gradient", 1.4), ("_gradient_absmax_planes", 1.3),
-        ("subtract_steady", 0.9), ("prepare_render", 0.9), ("_classify_all", 0.8),
-        ("_absmax_pair_planes", 1.1), ("_max_along_x", 0.5))},
-    # run and piece tables
-    "auralize.emitters._sampled._box": 0.8,
-    "auralize.emitters._kernels.tables.find_runs": 0.6,
-    "auralize.emitters._kernels.tables.fill_runs": 0.4,
-    "auralize.emitters._kernels.tables.build_pieces": 0.5,
-    # helpers compiled as part of a kernel above
-    **dict.fromkeys(
-        [f"auralize.emitters._kernels.{k}" for k in (
-            "accumulate._flush_captures", "accumulate._integrate", "accumulate._integrate_tasks",
-            "pieces._chunk_pieces", "pieces._piece_general", "pieces._piece_across",
-            "lane_gains._chunk_pair_gains", "lane_gains._chunk_sh_gains",
-            "lane_gains._part_pair_gains", "parts._chunk_parts", "parts._part_batch",
-            "gains._pan_far", "gains._constant_rows", "arrivals._row_lines",
-            "render_pieces._task_sum", "render_runs._chunk_step", "render_runs._knot_gains")],
-        0.0,
-    ),
-}  # fmt: skip
-"""Seconds to compile each kernel (``module.name``) from an empty cache, one core.
+#: measured compile times, shipped with the package (:func:`compile_seconds`)
+COMPILE_SECONDS_FILE = Path(__file__).resolve().parent.parent / "data" / "compile_seconds.json"
 
-Measured, not guessed: ``NUMBA_CACHE_DIR=$(mktemp -d) auralize warmup --json``
-lists the seconds of every kernel it compiled (``compiled``); refresh these
-from it on the 2-core development machine (quiet, load below 1) whenever a
-kernel grows or shrinks by more than a third.  Helpers compiled as part of a
-listed kernel count 0; kernels not listed (the plugins') count
-:data:`DEFAULT_SECONDS`.  Only :func:`estimate_seconds` (the compile
-notice) reads them.
-"""
+
+@functools.cache
+def compile_seconds() -> dict[str, float]:
+    """Seconds to compile each kernel (``module.name``) from an empty cache, on one core.
+
+    Measured, not written down by hand: :func:`auralize.warmup.measure_compile_seconds`
+    compiles every kernel group of ``auralize warmup`` from an empty cache, each in
+    a process of its own, and writes the CPU seconds of every kernel compiled at top
+    level (helpers compiled as part of one count 0) to :data:`COMPILE_SECONDS_FILE`
+    (``auralize/data/compile_seconds.json``, with the machine and versions it was
+    measured on).  Refresh it on the 2-core development machine when a kernel
+    changes (``python -c "from auralize.warmup import measure_compile_seconds;
+    measure_compile_seconds()"``); ``auralize bench`` compares the compile notice's
+    estimates with a cold compile (row ``compile``).  Kernels it does not list (the
+    plugins') count :data:`DEFAULT_SECONDS`.  Only :func:`estimate_seconds` (the compile
+    notice) reads it.
+    """
+    try:
+        data = json.loads(COMPILE_SECONDS_FILE.read_text())
+        return {str(k): float(v) for k, v in data["seconds"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+
+
+@functools.cache
+def group_compile_seconds() -> dict[str, float]:
+    """CPU seconds of each kernel group of ``auralize warmup`` compiled from an empty
+    cache in a process of its own (its helpers and the imports it triggers included),
+    from the same measurement as :func:`compile_seconds`."""
+    try:
+        data = json.loads(COMPILE_SECONDS_FILE.read_text())
+        return {str(k): float(v) for k, v in data["groups_cpu_seconds"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+
+
 DEFAULT_SECONDS = 2.0
 #: a kernel at least this dear (seconds) is announced on its own when it starts compiling
 NOTICE_AGAIN_SECONDS = 10.0
@@ -92,15 +100,14 @@ _lock = threading.Lock()
 
 #: the core kernel modules, relative to the package: their functions are inlined into
 #: kernels of other modules (the synthesis kernels are split by stage over
-#: ``emitters/_kernels/``; ``_sampled`` and the plugins use its gains), and numba's
-#: cache of a module does not notice a change in a module it inlines from
+#: ``emitters/_kernels/``, with the emitters engine's; the plugins use its gains), and
+#: numba's cache of a module does not notice a change in a module it inlines from
 KERNEL_SOURCES: tuple[str, ...] = (
     "sources/_kernels.py",
     *sorted(
         f"emitters/_kernels/{f.name}"
         for f in (Path(__file__).resolve().parent.parent / "emitters" / "_kernels").glob("*.py")
     ),
-    "emitters/_sampled.py",
 )
 
 
@@ -150,6 +157,9 @@ def configure() -> None:
         if not config.CACHE_DIR:
             config.CACHE_DIR = str(cache_dir())
         event.register("numba:compile", _NOTICE)
+        from auralize.runtime import numba_passes
+
+        numba_passes.apply()
 
 
 def _kernel_name(event_data: Any) -> str | None:
@@ -170,7 +180,11 @@ class _CompileNotice(event.Listener):
     it starts (once per kernel, not per specialization).
 
     ``compiled`` lists ``(kernel, seconds)`` of every top-level compilation of
-    an auralize kernel in this process (``auralize warmup`` reports them).
+    an auralize kernel in this process (``auralize warmup`` reports them; the
+    CPU seconds of the compiling thread, which a loaded machine does not
+    inflate), ``helpers`` the auralize functions compiled as part of one,
+    ``notices`` the ``(kernel, estimated seconds)`` announced (by :func:`await_kernel`
+    too), ``waits`` the ``(kernel, wall seconds)`` waited for a background compile.
     """
 
     def __init__(self) -> None:
@@ -178,36 +192,112 @@ class _CompileNotice(event.Listener):
         self.announced = False
         self.named: set[str] = set()
         self.compiled: list[tuple[str, float]] = []
+        self.helpers: set[str] = set()
+        self.notices: list[tuple[str, float]] = []
+        self.waits: list[tuple[str, float]] = []
 
     def on_start(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])
+        if stack:
+            helper = _kernel_name(ev.data)
+            if helper is not None:
+                self.helpers.add(helper)
         name = _kernel_name(ev.data) if not stack else None
-        stack.append((name, time.perf_counter()))
+        stack.append((name, time.thread_time()))
         if name is None or name in self.named:
             return
-        if self.announced and COMPILE_SECONDS.get(name, DEFAULT_SECONDS) < NOTICE_AGAIN_SECONDS:
+        if self.announced and compile_seconds().get(name, DEFAULT_SECONDS) < NOTICE_AGAIN_SECONDS:
             return
         self.announced = True
         self.named.add(name)
         short = ".".join(name.split(".")[-2:])  # module.kernel
-        log.warning("compiling kernels, once: ~%d s (%s; cache: %s)", round(estimate_seconds(name)),
-                    short, cache_dir())  # fmt: skip
+        estimate = estimate_seconds(name)
+        self.notices.append((name, estimate))
+        log.warning(
+            "compiling kernels, once: ~%d s (%s; cache: %s)", round(estimate), short, cache_dir()
+        )
 
     def on_end(self, ev: Any) -> None:
         stack = self.local.__dict__.setdefault("stack", [])
         if stack:
             name, t0 = stack.pop()
             if name is not None:
-                self.compiled.append((name, time.perf_counter() - t0))
+                self.compiled.append((name, time.thread_time() - t0))
 
 
 def compiled_kernels() -> list[tuple[str, float]]:
-    """``(kernel, seconds)`` of the auralize kernels compiled in this process so far."""
+    """``(kernel, CPU seconds)`` of the auralize kernels compiled in this process so far."""
     return list(_NOTICE.compiled)
 
 
+#: kernels being compiled into the cache by background processes: (kernel names, process,
+#: when it started: ``time.monotonic()``)
+_BACKGROUND: list[tuple[frozenset[str], Any, float]] = []
+
+
+def compiling_elsewhere(kernels: Any, process: Any) -> None:
+    """Note that ``process`` (with ``join()`` and ``is_alive()``), started now, compiles
+    ``kernels`` (``module.name``) into the cache (:func:`auralize.warmup.compile_ahead`)."""
+    _BACKGROUND.append((frozenset(kernels), process, time.monotonic()))
+
+
+def await_kernel(kernel: Any) -> None:
+    """Before the first call of ``kernel`` (a numba dispatcher) in this process: if a
+    background process is compiling it, wait for that process, so that the kernel
+    loads from the cache instead of compiling a second time (the other core is
+    already on it).
+
+    The wait is announced as a compile is (``compiling kernels, once: ~N s (kernel,
+    in another process; ...)``): what the process is expected to use (its
+    ``expected_cpu``, else the kernel's estimate) less the CPU time it has used (its
+    ``cpu_seconds()``), at the share of a core it has had so far (else: less the time
+    since it started, at one core); :func:`compile_waits` lists the waits."""
+    func = getattr(kernel, "py_func", None)
+    if func is None or getattr(kernel, "overloads", None):
+        return
+    name = f"{func.__module__}.{func.__qualname__}"
+    for names, process, started in list(_BACKGROUND):
+        if name not in names or not process.is_alive():
+            continue
+        t0 = time.monotonic()
+        total = getattr(process, "expected_cpu", None) or estimate_seconds(name)
+        used = getattr(process, "cpu_seconds", lambda: None)()
+        if used is None:  # its wall time, at one core
+            used, rate = t0 - started, 1.0
+        else:  # at the share of a core it has had (less on a loaded machine)
+            rate = min(max(used / max(t0 - started, 1e-3), 0.2), 1.0)
+        left = max(total - used, DEFAULT_SECONDS) / rate
+        _NOTICE.notices.append((name, left))
+        _NOTICE.named.add(name)
+        short = ".".join(name.split(".")[-2:])
+        log.warning(
+            "compiling kernels, once: ~%d s (%s, in another process; cache: %s)",
+            round(left),
+            short,
+            cache_dir(),
+        )
+        process.join()
+        _NOTICE.waits.append((name, time.monotonic() - t0))
+
+
+def compile_waits() -> list[tuple[str, float]]:
+    """``(kernel, wall seconds)`` this process waited for kernels compiling in a
+    background process (:func:`await_kernel`)."""
+    return list(_NOTICE.waits)
+
+
+def compile_notices() -> list[tuple[str, float]]:
+    """``(kernel, estimated seconds)`` of the compile notices given in this process so far."""
+    return list(_NOTICE.notices)
+
+
+def compiled_helpers() -> list[str]:
+    """The auralize functions compiled in this process as part of a kernel."""
+    return sorted(_NOTICE.helpers)
+
+
 def estimate_seconds(kernel: str) -> float:
-    """Seconds to compile ``kernel`` (``module.name``), from :data:`COMPILE_SECONDS`.
+    """Seconds to compile ``kernel`` (``module.name``), from :func:`compile_seconds`.
 
     A kernel of at least :data:`NOTICE_AGAIN_SECONDS` counts alone (it is
     announced alone); a cheaper one with the other cheap kernels of its module
@@ -218,7 +308,8 @@ def estimate_seconds(kernel: str) -> float:
 
     from numba.core.registry import CPUDispatcher
 
-    own = COMPILE_SECONDS.get(kernel, DEFAULT_SECONDS)
+    table = compile_seconds()
+    own = table.get(kernel, DEFAULT_SECONDS)
     if own >= NOTICE_AGAIN_SECONDS:
         return own
     modname = kernel.rsplit(".", 1)[0]
@@ -230,7 +321,7 @@ def estimate_seconds(kernel: str) -> float:
         full = f"{modname}.{name}"
         if full == kernel or obj.targetoptions.get("inline", "never") == "always":
             continue
-        sec = COMPILE_SECONDS.get(full, DEFAULT_SECONDS)
+        sec = table.get(full, DEFAULT_SECONDS)
         if sec >= NOTICE_AGAIN_SECONDS:
             continue
         cache_file = getattr(getattr(obj, "_cache", None), "_cache_file", None)
@@ -243,6 +334,8 @@ def estimate_seconds(kernel: str) -> float:
 
 #: the one dtype of a kernel's arrays, by numpy dtype kind
 _KERNEL_DTYPES: dict[str, type] = {"f": np.float64, "i": np.int64, "u": np.int64, "b": np.bool_}
+#: those dtypes (native byte order)
+_KERNEL_FORMS = frozenset(np.dtype(t) for t in (np.float64, np.int64, np.bool_))
 
 
 def kernel_arg(x: Any) -> Any:
@@ -259,6 +352,9 @@ def kernel_arg(x: Any) -> Any:
     float32 array is widened exactly).  Other objects pass unchanged.
     """
     if isinstance(x, np.ndarray):
+        flags = x.flags
+        if x.dtype in _KERNEL_FORMS and flags.c_contiguous and flags.writeable and flags.aligned:
+            return x  # (the usual case, first: every kernel call passes here)
         dt = _KERNEL_DTYPES.get(x.dtype.kind)
         if dt is None:
             raise TypeError(f"kernel arrays are floating, integer or bool, got {x.dtype}")
@@ -278,7 +374,7 @@ def kernel_arg(x: Any) -> Any:
 def kernel_args(*args: Any) -> tuple[Any, ...]:
     """:func:`kernel_arg` of each argument: one compiled signature per kernel, whatever
     the dtype, layout or write flag of the arrays a caller passes."""
-    return tuple(kernel_arg(a) for a in args)
+    return tuple(map(kernel_arg, args))
 
 
 _NOTICE = _CompileNotice()

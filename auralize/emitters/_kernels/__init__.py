@@ -38,10 +38,25 @@ The modules, by stage (each imports only those above it):
     pieces per chunk (SIMD), pieces split at captures (scalar), and parts
     (pieces split at captures, SIMD);
 :mod:`~auralize.emitters._kernels.render_pieces`, :mod:`~auralize.emitters._kernels.render_runs`
-    the two task drivers and entry points (``render``): piece by piece, and
-    by runs of pieces sharing their knots (unpanned and AmbiX);
+    the two task kernels (``render_task``, one task per thread): piece by
+    piece, and by runs of pieces sharing their knots (unpanned and AmbiX);
 :mod:`~auralize.emitters._kernels.tables`
-    the piece and run tables they read.
+    the piece and run tables they read;
+:mod:`~auralize.emitters._kernels.sampled`, :mod:`~auralize.emitters._kernels.emission`
+    the emitters engine's sampled backend (audio-rate point emitters, see
+    :mod:`auralize.emitters._sampled`): control points, and the emitted signals
+    read along the pieces between them.
+
+Arguments travel in named bundles (named tuples of
+:mod:`~auralize.emitters._kernels.common`: ``Listener``, ``Panning``,
+``Window``, ``PieceTable`` ...): numba passes a bundle's fields as it would
+the separate arguments, so they cost nothing at run time.  The kernels
+compile once each (one specialization: :func:`auralize.runtime.jit.kernel_args`);
+what is compiled into a kernel several times (helpers marked
+``inline="always"``, expanded at every call) is what the SIMD loops need
+inline, and branch-free selects use
+:func:`~auralize.emitters._kernels.common.where`; the rarely taken, longer
+paths are compiled once and called.
 
 Layout of the work:
 

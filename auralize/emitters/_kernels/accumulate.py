@@ -98,13 +98,20 @@ def _emit_piece(win, ch, n_ch, u0, u1, poly, r0, r1):
         ms = bend
 
 
-@numba.njit(inline="always", **_NJIT)
+#: no row of the capture table (an emission that goes to the accumulator): typed
+#: int64, as the rows the callers compute (a literal -1 would type as a constant and
+#: compile :func:`_emit_gained` once more for it)
+NO_ROW = np.int64(-1)
+
+
+@numba.njit(**_NJIT_NORC)
 def _emit_gained(win, u0, u1, fw, ga, gb, panned, r0, r1):
     """Emit f·g on [u0, u1] (samples) into every channel of window ``win``: f
     the Hermite cubic from value and slope ``fw = (va, wa, vb, wb)`` (slopes
     per data second) at its ends, gains linear from ``ga`` to ``gb`` (unpanned:
     gain 1); r0, r1 the capture table rows of u0, u1 or -1 (see
-    :func:`_emit_piece`)."""
+    :func:`_emit_piece`).  The scalar code's emission (pieces and parts the SIMD
+    loops leave to it), compiled once and called."""
     va, wa, vb, wb = fw
     fs = win.fs
     L = u1 - u0
@@ -123,8 +130,13 @@ def _emit_gained(win, u0, u1, fw, ga, gb, panned, r0, r1):
         if g0 == 0.0 and g1 == 0.0:
             continue
         slope = (g1 - g0) * slope_t
-        poly = _hermite_inv(inv_L, g0 * va, (g0 * wa + slope * va) * inv_fs, g1 * vb,
-                            (g1 * wb + slope * vb) * inv_fs)  # fmt: skip
+        poly = _hermite_inv(
+            inv_L,
+            g0 * va,
+            (g0 * wa + slope * va) * inv_fs,
+            g1 * vb,
+            (g1 * wb + slope * vb) * inv_fs,
+        )
         bad += _emit_piece(win, c, win.n_ch, u0, u1, poly, r0, r1)
     return bad
 

@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-from auralize.emitters._kernels.common import _NJIT, _NJIT_NORC
+from auralize.emitters._kernels.common import _NJIT, _NJIT_NORC, where
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -167,9 +167,9 @@ def _line_arrival(x, y, z, rm, line_pos, line_vel, t_n, inv_den, den, c0, inv_c0
     u = (pv + math.sqrt(pv * pv + den * pp)) * inv_den
     d = c0 * u
     clamp = d <= rm
-    ddd = 0.0 if clamp else pv + vv * u
-    d = rm if clamp else d
-    u = rm * inv_c0 if clamp else u
+    ddd = where(clamp, 0.0, pv + vv * u)
+    d = where(clamp, rm, d)
+    u = where(clamp, rm * inv_c0, u)
     return t_n + u, d, ddd
 
 
@@ -258,18 +258,20 @@ def _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0, two):
     candidate lines la, lb (tuples of a _row_lines row; lb only if ``two``)
     and taken from the one whose interval holds it; ``found`` False when
     neither does (branch-free)."""
-    a1, d1, e1 = _line_arrival(x, y, z, rm, (la[0], la[1], la[2]), (la[3], la[4], la[5]), la[6],
-                               la[9], la[10], c0, inv_c0)  # fmt: skip
+    a1, d1, e1 = _line_arrival(
+        x, y, z, rm, (la[0], la[1], la[2]), (la[3], la[4], la[5]), la[6], la[9], la[10], c0, inv_c0
+    )
     ok1 = (a1 >= la[7]) & (a1 < la[8])
     if not two:
         return a1, d1, e1, la[11], ok1
-    a2, d2, e2 = _line_arrival(x, y, z, rm, (lb[0], lb[1], lb[2]), (lb[3], lb[4], lb[5]), lb[6],
-                               lb[9], lb[10], c0, inv_c0)  # fmt: skip
+    a2, d2, e2 = _line_arrival(
+        x, y, z, rm, (lb[0], lb[1], lb[2]), (lb[3], lb[4], lb[5]), lb[6], lb[9], lb[10], c0, inv_c0
+    )
     ok2 = (a2 >= lb[7]) & (a2 < lb[8])
-    a = a1 if ok1 else a2
-    d = d1 if ok1 else d2
-    e = e1 if ok1 else e2
-    sg = la[11] if ok1 else lb[11]
+    a = where(ok1, a1, a2)
+    d = where(ok1, d1, d2)
+    e = where(ok1, e1, e2)
+    sg = where(ok1, la[11], lb[11])
     return a, d, e, sg, ok1 | ok2
 
 
@@ -278,9 +280,9 @@ def _listener_at(a, sg, la, lb):
     """Listener position at arrival a on the candidate line (la or lb) of
     capture interval sg (branch-free)."""
     sel = sg == la[11]
-    x = la[0] + la[3] * (a - la[6]) if sel else lb[0] + lb[3] * (a - lb[6])
-    y = la[1] + la[4] * (a - la[6]) if sel else lb[1] + lb[4] * (a - lb[6])
-    z = la[2] + la[5] * (a - la[6]) if sel else lb[2] + lb[5] * (a - lb[6])
+    x = where(sel, la[0] + la[3] * (a - la[6]), lb[0] + lb[3] * (a - lb[6]))
+    y = where(sel, la[1] + la[4] * (a - la[6]), lb[1] + lb[4] * (a - lb[6]))
+    z = where(sel, la[2] + la[5] * (a - la[6]), lb[2] + lb[5] * (a - lb[6]))
     return x, y, z
 
 

@@ -21,6 +21,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numba
+from numba.core import types
+from numba.extending import intrinsic
 
 from auralize.runtime.jit import configure as _configure_numba
 
@@ -160,28 +162,133 @@ Panning = namedtuple(
 #: ``first_capture + r``, see :func:`auralize.emitters._kernels.accumulate._emit_piece`).
 Window = namedtuple(
     "Window",
-    ["acc", "base", "blo", "nb", "n_ch", "shift", "n_samples", "t_start", "fs", "capture_sums",
-     "first_capture"],
-)  # fmt: skip
+    [
+        "acc",
+        "base",
+        "blo",
+        "nb",
+        "n_ch",
+        "shift",
+        "n_samples",
+        "t_start",
+        "fs",
+        "capture_sums",
+        "first_capture",
+    ],
+)
 #: The same window as the SIMD loops read it (floats where they compute with
 #: them), with the speed of sound: c0, 1/c0, t_start, fs, 1/fs, n_samples,
 #: block length and its inverse, blo, nb, base and values per sample row.
 LaneGrid = namedtuple(
     "LaneGrid",
-    ["c0", "inv_c0", "t_start", "fs", "inv_fs", "fn", "fblock", "inv_block", "blo", "nb", "base",
-     "rs"],
-)  # fmt: skip
+    [
+        "c0",
+        "inv_c0",
+        "t_start",
+        "fs",
+        "inv_fs",
+        "fn",
+        "fblock",
+        "inv_block",
+        "blo",
+        "nb",
+        "base",
+        "rs",
+    ],
+)
 #: A task's scratch: gains at a piece's two ends and two more (per channel),
 #: the listener's forward and up (6), and the counts of :func:`auralize.emitters._kernels.parts._chunk_parts`.
 Scratch = namedtuple("Scratch", ["ga", "gb", "gx", "gy", "frame", "counts"])
+#: The work arrays of a task of the piece-wise kernel: the pieces' and the parts'
+#: (rows :data:`ROW`), per-lane gains at both ends of a piece ``(_CHUNK, n_ch)``
+#: (layouts panned neither by pairs nor by harmonics), per-lane AmbiX gains at both
+#: ends ``(n_ch, _CHUNK)`` and the harmonics' scratch ``(5, _CHUNK)``.
+Lanes = namedtuple(
+    "Lanes", ["pieces", "parts", "gains0", "gains1", "sh_gains0", "sh_gains1", "sh_scratch"]
+)
+#: The sounding pieces in chunks of :data:`_CHUNK` lanes, sorted by knot row: row n's
+#: chunks are ``chunk_start[n]`` .. ``chunk_start[n + 1] - 1``, chunk c holds
+#: ``chunk_count[c]`` pieces, ``piece_data (C, 8, _CHUNK)`` their inputs (rows X ..
+#: M1 of :data:`ROW`); task j sums chunks ``task_chunks[j, 0]`` .. ``task_chunks[j, 1] - 1``.
+PieceTable = namedtuple("PieceTable", ["piece_data", "chunk_start", "chunk_count", "task_chunks"])
+#: The runs of sounding pieces in chunks (see :mod:`auralize.emitters._kernels.render_runs`):
+#: chunk g holds ``count[g]`` runs whose first piece is in knot row ``first_row[g]``,
+#: the longest ``length[g]`` pieces, their knot data at ``offset[g]`` of ``knot_data``
+#: (rows :data:`KNOT_ROW`); task j sweeps knot rows ``task_rows[j, 0]`` .. ``task_rows[j, 1] - 1``.
+RunTable = namedtuple(
+    "RunTable", ["first_row", "length", "count", "offset", "knot_data", "task_rows"]
+)
+#: The knot rows: knot times ``(Tp,)`` (padded with silent knots), the rows ``n_lo`` ..
+#: ``n_hi - 1`` that can be heard, the listener's candidate lines per row
+#: (:func:`auralize.emitters._kernels.arrivals._row_lines`), and (piece-wise kernel) the
+#: rows split into parts at listener captures ``row_captures[n, 0]`` ..
+#: ``row_captures[n, 1] - 1`` on the listener's line of each capture interval j, row
+#: j + 1 of ``interval_lines (M+1, 9)``.
+KnotRows = namedtuple(
+    "KnotRows", ["knot_times", "n_lo", "n_hi", "row_lines", "row_captures", "interval_lines"]
+)
+#: Where the tasks sum: the accumulator ``acc`` holding every task's window, task j's
+#: at ``task_blk[j]`` = (first block, blocks, offset in ``acc``, first sample it
+#: emits at; blocks of ``2**shift`` samples, ``n_ch`` channels), their capture tables
+#: ``capture_sums (n_tasks, R·n_ch·4)`` for captures ``first_capture`` .. ``+ R - 1``,
+#: and the output's length, first time and samples per data second.
+Accumulator = namedtuple(
+    "Accumulator",
+    [
+        "acc",
+        "task_blk",
+        "capture_sums",
+        "first_capture",
+        "shift",
+        "n_samples",
+        "t_start",
+        "fs",
+        "n_ch",
+    ],
+)
+
+
+@intrinsic
+def where(typingctx, cond, a, b):
+    """``a if cond else b`` for scalars, both evaluated, no branch: one instruction
+    (LLVM's ``select``) where the conditional expression is three blocks of numba IR and
+    a variable assigned twice, which numba's compiler passes pay for in every inlined
+    copy (the compiled loops are the same: LLVM turns those blocks into the select).
+    Not in code compiled with FMA contraction whose results must stay bit for bit:
+    there a select of a computed operand can change which multiply-adds LLVM fuses
+    (see :mod:`auralize.emitters._kernels.hermite`)."""
+    res = typingctx.unify_pairs(a, b)
+    if res is None or not isinstance(res, types.Number | types.Boolean):
+        return None
+
+    def codegen(context, builder, signature, args):
+        c, x, y = args
+        c = context.cast(builder, c, signature.args[0], types.boolean)
+        x = context.cast(builder, x, signature.args[1], res)
+        y = context.cast(builder, y, signature.args[2], res)
+        return builder.select(c, x, y)
+
+    return res(cond, a, b), codegen
 
 
 @numba.njit(inline="always", **_NJIT)
 def lane_grid(c0, win):
     """The :class:`LaneGrid` of window ``win`` (a :class:`Window`)."""
     fblock = float(1 << win.shift)
-    return LaneGrid(c0, 1.0 / c0, win.t_start, win.fs, 1.0 / win.fs, float(win.n_samples), fblock,
-                    1.0 / fblock, win.blo, win.nb, win.base, 4.0 * win.n_ch)  # fmt: skip
+    return LaneGrid(
+        c0,
+        1.0 / c0,
+        win.t_start,
+        win.fs,
+        1.0 / win.fs,
+        float(win.n_samples),
+        fblock,
+        1.0 / fblock,
+        win.blo,
+        win.nb,
+        win.base,
+        4.0 * win.n_ch,
+    )
 
 
 @numba.njit(inline="always", **_NJIT)

@@ -40,23 +40,61 @@ def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
     are those of the angular law (exactly 1 and 0) without its atan2 and
     sines.
     """
-    ax, ay, az = direction
-    fx, fy, fz, ux, uy, uz = frame
-    n = spk_az.size
     for c in range(out.size):
         out[c] = 0.0
-    if n == 0:
+    if spk_az.size == 0:
         out[0] = 1.0
         return
-    lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
-    xf = ax * fx + ay * fy + az * fz
-    yl = ax * lx + ay * ly + az * lz
+    xf, yl, zu = _direction_in_frame(direction, frame)
     if pinv.shape[1] == 12:
-        _gains3(xf, yl, ax * ux + ay * uy + az * uz, pinv, out)
+        _gains3(xf, yl, zu, pinv, out)
         return
     if pinv.shape[1] == 2:
-        _gains_sh(xf, yl, ax * ux + ay * uy + az * uz, pinv, out)
+        _gains_sh(xf, yl, zu, pinv, out)
         return
+    _gains_plane(xf, yl, spk_az, spk_ch, fold, pinv, out)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _direction_in_frame(direction, frame):
+    """Coordinates (forward, left, up) of ``direction`` a = (ax, ay, az) in the
+    listener's ``frame`` = (fx, fy, fz, ux, uy, uz), its forward f and up u;
+    left = u × f."""
+    ax, ay, az = direction
+    fx, fy, fz, ux, uy, uz = frame
+    lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
+    return ax * fx + ay * fy + az * fz, ax * lx + ay * ly + az * lz, ax * ux + ay * uy + az * uz
+
+
+@numba.njit(**_NJIT_NORC)
+def _gains_called(direction, frame, spk_az, spk_ch, fold, pinv, out):
+    """:func:`_gains` compiled once and called (see :func:`_pan_gains`)."""
+    _gains(direction, frame, spk_az, spk_ch, fold, pinv, out)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _pan_gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
+    """:func:`_gains` for the scalar code of the synthesis kernels: the laws of
+    horizontal layouts inline, 3-D VBAP and AmbiX (the longer laws, a loop over the
+    triangles or the harmonics per call) compiled once and called, so that the
+    kernels that pan in several places do not compile them in every one."""
+    if pinv.shape[1] == 12 or pinv.shape[1] == 2:
+        _gains_called(direction, frame, spk_az, spk_ch, fold, pinv, out)
+        return
+    for c in range(out.size):
+        out[c] = 0.0
+    if spk_az.size == 0:
+        out[0] = 1.0
+        return
+    xf, yl, _ = _direction_in_frame(direction, frame)
+    _gains_plane(xf, yl, spk_az, spk_ch, fold, pinv, out)
+
+
+@numba.njit(inline="always", **_NJIT)
+def _gains_plane(xf, yl, spk_az, spk_ch, fold, pinv, out):
+    """The gains of a horizontal layout (``out`` zeroed, at least one speaker) for the
+    direction of forward and left coordinates (xf, yl) (see :func:`_gains`)."""
+    n = spk_az.size
     if fold and xf < 0.0:
         xf = -xf
     if xf == 0.0 and yl == 0.0:
@@ -96,10 +134,10 @@ def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
         out[spk_ch[0]] = 1.0
         return
     # relative angles on the arc
-    span = (a1 - a0) % two_pi
+    span = _python_mod(a1 - a0, two_pi)
     if span == 0.0:
         span = two_pi
-    rel = (phi - a0) % two_pi
+    rel = _python_mod(phi - a0, two_pi)
     if span > math.pi:
         # an arc wider than 180° cannot be panned (negative gains): the source
         # goes to the nearer end speaker
@@ -122,6 +160,23 @@ def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
     if norm > 0.0:
         out[spk_ch[i0]] += g0 / norm
         out[spk_ch[i1]] += g1 / norm
+
+
+@numba.njit(inline="always", **_NJIT)
+def _python_mod(x, y):
+    """``x % y`` for floats, as Python (and numba) define it: the remainder with the
+    sign of y (of a zero remainder too), from ``np.fmod``.  numba compiles ``%`` as a
+    call of its divmod helper, whose division and floor the caller throws away
+    (inlined, LLVM removes them; called, they cost more than the remainder)."""
+    mod = np.fmod(x, y)
+    if mod != 0.0:
+        if (y < 0.0) != (mod < 0.0):
+            mod += y
+    else:
+        mod *= mod  # +0.0, as numba's divmod does it
+        if y < 0.0:
+            mod = -mod
+    return mod
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -292,8 +347,15 @@ def _pan(x, y, z, t, s, lis, pan, g, frame):
     lx, ly, lz, _, _, _ = _listener(lis.times, lis.pos, lis.vel, t, s)
     _orient(lis.orient_table, lis.orient_clock, t, frame)
     o = frame
-    _gains((x - lx, y - ly, z - lz), (o[0], o[1], o[2], o[3], o[4], o[5]), pan.spk_az, pan.spk_ch,
-           pan.fold, pan.pinv, g)  # fmt: skip
+    _pan_gains(
+        (x - lx, y - ly, z - lz),
+        (o[0], o[1], o[2], o[3], o[4], o[5]),
+        pan.spk_az,
+        pan.spk_ch,
+        pan.fold,
+        pan.pinv,
+        g,
+    )
 
 
 @numba.njit(**_NJIT_NORC)

@@ -11,6 +11,13 @@ a piece's start, end and continuation into one lane of a work array.
 :func:`_hermite_at` evaluates q and dq/dτ inside a piece (branch-free: the
 SIMD loops); :func:`_qeval` is the scalar code's evaluation (linear or
 cubic, with a branch).
+
+The selects here are conditional expressions, not
+:func:`~auralize.emitters._kernels.common.where`: :func:`_cut_at_end` and
+:func:`_take_cut` are inlined into the runs kernel's steps, which are compiled with
+FMA contraction (:func:`auralize.emitters._kernels.render_runs._chunk_step`), and
+there the form of a select decides which multiply-adds LLVM fuses, hence the last
+bit of the sum.
 """
 
 from __future__ import annotations

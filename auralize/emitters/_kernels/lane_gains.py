@@ -23,6 +23,7 @@ from auralize.emitters._kernels.common import (
     KIND_GENERAL,
     KIND_SILENT,
     ROW,
+    where,
 )
 
 
@@ -72,10 +73,10 @@ def _orient_cell(t0, rate, top, t):
     rows, the last at ``top``) at data time t: the value is row j + w·(row j+1
     - row j); held outside the table (see :func:`_orient_lane`)."""
     u = (t - t0) * rate
-    u = u if u > 0.0 else 0.0
-    u = u if u < top else top
+    u = where(u > 0.0, u, 0.0)
+    u = where(u < top, u, top)
     jf = np.floor(u)
-    jf = jf if jf < top - 1.0 else top - 1.0
+    jf = where(jf < top - 1.0, jf, top - 1.0)
     return np.uint64(jf), u - jf
 
 
@@ -161,9 +162,9 @@ def _pair_take(work, i, rp, rx, ry, a0, a1, a2, a3, fp):
     g1 = a2 * xf + a3 * yl
     k = rp * _CHUNK + i
     take = (g0 >= -1e-12) & (g1 >= -1e-12) & (work[k] < 0.0)
-    work[k] = fp if take else work[k]
-    work[k + _CHUNK] = g0 if take else work[k + _CHUNK]
-    work[k + 2 * _CHUNK] = g1 if take else work[k + 2 * _CHUNK]
+    work[k] = where(take, fp, work[k])
+    work[k + _CHUNK] = where(take, g0, work[k + _CHUNK])
+    work[k + 2 * _CHUNK] = where(take, g1, work[k + 2 * _CHUNK])
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -172,7 +173,7 @@ def _pair_normalise(work, i, rp):
     g0 = max(work[k + _CHUNK], 0.0)
     g1 = max(work[k + 2 * _CHUNK], 0.0)
     norm = math.sqrt(g0 * g0 + g1 * g1)
-    inv = 1.0 / (norm if norm > 0.0 else 1.0)
+    inv = 1.0 / where(norm > 0.0, norm, 1.0)
     work[k + _CHUNK] = g0 * inv
     work[k + 2 * _CHUNK] = g1 * inv
     return (norm > 0.0) & (work[k] >= 0.0)
@@ -192,7 +193,7 @@ def _pair_search(work, cnt, pinv):
     for i in range(cnt):
         ok = _pair_normalise(work, i, ROW.P0) & _pair_normalise(work, i, ROW.P1)
         kd = work[ROW.KIND * _CHUNK + i]
-        work[ROW.KIND * _CHUNK + i] = KIND_GENERAL if (kd != KIND_SILENT) & ~ok else kd
+        work[ROW.KIND * _CHUNK + i] = where((kd != KIND_SILENT) & ~ok, KIND_GENERAL, kd)
 
 
 @numba.njit(**_NJIT_NORC)
@@ -219,9 +220,9 @@ def _chunk_pair_gains(work, cnt, lines0, lines1, orient_table, orient_clock, pin
         px, py, pz = _listener_at(a1, s1, l1a, l1b)
         qx, qy, qz = _listener_at(a1, s1, l0a, l0b)
         on1 = (s1 == l1a[11]) | (s1 == l1b[11])
-        px = px if on1 else qx
-        py = py if on1 else qy
-        pz = pz if on1 else qz
+        px = where(on1, px, qx)
+        py = where(on1, py, qy)
+        pz = where(on1, pz, qz)
         xf, yl = _frame_coords(work, i, ROW.O1, x - px, y - py, z - pz)
         work[ROW.XF1 * _CHUNK + i] = xf
         work[ROW.YL1 * _CHUNK + i] = yl
@@ -307,11 +308,11 @@ def _sh_lanes(work, cnt, rx, ry, rz, tab, gains, scratch):
         x, y, z = work[rx * _CHUNK + i], work[ry * _CHUNK + i], work[rz * _CHUNK + i]
         r2 = x * x + y * y + z * z
         nz = r2 > 0.0
-        inv = 1.0 / math.sqrt(r2 if nz else 1.0)
+        inv = 1.0 / math.sqrt(where(nz, r2, 1.0))
         work[rx * _CHUNK + i] = x * inv
         work[ry * _CHUNK + i] = y * inv
         work[rz * _CHUNK + i] = z * inv
-        scratch[4, i] = 1.0 if nz else 0.0  # no direction: the omnidirectional channel (W) only
+        scratch[4, i] = where(nz, 1.0, 0.0)  # no direction: the omnidirectional channel (W) only
         scratch[0, i] = 1.0  # Re (x + iy)^m
         scratch[1, i] = 0.0  # Im (x + iy)^m
     pmm = 1.0
@@ -403,9 +404,9 @@ def _chunk_sh_gains(
         px, py, pz = _listener_at(a1, s1, l1a, l1b)
         qx, qy, qz = _listener_at(a1, s1, l0a, l0b)
         on1 = (s1 == l1a[11]) | (s1 == l1b[11])
-        px = px if on1 else qx
-        py = py if on1 else qy
-        pz = pz if on1 else qz
+        px = where(on1, px, qx)
+        py = where(on1, py, qy)
+        pz = where(on1, pz, qz)
         xf, yl, zu = _frame_coords3(work, i, ROW.O1, x - px, y - py, z - pz)
         work[ROW.XF1 * _CHUNK + i] = xf
         work[ROW.YL1 * _CHUNK + i] = yl

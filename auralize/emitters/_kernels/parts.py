@@ -18,6 +18,7 @@ import numpy as np
 
 from auralize.emitters._kernels.accumulate import (
     _AHEAD,
+    NO_ROW,
     _emit_gained,
     _prefetch_lane,
     _scatter_group,
@@ -33,6 +34,7 @@ from auralize.emitters._kernels.common import (
     KIND_SIMPLE,
     ROW,
     lane_grid,
+    where,
 )
 from auralize.emitters._kernels.gains import _pan
 from auralize.emitters._kernels.hermite import _hermite_at, _piece_values
@@ -54,23 +56,34 @@ def _part_end(piece, at_knot, t_k, qk, mk, capture, line, t_n, h, c0, inv_c0):
     cx, cy, cz, ck = capture
     lx, ly, lz, vx, vy, vz, tr, den, inv_den = line
     dt = t_k - tr
-    a1, d1, e1 = _line_arrival(x, y, z, rm, (lx + vx * dt, ly + vy * dt, lz + vz * dt),
-                               (vx, vy, vz), t_k, inv_den, den, c0, inv_c0)  # fmt: skip
+    a1, d1, e1 = _line_arrival(
+        x,
+        y,
+        z,
+        rm,
+        (lx + vx * dt, ly + vy * dt, lz + vz * dt),
+        (vx, vy, vz),
+        t_k,
+        inv_den,
+        den,
+        c0,
+        inv_c0,
+    )
     px = cx - x
     py = cy - y
     pz = cz - z
     d = math.sqrt(px * px + py * py + pz * pz)
     clamp = d <= rm
-    e2 = 0.0 if clamp else px * vx + py * vy + pz * vz
-    d2 = rm if clamp else d
+    e2 = where(clamp, 0.0, px * vx + py * vy + pz * vz)
+    d2 = where(clamp, rm, d)
     a2 = ck
     q2, m2 = _hermite_at(t_n, h, q0, m0, q1, m1, a2 - d2 * inv_c0)
     return (
-        a1 if at_knot else a2,
-        d1 if at_knot else d2,
-        e1 if at_knot else e2,
-        qk if at_knot else q2,
-        mk if at_knot else m2,
+        where(at_knot, a1, a2),
+        where(at_knot, d1, d2),
+        where(at_knot, e1, e2),
+        where(at_knot, qk, q2),
+        where(at_knot, mk, m2),
     )
 
 
@@ -102,10 +115,18 @@ def _part_core(work, i, t_n, t_n1, grid):
     tr, den = work[(ROW.LN + 6) * k + i], work[(ROW.LN + 7) * k + i]
     inv_den = work[(ROW.LN + 8) * k + i]
     line = (lx, ly, lz, vx, vy, vz, tr, den, inv_den)
-    cap0 = (work[ROW.C0 * k + i], work[(ROW.C0 + 1) * k + i], work[(ROW.C0 + 2) * k + i],
-            work[(ROW.C0 + 3) * k + i])  # fmt: skip
-    cap1 = (work[ROW.C1 * k + i], work[(ROW.C1 + 1) * k + i], work[(ROW.C1 + 2) * k + i],
-            work[(ROW.C1 + 3) * k + i])  # fmt: skip
+    cap0 = (
+        work[ROW.C0 * k + i],
+        work[(ROW.C0 + 1) * k + i],
+        work[(ROW.C0 + 2) * k + i],
+        work[(ROW.C0 + 3) * k + i],
+    )
+    cap1 = (
+        work[ROW.C1 * k + i],
+        work[(ROW.C1 + 1) * k + i],
+        work[(ROW.C1 + 2) * k + i],
+        work[(ROW.C1 + 3) * k + i],
+    )
     h = t_n1 - t_n
     a0, d0, e0, qa, ma = _part_end(piece, at0, t_n, q0, m0, cap0, line, t_n, h, c0, inv_c0)
     a1, d1, e1, qb, mb = _part_end(piece, at1, t_n1, q1, m1, cap1, line, t_n, h, c0, inv_c0)
@@ -119,19 +140,14 @@ def _part_core(work, i, t_n, t_n1, grid):
 
 
 @numba.njit(**_NJIT_NORC)
-def _part_batch(work, cnt, knots, c0, lis, pan, win, scr):
-    """Sum the cnt parts in lanes 0..cnt-1 of ``work`` (see :func:`_chunk_parts`;
-    ``knots`` = (t_n, t_n1) their piece's knot times): SIMD loops for their
-    polynomials and speaker-pair gains, then a scalar loop that adds them to
-    the accumulator window ``win`` (a part over more than two accumulation
-    blocks, or with no speaker pair, through
-    :func:`~auralize.emitters._kernels.accumulate._emit_gained`).  Returns the
-    number of emissions outside the window."""
+def _part_lanes(work, cnt, knots, grid, panned):
+    """The arrivals, kind, accumulator rows and polynomial values of the cnt parts in
+    lanes 0..cnt-1 of ``work`` (:func:`_part_core`; ``knots`` = (t_n, t_n1) their
+    piece's knot times, ``grid`` a
+    :class:`~auralize.emitters._kernels.common.LaneGrid`): SIMD loops, polynomials A
+    and B when ``panned`` (see
+    :func:`~auralize.emitters._kernels.pieces._chunk_pieces`)."""
     t_n, t_n1 = knots
-    acc, t_start, fs, n_ch = win.acc, win.t_start, win.fs, win.n_ch
-    panned, pairs, spk_ch, nxt = pan.panned, pan.pairs, pan.spk_ch, pan.nxt
-    ga, gb, frame = scr.ga, scr.gb, scr.frame
-    grid = lane_grid(c0, win)
     if panned:
         for i in range(cnt):
             L, inv, f0, w0, f1, w1, x0, x1, x2 = _part_core(work, i, t_n, t_n1, grid)
@@ -141,6 +157,21 @@ def _part_batch(work, cnt, knots, c0, lis, pan, win, scr):
         for i in range(cnt):
             L, inv, f0, w0, f1, w1, x0, x1, x2 = _part_core(work, i, t_n, t_n1, grid)
             _piece_values(work, ROW.VAL_A, i, L, inv, f0, w0, f1, w1, x0, x1, x2)
+
+
+@numba.njit(**_NJIT_NORC)
+def _part_batch(work, cnt, knots, c0, lis, pan, win, scr):
+    """Sum the cnt parts in lanes 0..cnt-1 of ``work`` (see :func:`_chunk_parts`;
+    ``knots`` = (t_n, t_n1) their piece's knot times): SIMD loops for their
+    polynomials (:func:`_part_lanes`) and speaker-pair gains, then a scalar loop
+    that adds them to the accumulator window ``win`` (a part over more than two
+    accumulation blocks, or with no speaker pair, through
+    :func:`~auralize.emitters._kernels.accumulate._emit_gained`).  Returns the
+    number of emissions outside the window."""
+    acc, t_start, fs, n_ch = win.acc, win.t_start, win.fs, win.n_ch
+    panned, pairs, spk_ch, nxt = pan.panned, pan.pairs, pan.spk_ch, pan.nxt
+    ga, gb, frame = scr.ga, scr.gb, scr.frame
+    _part_lanes(work, cnt, knots, lane_grid(c0, win), panned)
     if pairs:
         _part_pair_gains(work, cnt, lis.orient_table, lis.orient_clock, pan.pinv, pan.const_orient)
     nbad = 0
@@ -154,17 +185,13 @@ def _part_batch(work, cnt, knots, c0, lis, pan, win, scr):
         x, y, z = work[ROW.X * _CHUNK + i], work[ROW.Y * _CHUNK + i], work[ROW.Z * _CHUNK + i]
         a0, a1 = work[ROW.A0 * _CHUNK + i], work[ROW.A1 * _CHUNK + i]
         sg = int(work[ROW.J * _CHUNK + i])
+        si = ei = ci = -1
         if kd == KIND_SIMPLE:
             done, si, ei, ci = _scatter_simple(acc, work, i, panned, pairs, spk_ch, nxt)
             if done:
                 continue
-            _pan(x, y, z, a0, sg, lis, pan, ga, frame)
-            _pan(x, y, z, a1, sg, lis, pan, gb, frame)
-            for c in range(n_ch):
-                if ga[c] != 0.0 or gb[c] != 0.0:
-                    _scatter_group(acc, work, i, si, ei, ci, c * 4, ga[c], gb[c])
-            continue
-        # over several accumulation blocks (KIND_ACROSS), or no speaker pair (KIND_GENERAL)
+        # a simple part of a layout panned otherwise than by pairs; over several
+        # accumulation blocks (KIND_ACROSS), or no speaker pair (KIND_GENERAL)
         if pairs and kd == KIND_ACROSS:
             for c in range(n_ch):
                 ga[c] = 0.0
@@ -178,16 +205,25 @@ def _part_batch(work, cnt, knots, c0, lis, pan, win, scr):
         elif panned:
             _pan(x, y, z, a0, sg, lis, pan, ga, frame)
             _pan(x, y, z, a1, sg, lis, pan, gb, frame)
-        fw = (work[ROW.F0 * _CHUNK + i], work[ROW.WF0 * _CHUNK + i] * fs,
-              work[ROW.F1 * _CHUNK + i], work[ROW.WF1 * _CHUNK + i] * fs)  # fmt: skip
-        nbad += _emit_gained(win, (a0 - t_start) * fs, (a1 - t_start) * fs, fw, ga, gb, panned,
-                             -1, -1)  # fmt: skip
+        if kd == KIND_SIMPLE:
+            for c in range(n_ch):
+                if ga[c] != 0.0 or gb[c] != 0.0:
+                    _scatter_group(acc, work, i, si, ei, ci, c * 4, ga[c], gb[c])
+            continue
+        fw = (
+            work[ROW.F0 * _CHUNK + i],
+            work[ROW.WF0 * _CHUNK + i] * fs,
+            work[ROW.F1 * _CHUNK + i],
+            work[ROW.WF1 * _CHUNK + i] * fs,
+        )
+        nbad += _emit_gained(
+            win, (a0 - t_start) * fs, (a1 - t_start) * fs, fw, ga, gb, panned, NO_ROW, NO_ROW
+        )
     return nbad
 
 
 @numba.njit(**_NJIT_NORC)
-def _chunk_parts(piece_data, ck, cc, captures, knots, work, interval_lines, c0, lis, pan, win,
-                 scr):  # fmt: skip
+def _chunk_parts(piece_data, ck, cc, captures, knots, work, interval_lines, c0, lis, pan, win, scr):
     """The cc pieces of chunk ck (knot row n: ``knots`` = (t_n, t_n1)) of a row
     whose arrivals may cross the listener's captures ``captures`` = (k_lo,
     k_hi): k_lo..k_hi-1, split there into parts.
@@ -224,10 +260,10 @@ def _chunk_parts(piece_data, ck, cc, captures, knots, work, interval_lines, c0, 
             dz = lz - piece_data[uck, np.uint64(2), ui]
             rm = piece_data[uck, np.uint64(3), ui]
             d = math.sqrt(dx * dx + dy * dy + dz * dz)
-            d = d if d > rm else rm
+            d = where(d > rm, d, rm)
             tau = tk - d * inv_c0
-            counts[ui] += 1.0 if tau <= t_n else 0.0
-            counts[np.uint64(_CHUNK) + ui] += 1.0 if tau <= t_n1 else 0.0
+            counts[ui] += where(tau <= t_n, 1.0, 0.0)
+            counts[np.uint64(_CHUNK) + ui] += where(tau <= t_n1, 1.0, 0.0)
     nbad = 0
     p = np.int64(0)  # typed int64, not the literal 0 (see _constant_rows)
     last = listener_times.size - 1

@@ -19,7 +19,7 @@ import math
 import numba
 import numpy as np
 
-from auralize.emitters._kernels.accumulate import _emit_gained
+from auralize.emitters._kernels.accumulate import NO_ROW, _emit_gained
 from auralize.emitters._kernels.arrivals import _LINE, _arrival, _fval, _knot_arrival, _line_tuple
 from auralize.emitters._kernels.common import (
     _CHUNK,
@@ -32,6 +32,7 @@ from auralize.emitters._kernels.common import (
     ROW,
     _inverses,
     lane_grid,
+    where,
 )
 from auralize.emitters._kernels.gains import _pan_far
 from auralize.emitters._kernels.hermite import _cut_at_end, _piece_values, _qeval, _take_cut
@@ -87,7 +88,7 @@ def _piece_tail(work, i, end0, end1, grid):
     u1 = (a1 - t_start) * fs
     L = u1 - u0
     # one division for 1/D0, 1/D1 and 1/L
-    L = L if L > 0.0 else 1.0
+    L = where(L > 0.0, L, 1.0)
     inv0, inv1, inv_l = _inverses(d0, d1, L)
     dd0 = dd0 * inv0  # dD/dt
     dd1 = dd1 * inv1
@@ -96,31 +97,29 @@ def _piece_tail(work, i, end0, end1, grid):
     w0 = (m0 * (1.0 - dd0 * inv_c0) - f0 * dd0) * inv0 * inv_fs
     w1 = (m1 * (1.0 - dd1 * inv_c0) - f1 * dd1) * inv1 * inv_fs
     s0 = np.ceil(u0)
-    s0 = s0 if s0 > 0.0 else 0.0
+    s0 = where(s0 > 0.0, s0, 0.0)
     s1 = np.ceil(u1)
-    s1 = s1 if s1 < fn else fn
+    s1 = where(s1 < fn, s1, fn)
     valid = (s1 > s0) & (u1 > u0) & ok0 & ok1
     general = ~(ok0 & ok1)
     work[ROW.F0 * _CHUNK + i] = f0
     work[ROW.WF0 * _CHUNK + i] = w0
     work[ROW.F1 * _CHUNK + i] = f1
     work[ROW.WF1 * _CHUNK + i] = w1
-    s0 = s0 if valid else 0.0
-    s1 = s1 if valid else 1.0
+    s0 = where(valid, s0, 0.0)
+    s1 = where(valid, s1, 1.0)
     b0 = np.floor(s0 * inv_block)
     b1 = np.floor((s1 - 1.0) * inv_block)
     simple = (sg0 == sg1) & (b1 <= b0 + 1.0) & (b0 >= blo) & (b1 < blo + nb)
-    work[ROW.KIND * _CHUNK + i] = (
-        KIND_GENERAL
-        if general
-        else ((KIND_SIMPLE if simple else KIND_ACROSS) if valid else KIND_SILENT)
+    work[ROW.KIND * _CHUNK + i] = where(
+        general, KIND_GENERAL, where(valid, where(simple, KIND_SIMPLE, KIND_ACROSS), KIND_SILENT)
     )
     work[ROW.SI * _CHUNK + i] = base + ((b0 - blo) * fblock + (s0 - b0 * fblock)) * rs
     end_inside = (s1 < fn) & (s1 < (b1 + 1.0) * fblock)
-    work[ROW.EI * _CHUNK + i] = (
-        base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * rs if end_inside else -1.0
+    work[ROW.EI * _CHUNK + i] = where(
+        end_inside, base + ((b1 - blo) * fblock + (s1 - b1 * fblock)) * rs, -1.0
     )
-    work[ROW.CI * _CHUNK + i] = base + (b1 - blo) * fblock * rs if b1 > b0 else -1.0
+    work[ROW.CI * _CHUNK + i] = where(b1 > b0, base + (b1 - blo) * fblock * rs, -1.0)
     return L, inv_l, f0, w0, f1, w1, s0 - u0, s1 - u0, b1 * fblock - u0
 
 
@@ -202,8 +201,9 @@ def _piece_general(win, lis, pan, scr, piece, tn, n, seg, cubic, c0):
     if pan.panned:
         _pan_far(x, y, z, a0, s0, lis, pan, scr.ga, scr.frame)
         _pan_far(x, y, z, a1, s1, lis, pan, scr.gb, scr.frame)
-    return _piece_across(win, lis, pan, scr, piece, tn, n, cubic, c0,
-                         (a0, a1, s0, s1, va, wa, vb, wb))  # fmt: skip
+    return _piece_across(
+        win, lis, pan, scr, piece, tn, n, cubic, c0, (a0, a1, s0, s1, va, wa, vb, wb)
+    )
 
 
 @numba.njit(**_NJIT_NORC)
@@ -225,7 +225,7 @@ def _piece_across(win, lis, pan, scr, piece, tn, n, cubic, c0, ends):
     panned = pan.panned
     bad = 0
     n_ct = win.capture_sums.size // (4 * n_ch)
-    r0 = -1
+    r0 = NO_ROW
     u0 = (a0 - t_start) * fs
     for c in range(n_ch):
         gy[c] = ga[c] if panned else 1.0
@@ -254,7 +254,7 @@ def _piece_across(win, lis, pan, scr, piece, tn, n, cubic, c0, ends):
         u1 = (t1 - t_start) * fs
         r1 = seg + 1 - first_capture
         if r1 < 0 or r1 >= n_ct:
-            r1 = -1
+            r1 = NO_ROW
         bad += _emit_gained(win, u0, u1, (va, wa, v1, w1), gy, gx, panned, r0, r1)
         seg += 1
         # ... and just after it, on the next line (held after the last capture)
@@ -269,5 +269,5 @@ def _piece_across(win, lis, pan, scr, piece, tn, n, cubic, c0, ends):
         u0 = u1
         r0 = r1
     return bad + _emit_gained(
-        win, u0, (a1 - t_start) * fs, (va, wa, vb, wb), gy, gb, panned, r0, -1
+        win, u0, (a1 - t_start) * fs, (va, wa, vb, wb), gy, gb, panned, r0, NO_ROW
     )

@@ -1,6 +1,6 @@
 """Compiled unpanned (and AmbiX) synthesis by runs of pieces: one emission per knot.
 
-Same sum as :func:`auralize.emitters._kernels.render_pieces.render` (see
+Same sum as :func:`auralize.emitters._kernels.render_pieces.render_task` (see
 :mod:`auralize.emitters._kernels` for the pieces, the Hermite cubic of
 f = q(τ)/D on each piece and the skewed accumulator), organised so that
 consecutive pieces of a source share their common knot:
@@ -48,7 +48,6 @@ from auralize.emitters._kernels.accumulate import (
     _clear_window,
     _emit1,
     _flush_captures,
-    _integrate_tasks,
     _prefetch,
 )
 from auralize.emitters._kernels.arrivals import (
@@ -56,25 +55,23 @@ from auralize.emitters._kernels.arrivals import (
     _knot_arrival,
     _line_tuple,
     _listener_at,
-    _row_lines,
 )
 from auralize.emitters._kernels.common import (
     _CHUNK,
     _NJIT,
+    _NJIT_NORC,
     KIND_ACROSS,
     KIND_GENERAL,
     KIND_SILENT,
     KIND_SIMPLE,
     KNOT_ROW,
     RUN_ROW,
-    Listener,
-    Panning,
-    Scratch,
     Window,
     _inverses,
     lane_grid,
+    where,
 )
-from auralize.emitters._kernels.gains import _constant_rows, _pan_far
+from auralize.emitters._kernels.gains import _pan_far
 from auralize.emitters._kernels.hermite import _cut_at_end, _shifted, _take_cut
 from auralize.emitters._kernels.lane_gains import _orient_rows, _sh_lanes
 from auralize.emitters._kernels.pieces import _piece_across, _piece_general
@@ -102,10 +99,22 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     """
     la_p, lb_p = lines_prev
     la, lb = lines
-    c0, inv_c0, t_start, fs, inv_fs, fn = (grid.c0, grid.inv_c0, grid.t_start, grid.fs,
-                                           grid.inv_fs, grid.fn)  # fmt: skip
-    fblock, inv_block, blo, nb, base, rs = (grid.fblock, grid.inv_block, grid.blo, grid.nb,
-                                            grid.base, grid.rs)  # fmt: skip
+    c0, inv_c0, t_start, fs, inv_fs, fn = (
+        grid.c0,
+        grid.inv_c0,
+        grid.t_start,
+        grid.fs,
+        grid.inv_fs,
+        grid.fn,
+    )
+    fblock, inv_block, blo, nb, base, rs = (
+        grid.fblock,
+        grid.inv_block,
+        grid.blo,
+        grid.nb,
+        grid.base,
+        grid.rs,
+    )
     o = _CHUNK
     x = work[RUN_ROW.X * o + i]
     y = work[RUN_ROW.Y * o + i]
@@ -115,7 +124,7 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     mr = work[RUN_ROW.M * o + i]
     qp = work[RUN_ROW.QP * o + i]
     mp = work[RUN_ROW.MP * o + i]
-    m1 = mr if cubic else mp  # dq/dτ at the piece's end (linear: its slope)
+    m1 = where(cubic, mr, mp)  # dq/dτ at the piece's end (linear: its slope)
     a, d, e, sg, ok = _knot_arrival(x, y, z, rm, la, lb, c0, inv_c0, two)
     up = work[RUN_ROW.U * o + i]
     sp = work[RUN_ROW.SM * o + i]
@@ -129,15 +138,17 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     a1, d1, e1, q1, me, sg1, ok1 = a, d, e, q, m1, sg, ok
     cut = False
     if two:
-        cut, ac, dc, ec, q_cut, m_cut = _cut_at_end((x, y, z, rm, qp, mp, q, m1), sgp, okp, la_p,
-                                                    lb_p, t_n, grid)  # fmt: skip
+        cut, ac, dc, ec, q_cut, m_cut = _cut_at_end(
+            (x, y, z, rm, qp, mp, q, m1), sgp, okp, la_p, lb_p, t_n, grid
+        )
         cut = cut & ~first
-        a1, d1, e1, q1, me, sg1, ok1 = _take_cut(cut, (ac, dc, ec, q_cut, m_cut, sgp),
-                                                 (a, d, e, q, m1, sg, ok))  # fmt: skip
+        a1, d1, e1, q1, me, sg1, ok1 = _take_cut(
+            cut, (ac, dc, ec, q_cut, m_cut, sgp), (a, d, e, q, m1, sg, ok)
+        )
     u = (a - t_start) * fs
     u1 = (a1 - t_start) * fs
     L = u1 - up
-    L = L if L > 0.0 else 1.0
+    L = where(L > 0.0, L, 1.0)
     # one division for 1/D (knot), 1/D1 (the piece's end) and 1/L
     inv_d, inv_d1, inv_l = _inverses(d, d1, L)
     dd = e * inv_d
@@ -149,8 +160,8 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     s = np.ceil(u)
     # the piece from knot j - 1: samples ceil(up) .. ceil(u1) - 1 of the output
     s1 = np.ceil(u1)
-    s0c = sp if sp > 0.0 else 0.0
-    s1c = s1 if s1 < fn else fn
+    s0c = where(sp > 0.0, sp, 0.0)
+    s1c = where(s1 < fn, s1, fn)
     live = ~first & (j - 1.0 < work[RUN_ROW.LEN * o + i])
     found = okp & ok1
     valid = live & found & (s1c > s0c) & (u1 > up)
@@ -167,23 +178,23 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     )
     if gained:
         simple = simple & ~cut
-    work[RUN_ROW.KIND * o + i] = (
-        ((KIND_SIMPLE if simple else KIND_ACROSS) if valid else KIND_SILENT)
-        if found
-        else (KIND_GENERAL if live else KIND_SILENT)
+    work[RUN_ROW.KIND * o + i] = where(
+        found,
+        where(valid, where(simple, KIND_SIMPLE, KIND_ACROSS), KIND_SILENT),
+        where(live, KIND_GENERAL, KIND_SILENT),
     )
     dlt = (f1 - fp) * inv_l
     c2 = (3.0 * dlt - 2.0 * wp - w1) * inv_l
     c3 = (wp + w1 - 2.0 * dlt) * inv_l * inv_l
     # the emission at knot j - 1: this piece's start minus the previous one's end
     pf = work[RUN_ROW.PF * o + i] != 0.0
-    e0 = (fp if simple else 0.0) - work[RUN_ROW.P * o + i]
-    e1_ = (wp if simple else 0.0) - work[(RUN_ROW.P + 1) * o + i]
-    e2 = (c2 if simple else 0.0) - work[(RUN_ROW.P + 2) * o + i]
-    e3 = (c3 if simple else 0.0) - work[(RUN_ROW.P + 3) * o + i]
+    e0 = where(simple, fp, 0.0) - work[RUN_ROW.P * o + i]
+    e1_ = where(simple, wp, 0.0) - work[(RUN_ROW.P + 1) * o + i]
+    e2 = where(simple, c2, 0.0) - work[(RUN_ROW.P + 2) * o + i]
+    e3 = where(simple, c3, 0.0) - work[(RUN_ROW.P + 3) * o + i]
     v0, v1, v2, v3 = _shifted(e0, e1_, e2, e3, sp - up)
     use = pf | (simple & ~clip0)
-    work[RUN_ROW.EROW * o + i] = base + (sp - blo * fblock) * rs if use else -1.0
+    work[RUN_ROW.EROW * o + i] = where(use, base + (sp - blo * fblock) * rs, -1.0)
     work[RUN_ROW.E * o + i] = v0
     work[(RUN_ROW.E + 1) * o + i] = v1
     work[(RUN_ROW.E + 2) * o + i] = v2
@@ -201,17 +212,17 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
         pa3 = work[(RUN_ROW.PA + 2) * o + i]
         x0, x1, x2, x3 = _shifted(0.0, -pa1, -pa2, -pa3, sp - up)
         y0, y1, y2, y3 = _shifted(
-            (fp if simple else 0.0) - work[RUN_ROW.P * o + i],
-            ((wp - fl) if simple else 0.0) - (work[(RUN_ROW.P + 1) * o + i] - pa1),
-            (c2a if simple else 0.0) - (work[(RUN_ROW.P + 2) * o + i] - pa2),
-            (c3a if simple else 0.0) - (work[(RUN_ROW.P + 3) * o + i] - pa3),
+            where(simple, fp, 0.0) - work[RUN_ROW.P * o + i],
+            where(simple, wp - fl, 0.0) - (work[(RUN_ROW.P + 1) * o + i] - pa1),
+            where(simple, c2a, 0.0) - (work[(RUN_ROW.P + 2) * o + i] - pa2),
+            where(simple, c3a, 0.0) - (work[(RUN_ROW.P + 3) * o + i] - pa3),
             sp - up,
         )
         z0, z1, z2, z3 = _shifted(
             0.0,
-            fl if simple else 0.0,
-            (c2 - c2a) if simple else 0.0,
-            (c3 - c3a) if simple else 0.0,
+            where(simple, fl, 0.0),
+            where(simple, c2 - c2a, 0.0),
+            where(simple, c3 - c3a, 0.0),
             sp - up,
         )
         work[RUN_ROW.GX * o + i] = x0
@@ -231,8 +242,8 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
         work[(RUN_ROW.CA + 2) * o + i] = fl
     # restart (rare: emitted by the scalar code from the cubic's c2, c3): at
     # the output's first sample, or at the next accumulation block's
-    mr0 = 0.0 if clip0 else b1 * fblock
-    work[RUN_ROW.RROW * o + i] = mr0 if simple & (clip0 | (b1 > b0)) else -1.0
+    mr0 = where(clip0, 0.0, b1 * fblock)
+    work[RUN_ROW.RROW * o + i] = where(simple & (clip0 | (b1 > b0)), mr0, -1.0)
     work[RUN_ROW.C2 * o + i] = c2
     work[(RUN_ROW.C2 + 1) * o + i] = c3
     # for the scalar code
@@ -248,22 +259,22 @@ def _run_step(work, i, j, lines_prev, lines, t_n, two, cubic, first, grid, gaine
     # the arrival (not when the end falls on a new accumulation block: the
     # piece was not continued there)
     end = simple & ~cut & (s1 < fn) & (s1 < (b1 + 1.0) * fblock)
-    work[RUN_ROW.P * o + i] = f1 if end else 0.0
-    work[(RUN_ROW.P + 1) * o + i] = w1 if end else 0.0
-    work[(RUN_ROW.P + 2) * o + i] = c2 + 3.0 * c3 * L if end else 0.0
-    work[(RUN_ROW.P + 3) * o + i] = c3 if end else 0.0
-    work[RUN_ROW.PF * o + i] = 1.0 if end else 0.0
+    work[RUN_ROW.P * o + i] = where(end, f1, 0.0)
+    work[(RUN_ROW.P + 1) * o + i] = where(end, w1, 0.0)
+    work[(RUN_ROW.P + 2) * o + i] = where(end, c2 + 3.0 * c3 * L, 0.0)
+    work[(RUN_ROW.P + 3) * o + i] = where(end, c3, 0.0)
+    work[RUN_ROW.PF * o + i] = where(end, 1.0, 0.0)
     if gained:
-        work[RUN_ROW.PA * o + i] = -f1 * inv_l if end else 0.0
-        work[(RUN_ROW.PA + 1) * o + i] = c2a + 3.0 * c3a * L if end else 0.0
-        work[(RUN_ROW.PA + 2) * o + i] = c3a if end else 0.0
+        work[RUN_ROW.PA * o + i] = where(end, -f1 * inv_l, 0.0)
+        work[(RUN_ROW.PA + 1) * o + i] = where(end, c2a + 3.0 * c3a * L, 0.0)
+        work[(RUN_ROW.PA + 2) * o + i] = where(end, c3a, 0.0)
     work[RUN_ROW.U * o + i] = u
     work[RUN_ROW.SM * o + i] = s
     work[RUN_ROW.F * o + i] = f
     work[RUN_ROW.W * o + i] = wr
     work[RUN_ROW.A * o + i] = a
     work[RUN_ROW.SG * o + i] = sg
-    work[RUN_ROW.OK * o + i] = 1.0 if ok else 0.0
+    work[RUN_ROW.OK * o + i] = where(ok, 1.0, 0.0)
 
 
 @numba.njit(inline="always", **_NJIT)
@@ -272,9 +283,17 @@ def _run_first(work, i, la, lb, two, grid, gained):
     (see :func:`_run_step`; no piece ends there)."""
     c0, inv_c0, t_start, fs, inv_fs = grid.c0, grid.inv_c0, grid.t_start, grid.fs, grid.inv_fs
     o = _CHUNK
-    a, d, e, sg, ok = _knot_arrival(work[RUN_ROW.X * o + i], work[RUN_ROW.Y * o + i],
-                                    work[RUN_ROW.Z * o + i], work[RUN_ROW.RM * o + i], la, lb, c0,
-                                    inv_c0, two)  # fmt: skip
+    a, d, e, sg, ok = _knot_arrival(
+        work[RUN_ROW.X * o + i],
+        work[RUN_ROW.Y * o + i],
+        work[RUN_ROW.Z * o + i],
+        work[RUN_ROW.RM * o + i],
+        la,
+        lb,
+        c0,
+        inv_c0,
+        two,
+    )
     inv_d = 1.0 / d
     dd = e * inv_d
     f = work[RUN_ROW.Q * o + i] * inv_d
@@ -287,7 +306,7 @@ def _run_first(work, i, la, lb, two, grid, gained):
     )
     work[RUN_ROW.A * o + i] = a
     work[RUN_ROW.SG * o + i] = sg
-    work[RUN_ROW.OK * o + i] = 1.0 if ok else 0.0
+    work[RUN_ROW.OK * o + i] = where(ok, 1.0, 0.0)
     for r in range(RUN_ROW.P, RUN_ROW.PF + 1):
         work[r * o + i] = 0.0
     if gained:
@@ -352,15 +371,21 @@ def _knot_gains(
         dx = work[RUN_ROW.X * o + i] - px
         dy = work[RUN_ROW.Y * o + i] - py
         dz = work[RUN_ROW.Z * o + i] - pz
-        fx, fy, fz = (work[RUN_ROW.OR * o + i], work[(RUN_ROW.OR + 1) * o + i], work[(RUN_ROW.OR +
-                      2) * o + i])  # fmt: skip
-        ux, uy, uz = (work[(RUN_ROW.OR + 3) * o + i], work[(RUN_ROW.OR + 4) * o + i],
-                      work[(RUN_ROW.OR + 5) * o + i])  # fmt: skip
+        fx, fy, fz = (
+            work[RUN_ROW.OR * o + i],
+            work[(RUN_ROW.OR + 1) * o + i],
+            work[(RUN_ROW.OR + 2) * o + i],
+        )
+        ux, uy, uz = (
+            work[(RUN_ROW.OR + 3) * o + i],
+            work[(RUN_ROW.OR + 4) * o + i],
+            work[(RUN_ROW.OR + 5) * o + i],
+        )
         lx, ly, lz = uy * fz - uz * fy, uz * fx - ux * fz, ux * fy - uy * fx
         ok = work[RUN_ROW.OK * o + i] != 0.0
-        work[RUN_ROW.DIR * o + i] = (dx * fx + dy * fy + dz * fz) if ok else 1.0
-        work[(RUN_ROW.DIR + 1) * o + i] = (dx * lx + dy * ly + dz * lz) if ok else 0.0
-        work[(RUN_ROW.DIR + 2) * o + i] = (dx * ux + dy * uy + dz * uz) if ok else 0.0
+        work[RUN_ROW.DIR * o + i] = where(ok, dx * fx + dy * fy + dz * fz, 1.0)
+        work[(RUN_ROW.DIR + 1) * o + i] = where(ok, dx * lx + dy * ly + dz * lz, 0.0)
+        work[(RUN_ROW.DIR + 2) * o + i] = where(ok, dx * ux + dy * uy + dz * uz, 0.0)
     _sh_lanes(work, cnt, RUN_ROW.DIR, RUN_ROW.DIR + 1, RUN_ROW.DIR + 2, tab, gains, scratch)
 
 
@@ -398,173 +423,141 @@ def _copy_rows(work, r, knot_data, off, n_rows, cnt):
             work[dst + np.uint64(i)] = knot_data[src + np.uint64(i)]
 
 
-@numba.njit(parallel=True, **_NJIT)
-def render(gr0, glen, gcnt, goff, knot_data, tn, cubic, listener_times, listener_pos, listener_vel,
-           orient_table, orient_clock, c0, t_start, fs, n_samples, shift, n_ch, tab, n_lo, n_hi,
-           d_max, task_rows, task_blk, row_lines, acc, out, capture_sums, first_capture):  # fmt: skip
-    """Sum every run of sounding pieces into ``out (n_ch, n_samples)``.
+@numba.njit(**_NJIT_NORC)
+def render_task(task, runs, rows, cubic, c0, lis, pan, out, scr, work, gains, sh_scratch):
+    """Sum the runs of task ``task`` into its accumulator window and capture table;
+    returns the number of emissions outside the window (an internal error).
 
-    Chunk g holds gcnt[g] runs whose first piece is in row gr0[g], the
-    longest glen[g] pieces, at offset goff[g] of the knot data knot_data (rows of
-    _CHUNK, see _K_*), sorted by gr0.  Task j sums the pieces of rows
-    task_rows[j, 0]..task_rows[j, 1]-1 (the runs cut at its first and last
-    knot rows) into its accumulator window (task_blk[j] = first block,
-    number of blocks, offset in ``acc``, first sample, as in
-    :func:`auralize.emitters._synth_kernel.render`): tasks split time, so their
-    windows barely overlap.  ``tab`` is the spherical-harmonic table of an
-    AmbiX layout of n_ch channels (:func:`_synth_kernel._gains_sh`; with orient_table,
-    orient_clock the listener's orientation) or has no rows (unpanned, n_ch = 1).  The
-    other arguments are those of that function.  Returns the number of
-    emissions outside the windows (an internal error).
+    Task j sums the pieces of knot rows ``runs.task_rows[j, 0]`` ..
+    ``runs.task_rows[j, 1] - 1`` (the runs cut at its first and last knot rows;
+    tasks split time, so their windows barely overlap) into its window
+    ``out.task_blk[j]`` (:class:`~auralize.emitters._kernels.common.Accumulator`).
+    ``runs``: the runs in chunks (:class:`~auralize.emitters._kernels.common.RunTable`);
+    ``rows``, ``cubic``, ``c0``, ``lis`` as for
+    :func:`auralize.emitters._kernels.render_pieces.render_task`.  ``pan``: unpanned
+    (one channel), or an AmbiX layout of ``out.n_ch`` channels whose spherical-harmonic
+    table (:func:`~auralize.emitters._kernels.gains._gains_sh`) is ``pan.pinv``, with
+    ``pan.dense`` set (placeholder speakers for the scalar code's
+    :func:`~auralize.emitters._kernels.gains._pan_far`).  The task's work arrays:
+    ``scr`` (:class:`~auralize.emitters._kernels.common.Scratch`), ``work`` (rows
+    :data:`~auralize.emitters._kernels.common.RUN_ROW`, up to ``PLAIN_END`` when
+    unpanned), ``gains (3, n_ch, _CHUNK)`` (the gains of the last three knots, slot
+    k % 3 for knot k; no channels when unpanned) and ``sh_scratch (5, _CHUNK)``.
     """
-    n_tasks = task_rows.shape[0]
+    gr0, glen, gcnt, goff, knot_data = (
+        runs.first_row,
+        runs.length,
+        runs.count,
+        runs.offset,
+        runs.knot_data,
+    )
+    tn, n_lo, n_hi, row_lines = rows.knot_times, rows.n_lo, rows.n_hi, rows.row_lines
+    orient_table, orient_clock = lis.orient_table, lis.orient_clock
+    acc, n_ch, shift, t_start, fs = out.acc, out.n_ch, out.shift, out.t_start, out.fs
+    tab, gained, const_orient = pan.pinv, pan.dense, pan.const_orient
+    ga, gb, o6 = scr.ga, scr.gb, scr.frame
     block = 1 << shift
     fblock = float(block)
-    gained = tab.shape[0] > 0
     rs = 4.0 * n_ch
-    const_orient = _constant_rows(orient_table)
-    _row_lines(tn, listener_times, listener_pos, listener_vel, c0, d_max, n_lo, n_hi, row_lines)
-    bad = np.zeros(n_tasks, dtype=np.int64)
-    for jt in numba.prange(n_tasks):
-        blo, nb, base = task_blk[jt, 0], task_blk[jt, 1], task_blk[jt, 2]
-        _clear_window(acc, task_blk[jt], n_ch, block, n_samples)
-        n_rows = RUN_ROW.END if gained else RUN_ROW.PLAIN_END
-        work = np.zeros(n_rows * _CHUNK)
-        # the scalar code's panning: AmbiX gains from the table (placeholder
-        # speakers), none when unpanned
-        spk_az = np.zeros(n_ch if gained else 0)
-        spk_ch = np.arange(n_ch)
-        pinv = tab if gained else np.zeros((0, 4))
-        ga = np.ones(n_ch)
-        gb = np.ones(n_ch)
-        gx = np.ones(n_ch)
-        gy = np.ones(n_ch)
-        o6 = np.zeros(6)
-        # gains of the last three knots (slot k % 3 for knot k), scratch
-        gains = np.zeros((3, n_ch if gained else 0, _CHUNK))
-        scratch = np.empty((5, _CHUNK))
-        task_captures = capture_sums[jt]
-        task_captures[:] = 0.0
-        lis = Listener(listener_times, listener_pos, listener_vel, orient_table, orient_clock)
-        pan = Panning(spk_az, spk_ch, spk_ch, pinv, False, gained, False, gained, const_orient)
-        win = Window(acc, base, blo, nb, n_ch, shift, n_samples, t_start, fs, task_captures,
-                     first_capture)  # fmt: skip
-        scr = Scratch(ga, gb, gx, gy, o6, np.empty(2 * _CHUNK))
-        grid = lane_grid(c0, win)
-        nbad = 0
-        ra = max(task_rows[jt, 0], n_lo)
-        rb = min(task_rows[jt, 1], n_hi)
-        for g in range(gr0.size):
-            r0 = gr0[g]
-            if r0 >= rb:
-                break
-            cnt = gcnt[g]
-            off = goff[g]
-            ka = max(r0, ra)
-            kb = min(r0 + glen[g], rb)
-            if kb <= ka:
-                continue
-            _copy_rows(work, 0, knot_data, off, 5, cnt)
-            for r in range(RUN_ROW.U, n_rows):
-                for i in range(cnt):
-                    work[r * _CHUNK + i] = 0.0
-            if gained:
-                gains[:] = 0.0
-                if const_orient:
-                    for c in range(6):
-                        for i in range(cnt):
-                            work[(RUN_ROW.OR + c) * _CHUNK + i] = orient_table[0, c]
-            for n in range(ka, kb + 1):
-                jk = n - r0
-                kq = off + (KNOT_ROW.KNOT + 2 * jk) * _CHUNK
-                _copy_rows(work, RUN_ROW.Q, knot_data, kq, 2, cnt)
-                if jk >= 1:
-                    _copy_rows(work, RUN_ROW.QP, knot_data, kq - 2 * _CHUNK, 2, cnt)
-                first = n == ka
-                two = row_lines[n, 2 * _LINE] != 0.0 or (
-                    not first and row_lines[n - 1, 2 * _LINE] != 0.0
-                )
-                rp = n if first else n - 1
-                _chunk_step(work, cnt, jk, row_lines[rp], row_lines[n], two, cubic, first, grid,
-                            gained)  # fmt: skip
-                g0 = gains[jk % 3]  # knot n
-                g1 = gains[(jk + 2) % 3]  # knot n - 1
-                g2 = gains[(jk + 1) % 3]  # knot n - 2
-                if gained:
-                    _knot_gains(work, cnt, row_lines[n], orient_table, orient_clock, tab,
-                                const_orient, g0, scratch)  # fmt: skip
-                if first:
-                    continue
-                for i in range(cnt):
-                    if gained and i + _AHEAD_G < cnt:
-                        # the emission rows of AmbiX layouts span several cache
-                        # lines: fetched a few lanes ahead
-                        ea = work[RUN_ROW.EROW * _CHUNK + i + _AHEAD_G]
-                        if ea >= 0.0:
-                            for k in range(0, 4 * n_ch, 8):
-                                _prefetch(acc, np.uint64(ea) + np.uint64(k))
-                    er = work[RUN_ROW.EROW * _CHUNK + i]
-                    if er >= 0.0:
-                        if gained:
-                            _add_split(acc, er, work, i, g2, g1, g0, n_ch)
-                        else:
-                            _add_plain(acc, er, work, RUN_ROW.E, i)
-                    mr0 = work[RUN_ROW.RROW * _CHUNK + i]
-                    if mr0 >= 0.0:
-                        row = int(base + (mr0 - blo * fblock) * rs)
-                        x = mr0 - (work[RUN_ROW.A0 * _CHUNK + i] - t_start) * fs
-                        f0, w0 = work[RUN_ROW.F0 * _CHUNK + i], work[RUN_ROW.WF0 * _CHUNK + i]
-                        c2, c3 = work[RUN_ROW.C2 * _CHUNK + i], work[(RUN_ROW.C2 + 1) * _CHUNK + i]
-                        if gained:
-                            c2a, c3a = (work[RUN_ROW.CA * _CHUNK + i], work[(RUN_ROW.CA + 1) *
-                                        _CHUNK + i])  # fmt: skip
-                            fl = work[(RUN_ROW.CA + 2) * _CHUNK + i]
-                            for c in range(n_ch):
-                                ha = g1[c, i]
-                                hb = g0[c, i]
-                                _emit1(acc, row + 4 * c, x, ha * f0, ha * (w0 - fl) + hb * fl, ha *
-                                       c2a + hb * (c2 - c2a), ha * c3a + hb * (c3 - c3a), 1.0)  # fmt: skip
-                        else:
-                            _emit1(acc, row, x, f0, w0, c2, c3, 1.0)
-                    kd = work[RUN_ROW.KIND * _CHUNK + i]
-                    if kd < KIND_GENERAL:
-                        continue
-                    x, y, z = (work[RUN_ROW.X * _CHUNK + i], work[RUN_ROW.Y * _CHUNK + i],
-                               work[RUN_ROW.Z * _CHUNK + i])  # fmt: skip
-                    rm = work[RUN_ROW.RM * _CHUNK + i]
-                    q0, m0 = work[RUN_ROW.QP * _CHUNK + i], work[RUN_ROW.MP * _CHUNK + i]
-                    q1 = work[RUN_ROW.Q * _CHUNK + i]
-                    m1 = work[RUN_ROW.M * _CHUNK + i] if cubic else m0
-                    piece = (x, y, z, rm, q0, m0, q1, m1)
-                    if kd == KIND_ACROSS:
-                        a0, a1 = work[RUN_ROW.A0 * _CHUNK + i], work[RUN_ROW.A1 * _CHUNK + i]
-                        s0 = int(work[RUN_ROW.S0 * _CHUNK + i])
-                        s1 = int(work[RUN_ROW.S1 * _CHUNK + i])
-                        if gained:
-                            _pan_far(x, y, z, a0, s0, lis, pan, ga, o6)
-                            _pan_far(x, y, z, a1, s1, lis, pan, gb, o6)
-                        ends = (a0, a1, s0, s1, work[RUN_ROW.F0 * _CHUNK + i],
-                                work[RUN_ROW.WF0 * _CHUNK + i] * fs, work[RUN_ROW.F1 * _CHUNK + i],
-                                work[RUN_ROW.WF1 * _CHUNK + i] * fs)  # fmt: skip
-                        nbad += _piece_across(win, lis, pan, scr, piece, tn, n - 1, cubic, c0, ends)
-                    else:
-                        nbad += _piece_general(win, lis, pan, scr, piece, tn, n - 1,
-                                               int(row_lines[n - 1, 11]), cubic, c0)  # fmt: skip
-            # the end of the last piece (its knot has no piece after it here):
-            # slots as after the last knot, kb
-            g0 = gains[(kb - r0) % 3]
-            g1 = gains[(kb - r0 + 2) % 3]
+    n_rows = RUN_ROW.END if gained else RUN_ROW.PLAIN_END
+    blk = out.task_blk[task]
+    blo, nb, base = blk[0], blk[1], blk[2]
+    _clear_window(acc, blk, n_ch, block, out.n_samples)
+    task_captures = out.capture_sums[task]
+    task_captures[:] = 0.0
+    win = Window(
+        acc,
+        base,
+        blo,
+        nb,
+        n_ch,
+        shift,
+        out.n_samples,
+        t_start,
+        fs,
+        task_captures,
+        out.first_capture,
+    )
+    grid = lane_grid(c0, win)
+    scratch = sh_scratch
+    nbad = 0
+    ra = max(runs.task_rows[task, 0], n_lo)
+    rb = min(runs.task_rows[task, 1], n_hi)
+    for g in range(gr0.size):
+        r0 = gr0[g]
+        if r0 >= rb:
+            break
+        cnt = gcnt[g]
+        off = goff[g]
+        ka = max(r0, ra)
+        kb = min(r0 + glen[g], rb)
+        if kb <= ka:
+            continue
+        _copy_rows(work, 0, knot_data, off, 5, cnt)
+        for r in range(RUN_ROW.U, n_rows):
             for i in range(cnt):
-                if work[RUN_ROW.PF * _CHUNK + i] != 0.0:
-                    sm = work[RUN_ROW.SM * _CHUNK + i]
-                    row = int(base + (sm - blo * fblock) * rs)
-                    x = sm - work[RUN_ROW.U * _CHUNK + i]
-                    p0, p1 = work[RUN_ROW.P * _CHUNK + i], work[(RUN_ROW.P + 1) * _CHUNK + i]
-                    p2, p3 = work[(RUN_ROW.P + 2) * _CHUNK + i], work[(RUN_ROW.P + 3) * _CHUNK + i]
+                work[r * _CHUNK + i] = 0.0
+        if gained:
+            gains[:] = 0.0
+            if const_orient:
+                for c in range(6):
+                    for i in range(cnt):
+                        work[(RUN_ROW.OR + c) * _CHUNK + i] = orient_table[0, c]
+        for n in range(ka, kb + 1):
+            jk = n - r0
+            kq = off + (KNOT_ROW.KNOT + 2 * jk) * _CHUNK
+            _copy_rows(work, RUN_ROW.Q, knot_data, kq, 2, cnt)
+            if jk >= 1:
+                _copy_rows(work, RUN_ROW.QP, knot_data, kq - 2 * _CHUNK, 2, cnt)
+            first = n == ka
+            two = row_lines[n, 2 * _LINE] != 0.0 or (
+                not first and row_lines[n - 1, 2 * _LINE] != 0.0
+            )
+            rp = n if first else n - 1
+            _chunk_step(work, cnt, jk, row_lines[rp], row_lines[n], two, cubic, first, grid, gained)
+            g0 = gains[jk % 3]  # knot n
+            g1 = gains[(jk + 2) % 3]  # knot n - 1
+            g2 = gains[(jk + 1) % 3]  # knot n - 2
+            if gained:
+                _knot_gains(
+                    work,
+                    cnt,
+                    row_lines[n],
+                    orient_table,
+                    orient_clock,
+                    tab,
+                    const_orient,
+                    g0,
+                    scratch,
+                )
+            if first:
+                continue
+            for i in range(cnt):
+                if gained and i + _AHEAD_G < cnt:
+                    # the emission rows of AmbiX layouts span several cache
+                    # lines: fetched a few lanes ahead
+                    ea = work[RUN_ROW.EROW * _CHUNK + i + _AHEAD_G]
+                    if ea >= 0.0:
+                        for k in range(0, 4 * n_ch, 8):
+                            _prefetch(acc, np.uint64(ea) + np.uint64(k))
+                er = work[RUN_ROW.EROW * _CHUNK + i]
+                if er >= 0.0:
                     if gained:
-                        pa1, pa2 = (work[RUN_ROW.PA * _CHUNK + i], work[(RUN_ROW.PA + 1) * _CHUNK +
-                                    i])  # fmt: skip
-                        pa3 = work[(RUN_ROW.PA + 2) * _CHUNK + i]
+                        _add_split(acc, er, work, i, g2, g1, g0, n_ch)
+                    else:
+                        _add_plain(acc, er, work, RUN_ROW.E, i)
+                mr0 = work[RUN_ROW.RROW * _CHUNK + i]
+                if mr0 >= 0.0:
+                    row = int(base + (mr0 - blo * fblock) * rs)
+                    x = mr0 - (work[RUN_ROW.A0 * _CHUNK + i] - t_start) * fs
+                    f0, w0 = work[RUN_ROW.F0 * _CHUNK + i], work[RUN_ROW.WF0 * _CHUNK + i]
+                    c2, c3 = work[RUN_ROW.C2 * _CHUNK + i], work[(RUN_ROW.C2 + 1) * _CHUNK + i]
+                    if gained:
+                        c2a, c3a = (
+                            work[RUN_ROW.CA * _CHUNK + i],
+                            work[(RUN_ROW.CA + 1) * _CHUNK + i],
+                        )
+                        fl = work[(RUN_ROW.CA + 2) * _CHUNK + i]
                         for c in range(n_ch):
                             ha = g1[c, i]
                             hb = g0[c, i]
@@ -572,14 +565,76 @@ def render(gr0, glen, gcnt, goff, knot_data, tn, cubic, listener_times, listener
                                 acc,
                                 row + 4 * c,
                                 x,
-                                hb * p0,
-                                ha * pa1 + hb * (p1 - pa1),
-                                ha * pa2 + hb * (p2 - pa2),
-                                ha * pa3 + hb * (p3 - pa3),
-                                -1.0,
+                                ha * f0,
+                                ha * (w0 - fl) + hb * fl,
+                                ha * c2a + hb * (c2 - c2a),
+                                ha * c3a + hb * (c3 - c3a),
+                                1.0,
                             )
                     else:
-                        _emit1(acc, row, x, p0, p1, p2, p3, -1.0)
-        bad[jt] = nbad + _flush_captures(win, listener_times, task_blk[jt, 3])
-    _integrate_tasks(acc, task_blk, n_tasks, n_ch, block, n_samples, out)
-    return int(bad.sum())
+                        _emit1(acc, row, x, f0, w0, c2, c3, 1.0)
+                kd = work[RUN_ROW.KIND * _CHUNK + i]
+                if kd < KIND_GENERAL:
+                    continue
+                x, y, z = (
+                    work[RUN_ROW.X * _CHUNK + i],
+                    work[RUN_ROW.Y * _CHUNK + i],
+                    work[RUN_ROW.Z * _CHUNK + i],
+                )
+                rm = work[RUN_ROW.RM * _CHUNK + i]
+                q0, m0 = work[RUN_ROW.QP * _CHUNK + i], work[RUN_ROW.MP * _CHUNK + i]
+                q1 = work[RUN_ROW.Q * _CHUNK + i]
+                m1 = work[RUN_ROW.M * _CHUNK + i] if cubic else m0
+                piece = (x, y, z, rm, q0, m0, q1, m1)
+                if kd == KIND_ACROSS:
+                    a0, a1 = work[RUN_ROW.A0 * _CHUNK + i], work[RUN_ROW.A1 * _CHUNK + i]
+                    s0 = int(work[RUN_ROW.S0 * _CHUNK + i])
+                    s1 = int(work[RUN_ROW.S1 * _CHUNK + i])
+                    if gained:
+                        _pan_far(x, y, z, a0, s0, lis, pan, ga, o6)
+                        _pan_far(x, y, z, a1, s1, lis, pan, gb, o6)
+                    ends = (
+                        a0,
+                        a1,
+                        s0,
+                        s1,
+                        work[RUN_ROW.F0 * _CHUNK + i],
+                        work[RUN_ROW.WF0 * _CHUNK + i] * fs,
+                        work[RUN_ROW.F1 * _CHUNK + i],
+                        work[RUN_ROW.WF1 * _CHUNK + i] * fs,
+                    )
+                    nbad += _piece_across(win, lis, pan, scr, piece, tn, n - 1, cubic, c0, ends)
+                else:
+                    nbad += _piece_general(
+                        win, lis, pan, scr, piece, tn, n - 1, int(row_lines[n - 1, 11]), cubic, c0
+                    )
+        # the end of the last piece (its knot has no piece after it here):
+        # slots as after the last knot, kb
+        g0 = gains[(kb - r0) % 3]
+        g1 = gains[(kb - r0 + 2) % 3]
+        for i in range(cnt):
+            if work[RUN_ROW.PF * _CHUNK + i] != 0.0:
+                sm = work[RUN_ROW.SM * _CHUNK + i]
+                row = int(base + (sm - blo * fblock) * rs)
+                x = sm - work[RUN_ROW.U * _CHUNK + i]
+                p0, p1 = work[RUN_ROW.P * _CHUNK + i], work[(RUN_ROW.P + 1) * _CHUNK + i]
+                p2, p3 = work[(RUN_ROW.P + 2) * _CHUNK + i], work[(RUN_ROW.P + 3) * _CHUNK + i]
+                if gained:
+                    pa1, pa2 = (work[RUN_ROW.PA * _CHUNK + i], work[(RUN_ROW.PA + 1) * _CHUNK + i])
+                    pa3 = work[(RUN_ROW.PA + 2) * _CHUNK + i]
+                    for c in range(n_ch):
+                        ha = g1[c, i]
+                        hb = g0[c, i]
+                        _emit1(
+                            acc,
+                            row + 4 * c,
+                            x,
+                            hb * p0,
+                            ha * pa1 + hb * (p1 - pa1),
+                            ha * pa2 + hb * (p2 - pa2),
+                            ha * pa3 + hb * (p3 - pa3),
+                            -1.0,
+                        )
+                else:
+                    _emit1(acc, row, x, p0, p1, p2, p3, -1.0)
+    return nbad + _flush_captures(win, lis.times, blk[3])

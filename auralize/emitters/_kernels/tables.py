@@ -94,7 +94,7 @@ def find_runs(q, tn, cubic, counts_only, src, r0, length):
     """Runs of consecutive sounding pieces of tracks q (K, T) with padded knot
     times tn (T + 2): piece n (padded knots n, n + 1) sounds when q or (cubic)
     its tangent is non-zero at either knot (as in
-    :func:`auralize.emitters._synth_kernel.build_pieces`).  With ``counts_only``
+    :func:`build_pieces`).  With ``counts_only``
     returns the number of runs; else fills each run's source, first piece
     and number of pieces."""
     K, T = q.shape
