@@ -208,8 +208,14 @@ class Background:
     def is_alive(self) -> bool:
         return bool(self.popen.poll() is None)
 
-    def join(self) -> None:
-        self.popen.wait()
+    def join(self, timeout: float | None = None) -> None:
+        """Wait for the process to end (at most ``timeout`` seconds when given)."""
+        import subprocess
+
+        try:
+            self.popen.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            pass
 
     def cpu_seconds(self) -> float | None:
         """CPU seconds the process has used so far (Linux: from ``/proc``; None

@@ -236,9 +236,34 @@ _BACKGROUND: list[tuple[frozenset[str], Any, float]] = []
 
 
 def compiling_elsewhere(kernels: Any, process: Any) -> None:
-    """Note that ``process`` (with ``join()`` and ``is_alive()``), started now, compiles
-    ``kernels`` (``module.name``) into the cache (:func:`auralize.warmup.compile_ahead`)."""
+    """Note that ``process`` (with ``join(timeout=None)`` and ``is_alive()``), started
+    now, compiles ``kernels`` (``module.name``) into the cache
+    (:func:`auralize.warmup.compile_ahead`)."""
     _BACKGROUND.append((frozenset(kernels), process, time.monotonic()))
+
+
+#: seconds a wait for a background compile watches that process before announcing
+#: it: the share of a core it gets while this process waits is measured, not guessed
+PROBE_SECONDS = 0.25
+#: the least CPU seconds a background compile that has not ended is expected to need
+LEAST_LEFT_SECONDS = 1.0
+
+
+def _cpu_share(process: Any, started: float) -> tuple[float | None, float]:
+    """CPU seconds ``process`` has used and the share of a core it gets now: over
+    :data:`PROBE_SECONDS` of this process's wait when it tells its CPU time (its
+    ``cpu_seconds()``; the waiting process leaves a core to it), else its wall time
+    since it started, at one core.  The share is held within 0.1 and 1."""
+    cpu: Any = getattr(process, "cpu_seconds", None)
+    before = cpu() if cpu is not None else None
+    t0 = time.monotonic()
+    process.join(timeout=PROBE_SECONDS)
+    if before is None:
+        return None, 1.0
+    after = cpu() if process.is_alive() else None
+    if after is None:
+        return before, 1.0
+    return after, min(max((after - before) / max(time.monotonic() - t0, 1e-3), 0.1), 1.0)
 
 
 def await_kernel(kernel: Any) -> None:
@@ -247,11 +272,13 @@ def await_kernel(kernel: Any) -> None:
     loads from the cache instead of compiling a second time (the other core is
     already on it).
 
-    The wait is announced as a compile is (``compiling kernels, once: ~N s (kernel,
-    in another process; ...)``): what the process is expected to use (its
-    ``expected_cpu``, else the kernel's estimate) less the CPU time it has used (its
-    ``cpu_seconds()``), at the share of a core it has had so far (else: less the time
-    since it started, at one core); :func:`compile_waits` lists the waits."""
+    A wait longer than :data:`PROBE_SECONDS` is announced as a compile is
+    (``compiling kernels, once: ~N s (kernel, in another process; ...)``): what the
+    process is expected to use (its ``expected_cpu``, else the kernel's estimate)
+    less the CPU time it has used (its ``cpu_seconds()``), at the share of a core it
+    gets while this process waits (measured over the first :data:`PROBE_SECONDS`);
+    a process that does not tell its CPU time counts its wall time since it started,
+    at one core.  :func:`compile_waits` lists the waits."""
     func = getattr(kernel, "py_func", None)
     if func is None or getattr(kernel, "overloads", None):
         return
@@ -261,22 +288,21 @@ def await_kernel(kernel: Any) -> None:
             continue
         t0 = time.monotonic()
         total = getattr(process, "expected_cpu", None) or estimate_seconds(name)
-        used = getattr(process, "cpu_seconds", lambda: None)()
-        if used is None:  # its wall time, at one core
-            used, rate = t0 - started, 1.0
-        else:  # at the share of a core it has had (less on a loaded machine)
-            rate = min(max(used / max(t0 - started, 1e-3), 0.2), 1.0)
-        left = max(total - used, DEFAULT_SECONDS) / rate
-        _NOTICE.notices.append((name, left))
-        _NOTICE.named.add(name)
-        short = ".".join(name.split(".")[-2:])
-        log.warning(
-            "compiling kernels, once: ~%d s (%s, in another process; cache: %s)",
-            round(left),
-            short,
-            cache_dir(),
-        )
-        process.join()
+        used, share = _cpu_share(process, started)
+        if process.is_alive():
+            if used is None:
+                used = time.monotonic() - started
+            left = max(total - used, LEAST_LEFT_SECONDS) / share
+            _NOTICE.notices.append((name, left))
+            _NOTICE.named.add(name)
+            short = ".".join(name.split(".")[-2:])
+            log.warning(
+                "compiling kernels, once: ~%d s (%s, in another process; cache: %s)",
+                round(left),
+                short,
+                cache_dir(),
+            )
+            process.join()
         _NOTICE.waits.append((name, time.monotonic() - t0))
 
 
