@@ -63,7 +63,7 @@ from auralize.emitters._kernels.common import (
     RunTable,
     Scratch,
 )
-from auralize.emitters.synth_prepare import (
+from auralize.emitters._synth_prepare import (
     MAX_DISTANCE_FACTOR,
     MAX_DISTANCE_M,
     audible_rows,
@@ -77,7 +77,7 @@ from auralize.emitters.synth_prepare import (
     prepare_render,
     source_extent,
 )
-from auralize.emitters.synth_tables import (
+from auralize.emitters._synth_tables import (
     cached_on_tracks,
     pan_table,
     panning_arrays,
@@ -106,7 +106,7 @@ _BY_RUNS: bool | None = None
 INTERPOLATIONS = ("linear", "cubic")
 
 #: the public names, those of the steps before the kernels
-#: (:mod:`~auralize.emitters.synth_prepare`, :mod:`~auralize.emitters.synth_tables`)
+#: (:mod:`~auralize.emitters._synth_prepare`, :mod:`~auralize.emitters._synth_tables`)
 #: included: the other packages import them from here
 __all__ = [
     "C0",
