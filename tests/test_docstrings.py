@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import importlib.util
 import inspect
 import pathlib
 import pkgutil
@@ -272,6 +273,24 @@ def test_checker_counts_what_a_package_exports_from_private_modules() -> None:
     found = {qual: kind for qual, _, kind in public_callables("auralize.io")}
     assert found["ResampledWarning"] == "class"  # defined in auralize.io._common
     assert "require_exists" not in found  # imported from there, not exported
+
+
+@pytest.mark.parametrize("module_name", ["auralize.emitters.synthesis", "auralize.io"])
+def test_the_api_reference_documents_what_the_rule_checks(module_name: str) -> None:
+    """The docs extension puts a module's exports from private modules on its page:
+    the same names the rule checks with the module."""
+    # the module alone, by its file (the extension's package needs Sphinx)
+    path = pathlib.Path(__file__).parents[1] / "docs" / "_ext" / "auralize_docs" / "exports.py"
+    spec = importlib.util.spec_from_file_location("_auralize_docs_exports", path)
+    assert spec is not None and spec.loader is not None
+    exports = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(exports)
+
+    mod = importlib.import_module(module_name)
+    on_page = {name for _, name in exports.exported_from_private(mod)}
+    checked = {q for q, obj, _ in public_callables(module_name) if "." not in q}
+    own = {q for q in checked if getattr(mod, q).__module__ == module_name}
+    assert on_page and on_page == checked - own
 
 
 # ------------------------------------------------------------ the checker itself
