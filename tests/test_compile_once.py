@@ -266,7 +266,7 @@ def test_plugins_are_warmed_through_their_hook(monkeypatch) -> None:  # type: ig
 _IR_CHILD = """
 import numpy as np
 from auralize import warmup
-from auralize.emitters import synth_prepare, synth_tables
+from auralize.emitters import _synth_prepare, _synth_tables
 from auralize.emitters._kernels import arrivals, gains, hermite, tables
 from auralize.emitters._kernels.common import LaneGrid
 from auralize.runtime import numba_passes
@@ -281,8 +281,8 @@ lt = np.array([0.0, 0.1, 0.2])
 arrivals._row_lines(*kernel_args(tn, lt, np.zeros((3, 3)), np.zeros((2, 3)), 343.0, 5.0, 0, 4,
                                  np.zeros((5, 2 * arrivals._LINE + 1))))
 tracks = warmup._tiny_tracks()
-synth_tables.sounding_pieces(tracks, synth_prepare.knot_times(tracks), "cubic")
-synth_tables.sounding_runs(tracks, synth_prepare.knot_times(tracks), "cubic")
+_synth_tables.sounding_pieces(tracks, _synth_prepare.knot_times(tracks), "cubic")
+_synth_tables.sounding_runs(tracks, _synth_prepare.knot_times(tracks), "cubic")
 state = numba_passes.apply()
 print("FAST" if all(state.values()) else "NUMBA" if not any(state.values()) else state)
 for k in (hermite._cut_at_end, gains._gains_called, arrivals._row_lines, tables.build_pieces,

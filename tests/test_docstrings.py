@@ -11,16 +11,21 @@ properties are documented as attributes are (a summary and an example, no
 What a module exports (``__all__``) from a private module (``auralize.io``'s
 ``ResampledWarning``, defined in ``auralize.io._common``) is checked with it.
 Extend :data:`DOCUMENTED_MODULES` as more modules meet the rule; every public
-module of a package in :data:`DOCUMENTED_PACKAGES` must be listed.
+module of a package in :data:`DOCUMENTED_PACKAGES` (its public sub-packages'
+included) must be listed, and the package's own ``__init__`` too when it defines
+public callables (one that only re-exports, lazily, has nothing of its own).
 """
 
 from __future__ import annotations
 
 import functools
 import importlib
+import importlib.util
 import inspect
+import pathlib
 import pkgutil
 import re
+import sys
 from collections.abc import Callable, Iterator
 
 import pytest
@@ -38,6 +43,7 @@ DOCUMENTED_MODULES: tuple[str, ...] = (
     "auralize.emitters.parallel",
     "auralize.emitters.propagation",
     "auralize.emitters.reference",
+    "auralize.emitters.synthesis",
     "auralize.emitters.timbre",
     "auralize.audio.output",
     "auralize.spatial.ambisonics",
@@ -63,7 +69,12 @@ DOCUMENTED_MODULES: tuple[str, ...] = (
 )
 
 #: packages whose public modules (names not starting with ``_``) all meet the rule
-DOCUMENTED_PACKAGES: tuple[str, ...] = ("auralize.io",)
+DOCUMENTED_PACKAGES: tuple[str, ...] = (
+    "auralize.emitters",
+    "auralize.io",
+    "auralize.sources",
+    "auralize.spatial",
+)
 
 
 def _section(doc: str, name: str) -> str | None:
@@ -175,6 +186,44 @@ def public_callables(module_name: str) -> Iterator[tuple[str, object, str]]:
             yield name, obj, "function"
 
 
+def _is_package(module_name: str) -> bool:
+    """Whether ``module_name`` is a package (its ``__init__``)."""
+    return hasattr(importlib.import_module(module_name), "__path__")
+
+
+def public_modules(package: str) -> list[str]:
+    """The public modules of ``package`` (names not starting with ``_``), those of its
+    public sub-packages included (the sub-packages themselves too), sorted."""
+    pkg = importlib.import_module(package)
+    out = []
+    for info in pkgutil.iter_modules(pkg.__path__):
+        if info.name.startswith("_"):
+            continue
+        name = f"{package}.{info.name}"
+        out.append(name)
+        if info.ispkg:
+            out.extend(public_modules(name))
+    return sorted(out)
+
+
+def unchecked_modules(package: str, documented: tuple[str, ...]) -> list[str]:
+    """What of ``package`` the rule should check but ``documented`` does not list: its
+    public modules, and the package itself (and each public sub-package) when it
+    defines public callables of its own."""
+    candidates = [package, *public_modules(package)]
+    return [
+        m
+        for m in candidates
+        if m not in documented and not (_is_package(m) and not list(public_callables(m)))
+    ]
+
+
+def empty_listed(modules: tuple[str, ...]) -> list[str]:
+    """Modules of ``modules`` with nothing to check that are not a package's ``__init__``
+    (a typo, a moved module; a package that only re-exports may be listed)."""
+    return [m for m in modules if not _is_package(m) and not list(public_callables(m))]
+
+
 def tally(module_name: str) -> tuple[int, int, int]:
     """Public callables of a module; how many have Parameters; how many an example."""
     n = n_params = n_examples = 0
@@ -198,21 +247,26 @@ def test_public_callables_meet_the_docstring_rule(module_name: str) -> None:
 
 def test_every_documented_module_has_public_callables() -> None:
     """A module listed with nothing to check (a typo, a moved module) is an error."""
-    empty = [m for m in DOCUMENTED_MODULES if not list(public_callables(m))]
-    assert not empty
+    assert not empty_listed(DOCUMENTED_MODULES)
 
 
 @pytest.mark.parametrize("package", DOCUMENTED_PACKAGES)
 def test_every_public_module_of_a_documented_package_is_checked(package: str) -> None:
     """A new public module of a documented package is checked as soon as it exists."""
-    pkg = importlib.import_module(package)
-    modules = [package] + [
-        f"{package}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__) if m.name[0] != "_"
-    ]
-    missing = [m for m in modules if m not in DOCUMENTED_MODULES]
-    assert len(modules) > 1 and not missing, (
-        f"public modules of {package} not in DOCUMENTED_MODULES: {missing}"
-    )
+    assert public_modules(package), f"{package} has no public modules"
+    missing = unchecked_modules(package, DOCUMENTED_MODULES)
+    assert not missing, f"public modules of {package} not in DOCUMENTED_MODULES: {missing}"
+
+
+def test_a_package_that_only_re_exports_need_not_be_listed() -> None:
+    # auralize.sources and auralize.spatial define no public callables of their own
+    assert list(public_callables("auralize.sources")) == []
+    unlisted = unchecked_modules("auralize.sources", ())
+    assert "auralize.sources" not in unlisted and "auralize.sources.detection" in unlisted
+    # one that defines its own is checked: auralize.emitters (Emitter, ...)
+    assert unchecked_modules("auralize.emitters", ())[0] == "auralize.emitters"
+    # listed, an empty package is allowed, an empty plain module is not
+    assert empty_listed(("auralize.sources", "auralize.constants")) == ["auralize.constants"]
 
 
 def test_checker_counts_what_a_package_exports_from_private_modules() -> None:
@@ -221,7 +275,88 @@ def test_checker_counts_what_a_package_exports_from_private_modules() -> None:
     assert "require_exists" not in found  # imported from there, not exported
 
 
+@pytest.mark.parametrize("module_name", ["auralize.emitters.synthesis", "auralize.io"])
+def test_the_api_reference_documents_what_the_rule_checks(module_name: str) -> None:
+    """The docs extension puts a module's exports from private modules on its page:
+    the same names the rule checks with the module."""
+    # the module alone, by its file (the extension's package needs Sphinx)
+    path = pathlib.Path(__file__).parents[1] / "docs" / "_ext" / "auralize_docs" / "exports.py"
+    spec = importlib.util.spec_from_file_location("_auralize_docs_exports", path)
+    assert spec is not None and spec.loader is not None
+    exports = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(exports)
+
+    mod = importlib.import_module(module_name)
+    on_page = {name for _, name in exports.exported_from_private(mod)}
+    checked = {q for q, obj, _ in public_callables(module_name) if "." not in q}
+    own = {q for q in checked if getattr(mod, q).__module__ == module_name}
+    assert on_page and on_page == checked - own
+
+
 # ------------------------------------------------------------ the checker itself
+_DOCUMENTED_MODULE = '''"""A documented module."""
+
+
+def half(x: float) -> float:
+    """Half of ``x``.
+
+    Parameters
+    ----------
+    x : float
+        A number.
+
+    Returns
+    -------
+    float
+        ``x / 2``.
+
+    Examples
+    --------
+    >>> half(3.0)
+    1.5
+    """
+    return x / 2
+'''
+
+
+def test_a_new_undocumented_module_of_a_documented_package_is_caught(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A real package on disk: an ``__init__`` with nothing of its own, a listed module,
+    private ones, and new public modules (one a sub-package) that nobody listed."""
+    pkg = tmp_path / "sdoc_demo"
+    (pkg / "_inner").mkdir(parents=True)
+    (pkg / "sub").mkdir()
+    (pkg / "__init__.py").write_text('"""Re-exports only."""\n')
+    (pkg / "done.py").write_text(_DOCUMENTED_MODULE)
+    (pkg / "fresh.py").write_text("def new(x):\n    return x\n")
+    (pkg / "_private.py").write_text("def hidden(x):\n    return x\n")
+    (pkg / "_inner" / "__init__.py").write_text("")
+    (pkg / "_inner" / "deep.py").write_text("def hidden(x):\n    return x\n")
+    (pkg / "sub" / "__init__.py").write_text("def own(x):\n    return x\n")
+    (pkg / "sub" / "leaf.py").write_text(_DOCUMENTED_MODULE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        assert public_modules("sdoc_demo") == [
+            "sdoc_demo.done",
+            "sdoc_demo.fresh",
+            "sdoc_demo.sub",
+            "sdoc_demo.sub.leaf",
+        ]
+        listed = ("sdoc_demo.done", "sdoc_demo.sub.leaf")
+        assert unchecked_modules("sdoc_demo", listed) == ["sdoc_demo.fresh", "sdoc_demo.sub"]
+        # listed, the new module is checked, and its undocumented function flagged
+        assert not unchecked_modules("sdoc_demo", (*listed, "sdoc_demo.fresh", "sdoc_demo.sub"))
+        ((qual, obj, kind),) = public_callables("sdoc_demo.fresh")
+        assert qual == "new" and "new: no docstring" in problems(obj, kind=kind, name=qual)
+        assert [
+            p for q, o, k in public_callables("sdoc_demo.done") for p in problems(o, kind=k)
+        ] == []
+    finally:
+        for name in [m for m in sys.modules if m.split(".")[0] == "sdoc_demo"]:
+            del sys.modules[name]
+
+
 def _undocumented(volume, *, rate: int = 48000) -> float:  # type: ignore[no-untyped-def]
     """Scale a volume."""
     return 1.0

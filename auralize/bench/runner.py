@@ -28,9 +28,14 @@ from auralize.plugins import BenchRow
 from auralize.runtime.timing import batch_times, best_of
 
 #: paper 003 §4.2, seconds per time step (monopole, dipole, quadrupole)
-PAPER_DETECT_S = {10: (0.064, 0.056, 0.065), 20: (4.001, 3.912, 4.074),
-                  30: (44.990, 42.735, 46.812), 40: (261.664, 254.755, 264.676),
-                  50: (1011.354, 1002.721, 1012.081), 64: (6201.703, 6183.029, 6210.341)}  # fmt: skip
+PAPER_DETECT_S = {
+    10: (0.064, 0.056, 0.065),
+    20: (4.001, 3.912, 4.074),
+    30: (44.990, 42.735, 46.812),
+    40: (261.664, 254.755, 264.676),
+    50: (1011.354, 1002.721, 1012.081),
+    64: (6201.703, 6183.029, 6210.341),
+}
 #: paper 003 §4.2, microseconds per audio frame
 PAPER_FRAME_US = {10: 7, 20: 16, 30: 23, 40: 65, 50: 102, 64: 236}
 
@@ -190,12 +195,23 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
     tracks = series.tracks()
     active = float(np.mean([sum(c.values()) for c in series.counts()]))
     c = vol.center
-    path = ListenerPath.line(c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2],
-                             duration=float(vol.times[-1] + 0.1))  # fmt: skip
-    rows = [BenchRow("synthesis", f"explosion {size}³: source points", active, "per step (mean)",
-                     target="≥ 10,000" if size == 64 else "", met=(active >= 10_000) if size == 64 else None,
-                     note=f"{tracks.n_sources} distinct vertices; detection of {vol.n_steps} steps "
-                          f"{t_detect:.2f} s")]  # fmt: skip
+    path = ListenerPath.line(
+        c + [-0.4 * c[0], -0.3 * c[1], 0],
+        c + [0.4 * c[0], 0.35 * c[1], 2],
+        duration=float(vol.times[-1] + 0.1),
+    )
+    rows = [
+        BenchRow(
+            "synthesis",
+            f"explosion {size}³: source points",
+            active,
+            "per step (mean)",
+            target="≥ 10,000" if size == 64 else "",
+            met=(active >= 10_000) if size == 64 else None,
+            note=f"{tracks.n_sources} distinct vertices; detection of {vol.n_steps} steps "
+            f"{t_detect:.2f} s",
+        )
+    ]
     # the first render of a set of tracks builds its runs of sounding pieces
     # (mono; panned layouts: its list of pieces), reused by every later render:
     # other paths, blocks, live
@@ -211,16 +227,24 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
         dur = path.duration
         speed = dur / t
         n_ch = 1 if layout == "mono" else 8
-        rows.append(BenchRow(
-            "synthesis", f"explosion {size}³ → {layout}, {dur:.2f} s of audio", speed, "× real time",
-            target="≥ 100× per channel" if layout == "mono" else "",
-            met=speed >= 100 if layout == "mono" else None,
-            paper=f"{PAPER_FRAME_US[64]} µs/frame ≈ 0.1× real time" if size == 64 else "",
-            note=f"median of 5 batches (fastest {dur / times.min():.0f}×); "
-                 f"{t / (dur * 44100) * 1e6:.3f} µs per audio frame"
-                 + (f"; {speed * n_ch:.0f}× real time per channel" if n_ch > 1 else
-                    f"; runs of pieces built once per tracks in {t_prep:.2f} s"),
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "synthesis",
+                f"explosion {size}³ → {layout}, {dur:.2f} s of audio",
+                speed,
+                "× real time",
+                target="≥ 100× per channel" if layout == "mono" else "",
+                met=speed >= 100 if layout == "mono" else None,
+                paper=f"{PAPER_FRAME_US[64]} µs/frame ≈ 0.1× real time" if size == 64 else "",
+                note=f"median of 5 batches (fastest {dur / times.min():.0f}×); "
+                f"{t / (dur * 44100) * 1e6:.3f} µs per audio frame"
+                + (
+                    f"; {speed * n_ch:.0f}× real time per channel"
+                    if n_ch > 1
+                    else f"; runs of pieces built once per tracks in {t_prep:.2f} s"
+                ),
+            )
+        )
     rows += _timbre_rows(tracks, path, size)
     rows += whole_field_rows(vol, size)
     from auralize.bench.immersive import binaural_render_row
@@ -231,20 +255,33 @@ def bench_synthesis(quick: bool) -> list[BenchRow]:
     # one), so most pieces' arrivals cross a capture; they are split there
     # (the listener's velocity changes) into parts summed in SIMD loops
     for hz, what in ((20.0, "a 20 Hz orbit"), (10.0, "a 10 Hz recorded path")):
-        orbit = ListenerPath.orbit(c, radius=0.3 * size, duration=3 * float(vol.times[-1]),
-                                   turns=0.5, height=1.0, rate_hz=hz)  # fmt: skip
-        times = batch_times(functools.partial(render_tracks, tracks, orbit, layout="ring8",
-                                              time_scale=3.0), repeat=5)  # fmt: skip
+        orbit = ListenerPath.orbit(
+            c,
+            radius=0.3 * size,
+            duration=3 * float(vol.times[-1]),
+            turns=0.5,
+            height=1.0,
+            rate_hz=hz,
+        )
+        times = batch_times(
+            functools.partial(render_tracks, tracks, orbit, layout="ring8", time_scale=3.0),
+            repeat=5,
+        )
         speed = orbit.duration / float(np.median(times))
-        rows.append(BenchRow(
-            "synthesis", f"explosion {size}³ → ring8 along {what}"
-            + (f", {orbit.duration:.2f} s" if hz == 20.0 else ""), speed, "× real time",
-            target="≥ 50× real time" if hz == 10.0 and size == 64 else "",
-            met=speed >= 50 if hz == 10.0 and size == 64 else None,
-            note=f"{orbit.duration:.2f} s, time scale 3, {orbit.times.size} captures; median of "
-                 f"5 batches (fastest "
-                 f"{orbit.duration / times.min():.0f}×); {speed * 8:.0f}× real time per channel",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "synthesis",
+                f"explosion {size}³ → ring8 along {what}"
+                + (f", {orbit.duration:.2f} s" if hz == 20.0 else ""),
+                speed,
+                "× real time",
+                target="≥ 50× real time" if hz == 10.0 and size == 64 else "",
+                met=speed >= 50 if hz == 10.0 and size == 64 else None,
+                note=f"{orbit.duration:.2f} s, time scale 3, {orbit.times.size} captures; median of "
+                f"5 batches (fastest "
+                f"{orbit.duration / times.min():.0f}×); {speed * 8:.0f}× real time per channel",
+            )
+        )
     return rows
 
 
@@ -264,26 +301,43 @@ def whole_field_rows(vol: Any, size: int) -> list[BenchRow]:
     hs = heard_sound(vol, path=plan.path)
     t_field = time.perf_counter() - t0
     fm = hs.meta["field"]
-    rows.append(BenchRow(
-        "whole field", f"explosion {size}³: field rows", t_field, "s",
-        note=f"{fm['valid_points']:,} points × {vol.n_steps} steps → {fm['rows']:,} rows "
-             f"(blocks of {fm['block'][0]}³, {fm['proxies_per_block']} proxies)",
-    ))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "whole field",
+            f"explosion {size}³: field rows",
+            t_field,
+            "s",
+            note=f"{fm['valid_points']:,} points × {vol.n_steps} steps → {fm['rows']:,} rows "
+            f"(blocks of {fm['block'][0]}³, {fm['proxies_per_block']} proxies)",
+        )
+    )
     kw: dict[str, Any] = dict(time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead)
     for layout, target in (("mono", 100.0), ("ring8", 50.0)):
-        fn = functools.partial(render_timbre, hs.tracks, plan.path, layout=layout, timbre="auto",
-                               by_type=hs.by_type, **kw)  # fmt: skip
+        fn = functools.partial(
+            render_timbre,
+            hs.tracks,
+            plan.path,
+            layout=layout,
+            timbre="auto",
+            by_type=hs.by_type,
+            **kw,
+        )
         times = batch_times(fn, repeat=5)
         t = float(np.median(times))
         speed = plan.duration / t
         total = plan.duration / (t + t_field)
-        rows.append(BenchRow(
-            "whole field", f"explosion {size}³ → {layout}, default render", speed, "× real time",
-            target=f"≥ {target:g}×" if size == 64 else "",
-            met=speed >= target if size == 64 else None,
-            note=f"{plan.duration:g} s of audio in {t * 1e3:.0f} ms (median of 5, timbre auto → "
-                 f"{fn().meta['timbre']}); with the field rows built: {total:.1f}× real time",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "whole field",
+                f"explosion {size}³ → {layout}, default render",
+                speed,
+                "× real time",
+                target=f"≥ {target:g}×" if size == 64 else "",
+                met=speed >= target if size == 64 else None,
+                note=f"{plan.duration:g} s of audio in {t * 1e3:.0f} ms (median of 5, timbre auto → "
+                f"{fn().meta['timbre']}); with the field rows built: {total:.1f}× real time",
+            )
+        )
     every = field_tracks(vol, hs_mapping(vol), block=1).tracks()
     kw4: dict[str, Any] = {**kw, "rate": 4000}
     a = render_tracks(every, plan.path, **kw4).audio[0]
@@ -295,13 +349,19 @@ def whole_field_rows(vol: Any, size: int) -> list[BenchRow]:
     e_in = float(np.sqrt(np.sum(np.abs(A - B)[band] ** 2) / np.sum(np.abs(A)[band] ** 2)))
     e_all = float(np.sqrt(np.sum(np.abs(A - B) ** 2) / np.sum(np.abs(A) ** 2)))
     above = float(np.sum(np.abs(A)[~band] ** 2) / np.sum(np.abs(A) ** 2))
-    rows.append(BenchRow(
-        "whole field", f"explosion {size}³: compression error", 100 * e_in, "% RMS",
-        target="≤ 2 %", met=e_in <= 0.02,
-        note=f"below the data's Nyquist ({nyq:.3g} Hz in playback), against every point heard "
-             f"as itself along the default orbit; all frequencies {100 * e_all:.1f} % (the "
-             f"interpolation's images above it hold {100 * above:.1f} % of the energy)",
-    ))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "whole field",
+            f"explosion {size}³: compression error",
+            100 * e_in,
+            "% RMS",
+            target="≤ 2 %",
+            met=e_in <= 0.02,
+            note=f"below the data's Nyquist ({nyq:.3g} Hz in playback), against every point heard "
+            f"as itself along the default orbit; all frequencies {100 * e_all:.1f} % (the "
+            f"interpolation's images above it hold {100 * above:.1f} % of the energy)",
+        )
+    )
     return rows
 
 
@@ -326,8 +386,12 @@ def scaling_scene(n_sources: int, steps: int, seed: int = 0) -> Any:
 
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(n_sources, steps)) * (rng.uniform(size=(n_sources, steps)) < 0.5)
-    return SourceTracks(positions=rng.uniform(-10.0, 10.0, size=(n_sources, 3)), q=q,
-                        radius=np.full(n_sources, 0.2), times=np.arange(steps) / 30.0)  # fmt: skip
+    return SourceTracks(
+        positions=rng.uniform(-10.0, 10.0, size=(n_sources, 3)),
+        q=q,
+        radius=np.full(n_sources, 0.2),
+        times=np.arange(steps) / 30.0,
+    )
 
 
 def scaling_rows(quick: bool) -> list[BenchRow]:
@@ -345,32 +409,71 @@ def scaling_rows(quick: bool) -> list[BenchRow]:
     def run(k: int, mult: int, layout: str, face: str = "sweep") -> float:
         tracks = scaling_scene(k, steps * mult)
         # (half a turn per 10 s of audio: 94 m per data second)
-        path = ListenerPath.orbit((0.0, 0.0, 0.0), radius=30.0, duration=dur * mult,
-                                  turns=0.05 * dur * mult, height=1.0, face=face)  # fmt: skip
-        return _cpu_time(functools.partial(render_tracks, tracks, path, time_scale=10.0, layout=layout,
-                                           duration=dur * mult))  # fmt: skip
+        path = ListenerPath.orbit(
+            (0.0, 0.0, 0.0),
+            radius=30.0,
+            duration=dur * mult,
+            turns=0.05 * dur * mult,
+            height=1.0,
+            face=face,
+        )
+        return _cpu_time(
+            functools.partial(
+                render_tracks, tracks, path, time_scale=10.0, layout=layout, duration=dur * mult
+            )
+        )
 
     rows: list[BenchRow] = []
     sizes = (1_000, 10_000) if quick else (1_000, 10_000, 100_000)
     t_k = {k: run(k, 1, "ring8") for k in sizes}
     for k, t in t_k.items():
-        rows.append(BenchRow("scaling", f"{k // 1000}k sources → ring8, {dur:g} s", t, "CPU-s",
-                             note=f"{steps} data steps, orbit at 20 Hz captures"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "scaling",
+                f"{k // 1000}k sources → ring8, {dur:g} s",
+                t,
+                "CPU-s",
+                note=f"{steps} data steps, orbit at 20 Hz captures",
+            )
+        )
     if 100_000 in t_k:
         r = t_k[100_000] / t_k[10_000]
-        rows.append(BenchRow("scaling", "10× sources (10k → 100k), ring8", r, "× CPU time",
-                             target="≤ 11×", met=r <= 11.0))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "scaling",
+                "10× sources (10k → 100k), ring8",
+                r,
+                "× CPU time",
+                target="≤ 11×",
+                met=r <= 11.0,
+            )
+        )
     else:
         r = t_k[10_000] / t_k[1_000]
-        rows.append(BenchRow("scaling", "10× sources (1k → 10k), ring8", r, "× CPU time",
-                             note="the target (≤ 11×) is set for 10k → 100k (full bench)"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "scaling",
+                "10× sources (1k → 10k), ring8",
+                r,
+                "× CPU time",
+                note="the target (≤ 11×) is set for 10k → 100k (full bench)",
+            )
+        )
     for layout in ("mono", "ring8"):
         one = t_k[10_000] if layout == "ring8" else run(10_000, 1, layout)
         r = run(10_000, 3, layout) / one
-        rows.append(BenchRow("scaling", f"3× duration (10k sources), {layout}", r, "× CPU time",
-                             target="≤ 3.3×", met=r <= 3.3,
-                             note=f"{dur:g} s → {3 * dur:g} s of audio from 3× the data steps; "
-                                  f"{one:.3f} CPU-s at 1×"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "scaling",
+                f"3× duration (10k sources), {layout}",
+                r,
+                "× CPU time",
+                target="≤ 3.3×",
+                met=r <= 3.3,
+                note=f"{dur:g} s → {3 * dur:g} s of audio from 3× the data steps; "
+                f"{one:.3f} CPU-s at 1×",
+            )
+        )
     # stereo pans by the angular law (atan2 and sines) where ring8 has speaker
     # pairs, except inside its arc behind (one speaker takes all): the head
     # sweeping puts the sources all around, facing them keeps them in front
@@ -378,10 +481,17 @@ def scaling_rows(quick: bool) -> list[BenchRow]:
         t_st = run(10_000, 1, "stereo", face)
         t_r8 = t_k[10_000] if face == "sweep" else run(10_000, 1, "ring8", face)
         r = t_st / t_r8
-        rows.append(BenchRow("scaling", f"stereo / ring8 (10k sources, {what})", r, "× CPU time",
-                             target="≤ 1×", met=r <= 1.0,
-                             note=f"stereo {t_st:.3f} CPU-s, ring8 {t_r8:.3f} CPU-s, "
-                                  f"{dur:g} s"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "scaling",
+                f"stereo / ring8 (10k sources, {what})",
+                r,
+                "× CPU time",
+                target="≤ 1×",
+                met=r <= 1.0,
+                note=f"stereo {t_st:.3f} CPU-s, ring8 {t_r8:.3f} CPU-s, {dur:g} s",
+            )
+        )
     return rows
 
 
@@ -398,24 +508,32 @@ def timbre_cost_rows(quick: bool) -> list[BenchRow]:
     vol = make_explosion(size=size).load()
     plan = plan_render(vol, None)
     hs = heard_sound(vol, path=plan.path)
-    kw: dict[str, Any] = dict(time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead,
-                              by_type=hs.by_type)  # fmt: skip
+    kw: dict[str, Any] = dict(
+        time_scale=plan.time_scale, duration=plan.duration, lead=plan.lead, by_type=hs.by_type
+    )
     rows: list[BenchRow] = []
     for layout in ("mono", "stereo", "ring8"):
         t = {}
         used = ""
         for timbre in ("physical", "auto"):
-            fn = functools.partial(render_timbre, hs.tracks, plan.path, layout=layout,
-                                   timbre=timbre, **kw)  # fmt: skip
+            fn = functools.partial(
+                render_timbre, hs.tracks, plan.path, layout=layout, timbre=timbre, **kw
+            )
             t[timbre] = _cpu_time(fn, repeat=5)
             used = str(fn().meta["timbre"])
         r = t["auto"] / t["physical"]
-        rows.append(BenchRow(
-            "timbre", f"explosion {size}³ → {layout}: default timbre / physical", r, "× CPU time",
-            target="≤ 1.25×", met=r <= 1.25,
-            note=f"auto ({used}) {t['auto'] * 1e3:.0f} ms, physical {t['physical'] * 1e3:.0f} ms "
-                 f"CPU for {plan.duration:g} s of audio (median of 5)",
-        ))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "timbre",
+                f"explosion {size}³ → {layout}: default timbre / physical",
+                r,
+                "× CPU time",
+                target="≤ 1.25×",
+                met=r <= 1.25,
+                note=f"auto ({used}) {t['auto'] * 1e3:.0f} ms, physical {t['physical'] * 1e3:.0f} ms "
+                f"CPU for {plan.duration:g} s of audio (median of 5)",
+            )
+        )
     rows.append(_timbre_whole_call_row(size))
     return rows
 
@@ -477,13 +595,18 @@ def _timbre_rows(tracks: Any, path: Any, size: int) -> list[BenchRow]:
             t = float(np.median(times))
             n_ch = 1 if layout == "mono" else 8
             per_ch = dur / t * n_ch
-            rows.append(BenchRow(
-                "synthesis", f"explosion {size}³ → {layout}, timbre {timbre}", per_ch,
-                "× real time/ch", target="≥ 50× per channel" if size == 64 else "",
-                met=per_ch >= 50 if size == 64 else None,
-                note=f"{dur:.2f} s of audio in {t * 1e3:.0f} ms (median of 5 batches, fastest "
-                     f"{dur / times.min() * n_ch:.0f}× per channel); 20 Hz high-pass included",
-            ))  # fmt: skip
+            rows.append(
+                BenchRow(
+                    "synthesis",
+                    f"explosion {size}³ → {layout}, timbre {timbre}",
+                    per_ch,
+                    "× real time/ch",
+                    target="≥ 50× per channel" if size == 64 else "",
+                    met=per_ch >= 50 if size == 64 else None,
+                    note=f"{dur:.2f} s of audio in {t * 1e3:.0f} ms (median of 5 batches, fastest "
+                    f"{dur / times.min() * n_ch:.0f}× per channel); 20 Hz high-pass included",
+                )
+            )
     return rows
 
 
@@ -519,25 +642,42 @@ def emitters_rows(quick: bool) -> list[BenchRow]:
     fn = functools.partial(render_emitters, em, orbit, rate=44100, layout="ring8")
     t = best_of(fn, repeat=3)
     meta = fn().meta
-    note = (f"{dur:g} s in {t * 1e3:.0f} ms; internal rate {meta['internal_rate_hz']:.0f} Hz, "
-            f"signals upsampled to {meta['signal_rate_hz']:.0f} Hz inside, {meta['threads']} threads")  # fmt: skip
-    rows.append(BenchRow("emitters", "36 static emitters 11 kHz → ring8, engine", dur / t,
-                         "× real time", note=note))  # fmt: skip
+    note = (
+        f"{dur:g} s in {t * 1e3:.0f} ms; internal rate {meta['internal_rate_hz']:.0f} Hz, "
+        f"signals upsampled to {meta['signal_rate_hz']:.0f} Hz inside, {meta['threads']} threads"
+    )
+    rows.append(
+        BenchRow(
+            "emitters",
+            "36 static emitters 11 kHz → ring8, engine",
+            dur / t,
+            "× real time",
+            note=note,
+        )
+    )
     up = resample_poly(sig, 4, 1, axis=1)
     em44 = Emitters(up, 44100.0, pos, t0=-0.05, name="vortex-like")
     fe44 = functools.partial(render_emitters, em44, orbit, rate=44100, layout="ring8")
     t44 = best_of(fe44, repeat=3)
-    rows.append(BenchRow("emitters", "… the same given at 44.1 kHz, engine", dur / t44,
-                         "× real time", note=f"{dur:g} s in {t44 * 1e3:.0f} ms; signals "
-                         "upsampled beforehand (not timed)"))  # fmt: skip
+    rows.append(
+        BenchRow(
+            "emitters",
+            "… the same given at 44.1 kHz, engine",
+            dur / t44,
+            "× real time",
+            note=f"{dur:g} s in {t44 * 1e3:.0f} ms; signals upsampled beforehand (not timed)",
+        )
+    )
     # aero: a rod of 20 dipoles swung about its grip
     dur = 2.0 if quick else 5.0
     S, length, prate = 20, 0.6, 200.0
     tp = np.arange(int(dur * prate) + 2) / prate
     ang = np.deg2rad(80.0) * np.sin(2 * np.pi * 2.0 * tp)
     r = (np.arange(S) + 0.5) / S * length
-    traj = np.stack([r[:, None] * np.cos(ang)[None], r[:, None] * np.sin(ang)[None],
-                     np.zeros((S, tp.size))], axis=-1)  # fmt: skip
+    traj = np.stack(
+        [r[:, None] * np.cos(ang)[None], r[:, None] * np.sin(ang)[None], np.zeros((S, tp.size))],
+        axis=-1,
+    )
     n = int(dur * 44100)
     G = rng.normal(size=(S, 3, n)) * 1e-3
     dip = Emitters(G, 44100.0, traj, pos_rate=prate, name="aero-like")
@@ -545,8 +685,15 @@ def emitters_rows(quick: bool) -> list[BenchRow]:
     for layout in ("mono", "ring8"):
         f = functools.partial(render_emitters, dip, path, rate=44100, layout=layout)
         t = best_of(f, repeat=3)
-        rows.append(BenchRow("emitters", f"20 moving dipoles 44.1 kHz → {layout}, engine",
-                             dur / t, "× real time", note=f"{dur:g} s in {t * 1e3:.0f} ms"))  # fmt: skip
+        rows.append(
+            BenchRow(
+                "emitters",
+                f"20 moving dipoles 44.1 kHz → {layout}, engine",
+                dur / t,
+                "× real time",
+                note=f"{dur:g} s in {t * 1e3:.0f} ms",
+            )
+        )
     return rows
 
 
@@ -583,8 +730,11 @@ def format_rows(rows: list[BenchRow]) -> str:
 
 
 def _detection_rows(args: argparse.Namespace) -> list[BenchRow]:
-    sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else (
-        [10, 20, 32] if args.quick else [10, 20, 30, 40, 50, 64, 128, 256])  # fmt: skip
+    sizes = (
+        [int(s) for s in args.sizes.split(",")]
+        if args.sizes
+        else ([10, 20, 32] if args.quick else [10, 20, 30, 40, 50, 64, 128, 256])
+    )
     return bench_detection(sizes) + bench_detection_whole(args.quick)
 
 
@@ -666,8 +816,10 @@ def bench_groups(text: str) -> list[str]:
 
 
 def run_bench(args: argparse.Namespace) -> int:
-    print(f"auralize bench on {platform.machine()} ({os.cpu_count()} cores), "
-          f"python {platform.python_version()}")  # fmt: skip
+    print(
+        f"auralize bench on {platform.machine()} ({os.cpu_count()} cores), "
+        f"python {platform.python_version()}"
+    )
     only = getattr(args, "only", None)
     rows: list[BenchRow] = []
     for name, fn in GROUPS.items():

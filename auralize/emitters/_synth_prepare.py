@@ -37,7 +37,32 @@ class _Prepared:
 
 
 def knot_times(tracks: SourceTracks) -> NDArray[np.float64]:
-    """The data times padded with one silent step before and after."""
+    """The synthesis's knot times: the data's steps padded with one silent step
+    before the first and after the last (paper 003 §3.2.4.3: a source fades in
+    and out over one step).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        Its ``times`` ``(T,)``, s, strictly increasing.
+
+    Returns
+    -------
+    ndarray, shape (T + 2,)
+        Data seconds: ``times`` with ``times[0] - (times[1] - times[0])`` before and
+        ``times[-1] + (times[-1] - times[-2])`` after (1 s either side of a
+        single step).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import knot_times
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 3)),
+    ...                   radius=np.full(1, 0.1), times=np.array([0.0, 0.1, 0.3]))
+    >>> knot_times(tr).round(6).tolist()
+    [-0.1, 0.0, 0.1, 0.3, 0.5]
+    """
     t = np.asarray(tracks.times, dtype=np.float64)
     if t.size >= 2:
         d0, d1 = t[1] - t[0], t[-1] - t[-2]
@@ -107,6 +132,76 @@ def prepare_render(
     orientation: bool = True,
     lead: float = 0.0,
 ) -> _Prepared:
+    """A render's times and listener on the data's clock, checked: the knot times,
+    the listener's captures and their velocities, its orientation table, and the
+    output's first time, rate and length.
+
+    Playback time t_p on the path maps to data time ``t_first + lead + (t_p -
+    path.times[0]) / time_scale``; audio sample n is at data time ``t_start + n /
+    fs`` (docs/design.md, "Time").  Captures with equal times collapse (the last
+    one wins); between captures the listener moves on straight lines.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources; their times set the knots and ``t_first``.
+    path : ListenerPath
+        Playback-time captures.
+    rate : float
+        Audio sample rate, Hz, > 0.
+    time_scale : float
+        Playback seconds per data second, > 0.
+    c0 : float
+        Speed of sound, m/s, > 0; the listener must move slower than it in
+        data time.
+    duration : float or None
+        Playback seconds to render (None: the path's duration after ``start``).
+    bounds : tuple or None
+        Grid bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)``, m, for
+        :func:`check_distance` (None: not checked).
+    start : float
+        Playback seconds into the path of the first sample, >= 0.
+    orientation : bool
+        Whether to sample the listener's orientation (panned layouts); False
+        leaves a single placeholder row.
+    lead : float
+        Data seconds from the data's first step to the first sample, >= 0.
+
+    Returns
+    -------
+    _Prepared
+        ``knot_times (T + 2,)`` s; ``capture_times (M,)`` data s,
+        ``capture_pos (M, 3)`` m, ``capture_vel (M - 1, 3)`` m per data s;
+        ``orient_table (N, 6)`` forward and up sampled every ~1 ms of data time
+        from ``orient_clock[0]`` at rate ``orient_clock[1]``; ``t_start`` (data s),
+        ``fs = rate · time_scale`` (samples per data s) and ``n_samples =
+        round(duration · rate)``.
+
+    Raises
+    ------
+    ParameterError
+        A rate, time scale or speed of sound that is not a positive number, a
+        negative ``lead`` or ``start``, or no duration left to render.
+    ListenerPathError
+        The listener moves as fast as sound in data time, or is absurdly far
+        from ``bounds``.
+
+    Examples
+    --------
+    A listener 343 m away, the data played at half speed:
+
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import prepare_render
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1)
+    >>> pr = prepare_render(tr, ListenerPath.point([343.0, 0, 0], duration=0.6),
+    ...                     rate=8000, time_scale=2.0, c0=343.0, duration=None,
+    ...                     bounds=None, start=0.2)
+    >>> pr.t_start, pr.fs, pr.n_samples, pr.capture_times.tolist()
+    (0.1, 16000.0, 3200, [0.0, 0.3])
+    """
     if not (np.isfinite(rate) and rate > 0):
         raise ParameterError(f"rate must be a positive number of samples per second, got {rate!r}")
     if not (np.isfinite(time_scale) and time_scale > 0):
@@ -163,7 +258,33 @@ def prepare_render(
 
 
 def source_extent(tracks: SourceTracks) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Bounding box of the source positions and the largest clamp radius (cached)."""
+    """Bounding box of the source positions and the largest clamp radius (cached on
+    the tracks while their positions and radii are the same arrays).
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        Its ``positions (K, 3)`` and ``radius (K,)``, m.
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (3,)
+        Smallest and largest x, y, z of the sources, m (zeros without sources).
+    r_max : float
+        Largest ΔV radius, m, at least 1e-9 (0 without sources).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import source_extent
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.array([[0.0, 1, 2], [3.0, -1, 0]]),
+    ...                   q=np.ones((2, 2)), radius=np.array([0.1, 0.25]),
+    ...                   times=np.arange(2.0))
+    >>> lo, hi, r = source_extent(tr)
+    >>> lo.tolist(), hi.tolist(), r
+    ([0.0, -1.0, 0.0], [3.0, 1.0, 2.0], 0.25)
+    """
     key = (id(tracks.positions), id(tracks.radius))
     cached = tracks.cache.get("extent")
     if cached is not None and cached[0] == key:
@@ -206,7 +327,30 @@ MAX_DISTANCE_M = 1e6
 def box_distances(
     points: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Nearest and farthest distance (m) from each of ``points (N, 3)`` to the box [lo, hi]."""
+    """Nearest and farthest distance from each point to an axis-aligned box.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Positions, m.
+    lo, hi : ndarray, shape (3,)
+        The box's smallest and largest corner, m.
+
+    Returns
+    -------
+    near, far : ndarray, shape (N,)
+        Distance to the nearest point of the box (0 inside it) and to its
+        farthest corner, m.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import box_distances
+    >>> near, far = box_distances(np.array([[3.0, 0.5, 0.5], [0.5, 0.5, 0.5]]),
+    ...                           np.zeros(3), np.ones(3))
+    >>> near.tolist(), far.round(4).tolist()
+    ([2.0, 0.0], [3.0822, 0.866])
+    """
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     near = np.linalg.norm(np.maximum(np.maximum(lo - p, p - hi), 0.0), axis=1)
     far = np.linalg.norm(np.maximum(np.abs(p - lo), np.abs(p - hi)), axis=1)
@@ -220,6 +364,29 @@ def check_distance(path: ListenerPath, bounds: tuple[float, ...]) -> None:
     case); a capture farther from the grid's box than
     ``MAX_DISTANCE_FACTOR`` times its diagonal and than ``MAX_DISTANCE_M``
     metres is nonsense (a unit mistake, a stray coordinate).
+
+    Parameters
+    ----------
+    path : ListenerPath
+        The listener's captures (positions in m).
+    bounds : tuple of 6 float
+        The grid's box ``(xmin, xmax, ymin, ymax, zmin, zmax)``, m.
+
+    Raises
+    ------
+    ListenerPathError
+        Naming the first capture that is too far, its distance and the limit.
+
+    Examples
+    --------
+    >>> from auralize.emitters.synthesis import check_distance
+    >>> from auralize.listener import ListenerPath
+    >>> box = (0.0, 1.0, 0.0, 1.0, 0.0, 1.0)
+    >>> check_distance(ListenerPath.point([5e5, 0, 0], duration=1.0), box)  # 500 km: allowed
+    >>> check_distance(ListenerPath.point([2e6, 0, 0], duration=1.0), box)
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ListenerPathError: point: capture 0 at t=0 s, ... listeners must be within 1e+06 m of the data
     """
     b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
     near, _ = box_distances(path.positions, b[:, 0], b[:, 1])
@@ -246,7 +413,51 @@ def check_arrival(
 ) -> None:
     """Raise :class:`ListenerPathError` when no sound can reach the listener inside the
     output window (the data ends before the window starts, or the nearest sound
-    arrives after it ends)."""
+    arrives after it ends).
+
+    Sound of the data arrives between ``t_first + D_near / c0`` and ``t_last +
+    D_far / c0`` (the reachable sources of paper 003 §3.2.4.2), D measured to the
+    sources' bounding box from the listener's captures.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The sources (without sources nothing is refused).
+    path : ListenerPath
+        The listener's captures.
+    time_scale : float
+        Playback seconds per data second.
+    duration : float, optional
+        Playback seconds (default: the path's duration).
+    c0 : float
+        Speed of sound, m/s.
+    lead : float
+        Data seconds between the data's first step and the output's first sample.
+
+    Raises
+    ------
+    ListenerPathError
+        Nothing can be heard: the message gives the arrival window, the
+        output's window and the nearest source's distance.
+    ParameterError
+        Invalid times or speed of sound (as :func:`prepare_render`).
+
+    Examples
+    --------
+    Data 0.3 s long heard from 1 km: its first sound arrives after 2.9 s.
+
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import check_arrival
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 4)),
+    ...                   radius=np.full(1, 0.1), times=np.arange(4) * 0.1)
+    >>> check_arrival(tr, ListenerPath.point([1000.0, 0, 0], duration=4.0), time_scale=1.0)
+    >>> check_arrival(tr, ListenerPath.point([1000.0, 0, 0], duration=1.0), time_scale=1.0)
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ListenerPathError: point: nothing can be heard: ... move the listener closer, render longer, or use a smaller time scale
+    """
     pr = prepare_render(
         tracks,
         path,

@@ -24,12 +24,36 @@ def panning_arrays(lay: Layout) -> tuple[NDArray[np.float64], NDArray[np.int64]]
     for an AmbiX layout one placeholder per channel (its gains come from the
     spherical-harmonic table of :func:`pan_table`).
 
+    Parameters
+    ----------
+    lay : Layout
+        A speaker, mono or AmbiX layout.
+
+    Returns
+    -------
+    azimuths : ndarray, shape (S,)
+        Speaker azimuths, rad in (-π, π], increasing, counter-clockwise from the
+        listener's forward direction (empty for mono; zeros for AmbiX).
+    channels : ndarray of int64, shape (S,)
+        The output channel of each azimuth.
+
     Raises
     ------
     ParameterError
         For ``binaural``: render to :func:`auralize.spatial.layouts.synthesis_layout` and
         filter with :func:`auralize.spatial.layouts.output_stage` (as
         :func:`auralize.emitters.timbre.render_timbre` does).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import panning_arrays
+    >>> from auralize.spatial.layouts import get_layout
+    >>> az, ch = panning_arrays(get_layout("stereo"))
+    >>> np.degrees(az).round(6).tolist(), ch.tolist()
+    ([-30.0, 30.0], [1, 0])
+    >>> [a.tolist() for a in panning_arrays(get_layout("ambix1"))]
+    [[0.0, 0.0, 0.0, 0.0], [0, 1, 2, 3]]
     """
     if is_ambisonic(lay):
         return np.zeros(lay.n_channels), np.arange(lay.n_channels, dtype=np.int64)
@@ -46,7 +70,47 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     """The kernel's panning table: speaker-pair inverse bases (2-D VBAP) for a
     horizontal layout, the triangle table of 3-D VBAP for one with elevation
     (see :func:`auralize.emitters._kernels.gains._gains3`), the SN3D factors and order
-    for an AmbiX layout (see :func:`auralize.emitters._kernels.gains._gains_sh`)."""
+    for an AmbiX layout (see :func:`auralize.emitters._kernels.gains._gains_sh`).
+
+    Parameters
+    ----------
+    lay : Layout
+        The output layout.
+    spk_az : ndarray, shape (S,)
+        Its speaker azimuths, rad, as :func:`panning_arrays` returns them.
+
+    Returns
+    -------
+    ndarray
+        Horizontal layout: ``(S, 4)``, row i the inverse (row-major) of the
+        2 × 2 basis of the unit vectors of speakers i and i + 1, so that it
+        maps a direction (x forward, y left) to the pair's gains; when one arc
+        is wider than 180° instead ``(1, 7)``: that arc's first speaker and the
+        unit vectors of its ends and middle; ``(0, 4)`` for fewer than two
+        speakers.  With elevation: ``(R, 12)``, per triangle its inverse 3 × 3
+        basis and channels, then the imaginary speakers' directions.  AmbiX of
+        order n: ``((n + 1)², 2)``, per harmonic (ACN order) its SN3D factor
+        and output channel (-1 when the layout leaves it out).
+
+    Examples
+    --------
+    On ``ring8`` a direction halfway between the front (0°) and front-left
+    (45°) speakers gets equal gains from row 3, the pair (0°, 45°):
+
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import pan_table, panning_arrays
+    >>> from auralize.spatial.layouts import get_layout
+    >>> lay = get_layout("ring8")
+    >>> az, ch = panning_arrays(lay)
+    >>> tab = pan_table(lay, az)
+    >>> tab.shape, np.degrees(az[3:5]).round(6).tolist()
+    ((8, 4), [0.0, 45.0])
+    >>> g = tab[3].reshape(2, 2) @ [np.cos(np.pi / 8), np.sin(np.pi / 8)]
+    >>> bool(np.isclose(g[0], g[1]))
+    True
+    >>> pan_table(get_layout("ambix1"), np.zeros(4)).tolist()
+    [[1.0, 0.0], [1.0, 1.0], [1.0, 2.0], [1.0, 3.0]]
+    """
     if is_ambisonic(lay):
         n = int(lay.meta["order"])
         tab = np.zeros(((n + 1) ** 2, 2))
@@ -126,7 +190,45 @@ def sounding_pieces(
 
 
 def cached_on_tracks(tracks: SourceTracks, name: str, interp: str, build: Any) -> Any:
-    """``build()``, cached on the tracks under ``name`` while their arrays are the same."""
+    """``build()``, cached on the tracks under ``name`` while their arrays are the same.
+
+    The cache (``tracks.cache``) is keyed by the identity of the tracks' ``q``,
+    ``times`` and ``positions`` arrays, the shape of ``q`` and ``interp``: block-wise
+    and live rendering call the synthesis many times with the same tracks and
+    build their tables once.
+
+    Parameters
+    ----------
+    tracks : SourceTracks
+        The tracks whose ``cache`` holds the result.
+    name : str
+        The cache entry.
+    interp : str
+        The interpolation the result depends on (part of the key).
+    build : callable
+        ``build()`` makes the result when it is not cached.
+
+    Returns
+    -------
+    object
+        What ``build()`` returned, now or on an earlier call with the same arrays.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from auralize.emitters.synthesis import cached_on_tracks
+    >>> from auralize.sources.detection import SourceTracks
+    >>> tr = SourceTracks(positions=np.zeros((1, 3)), q=np.ones((1, 2)),
+    ...                   radius=np.full(1, 0.1), times=np.arange(2.0))
+    >>> calls = []
+    >>> def build():
+    ...     calls.append(1)
+    ...     return len(calls)
+    >>> cached_on_tracks(tr, "n", "cubic", build), cached_on_tracks(tr, "n", "cubic", build)
+    (1, 1)
+    >>> cached_on_tracks(tr, "n", "linear", build)  # another key: built again
+    2
+    """
     key = (id(tracks.q), tracks.q.shape, id(tracks.times), id(tracks.positions), interp)
     cached = tracks.cache.get(name)
     if cached is not None and cached[0] == key:
