@@ -86,7 +86,7 @@ def escape_bars(lines: list[str]) -> list[str]:
     return out
 
 
-def process_docstring(
+def process_docstring(  # noqa: PLR0917 (the signature of Sphinx's autodoc-process-docstring event)
     app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]
 ) -> None:
     """``autodoc-process-docstring``: verbatim docstrings, then the bars escaped."""
