@@ -487,8 +487,10 @@ def render_sound(
 class BlockRenderer:
     """Render a sound (or scene) block by block along a listener path, for live playback.
 
-    The interface of :class:`auralize.audio.live.BlockSynth` (``block(i)``,
-    ``render_range(start, n)``, ``n_blocks``, ``n_samples``, ``block_size``)
+    The block synthesizer of the one render's block-by-block way
+    (:class:`auralize.rendering.RenderBlocks`, made by ``render(..., block=N)``,
+    whose blocks :func:`auralize.audio.live.play` plays): ``block(i)``,
+    ``render_range(start, n)``, ``n_blocks``, ``n_samples``, ``block_size``
     for any :class:`Sound`.  Block ``i`` holds output samples ``i·block`` to
     ``(i+1)·block`` (the last may be shorter); concatenated blocks equal one
     :func:`render` of the whole duration, since the sampled backend's control
