@@ -17,7 +17,6 @@ import pytest
 import soundfile as sf
 from scipy.signal import butter, sosfiltfilt
 
-from auralize.audio.live import BlockSynth
 from auralize.cli import main
 from auralize.emitters import Emitters
 from auralize.emitters._kernels.gains import _gains
@@ -27,6 +26,7 @@ from auralize.emitters.synthesis import render_tracks as synth_render
 from auralize.emitters.timbre import render_timbre
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
+from auralize.pipeline import render
 from auralize.spatial import get_layout
 from auralize.spatial import hrtf as H
 from auralize.spatial.ambisonics import sh_gains
@@ -176,8 +176,10 @@ def scene():
 PLAYER = """
 import json
 from auralize.audio.live import play
+from auralize.pipeline import render
 tracks, path = scene()
-r = play(tracks, path, layout="binaural", device="auralize_file2", gain=2.0, wait_s=1.0)
+blocks = render(tracks, path, layout="binaural", block=2205, highpass_hz=0.0)
+r = play(blocks, device="auralize_file2", gain=2.0, wait_s=1.0)
 print(json.dumps(r.as_dict()))
 """
 
@@ -191,14 +193,21 @@ def _scene():  # type: ignore[no-untyped-def]
 def test_block_synthesis_binaural_equals_offline() -> None:
     tracks, path = _scene()
     off = render_timbre(tracks, path, layout="binaural", highpass_hz=0.0)
-    bs = BlockSynth(tracks, path, layout="binaural", block=2205)
-    # the built-in head: each ear a receiver with its four zonal harmonics
-    assert bs.layout.name == "binaural"
-    assert bs.synthesis_layout.name == "binaural-ears" and bs.synthesis_layout.n_channels == 8
-    on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
+    blocks = render(tracks, path, layout="binaural", block=2205, highpass_hz=0.0)
+    assert blocks.layout.name == "binaural"
+    # the built-in head: each ear a receiver with its four zonal harmonics (synthesized by
+    # the engine's BlockRenderer of the whole sound: without a high-pass none is split off)
+    lay = blocks.models.synthesis_layout
+    assert lay.name == "binaural-ears" and lay.n_channels == 8
+    on = np.concatenate([blocks.block(i) for i in range(blocks.n_blocks)], axis=1)
     assert on.shape == off.audio.shape == (2, 88200)
     assert _rel(on, off.audio) < 1e-5
-    assert _rel(bs.block(17), off.audio[:, 17 * 2205 : 18 * 2205]) < 1e-5  # after a seek
+    assert _rel(blocks.block(17), off.audio[:, 17 * 2205 : 18 * 2205]) < 1e-5  # after a seek
+    # with the output high-pass (as `auralize play` plays): the offline render's samples too
+    filtered = render(tracks, path, layout="binaural")
+    blocks = render(tracks, path, layout="binaural", block=2205)
+    on = np.concatenate([blocks.block(i) for i in range(blocks.n_blocks)], axis=1)
+    assert _rel(on, filtered.audio) < 1e-5 and _rel(filtered.audio, off.audio) > 1e-3
 
 
 def test_live_binaural_on_file_backed_alsa_device(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -1,5 +1,6 @@
-"""Live playback: block synthesis equals the offline render; what a file-backed ALSA
-device receives matches the offline render with no underruns."""
+"""Live playback: the blocks of the one render (``render(..., block=N)``) equal the
+offline render; what a file-backed ALSA device receives matches the offline render
+with no underruns."""
 
 from __future__ import annotations
 
@@ -13,10 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from auralize.audio.live import BlockSynth
+from auralize.emitters import FieldSources
 from auralize.emitters.synthesis import render_tracks
 from auralize.errors import DeviceError, ParameterError
 from auralize.listener import ListenerPath
+from auralize.pipeline import render
 from auralize.sources import SourceTracks
 from auralize.spatial import downmix_matrix
 
@@ -56,12 +58,14 @@ pcm.auralize_file2 {{
 PLAYER = """
 import json, sys
 from auralize.audio.live import play
+from auralize.pipeline import render
 tracks, path = scene()
 # the null device is unpaced (it asks for the next block as soon as it has the last),
 # so the callback may wait up to 1 s for the worker on this shared 2-core machine
-r8 = play(tracks, path, layout="ring8", device="auralize_file8", gain=2.0, wait_s=1.0)
-r2 = play(tracks, path, layout="ring8", device="auralize_file2", gain=2.0, downmix="stereo",
-          wait_s=1.0)
+blocks = render(tracks, path, layout="ring8", block=2205)
+r8 = play(blocks, device="auralize_file8", gain=2.0, wait_s=1.0)
+blocks = render(tracks, path, layout="ring8", block=2205)
+r2 = play(blocks, device="auralize_file2", gain=2.0, downmix="stereo", wait_s=1.0)
 print(json.dumps([r8.as_dict(), r2.as_dict()]))
 """
 
@@ -84,17 +88,25 @@ def _aligned_corr(dev: np.ndarray, ref: np.ndarray) -> tuple[float, int]:
 
 
 def test_block_synthesis_equals_offline() -> None:
+    """The blocks live playback plays are the offline render's samples, in order or
+    asked for out of order (a seek), with or without the output high-pass."""
     tracks, path = _scene()
     off = render_tracks(tracks, path, layout="ring8").audio
-    bs = BlockSynth(tracks, path, layout="ring8", block=2205)
-    on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
+    blocks = render(tracks, path, layout="ring8", block=2205, highpass_hz=0.0)
+    on = np.concatenate([blocks.block(i) for i in range(blocks.n_blocks)], axis=1)
     assert on.shape == off.shape == (8, 88200)
     assert np.max(np.abs(on - off)) <= 1e-5 * np.max(np.abs(off))
-    # a block in the middle depends only on its window of the tracks
-    w = bs.window(20 * 2205, 2205)
-    assert w.times.size < tracks.times.size / 10
+    seek = render(tracks, path, layout="ring8", block=2205, highpass_hz=0.0)
+    assert np.max(np.abs(seek.block(20) - off[:, 20 * 2205 : 21 * 2205])) <= 1e-5 * np.max(
+        np.abs(off)
+    )
+    filtered = render(tracks, path, layout="ring8").audio  # the 20 Hz high-pass of `play`
+    blocks = render(tracks, path, layout="ring8", block=2205)
+    on = np.concatenate([blocks.block(i) for i in range(blocks.n_blocks)], axis=1)
+    assert np.max(np.abs(on - filtered)) <= 1e-5 * np.max(np.abs(filtered))
+    assert np.max(np.abs(filtered - off)) > 1e-3 * np.max(np.abs(off))  # it did filter
     with pytest.raises(ParameterError, match=r"block index 40 outside 0\.\.39"):
-        bs.block(40)
+        blocks.block(40)
 
 
 def test_block_synthesis_with_a_lead_equals_offline() -> None:
@@ -103,8 +115,10 @@ def test_block_synthesis_with_a_lead_equals_offline() -> None:
     far = ListenerPath(path.times, path.positions + [60.0, 0.0, 0.0], path.forward, path.up)
     lead = 6429 / 44100  # ~50 m / c0, a whole number of samples
     off = render_tracks(tracks, far, layout="stereo", lead=lead).audio
-    bs = BlockSynth(tracks, far, layout="stereo", block=4410, lead=lead)
-    on = np.concatenate([bs.block(i) for i in range(bs.n_blocks)], axis=1)
+    blocks = render(
+        FieldSources(tracks, lead=lead), far, layout="stereo", block=4410, highpass_hz=0.0
+    )
+    on = np.concatenate([blocks.block(i) for i in range(blocks.n_blocks)], axis=1)
     assert on.shape == off.shape and np.max(np.abs(off)) > 0
     assert np.max(np.abs(on - off)) <= 1e-5 * np.max(np.abs(off))
     # for a static listener the lead moves the sound earlier by exactly its samples
@@ -132,7 +146,7 @@ def test_live_playback_on_file_backed_alsa_device(tmp_path) -> None:  # type: ig
         assert r["blocks"] == 40 and r["gain_changes"] == 0
     assert r8["channels"] == 8 and r2["channels"] == 2 and r2["output_layout"] == "stereo"
     tracks, path = _scene()
-    ref = 2.0 * render_tracks(tracks, path, layout="ring8").audio
+    ref = 2.0 * render(tracks, path, layout="ring8").audio
     # the file plugin stores the float32 frames the device was given, interleaved
     dev8 = np.fromfile(out8, dtype="<f4").reshape(-1, 8).T.astype(np.float64)
     assert dev8.shape[1] >= ref.shape[1]
@@ -185,10 +199,18 @@ def test_play_errors(alsa_device) -> None:  # type: ignore[no-untyped-def]
     from auralize.audio.live import play
 
     tracks, path = _scene()
+    blocks = render(tracks, path, layout="ring8", block=2205)
     with pytest.raises(DeviceError, match=r"device index 42 is out of range"):
-        play(tracks, path, device=42)
+        play(blocks, device=42)
     with pytest.raises(ParameterError, match="gain must be 'auto' or a positive number"):
-        play(tracks, path, device="auralize_file8", gain=-1.0)
+        play(blocks, device="auralize_file8", gain=-1.0)
+    # what is heard is rendered by the one render first, then played
+    with pytest.raises(
+        ParameterError,
+        match=r"play plays the blocks of a render, not a SourceTracks .*"
+        r"auralize\.pipeline\.render\(sound, path, block=N",
+    ):
+        play(tracks, device="auralize_file8")
 
 
 VIEWER_LIVE = """

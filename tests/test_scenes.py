@@ -164,9 +164,7 @@ def test_scene_plays_live_with_no_underruns(scene, tmp_path, monkeypatch) -> Non
         ref = render_sound(sound, path, rate=RATE, layout="stereo").audio
         gain = 0.9 / float(np.max(np.abs(ref)))
         sb = render_heard(sound, path, rate=RATE, layout="stereo", block=2205, highpass_hz=0)
-        rep = play(
-            sb, path, rate=RATE, layout="stereo", device="auralize_file2", gain=gain, wait_s=1.0
-        )
+        rep = play(sb, device="auralize_file2", gain=gain, wait_s=1.0)
     finally:
         monkeypatch.undo()
         refresh_devices()

@@ -2,7 +2,8 @@
 
 * :mod:`auralize.audio.output` — WAV/FLAC files, normalisation, devices,
   limiter and playback (the public names below);
-* :mod:`auralize.audio.live` — block-wise live synthesis to a device.
+* :mod:`auralize.audio.live` — live playback: the blocks of a render
+  (``auralize.pipeline.render(..., block=N)``) synthesized ahead of a device.
 
 ``import auralize.audio`` opens no device and imports no sounddevice.
 """

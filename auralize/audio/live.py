@@ -1,16 +1,11 @@
-"""Live playback: synthesis block by block, ahead of the sound device's callback.
+"""Live playback: the blocks of a render, synthesized ahead of the sound device's callback.
 
-Three parts:
+The blocks come from the one render, :func:`auralize.pipeline.render` with
+``block=N`` (a :class:`auralize.rendering.RenderBlocks`: what is heard, with the
+render's output rule, synthesized block by block by the engine's
+:class:`auralize.emitters.engine.BlockRenderer`); taken in order they join
+into the offline render.  This module plays them:
 
-:class:`BlockSynth`
-    Renders any block of samples of the sound along a listener path with the
-    core synthesis (:func:`auralize.emitters.synthesis.render_tracks` with ``start=``), which
-    reads only the data steps whose emissions can arrive inside the block
-    (largest source-listener distance / c0 before it).  The result equals the
-    offline render sample for sample (up to rounding) at a cost that does not
-    grow with the length of the data: no whole-file precompute.
-    :meth:`BlockSynth.window` cuts the tracks down to what a block can hear
-    (for shipping a block's work elsewhere).
 :class:`LiveStream`
     A push stream over sounddevice's callback API: :meth:`LiveStream.write`
     queues ``(n_channels, n)`` blocks (blocking while the queue is full), the
@@ -23,24 +18,25 @@ Three parts:
     that is faster than real time; on a sound card the queue is normally full
     and the callback never waits.
 :func:`play`
-    Renders on a worker thread into a :class:`LiveStream` and returns a
-    :class:`PlaybackReport` (per-block synthesis times, underruns, gain).
+    Renders the blocks on a worker thread into a :class:`LiveStream` and
+    returns a :class:`PlaybackReport` (per-block synthesis times, underruns,
+    gain).
 
 Arrays are ``(n_channels, n_samples)``; they are transposed only in the
 callback.  sounddevice is imported inside :class:`LiveStream` only.
 
 Examples
 --------
-Blocks of a render, without a device (:func:`play` feeds them to one):
+The blocks :func:`play` feeds to a device, without one:
 
 >>> from auralize.listener import ListenerPath
->>> from auralize.pipeline import detect_sources, load
+>>> from auralize.pipeline import detect_sources, load, render
 >>> vol = load("dataset:monopole", size=12, steps=60)
 >>> tracks = detect_sources(vol).tracks()
 >>> path = ListenerPath.point(vol.center + [1.0, 0, 0], duration=0.1)
->>> bs = BlockSynth(tracks, path, layout="ring8", block=2205)
->>> bs.block(0).shape
-(8, 2205)
+>>> blocks = render(tracks, path, layout="ring8", block=2205)
+>>> blocks.n_blocks, blocks.block(0).shape
+(2, (8, 2205))
 """
 
 from __future__ import annotations
@@ -57,185 +53,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auralize.emitters.synthesis import C0, render_tracks
 from auralize.errors import DeviceError, ParameterError
-from auralize.listener import ListenerPath
-from auralize.sources.detection import SourceTracks
 from auralize.spatial.layouts import (
     Layout,
     SpeakerAlignment,
     downmix_matrix,
     downmix_target,
     get_layout,
-    output_stage,
 )
 
-#: default block length in seconds (the 50 ms budget of a block's synthesis)
-DEFAULT_BLOCK_S = 0.05
 PEAK_LEVEL = 0.99
-
-
-class BlockSynth:
-    """Block-wise synthesis of the sound along ``path``.
-
-    Parameters
-    ----------
-    tracks : SourceTracks
-    path : ListenerPath
-    rate : int
-        Sample rate in Hz.
-    layout : str or Layout
-    time_scale : float
-        Playback seconds per data second.
-    interp : {"cubic", "linear"}
-    c0 : float
-        Speed of sound (m/s).
-    block : int, optional
-        Samples per block (default 50 ms).
-    duration : float, optional
-        Playback seconds (default: the path's duration).
-    threads : int, optional
-        Threads of the synthesis kernel.
-    hrtf : HRIRSet, str or Path, optional
-        ``binaural`` only: the HRIRs (default the built-in spherical head).  A
-        binaural stream is synthesized in its AmbiX intermediate and filtered
-        by one :class:`auralize.spatial.layouts.OutputStage` that carries its state
-        from block to block, so consecutive blocks equal one offline render.
-    """
-
-    def __init__(
-        self,
-        tracks: SourceTracks,
-        path: ListenerPath,
-        *,
-        rate: int = 44100,
-        layout: str | Layout = "ring8",
-        time_scale: float = 1.0,
-        interp: str = "cubic",
-        c0: float = C0,
-        block: int | None = None,
-        duration: float | None = None,
-        threads: int | None = None,
-        lead: float = 0.0,
-        hrtf: object = None,
-    ) -> None:
-        if not (isinstance(rate, int | np.integer) and rate > 0):
-            raise ParameterError(f"rate must be a positive integer number of Hz, got {rate!r}")
-        if not (math.isfinite(time_scale) and time_scale > 0):
-            raise ParameterError(
-                f"time_scale must be > 0 (playback s per data s), got {time_scale!r}"
-            )
-        if not (math.isfinite(lead) and lead >= 0):
-            raise ParameterError(f"lead must be >= 0 data seconds, got {lead!r}")
-        self.tracks, self.path, self.lead = tracks, path, float(lead)
-        self.rate, self.time_scale, self.interp, self.c0 = int(rate), float(time_scale), interp, c0
-        self.stage = output_stage(layout, int(rate), hrtf=hrtf)
-        self.layout = self.stage.layout
-        self.synthesis_layout = self.stage.synthesis_layout
-        self.threads = threads
-        self.block_size = int(block) if block is not None else round(DEFAULT_BLOCK_S * rate)
-        if self.block_size < 1:
-            raise ParameterError(f"block must be >= 1 sample, got {block!r}")
-        dur = path.duration if duration is None else float(duration)
-        if not (math.isfinite(dur) and dur > 0):
-            raise ParameterError(
-                f"nothing to play: duration {dur!r} s (path of one capture? give a duration)"
-            )
-        self.duration = dur
-        self.n_samples = round(dur * rate)
-        self.n_blocks = -(-self.n_samples // self.block_size)
-        self._t0 = tracks.t_first + self.lead
-        q = np.asarray(tracks.q)
-        nz = q != 0
-        has = nz.any(axis=1)
-        self._first = np.where(has, np.argmax(nz, axis=1), q.shape[1])
-        self._last = np.where(has, q.shape[1] - 1 - np.argmax(nz[:, ::-1], axis=1), -1)
-        pos = np.asarray(tracks.positions, dtype=np.float64).reshape(-1, 3)
-        if pos.shape[0]:
-            lo, hi = pos.min(axis=0), pos.max(axis=0)
-            far = np.maximum(np.abs(path.positions - lo), np.abs(path.positions - hi))
-            self._d_max = float(np.max(np.linalg.norm(far, axis=1))) + float(
-                np.max(tracks.radius, initial=0.0)
-            )
-        else:
-            self._d_max = 0.0
-
-    def window(self, start: int, n: int) -> SourceTracks:
-        """The tracks restricted to what samples ``[start, start + n)`` can hear."""
-        tr = self.tracks
-        times = tr.times
-        fs = self.rate * self.time_scale
-        t_start = self._t0 + start / fs
-        t_end = self._t0 + (start + n) / fs
-        i_lo = int(np.searchsorted(times, t_start - self._d_max / self.c0, side="right")) - 1
-        i_hi = int(np.searchsorted(times, t_end, side="right"))
-        a = max(i_lo - 2, 0)
-        b = min(i_hi + 2, times.size - 1)
-        rows = np.flatnonzero((self._first <= b) & (self._last >= a))
-        qw = tr.q[rows, a : b + 1]
-        tw = times[a : b + 1]
-        pos = tr.positions[rows]
-        # per source: only the knots it can be heard from in this window (its
-        # distance to the listener is bounded by a sphere around the listener's
-        # positions during the window); 2 knots of margin keep the tangents exact
-        tp = self.path.times[0] + np.array([start, start + n]) / self.rate
-        inner = self.path.times[(self.path.times > tp[0]) & (self.path.times < tp[1])]
-        lp = self.path.position_at(np.concatenate([tp, inner]))
-        centre = 0.5 * (lp.min(axis=0) + lp.max(axis=0))
-        spread = float(np.max(np.linalg.norm(lp - centre, axis=1)))
-        dc = np.linalg.norm(pos - centre, axis=1)
-        d_hi = dc + spread + tr.radius[rows]
-        d_lo = np.maximum(dc - spread, 0.0)
-        lo_k = np.searchsorted(tw, t_start - d_hi / self.c0, side="right") - 3
-        hi_k = np.searchsorted(tw, t_end - d_lo / self.c0, side="right") + 2
-        j = np.arange(tw.size)
-        qw = np.where((j >= lo_k[:, None]) & (j <= hi_k[:, None]), qw, 0.0)
-        if a > 0:  # keep the data's first time (the time origin) as a silent knot
-            tw = np.concatenate([times[:1], tw])
-            qw = np.concatenate([np.zeros((rows.size, 1)), qw], axis=1)
-        return SourceTracks(
-            pos, np.ascontiguousarray(qw), tr.radius[rows], tw, origin=tr.t_first, end=tr.t_last
-        )
-
-    def render_range(self, start: int, n: int) -> NDArray[np.float64]:
-        """Samples ``[start, start + n)`` as ``(n_channels, n)`` pascals.
-
-        The synthesis reads only the data steps whose emissions can arrive in
-        the range (its pieces are cached on the tracks at the first call), so
-        a block costs what its own sources cost, however long the data.
-        Channels of :attr:`layout` (for ``binaural`` consecutive ranges are
-        cheapest: the ear filters' state is carried, not rebuilt).
-        """
-        if n <= 0:
-            return np.zeros((self.layout.n_channels, 0))
-        return self.stage.process_at(int(start), int(n), self._synthesize)
-
-    def _synthesize(self, start: int, n: int) -> NDArray[np.float64]:
-        """Samples ``[start, start + n)`` of the :attr:`synthesis_layout`."""
-        out = render_tracks(
-            self.tracks,
-            self.path,
-            rate=self.rate,
-            time_scale=self.time_scale,
-            interp=self.interp,
-            layout=self.synthesis_layout,
-            c0=self.c0,
-            start=start / self.rate,
-            duration=n / self.rate,
-            threads=self.threads,
-            lead=self.lead,
-        )
-        a = out.audio
-        if a.shape[1] != n:  # rounding of duration·rate; never more than a sample
-            a = np.pad(a, ((0, 0), (0, max(n - a.shape[1], 0))))[:, :n]
-        return a
-
-    def block(self, i: int) -> NDArray[np.float64]:
-        """Block ``i`` (the last one may be shorter)."""
-        if not 0 <= i < self.n_blocks:
-            raise ParameterError(f"block index {i} outside 0..{self.n_blocks - 1}")
-        s = i * self.block_size
-        return self.render_range(s, min(self.block_size, self.n_samples - s))
 
 
 @dataclass
@@ -509,16 +336,28 @@ class PlaybackReport:
         return asdict(self)
 
 
-def _check_play_options(block_s: float, gain: float | str, highpass_hz: float, rate: int) -> None:
-    """Raise :class:`ParameterError` for a block length, gain or high-pass ``play`` refuses."""
-    if not (math.isfinite(block_s) and block_s > 0):
-        raise ParameterError(f"block_s must be > 0 seconds, got {block_s!r}")
+#: what :func:`play` reads of the blocks it plays
+BLOCKS_INTERFACE = (
+    "block",
+    "render_range",
+    "n_blocks",
+    "n_samples",
+    "block_size",
+    "rate",
+    "layout",
+)
+
+
+def _check_play_options(blocks: Any, gain: float | str) -> None:
+    """Raise :class:`ParameterError` for blocks or a gain ``play`` refuses."""
+    missing = [name for name in BLOCKS_INTERFACE if not hasattr(blocks, name)]
+    if missing:
+        raise ParameterError(
+            f"play plays the blocks of a render, not a {type(blocks).__name__} (it has no "
+            f"{', '.join(missing)}): give it auralize.pipeline.render(sound, path, block=N, ...)"
+        )
     if gain != "auto" and not (isinstance(gain, int | float) and math.isfinite(gain) and gain > 0):
         raise ParameterError(f"gain must be 'auto' or a positive number, got {gain!r}")
-    if not (math.isfinite(highpass_hz) and 0 <= highpass_hz < rate / 2):
-        raise ParameterError(
-            f"highpass must be 0 (off) or between 0 and {rate / 2:g} Hz, got {highpass_hz!r}"
-        )
 
 
 def _output_layout(lay: Layout, dev: dict[str, Any], downmix: bool | str | Layout) -> Layout:
@@ -537,41 +376,32 @@ def _output_layout(lay: Layout, dev: dict[str, Any], downmix: bool | str | Layou
     return lay
 
 
-def play(  # noqa: PLR0913 (keyword-only options)
-    tracks: SourceTracks | Any,
-    path: ListenerPath,
+def play(
+    blocks: Any,
     *,
-    rate: int = 44100,
-    layout: str | Layout = "ring8",
     device: int | str | None = None,
-    time_scale: float = 1.0,
-    interp: str = "cubic",
-    c0: float = C0,
     downmix: bool | str | Layout = False,
     gain: float | str = "auto",
     limit_pa: float | None = None,
-    block_s: float = DEFAULT_BLOCK_S,
     lookahead_s: float = 0.5,
     buffer_s: float = 0.5,
-    duration: float | None = None,
-    threads: int | None = None,
     wait_s: float | None = None,
     on_block: Callable[[int, int], None] | None = None,
-    lead: float = 0.0,
-    highpass_hz: float = 0.0,
-    hrtf: object = None,
 ) -> PlaybackReport:
-    """Play the sound along ``path`` live, synthesizing block by block.
+    """Play the blocks of a render live: each block synthesized on a worker thread
+    ahead of the device.
 
     Parameters
     ----------
-    tracks, path : the sources and the listener path (as for
-        :func:`auralize.emitters.synthesis.render_tracks`); or, in place of ``tracks``, a
-        block renderer of a scene (:class:`auralize.emitters.engine.BlockRenderer`,
-        whose rate, layout and block length are used).
-    layout : speaker layout of the synthesis.
+    blocks : RenderBlocks
+        What is heard, block by block: ``auralize.pipeline.render(sound, path,
+        block=N, ...)`` (:class:`auralize.rendering.RenderBlocks`; its rate, layout
+        and block length are played), or any object with the same
+        ``block(i)``, ``render_range(start, n)``, ``n_blocks``, ``n_samples``,
+        ``block_size``, ``rate`` and ``layout``.
     device : int, str or None
-        Output device (index, name part, or the default).
+        Output device (index, name part, or the default;
+        :func:`auralize.audio.output.choose_output_device`).
     downmix : bool, str or Layout
         When the device has fewer channels than the layout: ``True`` folds
         to the largest built-in layout that fits, a layout name folds to that
@@ -582,67 +412,60 @@ def play(  # noqa: PLR0913 (keyword-only options)
         boundary whenever a later block would clip (reported).
     limit_pa : float, optional
         Truncate pressures beyond this many pascals (as offline).
-    block_s : float
-        Block length; each block must be synthesized within it.
+    lookahead_s : float
+        Seconds of blocks rendered before the device starts (``gain="auto"``:
+        the gain is set from them).
     buffer_s : float
-        How far synthesis may run ahead of the device.
+        How far synthesis may run ahead of the device (at least two blocks).
+    wait_s : float, optional
+        Longest wait of the device's callback for a late block (see
+        :class:`LiveStream`).
     on_block : callable(i, n_blocks), optional
         Called on the worker thread after each block is queued.
-    lead : float
-        Data seconds skipped at the start (as :func:`auralize.emitters.synthesis.render_tracks`).
-    highpass_hz : float
-        Causal high-pass of the output (as :func:`auralize.emitters.timbre.highpass`,
-        its state carried from block to block); 0 keeps everything.
-    hrtf : HRIRSet, str or Path, optional
-        ``binaural`` only: the HRIRs (see :class:`BlockSynth`).
 
     Returns
     -------
     PlaybackReport
+        The device, layouts, per-block synthesis times, underruns and gain.
 
     Raises
     ------
+    ParameterError
+        ``blocks`` not the blocks of a render (source tracks or a sound: render
+        them with ``block=N`` first), a bad gain.
     DeviceError
         No device, wrong index/name, too few channels without ``downmix``.
+
+    Examples
+    --------
+    Blocks of a pulsing source, played on a device that does not exist:
+
+    >>> from auralize.listener import ListenerPath
+    >>> from auralize.pipeline import render
+    >>> from auralize.sources.detection import SourceTracks
+    >>> t = np.linspace(0.0, 0.1, 21)
+    >>> tracks = SourceTracks(positions=np.zeros((1, 3)), q=np.sin(2 * np.pi * 20 * t)[None],
+    ...                       radius=np.array([0.1]), times=t)
+    >>> blocks = render(tracks, ListenerPath.point((2.0, 0, 0), duration=0.05), block=2205)
+    >>> play(blocks, device="no such device")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    auralize.errors.DeviceError: ...
+    >>> play(tracks)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    auralize.errors.ParameterError: play plays the blocks of a render, not a SourceTracks ...
     """
     from auralize.audio.output import choose_output_device
 
-    lay = get_layout(layout)
-    _check_play_options(block_s, gain, highpass_hz, rate)
+    _check_play_options(blocks, gain)
+    lay = blocks.layout
+    rate = int(blocks.rate)
+    block = int(blocks.block_size)
+    block_s = block / rate
     dev = choose_output_device(device, lay.n_channels, downmix=bool(downmix))
     out_lay = _output_layout(lay, dev, downmix)
     mix = None if out_lay is lay else downmix_matrix(lay, out_lay)
-    block = max(round(block_s * rate), 1)
-    synth: Any
-    if isinstance(tracks, SourceTracks):
-        synth = BlockSynth(
-            tracks,
-            path,
-            rate=rate,
-            layout=lay,
-            time_scale=time_scale,
-            interp=interp,
-            c0=c0,
-            block=block,
-            duration=duration,
-            threads=threads,
-            lead=lead,
-            hrtf=hrtf,
-        )
-    else:  # a block renderer of a scene (auralize.emitters.engine.BlockRenderer)
-        synth = tracks
-        if synth.rate != rate or synth.layout.n_channels != lay.n_channels:
-            raise ParameterError(
-                f"the block renderer makes {synth.layout.name} at {synth.rate} "
-                f"Hz; play was asked for {lay.name} at {rate} Hz"
-            )
-        block = synth.block_size
-    hp: list[Any] = []
-    if highpass_hz > 0:
-        from auralize.emitters.timbre import butter_sos
-
-        sos = butter_sos(4, float(highpass_hz), "highpass", float(rate))
-        hp = [sos, np.zeros((sos.shape[0], lay.n_channels, 2))]
     align = SpeakerAlignment(lay, rate) if lay.needs_alignment else None
     synth_times: list[float] = []
     state = {"gain": None if gain == "auto" else float(gain), "changes": 0}
@@ -651,11 +474,7 @@ def play(  # noqa: PLR0913 (keyword-only options)
 
     def prepared(i: int) -> NDArray[np.float64]:
         t = time.perf_counter()
-        a = synth.block(i)
-        if hp:
-            from scipy.signal import sosfilt
-
-            a, hp[1] = sosfilt(hp[0], a, axis=-1, zi=hp[1])
+        a = blocks.block(i)
         if limit_pa is not None:
             a = np.clip(a, -limit_pa, limit_pa)
         if align is not None:
@@ -677,7 +496,7 @@ def play(  # noqa: PLR0913 (keyword-only options)
             state["changes"] += 1
         return a * g
 
-    n_look = min(synth.n_blocks, max(1, math.ceil(lookahead_s / block_s))) if gain == "auto" else 0
+    n_look = min(blocks.n_blocks, max(1, math.ceil(lookahead_s / block_s))) if gain == "auto" else 0
     stream = LiveStream(
         rate=rate,
         channels=out_lay.n_channels,
@@ -687,7 +506,7 @@ def play(  # noqa: PLR0913 (keyword-only options)
         prefill_s=min(0.2, buffer_s),
         wait_s=wait_s,
     )
-    synth.render_range(0, min(64, synth.n_samples))  # load the compiled kernel before timing
+    blocks.render_range(0, min(64, blocks.n_samples))  # load the compiled kernel before timing
     t_wall = time.perf_counter()
 
     def worker() -> None:
@@ -697,13 +516,13 @@ def play(  # noqa: PLR0913 (keyword-only options)
                 peak = max(float(np.max(np.abs(a), initial=0.0)) for a in ahead)
                 if peak > 0:
                     state["gain"] = PEAK_LEVEL / peak
-            for i in range(synth.n_blocks):
+            for i in range(blocks.n_blocks):
                 if stop.is_set():
                     return
                 a = ahead[i] if i < len(ahead) else prepared(i)
                 stream.write(scaled(a))
                 if on_block is not None:
-                    on_block(i, synth.n_blocks)
+                    on_block(i, blocks.n_blocks)
         except BaseException as exc:
             err.append(exc)
 
@@ -728,8 +547,8 @@ def play(  # noqa: PLR0913 (keyword-only options)
         output_layout=out_lay.name,
         channels=out_lay.n_channels,
         rate=int(rate),
-        duration_s=synth.n_samples / rate,
-        blocks=synth.n_blocks,
+        duration_s=blocks.n_samples / rate,
+        blocks=blocks.n_blocks,
         block_s=block / rate,
         synth_ms_mean=float(ms.mean()),
         synth_ms_p95=float(np.percentile(ms, 95)),

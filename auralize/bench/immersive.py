@@ -12,9 +12,10 @@ bursts from moving emitters):
 * the binaural decoder (16 channels → 2 ears, SH-domain filters, FFT
   overlap-add), whole signals and 50 ms live blocks (p95 against the live
   target of half a block);
-* live binaural blocks of the 32³ explosion (:class:`auralize.audio.live.BlockSynth`
-  with ``layout="binaural"``: the synthesis of the block to the ear receivers and the ears'
-  filters, the worker's whole job per 50 ms block at 44.1 kHz), p95 of the wall
+* live binaural blocks of the 32³ explosion (:func:`auralize.pipeline.render` with
+  ``layout="binaural", block=2205``, the blocks ``auralize play`` plays: the synthesis of
+  the block to the ear receivers, the ears' filters and the 20 Hz high-pass, the
+  worker's whole job per 50 ms block at 44.1 kHz), p95 of the wall
   time against half a block, with the CPU time per block and the load average
   in the note (the machine may be shared).
 
@@ -139,11 +140,12 @@ def live_binaural_row(quick: bool) -> BenchRow:
     """p95 time of a live binaural block (see the module docstring)."""
     import os
 
-    from auralize.audio.live import BlockSynth
     from auralize.bench import BENCH_THRESHOLDS
     from auralize.datasets import make_explosion
     from auralize.listener import ListenerPath
+    from auralize.pipeline import render
     from auralize.sources import Thresholds, detect
+    from auralize.spatial.layouts import synthesis_layout
 
     steps = 60
     vol = make_explosion(size=32, steps=steps).load()
@@ -152,13 +154,13 @@ def live_binaural_row(quick: bool) -> BenchRow:
     path = ListenerPath.line(
         c + [-0.4 * c[0], -0.3 * c[1], 0], c + [0.4 * c[0], 0.35 * c[1], 2], duration=steps / 30.0
     )
-    bs = BlockSynth(tracks, path, layout="binaural", rate=44100, block=2205)
-    bs.block(0)  # the tracks' pieces and the decoder's spectra are built once
+    blocks = render(tracks, path, layout="binaural", rate=44100, block=2205)
+    blocks.block(0)  # the tracks' pieces and the decoder's spectra are built once
     wall, cpu = [], []
     for _ in range(1 if quick else 3):
-        for i in range(bs.n_blocks):
+        for i in range(blocks.n_blocks):
             t0, c0 = time.perf_counter(), time.process_time()
-            bs.block(i)
+            blocks.block(i)
             wall.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
     w, cp = 1e3 * np.asarray(wall), 1e3 * np.asarray(cpu)
@@ -172,8 +174,8 @@ def live_binaural_row(quick: bool) -> BenchRow:
         met=p95 < 25.0,
         note=f"wall mean {w.mean():.1f} ms, max {w.max():.1f}; CPU per block p95 "
         f"{np.percentile(cp, 95):.1f} ms, mean {cp.mean():.1f} (all threads); "
-        f"{bs.n_blocks} blocks × {len(w) // bs.n_blocks}; synthesis to "
-        f"{bs.synthesis_layout.name}; load average {os.getloadavg()[0]:.1f}",
+        f"{blocks.n_blocks} blocks × {len(w) // blocks.n_blocks}; synthesis to "
+        f"{synthesis_layout('binaural').name}; load average {os.getloadavg()[0]:.1f}",
     )
 
 

@@ -74,8 +74,9 @@ def _device_arg(text: str) -> int | str:
 
 class _RenderedBlocks:
     """Blocks of a sound rendered ahead, in the interface :func:`auralize.audio.live.play`
-    takes in place of source tracks (``block(i)``, ``render_range(start, n)``,
-    ``n_blocks``, ``n_samples``, ``block_size``, ``rate``, ``layout``)."""
+    plays (that of :class:`auralize.rendering.RenderBlocks`: ``block(i)``,
+    ``render_range(start, n)``, ``n_blocks``, ``n_samples``, ``block_size``, ``rate``,
+    ``layout``)."""
 
     def __init__(self, rendered: Any, block: int) -> None:
         self.audio = rendered.audio
@@ -220,9 +221,6 @@ def cmd_play(args: argparse.Namespace) -> int:
         )
     rep = play(
         source,
-        plan.path,
-        rate=args.rate,
-        layout=lay,
         device=args.device,
         downmix=_downmix_arg(args),
         gain=args.gain,
@@ -303,9 +301,6 @@ def _play_scene(args: argparse.Namespace) -> int:
         )
     rep = play(
         blocks,
-        path,
-        rate=args.rate,
-        layout=args.layout,
         device=args.device,
         downmix=_downmix_arg(args),
         gain=args.gain,

@@ -19,7 +19,7 @@ from auralize.emitters.outdoor import (
     outdoor_parts,
     received,
 )
-from auralize.emitters.synthesis import Rendered
+from auralize.emitters.synthesis import Rendered, render_tracks
 from auralize.errors import ParameterError
 from auralize.listener import ListenerPath
 from auralize.spatial.layouts import Layout, output_stage
@@ -264,14 +264,36 @@ def render_emitters(
 
 
 def _render_part(
-    part: Part, path: ListenerPath, kw: dict[str, Any], field_highpass_hz: float = 0.0
+    part: Part,
+    path: ListenerPath,
+    kw: dict[str, Any],
+    field_highpass_hz: float = 0.0,
+    *,
+    block: bool = False,
 ) -> Rendered:
+    """``part`` rendered along ``path`` with the engine's keywords ``kw``.
+
+    ``block``: a block of a block-by-block render (:class:`BlockRenderer`), where a
+    field of the ``physical`` timbre is its synthesized pressure alone, without the
+    measures a whole render takes of it (its share above 20 Hz, which a block's
+    few milliseconds do not tell); the samples are the same.
+    """
     if isinstance(part, Emitters):
         return render_emitters(part, path, **kw)
     if isinstance(part, FieldSources):
         from auralize.emitters.timbre import render_timbre
 
         def run(k: dict[str, Any]) -> Rendered:
+            if block and part.timbre == "physical" and not field_highpass_hz:
+                return render_tracks(
+                    part.tracks,
+                    path,
+                    time_scale=part.time_scale,
+                    interp=part.interp,
+                    lead=part.lead,
+                    bounds=part.bounds,
+                    **k,
+                )
             return render_timbre(
                 part.tracks,
                 path,
@@ -465,8 +487,10 @@ def render_sound(
 class BlockRenderer:
     """Render a sound (or scene) block by block along a listener path, for live playback.
 
-    The interface of :class:`auralize.audio.live.BlockSynth` (``block(i)``,
-    ``render_range(start, n)``, ``n_blocks``, ``n_samples``, ``block_size``)
+    The block synthesizer of the one render's block-by-block way
+    (:class:`auralize.rendering.RenderBlocks`, made by ``render(..., block=N)``,
+    whose blocks :func:`auralize.audio.live.play` plays): ``block(i)``,
+    ``render_range(start, n)``, ``n_blocks``, ``n_samples``, ``block_size``
     for any :class:`Sound`.  Block ``i`` holds output samples ``i·block`` to
     ``(i+1)·block`` (the last may be shorter); concatenated blocks equal one
     :func:`render` of the whole duration, since the sampled backend's control
@@ -633,7 +657,7 @@ class BlockRenderer:
                     prepared=self._prepared_for(part),
                 )
             else:
-                a = _render_part(part, self.path, kw).audio
+                a = _render_part(part, self.path, kw, block=True).audio
             m = min(int(n), a.shape[1])
             audio[:, :m] += a[:, :m]
         return audio
