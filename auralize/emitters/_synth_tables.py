@@ -126,7 +126,7 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
         tab[ambix_channels(lay), 1] = np.arange(lay.n_channels)
         return tab
     if lay.n_channels == 1 or lay.is_horizontal or spk_az.size == 0:
-        return _pair_inverses(spk_az)
+        return _pair_inverses(spk_az, fold=lay.fold_front)
     tri = triangulate(lay)
     rows = [
         np.concatenate([inv.reshape(9), ch.astype(np.float64)])
@@ -138,22 +138,32 @@ def pan_table(lay: Layout, spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.ascontiguousarray(np.array(rows).reshape(-1, 12))
 
 
-def _pair_inverses(spk_az: NDArray[np.float64]) -> NDArray[np.float64]:
+def _pair_inverses(spk_az: NDArray[np.float64], *, fold: bool = False) -> NDArray[np.float64]:
     """Inverse bases (n, 4) of adjacent speaker pairs for 2-D VBAP, or when a
     layout has an arc of 180° or more (then the kernel uses its angular law)
-    the table of its arc wider than 180° (:func:`_wide_arc`)."""
+    the table of its arc wider than 180° (:func:`_wide_arc`).
+
+    Two speakers both in front (forward components > 0) of a layout that folds
+    rear directions to the front (``fold``, stereo) give their front pair alone
+    (1, 4): every folded direction has a non-negative forward component, so
+    the pair's two gains are never both negative, and with the negative one
+    clamped to 0 the pair's law is the angular law's (2-D VBAP inside the pair,
+    outside it the nearer speaker takes all; see
+    :func:`auralize.emitters._kernels.gains._gains_plane`)."""
     n = spk_az.size
     if n < 2:
         return np.zeros((0, 4))
     a0 = spk_az
     a1 = np.roll(spk_az, -1)
     span = np.mod(a1 - a0, 2 * np.pi)
-    if n < 3 or np.any(span >= np.pi - 1e-9) or np.any(span <= 1e-9):
+    front = fold and n == 2 and bool(np.all(np.cos(spk_az) > 0.0))
+    if not front and (n < 3 or np.any(span >= np.pi - 1e-9) or np.any(span <= 1e-9)):
         return _wide_arc(spk_az, span)
     base = np.stack(
         [np.stack([np.cos(a0), np.cos(a1)], -1), np.stack([np.sin(a0), np.sin(a1)], -1)], 1
     )  # (n, 2, 2)
-    return np.ascontiguousarray(np.linalg.inv(base).reshape(n, 4))
+    inv = np.linalg.inv(base).reshape(n, 4)
+    return np.ascontiguousarray(inv[:1] if front else inv)
 
 
 def _wide_arc(spk_az: NDArray[np.float64], span: NDArray[np.float64]) -> NDArray[np.float64]:

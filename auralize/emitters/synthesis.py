@@ -564,9 +564,9 @@ def render_tracks(
             pinv = pan_table(lay, spk_az)
             panned = spk_az.size > 0
             fold = bool(lay.fold_front)
-            # speaker pairs (every arc < 180°): gains in SIMD loops; AmbiX: every
-            # channel gained (spherical harmonics)
-            pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4 and not fold
+            # speaker pairs (every arc < 180°, or stereo's front pair): gains in SIMD
+            # loops; AmbiX: every channel gained (spherical harmonics)
+            pairs = panned and pinv.shape[0] > 0 and pinv.shape[1] == 4
             dense = panned and pinv.shape[1] == 2
             nxt = np.roll(spk_ch, -1) if spk_ch.size else np.zeros(1, dtype=np.int64)
             pan = Panning(

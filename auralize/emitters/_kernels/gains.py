@@ -31,14 +31,17 @@ def _gains(direction, frame, spk_az, spk_ch, fold, pinv, out):
     left = u × f; azimuth counter-clockwise from forward.  ``fold`` mirrors
     rear directions to the front (2-speaker layouts).
 
-    A horizontal layout with an arc of more than 180° (stereo) gives ``pinv``
-    one row of 7 instead of pairs (:func:`auralize.emitters.synthesis.pan_table`):
-    the index i of the arc's first speaker and the unit vectors (forward,
-    left) of its two ends and of its middle.  A direction inside that arc
-    goes whole to its nearer end: decided by the signs of cross products
-    (when they are clear of round-off; else by the angles below), the gains
-    are those of the angular law (exactly 1 and 0) without its atan2 and
-    sines.
+    A horizontal layout with an arc of more than 180° (three front speakers;
+    two speakers not both in front) gives ``pinv`` one row of 7 instead of
+    pairs (:func:`auralize.emitters.synthesis.pan_table`): the index i of the
+    arc's first speaker and the unit vectors (forward, left) of its two ends
+    and of its middle.  A direction inside that arc goes whole to its nearer
+    end: decided by the signs of cross products (when they are clear of
+    round-off; else by the angles below), the gains are those of the angular
+    law (exactly 1 and 0) without its atan2 and sines.  Two speakers both in
+    front of a folding layout (stereo) give their pair alone, whose gains,
+    the negative one clamped to 0, are the angular law's (to round-off) for
+    every folded direction.
     """
     for c in range(out.size):
         out[c] = 0.0
@@ -108,18 +111,23 @@ def _gains_plane(xf, yl, spk_az, spk_ch, fold, pinv, out):
             out[spk_ch[near % n]] = 1.0
             return
     # fast path (every arc < 180°): the pair whose inverse base gives both
-    # gains >= 0 -- the same law as below without atan2 and sines
+    # gains >= 0 -- the same law as below without atan2 and sines.  Two
+    # speakers in front of a folding layout give one pair, which takes every
+    # direction: of its gains (never both negative in front) the negative one
+    # is clamped to 0, and the nearer speaker takes all, as below
     npair = pinv.shape[0] if pinv.shape[1] == 4 else 0
+    lo = -math.inf if fold and npair == 1 else -1e-12
     for i in range(npair):
         g0 = pinv[i, 0] * xf + pinv[i, 1] * yl
         g1 = pinv[i, 2] * xf + pinv[i, 3] * yl
-        if g0 >= -1e-12 and g1 >= -1e-12:
+        if g0 >= lo and g1 >= lo:
             g0 = max(g0, 0.0)
             g1 = max(g1, 0.0)
             norm = math.sqrt(g0 * g0 + g1 * g1)
-            out[spk_ch[i]] += g0 / norm
-            out[spk_ch[(i + 1) % n]] += g1 / norm
-            return
+            if norm > 0.0:  # (else the angular law: a direction too short to square)
+                out[spk_ch[i]] += g0 / norm
+                out[spk_ch[(i + 1) % n]] += g1 / norm
+                return
     phi = math.atan2(yl, xf)
     two_pi = 2.0 * math.pi
     # find arc [spk_az[i], spk_az[i+1]) (cyclic) containing phi

@@ -153,15 +153,15 @@ def _frame_at(orient_table, t0, rate, top, t, dx, dy, dz):
 
 
 @numba.njit(inline="always", **_NJIT)
-def _pair_take(work, i, rp, rx, ry, a0, a1, a2, a3, fp):
-    """Pair fp's gains from the direction (rows rx, ry) if both are >= 0 and no
+def _pair_take(work, i, rp, rx, ry, a0, a1, a2, a3, fp, lo):
+    """Pair fp's gains from the direction (rows rx, ry) if both are >= lo and no
     earlier pair was taken (row rp = pair index, then the two gains)."""
     xf = work[rx * _CHUNK + i]
     yl = work[ry * _CHUNK + i]
     g0 = a0 * xf + a1 * yl
     g1 = a2 * xf + a3 * yl
     k = rp * _CHUNK + i
-    take = (g0 >= -1e-12) & (g1 >= -1e-12) & (work[k] < 0.0)
+    take = (g0 >= lo) & (g1 >= lo) & (work[k] < 0.0)
     work[k] = where(take, fp, work[k])
     work[k + _CHUNK] = where(take, g0, work[k + _CHUNK])
     work[k + 2 * _CHUNK] = where(take, g1, work[k + 2 * _CHUNK])
@@ -180,16 +180,24 @@ def _pair_normalise(work, i, rp):
 
 
 @numba.njit(inline="always", **_NJIT)
-def _pair_search(work, cnt, pinv):
+def _pair_search(work, cnt, pinv, fold):
     """Pair index and gains at both arrivals from the directions in rows
     XF0, YL0, XF1, YL1 (pair rows preset to -1); a direction with no pair
-    (straight above or below) marks the piece general."""
+    (straight above or below) marks the piece general.  ``fold`` mirrors
+    rear directions to the front; a folding layout's single pair (two
+    speakers in front, see :func:`auralize.emitters._kernels.gains._gains_plane`)
+    takes every direction, its negative gain clamped to 0."""
+    if fold:
+        for i in range(cnt):
+            work[ROW.XF0 * _CHUNK + i] = abs(work[ROW.XF0 * _CHUNK + i])
+            work[ROW.XF1 * _CHUNK + i] = abs(work[ROW.XF1 * _CHUNK + i])
+    lo = -math.inf if fold and pinv.shape[0] == 1 else -1e-12
     for p in range(pinv.shape[0]):
         a0, a1, a2, a3 = pinv[p, 0], pinv[p, 1], pinv[p, 2], pinv[p, 3]
         fp = float(p)
         for i in range(cnt):
-            _pair_take(work, i, ROW.P0, ROW.XF0, ROW.YL0, a0, a1, a2, a3, fp)
-            _pair_take(work, i, ROW.P1, ROW.XF1, ROW.YL1, a0, a1, a2, a3, fp)
+            _pair_take(work, i, ROW.P0, ROW.XF0, ROW.YL0, a0, a1, a2, a3, fp, lo)
+            _pair_take(work, i, ROW.P1, ROW.XF1, ROW.YL1, a0, a1, a2, a3, fp, lo)
     for i in range(cnt):
         ok = _pair_normalise(work, i, ROW.P0) & _pair_normalise(work, i, ROW.P1)
         kd = work[ROW.KIND * _CHUNK + i]
@@ -197,10 +205,13 @@ def _pair_search(work, cnt, pinv):
 
 
 @numba.njit(**_NJIT_NORC)
-def _chunk_pair_gains(work, cnt, lines0, lines1, orient_table, orient_clock, pinv, const_orient):
+def _chunk_pair_gains(
+    work, cnt, lines0, lines1, orient_table, orient_clock, pinv, fold, const_orient
+):
     """Pairwise 2-D VBAP gains at both arrivals of the chunk's pieces (the law
     of :func:`_gains`, fast path: the first speaker pair whose inverse base
-    gives both gains >= 0, power-normalised): pair index and two gains per
+    gives both gains >= 0, or a folding layout's single pair, see
+    :func:`_pair_search`, power-normalised): pair index and two gains per
     arrival into work.  The listener's orientation is read from its table in a
     scalar loop (unless it is constant), the rest in SIMD loops.  A direction
     straight above or below (no pair) marks the piece general."""
@@ -228,11 +239,11 @@ def _chunk_pair_gains(work, cnt, lines0, lines1, orient_table, orient_clock, pin
         work[ROW.YL1 * _CHUNK + i] = yl
         work[ROW.P0 * _CHUNK + i] = -1.0
         work[ROW.P1 * _CHUNK + i] = -1.0
-    _pair_search(work, cnt, pinv)
+    _pair_search(work, cnt, pinv, fold)
 
 
 @numba.njit(**_NJIT_NORC)
-def _part_pair_gains(work, cnt, orient_table, orient_clock, pinv, const_orient):
+def _part_pair_gains(work, cnt, orient_table, orient_clock, pinv, fold, const_orient):
     """Pairwise 2-D VBAP gains at both arrivals of a batch of parts (as
     :func:`_chunk_pair_gains`, the listener's positions from rows L0, L1)."""
     if const_orient:
@@ -285,7 +296,7 @@ def _part_pair_gains(work, cnt, orient_table, orient_clock, pinv, const_orient):
     for i in range(cnt):
         work[ROW.P0 * _CHUNK + i] = -1.0
         work[ROW.P1 * _CHUNK + i] = -1.0
-    _pair_search(work, cnt, pinv)
+    _pair_search(work, cnt, pinv, fold)
 
 
 @numba.njit(inline="always", **_NJIT)

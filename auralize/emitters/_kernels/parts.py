@@ -173,7 +173,9 @@ def _part_batch(work, cnt, knots, c0, lis, pan, win, scr):
     ga, gb, frame = scr.ga, scr.gb, scr.frame
     _part_lanes(work, cnt, knots, lane_grid(c0, win), panned)
     if pairs:
-        _part_pair_gains(work, cnt, lis.orient_table, lis.orient_clock, pan.pinv, pan.const_orient)
+        _part_pair_gains(
+            work, cnt, lis.orient_table, lis.orient_clock, pan.pinv, pan.fold, pan.const_orient
+        )
     nbad = 0
     for i in range(_AHEAD):
         _prefetch_lane(acc, work, i, cnt, pairs, spk_ch, nxt)

@@ -164,6 +164,7 @@ def _sum_chunk(ck, n, pieces, rows, cubic, c0, lis, pan, win, scr, lanes):
             orient_table,
             orient_clock,
             pan.pinv,
+            pan.fold,
             pan.const_orient,
         )
     elif dense:
