@@ -474,9 +474,9 @@ def scaling_rows(quick: bool) -> list[BenchRow]:
                 f"{one:.3f} CPU-s at 1×",
             )
         )
-    # stereo pans by the angular law (atan2 and sines) where ring8 has speaker
-    # pairs, except inside its arc behind (one speaker takes all): the head
-    # sweeping puts the sources all around, facing them keeps them in front
+    # stereo folds the directions behind to the front and pans them by its one
+    # speaker pair, as ring8 pans by its pairs: the head sweeping puts the
+    # sources all around, facing them keeps them in front
     for face, what in (("sweep", "head sweeping"), ("center", "facing the sources")):
         t_st = run(10_000, 1, "stereo", face)
         t_r8 = t_k[10_000] if face == "sweep" else run(10_000, 1, "ring8", face)
