@@ -208,6 +208,33 @@ def test_cheap_kernels_of_a_module_are_announced_once_together(caplog, monkeypat
     assert len(msgs) == 1 and msgs[0].startswith("compiling kernels, once: ~14 s"), msgs
 
 
+def test_the_first_notice_counts_only_measured_kernels_of_its_module(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A module's kernels that the warm-up never compiled (no measured time) are not
+    in its first notice: the commands' paths do not compile them."""
+    import sys
+    import types
+
+    mod = types.ModuleType("auralize._test_unmeasured")
+
+    def kernel(name: str) -> object:
+        def body(x):  # type: ignore[no-untyped-def]
+            return x
+
+        body.__module__, body.__qualname__ = mod.__name__, name
+        return numba.njit(body)
+
+    for name in ("used", "also_used", "never_used"):
+        setattr(mod, name, kernel(name))
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+    monkeypatch.setitem(jit.compile_seconds(), f"{mod.__name__}.used", 3.0)
+    monkeypatch.setitem(jit.compile_seconds(), f"{mod.__name__}.also_used", 4.0)
+    assert jit.estimate_seconds(f"{mod.__name__}.used") == pytest.approx(7.0)
+    # unmeasured itself: the default for it, and the measured others
+    assert jit.estimate_seconds(f"{mod.__name__}.never_used") == pytest.approx(
+        jit.DEFAULT_SECONDS + 7.0
+    )
+
+
 def test_compile_notice_estimates_the_kernel_that_compiles(caplog, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     # the process-wide notice stays quiet about these
     monkeypatch.setattr(jit._NOTICE, "announced", True)

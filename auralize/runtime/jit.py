@@ -328,7 +328,9 @@ def estimate_seconds(kernel: str) -> float:
     A kernel of at least :data:`NOTICE_AGAIN_SECONDS` counts alone (it is
     announced alone); a cheaper one with the other cheap kernels of its module
     that have no cache index yet, as they tend to compile together (at least
-    :data:`DEFAULT_SECONDS`).
+    :data:`DEFAULT_SECONDS`).  Of those others only the measured ones count: a
+    kernel the warm-up never compiles (none of the commands' paths uses it)
+    is not compiled with them either.
     """
     import sys
 
@@ -347,7 +349,7 @@ def estimate_seconds(kernel: str) -> float:
         full = f"{modname}.{name}"
         if full == kernel or obj.targetoptions.get("inline", "never") == "always":
             continue
-        sec = table.get(full, DEFAULT_SECONDS)
+        sec = table.get(full, 0.0)
         if sec >= NOTICE_AGAIN_SECONDS:
             continue
         cache_file = getattr(getattr(obj, "_cache", None), "_cache_file", None)
