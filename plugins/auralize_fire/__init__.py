@@ -34,6 +34,7 @@ _EXPORTS = {
     "FireSound": ".model",
     "fire_sound": ".model",
     "gaussian_pyramid": ".texture",
+    "texture_extend": ".texture",
     "texture_synthesize": ".texture",
 }
 
@@ -53,5 +54,6 @@ __all__ = [
     "mitchell_netravali",
     "read_audio",
     "refine_bspline",
+    "texture_extend",
     "texture_synthesize",
 ]

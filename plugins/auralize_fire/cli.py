@@ -81,7 +81,10 @@ def _extend_opts(p: argparse.ArgumentParser, o: Any) -> None:
         "--alpha", type=o.finite_float, default=3.0, help="power-law exponent (default 3)"
     )
     p.add_argument(
-        "--fcut", type=o.positive_float, default=180.0, help="blend centre Hz (default 180)"
+        "--fcut",
+        type=o.positive_float,
+        default=180.0,
+        help="blend centre Hz (default 180; render --extend texture: top of the level-matched band)",
     )
     p.add_argument("--seed", type=o.seed_int, default=0)
 

@@ -16,7 +16,7 @@ from auralize_fire.bandwidth import bandwidth_extend, check_signal
 from auralize_fire.clips import fire_training_clip, read_audio, resample
 from auralize_fire.dataset import make_fire
 from auralize_fire.lowfreq import flux_series, front_at, lowfreq_pressure
-from auralize_fire.texture import texture_synthesize
+from auralize_fire.texture import texture_extend
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "fire-lowfreq"
 #: ρ0 / (4π) (kg/m³): pressure at 1 m of a volume source, p = ρ0/(4π r) · dI/dt
@@ -42,9 +42,12 @@ def render_chain(  # noqa: PLR0913 (keyword-only options)
 ) -> tuple[NDArray[np.float64], Any]:
     """§3 → §6 high-pass → §4 or §5: the emitted fire sound of a volume.
 
-    Returns ``(signal (n,), FluxSeries)``; ``extend`` is ``"none"``,
-    ``"bandwidth"`` or ``"texture"`` (``training`` at ``rate``; default: the
-    procedural clip, 15 s).
+    Returns ``(signal (n,), FluxSeries)``, the signal in the units of
+    :func:`auralize_fire.lowfreq.lowfreq_pressure` (m³/s²) whichever
+    ``extend``: ``"none"``, ``"bandwidth"`` (§4, keeps its input's units) or
+    ``"texture"`` (§5 by :func:`auralize_fire.texture.texture_extend`: the
+    texture rescaled so that its band below ``f_cut`` has the low-frequency
+    signal's RMS; ``training`` at ``rate``, default: the procedural clip, 15 s).
     """
     if extend not in ("none", "bandwidth", "texture"):
         raise ParameterError(f"extend must be 'none', 'bandwidth' or 'texture', got {extend!r}")
@@ -57,7 +60,7 @@ def render_chain(  # noqa: PLR0913 (keyword-only options)
     if extend == "bandwidth":
         return bandwidth_extend(low, rate, alpha=alpha, f_cut=f_cut, seed=seed), fs
     clip = fire_training_clip(15.0, rate, seed=seed) if training is None else training
-    return texture_synthesize(low, clip, levels=levels, eps=eps), fs
+    return texture_extend(low, clip, rate, f_cut=f_cut, levels=levels, eps=eps), fs
 
 
 def fire_sound(  # noqa: PLR0913 (keyword-only options)
@@ -163,7 +166,13 @@ class FireSound(SoundModel):
         Parameter("extend", "bandwidth", choices=("none", "bandwidth", "texture")),
         Parameter("highpass_hz", 30.0, range=(0.0, 1000.0), unit="Hz", doc="§6 high-pass"),
         Parameter("alpha", 3.0, range=(0.5, 6.0), doc="power-law exponent (§4, Table 1)"),
-        Parameter("f_cut", 180.0, range=(20.0, 5000.0), unit="Hz", doc="blend centre (Table 1)"),
+        Parameter(
+            "f_cut",
+            180.0,
+            range=(20.0, 5000.0),
+            unit="Hz",
+            doc="blend centre (Table 1); texture: top of the level-matched band",
+        ),
         Parameter("levels", 6, range=(2, 10), doc="pyramid levels L (§5)"),
         Parameter("eps", 1.0, range=(0.0, 10.0), doc="approximate-NN ε (§5.2)"),
         Parameter("seed", 0, range=(0, None)),

@@ -59,6 +59,19 @@ texture (§5.1, "the fiery details of p_T"): crackles land where the search
 puts them, so an envelope of the full-band output depends on the training
 clip (0.68–0.83 over six training seeds on that 1 s excerpt) and is not a
 measure of the constraint.
+
+Units.  Eq. 17 maps p_S's amplitudes onto p_T's, so
+:func:`texture_synthesize` returns the training clip's units and level (the
+paper's texture).  With range matching the output does not depend on p_S's
+scale at all (r scales as 1/p_S: r(a p_S) · a p_S = r(p_S) · p_S).  To
+*extend* p_S, :func:`texture_extend` inverts that map by one rescale: the
+output times g = RMS(LP(p_S)) / RMS(LP(y)), LP the zero-phase low-pass at
+f_cut (the band where y follows r(t) · p_S), so the output's band below
+f_cut has the input's RMS and the whole output is in p_S's units, linear in
+p_S's level.  One gain, not 1/r(t) sample by sample: r is undefined where
+p_S is silent and its inverse would rescale the training texture's own
+crackles window by window; on inputs with a nearly constant r (the candle)
+the two nearly coincide.
 """
 
 from __future__ import annotations
@@ -66,10 +79,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
+from scipy import signal as sps
 from scipy.spatial import cKDTree
 
 from auralize.errors import DataError, ParameterError
@@ -385,3 +400,87 @@ def texture_synthesize(
             if progress is not None:
                 progress(f"level {lev + 1}: {current.size} samples")
     return current
+
+
+def input_level_gain(
+    p_s: NDArray[np.floating], y: NDArray[np.floating], rate: float, f_cut: float = 180.0
+) -> float:
+    """The rescale g that puts a texture ``y`` of ``p_s`` back in ``p_s``'s units.
+
+    g = RMS(LP(p_S)) / RMS(LP(y)), LP a 4th-order Butterworth low-pass at
+    ``f_cut`` run forwards and backwards (zero phase, 8th-order slope): the
+    inverse of Eq. 17's range matching as one gain, matching the RMS of the
+    band in which the synthesis follows the input (see the module docstring).
+
+    Parameters
+    ----------
+    p_s : (n,) low-frequency input.
+    y : (n,) :func:`texture_synthesize` of ``p_s``.
+    rate : Hz, the sample rate of both.
+    f_cut : Hz, the top of the matched band (default 180 Hz, §4's f_cut).
+
+    Returns
+    -------
+    g, in p_S's units per training-clip unit.
+    """
+    x = np.asarray(p_s, dtype=np.float64)
+    z = np.asarray(y, dtype=np.float64)
+    if x.shape != z.shape:
+        raise ParameterError(f"input and texture differ in shape: {x.shape} and {z.shape}")
+    if not 0 < f_cut < rate / 2:
+        raise ParameterError(f"f_cut must be in (0, {rate / 2:g}) Hz, got {f_cut!r}")
+    sos = sps.butter(4, f_cut, btype="lowpass", fs=rate, output="sos")
+    padlen = max(min(x.size - 1, 3 * int(rate / f_cut)), 0)
+    rms_x = float(np.sqrt(np.mean(sps.sosfiltfilt(sos, x, padlen=padlen) ** 2)))
+    rms_y = float(np.sqrt(np.mean(sps.sosfiltfilt(sos, z, padlen=padlen) ** 2)))
+    if not (rms_x > 0 and rms_y > 0):
+        raise DataError(
+            f"no sound below {f_cut:g} Hz in the input or the texture (RMS {rms_x:.3g}, "
+            f"{rms_y:.3g}): the texture's level cannot be matched to the input's"
+        )
+    return rms_x / rms_y
+
+
+def texture_extend(
+    p_s: NDArray[np.floating],
+    p_t: NDArray[np.floating],
+    rate: float,
+    *,
+    f_cut: float = 180.0,
+    **options: Any,
+) -> NDArray[np.float64]:
+    """§5 texture synthesis as an extension of p_S, in p_S's units and at its level.
+
+    :func:`texture_synthesize` (Eq. 17 range matching on) times
+    :func:`input_level_gain`: the output's band below ``f_cut`` has the RMS
+    of p_S's, so switching from :func:`auralize_fire.bandwidth.bandwidth_extend`
+    (which keeps p_S's units) keeps the flame's level, and the output is
+    linear in p_S's scale.
+
+    Parameters
+    ----------
+    p_s : (n,) low-frequency input (any units, e.g. Pa at 1 m).
+    p_t : (m,) training clip at ``rate``.
+    rate : Hz, the sample rate of both.
+    f_cut : Hz, the top of the band whose RMS is matched (default 180).
+    **options : :func:`texture_synthesize`'s keyword options (``levels``,
+        ``eps``, ``coarse_weight``, ``engine``, ``progress``, ...).
+
+    Returns
+    -------
+    (n,) synthesised signal in p_S's units.
+
+    Examples
+    --------
+    >>> from auralize_fire.clips import fire_training_clip
+    >>> rate = 8000
+    >>> t = np.arange(2000) / rate
+    >>> low = np.sin(2 * np.pi * 3 * t) * np.sin(2 * np.pi * 40 * t)
+    >>> clip = fire_training_clip(0.5, rate, seed=0)
+    >>> a = texture_extend(low, clip, rate, levels=3)
+    >>> b = texture_extend(2 * low, clip, rate, levels=3)
+    >>> bool(np.allclose(b, 2 * a))
+    True
+    """
+    y = texture_synthesize(p_s, p_t, **options)
+    return y * input_level_gain(p_s, y, rate, f_cut)

@@ -21,7 +21,12 @@ from auralize_fire import (
 from auralize_fire.bandwidth import ExtensionParams, blend_filters, choose_beta
 from auralize_fire.flamefront import bspline, bspline_eval
 from auralize_fire.lowfreq import highpass, interpolate_series
-from auralize_fire.texture import TextureParams, gaussian_pyramid, range_matching_gain
+from auralize_fire.texture import (
+    TextureParams,
+    gaussian_pyramid,
+    input_level_gain,
+    range_matching_gain,
+)
 from scipy import signal
 
 from auralize.errors import DataError, FieldError, ParameterError
@@ -268,6 +273,11 @@ def test_texture_bad_input(candle: np.ndarray) -> None:
         texture_synthesize(np.zeros(5000), fire_training_clip(0.5, RATE))
     with pytest.raises(ParameterError, match="levels"):
         texture_synthesize(candle[:5000], fire_training_clip(0.5, RATE), levels=1)
+    # the rescale to the input's level needs sound below f_cut in both, of one length
+    with pytest.raises(DataError, match="no sound below 180 Hz"):
+        input_level_gain(candle[:5000], np.zeros(5000), RATE)
+    with pytest.raises(ParameterError, match="differ in shape"):
+        input_level_gain(candle[:5000], candle[:4000], RATE)
 
 
 # ------------------------------------------------------------------ dataset, chain, model
@@ -584,6 +594,37 @@ def test_sidecar_units_say_what_the_samples_hold(tmp_path: Path) -> None:
     assert main(["fire", "render", *data, *argv]) == 0
     side = json.loads(Path(str(ren) + ".json").read_text())
     assert side["units"] == "Pa" and side["emitter_units"] == "Pa at 1 m"
+    # --extend texture is rescaled to the flame's level: the same units as bandwidth's
+    from auralize.audio import write_audio
+
+    train = tmp_path / "train.wav"
+    write_audio(train, fire_training_clip(1.0, RATE, seed=0)[None], RATE)
+    tex = tmp_path / "tex.wav"
+    texture = ["--extend", "texture", "--training", str(train)]
+    assert main(["fire", "render", *data, "-o", str(tex), *argv[2:], *texture]) == 0
+    side = json.loads(Path(str(tex) + ".json").read_text())
+    assert (side["units"], side["emitter_units"], side["extend"]) == ("Pa", "Pa at 1 m", "texture")
+    # the standalone texture of a clip stays the paper's: in the training clip's units
+    low_tex = tmp_path / "low_tex.wav"
+    assert (
+        main(
+            [
+                "fire",
+                "texture",
+                str(low),
+                "--training",
+                str(train),
+                "-o",
+                str(low_tex),
+                "--normalize",
+                "none",
+            ]
+        )
+        == 0
+    )
+    assert (
+        json.loads(Path(str(low_tex) + ".json").read_text())["units"] == "the training clip's units"
+    )
 
 
 def test_warm_up_compiles_what_the_texture_commands_use() -> None:

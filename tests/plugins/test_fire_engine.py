@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from auralize_fire import FireSound, make_fire
+from auralize_fire import FireSound, fire_training_clip, make_fire, texture_synthesize
 from auralize_fire.model import MONOPOLE_1M, fire_sound, render_chain
+from scipy import signal
 
 from auralize.emitters import Emitters, Sound, render_sound
 from auralize.listener import ListenerPath
@@ -148,3 +149,77 @@ def test_fire_and_spark_mix_along_one_path(fire) -> None:  # type: ignore[no-unt
         )
         assert np.abs(render_sound(spark, path, rate=RATE, layout=lay).audio).max() > 0
         np.testing.assert_allclose(mix, alone, atol=1e-12 * np.abs(mix).max())
+
+
+# ------------------------------------------------- §5 texture extension at the flame's level
+
+
+@pytest.fixture(scope="module")
+def flame_texture() -> tuple[TimeVolume, np.ndarray, dict[str, Sound]]:
+    """0.25 s of flame, a 3 s procedural training clip, and its sound extended three ways."""
+    vol = make_fire(size=12, steps=90, seed=0)
+    clip = fire_training_clip(3.0, RATE, seed=0)
+    snds = {
+        ext: fire_sound(vol, extend=ext, training=clip, seed=0)
+        for ext in ("none", "bandwidth", "texture")
+    }
+    return vol, clip, snds
+
+
+def _band_rms(x: np.ndarray, f_hz: float = 180.0) -> float:
+    """Root of the energy of the band below ``f_hz`` per second of the emission (0.25 s):
+    its RMS over the emitted signal, with a render's silence before and after left out
+    (4th-order Butterworth, zero phase)."""
+    sos = signal.butter(4, f_hz, "lowpass", fs=RATE, output="sos")
+    return float(np.sqrt(np.sum(signal.sosfiltfilt(sos, x) ** 2) / (0.25 * RATE)))
+
+
+def _db(a: float, b: float) -> float:
+    return float(20 * np.log10(a / b))
+
+
+def test_texture_extended_fire_has_the_flames_level_at_one_over_d(flame_texture) -> None:  # type: ignore[no-untyped-def]
+    """The texture-extended flame, heard at 2 m and 4 m, has below 180 Hz the level of the
+    bandwidth-extended one within 0.5 dB (§4's blend at 165–195 Hz moves it) and that of
+    the low-frequency emitter over D within 0.2 dB."""
+    _, _, snds = flame_texture
+    low = snds["none"].parts[0]
+    x0 = low.positions[0, 0] if low.moving else low.positions[0]
+    ref_1m = _band_rms(low.signals[0])
+    # the emitter's band is matched to the input's (to 0.1 dB: this low-pass pads its ends
+    # otherwise than texture_extend's)
+    assert abs(_db(_band_rms(snds["texture"].parts[0].signals[0]), ref_1m)) < 0.1
+    heard_rms = {}
+    for D in (2.0, 4.0):
+        path = ListenerPath.point(x0 + np.array([0.0, -D, 0.0]), duration=0.3)
+        band = {
+            ext: _band_rms(render_sound(snds[ext], path, rate=RATE).audio[0])
+            for ext in ("bandwidth", "texture")
+        }
+        assert abs(_db(band["texture"], band["bandwidth"])) < 0.5, (D, band)
+        assert abs(_db(band["texture"], ref_1m / D)) < 0.2, (D, band, ref_1m)
+        heard_rms[D] = band["texture"]
+    assert abs(_db(heard_rms[2.0], 2 * heard_rms[4.0])) < 0.05  # 1/D
+
+
+def test_texture_extended_fire_scales_with_the_flame(flame_texture) -> None:  # type: ignore[no-untyped-def]
+    """Twice the velocity, twice the flux I and its dI/dt: twice the texture-extended emitter
+    (the same texture; Eq. 17 alone would give the same level for both)."""
+    vol, clip, snds = flame_texture
+    steps = range(vol.n_steps)
+    loud = TimeVolume.from_arrays(
+        {
+            "burn": np.stack([vol.frame("burn", k) for k in steps]),
+            "velocity": 2.0 * np.stack([vol.frame("velocity", k) for k in steps]),
+        },
+        origin=tuple(vol.origin),
+        spacing=tuple(vol.spacing),
+        times=vol.times,
+    )
+    twice = fire_sound(loud, extend="texture", training=clip, seed=0).parts[0].signals[0]
+    once = snds["texture"].parts[0].signals[0]
+    np.testing.assert_allclose(twice, 2.0 * once, rtol=0, atol=1e-9 * np.abs(once).max())
+    raw = texture_synthesize(render_chain(loud, extend="none")[0], clip)
+    np.testing.assert_allclose(
+        raw, texture_synthesize(render_chain(vol, extend="none")[0], clip), atol=1e-12
+    )
