@@ -236,6 +236,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         f_cut=args.fcut,
         levels=args.levels,
         eps=args.eps,
+        coarse_weight=args.coarse_weight,
         training=train,
         seed=args.seed,
     )

@@ -37,6 +37,7 @@ def render_chain(  # noqa: PLR0913 (keyword-only options)
     f_cut: float = 180.0,
     levels: int = 6,
     eps: float = 1.0,
+    coarse_weight: float = 3.0,
     training: NDArray[np.floating] | None = None,
     seed: int = 0,
 ) -> tuple[NDArray[np.float64], Any]:
@@ -47,7 +48,8 @@ def render_chain(  # noqa: PLR0913 (keyword-only options)
     ``extend``: ``"none"``, ``"bandwidth"`` (§4, keeps its input's units) or
     ``"texture"`` (§5 by :func:`auralize_fire.texture.texture_extend`: the
     texture rescaled so that its band below ``f_cut`` has the low-frequency
-    signal's RMS; ``training`` at ``rate``, default: the procedural clip, 15 s).
+    signal's RMS; ``training`` at ``rate``, default: the procedural clip, 15 s;
+    ``levels``, ``eps`` and ``coarse_weight`` as :func:`auralize_fire.texture.texture_synthesize`).
     """
     if extend not in ("none", "bandwidth", "texture"):
         raise ParameterError(f"extend must be 'none', 'bandwidth' or 'texture', got {extend!r}")
@@ -60,7 +62,12 @@ def render_chain(  # noqa: PLR0913 (keyword-only options)
     if extend == "bandwidth":
         return bandwidth_extend(low, rate, alpha=alpha, f_cut=f_cut, seed=seed), fs
     clip = fire_training_clip(15.0, rate, seed=seed) if training is None else training
-    return texture_extend(low, clip, rate, f_cut=f_cut, levels=levels, eps=eps), fs
+    return (
+        texture_extend(
+            low, clip, rate, f_cut=f_cut, levels=levels, eps=eps, coarse_weight=coarse_weight
+        ),
+        fs,
+    )
 
 
 def fire_sound(  # noqa: PLR0913 (keyword-only options)
@@ -77,6 +84,7 @@ def fire_sound(  # noqa: PLR0913 (keyword-only options)
     f_cut: float = 180.0,
     levels: int = 6,
     eps: float = 1.0,
+    coarse_weight: float = 3.0,
     training: NDArray[np.floating] | None = None,
     seed: int = 0,
     t0: float = 0.0,
@@ -95,7 +103,7 @@ def fire_sound(  # noqa: PLR0913 (keyword-only options)
     ----------
     volume : TimeVolume with the burn and velocity fields.
     extend, rate, burn_field, velocity_field, iso, refine, highpass_hz, alpha,
-    f_cut, levels, eps, training, seed : see :func:`render_chain`.
+    f_cut, levels, eps, coarse_weight, training, seed : see :func:`render_chain`.
     t0 : s, playback time (since the listener path's first capture) of the
         volume's first step.
 
@@ -119,6 +127,7 @@ def fire_sound(  # noqa: PLR0913 (keyword-only options)
         f_cut=f_cut,
         levels=levels,
         eps=eps,
+        coarse_weight=coarse_weight,
         training=training,
         seed=seed,
     )
@@ -175,6 +184,9 @@ class FireSound(SoundModel):
         ),
         Parameter("levels", 6, range=(2, 10), doc="pyramid levels L (§5)"),
         Parameter("eps", 1.0, range=(0.0, 10.0), doc="approximate-NN ε (§5.2)"),
+        Parameter(
+            "coarse_weight", 3.0, range=(0.0, 100.0), doc="weight of the Eq. 16 feature samples"
+        ),
         Parameter("seed", 0, range=(0, None)),
         Parameter("rate", 44100, range=(8000, 192000), unit="Hz", doc="emitted signal's rate"),
         Parameter("t0", 0.0, range=(None, None), unit="s", doc="playback time of the first step"),
@@ -212,6 +224,7 @@ class FireSound(SoundModel):
             f_cut=p["f_cut"],
             levels=int(p["levels"]),
             eps=p["eps"],
+            coarse_weight=p["coarse_weight"],
             seed=int(p["seed"]),
             t0=float(p["t0"]),
         )

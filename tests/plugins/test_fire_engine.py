@@ -223,3 +223,20 @@ def test_texture_extended_fire_scales_with_the_flame(flame_texture) -> None:  # 
     np.testing.assert_allclose(
         raw, texture_synthesize(render_chain(vol, extend="none")[0], clip), atol=1e-12
     )
+
+
+def test_texture_coarse_weight_reaches_the_synthesis(flame_texture) -> None:  # type: ignore[no-untyped-def]
+    """``coarse_weight`` (the CLI's ``--coarse-weight``, the model's parameter) is the
+    texture synthesis's: the unweighted metric picks other samples than the default 3,
+    and it is what texture_synthesize gives with that weight, rescaled."""
+    vol, clip, snds = flame_texture
+    one = fire_sound(vol, extend="texture", training=clip, seed=0, coarse_weight=1.0)
+    sig1, sig3 = one.parts[0].signals[0], snds["texture"].parts[0].signals[0]
+    assert not np.allclose(sig1, sig3)
+    low = render_chain(vol, extend="none")[0]
+    plain = texture_synthesize(low, clip, coarse_weight=1.0)
+    # the same samples up to the one level gain (and the emitter's ρ0/4π)
+    ratio = sig1 / np.where(plain == 0, np.nan, plain)
+    assert np.nanstd(ratio) < 1e-9 * np.nanmean(np.abs(ratio))
+    model = FireSound()
+    assert model.resolve(coarse_weight=1.0)["coarse_weight"] == 1.0
